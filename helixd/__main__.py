@@ -1,0 +1,3 @@
+from helixd.cli import main
+
+main()

@@ -1,0 +1,114 @@
+"""Command-line interface: ``helixd run | check | sim | status | plot | replay | version``.
+
+Errors the operator can fix (bad file, bad URL, refused preflight) are printed as one clear
+message per problem and a non-zero exit code — never a traceback.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from helixd import __version__
+from helixd.config import ConfigFileError, HelixdConfig, load_config
+from helixd.exitcodes import ExitCode
+from helixd.mission import MissionFrameKind, PlanError, load_mission, resolve_plan
+from helixd.recorder import command as recorder_command
+from helixd.sim import command as sim_command
+
+app = typer.Typer(
+    name="helixd",
+    help="Fly the Helix-25 screw-propelled rover through waypoint missions over MAVLink.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+ConfigOpt = Annotated[
+    Path | None,
+    typer.Option("--config", "-c", help="helixd.yaml (defaults built in when omitted)"),
+]
+MissionOpt = Annotated[Path, typer.Option("--mission", "-m", help="mission YAML file")]
+
+
+def fail(problems: list[str], code: ExitCode) -> typer.Exit:
+    for line in problems:
+        typer.echo(f"error: {line}", err=True)
+    return typer.Exit(int(code))
+
+
+def load_inputs(config: Path | None, mission: Path) -> tuple[HelixdConfig, object]:
+    """Load config and mission together so the operator sees every problem at once."""
+    problems: list[str] = []
+    cfg: HelixdConfig | None = None
+    try:
+        cfg = load_config(config)
+    except ConfigFileError as exc:
+        problems.extend(exc.problems)
+    limits = cfg.mission if cfg is not None else HelixdConfig().mission
+    msn = None
+    try:
+        msn = load_mission(mission, limits)
+    except ConfigFileError as exc:
+        problems.extend(exc.problems)
+    if problems or cfg is None or msn is None:
+        raise fail(problems, ExitCode.USAGE)
+    return cfg, msn
+
+
+@app.command()
+def version() -> None:
+    """Print the helixd version."""
+    typer.echo(f"helixd {__version__}")
+
+
+@app.command()
+def check(config: ConfigOpt = None, mission: MissionOpt = Path("mission.yaml")) -> None:
+    """Validate the config and a mission, and print the resolved plan."""
+    cfg, msn_obj = load_inputs(config, mission)
+    from helixd.mission import Mission
+
+    assert isinstance(msn_obj, Mission)
+    msn = msn_obj
+    if msn.frame is MissionFrameKind.GLOBAL:
+        first_lat, first_lon = msn.points()[0]
+        origin = (first_lat, first_lon)
+        note = " (global: shown relative to waypoint 0; the EKF origin is used in flight)"
+    else:
+        origin = None
+        note = ""
+    try:
+        plan = resolve_plan(msn, cfg.control, cfg.mission, origin)
+    except PlanError as exc:
+        raise fail([f"{mission}: {exc}"], ExitCode.USAGE) from None
+    axes = "x forward / y left of start" if msn.frame is MissionFrameKind.START else "x east / y north"
+    typer.echo(f"config  : {config or '(built-in defaults)'}  OK")
+    typer.echo(f"mission : {mission}  OK")
+    typer.echo(f"plan    : {plan.name}  mode={plan.mode.value}  frame={plan.frame.value}{note}")
+    typer.echo(f"axes    : {axes} (metres)")
+    typer.echo(f"{'#':>3} {'x_m':>9} {'y_m':>9} {'tol_m':>6} {'heading_deg':>11}")
+    for i, wp in enumerate(plan.waypoints):
+        hdg = "-" if wp.final_yaw_rad is None else f"{math.degrees(wp.final_yaw_rad):.1f}"
+        typer.echo(f"{i:>3} {wp.x_m:>9.2f} {wp.y_m:>9.2f} {wp.tolerance_m:>6.2f} {hdg:>11}")
+    start = (0.0, 0.0) if msn.frame is not MissionFrameKind.GLOBAL else None
+    length = plan.path_length_m(start or (plan.waypoints[0].x_m, plan.waypoints[0].y_m))
+    eta = plan.estimated_time_s(
+        cfg.control.max_yaw_rate_radps, start or (plan.waypoints[0].x_m, plan.waypoints[0].y_m)
+    )
+    typer.echo(f"path    : {length:.1f} m at {plan.speed_mps:.2f} m/s")
+    typer.echo(f"estimate: {eta:.0f} s ({eta / 60:.1f} min)")
+
+
+sim_command.register(app)
+recorder_command.register(app)
+
+
+def main() -> None:
+    app()
+
+
+if __name__ == "__main__":
+    main()

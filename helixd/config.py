@@ -1,0 +1,469 @@
+"""helixd configuration (``config/helixd.yaml``), validated by pydantic.
+
+Every tunable lives here with its unit (in the name or the description), its bounds and a
+default taken from the Helix-25 thesis or DESIGN.md. Unknown keys are errors. Loading a bad
+file raises :class:`ConfigFileError` carrying one message per problem, each naming the file,
+the dotted field path, the bad value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import math
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated, Any, Literal, TypeVar
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+# ---------------------------------------------------------------------------------------------
+# Base model and error reporting
+
+
+class StrictModel(BaseModel):
+    """Base for every config/mission model: unknown keys are errors, values are immutable."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+
+class ConfigFileError(Exception):
+    """A configuration or mission file could not be used. ``problems`` holds one line each."""
+
+    def __init__(self, path: Path | str, problems: list[str]) -> None:
+        self.path = Path(path)
+        self.problems = problems
+        super().__init__("\n".join(problems))
+
+
+_BOUND_WORDS = {
+    "greater_than": "> {gt}",
+    "greater_than_equal": ">= {ge}",
+    "less_than": "< {lt}",
+    "less_than_equal": "<= {le}",
+}
+
+
+def _model_at(model: type[BaseModel], loc: tuple[int | str, ...]) -> type[BaseModel] | None:
+    """Walk ``loc`` through nested pydantic models; return the model owning the last key."""
+    current: Any = model
+    for part in loc[:-1]:
+        if isinstance(part, int):
+            continue
+        if not (isinstance(current, type) and issubclass(current, BaseModel)):
+            return None
+        field = current.model_fields.get(str(part))
+        if field is None:
+            return None
+        current = _inner_model(field.annotation)
+    if isinstance(current, type) and issubclass(current, BaseModel):
+        return current
+    return None
+
+
+def _inner_model(annotation: Any) -> Any:
+    """Find a BaseModel inside Optional[...] / list[...] / tuple[...] annotations."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in getattr(annotation, "__args__", ()):
+        found = _inner_model(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) -> str:
+    etype = err["type"]
+    ctx = err.get("ctx") or {}
+    if etype in _BOUND_WORDS:
+        bound = _BOUND_WORDS[etype].format(**ctx)
+        owner = _model_at(model, loc)
+        if owner is not None and loc and isinstance(loc[-1], str):
+            field = owner.model_fields.get(loc[-1])
+            if field is not None:
+                lo = hi = None
+                for meta in field.metadata:
+                    lo = getattr(meta, "ge", None) if lo is None else lo
+                    lo = getattr(meta, "gt", None) if lo is None else lo
+                    hi = getattr(meta, "le", None) if hi is None else hi
+                    hi = getattr(meta, "lt", None) if hi is None else hi
+                if lo is not None and hi is not None:
+                    return f"allowed range {lo} .. {hi}"
+        return f"allowed: {bound}"
+    if etype == "extra_forbidden":
+        owner = _model_at(model, loc)
+        if owner is not None:
+            return "allowed keys here: " + ", ".join(sorted(owner.model_fields))
+        return "remove it"
+    if etype in ("enum", "literal_error"):
+        return "allowed: " + str(ctx.get("expected", "see the documentation"))
+    if etype == "missing":
+        return "this field is required"
+    return str(err.get("msg", ""))
+
+
+def format_validation_error(
+    path: Path | str, exc: ValidationError, model: type[BaseModel]
+) -> list[str]:
+    """One human line per pydantic error: ``file: dotted.path: problem (got X; allowed Y)``."""
+    lines: list[str] = []
+    for err in exc.errors(include_url=False):
+        loc = tuple(err["loc"])
+        dotted = ".".join(str(p) for p in loc) if loc else "(top level)"
+        etype = err["type"]
+        if etype == "extra_forbidden":
+            problem = "unknown key"
+        elif etype == "missing":
+            problem = "missing required field"
+        else:
+            problem = str(err["msg"]).removeprefix("Value error, ")
+        got = "" if etype == "missing" else f"got {err.get('input')!r}; "
+        allowed = _allowed_text(err, model, loc)
+        if etype.startswith("value_error") or etype == "assertion_error":
+            lines.append(f"{path}: {dotted}: {problem} ({got.rstrip('; ')})".replace(" ()", ""))
+        else:
+            lines.append(f"{path}: {dotted}: {problem} ({got}{allowed})")
+    return lines
+
+
+M = TypeVar("M", bound=BaseModel)
+
+
+def load_yaml_model(
+    path: Path | str, model: type[M], context: dict[str, Any] | None = None
+) -> M:
+    """Read ``path`` as YAML and validate it as ``model``; raise ConfigFileError otherwise."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigFileError(p, [f"{p}: file not found"]) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigFileError(p, [f"{p}: cannot read file: {exc}"]) from None
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        reason = getattr(exc, "problem", None) or str(exc)
+        raise ConfigFileError(p, [f"{p}: not valid YAML{where}: {reason}"]) from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigFileError(
+            p, [f"{p}: (top level): expected a mapping of keys, got {type(data).__name__}"]
+        )
+    try:
+        return model.model_validate(data, context=context)
+    except ValidationError as exc:
+        raise ConfigFileError(p, format_validation_error(p, exc, model)) from None
+
+
+def finite(value: float) -> float:
+    if not math.isfinite(value):
+        raise ValueError("must be a finite number")
+    return value
+
+
+# ---------------------------------------------------------------------------------------------
+# Vehicle
+
+
+class ScrollCalibration(StrictModel):
+    """Per-scroll fraction calibration, the mecanum report's v = a·ω + b idea.
+
+    applied = gain·f + sign(f)·offset for |f| ≥ deadband, 0 below it; negated when reversed.
+    """
+
+    gain: float = Field(1.0, ge=0.5, le=2.0, description="slope a (dimensionless)")
+    offset: float = Field(
+        0.0, ge=0.0, le=0.3, description="fraction of max RPM added in the direction of motion"
+    )
+    deadband: float = Field(
+        0.0, ge=0.0, le=0.3, description="commands with |fraction| below this are sent as 0"
+    )
+    reversed: bool = Field(False, description="scroll motor wired backwards")
+
+
+class VehicleConfig(StrictModel):
+    scroll_radius_m: float = Field(0.175, gt=0.01, le=1.0, description="scroll radius r (m)")
+    lx_m: float = Field(0.565, gt=0.05, le=3.0, description="front-back scroll distance l_x (m)")
+    ly_m: float = Field(0.508, gt=0.05, le=3.0, description="left-right scroll distance l_y (m)")
+    max_rpm: float = Field(195.0, gt=1.0, le=2000.0, description="scroll no-load max speed (RPM)")
+    output_clamp: float = Field(
+        0.9, gt=0.0, le=1.0, description="max |scroll command| as a fraction of max_rpm"
+    )
+    scrolls: tuple[ScrollCalibration, ScrollCalibration, ScrollCalibration, ScrollCalibration] = (
+        Field(
+            default_factory=lambda: (
+                ScrollCalibration(),
+                ScrollCalibration(),
+                ScrollCalibration(),
+                ScrollCalibration(),
+            ),
+            description="calibration of scrolls 1..4 (thesis Fig. 2 numbering)",
+        )
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Control
+
+
+class PidGains(StrictModel):
+    kp: float = Field(ge=0.0, le=100.0, description="proportional gain")
+    ki: float = Field(ge=0.0, le=100.0, description="integral gain (1/s)")
+    kd: float = Field(ge=0.0, le=100.0, description="derivative gain (s)")
+    integral_limit: float = Field(
+        description="anti-windup clamp on |ki·∫e dt| (output units)", ge=0.0, le=100.0
+    )
+
+
+class ControlConfig(StrictModel):
+    distance_pid: PidGains = Field(
+        default_factory=lambda: PidGains(kp=1.2, ki=0.0002, kd=0.05, integral_limit=0.2),
+        description="distance error (m) → forward speed (m/s); thesis field-test gains",
+    )
+    yaw_pid: PidGains = Field(
+        default_factory=lambda: PidGains(kp=8.0, ki=0.0, kd=0.05, integral_limit=0.3),
+        description="heading error (rad) → yaw rate (rad/s); thesis gains",
+    )
+    heading_threshold_rad: float = Field(
+        0.2, gt=0.0, le=1.5, description="turn in place while |heading error| exceeds this (rad)"
+    )
+    waypoint_tolerance_m: float = Field(
+        1.0, gt=0.05, le=20.0, description="waypoint reached inside this radius (m)"
+    )
+    max_speed_mps: float = Field(0.6, gt=0.0, le=3.0, description="translation speed cap (m/s)")
+    max_yaw_rate_radps: float = Field(1.0, gt=0.0, le=5.0, description="yaw rate cap (rad/s)")
+    slowdown_radius_m: float = Field(
+        2.0, ge=0.0, le=50.0, description="speed ramps down linearly inside this radius (m)"
+    )
+    min_speed_mps: float = Field(
+        0.1, ge=0.0, le=1.0, description="speed floor while outside tolerance, avoids creeping (m/s)"
+    )
+    final_heading_tolerance_rad: float = Field(
+        0.1, gt=0.0, le=1.0, description="final-heading turn ends inside this (rad)"
+    )
+    max_dt_s: float = Field(
+        0.5, gt=0.0, le=5.0, description="larger control steps are treated as a restart (s)"
+    )
+    control_rate_max_hz: float = Field(
+        50.0, ge=1.0, le=200.0, description="ceiling on control steps per second (Hz)"
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Missions
+
+
+class MissionLimits(StrictModel):
+    max_range_m: float = Field(
+        500.0, gt=0.0, le=10_000.0, description="waypoints farther than this from origin refused (m)"
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Link
+
+
+class LinkConfig(StrictModel):
+    url: str = Field(
+        "udpin:0.0.0.0:14550",
+        min_length=1,
+        description="MAVProxy-style connection: /dev/ttyACM0[:baud], udpin:, udpout:, tcp:",
+    )
+    baud: int = Field(115200, ge=1200, le=3_000_000, description="serial baud when url has none")
+    source_system: int = Field(
+        255, ge=1, le=255, description="our MAVLink sysid; must equal MAV_GCS_SYSID for overrides"
+    )
+    source_component: int = Field(191, ge=1, le=255, description="our compid (191 = onboard)")
+    target_system: int = Field(1, ge=1, le=255, description="autopilot sysid")
+    target_component: int = Field(1, ge=0, le=255, description="autopilot compid")
+    heartbeat_rate_hz: float = Field(1.0, ge=0.2, le=10.0, description="our HEARTBEAT rate (Hz)")
+    pose_rate_hz: float = Field(
+        50.0, ge=1.0, le=100.0, description="LOCAL_POSITION_NED/ATTITUDE rate to ask for (Hz)"
+    )
+    telemetry_rate_hz: float = Field(
+        5.0, ge=0.5, le=50.0, description="EKF/SYS_STATUS/RC/SERVO stream rate (Hz)"
+    )
+    command_timeout_s: float = Field(
+        1.0, gt=0.0, le=30.0, description="wait for COMMAND_ACK/PARAM_VALUE per try (s)"
+    )
+    command_retries: int = Field(3, ge=0, le=10, description="re-sends after the first try")
+    reconnect_interval_s: float = Field(
+        1.0, gt=0.0, le=60.0, description="pause between reopen attempts of a lost link (s)"
+    )
+    signing_key_file: Path | None = Field(
+        None, description="MAVLink2 signing key (32 bytes raw or 64 hex chars); None = unsigned"
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Actuation
+
+
+class ActuationBackend(StrEnum):
+    RC_OVERRIDE = "rc_override"
+    SERVO = "servo"
+    DRY_RUN = "dry_run"
+
+
+class ChannelConfig(StrictModel):
+    channel: int = Field(ge=1, le=18, description="RC/servo channel number (1..18)")
+    pwm_min_us: int = Field(1000, ge=800, le=2200, description="PWM at full reverse (µs)")
+    pwm_trim_us: int = Field(1500, ge=800, le=2200, description="PWM at neutral (µs)")
+    pwm_max_us: int = Field(2000, ge=800, le=2200, description="PWM at full forward (µs)")
+    reversed: bool = Field(False, description="swap min and max on this channel")
+    deadband_us: int = Field(0, ge=0, le=200, description="|PWM − trim| below this sent as trim")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> ChannelConfig:
+        if not self.pwm_min_us < self.pwm_trim_us < self.pwm_max_us:
+            raise ValueError(
+                f"need pwm_min_us < pwm_trim_us < pwm_max_us, got "
+                f"{self.pwm_min_us} / {self.pwm_trim_us} / {self.pwm_max_us}"
+            )
+        return self
+
+
+def _default_channels() -> tuple[ChannelConfig, ChannelConfig, ChannelConfig, ChannelConfig]:
+    return (
+        ChannelConfig(channel=1),
+        ChannelConfig(channel=2),
+        ChannelConfig(channel=3),
+        ChannelConfig(channel=4),
+    )
+
+
+class ActuationConfig(StrictModel):
+    backend: ActuationBackend = Field(ActuationBackend.RC_OVERRIDE, description="command sink")
+    channels: tuple[ChannelConfig, ChannelConfig, ChannelConfig, ChannelConfig] = Field(
+        default_factory=_default_channels, description="scrolls 1..4 → channel and PWM range"
+    )
+    repeat_rate_hz: float = Field(
+        20.0, ge=10.0, le=100.0, description="RC override re-send rate while healthy (Hz)"
+    )
+    release_repeats: int = Field(
+        3, ge=1, le=20, description="times the release message is sent (UDP may drop one)"
+    )
+
+    @model_validator(mode="after")
+    def _distinct(self) -> ActuationConfig:
+        numbers = [c.channel for c in self.channels]
+        if len(set(numbers)) != len(numbers):
+            raise ValueError(f"each scroll needs its own channel, got {numbers}")
+        return self
+
+
+# ---------------------------------------------------------------------------------------------
+# Safety
+
+
+class StallConfig(StrictModel):
+    commanded_speed_min_mps: float = Field(
+        0.2, gt=0.0, le=3.0, description="stall watch armed when commanded speed exceeds (m/s)"
+    )
+    measured_speed_max_mps: float = Field(
+        0.05, ge=0.0, le=1.0, description="...while measured speed stays below (m/s)"
+    )
+    duration_s: float = Field(4.0, gt=0.0, le=120.0, description="...for this long (s)")
+
+
+class TakeoverConfig(StrictModel):
+    on_mode_change: bool = Field(True, description="a mode change we did not ask for is takeover")
+    switch_channel: int | None = Field(
+        None, ge=1, le=18, description="RC channel of a takeover switch (None = no switch)"
+    )
+    switch_threshold_us: int = Field(
+        1700, ge=800, le=2200, description="switch PWM at or above this means takeover (µs)"
+    )
+    stick_channels: tuple[int, ...] = Field(
+        (), description="RC input channels watched for stick deflection"
+    )
+    stick_deflection_us: int = Field(
+        150, ge=20, le=600, description="|PWM − 1500| beyond this on a watched stick (µs)"
+    )
+
+
+class SafetyConfig(StrictModel):
+    heartbeat_timeout_s: float = Field(
+        2.0, gt=0.1, le=30.0, description="autopilot HEARTBEAT silence that is link loss (s)"
+    )
+    pose_stale_s: float = Field(0.5, gt=0.05, le=10.0, description="pose age that is stale (s)")
+    ekf_variance_max: float = Field(
+        0.8, gt=0.0, le=10.0, description="EKF variance above this is unhealthy (FS_EKF_THRESH)"
+    )
+    takeover: TakeoverConfig = Field(default_factory=TakeoverConfig)
+    geofence_radius_m: float | None = Field(
+        100.0, gt=0.0, le=10_000.0, description="max distance from the start point (m); None = off"
+    )
+    geofence_polygon_ne_m: tuple[tuple[float, float], ...] = Field(
+        (), description="optional keep-in polygon, (north_m, east_m) vertices from the EKF origin"
+    )
+    mission_time_limit_s: float = Field(
+        1800.0, gt=0.0, le=86_400.0, description="mission aborted after this long (s)"
+    )
+    stall: StallConfig = Field(default_factory=StallConfig)
+    fallback_deadline_s: float = Field(
+        0.5, gt=0.0, le=5.0, description="neutral+release+HOLD must be sent within (s)"
+    )
+    hold_retry_bound_s: float = Field(
+        3.0, gt=0.0, le=30.0, description="keep asking for HOLD until acked or this long (s)"
+    )
+    disarm_on_fault: bool = Field(False, description="disarm after the fall-back to HOLD")
+    force_arm: bool = Field(False, description="force-arm (21196) when PreArm checks refuse")
+    start_switch_channel: int | None = Field(
+        None, ge=1, le=18, description="RC channel the pilot flips to start (None = start at once)"
+    )
+    start_switch_threshold_us: int = Field(
+        1700, ge=800, le=2200, description="start switch PWM at or above this starts (µs)"
+    )
+    start_gate_timeout_s: float = Field(
+        600.0, gt=0.0, le=86_400.0, description="give up waiting for the start switch (s)"
+    )
+    connect_timeout_s: float = Field(
+        30.0, gt=0.0, le=600.0, description="wait for the autopilot's first HEARTBEAT (s)"
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Recorder
+
+
+class RecorderConfig(StrictModel):
+    run_root: Path = Field(Path("runs"), description="run directories are created under this")
+    on_write_error: Literal["continue", "refuse"] = Field(
+        "continue", description="disk full / unwritable: keep flying (continue) or refuse to start"
+    )
+    flush_interval_s: float = Field(
+        0.5, gt=0.0, le=1.0, description="flight.csv flushed at least this often (s)"
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Top level
+
+
+class HelixdConfig(StrictModel):
+    vehicle: VehicleConfig = Field(default_factory=VehicleConfig)
+    control: ControlConfig = Field(default_factory=ControlConfig)
+    mission: MissionLimits = Field(default_factory=MissionLimits)
+    link: LinkConfig = Field(default_factory=LinkConfig)
+    actuation: ActuationConfig = Field(default_factory=ActuationConfig)
+    safety: SafetyConfig = Field(default_factory=SafetyConfig)
+    recorder: RecorderConfig = Field(default_factory=RecorderConfig)
+
+
+PositiveFloat = Annotated[float, Field(gt=0.0)]
+
+
+def load_config(path: Path | str | None) -> HelixdConfig:
+    """Load ``path`` (or the built-in defaults when None)."""
+    if path is None:
+        return HelixdConfig()
+    return load_yaml_model(path, HelixdConfig)
+
+
+def config_to_yaml(cfg: BaseModel) -> str:
+    """The resolved config as YAML (Paths and enums as plain strings)."""
+    return yaml.safe_dump(cfg.model_dump(mode="json"), sort_keys=False)

@@ -1,0 +1,1 @@
+"""Pure control core: no sockets, clocks or logging in here."""

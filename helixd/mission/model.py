@@ -1,0 +1,136 @@
+"""Mission files (``config/missions/*.yaml``): what to fly, in which mode and frame.
+
+Frames (see :mod:`helixd.frames`):
+
+* ``start``: waypoints as ``x``/``y`` metres, x forward and y left of the pose at mission
+  start; ``heading_deg`` counter-clockwise from the start heading.
+* ``local_ned``: waypoints as ``north``/``east`` metres from the EKF origin; ``heading_deg`` is a
+  compass heading (clockwise from North).
+* ``global``: waypoints as ``lat``/``lon`` degrees; ``heading_deg`` compass, as above.
+"""
+
+from __future__ import annotations
+
+import math
+from enum import StrEnum
+from pathlib import Path
+
+from pydantic import Field, ValidationInfo, field_validator, model_validator
+
+from helixd.config import ConfigFileError, MissionLimits, StrictModel, load_yaml_model
+
+DUPLICATE_EPSILON_M = 0.01  # consecutive points closer than this are the same point
+
+
+class MotionMode(StrEnum):
+    ROLL = "roll"  # hard ground: v_y = 0, drive along +x
+    SCROLL = "scroll"  # water, mud, snow: v_x = 0, drive along +y
+    OMNI = "omni"  # viscous media: ω_z = 0, heading held
+
+
+class MissionFrameKind(StrEnum):
+    START = "start"
+    LOCAL_NED = "local_ned"
+    GLOBAL = "global"
+
+
+_COORDS = {
+    MissionFrameKind.START: ("x", "y"),
+    MissionFrameKind.LOCAL_NED: ("north", "east"),
+    MissionFrameKind.GLOBAL: ("lat", "lon"),
+}
+
+
+class WaypointSpec(StrictModel):
+    x: float | None = Field(None, description="metres forward of the start pose (start frame)")
+    y: float | None = Field(None, description="metres left of the start pose (start frame)")
+    north: float | None = Field(None, description="metres north of the EKF origin (local_ned)")
+    east: float | None = Field(None, description="metres east of the EKF origin (local_ned)")
+    lat: float | None = Field(None, ge=-90.0, le=90.0, description="latitude, degrees (global)")
+    lon: float | None = Field(None, ge=-180.0, le=180.0, description="longitude, degrees (global)")
+    heading_deg: float | None = Field(
+        None, ge=-360.0, le=360.0, description="optional final heading at this waypoint (deg)"
+    )
+    tolerance_m: float | None = Field(
+        None, gt=0.05, le=20.0, description="per-waypoint arrival radius override (m)"
+    )
+
+    @field_validator("x", "y", "north", "east", "lat", "lon", "heading_deg")
+    @classmethod
+    def _finite(cls, value: float | None) -> float | None:
+        if value is not None and not math.isfinite(value):
+            raise ValueError("must be a finite number, not NaN or infinity")
+        return value
+
+    def given(self) -> set[str]:
+        return {k for k in ("x", "y", "north", "east", "lat", "lon") if getattr(self, k) is not None}
+
+
+class Mission(StrictModel):
+    name: str = Field(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.\- ]+$")
+    mode: MotionMode
+    frame: MissionFrameKind = MissionFrameKind.START
+    waypoints: tuple[WaypointSpec, ...] = Field(description="at least one waypoint")
+    tolerance_m: float | None = Field(
+        None, gt=0.05, le=20.0, description="arrival radius for every waypoint (m)"
+    )
+    speed_mps: float | None = Field(None, gt=0.0, le=3.0, description="speed cap override (m/s)")
+
+    @model_validator(mode="after")
+    def _check_points(self, info: ValidationInfo) -> Mission:
+        if not self.waypoints:
+            raise ValueError("waypoints: the list is empty; a mission needs at least one waypoint")
+        wanted = _COORDS[self.frame]
+        for i, wp in enumerate(self.waypoints):
+            got = wp.given()
+            if got != set(wanted):
+                raise ValueError(
+                    f"waypoints.{i}: frame '{self.frame.value}' needs exactly "
+                    f"{wanted[0]} and {wanted[1]}, got {sorted(got) or 'no coordinates'}"
+                )
+        pts = self.points()
+        for i in range(1, len(pts)):
+            (a0, a1), (b0, b1) = pts[i - 1], pts[i]
+            if self.frame is MissionFrameKind.GLOBAL:
+                from helixd.frames import latlon_to_ne
+
+                dn, de = latlon_to_ne(b0, b1, a0, a1)
+                gap = math.hypot(dn, de)
+            else:
+                gap = math.hypot(b0 - a0, b1 - a1)
+            if gap < DUPLICATE_EPSILON_M:
+                raise ValueError(
+                    f"waypoints.{i}: same point as waypoints.{i - 1} "
+                    f"({b0}, {b1}); consecutive waypoints must differ by >= "
+                    f"{DUPLICATE_EPSILON_M} m"
+                )
+        limits = (info.context or {}).get("limits") if info.context else None
+        if isinstance(limits, MissionLimits) and self.frame is not MissionFrameKind.GLOBAL:
+            for i, (a, b) in enumerate(pts):
+                rng = math.hypot(a, b)
+                if rng > limits.max_range_m:
+                    raise ValueError(
+                        f"waypoints.{i}: ({a}, {b}) is {rng:.1f} m from the origin; "
+                        f"allowed at most mission.max_range_m = {limits.max_range_m} m"
+                    )
+        return self
+
+    def points(self) -> list[tuple[float, float]]:
+        """Raw coordinate pairs in the file's own frame: (x, y), (north, east) or (lat, lon)."""
+        a, b = _COORDS[self.frame]
+        return [(float(getattr(w, a)), float(getattr(w, b))) for w in self.waypoints]
+
+
+def load_mission(path: Path | str, limits: MissionLimits | None = None) -> Mission:
+    """Load and validate a mission file; raises ConfigFileError with one line per problem."""
+    return load_yaml_model(path, Mission, context={"limits": limits or MissionLimits()})
+
+
+__all__ = [
+    "ConfigFileError",
+    "Mission",
+    "MissionFrameKind",
+    "MotionMode",
+    "WaypointSpec",
+    "load_mission",
+]
