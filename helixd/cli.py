@@ -84,7 +84,9 @@ def check(config: ConfigOpt = None, mission: MissionOpt = Path("mission.yaml")) 
         plan = resolve_plan(msn, cfg.control, cfg.mission, origin)
     except PlanError as exc:
         raise fail([f"{mission}: {exc}"], ExitCode.USAGE) from None
-    axes = "x forward / y left of start" if msn.frame is MissionFrameKind.START else "x east / y north"
+    axes = (
+        "x forward / y left of start" if msn.frame is MissionFrameKind.START else "x east / y north"
+    )
     typer.echo(f"config  : {config or '(built-in defaults)'}  OK")
     typer.echo(f"mission : {mission}  OK")
     typer.echo(f"plan    : {plan.name}  mode={plan.mode.value}  frame={plan.frame.value}{note}")

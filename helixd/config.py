@@ -128,9 +128,7 @@ def format_validation_error(
 M = TypeVar("M", bound=BaseModel)
 
 
-def load_yaml_model(
-    path: Path | str, model: type[M], context: dict[str, Any] | None = None
-) -> M:
+def load_yaml_model(path: Path | str, model: type[M], context: dict[str, Any] | None = None) -> M:
     """Read ``path`` as YAML and validate it as ``model``; raise ConfigFileError otherwise."""
     p = Path(path)
     try:
@@ -239,7 +237,10 @@ class ControlConfig(StrictModel):
         2.0, ge=0.0, le=50.0, description="speed ramps down linearly inside this radius (m)"
     )
     min_speed_mps: float = Field(
-        0.1, ge=0.0, le=1.0, description="speed floor while outside tolerance, avoids creeping (m/s)"
+        0.1,
+        ge=0.0,
+        le=1.0,
+        description="speed floor while outside tolerance, avoids creeping (m/s)",
     )
     final_heading_tolerance_rad: float = Field(
         0.1, gt=0.0, le=1.0, description="final-heading turn ends inside this (rad)"
@@ -258,7 +259,10 @@ class ControlConfig(StrictModel):
 
 class MissionLimits(StrictModel):
     max_range_m: float = Field(
-        500.0, gt=0.0, le=10_000.0, description="waypoints farther than this from origin refused (m)"
+        500.0,
+        gt=0.0,
+        le=10_000.0,
+        description="waypoints farther than this from origin refused (m)",
     )
 
 

@@ -63,7 +63,9 @@ class WaypointSpec(StrictModel):
         return value
 
     def given(self) -> set[str]:
-        return {k for k in ("x", "y", "north", "east", "lat", "lon") if getattr(self, k) is not None}
+        return {
+            k for k in ("x", "y", "north", "east", "lat", "lon") if getattr(self, k) is not None
+        }
 
 
 class Mission(StrictModel):
