@@ -43,6 +43,18 @@ _BOUND_WORDS = {
 }
 
 
+_TYPE_WORDS = {
+    "float": "allowed: a number",
+    "int": "allowed: a whole number",
+    "bool": "allowed: true or false",
+    "string": "allowed: text",
+    "list": "allowed: a list",
+    "tuple": "allowed: a list",
+    "dict": "allowed: a mapping of keys",
+    "model": "allowed: a mapping of keys",
+}
+
+
 def _model_at(model: type[BaseModel], loc: tuple[int | str, ...]) -> type[BaseModel] | None:
     """Walk ``loc`` through nested pydantic models; return the model owning the last key."""
     current: Any = model
@@ -98,7 +110,7 @@ def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) 
         return "allowed: " + str(ctx.get("expected", "see the documentation"))
     if etype == "missing":
         return "this field is required"
-    return str(err.get("msg", ""))
+    return _TYPE_WORDS.get(etype.split("_")[0], "")
 
 
 def format_validation_error(
@@ -116,12 +128,15 @@ def format_validation_error(
             problem = "missing required field"
         else:
             problem = str(err["msg"]).removeprefix("Value error, ")
-        got = "" if etype == "missing" else f"got {err.get('input')!r}; "
-        allowed = _allowed_text(err, model, loc)
-        if etype.startswith("value_error") or etype == "assertion_error":
-            lines.append(f"{path}: {dotted}: {problem} ({got.rstrip('; ')})".replace(" ()", ""))
-        else:
-            lines.append(f"{path}: {dotted}: {problem} ({got}{allowed})")
+        value = err.get("input")
+        shown = etype != "missing" and not isinstance(value, dict)
+        parts = [f"got {value!r}"] if shown else []
+        if not etype.startswith("value_error"):
+            allowed = _allowed_text(err, model, loc)
+            if allowed:
+                parts.append(allowed)
+        detail = f" ({'; '.join(parts)})" if parts else ""
+        lines.append(f"{path}: {dotted}: {problem}{detail}")
     return lines
 
 
