@@ -8,7 +8,13 @@ TWO_PI = 2.0 * math.pi
 
 
 def wrap_pi(angle_rad: float) -> float:
-    """Wrap an angle to the half-open interval (−π, π]."""
+    """Wrap an angle to the half-open interval (−π, π].
+
+    Angles already inside the interval are returned unchanged, so wrapping is idempotent
+    (``(a + π) − π`` is not always ``a`` in floating point).
+    """
+    if -math.pi < angle_rad <= math.pi:
+        return angle_rad
     wrapped = math.fmod(angle_rad + math.pi, TWO_PI)
     if wrapped <= 0.0:
         wrapped += TWO_PI

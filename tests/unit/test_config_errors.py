@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import subprocess
 import sys
@@ -206,7 +207,7 @@ def test_square_is_ten_metres_counter_clockwise() -> None:
     )
     pts = [(0.0, 0.0)] + [(w.x_m, w.y_m) for w in plan.waypoints]
     # shoelace: positive area ⇔ counter-clockwise in a right-handed (x fwd, y left) frame
-    area = sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(pts, pts[1:], strict=False)) / 2
+    area = sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in itertools.pairwise(pts)) / 2
     assert area == pytest.approx(100.0)
     assert plan.path_length_m() == pytest.approx(40.0)
 
