@@ -385,6 +385,12 @@ class StallConfig(StrictModel):
     measured_speed_max_mps: float = Field(
         0.05, ge=0.0, le=1.0, description="...while measured speed stays below (m/s)"
     )
+    commanded_yaw_rate_min_radps: float = Field(
+        0.3, gt=0.0, le=5.0, description="turn-stall watch armed above this commanded rate (rad/s)"
+    )
+    measured_yaw_rate_max_radps: float = Field(
+        0.03, ge=0.0, le=1.0, description="...while the measured yaw rate stays below (rad/s)"
+    )
     duration_s: float = Field(4.0, gt=0.0, le=120.0, description="...for this long (s)")
 
 

@@ -1,0 +1,217 @@
+"""Safety watchdogs: pure decisions, stepped with a snapshot and a monotonic time.
+
+No sockets, clocks or logging here. The supervisor (:mod:`helixd.safety.supervisor`) feeds a
+:class:`SafetyInputs` snapshot each control tick and acts on the first :class:`Fault` returned.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from enum import StrEnum
+
+from helixd.config import SafetyConfig
+
+RC_CENTRE_US = 1500  # stick centre of a standard RC channel (µs)
+
+
+class FaultCause(StrEnum):
+    LINK_LOST = "link_lost"  # no autopilot HEARTBEAT
+    POSE_STALE = "pose_stale"  # LOCAL_POSITION_NED/ATTITUDE stopped
+    EKF_UNHEALTHY = "ekf_unhealthy"
+    PILOT_TAKEOVER = "pilot_takeover"  # mode change, RC switch or stick deflection
+    DISARMED = "disarmed"  # someone disarmed (or the autopilot rebooted) mid-mission
+    GEOFENCE = "geofence"
+    MISSION_TIME = "mission_time"
+    STALL = "stall"  # scrolls commanded, rover not moving: the sand pit of field test 1
+    SIGNAL = "signal"  # SIGINT / SIGTERM
+    EXCEPTION = "exception"  # unhandled error inside helixd
+
+
+# Causes that mean "a human took over or asked to stop", not "something broke".
+OPERATOR_CAUSES = frozenset({FaultCause.PILOT_TAKEOVER, FaultCause.SIGNAL})
+
+
+@dataclass(frozen=True, slots=True)
+class Fault:
+    cause: FaultCause
+    detail: str
+
+
+@dataclass(frozen=True, slots=True)
+class SafetyInputs:
+    """Everything the watchdogs look at, at one instant (monotonic seconds)."""
+
+    now_s: float
+    last_heartbeat_s: float | None
+    pose_rx_s: float | None
+    ekf_healthy: bool | None
+    ekf_detail: str
+    mode: str
+    expected_mode: str
+    armed: bool
+    rc_inputs_us: Sequence[int]
+    north_m: float | None
+    east_m: float | None
+    start_north_m: float
+    start_east_m: float
+    mission_elapsed_s: float
+    commanded_speed_mps: float
+    measured_speed_mps: float
+    commanded_yaw_rate_radps: float = 0.0
+    measured_yaw_rate_radps: float = 0.0
+
+
+def point_in_polygon(north_m: float, east_m: float, poly: Sequence[tuple[float, float]]) -> bool:
+    """Even-odd ray casting; vertices as (north_m, east_m)."""
+    inside = False
+    n = len(poly)
+    for i in range(n):
+        (n1, e1), (n2, e2) = poly[i], poly[(i + 1) % n]
+        if (e1 > east_m) != (e2 > east_m):
+            n_cross = n1 + (east_m - e1) * (n2 - n1) / (e2 - e1)
+            if north_m < n_cross:
+                inside = not inside
+    return inside
+
+
+class SafetyMonitor:
+    """All watchdogs of DESIGN §5 / issue 4/7. Pure apart from the stall timer it carries."""
+
+    def __init__(self, cfg: SafetyConfig) -> None:
+        self.cfg = cfg
+        self._stall_since_s: float | None = None
+
+    def reset(self) -> None:
+        self._stall_since_s = None
+
+    def check(self, s: SafetyInputs) -> Fault | None:
+        """Return the first fault found, in order of how directly it endangers the rover."""
+        for rule in (
+            self._link,
+            self._pose,
+            self._ekf,
+            self._armed,
+            self._takeover,
+            self._geofence,
+            self._time,
+            self._stall,
+        ):
+            fault = rule(s)
+            if fault is not None:
+                return fault
+        return None
+
+    def _link(self, s: SafetyInputs) -> Fault | None:
+        if s.last_heartbeat_s is None:
+            return Fault(FaultCause.LINK_LOST, "no HEARTBEAT received from the autopilot")
+        age = s.now_s - s.last_heartbeat_s
+        if age > self.cfg.heartbeat_timeout_s:
+            return Fault(
+                FaultCause.LINK_LOST,
+                f"no autopilot HEARTBEAT for {age:.2f} s (limit {self.cfg.heartbeat_timeout_s} s)",
+            )
+        return None
+
+    def _pose(self, s: SafetyInputs) -> Fault | None:
+        if s.pose_rx_s is None:
+            return Fault(FaultCause.POSE_STALE, "no pose received")
+        age = s.now_s - s.pose_rx_s
+        if age > self.cfg.pose_stale_s:
+            return Fault(
+                FaultCause.POSE_STALE,
+                f"pose is {age:.2f} s old (limit {self.cfg.pose_stale_s} s)",
+            )
+        return None
+
+    def _ekf(self, s: SafetyInputs) -> Fault | None:
+        if s.ekf_healthy is False:
+            return Fault(FaultCause.EKF_UNHEALTHY, s.ekf_detail or "EKF reports unhealthy")
+        return None
+
+    def _armed(self, s: SafetyInputs) -> Fault | None:
+        if not s.armed:
+            return Fault(FaultCause.DISARMED, f"vehicle disarmed mid-mission (mode {s.mode})")
+        return None
+
+    def _takeover(self, s: SafetyInputs) -> Fault | None:
+        t = self.cfg.takeover
+        if t.on_mode_change and s.mode != s.expected_mode:
+            return Fault(
+                FaultCause.PILOT_TAKEOVER,
+                f"mode changed to {s.mode} (helixd set {s.expected_mode})",
+            )
+        rc = s.rc_inputs_us
+        if t.switch_channel is not None and len(rc) >= t.switch_channel:
+            pwm = rc[t.switch_channel - 1]
+            if pwm >= t.switch_threshold_us:
+                return Fault(
+                    FaultCause.PILOT_TAKEOVER,
+                    f"takeover switch RC{t.switch_channel} at {pwm} µs "
+                    f"(>= {t.switch_threshold_us} µs)",
+                )
+        for ch in t.stick_channels:
+            if 1 <= ch <= len(rc) and rc[ch - 1] > 0:
+                deflection = abs(rc[ch - 1] - RC_CENTRE_US)
+                if deflection > t.stick_deflection_us:
+                    return Fault(
+                        FaultCause.PILOT_TAKEOVER,
+                        f"stick RC{ch} deflected {deflection} µs (> {t.stick_deflection_us} µs)",
+                    )
+        return None
+
+    def _geofence(self, s: SafetyInputs) -> Fault | None:
+        if s.north_m is None or s.east_m is None:
+            return None
+        radius = self.cfg.geofence_radius_m
+        if radius is not None:
+            dist = math.hypot(s.north_m - s.start_north_m, s.east_m - s.start_east_m)
+            if dist > radius:
+                return Fault(
+                    FaultCause.GEOFENCE,
+                    f"{dist:.1f} m from the start point (limit {radius} m)",
+                )
+        poly = self.cfg.geofence_polygon_ne_m
+        if len(poly) >= 3 and not point_in_polygon(s.north_m, s.east_m, poly):
+            return Fault(
+                FaultCause.GEOFENCE,
+                f"outside the keep-in polygon at N {s.north_m:.1f} m E {s.east_m:.1f} m",
+            )
+        return None
+
+    def _time(self, s: SafetyInputs) -> Fault | None:
+        limit = self.cfg.mission_time_limit_s
+        if s.mission_elapsed_s > limit:
+            return Fault(
+                FaultCause.MISSION_TIME,
+                f"mission running {s.mission_elapsed_s:.0f} s (limit {limit:.0f} s)",
+            )
+        return None
+
+    def _stall(self, s: SafetyInputs) -> Fault | None:
+        st = self.cfg.stall
+        driving_stuck = (
+            s.commanded_speed_mps > st.commanded_speed_min_mps
+            and s.measured_speed_mps < st.measured_speed_max_mps
+        )
+        turning_stuck = (
+            abs(s.commanded_yaw_rate_radps) > st.commanded_yaw_rate_min_radps
+            and abs(s.measured_yaw_rate_radps) < st.measured_yaw_rate_max_radps
+            and s.measured_speed_mps < st.measured_speed_max_mps
+        )
+        if not (driving_stuck or turning_stuck):
+            self._stall_since_s = None
+            return None
+        if self._stall_since_s is None:
+            self._stall_since_s = s.now_s
+        stuck_s = s.now_s - self._stall_since_s
+        if stuck_s < st.duration_s:
+            return None
+        what = (
+            f"commanded {s.commanded_speed_mps:.2f} m/s but moving {s.measured_speed_mps:.2f} m/s"
+            if driving_stuck
+            else f"commanded turn {s.commanded_yaw_rate_radps:.2f} rad/s but turning "
+            f"{s.measured_yaw_rate_radps:.2f} rad/s"
+        )
+        return Fault(FaultCause.STALL, f"{what} for {stuck_s:.1f} s (scrolls dug in?)")

@@ -1,0 +1,129 @@
+"""Each safety watchdog fires on its fault and stays quiet on a healthy snapshot."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from helixd.config import SafetyConfig, StallConfig, TakeoverConfig
+from helixd.safety.watchdogs import FaultCause, SafetyInputs, SafetyMonitor, point_in_polygon
+
+HEALTHY = SafetyInputs(
+    now_s=100.0,
+    last_heartbeat_s=99.5,
+    pose_rx_s=99.98,
+    ekf_healthy=True,
+    ekf_detail="",
+    mode="MANUAL",
+    expected_mode="MANUAL",
+    armed=True,
+    rc_inputs_us=(1500,) * 8,
+    north_m=5.0,
+    east_m=5.0,
+    start_north_m=0.0,
+    start_east_m=0.0,
+    mission_elapsed_s=60.0,
+    commanded_speed_mps=0.5,
+    measured_speed_mps=0.45,
+)
+
+
+def test_healthy_snapshot_passes() -> None:
+    assert SafetyMonitor(SafetyConfig()).check(HEALTHY) is None
+
+
+@pytest.mark.parametrize(
+    ("change", "cause", "needle"),
+    [
+        ({"last_heartbeat_s": 97.9}, FaultCause.LINK_LOST, "2.10 s"),
+        ({"last_heartbeat_s": None}, FaultCause.LINK_LOST, "no HEARTBEAT"),
+        ({"pose_rx_s": 99.4}, FaultCause.POSE_STALE, "0.60 s old"),
+        (
+            {"ekf_healthy": False, "ekf_detail": "pos_horiz_variance 1.2"},
+            FaultCause.EKF_UNHEALTHY,
+            "1.2",
+        ),
+        ({"mode": "HOLD"}, FaultCause.PILOT_TAKEOVER, "mode changed to HOLD"),
+        ({"armed": False}, FaultCause.DISARMED, "disarmed"),
+        ({"north_m": 80.0, "east_m": 80.0}, FaultCause.GEOFENCE, "113.1 m from the start"),
+        ({"mission_elapsed_s": 1801.0}, FaultCause.MISSION_TIME, "limit 1800 s"),
+    ],
+)
+def test_each_watchdog_fires(change: dict[str, object], cause: FaultCause, needle: str) -> None:
+    fault = SafetyMonitor(SafetyConfig()).check(dataclasses.replace(HEALTHY, **change))  # type: ignore[arg-type]
+    assert fault is not None
+    assert fault.cause is cause
+    assert needle in fault.detail
+
+
+def test_boundaries_are_inclusive_of_healthy() -> None:
+    mon = SafetyMonitor(SafetyConfig())
+    assert mon.check(dataclasses.replace(HEALTHY, last_heartbeat_s=98.0)) is None  # exactly 2.0 s
+    assert mon.check(dataclasses.replace(HEALTHY, pose_rx_s=99.5)) is None  # exactly 0.5 s
+
+
+def test_rc_switch_and_stick_takeover() -> None:
+    cfg = SafetyConfig(
+        takeover=TakeoverConfig(switch_channel=7, stick_channels=(1, 3), stick_deflection_us=150)
+    )
+    mon = SafetyMonitor(cfg)
+    rc = [1500] * 8
+    rc[6] = 1900
+    fault = mon.check(dataclasses.replace(HEALTHY, rc_inputs_us=tuple(rc)))
+    assert fault is not None and "RC7" in fault.detail
+    rc = [1500] * 8
+    rc[2] = 1660
+    fault = mon.check(dataclasses.replace(HEALTHY, rc_inputs_us=tuple(rc)))
+    assert fault is not None and "RC3 deflected 160" in fault.detail
+    rc[2] = 1640  # inside the deflection threshold
+    assert mon.check(dataclasses.replace(HEALTHY, rc_inputs_us=tuple(rc))) is None
+
+
+def test_polygon_geofence() -> None:
+    square = ((0.0, 0.0), (0.0, 20.0), (20.0, 20.0), (20.0, 0.0))
+    assert point_in_polygon(5, 5, square)
+    assert not point_in_polygon(25, 5, square)
+    mon = SafetyMonitor(SafetyConfig(geofence_radius_m=None, geofence_polygon_ne_m=square))
+    assert mon.check(HEALTHY) is None
+    fault = mon.check(dataclasses.replace(HEALTHY, north_m=-1.0))
+    assert fault is not None and fault.cause is FaultCause.GEOFENCE
+
+
+def test_stall_needs_duration_and_resets_when_moving() -> None:
+    mon = SafetyMonitor(SafetyConfig(stall=StallConfig(duration_s=4.0)))
+    stuck = dataclasses.replace(HEALTHY, commanded_speed_mps=0.5, measured_speed_mps=0.01)
+    for t in (100.0, 102.0, 103.9):
+        assert (
+            mon.check(dataclasses.replace(stuck, now_s=t, last_heartbeat_s=t, pose_rx_s=t)) is None
+        )
+    # moving again resets the timer
+    assert (
+        mon.check(
+            dataclasses.replace(HEALTHY, now_s=104.0, last_heartbeat_s=104.0, pose_rx_s=104.0)
+        )
+        is None
+    )
+    assert (
+        mon.check(dataclasses.replace(stuck, now_s=107.0, last_heartbeat_s=107.0, pose_rx_s=107.0))
+        is None
+    )
+    fault = mon.check(
+        dataclasses.replace(stuck, now_s=111.0, last_heartbeat_s=111.0, pose_rx_s=111.0)
+    )
+    assert fault is not None and fault.cause is FaultCause.STALL and "4.0 s" in fault.detail
+
+
+def test_turn_stall_in_sand() -> None:
+    mon = SafetyMonitor(SafetyConfig())
+    turning = dataclasses.replace(
+        HEALTHY,
+        commanded_speed_mps=0.0,
+        measured_speed_mps=0.0,
+        commanded_yaw_rate_radps=1.0,
+        measured_yaw_rate_radps=0.01,
+    )
+    assert mon.check(turning) is None
+    later = dataclasses.replace(turning, now_s=104.5, last_heartbeat_s=104.5, pose_rx_s=104.5)
+    fault = mon.check(later)
+    assert fault is not None and fault.cause is FaultCause.STALL and "turn" in fault.detail
