@@ -104,6 +104,82 @@ def check(config: ConfigOpt = None, mission: MissionOpt = Path("mission.yaml")) 
     typer.echo(f"estimate: {eta:.0f} s ({eta / 60:.1f} min)")
 
 
+@app.command()
+def run(
+    mission: MissionOpt = Path("mission.yaml"),
+    config: ConfigOpt = None,
+    connect: Annotated[
+        str | None,
+        typer.Option(
+            "--connect",
+            help="autopilot link: /dev/ttyACM0[:baud], udpin:HOST:PORT, udpout:HOST:PORT, "
+            "tcp:HOST:PORT (default: link.url from the config)",
+        ),
+    ] = None,
+    sim: Annotated[
+        bool, typer.Option("--sim", help="fly against the built-in simulator, started in-process")
+    ] = False,
+    sim_speedup: Annotated[
+        float, typer.Option(min=0.1, max=20.0, help="simulator speed-up factor (with --sim)")
+    ] = 1.0,
+    sim_terrain: Annotated[
+        str, typer.Option(help="simulator terrain: hard, grass, sand or mud (with --sim)")
+    ] = "hard",
+    sim_noise: Annotated[
+        str, typer.Option(help="simulator pose noise: none, low or thesis (with --sim)")
+    ] = "low",
+    run_dir: Annotated[
+        Path | None,
+        typer.Option("--run-dir", help="root for run directories (default: recorder.run_root)"),
+    ] = None,
+    log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
+) -> None:
+    """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD."""
+    import asyncio
+    import sys
+
+    from helixd.daemon import RunOptions, run_mission
+    from helixd.logging_setup import configure_logging
+
+    cfg, msn_obj = load_inputs(config, mission)
+    from helixd.mission import Mission
+
+    assert isinstance(msn_obj, Mission)
+    tty = sys.stderr.isatty()
+    configure_logging(tty=tty, level=log_level)
+    server = None
+    url = connect or cfg.link.url
+    if sim:
+        if connect:
+            raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
+        from helixd.sim import SimConfig, start_embedded
+
+        try:
+            sim_cfg = SimConfig(speedup=sim_speedup, terrain=sim_terrain, noise=sim_noise)
+        except ValueError as exc:
+            raise fail([f"simulator option: {exc}"], ExitCode.USAGE) from None
+        server, url = start_embedded(sim_cfg)
+    cfg = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})
+    opts = RunOptions(
+        cfg=cfg,
+        mission=msn_obj,
+        mission_yaml=mission.read_text(encoding="utf-8"),
+        connect_url=url,
+        run_root=run_dir or cfg.recorder.run_root,
+        tty=tty,
+    )
+    try:
+        outcome = asyncio.run(run_mission(opts))
+    finally:
+        if server is not None:
+            server.stop()
+    for line in outcome.messages:
+        typer.echo(line, err=True)
+    if outcome.run_dir is not None:
+        typer.echo(f"run directory: {outcome.run_dir}", err=True)
+    raise typer.Exit(int(outcome.exit_code))
+
+
 sim_command.register(app)
 recorder_command.register(app)
 

@@ -1,0 +1,393 @@
+"""``helixd run``: explicit phases, each logged with its duration.
+
+connect → preflight → start gate → set MANUAL → arm → fly → stop → disarm → exit.
+
+Whatever ends the run — success, a watchdog, a signal, pilot takeover, an exception — the
+shutdown path is the same: scrolls to neutral, every override released, HOLD requested
+(:func:`helixd.safety.supervisor.fall_back`). Exit codes: :class:`helixd.exitcodes.ExitCode`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import math
+import time
+from collections.abc import AsyncIterator, Awaitable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TypeVar
+
+import structlog
+
+from helixd import __version__
+from helixd.actuators import make_sink
+from helixd.actuators.base import ActuatorSink
+from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
+from helixd.display import ProgressDisplay, ProgressInfo
+from helixd.exitcodes import ExitCode
+from helixd.flight import MANUAL_MODE, FlightLoop, Progress
+from helixd.frames import MissionFrame, NedPose
+from helixd.link.commands import CommandError
+from helixd.link.connection import Autopilot, LinkError
+from helixd.link.preflight import check_obedience
+from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
+from helixd.notify import ServiceNotifier
+from helixd.recorder.rows import FlightRow
+from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
+from helixd.recorder.summary import RunSummary, SummaryBuilder
+from helixd.safety.supervisor import fall_back
+from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
+from helixd.signals import StopRequest, install, uninstall
+
+log = structlog.get_logger(__name__)
+T = TypeVar("T")
+
+
+class PreflightFailed(Exception):
+    def __init__(self, problems: list[str]) -> None:
+        self.problems = problems
+        super().__init__("; ".join(problems))
+
+
+class StopBeforeFlight(Exception):
+    """A signal arrived before the mission started (nothing was armed)."""
+
+
+@dataclass
+class RunOptions:
+    cfg: HelixdConfig
+    mission: Mission
+    mission_yaml: str
+    connect_url: str
+    run_root: Path
+    tty: bool
+
+
+@dataclass
+class RunOutcome:
+    exit_code: ExitCode
+    summary: RunSummary | None
+    run_dir: Path | None
+    messages: list[str] = field(default_factory=list)
+
+
+@contextlib.asynccontextmanager
+async def phase(name: str, notifier: ServiceNotifier, display: ProgressDisplay) -> AsyncIterator[None]:
+    """Log a phase's start and end with its duration; tell systemd and the operator."""
+    t0 = time.monotonic()
+    log.info("phase_start", phase=name)
+    notifier.status(f"phase: {name}")
+    display.phase(name)
+    try:
+        yield
+    except BaseException:
+        log.info("phase_end", phase=name, ok=False, duration_s=round(time.monotonic() - t0, 3))
+        raise
+    log.info("phase_end", phase=name, ok=True, duration_s=round(time.monotonic() - t0, 3))
+
+
+class MissionRunner:
+    """Owns one run: the link, the sink, the recorder and the shutdown path."""
+
+    def __init__(self, opts: RunOptions) -> None:
+        self.opts = opts
+        self.cfg = opts.cfg
+        self.stop = StopRequest()
+        self.notifier = ServiceNotifier()
+        self.display = ProgressDisplay(tty=opts.tty)
+        self.ap: Autopilot | None = None
+        self.sink: ActuatorSink | None = None
+        self.recorder: RunRecorder | None = None
+        self.summary = SummaryBuilder()
+        self.plan: Plan | None = None
+        self.armed_by_us = False
+        self.flying = False
+        self.messages: list[str] = []
+
+    # -- helpers ------------------------------------------------------------------------------
+
+    async def _until_stopped(self, awaitable: Awaitable[T]) -> T:
+        """Await ``awaitable`` unless a stop signal arrives first."""
+        task = asyncio.ensure_future(awaitable)
+        stopper = asyncio.ensure_future(self.stop.event.wait())
+        try:
+            done, _ = await asyncio.wait({task, stopper}, return_when=asyncio.FIRST_COMPLETED)
+        finally:
+            stopper.cancel()
+        if task in done:
+            return task.result()
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError, Exception):
+            await task
+        raise StopBeforeFlight(f"{self.stop.signal_name} received")
+
+    def _pose_text(self, ned: NedPose | None) -> str:
+        if ned is None:
+            return "unknown"
+        return (
+            f"N {ned.north_m:.2f} m, E {ned.east_m:.2f} m, "
+            f"yaw {math.degrees(ned.yaw_ned_rad) % 360:.0f}° (NED)"
+        )
+
+    # -- phases -------------------------------------------------------------------------------
+
+    async def _connect(self) -> Autopilot:
+        ap = await Autopilot.connect(self.cfg.link, self.cfg.safety)
+        self.ap = ap
+        await self._until_stopped(ap.wait_heartbeat(self.cfg.safety.connect_timeout_s))
+        ap.start_heartbeat()
+        ap.feed()
+        if self.cfg.actuation.backend is ActuationBackend.SERVO:
+            # A previous run may have been killed with DO_SET_SERVO outputs latched: neutral
+            # goes out before anything else.
+            self.sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
+            await self.sink.start()
+        granted = await ap.request_streams()
+        log.info("streams_granted", rates_hz=granted)
+        return ap
+
+    async def _preflight(self, ap: Autopilot) -> tuple[NedPose, tuple[float, float] | None]:
+        problems: list[str] = []
+        for p in await check_obedience(ap, self.cfg.actuation, self.cfg.link):
+            if p.severity == "error":
+                problems.append(p.message)
+            else:
+                log.warning("preflight_warning", message=p.message)
+                self.messages.append(f"warning: {p.message}")
+        pose = await self._fresh_pose(ap)
+        if pose is None:
+            problems.append(
+                f"no fresh pose (LOCAL_POSITION_NED + ATTITUDE) within "
+                f"{self.cfg.safety.connect_timeout_s} s: check the EKF has an origin and GPS"
+            )
+        ekf = ap.state.ekf
+        if ekf is None or not ekf.healthy:
+            problems.append(
+                "EKF not healthy: " + ("no EKF_STATUS_REPORT" if ekf is None else ekf.describe())
+            )
+        origin = None
+        if self.opts.mission.frame is MissionFrameKind.GLOBAL:
+            origin = await ap.request_gps_origin(self.cfg.link.command_timeout_s * 3)
+            if origin is None:
+                problems.append("global mission needs GPS_GLOBAL_ORIGIN; the autopilot sent none")
+        if problems:
+            raise PreflightFailed(problems)
+        assert pose is not None
+        return pose, origin
+
+    async def _fresh_pose(self, ap: Autopilot) -> NedPose | None:
+        deadline = time.monotonic() + self.cfg.safety.connect_timeout_s
+        while time.monotonic() < deadline:
+            ap.feed()
+            sample = await self._until_stopped(ap.wait_pose(after_rx_s=None, timeout_s=0.2))
+            ekf = ap.state.ekf
+            if sample is not None and ekf is not None and ekf.healthy:
+                if time.monotonic() - sample.rx_monotonic_s <= self.cfg.safety.pose_stale_s:
+                    return sample.ned
+        sample = ap.state.pose
+        return None if sample is None else sample.ned
+
+    async def _start_gate(self, ap: Autopilot) -> None:
+        ch = self.cfg.safety.start_switch_channel
+        if ch is None:
+            return
+        threshold = self.cfg.safety.start_switch_threshold_us
+        log.info("waiting_for_start_switch", channel=ch, threshold_us=threshold)
+        self.notifier.status(f"waiting for the pilot: RC{ch} >= {threshold} us")
+        deadline = time.monotonic() + self.cfg.safety.start_gate_timeout_s
+        while time.monotonic() < deadline:
+            ap.feed()
+            rc = ap.state.rc_inputs_us
+            if len(rc) >= ch and rc[ch - 1] >= threshold:
+                log.info("start_switch_on", channel=ch, pwm_us=rc[ch - 1])
+                return
+            await self._until_stopped(ap.wait_pose(after_rx_s=None, timeout_s=0.2))
+        raise PreflightFailed(
+            [f"start switch RC{ch} not flipped within {self.cfg.safety.start_gate_timeout_s} s"]
+        )
+
+    async def _arm(self, ap: Autopilot) -> None:
+        if not ap.state.armed:
+            await ap.arm(force=self.cfg.safety.force_arm)
+            self.armed_by_us = True
+
+    # -- the run ------------------------------------------------------------------------------
+
+    async def run(self) -> RunOutcome:
+        loop = asyncio.get_running_loop()
+        install(loop, self.stop)
+        try:
+            return await self._run()
+        finally:
+            uninstall(loop)
+            self.display.close()
+
+    async def _run(self) -> RunOutcome:
+        try:
+            self.recorder = RunRecorder.create(
+                run_root=self.opts.run_root,
+                mission_name=self.opts.mission.name,
+                config_yaml=config_to_yaml(self.cfg),
+                mission_yaml=self.opts.mission_yaml,
+                cfg=self.cfg.recorder,
+                now_utc=datetime.now(UTC),
+            )
+        except RecorderUnavailable as exc:
+            return RunOutcome(ExitCode.PREFLIGHT, None, None, [str(exc)])
+        log.info("helixd_start", version=__version__, mission=self.opts.mission.name,
+                 connect=self.opts.connect_url, run_dir=str(self.recorder.run_dir))
+        code = ExitCode.INTERNAL_ERROR
+        fault: Fault | None = None
+        detected_s: float | None = None
+        last_pose: NedPose | None = None
+        started = time.monotonic()
+        try:
+            async with phase("connect", self.notifier, self.display):
+                ap = await self._connect()
+            async with phase("preflight", self.notifier, self.display):
+                start_ned, origin = await self._preflight(ap)
+                self.plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
+            async with phase("start_gate", self.notifier, self.display):
+                await self._start_gate(ap)
+                start_ned = await self._fresh_pose(ap) or start_ned
+            async with phase("set_manual", self.notifier, self.display):
+                await self._until_stopped(ap.set_mode(MANUAL_MODE))
+            if self.sink is None:
+                self.sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
+                await self.sink.start()
+            async with phase("arm", self.notifier, self.display):
+                await self._until_stopped(self._arm(ap))
+            self.notifier.ready()
+            frame = (
+                MissionFrame.start_at(start_ned)
+                if self.plan.frame is MissionFrameKind.START
+                else MissionFrame.enu()
+            )
+            self.flying = True
+            async with phase("fly", self.notifier, self.display):
+                result = await FlightLoop(
+                    cfg=self.cfg,
+                    plan=self.plan,
+                    frame=frame,
+                    autopilot=ap,
+                    sink=self.sink,
+                    stop=self.stop,
+                    start_ned=start_ned,
+                    on_row=self._on_row,
+                    on_progress=self._on_progress,
+                    on_arrival=self._on_arrival,
+                    on_tick=self._on_tick,
+                ).run()
+            fault, detected_s, last_pose = result.fault, result.detected_s, result.last_pose
+            if fault is None:
+                code = ExitCode.OK
+            elif fault.cause in OPERATOR_CAUSES:
+                code = ExitCode.OPERATOR_STOP
+            else:
+                code = ExitCode.FAULT
+        except StopBeforeFlight as exc:
+            fault, code = Fault(FaultCause.SIGNAL, str(exc)), ExitCode.OPERATOR_STOP
+        except PreflightFailed as exc:
+            fault, code = None, ExitCode.PREFLIGHT
+            for p in exc.problems:
+                log.error("preflight_failed", problem=p)
+            self.messages.extend(f"preflight: {p}" for p in exc.problems)
+        except (PlanError, CommandError) as exc:
+            fault, code = None, ExitCode.PREFLIGHT
+            log.error("preflight_failed", problem=str(exc))
+            self.messages.append(f"preflight: {exc}")
+        except LinkError as exc:
+            fault, code = None, ExitCode.LINK
+            log.error("link_failed", problem=str(exc))
+            self.messages.append(f"link: {exc}")
+        except Exception as exc:
+            fault = Fault(FaultCause.EXCEPTION, f"{type(exc).__name__}: {exc}")
+            code = ExitCode.INTERNAL_ERROR
+            log.exception("internal_error")
+        finally:
+            await self._shutdown(fault, detected_s, last_pose, code)
+        summary = self._finish(fault, code, started)
+        return RunOutcome(code, summary, self.recorder.run_dir if self.recorder else None,
+                          self.messages)
+
+    async def _shutdown(
+        self, fault: Fault | None, detected_s: float | None, last_pose: NedPose | None,
+        code: ExitCode,
+    ) -> None:
+        """Always: stop the scrolls, release overrides, ask for HOLD (if we touched anything)."""
+        self.notifier.stopping()
+        ap = self.ap
+        touched = self.sink is not None or self.armed_by_us
+        if ap is not None and touched:
+            pose = last_pose or (ap.state.pose.ned if ap.state.pose else None)
+            async with phase("stop", self.notifier, self.display):
+                await fall_back(
+                    fault,
+                    sink=self.sink,
+                    autopilot=ap,
+                    cfg=self.cfg.safety,
+                    detected_s=detected_s or time.monotonic(),
+                    pose_text=self._pose_text(pose),
+                    disarm=(self.armed_by_us and code is ExitCode.OK) or None,
+                    abandon=lambda: self.stop.forced,
+                )
+        if self.sink is not None:
+            await self.sink.close()
+        if ap is not None:
+            ap.stop_heartbeat()
+            await ap.close()
+
+    def _finish(self, fault: Fault | None, code: ExitCode, started: float) -> RunSummary:
+        summary = self.summary.build(
+            completed=code is ExitCode.OK,
+            fault=None if fault is None else f"{fault.cause.value}: {fault.detail}",
+            exit_code=int(code),
+            mission_name=self.opts.mission.name,
+            mode=self.opts.mission.mode.value,
+            waypoints_total=len(self.opts.mission.waypoints),
+            wall_duration_s=time.monotonic() - started,
+        )
+        if self.recorder is not None:
+            self.recorder.finish(summary)
+        log.info("helixd_exit", exit_code=int(code), completed=summary.completed,
+                 fault=summary.fault)
+        self.display.final(summary)
+        return summary
+
+    # -- loop callbacks (cheap: called at the control rate) --------------------------------------
+
+    def _on_row(self, row: FlightRow) -> None:
+        self.summary.add(row)
+        if self.recorder is not None:
+            self.recorder.record(row)
+
+    def _on_progress(self, p: Progress) -> None:
+        self.display.update(
+            ProgressInfo(
+                phase="fly",
+                waypoint_index=p.waypoint_index,
+                waypoints_total=p.waypoints_total,
+                distance_to_go_m=p.distance_to_go_m,
+                speed_mps=p.speed_mps,
+                heading_error_deg=math.degrees(p.heading_error_rad),
+                link_ok=p.link_ok,
+                pose_fresh=p.pose_fresh,
+                elapsed_s=p.elapsed_s,
+            )
+        )
+
+    def _on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
+        self.summary.arrival(index, t_boot_s, error_m)
+        log.info("waypoint_reached", index=index, t_boot_s=round(t_boot_s, 2),
+                 error_m=round(error_m, 3))
+
+    def _on_tick(self) -> None:
+        if self.ap is not None:
+            self.ap.feed()
+        self.notifier.watchdog()
+
+
+async def run_mission(opts: RunOptions) -> RunOutcome:
+    return await MissionRunner(opts).run()

@@ -1,0 +1,227 @@
+"""The control loop: fresh pose in → navigator → kinematics → actuator command out.
+
+Steps on every fresh pose (at whatever rate the autopilot granted) under a configured ceiling,
+with dt from the autopilot's ``time_boot_ms``. Between poses it still ticks (wall clock) so the
+watchdogs run even when poses stop. It never stops the rover itself: it returns the fault and
+the daemon's supervisor does the fall-back.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from helixd.actuators.base import ActuatorSink
+from helixd.config import HelixdConfig
+from helixd.control.angles import wrap_pi
+from helixd.control.kinematics import body_to_fractions
+from helixd.control.navigator import Navigator, NavOutput
+from helixd.frames import MissionFrame, NedPose
+from helixd.link.connection import Autopilot
+from helixd.mission import Plan
+from helixd.recorder.rows import FlightRow
+from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonitor
+from helixd.signals import StopRequest
+from helixd.vehicle import PoseSample
+
+MANUAL_MODE = "MANUAL"
+
+
+@dataclass
+class FlightResult:
+    fault: Fault | None
+    detected_s: float | None  # monotonic time the fault was detected
+    last_output: NavOutput | None
+    last_pose: NedPose | None
+
+
+@dataclass
+class Progress:
+    waypoint_index: int
+    waypoints_total: int
+    distance_to_go_m: float
+    speed_mps: float
+    heading_error_rad: float
+    link_ok: bool
+    pose_fresh: bool
+    elapsed_s: float
+    state: str
+
+
+class FlightLoop:
+    """One mission's control loop. Construct, then ``await run()``."""
+
+    def __init__(
+        self,
+        *,
+        cfg: HelixdConfig,
+        plan: Plan,
+        frame: MissionFrame,
+        autopilot: Autopilot,
+        sink: ActuatorSink,
+        stop: StopRequest,
+        start_ned: NedPose,
+        on_row: Callable[[FlightRow], None],
+        on_progress: Callable[[Progress], None],
+        on_arrival: Callable[[int, float, float], None],
+        on_tick: Callable[[], None],
+    ) -> None:
+        self.cfg = cfg
+        self.plan = plan
+        self.frame = frame
+        self.ap = autopilot
+        self.sink = sink
+        self.stop = stop
+        self.start_ned = start_ned
+        self.on_row = on_row
+        self.on_progress = on_progress
+        self.on_arrival = on_arrival
+        self.on_tick = on_tick
+        self.navigator = Navigator(plan, cfg.control)
+        self.monitor = SafetyMonitor(cfg.safety)
+        self._min_step_s = 1.0 / cfg.control.control_rate_max_hz
+        # tick at least this often without poses, so watchdogs always run (s)
+        self._tick_s = min(0.05, cfg.safety.pose_stale_s / 4)
+        self._cmd_speed_mps = 0.0
+        self._cmd_yaw_rate_radps = 0.0
+        self._meas_yaw_rate_radps = 0.0
+        self._prev_yaw: tuple[float, float] | None = None  # (t_boot_s, yaw_ned_rad)
+
+    async def run(self) -> FlightResult:
+        t_start = time.monotonic()
+        last_rx: float | None = None
+        last_step_s = -math.inf
+        out: NavOutput | None = None
+        pose: PoseSample | None = None
+        while True:
+            sample = await self.ap.wait_pose(after_rx_s=last_rx, timeout_s=self._tick_s)
+            now = time.monotonic()
+            self.on_tick()
+            if sample is not None:
+                last_rx = sample.rx_monotonic_s
+                pose = sample
+                self._measure_yaw_rate(sample)
+            if self.stop.requested:
+                return FlightResult(
+                    Fault(FaultCause.SIGNAL, f"{self.stop.signal_name} received"),
+                    now,
+                    out,
+                    pose.ned if pose else None,
+                )
+            fault = self.monitor.check(self._inputs(now, t_start, pose))
+            if fault is not None:
+                return FlightResult(fault, now, out, pose.ned if pose else None)
+            if sample is None or now - last_step_s < self._min_step_s:
+                continue
+            last_step_s = now
+            out = self._step(sample, now, t_start)
+            if out.done:
+                return FlightResult(None, None, out, sample.ned)
+
+    def _step(self, sample: PoseSample, now: float, t_start: float) -> NavOutput:
+        mpose = self.frame.to_mission(sample.ned)
+        t_boot_s = sample.time_boot_ms / 1000.0
+        out = self.navigator.step(mpose, t_boot_s)
+        fractions = body_to_fractions(out.command, self.cfg.vehicle, self.plan.mode)
+        self.sink.command(tuple(float(f) for f in fractions))
+        self._cmd_speed_mps = math.hypot(out.command.vx_mps, out.command.vy_mps)
+        self._cmd_yaw_rate_radps = out.command.wz_radps
+        if out.reached_index is not None:
+            self.on_arrival(out.reached_index, t_boot_s, out.distance_error_m)
+        state = self.ap.state
+        speed = math.hypot(sample.vn_mps, sample.ve_mps)
+        pose_fresh = now - sample.rx_monotonic_s <= self.cfg.safety.pose_stale_s
+        target = self.plan.waypoints[min(out.target_index, len(self.plan.waypoints) - 1)]
+        pwm = self.sink.last_pwm_us
+        self.on_row(
+            FlightRow(
+                t_boot_s=t_boot_s,
+                t_mono_s=now,
+                north_m=sample.ned.north_m,
+                east_m=sample.ned.east_m,
+                yaw_ned_rad=sample.ned.yaw_ned_rad,
+                x_m=mpose.x_m,
+                y_m=mpose.y_m,
+                yaw_rad=mpose.yaw_rad,
+                target_index=out.target_index,
+                target_x_m=target.x_m,
+                target_y_m=target.y_m,
+                distance_error_m=out.distance_error_m,
+                heading_error_rad=out.heading_error_rad,
+                cross_track_m=out.cross_track_m,
+                dist_p=out.distance_pid.p,
+                dist_i=out.distance_pid.i,
+                dist_d=out.distance_pid.d,
+                yaw_p=out.yaw_pid.p,
+                yaw_i=out.yaw_pid.i,
+                yaw_d=out.yaw_pid.d,
+                vx_cmd_mps=out.command.vx_mps,
+                vy_cmd_mps=out.command.vy_mps,
+                wz_cmd_radps=out.command.wz_radps,
+                speed_meas_mps=speed,
+                scroll1=float(fractions[0]),
+                scroll2=float(fractions[1]),
+                scroll3=float(fractions[2]),
+                scroll4=float(fractions[3]),
+                pwm1_us=pwm[0],
+                pwm2_us=pwm[1],
+                pwm3_us=pwm[2],
+                pwm4_us=pwm[3],
+                mode=state.mode,
+                armed=state.armed,
+                nav_state=out.state.value,
+                link_ok=not state.link_lost,
+                pose_fresh=pose_fresh,
+            )
+        )
+        self.on_progress(
+            Progress(
+                waypoint_index=min(out.target_index + 1, len(self.plan.waypoints)),
+                waypoints_total=len(self.plan.waypoints),
+                distance_to_go_m=out.distance_error_m,
+                speed_mps=speed,
+                heading_error_rad=out.heading_error_rad,
+                link_ok=not state.link_lost,
+                pose_fresh=pose_fresh,
+                elapsed_s=now - t_start,
+                state=out.state.value,
+            )
+        )
+        return out
+
+    def _measure_yaw_rate(self, sample: PoseSample) -> None:
+        t = sample.time_boot_ms / 1000.0
+        yaw = sample.ned.yaw_ned_rad
+        if self._prev_yaw is not None:
+            dt = t - self._prev_yaw[0]
+            if dt > 0:
+                self._meas_yaw_rate_radps = -wrap_pi(yaw - self._prev_yaw[1]) / dt
+        self._prev_yaw = (t, yaw)
+
+    def _inputs(self, now: float, t_start: float, pose: PoseSample | None) -> SafetyInputs:
+        st = self.ap.state
+        ekf = st.ekf
+        return SafetyInputs(
+            now_s=now,
+            last_heartbeat_s=st.last_heartbeat_s,
+            pose_rx_s=pose.rx_monotonic_s if pose else None,
+            ekf_healthy=None if ekf is None else ekf.healthy,
+            ekf_detail="" if ekf is None else ekf.describe(),
+            mode=st.mode,
+            expected_mode=MANUAL_MODE,
+            armed=st.armed,
+            rc_inputs_us=st.rc_inputs_us,
+            north_m=pose.ned.north_m if pose else None,
+            east_m=pose.ned.east_m if pose else None,
+            start_north_m=self.start_ned.north_m,
+            start_east_m=self.start_ned.east_m,
+            mission_elapsed_s=now - t_start,
+            commanded_speed_mps=self._cmd_speed_mps,
+            measured_speed_mps=float(np.hypot(pose.vn_mps, pose.ve_mps)) if pose else 0.0,
+            commanded_yaw_rate_radps=self._cmd_yaw_rate_radps,
+            measured_yaw_rate_radps=self._meas_yaw_rate_radps,
+        )
