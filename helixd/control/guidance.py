@@ -1,0 +1,125 @@
+"""Guidance: from (pose, goal) to errors and a body-velocity command, per motion mode.
+
+Pure functions (thesis §3.7, eq. 3–6):
+
+    Δx, Δy = x_ref − x, y_ref − y
+    e_d    = hypot(Δx, Δy)                                  (eq. 6)
+    β      = atan2(Δy, Δx)                                  (eq. 3, bearing to the goal)
+    ψ_ref  = β − axis(mode)        axis: ROLL 0 (+x), SCROLL π/2 (+y)
+    e_ψ    = wrap(ψ_ref − ψ)       in (−π, π]               (eq. 4/5, shortest distance)
+
+SCROLL drives along +y, which points at ψ + π/2: measuring the heading from that axis
+("+π/2 offset") gives the body heading ψ_ref = β − π/2 that aligns +y with the goal.
+OMNI holds its heading (ω_z = 0) and drives straight at the goal: the world-frame error is
+rotated into the body frame, v = speed · (Δx_b, Δy_b) / e_d.
+
+These functions never decide to stop: zero output and timeouts belong to the supervisor.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from helixd.control.angles import shortest_angular_distance, wrap_pi
+from helixd.geometry import BodyVelocity, Pose2D
+from helixd.mission.model import MotionMode
+from helixd.mission.plan import PlanWaypoint
+
+
+@dataclass(frozen=True, slots=True)
+class GuidanceResult:
+    """Errors of one pose with respect to one goal."""
+
+    distance_error_m: float  # e_d
+    bearing_rad: float  # β, world-frame direction from the rover to the goal
+    heading_goal_rad: float  # ψ_ref, body yaw that points the mode's driving axis at the goal
+    heading_error_rad: float  # e_ψ = wrap(ψ_ref − ψ); 0 in OMNI (heading not steered)
+    direction_body_x: float  # unit vector to the goal in the body frame (0, 0 at the goal)
+    direction_body_y: float
+
+
+def driving_axis_rad(mode: MotionMode) -> float:
+    """Angle of the axis the mode drives along, from body +x (ROLL +x, SCROLL +y)."""
+    return math.pi / 2 if mode is MotionMode.SCROLL else 0.0
+
+
+def world_to_body(dx_m: float, dy_m: float, yaw_rad: float) -> tuple[float, float]:
+    """Rotate a world-frame vector into the body frame: R(−ψ) · [dx, dy]."""
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    return c * dx_m + s * dy_m, -s * dx_m + c * dy_m
+
+
+def compute_errors(pose: Pose2D, goal: PlanWaypoint, mode: MotionMode) -> GuidanceResult:
+    """Distance and heading errors of ``pose`` towards ``goal`` in ``mode``."""
+    dx = goal.x_m - pose.x_m
+    dy = goal.y_m - pose.y_m
+    e_d = math.hypot(dx, dy)
+    bearing = math.atan2(dy, dx)
+    if mode is MotionMode.OMNI:
+        heading_goal = pose.yaw_rad
+        e_psi = 0.0
+    else:
+        heading_goal = wrap_pi(bearing - driving_axis_rad(mode))
+        e_psi = shortest_angular_distance(pose.yaw_rad, heading_goal)
+    bx, by = world_to_body(dx, dy, pose.yaw_rad)
+    ux, uy = (bx / e_d, by / e_d) if e_d > 0.0 else (0.0, 0.0)
+    return GuidanceResult(
+        distance_error_m=e_d,
+        bearing_rad=bearing,
+        heading_goal_rad=heading_goal,
+        heading_error_rad=e_psi,
+        direction_body_x=ux,
+        direction_body_y=uy,
+    )
+
+
+def compute_command(
+    errors: GuidanceResult, mode: MotionMode, speed_mps: float, yaw_rate_radps: float
+) -> BodyVelocity:
+    """Turn a scalar speed along the mode's driving axis and a yaw rate into a body command.
+
+    ROLL: (v, 0, ω).  SCROLL: (0, v, ω).  OMNI: v · (u_x, u_y) towards the goal, ω = 0.
+    """
+    if mode is MotionMode.ROLL:
+        return BodyVelocity(speed_mps, 0.0, yaw_rate_radps)
+    if mode is MotionMode.SCROLL:
+        return BodyVelocity(0.0, speed_mps, yaw_rate_radps)
+    return BodyVelocity(speed_mps * errors.direction_body_x, speed_mps * errors.direction_body_y)
+
+
+def track_speed_mps(
+    pid_speed_mps: float,
+    distance_error_m: float,
+    tolerance_m: float,
+    cruise_speed_mps: float,
+    slowdown_radius_m: float,
+    min_speed_mps: float,
+) -> float:
+    """Forward speed while tracking: the distance PID's output, limited.
+
+    v = clamp(v_pid, ≤ v_cruise · min(1, e_d / r_slow)), at least v_min while e_d ≥ tolerance
+    (so the rover does not creep), never negative, never above v_cruise.
+    """
+    ramp = 1.0 if slowdown_radius_m <= 0.0 else min(1.0, distance_error_m / slowdown_radius_m)
+    v = min(pid_speed_mps, cruise_speed_mps * ramp)
+    if distance_error_m >= tolerance_m:
+        v = max(v, min_speed_mps)
+    return max(0.0, min(v, cruise_speed_mps))
+
+
+def cross_track_m(
+    start_xy_m: tuple[float, float], end_xy_m: tuple[float, float], pose: Pose2D
+) -> float:
+    """Signed distance of ``pose`` from the line start → end (m), positive to its left.
+
+    A degenerate leg (start = end) returns the distance to that point.
+    """
+    ax, ay = start_xy_m
+    bx, by = end_xy_m
+    lx, ly = bx - ax, by - ay
+    length = math.hypot(lx, ly)
+    px, py = pose.x_m - ax, pose.y_m - ay
+    if length < 1e-9:
+        return math.hypot(px, py)
+    return (lx * py - ly * px) / length

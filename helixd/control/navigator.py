@@ -1,0 +1,274 @@
+"""Waypoint navigator: the state machine of thesis Algorithm 2, with the limit cycle fixed.
+
+    IDLE → ALIGN ⇄ TRACK → REACHED → [FINAL_HEADING] → next waypoint … → DONE
+
+* ALIGN (ROLL/SCROLL only): turn in place, ω = PID_yaw(e_ψ), while |e_ψ| > threshold.
+* TRACK: v = PID_dist(e_d) limited by the plan speed and a slow-down ramp (floor v_min
+  outside tolerance); ω = PID_yaw(e_ψ) capped. If |e_ψ| grows past the threshold (a goal
+  close beside the rover, inside its turning circle) the rover re-aligns in place instead
+  of orbiting the goal — the limit cycle the thesis warns about.
+* REACHED: e_d < tolerance. Reported for that one step, whose output describes the arrival
+  (target_index = reached_index, distance_error_m = arrival error); the PIDs are reset and
+  the step's command already serves what comes next (no stop-and-go at every waypoint).
+* FINAL_HEADING: turn in place to the waypoint's final yaw, if it has one (not in OMNI,
+  whose mode constraint forbids turning).
+* DONE: zero command forever.
+
+Stepped with (pose, t_s); derives dt from successive t_s. Never touches a clock or a socket,
+and never decides to stop the vehicle: the supervisor owns that.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from enum import StrEnum
+
+from helixd.config import ControlConfig
+from helixd.control import guidance
+from helixd.control.angles import shortest_angular_distance
+from helixd.control.kinematics import constrain
+from helixd.control.pid import PID, PidTerms
+from helixd.geometry import BodyVelocity, Pose2D
+from helixd.mission.model import MotionMode
+from helixd.mission.plan import Plan, PlanWaypoint
+
+
+class NavState(StrEnum):
+    IDLE = "idle"
+    ALIGN = "align"
+    TRACK = "track"
+    REACHED = "reached"
+    FINAL_HEADING = "final_heading"
+    DONE = "done"
+
+
+@dataclass(frozen=True, slots=True)
+class NavOutput:
+    """What one navigator step produced (for the actuators and the flight recorder)."""
+
+    command: BodyVelocity
+    state: NavState
+    target_index: int  # waypoint the errors refer to: being flown to, just reached, or last
+    waypoints_reached: int
+    reached_index: int | None  # waypoint reached on this very step, else None
+    distance_error_m: float  # e_d to target_index (on the REACHED step: the arrival error)
+    heading_error_rad: float  # e_ψ in (−π, π]; 0 in OMNI; to the final yaw in FINAL_HEADING
+    cross_track_m: float  # signed distance from the current leg, + left of it
+    distance_pid: PidTerms
+    yaw_pid: PidTerms
+    done: bool
+
+
+class Navigator:
+    """Flies ``plan`` waypoint by waypoint. One instance per mission run."""
+
+    def __init__(self, plan: Plan, control: ControlConfig) -> None:
+        if not plan.waypoints:
+            raise ValueError(f"plan '{plan.name}' has no waypoints")
+        self.plan = plan
+        self.control = control
+        self._distance_pid = PID(control.distance_pid, output_limit=plan.speed_mps)
+        self._yaw_pid = PID(control.yaw_pid, output_limit=control.max_yaw_rate_radps, angular=True)
+        self._state = NavState.IDLE
+        self._target_index = 0
+        self._waypoints_reached = 0
+        self._final_heading_pending = False
+        self._leg_start_xy_m: tuple[float, float] | None = None
+        self._last_t_s: float | None = None
+
+    # -- public state ------------------------------------------------------------------------
+
+    @property
+    def state(self) -> NavState:
+        return self._state
+
+    @property
+    def target_index(self) -> int:
+        return min(self._target_index, len(self.plan.waypoints) - 1)
+
+    @property
+    def waypoints_reached(self) -> int:
+        return self._waypoints_reached
+
+    @property
+    def done(self) -> bool:
+        return self._state is NavState.DONE
+
+    # -- the step ----------------------------------------------------------------------------
+
+    def step(self, pose: Pose2D, t_s: float) -> NavOutput:
+        """Advance the state machine with a new pose at autopilot time ``t_s`` (seconds)."""
+        dt_s = self._dt(t_s)
+        if self._leg_start_xy_m is None:
+            self._leg_start_xy_m = (pose.x_m, pose.y_m)
+
+        arrival: NavOutput | None = None
+        if not self._final_heading_pending and self._target_index < len(self.plan.waypoints):
+            goal = self._goal()
+            if _distance_m(pose, goal) < goal.tolerance_m:
+                arrival = self._arrival(pose, goal)
+                self._waypoints_reached += 1
+                self._reset_pids()
+                self._final_heading_pending = (
+                    goal.final_yaw_rad is not None and self.plan.mode is not MotionMode.OMNI
+                )
+        if self._final_heading_pending:
+            waypoint_finished = self._final_heading_done(pose)
+        else:
+            waypoint_finished = arrival is not None
+        if waypoint_finished:
+            self._next_waypoint()
+
+        output = self._act(pose, dt_s)
+        if arrival is None:
+            return output
+        # The REACHED row describes the arrival; its command already serves what comes next.
+        self._state = NavState.REACHED
+        return replace(
+            arrival,
+            command=output.command,
+            waypoints_reached=self._waypoints_reached,
+            distance_pid=output.distance_pid,
+            yaw_pid=output.yaw_pid,
+        )
+
+    # -- behaviours --------------------------------------------------------------------------
+
+    def _act(self, pose: Pose2D, dt_s: float) -> NavOutput:
+        if self._target_index >= len(self.plan.waypoints):
+            self._state = NavState.DONE
+            final_error_m = _distance_m(pose, self.plan.waypoints[-1])
+            return self._output(pose, BodyVelocity.zero(), final_error_m, 0.0)
+        final_yaw_rad = self._goal().final_yaw_rad
+        if self._final_heading_pending and final_yaw_rad is not None:
+            return self._turn_to_final_heading(pose, dt_s, final_yaw_rad)
+        return self._go_to_goal(pose, dt_s)
+
+    def _go_to_goal(self, pose: Pose2D, dt_s: float) -> NavOutput:
+        goal = self._goal()
+        mode = self.plan.mode
+        errors = guidance.compute_errors(pose, goal, mode)
+        e_d, e_psi = errors.distance_error_m, errors.heading_error_rad
+
+        must_align = mode is not MotionMode.OMNI and abs(e_psi) > self.control.heading_threshold_rad
+        if must_align:
+            if self._state is not NavState.ALIGN:
+                self._distance_pid.reset()  # its memory is stale after a turn in place
+            self._state = NavState.ALIGN
+            yaw_terms = self._yaw_pid.update(errors.heading_goal_rad, pose.yaw_rad, dt_s)
+            command = guidance.compute_command(errors, mode, 0.0, yaw_terms.output)
+            return self._output(pose, command, e_d, e_psi, yaw_pid=yaw_terms)
+
+        self._state = NavState.TRACK
+        # The distance loop drives the progress −e_d to 0: error = e_d, D on the measurement.
+        distance_terms = self._distance_pid.update(0.0, -e_d, dt_s)
+        speed_mps = guidance.track_speed_mps(
+            distance_terms.output,
+            e_d,
+            goal.tolerance_m,
+            self.plan.speed_mps,
+            self.control.slowdown_radius_m,
+            self.control.min_speed_mps,
+        )
+        yaw_terms = PidTerms.zero()
+        if mode is not MotionMode.OMNI:
+            yaw_terms = self._yaw_pid.update(errors.heading_goal_rad, pose.yaw_rad, dt_s)
+        command = guidance.compute_command(errors, mode, speed_mps, yaw_terms.output)
+        return self._output(
+            pose, command, e_d, e_psi, distance_pid=distance_terms, yaw_pid=yaw_terms
+        )
+
+    def _turn_to_final_heading(self, pose: Pose2D, dt_s: float, final_yaw_rad: float) -> NavOutput:
+        self._state = NavState.FINAL_HEADING
+        e_d = _distance_m(pose, self._goal())
+        e_psi = shortest_angular_distance(pose.yaw_rad, final_yaw_rad)
+        yaw_terms = self._yaw_pid.update(final_yaw_rad, pose.yaw_rad, dt_s)
+        command = BodyVelocity(0.0, 0.0, yaw_terms.output)
+        return self._output(pose, command, e_d, e_psi, yaw_pid=yaw_terms)
+
+    def _arrival(self, pose: Pose2D, goal: PlanWaypoint) -> NavOutput:
+        """The errors at the moment ``goal`` (the current target) is reached."""
+        errors = guidance.compute_errors(pose, goal, self.plan.mode)
+        return NavOutput(
+            command=BodyVelocity.zero(),
+            state=NavState.REACHED,
+            target_index=self._target_index,
+            waypoints_reached=self._waypoints_reached,
+            reached_index=self._target_index,
+            distance_error_m=errors.distance_error_m,
+            heading_error_rad=errors.heading_error_rad,
+            cross_track_m=self._cross_track_m(pose, goal),
+            distance_pid=PidTerms.zero(),
+            yaw_pid=PidTerms.zero(),
+            done=False,
+        )
+
+    def _final_heading_done(self, pose: Pose2D) -> bool:
+        final_yaw = self._goal().final_yaw_rad
+        if final_yaw is None:
+            return True
+        e_psi = shortest_angular_distance(pose.yaw_rad, final_yaw)
+        return abs(e_psi) <= self.control.final_heading_tolerance_rad
+
+    # -- bookkeeping -------------------------------------------------------------------------
+
+    def _goal(self) -> PlanWaypoint:
+        return self.plan.waypoints[self._target_index]
+
+    def _next_waypoint(self) -> None:
+        goal = self._goal()
+        self._leg_start_xy_m = (goal.x_m, goal.y_m)
+        self._target_index += 1
+        self._final_heading_pending = False
+        self._reset_pids()
+
+    def _cross_track_m(self, pose: Pose2D, leg_end: PlanWaypoint) -> float:
+        """Signed distance from the leg (previous waypoint, or the start pose) → leg_end."""
+        start = self._leg_start_xy_m or (pose.x_m, pose.y_m)
+        return guidance.cross_track_m(start, (leg_end.x_m, leg_end.y_m), pose)
+
+    def _reset_pids(self) -> None:
+        self._distance_pid.reset()
+        self._yaw_pid.reset()
+
+    def _dt(self, t_s: float) -> float:
+        """Step length; 0 (with PID memory reset) on the first step, a time jump or a gap."""
+        last, self._last_t_s = self._last_t_s, t_s
+        if last is None:
+            return 0.0
+        dt_s = t_s - last
+        if not (0.0 < dt_s <= self.control.max_dt_s):
+            self._reset_pids()
+            return 0.0
+        return dt_s
+
+    def _output(
+        self,
+        pose: Pose2D,
+        command: BodyVelocity,
+        distance_error_m: float,
+        heading_error_rad: float,
+        *,
+        distance_pid: PidTerms | None = None,
+        yaw_pid: PidTerms | None = None,
+    ) -> NavOutput:
+        done = self._state is NavState.DONE
+        leg_end = self.plan.waypoints[self.target_index]
+        return NavOutput(
+            command=constrain(command, self.plan.mode),
+            state=self._state,
+            target_index=self.target_index,
+            waypoints_reached=self._waypoints_reached,
+            reached_index=None,
+            distance_error_m=distance_error_m,
+            heading_error_rad=heading_error_rad,
+            cross_track_m=0.0 if done else self._cross_track_m(pose, leg_end),
+            distance_pid=distance_pid or PidTerms.zero(),
+            yaw_pid=yaw_pid or PidTerms.zero(),
+            done=done,
+        )
+
+
+def _distance_m(pose: Pose2D, goal: PlanWaypoint) -> float:
+    return math.hypot(goal.x_m - pose.x_m, goal.y_m - pose.y_m)

@@ -1,0 +1,98 @@
+"""PID controller with output limits, anti-windup and derivative on measurement.
+
+    e(t) = wrap(setpoint − measurement)            (wrap only for angles)
+    P    = kp · e
+    I    = ki · ∫ e dt,  |I| ≤ integral_limit,  grown only until u reaches its limit (no windup)
+    D    = −kd · d(measurement)/dt                 (no kick when the setpoint jumps)
+    u    = clamp(P + I + D, ±output_limit)
+
+Pure: the caller supplies dt (seconds); no clocks in here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from helixd.config import PidGains
+from helixd.control.angles import wrap_pi
+
+
+@dataclass(frozen=True, slots=True)
+class PidTerms:
+    """One PID update, split into its terms (for the flight recorder)."""
+
+    p: float
+    i: float
+    d: float
+    output: float
+
+    @staticmethod
+    def zero() -> PidTerms:
+        return PidTerms(0.0, 0.0, 0.0, 0.0)
+
+
+def _clamp(value: float, limit: float) -> float:
+    return max(-limit, min(limit, value))
+
+
+class PID:
+    """Textbook PID for one scalar loop (parallel form, derivative on measurement).
+
+    ``angular=True`` wraps the error and the measurement difference to (−π, π], so a yaw
+    loop crossing ±π neither takes the long way round nor sees a 2π derivative spike.
+    """
+
+    def __init__(self, gains: PidGains, output_limit: float, *, angular: bool = False) -> None:
+        if not output_limit > 0.0:
+            raise ValueError(f"output_limit must be > 0, got {output_limit}")
+        self.gains = gains
+        self.output_limit = output_limit
+        self.angular = angular
+        self._integral = 0.0  # ki·∫e dt, already in output units
+        self._prev_measurement: float | None = None
+
+    def reset(self) -> None:
+        """Forget the integral and the previous measurement (e.g. on a waypoint switch)."""
+        self._integral = 0.0
+        self._prev_measurement = None
+
+    @property
+    def integral(self) -> float:
+        """The current integral term ki·∫e dt (output units)."""
+        return self._integral
+
+    def _difference(self, a: float, b: float) -> float:
+        return wrap_pi(a - b) if self.angular else a - b
+
+    def _integrate(self, increment: float, p_plus_d: float) -> float:
+        """I + ki·e·dt, clamped to ±integral_limit, and grown only until the output reaches
+        its limit (conditional integration): a saturated loop does not wind up, and the
+        integral still moves freely back towards zero."""
+        i_old = self._integral
+        i_new = _clamp(i_old + increment, self.gains.integral_limit)
+        if increment > 0.0:
+            i_new = min(i_new, max(i_old, self.output_limit - p_plus_d))
+        elif increment < 0.0:
+            i_new = max(i_new, min(i_old, -self.output_limit - p_plus_d))
+        return i_new
+
+    def update(self, setpoint: float, measurement: float, dt_s: float) -> PidTerms:
+        """One control step. With dt_s ≤ 0 (or not finite) only P and the held I act."""
+        kp, ki, kd = self.gains.kp, self.gains.ki, self.gains.kd
+        error = self._difference(setpoint, measurement)
+        dt_ok = math.isfinite(dt_s) and dt_s > 0.0
+
+        p = kp * error
+
+        d = 0.0
+        if dt_ok and self._prev_measurement is not None:
+            d = -kd * self._difference(measurement, self._prev_measurement) / dt_s
+        self._prev_measurement = measurement
+
+        if dt_ok and ki > 0.0:
+            self._integral = self._integrate(ki * error * dt_s, p + d)
+        i = self._integral
+
+        output = _clamp(p + i + d, self.output_limit)
+        return PidTerms(p=p, i=i, d=d, output=output)

@@ -1,0 +1,239 @@
+"""Navigator state machine: transitions, per-mode rules, timing, outputs."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from helixd.config import ControlConfig
+from helixd.control.navigator import Navigator, NavOutput, NavState
+from helixd.geometry import Pose2D
+from helixd.mission import MissionFrameKind, MotionMode, Plan, PlanWaypoint
+from tests.support.ideal_plant import IdealPlant
+
+DT = 1.0 / 40.0
+CONTROL = ControlConfig()
+
+
+def make_plan(
+    mode: MotionMode, *points: tuple[float, float] | tuple[float, float, float], tol: float = 0.3
+) -> Plan:
+    waypoints = tuple(PlanWaypoint(p[0], p[1], tol, p[2] if len(p) == 3 else None) for p in points)
+    return Plan("test", mode, MissionFrameKind.START, waypoints, speed_mps=0.6)
+
+
+def fly(nav: Navigator, start: Pose2D, limit_s: float = 120.0) -> tuple[list[NavOutput], Pose2D]:
+    """Run the navigator on the ideal plant until DONE (plus two more steps)."""
+    plant = IdealPlant(start, nav.plan.mode)
+    outputs: list[NavOutput] = []
+    extra = 0
+    while plant.t_s < limit_s and extra < 3:
+        out = nav.step(plant.pose, plant.t_s)
+        outputs.append(out)
+        extra += out.done
+        plant.step(out.command, DT)
+    return outputs, plant.pose
+
+
+def collapsed(outputs: list[NavOutput]) -> list[NavState]:
+    states: list[NavState] = []
+    for out in outputs:
+        if not states or states[-1] is not out.state:
+            states.append(out.state)
+    return states
+
+
+def test_idle_align_track_reached_done() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0)), CONTROL)
+    assert Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0)), CONTROL).state is NavState.IDLE
+    outputs, pose = fly(nav, Pose2D(0.0, 0.0, math.pi / 2))
+    assert collapsed(outputs) == [NavState.ALIGN, NavState.TRACK, NavState.REACHED, NavState.DONE]
+    first = outputs[0]
+    assert first.command.vx_mps == 0.0 and first.command.wz_radps < 0.0  # turn right, in place
+    assert math.hypot(pose.x_m - 5.0, pose.y_m) < 0.3
+    assert nav.state is NavState.DONE and nav.done
+
+
+def test_reached_is_reported_once_per_waypoint_and_counts() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (3.0, 0.0), (3.0, 3.0), (0.0, 3.0)), CONTROL)
+    outputs, _ = fly(nav, Pose2D(0.0, 0.0, 0.0))
+    reached = [(i, o) for i, o in enumerate(outputs) if o.state is NavState.REACHED]
+    assert [o.reached_index for _, o in reached] == [0, 1, 2]
+    assert [o.waypoints_reached for _, o in reached] == [1, 2, 3]
+    for i, o in reached:
+        # The REACHED row describes the arrival: that waypoint and its (in-tolerance) error.
+        assert o.target_index == o.reached_index
+        assert o.distance_error_m < 0.3
+        assert outputs[i + 1].state is not NavState.REACHED
+    assert all(o.reached_index is None for o in outputs if o.state is not NavState.REACHED)
+    targets = [o.target_index for o in outputs]
+    assert targets == sorted(targets) and targets[-1] == 2
+    assert nav.target_index == 2
+    assert outputs[-1].waypoints_reached == 3
+
+
+def test_pids_are_reset_on_waypoint_switch() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (3.0, 0.0), (3.0, 3.0)), CONTROL)
+    outputs, _ = fly(nav, Pose2D(0.0, 0.0, 0.0))
+    switch = next(o for o in outputs if o.reached_index == 0)
+    # The step's command is for the next waypoint, computed by freshly reset PIDs: no D yet.
+    assert switch.yaw_pid.d == 0.0 and switch.distance_pid.d == 0.0
+    assert switch.distance_pid.i == 0.0
+    assert switch.command.vx_mps == 0.0  # next leg is 90° left: turn in place first
+
+
+def test_command_continues_through_a_gentle_waypoint_switch() -> None:
+    # Three collinear points: the step that reaches the first already drives to the second.
+    nav = Navigator(make_plan(MotionMode.ROLL, (3.0, 0.0), (6.0, 0.0)), CONTROL)
+    outputs, _ = fly(nav, Pose2D(0.0, 0.0, 0.0))
+    switch = next(o for o in outputs if o.reached_index == 0)
+    assert switch.command.vx_mps > 0.3
+
+
+def test_final_heading_only_when_the_waypoint_has_one() -> None:
+    with_yaw = Navigator(make_plan(MotionMode.ROLL, (4.0, 0.0, math.pi / 2)), CONTROL)
+    outputs, pose = fly(with_yaw, Pose2D(0.0, 0.0, 0.0))
+    assert collapsed(outputs) == [
+        NavState.TRACK,
+        NavState.REACHED,
+        NavState.FINAL_HEADING,
+        NavState.DONE,
+    ]
+    assert abs(pose.yaw_rad - math.pi / 2) <= CONTROL.final_heading_tolerance_rad
+    turning = [o for o in outputs if o.state is NavState.FINAL_HEADING]
+    assert all(o.command.vx_mps == 0.0 and o.command.vy_mps == 0.0 for o in turning)
+
+    without = Navigator(make_plan(MotionMode.ROLL, (4.0, 0.0)), CONTROL)
+    outputs, _ = fly(without, Pose2D(0.0, 0.0, 0.0))
+    assert NavState.FINAL_HEADING not in collapsed(outputs)
+
+
+def test_final_heading_on_an_intermediate_waypoint_then_continues() -> None:
+    plan = make_plan(MotionMode.SCROLL, (0.0, 3.0, math.pi), (0.0, 6.0))
+    nav = Navigator(plan, CONTROL)
+    outputs, pose = fly(nav, Pose2D(0.0, 0.0, 0.0))
+    states = collapsed(outputs)
+    fh = states.index(NavState.FINAL_HEADING)
+    assert NavState.REACHED in states[fh + 1 :]  # the second waypoint is flown afterwards
+    assert states[-1] is NavState.DONE
+    assert math.hypot(pose.x_m, pose.y_m - 6.0) < 0.3
+    at_turn_end = next(
+        o
+        for i, o in enumerate(outputs)
+        if o.state is not NavState.FINAL_HEADING
+        and i > 0
+        and outputs[i - 1].state is NavState.FINAL_HEADING
+    )
+    assert at_turn_end.target_index == 1
+
+
+def test_final_heading_already_met_is_skipped() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (4.0, 0.0, 0.0)), CONTROL)
+    outputs, _ = fly(nav, Pose2D(0.0, 0.0, 0.0))
+    assert NavState.FINAL_HEADING not in collapsed(outputs)
+
+
+@pytest.mark.parametrize("yaw", [0.0, math.pi / 2, math.pi, -2.0])
+def test_omni_never_aligns_and_holds_heading(yaw: float) -> None:
+    plan = make_plan(MotionMode.OMNI, (-3.0, 1.0), (2.0, -2.0, 1.0))
+    nav = Navigator(plan, CONTROL)
+    outputs, pose = fly(nav, Pose2D(0.0, 0.0, yaw))
+    states = set(collapsed(outputs))
+    assert NavState.ALIGN not in states
+    assert NavState.FINAL_HEADING not in states  # ω_z is forbidden in OMNI
+    assert all(o.command.wz_radps == 0.0 for o in outputs)
+    assert pose.yaw_rad == pytest.approx(yaw)
+    assert outputs[-1].done and outputs[-1].waypoints_reached == 2
+
+
+@pytest.mark.parametrize("mode", list(MotionMode))
+def test_commands_obey_mode_and_limits(mode: MotionMode) -> None:
+    plan = make_plan(mode, (4.0, 3.0), (-2.0, 1.0, 2.0), (0.0, -3.0))
+    nav = Navigator(plan, CONTROL)
+    outputs, _ = fly(nav, Pose2D(1.0, 1.0, 2.5))
+    assert outputs[-1].done
+    for o in outputs:
+        c = o.command
+        if mode is MotionMode.ROLL:
+            assert c.vy_mps == 0.0
+        elif mode is MotionMode.SCROLL:
+            assert c.vx_mps == 0.0
+        else:
+            assert c.wz_radps == 0.0
+        assert math.hypot(c.vx_mps, c.vy_mps) <= plan.speed_mps + 1e-12
+        assert abs(c.wz_radps) <= CONTROL.max_yaw_rate_radps
+        assert -math.pi < o.heading_error_rad <= math.pi
+        if o.state is NavState.ALIGN:
+            assert (c.vx_mps, c.vy_mps) == (0.0, 0.0)
+
+
+def test_track_realigns_in_place_when_the_goal_falls_beside() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (3.0, 0.0)), CONTROL)
+    assert nav.step(Pose2D(0.0, 0.0, 0.0), 0.0).state is NavState.TRACK
+    assert nav.step(Pose2D(0.01, 0.0, 0.0), DT).state is NavState.TRACK
+    # A disturbance leaves the goal 0.6 m to the left: re-align, do not drive an arc round it.
+    out = nav.step(Pose2D(3.0, -0.6, 0.0), 2 * DT)
+    assert out.state is NavState.ALIGN
+    assert out.command.vx_mps == 0.0 and out.command.wz_radps > 0.0
+
+
+def test_done_is_zero_forever() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (1.0, 0.0)), CONTROL)
+    nav.step(Pose2D(0.9, 0.0, 0.0), 0.0)  # reached at once
+    for k in range(1, 50):
+        out = nav.step(Pose2D(5.0, 5.0, 1.0), k * DT)  # even if it is pushed away
+        assert out.state is NavState.DONE and out.done
+        assert (out.command.vx_mps, out.command.vy_mps, out.command.wz_radps) == (0.0, 0.0, 0.0)
+        assert out.target_index == 0 and out.waypoints_reached == 1
+
+
+def test_reaching_the_last_waypoint_reports_reached_then_done() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (1.0, 0.0)), CONTROL)
+    first = nav.step(Pose2D(0.9, 0.0, 0.0), 0.0)
+    assert first.state is NavState.REACHED and first.reached_index == 0 and not first.done
+    assert nav.step(Pose2D(0.9, 0.0, 0.0), DT).state is NavState.DONE
+
+
+def test_cross_track_is_measured_from_the_start_pose() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (10.0, 0.0)), CONTROL)
+    nav.step(Pose2D(0.0, 0.0, 0.0), 0.0)
+    out = nav.step(Pose2D(5.0, 0.4, 0.0), DT)
+    assert out.cross_track_m == pytest.approx(0.4)
+    # Leg start captured at the first step, not the origin.
+    nav2 = Navigator(make_plan(MotionMode.ROLL, (10.0, 0.0)), CONTROL)
+    nav2.step(Pose2D(0.0, 2.0, 0.0), 0.0)
+    out2 = nav2.step(Pose2D(5.0, 1.0, 0.0), DT)
+    assert out2.cross_track_m == pytest.approx(0.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("gap_s", [CONTROL.max_dt_s + 0.1, 0.0, -5.0])
+def test_bad_time_steps_restart_pid_memory(gap_s: float) -> None:
+    # Unsaturated yaw loop with an integral, so both memories visibly build up.
+    yaw_pid = CONTROL.yaw_pid.model_copy(update={"kp": 1.0, "ki": 1.0})
+    control = CONTROL.model_copy(update={"yaw_pid": yaw_pid, "max_yaw_rate_radps": 5.0})
+    nav = Navigator(make_plan(MotionMode.ROLL, (0.0, 20.0)), control)
+    t = 0.0
+    yaw = 0.0
+    for _ in range(20):  # aligning: integral and derivative memory build up
+        out = nav.step(Pose2D(0.0, 0.0, yaw), t)
+        t += DT
+        yaw += 0.01
+    assert out.state is NavState.ALIGN and out.yaw_pid.i != 0.0 and out.yaw_pid.d != 0.0
+    out = nav.step(Pose2D(0.0, 0.0, yaw + 0.3), t - DT + gap_s)
+    assert out.yaw_pid.d == 0.0 and out.yaw_pid.i == 0.0
+    assert all(math.isfinite(v) for v in (out.command.vx_mps, out.command.wz_radps))
+    assert out.state is NavState.ALIGN
+
+
+def test_navigator_exposes_target_index() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (1.0, 0.0), (1.0, 5.0)), CONTROL)
+    assert nav.target_index == 0
+    nav.step(Pose2D(0.95, 0.0, 0.0), 0.0)
+    assert nav.target_index == 1 and nav.waypoints_reached == 1
+
+
+def test_empty_plan_is_refused() -> None:
+    plan = Plan("empty", MotionMode.ROLL, MissionFrameKind.START, (), speed_mps=0.6)
+    with pytest.raises(ValueError, match="no waypoints"):
+        Navigator(plan, CONTROL)
