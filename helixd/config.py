@@ -251,6 +251,13 @@ class ControlConfig(StrictModel):
     slowdown_radius_m: float = Field(
         2.0, ge=0.0, le=50.0, description="speed ramps down linearly inside this radius (m)"
     )
+    corner_slowdown_rad: float = Field(
+        0.5,
+        ge=0.0,
+        le=math.pi,
+        description="waypoints where the path turns more than this are approached with the "
+        "slow-down ramp; gentler ones are flown through at speed (rad)",
+    )
     min_speed_mps: float = Field(
         0.1,
         ge=0.0,
@@ -315,6 +322,48 @@ class LinkConfig(StrictModel):
     signing_key_file: Path | None = Field(
         None, description="MAVLink2 signing key (32 bytes raw or 64 hex chars); None = unsigned"
     )
+    heartbeat_liveness_s: float = Field(
+        1.5,
+        gt=0.0,
+        le=30.0,
+        description="our HEARTBEAT stops when feed() was not called for this long (s)",
+    )
+    heartbeat_type: Literal["gcs", "onboard_controller"] = Field(
+        "gcs", description="MAV_TYPE of our HEARTBEAT (ArduPilot's GCS failsafe keys on sysid)"
+    )
+    pose_rate_min_hz: float = Field(
+        5.0, ge=0.5, le=100.0, description="stop stepping the pose rate down below this (Hz)"
+    )
+    stream_step_factor: float = Field(
+        1.25, gt=1.0, le=4.0, description="interval multiplier after a DENIED message interval"
+    )
+    stream_check_window_s: float = Field(
+        2.0, ge=0.2, le=60.0, description="observed stream rates are checked once per window (s)"
+    )
+    stream_slow_fraction: float = Field(
+        0.5,
+        gt=0.0,
+        lt=1.0,
+        description="a stream observed below this fraction of its granted rate is re-requested",
+    )
+    reboot_backstep_s: float = Field(
+        1.0,
+        gt=0.0,
+        le=60.0,
+        description="autopilot time_boot_ms going back by more than this is a reboot (s)",
+    )
+    statustext_history: int = Field(
+        50, ge=1, le=1000, description="STATUSTEXT messages kept in the vehicle state"
+    )
+    statustext_grace_s: float = Field(
+        0.3,
+        ge=0.0,
+        le=5.0,
+        description="after an ARM refusal, wait this long for its 'PreArm:' STATUSTEXT (s)",
+    )
+    tcp_connect_timeout_s: float = Field(
+        5.0, gt=0.0, le=60.0, description="give up a tcp: connection attempt after (s)"
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -364,6 +413,21 @@ class ActuationConfig(StrictModel):
     )
     release_repeats: int = Field(
         3, ge=1, le=20, description="times the release message is sent (UDP may drop one)"
+    )
+    release_spacing_s: float = Field(
+        0.02, ge=0.0, le=0.1, description="pause between the repeated release messages (s)"
+    )
+    neutral_hold_s: float = Field(
+        0.05,
+        ge=0.0,
+        le=0.2,
+        description="stop(): neutral is held this long before overrides are released (s)",
+    )
+    stop_timeout_s: float = Field(
+        0.4,
+        gt=0.0,
+        le=5.0,
+        description="stop() gives up (and logs) after this long; keep < safety.fallback_deadline_s",
     )
 
     @model_validator(mode="after")

@@ -123,3 +123,32 @@ def cross_track_m(
     if length < 1e-9:
         return math.hypot(px, py)
     return (lx * py - ly * px) / length
+
+
+def run_out_m(
+    points_xy_m: list[tuple[float, float]],
+    stop_at: list[bool],
+    corner_slowdown_rad: float,
+) -> list[float]:
+    """For each waypoint i, the path length beyond it that can be flown without slowing.
+
+    The speed law sees ``e_d + run_out[i]``: the rover only slows down for the last waypoint,
+    a waypoint with a final heading (``stop_at``), or a corner sharper than
+    ``corner_slowdown_rad``. ``points_xy_m[0]`` is the start of the first leg.
+    """
+    wps = points_xy_m[1:]
+    n = len(wps)
+    out = [0.0] * n
+    for i in range(n - 2, -1, -1):
+        prev = points_xy_m[i]
+        here, nxt = wps[i], wps[i + 1]
+        turn = abs(
+            shortest_angular_distance(
+                math.atan2(here[1] - prev[1], here[0] - prev[0]),
+                math.atan2(nxt[1] - here[1], nxt[0] - here[0]),
+            )
+        )
+        if stop_at[i] or turn > corner_slowdown_rad:
+            continue
+        out[i] = math.hypot(nxt[0] - here[0], nxt[1] - here[1]) + out[i + 1]
+    return out

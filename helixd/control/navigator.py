@@ -76,6 +76,7 @@ class Navigator:
         self._final_heading_pending = False
         self._leg_start_xy_m: tuple[float, float] | None = None
         self._last_t_s: float | None = None
+        self._run_out_m: list[float] | None = None  # filled at the first step (needs the start)
 
     # -- public state ------------------------------------------------------------------------
 
@@ -102,6 +103,13 @@ class Navigator:
         dt_s = self._dt(t_s)
         if self._leg_start_xy_m is None:
             self._leg_start_xy_m = (pose.x_m, pose.y_m)
+        if self._run_out_m is None:
+            wps = self.plan.waypoints
+            self._run_out_m = guidance.run_out_m(
+                [(pose.x_m, pose.y_m)] + [(w.x_m, w.y_m) for w in wps],
+                [w.final_yaw_rad is not None for w in wps],
+                self.control.corner_slowdown_rad,
+            )
 
         arrival: NavOutput | None = None
         if not self._final_heading_pending and self._target_index < len(self.plan.waypoints):
@@ -162,10 +170,12 @@ class Navigator:
 
         self._state = NavState.TRACK
         # The distance loop drives the progress −e_d to 0: error = e_d, D on the measurement.
-        distance_terms = self._distance_pid.update(0.0, -e_d, dt_s)
+        # Distance to go before the rover must actually slow down (flown-through corners).
+        e_go = e_d + (self._run_out_m[self._target_index] if self._run_out_m else 0.0)
+        distance_terms = self._distance_pid.update(0.0, -e_go, dt_s)
         speed_mps = guidance.track_speed_mps(
             distance_terms.output,
-            e_d,
+            e_go,
             goal.tolerance_m,
             self.plan.speed_mps,
             self.control.slowdown_radius_m,

@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from helixd.control import guidance
 from helixd.control.guidance import (
     GuidanceResult,
     compute_command,
@@ -187,3 +188,17 @@ def test_guidance_result_is_frozen() -> None:
     assert isinstance(errors, GuidanceResult)
     with pytest.raises(AttributeError):
         errors.distance_error_m = 0.0  # type: ignore[misc]
+
+
+def test_run_out_flies_through_gentle_corners_and_stops_at_sharp_ones() -> None:
+    # start (0,0) → (1,0) → (2,0.1) gentle → (2,2) sharp 90° → (3,2) last
+    pts = [(0.0, 0.0), (1.0, 0.0), (2.0, 0.1), (2.0, 2.0), (3.0, 2.0)]
+    out = guidance.run_out_m(pts, [False] * 4, corner_slowdown_rad=0.5)
+    assert out[3] == 0.0  # last waypoint: stop
+    assert out[2] == 0.0  # 90° corner ahead: slow down
+    assert out[1] == 0.0  # the turn at (2, 0.1) toward (2, 2) is sharp too
+    assert math.isclose(out[0], math.hypot(1.0, 0.1))  # gentle 5.7° kink: fly through
+    # a final heading forces a stop even on a straight line
+    straight = [(0.0, 0.0), (1.0, 0.0), (2.0, 0.0), (3.0, 0.0)]
+    assert guidance.run_out_m(straight, [False, False, False], 0.5) == [2.0, 1.0, 0.0]
+    assert guidance.run_out_m(straight, [False, True, False], 0.5) == [1.0, 0.0, 0.0]
