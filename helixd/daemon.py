@@ -199,6 +199,7 @@ class MissionRunner:
         deadline = time.monotonic() + self.cfg.safety.start_gate_timeout_s
         while time.monotonic() < deadline:
             ap.feed()
+            self.notifier.watchdog()
             rc = ap.state.rc_inputs_us
             if len(rc) >= ch and rc[ch - 1] >= threshold:
                 log.info("start_switch_on", channel=ch, pwm_us=rc[ch - 1])
@@ -249,6 +250,9 @@ class MissionRunner:
             async with phase("preflight", self.notifier, self.display):
                 start_ned, origin = await self._preflight(ap)
                 self.plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
+            # READY once preflight passed: the start gate may wait minutes for the pilot, and
+            # systemd's TimeoutStartSec must not kill that wait; the watchdog runs from here on.
+            self.notifier.ready("preflight passed")
             async with phase("start_gate", self.notifier, self.display):
                 await self._start_gate(ap)
                 start_ned = await self._fresh_pose(ap) or start_ned
@@ -259,7 +263,6 @@ class MissionRunner:
                 await self.sink.start()
             async with phase("arm", self.notifier, self.display):
                 await self._until_stopped(self._arm(ap))
-            self.notifier.ready()
             frame = (
                 MissionFrame.start_at(start_ned)
                 if self.plan.frame is MissionFrameKind.START
@@ -338,6 +341,7 @@ class MissionRunner:
         if ap is not None:
             ap.stop_heartbeat()
             await ap.close()
+        self.notifier.close()
 
     def _finish(self, fault: Fault | None, code: ExitCode, started: float) -> RunSummary:
         summary = self.summary.build(
