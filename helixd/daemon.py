@@ -249,7 +249,13 @@ class MissionRunner:
                 ap = await self._connect()
             async with phase("preflight", self.notifier, self.display):
                 start_ned, origin = await self._preflight(ap)
-                self.plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
+                self.plan = resolve_plan(
+                    self.opts.mission, self.cfg.control, self.cfg.mission, origin
+                )
+                last = self.plan.waypoints[-1]
+                self.summary = SummaryBuilder(final_xy_m=(last.x_m, last.y_m))
+                if origin is not None:
+                    self.summary.set_origin(*origin)
             # READY once preflight passed: the start gate may wait minutes for the pilot, and
             # systemd's TimeoutStartSec must not kill that wait; the watchdog runs from here on.
             self.notifier.ready("preflight passed")
@@ -391,6 +397,8 @@ class MissionRunner:
         if self.ap is not None:
             self.ap.feed()
         self.notifier.watchdog()
+        if self.recorder is not None:
+            self.recorder.maybe_flush()
 
 
 async def run_mission(opts: RunOptions) -> RunOutcome:

@@ -1,10 +1,130 @@
-"""CLI commands contributed by helixd.recorder (registered by helixd.cli)."""
+"""CLI commands contributed by helixd.recorder: ``helixd plot`` and ``helixd replay``."""
 
 from __future__ import annotations
 
+import sys
+from pathlib import Path
+from typing import Annotated, TextIO
+
 import typer
+from rich.console import Console
+from rich.table import Table
+
+from helixd.display import summary_rows, summary_table
+from helixd.exitcodes import ExitCode
+from helixd.logging_setup import configure_logging
+from helixd.recorder.events import EVENTS_FILE, TimelineEntry, read_events, timeline
+from helixd.recorder.rows import read_flight_csv
+from helixd.recorder.rundir import FLIGHT_FILE, SUMMARY_FILE
+from helixd.recorder.summary import RunSummary
+
+RunDirArg = Annotated[
+    Path,
+    typer.Argument(help="run directory (runs/<UTC stamp>-<mission>/)", show_default=False),
+]
+
+
+def _check_run_dir(run_dir: Path) -> None:
+    if not run_dir.is_dir():
+        typer.echo(f"error: {run_dir}: not a directory", err=True)
+        raise typer.Exit(int(ExitCode.USAGE))
+    if not any((run_dir / name).exists() for name in (FLIGHT_FILE, SUMMARY_FILE, EVENTS_FILE)):
+        typer.echo(
+            f"error: {run_dir}: no {FLIGHT_FILE}, {SUMMARY_FILE} or {EVENTS_FILE}; "
+            "is this a helixd run directory?",
+            err=True,
+        )
+        raise typer.Exit(int(ExitCode.USAGE))
+
+
+def load_summary(run_dir: Path) -> tuple[RunSummary | None, str | None]:
+    """The run's summary, or None and the reason it is missing/unreadable."""
+    path = run_dir / SUMMARY_FILE
+    try:
+        return RunSummary.from_json(path.read_text(encoding="utf-8")), None
+    except FileNotFoundError:
+        return None, f"no {SUMMARY_FILE}: the run did not finish cleanly (crash or power loss?)"
+    except (OSError, ValueError) as exc:
+        return None, f"{path}: unreadable ({exc})"
+
+
+def _time_text(entry: TimelineEntry) -> str:
+    return "-" if entry.t_s is None else f"{entry.t_s:9.3f}"
+
+
+def print_replay(
+    run_dir: Path, *, tty: bool, include_periodic: bool = False, out: TextIO | None = None
+) -> None:
+    """Print the summary and the event timeline (rich tables on a terminal, plain otherwise)."""
+    stream = out if out is not None else sys.stdout
+    summary, problem = load_summary(run_dir)
+    flight = run_dir / FLIGHT_FILE
+    rows = len(read_flight_csv(flight)) if flight.is_file() else 0
+    entries = timeline(read_events(run_dir / EVENTS_FILE), include_periodic=include_periodic)
+    if tty:
+        console = Console(file=stream)
+        if summary is not None:
+            console.print(summary_table(summary, run_dir))
+        else:
+            console.print(f"[bold red]{problem}[/]")
+        console.print(f"flight.csv: {rows} rows")
+        table = Table(title=f"events ({len(entries)})")
+        for name, justify in (("t (s)", "right"), ("level", "left"), ("event", "left")):
+            table.add_column(name, justify=justify)  # type: ignore[arg-type]
+        table.add_column("details", overflow="fold")
+        for e in entries:
+            style = "red" if e.level in ("error", "critical") else None
+            style = style or ("yellow" if e.level == "warning" else None)
+            table.add_row(_time_text(e), e.level, e.event, e.fields, style=style)
+        console.print(table)
+        return
+    lines: list[str] = [f"run: {run_dir}"]
+    if summary is not None:
+        width = max(len(label) for label, _ in summary_rows(summary))
+        lines += [f"{label:<{width}}  {value}" for label, value in summary_rows(summary)]
+    else:
+        lines.append(f"summary: {problem}")
+    lines.append(f"flight.csv: {rows} rows")
+    lines.append(f"events ({len(entries)}):")
+    lines += [f"{_time_text(e)}  {e.level:<8} {e.event}  {e.fields}".rstrip() for e in entries]
+    typer.echo("\n".join(lines), file=stream)
 
 
 def register(app: typer.Typer) -> None:
-    """Add this package's commands to the main CLI (filled in by its owner)."""
-    del app
+    """Add ``plot`` and ``replay`` to the main CLI."""
+
+    @app.command("plot")
+    def plot(
+        run_dir: RunDirArg,
+        out: Annotated[
+            Path | None,
+            typer.Option("--out", "-o", help="output directory (default: RUN_DIR/plots)"),
+        ] = None,
+    ) -> None:
+        """Render the thesis-style plots (a)–(e) and an overview of a recorded run as PNGs."""
+        configure_logging(tty=sys.stderr.isatty(), level="warning")
+        _check_run_dir(run_dir)
+        from helixd.plots import PlotError, render_run  # matplotlib only when plotting
+
+        try:
+            paths = render_run(run_dir, out)
+        except PlotError as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(int(ExitCode.USAGE)) from None
+        except OSError as exc:
+            typer.echo(f"error: cannot write plots: {exc}", err=True)
+            raise typer.Exit(int(ExitCode.USAGE)) from None
+        for path in paths:
+            typer.echo(str(path))
+
+    @app.command("replay")
+    def replay(
+        run_dir: RunDirArg,
+        all_events: Annotated[
+            bool, typer.Option("--all", help="also list periodic progress events")
+        ] = False,
+    ) -> None:
+        """Print a recorded run's summary and its event timeline."""
+        configure_logging(tty=sys.stderr.isatty(), level="warning")
+        _check_run_dir(run_dir)
+        print_replay(run_dir, tty=sys.stdout.isatty(), include_periodic=all_events)

@@ -1,0 +1,490 @@
+"""Plots of a recorded run, after the thesis's Tables 2–9 panels (a)–(e).
+
+(a) trajectory in the mission frame against the planned path, waypoints numbered with their
+tolerance circles; (b) x, y and yaw against time; (c) commanded and measured velocities;
+(d) distance, cross-track and heading errors; (e) scroll commands in % of max RPM.
+Waypoint arrivals are dotted vertical markers, a fault is marked in red, intervals with the
+link or the pose lost are shaded. One PNG per panel plus ``overview.png``.
+
+Uses matplotlib's Agg backend through the object API (no pyplot state, safe in a daemon).
+"""
+
+from __future__ import annotations
+
+import math
+import textwrap
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")  # before anything imports pyplot: no display on the rover
+
+import numpy as np
+import numpy.typing as npt
+import structlog
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Circle
+
+from helixd.config import ConfigFileError, load_config
+from helixd.mission import MissionFrameKind, PlanError, load_mission, resolve_plan
+from helixd.recorder.events import EVENTS_FILE, fault_time_mono_s, read_events
+from helixd.recorder.rows import read_flight_columns
+from helixd.recorder.rundir import (
+    CONFIG_FILE,
+    FLIGHT_FILE,
+    MISSION_FILE,
+    SUMMARY_FILE,
+)
+from helixd.recorder.summary import RunSummary
+
+log = structlog.get_logger(__name__)
+
+DPI = 100
+PANEL_SIZE_IN = (10.0, 7.5)
+OVERVIEW_SIZE_IN = (18.0, 10.0)
+PANEL_SIZE_PX = (int(PANEL_SIZE_IN[0] * DPI), int(PANEL_SIZE_IN[1] * DPI))  # width, height
+OVERVIEW_SIZE_PX = (int(OVERVIEW_SIZE_IN[0] * DPI), int(OVERVIEW_SIZE_IN[1] * DPI))
+PLOTS_DIR = "plots"
+PANEL_FILES = {
+    "a": "a_trajectory.png",
+    "b": "b_position.png",
+    "c": "c_velocity.png",
+    "d": "d_errors.png",
+    "e": "e_scrolls.png",
+}
+OVERVIEW_FILE = "overview.png"
+FAULT_COLOR = "red"
+ARRIVAL_STYLE: dict[str, Any] = {"color": "0.45", "linestyle": ":", "linewidth": 1.0}
+LOST_SHADE: dict[str, Any] = {"color": "orange", "alpha": 0.15, "linewidth": 0}
+FAULT_LABEL_MAX_CHARS = 48  # long causes are cut in legends (the summary keeps them whole)
+SCROLL_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red")
+SCROLL_STYLES = ("-", "--", "-", "--")  # paired scrolls overlap: keep both visible
+
+Array = npt.NDArray[np.float64]
+
+
+class PlotError(Exception):
+    """The run directory has nothing that can be plotted."""
+
+
+@dataclass
+class RunData:
+    """Everything the panels need, loaded once from a run directory."""
+
+    name: str
+    cols: dict[str, npt.NDArray[Any]]
+    t_s: Array  # seconds since the first row (monotonic)
+    summary: RunSummary | None
+    waypoints: list[tuple[float, float, float]]  # x_m, y_m, tolerance_m
+    path_start: tuple[float, float] | None
+    arrivals: list[tuple[int, float]]  # plan index, t_s
+    fault: str | None
+    fault_t_s: float | None
+    clamp_pct: float | None
+    notes: list[str] = field(default_factory=list)
+
+    def col(self, name: str) -> Array:
+        values = self.cols.get(name)
+        if values is None:
+            return np.full(self.t_s.shape, np.nan)
+        return np.asarray(values, dtype=np.float64)
+
+    def fault_label(self) -> str:
+        text = f"fault: {self.fault}"
+        if len(text) > FAULT_LABEL_MAX_CHARS:
+            text = text[: FAULT_LABEL_MAX_CHARS - 1] + "…"
+        return text
+
+    def fault_index(self) -> int | None:
+        if self.fault_t_s is None:
+            return None
+        return int(np.argmin(np.abs(self.t_s - self.fault_t_s)))
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading
+
+
+def load_run(run_dir: Path) -> RunData:
+    flight = run_dir / FLIGHT_FILE
+    if not flight.is_file():
+        raise PlotError(f"{run_dir}: no {FLIGHT_FILE} (is this a helixd run directory?)")
+    cols = read_flight_columns(flight)
+    if len(cols.get("t_mono_s", ())) == 0:
+        raise PlotError(f"{flight}: no rows recorded, nothing to plot")
+    t_mono = np.asarray(cols["t_mono_s"], dtype=np.float64)
+    t0 = float(t_mono[0])
+    summary = _load_summary(run_dir / SUMMARY_FILE)
+    notes: list[str] = []
+    waypoints, start = _load_plan(run_dir, summary, cols, notes)
+    t_boot = np.asarray(cols.get("t_boot_s", t_mono), dtype=np.float64)
+    t_s = t_mono - t0
+    arrivals = []
+    for arr in summary.arrivals if summary else ():
+        idx = int(np.nanargmin(np.abs(t_boot - arr.t_boot_s))) if np.isfinite(t_boot).any() else 0
+        arrivals.append((arr.index, float(t_s[idx])))
+    fault = summary.fault if summary else None
+    fault_t: float | None = None
+    if fault is not None:
+        mono = fault_time_mono_s(read_events(run_dir / EVENTS_FILE), fault)
+        fault_t = float(t_s[-1]) if mono is None else mono - t0
+    return RunData(
+        name=summary.mission_name if summary else run_dir.name,
+        cols=cols,
+        t_s=t_s,
+        summary=summary,
+        waypoints=waypoints,
+        path_start=start,
+        arrivals=arrivals,
+        fault=fault,
+        fault_t_s=fault_t,
+        clamp_pct=_clamp_pct(run_dir),
+        notes=notes,
+    )
+
+
+def _load_summary(path: Path) -> RunSummary | None:
+    try:
+        return RunSummary.from_json(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError) as exc:
+        log.warning("plot_summary_unreadable", path=str(path), error=str(exc))
+        return None
+
+
+def _load_plan(
+    run_dir: Path,
+    summary: RunSummary | None,
+    cols: dict[str, npt.NDArray[Any]],
+    notes: list[str],
+) -> tuple[list[tuple[float, float, float]], tuple[float, float] | None]:
+    try:
+        cfg = load_config(run_dir / CONFIG_FILE)
+        msn = load_mission(run_dir / MISSION_FILE, cfg.mission)
+        origin = summary.origin_latlon_deg if summary else None
+        plan = resolve_plan(msn, cfg.control, cfg.mission, origin)
+    except (ConfigFileError, PlanError) as exc:
+        log.warning("plot_plan_unavailable", run_dir=str(run_dir), error=str(exc))
+        notes.append("planned path unavailable")
+        return [], None
+    wps = [(w.x_m, w.y_m, w.tolerance_m) for w in plan.waypoints]
+    if msn.frame is MissionFrameKind.START:
+        return wps, (0.0, 0.0)
+    x = np.asarray(cols["x_m"], dtype=np.float64)
+    y = np.asarray(cols["y_m"], dtype=np.float64)
+    ok = np.isfinite(x) & np.isfinite(y)
+    start = (float(x[ok][0]), float(y[ok][0])) if ok.any() else None
+    return wps, start
+
+
+def _clamp_pct(run_dir: Path) -> float | None:
+    try:
+        return 100.0 * load_config(run_dir / CONFIG_FILE).vehicle.output_clamp
+    except ConfigFileError:
+        return None
+
+
+# ---------------------------------------------------------------------------------------------
+# Shared decorations
+
+
+def _unwrap_deg(yaw_rad: Array) -> Array:
+    out = np.full(yaw_rad.shape, np.nan)
+    ok = np.isfinite(yaw_rad)
+    out[ok] = np.degrees(np.unwrap(yaw_rad[ok]))
+    return out
+
+
+def _lost_intervals(data: RunData) -> list[tuple[float, float]]:
+    healthy = np.asarray(data.cols.get("link_ok", []), dtype=bool) & np.asarray(
+        data.cols.get("pose_fresh", []), dtype=bool
+    )
+    if healthy.size == 0:
+        return []
+    spans: list[tuple[float, float]] = []
+    start: float | None = None
+    for i, ok in enumerate(healthy):
+        if not ok and start is None:
+            start = float(data.t_s[i])
+        elif ok and start is not None:
+            spans.append((start, float(data.t_s[i])))
+            start = None
+    if start is not None:
+        spans.append((start, float(data.t_s[-1])))
+    return spans
+
+
+def _time_markers(ax: Axes, data: RunData, *, labels: bool) -> None:
+    for k, (index, t) in enumerate(data.arrivals):
+        ax.axvline(t, **ARRIVAL_STYLE, label="waypoint reached" if k == 0 and labels else None)
+        if labels:
+            ax.text(
+                t,
+                0.99,
+                f" WP{index}",
+                transform=ax.get_xaxis_transform(),
+                fontsize=8,
+                va="top",
+                color="0.35",
+            )
+    for k, (a, b) in enumerate(_lost_intervals(data)):
+        ax.axvspan(a, b, **LOST_SHADE, label="link/pose lost" if k == 0 and labels else None)
+    if data.fault_t_s is not None:
+        ax.axvline(
+            data.fault_t_s,
+            color=FAULT_COLOR,
+            linewidth=2.0,
+            label=data.fault_label() if labels else None,
+        )
+
+
+def _legend(*axes: Axes) -> None:
+    handles: list[Any] = []
+    names: list[str] = []
+    for ax in axes:
+        h, n = ax.get_legend_handles_labels()
+        handles += h
+        names += n
+    if handles:
+        axes[0].legend(handles, names, loc="best", fontsize=8)
+
+
+# ---------------------------------------------------------------------------------------------
+# Panels: each draws on axes it is given (a panel figure or a cell of the overview)
+
+
+def draw_trajectory(ax: Axes, data: RunData) -> None:
+    """(a) driven path vs planned path, mission frame, equal axes."""
+    x, y = data.col("x_m"), data.col("y_m")
+    if data.waypoints and data.path_start is not None:
+        px = [data.path_start[0]] + [w[0] for w in data.waypoints]
+        py = [data.path_start[1]] + [w[1] for w in data.waypoints]
+        ax.plot(px, py, "--", color="0.5", linewidth=1.2, label="planned path")
+    for i, (wx, wy, tol) in enumerate(data.waypoints):
+        ax.add_patch(Circle((wx, wy), tol, fill=False, linestyle=":", color="tab:green"))
+        ax.plot(
+            wx,
+            wy,
+            "o",
+            color="tab:green",
+            markersize=6,
+            label="waypoint (tolerance circle)" if i == 0 else None,
+        )
+        ax.annotate(
+            str(i),
+            (wx, wy),
+            textcoords="offset points",
+            xytext=(6, 6),
+            fontsize=9,
+            color="darkgreen",
+            weight="bold",
+        )
+    ax.plot(x, y, "-", color="tab:blue", linewidth=1.5, label="driven")
+    ok = np.isfinite(x) & np.isfinite(y)
+    if ok.any():
+        ax.plot(x[ok][0], y[ok][0], "s", color="black", markersize=7, label="start")
+        ax.plot(x[ok][-1], y[ok][-1], "^", color="tab:blue", markersize=8, label="end")
+    k = data.fault_index()
+    if k is not None and math.isfinite(float(x[k])) and math.isfinite(float(y[k])):
+        ax.plot(x[k], y[k], "X", color=FAULT_COLOR, markersize=12, label=data.fault_label())
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8)
+
+
+def draw_position(top: Axes, bottom: Axes, data: RunData, *, twin: bool = False) -> None:
+    """(b) x, y (m) and yaw (deg) against time."""
+    top.plot(data.t_s, data.col("x_m"), label="x (m)", color="tab:blue")
+    top.plot(data.t_s, data.col("y_m"), label="y (m)", color="tab:orange")
+    bottom.plot(data.t_s, _unwrap_deg(data.col("yaw_rad")), label="yaw (deg)", color="tab:purple")
+    top.set_ylabel("position (m)")
+    bottom.set_ylabel("yaw, CCW, unwrapped (deg)")
+    _finish_time_axes(top, bottom, data, twin=twin)
+
+
+def draw_velocity(top: Axes, bottom: Axes, data: RunData, *, twin: bool = False) -> None:
+    """(c) commanded body velocities and measured speed."""
+    vx, vy = data.col("vx_cmd_mps"), data.col("vy_cmd_mps")
+    top.plot(data.t_s, vx, label="v_x cmd (m/s)", color="tab:blue")
+    top.plot(data.t_s, vy, label="v_y cmd (m/s)", color="tab:orange")
+    top.plot(data.t_s, np.hypot(vx, vy), ":", label="|v| cmd (m/s)", color="0.3")
+    top.plot(data.t_s, data.col("speed_meas_mps"), label="speed measured (m/s)", color="tab:green")
+    bottom.plot(data.t_s, data.col("wz_cmd_radps"), label="ω_z cmd (rad/s)", color="tab:purple")
+    top.set_ylabel("linear velocity (m/s)")
+    bottom.set_ylabel("yaw rate (rad/s)")
+    _finish_time_axes(top, bottom, data, twin=twin)
+
+
+def draw_errors(top: Axes, bottom: Axes, data: RunData, *, twin: bool = False) -> None:
+    """(d) distance and cross-track errors (m), heading error (deg)."""
+    top.plot(data.t_s, data.col("distance_error_m"), label="distance to target (m)")
+    top.plot(data.t_s, data.col("cross_track_m"), label="cross-track (m)", color="tab:orange")
+    bottom.plot(
+        data.t_s,
+        np.degrees(data.col("heading_error_rad")),
+        color="tab:purple",
+        label="heading error (deg)",
+    )
+    top.set_ylabel("error (m)")
+    bottom.set_ylabel("heading error (deg)")
+    _finish_time_axes(top, bottom, data, twin=twin)
+
+
+def draw_scrolls(ax: Axes, data: RunData) -> None:
+    """(e) scroll commands, % of max RPM (thesis: 'wheel power')."""
+    for i in range(4):
+        ax.plot(
+            data.t_s,
+            100.0 * data.col(f"scroll{i + 1}"),
+            SCROLL_STYLES[i],
+            color=SCROLL_COLORS[i],
+            label=f"scroll {i + 1}",
+        )
+    if data.clamp_pct is not None:
+        for sign in (1.0, -1.0):
+            ax.axhline(
+                sign * data.clamp_pct,
+                color="0.5",
+                linestyle="--",
+                linewidth=0.8,
+                label="output clamp" if sign > 0 else None,
+            )
+    ax.set_ylabel("scroll command (% of max RPM)")
+    _finish_time_axes(ax, None, data)
+
+
+def _finish_time_axes(top: Axes, bottom: Axes | None, data: RunData, *, twin: bool = False) -> None:
+    """Markers, grids, labels and legends; ``twin``: ``bottom`` is ``top.twinx()``."""
+    _time_markers(top, data, labels=True)
+    if bottom is not None and not twin:
+        _time_markers(bottom, data, labels=False)
+        bottom.grid(True, alpha=0.3)
+        bottom.set_xlabel("time since start (s)")
+        _legend(bottom)
+        top.legend(loc="best", fontsize=8)
+    else:
+        top.set_xlabel("time since start (s)")
+        if bottom is not None:
+            _legend(top, bottom)
+        else:
+            top.legend(loc="best", fontsize=8)
+    top.grid(True, alpha=0.3)
+
+
+# ---------------------------------------------------------------------------------------------
+# Figures
+
+
+def _title(data: RunData, panel: str) -> str:
+    mode = f" — {data.summary.mode}" if data.summary else ""
+    note = f" ({'; '.join(data.notes)})" if data.notes else ""
+    return f"{data.name}{mode} — {panel}{note}"
+
+
+def _panel_figure(data: RunData, key: str) -> Figure:
+    fig = Figure(figsize=PANEL_SIZE_IN, dpi=DPI, layout="constrained")
+    titles = {
+        "a": "(a) trajectory followed",
+        "b": "(b) position with time",
+        "c": "(c) velocity with time",
+        "d": "(d) errors with time",
+        "e": "(e) scroll commands (wheel power)",
+    }
+    if key == "a":
+        draw_trajectory(fig.add_subplot(), data)
+    elif key == "e":
+        draw_scrolls(fig.add_subplot(), data)
+    else:
+        top, bottom = fig.subplots(2, 1, sharex=True)
+        {"b": draw_position, "c": draw_velocity, "d": draw_errors}[key](top, bottom, data)
+    fig.suptitle(_title(data, titles[key]))
+    return fig
+
+
+def _summary_text(data: RunData) -> str:
+    s = data.summary
+    if s is None:
+        return "no summary.json (run did not finish cleanly)"
+
+    def num(v: float | None, unit: str) -> str:
+        return "-" if v is None else f"{v:.2f} {unit}"
+
+    lines = [
+        f"mission   {s.mission_name} ({s.mode})",
+        f"result    {'completed' if s.completed else 'NOT completed'}  exit {s.exit_code}",
+        f"fault     {textwrap.shorten(s.fault or '-', FAULT_LABEL_MAX_CHARS)}",
+        f"waypoints {s.waypoints_reached}/{s.waypoints_total}",
+        f"duration  {s.duration_s:.1f} s",
+        f"path      {s.path_length_m:.1f} m",
+        f"x-track   rms {num(s.cross_track_rms_m, 'm')}  max {num(s.cross_track_max_m, 'm')}",
+        f"final err {num(s.final_error_m, 'm')}",
+        f"helixd    {s.helixd_version}",
+    ]
+    return "\n".join(lines)
+
+
+def _overview_figure(data: RunData) -> Figure:
+    fig = Figure(figsize=OVERVIEW_SIZE_IN, dpi=DPI, layout="constrained")
+    grid = fig.subplots(2, 3)
+    draw_trajectory(grid[0][0], data)
+    grid[0][0].set_title("(a) trajectory")
+    for ax, draw, title in (
+        (grid[0][1], draw_position, "(b) position / yaw"),
+        (grid[0][2], draw_velocity, "(c) velocity"),
+        (grid[1][0], draw_errors, "(d) errors"),
+    ):
+        draw(ax, ax.twinx(), data, twin=True)
+        ax.set_title(title)
+    draw_scrolls(grid[1][1], data)
+    grid[1][1].set_title("(e) scroll commands")
+    text_ax = grid[1][2]
+    text_ax.axis("off")
+    text_ax.text(
+        0.02,
+        0.98,
+        _summary_text(data),
+        va="top",
+        family="monospace",
+        fontsize=11,
+        color=FAULT_COLOR if data.fault else "black",
+        transform=text_ax.transAxes,
+    )
+    fig.suptitle(_title(data, "overview"))
+    return fig
+
+
+def render_run(run_dir: Path, out_dir: Path | None = None) -> list[Path]:
+    """Render every panel and the overview as PNGs; returns the files written.
+
+    ``out_dir`` defaults to ``<run_dir>/plots``. Raises PlotError when there is nothing to plot.
+    """
+    data = load_run(run_dir)
+    out = out_dir if out_dir is not None else run_dir / PLOTS_DIR
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    for key, name in PANEL_FILES.items():
+        path = out / name
+        _panel_figure(data, key).savefig(path, dpi=DPI)
+        written.append(path)
+    path = out / OVERVIEW_FILE
+    _overview_figure(data).savefig(path, dpi=DPI)
+    written.append(path)
+    log.info("plots_written", run_dir=str(run_dir), out_dir=str(out), files=len(written))
+    return written
+
+
+__all__ = [
+    "OVERVIEW_SIZE_PX",
+    "PANEL_FILES",
+    "PANEL_SIZE_PX",
+    "PlotError",
+    "RunData",
+    "load_run",
+    "render_run",
+]

@@ -1,0 +1,438 @@
+"""The flight recorder's run directory: ``<run_root>/<UTC stamp>-<mission>/``.
+
+Contents: ``config.yaml`` and ``mission.yaml`` (the exact resolved inputs), ``events.jsonl``
+(every structlog event, via :mod:`helixd.logging_setup`), ``flight.csv`` (one row per control
+step, see :mod:`helixd.recorder.rows`) and ``summary.json`` (written atomically at the end).
+
+``flight.csv`` is written through a buffer, flushed to the OS at least every
+``flush_interval_s`` and fsync'ed (with ``events.jsonl``) by a background thread, so the
+control loop never waits for the disk and a crash or power loss loses at most about one
+flush interval of rows.
+
+A disk that fails must not stop the safety logic: with ``on_write_error: continue`` the
+recorder stops writing and logs ONE ``recorder_degraded`` event; ``record()``/``finish()``
+never raise. With ``refuse``, :meth:`RunRecorder.create` raises :class:`RecorderUnavailable`
+so the daemon refuses to start; once running, write errors degrade as with ``continue``.
+"""
+
+from __future__ import annotations
+
+import errno as errno_mod
+import os
+import re
+import shutil
+import threading
+import time
+from collections.abc import Callable
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import IO
+
+import structlog
+
+from helixd import logging_setup
+from helixd.config import RecorderConfig
+from helixd.recorder.events import EVENTS_FILE, RUN_STARTED_EVENT
+from helixd.recorder.rows import FlightRow, RowFormatter
+from helixd.recorder.summary import RunSummary
+
+log = structlog.get_logger(__name__)
+
+FLIGHT_FILE = "flight.csv"
+SUMMARY_FILE = "summary.json"
+CONFIG_FILE = "config.yaml"
+MISSION_FILE = "mission.yaml"
+CSV_BUFFER_BYTES = 64 * 1024  # > one flush interval of rows at 50 Hz (~330 B/row)
+SYNC_JOIN_TIMEOUT_S = 5.0  # wait this long for the last fsync when closing
+MAX_NAME_COLLISIONS = 100  # runs started within the same second get -2, -3, …
+STAMP_FORMAT = "%Y%m%dT%H%M%SZ"
+
+Opener = Callable[[Path, str], IO[str]]
+
+
+def default_opener(path: Path, mode: str) -> IO[str]:
+    return path.open(mode, encoding="utf-8", newline="", buffering=CSV_BUFFER_BYTES)
+
+
+class RecorderUnavailable(Exception):
+    """The run directory cannot be written and ``on_write_error`` is ``refuse``."""
+
+    def __init__(self, path: Path, exc: OSError) -> None:
+        self.path = path
+        self.errno = exc.errno
+        reason = exc.strerror or str(exc)
+        code = errno_mod.errorcode.get(exc.errno or 0, "?")
+        super().__init__(
+            f"flight recorder cannot write {path}: {reason} (errno {exc.errno} {code}). "
+            "Free disk space or fix the permissions of recorder.run_root, or set "
+            "recorder.on_write_error: continue to fly without a recording."
+        )
+
+
+def run_dir_name(mission_name: str, now_utc: datetime) -> str:
+    """``20261121T031500Z-square``: UTC stamp and a filesystem-safe mission name."""
+    stamp = (now_utc if now_utc.tzinfo else now_utc.replace(tzinfo=UTC)).astimezone(UTC)
+    safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", mission_name).strip("._") or "mission"
+    return f"{stamp.strftime(STAMP_FORMAT)}-{safe}"
+
+
+def _make_unique_dir(run_root: Path, name: str) -> Path:
+    run_root.mkdir(parents=True, exist_ok=True)
+    for n in range(1, MAX_NAME_COLLISIONS + 1):
+        candidate = run_root / (name if n == 1 else f"{name}-{n}")
+        try:
+            candidate.mkdir()
+        except FileExistsError:
+            continue
+        return candidate
+    raise FileExistsError(errno_mod.EEXIST, "too many runs with the same name", str(run_root))
+
+
+class _Syncer:
+    """Background fsync of the run's files, woken after each flush (keeps the loop off disk)."""
+
+    def __init__(self, fds: list[int]) -> None:
+        self._fds = fds
+        self._wake = threading.Event()
+        self._stopping = False
+        self.error: OSError | None = None
+        self._thread = threading.Thread(target=self._run, name="helixd-recorder-sync", daemon=True)
+        self._thread.start()
+
+    def request(self) -> None:
+        self._wake.set()
+
+    def stop(self) -> bool:
+        """Last fsync, then stop; True when the thread finished within the timeout."""
+        self._stopping = True
+        self._wake.set()
+        self._thread.join(SYNC_JOIN_TIMEOUT_S)
+        return not self._thread.is_alive()
+
+    def _run(self) -> None:
+        while True:
+            self._wake.wait()
+            self._wake.clear()
+            for fd in list(self._fds):
+                try:
+                    os.fsync(fd)
+                except OSError as exc:
+                    if exc.errno in (errno_mod.EINVAL, errno_mod.EROFS):
+                        self._fds.remove(fd)  # a special file that cannot be synced: stop trying
+                    else:
+                        self.error = exc
+            if self._stopping:
+                return
+
+
+class RunRecorder:
+    """Writes one run directory. Create with :meth:`create`; the daemon calls :meth:`record`
+    every control step and :meth:`finish` at the end (or :meth:`close` if it has no summary)."""
+
+    def __init__(self, cfg: RecorderConfig, clock: Callable[[], float], opener: Opener) -> None:
+        self._cfg = cfg
+        self._clock = clock
+        self._opener = opener
+        self._fmt = RowFormatter()
+        self.run_dir: Path | None = None
+        self.degraded = False
+        self.rows_written = 0
+        self._csv: IO[str] | None = None
+        self._csv_path: Path | None = None
+        self._syncer: _Syncer | None = None
+        self._events_fd = -1  # read-only fd of events.jsonl, only for fsync
+        self._last_flush_s = 0.0
+        self._bad_row_logged = False
+        self._closed = False
+
+    # -- creation ---------------------------------------------------------------------------
+
+    @classmethod
+    def create(
+        cls,
+        run_root: Path,
+        mission_name: str,
+        config_yaml: str,
+        mission_yaml: str,
+        cfg: RecorderConfig,
+        now_utc: datetime,
+        *,
+        run_dir: Path | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        opener: Opener = default_opener,
+    ) -> RunRecorder:
+        """Make the run directory and start recording.
+
+        ``run_dir`` overrides the ``<run_root>/<stamp>-<mission>`` name. ``clock`` drives the
+        flush schedule; ``opener(path, mode)`` opens every file written (tests inject failures).
+        Raises RecorderUnavailable only when ``cfg.on_write_error == "refuse"``.
+        """
+        rec = cls(cfg, clock, opener)
+        target = run_dir if run_dir is not None else run_root / run_dir_name(mission_name, now_utc)
+        try:
+            rec._open(run_root, run_dir, mission_name, now_utc, config_yaml, mission_yaml)
+        except OSError as exc:
+            failed = Path(exc.filename) if exc.filename else rec.run_dir or target
+            if cfg.on_write_error == "refuse":
+                rec._release()
+                logging_setup.detach_events_file()
+                raise RecorderUnavailable(failed, exc) from exc
+            rec._degrade(exc, failed, stage="create")
+        return rec
+
+    def _open(
+        self,
+        run_root: Path,
+        run_dir: Path | None,
+        mission_name: str,
+        now_utc: datetime,
+        config_yaml: str,
+        mission_yaml: str,
+    ) -> None:
+        if run_dir is not None:
+            run_dir.mkdir(parents=True, exist_ok=True)
+            self.run_dir = run_dir
+        else:
+            self.run_dir = _make_unique_dir(run_root, run_dir_name(mission_name, now_utc))
+        events_path = self.run_dir / EVENTS_FILE
+        logging_setup.attach_events_file(events_path)
+        self._write_text(self.run_dir / CONFIG_FILE, config_yaml)
+        self._write_text(self.run_dir / MISSION_FILE, mission_yaml)
+        self._csv_path = self.run_dir / FLIGHT_FILE
+        self._csv = self._opener(self._csv_path, "w")
+        self._csv.write(FlightRow.csv_header())
+        self._flush_checked(self._csv, self._csv_path)
+        self._last_flush_s = self._clock()
+        self._events_fd = _readonly_fd(events_path)
+        self._syncer = _Syncer([fd for fd in (_fileno(self._csv), self._events_fd) if fd >= 0])
+        log.info(
+            RUN_STARTED_EVENT,
+            run_dir=str(self.run_dir),
+            mission=mission_name,
+            disk_free_mb=_free_mb(self.run_dir),
+        )
+
+    def _write_text(self, path: Path, text: str) -> None:
+        fh = self._opener(path, "w")
+        try:
+            fh.write(text)
+            self._flush_checked(fh, path)
+        except OSError:
+            _close_after_error(fh)
+            raise
+        fh.close()
+
+    @staticmethod
+    def _flush_checked(fh: IO[str], path: Path) -> None:
+        try:
+            fh.flush()
+        except OSError as exc:
+            if exc.filename is None:
+                exc.filename = str(path)
+            raise
+
+    # -- hot path ---------------------------------------------------------------------------
+
+    def record(self, row: FlightRow) -> None:
+        """Append one control step. Cheap; never raises."""
+        csv = self._csv
+        if csv is None:
+            return
+        try:
+            line = self._fmt.line(row)
+        except (TypeError, ValueError) as exc:
+            if not self._bad_row_logged:
+                self._bad_row_logged = True
+                log.error("recorder_bad_row", error=str(exc), note="row skipped")
+            return
+        try:
+            csv.write(line)
+        except OSError as exc:
+            self._degrade(exc, self._csv_path, stage="write")
+            return
+        self.rows_written += 1
+        now = self._clock()
+        if now - self._last_flush_s >= self._cfg.flush_interval_s:
+            self._flush(now)
+
+    def maybe_flush(self) -> None:
+        """Flush if due; call from a periodic task so rows are flushed when steps pause."""
+        if self._csv is not None:
+            now = self._clock()
+            if now - self._last_flush_s >= self._cfg.flush_interval_s:
+                self._flush(now)
+
+    def _flush(self, now: float) -> None:
+        self._last_flush_s = now
+        if self._csv is None:
+            return
+        try:
+            self._csv.flush()
+        except OSError as exc:
+            self._degrade(exc, self._csv_path, stage="flush")
+            return
+        if self._syncer is not None:
+            if self._syncer.error is not None:
+                self._degrade(self._syncer.error, self._csv_path, stage="fsync")
+                return
+            self._syncer.request()
+
+    # -- end --------------------------------------------------------------------------------
+
+    def finish(self, summary: RunSummary) -> None:
+        """Write summary.json atomically (tmp + rename), close everything. Never raises."""
+        if self._closed:
+            return
+        if not self.degraded and self.run_dir is not None:
+            self._close_csv()
+            if not self.degraded:
+                self._write_summary(summary)
+        self.close()
+
+    def close(self) -> None:
+        """Flush and close without a summary (also called by finish). Never raises."""
+        if self._closed:
+            return
+        if not self.degraded:
+            self._close_csv()
+        self._release()
+        self._closed = True
+        log.info(
+            "run_recorded",
+            run_dir=str(self.run_dir),
+            rows=self.rows_written,
+            degraded=self.degraded,
+        )
+        logging_setup.detach_events_file()
+
+    def _close_csv(self) -> None:
+        if self._csv is None:
+            return
+        try:
+            self._csv.flush()
+        except OSError as exc:
+            self._degrade(exc, self._csv_path, stage="flush")
+            return
+        syncer, self._syncer = self._syncer, None
+        if syncer is not None and syncer.stop() and syncer.error is not None:
+            self._degrade(syncer.error, self._csv_path, stage="fsync")
+            return
+        csv, self._csv = self._csv, None
+        try:
+            csv.close()
+        except OSError as exc:
+            self._degrade(exc, self._csv_path, stage="close")
+
+    def _write_summary(self, summary: RunSummary) -> None:
+        assert self.run_dir is not None
+        final = self.run_dir / SUMMARY_FILE
+        tmp = self.run_dir / (SUMMARY_FILE + ".tmp")
+        try:
+            fh = self._opener(tmp, "w")
+            try:
+                fh.write(summary.to_json())
+                self._flush_checked(fh, tmp)
+                fd = _fileno(fh)
+                if fd >= 0:
+                    _fsync_if_supported(fd)
+            except OSError:
+                _close_after_error(fh)
+                raise
+            fh.close()
+            os.replace(tmp, final)
+            dir_fd = os.open(self.run_dir, os.O_RDONLY)
+            try:
+                _fsync_if_supported(dir_fd)
+            finally:
+                os.close(dir_fd)
+        except OSError as exc:
+            self._degrade(exc, tmp, stage="summary")
+
+    # -- failure ----------------------------------------------------------------------------
+
+    def _degrade(self, exc: OSError, path: Path | None, *, stage: str) -> None:
+        if self.degraded:
+            return
+        self.degraded = True
+        self._release()
+        log.error(
+            "recorder_degraded",
+            path=str(path),
+            errno=exc.errno,
+            errno_name=errno_mod.errorcode.get(exc.errno or 0),
+            error=exc.strerror or str(exc),
+            stage=stage,
+            rows_written=self.rows_written,
+            note="flight recording stopped; the mission and the safety logic continue",
+        )
+
+    def _release(self) -> None:
+        """Drop the csv and the sync thread without raising (error paths)."""
+        syncer, self._syncer = self._syncer, None
+        joined = syncer.stop() if syncer is not None else True
+        csv, self._csv = self._csv, None
+        if csv is not None:
+            try:
+                csv.close()
+            except OSError as exc:  # pending rows could not be written: already degrading
+                log.debug("recorder_close_failed", error=str(exc))
+        fd, self._events_fd = self._events_fd, -1
+        if joined and fd >= 0:  # a stuck fsync thread may still use it: leak rather than race
+            try:
+                os.close(fd)
+            except OSError as exc:
+                log.debug("recorder_close_failed", error=str(exc))
+
+    def __enter__(self) -> RunRecorder:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _close_after_error(fh: IO[str]) -> None:
+    """Close a file whose write already failed; that first error is the one reported."""
+    try:
+        fh.close()
+    except OSError as exc:
+        log.debug("recorder_close_failed", error=str(exc))
+
+
+def _fileno(fh: IO[str]) -> int:
+    try:
+        return fh.fileno()
+    except (OSError, ValueError):
+        return -1
+
+
+def _readonly_fd(path: Path) -> int:
+    try:
+        return os.open(path, os.O_RDONLY)
+    except OSError as exc:
+        log.debug("recorder_events_fsync_unavailable", path=str(path), error=str(exc))
+        return -1
+
+
+def _fsync_if_supported(fd: int) -> None:
+    try:
+        os.fsync(fd)
+    except OSError as exc:
+        if exc.errno not in (errno_mod.EINVAL, errno_mod.EROFS):
+            raise
+
+
+def _free_mb(path: Path) -> float | None:
+    try:
+        return round(shutil.disk_usage(path).free / 1e6, 1)
+    except OSError:
+        return None
+
+
+__all__ = [
+    "FLIGHT_FILE",
+    "SUMMARY_FILE",
+    "RecorderUnavailable",
+    "RunRecorder",
+    "default_opener",
+    "run_dir_name",
+]

@@ -1,0 +1,177 @@
+"""Run summary (``summary.json``): what a run achieved, computed row by row. Pure: no I/O.
+
+:class:`SummaryBuilder` keeps running sums only (no row storage), so feeding it from a 50 Hz
+loop for hours costs constant memory.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pydantic import Field
+
+from helixd import __version__
+from helixd.config import StrictModel
+from helixd.recorder.rows import FlightRow
+
+# Driven path length is summed over pose steps of at least this length, so pose noise (GPS
+# jitter while standing still) does not inflate it. Poses that are not fresh are skipped.
+PATH_MIN_STEP_M = 0.1
+
+
+class Arrival(StrictModel):
+    index: int = Field(description="plan waypoint index (0-based, as `helixd check` prints)")
+    t_boot_s: float = Field(description="autopilot time of arrival (s)")
+    error_m: float = Field(description="distance to the waypoint when it was declared reached (m)")
+
+
+class RunSummary(StrictModel):
+    mission_name: str
+    mode: str = Field(description="motion mode: roll | scroll | omni")
+    completed: bool = Field(description="every waypoint reached")
+    fault: str | None = Field(description="cause that ended the run early, None if none")
+    exit_code: int
+    waypoints_reached: int
+    waypoints_total: int
+    arrivals: tuple[Arrival, ...] = ()
+    duration_s: float = Field(description="first to last recorded step, monotonic clock (s)")
+    wall_duration_s: float | None = Field(
+        None, description="whole run including connect/preflight/stop, if given (s)"
+    )
+    path_length_m: float = Field(description="driven path length from the recorded poses (m)")
+    cross_track_rms_m: float | None = Field(description="RMS distance from the planned legs (m)")
+    cross_track_max_m: float | None = Field(description="max |cross-track| (m)")
+    final_error_m: float | None = Field(description="last pose to the final waypoint (m)")
+    rows: int = Field(0, description="control steps recorded")
+    origin_latlon_deg: tuple[float, float] | None = Field(
+        None, description="EKF origin used for a global mission (lat, lon deg)"
+    )
+    helixd_version: str = __version__
+
+    def to_json(self) -> str:
+        return self.model_dump_json(indent=2) + "\n"
+
+    @classmethod
+    def from_json(cls, text: str) -> RunSummary:
+        return cls.model_validate_json(text)
+
+
+class SummaryBuilder:
+    """Accumulates a RunSummary from FlightRows and arrival notices."""
+
+    def __init__(
+        self,
+        mission_name: str = "",
+        mode: str = "",
+        waypoints_total: int = 0,
+        final_xy_m: tuple[float, float] | None = None,
+        *,
+        path_min_step_m: float = PATH_MIN_STEP_M,
+    ) -> None:
+        """``final_xy_m``: the last waypoint in the mission frame (for ``final_error_m``; the
+        last row's ``distance_error_m`` is used without it). Identity fields may also be given
+        to :meth:`build`."""
+        self._name = mission_name
+        self._mode = mode
+        self._total = waypoints_total
+        self._final_xy = final_xy_m
+        self._min_step = path_min_step_m
+        self._origin: tuple[float, float] | None = None
+        self._rows = 0
+        self._t_first: float | None = None
+        self._t_last: float | None = None
+        self._anchor: tuple[float, float] | None = None
+        self._path_m = 0.0
+        self._xt_sq = 0.0
+        self._xt_n = 0
+        self._xt_max = 0.0
+        self._last_xy: tuple[float, float] | None = None
+        self._last_dist_err: float | None = None
+        self._arrivals: dict[int, Arrival] = {}
+
+    def set_origin(self, lat_deg: float, lon_deg: float) -> None:
+        """Record the EKF origin a global mission was resolved with (plots need it)."""
+        self._origin = (lat_deg, lon_deg)
+
+    def add(self, row: FlightRow) -> None:
+        """Account for one control step (O(1), no row kept)."""
+        self._rows += 1
+        t = row.t_mono_s
+        if math.isfinite(t):
+            if self._t_first is None:
+                self._t_first = t
+            self._t_last = t
+        x, y = row.x_m, row.y_m
+        if row.pose_fresh and math.isfinite(x) and math.isfinite(y):
+            self._last_xy = (x, y)
+            if self._anchor is None:
+                self._anchor = (x, y)
+            else:
+                step = math.hypot(x - self._anchor[0], y - self._anchor[1])
+                if step >= self._min_step:
+                    self._path_m += step
+                    self._anchor = (x, y)
+        xt = row.cross_track_m
+        if math.isfinite(xt):
+            self._xt_sq += xt * xt
+            self._xt_n += 1
+            self._xt_max = max(self._xt_max, abs(xt))
+        if math.isfinite(row.distance_error_m):
+            self._last_dist_err = row.distance_error_m
+
+    def arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
+        """A waypoint was reached (the first notice per index counts)."""
+        if index not in self._arrivals:
+            self._arrivals[index] = Arrival(index=index, t_boot_s=t_boot_s, error_m=error_m)
+
+    @property
+    def waypoints_reached(self) -> int:
+        return len(self._arrivals)
+
+    def build(
+        self,
+        completed: bool,
+        fault: str | None,
+        exit_code: int,
+        *,
+        mission_name: str | None = None,
+        mode: str | None = None,
+        waypoints_total: int | None = None,
+        wall_duration_s: float | None = None,
+    ) -> RunSummary:
+        """The summary so far; keyword arguments override the constructor's identity fields."""
+        duration = (
+            0.0 if self._t_first is None or self._t_last is None else self._t_last - self._t_first
+        )
+        if self._final_xy is not None and self._last_xy is not None:
+            final_error: float | None = math.hypot(
+                self._last_xy[0] - self._final_xy[0], self._last_xy[1] - self._final_xy[1]
+            )
+        else:
+            final_error = self._last_dist_err
+        path_m = self._path_m
+        if self._anchor is not None and self._last_xy is not None:
+            path_m += math.hypot(
+                self._last_xy[0] - self._anchor[0], self._last_xy[1] - self._anchor[1]
+            )
+        return RunSummary(
+            mission_name=self._name if mission_name is None else mission_name,
+            mode=self._mode if mode is None else mode,
+            completed=completed,
+            fault=fault,
+            exit_code=exit_code,
+            waypoints_reached=len(self._arrivals),
+            waypoints_total=self._total if waypoints_total is None else waypoints_total,
+            arrivals=tuple(sorted(self._arrivals.values(), key=lambda a: a.t_boot_s)),
+            duration_s=duration,
+            wall_duration_s=wall_duration_s,
+            path_length_m=path_m,
+            cross_track_rms_m=math.sqrt(self._xt_sq / self._xt_n) if self._xt_n else None,
+            cross_track_max_m=self._xt_max if self._xt_n else None,
+            final_error_m=final_error,
+            rows=self._rows,
+            origin_latlon_deg=self._origin,
+        )
+
+
+__all__ = ["PATH_MIN_STEP_M", "Arrival", "RunSummary", "SummaryBuilder"]

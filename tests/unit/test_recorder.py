@@ -1,0 +1,533 @@
+"""Flight recorder: run directory layout, incremental flush, degraded and refuse modes.
+
+Also holds ``synth_run``, a realistic run directory (a point mass flying the 10 m square with
+the thesis's turn-then-drive logic) written through the real RunRecorder, reused by the plot
+and replay tests.
+"""
+
+from __future__ import annotations
+
+import errno
+import io
+import json
+import math
+import os
+from collections.abc import Iterator
+from dataclasses import replace
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import IO
+
+import pytest
+import structlog
+
+from helixd import logging_setup
+from helixd.config import HelixdConfig, RecorderConfig, config_to_yaml
+from helixd.control.angles import shortest_angular_distance, wrap_pi
+from helixd.control.kinematics import body_to_fractions
+from helixd.geometry import BodyVelocity
+from helixd.mission import MotionMode
+from helixd.recorder import FlightRow, RecorderUnavailable, RunRecorder, SummaryBuilder
+from helixd.recorder.rows import COLUMNS, CSV_COMMENT, nan_row, read_flight_csv
+from helixd.recorder.rundir import default_opener, run_dir_name
+
+NOW = datetime(2026, 11, 21, 3, 15, 0, tzinfo=UTC)
+SQUARE_YAML = """\
+name: square
+mode: roll
+frame: start
+waypoints:
+- {x: 10.0, y: 0.0}
+- {x: 10.0, y: 10.0}
+- {x: 0.0, y: 10.0}
+- {x: 0.0, y: 0.0}
+"""
+SQUARE = [(10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0)]
+
+
+class FakeClock:
+    def __init__(self, start_s: float = 1000.0) -> None:
+        self.t = start_s
+
+    def __call__(self) -> float:
+        return self.t
+
+    def advance(self, dt_s: float) -> None:
+        self.t += dt_s
+
+
+class LogCapture:
+    """configure_logging into a buffer; events parsed from the JSON tee."""
+
+    def __init__(self, clock: FakeClock) -> None:
+        self.console = io.StringIO()
+        self.json = io.StringIO()
+        logging_setup.configure_logging(
+            tty=False, stream=self.console, json_file=self.json, clock=clock
+        )
+
+    def events(self, name: str | None = None) -> list[dict[str, object]]:
+        out = [json.loads(ln) for ln in self.json.getvalue().splitlines()]
+        return [e for e in out if name is None or e["event"] == name]
+
+
+@pytest.fixture(autouse=True)
+def _reset_logging() -> Iterator[None]:
+    yield
+    logging_setup.detach_events_file()
+    structlog.reset_defaults()
+
+
+@pytest.fixture
+def clock() -> FakeClock:
+    return FakeClock()
+
+
+@pytest.fixture
+def logs(clock: FakeClock) -> LogCapture:
+    return LogCapture(clock)
+
+
+def make_row(t_s: float, **kw: object) -> FlightRow:
+    base: dict[str, object] = dict(
+        t_boot_s=t_s - 900.0,
+        t_mono_s=t_s,
+        north_m=1.0,
+        east_m=2.0,
+        yaw_ned_rad=0.1,
+        x_m=1.0,
+        y_m=2.0,
+        yaw_rad=0.2,
+        target_index=1,
+        target_x_m=10.0,
+        target_y_m=0.0,
+        distance_error_m=9.0,
+        heading_error_rad=0.05,
+        cross_track_m=0.1,
+        dist_p=0.6,
+        dist_i=0.0,
+        dist_d=0.01,
+        yaw_p=0.4,
+        yaw_i=0.0,
+        yaw_d=0.0,
+        vx_cmd_mps=0.6,
+        vy_cmd_mps=0.0,
+        wz_cmd_radps=0.1,
+        speed_meas_mps=0.55,
+        scroll1=0.3,
+        scroll2=0.3,
+        scroll3=-0.3,
+        scroll4=-0.3,
+        pwm1_us=1650,
+        pwm2_us=1650,
+        pwm3_us=1350,
+        pwm4_us=1350,
+        mode="MANUAL",
+        armed=True,
+        nav_state="track",
+        link_ok=True,
+        pose_fresh=True,
+    )
+    base.update(kw)
+    return FlightRow(**base)  # type: ignore[arg-type]
+
+
+def create(
+    root: Path, clock: FakeClock, cfg: RecorderConfig | None = None, **kw: object
+) -> RunRecorder:
+    return RunRecorder.create(
+        root,
+        "square",
+        "control: {}\n",
+        SQUARE_YAML,
+        cfg or RecorderConfig(),
+        NOW,
+        clock=clock,
+        **kw,  # type: ignore[arg-type]
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# A realistic run for the plot/replay tests
+
+
+def synth_run(
+    root: Path,
+    *,
+    fault_at_s: float | None = None,
+    rate_hz: float = 20.0,
+    cfg: HelixdConfig | None = None,
+) -> tuple[Path, FakeClock]:
+    """Fly a point mass round the 10 m square (ROLL: turn in place, then drive) and record it
+    through RunRecorder + SummaryBuilder + the events tee. ``fault_at_s``: stop there with a
+    ``fallback`` event (cause ``stall``) as the supervisor would."""
+    cfg = cfg or HelixdConfig()
+    clock = FakeClock(5000.0)
+    logging_setup.configure_logging(tty=False, stream=io.StringIO(), clock=clock)
+    log = structlog.get_logger("synth")
+    rec = RunRecorder.create(
+        root, "square", config_to_yaml(cfg), SQUARE_YAML, cfg.recorder, NOW, clock=clock
+    )
+    builder = SummaryBuilder("square", "roll", len(SQUARE), SQUARE[-1])
+    dt = 1.0 / rate_hz
+    x = y = yaw = 0.0
+    t0 = clock()
+    target = 0
+    fault: str | None = None
+    tol = cfg.control.waypoint_tolerance_m
+    prev_xy = (x, y)
+    while target < len(SQUARE) and clock() - t0 < 300.0:
+        t_rel = clock() - t0
+        if fault_at_s is not None and t_rel >= fault_at_s:
+            fault = "stall"
+            log.warning("fallback", cause=fault, detail="measured speed 0.00 m/s for 4.0 s")
+            break
+        tx, ty = SQUARE[target]
+        dist = math.hypot(tx - x, ty - y)
+        if dist < tol:
+            builder.arrival(target, t_rel + 100.0, dist)
+            log.info("waypoint_reached", index=target, error_m=round(dist, 3))
+            target += 1
+            continue
+        leg_start = SQUARE[target - 1] if target else (0.0, 0.0)
+        lx, ly = tx - leg_start[0], ty - leg_start[1]
+        leg_len = math.hypot(lx, ly) or 1.0
+        xt = (lx * (y - leg_start[1]) - ly * (x - leg_start[0])) / leg_len
+        herr = shortest_angular_distance(yaw, math.atan2(ty - y, tx - x))
+        wz = max(-1.0, min(1.0, 8.0 * herr))
+        vx = 0.0 if abs(herr) > 0.2 else min(0.6, 1.2 * dist)
+        frac = body_to_fractions(BodyVelocity(vx, 0.0, wz), cfg.vehicle, MotionMode.ROLL)
+        speed = math.hypot(x - prev_xy[0], y - prev_xy[1]) / dt
+        row = FlightRow(
+            t_boot_s=t_rel + 100.0,
+            t_mono_s=clock(),
+            north_m=x,
+            east_m=-y,
+            yaw_ned_rad=wrap_pi(-yaw),
+            x_m=x,
+            y_m=y,
+            yaw_rad=yaw,
+            target_index=target,
+            target_x_m=tx,
+            target_y_m=ty,
+            distance_error_m=dist,
+            heading_error_rad=herr,
+            cross_track_m=xt,
+            dist_p=1.2 * dist,
+            dist_i=0.0,
+            dist_d=0.0,
+            yaw_p=8.0 * herr,
+            yaw_i=0.0,
+            yaw_d=0.0,
+            vx_cmd_mps=vx,
+            vy_cmd_mps=0.0,
+            wz_cmd_radps=wz,
+            speed_meas_mps=speed,
+            scroll1=float(frac[0]),
+            scroll2=float(frac[1]),
+            scroll3=float(frac[2]),
+            scroll4=float(frac[3]),
+            pwm1_us=int(1500 + 500 * frac[0]),
+            pwm2_us=int(1500 + 500 * frac[1]),
+            pwm3_us=int(1500 + 500 * frac[2]),
+            pwm4_us=int(1500 + 500 * frac[3]),
+            mode="MANUAL",
+            armed=True,
+            nav_state="align" if vx == 0.0 else "track",
+            link_ok=True,
+            pose_fresh=True,
+        )
+        rec.record(row)
+        builder.add(row)
+        prev_xy = (x, y)
+        yaw = wrap_pi(yaw + wz * dt)
+        x += vx * math.cos(yaw) * dt
+        y += vx * math.sin(yaw) * dt
+        clock.advance(dt)
+    completed = target == len(SQUARE)
+    rec.finish(builder.build(completed, fault, 0 if completed else 4))
+    assert rec.run_dir is not None and not rec.degraded
+    return rec.run_dir, clock
+
+
+def test_synth_run_completes_the_square(tmp_path: Path) -> None:
+    run_dir, _ = synth_run(tmp_path)
+    summary = json.loads((run_dir / "summary.json").read_text())
+    assert summary["completed"] is True
+    assert summary["waypoints_reached"] == 4
+    # four ~10 m legs, each ended 1 m early by the arrival tolerance
+    assert 34.0 <= summary["path_length_m"] <= 38.0
+    rows = read_flight_csv(run_dir / "flight.csv")
+    assert len(rows) == summary["rows"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Layout
+
+
+def test_run_directory_layout(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
+    rec = create(tmp_path / "runs", clock)
+    assert rec.run_dir == tmp_path / "runs" / "20261121T031500Z-square"
+    assert (rec.run_dir / "mission.yaml").read_text() == SQUARE_YAML
+    assert (rec.run_dir / "config.yaml").read_text() == "control: {}\n"
+    lines = (rec.run_dir / "flight.csv").read_text().splitlines()
+    assert lines[0] == CSV_COMMENT and lines[0].startswith("# ")
+    assert lines[1].split(",") == list(COLUMNS)
+    for unit_col in ("t_boot_s", "north_m", "yaw_ned_rad", "vx_cmd_mps", "wz_cmd_radps"):
+        assert unit_col in lines[1]
+    events = [json.loads(x) for x in (rec.run_dir / "events.jsonl").read_text().splitlines()]
+    assert events[0]["event"] == "run_started"
+    assert events[0]["t_mono_s"] == clock()
+    rec.close()
+
+
+def test_same_second_runs_get_distinct_directories(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    a = create(tmp_path, clock)
+    a.close()
+    b = create(tmp_path, clock)
+    b.close()
+    assert a.run_dir is not None and b.run_dir is not None
+    assert b.run_dir.name == a.run_dir.name + "-2"
+
+
+def test_run_dir_name_is_utc_and_filesystem_safe() -> None:
+    from datetime import timedelta, timezone
+
+    local = datetime(2026, 11, 21, 5, 15, 0, tzinfo=timezone(timedelta(hours=2)))
+    assert run_dir_name("my mission/../x", local) == "20261121T031500Z-my_mission_.._x"
+
+
+def test_explicit_run_dir(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
+    target = tmp_path / "here"
+    rec = create(tmp_path / "unused", clock, run_dir=target)
+    assert rec.run_dir == target and (target / "flight.csv").is_file()
+    rec.close()
+    assert not (tmp_path / "unused").exists()
+
+
+# ---------------------------------------------------------------------------------------------
+# Rows
+
+
+def test_rows_round_trip_with_types(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
+    rec = create(tmp_path, clock)
+    rec.record(make_row(clock(), mode='HOLD, "odd"', armed=False, x_m=1.23456, yaw_rad=-3.1))
+    rec.record(make_row(clock() + 0.02, cross_track_m=math.nan, pwm1_us=1999, link_ok=False))
+    rec.close()
+    assert rec.run_dir is not None
+    rows = read_flight_csv(rec.run_dir / "flight.csv")
+    assert len(rows) == 2
+    assert rows[0]["mode"] == 'HOLD, "odd"' and rows[0]["armed"] is False
+    assert rows[0]["x_m"] == pytest.approx(1.235, abs=1e-9)  # 1 mm resolution
+    assert rows[0]["yaw_rad"] == pytest.approx(-3.1)
+    assert rows[0]["target_index"] == 1 and isinstance(rows[0]["target_index"], int)
+    assert math.isnan(float(rows[1]["cross_track_m"]))
+    assert rows[1]["pwm1_us"] == 1999 and rows[1]["link_ok"] is False
+
+
+def test_torn_last_line_is_skipped(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
+    rec = create(tmp_path, clock)
+    for i in range(3):
+        rec.record(make_row(clock() + i))
+    rec.close()
+    assert rec.run_dir is not None
+    path = rec.run_dir / "flight.csv"
+    path.write_text(path.read_text() + "1.0,2.0,3")  # power lost mid-row
+    assert len(read_flight_csv(path)) == 3
+
+
+def test_bad_row_is_skipped_not_raised(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
+    rec = create(tmp_path, clock)
+    rec.record(make_row(clock(), target_index=None))
+    rec.record(make_row(clock()))
+    rec.close()
+    assert rec.rows_written == 1 and not rec.degraded
+    assert len(logs.events("recorder_bad_row")) == 1
+
+
+# ---------------------------------------------------------------------------------------------
+# Incremental flush
+
+
+def test_rows_reach_the_disk_every_flush_interval_while_open(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    cfg = RecorderConfig(flush_interval_s=0.5)
+    rec = create(tmp_path, clock, cfg)
+    assert rec.run_dir is not None
+    path = rec.run_dir / "flight.csv"
+    step_s = 1.0 / 64  # ~50 Hz, exact in binary so the schedule is deterministic
+    per_flush = 32  # rows in one 0.5 s interval
+    on_disk: list[int] = []
+    for i in range(4 * per_flush):  # 2 s of rows
+        clock.advance(step_s)
+        rec.record(make_row(clock(), target_index=i))
+        on_disk.append(len(read_flight_csv(path)))
+    # buffered between flushes (nothing reaches the disk at once) ...
+    assert on_disk[10] == 0
+    # ... but never more than one interval behind
+    assert max(i + 1 - n for i, n in enumerate(on_disk)) < per_flush
+    # a flush every 0.5 s writes everything recorded so far
+    flush_points = [i for i in range(len(on_disk)) if on_disk[i] > (on_disk[i - 1] if i else 0)]
+    assert flush_points == [per_flush - 1, 2 * per_flush - 1, 3 * per_flush - 1, 4 * per_flush - 1]
+    assert all(on_disk[i] == i + 1 for i in flush_points)
+    for _ in range(5):
+        clock.advance(step_s)
+        rec.record(make_row(clock(), target_index=len(on_disk)))
+        on_disk.append(len(read_flight_csv(path)))
+    assert on_disk[-1] == 4 * per_flush
+    # a periodic maybe_flush() gets the tail out when steps stop
+    clock.advance(0.6)
+    rec.maybe_flush()
+    rows = read_flight_csv(path)
+    assert [r["target_index"] for r in rows] == list(range(4 * 32 + 5))
+    rec.close()
+
+
+def test_finish_writes_summary_atomically(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    rec = create(tmp_path, clock)
+    b = SummaryBuilder("square", "roll", 4)
+    for i in range(5):
+        row = make_row(clock() + i * 0.02)
+        rec.record(row)
+        b.add(row)
+    summary = b.build(False, "link_lost", 4)
+    rec.finish(summary)
+    rec.finish(summary)  # idempotent
+    assert rec.run_dir is not None
+    assert sorted(p.name for p in rec.run_dir.iterdir()) == [
+        "config.yaml",
+        "events.jsonl",
+        "flight.csv",
+        "mission.yaml",
+        "summary.json",
+    ]
+    data = json.loads((rec.run_dir / "summary.json").read_text())
+    assert data["fault"] == "link_lost" and data["exit_code"] == 4 and data["rows"] == 5
+    assert len(read_flight_csv(rec.run_dir / "flight.csv")) == 5
+    assert logging_setup.events_file_path() is None  # detached at the end
+
+
+# ---------------------------------------------------------------------------------------------
+# Write failures (tests may run as root: use failures root cannot bypass)
+
+
+def dev_full_for(name: str):  # type: ignore[no-untyped-def]
+    """An opener sending one file to /dev/full (ENOSPC on write-back, even for root)."""
+
+    def opener(path: Path, mode: str) -> IO[str]:
+        if path.name == name:
+            return open("/dev/full", mode, encoding="utf-8")
+        return default_opener(path, mode)
+
+    return opener
+
+
+def test_disk_full_mid_run_degrades_once_and_never_raises(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    opened: list[IO[str]] = []
+
+    def opener(path: Path, mode: str) -> IO[str]:
+        fh = default_opener(path, mode)
+        opened.append(fh)
+        return fh
+
+    rec = create(tmp_path, clock, opener=opener)
+    csv_fh = next(fh for fh in opened if getattr(fh, "name", "").endswith("flight.csv"))
+    for _ in range(30):
+        clock.advance(0.02)
+        rec.record(make_row(clock()))
+    assert not rec.degraded
+    # the disk fills up under the open file: point its descriptor at /dev/full
+    full = os.open("/dev/full", os.O_WRONLY)
+    os.dup2(full, csv_fh.fileno())
+    os.close(full)
+    for _ in range(200):  # 4 s more of control steps: must not raise
+        clock.advance(0.02)
+        rec.record(make_row(clock()))
+    rec.maybe_flush()
+    assert rec.degraded
+    b = SummaryBuilder("square", "roll", 4)
+    rec.finish(b.build(False, None, 0))
+    degraded = logs.events("recorder_degraded")
+    assert len(degraded) == 1
+    assert degraded[0]["errno"] == errno.ENOSPC
+    assert str(degraded[0]["path"]).endswith("flight.csv")
+    assert "recorder_degraded" in logs.console.getvalue()
+    assert rec.run_dir is not None and not (rec.run_dir / "summary.json").exists()
+
+
+def test_disk_full_at_start_continue_mode(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    rec = create(tmp_path, clock, opener=dev_full_for("flight.csv"))
+    assert rec.degraded
+    for _ in range(50):
+        clock.advance(0.02)
+        rec.record(make_row(clock()))
+    rec.finish(SummaryBuilder("square", "roll", 4).build(True, None, 0))
+    (event,) = logs.events("recorder_degraded")
+    assert event["errno"] == errno.ENOSPC and event["stage"] == "create"
+
+
+def test_disk_full_at_start_refuse_mode_raises(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    cfg = RecorderConfig(on_write_error="refuse")
+    with pytest.raises(RecorderUnavailable) as info:
+        create(tmp_path, clock, cfg, opener=dev_full_for("config.yaml"))
+    assert info.value.errno == errno.ENOSPC
+    assert "config.yaml" in str(info.value) and "on_write_error" in str(info.value)
+    assert logging_setup.events_file_path() is None
+
+
+def test_unwritable_run_root_refuse_and_continue(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    blocker = tmp_path / "not_a_dir"
+    blocker.write_text("a file where the run root should be")
+    root = blocker / "runs"  # ENOTDIR for everyone, root included
+    with pytest.raises(RecorderUnavailable) as info:
+        create(root, clock, RecorderConfig(on_write_error="refuse"))
+    assert info.value.errno == errno.ENOTDIR
+    assert str(blocker) in str(info.value)
+    rec = create(root, clock, RecorderConfig(on_write_error="continue"))
+    assert rec.degraded and rec.run_dir is None
+    rec.record(make_row(clock()))
+    rec.finish(SummaryBuilder().build(False, None, 0))
+    assert len(logs.events("recorder_degraded")) == 1
+
+
+def test_chmod_read_only_run_root(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
+    root = tmp_path / "ro"
+    root.mkdir()
+    root.chmod(0o500)
+    try:
+        if os.geteuid() == 0:
+            # root ignores mode bits: the directory really is writable for it
+            rec = create(root, clock, RecorderConfig(on_write_error="refuse"))
+            assert not rec.degraded
+            rec.close()
+        else:
+            with pytest.raises(RecorderUnavailable) as info:
+                create(root, clock, RecorderConfig(on_write_error="refuse"))
+            assert info.value.errno == errno.EACCES
+    finally:
+        root.chmod(0o700)
+
+
+def test_record_after_close_is_ignored(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
+    rec = create(tmp_path, clock)
+    rec.close()
+    rec.record(make_row(clock()))
+    assert rec.rows_written == 0
+
+
+def test_nan_row_helper() -> None:
+    row = replace(nan_row(mode="X"), x_m=1.0)
+    assert row.mode == "X" and row.x_m == 1.0 and math.isnan(row.y_m)
