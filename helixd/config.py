@@ -364,6 +364,12 @@ class LinkConfig(StrictModel):
     tcp_connect_timeout_s: float = Field(
         5.0, gt=0.0, le=60.0, description="give up a tcp: connection attempt after (s)"
     )
+    command_settle_s: float = Field(
+        0.02,
+        ge=0.0,
+        le=1.0,
+        description="quiet gap before re-using a command id; a duplicated ack in it is dropped (s)",
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -501,6 +507,15 @@ class SafetyConfig(StrictModel):
     )
     disarm_on_fault: bool = Field(False, description="disarm after the fall-back to HOLD")
     force_arm: bool = Field(False, description="force-arm (21196) when PreArm checks refuse")
+    arm_timeout_s: float = Field(
+        30.0,
+        gt=0.0,
+        le=600.0,
+        description="keep asking to arm while PreArm checks refuse, at most this long (s)",
+    )
+    arm_retry_interval_s: float = Field(
+        2.0, gt=0.0, le=60.0, description="pause between arming attempts (s)"
+    )
     start_switch_channel: int | None = Field(
         None, ge=1, le=18, description="RC channel the pilot flips to start (None = start at once)"
     )

@@ -29,7 +29,7 @@ from helixd.display import ProgressDisplay, ProgressInfo
 from helixd.exitcodes import ExitCode
 from helixd.flight import MANUAL_MODE, FlightLoop, Progress
 from helixd.frames import MissionFrame, NedPose
-from helixd.link.commands import CommandError
+from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
@@ -74,7 +74,9 @@ class RunOutcome:
 
 
 @contextlib.asynccontextmanager
-async def phase(name: str, notifier: ServiceNotifier, display: ProgressDisplay) -> AsyncIterator[None]:
+async def phase(
+    name: str, notifier: ServiceNotifier, display: ProgressDisplay
+) -> AsyncIterator[None]:
     """Log a phase's start and end with its duration; tell systemd and the operator."""
     t0 = time.monotonic()
     log.info("phase_start", phase=name)
@@ -183,9 +185,12 @@ class MissionRunner:
             ap.feed()
             sample = await self._until_stopped(ap.wait_pose(after_rx_s=None, timeout_s=0.2))
             ekf = ap.state.ekf
-            if sample is not None and ekf is not None and ekf.healthy:
-                if time.monotonic() - sample.rx_monotonic_s <= self.cfg.safety.pose_stale_s:
-                    return sample.ned
+            fresh = (
+                sample is not None
+                and time.monotonic() - sample.rx_monotonic_s <= self.cfg.safety.pose_stale_s
+            )
+            if sample is not None and fresh and ekf is not None and ekf.healthy:
+                return sample.ned
         sample = ap.state.pose
         return None if sample is None else sample.ned
 
@@ -210,9 +215,84 @@ class MissionRunner:
         )
 
     async def _arm(self, ap: Autopilot) -> None:
-        if not ap.state.armed:
-            await ap.arm(force=self.cfg.safety.force_arm)
-            self.armed_by_us = True
+        """Arm, re-trying while PreArm checks refuse (e.g. 'waiting for home' after boot)."""
+        if ap.state.armed:
+            return
+        deadline = time.monotonic() + self.cfg.safety.arm_timeout_s
+        while True:
+            try:
+                await ap.arm(force=self.cfg.safety.force_arm)
+                self.armed_by_us = True
+                await self._confirm_armed(ap)
+                return
+            except CommandRejected as exc:
+                if time.monotonic() + self.cfg.safety.arm_retry_interval_s > deadline:
+                    raise
+                log.warning(
+                    "arm_refused_retrying",
+                    reason=str(exc),
+                    retry_in_s=self.cfg.safety.arm_retry_interval_s,
+                )
+                self.display.phase(f"arm (autopilot says: {exc.statustext or exc.result_name})")
+                await asyncio.sleep(self.cfg.safety.arm_retry_interval_s)
+
+    async def _confirm_armed(self, ap: Autopilot) -> None:
+        """The ACK says 'accepted'; the HEARTBEAT's armed flag says it happened."""
+        deadline = time.monotonic() + self.cfg.safety.heartbeat_timeout_s * 2
+        while not ap.state.armed:
+            if time.monotonic() > deadline:
+                raise PreflightFailed(["arming was accepted but HEARTBEAT never showed armed"])
+            await ap.wait_pose(after_rx_s=None, timeout_s=0.05)
+
+    @contextlib.asynccontextmanager
+    async def _feeding(self) -> AsyncIterator[None]:
+        """Keep our HEARTBEAT going during the setup phases (param reads, arming retries).
+
+        The control loop feeds the heartbeat itself while flying; this feeder exists only
+        before it, and is cancelled before the fly phase starts.
+        """
+        period_s = self.cfg.link.heartbeat_liveness_s / 3
+
+        async def feeder() -> None:
+            while True:
+                if self.ap is not None:
+                    self.ap.feed()
+                    self.notifier.watchdog()
+                await asyncio.sleep(period_s)
+
+        task = asyncio.create_task(feeder(), name="setup-feeder")
+        try:
+            yield
+        finally:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+
+    async def _setup(self) -> tuple[Autopilot, NedPose]:
+        """connect → preflight → start gate → MANUAL → arm. Returns the start pose."""
+        async with phase("connect", self.notifier, self.display):
+            ap = await self._connect()
+        async with phase("preflight", self.notifier, self.display):
+            start_ned, origin = await self._preflight(ap)
+            self.plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
+            last = self.plan.waypoints[-1]
+            self.summary = SummaryBuilder(final_xy_m=(last.x_m, last.y_m))
+            if origin is not None:
+                self.summary.set_origin(*origin)
+        # READY once preflight passed: the start gate may wait minutes for the pilot, and
+        # systemd's TimeoutStartSec must not kill that wait; the watchdog runs from here on.
+        self.notifier.ready("preflight passed")
+        async with phase("start_gate", self.notifier, self.display):
+            await self._start_gate(ap)
+        async with phase("set_manual", self.notifier, self.display):
+            await self._until_stopped(ap.set_mode(MANUAL_MODE))
+        if self.sink is None:
+            self.sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
+            await self.sink.start()
+        async with phase("arm", self.notifier, self.display):
+            await self._until_stopped(self._arm(ap))
+        # The mission frame starts where the rover is now, after the pilot's start switch.
+        return ap, await self._fresh_pose(ap) or start_ned
 
     # -- the run ------------------------------------------------------------------------------
 
@@ -237,38 +317,22 @@ class MissionRunner:
             )
         except RecorderUnavailable as exc:
             return RunOutcome(ExitCode.PREFLIGHT, None, None, [str(exc)])
-        log.info("helixd_start", version=__version__, mission=self.opts.mission.name,
-                 connect=self.opts.connect_url, run_dir=str(self.recorder.run_dir))
+        log.info(
+            "helixd_start",
+            version=__version__,
+            mission=self.opts.mission.name,
+            connect=self.opts.connect_url,
+            run_dir=str(self.recorder.run_dir),
+        )
         code = ExitCode.INTERNAL_ERROR
         fault: Fault | None = None
         detected_s: float | None = None
         last_pose: NedPose | None = None
         started = time.monotonic()
         try:
-            async with phase("connect", self.notifier, self.display):
-                ap = await self._connect()
-            async with phase("preflight", self.notifier, self.display):
-                start_ned, origin = await self._preflight(ap)
-                self.plan = resolve_plan(
-                    self.opts.mission, self.cfg.control, self.cfg.mission, origin
-                )
-                last = self.plan.waypoints[-1]
-                self.summary = SummaryBuilder(final_xy_m=(last.x_m, last.y_m))
-                if origin is not None:
-                    self.summary.set_origin(*origin)
-            # READY once preflight passed: the start gate may wait minutes for the pilot, and
-            # systemd's TimeoutStartSec must not kill that wait; the watchdog runs from here on.
-            self.notifier.ready("preflight passed")
-            async with phase("start_gate", self.notifier, self.display):
-                await self._start_gate(ap)
-                start_ned = await self._fresh_pose(ap) or start_ned
-            async with phase("set_manual", self.notifier, self.display):
-                await self._until_stopped(ap.set_mode(MANUAL_MODE))
-            if self.sink is None:
-                self.sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
-                await self.sink.start()
-            async with phase("arm", self.notifier, self.display):
-                await self._until_stopped(self._arm(ap))
+            async with self._feeding():
+                ap, start_ned = await self._setup()
+            assert self.plan is not None and self.sink is not None
             frame = (
                 MissionFrame.start_at(start_ned)
                 if self.plan.frame is MissionFrameKind.START
@@ -318,11 +382,15 @@ class MissionRunner:
         finally:
             await self._shutdown(fault, detected_s, last_pose, code)
         summary = self._finish(fault, code, started)
-        return RunOutcome(code, summary, self.recorder.run_dir if self.recorder else None,
-                          self.messages)
+        return RunOutcome(
+            code, summary, self.recorder.run_dir if self.recorder else None, self.messages
+        )
 
     async def _shutdown(
-        self, fault: Fault | None, detected_s: float | None, last_pose: NedPose | None,
+        self,
+        fault: Fault | None,
+        detected_s: float | None,
+        last_pose: NedPose | None,
         code: ExitCode,
     ) -> None:
         """Always: stop the scrolls, release overrides, ask for HOLD (if we touched anything)."""
@@ -361,9 +429,10 @@ class MissionRunner:
         )
         if self.recorder is not None:
             self.recorder.finish(summary)
-        log.info("helixd_exit", exit_code=int(code), completed=summary.completed,
-                 fault=summary.fault)
-        self.display.final(summary)
+        log.info(
+            "helixd_exit", exit_code=int(code), completed=summary.completed, fault=summary.fault
+        )
+        self.display.final(summary, run_dir=self.recorder.run_dir if self.recorder else None)
         return summary
 
     # -- loop callbacks (cheap: called at the control rate) --------------------------------------
@@ -385,13 +454,15 @@ class MissionRunner:
                 link_ok=p.link_ok,
                 pose_fresh=p.pose_fresh,
                 elapsed_s=p.elapsed_s,
+                nav_state=p.state,
             )
         )
 
     def _on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
         self.summary.arrival(index, t_boot_s, error_m)
-        log.info("waypoint_reached", index=index, t_boot_s=round(t_boot_s, 2),
-                 error_m=round(error_m, 3))
+        log.info(
+            "waypoint_reached", index=index, t_boot_s=round(t_boot_s, 2), error_m=round(error_m, 3)
+        )
 
     def _on_tick(self) -> None:
         if self.ap is not None:
