@@ -1,0 +1,187 @@
+"""Every fault mid-mission ends with scrolls neutral, overrides released and HOLD — as the
+autopilot (simulator) sees it — within 0.5 s of detection, and the documented exit code."""
+
+from __future__ import annotations
+
+import json
+import signal
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from helixd.exitcodes import ExitCode
+from tests.integration.daemon_harness import (
+    SPEEDUP,
+    overrides_released,
+    scrolls_neutral,
+    secured,
+    sim_and_daemon,
+    time_until,
+    wait_moving,
+)
+
+pytestmark = pytest.mark.integration
+
+FALLBACK_S = 0.5  # DESIGN §6: stopped, released and HOLD within 0.5 s of detection
+# A loaded 2-core CI box adds scheduling latency to both processes; measured values are
+# printed, the bound asserted is the requirement plus this allowance.
+SCHEDULING_SLACK_S = 0.25
+
+
+def summary(run_dir: Path) -> dict[str, Any]:
+    data: dict[str, Any] = json.loads((run_dir / "summary.json").read_text())
+    return data
+
+
+def check_fallback(
+    tmp_path: Path,
+    inject: str,
+    detection_s: float,
+    exit_code: ExitCode,
+    cause: str,
+    config: dict[str, Any] | None = None,
+    **kwargs: Any,
+) -> float:
+    with sim_and_daemon(tmp_path, "square", config) as (server, d):
+        wait_moving(server)
+        t0 = time.monotonic()
+        if inject.startswith("signal:"):
+            d.signal(signal.Signals[inject.split(":", 1)[1]])
+        elif inject.startswith("rc:"):
+            channel, pwm = (int(v) for v in inject.split(":")[1:])
+            server.set_rc(channel, pwm)
+        else:
+            server.inject(inject, **kwargs)
+        elapsed = time_until(server, secured, t0, timeout_s=detection_s + 10.0)
+        code = d.wait_exit(20.0)
+        log = d.log_text()
+        run_dir = d.run_dir()
+    print(f"{inject}: secured {elapsed:.3f} s after injection (detection budget {detection_s} s)")
+    assert code == exit_code, log[-3000:]
+    assert elapsed <= detection_s + FALLBACK_S + SCHEDULING_SLACK_S
+    assert "event=fallback" in log and f"cause={cause}" in log
+    s = summary(run_dir)
+    assert s["completed"] is False
+    assert s["fault"].startswith(cause)
+    return elapsed
+
+
+def test_sigint_mid_mission(tmp_path: Path) -> None:
+    check_fallback(tmp_path, "signal:SIGINT", 0.1, ExitCode.OPERATOR_STOP, "signal")
+
+
+def test_sigterm_mid_mission(tmp_path: Path) -> None:
+    check_fallback(tmp_path, "signal:SIGTERM", 0.1, ExitCode.OPERATOR_STOP, "signal")
+
+
+def test_pilot_takeover_by_mode_switch(tmp_path: Path) -> None:
+    # The pilot flips the mode switch to HOLD. HOLD alone does not stop a passthrough output
+    # with an override active: helixd must notice, stop its scrolls and release.
+    check_fallback(tmp_path, "pilot_takeover", 0.2, ExitCode.OPERATOR_STOP, "pilot_takeover")
+
+
+def test_pilot_takeover_by_rc_switch(tmp_path: Path) -> None:
+    cfg = {"safety": {"takeover": {"switch_channel": 7, "switch_threshold_us": 1700}}}
+    check_fallback(tmp_path, "rc:7:1900", 0.2, ExitCode.OPERATOR_STOP, "pilot_takeover", cfg)
+
+
+def test_pilot_takeover_by_stick_deflection(tmp_path: Path) -> None:
+    # Sticks on channels helixd does not override (5, 6) are visible in RC_CHANNELS.
+    cfg = {"safety": {"takeover": {"stick_channels": [5, 6], "stick_deflection_us": 150}}}
+    check_fallback(tmp_path, "rc:6:1750", 0.2, ExitCode.OPERATOR_STOP, "pilot_takeover", cfg)
+
+
+def test_autopilot_link_lost(tmp_path: Path) -> None:
+    # Both directions drop for 3 s (wall): the daemon detects it as a stale pose (0.5 s)
+    # before the HEARTBEAT timeout (2 s); its neutral/release cannot get through, so the autopilot's RC_OVERRIDE_TIME
+    # hands the outputs back to the pilot; the HOLD request, re-sent until acknowledged,
+    # lands when the link returns.
+    with sim_and_daemon(tmp_path, "square") as (server, d):
+        wait_moving(server)
+        t0 = time.monotonic()
+        server.inject("link_drop", duration_s=3.0 * SPEEDUP)
+        override_time_s = 3.0 / SPEEDUP  # RC_OVERRIDE_TIME in wall seconds
+        released = time_until(
+            server, lambda s: overrides_released(s) and scrolls_neutral(s), t0, 5.0
+        )
+        held = time_until(server, secured, t0, 10.0)
+        code = d.wait_exit(20.0)
+        log = d.log_text()
+    print(f"link_drop: outputs back to the pilot after {released:.3f} s, HOLD after {held:.3f} s")
+    assert released <= override_time_s + FALLBACK_S + SCHEDULING_SLACK_S
+    assert held <= 3.0 + FALLBACK_S + SCHEDULING_SLACK_S  # as soon as the link is back
+    assert code == ExitCode.FAULT
+    assert "cause=pose_stale" in log or "cause=link_lost" in log
+
+
+def test_pose_stale(tmp_path: Path) -> None:
+    check_fallback(
+        tmp_path, "stale_pose", 0.5, ExitCode.FAULT, "pose_stale", duration_s=30.0 * SPEEDUP
+    )
+
+
+def test_ekf_unhealthy(tmp_path: Path) -> None:
+    check_fallback(
+        tmp_path, "ekf_unhealthy", 0.3, ExitCode.FAULT, "ekf_unhealthy", duration_s=30.0 * SPEEDUP
+    )
+
+
+def test_geofence(tmp_path: Path) -> None:
+    # The square's first leg runs 10 m forward; a 3 m fence is crossed mid-leg.
+    with sim_and_daemon(tmp_path, "square", {"safety": {"geofence_radius_m": 3.0}}) as (
+        server,
+        d,
+    ):
+        wait_moving(server)
+        crossed = server.wait_for(lambda s: (s.north_m**2 + s.east_m**2) ** 0.5 > 3.0, 30.0)
+        t0 = time.monotonic()
+        elapsed = time_until(server, secured, t0, 5.0)
+        code = d.wait_exit(20.0)
+        log = d.log_text()
+    assert crossed is not None
+    print(f"geofence: secured {elapsed:.3f} s after the rover crossed 3 m")
+    assert elapsed <= 0.1 + FALLBACK_S + SCHEDULING_SLACK_S
+    assert code == ExitCode.FAULT and "cause=geofence" in log
+
+
+def test_mission_time_limit(tmp_path: Path) -> None:
+    with sim_and_daemon(tmp_path, "square", {"safety": {"mission_time_limit_s": 2.0}}) as (
+        server,
+        d,
+    ):
+        wait_moving(server)
+        server.wait_for(secured, 10.0)
+        code = d.wait_exit(20.0)
+        log = d.log_text()
+    assert code == ExitCode.FAULT and "cause=mission_time" in log
+
+
+def test_stall_dig_in(tmp_path: Path) -> None:
+    cfg = {"safety": {"stall": {"duration_s": 1.0}}}
+    check_fallback(
+        tmp_path, "stall", 1.0 + 0.3, ExitCode.FAULT, "stall", cfg, duration_s=60.0 * SPEEDUP
+    )
+
+
+def test_rc_signal_loss(tmp_path: Path) -> None:
+    # ArduPilot's RC failsafe switches to HOLD by itself; helixd sees a mode it did not set and
+    # still stops its outputs and releases its overrides (HOLD does not stop passthrough).
+    check_fallback(
+        tmp_path, "rc_loss", 0.3, ExitCode.OPERATOR_STOP, "pilot_takeover", duration_s=60.0
+    )
+
+
+def test_autopilot_reboot(tmp_path: Path) -> None:
+    with sim_and_daemon(tmp_path, "square") as (server, d):
+        wait_moving(server)
+        server.inject("reboot")
+        code = d.wait_exit(30.0)
+        log = d.log_text()
+        snap = server.snapshot()
+    # After a reboot nothing of ours may be left: no override, no arming.
+    assert code == ExitCode.FAULT, log[-3000:]
+    assert not snap.armed
+    assert overrides_released(snap)
+    assert "event=fallback" in log
