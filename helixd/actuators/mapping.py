@@ -1,0 +1,93 @@
+"""Scroll fraction ⇄ PWM, and the RC_CHANNELS_OVERRIDE frames (pure functions).
+
+PWM per :class:`helixd.config.ChannelConfig`: ``trim + f·(max − trim)`` for f > 0,
+``trim + f·(trim − min)`` for f < 0 (``reversed`` swaps the ends), ``|pwm − trim| <
+deadband_us`` sent as trim, clamped to [min, max].
+
+RC_CHANNELS_OVERRIDE field semantics (ArduPilot GCS_MAVLINK::handle_rc_channels_override and
+the MAVLink spec; DESIGN §3):
+
+=============  ==========================  ===================================
+channels       leave unchanged (not ours)  release to the pilot's radio
+=============  ==========================  ===================================
+1–8            UINT16_MAX (65535)          0
+9–18           0 (or UINT16_MAX)           UINT16_MAX − 1 (65534)
+=============  ==========================  ===================================
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+
+from helixd.config import ChannelConfig
+
+RC_OVERRIDE_CHANNELS = 18
+FIRST_EXTENDED_CHANNEL = 9  # channels 9..18 use the second set of semantics
+UINT16_MAX = 65535
+
+
+def neutral_pwm(ch: ChannelConfig) -> int:
+    return ch.pwm_trim_us
+
+
+def fraction_to_pwm(fraction: float, ch: ChannelConfig) -> int:
+    """Signed fraction of max scroll speed → PWM (µs). Non-finite input gives neutral."""
+    if not math.isfinite(fraction):
+        return ch.pwm_trim_us
+    f = max(-1.0, min(1.0, fraction))
+    if ch.reversed:
+        f = -f
+    trim = ch.pwm_trim_us
+    span = (ch.pwm_max_us - trim) if f > 0 else (trim - ch.pwm_min_us)
+    pwm = round(trim + f * span)
+    if abs(pwm - trim) < ch.deadband_us:
+        pwm = trim
+    return max(ch.pwm_min_us, min(ch.pwm_max_us, pwm))
+
+
+def pwm_to_fraction(pwm_us: float, ch: ChannelConfig) -> float:
+    """Inverse of :func:`fraction_to_pwm` (up to rounding; deadband reads as 0)."""
+    trim = ch.pwm_trim_us
+    if abs(pwm_us - trim) < ch.deadband_us:
+        return 0.0
+    pwm = max(ch.pwm_min_us, min(ch.pwm_max_us, pwm_us))
+    if pwm >= trim:
+        f = (pwm - trim) / (ch.pwm_max_us - trim)
+    else:
+        f = (pwm - trim) / (trim - ch.pwm_min_us)
+    return -f if ch.reversed else f
+
+
+def leave_unchanged_value(channel: int) -> int:
+    _check_channel(channel)
+    return UINT16_MAX if channel < FIRST_EXTENDED_CHANNEL else 0
+
+
+def release_value(channel: int) -> int:
+    _check_channel(channel)
+    return 0 if channel < FIRST_EXTENDED_CHANNEL else UINT16_MAX - 1
+
+
+def override_frame(values_us: Mapping[int, int]) -> tuple[int, ...]:
+    """18 override fields: ``values_us`` (channel → µs) on ours, "leave unchanged" elsewhere."""
+    frame = [leave_unchanged_value(c) for c in range(1, RC_OVERRIDE_CHANNELS + 1)]
+    for channel, pwm in values_us.items():
+        _check_channel(channel)
+        if pwm in (0, UINT16_MAX, UINT16_MAX - 1):
+            raise ValueError(f"channel {channel}: {pwm} is a reserved override value, not a PWM")
+        frame[channel - 1] = int(pwm)
+    return tuple(frame)
+
+
+def release_frame(channels: Iterable[int]) -> tuple[int, ...]:
+    """18 override fields releasing ``channels`` and leaving every other channel alone."""
+    frame = [leave_unchanged_value(c) for c in range(1, RC_OVERRIDE_CHANNELS + 1)]
+    for channel in channels:
+        frame[channel - 1] = release_value(channel)
+    return tuple(frame)
+
+
+def _check_channel(channel: int) -> None:
+    if not 1 <= channel <= RC_OVERRIDE_CHANNELS:
+        raise ValueError(f"RC channel {channel} is outside 1..{RC_OVERRIDE_CHANNELS}")

@@ -1,0 +1,133 @@
+"""RC_CHANNELS_OVERRIDE sink (the default backend).
+
+Each scroll drives one RC channel; the autopilot passes it to a servo output set to
+RCIN<n> passthrough. ArduPilot accepts overrides only from ``MAV_GCS_SYSID`` and drops each
+channel's override ``RC_OVERRIDE_TIME`` (default 3 s) after its last update — so a dead
+helixd hands the scrolls back to the pilot's radio by itself. While healthy, the latest
+frame is re-sent at ``repeat_rate_hz`` (≥ 10 Hz) so that timeout never fires; a new
+command is sent at once (the repeater only fills the gaps).
+
+Channels we do not drive are sent as "leave unchanged" (65535 on 1–8, 0 on 9–18). Stopping
+sends neutral, holds it for ``neutral_hold_s`` (if the release is lost, the last override is
+neutral and expires), then the release (0 on 1–8, 65534 on 9–18) ``release_repeats`` times.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import time
+from collections.abc import Sequence
+from typing import Protocol
+
+import structlog
+
+from helixd.actuators.base import checked_fractions
+from helixd.actuators.mapping import (
+    fraction_to_pwm,
+    neutral_pwm,
+    override_frame,
+    release_frame,
+)
+from helixd.config import ActuationConfig, VehicleConfig
+
+log = structlog.get_logger(__name__)
+
+
+class OverrideSender(Protocol):
+    def send_rc_override(self, channels_us: Sequence[int]) -> None: ...
+
+
+class RcOverrideSink:
+    def __init__(
+        self, actuation: ActuationConfig, vehicle: VehicleConfig, ap: OverrideSender
+    ) -> None:
+        self._cfg = actuation
+        self._clamp = vehicle.output_clamp
+        self._ap = ap
+        self._channels = tuple(actuation.channels)
+        neutral = tuple(neutral_pwm(c) for c in self._channels)
+        self._neutral: tuple[int, int, int, int] = (neutral[0], neutral[1], neutral[2], neutral[3])
+        self.last_pwm_us: tuple[int, int, int, int] = self._neutral
+        self.held_channels: frozenset[int] = frozenset()
+        self.frames_sent = 0
+        self._frame: tuple[int, ...] | None = None
+        self._last_send_s = -math.inf
+        self._task: asyncio.Task[None] | None = None
+        self._warned_idle = False
+
+    async def start(self) -> None:
+        if self._task is not None:
+            return
+        self._set(self._neutral)
+        self.held_channels = frozenset(c.channel for c in self._channels)
+        self._task = asyncio.get_running_loop().create_task(self._repeat(), name="rc_repeater")
+        log.info(
+            "rc_override_started",
+            channels=sorted(self.held_channels),
+            repeat_rate_hz=self._cfg.repeat_rate_hz,
+        )
+
+    def command(self, fractions: Sequence[float]) -> None:
+        f = checked_fractions(fractions, self._clamp)
+        if self._task is None:
+            if not self._warned_idle:
+                log.warning("rc_override_not_started", fractions=f)
+                self._warned_idle = True
+            return
+        pwm = tuple(fraction_to_pwm(x, ch) for x, ch in zip(f, self._channels, strict=True))
+        self._set((pwm[0], pwm[1], pwm[2], pwm[3]))
+
+    def _set(self, pwm: tuple[int, int, int, int]) -> None:
+        self.last_pwm_us = pwm
+        self._frame = override_frame(
+            {ch.channel: p for ch, p in zip(self._channels, pwm, strict=True)}
+        )
+        self._send(self._frame)
+
+    def _send(self, frame: tuple[int, ...]) -> None:
+        self._ap.send_rc_override(frame)
+        self._last_send_s = time.monotonic()
+        self.frames_sent += 1
+
+    async def _repeat(self) -> None:
+        period_s = 1.0 / self._cfg.repeat_rate_hz
+        while True:
+            wait_s = self._last_send_s + period_s - time.monotonic()
+            if wait_s > 0:
+                await asyncio.sleep(wait_s)
+                continue
+            if self._frame is not None:
+                self._send(self._frame)
+
+    async def stop(self) -> None:
+        task, self._task = self._task, None
+        if task is not None:
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
+        held = self.held_channels
+        if not held:
+            return
+        cfg = self._cfg
+        try:
+            async with asyncio.timeout(cfg.stop_timeout_s):
+                self._set(self._neutral)
+                await asyncio.sleep(cfg.neutral_hold_s)
+                release = release_frame(held)
+                for i in range(cfg.release_repeats):
+                    if i:
+                        await asyncio.sleep(cfg.release_spacing_s)
+                    self._send(release)
+            log.info("rc_override_released", channels=sorted(held), repeats=cfg.release_repeats)
+        except TimeoutError:
+            log.error(
+                "rc_override_release_late", channels=sorted(held), timeout_s=cfg.stop_timeout_s
+            )
+        except Exception:
+            log.exception("rc_override_release_failed", channels=sorted(held))
+        finally:
+            self._frame = None
+            self.held_channels = frozenset()
+
+    async def close(self) -> None:
+        await self.stop()

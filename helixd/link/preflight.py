@@ -1,0 +1,288 @@
+"""Will the autopilot obey us? Parameter checks before anything is armed or driven.
+
+Reads the parameters concurrently (a missing one costs one command timeout, in parallel) and
+judges them with the pure :func:`judge`. Every problem says exactly what to change.
+
+What is checked (ArduPilot Rover, DESIGN §3):
+
+* GCS system id — ``MAV_GCS_SYSID`` (current) or ``SYSID_MYGCS`` (legacy), whichever exists.
+  RC overrides from any other sysid are silently ignored (error for ``rc_override``); the GCS
+  failsafe only counts that sysid's heartbeats (warning otherwise).
+* ``RC_OVERRIDE_TIME`` (rc_override) — 0 disables overrides altogether (RC_Channel::has_override:
+  "overrides are explicitly disabled by a zero value") → error; negative means they never
+  expire, so a dead helixd would keep driving → warning; a repeat period not well inside it →
+  warning.
+* ``RC_OPTIONS`` bit 1 (value 2) "Ignore MAVLink Overrides" (rc_override) → error.
+* Per driven channel n (rc_override): the override sets RC *input* n; the scroll's motor
+  controller sits on servo output n, which follows RC input n only with
+  ``SERVOn_FUNCTION = 50+n`` (RCINn) or 1 (RCPassThru, same number). Any other function means
+  ArduPilot drives that output itself (or nothing does) → error. RC inputs only exist for
+  passthrough on 1..16. ``MODE_CH`` = n would turn every override into a mode change, and an
+  ``RCn_OPTION`` aux function would fire on override values → errors.
+* Per driven channel n (servo): DO_SET_SERVO is refused unless ``SERVOn_FUNCTION`` is 0, 1, 22,
+  23 or 51–66 → error; anything but 0 also feeds the output from elsewhere → warning.
+* ``FS_GCS_ENABLE`` = 0 → warning: nothing on the autopilot notices a dead helixd.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Literal, Protocol
+
+from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
+
+Severity = Literal["error", "warning"]
+
+RCIN_FIRST_FUNCTION = 51  # RCIN1; RCINn = 50 + n
+RCIN_LAST_CHANNEL = 16
+SERVO_FUNCTION_DISABLED = 0
+SERVO_FUNCTION_RC_PASSTHRU = 1
+SERVO_ALLOWED_FUNCTIONS = frozenset({0, 1, 22, 23, *range(51, 67)})
+RC_OPTIONS_IGNORE_OVERRIDES = 2  # bit 1
+RECOMMENDED_OVERRIDE_TIME_S = 3.0
+
+
+@dataclass(frozen=True, slots=True)
+class PreflightProblem:
+    severity: Severity
+    message: str
+    param: str | None = None
+
+    def __str__(self) -> str:
+        return f"{self.severity}: {self.message}"
+
+
+class ParamReader(Protocol):
+    async def get_param(
+        self, name: str, timeout_s: float | None = ..., retries: int | None = ...
+    ) -> float | None: ...
+
+
+LEGACY_GCS_SYSID = "SYSID_MYGCS"
+
+
+def param_names(actuation: ActuationConfig) -> list[str]:
+    """Parameters to read (the legacy SYSID_MYGCS only if MAV_GCS_SYSID turns out missing)."""
+    names = ["MAV_GCS_SYSID", "FS_GCS_ENABLE"]
+    if actuation.backend is ActuationBackend.RC_OVERRIDE:
+        names += ["RC_OVERRIDE_TIME", "RC_OPTIONS", "MODE_CH"]
+        names += [
+            f"RC{ch.channel}_OPTION" for ch in actuation.channels if ch.channel <= RCIN_LAST_CHANNEL
+        ]
+    if actuation.backend is not ActuationBackend.DRY_RUN:
+        names += [f"SERVO{ch.channel}_FUNCTION" for ch in actuation.channels]
+    return names
+
+
+async def check_obedience(
+    ap: ParamReader, actuation: ActuationConfig, link: LinkConfig
+) -> list[PreflightProblem]:
+    """Read the parameters that decide whether we are obeyed; return every problem found."""
+    names = param_names(actuation)
+    values = await asyncio.gather(*(ap.get_param(n) for n in names))
+    params: dict[str, float | None] = dict(zip(names, values, strict=True))
+    if params["MAV_GCS_SYSID"] is None:  # older firmware: the GCS sysid had another name
+        params[LEGACY_GCS_SYSID] = await ap.get_param(LEGACY_GCS_SYSID)
+    return judge(params, actuation, link)
+
+
+def _int(value: float) -> int:
+    return round(value)
+
+
+def judge(
+    params: Mapping[str, float | None], actuation: ActuationConfig, link: LinkConfig
+) -> list[PreflightProblem]:
+    """The pure part of :func:`check_obedience`."""
+    out = _gcs_sysid(params, actuation, link)
+    backend = actuation.backend
+    if backend is ActuationBackend.RC_OVERRIDE:
+        out += _override_params(params, actuation)
+        for ch in actuation.channels:
+            out += _rc_channel(params, ch.channel)
+    elif backend is ActuationBackend.SERVO:
+        for ch in actuation.channels:
+            out += _servo_channel(params, ch.channel)
+    fs = params.get("FS_GCS_ENABLE")
+    if fs is not None and _int(fs) == 0:
+        out.append(
+            PreflightProblem(
+                "warning",
+                "FS_GCS_ENABLE = 0: the autopilot will not notice if helixd dies; set "
+                "FS_GCS_ENABLE = 1 (and FS_ACTION = 2 for HOLD)",
+                "FS_GCS_ENABLE",
+            )
+        )
+    return out
+
+
+def _gcs_sysid(
+    params: Mapping[str, float | None], actuation: ActuationConfig, link: LinkConfig
+) -> list[PreflightProblem]:
+    name = "MAV_GCS_SYSID" if params.get("MAV_GCS_SYSID") is not None else "SYSID_MYGCS"
+    value = params.get(name)
+    rc = actuation.backend is ActuationBackend.RC_OVERRIDE
+    if value is None:
+        return [
+            PreflightProblem(
+                "error" if rc else "warning",
+                "the autopilot has neither MAV_GCS_SYSID nor SYSID_MYGCS: cannot confirm it "
+                f"accepts commands from system {link.source_system}",
+            )
+        ]
+    gcs = _int(value)
+    if gcs == link.source_system:
+        return []
+    what = (
+        "RC overrides from helixd would be silently ignored"
+        if rc
+        else "the autopilot's GCS failsafe will not see helixd's heartbeats"
+    )
+    return [
+        PreflightProblem(
+            "error" if rc else "warning",
+            f"{what}: set {name} = {link.source_system} (currently {gcs}) or run helixd with "
+            f"link.source_system = {gcs}",
+            name,
+        )
+    ]
+
+
+def _override_params(
+    params: Mapping[str, float | None], actuation: ActuationConfig
+) -> list[PreflightProblem]:
+    out: list[PreflightProblem] = []
+    t = params.get("RC_OVERRIDE_TIME")
+    rec = RECOMMENDED_OVERRIDE_TIME_S
+    if t is None:
+        out.append(
+            PreflightProblem(
+                "warning",
+                "cannot read RC_OVERRIDE_TIME: override expiry unknown",
+                "RC_OVERRIDE_TIME",
+            )
+        )
+    elif t == 0:
+        out.append(
+            PreflightProblem(
+                "error",
+                "RC_OVERRIDE_TIME = 0 disables RC overrides entirely: set "
+                f"RC_OVERRIDE_TIME = {rec:g}",
+                "RC_OVERRIDE_TIME",
+            )
+        )
+    elif t < 0:
+        out.append(
+            PreflightProblem(
+                "warning",
+                f"RC_OVERRIDE_TIME = {t:g}: overrides never expire, so a dead helixd keeps the "
+                f"scrolls turning until the pilot acts; set RC_OVERRIDE_TIME = {rec:g}",
+                "RC_OVERRIDE_TIME",
+            )
+        )
+    elif 2.0 / actuation.repeat_rate_hz > t:
+        out.append(
+            PreflightProblem(
+                "warning",
+                f"RC_OVERRIDE_TIME = {t:g} s is shorter than two override repeats "
+                f"(actuation.repeat_rate_hz = {actuation.repeat_rate_hz:g}): one lost packet "
+                f"releases the scrolls; raise RC_OVERRIDE_TIME to {rec:g} or the repeat rate",
+                "RC_OVERRIDE_TIME",
+            )
+        )
+    opts = params.get("RC_OPTIONS")
+    if opts is not None and _int(opts) & RC_OPTIONS_IGNORE_OVERRIDES:
+        v = _int(opts)
+        out.append(
+            PreflightProblem(
+                "error",
+                f"RC_OPTIONS = {v} has bit 1 'Ignore MAVLink Overrides' set: set RC_OPTIONS = "
+                f"{v & ~RC_OPTIONS_IGNORE_OVERRIDES}",
+                "RC_OPTIONS",
+            )
+        )
+    return out
+
+
+def _rc_channel(params: Mapping[str, float | None], n: int) -> list[PreflightProblem]:
+    out: list[PreflightProblem] = []
+    mode_ch = params.get("MODE_CH")
+    if mode_ch is not None and _int(mode_ch) == n:
+        out.append(
+            PreflightProblem(
+                "error",
+                f"MODE_CH = {n}: overriding RC channel {n} would switch flight modes; drive the "
+                f"scroll on another channel or set MODE_CH to a channel helixd does not use",
+                "MODE_CH",
+            )
+        )
+    option = params.get(f"RC{n}_OPTION")
+    if option is not None and _int(option) != 0:
+        out.append(
+            PreflightProblem(
+                "error",
+                f"RC{n}_OPTION = {_int(option)}: RC channel {n} is an aux switch and the override "
+                f"would trigger it; set RC{n}_OPTION = 0",
+                f"RC{n}_OPTION",
+            )
+        )
+    if n > RCIN_LAST_CHANNEL:
+        out.append(
+            PreflightProblem(
+                "error",
+                f"RC channel {n} cannot reach a servo output (RCIN passthrough exists for 1..16 "
+                f"only): map the scroll to a channel in 1..16",
+            )
+        )
+        return out
+    name = f"SERVO{n}_FUNCTION"
+    f = params.get(name)
+    rcin = RCIN_FIRST_FUNCTION - 1 + n
+    if f is None:
+        out.append(PreflightProblem("warning", f"cannot read {name}", name))
+        return out
+    func = _int(f)
+    if func in (rcin, SERVO_FUNCTION_RC_PASSTHRU):
+        return out
+    if RCIN_FIRST_FUNCTION <= func <= RCIN_FIRST_FUNCTION + 15:
+        why = (
+            f"makes output {n} follow RC input {func - RCIN_FIRST_FUNCTION + 1}, "
+            f"not the overridden RC channel {n}"
+        )
+    elif func == SERVO_FUNCTION_DISABLED:
+        why = f"leaves output {n} unused, so the override on RC channel {n} drives nothing"
+    else:
+        why = f"gives output {n} to ArduPilot itself, so the override on RC channel {n} is lost"
+    out.append(
+        PreflightProblem("error", f"{name} = {func} {why}: set {name} = {rcin} (RCIN{n})", name)
+    )
+    return out
+
+
+def _servo_channel(params: Mapping[str, float | None], n: int) -> list[PreflightProblem]:
+    name = f"SERVO{n}_FUNCTION"
+    f = params.get(name)
+    if f is None:
+        return [PreflightProblem("warning", f"cannot read {name}", name)]
+    func = _int(f)
+    if func == SERVO_FUNCTION_DISABLED:
+        return []
+    if func in SERVO_ALLOWED_FUNCTIONS:
+        return [
+            PreflightProblem(
+                "warning",
+                f"{name} = {func}: DO_SET_SERVO is accepted but the output is also driven by "
+                f"{'RC input' if func != 22 and func != 23 else 'the sprayer'}; "
+                f"{name} = 0 is the clean choice",
+                name,
+            )
+        ]
+    return [
+        PreflightProblem(
+            "error",
+            f"{name} = {func}: ArduPilot refuses DO_SET_SERVO on this output; set {name} = 0",
+            name,
+        )
+    ]

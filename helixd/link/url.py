@@ -1,0 +1,127 @@
+"""Connection strings as MAVProxy/pymavlink users write them (pure: no sockets, no files).
+
+Accepted forms::
+
+    /dev/ttyACM0               serial device, baud from ``link.baud``
+    /dev/serial0:921600        serial device with its baud (``,921600`` also accepted)
+    udpin:0.0.0.0:14550        listen for the autopilot (``udp:`` means the same, as in pymavlink)
+    udpout:192.168.1.10:14550  send to the autopilot first
+    tcp:127.0.0.1:5760         connect to a TCP server (ArduPilot SITL serves 5760)
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Literal
+
+LinkKind = Literal["serial", "udpin", "udpout", "tcp"]
+
+ALLOWED_FORMS = (
+    "/dev/ttyACM0, /dev/serial0:921600, udpin:0.0.0.0:14550, udp:0.0.0.0:14550, "
+    "udpout:HOST:PORT, tcp:HOST:PORT"
+)
+
+MIN_BAUD = 1200
+# Rates every Linux serial driver accepts through termios (B1200 .. B4000000).
+STANDARD_BAUDS = (
+    1200,
+    1800,
+    2400,
+    4800,
+    9600,
+    19200,
+    38400,
+    57600,
+    115200,
+    230400,
+    460800,
+    500000,
+    576000,
+    921600,
+    1000000,
+    1152000,
+    1500000,
+    2000000,
+    2500000,
+    3000000,
+    3500000,
+    4000000,
+)
+
+_HOST_RE = re.compile(r"^[A-Za-z0-9]([A-Za-z0-9.\-]*[A-Za-z0-9])?$")
+
+
+class LinkError(Exception):
+    """The link to the autopilot could not be opened or used. The message is for humans."""
+
+
+class LinkTimeout(LinkError):
+    """Nothing (or not the expected message) arrived from the autopilot in time."""
+
+
+@dataclass(frozen=True, slots=True)
+class LinkUrl:
+    kind: LinkKind
+    text: str  # the string as the user wrote it
+    host: str = ""
+    port: int = 0
+    device: str = ""
+    baud: int = 0
+
+    def describe(self) -> str:
+        if self.kind == "serial":
+            return f"serial {self.device} at {self.baud} baud"
+        return f"{self.kind} {self.host}:{self.port}"
+
+
+def _bad(url: str, why: str) -> LinkError:
+    return LinkError(f"link url {url!r}: {why} (allowed forms: {ALLOWED_FORMS})")
+
+
+def _host_port(url: str, rest: str, *, allow_port_zero: bool) -> tuple[str, int]:
+    host, sep, port_text = rest.rpartition(":")
+    if not sep or not host:
+        raise _bad(url, "expected HOST:PORT after the scheme")
+    if not _HOST_RE.match(host):
+        raise _bad(url, f"{host!r} is not a host name or IPv4 address")
+    if not port_text.isdigit():
+        raise _bad(url, f"port {port_text!r} is not a number")
+    port = int(port_text)
+    low = 0 if allow_port_zero else 1
+    if not low <= port <= 65535:
+        raise _bad(url, f"port {port} is outside {low}..65535")
+    return host, port
+
+
+def parse_link_url(url: str, default_baud: int) -> LinkUrl:
+    """Parse ``url``; raise :class:`LinkError` naming the url and the allowed forms."""
+    text = url.strip()
+    if not text:
+        raise _bad(url, "empty")
+    scheme, sep, rest = text.partition(":")
+    if sep and not text.startswith("/"):
+        if scheme in ("udpin", "udp"):
+            host, port = _host_port(url, rest, allow_port_zero=True)
+            return LinkUrl("udpin", text, host=host, port=port)
+        if scheme == "udpout":
+            host, port = _host_port(url, rest, allow_port_zero=False)
+            return LinkUrl("udpout", text, host=host, port=port)
+        if scheme == "tcp":
+            host, port = _host_port(url, rest, allow_port_zero=False)
+            return LinkUrl("tcp", text, host=host, port=port)
+        raise _bad(url, f"unknown scheme {scheme!r}")
+    if not text.startswith("/"):
+        raise _bad(url, "a serial device must be an absolute path such as /dev/ttyACM0")
+    device, baud = text, default_baud
+    for separator in (":", ","):
+        head, sep, tail = text.rpartition(separator)
+        # "/dev/serial/by-path/pci-0000:00:14.0-usb-0:1" has colons of its own: only a
+        # trailing number that could be a baud (>= 1200) is taken as one.
+        if sep and head and tail.isdigit() and int(tail) >= MIN_BAUD:
+            device, baud = head, int(tail)
+            break
+    if baud not in STANDARD_BAUDS:
+        allowed = ", ".join(str(b) for b in STANDARD_BAUDS)
+        raise _bad(url, f"baud {baud} is not a standard serial rate ({allowed})")
+    return LinkUrl("serial", text, device=device, baud=baud)

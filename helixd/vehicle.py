@@ -1,0 +1,366 @@
+"""What the autopilot last told us: a plain dataclass updated by pure handlers (no I/O).
+
+The link shell calls :meth:`VehicleState.apply` with every MAVLink message from the autopilot
+and the monotonic time it was read; ``apply`` returns a :class:`Change` set so the shell knows
+whom to wake (pose waiters, stream re-requests after a reboot or a regained link). Nothing here
+reads a clock or touches a socket.
+
+Frames: the pose is kept exactly as MAVLink reports it (NED from the EKF origin, yaw clockwise
+from North); :mod:`helixd.frames` converts it once, at the edge of the control core.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from enum import IntFlag
+from typing import Any
+
+from helixd.frames import NedPose
+
+MavMsg = Any  # pymavlink messages are untyped; every field is read through int()/float()
+
+# ArduPilot Rover mode numbers (Rover/mode.h)
+ROVER_MODES: dict[int, str] = {
+    0: "MANUAL",
+    1: "ACRO",
+    3: "STEERING",
+    4: "HOLD",
+    5: "LOITER",
+    6: "FOLLOW",
+    7: "SIMPLE",
+    8: "DOCK",
+    9: "CIRCLE",
+    10: "AUTO",
+    11: "RTL",
+    12: "SMART_RTL",
+    15: "GUIDED",
+    16: "INITIALISING",
+}
+ROVER_MODE_NUMBERS: dict[str, int] = {name: number for number, name in ROVER_MODES.items()}
+
+MAV_MODE_FLAG_SAFETY_ARMED = 128
+
+# EKF_STATUS_FLAGS
+EKF_ATTITUDE = 1
+EKF_VELOCITY_HORIZ = 2
+EKF_POS_HORIZ_REL = 8
+EKF_CONST_POS_MODE = 128
+EKF_UNINITIALIZED = 1024
+EKF_GPS_GLITCHING = 32768
+EKF_REQUIRED_FLAGS = {
+    EKF_ATTITUDE: "attitude",
+    EKF_VELOCITY_HORIZ: "horizontal velocity",
+    EKF_POS_HORIZ_REL: "relative horizontal position",
+}
+EKF_FORBIDDEN_FLAGS = {
+    EKF_CONST_POS_MODE: "constant-position mode (no position aiding)",
+    EKF_UNINITIALIZED: "uninitialised",
+}
+
+RC_CHANNEL_COUNT = 18
+SERVO_CHANNEL_COUNT = 16
+UINT16_MAX = 65535  # "not sent" in SYS_STATUS.voltage_battery
+RSSI_UNKNOWN = 255
+
+
+def mode_name(custom_mode: int) -> str:
+    """Rover mode name; unknown numbers read as ``MODE_<n>``."""
+    return ROVER_MODES.get(custom_mode, f"MODE_{custom_mode}")
+
+
+def mode_number(name: str) -> int:
+    """Rover mode number for ``name`` (case-insensitive); ValueError lists the names."""
+    key = name.strip().upper()
+    if key not in ROVER_MODE_NUMBERS:
+        raise ValueError(f"unknown Rover mode {name!r}; allowed: {', '.join(ROVER_MODE_NUMBERS)}")
+    return ROVER_MODE_NUMBERS[key]
+
+
+class Change(IntFlag):
+    """What an applied message changed (several may be set at once)."""
+
+    NONE = 0
+    HEARTBEAT = 1
+    POSE = 2
+    ATTITUDE = 4
+    EKF = 8
+    MODE = 16
+    ARMED = 32
+    RC = 64
+    SERVO = 128
+    GPS_ORIGIN = 256
+    STATUSTEXT = 512
+    LINK_REGAINED = 1024
+    REBOOT = 2048
+    SYS_STATUS = 4096
+
+
+@dataclass(frozen=True, slots=True)
+class PoseSample:
+    """LOCAL_POSITION_NED combined with the latest ATTITUDE yaw (NED, yaw clockwise from N)."""
+
+    ned: NedPose
+    time_boot_ms: int  # autopilot clock of the LOCAL_POSITION_NED sample
+    rx_monotonic_s: float  # our monotonic clock when the message was read
+    vn_mps: float
+    ve_mps: float
+    vd_mps: float
+
+
+@dataclass(frozen=True, slots=True)
+class EkfStatus:
+    """EKF_STATUS_REPORT with our health judgement (variances against ``variance_max``)."""
+
+    flags: int
+    velocity_variance: float
+    pos_horiz_variance: float
+    pos_vert_variance: float
+    compass_variance: float
+    terrain_alt_variance: float
+    rx_monotonic_s: float
+    variance_max: float
+
+    def problems(self) -> list[str]:
+        out = [f"no {what}" for bit, what in EKF_REQUIRED_FLAGS.items() if not self.flags & bit]
+        out += [what for bit, what in EKF_FORBIDDEN_FLAGS.items() if self.flags & bit]
+        for name, value in (
+            ("velocity", self.velocity_variance),
+            ("horizontal position", self.pos_horiz_variance),
+            ("compass", self.compass_variance),
+        ):
+            if not math.isfinite(value) or value > self.variance_max:
+                out.append(f"{name} variance {value:.2f} > {self.variance_max:.2f}")
+        return out
+
+    @property
+    def healthy(self) -> bool:
+        return not self.problems()
+
+    @property
+    def gps_glitching(self) -> bool:
+        return bool(self.flags & EKF_GPS_GLITCHING)
+
+    def describe(self) -> str:
+        problems = self.problems()
+        text = "healthy" if not problems else "; ".join(problems)
+        if self.gps_glitching:
+            text += " (GPS glitching)"
+        return f"EKF {text} (flags 0x{self.flags:04x})"
+
+
+@dataclass(frozen=True, slots=True)
+class StatusText:
+    severity: int
+    text: str
+    rx_monotonic_s: float
+
+
+def _text(value: object) -> str:
+    if isinstance(value, bytes | bytearray):
+        value = value.decode("utf-8", errors="replace")
+    return str(value).rstrip("\x00").strip()
+
+
+@dataclass
+class VehicleState:
+    """Latest vehicle state. Mutated only by :meth:`apply` and the link-status helpers."""
+
+    ekf_variance_max: float = 0.8
+    pose_stale_s: float = 0.5  # ATTITUDE older than this (autopilot clock) gives no pose
+    reboot_backstep_ms: int = 1000
+    target_component: int = 1  # HEARTBEATs from other components of the system are ignored
+    statustext_history: int = 50
+
+    pose: PoseSample | None = None
+    yaw_ned_rad: float | None = None
+    attitude_time_boot_ms: int | None = None
+    ekf: EkfStatus | None = None
+    armed: bool = False
+    custom_mode: int | None = None
+    mode: str = "UNKNOWN"
+    base_mode: int = 0
+    system_status: int = 0
+    mav_type: int | None = None
+    rc_inputs_us: tuple[int, ...] = ()
+    rc_chancount: int = 0
+    rc_rssi: int | None = None
+    rc_rx_s: float | None = None
+    servo_outputs_us: tuple[int, ...] = ()
+    servo_rx_s: float | None = None
+    gps_origin: tuple[float, float] | None = None  # (lat_deg, lon_deg)
+    gps_origin_rx_s: float | None = None
+    battery_voltage_v: float | None = None
+    last_heartbeat_s: float | None = None
+    heartbeat_count: int = 0
+    link_lost: bool = False
+    link_lost_count: int = 0
+    reboot_count: int = 0
+    last_time_boot_ms: int | None = None
+    statustexts: deque[StatusText] = field(default_factory=deque)
+    foreign_sysid_counts: dict[int, int] = field(default_factory=dict)
+
+    # -- link status (called by the shell with its clock) -------------------------------------
+
+    def check_link(self, now_s: float, timeout_s: float) -> bool:
+        """Mark the link lost when no HEARTBEAT for ``timeout_s``; True on the transition."""
+        if self.link_lost or self.last_heartbeat_s is None:
+            return False
+        if now_s - self.last_heartbeat_s > timeout_s:
+            self.mark_link_lost()
+            return True
+        return False
+
+    def mark_link_lost(self) -> bool:
+        """The transport went away (or the heartbeat stopped). True on the transition."""
+        if self.link_lost:
+            return False
+        self.link_lost = True
+        self.link_lost_count += 1
+        return True
+
+    def count_foreign(self, sysid: int) -> None:
+        self.foreign_sysid_counts[sysid] = self.foreign_sysid_counts.get(sysid, 0) + 1
+
+    def latest_statustext(self, prefix: str = "", since_s: float | None = None) -> str | None:
+        """Newest STATUSTEXT starting with ``prefix`` (case-insensitive), read after ``since_s``."""
+        for st in reversed(self.statustexts):
+            if since_s is not None and st.rx_monotonic_s < since_s:
+                return None
+            if st.text.lower().startswith(prefix.lower()):
+                return st.text
+        return None
+
+    # -- message handlers ---------------------------------------------------------------------
+
+    def apply(self, msg: MavMsg, rx_s: float) -> Change:
+        """Update from one message of the autopilot's system; return what changed."""
+        mtype = str(msg.get_type())
+        handler = _HANDLERS.get(mtype)
+        if handler is None:
+            return Change.NONE
+        if (
+            self.target_component
+            and mtype != "STATUSTEXT"
+            and int(msg.get_srcComponent()) != self.target_component
+        ):
+            return Change.NONE  # a gimbal/camera/companion of the same system
+        return handler(self, msg, rx_s)
+
+    def _boot_time(self, time_boot_ms: int) -> Change:
+        last = self.last_time_boot_ms
+        self.last_time_boot_ms = time_boot_ms
+        if last is not None and time_boot_ms < last - self.reboot_backstep_ms:
+            self.reboot_count += 1
+            self.link_lost_count += 1
+            self.pose = None
+            self.yaw_ned_rad = None
+            self.attitude_time_boot_ms = None
+            return Change.REBOOT
+        return Change.NONE
+
+    def _heartbeat(self, msg: MavMsg, rx_s: float) -> Change:
+        changed = Change.HEARTBEAT
+        self.last_heartbeat_s = rx_s
+        self.heartbeat_count += 1
+        if self.link_lost:
+            self.link_lost = False
+            changed |= Change.LINK_REGAINED
+        self.base_mode = int(msg.base_mode)
+        self.system_status = int(msg.system_status)
+        self.mav_type = int(msg.type)
+        armed = bool(self.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+        if armed != self.armed:
+            self.armed = armed
+            changed |= Change.ARMED
+        custom_mode = int(msg.custom_mode)
+        if custom_mode != self.custom_mode:
+            self.custom_mode = custom_mode
+            self.mode = mode_name(custom_mode)
+            changed |= Change.MODE
+        return changed
+
+    def _attitude(self, msg: MavMsg, rx_s: float) -> Change:
+        t_ms = int(msg.time_boot_ms)
+        changed = self._boot_time(t_ms)
+        self.yaw_ned_rad = float(msg.yaw)
+        self.attitude_time_boot_ms = t_ms
+        return changed | Change.ATTITUDE
+
+    def _local_position(self, msg: MavMsg, rx_s: float) -> Change:
+        t_ms = int(msg.time_boot_ms)
+        changed = self._boot_time(t_ms)
+        yaw, t_att = self.yaw_ned_rad, self.attitude_time_boot_ms
+        if yaw is None or t_att is None or abs(t_ms - t_att) > self.pose_stale_s * 1000.0:
+            return changed
+        self.pose = PoseSample(
+            ned=NedPose(north_m=float(msg.x), east_m=float(msg.y), yaw_ned_rad=yaw),
+            time_boot_ms=t_ms,
+            rx_monotonic_s=rx_s,
+            vn_mps=float(msg.vx),
+            ve_mps=float(msg.vy),
+            vd_mps=float(msg.vz),
+        )
+        return changed | Change.POSE
+
+    def _ekf(self, msg: MavMsg, rx_s: float) -> Change:
+        self.ekf = EkfStatus(
+            flags=int(msg.flags),
+            velocity_variance=float(msg.velocity_variance),
+            pos_horiz_variance=float(msg.pos_horiz_variance),
+            pos_vert_variance=float(msg.pos_vert_variance),
+            compass_variance=float(msg.compass_variance),
+            terrain_alt_variance=float(msg.terrain_alt_variance),
+            rx_monotonic_s=rx_s,
+            variance_max=self.ekf_variance_max,
+        )
+        return Change.EKF
+
+    def _rc(self, msg: MavMsg, rx_s: float) -> Change:
+        changed = self._boot_time(int(msg.time_boot_ms))
+        self.rc_inputs_us = tuple(
+            int(getattr(msg, f"chan{i}_raw")) for i in range(1, RC_CHANNEL_COUNT + 1)
+        )
+        self.rc_chancount = int(msg.chancount)
+        rssi = int(msg.rssi)
+        self.rc_rssi = None if rssi == RSSI_UNKNOWN else rssi
+        self.rc_rx_s = rx_s
+        return changed | Change.RC
+
+    def _servo(self, msg: MavMsg, rx_s: float) -> Change:
+        self.servo_outputs_us = tuple(
+            int(getattr(msg, f"servo{i}_raw", 0)) for i in range(1, SERVO_CHANNEL_COUNT + 1)
+        )
+        self.servo_rx_s = rx_s
+        return Change.SERVO
+
+    def _origin(self, msg: MavMsg, rx_s: float) -> Change:
+        self.gps_origin = (int(msg.latitude) * 1e-7, int(msg.longitude) * 1e-7)
+        self.gps_origin_rx_s = rx_s
+        return Change.GPS_ORIGIN
+
+    def _statustext(self, msg: MavMsg, rx_s: float) -> Change:
+        self.statustexts.append(StatusText(int(msg.severity), _text(msg.text), rx_s))
+        while len(self.statustexts) > self.statustext_history:
+            self.statustexts.popleft()
+        return Change.STATUSTEXT
+
+    def _sys_status(self, msg: MavMsg, rx_s: float) -> Change:
+        mv = int(msg.voltage_battery)
+        self.battery_voltage_v = None if mv == UINT16_MAX else mv / 1000.0
+        return Change.SYS_STATUS
+
+
+_HANDLERS: dict[str, Callable[[VehicleState, MavMsg, float], Change]] = {
+    "HEARTBEAT": VehicleState._heartbeat,
+    "ATTITUDE": VehicleState._attitude,
+    "LOCAL_POSITION_NED": VehicleState._local_position,
+    "EKF_STATUS_REPORT": VehicleState._ekf,
+    "RC_CHANNELS": VehicleState._rc,
+    "SERVO_OUTPUT_RAW": VehicleState._servo,
+    "GPS_GLOBAL_ORIGIN": VehicleState._origin,
+    "STATUSTEXT": VehicleState._statustext,
+    "SYS_STATUS": VehicleState._sys_status,
+}

@@ -1,0 +1,123 @@
+"""Preflight parameter checks: each problem says exactly what to change."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, LinkConfig
+from helixd.link.preflight import check_obedience, judge
+from tests.link.peer import linked
+
+RC = ActuationConfig()  # rc_override on channels 1..4
+SERVO = ActuationConfig(backend=ActuationBackend.SERVO)
+LINK = LinkConfig()
+GOOD_RC = {
+    "MAV_GCS_SYSID": 255.0,
+    "RC_OVERRIDE_TIME": 3.0,
+    "RC_OPTIONS": 32.0,
+    "FS_GCS_ENABLE": 1.0,
+    "MODE_CH": 8.0,
+    **{f"SERVO{n}_FUNCTION": 50.0 + n for n in range(1, 5)},
+    **{f"RC{n}_OPTION": 0.0 for n in range(1, 5)},
+}
+
+
+def messages(params: Mapping[str, float | None], act: ActuationConfig = RC) -> list[str]:
+    return [str(p) for p in judge(params, act, LINK)]
+
+
+async def test_against_the_peer_good_then_bad() -> None:
+    async with linked(command_timeout_s=0.15, command_retries=1) as (ap, peer):
+        peer.params.update({f"SERVO{n}_FUNCTION": 50.0 + n for n in range(1, 5)})
+        assert await check_obedience(ap, RC, ap.cfg) == []
+        peer.params.update(
+            {
+                "MAV_GCS_SYSID": 1.0,
+                "RC_OPTIONS": 34.0,
+                "SERVO3_FUNCTION": 73.0,
+                "FS_GCS_ENABLE": 0.0,
+            }
+        )
+        problems = await check_obedience(ap, RC, ap.cfg)
+        text = [str(p) for p in problems]
+        assert (
+            "error: RC overrides from helixd would be silently ignored: set MAV_GCS_SYSID = 255 "
+            "(currently 1) or run helixd with link.source_system = 1"
+        ) in text
+        assert (
+            "error: RC_OPTIONS = 34 has bit 1 'Ignore MAVLink Overrides' set: set RC_OPTIONS = 32"
+            in text
+        )
+        assert any(
+            t.startswith("error: SERVO3_FUNCTION = 73") and "set SERVO3_FUNCTION = 53" in t
+            for t in text
+        )
+        assert any(p.severity == "warning" and p.param == "FS_GCS_ENABLE" for p in problems)
+
+
+def test_legacy_sysid_name_is_read_when_the_new_one_is_missing() -> None:
+    params = {**GOOD_RC, "MAV_GCS_SYSID": None, "SYSID_MYGCS": 255.0}
+    assert messages(params) == []
+    params["SYSID_MYGCS"] = 250.0
+    assert messages(params) == [
+        "error: RC overrides from helixd would be silently ignored: set SYSID_MYGCS = 255 "
+        "(currently 250) or run helixd with link.source_system = 250"
+    ]
+
+
+def test_override_time() -> None:
+    assert (
+        "error: RC_OVERRIDE_TIME = 0 disables RC overrides entirely"
+        in messages({**GOOD_RC, "RC_OVERRIDE_TIME": 0.0})[0]
+    )
+    never = messages({**GOOD_RC, "RC_OVERRIDE_TIME": -1.0})
+    assert never[0].startswith("warning: RC_OVERRIDE_TIME = -1: overrides never expire")
+    assert "set RC_OVERRIDE_TIME = 3" in never[0]
+    short = messages({**GOOD_RC, "RC_OVERRIDE_TIME": 0.08})
+    assert short[0].startswith("warning: RC_OVERRIDE_TIME = 0.08 s is shorter than two")
+
+
+def test_rc_channel_wiring() -> None:
+    wrong_rcin = messages({**GOOD_RC, "SERVO2_FUNCTION": 51.0})
+    assert wrong_rcin == [
+        "error: SERVO2_FUNCTION = 51 makes output 2 follow RC input 1, not the overridden RC "
+        "channel 2: set SERVO2_FUNCTION = 52 (RCIN2)"
+    ]
+    assert messages({**GOOD_RC, "SERVO1_FUNCTION": 1.0}) == []  # RCPassThru, same number
+    assert "leaves output 4 unused" in messages({**GOOD_RC, "SERVO4_FUNCTION": 0.0})[0]
+    assert "MODE_CH = 3" in messages({**GOOD_RC, "MODE_CH": 3.0})[0]
+    assert "set RC2_OPTION = 0" in messages({**GOOD_RC, "RC2_OPTION": 41.0})[0]
+    high = ActuationConfig(channels=(ChannelConfig(channel=17), *RC.channels[1:]))
+    params = {**GOOD_RC, "RC17_OPTION": 0.0}
+    assert any("RCIN passthrough exists for 1..16" in m for m in messages(params, high))
+
+
+def test_servo_backend_functions() -> None:
+    params = {
+        "MAV_GCS_SYSID": 255.0,
+        "FS_GCS_ENABLE": 1.0,
+        "SERVO1_FUNCTION": 0.0,
+        "SERVO2_FUNCTION": 73.0,
+        "SERVO3_FUNCTION": 51.0,
+        "SERVO4_FUNCTION": None,
+    }
+    text = messages(params, SERVO)
+    assert (
+        "error: SERVO2_FUNCTION = 73: ArduPilot refuses DO_SET_SERVO on this output; "
+        "set SERVO2_FUNCTION = 0" in text
+    )
+    assert any(t.startswith("warning: SERVO3_FUNCTION = 51") for t in text)
+    assert "warning: cannot read SERVO4_FUNCTION" in text
+    assert len(text) == 3
+    # a sysid mismatch only weakens the GCS failsafe for this backend
+    assert messages({**params, "MAV_GCS_SYSID": 1.0}, SERVO)[0].startswith("warning:")
+
+
+async def test_legacy_firmware_against_the_peer() -> None:
+    async with linked(command_timeout_s=0.15, command_retries=1) as (ap, peer):
+        peer.params.update({f"SERVO{n}_FUNCTION": 50.0 + n for n in range(1, 5)})
+        del peer.params["MAV_GCS_SYSID"]
+        peer.params["SYSID_MYGCS"] = 254.0
+        problems = await check_obedience(ap, RC, ap.cfg)
+        assert [p.param for p in problems] == ["SYSID_MYGCS"]
+        assert "set SYSID_MYGCS = 255 (currently 254)" in problems[0].message

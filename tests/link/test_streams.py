@@ -1,0 +1,81 @@
+"""Message intervals: step down on DENIED like ArduPilot Rover, re-request slow streams."""
+
+from __future__ import annotations
+
+import time
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.link.streams import candidate_intervals
+from tests.link.peer import AutopilotPeer, linked, until
+
+SET_INTERVAL = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
+LPN = mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED
+ATT = mavlink.MAVLINK_MSG_ID_ATTITUDE
+
+
+def asked(peer: AutopilotPeer, msg_id: int, after_t: float = 0.0) -> list[int]:
+    return [
+        int(c.params[1])
+        for c in peer.records.commands_of(SET_INTERVAL, after_t)
+        if int(c.params[0]) == msg_id
+    ]
+
+
+def test_candidates_hit_rovers_fastest_rate_first() -> None:
+    assert candidate_intervals(50.0, 5.0, 1.25)[:2] == [20_000, 25_000]
+    steps = candidate_intervals(50.0, 5.0, 1.25)
+    assert steps == sorted(steps) and steps[-1] <= 200_000 and len(steps) > 5
+    assert candidate_intervals(5.0, 5.0, 1.25) == [200_000]
+
+
+async def test_pose_rate_steps_down_from_denied_20ms_to_granted_25ms() -> None:
+    async with linked(pose_rate_hz=50.0, telemetry_rate_hz=5.0) as (ap, peer):
+        granted = await ap.request_streams()
+        assert granted["LOCAL_POSITION_NED"] == 40.0
+        assert granted["ATTITUDE"] == 40.0
+        for name in ("EKF_STATUS_REPORT", "SYS_STATUS", "RC_CHANNELS", "SERVO_OUTPUT_RAW"):
+            assert granted[name] == 5.0
+        assert asked(peer, LPN) == [20_000, 25_000]  # DENIED, then granted
+        assert asked(peer, ATT) == [25_000]  # starts from what was granted
+        # and the stream really arrives at about 40 Hz
+        seen: list[float] = []
+        ap.add_message_listener(
+            lambda m, t: seen.append(t) if m.get_type() == "LOCAL_POSITION_NED" else None
+        )
+        await until(lambda: len(seen) >= 21, 3.0, "21 LOCAL_POSITION_NED")
+        rate = (len(seen) - 1) / (seen[-1] - seen[0])
+        assert 25.0 < rate < 50.0
+
+
+async def test_step_down_continues_until_granted_and_gives_up_at_the_floor() -> None:
+    # a 20 Hz scheduler: fastest interval 1.25 × 50 ms = 62.5 ms
+    async with linked(peer_kwargs={"min_interval_us": 62_500}, pose_rate_min_hz=5.0) as (
+        ap,
+        peer,
+    ):
+        granted = await ap.request_streams()
+        steps = asked(peer, LPN)
+        assert steps[0] == 20_000 and steps[-1] >= 62_500 and steps[-2] < 62_500
+        assert granted["LOCAL_POSITION_NED"] == 1e6 / steps[-1]
+    async with linked(peer_kwargs={"min_interval_us": 400_000}, pose_rate_min_hz=5.0) as (
+        ap,
+        peer,
+    ):
+        granted = await ap.request_streams()
+        assert granted["LOCAL_POSITION_NED"] == 0.0  # nothing at or above 5 Hz
+        assert max(asked(peer, LPN)) <= 200_000  # never asked below the floor
+
+
+async def test_slow_stream_is_rerequested_once_per_window() -> None:
+    async with linked(stream_check_window_s=0.5, stream_slow_fraction=0.5) as (ap, peer):
+        await ap.request_streams()
+        t_slow = time.monotonic()
+        peer.rate_cap_hz["ATTITUDE"] = 4.0  # e.g. a parameter download eats the bandwidth
+        await until(lambda: asked(peer, ATT, t_slow) != [], 3.0, "ATTITUDE re-requested")
+        assert asked(peer, ATT, t_slow)[0] == 25_000  # at the granted interval
+        await until(lambda: time.monotonic() - t_slow > 2.5, 3.0, "2.5 s of slow ATTITUDE")
+        rerequests = asked(peer, ATT, t_slow)
+        assert 1 <= len(rerequests) <= 6  # bounded: at most once per 0.5 s window
+        assert asked(peer, LPN, t_slow) == []  # the healthy stream is left alone
+        del peer.rate_cap_hz["ATTITUDE"]

@@ -1,0 +1,101 @@
+"""Connection strings as MAVProxy/pymavlink users write them, and the one-line errors."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from helixd.link.url import ALLOWED_FORMS, STANDARD_BAUDS, LinkError, parse_link_url
+
+
+@pytest.mark.parametrize(
+    ("url", "kind", "host", "port"),
+    [
+        ("udpin:0.0.0.0:14550", "udpin", "0.0.0.0", 14550),
+        ("udp:0.0.0.0:14550", "udpin", "0.0.0.0", 14550),
+        ("udpin:127.0.0.1:0", "udpin", "127.0.0.1", 0),
+        ("udpout:192.168.1.10:14550", "udpout", "192.168.1.10", 14550),
+        ("tcp:127.0.0.1:5760", "tcp", "127.0.0.1", 5760),
+        ("tcp:sitl-host.local:5760", "tcp", "sitl-host.local", 5760),
+        ("  tcp:localhost:5762 ", "tcp", "localhost", 5762),
+    ],
+)
+def test_network_urls(url: str, kind: str, host: str, port: int) -> None:
+    parsed = parse_link_url(url, 115200)
+    assert (parsed.kind, parsed.host, parsed.port) == (kind, host, port)
+
+
+@pytest.mark.parametrize(
+    ("url", "device", "baud"),
+    [
+        ("/dev/ttyACM0", "/dev/ttyACM0", 57600),
+        ("/dev/serial0:921600", "/dev/serial0", 921600),
+        ("/dev/ttyUSB0,115200", "/dev/ttyUSB0", 115200),
+        (
+            "/dev/serial/by-id/usb-ArduPilot_CubeBlack_2E0023-if00",
+            "/dev/serial/by-id/usb-ArduPilot_CubeBlack_2E0023-if00",
+            57600,
+        ),
+        # by-path names carry colons of their own; a small trailing number is not a baud
+        (
+            "/dev/serial/by-path/pci-0000:00:14.0-usb-0:1",
+            "/dev/serial/by-path/pci-0000:00:14.0-usb-0:1",
+            57600,
+        ),
+        (
+            "/dev/serial/by-path/pci-0000:00:14.0-usb-0:1:115200",
+            "/dev/serial/by-path/pci-0000:00:14.0-usb-0:1",
+            115200,
+        ),
+    ],
+)
+def test_serial_urls(url: str, device: str, baud: int) -> None:
+    parsed = parse_link_url(url, 57600)
+    assert (parsed.kind, parsed.device, parsed.baud) == ("serial", device, baud)
+    assert "baud" in parsed.describe()
+
+
+@pytest.mark.parametrize(
+    ("url", "reason"),
+    [
+        ("", "empty"),
+        ("garbage", "absolute path"),
+        ("COM3", "absolute path"),
+        ("ftp:host:21", "unknown scheme 'ftp'"),
+        ("tcp:localhost", "HOST:PORT"),
+        ("tcp::5760", "HOST:PORT"),
+        ("tcp:localhost:http", "port 'http' is not a number"),
+        ("tcp:localhost:70000", "outside 1..65535"),
+        ("udpout:10.0.0.1:0", "outside 1..65535"),
+        ("udpin:bad host:14550", "not a host name"),
+        ("/dev/ttyACM0:12345", "not a standard serial rate"),
+    ],
+)
+def test_bad_urls_give_one_clear_message(url: str, reason: str) -> None:
+    with pytest.raises(LinkError) as info:
+        parse_link_url(url, 115200)
+    text = str(info.value)
+    assert reason in text
+    assert repr(url) in text  # names the url as written
+    assert ALLOWED_FORMS in text  # and what is allowed
+    assert "\n" not in text
+
+
+def test_default_baud_must_be_standard() -> None:
+    with pytest.raises(LinkError, match="not a standard serial rate"):
+        parse_link_url("/dev/ttyACM0", 12345)
+
+
+@given(st.text(max_size=60))
+def test_any_text_parses_or_raises_link_error(text: str) -> None:
+    try:
+        parsed = parse_link_url(text, 115200)
+    except LinkError as exc:
+        assert str(exc)
+        return
+    assert parsed.kind in ("serial", "udpin", "udpout", "tcp")
+    if parsed.kind == "serial":
+        assert parsed.baud in STANDARD_BAUDS
+    else:
+        assert 0 <= parsed.port <= 65535
