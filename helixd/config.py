@@ -489,6 +489,11 @@ class SafetyConfig(StrictModel):
         0.8, gt=0.0, le=10.0, description="EKF variance above this is unhealthy (FS_EKF_THRESH)"
     )
     takeover: TakeoverConfig = Field(default_factory=TakeoverConfig)
+    stop_on_rc_loss: bool = Field(
+        True,
+        description="stop when SYS_STATUS says the pilot's RC receiver is unhealthy (ArduPilot's "
+        "own RC failsafe cannot fire while overrides are streamed)",
+    )
     geofence_radius_m: float | None = Field(
         100.0, gt=0.0, le=10_000.0, description="max distance from the start point (m); None = off"
     )

@@ -224,4 +224,5 @@ class FlightLoop:
             measured_speed_mps=float(np.hypot(pose.vn_mps, pose.ve_mps)) if pose else 0.0,
             commanded_yaw_rate_radps=self._cmd_yaw_rate_radps,
             measured_yaw_rate_radps=self._meas_yaw_rate_radps,
+            rc_receiver_healthy=st.rc_receiver_healthy,
         )

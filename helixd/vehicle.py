@@ -63,6 +63,7 @@ EKF_FORBIDDEN_FLAGS = {
 RC_CHANNEL_COUNT = 18
 SERVO_CHANNEL_COUNT = 16
 UINT16_MAX = 65535  # "not sent" in SYS_STATUS.voltage_battery
+SENSOR_RC_RECEIVER = 0x10000  # MAV_SYS_STATUS_SENSOR_RC_RECEIVER
 RSSI_UNKNOWN = 255
 
 
@@ -193,6 +194,10 @@ class VehicleState:
     gps_origin: tuple[float, float] | None = None  # (lat_deg, lon_deg)
     gps_origin_rx_s: float | None = None
     battery_voltage_v: float | None = None
+    # SYS_STATUS RC-receiver bit: None when the autopilot reports no receiver at all.
+    # While helixd streams overrides ArduPilot's own RC failsafe cannot fire (overrides count
+    # as valid RC input), so this bit is how helixd notices the pilot's radio is gone.
+    rc_receiver_healthy: bool | None = None
     last_heartbeat_s: float | None = None
     heartbeat_count: int = 0
     link_lost: bool = False
@@ -348,6 +353,10 @@ class VehicleState:
         return Change.STATUSTEXT
 
     def _sys_status(self, msg: MavMsg, rx_s: float) -> Change:
+        present = int(msg.onboard_control_sensors_present) & SENSOR_RC_RECEIVER
+        enabled = int(msg.onboard_control_sensors_enabled) & SENSOR_RC_RECEIVER
+        healthy = int(msg.onboard_control_sensors_health) & SENSOR_RC_RECEIVER
+        self.rc_receiver_healthy = bool(healthy) if (present and enabled) else None
         mv = int(msg.voltage_battery)
         self.battery_voltage_v = None if mv == UINT16_MAX else mv / 1000.0
         return Change.SYS_STATUS

@@ -32,7 +32,9 @@ class Stoppable(Protocol):
 
 
 class ModeSetter(Protocol):
-    async def set_mode(self, name: str) -> None: ...
+    async def set_mode(
+        self, name: str, timeout_s: float | None = None, retries: int | None = None
+    ) -> None: ...
 
     async def disarm(self, force: bool = False) -> None: ...
 
@@ -87,7 +89,9 @@ async def fall_back(
         deadline = time.monotonic() + cfg.hold_retry_bound_s
         while time.monotonic() < deadline:
             try:
-                await autopilot.set_mode(HOLD_MODE)
+                # short tries, re-sent here until the bound: one ACK lost must not cost seconds
+                remaining = max(0.05, deadline - time.monotonic())
+                await autopilot.set_mode(HOLD_MODE, timeout_s=min(0.3, remaining), retries=0)
                 report.hold_acked = True
                 break
             except Exception as exc:  # retry until acknowledged or the bound passes

@@ -21,6 +21,7 @@ class FaultCause(StrEnum):
     POSE_STALE = "pose_stale"  # LOCAL_POSITION_NED/ATTITUDE stopped
     EKF_UNHEALTHY = "ekf_unhealthy"
     PILOT_TAKEOVER = "pilot_takeover"  # mode change, RC switch or stick deflection
+    RC_LOST = "rc_lost"  # the pilot's radio is gone: nobody could take over
     DISARMED = "disarmed"  # someone disarmed (or the autopilot rebooted) mid-mission
     GEOFENCE = "geofence"
     MISSION_TIME = "mission_time"
@@ -61,6 +62,7 @@ class SafetyInputs:
     measured_speed_mps: float
     commanded_yaw_rate_radps: float = 0.0
     measured_yaw_rate_radps: float = 0.0
+    rc_receiver_healthy: bool | None = None
 
 
 def point_in_polygon(north_m: float, east_m: float, poly: Sequence[tuple[float, float]]) -> bool:
@@ -94,6 +96,7 @@ class SafetyMonitor:
             self._ekf,
             self._armed,
             self._takeover,
+            self._rc_receiver,
             self._geofence,
             self._time,
             self._stall,
@@ -159,6 +162,14 @@ class SafetyMonitor:
                         FaultCause.PILOT_TAKEOVER,
                         f"stick RC{ch} deflected {deflection} µs (> {t.stick_deflection_us} µs)",
                     )
+        return None
+
+    def _rc_receiver(self, s: SafetyInputs) -> Fault | None:
+        if self.cfg.stop_on_rc_loss and s.rc_receiver_healthy is False:
+            return Fault(
+                FaultCause.RC_LOST,
+                "the pilot's RC receiver is unhealthy (SYS_STATUS): nobody could take over",
+            )
         return None
 
     def _geofence(self, s: SafetyInputs) -> Fault | None:

@@ -95,8 +95,8 @@ def test_pilot_takeover_by_stick_deflection(tmp_path: Path) -> None:
 
 def test_autopilot_link_lost(tmp_path: Path) -> None:
     # Both directions drop for 3 s (wall): the daemon detects it as a stale pose (0.5 s)
-    # before the HEARTBEAT timeout (2 s); its neutral/release cannot get through, so the autopilot's RC_OVERRIDE_TIME
-    # hands the outputs back to the pilot; the HOLD request, re-sent until acknowledged,
+    # before the HEARTBEAT timeout (2 s); its neutral/release cannot get through, so the
+    # autopilot's RC_OVERRIDE_TIME hands the outputs back to the pilot; the HOLD request, re-sent until acknowledged,
     # lands when the link returns.
     with sim_and_daemon(tmp_path, "square") as (server, d):
         wait_moving(server)
@@ -166,11 +166,9 @@ def test_stall_dig_in(tmp_path: Path) -> None:
 
 
 def test_rc_signal_loss(tmp_path: Path) -> None:
-    # ArduPilot's RC failsafe switches to HOLD by itself; helixd sees a mode it did not set and
-    # still stops its outputs and releases its overrides (HOLD does not stop passthrough).
-    check_fallback(
-        tmp_path, "rc_loss", 0.3, ExitCode.OPERATOR_STOP, "pilot_takeover", duration_s=60.0
-    )
+    # While helixd streams overrides ArduPilot's own RC failsafe cannot fire (overrides count
+    # as valid RC input); helixd watches the SYS_STATUS receiver bit and stops by itself.
+    check_fallback(tmp_path, "rc_loss", 0.3, ExitCode.FAULT, "rc_lost", duration_s=60.0)
 
 
 def test_autopilot_reboot(tmp_path: Path) -> None:

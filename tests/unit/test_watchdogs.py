@@ -127,3 +127,13 @@ def test_turn_stall_in_sand() -> None:
     later = dataclasses.replace(turning, now_s=104.5, last_heartbeat_s=104.5, pose_rx_s=104.5)
     fault = mon.check(later)
     assert fault is not None and fault.cause is FaultCause.STALL and "turn" in fault.detail
+
+
+def test_rc_receiver_loss() -> None:
+    mon = SafetyMonitor(SafetyConfig())
+    assert mon.check(dataclasses.replace(HEALTHY, rc_receiver_healthy=None)) is None  # no RC
+    assert mon.check(dataclasses.replace(HEALTHY, rc_receiver_healthy=True)) is None
+    fault = mon.check(dataclasses.replace(HEALTHY, rc_receiver_healthy=False))
+    assert fault is not None and fault.cause is FaultCause.RC_LOST
+    quiet = SafetyMonitor(SafetyConfig(stop_on_rc_loss=False))
+    assert quiet.check(dataclasses.replace(HEALTHY, rc_receiver_healthy=False)) is None
