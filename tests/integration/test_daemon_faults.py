@@ -96,8 +96,8 @@ def test_pilot_takeover_by_stick_deflection(tmp_path: Path) -> None:
 def test_autopilot_link_lost(tmp_path: Path) -> None:
     # Both directions drop for 3 s (wall): the daemon detects it as a stale pose (0.5 s)
     # before the HEARTBEAT timeout (2 s); its neutral/release cannot get through, so the
-    # autopilot's RC_OVERRIDE_TIME hands the outputs back to the pilot; the HOLD request, re-sent until acknowledged,
-    # lands when the link returns.
+    # autopilot's RC_OVERRIDE_TIME hands the outputs back to the pilot; the HOLD request,
+    # re-sent until acknowledged, lands when the link returns.
     with sim_and_daemon(tmp_path, "square") as (server, d):
         wait_moving(server)
         t0 = time.monotonic()

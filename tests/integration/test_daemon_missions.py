@@ -1,0 +1,144 @@
+"""Missions flown by the real CLI against the simulator over UDP, and what a kill leaves behind."""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from helixd.exitcodes import ExitCode
+from tests.integration.daemon_harness import (
+    NEUTRAL_US,
+    SPEEDUP,
+    overrides_released,
+    scrolls_neutral,
+    secured,
+    sim_and_daemon,
+    time_until,
+    wait_moving,
+)
+
+pytestmark = pytest.mark.integration
+
+
+def read_summary(run_dir: Path) -> dict[str, Any]:
+    data: dict[str, Any] = json.loads((run_dir / "summary.json").read_text())
+    return data
+
+
+@pytest.mark.parametrize(
+    ("mission", "mode", "terrain", "waypoints"),
+    [
+        ("square", "roll", "hard", 4),  # the thesis's field test, on hard ground
+        ("hexagon", "omni", "mud", 6),  # holonomic motion needs a viscous medium
+        ("circle", "scroll", "mud", 25),  # scrolling: water, mud, snow
+    ],
+)
+def test_mission_completes_in_its_mode(
+    tmp_path: Path, mission: str, mode: str, terrain: str, waypoints: int
+) -> None:
+    with sim_and_daemon(tmp_path, mission, terrain=terrain, noise="low") as (server, d):
+        code = d.wait_exit(240.0)
+        log = d.log_text()
+        run_dir = d.run_dir()
+        snap = server.snapshot()
+    assert code == ExitCode.OK, log[-3000:]
+    s = read_summary(run_dir)
+    print(
+        f"{mission}/{mode}/{terrain}: {s['duration_s']:.1f} s, cross-track rms "
+        f"{s['cross_track_rms_m']:.3f} m max {s['cross_track_max_m']:.3f} m, "
+        f"final error {s['final_error_m']:.3f} m"
+    )
+    assert s["completed"] is True and s["fault"] is None
+    assert s["mode"] == mode
+    assert s["waypoints_reached"] == s["waypoints_total"] == waypoints
+    tolerance = 1.0 if mission == "square" else (0.4 if mission == "hexagon" else 0.3)
+    assert [a["index"] for a in s["arrivals"]] == list(range(waypoints))
+    assert all(a["error_m"] <= tolerance for a in s["arrivals"])
+    # a completed mission leaves the vehicle stopped, released, in HOLD and disarmed
+    assert secured(snap) and not snap.armed
+    flight = (run_dir / "flight.csv").read_text().splitlines()
+    assert len(flight) > 100 and flight[0].startswith("#")
+
+
+def test_kill9_with_rc_override_returns_outputs_to_the_pilot(tmp_path: Path) -> None:
+    """kill -9: nothing can run in the daemon; ArduPilot's RC_OVERRIDE_TIME hands the outputs
+    back to the pilot's radio (here: sticks centred at 1500 µs)."""
+    with sim_and_daemon(tmp_path, "square") as (server, d):
+        wait_moving(server)
+        moving = server.snapshot()
+        assert not scrolls_neutral(moving)
+        t0 = time.monotonic()
+        d.signal(signal.SIGKILL)
+        assert d.wait_exit(10.0) == -signal.SIGKILL
+        released = time_until(
+            server, lambda s: overrides_released(s) and scrolls_neutral(s), t0, 10.0
+        )
+        snap = server.snapshot()
+    override_time_wall_s = 3.0 / SPEEDUP
+    print(f"kill -9 (rc_override): outputs back to the pilot after {released:.3f} s wall")
+    assert released == pytest.approx(override_time_wall_s, abs=0.35)
+    assert snap.scroll_pwm_us == (NEUTRAL_US,) * 4
+    assert snap.mode == "MANUAL"  # nobody asked for HOLD: the daemon was dead
+
+
+def test_kill9_with_servo_backend_leaves_outputs_latched(tmp_path: Path) -> None:
+    """kill -9 with DO_SET_SERVO: the outputs stay latched (no timeout in ArduPilot).
+
+    This is the behaviour the README states; the test documents it from the autopilot's side.
+    """
+    cfg = {
+        "actuation": {
+            "backend": "servo",
+            "channels": [{"channel": 5}, {"channel": 6}, {"channel": 7}, {"channel": 8}],
+        }
+    }
+    params = {
+        "SERVO1_FUNCTION": 0,
+        "SERVO2_FUNCTION": 0,
+        "SERVO3_FUNCTION": 0,
+        "SERVO4_FUNCTION": 0,
+        "SERVO5_FUNCTION": 0,
+        "SERVO6_FUNCTION": 0,
+        "SERVO7_FUNCTION": 0,
+        "SERVO8_FUNCTION": 0,
+    }
+    sim = {"scroll_output_channels": (5, 6, 7, 8), "params": params}
+    with sim_and_daemon(tmp_path, "square", cfg, **sim) as (server, d):
+        wait_moving(server)
+        d.signal(signal.SIGKILL)
+        assert d.wait_exit(10.0) == -signal.SIGKILL
+        killed = server.snapshot()
+        later = server.wait_for(lambda s: s.sim_time_s > killed.sim_time_s + 10.0, 10.0)
+    print(
+        f"kill -9 (servo): outputs {killed.scroll_pwm_us} at the kill, "
+        f"{later.scroll_pwm_us} 10 s (sim) later"
+    )
+    assert not scrolls_neutral(killed)
+    assert later.scroll_pwm_us == killed.scroll_pwm_us  # still latched
+    assert later.speed_mps > 0.1  # and the rover still moving
+
+
+def test_servo_backend_flies_and_ends_neutral(tmp_path: Path) -> None:
+    cfg = {
+        "actuation": {
+            "backend": "servo",
+            "channels": [{"channel": 5}, {"channel": 6}, {"channel": 7}, {"channel": 8}],
+        }
+    }
+    params = {f"SERVO{n}_FUNCTION": 0 for n in range(5, 9)}
+    sim = {"scroll_output_channels": (5, 6, 7, 8), "params": params}
+    with sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud", **sim) as (server, d):
+        wait_moving(server)
+        d.signal(signal.SIGINT)
+        code = d.wait_exit(20.0)
+        snap = server.snapshot()
+    assert code == ExitCode.OPERATOR_STOP
+    assert snap.mode == "HOLD"
+    assert scrolls_neutral(snap)  # neutral was sent and acknowledged before exit
+    assert math.isclose(snap.speed_mps, 0.0, abs_tol=0.05) or snap.speed_mps < 0.3

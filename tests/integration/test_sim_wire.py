@@ -1,0 +1,239 @@
+"""The simulator on the wire: a plain pymavlink GCS over real UDP against start_embedded().
+
+Each test checks one ArduPilot Rover behaviour listed in DESIGN.md §3. Times are measured in
+*simulated* time (time_boot_ms / SERVO_OUTPUT_RAW time_usec / the history's sim_time_s), so a
+loaded machine slows the simulation down but does not change the numbers.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+from typer.testing import CliRunner
+
+from helixd.cli import app
+from helixd.sim import FaultError
+from tests.integration.simharness import (
+    FORCE_ARM,
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_DO_SET_SERVO,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_DENIED,
+    MAV_RESULT_FAILED,
+    MAV_RESULT_UNSUPPORTED,
+    MODE_HOLD,
+    MSG_LOCAL_POSITION_NED,
+    UINT16_MAX,
+    MavClient,
+    client,
+    running_sim,
+)
+
+pytestmark = pytest.mark.integration
+
+MAV_TYPE_GROUND_ROVER = 10
+MAV_AUTOPILOT_ARDUPILOTMEGA = 3
+CUSTOM_MODE_ENABLED = 1
+SAFETY_ARMED = 128
+MAVLINK2_MAGIC = 0xFD
+
+
+def wait_manual(c: MavClient) -> Any:
+    """Booted to MANUAL and settled (EKF origin set, so the boot-time mode-switch read that
+    ArduPilot does 200 ms after init is long over)."""
+    hb = c.expect("HEARTBEAT", 10.0, lambda m: int(m.custom_mode) == 0)
+    c.expect("LOCAL_POSITION_NED", 10.0)
+    return hb
+
+
+def rate_hz(c: MavClient, kind: str, span_ms: int) -> float:
+    """Messages per simulated second of ``kind`` over ``span_ms`` of time_boot_ms."""
+    first = c.expect(kind, 5.0)
+    stamps = [int(first.time_boot_ms)]
+    while stamps[-1] - stamps[0] < span_ms:
+        stamps.append(int(c.expect(kind, 10.0).time_boot_ms))
+    return (len(stamps) - 1) / ((stamps[-1] - stamps[0]) / 1000.0)
+
+
+def test_heartbeat_contents_and_boot_sequence() -> None:
+    with running_sim(boot_duration_s=10.0) as (_, url), client(url) as c:
+        first = c.expect("HEARTBEAT", 5.0)
+        assert int(first.type) == MAV_TYPE_GROUND_ROVER
+        assert int(first.autopilot) == MAV_AUTOPILOT_ARDUPILOTMEGA
+        assert int(first.custom_mode) == 16  # INITIALISING
+        assert int(first.base_mode) & CUSTOM_MODE_ENABLED
+        assert not int(first.base_mode) & SAFETY_ARMED
+        assert (first.get_srcSystem(), first.get_srcComponent()) == (1, 1)
+        assert first.get_msgbuf()[0] == MAVLINK2_MAGIC
+        after = c.expect("HEARTBEAT", 10.0, lambda m: int(m.custom_mode) != 16)
+        assert int(after.custom_mode) == 0  # MANUAL, straight after INITIALISING
+
+
+def test_arm_refused_with_prearm_text_force_accepted() -> None:
+    with running_sim(prearm_delay_s=None) as (_, url), client(url) as c:
+        wait_manual(c)
+        assert c.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_FAILED
+        assert c.wait_text("PreArm: ", 3.0).startswith("PreArm: ")
+        assert c.command(MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM) == MAV_RESULT_ACCEPTED
+        c.expect("HEARTBEAT", 3.0, lambda m: int(m.base_mode) & SAFETY_ARMED)
+        assert c.command(MAV_CMD_COMPONENT_ARM_DISARM, 0) == MAV_RESULT_ACCEPTED
+        c.expect("HEARTBEAT", 3.0, lambda m: not int(m.base_mode) & SAFETY_ARMED)
+
+
+def test_unknown_command_unsupported_and_set_mode_needs_custom_flag() -> None:
+    with running_sim() as (_, url), client(url) as c:
+        wait_manual(c)
+        assert c.command(31000) == MAV_RESULT_UNSUPPORTED  # MAV_CMD_USER_1
+        assert c.command(MAV_CMD_DO_SET_MODE, 0, MODE_HOLD) == MAV_RESULT_DENIED
+        assert c.command(MAV_CMD_DO_SET_MODE, 1, MODE_HOLD) == MAV_RESULT_ACCEPTED
+        c.expect("HEARTBEAT", 3.0, lambda m: int(m.custom_mode) == MODE_HOLD)
+
+
+def test_message_interval_20ms_denied_25ms_granted_at_40hz() -> None:
+    with running_sim() as (_, url), client(url) as c:
+        default_rate = rate_hz(c, "LOCAL_POSITION_NED", 4000)
+        assert default_rate <= 1.5  # slow until a rate is granted
+        assert c.request_interval(MSG_LOCAL_POSITION_NED, 20_000) == MAV_RESULT_DENIED
+        assert "too fast" in c.wait_text("Requested rate for message ID 32", 3.0)
+        assert c.request_interval(MSG_LOCAL_POSITION_NED, 25_000) == MAV_RESULT_ACCEPTED
+        c.drain()
+        assert 36.0 <= rate_hz(c, "LOCAL_POSITION_NED", 3000) <= 44.0
+
+
+def test_param_mav_gcs_sysid_exists_and_sysid_mygcs_does_not() -> None:
+    with running_sim() as (_, url), client(url) as c:
+        wait_manual(c)
+        assert c.param_read("MAV_GCS_SYSID") == 255.0
+        assert c.param_read("SYSID_MYGCS", timeout_s=1.0) is None
+        c.mav.param_request_list_send(1, 1)
+        first = c.expect("PARAM_VALUE", 3.0)
+        names = {str(first.param_id)}
+        while len(names) < int(first.param_count):
+            names.add(str(c.expect("PARAM_VALUE", 3.0).param_id))
+        assert {"MAV_GCS_SYSID", "RC_OVERRIDE_TIME", "FS_GCS_ENABLE", "SCHED_LOOP_RATE"} <= names
+        assert "SYSID_MYGCS" not in names
+
+
+def test_override_ignored_from_sysid_1_applied_from_255_while_disarmed() -> None:
+    with running_sim() as (srv, url), client(url) as c:
+        wait_manual(c)
+        c.fast_streams()
+        c.mav.srcSystem = 1  # a companion that kept MAVROS's default sysid
+        c.override(1700)
+        c.mav.srcSystem = 255
+        start = c.expect("SERVO_OUTPUT_RAW", 3.0)
+        while True:  # one simulated second of outputs: channel 1 never moves
+            m = c.expect("SERVO_OUTPUT_RAW", 3.0)
+            assert int(m.servo1_raw) == 1500
+            if int(m.time_usec) - int(start.time_usec) > 1_000_000:
+                break
+        assert not srv.history.entries("override_set")
+        c.override(1700)
+        c.servo(1, 3.0, lambda v: v == 1700)
+        assert not srv.snapshot().armed
+
+
+def test_override_expires_after_rc_override_time() -> None:
+    with running_sim() as (srv, url), client(url) as c:
+        wait_manual(c)
+        c.fast_streams()
+        c.override(1700)  # once, then silence: a dead companion
+        on = c.servo(1, 3.0, lambda v: v == 1700)
+        off = c.servo(1, 10.0, lambda v: v == 1500)
+        wire_s = (int(off.time_usec) - int(on.time_usec)) / 1e6
+        assert 2.8 <= wire_s <= 3.2
+        set_at = srv.history.first("override_set")
+        expired = srv.history.first("override_expire")
+        assert set_at is not None and expired is not None
+        assert expired.sim_time_s - set_at.sim_time_s == pytest.approx(3.0, abs=0.03)
+
+
+def test_release_semantics_channels_1_to_8_and_9_to_18() -> None:
+    params = {"RC_OVERRIDE_TIME": 60.0, "SERVO9_FUNCTION": 59}  # RCIN9 on output 9
+    with running_sim(params=params) as (srv, url), client(url) as c:
+        wait_manual(c)
+        c.fast_streams()
+        c.override(1700, 1700, UINT16_MAX, UINT16_MAX, UINT16_MAX, UINT16_MAX, UINT16_MAX,
+                   UINT16_MAX, 1800)  # fmt: skip
+        c.expect("SERVO_OUTPUT_RAW", 3.0, lambda m: (m.servo1_raw, m.servo9_raw) == (1700, 1800))
+        c.override(UINT16_MAX, 0)  # ch1 unchanged, ch2 released at once
+        m = c.servo(2, 3.0, lambda v: v == 1500)
+        assert int(m.servo1_raw) == 1700
+        for keep in (0, UINT16_MAX):  # on 9–18 both mean "unchanged"
+            c.override(UINT16_MAX, UINT16_MAX, UINT16_MAX, UINT16_MAX, UINT16_MAX, UINT16_MAX,
+                       UINT16_MAX, UINT16_MAX, keep)  # fmt: skip
+        c.override(UINT16_MAX, UINT16_MAX, UINT16_MAX, UINT16_MAX, UINT16_MAX, UINT16_MAX,
+                   UINT16_MAX, UINT16_MAX, UINT16_MAX - 1)  # fmt: skip
+        c.servo(9, 3.0, lambda v: v == 1500)
+        releases = [e.details["channel"] for e in srv.history.entries("override_release")]
+        assert releases == [2, 9]  # the 0 / UINT16_MAX on channel 9 released nothing
+
+
+def test_do_set_servo_refused_on_function_73_latched_on_function_0() -> None:
+    with running_sim() as (srv, url), client(url) as c:
+        wait_manual(c)
+        c.fast_streams()
+        assert c.param_set("SERVO5_FUNCTION", 73) == 73.0
+        assert c.command(MAV_CMD_DO_SET_SERVO, 5, 1700) == MAV_RESULT_FAILED
+        assert c.wait_text("ServoRelayEvent: Channel 5", 3.0)
+        assert c.command(MAV_CMD_DO_SET_SERVO, 6, 1234) == MAV_RESULT_ACCEPTED
+        set_msg = c.servo(6, 3.0, lambda v: v == 1234)
+        assert c.command(MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM) == MAV_RESULT_ACCEPTED
+        assert c.command(MAV_CMD_COMPONENT_ARM_DISARM, 0) == MAV_RESULT_ACCEPTED
+        later = c.expect(
+            "SERVO_OUTPUT_RAW",
+            10.0,
+            lambda m: int(m.time_usec) - int(set_msg.time_usec) > 6_000_000,
+        )
+        assert int(later.servo6_raw) == 1234  # latched after 5 s and after disarm
+        assert int(later.servo5_raw) == 1500
+        assert not srv.snapshot().armed
+
+
+def test_hold_does_not_stop_an_overridden_passthrough_output() -> None:
+    with running_sim() as (srv, url), client(url) as c:
+        wait_manual(c)
+        c.fast_streams()
+        assert c.command(MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM) == MAV_RESULT_ACCEPTED
+        c.override(1800)
+        c.servo(1, 3.0, lambda v: v == 1800)
+        assert c.command(MAV_CMD_DO_SET_MODE, 1, MODE_HOLD) == MAV_RESULT_ACCEPTED
+        c.override(1800)
+        c.expect("HEARTBEAT", 3.0, lambda m: int(m.custom_mode) == MODE_HOLD)
+        m = c.expect("SERVO_OUTPUT_RAW", 3.0)
+        assert int(m.servo1_raw) == 1800
+        assert srv.snapshot().mode == "HOLD"
+
+
+def test_rc_loss_fault_gives_radio_failsafe_hold_and_pilot_switch_retakes() -> None:
+    with running_sim() as (srv, url), client(url) as c:
+        wait_manual(c)
+        with pytest.raises(FaultError):
+            srv.inject("pilot_takeover", mode="GUIDED")  # no switch position for GUIDED
+        with pytest.raises(FaultError):
+            srv.inject("no_such_fault")
+        srv.inject("rc_loss")
+        c.expect("HEARTBEAT", 10.0, lambda m: int(m.custom_mode) == MODE_HOLD)
+        assert c.wait_text("Radio Failsafe", 3.0)
+        lost = srv.history.first("fault", lambda e: e.details["name"] == "rc_loss")
+        fired = srv.history.first("failsafe")
+        assert lost is not None and fired is not None
+        # RC_FS_TIMEOUT (1 s) + FS_TIMEOUT (1.5 s)
+        assert fired.sim_time_s - lost.sim_time_s == pytest.approx(2.5, abs=0.05)
+        srv.clear_fault("rc_loss")
+        srv.wait_for(lambda s: s.receiver_ok and not s.failsafe_radio, 5.0)
+        assert srv.snapshot().mode == "HOLD"  # restoring the radio does not leave HOLD
+        srv.set_rc(8, 1100)  # the pilot flips the mode switch to MODE1 (MANUAL)
+        c.expect("HEARTBEAT", 5.0, lambda m: int(m.custom_mode) == 0)
+
+
+def test_cli_sim_runs_for_a_duration_and_rejects_bad_faults() -> None:
+    runner = CliRunner()
+    args = ["sim", "--listen", "udpin:127.0.0.1:0", "--speedup", "50", "--noise", "none"]
+    ok = runner.invoke(app, [*args, "--duration", "4", "--fault", "stall@1:duration_s=1"])
+    assert ok.exit_code == 0, ok.output
+    bad = runner.invoke(app, [*args, "--fault", "stall@soon"])
+    assert bad.exit_code == 2
+    assert "not a number" in bad.output
