@@ -30,6 +30,7 @@ MISSIONS = ROOT / "config" / "missions"
 SPEEDUP = 5.0  # simulator speed-up for daemon runs (sim time runs 5× wall)
 NEUTRAL_US = 1500
 NEUTRAL_TOLERANCE_US = 10
+KEEP_NOTIFY_SOCKET = False  # the systemd test hands its own NOTIFY_SOCKET to the daemon
 
 # Daemon settings for tests: faster setup, everything else at its field default.
 BASE_CONFIG: dict[str, Any] = {
@@ -113,7 +114,8 @@ def daemon(
     mission_path = mission if isinstance(mission, Path) else MISSIONS / f"{mission}.yaml"
     run_root = tmp_path / "runs"
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    env.pop("NOTIFY_SOCKET", None)
+    if not KEEP_NOTIFY_SOCKET:
+        env.pop("NOTIFY_SOCKET", None)
     proc = subprocess.Popen(
         [
             sys.executable,

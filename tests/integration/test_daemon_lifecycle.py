@@ -1,0 +1,140 @@
+"""Crash path, double SIGINT, a wedged daemon, and systemd notifications — end to end."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+import helixd.flight
+from helixd.config import HelixdConfig
+from helixd.daemon import RunOptions, run_mission
+from helixd.exitcodes import ExitCode
+from helixd.mission import load_mission
+from tests.integration.daemon_harness import (
+    MISSIONS,
+    SPEEDUP,
+    overrides_released,
+    scrolls_neutral,
+    secured,
+    sim_and_daemon,
+    time_until,
+    wait_moving,
+)
+from tests.integration.simharness import running_sim
+
+pytestmark = pytest.mark.integration
+
+
+async def test_unhandled_exception_falls_back_to_hold(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A bug inside the control step (here: the kinematics raising on the 100th step) must
+    still end with neutral + release + HOLD, and exit code 1 (internal error)."""
+    calls = {"n": 0}
+    real = helixd.flight.body_to_fractions
+
+    def exploding(*args: Any, **kwargs: Any) -> np.ndarray[Any, Any]:
+        calls["n"] += 1
+        if calls["n"] == 100:
+            raise ZeroDivisionError("injected bug in the control step")
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(helixd.flight, "body_to_fractions", exploding)
+    with running_sim(speedup=SPEEDUP) as (server, url):
+        cfg = HelixdConfig.model_validate(
+            {"link": {"url": url}, "safety": {"arm_retry_interval_s": 0.5}}
+        )
+        mission_path = MISSIONS / "square.yaml"
+        outcome = await run_mission(
+            RunOptions(
+                cfg=cfg,
+                mission=load_mission(mission_path),
+                mission_yaml=mission_path.read_text(),
+                connect_url=url,
+                run_root=tmp_path / "runs",
+                tty=False,
+            )
+        )
+        snap = server.wait_for(secured, 5.0)
+    assert calls["n"] == 100
+    assert outcome.exit_code is ExitCode.INTERNAL_ERROR
+    assert outcome.summary is not None
+    assert outcome.summary.fault is not None and outcome.summary.fault.startswith("exception")
+    assert "ZeroDivisionError" in outcome.summary.fault
+    assert snap.mode == "HOLD" and overrides_released(snap) and scrolls_neutral(snap)
+
+
+def test_second_sigint_forces_exit_after_fallback_sent(tmp_path: Path) -> None:
+    """First SIGINT starts the fall-back; the HOLD acknowledgement never comes (the link is
+    cut); a second SIGINT makes the daemon exit without waiting out hold_retry_bound_s."""
+    cfg = {"safety": {"hold_retry_bound_s": 30.0}}
+    with sim_and_daemon(tmp_path, "square", cfg) as (server, d):
+        wait_moving(server)
+        server.inject("link_drop", duration_s=120.0 * SPEEDUP)
+        d.signal(signal.SIGINT)
+        d.wait_line("event=rc_override_released", 5.0)
+        t0 = time.monotonic()
+        d.signal(signal.SIGINT)
+        code = d.wait_exit(10.0)
+        forced_exit_s = time.monotonic() - t0
+    print(f"second SIGINT: exited {forced_exit_s:.2f} s later")
+    assert code == ExitCode.OPERATOR_STOP
+    assert forced_exit_s < 3.0  # far below the 30 s HOLD retry bound
+
+
+def test_wedged_daemon_stops_heartbeats_and_gcs_failsafe_takes_over(tmp_path: Path) -> None:
+    """SIGSTOP freezes the daemon (a wedged main loop): its HEARTBEATs stop, the autopilot's
+    GCS failsafe (FS_GCS_ENABLE) switches to HOLD and the overrides expire by themselves."""
+    cfg = {"link": {"heartbeat_rate_hz": 5.0}}  # FS_GCS_TIMEOUT runs on simulated time
+    params = {"FS_GCS_ENABLE": 1, "FS_GCS_TIMEOUT": 5}
+    with sim_and_daemon(tmp_path, "square", cfg, params=params) as (server, d):
+        wait_moving(server)
+        t0 = time.monotonic()
+        d.signal(signal.SIGSTOP)
+        try:
+            elapsed = time_until(server, secured, t0, 10.0)
+            snap = server.snapshot()
+        finally:
+            d.signal(signal.SIGCONT)
+            d.signal(signal.SIGINT)
+        d.wait_exit(20.0)
+    print(f"SIGSTOP: autopilot in HOLD with outputs released after {elapsed:.2f} s")
+    assert snap.failsafe_gcs
+    assert elapsed <= 5.0 / SPEEDUP + 1.5  # FS_GCS_TIMEOUT (wall) + heartbeat period + slack
+
+
+def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
+    """The daemon talks sd_notify to a NOTIFY_SOCKET the test creates: READY=1 after
+    preflight, WATCHDOG=1 from the control loop, STOPPING=1 at the end."""
+    sock_path = tmp_path / "notify.sock"
+    sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+    sock.bind(str(sock_path))
+    sock.settimeout(60.0)
+    os.environ["NOTIFY_SOCKET"] = str(sock_path)
+    os.environ["WATCHDOG_USEC"] = "1000000"
+    got: list[str] = []
+    try:
+        from tests.integration import daemon_harness
+
+        daemon_harness.KEEP_NOTIFY_SOCKET = True
+        with sim_and_daemon(tmp_path, "hexagon", terrain="mud") as (_server, d):
+            os.environ["WATCHDOG_PID"] = str(d.proc.pid)
+            while not any("STOPPING=1" in m for m in got):
+                got.append(sock.recv(4096).decode())
+            d.wait_exit(30.0)
+    finally:
+        daemon_harness.KEEP_NOTIFY_SOCKET = False
+        for key in ("NOTIFY_SOCKET", "WATCHDOG_USEC", "WATCHDOG_PID"):
+            os.environ.pop(key, None)
+        sock.close()
+    ready = next(i for i, m in enumerate(got) if "READY=1" in m)
+    watchdogs = [i for i, m in enumerate(got) if "WATCHDOG=1" in m]
+    assert watchdogs and watchdogs[-1] > ready
+    assert any("STATUS=phase: fly" in m for m in got)
