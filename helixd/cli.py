@@ -180,6 +180,38 @@ def run(
     raise typer.Exit(int(outcome.exit_code))
 
 
+@app.command()
+def status(
+    connect: Annotated[
+        str | None, typer.Option("--connect", help="autopilot link (default: link.url)")
+    ] = None,
+    config: ConfigOpt = None,
+    watch: Annotated[bool, typer.Option("--watch", help="refresh until Ctrl-C")] = False,
+    interval_s: Annotated[float, typer.Option(min=0.2, max=60.0, help="refresh period (s)")] = 1.0,
+) -> None:
+    """Print mode, armed, pose, EKF health, RC inputs and servo outputs (read-only)."""
+    import asyncio
+    import sys
+
+    from helixd.link.connection import LinkError
+    from helixd.logging_setup import configure_logging
+    from helixd.status import read_status
+
+    try:
+        cfg = load_config(config)
+    except ConfigFileError as exc:
+        raise fail(exc.problems, ExitCode.USAGE) from None
+    configure_logging(tty=sys.stderr.isatty(), level="warning")
+    link = cfg.link if connect is None else cfg.link.model_copy(update={"url": connect})
+    try:
+        code = asyncio.run(read_status(link, cfg.safety, watch, interval_s, typer.echo))
+    except LinkError as exc:
+        raise fail([str(exc)], ExitCode.LINK) from None
+    except KeyboardInterrupt:
+        code = 0
+    raise typer.Exit(code)
+
+
 sim_command.register(app)
 recorder_command.register(app)
 
