@@ -31,7 +31,7 @@ unit: $(STAMP)
 	$(BIN)/pytest -q tests/unit
 
 demo: $(STAMP)
-	$(BIN)/helixd run --sim --mission config/missions/square.yaml --config config/helixd.yaml
+	$(BIN)/helixd run --sim --sim-speedup 4 --mission config/missions/square.yaml --config config/helixd.yaml --run-dir runs
 
 bench: $(STAMP)
 	$(BIN)/python tools/bench_navigation.py

@@ -34,7 +34,10 @@ class RunSummary(StrictModel):
     waypoints_reached: int
     waypoints_total: int
     arrivals: tuple[Arrival, ...] = ()
-    duration_s: float = Field(description="first to last recorded step, monotonic clock (s)")
+    duration_s: float = Field(
+        description="first to last recorded step on the autopilot's clock (time_boot_ms), so a "
+        "simulator speed-up does not shrink it; the monotonic clock if the autopilot rebooted (s)"
+    )
     wall_duration_s: float | None = Field(
         None, description="whole run including connect/preflight/stop, if given (s)"
     )
@@ -80,6 +83,9 @@ class SummaryBuilder:
         self._rows = 0
         self._t_first: float | None = None
         self._t_last: float | None = None
+        self._tb_first: float | None = None  # autopilot clock (t_boot_s)
+        self._tb_last: float | None = None
+        self._tb_monotonic = True  # False once the autopilot clock stepped back (reboot)
         self._anchor: tuple[float, float] | None = None
         self._path_m = 0.0
         self._xt_sq = 0.0
@@ -101,6 +107,14 @@ class SummaryBuilder:
             if self._t_first is None:
                 self._t_first = t
             self._t_last = t
+        tb = row.t_boot_s
+        if math.isfinite(tb):
+            if self._tb_first is None:
+                self._tb_first = tb
+            self._tb_monotonic = self._tb_monotonic and (
+                self._tb_last is None or tb >= self._tb_last
+            )
+            self._tb_last = tb
         x, y = row.x_m, row.y_m
         if row.pose_fresh and math.isfinite(x) and math.isfinite(y):
             self._last_xy = (x, y)
@@ -143,6 +157,8 @@ class SummaryBuilder:
         duration = (
             0.0 if self._t_first is None or self._t_last is None else self._t_last - self._t_first
         )
+        if self._tb_monotonic and self._tb_first is not None and self._tb_last is not None:
+            duration = self._tb_last - self._tb_first
         if self._final_xy is not None and self._last_xy is not None:
             final_error: float | None = math.hypot(
                 self._last_xy[0] - self._final_xy[0], self._last_xy[1] - self._final_xy[1]

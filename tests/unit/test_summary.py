@@ -75,3 +75,19 @@ def test_json_round_trip() -> None:
     assert '"fault": null' in text
     assert RunSummary.from_json(text) == s
     assert RunSummary.from_json(text).origin_latlon_deg == (47.1, 8.5)
+
+
+def test_duration_is_autopilot_time_unless_it_stepped_back() -> None:
+    # simulator at 5× speed-up: 1 s of wall time is 5 s on the autopilot's clock
+    b = SummaryBuilder()
+    for k in range(11):
+        b.add(_boot_row(100.0 + 0.1 * k, 20.0 + 0.5 * k))
+    assert b.build(True, None, 0).duration_s == pytest.approx(5.0)
+    b.add(_boot_row(101.1, 1.0))  # autopilot rebooted: fall back to the monotonic clock
+    assert b.build(False, "x", 4).duration_s == pytest.approx(1.1)
+
+
+def _boot_row(t_mono_s: float, t_boot_s: float):  # type: ignore[no-untyped-def]
+    import dataclasses
+
+    return dataclasses.replace(row(t_mono_s, 0.0, 0.0, 0.0), t_boot_s=t_boot_s)
