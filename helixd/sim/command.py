@@ -1,10 +1,153 @@
-"""CLI commands contributed by helixd.sim (registered by helixd.cli)."""
+"""CLI commands contributed by helixd.sim (registered by helixd.cli): ``helixd sim``."""
 
 from __future__ import annotations
 
+import math
+import signal
+import threading
+import time
+from pathlib import Path
+from typing import Annotated
+
+import structlog
 import typer
+
+from helixd.config import ConfigFileError, load_yaml_model
+from helixd.exitcodes import ExitCode
+from helixd.sim.config import NoiseLevel, SimConfig, Terrain
+from helixd.sim.faults import FaultError, FaultSpec, parse_fault
+
+log = structlog.get_logger(__name__)
+
+DEFAULT_LINKS = ("tcpin:127.0.0.1:5760", "udpout:127.0.0.1:14550")
+STATUS_EVERY_S = 5.0
+POLL_S = 0.2
+
+
+def _fail(message: str, code: ExitCode) -> typer.Exit:
+    typer.echo(f"error: {message}", err=True)
+    return typer.Exit(int(code))
+
+
+def run_sim(
+    links: list[str],
+    config: SimConfig,
+    faults: list[tuple[FaultSpec, float]],
+    duration_s: float | None,
+) -> None:
+    """Run in the foreground until ``duration_s`` simulated seconds or Ctrl-C."""
+    from helixd.sim.server import SimServer
+
+    try:
+        server = SimServer(links, config)
+    except ValueError as exc:
+        raise _fail(str(exc), ExitCode.USAGE) from None
+    try:
+        server.start()
+    except RuntimeError as exc:
+        raise _fail(str(exc), ExitCode.LINK) from None
+    stop = threading.Event()
+
+    def on_sigterm(signum: int, frame: object) -> None:
+        del signum, frame
+        stop.set()
+
+    on_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, on_sigterm) if on_main else None
+    try:
+        for spec, at_s in faults:
+            server.schedule(spec.name, at_s, **dict(spec.kwargs))
+        next_status = time.monotonic() + STATUS_EVERY_S
+        while not stop.is_set():
+            snap = server.snapshot()
+            if duration_s is not None and snap.sim_time_s >= duration_s:
+                break
+            if time.monotonic() >= next_status:
+                next_status += STATUS_EVERY_S
+                log.info(
+                    "sim_status",
+                    sim_time_s=round(snap.sim_time_s, 1),
+                    mode=snap.mode,
+                    armed=snap.armed,
+                    north_m=round(snap.north_m, 2),
+                    east_m=round(snap.east_m, 2),
+                    yaw_deg=round(math.degrees(snap.yaw_ned_rad), 1),
+                    scroll_pwm_us=list(snap.scroll_pwm_us),
+                )
+            stop.wait(POLL_S)  # foreground idle; the simulator runs on its own thread
+        if stop.is_set():
+            log.info("sim_terminated")
+    except KeyboardInterrupt:
+        log.info("sim_interrupted")
+    finally:
+        if on_main:
+            signal.signal(signal.SIGTERM, previous)
+        server.stop()
 
 
 def register(app: typer.Typer) -> None:
-    """Add this package's commands to the main CLI (filled in by its owner)."""
-    del app
+    """Add ``helixd sim`` to the main CLI."""
+
+    @app.command("sim")
+    def sim(
+        listen: Annotated[
+            list[str] | None,
+            typer.Option(
+                "--listen",
+                "-l",
+                help="MAVLink link: udpin:HOST:PORT, udpout:HOST:PORT or tcpin:HOST:PORT "
+                "(repeatable; default tcpin:127.0.0.1:5760 and udpout:127.0.0.1:14550)",
+            ),
+        ] = None,
+        terrain: Annotated[
+            Terrain | None, typer.Option("--terrain", help="ground under the rover")
+        ] = None,
+        noise: Annotated[
+            NoiseLevel | None, typer.Option("--noise", help="pose noise preset")
+        ] = None,
+        speedup: Annotated[
+            float | None, typer.Option("--speedup", help="simulated seconds per wall second")
+        ] = None,
+        fault: Annotated[
+            list[str] | None,
+            typer.Option(
+                "--fault",
+                help="NAME@SECONDS[:key=value,...] in simulated time (repeatable), e.g. "
+                "rc_loss@30:duration_s=5",
+            ),
+        ] = None,
+        duration: Annotated[
+            float | None, typer.Option("--duration", help="stop after this many simulated s")
+        ] = None,
+        seed: Annotated[int | None, typer.Option("--seed", help="noise RNG seed")] = None,
+        config: Annotated[
+            Path | None, typer.Option("--config", "-c", help="simulator YAML (SimConfig keys)")
+        ] = None,
+    ) -> None:
+        """Run the built-in ArduPilot Rover simulator (QGroundControl/MAVProxy can connect)."""
+        try:
+            base = load_yaml_model(config, SimConfig) if config is not None else SimConfig()
+        except ConfigFileError as exc:
+            for line in exc.problems:
+                typer.echo(f"error: {line}", err=True)
+            raise typer.Exit(int(ExitCode.USAGE)) from None
+        updates: dict[str, object] = {}
+        if terrain is not None:
+            updates["terrain"] = terrain
+        if noise is not None:
+            updates["noise"] = noise
+        if speedup is not None:
+            updates["speedup"] = speedup
+        if seed is not None:
+            updates["seed"] = seed
+        try:
+            cfg = SimConfig.model_validate({**base.model_dump(), **updates})
+        except ValueError as exc:
+            raise _fail(str(exc), ExitCode.USAGE) from None
+        if duration is not None and duration <= 0.0:
+            raise _fail("--duration must be > 0", ExitCode.USAGE)
+        try:
+            faults = [parse_fault(text) for text in fault or []]
+        except FaultError as exc:
+            raise _fail(str(exc), ExitCode.USAGE) from None
+        run_sim(list(listen or DEFAULT_LINKS), cfg, faults, duration)

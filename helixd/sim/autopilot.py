@@ -1,0 +1,355 @@
+"""ArduPilot Rover behaviour model (pure: no sockets, no clocks; times are simulated seconds).
+
+Boot: silent, then HEARTBEAT custom_mode 16 (INITIALISING) for ``boot_duration_s``, then
+INITIAL_MODE (0 = MANUAL). Arming (GCS_Common.cpp handle_command_component_arm_disarm):
+already armed / disarmed → ACCEPTED; PreArm failures → FAILED with "PreArm: …" CRITICAL
+STATUSTEXT unless param2 = 21196 (force). Mode changes (Rover::set_mode, Mode::enter):
+position-requiring modes are refused while armed without a good EKF position or in EKF
+failsafe ("Flight mode change failed"); AUTO is refused without a mission.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+from helixd.sim import modes
+from helixd.sim.config import SimConfig
+from helixd.sim.estimator import EkfStatus
+from helixd.sim.failsafe import EkfHealth, FailsafeDecision, Failsafes
+from helixd.sim.outputs import MotorDemand, ServoOutputs
+from helixd.sim.params import ParamStore
+from helixd.sim.rc import RcInputs
+
+MAV_RESULT_ACCEPTED = 0
+MAV_RESULT_DENIED = 2
+MAV_RESULT_UNSUPPORTED = 3
+MAV_RESULT_FAILED = 4
+MAV_CMD_DO_SET_MODE = 176
+MAV_CMD_DO_SET_SERVO = 183
+MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN = 246
+MAV_CMD_COMPONENT_ARM_DISARM = 400
+MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
+FORCE_ARM_MAGIC = 21196
+MAV_OPTIONS_GCS_ONLY = 1 << 0
+SEVERITY_CRITICAL = 2
+SEVERITY_WARNING = 4
+SEVERITY_INFO = 6
+FIRMWARE_TEXT = "ArduRover V4.7.0-dev (helixd sim)"
+
+
+@dataclass(frozen=True, slots=True)
+class SimEvent:
+    """Something the history log records (mode, arm, override_*, failsafe, ...)."""
+
+    kind: str
+    details: Mapping[str, object] = field(default_factory=dict)
+
+
+@dataclass(frozen=True, slots=True)
+class StatusText:
+    severity: int
+    text: str
+
+
+def _rc_norm(pwm: int, n: int, params: ParamStore) -> float:
+    """RC input → −1..1 around RCn_TRIM with its dead zone (RC_Channel::norm_input_dz)."""
+    lo, trim, hi = (params.get_int(f"RC{n}_{k}") for k in ("MIN", "TRIM", "MAX"))
+    dz = params.get_int(f"RC{n}_DZ")
+    if abs(pwm - trim) <= dz:
+        return 0.0
+    if pwm > trim:
+        return min(1.0, (pwm - trim - dz) / max(1, hi - trim - dz))
+    return max(-1.0, (pwm - trim + dz) / max(1, trim - lo - dz))
+
+
+class Autopilot:
+    def __init__(self, config: SimConfig, params: ParamStore, now_s: float = 0.0) -> None:
+        self.config = config
+        self.params = params
+        self.events: list[SimEvent] = []
+        self.texts: list[StatusText] = []
+        self.pilot_rc_us: list[int] = list(config.pilot_rc_us)
+        self.receiver_ok = True
+        self.gcs_heartbeats_seen = 0
+        self._boot(now_s, silent_s=0.0)
+
+    # -- lifecycle -------------------------------------------------------------------------
+
+    def _boot(self, now_s: float, silent_s: float) -> None:
+        self.silent_until_s = now_s + silent_s
+        self.boot_start_s = self.silent_until_s
+        self.boot_end_s = self.boot_start_s + self.config.boot_duration_s
+        self.origin_time_s = self.boot_end_s + self.config.ekf_origin_delay_s
+        delay = self.config.prearm_delay_s
+        self.prearm_ok_time_s = None if delay is None else self.boot_end_s + delay
+        self.mode = modes.INITIALISING
+        self.armed = False
+        self.rc = RcInputs(self.pilot_rc_us)
+        self.rc.receiver_ok = self.receiver_ok
+        self.outputs = ServoOutputs()
+        self.failsafes = Failsafes()
+        self.mode_switch = modes.ModeSwitch()
+        self.gcs_last_seen_s: float | None = None
+        self._booted = False
+        self._origin_announced = False
+        self._last_slow_check = -1
+        self._overrides_prev: tuple[bool, ...] = (False,) * 16
+
+    def reboot(self, now_s: float, silent_s: float) -> None:
+        self.params.on_reboot()
+        self.events.append(SimEvent("reboot", {"silent_s": silent_s}))
+        self._boot(now_s, silent_s)
+
+    def silent(self, now_s: float) -> bool:
+        return now_s < self.silent_until_s
+
+    def booting(self, now_s: float) -> bool:
+        return now_s < self.boot_end_s
+
+    def origin_set(self, now_s: float) -> bool:
+        return now_s >= self.origin_time_s
+
+    def time_boot_ms(self, now_s: float) -> int:
+        return max(0, round((now_s - self.boot_start_s) * 1000.0))
+
+    def loop_rate_hz(self) -> int:
+        return int(self.params.boot_value("SCHED_LOOP_RATE"))
+
+    def sysid(self) -> int:
+        return int(self.params.boot_value("MAV_SYSID"))
+
+    # -- GCS identity ----------------------------------------------------------------------
+
+    def is_gcs(self, sysid: int) -> bool:
+        """GCS::sysid_is_gcs: MAV_GCS_SYSID, or the range up to MAV_GCS_SYSID_HI."""
+        lo = self.params.get_int("MAV_GCS_SYSID")
+        hi = self.params.get_int("MAV_GCS_SYSID_HI")
+        return lo <= sysid <= hi if hi >= lo else sysid == lo
+
+    def accepts_from(self, sysid: int) -> bool:
+        """MAV_OPTIONS bit 0: accept MAVLink only from the GCS sysids."""
+        return not (self.params.get_int("MAV_OPTIONS") & MAV_OPTIONS_GCS_ONLY) or self.is_gcs(sysid)
+
+    def on_heartbeat(self, sysid: int, now_s: float) -> None:
+        if self.is_gcs(sysid):
+            self.gcs_last_seen_s = now_s
+            self.gcs_heartbeats_seen += 1
+
+    def on_rc_override(self, sysid: int, raw: Sequence[int], now_s: float) -> None:
+        if not self.is_gcs(sysid):
+            return  # "Only accept control from our gcs" — silently ignored
+        for ev in self.rc.apply_override_message(raw, now_s, self.params.get_int("RC_OPTIONS")):
+            self.events.append(
+                SimEvent(f"override_{ev.kind}", {"channel": ev.channel, "pwm_us": ev.pwm_us})
+            )
+        self.gcs_last_seen_s = now_s  # an override counts as GCS contact (sysid_myggcs_seen)
+
+    # -- pilot radio -----------------------------------------------------------------------
+
+    def set_pilot_rc(self, channel: int, pwm_us: int) -> None:
+        self.pilot_rc_us[channel - 1] = int(pwm_us)
+        self.rc.set_receiver(channel, pwm_us)
+
+    def set_receiver_ok(self, ok: bool) -> None:
+        self.receiver_ok = ok
+        self.rc.receiver_ok = ok
+
+    # -- modes and arming ------------------------------------------------------------------
+
+    def _say(self, severity: int, text: str) -> None:
+        self.texts.append(StatusText(severity, text))
+
+    def set_mode(self, number: int, reason: str, now_s: float, ekf: EkfStatus) -> bool:
+        if number not in modes.MODE_NAMES or number == modes.INITIALISING:
+            self._say(SEVERITY_WARNING, f"No such mode {number}")
+            return False
+        if number == self.mode:
+            return True
+        if self.booting(now_s):
+            return False
+        if (
+            self.armed
+            and modes.requires_position(number)
+            and (not ekf.position_ok or self.failsafes.ekf_failsafe)
+        ):
+            self._say(SEVERITY_WARNING, "Flight mode change failed")
+            return False
+        # _enter() refusals: AUTO has no mission and SmartRTL no saved path in the simulator;
+        # RTL needs home (set with the EKF origin)
+        no_home = number == modes.RTL and not self.origin_set(now_s)
+        if number in (modes.AUTO, modes.SMART_RTL) or no_home:
+            self._say(SEVERITY_WARNING, "Flight mode change failed")
+            return False
+        old = self.mode
+        self.mode = number
+        self.events.append(
+            SimEvent(
+                "mode",
+                {"mode": modes.mode_name(number), "from": modes.mode_name(old), "reason": reason},
+            )
+        )
+        return True
+
+    def prearm_failure(self, now_s: float, ekf: EkfStatus) -> str | None:
+        if self.prearm_ok_time_s is None or now_s < self.prearm_ok_time_s:
+            return "AHRS: waiting for home"
+        if not ekf.position_ok:
+            return "AHRS not healthy"
+        if self.failsafes.radio_on():
+            return "Radio failsafe on"
+        return None
+
+    def arm_disarm(self, param1: float, param2: float, now_s: float, ekf: EkfStatus) -> int:
+        if param1 == 0.0:
+            if self.armed:
+                self.armed = False
+                self.events.append(SimEvent("disarm", {"method": "mavlink"}))
+            return MAV_RESULT_ACCEPTED
+        if param1 != 1.0:
+            return MAV_RESULT_UNSUPPORTED
+        if self.armed:
+            return MAV_RESULT_ACCEPTED
+        if self.booting(now_s):
+            return MAV_RESULT_FAILED
+        forced = int(param2) == FORCE_ARM_MAGIC
+        if not forced:
+            reason = self.prearm_failure(now_s, ekf)
+            if reason is not None:
+                self._say(SEVERITY_CRITICAL, f"PreArm: {reason}")
+                return MAV_RESULT_FAILED
+        self.armed = True
+        self.events.append(SimEvent("arm", {"forced": forced}))
+        return MAV_RESULT_ACCEPTED
+
+    def command(self, command: int, p: Sequence[float], now_s: float, ekf: EkfStatus) -> int | None:
+        """Vehicle-level COMMAND_LONG/INT; None = not handled here (the caller decides)."""
+        if command == MAV_CMD_COMPONENT_ARM_DISARM:
+            return self.arm_disarm(p[0], p[1], now_s, ekf)
+        if command == MAV_CMD_DO_SET_MODE:
+            return self.do_set_mode(int(p[0]), int(p[1]), now_s, ekf)
+        if command == MAV_CMD_DO_SET_SERVO:
+            text = self.outputs.do_set_servo(int(p[0]), int(p[1]), self.params)
+            if text is None:
+                self.events.append(
+                    SimEvent("servo_set", {"channel": int(p[0]), "pwm_us": int(p[1])})
+                )
+                return MAV_RESULT_ACCEPTED
+            if text:
+                self._say(SEVERITY_INFO, text)
+            return MAV_RESULT_FAILED
+        if command == MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
+            if self.armed:
+                return MAV_RESULT_FAILED
+            if p[0] not in (1.0, 3.0):
+                return MAV_RESULT_UNSUPPORTED
+            return MAV_RESULT_ACCEPTED  # the caller reboots after sending the ACK
+        return None
+
+    def do_set_mode(self, base_mode: int, custom_mode: int, now_s: float, ekf: EkfStatus) -> int:
+        """GCS_MAVLINK::_set_mode_common: only custom modes are understood."""
+        if not base_mode & MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            return MAV_RESULT_DENIED
+        ok = self.set_mode(custom_mode, "gcs_command", now_s, ekf)
+        return MAV_RESULT_ACCEPTED if ok else MAV_RESULT_FAILED
+
+    # -- the main loop ---------------------------------------------------------------------
+
+    def _apply(self, decision: FailsafeDecision, now_s: float, ekf: EkfStatus) -> None:
+        for severity, text in decision.texts:
+            self._say(severity, text)
+        if decision.triggered:
+            self.events.append(
+                SimEvent(
+                    "failsafe",
+                    {"causes": list(decision.causes), "reported_as": decision.triggered},
+                )
+            )
+        if decision.cleared:
+            self.events.append(SimEvent("failsafe_cleared", {"type": decision.cleared}))
+        if decision.clear_overrides:
+            self.rc.clear_overrides()
+            self.events.append(SimEvent("override_clear", {"reason": "failsafe"}))
+        for number in decision.modes_to_try:
+            if self.set_mode(number, "failsafe", now_s, ekf):
+                break
+
+    def _finish_boot(self) -> None:
+        self._booted = True
+        initial = self.params.get_int("INITIAL_MODE")
+        self.mode = initial if initial in modes.MODE_NAMES else modes.MANUAL
+        self.events.append(SimEvent("boot", {"mode": modes.mode_name(self.mode)}))
+        self.events.append(
+            SimEvent(
+                "mode",
+                {"mode": modes.mode_name(self.mode), "from": "INITIALISING", "reason": "boot"},
+            )
+        )
+        self._say(SEVERITY_INFO, FIRMWARE_TEXT)
+
+    def motor_demand(self) -> MotorDemand | None:
+        if not self.armed:
+            return None
+        if self.mode in modes.MANUAL_INPUT_MODES:
+            t_ch = self.params.get_int("RCMAP_THROTTLE")
+            throttle = _rc_norm(self.rc.radio_in_us[t_ch - 1], t_ch, self.params)
+            steering = _rc_norm(self.rc.radio_in_us[0], 1, self.params)
+            return MotorDemand(throttle, steering)
+        return MotorDemand()  # HOLD and the (unsimulated) navigation modes: stop
+
+    def step(self, now_s: float, ekf: EkfStatus) -> list[int]:
+        """One scheduler loop; returns the 16 servo outputs (µs, 0 = no pulses)."""
+        if self.booting(now_s):
+            return [0] * 16
+        if not self._booted:
+            self._finish_boot()
+        if not self._origin_announced and self.origin_set(now_s):
+            self._origin_announced = True
+            self._say(SEVERITY_INFO, "EKF3 IMU0 origin set")
+            self._say(SEVERITY_INFO, "EKF3 IMU0 is using GPS")
+        params = self.params
+        timeout_s = params.get("RC_OVERRIDE_TIME")
+        rc_ok = self.rc.read_input(now_s, timeout_s, params.get_int("RC_OPTIONS"))
+        self._note_override_expiry(now_s, timeout_s)
+        t_ch = params.get_int("RCMAP_THROTTLE")
+        self._apply(
+            self.failsafes.radio_check(
+                now_s, rc_ok, self.rc.radio_in_us[t_ch - 1], self.mode, params
+            ),
+            now_s,
+            ekf,
+        )
+        if not self.failsafes.radio_on():
+            mode_ch = params.get_int("MODE_CH")
+            if 1 <= mode_ch <= 16:
+                position = self.mode_switch.update(self.rc.radio_in_us[mode_ch - 1], now_s)
+                if position is not None:
+                    self.set_mode(params.get_int(f"MODE{position + 1}"), "rc_switch", now_s, ekf)
+        slow = int(now_s * 10.0)  # the 10 Hz checks
+        if slow != self._last_slow_check:
+            self._last_slow_check = slow
+            self._apply(
+                self.failsafes.gcs_check(now_s, self.gcs_last_seen_s, self.mode, params), now_s, ekf
+            )
+            health = EkfHealth(
+                ekf.velocity_variance,
+                ekf.pos_horiz_variance,
+                ekf.compass_variance,
+                ekf.position_ok,
+                self.origin_set(now_s),
+            )
+            self._apply(
+                self.failsafes.ekf_check(
+                    self.armed, health, modes.requires_position(self.mode), params
+                ),
+                now_s,
+                ekf,
+            )
+        return list(self.outputs.update(self.rc.radio_in_us, params, self.motor_demand()))
+
+    def _note_override_expiry(self, now_s: float, timeout_s: float) -> None:
+        active = self.rc.active_overrides(now_s, timeout_s)
+        for i, (was, now) in enumerate(zip(self._overrides_prev, active, strict=True)):
+            if was and not now and self.rc.override_us[i] > 0:
+                self.events.append(SimEvent("override_expire", {"channel": i + 1}))
+        self._overrides_prev = active

@@ -1,0 +1,252 @@
+"""Configuration of the built-in ArduPilot-Rover-compatible simulator (``helixd sim``).
+
+Every tunable has a unit in its name, bounds and a default. Terrain traction numbers are
+engineering guesses shaped by the thesis's field tests (ch. 5.3): ROLL works on hard ground and
+grass, SCROLL progresses in sand but turning in place there digs a pit and fails (Field Test 1).
+"""
+
+from __future__ import annotations
+
+import math
+from enum import StrEnum
+
+from pydantic import Field, model_validator
+
+from helixd.config import StrictModel, VehicleConfig
+from helixd.sim.params import DEFAULT_PARAMS
+
+
+class Terrain(StrEnum):
+    HARD = "hard"
+    GRASS = "grass"
+    SAND = "sand"
+    MUD = "mud"
+
+
+class NoiseLevel(StrEnum):
+    NONE = "none"  # exact pose: for tests that compare numbers
+    LOW = "low"  # RTK-like
+    THESIS = "thesis"  # dual GPS without RTK: ~1 m position, yaw within ±10° (thesis ch. 5.2)
+
+
+class TerrainTraction(StrictModel):
+    """How much of the no-slip (eq. 1) body velocity a terrain lets through, per axis.
+
+    ``dig_rate_per_m``: pit depth (0..1) gained per metre of slip; a pit scales every axis
+    by (1 − depth). ``pit_escape_per_m``: depth lost per metre actually travelled.
+    """
+
+    roll_efficiency: float = Field(ge=0.0, le=1.0, description="fraction of v_x achieved")
+    scroll_efficiency: float = Field(ge=0.0, le=1.0, description="fraction of v_y achieved")
+    yaw_efficiency: float = Field(ge=0.0, le=1.0, description="fraction of ω_z achieved")
+    dig_rate_per_m: float = Field(ge=0.0, le=10.0, description="pit depth per metre of slip")
+    pit_escape_per_m: float = Field(
+        ge=0.0, le=10.0, description="pit depth removed per metre travelled (1/m)"
+    )
+
+
+class TerrainTable(StrictModel):
+    hard: TerrainTraction = Field(
+        default_factory=lambda: TerrainTraction(
+            roll_efficiency=0.95,
+            scroll_efficiency=0.45,
+            yaw_efficiency=0.85,
+            dig_rate_per_m=0.0,
+            pit_escape_per_m=1.0,
+        )
+    )
+    grass: TerrainTraction = Field(
+        default_factory=lambda: TerrainTraction(
+            roll_efficiency=0.9,
+            scroll_efficiency=0.6,
+            yaw_efficiency=0.75,
+            dig_rate_per_m=0.0,
+            pit_escape_per_m=1.0,
+        )
+    )
+    sand: TerrainTraction = Field(
+        default_factory=lambda: TerrainTraction(
+            roll_efficiency=0.6,
+            scroll_efficiency=0.75,
+            yaw_efficiency=0.12,
+            dig_rate_per_m=0.12,
+            pit_escape_per_m=0.2,
+        )
+    )
+    mud: TerrainTraction = Field(
+        default_factory=lambda: TerrainTraction(
+            roll_efficiency=0.3,
+            scroll_efficiency=0.85,
+            yaw_efficiency=0.55,
+            dig_rate_per_m=0.02,
+            pit_escape_per_m=0.5,
+        )
+    )
+
+    def get(self, terrain: Terrain) -> TerrainTraction:
+        traction: TerrainTraction = getattr(self, terrain.value)
+        return traction
+
+
+class NoiseProfile(StrictModel):
+    """GPS/EKF error model: Gauss–Markov drift plus white jitter, smoothed by the 'EKF'."""
+
+    pos_sigma_m: float = Field(ge=0.0, le=20.0, description="1σ of the slow position error (m)")
+    pos_tau_s: float = Field(gt=0.0, le=3600.0, description="correlation time of it (s)")
+    pos_white_m: float = Field(ge=0.0, le=5.0, description="1σ white jitter per fix (m)")
+    yaw_sigma_rad: float = Field(ge=0.0, le=1.0, description="1σ of the slow yaw error (rad)")
+    yaw_tau_s: float = Field(gt=0.0, le=3600.0, description="correlation time of it (s)")
+    vel_white_mps: float = Field(ge=0.0, le=2.0, description="1σ velocity jitter (m/s)")
+    ekf_tau_s: float = Field(gt=0.0, le=10.0, description="EKF smoothing time constant (s)")
+    variance_base: float = Field(
+        ge=0.0, le=0.5, description="EKF_STATUS_REPORT test ratio when healthy (0..1)"
+    )
+
+
+class NoiseProfiles(StrictModel):
+    none: NoiseProfile = Field(
+        default_factory=lambda: NoiseProfile(
+            pos_sigma_m=0.0,
+            pos_tau_s=30.0,
+            pos_white_m=0.0,
+            yaw_sigma_rad=0.0,
+            yaw_tau_s=30.0,
+            vel_white_mps=0.0,
+            ekf_tau_s=0.2,
+            variance_base=0.02,
+        )
+    )
+    low: NoiseProfile = Field(
+        default_factory=lambda: NoiseProfile(
+            pos_sigma_m=0.05,
+            pos_tau_s=30.0,
+            pos_white_m=0.01,
+            yaw_sigma_rad=math.radians(0.5),
+            yaw_tau_s=30.0,
+            vel_white_mps=0.01,
+            ekf_tau_s=0.2,
+            variance_base=0.05,
+        )
+    )
+    thesis: NoiseProfile = Field(
+        default_factory=lambda: NoiseProfile(
+            pos_sigma_m=0.7,
+            pos_tau_s=20.0,
+            pos_white_m=0.2,
+            yaw_sigma_rad=math.radians(4.0),
+            yaw_tau_s=10.0,
+            vel_white_mps=0.05,
+            ekf_tau_s=0.3,
+            variance_base=0.2,
+        )
+    )
+
+    def get(self, level: NoiseLevel) -> NoiseProfile:
+        profile: NoiseProfile = getattr(self, level.value)
+        return profile
+
+
+def _helix_params() -> dict[str, float]:
+    """The Helix-25 setup on top of ArduPilot Rover's defaults (see params.py)."""
+    return {
+        "MODE6": 4.0,  # pilot's mode switch high = HOLD (ArduPilot default: all MANUAL)
+        "SERVO1_MIN": 1000.0,
+        "SERVO1_MAX": 2000.0,
+        "SERVO2_MIN": 1000.0,
+        "SERVO2_MAX": 2000.0,
+        "SERVO3_MIN": 1000.0,
+        "SERVO3_MAX": 2000.0,
+        "SERVO4_MIN": 1000.0,
+        "SERVO4_MAX": 2000.0,
+    }
+
+
+class SimConfig(StrictModel):
+    vehicle: VehicleConfig = Field(
+        default_factory=VehicleConfig, description="geometry and 195 RPM max"
+    )
+    terrain: Terrain = Field(Terrain.HARD, description="ground under the rover")
+    terrains: TerrainTable = Field(default_factory=TerrainTable)
+    noise: NoiseLevel = Field(NoiseLevel.THESIS, description="pose noise preset")
+    noise_profiles: NoiseProfiles = Field(default_factory=NoiseProfiles)
+    seed: int | None = Field(None, ge=0, description="noise RNG seed; None = random")
+    speedup: float = Field(
+        1.0, gt=0.0, le=100.0, description="sim time runs this many times wall time (SITL's -s)"
+    )
+    motor_time_constant_s: float = Field(
+        0.3, gt=0.001, le=5.0, description="first-order lag of scroll speed to command (s)"
+    )
+    scroll_output_channels: tuple[int, int, int, int] = Field(
+        (1, 2, 3, 4), description="servo output (1..16) read as the speed of scrolls 1..4"
+    )
+    scroll_reversed: tuple[bool, bool, bool, bool] = Field(
+        (False, False, False, False), description="motor of that scroll wired backwards"
+    )
+    motor_pwm_min_us: int = Field(1000, ge=800, le=2200, description="full reverse (µs)")
+    motor_pwm_trim_us: int = Field(1500, ge=800, le=2200, description="stopped (µs)")
+    motor_pwm_max_us: int = Field(2000, ge=800, le=2200, description="full forward (µs)")
+    motor_deadband_us: int = Field(
+        0, ge=0, le=200, description="|PWM − trim| below this: motor stopped (µs)"
+    )
+    boot_duration_s: float = Field(
+        2.0, ge=0.0, le=120.0, description="HEARTBEAT custom_mode 16 (INITIALISING) this long (s)"
+    )
+    reboot_silent_s: float = Field(
+        1.5, ge=0.0, le=60.0, description="no MAVLink at all after a reboot, before booting (s)"
+    )
+    ekf_origin_delay_s: float = Field(
+        3.0, ge=0.0, le=600.0, description="after boot: EKF origin/home set, pose streams start"
+    )
+    prearm_delay_s: float | None = Field(
+        20.0,
+        ge=0.0,
+        le=3600.0,
+        description="after boot: PreArm checks pass (None = never; only force-arm works)",
+    )
+    origin_lat_deg: float = Field(53.52325, ge=-90.0, le=90.0, description="EKF origin latitude")
+    origin_lon_deg: float = Field(
+        -113.52632,
+        ge=-180.0,
+        le=180.0,
+        description="EKF origin longitude (default: the thesis's field)",
+    )
+    origin_alt_m: float = Field(668.0, ge=-500.0, le=9000.0, description="EKF origin altitude")
+    initial_north_m: float = Field(0.0, ge=-10_000.0, le=10_000.0, description="start pose (m)")
+    initial_east_m: float = Field(0.0, ge=-10_000.0, le=10_000.0, description="start pose (m)")
+    initial_yaw_ned_rad: float = Field(
+        0.0, ge=-math.pi, le=math.pi, description="start heading, clockwise from North (rad)"
+    )
+    default_stream_rate_hz: float = Field(
+        1.0, ge=0.0, le=50.0, description="SRn_* rate of every stream until a GCS asks (Hz)"
+    )
+    pilot_rc_us: tuple[int, ...] = Field(
+        (1500,) * 16, min_length=16, max_length=16, description="pilot radio channels 1..16 (µs)"
+    )
+    params: dict[str, float] = Field(
+        default_factory=_helix_params,
+        description="parameter values over ArduPilot Rover's defaults (names must exist)",
+    )
+    history_max_entries: int = Field(
+        200_000, ge=100, le=10_000_000, description="oldest history entries dropped beyond this"
+    )
+
+    @model_validator(mode="after")
+    def _check(self) -> SimConfig:
+        if not self.motor_pwm_min_us < self.motor_pwm_trim_us < self.motor_pwm_max_us:
+            raise ValueError("need motor_pwm_min_us < motor_pwm_trim_us < motor_pwm_max_us")
+        for ch in self.scroll_output_channels:
+            if not 1 <= ch <= 16:
+                raise ValueError(f"scroll_output_channels must be 1..16, got {ch}")
+        for pwm in self.pilot_rc_us:
+            if not 800 <= pwm <= 2200:
+                raise ValueError(f"pilot_rc_us values must be 800..2200, got {pwm}")
+        unknown = sorted(set(self.params) - set(DEFAULT_PARAMS))
+        if unknown:
+            raise ValueError(f"unknown parameter names in params: {', '.join(unknown)}")
+        return self
+
+    def traction(self) -> TerrainTraction:
+        return self.terrains.get(self.terrain)
+
+    def noise_profile(self) -> NoiseProfile:
+        return self.noise_profiles.get(self.noise)

@@ -1,0 +1,281 @@
+"""The simulator's functional core: autopilot + physics + estimator + faults, stepped in
+simulated time, MAVLink messages in and out as plain objects. No sockets, no clocks; the
+random generator is passed in. :mod:`helixd.sim.server` is the I/O shell around it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Mapping
+from types import MappingProxyType
+
+import numpy as np
+
+from helixd.sim import estimator, physics, telemetry
+from helixd.sim import streams as st
+from helixd.sim.autopilot import Autopilot, SimEvent, StatusText
+from helixd.sim.config import SimConfig
+from helixd.sim.faults import FaultClock, FaultError, FaultSpec
+from helixd.sim.inbound import InboundHandler
+from helixd.sim.messages import Message, statustexts
+from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.params import ParamStore
+from helixd.sim.physics import MotorMap, PhysicsState
+
+PARAMS_PER_LOOP = 2  # PARAM_REQUEST_LIST streaming pace (ArduPilot rate-limits it too)
+# a PWM in the middle of each mode-switch position (RC_Channel::read_mode_switch bands)
+SWITCH_POSITION_PWM_US = (1100, 1295, 1425, 1555, 1685, 1900)
+
+
+class LinkState:
+    def __init__(self, default_rate_hz: float, loop_rate_hz: int) -> None:
+        self.streams = st.StreamSchedule(default_rate_hz, loop_rate_hz)
+        self.param_queue: deque[int] = deque()
+
+
+class SimCore:
+    def __init__(self, config: SimConfig, n_links: int, rng: np.random.Generator) -> None:
+        self.config = config
+        self.rng = rng
+        self.params = ParamStore(config.params)
+        self.ap = Autopilot(config, self.params, 0.0)
+        self.links = [self._new_link() for _ in range(n_links)]
+        self.faults = FaultClock()
+        self.pending: list[tuple[float, FaultSpec]] = []
+        self.outbox: list[tuple[int | None, Message]] = []
+        self.flushed: list[tuple[int | None, Message]] = []  # resolved, sent even if now silent
+        self.events: list[SimEvent] = []
+        self.phys = PhysicsState(
+            north_m=config.initial_north_m,
+            east_m=config.initial_east_m,
+            yaw_ned_rad=config.initial_yaw_ned_rad,
+        )
+        self.est = estimator.EstimatorState()
+        self.motor = MotorMap(
+            config.motor_pwm_min_us,
+            config.motor_pwm_trim_us,
+            config.motor_pwm_max_us,
+            config.motor_deadband_us,
+        )
+        self.outputs_us: list[int] = [0] * 16
+        self.now_s = 0.0
+        self._epoch_s = 0.0
+        self._n = 0
+        self._chunk_id = 0
+        self._origin_sent = False
+        self.inbound = InboundHandler(self)
+        self._params_view: tuple[int, Mapping[str, float]] = (-1, MappingProxyType({}))
+        self.view = self._view(self.ekf_status(), self.now_s)
+
+    # -- bookkeeping -----------------------------------------------------------------------
+
+    def _new_link(self) -> LinkState:
+        return LinkState(self.config.default_stream_rate_hz, self.ap.loop_rate_hz())
+
+    def params_view(self) -> Mapping[str, float]:
+        """Read-only copy of the parameters, rebuilt only when one changed."""
+        if self._params_view[0] != self.params.version:
+            self._params_view = (self.params.version, MappingProxyType(self.params.as_dict()))
+        return self._params_view[1]
+
+    def dt_s(self) -> float:
+        return 1.0 / self.ap.loop_rate_hz()
+
+    def link_up(self, link: int) -> bool:
+        if self.ap.silent(self.now_s):
+            return False
+        if self.faults.on("link_drop"):
+            which = self.faults.args["link_drop"].get("link")
+            return which is not None and int(str(which)) != link
+        return True
+
+    def send(self, link: int | None, msg: Message) -> None:
+        self.outbox.append((link, msg))
+
+    def say(self, text: StatusText) -> None:
+        self._chunk_id = self._chunk_id % 65535 + 1
+        for m in statustexts(text.severity, text.text, self._chunk_id):
+            self.send(None, m)
+        self.events.append(SimEvent("statustext", {"severity": text.severity, "text": text.text}))
+
+    def drain_outbox(self) -> list[tuple[int | None, Message]]:
+        """Messages to put on the wire; a link that is down (dropped/silent) loses its share."""
+        out, self.outbox = self.outbox, []
+        result, self.flushed = self.flushed, []
+        for link, msg in out:
+            if link is None:
+                for i in range(len(self.links)):
+                    if self.link_up(i):
+                        result.append((i, msg))
+            elif self.link_up(link):
+                result.append((link, msg))
+        return result
+
+    def drain_events(self) -> list[SimEvent]:
+        self._collect()
+        out, self.events = self.events, []
+        return out
+
+    def _collect(self) -> None:
+        self.events.extend(self.ap.events)
+        self.ap.events.clear()
+        texts, self.ap.texts = self.ap.texts, []
+        for text in texts:
+            if self.ap.silent(self.now_s):
+                continue
+            self.say(text)
+
+    # -- faults and the pilot --------------------------------------------------------------
+
+    def schedule(self, spec: FaultSpec, at_s: float) -> None:
+        self.pending.append((at_s, spec))
+        self.pending.sort(key=lambda p: p[0])
+
+    def inject(self, spec: FaultSpec) -> None:
+        now = self.now_s
+        kw = spec.kwargs
+        switch_pwm = self._switch_pwm(str(kw["mode"])) if spec.name == "pilot_takeover" else 0
+        self.events.append(SimEvent("fault", {"name": spec.name, **kw}))
+        if spec.name == "reboot":
+            silent = kw.get("silent_s")
+            silent_s = self.config.reboot_silent_s if silent is None else float(str(silent))
+            self.ap.reboot(now, silent_s)
+            self.links = [self._new_link() for _ in self.links]
+            self._epoch_s, self._n = now, 0
+            self._origin_sent = False
+        elif spec.name == "gps_jump":
+            bearing = math.radians(float(str(kw["bearing_deg"])))
+            self.est = estimator.gps_jump(self.est, float(str(kw["distance_m"])), bearing)
+        elif spec.name == "pilot_takeover":
+            self.set_rc(self.params.get_int("MODE_CH"), switch_pwm)
+        else:
+            self.faults.start(spec, now)
+            if spec.name == "rc_loss":
+                self.ap.set_receiver_ok(False)
+
+    def _switch_pwm(self, mode: str) -> int:
+        number = MODE_NUMBERS.get(mode.upper())
+        if number is None:
+            raise FaultError(f"pilot_takeover: unknown mode {mode!r}")
+        for position in range(6):
+            if self.params.get_int(f"MODE{position + 1}") == number:
+                return SWITCH_POSITION_PWM_US[position]
+        raise FaultError(f"pilot_takeover: no MODE1..MODE6 switch position is {mode}")
+
+    def clear_fault(self, name: str) -> None:
+        if self.faults.clear(name):
+            self._fault_ended(name)
+
+    def _fault_ended(self, name: str) -> None:
+        self.events.append(SimEvent("fault_end", {"name": name}))
+        if name == "rc_loss":
+            self.ap.set_receiver_ok(True)
+
+    def set_rc(self, channel: int, pwm_us: int) -> None:
+        if not 1 <= channel <= 16:
+            raise ValueError(f"RC channel must be 1..16, got {channel}")
+        self.ap.set_pilot_rc(channel, pwm_us)
+        self.events.append(SimEvent("pilot_rc", {"channel": channel, "pwm_us": pwm_us}))
+
+    # -- the loop --------------------------------------------------------------------------
+
+    def ekf_status(self) -> estimator.EkfStatus:
+        return estimator.ekf_status(
+            self.est,
+            self.config.noise_profile(),
+            self.ap.origin_set(self.now_s) and not self.ap.booting(self.now_s),
+            self.faults.on("ekf_unhealthy"),
+        )
+
+    def handle(self, link: int, msg: Message) -> None:
+        if self.link_up(link):
+            self.inbound.handle(link, msg)
+            self._collect()
+
+    def tick(self) -> None:
+        self._n += 1
+        now = self._epoch_s + self._n * self.dt_s()
+        self.now_s = now
+        while self.pending and self.pending[0][0] <= now:
+            self.inject(self.pending.pop(0)[1])
+        for name in self.faults.expire(now):
+            self._fault_ended(name)
+        ekf = self.ekf_status()
+        outputs = self.ap.step(now, ekf)
+        self._collect()
+        for i, (old, new) in enumerate(zip(self.outputs_us, outputs, strict=True)):
+            if old != new:
+                self.events.append(SimEvent("output", {"channel": i + 1, "pwm_us": new}))
+        self.outputs_us = outputs
+        cfg = self.config
+        fractions = physics.scroll_fractions_from_pwm(
+            outputs, cfg.scroll_output_channels, cfg.scroll_reversed, self.motor
+        )
+        dt = self.dt_s()
+        self.phys = physics.step(
+            self.phys,
+            dt,
+            fractions,
+            cfg.vehicle,
+            cfg.traction(),
+            cfg.motor_time_constant_s,
+            stalled=self.faults.on("stall"),
+        )
+        self.est = estimator.step(self.est, dt, cfg.noise_profile(), self.rng)
+        self._collect()
+        self.view = self._view(ekf, now)
+        self._telemetry(now)
+
+    def _view(self, ekf: estimator.EkfStatus, now: float) -> telemetry.TelemetryView:
+        ap, cfg = self.ap, self.config
+        gps_n, gps_e = estimator.gps_fix(self.est, self.phys)
+        profile = cfg.noise_profile()
+        return telemetry.TelemetryView(
+            time_boot_ms=ap.time_boot_ms(now),
+            mode=ap.mode,
+            armed=ap.armed,
+            booting=ap.booting(now),
+            failsafe_active=bool(ap.failsafes.triggered) or ap.failsafes.ekf_failsafe,
+            origin_set=ap.origin_set(now),
+            prearm_ok=not ap.booting(now) and ap.prearm_failure(now, ekf) is None,
+            rc_ok=ap.receiver_ok,
+            estimate=estimator.estimate(self.est, self.phys),
+            gps_north_m=gps_n,
+            gps_east_m=gps_e,
+            gps_accuracy_m=profile.pos_sigma_m + profile.pos_white_m,
+            truth=self.phys,
+            ekf=ekf,
+            radio_in_us=tuple(ap.rc.radio_in_us),
+            outputs_us=tuple(self.outputs_us),
+            origin_lat_deg=cfg.origin_lat_deg,
+            origin_lon_deg=cfg.origin_lon_deg,
+            origin_alt_m=cfg.origin_alt_m,
+            sysid=ap.sysid(),
+        )
+
+    def _telemetry(self, now: float) -> None:
+        if self.ap.silent(now):
+            return
+        view = self.view
+        if view.origin_set and not self._origin_sent:
+            self._origin_sent = True
+            origin = telemetry.build(st.MSG_GPS_GLOBAL_ORIGIN, view)
+            if origin is not None:
+                self.send(None, origin)
+        hidden: set[int] = set()
+        if self.faults.on("stale_pose"):
+            hidden |= telemetry.POSE_MESSAGES
+            if self.faults.args["stale_pose"].get("attitude"):
+                hidden.add(st.MSG_ATTITUDE)
+        for i, link in enumerate(self.links):
+            for msg_id in link.streams.due(now):
+                if msg_id in hidden or (view.booting and msg_id != st.MSG_HEARTBEAT):
+                    continue
+                msg = telemetry.build(msg_id, view)
+                if msg is not None:
+                    self.send(i, msg)
+            for _ in range(PARAMS_PER_LOOP):
+                if not link.param_queue:
+                    break
+                self.send(i, self.inbound.param_value_at(link.param_queue.popleft()))

@@ -1,0 +1,115 @@
+"""Fault injection: names, arguments and the schedule (pure)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+FAULTS: dict[str, dict[str, object]] = {
+    # name: {kwarg: default}
+    "link_drop": {"duration_s": None, "link": None},  # both directions; link = index or all
+    "stale_pose": {"duration_s": None, "attitude": False},  # pose streams stop
+    "ekf_unhealthy": {"duration_s": None},
+    "reboot": {"silent_s": None},  # time_boot_ms restarts, boots through INITIALISING
+    "gps_jump": {"distance_m": 10.0, "bearing_deg": 90.0},
+    "pilot_takeover": {"mode": "HOLD"},  # pilot moves the RC mode switch
+    "rc_loss": {"duration_s": None},  # pilot's receiver stops
+    "stall": {"duration_s": None},  # scrolls dig in: they turn, the rover does not move
+}
+DURATION_FAULTS = frozenset({"link_drop", "stale_pose", "ekf_unhealthy", "rc_loss", "stall"})
+
+
+class FaultError(ValueError):
+    pass
+
+
+@dataclass(frozen=True, slots=True)
+class FaultSpec:
+    name: str
+    kwargs: Mapping[str, object] = field(default_factory=dict)
+
+
+def _convert(name: str, key: str, raw: str) -> object:
+    default = FAULTS[name][key]
+    if key == "mode":
+        return raw.upper()
+    if isinstance(default, bool):
+        if raw.lower() in ("1", "true", "yes", "on"):
+            return True
+        if raw.lower() in ("0", "false", "no", "off"):
+            return False
+        raise FaultError(f"{name}: {key} must be true/false, got {raw!r}")
+    if key == "link":
+        return int(raw)
+    try:
+        return float(raw)
+    except ValueError:
+        raise FaultError(f"{name}: {key} must be a number, got {raw!r}") from None
+
+
+def make_spec(name: str, kwargs: Mapping[str, object]) -> FaultSpec:
+    if name not in FAULTS:
+        raise FaultError(f"unknown fault {name!r}; known: {', '.join(sorted(FAULTS))}")
+    unknown = sorted(set(kwargs) - set(FAULTS[name]))
+    if unknown:
+        allowed = ", ".join(sorted(FAULTS[name])) or "none"
+        raise FaultError(f"{name}: unknown argument(s) {', '.join(unknown)} (allowed: {allowed})")
+    merged = {k: v for k, v in FAULTS[name].items()}
+    merged.update(kwargs)
+    duration = merged.get("duration_s")
+    if duration is not None and float(str(duration)) <= 0.0:
+        raise FaultError(f"{name}: duration_s must be > 0")
+    return FaultSpec(name, merged)
+
+
+def parse_fault(text: str) -> tuple[FaultSpec, float]:
+    """``NAME@SECONDS[:key=value[,key=value]]`` → (spec, sim time in seconds)."""
+    head, _, args = text.partition(":")
+    name, at, when = head.partition("@")
+    if not at:
+        raise FaultError(f"{text!r}: expected NAME@SECONDS[:key=value,...]")
+    try:
+        at_s = float(when)
+    except ValueError:
+        raise FaultError(f"{text!r}: {when!r} is not a number of seconds") from None
+    if at_s < 0.0:
+        raise FaultError(f"{text!r}: time must be >= 0")
+    name = name.strip()
+    if name not in FAULTS:
+        raise FaultError(f"unknown fault {name!r}; known: {', '.join(sorted(FAULTS))}")
+    kwargs: dict[str, object] = {}
+    for part in filter(None, (p.strip() for p in args.split(","))):
+        key, eq, value = part.partition("=")
+        if not eq:
+            raise FaultError(f"{text!r}: argument {part!r} is not key=value")
+        key = key.strip()
+        if key not in FAULTS[name]:
+            raise FaultError(f"{name}: unknown argument {key!r}")
+        kwargs[key] = _convert(name, key, value.strip())
+    return make_spec(name, kwargs), at_s
+
+
+class FaultClock:
+    """Active durational faults with their end times (None = until cleared)."""
+
+    def __init__(self) -> None:
+        self.active: dict[str, float | None] = {}
+        self.args: dict[str, Mapping[str, object]] = {}
+
+    def start(self, spec: FaultSpec, now_s: float) -> None:
+        duration = spec.kwargs.get("duration_s")
+        self.active[spec.name] = None if duration is None else now_s + float(str(duration))
+        self.args[spec.name] = spec.kwargs
+
+    def clear(self, name: str) -> bool:
+        self.args.pop(name, None)
+        return self.active.pop(name, "absent") != "absent"
+
+    def expire(self, now_s: float) -> list[str]:
+        ended = [n for n, end in self.active.items() if end is not None and now_s >= end]
+        for name in ended:
+            self.clear(name)
+        return ended
+
+    def on(self, name: str) -> bool:
+        return name in self.active

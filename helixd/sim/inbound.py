@@ -1,0 +1,217 @@
+"""Handling of received MAVLink messages (pure: updates the core, queues replies).
+
+Routing as ArduPilot's MAVLink_routing::check_and_forward: a message carrying a
+target_system is processed only when it is 0 (broadcast) or our sysid, and for our sysid only
+when target_component is 0 or ours. Commands come back with COMMAND_ACK to the sender's
+link; unknown commands → MAV_RESULT_UNSUPPORTED. PARAM_SET answers with PARAM_VALUE on every
+link (GCS::send_parameter_value); an unknown name gets no answer at all.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from helixd.sim import messages, telemetry
+from helixd.sim import streams as st
+from helixd.sim.autopilot import (
+    MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_FAILED,
+    MAV_RESULT_UNSUPPORTED,
+    SimEvent,
+    StatusText,
+)
+from helixd.sim.faults import make_spec
+from helixd.sim.messages import Message
+
+if TYPE_CHECKING:
+    from helixd.sim.core import SimCore
+
+MAV_CMD_GET_MESSAGE_INTERVAL = 510
+MAV_CMD_SET_MESSAGE_INTERVAL = 511
+MAV_CMD_REQUEST_MESSAGE = 512
+MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES = 520
+MAVLINK_MSG_ID_SET_MODE = 11
+OUR_COMPID = 1
+SEVERITY_INFO = 6
+
+
+def _i(msg: Message, name: str) -> int:
+    return int(getattr(msg, name))
+
+
+def _name(msg: Message) -> str:
+    raw = getattr(msg, "param_id", b"")
+    text = raw.decode("ascii", errors="replace") if isinstance(raw, bytes) else str(raw)
+    return text.rstrip("\x00")
+
+
+def _f(msg: Message, name: str) -> float:
+    return float(getattr(msg, name))
+
+
+class InboundHandler:
+    def __init__(self, core: SimCore) -> None:
+        self.core = core
+        self._handlers: dict[str, Callable[[int, Message, int, int], None]] = {
+            "HEARTBEAT": self._heartbeat,
+            "RC_CHANNELS_OVERRIDE": self._rc_override,
+            "MANUAL_CONTROL": self._manual_control,
+            "COMMAND_LONG": self._command_long,
+            "COMMAND_INT": self._command_int,
+            "SET_MODE": self._set_mode,
+            "PARAM_REQUEST_READ": self._param_request_read,
+            "PARAM_REQUEST_LIST": self._param_request_list,
+            "PARAM_SET": self._param_set,
+            "REQUEST_DATA_STREAM": self._request_data_stream,
+        }
+
+    def handle(self, link: int, msg: Message) -> None:
+        kind = msg.get_type()
+        handler = self._handlers.get(kind)
+        if handler is None:
+            return
+        src_sys, src_comp = int(msg.get_srcSystem()), int(msg.get_srcComponent())
+        ap = self.core.ap
+        if not ap.accepts_from(src_sys):
+            return
+        target = getattr(msg, "target_system", None)
+        if target is not None:
+            if int(target) not in (0, ap.sysid()):
+                return
+            comp = getattr(msg, "target_component", 0)
+            if int(target) != 0 and int(comp) not in (0, OUR_COMPID):
+                return
+        handler(link, msg, src_sys, src_comp)
+
+    # -- simple messages -------------------------------------------------------------------
+
+    def _heartbeat(self, link: int, msg: Message, src: int, comp: int) -> None:
+        self.core.ap.on_heartbeat(src, self.core.now_s)
+
+    def _rc_override(self, link: int, msg: Message, src: int, comp: int) -> None:
+        raw = [_i(msg, f"chan{n}_raw") for n in range(1, 19)]
+        self.core.ap.on_rc_override(src, raw, self.core.now_s)
+
+    def _manual_control(self, link: int, msg: Message, src: int, comp: int) -> None:
+        if self.core.ap.is_gcs(src):
+            self.core.ap.gcs_last_seen_s = self.core.now_s
+
+    def _set_mode(self, link: int, msg: Message, src: int, comp: int) -> None:
+        core = self.core
+        result = core.ap.do_set_mode(
+            _i(msg, "base_mode"), _i(msg, "custom_mode"), core.now_s, core.ekf_status()
+        )
+        core.send(link, messages.command_ack(MAVLINK_MSG_ID_SET_MODE, result, src, comp))
+
+    # -- commands --------------------------------------------------------------------------
+
+    def _command_long(self, link: int, msg: Message, src: int, comp: int) -> None:
+        params = [_f(msg, f"param{n}") for n in range(1, 8)]
+        self._command(link, _i(msg, "command"), params, src, comp)
+
+    def _command_int(self, link: int, msg: Message, src: int, comp: int) -> None:
+        params = [_f(msg, f"param{n}") for n in range(1, 5)]
+        params += [float(_i(msg, "x")), float(_i(msg, "y")), _f(msg, "z")]
+        self._command(link, _i(msg, "command"), params, src, comp)
+
+    def _command(self, link: int, command: int, p: list[float], src: int, comp: int) -> None:
+        core = self.core
+        result = self._link_command(link, command, p)
+        if result is None:
+            result = core.ap.command(command, p, core.now_s, core.ekf_status())
+        if result is None:
+            result = MAV_RESULT_UNSUPPORTED
+        core.events.append(
+            SimEvent("command", {"command": command, "result": result, "sysid": src})
+        )
+        core.send(link, messages.command_ack(command, result, src, comp))
+        if command == MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN and result == MAV_RESULT_ACCEPTED:
+            core.flushed.extend(core.drain_outbox())  # the ACK goes out before the reboot
+            core.inject(make_spec("reboot", {}))
+
+    def _link_command(self, link: int, command: int, p: list[float]) -> int | None:
+        core = self.core
+        schedule = core.links[link].streams
+        if command == MAV_CMD_SET_MESSAGE_INTERVAL:
+            msg_id = int(p[0])
+            decision = st.decide_set_message_interval(
+                msg_id,
+                int(p[1]),
+                p[2],
+                core.ap.loop_rate_hz(),
+                schedule.default_interval_ms(msg_id),
+            )
+            if decision.text:
+                core.say(StatusText(SEVERITY_INFO, decision.text))
+            if decision.interval_ms is not None:
+                schedule.set_interval(msg_id, decision.interval_ms, core.now_s)
+            return decision.result
+        if command == MAV_CMD_GET_MESSAGE_INTERVAL:
+            msg_id = int(p[0])
+            if msg_id not in st.KNOWN_MESSAGES:
+                core.send(link, messages.message_interval(msg_id, 0))
+                return MAV_RESULT_FAILED
+            interval_ms = schedule.interval_ms.get(msg_id, 0)
+            core.send(link, messages.message_interval(msg_id, interval_ms * 1000 or -1))
+            return MAV_RESULT_ACCEPTED
+        if command == MAV_CMD_REQUEST_MESSAGE:
+            msg_id = int(p[0])
+            if msg_id not in st.KNOWN_MESSAGES:
+                return MAV_RESULT_FAILED
+            built = telemetry.build(msg_id, core.view)
+            if built is not None:
+                core.send(link, built)
+            return MAV_RESULT_ACCEPTED
+        if command == MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES:
+            if p[0] != 1.0:
+                return MAV_RESULT_ACCEPTED
+            core.send(link, messages.autopilot_version(core.ap.sysid()))
+            return MAV_RESULT_ACCEPTED
+        return None
+
+    def _request_data_stream(self, link: int, msg: Message, src: int, comp: int) -> None:
+        core = self.core
+        core.links[link].streams.request_data_stream(
+            _i(msg, "req_stream_id"),
+            _i(msg, "req_message_rate"),
+            _i(msg, "start_stop") != 0,
+            core.now_s,
+        )
+
+    # -- parameters ------------------------------------------------------------------------
+
+    def param_value_at(self, index: int) -> Message:
+        params = self.core.params
+        name = params.name_at(index)
+        assert name is not None
+        return messages.param_value(name, params.get(name), params.kind(name), len(params), index)
+
+    def _param_request_read(self, link: int, msg: Message, src: int, comp: int) -> None:
+        params = self.core.params
+        index = _i(msg, "param_index")
+        if index >= 0:
+            if params.name_at(index) is None:
+                return
+        else:
+            name = _name(msg)
+            if name not in params:
+                return  # e.g. SYSID_MYGCS on current firmware: no reply
+            index = params.index(name)
+        self.core.send(link, self.param_value_at(index))
+
+    def _param_request_list(self, link: int, msg: Message, src: int, comp: int) -> None:
+        self.core.links[link].param_queue = deque(range(len(self.core.params)))
+
+    def _param_set(self, link: int, msg: Message, src: int, comp: int) -> None:
+        core = self.core
+        name = _name(msg)
+        if name not in core.params:
+            return
+        old = core.params.get(name)
+        stored = core.params.set(name, _f(msg, "param_value"))
+        if stored != old:
+            core.events.append(SimEvent("param", {"name": name, "value": stored, "old": old}))
+        core.send(None, self.param_value_at(core.params.index(name)))

@@ -1,0 +1,277 @@
+"""Builders of the MAVLink messages the simulator sends (pure: values in, message objects out).
+
+Field conventions follow ArduPilot's GCS_MAVLINK senders (GCS_Common.cpp): LOCAL_POSITION_NED
+in metres from the EKF origin, ATTITUDE yaw clockwise from North in (−π, π],
+GLOBAL_POSITION_INT hdg in centidegrees 0..35999, SERVO_OUTPUT_RAW time_usec truncated to 32
+bits, STATUSTEXT split into 50-character chunks with a shared id.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Sequence
+from typing import Any, Protocol, cast
+
+os.environ.setdefault("MAVLINK20", "1")
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.control.angles import wrap_pi
+from helixd.sim import modes
+from helixd.sim.estimator import EkfStatus, PoseEstimate
+
+
+class Message(Protocol):
+    """The part of pymavlink's (untyped) MAVLink_message the simulator uses."""
+
+    def get_type(self) -> str: ...
+    def get_srcSystem(self) -> int: ...
+    def get_srcComponent(self) -> int: ...
+
+
+def _m(msg: Any) -> Message:
+    return cast(Message, msg)
+
+
+MAV_TYPE_GROUND_ROVER = 10
+MAV_AUTOPILOT_ARDUPILOTMEGA = 3
+MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
+MAV_MODE_FLAG_GUIDED_ENABLED = 8
+MAV_MODE_FLAG_MANUAL_INPUT_ENABLED = 64
+MAV_MODE_FLAG_SAFETY_ARMED = 128
+MAV_STATE_BOOT = 1
+MAV_STATE_CALIBRATING = 2
+MAV_STATE_STANDBY = 3
+MAV_STATE_ACTIVE = 4
+MAV_STATE_CRITICAL = 5
+STATUSTEXT_LEN = 50
+
+SENSOR_GYRO = 0x1
+SENSOR_ACCEL = 0x2
+SENSOR_MAG = 0x4
+SENSOR_BARO = 0x8
+SENSOR_GPS = 0x20
+SENSOR_RC_RECEIVER = 0x10000
+SENSOR_MOTOR_OUTPUTS = 0x8000
+SENSOR_AHRS = 0x200000
+SENSOR_PREARM_CHECK = 0x10000000
+CAPABILITIES = 2 | 4 | 8 | 128 | 256 | 8192  # PARAM_FLOAT MISSION_INT COMMAND_INT ... MAVLINK2
+FIRMWARE_VERSION = (4 << 24) | (7 << 16)  # 4.7.0, FIRMWARE_VERSION_TYPE_DEV
+
+
+def heartbeat(mode: int, armed: bool, system_status: int) -> Message:
+    """GCS_MAVLINK_Rover::base_mode: custom mode flag always, armed flag when armed."""
+    base = MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
+    if mode in modes.MANUAL_INPUT_MODES:
+        base |= MAV_MODE_FLAG_MANUAL_INPUT_ENABLED
+    if mode in modes.AUTOPILOT_MODES:
+        base |= MAV_MODE_FLAG_GUIDED_ENABLED
+    if armed and mode != modes.INITIALISING:
+        base |= MAV_MODE_FLAG_SAFETY_ARMED
+    return _m(
+        mavlink.MAVLink_heartbeat_message(
+            MAV_TYPE_GROUND_ROVER, MAV_AUTOPILOT_ARDUPILOTMEGA, base, mode, system_status, 3
+        )
+    )
+
+
+def sys_status(rc_ok: bool, gps_ok: bool, ekf_ok: bool, prearm_ok: bool) -> Message:
+    present = (
+        SENSOR_GYRO
+        | SENSOR_ACCEL
+        | SENSOR_MAG
+        | SENSOR_BARO
+        | SENSOR_GPS
+        | SENSOR_RC_RECEIVER
+        | SENSOR_MOTOR_OUTPUTS
+        | SENSOR_AHRS
+        | SENSOR_PREARM_CHECK
+    )
+    health = SENSOR_GYRO | SENSOR_ACCEL | SENSOR_MAG | SENSOR_BARO | SENSOR_MOTOR_OUTPUTS
+    health |= (SENSOR_RC_RECEIVER if rc_ok else 0) | (SENSOR_GPS if gps_ok else 0)
+    health |= (SENSOR_AHRS if ekf_ok else 0) | (SENSOR_PREARM_CHECK if prearm_ok else 0)
+    return _m(
+        mavlink.MAVLink_sys_status_message(
+            present, present, health, 100, 24000, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0, 0
+        )
+    )
+
+
+def ekf_status_report(status: EkfStatus) -> Message:
+    return _m(
+        mavlink.MAVLink_ekf_status_report_message(
+            status.flags,
+            status.velocity_variance,
+            status.pos_horiz_variance,
+            status.pos_vert_variance,
+            status.compass_variance,
+            status.terrain_alt_variance,
+            0.0,
+        )
+    )
+
+
+def local_position_ned(time_boot_ms: int, est: PoseEstimate) -> Message:
+    return _m(
+        mavlink.MAVLink_local_position_ned_message(
+            time_boot_ms, est.north_m, est.east_m, 0.0, est.v_north_mps, est.v_east_mps, 0.0
+        )
+    )
+
+
+def attitude(time_boot_ms: int, est: PoseEstimate) -> Message:
+    return _m(
+        mavlink.MAVLink_attitude_message(
+            time_boot_ms, 0.0, 0.0, wrap_pi(est.yaw_ned_rad), 0.0, 0.0, est.yaw_rate_ned_radps
+        )
+    )
+
+
+def _cdeg_0_360(yaw_rad: float) -> int:
+    return round(math.degrees(yaw_rad) * 100.0) % 36000
+
+
+def global_position_int(
+    time_boot_ms: int, lat_deg: float, lon_deg: float, alt_m: float, est: PoseEstimate
+) -> Message:
+    return _m(
+        mavlink.MAVLink_global_position_int_message(
+            time_boot_ms,
+            round(lat_deg * 1e7),
+            round(lon_deg * 1e7),
+            round(alt_m * 1000.0),
+            0,
+            round(est.v_north_mps * 100.0),
+            round(est.v_east_mps * 100.0),
+            0,
+            _cdeg_0_360(est.yaw_ned_rad),
+        )
+    )
+
+
+def gps_raw_int(
+    time_boot_ms: int,
+    lat_deg: float,
+    lon_deg: float,
+    alt_m: float,
+    speed_mps: float,
+    course_rad: float,
+    accuracy_m: float,
+) -> Message:
+    eph = max(1, min(65534, round(max(accuracy_m, 0.01) * 100.0)))
+    return _m(
+        mavlink.MAVLink_gps_raw_int_message(
+            time_boot_ms * 1000,
+            3,  # GPS_FIX_TYPE_3D_FIX
+            round(lat_deg * 1e7),
+            round(lon_deg * 1e7),
+            round(alt_m * 1000.0),
+            eph,
+            eph * 2,
+            round(speed_mps * 100.0),
+            _cdeg_0_360(course_rad),
+            12,
+            0,
+            0,
+            0,
+            0,
+            0,
+            0,
+        )
+    )
+
+
+def gps_global_origin(lat_deg: float, lon_deg: float, alt_m: float, time_usec: int) -> Message:
+    return _m(
+        mavlink.MAVLink_gps_global_origin_message(
+            round(lat_deg * 1e7), round(lon_deg * 1e7), round(alt_m * 1000.0), time_usec
+        )
+    )
+
+
+def home_position(lat_deg: float, lon_deg: float, alt_m: float, time_usec: int) -> Message:
+    return _m(
+        mavlink.MAVLink_home_position_message(
+            round(lat_deg * 1e7),
+            round(lon_deg * 1e7),
+            round(alt_m * 1000.0),
+            0.0,
+            0.0,
+            0.0,
+            [1.0, 0.0, 0.0, 0.0],
+            0.0,
+            0.0,
+            0.0,
+            time_usec,
+        )
+    )
+
+
+def rc_channels(time_boot_ms: int, radio_in_us: Sequence[int], rc_ok: bool) -> Message:
+    chans = [*[int(v) for v in radio_in_us][:16], 0, 0]
+    chancount = 16 if rc_ok else 0
+    return _m(
+        mavlink.MAVLink_rc_channels_message(time_boot_ms, chancount, *chans, 255 if rc_ok else 0)
+    )
+
+
+def servo_output_raw(time_boot_ms: int, outputs_us: Sequence[int]) -> Message:
+    values = [max(0, min(65535, int(v))) for v in outputs_us][:16]
+    return _m(
+        mavlink.MAVLink_servo_output_raw_message((time_boot_ms * 1000) & 0xFFFFFFFF, 0, *values)
+    )
+
+
+def vfr_hud(speed_mps: float, yaw_ned_rad: float, alt_m: float) -> Message:
+    heading = round(math.degrees(yaw_ned_rad)) % 360
+    return _m(mavlink.MAVLink_vfr_hud_message(0.0, speed_mps, heading, 0, alt_m, 0.0))
+
+
+def system_time(time_boot_ms: int) -> Message:
+    return _m(mavlink.MAVLink_system_time_message(0, time_boot_ms))
+
+
+def statustexts(severity: int, text: str, chunk_id: int) -> list[Message]:
+    """One message, or 50-character chunks sharing ``chunk_id`` (ArduPilot does the same)."""
+    raw = text.encode("ascii", errors="replace")
+    if len(raw) <= STATUSTEXT_LEN:
+        return [_m(mavlink.MAVLink_statustext_message(severity, raw, 0, 0))]
+    chunks = [raw[i : i + STATUSTEXT_LEN] for i in range(0, len(raw), STATUSTEXT_LEN)]
+    return [
+        _m(mavlink.MAVLink_statustext_message(severity, chunk, chunk_id, seq))
+        for seq, chunk in enumerate(chunks)
+    ]
+
+
+def command_ack(command: int, result: int, target_system: int, target_component: int) -> Message:
+    return _m(
+        mavlink.MAVLink_command_ack_message(command, result, 0, 0, target_system, target_component)
+    )
+
+
+def param_value(name: str, value: float, kind: int, count: int, index: int) -> Message:
+    return _m(mavlink.MAVLink_param_value_message(name.encode("ascii"), value, kind, count, index))
+
+
+def message_interval(message_id: int, interval_us: int) -> Message:
+    return _m(mavlink.MAVLink_message_interval_message(message_id, interval_us))
+
+
+def autopilot_version(sysid: int) -> Message:
+    return _m(
+        mavlink.MAVLink_autopilot_version_message(
+            CAPABILITIES,
+            FIRMWARE_VERSION,
+            0,
+            0,
+            0,
+            [0] * 8,
+            [0] * 8,
+            [0] * 8,
+            0,
+            0,
+            sysid,
+            [0] * 18,
+        )
+    )

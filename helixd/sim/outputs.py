@@ -1,0 +1,137 @@
+"""Servo output model (SRV_Channel / AP_ServoRelayEvents / AP_MotorsUGV, simplified).
+
+* RCIN passthrough (SERVOn_FUNCTION 51..66, and 1 = "manual" from the same channel):
+  output = radio_in of the source RC channel, whatever the mode or arming state
+  (SRV_Channel::output_ch in SRV_Channel_aux.cpp). HOLD and disarm therefore do NOT stop
+  them — only ArduPilot's own throttle/steering functions go to trim in HOLD
+  (Rover/mode_hold.cpp sets throttle and steering to 0) or when disarmed (safety output).
+* MAV_CMD_DO_SET_SERVO (AP_ServoRelayEvents::do_set_servo): allowed only when the channel's
+  function is none (0), manual (1), sprayer pump/spinner (22/23), gripper (28) or RCIN1..16
+  (51..66); otherwise FAILED with "ServoRelayEvent: Channel N is already in use". The value
+  is latched (set_output_pwm, no timeout). On a passthrough channel it holds until the RC
+  input moves by more than the channel's dead zone (ignore_small_rcin_changes).
+* Function 0 before any DO_SET_SERVO outputs SERVOn_TRIM (an approximation).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from helixd.sim.params import ParamStore
+
+NUM_SERVO_CHANNELS = 16
+K_NONE = 0
+K_MANUAL = 1
+K_SPRAYER_PUMP = 22
+K_SPRAYER_SPINNER = 23
+K_STEERING = 26
+K_GRIPPER = 28
+K_RCIN1 = 51
+K_RCIN16 = 66
+K_THROTTLE = 70
+K_THROTTLE_LEFT = 73
+K_THROTTLE_RIGHT = 74
+
+DO_SET_SERVO_FUNCTIONS = frozenset(
+    {K_NONE, K_MANUAL, K_SPRAYER_PUMP, K_SPRAYER_SPINNER, K_GRIPPER, *range(K_RCIN1, K_RCIN16 + 1)}
+)
+
+
+@dataclass(frozen=True, slots=True)
+class MotorDemand:
+    """ArduPilot's own drive demand (AP_MotorsUGV): throttle and steering in −1..1."""
+
+    throttle: float = 0.0
+    steering: float = 0.0
+
+
+@dataclass(slots=True)
+class _Channel:
+    latched: bool = False
+    latched_pwm_us: int = 0
+    ignore_small_rcin_changes: bool = False
+    previous_radio_in_us: int = 0
+    output_pwm_us: int = 0
+
+
+def _scaled_pwm(value: float, n: int, params: ParamStore) -> int:
+    """−1..1 → PWM around SERVOn_TRIM within SERVOn_MIN/MAX (honours SERVOn_REVERSED)."""
+    lo = params.get_int(f"SERVO{n}_MIN")
+    trim = params.get_int(f"SERVO{n}_TRIM")
+    hi = params.get_int(f"SERVO{n}_MAX")
+    v = max(-1.0, min(1.0, value))
+    if params.get_int(f"SERVO{n}_REVERSED"):
+        v = -v
+    return round(trim + v * (hi - trim)) if v >= 0.0 else round(trim + v * (trim - lo))
+
+
+def skid_mix(demand: MotorDemand) -> tuple[float, float]:
+    """AP_MotorsUGV::output_skid_steering: left = t + s, right = t − s, scaled to fit."""
+    left = demand.throttle + demand.steering
+    right = demand.throttle - demand.steering
+    peak = max(1.0, abs(left), abs(right))
+    return left / peak, right / peak
+
+
+class ServoOutputs:
+    def __init__(self) -> None:
+        self._ch = [_Channel() for _ in range(NUM_SERVO_CHANNELS)]
+        self.outputs_us: list[int] = [0] * NUM_SERVO_CHANNELS
+
+    def latched_channels(self) -> tuple[int, ...]:
+        return tuple(i + 1 for i, c in enumerate(self._ch) if c.latched)
+
+    def do_set_servo(self, channel: int, pwm_us: int, params: ParamStore) -> str | None:
+        """Returns None when accepted, else the STATUSTEXT ArduPilot sends (or '')."""
+        if not 1 <= channel <= NUM_SERVO_CHANNELS:
+            return ""  # srv_channel(channel-1) == nullptr → false → FAILED, no text
+        function = params.get_int(f"SERVO{channel}_FUNCTION")
+        if function not in DO_SET_SERVO_FUNCTIONS:
+            return f"ServoRelayEvent: Channel {channel} is already in use"
+        c = self._ch[channel - 1]
+        c.latched = True
+        c.latched_pwm_us = int(pwm_us)
+        c.output_pwm_us = int(pwm_us)
+        c.ignore_small_rcin_changes = True
+        return None
+
+    def update(
+        self,
+        radio_in_us: Sequence[int],
+        params: ParamStore,
+        demand: MotorDemand | None,
+    ) -> list[int]:
+        """Recompute all 16 outputs; ``demand`` None = disarmed (safety output = trim)."""
+        left_right = skid_mix(demand) if demand is not None else (0.0, 0.0)
+        for i, c in enumerate(self._ch):
+            n = i + 1
+            function = params.get_int(f"SERVO{n}_FUNCTION")
+            source = -1
+            if function == K_MANUAL:
+                source = i
+            elif K_RCIN1 <= function <= K_RCIN16:
+                source = function - K_RCIN1
+            if source >= 0:
+                radio_in = int(radio_in_us[source])
+                if not c.ignore_small_rcin_changes:
+                    c.output_pwm_us = radio_in
+                    c.previous_radio_in_us = radio_in
+                elif abs(radio_in - c.previous_radio_in_us) > params.get_int(f"RC{source + 1}_DZ"):
+                    c.output_pwm_us = radio_in
+                    c.ignore_small_rcin_changes = False
+                    c.latched = False
+            elif function == K_THROTTLE:
+                c.output_pwm_us = _scaled_pwm(demand.throttle if demand else 0.0, n, params)
+            elif function == K_STEERING:
+                c.output_pwm_us = _scaled_pwm(demand.steering if demand else 0.0, n, params)
+            elif function == K_THROTTLE_LEFT:
+                c.output_pwm_us = _scaled_pwm(left_right[0], n, params)
+            elif function == K_THROTTLE_RIGHT:
+                c.output_pwm_us = _scaled_pwm(left_right[1], n, params)
+            elif c.latched:
+                c.output_pwm_us = c.latched_pwm_us
+            else:
+                c.output_pwm_us = params.get_int(f"SERVO{n}_TRIM")
+            self.outputs_us[i] = c.output_pwm_us
+        return self.outputs_us

@@ -1,0 +1,145 @@
+"""The ArduPilot Rover parameters the simulator models, with their defaults and MAVLink types.
+
+Names follow current ArduPilot master: ``MAV_SYSID`` / ``MAV_GCS_SYSID`` / ``MAV_GCS_SYSID_HI``
+/ ``MAV_OPTIONS`` (libraries/GCS_MAVLink/GCS.cpp var_info) replaced ``SYSID_THISMAV`` /
+``SYSID_MYGCS``, which therefore do not exist here. Servo outputs 1–4 default to RCIN1..RCIN4
+passthrough (51..54) and 5..16 to 0 — the Helix per-scroll setup; stock Rover would have
+SERVO1_FUNCTION 26 (steering) and SERVO3_FUNCTION 70 (throttle).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from enum import IntEnum
+from types import MappingProxyType
+
+
+class ParamType(IntEnum):
+    """MAV_PARAM_TYPE values ArduPilot reports in PARAM_VALUE."""
+
+    INT8 = 2
+    INT16 = 4
+    INT32 = 6
+    REAL32 = 9
+
+
+@dataclass(frozen=True, slots=True)
+class ParamSpec:
+    default: float
+    kind: ParamType
+
+
+def _build_defaults() -> dict[str, ParamSpec]:
+    i8, i16, i32, f32 = ParamType.INT8, ParamType.INT16, ParamType.INT32, ParamType.REAL32
+    table: dict[str, ParamSpec] = {
+        "MAV_SYSID": ParamSpec(1, i16),
+        "MAV_GCS_SYSID": ParamSpec(255, i16),
+        "MAV_GCS_SYSID_HI": ParamSpec(0, i16),
+        "MAV_OPTIONS": ParamSpec(0, i16),
+        "SCHED_LOOP_RATE": ParamSpec(50, i16),  # Rover default; takes effect after reboot
+        "RC_OVERRIDE_TIME": ParamSpec(3.0, f32),  # RC_Channels.cpp _OVERRIDE_TIME
+        "RC_OPTIONS": ParamSpec(0, i32),
+        "RC_FS_TIMEOUT": ParamSpec(1.0, f32),
+        "RCMAP_THROTTLE": ParamSpec(3, i8),
+        "FS_ACTION": ParamSpec(2, i8),  # 2 = Hold
+        "FS_TIMEOUT": ParamSpec(1.5, f32),
+        "FS_OPTIONS": ParamSpec(0, i32),
+        "FS_GCS_ENABLE": ParamSpec(0, i8),
+        "FS_GCS_TIMEOUT": ParamSpec(5.0, f32),
+        "FS_THR_ENABLE": ParamSpec(1, i8),
+        "FS_THR_VALUE": ParamSpec(910, i16),
+        "FS_EKF_ACTION": ParamSpec(1, i8),  # 1 = Hold
+        "FS_EKF_THRESH": ParamSpec(0.8, f32),
+        "INITIAL_MODE": ParamSpec(0, i8),
+        "MODE_CH": ParamSpec(8, i8),
+    }
+    for n in range(1, 7):
+        table[f"MODE{n}"] = ParamSpec(0, i8)  # Rover Parameters.cpp: every MODEn = MANUAL
+    for n in range(1, 17):
+        table[f"RC{n}_MIN"] = ParamSpec(1100, i16)
+        table[f"RC{n}_TRIM"] = ParamSpec(1500, i16)
+        table[f"RC{n}_MAX"] = ParamSpec(1900, i16)
+        # Rover::init_rc_in sets a 30 µs dead zone on steering (1) and throttle (3)
+        table[f"RC{n}_DZ"] = ParamSpec(30 if n in (1, 3) else 0, i16)
+    for n in range(1, 17):
+        table[f"SERVO{n}_FUNCTION"] = ParamSpec(50 + n if n <= 4 else 0, i16)
+        table[f"SERVO{n}_MIN"] = ParamSpec(1100, i16)
+        table[f"SERVO{n}_TRIM"] = ParamSpec(1500, i16)
+        table[f"SERVO{n}_MAX"] = ParamSpec(1900, i16)
+        table[f"SERVO{n}_REVERSED"] = ParamSpec(0, i8)
+    return table
+
+
+DEFAULT_PARAMS: Mapping[str, ParamSpec] = MappingProxyType(_build_defaults())
+
+# Parameters whose new value is only read at boot (the scheduler is set up once).
+REBOOT_REQUIRED = frozenset({"SCHED_LOOP_RATE", "MAV_SYSID"})
+
+
+def _coerce(value: float, kind: ParamType) -> float:
+    if kind is ParamType.REAL32:
+        return float(value)
+    return float(round(value))
+
+
+class ParamStore:
+    """Current values, in ArduPilot's order (PARAM_REQUEST_LIST index order)."""
+
+    def __init__(self, overrides: Mapping[str, float] | None = None) -> None:
+        self._values: dict[str, float] = {k: float(s.default) for k, s in DEFAULT_PARAMS.items()}
+        self._version = 0
+        for name, value in (overrides or {}).items():
+            self.set(name, value)
+        # values the running "firmware" booted with (for REBOOT_REQUIRED ones)
+        self._boot_values = dict(self._values)
+
+    @property
+    def version(self) -> int:
+        """Bumped on every change, so observers can cache copies."""
+        return self._version
+
+    def names(self) -> Iterator[str]:
+        return iter(self._values)
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._values
+
+    def get(self, name: str) -> float:
+        return self._values[name]
+
+    def get_int(self, name: str) -> int:
+        return int(self._values[name])
+
+    def boot_value(self, name: str) -> float:
+        """Value in effect for parameters that need a reboot to change."""
+        return self._boot_values[name]
+
+    def kind(self, name: str) -> ParamType:
+        return DEFAULT_PARAMS[name].kind
+
+    def index(self, name: str) -> int:
+        return list(self._values).index(name)
+
+    def name_at(self, index: int) -> str | None:
+        if 0 <= index < len(self._values):
+            return list(self._values)[index]
+        return None
+
+    def set(self, name: str, value: float) -> float:
+        """Set a known parameter (KeyError otherwise); returns the stored value."""
+        spec = DEFAULT_PARAMS[name]
+        stored = _coerce(value, spec.kind)
+        if self._values[name] != stored:
+            self._values[name] = stored
+            self._version += 1
+        return stored
+
+    def on_reboot(self) -> None:
+        self._boot_values = dict(self._values)
+
+    def as_dict(self) -> dict[str, float]:
+        return dict(self._values)

@@ -1,0 +1,135 @@
+"""Helix-25 ground physics (pure): PWM → scroll speed with motor lag → eq. 1 with terrain slip.
+
+Frames: body x = ROLL axis (forward), y = SCROLL axis (LEFT), yaw counter-clockwise positive
+(the thesis's convention, helixd.control.kinematics). World: NED, yaw clockwise from North.
+A CCW body yaw rate is a negative NED yaw rate; body y-left at NED heading ψ points to ψ − 90°:
+    v_north = v_x cos ψ + v_y sin ψ,   v_east = v_x sin ψ − v_y cos ψ.
+
+Slip: each body axis passes only a terrain-dependent fraction of the no-slip velocity. Slip
+(commanded-by-the-scrolls minus achieved, plus the 'scrolls fighting' null-space part of the
+four speeds) digs a pit where the terrain allows it (dry sand, thesis Field Test 1: turning in
+place in SCROLL mode dug the scrolls in and the rover could not turn); a pit scales every
+axis by (1 − depth) and is left behind by actually travelling. The ``stalled`` fault makes the
+rover dig in completely while it lasts: the scrolls keep turning, the rover does not move.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+from helixd.config import VehicleConfig
+from helixd.control.angles import wrap_pi
+from helixd.control.kinematics import rpm_to_radps, scroll_radps_to_body
+from helixd.sim.config import TerrainTraction
+
+
+@dataclass(frozen=True, slots=True)
+class PhysicsState:
+    north_m: float = 0.0
+    east_m: float = 0.0
+    yaw_ned_rad: float = 0.0
+    vx_body_mps: float = 0.0  # achieved, ROLL axis
+    vy_body_mps: float = 0.0  # achieved, SCROLL axis (left)
+    wz_body_radps: float = 0.0  # achieved, CCW positive
+    scroll_radps: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    pit_depth: float = 0.0  # 0 = free, 1 = dug in
+    odometer_m: float = 0.0
+
+    @property
+    def yaw_rate_ned_radps(self) -> float:
+        return -self.wz_body_radps
+
+    @property
+    def v_north_mps(self) -> float:
+        c, s = math.cos(self.yaw_ned_rad), math.sin(self.yaw_ned_rad)
+        return self.vx_body_mps * c + self.vy_body_mps * s
+
+    @property
+    def v_east_mps(self) -> float:
+        c, s = math.cos(self.yaw_ned_rad), math.sin(self.yaw_ned_rad)
+        return self.vx_body_mps * s - self.vy_body_mps * c
+
+    @property
+    def speed_mps(self) -> float:
+        return math.hypot(self.vx_body_mps, self.vy_body_mps)
+
+
+@dataclass(frozen=True, slots=True)
+class MotorMap:
+    """Helix motor controller: PWM → signed fraction of max RPM."""
+
+    pwm_min_us: int = 1000
+    pwm_trim_us: int = 1500
+    pwm_max_us: int = 2000
+    deadband_us: int = 0
+
+    def fraction(self, pwm_us: int) -> float:
+        if pwm_us <= 0:
+            return 0.0  # no pulses: the controller stops the motor
+        delta = pwm_us - self.pwm_trim_us
+        if abs(delta) <= self.deadband_us:
+            return 0.0
+        if delta > 0:
+            return min(1.0, delta / (self.pwm_max_us - self.pwm_trim_us))
+        return max(-1.0, delta / (self.pwm_trim_us - self.pwm_min_us))
+
+
+def scroll_fractions_from_pwm(
+    outputs_us: Sequence[int],
+    channels: Sequence[int],
+    reversed_: Sequence[bool],
+    motor: MotorMap,
+) -> tuple[float, float, float, float]:
+    """Servo outputs (16, 1-based ``channels``) → the four scroll speed commands."""
+    fr = [motor.fraction(int(outputs_us[ch - 1])) for ch in channels]
+    fr = [-f if rev else f for f, rev in zip(fr, reversed_, strict=True)]
+    return (fr[0], fr[1], fr[2], fr[3])
+
+
+def step(
+    state: PhysicsState,
+    dt_s: float,
+    scroll_fractions: Sequence[float],
+    vehicle: VehicleConfig,
+    traction: TerrainTraction,
+    motor_time_constant_s: float,
+    stalled: bool = False,
+) -> PhysicsState:
+    """Advance the rover by ``dt_s`` seconds."""
+    omega_max = rpm_to_radps(vehicle.max_rpm)
+    alpha = 1.0 - math.exp(-dt_s / motor_time_constant_s)
+    omega = tuple(
+        w + (max(-1.0, min(1.0, f)) * omega_max - w) * alpha
+        for w, f in zip(state.scroll_radps, scroll_fractions, strict=True)
+    )
+    ideal = scroll_radps_to_body(omega, vehicle)
+    k = vehicle.lx_m + vehicle.ly_m
+    free = 0.0 if stalled else max(0.0, 1.0 - state.pit_depth)
+    vx = ideal.vx_mps * traction.roll_efficiency * free
+    vy = ideal.vy_mps * traction.scroll_efficiency * free
+    wz = ideal.wz_radps * traction.yaw_efficiency * free
+    # speed the scrolls "push" that produces no motion: per-axis loss plus the null space
+    # of eq. 1 (ω1 − ω2 + ω3 − ω4: scrolls fighting each other)
+    fighting = abs(omega[0] - omega[1] + omega[2] - omega[3]) * vehicle.scroll_radius_m / 4.0
+    slip_mps = math.hypot(ideal.vx_mps - vx, ideal.vy_mps - vy) + k * abs(ideal.wz_radps - wz)
+    slip_mps += fighting
+    travelled_m = math.hypot(vx, vy) * dt_s
+    pit = state.pit_depth + traction.dig_rate_per_m * slip_mps * dt_s
+    pit = max(0.0, min(1.0, pit - traction.pit_escape_per_m * travelled_m))
+    # midpoint heading for the translation, CCW body rate = −NED yaw rate
+    yaw_mid = state.yaw_ned_rad - 0.5 * wz * dt_s
+    c, s = math.cos(yaw_mid), math.sin(yaw_mid)
+    return replace(
+        state,
+        north_m=state.north_m + (vx * c + vy * s) * dt_s,
+        east_m=state.east_m + (vx * s - vy * c) * dt_s,
+        yaw_ned_rad=wrap_pi(state.yaw_ned_rad - wz * dt_s),
+        vx_body_mps=vx,
+        vy_body_mps=vy,
+        wz_body_radps=wz,
+        scroll_radps=(omega[0], omega[1], omega[2], omega[3]),
+        pit_depth=pit,
+        odometer_m=state.odometer_m + travelled_m,
+    )

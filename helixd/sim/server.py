@@ -1,0 +1,375 @@
+"""I/O shell of the simulator: MAVLink links, wall-clock pacing, a background thread.
+
+The core (:class:`helixd.sim.core.SimCore`) is stepped on the simulator thread's asyncio
+loop at SCHED_LOOP_RATE in *simulated* time; simulated time runs ``speedup`` times faster
+than wall time (SITL's --speedup), and message rates are in simulated time, as SITL's are.
+When the machine cannot keep up, simulated time slows down rather than skipping loops.
+
+Links are pymavlink-style strings: ``udpin:HOST:PORT`` (bind; reply to whoever spoke last),
+``udpout:HOST:PORT`` (send there, listen on the same socket), ``tcpin:HOST:PORT`` (serve
+TCP clients, like SITL's tcp:5760). Each link has its own message intervals.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import os
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, cast
+
+import numpy as np
+import structlog
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.sim.config import SimConfig
+from helixd.sim.core import SimCore
+from helixd.sim.faults import make_spec
+from helixd.sim.snapshot import History, HistoryEntry, SimSnapshot, take_snapshot
+
+log = structlog.get_logger(__name__)
+
+LOGGED_KINDS = frozenset(
+    {"mode", "arm", "disarm", "failsafe", "failsafe_cleared", "fault", "fault_end", "boot",
+     "reboot", "statustext"}
+)  # fmt: skip
+MAX_LOOPS_PER_WAKEUP = 50
+MIN_SLEEP_S = 0.0005
+START_TIMEOUT_S = 10.0
+CALL_TIMEOUT_S = 10.0
+ERROR_LOG_INTERVAL_S = 10.0
+
+
+@dataclass(frozen=True, slots=True)
+class LinkSpec:
+    kind: str  # "udpin" | "udpout" | "tcpin"
+    host: str
+    port: int
+
+    @staticmethod
+    def parse(url: str) -> LinkSpec:
+        kind, sep, rest = url.partition(":")
+        host, sep2, port_text = rest.rpartition(":")
+        kind = {"udp": "udpin"}.get(kind, kind)
+        if not sep or not sep2 or kind not in ("udpin", "udpout", "tcpin") or not host:
+            raise ValueError(
+                f"{url!r}: expected udpin:HOST:PORT, udpout:HOST:PORT or tcpin:HOST:PORT"
+            )
+        try:
+            port = int(port_text)
+        except ValueError:
+            raise ValueError(f"{url!r}: port {port_text!r} is not a number") from None
+        if not 0 <= port <= 65535 or (port == 0 and kind == "udpout"):
+            raise ValueError(f"{url!r}: bad port {port}")
+        return LinkSpec(kind, host, port)
+
+
+class _Sink:
+    """File-like object pymavlink writes packed messages into."""
+
+    def __init__(self) -> None:
+        self.chunks: list[bytes] = []
+
+    def write(self, data: bytes) -> None:
+        self.chunks.append(bytes(data))
+
+    def take(self) -> list[bytes]:
+        out, self.chunks = self.chunks, []
+        return out
+
+
+class _Link(asyncio.DatagramProtocol, asyncio.Protocol):
+    """One MAVLink link: parser, encoder and transport(s)."""
+
+    def __init__(self, index: int, spec: LinkSpec, on_bytes: Callable[[int, bytes], None]) -> None:
+        self.index = index
+        self.spec = spec
+        self.on_bytes = on_bytes
+        self.sink = _Sink()
+        self.mav = mavlink.MAVLink(self.sink, srcSystem=1, srcComponent=1)
+        self.mav.robust_parsing = True
+        self.udp: asyncio.DatagramTransport | None = None
+        self.peer: tuple[str, int] | None = None
+        self.tcp_clients: list[asyncio.Transport] = []
+        self.server: asyncio.Server | None = None
+        self.local_port = 0
+        self.errors = 0
+        self.last_error_log_s = -ERROR_LOG_INTERVAL_S
+
+    # datagram side
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        # (3.11's selector datagram transport is not an asyncio.DatagramTransport subclass)
+        if self.spec.kind == "tcpin":
+            self.tcp_clients.append(cast(asyncio.Transport, transport))
+        else:
+            self.udp = cast(asyncio.DatagramTransport, transport)
+
+    def datagram_received(self, data: bytes, addr: tuple[str, int]) -> None:
+        if self.spec.kind == "udpin" and addr != self.peer:
+            self.peer = addr
+            log.info("sim_link_peer", link=self.index, peer=f"{addr[0]}:{addr[1]}")
+        self.on_bytes(self.index, data)
+
+    def error_received(self, exc: Exception) -> None:
+        # e.g. ICMP port unreachable on a udpout link nobody listens to yet: say so, rarely
+        self.errors += 1
+        now = time.monotonic()
+        if now - self.last_error_log_s >= ERROR_LOG_INTERVAL_S:
+            self.last_error_log_s = now
+            log.warning("sim_link_error", link=self.index, error=str(exc), count=self.errors)
+
+    # stream side (tcpin clients share this protocol object)
+    def data_received(self, data: bytes) -> None:
+        self.on_bytes(self.index, data)
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self.tcp_clients = [t for t in self.tcp_clients if not t.is_closing()]
+
+    def send(self, msg: mavlink.MAVLink_message, sysid: int) -> None:
+        self.mav.srcSystem = sysid
+        self.mav.send(msg)
+        for data in self.sink.take():
+            if self.udp is not None:
+                if self.spec.kind == "udpout":
+                    self.udp.sendto(data)
+                elif self.peer is not None:
+                    self.udp.sendto(data, self.peer)
+            for client in self.tcp_clients:
+                if not client.is_closing():
+                    client.write(data)
+
+    def close(self) -> None:
+        if self.udp is not None:
+            self.udp.close()
+        for client in self.tcp_clients:
+            client.close()
+        if self.server is not None:
+            self.server.close()
+
+
+class SimServer:
+    """The simulator running on its own thread, reachable over MAVLink links."""
+
+    def __init__(self, links: Sequence[str], config: SimConfig) -> None:
+        if not links:
+            raise ValueError("at least one link is needed")
+        self.link_specs = [LinkSpec.parse(url) for url in links]
+        self.config = config
+        self.history = History(config.history_max_entries)
+        rng = np.random.default_rng(config.seed)
+        self._core = SimCore(config, len(self.link_specs), rng)
+        self._links: list[_Link] = []
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self._ready = threading.Event()
+        self._stopping = threading.Event()
+        self._startup_error: BaseException | None = None
+        self._cond = threading.Condition()
+        self._snapshot = take_snapshot(self._core)
+        self.local_ports: list[int] = []
+
+    # -- lifecycle -------------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Start the thread; returns once every link is bound (raises if one cannot be)."""
+        if self._thread is not None:
+            raise RuntimeError("SimServer already started")
+        self._thread = threading.Thread(target=self._thread_main, name="helixd-sim", daemon=True)
+        self._thread.start()
+        if not self._ready.wait(START_TIMEOUT_S):
+            raise RuntimeError("simulator did not start within 10 s")
+        if self._startup_error is not None:
+            self._thread.join(timeout=START_TIMEOUT_S)
+            raise RuntimeError(f"simulator failed to start: {self._startup_error}") from (
+                self._startup_error
+            )
+
+    def stop(self) -> None:
+        self._stopping.set()
+        if self._thread is not None:
+            self._thread.join(timeout=START_TIMEOUT_S)
+            if self._thread.is_alive():
+                log.error("sim_stop_timeout")
+
+    def __enter__(self) -> SimServer:
+        self.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def _thread_main(self) -> None:
+        loop = asyncio.new_event_loop()
+        self._loop = loop
+        try:
+            loop.run_until_complete(self._main())
+        except Exception as exc:  # reported to start() or logged; the thread must not die silently
+            if not self._ready.is_set():
+                self._startup_error = exc
+                self._ready.set()
+            else:
+                log.exception("sim_crashed", error=str(exc))
+        finally:
+            loop.close()
+            with self._cond:
+                self._cond.notify_all()
+
+    async def _main(self) -> None:
+        loop = asyncio.get_running_loop()
+        try:
+            for i, spec in enumerate(self.link_specs):
+                self._links.append(await self._open(loop, i, spec))
+            self.local_ports = [link.local_port for link in self._links]
+            log.info(
+                "sim_started",
+                links=[
+                    f"{s.kind}:{s.host}:{p}"
+                    for s, p in zip(self.link_specs, self.local_ports, strict=True)
+                ],
+                speedup=self.config.speedup,
+                terrain=self.config.terrain.value,
+                noise=self.config.noise.value,
+            )
+            self._ready.set()
+            await self._run()
+        finally:
+            for link in self._links:
+                link.close()
+            log.info("sim_stopped", sim_time_s=round(self._core.now_s, 3))
+
+    async def _open(self, loop: asyncio.AbstractEventLoop, i: int, spec: LinkSpec) -> _Link:
+        link = _Link(i, spec, self._on_bytes)
+        if spec.kind == "udpin":
+            transport, _ = await loop.create_datagram_endpoint(
+                lambda: link, local_addr=(spec.host, spec.port)
+            )
+        elif spec.kind == "udpout":
+            transport, _ = await loop.create_datagram_endpoint(
+                lambda: link, remote_addr=(spec.host, spec.port)
+            )
+        else:
+            link.server = await loop.create_server(lambda: link, spec.host, spec.port)
+            link.local_port = int(link.server.sockets[0].getsockname()[1])
+            return link
+        link.local_port = int(transport.get_extra_info("sockname")[1])
+        return link
+
+    # -- the loop --------------------------------------------------------------------------
+
+    async def _run(self) -> None:
+        core = self._core
+        speedup = self.config.speedup
+        start_wall, start_sim = time.monotonic(), core.now_s
+        while not self._stopping.is_set():
+            target_sim = start_sim + (time.monotonic() - start_wall) * speedup
+            loops = 0
+            while core.now_s + core.dt_s() <= target_sim + 1e-9 and loops < MAX_LOOPS_PER_WAKEUP:
+                core.tick()
+                self._after()
+                loops += 1
+            if loops == MAX_LOOPS_PER_WAKEUP:  # cannot keep up: slow simulated time down
+                start_wall, start_sim = time.monotonic(), core.now_s
+            next_wall = start_wall + (core.now_s + core.dt_s() - start_sim) / speedup
+            await asyncio.sleep(max(MIN_SLEEP_S, min(0.05, next_wall - time.monotonic())))
+
+    def _on_bytes(self, index: int, data: bytes) -> None:
+        link = self._links[index] if index < len(self._links) else None
+        if link is None:
+            return
+        try:
+            msgs = link.mav.parse_buffer(data) or []
+        except mavlink.MAVError as exc:
+            log.debug("sim_bad_packet", link=index, error=str(exc))
+            return
+        for msg in msgs:
+            self._core.handle(index, msg)
+        self._after()
+
+    def _after(self) -> None:
+        """Publish history and snapshot first, then put messages on the wire, so a client
+        that saw a message can always find its cause in the history/snapshot."""
+        core = self._core
+        wall = time.monotonic()
+        for ev in core.drain_events():
+            self.history.append(HistoryEntry(wall, core.now_s, ev.kind, dict(ev.details)))
+            if ev.kind in LOGGED_KINDS:
+                log.info(f"sim_{ev.kind}", sim_time_s=round(core.now_s, 3), **ev.details)
+        snap = take_snapshot(core)
+        with self._cond:
+            self._snapshot = snap
+            self._cond.notify_all()
+        sysid = core.ap.sysid()
+        for index, msg in core.drain_outbox():
+            if index is not None:
+                self._links[index].send(msg, sysid)
+
+    # -- thread-safe API -------------------------------------------------------------------
+
+    def _call(self, fn: Callable[[], Any]) -> Any:
+        loop = self._loop
+        if loop is None or self._thread is None or not self._thread.is_alive():
+            raise RuntimeError("simulator is not running")
+        future: concurrent.futures.Future[Any] = concurrent.futures.Future()
+
+        def run() -> None:
+            try:
+                future.set_result(fn())
+                self._after()
+            except Exception as exc:  # handed to the calling thread
+                future.set_exception(exc)
+
+        loop.call_soon_threadsafe(run)
+        return future.result(timeout=CALL_TIMEOUT_S)
+
+    def snapshot(self) -> SimSnapshot:
+        with self._cond:
+            return self._snapshot
+
+    def inject(self, fault: str, **kwargs: object) -> None:
+        """Apply a fault now (see helixd.sim.faults.FAULTS for names and arguments)."""
+        spec = make_spec(fault, kwargs)
+        self._call(lambda: self._core.inject(spec))
+
+    def schedule(self, fault: str, at_sim_s: float, **kwargs: object) -> None:
+        spec = make_spec(fault, kwargs)
+        self._call(lambda: self._core.schedule(spec, at_sim_s))
+
+    def clear_fault(self, fault: str) -> None:
+        self._call(lambda: self._core.clear_fault(fault))
+
+    def set_rc(self, channel: int, pwm_us: int) -> None:
+        """The simulated pilot's transmitter."""
+        self._call(lambda: self._core.set_rc(channel, pwm_us))
+
+    def wait_for(self, predicate: Callable[[SimSnapshot], bool], timeout_s: float) -> SimSnapshot:
+        """Block until ``predicate(snapshot)`` holds; TimeoutError (with the last state) if not."""
+        deadline = time.monotonic() + timeout_s
+        with self._cond:
+            while True:
+                snap = self._snapshot
+                if predicate(snap):
+                    return snap
+                remaining = deadline - time.monotonic()
+                if remaining <= 0.0:
+                    name = getattr(predicate, "__name__", "condition")
+                    raise TimeoutError(
+                        f"{name} not met within {timeout_s:.1f} s (wall); last: {snap.describe()}"
+                    )
+                if self._thread is None or not self._thread.is_alive():
+                    raise TimeoutError(f"simulator stopped; last: {snap.describe()}")
+                self._cond.wait(min(remaining, 0.2))
+
+
+def start_embedded(config: SimConfig) -> tuple[SimServer, str]:
+    """Run the simulator in-process on a free 127.0.0.1 UDP port.
+
+    Returns the server and the URL helixd should open (``udpout:127.0.0.1:PORT``).
+    """
+    server = SimServer(["udpin:127.0.0.1:0"], config)
+    server.start()
+    return server, f"udpout:127.0.0.1:{server.local_ports[0]}"

@@ -1,0 +1,93 @@
+"""What the vehicle reports, assembled once per loop (pure), and the message for each id."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from helixd.frames import ne_to_latlon
+from helixd.sim import messages
+from helixd.sim import streams as st
+from helixd.sim.estimator import EkfStatus, PoseEstimate
+from helixd.sim.physics import PhysicsState
+
+POSE_MESSAGES = frozenset({st.MSG_LOCAL_POSITION_NED, st.MSG_GLOBAL_POSITION_INT})
+
+
+@dataclass(frozen=True, slots=True)
+class TelemetryView:
+    time_boot_ms: int
+    mode: int
+    armed: bool
+    booting: bool
+    failsafe_active: bool
+    origin_set: bool
+    prearm_ok: bool
+    rc_ok: bool
+    estimate: PoseEstimate
+    gps_north_m: float
+    gps_east_m: float
+    gps_accuracy_m: float
+    truth: PhysicsState
+    ekf: EkfStatus
+    radio_in_us: Sequence[int]
+    outputs_us: Sequence[int]
+    origin_lat_deg: float
+    origin_lon_deg: float
+    origin_alt_m: float
+    sysid: int
+
+    def system_status(self) -> int:
+        """GCS_MAVLINK_Rover::vehicle_system_status."""
+        if self.booting:
+            return messages.MAV_STATE_CALIBRATING
+        if self.failsafe_active:
+            return messages.MAV_STATE_CRITICAL
+        return messages.MAV_STATE_ACTIVE if self.armed else messages.MAV_STATE_STANDBY
+
+
+def build(msg_id: int, v: TelemetryView) -> messages.Message | None:
+    """The message for ``msg_id`` now, or None when the vehicle would not send it
+    (ArduPilot sends no position before the EKF has an origin)."""
+    t = v.time_boot_ms
+    if msg_id == st.MSG_HEARTBEAT:
+        return messages.heartbeat(v.mode, v.armed, v.system_status())
+    if msg_id == st.MSG_SYS_STATUS:
+        return messages.sys_status(v.rc_ok, v.origin_set, v.ekf.position_ok, v.prearm_ok)
+    if msg_id == st.MSG_EKF_STATUS_REPORT:
+        return messages.ekf_status_report(v.ekf)
+    if msg_id == st.MSG_ATTITUDE:
+        return messages.attitude(t, v.estimate) if not v.booting else None
+    if msg_id == st.MSG_RC_CHANNELS:
+        return messages.rc_channels(t, v.radio_in_us, v.rc_ok)
+    if msg_id == st.MSG_SERVO_OUTPUT_RAW:
+        return messages.servo_output_raw(t, v.outputs_us)
+    if msg_id == st.MSG_SYSTEM_TIME:
+        return messages.system_time(t)
+    if msg_id == st.MSG_AUTOPILOT_VERSION:
+        return messages.autopilot_version(v.sysid)
+    if not v.origin_set:
+        return None
+    if msg_id == st.MSG_LOCAL_POSITION_NED:
+        return messages.local_position_ned(t, v.estimate)
+    if msg_id == st.MSG_GLOBAL_POSITION_INT:
+        lat, lon = ne_to_latlon(
+            v.estimate.north_m, v.estimate.east_m, v.origin_lat_deg, v.origin_lon_deg
+        )
+        return messages.global_position_int(t, lat, lon, v.origin_alt_m, v.estimate)
+    if msg_id == st.MSG_GPS_RAW_INT:
+        lat, lon = ne_to_latlon(v.gps_north_m, v.gps_east_m, v.origin_lat_deg, v.origin_lon_deg)
+        course = math.atan2(v.truth.v_east_mps, v.truth.v_north_mps)
+        return messages.gps_raw_int(
+            t, lat, lon, v.origin_alt_m, v.truth.speed_mps, course, v.gps_accuracy_m
+        )
+    if msg_id == st.MSG_VFR_HUD:
+        return messages.vfr_hud(v.truth.speed_mps, v.estimate.yaw_ned_rad, v.origin_alt_m)
+    if msg_id == st.MSG_GPS_GLOBAL_ORIGIN:
+        return messages.gps_global_origin(
+            v.origin_lat_deg, v.origin_lon_deg, v.origin_alt_m, t * 1000
+        )
+    if msg_id == st.MSG_HOME_POSITION:
+        return messages.home_position(v.origin_lat_deg, v.origin_lon_deg, v.origin_alt_m, t * 1000)
+    return None

@@ -1,0 +1,410 @@
+"""ArduPilot Rover behaviour model (pure): overrides, outputs, DO_SET_SERVO, modes, failsafes."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from helixd.sim import estimator, modes
+from helixd.sim.autopilot import (
+    FORCE_ARM_MAGIC,
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_SERVO,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_DENIED,
+    MAV_RESULT_FAILED,
+    MAV_RESULT_UNSUPPORTED,
+    Autopilot,
+)
+from helixd.sim.config import SimConfig
+from helixd.sim.params import ParamStore
+from helixd.sim.rc import UINT16_MAX
+
+DT_S = 0.02
+BOOT_S = 2.0
+NOT_SET = UINT16_MAX  # channels 1–8: leave unchanged
+
+
+def healthy_ekf() -> estimator.EkfStatus:
+    profile = SimConfig().noise_profiles.none
+    return estimator.ekf_status(estimator.EstimatorState(), profile, True, False)
+
+
+def bad_ekf() -> estimator.EkfStatus:
+    profile = SimConfig().noise_profiles.none
+    return estimator.ekf_status(estimator.EstimatorState(), profile, True, True)
+
+
+class Rig:
+    """An Autopilot plus a simulated clock stepping at 50 Hz."""
+
+    def __init__(self, **config: Any) -> None:
+        cfg = SimConfig.model_validate(
+            {"boot_duration_s": BOOT_S, "ekf_origin_delay_s": 0.5, "prearm_delay_s": 5.0, **config}
+        )
+        self.ap = Autopilot(cfg, ParamStore(cfg.params), 0.0)
+        self.now = 0.0
+        self.ekf = healthy_ekf()
+        self.outputs: list[int] = [0] * 16
+
+    def run(self, seconds: float, each: Any = None) -> None:
+        for _ in range(round(seconds / DT_S)):
+            self.now = round(self.now + DT_S, 9)
+            if each is not None:
+                each(self)
+            self.outputs = self.ap.step(self.now, self.ekf)
+
+    def boot(self) -> Rig:
+        self.run(BOOT_S + 0.6)
+        assert self.ap.mode == modes.MANUAL
+        return self
+
+    def override(self, *channels: int, sysid: int = 255) -> None:
+        raw = list(channels) + [NOT_SET] * max(0, 8 - len(channels))
+        raw += [0] * (18 - len(raw))
+        self.ap.on_rc_override(sysid, raw, self.now)
+
+    def command(self, command: int, *p: float) -> int | None:
+        params = [float(x) for x in p] + [0.0] * (7 - len(p))
+        return self.ap.command(command, params, self.now, self.ekf)
+
+    def force_arm(self) -> None:
+        assert self.command(MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM_MAGIC) == 0
+
+    def texts(self) -> list[str]:
+        return [t.text for t in self.ap.texts]
+
+    def kinds(self) -> list[str]:
+        return [e.kind for e in self.ap.events]
+
+
+def test_boot_is_initialising_then_manual() -> None:
+    rig = Rig()
+    rig.run(BOOT_S - 0.1)
+    assert rig.ap.mode == modes.INITIALISING
+    assert rig.outputs == [0] * 16  # no PWM while booting
+    rig.run(0.2)
+    assert rig.ap.mode == modes.MANUAL
+    assert rig.outputs[:4] == [1500] * 4  # RCIN1..4 passthrough of the pilot's sticks
+
+
+def test_override_from_non_gcs_sysid_is_ignored() -> None:
+    rig = Rig().boot()
+    rig.override(1800, sysid=1)
+    rig.run(0.1)
+    assert rig.outputs[0] == 1500
+    assert "override_set" not in rig.kinds()
+
+
+def test_override_from_gcs_drives_passthrough_while_disarmed() -> None:
+    rig = Rig().boot()
+    assert not rig.ap.armed
+    rig.override(1800, 1200)
+    rig.run(0.04)
+    assert rig.outputs[:4] == [1800, 1200, 1500, 1500]
+
+
+def test_gcs_sysid_range_with_hi_param() -> None:
+    rig = Rig(params={"MAV_GCS_SYSID": 250, "MAV_GCS_SYSID_HI": 252}).boot()
+    rig.override(1700, sysid=251)
+    rig.run(0.04)
+    assert rig.outputs[0] == 1700
+    rig.override(1600, sysid=255)
+    rig.run(0.04)
+    assert rig.outputs[0] == 1700
+
+
+def test_channels_1_to_8_zero_releases_and_uint16max_leaves_unchanged() -> None:
+    rig = Rig().boot()
+    rig.override(1800, 1800)
+    rig.run(0.04)
+    rig.override(NOT_SET, 0)  # ch1 unchanged, ch2 released
+    rig.run(0.02)
+    assert rig.outputs[:2] == [1800, 1500]
+    assert rig.ap.rc.active_overrides(rig.now, 3.0)[:2] == (True, False)
+
+
+def test_channels_9_to_16_zero_unchanged_and_65534_releases() -> None:
+    rig = Rig(params={"SERVO9_FUNCTION": 59}).boot()  # RCIN9 passthrough on output 9
+    raw = [NOT_SET] * 8 + [1900] + [0] * 9
+    rig.ap.on_rc_override(255, raw, rig.now)
+    rig.run(0.04)
+    assert rig.outputs[8] == 1900
+    for keep in (0, UINT16_MAX):
+        rig.ap.on_rc_override(255, [NOT_SET] * 8 + [keep] + [0] * 9, rig.now)
+        rig.run(0.04)
+        assert rig.outputs[8] == 1900
+    rig.ap.on_rc_override(255, [NOT_SET] * 8 + [UINT16_MAX - 1] + [0] * 9, rig.now)
+    rig.run(0.02)
+    assert rig.outputs[8] == 1500
+
+
+def test_channels_17_and_18_do_not_exist() -> None:
+    rig = Rig().boot()
+    rig.ap.on_rc_override(255, [NOT_SET] * 16 + [1900, 1900], rig.now)
+    assert not any(rig.ap.rc.override_us)
+
+
+def test_override_expires_after_rc_override_time_per_channel() -> None:
+    rig = Rig().boot()
+    rig.override(1800)
+    rig.run(1.0)
+    rig.override(NOT_SET, 1700)  # ch2 set 1 s later, ch1 not refreshed
+    rig.run(1.96)
+    assert rig.outputs[:2] == [1800, 1700]
+    rig.run(0.06)  # 3.02 s after ch1 was last set
+    assert rig.outputs[:2] == [1500, 1700]
+    rig.run(1.0)
+    assert rig.outputs[:2] == [1500, 1500]
+    assert rig.kinds().count("override_expire") == 2
+
+
+@pytest.mark.parametrize(("timeout_s", "active_after_10_s"), [(-1.0, True), (0.0, False)])
+def test_rc_override_time_negative_never_expires_zero_disables(
+    timeout_s: float, active_after_10_s: bool
+) -> None:
+    rig = Rig(params={"RC_OVERRIDE_TIME": timeout_s}).boot()
+    rig.override(1800)
+    rig.run(10.0)
+    assert (rig.outputs[0] == 1800) is active_after_10_s
+
+
+def test_rc_options_ignore_overrides() -> None:
+    rig = Rig(params={"RC_OPTIONS": 2}).boot()
+    rig.override(1800)
+    rig.run(0.1)
+    assert rig.outputs[0] == 1500
+
+
+def test_hold_and_disarm_do_not_stop_passthrough_outputs() -> None:
+    rig = Rig().boot()
+    rig.force_arm()
+    rig.override(1800, 1800, 1200, 1200)
+    rig.run(0.1)
+    assert rig.ap.set_mode(modes.HOLD, "test", rig.now, rig.ekf)
+    rig.override(1800, 1800, 1200, 1200)
+    rig.run(0.5)
+    assert rig.ap.mode == modes.HOLD
+    assert rig.outputs[:4] == [1800, 1800, 1200, 1200]
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 0) == MAV_RESULT_ACCEPTED
+    rig.run(0.5)
+    assert rig.outputs[:4] == [1800, 1800, 1200, 1200]
+
+
+def test_hold_zeroes_ardupilots_own_throttle_output() -> None:
+    rig = Rig(params={"SERVO3_FUNCTION": 70}).boot()  # stock Rover throttle on output 3
+    rig.force_arm()
+    rig.override(NOT_SET, NOT_SET, 1900)
+    rig.run(0.1)
+    assert rig.outputs[2] > 1800
+    rig.ap.set_mode(modes.HOLD, "test", rig.now, rig.ekf)
+    rig.override(NOT_SET, NOT_SET, 1900)
+    rig.run(0.1)
+    assert rig.outputs[2] == 1500
+
+
+def test_do_set_servo_refused_unless_function_allows_it() -> None:
+    rig = Rig(params={"SERVO5_FUNCTION": 73}).boot()
+    assert rig.command(MAV_CMD_DO_SET_SERVO, 5, 1700) == MAV_RESULT_FAILED
+    assert "ServoRelayEvent: Channel 5 is already in use" in rig.texts()
+    assert rig.command(MAV_CMD_DO_SET_SERVO, 17, 1700) == MAV_RESULT_FAILED
+    for function in (0, 1, 22, 23, 28, 51, 66):
+        rig.ap.params.set("SERVO6_FUNCTION", function)
+        assert rig.command(MAV_CMD_DO_SET_SERVO, 6, 1600) == MAV_RESULT_ACCEPTED
+    for function in (26, 70, 74, 33):
+        rig.ap.params.set("SERVO6_FUNCTION", function)
+        assert rig.command(MAV_CMD_DO_SET_SERVO, 6, 1600) == MAV_RESULT_FAILED
+
+
+def test_do_set_servo_latches_forever_even_after_disarm() -> None:
+    rig = Rig().boot()
+    rig.force_arm()
+    assert rig.command(MAV_CMD_DO_SET_SERVO, 6, 1234) == MAV_RESULT_ACCEPTED
+    rig.run(5.0)
+    rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 0)
+    rig.ap.set_mode(modes.HOLD, "test", rig.now, rig.ekf)
+    rig.run(60.0)
+    assert rig.outputs[5] == 1234
+    assert rig.ap.outputs.latched_channels() == (6,)
+
+
+def test_do_set_servo_on_passthrough_holds_until_rc_moves_beyond_dead_zone() -> None:
+    rig = Rig().boot()
+    assert rig.command(MAV_CMD_DO_SET_SERVO, 2, 1650) == MAV_RESULT_ACCEPTED
+    rig.run(1.0)
+    assert rig.outputs[1] == 1650  # RC2 still 1500: latched
+    rig.ap.set_pilot_rc(2, 1520)  # RC2_DZ is 0: any change resumes passthrough
+    rig.run(0.04)
+    assert rig.outputs[1] == 1520
+
+
+def test_arming_prearm_refusal_force_and_later_success() -> None:
+    rig = Rig().boot()
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_FAILED
+    assert rig.texts()[-1] == "PreArm: AHRS: waiting for home"
+    rig.force_arm()
+    assert rig.ap.armed
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 0) == MAV_RESULT_ACCEPTED
+    rig.run(5.0)
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 2) == MAV_RESULT_UNSUPPORTED
+
+
+def test_prearm_never_passes_when_configured() -> None:
+    rig = Rig(prearm_delay_s=None).boot()
+    rig.run(100.0)
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_FAILED
+
+
+def test_set_mode_needs_custom_mode_flag_and_known_mode() -> None:
+    rig = Rig().boot()
+    assert rig.ap.do_set_mode(0, modes.HOLD, rig.now, rig.ekf) == MAV_RESULT_DENIED
+    assert rig.ap.do_set_mode(1, 99, rig.now, rig.ekf) == MAV_RESULT_FAILED
+    assert rig.ap.do_set_mode(1, modes.AUTO, rig.now, rig.ekf) == MAV_RESULT_FAILED  # no mission
+    assert rig.ap.do_set_mode(1, modes.HOLD, rig.now, rig.ekf) == MAV_RESULT_ACCEPTED
+    assert rig.ap.mode == modes.HOLD
+
+
+def test_armed_position_modes_refused_without_ekf_position() -> None:
+    rig = Rig().boot()
+    rig.force_arm()
+    rig.ekf = bad_ekf()
+    assert rig.ap.do_set_mode(1, modes.GUIDED, rig.now, rig.ekf) == MAV_RESULT_FAILED
+    assert rig.ap.do_set_mode(1, modes.HOLD, rig.now, rig.ekf) == MAV_RESULT_ACCEPTED
+
+
+def test_pilot_mode_switch_takes_over_after_debounce() -> None:
+    rig = Rig().boot()
+    rig.ap.set_pilot_rc(8, 1900)  # MODE6 = HOLD in the Helix setup
+    rig.run(0.1)
+    assert rig.ap.mode == modes.MANUAL
+    rig.run(0.2)
+    assert rig.ap.mode == modes.HOLD
+    rig.ap.set_pilot_rc(8, 1100)  # MODE1 = MANUAL
+    rig.run(0.4)
+    assert rig.ap.mode == modes.MANUAL
+
+
+def test_radio_loss_failsafe_holds_clears_overrides_and_freezes_outputs() -> None:
+    rig = Rig().boot()
+    rig.force_arm()
+    rig.override(1700, 1700, 1300, 1300)
+    rig.run(0.1)
+    rig.ap.set_receiver_ok(False)
+    rig.run(2.4)  # RC_FS_TIMEOUT 1 s + FS_TIMEOUT 1.5 s not yet over
+    assert rig.ap.mode == modes.MANUAL
+    rig.run(0.3)
+    assert rig.ap.mode == modes.HOLD
+    assert "Radio Failsafe" in rig.texts()
+    assert not any(rig.ap.rc.active_overrides(rig.now, -1.0))
+    # ArduPilot never re-reads RC after clear_overrides without a new frame: the RCIN
+    # passthrough outputs stay at the last override — HOLD does not stop the scrolls.
+    assert rig.outputs[:4] == [1700, 1700, 1300, 1300]
+    rig.ap.set_receiver_ok(True)
+    rig.run(0.1)
+    assert rig.outputs[:4] == [1500] * 4
+    assert "Radio Failsafe Cleared" in rig.texts()
+
+
+def test_streaming_overrides_keep_radio_failsafe_away() -> None:
+    """RC_Channels::read_input counts a new override as valid RC input (faithful port)."""
+    rig = Rig().boot()
+    rig.ap.set_receiver_ok(False)
+
+    def keep_overriding(r: Rig) -> None:
+        if round(r.now / DT_S) % 5 == 0:
+            r.override(1600)
+
+    rig.run(10.0, keep_overriding)
+    assert rig.ap.mode == modes.MANUAL
+    assert not rig.ap.failsafes.radio_on()
+
+
+def test_throttle_below_fs_thr_value_is_radio_failsafe() -> None:
+    rig = Rig().boot()
+    rig.ap.set_pilot_rc(3, 900)  # receiver's own failsafe value on throttle
+    rig.run(1.6)
+    assert rig.ap.mode == modes.HOLD
+
+
+def test_gcs_failsafe_after_fs_gcs_timeout_plus_fs_timeout() -> None:
+    rig = Rig(params={"FS_GCS_ENABLE": 1}).boot()
+    rig.ap.on_heartbeat(1, rig.now)  # not the GCS sysid: does not count
+    rig.run(10.0)
+    assert rig.ap.mode == modes.MANUAL
+    rig.ap.on_heartbeat(255, rig.now)
+    lost_at = rig.now
+    rig.run(6.3)  # 5 s + 1.5 s, checked at 10 Hz
+    assert rig.ap.mode == modes.MANUAL
+    rig.run(0.4)
+    assert rig.ap.mode == modes.HOLD
+    assert 6.4 <= rig.now - lost_at <= 6.8
+    fired = [e for e in rig.ap.events if e.kind == "failsafe"]
+    assert [e.details["causes"] for e in fired] == [["gcs"]]
+    # ArduPilot's text names whichever check ran first (often "Radio Failsafe")
+    assert any(t.endswith(" Failsafe") for t in rig.texts())
+
+
+def test_gcs_failsafe_disabled_by_default_and_never_in_hold() -> None:
+    rig = Rig().boot()
+    rig.ap.on_heartbeat(255, rig.now)
+    rig.run(20.0)
+    assert rig.ap.mode == modes.MANUAL
+    rig2 = Rig(params={"FS_GCS_ENABLE": 1}).boot()
+    rig2.ap.set_mode(modes.HOLD, "test", rig2.now, rig2.ekf)
+    rig2.override(1800)  # also counts as GCS contact
+    rig2.run(10.0)
+    assert rig2.ap.failsafes.gcs_on()
+    assert rig2.ap.failsafes.triggered == 0  # not triggered in HOLD (FS_OPTIONS 0)
+
+
+def test_ekf_failsafe_leaves_manual_alone_but_holds_guided() -> None:
+    rig = Rig().boot()
+    rig.force_arm()
+    rig.ekf = bad_ekf()
+    rig.run(2.0)
+    assert rig.ap.mode == modes.MANUAL
+    assert rig.ap.failsafes.ekf_failsafe
+    assert "EKF variance" in rig.texts()
+    rig2 = Rig().boot()
+    rig2.force_arm()
+    assert rig2.ap.set_mode(modes.GUIDED, "test", rig2.now, rig2.ekf)
+    rig2.ekf = bad_ekf()
+    rig2.run(0.9)
+    assert rig2.ap.mode == modes.GUIDED
+    rig2.run(0.3)
+    assert rig2.ap.mode == modes.HOLD
+    assert "EKF failsafe" in rig2.texts()
+
+
+def test_reboot_keeps_params_and_restarts_boot() -> None:
+    rig = Rig().boot()
+    rig.ap.params.set("FS_GCS_ENABLE", 1)
+    rig.force_arm()
+    rig.ap.reboot(rig.now, 1.0)
+    assert rig.ap.silent(rig.now + 0.5)
+    assert rig.ap.booting(rig.now + 1.5)
+    assert rig.ap.time_boot_ms(rig.now + 1.5) == 500
+    assert not rig.ap.armed
+    assert rig.ap.params.get("FS_GCS_ENABLE") == 1.0
+
+
+def test_expired_override_leaves_outputs_frozen_while_receiver_is_lost() -> None:
+    """Without RC frames nothing re-reads radio_in: a companion that dies during RC loss
+    leaves the scrolls at its last command — only an explicit neutral/release helps."""
+    rig = Rig().boot()
+    rig.ap.set_receiver_ok(False)
+    rig.override(1800)
+    rig.run(10.0)  # override long expired, radio failsafe → HOLD, overrides cleared
+    assert rig.ap.mode == modes.HOLD
+    assert not rig.ap.rc.active_overrides(rig.now, 3.0)[0]
+    assert rig.outputs[0] == 1800
+    rig.override(1500)  # a neutral override is still obeyed ...
+    rig.run(0.04)
+    assert rig.outputs[0] == 1500
+    rig.override(1800)
+    rig.run(0.04)
+    rig.override(0)  # ... and a release falls back to the last frame the receiver gave
+    rig.run(0.04)
+    assert rig.outputs[0] == 1500

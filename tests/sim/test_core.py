@@ -1,0 +1,195 @@
+"""The simulator core without sockets: messages in, messages out, faults."""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Any
+
+import numpy as np
+import pytest
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.sim.config import SimConfig
+from helixd.sim.core import SimCore
+from helixd.sim.faults import FaultError, make_spec, parse_fault
+
+
+def make_core(n_links: int = 2, **cfg: Any) -> SimCore:
+    config = SimConfig.model_validate(
+        {"noise": "none", "boot_duration_s": 1.0, "ekf_origin_delay_s": 0.5, **cfg}
+    )
+    return SimCore(config, n_links, np.random.default_rng(1))
+
+
+def run(core: SimCore, seconds: float) -> list[tuple[int | None, Any]]:
+    out: list[tuple[int | None, Any]] = []
+    for _ in range(round(seconds / core.dt_s())):
+        core.tick()
+        out.extend(core.drain_outbox())
+    return out
+
+
+def of_type(out: list[tuple[int | None, Any]], kind: str, link: int | None = None) -> list[Any]:
+    return [m for lk, m in out if m.get_type() == kind and (link is None or lk == link)]
+
+
+def incoming(msg: Any, sysid: int = 255, compid: int = 190) -> Any:
+    """Stamp a message as if received from (sysid, compid)."""
+    mav = mavlink.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+    return mav.decode(bytearray(msg.pack(mav)))
+
+
+def command(core: SimCore, link: int, cmd: int, *p: float, sysid: int = 255) -> int:
+    params = [float(x) for x in p] + [0.0] * (7 - len(p))
+    core.handle(link, incoming(mavlink.MAVLink_command_long_message(1, 1, cmd, 0, *params), sysid))
+    acks = [m for _, m in core.drain_outbox() if m.get_type() == "COMMAND_ACK"]
+    assert acks, "no COMMAND_ACK"
+    return int(acks[-1].result)
+
+
+def test_heartbeats_boot_16_then_0_on_every_link() -> None:
+    core = make_core()
+    out = run(core, 3.0)
+    for link in (0, 1):
+        modes = [int(m.custom_mode) for m in of_type(out, "HEARTBEAT", link)]
+        assert modes[0] == 16 and modes[-1] == 0
+        assert modes == sorted(modes, reverse=True)
+
+
+def test_intervals_are_per_link() -> None:
+    core = make_core()
+    run(core, 2.0)
+    assert command(core, 0, 511, 32, 25_000) == 0
+    out = run(core, 2.0)
+    fast = of_type(out, "LOCAL_POSITION_NED", 0)
+    slow = of_type(out, "LOCAL_POSITION_NED", 1)
+    assert 75 <= len(fast) <= 82
+    assert 1 <= len(slow) <= 3
+
+
+def test_no_position_before_ekf_origin() -> None:
+    core = make_core(ekf_origin_delay_s=5.0)
+    out = run(core, 4.0)
+    assert not of_type(out, "LOCAL_POSITION_NED")
+    out = run(core, 4.0)
+    assert of_type(out, "LOCAL_POSITION_NED")
+    assert len(of_type(out, "GPS_GLOBAL_ORIGIN", 0)) == 1
+
+
+def test_commands_from_other_targets_are_not_for_us() -> None:
+    core = make_core()
+    run(core, 2.0)
+    msg = mavlink.MAVLink_command_long_message(7, 1, 400, 0, 1, 21196, 0, 0, 0, 0, 0)
+    core.handle(0, incoming(msg))
+    assert not of_type(core.drain_outbox(), "COMMAND_ACK")
+    assert not core.ap.armed
+
+
+def test_link_drop_both_ways_on_one_link() -> None:
+    core = make_core()
+    run(core, 2.0)
+    core.inject(make_spec("link_drop", {"duration_s": 1.0, "link": 0}))
+    out = run(core, 0.9)
+    assert not of_type(out, "HEARTBEAT", 0)
+    assert of_type(out, "HEARTBEAT", 1)
+    core.handle(
+        0, incoming(mavlink.MAVLink_command_long_message(1, 1, 400, 0, 1, 21196, 0, 0, 0, 0, 0))
+    )
+    assert not core.ap.armed
+    out = run(core, 1.2)
+    assert of_type(out, "HEARTBEAT", 0)
+    assert "link_drop" not in core.faults.active
+
+
+def test_stale_pose_stops_position_but_not_heartbeat() -> None:
+    core = make_core()
+    run(core, 2.0)
+    core.inject(make_spec("stale_pose", {"duration_s": 3.0}))
+    out = run(core, 2.9)
+    assert not of_type(out, "LOCAL_POSITION_NED")
+    assert not of_type(out, "GLOBAL_POSITION_INT")
+    assert of_type(out, "ATTITUDE")
+    assert of_type(out, "HEARTBEAT")
+
+
+def test_reboot_restarts_time_boot_ms_and_keeps_params() -> None:
+    core = make_core()
+    run(core, 3.0)
+    core.params.set("FS_GCS_ENABLE", 1)
+    before = core.ap.time_boot_ms(core.now_s)
+    core.inject(make_spec("reboot", {"silent_s": 0.5}))
+    out = run(core, 0.4)
+    assert not out  # silent
+    out = run(core, 0.4)
+    beats = of_type(out, "HEARTBEAT")
+    assert beats and all(int(m.custom_mode) == 16 for m in beats)
+    assert core.ap.time_boot_ms(core.now_s) < before
+    assert core.params.get("FS_GCS_ENABLE") == 1.0
+
+
+def test_gps_jump_moves_the_estimate_not_the_rover() -> None:
+    core = make_core()
+    run(core, 2.0)
+    core.inject(make_spec("gps_jump", {"distance_m": 10.0, "bearing_deg": 90.0}))
+    run(core, 1.0)
+    assert core.phys.east_m == pytest.approx(0.0, abs=1e-9)
+    assert core.view.estimate.east_m == pytest.approx(10.0, abs=0.01)
+
+
+def test_pilot_takeover_needs_a_switch_position_for_the_mode() -> None:
+    core = make_core()
+    run(core, 2.0)
+    core.inject(make_spec("pilot_takeover", {}))  # default HOLD = MODE6 in the Helix setup
+    run(core, 0.5)
+    assert core.ap.mode == 4
+    with pytest.raises(FaultError):
+        core.inject(make_spec("pilot_takeover", {"mode": "GUIDED"}))
+
+
+def test_ekf_unhealthy_reports_variances_over_threshold() -> None:
+    core = make_core()
+    run(core, 2.0)
+    core.inject(make_spec("ekf_unhealthy", {"duration_s": 2.0}))
+    out = run(core, 1.0)
+    assert command(core, 0, 511, 193, 100_000) == 0
+    out = run(core, 0.5)
+    reports = of_type(out, "EKF_STATUS_REPORT", 0)
+    assert reports and all(float(m.pos_horiz_variance) > 0.8 for m in reports)
+    assert all(int(m.flags) & 16 == 0 for m in reports)  # no absolute horizontal position
+
+
+def test_scheduled_fault_fires_at_its_sim_time() -> None:
+    core = make_core()
+    spec, at_s = parse_fault("stall@3.5:duration_s=2")
+    core.schedule(spec, at_s)
+    run(core, 3.48)
+    assert "stall" not in core.faults.active
+    run(core, 0.04)
+    assert "stall" in core.faults.active
+    kinds = [e.kind for e in core.drain_events()]
+    assert "fault" in kinds
+
+
+def test_fault_specs_parse_and_reject_bad_input() -> None:
+    spec, at_s = parse_fault("link_drop@12.5:duration_s=3,link=1")
+    assert (spec.name, at_s, spec.kwargs["duration_s"], spec.kwargs["link"]) == (
+        "link_drop",
+        12.5,
+        3.0,
+        1,
+    )
+    assert parse_fault("pilot_takeover@1:mode=manual")[0].kwargs["mode"] == "MANUAL"
+    for bad in ("nosuch@1", "stall", "stall@x", "stall@1:speed=2", "stall@1:duration_s=0"):
+        with pytest.raises(FaultError):
+            parse_fault(bad)
+
+
+def test_yaw_reported_clockwise_from_north() -> None:
+    core = make_core(initial_yaw_ned_rad=math.radians(30.0))
+    run(core, 2.0)
+    assert command(core, 0, 511, 30, 100_000) == 0
+    att = of_type(run(core, 0.5), "ATTITUDE", 0)
+    assert att and float(att[-1].yaw) == pytest.approx(math.radians(30.0), abs=1e-6)
