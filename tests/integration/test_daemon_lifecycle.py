@@ -138,3 +138,18 @@ def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
     watchdogs = [i for i, m in enumerate(got) if "WATCHDOG=1" in m]
     assert watchdogs and watchdogs[-1] > ready
     assert any("STATUS=phase: fly" in m for m in got)
+
+
+def test_start_gate_waits_for_the_pilots_switch(tmp_path: Path) -> None:
+    """Nobody types on a rover in a pond: with a start switch configured, helixd connects and
+    passes preflight, then waits — nothing armed, no override — until the pilot flips it."""
+    cfg = {"safety": {"start_switch_channel": 8, "start_switch_threshold_us": 1700}}
+    with sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud") as (server, d):
+        d.wait_line("event=waiting_for_start_switch", 60.0)
+        waiting = server.snapshot()
+        assert not waiting.armed and not any(waiting.overrides_active)
+        server.set_rc(8, 1900)
+        d.wait_line("event=start_switch_on", 10.0)
+        wait_moving(server)
+        d.signal(signal.SIGINT)
+        assert d.wait_exit(20.0) == ExitCode.OPERATOR_STOP
