@@ -158,6 +158,15 @@ class MissionRunner:
             else:
                 log.warning("preflight_warning", message=p.message)
                 self.messages.append(f"warning: {p.message}")
+        gate = self.cfg.safety.start_switch_channel
+        if gate is not None:
+            mode_ch = await ap.get_param("MODE_CH")
+            if mode_ch is not None and int(mode_ch) == gate:
+                problems.append(
+                    f"safety.start_switch_channel = {gate} is the autopilot's flight-mode channel "
+                    f"(MODE_CH = {int(mode_ch)}): flipping it would change the mode; use another "
+                    "channel"
+                )
         pose = await self._fresh_pose(ap)
         if pose is None:
             problems.append(

@@ -143,13 +143,23 @@ def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
 def test_start_gate_waits_for_the_pilots_switch(tmp_path: Path) -> None:
     """Nobody types on a rover in a pond: with a start switch configured, helixd connects and
     passes preflight, then waits — nothing armed, no override — until the pilot flips it."""
-    cfg = {"safety": {"start_switch_channel": 8, "start_switch_threshold_us": 1700}}
+    cfg = {"safety": {"start_switch_channel": 7, "start_switch_threshold_us": 1700}}
     with sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud") as (server, d):
         d.wait_line("event=waiting_for_start_switch", 60.0)
         waiting = server.snapshot()
         assert not waiting.armed and not any(waiting.overrides_active)
-        server.set_rc(8, 1900)
+        server.set_rc(7, 1900)
         d.wait_line("event=start_switch_on", 10.0)
         wait_moving(server)
         d.signal(signal.SIGINT)
         assert d.wait_exit(20.0) == ExitCode.OPERATOR_STOP
+
+
+def test_start_switch_on_the_mode_channel_is_refused(tmp_path: Path) -> None:
+    cfg = {"safety": {"start_switch_channel": 8}}  # MODE_CH = 8 on the autopilot
+    with sim_and_daemon(tmp_path, "hexagon", cfg) as (server, d):
+        code = d.wait_exit(60.0)
+        log = d.log_text()
+        assert not server.snapshot().armed
+    assert code == ExitCode.PREFLIGHT
+    assert "flight-mode channel (MODE_CH = 8)" in log
