@@ -15,9 +15,10 @@ import typer
 from helixd import __version__
 from helixd.config import ConfigFileError, HelixdConfig, load_config
 from helixd.exitcodes import ExitCode
-from helixd.mission import MissionFrameKind, PlanError, load_mission, resolve_plan
+from helixd.mission import Mission, MissionFrameKind, PlanError, load_mission, resolve_plan
 from helixd.recorder import command as recorder_command
 from helixd.sim import command as sim_command
+from helixd.sim.config import NoiseLevel, Terrain
 
 app = typer.Typer(
     name="helixd",
@@ -40,7 +41,7 @@ def fail(problems: list[str], code: ExitCode) -> typer.Exit:
     return typer.Exit(int(code))
 
 
-def load_inputs(config: Path | None, mission: Path) -> tuple[HelixdConfig, object]:
+def load_inputs(config: Path | None, mission: Path) -> tuple[HelixdConfig, Mission]:
     """Load config and mission together so the operator sees every problem at once."""
     problems: list[str] = []
     cfg: HelixdConfig | None = None
@@ -68,11 +69,7 @@ def version() -> None:
 @app.command()
 def check(config: ConfigOpt = None, mission: MissionOpt = Path("mission.yaml")) -> None:
     """Validate the config and a mission, and print the resolved plan."""
-    cfg, msn_obj = load_inputs(config, mission)
-    from helixd.mission import Mission
-
-    assert isinstance(msn_obj, Mission)
-    msn = msn_obj
+    cfg, msn = load_inputs(config, mission)
     if msn.frame is MissionFrameKind.GLOBAL:
         first_lat, first_lon = msn.points()[0]
         origin = (first_lat, first_lon)
@@ -123,11 +120,11 @@ def run(
         float, typer.Option(min=0.1, max=20.0, help="simulator speed-up factor (with --sim)")
     ] = 1.0,
     sim_terrain: Annotated[
-        str, typer.Option(help="simulator terrain: hard, grass, sand or mud (with --sim)")
-    ] = "hard",
+        Terrain, typer.Option(help="simulator terrain (with --sim)")
+    ] = Terrain.HARD,
     sim_noise: Annotated[
-        str, typer.Option(help="simulator pose noise: none, low or thesis (with --sim)")
-    ] = "low",
+        NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")
+    ] = NoiseLevel.LOW,
     run_dir: Annotated[
         Path | None,
         typer.Option("--run-dir", help="root for run directories (default: recorder.run_root)"),
@@ -141,10 +138,7 @@ def run(
     from helixd.daemon import RunOptions, run_mission
     from helixd.logging_setup import configure_logging
 
-    cfg, msn_obj = load_inputs(config, mission)
-    from helixd.mission import Mission
-
-    assert isinstance(msn_obj, Mission)
+    cfg, msn = load_inputs(config, mission)
     tty = sys.stderr.isatty()
     configure_logging(tty=tty, level=log_level)
     server = None
@@ -154,15 +148,12 @@ def run(
             raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
         from helixd.sim import SimConfig, start_embedded
 
-        try:
-            sim_cfg = SimConfig(speedup=sim_speedup, terrain=sim_terrain, noise=sim_noise)
-        except ValueError as exc:
-            raise fail([f"simulator option: {exc}"], ExitCode.USAGE) from None
+        sim_cfg = SimConfig(speedup=sim_speedup, terrain=sim_terrain, noise=sim_noise)
         server, url = start_embedded(sim_cfg)
     cfg = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})
     opts = RunOptions(
         cfg=cfg,
-        mission=msn_obj,
+        mission=msn,
         mission_yaml=mission.read_text(encoding="utf-8"),
         connect_url=url,
         run_root=run_dir or cfg.recorder.run_root,
