@@ -1,0 +1,833 @@
+"""Fixtures for the opt-in real ArduPilot Rover SITL suite.
+
+Set ``HELIXD_SITL_BIN`` to an ``ardurover`` SITL binary (``./waf configure --board sitl &&
+./waf rover`` → ``build/sitl/bin/ardurover``); without it every test here is skipped with a
+one-line reason. Per test, the ``sitl`` fixture starts
+
+    ardurover --model rover-skid --defaults tests/sitl/helix-skid.parm -I <n> --speedup <s>
+              --home <CMAC> --wipe
+
+in the test's temp dir, waits (bounded) for SERIAL0 (tcp 5760+10·n) to accept and send its
+first HEARTBEAT, attaches an *observer* on SERIAL1 (tcp 5762+10·n) and waits until the EKF has
+a GPS position. The observer never sends a HEARTBEAT and uses system id 250, so ArduPilot's
+GCS failsafe (keyed on MAV_GCS_SYSID 255 = helixd) and RC-override rule see helixd alone; it
+reads HEARTBEAT / SERVO_OUTPUT_RAW / LOCAL_POSITION_NED and can switch modes or set params.
+The pilot's radio is SITL's RC-input UDP port (5501+10·n: 8 or 16 little-endian uint16 PWM,
+0 = leave that channel unchanged).
+
+Facts from ArduPilot's source that the suite relies on:
+
+* libraries/SITL/SIM_Rover.cpp, skid model: motor1 = output 1 (left), motor2 = output 3
+  (right), m = (pwm − 1500)/500; target speed = ½(m1+m2)·4 m/s, yaw rate = (m1−m2)·140 °/s,
+  clockwise positive (body z down). Outputs 2 and 4 are not read.
+* AP_HAL_SITL/SITL_cmdline.cpp: ``-I n`` adds 10·n to every port; SERIAL0 waits for a client
+  before the vehicle boots; RC inputs start at 1500 on channels 1–4 for Rover.
+* Helix eq. 2 with yaw CCW positive: ω1 = (vx + k·wz)/r is the *right-hand* side of a
+  skid-steer (it speeds up for a left turn) and ω3 = −(vx − k·wz)/r the left-hand side turning
+  the other way. So scroll 1 drives output 3 (right motor) and scroll 3, reversed, drives
+  output 1 (left motor); scrolls 2 and 4 ride on outputs 4 and 2, which the model ignores.
+  Mapping scroll 1 to output 1 instead inverts the yaw response (positive feedback).
+"""
+
+from __future__ import annotations
+
+import functools
+import itertools
+import math
+import os
+import re
+import signal
+import socket
+import struct
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TypeVar
+
+import pytest
+import yaml
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # MAVLink 2 framing
+
+from helixd.control.kinematics import rpm_to_radps
+
+T = TypeVar("T")
+
+ROOT = Path(__file__).resolve().parents[2]
+PARM_FILE = Path(__file__).resolve().parent / "helix-skid.parm"
+SQUARE_MISSION = ROOT / "config" / "missions" / "square.yaml"
+
+SITL_BIN_ENV = "HELIXD_SITL_BIN"
+SPEEDUP_ENV = "HELIXD_SITL_SPEEDUP"  # simulated seconds per wall second (default 1)
+INSTANCE_BASE_ENV = "HELIXD_SITL_INSTANCE_BASE"  # first -I instance to try (default 0)
+DEFAULT_SPEEDUP = 1.0
+MAX_SPEEDUP = 10.0  # helixd's control loop runs on wall time; beyond this it falls behind
+
+# SITL ports (AP_HAL_SITL/SITL_cmdline.cpp); every one moves by 10 per instance.
+SERIAL0_PORT = 5760  # helixd's link; SITL waits here for a client before it boots
+SERIAL1_PORT = 5762  # the observer (a second GCS link)
+SERIAL2_PORT = 5763
+RCIN_PORT = 5501  # UDP: the simulated pilot's radio
+PORT_STRIDE = 10
+INSTANCES_PER_WORKER = 5  # -I values rotate so a just-killed SITL's ports are not reused at once
+RC_INPUT_CHANNELS = 16
+
+HOME = "-35.363261,149.165230,584,0"  # CMAC (SITL's default field), facing north
+
+AUTOPILOT_SYSID = 1
+AUTOPILOT_COMPID = 1
+HELIXD_SYSID = 255  # ArduPilot's default MAV_GCS_SYSID (helix-skid.parm keeps it)
+OBSERVER_SYSID = 250  # not the GCS sysid: its commands work, its overrides and silence don't
+OBSERVER_COMPID = 190
+
+MODE_HOLD = 4
+MAV_MODE_FLAG_SAFETY_ARMED = 128
+MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
+EKF_POS_HORIZ_ABS = 16
+GPS_FIX_3D = 3
+
+NEUTRAL_US = 1500
+OUTPUT_TOLERANCE_US = 5  # SERVO_OUTPUT_RAW vs an expected PWM
+DRIVING_DEFLECTION_US = 30  # |output − 1500| that counts as "the scrolls are driving"
+
+# Wall-clock bounds (s). Generous: a loaded 2-core box boots SITL slowly.
+BOOT_TIMEOUT_S = 60.0  # process start → first HEARTBEAT on SERIAL0
+READY_TIMEOUT_S = 180.0  # → GPS 3D fix and an EKF absolute position
+CONNECT_TIMEOUT_S = 30.0  # a TCP port to accept
+COMMAND_TIMEOUT_S = 3.0  # per COMMAND_ACK / PARAM_VALUE try
+COMMAND_TRIES = 3
+STREAM_RATE_HZ = 10.0  # observer message rates (accepted: ≥ 1.25 × the 50 Hz loop period)
+SITL_STOP_TIMEOUT_S = 10.0
+DAEMON_STOP_TIMEOUT_S = 15.0
+
+# The skid model as a Helix (see module docstring): scroll → (output channel, reversed).
+SKID_CHANNELS: tuple[tuple[int, bool], ...] = ((3, False), (4, False), (1, True), (2, True))
+# SIM_Rover.cpp skid constants: full command ±1 → 4 m/s; (m1 − m2) = 1 → 140 °/s.
+SKID_MAX_SPEED_MPS = 4.0
+SKID_TURN_RATE_DPS = 140.0
+MAX_RPM = 195.0
+
+
+def skid_vehicle_geometry(max_rpm: float = MAX_RPM) -> dict[str, float]:
+    """Helix geometry for which eq. 2 *is* the skid model, so helixd's thesis gains see the
+    plant they were tuned for: v = r·ω_max·f → r = 4 m/s / ω_max; yaw = 2k·wz/(r·ω_max) ·
+    140 °/s → k = l_x + l_y = 4 m/s / (2 · 140 °/s)."""
+    radius_m = SKID_MAX_SPEED_MPS / rpm_to_radps(max_rpm)
+    k_m = SKID_MAX_SPEED_MPS / (2.0 * math.radians(SKID_TURN_RATE_DPS))
+    return {"scroll_radius_m": radius_m, "lx_m": k_m / 2.0, "ly_m": k_m / 2.0, "max_rpm": max_rpm}
+
+
+def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
+    """The helixd.yaml the suite flies with (HelixdConfig fields; everything else default)."""
+    return {
+        "vehicle": skid_vehicle_geometry(),
+        "link": {
+            "url": url,
+            "source_system": HELIXD_SYSID,
+            # 5 Hz keeps FS_GCS_TIMEOUT (5 s, simulated) safe up to --speedup 10.
+            "heartbeat_rate_hz": 5.0,
+        },
+        "actuation": {
+            "backend": backend,
+            "channels": [
+                {"channel": channel, "reversed": rev, "pwm_min_us": 1000, "pwm_max_us": 2000}
+                for channel, rev in SKID_CHANNELS
+            ],
+        },
+        "safety": {
+            # ArduPilot's PreArm checks refuse this passthrough setup shortly after boot
+            # (DESIGN §3); the daemon's documented escape hatch.
+            "force_arm": True,
+            "connect_timeout_s": 60.0,
+            "arm_timeout_s": 60.0,
+            "arm_retry_interval_s": 1.0,
+        },
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# Skip without a binary
+
+
+def sitl_skip_reason() -> str | None:
+    value = os.environ.get(SITL_BIN_ENV, "")
+    if not value:
+        return f"real ArduPilot SITL tests need {SITL_BIN_ENV}=/path/to/ardurover (unset)"
+    path = Path(value)
+    if not path.is_file() or not os.access(path, os.X_OK):
+        return f"{SITL_BIN_ENV}={value} is not an executable file"
+    return None
+
+
+@pytest.fixture(autouse=True)
+def _require_sitl_binary() -> None:
+    reason = sitl_skip_reason()
+    if reason is not None:
+        pytest.skip(reason)
+
+
+def sitl_speedup() -> float:
+    raw = os.environ.get(SPEEDUP_ENV, "")
+    if not raw:
+        return DEFAULT_SPEEDUP
+    try:
+        value = float(raw)
+    except ValueError:
+        raise pytest.UsageError(f"{SPEEDUP_ENV}={raw!r} is not a number") from None
+    if not 0.1 <= value <= MAX_SPEEDUP:
+        raise pytest.UsageError(f"{SPEEDUP_ENV}={raw} outside 0.1 .. {MAX_SPEEDUP:g}")
+    return value
+
+
+# ---------------------------------------------------------------------------------------------
+# A MAVLink client on one SITL TCP port
+
+
+@dataclass(frozen=True, slots=True)
+class ServoSample:
+    t_boot_s: float  # SERVO_OUTPUT_RAW.time_usec: autopilot (simulated) time
+    wall_s: float  # time.monotonic() on receipt
+    pwm_us: tuple[int, int, int, int]  # outputs 1..4
+
+
+@dataclass(frozen=True, slots=True)
+class PositionSample:
+    t_boot_s: float
+    north_m: float
+    east_m: float
+
+
+@dataclass
+class MavClient:
+    """Reads one TCP link in a thread; keeps the autopilot's latest message of each type, the
+    SERVO_OUTPUT_RAW and LOCAL_POSITION_NED histories, acks, params and STATUSTEXTs."""
+
+    sock: socket.socket
+    name: str
+    mav: Any = field(init=False)
+    latest: dict[str, Any] = field(default_factory=dict)
+    servo: list[ServoSample] = field(default_factory=list)
+    positions: list[PositionSample] = field(default_factory=list)
+    acks: list[tuple[int, int]] = field(default_factory=list)  # (command, result)
+    params: dict[str, float] = field(default_factory=dict)
+    statustexts: list[str] = field(default_factory=list)
+    mode_changes: list[tuple[float, int]] = field(default_factory=list)  # (monotonic s, mode)
+    helixd_heartbeat_wall_s: float | None = None
+    closed_reason: str | None = None
+    _cond: threading.Condition = field(
+        default_factory=lambda: threading.Condition(threading.RLock())
+    )
+    _send_lock: threading.Lock = field(default_factory=threading.Lock)
+    _thread: threading.Thread | None = None
+
+    def __post_init__(self) -> None:
+        self.mav = mavlink2.MAVLink(None, srcSystem=OBSERVER_SYSID, srcComponent=OBSERVER_COMPID)
+        self.mav.robust_parsing = True
+        self._parser = mavlink2.MAVLink(None)
+        self._parser.robust_parsing = True
+        self.sock.settimeout(0.2)
+        self._thread = threading.Thread(target=self._reader, name=f"mav-{self.name}", daemon=True)
+        self._thread.start()
+
+    @classmethod
+    def connect(
+        cls, port: int, name: str, timeout_s: float, alive: Callable[[], str | None]
+    ) -> MavClient:
+        return cls(connect_tcp(port, timeout_s, alive), name)
+
+    # -- reading --------------------------------------------------------------------------
+
+    def _reader(self) -> None:
+        while True:
+            try:
+                data = self.sock.recv(65536)
+            except TimeoutError:
+                continue
+            except OSError as exc:
+                self._close(f"socket error: {exc}")
+                return
+            if not data:
+                self._close("closed by SITL")
+                return
+            for msg in self._parser.parse_buffer(data) or ():
+                self._handle(msg)
+
+    def _close(self, reason: str) -> None:
+        with self._cond:
+            if self.closed_reason is None:
+                self.closed_reason = reason
+            self._cond.notify_all()
+
+    def _handle(self, msg: Any) -> None:
+        kind = str(msg.get_type())
+        src = (int(msg.get_srcSystem()), int(msg.get_srcComponent()))
+        with self._cond:
+            if kind == "HEARTBEAT" and src[0] == HELIXD_SYSID:
+                self.helixd_heartbeat_wall_s = time.monotonic()
+            if src[0] != AUTOPILOT_SYSID:
+                return  # ArduPilot forwards other systems' broadcasts (helixd's HEARTBEAT)
+            if kind == "HEARTBEAT" and src[1] != AUTOPILOT_COMPID:
+                return
+            if kind == "HEARTBEAT":
+                mode = int(msg.custom_mode)
+                if not self.mode_changes or self.mode_changes[-1][1] != mode:
+                    self.mode_changes.append((time.monotonic(), mode))
+            self.latest[kind] = msg
+            if kind == "SERVO_OUTPUT_RAW":
+                self.servo.append(
+                    ServoSample(
+                        t_boot_s=int(msg.time_usec) / 1e6,
+                        wall_s=time.monotonic(),
+                        pwm_us=(
+                            int(msg.servo1_raw),
+                            int(msg.servo2_raw),
+                            int(msg.servo3_raw),
+                            int(msg.servo4_raw),
+                        ),
+                    )
+                )
+            elif kind == "LOCAL_POSITION_NED":
+                self.positions.append(
+                    PositionSample(int(msg.time_boot_ms) / 1e3, float(msg.x), float(msg.y))
+                )
+            elif kind == "COMMAND_ACK":
+                target = int(getattr(msg, "target_system", 0) or 0)
+                if target in (0, OBSERVER_SYSID):
+                    self.acks.append((int(msg.command), int(msg.result)))
+            elif kind == "PARAM_VALUE":
+                self.params[str(msg.param_id)] = float(msg.param_value)
+            elif kind == "STATUSTEXT":
+                self.statustexts.append(str(msg.text))
+            self._cond.notify_all()
+
+    # -- waiting --------------------------------------------------------------------------
+
+    def wait_value(
+        self,
+        probe: Callable[[], T | None],
+        timeout_s: float,
+        what: str,
+        abort: Callable[[], str | None] | None = None,
+    ) -> T:
+        """Block until ``probe()`` returns a value (not None); fail after ``timeout_s``."""
+        deadline = time.monotonic() + timeout_s
+        with self._cond:
+            while True:
+                value = probe()
+                if value is not None:
+                    return value
+                reason = abort() if abort is not None else None
+                if reason is None and self.closed_reason is not None:
+                    reason = f"{self.name} link {self.closed_reason}"
+                if reason is not None:
+                    raise AssertionError(f"while waiting for {what}: {reason}; {self.describe()}")
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    raise AssertionError(
+                        f"timed out after {timeout_s:g} s waiting for {what}; {self.describe()}"
+                    )
+                self._cond.wait(min(remaining, 0.2))
+
+    def wait_until(
+        self,
+        condition: Callable[[], bool],
+        timeout_s: float,
+        what: str,
+        abort: Callable[[], str | None] | None = None,
+    ) -> None:
+        self.wait_value(lambda: True if condition() else None, timeout_s, what, abort)
+
+    # -- typed views ----------------------------------------------------------------------
+
+    def mode(self) -> int | None:
+        hb = self.latest.get("HEARTBEAT")
+        return None if hb is None else int(hb.custom_mode)
+
+    def armed(self) -> bool | None:
+        hb = self.latest.get("HEARTBEAT")
+        return None if hb is None else bool(int(hb.base_mode) & MAV_MODE_FLAG_SAFETY_ARMED)
+
+    def servo_pwm(self) -> tuple[int, int, int, int] | None:
+        with self._cond:
+            return self.servo[-1].pwm_us if self.servo else None
+
+    def last_servo(self) -> ServoSample | None:
+        with self._cond:
+            return self.servo[-1] if self.servo else None
+
+    def servo_since(self, t_boot_s: float) -> list[ServoSample]:
+        with self._cond:
+            return [s for s in self.servo if s.t_boot_s >= t_boot_s]
+
+    def position(self) -> PositionSample | None:
+        with self._cond:
+            return self.positions[-1] if self.positions else None
+
+    def positions_since(self, t_boot_s: float) -> list[PositionSample]:
+        with self._cond:
+            return [p for p in self.positions if p.t_boot_s >= t_boot_s]
+
+    def ekf_has_position(self) -> bool:
+        ekf = self.latest.get("EKF_STATUS_REPORT")
+        gps = self.latest.get("GPS_RAW_INT")
+        return (
+            ekf is not None
+            and gps is not None
+            and bool(int(ekf.flags) & EKF_POS_HORIZ_ABS)
+            and int(gps.fix_type) >= GPS_FIX_3D
+            and "LOCAL_POSITION_NED" in self.latest
+        )
+
+    def describe(self) -> str:
+        with self._cond:
+            ekf = self.latest.get("EKF_STATUS_REPORT")
+            gps = self.latest.get("GPS_RAW_INT")
+            return (
+                f"autopilot: mode={self.mode()} armed={self.armed()} "
+                f"servo1..4={self.servo_pwm()} "
+                f"ekf_flags={None if ekf is None else int(ekf.flags)} "
+                f"gps_fix={None if gps is None else int(gps.fix_type)} "
+                f"statustext={self.statustexts[-5:]}"
+            )
+
+    # -- sending --------------------------------------------------------------------------
+
+    def send(self, msg: Any) -> None:
+        data = msg.pack(self.mav)
+        with self._send_lock:
+            self.sock.sendall(data)
+
+    def _ack_since(self, seen: int, command: int) -> int | None:
+        return next((r for c, r in self.acks[seen:] if c == command), None)
+
+    def command_long(self, command: int, params: tuple[float, ...]) -> int:
+        """Send COMMAND_LONG (re-sent up to COMMAND_TRIES times); return the ack's result."""
+        padded = (*params, *(0.0,) * (7 - len(params)))
+        for attempt in range(COMMAND_TRIES):
+            with self._cond:
+                seen = len(self.acks)
+            self.send(
+                self.mav.command_long_encode(
+                    AUTOPILOT_SYSID, AUTOPILOT_COMPID, command, attempt, *padded
+                )
+            )
+            try:
+                return self.wait_value(
+                    functools.partial(self._ack_since, seen, command),
+                    COMMAND_TIMEOUT_S,
+                    f"COMMAND_ACK for command {command}",
+                )
+            except AssertionError:
+                if attempt == COMMAND_TRIES - 1 or self.closed_reason is not None:
+                    raise
+        raise AssertionError("unreachable")
+
+    def set_mode(self, mode: int) -> int:
+        return self.command_long(
+            mavlink2.MAV_CMD_DO_SET_MODE, (float(MAV_MODE_FLAG_CUSTOM_MODE_ENABLED), float(mode))
+        )
+
+    def set_message_interval(self, msg_id: int, rate_hz: float) -> None:
+        result = self.command_long(
+            mavlink2.MAV_CMD_SET_MESSAGE_INTERVAL, (float(msg_id), 1e6 / rate_hz)
+        )
+        assert result == mavlink2.MAV_RESULT_ACCEPTED, (
+            f"SET_MESSAGE_INTERVAL({msg_id}, {rate_hz} Hz) refused: result {result}"
+        )
+
+    def set_param(self, name: str, value: float) -> None:
+        """PARAM_SET, confirmed by the PARAM_VALUE echo."""
+        for attempt in range(COMMAND_TRIES):
+            with self._cond:
+                self.params.pop(name, None)
+            self.send(
+                self.mav.param_set_encode(
+                    AUTOPILOT_SYSID,
+                    AUTOPILOT_COMPID,
+                    name.encode("ascii"),
+                    value,
+                    mavlink2.MAV_PARAM_TYPE_REAL32,
+                )
+            )
+            try:
+                echoed = self.wait_value(
+                    lambda: self.params.get(name), COMMAND_TIMEOUT_S, f"PARAM_VALUE {name}"
+                )
+            except AssertionError:
+                if attempt == COMMAND_TRIES - 1 or self.closed_reason is not None:
+                    raise
+                continue
+            assert math.isclose(echoed, value, abs_tol=1e-3), f"{name} = {echoed}, wanted {value}"
+            return
+
+    def close(self) -> None:
+        try:
+            self.sock.close()
+        except OSError as exc:
+            print(f"closing {self.name}: {exc}")
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+
+
+def connect_tcp(port: int, timeout_s: float, alive: Callable[[], str | None]) -> socket.socket:
+    """Connect to 127.0.0.1:port, retrying until SITL listens (or ``alive`` says it died)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        try:
+            return socket.create_connection(("127.0.0.1", port), timeout=1.0)
+        except OSError as exc:
+            dead = alive()
+            if dead is not None:
+                raise AssertionError(f"SITL {dead} before tcp:{port} accepted") from exc
+            if time.monotonic() > deadline:
+                raise AssertionError(
+                    f"tcp:127.0.0.1:{port} not accepting after {timeout_s} s"
+                ) from exc
+            time.sleep(0.2)  # retry interval of the connect poll, bounded by the deadline
+
+
+# ---------------------------------------------------------------------------------------------
+# The SITL process
+
+
+def _worker_index() -> int:
+    digits = re.sub(r"\D", "", os.environ.get("PYTEST_XDIST_WORKER", ""))
+    return int(digits) if digits else 0
+
+
+_instance_counter = itertools.count()
+
+
+def _ports_free(instance: int) -> bool:
+    offset = PORT_STRIDE * instance
+    checks = [(socket.SOCK_STREAM, p + offset) for p in (SERIAL0_PORT, SERIAL1_PORT, SERIAL2_PORT)]
+    checks.append((socket.SOCK_DGRAM, RCIN_PORT + offset))
+    for kind, port in checks:
+        with socket.socket(socket.AF_INET, kind) as s:
+            if kind == socket.SOCK_STREAM:
+                s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as SITL binds
+            try:
+                s.bind(("0.0.0.0", port))
+            except OSError:
+                return False
+    return True
+
+
+def pick_instance() -> int:
+    """A -I value whose ports are free, distinct per pytest-xdist worker and rotating per test."""
+    base = int(os.environ.get(INSTANCE_BASE_ENV, "0"))
+    first = base + _worker_index() * INSTANCES_PER_WORKER
+    for _ in range(INSTANCES_PER_WORKER):
+        instance = first + next(_instance_counter) % INSTANCES_PER_WORKER
+        if _ports_free(instance):
+            return instance
+    pytest.fail(f"no free SITL instance in {first}..{first + INSTANCES_PER_WORKER - 1}")
+
+
+@dataclass
+class SitlVehicle:
+    """One running ``ardurover`` SITL and the observer attached to it."""
+
+    proc: subprocess.Popen[bytes]
+    instance: int
+    speedup: float
+    workdir: Path
+    log_path: Path
+    observer: MavClient | None = None
+    start_ne_m: tuple[float, float] = (0.0, 0.0)
+    start_t_boot_s: float = 0.0
+
+    @property
+    def helixd_port(self) -> int:
+        return SERIAL0_PORT + PORT_STRIDE * self.instance
+
+    @property
+    def helixd_url(self) -> str:
+        return f"tcp:127.0.0.1:{self.helixd_port}"
+
+    @property
+    def obs(self) -> MavClient:
+        assert self.observer is not None, "observer not attached"
+        return self.observer
+
+    def dead(self) -> str | None:
+        code = self.proc.poll()
+        return (
+            None if code is None else f"ardurover exited with {code}; log tail:\n{self.log_tail()}"
+        )
+
+    def log_tail(self, lines: int = 30) -> str:
+        try:
+            text = self.log_path.read_text(encoding="utf-8", errors="replace")
+        except OSError as exc:
+            return f"(no SITL log: {exc})"
+        return "\n".join(text.splitlines()[-lines:])
+
+    def pilot_rc(self, values_us: dict[int, int]) -> None:
+        """The pilot's radio: set RC inputs (channel → µs); other channels keep their value."""
+        pwm = [0] * RC_INPUT_CHANNELS
+        for channel, value in values_us.items():
+            pwm[channel - 1] = value
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.sendto(
+                struct.pack(f"<{RC_INPUT_CHANNELS}H", *pwm),
+                ("127.0.0.1", RCIN_PORT + PORT_STRIDE * self.instance),
+            )
+
+    def use_servo_outputs(self) -> None:
+        """Give outputs 1–4 function 0 for the DO_SET_SERVO backend.
+
+        Switched at runtime, not in a parm file: an output whose function becomes 0 keeps its
+        last value (the RC passthrough's 1500) until DO_SET_SERVO moves it, so the rover stays
+        put; at boot a function-0 output starts at whatever SITL initialises it to.
+        """
+        for channel in range(1, 5):
+            self.obs.set_param(f"SERVO{channel}_FUNCTION", 0.0)
+        self.obs.wait_until(
+            lambda: outputs_near(self.obs.servo_pwm(), NEUTRAL_US),
+            10.0,
+            "outputs 1 and 3 still at neutral after switching to function 0",
+        )
+
+    def distance_from_start_m(self) -> float | None:
+        p = self.obs.position()
+        if p is None:
+            return None
+        return math.hypot(p.north_m - self.start_ne_m[0], p.east_m - self.start_ne_m[1])
+
+    def wait_driving(self, daemon: DaemonRun, min_distance_m: float, timeout_s: float) -> None:
+        """Until helixd has armed and driven ``min_distance_m`` and the outputs are deflected."""
+
+        def driving() -> bool:
+            pwm = self.obs.servo_pwm()
+            moved = self.distance_from_start_m()
+            return (
+                bool(self.obs.armed())
+                and moved is not None
+                and moved >= min_distance_m
+                and pwm is not None
+                and max(abs(pwm[0] - NEUTRAL_US), abs(pwm[2] - NEUTRAL_US)) >= DRIVING_DEFLECTION_US
+            )
+
+        self.obs.wait_until(
+            driving, timeout_s, f"helixd driving ≥ {min_distance_m} m", abort=daemon.ended
+        )
+
+    def stop(self) -> None:
+        if self.observer is not None:
+            self.observer.close()
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                self.proc.wait(timeout=SITL_STOP_TIMEOUT_S)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(timeout=SITL_STOP_TIMEOUT_S)
+
+
+def outputs_near(pwm: tuple[int, int, int, int] | None, target_us: int) -> bool:
+    """Outputs 1 and 3 (the skid model's motors) within tolerance of ``target_us``."""
+    return pwm is not None and all(abs(pwm[i] - target_us) <= OUTPUT_TOLERANCE_US for i in (0, 2))
+
+
+def wait_first_heartbeat(port: int, timeout_s: float, alive: Callable[[], str | None]) -> None:
+    """Connect to SERIAL0 (which lets SITL boot), read until the autopilot's HEARTBEAT, close.
+
+    SITL serves one client per TCP port and re-accepts once it closes: helixd connects next.
+    """
+    deadline = time.monotonic() + timeout_s
+    parser = mavlink2.MAVLink(None)
+    parser.robust_parsing = True
+    with connect_tcp(port, timeout_s, alive) as sock:
+        sock.settimeout(0.5)
+        while True:
+            try:
+                data = sock.recv(65536)
+            except TimeoutError:
+                data = None
+            if data == b"":
+                raise AssertionError(f"SITL closed tcp:{port} before its first HEARTBEAT")
+            for msg in parser.parse_buffer(data or b"") or ():
+                if msg.get_type() == "HEARTBEAT" and msg.get_srcSystem() == AUTOPILOT_SYSID:
+                    return
+            dead = alive()
+            if dead is not None:
+                raise AssertionError(f"SITL {dead}")
+            if time.monotonic() > deadline:
+                raise AssertionError(f"no HEARTBEAT on tcp:{port} within {timeout_s} s")
+
+
+def start_sitl(binary: Path, workdir: Path, instance: int, speedup: float) -> SitlVehicle:
+    log_path = workdir / "sitl.log"
+    cmd = [
+        str(binary),
+        "--model",
+        "rover-skid",
+        "--defaults",
+        str(PARM_FILE),
+        "-I",
+        str(instance),
+        "--speedup",
+        f"{speedup:g}",
+        f"--home={HOME}",  # one argv: the value starts with '-'
+        "--wipe",
+    ]
+    with log_path.open("wb") as log_file:
+        proc = subprocess.Popen(
+            cmd, cwd=workdir, stdin=subprocess.DEVNULL, stdout=log_file, stderr=subprocess.STDOUT
+        )
+    vehicle = SitlVehicle(proc, instance, speedup, workdir, log_path)
+    print(f"SITL: {' '.join(cmd)}  (cwd {workdir})")
+    try:
+        wait_first_heartbeat(vehicle.helixd_port, BOOT_TIMEOUT_S, vehicle.dead)
+        vehicle.observer = MavClient.connect(
+            SERIAL1_PORT + PORT_STRIDE * instance, "observer", CONNECT_TIMEOUT_S, vehicle.dead
+        )
+        obs = vehicle.obs
+        for msg_id in (
+            mavlink2.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
+            mavlink2.MAVLINK_MSG_ID_LOCAL_POSITION_NED,
+            mavlink2.MAVLINK_MSG_ID_EKF_STATUS_REPORT,
+            mavlink2.MAVLINK_MSG_ID_GPS_RAW_INT,
+        ):
+            obs.set_message_interval(msg_id, STREAM_RATE_HZ)
+        obs.wait_until(
+            obs.ekf_has_position, READY_TIMEOUT_S, "GPS fix and EKF position", abort=vehicle.dead
+        )
+        start = obs.position()
+        assert start is not None
+        vehicle.start_ne_m = (start.north_m, start.east_m)
+        vehicle.start_t_boot_s = start.t_boot_s
+    except BaseException:
+        vehicle.stop()
+        raise
+    return vehicle
+
+
+@pytest.fixture
+def sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
+    binary = Path(os.environ[SITL_BIN_ENV]).resolve()
+    workdir = tmp_path / "sitl"
+    workdir.mkdir()
+    vehicle = start_sitl(binary, workdir, pick_instance(), sitl_speedup())
+    try:
+        yield vehicle
+    finally:
+        vehicle.stop()
+
+
+# ---------------------------------------------------------------------------------------------
+# The helixd daemon (the real CLI, as a subprocess)
+
+
+@dataclass
+class DaemonRun:
+    proc: subprocess.Popen[str]
+    run_root: Path
+    lines: list[str] = field(default_factory=list)
+    _lock: threading.Lock = field(default_factory=threading.Lock)
+    _pump: threading.Thread | None = None
+
+    def __post_init__(self) -> None:
+        self._pump = threading.Thread(target=self._read, name="helixd-log", daemon=True)
+        self._pump.start()
+
+    def _read(self) -> None:
+        assert self.proc.stderr is not None
+        for line in self.proc.stderr:
+            with self._lock:
+                self.lines.append(line.rstrip("\n"))
+
+    def ended(self) -> str | None:
+        code = self.proc.poll()
+        return None if code is None else f"helixd exited with {code}:\n{self.log_tail()}"
+
+    def log_text(self) -> str:
+        with self._lock:
+            return "\n".join(self.lines)
+
+    def log_tail(self, lines: int = 40) -> str:
+        with self._lock:
+            return "\n".join(self.lines[-lines:])
+
+    def wait_exit(self, timeout_s: float) -> int:
+        try:
+            code = self.proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            raise AssertionError(
+                f"helixd still running after {timeout_s:g} s:\n{self.log_tail()}"
+            ) from None
+        if self._pump is not None:
+            self._pump.join(timeout=5.0)
+        return code
+
+    def run_dir(self) -> Path:
+        dirs = sorted(p for p in self.run_root.iterdir() if p.is_dir())
+        assert dirs, f"no run directory under {self.run_root}"
+        return dirs[-1]
+
+    def stop(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)  # helixd stops, releases and asks for HOLD
+            try:
+                self.proc.wait(timeout=DAEMON_STOP_TIMEOUT_S)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(timeout=DAEMON_STOP_TIMEOUT_S)
+        if self._pump is not None:
+            self._pump.join(timeout=5.0)
+
+
+def start_helixd(tmp_path: Path, vehicle: SitlVehicle, backend: str) -> DaemonRun:
+    cfg_path = tmp_path / f"helixd-sitl-{backend}.yaml"
+    cfg_path.write_text(
+        yaml.safe_dump(helixd_sitl_config(backend, vehicle.helixd_url), sort_keys=False),
+        encoding="utf-8",
+    )
+    run_root = tmp_path / "runs"
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env.pop("NOTIFY_SOCKET", None)
+    cmd = [
+        sys.executable,
+        "-m",
+        "helixd",
+        "run",
+        "--connect",
+        vehicle.helixd_url,
+        "--mission",
+        str(SQUARE_MISSION),
+        "--config",
+        str(cfg_path),
+        "--run-dir",
+        str(run_root),
+    ]
+    proc = subprocess.Popen(
+        cmd,
+        cwd=tmp_path,
+        env=env,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    return DaemonRun(proc, run_root)
+
+
+@pytest.fixture
+def launch_helixd(tmp_path: Path, sitl: SitlVehicle) -> Iterator[Callable[[str], DaemonRun]]:
+    """``launch_helixd(backend)`` starts ``helixd run`` against this test's SITL."""
+    runs: list[DaemonRun] = []
+
+    def launch(backend: str) -> DaemonRun:
+        run = start_helixd(tmp_path, sitl, backend)
+        runs.append(run)
+        return run
+
+    try:
+        yield launch
+    finally:
+        for run in runs:
+            run.stop()

@@ -1,0 +1,331 @@
+"""helixd against real ArduPilot Rover SITL (opt-in: ``HELIXD_SITL_BIN``).
+
+Every test starts its own ``ardurover --model rover-skid`` (fixture ``sitl``) and runs the real
+CLI, ``python -m helixd run --connect tcp:127.0.0.1:5760+10·I --mission square.yaml``, with
+both actuation backends. Assertions are made on what ArduPilot reports on a second link
+(SERVO_OUTPUT_RAW, HEARTBEAT, LOCAL_POSITION_NED), not only on what helixd says.
+
+* the ROLL-mode 10 m square completes (exit 0, summary.json completed) and the rover really
+  drove a counter-clockwise square back to its start;
+* pilot takeover: the pilot switches to HOLD from another link mid-mission → exit 5, outputs 1
+  and 3 back at trim, and (RC override) released: the pilot's radio drives them again;
+* ``kill -9`` of helixd mid-mission: the outputs are watched for ≥ 5 s and reported. RC
+  override: held until RC_OVERRIDE_TIME, then back to the pilot's radio (1500). Servo: latched.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import pytest
+
+from helixd.exitcodes import ExitCode
+
+if TYPE_CHECKING:
+    from tests.sitl.conftest import DaemonRun, ServoSample, SitlVehicle
+
+pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
+
+RC_OVERRIDE = "rc_override"
+SERVO = "servo"
+BACKENDS = (RC_OVERRIDE, SERVO)
+
+NEUTRAL_US = 1500
+TOLERANCE_US = 5
+DEFLECTED_US = 10  # a held output further than this from 1500 shows the scrolls were driving
+MODE_HOLD = 4
+MAV_RESULT_ACCEPTED = 0
+RC_OVERRIDE_TIME_S = 3.0  # helix-skid.parm
+
+# Wall-clock bounds (s); the mission itself is bounded in simulated seconds.
+SETUP_WALL_S = 180.0  # helixd connect → preflight → arm on a freshly booted SITL
+MISSION_SIM_S = 300.0  # the square takes ~90 s of simulated time at 0.6 m/s
+DRIVING_TIMEOUT_S = 240.0
+TAKEOVER_EXIT_S = 30.0
+SECURED_WALL_S = 2.0  # mode switch → outputs neutral (DESIGN §6: 0.5 s + link latency)
+STICK_FOLLOW_S = 10.0
+KILL_WAIT_S = 10.0
+OBSERVE_WALL_S = 5.0  # watch the outputs at least this long after kill -9 …
+# … and, in simulated time, past RC_OVERRIDE_TIME and the GCS failsafe's action
+# (FS_GCS_TIMEOUT 5 s + FS_TIMEOUT 1.5 s, Rover defaults) plus a margin.
+OBSERVE_SIM_S = 8.0
+SETTLE_S = 0.5  # simulated s after the kill for the last in-flight command to land
+
+# The square (config/missions/square.yaml): 10 m legs, counter-clockwise, back to the start.
+SQUARE_FAR_CORNER_M = 10.0 * math.sqrt(2.0)
+ARRIVAL_TOLERANCE_M = 1.0
+FIRST_LEG_PROBE_M = 5.0
+
+
+def mission_timeout_s(speedup: float) -> float:
+    return SETUP_WALL_S + MISSION_SIM_S / speedup
+
+
+def near(pwm: Sequence[int] | None, out1_us: int, out3_us: int) -> bool:
+    """Outputs 1 and 3 (the skid model's left and right motors) at the given PWM."""
+    return (
+        pwm is not None
+        and abs(pwm[0] - out1_us) <= TOLERANCE_US
+        and abs(pwm[2] - out3_us) <= TOLERANCE_US
+    )
+
+
+def read_summary(run_dir: Path) -> dict[str, Any]:
+    data: dict[str, Any] = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+    return data
+
+
+def prepare(sitl: SitlVehicle, backend: str) -> None:
+    if backend == SERVO:
+        sitl.use_servo_outputs()
+
+
+# ---------------------------------------------------------------------------------------------
+# Pure analysis of what the autopilot reported
+
+
+@dataclass(frozen=True, slots=True)
+class TrackShape:
+    max_distance_m: float  # farthest point from the start
+    final_distance_m: float  # last point to the start
+    left_turn_sin: float  # sin of the angle first leg → farthest point; > 0: to the left (CCW)
+
+
+def track_shape(
+    track_ne_m: Sequence[tuple[float, float]], start_ne_m: tuple[float, float]
+) -> TrackShape:
+    """Shape of a driven track from LOCAL_POSITION_NED (north, east) samples."""
+    rel = [(n - start_ne_m[0], e - start_ne_m[1]) for n, e in track_ne_m]
+    if not rel:
+        return TrackShape(0.0, math.nan, math.nan)
+    dist = [math.hypot(n, e) for n, e in rel]
+    far = rel[dist.index(max(dist))]
+    leg = next((p for p, d in zip(rel, dist, strict=True) if d >= FIRST_LEG_PROBE_M), None)
+    sin = math.nan
+    if leg is not None and max(dist) > 0.0:
+        # In ENU (x east, y north) a positive z cross product is a counter-clockwise turn.
+        cross = leg[1] * far[0] - leg[0] * far[1]
+        sin = cross / (math.hypot(*leg) * math.hypot(*far))
+    return TrackShape(max(dist), dist[-1], sin)
+
+
+@dataclass(frozen=True, slots=True)
+class KillReport:
+    kill_t_boot_s: float  # last SERVO_OUTPUT_RAW before SIGKILL (simulated time)
+    held_pwm: tuple[int, int, int, int] | None  # outputs 1..4 once in-flight commands landed
+    first_change_s: float | None  # since the kill: outputs 1/3 first left the held value
+    neutral_from_s: float | None  # since the kill: outputs 1/3 at 1500 from here to the end
+    final_pwm: tuple[int, int, int, int] | None
+    observed_s: float  # simulated seconds watched after the kill
+    changes: tuple[tuple[float, tuple[int, int, int, int]], ...]  # (s since kill, outputs)
+
+
+def analyse_after_kill(samples: Sequence[ServoSample], kill_t_boot_s: float) -> KillReport:
+    after = [s for s in samples if s.t_boot_s >= kill_t_boot_s]
+    if not after:
+        return KillReport(kill_t_boot_s, None, None, None, None, 0.0, ())
+    changes: list[tuple[float, tuple[int, int, int, int]]] = []
+    for s in after:
+        if not changes or not near(s.pwm_us, changes[-1][1][0], changes[-1][1][2]):
+            changes.append((s.t_boot_s - kill_t_boot_s, s.pwm_us))
+    settled = [s for s in after if s.t_boot_s >= kill_t_boot_s + SETTLE_S]
+    held = settled[0].pwm_us if settled else None
+    first_change = None
+    if held is not None:
+        first_change = next(
+            (s.t_boot_s - kill_t_boot_s for s in settled if not near(s.pwm_us, held[0], held[2])),
+            None,
+        )
+    neutral_from = None
+    for s in reversed(after):
+        if not near(s.pwm_us, NEUTRAL_US, NEUTRAL_US):
+            break
+        neutral_from = s.t_boot_s - kill_t_boot_s
+    return KillReport(
+        kill_t_boot_s=kill_t_boot_s,
+        held_pwm=held,
+        first_change_s=first_change,
+        neutral_from_s=neutral_from,
+        final_pwm=after[-1].pwm_us,
+        observed_s=after[-1].t_boot_s - kill_t_boot_s,
+        changes=tuple(changes),
+    )
+
+
+def describe_kill(backend: str, r: KillReport, extra: str) -> str:
+    lines = [f"kill -9 of helixd mid-mission ({backend} backend), outputs 1..4 as ArduPilot saw:"]
+    lines += [f"  +{t:6.2f} s  {pwm}" for t, pwm in r.changes]
+    lines.append(
+        f"  held {r.held_pwm}; first change after {_s(r.first_change_s)}; neutral from "
+        f"{_s(r.neutral_from_s)}; final {r.final_pwm}; watched {r.observed_s:.1f} s (simulated)"
+    )
+    lines.append(f"  {extra}")
+    return "\n".join(lines)
+
+
+def _s(seconds: float | None) -> str:
+    return "never" if seconds is None else f"+{seconds:.2f} s"
+
+
+def deflected(pwm: Sequence[int] | None) -> bool:
+    return pwm is not None and max(abs(pwm[0] - NEUTRAL_US), abs(pwm[2] - NEUTRAL_US)) > (
+        DEFLECTED_US
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Tests
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_roll_square_completes(
+    sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
+) -> None:
+    prepare(sitl, backend)
+    daemon = launch_helixd(backend)
+    code = daemon.wait_exit(mission_timeout_s(sitl.speedup))
+    log = daemon.log_text()
+    assert code == ExitCode.OK, log[-4000:]
+    summary = read_summary(daemon.run_dir())
+    print(
+        f"{backend}: square completed={summary['completed']} in {summary['duration_s']:.1f} s, "
+        f"path {summary['path_length_m']:.1f} m, cross-track rms {summary['cross_track_rms_m']} "
+        f"max {summary['cross_track_max_m']} m, final error {summary['final_error_m']} m"
+    )
+    assert summary["completed"] is True
+    assert summary["exit_code"] == 0
+    assert summary["waypoints_reached"] == summary["waypoints_total"] == 4
+
+    # The autopilot's side: HOLD, disarmed, both motors at trim.
+    obs = sitl.obs
+    obs.wait_until(
+        lambda: (
+            obs.mode() == MODE_HOLD
+            and obs.armed() is False
+            and near(obs.servo_pwm(), NEUTRAL_US, NEUTRAL_US)
+        ),
+        15.0,
+        "HOLD, disarmed and outputs 1/3 at 1500 after the mission",
+    )
+    # …and the rover really drove the counter-clockwise square back to its start.
+    track = [(p.north_m, p.east_m) for p in obs.positions_since(sitl.start_t_boot_s)]
+    shape = track_shape(track, sitl.start_ne_m)
+    print(f"{backend}: track as ArduPilot saw it: {shape}")
+    assert shape.max_distance_m >= SQUARE_FAR_CORNER_M - 2 * ARRIVAL_TOLERANCE_M
+    assert shape.final_distance_m <= 2 * ARRIVAL_TOLERANCE_M
+    assert shape.left_turn_sin > 0.3  # ≈ sin 45° for the far corner of a left-hand square
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_pilot_takeover_by_mode_switch(
+    sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
+) -> None:
+    prepare(sitl, backend)
+    daemon = launch_helixd(backend)
+    obs = sitl.obs
+    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
+    assert deflected(obs.servo_pwm())
+
+    # The pilot flips to HOLD (from the second GCS link). HOLD alone does not stop an
+    # RC-passthrough or function-0 output: helixd must notice and stop/release itself.
+    assert obs.set_mode(MODE_HOLD) == MAV_RESULT_ACCEPTED
+    switched = time.monotonic()
+    obs.wait_until(
+        lambda: near(obs.servo_pwm(), NEUTRAL_US, NEUTRAL_US),
+        SECURED_WALL_S,
+        "outputs 1 and 3 back at trim after the pilot switched to HOLD",
+    )
+    secured_s = time.monotonic() - switched
+    code = daemon.wait_exit(TAKEOVER_EXIT_S)
+    log = daemon.log_text()
+    print(f"{backend}: takeover: outputs at trim {secured_s:.2f} s after the mode switch")
+    assert code == ExitCode.OPERATOR_STOP, log[-4000:]
+    assert "cause=pilot_takeover" in log
+    assert obs.mode() == MODE_HOLD
+    assert near(obs.servo_pwm(), NEUTRAL_US, NEUTRAL_US)
+
+    if backend == RC_OVERRIDE:
+        # Released, not just neutral: the pilot's radio now drives the passthrough outputs.
+        sitl.pilot_rc({1: 1650, 3: 1350})
+        obs.wait_until(
+            lambda: near(obs.servo_pwm(), 1650, 1350),
+            STICK_FOLLOW_S,
+            "outputs 1/3 following the pilot's radio (helixd's overrides released)",
+        )
+        sitl.pilot_rc({1: NEUTRAL_US, 3: NEUTRAL_US})
+        obs.wait_until(
+            lambda: near(obs.servo_pwm(), NEUTRAL_US, NEUTRAL_US),
+            STICK_FOLLOW_S,
+            "outputs back at trim with the sticks centred",
+        )
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_kill_9_mid_mission_reports_outputs(
+    sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
+) -> None:
+    prepare(sitl, backend)
+    daemon = launch_helixd(backend)
+    obs = sitl.obs
+    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
+    last = obs.last_servo()
+    assert last is not None
+    killed_wall = time.monotonic()
+    daemon.proc.send_signal(signal.SIGKILL)
+    assert daemon.wait_exit(KILL_WAIT_S) == -signal.SIGKILL
+
+    sim_end = last.t_boot_s + OBSERVE_SIM_S
+
+    def watched_enough() -> bool:
+        latest = obs.last_servo()
+        return (
+            latest is not None
+            and latest.t_boot_s >= sim_end
+            and time.monotonic() - killed_wall >= OBSERVE_WALL_S
+        )
+
+    obs.wait_until(
+        watched_enough,
+        OBSERVE_WALL_S + OBSERVE_SIM_S / sitl.speedup + 30.0,
+        f"≥ {OBSERVE_WALL_S} s (wall) and {OBSERVE_SIM_S} s (simulated) of outputs after kill -9",
+    )
+    report = analyse_after_kill(obs.servo_since(last.t_boot_s), last.t_boot_s)
+    modes = [
+        f"{mode} at {wall - killed_wall:+.1f} s (wall)"
+        for wall, mode in obs.mode_changes
+        if wall >= killed_wall
+    ]
+    heartbeat = (
+        "not seen on the observer link"
+        if obs.helixd_heartbeat_wall_s is None
+        else f"{killed_wall - obs.helixd_heartbeat_wall_s:.2f} s before the kill"
+    )
+    print(
+        describe_kill(
+            backend,
+            report,
+            f"mode changes after the kill: {modes or 'none'}; now mode {obs.mode()} armed "
+            f"{obs.armed()}; helixd's last HEARTBEAT {heartbeat}; "
+            f"STATUSTEXT {obs.statustexts[-4:]}",
+        )
+    )
+
+    assert deflected(report.held_pwm), "the scrolls were not driving when helixd was killed"
+    if backend == RC_OVERRIDE:
+        # ArduPilot keeps the last override until RC_OVERRIDE_TIME, then the outputs follow
+        # the pilot's radio again (SITL's radio sits at 1500).
+        slack_s = 1.0 + 0.2 * sitl.speedup  # last override ≤ one observer period before kill
+        assert report.first_change_s is not None
+        assert report.first_change_s >= RC_OVERRIDE_TIME_S - SETTLE_S
+        assert report.neutral_from_s is not None
+        assert report.neutral_from_s <= RC_OVERRIDE_TIME_S + slack_s
+    else:
+        # DO_SET_SERVO has no timeout: the last command stays on the outputs (README).
+        assert report.first_change_s is None
