@@ -29,6 +29,7 @@ from helixd.signals import StopRequest
 from helixd.vehicle import PoseSample
 
 MANUAL_MODE = "MANUAL"
+CEILING_JITTER_FRACTION = 0.25  # of the ceiling's period: early arrivals still stepped
 
 
 @dataclass
@@ -83,7 +84,10 @@ class FlightLoop:
         self.on_tick = on_tick
         self.navigator = Navigator(plan, cfg.control)
         self.monitor = SafetyMonitor(cfg.safety)
-        self._min_step_s = 1.0 / cfg.control.control_rate_max_hz
+        # The ceiling only thins out a pose flood (e.g. a simulator speed-up); a pose at the
+        # ceiling rate arriving a little early (scheduling jitter) is still stepped, or every
+        # other pose would be dropped when the autopilot grants exactly the ceiling rate.
+        self._min_step_s = (1.0 - CEILING_JITTER_FRACTION) / cfg.control.control_rate_max_hz
         # tick at least this often without poses, so watchdogs always run (s)
         self._tick_s = min(0.05, cfg.safety.pose_stale_s / 4)
         self._cmd_speed_mps = 0.0

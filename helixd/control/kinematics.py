@@ -6,6 +6,7 @@ thesis's Fig. 2. ω in rad/s; a *scroll fraction* is ω / ω_max, signed, ω_max
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 
@@ -21,29 +22,43 @@ FloatArray = npt.NDArray[np.float64]
 RPM_PER_RADPS = 60.0 / (2.0 * math.pi)
 
 
+@functools.lru_cache(maxsize=8)
 def inverse_matrix(radius_m: float, lx_m: float, ly_m: float) -> FloatArray:
     """Eq. 2: [ω1 ω2 ω3 ω4]ᵀ = J⁺ · [v_x v_y v_θ]ᵀ (4×3)."""
     k = lx_m + ly_m
-    return (1.0 / radius_m) * np.array(
-        [
-            [1.0, 1.0, k],
-            [1.0, -1.0, k],
-            [-1.0, -1.0, k],
-            [-1.0, 1.0, k],
-        ]
+    # cached per geometry (the control loop calls this every step): never mutate the result
+    return _frozen(
+        (1.0 / radius_m)
+        * np.array(
+            [
+                [1.0, 1.0, k],
+                [1.0, -1.0, k],
+                [-1.0, -1.0, k],
+                [-1.0, 1.0, k],
+            ]
+        )
     )
 
 
+@functools.lru_cache(maxsize=8)
 def forward_matrix(radius_m: float, lx_m: float, ly_m: float) -> FloatArray:
     """Eq. 1: [v_x v_y v_θ]ᵀ = J · [ω1 ω2 ω3 ω4]ᵀ (3×4)."""
     k = lx_m + ly_m
-    return (radius_m / 4.0) * np.array(
-        [
-            [1.0, 1.0, -1.0, -1.0],
-            [1.0, -1.0, -1.0, 1.0],
-            [1.0 / k, 1.0 / k, 1.0 / k, 1.0 / k],
-        ]
+    return _frozen(
+        (radius_m / 4.0)
+        * np.array(
+            [
+                [1.0, 1.0, -1.0, -1.0],
+                [1.0, -1.0, -1.0, 1.0],
+                [1.0 / k, 1.0 / k, 1.0 / k, 1.0 / k],
+            ]
+        )
     )
+
+
+def _frozen(a: FloatArray) -> FloatArray:
+    a.setflags(write=False)
+    return a
 
 
 def body_to_scroll_radps(body: BodyVelocity, vehicle: VehicleConfig) -> FloatArray:
