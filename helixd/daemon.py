@@ -25,9 +25,9 @@ from helixd import __version__
 from helixd.actuators import make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
-from helixd.display import ProgressDisplay, ProgressInfo
+from helixd.display import ProgressDisplay
 from helixd.exitcodes import ExitCode
-from helixd.flight import MANUAL_MODE, FlightLoop, Progress
+from helixd.flight import MANUAL_MODE, FlightLoop
 from helixd.frames import MissionFrame, NedPose
 from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
@@ -358,7 +358,7 @@ class MissionRunner:
                     stop=self.stop,
                     start_ned=start_ned,
                     on_row=self._on_row,
-                    on_progress=self._on_progress,
+                    on_progress=self.display.update,
                     on_arrival=self._on_arrival,
                     on_tick=self._on_tick,
                 ).run()
@@ -450,22 +450,6 @@ class MissionRunner:
         self.summary.add(row)
         if self.recorder is not None:
             self.recorder.record(row)
-
-    def _on_progress(self, p: Progress) -> None:
-        self.display.update(
-            ProgressInfo(
-                phase="fly",
-                waypoint_index=p.waypoint_index,
-                waypoints_total=p.waypoints_total,
-                distance_to_go_m=p.distance_to_go_m,
-                speed_mps=p.speed_mps,
-                heading_error_deg=math.degrees(p.heading_error_rad),
-                link_ok=p.link_ok,
-                pose_fresh=p.pose_fresh,
-                elapsed_s=p.elapsed_s,
-                nav_state=p.state,
-            )
-        )
 
     def _on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
         self.summary.arrival(index, t_boot_s, error_m)

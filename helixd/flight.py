@@ -20,6 +20,7 @@ from helixd.config import HelixdConfig
 from helixd.control.angles import wrap_pi
 from helixd.control.kinematics import body_to_fractions
 from helixd.control.navigator import Navigator, NavOutput
+from helixd.display import ProgressInfo
 from helixd.frames import MissionFrame, NedPose
 from helixd.link.connection import Autopilot
 from helixd.mission import Plan
@@ -40,19 +41,6 @@ class FlightResult:
     last_pose: NedPose | None
 
 
-@dataclass
-class Progress:
-    waypoint_index: int
-    waypoints_total: int
-    distance_to_go_m: float
-    speed_mps: float
-    heading_error_rad: float
-    link_ok: bool
-    pose_fresh: bool
-    elapsed_s: float
-    state: str
-
-
 class FlightLoop:
     """One mission's control loop. Construct, then ``await run()``."""
 
@@ -67,7 +55,7 @@ class FlightLoop:
         stop: StopRequest,
         start_ned: NedPose,
         on_row: Callable[[FlightRow], None],
-        on_progress: Callable[[Progress], None],
+        on_progress: Callable[[ProgressInfo], None],
         on_arrival: Callable[[int, float, float], None],
         on_tick: Callable[[], None],
     ) -> None:
@@ -183,16 +171,17 @@ class FlightLoop:
             )
         )
         self.on_progress(
-            Progress(
+            ProgressInfo(
                 waypoint_index=min(out.target_index + 1, len(self.plan.waypoints)),
                 waypoints_total=len(self.plan.waypoints),
                 distance_to_go_m=out.distance_error_m,
                 speed_mps=speed,
-                heading_error_rad=out.heading_error_rad,
+                heading_error_deg=math.degrees(out.heading_error_rad),
                 link_ok=not state.link_lost,
                 pose_fresh=pose_fresh,
                 elapsed_s=now - t_start,
-                state=out.state.value,
+                phase="fly",
+                nav_state=out.state.value,
             )
         )
         return out

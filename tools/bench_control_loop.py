@@ -500,8 +500,8 @@ async def run_daemon_side(
 
     from helixd.actuators import RcOverrideSink
     from helixd.config import HelixdConfig, config_to_yaml
-    from helixd.display import ProgressDisplay, ProgressInfo
-    from helixd.flight import MANUAL_MODE, FlightLoop, Progress
+    from helixd.display import ProgressDisplay
+    from helixd.flight import MANUAL_MODE, FlightLoop
     from helixd.frames import MissionFrame
     from helixd.link.connection import Autopilot
     from helixd.link.preflight import check_obedience
@@ -568,22 +568,6 @@ async def run_daemon_side(
             summary.add(row)
             rec.record(row)
 
-        def on_progress(p: Progress) -> None:
-            display.update(
-                ProgressInfo(
-                    phase="fly",
-                    waypoint_index=p.waypoint_index,
-                    waypoints_total=p.waypoints_total,
-                    distance_to_go_m=p.distance_to_go_m,
-                    speed_mps=p.speed_mps,
-                    heading_error_deg=math.degrees(p.heading_error_rad),
-                    link_ok=p.link_ok,
-                    pose_fresh=p.pose_fresh,
-                    elapsed_s=p.elapsed_s,
-                    nav_state=p.state,
-                )
-            )
-
         def on_tick() -> None:
             sink.woke()
             ap.feed()
@@ -599,7 +583,7 @@ async def run_daemon_side(
             stop=stop,
             start_ned=start_ned,
             on_row=on_row,
-            on_progress=on_progress,
+            on_progress=display.update,
             on_arrival=summary.arrival,
             on_tick=on_tick,
         )
