@@ -125,13 +125,16 @@ def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
 
         daemon_harness.KEEP_NOTIFY_SOCKET = True
         with sim_and_daemon(tmp_path, "hexagon", terrain="mud") as (_server, d):
-            os.environ["WATCHDOG_PID"] = str(d.proc.pid)
+            # until the control loop pings the watchdog while flying, then stop the service
+            while not any("STATUS=phase: fly" in m for m in got) or "WATCHDOG=1" not in got[-1]:
+                got.append(sock.recv(4096).decode())
+            d.signal(signal.SIGTERM)  # what `systemctl stop` sends (KillSignal)
             while not any("STOPPING=1" in m for m in got):
                 got.append(sock.recv(4096).decode())
-            d.wait_exit(30.0)
+            assert d.wait_exit(30.0) == ExitCode.OPERATOR_STOP
     finally:
         daemon_harness.KEEP_NOTIFY_SOCKET = False
-        for key in ("NOTIFY_SOCKET", "WATCHDOG_USEC", "WATCHDOG_PID"):
+        for key in ("NOTIFY_SOCKET", "WATCHDOG_USEC"):
             os.environ.pop(key, None)
         sock.close()
     ready = next(i for i, m in enumerate(got) if "READY=1" in m)
