@@ -105,7 +105,6 @@ class MissionRunner:
         self.summary = SummaryBuilder()
         self.plan: Plan | None = None
         self.armed_by_us = False
-        self.flying = False
         self.messages: list[str] = []
 
     # -- helpers ------------------------------------------------------------------------------
@@ -347,7 +346,6 @@ class MissionRunner:
                 if self.plan.frame is MissionFrameKind.START
                 else MissionFrame.enu()
             )
-            self.flying = True
             async with phase("fly", self.notifier, self.display):
                 result = await FlightLoop(
                     cfg=self.cfg,
@@ -372,16 +370,17 @@ class MissionRunner:
         except StopBeforeFlight as exc:
             fault, code = Fault(FaultCause.SIGNAL, str(exc)), ExitCode.OPERATOR_STOP
         except PreflightFailed as exc:
-            fault, code = None, ExitCode.PREFLIGHT
+            fault = Fault(FaultCause.PREFLIGHT, "; ".join(exc.problems))
+            code = ExitCode.PREFLIGHT
             for p in exc.problems:
                 log.error("preflight_failed", problem=p)
             self.messages.extend(f"preflight: {p}" for p in exc.problems)
         except (PlanError, CommandError) as exc:
-            fault, code = None, ExitCode.PREFLIGHT
+            fault, code = Fault(FaultCause.PREFLIGHT, str(exc)), ExitCode.PREFLIGHT
             log.error("preflight_failed", problem=str(exc))
             self.messages.append(f"preflight: {exc}")
         except LinkError as exc:
-            fault, code = None, ExitCode.LINK
+            fault, code = Fault(FaultCause.LINK_LOST, str(exc)), ExitCode.LINK
             log.error("link_failed", problem=str(exc))
             self.messages.append(f"link: {exc}")
         except Exception as exc:
@@ -419,11 +418,14 @@ class MissionRunner:
                     disarm=(self.armed_by_us and code is ExitCode.OK) or None,
                     abandon=lambda: self.stop.forced,
                 )
-        if self.sink is not None:
-            await self.sink.close()
-        if ap is not None:
-            ap.stop_heartbeat()
-            await ap.close()
+        try:
+            if self.sink is not None:
+                await self.sink.close()
+            if ap is not None:
+                ap.stop_heartbeat()
+                await ap.close()
+        except Exception:  # the vehicle is already secured; closing must not mask the outcome
+            log.exception("close_failed")
         self.notifier.close()
 
     def _finish(self, fault: Fault | None, code: ExitCode, started: float) -> RunSummary:

@@ -28,6 +28,7 @@ class FaultCause(StrEnum):
     STALL = "stall"  # scrolls commanded, rover not moving: the sand pit of field test 1
     SIGNAL = "signal"  # SIGINT / SIGTERM
     EXCEPTION = "exception"  # unhandled error inside helixd
+    PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
 
 
 # Causes that mean "a human took over or asked to stop", not "something broke".
