@@ -13,8 +13,6 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import numpy as np
-
 from helixd.actuators.base import ActuatorSink
 from helixd.config import HelixdConfig
 from helixd.control.angles import wrap_pi
@@ -214,7 +212,7 @@ class FlightLoop:
             start_east_m=self.start_ned.east_m,
             mission_elapsed_s=now - t_start,
             commanded_speed_mps=self._cmd_speed_mps,
-            measured_speed_mps=float(np.hypot(pose.vn_mps, pose.ve_mps)) if pose else 0.0,
+            measured_speed_mps=math.hypot(pose.vn_mps, pose.ve_mps) if pose else 0.0,
             commanded_yaw_rate_radps=self._cmd_yaw_rate_radps,
             measured_yaw_rate_radps=self._meas_yaw_rate_radps,
             rc_receiver_healthy=st.rc_receiver_healthy,
