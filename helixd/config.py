@@ -533,6 +533,23 @@ class SafetyConfig(StrictModel):
     connect_timeout_s: float = Field(
         30.0, gt=0.0, le=600.0, description="wait for the autopilot's first HEARTBEAT (s)"
     )
+    # Hostile-telemetry bounds: a LOCAL_POSITION_NED / ATTITUDE value beyond these (or not
+    # finite) is rejected at the vehicle-state edge and never becomes the pose.
+    telemetry_position_max_m: float = Field(
+        50_000.0,
+        gt=0.0,
+        le=1_000_000.0,
+        description="|north|, |east| from the EKF origin above this is absurd (m)",
+    )
+    telemetry_speed_max_mps: float = Field(
+        20.0, gt=0.0, le=1000.0, description="|vn|, |ve|, |vd| above this is absurd (m/s)"
+    )
+    telemetry_yaw_max_rad: float = Field(
+        4.0 * math.pi,
+        ge=math.pi,
+        le=100.0,
+        description="|ATTITUDE yaw| above this is absurd (rad; ArduPilot sends ±π)",
+    )
 
 
 # ---------------------------------------------------------------------------------------------

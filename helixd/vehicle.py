@@ -7,6 +7,14 @@ reads a clock or touches a socket.
 
 Frames: the pose is kept exactly as MAVLink reports it (NED from the EKF origin, yaw clockwise
 from North); :mod:`helixd.frames` converts it once, at the edge of the control core.
+
+Hostile telemetry: this is the edge where values from the wire are checked, once. A
+LOCAL_POSITION_NED or ATTITUDE with a non-finite or absurd value (beyond
+:class:`TelemetryBounds`), or whose ``time_boot_ms`` steps back by less than the reboot
+threshold (out of order), is *rejected*: counted, never stored, and it opens (or extends) an
+"invalid pose" burst (``pose_invalid_since_s``) that only a valid pose closes. A rejected
+ATTITUDE also forgets the yaw, so no pose is formed from an older yaw while the attitude
+stream is bad. An invalid pose is therefore never a fresh pose.
 """
 
 from __future__ import annotations
@@ -18,6 +26,7 @@ from dataclasses import dataclass, field
 from enum import IntFlag
 from typing import Any
 
+from helixd.config import SafetyConfig
 from helixd.frames import NedPose
 
 MavMsg = Any  # pymavlink messages are untyped; every field is read through int()/float()
@@ -97,6 +106,64 @@ class Change(IntFlag):
     LINK_REGAINED = 1024
     REBOOT = 2048
     SYS_STATUS = 4096
+    POSE_REJECTED = 8192  # a LOCAL_POSITION_NED / ATTITUDE was rejected (see pose_invalid_*)
+
+
+@dataclass(frozen=True, slots=True)
+class TelemetryBounds:
+    """What a sane pose looks like; beyond these a value is absurd and rejected.
+
+    Defaults equal the ``safety.telemetry_*`` config defaults.
+    """
+
+    position_max_m: float = 50_000.0  # |north|, |east| from the EKF origin
+    speed_max_mps: float = 20.0  # |vn|, |ve|, |vd|
+    yaw_max_rad: float = 4.0 * math.pi  # |ATTITUDE yaw| (ArduPilot sends ±π)
+
+    @staticmethod
+    def from_safety(cfg: SafetyConfig) -> TelemetryBounds:
+        return TelemetryBounds(
+            position_max_m=cfg.telemetry_position_max_m,
+            speed_max_mps=cfg.telemetry_speed_max_mps,
+            yaw_max_rad=cfg.telemetry_yaw_max_rad,
+        )
+
+
+def _as_float(value: object) -> float:
+    """A wire field as float; anything unreadable becomes NaN (and is then rejected)."""
+    try:
+        return float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError, OverflowError):
+        return math.nan
+
+
+def position_problem(
+    north_m: float,
+    east_m: float,
+    velocities_mps: tuple[float, float, float],
+    bounds: TelemetryBounds,
+) -> str | None:
+    """Why a LOCAL_POSITION_NED cannot be a pose (None when it can). Pure."""
+    for name, value in (("x (north)", north_m), ("y (east)", east_m)):
+        if not math.isfinite(value):
+            return f"position {name} is {value}"
+        if abs(value) > bounds.position_max_m:
+            return f"position {name} = {value:.6g} m beyond ±{bounds.position_max_m:g} m"
+    for name, value in zip(("vx", "vy", "vz"), velocities_mps, strict=True):
+        if not math.isfinite(value):
+            return f"velocity {name} is {value}"
+        if abs(value) > bounds.speed_max_mps:
+            return f"velocity {name} = {value:.6g} m/s beyond ±{bounds.speed_max_mps:g} m/s"
+    return None
+
+
+def yaw_problem(yaw_rad: float, bounds: TelemetryBounds) -> str | None:
+    """Why an ATTITUDE yaw cannot be used (None when it can). Pure."""
+    if not math.isfinite(yaw_rad):
+        return f"yaw is {yaw_rad}"
+    if abs(yaw_rad) > bounds.yaw_max_rad:
+        return f"yaw = {yaw_rad:.6g} rad beyond ±{bounds.yaw_max_rad:.3g} rad"
+    return None
 
 
 @dataclass(frozen=True, slots=True)
@@ -174,6 +241,7 @@ class VehicleState:
     reboot_backstep_ms: int = 1000
     target_component: int = 1  # HEARTBEATs from other components of the system are ignored
     statustext_history: int = 50
+    bounds: TelemetryBounds = field(default_factory=TelemetryBounds)
 
     pose: PoseSample | None = None
     yaw_ned_rad: float | None = None
@@ -205,6 +273,12 @@ class VehicleState:
     reboot_count: int = 0
     last_time_boot_ms: int | None = None
     statustexts: deque[StatusText] = field(default_factory=deque)
+    # Rejected pose telemetry: the current burst (None when the last pose message was valid),
+    # its latest reason, and counts (total, and per kind for the summary / diagnostics).
+    pose_invalid_since_s: float | None = None
+    pose_invalid_reason: str = ""
+    pose_rejected_count: int = 0
+    pose_rejected_kinds: dict[str, int] = field(default_factory=dict)
     foreign_sysid_counts: dict[int, int] = field(default_factory=dict)
 
     # -- link status (called by the shell with its clock) -------------------------------------
@@ -254,10 +328,31 @@ class VehicleState:
             return Change.NONE  # a gimbal/camera/companion of the same system
         return handler(self, msg, rx_s)
 
+    @property
+    def pose_invalid(self) -> bool:
+        """True while the latest pose telemetry was rejected (no valid pose since)."""
+        return self.pose_invalid_since_s is not None
+
+    def _reject(self, kind: str, reason: str, rx_s: float) -> Change:
+        self.pose_rejected_count += 1
+        self.pose_rejected_kinds[kind] = self.pose_rejected_kinds.get(kind, 0) + 1
+        self.pose_invalid_reason = reason
+        if self.pose_invalid_since_s is None:
+            self.pose_invalid_since_s = rx_s
+        return Change.POSE_REJECTED
+
     def _boot_time(self, time_boot_ms: int) -> Change:
+        """Reboot detection: a backstep larger than ``reboot_backstep_ms`` is a new boot.
+
+        A smaller backstep (a reordered or hostile message) leaves the clock at the newest
+        time seen; the pose handlers reject such a message as out of order.
+        """
         last = self.last_time_boot_ms
-        self.last_time_boot_ms = time_boot_ms
-        if last is not None and time_boot_ms < last - self.reboot_backstep_ms:
+        if last is None or time_boot_ms >= last:
+            self.last_time_boot_ms = time_boot_ms
+            return Change.NONE
+        if time_boot_ms < last - self.reboot_backstep_ms:
+            self.last_time_boot_ms = time_boot_ms
             self.reboot_count += 1
             self.link_lost_count += 1
             self.pose = None
@@ -290,24 +385,55 @@ class VehicleState:
     def _attitude(self, msg: MavMsg, rx_s: float) -> Change:
         t_ms = int(msg.time_boot_ms)
         changed = self._boot_time(t_ms)
-        self.yaw_ned_rad = float(msg.yaw)
+        t_prev = self.attitude_time_boot_ms
+        if not changed & Change.REBOOT and t_prev is not None and t_ms < t_prev:
+            # reordered or hostile: older than the yaw we hold, which stays valid
+            return changed | self._reject(
+                "attitude_out_of_order",
+                f"ATTITUDE time_boot_ms {t_ms} is {t_prev - t_ms} ms older than the last",
+                rx_s,
+            )
+        yaw = _as_float(msg.yaw)
+        problem = yaw_problem(yaw, self.bounds)
+        if problem is not None:
+            # forget the yaw: no pose may be formed from an older yaw while attitude is bad
+            self.yaw_ned_rad = None
+            self.attitude_time_boot_ms = None
+            return changed | self._reject("attitude_invalid", f"ATTITUDE {problem}", rx_s)
+        self.yaw_ned_rad = yaw
         self.attitude_time_boot_ms = t_ms
         return changed | Change.ATTITUDE
 
     def _local_position(self, msg: MavMsg, rx_s: float) -> Change:
         t_ms = int(msg.time_boot_ms)
         changed = self._boot_time(t_ms)
+        last = self.pose
+        if not changed & Change.REBOOT and last is not None and t_ms < last.time_boot_ms:
+            return changed | self._reject(
+                "position_out_of_order",
+                f"LOCAL_POSITION_NED time_boot_ms {t_ms} is {last.time_boot_ms - t_ms} ms older "
+                "than the last pose",
+                rx_s,
+            )
+        north, east = _as_float(msg.x), _as_float(msg.y)
+        velocities = (_as_float(msg.vx), _as_float(msg.vy), _as_float(msg.vz))
+        problem = position_problem(north, east, velocities, self.bounds)
+        if problem is not None:
+            return changed | self._reject(
+                "position_invalid", f"LOCAL_POSITION_NED {problem}", rx_s
+            )
         yaw, t_att = self.yaw_ned_rad, self.attitude_time_boot_ms
         if yaw is None or t_att is None or abs(t_ms - t_att) > self.pose_stale_s * 1000.0:
             return changed
         self.pose = PoseSample(
-            ned=NedPose(north_m=float(msg.x), east_m=float(msg.y), yaw_ned_rad=yaw),
+            ned=NedPose(north_m=north, east_m=east, yaw_ned_rad=yaw),
             time_boot_ms=t_ms,
             rx_monotonic_s=rx_s,
-            vn_mps=float(msg.vx),
-            ve_mps=float(msg.vy),
-            vd_mps=float(msg.vz),
+            vn_mps=velocities[0],
+            ve_mps=velocities[1],
+            vd_mps=velocities[2],
         )
+        self.pose_invalid_since_s = None
         return changed | Change.POSE
 
     def _ekf(self, msg: MavMsg, rx_s: float) -> Change:

@@ -93,7 +93,9 @@ def test_reboot_from_time_boot_ms_going_back() -> None:
     st = VehicleState(reboot_backstep_ms=1000)
     st.apply(att(60_000, 0.0), 1.0)
     st.apply(lpn(60_010, 1, 1), 1.0)
-    assert st.apply(att(59_500, 0.0), 1.1) == Change.ATTITUDE  # small step back: reordering
+    # small step back: a reordered (or hostile) message, rejected, not a reboot
+    assert st.apply(att(59_500, 0.0), 1.1) == Change.POSE_REJECTED
+    assert st.reboot_count == 0 and st.last_time_boot_ms == 60_010
     changes = st.apply(att(300, 0.0), 2.0)
     assert changes & Change.REBOOT
     assert st.reboot_count == 1 and st.link_lost_count == 1 and st.pose is None
@@ -134,3 +136,135 @@ def test_rc_servo_origin() -> None:
     assert st.servo_outputs_us[-1] == 1115
     st.apply(decoded(AP.gps_global_origin_encode(451234567, -731234567, 0), AP), 1.0)
     assert st.gps_origin == pytest.approx((45.1234567, -73.1234567))
+
+
+# -- hostile telemetry: rejected at the edge, never stored as the pose ---------------------------
+
+
+def lpn_v(t_ms: int, north: float, east: float, vx: float = 0.0, vz: float = 0.0) -> Any:
+    return decoded(AP.local_position_ned_encode(t_ms, north, east, 0, vx, 0.0, vz), AP)
+
+
+def valid_state() -> VehicleState:
+    st = VehicleState()
+    st.apply(att(1000, 0.3), 1.0)
+    assert st.apply(lpn(1000, 1.0, 2.0), 1.0) & Change.POSE
+    return st
+
+
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.mark.parametrize(
+    ("north", "east", "vx", "vz", "needle"),
+    [
+        (NAN, 0.0, 0.0, 0.0, "x (north) is nan"),
+        (0.0, NAN, 0.0, 0.0, "y (east) is nan"),
+        (NAN, NAN, 0.0, 0.0, "is nan"),
+        (INF, 0.0, 0.0, 0.0, "is inf"),
+        (0.0, -INF, 0.0, 0.0, "is -inf"),
+        (1e9, 0.0, 0.0, 0.0, "beyond"),
+        (0.0, -60_000.0, 0.0, 0.0, "beyond"),
+        (0.0, 0.0, NAN, 0.0, "vx is nan"),
+        (0.0, 0.0, 0.0, INF, "vz is inf"),
+        (0.0, 0.0, 25.0, 0.0, "vx = 25 m/s beyond"),
+    ],
+)
+def test_bad_position_is_rejected_never_stored(
+    north: float, east: float, vx: float, vz: float, needle: str
+) -> None:
+    st = valid_state()
+    good = st.pose
+    changes = st.apply(lpn_v(1050, north, east, vx, vz), 1.05)
+    assert changes == Change.POSE_REJECTED
+    assert st.pose is good  # the last valid pose is kept (and ages: it is not fresh)
+    assert st.pose_invalid and st.pose_invalid_since_s == 1.05
+    assert needle in st.pose_invalid_reason
+    assert st.pose_rejected_count == 1
+    assert st.pose_rejected_kinds == {"position_invalid": 1}
+
+
+@pytest.mark.parametrize("yaw", [NAN, INF, -INF, 13.0, -100.0])
+def test_bad_yaw_is_rejected_and_forgotten(yaw: float) -> None:
+    st = valid_state()
+    good = st.pose
+    assert st.apply(att(1040, yaw), 1.04) == Change.POSE_REJECTED
+    assert st.yaw_ned_rad is None  # no pose may be formed from the older yaw
+    # a valid position after a bad attitude gives no pose
+    assert not st.apply(lpn(1050, 1.1, 2.0), 1.05) & Change.POSE
+    assert st.pose is good and st.pose_invalid
+    assert st.pose_rejected_kinds == {"attitude_invalid": 1}
+
+
+def test_yaw_within_bounds_beyond_pi_is_accepted() -> None:
+    st = VehicleState()
+    assert st.apply(att(1000, 4.0), 1.0) == Change.ATTITUDE  # unwrapped but sane
+    assert st.yaw_ned_rad == pytest.approx(4.0)
+
+
+def test_burst_lasts_until_a_valid_pose_and_counts_every_rejection() -> None:
+    st = valid_state()
+    for i in range(5):
+        st.apply(lpn_v(1050 + 50 * i, NAN, NAN), 1.05 + 0.05 * i)
+    assert st.pose_invalid_since_s == 1.05  # first bad frame of the burst
+    assert st.pose_rejected_count == 5
+    st.apply(att(1300, 0.3), 1.3)
+    assert st.apply(lpn(1300, 1.5, 2.0), 1.3) & Change.POSE
+    assert not st.pose_invalid and st.pose_invalid_since_s is None
+    assert st.pose is not None and st.pose.ned.north_m == pytest.approx(1.5)
+    assert st.pose_rejected_count == 5  # the count stays for diagnostics
+
+
+def test_invalid_stream_never_refreshes_the_pose() -> None:
+    """A stream of invalid poses must not count as fresh: rx time stays at the last valid."""
+    st = valid_state()
+    for i in range(40):
+        st.apply(att(1050 + 50 * i, 0.3), 1.05 + 0.05 * i)
+        st.apply(lpn_v(1050 + 50 * i, NAN, 0.0), 1.05 + 0.05 * i)
+    assert st.pose is not None and st.pose.rx_monotonic_s == 1.0
+
+
+def test_small_time_backstep_is_out_of_order_not_reboot() -> None:
+    st = valid_state()  # pose at 1000 ms
+    st.apply(att(1500, 0.3), 1.5)
+    assert st.apply(lpn(1500, 1.2, 2.0), 1.5) & Change.POSE
+    assert st.apply(lpn(1100, 9.0, 9.0), 1.55) == Change.POSE_REJECTED
+    assert st.apply(att(1200, 2.0), 1.56) == Change.POSE_REJECTED
+    assert st.yaw_ned_rad == pytest.approx(0.3)  # an old attitude does not spoil the new one
+    assert st.reboot_count == 0 and st.last_time_boot_ms == 1500
+    assert st.pose is not None and st.pose.ned.north_m == pytest.approx(1.2)
+    assert st.pose_rejected_kinds == {"position_out_of_order": 1, "attitude_out_of_order": 1}
+    # time moving on again: accepted
+    st.apply(att(1550, 0.3), 1.6)
+    assert st.apply(lpn(1550, 1.3, 2.0), 1.6) & Change.POSE
+    assert not st.pose_invalid
+
+
+def test_large_time_backstep_is_still_a_reboot() -> None:
+    st = VehicleState(reboot_backstep_ms=1000)
+    st.apply(att(60_000, 0.0), 1.0)
+    st.apply(lpn(60_000, 1.0, 1.0), 1.0)
+    changes = st.apply(lpn(500, 1.0, 1.0), 2.0)
+    assert changes & Change.REBOOT and not changes & Change.POSE_REJECTED
+    assert st.pose is None and st.reboot_count == 1
+
+
+def test_no_valid_pose_ever_when_nan_from_the_start() -> None:
+    st = VehicleState()
+    for i in range(10):
+        st.apply(att(1000 + 50 * i, NAN), 1.0 + 0.05 * i)
+        st.apply(lpn(1000 + 50 * i, 0.0, 0.0), 1.0 + 0.05 * i)
+    assert st.pose is None and st.pose_invalid_since_s == 1.0
+
+
+def test_bounds_come_from_the_safety_config() -> None:
+    from helixd.config import SafetyConfig
+    from helixd.vehicle import TelemetryBounds
+
+    cfg = SafetyConfig(telemetry_position_max_m=100.0, telemetry_speed_max_mps=2.0)
+    st = VehicleState(bounds=TelemetryBounds.from_safety(cfg))
+    st.apply(att(1000, 0.0), 1.0)
+    assert st.apply(lpn_v(1000, 150.0, 0.0), 1.0) == Change.POSE_REJECTED
+    assert st.apply(lpn_v(1010, 50.0, 0.0, vx=3.0), 1.01) == Change.POSE_REJECTED
+    assert st.apply(lpn_v(1020, 50.0, 0.0, vx=1.0), 1.02) & Change.POSE
+    assert TelemetryBounds.from_safety(SafetyConfig()) == TelemetryBounds()
