@@ -4,6 +4,12 @@ Steps on every fresh pose (at whatever rate the autopilot granted) under a confi
 with dt from the autopilot's ``time_boot_ms``. Between poses it still ticks (wall clock) so the
 watchdogs run even when poses stop. It never stops the rover itself: it returns the fault and
 the daemon's supervisor does the fall-back.
+
+Hostile telemetry: while the vehicle state reports rejected pose telemetry (an invalid-pose
+burst), the loop commands neutral at its next tick and steps nothing; the ``pose_invalid``
+watchdog ends the mission if no valid pose returns within the stale-pose limit. A non-finite
+value that still reached the control core (it raises :class:`NonFiniteError`) or a non-finite
+result is never sent: neutral, and a ``pose_invalid`` fault at once.
 """
 
 from __future__ import annotations
@@ -13,6 +19,8 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import structlog
+
 from helixd.actuators.base import ActuatorSink
 from helixd.config import HelixdConfig
 from helixd.control.angles import wrap_pi
@@ -20,6 +28,7 @@ from helixd.control.kinematics import body_to_fractions
 from helixd.control.navigator import Navigator, NavOutput
 from helixd.display import ProgressInfo
 from helixd.frames import MissionFrame, NedPose
+from helixd.geometry import NonFiniteError
 from helixd.link.connection import Autopilot
 from helixd.mission import Plan
 from helixd.recorder.rows import FlightRow
@@ -27,7 +36,10 @@ from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonit
 from helixd.signals import StopRequest
 from helixd.vehicle import PoseSample
 
+log = structlog.get_logger(__name__)
+
 MANUAL_MODE = "MANUAL"
+NEUTRAL_FRACTIONS = (0.0, 0.0, 0.0, 0.0)
 CEILING_JITTER_FRACTION = 0.25  # of the ceiling's period: early arrivals still stepped
 
 
@@ -80,6 +92,7 @@ class FlightLoop:
         self._cmd_yaw_rate_radps = 0.0
         self._meas_yaw_rate_radps = 0.0
         self._prev_yaw: tuple[float, float] | None = None  # (t_boot_s, yaw_ned_rad)
+        self._invalid_burst_s: float | None = None  # the rejected-pose burst already handled
 
     async def run(self) -> FlightResult:
         t_start = time.monotonic()
@@ -105,18 +118,54 @@ class FlightLoop:
             fault = self.monitor.check(self._inputs(now, t_start, pose))
             if fault is not None:
                 return FlightResult(fault, now, out, pose.ned if pose else None)
+            if self._pose_rejected():
+                continue  # neutral until a valid pose (or the pose_invalid watchdog)
             if sample is None or now - last_step_s < self._min_step_s:
                 continue
             last_step_s = now
-            out = self._step(sample, now, t_start)
+            try:
+                out = self._step(sample, now, t_start)
+            except NonFiniteError as exc:
+                self._neutral()
+                fault = Fault(FaultCause.POSE_INVALID, f"non-finite value in control: {exc}")
+                return FlightResult(fault, now, out, sample.ned)
             if out.done:
                 return FlightResult(None, None, out, sample.ned)
+
+    def _neutral(self) -> None:
+        self.sink.command(NEUTRAL_FRACTIONS)
+        self._cmd_speed_mps = 0.0
+        self._cmd_yaw_rate_radps = 0.0
+
+    def _pose_rejected(self) -> bool:
+        """Neutral while the autopilot's pose telemetry is being rejected (once per burst:
+        the sink repeats the latest command). Logged once per burst, with its reason."""
+        st = self.ap.state
+        since = st.pose_invalid_since_s
+        if since is None:
+            if self._invalid_burst_s is not None:
+                log.info("pose_telemetry_valid_again", rejected_total=st.pose_rejected_count)
+            self._invalid_burst_s = None
+            return False
+        if since != self._invalid_burst_s:
+            self._invalid_burst_s = since
+            self._neutral()
+            log.warning(
+                "pose_telemetry_rejected",
+                reason=st.pose_invalid_reason,
+                rejected_total=st.pose_rejected_count,
+                kinds=dict(st.pose_rejected_kinds),
+                action="scrolls neutral; fall-back if no valid pose within pose_stale_s",
+            )
+        return True
 
     def _step(self, sample: PoseSample, now: float, t_start: float) -> NavOutput:
         mpose = self.frame.to_mission(sample.ned)
         t_boot_s = sample.time_boot_ms / 1000.0
         out = self.navigator.step(mpose, t_boot_s)
         fractions = body_to_fractions(out.command, self.cfg.vehicle, self.plan.mode)
+        if not out.command.is_finite() or not all(math.isfinite(f) for f in fractions):
+            raise NonFiniteError(f"command {out.command} / fractions {fractions.tolist()}")
         self.sink.command(tuple(float(f) for f in fractions))
         self._cmd_speed_mps = math.hypot(out.command.vx_mps, out.command.vy_mps)
         self._cmd_yaw_rate_radps = out.command.wz_radps
@@ -187,6 +236,8 @@ class FlightLoop:
     def _measure_yaw_rate(self, sample: PoseSample) -> None:
         t = sample.time_boot_ms / 1000.0
         yaw = sample.ned.yaw_ned_rad
+        if not math.isfinite(yaw):
+            return  # never stored by the vehicle state; belt and braces
         if self._prev_yaw is not None:
             dt = t - self._prev_yaw[0]
             if dt > 0:
@@ -216,4 +267,6 @@ class FlightLoop:
             commanded_yaw_rate_radps=self._cmd_yaw_rate_radps,
             measured_yaw_rate_radps=self._meas_yaw_rate_radps,
             rc_receiver_healthy=st.rc_receiver_healthy,
+            pose_invalid_since_s=st.pose_invalid_since_s,
+            pose_invalid_detail=st.pose_invalid_reason,
         )

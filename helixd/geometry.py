@@ -7,7 +7,19 @@ frame that is (start / local_ned / global) is decided once, in :mod:`helixd.fram
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+
+
+class NonFiniteError(ValueError):
+    """A NaN/inf reached a function of the control core that cannot give a safe answer."""
+
+
+def require_finite(what: str, *values: float) -> None:
+    """Raise :class:`NonFiniteError` unless every value is a finite number."""
+    for v in values:
+        if not math.isfinite(v):
+            raise NonFiniteError(f"{what} is not finite: {values}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -17,6 +29,9 @@ class Pose2D:
     x_m: float
     y_m: float
     yaw_rad: float
+
+    def is_finite(self) -> bool:
+        return math.isfinite(self.x_m) and math.isfinite(self.y_m) and math.isfinite(self.yaw_rad)
 
 
 @dataclass(frozen=True, slots=True)
@@ -30,3 +45,6 @@ class BodyVelocity:
     @staticmethod
     def zero() -> BodyVelocity:
         return BodyVelocity(0.0, 0.0, 0.0)
+
+    def is_finite(self) -> bool:
+        return all(math.isfinite(v) for v in (self.vx_mps, self.vy_mps, self.wz_radps))

@@ -419,9 +419,7 @@ class VehicleState:
         velocities = (_as_float(msg.vx), _as_float(msg.vy), _as_float(msg.vz))
         problem = position_problem(north, east, velocities, self.bounds)
         if problem is not None:
-            return changed | self._reject(
-                "position_invalid", f"LOCAL_POSITION_NED {problem}", rx_s
-            )
+            return changed | self._reject("position_invalid", f"LOCAL_POSITION_NED {problem}", rx_s)
         yaw, t_att = self.yaw_ned_rad, self.attitude_time_boot_ms
         if yaw is None or t_att is None or abs(t_ms - t_att) > self.pose_stale_s * 1000.0:
             return changed

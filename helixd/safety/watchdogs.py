@@ -2,6 +2,9 @@
 
 No sockets, clocks or logging here. The supervisor (:mod:`helixd.safety.supervisor`) feeds a
 :class:`SafetyInputs` snapshot each control tick and acts on the first :class:`Fault` returned.
+
+NaN is never "fine": a non-finite input a watchdog needs is itself a fault (a comparison with
+NaN is False, so every rule is written so that False means "fault", or checks finiteness first).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ RC_CENTRE_US = 1500  # stick centre of a standard RC channel (µs)
 class FaultCause(StrEnum):
     LINK_LOST = "link_lost"  # no autopilot HEARTBEAT
     POSE_STALE = "pose_stale"  # LOCAL_POSITION_NED/ATTITUDE stopped
+    POSE_INVALID = "pose_invalid"  # pose telemetry non-finite, absurd or out of order
     EKF_UNHEALTHY = "ekf_unhealthy"
     PILOT_TAKEOVER = "pilot_takeover"  # mode change, RC switch or stick deflection
     RC_LOST = "rc_lost"  # the pilot's radio is gone: nobody could take over
@@ -64,6 +68,13 @@ class SafetyInputs:
     commanded_yaw_rate_radps: float = 0.0
     measured_yaw_rate_radps: float = 0.0
     rc_receiver_healthy: bool | None = None
+    # start of the current burst of rejected pose telemetry (None: the last pose was valid)
+    pose_invalid_since_s: float | None = None
+    pose_invalid_detail: str = ""
+
+
+def _finite(*values: float | None) -> bool:
+    return all(v is None or math.isfinite(v) for v in values)
 
 
 def point_in_polygon(north_m: float, east_m: float, poly: Sequence[tuple[float, float]]) -> bool:
@@ -92,7 +103,9 @@ class SafetyMonitor:
     def check(self, s: SafetyInputs) -> Fault | None:
         """Return the first fault found, in order of how directly it endangers the rover."""
         for rule in (
+            self._inputs_finite,
             self._link,
+            self._pose_invalid,
             self._pose,
             self._ekf,
             self._armed,
@@ -107,14 +120,50 @@ class SafetyMonitor:
                 return fault
         return None
 
+    def _inputs_finite(self, s: SafetyInputs) -> Fault | None:
+        """Non-finite numbers the watchdogs rely on: no rule could judge them."""
+        if not _finite(s.now_s, s.last_heartbeat_s, s.pose_rx_s, s.mission_elapsed_s):
+            return Fault(FaultCause.EXCEPTION, "non-finite clock value in the safety inputs")
+        if not _finite(s.commanded_speed_mps, s.commanded_yaw_rate_radps):
+            return Fault(FaultCause.EXCEPTION, "non-finite command in the safety inputs")
+        if not _finite(s.start_north_m, s.start_east_m):
+            return Fault(FaultCause.POSE_INVALID, "start pose is not finite")
+        if not _finite(s.north_m, s.east_m, s.measured_speed_mps, s.measured_yaw_rate_radps):
+            return Fault(
+                FaultCause.POSE_INVALID,
+                f"pose not finite (N {s.north_m}, E {s.east_m}, speed {s.measured_speed_mps}, "
+                f"yaw rate {s.measured_yaw_rate_radps})",
+            )
+        return None
+
     def _link(self, s: SafetyInputs) -> Fault | None:
         if s.last_heartbeat_s is None:
             return Fault(FaultCause.LINK_LOST, "no HEARTBEAT received from the autopilot")
         age = s.now_s - s.last_heartbeat_s
-        if age > self.cfg.heartbeat_timeout_s:
+        if not age <= self.cfg.heartbeat_timeout_s:
             return Fault(
                 FaultCause.LINK_LOST,
                 f"no autopilot HEARTBEAT for {age:.2f} s (limit {self.cfg.heartbeat_timeout_s} s)",
+            )
+        return None
+
+    def _pose_invalid(self, s: SafetyInputs) -> Fault | None:
+        """Pose telemetry rejected for longer than the stale limit (measured from the last
+        valid pose, or from the first rejection when there never was one): the pose-stale
+        rule would fire at the same moment, this one names the reason."""
+        if s.pose_invalid_since_s is None:
+            return None
+        since = (
+            s.pose_invalid_since_s
+            if s.pose_rx_s is None
+            else min(s.pose_invalid_since_s, s.pose_rx_s)
+        )
+        invalid_s = s.now_s - since
+        if not invalid_s <= self.cfg.pose_stale_s:
+            return Fault(
+                FaultCause.POSE_INVALID,
+                f"no valid pose for {invalid_s:.2f} s (limit {self.cfg.pose_stale_s} s): "
+                f"{s.pose_invalid_detail or 'pose telemetry rejected'}",
             )
         return None
 
@@ -122,7 +171,7 @@ class SafetyMonitor:
         if s.pose_rx_s is None:
             return Fault(FaultCause.POSE_STALE, "no pose received")
         age = s.now_s - s.pose_rx_s
-        if age > self.cfg.pose_stale_s:
+        if not age <= self.cfg.pose_stale_s:
             return Fault(
                 FaultCause.POSE_STALE,
                 f"pose is {age:.2f} s old (limit {self.cfg.pose_stale_s} s)",
@@ -176,10 +225,12 @@ class SafetyMonitor:
     def _geofence(self, s: SafetyInputs) -> Fault | None:
         if s.north_m is None or s.east_m is None:
             return None
+        if not _finite(s.north_m, s.east_m, s.start_north_m, s.start_east_m):
+            return Fault(FaultCause.GEOFENCE, "position not finite: the fence cannot be checked")
         radius = self.cfg.geofence_radius_m
         if radius is not None:
             dist = math.hypot(s.north_m - s.start_north_m, s.east_m - s.start_east_m)
-            if dist > radius:
+            if not dist <= radius:
                 return Fault(
                     FaultCause.GEOFENCE,
                     f"{dist:.1f} m from the start point (limit {radius} m)",
@@ -194,7 +245,7 @@ class SafetyMonitor:
 
     def _time(self, s: SafetyInputs) -> Fault | None:
         limit = self.cfg.mission_time_limit_s
-        if s.mission_elapsed_s > limit:
+        if not s.mission_elapsed_s <= limit:
             return Fault(
                 FaultCause.MISSION_TIME,
                 f"mission running {s.mission_elapsed_s:.0f} s (limit {limit:.0f} s)",
@@ -203,14 +254,13 @@ class SafetyMonitor:
 
     def _stall(self, s: SafetyInputs) -> Fault | None:
         st = self.cfg.stall
-        driving_stuck = (
-            s.commanded_speed_mps > st.commanded_speed_min_mps
-            and s.measured_speed_mps < st.measured_speed_max_mps
-        )
+        # A non-finite command counts as commanded, a non-finite measurement as not moving.
+        not_moving = not s.measured_speed_mps >= st.measured_speed_max_mps
+        driving_stuck = not s.commanded_speed_mps <= st.commanded_speed_min_mps and not_moving
         turning_stuck = (
-            abs(s.commanded_yaw_rate_radps) > st.commanded_yaw_rate_min_radps
-            and abs(s.measured_yaw_rate_radps) < st.measured_yaw_rate_max_radps
-            and s.measured_speed_mps < st.measured_speed_max_mps
+            not abs(s.commanded_yaw_rate_radps) <= st.commanded_yaw_rate_min_radps
+            and not abs(s.measured_yaw_rate_radps) >= st.measured_yaw_rate_max_radps
+            and not_moving
         )
         if not (driving_stuck or turning_stuck):
             self._stall_since_s = None

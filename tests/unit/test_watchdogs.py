@@ -137,3 +137,92 @@ def test_rc_receiver_loss() -> None:
     assert fault is not None and fault.cause is FaultCause.RC_LOST
     quiet = SafetyMonitor(SafetyConfig(stop_on_rc_loss=False))
     assert quiet.check(dataclasses.replace(HEALTHY, rc_receiver_healthy=False)) is None
+
+
+# -- hostile telemetry: an invalid pose is a fault, NaN is never "fine" ----------------------------
+
+NAN, INF = float("nan"), float("inf")
+
+
+def test_pose_invalid_tolerated_up_to_the_stale_limit() -> None:
+    mon = SafetyMonitor(SafetyConfig(pose_stale_s=0.5))
+    # last valid pose 99.98, rejections since 99.99: 0.02 s old, a glitch, not a fault yet
+    glitch = dataclasses.replace(HEALTHY, pose_invalid_since_s=99.99, pose_invalid_detail="x")
+    assert mon.check(glitch) is None
+
+
+def test_pose_invalid_fires_at_the_stale_limit_and_names_the_cause() -> None:
+    mon = SafetyMonitor(SafetyConfig(pose_stale_s=0.5))
+    s = dataclasses.replace(
+        HEALTHY,
+        now_s=100.6,
+        last_heartbeat_s=100.5,
+        pose_rx_s=100.0,  # last valid pose
+        pose_invalid_since_s=100.05,
+        pose_invalid_detail="LOCAL_POSITION_NED position x (north) is nan",
+    )
+    fault = mon.check(s)
+    assert fault is not None
+    # not pose_stale: the stale-pose rule would fire at the same moment, this names the reason
+    assert fault.cause is FaultCause.POSE_INVALID
+    assert "0.60 s" in fault.detail and "is nan" in fault.detail
+
+
+def test_pose_invalid_without_any_valid_pose() -> None:
+    mon = SafetyMonitor(SafetyConfig(pose_stale_s=0.5))
+    s = dataclasses.replace(HEALTHY, pose_rx_s=None, pose_invalid_since_s=99.4)
+    fault = mon.check(s)
+    assert fault is not None and fault.cause is FaultCause.POSE_INVALID
+
+
+def test_invalid_stream_does_not_count_as_fresh() -> None:
+    """The stale-pose watchdog is not fooled by a stream of rejected poses: rejected poses
+    never update pose_rx_s, so the pose ages and the fault fires."""
+    mon = SafetyMonitor(SafetyConfig(pose_stale_s=0.5))
+    s = dataclasses.replace(HEALTHY, pose_rx_s=99.3, pose_invalid_since_s=99.95)
+    fault = mon.check(s)
+    assert fault is not None and fault.cause is FaultCause.POSE_INVALID
+
+
+@pytest.mark.parametrize(
+    ("change", "cause"),
+    [
+        ({"north_m": NAN}, FaultCause.POSE_INVALID),
+        ({"east_m": INF}, FaultCause.POSE_INVALID),
+        ({"measured_speed_mps": NAN}, FaultCause.POSE_INVALID),
+        ({"measured_yaw_rate_radps": -INF}, FaultCause.POSE_INVALID),
+        ({"start_north_m": NAN}, FaultCause.POSE_INVALID),
+        ({"commanded_speed_mps": NAN}, FaultCause.EXCEPTION),
+        ({"commanded_yaw_rate_radps": INF}, FaultCause.EXCEPTION),
+        ({"now_s": NAN}, FaultCause.EXCEPTION),
+        ({"pose_rx_s": NAN}, FaultCause.EXCEPTION),
+        ({"mission_elapsed_s": INF}, FaultCause.EXCEPTION),
+    ],
+)
+def test_non_finite_inputs_are_faults(change: dict[str, object], cause: FaultCause) -> None:
+    fault = SafetyMonitor(SafetyConfig()).check(dataclasses.replace(HEALTHY, **change))  # type: ignore[arg-type]
+    assert fault is not None and fault.cause is cause
+
+
+def test_each_rule_treats_nan_as_fault_worthy() -> None:
+    """Rule by rule (bypassing the finiteness gate): NaN must not read as 'fine'."""
+    mon = SafetyMonitor(SafetyConfig(stall=StallConfig(duration_s=0.5)))
+    assert mon._geofence(dataclasses.replace(HEALTHY, north_m=NAN)) is not None
+    assert mon._pose(dataclasses.replace(HEALTHY, now_s=NAN)) is not None
+    assert mon._link(dataclasses.replace(HEALTHY, now_s=NAN)) is not None
+    assert mon._time(dataclasses.replace(HEALTHY, mission_elapsed_s=NAN)) is not None
+    assert (
+        mon._pose_invalid(dataclasses.replace(HEALTHY, pose_invalid_since_s=99.9, now_s=NAN))
+        is not None
+    )
+    turning = dataclasses.replace(HEALTHY, commanded_speed_mps=0.0, measured_speed_mps=0.0)
+    for bad in (
+        dataclasses.replace(HEALTHY, measured_speed_mps=NAN),
+        dataclasses.replace(HEALTHY, commanded_speed_mps=NAN, measured_speed_mps=0.0),
+        dataclasses.replace(turning, commanded_yaw_rate_radps=NAN),
+        dataclasses.replace(turning, commanded_yaw_rate_radps=1.0, measured_yaw_rate_radps=NAN),
+    ):
+        mon.reset()
+        assert mon._stall(bad) is None  # the stall timer starts...
+        fault = mon._stall(dataclasses.replace(bad, now_s=bad.now_s + 1.0))
+        assert fault is not None and fault.cause is FaultCause.STALL  # ...and fires
