@@ -40,6 +40,7 @@ from helixd.recorder.summary import RunSummary, SummaryBuilder
 from helixd.safety.supervisor import fall_back
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
 from helixd.signals import StopRequest, install, uninstall
+from helixd.vehicle import TelemetryBounds
 
 log = structlog.get_logger(__name__)
 T = TypeVar("T")
@@ -53,6 +54,15 @@ class PreflightFailed(Exception):
 
 class StopBeforeFlight(Exception):
     """A signal arrived before the mission started (nothing was armed)."""
+
+
+class StartPoseInvalid(Exception):
+    """Armed, but the pose telemetry is being rejected: no valid start pose (a fault)."""
+
+    def __init__(self, fault: Fault, detected_s: float) -> None:
+        self.fault = fault
+        self.detected_s = detected_s
+        super().__init__(fault.detail)
 
 
 @dataclass
@@ -167,7 +177,10 @@ class MissionRunner:
                     "channel"
                 )
         pose = await self._fresh_pose(ap)
-        if pose is None:
+        invalid = self._pose_invalid_too_long(ap)
+        if pose is None and invalid is not None:
+            problems.append(f"pose telemetry rejected: {invalid.detail}")
+        elif pose is None:
             problems.append(
                 f"no fresh pose (LOCAL_POSITION_NED + ATTITUDE) within "
                 f"{self.cfg.safety.connect_timeout_s} s: check the EKF has an origin and GPS"
@@ -187,20 +200,48 @@ class MissionRunner:
         assert pose is not None
         return pose, origin
 
+    def _pose_invalid_too_long(self, ap: Autopilot) -> Fault | None:
+        """Pose telemetry rejected for longer than the stale limit (see the watchdog)."""
+        st, limit = ap.state, self.cfg.safety.pose_stale_s
+        since = st.pose_invalid_since_s
+        if since is None:
+            return None
+        if st.pose is not None:
+            since = min(since, st.pose.rx_monotonic_s)
+        invalid_s = time.monotonic() - since
+        if invalid_s <= limit:
+            return None
+        return Fault(
+            FaultCause.POSE_INVALID,
+            f"no valid start pose for {invalid_s:.2f} s (limit {limit} s): "
+            f"{st.pose_invalid_reason}",
+        )
+
     async def _fresh_pose(self, ap: Autopilot) -> NedPose | None:
+        """A fresh, valid pose with a healthy EKF; None when there is none.
+
+        Never an invalid one: the vehicle state stores only valid poses (checked against the
+        configured ``safety.telemetry_*`` bounds), and while pose telemetry is being rejected
+        the last stored pose is not taken; rejected for longer than the stale limit, this gives
+        up at once (None) instead of waiting out the timeout.
+        """
+        ap.state.bounds = TelemetryBounds.from_safety(self.cfg.safety)
         deadline = time.monotonic() + self.cfg.safety.connect_timeout_s
         while time.monotonic() < deadline:
             ap.feed()
             sample = await self._until_stopped(ap.wait_pose(after_rx_s=None, timeout_s=0.2))
+            if self._pose_invalid_too_long(ap) is not None:
+                return None
             ekf = ap.state.ekf
             fresh = (
                 sample is not None
+                and not ap.state.pose_invalid
                 and time.monotonic() - sample.rx_monotonic_s <= self.cfg.safety.pose_stale_s
             )
             if sample is not None and fresh and ekf is not None and ekf.healthy:
                 return sample.ned
         sample = ap.state.pose
-        return None if sample is None else sample.ned
+        return None if sample is None or ap.state.pose_invalid else sample.ned
 
     async def _start_gate(self, ap: Autopilot) -> None:
         ch = self.cfg.safety.start_switch_channel
@@ -299,8 +340,13 @@ class MissionRunner:
             await self.sink.start()
         async with phase("arm", self.notifier, self.display):
             await self._until_stopped(self._arm(ap))
-        # The mission frame starts where the rover is now, after the pilot's start switch.
-        return ap, await self._fresh_pose(ap) or start_ned
+        # The mission frame starts where the rover is now, after the pilot's start switch;
+        # never from an invalid pose: armed with pose telemetry rejected is a fault.
+        start = await self._fresh_pose(ap)
+        invalid = self._pose_invalid_too_long(ap)
+        if start is None and invalid is not None:
+            raise StartPoseInvalid(invalid, time.monotonic())
+        return ap, start or start_ned
 
     # -- the run ------------------------------------------------------------------------------
 
@@ -369,6 +415,8 @@ class MissionRunner:
                 code = ExitCode.FAULT
         except StopBeforeFlight as exc:
             fault, code = Fault(FaultCause.SIGNAL, str(exc)), ExitCode.OPERATOR_STOP
+        except StartPoseInvalid as exc:
+            fault, detected_s, code = exc.fault, exc.detected_s, ExitCode.FAULT
         except PreflightFailed as exc:
             fault = Fault(FaultCause.PREFLIGHT, "; ".join(exc.problems))
             code = ExitCode.PREFLIGHT
