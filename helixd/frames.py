@@ -7,6 +7,9 @@ counter-clockwise (the thesis's ROS/ENU convention). Mission frames:
 * ``start``: x forward, y left, origin and heading taken from the pose at mission start.
 * ``local_ned`` and ``global``: x = East, y = North (ENU) from the EKF origin; yaw CCW from East.
   Waypoints written as north/east (or lat/lon) are converted into this frame when loaded.
+
+Total: every conversion raises :class:`helixd.geometry.NonFiniteError` on a non-finite input
+(a pose with a NaN has no place in any frame); finite in, finite out.
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ import math
 from dataclasses import dataclass
 
 from helixd.control.angles import wrap_pi
-from helixd.geometry import Pose2D
+from helixd.geometry import Pose2D, require_finite
 
 EARTH_RADIUS_M = 6_378_137.0  # WGS-84 equatorial radius, as ArduPilot's location code uses
 
@@ -48,11 +51,13 @@ class MissionFrame:
         return MissionFrame(origin=pose)
 
     def to_mission(self, pose: NedPose) -> Pose2D:
+        require_finite("NED pose", pose.north_m, pose.east_m, pose.yaw_ned_rad)
         if self.origin is None:
             return Pose2D(
                 x_m=pose.east_m, y_m=pose.north_m, yaw_rad=wrap_pi(math.pi / 2 - pose.yaw_ned_rad)
             )
         o = self.origin
+        require_finite("frame origin", o.north_m, o.east_m, o.yaw_ned_rad)
         dn = pose.north_m - o.north_m
         de = pose.east_m - o.east_m
         c, s = math.cos(o.yaw_ned_rad), math.sin(o.yaw_ned_rad)
@@ -64,6 +69,7 @@ class MissionFrame:
 
     def to_ned(self, x_m: float, y_m: float) -> tuple[float, float]:
         """Mission-frame point → (north_m, east_m)."""
+        require_finite("mission point", x_m, y_m)
         if self.origin is None:
             return y_m, x_m
         o = self.origin
@@ -83,6 +89,7 @@ def latlon_to_ne(
 
     Accurate to centimetres over the few hundred metres a Helix mission spans.
     """
+    require_finite("lat/lon", lat_deg, lon_deg, origin_lat_deg, origin_lon_deg)
     north_m = math.radians(lat_deg - origin_lat_deg) * EARTH_RADIUS_M
     east_m = (
         math.radians(lon_deg - origin_lon_deg)
@@ -95,6 +102,7 @@ def latlon_to_ne(
 def ne_to_latlon(
     north_m: float, east_m: float, origin_lat_deg: float, origin_lon_deg: float
 ) -> tuple[float, float]:
+    require_finite("north/east", north_m, east_m, origin_lat_deg, origin_lon_deg)
     lat = origin_lat_deg + math.degrees(north_m / EARTH_RADIUS_M)
     lon = origin_lon_deg + math.degrees(
         east_m / (EARTH_RADIUS_M * math.cos(math.radians(origin_lat_deg)))

@@ -1,8 +1,15 @@
-"""Angle helpers (thesis Algorithm 1, with the sign fixed to read 'goal minus current')."""
+"""Angle helpers (thesis Algorithm 1, with the sign fixed to read 'goal minus current').
+
+Total: a non-finite angle has no direction, so these raise :class:`NonFiniteError` (a
+ValueError the flight loop turns into neutral + a ``pose_invalid`` fault) instead of
+returning NaN or failing inside ``math.fmod`` with "math domain error".
+"""
 
 from __future__ import annotations
 
 import math
+
+from helixd.geometry import require_finite
 
 TWO_PI = 2.0 * math.pi
 
@@ -13,6 +20,7 @@ def wrap_pi(angle_rad: float) -> float:
     Angles already inside the interval are returned unchanged, so wrapping is idempotent
     (``(a + π) − π`` is not always ``a`` in floating point).
     """
+    require_finite("angle", angle_rad)
     if -math.pi < angle_rad <= math.pi:
         return angle_rad
     wrapped = math.fmod(angle_rad + math.pi, TWO_PI)

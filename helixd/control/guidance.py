@@ -14,6 +14,9 @@ OMNI holds its heading (ω_z = 0) and drives straight at the goal: the world-fra
 rotated into the body frame, v = speed · (Δx_b, Δy_b) / e_d.
 
 These functions never decide to stop: zero output and timeouts belong to the supervisor.
+
+Total: geometry from a non-finite pose or goal raises :class:`NonFiniteError`; the command
+and speed laws turn any non-finite input into zero (neutral), never into their limit.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import math
 from dataclasses import dataclass
 
 from helixd.control.angles import shortest_angular_distance, wrap_pi
-from helixd.geometry import BodyVelocity, Pose2D
+from helixd.geometry import BodyVelocity, Pose2D, require_finite
 from helixd.mission.model import MotionMode
 from helixd.mission.plan import PlanWaypoint
 
@@ -46,15 +49,20 @@ def driving_axis_rad(mode: MotionMode) -> float:
 
 def world_to_body(dx_m: float, dy_m: float, yaw_rad: float) -> tuple[float, float]:
     """Rotate a world-frame vector into the body frame: R(−ψ) · [dx, dy]."""
+    require_finite("world_to_body input", dx_m, dy_m, yaw_rad)
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
     return c * dx_m + s * dy_m, -s * dx_m + c * dy_m
 
 
 def compute_errors(pose: Pose2D, goal: PlanWaypoint, mode: MotionMode) -> GuidanceResult:
     """Distance and heading errors of ``pose`` towards ``goal`` in ``mode``."""
+    require_finite("pose", pose.x_m, pose.y_m, pose.yaw_rad)
+    require_finite("goal", goal.x_m, goal.y_m)
     dx = goal.x_m - pose.x_m
     dy = goal.y_m - pose.y_m
+    require_finite("goal - pose", dx, dy)
     e_d = math.hypot(dx, dy)
+    require_finite("distance", e_d)
     bearing = math.atan2(dy, dx)
     if mode is MotionMode.OMNI:
         heading_goal = pose.yaw_rad
@@ -80,12 +88,22 @@ def compute_command(
     """Turn a scalar speed along the mode's driving axis and a yaw rate into a body command.
 
     ROLL: (v, 0, ω).  SCROLL: (0, v, ω).  OMNI: v · (u_x, u_y) towards the goal, ω = 0.
+    A non-finite speed or yaw rate (or direction) is commanded as 0.
     """
+    speed_mps = _finite_or_zero(speed_mps)
+    yaw_rate_radps = _finite_or_zero(yaw_rate_radps)
     if mode is MotionMode.ROLL:
         return BodyVelocity(speed_mps, 0.0, yaw_rate_radps)
     if mode is MotionMode.SCROLL:
         return BodyVelocity(0.0, speed_mps, yaw_rate_radps)
-    return BodyVelocity(speed_mps * errors.direction_body_x, speed_mps * errors.direction_body_y)
+    return BodyVelocity(
+        _finite_or_zero(speed_mps * errors.direction_body_x),
+        _finite_or_zero(speed_mps * errors.direction_body_y),
+    )
+
+
+def _finite_or_zero(value: float) -> float:
+    return value if math.isfinite(value) else 0.0
 
 
 def track_speed_mps(
@@ -100,7 +118,18 @@ def track_speed_mps(
 
     v = clamp(v_pid, ≤ v_cruise · min(1, e_d / r_slow)), at least v_min while e_d ≥ tolerance
     (so the rover does not creep), never negative, never above v_cruise.
+    Any non-finite input gives 0: ``min(1, nan)`` is 1, i.e. full speed, so it is checked first.
     """
+    inputs = (
+        pid_speed_mps,
+        distance_error_m,
+        tolerance_m,
+        cruise_speed_mps,
+        slowdown_radius_m,
+        min_speed_mps,
+    )
+    if not all(math.isfinite(x) for x in inputs):
+        return 0.0
     ramp = 1.0 if slowdown_radius_m <= 0.0 else min(1.0, distance_error_m / slowdown_radius_m)
     v = min(pid_speed_mps, cruise_speed_mps * ramp)
     if distance_error_m >= tolerance_m:
@@ -117,6 +146,7 @@ def cross_track_m(
     """
     ax, ay = start_xy_m
     bx, by = end_xy_m
+    require_finite("cross-track input", ax, ay, bx, by, pose.x_m, pose.y_m)
     lx, ly = bx - ax, by - ay
     length = math.hypot(lx, ly)
     px, py = pose.x_m - ax, pose.y_m - ay
@@ -136,6 +166,8 @@ def run_out_m(
     a waypoint with a final heading (``stop_at``), or a corner sharper than
     ``corner_slowdown_rad``. ``points_xy_m[0]`` is the start of the first leg.
     """
+    for point in points_xy_m:
+        require_finite("path point", *point)
     wps = points_xy_m[1:]
     n = len(wps)
     out = [0.0] * n

@@ -2,6 +2,11 @@
 
 Body frame: x = ROLL axis, y = SCROLL axis, z up, yaw CCW positive. Scrolls 1..4 as in the
 thesis's Fig. 2. ω in rad/s; a *scroll fraction* is ω / ω_max, signed, ω_max = max_rpm.
+
+Total: the command pipeline (:func:`body_to_fractions`, :func:`saturate`,
+:func:`apply_calibration`) turns any non-finite value into neutral (all four scrolls 0: a
+direction cannot be kept from a NaN), never into the clamp; the plain matrix conversions raise
+:class:`NonFiniteError` on non-finite input.
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from helixd.config import ScrollCalibration, VehicleConfig
-from helixd.geometry import BodyVelocity
+from helixd.geometry import BodyVelocity, require_finite
 from helixd.mission.model import MotionMode
 
 FloatArray = npt.NDArray[np.float64]
@@ -63,6 +68,7 @@ def _frozen(a: FloatArray) -> FloatArray:
 
 def body_to_scroll_radps(body: BodyVelocity, vehicle: VehicleConfig) -> FloatArray:
     """Inverse kinematics: body velocity → four scroll speeds (rad/s)."""
+    require_finite("body velocity", body.vx_mps, body.vy_mps, body.wz_radps)
     j_inv = inverse_matrix(vehicle.scroll_radius_m, vehicle.lx_m, vehicle.ly_m)
     omega: FloatArray = j_inv @ np.array([body.vx_mps, body.vy_mps, body.wz_radps])
     return omega
@@ -73,7 +79,9 @@ def scroll_radps_to_body(
 ) -> BodyVelocity:
     """Forward kinematics: four scroll speeds (rad/s) → body velocity (no slip)."""
     j = forward_matrix(vehicle.scroll_radius_m, vehicle.lx_m, vehicle.ly_m)
-    vx, vy, wz = j @ np.asarray(omega_radps, dtype=np.float64)
+    omega = np.asarray(omega_radps, dtype=np.float64)
+    require_finite("scroll speeds", *(float(w) for w in omega))
+    vx, vy, wz = j @ omega
     return BodyVelocity(float(vx), float(vy), float(wz))
 
 
@@ -109,6 +117,8 @@ def saturate(fractions: FloatArray, clamp: float) -> FloatArray:
     Scaling (rather than clipping each scroll) keeps the direction of the body motion.
     """
     f = np.asarray(fractions, dtype=np.float64)
+    if not np.all(np.isfinite(f)):
+        return np.zeros_like(f)
     peak = float(np.max(np.abs(f))) if f.size else 0.0
     if peak <= clamp or peak == 0.0:
         return f.copy()
@@ -126,7 +136,7 @@ def apply_calibration(
     for i, (f, cal) in enumerate(
         zip(np.asarray(fractions, dtype=np.float64), scrolls, strict=True)
     ):
-        if abs(f) < cal.deadband or f == 0.0:
+        if not math.isfinite(f) or abs(f) < cal.deadband or f == 0.0:
             continue
         value = cal.gain * f + math.copysign(cal.offset, f)
         value = max(-clamp, min(clamp, value))
@@ -136,7 +146,11 @@ def apply_calibration(
 
 def body_to_fractions(body: BodyVelocity, vehicle: VehicleConfig, mode: MotionMode) -> FloatArray:
     """The full pipeline: mode constraint → eq. 2 → fraction of max RPM → joint saturation →
-    per-scroll calibration. Returns four fractions in [−clamp, clamp]."""
-    omega = body_to_scroll_radps(constrain(body, mode), vehicle)
-    fractions = saturate(radps_to_fraction(omega, vehicle.max_rpm), vehicle.output_clamp)
+    per-scroll calibration. Returns four fractions in [−clamp, clamp]; all four 0 (neutral)
+    when any component of ``body`` is not finite."""
+    if not body.is_finite():
+        return np.zeros(4, dtype=np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):  # an absurd body overflows: neutral
+        omega = body_to_scroll_radps(constrain(body, mode), vehicle)
+        fractions = saturate(radps_to_fraction(omega, vehicle.max_rpm), vehicle.output_clamp)
     return apply_calibration(fractions, vehicle.scrolls, vehicle.output_clamp)

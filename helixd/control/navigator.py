@@ -16,6 +16,9 @@
 
 Stepped with (pose, t_s); derives dt from successive t_s. Never touches a clock or a socket,
 and never decides to stop the vehicle: the supervisor owns that.
+
+Total: a non-finite pose or time raises :class:`NonFiniteError` before any state changes (the
+flight loop sends neutral and reports ``pose_invalid``); a non-finite command is never output.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ from helixd.control import guidance
 from helixd.control.angles import shortest_angular_distance
 from helixd.control.kinematics import constrain
 from helixd.control.pid import PID, PidTerms
-from helixd.geometry import BodyVelocity, Pose2D
+from helixd.geometry import BodyVelocity, NonFiniteError, Pose2D, require_finite
 from helixd.mission.model import MotionMode
 from helixd.mission.plan import Plan, PlanWaypoint
 
@@ -99,7 +102,10 @@ class Navigator:
     # -- the step ----------------------------------------------------------------------------
 
     def step(self, pose: Pose2D, t_s: float) -> NavOutput:
-        """Advance the state machine with a new pose at autopilot time ``t_s`` (seconds)."""
+        """Advance the state machine with a new pose at autopilot time ``t_s`` (seconds).
+
+        Raises :class:`NonFiniteError` (state untouched) on a non-finite pose or time."""
+        require_finite("navigator pose/time", pose.x_m, pose.y_m, pose.yaw_rad, t_s)
         dt_s = self._dt(t_s)
         if self._leg_start_xy_m is None:
             self._leg_start_xy_m = (pose.x_m, pose.y_m)
@@ -265,6 +271,8 @@ class Navigator:
     ) -> NavOutput:
         done = self._state is NavState.DONE
         leg_end = self.plan.waypoints[self.target_index]
+        if not command.is_finite():  # unreachable with finite inputs; never output it
+            raise NonFiniteError(f"navigator produced a non-finite command {command}")
         return NavOutput(
             command=constrain(command, self.plan.mode),
             state=self._state,

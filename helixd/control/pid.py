@@ -7,6 +7,10 @@
     u    = clamp(P + I + D, ±output_limit)
 
 Pure: the caller supplies dt (seconds); no clocks in here.
+
+Total: a non-finite setpoint or measurement gives a zero (neutral) output and leaves the
+controller's memory untouched; a non-finite sum of terms is never clamped to the limit
+(``max(-l, min(l, nan))`` is the limit) but gives zero.
 """
 
 from __future__ import annotations
@@ -33,6 +37,9 @@ class PidTerms:
 
 
 def _clamp(value: float, limit: float) -> float:
+    """``value`` limited to ±``limit``; NaN → 0 (a NaN must never become the limit)."""
+    if math.isnan(value):
+        return 0.0
     return max(-limit, min(limit, value))
 
 
@@ -78,7 +85,11 @@ class PID:
         return i_new
 
     def update(self, setpoint: float, measurement: float, dt_s: float) -> PidTerms:
-        """One control step. With dt_s ≤ 0 (or not finite) only P and the held I act."""
+        """One control step. With dt_s ≤ 0 (or not finite) only P and the held I act.
+
+        A non-finite setpoint or measurement: zero output, state unchanged."""
+        if not (math.isfinite(setpoint) and math.isfinite(measurement)):
+            return PidTerms.zero()
         kp, ki, kd = self.gains.kp, self.gains.ki, self.gains.kd
         error = self._difference(setpoint, measurement)
         dt_ok = math.isfinite(dt_s) and dt_s > 0.0
@@ -91,8 +102,11 @@ class PID:
         self._prev_measurement = measurement
 
         if dt_ok and ki > 0.0:
-            self._integral = self._integrate(ki * error * dt_s, p + d)
+            increment = ki * error * dt_s
+            if math.isfinite(increment) and math.isfinite(p + d):
+                self._integral = self._integrate(increment, p + d)
         i = self._integral
 
-        output = _clamp(p + i + d, self.output_limit)
+        total = p + i + d
+        output = _clamp(total, self.output_limit) if math.isfinite(total) else 0.0
         return PidTerms(p=p, i=i, d=d, output=output)
