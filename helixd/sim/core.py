@@ -272,7 +272,7 @@ class SimCore:
             for msg_id in link.streams.due(now):
                 if msg_id in hidden or (view.booting and msg_id != st.MSG_HEARTBEAT):
                     continue
-                msg = telemetry.build(msg_id, view)
+                msg = telemetry.build(msg_id, view, self.faults)
                 if msg is not None:
                     self.send(i, msg)
             for _ in range(PARAMS_PER_LOOP):

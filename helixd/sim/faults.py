@@ -15,8 +15,25 @@ FAULTS: dict[str, dict[str, object]] = {
     "pilot_takeover": {"mode": "HOLD"},  # pilot moves the RC mode switch
     "rc_loss": {"duration_s": None},  # pilot's receiver stops
     "stall": {"duration_s": None},  # scrolls dig in: they turn, the rover does not move
+    # Hostile telemetry (issue 6/10): the autopilot reports values no pose can be made of.
+    # armed_only: corrupt only while armed (inject before arming = bad "from the moment of
+    # arming"). LOCAL_POSITION_NED x = y = NaN:
+    "nan_position": {"duration_s": None, "armed_only": False},
+    "nan_yaw": {"duration_s": None, "armed_only": False},  # ATTITUDE yaw = NaN
+    "inf_yaw": {"duration_s": None, "armed_only": False, "sign": 1.0},  # yaw = ±inf
+    # LOCAL_POSITION_NED x = y = distance_m (finite but absurd)
+    "absurd_position": {"duration_s": None, "armed_only": False, "distance_m": 1e9},
+    # every time_boot_ms sent is step_s older than the autopilot's clock (a backstep smaller
+    # than a reboot's when step_s < 1 s)
+    "time_backwards": {"duration_s": None, "armed_only": False, "step_s": 0.9},
 }
-DURATION_FAULTS = frozenset({"link_drop", "stale_pose", "ekf_unhealthy", "rc_loss", "stall"})
+HOSTILE_TELEMETRY_FAULTS = frozenset(
+    {"nan_position", "nan_yaw", "inf_yaw", "absurd_position", "time_backwards"}
+)
+DURATION_FAULTS = (
+    frozenset({"link_drop", "stale_pose", "ekf_unhealthy", "rc_loss", "stall"})
+    | HOSTILE_TELEMETRY_FAULTS
+)
 
 
 class FaultError(ValueError):
@@ -59,6 +76,12 @@ def make_spec(name: str, kwargs: Mapping[str, object]) -> FaultSpec:
     duration = merged.get("duration_s")
     if duration is not None and float(str(duration)) <= 0.0:
         raise FaultError(f"{name}: duration_s must be > 0")
+    step = merged.get("step_s")
+    if step is not None and float(str(step)) <= 0.0:
+        raise FaultError(f"{name}: step_s must be > 0")
+    sign = merged.get("sign")
+    if sign is not None and float(str(sign)) == 0.0:
+        raise FaultError(f"{name}: sign must be +1 or -1")
     return FaultSpec(name, merged)
 
 
@@ -113,3 +136,12 @@ class FaultClock:
 
     def on(self, name: str) -> bool:
         return name in self.active
+
+    def hostile(self, name: str, armed: bool) -> Mapping[str, object] | None:
+        """The arguments of hostile-telemetry fault ``name`` if it corrupts telemetry now."""
+        if name not in self.active:
+            return None
+        args = self.args.get(name, {})
+        if args.get("armed_only") and not armed:
+            return None
+        return args

@@ -120,10 +120,12 @@ def local_position_ned(time_boot_ms: int, est: PoseEstimate) -> Message:
     )
 
 
-def attitude(time_boot_ms: int, est: PoseEstimate) -> Message:
+def attitude(time_boot_ms: int, est: PoseEstimate, raw_yaw_rad: float | None = None) -> Message:
+    """``raw_yaw_rad``: send this yaw as it is (fault injection of NaN/inf yaw)."""
+    yaw = wrap_pi(est.yaw_ned_rad) if raw_yaw_rad is None else raw_yaw_rad
     return _m(
         mavlink.MAVLink_attitude_message(
-            time_boot_ms, 0.0, 0.0, wrap_pi(est.yaw_ned_rad), 0.0, 0.0, est.yaw_rate_ned_radps
+            time_boot_ms, 0.0, 0.0, yaw, 0.0, 0.0, est.yaw_rate_ned_radps
         )
     )
 

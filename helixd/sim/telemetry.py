@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -10,6 +11,7 @@ from helixd.frames import ne_to_latlon
 from helixd.sim import messages
 from helixd.sim import streams as st
 from helixd.sim.estimator import EkfStatus, PoseEstimate
+from helixd.sim.faults import FaultClock
 from helixd.sim.physics import PhysicsState
 
 POSE_MESSAGES = frozenset({st.MSG_LOCAL_POSITION_NED, st.MSG_GLOBAL_POSITION_INT})
@@ -47,10 +49,49 @@ class TelemetryView:
         return messages.MAV_STATE_ACTIVE if self.armed else messages.MAV_STATE_STANDBY
 
 
-def build(msg_id: int, v: TelemetryView) -> messages.Message | None:
+def _time_boot_ms(v: TelemetryView, faults: FaultClock | None) -> int:
+    step = None if faults is None else faults.hostile("time_backwards", v.armed)
+    if step is None:
+        return v.time_boot_ms
+    return max(0, v.time_boot_ms - round(float(str(step["step_s"])) * 1000.0))
+
+
+def _attitude_yaw(v: TelemetryView, faults: FaultClock | None) -> float | None:
+    """The hostile yaw to send instead of the estimate's, if a yaw fault is on."""
+    if faults is None:
+        return None
+    if faults.hostile("nan_yaw", v.armed) is not None:
+        return math.nan
+    inf_yaw = faults.hostile("inf_yaw", v.armed)
+    if inf_yaw is not None:
+        return math.copysign(math.inf, float(str(inf_yaw["sign"])))
+    return None
+
+
+def _position_estimate(v: TelemetryView, faults: FaultClock | None) -> PoseEstimate:
+    est = v.estimate
+    if faults is None:
+        return est
+    if faults.hostile("nan_position", v.armed) is not None:
+        return dataclasses.replace(est, north_m=math.nan, east_m=math.nan)
+    absurd = faults.hostile("absurd_position", v.armed)
+    if absurd is not None:
+        d = float(str(absurd["distance_m"]))
+        return dataclasses.replace(est, north_m=d, east_m=d)
+    return est
+
+
+def build(
+    msg_id: int, v: TelemetryView, faults: FaultClock | None = None
+) -> messages.Message | None:
     """The message for ``msg_id`` now, or None when the vehicle would not send it
-    (ArduPilot sends no position before the EKF has an origin)."""
-    t = v.time_boot_ms
+    (ArduPilot sends no position before the EKF has an origin).
+
+    ``faults``: the simulator's active faults; hostile-telemetry faults
+    (:data:`helixd.sim.faults.HOSTILE_TELEMETRY_FAULTS`) corrupt LOCAL_POSITION_NED, ATTITUDE
+    and every ``time_boot_ms`` here, on the wire only (physics and estimator are untouched).
+    """
+    t = _time_boot_ms(v, faults)
     if msg_id == st.MSG_HEARTBEAT:
         return messages.heartbeat(v.mode, v.armed, v.system_status())
     if msg_id == st.MSG_SYS_STATUS:
@@ -58,7 +99,9 @@ def build(msg_id: int, v: TelemetryView) -> messages.Message | None:
     if msg_id == st.MSG_EKF_STATUS_REPORT:
         return messages.ekf_status_report(v.ekf)
     if msg_id == st.MSG_ATTITUDE:
-        return messages.attitude(t, v.estimate) if not v.booting else None
+        if v.booting:
+            return None
+        return messages.attitude(t, v.estimate, raw_yaw_rad=_attitude_yaw(v, faults))
     if msg_id == st.MSG_RC_CHANNELS:
         return messages.rc_channels(t, v.radio_in_us, v.rc_ok)
     if msg_id == st.MSG_SERVO_OUTPUT_RAW:
@@ -70,7 +113,7 @@ def build(msg_id: int, v: TelemetryView) -> messages.Message | None:
     if not v.origin_set:
         return None
     if msg_id == st.MSG_LOCAL_POSITION_NED:
-        return messages.local_position_ned(t, v.estimate)
+        return messages.local_position_ned(t, _position_estimate(v, faults))
     if msg_id == st.MSG_GLOBAL_POSITION_INT:
         lat, lon = ne_to_latlon(
             v.estimate.north_m, v.estimate.east_m, v.origin_lat_deg, v.origin_lon_deg
