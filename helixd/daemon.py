@@ -229,7 +229,8 @@ class MissionRunner:
         deadline = time.monotonic() + self.cfg.safety.connect_timeout_s
         while time.monotonic() < deadline:
             ap.feed()
-            sample = await self._until_stopped(ap.wait_pose(after_rx_s=None, timeout_s=0.2))
+            poll_s = min(0.2, self.cfg.safety.pose_stale_s / 4)  # notice invalid poses early
+            sample = await self._until_stopped(ap.wait_pose(after_rx_s=None, timeout_s=poll_s))
             if self._pose_invalid_too_long(ap) is not None:
                 return None
             ekf = ap.state.ekf

@@ -7,6 +7,8 @@ simulator's side: what the autopilot saw, not what the daemon claims.
 
 from __future__ import annotations
 
+import itertools
+import math
 import os
 import signal
 import subprocess
@@ -190,3 +192,53 @@ def time_until(
         if now > deadline:
             raise AssertionError(f"not reached within {timeout_s} s; simulator: {snap.describe()}")
         time.sleep(0.005)  # polling resolution of the measurement, not a synchronisation
+
+
+@dataclass(frozen=True)
+class Trace:
+    """What the simulator showed, polled every few ms: (monotonic wall s, snapshot) pairs."""
+
+    samples: list[tuple[float, SimSnapshot]]
+
+    def first(self, predicate: Callable[[SimSnapshot], bool], after_s: float = -1e18) -> float:
+        """Wall time of the first sample at or after ``after_s`` where ``predicate`` holds."""
+        for t, snap in self.samples:
+            if t >= after_s and predicate(snap):
+                return t
+        raise AssertionError(f"never seen in {len(self.samples)} samples")
+
+    def driven_after(self, after_s: float) -> list[tuple[float, tuple[int, int, int, int]]]:
+        """Samples after ``after_s`` whose scroll outputs were away from neutral."""
+        return [
+            (t, s.scroll_pwm_us) for t, s in self.samples if t > after_s and not scrolls_neutral(s)
+        ]
+
+    def yaw_change_deg(self, after_s: float) -> float:
+        """Total |rotation| of the rover (truth) after ``after_s``, unwrapped, in degrees."""
+        yaws = [s.yaw_ned_rad for t, s in self.samples if t >= after_s]
+        total = 0.0
+        for a, b in itertools.pairwise(yaws):
+            total += abs(math.remainder(b - a, 2 * math.pi))
+        return math.degrees(total)
+
+
+def record_until(
+    server: SimServer, predicate: Callable[[SimSnapshot], bool], timeout_s: float
+) -> Trace:
+    """Poll the simulator's snapshot until ``predicate`` holds (and 0.2 s more); the trace.
+
+    The 5 ms poll is the resolution of the measurement, not a synchronisation."""
+    samples: list[tuple[float, SimSnapshot]] = []
+    deadline = time.monotonic() + timeout_s
+    done_at: float | None = None
+    while True:
+        snap = server.snapshot()
+        now = time.monotonic()
+        samples.append((now, snap))
+        if done_at is None and predicate(snap):
+            done_at = now
+        if done_at is not None and now - done_at >= 0.2:
+            return Trace(samples)
+        if now > deadline:
+            raise AssertionError(f"not reached within {timeout_s} s; simulator: {snap.describe()}")
+        time.sleep(0.005)
