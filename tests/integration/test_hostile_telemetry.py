@@ -18,6 +18,7 @@ this is the stricter reference) or the first snapshot showing the vehicle armed 
 from __future__ import annotations
 
 import json
+import signal
 import time
 from pathlib import Path
 from typing import Any
@@ -30,8 +31,10 @@ from tests.integration.daemon_harness import (
     Trace,
     daemon,
     record_until,
+    scrolls_neutral,
     secured,
     sim_and_daemon,
+    time_until,
     wait_moving,
 )
 from tests.integration.simharness import running_sim
@@ -146,3 +149,24 @@ def test_nan_position_from_arming(tmp_path: Path) -> None:
     check_outcome(code, log, run_dir)
     assert "no valid start pose" in log
     assert "phase=fly" not in log  # the mission never started
+
+
+def test_short_glitch_is_ridden_out_in_neutral(tmp_path: Path) -> None:
+    """Invalid pose telemetry for less than the stale limit is not a fault: the scrolls go
+    neutral within one control step, and the mission goes on once valid poses return."""
+    with sim_and_daemon(tmp_path, "square") as (server, d):
+        wait_moving(server)
+        t_bad = time.monotonic()
+        server.inject("nan_yaw", duration_s=0.15 * SPEEDUP)  # 0.15 s wall
+        neutral_s = time_until(server, scrolls_neutral, t_bad, 2.0)
+        server.wait_for(lambda s: "nan_yaw" not in s.faults_active, 5.0)
+        resumed = server.wait_for(lambda s: not scrolls_neutral(s) and s.armed, 5.0)
+        d.signal(signal.SIGINT)
+        code = d.wait_exit(20.0)
+        log = d.log_text()
+    print(f"nan_yaw glitch: neutral {neutral_s:.3f} s after injection, then resumed")
+    assert neutral_s <= FIRST_STEP_S + SCHEDULING_SLACK_S
+    assert resumed.mode == "MANUAL"
+    assert code == ExitCode.OPERATOR_STOP, log[-3000:]
+    assert "cause=pose_invalid" not in log
+    assert "event=pose_telemetry_rejected" in log and "event=pose_telemetry_valid_again" in log
