@@ -118,7 +118,7 @@ class FlightLoop:
             fault = self.monitor.check(self._inputs(now, t_start, pose))
             if fault is not None:
                 return FlightResult(fault, now, out, pose.ned if pose else None)
-            if self._pose_rejected():
+            if self._pose_rejected(now, t_start, out):
                 continue  # neutral until a valid pose (or the pose_invalid watchdog)
             if sample is None or now - last_step_s < self._min_step_s:
                 continue
@@ -137,9 +137,10 @@ class FlightLoop:
         self._cmd_speed_mps = 0.0
         self._cmd_yaw_rate_radps = 0.0
 
-    def _pose_rejected(self) -> bool:
+    def _pose_rejected(self, now: float, t_start: float, last: NavOutput | None) -> bool:
         """Neutral while the autopilot's pose telemetry is being rejected (once per burst:
-        the sink repeats the latest command). Logged once per burst, with its reason."""
+        the sink repeats the latest command). Logged once per burst, with its reason, and
+        shown to the operator (every tick; the display rate-limits) as a pose not fresh."""
         st = self.ap.state
         since = st.pose_invalid_since_s
         if since is None:
@@ -157,6 +158,21 @@ class FlightLoop:
                 kinds=dict(st.pose_rejected_kinds),
                 action="scrolls neutral; fall-back if no valid pose within pose_stale_s",
             )
+        n = len(self.plan.waypoints)
+        self.on_progress(
+            ProgressInfo(
+                waypoint_index=min((last.target_index if last else 0) + 1, n),
+                waypoints_total=n,
+                distance_to_go_m=math.nan,  # unknown: shown as "-"
+                speed_mps=math.nan,
+                heading_error_deg=math.nan,
+                link_ok=not st.link_lost,
+                pose_fresh=False,
+                elapsed_s=now - t_start,
+                phase="fly",
+                nav_state="pose_invalid",
+            )
+        )
         return True
 
     def _step(self, sample: PoseSample, now: float, t_start: float) -> NavOutput:
