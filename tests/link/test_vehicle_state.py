@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.vehicle import Change, VehicleState, mode_name, mode_number
@@ -268,3 +271,47 @@ def test_bounds_come_from_the_safety_config() -> None:
     assert st.apply(lpn_v(1010, 50.0, 0.0, vx=3.0), 1.01) == Change.POSE_REJECTED
     assert st.apply(lpn_v(1020, 50.0, 0.0, vx=1.0), 1.02) & Change.POSE
     assert TelemetryBounds.from_safety(SafetyConfig()) == TelemetryBounds()
+
+
+WIRE_FLOAT = st.floats(allow_nan=True, allow_infinity=True, width=32)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.booleans(),  # ATTITUDE or LOCAL_POSITION_NED
+            st.integers(0, 2**32 - 1),  # time_boot_ms
+            WIRE_FLOAT,
+            WIRE_FLOAT,
+            WIRE_FLOAT,
+        ),
+        max_size=30,
+    )
+)
+def test_fuzz_stored_pose_is_always_finite_and_in_bounds(
+    frames: list[tuple[bool, int, float, float, float]],
+) -> None:
+    """Whatever arrives, in whatever order: the stored pose is finite and within bounds, and a
+    pose is stored only from a frame that was not rejected."""
+    st_ = VehicleState()
+    b = st_.bounds
+    for i, (is_att, t_ms, a, b_, c) in enumerate(frames):
+        msg = (
+            decoded(AP.attitude_encode(t_ms, 0, 0, a, 0, 0, 0), AP)
+            if is_att
+            else decoded(AP.local_position_ned_encode(t_ms, a, b_, 0, c, 0.0, 0.0), AP)
+        )
+        changes = st_.apply(msg, float(i))
+        assert not (changes & Change.POSE and changes & Change.POSE_REJECTED)
+        pose = st_.pose
+        if pose is not None:
+            ned = pose.ned
+            assert all(math.isfinite(v) for v in (ned.north_m, ned.east_m, ned.yaw_ned_rad))
+            assert abs(ned.north_m) <= b.position_max_m and abs(ned.east_m) <= b.position_max_m
+            assert abs(ned.yaw_ned_rad) <= b.yaw_max_rad
+            assert all(math.isfinite(v) and abs(v) <= b.speed_max_mps for v in (pose.vn_mps,))
+        if st_.yaw_ned_rad is not None:
+            assert math.isfinite(st_.yaw_ned_rad)
+        if changes & Change.POSE:
+            assert not st_.pose_invalid
