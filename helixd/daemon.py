@@ -38,7 +38,7 @@ from helixd.recorder.rows import FlightRow
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
 from helixd.safety.supervisor import fall_back
-from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
+from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause, pose_invalid_fault
 from helixd.signals import StopRequest, install, uninstall
 from helixd.vehicle import TelemetryBounds
 
@@ -201,20 +201,15 @@ class MissionRunner:
         return pose, origin
 
     def _pose_invalid_too_long(self, ap: Autopilot) -> Fault | None:
-        """Pose telemetry rejected for longer than the stale limit (see the watchdog)."""
-        st, limit = ap.state, self.cfg.safety.pose_stale_s
-        since = st.pose_invalid_since_s
-        if since is None:
-            return None
-        if st.pose is not None:
-            since = min(since, st.pose.rx_monotonic_s)
-        invalid_s = time.monotonic() - since
-        if invalid_s <= limit:
-            return None
-        return Fault(
-            FaultCause.POSE_INVALID,
-            f"no valid start pose for {invalid_s:.2f} s (limit {limit} s): "
-            f"{st.pose_invalid_reason}",
+        """Pose telemetry rejected for longer than the stale limit (as the watchdog)."""
+        st = ap.state
+        return pose_invalid_fault(
+            time.monotonic(),
+            None if st.pose is None else st.pose.rx_monotonic_s,
+            st.pose_invalid_since_s,
+            st.pose_invalid_reason,
+            self.cfg.safety.pose_stale_s,
+            what="start pose",
         )
 
     async def _fresh_pose(self, ap: Autopilot) -> NedPose | None:

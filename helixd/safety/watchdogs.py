@@ -77,6 +77,33 @@ def _finite(*values: float | None) -> bool:
     return all(v is None or math.isfinite(v) for v in values)
 
 
+def pose_invalid_fault(
+    now_s: float,
+    pose_rx_s: float | None,
+    invalid_since_s: float | None,
+    detail: str,
+    limit_s: float,
+    what: str = "pose",
+) -> Fault | None:
+    """Pose telemetry rejected for longer than ``limit_s`` (the stale-pose limit), measured
+    from the last valid pose, or from the first rejection when there never was one.
+
+    The pose-stale rule would fire at the same moment (rejected poses are never stored, so the
+    pose ages); this one names the reason. Shared by the watchdog and the daemon's start-pose
+    path."""
+    if invalid_since_s is None:
+        return None
+    since = invalid_since_s if pose_rx_s is None else min(invalid_since_s, pose_rx_s)
+    invalid_s = now_s - since
+    if invalid_s <= limit_s:
+        return None
+    return Fault(
+        FaultCause.POSE_INVALID,
+        f"no valid {what} for {invalid_s:.2f} s (limit {limit_s} s): "
+        f"{detail or 'pose telemetry rejected'}",
+    )
+
+
 def point_in_polygon(north_m: float, east_m: float, poly: Sequence[tuple[float, float]]) -> bool:
     """Even-odd ray casting; vertices as (north_m, east_m)."""
     inside = False
@@ -148,24 +175,13 @@ class SafetyMonitor:
         return None
 
     def _pose_invalid(self, s: SafetyInputs) -> Fault | None:
-        """Pose telemetry rejected for longer than the stale limit (measured from the last
-        valid pose, or from the first rejection when there never was one): the pose-stale
-        rule would fire at the same moment, this one names the reason."""
-        if s.pose_invalid_since_s is None:
-            return None
-        since = (
-            s.pose_invalid_since_s
-            if s.pose_rx_s is None
-            else min(s.pose_invalid_since_s, s.pose_rx_s)
+        return pose_invalid_fault(
+            s.now_s,
+            s.pose_rx_s,
+            s.pose_invalid_since_s,
+            s.pose_invalid_detail,
+            self.cfg.pose_stale_s,
         )
-        invalid_s = s.now_s - since
-        if not invalid_s <= self.cfg.pose_stale_s:
-            return Fault(
-                FaultCause.POSE_INVALID,
-                f"no valid pose for {invalid_s:.2f} s (limit {self.cfg.pose_stale_s} s): "
-                f"{s.pose_invalid_detail or 'pose telemetry rejected'}",
-            )
-        return None
 
     def _pose(self, s: SafetyInputs) -> Fault | None:
         if s.pose_rx_s is None:
