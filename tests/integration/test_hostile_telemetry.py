@@ -170,3 +170,18 @@ def test_short_glitch_is_ridden_out_in_neutral(tmp_path: Path) -> None:
     assert code == ExitCode.OPERATOR_STOP, log[-3000:]
     assert "cause=pose_invalid" not in log
     assert "event=pose_telemetry_rejected" in log and "event=pose_telemetry_valid_again" in log
+
+
+def test_invalid_pose_at_preflight_refuses_to_start(tmp_path: Path) -> None:
+    """Pose telemetry rejected before arming: no start pose, preflight refuses (exit 3),
+    nothing is armed or driven."""
+    with running_sim(speedup=SPEEDUP) as (server, url):
+        server.inject("nan_yaw")
+        with daemon(tmp_path, url, "square") as d:
+            code = d.wait_exit(60.0)
+            log = d.log_text()
+        snap = server.snapshot()
+    assert code == ExitCode.PREFLIGHT, log[-3000:]
+    assert "pose telemetry rejected" in log and "ATTITUDE yaw is nan" in log
+    assert not snap.armed and scrolls_neutral(snap)
+    assert "phase=arm" not in log
