@@ -317,3 +317,38 @@ def test_nan_burst_mid_mission_then_recovery() -> None:
             nav.step(bad, t + 0.05)
     out = nav.step(Pose2D(0.5, 0.0, 0.0), t + 0.1)
     assert out.command.is_finite() and abs(out.command.wz_radps) < 0.5
+
+
+# -- the issue's numbers, end to end through the pure core --------------------------------------
+
+
+def test_issue_6_10_nan_pose_gives_neutral_pwm_not_1734_1566() -> None:
+    """Issue 6/10: x = y = NaN gave 1734/1734/1566/1566 µs (0.6 m/s at the full yaw rate).
+    Now: the navigator refuses the pose; and even a NaN body command reaching kinematics
+    maps to neutral PWM on every scroll."""
+    from helixd.actuators.mapping import fraction_to_pwm
+    from helixd.config import ActuationConfig
+
+    channels = ActuationConfig().channels
+    nav = Navigator(make_plan(MotionMode.ROLL), CONTROL)
+    frame = MissionFrame.start_at(NedPose(0.0, 0.0, 0.0))
+    nav.step(frame.to_mission(NedPose(0.0, 0.0, 0.0)), 0.0)
+    with pytest.raises(NonFiniteError):
+        frame.to_mission(NedPose(NAN, NAN, 0.0))
+    with pytest.raises(NonFiniteError):
+        nav.step(Pose2D(NAN, NAN, 0.0), 0.05)
+    # the pre-fix arithmetic: PID clamp of NaN was the limit, min(1.0, nan) was 1.0
+    speed = guidance.track_speed_mps(0.6, NAN, 0.3, 0.6, 1.0, 0.05)
+    yaw_rate = PID(CONTROL.yaw_pid, CONTROL.max_yaw_rate_radps, angular=True).update(0.0, NAN, 0.05)
+    assert speed == 0.0 and yaw_rate.output == 0.0
+    for body in (BodyVelocity(speed, 0.0, yaw_rate.output), BodyVelocity(0.6, 0.0, NAN)):
+        fractions = body_to_fractions(body, VEHICLE, MotionMode.ROLL)
+        pwm = [fraction_to_pwm(float(f), ch) for f, ch in zip(fractions, channels, strict=True)]
+        assert pwm == [ch.pwm_trim_us for ch in channels]
+
+
+def test_issue_6_10_inf_yaw_is_no_math_domain_error() -> None:
+    """Issue 6/10: ATTITUDE yaw = ±inf crashed with 'math domain error' (exit 1)."""
+    for yaw in (INF, -INF):
+        with pytest.raises(NonFiniteError, match="not finite"):
+            MissionFrame.enu().to_mission(NedPose(1.0, 2.0, yaw))
