@@ -25,7 +25,7 @@ from helixd import __version__
 from helixd.actuators import make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
-from helixd.display import ProgressDisplay
+from helixd.display import ProgressDisplay, result_line
 from helixd.exitcodes import ExitCode
 from helixd.flight import MANUAL_MODE, FlightLoop
 from helixd.frames import MissionFrame, NedPose
@@ -77,7 +77,10 @@ class RunOutcome:
 async def phase(
     name: str, notifier: ServiceNotifier, display: ProgressDisplay
 ) -> AsyncIterator[None]:
-    """Log a phase's start and end with its duration; tell systemd and the operator."""
+    """Log a phase's start and end with its duration; tell systemd and the operator.
+
+    ``phase_start`` is the one log event for entering a phase (the display only redraws).
+    """
     t0 = time.monotonic()
     log.info("phase_start", phase=name)
     notifier.status(f"phase: {name}")
@@ -145,8 +148,7 @@ class MissionRunner:
             # goes out before anything else.
             self.sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
             await self.sink.start()
-        granted = await ap.request_streams()
-        log.info("streams_granted", rates_hz=granted)
+        await ap.request_streams()  # logs ``streams_granted`` itself
         return ap
 
     async def _preflight(self, ap: Autopilot) -> tuple[NedPose, tuple[float, float] | None]:
@@ -309,6 +311,14 @@ class MissionRunner:
         install(loop, self.stop)
         try:
             return await self._run()
+        except Exception as exc:  # escaped the shutdown path itself: still end with a result
+            log.exception("internal_error")
+            fault = f"{FaultCause.EXCEPTION.value}: {type(exc).__name__}: {exc}"
+            summary = self._build_summary(fault, ExitCode.INTERNAL_ERROR, None)
+            run_dir = self.recorder.run_dir if self.recorder else None
+            return RunOutcome(
+                ExitCode.INTERNAL_ERROR, summary, run_dir, [*self.messages, result_line(summary)]
+            )
         finally:
             uninstall(loop)
             self.display.close()
@@ -324,7 +334,8 @@ class MissionRunner:
                 now_utc=datetime.now(UTC),
             )
         except RecorderUnavailable as exc:
-            return RunOutcome(ExitCode.PREFLIGHT, None, None, [str(exc)])
+            summary = self._build_summary(f"recorder: {exc}", ExitCode.PREFLIGHT, None)
+            return RunOutcome(ExitCode.PREFLIGHT, None, None, [str(exc), result_line(summary)])
         log.info(
             "helixd_start",
             version=__version__,
@@ -391,7 +402,10 @@ class MissionRunner:
             await self._shutdown(fault, detected_s, last_pose, code)
         summary = self._finish(fault, code, started)
         return RunOutcome(
-            code, summary, self.recorder.run_dir if self.recorder else None, self.messages
+            code,
+            summary,
+            self.recorder.run_dir if self.recorder else None,
+            [*self.messages, result_line(summary)],  # the plain result line comes last
         )
 
     async def _shutdown(
@@ -428,15 +442,24 @@ class MissionRunner:
             log.exception("close_failed")
         self.notifier.close()
 
-    def _finish(self, fault: Fault | None, code: ExitCode, started: float) -> RunSummary:
-        summary = self.summary.build(
+    def _build_summary(
+        self, fault: str | None, code: ExitCode, wall_duration_s: float | None
+    ) -> RunSummary:
+        return self.summary.build(
             completed=code is ExitCode.OK,
-            fault=None if fault is None else f"{fault.cause.value}: {fault.detail}",
+            fault=fault,
             exit_code=int(code),
             mission_name=self.opts.mission.name,
             mode=self.opts.mission.mode.value,
             waypoints_total=len(self.opts.mission.waypoints),
-            wall_duration_s=time.monotonic() - started,
+            wall_duration_s=wall_duration_s,
+        )
+
+    def _finish(self, fault: Fault | None, code: ExitCode, started: float) -> RunSummary:
+        summary = self._build_summary(
+            None if fault is None else f"{fault.cause.value}: {fault.detail}",
+            code,
+            time.monotonic() - started,
         )
         if self.recorder is not None:
             self.recorder.finish(summary)
@@ -450,6 +473,7 @@ class MissionRunner:
 
     def _on_row(self, row: FlightRow) -> None:
         self.summary.add(row)
+        self.display.autopilot_time(row.t_boot_s)
         if self.recorder is not None:
             self.recorder.record(row)
 

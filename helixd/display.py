@@ -1,10 +1,14 @@
 """What the operator sees during ``helixd run``.
 
-On a terminal: one live ``rich`` line (phase, waypoint i/N, distance to go, speed, heading
-error, link/pose health, elapsed time; 80 columns in the usual case) redrawn at most
-``refresh_hz`` times a second, then a result table. Not on a terminal (systemd/journald):
-the same facts as structured ``progress`` events every ``event_interval_s`` and one
-``result`` event — no escape codes.
+On a terminal: a live ``rich`` line (phase, waypoint i/N, distance to go, speed, heading
+error, link/pose health; under it the mission time on the autopilot's and the wall clock; 80
+columns in the usual case) redrawn at most ``refresh_hz`` times a second, then a result table.
+Not on a terminal (systemd/journald): the same facts as structured ``progress`` events every
+``event_interval_s`` and one ``result`` event — no escape codes. Either way the run ends with
+one plain, greppable line (:func:`result_line`, ``helixd: RESULT …``).
+
+Two clocks, always named: *autopilot time* (the autopilot's ``time_boot_ms``; a simulator
+speed-up makes it run faster than the wall) and *wall time* (the companion's monotonic clock).
 
 Cheap from a 50 Hz loop: :meth:`ProgressDisplay.update` stores the values and returns unless a
 redraw or an event is due (one clock read and a comparison).
@@ -12,6 +16,7 @@ redraw or an event is due (one clock read and a comparison).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -24,12 +29,25 @@ from rich.live import Live
 from rich.table import Table
 from rich.text import Text
 
+from helixd.exitcodes import ExitCode
 from helixd.recorder.summary import RunSummary
 
 log = structlog.get_logger(__name__)
 
 REFRESH_HZ = 4.0  # live line redraws per second, at most
 EVENT_INTERVAL_S = 2.0  # progress events when not on a terminal
+RESULT_PREFIX = "helixd: RESULT"
+RESULT_CAUSE_MAX_CHARS = 160  # a long cause (several preflight problems) is cut in the line
+# the word after RESULT, per exit code: one greppable token
+RESULT_WORDS: dict[int, str] = {
+    ExitCode.OK: "ok",
+    ExitCode.INTERNAL_ERROR: "internal-error",
+    ExitCode.USAGE: "usage-error",
+    ExitCode.PREFLIGHT: "refused",
+    ExitCode.FAULT: "fault",
+    ExitCode.OPERATOR_STOP: "stopped",
+    ExitCode.LINK: "link-failed",
+}
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,9 +59,33 @@ class ProgressInfo:
     heading_error_deg: float
     link_ok: bool
     pose_fresh: bool
-    elapsed_s: float  # since the mission started
+    elapsed_s: float  # wall (companion monotonic) time since the mission started
     phase: str | None = None  # overrides the phase set by ProgressDisplay.phase() when given
     nav_state: str = ""  # navigator state (align, track, …)
+    # autopilot time since the mission started; None: ProgressDisplay fills it from the rows
+    # it was told about (ProgressDisplay.autopilot_time), or it is shown as unknown
+    autopilot_elapsed_s: float | None = None
+
+
+class AutopilotElapsed:
+    """Autopilot time flown so far, from a stream of ``time_boot_ms`` readings (seconds).
+
+    Sums the forward steps of the autopilot clock, so an autopilot reboot (clock steps back)
+    or a non-finite reading neither goes negative nor jumps. Pure; O(1) per reading.
+    """
+
+    def __init__(self) -> None:
+        self._last: float | None = None
+        self.elapsed_s: float | None = None  # None until the first finite reading
+
+    def add(self, t_boot_s: float) -> None:
+        if not math.isfinite(t_boot_s):
+            return
+        if self._last is None:
+            self.elapsed_s = 0.0
+        elif t_boot_s > self._last and self.elapsed_s is not None:
+            self.elapsed_s += t_boot_s - self._last
+        self._last = t_boot_s
 
 
 def _fmt(value: float, spec: str) -> str:
@@ -56,13 +98,23 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
     def metres(v: float | None) -> str:
         return "-" if v is None else f"{v:.2f} m"
 
+    def seconds(v: float | None) -> str:
+        return "-" if v is None or not math.isfinite(v) else f"{v:.1f} s"
+
     rows = [
         ("mission", f"{summary.mission_name} ({summary.mode})"),
         ("result", "completed" if summary.completed else "NOT completed"),
         ("fault", summary.fault or "-"),
         ("exit code", str(summary.exit_code)),
         ("waypoints", f"{summary.waypoints_reached}/{summary.waypoints_total}"),
-        ("duration", f"{summary.duration_s:.1f} s"),
+    ]
+    if summary.duration_clock == "autopilot":
+        rows.append(("flight time (autopilot clock)", seconds(summary.duration_s)))
+    else:
+        rows.append(("flight time (autopilot clock)", "- (autopilot rebooted)"))
+    rows += [
+        ("flight time (wall clock)", seconds(summary.duration_mono_s)),
+        ("whole run (wall clock)", seconds(summary.wall_duration_s)),
         ("path driven", f"{summary.path_length_m:.1f} m"),
         ("cross-track rms", metres(summary.cross_track_rms_m)),
         ("cross-track max", metres(summary.cross_track_max_m)),
@@ -76,9 +128,46 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
 
 
 def _arrivals_text(summary: RunSummary) -> str:
+    """``#0 +17.6 s (0.99 m)``: plan index, autopilot time since the first step, error."""
     if not summary.arrivals:
         return "-"
-    return ", ".join(f"#{a.index} ({a.error_m:.2f} m)" for a in summary.arrivals)
+    t0 = summary.start_t_boot_s
+
+    def one(index: int, t_boot_s: float, error_m: float) -> str:
+        when = "" if t0 is None or t_boot_s < t0 else f" +{t_boot_s - t0:.1f} s"
+        return f"#{index}{when} ({error_m:.2f} m)"
+
+    text = ", ".join(one(a.index, a.t_boot_s, a.error_m) for a in summary.arrivals)
+    return text + ("" if t0 is None else " (autopilot clock)")
+
+
+def _cause_text(fault: str | None) -> str:
+    if not fault:
+        return ""
+    one_line = " ".join(fault.split())
+    if len(one_line) > RESULT_CAUSE_MAX_CHARS:
+        one_line = one_line[: RESULT_CAUSE_MAX_CHARS - 1] + "…"
+    return " " + one_line
+
+
+def result_line(summary: RunSummary) -> str:
+    """The run's outcome as ONE plain line, on a terminal or not, for every exit path.
+
+    ``helixd: RESULT ok — 4/4 waypoints, 72.3 s autopilot time (18.1 s wall), exit 0``
+    ``helixd: RESULT fault pose_stale: … — 2/4 waypoints, 30.0 s autopilot time (7.5 s wall),
+    exit 4``. The word after RESULT depends on the exit code only (:data:`RESULT_WORDS`).
+    """
+    code = summary.exit_code
+    word = RESULT_WORDS.get(code, "exit")
+    done = f"{summary.waypoints_reached}/{summary.waypoints_total} waypoints"
+    wall = summary.duration_mono_s
+    if summary.rows == 0 or wall is None:
+        times = "not flown"
+    elif summary.duration_clock == "autopilot":
+        times = f"{summary.duration_s:.1f} s autopilot time ({wall:.1f} s wall)"
+    else:
+        times = f"{wall:.1f} s wall (autopilot clock reset: rebooted)"
+    return f"{RESULT_PREFIX} {word}{_cause_text(summary.fault)} — {done}, {times}, exit {code}"
 
 
 def summary_table(summary: RunSummary, run_dir: Path | None = None) -> Table:
@@ -100,10 +189,15 @@ def _round(value: float, digits: int) -> float | None:
     return round(value, digits) if math.isfinite(value) else None
 
 
+def _opt_round(value: float | None, digits: int) -> float | None:
+    return None if value is None else _round(value, digits)
+
+
 def progress_fields(phase: str, info: ProgressInfo | None) -> dict[str, object]:
     """The ``progress`` event's fields (also what the live line shows)."""
     if info is None:
         return {"phase": phase}
+    ap = info.autopilot_elapsed_s
     return {
         "phase": info.phase or phase,
         "nav_state": info.nav_state or None,
@@ -113,7 +207,8 @@ def progress_fields(phase: str, info: ProgressInfo | None) -> dict[str, object]:
         "heading_error_deg": _round(info.heading_error_deg, 1),
         "link_ok": info.link_ok,
         "pose_fresh": info.pose_fresh,
-        "elapsed_s": round(info.elapsed_s, 1),
+        "elapsed_autopilot_s": None if ap is None else _round(ap, 1),
+        "elapsed_wall_s": _round(info.elapsed_s, 1),
     }
 
 
@@ -134,7 +229,12 @@ def progress_line(phase: str, info: ProgressInfo | None) -> Text:
     text.append(
         "OK" if info.pose_fresh else "STALE", style="green" if info.pose_fresh else "bold red"
     )
-    text.append(f"  {info.elapsed_s:.0f} s")
+    ap = info.autopilot_elapsed_s
+    ap_text = "-" if ap is None else _fmt(ap, ".0f")
+    # a second line: both clocks named, without pushing the first line past 80 columns
+    text.append(
+        f"\n  mission time: {ap_text} s autopilot clock, {_fmt(info.elapsed_s, '.0f')} s wall"
+    )
     return text
 
 
@@ -158,17 +258,24 @@ class ProgressDisplay:
         self._info: ProgressInfo | None = None
         self._last_out_s = -math.inf
         self._live: Live | None = None
+        self._autopilot = AutopilotElapsed()
         self.outputs = 0  # redraws (tty) or progress events (not a tty) so far
 
     def phase(self, name: str) -> None:
-        """The daemon entered a phase (connect, preflight, arm, run, stop, …)."""
+        """The daemon entered a phase (connect, preflight, arm, run, stop, …).
+
+        Redraws the live line on a terminal. Not on a terminal it logs nothing: the daemon's
+        ``phase_start``/``phase_end`` events already say it (one line per event, not two).
+        """
         if name == self._phase:
             return
         self._phase = name
         if self._tty:
             self._redraw(self._clock())
-        else:
-            log.info("phase", phase=name)
+
+    def autopilot_time(self, t_boot_s: float) -> None:
+        """The autopilot clock of the latest control step (s), for the elapsed-time display."""
+        self._autopilot.add(t_boot_s)
 
     def update(self, info: ProgressInfo) -> None:
         """New values; output only when a redraw (≤ refresh_hz) or an event is due."""
@@ -176,6 +283,10 @@ class ProgressDisplay:
         now = self._clock()
         if now - self._last_out_s < self._min_gap_s:
             return
+        if info.autopilot_elapsed_s is None and self._autopilot.elapsed_s is not None:
+            info = self._info = dataclasses.replace(
+                info, autopilot_elapsed_s=self._autopilot.elapsed_s
+            )
         if self._tty:
             self._redraw(now)
         else:
@@ -184,11 +295,16 @@ class ProgressDisplay:
             log.info("progress", **progress_fields(self._phase, info))
 
     def final(self, summary: RunSummary, run_dir: Path | None = None) -> None:
-        """Show the result: a table on a terminal, one ``result`` event otherwise."""
+        """Show the result: a table on a terminal, one ``result`` event otherwise.
+
+        (The plain :func:`result_line` is the caller's to print last, after every other line.)
+        """
         self.close()
         if self._tty:
             self._get_console().print(summary_table(summary, run_dir))
         else:
+            on_ap = summary.duration_clock == "autopilot" and summary.rows > 0
+            wall = summary.duration_mono_s
             log.info(
                 "result",
                 mission=summary.mission_name,
@@ -197,11 +313,15 @@ class ProgressDisplay:
                 fault=summary.fault,
                 exit_code=summary.exit_code,
                 waypoints=f"{summary.waypoints_reached}/{summary.waypoints_total}",
-                duration_s=round(summary.duration_s, 1),
+                flight_autopilot_s=round(summary.duration_s, 1) if on_ap else None,
+                flight_wall_s=None if wall is None else round(wall, 1),
+                run_wall_s=(
+                    None if summary.wall_duration_s is None else round(summary.wall_duration_s, 1)
+                ),
                 path_length_m=round(summary.path_length_m, 2),
-                cross_track_rms_m=summary.cross_track_rms_m,
-                cross_track_max_m=summary.cross_track_max_m,
-                final_error_m=summary.final_error_m,
+                cross_track_rms_m=_opt_round(summary.cross_track_rms_m, 3),
+                cross_track_max_m=_opt_round(summary.cross_track_max_m, 3),
+                final_error_m=_opt_round(summary.final_error_m, 3),
                 run_dir=None if run_dir is None else str(run_dir),
             )
 
@@ -239,9 +359,12 @@ class ProgressDisplay:
 __all__ = [
     "EVENT_INTERVAL_S",
     "REFRESH_HZ",
+    "RESULT_PREFIX",
+    "AutopilotElapsed",
     "ProgressDisplay",
     "ProgressInfo",
     "progress_fields",
+    "result_line",
     "summary_rows",
     "summary_table",
 ]

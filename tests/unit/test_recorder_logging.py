@@ -108,3 +108,23 @@ def test_render_logfmt_quotes_and_nulls() -> None:
         None, "info", {"event": "e", "a": "two words", "b": None, "c": 'q"x', "d": 0.1234567891}
     )
     assert line == 'event=e a="two words" b=null c="q\\"x" d=0.123457'
+
+
+def test_render_logfmt_flattens_dicts_and_writes_lists_without_python_repr() -> None:
+    line = logging_setup.render_logfmt(
+        None,
+        "info",
+        {
+            "event": "e",
+            "stats": {"rx": 5, "inner": {"ok": True}},
+            "empty": {},
+            "channels": [1, 2, 3],
+            "local": ("0.0.0.0", 0),
+            "names": ["a b", None],
+        },
+    )
+    assert line == (
+        "event=e stats.rx=5 stats.inner.ok=true empty={} channels=[1,2,3] "
+        'local=[0.0.0.0,0] names="[\\"a b\\",null]"'
+    )
+    assert "'" not in line  # no Python repr anywhere
