@@ -88,9 +88,9 @@ async def phase(
     try:
         yield
     except BaseException:
-        log.info("phase_end", phase=name, ok=False, duration_s=round(time.monotonic() - t0, 3))
+        log.info("phase_end", phase=name, ok=False, duration_wall_s=round(time.monotonic() - t0, 3))
         raise
-    log.info("phase_end", phase=name, ok=True, duration_s=round(time.monotonic() - t0, 3))
+    log.info("phase_end", phase=name, ok=True, duration_wall_s=round(time.monotonic() - t0, 3))
 
 
 class MissionRunner:

@@ -36,6 +36,7 @@ log = structlog.get_logger(__name__)
 
 REFRESH_HZ = 4.0  # live line redraws per second, at most
 EVENT_INTERVAL_S = 2.0  # progress events when not on a terminal
+ARRIVALS_LISTED_MAX = 6  # the result table lists each arrival up to this many
 RESULT_PREFIX = "helixd: RESULT"
 RESULT_CAUSE_MAX_CHARS = 160  # a long cause (several preflight problems) is cut in the line
 # the word after RESULT, per exit code: one greppable token
@@ -128,17 +129,28 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
 
 
 def _arrivals_text(summary: RunSummary) -> str:
-    """``#0 +17.6 s (0.99 m)``: plan index, autopilot time since the first step, error."""
-    if not summary.arrivals:
+    """``#0 +17.6 s (0.99 m)``: plan index, autopilot time since the first step, error.
+
+    More than :data:`ARRIVALS_LISTED_MAX` (a 25-point circle) are condensed to one line.
+    """
+    arrivals = summary.arrivals
+    if not arrivals:
         return "-"
     t0 = summary.start_t_boot_s
+    clock = "" if t0 is None else " (autopilot clock)"
 
     def one(index: int, t_boot_s: float, error_m: float) -> str:
         when = "" if t0 is None or t_boot_s < t0 else f" +{t_boot_s - t0:.1f} s"
         return f"#{index}{when} ({error_m:.2f} m)"
 
-    text = ", ".join(one(a.index, a.t_boot_s, a.error_m) for a in summary.arrivals)
-    return text + ("" if t0 is None else " (autopilot clock)")
+    if len(arrivals) > ARRIVALS_LISTED_MAX:
+        errors = [a.error_m for a in arrivals]
+        last = arrivals[-1]
+        return (
+            f"{len(arrivals)} waypoints, error {min(errors):.2f}–{max(errors):.2f} m, "
+            f"last {one(last.index, last.t_boot_s, last.error_m)}{clock}; each in summary.json"
+        )
+    return ", ".join(one(a.index, a.t_boot_s, a.error_m) for a in arrivals) + clock
 
 
 def _cause_text(fault: str | None) -> str:
@@ -283,16 +295,12 @@ class ProgressDisplay:
         now = self._clock()
         if now - self._last_out_s < self._min_gap_s:
             return
-        if info.autopilot_elapsed_s is None and self._autopilot.elapsed_s is not None:
-            info = self._info = dataclasses.replace(
-                info, autopilot_elapsed_s=self._autopilot.elapsed_s
-            )
         if self._tty:
             self._redraw(now)
         else:
             self._last_out_s = now
             self.outputs += 1
-            log.info("progress", **progress_fields(self._phase, info))
+            log.info("progress", **progress_fields(self._phase, self._shown()))
 
     def final(self, summary: RunSummary, run_dir: Path | None = None) -> None:
         """Show the result: a table on a terminal, one ``result`` event otherwise.
@@ -329,8 +337,17 @@ class ProgressDisplay:
         """Stop the live line (leaves its last state on screen). Idempotent."""
         live, self._live = self._live, None
         if live is not None:
-            live.update(progress_line(self._phase, self._info), refresh=True)
+            live.update(progress_line(self._phase, self._shown()), refresh=True)
             live.stop()
+
+    def _shown(self) -> ProgressInfo | None:
+        """The latest values, the autopilot clock filled in from the rows (only when drawn)."""
+        info = self._info
+        if info is None or info.autopilot_elapsed_s is not None:
+            return info
+        if self._autopilot.elapsed_s is None:
+            return info
+        return dataclasses.replace(info, autopilot_elapsed_s=self._autopilot.elapsed_s)
 
     def _get_console(self) -> Console:
         if self._console is None:
@@ -340,7 +357,7 @@ class ProgressDisplay:
     def _redraw(self, now: float) -> None:
         self._last_out_s = now
         self.outputs += 1
-        line = progress_line(self._phase, self._info)
+        line = progress_line(self._phase, self._shown())
         if self._live is None:
             self._live = Live(
                 line, console=self._get_console(), auto_refresh=False, transient=False

@@ -123,6 +123,16 @@ def _flat_items(prefix: str, value: Any) -> list[tuple[str, Any]]:
     return out
 
 
+def _flatten_dicts(_: WrappedLogger, __: str, event_dict: EventDict) -> EventDict:
+    """Console only (after the JSON tee): dict values become dotted keys, no Python repr."""
+    if not any(isinstance(v, dict) for v in event_dict.values()):
+        return event_dict
+    flat: EventDict = {}
+    for k, v in event_dict.items():
+        flat.update(_flat_items(str(k), v))
+    return flat
+
+
 def render_logfmt(_: WrappedLogger, __: str, event_dict: EventDict) -> str:
     """One line, ``ts=… level=… event=… k=v``; control characters escaped, no ANSI codes.
 
@@ -308,6 +318,7 @@ def configure_logging(
     ]
     if tty:
         processors += [
+            _flatten_dicts,
             _short_ts,
             structlog.dev.ConsoleRenderer(
                 colors=True,

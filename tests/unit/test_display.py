@@ -248,3 +248,30 @@ def test_result_table_labels_every_time_with_its_clock() -> None:
     assert rows["arrivals"].startswith("#0 +1.0 s (0.90 m), #1 +2.0 s")
     assert rows["arrivals"].endswith("(autopilot clock)")
     assert not any(label == "duration" for label in rows)
+
+
+def test_live_line_left_on_screen_shows_the_autopilot_clock() -> None:
+    clock = FakeClock()
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=True, width=160, color_system=None)
+    display = ProgressDisplay(tty=True, console=console, clock=clock)
+    display.phase("fly")
+    for i in range(LOOP_HZ):  # 1 s wall; the last update is not redrawn until close()
+        display.autopilot_time(7.0 + 4.0 * i / LOOP_HZ)
+        display.update(info(i))
+        clock.advance(1.0 / LOOP_HZ)
+    display.close()
+    assert "mission time: 4 s autopilot clock, 1 s wall" in buf.getvalue()
+    assert "mission time: - s" not in buf.getvalue().rsplit("FLY", 1)[-1]
+
+
+def test_many_arrivals_are_condensed_in_the_table() -> None:
+    b = SummaryBuilder("circle", "scroll", 25)
+    b.add(nan_row(t_mono_s=0.0, t_boot_s=10.0))
+    for i in range(25):
+        b.arrival(i, 12.0 + 2.0 * i, 0.28 + 0.001 * i)
+    text = dict(summary_rows(b.build(True, None, 0)))["arrivals"]
+    assert text == (
+        "25 waypoints, error 0.28–0.30 m, last #24 +50.0 s (0.30 m) (autopilot clock); "
+        "each in summary.json"
+    )

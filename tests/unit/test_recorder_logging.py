@@ -128,3 +128,11 @@ def test_render_logfmt_flattens_dicts_and_writes_lists_without_python_repr() -> 
         'local=[0.0.0.0,0] names="[\\"a b\\",null]"'
     )
     assert "'" not in line  # no Python repr anywhere
+
+
+def test_console_renderer_flattens_dicts_too() -> None:
+    out = io.StringIO()
+    configure_logging(tty=True, stream=out)
+    structlog.get_logger("t").info("link_closed", stats={"rx_messages": 5})
+    text = out.getvalue()
+    assert "stats.rx_messages" in text and "{'" not in text
