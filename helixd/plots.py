@@ -35,6 +35,7 @@ from matplotlib.patches import Circle
 
 from helixd.config import ConfigFileError, load_config
 from helixd.mission import MissionFrameKind, PlanError, load_mission, resolve_plan
+from helixd.recorder.clocks import autopilot_axis_s
 from helixd.recorder.events import EVENTS_FILE, fault_time_mono_s, read_events
 from helixd.recorder.rows import read_flight_columns
 from helixd.recorder.rundir import (
@@ -134,18 +135,10 @@ class RunData:
 
 
 def autopilot_axis(t_boot_s: Array, t_mono_s: Array) -> Array | None:
-    """Autopilot time since the first row, non-decreasing; None without autopilot times.
-
-    Sums the autopilot clock's forward steps; a step that is not finite or goes back (an
-    autopilot reboot) is bridged with the wall clock's step, so the axis never jumps back.
-    """
-    if t_boot_s.size == 0 or not np.isfinite(t_boot_s).any():
-        return None
-    d_boot = np.diff(t_boot_s)
-    d_wall = np.diff(t_mono_s)
-    bad = ~np.isfinite(d_boot) | (d_boot < 0)
-    steps = np.where(bad, np.where(np.isfinite(d_wall) & (d_wall > 0), d_wall, 0.0), d_boot)
-    return np.concatenate(([0.0], np.cumsum(steps)))
+    """Autopilot time since the first row (see :func:`helixd.recorder.clocks.autopilot_axis_s`);
+    None without autopilot times."""
+    axis = autopilot_axis_s([float(t) for t in t_boot_s], [float(t) for t in t_mono_s])
+    return None if axis is None else np.asarray(axis, dtype=np.float64)
 
 
 def interp_linear(x_in: npt.ArrayLike, xp: Array, fp: Array) -> Array:
