@@ -461,12 +461,12 @@ class MissionRunner:
             code,
             time.monotonic() - started,
         )
+        run_dir = self.recorder.run_dir if self.recorder else None
+        # the one ``result`` event goes out while events.jsonl is still attached
+        self.display.log_result(summary, run_dir)
         if self.recorder is not None:
             self.recorder.finish(summary)
-        log.info(
-            "helixd_exit", exit_code=int(code), completed=summary.completed, fault=summary.fault
-        )
-        self.display.final(summary, run_dir=self.recorder.run_dir if self.recorder else None)
+        self.display.final(summary, run_dir, log_event=False)
         return summary
 
     # -- loop callbacks (cheap: called at the control rate) --------------------------------------
@@ -479,8 +479,17 @@ class MissionRunner:
 
     def _on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
         self.summary.arrival(index, t_boot_s, error_m)
+        start = self.summary.start_t_boot_s
+        total = len(self.plan.waypoints) if self.plan is not None else 0
         log.info(
-            "waypoint_reached", index=index, t_boot_s=round(t_boot_s, 2), error_m=round(error_m, 3)
+            "waypoint_reached",
+            waypoint=f"{index + 1}/{total}",  # 1-based, as the progress line counts
+            index=index,  # 0-based plan index, as `helixd check` prints
+            elapsed_autopilot_s=(
+                round(t_boot_s - start, 1) if start is not None and t_boot_s >= start else None
+            ),
+            t_boot_s=round(t_boot_s, 2),
+            error_m=round(error_m, 3),
         )
 
     def _on_tick(self) -> None:

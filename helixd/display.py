@@ -302,36 +302,43 @@ class ProgressDisplay:
             self.outputs += 1
             log.info("progress", **progress_fields(self._phase, self._shown()))
 
-    def final(self, summary: RunSummary, run_dir: Path | None = None) -> None:
-        """Show the result: a table on a terminal, one ``result`` event otherwise.
+    def final(
+        self, summary: RunSummary, run_dir: Path | None = None, *, log_event: bool = True
+    ) -> None:
+        """The run is over: log the one ``result`` event (``log_event``; see
+        :meth:`log_result`) and, on a terminal, show the result table.
 
         (The plain :func:`result_line` is the caller's to print last, after every other line.)
         """
         self.close()
+        if log_event:
+            self.log_result(summary, run_dir)
         if self._tty:
             self._get_console().print(summary_table(summary, run_dir))
-        else:
-            on_ap = summary.duration_clock == "autopilot" and summary.rows > 0
-            wall = summary.duration_mono_s
-            log.info(
-                "result",
-                mission=summary.mission_name,
-                mode=summary.mode,
-                completed=summary.completed,
-                fault=summary.fault,
-                exit_code=summary.exit_code,
-                waypoints=f"{summary.waypoints_reached}/{summary.waypoints_total}",
-                flight_autopilot_s=round(summary.duration_s, 1) if on_ap else None,
-                flight_wall_s=None if wall is None else round(wall, 1),
-                run_wall_s=(
-                    None if summary.wall_duration_s is None else round(summary.wall_duration_s, 1)
-                ),
-                path_length_m=round(summary.path_length_m, 2),
-                cross_track_rms_m=_opt_round(summary.cross_track_rms_m, 3),
-                cross_track_max_m=_opt_round(summary.cross_track_max_m, 3),
-                final_error_m=_opt_round(summary.final_error_m, 3),
-                run_dir=None if run_dir is None else str(run_dir),
-            )
+
+    def log_result(self, summary: RunSummary, run_dir: Path | None = None) -> None:
+        """The ``result`` event: outcome, both clocks, accuracy (on a terminal and not)."""
+        on_ap = summary.duration_clock == "autopilot" and summary.rows > 0
+        wall = summary.duration_mono_s
+        log.info(
+            "result",
+            mission=summary.mission_name,
+            mode=summary.mode,
+            completed=summary.completed,
+            fault=summary.fault,
+            exit_code=summary.exit_code,
+            waypoints=f"{summary.waypoints_reached}/{summary.waypoints_total}",
+            flight_autopilot_s=round(summary.duration_s, 1) if on_ap else None,
+            flight_wall_s=None if wall is None else round(wall, 1),
+            run_wall_s=(
+                None if summary.wall_duration_s is None else round(summary.wall_duration_s, 1)
+            ),
+            path_length_m=round(summary.path_length_m, 2),
+            cross_track_rms_m=_opt_round(summary.cross_track_rms_m, 3),
+            cross_track_max_m=_opt_round(summary.cross_track_max_m, 3),
+            final_error_m=_opt_round(summary.final_error_m, 3),
+            run_dir=None if run_dir is None else str(run_dir),
+        )
 
     def close(self) -> None:
         """Stop the live line (leaves its last state on screen). Idempotent."""

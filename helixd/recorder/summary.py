@@ -155,6 +155,11 @@ class SummaryBuilder:
             self._arrivals[index] = Arrival(index=index, t_boot_s=t_boot_s, error_m=error_m)
 
     @property
+    def start_t_boot_s(self) -> float | None:
+        """Autopilot time of the first recorded step (s), None before any."""
+        return self._tb_first
+
+    @property
     def waypoints_reached(self) -> int:
         return len(self._arrivals)
 

@@ -65,7 +65,7 @@ def test_not_a_terminal_emits_throttled_progress_events_without_escape_codes() -
     fly(display, clock, 10.0)
     display.update(info(0, link_ok=False, pose_fresh=False))  # within 2 s: throttled
     summary = SummaryBuilder("square", "roll", 4).build(True, None, 0)
-    display.final(summary)
+    display.final(summary)  # logs the result event, no table off a terminal
     display.close()
     text = out.getvalue()
     assert "\x1b" not in text
@@ -275,3 +275,18 @@ def test_many_arrivals_are_condensed_in_the_table() -> None:
         "25 waypoints, error 0.28–0.30 m, last #24 +50.0 s (0.30 m) (autopilot clock); "
         "each in summary.json"
     )
+
+
+def test_one_result_event_on_a_terminal_too_and_the_table() -> None:
+    clock = FakeClock()
+    log_out = io.StringIO()
+    logging_setup.configure_logging(tty=False, stream=log_out, clock=clock)
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=True, width=160, color_system=None)
+    display = ProgressDisplay(tty=True, console=console, clock=clock)
+    summary = _summary(ExitCode.OK, None, 73, 4)
+    display.log_result(summary)
+    display.final(summary, log_event=False)
+    assert log_out.getvalue().count("event=result") == 1
+    assert "flight_autopilot_s=72.0 flight_wall_s=18.0 run_wall_s=30.0" in log_out.getvalue()
+    assert "helixd run result" in buf.getvalue()
