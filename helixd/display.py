@@ -90,7 +90,13 @@ class AutopilotElapsed:
 
 
 def _fmt(value: float, spec: str) -> str:
-    return format(value, spec) if math.isfinite(value) else "-"
+    """``spec``-formatted, "-" when not finite; never "-0" (a rounded-away sign)."""
+    if not math.isfinite(value):
+        return "-"
+    text = format(value, spec)
+    if text.lstrip("+-").strip("0.") == "":  # rounds to zero: drop a "-" sign
+        text = format(0.0, spec)
+    return text
 
 
 def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple[str, str]]:
@@ -198,7 +204,7 @@ def summary_table(summary: RunSummary, run_dir: Path | None = None) -> Table:
 
 
 def _round(value: float, digits: int) -> float | None:
-    return round(value, digits) if math.isfinite(value) else None
+    return round(value, digits) + 0.0 if math.isfinite(value) else None  # + 0.0: no -0.0
 
 
 def _opt_round(value: float | None, digits: int) -> float | None:
@@ -227,7 +233,8 @@ def progress_fields(phase: str, info: ProgressInfo | None) -> dict[str, object]:
 def progress_line(phase: str, info: ProgressInfo | None) -> Text:
     text = Text()
     shown = (info.phase if info is not None and info.phase else None) or phase
-    text.append(f" {shown.upper()} ", style="bold reverse")
+    word, _, rest = shown.partition(" ")  # "arm (autopilot says: …)": only the phase shouts
+    text.append(f" {word.upper()}{' ' + rest if rest else ''} ", style="bold reverse")
     if info is None:
         return text
     state = f" {info.nav_state}" if info.nav_state else ""

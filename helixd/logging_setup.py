@@ -124,12 +124,14 @@ def _flat_items(prefix: str, value: Any) -> list[tuple[str, Any]]:
 
 
 def _flatten_dicts(_: WrappedLogger, __: str, event_dict: EventDict) -> EventDict:
-    """Console only (after the JSON tee): dict values become dotted keys, no Python repr."""
-    if not any(isinstance(v, dict) for v in event_dict.values()):
+    """Console only (after the JSON tee): dict values become dotted keys and lists ``[a,b]``,
+    as in the logfmt lines, instead of Python reprs."""
+    if not any(isinstance(v, dict | list | tuple) for v in event_dict.values()):
         return event_dict
     flat: EventDict = {}
     for k, v in event_dict.items():
-        flat.update(_flat_items(str(k), v))
+        for fk, fv in _flat_items(str(k), v):
+            flat[fk] = _logfmt_value(fv) if isinstance(fv, list | tuple) else fv
     return flat
 
 

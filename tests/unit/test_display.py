@@ -16,6 +16,7 @@ from helixd.display import (
     AutopilotElapsed,
     ProgressDisplay,
     ProgressInfo,
+    progress_fields,
     progress_line,
     result_line,
     summary_rows,
@@ -290,3 +291,14 @@ def test_one_result_event_on_a_terminal_too_and_the_table() -> None:
     assert log_out.getvalue().count("event=result") == 1
     assert "flight_autopilot_s=72.0 flight_wall_s=18.0 run_wall_s=30.0" in log_out.getvalue()
     assert "helixd run result" in buf.getvalue()
+
+
+def test_no_negative_zero_and_only_the_phase_word_shouts() -> None:
+    line = progress_line("fly", info(0, heading_error_deg=-0.3, speed_mps=-0.001)).plain
+    assert "hdg +0°" in line and "-0" not in line
+    assert progress_fields("fly", info(0, heading_error_deg=-0.01))["heading_error_deg"] == 0.0
+    assert str(progress_fields("fly", info(0, heading_error_deg=-0.01))["heading_error_deg"]) == (
+        "0.0"
+    )
+    text = progress_line("arm (autopilot says: PreArm: waiting for home)", None).plain
+    assert text == " ARM (autopilot says: PreArm: waiting for home) "

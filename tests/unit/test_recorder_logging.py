@@ -136,3 +136,11 @@ def test_console_renderer_flattens_dicts_too() -> None:
     structlog.get_logger("t").info("link_closed", stats={"rx_messages": 5})
     text = out.getvalue()
     assert "stats.rx_messages" in text and "{'" not in text
+
+
+def test_console_renderer_writes_lists_without_python_repr() -> None:
+    out = io.StringIO()
+    configure_logging(tty=True, stream=out)
+    structlog.get_logger("t").info("sim_started", links=["udpin:1.2.3.4:5"], local=("h", 0))
+    text = out.getvalue()
+    assert "[udpin:1.2.3.4:5]" in text and "['" not in text and "('" not in text
