@@ -228,3 +228,17 @@ async def test_unwritable_recorder_refusal_ends_with_a_result(tmp_path: Path) ->
     last = outcome.messages[-1]
     assert last.startswith("helixd: RESULT refused recorder: flight recorder cannot write")
     assert last.endswith("not flown, exit 3")
+
+
+def test_fault_ends_with_a_plain_fault_result_line(tmp_path: Path) -> None:
+    """A watchdog fault (stale pose) ends with scrolls stopped — and the operator reads it in
+    one line: ``helixd: RESULT fault pose_stale: … exit 4``."""
+    with sim_and_daemon(tmp_path, "square") as (server, d):
+        wait_moving(server)
+        server.inject("stale_pose", duration_s=30.0 * SPEEDUP)
+        server.wait_for(secured, 10.0)
+        assert d.wait_exit(20.0) == ExitCode.FAULT
+        result = d.wait_line("helixd: RESULT", 5.0)
+    assert result.startswith("helixd: RESULT fault pose_stale: ")
+    assert "/4 waypoints, " in result and " s autopilot time (" in result
+    assert result.endswith(" s wall), exit 4")
