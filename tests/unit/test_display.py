@@ -9,6 +9,8 @@ from collections.abc import Iterator
 
 import pytest
 import structlog
+from hypothesis import given
+from hypothesis import strategies as st
 from rich.console import Console
 
 from helixd import logging_setup
@@ -302,3 +304,17 @@ def test_no_negative_zero_and_only_the_phase_word_shouts() -> None:
     )
     text = progress_line("arm (autopilot says: PreArm: waiting for home)", None).plain
     assert text == " ARM (autopilot says: PreArm: waiting for home) "
+
+
+@given(
+    st.text(max_size=400),
+    st.sampled_from(list(ExitCode)),
+    st.integers(min_value=0, max_value=30),
+)
+def test_result_line_is_one_greppable_line_for_any_cause(
+    fault: str, code: ExitCode, rows: int
+) -> None:
+    line = result_line(_summary(code, fault or None, rows))
+    assert line.startswith("helixd: RESULT ") and line.endswith(f"exit {int(code)}")
+    assert len(line.splitlines()) == 1 and "\n" not in line and "\r" not in line
+    assert len(line) <= 300

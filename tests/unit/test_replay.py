@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import itertools
 import math
 import re
 from collections.abc import Iterator
@@ -11,11 +12,13 @@ from pathlib import Path
 import pytest
 import structlog
 import typer
+from hypothesis import given
+from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from helixd import logging_setup
 from helixd.recorder import command
-from helixd.recorder.clocks import ClockMap
+from helixd.recorder.clocks import ClockMap, autopilot_axis_s
 from helixd.recorder.events import read_events, timeline
 from helixd.recorder.rows import COLUMNS
 from tests.unit.test_recorder import synth_run
@@ -145,3 +148,26 @@ def test_replay_of_a_run_refused_before_flight(tmp_path: Path, app: typer.Typer)
     assert "wall clock (s) since the run started; no control step was recorded" in out
     started = next(ln for ln in out.splitlines() if " run_started " in ln)
     assert started.split()[:2] == ["-", "0.000"]
+
+
+_times = st.floats(min_value=-1e9, max_value=1e9) | st.sampled_from([math.nan, math.inf, -math.inf])
+
+
+@given(st.lists(st.tuples(_times, _times), max_size=40), st.lists(_times, max_size=10))
+def test_clock_map_is_total_and_monotonic_on_any_input(
+    rows: list[tuple[float, float]], queries: list[float]
+) -> None:
+    cm = ClockMap([m for m, _ in rows], [b for _, b in rows])
+    axis = autopilot_axis_s([b for _, b in rows], [m for m, _ in rows])
+    if axis is not None:
+        assert all(math.isfinite(a) for a in axis)
+        assert all(b >= a for a, b in itertools.pairwise(axis))
+    finite = sorted(q for q in queries if math.isfinite(q))
+    mapped = [cm.autopilot_s(q) for q in finite]
+    if cm.has_rows and cm.has_autopilot:
+        values = [v for v in mapped if v is not None]
+        assert len(values) == len(finite)
+        assert all(b >= a - 1e-6 * max(1.0, abs(a)) for a, b in itertools.pairwise(values))
+    for q in queries:
+        if not math.isfinite(q):
+            assert cm.autopilot_s(q) is None
