@@ -211,6 +211,13 @@ def _opt_round(value: float | None, digits: int) -> float | None:
     return None if value is None else _round(value, digits)
 
 
+def exit_result_line(code: ExitCode, cause: str | None = None) -> str:
+    """The result line for an exit with no run behind it (e.g. a usage error in the CLI):
+    ``helixd: RESULT usage-error mission.yaml: … — not flown, exit 2``."""
+    word = RESULT_WORDS.get(int(code), "exit")
+    return f"{RESULT_PREFIX} {word}{_cause_text(cause)} — not flown, exit {int(code)}"
+
+
 def progress_fields(phase: str, info: ProgressInfo | None) -> dict[str, object]:
     """The ``progress`` event's fields (also what the live line shows)."""
     if info is None:
@@ -394,6 +401,7 @@ __all__ = [
     "AutopilotElapsed",
     "ProgressDisplay",
     "ProgressInfo",
+    "exit_result_line",
     "progress_fields",
     "result_line",
     "summary_rows",

@@ -18,6 +18,7 @@ from helixd.display import (
     AutopilotElapsed,
     ProgressDisplay,
     ProgressInfo,
+    exit_result_line,
     progress_fields,
     progress_line,
     result_line,
@@ -318,3 +319,10 @@ def test_result_line_is_one_greppable_line_for_any_cause(
     assert line.startswith("helixd: RESULT ") and line.endswith(f"exit {int(code)}")
     assert len(line.splitlines()) == 1 and "\n" not in line and "\r" not in line
     assert len(line) <= 300
+
+
+def test_exit_result_line_without_a_run() -> None:
+    line = exit_result_line(ExitCode.USAGE, "mission.yaml: waypoints: field required")
+    assert line == (
+        "helixd: RESULT usage-error mission.yaml: waypoints: field required — not flown, exit 2"
+    )
