@@ -25,7 +25,7 @@ from helixd import __version__
 from helixd.actuators import make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
-from helixd.display import ProgressDisplay
+from helixd.display import ProgressDisplay, result_line
 from helixd.exitcodes import ExitCode
 from helixd.flight import MANUAL_MODE, FlightLoop
 from helixd.frames import MissionFrame, NedPose
@@ -87,7 +87,10 @@ class RunOutcome:
 async def phase(
     name: str, notifier: ServiceNotifier, display: ProgressDisplay
 ) -> AsyncIterator[None]:
-    """Log a phase's start and end with its duration; tell systemd and the operator."""
+    """Log a phase's start and end with its duration; tell systemd and the operator.
+
+    ``phase_start`` is the one log event for entering a phase (the display only redraws).
+    """
     t0 = time.monotonic()
     log.info("phase_start", phase=name)
     notifier.status(f"phase: {name}")
@@ -95,9 +98,9 @@ async def phase(
     try:
         yield
     except BaseException:
-        log.info("phase_end", phase=name, ok=False, duration_s=round(time.monotonic() - t0, 3))
+        log.info("phase_end", phase=name, ok=False, duration_wall_s=round(time.monotonic() - t0, 3))
         raise
-    log.info("phase_end", phase=name, ok=True, duration_s=round(time.monotonic() - t0, 3))
+    log.info("phase_end", phase=name, ok=True, duration_wall_s=round(time.monotonic() - t0, 3))
 
 
 class MissionRunner:
@@ -155,8 +158,7 @@ class MissionRunner:
             # goes out before anything else.
             self.sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
             await self.sink.start()
-        granted = await ap.request_streams()
-        log.info("streams_granted", rates_hz=granted)
+        await ap.request_streams()  # logs ``streams_granted`` itself
         return ap
 
     async def _preflight(self, ap: Autopilot) -> tuple[NedPose, tuple[float, float] | None]:
@@ -351,6 +353,14 @@ class MissionRunner:
         install(loop, self.stop)
         try:
             return await self._run()
+        except Exception as exc:  # escaped the shutdown path itself: still end with a result
+            log.exception("internal_error")
+            fault = f"{FaultCause.EXCEPTION.value}: {type(exc).__name__}: {exc}"
+            summary = self._build_summary(fault, ExitCode.INTERNAL_ERROR, None)
+            run_dir = self.recorder.run_dir if self.recorder else None
+            return RunOutcome(
+                ExitCode.INTERNAL_ERROR, summary, run_dir, [*self.messages, result_line(summary)]
+            )
         finally:
             uninstall(loop)
             self.display.close()
@@ -366,7 +376,8 @@ class MissionRunner:
                 now_utc=datetime.now(UTC),
             )
         except RecorderUnavailable as exc:
-            return RunOutcome(ExitCode.PREFLIGHT, None, None, [str(exc)])
+            summary = self._build_summary(f"recorder: {exc}", ExitCode.PREFLIGHT, None)
+            return RunOutcome(ExitCode.PREFLIGHT, None, None, [str(exc), result_line(summary)])
         log.info(
             "helixd_start",
             version=__version__,
@@ -435,7 +446,10 @@ class MissionRunner:
             await self._shutdown(fault, detected_s, last_pose, code)
         summary = self._finish(fault, code, started)
         return RunOutcome(
-            code, summary, self.recorder.run_dir if self.recorder else None, self.messages
+            code,
+            summary,
+            self.recorder.run_dir if self.recorder else None,
+            [*self.messages, result_line(summary)],  # the plain result line comes last
         )
 
     async def _shutdown(
@@ -472,35 +486,54 @@ class MissionRunner:
             log.exception("close_failed")
         self.notifier.close()
 
-    def _finish(self, fault: Fault | None, code: ExitCode, started: float) -> RunSummary:
-        summary = self.summary.build(
+    def _build_summary(
+        self, fault: str | None, code: ExitCode, wall_duration_s: float | None
+    ) -> RunSummary:
+        return self.summary.build(
             completed=code is ExitCode.OK,
-            fault=None if fault is None else f"{fault.cause.value}: {fault.detail}",
+            fault=fault,
             exit_code=int(code),
             mission_name=self.opts.mission.name,
             mode=self.opts.mission.mode.value,
             waypoints_total=len(self.opts.mission.waypoints),
-            wall_duration_s=time.monotonic() - started,
+            wall_duration_s=wall_duration_s,
         )
+
+    def _finish(self, fault: Fault | None, code: ExitCode, started: float) -> RunSummary:
+        summary = self._build_summary(
+            None if fault is None else f"{fault.cause.value}: {fault.detail}",
+            code,
+            time.monotonic() - started,
+        )
+        run_dir = self.recorder.run_dir if self.recorder else None
+        # the one ``result`` event goes out while events.jsonl is still attached
+        self.display.log_result(summary, run_dir)
         if self.recorder is not None:
             self.recorder.finish(summary)
-        log.info(
-            "helixd_exit", exit_code=int(code), completed=summary.completed, fault=summary.fault
-        )
-        self.display.final(summary, run_dir=self.recorder.run_dir if self.recorder else None)
+        self.display.final(summary, run_dir, log_event=False)
         return summary
 
     # -- loop callbacks (cheap: called at the control rate) --------------------------------------
 
     def _on_row(self, row: FlightRow) -> None:
         self.summary.add(row)
+        self.display.autopilot_time(row.t_boot_s)
         if self.recorder is not None:
             self.recorder.record(row)
 
     def _on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
         self.summary.arrival(index, t_boot_s, error_m)
+        start = self.summary.start_t_boot_s
+        total = len(self.plan.waypoints) if self.plan is not None else 0
         log.info(
-            "waypoint_reached", index=index, t_boot_s=round(t_boot_s, 2), error_m=round(error_m, 3)
+            "waypoint_reached",
+            waypoint=f"{index + 1}/{total}",  # 1-based, as the progress line counts
+            index=index,  # 0-based plan index, as `helixd check` prints
+            elapsed_autopilot_s=(
+                round(t_boot_s - start, 1) if start is not None and t_boot_s >= start else None
+            ),
+            t_boot_s=round(t_boot_s, 2),
+            error_m=round(error_m, 3),
         )
 
     def _on_tick(self) -> None:

@@ -1,10 +1,14 @@
 """What the operator sees during ``helixd run``.
 
-On a terminal: one live ``rich`` line (phase, waypoint i/N, distance to go, speed, heading
-error, link/pose health, elapsed time; 80 columns in the usual case) redrawn at most
-``refresh_hz`` times a second, then a result table. Not on a terminal (systemd/journald):
-the same facts as structured ``progress`` events every ``event_interval_s`` and one
-``result`` event — no escape codes.
+On a terminal: a live ``rich`` line (phase, waypoint i/N, distance to go, speed, heading
+error, link/pose health; under it the mission time on the autopilot's and the wall clock; 80
+columns in the usual case) redrawn at most ``refresh_hz`` times a second, then a result table.
+Not on a terminal (systemd/journald): the same facts as structured ``progress`` events every
+``event_interval_s`` and one ``result`` event — no escape codes. Either way the run ends with
+one plain, greppable line (:func:`result_line`, ``helixd: RESULT …``).
+
+Two clocks, always named: *autopilot time* (the autopilot's ``time_boot_ms``; a simulator
+speed-up makes it run faster than the wall) and *wall time* (the companion's monotonic clock).
 
 Cheap from a 50 Hz loop: :meth:`ProgressDisplay.update` stores the values and returns unless a
 redraw or an event is due (one clock read and a comparison).
@@ -12,6 +16,7 @@ redraw or an event is due (one clock read and a comparison).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -24,12 +29,26 @@ from rich.live import Live
 from rich.table import Table
 from rich.text import Text
 
+from helixd.exitcodes import ExitCode
 from helixd.recorder.summary import RunSummary
 
 log = structlog.get_logger(__name__)
 
 REFRESH_HZ = 4.0  # live line redraws per second, at most
 EVENT_INTERVAL_S = 2.0  # progress events when not on a terminal
+ARRIVALS_LISTED_MAX = 6  # the result table lists each arrival up to this many
+RESULT_PREFIX = "helixd: RESULT"
+RESULT_CAUSE_MAX_CHARS = 160  # a long cause (several preflight problems) is cut in the line
+# the word after RESULT, per exit code: one greppable token
+RESULT_WORDS: dict[int, str] = {
+    ExitCode.OK: "ok",
+    ExitCode.INTERNAL_ERROR: "internal-error",
+    ExitCode.USAGE: "usage-error",
+    ExitCode.PREFLIGHT: "refused",
+    ExitCode.FAULT: "fault",
+    ExitCode.OPERATOR_STOP: "stopped",
+    ExitCode.LINK: "link-failed",
+}
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,13 +60,43 @@ class ProgressInfo:
     heading_error_deg: float
     link_ok: bool
     pose_fresh: bool
-    elapsed_s: float  # since the mission started
+    elapsed_s: float  # wall (companion monotonic) time since the mission started
     phase: str | None = None  # overrides the phase set by ProgressDisplay.phase() when given
     nav_state: str = ""  # navigator state (align, track, …)
+    # autopilot time since the mission started; None: ProgressDisplay fills it from the rows
+    # it was told about (ProgressDisplay.autopilot_time), or it is shown as unknown
+    autopilot_elapsed_s: float | None = None
+
+
+class AutopilotElapsed:
+    """Autopilot time flown so far, from a stream of ``time_boot_ms`` readings (seconds).
+
+    Sums the forward steps of the autopilot clock, so an autopilot reboot (clock steps back)
+    or a non-finite reading neither goes negative nor jumps. Pure; O(1) per reading.
+    """
+
+    def __init__(self) -> None:
+        self._last: float | None = None
+        self.elapsed_s: float | None = None  # None until the first finite reading
+
+    def add(self, t_boot_s: float) -> None:
+        if not math.isfinite(t_boot_s):
+            return
+        if self._last is None:
+            self.elapsed_s = 0.0
+        elif t_boot_s > self._last and self.elapsed_s is not None:
+            self.elapsed_s += t_boot_s - self._last
+        self._last = t_boot_s
 
 
 def _fmt(value: float, spec: str) -> str:
-    return format(value, spec) if math.isfinite(value) else "-"
+    """``spec``-formatted, "-" when not finite; never "-0" (a rounded-away sign)."""
+    if not math.isfinite(value):
+        return "-"
+    text = format(value, spec)
+    if text.lstrip("+-").strip("0.") == "":  # rounds to zero: drop a "-" sign
+        text = format(0.0, spec)
+    return text
 
 
 def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple[str, str]]:
@@ -56,13 +105,23 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
     def metres(v: float | None) -> str:
         return "-" if v is None else f"{v:.2f} m"
 
+    def seconds(v: float | None) -> str:
+        return "-" if v is None or not math.isfinite(v) else f"{v:.1f} s"
+
     rows = [
         ("mission", f"{summary.mission_name} ({summary.mode})"),
         ("result", "completed" if summary.completed else "NOT completed"),
         ("fault", summary.fault or "-"),
         ("exit code", str(summary.exit_code)),
         ("waypoints", f"{summary.waypoints_reached}/{summary.waypoints_total}"),
-        ("duration", f"{summary.duration_s:.1f} s"),
+    ]
+    if summary.duration_clock == "autopilot":
+        rows.append(("flight time (autopilot clock)", seconds(summary.duration_s)))
+    else:
+        rows.append(("flight time (autopilot clock)", "- (autopilot rebooted)"))
+    rows += [
+        ("flight time (wall clock)", seconds(summary.duration_mono_s)),
+        ("whole run (wall clock)", seconds(summary.wall_duration_s)),
         ("path driven", f"{summary.path_length_m:.1f} m"),
         ("cross-track rms", metres(summary.cross_track_rms_m)),
         ("cross-track max", metres(summary.cross_track_max_m)),
@@ -76,9 +135,57 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
 
 
 def _arrivals_text(summary: RunSummary) -> str:
-    if not summary.arrivals:
+    """``#0 +17.6 s (0.99 m)``: plan index, autopilot time since the first step, error.
+
+    More than :data:`ARRIVALS_LISTED_MAX` (a 25-point circle) are condensed to one line.
+    """
+    arrivals = summary.arrivals
+    if not arrivals:
         return "-"
-    return ", ".join(f"#{a.index} ({a.error_m:.2f} m)" for a in summary.arrivals)
+    t0 = summary.start_t_boot_s
+    clock = "" if t0 is None else " (autopilot clock)"
+
+    def one(index: int, t_boot_s: float, error_m: float) -> str:
+        when = "" if t0 is None or t_boot_s < t0 else f" +{t_boot_s - t0:.1f} s"
+        return f"#{index}{when} ({error_m:.2f} m)"
+
+    if len(arrivals) > ARRIVALS_LISTED_MAX:
+        errors = [a.error_m for a in arrivals]
+        last = arrivals[-1]
+        return (
+            f"{len(arrivals)} waypoints, error {min(errors):.2f}–{max(errors):.2f} m, "
+            f"last {one(last.index, last.t_boot_s, last.error_m)}{clock}; each in summary.json"
+        )
+    return ", ".join(one(a.index, a.t_boot_s, a.error_m) for a in arrivals) + clock
+
+
+def _cause_text(fault: str | None) -> str:
+    if not fault:
+        return ""
+    one_line = " ".join(fault.split())
+    if len(one_line) > RESULT_CAUSE_MAX_CHARS:
+        one_line = one_line[: RESULT_CAUSE_MAX_CHARS - 1] + "…"
+    return " " + one_line
+
+
+def result_line(summary: RunSummary) -> str:
+    """The run's outcome as ONE plain line, on a terminal or not, for every exit path.
+
+    ``helixd: RESULT ok — 4/4 waypoints, 72.3 s autopilot time (18.1 s wall), exit 0``
+    ``helixd: RESULT fault pose_stale: … — 2/4 waypoints, 30.0 s autopilot time (7.5 s wall),
+    exit 4``. The word after RESULT depends on the exit code only (:data:`RESULT_WORDS`).
+    """
+    code = summary.exit_code
+    word = RESULT_WORDS.get(code, "exit")
+    done = f"{summary.waypoints_reached}/{summary.waypoints_total} waypoints"
+    wall = summary.duration_mono_s
+    if summary.rows == 0 or wall is None:
+        times = "not flown"
+    elif summary.duration_clock == "autopilot":
+        times = f"{summary.duration_s:.1f} s autopilot time ({wall:.1f} s wall)"
+    else:
+        times = f"{wall:.1f} s wall (autopilot clock reset: rebooted)"
+    return f"{RESULT_PREFIX} {word}{_cause_text(summary.fault)} — {done}, {times}, exit {code}"
 
 
 def summary_table(summary: RunSummary, run_dir: Path | None = None) -> Table:
@@ -97,13 +204,25 @@ def summary_table(summary: RunSummary, run_dir: Path | None = None) -> Table:
 
 
 def _round(value: float, digits: int) -> float | None:
-    return round(value, digits) if math.isfinite(value) else None
+    return round(value, digits) + 0.0 if math.isfinite(value) else None  # + 0.0: no -0.0
+
+
+def _opt_round(value: float | None, digits: int) -> float | None:
+    return None if value is None else _round(value, digits)
+
+
+def exit_result_line(code: ExitCode, cause: str | None = None) -> str:
+    """The result line for an exit with no run behind it (e.g. a usage error in the CLI):
+    ``helixd: RESULT usage-error mission.yaml: … — not flown, exit 2``."""
+    word = RESULT_WORDS.get(int(code), "exit")
+    return f"{RESULT_PREFIX} {word}{_cause_text(cause)} — not flown, exit {int(code)}"
 
 
 def progress_fields(phase: str, info: ProgressInfo | None) -> dict[str, object]:
     """The ``progress`` event's fields (also what the live line shows)."""
     if info is None:
         return {"phase": phase}
+    ap = info.autopilot_elapsed_s
     return {
         "phase": info.phase or phase,
         "nav_state": info.nav_state or None,
@@ -113,14 +232,16 @@ def progress_fields(phase: str, info: ProgressInfo | None) -> dict[str, object]:
         "heading_error_deg": _round(info.heading_error_deg, 1),
         "link_ok": info.link_ok,
         "pose_fresh": info.pose_fresh,
-        "elapsed_s": round(info.elapsed_s, 1),
+        "elapsed_autopilot_s": None if ap is None else _round(ap, 1),
+        "elapsed_wall_s": _round(info.elapsed_s, 1),
     }
 
 
 def progress_line(phase: str, info: ProgressInfo | None) -> Text:
     text = Text()
     shown = (info.phase if info is not None and info.phase else None) or phase
-    text.append(f" {shown.upper()} ", style="bold reverse")
+    word, _, rest = shown.partition(" ")  # "arm (autopilot says: …)": only the phase shouts
+    text.append(f" {word.upper()}{' ' + rest if rest else ''} ", style="bold reverse")
     if info is None:
         return text
     state = f" {info.nav_state}" if info.nav_state else ""
@@ -134,7 +255,12 @@ def progress_line(phase: str, info: ProgressInfo | None) -> Text:
     text.append(
         "OK" if info.pose_fresh else "STALE", style="green" if info.pose_fresh else "bold red"
     )
-    text.append(f"  {info.elapsed_s:.0f} s")
+    ap = info.autopilot_elapsed_s
+    ap_text = "-" if ap is None else _fmt(ap, ".0f")
+    # a second line: both clocks named, without pushing the first line past 80 columns
+    text.append(
+        f"\n  mission time: {ap_text} s autopilot clock, {_fmt(info.elapsed_s, '.0f')} s wall"
+    )
     return text
 
 
@@ -158,17 +284,24 @@ class ProgressDisplay:
         self._info: ProgressInfo | None = None
         self._last_out_s = -math.inf
         self._live: Live | None = None
+        self._autopilot = AutopilotElapsed()
         self.outputs = 0  # redraws (tty) or progress events (not a tty) so far
 
     def phase(self, name: str) -> None:
-        """The daemon entered a phase (connect, preflight, arm, run, stop, …)."""
+        """The daemon entered a phase (connect, preflight, arm, run, stop, …).
+
+        Redraws the live line on a terminal. Not on a terminal it logs nothing: the daemon's
+        ``phase_start``/``phase_end`` events already say it (one line per event, not two).
+        """
         if name == self._phase:
             return
         self._phase = name
         if self._tty:
             self._redraw(self._clock())
-        else:
-            log.info("phase", phase=name)
+
+    def autopilot_time(self, t_boot_s: float) -> None:
+        """The autopilot clock of the latest control step (s), for the elapsed-time display."""
+        self._autopilot.add(t_boot_s)
 
     def update(self, info: ProgressInfo) -> None:
         """New values; output only when a redraw (≤ refresh_hz) or an event is due."""
@@ -181,36 +314,61 @@ class ProgressDisplay:
         else:
             self._last_out_s = now
             self.outputs += 1
-            log.info("progress", **progress_fields(self._phase, info))
+            log.info("progress", **progress_fields(self._phase, self._shown()))
 
-    def final(self, summary: RunSummary, run_dir: Path | None = None) -> None:
-        """Show the result: a table on a terminal, one ``result`` event otherwise."""
+    def final(
+        self, summary: RunSummary, run_dir: Path | None = None, *, log_event: bool = True
+    ) -> None:
+        """The run is over: log the one ``result`` event (``log_event``; see
+        :meth:`log_result`) and, on a terminal, show the result table.
+
+        (The plain :func:`result_line` is the caller's to print last, after every other line.)
+        """
         self.close()
+        if log_event:
+            self.log_result(summary, run_dir)
         if self._tty:
             self._get_console().print(summary_table(summary, run_dir))
-        else:
-            log.info(
-                "result",
-                mission=summary.mission_name,
-                mode=summary.mode,
-                completed=summary.completed,
-                fault=summary.fault,
-                exit_code=summary.exit_code,
-                waypoints=f"{summary.waypoints_reached}/{summary.waypoints_total}",
-                duration_s=round(summary.duration_s, 1),
-                path_length_m=round(summary.path_length_m, 2),
-                cross_track_rms_m=summary.cross_track_rms_m,
-                cross_track_max_m=summary.cross_track_max_m,
-                final_error_m=summary.final_error_m,
-                run_dir=None if run_dir is None else str(run_dir),
-            )
+
+    def log_result(self, summary: RunSummary, run_dir: Path | None = None) -> None:
+        """The ``result`` event: outcome, both clocks, accuracy (on a terminal and not)."""
+        on_ap = summary.duration_clock == "autopilot" and summary.rows > 0
+        wall = summary.duration_mono_s
+        log.info(
+            "result",
+            mission=summary.mission_name,
+            mode=summary.mode,
+            completed=summary.completed,
+            fault=summary.fault,
+            exit_code=summary.exit_code,
+            waypoints=f"{summary.waypoints_reached}/{summary.waypoints_total}",
+            flight_autopilot_s=round(summary.duration_s, 1) if on_ap else None,
+            flight_wall_s=None if wall is None else round(wall, 1),
+            run_wall_s=(
+                None if summary.wall_duration_s is None else round(summary.wall_duration_s, 1)
+            ),
+            path_length_m=round(summary.path_length_m, 2),
+            cross_track_rms_m=_opt_round(summary.cross_track_rms_m, 3),
+            cross_track_max_m=_opt_round(summary.cross_track_max_m, 3),
+            final_error_m=_opt_round(summary.final_error_m, 3),
+            run_dir=None if run_dir is None else str(run_dir),
+        )
 
     def close(self) -> None:
         """Stop the live line (leaves its last state on screen). Idempotent."""
         live, self._live = self._live, None
         if live is not None:
-            live.update(progress_line(self._phase, self._info), refresh=True)
+            live.update(progress_line(self._phase, self._shown()), refresh=True)
             live.stop()
+
+    def _shown(self) -> ProgressInfo | None:
+        """The latest values, the autopilot clock filled in from the rows (only when drawn)."""
+        info = self._info
+        if info is None or info.autopilot_elapsed_s is not None:
+            return info
+        if self._autopilot.elapsed_s is None:
+            return info
+        return dataclasses.replace(info, autopilot_elapsed_s=self._autopilot.elapsed_s)
 
     def _get_console(self) -> Console:
         if self._console is None:
@@ -220,7 +378,7 @@ class ProgressDisplay:
     def _redraw(self, now: float) -> None:
         self._last_out_s = now
         self.outputs += 1
-        line = progress_line(self._phase, self._info)
+        line = progress_line(self._phase, self._shown())
         if self._live is None:
             self._live = Live(
                 line, console=self._get_console(), auto_refresh=False, transient=False
@@ -239,9 +397,13 @@ class ProgressDisplay:
 __all__ = [
     "EVENT_INTERVAL_S",
     "REFRESH_HZ",
+    "RESULT_PREFIX",
+    "AutopilotElapsed",
     "ProgressDisplay",
     "ProgressInfo",
+    "exit_result_line",
     "progress_fields",
+    "result_line",
     "summary_rows",
     "summary_table",
 ]

@@ -102,19 +102,51 @@ def _logfmt_value(value: Any) -> str:
         return "true" if value else "false"
     if isinstance(value, float):
         return repr(round(value, 6))
+    if isinstance(value, list | tuple):
+        # ``[1,2,3]`` rather than Python's ``"[1, 2, 3]"`` (dicts are flattened by the caller)
+        value = "[" + ",".join(_logfmt_value(v) for v in value) + "]"
     text = _escape(value if isinstance(value, str) else str(value))
     if text == "" or any(c in text for c in ' ="'):
         return '"' + text.replace('"', '\\"') + '"'
     return text
 
 
+def _flat_items(prefix: str, value: Any) -> list[tuple[str, Any]]:
+    """``stats={"rx": 5}`` → ``stats.rx=5`` (nested dicts too), everything else as is."""
+    if not isinstance(value, dict):
+        return [(prefix, value)]
+    if not value:
+        return [(prefix, "{}")]
+    out: list[tuple[str, Any]] = []
+    for k, v in value.items():
+        out += _flat_items(f"{prefix}.{k}", v)
+    return out
+
+
+def _flatten_dicts(_: WrappedLogger, __: str, event_dict: EventDict) -> EventDict:
+    """Console only (after the JSON tee): dict values become dotted keys and lists ``[a,b]``,
+    as in the logfmt lines, instead of Python reprs."""
+    if not any(isinstance(v, dict | list | tuple) for v in event_dict.values()):
+        return event_dict
+    flat: EventDict = {}
+    for k, v in event_dict.items():
+        for fk, fv in _flat_items(str(k), v):
+            flat[fk] = _logfmt_value(fv) if isinstance(fv, list | tuple) else fv
+    return flat
+
+
 def render_logfmt(_: WrappedLogger, __: str, event_dict: EventDict) -> str:
-    """One line, ``ts=… level=… event=… k=v``; control characters escaped, no ANSI codes."""
+    """One line, ``ts=… level=… event=… k=v``; control characters escaped, no ANSI codes.
+
+    Dict values are flattened to dotted keys (``stats.rx_messages=10059``), lists and tuples
+    written as ``[a,b]``, so no line carries a Python repr.
+    """
     parts = [f"{k}={_logfmt_value(event_dict[k])}" for k in LOGFMT_HEAD if k in event_dict]
     parts += [
-        f"{_escape(str(k))}={_logfmt_value(v)}"
+        f"{_escape(str(fk))}={_logfmt_value(fv)}"
         for k, v in event_dict.items()
         if k not in LOGFMT_HEAD
+        for fk, fv in _flat_items(str(k), v)
     ]
     return " ".join(parts)
 
@@ -288,6 +320,7 @@ def configure_logging(
     ]
     if tty:
         processors += [
+            _flatten_dicts,
             _short_ts,
             structlog.dev.ConsoleRenderer(
                 colors=True,

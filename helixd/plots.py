@@ -3,8 +3,13 @@
 (a) trajectory in the mission frame against the planned path, waypoints numbered with their
 tolerance circles; (b) x, y and yaw against time; (c) commanded and measured velocities;
 (d) distance, cross-track and heading errors; (e) scroll commands in % of max RPM.
-Waypoint arrivals are dotted vertical markers, a fault is marked in red, intervals with the
-link or the pose lost are shaded. One PNG per panel plus ``overview.png``.
+Waypoint arrivals are dotted vertical markers (labelled sparsely, so a 25-point circle stays
+readable), a fault is marked in red, intervals with the link or the pose lost are shaded.
+Legends sit outside the data. One PNG per panel plus ``overview.png``.
+
+Time axes run on the autopilot's clock (``t_boot_s``, seconds since the first control step),
+the same clock as the result's flight time; the wall clock (``t_mono_s``) is a second axis on
+top — they differ under a simulator speed-up. Without autopilot times the wall clock is used.
 
 Uses matplotlib's Agg backend through the object API (no pyplot state, safe in a daemon).
 """
@@ -30,6 +35,7 @@ from matplotlib.patches import Circle
 
 from helixd.config import ConfigFileError, load_config
 from helixd.mission import MissionFrameKind, PlanError, load_mission, resolve_plan
+from helixd.recorder.clocks import autopilot_axis_s
 from helixd.recorder.events import EVENTS_FILE, fault_time_mono_s, read_events
 from helixd.recorder.rows import read_flight_columns
 from helixd.recorder.rundir import (
@@ -60,6 +66,12 @@ FAULT_COLOR = "red"
 ARRIVAL_STYLE: dict[str, Any] = {"color": "0.45", "linestyle": ":", "linewidth": 1.0}
 LOST_SHADE: dict[str, Any] = {"color": "orange", "alpha": 0.15, "linewidth": 0}
 FAULT_LABEL_MAX_CHARS = 48  # long causes are cut in legends (the summary keeps them whole)
+# waypoint labels on time axes: at least this fraction of the axis width apart
+LABEL_MIN_GAP_PANEL = 0.06
+LABEL_MIN_GAP_OVERVIEW = 0.12
+SAME_POINT_M = 0.05  # waypoints closer than this share one number label on the trajectory
+AUTOPILOT_AXIS_LABEL = "autopilot time since the first control step (s)"
+WALL_AXIS_LABEL = "wall time since the first control step (s)"
 SCROLL_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red")
 SCROLL_STYLES = ("-", "--", "-", "--")  # paired scrolls overlap: keep both visible
 
@@ -76,7 +88,9 @@ class RunData:
 
     name: str
     cols: dict[str, npt.NDArray[Any]]
-    t_s: Array  # seconds since the first row (monotonic)
+    t_s: Array  # time axis: autopilot time since the first row (wall time if none recorded)
+    wall_s: Array  # companion monotonic (wall) time since the first row
+    on_autopilot_clock: bool  # t_s is autopilot time (False: it is the wall clock)
     summary: RunSummary | None
     waypoints: list[tuple[float, float, float]]  # x_m, y_m, tolerance_m
     path_start: tuple[float, float] | None
@@ -85,6 +99,18 @@ class RunData:
     fault_t_s: float | None
     clamp_pct: float | None
     notes: list[str] = field(default_factory=list)
+
+    @property
+    def time_label(self) -> str:
+        return AUTOPILOT_AXIS_LABEL if self.on_autopilot_clock else WALL_AXIS_LABEL
+
+    def wall_at(self, t_s: npt.ArrayLike) -> Array:
+        """Wall time at axis times ``t_s`` (linear beyond the recorded span)."""
+        return interp_linear(t_s, self.t_s, self.wall_s)
+
+    def axis_at_wall(self, wall_s: npt.ArrayLike) -> Array:
+        """Axis time at wall times ``wall_s`` (linear beyond the recorded span)."""
+        return interp_linear(wall_s, self.wall_s, self.t_s)
 
     def col(self, name: str) -> Array:
         values = self.cols.get(name)
@@ -105,6 +131,62 @@ class RunData:
 
 
 # ---------------------------------------------------------------------------------------------
+# Clocks (pure)
+
+
+def autopilot_axis(t_boot_s: Array, t_mono_s: Array) -> Array | None:
+    """Autopilot time since the first row (see :func:`helixd.recorder.clocks.autopilot_axis_s`);
+    None without autopilot times."""
+    axis = autopilot_axis_s([float(t) for t in t_boot_s], [float(t) for t in t_mono_s])
+    return None if axis is None else np.asarray(axis, dtype=np.float64)
+
+
+def interp_linear(x_in: npt.ArrayLike, xp: Array, fp: Array) -> Array:
+    """``np.interp`` with straight-line extension beyond ``xp`` (secondary axes need it)."""
+    x = np.atleast_1d(np.asarray(x_in, dtype=np.float64))
+    if xp.size == 0:
+        return x.copy()
+    span_x = float(xp[-1] - xp[0])
+    slope = float(fp[-1] - fp[0]) / span_x if span_x > 0 else 1.0
+    slope = slope if math.isfinite(slope) and slope > 0 else 1.0
+    out = np.interp(x, xp, fp)
+    lo, hi = x < xp[0], x > xp[-1]
+    out[lo] = fp[0] + (x[lo] - xp[0]) * slope
+    out[hi] = fp[-1] + (x[hi] - xp[-1]) * slope
+    return out
+
+
+def waypoint_labels(
+    points_m: list[tuple[float, float]], same_m: float = SAME_POINT_M
+) -> list[tuple[str, tuple[float, float]]]:
+    """One label per distinct point: waypoints closer than ``same_m`` share it (``0,24``: a
+    closed circle's first and last point), instead of printing numbers on top of each other."""
+    groups: list[tuple[list[int], tuple[float, float]]] = []
+    for i, (x, y) in enumerate(points_m):
+        for members, (gx, gy) in groups:
+            if math.hypot(x - gx, y - gy) < same_m:
+                members.append(i)
+                break
+        else:
+            groups.append(([i], (x, y)))
+    return [(",".join(str(i) for i in members), xy) for members, xy in groups]
+
+
+def sparse_label_mask(times_s: list[float], span_s: float, min_gap_frac: float) -> list[bool]:
+    """Which time markers get a text label: greedily, each at least ``min_gap_frac`` of the
+    axis span after the previous labelled one (the first always; the last if it fits)."""
+    gap = max(span_s, 0.0) * min_gap_frac
+    mask: list[bool] = []
+    last: float | None = None
+    for t in times_s:
+        ok = last is None or (math.isfinite(t) and t - last >= gap)
+        mask.append(ok)
+        if ok and math.isfinite(t):
+            last = t
+    return mask
+
+
+# ---------------------------------------------------------------------------------------------
 # Loading
 
 
@@ -120,8 +202,10 @@ def load_run(run_dir: Path) -> RunData:
     summary = _load_summary(run_dir / SUMMARY_FILE)
     notes: list[str] = []
     waypoints, start = _load_plan(run_dir, summary, cols, notes)
-    t_boot = np.asarray(cols.get("t_boot_s", t_mono), dtype=np.float64)
-    t_s = t_mono - t0
+    t_boot = np.asarray(cols.get("t_boot_s", np.full(t_mono.shape, np.nan)), dtype=np.float64)
+    wall_s = t_mono - t0
+    ap = autopilot_axis(t_boot, t_mono)
+    t_s = wall_s if ap is None else ap
     arrivals = []
     for arr in summary.arrivals if summary else ():
         idx = int(np.nanargmin(np.abs(t_boot - arr.t_boot_s))) if np.isfinite(t_boot).any() else 0
@@ -130,11 +214,14 @@ def load_run(run_dir: Path) -> RunData:
     fault_t: float | None = None
     if fault is not None:
         mono = fault_time_mono_s(read_events(run_dir / EVENTS_FILE), fault)
-        fault_t = float(t_s[-1]) if mono is None else mono - t0
+        fault_wall = float(wall_s[-1]) if mono is None else mono - t0
+        fault_t = float(interp_linear(np.array([fault_wall]), wall_s, t_s)[0])
     return RunData(
         name=summary.mission_name if summary else run_dir.name,
         cols=cols,
         t_s=t_s,
+        wall_s=wall_s,
+        on_autopilot_clock=ap is not None,
         summary=summary,
         waypoints=waypoints,
         path_start=start,
@@ -218,10 +305,14 @@ def _lost_intervals(data: RunData) -> list[tuple[float, float]]:
     return spans
 
 
-def _time_markers(ax: Axes, data: RunData, *, labels: bool) -> None:
+def _time_markers(
+    ax: Axes, data: RunData, *, labels: bool, min_gap_frac: float = LABEL_MIN_GAP_PANEL
+) -> None:
+    span = float(data.t_s[-1] - data.t_s[0]) if data.t_s.size else 0.0
+    show = sparse_label_mask([t for _, t in data.arrivals], span, min_gap_frac)
     for k, (index, t) in enumerate(data.arrivals):
         ax.axvline(t, **ARRIVAL_STYLE, label="waypoint reached" if k == 0 and labels else None)
-        if labels:
+        if labels and show[k]:
             ax.text(
                 t,
                 0.99,
@@ -242,22 +333,45 @@ def _time_markers(ax: Axes, data: RunData, *, labels: bool) -> None:
         )
 
 
-def _legend(*axes: Axes) -> None:
+def _legend(*axes: Axes, below: bool = False) -> None:
+    """One legend for ``axes``, outside the data: right of the axes, or ``below`` them (the
+    overview's cells, whose right side holds a twin y axis)."""
     handles: list[Any] = []
     names: list[str] = []
     for ax in axes:
         h, n = ax.get_legend_handles_labels()
         handles += h
         names += n
-    if handles:
-        axes[0].legend(handles, names, loc="best", fontsize=8)
+    if not handles:
+        return
+    if below:
+        axes[0].legend(
+            handles,
+            names,
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.16),
+            ncol=3,
+            fontsize=7,
+            frameon=False,
+        )
+    else:
+        axes[0].legend(handles, names, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+
+
+def _wall_axis(ax: Axes, data: RunData) -> None:
+    """The wall clock as a second time axis on top (only when the main axis is autopilot)."""
+    if not data.on_autopilot_clock:
+        return
+    sec = ax.secondary_xaxis("top", functions=(data.wall_at, data.axis_at_wall))
+    sec.set_xlabel("wall time (s)", fontsize=8)
+    sec.tick_params(labelsize=7)
 
 
 # ---------------------------------------------------------------------------------------------
 # Panels: each draws on axes it is given (a panel figure or a cell of the overview)
 
 
-def draw_trajectory(ax: Axes, data: RunData) -> None:
+def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
     """(a) driven path vs planned path, mission frame, equal axes."""
     x, y = data.col("x_m"), data.col("y_m")
     if data.waypoints and data.path_start is not None:
@@ -274,8 +388,9 @@ def draw_trajectory(ax: Axes, data: RunData) -> None:
             markersize=6,
             label="waypoint (tolerance circle)" if i == 0 else None,
         )
+    for text, (wx, wy) in waypoint_labels([(w[0], w[1]) for w in data.waypoints]):
         ax.annotate(
-            str(i),
+            text,
             (wx, wy),
             textcoords="offset points",
             xytext=(6, 6),
@@ -295,7 +410,7 @@ def draw_trajectory(ax: Axes, data: RunData) -> None:
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
+    _legend(ax, below=overview)
 
 
 def draw_position(top: Axes, bottom: Axes, data: RunData, *, twin: bool = False) -> None:
@@ -336,7 +451,7 @@ def draw_errors(top: Axes, bottom: Axes, data: RunData, *, twin: bool = False) -
     _finish_time_axes(top, bottom, data, twin=twin)
 
 
-def draw_scrolls(ax: Axes, data: RunData) -> None:
+def draw_scrolls(ax: Axes, data: RunData, *, overview: bool = False) -> None:
     """(e) scroll commands, % of max RPM (thesis: 'wheel power')."""
     for i in range(4):
         ax.plot(
@@ -356,24 +471,32 @@ def draw_scrolls(ax: Axes, data: RunData) -> None:
                 label="output clamp" if sign > 0 else None,
             )
     ax.set_ylabel("scroll command (% of max RPM)")
-    _finish_time_axes(ax, None, data)
+    _finish_time_axes(ax, None, data, overview=overview)
 
 
-def _finish_time_axes(top: Axes, bottom: Axes | None, data: RunData, *, twin: bool = False) -> None:
-    """Markers, grids, labels and legends; ``twin``: ``bottom`` is ``top.twinx()``."""
-    _time_markers(top, data, labels=True)
+def _finish_time_axes(
+    top: Axes, bottom: Axes | None, data: RunData, *, twin: bool = False, overview: bool = False
+) -> None:
+    """Markers, grids, clock-named time labels and legends outside the data.
+
+    ``twin``: ``bottom`` is ``top.twinx()`` (the overview's cells); else it is a second row.
+    ``overview``: a cell of the overview (denser labels gap, legend below the cell).
+    """
+    gap = LABEL_MIN_GAP_OVERVIEW if overview or twin else LABEL_MIN_GAP_PANEL
+    _time_markers(top, data, labels=True, min_gap_frac=gap)
+    _wall_axis(top, data)
     if bottom is not None and not twin:
         _time_markers(bottom, data, labels=False)
         bottom.grid(True, alpha=0.3)
-        bottom.set_xlabel("time since start (s)")
+        bottom.set_xlabel(data.time_label)
         _legend(bottom)
-        top.legend(loc="best", fontsize=8)
+        _legend(top)
     else:
-        top.set_xlabel("time since start (s)")
+        top.set_xlabel(data.time_label)
         if bottom is not None:
-            _legend(top, bottom)
+            _legend(top, bottom, below=True)
         else:
-            top.legend(loc="best", fontsize=8)
+            _legend(top, below=overview)
     top.grid(True, alpha=0.3)
 
 
@@ -420,7 +543,7 @@ def _summary_text(data: RunData) -> str:
         f"result    {'completed' if s.completed else 'NOT completed'}  exit {s.exit_code}",
         f"fault     {textwrap.shorten(s.fault or '-', FAULT_LABEL_MAX_CHARS)}",
         f"waypoints {s.waypoints_reached}/{s.waypoints_total}",
-        f"duration  {s.duration_s:.1f} s",
+        f"flight    {_flight_time_text(s)}",
         f"path      {s.path_length_m:.1f} m",
         f"x-track   rms {num(s.cross_track_rms_m, 'm')}  max {num(s.cross_track_max_m, 'm')}",
         f"final err {num(s.final_error_m, 'm')}",
@@ -429,10 +552,17 @@ def _summary_text(data: RunData) -> str:
     return "\n".join(lines)
 
 
+def _flight_time_text(s: RunSummary) -> str:
+    wall = "-" if s.duration_mono_s is None else f"{s.duration_mono_s:.1f} s wall"
+    if s.duration_clock != "autopilot":
+        return f"{wall} (autopilot rebooted)"
+    return f"{s.duration_s:.1f} s autopilot / {wall}"
+
+
 def _overview_figure(data: RunData) -> Figure:
     fig = Figure(figsize=OVERVIEW_SIZE_IN, dpi=DPI, layout="constrained")
     grid = fig.subplots(2, 3)
-    draw_trajectory(grid[0][0], data)
+    draw_trajectory(grid[0][0], data, overview=True)
     grid[0][0].set_title("(a) trajectory")
     for ax, draw, title in (
         (grid[0][1], draw_position, "(b) position / yaw"),
@@ -441,7 +571,7 @@ def _overview_figure(data: RunData) -> Figure:
     ):
         draw(ax, ax.twinx(), data, twin=True)
         ax.set_title(title)
-    draw_scrolls(grid[1][1], data)
+    draw_scrolls(grid[1][1], data, overview=True)
     grid[1][1].set_title("(e) scroll commands")
     text_ax = grid[1][2]
     text_ax.axis("off")
@@ -480,11 +610,16 @@ def render_run(run_dir: Path, out_dir: Path | None = None) -> list[Path]:
 
 
 __all__ = [
+    "AUTOPILOT_AXIS_LABEL",
     "OVERVIEW_SIZE_PX",
     "PANEL_FILES",
     "PANEL_SIZE_PX",
     "PlotError",
     "RunData",
+    "autopilot_axis",
+    "interp_linear",
     "load_run",
     "render_run",
+    "sparse_label_mask",
+    "waypoint_labels",
 ]

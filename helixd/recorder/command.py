@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 from typing import Annotated, TextIO
@@ -13,8 +14,9 @@ from rich.table import Table
 from helixd.display import summary_rows, summary_table
 from helixd.exitcodes import ExitCode
 from helixd.logging_setup import configure_logging
-from helixd.recorder.events import EVENTS_FILE, TimelineEntry, read_events, timeline
-from helixd.recorder.rows import read_flight_csv
+from helixd.recorder.clocks import ClockMap
+from helixd.recorder.events import EVENTS_FILE, read_events, timeline
+from helixd.recorder.rows import Value, read_flight_csv
 from helixd.recorder.rundir import FLIGHT_FILE, SUMMARY_FILE
 from helixd.recorder.summary import RunSummary
 
@@ -48,8 +50,27 @@ def load_summary(run_dir: Path) -> tuple[RunSummary | None, str | None]:
         return None, f"{path}: unreadable ({exc})"
 
 
-def _time_text(entry: TimelineEntry) -> str:
-    return "-" if entry.t_s is None else f"{entry.t_s:9.3f}"
+def _seconds(value: float | None) -> str:
+    return f"{'-':>9}" if value is None else f"{value:9.3f}"
+
+
+def clock_map(rows: list[dict[str, Value]]) -> ClockMap:
+    """Both clocks of ``flight.csv`` rows (missing or non-numeric cells are skipped)."""
+
+    def num(row: dict[str, Value], key: str) -> float:
+        v = row.get(key)
+        return float(v) if isinstance(v, int | float) and not isinstance(v, bool) else math.nan
+
+    return ClockMap([num(r, "t_mono_s") for r in rows], [num(r, "t_boot_s") for r in rows])
+
+
+def _times_note(clocks: ClockMap) -> str:
+    if not clocks.has_rows:
+        return "times: wall clock (s) since the run started; no control step was recorded"
+    note = "times (s) from the first control step, negative before it: autopilot clock, wall clock"
+    if clocks.has_autopilot and abs(clocks.rate - 1.0) > 0.01:
+        note += f" (the autopilot clock ran {clocks.rate:.2f}x the wall clock)"
+    return note
 
 
 def print_replay(
@@ -59,8 +80,12 @@ def print_replay(
     stream = out if out is not None else sys.stdout
     summary, problem = load_summary(run_dir)
     flight = run_dir / FLIGHT_FILE
-    rows = len(read_flight_csv(flight)) if flight.is_file() else 0
-    entries = timeline(read_events(run_dir / EVENTS_FILE), include_periodic=include_periodic)
+    flight_rows = read_flight_csv(flight) if flight.is_file() else []
+    rows = len(flight_rows)
+    clocks = clock_map(flight_rows)
+    entries = timeline(
+        read_events(run_dir / EVENTS_FILE), include_periodic=include_periodic, clocks=clocks
+    )
     if tty:
         console = Console(file=stream)
         if summary is not None:
@@ -68,14 +93,21 @@ def print_replay(
         else:
             console.print(f"[bold red]{problem}[/]")
         console.print(f"flight.csv: {rows} rows")
-        table = Table(title=f"events ({len(entries)})")
-        for name, justify in (("t (s)", "right"), ("level", "left"), ("event", "left")):
+        table = Table(title=f"events ({len(entries)})", caption=_times_note(clocks))
+        for name, justify in (
+            ("autopilot (s)", "right"),
+            ("wall (s)", "right"),
+            ("level", "left"),
+            ("event", "left"),
+        ):
             table.add_column(name, justify=justify)  # type: ignore[arg-type]
         table.add_column("details", overflow="fold")
         for e in entries:
             style = "red" if e.level in ("error", "critical") else None
             style = style or ("yellow" if e.level == "warning" else None)
-            table.add_row(_time_text(e), e.level, e.event, e.fields, style=style)
+            table.add_row(
+                _seconds(e.t_ap_s), _seconds(e.t_s), e.level, e.event, e.fields, style=style
+            )
         console.print(table)
         return
     lines: list[str] = [f"run: {run_dir}"]
@@ -85,8 +117,12 @@ def print_replay(
     else:
         lines.append(f"summary: {problem}")
     lines.append(f"flight.csv: {rows} rows")
-    lines.append(f"events ({len(entries)}):")
-    lines += [f"{_time_text(e)}  {e.level:<8} {e.event}  {e.fields}".rstrip() for e in entries]
+    lines.append(f"events ({len(entries)}); {_times_note(clocks)}:")
+    lines.append(f"{'autopilot':>9} {'wall':>9}  {'level':<8} event  details")
+    lines += [
+        f"{_seconds(e.t_ap_s)} {_seconds(e.t_s)}  {e.level:<8} {e.event}  {e.fields}".rstrip()
+        for e in entries
+    ]
     typer.echo("\n".join(lines), file=stream)
 
 

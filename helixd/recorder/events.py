@@ -11,6 +11,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from helixd.recorder.clocks import ClockMap
+
 EVENTS_FILE = "events.jsonl"
 RUN_STARTED_EVENT = "run_started"
 # Events that mark the moment a fault was detected or acted on (earliest one wins); an event
@@ -73,11 +75,14 @@ def fault_time_mono_s(events: list[Event], fault: str | None) -> float | None:
 
 @dataclass(frozen=True, slots=True)
 class TimelineEntry:
-    t_s: float | None  # seconds since the run started (monotonic), None if unknown
+    # wall (monotonic) seconds since the first control step when a ClockMap with rows was
+    # given, else since the run started; None if unknown
+    t_s: float | None
     ts: str  # ISO-8601 UTC wall clock
     level: str
     event: str
     fields: str  # other keys as compact key=value text
+    t_ap_s: float | None = None  # autopilot seconds since the first control step, if known
 
 
 def _field_text(ev: Event) -> str:
@@ -93,9 +98,14 @@ def _field_text(ev: Event) -> str:
     return joined
 
 
-def timeline(events: list[Event], *, include_periodic: bool = False) -> list[TimelineEntry]:
-    """Events as timeline entries, times relative to the run start."""
+def timeline(
+    events: list[Event], *, include_periodic: bool = False, clocks: ClockMap | None = None
+) -> list[TimelineEntry]:
+    """Events as timeline entries. With ``clocks`` (from ``flight.csv``) the times count from
+    the first control step on both clocks; without, wall time from the run start."""
     t0 = run_start_mono_s(events)
+    if clocks is not None and clocks.zero_mono_s is not None:
+        t0 = clocks.zero_mono_s
     out: list[TimelineEntry] = []
     for ev in events:
         name = str(ev.get("event"))
@@ -109,6 +119,7 @@ def timeline(events: list[Event], *, include_periodic: bool = False) -> list[Tim
                 level=str(ev.get("level", "")),
                 event=name,
                 fields=_field_text(ev),
+                t_ap_s=None if clocks is None or t is None else clocks.autopilot_s(t),
             )
         )
     return out

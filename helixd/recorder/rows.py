@@ -23,7 +23,8 @@ SCHEMA_VERSION = 1
 COMMENT_PREFIX = "#"
 CSV_COMMENT = (
     f"# helixd flight.csv v{SCHEMA_VERSION}; one row per control step. "
-    "Times: t_boot_s = autopilot time since boot (s), t_mono_s = companion monotonic clock (s). "
+    "Times: t_boot_s = autopilot time since boot (s), t_mono_s = companion monotonic clock "
+    "(wall time, s); they differ under a simulator speed-up. "
     "NED pose: north_m/east_m from the EKF origin, yaw_ned_rad clockwise from North. "
     "Mission frame: x_m/y_m/yaw_rad (start frame: x forward, y left of the start pose; "
     "local_ned/global: x East, y North), yaw counter-clockwise. Errors: distance_error_m, "

@@ -7,6 +7,7 @@ loop for hours costs constant memory.
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 from pydantic import Field
 
@@ -38,8 +39,23 @@ class RunSummary(StrictModel):
         description="first to last recorded step on the autopilot's clock (time_boot_ms), so a "
         "simulator speed-up does not shrink it; the monotonic clock if the autopilot rebooted (s)"
     )
+    duration_clock: Literal["autopilot", "monotonic"] = Field(
+        "autopilot",
+        description="clock duration_s was measured on: the autopilot's time_boot_ms, or the "
+        "companion's monotonic clock when the autopilot clock stepped back (reboot)",
+    )
+    duration_mono_s: float | None = Field(
+        None,
+        description="the same first-to-last recorded step on the companion's monotonic (wall) "
+        "clock; differs from duration_s under a simulator speed-up (s)",
+    )
+    start_t_boot_s: float | None = Field(
+        None, description="autopilot time (time_boot_ms) of the first recorded step (s)"
+    )
     wall_duration_s: float | None = Field(
-        None, description="whole run including connect/preflight/stop, if given (s)"
+        None,
+        description="whole run including connect/preflight/stop on the companion's wall "
+        "(monotonic) clock, if given (s)",
     )
     path_length_m: float = Field(description="driven path length from the recorded poses (m)")
     cross_track_rms_m: float | None = Field(description="RMS distance from the planned legs (m)")
@@ -139,6 +155,11 @@ class SummaryBuilder:
             self._arrivals[index] = Arrival(index=index, t_boot_s=t_boot_s, error_m=error_m)
 
     @property
+    def start_t_boot_s(self) -> float | None:
+        """Autopilot time of the first recorded step (s), None before any."""
+        return self._tb_first
+
+    @property
     def waypoints_reached(self) -> int:
         return len(self._arrivals)
 
@@ -154,11 +175,16 @@ class SummaryBuilder:
         wall_duration_s: float | None = None,
     ) -> RunSummary:
         """The summary so far; keyword arguments override the constructor's identity fields."""
-        duration = (
-            0.0 if self._t_first is None or self._t_last is None else self._t_last - self._t_first
+        mono: float | None = (
+            None if self._t_first is None or self._t_last is None else self._t_last - self._t_first
         )
+        duration = 0.0 if mono is None else mono
+        clock: Literal["autopilot", "monotonic"] = "monotonic"
         if self._tb_monotonic and self._tb_first is not None and self._tb_last is not None:
             duration = self._tb_last - self._tb_first
+            clock = "autopilot"
+        elif mono is None:
+            clock = "autopilot"  # nothing recorded: no clock was used at all
         if self._final_xy is not None and self._last_xy is not None:
             final_error: float | None = math.hypot(
                 self._last_xy[0] - self._final_xy[0], self._last_xy[1] - self._final_xy[1]
@@ -180,6 +206,9 @@ class SummaryBuilder:
             waypoints_total=self._total if waypoints_total is None else waypoints_total,
             arrivals=tuple(sorted(self._arrivals.values(), key=lambda a: a.t_boot_s)),
             duration_s=duration,
+            duration_clock=clock,
+            duration_mono_s=mono,
+            start_t_boot_s=self._tb_first,
             wall_duration_s=wall_duration_s,
             path_length_m=path_m,
             cross_track_rms_m=math.sqrt(self._xt_sq / self._xt_n) if self._xt_n else None,

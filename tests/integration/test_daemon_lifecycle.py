@@ -69,6 +69,10 @@ async def test_unhandled_exception_falls_back_to_hold(
     assert outcome.summary.fault is not None and outcome.summary.fault.startswith("exception")
     assert "ZeroDivisionError" in outcome.summary.fault
     assert snap.mode == "HOLD" and overrides_released(snap) and scrolls_neutral(snap)
+    # the plain result line is the outcome's last message (the CLI prints it last)
+    last = outcome.messages[-1]
+    assert last.startswith("helixd: RESULT internal-error exception: ZeroDivisionError")
+    assert "autopilot time" in last and last.endswith("exit 1")
 
 
 def test_second_sigint_forces_exit_after_fallback_sent(tmp_path: Path) -> None:
@@ -84,8 +88,10 @@ def test_second_sigint_forces_exit_after_fallback_sent(tmp_path: Path) -> None:
         d.signal(signal.SIGINT)
         code = d.wait_exit(10.0)
         forced_exit_s = time.monotonic() - t0
+        result = d.wait_line("helixd: RESULT", 5.0)
     print(f"second SIGINT: exited {forced_exit_s:.2f} s later")
     assert code == ExitCode.OPERATOR_STOP
+    assert result.startswith("helixd: RESULT stopped signal: SIGINT") and result.endswith("exit 5")
     assert forced_exit_s < 3.0  # far below the 30 s HOLD retry bound
 
 
@@ -156,13 +162,83 @@ def test_start_gate_waits_for_the_pilots_switch(tmp_path: Path) -> None:
         wait_moving(server)
         d.signal(signal.SIGINT)
         assert d.wait_exit(20.0) == ExitCode.OPERATOR_STOP
+        result = d.wait_line("helixd: RESULT", 5.0)
+    assert result.startswith("helixd: RESULT stopped signal: SIGINT received — 0/6 waypoints")
+    assert "autopilot time" in result and result.endswith("exit 5")
 
 
 def test_start_switch_on_the_mode_channel_is_refused(tmp_path: Path) -> None:
     cfg = {"safety": {"start_switch_channel": 8}}  # MODE_CH = 8 on the autopilot
     with sim_and_daemon(tmp_path, "hexagon", cfg) as (server, d):
         code = d.wait_exit(60.0)
+        result = d.wait_line("helixd: RESULT", 5.0)
         log = d.log_text()
         assert not server.snapshot().armed
     assert code == ExitCode.PREFLIGHT
     assert "flight-mode channel (MODE_CH = 8)" in log
+    assert result.startswith("helixd: RESULT refused preflight: safety.start_switch_channel = 8")
+    assert result.endswith("— 0/6 waypoints, not flown, exit 3")
+    assert log.splitlines()[-1] == result or log.splitlines()[-2] == result  # at the end
+
+
+async def test_no_autopilot_ends_with_a_link_failed_result(tmp_path: Path) -> None:
+    """Nothing answers on the link: exit 6 and one plain result line saying so."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]  # a UDP port nobody listens on once this closes
+    url = f"udpout:127.0.0.1:{port}"
+    cfg = HelixdConfig.model_validate({"link": {"url": url}, "safety": {"connect_timeout_s": 1.0}})
+    mission_path = MISSIONS / "square.yaml"
+    outcome = await run_mission(
+        RunOptions(
+            cfg=cfg,
+            mission=load_mission(mission_path),
+            mission_yaml=mission_path.read_text(),
+            connect_url=url,
+            run_root=tmp_path / "runs",
+            tty=False,
+        )
+    )
+    assert outcome.exit_code is ExitCode.LINK
+    last = outcome.messages[-1]
+    assert last.startswith("helixd: RESULT link-failed link_lost: ")
+    assert last.endswith("— 0/4 waypoints, not flown, exit 6")
+
+
+async def test_unwritable_recorder_refusal_ends_with_a_result(tmp_path: Path) -> None:
+    """recorder.on_write_error: refuse and a run root that cannot be created: exit 3, nothing
+    connected, and the result line still comes."""
+    blocker = tmp_path / "not-a-dir"
+    blocker.write_text("a file where the run root should be")
+    cfg = HelixdConfig.model_validate(
+        {"link": {"url": "udpout:127.0.0.1:9"}, "recorder": {"on_write_error": "refuse"}}
+    )
+    mission_path = MISSIONS / "square.yaml"
+    outcome = await run_mission(
+        RunOptions(
+            cfg=cfg,
+            mission=load_mission(mission_path),
+            mission_yaml=mission_path.read_text(),
+            connect_url="udpout:127.0.0.1:9",
+            run_root=blocker / "runs",
+            tty=False,
+        )
+    )
+    assert outcome.exit_code is ExitCode.PREFLIGHT
+    last = outcome.messages[-1]
+    assert last.startswith("helixd: RESULT refused recorder: flight recorder cannot write")
+    assert last.endswith("not flown, exit 3")
+
+
+def test_fault_ends_with_a_plain_fault_result_line(tmp_path: Path) -> None:
+    """A watchdog fault (stale pose) ends with scrolls stopped — and the operator reads it in
+    one line: ``helixd: RESULT fault pose_stale: … exit 4``."""
+    with sim_and_daemon(tmp_path, "square") as (server, d):
+        wait_moving(server)
+        server.inject("stale_pose", duration_s=30.0 * SPEEDUP)
+        server.wait_for(secured, 10.0)
+        assert d.wait_exit(20.0) == ExitCode.FAULT
+        result = d.wait_line("helixd: RESULT", 5.0)
+    assert result.startswith("helixd: RESULT fault pose_stale: ")
+    assert "/4 waypoints, " in result and " s autopilot time (" in result
+    assert result.endswith(" s wall), exit 4")

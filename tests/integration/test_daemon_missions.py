@@ -44,11 +44,18 @@ def test_mission_completes_in_its_mode(
 ) -> None:
     with sim_and_daemon(tmp_path, mission, terrain=terrain, noise="low") as (server, d):
         code = d.wait_exit(240.0)
+        result = d.wait_line("helixd: RESULT", 5.0)
         log = d.log_text()
         run_dir = d.run_dir()
         snap = server.snapshot()
     assert code == ExitCode.OK, log[-3000:]
     s = read_summary(run_dir)
+    # one plain line with the outcome, both clocks named (the sim runs 5x the wall clock)
+    assert result == (
+        f"helixd: RESULT ok — {waypoints}/{waypoints} waypoints, {s['duration_s']:.1f} s "
+        f"autopilot time ({s['duration_mono_s']:.1f} s wall), exit 0"
+    )
+    assert s["duration_s"] == pytest.approx(SPEEDUP * s["duration_mono_s"], rel=0.1)
     print(
         f"{mission}/{mode}/{terrain}: {s['duration_s']:.1f} s, cross-track rms "
         f"{s['cross_track_rms_m']:.3f} m max {s['cross_track_max_m']:.3f} m, "

@@ -2,16 +2,31 @@
 
 from __future__ import annotations
 
+import dataclasses
 import io
+import math
 from collections.abc import Iterator
 
 import pytest
 import structlog
+from hypothesis import given
+from hypothesis import strategies as st
 from rich.console import Console
 
 from helixd import logging_setup
-from helixd.display import ProgressDisplay, ProgressInfo, progress_line
-from helixd.recorder.summary import SummaryBuilder
+from helixd.display import (
+    AutopilotElapsed,
+    ProgressDisplay,
+    ProgressInfo,
+    exit_result_line,
+    progress_fields,
+    progress_line,
+    result_line,
+    summary_rows,
+)
+from helixd.exitcodes import ExitCode
+from helixd.recorder.rows import nan_row
+from helixd.recorder.summary import RunSummary, SummaryBuilder
 from tests.unit.test_recorder import FakeClock
 
 LOOP_HZ = 50
@@ -54,7 +69,7 @@ def test_not_a_terminal_emits_throttled_progress_events_without_escape_codes() -
     fly(display, clock, 10.0)
     display.update(info(0, link_ok=False, pose_fresh=False))  # within 2 s: throttled
     summary = SummaryBuilder("square", "roll", 4).build(True, None, 0)
-    display.final(summary)
+    display.final(summary)  # logs the result event, no table off a terminal
     display.close()
     text = out.getvalue()
     assert "\x1b" not in text
@@ -71,10 +86,11 @@ def test_not_a_terminal_emits_throttled_progress_events_without_escape_codes() -
         "heading_error_deg=-4.2",
         "link_ok=true",
         "pose_fresh=true",
-        "elapsed_s=0.0",
+        "elapsed_wall_s=0.0",
+        "elapsed_autopilot_s=null",  # nobody told the display the autopilot clock
     ):
         assert field in first
-    assert any("event=phase phase=fly" in ln for ln in lines)
+    assert not any("event=phase " in ln for ln in lines)  # the daemon logs phase_start
     assert sum("event=result" in ln for ln in lines) == 1
     assert "completed=true" in next(ln for ln in lines if "event=result" in ln)
 
@@ -119,5 +135,194 @@ def test_live_line_fits_80_columns_in_the_usual_case() -> None:
         waypoints_total=25,
         heading_error_deg=-45.0,
     )
-    line = progress_line("fly", usual)
-    assert len(line.plain) <= 80, line.plain
+    line = progress_line("fly", dataclasses.replace(usual, autopilot_elapsed_s=1380.0))
+    for row in line.plain.splitlines():
+        assert len(row) <= 80, row
+    assert "1380 s autopilot clock, 345 s wall" in line.plain
+
+
+def test_progress_names_both_clocks_from_the_rows_it_was_told_about() -> None:
+    clock = FakeClock()
+    out = io.StringIO()
+    logging_setup.configure_logging(tty=False, stream=out, clock=clock)
+    display = ProgressDisplay(tty=False, clock=clock)
+    display.phase("fly")
+    for i in range(5 * LOOP_HZ):  # 5 s wall, the autopilot clock 4x faster (sim speed-up)
+        display.autopilot_time(100.0 + 4.0 * i / LOOP_HZ)
+        display.update(info(i))
+        clock.advance(1.0 / LOOP_HZ)
+    last = [ln for ln in out.getvalue().splitlines() if "event=progress" in ln][-1]
+    fields = dict(kv.split("=", 1) for kv in last.split())
+    wall, ap = float(fields["elapsed_wall_s"]), float(fields["elapsed_autopilot_s"])
+    assert wall == pytest.approx(4.0, abs=0.1)  # the 3rd event, 2 s apart
+    assert ap == pytest.approx(4.0 * wall, abs=0.2)
+
+
+def test_autopilot_elapsed_survives_a_reboot_and_nan() -> None:
+    ap = AutopilotElapsed()
+    assert ap.elapsed_s is None
+    for t in (50.0, 51.0, math.nan, 52.5, 0.2, 1.2, math.inf):
+        ap.add(t)
+    assert ap.elapsed_s == pytest.approx(3.5)  # 2.5 s before the reboot, 1.0 s after
+
+
+def _summary(code: ExitCode, fault: str | None, rows: int, reached: int = 0) -> RunSummary:
+    b = SummaryBuilder("square", "roll", 4)
+    for k in range(rows):
+        b.add(nan_row(t_mono_s=10.0 + 0.25 * k, t_boot_s=40.0 + 1.0 * k, pose_fresh=False))
+    for i in range(reached):
+        b.arrival(i, 41.0 + i, 0.9)
+    return b.build(code is ExitCode.OK, fault, int(code), wall_duration_s=30.0)
+
+
+@pytest.mark.parametrize(
+    ("code", "fault", "rows", "reached", "expected"),
+    [
+        (
+            ExitCode.OK,
+            None,
+            73,
+            4,
+            "helixd: RESULT ok — 4/4 waypoints, 72.0 s autopilot time (18.0 s wall), exit 0",
+        ),
+        (
+            ExitCode.FAULT,
+            "pose_stale: no pose for 0.6 s",
+            9,
+            1,
+            "helixd: RESULT fault pose_stale: no pose for 0.6 s — 1/4 waypoints, "
+            "8.0 s autopilot time (2.0 s wall), exit 4",
+        ),
+        (
+            ExitCode.OPERATOR_STOP,
+            "signal: SIGINT received",
+            0,
+            0,
+            "helixd: RESULT stopped signal: SIGINT received — 0/4 waypoints, not flown, exit 5",
+        ),
+        (
+            ExitCode.PREFLIGHT,
+            "preflight: EKF not healthy;\nno fresh pose",
+            0,
+            0,
+            "helixd: RESULT refused preflight: EKF not healthy; no fresh pose — 0/4 waypoints, "
+            "not flown, exit 3",
+        ),
+        (
+            ExitCode.LINK,
+            "link_lost: no HEARTBEAT within 10 s",
+            0,
+            0,
+            "helixd: RESULT link-failed link_lost: no HEARTBEAT within 10 s — 0/4 waypoints, "
+            "not flown, exit 6",
+        ),
+        (
+            ExitCode.INTERNAL_ERROR,
+            "exception: ValueError: boom",
+            0,
+            0,
+            "helixd: RESULT internal-error exception: ValueError: boom — 0/4 waypoints, "
+            "not flown, exit 1",
+        ),
+    ],
+)
+def test_result_line_for_every_exit_path(
+    code: ExitCode, fault: str | None, rows: int, reached: int, expected: str
+) -> None:
+    line = result_line(_summary(code, fault, rows, reached))
+    assert line == expected
+    assert "\n" not in line
+
+
+def test_result_line_after_an_autopilot_reboot_and_a_long_cause() -> None:
+    b = SummaryBuilder("square", "roll", 4)
+    b.add(nan_row(t_mono_s=1.0, t_boot_s=90.0))
+    b.add(nan_row(t_mono_s=3.0, t_boot_s=1.0))  # clock stepped back
+    line = result_line(b.build(False, "reboot: " + "x" * 500, int(ExitCode.FAULT)))
+    assert "2.0 s wall (autopilot clock reset: rebooted)" in line
+    assert "autopilot time" not in line
+    assert len(line) < 260 and "…" in line and line.endswith("exit 4")
+
+
+def test_result_table_labels_every_time_with_its_clock() -> None:
+    rows = dict(summary_rows(_summary(ExitCode.OK, None, 73, 4)))
+    assert rows["flight time (autopilot clock)"] == "72.0 s"
+    assert rows["flight time (wall clock)"] == "18.0 s"
+    assert rows["whole run (wall clock)"] == "30.0 s"
+    assert rows["arrivals"].startswith("#0 +1.0 s (0.90 m), #1 +2.0 s")
+    assert rows["arrivals"].endswith("(autopilot clock)")
+    assert not any(label == "duration" for label in rows)
+
+
+def test_live_line_left_on_screen_shows_the_autopilot_clock() -> None:
+    clock = FakeClock()
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=True, width=160, color_system=None)
+    display = ProgressDisplay(tty=True, console=console, clock=clock)
+    display.phase("fly")
+    for i in range(LOOP_HZ):  # 1 s wall; the last update is not redrawn until close()
+        display.autopilot_time(7.0 + 4.0 * i / LOOP_HZ)
+        display.update(info(i))
+        clock.advance(1.0 / LOOP_HZ)
+    display.close()
+    assert "mission time: 4 s autopilot clock, 1 s wall" in buf.getvalue()
+    assert "mission time: - s" not in buf.getvalue().rsplit("FLY", 1)[-1]
+
+
+def test_many_arrivals_are_condensed_in_the_table() -> None:
+    b = SummaryBuilder("circle", "scroll", 25)
+    b.add(nan_row(t_mono_s=0.0, t_boot_s=10.0))
+    for i in range(25):
+        b.arrival(i, 12.0 + 2.0 * i, 0.28 + 0.001 * i)
+    text = dict(summary_rows(b.build(True, None, 0)))["arrivals"]
+    assert text == (
+        "25 waypoints, error 0.28–0.30 m, last #24 +50.0 s (0.30 m) (autopilot clock); "
+        "each in summary.json"
+    )
+
+
+def test_one_result_event_on_a_terminal_too_and_the_table() -> None:
+    clock = FakeClock()
+    log_out = io.StringIO()
+    logging_setup.configure_logging(tty=False, stream=log_out, clock=clock)
+    buf = io.StringIO()
+    console = Console(file=buf, force_terminal=True, width=160, color_system=None)
+    display = ProgressDisplay(tty=True, console=console, clock=clock)
+    summary = _summary(ExitCode.OK, None, 73, 4)
+    display.log_result(summary)
+    display.final(summary, log_event=False)
+    assert log_out.getvalue().count("event=result") == 1
+    assert "flight_autopilot_s=72.0 flight_wall_s=18.0 run_wall_s=30.0" in log_out.getvalue()
+    assert "helixd run result" in buf.getvalue()
+
+
+def test_no_negative_zero_and_only_the_phase_word_shouts() -> None:
+    line = progress_line("fly", info(0, heading_error_deg=-0.3, speed_mps=-0.001)).plain
+    assert "hdg +0°" in line and "-0" not in line
+    assert progress_fields("fly", info(0, heading_error_deg=-0.01))["heading_error_deg"] == 0.0
+    assert str(progress_fields("fly", info(0, heading_error_deg=-0.01))["heading_error_deg"]) == (
+        "0.0"
+    )
+    text = progress_line("arm (autopilot says: PreArm: waiting for home)", None).plain
+    assert text == " ARM (autopilot says: PreArm: waiting for home) "
+
+
+@given(
+    st.text(max_size=400),
+    st.sampled_from(list(ExitCode)),
+    st.integers(min_value=0, max_value=30),
+)
+def test_result_line_is_one_greppable_line_for_any_cause(
+    fault: str, code: ExitCode, rows: int
+) -> None:
+    line = result_line(_summary(code, fault or None, rows))
+    assert line.startswith("helixd: RESULT ") and line.endswith(f"exit {int(code)}")
+    assert len(line.splitlines()) == 1 and "\n" not in line and "\r" not in line
+    assert len(line) <= 300
+
+
+def test_exit_result_line_without_a_run() -> None:
+    line = exit_result_line(ExitCode.USAGE, "mission.yaml: waypoints: field required")
+    assert line == (
+        "helixd: RESULT usage-error mission.yaml: waypoints: field required — not flown, exit 2"
+    )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import struct
 from collections.abc import Iterator
 from pathlib import Path
@@ -15,12 +16,17 @@ from typer.testing import CliRunner
 
 from helixd import logging_setup
 from helixd.plots import (
+    AUTOPILOT_AXIS_LABEL,
     OVERVIEW_SIZE_PX,
     PANEL_FILES,
     PANEL_SIZE_PX,
     PlotError,
+    _panel_figure,
+    autopilot_axis,
     load_run,
     render_run,
+    sparse_label_mask,
+    waypoint_labels,
 )
 from helixd.recorder import command
 from helixd.recorder.events import read_events
@@ -123,3 +129,67 @@ def test_plot_command(tmp_path: Path) -> None:
     result = runner.invoke(app, ["plot", str(empty)])
     assert result.exit_code == 2
     assert "not a helixd run directory" in result.output or "is this" in result.output
+
+
+def test_time_axis_is_the_autopilot_clock_with_the_wall_clock_beside_it(tmp_path: Path) -> None:
+    run_dir, _ = synth_run(tmp_path, fault_at_s=40.0, speedup=4.0)
+    data = load_run(run_dir)
+    assert data.on_autopilot_clock and data.time_label == AUTOPILOT_AXIS_LABEL
+    assert data.t_s[-1] == pytest.approx(4.0 * data.wall_s[-1])
+    # arrivals and the fault sit on the autopilot axis: 40 s of wall time is 160 s autopilot
+    assert data.fault_t_s == pytest.approx(160.0, abs=0.3)
+    assert all(0.0 < t < 160.0 for _, t in data.arrivals)
+    # the secondary (wall) axis maps both ways, also beyond the recorded span
+    assert data.wall_at(np.array([80.0, 200.0])) == pytest.approx([20.0, 50.0], abs=0.05)
+    assert data.axis_at_wall(np.array([20.0, -1.0])) == pytest.approx([80.0, -4.0], abs=0.2)
+    render_run(run_dir)  # and it renders
+
+
+def test_autopilot_axis_bridges_a_reboot_and_falls_back_to_wall_time() -> None:
+    mono = np.array([10.0, 10.5, 11.0, 11.5, 12.0])
+    boot = np.array([50.0, 52.0, np.nan, 1.0, 3.0])  # NaN, then the autopilot rebooted
+    axis = autopilot_axis(boot, mono)
+    assert axis is not None
+    assert list(axis) == pytest.approx([0.0, 2.0, 2.5, 3.0, 5.0])
+    assert bool(np.all(np.diff(axis) >= 0))
+    assert autopilot_axis(np.full(5, np.nan), mono) is None
+
+
+def test_wall_clock_axis_when_no_autopilot_time_was_recorded(tmp_path: Path) -> None:
+    (tmp_path / "flight.csv").write_text("# c\nt_mono_s,x_m,y_m\n5.0,0,0\n6.0,1,0\n7.5,2,0\n")
+    data = load_run(tmp_path)
+    assert not data.on_autopilot_clock and "wall time" in data.time_label
+    assert list(data.t_s) == pytest.approx([0.0, 1.0, 2.5])
+
+
+def test_waypoint_labels_are_sparse_on_time_axes() -> None:
+    times = [10.0 + 2.0 * i for i in range(25)]  # 25 arrivals, 2 s apart on a 100 s axis
+    mask = sparse_label_mask(times, 100.0, 0.06)
+    labelled = [t for t, m in zip(times, mask, strict=True) if m]
+    assert labelled[0] == 10.0
+    assert all(b - a >= 6.0 for a, b in itertools.pairwise(labelled))
+    assert 7 <= len(labelled) <= 9
+    assert all(sparse_label_mask([1.0, 50.0, 99.0], 100.0, 0.06))  # far apart: all labelled
+
+
+def test_coincident_waypoints_share_one_label() -> None:
+    pts = [(4.0, 2.0), (3.9, 2.5), (2.0, 4.0), (4.0 + 1e-9, 2.0)]
+    assert [t for t, _ in waypoint_labels(pts)] == ["0,3", "1", "2"]
+
+
+def test_many_waypoint_labels_do_not_overlap_in_the_rendered_figure(tmp_path: Path) -> None:
+    run_dir, _ = synth_run(tmp_path)
+    data = load_run(run_dir)
+    span = float(data.t_s[-1])
+    data.arrivals = [(i, span * (0.3 + 0.025 * i)) for i in range(25)]  # a 25-point circle
+    fig = _panel_figure(data, "e")
+    fig.canvas.draw()  # type: ignore[no-untyped-call]
+    ax = fig.axes[0]
+    boxes = [t.get_window_extent() for t in ax.texts if t.get_text().startswith(" WP")]
+    assert 5 <= len(boxes) < 25
+    for a, b in itertools.pairwise(boxes):
+        assert a.x1 <= b.x0, "waypoint labels overlap"
+    # the legend sits outside the data area
+    legend = ax.get_legend()
+    assert legend is not None
+    assert legend.get_window_extent().x0 >= ax.get_window_extent().x1

@@ -157,10 +157,13 @@ def synth_run(
     fault_at_s: float | None = None,
     rate_hz: float = 20.0,
     cfg: HelixdConfig | None = None,
+    speedup: float = 1.0,
 ) -> tuple[Path, FakeClock]:
     """Fly a point mass round the 10 m square (ROLL: turn in place, then drive) and record it
     through RunRecorder + SummaryBuilder + the events tee. ``fault_at_s``: stop there with a
-    ``fallback`` event (cause ``stall``) as the supervisor would."""
+    ``fallback`` event (cause ``stall``) as the supervisor would. ``speedup``: the autopilot
+    clock (``t_boot_s``) runs this much faster than the wall clock, as in a sped-up simulator
+    (the point mass still moves on the wall clock)."""
     cfg = cfg or HelixdConfig()
     clock = FakeClock(5000.0)
     logging_setup.configure_logging(tty=False, stream=io.StringIO(), clock=clock)
@@ -185,7 +188,7 @@ def synth_run(
         tx, ty = SQUARE[target]
         dist = math.hypot(tx - x, ty - y)
         if dist < tol:
-            builder.arrival(target, t_rel + 100.0, dist)
+            builder.arrival(target, 100.0 + speedup * t_rel, dist)
             log.info("waypoint_reached", index=target, error_m=round(dist, 3))
             target += 1
             continue
@@ -199,7 +202,7 @@ def synth_run(
         frac = body_to_fractions(BodyVelocity(vx, 0.0, wz), cfg.vehicle, MotionMode.ROLL)
         speed = math.hypot(x - prev_xy[0], y - prev_xy[1]) / dt
         row = FlightRow(
-            t_boot_s=t_rel + 100.0,
+            t_boot_s=100.0 + speedup * t_rel,
             t_mono_s=clock(),
             north_m=x,
             east_m=-y,

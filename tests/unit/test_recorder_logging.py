@@ -108,3 +108,39 @@ def test_render_logfmt_quotes_and_nulls() -> None:
         None, "info", {"event": "e", "a": "two words", "b": None, "c": 'q"x', "d": 0.1234567891}
     )
     assert line == 'event=e a="two words" b=null c="q\\"x" d=0.123457'
+
+
+def test_render_logfmt_flattens_dicts_and_writes_lists_without_python_repr() -> None:
+    line = logging_setup.render_logfmt(
+        None,
+        "info",
+        {
+            "event": "e",
+            "stats": {"rx": 5, "inner": {"ok": True}},
+            "empty": {},
+            "channels": [1, 2, 3],
+            "local": ("0.0.0.0", 0),
+            "names": ["a b", None],
+        },
+    )
+    assert line == (
+        "event=e stats.rx=5 stats.inner.ok=true empty={} channels=[1,2,3] "
+        'local=[0.0.0.0,0] names="[\\"a b\\",null]"'
+    )
+    assert "'" not in line  # no Python repr anywhere
+
+
+def test_console_renderer_flattens_dicts_too() -> None:
+    out = io.StringIO()
+    configure_logging(tty=True, stream=out)
+    structlog.get_logger("t").info("link_closed", stats={"rx_messages": 5})
+    text = out.getvalue()
+    assert "stats.rx_messages" in text and "{'" not in text
+
+
+def test_console_renderer_writes_lists_without_python_repr() -> None:
+    out = io.StringIO()
+    configure_logging(tty=True, stream=out)
+    structlog.get_logger("t").info("sim_started", links=["udpin:1.2.3.4:5"], local=("h", 0))
+    text = out.getvalue()
+    assert "[udpin:1.2.3.4:5]" in text and "['" not in text and "('" not in text

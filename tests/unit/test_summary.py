@@ -82,9 +82,23 @@ def test_duration_is_autopilot_time_unless_it_stepped_back() -> None:
     b = SummaryBuilder()
     for k in range(11):
         b.add(_boot_row(100.0 + 0.1 * k, 20.0 + 0.5 * k))
-    assert b.build(True, None, 0).duration_s == pytest.approx(5.0)
+    s = b.build(True, None, 0)
+    assert s.duration_s == pytest.approx(5.0) and s.duration_clock == "autopilot"
+    assert s.duration_mono_s == pytest.approx(1.0)  # both clocks over the same span
+    assert s.start_t_boot_s == pytest.approx(20.0)
     b.add(_boot_row(101.1, 1.0))  # autopilot rebooted: fall back to the monotonic clock
-    assert b.build(False, "x", 4).duration_s == pytest.approx(1.1)
+    s = b.build(False, "x", 4)
+    assert s.duration_s == pytest.approx(1.1) and s.duration_clock == "monotonic"
+    assert s.duration_mono_s == pytest.approx(1.1)
+
+
+def test_summary_json_from_before_the_clock_fields_still_reads() -> None:
+    s = SummaryBuilder("sq", "roll", 4).build(True, None, 0)
+    data = s.model_dump(mode="json")
+    for key in ("duration_clock", "duration_mono_s", "start_t_boot_s"):
+        del data[key]
+    old = RunSummary.model_validate(data)
+    assert old.duration_clock == "autopilot" and old.duration_mono_s is None
 
 
 def _boot_row(t_mono_s: float, t_boot_s: float):  # type: ignore[no-untyped-def]
