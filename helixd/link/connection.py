@@ -47,6 +47,7 @@ from helixd.link.commands import (
     CommandError,
     CommandRejected,
 )
+from helixd.link.framing import FrameKind, scan_frames
 from helixd.link.signing import enable_signing, load_signing_key
 from helixd.link.streams import StreamManager
 from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
@@ -385,10 +386,17 @@ def make_transport(url: LinkUrl, cfg: LinkConfig, on_data: OnData, on_lost: OnLo
 # Codec + filtering + reopen
 
 
+CRC_EXTRA: dict[int, int] = {
+    int(msgid): int(cls.crc_extra) for msgid, cls in mavlink.mavlink_map.items()
+}
+
+
 @dataclass
 class LinkStats:
     rx_messages: int = 0
-    bad_data: int = 0
+    bad_data: int = 0  # runs of bytes that were no valid frame (garbage, bad CRC, truncated)
+    bad_bytes: int = 0
+    unknown_messages: int = 0  # well-framed messages with an id our dialect does not know
     signature_rejects: int = 0
     tx_messages: int = 0
     tx_dropped: int = 0
@@ -417,6 +425,7 @@ class MavlinkConnection:
         self._on_reopened = on_reopened
         self.stats = LinkStats()
         self.mav = self._new_codec()
+        self._rxbuf = bytearray()  # stream transports: the incomplete frame at the end
         self.transport = make_transport(url, cfg, self._on_data, self._transport_lost)
         self.closed = False
         self._reopen_task: asyncio.Task[None] | None = None
@@ -452,30 +461,47 @@ class MavlinkConnection:
         return ok
 
     def _on_data(self, data: bytes, addr: Address | None, rx_s: float) -> None:
-        try:
-            msgs = self.mav.parse_buffer(data) or []
-        except mavlink.MAVError as exc:
-            self.stats.bad_data += 1
-            log.debug("mavlink_parse_error", error=str(exc))
-            return
+        """Parse what one read returned (see :mod:`helixd.link.framing`); never raises.
+
+        A UDP datagram (``addr`` set) is parsed on its own: no parser state is carried into
+        the next datagram. A stream keeps only an incomplete trailing frame for the next read.
+        """
+        if addr is not None:
+            scan = scan_frames(data, final=True, crc_extra=CRC_EXTRA)
+        else:
+            self._rxbuf += data
+            scan = scan_frames(self._rxbuf, final=False, crc_extra=CRC_EXTRA)
+            del self._rxbuf[: scan.consumed]
+        stats = self.stats
+        stats.bad_data += scan.bad_runs
+        stats.bad_bytes += scan.bad_bytes
         from_target = False
-        for msg in msgs:
-            mtype = msg.get_type()
-            if mtype == "BAD_DATA":
-                self.stats.bad_data += 1
-                if "signature" in str(getattr(msg, "reason", "")).lower():
-                    self.stats.signature_rejects += 1
+        for frame in scan.frames:
+            if frame.kind is FrameKind.UNKNOWN_ID:
+                stats.unknown_messages += 1
+                continue
+            try:
+                msg = self.mav.decode(bytearray(frame.data))
+            except mavlink.MAVError as exc:
+                reason = str(getattr(exc, "message", exc))
+                stats.bad_data += 1
+                if "signature" in reason.lower():
+                    stats.signature_rejects += 1
+                continue
+            except Exception as exc:  # a decoder bug must not take the link down
+                stats.bad_data += 1
+                log.warning("mavlink_decode_failed", msgid=frame.msgid, error=repr(exc))
                 continue
             sysid = int(msg.get_srcSystem())
             if sysid != self.cfg.target_system:
                 self._on_foreign(sysid)
                 continue
             from_target = True
-            self.stats.rx_messages += 1
+            stats.rx_messages += 1
             try:
                 self._on_message(msg, rx_s)
             except Exception:
-                log.exception("message_handler_failed", type=mtype)
+                log.exception("message_handler_failed", type=msg.get_type())
         if from_target and addr is not None:
             self.transport.note_peer(addr)
 
@@ -498,7 +524,8 @@ class MavlinkConnection:
                 if attempts == 1 or attempts % REOPEN_LOG_EVERY == 0:
                     log.info("link_reopen_failed", attempt=attempts, error=str(exc))
                 continue
-            self.mav = self._new_codec()  # fresh parser: drop half a frame from the old stream
+            self.mav = self._new_codec()
+            self._rxbuf.clear()  # drop half a frame from the old stream
             self.stats.reopen_count += 1
             log.info("link_reopened", url=self.url.text, attempts=attempts)
             self._on_reopened()
@@ -616,6 +643,10 @@ def no_heartbeat_text(
         hints.append(f"{stats.signature_rejects} messages failed the signing check")
     if stats.bad_data and not stats.rx_messages:
         hints.append(f"{stats.bad_data} chunks of non-MAVLink data (wrong baud?)")
+    if stats.unknown_messages:
+        hints.append(
+            f"{stats.unknown_messages} messages with ids unknown to the ardupilotmega dialect"
+        )
     if not hints:
         hints.append("nothing received at all")
     return (
