@@ -12,7 +12,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.sim.config import SimConfig
+from helixd.sim.config import HELIXD_SYSID, SimConfig
 from helixd.sim.core import SimCore
 from helixd.sim.faults import FaultError, make_spec, parse_fault
 
@@ -36,13 +36,13 @@ def of_type(out: list[tuple[int | None, Any]], kind: str, link: int | None = Non
     return [m for lk, m in out if m.get_type() == kind and (link is None or lk == link)]
 
 
-def incoming(msg: Any, sysid: int = 255, compid: int = 190) -> Any:
+def incoming(msg: Any, sysid: int = HELIXD_SYSID, compid: int = 190) -> Any:
     """Stamp a message as if received from (sysid, compid)."""
     mav = mavlink.MAVLink(None, srcSystem=sysid, srcComponent=compid)
     return mav.decode(bytearray(msg.pack(mav)))
 
 
-def command(core: SimCore, link: int, cmd: int, *p: float, sysid: int = 255) -> int:
+def command(core: SimCore, link: int, cmd: int, *p: float, sysid: int = HELIXD_SYSID) -> int:
     params = [float(x) for x in p] + [0.0] * (7 - len(p))
     core.handle(link, incoming(mavlink.MAVLink_command_long_message(1, 1, cmd, 0, *params), sysid))
     acks = [m for _, m in core.drain_outbox() if m.get_type() == "COMMAND_ACK"]
