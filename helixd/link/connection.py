@@ -48,6 +48,7 @@ from helixd.link.commands import (
     CommandRejected,
 )
 from helixd.link.framing import FrameKind, scan_frames
+from helixd.link.ownid import OwnIdSenders
 from helixd.link.sanity import non_finite_fields
 from helixd.link.signing import enable_signing, load_signing_key
 from helixd.link.streams import StreamManager
@@ -426,6 +427,8 @@ class MavlinkConnection:
         self._on_lost = on_lost
         self._on_reopened = on_reopened
         self.stats = LinkStats()
+        self.own_id_senders = OwnIdSenders()
+        self.first_tx_s: float | None = None  # monotonic time of our first message sent
         self.mav = self._new_codec()
         self._rxbuf = bytearray()  # stream transports: the incomplete frame at the end
         self.transport = make_transport(url, cfg, self._on_data, self._transport_lost)
@@ -457,6 +460,8 @@ class MavlinkConnection:
         mav.seq = (mav.seq + 1) % 256
         ok = self.transport.write(bytes(buf))
         if ok:
+            if self.first_tx_s is None:
+                self.first_tx_s = time.monotonic()
             self.stats.tx_messages += 1
         else:
             self.stats.tx_dropped += 1
@@ -495,6 +500,9 @@ class MavlinkConnection:
                 log.warning("mavlink_decode_failed", msgid=frame.msgid, error=repr(exc))
                 continue
             sysid = int(msg.get_srcSystem())
+            if sysid == self.cfg.source_system:
+                self._note_own_id(msg)
+                continue
             if sysid != self.cfg.target_system:
                 self._on_foreign(sysid)
                 continue
@@ -512,6 +520,20 @@ class MavlinkConnection:
                 log.exception("message_handler_failed", type=msg.get_type())
         if from_target and addr is not None:
             self.transport.note_peer(addr)
+
+    def _note_own_id(self, msg: MavMsg) -> None:
+        """A message from *our* system id: somebody else uses it (see helixd.link.ownid)."""
+        mtype = str(msg.get_type())
+        mav_type = int(msg.type) if mtype == "HEARTBEAT" else None
+        compid = int(msg.get_srcComponent())
+        if self.own_id_senders.note(compid, mtype, mav_type):
+            log.warning(
+                "own_sysid_in_use",
+                sysid=self.cfg.source_system,
+                compid=compid,
+                type=mtype,
+                mav_type=mav_type,
+            )
 
     def _transport_lost(self, reason: str) -> None:
         if self.closed:
@@ -780,6 +802,20 @@ class Autopilot:
     @property
     def link_stats(self) -> LinkStats:
         return self._conn.stats
+
+    @property
+    def own_id_senders(self) -> OwnIdSenders:
+        """Other senders using our system id (see :mod:`helixd.link.ownid`)."""
+        return self._conn.own_id_senders
+
+    def own_id_watch_s(self) -> float:
+        """How long the autopilot has known us (since our first message) — 0 before that.
+
+        ArduPilot forwards another link's HEARTBEATs to ours only once ours is active, i.e.
+        after it received something from us.
+        """
+        first = self._conn.first_tx_s
+        return 0.0 if first is None else time.monotonic() - first
 
     @property
     def ack_stats(self) -> AckStats:

@@ -11,7 +11,9 @@ from tests.link.peer import HELIXD_SYSID, AutopilotPeer, linked, stays, until
 
 
 def ours(peer: AutopilotPeer, after_t: float = 0.0) -> list[tuple[float, int, int]]:
-    return [h for h in list(peer.records.gcs_heartbeats) if h[0] >= after_t and h[1] == HELIXD_SYSID]
+    return [
+        h for h in list(peer.records.gcs_heartbeats) if h[0] >= after_t and h[1] == HELIXD_SYSID
+    ]
 
 
 async def test_heartbeat_only_while_fed() -> None:
