@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from helixd.config import LinkConfig
 from helixd.sim.config import HELIXD_SYSID, SimConfig
 from helixd.sim.params import DEFAULT_PARAMS
@@ -26,3 +28,12 @@ def test_given_params_are_merged_over_the_setup() -> None:
     assert raw.params["MAV_GCS_SYSID"] == 255.0 and raw.params["FS_GCS_ENABLE"] == 0.0
     again = SimConfig.model_validate(raw.model_dump())
     assert again.params == raw.params
+
+
+def test_the_real_sitl_parameter_file_matches_helixd_s_id() -> None:
+    parm = Path(__file__).resolve().parents[1] / "sitl" / "helix-skid.parm"
+    values = dict(
+        line.split()[:2] for line in parm.read_text().splitlines() if line and line[0] != "#"
+    )
+    assert float(values["MAV_GCS_SYSID"]) == HELIXD_SYSID
+    assert values["FS_GCS_ENABLE"] == "1"
