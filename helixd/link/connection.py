@@ -51,6 +51,7 @@ from helixd.link.framing import FrameKind, scan_frames
 from helixd.link.ownid import OwnIdSenders
 from helixd.link.sanity import non_finite_fields
 from helixd.link.signing import enable_signing, load_signing_key
+from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
 from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
 from helixd.vehicle import Change, PoseSample, VehicleState, mode_number
@@ -659,6 +660,9 @@ ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM: skip checks
 RC_OVERRIDE_CHANNELS = 18
 UINT16_MAX = 65535
 ARM_TEXT_PREFIXES = ("PreArm", "Arm")
+# A chunked STATUSTEXT whose last chunk has not come after this long is logged as it is.
+# ArduPilot sends a text's chunks in one pass of its queue and prunes entries after 5 s.
+STATUSTEXT_TIMEOUT_S = 2.0
 
 
 def no_heartbeat_text(
@@ -754,6 +758,7 @@ class Autopilot:
         self._commands = CommandClient(lambda: self._conn.mav, self._conn.send, cfg, self.state)
         self._streams = StreamManager(self.command_long, cfg)
         self._heartbeat = HeartbeatSender(self._conn, cfg)
+        self._texts = StatusTextAssembler(STATUSTEXT_TIMEOUT_S)
         self._waiters = _ChangeWaiters()
         self._pose_events: weakref.WeakSet[asyncio.Event] = weakref.WeakSet()
         self._listeners: list[Callable[[MavMsg, float], None]] = []
@@ -835,13 +840,52 @@ class Autopilot:
     # -- reader side --------------------------------------------------------------------------
 
     def _on_message(self, msg: MavMsg, rx_s: float) -> None:
-        changes = self.state.apply(msg, rx_s)
+        if msg.get_type() == "STATUSTEXT":
+            changes = self._statustext_chunk(msg, rx_s)
+        else:
+            changes = self.state.apply(msg, rx_s) | self._expired_texts(rx_s)
         self._commands.on_message(msg, rx_s)
         self._streams.monitor.record(msg.get_type())
         if changes:
             self._on_changes(changes)
         for callback in self._listeners:
             callback(msg, rx_s)
+
+    def _statustext_chunk(self, msg: MavMsg, rx_s: float) -> Change:
+        """Feed one STATUSTEXT to the reassembler; the state sees whole texts only."""
+        texts = self._texts.add(
+            int(msg.get_srcSystem()),
+            int(msg.get_srcComponent()),
+            int(msg.severity),
+            str(msg.text),
+            int(getattr(msg, "id", 0) or 0),
+            int(getattr(msg, "chunk_seq", 0) or 0),
+            rx_s,
+        )
+        return self._apply_texts(texts, rx_s)
+
+    def _expired_texts(self, now_s: float) -> Change:
+        if not self._texts.pending:
+            return Change.NONE
+        return self._apply_texts(self._texts.expire(now_s), now_s)
+
+    def _apply_texts(self, texts: list[AssembledText], rx_s: float) -> Change:
+        changes = Change.NONE
+        for text in texts:
+            whole = mavlink.MAVLink_statustext_message(text.severity, b"", 0, 0)
+            whole.text = text.text  # may be longer than one frame's 50 characters
+            changes |= self.state.apply(whole, rx_s)
+            if text.complete:
+                log.info("autopilot_statustext", text=text.text, severity=text.severity)
+            else:
+                log.info(
+                    "autopilot_statustext",
+                    text=text.text,
+                    severity=text.severity,
+                    incomplete=True,
+                    chunks=text.chunks,
+                )
+        return changes
 
     def _on_changes(self, changes: Change) -> None:
         st = self.state
@@ -860,9 +904,6 @@ class Autopilot:
             log.info("autopilot_mode", mode=st.mode, custom_mode=st.custom_mode)
         if changes & Change.ARMED:
             log.info("autopilot_armed" if st.armed else "autopilot_disarmed")
-        if changes & Change.STATUSTEXT:
-            last = st.statustexts[-1]
-            log.info("autopilot_statustext", text=last.text, severity=last.severity)
         self._waiters.wake(changes)
 
     def _on_foreign(self, sysid: int) -> None:
@@ -882,6 +923,9 @@ class Autopilot:
         while True:
             await asyncio.sleep(timeout_s / 4)
             st = self.state
+            changes = self._expired_texts(time.monotonic())  # a text whose end never came
+            if changes:
+                self._on_changes(changes)
             if st.check_link(time.monotonic(), timeout_s):
                 log.warning(
                     "link_lost",

@@ -4,7 +4,8 @@ A raw UDP socket (helixd listens with udpin) or a raw TCP server (helixd connect
 plays the autopilot, system 1. Hypothesis draws the garbage put between numbered valid frames
 (NAMED_VALUE_INT "fuzz" = k): random bytes, ``FD FF`` (a MAVLink 2 start claiming 255 bytes),
 a bare start marker with random header, truncated and bad-CRC frames, unknown message ids,
-valid frames with NaN/inf/huge floats, ``time_boot_ms`` going backwards, and other systems.
+valid frames with NaN/inf/huge floats, ``time_boot_ms`` going backwards, other systems, and
+stray STATUSTEXT chunks (random id / chunk_seq / bytes).
 On UDP the garbage goes in its own datagram or glued in front of the frame. The listener counts
 the numbered frames that arrive; no handler may fail, no link task may die, and no NaN reaches
 the pose.
@@ -86,6 +87,9 @@ garbage = st.one_of(
         lambda t: pack(lambda c: c.attitude_encode(t, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0))
     ),
     st.integers(2, 254).map(lambda s: pack(lambda c: c.heartbeat_encode(1, 3, 129, 4, 4), s)),
+    st.tuples(st.integers(0, 65535), st.integers(0, 255), st.binary(max_size=50)).map(
+        lambda t: pack(lambda c: c.statustext_encode(4, t[2], t[0], t[1]))  # stray chunks
+    ),
 )
 # (garbage in front of the frame, glued into the frame's UDP datagram or in its own)
 item = st.tuples(garbage, st.booleans())
