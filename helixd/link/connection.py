@@ -756,7 +756,7 @@ class Autopilot:
             self._on_reopened,
         )
         self._commands = CommandClient(lambda: self._conn.mav, self._conn.send, cfg, self.state)
-        self._streams = StreamManager(self.command_long, cfg)
+        self._streams = StreamManager(self.command_long, cfg, self.get_param)
         self._heartbeat = HeartbeatSender(self._conn, cfg)
         self._texts = StatusTextAssembler(STATUSTEXT_TIMEOUT_S)
         self._waiters = _ChangeWaiters()

@@ -21,6 +21,7 @@ from tests.integration.simharness import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_DO_SET_SERVO,
+    MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_DENIED,
     MAV_RESULT_FAILED,
@@ -264,3 +265,30 @@ def test_heartbeats_are_forwarded_between_links_like_ardupilot() -> None:
             assert int(seen.get_srcComponent()) == 190 and int(seen.type) == 6
             # and never echoed back to where it came from
             assert gcs.recv("HEARTBEAT", 0.5, from_gcs) is None
+
+
+async def test_helixd_asks_for_granted_rates_without_a_too_fast_text() -> None:
+    """helixd reads SCHED_LOOP_RATE first: no DENIED, no "too fast" STATUSTEXT on start."""
+    from helixd.config import LinkConfig, SafetyConfig
+    from helixd.link.connection import Autopilot
+
+    with running_sim() as (srv, url):
+        ap = await Autopilot.connect(
+            LinkConfig(url=url, command_timeout_s=0.5), SafetyConfig(connect_timeout_s=10.0)
+        )
+        try:
+            await ap.wait_heartbeat(10.0)
+            ap.start_heartbeat()
+            granted = await ap.request_streams()
+            assert granted["LOCAL_POSITION_NED"] == 40.0  # SCHED_LOOP_RATE 50 → 25 ms
+            results = [
+                e.details["result"]
+                for e in srv.history.entries("command")
+                if e.details["command"] == MAV_CMD_SET_MESSAGE_INTERVAL
+            ]
+            assert results and all(r == MAV_RESULT_ACCEPTED for r in results)
+            texts = [str(e.details["text"]) for e in srv.history.entries("statustext")]
+            assert not any("too fast" in t for t in texts)
+        finally:
+            ap.stop_heartbeat()
+            await ap.close()

@@ -62,6 +62,7 @@ ROVER_PARAMS: dict[str, float] = {
     "RC_OPTIONS": 32.0,
     "FS_GCS_ENABLE": 1.0,
     "MODE_CH": 8.0,
+    "SCHED_LOOP_RATE": 50.0,  # Rover's default: 25 ms is the fastest interval granted
     **{f"SERVO{n}_FUNCTION": 0.0 for n in range(1, 17)},
 }
 
