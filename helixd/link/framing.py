@@ -66,12 +66,25 @@ class ScanResult:
     bad_bytes: int = 0
 
 
+def _crc_table() -> tuple[int, ...]:
+    table = []
+    for byte in range(256):
+        crc = byte
+        for _ in range(8):
+            crc = (crc >> 1) ^ 0x8408 if crc & 1 else crc >> 1
+        table.append(crc)
+    return tuple(table)
+
+
+_CRC_TABLE = _crc_table()
+
+
 def x25_crc(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
-    """MAVLink's CRC-16/MCRF4XX (X.25 polynomial, reflected, init 0xFFFF, no final xor)."""
+    """MAVLink's CRC-16/MCRF4XX (X.25 polynomial 0x1021 reflected, init 0xFFFF, no xorout),
+    table-driven: one lookup per byte."""
+    table = _CRC_TABLE
     for byte in data:
-        tmp = byte ^ (crc & 0xFF)
-        tmp = (tmp ^ (tmp << 4)) & 0xFF
-        crc = ((crc >> 8) ^ (tmp << 8) ^ (tmp << 3) ^ (tmp >> 4)) & 0xFFFF
+        crc = (crc >> 8) ^ table[(crc ^ byte) & 0xFF]
     return crc
 
 
