@@ -96,8 +96,11 @@ class InboundHandler:
         self.core.ap.on_rc_override(src, raw, self.core.now_s)
 
     def _manual_control(self, link: int, msg: Message, src: int, comp: int) -> None:
-        if self.core.ap.is_gcs(src):
-            self.core.ap.gcs_last_seen_s = self.core.now_s
+        # GCS_MAVLINK::handle_manual_control: from the GCS sysid and aimed at us ("target"),
+        # then it counts as GCS contact for the failsafe (sysid_myggcs_seen)
+        ap = self.core.ap
+        if ap.is_gcs(src) and _i(msg, "target") == ap.sysid():
+            ap.gcs_last_seen_s = self.core.now_s
 
     def _set_mode(self, link: int, msg: Message, src: int, comp: int) -> None:
         core = self.core

@@ -193,3 +193,24 @@ def test_yaw_reported_clockwise_from_north() -> None:
     assert command(core, 0, 511, 30, 100_000) == 0
     att = of_type(run(core, 0.5), "ATTITUDE", 0)
     assert att and float(att[-1].yaw) == pytest.approx(math.radians(30.0), abs=1e-6)
+
+
+def test_gcs_contact_counts_heartbeat_override_and_manual_control_from_the_gcs_id_only() -> None:
+    """GCS_Common.cpp: handle_heartbeat / handle_rc_channels_override / handle_manual_control
+    refresh sysid_myggcs_seen only for GCS::sysid_is_gcs senders (MANUAL_CONTROL also needs
+    target = our sysid)."""
+    core = make_core()
+    run(core, 2.0)
+    ap = core.ap
+    hb = mavlink.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3)
+    core.handle(0, incoming(hb, sysid=255))  # ArduPilot's default GCS id is not ours
+    assert ap.gcs_last_seen_s is None
+    manual = mavlink.MAVLink_manual_control_message(2, 0, 0, 500, 0, 0)
+    core.handle(0, incoming(manual))  # aimed at system 2: not us
+    assert ap.gcs_last_seen_s is None
+    manual = mavlink.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0)
+    core.handle(0, incoming(manual))
+    assert ap.gcs_last_seen_s == core.now_s
+    run(core, 0.5)
+    core.handle(1, incoming(hb))
+    assert ap.gcs_last_seen_s == core.now_s
