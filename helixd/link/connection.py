@@ -501,11 +501,11 @@ class MavlinkConnection:
                 log.warning("mavlink_decode_failed", msgid=frame.msgid, error=repr(exc))
                 continue
             sysid = int(msg.get_srcSystem())
-            if sysid == self.cfg.source_system:
-                self._note_own_id(msg)
-                continue
             if sysid != self.cfg.target_system:
-                self._on_foreign(sysid)
+                if sysid == self.cfg.source_system:
+                    self._note_own_id(msg)
+                else:
+                    self._on_foreign(sysid)
                 continue
             from_target = True
             stats.rx_messages += 1
