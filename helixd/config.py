@@ -300,7 +300,13 @@ class LinkConfig(StrictModel):
     )
     baud: int = Field(115200, ge=1200, le=3_000_000, description="serial baud when url has none")
     source_system: int = Field(
-        255, ge=1, le=255, description="our MAVLink sysid; must equal MAV_GCS_SYSID for overrides"
+        247,
+        ge=1,
+        le=255,
+        description="our MAVLink sysid; the autopilot's MAV_GCS_SYSID must equal it. 247, not "
+        "255 (QGC/Mission Planner/MAVProxy), 245 (MAVSDK ground station) or 1 (vehicles, "
+        "MAVROS): a ground station sharing our id would hide a dead helixd from the GCS "
+        "failsafe and fight its overrides",
     )
     source_component: int = Field(191, ge=1, le=255, description="our compid (191 = onboard)")
     target_system: int = Field(1, ge=1, le=255, description="autopilot sysid")

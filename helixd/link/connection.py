@@ -47,7 +47,11 @@ from helixd.link.commands import (
     CommandError,
     CommandRejected,
 )
+from helixd.link.framing import FrameKind, scan_frames
+from helixd.link.ownid import OwnIdSenders
+from helixd.link.sanity import non_finite_fields
 from helixd.link.signing import enable_signing, load_signing_key
+from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
 from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
 from helixd.vehicle import Change, PoseSample, VehicleState, mode_number
@@ -385,10 +389,18 @@ def make_transport(url: LinkUrl, cfg: LinkConfig, on_data: OnData, on_lost: OnLo
 # Codec + filtering + reopen
 
 
+CRC_EXTRA: dict[int, int] = {
+    int(msgid): int(cls.crc_extra) for msgid, cls in mavlink.mavlink_map.items()
+}
+
+
 @dataclass
 class LinkStats:
     rx_messages: int = 0
-    bad_data: int = 0
+    bad_data: int = 0  # runs of bytes that were no valid frame (garbage, bad CRC, truncated)
+    bad_bytes: int = 0
+    unknown_messages: int = 0  # well-framed messages with an id our dialect does not know
+    non_finite: int = 0  # pose messages dropped for NaN/inf fields (see helixd.link.sanity)
     signature_rejects: int = 0
     tx_messages: int = 0
     tx_dropped: int = 0
@@ -416,7 +428,10 @@ class MavlinkConnection:
         self._on_lost = on_lost
         self._on_reopened = on_reopened
         self.stats = LinkStats()
+        self.own_id_senders = OwnIdSenders()
+        self.first_tx_s: float | None = None  # monotonic time of our first message sent
         self.mav = self._new_codec()
+        self._rxbuf = bytearray()  # stream transports: the incomplete frame at the end
         self.transport = make_transport(url, cfg, self._on_data, self._transport_lost)
         self.closed = False
         self._reopen_task: asyncio.Task[None] | None = None
@@ -446,38 +461,80 @@ class MavlinkConnection:
         mav.seq = (mav.seq + 1) % 256
         ok = self.transport.write(bytes(buf))
         if ok:
+            if self.first_tx_s is None:
+                self.first_tx_s = time.monotonic()
             self.stats.tx_messages += 1
         else:
             self.stats.tx_dropped += 1
         return ok
 
     def _on_data(self, data: bytes, addr: Address | None, rx_s: float) -> None:
-        try:
-            msgs = self.mav.parse_buffer(data) or []
-        except mavlink.MAVError as exc:
-            self.stats.bad_data += 1
-            log.debug("mavlink_parse_error", error=str(exc))
-            return
+        """Parse what one read returned (see :mod:`helixd.link.framing`); never raises.
+
+        A UDP datagram (``addr`` set) is parsed on its own: no parser state is carried into
+        the next datagram. A stream keeps only an incomplete trailing frame for the next read.
+        """
+        if addr is not None:
+            scan = scan_frames(data, final=True, crc_extra=CRC_EXTRA)
+        else:
+            self._rxbuf += data
+            scan = scan_frames(self._rxbuf, final=False, crc_extra=CRC_EXTRA)
+            del self._rxbuf[: scan.consumed]
+        stats = self.stats
+        stats.bad_data += scan.bad_runs
+        stats.bad_bytes += scan.bad_bytes
         from_target = False
-        for msg in msgs:
-            mtype = msg.get_type()
-            if mtype == "BAD_DATA":
-                self.stats.bad_data += 1
-                if "signature" in str(getattr(msg, "reason", "")).lower():
-                    self.stats.signature_rejects += 1
+        for frame in scan.frames:
+            if frame.kind is FrameKind.UNKNOWN_ID:
+                stats.unknown_messages += 1
+                continue
+            try:
+                msg = self.mav.decode(bytearray(frame.data))
+            except mavlink.MAVError as exc:
+                reason = str(getattr(exc, "message", exc))
+                stats.bad_data += 1
+                if "signature" in reason.lower():
+                    stats.signature_rejects += 1
+                continue
+            except Exception as exc:  # a decoder bug must not take the link down
+                stats.bad_data += 1
+                log.warning("mavlink_decode_failed", msgid=frame.msgid, error=repr(exc))
                 continue
             sysid = int(msg.get_srcSystem())
             if sysid != self.cfg.target_system:
-                self._on_foreign(sysid)
+                if sysid == self.cfg.source_system:
+                    self._note_own_id(msg)
+                else:
+                    self._on_foreign(sysid)
                 continue
             from_target = True
-            self.stats.rx_messages += 1
+            stats.rx_messages += 1
+            bad_fields = non_finite_fields(msg)
+            if bad_fields:
+                if stats.non_finite == 0:
+                    log.warning("non_finite_fields", type=msg.get_type(), fields=bad_fields)
+                stats.non_finite += 1
+                continue
             try:
                 self._on_message(msg, rx_s)
             except Exception:
-                log.exception("message_handler_failed", type=mtype)
+                log.exception("message_handler_failed", type=msg.get_type())
         if from_target and addr is not None:
             self.transport.note_peer(addr)
+
+    def _note_own_id(self, msg: MavMsg) -> None:
+        """A message from *our* system id: somebody else uses it (see helixd.link.ownid)."""
+        mtype = str(msg.get_type())
+        mav_type = int(msg.type) if mtype == "HEARTBEAT" else None
+        compid = int(msg.get_srcComponent())
+        if self.own_id_senders.note(compid, mtype, mav_type):
+            log.warning(
+                "own_sysid_in_use",
+                sysid=self.cfg.source_system,
+                compid=compid,
+                type=mtype,
+                mav_type=mav_type,
+            )
 
     def _transport_lost(self, reason: str) -> None:
         if self.closed:
@@ -498,7 +555,8 @@ class MavlinkConnection:
                 if attempts == 1 or attempts % REOPEN_LOG_EVERY == 0:
                     log.info("link_reopen_failed", attempt=attempts, error=str(exc))
                 continue
-            self.mav = self._new_codec()  # fresh parser: drop half a frame from the old stream
+            self.mav = self._new_codec()
+            self._rxbuf.clear()  # drop half a frame from the old stream
             self.stats.reopen_count += 1
             log.info("link_reopened", url=self.url.text, attempts=attempts)
             self._on_reopened()
@@ -602,6 +660,9 @@ ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM: skip checks
 RC_OVERRIDE_CHANNELS = 18
 UINT16_MAX = 65535
 ARM_TEXT_PREFIXES = ("PreArm", "Arm")
+# A chunked STATUSTEXT whose last chunk has not come after this long is logged as it is.
+# ArduPilot sends a text's chunks in one pass of its queue and prunes entries after 5 s.
+STATUSTEXT_TIMEOUT_S = 2.0
 
 
 def no_heartbeat_text(
@@ -616,6 +677,10 @@ def no_heartbeat_text(
         hints.append(f"{stats.signature_rejects} messages failed the signing check")
     if stats.bad_data and not stats.rx_messages:
         hints.append(f"{stats.bad_data} chunks of non-MAVLink data (wrong baud?)")
+    if stats.unknown_messages:
+        hints.append(
+            f"{stats.unknown_messages} messages with ids unknown to the ardupilotmega dialect"
+        )
     if not hints:
         hints.append("nothing received at all")
     return (
@@ -691,8 +756,9 @@ class Autopilot:
             self._on_reopened,
         )
         self._commands = CommandClient(lambda: self._conn.mav, self._conn.send, cfg, self.state)
-        self._streams = StreamManager(self.command_long, cfg)
+        self._streams = StreamManager(self.command_long, cfg, self.get_param)
         self._heartbeat = HeartbeatSender(self._conn, cfg)
+        self._texts = StatusTextAssembler(STATUSTEXT_TIMEOUT_S)
         self._waiters = _ChangeWaiters()
         self._pose_events: weakref.WeakSet[asyncio.Event] = weakref.WeakSet()
         self._listeners: list[Callable[[MavMsg, float], None]] = []
@@ -743,6 +809,20 @@ class Autopilot:
         return self._conn.stats
 
     @property
+    def own_id_senders(self) -> OwnIdSenders:
+        """Other senders using our system id (see :mod:`helixd.link.ownid`)."""
+        return self._conn.own_id_senders
+
+    def own_id_watch_s(self) -> float:
+        """How long the autopilot has known us (since our first message) — 0 before that.
+
+        ArduPilot forwards another link's HEARTBEATs to ours only once ours is active, i.e.
+        after it received something from us.
+        """
+        first = self._conn.first_tx_s
+        return 0.0 if first is None else time.monotonic() - first
+
+    @property
     def ack_stats(self) -> AckStats:
         return self._commands.stats
 
@@ -760,13 +840,52 @@ class Autopilot:
     # -- reader side --------------------------------------------------------------------------
 
     def _on_message(self, msg: MavMsg, rx_s: float) -> None:
-        changes = self.state.apply(msg, rx_s)
+        if msg.get_type() == "STATUSTEXT":
+            changes = self._statustext_chunk(msg, rx_s)
+        else:
+            changes = self.state.apply(msg, rx_s) | self._expired_texts(rx_s)
         self._commands.on_message(msg, rx_s)
         self._streams.monitor.record(msg.get_type())
         if changes:
             self._on_changes(changes)
         for callback in self._listeners:
             callback(msg, rx_s)
+
+    def _statustext_chunk(self, msg: MavMsg, rx_s: float) -> Change:
+        """Feed one STATUSTEXT to the reassembler; the state sees whole texts only."""
+        texts = self._texts.add(
+            int(msg.get_srcSystem()),
+            int(msg.get_srcComponent()),
+            int(msg.severity),
+            str(msg.text),
+            int(getattr(msg, "id", 0) or 0),
+            int(getattr(msg, "chunk_seq", 0) or 0),
+            rx_s,
+        )
+        return self._apply_texts(texts, rx_s)
+
+    def _expired_texts(self, now_s: float) -> Change:
+        if not self._texts.pending:
+            return Change.NONE
+        return self._apply_texts(self._texts.expire(now_s), now_s)
+
+    def _apply_texts(self, texts: list[AssembledText], rx_s: float) -> Change:
+        changes = Change.NONE
+        for text in texts:
+            whole = mavlink.MAVLink_statustext_message(text.severity, b"", 0, 0)
+            whole.text = text.text  # may be longer than one frame's 50 characters
+            changes |= self.state.apply(whole, rx_s)
+            if text.complete:
+                log.info("autopilot_statustext", text=text.text, severity=text.severity)
+            else:
+                log.info(
+                    "autopilot_statustext",
+                    text=text.text,
+                    severity=text.severity,
+                    incomplete=True,
+                    chunks=text.chunks,
+                )
+        return changes
 
     def _on_changes(self, changes: Change) -> None:
         st = self.state
@@ -785,9 +904,6 @@ class Autopilot:
             log.info("autopilot_mode", mode=st.mode, custom_mode=st.custom_mode)
         if changes & Change.ARMED:
             log.info("autopilot_armed" if st.armed else "autopilot_disarmed")
-        if changes & Change.STATUSTEXT:
-            last = st.statustexts[-1]
-            log.info("autopilot_statustext", text=last.text, severity=last.severity)
         self._waiters.wake(changes)
 
     def _on_foreign(self, sysid: int) -> None:
@@ -807,6 +923,9 @@ class Autopilot:
         while True:
             await asyncio.sleep(timeout_s / 4)
             st = self.state
+            changes = self._expired_texts(time.monotonic())  # a text whose end never came
+            if changes:
+                self._on_changes(changes)
             if st.check_link(time.monotonic(), timeout_s):
                 log.warning(
                     "link_lost",

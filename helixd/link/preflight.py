@@ -5,9 +5,17 @@ judges them with the pure :func:`judge`. Every problem says exactly what to chan
 
 What is checked (ArduPilot Rover, DESIGN §3):
 
-* GCS system id — ``MAV_GCS_SYSID`` (current) or ``SYSID_MYGCS`` (legacy), whichever exists.
-  RC overrides from any other sysid are silently ignored (error for ``rc_override``); the GCS
-  failsafe only counts that sysid's heartbeats (warning otherwise).
+* GCS system id — ``MAV_GCS_SYSID`` (current; with ``MAV_GCS_SYSID_HI`` a range, as
+  ``GCS::sysid_is_gcs``) or ``SYSID_MYGCS`` (legacy), whichever exists, must cover
+  ``link.source_system``. RC overrides from any other sysid are silently ignored (error for
+  ``rc_override``); the GCS failsafe only counts that sysid's heartbeats (warning otherwise).
+  helixd never suggests taking a ground station's default id (255, 245) instead, and warns
+  when it is configured with one, or when MAV_GCS_SYSID_HI makes a range of ids "the GCS".
+* Nobody else uses helixd's system id — messages arriving with our own srcSystem (a ground
+  station or a second helixd on the same id, seen directly or forwarded by ArduPilot from
+  another link, MAVLink_routing.cpp) → error: that sender's heartbeats would keep the GCS
+  failsafe quiet when helixd dies, and its overrides would fight ours. Preflight listens for
+  at least :data:`OWN_ID_WATCH_S` after our first message before judging.
 * ``RC_OVERRIDE_TIME`` (rc_override) — 0 disables overrides altogether (RC_Channel::has_override:
   "overrides are explicitly disabled by a zero value") → error; negative means they never
   expire, so a dead helixd would keep driving → warning; a repeat period not well inside it →
@@ -29,9 +37,10 @@ from __future__ import annotations
 import asyncio
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Literal, Protocol
+from typing import Literal, Protocol, runtime_checkable
 
 from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
+from helixd.link.ownid import OwnIdSenders
 
 Severity = Literal["error", "warning"]
 
@@ -42,6 +51,12 @@ SERVO_FUNCTION_RC_PASSTHRU = 1
 SERVO_ALLOWED_FUNCTIONS = frozenset({0, 1, 22, 23, *range(51, 67)})
 RC_OPTIONS_IGNORE_OVERRIDES = 2  # bit 1
 RECOMMENDED_OVERRIDE_TIME_S = 3.0
+# Default system ids of common ground stations: 255 QGroundControl, Mission Planner, MAVProxy
+# and pymavlink scripts; 245 MAVSDK in its GroundStation role. helixd must not share them.
+GCS_DEFAULT_SYSIDS = {255: "QGroundControl/Mission Planner/MAVProxy", 245: "MAVSDK"}
+# Ground stations send HEARTBEAT at 1 Hz: two periods and a margin after our first message
+# (ArduPilot forwards other links' heartbeats to ours only once ours is active).
+OWN_ID_WATCH_S = 2.2
 
 
 @dataclass(frozen=True, slots=True)
@@ -60,12 +75,22 @@ class ParamReader(Protocol):
     ) -> float | None: ...
 
 
+@runtime_checkable
+class OwnIdWatch(Protocol):
+    """What the link knows about other senders on our system id (see helixd.link.ownid)."""
+
+    @property
+    def own_id_senders(self) -> OwnIdSenders: ...
+
+    def own_id_watch_s(self) -> float: ...
+
+
 LEGACY_GCS_SYSID = "SYSID_MYGCS"
 
 
 def param_names(actuation: ActuationConfig) -> list[str]:
     """Parameters to read (the legacy SYSID_MYGCS only if MAV_GCS_SYSID turns out missing)."""
-    names = ["MAV_GCS_SYSID", "FS_GCS_ENABLE"]
+    names = ["MAV_GCS_SYSID", "MAV_GCS_SYSID_HI", "FS_GCS_ENABLE"]
     if actuation.backend is ActuationBackend.RC_OVERRIDE:
         names += ["RC_OVERRIDE_TIME", "RC_OPTIONS", "MODE_CH"]
         names += [
@@ -81,11 +106,42 @@ async def check_obedience(
 ) -> list[PreflightProblem]:
     """Read the parameters that decide whether we are obeyed; return every problem found."""
     names = param_names(actuation)
-    values = await asyncio.gather(*(ap.get_param(n) for n in names))
+    values, _ = await asyncio.gather(
+        asyncio.gather(*(ap.get_param(n) for n in names)), _listen_for_own_id(ap)
+    )
     params: dict[str, float | None] = dict(zip(names, values, strict=True))
     if params["MAV_GCS_SYSID"] is None:  # older firmware: the GCS sysid had another name
         params[LEGACY_GCS_SYSID] = await ap.get_param(LEGACY_GCS_SYSID)
-    return judge(params, actuation, link)
+    problems = judge(params, actuation, link)
+    if isinstance(ap, OwnIdWatch):
+        problems = judge_own_id(ap.own_id_senders, link) + problems
+    return problems
+
+
+async def _listen_for_own_id(ap: ParamReader) -> None:
+    """Give other senders on our id time to show up (a listening window, not a sync)."""
+    if isinstance(ap, OwnIdWatch):
+        remaining = OWN_ID_WATCH_S - ap.own_id_watch_s()
+        if remaining > 0:
+            await asyncio.sleep(remaining)
+
+
+def judge_own_id(senders: OwnIdSenders, link: LinkConfig) -> list[PreflightProblem]:
+    """Error when anyone else sends with helixd's system id (pure)."""
+    if not senders:
+        return []
+    sysid = link.source_system
+    return [
+        PreflightProblem(
+            "error",
+            f"another sender uses helixd's system id {sysid} "
+            f"({senders.describe(link.source_component)}): while it is there the autopilot's "
+            f"GCS failsafe cannot notice a dead helixd and its RC overrides fight helixd's; give "
+            f"that ground station / program another system id, or run helixd with an unused "
+            f"link.source_system and set MAV_GCS_SYSID to it",
+            "MAV_GCS_SYSID",
+        )
+    ]
 
 
 def _int(value: float) -> int:
@@ -118,36 +174,73 @@ def judge(
     return out
 
 
+def is_gcs(sysid: int, low: int, high: int | None) -> bool:
+    """ArduPilot's GCS::sysid_is_gcs (``high`` None: legacy firmware without the range)."""
+    if high is None or high <= low:
+        return sysid == low
+    return low <= sysid <= high
+
+
 def _gcs_sysid(
     params: Mapping[str, float | None], actuation: ActuationConfig, link: LinkConfig
 ) -> list[PreflightProblem]:
     name = "MAV_GCS_SYSID" if params.get("MAV_GCS_SYSID") is not None else "SYSID_MYGCS"
     value = params.get(name)
     rc = actuation.backend is ActuationBackend.RC_OVERRIDE
+    ours = link.source_system
+    out: list[PreflightProblem] = []
+    if ours in GCS_DEFAULT_SYSIDS:
+        out.append(
+            PreflightProblem(
+                "warning",
+                f"link.source_system = {ours} is the default system id of "
+                f"{GCS_DEFAULT_SYSIDS[ours]}: a ground station left on it hides a dead helixd "
+                f"from the GCS failsafe and fights its overrides; use an id of helixd's own "
+                f"(default {LinkConfig.model_fields['source_system'].default}) and set "
+                f"{name} to it",
+            )
+        )
     if value is None:
-        return [
+        out.append(
             PreflightProblem(
                 "error" if rc else "warning",
                 "the autopilot has neither MAV_GCS_SYSID nor SYSID_MYGCS: cannot confirm it "
-                f"accepts commands from system {link.source_system}",
+                f"accepts commands from system {ours}",
             )
-        ]
+        )
+        return out
     gcs = _int(value)
-    if gcs == link.source_system:
-        return []
+    hi_value = params.get("MAV_GCS_SYSID_HI") if name == "MAV_GCS_SYSID" else None
+    hi = None if hi_value is None else _int(hi_value)
+    if is_gcs(ours, gcs, hi):
+        if hi is not None and hi > gcs:
+            out.append(
+                PreflightProblem(
+                    "warning",
+                    f"MAV_GCS_SYSID_HI = {hi} makes every system {gcs}..{hi} the GCS: a ground "
+                    f"station in that range keeps the GCS failsafe quiet when helixd dies and "
+                    f"its overrides fight helixd's; set MAV_GCS_SYSID = {ours} and "
+                    f"MAV_GCS_SYSID_HI = 0",
+                    "MAV_GCS_SYSID_HI",
+                )
+            )
+        return out
     what = (
         "RC overrides from helixd would be silently ignored"
         if rc
         else "the autopilot's GCS failsafe will not see helixd's heartbeats"
     )
-    return [
-        PreflightProblem(
-            "error" if rc else "warning",
-            f"{what}: set {name} = {link.source_system} (currently {gcs}) or run helixd with "
-            f"link.source_system = {gcs}",
-            name,
+    fix = f"set {name} = {ours} (currently {gcs})"
+    if hi is not None and hi > gcs:
+        fix += f" and MAV_GCS_SYSID_HI = 0 (currently {hi})"
+    if gcs in GCS_DEFAULT_SYSIDS:
+        fix += (
+            f"; {gcs} is the default id of {GCS_DEFAULT_SYSIDS[gcs]}, which helixd must not share"
         )
-    ]
+    else:
+        fix += f", or run helixd with link.source_system = {gcs}"
+    out.append(PreflightProblem("error" if rc else "warning", f"{what}: {fix}", name))
+    return out
 
 
 def _override_params(

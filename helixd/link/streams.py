@@ -1,10 +1,15 @@
-"""Message rates: ask with MAV_CMD_SET_MESSAGE_INTERVAL, step down on DENIED, watch them.
+"""Message rates: ask with MAV_CMD_SET_MESSAGE_INTERVAL for what will be granted, watch them.
 
-ArduPilot refuses (DENIED) an interval shorter than 1.25 × its scheduler period: Rover's
-default 50 Hz loop denies 20 ms and grants 25 ms (40 Hz). The pose streams are therefore asked
-at ``pose_rate_hz`` and, on each DENIED, at an interval ``stream_step_factor`` (1.25) times
-longer — 20 ms → 25 ms lands exactly on Rover's fastest granted rate — down to
-``pose_rate_min_hz``. The granted rate is logged and returned.
+ArduPilot refuses (DENIED, with the STATUSTEXT "Requested rate for message ID … too fast.
+Increase SCHED_LOOP_RATE") an interval shorter than 1.25 × its scheduler period
+(GCS_MAVLINK::cap_message_interval: denied when ``interval_ms * 800 < loop_period_us``, the
+interval in whole milliseconds): Rover's default 50 Hz loop denies 20 ms and grants 25 ms
+(40 Hz). So ``SCHED_LOOP_RATE`` is read first and each stream is asked at
+``pose_rate_hz`` / ``telemetry_rate_hz`` or the fastest interval that loop grants, whichever
+is slower — no DENIED, no STATUSTEXT on every start. If the parameter cannot be read, or a
+DENIED comes anyway, the old fallback remains: on each DENIED an interval
+``stream_step_factor`` (1.25) times longer, down to ``pose_rate_min_hz``. The granted rate is
+logged and returned.
 
 Rates drop while parameters or missions transfer, and another GCS's REQUEST_DATA_STREAM can
 reset them, so :class:`RateMonitor` counts arrivals and, once per ``stream_check_window_s``,
@@ -38,8 +43,13 @@ TELEMETRY_STREAMS = ("EKF_STATUS_REPORT", "SYS_STATUS", "RC_CHANNELS", "SERVO_OU
 MAV_CMD_SET_MESSAGE_INTERVAL = int(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL)
 MAV_RESULT_DENIED = int(mavlink.MAV_RESULT_DENIED)
 US_PER_S = 1_000_000
+US_PER_MS = 1000
+MS_DENY_FACTOR = 800  # cap_message_interval: denied when interval_ms * 800 < loop period (µs)
+MAX_LOOP_RATE_HZ = 2000  # SCHED_LOOP_RATE's documented range is 50..400 (Copter up to 2000)
+LOOP_RATE_PARAM = "SCHED_LOOP_RATE"
 
 CommandFn = Callable[..., Awaitable[int]]
+ParamFn = Callable[..., Awaitable[float | None]]
 
 
 def message_id(name: str) -> int:
@@ -59,9 +69,34 @@ def step_down(interval: int, factor: float) -> int:
     return max(interval + 1, math.ceil(interval * factor))
 
 
-def candidate_intervals(rate_hz_: float, min_rate_hz: float, factor: float) -> list[int]:
-    """Intervals to try in order: ``rate_hz_`` and its step-downs, none slower than the floor."""
-    out = [interval_us(rate_hz_)]
+def fastest_granted_interval_us(loop_rate_hz: int) -> int | None:
+    """The shortest interval ArduPilot grants at ``SCHED_LOOP_RATE`` (None if not sane).
+
+    AP_Scheduler::get_loop_period_us = 1e6 / loop rate; set_message_interval keeps whole
+    milliseconds and cap_message_interval denies ``interval_ms * 800 < period_us``.
+    """
+    if not 1 <= loop_rate_hz <= MAX_LOOP_RATE_HZ:
+        return None
+    period_us = US_PER_S // loop_rate_hz
+    return math.ceil(period_us / MS_DENY_FACTOR) * US_PER_MS
+
+
+def first_interval_us(want_hz: float, loop_rate_hz: int | None) -> int:
+    """What to ask first: the wanted interval, or the fastest one granted if that is slower.
+
+    ArduPilot truncates to whole milliseconds, so the wanted interval is rounded up to one.
+    """
+    want = math.ceil(interval_us(want_hz) / US_PER_MS) * US_PER_MS
+    fastest = None if loop_rate_hz is None else fastest_granted_interval_us(loop_rate_hz)
+    return want if fastest is None else max(want, fastest)
+
+
+def candidate_intervals(
+    rate_hz_: float, min_rate_hz: float, factor: float, first_us: int | None = None
+) -> list[int]:
+    """Intervals to try in order: ``first_us`` (default: ``rate_hz_``'s) and its step-downs,
+    none slower than the floor (the first is always tried)."""
+    out = [interval_us(rate_hz_) if first_us is None else first_us]
     floor_interval = interval_us(min(min_rate_hz, rate_hz_))
     while True:
         nxt = step_down(out[-1], factor)
@@ -109,9 +144,11 @@ class RateMonitor:
 class StreamManager:
     """Negotiates the message intervals and re-requests slow streams."""
 
-    def __init__(self, command: CommandFn, cfg: LinkConfig) -> None:
+    def __init__(self, command: CommandFn, cfg: LinkConfig, get_param: ParamFn | None = None):
         self._command = command
+        self._get_param = get_param
         self._cfg = cfg
+        self.loop_rate_hz: int | None = None
         self.monitor = RateMonitor(cfg.stream_check_window_s, cfg.stream_slow_fraction)
         self.requested = False
         self._lock = asyncio.Lock()
@@ -124,6 +161,7 @@ class StreamManager:
         """Ask for every stream; return name → granted rate (0.0 = not granted)."""
         cfg = self._cfg
         async with self._lock:
+            self.loop_rate_hz = await self._read_loop_rate()
             granted: dict[str, float] = {}
             pose_first = await self._negotiate(
                 POSE_STREAMS[0], cfg.pose_rate_hz, cfg.pose_rate_min_hz
@@ -142,9 +180,36 @@ class StreamManager:
             log.info("streams_granted", **{n.lower(): round(r, 2) for n, r in granted.items()})
             return granted
 
+    async def _read_loop_rate(self) -> int | None:
+        """SCHED_LOOP_RATE (Hz), read once per negotiation (it changes only with a reboot)."""
+        if self._get_param is None:
+            return None
+        try:
+            value = await self._get_param(LOOP_RATE_PARAM, self._cfg.command_timeout_s, 1)
+        except CommandError as exc:
+            value = None
+            log.info("stream_loop_rate_unknown", error=str(exc))
+        if value is None or not math.isfinite(value):
+            log.info("stream_loop_rate_unknown", param=LOOP_RATE_PARAM)
+            return None
+        rate = round(value)
+        fastest = fastest_granted_interval_us(rate)
+        if fastest is None:
+            log.warning("stream_loop_rate_invalid", param=LOOP_RATE_PARAM, value=value)
+            return None
+        log.info(
+            "stream_loop_rate",
+            loop_rate_hz=rate,
+            fastest_interval_us=fastest,
+            fastest_hz=round(rate_hz(fastest), 2),
+        )
+        return rate
+
     async def _negotiate(self, name: str, want_hz: float, floor_hz: float) -> float:
         msg_id = message_id(name)
-        for interval in candidate_intervals(want_hz, floor_hz, self._cfg.stream_step_factor):
+        first = first_interval_us(want_hz, self.loop_rate_hz)
+        steps = candidate_intervals(want_hz, floor_hz, self._cfg.stream_step_factor, first)
+        for interval in steps:
             result = await self._command(
                 MAV_CMD_SET_MESSAGE_INTERVAL, (msg_id, interval), ok_results=ALL_RESULTS
             )

@@ -10,10 +10,13 @@ from __future__ import annotations
 import math
 from enum import StrEnum
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
-from helixd.config import StrictModel, VehicleConfig
+from helixd.config import LinkConfig, StrictModel, VehicleConfig
 from helixd.sim.params import DEFAULT_PARAMS
+
+# helixd's own MAVLink system id (link.source_system's default)
+HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)
 
 
 class Terrain(StrEnum):
@@ -147,8 +150,18 @@ class NoiseProfiles(StrictModel):
 
 
 def _helix_params() -> dict[str, float]:
-    """The Helix-25 setup on top of ArduPilot Rover's defaults (see params.py)."""
+    """The Helix-25 setup on top of ArduPilot Rover's defaults (see params.py).
+
+    It includes the README's recommended setup for helixd, so that ``helixd run --sim``,
+    ``make demo`` and ``helixd sim`` start configured as a real vehicle should be (a
+    preflight warning there then means something): helixd's system id is the GCS id
+    (MAV_GCS_SYSID; ArduPilot's default 255 is the ground stations'), and the GCS failsafe
+    is on with HOLD as its action. Tests of raw ArduPilot defaults pass ``params`` explicitly.
+    """
     return {
+        "MAV_GCS_SYSID": float(HELIXD_SYSID),
+        "FS_GCS_ENABLE": 1.0,
+        "FS_ACTION": 2.0,  # HOLD
         "MODE6": 4.0,  # pilot's mode switch high = HOLD (ArduPilot default: all MANUAL)
         "SERVO1_MIN": 1000.0,
         "SERVO1_MAX": 2000.0,
@@ -224,11 +237,17 @@ class SimConfig(StrictModel):
     )
     params: dict[str, float] = Field(
         default_factory=_helix_params,
-        description="parameter values over ArduPilot Rover's defaults (names must exist)",
+        description="parameter values over the Helix setup and ArduPilot Rover's defaults "
+        "(names must exist; given values are merged over the Helix setup, not instead of it)",
     )
     history_max_entries: int = Field(
         200_000, ge=100, le=10_000_000, description="oldest history entries dropped beyond this"
     )
+
+    @field_validator("params", mode="after")
+    @classmethod
+    def _over_helix_setup(cls, value: dict[str, float]) -> dict[str, float]:
+        return {**_helix_params(), **value}
 
     @model_validator(mode="after")
     def _check(self) -> SimConfig:

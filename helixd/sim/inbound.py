@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from helixd.sim import messages, telemetry
 from helixd.sim import streams as st
@@ -96,8 +96,11 @@ class InboundHandler:
         self.core.ap.on_rc_override(src, raw, self.core.now_s)
 
     def _manual_control(self, link: int, msg: Message, src: int, comp: int) -> None:
-        if self.core.ap.is_gcs(src):
-            self.core.ap.gcs_last_seen_s = self.core.now_s
+        # GCS_MAVLINK::handle_manual_control: from the GCS sysid and aimed at us ("target"),
+        # then it counts as GCS contact for the failsafe (sysid_myggcs_seen)
+        ap = self.core.ap
+        if ap.is_gcs(src) and _i(msg, "target") == ap.sysid():
+            ap.gcs_last_seen_s = self.core.now_s
 
     def _set_mode(self, link: int, msg: Message, src: int, comp: int) -> None:
         core = self.core
@@ -215,3 +218,64 @@ class InboundHandler:
         if stored != old:
             core.events.append(SimEvent("param", {"name": name, "value": stored, "old": old}))
         core.send(None, self.param_value_at(core.params.index(name)))
+
+
+# ---------------------------------------------------------------------------------------------
+# Forwarding between links (MAVLink_routing.cpp)
+
+MAVLINK_MSG_ID_HEARTBEAT = 0
+MAVLINK_MSG_ID_RADIO_STATUS = 109
+MAVLINK_MSG_ID_ADSB_VEHICLE = 246
+MAVLINK_MSG_ID_RADIO = 166
+NOT_FORWARDED = frozenset({MAVLINK_MSG_ID_RADIO, MAVLINK_MSG_ID_RADIO_STATUS})
+
+
+class Router:
+    """ArduPilot's MAVLink_routing::check_and_forward, deciding which links get a copy.
+
+    Routes (sysid, compid) → link are learned from every message. A HEARTBEAT goes to every
+    active link (one that has received anything) except the incoming one and links that are
+    known sources of that sysid/compid; RADIO/RADIO_STATUS/ADSB_VEHICLE are never forwarded;
+    a message without target_system or with 0 goes to every link with a learned route except
+    the incoming one; a message for another system goes where that system was seen. Our own
+    sysid/compid coming back (a loop) is neither learned nor forwarded. The copy is the
+    received frame unchanged (``_mavlink_resend_uart``): the sender's ids stay.
+    """
+
+    def __init__(self) -> None:
+        self.routes: list[tuple[int, int, int]] = []  # (sysid, compid, link), learn order
+        self.active: set[int] = set()
+
+    def forward_links(
+        self, link: int, msg: Message, own_sysid: int, own_compid: int = OUR_COMPID
+    ) -> list[int]:
+        sysid, compid = int(msg.get_srcSystem()), int(msg.get_srcComponent())
+        self.active.add(link)
+        if sysid == own_sysid and compid == own_compid:
+            return []
+        if sysid != 0 and (sysid, compid, link) not in self.routes:
+            self.routes.append((sysid, compid, link))
+        decoded: Any = msg  # a pymavlink message (the Message protocol lacks get_msgId)
+        msg_id = int(decoded.get_msgId())
+        if msg_id in NOT_FORWARDED or msg_id == MAVLINK_MSG_ID_ADSB_VEHICLE:
+            return []
+        if msg_id == MAVLINK_MSG_ID_HEARTBEAT:
+            sources = {lk for s, c, lk in self.routes if (s, c) == (sysid, compid)}
+            return sorted(self.active - {link} - sources)
+        target_sys = int(getattr(msg, "target_system", -1))
+        target_comp = int(getattr(msg, "target_component", -1))
+        broadcast_sys = target_sys in (0, -1)
+        broadcast_comp = target_comp in (0, -1)
+        match_sys = broadcast_sys or target_sys == own_sysid
+        match_comp = match_sys and (broadcast_comp or target_comp == own_compid)
+        if match_sys and match_comp and not broadcast_sys and not broadcast_comp:
+            return []  # only for us
+        out: set[int] = set()
+        for r_sys, r_comp, r_link in self.routes:
+            if r_link == link:
+                continue
+            if broadcast_sys or (
+                target_sys == r_sys and (broadcast_comp or target_comp == r_comp or not match_sys)
+            ):
+                out.add(r_link)
+        return sorted(out)

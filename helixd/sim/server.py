@@ -7,7 +7,9 @@ When the machine cannot keep up, simulated time slows down rather than skipping 
 
 Links are pymavlink-style strings: ``udpin:HOST:PORT`` (bind; reply to whoever spoke last),
 ``udpout:HOST:PORT`` (send there, listen on the same socket), ``tcpin:HOST:PORT`` (serve
-TCP clients, like SITL's tcp:5760). Each link has its own message intervals.
+TCP clients, like SITL's tcp:5760). Each link has its own message intervals. Messages are
+forwarded between links as ArduPilot's MAVLink_routing does (:class:`helixd.sim.inbound.Router`):
+a ground station on one link is heard on the others.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.sim.config import SimConfig
 from helixd.sim.core import SimCore
 from helixd.sim.faults import make_spec
+from helixd.sim.inbound import Router
 from helixd.sim.snapshot import History, HistoryEntry, SimSnapshot, take_snapshot
 
 log = structlog.get_logger(__name__)
@@ -134,14 +137,18 @@ class _Link(asyncio.DatagramProtocol, asyncio.Protocol):
         self.mav.srcSystem = sysid
         self.mav.send(msg)
         for data in self.sink.take():
-            if self.udp is not None:
-                if self.spec.kind == "udpout":
-                    self.udp.sendto(data)
-                elif self.peer is not None:
-                    self.udp.sendto(data, self.peer)
-            for client in self.tcp_clients:
-                if not client.is_closing():
-                    client.write(data)
+            self.send_raw(data)
+
+    def send_raw(self, data: bytes) -> None:
+        """Put a packed frame on the wire as it is (forwarding keeps the sender's ids)."""
+        if self.udp is not None:
+            if self.spec.kind == "udpout":
+                self.udp.sendto(data)
+            elif self.peer is not None:
+                self.udp.sendto(data, self.peer)
+        for client in self.tcp_clients:
+            if not client.is_closing():
+                client.write(data)
 
     def close(self) -> None:
         if self.udp is not None:
@@ -163,6 +170,7 @@ class SimServer:
         self.history = History(config.history_max_entries)
         rng = np.random.default_rng(config.seed)
         self._core = SimCore(config, len(self.link_specs), rng)
+        self._router = Router()
         self._links: list[_Link] = []
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
@@ -286,8 +294,15 @@ class SimServer:
         except mavlink.MAVError as exc:
             log.debug("sim_bad_packet", link=index, error=str(exc))
             return
+        core = self._core
         for msg in msgs:
-            self._core.handle(index, msg)
+            if msg.get_type() == "BAD_DATA":
+                continue
+            if core.link_up(index) and core.ap.accepts_from(int(msg.get_srcSystem())):
+                for target in self._router.forward_links(index, msg, core.ap.sysid()):
+                    if core.link_up(target):
+                        self._links[target].send_raw(bytes(msg.get_msgbuf()))
+            core.handle(index, msg)
         self._after()
 
     def _after(self) -> None:

@@ -15,9 +15,10 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink import mavutil
 
 from helixd.sim import SimConfig, SimServer, start_embedded
+from helixd.sim.config import HELIXD_SYSID
 
 UINT16_MAX = 0xFFFF
-GCS_SYSID = 255
+GCS_SYSID = HELIXD_SYSID  # the simulator's MAV_GCS_SYSID (set up for helixd; ArduPilot: 255)
 GCS_COMPID = 190
 MAV_RESULT_ACCEPTED = 0
 MAV_RESULT_DENIED = 2
@@ -34,10 +35,14 @@ MODE_HOLD = 4
 
 # fast, deterministic defaults for wire tests: 10× SITL-style speed-up, exact pose
 FAST = {"speedup": 10.0, "noise": "none", "seed": 7, "prearm_delay_s": 5.0}
+# Clients pace their HEARTBEATs in wall time while FS_GCS_TIMEOUT runs on simulated time, so
+# the GCS failsafe is off in tests unless a test turns it on (its params are merged over this).
+FAST_PARAMS = {"FS_GCS_ENABLE": 0.0}
 
 
 def sim_config(**overrides: Any) -> SimConfig:
-    return SimConfig.model_validate({**FAST, **overrides})
+    params = {**FAST_PARAMS, **overrides.pop("params", {})}
+    return SimConfig.model_validate({**FAST, **overrides, "params": params})
 
 
 def free_udp_port() -> int:

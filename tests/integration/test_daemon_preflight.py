@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 from typing import Any
 
 import pytest
 
 from helixd.exitcodes import ExitCode
-from tests.integration.daemon_harness import sim_and_daemon
+from tests.integration.daemon_harness import SPEEDUP, daemon, sim_and_daemon
+from tests.integration.simharness import GCS_SYSID, client, running_sim_links
 
 pytestmark = pytest.mark.integration
 
@@ -26,7 +28,7 @@ SERVO_CFG = {
         pytest.param(
             {"MAV_GCS_SYSID": 1},
             None,
-            ["MAV_GCS_SYSID", "255", "source_system"],
+            ["MAV_GCS_SYSID = 247", "currently 1", "source_system"],
             id="wrong_gcs_sysid",
         ),
         pytest.param(
@@ -63,5 +65,37 @@ def test_preflight_refusal(
     text = "\n".join(refusal)
     for needle in needles:
         assert needle in text, f"{needle!r} not in {text!r}"
+    assert arms == [] and not snap.armed
+    assert "Traceback" not in log
+
+
+def test_ground_station_on_helixd_s_system_id_is_refused(tmp_path: Path) -> None:
+    """A GCS left on helixd's id, on another link of the autopilot: ArduPilot forwards its
+    HEARTBEATs to helixd's link; preflight refuses (exit 3) and nothing is armed."""
+    links = ["udpin:127.0.0.1:0", "udpin:127.0.0.1:0"]
+    with running_sim_links(links, speedup=SPEEDUP) as server:
+        helixd_port, gcs_port = server.local_ports
+        with client(f"udpout:127.0.0.1:{gcs_port}", sysid=GCS_SYSID) as gcs:
+            stop = threading.Event()
+
+            def ground_station() -> None:  # a GCS heartbeats at 1 Hz; faster here
+                while not stop.wait(0.2):
+                    gcs.heartbeat()
+
+            pinger = threading.Thread(target=ground_station, name="gcs-on-our-id", daemon=True)
+            pinger.start()
+            try:
+                with daemon(tmp_path, f"udpout:127.0.0.1:{helixd_port}", "square") as d:
+                    code = d.wait_exit(60.0)
+                    log = d.log_text()
+            finally:
+                stop.set()
+                pinger.join(timeout=2.0)
+        arms = server.history.entries("arm")
+        snap = server.snapshot()
+    assert code == ExitCode.PREFLIGHT, log[-3000:]
+    refusal = "\n".join(line for line in log.splitlines() if line.startswith("preflight:"))
+    assert f"another sender uses helixd's system id {GCS_SYSID}" in refusal, log[-3000:]
+    assert "component 190" in refusal and "HEARTBEAT type GCS" in refusal
     assert arms == [] and not snap.armed
     assert "Traceback" not in log

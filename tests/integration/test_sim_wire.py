@@ -7,6 +7,7 @@ loaded machine slows the simulation down but does not change the numbers.
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 import pytest
@@ -16,9 +17,11 @@ from helixd.cli import app
 from helixd.sim import FaultError
 from tests.integration.simharness import (
     FORCE_ARM,
+    GCS_SYSID,
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_DO_SET_SERVO,
+    MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_DENIED,
     MAV_RESULT_FAILED,
@@ -29,6 +32,7 @@ from tests.integration.simharness import (
     MavClient,
     client,
     running_sim,
+    running_sim_links,
 )
 
 pytestmark = pytest.mark.integration
@@ -105,7 +109,8 @@ def test_message_interval_20ms_denied_25ms_granted_at_40hz() -> None:
 def test_param_mav_gcs_sysid_exists_and_sysid_mygcs_does_not() -> None:
     with running_sim() as (_, url), client(url) as c:
         wait_manual(c)
-        assert c.param_read("MAV_GCS_SYSID") == 255.0
+        assert c.param_read("MAV_GCS_SYSID") == float(GCS_SYSID)  # set up for helixd
+        assert c.param_read("MAV_GCS_SYSID_HI") == 0.0
         assert c.param_read("SYSID_MYGCS", timeout_s=1.0) is None
         c.mav.param_request_list_send(1, 1)
         first = c.expect("PARAM_VALUE", 3.0)
@@ -116,13 +121,13 @@ def test_param_mav_gcs_sysid_exists_and_sysid_mygcs_does_not() -> None:
         assert "SYSID_MYGCS" not in names
 
 
-def test_override_ignored_from_sysid_1_applied_from_255_while_disarmed() -> None:
+def test_override_ignored_from_sysid_1_applied_from_the_gcs_id_while_disarmed() -> None:
     with running_sim() as (srv, url), client(url) as c:
         wait_manual(c)
         c.fast_streams()
         c.mav.srcSystem = 1  # a companion that kept MAVROS's default sysid
         c.override(1700)
-        c.mav.srcSystem = 255
+        c.mav.srcSystem = GCS_SYSID
         start = c.expect("SERVO_OUTPUT_RAW", 3.0)
         while True:  # one simulated second of outputs: channel 1 never moves
             m = c.expect("SERVO_OUTPUT_RAW", 3.0)
@@ -237,3 +242,53 @@ def test_cli_sim_runs_for_a_duration_and_rejects_bad_faults() -> None:
     bad = runner.invoke(app, [*args, "--fault", "stall@soon"])
     assert bad.exit_code == 2
     assert "not a number" in bad.output
+
+
+def test_heartbeats_are_forwarded_between_links_like_ardupilot() -> None:
+    """MAVLink_routing: a ground station on link 1 is heard by helixd on link 0."""
+    links = ["udpin:127.0.0.1:0", "udpin:127.0.0.1:0"]
+    with running_sim_links(links) as srv:
+        url0, url1 = (f"udpout:127.0.0.1:{p}" for p in srv.local_ports)
+        with client(url0, sysid=GCS_SYSID) as ours, client(url1, sysid=255) as gcs:
+            wait_manual(ours)
+            ours.heartbeat()  # link 0 is active from here on
+
+            def from_gcs(m: Any) -> bool:
+                return int(m.get_srcSystem()) == 255
+
+            deadline = time.monotonic() + 5.0
+            seen = None
+            while seen is None and time.monotonic() < deadline:
+                gcs.heartbeat()
+                seen = ours.recv("HEARTBEAT", 0.3, from_gcs)
+            assert seen is not None, "the ground station's HEARTBEAT was not forwarded"
+            assert int(seen.get_srcComponent()) == 190 and int(seen.type) == 6
+            # and never echoed back to where it came from
+            assert gcs.recv("HEARTBEAT", 0.5, from_gcs) is None
+
+
+async def test_helixd_asks_for_granted_rates_without_a_too_fast_text() -> None:
+    """helixd reads SCHED_LOOP_RATE first: no DENIED, no "too fast" STATUSTEXT on start."""
+    from helixd.config import LinkConfig, SafetyConfig
+    from helixd.link.connection import Autopilot
+
+    with running_sim() as (srv, url):
+        ap = await Autopilot.connect(
+            LinkConfig(url=url, command_timeout_s=0.5), SafetyConfig(connect_timeout_s=10.0)
+        )
+        try:
+            await ap.wait_heartbeat(10.0)
+            ap.start_heartbeat()
+            granted = await ap.request_streams()
+            assert granted["LOCAL_POSITION_NED"] == 40.0  # SCHED_LOOP_RATE 50 → 25 ms
+            results = [
+                e.details["result"]
+                for e in srv.history.entries("command")
+                if e.details["command"] == MAV_CMD_SET_MESSAGE_INTERVAL
+            ]
+            assert results and all(r == MAV_RESULT_ACCEPTED for r in results)
+            texts = [str(e.details["text"]) for e in srv.history.entries("statustext")]
+            assert not any("too fast" in t for t in texts)
+        finally:
+            ap.stop_heartbeat()
+            await ap.close()

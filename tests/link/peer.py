@@ -55,12 +55,14 @@ STREAM_NAMES = (
 )
 MSG_NAME_BY_ID = {int(getattr(mavlink, f"MAVLINK_MSG_ID_{n}")): n for n in STREAM_NAMES}
 EKF_HEALTHY_FLAGS = 0x1 | 0x2 | 0x4 | 0x8 | 0x10 | 0x20
+HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)
 ROVER_PARAMS: dict[str, float] = {
-    "MAV_GCS_SYSID": 255.0,
+    "MAV_GCS_SYSID": float(HELIXD_SYSID),  # set up for helixd (ArduPilot's default is 255)
     "RC_OVERRIDE_TIME": 3.0,
     "RC_OPTIONS": 32.0,
     "FS_GCS_ENABLE": 1.0,
     "MODE_CH": 8.0,
+    "SCHED_LOOP_RATE": 50.0,  # Rover's default: 25 ms is the fastest interval granted
     **{f"SERVO{n}_FUNCTION": 0.0 for n in range(1, 17)},
 }
 

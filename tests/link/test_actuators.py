@@ -11,7 +11,7 @@ from structlog.testing import capture_logs
 from helixd.actuators import DryRunSink, RcOverrideSink, ServoCommandRefused, ServoSink, make_sink
 from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, VehicleConfig
 from helixd.link.commands import CommandError
-from tests.link.peer import AutopilotPeer, OverrideRecord, linked, stays, until
+from tests.link.peer import HELIXD_SYSID, AutopilotPeer, OverrideRecord, linked, stays, until
 
 SET_SERVO = mavlink.MAV_CMD_DO_SET_SERVO
 LEAVE_LOW, LEAVE_HIGH = 65535, 0  # "leave unchanged" on 1–8 / 9–18
@@ -26,7 +26,7 @@ def actuation(
 
 
 def overrides(peer: AutopilotPeer, after_t: float = 0.0) -> list[OverrideRecord]:
-    return [o for o in list(peer.records.overrides) if o.t >= after_t and o.sysid == 255]
+    return [o for o in list(peer.records.overrides) if o.t >= after_t and o.sysid == HELIXD_SYSID]
 
 
 def undriven_untouched(values: tuple[int, ...], driven: set[int]) -> bool:

@@ -7,11 +7,13 @@ import time
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from tests.link.peer import AutopilotPeer, linked, stays, until
+from tests.link.peer import HELIXD_SYSID, AutopilotPeer, linked, stays, until
 
 
 def ours(peer: AutopilotPeer, after_t: float = 0.0) -> list[tuple[float, int, int]]:
-    return [h for h in list(peer.records.gcs_heartbeats) if h[0] >= after_t and h[1] == 255]
+    return [
+        h for h in list(peer.records.gcs_heartbeats) if h[0] >= after_t and h[1] == HELIXD_SYSID
+    ]
 
 
 async def test_heartbeat_only_while_fed() -> None:

@@ -6,13 +6,14 @@ from collections.abc import Mapping
 
 from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, LinkConfig
 from helixd.link.preflight import check_obedience, judge
-from tests.link.peer import linked
+from tests.link.peer import HELIXD_SYSID, linked
 
 RC = ActuationConfig()  # rc_override on channels 1..4
 SERVO = ActuationConfig(backend=ActuationBackend.SERVO)
 LINK = LinkConfig()
 GOOD_RC = {
-    "MAV_GCS_SYSID": 255.0,
+    "MAV_GCS_SYSID": float(HELIXD_SYSID),
+    "MAV_GCS_SYSID_HI": 0.0,
     "RC_OVERRIDE_TIME": 3.0,
     "RC_OPTIONS": 32.0,
     "FS_GCS_ENABLE": 1.0,
@@ -41,8 +42,8 @@ async def test_against_the_peer_good_then_bad() -> None:
         problems = await check_obedience(ap, RC, ap.cfg)
         text = [str(p) for p in problems]
         assert (
-            "error: RC overrides from helixd would be silently ignored: set MAV_GCS_SYSID = 255 "
-            "(currently 1) or run helixd with link.source_system = 1"
+            "error: RC overrides from helixd would be silently ignored: set MAV_GCS_SYSID = "
+            f"{HELIXD_SYSID} (currently 1), or run helixd with link.source_system = 1"
         ) in text
         assert (
             "error: RC_OPTIONS = 34 has bit 1 'Ignore MAVLink Overrides' set: set RC_OPTIONS = 32"
@@ -56,12 +57,12 @@ async def test_against_the_peer_good_then_bad() -> None:
 
 
 def test_legacy_sysid_name_is_read_when_the_new_one_is_missing() -> None:
-    params = {**GOOD_RC, "MAV_GCS_SYSID": None, "SYSID_MYGCS": 255.0}
+    params = {**GOOD_RC, "MAV_GCS_SYSID": None, "SYSID_MYGCS": float(HELIXD_SYSID)}
     assert messages(params) == []
     params["SYSID_MYGCS"] = 250.0
     assert messages(params) == [
-        "error: RC overrides from helixd would be silently ignored: set SYSID_MYGCS = 255 "
-        "(currently 250) or run helixd with link.source_system = 250"
+        f"error: RC overrides from helixd would be silently ignored: set SYSID_MYGCS = "
+        f"{HELIXD_SYSID} (currently 250), or run helixd with link.source_system = 250"
     ]
 
 
@@ -94,7 +95,7 @@ def test_rc_channel_wiring() -> None:
 
 def test_servo_backend_functions() -> None:
     params = {
-        "MAV_GCS_SYSID": 255.0,
+        "MAV_GCS_SYSID": float(HELIXD_SYSID),
         "FS_GCS_ENABLE": 1.0,
         "SERVO1_FUNCTION": 0.0,
         "SERVO2_FUNCTION": 73.0,
@@ -120,4 +121,43 @@ async def test_legacy_firmware_against_the_peer() -> None:
         peer.params["SYSID_MYGCS"] = 254.0
         problems = await check_obedience(ap, RC, ap.cfg)
         assert [p.param for p in problems] == ["SYSID_MYGCS"]
-        assert "set SYSID_MYGCS = 255 (currently 254)" in problems[0].message
+        assert f"set SYSID_MYGCS = {HELIXD_SYSID} (currently 254)" in problems[0].message
+
+
+def test_ardupilot_default_gcs_id_is_never_offered_as_the_way_out() -> None:
+    text = messages({**GOOD_RC, "MAV_GCS_SYSID": 255.0})
+    assert text == [
+        f"error: RC overrides from helixd would be silently ignored: set MAV_GCS_SYSID = "
+        f"{HELIXD_SYSID} (currently 255); 255 is the default id of QGroundControl/Mission "
+        f"Planner/MAVProxy, which helixd must not share"
+    ]
+
+
+def test_gcs_sysid_range_as_ardupilot_reads_it() -> None:
+    # MAV_GCS_SYSID_HI <= MAV_GCS_SYSID: a single id (GCS::sysid_is_gcs)
+    assert messages({**GOOD_RC, "MAV_GCS_SYSID_HI": float(HELIXD_SYSID - 1)}) == []
+    wide = messages({**GOOD_RC, "MAV_GCS_SYSID": 240.0, "MAV_GCS_SYSID_HI": 255.0})
+    assert len(wide) == 1 and wide[0].startswith("warning: MAV_GCS_SYSID_HI = 255 makes every")
+    outside = messages({**GOOD_RC, "MAV_GCS_SYSID": 250.0, "MAV_GCS_SYSID_HI": 255.0})
+    assert "and MAV_GCS_SYSID_HI = 0 (currently 255)" in outside[0]
+
+
+def test_helixd_on_a_ground_station_id_is_warned() -> None:
+    link = LinkConfig(source_system=255)
+    problems = judge({**GOOD_RC, "MAV_GCS_SYSID": 255.0}, RC, link)
+    assert [p.severity for p in problems] == ["warning"]
+    assert "link.source_system = 255 is the default system id of QGroundControl" in str(problems[0])
+
+
+async def test_another_sender_on_our_id_is_refused() -> None:
+    async with linked(command_timeout_s=0.15, command_retries=1) as (ap, peer):
+        peer.params.update({f"SERVO{n}_FUNCTION": 50.0 + n for n in range(1, 5)})
+        ap.start_heartbeat()  # the autopilot knows us from now on
+        for _ in range(2):  # a ground station left on helixd's id, forwarded by the autopilot
+            peer.send_as(HELIXD_SYSID, 190, lambda c: c.heartbeat_encode(6, 8, 0, 0, 4))
+        problems = await check_obedience(ap, RC, ap.cfg)
+        assert [p.severity for p in problems] == ["error"]
+        text = str(problems[0])
+        assert f"another sender uses helixd's system id {HELIXD_SYSID}" in text
+        assert "component 190" in text and "HEARTBEAT type GCS" in text
+        assert not ap.state.foreign_sysid_counts  # not mistaken for another vehicle

@@ -1,4 +1,5 @@
-"""Message intervals: step down on DENIED like ArduPilot Rover, re-request slow streams."""
+"""Message intervals: ask for what SCHED_LOOP_RATE grants, step down on DENIED as a fallback,
+re-request slow streams."""
 
 from __future__ import annotations
 
@@ -6,7 +7,11 @@ import time
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.link.streams import candidate_intervals
+from helixd.link.streams import (
+    candidate_intervals,
+    fastest_granted_interval_us,
+    first_interval_us,
+)
 from tests.link.peer import AutopilotPeer, linked, until
 
 SET_INTERVAL = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
@@ -29,8 +34,34 @@ def test_candidates_hit_rovers_fastest_rate_first() -> None:
     assert candidate_intervals(5.0, 5.0, 1.25) == [200_000]
 
 
+def test_fastest_granted_interval_follows_cap_message_interval() -> None:
+    # denied when interval_ms * 800 < 1e6 / SCHED_LOOP_RATE (whole ms)
+    assert fastest_granted_interval_us(50) == 25_000  # Rover's default loop: 40 Hz
+    assert fastest_granted_interval_us(400) == 4_000  # period 2500 µs → 3.125 → 4 ms
+    assert fastest_granted_interval_us(20) == 63_000
+    assert fastest_granted_interval_us(0) is None
+    assert first_interval_us(50.0, 50) == 25_000
+    assert first_interval_us(50.0, 400) == 20_000  # what we want is allowed
+    assert first_interval_us(50.0, None) == 20_000
+    assert first_interval_us(30.0, None) == 34_000  # rounded up to whole ms
+
+
+async def test_asks_for_what_sched_loop_rate_grants_no_denied() -> None:
+    async with linked(pose_rate_hz=50.0, telemetry_rate_hz=5.0) as (ap, peer):
+        granted = await ap.request_streams()
+        assert granted["LOCAL_POSITION_NED"] == 40.0 and granted["ATTITUDE"] == 40.0
+        assert asked(peer, LPN) == [25_000] and asked(peer, ATT) == [25_000]
+        results = [c for c in peer.records.commands if c.command == SET_INTERVAL]
+        assert results and len(results) == 6  # one per stream: nothing was DENIED
+    async with linked(pose_rate_hz=50.0, peer_kwargs={"min_interval_us": 4_000}) as (ap, peer):
+        peer.params["SCHED_LOOP_RATE"] = 400.0
+        granted = await ap.request_streams()
+        assert asked(peer, LPN) == [20_000] and granted["LOCAL_POSITION_NED"] == 50.0
+
+
 async def test_pose_rate_steps_down_from_denied_20ms_to_granted_25ms() -> None:
     async with linked(pose_rate_hz=50.0, telemetry_rate_hz=5.0) as (ap, peer):
+        del peer.params["SCHED_LOOP_RATE"]  # unreadable: the DENIED step-down takes over
         granted = await ap.request_streams()
         assert granted["LOCAL_POSITION_NED"] == 40.0
         assert granted["ATTITUDE"] == 40.0
@@ -54,6 +85,7 @@ async def test_step_down_continues_until_granted_and_gives_up_at_the_floor() -> 
         ap,
         peer,
     ):
+        del peer.params["SCHED_LOOP_RATE"]
         granted = await ap.request_streams()
         steps = asked(peer, LPN)
         assert steps[0] == 20_000 and steps[-1] >= 62_500 and steps[-2] < 62_500
@@ -62,6 +94,7 @@ async def test_step_down_continues_until_granted_and_gives_up_at_the_floor() -> 
         ap,
         peer,
     ):
+        del peer.params["SCHED_LOOP_RATE"]
         granted = await ap.request_streams()
         assert granted["LOCAL_POSITION_NED"] == 0.0  # nothing at or above 5 Hz
         assert max(asked(peer, LPN)) <= 200_000  # never asked below the floor

@@ -17,13 +17,14 @@ from helixd.sim.autopilot import (
     MAV_RESULT_UNSUPPORTED,
     Autopilot,
 )
-from helixd.sim.config import SimConfig
+from helixd.sim.config import HELIXD_SYSID, SimConfig
 from helixd.sim.params import ParamStore
 from helixd.sim.rc import UINT16_MAX
 
 DT_S = 0.02
 BOOT_S = 2.0
 NOT_SET = UINT16_MAX  # channels 1–8: leave unchanged
+GCS = HELIXD_SYSID  # the simulator's MAV_GCS_SYSID for helixd (ArduPilot's default is 255)
 
 
 def healthy_ekf() -> estimator.EkfStatus:
@@ -60,7 +61,7 @@ class Rig:
         assert self.ap.mode == modes.MANUAL
         return self
 
-    def override(self, *channels: int, sysid: int = 255) -> None:
+    def override(self, *channels: int, sysid: int = GCS) -> None:
         raw = list(channels) + [NOT_SET] * max(0, 8 - len(channels))
         raw += [0] * (18 - len(raw))
         self.ap.on_rc_override(sysid, raw, self.now)
@@ -128,21 +129,21 @@ def test_channels_1_to_8_zero_releases_and_uint16max_leaves_unchanged() -> None:
 def test_channels_9_to_16_zero_unchanged_and_65534_releases() -> None:
     rig = Rig(params={"SERVO9_FUNCTION": 59}).boot()  # RCIN9 passthrough on output 9
     raw = [NOT_SET] * 8 + [1900] + [0] * 9
-    rig.ap.on_rc_override(255, raw, rig.now)
+    rig.ap.on_rc_override(GCS, raw, rig.now)
     rig.run(0.04)
     assert rig.outputs[8] == 1900
     for keep in (0, UINT16_MAX):
-        rig.ap.on_rc_override(255, [NOT_SET] * 8 + [keep] + [0] * 9, rig.now)
+        rig.ap.on_rc_override(GCS, [NOT_SET] * 8 + [keep] + [0] * 9, rig.now)
         rig.run(0.04)
         assert rig.outputs[8] == 1900
-    rig.ap.on_rc_override(255, [NOT_SET] * 8 + [UINT16_MAX - 1] + [0] * 9, rig.now)
+    rig.ap.on_rc_override(GCS, [NOT_SET] * 8 + [UINT16_MAX - 1] + [0] * 9, rig.now)
     rig.run(0.02)
     assert rig.outputs[8] == 1500
 
 
 def test_channels_17_and_18_do_not_exist() -> None:
     rig = Rig().boot()
-    rig.ap.on_rc_override(255, [NOT_SET] * 16 + [1900, 1900], rig.now)
+    rig.ap.on_rc_override(GCS, [NOT_SET] * 16 + [1900, 1900], rig.now)
     assert not any(rig.ap.rc.override_us)
 
 
@@ -164,7 +165,8 @@ def test_override_expires_after_rc_override_time_per_channel() -> None:
 def test_rc_override_time_negative_never_expires_zero_disables(
     timeout_s: float, active_after_10_s: bool
 ) -> None:
-    rig = Rig(params={"RC_OVERRIDE_TIME": timeout_s}).boot()
+    # GCS failsafe off: it would clear the override after FS_GCS_TIMEOUT without heartbeats
+    rig = Rig(params={"RC_OVERRIDE_TIME": timeout_s, "FS_GCS_ENABLE": 0}).boot()
     rig.override(1800)
     rig.run(10.0)
     assert (rig.outputs[0] == 1800) is active_after_10_s
@@ -333,7 +335,7 @@ def test_gcs_failsafe_after_fs_gcs_timeout_plus_fs_timeout() -> None:
     rig.ap.on_heartbeat(1, rig.now)  # not the GCS sysid: does not count
     rig.run(10.0)
     assert rig.ap.mode == modes.MANUAL
-    rig.ap.on_heartbeat(255, rig.now)
+    rig.ap.on_heartbeat(GCS, rig.now)
     lost_at = rig.now
     rig.run(6.3)  # 5 s + 1.5 s, checked at 10 Hz
     assert rig.ap.mode == modes.MANUAL
@@ -347,8 +349,8 @@ def test_gcs_failsafe_after_fs_gcs_timeout_plus_fs_timeout() -> None:
 
 
 def test_gcs_failsafe_disabled_by_default_and_never_in_hold() -> None:
-    rig = Rig().boot()
-    rig.ap.on_heartbeat(255, rig.now)
+    rig = Rig(params={"FS_GCS_ENABLE": 0}).boot()  # ArduPilot's default
+    rig.ap.on_heartbeat(GCS, rig.now)
     rig.run(20.0)
     assert rig.ap.mode == modes.MANUAL
     rig2 = Rig(params={"FS_GCS_ENABLE": 1}).boot()

@@ -12,7 +12,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.sim.config import SimConfig
+from helixd.sim.config import HELIXD_SYSID, SimConfig
 from helixd.sim.core import SimCore
 from helixd.sim.faults import FaultError, make_spec, parse_fault
 
@@ -36,13 +36,13 @@ def of_type(out: list[tuple[int | None, Any]], kind: str, link: int | None = Non
     return [m for lk, m in out if m.get_type() == kind and (link is None or lk == link)]
 
 
-def incoming(msg: Any, sysid: int = 255, compid: int = 190) -> Any:
+def incoming(msg: Any, sysid: int = HELIXD_SYSID, compid: int = 190) -> Any:
     """Stamp a message as if received from (sysid, compid)."""
     mav = mavlink.MAVLink(None, srcSystem=sysid, srcComponent=compid)
     return mav.decode(bytearray(msg.pack(mav)))
 
 
-def command(core: SimCore, link: int, cmd: int, *p: float, sysid: int = 255) -> int:
+def command(core: SimCore, link: int, cmd: int, *p: float, sysid: int = HELIXD_SYSID) -> int:
     params = [float(x) for x in p] + [0.0] * (7 - len(p))
     core.handle(link, incoming(mavlink.MAVLink_command_long_message(1, 1, cmd, 0, *params), sysid))
     acks = [m for _, m in core.drain_outbox() if m.get_type() == "COMMAND_ACK"]
@@ -193,3 +193,24 @@ def test_yaw_reported_clockwise_from_north() -> None:
     assert command(core, 0, 511, 30, 100_000) == 0
     att = of_type(run(core, 0.5), "ATTITUDE", 0)
     assert att and float(att[-1].yaw) == pytest.approx(math.radians(30.0), abs=1e-6)
+
+
+def test_gcs_contact_counts_heartbeat_override_and_manual_control_from_the_gcs_id_only() -> None:
+    """GCS_Common.cpp: handle_heartbeat / handle_rc_channels_override / handle_manual_control
+    refresh sysid_myggcs_seen only for GCS::sysid_is_gcs senders (MANUAL_CONTROL also needs
+    target = our sysid)."""
+    core = make_core()
+    run(core, 2.0)
+    ap = core.ap
+    hb = mavlink.MAVLink_heartbeat_message(6, 8, 0, 0, 4, 3)
+    core.handle(0, incoming(hb, sysid=255))  # ArduPilot's default GCS id is not ours
+    assert ap.gcs_last_seen_s is None
+    manual = mavlink.MAVLink_manual_control_message(2, 0, 0, 500, 0, 0)
+    core.handle(0, incoming(manual))  # aimed at system 2: not us
+    assert ap.gcs_last_seen_s is None
+    manual = mavlink.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0)
+    core.handle(0, incoming(manual))
+    assert ap.gcs_last_seen_s == core.now_s
+    run(core, 0.5)
+    core.handle(1, incoming(hb))
+    assert ap.gcs_last_seen_s == core.now_s

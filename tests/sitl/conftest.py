@@ -10,8 +10,9 @@ one-line reason. Per test, the ``sitl`` fixture starts
 in the test's temp dir, waits (bounded) for SERIAL0 (tcp 5760+10·n) to accept and send its
 first HEARTBEAT, attaches an *observer* on SERIAL1 (tcp 5762+10·n) and waits until the EKF has
 a GPS position. The observer never sends a HEARTBEAT and uses system id 250, so ArduPilot's
-GCS failsafe (keyed on MAV_GCS_SYSID 255 = helixd) and RC-override rule see helixd alone; it
-reads HEARTBEAT / SERVO_OUTPUT_RAW / LOCAL_POSITION_NED and can switch modes or set params.
+GCS failsafe (keyed on MAV_GCS_SYSID 247 = helixd, set in helix-skid.parm) and RC-override
+rule see helixd alone; it reads HEARTBEAT / SERVO_OUTPUT_RAW / LOCAL_POSITION_NED and can
+switch modes or set params.
 The pilot's radio is SITL's RC-input UDP port (5501+10·n: 8 or 16 little-endian uint16 PWM,
 0 = leave that channel unchanged).
 
@@ -79,7 +80,7 @@ HOME = "-35.363261,149.165230,584,0"  # CMAC (SITL's default field), facing nort
 
 AUTOPILOT_SYSID = 1
 AUTOPILOT_COMPID = 1
-HELIXD_SYSID = 255  # ArduPilot's default MAV_GCS_SYSID (helix-skid.parm keeps it)
+HELIXD_SYSID = 247  # link.source_system's default; helix-skid.parm sets MAV_GCS_SYSID to it
 OBSERVER_SYSID = 250  # not the GCS sysid: its commands work, its overrides and silence don't
 OBSERVER_COMPID = 190
 
