@@ -49,12 +49,11 @@ from helixd.link.commands import (
 )
 from helixd.link.framing import FrameKind, scan_frames
 from helixd.link.ownid import OwnIdSenders
-from helixd.link.sanity import non_finite_fields
 from helixd.link.signing import enable_signing, load_signing_key
 from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
 from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
-from helixd.vehicle import Change, PoseSample, VehicleState, mode_number
+from helixd.vehicle import Change, PoseSample, TelemetryBounds, VehicleState, mode_number
 
 __all__ = [
     "Autopilot",
@@ -400,7 +399,6 @@ class LinkStats:
     bad_data: int = 0  # runs of bytes that were no valid frame (garbage, bad CRC, truncated)
     bad_bytes: int = 0
     unknown_messages: int = 0  # well-framed messages with an id our dialect does not know
-    non_finite: int = 0  # pose messages dropped for NaN/inf fields (see helixd.link.sanity)
     signature_rejects: int = 0
     tx_messages: int = 0
     tx_dropped: int = 0
@@ -509,12 +507,6 @@ class MavlinkConnection:
                 continue
             from_target = True
             stats.rx_messages += 1
-            bad_fields = non_finite_fields(msg)
-            if bad_fields:
-                if stats.non_finite == 0:
-                    log.warning("non_finite_fields", type=msg.get_type(), fields=bad_fields)
-                stats.non_finite += 1
-                continue
             try:
                 self._on_message(msg, rx_s)
             except Exception:
@@ -745,6 +737,7 @@ class Autopilot:
             reboot_backstep_ms=round(cfg.reboot_backstep_s * 1000),
             target_component=cfg.target_component,
             statustext_history=cfg.statustext_history,
+            bounds=TelemetryBounds.from_safety(safety),
         )
         self._conn = MavlinkConnection(
             cfg,

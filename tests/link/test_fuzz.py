@@ -295,7 +295,7 @@ async def test_unknown_ids_are_not_a_foreign_system() -> None:
         assert not ap.state.foreign_sysid_counts
 
 
-async def test_nan_pose_fields_are_dropped_at_the_edge() -> None:
+async def test_nan_pose_fields_are_rejected_at_the_edge() -> None:
     async with udp_link() as (ap, send):
         send(heartbeat())
         await ap.wait_heartbeat(3.0)
@@ -305,6 +305,7 @@ async def test_nan_pose_fields_are_dropped_at_the_edge() -> None:
         send(pack(lambda c: c.local_position_ned_encode(1_020, math.inf, 0, 0, 0, 0, 0)))
         send(numbered(0))
         await received.wait_for(1, ARRIVAL_TIMEOUT_S)
-        assert ap.state.yaw_ned_rad == 0.5
+        assert ap.state.yaw_ned_rad is None  # a rejected ATTITUDE also forgets the old yaw
         assert ap.state.pose is None
-        assert ap.link_stats.non_finite == 2
+        assert ap.state.pose_rejected_count == 2
+        assert ap.state.pose_invalid
