@@ -18,7 +18,7 @@ from helixd.sim.autopilot import Autopilot, SimEvent, StatusText
 from helixd.sim.config import SimConfig
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec
 from helixd.sim.inbound import InboundHandler
-from helixd.sim.messages import Message, statustexts
+from helixd.sim.messages import STATUSTEXT_LEN, Message, statustexts
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.params import ParamStore
 from helixd.sim.physics import MotorMap, PhysicsState
@@ -94,7 +94,8 @@ class SimCore:
         self.outbox.append((link, msg))
 
     def say(self, text: StatusText) -> None:
-        self._chunk_id = self._chunk_id % 65535 + 1
+        if len(text.text) > STATUSTEXT_LEN:  # only chunked texts take a fresh id (never 0)
+            self._chunk_id = self._chunk_id % 65535 + 1
         for m in statustexts(text.severity, text.text, self._chunk_id):
             self.send(None, m)
         self.events.append(SimEvent("statustext", {"severity": text.severity, "text": text.text}))

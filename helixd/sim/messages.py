@@ -235,11 +235,17 @@ def system_time(time_boot_ms: int) -> Message:
 
 
 def statustexts(severity: int, text: str, chunk_id: int) -> list[Message]:
-    """One message, or 50-character chunks sharing ``chunk_id`` (ArduPilot does the same)."""
+    """One message (``id`` 0) or 50-character chunks sharing ``chunk_id`` (GCS::send_statustext).
+
+    A chunk shorter than 50 characters ends a chunked text, so a text whose length is a multiple
+    of 50 ends with an empty chunk, as ArduPilot sends it.
+    """
     raw = text.encode("ascii", errors="replace")
     if len(raw) <= STATUSTEXT_LEN:
         return [_m(mavlink.MAVLink_statustext_message(severity, raw, 0, 0))]
     chunks = [raw[i : i + STATUSTEXT_LEN] for i in range(0, len(raw), STATUSTEXT_LEN)]
+    if len(chunks[-1]) == STATUSTEXT_LEN:
+        chunks.append(b"")
     return [
         _m(mavlink.MAVLink_statustext_message(severity, chunk, chunk_id, seq))
         for seq, chunk in enumerate(chunks)
