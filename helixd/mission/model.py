@@ -17,7 +17,7 @@ from pathlib import Path
 
 from pydantic import Field, ValidationInfo, field_validator, model_validator
 
-from helixd.config import ConfigFileError, MissionLimits, StrictModel, load_yaml_model
+from helixd.config import ConfigFileError, InputModel, MissionLimits, load_yaml_model
 
 DUPLICATE_EPSILON_M = 0.01  # consecutive points closer than this are the same point
 
@@ -41,7 +41,7 @@ _COORDS = {
 }
 
 
-class WaypointSpec(StrictModel):
+class WaypointSpec(InputModel):
     x: float | None = Field(None, description="metres forward of the start pose (start frame)")
     y: float | None = Field(None, description="metres left of the start pose (start frame)")
     north: float | None = Field(None, description="metres north of the EKF origin (local_ned)")
@@ -68,7 +68,7 @@ class WaypointSpec(StrictModel):
         }
 
 
-class Mission(StrictModel):
+class Mission(InputModel):
     name: str = Field(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.\- ]+$")
     mode: MotionMode
     frame: MissionFrameKind = MissionFrameKind.START
