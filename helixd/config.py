@@ -347,8 +347,18 @@ class MissionLimits(InputModel):
 # Link
 
 
+def _valid_link_url(url: str) -> str:
+    from helixd.link.url import LinkError, parse_link_url  # lazy: helixd.link imports us
+
+    try:
+        parse_link_url(url, 115200)  # form only; the baud is checked with link.baud at open
+    except LinkError as exc:
+        raise ValueError(str(exc)) from None
+    return url
+
+
 class LinkConfig(InputModel):
-    url: str = Field(
+    url: Annotated[str, AfterValidator(_valid_link_url)] = Field(
         "udpin:0.0.0.0:14550",
         min_length=1,
         description="MAVProxy-style connection: /dev/ttyACM0[:baud], udpin:, udpout:, tcp:",
