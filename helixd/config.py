@@ -21,8 +21,6 @@ from pydantic import (
     ConfigDict,
     Field,
     ValidationError,
-    ValidationInfo,
-    field_validator,
     model_validator,
 )
 
@@ -62,21 +60,26 @@ class StrictModel(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
 
-    @field_validator("*", mode="before")
+    @model_validator(mode="before")
     @classmethod
-    def _no_bool_as_number(cls, value: Any, info: ValidationInfo) -> Any:
-        if type(value) is not bool and not isinstance(value, (list, tuple, dict)):
-            return value  # fast path: plain scalars
-        name = info.field_name
-        field = cls.model_fields.get(name) if name is not None else None
-        if field is None or _accepts_bool(field.annotation):  # type: ignore[arg-type]
-            return value
-        if _contains_bool(value):
+    def _no_bool_as_number(cls, data: Any) -> Any:
+        # One call per model (not per field): 100 000 waypoints stay fast.
+        if not isinstance(data, dict):
+            return data
+        bad = [
+            str(key)
+            for key, value in data.items()
+            if (type(value) is bool or isinstance(value, (list, tuple, dict)))
+            and key in cls.model_fields
+            and not _accepts_bool(cls.model_fields[key].annotation)  # type: ignore[arg-type]
+            and _contains_bool(value)
+        ]
+        if bad:
             raise ValueError(
-                "true/false is not a number here (write the number itself; "
+                f"{', '.join(bad)}: true/false is not a number (write the number itself; "
                 "yes/no/on/off are not numbers either)"
             )
-        return value
+        return data
 
 
 class InputModel(StrictModel):

@@ -32,10 +32,9 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any
 
 import yaml
-from yaml.nodes import MappingNode, Node, ScalarNode
 
 MAX_FILE_BYTES = 16 * 1024 * 1024  # a 100 000-waypoint mission is about 2.5 MB
 MAX_DEPTH = 32  # deepest real config nesting is 5 (sim terrain table); missions use 3
@@ -97,108 +96,125 @@ class _Refused(yaml.YAMLError):
         super().__init__(text)
 
 
-class StrictLoader(_BaseLoader):  # type: ignore[misc,valid-type]
-    """Safe loader with a YAML 1.2-like core schema and duplicate-key detection."""
-
-    yaml_implicit_resolvers: ClassVar[dict[str | None, list[tuple[str, re.Pattern[str]]]]] = {}
-    yaml_constructors: ClassVar[dict[Any, Any]] = dict(yaml.SafeLoader.yaml_constructors)
-
-    def construct_mapping(self, node: Node, deep: bool = False) -> dict[Any, Any]:
-        if not isinstance(node, MappingNode):
-            raise _Refused(f"expected a mapping at line {node.start_mark.line + 1}")
-        seen: dict[Any, int] = {}
-        out: dict[Any, Any] = {}
-        for key_node, value_node in node.value:
-            line = key_node.start_mark.line + 1
-            if key_node.tag == "tag:yaml.org,2002:merge":
-                raise _Refused(f"merge key '<<' at line {line} is not supported")
-            key = self.construct_object(key_node, deep=True)
-            try:
-                hash(key)
-            except TypeError:
-                raise _Refused(f"a list or mapping used as a key at line {line}") from None
-            if key in seen:
-                raise _DuplicateKey(key, seen[key], line)
-            seen[key] = line
-            out[key] = self.construct_object(value_node, deep=deep)
-        return out
-
-    def construct_core_int(self, node: ScalarNode) -> int:
-        text = str(self.construct_scalar(node)).replace("_", "")
-        sign = -1 if text.startswith("-") else 1
-        body = text.lstrip("+-")
-        if len(body) > 40:  # far beyond any field's range; also keeps int() cheap
-            raise _Refused(
-                f"number at line {node.start_mark.line + 1} has {len(body)} digits "
-                "(at most 40 allowed)"
-            )
-        if body[:2] in ("0x", "0o"):
-            return sign * int(body, 0)
-        return sign * int(body, 10)  # YAML 1.2: 010 is ten, not octal eight
-
-    def construct_core_float(self, node: ScalarNode) -> float:
-        text = str(self.construct_scalar(node)).replace("_", "").lower()
-        if text.endswith(".inf"):
-            return float("-inf") if text.startswith("-") else float("inf")
-        if text.endswith(".nan"):
-            return float("nan")
-        return float(text)
+_NULL_RE = re.compile(r"^(?:~|null|Null|NULL|)$")
+_BOOL = {"true": True, "True": True, "TRUE": True, "false": False, "False": False, "FALSE": False}
+_INT_RE = re.compile(r"^[-+]?(?:[0-9][0-9_]*|0x[0-9a-fA-F_]+|0o[0-7_]+)$")
+_FLOAT_RE = re.compile(
+    r"^[-+]?(?:\.[0-9]+|[0-9][0-9_]*(?:\.[0-9_]*)?)(?:[eE][-+]?[0-9]+)?$"
+    r"|^[-+]?\.(?:inf|Inf|INF)$|^\.(?:nan|NaN|NAN)$"
+)
+_STR_TAGS = (None, "!", "tag:yaml.org,2002:str")
+_MAX_DIGITS = 40  # far beyond any field's range; also keeps int() cheap and its repr printable
 
 
-def _core_schema() -> None:
-    add = StrictLoader.add_implicit_resolver
-    add(
-        "tag:yaml.org,2002:null",
-        re.compile(r"^(?:~|null|Null|NULL|)$"),
-        ["~", "n", "N", ""],
-    )
-    add(
-        "tag:yaml.org,2002:bool",
-        re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$"),
-        list("tTfF"),
-    )
-    add(
-        "tag:yaml.org,2002:int",
-        re.compile(r"^(?:[-+]?[0-9][0-9_]*|0x[0-9a-fA-F_]+|0o[0-7_]+)$"),
-        list("-+0123456789"),
-    )
-    add(
-        "tag:yaml.org,2002:float",
-        re.compile(
-            r"^(?:[-+]?(?:\.[0-9]+|[0-9][0-9_]*(?:\.[0-9_]*)?)(?:[eE][-+]?[0-9]+)?"
-            r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"
-        ),
-        list("-+.0123456789"),
-    )
-    StrictLoader.add_constructor("tag:yaml.org,2002:int", StrictLoader.construct_core_int)
-    StrictLoader.add_constructor("tag:yaml.org,2002:float", StrictLoader.construct_core_float)
-    for tag in ("timestamp", "binary", "omap", "pairs", "set", "merge"):
-        StrictLoader.yaml_constructors.pop(f"tag:yaml.org,2002:{tag}", None)
+def _line(event: Any) -> int:
+    mark = event.start_mark
+    return int(mark.line) + 1 if mark is not None else 0
 
 
-_core_schema()
+def _plain_scalar(value: str, event: Any) -> Any:
+    """YAML 1.2 core schema for a plain (unquoted) scalar."""
+    if (not value or value[0] in "~nN") and _NULL_RE.match(value):
+        return None
+    if value in _BOOL:
+        return _BOOL[value]
+    if value[0] in "-+.0123456789":
+        if _INT_RE.match(value):
+            text = value.replace("_", "")
+            body = text.lstrip("+-")
+            if len(body) > _MAX_DIGITS:
+                raise _Refused(
+                    f"number at line {_line(event)} has {len(body)} digits (at most {_MAX_DIGITS})"
+                )
+            sign = -1 if text[0] == "-" else 1
+            base = 0 if body[:2] in ("0x", "0o") else 10  # YAML 1.2: 010 is ten, not eight
+            return sign * int(body, base)
+        if _FLOAT_RE.match(value):
+            text = value.replace("_", "").lower()
+            if text.endswith(".inf"):
+                return float("-inf") if text[0] == "-" else float("inf")
+            if text.endswith(".nan"):
+                return float("nan")
+            return float(text)
+    return value
 
 
-# ---------------------------------------------------------------------------------------------
-# Event scan: aliases and depth, before anything is composed
+def _scalar(event: Any) -> Any:
+    tag = event.tag
+    if tag not in _STR_TAGS:
+        raise _Refused(f"explicit tag {clip(tag, 60)} at line {_line(event)} is not allowed")
+    if not event.style and tag is None and event.implicit[0]:  # plain: C gives "", Python None
+        return _plain_scalar(event.value, event)
+    return event.value
 
 
-def _scan_events(text: str) -> None:
-    depth = 0
+_NO_KEY = object()
+
+
+class _Frame:
+    __slots__ = ("key", "marks", "obj")
+
+    def __init__(self, obj: dict[Any, Any] | list[Any]) -> None:
+        self.obj = obj
+        self.key: Any = _NO_KEY
+        self.marks: dict[Any, Any] = {}  # key → its start mark (line computed on error only)
+
+
+def _build(text: str) -> Any:
+    """One pass over libyaml's events: refuse aliases, tags, depth, duplicate keys and extra
+    documents; build plain dicts/lists/scalars. Iterative: nesting costs no recursion."""
+    stack: list[_Frame] = []
+    root: Any = None
+    documents = 0
+    event: Any
     for event in yaml.parse(text, Loader=_BaseLoader):
-        if isinstance(event, yaml.AliasEvent):
-            line = event.start_mark.line + 1 if event.start_mark else 0
+        kind = type(event)
+        if kind is yaml.ScalarEvent:
+            value: Any = _scalar(event)
+        elif kind is yaml.MappingStartEvent or kind is yaml.SequenceStartEvent:
+            if len(stack) >= MAX_DEPTH:
+                raise _Refused(f"nested deeper than {MAX_DEPTH} levels at line {_line(event)}")
+            if event.tag not in (None, "!"):
+                raise _Refused(
+                    f"explicit tag {clip(event.tag, 60)} at line {_line(event)} is not allowed"
+                )
+            stack.append(_Frame({} if kind is yaml.MappingStartEvent else []))
+            continue
+        elif kind is yaml.MappingEndEvent or kind is yaml.SequenceEndEvent:
+            value = stack.pop().obj
+        elif kind is yaml.AliasEvent:
             raise _Refused(
-                f"alias *{clip(event.anchor, 40)[1:-1]} at line {line}: aliases (&anchor/*alias) "
-                "are not allowed; write the value out"
+                f"alias *{clip(event.anchor, 40)[1:-1]} at line {_line(event)}: aliases "
+                "(&anchor/*alias) are not allowed; write the value out"
             )
-        if isinstance(event, yaml.CollectionStartEvent):
-            depth += 1
-            if depth > MAX_DEPTH:
-                line = event.start_mark.line + 1 if event.start_mark else 0
-                raise _Refused(f"nested deeper than {MAX_DEPTH} levels at line {line}")
-        elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
-            depth -= 1
+        elif kind is yaml.DocumentStartEvent:
+            documents += 1
+            if documents > 1:
+                raise _Refused(f"a second YAML document at line {_line(event)}; one per file")
+            continue
+        else:  # stream start/end, document end
+            continue
+        if not stack:
+            root = value
+            continue
+        top = stack[-1]
+        obj = top.obj
+        if type(obj) is list:
+            obj.append(value)
+        elif top.key is _NO_KEY:
+            if isinstance(value, (dict, list)):
+                raise _Refused(f"a list or mapping used as a key at line {_line(event)}")
+            if value == "<<" and kind is yaml.ScalarEvent and not event.style:
+                raise _Refused(f"merge key '<<' at line {_line(event)} is not supported")
+            if value in top.marks:
+                first = top.marks[value]
+                raise _DuplicateKey(value, int(first.line) + 1 if first else 0, _line(event))
+            top.marks[value] = event.start_mark
+            top.key = value
+        else:
+            obj[top.key] = value
+            top.key = _NO_KEY
+    return root
 
 
 def _yaml_problem(exc: yaml.YAMLError, text: str | None = None) -> str:
@@ -218,8 +234,7 @@ def _yaml_problem(exc: yaml.YAMLError, text: str | None = None) -> str:
 def parse_yaml_text(text: str, source: Path | str = "<text>") -> Any:
     """Parse one YAML document with every check above; raise :class:`YamlFileError`."""
     try:
-        _scan_events(text)
-        return yaml.load(text, Loader=StrictLoader)  # StrictLoader is a SafeLoader
+        return _build(text)
     except yaml.YAMLError as exc:
         raise YamlFileError(source, f"{source}: {_yaml_problem(exc, text)}") from None
     except (ValueError, OverflowError, RecursionError, MemoryError) as exc:
@@ -263,7 +278,6 @@ __all__ = [
     "LIBYAML",
     "MAX_DEPTH",
     "MAX_FILE_BYTES",
-    "StrictLoader",
     "YamlFileError",
     "clip",
     "clip_line",

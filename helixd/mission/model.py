@@ -15,7 +15,7 @@ import math
 from enum import StrEnum
 from pathlib import Path
 
-from pydantic import Field, ValidationInfo, field_validator, model_validator
+from pydantic import Field, ValidationInfo, model_validator
 
 from helixd.config import ConfigFileError, InputModel, MissionLimits, load_yaml_model
 
@@ -54,13 +54,6 @@ class WaypointSpec(InputModel):
     tolerance_m: float | None = Field(
         None, gt=0.05, le=20.0, description="per-waypoint arrival radius override (m)"
     )
-
-    @field_validator("x", "y", "north", "east", "lat", "lon", "heading_deg")
-    @classmethod
-    def _finite(cls, value: float | None) -> float | None:
-        if value is not None and not math.isfinite(value):
-            raise ValueError("must be a finite number, not NaN or infinity")
-        return value
 
     def given(self) -> set[str]:
         return {
