@@ -145,6 +145,25 @@ def _inner_model(annotation: Any) -> Any:
     return None
 
 
+def _bounds(metadata: Any) -> tuple[Any, Any]:
+    lo = hi = None
+    for meta in metadata:
+        for inner in (meta, *getattr(meta, "metadata", ())):
+            lo = getattr(inner, "ge", None) if lo is None else lo
+            lo = getattr(inner, "gt", None) if lo is None else lo
+            hi = getattr(inner, "le", None) if hi is None else hi
+            hi = getattr(inner, "lt", None) if hi is None else hi
+    return lo, hi
+
+
+def _item_bounds(annotation: Any) -> tuple[Any, Any]:
+    for arg in getattr(annotation, "__args__", ()):
+        lo, hi = _bounds(getattr(arg, "__metadata__", ()))
+        if lo is not None and hi is not None:
+            return lo, hi
+    return None, None
+
+
 def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) -> str:
     etype = err["type"]
     ctx = err.get("ctx") or {}
@@ -154,12 +173,15 @@ def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) 
         if owner is not None and loc and isinstance(loc[-1], str):
             field = owner.model_fields.get(loc[-1])
             if field is not None:
-                lo = hi = None
-                for meta in field.metadata:
-                    lo = getattr(meta, "ge", None) if lo is None else lo
-                    lo = getattr(meta, "gt", None) if lo is None else lo
-                    hi = getattr(meta, "le", None) if hi is None else hi
-                    hi = getattr(meta, "lt", None) if hi is None else hi
+                lo, hi = _bounds(field.metadata)
+                if lo is not None and hi is not None:
+                    return f"allowed range {lo} .. {hi}"
+        if len(loc) >= 2 and isinstance(loc[-1], int) and isinstance(loc[-2], str):
+            # an item of a list field such as stick_channels: bounds sit on the item type
+            owner = _model_at(model, loc[:-1])
+            field = owner.model_fields.get(loc[-2]) if owner is not None else None
+            if field is not None:
+                lo, hi = _item_bounds(field.annotation)
                 if lo is not None and hi is not None:
                     return f"allowed range {lo} .. {hi}"
         return f"allowed: {bound}"
@@ -173,6 +195,9 @@ def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) 
     if etype == "missing":
         return "this field is required"
     return _TYPE_WORDS.get(etype.split("_")[0], "")
+
+
+_YAML11_BOOLS = frozenset({"yes", "no", "on", "off", "y", "n"})
 
 
 def format_validation_error(
@@ -202,6 +227,8 @@ def format_validation_error(
             prefix = f"{path}: {dotted}: " if loc else f"{path}: "
             lines.extend(clip_line(prefix + p) for p in problem.splitlines() if p)
             continue
+        if isinstance(value, str) and value.lower() in _YAML11_BOOLS and "parsing" in etype:
+            parts.append("yes/no/on/off are text, not numbers or switches: write the number")
         detail = f" ({'; '.join(parts)})" if parts else ""
         lines.append(clip_line(f"{path}: {dotted}: {problem}{detail}"))
     return lines

@@ -86,10 +86,12 @@ def clip_line(line: str, limit: int = MAX_LINE_CHARS) -> str:
 
 class _DuplicateKey(yaml.YAMLError):
     def __init__(self, key: Any, first_line: int, second_line: int) -> None:
-        self.text = (
-            f"duplicate key {clip(key)} at lines {first_line} and {second_line} "
-            "(each key may appear once)"
+        where = (
+            f"twice on line {first_line}"
+            if first_line == second_line
+            else f"at lines {first_line} and {second_line}"
         )
+        self.text = f"duplicate key {clip(key)} {where} (each key may appear once)"
         super().__init__(self.text)
 
 
