@@ -17,7 +17,7 @@ from typer.exceptions import TyperException
 from helixd import __version__
 from helixd.config import ConfigFileError, HelixdConfig, load_config
 from helixd.exitcodes import ExitCode
-from helixd.mission import Mission, MissionFrameKind, PlanError, load_mission
+from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, load_mission
 from helixd.mission.locate import MissionNotFound, locate_mission
 from helixd.mission.validate import mission_problems, pending_checks, plan_for_check
 from helixd.recorder import command as recorder_command
@@ -55,11 +55,14 @@ def fail(problems: list[str], code: ExitCode) -> typer.Exit:
     return typer.Exit(int(code))
 
 
-def load_inputs(config: Path | None, mission: Path) -> tuple[HelixdConfig, Mission, Path]:
+def load_inputs(
+    config: Path | None, mission: Path
+) -> tuple[HelixdConfig, Mission, Path, tuple[Plan, bool]]:
     """Load config and mission together so the operator sees every problem at once.
 
     Runs the shared mission-vs-config validation (what can be checked without the vehicle),
-    so ``check`` and ``run`` refuse the same files. Returns the mission file actually used.
+    so ``check`` and ``run`` refuse the same files. Returns the mission file actually used and
+    the plan as :func:`plan_for_check` resolves it.
     """
     problems: list[str] = []
     cfg: HelixdConfig | None = None
@@ -80,11 +83,18 @@ def load_inputs(config: Path | None, mission: Path) -> tuple[HelixdConfig, Missi
         problems.append(str(exc))
     except ConfigFileError as exc:
         problems.extend(exc.problems)
+    checked: tuple[Plan, bool] | None = None
     if cfg is not None and msn is not None:
-        problems.extend(f"{path}: {p}" for p in mission_problems(msn, cfg))
-    if problems or cfg is None or msn is None:
+        try:
+            checked = plan_for_check(msn, cfg)
+        except PlanError as exc:
+            problems.append(f"{path}: {exc}")
+        else:
+            refused = mission_problems(msn, cfg, checked_plan=checked)
+            problems.extend(f"{path}: {p}" for p in refused)
+    if problems or cfg is None or msn is None or checked is None:
         raise fail(problems, ExitCode.USAGE)
-    return cfg, msn, path
+    return cfg, msn, path, checked
 
 
 def check_connect(connect: str | None, cfg: HelixdConfig) -> str:
@@ -110,11 +120,7 @@ def version() -> None:
 @app.command()
 def check(config: ConfigOpt = None, mission: MissionOpt = Path("mission.yaml")) -> None:
     """Validate the config and a mission (as `run` would), and print the resolved plan."""
-    cfg, msn, path = load_inputs(config, mission)
-    try:
-        plan, provisional = plan_for_check(msn, cfg)
-    except PlanError as exc:
-        raise fail([f"{path}: {exc}"], ExitCode.USAGE) from None
+    cfg, msn, path, (plan, provisional) = load_inputs(config, mission)
     note = (
         " (global: shown relative to waypoint 0; the EKF origin is used in flight)"
         if provisional
@@ -193,7 +199,7 @@ def run(
 
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
-    cfg, msn, mission_path = load_inputs(config, mission)
+    cfg, msn, mission_path, _ = load_inputs(config, mission)
     url = check_connect(connect, cfg)
     try:
         mission_yaml = mission_path.read_text(encoding="utf-8")

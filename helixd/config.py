@@ -66,14 +66,18 @@ class StrictModel(BaseModel):
         # One call per model (not per field): 100 000 waypoints stay fast.
         if not isinstance(data, dict):
             return data
-        bad = [
-            str(key)
-            for key, value in data.items()
-            if (type(value) is bool or isinstance(value, (list, tuple, dict)))
-            and key in cls.model_fields
-            and not _accepts_bool(cls.model_fields[key].annotation)  # type: ignore[arg-type]
-            and _contains_bool(value)
-        ]
+        bad: list[str] = []
+        for key, value in data.items():
+            kind = type(value)
+            if kind is not bool and kind is not list and kind is not dict and kind is not tuple:
+                continue  # fast path: plain scalars
+            field = cls.model_fields.get(key)
+            if (
+                field is not None
+                and not _accepts_bool(field.annotation)  # type: ignore[arg-type]
+                and _contains_bool(value)
+            ):
+                bad.append(str(key))
         if bad:
             raise ValueError(
                 f"{', '.join(bad)}: true/false is not a number (write the number itself; "

@@ -108,6 +108,7 @@ _FLOAT_RE = re.compile(
     r"^[-+]?(?:\.[0-9]+|[0-9][0-9_]*(?:\.[0-9_]*)?)(?:[eE][-+]?[0-9]+)?$"
     r"|^[-+]?\.(?:inf|Inf|INF)$|^\.(?:nan|NaN|NAN)$"
 )
+_DECIMAL_RE = re.compile(r"-?[0-9]+\.[0-9]+\Z")  # subset of _FLOAT_RE, float() reads it alike
 _STR_TAGS = (None, "!", "tag:yaml.org,2002:str")
 _MAX_DIGITS = 40  # far beyond any field's range; also keeps int() cheap and its repr printable
 
@@ -175,7 +176,11 @@ def _build(text: str) -> Any:
     for event in yaml.parse(text, Loader=_BaseLoader):
         kind = type(event)
         if kind is yaml.ScalarEvent:
-            value: Any = _scalar(event)
+            text = event.value
+            if event.tag is None and not event.style and _DECIMAL_RE.match(text):
+                value: Any = float(text)  # fast path: most of a mission is plain decimals
+            else:
+                value = _scalar(event)
         elif kind is yaml.MappingStartEvent or kind is yaml.SequenceStartEvent:
             if len(stack) >= MAX_DEPTH:
                 raise _Refused(f"nested deeper than {MAX_DEPTH} levels at line {_line(event)}")

@@ -34,6 +34,7 @@ class MissionFrameKind(StrEnum):
     GLOBAL = "global"
 
 
+_ALL_COORDS = ("x", "y", "north", "east", "lat", "lon")
 _COORDS = {
     MissionFrameKind.START: ("x", "y"),
     MissionFrameKind.LOCAL_NED: ("north", "east"),
@@ -76,7 +77,19 @@ class Mission(InputModel):
         if not self.waypoints:
             raise ValueError("waypoints: the list is empty; a mission needs at least one waypoint")
         wanted = _COORDS[self.frame]
+        ka, kb = wanted
+        o1, o2, o3, o4 = (k for k in _ALL_COORDS if k not in wanted)
         for i, wp in enumerate(self.waypoints):
+            d = wp.__dict__  # plain attribute reads: this loop runs once per waypoint
+            if (
+                d[ka] is not None
+                and d[kb] is not None
+                and d[o1] is None
+                and d[o2] is None
+                and d[o3] is None
+                and d[o4] is None
+            ):
+                continue
             got = wp.given()
             if got != set(wanted):
                 raise ValueError(
@@ -84,15 +97,17 @@ class Mission(InputModel):
                     f"{wanted[0]} and {wanted[1]}, got {sorted(got) or 'no coordinates'}"
                 )
         pts = self.points()
+        is_global = self.frame is MissionFrameKind.GLOBAL
+        hypot = math.hypot
         for i in range(1, len(pts)):
             (a0, a1), (b0, b1) = pts[i - 1], pts[i]
-            if self.frame is MissionFrameKind.GLOBAL:
+            if is_global:
                 from helixd.frames import latlon_to_ne
 
                 dn, de = latlon_to_ne(b0, b1, a0, a1)
-                gap = math.hypot(dn, de)
+                gap = hypot(dn, de)
             else:
-                gap = math.hypot(b0 - a0, b1 - a1)
+                gap = hypot(b0 - a0, b1 - a1)
             if gap < DUPLICATE_EPSILON_M:
                 raise ValueError(
                     f"waypoints.{i}: same point as waypoints.{i - 1} "

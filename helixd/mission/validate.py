@@ -146,11 +146,16 @@ def mission_problems(
     *,
     start_ned: NedPose | None = None,
     origin_latlon_deg: tuple[float, float] | None = None,
+    checked_plan: tuple[Plan, bool] | None = None,
 ) -> list[str]:
     """Everything that would make ``helixd run`` refuse or abort this mission with this
-    config; one line per problem naming the field or waypoint and the allowed range."""
+    config; one line per problem naming the field or waypoint and the allowed range.
+
+    ``checked_plan``: the result of :func:`plan_for_check` if the caller already has it."""
     try:
-        if mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
+        if checked_plan is not None and origin_latlon_deg is None:
+            plan, provisional = checked_plan
+        elif mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
             plan = resolve_plan(mission, cfg.control, cfg.mission, origin_latlon_deg)
             provisional = False
         else:

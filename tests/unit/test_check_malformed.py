@@ -99,9 +99,7 @@ def _check(path: Path) -> tuple[int, str, float]:
     result = CliRunner().invoke(app, args)
     elapsed = time.perf_counter() - t0
     # typer exits through SystemExit; anything else escaping is a crash
-    assert result.exception is None or isinstance(result.exception, SystemExit), (
-        result.exception
-    )
+    assert result.exception is None or isinstance(result.exception, SystemExit), result.exception
     return result.exit_code, result.output, elapsed
 
 
