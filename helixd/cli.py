@@ -23,7 +23,7 @@ from helixd.mission.validate import mission_problems, pending_checks, plan_for_c
 from helixd.recorder import command as recorder_command
 from helixd.sim import command as sim_command
 from helixd.sim.config import NoiseLevel, Terrain
-from helixd.yamlio import clip_line
+from helixd.yamlio import clip_line, paused_gc
 
 app = typer.Typer(
     name="helixd",
@@ -86,7 +86,8 @@ def load_inputs(
     checked: tuple[Plan, bool] | None = None
     if cfg is not None and msn is not None:
         try:
-            checked = plan_for_check(msn, cfg)
+            with paused_gc():  # large acyclic plan: see yamlio.paused_gc
+                checked = plan_for_check(msn, cfg)
         except PlanError as exc:
             problems.append(f"{path}: {exc}")
         else:

@@ -24,7 +24,7 @@ from pydantic import (
     model_validator,
 )
 
-from helixd.yamlio import YamlFileError, clip, clip_line, load_yaml_file
+from helixd.yamlio import YamlFileError, clip, clip_line, load_yaml_file, paused_gc
 
 # ---------------------------------------------------------------------------------------------
 # Base model and error reporting
@@ -255,7 +255,8 @@ def load_yaml_model(path: Path | str, model: type[M], context: dict[str, Any] | 
             p, [f"{p}: (top level): expected a mapping of keys, got {type(data).__name__}"]
         )
     try:
-        return model.model_validate(data, context=context)
+        with paused_gc():
+            return model.model_validate(data, context=context)
     except ValidationError as exc:
         raise ConfigFileError(p, format_validation_error(p, exc, model)) from None
 
