@@ -42,7 +42,7 @@ def run_sim(
     try:
         server = SimServer(links, config)
     except ValueError as exc:
-        raise _fail(str(exc), ExitCode.USAGE) from None
+        raise _fail(f"--listen: {exc}", ExitCode.USAGE) from None
     try:
         server.start()
     except RuntimeError as exc:

@@ -7,6 +7,8 @@ import math
 from typing import Any
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from helixd.config import HelixdConfig
@@ -259,3 +261,40 @@ def test_pilot_channels_on_scroll_numbers_are_fine_with_the_servo_backend() -> N
 
 def test_defaults_satisfy_every_rule() -> None:
     assert HelixdConfig() == HelixdConfig.model_validate({})
+
+
+# -- totality: any valid mission, config and pose gives a list of one-line messages -------------
+
+coord = st.floats(min_value=-400.0, max_value=400.0, allow_nan=False)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    frame=st.sampled_from(["start", "local_ned"]),
+    mode=st.sampled_from(["roll", "scroll", "omni"]),
+    points=st.lists(st.tuples(coord, coord), min_size=1, max_size=12),
+    pose=st.none() | st.tuples(coord, coord, st.floats(-7.0, 7.0)),
+    radius=st.none() | st.floats(1.0, 1000.0),
+    limit=st.floats(1.0, 86_400.0),
+    polygon=st.sampled_from([[], SQUARE_NE, U_NE]),
+)
+def test_mission_problems_is_total(
+    frame: str,
+    mode: str,
+    points: list[tuple[float, float]],
+    pose: tuple[float, float, float] | None,
+    radius: float | None,
+    limit: float,
+    polygon: list[list[float]],
+) -> None:
+    try:
+        msn = mission(frame, points, mode=mode)
+    except ValidationError:
+        return  # e.g. consecutive duplicates or beyond max_range_m: refused at load already
+    cfg = config(
+        geofence_radius_m=radius, mission_time_limit_s=limit, geofence_polygon_ne_m=polygon
+    )
+    start = None if pose is None else NedPose(*pose)
+    problems = mission_problems(msn, cfg, start_ned=start)
+    assert all(isinstance(p, str) and "\n" not in p and len(p) < 300 for p in problems)
+    assert len(problems) <= 2 * 6 + 2  # radius and polygon lists are capped, time is one line
