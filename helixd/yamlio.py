@@ -11,7 +11,9 @@ What it refuses, and how (each stage runs only on what passed the one before):
    ``*alias`` at once (a 900-byte "billion laughs" never expands), nesting deeper than
    :data:`MAX_DEPTH` at the first event past it (5 000 ``[`` cannot reach a recursion limit or
    the C stack), duplicate keys naming both lines, explicit tags (``!!python/object``…),
-   merge keys, complex keys, a second document, integers longer than 40 digits.
+   merge keys, complex keys, a second document, integers longer than 40 digits, and more than
+   :data:`MAX_EVENTS` values (so memory stays bounded: a 16 MB ``[1,1,1,…]`` is refused
+   after a million values instead of building eight million objects).
 4. **Scalars** follow the YAML 1.2 core schema, not YAML 1.1: only ``true``/``false`` are
    booleans (``yes``/``no``/``on``/``off`` stay text, so ``x: yes`` can never become 1.0 and
    ``name: no`` stays the string ``no``); no sexagesimal ``1:30`` = 90, ``010`` is ten, no
@@ -44,6 +46,7 @@ import yaml
 
 MAX_FILE_BYTES = 16 * 1024 * 1024  # a 100 000-waypoint mission is about 2.5 MB
 MAX_DEPTH = 32  # deepest real config nesting is 5 (sim terrain table); missions use 3
+MAX_EVENTS = 1_000_000  # parser events (values + collections); 100 000 waypoints are ~600 000
 MAX_SHOWN_CHARS = 120  # longest quoted value in a message
 MAX_LINE_CHARS = 400  # longest problem line
 
@@ -176,7 +179,11 @@ def _build(text: str) -> Any:
     root: Any = None
     documents = 0
     event: Any
-    for event in yaml.parse(text, Loader=_BaseLoader):
+    for count, event in enumerate(yaml.parse(text, Loader=_BaseLoader)):
+        if count >= MAX_EVENTS:
+            raise _Refused(
+                f"more than {MAX_EVENTS} values by line {_line(event)}; refused (split the file)"
+            )
         kind = type(event)
         if kind is yaml.ScalarEvent:
             text = event.value
@@ -305,6 +312,7 @@ def load_yaml_file(path: Path | str, max_bytes: int = MAX_FILE_BYTES) -> Any:
 __all__ = [
     "LIBYAML",
     "MAX_DEPTH",
+    "MAX_EVENTS",
     "MAX_FILE_BYTES",
     "YamlFileError",
     "clip",

@@ -95,6 +95,15 @@ def test_refusals(text: str, fragment: str) -> None:
     assert "\n" not in info.value.message
 
 
+def test_value_count_is_capped(monkeypatch: pytest.MonkeyPatch) -> None:
+    import helixd.yamlio as yamlio
+
+    monkeypatch.setattr(yamlio, "MAX_EVENTS", 100)
+    assert len(parse_yaml_text("[" + "1," * 80 + "1]")) == 81
+    with pytest.raises(YamlFileError, match="more than 100 values"):
+        parse_yaml_text("[" + "1," * 200 + "1]")
+
+
 def test_exactly_max_depth_is_fine() -> None:
     text = "[" * MAX_DEPTH + "]" * MAX_DEPTH
     data = parse_yaml_text(text)
