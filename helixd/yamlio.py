@@ -179,28 +179,36 @@ def _build(text: str) -> Any:
     root: Any = None
     documents = 0
     event: Any
+    # local names: this loop runs once per event (600 000 for 100 000 waypoints)
+    scalar_event, mapping_start, sequence_start = (
+        yaml.ScalarEvent,
+        yaml.MappingStartEvent,
+        yaml.SequenceStartEvent,
+    )
+    mapping_end, sequence_end = yaml.MappingEndEvent, yaml.SequenceEndEvent
+    decimal, to_float, no_key, max_events = _DECIMAL_RE.match, float, _NO_KEY, MAX_EVENTS
     for count, event in enumerate(yaml.parse(text, Loader=_BaseLoader)):
-        if count >= MAX_EVENTS:
+        if count >= max_events:
             raise _Refused(
                 f"more than {MAX_EVENTS} values by line {_line(event)}; refused (split the file)"
             )
         kind = type(event)
-        if kind is yaml.ScalarEvent:
-            text = event.value
-            if event.tag is None and not event.style and _DECIMAL_RE.match(text):
-                value: Any = float(text)  # fast path: most of a mission is plain decimals
+        if kind is scalar_event:
+            raw = event.value
+            if event.tag is None and not event.style and decimal(raw):
+                value: Any = to_float(raw)  # fast path: most of a mission is plain decimals
             else:
                 value = _scalar(event)
-        elif kind is yaml.MappingStartEvent or kind is yaml.SequenceStartEvent:
+        elif kind is mapping_start or kind is sequence_start:
             if len(stack) >= MAX_DEPTH:
                 raise _Refused(f"nested deeper than {MAX_DEPTH} levels at line {_line(event)}")
             if event.tag not in (None, "!"):
                 raise _Refused(
                     f"explicit tag {clip(event.tag, 60)} at line {_line(event)} is not allowed"
                 )
-            stack.append(_Frame({} if kind is yaml.MappingStartEvent else []))
+            stack.append(_Frame({} if kind is mapping_start else []))
             continue
-        elif kind is yaml.MappingEndEvent or kind is yaml.SequenceEndEvent:
+        elif kind is mapping_end or kind is sequence_end:
             value = stack.pop().obj
         elif kind is yaml.AliasEvent:
             raise _Refused(
@@ -221,10 +229,10 @@ def _build(text: str) -> Any:
         obj = top.obj
         if type(obj) is list:
             obj.append(value)
-        elif top.key is _NO_KEY:
+        elif top.key is no_key:
             if isinstance(value, (dict, list)):
                 raise _Refused(f"a list or mapping used as a key at line {_line(event)}")
-            if value == "<<" and kind is yaml.ScalarEvent and not event.style:
+            if value == "<<" and kind is scalar_event and not event.style:
                 raise _Refused(f"merge key '<<' at line {_line(event)} is not supported")
             if value in top.marks:
                 first = top.marks[value]
@@ -233,7 +241,7 @@ def _build(text: str) -> Any:
             top.key = value
         else:
             obj[top.key] = value
-            top.key = _NO_KEY
+            top.key = no_key
     return root
 
 

