@@ -159,7 +159,7 @@ def check(config: ConfigOpt = None, mission: MissionOpt = Path("mission.yaml")) 
     )
     later = pending_checks(msn, cfg)
     if later:
-        typer.echo(f"in flight: checked at preflight with the start pose: {', '.join(later)}")
+        typer.echo(f"preflight: run checks with the start pose: {', '.join(later)}")
 
 
 @app.command()

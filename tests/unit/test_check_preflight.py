@@ -24,7 +24,7 @@ def test_check_leaves_the_radius_to_preflight(tmp_path: Path) -> None:
     path.write_text(MISSION, encoding="utf-8")
     result = CliRunner().invoke(app, ["check", "--mission", str(path)])
     assert result.exit_code == 0, result.output
-    assert "checked at preflight with the start pose: geofence radius" in result.output
+    assert "preflight: run checks with the start pose: geofence radius" in result.output
 
 
 def test_run_refuses_in_preflight_before_arming(tmp_path: Path) -> None:
