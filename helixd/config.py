@@ -30,14 +30,23 @@ from helixd.yamlio import YamlFileError, clip, clip_line, load_yaml_file, paused
 # Base model and error reporting
 
 
-@cache
-def _accepts_bool(annotation: Any) -> bool:
-    """True if ``annotation`` mentions bool or a nested model (which checks its own fields)."""
+def _accepts_bool_uncached(annotation: Any) -> bool:
     if annotation is bool:
         return True
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return True
     return any(_accepts_bool(arg) for arg in getattr(annotation, "__args__", ()))
+
+
+_accepts_bool_cached = cache(_accepts_bool_uncached)
+
+
+def _accepts_bool(annotation: Any) -> bool:
+    """True if ``annotation`` mentions bool or a nested model (which checks its own fields)."""
+    try:
+        return _accepts_bool_cached(annotation)
+    except TypeError:  # an unhashable annotation: just compute it
+        return _accepts_bool_uncached(annotation)
 
 
 def _contains_bool(value: Any) -> bool:
@@ -74,7 +83,7 @@ class StrictModel(BaseModel):
             field = cls.model_fields.get(key)
             if (
                 field is not None
-                and not _accepts_bool(field.annotation)  # type: ignore[arg-type]
+                and not _accepts_bool(field.annotation)
                 and _contains_bool(value)
             ):
                 bad.append(str(key))
