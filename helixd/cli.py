@@ -7,18 +7,23 @@ message per problem and a non-zero exit code — never a traceback.
 from __future__ import annotations
 
 import math
+import sys
 from pathlib import Path
 from typing import Annotated
 
 import typer
+from typer.exceptions import TyperException
 
 from helixd import __version__
 from helixd.config import ConfigFileError, HelixdConfig, load_config
 from helixd.exitcodes import ExitCode
-from helixd.mission import Mission, MissionFrameKind, PlanError, load_mission, resolve_plan
+from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, load_mission
+from helixd.mission.locate import MissionNotFound, locate_mission
+from helixd.mission.validate import mission_problems, pending_checks, plan_for_check
 from helixd.recorder import command as recorder_command
 from helixd.sim import command as sim_command
 from helixd.sim.config import NoiseLevel, Terrain
+from helixd.yamlio import clip_line, paused_gc
 
 app = typer.Typer(
     name="helixd",
@@ -32,17 +37,33 @@ ConfigOpt = Annotated[
     Path | None,
     typer.Option("--config", "-c", help="helixd.yaml (defaults built in when omitted)"),
 ]
-MissionOpt = Annotated[Path, typer.Option("--mission", "-m", help="mission YAML file")]
+MissionOpt = Annotated[
+    Path,
+    typer.Option(
+        "--mission",
+        "-m",
+        help="mission YAML file; a bare name such as square.yaml is also looked up in "
+        "config/missions/ and /etc/helixd/missions/",
+    ),
+]
+MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
 
 
 def fail(problems: list[str], code: ExitCode) -> typer.Exit:
     for line in problems:
-        typer.echo(f"error: {line}", err=True)
+        typer.echo(f"error: {clip_line(line)}", err=True)
     return typer.Exit(int(code))
 
 
-def load_inputs(config: Path | None, mission: Path) -> tuple[HelixdConfig, Mission]:
-    """Load config and mission together so the operator sees every problem at once."""
+def load_inputs(
+    config: Path | None, mission: Path
+) -> tuple[HelixdConfig, Mission, Path, tuple[Plan, bool]]:
+    """Load config and mission together so the operator sees every problem at once.
+
+    Runs the shared mission-vs-config validation (what can be checked without the vehicle),
+    so ``check`` and ``run`` refuse the same files. Returns the mission file actually used and
+    the plan as :func:`plan_for_check` resolves it.
+    """
     problems: list[str] = []
     cfg: HelixdConfig | None = None
     try:
@@ -51,13 +72,44 @@ def load_inputs(config: Path | None, mission: Path) -> tuple[HelixdConfig, Missi
         problems.extend(exc.problems)
     limits = cfg.mission if cfg is not None else HelixdConfig().mission
     msn = None
+    path = mission
     try:
-        msn = load_mission(mission, limits)
+        found = locate_mission(mission)
+        path = found.path
+        if found.searched:
+            typer.echo(f"mission {mission}: using {path}", err=True)
+        msn = load_mission(path, limits)
+    except MissionNotFound as exc:
+        problems.append(str(exc))
     except ConfigFileError as exc:
         problems.extend(exc.problems)
-    if problems or cfg is None or msn is None:
+    checked: tuple[Plan, bool] | None = None
+    if cfg is not None and msn is not None:
+        try:
+            with paused_gc():  # large acyclic plan: see yamlio.paused_gc
+                checked = plan_for_check(msn, cfg)
+        except PlanError as exc:
+            problems.append(f"{path}: {exc}")
+        else:
+            refused = mission_problems(msn, cfg, checked_plan=checked)
+            problems.extend(f"{path}: {p}" for p in refused)
+    if problems or cfg is None or msn is None or checked is None:
         raise fail(problems, ExitCode.USAGE)
-    return cfg, msn
+    return cfg, msn, path, checked
+
+
+def check_connect(connect: str | None, cfg: HelixdConfig) -> str:
+    """The link URL to use: ``--connect`` if given (validated; empty is an error), else the
+    config's (validated when the config loaded)."""
+    if connect is None:
+        return cfg.link.url
+    from helixd.link.url import LinkError, parse_link_url
+
+    try:
+        parse_link_url(connect, cfg.link.baud)
+    except LinkError as exc:
+        raise fail([f"--connect: {exc}"], ExitCode.USAGE) from None
+    return connect.strip()
 
 
 @app.command()
@@ -68,37 +120,46 @@ def version() -> None:
 
 @app.command()
 def check(config: ConfigOpt = None, mission: MissionOpt = Path("mission.yaml")) -> None:
-    """Validate the config and a mission, and print the resolved plan."""
-    cfg, msn = load_inputs(config, mission)
-    if msn.frame is MissionFrameKind.GLOBAL:
-        first_lat, first_lon = msn.points()[0]
-        origin = (first_lat, first_lon)
-        note = " (global: shown relative to waypoint 0; the EKF origin is used in flight)"
-    else:
-        origin = None
-        note = ""
-    try:
-        plan = resolve_plan(msn, cfg.control, cfg.mission, origin)
-    except PlanError as exc:
-        raise fail([f"{mission}: {exc}"], ExitCode.USAGE) from None
+    """Validate the config and a mission (as `run` would), and print the resolved plan."""
+    cfg, msn, path, (plan, provisional) = load_inputs(config, mission)
+    note = (
+        " (global: shown relative to waypoint 0; the EKF origin is used in flight)"
+        if provisional
+        else ""
+    )
     axes = (
         "x forward / y left of start" if msn.frame is MissionFrameKind.START else "x east / y north"
     )
     typer.echo(f"config  : {config or '(built-in defaults)'}  OK")
-    typer.echo(f"mission : {mission}  OK")
+    typer.echo(f"mission : {path}  OK")
     typer.echo(f"plan    : {plan.name}  mode={plan.mode.value}  frame={plan.frame.value}{note}")
     typer.echo(f"axes    : {axes} (metres)")
-    typer.echo(f"{'#':>3} {'x_m':>9} {'y_m':>9} {'tol_m':>6} {'heading_deg':>11}")
+    rows = [f"{'#':>3} {'x_m':>9} {'y_m':>9} {'tol_m':>6} {'heading_deg':>11}"]
+    count = len(plan.waypoints)
+    head = count if count <= MAX_TABLE_ROWS else MAX_TABLE_ROWS // 2
     for i, wp in enumerate(plan.waypoints):
+        if head <= i < count - (MAX_TABLE_ROWS - head):
+            if i == head:
+                rows.append(f"... {count - MAX_TABLE_ROWS} waypoints not shown ...")
+            continue
         hdg = "-" if wp.final_yaw_rad is None else f"{math.degrees(wp.final_yaw_rad):.1f}"
-        typer.echo(f"{i:>3} {wp.x_m:>9.2f} {wp.y_m:>9.2f} {wp.tolerance_m:>6.2f} {hdg:>11}")
-    start = (0.0, 0.0) if msn.frame is not MissionFrameKind.GLOBAL else None
-    length = plan.path_length_m(start or (plan.waypoints[0].x_m, plan.waypoints[0].y_m))
-    eta = plan.estimated_time_s(
-        cfg.control.max_yaw_rate_radps, start or (plan.waypoints[0].x_m, plan.waypoints[0].y_m)
+        rows.append(f"{i:>3} {wp.x_m:>9.2f} {wp.y_m:>9.2f} {wp.tolerance_m:>6.2f} {hdg:>11}")
+    typer.echo("\n".join(rows))
+    # start frame: from the start point; ENU frames: from waypoint 0 (the start pose is not
+    # known yet), as mission_problems() estimates it.
+    first = plan.waypoints[0]
+    start = (0.0, 0.0) if msn.frame is MissionFrameKind.START else (first.x_m, first.y_m)
+    length = plan.path_length_m(start)
+    eta = plan.estimated_time_s(cfg.control.max_yaw_rate_radps, start)
+    origin_note = "" if msn.frame is MissionFrameKind.START else " (from waypoint 0)"
+    typer.echo(f"path    : {length:.1f} m at {plan.speed_mps:.2f} m/s{origin_note}")
+    typer.echo(
+        f"estimate: {eta:.0f} s ({eta / 60:.1f} min; limit "
+        f"safety.mission_time_limit_s = {cfg.safety.mission_time_limit_s:.0f} s)"
     )
-    typer.echo(f"path    : {length:.1f} m at {plan.speed_mps:.2f} m/s")
-    typer.echo(f"estimate: {eta:.0f} s ({eta / 60:.1f} min)")
+    later = pending_checks(msn, cfg)
+    if later:
+        typer.echo(f"preflight: run checks with the start pose: {', '.join(later)}")
 
 
 @app.command()
@@ -133,19 +194,22 @@ def run(
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD."""
     import asyncio
-    import sys
 
     from helixd.daemon import RunOptions, run_mission
     from helixd.logging_setup import configure_logging
 
-    cfg, msn = load_inputs(config, mission)
+    if sim and connect is not None:
+        raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
+    cfg, msn, mission_path, _ = load_inputs(config, mission)
+    url = check_connect(connect, cfg)
+    try:
+        mission_yaml = mission_path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
     tty = sys.stderr.isatty()
     configure_logging(tty=tty, level=log_level)
     server = None
-    url = connect or cfg.link.url
     if sim:
-        if connect:
-            raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
         from helixd.sim import SimConfig, start_embedded
 
         sim_cfg = SimConfig(speedup=sim_speedup, terrain=sim_terrain, noise=sim_noise)
@@ -154,7 +218,7 @@ def run(
     opts = RunOptions(
         cfg=cfg,
         mission=msn,
-        mission_yaml=mission.read_text(encoding="utf-8"),
+        mission_yaml=mission_yaml,
         connect_url=url,
         run_root=run_dir or cfg.recorder.run_root,
         tty=tty,
@@ -182,7 +246,6 @@ def status(
 ) -> None:
     """Print mode, armed, pose, EKF health, RC inputs and servo outputs (read-only)."""
     import asyncio
-    import sys
 
     from helixd.link.connection import LinkError
     from helixd.logging_setup import configure_logging
@@ -192,8 +255,9 @@ def status(
         cfg = load_config(config)
     except ConfigFileError as exc:
         raise fail(exc.problems, ExitCode.USAGE) from None
+    url = check_connect(connect, cfg)
     configure_logging(tty=sys.stderr.isatty(), level="warning")
-    link = cfg.link if connect is None else cfg.link.model_copy(update={"url": connect})
+    link = cfg.link.model_copy(update={"url": url})
     try:
         code = asyncio.run(read_status(link, cfg.safety, watch, interval_s, typer.echo))
     except LinkError as exc:
@@ -207,8 +271,20 @@ sim_command.register(app)
 recorder_command.register(app)
 
 
-def main() -> None:
-    app()
+def main(argv: list[str] | None = None) -> None:
+    """Entry point. Command-line errors (typer/click usage errors) become one ``error:`` line
+    and exit 2, like every other validation error, instead of a usage box."""
+    from typer._click.exceptions import NoArgsIsHelpError
+
+    try:
+        code = app(args=argv, standalone_mode=False)
+    except NoArgsIsHelpError as exc:
+        exc.show()
+        code = int(exc.exit_code)
+    except TyperException as exc:  # click's UsageError/BadParameter/NoSuchOption, ...
+        typer.echo(f"error: {clip_line(exc.format_message())}", err=True)
+        code = int(exc.exit_code)
+    sys.exit(code if isinstance(code, int) else 0)
 
 
 if __name__ == "__main__":

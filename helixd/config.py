@@ -10,20 +10,95 @@ from __future__ import annotations
 
 import math
 from enum import StrEnum
+from functools import cache
 from pathlib import Path
 from typing import Annotated, Any, Literal, TypeVar
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    model_validator,
+)
+
+from helixd.yamlio import YamlFileError, clip, clip_line, load_yaml_file, paused_gc
 
 # ---------------------------------------------------------------------------------------------
 # Base model and error reporting
 
 
+def _accepts_bool_uncached(annotation: Any) -> bool:
+    if annotation is bool:
+        return True
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return True
+    return any(_accepts_bool(arg) for arg in getattr(annotation, "__args__", ()))
+
+
+_accepts_bool_cached = cache(_accepts_bool_uncached)
+
+
+def _accepts_bool(annotation: Any) -> bool:
+    """True if ``annotation`` mentions bool or a nested model (which checks its own fields)."""
+    try:
+        return _accepts_bool_cached(annotation)
+    except TypeError:  # an unhashable annotation: just compute it
+        return _accepts_bool_uncached(annotation)
+
+
+def _contains_bool(value: Any) -> bool:
+    if type(value) is bool:
+        return True
+    if isinstance(value, (list, tuple)):
+        return any(_contains_bool(v) for v in value)
+    if isinstance(value, dict):
+        return any(_contains_bool(v) for v in value.values())
+    return False
+
+
 class StrictModel(BaseModel):
-    """Base for every config/mission model: unknown keys are errors, values are immutable."""
+    """Base for every config/mission model: unknown keys are errors, values are immutable.
+
+    A boolean is never a number: pydantic's lax mode would read ``true`` as 1.0 for a float
+    field (and YAML 1.1 read ``yes`` as true); here a bool anywhere in a field that is not
+    declared bool is an error.
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_bool_as_number(cls, data: Any) -> Any:
+        # One call per model (not per field): 100 000 waypoints stay fast.
+        if not isinstance(data, dict):
+            return data
+        bad: list[str] = []
+        for key, value in data.items():
+            kind = type(value)
+            if kind is not bool and kind is not list and kind is not dict and kind is not tuple:
+                continue  # fast path: plain scalars
+            field = cls.model_fields.get(key)
+            if (
+                field is not None
+                and not _accepts_bool(field.annotation)
+                and _contains_bool(value)
+            ):
+                bad.append(str(key))
+        if bad:
+            raise ValueError(
+                f"{', '.join(bad)}: true/false is not a number (write the number itself; "
+                "yes/no/on/off are not numbers either)"
+            )
+        return data
+
+
+class InputModel(StrictModel):
+    """Config and mission models: additionally NaN and ±infinity are refused everywhere."""
+
+    model_config = ConfigDict(allow_inf_nan=False)
 
 
 class ConfigFileError(Exception):
@@ -83,6 +158,25 @@ def _inner_model(annotation: Any) -> Any:
     return None
 
 
+def _bounds(metadata: Any) -> tuple[Any, Any]:
+    lo = hi = None
+    for meta in metadata:
+        for inner in (meta, *getattr(meta, "metadata", ())):
+            lo = getattr(inner, "ge", None) if lo is None else lo
+            lo = getattr(inner, "gt", None) if lo is None else lo
+            hi = getattr(inner, "le", None) if hi is None else hi
+            hi = getattr(inner, "lt", None) if hi is None else hi
+    return lo, hi
+
+
+def _item_bounds(annotation: Any) -> tuple[Any, Any]:
+    for arg in getattr(annotation, "__args__", ()):
+        lo, hi = _bounds(getattr(arg, "__metadata__", ()))
+        if lo is not None and hi is not None:
+            return lo, hi
+    return None, None
+
+
 def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) -> str:
     etype = err["type"]
     ctx = err.get("ctx") or {}
@@ -92,12 +186,15 @@ def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) 
         if owner is not None and loc and isinstance(loc[-1], str):
             field = owner.model_fields.get(loc[-1])
             if field is not None:
-                lo = hi = None
-                for meta in field.metadata:
-                    lo = getattr(meta, "ge", None) if lo is None else lo
-                    lo = getattr(meta, "gt", None) if lo is None else lo
-                    hi = getattr(meta, "le", None) if hi is None else hi
-                    hi = getattr(meta, "lt", None) if hi is None else hi
+                lo, hi = _bounds(field.metadata)
+                if lo is not None and hi is not None:
+                    return f"allowed range {lo} .. {hi}"
+        if len(loc) >= 2 and isinstance(loc[-1], int) and isinstance(loc[-2], str):
+            # an item of a list field such as stick_channels: bounds sit on the item type
+            owner = _model_at(model, loc[:-1])
+            field = owner.model_fields.get(loc[-2]) if owner is not None else None
+            if field is not None:
+                lo, hi = _item_bounds(field.annotation)
                 if lo is not None and hi is not None:
                     return f"allowed range {lo} .. {hi}"
         return f"allowed: {bound}"
@@ -111,6 +208,9 @@ def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) 
     if etype == "missing":
         return "this field is required"
     return _TYPE_WORDS.get(etype.split("_")[0], "")
+
+
+_YAML11_BOOLS = frozenset({"yes", "no", "on", "off", "y", "n"})
 
 
 def format_validation_error(
@@ -130,13 +230,20 @@ def format_validation_error(
             problem = str(err["msg"]).removeprefix("Value error, ")
         value = err.get("input")
         shown = etype != "missing" and not isinstance(value, dict)
-        parts = [f"got {value!r}"] if shown else []
+        parts = [f"got {clip(value)}"] if shown else []
         if not etype.startswith("value_error"):
             allowed = _allowed_text(err, model, loc)
             if allowed:
                 parts.append(allowed)
+        if etype == "value_error" and (not loc or "\n" in problem):
+            # a cross-field validator: one line per problem, each naming its fields itself
+            prefix = f"{path}: {dotted}: " if loc else f"{path}: "
+            lines.extend(clip_line(prefix + p) for p in problem.splitlines() if p)
+            continue
+        if isinstance(value, str) and value.lower() in _YAML11_BOOLS and "parsing" in etype:
+            parts.append("yes/no/on/off are text, not numbers or switches: write the number")
         detail = f" ({'; '.join(parts)})" if parts else ""
-        lines.append(f"{path}: {dotted}: {problem}{detail}")
+        lines.append(clip_line(f"{path}: {dotted}: {problem}{detail}"))
     return lines
 
 
@@ -147,18 +254,9 @@ def load_yaml_model(path: Path | str, model: type[M], context: dict[str, Any] | 
     """Read ``path`` as YAML and validate it as ``model``; raise ConfigFileError otherwise."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigFileError(p, [f"{p}: file not found"]) from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigFileError(p, [f"{p}: cannot read file: {exc}"]) from None
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        reason = getattr(exc, "problem", None) or str(exc)
-        raise ConfigFileError(p, [f"{p}: not valid YAML{where}: {reason}"]) from None
+        data = load_yaml_file(p)
+    except YamlFileError as exc:
+        raise ConfigFileError(p, [exc.message]) from None
     if data is None:
         data = {}
     if not isinstance(data, dict):
@@ -166,7 +264,8 @@ def load_yaml_model(path: Path | str, model: type[M], context: dict[str, Any] | 
             p, [f"{p}: (top level): expected a mapping of keys, got {type(data).__name__}"]
         )
     try:
-        return model.model_validate(data, context=context)
+        with paused_gc():
+            return model.model_validate(data, context=context)
     except ValidationError as exc:
         raise ConfigFileError(p, format_validation_error(p, exc, model)) from None
 
@@ -181,7 +280,7 @@ def finite(value: float) -> float:
 # Vehicle
 
 
-class ScrollCalibration(StrictModel):
+class ScrollCalibration(InputModel):
     """Per-scroll fraction calibration, the mecanum report's v = a·ω + b idea.
 
     applied = gain·f + sign(f)·offset for |f| ≥ deadband, 0 below it; negated when reversed.
@@ -197,7 +296,7 @@ class ScrollCalibration(StrictModel):
     reversed: bool = Field(False, description="scroll motor wired backwards")
 
 
-class VehicleConfig(StrictModel):
+class VehicleConfig(InputModel):
     scroll_radius_m: float = Field(0.175, gt=0.01, le=1.0, description="scroll radius r (m)")
     lx_m: float = Field(0.565, gt=0.05, le=3.0, description="front-back scroll distance l_x (m)")
     ly_m: float = Field(0.508, gt=0.05, le=3.0, description="left-right scroll distance l_y (m)")
@@ -222,7 +321,7 @@ class VehicleConfig(StrictModel):
 # Control
 
 
-class PidGains(StrictModel):
+class PidGains(InputModel):
     kp: float = Field(ge=0.0, le=100.0, description="proportional gain")
     ki: float = Field(ge=0.0, le=100.0, description="integral gain (1/s)")
     kd: float = Field(ge=0.0, le=100.0, description="derivative gain (s)")
@@ -231,7 +330,7 @@ class PidGains(StrictModel):
     )
 
 
-class ControlConfig(StrictModel):
+class ControlConfig(InputModel):
     distance_pid: PidGains = Field(
         default_factory=lambda: PidGains(kp=1.2, ki=0.0002, kd=0.05, integral_limit=0.2),
         description="distance error (m) → forward speed (m/s); thesis field-test gains",
@@ -279,7 +378,7 @@ class ControlConfig(StrictModel):
 # Missions
 
 
-class MissionLimits(StrictModel):
+class MissionLimits(InputModel):
     max_range_m: float = Field(
         500.0,
         gt=0.0,
@@ -292,8 +391,18 @@ class MissionLimits(StrictModel):
 # Link
 
 
-class LinkConfig(StrictModel):
-    url: str = Field(
+def _valid_link_url(url: str) -> str:
+    from helixd.link.url import LinkError, parse_link_url  # lazy: helixd.link imports us
+
+    try:
+        parse_link_url(url, 115200)  # form only; the baud is checked with link.baud at open
+    except LinkError as exc:
+        raise ValueError(str(exc)) from None
+    return url
+
+
+class LinkConfig(InputModel):
+    url: Annotated[str, AfterValidator(_valid_link_url)] = Field(
         "udpin:0.0.0.0:14550",
         min_length=1,
         description="MAVProxy-style connection: /dev/ttyACM0[:baud], udpin:, udpout:, tcp:",
@@ -388,7 +497,7 @@ class ActuationBackend(StrEnum):
     DRY_RUN = "dry_run"
 
 
-class ChannelConfig(StrictModel):
+class ChannelConfig(InputModel):
     channel: int = Field(ge=1, le=18, description="RC/servo channel number (1..18)")
     pwm_min_us: int = Field(1000, ge=800, le=2200, description="PWM at full reverse (µs)")
     pwm_trim_us: int = Field(1500, ge=800, le=2200, description="PWM at neutral (µs)")
@@ -415,7 +524,7 @@ def _default_channels() -> tuple[ChannelConfig, ChannelConfig, ChannelConfig, Ch
     )
 
 
-class ActuationConfig(StrictModel):
+class ActuationConfig(InputModel):
     backend: ActuationBackend = Field(ActuationBackend.RC_OVERRIDE, description="command sink")
     channels: tuple[ChannelConfig, ChannelConfig, ChannelConfig, ChannelConfig] = Field(
         default_factory=_default_channels, description="scrolls 1..4 → channel and PWM range"
@@ -454,7 +563,7 @@ class ActuationConfig(StrictModel):
 # Safety
 
 
-class StallConfig(StrictModel):
+class StallConfig(InputModel):
     commanded_speed_min_mps: float = Field(
         0.2, gt=0.0, le=3.0, description="stall watch armed when commanded speed exceeds (m/s)"
     )
@@ -470,7 +579,32 @@ class StallConfig(StrictModel):
     duration_s: float = Field(4.0, gt=0.0, le=120.0, description="...for this long (s)")
 
 
-class TakeoverConfig(StrictModel):
+RcChannel = Annotated[int, Field(ge=1, le=18)]
+
+
+def _distinct_channels(channels: tuple[int, ...]) -> tuple[int, ...]:
+    if len(set(channels)) != len(channels):
+        raise ValueError(f"each channel may be listed once, got {list(channels)}")
+    return channels
+
+
+def _sane_polygon(poly: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+    if not poly:
+        return poly
+    from helixd.mission.polygon import polygon_problems  # lazy: helixd.mission imports us
+
+    problems = polygon_problems(poly)
+    if problems:
+        raise ValueError(
+            "\n".join(
+                f"{p} (allowed: [] for no polygon, or >= 3 vertices enclosing an area)"
+                for p in problems
+            )
+        )
+    return poly
+
+
+class TakeoverConfig(InputModel):
     on_mode_change: bool = Field(True, description="a mode change we did not ask for is takeover")
     switch_channel: int | None = Field(
         None, ge=1, le=18, description="RC channel of a takeover switch (None = no switch)"
@@ -478,15 +612,15 @@ class TakeoverConfig(StrictModel):
     switch_threshold_us: int = Field(
         1700, ge=800, le=2200, description="switch PWM at or above this means takeover (µs)"
     )
-    stick_channels: tuple[int, ...] = Field(
-        (), description="RC input channels watched for stick deflection"
+    stick_channels: Annotated[tuple[RcChannel, ...], AfterValidator(_distinct_channels)] = Field(
+        (), max_length=18, description="RC input channels watched for stick deflection (1..18)"
     )
     stick_deflection_us: int = Field(
         150, ge=20, le=600, description="|PWM − 1500| beyond this on a watched stick (µs)"
     )
 
 
-class SafetyConfig(StrictModel):
+class SafetyConfig(InputModel):
     heartbeat_timeout_s: float = Field(
         2.0, gt=0.1, le=30.0, description="autopilot HEARTBEAT silence that is link loss (s)"
     )
@@ -503,8 +637,13 @@ class SafetyConfig(StrictModel):
     geofence_radius_m: float | None = Field(
         100.0, gt=0.0, le=10_000.0, description="max distance from the start point (m); None = off"
     )
-    geofence_polygon_ne_m: tuple[tuple[float, float], ...] = Field(
-        (), description="optional keep-in polygon, (north_m, east_m) vertices from the EKF origin"
+    geofence_polygon_ne_m: Annotated[
+        tuple[tuple[float, float], ...], AfterValidator(_sane_polygon)
+    ] = Field(
+        (),
+        max_length=1000,
+        description="optional keep-in polygon, (north_m, east_m) vertices from the EKF origin; "
+        ">= 3 finite vertices, not self-intersecting, area >= 1 m²",
     )
     mission_time_limit_s: float = Field(
         1800.0, gt=0.0, le=86_400.0, description="mission aborted after this long (s)"
@@ -562,7 +701,7 @@ class SafetyConfig(StrictModel):
 # Recorder
 
 
-class RecorderConfig(StrictModel):
+class RecorderConfig(InputModel):
     run_root: Path = Field(Path("runs"), description="run directories are created under this")
     on_write_error: Literal["continue", "refuse"] = Field(
         "continue", description="disk full / unwritable: keep flying (continue) or refuse to start"
@@ -576,7 +715,7 @@ class RecorderConfig(StrictModel):
 # Top level
 
 
-class HelixdConfig(StrictModel):
+class HelixdConfig(InputModel):
     vehicle: VehicleConfig = Field(default_factory=VehicleConfig)
     control: ControlConfig = Field(default_factory=ControlConfig)
     mission: MissionLimits = Field(default_factory=MissionLimits)
@@ -584,6 +723,84 @@ class HelixdConfig(StrictModel):
     actuation: ActuationConfig = Field(default_factory=ActuationConfig)
     safety: SafetyConfig = Field(default_factory=SafetyConfig)
     recorder: RecorderConfig = Field(default_factory=RecorderConfig)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> HelixdConfig:
+        problems = config_consistency_problems(self)
+        if problems:
+            raise ValueError("\n".join(problems))
+        return self
+
+
+def config_consistency_problems(cfg: HelixdConfig) -> list[str]:
+    """Rules that relate fields of different sections; one line per problem, naming both."""
+    problems: list[str] = []
+    act, saf = cfg.actuation, cfg.safety
+    if act.stop_timeout_s >= saf.fallback_deadline_s:
+        problems.append(
+            f"actuation.stop_timeout_s = {act.stop_timeout_s} s must be < "
+            f"safety.fallback_deadline_s = {saf.fallback_deadline_s} s (stopping the scrolls "
+            "is one step of the fall-back that must finish within the deadline)"
+        )
+    if act.backend is ActuationBackend.RC_OVERRIDE:
+        release_s = act.neutral_hold_s + (act.release_repeats - 1) * act.release_spacing_s
+        if release_s >= act.stop_timeout_s:
+            problems.append(
+                f"actuation.neutral_hold_s + (release_repeats - 1) × release_spacing_s = "
+                f"{release_s:.3f} s must be < actuation.stop_timeout_s = {act.stop_timeout_s} s "
+                "(otherwise the release is cut off by the stop timeout)"
+            )
+    min_period_s = 1.0 / cfg.link.pose_rate_min_hz
+    if saf.pose_stale_s <= min_period_s:
+        problems.append(
+            f"safety.pose_stale_s = {saf.pose_stale_s} s must be > 1 / link.pose_rate_min_hz = "
+            f"{min_period_s:.3f} s (at the slowest accepted pose rate every pose would be stale)"
+        )
+    if saf.arm_retry_interval_s > saf.arm_timeout_s:
+        problems.append(
+            f"safety.arm_retry_interval_s = {saf.arm_retry_interval_s} s must be <= "
+            f"safety.arm_timeout_s = {saf.arm_timeout_s} s"
+        )
+    problems.extend(_channel_conflicts(cfg))
+    return problems
+
+
+def _channel_conflicts(cfg: HelixdConfig) -> list[str]:
+    act, saf, tk = cfg.actuation, cfg.safety, cfg.safety.takeover
+    problems: list[str] = []
+    scrolls = {c.channel: i for i, c in enumerate(act.channels)}
+    pilot: list[tuple[str, int]] = []
+    if tk.switch_channel is not None:
+        pilot.append(("safety.takeover.switch_channel", tk.switch_channel))
+    if saf.start_switch_channel is not None:
+        pilot.append(("safety.start_switch_channel", saf.start_switch_channel))
+    pilot.extend(
+        (f"safety.takeover.stick_channels.{i}", ch) for i, ch in enumerate(tk.stick_channels)
+    )
+    if act.backend is ActuationBackend.RC_OVERRIDE:
+        for name, ch in pilot:
+            if ch in scrolls:
+                problems.append(
+                    f"{name} = {ch} is the RC channel that drives scroll {scrolls[ch] + 1} "
+                    f"(actuation.channels.{scrolls[ch]}.channel): our own override would read as "
+                    f"the pilot's input; allowed: a channel 1..18 other than {sorted(scrolls)}"
+                )
+    if (
+        tk.switch_channel is not None
+        and saf.start_switch_channel is not None
+        and tk.switch_channel == saf.start_switch_channel
+    ):
+        problems.append(
+            f"safety.takeover.switch_channel and safety.start_switch_channel are both "
+            f"{tk.switch_channel}: flipping the start switch would be read as a takeover"
+        )
+    for name, ch in pilot[:2]:
+        if name == "safety.start_switch_channel" and ch in tk.stick_channels:
+            problems.append(
+                f"safety.start_switch_channel = {ch} is also in safety.takeover.stick_channels: "
+                "flipping the start switch would be read as a stick deflection"
+            )
+    return problems
 
 
 PositiveFloat = Annotated[float, Field(gt=0.0)]

@@ -33,6 +33,7 @@ from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
+from helixd.mission.validate import mission_problems
 from helixd.notify import ServiceNotifier
 from helixd.recorder.rows import FlightRow
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
@@ -322,6 +323,13 @@ class MissionRunner:
         async with phase("preflight", self.notifier, self.display):
             start_ned, origin = await self._preflight(ap)
             self.plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
+            # The same validation `helixd check` ran, now with the start pose and EKF origin
+            # (geofence radius/polygon and time for local_ned/global missions).
+            refused = mission_problems(
+                self.opts.mission, self.cfg, start_ned=start_ned, origin_latlon_deg=origin
+            )
+            if refused:
+                raise PreflightFailed(refused)
             last = self.plan.waypoints[-1]
             self.summary = SummaryBuilder(final_xy_m=(last.x_m, last.y_m))
             if origin is not None:

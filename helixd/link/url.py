@@ -75,8 +75,18 @@ class LinkUrl:
         return f"{self.kind} {self.host}:{self.port}"
 
 
+MAX_SHOWN_CHARS = 80  # a pasted megabyte must not come back as a megabyte of error message
+
+
+def _shown(text: str) -> str:
+    shown = repr(text)
+    if len(shown) > MAX_SHOWN_CHARS:
+        shown = f"{shown[: MAX_SHOWN_CHARS - 1]}… ({len(text)} characters)"
+    return shown
+
+
 def _bad(url: str, why: str) -> LinkError:
-    return LinkError(f"link url {url!r}: {why} (allowed forms: {ALLOWED_FORMS})")
+    return LinkError(f"link url {_shown(url)}: {why} (allowed forms: {ALLOWED_FORMS})")
 
 
 def _host_port(url: str, rest: str, *, allow_port_zero: bool) -> tuple[str, int]:
@@ -84,9 +94,9 @@ def _host_port(url: str, rest: str, *, allow_port_zero: bool) -> tuple[str, int]
     if not sep or not host:
         raise _bad(url, "expected HOST:PORT after the scheme")
     if not _HOST_RE.match(host):
-        raise _bad(url, f"{host!r} is not a host name or IPv4 address")
-    if not port_text.isdigit():
-        raise _bad(url, f"port {port_text!r} is not a number")
+        raise _bad(url, f"{_shown(host)} is not a host name or IPv4 address")
+    if not port_text.isascii() or not port_text.isdigit() or len(port_text) > 5:
+        raise _bad(url, f"port {_shown(port_text)} is not a number in 0..65535")
     port = int(port_text)
     low = 0 if allow_port_zero else 1
     if not low <= port <= 65535:
@@ -110,7 +120,7 @@ def parse_link_url(url: str, default_baud: int) -> LinkUrl:
         if scheme == "tcp":
             host, port = _host_port(url, rest, allow_port_zero=False)
             return LinkUrl("tcp", text, host=host, port=port)
-        raise _bad(url, f"unknown scheme {scheme!r}")
+        raise _bad(url, f"unknown scheme {_shown(scheme)}")
     if not text.startswith("/"):
         raise _bad(url, "a serial device must be an absolute path such as /dev/ttyACM0")
     device, baud = text, default_baud

@@ -15,9 +15,9 @@ import math
 from enum import StrEnum
 from pathlib import Path
 
-from pydantic import Field, ValidationInfo, field_validator, model_validator
+from pydantic import Field, ValidationInfo, model_validator
 
-from helixd.config import ConfigFileError, MissionLimits, StrictModel, load_yaml_model
+from helixd.config import ConfigFileError, InputModel, MissionLimits, load_yaml_model
 
 DUPLICATE_EPSILON_M = 0.01  # consecutive points closer than this are the same point
 
@@ -34,6 +34,7 @@ class MissionFrameKind(StrEnum):
     GLOBAL = "global"
 
 
+_ALL_COORDS = ("x", "y", "north", "east", "lat", "lon")
 _COORDS = {
     MissionFrameKind.START: ("x", "y"),
     MissionFrameKind.LOCAL_NED: ("north", "east"),
@@ -41,7 +42,7 @@ _COORDS = {
 }
 
 
-class WaypointSpec(StrictModel):
+class WaypointSpec(InputModel):
     x: float | None = Field(None, description="metres forward of the start pose (start frame)")
     y: float | None = Field(None, description="metres left of the start pose (start frame)")
     north: float | None = Field(None, description="metres north of the EKF origin (local_ned)")
@@ -55,20 +56,13 @@ class WaypointSpec(StrictModel):
         None, gt=0.05, le=20.0, description="per-waypoint arrival radius override (m)"
     )
 
-    @field_validator("x", "y", "north", "east", "lat", "lon", "heading_deg")
-    @classmethod
-    def _finite(cls, value: float | None) -> float | None:
-        if value is not None and not math.isfinite(value):
-            raise ValueError("must be a finite number, not NaN or infinity")
-        return value
-
     def given(self) -> set[str]:
         return {
             k for k in ("x", "y", "north", "east", "lat", "lon") if getattr(self, k) is not None
         }
 
 
-class Mission(StrictModel):
+class Mission(InputModel):
     name: str = Field(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.\- ]+$")
     mode: MotionMode
     frame: MissionFrameKind = MissionFrameKind.START
@@ -83,7 +77,19 @@ class Mission(StrictModel):
         if not self.waypoints:
             raise ValueError("waypoints: the list is empty; a mission needs at least one waypoint")
         wanted = _COORDS[self.frame]
+        ka, kb = wanted
+        o1, o2, o3, o4 = (k for k in _ALL_COORDS if k not in wanted)
         for i, wp in enumerate(self.waypoints):
+            d = wp.__dict__  # plain attribute reads: this loop runs once per waypoint
+            if (
+                d[ka] is not None
+                and d[kb] is not None
+                and d[o1] is None
+                and d[o2] is None
+                and d[o3] is None
+                and d[o4] is None
+            ):
+                continue
             got = wp.given()
             if got != set(wanted):
                 raise ValueError(
@@ -91,15 +97,17 @@ class Mission(StrictModel):
                     f"{wanted[0]} and {wanted[1]}, got {sorted(got) or 'no coordinates'}"
                 )
         pts = self.points()
+        is_global = self.frame is MissionFrameKind.GLOBAL
+        hypot = math.hypot
         for i in range(1, len(pts)):
             (a0, a1), (b0, b1) = pts[i - 1], pts[i]
-            if self.frame is MissionFrameKind.GLOBAL:
+            if is_global:
                 from helixd.frames import latlon_to_ne
 
                 dn, de = latlon_to_ne(b0, b1, a0, a1)
-                gap = math.hypot(dn, de)
+                gap = hypot(dn, de)
             else:
-                gap = math.hypot(b0 - a0, b1 - a1)
+                gap = hypot(b0 - a0, b1 - a1)
             if gap < DUPLICATE_EPSILON_M:
                 raise ValueError(
                     f"waypoints.{i}: same point as waypoints.{i - 1} "

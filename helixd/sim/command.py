@@ -11,8 +11,9 @@ from typing import Annotated
 
 import structlog
 import typer
+from pydantic import ValidationError
 
-from helixd.config import ConfigFileError, load_yaml_model
+from helixd.config import ConfigFileError, format_validation_error, load_yaml_model
 from helixd.exitcodes import ExitCode
 from helixd.sim.config import NoiseLevel, SimConfig, Terrain
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
@@ -41,7 +42,7 @@ def run_sim(
     try:
         server = SimServer(links, config)
     except ValueError as exc:
-        raise _fail(str(exc), ExitCode.USAGE) from None
+        raise _fail(f"--listen: {exc}", ExitCode.USAGE) from None
     try:
         server.start()
     except RuntimeError as exc:
@@ -142,8 +143,19 @@ def register(app: typer.Typer) -> None:
             updates["seed"] = seed
         try:
             cfg = SimConfig.model_validate({**base.model_dump(), **updates})
-        except ValueError as exc:
-            raise _fail(str(exc), ExitCode.USAGE) from None
+        except ValidationError as exc:
+            # one line per problem, named by its command-line option (or the config file)
+            for err in exc.errors(include_url=False):
+                key = str(err["loc"][0]) if err["loc"] else ""
+                sub = ValidationError.from_exception_data(exc.title, [err])  # type: ignore[list-item]
+                lines = format_validation_error(config or "helixd sim", sub, SimConfig)
+                if key in updates:
+                    prefix = f"{config or 'helixd sim'}: {key}"
+                    option = "--" + key.replace("_", "-")
+                    lines = [option + line.removeprefix(prefix) for line in lines]
+                for line in lines:
+                    typer.echo(f"error: {line}", err=True)
+            raise typer.Exit(int(ExitCode.USAGE)) from None
         if duration is not None and duration <= 0.0:
             raise _fail("--duration must be > 0", ExitCode.USAGE)
         try:

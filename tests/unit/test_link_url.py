@@ -70,6 +70,14 @@ def test_serial_urls(url: str, device: str, baud: int) -> None:
         ("udpout:10.0.0.1:0", "outside 1..65535"),
         ("udpin:bad host:14550", "not a host name"),
         ("/dev/ttyACM0:12345", "not a standard serial rate"),
+        # the forms of issue 6/10, each exit 2 from the CLI (tests/unit/test_cli_errors.py)
+        ("foo", "absolute path"),
+        ("tcp:", "HOST:PORT"),
+        ("tcp:host:99999", "outside 1..65535"),
+        ("http://192.168.1.10:14550", "unknown scheme 'http'"),
+        ("   ", "empty"),
+        ("tcp:host:١٢٣", "is not a number"),  # Arabic-Indic digits pass str.isdigit()
+        ("tcp:host:" + "9" * 5000, "is not a number"),
     ],
 )
 def test_bad_urls_give_one_clear_message(url: str, reason: str) -> None:
@@ -77,9 +85,16 @@ def test_bad_urls_give_one_clear_message(url: str, reason: str) -> None:
         parse_link_url(url, 115200)
     text = str(info.value)
     assert reason in text
-    assert repr(url) in text  # names the url as written
+    assert repr(url)[:60] in text  # names the url as written
     assert ALLOWED_FORMS in text  # and what is allowed
     assert "\n" not in text
+    assert len(text) < 400
+
+
+def test_a_huge_url_gives_a_short_message() -> None:
+    with pytest.raises(LinkError) as info:
+        parse_link_url("x" * 1_000_000, 115200)
+    assert len(str(info.value)) < 400 and "1000000 characters" in str(info.value)
 
 
 def test_default_baud_must_be_standard() -> None:

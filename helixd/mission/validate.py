@@ -1,0 +1,181 @@
+"""The one mission-vs-config check, shared by ``helixd check`` and ``helixd run``'s preflight.
+
+Pure: no I/O, no clocks. ``helixd check`` calls it without a start pose (and without the EKF
+origin); the daemon calls it again in preflight with both, before anything is armed. What can
+be decided without the pose is decided identically in both places:
+
+* ``start`` missions: the geofence radius is around the start point, i.e. the frame's origin,
+  so every waypoint is checked; the keep-in polygon (EKF-origin coordinates) needs the pose.
+* ``local_ned`` missions: the polygon is checked; the radius needs the start pose.
+* ``global`` missions: both need the EKF origin (and the radius the pose too).
+* estimated time vs ``safety.mission_time_limit_s``: without the pose the first leg (start →
+  waypoint 0) of an ENU mission is unknown and left out, which only shortens the estimate.
+
+Config-only rules (channel conflicts, timeouts, polygon shape) are pydantic validators in
+:mod:`helixd.config`; they already ran when the config loaded.
+"""
+
+from __future__ import annotations
+
+import math
+
+from helixd.config import HelixdConfig
+from helixd.frames import MissionFrame, NedPose
+from helixd.mission.model import Mission, MissionFrameKind
+from helixd.mission.plan import Plan, PlanError, resolve_plan
+from helixd.mission.polygon import leg_leaves_polygon
+from helixd.safety.watchdogs import point_in_polygon
+
+MAX_LISTED = 5  # offending waypoints named one by one; the rest are counted
+
+
+def _listed(offenders: list[str], what: str) -> list[str]:
+    out = offenders[:MAX_LISTED]
+    if len(offenders) > MAX_LISTED:
+        out.append(f"… and {len(offenders) - MAX_LISTED} more waypoints {what}")
+    return out
+
+
+def _ned_points(
+    plan: Plan, start_ned: NedPose | None, have_origin: bool
+) -> list[tuple[float, float]] | None:
+    """Waypoints as (north_m, east_m) from the EKF origin, or None if not yet knowable."""
+    if plan.frame is MissionFrameKind.START:
+        if start_ned is None:
+            return None
+        frame = MissionFrame.start_at(start_ned)
+        return [frame.to_ned(w.x_m, w.y_m) for w in plan.waypoints]
+    if plan.frame is MissionFrameKind.GLOBAL and not have_origin:
+        return None
+    return [(w.y_m, w.x_m) for w in plan.waypoints]  # ENU plan: x = east, y = north
+
+
+def _radius_problems(
+    plan: Plan, cfg: HelixdConfig, ned: list[tuple[float, float]] | None, start: NedPose | None
+) -> list[str]:
+    radius = cfg.safety.geofence_radius_m
+    if radius is None:
+        return []
+    if plan.frame is MissionFrameKind.START:
+        centre = (0.0, 0.0)
+        pts = [(w.x_m, w.y_m) for w in plan.waypoints]
+        where = "the start point"
+    elif ned is not None and start is not None:
+        centre = (start.north_m, start.east_m)
+        pts = ned
+        where = f"the start point (N {start.north_m:.1f} m, E {start.east_m:.1f} m)"
+    else:
+        return []
+    offenders = []
+    for i, (a, b) in enumerate(pts):
+        dist = math.hypot(a - centre[0], b - centre[1])
+        if dist > radius:
+            offenders.append(
+                f"waypoints.{i}: {dist:.1f} m from {where}; allowed at most "
+                f"safety.geofence_radius_m = {radius} m"
+            )
+    return _listed(offenders, "outside safety.geofence_radius_m")
+
+
+def _polygon_problems(
+    cfg: HelixdConfig, ned: list[tuple[float, float]] | None, start: NedPose | None
+) -> list[str]:
+    poly = cfg.safety.geofence_polygon_ne_m
+    if len(poly) < 3 or ned is None:
+        return []
+    problems: list[str] = []
+    if start is not None and not point_in_polygon(start.north_m, start.east_m, poly):
+        problems.append(
+            f"the start point (N {start.north_m:.1f} m, E {start.east_m:.1f} m) is outside "
+            "safety.geofence_polygon_ne_m"
+        )
+    offenders = [
+        f"waypoints.{i}: N {n:.1f} m, E {e:.1f} m is outside safety.geofence_polygon_ne_m"
+        for i, (n, e) in enumerate(ned)
+        if not point_in_polygon(n, e, poly)
+    ]
+    problems.extend(_listed(offenders, "outside safety.geofence_polygon_ne_m"))
+    if offenders or problems:
+        return problems
+    legs = [] if start is None else [((start.north_m, start.east_m), ned[0], "start → 0")]
+    legs.extend((ned[i - 1], ned[i], f"{i - 1} → {i}") for i in range(1, len(ned)))
+    crossing = [
+        f"leg waypoints {name} leaves safety.geofence_polygon_ne_m (both ends are inside)"
+        for a, b, name in legs
+        if leg_leaves_polygon(a, b, poly)
+    ]
+    return _listed(crossing, "whose legs leave the polygon")
+
+
+def _time_problems(plan: Plan, cfg: HelixdConfig, start: NedPose | None) -> list[str]:
+    limit = cfg.safety.mission_time_limit_s
+    if plan.frame is MissionFrameKind.START:
+        start_xy = (0.0, 0.0)
+        note = ""
+    elif start is not None:
+        start_xy = (start.east_m, start.north_m)
+        note = ""
+    else:
+        first = plan.waypoints[0]
+        start_xy = (first.x_m, first.y_m)
+        note = " from waypoint 0"
+    eta = plan.estimated_time_s(cfg.control.max_yaw_rate_radps, start_xy)
+    if not math.isfinite(eta) or eta > limit:
+        length = plan.path_length_m(start_xy)
+        return [
+            f"estimated time{note} {eta:.0f} s ({length:.1f} m at {plan.speed_mps:.2f} m/s plus "
+            f"turns) exceeds safety.mission_time_limit_s = {limit:.0f} s; the run would be "
+            "aborted (split the mission or raise the limit)"
+        ]
+    return []
+
+
+def plan_for_check(mission: Mission, cfg: HelixdConfig) -> tuple[Plan, bool]:
+    """Resolve without the EKF origin; a global mission is shown relative to waypoint 0.
+
+    Returns the plan and whether it is only provisional (global without origin)."""
+    if mission.frame is MissionFrameKind.GLOBAL:
+        lat, lon = mission.points()[0]
+        return resolve_plan(mission, cfg.control, cfg.mission, (lat, lon)), True
+    return resolve_plan(mission, cfg.control, cfg.mission, None), False
+
+
+def mission_problems(
+    mission: Mission,
+    cfg: HelixdConfig,
+    *,
+    start_ned: NedPose | None = None,
+    origin_latlon_deg: tuple[float, float] | None = None,
+    checked_plan: tuple[Plan, bool] | None = None,
+) -> list[str]:
+    """Everything that would make ``helixd run`` refuse or abort this mission with this
+    config; one line per problem naming the field or waypoint and the allowed range.
+
+    ``checked_plan``: the result of :func:`plan_for_check` if the caller already has it."""
+    try:
+        if checked_plan is not None and origin_latlon_deg is None:
+            plan, provisional = checked_plan
+        elif mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
+            plan = resolve_plan(mission, cfg.control, cfg.mission, origin_latlon_deg)
+            provisional = False
+        else:
+            plan, provisional = plan_for_check(mission, cfg)
+    except PlanError as exc:
+        return [str(exc)]
+    ned = None if provisional else _ned_points(plan, start_ned, have_origin=True)
+    problems = _radius_problems(plan, cfg, ned, start_ned)
+    problems += _polygon_problems(cfg, ned, start_ned)
+    problems += _time_problems(plan, cfg, start_ned)
+    return problems
+
+
+def pending_checks(mission: Mission, cfg: HelixdConfig) -> list[str]:
+    """What :func:`mission_problems` could not check without the pose/origin (for ``check``)."""
+    later: list[str] = []
+    if cfg.safety.geofence_radius_m is not None and mission.frame is not MissionFrameKind.START:
+        later.append("geofence radius around the start point")
+    if cfg.safety.geofence_polygon_ne_m and mission.frame is not MissionFrameKind.LOCAL_NED:
+        later.append("keep-in polygon")
+    if mission.frame is not MissionFrameKind.START:
+        later.append("time of the first leg")
+    return later
