@@ -228,10 +228,10 @@ def run(
     finally:
         if server is not None:
             server.stop()
-    for line in outcome.messages:
-        typer.echo(line, err=True)
     if outcome.run_dir is not None:
         typer.echo(f"run directory: {outcome.run_dir}", err=True)
+    for line in outcome.messages:  # the last one is the plain "helixd: RESULT" line
+        typer.echo(line, err=True)
     raise typer.Exit(int(outcome.exit_code))
 
 

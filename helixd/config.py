@@ -485,6 +485,29 @@ class LinkConfig(InputModel):
         le=1.0,
         description="quiet gap before re-using a command id; a duplicated ack in it is dropped (s)",
     )
+    statustext_timeout_s: float = Field(
+        2.0,
+        ge=0.1,
+        le=30.0,
+        description="a chunked STATUSTEXT whose last chunk has not come after this long is "
+        "logged as it is, marked incomplete (s); ArduPilot prunes its queue after 5 s",
+    )
+    own_id_watch_s: float = Field(
+        2.2,
+        ge=0.0,
+        le=30.0,
+        description="preflight listens this long after our first message for another sender "
+        "on our system id (s); ground stations send HEARTBEAT at 1 Hz",
+    )
+
+    @model_validator(mode="after")
+    def _not_the_autopilot(self) -> LinkConfig:
+        if self.source_system == self.target_system:
+            raise ValueError(
+                f"link.source_system = {self.source_system} is the autopilot's system id "
+                "(link.target_system): helixd needs an id of its own (default 247)"
+            )
+        return self
 
 
 # ---------------------------------------------------------------------------------------------

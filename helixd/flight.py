@@ -93,6 +93,7 @@ class FlightLoop:
         self._meas_yaw_rate_radps = 0.0
         self._prev_yaw: tuple[float, float] | None = None  # (t_boot_s, yaw_ned_rad)
         self._invalid_burst_s: float | None = None  # the rejected-pose burst already handled
+        self._t_boot_start_s: float | None = None  # autopilot clock at the first pose flown on
 
     async def run(self) -> FlightResult:
         t_start = time.monotonic()
@@ -107,6 +108,8 @@ class FlightLoop:
             if sample is not None:
                 last_rx = sample.rx_monotonic_s
                 pose = sample
+                if self._t_boot_start_s is None:
+                    self._t_boot_start_s = sample.time_boot_ms / 1000.0
                 self._measure_yaw_rate(sample)
             if self.stop.requested:
                 return FlightResult(
@@ -260,6 +263,17 @@ class FlightLoop:
                 self._meas_yaw_rate_radps = -wrap_pi(yaw - self._prev_yaw[1]) / dt
         self._prev_yaw = (t, yaw)
 
+    def _mission_elapsed_s(self, wall_s: float, pose: PoseSample | None) -> float:
+        """Mission time for the time limit: the later of the wall and the autopilot clock.
+
+        ``mission_time_limit_s`` is checked against the plan's estimate, which is autopilot time
+        (the two clocks agree on a rover; a simulator speed-up makes the autopilot's faster).
+        After an autopilot reboot its clock restarts, and the wall clock still counts.
+        """
+        if pose is None or self._t_boot_start_s is None:
+            return wall_s
+        return max(wall_s, pose.time_boot_ms / 1000.0 - self._t_boot_start_s)
+
     def _inputs(self, now: float, t_start: float, pose: PoseSample | None) -> SafetyInputs:
         st = self.ap.state
         ekf = st.ekf
@@ -277,7 +291,7 @@ class FlightLoop:
             east_m=pose.ned.east_m if pose else None,
             start_north_m=self.start_ned.north_m,
             start_east_m=self.start_ned.east_m,
-            mission_elapsed_s=now - t_start,
+            mission_elapsed_s=self._mission_elapsed_s(now - t_start, pose),
             commanded_speed_mps=self._cmd_speed_mps,
             measured_speed_mps=math.hypot(pose.vn_mps, pose.ve_mps) if pose else 0.0,
             commanded_yaw_rate_radps=self._cmd_yaw_rate_radps,

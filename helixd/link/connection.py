@@ -652,9 +652,6 @@ ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM: skip checks
 RC_OVERRIDE_CHANNELS = 18
 UINT16_MAX = 65535
 ARM_TEXT_PREFIXES = ("PreArm", "Arm")
-# A chunked STATUSTEXT whose last chunk has not come after this long is logged as it is.
-# ArduPilot sends a text's chunks in one pass of its queue and prunes entries after 5 s.
-STATUSTEXT_TIMEOUT_S = 2.0
 
 
 def no_heartbeat_text(
@@ -751,7 +748,7 @@ class Autopilot:
         self._commands = CommandClient(lambda: self._conn.mav, self._conn.send, cfg, self.state)
         self._streams = StreamManager(self.command_long, cfg, self.get_param)
         self._heartbeat = HeartbeatSender(self._conn, cfg)
-        self._texts = StatusTextAssembler(STATUSTEXT_TIMEOUT_S)
+        self._texts = StatusTextAssembler(cfg.statustext_timeout_s)
         self._waiters = _ChangeWaiters()
         self._pose_events: weakref.WeakSet[asyncio.Event] = weakref.WeakSet()
         self._listeners: list[Callable[[MavMsg, float], None]] = []

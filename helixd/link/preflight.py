@@ -15,7 +15,7 @@ What is checked (ArduPilot Rover, DESIGN §3):
   station or a second helixd on the same id, seen directly or forwarded by ArduPilot from
   another link, MAVLink_routing.cpp) → error: that sender's heartbeats would keep the GCS
   failsafe quiet when helixd dies, and its overrides would fight ours. Preflight listens for
-  at least :data:`OWN_ID_WATCH_S` after our first message before judging.
+  at least ``link.own_id_watch_s`` after our first message before judging.
 * ``RC_OVERRIDE_TIME`` (rc_override) — 0 disables overrides altogether (RC_Channel::has_override:
   "overrides are explicitly disabled by a zero value") → error; negative means they never
   expire, so a dead helixd would keep driving → warning; a repeat period not well inside it →
@@ -54,9 +54,6 @@ RECOMMENDED_OVERRIDE_TIME_S = 3.0
 # Default system ids of common ground stations: 255 QGroundControl, Mission Planner, MAVProxy
 # and pymavlink scripts; 245 MAVSDK in its GroundStation role. helixd must not share them.
 GCS_DEFAULT_SYSIDS = {255: "QGroundControl/Mission Planner/MAVProxy", 245: "MAVSDK"}
-# Ground stations send HEARTBEAT at 1 Hz: two periods and a margin after our first message
-# (ArduPilot forwards other links' heartbeats to ours only once ours is active).
-OWN_ID_WATCH_S = 2.2
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,7 +104,7 @@ async def check_obedience(
     """Read the parameters that decide whether we are obeyed; return every problem found."""
     names = param_names(actuation)
     values, _ = await asyncio.gather(
-        asyncio.gather(*(ap.get_param(n) for n in names)), _listen_for_own_id(ap)
+        asyncio.gather(*(ap.get_param(n) for n in names)), _listen_for_own_id(ap, link)
     )
     params: dict[str, float | None] = dict(zip(names, values, strict=True))
     if params["MAV_GCS_SYSID"] is None:  # older firmware: the GCS sysid had another name
@@ -118,10 +115,14 @@ async def check_obedience(
     return problems
 
 
-async def _listen_for_own_id(ap: ParamReader) -> None:
-    """Give other senders on our id time to show up (a listening window, not a sync)."""
+async def _listen_for_own_id(ap: ParamReader, link: LinkConfig) -> None:
+    """Give other senders on our id time to show up (a listening window, not a sync).
+
+    Ground stations send HEARTBEAT at 1 Hz, and ArduPilot forwards other links' heartbeats to
+    ours only once ours is active: the window counts from our first message.
+    """
     if isinstance(ap, OwnIdWatch):
-        remaining = OWN_ID_WATCH_S - ap.own_id_watch_s()
+        remaining = link.own_id_watch_s - ap.own_id_watch_s()
         if remaining > 0:
             await asyncio.sleep(remaining)
 

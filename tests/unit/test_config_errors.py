@@ -120,7 +120,7 @@ def test_defaults_come_from_the_thesis() -> None:
     assert cfg.control.heading_threshold_rad == 0.2
     assert cfg.control.waypoint_tolerance_m == 1.0
     assert cfg.control.max_speed_mps == 0.6
-    assert cfg.link.source_system == 255 and cfg.link.source_component == 191
+    assert cfg.link.source_system == 247 and cfg.link.source_component == 191
 
 
 BAD_MISSIONS = {
