@@ -64,6 +64,8 @@ os.environ.setdefault("MAVLINK20", "1")
 import typer
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.config import LinkConfig
+
 TELEMETRY_RATE_HZ = 5.0
 HEARTBEAT_RATE_HZ = 1.0
 SPIN_S = 0.0005  # the autopilot busy-waits the last 0.5 ms before a send (precise timing)
@@ -79,7 +81,7 @@ TARGET_CPU_PCT = 5.0
 MANUAL = 0
 # A Helix set up as the README says: helixd is the GCS, overrides drive RCIN1..4 passthrough.
 AUTOPILOT_PARAMS: dict[str, float] = {
-    "MAV_GCS_SYSID": 255.0,
+    "MAV_GCS_SYSID": float(LinkConfig().source_system),
     "FS_GCS_ENABLE": 1.0,
     "FS_ACTION": 2.0,
     "RC_OVERRIDE_TIME": 3.0,

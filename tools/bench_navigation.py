@@ -41,6 +41,8 @@ from typing import Any
 import typer
 import yaml
 
+from helixd.yamlio import parse_yaml_text
+
 ROOT = Path(__file__).resolve().parents[1]
 MISSIONS_DIR = ROOT / "config" / "missions"
 MISSIONS = ("square", "hexagon", "circle")
@@ -130,7 +132,7 @@ def select_combos(only: list[str], terrains: dict[str, str]) -> list[Combo]:
 
 def mission_with_mode(mission_yaml: str, mode: str) -> str:
     """The mission file's text with its motion mode replaced (comments are dropped)."""
-    data = yaml.safe_load(mission_yaml)
+    data = parse_yaml_text(mission_yaml)
     if not isinstance(data, dict):
         raise ValueError("a mission file is a YAML mapping")
     data["mode"] = mode

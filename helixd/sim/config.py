@@ -12,7 +12,7 @@ from enum import StrEnum
 
 from pydantic import Field, field_validator, model_validator
 
-from helixd.config import LinkConfig, StrictModel, VehicleConfig
+from helixd.config import InputModel, LinkConfig, VehicleConfig
 from helixd.sim.params import DEFAULT_PARAMS
 
 # helixd's own MAVLink system id (link.source_system's default)
@@ -32,7 +32,7 @@ class NoiseLevel(StrEnum):
     THESIS = "thesis"  # dual GPS without RTK: ~1 m position, yaw within ±10° (thesis ch. 5.2)
 
 
-class TerrainTraction(StrictModel):
+class TerrainTraction(InputModel):
     """How much of the no-slip (eq. 1) body velocity a terrain lets through, per axis.
 
     ``dig_rate_per_m``: pit depth (0..1) gained per metre of slip; a pit scales every axis
@@ -48,7 +48,7 @@ class TerrainTraction(StrictModel):
     )
 
 
-class TerrainTable(StrictModel):
+class TerrainTable(InputModel):
     hard: TerrainTraction = Field(
         default_factory=lambda: TerrainTraction(
             roll_efficiency=0.95,
@@ -91,7 +91,7 @@ class TerrainTable(StrictModel):
         return traction
 
 
-class NoiseProfile(StrictModel):
+class NoiseProfile(InputModel):
     """GPS/EKF error model: Gauss–Markov drift plus white jitter, smoothed by the 'EKF'."""
 
     pos_sigma_m: float = Field(ge=0.0, le=20.0, description="1σ of the slow position error (m)")
@@ -106,7 +106,7 @@ class NoiseProfile(StrictModel):
     )
 
 
-class NoiseProfiles(StrictModel):
+class NoiseProfiles(InputModel):
     none: NoiseProfile = Field(
         default_factory=lambda: NoiseProfile(
             pos_sigma_m=0.0,
@@ -174,7 +174,7 @@ def _helix_params() -> dict[str, float]:
     }
 
 
-class SimConfig(StrictModel):
+class SimConfig(InputModel):
     vehicle: VehicleConfig = Field(
         default_factory=VehicleConfig, description="geometry and 195 RPM max"
     )

@@ -41,6 +41,9 @@ LOGGED_KINDS = frozenset(
     {"mode", "arm", "disarm", "failsafe", "failsafe_cleared", "fault", "fault_end", "boot",
      "reboot", "statustext"}
 )  # fmt: skip
+# In-process (helixd run --sim) helixd logs what it sees of these itself (autopilot_mode,
+# autopilot_statustext, armed): the simulator's own copies go to debug there.
+ECHOED_BY_HELIXD_KINDS = frozenset({"mode", "arm", "disarm", "statustext"})
 MAX_LOOPS_PER_WAKEUP = 50
 MIN_SLEEP_S = 0.0005
 START_TIMEOUT_S = 10.0
@@ -162,11 +165,12 @@ class _Link(asyncio.DatagramProtocol, asyncio.Protocol):
 class SimServer:
     """The simulator running on its own thread, reachable over MAVLink links."""
 
-    def __init__(self, links: Sequence[str], config: SimConfig) -> None:
+    def __init__(self, links: Sequence[str], config: SimConfig, embedded: bool = False) -> None:
         if not links:
             raise ValueError("at least one link is needed")
         self.link_specs = [LinkSpec.parse(url) for url in links]
         self.config = config
+        self._quiet_kinds = ECHOED_BY_HELIXD_KINDS if embedded else frozenset()
         self.history = History(config.history_max_entries)
         rng = np.random.default_rng(config.seed)
         self._core = SimCore(config, len(self.link_specs), rng)
@@ -313,7 +317,8 @@ class SimServer:
         for ev in core.drain_events():
             self.history.append(HistoryEntry(wall, core.now_s, ev.kind, dict(ev.details)))
             if ev.kind in LOGGED_KINDS:
-                log.info(f"sim_{ev.kind}", sim_time_s=round(core.now_s, 3), **ev.details)
+                emit = log.debug if ev.kind in self._quiet_kinds else log.info
+                emit(f"sim_{ev.kind}", sim_time_s=round(core.now_s, 3), **ev.details)
         snap = take_snapshot(core)
         with self._cond:
             self._snapshot = snap
@@ -385,6 +390,6 @@ def start_embedded(config: SimConfig) -> tuple[SimServer, str]:
 
     Returns the server and the URL helixd should open (``udpout:127.0.0.1:PORT``).
     """
-    server = SimServer(["udpin:127.0.0.1:0"], config)
+    server = SimServer(["udpin:127.0.0.1:0"], config, embedded=True)
     server.start()
     return server, f"udpout:127.0.0.1:{server.local_ports[0]}"
