@@ -57,8 +57,10 @@ class StopBeforeFlight(Exception):
     """A signal arrived before the mission started (nothing was armed)."""
 
 
-class StartPoseInvalid(Exception):
-    """Armed, but the pose telemetry is being rejected: no valid start pose (a fault)."""
+class StartRefused(Exception):
+    """Armed, but the mission cannot start: the pose telemetry is being rejected (no valid
+    start pose), or the rover was moved during the start gate to where the mission would leave
+    the geofence. A fault: the fall-back runs."""
 
     def __init__(self, fault: Fault, detected_s: float) -> None:
         self.fault = fault
@@ -351,7 +353,15 @@ class MissionRunner:
         start = await self._fresh_pose(ap)
         invalid = self._pose_invalid_too_long(ap)
         if start is None and invalid is not None:
-            raise StartPoseInvalid(invalid, time.monotonic())
+            raise StartRefused(invalid, time.monotonic())
+        if start is not None and start != start_ned:
+            # The rover may have been moved while the start gate waited: check again from here.
+            moved = mission_problems(
+                self.opts.mission, self.cfg, start_ned=start, origin_latlon_deg=origin
+            )
+            if moved:
+                fault = Fault(FaultCause.PREFLIGHT, "from the pose at arming: " + "; ".join(moved))
+                raise StartRefused(fault, time.monotonic())
         return ap, start or start_ned
 
     # -- the run ------------------------------------------------------------------------------
@@ -430,7 +440,7 @@ class MissionRunner:
                 code = ExitCode.FAULT
         except StopBeforeFlight as exc:
             fault, code = Fault(FaultCause.SIGNAL, str(exc)), ExitCode.OPERATOR_STOP
-        except StartPoseInvalid as exc:
+        except StartRefused as exc:
             fault, detected_s, code = exc.fault, exc.detected_s, ExitCode.FAULT
         except PreflightFailed as exc:
             fault = Fault(FaultCause.PREFLIGHT, "; ".join(exc.problems))
