@@ -81,11 +81,7 @@ class StrictModel(BaseModel):
             if kind is not bool and kind is not list and kind is not dict and kind is not tuple:
                 continue  # fast path: plain scalars
             field = cls.model_fields.get(key)
-            if (
-                field is not None
-                and not _accepts_bool(field.annotation)
-                and _contains_bool(value)
-            ):
+            if field is not None and not _accepts_bool(field.annotation) and _contains_bool(value):
                 bad.append(str(key))
         if bad:
             raise ValueError(

@@ -74,6 +74,8 @@ SERVO_CHANNEL_COUNT = 16
 UINT16_MAX = 65535  # "not sent" in SYS_STATUS.voltage_battery
 SENSOR_RC_RECEIVER = 0x10000  # MAV_SYS_STATUS_SENSOR_RC_RECEIVER
 RSSI_UNKNOWN = 255
+LAT_MAX_DEG = 90.0
+LON_MAX_DEG = 180.0
 
 
 def mode_name(custom_mode: int) -> str:
@@ -260,6 +262,7 @@ class VehicleState:
     servo_outputs_us: tuple[int, ...] = ()
     servo_rx_s: float | None = None
     gps_origin: tuple[float, float] | None = None  # (lat_deg, lon_deg)
+    origin_rejected_count: int = 0  # GPS_GLOBAL_ORIGIN with a latitude/longitude off the Earth
     gps_origin_rx_s: float | None = None
     battery_voltage_v: float | None = None
     # SYS_STATUS RC-receiver bit: None when the autopilot reports no receiver at all.
@@ -466,7 +469,11 @@ class VehicleState:
         return Change.SERVO
 
     def _origin(self, msg: MavMsg, rx_s: float) -> Change:
-        self.gps_origin = (int(msg.latitude) * 1e-7, int(msg.longitude) * 1e-7)
+        lat_deg, lon_deg = int(msg.latitude) * 1e-7, int(msg.longitude) * 1e-7
+        if not (-LAT_MAX_DEG <= lat_deg <= LAT_MAX_DEG and -LON_MAX_DEG <= lon_deg <= LON_MAX_DEG):
+            self.origin_rejected_count += 1  # not a place on Earth: never an origin
+            return Change.NONE
+        self.gps_origin = (lat_deg, lon_deg)
         self.gps_origin_rx_s = rx_s
         return Change.GPS_ORIGIN
 

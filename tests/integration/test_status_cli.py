@@ -41,6 +41,6 @@ def test_status_bad_url_is_one_clear_line() -> None:
         timeout=60,
         check=False,
     )
-    assert res.returncode == ExitCode.LINK
+    assert res.returncode == ExitCode.USAGE  # a bad command line, not a failed connection
     assert "Traceback" not in res.stderr
     assert res.stderr.count("error:") == 1 and "bogus://x" in res.stderr

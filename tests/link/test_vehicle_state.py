@@ -141,6 +141,15 @@ def test_rc_servo_origin() -> None:
     assert st.gps_origin == pytest.approx((45.1234567, -73.1234567))
 
 
+@pytest.mark.parametrize("lat_e7, lon_e7", [(900_000_001, 0), (0, -1_800_000_001), (2**31 - 1, 0)])
+def test_origin_off_the_earth_is_rejected(lat_e7: int, lon_e7: int) -> None:
+    st = VehicleState()
+    st.apply(decoded(AP.gps_global_origin_encode(451234567, -731234567, 0), AP), 1.0)
+    changed = st.apply(decoded(AP.gps_global_origin_encode(lat_e7, lon_e7, 0), AP), 2.0)
+    assert changed == Change.NONE and st.origin_rejected_count == 1
+    assert st.gps_origin == pytest.approx((45.1234567, -73.1234567))  # the good one stays
+
+
 # -- hostile telemetry: rejected at the edge, never stored as the pose ---------------------------
 
 
