@@ -22,9 +22,19 @@ valid frames behind it.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum
+from typing import Any
+
+_fast_mcrf4xx: Any
+try:  # a dependency of pymavlink; the pure-Python table below is the fallback
+    from fastcrc import crc16 as _fastcrc16
+
+    _fast_mcrf4xx = _fastcrc16.mcrf4xx
+except ImportError:  # pragma: no cover - fastcrc ships wheels for our platforms
+    _fast_mcrf4xx = None
 
 __all__ = [
     "MAX_FRAME_BYTES",
@@ -43,6 +53,7 @@ CRC_BYTES = 2
 SIGNATURE_BYTES = 13
 IFLAG_SIGNED = 0x01
 MAX_FRAME_BYTES = HEADER_V2_BYTES + 255 + CRC_BYTES + SIGNATURE_BYTES
+_MARKER_RE = re.compile(bytes((ord("["), MARKER_V2, MARKER_V1, ord("]"))))
 
 
 class FrameKind(Enum):
@@ -79,13 +90,22 @@ def _crc_table() -> tuple[int, ...]:
 _CRC_TABLE = _crc_table()
 
 
-def x25_crc(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
+def _x25_crc_table(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
     """MAVLink's CRC-16/MCRF4XX (X.25 polynomial 0x1021 reflected, init 0xFFFF, no xorout),
-    table-driven: one lookup per byte."""
+    table-driven: one lookup per byte (the fallback without fastcrc)."""
     table = _CRC_TABLE
     for byte in data:
         crc = (crc >> 8) ^ table[(crc ^ byte) & 0xFF]
     return crc
+
+
+def x25_crc(data: bytes | bytearray | memoryview, crc: int = 0xFFFF) -> int:
+    """MAVLink's CRC-16/MCRF4XX. pymavlink depends on ``fastcrc`` (Rust) and so do we when it is
+    there: ~100× faster than the Python table, which keeps a flood of plausible-looking
+    garbage (every candidate start marker costs a CRC) from eating the control loop's CPU."""
+    if _fast_mcrf4xx is not None:
+        return int(_fast_mcrf4xx(bytes(data), crc))
+    return _x25_crc_table(data, crc)
 
 
 @dataclass(frozen=True, slots=True)
@@ -162,7 +182,8 @@ def scan_frames(
         if marker not in (MARKER_V1, MARKER_V2):
             if bad_from is None:
                 bad_from = i
-            i += 1
+            found = _MARKER_RE.search(buf, i + 1)  # skip to the next start marker (in C)
+            i = n if found is None else found.start()
             continue
         if n - i < _header_len(marker):
             if not final:

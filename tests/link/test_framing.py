@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.link.connection import CRC_EXTRA
-from helixd.link.framing import MAX_FRAME_BYTES, FrameKind, scan_frames, x25_crc
+from helixd.link.framing import MAX_FRAME_BYTES, FrameKind, _x25_crc_table, scan_frames, x25_crc
 
 
 def codec(sysid: int = 1) -> Any:
@@ -119,3 +119,8 @@ def test_scanner_is_total(data: bytes, final: bool) -> None:
     if final:
         assert scan.consumed == len(data)
     assert scan.bad_bytes <= len(data)
+
+
+@given(st.binary(max_size=300), st.integers(0, 0xFFFF))
+def test_fast_crc_equals_the_table(data: bytes, init: int) -> None:
+    assert x25_crc(data, init) == _x25_crc_table(data, init)
