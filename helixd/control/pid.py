@@ -70,7 +70,11 @@ class PID:
         return self._integral
 
     def _difference(self, a: float, b: float) -> float:
-        return wrap_pi(a - b) if self.angular else a - b
+        """a − b (wrapped to (−π, π] when angular); NaN when it overflows (huge finite a, b)."""
+        diff = a - b
+        if not math.isfinite(diff):
+            return math.nan
+        return wrap_pi(diff) if self.angular else diff
 
     def _integrate(self, increment: float, p_plus_d: float) -> float:
         """I + ki·e·dt, clamped to ±integral_limit, and grown only until the output reaches
@@ -92,6 +96,8 @@ class PID:
             return PidTerms.zero()
         kp, ki, kd = self.gains.kp, self.gains.ki, self.gains.kd
         error = self._difference(setpoint, measurement)
+        if not math.isfinite(error):
+            return PidTerms.zero()  # the error itself overflows: neutral, state unchanged
         dt_ok = math.isfinite(dt_s) and dt_s > 0.0
 
         p = kp * error
@@ -99,6 +105,8 @@ class PID:
         d = 0.0
         if dt_ok and self._prev_measurement is not None:
             d = -kd * self._difference(measurement, self._prev_measurement) / dt_s
+            if not math.isfinite(d):
+                d = 0.0  # a jump too large to differentiate: no derivative kick
         self._prev_measurement = measurement
 
         if dt_ok and ki > 0.0:

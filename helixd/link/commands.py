@@ -347,7 +347,13 @@ class CommandClient:
                 for _ in range(tries):
                     self._send(request())
                     with contextlib.suppress(TimeoutError):
-                        return await asyncio.wait_for(asyncio.shield(fut), timeout)
+                        value = await asyncio.wait_for(asyncio.shield(fut), timeout)
+                        if math.isfinite(value):
+                            return value
+                        # Checked once, at the edge: a NaN/inf parameter reads as unreadable
+                        # (preflight then refuses or warns instead of judging a NaN).
+                        log.warning("param_value_not_finite", name=name, value=str(value))
+                        return None
                 return None
             finally:
                 waiters.remove(fut)

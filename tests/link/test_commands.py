@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 
 import pytest
@@ -115,6 +116,16 @@ async def test_params_get_set_and_missing() -> None:
         assert peer.params["RC_OVERRIDE_TIME"] == 2.0
         with pytest.raises(CommandTimeout, match="PARAM_SET NO_SUCH_PARAM"):
             await ap.set_param("NO_SUCH_PARAM", 1.0)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
+async def test_non_finite_param_reads_as_unreadable(bad: float) -> None:
+    async with linked(command_timeout_s=0.15, command_retries=1) as (ap, peer):
+        peer.params["MAV_GCS_SYSID"] = bad
+        started = time.monotonic()
+        assert await ap.get_param("MAV_GCS_SYSID") is None
+        assert time.monotonic() - started < 0.15  # answered, not timed out
+        assert await ap.get_param("RC_OVERRIDE_TIME") == 3.0
 
 
 async def test_gps_origin_on_request() -> None:
