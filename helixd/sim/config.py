@@ -26,6 +26,11 @@ class Terrain(StrEnum):
     MUD = "mud"
 
 
+class Plant(StrEnum):
+    HELIX = "helix"  # Helix-25 scrolls, eq. 1, motor lag, terrain slip (physics.py)
+    SITL_SKID = "sitl_skid"  # ArduPilot SITL's rover-skid model (skid.py)
+
+
 class NoiseLevel(StrEnum):
     NONE = "none"  # exact pose: for tests that compare numbers
     LOW = "low"  # RTK-like
@@ -89,6 +94,31 @@ class TerrainTable(InputModel):
     def get(self, terrain: Terrain) -> TerrainTraction:
         traction: TerrainTraction = getattr(self, terrain.value)
         return traction
+
+
+class SkidModel(InputModel):
+    """ArduPilot SITL's skid-steer rover (libraries/SITL/SIM_Rover.cpp; see helixd.sim.skid).
+
+    Defaults are SIM_Rover's constants for a ``skid`` frame. It reads outputs 1 (left motor)
+    and 3 (right motor) only, as SITL does; ``scroll_output_channels``, ``scroll_reversed``,
+    the motor PWM map, ``motor_time_constant_s`` and the terrain do not apply to it.
+    """
+
+    max_speed_mps: float = Field(
+        4.0, gt=0.0, le=50.0, description="speed at full throttle (m/s; SIM_Rover max_speed)"
+    )
+    max_accel_mss: float = Field(
+        14.0, gt=0.0, le=200.0, description="acceleration per unit speed error (m/s²; max_accel)"
+    )
+    turn_rate_dps: float = Field(
+        140.0, gt=0.0, le=1000.0, description="yaw rate per unit motor difference (°/s)"
+    )
+    max_yaw_rate_dps: float = Field(
+        360.0, gt=0.0, le=1000.0, description="yaw rate limit (°/s; SIM_Rover.h MAX_YAW_RATE)"
+    )
+    physics_rate_hz: float = Field(
+        1200.0, ge=50.0, le=10_000.0, description="integration frames per second (SITL rate_hz)"
+    )
 
 
 class NoiseProfile(InputModel):
@@ -178,7 +208,11 @@ class SimConfig(InputModel):
     vehicle: VehicleConfig = Field(
         default_factory=VehicleConfig, description="geometry and 195 RPM max"
     )
-    terrain: Terrain = Field(Terrain.HARD, description="ground under the rover")
+    plant: Plant = Field(
+        Plant.HELIX, description="vehicle model: helix (scrolls) or sitl_skid (SITL rover-skid)"
+    )
+    skid: SkidModel = Field(default_factory=SkidModel, description="the sitl_skid plant")
+    terrain: Terrain = Field(Terrain.HARD, description="ground under the rover (helix plant)")
     terrains: TerrainTable = Field(default_factory=TerrainTable)
     noise: NoiseLevel = Field(NoiseLevel.THESIS, description="pose noise preset")
     noise_profiles: NoiseProfiles = Field(default_factory=NoiseProfiles)

@@ -12,10 +12,10 @@ from types import MappingProxyType
 
 import numpy as np
 
-from helixd.sim import estimator, physics, telemetry
+from helixd.sim import estimator, physics, skid, telemetry
 from helixd.sim import streams as st
 from helixd.sim.autopilot import Autopilot, SimEvent, StatusText
-from helixd.sim.config import SimConfig
+from helixd.sim.config import Plant, SimConfig
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec
 from helixd.sim.inbound import InboundHandler
 from helixd.sim.messages import STATUSTEXT_LEN, Message, statustexts
@@ -209,24 +209,41 @@ class SimCore:
             if old != new:
                 self.events.append(SimEvent("output", {"channel": i + 1, "pwm_us": new}))
         self.outputs_us = outputs
-        cfg = self.config
+        self.phys = self._plant_step(outputs)
+        self.est = estimator.step(self.est, self.dt_s(), self.config.noise_profile(), self.rng)
+        self._collect()
+        self.view = self._view(ekf, now)
+        self._telemetry(now)
+
+    def _plant_step(self, outputs: list[int]) -> PhysicsState:
+        cfg, dt = self.config, self.dt_s()
+        stalled = self.faults.on("stall")
+        if cfg.plant is Plant.SITL_SKID:
+            m = cfg.skid
+            return skid.step(
+                self.phys,
+                dt,
+                outputs[skid.LEFT_OUTPUT - 1],
+                outputs[skid.RIGHT_OUTPUT - 1],
+                max_speed_mps=m.max_speed_mps,
+                max_accel_mss=m.max_accel_mss,
+                turn_rate_dps=m.turn_rate_dps,
+                max_yaw_rate_dps=m.max_yaw_rate_dps,
+                physics_rate_hz=m.physics_rate_hz,
+                stalled=stalled,
+            )
         fractions = physics.scroll_fractions_from_pwm(
             outputs, cfg.scroll_output_channels, cfg.scroll_reversed, self.motor
         )
-        dt = self.dt_s()
-        self.phys = physics.step(
+        return physics.step(
             self.phys,
             dt,
             fractions,
             cfg.vehicle,
             cfg.traction(),
             cfg.motor_time_constant_s,
-            stalled=self.faults.on("stall"),
+            stalled=stalled,
         )
-        self.est = estimator.step(self.est, dt, cfg.noise_profile(), self.rng)
-        self._collect()
-        self.view = self._view(ekf, now)
-        self._telemetry(now)
 
     def _view(self, ekf: estimator.EkfStatus, now: float) -> telemetry.TelemetryView:
         ap, cfg = self.ap, self.config
