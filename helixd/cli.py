@@ -22,7 +22,7 @@ from helixd.mission.locate import MissionNotFound, locate_mission
 from helixd.mission.validate import mission_problems, pending_checks, plan_for_check
 from helixd.recorder import command as recorder_command
 from helixd.sim import command as sim_command
-from helixd.sim.config import NoiseLevel, Terrain
+from helixd.sim.config import NoiseLevel, Plant, Terrain
 from helixd.yamlio import clip_line, paused_gc
 
 app = typer.Typer(
@@ -183,6 +183,9 @@ def run(
     sim_terrain: Annotated[
         Terrain, typer.Option(help="simulator terrain (with --sim)")
     ] = Terrain.HARD,
+    sim_plant: Annotated[
+        Plant, typer.Option(help="simulator vehicle model (with --sim)")
+    ] = Plant.HELIX,
     sim_noise: Annotated[
         NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")
     ] = NoiseLevel.LOW,
@@ -212,7 +215,9 @@ def run(
     if sim:
         from helixd.sim import SimConfig, start_embedded
 
-        sim_cfg = SimConfig(speedup=sim_speedup, terrain=sim_terrain, noise=sim_noise)
+        sim_cfg = SimConfig(
+            speedup=sim_speedup, terrain=sim_terrain, noise=sim_noise, plant=sim_plant
+        )
         server, url = start_embedded(sim_cfg)
     cfg = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})
     opts = RunOptions(

@@ -15,7 +15,7 @@ from pydantic import ValidationError
 
 from helixd.config import ConfigFileError, format_validation_error, load_yaml_model
 from helixd.exitcodes import ExitCode
-from helixd.sim.config import NoiseLevel, SimConfig, Terrain
+from helixd.sim.config import NoiseLevel, Plant, SimConfig, Terrain
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
 
 log = structlog.get_logger(__name__)
@@ -100,6 +100,12 @@ def register(app: typer.Typer) -> None:
                 "(repeatable; default tcpin:127.0.0.1:5760 and udpout:127.0.0.1:14550)",
             ),
         ] = None,
+        plant: Annotated[
+            Plant | None,
+            typer.Option(
+                "--plant", help="vehicle model: helix (scrolls) or sitl_skid (SITL rover-skid)"
+            ),
+        ] = None,
         terrain: Annotated[
             Terrain | None, typer.Option("--terrain", help="ground under the rover")
         ] = None,
@@ -133,6 +139,8 @@ def register(app: typer.Typer) -> None:
                 typer.echo(f"error: {line}", err=True)
             raise typer.Exit(int(ExitCode.USAGE)) from None
         updates: dict[str, object] = {}
+        if plant is not None:
+            updates["plant"] = plant
         if terrain is not None:
             updates["terrain"] = terrain
         if noise is not None:
