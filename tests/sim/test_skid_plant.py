@@ -221,3 +221,58 @@ def test_core_helix_plant_unchanged_by_the_option() -> None:
     tick_for(core, 2.0)
     assert core.phys.yaw_rate_ned_radps != pytest.approx(math.radians(56.0))
     assert core.phys.scroll_radps[0] > 0.0
+
+
+# -- command line: helixd sim --plant, helixd run --sim --sim-plant ------------------------
+
+
+class _Started(Exception):
+    """Raised by the stand-in for the simulator's start: the CLI got that far."""
+
+
+def _main_exit(argv: list[str]) -> int:
+    from helixd.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    code = info.value.code
+    return code if isinstance(code, int) else 0
+
+
+def test_sim_command_plant_option(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import helixd.sim.command as command
+
+    seen: list[SimConfig] = []
+    monkeypatch.setattr(command, "run_sim", lambda links, cfg, faults, dur: seen.append(cfg))
+    assert _main_exit(["sim", "--plant", "sitl_skid", "--duration", "1"]) == 0
+    assert _main_exit(["sim", "--duration", "1"]) == 0
+    assert [c.plant for c in seen] == [Plant.SITL_SKID, Plant.HELIX]
+    capsys.readouterr()
+    assert _main_exit(["sim", "--plant", "tank"]) == 2
+    assert "--plant" in capsys.readouterr().err
+
+
+def test_run_sim_plant_option_reaches_the_embedded_simulator(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import helixd.sim
+
+    seen: list[SimConfig] = []
+
+    def start(cfg: SimConfig) -> Any:
+        seen.append(cfg)
+        raise _Started
+
+    monkeypatch.setattr(helixd.sim, "start_embedded", start)
+    from helixd.cli import main
+
+    with pytest.raises(_Started):
+        main(["run", "--sim", "--sim-plant", "sitl_skid", "--mission", "square"])
+    assert seen[-1].plant is Plant.SITL_SKID
+    with pytest.raises(_Started):
+        main(["run", "--sim", "--mission", "square"])
+    assert seen[-1].plant is Plant.HELIX
+    capsys.readouterr()
+    assert _main_exit(["run", "--sim", "--sim-plant", "tank", "--mission", "square"]) == 2
