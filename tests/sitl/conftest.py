@@ -53,7 +53,7 @@ import pytest
 import yaml
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # MAVLink 2 framing
 
-from helixd.control.kinematics import rpm_to_radps
+from tests.sitl.skid_setup import HELIXD_SYSID, helixd_sitl_config
 
 T = TypeVar("T")
 
@@ -80,7 +80,6 @@ HOME = "-35.363261,149.165230,584,0"  # CMAC (SITL's default field), facing nort
 
 AUTOPILOT_SYSID = 1
 AUTOPILOT_COMPID = 1
-HELIXD_SYSID = 247  # link.source_system's default; helix-skid.parm sets MAV_GCS_SYSID to it
 OBSERVER_SYSID = 250  # not the GCS sysid: its commands work, its overrides and silence don't
 OBSERVER_COMPID = 190
 
@@ -103,51 +102,6 @@ COMMAND_TRIES = 3
 STREAM_RATE_HZ = 10.0  # observer message rates (accepted: ≥ 1.25 × the 50 Hz loop period)
 SITL_STOP_TIMEOUT_S = 10.0
 DAEMON_STOP_TIMEOUT_S = 15.0
-
-# The skid model as a Helix (see module docstring): scroll → (output channel, reversed).
-SKID_CHANNELS: tuple[tuple[int, bool], ...] = ((3, False), (4, False), (1, True), (2, True))
-# SIM_Rover.cpp skid constants: full command ±1 → 4 m/s; (m1 − m2) = 1 → 140 °/s.
-SKID_MAX_SPEED_MPS = 4.0
-SKID_TURN_RATE_DPS = 140.0
-MAX_RPM = 195.0
-
-
-def skid_vehicle_geometry(max_rpm: float = MAX_RPM) -> dict[str, float]:
-    """Helix geometry for which eq. 2 *is* the skid model, so helixd's thesis gains see the
-    plant they were tuned for: v = r·ω_max·f → r = 4 m/s / ω_max; yaw = 2k·wz/(r·ω_max) ·
-    140 °/s → k = l_x + l_y = 4 m/s / (2 · 140 °/s)."""
-    radius_m = SKID_MAX_SPEED_MPS / rpm_to_radps(max_rpm)
-    k_m = SKID_MAX_SPEED_MPS / (2.0 * math.radians(SKID_TURN_RATE_DPS))
-    return {"scroll_radius_m": radius_m, "lx_m": k_m / 2.0, "ly_m": k_m / 2.0, "max_rpm": max_rpm}
-
-
-def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
-    """The helixd.yaml the suite flies with (HelixdConfig fields; everything else default)."""
-    return {
-        "vehicle": skid_vehicle_geometry(),
-        "link": {
-            "url": url,
-            "source_system": HELIXD_SYSID,
-            # 5 Hz keeps FS_GCS_TIMEOUT (5 s, simulated) safe up to --speedup 10.
-            "heartbeat_rate_hz": 5.0,
-        },
-        "actuation": {
-            "backend": backend,
-            "channels": [
-                {"channel": channel, "reversed": rev, "pwm_min_us": 1000, "pwm_max_us": 2000}
-                for channel, rev in SKID_CHANNELS
-            ],
-        },
-        "safety": {
-            # ArduPilot's PreArm checks refuse this passthrough setup shortly after boot
-            # (DESIGN §3); the daemon's documented escape hatch.
-            "force_arm": True,
-            "connect_timeout_s": 60.0,
-            "arm_timeout_s": 60.0,
-            "arm_retry_interval_s": 1.0,
-        },
-    }
-
 
 # ---------------------------------------------------------------------------------------------
 # Skip without a binary

@@ -1,0 +1,68 @@
+"""helixd's configuration for ArduPilot's skid-steer rover (real SITL ``--model rover-skid``, and
+the built-in simulator's ``sitl_skid`` plant written from the same SIM_Rover.cpp).
+
+A plain module (no fixtures), so that ``tests/integration/test_skid_plant.py`` flies the very
+configuration the opt-in SITL suite flies. See ``conftest.py``'s docstring and ``README.md`` for
+why scroll 1 → output 3 and scroll 3 (reversed) → output 1.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from helixd.control.kinematics import rpm_to_radps
+
+HELIXD_SYSID = 247  # link.source_system's default; helix-skid.parm sets MAV_GCS_SYSID to it
+
+# The skid model as a Helix: scroll → (output channel, reversed).
+SKID_CHANNELS: tuple[tuple[int, bool], ...] = ((3, False), (4, False), (1, True), (2, True))
+# SIM_Rover.cpp skid constants: full command ±1 → 4 m/s; (m1 − m2) = 1 → 140 °/s.
+SKID_MAX_SPEED_MPS = 4.0
+SKID_TURN_RATE_DPS = 140.0
+MAX_RPM = 195.0
+
+# The ROLL-mode 10 m square (config/missions/square.yaml): x forward, y left of the start pose.
+SQUARE_XY_M: tuple[tuple[float, float], ...] = ((10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0))
+
+
+def skid_vehicle_geometry(max_rpm: float = MAX_RPM) -> dict[str, float]:
+    """Helix geometry for which eq. 2 *is* the skid model, so helixd's thesis gains see the
+    plant they were tuned for: v = r·ω_max·f → r = 4 m/s / ω_max; yaw = 2k·wz/(r·ω_max) ·
+    140 °/s → k = l_x + l_y = 4 m/s / (2 · 140 °/s)."""
+    radius_m = SKID_MAX_SPEED_MPS / rpm_to_radps(max_rpm)
+    k_m = SKID_MAX_SPEED_MPS / (2.0 * math.radians(SKID_TURN_RATE_DPS))
+    return {"scroll_radius_m": radius_m, "lx_m": k_m / 2.0, "ly_m": k_m / 2.0, "max_rpm": max_rpm}
+
+
+def skid_actuation(backend: str) -> dict[str, Any]:
+    """HelixdConfig ``actuation`` for the skid mapping."""
+    return {
+        "backend": backend,
+        "channels": [
+            {"channel": channel, "reversed": rev, "pwm_min_us": 1000, "pwm_max_us": 2000}
+            for channel, rev in SKID_CHANNELS
+        ],
+    }
+
+
+def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
+    """The helixd.yaml the suite flies with (HelixdConfig fields; everything else default)."""
+    return {
+        "vehicle": skid_vehicle_geometry(),
+        "link": {
+            "url": url,
+            "source_system": HELIXD_SYSID,
+            # 5 Hz keeps FS_GCS_TIMEOUT (5 s, simulated) safe up to --speedup 10.
+            "heartbeat_rate_hz": 5.0,
+        },
+        "actuation": skid_actuation(backend),
+        "safety": {
+            # ArduPilot's PreArm checks refuse this passthrough setup shortly after boot
+            # (DESIGN §3); the daemon's documented escape hatch.
+            "force_arm": True,
+            "connect_timeout_s": 60.0,
+            "arm_timeout_s": 60.0,
+            "arm_retry_interval_s": 1.0,
+        },
+    }
