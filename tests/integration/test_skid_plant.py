@@ -9,6 +9,7 @@ SERIAL1 against the planned polygon): helixd cross-track RMS 0.449 m, max 0.843 
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import threading
@@ -20,7 +21,7 @@ import pytest
 from helixd.exitcodes import ExitCode
 from helixd.frames import MissionFrame, NedPose
 from helixd.recorder.track import TrackPoint, planned_polyline_ned, track_metrics
-from helixd.sim import SimServer
+from helixd.sim import SimServer, SimSnapshot
 from tests.integration.daemon_harness import secured, sim_and_daemon
 from tests.sitl.skid_setup import SQUARE_XY_M, skid_actuation, skid_vehicle_geometry
 
@@ -33,6 +34,10 @@ SKID_CONFIG: dict[str, Any] = {
 }
 MISSION_WALL_S = 240.0
 FINAL_TOLERANCE_M = 2.0  # the SITL suite's bound on the return to the start
+
+
+def _newer(t_s: float, snap: SimSnapshot) -> bool:
+    return snap.sim_time_s > t_s
 
 
 class TruthRecorder:
@@ -50,7 +55,7 @@ class TruthRecorder:
         last_t = -math.inf
         while not self._stop.is_set():
             try:
-                snap = self.server.wait_for(lambda s: s.sim_time_s > last_t, 0.5)
+                snap = self.server.wait_for(functools.partial(_newer, last_t), 0.5)
             except TimeoutError:
                 continue
             last_t = snap.sim_time_s
