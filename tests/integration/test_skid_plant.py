@@ -19,11 +19,10 @@ from typing import Any
 import pytest
 
 from helixd.exitcodes import ExitCode
-from helixd.frames import MissionFrame, NedPose
-from helixd.recorder.track import TrackPoint, planned_polyline_ned, track_metrics
+from helixd.recorder.track import TrackPoint
 from helixd.sim import SimServer, SimSnapshot
 from tests.integration.daemon_harness import secured, sim_and_daemon
-from tests.sitl.skid_setup import SQUARE_XY_M, skid_actuation, skid_vehicle_geometry
+from tests.sitl.skid_setup import skid_actuation, skid_vehicle_geometry, square_metrics
 
 pytestmark = pytest.mark.integration
 
@@ -46,7 +45,7 @@ class TruthRecorder:
     def __init__(self, server: SimServer) -> None:
         self.server = server
         self.points: list[TrackPoint] = []
-        self.start_yaw_ned_rad: float | None = None
+        self.yaws: list[tuple[float, float]] = []  # (sim s, true yaw NED rad)
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="truth", daemon=True)
         self._thread.start()
@@ -59,9 +58,12 @@ class TruthRecorder:
             except TimeoutError:
                 continue
             last_t = snap.sim_time_s
-            if self.start_yaw_ned_rad is None:
-                self.start_yaw_ned_rad = snap.yaw_ned_rad
+            self.yaws.append((snap.sim_time_s, snap.yaw_ned_rad))
             self.points.append(TrackPoint(snap.sim_time_s, snap.north_m, snap.east_m))
+
+    def yaw_at(self, t_s: float) -> float | None:
+        before = [yaw for t, yaw in self.yaws if t <= t_s]
+        return before[-1] if before else None
 
     def stop(self) -> list[TrackPoint]:
         self._stop.set()
@@ -85,12 +87,10 @@ def test_roll_square_on_the_sitl_skid_plant(tmp_path: Path) -> None:
     assert summary["completed"] is True
     assert summary["waypoints_reached"] == summary["waypoints_total"] == 4
 
-    assert recorder.start_yaw_ned_rad is not None
-    start = track[0]
-    frame = MissionFrame.start_at(NedPose(start.north_m, start.east_m, recorder.start_yaw_ned_rad))
-    polyline = planned_polyline_ned(SQUARE_XY_M, frame, (start.north_m, start.east_m))
-    metrics = track_metrics(track, polyline)
+    # the SITL suite's observer computation, on the simulator's true pose
+    metrics = square_metrics(track, recorder.yaw_at)
     assert metrics is not None
+    start = track[0]
     print(
         f"sitl_skid ROLL square, simulator truth: {metrics.line()}; helixd's summary: "
         f"{summary['duration_s']:.1f} s, cross-track rms {summary['cross_track_rms_m']:.3f} "

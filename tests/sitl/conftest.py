@@ -166,6 +166,7 @@ class MavClient:
     latest: dict[str, Any] = field(default_factory=dict)
     servo: list[ServoSample] = field(default_factory=list)
     positions: list[PositionSample] = field(default_factory=list)
+    attitudes: list[tuple[float, float]] = field(default_factory=list)  # (t_boot s, yaw NED rad)
     acks: list[tuple[int, int]] = field(default_factory=list)  # (command, result)
     params: dict[str, float] = field(default_factory=dict)
     statustexts: list[str] = field(default_factory=list)
@@ -248,6 +249,8 @@ class MavClient:
                 self.positions.append(
                     PositionSample(int(msg.time_boot_ms) / 1e3, float(msg.x), float(msg.y))
                 )
+            elif kind == "ATTITUDE":
+                self.attitudes.append((int(msg.time_boot_ms) / 1e3, float(msg.yaw)))
             elif kind == "COMMAND_ACK":
                 target = int(getattr(msg, "target_system", 0) or 0)
                 if target in (0, OBSERVER_SYSID):
@@ -324,6 +327,12 @@ class MavClient:
     def positions_since(self, t_boot_s: float) -> list[PositionSample]:
         with self._cond:
             return [p for p in self.positions if p.t_boot_s >= t_boot_s]
+
+    def yaw_at(self, t_boot_s: float) -> float | None:
+        """ATTITUDE yaw (NED, clockwise from North) last reported at or before ``t_boot_s``."""
+        with self._cond:
+            before = [yaw for t, yaw in self.attitudes if t <= t_boot_s]
+            return before[-1] if before else None
 
     def ekf_has_position(self) -> bool:
         ekf = self.latest.get("EKF_STATUS_REPORT")
@@ -645,6 +654,7 @@ def start_sitl(binary: Path, workdir: Path, instance: int, speedup: float) -> Si
         for msg_id in (
             mavlink2.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
             mavlink2.MAVLINK_MSG_ID_LOCAL_POSITION_NED,
+            mavlink2.MAVLINK_MSG_ID_ATTITUDE,  # the heading the square's start frame takes
             mavlink2.MAVLINK_MSG_ID_EKF_STATUS_REPORT,
             mavlink2.MAVLINK_MSG_ID_GPS_RAW_INT,
         ):

@@ -9,9 +9,18 @@ why scroll 1 → output 3 and scroll 3 (reversed) → output 1.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from helixd.control.kinematics import rpm_to_radps
+from helixd.frames import MissionFrame, NedPose
+from helixd.recorder.track import (
+    TrackMetrics,
+    TrackPoint,
+    mission_window,
+    planned_polyline_ned,
+    track_metrics,
+)
 
 HELIXD_SYSID = 247  # link.source_system's default; helix-skid.parm sets MAV_GCS_SYSID to it
 
@@ -24,6 +33,7 @@ MAX_RPM = 195.0
 
 # The ROLL-mode 10 m square (config/missions/square.yaml): x forward, y left of the start pose.
 SQUARE_XY_M: tuple[tuple[float, float], ...] = ((10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0))
+REST_TOLERANCE_M = 0.05  # observer: "not yet left the start" / "come to rest"
 
 
 def skid_vehicle_geometry(max_rpm: float = MAX_RPM) -> dict[str, float]:
@@ -66,3 +76,20 @@ def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
             "arm_retry_interval_s": 1.0,
         },
     }
+
+
+def square_metrics(
+    track: Sequence[TrackPoint], yaw_at: Callable[[float], float | None]
+) -> TrackMetrics | None:
+    """Observer metrics of the square (helixd.recorder.track): the planned polygon starts at the
+    last position still at rest, heading as ATTITUDE reported it then (helixd's 'start' frame)."""
+    if len(track) < 2:
+        return None
+    first, _ = mission_window(track, REST_TOLERANCE_M)
+    start = track[first]
+    yaw = yaw_at(start.t_s)
+    if yaw is None:
+        return None
+    frame = MissionFrame.start_at(NedPose(start.north_m, start.east_m, yaw))
+    polyline = planned_polyline_ned(SQUARE_XY_M, frame, (start.north_m, start.east_m))
+    return track_metrics(track, polyline, REST_TOLERANCE_M)

@@ -27,6 +27,8 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 from helixd.exitcodes import ExitCode
+from helixd.recorder.track import TrackPoint
+from tests.sitl.skid_setup import square_metrics
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun, ServoSample, SitlVehicle
@@ -218,6 +220,14 @@ def test_roll_square_completes(
     track = [(p.north_m, p.east_m) for p in obs.positions_since(sitl.start_t_boot_s)]
     shape = track_shape(track, sitl.start_ne_m)
     print(f"{backend}: track as ArduPilot saw it: {shape}")
+    samples = obs.positions_since(sitl.start_t_boot_s)
+    metrics = square_metrics(
+        [TrackPoint(p.t_boot_s, p.north_m, p.east_m) for p in samples], obs.yaw_at
+    )
+    print(
+        f"{backend}: observer (LOCAL_POSITION_NED vs the planned polygon): "
+        f"{'no metrics (no track or no ATTITUDE)' if metrics is None else metrics.line()}"
+    )
     assert shape.max_distance_m >= SQUARE_FAR_CORNER_M - 2 * ARRIVAL_TOLERANCE_M
     assert shape.final_distance_m <= 2 * ARRIVAL_TOLERANCE_M
     assert shape.left_turn_sin > 0.3  # ≈ sin 45° for the far corner of a left-hand square

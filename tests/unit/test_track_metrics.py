@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
@@ -114,3 +115,26 @@ def test_metrics_are_finite_and_ordered(pts: list[tuple[float, float]], poly: li
     values = (m.cross_track_rms_m, m.cross_track_max_m, m.final_error_m, m.elapsed_s)
     assert all(math.isfinite(v) and v >= 0.0 for v in values)
     assert m.cross_track_rms_m <= m.cross_track_max_m * (1 + 1e-9) + 1e-9
+
+
+def test_sitl_square_metrics_take_the_start_frame_where_the_rover_left_its_rest() -> None:
+    """tests/sitl's observer computation: facing East at (5, 5), waits, then drives the square
+    (x forward = East, y left = North) exactly; then rests. Zero cross-track, 40 s."""
+    from tests.sitl.skid_setup import square_metrics
+
+    corners = [(5.0, 5.0), (5.0, 15.0), (15.0, 15.0), (15.0, 5.0), (5.0, 5.0)]  # (n, e)
+    track = [TrackPoint(float(t), 5.0, 5.0) for t in range(3)]
+    t = 2.0
+    for (n0, e0), (n1, e1) in itertools.pairwise(corners):
+        for k in range(1, 11):  # 1 m/s
+            t += 1.0
+            track.append(TrackPoint(t, n0 + (n1 - n0) * k / 10, e0 + (e1 - e0) * k / 10))
+    track += [TrackPoint(t + 1.0, 5.0, 5.0), TrackPoint(t + 2.0, 5.0, 5.0)]
+    m = square_metrics(track, lambda t_s: math.pi / 2)
+    assert m is not None
+    assert m.cross_track_max_m == pytest.approx(0.0, abs=1e-9)
+    assert m.final_error_m == pytest.approx(0.0, abs=1e-9)
+    assert m.elapsed_s == pytest.approx(40.0)
+    facing_north = square_metrics(track, lambda t_s: 0.0)  # the wrong heading shows
+    assert facing_north is not None and facing_north.cross_track_max_m > 5.0
+    assert square_metrics(track, lambda t_s: None) is None  # no ATTITUDE yet: no metrics
