@@ -5,33 +5,37 @@ that the built-in simulator can stand in for real Rover SITL with the same setup
 ``tests/sitl`` (outputs 1 and 3 are the motors). Deliberately independent of
 :mod:`helixd.control`: the simulator is meant to be an oracle for helixd, not a copy of it.
 
-What SIM_Rover.cpp does for a skid-steering frame (frame string containing ``"skid"``):
+What SIM_Rover.cpp does for a skid-steering frame (frame string containing ``"skid"``; read
+in the current ``update()`` → ``update_ackermann_or_skid()`` and in the older single
+``update()``, which agree on every equation used here):
 
 * constructor: ``max_speed = 4`` (m/s) and ``max_accel = 14`` (m/s²) for skid steering
   ("taken from a 6V wild thumper with skid steering, with a sabertooth controller");
   ``skid_turn_rate = 140`` (°/s); SIM_Rover.h: ``MAX_YAW_RATE = 360`` °/s.
-* ``update()``: ``motor1 = 2*((servos[0]-1000)/1000 - 0.5)`` (output 1, left motor),
-  ``motor2 = 2*((servos[2]-1000)/1000 - 0.5)`` (output 3, right motor);
-  ``steering = motor1 - motor2``, ``throttle = 0.5*(motor1 + motor2)``. Outputs 2 and 4 are
-  not read. No clamp of the PWM (ArduPilot's SERVOn_MIN/MAX bound the outputs).
-* ``calc_yaw_rate()`` for skid: ``steering * skid_turn_rate`` °/s, independent of speed (the
-  rover turns in place); limited to ±MAX_YAW_RATE (never binding for 1000–2000 µs: ≤ 280 °/s).
-  ``gyro = (0, 0, radians(yaw_rate))`` in the body frame (z down): positive = clockwise seen
-  from above, i.e. the left motor faster turns the rover right.
+* inputs: ``motor1 = servos[0] ? normalise_servo_input(servos[0]) : 0`` (output 1, left
+  motor), ``motor2`` the same from ``servos[2]`` (output 3, right motor), with
+  ``normalise_servo_input(pwm) = 2*((pwm-1000)/1000 - 0.5)``; an output at 0 (no pulses) is a
+  stopped motor. ``diff_steering = motor1 - motor2``, ``throttle = 0.5*(motor1 + motor2)``.
+  Outputs 2 and 4 are not read. No clamp of the PWM (SERVOn_MIN/MAX bound the outputs).
+* ``calc_yaw_rate()`` for skid: ``constrain(diff_steering * skid_turn_rate, ±MAX_YAW_RATE)``
+  °/s, independent of speed (the rover turns in place; the limit never binds for
+  1000–2000 µs: ≤ 280 °/s). ``gyro = (0, 0, radians(yaw_rate))`` in the body frame (z down):
+  positive = clockwise seen from above, i.e. the left motor faster turns the rover right.
 * speed: ``speed = (dcm^T · velocity_ef).x`` (body forward); ``target_speed = throttle *
   max_speed``; ``accel = max_accel * (target_speed - speed) / max_speed`` — a first-order lag
   with time constant max_speed/max_accel = 4/14 s ≈ 0.286 s.
-* integration per physics frame (``frame_time_us``; SIM_Aircraft's ``rate_hz`` = 1200 Hz):
+* integration per physics frame (``frame_time_us``; SIM_Aircraft.h ``rate_hz = 1200``):
   ``dcm.rotate(gyro*dt)`` first, then ``accel_body = (accel, radians(yaw_rate)*speed, 0)``
   (forward plus the centripetal term that turns the velocity with the body), rotated to earth
-  with the *new* attitude; ``velocity_ef += accel_earth*dt``; ``position += velocity_ef*dt``
-  (semi-implicit Euler). No side slip model beyond that, no terrain.
+  with the *new* attitude (``accel_earth = dcm * accel_body``, z zeroed on the ground);
+  ``velocity_ef += accel_earth*dt``; ``position += velocity_ef*dt`` (semi-implicit Euler).
+  No side slip model beyond that, no terrain. (The frame rate hardly matters: 50 Hz instead
+  of 1200 Hz moves a 10 s S-turn's end by 3 cm.)
 
 Steady state therefore: forward speed = ½(m1+m2)·4 m/s, NED yaw rate = (m1−m2)·140 °/s.
 
-helixd additions (not in SIM_Rover.cpp): an output at 0 µs (no pulses) counts as motor
-stopped rather than SITL's −3 (full reverse ×3), and the simulator's ``stall`` fault holds the
-rover still (velocity and yaw rate zero) while it lasts. Terrain traction does not apply.
+helixd additions (not in SIM_Rover.cpp): the simulator's ``stall`` fault holds the rover
+still (velocity and yaw rate zero) while it lasts. Terrain traction does not apply.
 """
 
 from __future__ import annotations
@@ -47,10 +51,7 @@ _TWO_PI = 2.0 * math.pi
 
 
 def motor_command(pwm_us: int) -> float:
-    """SIM_Rover.cpp: ``2*((pwm-1000)/1000 - 0.5)``: 1000 → −1, 1500 → 0, 2000 → +1.
-
-    0 µs (the output sends no pulses) → 0: the motor controller stops.
-    """
+    """SIM_Rover's ``normalise_servo_input``: 1000 → −1, 1500 → 0, 2000 → +1; 0 (no pulses) → 0."""
     if pwm_us <= 0:
         return 0.0
     return 2.0 * ((pwm_us - 1000) / 1000.0 - 0.5)
