@@ -11,8 +11,8 @@ in the test's temp dir, waits (bounded) for SERIAL0 (tcp 5760+10·n) to accept a
 first HEARTBEAT, attaches an *observer* on SERIAL1 (tcp 5762+10·n) and waits until the EKF has
 a GPS position. The observer never sends a HEARTBEAT and uses system id 250, so ArduPilot's
 GCS failsafe (keyed on MAV_GCS_SYSID 247 = helixd, set in helix-skid.parm) and RC-override
-rule see helixd alone; it reads HEARTBEAT / SERVO_OUTPUT_RAW / LOCAL_POSITION_NED and can
-switch modes or set params.
+rule see helixd alone; it reads HEARTBEAT / SERVO_OUTPUT_RAW / LOCAL_POSITION_NED / ATTITUDE
+and can switch modes or set params.
 The pilot's radio is SITL's RC-input UDP port (5501+10·n: 8 or 16 little-endian uint16 PWM,
 0 = leave that channel unchanged).
 
