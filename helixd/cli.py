@@ -184,7 +184,11 @@ def run(
         Terrain, typer.Option(help="simulator terrain (with --sim)")
     ] = Terrain.HARD,
     sim_plant: Annotated[
-        Plant, typer.Option(help="simulator vehicle model (with --sim)")
+        Plant,
+        typer.Option(
+            help="simulator vehicle model (with --sim); sitl_skid needs the SITL channel "
+            "mapping in --config (tests/sitl/README.md)"
+        ),
     ] = Plant.HELIX,
     sim_noise: Annotated[
         NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")

@@ -103,7 +103,9 @@ def register(app: typer.Typer) -> None:
         plant: Annotated[
             Plant | None,
             typer.Option(
-                "--plant", help="vehicle model: helix (scrolls) or sitl_skid (SITL rover-skid)"
+                "--plant",
+                help="vehicle model: helix (scrolls) or sitl_skid (ArduPilot SITL rover-skid: "
+                "outputs 1/3 = left/right motor)",
             ),
         ] = None,
         terrain: Annotated[
