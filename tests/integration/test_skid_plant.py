@@ -12,7 +12,9 @@ from __future__ import annotations
 import functools
 import json
 import math
+import signal
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +23,12 @@ import pytest
 from helixd.exitcodes import ExitCode
 from helixd.recorder.track import TrackPoint
 from helixd.sim import SimServer, SimSnapshot
-from tests.integration.daemon_harness import secured, sim_and_daemon
+from tests.integration.daemon_harness import (
+    secured,
+    sim_and_daemon,
+    time_until,
+    wait_moving,
+)
 from tests.sitl.skid_setup import skid_actuation, skid_vehicle_geometry, square_metrics
 
 pytestmark = pytest.mark.integration
@@ -32,6 +39,8 @@ SKID_CONFIG: dict[str, Any] = {
     "safety": {"force_arm": True},  # as the SITL suite (ArduPilot refuses passthrough arming)
 }
 MISSION_WALL_S = 240.0
+FALLBACK_BOUND_S = 0.5 + 0.1 + 0.25  # DESIGN §6 + signal detection + loaded-box slack
+STOPPED_MPS = 0.02
 FINAL_TOLERANCE_M = 2.0  # the SITL suite's bound on the return to the start
 
 
@@ -102,3 +111,22 @@ def test_roll_square_on_the_sitl_skid_plant(tmp_path: Path) -> None:
     assert far >= 10.0 * math.sqrt(2.0) - 2.0
     assert metrics.final_error_m <= FINAL_TOLERANCE_M
     assert metrics.cross_track_max_m < 3.0  # a leg missed by more would not be "the square"
+
+
+def test_sigint_on_the_skid_plant_stops_the_rover(tmp_path: Path) -> None:
+    """The fall-back, seen from the plant: outputs 1/3 at trim stop SITL's skid rover."""
+    with sim_and_daemon(tmp_path, "square", SKID_CONFIG, plant="sitl_skid", noise="low") as (
+        server,
+        d,
+    ):
+        moving = wait_moving(server)
+        t0 = time.monotonic()
+        d.signal(signal.SIGINT)
+        elapsed = time_until(server, secured, t0, timeout_s=10.0)
+        stopped = server.wait_for(lambda s: s.speed_mps < STOPPED_MPS, 5.0)
+        code = d.wait_exit(20.0)
+    print(f"skid plant: secured {elapsed:.3f} s after SIGINT; stopped at {stopped.speed_mps} m/s")
+    assert code == ExitCode.OPERATOR_STOP
+    assert moving.speed_mps > 0.1
+    assert elapsed <= FALLBACK_BOUND_S
+    assert secured(stopped)
