@@ -35,7 +35,10 @@ in the current ``update()`` → ``update_ackermann_or_skid()`` and in the older 
 Steady state therefore: forward speed = ½(m1+m2)·4 m/s, NED yaw rate = (m1−m2)·140 °/s.
 
 helixd additions (not in SIM_Rover.cpp): the simulator's ``stall`` fault holds the rover
-still (velocity and yaw rate zero) while it lasts. Terrain traction does not apply.
+still (velocity and yaw rate zero) while it lasts. Terrain traction does not apply. The state
+is the Helix plant's :class:`PhysicsState` (velocity kept in the body frame, y left, yaw rate
+counter-clockwise), so estimator, telemetry and snapshots work unchanged; its scroll speeds
+and pit depth stay 0 (a skid rover has neither).
 """
 
 from __future__ import annotations
