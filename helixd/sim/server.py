@@ -244,6 +244,7 @@ class SimServer:
                     for s, p in zip(self.link_specs, self.local_ports, strict=True)
                 ],
                 speedup=self.config.speedup,
+                plant=self.config.plant.value,
                 terrain=self.config.terrain.value,
                 noise=self.config.noise.value,
             )

@@ -249,3 +249,10 @@ def test_cli_check_prints_plan_and_rejects_bad_files(tmp_path: Path) -> None:
     assert res.returncode == 2
     assert "Traceback" not in res.stderr
     assert "control.max_speed_mps" in res.stderr and "mode" in res.stderr
+
+
+def test_shipped_sitl_skid_config_is_the_sitl_suites() -> None:
+    from tests.sitl.skid_setup import helixd_sitl_config
+
+    expected = helixd_sitl_config("rc_override", HelixdConfig().link.url)
+    assert load_config(ROOT / "config" / "sitl-skid.yaml") == HelixdConfig.model_validate(expected)
