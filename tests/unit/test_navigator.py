@@ -13,7 +13,7 @@ from helixd.mission import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from tests.support.ideal_plant import IdealPlant
 
 DT = 1.0 / 40.0
-CONTROL = ControlConfig()
+CONTROL = ControlConfig(guidance="thesis")  # the thesis law, as before; line: test_line_guidance.py
 
 
 def make_plan(
