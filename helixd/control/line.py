@@ -194,17 +194,28 @@ def step_toward(previous: float, target: float, max_step: float) -> float:
 def step_toward_2d(
     previous: tuple[float, float], target: tuple[float, float], max_step: float
 ) -> tuple[float, float]:
-    """The vector ``target`` reached from ``previous`` by a change of length ≤ ``max_step``."""
+    """Velocity ``target`` approached from ``previous`` with the acceleration limit applied
+    in the target's own frame: the component along the target direction and the one across
+    it each change by at most ``max_step`` (a new direction is entered along a straight line,
+    and the old velocity across it is shed at the full rate: no drift past an OMNI corner).
+    A zero target is approached along the previous direction. Non-finite → (0, 0)."""
     values = (*previous, *target, max_step)
     if not all(math.isfinite(x) for x in values):
         return 0.0, 0.0
-    dx, dy = target[0] - previous[0], target[1] - previous[1]
-    norm = math.hypot(dx, dy)
     step = max(0.0, max_step)
-    if not math.isfinite(norm) or norm <= step:
-        return target if math.isfinite(norm) else (0.0, 0.0)
-    k = step / norm
-    return previous[0] + k * dx, previous[1] + k * dy
+    norm = math.hypot(*target)
+    if not math.isfinite(norm):
+        return 0.0, 0.0
+    if norm < 1e-12:
+        prev_norm = math.hypot(*previous)
+        if not math.isfinite(prev_norm) or prev_norm <= step:
+            return 0.0, 0.0
+        k = (prev_norm - step) / prev_norm
+        return previous[0] * k, previous[1] * k
+    ux, uy = target[0] / norm, target[1] / norm
+    along = step_toward(previous[0] * ux + previous[1] * uy, norm, step)
+    across = step_toward(-previous[0] * uy + previous[1] * ux, 0.0, step)
+    return along * ux - across * uy, along * uy + across * ux
 
 
 def stoppable_yaw_rate_radps(

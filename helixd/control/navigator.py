@@ -310,7 +310,8 @@ class Navigator:
         )
 
     def _smooth(self, target: BodyVelocity, e_psi: float, dt_s: float) -> BodyVelocity:
-        """Acceleration limits (line guidance): translation by ``max_accel``, yaw rate by
+        """Acceleration limits (line guidance): translation by ``max_accel`` (along and across
+        the commanded direction, :func:`line.step_toward_2d`), yaw rate by
         ``max_yaw_accel``, and a yaw rate that can still brake within the heading error."""
         cfg = self.control
         wz = line.stoppable_yaw_rate_radps(target.wz_radps, e_psi, cfg.max_yaw_accel_radps2)
