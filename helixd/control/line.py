@@ -166,8 +166,11 @@ def profile_speed_mps(
     points_xy_m: list[tuple[float, float]],
     speeds_mps: list[float],
     accel_mps2: float,
+    early_m: list[float] | None = None,
 ) -> float:
-    """Speed allowed now so that every coming waypoint j ≥ index is passed at ≤ speeds[j]."""
+    """Speed allowed now so that every coming waypoint j ≥ index is passed at ≤ speeds[j],
+    already ``early_m[j]`` before it (a flown-through waypoint ends its leg at its
+    pass-through radius, so its corner speed must be reached there)."""
     if not (math.isfinite(along_to_go_m) and math.isfinite(accel_mps2)):
         return 0.0
     wps = points_xy_m[1:]
@@ -177,7 +180,8 @@ def profile_speed_mps(
         if j > index:
             a, b = wps[j - 1], wps[j]
             distance += math.hypot(b[0] - a[0], b[1] - a[1])
-        best = min(best, braking_speed_mps(distance, speeds_mps[j], accel_mps2))
+        early = early_m[j] if early_m is not None else 0.0
+        best = min(best, braking_speed_mps(distance - early, speeds_mps[j], accel_mps2))
         if speeds_mps[j] <= 0.0:
             break  # a stop: nothing beyond it matters yet
     return best if math.isfinite(best) else 0.0
@@ -215,6 +219,11 @@ def step_toward_2d(
     ux, uy = target[0] / norm, target[1] / norm
     along = step_toward(previous[0] * ux + previous[1] * uy, norm, step)
     across = step_toward(-previous[0] * uy + previous[1] * ux, 0.0, step)
+    # never faster than both the previous and the target velocity
+    cap = max(norm, math.hypot(*previous))
+    size = math.hypot(along, across)
+    if size > cap > 0.0:
+        along, across = along * cap / size, across * cap / size
     return along * ux - across * uy, along * uy + across * ux
 
 

@@ -287,9 +287,16 @@ class Navigator:
             a, b = self._points_xy_m[j + 1], self._points_xy_m[j + 2]
             e_go += math.hypot(b[0] - a[0], b[1] - a[1])
         distance_terms = self._distance_pid.update(0.0, -e_go, dt_s)
+        early = [
+            0.0 if stop else w.tolerance_m
+            for stop, w in zip(self._stops, self.plan.waypoints, strict=True)
+        ]
         profile = line.profile_speed_mps(
-            leg.along_to_go_m, i, self._points_xy_m, self._pass_speed_mps, cfg.max_accel_mps2
+            leg.along_to_go_m, i, self._points_xy_m, self._pass_speed_mps, cfg.max_accel_mps2, early
         )
+        if i > 0 and leg.length_m - leg.along_to_go_m < cfg.lookahead_m:
+            # Still rounding the corner just passed (the arc spans about L past its vertex).
+            profile = min(profile, self._pass_speed_mps[i - 1] or profile)
         speed_mps = min(distance_terms.output, profile, self.plan.speed_mps)
         speed_mps = max(speed_mps, cfg.min_speed_mps)  # not reached yet: never creep
         speed_mps = max(0.0, speed_mps) * max(0.0, math.cos(e_psi))
