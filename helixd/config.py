@@ -412,6 +412,25 @@ class ControlConfig(InputModel):
         description="line guidance: yaw-rate command changes at most this fast, and turns "
         "brake with it (rad/s²)",
     )
+    braking_accel_mps2: float = Field(
+        0.15,
+        gt=0.0,
+        le=5.0,
+        description="line guidance: the speed profile plans to slow down for stops and corners "
+        "at this deceleration, at most max_accel_mps2, so a plant whose speed lags the "
+        "command still arrives slowly (m/s²)",
+    )
+
+    @model_validator(mode="after")
+    def _braking_within_accel(self) -> ControlConfig:
+        if self.braking_accel_mps2 > self.max_accel_mps2:
+            raise ValueError(
+                f"control.braking_accel_mps2 = {self.braking_accel_mps2} exceeds "
+                f"control.max_accel_mps2 = {self.max_accel_mps2}: the commands could not "
+                "follow the planned braking"
+            )
+        return self
+
     max_dt_s: float = Field(
         0.5, gt=0.0, le=5.0, description="larger control steps are treated as a restart (s)"
     )

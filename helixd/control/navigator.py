@@ -292,7 +292,12 @@ class Navigator:
             for stop, w in zip(self._stops, self.plan.waypoints, strict=True)
         ]
         profile = line.profile_speed_mps(
-            leg.along_to_go_m, i, self._points_xy_m, self._pass_speed_mps, cfg.max_accel_mps2, early
+            leg.along_to_go_m,
+            i,
+            self._points_xy_m,
+            self._pass_speed_mps,
+            cfg.braking_accel_mps2,
+            early,
         )
         if i > 0 and leg.length_m - leg.along_to_go_m < cfg.lookahead_m:
             # Still rounding the corner just passed (the arc spans about L past its vertex).
