@@ -14,6 +14,21 @@
   whose mode constraint forbids turning).
 * DONE: zero command forever.
 
+Two guidance laws, chosen by ``control.guidance``:
+
+* ``"thesis"`` — exactly the behaviour above: steer the driving axis at the waypoint.
+* ``"line"`` (default) — the same states, but the rover follows the leg (previous waypoint,
+  or the start pose, → waypoint) with the lookahead law of :mod:`helixd.control.line`;
+  ROLL/SCROLL steer their driving axis onto it, OMNI holds its heading and adds a lateral
+  velocity. A leg ends inside the waypoint's pass-through radius or on crossing the line
+  through the waypoint perpendicular to the leg. Stops — the final waypoint, waypoints with
+  a final heading and corners sharper than ``pivot_angle_rad`` — end on that line within
+  ``stop_tolerance_m`` (pivot corners: within the waypoint tolerance), approached along a
+  braking profile at ``min_speed_mps`` at the last; a stop passed farther beside is flown to
+  as a point. TRACK re-aligns in place (ALIGN) when |e_ψ| exceeds the pivot angle and leaves
+  ALIGN below ``heading_threshold_rad``. Gentle corners are flown at the turn-geometry speed,
+  collinear ones at cruise. Translation and yaw-rate commands are acceleration limited.
+
 Stepped with (pose, t_s); derives dt from successive t_s. Never touches a clock or a socket,
 and never decides to stop the vehicle: the supervisor owns that.
 
