@@ -290,6 +290,6 @@ def test_line_start_beside_the_leg_aligns_then_tracks() -> None:
 
 def test_guidance_field_rejects_unknown_law() -> None:
     with pytest.raises(ValueError, match="guidance"):
-        ControlConfig(guidance="pure_pursuit")  # type: ignore[arg-type]
+        ControlConfig(guidance="pure_pursuit")
     with pytest.raises(ValueError, match="braking_accel_mps2"):
         ControlConfig(max_accel_mps2=0.1, braking_accel_mps2=0.2)

@@ -375,7 +375,7 @@ def test_navigator_any_guidance_finite_bounded_under_any_clock(
 ) -> None:
     """Finite poses with any time steps (repeated, backwards, gaps beyond max_dt_s): the
     command is finite and within the speed and yaw-rate caps, in either guidance law."""
-    control = ControlConfig(guidance=guidance)  # type: ignore[arg-type]
+    control = ControlConfig(guidance=guidance)
     nav = Navigator(make_plan(mode), control)
     t = 0.0
     for x, y, yaw, dt in steps:
