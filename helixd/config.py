@@ -362,6 +362,75 @@ class ControlConfig(InputModel):
     final_heading_tolerance_rad: float = Field(
         0.1, gt=0.0, le=1.0, description="final-heading turn ends inside this (rad)"
     )
+    guidance: Literal["line", "thesis"] = Field(
+        "line",
+        description="'line': track the leg previous waypoint → waypoint (lookahead law, "
+        "perpendicular-line switching, pivot/gentle corners, acceleration limits); "
+        "'thesis': turn to the waypoint and drive at it (thesis eq. 3-6)",
+    )
+    lookahead_m: float = Field(
+        1.0,
+        gt=0.05,
+        le=20.0,
+        description="line guidance: the course aims at the leg this far ahead, "
+        "course = leg − atan(cross-track / lookahead) (m)",
+    )
+    stop_tolerance_m: float = Field(
+        0.1,
+        gt=0.01,
+        le=5.0,
+        description="line guidance: the final waypoint, waypoints with a final heading and "
+        "pivot corners are reached inside this radius (or by crossing the line through them "
+        "perpendicular to the leg) (m)",
+    )
+    pivot_angle_rad: float = Field(
+        0.785,
+        ge=0.0,
+        le=math.pi,
+        description="line guidance: corners turning more than this are stopped at and pivoted "
+        "in place (ROLL/SCROLL; OMNI stops), and TRACK re-aligns in place beyond this heading "
+        "error (like ArduPilot WP_PIVOT_ANGLE) (rad)",
+    )
+    max_accel_mps2: float = Field(
+        0.3,
+        gt=0.0,
+        le=5.0,
+        description="line guidance: translation command changes at most this fast, and the "
+        "rover brakes for waypoints with it (m/s²)",
+    )
+    max_lateral_accel_mps2: float = Field(
+        0.3,
+        gt=0.0,
+        le=5.0,
+        description="line guidance: gentle corners are flown at most at sqrt(a_lat · R), "
+        "R = lookahead / tan(turn / 2) (m/s²)",
+    )
+    max_yaw_accel_radps2: float = Field(
+        2.0,
+        gt=0.0,
+        le=50.0,
+        description="line guidance: yaw-rate command changes at most this fast, and turns "
+        "brake with it (rad/s²)",
+    )
+    braking_accel_mps2: float = Field(
+        0.15,
+        gt=0.0,
+        le=5.0,
+        description="line guidance: the speed profile plans to slow down for stops and corners "
+        "at this deceleration, at most max_accel_mps2, so a plant whose speed lags the "
+        "command still arrives slowly (m/s²)",
+    )
+
+    @model_validator(mode="after")
+    def _braking_within_accel(self) -> ControlConfig:
+        if self.braking_accel_mps2 > self.max_accel_mps2:
+            raise ValueError(
+                f"control.braking_accel_mps2 = {self.braking_accel_mps2} exceeds "
+                f"control.max_accel_mps2 = {self.max_accel_mps2}: the commands could not "
+                "follow the planned braking"
+            )
+        return self
+
     max_dt_s: float = Field(
         0.5, gt=0.0, le=5.0, description="larger control steps are treated as a restart (s)"
     )

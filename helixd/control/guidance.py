@@ -13,6 +13,10 @@ SCROLL drives along +y, which points at ψ + π/2: measuring the heading from th
 OMNI holds its heading (ω_z = 0) and drives straight at the goal: the world-frame error is
 rotated into the body frame, v = speed · (Δx_b, Δy_b) / e_d.
 
+This is the thesis law (``control.guidance: thesis``); the default line-tracking law, which
+follows the leg instead of the point, is in :mod:`helixd.control.line` and reuses
+:func:`driving_axis_rad`, :func:`world_to_body` and :func:`compute_command` from here.
+
 These functions never decide to stop: zero output and timeouts belong to the supervisor.
 
 Total: geometry from a non-finite pose or goal raises :class:`NonFiniteError`; the command

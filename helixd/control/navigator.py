@@ -14,6 +14,21 @@
   whose mode constraint forbids turning).
 * DONE: zero command forever.
 
+Two guidance laws, chosen by ``control.guidance``:
+
+* ``"thesis"`` — exactly the behaviour above: steer the driving axis at the waypoint.
+* ``"line"`` (default) — the same states, but the rover follows the leg (previous waypoint,
+  or the start pose, → waypoint) with the lookahead law of :mod:`helixd.control.line`;
+  ROLL/SCROLL steer their driving axis onto it, OMNI holds its heading and adds a lateral
+  velocity. A leg ends inside the waypoint's pass-through radius or on crossing the line
+  through the waypoint perpendicular to the leg. Stops — the final waypoint, waypoints with
+  a final heading and corners sharper than ``pivot_angle_rad`` — end on that line within
+  ``stop_tolerance_m`` (pivot corners: within the waypoint tolerance), approached along a
+  braking profile at ``min_speed_mps`` at the last; a stop passed farther beside is flown to
+  as a point. TRACK re-aligns in place (ALIGN) when |e_ψ| exceeds the pivot angle and leaves
+  ALIGN below ``heading_threshold_rad``. Gentle corners are flown at the turn-geometry speed,
+  collinear ones at cruise. Translation and yaw-rate commands are acceleration limited.
+
 Stepped with (pose, t_s); derives dt from successive t_s. Never touches a clock or a socket,
 and never decides to stop the vehicle: the supervisor owns that.
 
@@ -28,8 +43,8 @@ from dataclasses import dataclass, replace
 from enum import StrEnum
 
 from helixd.config import ControlConfig
-from helixd.control import guidance
-from helixd.control.angles import shortest_angular_distance
+from helixd.control import guidance, line
+from helixd.control.angles import shortest_angular_distance, wrap_pi
 from helixd.control.kinematics import constrain
 from helixd.control.pid import PID, PidTerms
 from helixd.geometry import BodyVelocity, NonFiniteError, Pose2D, require_finite
@@ -80,6 +95,13 @@ class Navigator:
         self._leg_start_xy_m: tuple[float, float] | None = None
         self._last_t_s: float | None = None
         self._run_out_m: list[float] | None = None  # filled at the first step (needs the start)
+        # Line guidance: path points (start pose first), per-waypoint pass speeds and stops,
+        # and the previous command for the acceleration limits.
+        self._line = control.guidance == "line"
+        self._points_xy_m: list[tuple[float, float]] = []
+        self._pass_speed_mps: list[float] = []
+        self._stops: list[bool] = []
+        self._prev_command = BodyVelocity.zero()
 
     # -- public state ------------------------------------------------------------------------
 
@@ -116,11 +138,13 @@ class Navigator:
                 [w.final_yaw_rad is not None for w in wps],
                 self.control.corner_slowdown_rad,
             )
+            if self._line:
+                self._plan_line(pose)
 
         arrival: NavOutput | None = None
         if not self._final_heading_pending and self._target_index < len(self.plan.waypoints):
             goal = self._goal()
-            if _distance_m(pose, goal) < goal.tolerance_m:
+            if self._is_reached(pose, goal):
                 arrival = self._arrival(pose, goal)
                 self._waypoints_reached += 1
                 self._reset_pids()
@@ -157,6 +181,8 @@ class Navigator:
         final_yaw_rad = self._goal().final_yaw_rad
         if self._final_heading_pending and final_yaw_rad is not None:
             return self._turn_to_final_heading(pose, dt_s, final_yaw_rad)
+        if self._line:
+            return self._follow_line(pose, dt_s)
         return self._go_to_goal(pose, dt_s)
 
     def _go_to_goal(self, pose: Pose2D, dt_s: float) -> NavOutput:
@@ -195,12 +221,146 @@ class Navigator:
             pose, command, e_d, e_psi, distance_pid=distance_terms, yaw_pid=yaw_terms
         )
 
+    # -- line guidance -----------------------------------------------------------------------
+
+    def _plan_line(self, pose: Pose2D) -> None:
+        wps = self.plan.waypoints
+        self._points_xy_m = [(pose.x_m, pose.y_m)] + [(w.x_m, w.y_m) for w in wps]
+        self._pass_speed_mps, self._stops = line.waypoint_speed_limits(
+            self._points_xy_m,
+            [w.final_yaw_rad is not None for w in wps],
+            self.plan.speed_mps,
+            self.control.pivot_angle_rad,
+            self.control.lookahead_m,
+            self.control.max_lateral_accel_mps2,
+            self.control.max_yaw_rate_radps,
+        )
+
+    def _is_precise(self, index: int) -> bool:
+        """The final waypoint and waypoints with a final heading: stopped at precisely."""
+        wp = self.plan.waypoints[index]
+        return index == len(self.plan.waypoints) - 1 or wp.final_yaw_rad is not None
+
+    def _is_reached(self, pose: Pose2D, goal: PlanWaypoint) -> bool:
+        distance_m = _distance_m(pose, goal)
+        if not self._line:
+            return distance_m < goal.tolerance_m
+        i = self._target_index
+        stop_m = min(goal.tolerance_m, self.control.stop_tolerance_m)
+        leg = line.leg_errors(self._leg_start(pose), (goal.x_m, goal.y_m), pose)
+        if leg.length_m <= 0.0:
+            return distance_m < stop_m
+        # Crossing the line through the waypoint, perpendicular to the leg, ends the leg: no
+        # orbiting a point that noise put behind the rover.
+        crossed = leg.along_to_go_m <= 0.0
+        if not self._stops[i]:
+            return distance_m < goal.tolerance_m or crossed  # flown through
+        # A stop is driven onto that line at min_speed (never creeping), so it ends on the
+        # line: precise. A pivot corner crossed beside it still ends (no orbit); a final /
+        # final-heading waypoint crossed farther than stop_m is flown to as a point.
+        return crossed and distance_m < (stop_m if self._is_precise(i) else goal.tolerance_m)
+
+    def _leg_start(self, pose: Pose2D) -> tuple[float, float]:
+        return self._leg_start_xy_m or (pose.x_m, pose.y_m)
+
+    def _follow_line(self, pose: Pose2D, dt_s: float) -> NavOutput:
+        goal = self._goal()
+        mode = self.plan.mode
+        cfg = self.control
+        e_d = _distance_m(pose, goal)
+        leg = line.leg_errors(self._leg_start(pose), (goal.x_m, goal.y_m), pose)
+        if leg.along_to_go_m < 0.0:
+            # Past a stop it did not reach (far beside it): fly to the point itself.
+            leg = line.leg_errors((goal.x_m, goal.y_m), (goal.x_m, goal.y_m), pose)
+            course_rad = leg.course_rad
+        else:
+            course_rad = line.line_course_rad(leg.course_rad, leg.cross_track_m, cfg.lookahead_m)
+
+        if mode is MotionMode.OMNI:
+            heading_goal_rad, e_psi = pose.yaw_rad, 0.0
+        else:
+            heading_goal_rad = wrap_pi(course_rad - guidance.driving_axis_rad(mode))
+            e_psi = shortest_angular_distance(pose.yaw_rad, heading_goal_rad)
+
+        if mode is not MotionMode.OMNI:
+            enter = max(cfg.pivot_angle_rad, cfg.heading_threshold_rad)
+            leave = cfg.heading_threshold_rad
+            if abs(e_psi) > (leave if self._state is NavState.ALIGN else enter):
+                if self._state is not NavState.ALIGN:
+                    self._distance_pid.reset()
+                self._state = NavState.ALIGN
+                yaw_terms = self._yaw_pid.update(heading_goal_rad, pose.yaw_rad, dt_s)
+                command = self._smooth(BodyVelocity(0.0, 0.0, yaw_terms.output), e_psi, dt_s)
+                return self._output(pose, command, e_d, e_psi, yaw_pid=yaw_terms)
+
+        self._state = NavState.TRACK
+        i = self._target_index
+        e_go = max(0.0, leg.along_to_go_m)
+        for j in range(i, len(self._stops) - 1):  # distance to the next stop, for the PID
+            if self._stops[j]:
+                break
+            a, b = self._points_xy_m[j + 1], self._points_xy_m[j + 2]
+            e_go += math.hypot(b[0] - a[0], b[1] - a[1])
+        distance_terms = self._distance_pid.update(0.0, -e_go, dt_s)
+        early = [
+            0.0 if stop else w.tolerance_m
+            for stop, w in zip(self._stops, self.plan.waypoints, strict=True)
+        ]
+        profile = line.profile_speed_mps(
+            leg.along_to_go_m,
+            i,
+            self._points_xy_m,
+            self._pass_speed_mps,
+            cfg.braking_accel_mps2,
+            early,
+        )
+        if i > 0 and leg.length_m - leg.along_to_go_m < cfg.lookahead_m:
+            # Still rounding the corner just passed (the arc spans about L past its vertex).
+            profile = min(profile, self._pass_speed_mps[i - 1] or profile)
+        speed_mps = min(distance_terms.output, profile, self.plan.speed_mps)
+        speed_mps = max(speed_mps, cfg.min_speed_mps)  # not reached yet: never creep
+        speed_mps = max(0.0, speed_mps) * max(0.0, math.cos(e_psi))
+
+        yaw_terms = PidTerms.zero()
+        if mode is MotionMode.OMNI:
+            vx, vy = guidance.world_to_body(
+                speed_mps * math.cos(course_rad), speed_mps * math.sin(course_rad), pose.yaw_rad
+            )
+            target = BodyVelocity(vx, vy, 0.0)
+        else:
+            yaw_terms = self._yaw_pid.update(heading_goal_rad, pose.yaw_rad, dt_s)
+            errors = guidance.GuidanceResult(e_d, course_rad, heading_goal_rad, e_psi, 0.0, 0.0)
+            target = guidance.compute_command(errors, mode, speed_mps, yaw_terms.output)
+        command = self._smooth(target, e_psi, dt_s)
+        return self._output(
+            pose, command, e_d, e_psi, distance_pid=distance_terms, yaw_pid=yaw_terms
+        )
+
+    def _smooth(self, target: BodyVelocity, e_psi: float, dt_s: float) -> BodyVelocity:
+        """Acceleration limits (line guidance): translation by ``max_accel`` (along and across
+        the commanded direction, :func:`line.step_toward_2d`), yaw rate by
+        ``max_yaw_accel``, and a yaw rate that can still brake within the heading error."""
+        cfg = self.control
+        wz = line.stoppable_yaw_rate_radps(target.wz_radps, e_psi, cfg.max_yaw_accel_radps2)
+        prev = self._prev_command
+        vx, vy = line.step_toward_2d(
+            (prev.vx_mps, prev.vy_mps), (target.vx_mps, target.vy_mps), cfg.max_accel_mps2 * dt_s
+        )
+        wz = line.step_toward(prev.wz_radps, wz, cfg.max_yaw_accel_radps2 * dt_s)
+        command = BodyVelocity(vx, vy, wz)
+        self._prev_command = command
+        return command
+
+    # -- final heading -----------------------------------------------------------------------
+
     def _turn_to_final_heading(self, pose: Pose2D, dt_s: float, final_yaw_rad: float) -> NavOutput:
         self._state = NavState.FINAL_HEADING
         e_d = _distance_m(pose, self._goal())
         e_psi = shortest_angular_distance(pose.yaw_rad, final_yaw_rad)
         yaw_terms = self._yaw_pid.update(final_yaw_rad, pose.yaw_rad, dt_s)
         command = BodyVelocity(0.0, 0.0, yaw_terms.output)
+        if self._line:
+            command = self._smooth(command, e_psi, dt_s)
         return self._output(pose, command, e_d, e_psi, yaw_pid=yaw_terms)
 
     def _arrival(self, pose: Pose2D, goal: PlanWaypoint) -> NavOutput:
@@ -256,6 +416,8 @@ class Navigator:
         dt_s = t_s - last
         if not (0.0 < dt_s <= self.control.max_dt_s):
             self._reset_pids()
+            if dt_s != 0.0:  # a gap or a time jump: restart the acceleration limits from rest
+                self._prev_command = BodyVelocity.zero()
             return 0.0
         return dt_s
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from helixd.config import HelixdConfig, VehicleConfig
+from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
 from helixd.control.angles import shortest_angular_distance
 from helixd.control.navigator import Navigator, NavState
 from helixd.geometry import BodyVelocity, Pose2D
@@ -31,7 +31,9 @@ POSE_RATE_HZ = 40.0  # the fastest LOCAL_POSITION_NED rate ArduPilot Rover grant
 DT_S = 1.0 / POSE_RATE_HZ
 MISSIONS = Path(__file__).resolve().parents[2] / "config" / "missions"
 CONFIG = HelixdConfig()
-CONTROL = CONFIG.control
+CONTROL = CONFIG.control.model_copy(update={"guidance": "thesis"})  # the thesis law, as before
+LINE = CONFIG.control.model_copy(update={"guidance": "line"})
+GUIDANCE = {"thesis": CONTROL, "line": LINE}
 
 START_POSES = {
     "yaw0": Pose2D(0.0, 0.0, 0.0),
@@ -74,9 +76,13 @@ def load_plan(shape: str, mode: MotionMode) -> Plan:
 
 
 def fly(
-    plan: Plan, start: Pose2D, vehicle: VehicleConfig | None = None, limit_s: float = 400.0
+    plan: Plan,
+    start: Pose2D,
+    vehicle: VehicleConfig | None = None,
+    limit_s: float = 400.0,
+    control: ControlConfig = CONTROL,
 ) -> RunResult:
-    nav = Navigator(plan, CONTROL)
+    nav = Navigator(plan, control)
     plant = IdealPlant(start, plan.mode, vehicle)
     arrivals: list[float] = []
     squares = 0.0
@@ -125,13 +131,16 @@ def assert_mission_flown(plan: Plan, start: Pose2D, result: RunResult) -> None:
         assert NavState.ALIGN not in result.states
 
 
+@pytest.mark.parametrize("guidance", list(GUIDANCE))
 @pytest.mark.parametrize("start_name", list(START_POSES))
 @pytest.mark.parametrize("mode", list(MotionMode))
 @pytest.mark.parametrize("shape", ["square", "hexagon", "circle"])
-def test_shipped_missions_in_every_mode(shape: str, mode: MotionMode, start_name: str) -> None:
+def test_shipped_missions_in_every_mode(
+    shape: str, mode: MotionMode, start_name: str, guidance: str
+) -> None:
     plan = load_plan(shape, mode)
     start = START_POSES[start_name]
-    assert_mission_flown(plan, start, fly(plan, start))
+    assert_mission_flown(plan, start, fly(plan, start, control=GUIDANCE[guidance]))
 
 
 # A vehicle whose scrolls top out at 60 RPM: a 1 rad/s turn in place needs ~6.1 rad/s per
@@ -140,16 +149,19 @@ def test_shipped_missions_in_every_mode(shape: str, mode: MotionMode, start_name
 WEAK_VEHICLE = VehicleConfig(max_rpm=60.0)
 
 
+@pytest.mark.parametrize("guidance", list(GUIDANCE))
 @pytest.mark.parametrize("mode", list(MotionMode))
 @pytest.mark.parametrize("shape", ["square", "hexagon", "circle"])
-def test_missions_through_a_saturating_scroll_pipeline(shape: str, mode: MotionMode) -> None:
+def test_missions_through_a_saturating_scroll_pipeline(
+    shape: str, mode: MotionMode, guidance: str
+) -> None:
     plan = load_plan(shape, mode)
     start = START_POSES["yaw180"]
     plant = IdealPlant(start, mode, WEAK_VEHICLE)
     realised = plant.realised(BodyVelocity(0.0, 0.0, CONTROL.max_yaw_rate_radps))
     if mode is not MotionMode.OMNI:
         assert realised.wz_radps < 0.95 * CONTROL.max_yaw_rate_radps  # saturation is exercised
-    assert_mission_flown(plan, start, fly(plan, start, WEAK_VEHICLE))
+    assert_mission_flown(plan, start, fly(plan, start, WEAK_VEHICLE, control=GUIDANCE[guidance]))
 
 
 # -- the limit cycle ------------------------------------------------------------------------
@@ -177,11 +189,16 @@ class Approach:
 
 
 def approach(
-    controller: str, goal: PlanWaypoint, start: Pose2D, mode: MotionMode, limit_s: float
+    controller: str,
+    goal: PlanWaypoint,
+    start: Pose2D,
+    mode: MotionMode,
+    limit_s: float,
+    control: ControlConfig = CONTROL,
 ) -> Approach:
     plant = IdealPlant(start, mode)
-    plan = Plan("near", mode, MissionFrameKind.START, (goal,), CONTROL.max_speed_mps)
-    nav = Navigator(plan, CONTROL)
+    plan = Plan("near", mode, MissionFrameKind.START, (goal,), control.max_speed_mps)
+    nav = Navigator(plan, control)
     closest = math.inf
     swept = path = 0.0
     prev_bearing = math.atan2(start.y_m - goal.y_m, start.x_m - goal.x_m)
@@ -225,8 +242,11 @@ def test_linear_law_orbits_a_goal_beside_the_rover_and_the_navigator_does_not(
     assert nav.path_m < abs(side_m)  # turned in place, then straight at it
 
 
+@pytest.mark.parametrize("guidance", list(GUIDANCE))
 @pytest.mark.parametrize("mode", list(MotionMode))
-def test_navigator_reaches_every_nearby_goal_without_orbiting(mode: MotionMode) -> None:
+def test_navigator_reaches_every_nearby_goal_without_orbiting(
+    mode: MotionMode, guidance: str
+) -> None:
     # Goals all around the rover, 0.4–1.6 m away. Inside the slow-down radius the speed is at
     # most v_cruise·e_d/r_slow = 0.3·e_d, so the turning radius v/ω_max ≤ 0.3·e_d stays below
     # e_d/2: no goal can fall inside a turning circle; ROLL/SCROLL also re-align in place
@@ -238,7 +258,7 @@ def test_navigator_reaches_every_nearby_goal_without_orbiting(mode: MotionMode) 
             goal = PlanWaypoint(
                 distance_m * math.cos(bearing), distance_m * math.sin(bearing), tolerance_m=0.3
             )
-            result = approach("navigator", goal, start, mode, limit_s=30.0)
+            result = approach("navigator", goal, start, mode, 30.0, GUIDANCE[guidance])
             where = f"goal at {distance_m} m, bearing {math.degrees(bearing):.0f}°"
             assert result.reached, where
             assert result.time_s < 15.0, where

@@ -13,7 +13,7 @@ from helixd.mission import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from tests.support.ideal_plant import IdealPlant
 
 DT = 1.0 / 40.0
-CONTROL = ControlConfig()
+CONTROL = ControlConfig(guidance="thesis")  # the thesis law, as before; line: test_line_guidance.py
 
 
 def make_plan(
@@ -237,3 +237,59 @@ def test_empty_plan_is_refused() -> None:
     plan = Plan("empty", MotionMode.ROLL, MissionFrameKind.START, (), speed_mps=0.6)
     with pytest.raises(ValueError, match="no waypoints"):
         Navigator(plan, CONTROL)
+
+
+# -- line guidance: the leg-switching rules -----------------------------------------------------
+
+LINE = ControlConfig(guidance="line")
+
+
+def test_line_leg_ends_on_crossing_the_perpendicular_far_beside_a_pass_through_waypoint() -> None:
+    # Leg (0,0) → (5,0) → (5,5). Crossing x = 5 at y = 0.8 (outside the 0.3 m radius) ends the
+    # leg to waypoint 0 (a 90° pivot corner, within its 1 m tolerance): no orbit back to it.
+    nav = Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0), (5.0, 5.0), tol=1.0), LINE)
+    nav.step(Pose2D(0.0, 0.0, 0.0), 0.0)
+    before = nav.step(Pose2D(4.99, 0.8, 0.0), DT)
+    assert before.reached_index is None
+    out = nav.step(Pose2D(5.01, 0.8, 0.0), 2 * DT)
+    assert out.reached_index == 0
+    assert nav.target_index == 1
+
+
+def test_line_final_waypoint_needs_the_stop_tolerance_not_its_radius() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0), tol=1.0), LINE)
+    nav.step(Pose2D(0.0, 0.0, 0.0), 0.0)
+    # inside the waypoint's 1 m radius, not yet on the perpendicular line: still flying
+    assert nav.step(Pose2D(4.5, 0.0, 0.0), DT).reached_index is None
+    # on the line but 0.5 m beside: a precise stop is not over, it is flown to as a point
+    beside = nav.step(Pose2D(5.0, 0.5, 0.0), 2 * DT)
+    assert beside.reached_index is None and not beside.done
+    # crossing within stop_tolerance_m of it ends the mission
+    out = nav.step(Pose2D(5.0, 0.05, 0.0), 3 * DT)
+    assert out.reached_index == 0
+    assert nav.step(Pose2D(5.0, 0.05, 0.0), 4 * DT).done
+
+
+def test_line_collinear_waypoint_ends_at_its_radius_without_slowing() -> None:
+    nav = Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0), (10.0, 0.0), tol=0.3), LINE)
+    outputs, end = fly(nav, Pose2D(0.0, 0.0, 0.0))
+    reached = [o for o in outputs if o.reached_index == 0]
+    assert len(reached) == 1 and reached[0].distance_error_m < 0.3
+    assert reached[0].command.vx_mps == pytest.approx(0.6)
+    assert math.hypot(end.x_m - 10.0, end.y_m) <= LINE.stop_tolerance_m
+
+
+def test_line_start_beside_the_leg_aligns_then_tracks() -> None:
+    # From a pose with the leg 90° off: ALIGN (turn in place), then TRACK, never ALIGN again.
+    nav = Navigator(make_plan(MotionMode.ROLL, (0.0, 6.0)), LINE)
+    outputs, _ = fly(nav, Pose2D(0.0, 0.0, 0.0))
+    states = collapsed(outputs)
+    assert states[:2] == [NavState.ALIGN, NavState.TRACK]
+    assert states.count(NavState.ALIGN) == 1
+
+
+def test_guidance_field_rejects_unknown_law() -> None:
+    with pytest.raises(ValueError, match="guidance"):
+        ControlConfig(guidance="pure_pursuit")
+    with pytest.raises(ValueError, match="braking_accel_mps2"):
+        ControlConfig(max_accel_mps2=0.1, braking_accel_mps2=0.2)

@@ -353,3 +353,70 @@ def test_issue_6_10_inf_yaw_is_no_math_domain_error() -> None:
     for yaw in (INF, -INF):
         with pytest.raises(NonFiniteError, match="not finite"):
             MissionFrame.enu().to_mission(NedPose(1.0, 2.0, yaw))
+
+
+# -- line guidance (control.guidance = "line", the default) and the thesis law ---------------
+
+GUIDANCES = st.sampled_from(["line", "thesis"])
+
+
+@settings(max_examples=200)
+@given(
+    MODES,
+    GUIDANCES,
+    st.lists(
+        st.tuples(FINITE, FINITE, st.floats(-10.0, 10.0), st.floats(-1.0, 2.0)),
+        min_size=1,
+        max_size=12,
+    ),
+)
+def test_navigator_any_guidance_finite_bounded_under_any_clock(
+    mode: MotionMode, guidance: str, steps: list[tuple[float, float, float, float]]
+) -> None:
+    """Finite poses with any time steps (repeated, backwards, gaps beyond max_dt_s): the
+    command is finite and within the speed and yaw-rate caps, in either guidance law."""
+    control = ControlConfig(guidance=guidance)
+    nav = Navigator(make_plan(mode), control)
+    t = 0.0
+    for x, y, yaw, dt in steps:
+        t += dt
+        c = nav.step(Pose2D(x, y, yaw), t).command
+        assert c.is_finite()
+        assert math.hypot(c.vx_mps, c.vy_mps) <= 0.6 + 1e-9
+        assert abs(c.wz_radps) <= control.max_yaw_rate_radps + 1e-9
+
+
+@settings(max_examples=200)
+@given(with_one_bad(4), MODES, st.integers(0, 5))
+def test_line_navigator_step_raises_and_keeps_its_limiter_state(
+    values: list[float], mode: MotionMode, warm_steps: int
+) -> None:
+    nav = Navigator(make_plan(mode), ControlConfig(guidance="line"))
+    for i in range(warm_steps):
+        nav.step(Pose2D(0.1 * i, 0.0, 0.0), 0.05 * i)
+    before = (nav.state, nav.target_index, nav._last_t_s, nav._prev_command)
+    with pytest.raises(NonFiniteError):
+        nav.step(Pose2D(values[0], values[1], values[2]), values[3])
+    assert (nav.state, nav.target_index, nav._last_t_s, nav._prev_command) == before
+
+
+@settings(max_examples=200)
+@given(
+    st.lists(st.tuples(FINITE, FINITE), min_size=2, max_size=8),
+    st.lists(st.booleans(), min_size=7, max_size=7),
+    st.floats(0.0, math.pi),
+    st.floats(0.05, 10.0),
+)
+def test_line_pass_speeds_finite_and_within_cruise(
+    points: list[tuple[float, float]], stop_at: list[bool], pivot: float, lookahead: float
+) -> None:
+    from helixd.control import line
+
+    speeds, stops = line.waypoint_speed_limits(
+        points, stop_at[: len(points) - 1], 0.6, pivot, lookahead, 0.3, 1.0
+    )
+    assert stops[-1] and speeds[-1] == 0.0
+    assert all(math.isfinite(v) and 0.0 <= v <= 0.6 for v in speeds)
+    for j in range(len(speeds)):
+        v = line.profile_speed_mps(1.0, j, points, speeds, 0.3, [0.5] * len(speeds))
+        assert math.isfinite(v) and v >= 0.0
