@@ -60,7 +60,9 @@ def test_frame_is_recovered_from_the_recorded_pose(
     frame = MissionFrame.start_at(NedPose(on, oe, oyaw))
     ned = [frame.to_ned(x, y) for x, y in pts]
     yaw_ned = [0.3 * i for i in range(len(pts))]
-    yaw = [frame.to_mission(NedPose(n, e, yn)).yaw_rad for (n, e), yn in zip(ned, yaw_ned)]
+    yaw = [
+        frame.to_mission(NedPose(n, e, yn)).yaw_rad for (n, e), yn in zip(ned, yaw_ned, strict=True)
+    ]
     got = nm.frame_from_flight(
         [n for n, _ in ned], [e for _, e in ned], yaw_ned,
         [x for x, _ in pts], [y for _, y in pts], yaw,
