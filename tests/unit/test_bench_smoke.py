@@ -298,3 +298,27 @@ def test_fake_autopilot_plant_follows_overrides() -> None:
 def test_square_laps() -> None:
     pts = loop.square_laps(20.0, 2)
     assert len(pts) == 8 and pts[3] == (0.0, 0.0) and pts[4] == (20.0, 0.0)
+
+
+def test_control_loop_figures_and_results_section(tmp_path: Path) -> None:
+    steps = [loop.Step(100 + 20 * i, 1.0 + 0.02 * i + 1e-4, 0, 0, 1.0 + 0.02 * i + 5e-4)
+             for i in range(50)]  # fmt: skip
+    d = loop.DaemonRecord(
+        steps=steps, window=(1.0, 2.0), cpu_s=0.04, granted_hz={}, preflight=[],
+        control_rate_max_hz=50.0, fault=None, waypoints_reached=0, rx_messages=0,
+        loop_ended_early=False,
+    )  # fmt: skip
+    a = loop.AutopilotRecord(
+        pose_sends=[(100 + 20 * i, 1.0 + 0.02 * i) for i in range(51)], cpu_s=0.1, wall_s=1.0
+    )
+    fig = loop.rate_figures(d, a, 50.0)
+    assert fig["latency_ms"]["p99"] == pytest.approx(0.5)
+    assert fig["cpu_percent"] == pytest.approx(4.0)
+    assert fig["poses_sent"] == 50 and fig["control_steps"] == 50  # the 51st is past t1
+    assert fig["jitter_ms"]["p99"] == pytest.approx(0.0, abs=1e-9)
+    section = loop.results_section({loop.rate_key(50.0): fig, "20": {**fig, "cpu_percent": 2}}, 5)
+    assert section["latency_ms"]["p99"] == {"50": pytest.approx(0.5), "20": pytest.approx(0.5)}
+    assert section["cpu_percent"] == {"50": pytest.approx(4.0), "20": 2}
+    res.write_section("control_loop", section, tmp_path)
+    md = (tmp_path / "latest.md").read_text(encoding="utf-8")
+    assert "| 50 Hz | 0.50 | 0.50 | 0.50 | 0.00 | 4.00 | 0 |" in md
