@@ -125,7 +125,9 @@ def test_plot_command(tmp_path: Path) -> None:
     result = runner.invoke(app, ["plot", str(run_dir), "--out", str(out_dir)])
     assert result.exit_code == 0, result.output
     listed = [Path(line) for line in result.stdout.splitlines() if line.endswith(".png")]
-    assert len(listed) == len(PANEL_FILES) + 1 and all(p.parent == out_dir and p.is_file() for p in listed)
+    assert len(listed) == len(PANEL_FILES) + 1 and all(
+        p.parent == out_dir and p.is_file() for p in listed
+    )
     empty = tmp_path / "empty"
     empty.mkdir()
     result = runner.invoke(app, ["plot", str(empty)])
