@@ -750,6 +750,9 @@ def main(
     if not roll_anywhere and any(t in NO_ROLL_TERRAINS for t in terrains):
         notes.append("ROLL flown on hard/grass only (mud: 30 % roll efficiency and digging)")
     todo = [(c, seed + i) for i in range(runs) for c in combos]
+    if not todo:
+        typer.echo("nothing to run (every selected guidance was refused); no results written")
+        raise typer.Exit(2)
     typer.echo(
         f"navigation benchmark: {len(combos)} cell(s) x {runs} seed(s) = {len(todo)} runs, "
         f"noise {noise}, speed-up {speedup:g}, {jobs} worker(s), daemon default guidance "
