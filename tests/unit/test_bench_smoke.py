@@ -162,6 +162,33 @@ def _run(
     )  # fmt: skip
 
 
+def test_true_pose_sampler_keeps_one_sample_per_period() -> None:
+    from types import SimpleNamespace
+
+    snaps = [
+        SimpleNamespace(time_boot_ms=ms, silent=silent, north_m=ms / 10, east_m=-ms / 10)
+        for ms, silent in [(0, False), (5, False), (19, False), (20, True), (21, False),
+                           (40, False), (41, False), (60, False)]
+    ]  # fmt: skip
+    fed = iter(snaps)
+
+    def wait_for(predicate: object, timeout_s: float) -> object:
+        assert callable(predicate) and timeout_s > 0
+        for snap in fed:
+            if predicate(snap):
+                return snap
+        sampler._stop.set()  # the simulator has nothing more: end like the benchmark does
+        raise TimeoutError
+
+    sampler = nav.TruePoseSampler(wait_for, period_s=0.02)
+    sampler.__enter__()
+    sampler._thread.join(timeout=5.0)  # ends once the fake simulator ran out of snapshots
+    assert not sampler._thread.is_alive()
+    sampler.__exit__(None, None, None)
+    # a silent (rebooting) snapshot is not a pose; then one sample per 20 ms
+    assert sampler.samples == [(0.0, 0.0, -0.0), (0.021, 2.1, -2.1), (0.041, 4.1, -4.1)]
+
+
 def test_failed_run_is_reported_with_its_fault() -> None:
     r = _run("square", "omni", "thesis", 3, 0.5, 40.0, completed=False)
     assert not r.completed and r.reached == 1 and r.est_xt_rms_m == 0.9

@@ -112,3 +112,17 @@ def test_clip_and_ratio() -> None:
     assert nm.ratio(None, 4.0) is None
     assert nm.ratio(1.0, 0.0) is None
     assert nm.ratio(math.nan, 1.0) is None
+
+
+point = st.tuples(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3))
+
+
+@given(st.lists(point, min_size=1, max_size=8), point, st.floats(0.0, 1.0))
+def test_polyline_distance_is_bounded_and_zero_on_the_path(
+    poly: list[tuple[float, float]], p: tuple[float, float], frac: float
+) -> None:
+    d = nm.polyline_distance_m(poly, p)
+    assert 0.0 <= d <= min(math.hypot(p[0] - q[0], p[1] - q[1]) for q in poly) + 1e-9
+    a, b = poly[0], poly[min(1, len(poly) - 1)]
+    on = (a[0] + frac * (b[0] - a[0]), a[1] + frac * (b[1] - a[1]))
+    assert nm.polyline_distance_m(poly, on) <= 1e-6 * (1.0 + math.hypot(*on))
