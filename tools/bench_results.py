@@ -46,7 +46,9 @@ def fmt(value: object, spec: str = ".2f") -> str:
         return "-"
     if isinstance(value, bool):
         return "yes" if value else "no"
-    if isinstance(value, int | float):
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
         return format(value, spec)
     return str(value)
 

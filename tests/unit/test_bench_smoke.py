@@ -275,6 +275,7 @@ def test_results_merge_and_jsonable() -> None:
         "2": {"y": None},
     }
     assert res.fmt(None) == "-" and res.fmt(True) == "yes" and res.fmt(1.234) == "1.23"
+    assert res.fmt(6) == "6"
 
 
 # -- bench_control_loop -----------------------------------------------------------------------
