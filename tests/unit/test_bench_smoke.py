@@ -227,6 +227,7 @@ def test_aggregate_and_ratio_to_the_baseline() -> None:
     assert set(ratios) == {("square", "roll"), ("circle", "omni"), ("hexagon", "scroll")}
     sq_r = ratios[("square", "roll")]
     assert sq_r["rms_ratio"] == pytest.approx(0.4)
+    assert sq_r["est_rms_ratio"] == pytest.approx(1.0)  # every synthetic summary says 0.9
     assert sq_r["time_ratio"] == pytest.approx(1.08)
     assert sq_r["worst_time_ratio"] == pytest.approx(1.12)
     assert sq_r["verdict"] == "misses (time)"
@@ -261,6 +262,10 @@ def test_results_written_to_json_and_markdown(tmp_path: Path) -> None:
     assert "## Navigation" in md and "## Control loop" in md
     assert "| square | roll | hard | thesis | 1/1 | 0.40 / 0.40 |" in md
     assert "a note" in md and "FAILED square/roll/hard/line, seed 2" in md
+    assert (
+        "| square | roll | hard | line / thesis | 0.25 | 1.00 | 1.00 | 1.00 | misses (line failed"
+        in md
+    )
 
 
 def test_results_merge_and_jsonable() -> None:
