@@ -33,9 +33,17 @@ unit: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/helixd run --sim --sim-speedup 4 --mission config/missions/square.yaml --config config/helixd.yaml --run-dir runs
 
+# Both benchmarks write into bench/results/latest.json and latest.md (sections navigation and
+# control_loop); the second runs even if the first had a failed run, the exit status reports both.
+# e.g. make bench NAV_ARGS="--only square --runs 1" LOOP_ARGS="--seconds 10"
+NAV_ARGS  ?=
+LOOP_ARGS ?= --rate-hz 25 --rate-hz 50
 bench: $(STAMP)
-	$(BIN)/python tools/bench_navigation.py
-	$(BIN)/python tools/bench_control_loop.py
+	@status=0; \
+	$(BIN)/python tools/bench_navigation.py $(NAV_ARGS) || status=1; \
+	$(BIN)/python tools/bench_control_loop.py $(LOOP_ARGS) || status=1; \
+	echo "results: bench/results/latest.json, bench/results/latest.md"; \
+	exit $$status
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache runs

@@ -2,7 +2,9 @@
 
 (a) trajectory in the mission frame against the planned path, waypoints numbered with their
 tolerance circles; (b) x, y and yaw against time; (c) commanded and measured velocities;
-(d) distance, cross-track and heading errors; (e) scroll commands in % of max RPM.
+(d) distance, cross-track and heading errors; (e) scroll commands in % of max RPM; (f) the
+cross-track error against the distance travelled along the path (where on the path the rover
+strays, independent of speed).
 Waypoint arrivals are dotted vertical markers (labelled sparsely, so a 25-point circle stays
 readable), a fault is marked in red, intervals with the link or the pose lost are shaded.
 Legends sit outside the data. One PNG per panel plus ``overview.png``.
@@ -44,7 +46,7 @@ from helixd.recorder.rundir import (
     MISSION_FILE,
     SUMMARY_FILE,
 )
-from helixd.recorder.summary import RunSummary
+from helixd.recorder.summary import PATH_MIN_STEP_M, RunSummary
 
 log = structlog.get_logger(__name__)
 
@@ -60,6 +62,7 @@ PANEL_FILES = {
     "c": "c_velocity.png",
     "d": "d_errors.png",
     "e": "e_scrolls.png",
+    "f": "f_cross_track.png",
 }
 OVERVIEW_FILE = "overview.png"
 FAULT_COLOR = "red"
@@ -279,6 +282,33 @@ def _clamp_pct(run_dir: Path) -> float | None:
 # Shared decorations
 
 
+def distance_along_m(
+    x_m: Array, y_m: Array, fresh: npt.NDArray[np.bool_] | None = None,
+    min_step_m: float = PATH_MIN_STEP_M,
+) -> Array:  # fmt: skip
+    """Distance travelled along the recorded path at each row (m), counted as ``summary.json``
+    counts ``path_length_m``: only steps of at least ``min_step_m`` from the last counted
+    point add up, so pose noise while standing still does not. Rows whose pose is not finite
+    (or not ``fresh``) are NaN; the distance carries on from the last good pose.
+    """
+    out = np.full(x_m.shape, np.nan)
+    anchor: tuple[float, float] | None = None
+    path = 0.0
+    for i in range(x_m.size):
+        x, y = float(x_m[i]), float(y_m[i])
+        if not (math.isfinite(x) and math.isfinite(y)) or (fresh is not None and not fresh[i]):
+            continue
+        if anchor is None:
+            anchor = (x, y)
+        else:
+            step = math.hypot(x - anchor[0], y - anchor[1])
+            if step >= min_step_m:
+                path += step
+                anchor = (x, y)
+        out[i] = path
+    return out
+
+
 def _unwrap_deg(yaw_rad: Array) -> Array:
     out = np.full(yaw_rad.shape, np.nan)
     ok = np.isfinite(yaw_rad)
@@ -474,6 +504,52 @@ def draw_scrolls(ax: Axes, data: RunData, *, overview: bool = False) -> None:
     _finish_time_axes(ax, None, data, overview=overview)
 
 
+def draw_cross_track_along(ax: Axes, data: RunData) -> None:
+    """(f) cross-track error (m, + left of the leg) against the distance travelled (m)."""
+    fresh = data.cols.get("pose_fresh")
+    along = distance_along_m(
+        data.col("x_m"),
+        data.col("y_m"),
+        None if fresh is None else np.asarray(fresh, dtype=bool),
+    )
+    xt = data.col("cross_track_m")
+    ok = np.isfinite(along) & np.isfinite(xt)
+    label = "cross-track (m)"
+    if ok.any():
+        rms = float(np.sqrt(np.mean(xt[ok] ** 2)))
+        label = f"cross-track (m): rms {rms:.2f}, max |{float(np.max(np.abs(xt[ok]))):.2f}|"
+    ax.plot(along[ok], xt[ok], color="tab:orange", linewidth=1.3, label=label)
+    ax.axhline(0.0, color="0.3", linewidth=0.8)
+
+    def along_at(t_s: float) -> float | None:
+        """Distance at the last good row at or before ``t_s``."""
+        k = int(np.searchsorted(data.t_s, t_s, side="right")) - 1
+        good = np.flatnonzero(np.isfinite(along[: max(k, 0) + 1]))
+        return float(along[good[-1]]) if good.size else None
+
+    marks = [(index, d) for index, t in data.arrivals if (d := along_at(t)) is not None]
+    span = float(np.nanmax(along)) if ok.any() else 0.0
+    show = sparse_label_mask([d for _, d in marks], span, LABEL_MIN_GAP_PANEL)
+    for k, (index, d) in enumerate(marks):
+        ax.axvline(d, **ARRIVAL_STYLE, label="waypoint reached" if k == 0 else None)
+        if show[k]:
+            ax.text(
+                d,
+                0.99,
+                f" WP{index}",
+                transform=ax.get_xaxis_transform(),
+                fontsize=8,
+                va="top",
+                color="0.35",
+            )
+    if data.fault_t_s is not None and (d_fault := along_at(data.fault_t_s)) is not None:
+        ax.axvline(d_fault, color=FAULT_COLOR, linewidth=2.0, label=data.fault_label())
+    ax.set_xlabel("distance travelled along the path (m)")
+    ax.set_ylabel("cross-track error, + left of the leg (m)")
+    ax.grid(True, alpha=0.3)
+    _legend(ax)
+
+
 def _finish_time_axes(
     top: Axes, bottom: Axes | None, data: RunData, *, twin: bool = False, overview: bool = False
 ) -> None:
@@ -518,9 +594,12 @@ def _panel_figure(data: RunData, key: str) -> Figure:
         "c": "(c) velocity with time",
         "d": "(d) errors with time",
         "e": "(e) scroll commands (wheel power)",
+        "f": "(f) cross-track error along the path",
     }
     if key == "a":
         draw_trajectory(fig.add_subplot(), data)
+    elif key == "f":
+        draw_cross_track_along(fig.add_subplot(), data)
     elif key == "e":
         draw_scrolls(fig.add_subplot(), data)
     else:
@@ -617,6 +696,7 @@ __all__ = [
     "PlotError",
     "RunData",
     "autopilot_axis",
+    "distance_along_m",
     "interp_linear",
     "load_run",
     "render_run",

@@ -703,9 +703,74 @@ def report_lines(d: DaemonRecord, a: AutopilotRecord, rate_hz: float) -> list[st
     return lines
 
 
+def _ms(s: Stats | None) -> dict[str, float | int | None]:
+    if s is None:
+        return {"n": 0, "p50": None, "p99": None, "max": None}
+    return {"n": s.n, "p50": s.p50 * 1e3, "p99": s.p99 * 1e3, "max": s.max * 1e3}
+
+
+def rate_figures(d: DaemonRecord, a: AutopilotRecord, rate_hz: float) -> dict[str, Any]:
+    """The figures :func:`report_lines` prints, as JSON-ready numbers (ms, %)."""
+    t0, t1 = d.window
+    wall = t1 - t0
+    steps = [s for s in d.steps if t0 <= s.out_s < t1]
+    sends = [(tb, t) for tb, t in a.pose_sends if t0 <= t < t1]
+    lat = match_latencies(dict(a.pose_sends), steps)
+    jitter = stats(interval_deviations([s.out_s for s in steps], 1.0 / rate_hz))
+    return {
+        "rate_hz": rate_hz,
+        "window_s": wall,
+        "latency_ms": _ms(stats(lat.total_s)),
+        "latency_in_daemon_ms": _ms(stats(lat.inside_s)),
+        "jitter_ms": _ms(jitter),
+        "cpu_percent": 100.0 * d.cpu_s / wall if wall > 0 else None,
+        "autopilot_cpu_percent": 100.0 * a.cpu_s / a.wall_s if a.wall_s > 0 else None,
+        "poses_sent": len(sends),
+        "control_steps": len(steps),
+        "poses_not_stepped": len(sends) - len(steps),
+        "control_rate_max_hz": d.control_rate_max_hz,
+        "fault": d.fault,
+        "loop_ended_early": d.loop_ended_early,
+    }
+
+
+def results_section(per_rate: dict[str, dict[str, Any]], seconds: float) -> dict[str, Any]:
+    """The ``control_loop`` section of bench/results/latest.json: the headline figures keyed
+    by what they are, then by rate (``latency_ms.p99["50"]``), and every figure per rate."""
+
+    def by_rate(*path: str) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for rate, fig in per_rate.items():
+            value: Any = fig
+            for key in path:
+                value = value.get(key) if isinstance(value, dict) else None
+            out[rate] = value
+        return out
+
+    return {
+        "latency_ms": {q: by_rate("latency_ms", q) for q in ("p50", "p99", "max")},
+        "jitter_ms": {"p99": by_rate("jitter_ms", "p99")},
+        "cpu_percent": by_rate("cpu_percent"),
+        "per_rate": per_rate,
+        "targets": {
+            "latency_p99_ms": TARGET_LATENCY_P99_MS,
+            "jitter_p99_ms": TARGET_JITTER_P99_MS,
+            "cpu_percent": TARGET_CPU_PCT,
+        },
+        "meta": {
+            "window_s": seconds,
+            "finished_utc": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        },
+    }
+
+
+def rate_key(rate_hz: float) -> str:
+    return f"{rate_hz:g}"
+
+
 def run_benchmark(
     rate_hz: float, seconds: float, warmup_s: float, control_rate_max_hz: float | None
-) -> list[str]:
+) -> tuple[list[str], dict[str, Any]]:
     from helixd.logging_setup import configure_logging
 
     ctx = multiprocessing.get_context("spawn")
@@ -733,12 +798,14 @@ def run_benchmark(
             a: AutopilotRecord = parent.recv()
             for proc in procs:
                 proc.join(timeout=RECORD_TIMEOUT_S)
-    return report_lines(d, a, rate_hz)
+    return report_lines(d, a, rate_hz), rate_figures(d, a, rate_hz)
 
 
 def main(
     seconds: float = typer.Option(30.0, min=1.0, max=3600.0, help="measurement window (s)"),
-    rate_hz: float = typer.Option(50.0, min=5.0, max=100.0, help="pose rate = control rate (Hz)"),
+    rate_hz: list[float] = typer.Option(  # noqa: B008 - typer's idiom
+        [50.0], min=5.0, max=100.0, help="pose rate = control rate (Hz); repeatable"
+    ),
     warmup_s: float = typer.Option(3.0, min=0.0, max=60.0, help="flying before the window (s)"),
     control_rate_max_hz: float | None = typer.Option(
         None, help="override control.control_rate_max_hz (default: the daemon's default)"
@@ -746,26 +813,51 @@ def main(
     profile: int = typer.Option(
         0, min=0, help="run under cProfile and print the top N functions (inflates the figures)"
     ),
+    results_dir: Path | None = typer.Option(  # noqa: B008 - typer's idiom
+        None,
+        help="where latest.json / latest.md are written (default bench/results; not written "
+        "with --profile)",
+    ),
 ) -> None:
     """Measure pose-in → command-out latency, loop jitter and CPU of helixd's control loop."""
-    if profile:
-        import cProfile
-        import io
-        import pstats
+    per_rate: dict[str, dict[str, Any]] = {}
+    for i, rate in enumerate(rate_hz):
+        if i:
+            typer.echo("")
+        if profile:
+            import cProfile
+            import io
+            import pstats
 
-        prof = cProfile.Profile()
-        lines = prof.runcall(run_benchmark, rate_hz, seconds, warmup_s, control_rate_max_hz)
-        buf = io.StringIO()
-        pstats.Stats(prof, stream=buf).sort_stats("tottime").print_stats(profile)
-        lines += [
-            "",
-            "cProfile (daemon process, whole run incl. setup), by tottime:",
-            buf.getvalue(),
-        ]
-    else:
-        lines = run_benchmark(rate_hz, seconds, warmup_s, control_rate_max_hz)
-    for line in lines:
-        typer.echo(line)
+            prof = cProfile.Profile()
+            lines, figures = prof.runcall(
+                run_benchmark, rate, seconds, warmup_s, control_rate_max_hz
+            )
+            buf = io.StringIO()
+            pstats.Stats(prof, stream=buf).sort_stats("tottime").print_stats(profile)
+            lines += [
+                "",
+                "cProfile (daemon process, whole run incl. setup), by tottime:",
+                buf.getvalue(),
+            ]
+        else:
+            lines, figures = run_benchmark(rate, seconds, warmup_s, control_rate_max_hz)
+        per_rate[rate_key(rate)] = figures
+        for line in lines:
+            typer.echo(line)
+    if profile:
+        return
+    import sys
+
+    tools_dir = str(Path(__file__).resolve().parent)
+    if tools_dir not in sys.path:
+        sys.path.insert(0, tools_dir)
+    from bench_results import RESULTS_DIR, write_section
+
+    path = write_section(
+        "control_loop", results_section(per_rate, seconds), results_dir or RESULTS_DIR
+    )
+    typer.echo(f"written to {path} and latest.md")
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 import math
 import sys
 from pathlib import Path
@@ -10,6 +11,8 @@ from types import ModuleType
 
 import pytest
 import yaml
+
+from helixd.frames import MissionFrame, NedPose
 
 TOOLS = Path(__file__).resolve().parents[2] / "tools"
 
@@ -25,36 +28,62 @@ def load_tool(name: str) -> ModuleType:
 
 nav = load_tool("bench_navigation")
 loop = load_tool("bench_control_loop")
+res = load_tool("bench_results")
 
 
 # -- bench_navigation -------------------------------------------------------------------------
 
 
-def test_all_nine_combinations_with_terrain_per_mode() -> None:
-    combos = nav.select_combos([], nav.parse_terrains([]))
-    assert len(combos) == 9
-    assert {(c.mission, c.mode) for c in combos} == {
-        (m, mode) for m in ("square", "hexagon", "circle") for mode in ("roll", "scroll", "omni")
-    }
-    assert {c.mode: c.terrain for c in combos} == {"roll": "hard", "scroll": "mud", "omni": "mud"}
+def test_default_matrix_roll_on_hard_only() -> None:
+    combos = nav.select_combos(
+        [], nav.parse_terrains([]), nav.parse_guidances([]), roll_anywhere=False
+    )
+    cells = {c.cell for c in combos}
+    # 3 missions x (roll/hard, scroll/hard, scroll/mud, omni/hard, omni/mud)
+    assert len(cells) == 15 and len(combos) == 30
+    assert not any(c.mode == "roll" and c.terrain == "mud" for c in combos)
+    assert {c.guidance for c in combos} == {"line", "thesis"}
+    anywhere = nav.select_combos([], ("hard", "mud"), ("thesis",), roll_anywhere=True)
+    assert len(anywhere) == 18
 
 
-def test_only_filters_and_terrain_override() -> None:
-    terrains = nav.parse_terrains(["omni=grass"])
-    picked = nav.select_combos(["square/roll", "omni", "square"], terrains)
-    labels = [c.label for c in picked]
-    assert labels == [
-        "square/roll",
-        "square/omni",
-        "hexagon/omni",
-        "circle/omni",
-        "square/scroll",
+def test_only_filters_terrain_and_guidance_options() -> None:
+    picked = nav.select_combos(["square/roll", "omni/mud", "circle/scroll/hard"], ("hard", "mud"))
+    assert [c.label for c in picked] == [
+        "square/roll/hard/thesis",
+        "square/omni/mud/thesis",
+        "hexagon/omni/mud/thesis",
+        "circle/scroll/hard/thesis",
+        "circle/omni/mud/thesis",
     ]
-    assert all(c.terrain == "grass" for c in picked if c.mode == "omni")
+    assert [c.label for c in nav.select_combos(["mud", "hexagon/mud"], ("mud",))] == [
+        "square/scroll/mud/thesis",
+        "square/omni/mud/thesis",
+        "hexagon/scroll/mud/thesis",
+        "hexagon/omni/mud/thesis",
+        "circle/scroll/mud/thesis",
+        "circle/omni/mud/thesis",
+    ]
     with pytest.raises(ValueError, match="--only"):
-        nav.select_combos(["triangle"], terrains)
-    with pytest.raises(ValueError, match="MODE=TERRAIN"):
-        nav.parse_terrains(["omni=ice"])
+        nav.select_combos(["triangle"], ("hard",))
+    with pytest.raises(ValueError, match="--only"):
+        nav.select_combos(["square/roll"], ("mud",))
+    with pytest.raises(ValueError, match="--terrain"):
+        nav.parse_terrains(["ice"])
+    with pytest.raises(ValueError, match="--guidance"):
+        nav.parse_guidances(["pure-pursuit"])
+    assert nav.parse_guidances(["thesis", "thesis"]) == ("thesis",)
+
+
+def test_guidance_goes_to_the_daemon_only_when_not_its_default() -> None:
+    assert "control" not in nav.daemon_config("thesis", "thesis")
+    assert nav.daemon_config("line", "thesis")["control"] == {"guidance": "line"}
+    assert nav.daemon_config("thesis", "line")["control"] == {"guidance": "thesis"}
+    default = nav.default_guidance()
+    assert nav.guidance_refusal(default, default) is None
+    # a law no daemon knows is refused with the config loader's own words
+    why = nav.guidance_refusal("zigzag", default)
+    assert why is not None and "control.guidance" in why
 
 
 def test_mission_mode_is_replaced_and_shipped_missions_load() -> None:
@@ -72,32 +101,186 @@ def test_autopilot_duration_from_flight_csv() -> None:
     assert nav.autopilot_duration_s("# c\nt_boot_s,t_mono_s\n1.0,2.0\n") is None
 
 
-def test_failed_run_is_reported_with_its_fault() -> None:
-    combo = nav.Combo("square", "omni", "mud")
-    summary = {
-        "completed": False,
-        "fault": "stall: commanded 0.4 m/s, measured 0.0 m/s for 4 s",
-        "waypoints_reached": 1,
-        "waypoints_total": 4,
-        "cross_track_rms_m": 0.5,
-        "cross_track_max_m": 1.5,
-        "final_error_m": None,
+def _columns(frame: MissionFrame, xy: list[tuple[float, float]], t0: float = 10.0) -> dict:
+    """flight.csv columns for a rover at mission-frame points, facing +x, 0.5 s apart."""
+    ned = [frame.to_ned(x, y) for x, y in xy]
+    yaw_ned = frame.yaw_to_ned(0.0)
+    n = len(xy)
+    return {
+        "t_boot_s": [t0 + 0.5 * i for i in range(n)],
+        "north_m": [p[0] for p in ned],
+        "east_m": [p[1] for p in ned],
+        "yaw_ned_rad": [yaw_ned] * n,
+        "x_m": [p[0] for p in xy],
+        "y_m": [p[1] for p in xy],
+        "yaw_rad": [0.0] * n,
+        "scroll1": [0.5] * n,
+        "scroll2": [-0.5] * n,
+        "scroll3": [0.5] * n,
+        "scroll4": [-0.5] * n,
     }
-    r = nav.result_from_summary(combo, 3, summary, 40.0, 12.0, 4, "")
-    assert not r.completed and r.reached == 1
+
+
+def test_true_figures_measure_the_true_path_against_the_planned_legs() -> None:
+    frame = MissionFrame.start_at(NedPose(100.0, -50.0, 0.7))
+    # the daemon believes it drove exactly along the first leg (x axis) to (10, 0)
+    est = [(float(i), 0.0) for i in range(11)]
+    cols = _columns(frame, est)
+    # the truth was 0.3 m to the left of the leg (+y) the whole way, and 0.5 m short at the end
+    truth_xy = [(float(i), 0.3) for i in range(10)] + [(9.5, 0.3)]
+    samples = [(10.0 + 0.5 * i, *frame.to_ned(x, y)) for i, (x, y) in enumerate(truth_xy)]
+    samples = [(0.0, 0.0, 0.0), *samples, (99.0, 0.0, 0.0)]  # outside the run: ignored
+    fig = nav.true_figures(cols, [(10.0, 0.0)], samples)
+    assert fig.samples == 11
+    assert fig.xt_rms_m == pytest.approx(0.3, abs=1e-6)
+    assert fig.xt_max_m == pytest.approx(0.3, abs=1e-6)
+    assert fig.final_error_m == pytest.approx(math.hypot(0.5, 0.3), abs=1e-6)
+    assert fig.time_s == pytest.approx(5.0)
+    assert fig.effort == pytest.approx(2.0 * 5.0)  # Σ|f| = 2 for 5 s
+    # no flight rows: nothing measured, no exception
+    assert nav.true_figures({"t_boot_s": []}, [(1.0, 0.0)], samples) == nav.TrueFigures()
+
+
+def _run(
+    mission: str,
+    mode: str,
+    guidance: str,
+    seed: int,
+    rms: float | None,
+    t: float | None,
+    completed: bool = True,
+) -> object:
+    combo = nav.Combo(mission, mode, "hard", guidance)
+    summary = {
+        "completed": completed, "fault": None if completed else "stall: x",
+        "waypoints_reached": 4 if completed else 1, "waypoints_total": 4,
+        "cross_track_rms_m": 0.9, "cross_track_max_m": 1.5, "final_error_m": 0.2,
+    }  # fmt: skip
+    fig = nav.TrueFigures(rms, None if rms is None else 2 * rms, 0.1, t, 30.0, 100)
+    return nav.result_from_summary(
+        combo, seed, summary, fig, 20.0, 0 if completed else 4, ""
+    )  # fmt: skip
+
+
+def test_true_pose_sampler_keeps_one_sample_per_period() -> None:
+    from types import SimpleNamespace
+
+    snaps = [
+        SimpleNamespace(time_boot_ms=ms, silent=silent, north_m=ms / 10, east_m=-ms / 10)
+        for ms, silent in [(0, False), (5, False), (19, False), (20, True), (21, False),
+                           (40, False), (41, False), (60, False)]
+    ]  # fmt: skip
+    fed = iter(snaps)
+
+    def wait_for(predicate: object, timeout_s: float) -> object:
+        assert callable(predicate) and timeout_s > 0
+        for snap in fed:
+            if predicate(snap):
+                return snap
+        sampler._stop.set()  # the simulator has nothing more: end like the benchmark does
+        raise TimeoutError
+
+    sampler = nav.TruePoseSampler(wait_for, period_s=0.02)
+    sampler.__enter__()
+    sampler._thread.join(timeout=5.0)  # ends once the fake simulator ran out of snapshots
+    assert not sampler._thread.is_alive()
+    sampler.__exit__(None, None, None)
+    # a silent (rebooting) snapshot is not a pose; then one sample per 20 ms
+    assert sampler.samples == [(0.0, 0.0, -0.0), (0.021, 2.1, -2.1), (0.041, 4.1, -4.1)]
+
+
+def test_failed_run_is_reported_with_its_fault() -> None:
+    r = _run("square", "omni", "thesis", 3, 0.5, 40.0, completed=False)
+    assert not r.completed and r.reached == 1 and r.est_xt_rms_m == 0.9
     row = nav.run_row(r)
-    assert row[4] == "FAILED" and row[5] == "1/4" and row[8] == "-" and row[-1] == "4"
+    assert row[5] == "FAILED" and row[6] == "1/4" and row[-1] == "4"
     (line,) = nav.failure_lines([r])
-    assert "square/omni" in line and "stall" in line and "seed 3" in line
-    ok = nav.result_from_summary(
-        combo, 4, {**summary, "completed": True, "fault": None}, 1, 1, 0, ""
+    assert "square/omni/hard/thesis" in line and "stall" in line and "seed 3" in line
+    missing = nav.result_from_summary(
+        nav.Combo("square", "omni", "mud", "line"), 5, None, nav.TrueFigures(), 3.0, 2,
+        "error: helixd.yaml: control.guidance: unknown key (got 'line')",
+    )  # fmt: skip
+    assert not missing.completed and missing.refused and "refused" in (missing.fault or "")
+    assert nav.run_row(missing)[5] == "REFUSED"
+
+
+def test_aggregate_and_ratio_to_the_baseline() -> None:
+    results = [
+        _run("square", "roll", "thesis", 1, 0.4, 100.0),
+        _run("square", "roll", "thesis", 2, 0.6, 100.0),
+        _run("square", "roll", "line", 1, 0.1, 104.0),
+        _run("square", "roll", "line", 2, 0.3, 112.0),  # 12 % slower than seed 2's baseline
+        _run("circle", "omni", "thesis", 1, 0.5, 50.0),
+        _run("circle", "omni", "line", 1, 0.3, 50.0),  # ratio 0.6
+        _run("hexagon", "scroll", "thesis", 1, 0.5, 50.0),
+        _run("hexagon", "scroll", "line", 1, 0.1, 40.0, completed=False),
+        _run("hexagon", "omni", "thesis", 1, 0.5, 50.0),  # no new run: no ratio
+    ]
+    cells = nav.aggregate(results)
+    sq = next(c for c in cells if c["mission"] == "square" and c["guidance"] == "thesis")
+    assert sq["completed"] == "2/2" and sq["seeds"] == [1, 2]
+    assert sq["xt_rms_m"]["mean"] == pytest.approx(0.5)
+    assert sq["xt_rms_m"]["worst"] == pytest.approx(0.6)
+    assert sq["effort"] == {"mean": 30.0, "worst": 30.0}
+    assert sq["est_xt_rms_m"]["mean"] == pytest.approx(0.9)
+    ratios = {(r["mission"], r["mode"]): r for r in nav.compare(results)}
+    assert set(ratios) == {("square", "roll"), ("circle", "omni"), ("hexagon", "scroll")}
+    sq_r = ratios[("square", "roll")]
+    assert sq_r["rms_ratio"] == pytest.approx(0.4)
+    assert sq_r["est_rms_ratio"] == pytest.approx(1.0)  # every synthetic summary says 0.9
+    assert sq_r["time_ratio"] == pytest.approx(1.08)
+    assert sq_r["worst_time_ratio"] == pytest.approx(1.12)
+    assert sq_r["verdict"] == "misses (time)"
+    assert ratios[("circle", "omni")]["verdict"] == "misses (RMS)"
+    assert ratios[("hexagon", "scroll")]["verdict"].startswith("misses (line failed")
+    rows = nav.ratio_rows(nav.compare(results))
+    table = nav.format_table(nav.RATIO_HEADERS, rows)
+    assert "1.12" in table and "misses (time)" in table
+    agg = nav.format_table(nav.AGG_HEADERS, nav.aggregate_rows(cells))
+    assert "0.50/0.60" in agg
+
+
+def test_results_written_to_json_and_markdown(tmp_path: Path) -> None:
+    results = [
+        _run("square", "roll", "thesis", 1, 0.4, 100.0),
+        _run("square", "roll", "line", 1, 0.1, 100.0),
+        _run("square", "roll", "line", 2, None, None, completed=False),
+    ]
+    section = nav.results_section(results, {"runs": 3}, ["a note"])
+    path = res.write_section("navigation", section, tmp_path)
+    loop_section = {"latency_ms": {"p99": {"50": 2.5}}, "cpu_percent": {"50": 4.0}}
+    res.write_section("control_loop", loop_section, tmp_path)
+    data = json.loads(path.read_text(encoding="utf-8"))
+    assert set(data) == {"navigation", "control_loop"}  # the second write kept the first
+    nav_out = data["navigation"]
+    assert nav_out["meta"] == {"runs": 3} and nav_out["notes"] == ["a note"]
+    assert len(nav_out["runs"]) == 3 and nav_out["runs"][0]["mission"] == "square"
+    assert nav_out["runs"][2]["xt_rms_m"] is None
+    assert nav_out["ratios"][0]["verdict"].startswith("misses (line failed")
+    assert data["control_loop"]["latency_ms"]["p99"] == {"50": 2.5}
+    md = (tmp_path / "latest.md").read_text(encoding="utf-8")
+    assert "## Navigation" in md and "## Control loop" in md
+    assert "| square | roll | hard | thesis | 1/1 | 0.40 / 0.40 |" in md
+    assert "a note" in md and "FAILED square/roll/hard/line, seed 2" in md
+    assert (
+        "| square | roll | hard | line / thesis | 0.25 | 1.00 | 1.00 | 1.00 | misses (line failed"
+        in md
     )
-    agg = nav.aggregate_rows([r, ok])
-    assert agg == [("square", "omni", "mud", "1/2", "0.50/0.50", "1.50/1.50", "-", "20.5/40.0")]
-    table = nav.format_table(nav.AGG_HEADERS, agg)
-    assert table.splitlines()[0].startswith("mission") and "1/2" in table
-    missing = nav.result_from_summary(combo, 5, None, None, 3.0, 3, "level=error boom")
-    assert not missing.completed and "boom" in (missing.fault or "")
+
+
+def test_results_merge_and_jsonable() -> None:
+    assert res.merge_section(None, "navigation", {"a": 1}) == {"navigation": {"a": 1}}
+    assert res.merge_section([1, 2], "control_loop", {}) == {"control_loop": {}}
+    merged = res.merge_section({"navigation": {"a": 1}, "control_loop": {"b": 2}}, "navigation", {})
+    assert merged == {"navigation": {}, "control_loop": {"b": 2}}
+    with pytest.raises(ValueError):
+        res.merge_section({}, "other", {})
+    assert res.jsonable({"x": (1.0, math.nan), 2: {"y": math.inf}}) == {
+        "x": [1.0, None],
+        "2": {"y": None},
+    }
+    assert res.fmt(None) == "-" and res.fmt(True) == "yes" and res.fmt(1.234) == "1.23"
+    assert res.fmt(6) == "6"
 
 
 # -- bench_control_loop -----------------------------------------------------------------------
@@ -148,3 +331,27 @@ def test_fake_autopilot_plant_follows_overrides() -> None:
 def test_square_laps() -> None:
     pts = loop.square_laps(20.0, 2)
     assert len(pts) == 8 and pts[3] == (0.0, 0.0) and pts[4] == (20.0, 0.0)
+
+
+def test_control_loop_figures_and_results_section(tmp_path: Path) -> None:
+    steps = [loop.Step(100 + 20 * i, 1.0 + 0.02 * i + 1e-4, 0, 0, 1.0 + 0.02 * i + 5e-4)
+             for i in range(50)]  # fmt: skip
+    d = loop.DaemonRecord(
+        steps=steps, window=(1.0, 2.0), cpu_s=0.04, granted_hz={}, preflight=[],
+        control_rate_max_hz=50.0, fault=None, waypoints_reached=0, rx_messages=0,
+        loop_ended_early=False,
+    )  # fmt: skip
+    a = loop.AutopilotRecord(
+        pose_sends=[(100 + 20 * i, 1.0 + 0.02 * i) for i in range(51)], cpu_s=0.1, wall_s=1.0
+    )
+    fig = loop.rate_figures(d, a, 50.0)
+    assert fig["latency_ms"]["p99"] == pytest.approx(0.5)
+    assert fig["cpu_percent"] == pytest.approx(4.0)
+    assert fig["poses_sent"] == 50 and fig["control_steps"] == 50  # the 51st is past t1
+    assert fig["jitter_ms"]["p99"] == pytest.approx(0.0, abs=1e-9)
+    section = loop.results_section({loop.rate_key(50.0): fig, "20": {**fig, "cpu_percent": 2}}, 5)
+    assert section["latency_ms"]["p99"] == {"50": pytest.approx(0.5), "20": pytest.approx(0.5)}
+    assert section["cpu_percent"] == {"50": pytest.approx(4.0), "20": 2}
+    res.write_section("control_loop", section, tmp_path)
+    md = (tmp_path / "latest.md").read_text(encoding="utf-8")
+    assert "| 50 Hz | 0.50 | 0.50 | 0.50 | 0.00 | 4.00 | 0 |" in md

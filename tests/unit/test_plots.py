@@ -23,6 +23,8 @@ from helixd.plots import (
     PlotError,
     _panel_figure,
     autopilot_axis,
+    distance_along_m,
+    draw_cross_track_along,
     load_run,
     render_run,
     sparse_label_mask,
@@ -103,7 +105,7 @@ def test_run_without_mission_file_still_plots(tmp_path: Path) -> None:
     (run_dir / "mission.yaml").unlink()
     data = load_run(run_dir)
     assert data.waypoints == [] and "planned path unavailable" in data.notes
-    assert len(render_run(run_dir)) == 6
+    assert len(render_run(run_dir)) == len(PANEL_FILES) + 1
 
 
 def test_nothing_to_plot(tmp_path: Path) -> None:
@@ -123,7 +125,9 @@ def test_plot_command(tmp_path: Path) -> None:
     result = runner.invoke(app, ["plot", str(run_dir), "--out", str(out_dir)])
     assert result.exit_code == 0, result.output
     listed = [Path(line) for line in result.stdout.splitlines() if line.endswith(".png")]
-    assert len(listed) == 6 and all(p.parent == out_dir and p.is_file() for p in listed)
+    assert len(listed) == len(PANEL_FILES) + 1 and all(
+        p.parent == out_dir and p.is_file() for p in listed
+    )
     empty = tmp_path / "empty"
     empty.mkdir()
     result = runner.invoke(app, ["plot", str(empty)])
@@ -193,3 +197,46 @@ def test_many_waypoint_labels_do_not_overlap_in_the_rendered_figure(tmp_path: Pa
     legend = ax.get_legend()
     assert legend is not None
     assert legend.get_window_extent().x0 >= ax.get_window_extent().x1
+
+
+def test_distance_along_the_path_ignores_jitter_and_bad_poses() -> None:
+    x = np.array([0.0, 0.05, 0.0, 1.0, np.nan, 2.0, 2.0, 5.0])
+    y = np.array([0.0, 0.0, 0.05, 0.0, 0.0, 0.0, 0.0, 4.0])
+    fresh = np.array([True, True, True, True, True, True, False, True])
+    d = distance_along_m(x, y, fresh)
+    # jitter under 0.1 m adds nothing; the NaN and the stale rows are NaN and skipped
+    expected = [0.0, 0.0, 0.0, 1.0, np.nan, 2.0, np.nan, 7.0]
+    np.testing.assert_allclose(d, expected, equal_nan=True)
+    assert np.isnan(distance_along_m(np.array([np.nan]), np.array([0.0]))).all()
+
+
+def test_cross_track_along_the_path_panel(tmp_path: Path) -> None:
+    """Panel (f): the cross-track curve against distance, one arrival marker per waypoint."""
+    from matplotlib.figure import Figure
+
+    run_dir, _ = synth_run(tmp_path, fault_at_s=40.0)
+    data = load_run(run_dir)
+    fig = Figure()
+    ax = fig.add_subplot()
+    draw_cross_track_along(ax, data)
+    assert ax.get_xlabel() == "distance travelled along the path (m)"
+    curve = ax.get_lines()[0]
+    along, xt = np.asarray(curve.get_xdata()), np.asarray(curve.get_ydata())
+    cols = data.cols
+    ok = np.isfinite(np.asarray(cols["cross_track_m"], dtype=float))
+    assert xt.size == int(ok.sum()) > 10
+    assert np.all(np.diff(along) >= 0.0) and along[0] == 0.0
+    # the distance axis spans the path driven (two 10 m sides before the fault at 40 s)
+    assert 15.0 < float(along[-1]) < 35.0
+    assert "rms" in str(curve.get_label())
+    # arrival markers (dotted, grey) sit at increasing distances inside the curve
+    verticals = [
+        float(np.asarray(line.get_xdata())[0])
+        for line in ax.get_lines()[1:]
+        if line.get_linestyle() == ":"
+    ]
+    assert len(verticals) == len(data.arrivals) == 2
+    assert verticals == sorted(verticals) and 0.0 < verticals[0] < float(along[-1])
+    render_run(run_dir)
+    png = run_dir / "plots" / PANEL_FILES["f"]
+    assert png_size(png) == PANEL_SIZE_PX and red_pixels(png) > 100  # the fault, in red

@@ -1,0 +1,187 @@
+"""The benchmark results files: ``bench/results/latest.json`` and ``latest.md``.
+
+Both benchmarks (navigation, control loop) write into the same pair of files, each under its
+own top-level key (``navigation``, ``control_loop``): a benchmark replaces its own section and
+keeps the others, then the Markdown is rendered again from the whole JSON. The merge and the
+rendering are pure; :func:`write_section` is the only function touching files.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+RESULTS_DIR = ROOT / "bench" / "results"
+SECTIONS = ("navigation", "control_loop")
+
+
+def merge_section(existing: object, key: str, section: Mapping[str, Any]) -> dict[str, Any]:
+    """``existing`` (any JSON value; a non-mapping counts as empty) with ``key`` replaced."""
+    if key not in SECTIONS:
+        raise ValueError(f"unknown results section {key!r}; expected one of {SECTIONS}")
+    merged = dict(existing) if isinstance(existing, dict) else {}
+    merged[key] = dict(section)
+    return merged
+
+
+def jsonable(value: Any) -> Any:
+    """Non-finite floats → None (JSON has no NaN), tuples → lists, recursively."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [jsonable(v) for v in value]
+    return value
+
+
+def fmt(value: object, spec: str = ".2f") -> str:
+    """A table cell: numbers formatted, None as ``-``."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return format(value, spec)
+    return str(value)
+
+
+def md_table(headers: list[str], rows: list[list[str]]) -> list[str]:
+    out = ["| " + " | ".join(headers) + " |", "|" + "|".join("---" for _ in headers) + "|"]
+    out += ["| " + " | ".join(cell.replace("|", "/") for cell in row) + " |" for row in rows]
+    return out
+
+
+def _stat(cell: Mapping[str, Any], name: str, spec: str = ".2f") -> str:
+    figure = cell.get(name)
+    if not isinstance(figure, Mapping):
+        return "-"
+    return f"{fmt(figure.get('mean'), spec)} / {fmt(figure.get('worst'), spec)}"
+
+
+def navigation_markdown(nav: Mapping[str, Any]) -> list[str]:
+    lines = ["## Navigation", ""]
+    meta = nav.get("meta", {})
+    if isinstance(meta, Mapping):
+        lines += [f"- {k}: {fmt(v)}" for k, v in meta.items()]
+        lines.append("")
+    for note in nav.get("notes", []) or []:
+        lines.append(f"> {note}")
+    cells = nav.get("cells", [])
+    if isinstance(cells, list) and cells:
+        lines += [
+            "",
+            "Per cell over seeds, **mean / worst**, measured on the simulator's TRUE pose "
+            "(est = on the pose the daemon saw, from summary.json). Time on the autopilot "
+            "clock; effort = ∫ Σ|scroll fraction| dt.",
+            "",
+        ]
+        rows = [
+            [
+                str(c.get("mission")), str(c.get("mode")), str(c.get("terrain")),
+                str(c.get("guidance")), str(c.get("completed")),
+                _stat(c, "xt_rms_m"), _stat(c, "xt_max_m"), _stat(c, "final_error_m"),
+                _stat(c, "time_s", ".1f"), _stat(c, "effort", ".1f"), _stat(c, "est_xt_rms_m"),
+            ]
+            for c in cells
+            if isinstance(c, Mapping)
+        ]  # fmt: skip
+        lines += md_table(
+            ["mission", "mode", "terrain", "guidance", "completed", "RMS m", "max m",
+             "final m", "time s", "effort", "est RMS m"],
+            rows,
+        )  # fmt: skip
+    ratios = nav.get("ratios", [])
+    if isinstance(ratios, list) and ratios:
+        target = nav.get("target", "")
+        lines += ["", f"Ratio new / baseline in the same run. Target (not asserted): {target}", ""]
+        rows = [
+            [
+                str(r.get("mission")), str(r.get("mode")), str(r.get("terrain")),
+                f"{r.get('new')} / {r.get('baseline')}",
+                fmt(r.get("rms_ratio")), fmt(r.get("est_rms_ratio")), fmt(r.get("time_ratio")),
+                fmt(r.get("worst_time_ratio")), str(r.get("verdict")),
+            ]
+            for r in ratios
+            if isinstance(r, Mapping)
+        ]  # fmt: skip
+        lines += md_table(
+            ["mission", "mode", "terrain", "new / baseline", "RMS ratio (true)", "est RMS ratio",
+             "time ratio",
+             "worst seed time ratio", "target"],
+            rows,
+        )  # fmt: skip
+    failures = nav.get("failures", [])
+    if isinstance(failures, list) and failures:
+        lines += ["", "Failed runs:", ""] + [f"- {f}" for f in failures]
+    return lines
+
+
+def control_loop_markdown(loop: Mapping[str, Any]) -> list[str]:
+    lines = ["## Control loop", ""]
+    per_rate = loop.get("per_rate", {})
+    if isinstance(per_rate, Mapping) and per_rate:
+        rows = []
+        for rate, fig in per_rate.items():
+            if not isinstance(fig, Mapping):
+                continue
+            lat = fig.get("latency_ms", {}) or {}
+            jit = fig.get("jitter_ms", {}) or {}
+            rows.append(
+                [
+                    f"{rate} Hz",
+                    fmt(lat.get("p50")), fmt(lat.get("p99")), fmt(lat.get("max")),
+                    fmt(jit.get("p99")), fmt(fig.get("cpu_percent")),
+                    fmt(fig.get("poses_not_stepped"), "d"),
+                ]
+            )  # fmt: skip
+        lines += md_table(
+            ["rate", "latency p50 ms", "latency p99 ms", "latency max ms", "jitter p99 ms",
+             "CPU %", "poses not stepped"],
+            rows,
+        )  # fmt: skip
+    targets = loop.get("targets", {})
+    if isinstance(targets, Mapping) and targets:
+        lines += ["", "Targets: " + ", ".join(f"{k} {fmt(v, 'g')}" for k, v in targets.items())]
+    meta = loop.get("meta", {})
+    if isinstance(meta, Mapping) and meta:
+        lines += [""] + [f"- {k}: {fmt(v)}" for k, v in meta.items()]
+    return lines
+
+
+def render_markdown(results: Mapping[str, Any]) -> str:
+    """The whole results file as Markdown (sections in a fixed order, missing ones skipped)."""
+    lines = ["# helixd benchmark results", "", "Written by `make bench` (tools/bench_*.py)."]
+    nav = results.get("navigation")
+    if isinstance(nav, Mapping):
+        lines += ["", *navigation_markdown(nav)]
+    loop = results.get("control_loop")
+    if isinstance(loop, Mapping):
+        lines += ["", *control_loop_markdown(loop)]
+    return "\n".join(lines) + "\n"
+
+
+def write_section(key: str, section: Mapping[str, Any], out_dir: Path = RESULTS_DIR) -> Path:
+    """Merge ``section`` into ``out_dir/latest.json`` and re-render ``latest.md``."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    json_path = out_dir / "latest.json"
+    try:
+        existing: object = json.loads(json_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        existing = None
+    merged = merge_section(existing, key, jsonable(section))
+    for path, text in (
+        (json_path, json.dumps(merged, indent=2, allow_nan=False) + "\n"),
+        (out_dir / "latest.md", render_markdown(merged)),
+    ):
+        tmp = path.with_suffix(path.suffix + ".tmp")
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    return json_path
