@@ -1,8 +1,8 @@
 """Navigation metrics for the benchmark: how far a driven path strays from the planned polygon.
 
 Pure: numbers in, numbers out (no files, clocks or sockets). Used by ``bench_navigation.py``
-on the simulator's TRUE pose; the geometry is :func:`helixd.control.guidance.cross_track_m`
-(the one ``summary.json`` is computed with) and :class:`helixd.frames.MissionFrame`.
+on the simulator's TRUE pose; the geometry is :mod:`helixd.recorder.track`'s (the SITL
+observer's nearest-leg distance) and :class:`helixd.frames.MissionFrame`.
 
 * :func:`frame_from_flight` recovers the mission frame the daemon used (mission → NED) from the
   recorded estimated NED pose and mission-frame pose of ``flight.csv``;
@@ -19,9 +19,9 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from helixd.control.guidance import cross_track_m
 from helixd.frames import MissionFrame, NedPose
-from helixd.geometry import Pose2D
+from helixd.recorder.track import distance_to_polyline_m, distance_to_segment_m
+from helixd.recorder.track import planned_polyline_ned as track_polyline_ned
 
 Point = tuple[float, float]
 
@@ -31,22 +31,14 @@ def _finite(*values: float) -> bool:
 
 
 def segment_distance_m(a: Point, b: Point, p: Point) -> float:
-    """Unsigned distance of ``p`` to the segment a–b (the end points beyond its ends).
+    """Unsigned distance of ``p`` to the segment a–b; NaN if any coordinate is not finite.
 
-    NaN if any coordinate is not finite.
+    The geometry is :func:`helixd.recorder.track.distance_to_segment_m` (the SITL observer's);
+    this wrapper only turns a non-finite sample into NaN so a path can skip it.
     """
     if not _finite(*a, *b, *p):
         return math.nan
-    ax, ay = a
-    bx, by = b
-    px, py = p
-    lx, ly = bx - ax, by - ay
-    t = (px - ax) * lx + (py - ay) * ly
-    if t <= 0.0:
-        return math.hypot(px - ax, py - ay)
-    if t >= lx * lx + ly * ly:
-        return math.hypot(px - bx, py - by)
-    return abs(cross_track_m(a, b, Pose2D(px, py, 0.0)))
+    return distance_to_segment_m(p, a, b)
 
 
 def polyline_distance_m(polyline: Sequence[Point], p: Point) -> float:
@@ -56,13 +48,9 @@ def polyline_distance_m(polyline: Sequence[Point], p: Point) -> float:
     """
     if not polyline:
         raise ValueError("empty polyline")
-    if not _finite(*p):
+    if not _finite(*p) or not all(_finite(*q) for q in polyline):
         return math.nan
-    if len(polyline) == 1:
-        return math.hypot(p[0] - polyline[0][0], p[1] - polyline[0][1])
-    return min(
-        segment_distance_m(polyline[i], polyline[i + 1], p) for i in range(len(polyline) - 1)
-    )
+    return distance_to_polyline_m(p, polyline)
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,7 +130,7 @@ def planned_polyline_ned(
     frame: MissionFrame, start_xy_m: Point, waypoints_xy_m: Sequence[Point]
 ) -> list[Point]:
     """The planned legs in NED (north, east): the start pose, then every waypoint."""
-    return [frame.to_ned(x, y) for x, y in (start_xy_m, *waypoints_xy_m)]
+    return track_polyline_ned(waypoints_xy_m, frame, frame.to_ned(*start_xy_m))
 
 
 def scroll_effort(t_s: Sequence[float], fractions: Sequence[Sequence[float]]) -> float | None:

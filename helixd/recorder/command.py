@@ -137,7 +137,7 @@ def register(app: typer.Typer) -> None:
             typer.Option("--out", "-o", help="output directory (default: RUN_DIR/plots)"),
         ] = None,
     ) -> None:
-        """Render the thesis-style plots (a)–(e) and an overview of a recorded run as PNGs."""
+        """Render the thesis-style plots (a)–(f) and an overview of a recorded run as PNGs."""
         configure_logging(tty=sys.stderr.isatty(), level="warning")
         _check_run_dir(run_dir)
         from helixd.plots import PlotError, render_run  # matplotlib only when plotting
