@@ -1,9 +1,13 @@
 """The control loop: fresh pose in → navigator → kinematics → actuator command out.
 
 Steps on every fresh pose (at whatever rate the autopilot granted) under a configured ceiling,
-with dt from the autopilot's ``time_boot_ms``. Between poses it still ticks (wall clock) so the
-watchdogs run even when poses stop. It never stops the rover itself: it returns the fault and
-the daemon's supervisor does the fall-back.
+with dt from the autopilot's ``time_boot_ms``. The ceiling counts autopilot time too, so the
+control rate *in vehicle terms* (steps per second of the rover's motion) does not depend on a
+simulator speed-up. Between poses it still ticks (wall clock) so the watchdogs run even when
+poses stop: the tick and the reception watchdogs (link, stale/invalid pose) stay on the
+monotonic wall clock, the stall duration counts autopilot time (see
+:mod:`helixd.safety.watchdogs`). It never stops the rover itself: it returns the fault and the
+daemon's supervisor does the fall-back.
 
 Hostile telemetry: while the vehicle state reports rejected pose telemetry (an invalid-pose
 burst), the loop commands neutral at its next tick and steps nothing; the ``pose_invalid``
@@ -82,9 +86,11 @@ class FlightLoop:
         self.on_tick = on_tick
         self.navigator = Navigator(plan, cfg.control)
         self.monitor = SafetyMonitor(cfg.safety)
-        # The ceiling only thins out a pose flood (e.g. a simulator speed-up); a pose at the
-        # ceiling rate arriving a little early (scheduling jitter) is still stepped, or every
-        # other pose would be dropped when the autopilot grants exactly the ceiling rate.
+        # The ceiling only thins out a pose flood, counted in autopilot time (pose
+        # time_boot_ms), so a simulator speed-up does not lower the control rate the rover
+        # sees; a pose at the ceiling rate arriving a little early (sample jitter) is still
+        # stepped, or every other pose would be dropped when the autopilot grants exactly the
+        # ceiling rate.
         self._min_step_s = (1.0 - CEILING_JITTER_FRACTION) / cfg.control.control_rate_max_hz
         # tick at least this often without poses, so watchdogs always run (s)
         self._tick_s = min(0.05, cfg.safety.pose_stale_s / 4)
@@ -98,7 +104,7 @@ class FlightLoop:
     async def run(self) -> FlightResult:
         t_start = time.monotonic()
         last_rx: float | None = None
-        last_step_s = -math.inf
+        last_step_boot_s = -math.inf  # autopilot clock of the last pose stepped on
         out: NavOutput | None = None
         pose: PoseSample | None = None
         while True:
@@ -123,9 +129,13 @@ class FlightLoop:
                 return FlightResult(fault, now, out, pose.ned if pose else None)
             if self._pose_rejected(now, t_start, out):
                 continue  # neutral until a valid pose (or the pose_invalid watchdog)
-            if sample is None or now - last_step_s < self._min_step_s:
+            if sample is None:
                 continue
-            last_step_s = now
+            t_boot_s = sample.time_boot_ms / 1000.0
+            since_step_s = t_boot_s - last_step_boot_s
+            if 0.0 <= since_step_s < self._min_step_s:
+                continue  # (a clock that ran backwards, a reboot, is stepped on at once)
+            last_step_boot_s = t_boot_s
             try:
                 out = self._step(sample, now, t_start)
             except NonFiniteError as exc:
@@ -299,4 +309,5 @@ class FlightLoop:
             rc_receiver_healthy=st.rc_receiver_healthy,
             pose_invalid_since_s=st.pose_invalid_since_s,
             pose_invalid_detail=st.pose_invalid_reason,
+            vehicle_time_s=pose.time_boot_ms / 1000.0 if pose else None,
         )
