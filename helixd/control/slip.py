@@ -168,11 +168,12 @@ class SlipEstimator:
 
     def compensate(self, mode: MotionMode, command: BodyVelocity) -> BodyVelocity:
         """The navigator's command divided by the delivered fraction (bounded). A non-finite
-        command comes back neutral: a NaN is never amplified."""
+        command (or one that overflows) comes back neutral: a NaN is never amplified."""
         if not command.is_finite():
             return BodyVelocity.zero()
         g_v, g_w = self.gains(mode)
-        return BodyVelocity(command.vx_mps * g_v, command.vy_mps * g_v, command.wz_radps * g_w)
+        out = BodyVelocity(command.vx_mps * g_v, command.vy_mps * g_v, command.wz_radps * g_w)
+        return out if out.is_finite() else BodyVelocity.zero()  # an absurd command overflowed
 
 
 __all__ = [

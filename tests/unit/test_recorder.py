@@ -330,6 +330,20 @@ def test_rows_round_trip_with_types(tmp_path: Path, clock: FakeClock, logs: LogC
     assert rows[1]["pwm1_us"] == 1999 and rows[1]["link_ok"] is False
 
 
+def test_slip_columns_round_trip(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
+    rec = create(tmp_path, clock)
+    rec.record(make_row(clock(), slip_v_frac=0.61234, slip_w_frac=0.75))
+    rec.record(make_row(clock() + 0.02))  # a writer that knows nothing of slip: nan
+    rec.close()
+    assert rec.run_dir is not None
+    assert COLUMNS[-2:] == ("slip_v_frac", "slip_w_frac")
+    assert "slip_v_frac" in CSV_COMMENT and "v2" in CSV_COMMENT
+    rows = read_flight_csv(rec.run_dir / "flight.csv")
+    assert rows[0]["slip_v_frac"] == pytest.approx(0.61234)
+    assert rows[0]["slip_w_frac"] == pytest.approx(0.75)
+    assert math.isnan(float(rows[1]["slip_v_frac"])) and math.isnan(float(rows[1]["slip_w_frac"]))
+
+
 def test_torn_last_line_is_skipped(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
     rec = create(tmp_path, clock)
     for i in range(3):
