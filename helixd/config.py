@@ -378,6 +378,13 @@ class SlipConfig(InputModel):
         le=5.0,
         description="poses farther apart than this (autopilot time) teach nothing (s)",
     )
+    steady_tolerance: float = Field(
+        0.2,
+        gt=0.0,
+        le=1.0,
+        description="a channel teaches only while its command is steady: the command differs "
+        "from its lagged value by at most this fraction of it (1)",
+    )
     max_gain: float = Field(
         2.0,
         ge=1.0,

@@ -13,7 +13,10 @@ autopilot time between samples, so the memory does not depend on the control rat
 from the no-slip prior ``k = 1``. The command fed to the fit is the one actually sent (after
 the feed-forward and the scrolls' joint saturation), low-passed by the scrolls' response lag,
 and the fit is frozen while it is too small to learn from (translation also while turning in
-place), across telemetry gaps, and on any non-finite number.
+place) or still changing (the response delay of scrolls, EKF and link would read as slip),
+across telemetry gaps, and on any non-finite number. One sample's measured motion counts as
+at most ``max_fraction`` and at least none of the command, so a late sample moving against
+the command weighs no more than a stall.
 
 The feed-forward divides the navigator's command by the fraction, bounded: never by less than
 ``1 / max_gain`` (the command is amplified at most ``max_gain`` times), and not at all when the
@@ -146,14 +149,25 @@ class SlipEstimator:
         if not measured.is_finite():
             return self.estimate(mode)
         forget = math.exp(-dt_s / cfg.time_constant_s)
+        tol = cfg.steady_tolerance
         u_v = math.hypot(lag.vx_mps, lag.vy_mps)
-        # turning in place: the commanded translation is (nearly) nil, so frozen by the bound
-        if u_v >= cfg.min_speed_mps:
+        # Turning in place: the commanded translation is (nearly) nil, so frozen by the bound.
+        # Only a steady command teaches: while it changes, the motion measured mostly shows
+        # the response delay (scrolls, EKF, link), not the ground.
+        v_change = math.hypot(sent.vx_mps - lag.vx_mps, sent.vy_mps - lag.vy_mps)
+        if u_v >= cfg.min_speed_mps and v_change <= tol * u_v:
             along = (measured.vx_mps * lag.vx_mps + measured.vy_mps * lag.vy_mps) / u_v
-            st.v.learn(u_v, along, dt_s, forget)
-        if abs(lag.wz_radps) >= cfg.min_yaw_rate_radps:
-            st.w.learn(lag.wz_radps, measured.wz_radps, dt_s, forget)
+            st.v.learn(u_v, self._clip(along, u_v), dt_s, forget)
+        u_w = lag.wz_radps
+        if abs(u_w) >= cfg.min_yaw_rate_radps and abs(sent.wz_radps - u_w) <= tol * abs(u_w):
+            st.w.learn(u_w, self._clip(measured.wz_radps, u_w), dt_s, forget)
         return self.estimate(mode)
+
+    def _clip(self, y: float, u: float) -> float:
+        """One sample's measured motion bounded to [0, max_fraction] of the command: a late or
+        noisy sample (moving against the command) weighs no more than "nothing delivered"."""
+        lo, hi = sorted((0.0, self.cfg.max_fraction * u))
+        return max(lo, min(hi, y))
 
     def gains(self, mode: MotionMode) -> tuple[float, float]:
         """Feed-forward factors (translation, yaw): 1 / fraction within [1/max_fraction,

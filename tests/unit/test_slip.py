@@ -243,3 +243,25 @@ def test_estimate_stays_between_zero_and_the_bound_for_honest_ground(
     out = fly(est, BodyVelocity(0.5, 0.0, 0.8), v, w, seconds)
     assert 0.0 <= out.v_frac <= 1.0 + 1e-9
     assert 0.0 <= out.w_frac <= 1.0 + 1e-9
+
+
+def test_a_late_response_is_not_read_as_slip() -> None:
+    """The link or the scrolls lag a reversal by a second: while the command is still
+    settling nothing is learnt, and a sample moving against it weighs as 'nothing delivered'."""
+    est = SlipEstimator(SlipConfig())
+    for _ in range(3):
+        fly(est, BodyVelocity(0.0, 0.0, 0.8), 1.0, 0.75, 3.0)
+        fly(est, BodyVelocity(0.0, 0.0, -0.8), 1.0, 0.75, 3.0)
+    learnt = est.estimate(ROLL).w_frac
+    assert learnt == pytest.approx(0.75, abs=0.03)
+    # the command reverses, the rover keeps turning the old way for 1 s (delivered "-0.75")
+    out = fly(est, BodyVelocity(0.0, 0.0, 0.8), 1.0, -0.75, 1.0)
+    assert out.w_frac >= 0.5
+    # changing commands (a PID dithering about a mean) teach nothing
+    est = SlipEstimator(SlipConfig())
+    est.update(ROLL, BodyVelocity(0.4, 0.0, 0.65), BodyVelocity.zero(), DT_S)
+    before = est.estimate(ROLL)
+    for i in range(200):
+        sent = BodyVelocity(0.6 if i % 2 else 0.2, 0.0, 1.0 if i % 2 else 0.3)
+        est.update(ROLL, sent, BodyVelocity.zero(), DT_S)
+    assert est.estimate(ROLL) == before
