@@ -344,6 +344,15 @@ def test_slip_columns_round_trip(tmp_path: Path, clock: FakeClock, logs: LogCapt
     assert math.isnan(float(rows[1]["slip_v_frac"])) and math.isnan(float(rows[1]["slip_w_frac"]))
 
 
+def test_summary_carries_the_last_slip_estimate() -> None:
+    b = SummaryBuilder("square", "roll", 4)
+    assert b.build(False, None, 0).slip_v_frac is None
+    b.add(make_row(1000.0, slip_v_frac=0.8, slip_w_frac=0.7))
+    b.add(make_row(1000.02, slip_v_frac=math.nan, slip_w_frac=math.nan))  # not learnt: kept
+    s = b.build(True, None, 0)
+    assert (s.slip_v_frac, s.slip_w_frac) == (0.8, 0.7)
+
+
 def test_torn_last_line_is_skipped(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
     rec = create(tmp_path, clock)
     for i in range(3):
