@@ -265,7 +265,8 @@ class FlightLoop:
                 nav_state=out.state.value,
                 link_ok=not state.link_lost,
                 pose_fresh=pose_fresh,
-                slip_v_frac=slip.v_frac,
+                slip_vx_frac=slip.vx_frac,
+                slip_vy_frac=slip.vy_frac,
                 slip_w_frac=slip.w_frac,
             )
         )

@@ -2,21 +2,23 @@
 
 The thesis's own next step (ch. 6, "on-line parameter estimation of interaction forces"): on
 grass, mud or sand the scrolls deliver only a fraction of the no-slip (eq. 1) body velocity.
-Per motion mode, two fractions are learnt from the pose telemetry:
+Per motion mode, three fractions are learnt from the pose telemetry, one per body axis (the
+terrains differ per axis: in mud the scrolls roll poorly but screw well):
 
-- ``v_frac``: measured translation along the commanded direction / commanded (no-slip) speed;
-- ``w_frac``: measured yaw rate / commanded (no-slip) yaw rate.
+- ``vx_frac``: measured / commanded (no-slip) velocity along the roll axis;
+- ``vy_frac``: the same along the scroll axis;
+- ``w_frac``: measured / commanded (no-slip) yaw rate.
 
 Each is an exponentially weighted least-squares fit of ``measured = k · commanded`` through
 the origin (a recursive least squares with a forgetting time constant, counted in the
 autopilot time between samples, so the memory does not depend on the control rate), started
 from the no-slip prior ``k = 1``. The command fed to the fit is the one actually sent (after
 the feed-forward and the scrolls' joint saturation), low-passed by the scrolls' response lag,
-and the fit is frozen while it is too small to learn from (translation also while turning in
-place) or still changing (the response delay of scrolls, EKF and link would read as slip),
-across telemetry gaps, and on any non-finite number. One sample's measured motion counts as
-at most ``max_fraction`` and at least none of the command, so a late sample moving against
-the command weighs no more than a stall.
+and each axis's fit is frozen while its command is too small to learn from (so translation
+is frozen while turning in place) or still changing (the response delay of scrolls, EKF and
+link would read as slip), across telemetry gaps, and on any non-finite number. One sample's
+measured motion counts as at most ``max_fraction`` and at least none of the command, so a late
+sample moving against the command weighs no more than a stall.
 
 The feed-forward divides the navigator's command by the fraction, bounded: never by less than
 ``1 / max_gain`` (the command is amplified at most ``max_gain`` times), and not at all when the
@@ -51,7 +53,8 @@ from helixd.mission.model import MotionMode
 class SlipEstimate:
     """Delivered fractions of the commanded translation and yaw rate (1 = no slip)."""
 
-    v_frac: float = 1.0
+    vx_frac: float = 1.0
+    vy_frac: float = 1.0
     w_frac: float = 1.0
 
 
@@ -74,7 +77,8 @@ class _Fit:
 
 @dataclass(slots=True)
 class _ModeState:
-    v: _Fit
+    vx: _Fit
+    vy: _Fit
     w: _Fit
     lagged: BodyVelocity | None = None  # sent command, low-passed by the scroll response
 
@@ -113,7 +117,7 @@ class SlipEstimator:
         if st is None:
             w_v = self.cfg.prior_weight_s * self.cfg.min_speed_mps**2
             w_w = self.cfg.prior_weight_s * self.cfg.min_yaw_rate_radps**2
-            st = _ModeState(v=_Fit(w_v, w_v), w=_Fit(w_w, w_w))
+            st = _ModeState(vx=_Fit(w_v, w_v), vy=_Fit(w_v, w_v), w=_Fit(w_w, w_w))
             self._modes[mode] = st
         return st
 
@@ -124,7 +128,9 @@ class SlipEstimator:
 
     def estimate(self, mode: MotionMode) -> SlipEstimate:
         st = self._state(mode)
-        return SlipEstimate(self._bounded(st.v.k()), self._bounded(st.w.k()))
+        return SlipEstimate(
+            self._bounded(st.vx.k()), self._bounded(st.vy.k()), self._bounded(st.w.k())
+        )
 
     def update(
         self, mode: MotionMode, sent: BodyVelocity, measured: BodyVelocity, dt_s: float
@@ -149,18 +155,16 @@ class SlipEstimator:
         if not measured.is_finite():
             return self.estimate(mode)
         forget = math.exp(-dt_s / cfg.time_constant_s)
-        tol = cfg.steady_tolerance
-        u_v = math.hypot(lag.vx_mps, lag.vy_mps)
         # Turning in place: the commanded translation is (nearly) nil, so frozen by the bound.
         # Only a steady command teaches: while it changes, the motion measured mostly shows
         # the response delay (scrolls, EKF, link), not the ground.
-        v_change = math.hypot(sent.vx_mps - lag.vx_mps, sent.vy_mps - lag.vy_mps)
-        if u_v >= cfg.min_speed_mps and v_change <= tol * u_v:
-            along = (measured.vx_mps * lag.vx_mps + measured.vy_mps * lag.vy_mps) / u_v
-            st.v.learn(u_v, self._clip(along, u_v), dt_s, forget)
-        u_w = lag.wz_radps
-        if abs(u_w) >= cfg.min_yaw_rate_radps and abs(sent.wz_radps - u_w) <= tol * abs(u_w):
-            st.w.learn(u_w, self._clip(measured.wz_radps, u_w), dt_s, forget)
+        for fit, u, now, y, least in (
+            (st.vx, lag.vx_mps, sent.vx_mps, measured.vx_mps, cfg.min_speed_mps),
+            (st.vy, lag.vy_mps, sent.vy_mps, measured.vy_mps, cfg.min_speed_mps),
+            (st.w, lag.wz_radps, sent.wz_radps, measured.wz_radps, cfg.min_yaw_rate_radps),
+        ):
+            if abs(u) >= least and abs(now - u) <= cfg.steady_tolerance * abs(u):
+                fit.learn(u, self._clip(y, u), dt_s, forget)
         return self.estimate(mode)
 
     def _clip(self, y: float, u: float) -> float:
@@ -169,11 +173,11 @@ class SlipEstimator:
         lo, hi = sorted((0.0, self.cfg.max_fraction * u))
         return max(lo, min(hi, y))
 
-    def gains(self, mode: MotionMode) -> tuple[float, float]:
-        """Feed-forward factors (translation, yaw): 1 / fraction within [1/max_fraction,
-        max_gain]; 1 when the fraction is below ``stuck_fraction`` (a stall, not slip)."""
+    def gains(self, mode: MotionMode) -> tuple[float, float, float]:
+        """Feed-forward factors (x, y, yaw): 1 / fraction within [1/max_fraction, max_gain];
+        1 when the fraction is below ``stuck_fraction`` (a stall, not slip)."""
         est = self.estimate(mode)
-        return self._gain(est.v_frac), self._gain(est.w_frac)
+        return self._gain(est.vx_frac), self._gain(est.vy_frac), self._gain(est.w_frac)
 
     def _gain(self, frac: float) -> float:
         if not frac >= self.cfg.stuck_fraction:
@@ -185,8 +189,8 @@ class SlipEstimator:
         command (or one that overflows) comes back neutral: a NaN is never amplified."""
         if not command.is_finite():
             return BodyVelocity.zero()
-        g_v, g_w = self.gains(mode)
-        out = BodyVelocity(command.vx_mps * g_v, command.vy_mps * g_v, command.wz_radps * g_w)
+        g_x, g_y, g_w = self.gains(mode)
+        out = BodyVelocity(command.vx_mps * g_x, command.vy_mps * g_y, command.wz_radps * g_w)
         return out if out.is_finite() else BodyVelocity.zero()  # an absurd command overflowed
 
 

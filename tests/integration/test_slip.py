@@ -41,7 +41,7 @@ def test_slip_estimate_converges_and_feed_forward_restores_speed(tmp_path: Path)
     off = fly_square_on_grass(tmp_path / "off", enabled=False)
     for c in (on, off):  # the estimate is learnt (and logged) either way
         last = slice(len(c["t_boot_s"]) * 3 // 4, None)
-        v = float(np.nanmedian(c["slip_v_frac"][last]))
+        v = float(np.nanmedian(c["slip_vx_frac"][last]))
         w = float(np.nanmedian(c["slip_w_frac"][last]))
         print(
             f"slip estimate v {v:.3f} (sim {GRASS.roll_efficiency}), w {w:.3f} (sim "
@@ -49,7 +49,7 @@ def test_slip_estimate_converges_and_feed_forward_restores_speed(tmp_path: Path)
         )
         assert v == pytest.approx(GRASS.roll_efficiency, abs=0.08)
         assert w == pytest.approx(GRASS.yaw_efficiency, abs=0.12)
-        assert float(c["slip_v_frac"][0]) == 1.0  # the no-slip prior at the start
+        assert float(c["slip_vx_frac"][0]) == 1.0  # the no-slip prior at the start
     ratio_on, ratio_off = delivered_ratio(on), delivered_ratio(off)
     print(f"delivered / commanded speed: feed-forward on {ratio_on:.3f}, off {ratio_off:.3f}")
     assert ratio_off == pytest.approx(GRASS.roll_efficiency, abs=0.06)

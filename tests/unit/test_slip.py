@@ -58,8 +58,8 @@ def fly(
 
 def test_starts_at_no_slip() -> None:
     est = SlipEstimator(SlipConfig())
-    assert est.estimate(ROLL) == SlipEstimate(1.0, 1.0)
-    assert est.gains(ROLL) == (1.0, 1.0)
+    assert est.estimate(ROLL) == SlipEstimate()
+    assert est.gains(ROLL) == (1.0, 1.0, 1.0)
 
 
 @pytest.mark.parametrize(("v_frac", "w_frac"), [(0.9, 0.75), (0.6, 0.3), (0.3, 0.55)])
@@ -69,7 +69,7 @@ def test_converges_to_the_delivered_fraction(v_frac: float, w_frac: float) -> No
     for _ in range(4):
         fly(est, BodyVelocity(0.5, 0.0, 0.0), v_frac, w_frac, 6.0)
         out = fly(est, BodyVelocity(0.0, 0.0, 0.8), v_frac, w_frac, 3.0)
-    assert out.v_frac == pytest.approx(v_frac, abs=0.03)
+    assert out.vx_frac == pytest.approx(v_frac, abs=0.03)
     assert out.w_frac == pytest.approx(w_frac, abs=0.03)
 
 
@@ -77,14 +77,14 @@ def test_translation_frozen_while_turning_in_place_and_yaw_while_driving_straigh
     est = SlipEstimator(SlipConfig())
     fly(est, BodyVelocity(0.5, 0.0, 0.0), 0.6, 0.0, 10.0)
     learnt = est.estimate(ROLL)
-    assert learnt.v_frac == pytest.approx(0.6, abs=0.03)
+    assert learnt.vx_frac == pytest.approx(0.6, abs=0.03)
     assert learnt.w_frac == 1.0  # never commanded a turn: the prior
     # turning in place: once the forward motion has died away (the scrolls' lag), translation
     # is frozen however the ground behaves (here: a side drift that would read as no motion)
     tail = fly(est, BodyVelocity(0.0, 0.0, 1.0), 0.6, 0.5, 1.5)
-    assert tail.v_frac == pytest.approx(0.6, abs=0.03)
+    assert tail.vx_frac == pytest.approx(0.6, abs=0.03)
     after = fly(est, BodyVelocity(0.0, 0.0, 1.0), 0.0, 0.5, 10.0)
-    assert after.v_frac == tail.v_frac
+    assert after.vx_frac == tail.vx_frac
     assert after.w_frac == pytest.approx(0.5, abs=0.03)
 
 
@@ -92,7 +92,7 @@ def test_frozen_below_the_learning_thresholds() -> None:
     cfg = SlipConfig()
     est = SlipEstimator(cfg)
     tiny = BodyVelocity(cfg.min_speed_mps * 0.5, 0.0, cfg.min_yaw_rate_radps * 0.5)
-    assert fly(est, tiny, 0.0, 0.0, 20.0) == SlipEstimate(1.0, 1.0)
+    assert fly(est, tiny, 0.0, 0.0, 20.0) == SlipEstimate()
 
 
 def test_gaps_and_bad_dt_teach_nothing() -> None:
@@ -100,14 +100,38 @@ def test_gaps_and_bad_dt_teach_nothing() -> None:
     sent = BodyVelocity(0.5, 0.0, 0.0)
     est.update(ROLL, sent, sent, DT_S)
     for dt in (0.0, -1.0, 10.0, math.nan, math.inf):
-        assert est.update(ROLL, sent, BodyVelocity.zero(), dt) == SlipEstimate(1.0, 1.0)
+        assert est.update(ROLL, sent, BodyVelocity.zero(), dt) == SlipEstimate()
 
 
 def test_per_motion_mode() -> None:
     est = SlipEstimator(SlipConfig())
     fly(est, BodyVelocity(0.0, 0.5, 0.0), 0.75, 1.0, 10.0, MotionMode.SCROLL)
-    assert est.estimate(MotionMode.SCROLL).v_frac == pytest.approx(0.75, abs=0.03)
-    assert est.estimate(ROLL) == SlipEstimate(1.0, 1.0)
+    assert est.estimate(MotionMode.SCROLL).vy_frac == pytest.approx(0.75, abs=0.03)
+    assert est.estimate(ROLL) == SlipEstimate()
+
+
+def test_each_axis_has_its_own_fraction() -> None:
+    """OMNI in mud: the scrolls roll poorly (x) but screw well (y); per-axis feed-forward
+    restores the commanded direction, not just the speed."""
+    cfg = SlipConfig()
+    est = SlipEstimator(cfg)
+    omni = MotionMode.OMNI
+    actual = BodyVelocity.zero()
+    for i in range(round(40.0 / DT_S)):
+        sent = BodyVelocity(0.4, 0.3, 0.0) if (i * DT_S) % 10 < 5 else BodyVelocity(0.3, -0.4)
+        a = 1.0 - math.exp(-DT_S / cfg.command_lag_s)
+        actual = BodyVelocity(
+            actual.vx_mps + (sent.vx_mps - actual.vx_mps) * a,
+            actual.vy_mps + (sent.vy_mps - actual.vy_mps) * a,
+        )
+        est.update(omni, sent, BodyVelocity(actual.vx_mps * 0.3, actual.vy_mps * 0.85), DT_S)
+    out = est.estimate(omni)
+    assert out.vx_frac == pytest.approx(0.3, abs=0.03)
+    assert out.vy_frac == pytest.approx(0.85, abs=0.03)
+    assert out.w_frac == 1.0
+    cmd = est.compensate(omni, BodyVelocity(0.2, 0.2, 0.0))
+    assert cmd.vx_mps == pytest.approx(0.2 * cfg.max_gain)  # 1/0.3 capped
+    assert cmd.vy_mps == pytest.approx(0.2 / out.vy_frac)
 
 
 def test_feed_forward_divides_by_the_fraction() -> None:
@@ -115,7 +139,7 @@ def test_feed_forward_divides_by_the_fraction() -> None:
     fly(est, BodyVelocity(0.5, 0.0, 0.0), 0.8, 1.0, 20.0)
     fly(est, BodyVelocity(0.0, 0.0, 0.8), 0.8, 0.8, 20.0)
     out = est.compensate(ROLL, BodyVelocity(0.4, 0.0, 0.5))
-    v, w = est.estimate(ROLL).v_frac, est.estimate(ROLL).w_frac
+    v, w = est.estimate(ROLL).vx_frac, est.estimate(ROLL).w_frac
     assert out.vx_mps == pytest.approx(0.4 / v)
     assert out.wz_radps == pytest.approx(0.5 / w)
 
@@ -124,16 +148,16 @@ def test_feed_forward_is_capped() -> None:
     cfg = SlipConfig(max_gain=2.0, stuck_fraction=0.15)
     est = SlipEstimator(cfg)
     out = fly(est, BodyVelocity(0.5, 0.0, 0.8), 0.3, 0.3, 30.0)
-    assert out.v_frac == pytest.approx(0.3, abs=0.03)
-    assert est.gains(ROLL) == (2.0, 2.0)
+    assert out.vx_frac == pytest.approx(0.3, abs=0.03)
+    assert est.gains(ROLL) == (2.0, 1.0, 2.0)  # y never commanded
 
 
 def test_no_amplification_when_the_ground_delivers_nothing() -> None:
     """A pit is a stall, not slip: the command is not pushed to the cap forever."""
     est = SlipEstimator(SlipConfig())
     out = fly(est, BodyVelocity(0.5, 0.0, 0.8), 0.0, 0.0, 30.0)
-    assert out.v_frac < 0.05 and out.w_frac < 0.05
-    assert est.gains(ROLL) == (1.0, 1.0)
+    assert out.vx_frac < 0.05 and out.w_frac < 0.05
+    assert est.gains(ROLL) == (1.0, 1.0, 1.0)
     assert est.compensate(ROLL, BodyVelocity(0.5, 0.0, 0.8)) == BodyVelocity(0.5, 0.0, 0.8)
 
 
@@ -216,19 +240,19 @@ def test_hostile_numbers_never_leave_the_bounds(
     sent_ok = all(math.isfinite(v) for v in (vx, vy, wz))
     meas_ok = all(math.isfinite(v) for v in (mx, my, mw))
     out = est.update(ROLL, BodyVelocity(vx, vy, wz), BodyVelocity(mx, my, mw), dt)
-    for frac in (out.v_frac, out.w_frac):
+    for frac in (out.vx_frac, out.vy_frac, out.w_frac):
         assert math.isfinite(frac) and 0.0 <= frac <= cfg.max_fraction
     if not (sent_ok and meas_ok) or not (math.isfinite(dt) and 0 < dt <= cfg.max_gap_s):
         assert out == before  # a non-finite number or a gap changes nothing
-    g_v, g_w = est.gains(ROLL)
-    assert 1.0 / cfg.max_fraction <= g_v <= cfg.max_gain
-    assert 1.0 / cfg.max_fraction <= g_w <= cfg.max_gain
+    for g in est.gains(ROLL):
+        assert 1.0 / cfg.max_fraction <= g <= cfg.max_gain
     cmd = est.compensate(ROLL, BodyVelocity(vx, vy, wz))
     assert cmd.is_finite()
     if not sent_ok:
         assert cmd == BodyVelocity.zero()  # never amplify a NaN
     else:
         assert abs(cmd.vx_mps) <= abs(vx) * cfg.max_gain
+        assert abs(cmd.vy_mps) <= abs(vy) * cfg.max_gain
         assert abs(cmd.wz_radps) <= abs(wz) * cfg.max_gain
         # and kinematics turns the compensated command into finite, clamped fractions
         fr = body_to_fractions(cmd, VehicleConfig(), ROLL)
@@ -241,7 +265,7 @@ def test_estimate_stays_between_zero_and_the_bound_for_honest_ground(
 ) -> None:
     est = SlipEstimator(SlipConfig())
     out = fly(est, BodyVelocity(0.5, 0.0, 0.8), v, w, seconds)
-    assert 0.0 <= out.v_frac <= 1.0 + 1e-9
+    assert 0.0 <= out.vx_frac <= 1.0 + 1e-9
     assert 0.0 <= out.w_frac <= 1.0 + 1e-9
 
 
