@@ -326,6 +326,86 @@ class PidGains(InputModel):
     )
 
 
+class SlipConfig(InputModel):
+    """Online slip estimate and its feed-forward (:mod:`helixd.control.slip`).
+
+    Per motion mode, the fraction of the commanded (no-slip) translation and yaw rate the
+    ground delivers is learnt from the pose telemetry; the navigator's command is divided by it
+    so tracking holds on grass, mud and sand without retuning. The estimate is computed and
+    logged (``slip_v_frac``, ``slip_w_frac`` in flight.csv) whether or not it is fed forward.
+    """
+
+    enabled: bool = Field(
+        True, description="feed the estimate forward (the command is divided by it)"
+    )
+    time_constant_s: float = Field(
+        5.0,
+        ge=0.5,
+        le=600.0,
+        description="memory of the estimate: older evidence fades with this time constant, "
+        "counted in autopilot time while learning (s)",
+    )
+    prior_weight_s: float = Field(
+        1.0,
+        ge=0.01,
+        le=60.0,
+        description="weight of the no-slip prior (fraction 1), as seconds of evidence at the "
+        "learning threshold (s)",
+    )
+    min_speed_mps: float = Field(
+        0.15,
+        gt=0.0,
+        le=2.0,
+        description="translation is learnt only while the commanded (no-slip) speed exceeds "
+        "this (m/s); frozen below it and while turning in place",
+    )
+    min_yaw_rate_radps: float = Field(
+        0.2,
+        gt=0.0,
+        le=5.0,
+        description="yaw is learnt only while the commanded yaw rate exceeds this (rad/s)",
+    )
+    command_lag_s: float = Field(
+        0.3,
+        ge=0.0,
+        le=5.0,
+        description="scroll response lag: the command is low-passed by this before it is "
+        "compared with the measured motion (s)",
+    )
+    max_gap_s: float = Field(
+        0.5,
+        gt=0.0,
+        le=5.0,
+        description="poses farther apart than this (autopilot time) teach nothing (s)",
+    )
+    steady_tolerance: float = Field(
+        0.2,
+        gt=0.0,
+        le=1.0,
+        description="a channel teaches only while its command is steady: the command differs "
+        "from its lagged value by at most this fraction of it (1)",
+    )
+    max_gain: float = Field(
+        2.0,
+        ge=1.0,
+        le=5.0,
+        description="the feed-forward never amplifies a command by more than this factor (1)",
+    )
+    stuck_fraction: float = Field(
+        0.15,
+        gt=0.0,
+        lt=1.0,
+        description="a delivered fraction below this is a stall, not slip: no amplification, "
+        "the stall watchdog judges it (1)",
+    )
+    max_fraction: float = Field(
+        1.2,
+        ge=1.0,
+        le=3.0,
+        description="upper bound of the estimate (more motion than commanded: noise, slope) (1)",
+    )
+
+
 class ControlConfig(InputModel):
     distance_pid: PidGains = Field(
         default_factory=lambda: PidGains(kp=1.2, ki=0.0002, kd=0.05, integral_limit=0.2),
@@ -436,6 +516,10 @@ class ControlConfig(InputModel):
     )
     control_rate_max_hz: float = Field(
         50.0, ge=1.0, le=200.0, description="ceiling on control steps per second (Hz)"
+    )
+    slip: SlipConfig = Field(
+        default_factory=SlipConfig,
+        description="online slip estimate (delivered fraction of the command) and feed-forward",
     )
 
 

@@ -1,9 +1,13 @@
 """The control loop: fresh pose in → navigator → kinematics → actuator command out.
 
 Steps on every fresh pose (at whatever rate the autopilot granted) under a configured ceiling,
-with dt from the autopilot's ``time_boot_ms``. Between poses it still ticks (wall clock) so the
-watchdogs run even when poses stop. It never stops the rover itself: it returns the fault and
-the daemon's supervisor does the fall-back.
+with dt from the autopilot's ``time_boot_ms``. The ceiling counts autopilot time too, so the
+control rate *in vehicle terms* (steps per second of the rover's motion) does not depend on a
+simulator speed-up. Between poses it still ticks (wall clock) so the watchdogs run even when
+poses stop: the tick and the reception watchdogs (link, stale/invalid pose) stay on the
+monotonic wall clock, the stall duration counts autopilot time (see
+:mod:`helixd.safety.watchdogs`). It never stops the rover itself: it returns the fault and the
+daemon's supervisor does the fall-back.
 
 Hostile telemetry: while the vehicle state reports rejected pose telemetry (an invalid-pose
 burst), the loop commands neutral at its next tick and steps nothing; the ``pose_invalid``
@@ -26,9 +30,15 @@ from helixd.config import HelixdConfig
 from helixd.control.angles import wrap_pi
 from helixd.control.kinematics import body_to_fractions
 from helixd.control.navigator import Navigator, NavOutput
+from helixd.control.slip import (
+    SlipEstimate,
+    SlipEstimator,
+    measured_body_velocity,
+    no_slip_body,
+)
 from helixd.display import ProgressInfo
 from helixd.frames import MissionFrame, NedPose
-from helixd.geometry import NonFiniteError
+from helixd.geometry import BodyVelocity, NonFiniteError
 from helixd.link.connection import Autopilot
 from helixd.mission import Plan
 from helixd.recorder.rows import FlightRow
@@ -82,9 +92,11 @@ class FlightLoop:
         self.on_tick = on_tick
         self.navigator = Navigator(plan, cfg.control)
         self.monitor = SafetyMonitor(cfg.safety)
-        # The ceiling only thins out a pose flood (e.g. a simulator speed-up); a pose at the
-        # ceiling rate arriving a little early (scheduling jitter) is still stepped, or every
-        # other pose would be dropped when the autopilot grants exactly the ceiling rate.
+        # The ceiling only thins out a pose flood, counted in autopilot time (pose
+        # time_boot_ms), so a simulator speed-up does not lower the control rate the rover
+        # sees; a pose at the ceiling rate arriving a little early (sample jitter) is still
+        # stepped, or every other pose would be dropped when the autopilot grants exactly the
+        # ceiling rate.
         self._min_step_s = (1.0 - CEILING_JITTER_FRACTION) / cfg.control.control_rate_max_hz
         # tick at least this often without poses, so watchdogs always run (s)
         self._tick_s = min(0.05, cfg.safety.pose_stale_s / 4)
@@ -94,11 +106,14 @@ class FlightLoop:
         self._prev_yaw: tuple[float, float] | None = None  # (t_boot_s, yaw_ned_rad)
         self._invalid_burst_s: float | None = None  # the rejected-pose burst already handled
         self._t_boot_start_s: float | None = None  # autopilot clock at the first pose flown on
+        self.slip = SlipEstimator(cfg.control.slip)
+        # no-slip body velocity sent at the last step, and that step's autopilot clock (s)
+        self._sent: tuple[float, BodyVelocity] | None = None
 
     async def run(self) -> FlightResult:
         t_start = time.monotonic()
         last_rx: float | None = None
-        last_step_s = -math.inf
+        last_step_boot_s = -math.inf  # autopilot clock of the last pose stepped on
         out: NavOutput | None = None
         pose: PoseSample | None = None
         while True:
@@ -123,9 +138,13 @@ class FlightLoop:
                 return FlightResult(fault, now, out, pose.ned if pose else None)
             if self._pose_rejected(now, t_start, out):
                 continue  # neutral until a valid pose (or the pose_invalid watchdog)
-            if sample is None or now - last_step_s < self._min_step_s:
+            if sample is None:
                 continue
-            last_step_s = now
+            t_boot_s = sample.time_boot_ms / 1000.0
+            since_step_s = t_boot_s - last_step_boot_s
+            if 0.0 <= since_step_s < self._min_step_s:
+                continue  # (a clock that ran backwards, a reboot, is stepped on at once)
+            last_step_boot_s = t_boot_s
             try:
                 out = self._step(sample, now, t_start)
             except NonFiniteError as exc:
@@ -139,6 +158,7 @@ class FlightLoop:
         self.sink.command(NEUTRAL_FRACTIONS)
         self._cmd_speed_mps = 0.0
         self._cmd_yaw_rate_radps = 0.0
+        self._sent = None  # the slip fit restarts its command lag after a neutral
 
     def _pose_rejected(self, now: float, t_start: float, last: NavOutput | None) -> bool:
         """Neutral while the autopilot's pose telemetry is being rejected (once per burst:
@@ -181,13 +201,24 @@ class FlightLoop:
     def _step(self, sample: PoseSample, now: float, t_start: float) -> NavOutput:
         mpose = self.frame.to_mission(sample.ned)
         t_boot_s = sample.time_boot_ms / 1000.0
+        slip = self._learn_slip(sample, t_boot_s)
         out = self.navigator.step(mpose, t_boot_s)
-        fractions = body_to_fractions(out.command, self.cfg.vehicle, self.plan.mode)
-        if not out.command.is_finite() or not all(math.isfinite(f) for f in fractions):
+        command = out.command
+        if self.cfg.control.slip.enabled:
+            command = self.slip.compensate(self.plan.mode, out.command)
+        fractions = body_to_fractions(command, self.cfg.vehicle, self.plan.mode)
+        if (
+            not out.command.is_finite()
+            or not command.is_finite()
+            or not all(math.isfinite(f) for f in fractions)
+        ):
             raise NonFiniteError(f"command {out.command} / fractions {fractions.tolist()}")
         self.sink.command(tuple(float(f) for f in fractions))
-        self._cmd_speed_mps = math.hypot(out.command.vx_mps, out.command.vy_mps)
-        self._cmd_yaw_rate_radps = out.command.wz_radps
+        # The stall watchdog compares the measured motion with what was sent (feed-forward
+        # included): amplifying the command can only make a stall show sooner, never hide it.
+        self._cmd_speed_mps = math.hypot(command.vx_mps, command.vy_mps)
+        self._cmd_yaw_rate_radps = command.wz_radps
+        self._sent = (t_boot_s, no_slip_body(command, self.cfg.vehicle, self.plan.mode))
         if out.reached_index is not None:
             self.on_arrival(out.reached_index, t_boot_s, out.distance_error_m)
         state = self.ap.state
@@ -234,6 +265,9 @@ class FlightLoop:
                 nav_state=out.state.value,
                 link_ok=not state.link_lost,
                 pose_fresh=pose_fresh,
+                slip_vx_frac=slip.vx_frac,
+                slip_vy_frac=slip.vy_frac,
+                slip_w_frac=slip.w_frac,
             )
         )
         self.on_progress(
@@ -251,6 +285,17 @@ class FlightLoop:
             )
         )
         return out
+
+    def _learn_slip(self, sample: PoseSample, t_boot_s: float) -> SlipEstimate:
+        """Step the slip fit with what was sent at the last step and the motion measured now
+        (LOCAL_POSITION_NED velocity rotated into the body frame, the yaw derivative)."""
+        if self._sent is None:
+            return self.slip.estimate(self.plan.mode)
+        t_sent_s, sent = self._sent
+        measured = measured_body_velocity(
+            sample.vn_mps, sample.ve_mps, sample.ned.yaw_ned_rad, self._meas_yaw_rate_radps
+        )
+        return self.slip.update(self.plan.mode, sent, measured, t_boot_s - t_sent_s)
 
     def _measure_yaw_rate(self, sample: PoseSample) -> None:
         t = sample.time_boot_ms / 1000.0
@@ -299,4 +344,5 @@ class FlightLoop:
             rc_receiver_healthy=st.rc_receiver_healthy,
             pose_invalid_since_s=st.pose_invalid_since_s,
             pose_invalid_detail=st.pose_invalid_reason,
+            vehicle_time_s=pose.time_boot_ms / 1000.0 if pose else None,
         )

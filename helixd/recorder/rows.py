@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2  # 2: slip_vx_frac, slip_vy_frac, slip_w_frac
 COMMENT_PREFIX = "#"
 CSV_COMMENT = (
     f"# helixd flight.csv v{SCHEMA_VERSION}; one row per control step. "
@@ -31,7 +31,10 @@ CSV_COMMENT = (
     "heading_error_rad (wrapped to (-pi, pi]), cross_track_m (+ left of the leg). PID terms in "
     "output units (m/s for dist_*, rad/s for yaw_*). Commands: body frame, x roll axis, y scroll "
     "axis. scroll1..4: signed fraction of max RPM (scroll ids as thesis Fig. 2). pwm1..4_us: "
-    "PWM sent (0 = none). Booleans 1/0; nan = not available."
+    "PWM sent (0 = none); scroll and PWM include the slip feed-forward, vx/vy/wz_cmd do not. "
+    "slip_vx_frac/slip_vy_frac/slip_w_frac: estimated fraction of the commanded body velocity "
+    "(roll axis, scroll axis, yaw rate) the ground delivers (1 = no slip). "
+    "Booleans 1/0; nan = not available."
 )
 
 _MM = "%.3f"  # metres, seconds: 1 mm / 1 ms
@@ -84,6 +87,10 @@ class FlightRow:
     nav_state: str = _f("%s")
     link_ok: bool = _f("%d")
     pose_fresh: bool = _f("%d")
+    # schema 2; defaults so writers that predate the slip estimate still build rows
+    slip_vx_frac: float = field(default=math.nan, metadata={"fmt": _GAIN})
+    slip_vy_frac: float = field(default=math.nan, metadata={"fmt": _GAIN})
+    slip_w_frac: float = field(default=math.nan, metadata={"fmt": _GAIN})
 
     @staticmethod
     def columns() -> tuple[str, ...]:

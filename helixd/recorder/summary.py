@@ -62,6 +62,17 @@ class RunSummary(StrictModel):
     cross_track_max_m: float | None = Field(description="max |cross-track| (m)")
     final_error_m: float | None = Field(description="last pose to the final waypoint (m)")
     rows: int = Field(0, description="control steps recorded")
+    slip_vx_frac: float | None = Field(
+        None,
+        description="last slip estimate: fraction of the commanded roll-axis velocity the "
+        "ground delivered (1 = no slip); None if never recorded",
+    )
+    slip_vy_frac: float | None = Field(
+        None, description="last slip estimate for the scroll-axis velocity (1 = no slip)"
+    )
+    slip_w_frac: float | None = Field(
+        None, description="last slip estimate for the yaw rate (1 = no slip)"
+    )
     origin_latlon_deg: tuple[float, float] | None = Field(
         None, description="EKF origin used for a global mission (lat, lon deg)"
     )
@@ -110,6 +121,7 @@ class SummaryBuilder:
         self._last_xy: tuple[float, float] | None = None
         self._last_dist_err: float | None = None
         self._arrivals: dict[int, Arrival] = {}
+        self._slip: tuple[float, float, float] | None = None  # last finite (vx, vy, w) estimate
 
     def set_origin(self, lat_deg: float, lon_deg: float) -> None:
         """Record the EKF origin a global mission was resolved with (plots need it)."""
@@ -148,6 +160,9 @@ class SummaryBuilder:
             self._xt_max = max(self._xt_max, abs(xt))
         if math.isfinite(row.distance_error_m):
             self._last_dist_err = row.distance_error_m
+        slip = (row.slip_vx_frac, row.slip_vy_frac, row.slip_w_frac)
+        if all(math.isfinite(f) for f in slip):
+            self._slip = slip
 
     def arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
         """A waypoint was reached (the first notice per index counts)."""
@@ -215,6 +230,9 @@ class SummaryBuilder:
             cross_track_max_m=self._xt_max if self._xt_n else None,
             final_error_m=final_error,
             rows=self._rows,
+            slip_vx_frac=None if self._slip is None else self._slip[0],
+            slip_vy_frac=None if self._slip is None else self._slip[1],
+            slip_w_frac=None if self._slip is None else self._slip[2],
             origin_latlon_deg=self._origin,
         )
 

@@ -1,7 +1,24 @@
-"""Safety watchdogs: pure decisions, stepped with a snapshot and a monotonic time.
+"""Safety watchdogs: pure decisions, stepped with a snapshot and two clocks.
 
 No sockets, clocks or logging here. The supervisor (:mod:`helixd.safety.supervisor`) feeds a
 :class:`SafetyInputs` snapshot each control tick and acts on the first :class:`Fault` returned.
+
+Which clock each watchdog counts on (a simulator speed-up makes the autopilot's run faster than
+ours; a dead or rebooting autopilot has no clock at all):
+
+- ``link_lost``, ``pose_stale``, ``pose_invalid``: our *reception* of its messages. Monotonic
+  wall clock (``now_s`` against ``last_heartbeat_s`` / ``pose_rx_s``): a silent autopilot sends
+  no time, so only our own clock can notice its silence.
+- ``stall``: how long the *vehicle* has been commanded but not moving. Autopilot time
+  (``vehicle_time_s``, the ``time_boot_ms`` of the latest pose): the duration is a property of
+  the rover's motion, so a speed-up must not stretch it in vehicle terms. It only advances with
+  fresh poses; pose loss is ``pose_stale``'s job. A clock that runs backwards (reboot) restarts
+  the timer. Without an autopilot clock (no pose yet) the wall clock is used, and switching
+  between the two restarts the timer rather than mixing them.
+- ``mission_time``: the later of both clocks (computed by the flight loop as
+  ``mission_elapsed_s``): the plan's estimate is autopilot time, and a reboot restarts that.
+- ``ekf_unhealthy``, ``disarmed``, ``pilot_takeover``, ``rc_lost``, ``geofence``: states, judged
+  at once; no clock.
 
 NaN is never "fine": a non-finite input a watchdog needs is itself a fault (a comparison with
 NaN is False, so every rule is written so that False means "fault", or checks finiteness first).
@@ -71,6 +88,8 @@ class SafetyInputs:
     # start of the current burst of rejected pose telemetry (None: the last pose was valid)
     pose_invalid_since_s: float | None = None
     pose_invalid_detail: str = ""
+    # autopilot clock (s since its boot) of the latest pose; None: no pose yet
+    vehicle_time_s: float | None = None
 
 
 def _finite(*values: float | None) -> bool:
@@ -123,6 +142,7 @@ class SafetyMonitor:
     def __init__(self, cfg: SafetyConfig) -> None:
         self.cfg = cfg
         self._stall_since_s: float | None = None
+        self._stall_on_vehicle_clock = False  # which clock _stall_since_s counts on
 
     def reset(self) -> None:
         self._stall_since_s = None
@@ -149,7 +169,9 @@ class SafetyMonitor:
 
     def _inputs_finite(self, s: SafetyInputs) -> Fault | None:
         """Non-finite numbers the watchdogs rely on: no rule could judge them."""
-        if not _finite(s.now_s, s.last_heartbeat_s, s.pose_rx_s, s.mission_elapsed_s):
+        if not _finite(
+            s.now_s, s.last_heartbeat_s, s.pose_rx_s, s.mission_elapsed_s, s.vehicle_time_s
+        ):
             return Fault(FaultCause.EXCEPTION, "non-finite clock value in the safety inputs")
         if not _finite(s.commanded_speed_mps, s.commanded_yaw_rate_radps):
             return Fault(FaultCause.EXCEPTION, "non-finite command in the safety inputs")
@@ -281,9 +303,16 @@ class SafetyMonitor:
         if not (driving_stuck or turning_stuck):
             self._stall_since_s = None
             return None
-        if self._stall_since_s is None:
-            self._stall_since_s = s.now_s
-        stuck_s = s.now_s - self._stall_since_s
+        on_vehicle_clock = s.vehicle_time_s is not None
+        t_s = s.vehicle_time_s if s.vehicle_time_s is not None else s.now_s
+        if (
+            self._stall_since_s is None
+            or on_vehicle_clock != self._stall_on_vehicle_clock
+            or not t_s >= self._stall_since_s  # clock ran backwards (reboot) or NaN
+        ):
+            self._stall_since_s = t_s
+            self._stall_on_vehicle_clock = on_vehicle_clock
+        stuck_s = t_s - self._stall_since_s
         if stuck_s < st.duration_s:
             return None
         what = (

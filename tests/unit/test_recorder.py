@@ -330,6 +330,30 @@ def test_rows_round_trip_with_types(tmp_path: Path, clock: FakeClock, logs: LogC
     assert rows[1]["pwm1_us"] == 1999 and rows[1]["link_ok"] is False
 
 
+def test_slip_columns_round_trip(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
+    rec = create(tmp_path, clock)
+    rec.record(make_row(clock(), slip_vx_frac=0.61234, slip_vy_frac=0.5, slip_w_frac=0.75))
+    rec.record(make_row(clock() + 0.02))  # a writer that knows nothing of slip: nan
+    rec.close()
+    assert rec.run_dir is not None
+    assert COLUMNS[-3:] == ("slip_vx_frac", "slip_vy_frac", "slip_w_frac")
+    assert "slip_vx_frac" in CSV_COMMENT and "v2" in CSV_COMMENT
+    rows = read_flight_csv(rec.run_dir / "flight.csv")
+    assert rows[0]["slip_vx_frac"] == pytest.approx(0.61234)
+    assert rows[0]["slip_vy_frac"] == pytest.approx(0.5)
+    assert rows[0]["slip_w_frac"] == pytest.approx(0.75)
+    assert all(math.isnan(float(rows[1][c])) for c in COLUMNS[-3:])
+
+
+def test_summary_carries_the_last_slip_estimate() -> None:
+    b = SummaryBuilder("square", "roll", 4)
+    assert b.build(False, None, 0).slip_vx_frac is None
+    b.add(make_row(1000.0, slip_vx_frac=0.8, slip_vy_frac=0.6, slip_w_frac=0.7))
+    b.add(make_row(1000.02))  # a row without the estimate (nan): the last one is kept
+    s = b.build(True, None, 0)
+    assert (s.slip_vx_frac, s.slip_vy_frac, s.slip_w_frac) == (0.8, 0.6, 0.7)
+
+
 def test_torn_last_line_is_skipped(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
     rec = create(tmp_path, clock)
     for i in range(3):

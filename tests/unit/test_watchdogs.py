@@ -226,3 +226,54 @@ def test_each_rule_treats_nan_as_fault_worthy() -> None:
         assert mon._stall(bad) is None  # the stall timer starts...
         fault = mon._stall(dataclasses.replace(bad, now_s=bad.now_s + 1.0))
         assert fault is not None and fault.cause is FaultCause.STALL  # ...and fires
+
+
+def test_stall_duration_counts_autopilot_time() -> None:
+    """A 5x simulator speed-up: 1 s of wall clock is 5 s of the rover's motion."""
+    mon = SafetyMonitor(SafetyConfig(stall=StallConfig(duration_s=4.0)))
+    stuck = dataclasses.replace(HEALTHY, commanded_speed_mps=0.5, measured_speed_mps=0.0)
+
+    def at(wall_s: float, boot_s: float) -> SafetyInputs:
+        return dataclasses.replace(
+            stuck, now_s=wall_s, last_heartbeat_s=wall_s, pose_rx_s=wall_s, vehicle_time_s=boot_s
+        )
+
+    assert mon.check(at(100.0, 500.0)) is None
+    assert mon.check(at(100.7, 503.5)) is None  # 3.5 s of vehicle time
+    fault = mon.check(at(100.9, 504.5))  # 0.9 s of wall clock, 4.5 s of vehicle time
+    assert fault is not None and fault.cause is FaultCause.STALL and "4.5 s" in fault.detail
+
+
+def test_stall_timer_restarts_when_the_autopilot_clock_runs_backwards() -> None:
+    mon = SafetyMonitor(SafetyConfig(stall=StallConfig(duration_s=4.0)))
+    stuck = dataclasses.replace(HEALTHY, commanded_speed_mps=0.5, measured_speed_mps=0.0)
+    assert mon._stall(dataclasses.replace(stuck, vehicle_time_s=500.0)) is None
+    assert mon._stall(dataclasses.replace(stuck, vehicle_time_s=2.0)) is None  # reboot
+    assert mon._stall(dataclasses.replace(stuck, vehicle_time_s=5.9)) is None  # 3.9 s since
+    fault = mon._stall(dataclasses.replace(stuck, vehicle_time_s=6.1))
+    assert fault is not None and fault.cause is FaultCause.STALL
+
+
+def test_stall_timer_never_mixes_clocks() -> None:
+    """Wall time 100 s then autopilot time 500 s is not 400 s of stall."""
+    mon = SafetyMonitor(SafetyConfig(stall=StallConfig(duration_s=4.0)))
+    stuck = dataclasses.replace(HEALTHY, commanded_speed_mps=0.5, measured_speed_mps=0.0)
+    assert mon._stall(stuck) is None  # no autopilot clock: wall clock 100 s
+    assert mon._stall(dataclasses.replace(stuck, vehicle_time_s=500.0)) is None
+
+
+def test_stall_ignores_the_wall_clock_when_the_autopilot_clock_is_known() -> None:
+    """Reception gaps are pose_stale's business: a stall needs vehicle time to pass."""
+    mon = SafetyMonitor(SafetyConfig(stall=StallConfig(duration_s=4.0)))
+    stuck = dataclasses.replace(
+        HEALTHY, commanded_speed_mps=0.5, measured_speed_mps=0.0, vehicle_time_s=500.0
+    )
+    assert mon._stall(stuck) is None
+    assert mon._stall(dataclasses.replace(stuck, now_s=200.0)) is None
+
+
+def test_non_finite_autopilot_clock_is_a_fault() -> None:
+    fault = SafetyMonitor(SafetyConfig()).check(
+        dataclasses.replace(HEALTHY, vehicle_time_s=float("nan"))
+    )
+    assert fault is not None and fault.cause is FaultCause.EXCEPTION
