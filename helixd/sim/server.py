@@ -385,6 +385,20 @@ class SimServer:
                     raise TimeoutError(f"simulator stopped; last: {snap.describe()}")
                 self._cond.wait(min(remaining, 0.2))
 
+    def next_snapshot(self, previous: SimSnapshot | None, timeout_s: float) -> SimSnapshot:
+        """The first snapshot published after ``previous`` (at once if ``previous`` is not the
+        current one, e.g. None); TimeoutError if none comes within ``timeout_s`` (wall)."""
+        deadline = time.monotonic() + timeout_s
+        with self._cond:
+            while self._snapshot is previous:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0.0:
+                    raise TimeoutError(f"no new snapshot within {timeout_s:.1f} s (wall)")
+                if self._thread is None or not self._thread.is_alive():
+                    raise TimeoutError(f"simulator stopped; last: {self._snapshot.describe()}")
+                self._cond.wait(min(remaining, 0.2))
+            return self._snapshot
+
 
 def start_embedded(config: SimConfig) -> tuple[SimServer, str]:
     """Run the simulator in-process on a free 127.0.0.1 UDP port.

@@ -182,16 +182,13 @@ def wait_moving(server: SimServer, timeout_s: float = 40.0) -> SimSnapshot:
 def time_until(
     server: SimServer, predicate: Callable[[SimSnapshot], bool], since_s: float, timeout_s: float
 ) -> float:
-    """Wall seconds from ``since_s`` (monotonic) until ``predicate`` holds in the simulator."""
-    deadline = time.monotonic() + timeout_s
-    while True:
-        snap = server.snapshot()
-        now = time.monotonic()
-        if predicate(snap):
-            return now - since_s
-        if now > deadline:
-            raise AssertionError(f"not reached within {timeout_s} s; simulator: {snap.describe()}")
-        time.sleep(0.005)  # polling resolution of the measurement, not a synchronisation
+    """Wall seconds from ``since_s`` (monotonic) until ``predicate`` holds in the simulator
+    (woken by each snapshot the simulator publishes)."""
+    try:
+        server.wait_for(predicate, timeout_s)
+    except TimeoutError as exc:
+        raise AssertionError(f"not reached within {timeout_s} s: {exc}") from None
+    return time.monotonic() - since_s
 
 
 @dataclass(frozen=True)
@@ -225,14 +222,16 @@ class Trace:
 def record_until(
     server: SimServer, predicate: Callable[[SimSnapshot], bool], timeout_s: float
 ) -> Trace:
-    """Poll the simulator's snapshot until ``predicate`` holds (and 0.2 s more); the trace.
-
-    The 5 ms poll is the resolution of the measurement, not a synchronisation."""
+    """Every snapshot the simulator publishes until ``predicate`` holds (and 0.2 s more)."""
     samples: list[tuple[float, SimSnapshot]] = []
     deadline = time.monotonic() + timeout_s
     done_at: float | None = None
+    snap: SimSnapshot | None = None
     while True:
-        snap = server.snapshot()
+        try:
+            snap = server.next_snapshot(snap, max(0.0, deadline - time.monotonic()))
+        except TimeoutError as exc:
+            raise AssertionError(f"not reached within {timeout_s} s: {exc}") from None
         now = time.monotonic()
         samples.append((now, snap))
         if done_at is None and predicate(snap):
@@ -241,4 +240,3 @@ def record_until(
             return Trace(samples)
         if now > deadline:
             raise AssertionError(f"not reached within {timeout_s} s; simulator: {snap.describe()}")
-        time.sleep(0.005)

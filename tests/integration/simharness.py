@@ -51,15 +51,6 @@ def free_udp_port() -> int:
         return int(s.getsockname()[1])
 
 
-def wait_until(predicate: Callable[[], bool], timeout_s: float, what: str) -> None:
-    """Poll ``predicate`` until true or fail after ``timeout_s`` (wall seconds)."""
-    deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-        time.sleep(0.01)
-
-
 @contextmanager
 def running_sim(**overrides: Any) -> Iterator[tuple[SimServer, str]]:
     server, url = start_embedded(sim_config(**overrides))
