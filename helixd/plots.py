@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import textwrap
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -335,16 +336,21 @@ def _lost_intervals(data: RunData) -> list[tuple[float, float]]:
     return spans
 
 
-def _time_markers(
-    ax: Axes, data: RunData, *, labels: bool, min_gap_frac: float = LABEL_MIN_GAP_PANEL
+def _arrival_lines(
+    ax: Axes,
+    marks: Sequence[tuple[int, float]],
+    span: float,
+    min_gap_frac: float,
+    *,
+    labels: bool,
 ) -> None:
-    span = float(data.t_s[-1] - data.t_s[0]) if data.t_s.size else 0.0
-    show = sparse_label_mask([t for _, t in data.arrivals], span, min_gap_frac)
-    for k, (index, t) in enumerate(data.arrivals):
-        ax.axvline(t, **ARRIVAL_STYLE, label="waypoint reached" if k == 0 and labels else None)
+    """A dotted line at each (waypoint index, x) arrival; ``WPn`` labels spaced sparsely."""
+    show = sparse_label_mask([x for _, x in marks], span, min_gap_frac)
+    for k, (index, x) in enumerate(marks):
+        ax.axvline(x, **ARRIVAL_STYLE, label="waypoint reached" if k == 0 and labels else None)
         if labels and show[k]:
             ax.text(
-                t,
+                x,
                 0.99,
                 f" WP{index}",
                 transform=ax.get_xaxis_transform(),
@@ -352,6 +358,13 @@ def _time_markers(
                 va="top",
                 color="0.35",
             )
+
+
+def _time_markers(
+    ax: Axes, data: RunData, *, labels: bool, min_gap_frac: float = LABEL_MIN_GAP_PANEL
+) -> None:
+    span = float(data.t_s[-1] - data.t_s[0]) if data.t_s.size else 0.0
+    _arrival_lines(ax, data.arrivals, span, min_gap_frac, labels=labels)
     for k, (a, b) in enumerate(_lost_intervals(data)):
         ax.axvspan(a, b, **LOST_SHADE, label="link/pose lost" if k == 0 and labels else None)
     if data.fault_t_s is not None:
@@ -529,19 +542,7 @@ def draw_cross_track_along(ax: Axes, data: RunData) -> None:
 
     marks = [(index, d) for index, t in data.arrivals if (d := along_at(t)) is not None]
     span = float(np.nanmax(along)) if ok.any() else 0.0
-    show = sparse_label_mask([d for _, d in marks], span, LABEL_MIN_GAP_PANEL)
-    for k, (index, d) in enumerate(marks):
-        ax.axvline(d, **ARRIVAL_STYLE, label="waypoint reached" if k == 0 else None)
-        if show[k]:
-            ax.text(
-                d,
-                0.99,
-                f" WP{index}",
-                transform=ax.get_xaxis_transform(),
-                fontsize=8,
-                va="top",
-                color="0.35",
-            )
+    _arrival_lines(ax, marks, span, LABEL_MIN_GAP_PANEL, labels=True)
     if data.fault_t_s is not None and (d_fault := along_at(data.fault_t_s)) is not None:
         ax.axvline(d_fault, color=FAULT_COLOR, linewidth=2.0, label=data.fault_label())
     ax.set_xlabel("distance travelled along the path (m)")
