@@ -28,10 +28,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from helixd.control.angles import shortest_angular_distance, wrap_pi
-from helixd.geometry import BodyVelocity, Pose2D, require_finite
-from helixd.mission.model import MotionMode
-from helixd.mission.plan import PlanWaypoint
+from helixd.base.angles import shortest_angular_distance, wrap_pi
+from helixd.base.geometry import BodyVelocity, Pose2D, require_finite
+from helixd.base.plan import MotionMode, PlanWaypoint
 
 
 @dataclass(frozen=True, slots=True)

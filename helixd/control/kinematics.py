@@ -18,9 +18,9 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 
-from helixd.config import ScrollCalibration, VehicleConfig
-from helixd.geometry import BodyVelocity, require_finite
-from helixd.mission.model import MotionMode
+from helixd.base.geometry import BodyVelocity, require_finite
+from helixd.base.plan import MotionMode
+from helixd.control.params import ScrollCalibrationParams, VehicleParams
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -66,7 +66,7 @@ def _frozen(a: FloatArray) -> FloatArray:
     return a
 
 
-def body_to_scroll_radps(body: BodyVelocity, vehicle: VehicleConfig) -> FloatArray:
+def body_to_scroll_radps(body: BodyVelocity, vehicle: VehicleParams) -> FloatArray:
     """Inverse kinematics: body velocity → four scroll speeds (rad/s)."""
     require_finite("body velocity", body.vx_mps, body.vy_mps, body.wz_radps)
     j_inv = inverse_matrix(vehicle.scroll_radius_m, vehicle.lx_m, vehicle.ly_m)
@@ -75,7 +75,7 @@ def body_to_scroll_radps(body: BodyVelocity, vehicle: VehicleConfig) -> FloatArr
 
 
 def scroll_radps_to_body(
-    omega_radps: Sequence[float] | FloatArray, vehicle: VehicleConfig
+    omega_radps: Sequence[float] | FloatArray, vehicle: VehicleParams
 ) -> BodyVelocity:
     """Forward kinematics: four scroll speeds (rad/s) → body velocity (no slip)."""
     j = forward_matrix(vehicle.scroll_radius_m, vehicle.lx_m, vehicle.ly_m)
@@ -126,7 +126,7 @@ def saturate(fractions: FloatArray, clamp: float) -> FloatArray:
 
 
 def apply_calibration(
-    fractions: FloatArray, scrolls: Sequence[ScrollCalibration], clamp: float
+    fractions: FloatArray, scrolls: Sequence[ScrollCalibrationParams], clamp: float
 ) -> FloatArray:
     """Per-scroll v = a·ω + b correction, deadband and wiring direction; result clamped.
 
@@ -144,7 +144,7 @@ def apply_calibration(
     return out
 
 
-def body_to_fractions(body: BodyVelocity, vehicle: VehicleConfig, mode: MotionMode) -> FloatArray:
+def body_to_fractions(body: BodyVelocity, vehicle: VehicleParams, mode: MotionMode) -> FloatArray:
     """The full pipeline: mode constraint → eq. 2 → fraction of max RPM → joint saturation →
     per-scroll calibration. Returns four fractions in [−clamp, clamp]; all four 0 (neutral)
     when any component of ``body`` is not finite."""

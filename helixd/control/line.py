@@ -30,8 +30,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from helixd.control.angles import shortest_angular_distance, wrap_pi
-from helixd.geometry import Pose2D, require_finite
+from helixd.base.angles import shortest_angular_distance, wrap_pi
+from helixd.base.geometry import Pose2D, require_finite
 
 MIN_LEG_M = 1e-6  # shorter legs have no direction: they are flown as a point
 

@@ -42,14 +42,13 @@ import math
 from dataclasses import dataclass, replace
 from enum import StrEnum
 
-from helixd.config import ControlConfig
+from helixd.base.angles import shortest_angular_distance, wrap_pi
+from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D, require_finite
+from helixd.base.plan import MotionMode, Plan, PlanWaypoint
 from helixd.control import guidance, line
-from helixd.control.angles import shortest_angular_distance, wrap_pi
 from helixd.control.kinematics import constrain
+from helixd.control.params import NavigatorParams
 from helixd.control.pid import PID, PidTerms
-from helixd.geometry import BodyVelocity, NonFiniteError, Pose2D, require_finite
-from helixd.mission.model import MotionMode
-from helixd.mission.plan import Plan, PlanWaypoint
 
 
 class NavState(StrEnum):
@@ -81,7 +80,7 @@ class NavOutput:
 class Navigator:
     """Flies ``plan`` waypoint by waypoint. One instance per mission run."""
 
-    def __init__(self, plan: Plan, control: ControlConfig) -> None:
+    def __init__(self, plan: Plan, control: NavigatorParams) -> None:
         if not plan.waypoints:
             raise ValueError(f"plan '{plan.name}' has no waypoints")
         self.plan = plan

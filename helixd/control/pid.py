@@ -18,8 +18,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from helixd.config import PidGains
-from helixd.control.angles import wrap_pi
+from helixd.base.angles import wrap_pi
+from helixd.control.params import PidGainsParams
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,7 +50,9 @@ class PID:
     loop crossing ±π neither takes the long way round nor sees a 2π derivative spike.
     """
 
-    def __init__(self, gains: PidGains, output_limit: float, *, angular: bool = False) -> None:
+    def __init__(
+        self, gains: PidGainsParams, output_limit: float, *, angular: bool = False
+    ) -> None:
         if not output_limit > 0.0:
             raise ValueError(f"output_limit must be > 0, got {output_limit}")
         self.gains = gains

@@ -36,7 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from helixd.config import SlipConfig, VehicleConfig
+from helixd.base.geometry import BodyVelocity
+from helixd.base.plan import MotionMode
 from helixd.control.kinematics import (
     body_to_scroll_radps,
     constrain,
@@ -45,8 +46,7 @@ from helixd.control.kinematics import (
     saturate,
     scroll_radps_to_body,
 )
-from helixd.geometry import BodyVelocity
-from helixd.mission.model import MotionMode
+from helixd.control.params import SlipParams, VehicleParams
 
 
 @dataclass(frozen=True, slots=True)
@@ -91,7 +91,7 @@ def measured_body_velocity(
     return BodyVelocity(vn_mps * c + ve_mps * s, vn_mps * s - ve_mps * c, yaw_rate_ccw_radps)
 
 
-def no_slip_body(command: BodyVelocity, vehicle: VehicleConfig, mode: MotionMode) -> BodyVelocity:
+def no_slip_body(command: BodyVelocity, vehicle: VehicleParams, mode: MotionMode) -> BodyVelocity:
     """The body velocity the scrolls would produce on ideal ground for ``command``: the mode's
     constraint and the joint saturation of :func:`helixd.control.kinematics.body_to_fractions`
     applied (per-scroll calibration is the actuators' business, not the ground's). Zero for a
@@ -108,7 +108,7 @@ def no_slip_body(command: BodyVelocity, vehicle: VehicleConfig, mode: MotionMode
 class SlipEstimator:
     """Per motion mode delivered-fraction estimate and its bounded feed-forward."""
 
-    def __init__(self, cfg: SlipConfig) -> None:
+    def __init__(self, cfg: SlipParams) -> None:
         self.cfg = cfg
         self._modes: dict[MotionMode, _ModeState] = {}
 

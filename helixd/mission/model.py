@@ -12,26 +12,14 @@ Frames (see :mod:`helixd.frames`):
 from __future__ import annotations
 
 import math
-from enum import StrEnum
 from pathlib import Path
 
 from pydantic import Field, ValidationInfo, model_validator
 
+from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.config import ConfigFileError, InputModel, MissionLimits, load_yaml_model
 
 DUPLICATE_EPSILON_M = 0.01  # consecutive points closer than this are the same point
-
-
-class MotionMode(StrEnum):
-    ROLL = "roll"  # hard ground: v_y = 0, drive along +x
-    SCROLL = "scroll"  # water, mud, snow: v_x = 0, drive along +y
-    OMNI = "omni"  # viscous media: ω_z = 0, heading held
-
-
-class MissionFrameKind(StrEnum):
-    START = "start"
-    LOCAL_NED = "local_ned"
-    GLOBAL = "global"
 
 
 _ALL_COORDS = ("x", "y", "north", "east", "lat", "lon")
@@ -102,7 +90,7 @@ class Mission(InputModel):
         for i in range(1, len(pts)):
             (a0, a1), (b0, b1) = pts[i - 1], pts[i]
             if is_global:
-                from helixd.frames import latlon_to_ne
+                from helixd.base.frames import latlon_to_ne
 
                 dn, de = latlon_to_ne(b0, b1, a0, a1)
                 gap = hypot(dn, de)

@@ -1,66 +1,22 @@
 """Resolve a mission file into a plan: waypoints in the mission frame, ready for the navigator.
 
 Pure: no I/O. ``global`` missions need the EKF origin (GPS_GLOBAL_ORIGIN) to resolve.
+:class:`Plan` and :class:`PlanWaypoint` live in :mod:`helixd.base.plan` (re-exported here).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
+from helixd.base.angles import wrap_pi
+from helixd.base.frames import latlon_to_ne
+from helixd.base.plan import MissionFrameKind, Plan, PlanWaypoint
 from helixd.config import ControlConfig, MissionLimits
-from helixd.control.angles import wrap_pi
-from helixd.frames import latlon_to_ne
-from helixd.mission.model import Mission, MissionFrameKind, MotionMode
+from helixd.mission.model import Mission
 
 
 class PlanError(ValueError):
     """The mission cannot be resolved (e.g. a global point beyond the max range)."""
-
-
-@dataclass(frozen=True, slots=True)
-class PlanWaypoint:
-    """One target in the mission frame (x/y metres, yaw CCW from +x)."""
-
-    x_m: float
-    y_m: float
-    tolerance_m: float
-    final_yaw_rad: float | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class Plan:
-    name: str
-    mode: MotionMode
-    frame: MissionFrameKind
-    waypoints: tuple[PlanWaypoint, ...]
-    speed_mps: float
-
-    def path_length_m(self, start_xy_m: tuple[float, float] = (0.0, 0.0)) -> float:
-        """Length of the polyline start → wp1 → … → wpN (m)."""
-        total = 0.0
-        px, py = start_xy_m
-        for wp in self.waypoints:
-            total += math.hypot(wp.x_m - px, wp.y_m - py)
-            px, py = wp.x_m, wp.y_m
-        return total
-
-    def estimated_time_s(
-        self, yaw_rate_radps: float, start_xy_m: tuple[float, float] = (0.0, 0.0)
-    ) -> float:
-        """Rough duration: path at cruise speed plus turns in place (roll/scroll) at yaw_rate."""
-        travel = self.path_length_m(start_xy_m) / self.speed_mps
-        if self.mode is MotionMode.OMNI or yaw_rate_radps <= 0:
-            return travel
-        turns = 0.0
-        px, py = start_xy_m
-        heading = 0.0 if self.mode is MotionMode.ROLL else math.pi / 2
-        for wp in self.waypoints:
-            leg = math.atan2(wp.y_m - py, wp.x_m - px)
-            turns += abs(wrap_pi(leg - heading))
-            heading = leg
-            px, py = wp.x_m, wp.y_m
-        return travel + turns / yaw_rate_radps
 
 
 def resolve_plan(
@@ -109,3 +65,6 @@ def resolve_plan(
         waypoints=tuple(out),
         speed_mps=speed,
     )
+
+
+__all__ = ["Plan", "PlanError", "PlanWaypoint", "resolve_plan"]

@@ -15,7 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from helixd.control.angles import wrap_pi
+from helixd.base.angles import wrap_pi
 from helixd.sim.config import NoiseProfile
 from helixd.sim.physics import PhysicsState
 

@@ -17,7 +17,7 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.control.angles import wrap_pi
+from helixd.base.angles import wrap_pi
 from helixd.sim import modes
 from helixd.sim.estimator import EkfStatus, PoseEstimate
 

@@ -19,8 +19,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
+from helixd.base.angles import wrap_pi
 from helixd.config import VehicleConfig
-from helixd.control.angles import wrap_pi
 from helixd.control.kinematics import rpm_to_radps, scroll_radps_to_body
 from helixd.sim.config import TerrainTraction
 

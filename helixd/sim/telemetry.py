@@ -7,7 +7,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from helixd.frames import ne_to_latlon
+from helixd.base.frames import ne_to_latlon
 from helixd.sim import messages
 from helixd.sim import streams as st
 from helixd.sim.estimator import EkfStatus, PoseEstimate
