@@ -1,7 +1,8 @@
 """Helix-25 ground physics (pure): PWM → scroll speed with motor lag → eq. 1 with terrain slip.
 
 Frames: body x = ROLL axis (forward), y = SCROLL axis (LEFT), yaw counter-clockwise positive
-(the thesis's convention, helixd.control.kinematics). World: NED, yaw clockwise from North.
+(the thesis's convention; eq. 1 is the simulator's own, :mod:`helixd.sim.forward`).
+World: NED, yaw clockwise from North.
 A CCW body yaw rate is a negative NED yaw rate; body y-left at NED heading ψ points to ψ − 90°:
     v_north = v_x cos ψ + v_y sin ψ,   v_east = v_x sin ψ − v_y cos ψ.
 
@@ -21,8 +22,8 @@ from dataclasses import dataclass, replace
 
 from helixd.base.angles import wrap_pi
 from helixd.config import VehicleConfig
-from helixd.control.kinematics import rpm_to_radps, scroll_radps_to_body
 from helixd.sim.config import TerrainTraction
+from helixd.sim.forward import body_velocity, rpm_to_radps
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,7 +105,7 @@ def step(
         w + (max(-1.0, min(1.0, f)) * omega_max - w) * alpha
         for w, f in zip(state.scroll_radps, scroll_fractions, strict=True)
     )
-    ideal = scroll_radps_to_body(omega, vehicle)
+    ideal = body_velocity(omega, vehicle.scroll_radius_m, vehicle.lx_m, vehicle.ly_m)
     k = vehicle.lx_m + vehicle.ly_m
     free = 0.0 if stalled else max(0.0, 1.0 - state.pit_depth)
     vx = ideal.vx_mps * traction.roll_efficiency * free

@@ -8,9 +8,9 @@ from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
-from helixd.control.kinematics import radps_to_rpm
 from helixd.sim import modes
 from helixd.sim.core import SimCore
+from helixd.sim.forward import radps_to_rpm
 
 
 @dataclass(frozen=True, slots=True)

@@ -83,6 +83,20 @@ def test_navigator_loads_neither_pydantic_yaml_asyncio_nor_socket() -> None:
         assert name not in loaded
 
 
+def test_simulator_loads_nothing_of_the_controller_link_or_daemon() -> None:
+    loaded = loaded_after_import("helixd.sim", "helixd.sim.command")
+    assert "helixd.sim.server" in loaded  # the import really reached the simulator
+    forbidden = (
+        "helixd.control",
+        "helixd.link",
+        "helixd.daemon",
+        "helixd.flight",
+        "helixd.vehicle",
+    )
+    bad = {m for m in helixd_modules(loaded) if m.startswith(forbidden)}
+    assert not bad, f"helixd.sim loads {sorted(bad)}"
+
+
 def _members(protocol: type) -> list[str]:
     return [name for name, value in vars(protocol).items() if isinstance(value, property)]
 
