@@ -136,6 +136,10 @@ class Autopilot:
             self.gcs_last_seen_s = now_s
             self.gcs_heartbeats_seen += 1
 
+    def on_gcs_contact(self, now_s: float) -> None:
+        """A message that counts as GCS contact (MANUAL_CONTROL from the GCS, aimed at us)."""
+        self.gcs_last_seen_s = now_s
+
     def on_rc_override(self, sysid: int, raw: Sequence[int], now_s: float) -> None:
         if not self.is_gcs(sysid):
             return  # "Only accept control from our gcs" — silently ignored

@@ -16,7 +16,7 @@ from helixd.sim import estimator, physics, skid, telemetry
 from helixd.sim import streams as st
 from helixd.sim.autopilot import Autopilot, SimEvent, StatusText
 from helixd.sim.config import Plant, SimConfig
-from helixd.sim.faults import FaultClock, FaultError, FaultSpec
+from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
 from helixd.sim.inbound import InboundHandler
 from helixd.sim.messages import STATUSTEXT_LEN, Message, statustexts
 from helixd.sim.modes import MODE_NUMBERS
@@ -99,6 +99,21 @@ class SimCore:
         for m in statustexts(text.severity, text.text, self._chunk_id):
             self.send(None, m)
         self.events.append(SimEvent("statustext", {"severity": text.severity, "text": text.text}))
+
+    # -- the inbound handler's port (helixd.sim.inbound.InboundPort) -------------------------
+
+    def streams(self, link: int) -> st.StreamSchedule:
+        return self.links[link].streams
+
+    def record(self, event: SimEvent) -> None:
+        self.events.append(event)
+
+    def queue_all_params(self, link: int) -> None:
+        self.links[link].param_queue = deque(range(len(self.params)))
+
+    def reboot_after_replies(self) -> None:
+        self.flushed.extend(self.drain_outbox())
+        self.inject(make_spec("reboot", {}))
 
     def drain_outbox(self) -> list[tuple[int | None, Message]]:
         """Messages to put on the wire; a link that is down (dropped/silent) loses its share."""

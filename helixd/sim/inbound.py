@@ -1,5 +1,9 @@
 """Handling of received MAVLink messages (pure: updates the core, queues replies).
 
+The handler sees the core only through :class:`InboundPort`, the few reads and actions it
+needs; it never imports :mod:`helixd.sim.core` nor writes the core's fields (the core builds
+the handler and hands itself in as the port).
+
 Routing as ArduPilot's MAVLink_routing::check_and_forward: a message carrying a
 target_system is processed only when it is 0 (broadcast) or our sysid, and for our sysid only
 when target_component is 0 or ours. Commands come back with COMMAND_ACK to the sender's
@@ -9,9 +13,8 @@ link (GCS::send_parameter_value); an unknown name gets no answer at all.
 
 from __future__ import annotations
 
-from collections import deque
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from helixd.sim import messages, telemetry
 from helixd.sim import streams as st
@@ -20,14 +23,13 @@ from helixd.sim.autopilot import (
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
+    Autopilot,
     SimEvent,
     StatusText,
 )
-from helixd.sim.faults import make_spec
+from helixd.sim.estimator import EkfStatus
 from helixd.sim.messages import Message
-
-if TYPE_CHECKING:
-    from helixd.sim.core import SimCore
+from helixd.sim.params import ParamStore
 
 MAV_CMD_GET_MESSAGE_INTERVAL = 510
 MAV_CMD_SET_MESSAGE_INTERVAL = 511
@@ -52,8 +54,43 @@ def _f(msg: Message, name: str) -> float:
     return float(getattr(msg, name))
 
 
+class InboundPort(Protocol):
+    """What the inbound handler reads of the simulator core and asks of it."""
+
+    @property
+    def ap(self) -> Autopilot: ...
+    @property
+    def params(self) -> ParamStore: ...
+    @property
+    def now_s(self) -> float: ...
+    @property
+    def view(self) -> telemetry.TelemetryView: ...
+
+    def ekf_status(self) -> EkfStatus: ...
+    def streams(self, link: int) -> st.StreamSchedule:
+        """The message-interval schedule of one link."""
+        ...
+
+    def send(self, link: int | None, msg: Message) -> None:
+        """Queue a reply for one link (None: every link)."""
+        ...
+
+    def say(self, text: StatusText) -> None: ...
+    def record(self, event: SimEvent) -> None:
+        """Add an event to the simulator's log."""
+        ...
+
+    def queue_all_params(self, link: int) -> None:
+        """Start streaming every parameter to ``link`` (PARAM_REQUEST_LIST)."""
+        ...
+
+    def reboot_after_replies(self) -> None:
+        """Put the queued replies on the wire, then reboot the autopilot."""
+        ...
+
+
 class InboundHandler:
-    def __init__(self, core: SimCore) -> None:
+    def __init__(self, core: InboundPort) -> None:
         self.core = core
         self._handlers: dict[str, Callable[[int, Message, int, int], None]] = {
             "HEARTBEAT": self._heartbeat,
@@ -100,7 +137,7 @@ class InboundHandler:
         # then it counts as GCS contact for the failsafe (sysid_myggcs_seen)
         ap = self.core.ap
         if ap.is_gcs(src) and _i(msg, "target") == ap.sysid():
-            ap.gcs_last_seen_s = self.core.now_s
+            ap.on_gcs_contact(self.core.now_s)
 
     def _set_mode(self, link: int, msg: Message, src: int, comp: int) -> None:
         core = self.core
@@ -127,17 +164,14 @@ class InboundHandler:
             result = core.ap.command(command, p, core.now_s, core.ekf_status())
         if result is None:
             result = MAV_RESULT_UNSUPPORTED
-        core.events.append(
-            SimEvent("command", {"command": command, "result": result, "sysid": src})
-        )
+        core.record(SimEvent("command", {"command": command, "result": result, "sysid": src}))
         core.send(link, messages.command_ack(command, result, src, comp))
         if command == MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN and result == MAV_RESULT_ACCEPTED:
-            core.flushed.extend(core.drain_outbox())  # the ACK goes out before the reboot
-            core.inject(make_spec("reboot", {}))
+            core.reboot_after_replies()  # the ACK goes out before the reboot
 
     def _link_command(self, link: int, command: int, p: list[float]) -> int | None:
         core = self.core
-        schedule = core.links[link].streams
+        schedule = core.streams(link)
         if command == MAV_CMD_SET_MESSAGE_INTERVAL:
             msg_id = int(p[0])
             decision = st.decide_set_message_interval(
@@ -177,7 +211,7 @@ class InboundHandler:
 
     def _request_data_stream(self, link: int, msg: Message, src: int, comp: int) -> None:
         core = self.core
-        core.links[link].streams.request_data_stream(
+        core.streams(link).request_data_stream(
             _i(msg, "req_stream_id"),
             _i(msg, "req_message_rate"),
             _i(msg, "start_stop") != 0,
@@ -206,7 +240,7 @@ class InboundHandler:
         self.core.send(link, self.param_value_at(index))
 
     def _param_request_list(self, link: int, msg: Message, src: int, comp: int) -> None:
-        self.core.links[link].param_queue = deque(range(len(self.core.params)))
+        self.core.queue_all_params(link)
 
     def _param_set(self, link: int, msg: Message, src: int, comp: int) -> None:
         core = self.core
@@ -216,7 +250,7 @@ class InboundHandler:
         old = core.params.get(name)
         stored = core.params.set(name, _f(msg, "param_value"))
         if stored != old:
-            core.events.append(SimEvent("param", {"name": name, "value": stored, "old": old}))
+            core.record(SimEvent("param", {"name": name, "value": stored, "old": old}))
         core.send(None, self.param_value_at(core.params.index(name)))
 
 
