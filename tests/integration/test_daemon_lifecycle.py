@@ -17,17 +17,17 @@ from helixd.config import HelixdConfig
 from helixd.daemon import RunOptions, run_mission
 from helixd.exitcodes import ExitCode
 from helixd.mission import load_mission
-from tests.integration.daemon_harness import (
+from tests.integration.harness import (
     MISSIONS,
     SPEEDUP,
     overrides_released,
+    running_sim,
     scrolls_neutral,
     secured,
     sim_and_daemon,
     time_until,
     wait_moving,
 )
-from tests.integration.simharness import running_sim
 
 pytestmark = pytest.mark.integration
 
@@ -127,9 +127,9 @@ def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
     os.environ["WATCHDOG_USEC"] = "1000000"
     got: list[str] = []
     try:
-        from tests.integration import daemon_harness
+        from tests.integration import harness
 
-        daemon_harness.KEEP_NOTIFY_SOCKET = True
+        harness.KEEP_NOTIFY_SOCKET = True
         with sim_and_daemon(tmp_path, "hexagon", terrain="mud") as (_server, d):
             # until the control loop pings the watchdog while flying, then stop the service
             while not any("STATUS=phase: fly" in m for m in got) or "WATCHDOG=1" not in got[-1]:
@@ -139,7 +139,7 @@ def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
                 got.append(sock.recv(4096).decode())
             assert d.wait_exit(30.0) == ExitCode.OPERATOR_STOP
     finally:
-        daemon_harness.KEEP_NOTIFY_SOCKET = False
+        harness.KEEP_NOTIFY_SOCKET = False
         for key in ("NOTIFY_SOCKET", "WATCHDOG_USEC"):
             os.environ.pop(key, None)
         sock.close()

@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 
 from helixd.exitcodes import ExitCode
-from tests.integration.daemon_harness import (
+from tests.integration.harness import (
     NEUTRAL_US,
     SPEEDUP,
     overrides_released,

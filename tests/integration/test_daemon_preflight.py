@@ -9,8 +9,14 @@ from typing import Any
 import pytest
 
 from helixd.exitcodes import ExitCode
-from tests.integration.daemon_harness import SPEEDUP, daemon, sim_and_daemon
-from tests.integration.simharness import GCS_SYSID, client, running_sim_links
+from tests.integration.harness import (
+    GCS_SYSID,
+    SPEEDUP,
+    client,
+    daemon,
+    running_sim_links,
+    sim_and_daemon,
+)
 
 pytestmark = pytest.mark.integration
 

@@ -26,18 +26,18 @@ from typing import Any
 import pytest
 
 from helixd.exitcodes import ExitCode
-from tests.integration.daemon_harness import (
+from tests.integration.harness import (
     SPEEDUP,
     Trace,
     daemon,
     record_until,
+    running_sim,
     scrolls_neutral,
     secured,
     sim_and_daemon,
     time_until,
     wait_moving,
 )
-from tests.integration.simharness import running_sim
 
 pytestmark = pytest.mark.integration
 

@@ -11,9 +11,13 @@ from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.telemetry import FlightMode, TelemetryAsync
 
 from helixd.exitcodes import ExitCode
-from tests.integration.daemon_harness import SPEEDUP, daemon
-from tests.integration.simharness import free_udp_port, running_sim_links
-from tests.integration.test_sim_mavsdk import first_matching
+from tests.integration.harness import (
+    SPEEDUP,
+    daemon,
+    first_matching,
+    free_udp_port,
+    running_sim_links,
+)
 
 pytestmark = pytest.mark.integration
 

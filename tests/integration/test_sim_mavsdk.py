@@ -10,15 +10,13 @@ while a pymavlink GCS on the first link force-arms and drives by RC override.
 from __future__ import annotations
 
 import asyncio
-import contextlib
-from collections.abc import AsyncGenerator, Callable
-from typing import Any, TypeVar
+from typing import Any
 
 import pytest
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.telemetry import FlightMode, TelemetryAsync
 
-from tests.integration.simharness import (
+from tests.integration.harness import (
     FORCE_ARM,
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MODE,
@@ -26,30 +24,15 @@ from tests.integration.simharness import (
     MODE_HOLD,
     MavClient,
     OverrideStreamer,
+    first_matching,
     free_udp_port,
     running_sim_links,
 )
 
 pytestmark = pytest.mark.integration
 
-T = TypeVar("T")
 # ROLL forward (eq. 2 with v_x > 0): scrolls 1, 2 forward, 3, 4 backward
 ROLL_FORWARD = (1800, 1800, 1200, 1200)
-
-
-async def first_matching(
-    stream: AsyncGenerator[T, None], predicate: Callable[[T], bool], timeout_s: float
-) -> T:
-    """First item of a MAVSDK subscription satisfying ``predicate`` (unsubscribes after)."""
-
-    async def scan() -> T:
-        async with contextlib.aclosing(stream) as items:
-            async for item in items:
-                if predicate(item):
-                    return item
-        raise AssertionError("stream ended")
-
-    return await asyncio.wait_for(scan(), timeout_s)
 
 
 async def test_mavsdk_reads_armed_mode_and_position_while_pymavlink_drives() -> None:

@@ -23,7 +23,7 @@ import pytest
 from helixd.exitcodes import ExitCode
 from helixd.recorder.track import TrackPoint
 from helixd.sim import SimServer, SimSnapshot
-from tests.integration.daemon_harness import (
+from tests.integration.harness import (
     secured,
     sim_and_daemon,
     time_until,

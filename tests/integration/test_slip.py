@@ -11,7 +11,7 @@ import pytest
 from helixd.exitcodes import ExitCode
 from helixd.recorder.rows import read_flight_columns
 from helixd.sim.config import TerrainTable
-from tests.integration.daemon_harness import sim_and_daemon
+from tests.integration.harness import sim_and_daemon
 
 pytestmark = pytest.mark.integration
 

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from helixd.exitcodes import ExitCode
-from tests.integration.simharness import running_sim
+from tests.integration.harness import running_sim
 
 pytestmark = pytest.mark.integration
 

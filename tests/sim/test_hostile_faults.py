@@ -15,7 +15,7 @@ from helixd.sim.faults import (
     make_spec,
     parse_fault,
 )
-from tests.sim.test_core import command, make_core, of_type, run
+from tests.support.simcore import command, make_core, of_type, run
 
 ARM, FORCE = 400, 21196
 SET_MESSAGE_INTERVAL = 511

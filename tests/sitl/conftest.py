@@ -41,7 +41,6 @@ import signal
 import socket
 import struct
 import subprocess
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -54,6 +53,7 @@ import yaml
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # MAVLink 2 framing
 
 from tests.sitl.skid_setup import HELIXD_SYSID, helixd_sitl_config
+from tests.support.daemon import DaemonProc, spawn_daemon
 
 T = TypeVar("T")
 
@@ -688,62 +688,7 @@ def sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
 # The helixd daemon (the real CLI, as a subprocess)
 
 
-@dataclass
-class DaemonRun:
-    proc: subprocess.Popen[str]
-    run_root: Path
-    lines: list[str] = field(default_factory=list)
-    _lock: threading.Lock = field(default_factory=threading.Lock)
-    _pump: threading.Thread | None = None
-
-    def __post_init__(self) -> None:
-        self._pump = threading.Thread(target=self._read, name="helixd-log", daemon=True)
-        self._pump.start()
-
-    def _read(self) -> None:
-        assert self.proc.stderr is not None
-        for line in self.proc.stderr:
-            with self._lock:
-                self.lines.append(line.rstrip("\n"))
-
-    def ended(self) -> str | None:
-        code = self.proc.poll()
-        return None if code is None else f"helixd exited with {code}:\n{self.log_tail()}"
-
-    def log_text(self) -> str:
-        with self._lock:
-            return "\n".join(self.lines)
-
-    def log_tail(self, lines: int = 40) -> str:
-        with self._lock:
-            return "\n".join(self.lines[-lines:])
-
-    def wait_exit(self, timeout_s: float) -> int:
-        try:
-            code = self.proc.wait(timeout=timeout_s)
-        except subprocess.TimeoutExpired:
-            raise AssertionError(
-                f"helixd still running after {timeout_s:g} s:\n{self.log_tail()}"
-            ) from None
-        if self._pump is not None:
-            self._pump.join(timeout=5.0)
-        return code
-
-    def run_dir(self) -> Path:
-        dirs = sorted(p for p in self.run_root.iterdir() if p.is_dir())
-        assert dirs, f"no run directory under {self.run_root}"
-        return dirs[-1]
-
-    def stop(self) -> None:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)  # helixd stops, releases and asks for HOLD
-            try:
-                self.proc.wait(timeout=DAEMON_STOP_TIMEOUT_S)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(timeout=DAEMON_STOP_TIMEOUT_S)
-        if self._pump is not None:
-            self._pump.join(timeout=5.0)
+DaemonRun = DaemonProc  # the one subprocess harness for the daemon (tests/support/daemon.py)
 
 
 def start_helixd(tmp_path: Path, vehicle: SitlVehicle, backend: str) -> DaemonRun:
@@ -753,32 +698,13 @@ def start_helixd(tmp_path: Path, vehicle: SitlVehicle, backend: str) -> DaemonRu
         encoding="utf-8",
     )
     run_root = tmp_path / "runs"
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
-    env.pop("NOTIFY_SOCKET", None)
-    cmd = [
-        sys.executable,
-        "-m",
-        "helixd",
-        "run",
-        "--connect",
-        vehicle.helixd_url,
-        "--mission",
-        str(SQUARE_MISSION),
-        "--config",
-        str(cfg_path),
-        "--run-dir",
-        str(run_root),
-    ]
-    proc = subprocess.Popen(
-        cmd,
+    args = ["run", "--connect", vehicle.helixd_url, "--mission", str(SQUARE_MISSION)]
+    return spawn_daemon(
+        [*args, "--config", str(cfg_path), "--run-dir", str(run_root)],
         cwd=tmp_path,
-        env=env,
+        run_root=run_root,
         stdin=subprocess.DEVNULL,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        text=True,
     )
-    return DaemonRun(proc, run_root)
 
 
 @pytest.fixture
@@ -795,4 +721,4 @@ def launch_helixd(tmp_path: Path, sitl: SitlVehicle) -> Iterator[Callable[[str],
         yield launch
     finally:
         for run in runs:
-            run.stop()
+            run.stop(DAEMON_STOP_TIMEOUT_S)

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from helixd.cli import app
 from helixd.exitcodes import ExitCode
-from tests.integration.daemon_harness import sim_and_daemon
+from tests.integration.harness import sim_and_daemon
 
 MISSION = "name: far\nmode: omni\nframe: local_ned\nwaypoints:\n  - {north: 60, east: 0}\n"
 

@@ -5,10 +5,8 @@ from __future__ import annotations
 import dataclasses
 import io
 import math
-from collections.abc import Iterator
 
 import pytest
-import structlog
 from hypothesis import given
 from hypothesis import strategies as st
 from rich.console import Console
@@ -27,15 +25,11 @@ from helixd.display import (
 from helixd.exitcodes import ExitCode
 from helixd.recorder.rows import nan_row
 from helixd.recorder.summary import RunSummary, SummaryBuilder
-from tests.unit.test_recorder import FakeClock
+from tests.support.recorder_runs import FakeClock
+
+pytestmark = pytest.mark.usefixtures("reset_logging")
 
 LOOP_HZ = 50
-
-
-@pytest.fixture(autouse=True)
-def _reset_logging() -> Iterator[None]:
-    yield
-    structlog.reset_defaults()
 
 
 def info(i: int, **kw: object) -> ProgressInfo:

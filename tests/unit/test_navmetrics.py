@@ -9,7 +9,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from helixd.frames import MissionFrame, NedPose
-from tests.unit.test_bench_smoke import load_tool
+from tests.support.tools import load_tool
 
 nm = load_tool("navmetrics")
 

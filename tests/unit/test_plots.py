@@ -4,17 +4,14 @@ from __future__ import annotations
 
 import itertools
 import struct
-from collections.abc import Iterator
 from pathlib import Path
 
 import matplotlib.image as mpimg
 import numpy as np
 import pytest
-import structlog
 import typer
 from typer.testing import CliRunner
 
-from helixd import logging_setup
 from helixd.plots import (
     AUTOPILOT_AXIS_LABEL,
     OVERVIEW_SIZE_PX,
@@ -32,16 +29,11 @@ from helixd.plots import (
 )
 from helixd.recorder import command
 from helixd.recorder.events import read_events
-from tests.unit.test_recorder import SQUARE, synth_run
+from tests.support.recorder_runs import SQUARE, synth_run
+
+pytestmark = pytest.mark.usefixtures("reset_logging")
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-@pytest.fixture(autouse=True)
-def _reset_logging() -> Iterator[None]:
-    yield
-    logging_setup.detach_events_file()
-    structlog.reset_defaults()
 
 
 def png_size(path: Path) -> tuple[int, int]:

@@ -1,8 +1,7 @@
 """Flight recorder: run directory layout, incremental flush, degraded and refuse modes.
 
-Also holds ``synth_run``, a realistic run directory (a point mass flying the 10 m square with
-the thesis's turn-then-drive logic) written through the real RunRecorder, reused by the plot
-and replay tests.
+``synth_run`` (a realistic run directory, shared with the plot and replay tests) lives in
+:mod:`tests.support.recorder_runs`.
 """
 
 from __future__ import annotations
@@ -12,48 +11,21 @@ import io
 import json
 import math
 import os
-from collections.abc import Iterator
 from dataclasses import replace
-from datetime import UTC, datetime
+from datetime import datetime
 from pathlib import Path
 from typing import IO
 
 import pytest
-import structlog
 
 from helixd import logging_setup
-from helixd.config import HelixdConfig, RecorderConfig, config_to_yaml
-from helixd.control.angles import shortest_angular_distance, wrap_pi
-from helixd.control.kinematics import body_to_fractions
-from helixd.geometry import BodyVelocity
-from helixd.mission import MotionMode
+from helixd.config import RecorderConfig
 from helixd.recorder import FlightRow, RecorderUnavailable, RunRecorder, SummaryBuilder
 from helixd.recorder.rows import COLUMNS, CSV_COMMENT, nan_row, read_flight_csv
 from helixd.recorder.rundir import default_opener, run_dir_name
+from tests.support.recorder_runs import NOW, SQUARE_YAML, FakeClock, synth_run
 
-NOW = datetime(2026, 11, 21, 3, 15, 0, tzinfo=UTC)
-SQUARE_YAML = """\
-name: square
-mode: roll
-frame: start
-waypoints:
-- {x: 10.0, y: 0.0}
-- {x: 10.0, y: 10.0}
-- {x: 0.0, y: 10.0}
-- {x: 0.0, y: 0.0}
-"""
-SQUARE = [(10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0)]
-
-
-class FakeClock:
-    def __init__(self, start_s: float = 1000.0) -> None:
-        self.t = start_s
-
-    def __call__(self) -> float:
-        return self.t
-
-    def advance(self, dt_s: float) -> None:
-        self.t += dt_s
+pytestmark = pytest.mark.usefixtures("reset_logging")
 
 
 class LogCapture:
@@ -69,13 +41,6 @@ class LogCapture:
     def events(self, name: str | None = None) -> list[dict[str, object]]:
         out = [json.loads(ln) for ln in self.json.getvalue().splitlines()]
         return [e for e in out if name is None or e["event"] == name]
-
-
-@pytest.fixture(autouse=True)
-def _reset_logging() -> Iterator[None]:
-    yield
-    logging_setup.detach_events_file()
-    structlog.reset_defaults()
 
 
 @pytest.fixture
@@ -145,112 +110,6 @@ def create(
         clock=clock,
         **kw,  # type: ignore[arg-type]
     )
-
-
-# ---------------------------------------------------------------------------------------------
-# A realistic run for the plot/replay tests
-
-
-def synth_run(
-    root: Path,
-    *,
-    fault_at_s: float | None = None,
-    rate_hz: float = 20.0,
-    cfg: HelixdConfig | None = None,
-    speedup: float = 1.0,
-) -> tuple[Path, FakeClock]:
-    """Fly a point mass round the 10 m square (ROLL: turn in place, then drive) and record it
-    through RunRecorder + SummaryBuilder + the events tee. ``fault_at_s``: stop there with a
-    ``fallback`` event (cause ``stall``) as the supervisor would. ``speedup``: the autopilot
-    clock (``t_boot_s``) runs this much faster than the wall clock, as in a sped-up simulator
-    (the point mass still moves on the wall clock)."""
-    cfg = cfg or HelixdConfig()
-    clock = FakeClock(5000.0)
-    logging_setup.configure_logging(tty=False, stream=io.StringIO(), clock=clock)
-    log = structlog.get_logger("synth")
-    rec = RunRecorder.create(
-        root, "square", config_to_yaml(cfg), SQUARE_YAML, cfg.recorder, NOW, clock=clock
-    )
-    builder = SummaryBuilder("square", "roll", len(SQUARE), SQUARE[-1])
-    dt = 1.0 / rate_hz
-    x = y = yaw = 0.0
-    t0 = clock()
-    target = 0
-    fault: str | None = None
-    tol = cfg.control.waypoint_tolerance_m
-    prev_xy = (x, y)
-    while target < len(SQUARE) and clock() - t0 < 300.0:
-        t_rel = clock() - t0
-        if fault_at_s is not None and t_rel >= fault_at_s:
-            fault = "stall"
-            log.warning("fallback", cause=fault, detail="measured speed 0.00 m/s for 4.0 s")
-            break
-        tx, ty = SQUARE[target]
-        dist = math.hypot(tx - x, ty - y)
-        if dist < tol:
-            builder.arrival(target, 100.0 + speedup * t_rel, dist)
-            log.info("waypoint_reached", index=target, error_m=round(dist, 3))
-            target += 1
-            continue
-        leg_start = SQUARE[target - 1] if target else (0.0, 0.0)
-        lx, ly = tx - leg_start[0], ty - leg_start[1]
-        leg_len = math.hypot(lx, ly) or 1.0
-        xt = (lx * (y - leg_start[1]) - ly * (x - leg_start[0])) / leg_len
-        herr = shortest_angular_distance(yaw, math.atan2(ty - y, tx - x))
-        wz = max(-1.0, min(1.0, 8.0 * herr))
-        vx = 0.0 if abs(herr) > 0.2 else min(0.6, 1.2 * dist)
-        frac = body_to_fractions(BodyVelocity(vx, 0.0, wz), cfg.vehicle, MotionMode.ROLL)
-        speed = math.hypot(x - prev_xy[0], y - prev_xy[1]) / dt
-        row = FlightRow(
-            t_boot_s=100.0 + speedup * t_rel,
-            t_mono_s=clock(),
-            north_m=x,
-            east_m=-y,
-            yaw_ned_rad=wrap_pi(-yaw),
-            x_m=x,
-            y_m=y,
-            yaw_rad=yaw,
-            target_index=target,
-            target_x_m=tx,
-            target_y_m=ty,
-            distance_error_m=dist,
-            heading_error_rad=herr,
-            cross_track_m=xt,
-            dist_p=1.2 * dist,
-            dist_i=0.0,
-            dist_d=0.0,
-            yaw_p=8.0 * herr,
-            yaw_i=0.0,
-            yaw_d=0.0,
-            vx_cmd_mps=vx,
-            vy_cmd_mps=0.0,
-            wz_cmd_radps=wz,
-            speed_meas_mps=speed,
-            scroll1=float(frac[0]),
-            scroll2=float(frac[1]),
-            scroll3=float(frac[2]),
-            scroll4=float(frac[3]),
-            pwm1_us=int(1500 + 500 * frac[0]),
-            pwm2_us=int(1500 + 500 * frac[1]),
-            pwm3_us=int(1500 + 500 * frac[2]),
-            pwm4_us=int(1500 + 500 * frac[3]),
-            mode="MANUAL",
-            armed=True,
-            nav_state="align" if vx == 0.0 else "track",
-            link_ok=True,
-            pose_fresh=True,
-        )
-        rec.record(row)
-        builder.add(row)
-        prev_xy = (x, y)
-        yaw = wrap_pi(yaw + wz * dt)
-        x += vx * math.cos(yaw) * dt
-        y += vx * math.sin(yaw) * dt
-        clock.advance(dt)
-    completed = target == len(SQUARE)
-    rec.finish(builder.build(completed, fault, 0 if completed else 4))
-    assert rec.run_dir is not None and not rec.degraded
-    return rec.run_dir, clock
 
 
 def test_synth_run_completes_the_square(tmp_path: Path) -> None:

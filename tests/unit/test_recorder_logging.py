@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import io
 import json
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -13,14 +12,9 @@ import structlog
 from helixd import logging_setup
 from helixd.logging_setup import attach_events_file, configure_logging, detach_events_file
 
+pytestmark = pytest.mark.usefixtures("reset_logging")
+
 ESC = "\x1b"
-
-
-@pytest.fixture(autouse=True)
-def _reset_logging() -> Iterator[None]:
-    yield
-    detach_events_file()
-    structlog.reset_defaults()
 
 
 def test_journald_lines_have_no_escape_codes_and_one_line_per_event() -> None:

@@ -6,7 +6,6 @@ import io
 import itertools
 import math
 import re
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -21,14 +20,9 @@ from helixd.recorder import command
 from helixd.recorder.clocks import ClockMap, autopilot_axis_s
 from helixd.recorder.events import read_events, timeline
 from helixd.recorder.rows import COLUMNS
-from tests.unit.test_recorder import synth_run
+from tests.support.recorder_runs import synth_run
 
-
-@pytest.fixture(autouse=True)
-def _reset_logging() -> Iterator[None]:
-    yield
-    logging_setup.detach_events_file()
-    structlog.reset_defaults()
+pytestmark = pytest.mark.usefixtures("reset_logging")
 
 
 @pytest.fixture
