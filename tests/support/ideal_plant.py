@@ -7,7 +7,9 @@ integrated with the midpoint heading ψ + ω_z·dt/2 (second order for a constan
 With ``vehicle`` given, the command first goes through the real scroll pipeline —
 mode constraint → eq. 2 → fraction of max RPM → joint saturation → calibration
 (:func:`body_to_fractions`) → rad/s → eq. 1 — so the plant moves with what the four scrolls
-can actually do, saturation included.
+can actually do, saturation included. Eq. 1 is the simulator's own
+(:func:`helixd.sim.forward.body_velocity`), not the controller's: a sign error in the
+controller's kinematics moves this plant the wrong way too.
 """
 
 from __future__ import annotations
@@ -15,16 +17,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from helixd.base.angles import wrap_pi
+from helixd.base.geometry import BodyVelocity, Pose2D
+from helixd.base.plan import MotionMode
 from helixd.config import VehicleConfig
-from helixd.control.angles import wrap_pi
-from helixd.control.kinematics import (
-    body_to_fractions,
-    constrain,
-    fraction_to_radps,
-    scroll_radps_to_body,
-)
-from helixd.geometry import BodyVelocity, Pose2D
-from helixd.mission.model import MotionMode
+from helixd.control.kinematics import body_to_fractions, constrain, fraction_to_radps
+from helixd.sim.forward import body_velocity
 
 
 def integrate(pose: Pose2D, body: BodyVelocity, dt_s: float) -> Pose2D:
@@ -53,7 +51,8 @@ class IdealPlant:
             return constrain(command, self.mode)
         fractions = body_to_fractions(command, self.vehicle, self.mode)
         omega_radps = fraction_to_radps(fractions, self.vehicle.max_rpm)
-        return scroll_radps_to_body(omega_radps, self.vehicle)
+        v = self.vehicle
+        return body_velocity(omega_radps, v.scroll_radius_m, v.lx_m, v.ly_m)
 
     def step(self, command: BodyVelocity, dt_s: float) -> Pose2D:
         self.pose = integrate(self.pose, self.realised(command), dt_s)
