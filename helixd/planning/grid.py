@@ -100,7 +100,7 @@ def inflate(blocked: BoolGrid, radius_cells: float) -> BoolGrid:
         m = max(abs(a) - 1, 0)
         if m >= radius_cells:
             continue
-        width = math.ceil(math.sqrt(radius_cells * radius_cells - m * m))
+        width = math.ceil(radius_cells * math.sqrt(1.0 - (m / radius_cells) ** 2))
         src = slice(max(a, 0), rows + min(a, 0))
         dst = slice(max(-a, 0), rows - max(a, 0))
         out[dst] |= dist_row[src] <= width

@@ -84,7 +84,10 @@ def grid_path(free: npt.NDArray[Any], start: Cell, goal: Cell) -> list[Cell] | N
     finder = tcod.path.Pathfinder(graph)
     finder.add_root(start)
     path = finder.path_to(goal)
-    if len(path) == 0 or tuple(int(v) for v in path[-1]) != goal:
+    # unreachable: tcod answers with the goal alone (no root at the front)
+    if len(path) < 2 or tuple(int(v) for v in path[0]) != start:
+        return None
+    if tuple(int(v) for v in path[-1]) != goal:
         return None
     return [(int(r), int(c)) for r, c in path]
 
