@@ -7,6 +7,7 @@ brute-force inflation) so that they can be trusted by reading them.
 from __future__ import annotations
 
 import heapq
+import itertools
 import math
 from collections import deque
 
@@ -129,7 +130,7 @@ def test_random_maps_path_exists_iff_bfs_finds_one_and_is_shortest(
     if path is None:
         return
     assert path[0] == s and path[-1] == g
-    for a, b in zip(path[:-1], path[1:], strict=True):
+    for a, b in itertools.pairwise(path):
         dr, dc = b[0] - a[0], b[1] - a[1]
         assert max(abs(dr), abs(dc)) == 1
         assert _step_ok(free, a, dr, dc), f"step {a}→{b} enters or cuts an inflated cell"
@@ -214,7 +215,7 @@ def test_inflating_the_walls_keeps_the_corridor_the_robot_fits_through() -> None
     route = plan_route([(1.0, 5.2), (9.0, 5.2)], Obstacles(), 0.93, occupancy=_Occ(frame, base))
     assert len(route.legs) == 1
     # 2.5 m gap - 2 × 0.93 m leaves 0.64 m of free centre line: the path goes through it
-    for n, e in route.legs[0].points_ne_m[1:-1]:
+    for _n, e in route.legs[0].points_ne_m[1:-1]:
         assert 4.0 + 0.93 <= e <= 6.5 - 0.93
 
 
@@ -223,7 +224,7 @@ def test_inflating_the_walls_keeps_the_corridor_the_robot_fits_through() -> None
 
 def _samples(route_pts: list[tuple[float, float]], n: int = 200) -> list[tuple[float, float]]:
     out = []
-    for p, q in zip(route_pts[:-1], route_pts[1:], strict=True):
+    for p, q in itertools.pairwise(route_pts):
         out.extend(
             (p[0] + t * (q[0] - p[0]), p[1] + t * (q[1] - p[1])) for t in np.linspace(0, 1, n)
         )
