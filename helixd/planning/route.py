@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy.typing as npt
+import yaml
 
 from helixd.config import HelixdConfig
 from helixd.mission.model import Mission, MissionFrameKind, WaypointSpec
@@ -209,3 +210,18 @@ def plan_mission(
         out.extend(WaypointSpec(north=n, east=e, tolerance_m=tol) for n, e in leg.points_ne_m[1:-1])
         out.append(wp)
     return mission.model_copy(update={"waypoints": tuple(out)}), route
+
+
+def planned_mission_yaml(mission: Mission, route: RoutePlan, map_path: object = None) -> str:
+    """The planned mission as a mission file (what ``run`` records as mission.yaml)."""
+    head = (
+        f"# Planned by helixd.planning: {sum(len(leg.points_ne_m) - 2 for leg in route.legs)} "
+        f"intermediate waypoints, clearance {route.grid.clearance_m:.2f} m"
+        + (f", map {map_path}" if map_path is not None else "")
+        + "\n"
+    )
+    doc = mission.model_dump(mode="json", exclude_none=True)
+    doc["waypoints"] = [
+        {k: v for k, v in wp.items() if v is not None} for wp in doc.get("waypoints", [])
+    ]
+    return head + yaml.safe_dump(doc, sort_keys=False)

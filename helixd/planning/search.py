@@ -115,4 +115,15 @@ def shortcut(grid: PlanningGrid, points: list[PointNE]) -> list[PointNE]:
             j += 1
         out.append(points[nxt])
         anchor = nxt
+    # second pass: drop any kept corner whose neighbours see each other
+    changed = True
+    while changed and len(out) > 2:
+        changed = False
+        i = 1
+        while i < len(out) - 1:
+            if segment_is_free(grid, out[i - 1], out[i + 1]):
+                del out[i]
+                changed = True
+            else:
+                i += 1
     return out
