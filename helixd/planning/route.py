@@ -22,7 +22,7 @@ from helixd.mission.model import Mission, MissionFrameKind, WaypointSpec
 from helixd.planning.grid import GridFrame, PlanningGrid, build_grid, segment_is_free
 from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import Obstacles, PointNE, clearance_m, obstacles_from_config
-from helixd.planning.search import grid_path, shortcut
+from helixd.planning.search import grid_path, shortcut, turning_cells
 
 
 class PlanningError(ValueError):
@@ -99,6 +99,7 @@ def plan_route(
     pad_m: float = 20.0,
     max_cells: int = 16_000_000,
     first_index: int = -1,
+    search_weight: float = 1.0,
 ) -> RoutePlan:
     """Plan start → p1 → … ; ``points_ne_m[0]`` is numbered ``first_index`` (-1 = the start).
 
@@ -152,11 +153,11 @@ def plan_route(
         if segment_is_free(grid, a, b):
             legs.append(Leg(ia, ib, (a, b)))
             continue
-        cells = grid_path(grid.free, frame.cell_of(a), frame.cell_of(b))
+        cells = grid_path(grid.free, frame.cell_of(a), frame.cell_of(b), search_weight)
         if cells is None:
             problems.append(f"{label}: unreachable, no path keeps {clearance:.2f} m clearance")
             continue
-        pts = [a, *(frame.centre_of(c) for c in cells[1:-1]), b]
+        pts = [a, *(frame.centre_of(c) for c in turning_cells(cells)[1:-1]), b]
         legs.append(Leg(ia, ib, tuple(shortcut(grid, pts))))
     if problems:
         raise PlanningError(problems)

@@ -59,11 +59,15 @@ def _shifted(free: npt.NDArray[Any], d_row: int, d_col: int) -> npt.NDArray[Any]
     return out
 
 
-def grid_path(free: npt.NDArray[Any], start: Cell, goal: Cell) -> list[Cell] | None:
+def grid_path(
+    free: npt.NDArray[Any], start: Cell, goal: Cell, weight: float = 1.0
+) -> list[Cell] | None:
     """Shortest 8-connected path of free cells from ``start`` to ``goal``, both included.
 
     A diagonal step is allowed only when both cells it passes between are free (no corner
-    cutting). None when no path exists or an end cell is blocked or outside.
+    cutting). None when no path exists or an end cell is blocked or outside. ``weight`` > 1
+    inflates the heuristic (weighted A*): far fewer cells expanded, path at most ``weight``
+    times the shortest (1.0 = exactly shortest).
     """
     rows, cols = free.shape
     for r, c in (start, goal):
@@ -80,7 +84,9 @@ def grid_path(free: npt.NDArray[Any], start: Cell, goal: Cell) -> list[Cell] | N
     for dr, dc in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
         ok = _shifted(free, dr, 0) & _shifted(free, 0, dc)
         graph.add_edge((dr, dc), DIAGONAL_COST, cost=cost, condition=ok.view(np.int8))
-    graph.set_heuristic(cardinal=STRAIGHT_COST, diagonal=DIAGONAL_COST)
+    graph.set_heuristic(
+        cardinal=round(STRAIGHT_COST * weight), diagonal=round(DIAGONAL_COST * weight)
+    )
     finder = tcod.path.Pathfinder(graph)
     finder.add_root(start)
     path = finder.path_to(goal)
@@ -90,6 +96,18 @@ def grid_path(free: npt.NDArray[Any], start: Cell, goal: Cell) -> list[Cell] | N
     if tuple(int(v) for v in path[-1]) != goal:
         return None
     return [(int(r), int(c)) for r, c in path]
+
+
+def turning_cells(path: list[Cell]) -> list[Cell]:
+    """The path's ends and the cells where its direction changes (straight runs collapsed):
+    the segment between two consecutive kept cells is exactly the run of cells it replaces."""
+    if len(path) <= 2:
+        return list(path)
+    p = np.asarray(path, dtype=np.int64)
+    d = np.diff(p, axis=0)
+    turn = np.any(d[1:] != d[:-1], axis=1)
+    keep = np.concatenate(([True], turn, [True]))
+    return [(int(r), int(c)) for r, c in p[keep]]
 
 
 def cell_path_length(path: list[Cell]) -> float:

@@ -138,6 +138,22 @@ def test_random_maps_path_exists_iff_bfs_finds_one_and_is_shortest(
     assert cell_path_length(path) == pytest.approx(dijkstra_length(free, s, g), rel=1e-4)
 
 
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(random_maps(), st.sampled_from([1.1, 1.25, 2.0]))
+def test_weighted_search_is_valid_and_within_its_bound(
+    case: tuple[np.ndarray, tuple[int, int], tuple[int, int]], weight: float
+) -> None:
+    free, s, g = case
+    path = grid_path(free, s, g, weight)
+    assert (path is not None) == bfs_reachable(free, s, g)
+    if path is None:
+        return
+    for a, b in itertools.pairwise(path):
+        assert _step_ok(free, a, b[0] - a[0], b[1] - a[1])
+    bound = max(round(70 * weight) / 70, round(99 * weight) / 99) * (1 + 1e-4)
+    assert cell_path_length(path) <= bound * dijkstra_length(free, s, g) + 1e-9
+
+
 @settings(max_examples=150, deadline=None)
 @given(
     st.integers(0, 2**31 - 1),
