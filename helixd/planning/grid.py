@@ -187,8 +187,13 @@ def mark_polygon(mask: BoolGrid, frame: GridFrame, poly: Sequence[PointNE]) -> N
 
 def mark_outside(mask: BoolGrid, frame: GridFrame, poly: Sequence[PointNE]) -> None:
     """Mark every cell whose square reaches outside the keep-in polygon."""
-    inside = _centres_inside(frame, poly, slice(0, frame.rows), slice(0, frame.cols))
-    mask |= ~inside
+    ns = [p[0] for p in poly]
+    es = [p[1] for p in poly]
+    box = _bbox_slices(frame, min(ns), max(ns), min(es), max(es))
+    outside = np.ones_like(mask)
+    if box is not None:  # centres are tested only inside the polygon's bounding box
+        outside[box] = ~_centres_inside(frame, poly, *box)
+    mask |= outside
     for i in range(len(poly)):
         _mark_segment(mask, frame, poly[i], poly[(i + 1) % len(poly)])
 

@@ -157,7 +157,10 @@ def plan_route(
         if cells is None:
             problems.append(f"{label}: unreachable, no path keeps {clearance:.2f} m clearance")
             continue
-        pts = [a, *(frame.centre_of(c) for c in turning_cells(cells)[1:-1]), b]
+        # a → its own cell's centre → turning cells' centres → b's cell centre → b: every
+        # segment stays inside cells the search walked, so the polyline is free before any
+        # shortcut (the shortcut only ever replaces a stretch by a segment checked free)
+        pts = [a, *(frame.centre_of(c) for c in turning_cells(cells)), b]
         legs.append(Leg(ia, ib, tuple(shortcut(grid, pts))))
     if problems:
         raise PlanningError(problems)
