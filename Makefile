@@ -38,10 +38,12 @@ demo: $(STAMP)
 # e.g. make bench NAV_ARGS="--only square --runs 1" LOOP_ARGS="--seconds 10"
 NAV_ARGS  ?=
 LOOP_ARGS ?= --rate-hz 25 --rate-hz 50
+PLAN_ARGS ?=
 bench: $(STAMP)
 	@status=0; \
 	$(BIN)/python tools/bench_navigation.py $(NAV_ARGS) || status=1; \
 	$(BIN)/python tools/bench_control_loop.py $(LOOP_ARGS) || status=1; \
+	$(BIN)/python tools/bench_planning.py $(PLAN_ARGS) || status=1; \
 	echo "results: bench/results/latest.json, bench/results/latest.md"; \
 	exit $$status
 

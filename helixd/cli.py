@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from typer.exceptions import TyperException
@@ -24,6 +24,9 @@ from helixd.recorder import command as recorder_command
 from helixd.sim import command as sim_command
 from helixd.sim.config import NoiseLevel, Plant, Terrain
 from helixd.yamlio import clip_line, paused_gc
+
+if TYPE_CHECKING:
+    from helixd.planning.route import RoutePlan
 
 app = typer.Typer(
     name="helixd",
@@ -47,6 +50,14 @@ MissionOpt = Annotated[
     ),
 ]
 MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
+MapOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--map",
+        help="ROS map_server map (YAML + PGM/PNG, x east / y north from the EKF origin): plan "
+        "every leg around it and the planning.keep_out_* shapes (local_ned missions)",
+    ),
+]
 
 
 def fail(problems: list[str], code: ExitCode) -> typer.Exit:
@@ -98,6 +109,51 @@ def load_inputs(
     return cfg, msn, path, checked
 
 
+def plan_inputs(
+    cfg: HelixdConfig, msn: Mission, path: Path, map_path: Path | None
+) -> tuple[Mission, RoutePlan | None]:
+    """Plan around the map and keep-out shapes (helixd.planning) when there are any: the
+    mission with the intermediate waypoints inserted, and the route; refusals exit 2."""
+    from helixd.planning import (
+        MapFileError,
+        ObstacleError,
+        PlanningError,
+        load_map,
+        plan_mission,
+        planning_wanted,
+    )
+
+    try:
+        occupancy = None if map_path is None else load_map(map_path, cfg.planning.max_cells)
+        if not planning_wanted(cfg, occupancy):
+            return msn, None
+        return plan_mission(msn, cfg, occupancy)
+    except PlanningError as exc:
+        raise fail([f"{path}: {p}" for p in exc.problems], ExitCode.USAGE) from None
+    except (MapFileError, ObstacleError) as exc:
+        raise fail([str(exc)], ExitCode.USAGE) from None
+
+
+def echo_route(route: RoutePlan) -> None:
+    """The planned legs, one line each, with their intermediate points."""
+    fr = route.grid.frame
+    typer.echo(
+        f"planned : clearance {route.grid.clearance_m:.2f} m (rover half-width + "
+        f"planning.margin_m), grid {fr.rows} × {fr.cols} at {fr.resolution_m:g} m, "
+        f"{route.seconds * 1000:.0f} ms"
+    )
+    for leg in route.legs:
+        a = "start" if leg.from_index < 0 else f"wp {leg.from_index}"
+        via = leg.points_ne_m[1:-1]
+        straight = math.dist(leg.points_ne_m[0], leg.points_ne_m[-1])
+        how = "straight" if not via else f"{len(via)} intermediate, straight {straight:.1f} m"
+        typer.echo(f"  leg {a} → wp {leg.to_index}: {leg.length_m:.1f} m ({how})")
+        for n, e in via:
+            typer.echo(f"      via north {n:9.2f}  east {e:9.2f}")
+    total = sum(leg.length_m for leg in route.legs)
+    typer.echo(f"  total {total:.1f} m from planning.start_ne_m")
+
+
 def check_connect(connect: str | None, cfg: HelixdConfig) -> str:
     """The link URL to use: ``--connect`` if given (validated; empty is an error), else the
     config's (validated when the config loaded)."""
@@ -119,9 +175,18 @@ def version() -> None:
 
 
 @app.command()
-def check(config: ConfigOpt = None, mission: MissionOpt = Path("mission.yaml")) -> None:
+def check(
+    config: ConfigOpt = None,
+    mission: MissionOpt = Path("mission.yaml"),
+    map_path: MapOpt = None,
+    plot: Annotated[
+        Path | None,
+        typer.Option("--plot", help="with planning: draw map, inflation and path to this PNG"),
+    ] = None,
+) -> None:
     """Validate the config and a mission (as `run` would), and print the resolved plan."""
     cfg, msn, path, (plan, provisional) = load_inputs(config, mission)
+    _, route = plan_inputs(cfg, msn, path, map_path)
     note = (
         " (global: shown relative to waypoint 0; the EKF origin is used in flight)"
         if provisional
@@ -160,6 +225,15 @@ def check(config: ConfigOpt = None, mission: MissionOpt = Path("mission.yaml")) 
     later = pending_checks(msn, cfg)
     if later:
         typer.echo(f"preflight: run checks with the start pose: {', '.join(later)}")
+    if route is not None:
+        echo_route(route)
+        if plot is not None:
+            from helixd.plots import render_route
+
+            try:
+                typer.echo(f"plot    : {render_route(route, plot, title=plan.name)}")
+            except OSError as exc:
+                raise fail([f"--plot: cannot write {plot}: {exc}"], ExitCode.USAGE) from None
 
 
 @app.command()
@@ -198,6 +272,7 @@ def run(
         typer.Option("--run-dir", help="root for run directories (default: recorder.run_root)"),
     ] = None,
     log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
+    map_path: MapOpt = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD."""
     import asyncio
@@ -213,6 +288,12 @@ def run(
         mission_yaml = mission_path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
+    planned, route = plan_inputs(cfg, msn, mission_path, map_path)
+    if route is not None:  # fly (and record) the mission with the planned waypoints
+        from helixd.planning.route import planned_mission_yaml
+
+        msn, mission_yaml = planned, planned_mission_yaml(planned, route, map_path)
+        echo_route(route)
     tty = sys.stderr.isatty()
     configure_logging(tty=tty, level=log_level)
     server = None

@@ -689,6 +689,74 @@ def render_run(run_dir: Path, out_dir: Path | None = None) -> list[Path]:
     return written
 
 
+# ---------------------------------------------------------------------------------------------
+# Plan panel (helixd check --map … --plot FILE): map, inflation and the planned path
+
+PLAN_BLOCKED_RGBA = (0.15, 0.15, 0.15, 1.0)
+PLAN_INFLATED_RGBA = (1.0, 0.55, 0.1, 0.45)
+PLAN_MAX_IMAGE_PX = 2000  # larger grids are shown max-pooled down to about this many pixels
+
+
+def _pooled(mask: npt.NDArray[np.bool_], step: int) -> npt.NDArray[np.bool_]:
+    """Any-of ``step`` × ``step`` blocks, so a thin wall never disappears when shrunk."""
+    if step <= 1:
+        return mask
+    rows, cols = mask.shape
+    pr, pc = -rows % step, -cols % step
+    padded = np.pad(mask, ((0, pr), (0, pc)))
+    out: npt.NDArray[np.bool_] = padded.reshape(
+        padded.shape[0] // step, step, padded.shape[1] // step, step
+    ).any(axis=(1, 3))
+    return out
+
+
+def draw_route(ax: Axes, route: Any) -> None:
+    """East right, north up: obstacles, their inflation, legs and intermediate points."""
+    fr = route.grid.frame
+    n0, n1, e0, e1 = fr.extent_ne_m()
+    step = max(1, math.ceil(max(fr.rows, fr.cols) / PLAN_MAX_IMAGE_PX))
+    blocked = _pooled(route.grid.blocked, step)
+    inflated = _pooled(route.grid.inflated, step) & ~blocked
+    img = np.zeros((*blocked.shape, 4))
+    img[inflated] = PLAN_INFLATED_RGBA
+    img[blocked] = PLAN_BLOCKED_RGBA
+    ax.imshow(img, origin="lower", extent=(e0, e1, n0, n1), interpolation="nearest")
+    ax.plot([], [], "s", color=PLAN_BLOCKED_RGBA, label="obstacle")
+    ax.plot(
+        [], [], "s", color=PLAN_INFLATED_RGBA,
+        label=f"inflation ({route.grid.clearance_m:.2f} m)",
+    )  # fmt: skip
+    line = route.polyline_ne_m()
+    if line:
+        ax.plot([p[1] for p in line], [p[0] for p in line], "-", color="tab:blue", label="path")
+    via = [p for leg in route.legs for p in leg.points_ne_m[1:-1]]
+    if via:
+        ax.plot([p[1] for p in via], [p[0] for p in via], "o", ms=4, color="tab:blue",
+                label="intermediate")  # fmt: skip
+    for leg in route.legs:
+        n, e = leg.points_ne_m[-1]
+        ax.plot(e, n, "D", color="tab:green", ms=6)
+        ax.annotate(str(leg.to_index), (e, n), textcoords="offset points", xytext=(5, 5))
+    if route.legs:
+        n, e = route.legs[0].points_ne_m[0]
+        ax.plot(e, n, "^", color="black", ms=7, label="start")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_aspect("equal")
+    _legend(ax)
+
+
+def render_route(route: Any, out_path: Path, *, title: str = "") -> Path:
+    """Draw :func:`draw_route` to ``out_path`` (PNG); returns the path."""
+    fig = Figure(figsize=PANEL_SIZE_IN, dpi=DPI, layout="constrained")
+    ax = fig.subplots()
+    draw_route(ax, route)
+    ax.set_title(f"planned path {title}".strip())
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out_path, dpi=DPI)
+    return out_path
+
+
 __all__ = [
     "AUTOPILOT_AXIS_LABEL",
     "OVERVIEW_SIZE_PX",
@@ -700,6 +768,7 @@ __all__ = [
     "distance_along_m",
     "interp_linear",
     "load_run",
+    "render_route",
     "render_run",
     "sparse_label_mask",
     "waypoint_labels",

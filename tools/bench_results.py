@@ -17,7 +17,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS_DIR = ROOT / "bench" / "results"
-SECTIONS = ("navigation", "control_loop")
+SECTIONS = ("navigation", "control_loop", "planning")
 
 
 def merge_section(existing: object, key: str, section: Mapping[str, Any]) -> dict[str, Any]:
@@ -156,6 +156,37 @@ def control_loop_markdown(loop: Mapping[str, Any]) -> list[str]:
     return lines
 
 
+def planning_markdown(plan: Mapping[str, Any]) -> list[str]:
+    lines = ["## Planning", ""]
+    cases = plan.get("cases", {})
+    if isinstance(cases, Mapping) and cases:
+        rows = []
+        for name, c in cases.items():
+            if not isinstance(c, Mapping):
+                continue
+            total = c.get("total_ms", {}) or {}
+            rows.append(
+                [
+                    str(name), fmt(total.get("median"), ".0f"), fmt(total.get("worst"), ".0f"),
+                    fmt(c.get("inflate_ms"), ".0f"), fmt(c.get("search_ms"), ".0f"),
+                    fmt(c.get("shortcut_ms"), ".0f"), fmt(c.get("legs")),
+                    fmt(c.get("path_m"), ".1f"), fmt(c.get("blocked_percent"), ".0f"),
+                ]
+            )  # fmt: skip
+        lines += md_table(
+            ["map", "total median ms", "total worst ms", "inflate ms", "search ms",
+             "shortcut ms", "legs", "path m", "blocked %"],
+            rows,
+        )  # fmt: skip
+    target = plan.get("target")
+    if target:
+        lines += ["", f"Target: {target} — {'met' if plan.get('target_met') else 'NOT met'}"]
+    meta = plan.get("meta", {})
+    if isinstance(meta, Mapping) and meta:
+        lines += [""] + [f"- {k}: {fmt(v)}" for k, v in meta.items()]
+    return lines
+
+
 def render_markdown(results: Mapping[str, Any]) -> str:
     """The whole results file as Markdown (sections in a fixed order, missing ones skipped)."""
     lines = ["# helixd benchmark results", "", "Written by `make bench` (tools/bench_*.py)."]
@@ -165,6 +196,9 @@ def render_markdown(results: Mapping[str, Any]) -> str:
     loop = results.get("control_loop")
     if isinstance(loop, Mapping):
         lines += ["", *control_loop_markdown(loop)]
+    plan = results.get("planning")
+    if isinstance(plan, Mapping):
+        lines += ["", *planning_markdown(plan)]
     return "\n".join(lines) + "\n"
 
 

@@ -13,6 +13,7 @@ from enum import StrEnum
 from pydantic import Field, field_validator, model_validator
 
 from helixd.config import InputModel, LinkConfig, VehicleConfig
+from helixd.sim.obstacles import SimObstacles
 from helixd.sim.params import DEFAULT_PARAMS
 
 # helixd's own MAVLink system id (link.source_system's default)
@@ -276,6 +277,9 @@ class SimConfig(InputModel):
     )
     history_max_entries: int = Field(
         200_000, ge=100, le=10_000_000, description="oldest history entries dropped beyond this"
+    )
+    obstacles: SimObstacles = Field(
+        default_factory=SimObstacles, description="solid shapes the rover stops against"
     )
 
     @field_validator("params", mode="after")

@@ -12,7 +12,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from helixd.sim import estimator, physics, skid, telemetry
+from helixd.sim import estimator, obstacles, physics, skid, telemetry
 from helixd.sim import streams as st
 from helixd.sim.autopilot import Autopilot, SimEvent, StatusText
 from helixd.sim.config import Plant, SimConfig
@@ -52,6 +52,7 @@ class SimCore:
             yaw_ned_rad=config.initial_yaw_ned_rad,
         )
         self.est = estimator.EstimatorState()
+        self._contact = False  # rover body touching an obstacle (helixd.sim.obstacles)
         self.motor = MotorMap(
             config.motor_pwm_min_us,
             config.motor_pwm_trim_us,
@@ -224,7 +225,11 @@ class SimCore:
             if old != new:
                 self.events.append(SimEvent("output", {"channel": i + 1, "pwm_us": new}))
         self.outputs_us = outputs
-        self.phys = self._plant_step(outputs)
+        self.phys, self._contact, contact = obstacles.contact_step(
+            self.config.obstacles, self.phys, self._plant_step(outputs), self._contact
+        )
+        if contact is not None:
+            self.events.append(SimEvent(*contact))
         self.est = estimator.step(self.est, self.dt_s(), self.config.noise_profile(), self.rng)
         self._collect()
         self.view = self._view(ekf, now)
