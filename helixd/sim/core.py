@@ -19,6 +19,7 @@ from helixd.sim.config import Plant, SimConfig
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
 from helixd.sim.inbound import InboundHandler
 from helixd.sim.messages import STATUSTEXT_LEN, Message, statustexts
+from helixd.sim.mission import MissionServer, Outcome
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.params import ParamStore
 from helixd.sim.physics import MotorMap, PhysicsState
@@ -65,6 +66,9 @@ class SimCore:
         self._chunk_id = 0
         self._origin_sent = False
         self.inbound = InboundHandler(self)
+        self.mission = MissionServer(
+            config.origin_lat_deg, config.origin_lon_deg, config.origin_alt_m
+        )
         self._params_view: tuple[int, Mapping[str, float]] = (-1, MappingProxyType({}))
         self.view = self._view(self.ekf_status(), self.now_s)
 
@@ -114,6 +118,15 @@ class SimCore:
     def reboot_after_replies(self) -> None:
         self.flushed.extend(self.drain_outbox())
         self.inject(make_spec("reboot", {}))
+
+    def mission_message(self, link: int, msg: Message) -> None:
+        self._mission_outcome(self.mission.handle(link, msg, self.now_s))
+
+    def _mission_outcome(self, out: Outcome) -> None:
+        for link, reply in out.sends:
+            self.send(link, reply)
+        for text in out.texts:
+            self.say(text)
 
     def drain_outbox(self) -> list[tuple[int | None, Message]]:
         """Messages to put on the wire; a link that is down (dropped/silent) loses its share."""
@@ -228,6 +241,7 @@ class SimCore:
         self.est = estimator.step(self.est, self.dt_s(), self.config.noise_profile(), self.rng)
         self._collect()
         self.view = self._view(ekf, now)
+        self._mission_outcome(self.mission.update(now))
         self._telemetry(now)
 
     def _plant_step(self, outputs: list[int]) -> PhysicsState:

@@ -1,0 +1,241 @@
+"""The simulator's mission protocol (helixd.sim.mission) against ArduPilot's behaviour."""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+os.environ.setdefault("MAVLINK20", "1")
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.sim import mission as sm
+from helixd.sim.mission import MissionServer, Outcome
+from tests.support.simcore import incoming, make_core, of_type, run
+
+GCS = (255, 190)
+OTHER = (254, 190)
+HOME = (53.52325, -113.52, 668.0)
+_mav = mavlink.MAVLink(None)
+
+
+def stamp(msg: Any, who: tuple[int, int] = GCS, v1: bool = False) -> Any:
+    mav = mavlink.MAVLink(None, srcSystem=who[0], srcComponent=who[1])
+    return mav.decode(bytearray(msg.pack(mav, force_mavlink1=v1)))
+
+
+def count(n: int, mission_type: int = 0) -> Any:
+    return _mav.mission_count_encode(1, 1, n, mission_type)
+
+
+def item(seq: int, lat_deg: float = 53.5, lon_deg: float = -113.5, command: int = 16,
+         frame: int = 3, mission_type: int = 0, p1: float = 0.0) -> Any:  # fmt: skip
+    return _mav.mission_item_int_encode(
+        1, 1, seq, frame, command, 0, 1, p1, 0.0, 0.0, 0.0,
+        round(lat_deg * 1e7), round(lon_deg * 1e7), 0.0, mission_type,
+    )  # fmt: skip
+
+
+def sends(out: Outcome, kind: str) -> list[Any]:
+    return [m for _, m in out.sends if m.get_type() == kind]
+
+
+def acks(out: Outcome) -> list[int]:
+    return [int(m.type) for m in sends(out, "MISSION_ACK")]
+
+
+def server() -> MissionServer:
+    return MissionServer(*HOME, max_mission_items=5, max_fence_items=4, max_rally_items=2)
+
+
+def upload(
+    srv: MissionServer, n: int, now: float = 0.0, mission_type: int = 0, command: int = 16
+) -> Outcome:
+    out = srv.handle(0, stamp(count(n, mission_type)), now)
+    for seq in range(n):
+        out = srv.handle(0, stamp(item(seq, 53.5 + seq * 1e-4, mission_type=mission_type,
+                                       command=command)), now)  # fmt: skip
+    return out
+
+
+def test_upload_is_requested_with_mission_request_and_acked() -> None:
+    srv = server()
+    out = srv.handle(0, stamp(count(3)), 0.0)
+    reqs = sends(out, "MISSION_REQUEST")
+    assert [int(r.seq) for r in reqs] == [0]
+    assert (int(reqs[0].target_system), int(reqs[0].target_component)) == GCS
+    for seq in range(3):
+        out = srv.handle(0, stamp(item(seq, 53.5 + seq * 1e-4)), 0.1)
+        if seq < 2:
+            assert [int(r.seq) for r in sends(out, "MISSION_REQUEST")] == [seq + 1]
+    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert [t.text for t in out.texts] == ["Flight plan received"]
+    stored = srv.stored()
+    assert len(stored) == 3 and stored[2].x == round((53.5 + 2e-4) * 1e7)
+
+
+def test_row_zero_reads_back_as_arduplots_own_home() -> None:
+    srv = server()
+    upload(srv, 2)
+    out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 0, 0)), 1.0)
+    (got,) = sends(out, "MISSION_ITEM_INT")
+    assert (int(got.x), int(got.y)) == (round(HOME[0] * 1e7), round(HOME[1] * 1e7))
+    out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 1, 0)), 1.0)
+    (got,) = sends(out, "MISSION_ITEM_INT")
+    assert int(got.x) == round((53.5 + 1e-4) * 1e7)
+    out = srv.handle(0, stamp(_mav.mission_request_list_encode(1, 1, 0)), 1.0)
+    assert [int(m.count) for m in sends(out, "MISSION_COUNT")] == [2]
+
+
+def test_mission_request_float_answers_mission_item_in_degrees() -> None:
+    srv = server()
+    upload(srv, 2)
+    out = srv.handle(0, stamp(_mav.mission_request_encode(1, 1, 1, 0)), 1.0)
+    (got,) = sends(out, "MISSION_ITEM")
+    assert abs(float(got.x) - (53.5 + 1e-4)) < 1e-6
+
+
+def test_second_uploader_denied_same_uploader_restarts() -> None:
+    srv = server()
+    srv.handle(0, stamp(count(3)), 0.0)
+    out = srv.handle(1, stamp(count(2), OTHER), 0.1)
+    assert acks(out) == [sm.MAV_MISSION_DENIED]
+    out = srv.handle(0, stamp(item(0), OTHER), 0.1)
+    assert acks(out) == [sm.MAV_MISSION_DENIED]
+    out = srv.handle(0, stamp(count(1)), 0.2)  # the uploader restarts with another count
+    assert [int(r.seq) for r in sends(out, "MISSION_REQUEST")] == [0]
+    out = srv.handle(0, stamp(item(0)), 0.3)
+    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert len(srv.stored()) == 1
+
+
+def test_download_denied_during_upload_and_clear_is_error() -> None:
+    srv = server()
+    srv.handle(0, stamp(count(3)), 0.0)
+    out = srv.handle(1, stamp(_mav.mission_request_list_encode(1, 1, 0), OTHER), 0.1)
+    assert acks(out) == [sm.MAV_MISSION_DENIED]
+    out = srv.handle(1, stamp(_mav.mission_request_int_encode(1, 1, 0, 0), OTHER), 0.1)
+    assert acks(out) == [sm.MAV_MISSION_DENIED]
+    out = srv.handle(1, stamp(_mav.mission_clear_all_encode(1, 1, 0), OTHER), 0.1)
+    assert acks(out) == [sm.MAV_MISSION_ERROR]
+
+
+def test_no_space() -> None:
+    srv = server()
+    out = srv.handle(0, stamp(count(6)), 0.0)
+    assert acks(out) == [sm.MAV_MISSION_NO_SPACE]
+    assert [t.text for t in out.texts] == ["Only 5 items are supported"]
+    out = srv.handle(0, stamp(count(5, sm.MAV_MISSION_TYPE_FENCE)), 0.0)
+    assert acks(out) == [sm.MAV_MISSION_NO_SPACE]
+
+
+def test_wrong_sequence_is_complained_about_and_upload_goes_on() -> None:
+    srv = server()
+    srv.handle(0, stamp(count(2)), 0.0)
+    out = srv.handle(0, stamp(item(1)), 0.1)
+    assert acks(out) == [sm.MAV_MISSION_INVALID_SEQUENCE]
+    out = srv.handle(0, stamp(item(0)), 0.2)
+    assert [int(r.seq) for r in sends(out, "MISSION_REQUEST")] == [1]
+
+
+def test_unsupported_command_and_bad_latitude_end_the_upload() -> None:
+    srv = server()
+    srv.handle(0, stamp(count(2)), 0.0)
+    out = srv.handle(0, stamp(item(0, command=22)), 0.1)  # NAV_TAKEOFF: not a rover command
+    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
+    assert srv.update(5.0).sends == []  # no upload left to re-request
+    srv.handle(0, stamp(count(1)), 6.0)
+    out = srv.handle(0, stamp(item(0, lat_deg=91.0)), 6.1)
+    assert acks(out) == [sm.MAV_MISSION_INVALID_PARAM5_X]
+    srv.handle(0, stamp(count(1)), 7.0)
+    out = srv.handle(0, stamp(item(0, frame=1)), 7.1)  # MAV_FRAME_LOCAL_NED
+    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED_FRAME]
+
+
+def test_rerequest_after_one_second_and_cancel_after_eight() -> None:
+    srv = server()
+    srv.handle(0, stamp(count(2)), 0.0)
+    assert srv.update(0.9).sends == []
+    out = srv.update(1.05)
+    assert [int(r.seq) for r in sends(out, "MISSION_REQUEST")] == [0]
+    srv.handle(0, stamp(item(0)), 2.0)
+    assert sends(srv.update(2.9), "MISSION_REQUEST") == []
+    assert [int(r.seq) for r in sends(srv.update(3.1), "MISSION_REQUEST")] == [1]
+    out = srv.update(10.05)
+    assert acks(out) == [sm.MAV_MISSION_OPERATION_CANCELLED]
+    assert [t.text for t in out.texts] == ["Mission upload timeout"]
+    out = srv.handle(0, stamp(_mav.mission_request_list_encode(1, 1, 0)), 10.1)
+    assert sends(out, "MISSION_COUNT")  # no longer receiving
+
+
+def test_fence_and_rally_need_mavlink2_mission_does_not() -> None:
+    srv = server()
+    out = srv.handle(0, stamp(count(1, sm.MAV_MISSION_TYPE_FENCE), v1=True), 0.0)
+    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
+    assert [t.text for t in out.texts] == ["Need mavlink2 for item transfer"]
+    out = srv.handle(0, stamp(_mav.mission_request_list_encode(1, 1, 2), v1=True), 0.0)
+    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
+    out = srv.handle(0, stamp(count(1), v1=True), 0.0)
+    assert sends(out, "MISSION_REQUEST")
+
+
+def test_fence_upload_stored_on_completion_and_bad_seq_invalid() -> None:
+    srv = server()
+    out = upload(srv, 3, mission_type=sm.MAV_MISSION_TYPE_FENCE, command=5001)
+    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert [i.command for i in srv.stored(sm.MAV_MISSION_TYPE_FENCE)] == [5001] * 3
+    out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 3, 1)), 1.0)
+    assert acks(out) == [sm.MAV_MISSION_INVALID_SEQUENCE]
+    srv.handle(0, stamp(count(1, sm.MAV_MISSION_TYPE_FENCE)), 2.0)
+    out = srv.handle(0, stamp(item(0, command=16, mission_type=1)), 2.1)
+    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
+    assert len(srv.stored(sm.MAV_MISSION_TYPE_FENCE)) == 3  # failed upload kept the old fence
+
+
+def test_request_past_the_end_educates_with_count() -> None:
+    srv = server()
+    upload(srv, 2)
+    out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 7, 0)), 1.0)
+    assert [int(m.count) for m in sends(out, "MISSION_COUNT")] == [2]
+    assert acks(out) == [sm.MAV_MISSION_ERROR]
+
+
+def test_clear_all_and_unknown_type() -> None:
+    srv = server()
+    upload(srv, 3)
+    out = srv.handle(0, stamp(_mav.mission_clear_all_encode(1, 1, 0)), 1.0)
+    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert srv.stored() == ()
+    out = srv.handle(0, stamp(_mav.mission_request_list_encode(1, 1, 7)), 1.0)
+    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
+
+
+def test_set_current_broadcasts_mission_current() -> None:
+    srv = server()
+    upload(srv, 3)
+    out = srv.handle(0, stamp(_mav.mission_set_current_encode(1, 1, 2)), 1.0)
+    (cur,) = sends(out, "MISSION_CURRENT")
+    assert out.sends[0][0] is None
+    assert (int(cur.seq), int(cur.total)) == (2, 2)
+    assert srv.handle(0, stamp(_mav.mission_set_current_encode(1, 1, 9)), 1.0).sends == []
+
+
+def test_stray_item_without_upload_gets_no_answer() -> None:
+    srv = server()
+    assert srv.handle(0, stamp(item(0)), 0.0).sends == []
+
+
+def test_core_routes_mission_messages_and_re_requests_on_tick() -> None:
+    core = make_core()
+    run(core, 0.2)
+    core.handle(1, incoming(count(2)))
+    out = core.drain_outbox()
+    assert [int(m.seq) for m in of_type(out, "MISSION_REQUEST", link=1)] == [0]
+    assert of_type(out, "MISSION_REQUEST", link=0) == []
+    out = run(core, 1.3)
+    assert [int(m.seq) for m in of_type(out, "MISSION_REQUEST", link=1)] == [0]
+    core.handle(1, incoming(item(0)))
+    core.handle(1, incoming(item(1)))
+    out = core.drain_outbox()
+    assert [int(m.type) for m in of_type(out, "MISSION_ACK", link=1)] == [0]
+    assert any(m.get_type() == "STATUSTEXT" for _, m in out)
+    assert len(core.mission.stored()) == 2
