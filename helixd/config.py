@@ -648,6 +648,16 @@ class LinkConfig(InputModel):
         description="preflight listens this long after our first message for another sender "
         "on our system id (s); ground stations send HEARTBEAT at 1 Hz",
     )
+    mission_item_timeout_s: float = Field(
+        1.5,
+        gt=0.0,
+        le=30.0,
+        description="mission upload/download: re-send after this long without progress (s); "
+        "above ArduPilot's own 1 s re-request",
+    )
+    mission_retries: int = Field(
+        5, ge=0, le=50, description="mission upload/download: re-sends in a row before failing"
+    )
 
     @model_validator(mode="after")
     def _not_the_autopilot(self) -> LinkConfig:
