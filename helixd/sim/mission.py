@@ -35,12 +35,27 @@ Behaviours (each cites its ArduPilot function):
 * MISSION_SET_CURRENT (``GCS_MAVLINK::handle_mission_set_current``): a valid seq (1 .. count-1)
   becomes current and MISSION_CURRENT goes to every link; otherwise nothing.
 * MISSION_CURRENT (``GCS_MAVLINK::send_mission_current``): seq and total (home excluded).
+* Per type (:class:`TypeRules`): the mission and rally points are written item by item and
+  truncated to the announced count at MISSION_COUNT; the fence is collected aside and written
+  on completion (``MissionItemProtocol_Fence::complete``), so a failed fence upload keeps the
+  old fence. What is read back is what ArduPilot stores: a mission item's *_INT frame comes back
+  without _INT; a fence item only as command, param1 (vertex count / radius) and x/y in frame 0
+  (``get_item_as_mission_item``; a fence request with seq == count is ERROR, seq > count
+  INVALID_SEQUENCE); a rally point in MAV_FRAME_GLOBAL_RELATIVE_ALT with an int16 altitude.
+  Item checks: mission — supported command, finite params, lat/lng, frame; fence — frame
+  (global only) then command; rally — MAV_CMD_NAV_RALLY_POINT, relative-altitude frame,
+  lat/lng, altitude within int16 (INVALID_PARAM7). Timeout texts are "Mission/Fence/Rally
+  upload timeout", completion texts "Flight plan received" and "Rally points received".
+
+Not modelled: MISSION_WRITE_PARTIAL_LIST, the stream slowdown added to the 1 s re-request,
+AP_Mission's per-command parameter packing (every param is kept as sent).
 """
 
 from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, cast
 
@@ -70,8 +85,9 @@ MAV_MISSION_ERROR = 1
 MAV_MISSION_UNSUPPORTED_FRAME = 2
 MAV_MISSION_UNSUPPORTED = 3
 MAV_MISSION_NO_SPACE = 4
-MAV_MISSION_INVALID_PARAM5_X = 11
-MAV_MISSION_INVALID_PARAM6_Y = 12
+MAV_MISSION_INVALID_PARAM5_X = 10
+MAV_MISSION_INVALID_PARAM6_Y = 11
+MAV_MISSION_INVALID_PARAM7 = 12
 MAV_MISSION_INVALID_SEQUENCE = 13
 MAV_MISSION_DENIED = 14
 MAV_MISSION_OPERATION_CANCELLED = 15
@@ -109,11 +125,10 @@ MISSION_COMMANDS = frozenset(
      203, 206, 211, 216, 223}
 )  # fmt: skip
 # Commands with a location whose x/y ArduPilot range-checks (check_lat / check_lng)
-LOCATION_COMMANDS = frozenset(
-    {16, 17, 18, 19, 21, 31, 179, 201, 5000, 5001, 5002, 5003, 5004, 5100}
-)
+LOCATION_COMMANDS = frozenset({16, 17, 18, 19, 21, 31, 179, 201})
 # MissionItemProtocol_Fence: AC_PolyFenceItem types
 FENCE_COMMANDS = frozenset({5000, 5001, 5002, 5003, 5004})
+FENCE_FRAMES = ACCEPTED_FRAMES - {MAV_FRAME_MISSION}
 RALLY_COMMANDS = frozenset({5100})  # MissionItemProtocol_Rally: MAV_CMD_NAV_RALLY_POINT
 
 UPLOAD_TIMEOUT_S = 8.0  # MissionItemProtocol::upload_timeout_ms
@@ -170,21 +185,104 @@ def mission_ack(target: tuple[int, int], result: int, mission_type: int) -> Mess
     return _m(_mav.mission_ack_encode(target[0], target[1], result, mission_type))
 
 
-def validate_item(item: StoredItem, allowed: frozenset[int]) -> int:
-    """AP_Mission::mavlink_int_to_mission_cmd's verdict on one item (MAV_MISSION_RESULT)."""
-    if item.command not in allowed:
-        return MAV_MISSION_UNSUPPORTED
+def _check_lat_lng(item: StoredItem) -> int:
+    """check_lat / check_lng (AP_Common/Location): |lat| ≤ 90°, |lng| ≤ 180° in degE7."""
+    if abs(item.x) > 900_000_000:
+        return MAV_MISSION_INVALID_PARAM5_X
+    if abs(item.y) > 1_800_000_000:
+        return MAV_MISSION_INVALID_PARAM6_Y
+    return MAV_MISSION_ACCEPTED
+
+
+def _finite(item: StoredItem) -> bool:
     values = (item.param1, item.param2, item.param3, item.param4, item.z)
-    if not all(math.isfinite(v) for v in values):
+    return all(math.isfinite(v) for v in values)
+
+
+def validate_mission_item(item: StoredItem) -> int:
+    """AP_Mission::mavlink_int_to_mission_cmd's verdict on one item (MAV_MISSION_RESULT)."""
+    if item.command not in MISSION_COMMANDS:
+        return MAV_MISSION_UNSUPPORTED
+    if not _finite(item):
         return MAV_MISSION_ERROR
+    if item.command in LOCATION_COMMANDS and item.frame != MAV_FRAME_MISSION:
+        lat_lng = _check_lat_lng(item)
+        if lat_lng != MAV_MISSION_ACCEPTED:
+            return lat_lng
     if item.frame not in ACCEPTED_FRAMES:
         return MAV_MISSION_UNSUPPORTED_FRAME
-    if item.command in LOCATION_COMMANDS and item.frame != MAV_FRAME_MISSION:
-        if abs(item.x) > 900_000_000:
-            return MAV_MISSION_INVALID_PARAM5_X
-        if abs(item.y) > 1_800_000_000:
-            return MAV_MISSION_INVALID_PARAM6_Y
     return MAV_MISSION_ACCEPTED
+
+
+def validate_fence_item(item: StoredItem) -> int:
+    """convert_MISSION_ITEM_INT_to_AC_PolyFenceItem (MissionItemProtocol_Fence.cpp)."""
+    if item.frame not in FENCE_FRAMES:
+        return MAV_MISSION_UNSUPPORTED_FRAME
+    if item.command not in FENCE_COMMANDS:
+        return MAV_MISSION_UNSUPPORTED
+    return MAV_MISSION_ACCEPTED if math.isfinite(item.param1) else MAV_MISSION_ERROR
+
+
+def validate_rally_item(item: StoredItem) -> int:
+    """convert_MISSION_ITEM_INT_to_RallyLocation (MissionItemProtocol_Rally.cpp)."""
+    if item.command not in RALLY_COMMANDS:
+        return MAV_MISSION_UNSUPPORTED
+    if item.frame not in (MAV_FRAME_GLOBAL_RELATIVE_ALT, MAV_FRAME_GLOBAL_RELATIVE_ALT_INT):
+        return MAV_MISSION_UNSUPPORTED_FRAME
+    lat_lng = _check_lat_lng(item)
+    if lat_lng != MAV_MISSION_ACCEPTED:
+        return lat_lng
+    if not (math.isfinite(item.z) and -32768 <= item.z <= 32767):
+        return MAV_MISSION_INVALID_PARAM7
+    return MAV_MISSION_ACCEPTED
+
+
+# A global frame given as *_INT is stored as a plain Location and read back without _INT
+# (AP_Mission::mission_cmd_to_mavlink_int).
+NON_INT_FRAME = {
+    MAV_FRAME_GLOBAL_INT: MAV_FRAME_GLOBAL,
+    MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: MAV_FRAME_GLOBAL_TERRAIN_ALT,
+}
+
+
+def mission_readback(item: StoredItem) -> StoredItem:
+    return replace(item, frame=NON_INT_FRAME.get(item.frame, item.frame))
+
+
+def fence_readback(item: StoredItem) -> StoredItem:
+    """get_item_as_mission_item: only type, param1 (vertex count/radius) and x/y are kept."""
+    return StoredItem(item.command, MAV_FRAME_GLOBAL, param1=item.param1, x=item.x, y=item.y)
+
+
+def rally_readback(item: StoredItem) -> StoredItem:
+    """MissionItemProtocol_Rally::get_item: RallyLocation keeps lat, lng and an int16 alt."""
+    return StoredItem(
+        item.command, MAV_FRAME_GLOBAL_RELATIVE_ALT, x=item.x, y=item.y, z=float(int(item.z))
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class TypeRules:
+    """What differs between MissionItemProtocol_Waypoints, _Fence and _Rally."""
+
+    validate: Callable[[StoredItem], int]
+    readback: Callable[[StoredItem], StoredItem]
+    staged: bool  # fence: items kept aside, written by complete(); others: stored at once
+    autocontinue: int  # what get_item puts in autocontinue
+    complete_text: str | None
+    timeout_text: str
+
+
+MISSION_RULES = TypeRules(
+    validate_mission_item, mission_readback, False, 1, "Flight plan received",
+    "Mission upload timeout",
+)  # fmt: skip
+FENCE_RULES = TypeRules(validate_fence_item, fence_readback, True, 0, None, "Fence upload timeout")
+RALLY_RULES = TypeRules(
+    validate_rally_item, rally_readback, False, 0, "Rally points received",
+    "Rally upload timeout",
+)  # fmt: skip
 
 
 def item_from_int(msg: Any) -> StoredItem:
@@ -235,12 +333,12 @@ class ItemProtocol:
     def __init__(
         self,
         mission_type: int,
-        commands: frozenset[int],
+        rules: TypeRules,
         max_items: int,
         home: StoredItem | None = None,
     ) -> None:
         self.mission_type = mission_type
-        self.commands = commands
+        self.rules = rules
         self.max_items = max_items
         self.home = home  # MISSION only: row 0 as ArduPilot reads it back
         self.items: list[StoredItem] = [home] if home is not None else []
@@ -282,16 +380,16 @@ class ItemProtocol:
                 StatusText(MAV_SEVERITY_WARNING, f"Only {self.max_items} items are supported")
             )
             return
-        if self.mission_type == MAV_MISSION_TYPE_MISSION:
-            # truncate(): the mission shrinks to the announced length at once
+        if self.rules.staged:
+            staged: list[StoredItem] = []  # fence: allocate_receive_resources; truncate is a no-op
+        else:
+            # mission/rally truncate(): the stored list shrinks to the announced length at once
             if len(self.items) > count:
                 self.items = self.items[:count]
                 self.version += 1
             staged = list(self.items)
-        else:
-            staged = []  # fence/rally: allocate_receive_resources, stored on completion
         if count == 0:
-            self.items = [] if self.mission_type != MAV_MISSION_TYPE_MISSION else self.items
+            self.items = []  # fence: write_fence(new_items, 0); others already truncated
             self._complete(out, link, who)
             return
         up = _Upload(link, who[0], who[1], 0, count - 1, now_s, now_s, staged)
@@ -317,7 +415,7 @@ class ItemProtocol:
         if who != (up.sysid, up.compid):
             self._ack(out, link, who, MAV_MISSION_DENIED)
             return
-        result = MAV_MISSION_ERROR if item is None else validate_item(item, self.commands)
+        result = MAV_MISSION_ERROR if item is None else self.rules.validate(item)
         if item is not None and result == MAV_MISSION_ACCEPTED and item.command == MAV_CMD_DO_JUMP:
             target = int(item.param1)  # append_item/replace_item: DO_JUMP sanity check
             if target == 0 or (target >= len(up.items) and target > up.request_last):
@@ -330,8 +428,8 @@ class ItemProtocol:
             up.items[seq] = item
         else:
             up.items.append(item)
-        if self.mission_type == MAV_MISSION_TYPE_MISSION:
-            self.items = list(up.items)  # AP_Mission writes each item to storage at once
+        if not self.rules.staged:
+            self.items = list(up.items)  # AP_Mission / AP_Rally write each item at once
             self.version += 1
         up.last_receive_s = now_s
         up.request_i += 1
@@ -346,18 +444,31 @@ class ItemProtocol:
 
     def _complete(self, out: Outcome, link: int, who: tuple[int, int]) -> None:
         """MissionItemProtocol::transfer_is_complete."""
-        if self.mission_type == MAV_MISSION_TYPE_MISSION:
-            out.texts.append(StatusText(MAV_SEVERITY_INFO, "Flight plan received"))
+        if self.rules.complete_text is not None:
+            out.texts.append(StatusText(MAV_SEVERITY_INFO, self.rules.complete_text))
         self.version += 1
         self._ack(out, link, who, MAV_MISSION_ACCEPTED)
 
     def item_at(self, seq: int) -> StoredItem | None:
-        """get_item: row 0 of the mission is ArduPilot's own home."""
+        """get_item, as read back: row 0 of the mission is ArduPilot's own home."""
         if seq == 0 and self.home is not None:
             return self.home
         if 0 <= seq < len(self.items):
-            return self.items[seq]
+            return self.rules.readback(self.items[seq])
         return None
+
+    def _past_end(self, out: Outcome, link: int, who: tuple[int, int], seq: int) -> None:
+        if self.mission_type == MAV_MISSION_TYPE_MISSION:
+            # MissionItemProtocol_Waypoints::get_item "educates" the GCS with the real count
+            count = _mav.mission_count_encode(who[0], who[1], len(self.items), 0)
+            out.sends.append((link, _m(count)))
+            self._ack(out, link, who, MAV_MISSION_ERROR)
+        elif self.mission_type == MAV_MISSION_TYPE_FENCE and seq == len(self.items):
+            # MissionItemProtocol_Fence::get_item checks seq > count; seq == count then
+            # fails in get_item_as_mission_item
+            self._ack(out, link, who, MAV_MISSION_ERROR)
+        else:
+            self._ack(out, link, who, MAV_MISSION_INVALID_SEQUENCE)
 
     def handle_request(
         self,
@@ -377,25 +488,20 @@ class ItemProtocol:
         seq = int(msg.seq)
         item = self.item_at(seq)
         if item is None or (seq != 0 and seq >= len(self.items)):
-            if self.mission_type == MAV_MISSION_TYPE_MISSION:
-                out.sends.append(
-                    (link, _m(_mav.mission_count_encode(who[0], who[1], len(self.items), 0)))
-                )
-                self._ack(out, link, who, MAV_MISSION_ERROR)
-            else:
-                self._ack(out, link, who, MAV_MISSION_INVALID_SEQUENCE)
+            self._past_end(out, link, who, seq)
             return
         current = 1 if self.mission_type == MAV_MISSION_TYPE_MISSION and seq == current_seq else 0
+        auto = self.rules.autocontinue
         if as_int:
             reply = _mav.mission_item_int_encode(
-                who[0], who[1], seq, item.frame, item.command, current, 1,
+                who[0], who[1], seq, item.frame, item.command, current, auto,
                 item.param1, item.param2, item.param3, item.param4, item.x, item.y, item.z,
                 self.mission_type,
             )  # fmt: skip
         else:
             scale = 1.0 if item.frame in FLOAT_XY_FRAMES else 1e-7
             reply = _mav.mission_item_encode(
-                who[0], who[1], seq, item.frame, item.command, current, 1,
+                who[0], who[1], seq, item.frame, item.command, current, auto,
                 item.param1, item.param2, item.param3, item.param4, item.x * scale,
                 item.y * scale, item.z, self.mission_type,
             )  # fmt: skip
@@ -427,8 +533,7 @@ class ItemProtocol:
             return
         if now_s - up.last_receive_s > UPLOAD_TIMEOUT_S:
             self.upload = None
-            if self.mission_type == MAV_MISSION_TYPE_MISSION:
-                out.texts.append(StatusText(MAV_SEVERITY_WARNING, "Mission upload timeout"))
+            out.texts.append(StatusText(MAV_SEVERITY_WARNING, self.rules.timeout_text))
             out.sends.append(
                 (up.link, mission_ack((up.sysid, up.compid), MAV_MISSION_OPERATION_CANCELLED,
                                       self.mission_type))
@@ -474,13 +579,13 @@ class MissionServer:
         )
         self.protocols = {
             MAV_MISSION_TYPE_MISSION: ItemProtocol(
-                MAV_MISSION_TYPE_MISSION, MISSION_COMMANDS, max_mission_items, home
+                MAV_MISSION_TYPE_MISSION, MISSION_RULES, max_mission_items, home
             ),
             MAV_MISSION_TYPE_FENCE: ItemProtocol(
-                MAV_MISSION_TYPE_FENCE, FENCE_COMMANDS, max_fence_items
+                MAV_MISSION_TYPE_FENCE, FENCE_RULES, max_fence_items
             ),
             MAV_MISSION_TYPE_RALLY: ItemProtocol(
-                MAV_MISSION_TYPE_RALLY, RALLY_COMMANDS, max_rally_items
+                MAV_MISSION_TYPE_RALLY, RALLY_RULES, max_rally_items
             ),
         }
         self.current_seq = 0

@@ -44,7 +44,7 @@ def items(n: int, mission_type: int = 0, command: int = 16) -> list[MissionItem]
             param1=float(i),
             x=535_000_000 + i * 1000,
             y=-1_135_000_000 - i,
-            z=float(i) / 2,
+            z=float(i) / 2 if mission_type == 0 else 0.0,  # a fence keeps no altitude
             mission_type=mission_type,
         )
         for i in range(n)

@@ -184,6 +184,8 @@ def test_fence_upload_stored_on_completion_and_bad_seq_invalid() -> None:
     assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
     assert [i.command for i in srv.stored(sm.MAV_MISSION_TYPE_FENCE)] == [5001] * 3
     out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 3, 1)), 1.0)
+    assert acks(out) == [sm.MAV_MISSION_ERROR]  # seq == count: ArduPilot checks seq > count
+    out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 4, 1)), 1.0)
     assert acks(out) == [sm.MAV_MISSION_INVALID_SEQUENCE]
     srv.handle(0, stamp(count(1, sm.MAV_MISSION_TYPE_FENCE)), 2.0)
     out = srv.handle(0, stamp(item(0, command=16, mission_type=1)), 2.1)
@@ -239,3 +241,64 @@ def test_core_routes_mission_messages_and_re_requests_on_tick() -> None:
     assert [int(m.type) for m in of_type(out, "MISSION_ACK", link=1)] == [0]
     assert any(m.get_type() == "STATUSTEXT" for _, m in out)
     assert len(core.mission.stored()) == 2
+
+
+def test_result_numbers_are_mavlinks() -> None:
+    enum = mavlink.enums["MAV_MISSION_RESULT"]
+    for name in (
+        "ACCEPTED", "ERROR", "UNSUPPORTED_FRAME", "UNSUPPORTED", "NO_SPACE",
+        "INVALID_PARAM5_X", "INVALID_PARAM6_Y", "INVALID_PARAM7", "INVALID_SEQUENCE",
+        "DENIED", "OPERATION_CANCELLED",
+    ):  # fmt: skip
+        assert enum[getattr(sm, f"MAV_MISSION_{name}")].name == f"MAV_MISSION_{name}"
+
+
+def test_fence_item_rules_and_readback() -> None:
+    srv = server()
+    srv.handle(0, stamp(count(1, 1)), 0.0)
+    out = srv.handle(0, stamp(item(0, command=5001, frame=2, mission_type=1)), 0.1)
+    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED_FRAME]  # frame checked before command
+    srv.handle(0, stamp(count(1, 1)), 0.2)
+    vertex = _mav.mission_item_int_encode(
+        1, 1, 0, 6, 5001, 0, 1, 4.0, 7.0, 8.0, 9.0, 535_000_000, -1_135_000_000, 12.0, 1
+    )
+    out = srv.handle(0, stamp(vertex), 0.3)
+    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert out.texts == []  # no text on a fence upload
+    out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 0, 1)), 0.4)
+    (got,) = sends(out, "MISSION_ITEM_INT")
+    # get_item_as_mission_item: frame 0, param1 (vertex count), x/y; the rest zero
+    assert (int(got.frame), float(got.param1), float(got.param2), float(got.z)) == (0, 4, 0, 0)
+    assert (int(got.x), int(got.autocontinue), int(got.mission_type)) == (535_000_000, 0, 1)
+
+
+def test_rally_rules_readback_and_texts() -> None:
+    srv = server()
+    srv.handle(0, stamp(count(1, 2)), 0.0)
+    out = srv.handle(0, stamp(item(0, command=5100, frame=0, mission_type=2)), 0.1)
+    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED_FRAME]  # only relative-altitude frames
+    srv.handle(0, stamp(count(1, 2)), 0.2)
+    high = _mav.mission_item_int_encode(1, 1, 0, 3, 5100, 0, 1, 0, 0, 0, 0, 1, 2, 40000.0, 2)
+    assert acks(srv.handle(0, stamp(high), 0.3)) == [sm.MAV_MISSION_INVALID_PARAM7]
+    srv.handle(0, stamp(count(1, 2)), 0.4)
+    ok = _mav.mission_item_int_encode(1, 1, 0, 6, 5100, 0, 1, 0, 0, 0, 0, 1, 2, 12.7, 2)
+    out = srv.handle(0, stamp(ok), 0.5)
+    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert [t.text for t in out.texts] == ["Rally points received"]
+    out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 0, 2)), 0.6)
+    (got,) = sends(out, "MISSION_ITEM_INT")
+    assert (int(got.frame), float(got.z)) == (3, 12.0)  # int16 altitude
+    srv.handle(0, stamp(count(2, 2)), 1.0)
+    out = srv.update(9.5)
+    assert [t.text for t in out.texts] == ["Rally upload timeout"]
+    assert len(srv.stored(2)) == 1  # rally keeps what was written before the timeout
+
+
+def test_mission_int_frames_read_back_without_int() -> None:
+    srv = server()
+    srv.handle(0, stamp(count(2)), 0.0)
+    srv.handle(0, stamp(item(0)), 0.1)
+    srv.handle(0, stamp(item(1, frame=6)), 0.2)
+    out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 1, 0)), 0.3)
+    (got,) = sends(out, "MISSION_ITEM_INT")
+    assert (int(got.frame), int(got.autocontinue)) == (3, 1)
