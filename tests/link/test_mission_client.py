@@ -305,3 +305,46 @@ def test_run_transfer_async() -> None:
             await lm.run_transfer(new_upload(items(51)), link)
 
     asyncio.run(go())
+
+
+class PymavlinkLink:
+    """A MissionLink over a pymavlink UDP connection (the tests' MavClient)."""
+
+    def __init__(self, client: Any) -> None:
+        self.client = client
+        self.texts: list[str] = []
+
+    def send(self, msg: Any) -> None:
+        self.client.mav.send(msg)
+
+    async def recv(self, timeout_s: float) -> Any | None:
+        conn = self.client.conn
+        msg = await asyncio.to_thread(conn.recv_match, blocking=True, timeout=max(timeout_s, 0.01))
+        if msg is not None and msg.get_type() == "STATUSTEXT":
+            self.texts.append(str(msg.text))
+        return msg
+
+
+def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
+    from tests.integration.harness import MavClient, running_sim
+
+    with running_sim(speedup=1.0) as (sim, url), MavClient(url) as client:
+        link = PymavlinkLink(client)
+        its = items(5)
+        fence = items(4, lm.MAV_MISSION_TYPE_FENCE, command=5001)
+
+        async def go() -> tuple[Download, Download]:
+            await lm.run_transfer(new_upload(its), link)
+            await lm.run_transfer(new_upload(fence, lm.MAV_MISSION_TYPE_FENCE), link)
+            down = await lm.run_transfer(new_download(), link)
+            fdown = await lm.run_transfer(new_download(lm.MAV_MISSION_TYPE_FENCE), link)
+            assert isinstance(down, Download) and isinstance(fdown, Download)
+            return down, fdown
+
+        down, fdown = asyncio.run(go())
+        assert as_tuples(down.items)[1:] == as_tuples(its)[1:]
+        assert as_tuples(fdown.items) == as_tuples(fence)
+        snap = sim.snapshot()
+        assert [(i.x, i.y) for i in snap.mission_items[1:]] == [(i.x, i.y) for i in its[1:]]
+        assert len(snap.fence_items) == 4
+        assert "Flight plan received" in link.texts
