@@ -24,7 +24,9 @@ MavlinkMissionTransfer) against ArduPilot (``MissionItemProtocol.cpp``):
   times in a row (the count restarts at each progress), then the transfer fails with a
   timeout; a download that fails sends MISSION_ACK OPERATION_CANCELLED so the vehicle stops.
 
-Only messages from the target system/component and of the transfer's mission type count.
+Only messages from the target system/component and of the transfer's mission type count and,
+given ``own_ids`` (our sysid, compid), only those addressed to us (or broadcast): the vehicle's
+answers to a ground station transferring at the same time are not ours.
 """
 
 from __future__ import annotations
@@ -158,6 +160,7 @@ class Transfer:
         target_component: int,
         item_timeout_s: float,
         retries: int,
+        own_ids: tuple[int, int] | None = None,
     ) -> None:
         if not (math.isfinite(item_timeout_s) and item_timeout_s > 0.0) or retries < 0:
             raise ValueError("item_timeout_s must be > 0 and retries >= 0")
@@ -170,6 +173,7 @@ class Transfer:
         self.mission_type = mission_type
         self.target_system = target_system
         self.target_component = target_component
+        self.own_ids = own_ids
         self.item_timeout_s = item_timeout_s
         self.retries = retries
         self.done = False
@@ -186,6 +190,12 @@ class Transfer:
             return False
         if self.target_component and int(msg.get_srcComponent()) != self.target_component:
             return False
+        if self.own_ids is not None:
+            # the vehicle's answers to another GCS on the same link are not ours
+            if int(getattr(msg, "target_system", 0)) not in (0, self.own_ids[0]):
+                return False
+            if int(getattr(msg, "target_component", 0)) not in (0, self.own_ids[1]):
+                return False
         return int(getattr(msg, "mission_type", 0)) == self.mission_type
 
     def _send(self, msgs: list[Any], now_s: float, progress: bool = True) -> list[Any]:
@@ -240,8 +250,11 @@ class Upload(Transfer):
         target_component: int,
         item_timeout_s: float,
         retries: int,
+        own_ids: tuple[int, int] | None = None,
     ) -> None:
-        super().__init__(mission_type, target_system, target_component, item_timeout_s, retries)
+        super().__init__(
+            mission_type, target_system, target_component, item_timeout_s, retries, own_ids
+        )
         for i, item in enumerate(items):
             _check_item(item)
             if item.seq != i:
@@ -308,8 +321,11 @@ class Download(Transfer):
         target_component: int,
         item_timeout_s: float,
         retries: int,
+        own_ids: tuple[int, int] | None = None,
     ) -> None:
-        super().__init__(mission_type, target_system, target_component, item_timeout_s, retries)
+        super().__init__(
+            mission_type, target_system, target_component, item_timeout_s, retries, own_ids
+        )
         self.count: int | None = None
         self.received: list[MissionItem] = []
 

@@ -101,11 +101,11 @@ def server() -> MissionServer:
 
 
 def new_upload(its: list[MissionItem], mission_type: int = 0, retries: int = 5) -> Upload:
-    return Upload(its, mission_type, 1, 1, CFG.mission_item_timeout_s, retries)
+    return Upload(its, mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
 
 
 def new_download(mission_type: int = 0, retries: int = 5) -> Download:
-    return Download(mission_type, 1, 1, CFG.mission_item_timeout_s, retries)
+    return Download(mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
 
 
 def stored_as_items(srv: MissionServer, mission_type: int) -> list[tuple[Any, ...]]:
@@ -326,7 +326,16 @@ class PymavlinkLink:
 
 
 def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
-    from tests.integration.harness import MavClient, running_sim
+    from tests.integration.harness import GCS_COMPID, GCS_SYSID, MavClient, running_sim
+
+    me = (GCS_SYSID, GCS_COMPID)
+    timeout_s, retries = CFG.mission_item_timeout_s, CFG.mission_retries
+
+    def up(its: list[MissionItem], kind: int = 0) -> Upload:
+        return Upload(its, kind, 1, 1, timeout_s, retries, own_ids=me)
+
+    def dl(kind: int = 0) -> Download:
+        return Download(kind, 1, 1, timeout_s, retries, own_ids=me)
 
     with running_sim(speedup=1.0) as (sim, url), MavClient(url) as client:
         link = PymavlinkLink(client)
@@ -334,10 +343,10 @@ def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
         fence = items(4, lm.MAV_MISSION_TYPE_FENCE, command=5001)
 
         async def go() -> tuple[Download, Download]:
-            await lm.run_transfer(new_upload(its), link)
-            await lm.run_transfer(new_upload(fence, lm.MAV_MISSION_TYPE_FENCE), link)
-            down = await lm.run_transfer(new_download(), link)
-            fdown = await lm.run_transfer(new_download(lm.MAV_MISSION_TYPE_FENCE), link)
+            await lm.run_transfer(up(its), link)
+            await lm.run_transfer(up(fence, lm.MAV_MISSION_TYPE_FENCE), link)
+            down = await lm.run_transfer(dl(), link)
+            fdown = await lm.run_transfer(dl(lm.MAV_MISSION_TYPE_FENCE), link)
             assert isinstance(down, Download) and isinstance(fdown, Download)
             return down, fdown
 
@@ -348,3 +357,18 @@ def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
         assert [(i.x, i.y) for i in snap.mission_items[1:]] == [(i.x, i.y) for i in its[1:]]
         assert len(snap.fence_items) == 4
         assert "Flight plan received" in link.texts
+
+
+def test_answers_to_another_gcs_are_not_ours() -> None:
+    down = new_download()
+    down.start(0.0)
+    for_qgc = stamp(mavlink.MAVLink_mission_count_message(254, 190, 9, 0), VEHICLE)
+    assert down.on_message(for_qgc, 0.1) == [] and down.count is None
+    for_us = stamp(mavlink.MAVLink_mission_count_message(*GCS, 2, 0), VEHICLE)
+    (req,) = down.on_message(for_us, 0.2)
+    assert down.count == 2 and req.get_type() == "MISSION_REQUEST_INT"
+    up = new_upload(items(2))
+    up.start(0.0)
+    nack_for_qgc = stamp(mavlink.MAVLink_mission_ack_message(254, 190, 14, 0), VEHICLE)
+    up.on_message(nack_for_qgc, 0.1)
+    assert up.error is None and not up.done
