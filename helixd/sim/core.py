@@ -123,10 +123,11 @@ class SimCore:
         self._mission_outcome(self.mission.handle(link, msg, self.now_s))
 
     def _mission_outcome(self, out: Outcome) -> None:
-        for link, reply in out.sends:
-            self.send(link, reply)
-        for text in out.texts:
-            self.say(text)
+        for step in out.steps:
+            if isinstance(step, StatusText):
+                self.say(step)
+            else:
+                self.send(*step)
 
     def drain_outbox(self) -> list[tuple[int | None, Message]]:
         """Messages to put on the wire; a link that is down (dropped/silent) loses its share."""
@@ -170,6 +171,7 @@ class SimCore:
             silent = kw.get("silent_s")
             silent_s = self.config.reboot_silent_s if silent is None else float(str(silent))
             self.ap.reboot(now, silent_s)
+            self.mission.reboot()
             self.links = [self._new_link() for _ in self.links]
             self._epoch_s, self._n = now, 0
             self._origin_sent = False

@@ -152,12 +152,28 @@ class StoredItem:
     z: float = 0.0
 
 
+Send = tuple[int | None, Message]  # (link, or None for every link; message)
+
+
 @dataclass(slots=True)
 class Outcome:
-    """What handling one message (or the passing of time) produced."""
+    """What handling one message (or the passing of time) produced, in ArduPilot's order."""
 
-    sends: list[tuple[int | None, Message]] = field(default_factory=list)  # (link or all, msg)
-    texts: list[StatusText] = field(default_factory=list)
+    steps: list[Send | StatusText] = field(default_factory=list)
+
+    def send(self, item: Send) -> None:
+        self.steps.append(item)
+
+    def say(self, text: StatusText) -> None:
+        self.steps.append(text)
+
+    @property
+    def sends(self) -> list[Send]:
+        return [s for s in self.steps if not isinstance(s, StatusText)]
+
+    @property
+    def texts(self) -> list[StatusText]:
+        return [s for s in self.steps if isinstance(s, StatusText)]
 
 
 @dataclass(slots=True)
@@ -350,7 +366,7 @@ class ItemProtocol:
         return self.upload is not None
 
     def _ack(self, out: Outcome, link: int, who: tuple[int, int], result: int) -> None:
-        out.sends.append((link, mission_ack(who, result, self.mission_type)))
+        out.send((link, mission_ack(who, result, self.mission_type)))
 
     def _request(self, up: _Upload) -> Message:
         return _m(_mav.mission_request_encode(up.sysid, up.compid, up.request_i, self.mission_type))
@@ -359,7 +375,7 @@ class ItemProtocol:
         """MissionItemProtocol::mavlink2_requirement_met."""
         if self.mission_type == MAV_MISSION_TYPE_MISSION or not _is_mavlink1(msg):
             return True
-        out.texts.append(StatusText(MAV_SEVERITY_WARNING, "Need mavlink2 for item transfer"))
+        out.say(StatusText(MAV_SEVERITY_WARNING, "Need mavlink2 for item transfer"))
         self._ack(out, link, who, MAV_MISSION_UNSUPPORTED)
         return False
 
@@ -376,9 +392,7 @@ class ItemProtocol:
         self.upload = None  # the same sender restarts
         if count > self.max_items:
             self._ack(out, link, who, MAV_MISSION_NO_SPACE)
-            out.texts.append(
-                StatusText(MAV_SEVERITY_WARNING, f"Only {self.max_items} items are supported")
-            )
+            out.say(StatusText(MAV_SEVERITY_WARNING, f"Only {self.max_items} items are supported"))
             return
         if self.rules.staged:
             staged: list[StoredItem] = []  # fence: allocate_receive_resources; truncate is a no-op
@@ -394,7 +408,7 @@ class ItemProtocol:
             return
         up = _Upload(link, who[0], who[1], 0, count - 1, now_s, now_s, staged)
         self.upload = up
-        out.sends.append((link, self._request(up)))
+        out.send((link, self._request(up)))
 
     def handle_item(
         self,
@@ -440,12 +454,12 @@ class ItemProtocol:
             self._complete(out, link, who)
             return
         up.last_request_s = now_s
-        out.sends.append((up.link, self._request(up)))
+        out.send((up.link, self._request(up)))
 
     def _complete(self, out: Outcome, link: int, who: tuple[int, int]) -> None:
         """MissionItemProtocol::transfer_is_complete."""
         if self.rules.complete_text is not None:
-            out.texts.append(StatusText(MAV_SEVERITY_INFO, self.rules.complete_text))
+            out.say(StatusText(MAV_SEVERITY_INFO, self.rules.complete_text))
         self.version += 1
         self._ack(out, link, who, MAV_MISSION_ACCEPTED)
 
@@ -461,7 +475,7 @@ class ItemProtocol:
         if self.mission_type == MAV_MISSION_TYPE_MISSION:
             # MissionItemProtocol_Waypoints::get_item "educates" the GCS with the real count
             count = _mav.mission_count_encode(who[0], who[1], len(self.items), 0)
-            out.sends.append((link, _m(count)))
+            out.send((link, _m(count)))
             self._ack(out, link, who, MAV_MISSION_ERROR)
         elif self.mission_type == MAV_MISSION_TYPE_FENCE and seq == len(self.items):
             # MissionItemProtocol_Fence::get_item checks seq > count; seq == count then
@@ -505,7 +519,7 @@ class ItemProtocol:
                 item.param1, item.param2, item.param3, item.param4, item.x * scale,
                 item.y * scale, item.z, self.mission_type,
             )  # fmt: skip
-        out.sends.append((link, _m(reply)))
+        out.send((link, _m(reply)))
 
     def handle_request_list(self, out: Outcome, link: int, who: tuple[int, int], msg: Any) -> None:
         """MissionItemProtocol::handle_mission_request_list."""
@@ -515,7 +529,7 @@ class ItemProtocol:
             self._ack(out, link, who, MAV_MISSION_DENIED)
             return
         count = _mav.mission_count_encode(who[0], who[1], len(self.items), self.mission_type)
-        out.sends.append((link, _m(count)))
+        out.send((link, _m(count)))
 
     def handle_clear_all(self, out: Outcome, link: int, who: tuple[int, int]) -> None:
         """MissionItemProtocol::handle_mission_clear_all."""
@@ -533,15 +547,15 @@ class ItemProtocol:
             return
         if now_s - up.last_receive_s > UPLOAD_TIMEOUT_S:
             self.upload = None
-            out.texts.append(StatusText(MAV_SEVERITY_WARNING, self.rules.timeout_text))
-            out.sends.append(
+            out.say(StatusText(MAV_SEVERITY_WARNING, self.rules.timeout_text))
+            out.send(
                 (up.link, mission_ack((up.sysid, up.compid), MAV_MISSION_OPERATION_CANCELLED,
                                       self.mission_type))
             )  # fmt: skip
             return
         if now_s - up.last_request_s > REREQUEST_S:
             up.last_request_s = now_s
-            out.sends.append((up.link, self._request(up)))
+            out.send((up.link, self._request(up)))
 
 
 class MissionServer:
@@ -608,12 +622,12 @@ class MissionServer:
             seq = int(msg.seq)
             if 0 < seq < len(self.protocols[MAV_MISSION_TYPE_MISSION].items):
                 self.current_seq = seq
-                out.sends.append((None, self.mission_current()))
+                out.send((None, self.mission_current()))
             return out
         mission_type = int(getattr(msg, "mission_type", 0))
         prot = self.protocols.get(mission_type)
         if prot is None:
-            out.sends.append((link, mission_ack(who, MAV_MISSION_UNSUPPORTED, mission_type)))
+            out.send((link, mission_ack(who, MAV_MISSION_UNSUPPORTED, mission_type)))
             return out
         if kind == "MISSION_COUNT":
             prot.handle_count(out, link, who, msg, now_s)
@@ -631,6 +645,12 @@ class MissionServer:
             if mission_type == MAV_MISSION_TYPE_MISSION:
                 self.current_seq = 0
         return out
+
+    def reboot(self) -> None:
+        """A reboot loses uploads in progress and the current item; stored items persist."""
+        for prot in self.protocols.values():
+            prot.upload = None
+        self.current_seq = 0
 
     def update(self, now_s: float) -> Outcome:
         out = Outcome()

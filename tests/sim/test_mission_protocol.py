@@ -9,6 +9,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.sim import mission as sm
+from helixd.sim.faults import make_spec
 from helixd.sim.mission import MissionServer, Outcome
 from tests.support.simcore import incoming, make_core, of_type, run
 
@@ -302,3 +303,28 @@ def test_mission_int_frames_read_back_without_int() -> None:
     out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 1, 0)), 0.3)
     (got,) = sends(out, "MISSION_ITEM_INT")
     assert (int(got.frame), int(got.autocontinue)) == (3, 1)
+
+
+def test_order_of_text_and_ack_as_arduplot() -> None:
+    srv = server()
+    srv.handle(0, stamp(count(1)), 0.0)
+    out = srv.handle(0, stamp(item(0)), 0.1)
+    # transfer_is_complete: complete() says "Flight plan received", then the ACK
+    assert [type(s).__name__ for s in out.steps] == ["StatusText", "tuple"]
+    out = srv.handle(0, stamp(count(99)), 0.2)
+    # handle_mission_count: NO_SPACE ack first, then the text
+    assert [type(s).__name__ for s in out.steps] == ["tuple", "StatusText"]
+
+
+def test_reboot_loses_the_upload_keeps_the_mission() -> None:
+    core = make_core()
+    run(core, 0.2)
+    core.handle(0, incoming(count(1)))
+    core.handle(0, incoming(item(0)))
+    core.handle(0, incoming(count(3)))
+    core.handle(0, incoming(item(0)))
+    core.drain_outbox()
+    assert core.mission.protocols[0].receiving
+    core.inject(make_spec("reboot", {}))
+    assert not core.mission.protocols[0].receiving
+    assert len(core.mission.stored()) == 1
