@@ -18,7 +18,8 @@ Rate limit: a token bucket (``rate_hz`` texts per second on average, ``burst`` b
 Waiting texts are queued, faults ahead of everything else; when the queue is full the oldest
 non-fault text is dropped (a fault only when every queued text is a fault), and once the queue
 drains a NOTICE says how many were dropped. NAMED_VALUE_FLOAT goes out at
-``named_value_rate_hz`` while a value is known; a non-finite value is never sent.
+``named_value_rate_hz`` while a value is known; a non-finite value is never sent. A
+non-finite time is ignored (an event fed with one is queued for the next good tick).
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ __all__ = [
 CHUNK_CHARS = 50  # MAVLINK_MSG_STATUSTEXT_FIELD_TEXT_LEN
 MAX_CHUNKS = 256  # chunk_seq is a uint8
 NAME_CHARS = 10  # NAMED_VALUE_FLOAT name field
+FLOAT32_MAX = 3.4028234663852886e38
 MAV_SEVERITY_CRITICAL = 2
 MAV_SEVERITY_WARNING = 4
 MAV_SEVERITY_NOTICE = 5
@@ -148,8 +150,10 @@ class GcsReporter:
             return []
         if isinstance(event, Progress):
             x = event.xtrack_m
-            self._xtrack_m = x if x is not None and math.isfinite(x) else None
-            self._wp_index = event.wp_index if event.wp_index is not None else None
+            # NAMED_VALUE_FLOAT carries a float32: beyond its range is as bad as inf
+            self._xtrack_m = x if x is not None and abs(x) <= FLOAT32_MAX else None
+            idx = event.wp_index
+            self._wp_index = idx if idx is not None and 0 <= idx < 2**24 else None  # exact in f32
             return []
         if isinstance(event, PhaseChange):
             self._enqueue(_Queued(MAV_SEVERITY_NOTICE, f"{PREFIX}{event.phase}", False))
@@ -160,11 +164,11 @@ class GcsReporter:
             severity = MAV_SEVERITY_CRITICAL if event.stopped else MAV_SEVERITY_WARNING
             detail = f": {event.detail}" if event.detail else ""
             self._enqueue(_Queued(severity, f"{PREFIX}FAULT {event.name}{detail}", True))
-        return self._drain(now_s)
+        return self._drain(now_s) if math.isfinite(now_s) else []
 
     def tick(self, now_s: float) -> list[Any]:
         """The passing of time: queued texts the rate now allows, and the named values due."""
-        if not self.config.enabled:
+        if not self.config.enabled or not math.isfinite(now_s):
             return []
         out = self._drain(now_s)
         if now_s >= self._next_value_s:

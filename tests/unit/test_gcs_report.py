@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 from typing import Any
 
@@ -166,3 +167,35 @@ def test_disabled_sends_nothing() -> None:
 
 def test_config_section_in_top_level() -> None:
     assert HelixdConfig().gcs_report == GcsReportConfig()
+
+
+_times = hs.one_of(
+    hs.floats(min_value=-1e3, max_value=1e6), hs.sampled_from([math.nan, math.inf, -math.inf])
+)
+_events = hs.one_of(
+    hs.builds(PhaseChange, hs.text(max_size=80)),
+    hs.builds(WaypointReached, hs.integers(-5, 10**6), hs.integers(-5, 10**6)),
+    hs.builds(Fault, hs.text(max_size=300), hs.text(max_size=300), hs.booleans()),
+    hs.builds(
+        Progress,
+        hs.one_of(hs.none(), hs.floats(allow_nan=True, allow_infinity=True)),
+        hs.one_of(hs.none(), hs.integers(-(10**30), 10**30)),
+    ),
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(steps=hs.lists(hs.tuples(hs.booleans(), _events, _times), max_size=40))
+def test_total_any_events_any_times(steps: list[tuple[bool, Any, float]]) -> None:
+    """Garbage times and values: never an exception, never a bad or non-finite message."""
+    cfg = GcsReportConfig(queue_max=5, burst=2)
+    r = GcsReporter(cfg, 0.0)
+    out: list[Any] = []
+    for is_tick, event, t in steps:
+        out += r.tick(t) if is_tick else r.feed(event, t)
+        assert r.queued <= cfg.queue_max
+    for m in wire(out):
+        if m.get_type() == "NAMED_VALUE_FLOAT":
+            assert m.value == m.value and abs(m.value) != float("inf")
+        else:
+            assert len(m.text) <= 50 and all(" " <= c <= "~" for c in m.text)
