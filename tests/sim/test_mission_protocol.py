@@ -6,6 +6,8 @@ import os
 from typing import Any
 
 os.environ.setdefault("MAVLINK20", "1")
+from hypothesis import given, settings
+from hypothesis import strategies as hs
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.sim import mission as sm
@@ -328,3 +330,78 @@ def test_reboot_loses_the_upload_keeps_the_mission() -> None:
     core.inject(make_spec("reboot", {}))
     assert not core.mission.protocols[0].receiving
     assert len(core.mission.stored()) == 1
+
+
+_u8 = hs.integers(0, 255)
+_u16 = hs.integers(0, 65535)
+_i32 = hs.integers(-(2**31), 2**31 - 1)
+_f = hs.floats(width=32)
+_type = hs.sampled_from([0, 1, 2, 3, 255])
+_messages = hs.one_of(
+    hs.builds(_mav.mission_count_encode, _u8, _u8, hs.integers(0, 12), _type),
+    hs.builds(
+        _mav.mission_item_int_encode,
+        _u8,
+        _u8,
+        hs.integers(0, 12),
+        _u8,
+        hs.sampled_from([16, 22, 177, 5001, 5003, 5100, 65535]),
+        _u8,
+        _u8,
+        _f,
+        _f,
+        _f,
+        _f,
+        _i32,
+        _i32,
+        _f,
+        _type,
+    ),
+    hs.builds(
+        _mav.mission_item_encode,
+        _u8,
+        _u8,
+        hs.integers(0, 12),
+        _u8,
+        hs.sampled_from([16, 177, 5001, 5100]),
+        _u8,
+        _u8,
+        _f,
+        _f,
+        _f,
+        _f,
+        _f,
+        _f,
+        _f,
+        _type,
+    ),
+    hs.builds(_mav.mission_request_int_encode, _u8, _u8, _u16, _type),
+    hs.builds(_mav.mission_request_encode, _u8, _u8, _u16, _type),
+    hs.builds(_mav.mission_request_list_encode, _u8, _u8, _type),
+    hs.builds(_mav.mission_clear_all_encode, _u8, _u8, _type),
+    hs.builds(_mav.mission_set_current_encode, _u8, _u8, _u16),
+    hs.builds(_mav.mission_ack_encode, _u8, _u8, _u8, _type),
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    steps=hs.lists(
+        hs.tuples(_messages, hs.sampled_from([GCS, OTHER]), hs.booleans(), hs.floats(0, 3)),
+        max_size=30,
+    )
+)
+def test_fuzz_any_mission_messages(steps: list[tuple[Any, tuple[int, int], bool, float]]) -> None:
+    """Whatever arrives: no exception, every reply packs, stored items stay storable."""
+    srv = server()
+    now = 0.0
+    tx = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    for msg, who, v1, dt in steps:
+        now += dt
+        for out in (srv.handle(0, stamp(msg, who, v1), now), srv.update(now)):
+            for _, reply in out.sends:
+                reply.pack(tx)
+        for kind, prot in srv.protocols.items():
+            assert len(prot.items) <= prot.max_items
+            for stored in prot.items[1:] if kind == 0 else prot.items:
+                assert prot.rules.validate(stored) == sm.MAV_MISSION_ACCEPTED
