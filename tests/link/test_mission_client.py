@@ -372,3 +372,44 @@ def test_answers_to_another_gcs_are_not_ours() -> None:
     nack_for_qgc = stamp(mavlink.MAVLink_mission_ack_message(254, 190, 14, 0), VEHICLE)
     up.on_message(nack_for_qgc, 0.1)
     assert up.error is None and not up.done
+
+
+_f32 = hs.floats(width=32)
+_i32 = hs.integers(-(2**31), 2**31 - 1)
+_seq = hs.integers(0, 6)
+_vehicle_msgs = hs.one_of(
+    hs.builds(mavlink.MAVLink_mission_count_message, hs.just(255), hs.just(190), _seq,
+              hs.sampled_from([0, 1])),
+    hs.builds(mavlink.MAVLink_mission_item_int_message, hs.just(255), hs.just(190), _seq,
+              hs.integers(0, 255), hs.integers(0, 65535), hs.integers(0, 255),
+              hs.integers(0, 255), _f32, _f32, _f32, _f32, _i32, _i32, _f32, hs.just(0)),
+    hs.builds(mavlink.MAVLink_mission_item_message, hs.just(255), hs.just(190), _seq,
+              hs.integers(0, 255), hs.integers(0, 65535), hs.integers(0, 255),
+              hs.integers(0, 255), _f32, _f32, _f32, _f32, _f32, _f32, _f32, hs.just(0)),
+    hs.builds(mavlink.MAVLink_mission_request_message, hs.just(255), hs.just(190), _seq,
+              hs.just(0)),
+    hs.builds(mavlink.MAVLink_mission_request_int_message, hs.just(255), hs.just(190), _seq,
+              hs.just(0)),
+    hs.builds(mavlink.MAVLink_mission_ack_message, hs.just(255), hs.just(190),
+              hs.integers(0, 20), hs.just(0)),
+)  # fmt: skip
+
+
+@settings(max_examples=150, deadline=None)
+@given(msgs=hs.lists(hs.tuples(_vehicle_msgs, hs.floats(0, 2)), max_size=25))
+def test_fuzz_vehicle_answers(msgs: list[tuple[Any, float]]) -> None:
+    """Any sequence of vehicle messages: no exception; a finished download is consistent."""
+    up, down = new_upload(items(3)), new_download()
+    now = 0.0
+    up.start(now)
+    down.start(now)
+    for msg, dt in msgs:
+        now += dt
+        wire = stamp(msg, VEHICLE)
+        for t in (up, down):
+            t.on_message(wire, now)
+            t.on_time(now)
+    if down.done and down.error is None:
+        assert [i.seq for i in down.items] == list(range(down.count or 0))
+    if up.done and up.error is None:
+        assert up.requested == {0, 1, 2}
