@@ -199,3 +199,49 @@ def test_total_any_events_any_times(steps: list[tuple[bool, Any, float]]) -> Non
             assert m.value == m.value and abs(m.value) != float("inf")
         else:
             assert len(m.text) <= 50 and all(" " <= c <= "~" for c in m.text)
+
+
+def test_seen_by_a_second_ground_station_through_the_simulated_autopilot() -> None:
+    """Real UDP: helixd on link 0, a GCS on link 1; the autopilot forwards our messages
+    (MAVLink_routing) and the GCS reassembles the texts and sees the named values."""
+    import time
+
+    from tests.integration.harness import GCS_SYSID, client, running_sim_links
+
+    with running_sim_links(["udpin:127.0.0.1:0", "udpin:127.0.0.1:0"]) as srv:
+        url0, url1 = (f"udpout:127.0.0.1:{p}" for p in srv.local_ports)
+        with client(url0, sysid=GCS_SYSID) as ours, client(url1, sysid=255) as gcs:
+            r = GcsReporter(GcsReportConfig(named_value_rate_hz=10.0), time.monotonic())
+            asm = StatusTextAssembler(timeout_s=5.0)
+            got: list[tuple[int, str]] = []
+            names: set[str] = set()
+            long_fault = Fault("pose_stale", "no LOCAL_POSITION_NED for 0.62 s; HOLD requested")
+            deadline = time.monotonic() + 10.0
+            while time.monotonic() < deadline and (len(got) < 2 or len(names) < 2):
+                ours.heartbeat()
+                gcs.heartbeat()  # both links active: routes learned
+                now = time.monotonic()
+                out = r.feed(PhaseChange("run"), now) + r.feed(long_fault, now)
+                r.feed(Progress(0.42, 2), now)
+                for m in out + r.tick(now) + r.tick(now + 0.2):
+                    ours.mav.send(m)
+                end = time.monotonic() + 0.3
+                while time.monotonic() < end:
+                    m = gcs.conn.recv_match(blocking=True, timeout=0.05)
+                    if m is None or int(m.get_srcSystem()) != GCS_SYSID:
+                        continue
+                    if m.get_type() == "STATUSTEXT":
+                        sev, text, tid, seq = (
+                            int(m.severity),
+                            str(m.text),
+                            int(m.id),
+                            int(m.chunk_seq),
+                        )
+                        for t in asm.add(GCS_SYSID, 190, sev, text, tid, seq, time.monotonic()):
+                            assert t.complete
+                            got.append((t.severity, t.text))
+                    elif m.get_type() == "NAMED_VALUE_FLOAT":
+                        names.add(str(m.name))
+            assert (5, "helixd: run") in got
+            assert (2, "helixd: FAULT pose_stale: " + long_fault.detail) in got
+            assert names == {"xtrack_m", "wp_index"}
