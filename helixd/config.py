@@ -648,6 +648,23 @@ class LinkConfig(InputModel):
         description="preflight listens this long after our first message for another sender "
         "on our system id (s); ground stations send HEARTBEAT at 1 Hz",
     )
+    mission_item_timeout_s: float = Field(
+        1.5,
+        gt=0.0,
+        le=30.0,
+        description="mission upload/download: re-send after this long without progress (s); "
+        "above ArduPilot's own 1 s re-request",
+    )
+    mission_retries: int = Field(
+        5, ge=0, le=50, description="mission upload/download: re-sends in a row before failing"
+    )
+    tlog_enabled: bool = Field(True, description="write the link's .tlog in the run directory")
+    tlog_max_bytes: int = Field(
+        512 * 1024 * 1024,
+        ge=1024 * 1024,
+        le=64 * 1024**3,
+        description="stop writing the .tlog when it reaches this size (bytes)",
+    )
 
     @model_validator(mode="after")
     def _not_the_autopilot(self) -> LinkConfig:
@@ -939,6 +956,29 @@ class PlanningConfig(InputModel):
 
 
 # ---------------------------------------------------------------------------------------------
+# Ground-station report (STATUSTEXT / NAMED_VALUE_FLOAT, helixd.gcs_report)
+
+
+class GcsReportConfig(InputModel):
+    enabled: bool = Field(True, description="send STATUSTEXT and NAMED_VALUE_FLOAT to the GCS")
+    rate_hz: float = Field(
+        2.0, gt=0.0, le=20.0, description="STATUSTEXTs per second, long run average (Hz)"
+    )
+    burst: int = Field(
+        5, ge=1, le=50, description="STATUSTEXTs that may go out back to back before rate_hz"
+    )
+    queue_max: int = Field(
+        20, ge=1, le=500, description="texts waiting for the rate limit; faults go first"
+    )
+    max_text_chars: int = Field(
+        150, ge=50, le=500, description="longer texts are cut (sent as 50-char chunks)"
+    )
+    named_value_rate_hz: float = Field(
+        2.0, gt=0.0, le=50.0, description="NAMED_VALUE_FLOAT xtrack_m / wp_index rate (Hz)"
+    )
+
+
+# ---------------------------------------------------------------------------------------------
 # Top level
 
 
@@ -951,6 +991,7 @@ class HelixdConfig(InputModel):
     safety: SafetyConfig = Field(default_factory=SafetyConfig)
     recorder: RecorderConfig = Field(default_factory=RecorderConfig)
     planning: PlanningConfig = Field(default_factory=PlanningConfig)
+    gcs_report: GcsReportConfig = Field(default_factory=GcsReportConfig)
 
     @model_validator(mode="after")
     def _consistent(self) -> HelixdConfig:

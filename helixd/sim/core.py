@@ -19,6 +19,7 @@ from helixd.sim.config import Plant, SimConfig
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
 from helixd.sim.inbound import InboundHandler
 from helixd.sim.messages import STATUSTEXT_LEN, Message, statustexts
+from helixd.sim.mission import MissionServer, Outcome
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.params import ParamStore
 from helixd.sim.physics import MotorMap, PhysicsState
@@ -66,6 +67,9 @@ class SimCore:
         self._chunk_id = 0
         self._origin_sent = False
         self.inbound = InboundHandler(self)
+        self.mission = MissionServer(
+            config.origin_lat_deg, config.origin_lon_deg, config.origin_alt_m
+        )
         self._params_view: tuple[int, Mapping[str, float]] = (-1, MappingProxyType({}))
         self.view = self._view(self.ekf_status(), self.now_s)
 
@@ -116,6 +120,16 @@ class SimCore:
         self.flushed.extend(self.drain_outbox())
         self.inject(make_spec("reboot", {}))
 
+    def mission_message(self, link: int, msg: Message) -> None:
+        self._mission_outcome(self.mission.handle(link, msg, self.now_s))
+
+    def _mission_outcome(self, out: Outcome) -> None:
+        for step in out.steps:
+            if isinstance(step, StatusText):
+                self.say(step)
+            else:
+                self.send(*step)
+
     def drain_outbox(self) -> list[tuple[int | None, Message]]:
         """Messages to put on the wire; a link that is down (dropped/silent) loses its share."""
         out, self.outbox = self.outbox, []
@@ -158,6 +172,7 @@ class SimCore:
             silent = kw.get("silent_s")
             silent_s = self.config.reboot_silent_s if silent is None else float(str(silent))
             self.ap.reboot(now, silent_s)
+            self.mission.reboot()
             self.links = [self._new_link() for _ in self.links]
             self._epoch_s, self._n = now, 0
             self._origin_sent = False
@@ -233,6 +248,7 @@ class SimCore:
         self.est = estimator.step(self.est, self.dt_s(), self.config.noise_profile(), self.rng)
         self._collect()
         self.view = self._view(ekf, now)
+        self._mission_outcome(self.mission.update(now))
         self._telemetry(now)
 
     def _plant_step(self, outputs: list[int]) -> PhysicsState:

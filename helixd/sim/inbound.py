@@ -29,7 +29,10 @@ from helixd.sim.autopilot import (
 )
 from helixd.sim.estimator import EkfStatus
 from helixd.sim.messages import Message
+from helixd.sim.mission import MissionServer
 from helixd.sim.params import ParamStore
+
+MISSION_MESSAGES = MissionServer.MESSAGES
 
 MAV_CMD_GET_MESSAGE_INTERVAL = 510
 MAV_CMD_SET_MESSAGE_INTERVAL = 511
@@ -88,6 +91,10 @@ class InboundPort(Protocol):
         """Put the queued replies on the wire, then reboot the autopilot."""
         ...
 
+    def mission_message(self, link: int, msg: Message) -> None:
+        """A MISSION_* message for the mission protocol (helixd.sim.mission)."""
+        ...
+
 
 class InboundHandler:
     def __init__(self, core: InboundPort) -> None:
@@ -104,6 +111,8 @@ class InboundHandler:
             "PARAM_SET": self._param_set,
             "REQUEST_DATA_STREAM": self._request_data_stream,
         }
+        for kind in MISSION_MESSAGES:  # GCS_MAVLINK::handle_common_mission_message
+            self._handlers[kind] = self._mission
 
     def handle(self, link: int, msg: Message) -> None:
         kind = msg.get_type()
@@ -217,6 +226,9 @@ class InboundHandler:
             _i(msg, "start_stop") != 0,
             core.now_s,
         )
+
+    def _mission(self, link: int, msg: Message, src: int, comp: int) -> None:
+        self.core.mission_message(link, msg)
 
     # -- parameters ------------------------------------------------------------------------
 

@@ -11,6 +11,12 @@ from dataclasses import dataclass, field
 from helixd.sim import modes
 from helixd.sim.core import SimCore
 from helixd.sim.forward import radps_to_rpm
+from helixd.sim.mission import (
+    MAV_MISSION_TYPE_FENCE,
+    MAV_MISSION_TYPE_MISSION,
+    MAV_MISSION_TYPE_RALLY,
+    StoredItem,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -53,6 +59,11 @@ class SimSnapshot:
     gcs_heartbeats_seen: int
     gcs_last_seen_s: float | None
     terrain: str
+    # the stored mission protocol items (helixd.sim.mission); row 0 of the mission is home
+    mission_items: tuple[StoredItem, ...] = ()
+    fence_items: tuple[StoredItem, ...] = ()
+    rally_items: tuple[StoredItem, ...] = ()
+    mission_current_seq: int = 0
 
     def describe(self) -> str:
         return (
@@ -119,6 +130,10 @@ def take_snapshot(core: SimCore) -> SimSnapshot:
         gcs_heartbeats_seen=ap.gcs_heartbeats_seen,
         gcs_last_seen_s=ap.gcs_last_seen_s,
         terrain=core.config.terrain.value,
+        mission_items=core.mission.stored(MAV_MISSION_TYPE_MISSION),
+        fence_items=core.mission.stored(MAV_MISSION_TYPE_FENCE),
+        rally_items=core.mission.stored(MAV_MISSION_TYPE_RALLY),
+        mission_current_seq=core.mission.current_seq,
     )
 
 

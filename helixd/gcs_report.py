@@ -1,0 +1,230 @@
+"""What helixd is doing, as the ground station shows it (pure: events and times in, messages out).
+
+:class:`GcsReporter` turns the daemon's phase changes, waypoints reached and faults into
+STATUSTEXT, and its cross-track error and waypoint index into NAMED_VALUE_FLOAT
+(``xtrack_m``, ``wp_index``; names ≤ 10 characters as the message allows). It opens no socket,
+reads no clock and logs nothing: :meth:`GcsReporter.feed` takes one event,
+:meth:`GcsReporter.tick` the current time, and both return the pymavlink messages to send now.
+
+Severities (MAV_SEVERITY): a fault CRITICAL when it stopped the run, otherwise WARNING; a phase
+change NOTICE; a waypoint reached INFO. Texts are ASCII (anything else becomes '?'), cut to
+``max_text_chars``, and sent as ArduPilot sends them (GCS::send_statustext, GCS_Common.cpp): up
+to 50 characters as one STATUSTEXT with id 0; longer as 50-character chunks sharing a fresh
+non-zero id (a uint16 counter that skips 0), chunk_seq 0, 1, …, the last chunk shorter than 50
+— an empty one when the length is a multiple of 50 — which is what
+:class:`helixd.link.statustext.StatusTextAssembler` expects.
+
+Rate limit: a token bucket (``rate_hz`` texts per second on average, ``burst`` back to back).
+Waiting texts are queued, faults ahead of everything else; when the queue is full the oldest
+non-fault text is dropped (a fault only when every queued text is a fault), and once the queue
+drains a NOTICE says how many were dropped. NAMED_VALUE_FLOAT goes out at
+``named_value_rate_hz`` while a value is known; a non-finite value is never sent. A
+non-finite time is ignored (an event fed with one is queued for the next good tick).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Any
+
+os.environ.setdefault("MAVLINK20", "1")
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.config import GcsReportConfig
+
+__all__ = [
+    "CHUNK_CHARS",
+    "Fault",
+    "GcsReporter",
+    "PhaseChange",
+    "Progress",
+    "WaypointReached",
+    "chunk_statustext",
+]
+
+CHUNK_CHARS = 50  # MAVLINK_MSG_STATUSTEXT_FIELD_TEXT_LEN
+MAX_CHUNKS = 256  # chunk_seq is a uint8
+NAME_CHARS = 10  # NAMED_VALUE_FLOAT name field
+FLOAT32_MAX = 3.4028234663852886e38
+MAV_SEVERITY_CRITICAL = 2
+MAV_SEVERITY_WARNING = 4
+MAV_SEVERITY_NOTICE = 5
+MAV_SEVERITY_INFO = 6
+PREFIX = "helixd: "
+XTRACK_NAME = "xtrack_m"
+WP_INDEX_NAME = "wp_index"
+
+_mav = mavlink.MAVLink(None)
+
+
+@dataclass(frozen=True, slots=True)
+class PhaseChange:
+    phase: str  # e.g. "preflight", "armed", "run", "hold", "done"
+
+
+@dataclass(frozen=True, slots=True)
+class WaypointReached:
+    index: int  # 0-based
+    total: int
+
+
+@dataclass(frozen=True, slots=True)
+class Fault:
+    name: str
+    detail: str = ""
+    stopped: bool = True  # the run was stopped by it (CRITICAL) or it is a warning
+
+
+@dataclass(frozen=True, slots=True)
+class Progress:
+    """Latest guidance numbers; None clears one (no longer sent)."""
+
+    xtrack_m: float | None
+    wp_index: int | None
+
+
+Event = PhaseChange | WaypointReached | Fault | Progress
+
+
+def _ascii(text: str) -> str:
+    return "".join(c if " " <= c <= "~" else "?" for c in text)
+
+
+def chunk_statustext(severity: int, text: str, text_id: int) -> list[Any]:
+    """STATUSTEXT message(s) for ``text`` as GCS::send_statustext splits it.
+
+    ``text_id`` is used only when the text needs more than one message (then it must be
+    1..65535); a text of ≤ 50 characters goes out alone with id 0.
+    """
+    text = _ascii(text)[: CHUNK_CHARS * (MAX_CHUNKS - 1)]
+    if len(text) <= CHUNK_CHARS:
+        return [_mav.statustext_encode(severity, text.encode("ascii"), 0, 0)]
+    if not 1 <= text_id <= 65535:
+        raise ValueError("a chunked STATUSTEXT needs an id 1..65535")
+    chunks = [text[i : i + CHUNK_CHARS] for i in range(0, len(text), CHUNK_CHARS)]
+    if len(chunks[-1]) == CHUNK_CHARS:
+        chunks.append("")  # a short chunk ends the text
+    return [
+        _mav.statustext_encode(severity, c.encode("ascii"), text_id, seq)
+        for seq, c in enumerate(chunks)
+    ]
+
+
+@dataclass(slots=True)
+class _Queued:
+    severity: int
+    text: str
+    fault: bool
+
+
+class GcsReporter:
+    def __init__(self, config: GcsReportConfig, start_s: float) -> None:
+        if not math.isfinite(start_s):
+            raise ValueError("start_s must be finite")
+        self.config = config
+        self.start_s = start_s
+        self._tokens = float(config.burst)
+        self._last_s = start_s
+        self._queue: list[_Queued] = []
+        self._dropped = 0
+        self._text_id = 0
+        self._xtrack_m: float | None = None
+        self._wp_index: int | None = None
+        self._next_value_s = start_s
+
+    @property
+    def dropped(self) -> int:
+        """Texts dropped because the queue was full and not yet reported."""
+        return self._dropped
+
+    @property
+    def queued(self) -> int:
+        return len(self._queue)
+
+    def feed(self, event: Event, now_s: float) -> list[Any]:
+        """One daemon event; returns what may go out at once."""
+        if not self.config.enabled:
+            return []
+        if isinstance(event, Progress):
+            x = event.xtrack_m
+            # NAMED_VALUE_FLOAT carries a float32: beyond its range is as bad as inf
+            self._xtrack_m = x if x is not None and abs(x) <= FLOAT32_MAX else None
+            idx = event.wp_index
+            self._wp_index = idx if idx is not None and 0 <= idx < 2**24 else None  # exact in f32
+            return []
+        if isinstance(event, PhaseChange):
+            self._enqueue(_Queued(MAV_SEVERITY_NOTICE, f"{PREFIX}{event.phase}", False))
+        elif isinstance(event, WaypointReached):
+            text = f"{PREFIX}reached WP {event.index + 1}/{event.total}"
+            self._enqueue(_Queued(MAV_SEVERITY_INFO, text, False))
+        else:
+            severity = MAV_SEVERITY_CRITICAL if event.stopped else MAV_SEVERITY_WARNING
+            detail = f": {event.detail}" if event.detail else ""
+            self._enqueue(_Queued(severity, f"{PREFIX}FAULT {event.name}{detail}", True))
+        return self._drain(now_s) if math.isfinite(now_s) else []
+
+    def tick(self, now_s: float) -> list[Any]:
+        """The passing of time: queued texts the rate now allows, and the named values due."""
+        if not self.config.enabled or not math.isfinite(now_s):
+            return []
+        out = self._drain(now_s)
+        if now_s >= self._next_value_s:
+            period_s = 1.0 / self.config.named_value_rate_hz
+            # catch up without a burst after a stall
+            self._next_value_s = max(self._next_value_s + period_s, now_s + period_s / 2)
+            boot_ms = int(max(0.0, now_s - self.start_s) * 1000.0) & 0xFFFFFFFF
+            if self._xtrack_m is not None:
+                name = XTRACK_NAME.encode("ascii")
+                out.append(_mav.named_value_float_encode(boot_ms, name, self._xtrack_m))
+            if self._wp_index is not None:
+                name = WP_INDEX_NAME.encode("ascii")
+                out.append(_mav.named_value_float_encode(boot_ms, name, float(self._wp_index)))
+        return out
+
+    def _enqueue(self, item: _Queued) -> None:
+        if len(self._queue) >= self.config.queue_max:
+            victim = next((i for i, q in enumerate(self._queue) if not q.fault), None)
+            if victim is None:
+                if not item.fault:
+                    self._dropped += 1
+                    return
+                victim = 0  # all faults: the oldest goes
+            del self._queue[victim]
+            self._dropped += 1
+        if item.fault:
+            pos = next((i for i, q in enumerate(self._queue) if not q.fault), len(self._queue))
+            self._queue.insert(pos, item)
+        else:
+            self._queue.append(item)
+
+    def _refill(self, now_s: float) -> None:
+        elapsed = now_s - self._last_s
+        if math.isfinite(elapsed) and elapsed > 0.0:
+            cap = float(self.config.burst)
+            self._tokens = min(cap, self._tokens + elapsed * self.config.rate_hz)
+            self._last_s = now_s
+
+    def _drain(self, now_s: float) -> list[Any]:
+        self._refill(now_s)
+        out: list[Any] = []
+        while self._tokens >= 1.0:
+            if self._queue:
+                item = self._queue.pop(0)
+            elif self._dropped:
+                text = f"{PREFIX}{self._dropped} messages dropped (rate limit)"
+                item = _Queued(MAV_SEVERITY_NOTICE, text, False)
+                self._dropped = 0
+            else:
+                break
+            self._tokens -= 1.0
+            out.extend(self._statustext(item.severity, item.text))
+        return out
+
+    def _statustext(self, severity: int, text: str) -> list[Any]:
+        text = _ascii(text)[: self.config.max_text_chars]
+        if len(text) > CHUNK_CHARS:
+            self._text_id = self._text_id % 65535 + 1
+        return chunk_statustext(severity, text, self._text_id)
