@@ -19,7 +19,12 @@ from helixd.config import ConfigFileError, HelixdConfig, load_config
 from helixd.exitcodes import ExitCode
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, load_mission
 from helixd.mission.locate import MissionNotFound, locate_mission
-from helixd.mission.validate import mission_problems, pending_checks, plan_for_check
+from helixd.mission.validate import (
+    apply_mission_limits,
+    mission_problems,
+    pending_checks,
+    plan_for_check,
+)
 from helixd.recorder import command as recorder_command
 from helixd.sim import command as sim_command
 from helixd.sim.config import NoiseLevel, Plant, Terrain
@@ -95,6 +100,8 @@ def load_inputs(
             problems.extend(f"{path}: {p}" for p in refused)
     if problems or cfg is None or msn is None or checked is None:
         raise fail(problems, ExitCode.USAGE)
+    # the mission's own fence/time limit (a survey's) replace the config's for this run
+    cfg = apply_mission_limits(cfg, msn)
     return cfg, msn, path, checked
 
 
