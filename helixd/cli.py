@@ -14,10 +14,11 @@ from typing import Annotated
 import typer
 from typer.exceptions import TyperException
 
-from helixd import __version__
+from helixd import __version__, cli_mission
 from helixd.config import ConfigFileError, HelixdConfig, load_config
 from helixd.exitcodes import ExitCode
-from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, load_mission
+from helixd.mission import Mission, MissionFrameKind, MotionMode, Plan, PlanError
+from helixd.mission.formats import MissionFormat, detect_format, load_mission_file, mission_to_yaml
 from helixd.mission.locate import MissionNotFound, locate_mission
 from helixd.mission.validate import (
     apply_mission_limits,
@@ -51,6 +52,21 @@ MissionOpt = Annotated[
         "config/missions/ and /etc/helixd/missions/",
     ),
 ]
+ModeOpt = Annotated[
+    MotionMode | None,
+    typer.Option(
+        "--mode",
+        help="motion mode for a .plan/.waypoints mission (default: "
+        "mission.ground_station_mode); overrides a YAML mission's mode",
+    ),
+]
+SkipOpt = Annotated[
+    bool,
+    typer.Option(
+        "--skip-unsupported",
+        help="leave out .plan/.waypoints items helixd cannot fly (listed) instead of refusing",
+    ),
+]
 MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
 
 
@@ -61,7 +77,10 @@ def fail(problems: list[str], code: ExitCode) -> typer.Exit:
 
 
 def load_inputs(
-    config: Path | None, mission: Path
+    config: Path | None,
+    mission: Path,
+    mode: MotionMode | None = None,
+    skip_unsupported: bool = False,
 ) -> tuple[HelixdConfig, Mission, Path, tuple[Plan, bool]]:
     """Load config and mission together so the operator sees every problem at once.
 
@@ -83,7 +102,16 @@ def load_inputs(
         path = found.path
         if found.searched:
             typer.echo(f"mission {mission}: using {path}", err=True)
-        msn = load_mission(path, limits)
+        gs_mode = cfg.mission.ground_station_mode if cfg is not None else None
+        loaded = load_mission_file(
+            path,
+            limits,
+            mode=mode or (MotionMode(gs_mode) if gs_mode else None),
+            skip_unsupported=skip_unsupported,
+        )
+        msn = loaded.mission
+        for line in (*loaded.skipped, *loaded.notes):
+            typer.echo(f"warning: {clip_line(line)}", err=True)
     except MissionNotFound as exc:
         problems.append(str(exc))
     except ConfigFileError as exc:
@@ -126,9 +154,14 @@ def version() -> None:
 
 
 @app.command()
-def check(config: ConfigOpt = None, mission: MissionOpt = Path("mission.yaml")) -> None:
+def check(
+    config: ConfigOpt = None,
+    mission: MissionOpt = Path("mission.yaml"),
+    mode: ModeOpt = None,
+    skip_unsupported: SkipOpt = False,
+) -> None:
     """Validate the config and a mission (as `run` would), and print the resolved plan."""
-    cfg, msn, path, (plan, provisional) = load_inputs(config, mission)
+    cfg, msn, path, (plan, provisional) = load_inputs(config, mission, mode, skip_unsupported)
     note = (
         " (global: shown relative to waypoint 0; the EKF origin is used in flight)"
         if provisional
@@ -205,6 +238,8 @@ def run(
         typer.Option("--run-dir", help="root for run directories (default: recorder.run_root)"),
     ] = None,
     log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
+    mode: ModeOpt = None,
+    skip_unsupported: SkipOpt = False,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD."""
     import asyncio
@@ -214,10 +249,13 @@ def run(
 
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
-    cfg, msn, mission_path, _ = load_inputs(config, mission)
+    cfg, msn, mission_path, _ = load_inputs(config, mission, mode, skip_unsupported)
     url = check_connect(connect, cfg)
     try:
-        mission_yaml = mission_path.read_text(encoding="utf-8")
+        if detect_format(mission_path) is MissionFormat.YAML and mode is None:
+            mission_yaml = mission_path.read_text(encoding="utf-8")
+        else:  # the run directory keeps what is flown, as helixd YAML
+            mission_yaml = mission_to_yaml(msn)
     except (OSError, UnicodeDecodeError) as exc:
         raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
     tty = sys.stderr.isatty()
@@ -285,6 +323,7 @@ def status(
 
 sim_command.register(app)
 recorder_command.register(app)
+cli_mission.register(app)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -540,6 +540,11 @@ class MissionLimits(InputModel):
         le=10_000.0,
         description="first waypoint farther than this from the rover is refused at preflight (m)",
     )
+    ground_station_mode: Literal["roll", "scroll", "omni"] | None = Field(
+        None,
+        description="motion mode for .plan/.waypoints missions (they carry none); None = the "
+        "--mode option is required",
+    )
 
 
 # ---------------------------------------------------------------------------------------------
