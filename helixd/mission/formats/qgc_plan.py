@@ -147,6 +147,26 @@ def _depth_ok(text: str) -> int:
     return deepest
 
 
+def load_json_text(text: str, source: Path | str) -> Any:
+    """Parse hostile JSON: bounded depth, no NaN/Infinity, no overflow, no duplicate keys."""
+    src = str(source)
+    if _depth_ok(text) > MAX_DEPTH:
+        raise FormatError([f"{src}: JSON nested deeper than {MAX_DEPTH} levels"])
+    try:
+        return json.loads(
+            text,
+            parse_constant=_refuse_constant,
+            parse_float=_parse_float,
+            object_pairs_hook=_no_duplicates,
+        )
+    except json.JSONDecodeError as exc:
+        raise FormatError(
+            [f"{src}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"]
+        ) from None
+    except (ValueError, RecursionError) as exc:
+        raise FormatError([clip_line(f"{src}: not usable JSON: {exc}")]) from None
+
+
 def parse_plan_text(text: str, source: Path | str) -> GcsMission:
     """A .plan's text → :class:`GcsMission`; raise :class:`FormatError` naming file and field."""
     src = str(source)
