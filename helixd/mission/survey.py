@@ -64,17 +64,24 @@ def _to_xy(area: SurveyArea) -> tuple[Polygon, tuple[float, float]]:
             out.append((e, n))
         return out
 
-    shell = Polygon(xy(area.outer), [xy(h) for h in area.holes])
+    shell = Polygon(xy(area.outer))
+    if not shell.is_valid:
+        raise SurveyError(
+            f"{area.source}: the polygon is not valid: {shapely.is_valid_reason(shell)}"
+        )
     cut: list[BaseGeometry] = []
+    for i, h in enumerate(area.holes):
+        hole = Polygon(xy(h))
+        if not hole.is_valid:
+            raise SurveyError(
+                f"{area.source}: hole {i} is not a valid polygon: {shapely.is_valid_reason(hole)}"
+            )
+        cut.append(hole)  # a hole partly or wholly outside the area cuts only what it covers
     for (lat, lon), radius in area.hole_circles:
         n, e = geodesic_ne_m(lat, lon, *origin)
         # the polygon circumscribes the circle: its edges stay >= radius from the centre
         grow = 1.0 / math.cos(math.pi / (4 * (CIRCLE_SEGMENTS // 4)))
         cut.append(Point(e, n).buffer(radius * grow, quad_segs=CIRCLE_SEGMENTS // 4))
-    if not shell.is_valid:
-        raise SurveyError(
-            f"{area.source}: the polygon is not valid: {shapely.is_valid_reason(shell)}"
-        )
     region = shell.difference(unary_union(cut)) if cut else shell
     if region.is_empty or region.area <= 0:
         raise SurveyError(f"{area.source}: nothing left to survey once the holes are cut out")
