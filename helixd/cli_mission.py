@@ -196,4 +196,7 @@ MIN_COVERAGE = 0.95  # below this, the operator is told (the survey is still wri
 
 
 def register(app: typer.Typer) -> None:
+    from helixd import export
+
     app.add_typer(mission_app, name="mission")
+    export.register(app)
