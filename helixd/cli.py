@@ -197,6 +197,17 @@ def check(
         f"estimate: {eta:.0f} s ({eta / 60:.1f} min; limit "
         f"safety.mission_time_limit_s = {cfg.safety.mission_time_limit_s:.0f} s)"
     )
+    own = [
+        *(
+            [f"geofence polygon ({len(msn.geofence_polygon)} vertices)"]
+            if msn.geofence_polygon
+            else []
+        ),
+        *([f"geofence radius {msn.geofence_radius_m} m"] if msn.geofence_radius_m else []),
+        *([f"time limit {msn.time_limit_s:.0f} s"] if msn.time_limit_s is not None else []),
+    ]
+    if own:
+        typer.echo(f"limits  : the mission's own {', '.join(own)} replace the config's")
     later = pending_checks(msn, cfg)
     if later:
         typer.echo(f"preflight: run checks with the start pose: {', '.join(later)}")

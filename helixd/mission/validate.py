@@ -273,9 +273,13 @@ def mission_problems(
 def pending_checks(mission: Mission, cfg: HelixdConfig) -> list[str]:
     """What :func:`mission_problems` could not check without the pose/origin (for ``check``)."""
     later: list[str] = []
-    if cfg.safety.geofence_radius_m is not None and mission.frame is not MissionFrameKind.START:
+    radius = cfg.safety.geofence_radius_m
+    if mission.geofence_polygon:  # the mission's fence replaces the config's at preflight
+        radius = mission.geofence_radius_m
+    if radius is not None and mission.frame is not MissionFrameKind.START:
         later.append("geofence radius around the start point")
-    if cfg.safety.geofence_polygon_ne_m and mission.frame is not MissionFrameKind.LOCAL_NED:
+    polygon = mission.geofence_polygon or cfg.safety.geofence_polygon_ne_m
+    if polygon and mission.frame is not MissionFrameKind.LOCAL_NED:
         later.append("keep-in polygon")
     if mission.frame is not MissionFrameKind.START:
         later.append("time of the first leg")

@@ -181,3 +181,10 @@ def test_global_fence_vertex_off_the_earth_is_refused() -> None:
             [ORIGIN],
             geofence_polygon=[ORIGIN, (95.0, 0.0), (ORIGIN[0] + 0.001, ORIGIN[1])],
         )
+
+
+def test_check_says_the_missions_polygon_waits_for_the_origin() -> None:
+    msn = long_survey("global")
+    later = pending_checks(msn, apply_mission_limits(HelixdConfig(), msn))
+    assert "keep-in polygon" in later
+    assert "geofence radius around the start point" not in later
