@@ -59,3 +59,23 @@ def test_plan_file_flies_and_exports(tmp_path: Path) -> None:
     lon, lat = kinds["flown"]["geometry"]["coordinates"][-1]
     n, e = latlon_to_ne(lat, lon, *SIM_ORIGIN)
     assert math.hypot(n - snap.est_north_m, e - snap.est_east_m) < 0.5  # the EKF's pose
+
+
+def test_run_plan_with_the_embedded_simulator(tmp_path: Path) -> None:
+    """`helixd run --mission X.plan --sim --mode roll`, as an operator would type it."""
+    res = subprocess.run(
+        [
+            sys.executable, "-m", "helixd", "run", "--mission", str(PLAN), "--sim",
+            "--sim-speedup", "5", "--mode", "roll", "--run-dir", str(tmp_path / "runs"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=180,
+        check=False,
+        cwd=tmp_path,
+    )  # fmt: skip
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert "helixd: RESULT ok — 3/3 waypoints" in res.stderr
+    (run_dir,) = (tmp_path / "runs").iterdir()
+    s = json.loads((run_dir / "summary.json").read_text())
+    assert s["completed"] is True and s["mode"] == "roll"
