@@ -148,7 +148,13 @@ def geodesic_ne_m(
 ) -> tuple[float, float]:
     """True WGS-84 (north_m, east_m) of a point from ``origin``: geodesic distance along the
     initial azimuth (an azimuthal-equidistant projection, geographiclib). For measuring on the
-    ground (survey spacing, distances); not the EKF frame (see :func:`latlon_to_ne`)."""
+    ground (survey spacing, distances); not the EKF frame (see :func:`latlon_to_ne`).
+
+    geographiclib vs pyproj (measured on the shared development machine): geographiclib's
+    inverse geodesic 70 µs per point, pure Python, no binary wheel; pyproj's ``aeqd``
+    transformer 2.9 µs per point (100 000 points vectorised: 0.1 s) but 28 ms to build one per
+    origin and a compiled PROJ with its data files. A survey converts hundreds to a few
+    thousand points once, so geographiclib (identical results to 0.1 mm at 1 km) was taken."""
     from geographiclib.geodesic import Geodesic
 
     _check_latlon("lat/lon", lat_deg, lon_deg)

@@ -97,6 +97,18 @@ def test_waypoints_home_row_is_not_flown_and_items_are_numbered() -> None:
     assert gcs.home_latlon_deg == (53.52325, -113.52611)
 
 
+def test_windows_line_ends_and_bom(tmp_path: Path) -> None:
+    """Mission Planner on Windows: CRLF line ends, sometimes a UTF-8 BOM."""
+    f = tmp_path / "mp.waypoints"
+    f.write_bytes(b"\xef\xbb\xbf" + WPL.read_text().replace("\n", "\r\n").encode())
+    a = load_mission_file(f, mode=SCROLL, skip_unsupported=True).mission
+    b = load_mission_file(WPL, mode=SCROLL, skip_unsupported=True).mission
+    assert a.points() == b.points()
+    p = tmp_path / "bom.plan"
+    p.write_bytes(b"\xef\xbb\xbf" + PLAN.read_bytes())
+    assert load_mission_file(p, mode=SCROLL, skip_unsupported=True).mission.points()
+
+
 def test_no_mode_no_flight() -> None:
     with pytest.raises(ConfigFileError, match="--mode"):
         load_mission_file(WPL)

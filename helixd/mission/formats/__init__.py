@@ -65,7 +65,7 @@ def read_gcs(path: Path) -> GcsMission:
     """A .plan or .waypoints file's items and fences (no conversion)."""
     fmt = detect_format(path)
     try:
-        text = read_text_capped(path)
+        text = read_text_capped(path).removeprefix("\ufeff")  # Windows tools write a BOM
     except YamlFileError as exc:
         raise FormatError([exc.message.replace("YAML file", "mission file")]) from None
     if fmt is MissionFormat.PLAN:

@@ -202,7 +202,7 @@ def area_from_kml(text: str, src: str) -> SurveyArea:
 def read_area(path: Path) -> SurveyArea:
     """A survey polygon from ``.plan``, ``.geojson``/``.json`` or ``.kml``."""
     try:
-        text = read_text_capped(path)
+        text = read_text_capped(path).removeprefix("\ufeff")  # Windows tools write a BOM
     except YamlFileError as exc:
         raise FormatError([exc.message.replace("YAML file", "polygon file")]) from None
     src = str(path)
