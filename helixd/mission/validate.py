@@ -150,6 +150,7 @@ def _start_distance_problems(plan: Plan, cfg: HelixdConfig, start: NedPose | Non
 
 
 GEOFENCE_FALLBACK_SLACK = 1.005  # 0.5 %: the EKF map seen from another origin differs less
+GEOFENCE_RADIUS_MAX_M = 10_000.0  # safety.geofence_radius_m's upper bound
 
 
 def mission_fence_ne(
@@ -213,7 +214,8 @@ def apply_mission_limits(
         update["mission_time_limit_s"] = mission.time_limit_s
     fence = mission_fence_ne(mission, origin_latlon_deg=origin_latlon_deg, start_ned=start_ned)
     if fence is None:
-        radius = _fallback_radius_m(mission, cfg)
+        # bounded like safety.geofence_radius_m, so the run's config.yaml loads back
+        radius = min(_fallback_radius_m(mission, cfg), GEOFENCE_RADIUS_MAX_M)
         if mission.geofence_radius_m is not None:
             radius = min(radius, mission.geofence_radius_m)
         update["geofence_radius_m"] = radius

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 from pathlib import Path
@@ -185,6 +186,39 @@ def test_hostile_kml(text: str, words: str) -> None:
     with pytest.raises(FormatError) as err:
         area_from_kml(text, "a.kml")
     assert any(words in p for p in err.value.problems), err.value.problems
+
+
+@settings(max_examples=200)
+@given(
+    st.recursive(
+        st.none()
+        | st.booleans()
+        | st.floats(allow_nan=False)
+        | st.integers()
+        | st.text(max_size=8),
+        lambda inner: (
+            st.lists(inner, max_size=6)
+            | st.dictionaries(
+                st.sampled_from(["type", "coordinates", "features", "geometry"]), inner
+            )
+        ),
+        max_leaves=30,
+    )
+)
+def test_fuzz_geojson_never_escapes(value: object) -> None:
+    with contextlib.suppress(FormatError):
+        area_from_geojson(json.dumps(value), "f.geojson")
+
+
+@settings(max_examples=200)
+@given(
+    st.text(
+        alphabet="<>/ Polygon outerBoundaryIs LinearRing coordinates 0123456789.,-\n", max_size=300
+    )
+)
+def test_fuzz_kml_never_escapes(text: str) -> None:
+    with contextlib.suppress(FormatError):
+        area_from_kml(text, "f.kml")
 
 
 # -- the command -----------------------------------------------------------------------------
