@@ -24,6 +24,7 @@ import heapq
 import math
 from dataclasses import dataclass
 
+import numpy as np
 import shapely
 from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
@@ -35,6 +36,7 @@ from helixd.mission.formats.areas import CIRCLE_SEGMENTS, SurveyArea
 XY = tuple[float, float]  # (east_m, north_m): shapely's x, y
 EPS_M = 1e-6  # geometric tolerance for "inside" tests (1 µm)
 MIN_GAP_M = 0.01  # consecutive waypoints closer than this are one
+MAX_TRANSECTS = 5_000  # 50 km of width at 10 m; keeps planning to seconds
 
 
 class SurveyError(ValueError):
@@ -106,6 +108,11 @@ def _transect_pieces(region: Polygon, spacing_m: float, angle_deg: float) -> lis
     a0, a1 = min(along) - 1.0, max(along) + 1.0
     # n lines spread evenly across the width: spacing <= spacing_m, each covering its band
     count = max(1, math.ceil((hi - lo) / spacing_m - 1e-9))
+    if count > MAX_TRANSECTS:
+        raise SurveyError(
+            f"{count} transects at {spacing_m} m across {hi - lo:.0f} m: more than "
+            f"{MAX_TRANSECTS}; split the area or widen the spacing"
+        )
     step = (hi - lo) / count
     pieces: list[LineString] = []
     for k in range(count):
@@ -192,24 +199,26 @@ class _Router:
 
 def _join(pieces: list[LineString], region: Polygon, entry: XY) -> list[XY]:
     router = _Router(region)
-    remaining = list(range(len(pieces)))
+    ends = np.array(
+        [[*p.coords[0][:2], *p.coords[-1][:2]] for p in pieces], dtype=np.float64
+    )  # per piece: x0, y0, x1, y1
+    left = np.ones(len(pieces), dtype=bool)
     path: list[XY] = []
     here = entry
-    while remaining:
-        best = min(
-            ((i, end) for i in remaining for end in (0, 1)),
-            key=lambda c: math.dist(here, pieces[c[0]].coords[0 if c[1] == 0 else -1]),
-        )
-        i, end = best
-        coords = list(pieces[i].coords)
-        if end == 1:
-            coords.reverse()
-        a, b = (coords[0][0], coords[0][1]), (coords[-1][0], coords[-1][1])
+    for _ in range(len(pieces)):
+        d0 = np.hypot(ends[:, 0] - here[0], ends[:, 1] - here[1])
+        d1 = np.hypot(ends[:, 2] - here[0], ends[:, 3] - here[1])
+        d0[~left] = np.inf
+        d1[~left] = np.inf
+        i0, i1 = int(np.argmin(d0)), int(np.argmin(d1))
+        i, rev = (i0, False) if d0[i0] <= d1[i1] else (i1, True)
+        left[i] = False
+        x0, y0, x1, y1 = (float(v) for v in ends[i])
+        a, b = ((x1, y1), (x0, y0)) if rev else ((x0, y0), (x1, y1))
         if path:
             path.extend(router.route(here, a))
         path.extend([a, b])
         here = b
-        remaining.remove(i)
     dedup: list[XY] = []
     for p in path:
         if not dedup or math.dist(dedup[-1], p) >= MIN_GAP_M:

@@ -105,6 +105,19 @@ def test_bad_numbers_are_refused(kwargs: dict[str, float], words: str) -> None:
         plan_survey(POND, **args)
 
 
+def test_too_many_transects_is_refused() -> None:
+    wide = SurveyArea(outer=ring([(0, 0), (0, 1000), (10, 1000), (10, 0)]), source="wide")
+    with pytest.raises(SurveyError, match="more than 5000"):
+        plan_survey(wide, spacing_m=0.1, angle_deg=0.0, margin_m=0.0)
+
+
+def test_a_big_survey_plans_in_seconds() -> None:
+    """1 km x 1 km at 1 m: ~1 400 transects, joined with vectorised nearest-end search."""
+    big = SurveyArea(outer=ring([(0, 0), (0, 1000), (1000, 1000), (1000, 0)]), source="big")
+    r = plan_survey(big, spacing_m=1.0, angle_deg=30.0, margin_m=0.0)
+    assert r.transects > 1300 and r.coverage >= 0.99
+
+
 def test_self_intersecting_and_split_areas_are_refused() -> None:
     bow = SurveyArea(outer=ring([(0, 0), (100, 100), (0, 100), (100, 0)]), source="bow")
     with pytest.raises(SurveyError, match="not valid"):
