@@ -126,16 +126,39 @@ def _transect_pieces(region: Polygon, spacing_m: float, angle_deg: float) -> lis
     return pieces
 
 
+ROUTING_VERTICES_MAX = 400  # visibility graph size: O(n²) inside-tests, ~1 s at 400
+
+
+def _routing_vertices(region: Polygon) -> list[XY]:
+    """The region's vertices, or (for a detailed outline) those of a slightly inset and
+    simplified copy: at most :data:`ROUTING_VERTICES_MAX`, all inside the region. Every leg
+    between them is still tested against the region itself."""
+
+    def verts(poly: Polygon) -> list[XY]:
+        out: list[XY] = [(x, y) for x, y, *_ in list(poly.exterior.coords)[:-1]]
+        for ring in poly.interiors:
+            out.extend((x, y) for x, y, *_ in list(ring.coords)[:-1])
+        return out
+
+    raw = verts(region)
+    if len(raw) <= ROUTING_VERTICES_MAX:
+        return raw
+    for inset_m in (0.2, 0.5, 1.0, 2.0, 5.0, 10.0):
+        inner = region.buffer(-inset_m).simplify(inset_m / 2)
+        if isinstance(inner, Polygon) and not inner.is_empty:
+            candidate = verts(inner)
+            if len(candidate) <= ROUTING_VERTICES_MAX:
+                return candidate
+    return raw[:: math.ceil(len(raw) / ROUTING_VERTICES_MAX)]  # last resort: a subset
+
+
 class _Router:
     """Shortest paths inside ``region`` on the visibility graph of its vertices."""
 
     def __init__(self, region: Polygon) -> None:
         self.inside = region.buffer(1e-4)
         shapely.prepare(self.inside)
-        verts: list[XY] = list(region.exterior.coords)[:-1]
-        for ring in region.interiors:
-            verts.extend(list(ring.coords)[:-1])
-        self.verts = verts
+        self.verts = _routing_vertices(region)
         self._edges: dict[int, list[tuple[int, float]]] | None = None
 
     def visible(self, a: XY, b: XY) -> bool:
@@ -226,6 +249,27 @@ def _join(pieces: list[LineString], region: Polygon, entry: XY) -> list[XY]:
     return dedup
 
 
+FENCE_VERTICES_MAX = 1000  # Mission.geofence_polygon / safety.geofence_polygon_ne_m bound
+
+
+def _fence(shell: Polygon, margin_m: float, source: str) -> Polygon:
+    """The shell grown by ``margin_m``, simplified to at most :data:`FENCE_VERTICES_MAX`
+    vertices by less than half the margin (so it still contains the shell)."""
+    grown = shell.buffer(margin_m, join_style="mitre")
+    for tol_m in (0.01, 0.1 * margin_m, 0.25 * margin_m, 0.45 * margin_m):
+        fence = grown.simplify(tol_m) if tol_m > 0 else grown
+        if (
+            isinstance(fence, Polygon)
+            and len(fence.exterior.coords) - 1 <= FENCE_VERTICES_MAX
+            and fence.covers(shell)
+        ):
+            return fence
+    raise SurveyError(
+        f"{source}: the outline is too detailed for a {FENCE_VERTICES_MAX}-vertex fence at "
+        f"margin {margin_m} m; use a larger --margin-m or a simpler polygon"
+    )
+
+
 def plan_survey(
     area: SurveyArea, *, spacing_m: float, angle_deg: float, margin_m: float
 ) -> SurveyResult:
@@ -249,9 +293,7 @@ def plan_survey(
     line = LineString(path) if len(path) > 1 else Point(path[0])
     covered = line.buffer(spacing_m / 2, cap_style="flat").intersection(region).area
     coverage = covered / region.area
-    fence_xy = Polygon(region.exterior.coords).buffer(margin_m, join_style="mitre")
-    fence_xy = fence_xy.simplify(0.01)
-    assert isinstance(fence_xy, Polygon)
+    fence_xy = _fence(Polygon(region.exterior.coords), margin_m, area.source)
 
     def ll(p: tuple[float, ...]) -> tuple[float, float]:
         return geodesic_latlon(p[1], p[0], *origin)

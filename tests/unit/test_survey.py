@@ -118,6 +118,30 @@ def test_a_big_survey_plans_in_seconds() -> None:
     assert r.transects > 1300 and r.coverage >= 0.99
 
 
+def test_a_detailed_bay_shaped_outline() -> None:
+    """A C-shaped pond outline with 1 200 vertices: legs routed around the bay stay inside,
+    the fence is simplified to <= 1000 vertices and still contains the pond."""
+    pts = []
+    for k in range(600):
+        a = math.pi * 0.2 + 1.6 * math.pi * k / 599
+        pts.append(
+            ((150 + 3 * math.sin(40 * a)) * math.cos(a), (150 + 3 * math.sin(40 * a)) * math.sin(a))
+        )
+    for k in range(600):
+        a = math.pi * 1.8 - 1.6 * math.pi * k / 599
+        pts.append(
+            ((80 + 3 * math.sin(40 * a)) * math.cos(a), (80 + 3 * math.sin(40 * a)) * math.sin(a))
+        )
+    area = SurveyArea(outer=ring(pts), source="C")
+    r = plan_survey(area, spacing_m=10.0, angle_deg=0.0, margin_m=2.0)
+    assert stays_inside(r.path_xy_m, r.area_xy)
+    assert r.coverage >= 0.95
+    assert len(r.fence_latlon_deg) <= 1000
+    plane = area.outer[0]  # the survey's local plane is centred on the first vertex
+    fence = Polygon([geodesic_ne_m(a, b, *plane)[::-1] for a, b in r.fence_latlon_deg])
+    assert fence.buffer(1e-3).covers(Polygon(r.area_xy.exterior))
+
+
 def test_self_intersecting_and_split_areas_are_refused() -> None:
     bow = SurveyArea(outer=ring([(0, 0), (100, 100), (0, 100), (100, 0)]), source="bow")
     with pytest.raises(SurveyError, match="not valid"):
