@@ -7,6 +7,12 @@ Frames (see :mod:`helixd.frames`):
 * ``local_ned``: waypoints as ``north``/``east`` metres from the EKF origin; ``heading_deg`` is a
   compass heading (clockwise from North).
 * ``global``: waypoints as ``lat``/``lon`` degrees; ``heading_deg`` compass, as above.
+
+Mission-level safety overrides (a survey writes them): ``geofence_polygon`` (vertices in the
+mission's own coordinates) replaces the config's keep-in polygon and radius,
+``geofence_radius_m`` a radius, ``time_limit_s`` the time limit — see
+:func:`helixd.mission.validate.apply_mission_limits`. Ground-station files (.plan, .waypoints)
+are read into this model by :mod:`helixd.mission.formats`.
 """
 
 from __future__ import annotations

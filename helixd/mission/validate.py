@@ -78,7 +78,10 @@ def _radius_problems(
 
 
 def _polygon_problems(
-    cfg: HelixdConfig, ned: list[tuple[float, float]] | None, start: NedPose | None
+    cfg: HelixdConfig,
+    ned: list[tuple[float, float]] | None,
+    start: NedPose | None,
+    name: str = "safety.geofence_polygon_ne_m",
 ) -> list[str]:
     poly = cfg.safety.geofence_polygon_ne_m
     if len(poly) < 3 or ned is None:
@@ -87,21 +90,21 @@ def _polygon_problems(
     if start is not None and not point_in_polygon(start.north_m, start.east_m, poly):
         problems.append(
             f"the start point (N {start.north_m:.1f} m, E {start.east_m:.1f} m) is outside "
-            "safety.geofence_polygon_ne_m"
+            f"{name}"
         )
     offenders = [
-        f"waypoints.{i}: N {n:.1f} m, E {e:.1f} m is outside safety.geofence_polygon_ne_m"
+        f"waypoints.{i}: N {n:.1f} m, E {e:.1f} m is outside {name}"
         for i, (n, e) in enumerate(ned)
         if not point_in_polygon(n, e, poly)
     ]
-    problems.extend(_listed(offenders, "outside safety.geofence_polygon_ne_m"))
+    problems.extend(_listed(offenders, f"outside {name}"))
     if offenders or problems:
         return problems
     legs = [] if start is None else [((start.north_m, start.east_m), ned[0], "start → 0")]
     legs.extend((ned[i - 1], ned[i], f"{i - 1} → {i}") for i in range(1, len(ned)))
     crossing = [
-        f"leg waypoints {name} leaves safety.geofence_polygon_ne_m (both ends are inside)"
-        for a, b, name in legs
+        f"leg waypoints {leg} leaves {name} (both ends are inside)"
+        for a, b, leg in legs
         if leg_leaves_polygon(a, b, poly)
     ]
     return _listed(crossing, "whose legs leave the polygon")
@@ -266,7 +269,12 @@ def mission_problems(
     )
     ned = None if provisional else _ned_points(plan, start_ned, have_origin=True)
     problems = _radius_problems(plan, cfg, ned, start_ned)
-    problems += _polygon_problems(cfg, ned, start_ned)
+    fence_name = (
+        "the mission's geofence_polygon"
+        if mission.geofence_polygon
+        else "safety.geofence_polygon_ne_m"
+    )
+    problems += _polygon_problems(cfg, ned, start_ned, fence_name)
     problems += _time_problems(plan, cfg, start_ned)
     problems += _start_distance_problems(plan, cfg, None if provisional else start_ned)
     return problems

@@ -111,7 +111,10 @@ def test_survey_is_still_fenced(frame: str) -> None:
     problems = mission_problems(
         out, HelixdConfig(), start_ned=NedPose(0.0, 0.0, 0.0), origin_latlon_deg=ORIGIN
     )
-    assert any("waypoints.20" in p and "outside" in p for p in problems)
+    assert any(
+        p.startswith("waypoints.20:") and p.endswith("is outside the mission's geofence_polygon")
+        for p in problems
+    )
 
 
 def test_applied_config_has_the_exact_polygon_once_placeable() -> None:

@@ -147,11 +147,11 @@ def lost_in(mission: Mission, fmt: MissionFormat) -> list[str]:
     if fmt is MissionFormat.YAML:
         return []
     lost = ["mode", *(["tolerance_m"] if mission.tolerance_m is not None else [])]
+    lost += ["speed_mps"] if mission.speed_mps is not None else []
     lost += [k for k in ("time_limit_s", "geofence_radius_m") if getattr(mission, k) is not None]
     if any(w.heading_deg is not None or w.tolerance_m is not None for w in mission.waypoints):
         lost.append("per-waypoint heading_deg/tolerance_m")
     if fmt is MissionFormat.WAYPOINTS:
-        lost += ["speed_mps"] if mission.speed_mps is not None else []
         lost += ["geofence_polygon"] if mission.geofence_polygon else []
     return lost
 
