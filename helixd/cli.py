@@ -106,7 +106,8 @@ def load_inputs(
         loaded = load_mission_file(
             path,
             limits,
-            mode=mode or (MotionMode(gs_mode) if gs_mode else None),
+            mode=mode,
+            default_mode=MotionMode(gs_mode) if gs_mode else None,
             skip_unsupported=skip_unsupported,
         )
         msn = loaded.mission

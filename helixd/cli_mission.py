@@ -67,7 +67,8 @@ def convert(
         loaded = load_mission_file(
             src,
             cfg.mission,
-            mode=mode or (MotionMode(gs_mode) if gs_mode else None),
+            mode=mode,
+            default_mode=MotionMode(gs_mode) if gs_mode else None,
             skip_unsupported=skip_unsupported,
         )
     except ConfigFileError as exc:

@@ -44,6 +44,18 @@ def test_check_flies_the_waypoints_with_skip_and_a_config_mode(tmp_path: Path) -
     assert "mode=roll" in res.output
 
 
+def test_config_mode_is_for_ground_station_files_only(tmp_path: Path) -> None:
+    cfg = tmp_path / "helixd.yaml"
+    cfg.write_text(yaml.safe_dump({"mission": {"ground_station_mode": "omni"}}))
+    msn = tmp_path / "m.yaml"
+    msn.write_text("name: m\nmode: scroll\nwaypoints: [{x: 1, y: 0}]\n")
+    res = runner.invoke(app, ["check", "-m", str(msn), "-c", str(cfg)])
+    assert res.exit_code == 0, res.output
+    assert "mode=scroll" in res.output  # the YAML's own mode
+    res = runner.invoke(app, ["check", "-m", str(msn), "-c", str(cfg), "--mode", "roll"])
+    assert "mode=roll" in res.output  # the flag overrides
+
+
 def test_a_bare_name_finds_a_plan(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     missions = tmp_path / "config" / "missions"
     missions.mkdir(parents=True)

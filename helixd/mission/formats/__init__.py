@@ -89,10 +89,14 @@ def load_mission_file(
     limits: MissionLimits | None = None,
     *,
     mode: MotionMode | None = None,
+    default_mode: MotionMode | None = None,
     skip_unsupported: bool = False,
 ) -> LoadedMission:
     """Any supported file → a validated mission. Raises :class:`ConfigFileError` (one line per
-    problem, each naming the file) like :func:`load_mission`."""
+    problem, each naming the file) like :func:`load_mission`.
+
+    ``mode`` (the ``--mode`` flag) overrides any file's mode; ``default_mode`` (the config's
+    ``mission.ground_station_mode``) is used for ground-station files only, which carry none."""
     try:
         fmt = detect_format(path)
     except FormatError as exc:
@@ -102,6 +106,7 @@ def load_mission_file(
         if mode is not None and mode is not msn.mode:
             msn = msn.model_copy(update={"mode": mode})
         return LoadedMission(msn, fmt)
+    mode = mode or default_mode
     if mode is None:
         raise ConfigFileError(
             path,
