@@ -18,7 +18,7 @@ from helixd import __version__, cli_mission
 from helixd.config import ConfigFileError, HelixdConfig, load_config
 from helixd.exitcodes import ExitCode
 from helixd.mission import Mission, MissionFrameKind, MotionMode, Plan, PlanError
-from helixd.mission.formats import MissionFormat, detect_format, load_mission_file, mission_to_yaml
+from helixd.mission.formats import MissionFormat, load_mission_file, mission_to_yaml, sniff_format
 from helixd.mission.locate import MissionNotFound, locate_mission
 from helixd.mission.validate import (
     apply_mission_limits,
@@ -264,7 +264,7 @@ def run(
     cfg, msn, mission_path, _ = load_inputs(config, mission, mode, skip_unsupported)
     url = check_connect(connect, cfg)
     try:
-        if detect_format(mission_path) is MissionFormat.YAML and mode is None:
+        if sniff_format(mission_path) is MissionFormat.YAML and mode is None:
             mission_yaml = mission_path.read_text(encoding="utf-8")
         else:  # the run directory keeps what is flown, as helixd YAML
             mission_yaml = mission_to_yaml(msn)

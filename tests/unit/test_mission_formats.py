@@ -251,8 +251,23 @@ def test_huge_and_binary_files_are_refused(tmp_path: Path) -> None:
     binary.write_bytes(b"QGC WPL 110\n\xff\xfe")
     with pytest.raises(ConfigFileError, match="not UTF-8"):
         load_mission_file(binary, mode=SCROLL)
-    with pytest.raises(ConfigFileError, match=r"unknown mission file type '\.kml'"):
-        load_mission_file(tmp_path / "x.kml", mode=SCROLL)
+
+
+def test_other_suffixes_are_helixd_yaml_as_before(tmp_path: Path) -> None:
+    legacy = tmp_path / "mission"
+    legacy.write_text("name: m\nmode: roll\nwaypoints: [{x: 1, y: 0}]\n")
+    assert load_mission_file(legacy).format is MissionFormat.YAML
+    txt = tmp_path / "m.txt"
+    txt.write_text(legacy.read_text())
+    assert load_mission_file(txt).format is MissionFormat.YAML
+    txt.write_text(WPL.read_text())
+    assert load_mission_file(txt, mode=SCROLL, skip_unsupported=True).format is (
+        MissionFormat.WAYPOINTS
+    )
+    with pytest.raises(ConfigFileError, match="not valid YAML"):
+        bad = tmp_path / "x.kml"
+        bad.write_text("<kml>: [")
+        load_mission_file(bad, mode=SCROLL)
 
 
 # -- fuzz ----------------------------------------------------------------------------------------

@@ -50,6 +50,7 @@ SUFFIXES = {
 
 
 def detect_format(path: Path) -> MissionFormat:
+    """The format a file name asks for (writing, and ``convert``'s output)."""
     fmt = SUFFIXES.get(path.suffix.lower())
     if fmt is None:
         raise FormatError(
@@ -61,9 +62,24 @@ def detect_format(path: Path) -> MissionFormat:
     return fmt
 
 
+def sniff_format(path: Path) -> MissionFormat:
+    """The format of a file to read: by suffix; a ``.txt`` is WPL only if it starts with the
+    ``QGC WPL`` header; any other suffix (or none) is helixd YAML, as it always was."""
+    fmt = SUFFIXES.get(path.suffix.lower(), MissionFormat.YAML)
+    if path.suffix.lower() == ".txt":
+        try:
+            with path.open("rb") as fh:
+                head = fh.read(16).removeprefix(b"\xef\xbb\xbf")
+        except OSError:
+            return MissionFormat.YAML  # the YAML loader names the problem
+        if not head.startswith(b"QGC WPL"):
+            return MissionFormat.YAML
+    return fmt
+
+
 def read_gcs(path: Path) -> GcsMission:
     """A .plan or .waypoints file's items and fences (no conversion)."""
-    fmt = detect_format(path)
+    fmt = sniff_format(path)
     try:
         text = read_text_capped(path).removeprefix("\ufeff")  # Windows tools write a BOM
     except YamlFileError as exc:
@@ -97,10 +113,7 @@ def load_mission_file(
 
     ``mode`` (the ``--mode`` flag) overrides any file's mode; ``default_mode`` (the config's
     ``mission.ground_station_mode``) is used for ground-station files only, which carry none."""
-    try:
-        fmt = detect_format(path)
-    except FormatError as exc:
-        raise ConfigFileError(path, exc.problems) from None
+    fmt = sniff_format(path)
     if fmt is MissionFormat.YAML:
         msn = load_mission(path, limits)
         if mode is not None and mode is not msn.mode:
@@ -199,5 +212,6 @@ __all__ = [
     "mission_to_yaml",
     "plan_fence_ne",
     "read_gcs",
+    "sniff_format",
     "write_mission_file",
 ]
