@@ -109,6 +109,15 @@ def survey(
             "--margin-m", min=0.0, max=100.0, help="geofence = the polygon grown by this (m)"
         ),
     ] = 2.0,
+    inset_m: Annotated[
+        float,
+        typer.Option(
+            "--inset-m",
+            min=0.0,
+            max=100.0,
+            help="keep the rover this far inside the edges and holes (shoreline, keep-outs) (m)",
+        ),
+    ] = 0.0,
     time_factor: Annotated[
         float,
         typer.Option(
@@ -135,7 +144,9 @@ def survey(
         raise _fail(exc.problems) from None
     try:
         area = read_area(polygon)
-        result = plan_survey(area, spacing_m=spacing_m, angle_deg=angle_deg, margin_m=margin_m)
+        result = plan_survey(
+            area, spacing_m=spacing_m, angle_deg=angle_deg, margin_m=margin_m, inset_m=inset_m
+        )
     except FormatError as exc:
         raise _fail(exc.problems) from None
     except SurveyError as exc:

@@ -271,25 +271,44 @@ def _fence(shell: Polygon, margin_m: float, source: str) -> Polygon:
 
 
 def plan_survey(
-    area: SurveyArea, *, spacing_m: float, angle_deg: float, margin_m: float
+    area: SurveyArea,
+    *,
+    spacing_m: float,
+    angle_deg: float,
+    margin_m: float,
+    inset_m: float = 0.0,
 ) -> SurveyResult:
-    """Transects over ``area``; the fence is the outer ring grown by ``margin_m``."""
+    """Transects over ``area``; the fence is the outer ring grown by ``margin_m``. With
+    ``inset_m`` > 0 the rover keeps that far inside the edges and holes (a shoreline, a
+    keep-out): transects and legs use the area shrunk by it; coverage is still measured over
+    the whole area."""
     for name, v, lo, hi in (
         ("spacing_m", spacing_m, 0.1, 1000.0),
         ("angle_deg", angle_deg, -360.0, 360.0),
         ("margin_m", margin_m, 0.0, 1000.0),
+        ("inset_m", inset_m, 0.0, 1000.0),
     ):
         if not (math.isfinite(v) and lo <= v <= hi):
             raise SurveyError(f"{name} = {v}; allowed {lo} .. {hi}")
     region, origin = _to_xy(area)
-    pieces = _transect_pieces(region, spacing_m, angle_deg)
+    driven = region
+    if inset_m > 0:
+        shrunk = region.buffer(-inset_m, join_style="mitre")
+        if not isinstance(shrunk, Polygon) or shrunk.is_empty:
+            raise SurveyError(
+                f"{area.source}: {inset_m} m inside the edges leaves "
+                + ("nothing" if shrunk.is_empty else f"{len(getattr(shrunk, 'geoms', []))} parts")
+                + "; use a smaller --inset-m"
+            )
+        driven = shrunk
+    pieces = _transect_pieces(driven, spacing_m, angle_deg)
     if not pieces:
         raise SurveyError(
             f"{area.source}: no transect fits: the area is narrower than the spacing "
             f"{spacing_m} m at angle {angle_deg}°"
         )
-    first = region.exterior.coords[0]
-    path = _join(pieces, region, (first[0], first[1]))
+    first = driven.exterior.coords[0]
+    path = _join(pieces, driven, (first[0], first[1]))
     line = LineString(path) if len(path) > 1 else Point(path[0])
     covered = line.buffer(spacing_m / 2, cap_style="flat").intersection(region).area
     coverage = covered / region.area

@@ -70,6 +70,15 @@ def test_non_convex_with_a_hole(angle: float) -> None:
     assert not hole.buffer(-1e-3).intersects(LineString(r.path_xy_m))
 
 
+def test_inset_keeps_the_rover_off_the_edges_and_holes() -> None:
+    r = plan_survey(L_SHAPE, spacing_m=5.0, angle_deg=30.0, margin_m=2.0, inset_m=2.0)
+    keep = r.area_xy.buffer(-2.0 + 1e-3, join_style="mitre")
+    assert keep.covers(LineString(r.path_xy_m))
+    assert r.coverage >= 0.9  # the 2 m edge band is seen from 2.5 m away at best
+    with pytest.raises(SurveyError, match="smaller --inset-m"):
+        plan_survey(L_SHAPE, spacing_m=5.0, angle_deg=0.0, margin_m=2.0, inset_m=30.0)
+
+
 def test_fence_is_the_polygon_plus_the_margin() -> None:
     r = plan_survey(POND, spacing_m=10.0, angle_deg=0.0, margin_m=3.0)
     fence = Polygon([geodesic_ne_m(a, b, *ORIGIN)[::-1] for a, b in r.fence_latlon_deg])
