@@ -80,6 +80,29 @@ def test_plan_fence_as_local_obstacles() -> None:
     assert hole[0] == pytest.approx(latlon_to_ne(53.5238, -113.526, *origin))
 
 
+def test_keep_outs_of_the_plan_are_refused() -> None:
+    doc = json.loads(PLAN.read_text())
+    # the exclusion circle moved onto the survey's second transect end (item 4)
+    doc["geoFence"]["circles"][0]["circle"]["center"] = [53.52335, -113.5257]
+    # the exclusion polygon moved across the leg item 5 → item 6 (lat 53.52344, lon -113.5257
+    # → -113.526), between its ends
+    doc["geoFence"]["polygons"][1]["polygon"] = [
+        [53.52340, -113.52590],
+        [53.52340, -113.52585],
+        [53.52350, -113.52585],
+        [53.52350, -113.52590],
+    ]
+    gcs = parse_plan_text(json.dumps(doc), "k.plan")
+    with pytest.raises(FormatError) as err:
+        items_to_mission(gcs, name="k", mode=SCROLL, skip_unsupported=True, source="k.plan")
+    assert err.value.problems == [
+        "k.plan: leg item 5 → item 6 crosses the geofence's exclusion polygon 0 "
+        "(helixd flies straight legs)",
+        "k.plan: item 4 (mission.items.1 survey item 2): inside the geofence's exclusion "
+        "circle 0 (6 m)",
+    ]
+
+
 # -- Mission Planner .waypoints --------------------------------------------------------------------
 
 

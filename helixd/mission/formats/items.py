@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
+from typing import Any
 
 from pydantic import ValidationError
 
@@ -141,6 +142,7 @@ def items_to_mission(
     problems: list[str] = []
     notes: list[str] = []
     points: list[tuple[float, float]] = []
+    labels: list[str] = []
     for it in gcs.items:
         label = f"item {it.seq}" + (f" ({it.where})" if it.where else "")
         if it.command != MAV_CMD_NAV_WAYPOINT:
@@ -162,6 +164,9 @@ def items_to_mission(
             notes.append(f"{label}: same place as the item before; dropped")
             continue
         points.append((it.x, it.y))
+        labels.append(label)
+    if points:
+        problems.extend(keep_out_problems(gcs, points, labels))
     if unsupported and not skip_unsupported:
         problems.extend(
             f"{u} (use --skip-unsupported to fly the waypoints without it)" for u in unsupported
@@ -192,6 +197,44 @@ def items_to_mission(
     except ValidationError as exc:
         raise FormatError(format_validation_error(source or "mission", exc, Mission)) from None
     return Converted(mission, tuple(prefix + u for u in unsupported), tuple(notes))
+
+
+def keep_out_problems(
+    gcs: GcsMission, points: list[tuple[float, float]], labels: list[str]
+) -> list[str]:
+    """Waypoints inside, or legs through, the file's exclusion polygons/circles (keep-outs).
+
+    Checked in the EKF map around the first waypoint (the same geometry as in flight, to well
+    under a millimetre over a survey). helixd flies straight legs: a leg through a keep-out is
+    refused, not routed around."""
+    from shapely.geometry import LineString, Point, Polygon
+
+    origin = points[0]
+    ne = [latlon_to_ne(a, b, *origin) for a, b in points]
+    zones: list[tuple[str, Any]] = []  # shapely geometries
+    for k, poly in enumerate(p for p in gcs.polygons if not p.inclusion):
+        shape = Polygon([latlon_to_ne(a, b, *origin) for a, b in poly.vertices_latlon_deg])
+        zones.append((f"exclusion polygon {k}", shape if shape.is_valid else shape.buffer(0)))
+    for k, circle in enumerate(c for c in gcs.circles if not c.inclusion):
+        centre = Point(latlon_to_ne(*circle.centre_latlon_deg, *origin))
+        zones.append(
+            (f"exclusion circle {k} ({circle.radius_m:g} m)", centre.buffer(circle.radius_m))
+        )
+    out: list[str] = []
+    for name, zone in zones:
+        for label, p in zip(labels, ne, strict=True):
+            if zone.intersects(Point(p)):
+                out.append(f"{label}: inside the geofence's {name}")
+        for i in range(1, len(ne)):
+            leg = LineString([ne[i - 1], ne[i]])
+            if zone.intersects(leg) and not any(
+                zone.intersects(Point(q)) for q in (ne[i - 1], ne[i])
+            ):
+                out.append(
+                    f"leg {labels[i - 1].split(' (')[0]} → {labels[i].split(' (')[0]} crosses "
+                    f"the geofence's {name} (helixd flies straight legs)"
+                )
+    return out
 
 
 def _more(problems: list[str], shown: int, prefix: str) -> list[str]:
