@@ -80,6 +80,20 @@ def test_plan_fence_as_local_obstacles() -> None:
     assert hole[0] == pytest.approx(latlon_to_ne(53.5238, -113.526, *origin))
 
 
+def test_an_inclusion_circle_becomes_the_fence() -> None:
+    doc = json.loads(PLAN.read_text())
+    doc["geoFence"]["polygons"] = []
+    doc["geoFence"]["circles"] = [
+        {"circle": {"center": [53.5234, -113.5259], "radius": 60}, "inclusion": True}
+    ]
+    gcs = parse_plan_text(json.dumps(doc), "c.plan")
+    msn = items_to_mission(gcs, name="c", mode=SCROLL, skip_unsupported=True).mission
+    assert len(msn.geofence_polygon) == 64
+    for lat, lon in msn.geofence_polygon:
+        n, e = latlon_to_ne(lat, lon, 53.5234, -113.5259)
+        assert math.hypot(n, e) == pytest.approx(60.0, abs=1e-6)
+
+
 def test_keep_outs_of_the_plan_are_refused() -> None:
     doc = json.loads(PLAN.read_text())
     # the exclusion circle moved onto the survey's second transect end (item 4)

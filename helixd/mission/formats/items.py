@@ -17,7 +17,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from helixd.config import format_validation_error
-from helixd.frames import latlon_to_ne
+from helixd.frames import latlon_to_ne, ne_to_latlon
 from helixd.mission.model import Mission, MissionFrameKind, MotionMode
 
 MAV_CMD_NAV_WAYPOINT = 16
@@ -177,12 +177,15 @@ def items_to_mission(
         raise FormatError([prefix + p for p in problems[:20]] + _more(problems, 20, prefix))
     fence: tuple[tuple[float, float], ...] = ()
     inclusions = [p for p in gcs.polygons if p.inclusion]
-    if len(inclusions) == 1:
+    circles = [c for c in gcs.circles if c.inclusion]
+    if len(inclusions) == 1 and not circles:
         fence = inclusions[0].vertices_latlon_deg
-    elif len(inclusions) > 1:
+    elif len(circles) == 1 and not inclusions:
+        fence = circle_polygon(circles[0])
+    elif inclusions or circles:
         notes.append(
-            f"{len(inclusions)} inclusion polygons: none used as the mission fence "
-            "(helixd keeps one keep-in polygon)"
+            f"{len(inclusions)} inclusion polygons and {len(circles)} inclusion circles: none "
+            "used as the mission fence (helixd keeps one keep-in polygon)"
         )
     data: dict[str, object] = {
         "name": name,
@@ -197,6 +200,23 @@ def items_to_mission(
     except ValidationError as exc:
         raise FormatError(format_validation_error(source or "mission", exc, Mission)) from None
     return Converted(mission, tuple(prefix + u for u in unsupported), tuple(notes))
+
+
+CIRCLE_FENCE_VERTICES = 64
+
+
+def circle_polygon(circle: FenceCircle) -> tuple[tuple[float, float], ...]:
+    """An inclusion circle as a keep-in polygon: the inscribed 64-gon (never outside it)."""
+    lat0, lon0 = circle.centre_latlon_deg
+    return tuple(
+        ne_to_latlon(
+            circle.radius_m * math.cos(2 * math.pi * k / CIRCLE_FENCE_VERTICES),
+            circle.radius_m * math.sin(2 * math.pi * k / CIRCLE_FENCE_VERTICES),
+            lat0,
+            lon0,
+        )
+        for k in range(CIRCLE_FENCE_VERTICES)
+    )
 
 
 def keep_out_problems(
