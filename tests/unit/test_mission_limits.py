@@ -6,6 +6,8 @@ import math
 from typing import Any
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from helixd.config import HelixdConfig
@@ -191,3 +193,45 @@ def test_check_says_the_missions_polygon_waits_for_the_origin() -> None:
     later = pending_checks(msn, apply_mission_limits(HelixdConfig(), msn))
     assert "keep-in polygon" in later
     assert "geofence radius around the start point" not in later
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    frame=st.sampled_from(["start", "local_ned", "global"]),
+    fence=st.lists(
+        st.tuples(st.floats(-200, 200) | st.just(math.nan), st.floats(-200, 200)),
+        max_size=7,
+    ),
+    radius=st.none() | st.floats(-1.0, 20_000.0),
+    limit=st.none() | st.floats(-1.0, 100_000.0),
+    pose=st.none() | st.tuples(st.floats(-300, 300), st.floats(-300, 300), st.floats(-7, 7)),
+)
+def test_mission_limits_are_total(
+    frame: str,
+    fence: list[tuple[float, float]],
+    radius: float | None,
+    limit: float | None,
+    pose: tuple[float, float, float] | None,
+) -> None:
+    """Any fence/radius/limit either fails validation with a message or gives a config whose
+    safety values are in their bounds, with or without the pose and origin."""
+    if frame == "global":
+        fence = [g(n, e) for n, e in fence if math.isfinite(n) and math.isfinite(e)]
+        points = [g(5.0, 5.0)]
+    else:
+        points = [(5.0, 5.0)]
+    try:
+        msn = mission(
+            frame, points, geofence_polygon=fence, geofence_radius_m=radius, time_limit_s=limit
+        )
+    except ValidationError as exc:
+        assert str(exc)
+        return
+    start = None if pose is None else NedPose(*pose)
+    for origin in (None, ORIGIN):
+        cfg = apply_mission_limits(HelixdConfig(), msn, origin_latlon_deg=origin, start_ned=start)
+        r = cfg.safety.geofence_radius_m
+        assert r is None or 0 < r <= 10_000.0
+        assert 0 < cfg.safety.mission_time_limit_s <= 86_400.0
+        problems = mission_problems(msn, HelixdConfig(), start_ned=start, origin_latlon_deg=origin)
+        assert all(isinstance(p, str) and "\n" not in p for p in problems)
