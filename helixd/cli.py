@@ -14,12 +14,18 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from typer.exceptions import TyperException
 
-from helixd import __version__
+from helixd import __version__, cli_mission
 from helixd.config import ConfigFileError, HelixdConfig, load_config
 from helixd.exitcodes import ExitCode
-from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, load_mission
+from helixd.mission import Mission, MissionFrameKind, MotionMode, Plan, PlanError
+from helixd.mission.formats import MissionFormat, load_mission_file, mission_to_yaml, sniff_format
 from helixd.mission.locate import MissionNotFound, locate_mission
-from helixd.mission.validate import mission_problems, pending_checks, plan_for_check
+from helixd.mission.validate import (
+    apply_mission_limits,
+    mission_problems,
+    pending_checks,
+    plan_for_check,
+)
 from helixd.recorder import command as recorder_command
 from helixd.sim import command as sim_command
 from helixd.sim.config import NoiseLevel, Plant, Terrain
@@ -49,6 +55,21 @@ MissionOpt = Annotated[
         "config/missions/ and /etc/helixd/missions/",
     ),
 ]
+ModeOpt = Annotated[
+    MotionMode | None,
+    typer.Option(
+        "--mode",
+        help="motion mode for a .plan/.waypoints mission (default: "
+        "mission.ground_station_mode); overrides a YAML mission's mode",
+    ),
+]
+SkipOpt = Annotated[
+    bool,
+    typer.Option(
+        "--skip-unsupported",
+        help="leave out .plan/.waypoints items helixd cannot fly (listed) instead of refusing",
+    ),
+]
 MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
 MapOpt = Annotated[
     Path | None,
@@ -67,7 +88,10 @@ def fail(problems: list[str], code: ExitCode) -> typer.Exit:
 
 
 def load_inputs(
-    config: Path | None, mission: Path
+    config: Path | None,
+    mission: Path,
+    mode: MotionMode | None = None,
+    skip_unsupported: bool = False,
 ) -> tuple[HelixdConfig, Mission, Path, tuple[Plan, bool]]:
     """Load config and mission together so the operator sees every problem at once.
 
@@ -89,7 +113,17 @@ def load_inputs(
         path = found.path
         if found.searched:
             typer.echo(f"mission {mission}: using {path}", err=True)
-        msn = load_mission(path, limits)
+        gs_mode = cfg.mission.ground_station_mode if cfg is not None else None
+        loaded = load_mission_file(
+            path,
+            limits,
+            mode=mode,
+            default_mode=MotionMode(gs_mode) if gs_mode else None,
+            skip_unsupported=skip_unsupported,
+        )
+        msn = loaded.mission
+        for line in (*loaded.skipped, *loaded.notes):
+            typer.echo(f"warning: {clip_line(line)}", err=True)
     except MissionNotFound as exc:
         problems.append(str(exc))
     except ConfigFileError as exc:
@@ -106,6 +140,8 @@ def load_inputs(
             problems.extend(f"{path}: {p}" for p in refused)
     if problems or cfg is None or msn is None or checked is None:
         raise fail(problems, ExitCode.USAGE)
+    # the mission's own fence/time limit (a survey's) replace the config's for this run
+    cfg = apply_mission_limits(cfg, msn)
     return cfg, msn, path, checked
 
 
@@ -183,9 +219,11 @@ def check(
         Path | None,
         typer.Option("--plot", help="with planning: draw map, inflation and path to this PNG"),
     ] = None,
+    mode: ModeOpt = None,
+    skip_unsupported: SkipOpt = False,
 ) -> None:
     """Validate the config and a mission (as `run` would), and print the resolved plan."""
-    cfg, msn, path, (plan, provisional) = load_inputs(config, mission)
+    cfg, msn, path, (plan, provisional) = load_inputs(config, mission, mode, skip_unsupported)
     _, route = plan_inputs(cfg, msn, path, map_path)
     note = (
         " (global: shown relative to waypoint 0; the EKF origin is used in flight)"
@@ -222,6 +260,17 @@ def check(
         f"estimate: {eta:.0f} s ({eta / 60:.1f} min; limit "
         f"safety.mission_time_limit_s = {cfg.safety.mission_time_limit_s:.0f} s)"
     )
+    own = [
+        *(
+            [f"geofence polygon ({len(msn.geofence_polygon)} vertices)"]
+            if msn.geofence_polygon
+            else []
+        ),
+        *([f"geofence radius {msn.geofence_radius_m} m"] if msn.geofence_radius_m else []),
+        *([f"time limit {msn.time_limit_s:.0f} s"] if msn.time_limit_s is not None else []),
+    ]
+    if own:
+        typer.echo(f"limits  : the mission's own {', '.join(own)} replace the config's")
     later = pending_checks(msn, cfg)
     if later:
         typer.echo(f"preflight: run checks with the start pose: {', '.join(later)}")
@@ -273,6 +322,8 @@ def run(
     ] = None,
     log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
     map_path: MapOpt = None,
+    mode: ModeOpt = None,
+    skip_unsupported: SkipOpt = False,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD."""
     import asyncio
@@ -282,10 +333,13 @@ def run(
 
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
-    cfg, msn, mission_path, _ = load_inputs(config, mission)
+    cfg, msn, mission_path, _ = load_inputs(config, mission, mode, skip_unsupported)
     url = check_connect(connect, cfg)
     try:
-        mission_yaml = mission_path.read_text(encoding="utf-8")
+        if sniff_format(mission_path) is MissionFormat.YAML and mode is None:
+            mission_yaml = mission_path.read_text(encoding="utf-8")
+        else:  # the run directory keeps what is flown, as helixd YAML
+            mission_yaml = mission_to_yaml(msn)
     except (OSError, UnicodeDecodeError) as exc:
         raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
     planned, route = plan_inputs(cfg, msn, mission_path, map_path)
@@ -359,6 +413,7 @@ def status(
 
 sim_command.register(app)
 recorder_command.register(app)
+cli_mission.register(app)
 
 
 def main(argv: list[str] | None = None) -> None:

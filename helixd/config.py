@@ -534,6 +534,17 @@ class MissionLimits(InputModel):
         le=10_000.0,
         description="waypoints farther than this from origin refused (m)",
     )
+    max_start_distance_m: float = Field(
+        100.0,
+        gt=0.0,
+        le=10_000.0,
+        description="first waypoint farther than this from the rover is refused at preflight (m)",
+    )
+    ground_station_mode: Literal["roll", "scroll", "omni"] | None = Field(
+        None,
+        description="motion mode for .plan/.waypoints missions (they carry none); None = the "
+        "--mode option is required",
+    )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -20,7 +20,12 @@ from dataclasses import dataclass
 from helixd.base.angles import wrap_pi
 from helixd.base.geometry import Pose2D, require_finite
 
-EARTH_RADIUS_M = 6_378_137.0  # WGS-84 equatorial radius, as ArduPilot's location code uses
+# ArduPilot's Location maths (libraries/AP_Common/Location.cpp, AP_Math/definitions.h):
+# RADIUS_OF_EARTH 6378100 m, LOCATION_SCALING_FACTOR = 1e-7 * DEG_TO_RAD * RADIUS_OF_EARTH.
+ARDUPILOT_EARTH_RADIUS_M = 6_378_100.0
+EARTH_RADIUS_M = ARDUPILOT_EARTH_RADIUS_M  # the old name
+METRES_PER_DEGREE = math.radians(1.0) * ARDUPILOT_EARTH_RADIUS_M  # 111 318.845 m
+LONGITUDE_SCALE_MIN = 0.01  # Location::longitude_scale() clamps cos(lat) to [0.01, 1]
 
 
 @dataclass(frozen=True, slots=True)
@@ -82,29 +87,58 @@ class MissionFrame:
         return wrap_pi(self.origin.yaw_ned_rad - yaw_rad)
 
 
+def _check_latlon(what: str, lat_deg: float, lon_deg: float) -> None:
+    require_finite(what, lat_deg, lon_deg)
+    if not (-90.0 <= lat_deg <= 90.0 and -180.0 <= lon_deg <= 180.0):
+        raise ValueError(
+            f"{what} ({lat_deg}, {lon_deg}) is not on the Earth: latitude must be in "
+            "-90..90 and longitude in -180..180 degrees"
+        )
+
+
+def _longitude_scale(lat_deg: float) -> float:
+    return min(max(math.cos(math.radians(lat_deg)), LONGITUDE_SCALE_MIN), 1.0)
+
+
+def _wrap_lon_deg(lon_deg: float) -> float:
+    """Longitude difference / value into [-180, 180) (ArduPilot's diff_longitude/wrap)."""
+    return (lon_deg + 180.0) % 360.0 - 180.0
+
+
 def latlon_to_ne(
     lat_deg: float, lon_deg: float, origin_lat_deg: float, origin_lon_deg: float
 ) -> tuple[float, float]:
-    """Equirectangular projection around the EKF origin (metres north, metres east).
+    """(lat, lon) → (north_m, east_m) in the autopilot's EKF frame around ``origin``.
 
-    Accurate to centimetres over the few hundred metres a Helix mission spans.
+    This is the frame LOCAL_POSITION_NED is in: ArduPilot's EKF3 places each GPS fix at
+    ``EKF_origin.get_distance_NE_ftype(gps_loc)`` (AP_NavEKF3_PosVelFusion /
+    Location.cpp), a spherical flat-earth map (radius 6 378 100 m, longitude scaled by the
+    cosine of the mean latitude). A waypoint must be converted with the *same* map, or the
+    rover stops where the autopilot's pose says "there" while the GPS says elsewhere: the
+    true WGS-84 geodesic (geographiclib) differs from this map by about 0.1–0.2 % of the
+    distance (0.9 m north and 1.9 m east at 1 km at 49° N, see tests/unit/test_geodesy.py),
+    which is the offset an exact-geodesy conversion would put into every global mission.
+    Longitude differences wrap across ±180°. Raises ValueError off the Earth, NonFiniteError
+    on NaN/inf.
     """
-    require_finite("lat/lon", lat_deg, lon_deg, origin_lat_deg, origin_lon_deg)
-    north_m = math.radians(lat_deg - origin_lat_deg) * EARTH_RADIUS_M
-    east_m = (
-        math.radians(lon_deg - origin_lon_deg)
-        * EARTH_RADIUS_M
-        * math.cos(math.radians(origin_lat_deg))
-    )
+    _check_latlon("lat/lon", lat_deg, lon_deg)
+    _check_latlon("origin lat/lon", origin_lat_deg, origin_lon_deg)
+    north_m = (lat_deg - origin_lat_deg) * METRES_PER_DEGREE
+    scale = _longitude_scale((lat_deg + origin_lat_deg) / 2.0)
+    east_m = _wrap_lon_deg(lon_deg - origin_lon_deg) * METRES_PER_DEGREE * scale
     return north_m, east_m
 
 
 def ne_to_latlon(
     north_m: float, east_m: float, origin_lat_deg: float, origin_lon_deg: float
 ) -> tuple[float, float]:
-    require_finite("north/east", north_m, east_m, origin_lat_deg, origin_lon_deg)
-    lat = origin_lat_deg + math.degrees(north_m / EARTH_RADIUS_M)
-    lon = origin_lon_deg + math.degrees(
-        east_m / (EARTH_RADIUS_M * math.cos(math.radians(origin_lat_deg)))
-    )
+    """Inverse of :func:`latlon_to_ne` (ArduPilot's ``Location::offset_latlng``): the lat/lon
+    of a LOCAL_POSITION_NED point. Exact inverse (mean-latitude scale both ways); latitude is
+    clamped to ±90° and longitude wrapped into [-180, 180)."""
+    require_finite("north/east", north_m, east_m)
+    _check_latlon("origin lat/lon", origin_lat_deg, origin_lon_deg)
+    dlat = north_m / METRES_PER_DEGREE
+    lat = min(max(origin_lat_deg + dlat, -90.0), 90.0)
+    scale = _longitude_scale((lat + origin_lat_deg) / 2.0)
+    lon = _wrap_lon_deg(origin_lon_deg + east_m / (METRES_PER_DEGREE * scale))
     return lat, lon

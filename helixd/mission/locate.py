@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 SEARCH_DIRS = (Path("config/missions"), Path("/etc/helixd/missions"))
-SUFFIXES = (".yaml", ".yml")
+SUFFIXES = (".yaml", ".yml", ".plan", ".waypoints")
 
 
 @dataclass(frozen=True, slots=True)

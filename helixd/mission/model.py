@@ -7,6 +7,12 @@ Frames (see :mod:`helixd.frames`):
 * ``local_ned``: waypoints as ``north``/``east`` metres from the EKF origin; ``heading_deg`` is a
   compass heading (clockwise from North).
 * ``global``: waypoints as ``lat``/``lon`` degrees; ``heading_deg`` compass, as above.
+
+Mission-level safety overrides (a survey writes them): ``geofence_polygon`` (vertices in the
+mission's own coordinates) replaces the config's keep-in polygon and radius,
+``geofence_radius_m`` a radius, ``time_limit_s`` the time limit — see
+:func:`helixd.mission.validate.apply_mission_limits`. Ground-station files (.plan, .waypoints)
+are read into this model by :mod:`helixd.mission.formats`.
 """
 
 from __future__ import annotations
@@ -59,6 +65,23 @@ class Mission(InputModel):
         None, gt=0.05, le=20.0, description="arrival radius for every waypoint (m)"
     )
     speed_mps: float | None = Field(None, gt=0.0, le=3.0, description="speed cap override (m/s)")
+    # Mission-level safety overrides (a survey carries its own fence and time budget):
+    geofence_polygon: tuple[tuple[float, float], ...] = Field(
+        (),
+        max_length=1000,
+        description="keep-in polygon in the mission's own coordinates (x/y, north/east or "
+        "lat/lon pairs); replaces safety.geofence_polygon_ne_m and safety.geofence_radius_m",
+    )
+    geofence_radius_m: float | None = Field(
+        None,
+        gt=0.0,
+        le=10_000.0,
+        description="with geofence_polygon: also a radius around the start point (None = the "
+        "polygon alone); without: replaces safety.geofence_radius_m (None = the config's)",
+    )
+    time_limit_s: float | None = Field(
+        None, gt=0.0, le=86_400.0, description="replaces safety.mission_time_limit_s (s)"
+    )
 
     @model_validator(mode="after")
     def _check_points(self, info: ValidationInfo) -> Mission:
@@ -102,6 +125,9 @@ class Mission(InputModel):
                     f"({b0}, {b1}); consecutive waypoints must differ by >= "
                     f"{DUPLICATE_EPSILON_M} m"
                 )
+        fence_problems = self.fence_problems()
+        if fence_problems:
+            raise ValueError("\n".join(f"geofence_polygon: {p}" for p in fence_problems))
         limits = (info.context or {}).get("limits") if info.context else None
         if isinstance(limits, MissionLimits) and self.frame is not MissionFrameKind.GLOBAL:
             for i, (a, b) in enumerate(pts):
@@ -112,6 +138,29 @@ class Mission(InputModel):
                         f"allowed at most mission.max_range_m = {limits.max_range_m} m"
                     )
         return self
+
+    def fence_problems(self) -> list[str]:
+        """Why ``geofence_polygon`` cannot fence anything (empty when absent or usable)."""
+        poly = self.geofence_polygon
+        if not poly:
+            return []
+        if self.frame is MissionFrameKind.GLOBAL:
+            bad = [
+                f"vertex {i} ({a}, {b}) is not a latitude/longitude pair (-90..90, -180..180)"
+                for i, (a, b) in enumerate(poly)
+                if not (-90.0 <= a <= 90.0 and -180.0 <= b <= 180.0)
+            ]
+            if bad:
+                return bad[:3]
+            from helixd.frames import latlon_to_ne
+
+            lat0, lon0 = poly[0]
+            plane = [latlon_to_ne(a, b, lat0, lon0) for a, b in poly]
+        else:
+            plane = list(poly)
+        from helixd.mission.polygon import polygon_problems
+
+        return polygon_problems(plane)
 
     def points(self) -> list[tuple[float, float]]:
         """Raw coordinate pairs in the file's own frame: (x, y), (north, east) or (lat, lon)."""

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 
 from helixd.config import HelixdConfig
-from helixd.frames import MissionFrame, NedPose
+from helixd.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.mission.model import Mission, MissionFrameKind
 from helixd.mission.plan import Plan, PlanError, resolve_plan
 from helixd.mission.polygon import leg_leaves_polygon
@@ -78,7 +78,10 @@ def _radius_problems(
 
 
 def _polygon_problems(
-    cfg: HelixdConfig, ned: list[tuple[float, float]] | None, start: NedPose | None
+    cfg: HelixdConfig,
+    ned: list[tuple[float, float]] | None,
+    start: NedPose | None,
+    name: str = "safety.geofence_polygon_ne_m",
 ) -> list[str]:
     poly = cfg.safety.geofence_polygon_ne_m
     if len(poly) < 3 or ned is None:
@@ -87,21 +90,21 @@ def _polygon_problems(
     if start is not None and not point_in_polygon(start.north_m, start.east_m, poly):
         problems.append(
             f"the start point (N {start.north_m:.1f} m, E {start.east_m:.1f} m) is outside "
-            "safety.geofence_polygon_ne_m"
+            f"{name}"
         )
     offenders = [
-        f"waypoints.{i}: N {n:.1f} m, E {e:.1f} m is outside safety.geofence_polygon_ne_m"
+        f"waypoints.{i}: N {n:.1f} m, E {e:.1f} m is outside {name}"
         for i, (n, e) in enumerate(ned)
         if not point_in_polygon(n, e, poly)
     ]
-    problems.extend(_listed(offenders, "outside safety.geofence_polygon_ne_m"))
+    problems.extend(_listed(offenders, f"outside {name}"))
     if offenders or problems:
         return problems
     legs = [] if start is None else [((start.north_m, start.east_m), ned[0], "start → 0")]
     legs.extend((ned[i - 1], ned[i], f"{i - 1} → {i}") for i in range(1, len(ned)))
     crossing = [
-        f"leg waypoints {name} leaves safety.geofence_polygon_ne_m (both ends are inside)"
-        for a, b, name in legs
+        f"leg waypoints {leg} leaves {name} (both ends are inside)"
+        for a, b, leg in legs
         if leg_leaves_polygon(a, b, poly)
     ]
     return _listed(crossing, "whose legs leave the polygon")
@@ -128,6 +131,105 @@ def _time_problems(plan: Plan, cfg: HelixdConfig, start: NedPose | None) -> list
             "aborted (split the mission or raise the limit)"
         ]
     return []
+
+
+def _start_distance_problems(plan: Plan, cfg: HelixdConfig, start: NedPose | None) -> list[str]:
+    """The first waypoint of a ``local_ned``/``global`` mission must be near the rover
+    (``mission.max_start_distance_m``): a global mission planned for another pond, or an EKF
+    origin that moved, is refused here. Needs the start pose (preflight)."""
+    limit = cfg.mission.max_start_distance_m
+    first = plan.waypoints[0]
+    if plan.frame is MissionFrameKind.START or start is None:
+        return []  # a start-frame mission is placed at the rover by definition
+    dist = math.hypot(first.x_m - start.east_m, first.y_m - start.north_m)
+    where = f"the rover (N {start.north_m:.1f} m, E {start.east_m:.1f} m)"
+    if not dist <= limit:
+        return [
+            f"waypoints.0: {dist:.1f} m from {where}; the first waypoint may be at most "
+            f"mission.max_start_distance_m = {limit} m away (wrong mission, wrong place, or an "
+            "EKF origin that moved?)"
+        ]
+    return []
+
+
+GEOFENCE_FALLBACK_SLACK = 1.005  # 0.5 %: the EKF map seen from another origin differs less
+GEOFENCE_RADIUS_MAX_M = 10_000.0  # safety.geofence_radius_m's upper bound
+
+
+def mission_fence_ne(
+    mission: Mission,
+    *,
+    origin_latlon_deg: tuple[float, float] | None = None,
+    start_ned: NedPose | None = None,
+) -> tuple[tuple[float, float], ...] | None:
+    """The mission's ``geofence_polygon`` as (north_m, east_m) from the EKF origin; ``()`` when
+    the mission has none, None when it cannot be placed yet (global without the EKF origin,
+    start frame without the start pose)."""
+    poly = mission.geofence_polygon
+    if not poly:
+        return ()
+    if mission.frame is MissionFrameKind.LOCAL_NED:
+        return poly
+    if mission.frame is MissionFrameKind.GLOBAL:
+        if origin_latlon_deg is None:
+            return None
+        return tuple(latlon_to_ne(a, b, *origin_latlon_deg) for a, b in poly)
+    if start_ned is None:
+        return None
+    frame = MissionFrame.start_at(start_ned)
+    return tuple(frame.to_ned(x, y) for x, y in poly)
+
+
+def _fallback_radius_m(mission: Mission, cfg: HelixdConfig) -> float:
+    """A radius around the start point that contains the mission's polygon, usable before the
+    pose/origin is known: start frame, the farthest vertex from the start (exact); global, the
+    farthest vertex from waypoint 0 plus ``mission.max_start_distance_m`` (the start is at
+    most that far from waypoint 0, checked in preflight)."""
+    poly = mission.geofence_polygon
+    if mission.frame is MissionFrameKind.START:
+        return max(math.hypot(x, y) for x, y in poly) * GEOFENCE_FALLBACK_SLACK
+    lat0, lon0 = mission.points()[0]
+    far = max(math.hypot(*latlon_to_ne(a, b, lat0, lon0)) for a, b in poly)
+    return (far + cfg.mission.max_start_distance_m) * GEOFENCE_FALLBACK_SLACK
+
+
+def apply_mission_limits(
+    cfg: HelixdConfig,
+    mission: Mission,
+    *,
+    origin_latlon_deg: tuple[float, float] | None = None,
+    start_ned: NedPose | None = None,
+) -> HelixdConfig:
+    """The config with the mission's own fence and time limit in ``safety`` (pure).
+
+    * ``time_limit_s`` replaces ``safety.mission_time_limit_s``.
+    * ``geofence_polygon`` replaces ``safety.geofence_polygon_ne_m`` and the mission's
+      ``geofence_radius_m`` (None: no radius) replaces ``safety.geofence_radius_m``. While the
+      polygon cannot be placed yet (see :func:`mission_fence_ne`), a radius around the start
+      point that contains it fences the run instead, and the config's polygon stays.
+    * without a polygon, a given ``geofence_radius_m`` replaces the config's radius.
+
+    Idempotent: applying it again with the origin/pose known gives the exact fence.
+    """
+    saf = cfg.safety
+    update: dict[str, object] = {}
+    if mission.time_limit_s is not None:
+        update["mission_time_limit_s"] = mission.time_limit_s
+    fence = mission_fence_ne(mission, origin_latlon_deg=origin_latlon_deg, start_ned=start_ned)
+    if fence is None:
+        # bounded like safety.geofence_radius_m, so the run's config.yaml loads back
+        radius = min(_fallback_radius_m(mission, cfg), GEOFENCE_RADIUS_MAX_M)
+        if mission.geofence_radius_m is not None:
+            radius = min(radius, mission.geofence_radius_m)
+        update["geofence_radius_m"] = radius
+    elif fence:
+        update["geofence_polygon_ne_m"] = fence
+        update["geofence_radius_m"] = mission.geofence_radius_m
+    elif mission.geofence_radius_m is not None:
+        update["geofence_radius_m"] = mission.geofence_radius_m
+    if not update:
+        return cfg
+    return cfg.model_copy(update={"safety": saf.model_copy(update=update)})
 
 
 def plan_for_check(mission: Mission, cfg: HelixdConfig) -> tuple[Plan, bool]:
@@ -162,20 +264,34 @@ def mission_problems(
             plan, provisional = plan_for_check(mission, cfg)
     except PlanError as exc:
         return [str(exc)]
+    cfg = apply_mission_limits(
+        cfg, mission, origin_latlon_deg=origin_latlon_deg, start_ned=start_ned
+    )
     ned = None if provisional else _ned_points(plan, start_ned, have_origin=True)
     problems = _radius_problems(plan, cfg, ned, start_ned)
-    problems += _polygon_problems(cfg, ned, start_ned)
+    fence_name = (
+        "the mission's geofence_polygon"
+        if mission.geofence_polygon
+        else "safety.geofence_polygon_ne_m"
+    )
+    problems += _polygon_problems(cfg, ned, start_ned, fence_name)
     problems += _time_problems(plan, cfg, start_ned)
+    problems += _start_distance_problems(plan, cfg, None if provisional else start_ned)
     return problems
 
 
 def pending_checks(mission: Mission, cfg: HelixdConfig) -> list[str]:
     """What :func:`mission_problems` could not check without the pose/origin (for ``check``)."""
     later: list[str] = []
-    if cfg.safety.geofence_radius_m is not None and mission.frame is not MissionFrameKind.START:
+    radius = cfg.safety.geofence_radius_m
+    if mission.geofence_polygon:  # the mission's fence replaces the config's at preflight
+        radius = mission.geofence_radius_m
+    if radius is not None and mission.frame is not MissionFrameKind.START:
         later.append("geofence radius around the start point")
-    if cfg.safety.geofence_polygon_ne_m and mission.frame is not MissionFrameKind.LOCAL_NED:
+    polygon = mission.geofence_polygon or cfg.safety.geofence_polygon_ne_m
+    if polygon and mission.frame is not MissionFrameKind.LOCAL_NED:
         later.append("keep-in polygon")
     if mission.frame is not MissionFrameKind.START:
         later.append("time of the first leg")
+        later.append("distance from the rover to waypoint 0")
     return later

@@ -297,4 +297,5 @@ def test_mission_problems_is_total(
     start = None if pose is None else NedPose(*pose)
     problems = mission_problems(msn, cfg, start_ned=start)
     assert all(isinstance(p, str) and "\n" not in p and len(p) < 300 for p in problems)
-    assert len(problems) <= 2 * 6 + 2  # radius and polygon lists are capped, time is one line
+    # radius and polygon lists are capped; time and the first-waypoint distance are one line each
+    assert len(problems) <= 2 * 6 + 3

@@ -1,0 +1,217 @@
+"""Mission files in every format helixd reads: its own YAML, QGroundControl ``.plan`` and
+Mission Planner / QGC WPL 110 ``.waypoints`` — detected by suffix, converted to one
+:class:`~helixd.mission.model.Mission`. Writing is the reverse (``helixd mission convert``).
+
+Ground-station files carry no motion mode: it comes from ``--mode`` or the config's
+``mission.ground_station_mode``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import StrEnum
+from pathlib import Path
+
+import yaml
+from pydantic import ValidationError
+
+from helixd.config import ConfigFileError, MissionLimits, format_validation_error
+from helixd.mission.formats.items import (
+    Converted,
+    FenceNe,
+    FormatError,
+    GcsMission,
+    MissionItem,
+    ObstacleCircle,
+    fence_ne,
+    items_to_mission,
+    mission_name,
+    mission_to_items,
+)
+from helixd.mission.formats.qgc_plan import parse_plan_text, plan_to_text
+from helixd.mission.formats.wpl import parse_wpl_text, wpl_to_text
+from helixd.mission.model import Mission, MotionMode, load_mission
+from helixd.yamlio import YamlFileError, read_text_capped
+
+
+class MissionFormat(StrEnum):
+    YAML = "yaml"
+    PLAN = "plan"
+    WAYPOINTS = "waypoints"
+
+
+SUFFIXES = {
+    ".yaml": MissionFormat.YAML,
+    ".yml": MissionFormat.YAML,
+    ".plan": MissionFormat.PLAN,
+    ".waypoints": MissionFormat.WAYPOINTS,
+    ".txt": MissionFormat.WAYPOINTS,  # Mission Planner's "save WP file" also offers .txt
+}
+
+
+def detect_format(path: Path) -> MissionFormat:
+    """The format a file name asks for (writing, and ``convert``'s output)."""
+    fmt = SUFFIXES.get(path.suffix.lower())
+    if fmt is None:
+        raise FormatError(
+            [
+                f"{path}: unknown mission file type {path.suffix or '(no suffix)'!r}; allowed: "
+                ".yaml/.yml (helixd), .plan (QGroundControl), .waypoints/.txt (QGC WPL 110)"
+            ]
+        )
+    return fmt
+
+
+def sniff_format(path: Path) -> MissionFormat:
+    """The format of a file to read: by suffix; a ``.txt`` is WPL only if it starts with the
+    ``QGC WPL`` header; any other suffix (or none) is helixd YAML, as it always was."""
+    fmt = SUFFIXES.get(path.suffix.lower(), MissionFormat.YAML)
+    if path.suffix.lower() == ".txt":
+        try:
+            with path.open("rb") as fh:
+                head = fh.read(16).removeprefix(b"\xef\xbb\xbf")
+        except OSError:
+            return MissionFormat.YAML  # the YAML loader names the problem
+        if not head.startswith(b"QGC WPL"):
+            return MissionFormat.YAML
+    return fmt
+
+
+def read_gcs(path: Path) -> GcsMission:
+    """A .plan or .waypoints file's items and fences (no conversion)."""
+    fmt = sniff_format(path)
+    try:
+        text = read_text_capped(path).removeprefix("\ufeff")  # Windows tools write a BOM
+    except YamlFileError as exc:
+        raise FormatError([exc.message.replace("YAML file", "mission file")]) from None
+    if fmt is MissionFormat.PLAN:
+        return parse_plan_text(text, path)
+    if fmt is MissionFormat.WAYPOINTS:
+        return parse_wpl_text(text, path)
+    raise FormatError([f"{path}: a helixd YAML mission has no ground-station items"])
+
+
+@dataclass(frozen=True, slots=True)
+class LoadedMission:
+    mission: Mission
+    format: MissionFormat
+    skipped: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+    gcs: GcsMission | None = None
+
+
+def load_mission_file(
+    path: Path,
+    limits: MissionLimits | None = None,
+    *,
+    mode: MotionMode | None = None,
+    default_mode: MotionMode | None = None,
+    skip_unsupported: bool = False,
+) -> LoadedMission:
+    """Any supported file → a validated mission. Raises :class:`ConfigFileError` (one line per
+    problem, each naming the file) like :func:`load_mission`.
+
+    ``mode`` (the ``--mode`` flag) overrides any file's mode; ``default_mode`` (the config's
+    ``mission.ground_station_mode``) is used for ground-station files only, which carry none."""
+    fmt = sniff_format(path)
+    if fmt is MissionFormat.YAML:
+        msn = load_mission(path, limits)
+        if mode is not None and mode is not msn.mode:
+            msn = msn.model_copy(update={"mode": mode})
+        return LoadedMission(msn, fmt)
+    mode = mode or default_mode
+    if mode is None:
+        raise ConfigFileError(
+            path,
+            [
+                f"{path}: a {fmt.value} file carries no motion mode: give --mode roll|scroll|omni "
+                "or set mission.ground_station_mode in the config"
+            ],
+        )
+    try:
+        gcs = read_gcs(path)
+        conv: Converted = items_to_mission(
+            gcs,
+            name=mission_name(path.stem),
+            mode=mode,
+            skip_unsupported=skip_unsupported,
+            source=str(path),
+        )
+    except FormatError as exc:
+        raise ConfigFileError(path, exc.problems) from None
+    msn = conv.mission
+    if limits is not None:  # the YAML loader's context checks (range) run on the result too
+        try:
+            msn = Mission.model_validate(msn.model_dump(), context={"limits": limits})
+        except ValidationError as exc:
+            raise ConfigFileError(path, format_validation_error(path, exc, Mission)) from None
+    return LoadedMission(msn, fmt, conv.skipped, conv.notes, gcs)
+
+
+def mission_to_yaml(mission: Mission) -> str:
+    """The mission as helixd YAML (loads back equal)."""
+    data = mission.model_dump(mode="json", exclude_none=True, exclude_defaults=False)
+    data["waypoints"] = [{k: v for k, v in wp.items() if v is not None} for wp in data["waypoints"]]
+    for key in ("geofence_polygon",):
+        if not data.get(key):
+            data.pop(key, None)
+        else:
+            data[key] = [list(v) for v in data[key]]
+    return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
+
+
+def lost_in(mission: Mission, fmt: MissionFormat) -> list[str]:
+    """What of ``mission`` the format cannot hold (said when converting)."""
+    if fmt is MissionFormat.YAML:
+        return []
+    lost = ["mode", *(["tolerance_m"] if mission.tolerance_m is not None else [])]
+    lost += ["speed_mps"] if mission.speed_mps is not None else []
+    lost += [k for k in ("time_limit_s", "geofence_radius_m") if getattr(mission, k) is not None]
+    if any(w.heading_deg is not None or w.tolerance_m is not None for w in mission.waypoints):
+        lost.append("per-waypoint heading_deg/tolerance_m")
+    if fmt is MissionFormat.WAYPOINTS:
+        lost += ["geofence_polygon"] if mission.geofence_polygon else []
+    return lost
+
+
+def write_mission_file(mission: Mission, path: Path) -> MissionFormat:
+    """Write ``mission`` in the format ``path``'s suffix names (atomic replace)."""
+    fmt = detect_format(path)
+    if fmt is MissionFormat.YAML:
+        text = mission_to_yaml(mission)
+    elif fmt is MissionFormat.PLAN:
+        text = plan_to_text(mission_to_items(mission), mission.speed_mps)
+    else:
+        text = wpl_to_text(mission_to_items(mission))
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)
+    return fmt
+
+
+def plan_fence_ne(path: Path, origin_latlon_deg: tuple[float, float]) -> FenceNe:
+    """The geofence of a .plan (or .waypoints: none) as plain north/east polygons and circles
+    around the EKF origin — keep-out obstacles for a planner, keep-in boundaries."""
+    return fence_ne(read_gcs(path), origin_latlon_deg)
+
+
+__all__ = [
+    "FenceNe",
+    "FormatError",
+    "GcsMission",
+    "LoadedMission",
+    "MissionFormat",
+    "MissionItem",
+    "ObstacleCircle",
+    "detect_format",
+    "fence_ne",
+    "items_to_mission",
+    "load_mission_file",
+    "lost_in",
+    "mission_to_items",
+    "mission_to_yaml",
+    "plan_fence_ne",
+    "read_gcs",
+    "sniff_format",
+    "write_mission_file",
+]

@@ -1,0 +1,336 @@
+"""QGroundControl ``.plan`` files (JSON, ``fileType: Plan``), read and written.
+
+Read: SimpleItems, the mission items a Survey / CorridorScan ComplexItem already holds
+(``TransectStyleComplexItem.Items``, which QGC saves with the plan), the planned home, and the
+geofence's inclusion/exclusion polygons and circles. Format as QGC writes it
+(src/MissionManager/MissionController.cc, SimpleMissionItem.cc, GeoFenceController.cc,
+QGCMapPolygon.cc, TransectStyleComplexItem.cc; "Plan File Format" in the QGC developer guide).
+
+Hostile input: the size is capped before parsing; NaN/Infinity literals, duplicate keys, numbers
+that overflow to infinity, nesting deeper than :data:`MAX_DEPTH`, and more than
+``MAX_ITEMS`` items are refused; every value is type- and range-checked by pydantic (strict:
+``true`` is not a number) and a problem names the file, the JSON path and the field.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from helixd.config import format_validation_error
+from helixd.mission.formats.items import (
+    MAX_ITEMS,
+    FenceCircle,
+    FencePolygon,
+    FormatError,
+    GcsMission,
+    MissionItem,
+    check_latlon,
+)
+from helixd.yamlio import clip, clip_line
+
+MAX_DEPTH = 24  # a .plan nests 6 deep (plan → mission → items → complex → transect → items)
+
+# strict JSON types: a list is a list (pydantic's strict mode takes no list for a tuple)
+LatLon = Annotated[list[float], Field(min_length=2, max_length=2)]
+
+
+class _Json(BaseModel):
+    """QGC writes many keys helixd has no use for: ignored, but what is read is strict."""
+
+    model_config = ConfigDict(extra="ignore", frozen=True, strict=True, allow_inf_nan=False)
+
+
+class SimpleItemJson(_Json):
+    type: Literal["SimpleItem"]
+    command: int = Field(ge=0, le=65535)
+    frame: int = Field(ge=0, le=255)
+    params: list[float | None] = Field(min_length=7, max_length=7)
+    autoContinue: bool = True
+    doJumpId: int | None = Field(None, ge=0)
+
+
+class TransectJson(_Json):
+    Items: list[SimpleItemJson] = Field(default_factory=list, max_length=MAX_ITEMS)
+
+
+class ComplexItemJson(_Json):
+    type: Literal["ComplexItem"]
+    complexItemType: str = Field(max_length=64)
+    polygon: list[LatLon] = Field(default_factory=list, max_length=10_000)
+    TransectStyleComplexItem: TransectJson | None = None
+
+
+class MissionJson(_Json):
+    items: list[Annotated[SimpleItemJson | ComplexItemJson, Field(discriminator="type")]] = Field(
+        max_length=MAX_ITEMS
+    )
+    plannedHomePosition: list[float | None] | None = Field(None, min_length=2, max_length=3)
+    version: int = 2
+
+
+class PolygonJson(_Json):
+    polygon: list[LatLon] = Field(min_length=3, max_length=10_000)
+    inclusion: bool = True
+
+
+class CircleSpec(_Json):
+    center: LatLon
+    radius: float = Field(gt=0.0, le=100_000.0)
+
+
+class CircleJson(_Json):
+    circle: CircleSpec
+    inclusion: bool = True
+
+
+class GeoFenceJson(_Json):
+    polygons: list[PolygonJson] = Field(default_factory=list, max_length=1000)
+    circles: list[CircleJson] = Field(default_factory=list, max_length=1000)
+
+
+class PlanJson(_Json):
+    fileType: Literal["Plan"]
+    version: int = 1
+    mission: MissionJson
+    geoFence: GeoFenceJson = Field(default_factory=GeoFenceJson)
+
+
+def _refuse_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a number JSON allows (write a finite number)")
+
+
+def _parse_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"number {clip(text, 40)} overflows to infinity")
+    return value
+
+
+def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in out:
+            raise ValueError(
+                f"duplicate key {clip(k, 60)} in one object (each key may appear once)"
+            )
+        out[k] = v
+    return out
+
+
+def _depth_ok(text: str) -> int:
+    """Deepest bracket nesting outside strings (cheap scan, so json never recurses deeply)."""
+    depth = deepest = 0
+    in_str = esc = False
+    for ch in text:
+        if in_str:
+            if esc:
+                esc = False
+            elif ch == "\\":
+                esc = True
+            elif ch == '"':
+                in_str = False
+        elif ch == '"':
+            in_str = True
+        elif ch in "[{":
+            depth += 1
+            if depth > deepest:
+                deepest = depth
+                if deepest > MAX_DEPTH:
+                    return deepest
+        elif ch in "]}":
+            depth -= 1
+    return deepest
+
+
+def load_json_text(text: str, source: Path | str) -> Any:
+    """Parse hostile JSON: bounded depth, no NaN/Infinity, no overflow, no duplicate keys."""
+    src = str(source)
+    if _depth_ok(text) > MAX_DEPTH:
+        raise FormatError([f"{src}: JSON nested deeper than {MAX_DEPTH} levels"])
+    try:
+        return json.loads(
+            text,
+            parse_constant=_refuse_constant,
+            parse_float=_parse_float,
+            object_pairs_hook=_no_duplicates,
+        )
+    except json.JSONDecodeError as exc:
+        raise FormatError(
+            [f"{src}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"]
+        ) from None
+    except (ValueError, RecursionError) as exc:
+        raise FormatError([clip_line(f"{src}: not usable JSON: {exc}")]) from None
+
+
+def parse_plan_text(text: str, source: Path | str) -> GcsMission:
+    """A .plan's text → :class:`GcsMission`; raise :class:`FormatError` naming file and field."""
+    src = str(source)
+    if _depth_ok(text) > MAX_DEPTH:
+        raise FormatError([f"{src}: JSON nested deeper than {MAX_DEPTH} levels; not a .plan"])
+    try:
+        raw = json.loads(
+            text,
+            parse_constant=_refuse_constant,
+            parse_float=_parse_float,
+            object_pairs_hook=_no_duplicates,
+        )
+    except json.JSONDecodeError as exc:
+        raise FormatError(
+            [f"{src}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"]
+        ) from None
+    except (ValueError, RecursionError) as exc:
+        raise FormatError([clip_line(f"{src}: not a usable .plan: {exc}")]) from None
+    if not isinstance(raw, dict):
+        raise FormatError([f"{src}: (top level): expected a JSON object, got {type(raw).__name__}"])
+    try:
+        plan = PlanJson.model_validate(raw)
+    except ValidationError as exc:
+        raise FormatError(format_validation_error(src, exc, PlanJson)[:20]) from None
+    return _to_gcs(plan, src)
+
+
+def _item(sj: SimpleItemJson, seq: int, where: str) -> MissionItem:
+    p = [math.nan if v is None else float(v) for v in sj.params]
+    return MissionItem(
+        seq=seq,
+        frame=sj.frame,
+        command=sj.command,
+        param1=p[0],
+        param2=p[1],
+        param3=p[2],
+        param4=p[3],
+        x=p[4],
+        y=p[5],
+        z=p[6],
+        autocontinue=sj.autoContinue,
+        where=where,
+    )
+
+
+def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
+    items: list[MissionItem] = []
+    surveys: list[tuple[tuple[float, float], ...]] = []
+    seq = 1  # home is 0 on ArduPilot; QGC numbers the uploaded items from 1
+    for i, entry in enumerate(plan.mission.items):
+        where = f"mission.items.{i}"
+        if isinstance(entry, SimpleItemJson):
+            items.append(_item(entry, seq, where))
+            seq += 1
+            continue
+        kind = entry.complexItemType
+        if entry.polygon:
+            surveys.append(tuple((a, b) for a, b in entry.polygon))
+        if entry.TransectStyleComplexItem is None or not entry.TransectStyleComplexItem.Items:
+            raise FormatError(
+                [
+                    f"{src}: {where}: ComplexItem {clip(kind, 40)} holds no mission items "
+                    "(TransectStyleComplexItem.Items); open and save the plan in QGroundControl "
+                    "so it writes them"
+                ]
+            )
+        for k, sub in enumerate(entry.TransectStyleComplexItem.Items):
+            items.append(_item(sub, seq, f"{where} {kind} item {k}"))
+            seq += 1
+        if len(items) > MAX_ITEMS:
+            raise FormatError([f"{src}: more than {MAX_ITEMS} mission items; refused"])
+    home = None
+    problems: list[str] = []
+    for i, entry in enumerate(plan.mission.items):
+        if isinstance(entry, ComplexItemJson):
+            for k, (a, b) in enumerate(entry.polygon):
+                problems += check_latlon(f"{src}: mission.items.{i}.polygon.{k}", a, b)
+    hp = plan.mission.plannedHomePosition
+    if (
+        hp is not None
+        and hp[0] is not None
+        and hp[1] is not None
+        and not check_latlon("home", hp[0], hp[1])
+    ):
+        home = (hp[0], hp[1])
+    fence = plan.geoFence
+    for i, pj in enumerate(fence.polygons):
+        for k, (a, b) in enumerate(pj.polygon):
+            problems += check_latlon(f"{src}: geoFence.polygons.{i}.polygon.{k}", a, b)
+    for i, cj in enumerate(fence.circles):
+        problems += check_latlon(f"{src}: geoFence.circles.{i}.circle.center", *cj.circle.center)
+    if problems:
+        raise FormatError(problems[:20])
+    return GcsMission(
+        items=tuple(items),
+        home_latlon_deg=home,
+        polygons=tuple(
+            FencePolygon(tuple((a, b) for a, b in pj.polygon), pj.inclusion)
+            for pj in fence.polygons
+        ),
+        circles=tuple(
+            FenceCircle((cj.circle.center[0], cj.circle.center[1]), cj.circle.radius, cj.inclusion)
+            for cj in fence.circles
+        ),
+        survey_polygons=tuple(surveys),
+    )
+
+
+def _num(v: float) -> float | None:
+    return None if math.isnan(v) else v
+
+
+def plan_to_text(gcs: GcsMission, cruise_speed_mps: float | None = None) -> str:
+    """The .plan QGroundControl would save for these items (4-space JSON, as QGC writes)."""
+    items = [
+        {
+            "AMSLAltAboveTerrain": None,
+            "Altitude": it.z,
+            "AltitudeMode": 1,
+            "autoContinue": it.autocontinue,
+            "command": it.command,
+            "doJumpId": it.seq,
+            "frame": it.frame,
+            "params": [
+                _num(v) for v in (it.param1, it.param2, it.param3, it.param4, it.x, it.y, it.z)
+            ],
+            "type": "SimpleItem",
+        }
+        for it in gcs.items
+    ]
+    home = gcs.home_latlon_deg or ((gcs.items[0].x, gcs.items[0].y) if gcs.items else (0.0, 0.0))
+    doc = {
+        "fileType": "Plan",
+        "geoFence": {
+            "circles": [
+                {
+                    "circle": {"center": list(c.centre_latlon_deg), "radius": c.radius_m},
+                    "inclusion": c.inclusion,
+                    "version": 1,
+                }
+                for c in gcs.circles
+            ],
+            "polygons": [
+                {
+                    "inclusion": p.inclusion,
+                    "polygon": [list(v) for v in p.vertices_latlon_deg],
+                    "version": 1,
+                }
+                for p in gcs.polygons
+            ],
+            "version": 2,
+        },
+        "groundStation": "QGroundControl",
+        "mission": {
+            "cruiseSpeed": cruise_speed_mps if cruise_speed_mps is not None else 0.6,
+            "firmwareType": 3,  # MAV_AUTOPILOT_ARDUPILOTMEGA
+            "globalPlanAltitudeMode": 1,
+            "hoverSpeed": 5,
+            "items": items,
+            "plannedHomePosition": [home[0], home[1], 0],
+            "vehicleType": 10,  # MAV_TYPE_GROUND_ROVER
+            "version": 2,
+        },
+        "rallyPoints": {"points": [], "version": 2},
+        "version": 1,
+    }
+    return json.dumps(doc, indent=4, allow_nan=False) + "\n"
