@@ -32,6 +32,8 @@ from helixd.sim.config import NoiseLevel, Plant, Terrain
 from helixd.yamlio import clip_line, paused_gc
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from helixd.planning.route import RoutePlan
 
 app = typer.Typer(
@@ -168,6 +170,32 @@ def plan_inputs(
         raise fail([f"{path}: {p}" for p in exc.problems], ExitCode.USAGE) from None
     except (MapFileError, ObstacleError) as exc:
         raise fail([str(exc)], ExitCode.USAGE) from None
+
+
+def first_leg_replanner(
+    cfg: HelixdConfig, original: Mission, planned: Mission, route: RoutePlan
+) -> Callable[[tuple[float, float]], Mission]:
+    """What the daemon calls at preflight with the rover's (north_m, east_m): the planned
+    mission with its first leg re-planned from there (helixd.planning.replan); raises
+    PlanningError (a ValueError) naming the pose when it cannot."""
+    from helixd.planning.replan import replan_first_leg
+
+    def replan_from(rover_ne_m: tuple[float, float]) -> Mission:
+        again, again_route = replan_first_leg(planned, route, original, rover_ne_m, cfg)
+        if again is not planned:
+            import structlog
+
+            leg = again_route.legs[0]
+            structlog.get_logger("helixd.planning").info(
+                "first_leg_replanned",
+                rover_north_m=round(rover_ne_m[0], 2),
+                rover_east_m=round(rover_ne_m[1], 2),
+                vias=len(leg.points_ne_m) - 2,
+                length_m=round(leg.length_m, 2),
+            )
+        return again
+
+    return replan_from
 
 
 def echo_route(route: RoutePlan) -> None:
@@ -343,9 +371,11 @@ def run(
     except (OSError, UnicodeDecodeError) as exc:
         raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
     planned, route = plan_inputs(cfg, msn, mission_path, map_path)
+    replan_from = None
     if route is not None:  # fly (and record) the mission with the planned waypoints
         from helixd.planning.route import planned_mission_yaml
 
+        replan_from = first_leg_replanner(cfg, msn, planned, route)
         msn, mission_yaml = planned, planned_mission_yaml(planned, route, map_path)
         echo_route(route)
     tty = sys.stderr.isatty()
@@ -366,6 +396,7 @@ def run(
         connect_url=url,
         run_root=run_dir or cfg.recorder.run_root,
         tty=tty,
+        replan_from=replan_from,
     )
     try:
         outcome = asyncio.run(run_mission(opts))
