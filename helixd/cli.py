@@ -34,7 +34,9 @@ from helixd.yamlio import clip_line, paused_gc
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from helixd.planning.mapfile import OccupancyMap
     from helixd.planning.route import RoutePlan
+    from helixd.sim.obstacles import SimObstacles
 
 app = typer.Typer(
     name="helixd",
@@ -152,17 +154,34 @@ def plan_inputs(
 ) -> tuple[Mission, RoutePlan | None]:
     """Plan around the map and keep-out shapes (helixd.planning) when there are any: the
     mission with the intermediate waypoints inserted, and the route; refusals exit 2."""
+    return plan_loaded(cfg, msn, path, load_occupancy(cfg, map_path))
+
+
+def load_occupancy(cfg: HelixdConfig, map_path: Path | None) -> OccupancyMap | None:
+    """The ``--map`` (helixd.planning.mapfile), or None; an unusable map exits 2."""
+    from helixd.planning import MapFileError, load_map
+
+    if map_path is None:
+        return None
+    try:
+        return load_map(map_path, cfg.planning.max_cells)
+    except MapFileError as exc:
+        raise fail([str(exc)], ExitCode.USAGE) from None
+
+
+def plan_loaded(
+    cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
+) -> tuple[Mission, RoutePlan | None]:
+    """:func:`plan_inputs` with the map already loaded."""
     from helixd.planning import (
         MapFileError,
         ObstacleError,
         PlanningError,
-        load_map,
         plan_mission,
         planning_wanted,
     )
 
     try:
-        occupancy = None if map_path is None else load_map(map_path, cfg.planning.max_cells)
         if not planning_wanted(cfg, occupancy):
             return msn, None
         return plan_mission(msn, cfg, occupancy)
@@ -170,6 +189,27 @@ def plan_inputs(
         raise fail([f"{path}: {p}" for p in exc.problems], ExitCode.USAGE) from None
     except (MapFileError, ObstacleError) as exc:
         raise fail([str(exc)], ExitCode.USAGE) from None
+
+
+def sim_world(cfg: HelixdConfig, occupancy: OccupancyMap | None) -> SimObstacles:
+    """What is solid in the embedded simulator (``run --sim``): the config's keep-out shapes
+    and the map's occupied cells (unknown is not solid), the body radius from the vehicle."""
+    from helixd.planning.obstacles import rover_half_width_m
+    from helixd.sim.obstacles import ObstacleRaster, SimObstacles
+
+    raster = None
+    if occupancy is not None:
+        fr = occupancy.frame
+        raster = ObstacleRaster(
+            fr.origin_north_m, fr.origin_east_m, fr.resolution_m, occupancy.solid.astype(bool)
+        )
+    pl = cfg.planning
+    return SimObstacles(
+        polygons_ne_m=tuple(p for p in pl.keep_out_polygons_ne_m if p),
+        circles=pl.keep_out_circles,
+        contact_radius_m=rover_half_width_m(cfg),
+        raster=raster,
+    )
 
 
 def first_leg_replanner(
@@ -370,7 +410,8 @@ def run(
             mission_yaml = mission_to_yaml(msn)
     except (OSError, UnicodeDecodeError) as exc:
         raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
-    planned, route = plan_inputs(cfg, msn, mission_path, map_path)
+    occupancy = load_occupancy(cfg, map_path)
+    planned, route = plan_loaded(cfg, msn, mission_path, occupancy)
     replan_from = None
     if route is not None:  # fly (and record) the mission with the planned waypoints
         from helixd.planning.route import planned_mission_yaml
@@ -385,7 +426,11 @@ def run(
         from helixd.sim import SimConfig, start_embedded
 
         sim_cfg = SimConfig(
-            speedup=sim_speedup, terrain=sim_terrain, noise=sim_noise, plant=sim_plant
+            speedup=sim_speedup,
+            terrain=sim_terrain,
+            noise=sim_noise,
+            plant=sim_plant,
+            obstacles=sim_world(cfg, occupancy),
         )
         server, url = start_embedded(sim_cfg)
     cfg = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})
