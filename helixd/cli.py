@@ -124,6 +124,8 @@ def load_inputs(
             mode=mode,
             default_mode=MotionMode(gs_mode) if gs_mode else None,
             skip_unsupported=skip_unsupported,
+            # planning routes the legs around a .plan's exclusion zones instead of refusing
+            route_keep_outs=cfg is not None and cfg.planning.enabled,
         )
         msn = loaded.mission
         for line in (*loaded.skipped, *loaded.notes):
@@ -182,6 +184,8 @@ def plan_loaded(
     )
 
     try:
+        if msn.frame is MissionFrameKind.GLOBAL and cfg.planning.enabled:
+            return plan_global(cfg, msn, path, occupancy)
         if not planning_wanted(cfg, occupancy):
             return msn, None
         return plan_mission(msn, cfg, occupancy)
@@ -189,6 +193,32 @@ def plan_loaded(
         raise fail([f"{path}: {p}" for p in exc.problems], ExitCode.USAGE) from None
     except (MapFileError, ObstacleError) as exc:
         raise fail([str(exc)], ExitCode.USAGE) from None
+
+
+def plan_global(
+    cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
+) -> tuple[Mission, RoutePlan | None]:
+    """A global mission: planned around its .plan's exclusion zones when it has any (in a
+    frame around waypoint 0, helixd.planning.fence); with only a --map or config keep-outs,
+    refused (they hang from the unknown EKF origin); else flown as it is."""
+    from helixd.mission.formats import has_keep_outs, plan_fence_ne
+    from helixd.planning import KeepOutCircle, planning_wanted
+    from helixd.planning.fence import plan_global_mission
+
+    own = has_keep_outs(path)
+    if not (own or planning_wanted(cfg, occupancy)):
+        return msn, None
+    origin = msn.points()[0]
+    polys: list[tuple[tuple[float, float], ...]] = []
+    circles: list[KeepOutCircle] = []
+    if own:
+        fence = plan_fence_ne(path, origin)
+        polys = list(fence.exclusion_polygons)
+        circles = [
+            KeepOutCircle(c.centre_ne_m[0], c.centre_ne_m[1], c.radius_m)
+            for c in fence.exclusion_circles
+        ]
+    return plan_global_mission(msn, cfg, polys, circles, origin, occupancy)
 
 
 def sim_world(cfg: HelixdConfig, occupancy: OccupancyMap | None) -> SimObstacles:
@@ -214,14 +244,26 @@ def sim_world(cfg: HelixdConfig, occupancy: OccupancyMap | None) -> SimObstacles
 
 def first_leg_replanner(
     cfg: HelixdConfig, original: Mission, planned: Mission, route: RoutePlan
-) -> Callable[[tuple[float, float]], Mission]:
-    """What the daemon calls at preflight with the rover's (north_m, east_m): the planned
+) -> Callable[[tuple[float, float], tuple[float, float] | None], Mission]:
+    """What the daemon calls at preflight with the rover's (north_m, east_m) and the EKF
+    origin: the planned
     mission with its first leg re-planned from there (helixd.planning.replan); raises
     PlanningError (a ValueError) naming the pose when it cannot."""
     from helixd.planning.replan import replan_first_leg
 
-    def replan_from(rover_ne_m: tuple[float, float]) -> Mission:
-        again, again_route = replan_first_leg(planned, route, original, rover_ne_m, cfg)
+    def replan_from(
+        rover_ne_m: tuple[float, float], ekf_origin_latlon_deg: tuple[float, float] | None
+    ) -> Mission:
+        from helixd.base.frames import latlon_to_ne, ne_to_latlon
+        from helixd.planning import PlanningError
+
+        here = rover_ne_m
+        if route.origin_latlon_deg is not None:  # a global mission's route: around waypoint 0
+            if ekf_origin_latlon_deg is None:
+                raise PlanningError(["a global mission's first leg needs the EKF origin"])
+            latlon = ne_to_latlon(*rover_ne_m, *ekf_origin_latlon_deg)
+            here = latlon_to_ne(*latlon, *route.origin_latlon_deg)
+        again, again_route = replan_first_leg(planned, route, original, here, cfg)
         if again is not planned:
             import structlog
 
@@ -255,7 +297,8 @@ def echo_route(route: RoutePlan) -> None:
         for n, e in via:
             typer.echo(f"      via north {n:9.2f}  east {e:9.2f}")
     total = sum(leg.length_m for leg in route.legs)
-    typer.echo(f"  total {total:.1f} m from planning.start_ne_m")
+    start = "planning.start_ne_m" if route.origin_latlon_deg is None else "waypoint 0"
+    typer.echo(f"  total {total:.1f} m from {start} (run: re-planned from the rover's pose)")
 
 
 def check_connect(connect: str | None, cfg: HelixdConfig) -> str:

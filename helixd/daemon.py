@@ -77,7 +77,8 @@ class RunOptions:
     run_root: Path
     tty: bool
     # planning: the mission with its first leg re-planned from the rover's (north_m, east_m)
-    replan_from: Callable[[tuple[float, float]], Mission] | None = None
+    # (and the EKF origin's (lat, lon), for a global mission)
+    replan_from: Callable[[tuple[float, float], tuple[float, float] | None], Mission] | None = None
 
 
 @dataclass
@@ -328,7 +329,8 @@ class MissionRunner:
             start_ned, origin = await self._preflight(ap)
             if self.opts.replan_from is not None:  # planned legs: the first from the rover
                 try:
-                    self.opts.mission = self.opts.replan_from((start_ned.north_m, start_ned.east_m))
+                    here = (start_ned.north_m, start_ned.east_m)
+                    self.opts.mission = self.opts.replan_from(here, origin)
                 except ValueError as exc:
                     raise PreflightFailed(str(exc).splitlines()) from None
             self.plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)

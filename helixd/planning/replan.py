@@ -35,8 +35,10 @@ def replan_first_leg(
     rover_ne_m: PointNE,
     cfg: HelixdConfig,
 ) -> tuple[Mission, RoutePlan]:
-    """``planned`` (from :func:`helixd.planning.plan_mission` of ``original``) with its first
-    leg re-planned from ``rover_ne_m``; unchanged when the rover is within
+    """``planned`` (from :func:`helixd.planning.plan_mission` or
+    :func:`helixd.planning.fence.plan_global_mission` of ``original``) with its first leg
+    re-planned from ``rover_ne_m`` (in the route's frame: the EKF origin's, or around
+    ``route.origin_latlon_deg`` for a global mission); unchanged when the rover is within
     ``planning.via_tolerance_m`` of the planned start. Raises :class:`PlanningError`."""
     n, e = float(rover_ne_m[0]), float(rover_ne_m[1])
     where = f"rover at preflight (north {n:.2f} m, east {e:.2f} m)"
@@ -60,7 +62,7 @@ def replan_first_leg(
         raise PlanningError([f"{where}: {leg}; {_FIX}"])
     n_old_vias = len(first.points_ne_m) - 2
     wp0 = original.waypoints[0]
-    vias = via_waypoints(leg, via_tolerance_m(original, wp0, cfg))
+    vias = via_waypoints(leg, via_tolerance_m(original, wp0, cfg), route.origin_latlon_deg)
     waypoints = (*vias, *planned.waypoints[n_old_vias:])
     new_route = replace(route, legs=(leg, *route.legs[1:]))
     return planned.model_copy(update={"waypoints": waypoints}), new_route

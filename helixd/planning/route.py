@@ -17,6 +17,7 @@ from typing import Any
 import numpy.typing as npt
 import yaml
 
+from helixd.base.frames import ne_to_latlon
 from helixd.config import HelixdConfig
 from helixd.mission.model import Mission, MissionFrameKind, WaypointSpec
 from helixd.planning.grid import GridFrame, PlanningGrid, build_grid, segment_is_free
@@ -57,6 +58,9 @@ class RoutePlan:
     legs: tuple[Leg, ...]
     seconds: float = 0.0
     notes: tuple[str, ...] = field(default=())
+    # a global mission's route: north/east around this (lat, lon) (its waypoint 0), not the
+    # EKF origin; its intermediate waypoints are written back as lat/lon
+    origin_latlon_deg: tuple[float, float] | None = None
 
     def polyline_ne_m(self) -> list[PointNE]:
         out: list[PointNE] = [self.legs[0].points_ne_m[0]] if self.legs else []
@@ -231,11 +235,20 @@ def via_tolerance_m(mission: Mission, wp: WaypointSpec, cfg: HelixdConfig) -> fl
     return min(cfg.planning.via_tolerance_m, wp.tolerance_m or default_tol)
 
 
-def via_waypoints(leg: Leg, tolerance_m: float) -> list[WaypointSpec]:
-    """The leg's intermediate points as waypoints (its end points excluded)."""
-    return [
-        WaypointSpec(north=n, east=e, tolerance_m=tolerance_m) for n, e in leg.points_ne_m[1:-1]
-    ]
+def via_waypoints(
+    leg: Leg, tolerance_m: float, origin_latlon_deg: tuple[float, float] | None = None
+) -> list[WaypointSpec]:
+    """The leg's intermediate points as waypoints (its end points excluded): north/east, or
+    lat/lon when the route is around ``origin_latlon_deg`` (a global mission)."""
+    if origin_latlon_deg is None:
+        return [
+            WaypointSpec(north=n, east=e, tolerance_m=tolerance_m) for n, e in leg.points_ne_m[1:-1]
+        ]
+    out = []
+    for n, e in leg.points_ne_m[1:-1]:
+        lat, lon = ne_to_latlon(n, e, *origin_latlon_deg)
+        out.append(WaypointSpec(lat=lat, lon=lon, tolerance_m=tolerance_m))
+    return out
 
 
 def planned_mission_yaml(mission: Mission, route: RoutePlan, map_path: object = None) -> str:
