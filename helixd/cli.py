@@ -221,11 +221,30 @@ def plan_global(
     return plan_global_mission(msn, cfg, polys, circles, origin, occupancy)
 
 
-def sim_world(cfg: HelixdConfig, occupancy: OccupancyMap | None) -> SimObstacles:
-    """What is solid in the embedded simulator (``run --sim``): the config's keep-out shapes
-    and the map's occupied cells (unknown is not solid), the body radius from the vehicle."""
+def sim_world(
+    cfg: HelixdConfig, occupancy: OccupancyMap | None, mission_path: Path | None = None
+) -> SimObstacles:
+    """What is solid in the embedded simulator (``run --sim``): the config's keep-out shapes,
+    the map's occupied cells (unknown is not solid) and a .plan's exclusion zones (placed
+    around the simulator's EKF origin); the body radius from the vehicle."""
+    from helixd.config import KeepOutCircleConfig
+    from helixd.mission.formats import has_keep_outs, plan_fence_ne
     from helixd.planning.obstacles import rover_half_width_m
+    from helixd.sim.config import SimConfig
     from helixd.sim.obstacles import ObstacleRaster, SimObstacles
+
+    polys: list[tuple[tuple[float, float], ...]] = []
+    discs: list[KeepOutCircleConfig] = []
+    if mission_path is not None and has_keep_outs(mission_path):
+        sim = SimConfig()
+        fence = plan_fence_ne(mission_path, (sim.origin_lat_deg, sim.origin_lon_deg))
+        polys.extend(fence.exclusion_polygons)
+        discs.extend(
+            KeepOutCircleConfig(
+                north_m=c.centre_ne_m[0], east_m=c.centre_ne_m[1], radius_m=c.radius_m
+            )
+            for c in fence.exclusion_circles
+        )
 
     raster = None
     if occupancy is not None:
@@ -235,8 +254,8 @@ def sim_world(cfg: HelixdConfig, occupancy: OccupancyMap | None) -> SimObstacles
         )
     pl = cfg.planning
     return SimObstacles(
-        polygons_ne_m=tuple(p for p in pl.keep_out_polygons_ne_m if p),
-        circles=pl.keep_out_circles,
+        polygons_ne_m=(*(p for p in pl.keep_out_polygons_ne_m if p), *polys),
+        circles=(*pl.keep_out_circles, *discs),
         contact_radius_m=rover_half_width_m(cfg),
         raster=raster,
     )
@@ -473,7 +492,7 @@ def run(
             terrain=sim_terrain,
             noise=sim_noise,
             plant=sim_plant,
-            obstacles=sim_world(cfg, occupancy),
+            obstacles=sim_world(cfg, occupancy, mission_path),
         )
         server, url = start_embedded(sim_cfg)
     cfg = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})

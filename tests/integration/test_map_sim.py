@@ -47,12 +47,17 @@ def _fly(
     monkeypatch: pytest.MonkeyPatch,
     planning: dict[str, Any],
     until_disarmed: bool,
+    mission_args: list[str] | None = None,
 ) -> tuple[int, Trace, SimServer]:
-    mission = tmp_path / "across.yaml"
-    mission.write_text(
-        "name: across\nmode: roll\nframe: local_ned\nwaypoints:\n- north: 16.0\n  east: 0.0\n",
-        encoding="utf-8",
-    )
+    """``helixd run --sim`` with ``mission_args`` (default: a local_ned mission across the
+    map's wall, with ``--map``); the trace until secured (and disarmed, if asked)."""
+    if mission_args is None:
+        mission = tmp_path / "across.yaml"
+        mission.write_text(
+            "name: across\nmode: roll\nframe: local_ned\nwaypoints:\n- north: 16.0\n  east: 0.0\n",
+            encoding="utf-8",
+        )
+        mission_args = ["--mission", str(mission), "--map", str(_write_map(tmp_path))]
     cfg_path = tmp_path / "helixd.yaml"
     cfg_path.write_text(yaml.safe_dump({**BASE_CONFIG, "planning": planning}), encoding="utf-8")
     real_start = helixd.sim.start_embedded
@@ -102,7 +107,7 @@ def _fly(
         main(
             [
                 "run", "--sim", "--sim-speedup", str(SPEEDUP), "--sim-noise", "low",
-                "--mission", str(mission), "--map", str(_write_map(tmp_path)),
+                *mission_args,
                 "--config", str(cfg_path), "--run-dir", str(tmp_path / "runs"),
             ]
         )  # fmt: skip
@@ -141,5 +146,83 @@ def test_run_sim_map_without_planning_hits_the_wall_and_is_secured(
     contacts = server.history.entries("contact")
     assert len(contacts) >= 1
     assert 7.0 < float(contacts[0].details["north_m"]) < 8.0  # stopped by the wall
+    assert code == ExitCode.FAULT
+    assert secured(trace.samples[-1][1])
+
+
+# -- a .plan's own exclusion zone, the first leg from the rover ---------------------------------
+
+WALL_NE = ((9.0, -4.0), (9.0, 4.0), (11.0, 4.0), (11.0, -4.0))
+
+
+def _wall_plan(tmp_path: Path) -> list[str]:
+    """A QGC .plan around the simulator's EKF origin: waypoint 0 at north 20 m beyond an
+    exclusion polygon (north 9..11, east -4..4) that lies across the rover's way from the
+    origin, waypoint 1 at (20, 8); a keep-in polygon around it all."""
+    import json
+
+    from helixd.base.frames import ne_to_latlon
+
+    sim = SimConfig()
+
+    def ll(n: float, e: float) -> list[float]:
+        return list(ne_to_latlon(n, e, sim.origin_lat_deg, sim.origin_lon_deg))
+
+    items = [
+        {
+            "autoContinue": True, "command": 16, "doJumpId": i + 1, "frame": 3,
+            "params": [0, 0, 0, None, *ll(n, e), 0], "type": "SimpleItem",
+        }
+        for i, (n, e) in enumerate([(20.0, 0.0), (20.0, 8.0)])
+    ]  # fmt: skip
+    keep_in = [(-10.0, -15.0), (-10.0, 15.0), (30.0, 15.0), (30.0, -15.0)]
+    doc = {
+        "fileType": "Plan",
+        "version": 1,
+        "groundStation": "QGroundControl",
+        "mission": {
+            "version": 2, "firmwareType": 3, "vehicleType": 10, "cruiseSpeed": 0.6,
+            "hoverSpeed": 5, "globalPlanAltitudeMode": 1, "items": items,
+            "plannedHomePosition": [*ll(0.0, 0.0), 0],
+        },
+        "geoFence": {
+            "version": 2,
+            "circles": [],
+            "polygons": [
+                {"inclusion": True, "polygon": [ll(*v) for v in keep_in], "version": 1},
+                {"inclusion": False, "polygon": [ll(*v) for v in WALL_NE], "version": 1},
+            ],
+        },
+        "rallyPoints": {"version": 2, "points": []},
+    }  # fmt: skip
+    path = tmp_path / "wall.plan"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    return ["--mission", str(path), "--mode", "roll"]
+
+
+def test_run_sim_plan_routes_around_its_exclusion_zone_from_the_rovers_pose(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The .plan's exclusion polygon is solid in the embedded simulator; the rover starts at
+    the EKF origin, south of it, and the first leg is re-planned from there at preflight."""
+    code, trace, server = _fly(tmp_path, monkeypatch, {}, True, _wall_plan(tmp_path))
+    assert code == ExitCode.OK
+    assert server.history.entries("contact") == []
+    wall = SimObstacles(polygons_ne_m=(WALL_NE,))
+    closest = min(distance_m(wall, s.north_m, s.east_m) for _, s in trace.samples)
+    print(f"closest approach to the .plan's exclusion polygon: {closest:.3f} m")
+    assert closest >= 0.429
+    final = trace.samples[-1][1]
+    assert math.hypot(final.north_m - 20.0, final.east_m - 8.0) <= 1.0
+
+
+def test_run_sim_plan_without_planning_hits_the_exclusion_and_is_secured(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    code, trace, server = _fly(
+        tmp_path, monkeypatch, {"enabled": False}, False, _wall_plan(tmp_path)
+    )
+    contacts = server.history.entries("contact")
+    assert len(contacts) >= 1 and float(contacts[0].details["north_m"]) < 9.0
     assert code == ExitCode.FAULT
     assert secured(trace.samples[-1][1])
