@@ -89,21 +89,10 @@ class ObstacleRaster:
         return math.ceil(reach_m / self.resolution_m) + 1
 
     def near_mask(self, reach_m: float) -> npt.NDArray[np.bool_]:
-        """Cells with an occupied cell within ``reach_cells`` rows and columns (box filter over
-        a summed-area table: one pass, whatever the map size)."""
+        """Cells with an occupied cell within ``reach_cells`` rows and columns: a box dilation,
+        done as two 1-D running sums (one pass per axis, whatever the map size)."""
         k = self.reach_cells(reach_m)
-        occ = self.occupied.astype(np.int32)
-        rows, cols = occ.shape
-        sat = np.zeros((rows + 1, cols + 1), dtype=np.int64)
-        sat[1:, 1:] = occ.cumsum(0).cumsum(1)
-        r = np.arange(rows)
-        c = np.arange(cols)
-        r0, r1 = np.clip(r - k, 0, rows), np.clip(r + k + 1, 0, rows)
-        c0, c1 = np.clip(c - k, 0, cols), np.clip(c + k + 1, 0, cols)
-        box = (
-            sat[r1][:, c1] - sat[r0][:, c1] - sat[r1][:, c0] + sat[r0][:, c0]
-        )  # occupied count in each cell's box
-        return np.asarray(box > 0, dtype=np.bool_)
+        return _box_any(_box_any(self.occupied, k, 0), k, 1)
 
     def distance_m(
         self, north_m: float, east_m: float, reach_m: float, near: npt.NDArray[np.bool_]
@@ -131,6 +120,19 @@ class ObstacleRaster:
         de = np.maximum(np.maximum(e_lo - east_m, east_m - (e_lo + h)), 0.0)
         d = float(np.sqrt(dn * dn + de * de).min())
         return d if d <= reach_m else math.inf
+
+
+def _box_any(mask: npt.NDArray[np.bool_], k: int, axis: int) -> npt.NDArray[np.bool_]:
+    """True where ``mask`` has a True within ``k`` cells along ``axis``."""
+    m = np.moveaxis(mask, axis, 0)
+    n = m.shape[0]
+    run = np.zeros((n + 1, *m.shape[1:]), dtype=np.int32)
+    np.cumsum(m, axis=0, dtype=np.int32, out=run[1:])
+    idx = np.arange(n)
+    hi = np.minimum(idx + k + 1, n)
+    lo = np.maximum(idx - k, 0)
+    out = (run[hi] - run[lo]) > 0
+    return np.asarray(np.moveaxis(out, 0, axis), dtype=np.bool_)
 
 
 class SimObstacles(InputModel):

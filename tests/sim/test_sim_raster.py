@@ -58,12 +58,13 @@ def test_raster_matches_the_same_wall_as_a_polygon_within_reach(n: float, e: flo
         assert d_raster >= obs.raster_reach_m - 1e-6
 
 
-def test_near_mask_is_the_brute_force_box_dilation() -> None:
-    rng = np.random.default_rng(3)
+@pytest.mark.parametrize(("seed", "reach_m"), [(3, 0.5), (4, 0.1), (5, 2.0), (6, 10.0)])
+def test_near_mask_is_the_brute_force_box_dilation(seed: int, reach_m: float) -> None:
+    rng = np.random.default_rng(seed)
     occ = rng.random((23, 17)) > 0.97
     r = ObstacleRaster(0.0, 0.0, 0.25, occ)
-    near = r.near_mask(0.5)
-    k = r.reach_cells(0.5)
+    near = r.near_mask(reach_m)
+    k = r.reach_cells(reach_m)
     brute = np.zeros_like(occ)
     for i, j in zip(*np.nonzero(occ), strict=True):
         brute[max(i - k, 0) : i + k + 1, max(j - k, 0) : j + k + 1] = True
