@@ -181,3 +181,22 @@ def test_first_leg_of_a_global_plan_is_replanned_from_the_rover(tmp_path: Path) 
         assert LineString([a, b]).distance(wall) >= clearance_m(cfg) - 1e-3
     with pytest.raises(PlanningError, match="needs the EKF origin"):
         replan(rover, None)
+
+
+def test_check_plot_of_a_global_plan_is_labelled_around_waypoint_0(tmp_path: Path) -> None:
+    from matplotlib.figure import Figure
+
+    from helixd.plots import draw_route
+
+    path = write_plan(tmp_path, [(0.0, 0.0), (20.0, 0.0)])
+    msn = load_mission_file(path, mode=MotionMode.ROLL, route_keep_outs=True).mission
+    origin = msn.points()[0]
+    polys, circles = _fence(path, origin)
+    _, route = plan_global_mission(msn, HelixdConfig(), polys, circles, origin)
+    ax = Figure().subplots()
+    draw_route(ax, route)
+    assert ax.get_xlabel() == "east of waypoint 0 (m)"
+    assert ax.get_ylabel() == "north of waypoint 0 (m)"
+    png = tmp_path / "p.png"
+    assert _main_exit(["check", "-m", str(path), "--mode", "roll", "--plot", str(png)]) == 0
+    assert png.stat().st_size > 1000
