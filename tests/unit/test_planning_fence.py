@@ -10,10 +10,12 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from shapely.geometry import LineString, Point, Polygon
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
-from helixd.config import HelixdConfig
+from helixd.config import ConfigFileError, HelixdConfig
 from helixd.mission.formats import load_mission_file
 from helixd.mission.model import MissionFrameKind, MotionMode
 from helixd.planning import KeepOutCircle, PlanningError, clearance_m
@@ -200,3 +202,43 @@ def test_check_plot_of_a_global_plan_is_labelled_around_waypoint_0(tmp_path: Pat
     png = tmp_path / "p.png"
     assert _main_exit(["check", "-m", str(path), "--mode", "roll", "--plot", str(png)]) == 0
     assert png.stat().st_size > 1000
+
+
+@settings(
+    max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    wps=st.lists(st.tuples(st.floats(-8.0, 28.0), st.floats(-12.0, 12.0)), min_size=1, max_size=4),
+    box=st.tuples(
+        st.floats(-5.0, 25.0), st.floats(-10.0, 10.0), st.floats(0.5, 6.0), st.floats(0.5, 8.0)
+    ),
+)
+def test_any_plan_is_refused_or_planned_clear_of_its_exclusion(
+    tmp_path: Path,
+    wps: list[tuple[float, float]],
+    box: tuple[float, float, float, float],
+) -> None:
+    n0, e0, dn, de = box
+    wall = [(n0, e0), (n0, e0 + de), (n0 + dn, e0 + de), (n0 + dn, e0)]
+    doc = json.loads((DATA / "sim_square.plan").read_text())
+    doc["mission"]["items"] = [_item(i + 1, n, e) for i, (n, e) in enumerate(wps)]
+    doc["geoFence"]["polygons"] = [
+        {"inclusion": True, "polygon": [_ll(*v) for v in KEEP_IN_NE], "version": 1},
+        {"inclusion": False, "polygon": [_ll(*v) for v in wall], "version": 1},
+    ]
+    doc["geoFence"]["circles"] = []
+    path = tmp_path / "fuzz.plan"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    try:
+        msn = load_mission_file(path, mode=MotionMode.ROLL, route_keep_outs=True).mission
+        origin = msn.points()[0]
+        polys, circles = _fence(path, origin)
+        planned, _ = plan_global_mission(msn, HelixdConfig(), polys, circles, origin)
+    except (ConfigFileError, PlanningError) as exc:
+        assert str(exc)
+        return
+    shape = Polygon([latlon_to_ne(*_ll(*v), *origin) for v in wall])
+    pts = [latlon_to_ne(a, b, *origin) for a, b in planned.points()]
+    need = clearance_m(HelixdConfig()) - 1e-3
+    for a, b in itertools.pairwise(pts):
+        assert LineString([a, b]).distance(shape) >= need
