@@ -13,7 +13,7 @@ import asyncio
 import contextlib
 import math
 import time
-from collections.abc import AsyncIterator, Awaitable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -76,6 +76,9 @@ class RunOptions:
     connect_url: str
     run_root: Path
     tty: bool
+    # planning: the mission with its first leg re-planned from the rover's (north_m, east_m)
+    # (and the EKF origin's (lat, lon), for a global mission)
+    replan_from: Callable[[tuple[float, float], tuple[float, float] | None], Mission] | None = None
 
 
 @dataclass
@@ -324,6 +327,12 @@ class MissionRunner:
             ap = await self._connect()
         async with phase("preflight", self.notifier, self.display):
             start_ned, origin = await self._preflight(ap)
+            if self.opts.replan_from is not None:  # planned legs: the first from the rover
+                try:
+                    here = (start_ned.north_m, start_ned.east_m)
+                    self.opts.mission = self.opts.replan_from(here, origin)
+                except ValueError as exc:
+                    raise PreflightFailed(str(exc).splitlines()) from None
             self.plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
             # The same validation `helixd check` ran, now with the start pose and EKF origin
             # (geofence radius/polygon and time for local_ned/global missions).

@@ -740,8 +740,10 @@ def draw_route(ax: Axes, route: Any) -> None:
     if route.legs:
         n, e = route.legs[0].points_ne_m[0]
         ax.plot(e, n, "^", color="black", ms=7, label="start")
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
+    around = getattr(route, "origin_latlon_deg", None)  # a global mission: around waypoint 0
+    where = "" if around is None else " of waypoint 0"
+    ax.set_xlabel(f"east{where} (m)")
+    ax.set_ylabel(f"north{where} (m)")
     ax.set_aspect("equal")
     _legend(ax)
 
