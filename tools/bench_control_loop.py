@@ -503,12 +503,12 @@ async def run_daemon_side(
     from helixd.actuators import RcOverrideSink
     from helixd.config import HelixdConfig, config_to_yaml
     from helixd.display import ProgressDisplay
-    from helixd.flight import MANUAL_MODE, FlightLoop
+    from helixd.flight import MANUAL_MODE, FlightLoop, PoseRejectedReport, StepReport
+    from helixd.flight_report import flight_row, rejected_progress, step_progress
     from helixd.frames import MissionFrame
     from helixd.link.connection import Autopilot
     from helixd.link.preflight import check_obedience
     from helixd.mission import Mission, resolve_plan
-    from helixd.recorder.rows import FlightRow
     from helixd.recorder.rundir import RunRecorder
     from helixd.recorder.summary import SummaryBuilder
     from helixd.signals import StopRequest
@@ -566,9 +566,15 @@ async def run_daemon_side(
         summary = SummaryBuilder(final_xy_m=(last.x_m, last.y_m))
         display = ProgressDisplay(tty=False)
 
-        def on_row(row: FlightRow) -> None:
+        def on_step(report: StepReport) -> None:  # as the daemon's, after the send
+            row = flight_row(report, plan)
             summary.add(row)
+            display.autopilot_time(row.t_boot_s)
             rec.record(row)
+            display.update(step_progress(report, plan))
+
+        def on_pose_rejected(report: PoseRejectedReport) -> None:
+            display.update(rejected_progress(report, plan))
 
         def on_tick() -> None:
             sink.woke()
@@ -584,8 +590,8 @@ async def run_daemon_side(
             sink=sink,
             stop=stop,
             start_ned=start_ned,
-            on_row=on_row,
-            on_progress=display.update,
+            on_step=on_step,
+            on_pose_rejected=on_pose_rejected,
             on_arrival=summary.arrival,
             on_tick=on_tick,
         )

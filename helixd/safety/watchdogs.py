@@ -50,6 +50,7 @@ class FaultCause(StrEnum):
     SIGNAL = "signal"  # SIGINT / SIGTERM
     EXCEPTION = "exception"  # unhandled error inside helixd
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
+    ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
 
 
 # Causes that mean "a human took over or asked to stop", not "something broke".
