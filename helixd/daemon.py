@@ -530,7 +530,7 @@ class MissionRunner:
 
         def on_step(report: StepReport) -> None:  # after the command left
             self._on_row(flight_row(report, plan))
-            self.display.update(step_progress(report, plan))
+            self.display.update(lambda: step_progress(report, plan))  # built only if shown
 
         def on_pose_rejected(report: PoseRejectedReport) -> None:
             self.display.update(rejected_progress(report, plan))

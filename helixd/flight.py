@@ -326,12 +326,14 @@ class FlightLoop:
     def _inputs(self, now: float, t_start: float, pose: PoseSample | None) -> SafetyInputs:
         st = self.ap.state
         ekf = st.ekf
+        ekf_healthy = None if ekf is None else ekf.healthy
         return SafetyInputs(
             now_s=now,
             last_heartbeat_s=st.last_heartbeat_s,
             pose_rx_s=pose.rx_monotonic_s if pose else None,
-            ekf_healthy=None if ekf is None else ekf.healthy,
-            ekf_detail="" if ekf is None else ekf.describe(),
+            ekf_healthy=ekf_healthy,
+            # the text only matters when the watchdog reports it: not built while healthy
+            ekf_detail="" if ekf is None or ekf_healthy else ekf.describe(),
             mode=st.mode,
             expected_mode=MANUAL_MODE,
             armed=st.armed,

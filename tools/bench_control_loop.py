@@ -588,7 +588,7 @@ async def run_daemon_side(
             summary.add(row)
             display.autopilot_time(row.t_boot_s)
             rec.record(row)
-            display.update(step_progress(report, plan))
+            display.update(lambda: step_progress(report, plan))
 
         def on_pose_rejected(report: PoseRejectedReport) -> None:
             display.update(rejected_progress(report, plan))

@@ -40,6 +40,7 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig, SafetyConfig
+from helixd.link.codec import CRC_EXTRA, FrameDecoder, pack_rc_channels_override
 from helixd.link.commands import (
     MAV_RESULT_ACCEPTED,
     AckStats,
@@ -176,7 +177,7 @@ class UdpTransport(Transport):
             except OSError as exc:
                 log.warning("udp_read_error", error=str(exc))
                 return
-            self._on_data(data, (str(addr[0]), int(addr[1])), time.monotonic())
+            self._on_data(data, addr, time.monotonic())  # AF_INET: (host str, port int)
 
     def write(self, data: bytes) -> bool:
         if self._sock is None or self._remote is None:
@@ -388,11 +389,6 @@ def make_transport(url: LinkUrl, cfg: LinkConfig, on_data: OnData, on_lost: OnLo
 # Codec + filtering + reopen
 
 
-CRC_EXTRA: dict[int, int] = {
-    int(msgid): int(cls.crc_extra) for msgid, cls in mavlink.mavlink_map.items()
-}
-
-
 @dataclass
 class LinkStats:
     rx_messages: int = 0
@@ -429,6 +425,7 @@ class MavlinkConnection:
         self.own_id_senders = OwnIdSenders()
         self.first_tx_s: float | None = None  # monotonic time of our first message sent
         self.mav = self._new_codec()
+        self._decoder = FrameDecoder(self.mav, signing=signing_key is not None)
         self._rxbuf = bytearray()  # stream transports: the incomplete frame at the end
         self.transport = make_transport(url, cfg, self._on_data, self._transport_lost)
         self.closed = False
@@ -457,7 +454,31 @@ class MavlinkConnection:
         mav = self.mav
         buf = msg.pack(mav)
         mav.seq = (mav.seq + 1) % 256
-        ok = self.transport.write(bytes(buf))
+        return self._write(bytes(buf))
+
+    def send_rc_override(
+        self, target_system: int, target_component: int, channels_us: Sequence[int]
+    ) -> bool:
+        """RC_CHANNELS_OVERRIDE (18 values, already checked), without a message object on an
+        unsigned link (see :mod:`helixd.link.codec`)."""
+        mav = self.mav
+        if self._key is not None:
+            return self.send(
+                mav.rc_channels_override_encode(target_system, target_component, *channels_us)
+            )
+        buf = pack_rc_channels_override(
+            mav.seq,
+            self.cfg.source_system,
+            self.cfg.source_component,
+            target_system,
+            target_component,
+            channels_us,
+        )
+        mav.seq = (mav.seq + 1) % 256
+        return self._write(buf)
+
+    def _write(self, buf: bytes) -> bool:
+        ok = self.transport.write(buf)
         if ok:
             if self.first_tx_s is None:
                 self.first_tx_s = time.monotonic()
@@ -487,7 +508,7 @@ class MavlinkConnection:
                 stats.unknown_messages += 1
                 continue
             try:
-                msg = self.mav.decode(bytearray(frame.data))
+                msg = self._decoder.decode(frame.data)
             except mavlink.MAVError as exc:
                 reason = str(getattr(exc, "message", exc))
                 stats.bad_data += 1
@@ -498,7 +519,7 @@ class MavlinkConnection:
                 stats.bad_data += 1
                 log.warning("mavlink_decode_failed", msgid=frame.msgid, error=repr(exc))
                 continue
-            sysid = int(msg.get_srcSystem())
+            sysid = frame.src_system  # the header byte the decoded message carries too
             if sysid != self.cfg.target_system:
                 if sysid == self.cfg.source_system:
                     self._note_own_id(msg)
@@ -548,6 +569,7 @@ class MavlinkConnection:
                     log.info("link_reopen_failed", attempt=attempts, error=str(exc))
                 continue
             self.mav = self._new_codec()
+            self._decoder = FrameDecoder(self.mav, signing=self._key is not None)
             self._rxbuf.clear()  # drop half a frame from the old stream
             self.stats.reopen_count += 1
             log.info("link_reopened", url=self.url.text, attempts=attempts)
@@ -678,32 +700,40 @@ def no_heartbeat_text(
     )
 
 
+# changes that are logged (and re-request the streams): rare, checked with one test per message
+_NOTABLE_CHANGES = Change.REBOOT | Change.LINK_REGAINED | Change.MODE | Change.ARMED
+
+
 class _ChangeWaiters:
     """Futures woken when :meth:`VehicleState.apply` reports a given change."""
 
     def __init__(self) -> None:
-        self._waiters: dict[Change, list[asyncio.Future[None]]] = {}
+        self._waiters: dict[int, list[asyncio.Future[bool]]] = {}
 
-    def wake(self, changes: Change) -> None:
+    def wake(self, changes: int) -> None:
         for flag, futures in self._waiters.items():
             if flag & changes:
                 for fut in futures:
                     if not fut.done():
-                        fut.set_result(None)
+                        fut.set_result(True)
 
-    async def wait(self, flag: Change, timeout_s: float) -> bool:
-        """True when ``flag`` happened within ``timeout_s``."""
+    async def wait(self, flag: int, timeout_s: float) -> bool:
+        """True when ``flag`` happened within ``timeout_s``.
+
+        One future and one timer handle per wait (no ``wait_for`` wrapper): this is the
+        control loop's wake-up, once per pose.
+        """
         if timeout_s <= 0:
             return False
-        fut: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        loop = asyncio.get_running_loop()
+        fut: asyncio.Future[bool] = loop.create_future()
         bucket = self._waiters.setdefault(flag, [])
         bucket.append(fut)
+        timer = loop.call_later(timeout_s, _resolve, fut, False)
         try:
-            await asyncio.wait_for(fut, timeout_s)
-            return True
-        except TimeoutError:
-            return False
+            return await fut
         finally:
+            timer.cancel()
             bucket.remove(fut)
 
     def release_all(self) -> None:
@@ -711,7 +741,12 @@ class _ChangeWaiters:
         for futures in self._waiters.values():
             for fut in futures:
                 if not fut.done():
-                    fut.set_result(None)
+                    fut.set_result(True)
+
+
+def _resolve(fut: asyncio.Future[bool], value: bool) -> None:
+    if not fut.done():
+        fut.set_result(value)
 
 
 class Autopilot:
@@ -830,18 +865,21 @@ class Autopilot:
     # -- reader side --------------------------------------------------------------------------
 
     def _on_message(self, msg: MavMsg, rx_s: float) -> None:
-        if msg.get_type() == "STATUSTEXT":
+        mtype = msg.get_type()
+        if mtype == "STATUSTEXT":
             changes = self._statustext_chunk(msg, rx_s)
         else:
-            changes = self.state.apply(msg, rx_s) | self._expired_texts(rx_s)
+            changes = self.state.apply(msg, rx_s)
+            if self._texts.pending:
+                changes |= self._expired_texts(rx_s)
         self._commands.on_message(msg, rx_s)
-        self._streams.monitor.record(msg.get_type())
+        self._streams.monitor.record(mtype)
         if changes:
             self._on_changes(changes)
         for callback in self._listeners:
             callback(msg, rx_s)
 
-    def _statustext_chunk(self, msg: MavMsg, rx_s: float) -> Change:
+    def _statustext_chunk(self, msg: MavMsg, rx_s: float) -> int:
         """Feed one STATUSTEXT to the reassembler; the state sees whole texts only."""
         texts = self._texts.add(
             int(msg.get_srcSystem()),
@@ -854,12 +892,12 @@ class Autopilot:
         )
         return self._apply_texts(texts, rx_s)
 
-    def _expired_texts(self, now_s: float) -> Change:
+    def _expired_texts(self, now_s: float) -> int:
         if not self._texts.pending:
             return Change.NONE
         return self._apply_texts(self._texts.expire(now_s), now_s)
 
-    def _apply_texts(self, texts: list[AssembledText], rx_s: float) -> Change:
+    def _apply_texts(self, texts: list[AssembledText], rx_s: float) -> int:
         changes = Change.NONE
         for text in texts:
             whole = mavlink.MAVLink_statustext_message(text.severity, b"", 0, 0)
@@ -877,11 +915,16 @@ class Autopilot:
                 )
         return changes
 
-    def _on_changes(self, changes: Change) -> None:
-        st = self.state
-        if changes & Change.POSE:
+    def _on_changes(self, changes: int) -> None:
+        if changes & Change.POSE and self._pose_events:
             for event in self._pose_events:
                 event.set()
+        if changes & _NOTABLE_CHANGES:
+            self._log_changes(changes)
+        self._waiters.wake(changes)
+
+    def _log_changes(self, changes: int) -> None:
+        st = self.state
         if changes & Change.REBOOT:
             log.warning(
                 "autopilot_rebooted", reboots=st.reboot_count, time_boot_ms=st.last_time_boot_ms
@@ -894,7 +937,6 @@ class Autopilot:
             log.info("autopilot_mode", mode=st.mode, custom_mode=st.custom_mode)
         if changes & Change.ARMED:
             log.info("autopilot_armed" if st.armed else "autopilot_disarmed")
-        self._waiters.wake(changes)
 
     def _on_foreign(self, sysid: int) -> None:
         if sysid not in self.state.foreign_sysid_counts:
@@ -1093,10 +1135,7 @@ class Autopilot:
             raise ValueError(
                 f"RC override needs {RC_OVERRIDE_CHANNELS} values, got {len(channels_us)}"
             )
-        values = [int(v) for v in channels_us]
-        if any(not 0 <= v <= UINT16_MAX for v in values):
-            raise ValueError(f"RC override values must be 0..{UINT16_MAX}, got {values}")
-        msg = self._conn.mav.rc_channels_override_encode(
-            self.cfg.target_system, self.cfg.target_component, *values
-        )
-        self._conn.send(msg)
+        values = tuple(map(int, channels_us))
+        if min(values) < 0 or max(values) > UINT16_MAX:
+            raise ValueError(f"RC override values must be 0..{UINT16_MAX}, got {list(values)}")
+        self._conn.send_rc_override(self.cfg.target_system, self.cfg.target_component, values)
