@@ -27,29 +27,10 @@ from typing import Any
 
 from helixd.config import SafetyConfig
 from helixd.frames import NedPose
+from helixd.mavconst import MAV_MODE_FLAG_SAFETY_ARMED, ROVER_MODE_NUMBERS, ROVER_MODES, UINT16_MAX
 
 MavMsg = Any  # pymavlink messages are untyped; every field is read through int()/float()
 
-# ArduPilot Rover mode numbers (Rover/mode.h)
-ROVER_MODES: dict[int, str] = {
-    0: "MANUAL",
-    1: "ACRO",
-    3: "STEERING",
-    4: "HOLD",
-    5: "LOITER",
-    6: "FOLLOW",
-    7: "SIMPLE",
-    8: "DOCK",
-    9: "CIRCLE",
-    10: "AUTO",
-    11: "RTL",
-    12: "SMART_RTL",
-    15: "GUIDED",
-    16: "INITIALISING",
-}
-ROVER_MODE_NUMBERS: dict[str, int] = {name: number for number, name in ROVER_MODES.items()}
-
-MAV_MODE_FLAG_SAFETY_ARMED = 128
 
 # EKF_STATUS_FLAGS
 EKF_ATTITUDE = 1
@@ -70,7 +51,6 @@ EKF_FORBIDDEN_FLAGS = {
 
 RC_CHANNEL_COUNT = 18
 SERVO_CHANNEL_COUNT = 16
-UINT16_MAX = 65535  # "not sent" in SYS_STATUS.voltage_battery
 SENSOR_RC_RECEIVER = 0x10000  # MAV_SYS_STATUS_SENSOR_RC_RECEIVER
 RSSI_UNKNOWN = 255
 LAT_MAX_DEG = 90.0

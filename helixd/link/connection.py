@@ -42,7 +42,6 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.config import LinkConfig, SafetyConfig
 from helixd.link.codec import CRC_EXTRA, FrameDecoder, pack_rc_channels_override
 from helixd.link.commands import (
-    MAV_RESULT_ACCEPTED,
     AckStats,
     CommandClient,
     CommandError,
@@ -54,6 +53,14 @@ from helixd.link.signing import enable_signing, load_signing_key
 from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
 from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
+from helixd.mavconst import (
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_REQUEST_MESSAGE,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_RESULT_ACCEPTED,
+    UINT16_MAX,
+)
 from helixd.vehicle import Change, PoseSample, TelemetryBounds, VehicleState, mode_number
 
 __all__ = [
@@ -666,13 +673,8 @@ class HeartbeatSender:
 # The facade
 
 
-MAV_CMD_COMPONENT_ARM_DISARM = int(mavlink.MAV_CMD_COMPONENT_ARM_DISARM)
-MAV_CMD_DO_SET_MODE = int(mavlink.MAV_CMD_DO_SET_MODE)
-MAV_CMD_REQUEST_MESSAGE = int(mavlink.MAV_CMD_REQUEST_MESSAGE)
-MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = int(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED)
 ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM: skip checks
 RC_OVERRIDE_CHANNELS = 18
-UINT16_MAX = 65535
 ARM_TEXT_PREFIXES = ("PreArm", "Arm")
 
 

@@ -13,26 +13,25 @@ from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from helixd.sim import messages, telemetry
-from helixd.sim import streams as st
-from helixd.sim.autopilot import (
+from helixd.mavconst import (
+    MAV_CMD_GET_MESSAGE_INTERVAL,
     MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
+    MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+    MAV_CMD_REQUEST_MESSAGE,
+    MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
-    SimEvent,
-    StatusText,
 )
+from helixd.sim import messages, telemetry
+from helixd.sim import streams as st
+from helixd.sim.autopilot import SimEvent, StatusText
 from helixd.sim.faults import make_spec
 from helixd.sim.messages import Message
 
 if TYPE_CHECKING:
     from helixd.sim.core import SimCore
 
-MAV_CMD_GET_MESSAGE_INTERVAL = 510
-MAV_CMD_SET_MESSAGE_INTERVAL = 511
-MAV_CMD_REQUEST_MESSAGE = 512
-MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES = 520
 MAVLINK_MSG_ID_SET_MODE = 11
 OUR_COMPID = 1
 SEVERITY_INFO = 6
