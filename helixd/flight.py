@@ -25,6 +25,7 @@ result is never sent: neutral, and a ``pose_invalid`` fault at once.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable
@@ -154,55 +155,57 @@ class FlightLoop:
 
     async def run(self) -> FlightResult:
         t_start = time.monotonic()
-        last_rx: float | None = None
         last_step_boot_s = -math.inf  # autopilot clock of the last pose stepped on
         out: NavOutput | None = None
         pose: PoseSample | None = None
-        while True:
-            sample = await self.ap.wait_pose(after_rx_s=last_rx, timeout_s=self._tick_s)
-            now = time.monotonic()
-            self.on_tick()
-            if sample is not None:
-                last_rx = sample.rx_monotonic_s
-                pose = sample
-                if self._t_boot_start_s is None:
-                    self._t_boot_start_s = sample.time_boot_ms / 1000.0
-                self._measure_yaw_rate(sample)
-            if self.stop.requested:
-                return FlightResult(
-                    Fault(FaultCause.SIGNAL, f"{self.stop.signal_name} received"),
-                    now,
-                    out,
-                    pose.ned if pose else None,
-                )
-            fault = self.monitor.check(self._inputs(now, t_start, pose))
-            if fault is not None:
-                return FlightResult(fault, now, out, pose.ned if pose else None)
-            try:
-                if self._pose_rejected(now, t_start, out):
-                    continue  # neutral until a valid pose (or the pose_invalid watchdog)
-                if sample is None:
-                    continue
-                t_boot_s = sample.time_boot_ms / 1000.0
-                since_step_s = t_boot_s - last_step_boot_s
-                if 0.0 <= since_step_s < self._min_step_s:
-                    continue  # (a clock that ran backwards, a reboot, is stepped on at once)
-                last_step_boot_s = t_boot_s
+        # a new pose, or None each tick without one: the watchdogs run either way
+        async with contextlib.aclosing(self.ap.telemetry.pose_or_tick(self._tick_s)) as ticks:
+            async for sample in ticks:
+                now = time.monotonic()
+                self.on_tick()
+                if sample is not None:
+                    pose = sample
+                    if self._t_boot_start_s is None:
+                        self._t_boot_start_s = sample.time_boot_ms / 1000.0
+                    self._measure_yaw_rate(sample)
+                if self.stop.requested:
+                    return FlightResult(
+                        Fault(FaultCause.SIGNAL, f"{self.stop.signal_name} received"),
+                        now,
+                        out,
+                        pose.ned if pose else None,
+                    )
+                fault = self.monitor.check(self._inputs(now, t_start, pose))
+                if fault is not None:
+                    return FlightResult(fault, now, out, pose.ned if pose else None)
                 try:
-                    step = self._step(sample, t_boot_s)
-                except NonFiniteError as exc:
-                    self._neutral()
-                    fault = Fault(FaultCause.POSE_INVALID, f"non-finite value in control: {exc}")
-                    return FlightResult(fault, now, out, sample.ned)
-                self.sink.command(step.fractions)  # the command leaves first
-                out = step.nav
-                self._sent_step(step, t_boot_s)
-                self._report(sample, step, now, t_start)
-            except ActuatorError as exc:  # e.g. a DO_SET_SERVO refused mid-mission: a fault
-                fault = Fault(FaultCause.ACTUATOR, str(exc))
-                return FlightResult(fault, now, out, pose.ned if pose else None)
-            if out.done:
-                return FlightResult(None, None, out, sample.ned)
+                    if self._pose_rejected(now, t_start, out):
+                        continue  # neutral until a valid pose (or the pose_invalid watchdog)
+                    if sample is None:
+                        continue
+                    t_boot_s = sample.time_boot_ms / 1000.0
+                    since_step_s = t_boot_s - last_step_boot_s
+                    if 0.0 <= since_step_s < self._min_step_s:
+                        continue  # (a clock that ran backwards, a reboot, is stepped on at once)
+                    last_step_boot_s = t_boot_s
+                    try:
+                        step = self._step(sample, t_boot_s)
+                    except NonFiniteError as exc:
+                        self._neutral()
+                        fault = Fault(
+                            FaultCause.POSE_INVALID, f"non-finite value in control: {exc}"
+                        )
+                        return FlightResult(fault, now, out, sample.ned)
+                    self.sink.command(step.fractions)  # the command leaves first
+                    out = step.nav
+                    self._sent_step(step, t_boot_s)
+                    self._report(sample, step, now, t_start)
+                except ActuatorError as exc:  # e.g. a DO_SET_SERVO refused mid-mission: a fault
+                    fault = Fault(FaultCause.ACTUATOR, str(exc))
+                    return FlightResult(fault, now, out, pose.ned if pose else None)
+                if out.done:
+                    return FlightResult(None, None, out, sample.ned)
+        raise AssertionError("the pose stream never ends")  # pragma: no cover
 
     def _neutral(self) -> None:
         self.sink.command(NEUTRAL_FRACTIONS)

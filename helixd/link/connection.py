@@ -30,7 +30,6 @@ import os
 import socket
 import termios
 import time
-import weakref
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Collection, Coroutine, Sequence
 from dataclasses import dataclass
@@ -39,7 +38,7 @@ from typing import Any
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig, SafetyConfig
+from helixd.config import LinkConfig
 from helixd.link.codec import CRC_EXTRA, FrameDecoder, pack_rc_channels_override
 from helixd.link.commands import (
     AckStats,
@@ -48,10 +47,12 @@ from helixd.link.commands import (
     CommandRejected,
 )
 from helixd.link.framing import FrameKind, scan_frames
+from helixd.link.limits import LinkLimits, SafetyNumbers, link_limits
 from helixd.link.ownid import OwnIdSenders
 from helixd.link.signing import enable_signing, load_signing_key
 from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
+from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
 from helixd.mavconst import (
     MAV_CMD_COMPONENT_ARM_DISARM,
@@ -61,7 +62,7 @@ from helixd.mavconst import (
     MAV_RESULT_ACCEPTED,
     UINT16_MAX,
 )
-from helixd.vehicle import Change, PoseSample, TelemetryBounds, VehicleState, mode_number
+from helixd.vehicle import Change, PoseSample, VehicleState, mode_number
 
 __all__ = [
     "Autopilot",
@@ -706,72 +707,31 @@ def no_heartbeat_text(
 _NOTABLE_CHANGES = Change.REBOOT | Change.LINK_REGAINED | Change.MODE | Change.ARMED
 
 
-class _ChangeWaiters:
-    """Futures woken when :meth:`VehicleState.apply` reports a given change."""
-
-    def __init__(self) -> None:
-        self._waiters: dict[int, list[asyncio.Future[bool]]] = {}
-
-    def wake(self, changes: int) -> None:
-        for flag, futures in self._waiters.items():
-            if flag & changes:
-                for fut in futures:
-                    if not fut.done():
-                        fut.set_result(True)
-
-    async def wait(self, flag: int, timeout_s: float) -> bool:
-        """True when ``flag`` happened within ``timeout_s``.
-
-        One future and one timer handle per wait (no ``wait_for`` wrapper): this is the
-        control loop's wake-up, once per pose.
-        """
-        if timeout_s <= 0:
-            return False
-        loop = asyncio.get_running_loop()
-        fut: asyncio.Future[bool] = loop.create_future()
-        bucket = self._waiters.setdefault(flag, [])
-        bucket.append(fut)
-        timer = loop.call_later(timeout_s, _resolve, fut, False)
-        try:
-            return await fut
-        finally:
-            timer.cancel()
-            bucket.remove(fut)
-
-    def release_all(self) -> None:
-        """Wake every waiter (on close): they re-check their condition and time out normally."""
-        for futures in self._waiters.values():
-            for fut in futures:
-                if not fut.done():
-                    fut.set_result(True)
-
-
-def _resolve(fut: asyncio.Future[bool], value: bool) -> None:
-    if not fut.done():
-        fut.set_result(value)
-
-
 class Autopilot:
     """One autopilot over one link: state, heartbeats, streams, commands, parameters.
 
-    Pose notification: :meth:`wait_pose` (next pose newer than a receive time) and
-    :meth:`pose_event` (a private ``asyncio.Event`` per caller, set on every new pose; the
-    caller clears it). Nothing here decides to stop the rover.
+    Plugins (MAVSDK's shape): :attr:`telemetry` (:class:`helixd.link.telemetry.Telemetry`:
+    ``async for pose in ap.telemetry.pose()``); commands, modes, overrides, parameters are
+    methods here for now. Nothing here decides to stop the rover.
     """
 
     def __init__(
-        self, cfg: LinkConfig, safety: SafetyConfig, url: LinkUrl, signing_key: bytes | None
+        self,
+        cfg: LinkConfig,
+        limits: LinkLimits | SafetyNumbers,
+        url: LinkUrl,
+        signing_key: bytes | None,
     ) -> None:
         self.cfg = cfg
-        self.safety = safety
+        self.limits = link_limits(limits)
         self.url = url
         self.state = VehicleState(
-            ekf_variance_max=safety.ekf_variance_max,
-            pose_stale_s=safety.pose_stale_s,
+            ekf_variance_max=self.limits.ekf_variance_max,
+            pose_stale_s=self.limits.pose_stale_s,
             reboot_backstep_ms=round(cfg.reboot_backstep_s * 1000),
             target_component=cfg.target_component,
             statustext_history=cfg.statustext_history,
-            bounds=TelemetryBounds.from_safety(safety),
+            bounds=self.limits.bounds,
         )
         self._conn = MavlinkConnection(
             cfg,
@@ -786,9 +746,11 @@ class Autopilot:
         self._streams = StreamManager(self.command_long, cfg, self.get_param)
         self._heartbeat = HeartbeatSender(self._conn, cfg)
         self._texts = StatusTextAssembler(cfg.statustext_timeout_s)
-        self._waiters = _ChangeWaiters()
-        self._pose_events: weakref.WeakSet[asyncio.Event] = weakref.WeakSet()
+        self._waiters = ChangeWaiters()
         self._listeners: list[Callable[[MavMsg, float], None]] = []
+        self.telemetry = Telemetry(
+            self.state, self._waiters, self.add_message_listener, self.remove_message_listener
+        )
         self._tasks: set[asyncio.Task[None]] = set()
         self._rerequest: asyncio.Task[None] | None = None
         self._monitor: asyncio.Task[None] | None = None
@@ -796,11 +758,15 @@ class Autopilot:
     # -- lifecycle ----------------------------------------------------------------------------
 
     @classmethod
-    async def connect(cls, cfg: LinkConfig, safety: SafetyConfig) -> Autopilot:
-        """Open the link and start reading; LinkError (one human message) if it cannot."""
+    async def connect(cls, cfg: LinkConfig, limits: LinkLimits | SafetyNumbers) -> Autopilot:
+        """Open the link and start reading; LinkError (one human message) if it cannot.
+
+        ``limits``: the link's few safety numbers (:mod:`helixd.link.limits`); a
+        ``SafetyConfig`` is read for them.
+        """
         url = parse_link_url(cfg.url, cfg.baud)
         key = load_signing_key(cfg.signing_key_file) if cfg.signing_key_file else None
-        ap = cls(cfg, safety, url, key)
+        ap = cls(cfg, limits, url, key)
         await ap._conn.open()
         ap._spawn(ap._watch_link(), "link_watchdog")
         return ap
@@ -918,9 +884,6 @@ class Autopilot:
         return changes
 
     def _on_changes(self, changes: int) -> None:
-        if changes & Change.POSE and self._pose_events:
-            for event in self._pose_events:
-                event.set()
         if changes & _NOTABLE_CHANGES:
             self._log_changes(changes)
         self._waiters.wake(changes)
@@ -953,7 +916,7 @@ class Autopilot:
         log.info("link_waiting_for_heartbeat", url=self.url.text)
 
     async def _watch_link(self) -> None:
-        timeout_s = self.safety.heartbeat_timeout_s
+        timeout_s = self.limits.heartbeat_timeout_s
         while True:
             await asyncio.sleep(timeout_s / 4)
             st = self.state
@@ -1028,25 +991,9 @@ class Autopilot:
         return granted
 
     async def wait_pose(self, after_rx_s: float | None, timeout_s: float) -> PoseSample | None:
-        """The newest pose if it was read after ``after_rx_s``, else the next one to arrive.
-
-        ``after_rx_s=None`` waits for the next pose. None on timeout.
-        """
-        pose = self.state.pose
-        if pose is not None and after_rx_s is not None and pose.rx_monotonic_s > after_rx_s:
-            return pose
-        deadline = time.monotonic() + timeout_s
-        while await self._waiters.wait(Change.POSE, deadline - time.monotonic()):
-            pose = self.state.pose
-            if pose is not None and (after_rx_s is None or pose.rx_monotonic_s > after_rx_s):
-                return pose
-        return None
-
-    def pose_event(self) -> asyncio.Event:
-        """A new Event, set on every new pose (clear it yourself); dropped with its last ref."""
-        event = asyncio.Event()
-        self._pose_events.add(event)
-        return event
+        """The newest pose if it was read after ``after_rx_s``, else the next one to arrive;
+        None on timeout (:meth:`helixd.link.telemetry.Telemetry.next_pose`)."""
+        return await self.telemetry.next_pose(after_rx_s, timeout_s)
 
     # -- commands -----------------------------------------------------------------------------
 
