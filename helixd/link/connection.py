@@ -1,8 +1,9 @@
 """The MAVLink link: the :class:`Autopilot` facade the daemon uses, over the plumbing
 (:mod:`helixd.link.transport`, :mod:`helixd.link.codec`, :mod:`helixd.link.heartbeat`) and
-with its plugins (:mod:`helixd.link.telemetry`; commands and parameters through
-:mod:`helixd.link.commands`; a mission plugin would sit beside them as
-``helixd/link/mission.py`` on the same :class:`helixd.link.commands.CommandClient`).
+with its plugins (:mod:`helixd.link.telemetry`, :mod:`helixd.link.action`,
+:mod:`helixd.link.param`; a mission plugin sits beside them as ``helixd/link/mission.py``,
+built like ``param`` on the same :class:`helixd.link.commands.CommandClient` and attached in
+:meth:`Autopilot.__init__`).
 
 Reading never blocks the event loop: every transport is a non-blocking file descriptor watched
 with ``loop.add_reader`` (UDP socket, TCP socket, or a termios-configured serial device). The
@@ -38,6 +39,7 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
+from helixd.link.action import Action
 from helixd.link.codec import (
     LinkStats,
     MavlinkConnection,
@@ -46,11 +48,11 @@ from helixd.link.commands import (
     AckStats,
     CommandClient,
     CommandError,
-    CommandRejected,
 )
 from helixd.link.heartbeat import HeartbeatSender, heartbeat_due
 from helixd.link.limits import LinkLimits, SafetyNumbers, link_limits
 from helixd.link.ownid import OwnIdSenders
+from helixd.link.param import Param
 from helixd.link.signing import load_signing_key
 from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
@@ -58,14 +60,9 @@ from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.transport import Address, Transport, make_transport
 from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
 from helixd.mavconst import (
-    MAV_CMD_COMPONENT_ARM_DISARM,
-    MAV_CMD_DO_SET_MODE,
-    MAV_CMD_REQUEST_MESSAGE,
-    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     MAV_RESULT_ACCEPTED,
-    UINT16_MAX,
 )
-from helixd.vehicle import Change, PoseSample, VehicleState, mode_number
+from helixd.vehicle import Change, PoseSample, VehicleState
 
 __all__ = [
     "Address",
@@ -87,11 +84,6 @@ MavMsg = Any
 
 # ---------------------------------------------------------------------------------------------
 # The facade
-
-
-ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM: skip checks
-RC_OVERRIDE_CHANNELS = 18
-ARM_TEXT_PREFIXES = ("PreArm", "Arm")
 
 
 def no_heartbeat_text(
@@ -125,9 +117,11 @@ _NOTABLE_CHANGES = Change.REBOOT | Change.LINK_REGAINED | Change.MODE | Change.A
 class Autopilot:
     """One autopilot over one link: state, heartbeats, streams, commands, parameters.
 
-    Plugins (MAVSDK's shape): :attr:`telemetry` (:class:`helixd.link.telemetry.Telemetry`:
-    ``async for pose in ap.telemetry.pose()``); commands, modes, overrides, parameters are
-    methods here for now. Nothing here decides to stop the rover.
+    Plugins (MAVSDK's shape): :attr:`telemetry` (:mod:`helixd.link.telemetry`:
+    ``async for pose in ap.telemetry.pose()``), :attr:`action` (:mod:`helixd.link.action`:
+    arm, mode, overrides, servo, COMMAND_LONG) and :attr:`param` (:mod:`helixd.link.param`);
+    the facade's methods of the same names delegate to them. Nothing here decides to stop the
+    rover.
     """
 
     def __init__(
@@ -166,6 +160,8 @@ class Autopilot:
         self.telemetry = Telemetry(
             self.state, self._waiters, self.add_message_listener, self.remove_message_listener
         )
+        self.action = Action(cfg, self.state, self._commands, self._waiters, self._conn)
+        self.param = Param(self._commands)
         self._tasks: set[asyncio.Task[None]] = set()
         self._rerequest: asyncio.Task[None] | None = None
         self._monitor: asyncio.Task[None] | None = None
@@ -410,7 +406,7 @@ class Autopilot:
         None on timeout (:meth:`helixd.link.telemetry.Telemetry.next_pose`)."""
         return await self.telemetry.next_pose(after_rx_s, timeout_s)
 
-    # -- commands -----------------------------------------------------------------------------
+    # -- commands and parameters (the action and param plugins) ----------------------------
 
     async def command_long(
         self,
@@ -421,85 +417,34 @@ class Autopilot:
         ok_results: Collection[int] = (MAV_RESULT_ACCEPTED,),
     ) -> int:
         """MAV_RESULT (one of ``ok_results``); CommandRejected / CommandTimeout otherwise."""
-        return await self._commands.command_long(command, params, timeout_s, retries, ok_results)
+        return await self.action.command_long(command, params, timeout_s, retries, ok_results)
 
     async def arm(self, force: bool = False) -> None:
-        since = time.monotonic()
-        try:
-            await self.command_long(
-                MAV_CMD_COMPONENT_ARM_DISARM, (1, ARM_FORCE_MAGIC if force else 0)
-            )
-        except CommandRejected as exc:
-            text = await self._arm_text(since) or exc.statustext
-            hint = "" if force else "safety.force_arm forces it"
-            raise CommandRejected(exc.command_name, exc.result, text, hint) from None
-        log.info("armed", force=force)
-
-    async def _arm_text(self, since_s: float) -> str | None:
-        """The 'PreArm: …' STATUSTEXT explaining a refusal (it may trail the ack a little)."""
-        deadline = time.monotonic() + self.cfg.statustext_grace_s
-        while True:
-            for prefix in ARM_TEXT_PREFIXES:
-                text = self.state.latest_statustext(prefix, since_s)
-                if text:
-                    return text
-            if not await self._waiters.wait(Change.STATUSTEXT, deadline - time.monotonic()):
-                return None
+        await self.action.arm(force)
 
     async def disarm(
         self, force: bool = False, timeout_s: float | None = None, retries: int | None = None
     ) -> None:
-        await self.command_long(
-            MAV_CMD_COMPONENT_ARM_DISARM, (0, ARM_FORCE_MAGIC if force else 0), timeout_s, retries
-        )
-        log.info("disarmed", force=force)
+        await self.action.disarm(force, timeout_s, retries)
 
     async def set_mode(
         self, name: str, timeout_s: float | None = None, retries: int | None = None
     ) -> None:
-        """MAV_CMD_DO_SET_MODE with a Rover custom mode by name (ValueError if unknown).
-
-        ``timeout_s``/``retries`` override the link's per-try timeout and re-sends (a caller
-        with a deadline, e.g. the fall-back's HOLD request, can keep each call short).
-        """
-        number = mode_number(name)
-        await self.command_long(
-            MAV_CMD_DO_SET_MODE, (MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number), timeout_s, retries
-        )
-        log.info("mode_set", mode=name.upper(), custom_mode=number)
+        """MAV_CMD_DO_SET_MODE by Rover mode name (:meth:`helixd.link.action.Action.set_mode`)."""
+        await self.action.set_mode(name, timeout_s, retries)
 
     async def get_param(
         self, name: str, timeout_s: float | None = None, retries: int | None = None
     ) -> float | None:
-        return await self._commands.get_param(name, timeout_s, retries)
+        return await self.param.get(name, timeout_s, retries)
 
     async def set_param(self, name: str, value: float) -> float:
-        return await self._commands.set_param(name, value)
+        return await self.param.set(name, value)
 
     async def request_gps_origin(self, timeout_s: float) -> tuple[float, float] | None:
         """(lat_deg, lon_deg) of the EKF origin via MAV_CMD_REQUEST_MESSAGE; None if none."""
-        since = time.monotonic()
-        msg_id = int(mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN)
-        try:
-            async with asyncio.timeout(timeout_s):
-                await self.command_long(MAV_CMD_REQUEST_MESSAGE, (msg_id,))
-                st = self.state
-                while st.gps_origin_rx_s is None or st.gps_origin_rx_s < since:
-                    await self._waiters.wait(Change.GPS_ORIGIN, timeout_s)
-                return st.gps_origin
-        except (TimeoutError, CommandError) as exc:
-            log.warning("gps_origin_unavailable", error=str(exc) or "timeout")
-            return None
-
-    # -- RC override --------------------------------------------------------------------------
+        return await self.action.request_gps_origin(timeout_s)
 
     def send_rc_override(self, channels_us: Sequence[int]) -> None:
         """RC_CHANNELS_OVERRIDE with 18 raw values (0/65535/65534 semantics are the caller's)."""
-        if len(channels_us) != RC_OVERRIDE_CHANNELS:
-            raise ValueError(
-                f"RC override needs {RC_OVERRIDE_CHANNELS} values, got {len(channels_us)}"
-            )
-        values = tuple(map(int, channels_us))
-        if min(values) < 0 or max(values) > UINT16_MAX:
-            raise ValueError(f"RC override values must be 0..{UINT16_MAX}, got {list(values)}")
-        self._conn.send_rc_override(self.cfg.target_system, self.cfg.target_component, values)
+        self.action.send_rc_override(channels_us)
