@@ -14,7 +14,8 @@ scroll fractions and the navigator's output) out, no send and no callback. The c
 first; what the recorder and the display need (:class:`StepReport`) is handed over after the
 send, so building the flight.csv row and the progress line costs nothing on the latency path
 (:mod:`helixd.flight_report` builds them). The safety supervisor
-(:class:`helixd.safety.watchdogs.SafetyMonitor`) owns the watchdogs.
+(:class:`helixd.safety.supervisor.Supervisor`) owns the watchdogs: the loop asks it once per
+tick, before any command.
 
 Hostile telemetry: while the vehicle state reports rejected pose telemetry (an invalid-pose
 burst), the loop commands neutral at its next tick and steps nothing; the ``pose_invalid``
@@ -48,7 +49,8 @@ from helixd.frames import MissionFrame, NedPose
 from helixd.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.link.connection import Autopilot
 from helixd.mission import Plan
-from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonitor
+from helixd.safety.supervisor import Motion, Supervisor
+from helixd.safety.watchdogs import Fault, FaultCause
 from helixd.signals import StopRequest
 from helixd.vehicle import PoseSample
 
@@ -132,7 +134,7 @@ class FlightLoop:
         self.on_arrival = on_arrival
         self.on_tick = on_tick
         self.navigator = Navigator(plan, cfg.control)
-        self.monitor = SafetyMonitor(cfg.safety)
+        self.supervisor = Supervisor(cfg.safety, start_ned, MANUAL_MODE)  # owns the watchdogs
         # The ceiling only thins out a pose flood, counted in autopilot time (pose
         # time_boot_ms), so a simulator speed-up does not lower the control rate the rover
         # sees; a pose at the ceiling rate arriving a little early (sample jitter) is still
@@ -175,7 +177,9 @@ class FlightLoop:
                         out,
                         pose.ned if pose else None,
                     )
-                fault = self.monitor.check(self._inputs(now, t_start, pose))
+                fault = self.supervisor.check(
+                    now, self.ap.state, pose, self._motion(now, t_start, pose)
+                )
                 if fault is not None:
                     return FlightResult(fault, now, out, pose.ned if pose else None)
                 try:
@@ -326,32 +330,10 @@ class FlightLoop:
             return wall_s
         return max(wall_s, pose.time_boot_ms / 1000.0 - self._t_boot_start_s)
 
-    def _inputs(self, now: float, t_start: float, pose: PoseSample | None) -> SafetyInputs:
-        st = self.ap.state
-        ekf = st.ekf
-        ekf_healthy = None if ekf is None else ekf.healthy
-        return SafetyInputs(
-            now_s=now,
-            last_heartbeat_s=st.last_heartbeat_s,
-            pose_rx_s=pose.rx_monotonic_s if pose else None,
-            ekf_healthy=ekf_healthy,
-            # the text only matters when the watchdog reports it: not built while healthy
-            ekf_detail="" if ekf is None or ekf_healthy else ekf.describe(),
-            mode=st.mode,
-            expected_mode=MANUAL_MODE,
-            armed=st.armed,
-            rc_inputs_us=st.rc_inputs_us,
-            north_m=pose.ned.north_m if pose else None,
-            east_m=pose.ned.east_m if pose else None,
-            start_north_m=self.start_ned.north_m,
-            start_east_m=self.start_ned.east_m,
-            mission_elapsed_s=self._mission_elapsed_s(now - t_start, pose),
+    def _motion(self, now: float, t_start: float, pose: PoseSample | None) -> Motion:
+        return Motion(
             commanded_speed_mps=self._cmd_speed_mps,
-            measured_speed_mps=math.hypot(pose.vn_mps, pose.ve_mps) if pose else 0.0,
             commanded_yaw_rate_radps=self._cmd_yaw_rate_radps,
             measured_yaw_rate_radps=self._meas_yaw_rate_radps,
-            rc_receiver_healthy=st.rc_receiver_healthy,
-            pose_invalid_since_s=st.pose_invalid_since_s,
-            pose_invalid_detail=st.pose_invalid_reason,
-            vehicle_time_s=pose.time_boot_ms / 1000.0 if pose else None,
+            mission_elapsed_s=self._mission_elapsed_s(now - t_start, pose),
         )
