@@ -704,9 +704,8 @@ def _pooled(mask: npt.NDArray[np.bool_], step: int) -> npt.NDArray[np.bool_]:
     rows, cols = mask.shape
     pr, pc = -rows % step, -cols % step
     padded = np.pad(mask, ((0, pr), (0, pc)))
-    out: npt.NDArray[np.bool_] = padded.reshape(
-        padded.shape[0] // step, step, padded.shape[1] // step, step
-    ).any(axis=(1, 3))
+    blocks = padded.reshape(padded.shape[0] // step, step, padded.shape[1] // step, step)
+    out: npt.NDArray[np.bool_] = np.asarray(blocks.any(axis=(1, 3)), dtype=np.bool_)
     return out
 
 
