@@ -21,10 +21,10 @@ import math
 from collections.abc import Iterable, Mapping
 
 from helixd.config import ChannelConfig
+from helixd.mavconst import UINT16_MAX
 
 RC_OVERRIDE_CHANNELS = 18
 FIRST_EXTENDED_CHANNEL = 9  # channels 9..18 use the second set of semantics
-UINT16_MAX = 65535
 
 
 def neutral_pwm(ch: ChannelConfig) -> int:
