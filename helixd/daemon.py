@@ -50,11 +50,12 @@ from helixd.frames import MissionFrame, NedPose
 from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
+from helixd.link.tlog import attach_tlog
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
 from helixd.mission.validate import mission_problems
 from helixd.notify import ServiceNotifier
 from helixd.recorder.rows import FlightRow
-from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
+from helixd.recorder.rundir import TLOG_FILE, RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
 from helixd.safety.supervisor import fall_back
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause, pose_invalid_fault
@@ -298,6 +299,9 @@ class MissionRunner:
     async def _connect(self, held: Held) -> Autopilot:
         ap = await Autopilot.connect(self.cfg.link, self.cfg.safety)
         held.ap = ap
+        run_dir = self.recorder.run_dir if self.recorder is not None else None
+        if run_dir is not None and self.cfg.link.tlog_enabled:
+            attach_tlog(ap, run_dir / TLOG_FILE, self.cfg.link.tlog_max_bytes)
         await self._until_stopped(ap.wait_heartbeat(self.cfg.safety.connect_timeout_s))
         ap.start_heartbeat()
         ap.feed()
