@@ -21,6 +21,7 @@ from helixd.link.mission import (
     MAV_MISSION_TYPE_MISSION,
     Download,
     MissionItem,
+    MissionTransferError,
     Upload,
     run_transfer,
 )
@@ -41,6 +42,9 @@ MISSION_MESSAGES = frozenset(
      "MISSION_REQUEST_INT", "MISSION_ACK"}
 )  # fmt: skip
 QUEUE_MAX = 256  # a transfer has at most a few messages in flight; older ones are dropped
+MAV_SEVERITY_WARNING = 4
+TEXTS_KEPT = 16
+TEXT_MAX_CHARS = 200
 
 
 class MissionHost(Protocol):
@@ -70,14 +74,44 @@ class AutopilotMissionLink:
         self._send = send
         self._queue: asyncio.Queue[MavMsg] = asyncio.Queue(QUEUE_MAX)
         self.dropped = 0
+        self.texts: list[str] = []  # the vehicle's warnings (and worse) during the transfer
+        self._text_seen = asyncio.Event()
 
     def _put(self, msg: MavMsg, rx_s: float) -> None:
-        if msg.get_type() not in MISSION_MESSAGES:
+        kind = msg.get_type()
+        if kind == "STATUSTEXT":
+            self._note_text(msg)
+            return
+        if kind not in MISSION_MESSAGES:
             return
         if self._queue.full():
             self._queue.get_nowait()
             self.dropped += 1
         self._queue.put_nowait(msg)
+
+    def _note_text(self, msg: MavMsg) -> None:
+        try:
+            severity, text = int(msg.severity), str(msg.text).strip()
+        except (AttributeError, TypeError, ValueError):
+            return
+        if severity <= MAV_SEVERITY_WARNING and text:
+            self.texts.append(text[:TEXT_MAX_CHARS])
+            del self.texts[:-TEXTS_KEPT]
+            self._text_seen.set()
+
+    async def refusal_text(self, since: int, grace_s: float) -> str | None:
+        """The first warning the vehicle sent after ``len(texts) == since`` (ArduPilot sends it
+        right after the refusing MISSION_ACK), waiting at most ``grace_s`` for it."""
+        if len(self.texts) <= since and grace_s > 0:
+            self._text_seen.clear()
+            try:
+                async with asyncio.timeout(grace_s):
+                    while len(self.texts) <= since:
+                        await self._text_seen.wait()
+                        self._text_seen.clear()
+            except TimeoutError:
+                return None
+        return self.texts[since] if len(self.texts) > since else None
 
     def __enter__(self) -> AutopilotMissionLink:
         self._host.add_message_listener(self._put)
@@ -107,6 +141,19 @@ class Downloaded:
     fence: tuple[MissionItem, ...]
 
 
+async def transfer(
+    link: AutopilotMissionLink, t: Upload | Download, grace_s: float
+) -> Upload | Download:
+    """:func:`run_transfer`; a refusal carries the vehicle's warning that explains it."""
+    since = len(link.texts)
+    try:
+        return await run_transfer(t, link)
+    except MissionTransferError as exc:
+        if exc.result is not None:
+            exc.vehicle_text = await link.refusal_text(since, grace_s)
+        raise
+
+
 def _ids(cfg: LinkConfig) -> dict[str, Any]:
     return {
         "target_system": cfg.target_system,
@@ -124,11 +171,12 @@ async def download_all(
     :class:`helixd.link.mission.MissionTransferError`."""
     ids = _ids(host.cfg)
     with AutopilotMissionLink(host, send) as link:
-        m = await run_transfer(Download(MAV_MISSION_TYPE_MISSION, **ids), link)
+        grace_s = host.cfg.statustext_grace_s
+        m = await transfer(link, Download(MAV_MISSION_TYPE_MISSION, **ids), grace_s)
         log.info("mission_downloaded", mission_type="mission", items=len(m.items))
         f_items: tuple[MissionItem, ...] = ()
         if fence:
-            f = await run_transfer(Download(MAV_MISSION_TYPE_FENCE, **ids), link)
+            f = await transfer(link, Download(MAV_MISSION_TYPE_FENCE, **ids), grace_s)
             f_items = f.items
             log.info("mission_downloaded", mission_type="fence", items=len(f_items))
     return Downloaded(m.items, f_items)
@@ -144,8 +192,9 @@ async def upload_all(
     does for a plan without one. Raises :class:`helixd.link.mission.MissionTransferError`."""
     ids = _ids(host.cfg)
     with AutopilotMissionLink(host, send) as link:
-        await run_transfer(Upload(mission, MAV_MISSION_TYPE_MISSION, **ids), link)
+        grace_s = host.cfg.statustext_grace_s
+        await transfer(link, Upload(mission, MAV_MISSION_TYPE_MISSION, **ids), grace_s)
         log.info("mission_uploaded", mission_type="mission", items=len(mission))
         if fence is not None:
-            await run_transfer(Upload(fence, MAV_MISSION_TYPE_FENCE, **ids), link)
+            await transfer(link, Upload(fence, MAV_MISSION_TYPE_FENCE, **ids), grace_s)
             log.info("mission_uploaded", mission_type="fence", items=len(fence))
