@@ -393,8 +393,9 @@ def upload(
 ) -> None:
     """Write a mission (and a .plan's geofence) to the autopilot over MAVLink, as QGC does.
 
-    A .plan replaces the autopilot's fence too (an empty one when the plan has none); a
-    .waypoints or helixd .yaml leaves the fence as it is."""
+    A .plan also replaces the autopilot's fence (empty if the plan has none).
+
+    A .waypoints or helixd .yaml file leaves the fence as it is."""
     from helixd.link.mission_link import autopilot_sender, upload_all
     from helixd.mission.formats.wire import gcs_to_wire
 

@@ -43,6 +43,7 @@ MISSION_MESSAGES = frozenset(
 )  # fmt: skip
 QUEUE_MAX = 256  # a transfer has at most a few messages in flight; older ones are dropped
 MAV_SEVERITY_WARNING = 4
+TYPE_NAMES = {MAV_MISSION_TYPE_MISSION: "mission", MAV_MISSION_TYPE_FENCE: "fence"}
 TEXTS_KEPT = 16
 TEXT_MAX_CHARS = 200
 
@@ -149,6 +150,8 @@ async def transfer(
     try:
         return await run_transfer(t, link)
     except MissionTransferError as exc:
+        kind = TYPE_NAMES.get(t.mission_type, "mission")
+        exc.args = (f"{kind} {exc.args[0]}", *exc.args[1:])  # "fence upload refused: ..."
         if exc.result is not None:
             exc.vehicle_text = await link.refusal_text(since, grace_s)
         raise

@@ -137,7 +137,7 @@ def test_upload_too_many_items_is_refused_by_name(tmp_path: Path) -> None:
     assert "Traceback" not in res.stderr
     lines = res.stderr.strip().splitlines()
     assert [ln for ln in lines if ln.startswith("error:")] == [
-        f"error: {url}: upload refused: MAV_MISSION_NO_SPACE "
+        f"error: {url}: mission upload refused: MAV_MISSION_NO_SPACE "
         "(autopilot: Only 700 items are supported)"
     ]
     assert len(snap.mission_items) == 4  # the earlier mission is kept, untouched

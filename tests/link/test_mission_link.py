@@ -127,7 +127,7 @@ def test_a_refusal_names_the_result_and_the_vehicles_text() -> None:
             await upload_all(host, host.send, items(5), None)
         assert err.value.result == 4
         assert str(err.value) == (
-            "upload refused: MAV_MISSION_NO_SPACE (autopilot: Only 4 items are supported)"
+            "mission upload refused: MAV_MISSION_NO_SPACE (autopilot: Only 4 items are supported)"
         )
         assert host.sent == ["MISSION_COUNT"]  # nothing more after the refusal
 
@@ -137,7 +137,9 @@ def test_a_refusal_names_the_result_and_the_vehicles_text() -> None:
 def test_silence_fails_after_the_retries() -> None:
     async def main() -> None:
         host = Host()  # nobody answers
-        with pytest.raises(MissionTransferError, match="no answer after 2 retries") as err:
+        with pytest.raises(
+            MissionTransferError, match=r"^mission download .* no answer after 2 retries"
+        ) as err:
             await download_all(host, host.send)
         assert err.value.result is None and err.value.vehicle_text is None
         assert host.sent.count("MISSION_REQUEST_LIST") == 3
