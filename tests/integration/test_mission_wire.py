@@ -110,6 +110,13 @@ def test_plan_upload_then_download_gives_it_back(tmp_path: Path) -> None:
         flat(sent.polygons[0].vertices_latlon_deg), abs=1e-7
     )
     assert "DO_SET_CAM_TRIGG_DIST cannot be flown" in down_yaml.stderr
+    # the downloaded .plan feeds `mission convert` like any QGC file
+    conv = helixd(
+        "mission", "convert", back, tmp_path / "conv.waypoints", "--mode", "roll",
+        "--skip-unsupported",
+    )  # fmt: skip
+    assert conv.returncode == 0, conv.stderr
+    assert f"{n_wp} waypoints" in conv.stdout
     # without OUT: a summary on stdout
     assert summary.returncode == 0, summary.stderr
     assert f"mission : {len(sent.items)} items" in summary.stdout
