@@ -416,6 +416,12 @@ def upload(
     fence = wire.fence if fmt is MissionFormat.PLAN else None
 
     async def body(ap: Autopilot) -> None:
+        if ap.state.armed:
+            typer.echo(
+                f"warning: the autopilot is armed (mode {ap.state.mode}): in AUTO it follows "
+                "the new mission at once",
+                err=True,
+            )
         await upload_all(ap, autopilot_sender(ap), wire.mission, fence)
 
     _run_on_link(cfg, link, body)

@@ -23,7 +23,16 @@ from helixd.exitcodes import ExitCode
 from helixd.mission.formats import read_gcs
 from helixd.mission.formats.items import GcsMission, MissionItem
 from helixd.sim.config import HELIXD_SYSID
-from tests.integration.harness import free_udp_port, running_sim, sim_and_daemon, wait_moving
+from tests.integration.harness import (
+    FORCE_ARM,
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_RESULT_ACCEPTED,
+    client,
+    free_udp_port,
+    running_sim,
+    sim_and_daemon,
+    wait_moving,
+)
 
 pytestmark = pytest.mark.integration
 
@@ -148,6 +157,20 @@ def test_upload_too_many_items_is_refused_by_name(tmp_path: Path) -> None:
         "(autopilot: Only 700 items are supported)"
     ]
     assert len(snap.mission_items) == 4  # the earlier mission is kept, untouched
+
+
+def test_upload_to_an_armed_autopilot_warns(tmp_path: Path) -> None:
+    small = waypoints_file(tmp_path / "small.waypoints", 3)
+    with running_sim(speedup=5.0) as (server, url):
+        server.wait_for(lambda s: not s.booting and s.mode == "MANUAL", 20.0)
+        with client(url) as c:
+            assert c.command(MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM) == MAV_RESULT_ACCEPTED
+        server.wait_for(lambda s: s.armed, 10.0)
+        res = helixd("mission", "upload", small, "--connect", url)
+        snap = server.snapshot()
+    assert res.returncode == 0, res.stderr
+    assert "warning: the autopilot is armed (mode MANUAL)" in res.stderr
+    assert len(snap.mission_items) == 4
 
 
 def test_no_autopilot_exits_as_a_link_error(tmp_path: Path) -> None:
