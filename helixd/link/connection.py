@@ -42,6 +42,7 @@ from helixd.link.codec import (
     LinkStats,
     MavlinkConnection,
 )
+from helixd.link.tlog import LinkTlog
 from helixd.link.commands import (
     AckStats,
     CommandClient,
@@ -503,3 +504,17 @@ class Autopilot:
         if min(values) < 0 or max(values) > UINT16_MAX:
             raise ValueError(f"RC override values must be 0..{UINT16_MAX}, got {list(values)}")
         self._conn.send_rc_override(self.cfg.target_system, self.cfg.target_component, values)
+
+    # -- raw messages and the link log --------------------------------------------------------
+
+    def send_message(self, msg: MavMsg) -> bool:
+        """Send one pymavlink message as it is (our system/component ids, the link's sequence,
+        signed when the link is). Never blocks; False when the transport dropped it (full
+        socket buffer, link down) — the caller decides whether that matters."""
+        sent: bool = self._conn.send(msg)
+        return sent
+
+    def attach_tlog(self, tlog: LinkTlog | None) -> None:
+        """Record every frame sent and read to ``tlog`` from now on (None stops recording);
+        see :func:`helixd.link.tlog.attach_tlog`."""
+        self._conn.tlog = tlog

@@ -59,10 +59,8 @@ class MissionHost(Protocol):
 
 
 def autopilot_sender(ap: Any) -> Callable[[MavMsg], bool]:
-    """The link's raw send. The Autopilot facade has no public ``send`` of an arbitrary
-    message yet (see the report): the codec's is used, in this one place."""
-    conn = ap._conn
-    send: Callable[[MavMsg], bool] = conn.send
+    """The link's raw send: the facade's public :meth:`Autopilot.send_message`."""
+    send: Callable[[MavMsg], bool] = ap.send_message
     return send
 
 

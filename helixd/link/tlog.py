@@ -185,9 +185,8 @@ def attach_tlog(ap: Any, path: Path, max_bytes: int) -> LinkTlog:
     """Log every frame of an open :class:`helixd.link.connection.Autopilot`'s link to ``path``
     (closed with the link). Call it right after ``Autopilot.connect`` in the event loop.
 
-    The facade has no hook for it yet, so the codec's ``tlog`` attribute is set here, in
-    this one place."""
+    Attached through the facade's public :meth:`Autopilot.attach_tlog`."""
     tlog = LinkTlog(TlogWriter(path, max_bytes))
-    ap._conn.tlog = tlog
+    ap.attach_tlog(tlog)
     log.info("tlog_open", path=str(path), max_bytes=max_bytes, active=tlog.writer.active)
     return tlog
