@@ -47,6 +47,7 @@ from helixd.flight import (
 )
 from helixd.flight_report import flight_row, rejected_progress, step_progress
 from helixd.frames import MissionFrame, NedPose
+from helixd.gcs_feed import GcsFeed, report_fallback
 from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
@@ -268,6 +269,7 @@ class MissionRunner:
         self.recorder: RunRecorder | None = None
         self.summary = SummaryBuilder()
         self.messages: list[str] = []
+        self.gcs = GcsFeed(self.cfg.gcs_report)  # what the ground station sees (helixd.gcs_feed)
 
     # -- helpers ------------------------------------------------------------------------------
 
@@ -299,6 +301,7 @@ class MissionRunner:
     async def _connect(self, held: Held) -> Autopilot:
         ap = await Autopilot.connect(self.cfg.link, self.cfg.safety)
         held.ap = ap
+        self.gcs.start(ap.send_message)
         run_dir = self.recorder.run_dir if self.recorder is not None else None
         if run_dir is not None and self.cfg.link.tlog_enabled:
             attach_tlog(ap, run_dir / TLOG_FILE, self.cfg.link.tlog_max_bytes)
@@ -484,6 +487,7 @@ class MissionRunner:
         async with self._feeding(held):
             async with phase("connect", self.notifier, self.display):
                 ap = await self._connect(held)
+            self.gcs.phase("preflight")
             async with phase("preflight", self.notifier, self.display):
                 checked = await self._preflight(ap)
             # READY once preflight passed: the start gate may wait minutes for the pilot, and
@@ -500,6 +504,7 @@ class MissionRunner:
                 await sink.start()
             async with phase("arm", self.notifier, self.display):
                 await self._until_stopped(self._arm(ap, held))
+            self.gcs.phase("armed")
             start_ned = self._start_pose(checked, await self._fresh_pose(ap), ap)
         frame = (
             MissionFrame.start_at(start_ned)
@@ -533,6 +538,7 @@ class MissionRunner:
         ap = ready.ap
 
         def on_step(report: StepReport) -> None:  # after the command left
+            self.gcs.progress(report.step.nav.cross_track_m, report.step.nav.target_index)
             self._on_row(flight_row(report, plan))
             self.display.update(lambda: step_progress(report, plan))  # built only if shown
 
@@ -548,6 +554,7 @@ class MissionRunner:
             if self.recorder is not None:
                 self.recorder.maybe_flush()
 
+        self.gcs.phase(f"fly {self.opts.mission.name}: {total} waypoints")
         async with phase("fly", self.notifier, self.display):
             result = await FlightLoop(
                 cfg=self.cfg,
@@ -649,10 +656,12 @@ class MissionRunner:
         self.notifier.stopping()
         ap = held.ap
         touched = held.sink is not None or held.armed_by_us
+        if ending.fault is not None:
+            self.gcs.fault(ending.fault.cause.value, ending.fault.detail)
         if ap is not None and touched:
             pose = ending.last_pose or (ap.state.pose.ned if ap.state.pose else None)
             async with phase("stop", self.notifier, self.display):
-                await fall_back(
+                secured = await fall_back(
                     ending.fault,
                     sink=held.sink,
                     autopilot=ap,
@@ -662,6 +671,10 @@ class MissionRunner:
                     disarm=(held.armed_by_us and ending.code is ExitCode.OK) or None,
                     abandon=lambda: self.stop.forced,
                 )
+            report_fallback(self.gcs, secured)
+        if ending.code is ExitCode.OK:
+            self.gcs.phase("mission complete")
+        await self.gcs.close()
         if held.sink is not None:
             await self._bounded_close("sink", held.sink.close())
         if ap is not None:
@@ -717,6 +730,7 @@ class MissionRunner:
             self.recorder.record(row)
 
     def _on_arrival(self, index: int, total: int, t_boot_s: float, error_m: float) -> None:
+        self.gcs.waypoint(index, total)
         self.summary.arrival(index, t_boot_s, error_m)
         start = self.summary.start_t_boot_s
         log.info(

@@ -42,7 +42,6 @@ from helixd.link.codec import (
     LinkStats,
     MavlinkConnection,
 )
-from helixd.link.tlog import LinkTlog
 from helixd.link.commands import (
     AckStats,
     CommandClient,
@@ -56,6 +55,7 @@ from helixd.link.signing import load_signing_key
 from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
 from helixd.link.telemetry import ChangeWaiters, Telemetry
+from helixd.link.tlog import LinkTlog
 from helixd.link.transport import Address, Transport, make_transport
 from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
 from helixd.mavconst import (
