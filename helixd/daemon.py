@@ -60,6 +60,7 @@ from helixd.recorder.rundir import TLOG_FILE, RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
 from helixd.safety.supervisor import fall_back
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause, pose_invalid_fault
+from helixd.show_plan import show_plan
 from helixd.signals import StopRequest, install, uninstall
 from helixd.vehicle import TelemetryBounds
 
@@ -96,6 +97,7 @@ class RunOptions:
     connect_url: str
     run_root: Path
     tty: bool
+    show_plan: bool = False  # upload the resolved plan for the GCS to draw (helixd.show_plan)
 
 
 @dataclass
@@ -369,6 +371,14 @@ class MissionRunner:
             self.summary.set_origin(*origin)
         return Checked(pose, origin, plan)
 
+    async def _show_plan(self, ap: Autopilot, checked: Checked) -> None:
+        timeout_s = self.cfg.link.command_timeout_s * 3
+        warning = await self._until_stopped(
+            show_plan(ap, checked.plan, checked.start_ned, checked.origin, timeout_s)
+        )
+        if warning is not None:
+            self.messages.append(f"warning: {warning}")
+
     def _pose_invalid_too_long(self, ap: Autopilot) -> Fault | None:
         """Pose telemetry rejected for longer than the stale limit (as the watchdog)."""
         st = ap.state
@@ -490,6 +500,8 @@ class MissionRunner:
             self.gcs.phase("preflight")
             async with phase("preflight", self.notifier, self.display):
                 checked = await self._preflight(ap)
+            if self.opts.show_plan:  # for the GCS to draw; never flown (helixd.show_plan)
+                await self._show_plan(ap, checked)
             # READY once preflight passed: the start gate may wait minutes for the pilot, and
             # systemd's TimeoutStartSec must not kill that wait; the watchdog runs from here on.
             self.notifier.ready("preflight passed")
