@@ -54,7 +54,8 @@ MissionOpt = Annotated[
         "--mission",
         "-m",
         help="mission YAML file; a bare name such as square.yaml is also looked up in "
-        "config/missions/ and /etc/helixd/missions/",
+        "config/missions/ and /etc/helixd/missions/; `run --mission autopilot` flies the "
+        "mission the autopilot holds",
     ),
 ]
 ModeOpt = Annotated[
