@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -37,6 +38,7 @@ if TYPE_CHECKING:
     from helixd.planning.mapfile import OccupancyMap
     from helixd.planning.route import RoutePlan
     from helixd.sim.obstacles import SimObstacles
+    from helixd.sim.server import SimServer
 
 app = typer.Typer(
     name="helixd",
@@ -56,7 +58,8 @@ MissionOpt = Annotated[
         "--mission",
         "-m",
         help="mission YAML file; a bare name such as square.yaml is also looked up in "
-        "config/missions/ and /etc/helixd/missions/",
+        "config/missions/ and /etc/helixd/missions/; `run --mission autopilot` flies the "
+        "mission the autopilot holds",
     ),
 ]
 ModeOpt = Annotated[
@@ -136,19 +139,28 @@ def load_inputs(
         problems.extend(exc.problems)
     checked: tuple[Plan, bool] | None = None
     if cfg is not None and msn is not None:
-        try:
-            with paused_gc():  # large acyclic plan: see yamlio.paused_gc
-                checked = plan_for_check(msn, cfg)
-        except PlanError as exc:
-            problems.append(f"{path}: {exc}")
-        else:
-            refused = mission_problems(msn, cfg, checked_plan=checked)
-            problems.extend(f"{path}: {p}" for p in refused)
+        checked = mission_vs_config(cfg, msn, str(path), problems)
     if problems or cfg is None or msn is None or checked is None:
         raise fail(problems, ExitCode.USAGE)
     # the mission's own fence/time limit (a survey's) replace the config's for this run
     cfg = apply_mission_limits(cfg, msn)
     return cfg, msn, path, checked
+
+
+def mission_vs_config(
+    cfg: HelixdConfig, msn: Mission, label: str, problems: list[str]
+) -> tuple[Plan, bool] | None:
+    """The plan as :func:`plan_for_check` resolves it, and the mission-vs-config checks
+    (what can be checked without the vehicle); problems are appended, prefixed by ``label``."""
+    try:
+        with paused_gc():  # large acyclic plan: see yamlio.paused_gc
+            checked = plan_for_check(msn, cfg)
+    except PlanError as exc:
+        problems.append(f"{label}: {exc}")
+        return None
+    refused = mission_problems(msn, cfg, checked_plan=checked)
+    problems.extend(f"{label}: {p}" for p in refused)
+    return checked
 
 
 def plan_inputs(
@@ -454,15 +466,28 @@ def run(
     map_path: MapOpt = None,
     mode: ModeOpt = None,
     skip_unsupported: SkipOpt = False,
+    show_plan: Annotated[
+        bool,
+        typer.Option(
+            "--show-plan",
+            help="upload the resolved plan as the autopilot's mission so the ground station "
+            "draws the path (helixd never switches to AUTO, so ArduPilot never flies it)",
+        ),
+    ] = False,
 ) -> None:
-    """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD."""
-    import asyncio
+    """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
-    from helixd.daemon import RunOptions, run_mission
-    from helixd.logging_setup import configure_logging
+    ``--mission autopilot`` flies the mission the autopilot holds (downloaded over MAVLink)."""
+    from helixd.cli_autopilot import wants_autopilot
 
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
+    if wants_autopilot(mission):
+        _run_autopilot_mission(
+            config, connect, sim, SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise),
+            run_dir, log_level, map_path, mode, skip_unsupported, show_plan,
+        )  # fmt: skip
+        return  # not reached: it exits with the run's code
     cfg, msn, mission_path, _ = load_inputs(config, mission, mode, skip_unsupported)
     url = check_connect(connect, cfg)
     try:
@@ -473,43 +498,140 @@ def run(
     except (OSError, UnicodeDecodeError) as exc:
         raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
     occupancy = load_occupancy(cfg, map_path)
-    planned, route = plan_loaded(cfg, msn, mission_path, occupancy)
-    replan_from = None
-    if route is not None:  # fly (and record) the mission with the planned waypoints
-        from helixd.planning.route import planned_mission_yaml
-
-        replan_from = first_leg_replanner(cfg, msn, planned, route)
-        msn, mission_yaml = planned, planned_mission_yaml(planned, route, map_path)
-        echo_route(route)
-    tty = sys.stderr.isatty()
-    configure_logging(tty=tty, level=log_level)
+    flight = _planned(cfg, msn, mission_yaml, mission_path, occupancy)  # refusals before a sim
     server = None
     if sim:
-        from helixd.sim import SimConfig, start_embedded
-
-        sim_cfg = SimConfig(
-            speedup=sim_speedup,
-            terrain=sim_terrain,
-            noise=sim_noise,
-            plant=sim_plant,
-            obstacles=sim_world(cfg, occupancy, mission_path),
-        )
-        server, url = start_embedded(sim_cfg)
-    cfg = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})
-    opts = RunOptions(
-        cfg=cfg,
-        mission=msn,
-        mission_yaml=mission_yaml,
-        connect_url=url,
-        run_root=run_dir or cfg.recorder.run_root,
-        tty=tty,
-        replan_from=replan_from,
-    )
+        sim_choice = SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise)
+        server, url = _start_sim(sim_choice, sim_world(cfg, occupancy, mission_path))
     try:
-        outcome = asyncio.run(run_mission(opts))
+        _fly(cfg, flight, url, run_dir, log_level, show_plan)
     finally:
         if server is not None:
             server.stop()
+
+
+@dataclass(frozen=True)
+class SimChoice:
+    speedup: float
+    terrain: Terrain
+    plant: Plant
+    noise: NoiseLevel
+
+
+def _start_sim(choice: SimChoice, world: SimObstacles) -> tuple[SimServer, str]:
+    from helixd.sim import SimConfig, start_embedded
+
+    sim_cfg = SimConfig(
+        speedup=choice.speedup,
+        terrain=choice.terrain,
+        noise=choice.noise,
+        plant=choice.plant,
+        obstacles=world,
+    )
+    return start_embedded(sim_cfg)
+
+
+def _run_autopilot_mission(
+    config: Path | None,
+    connect: str | None,
+    sim: bool,
+    sim_choice: SimChoice,
+    run_dir: Path | None,
+    log_level: str,
+    map_path: Path | None,
+    mode: MotionMode | None,
+    skip_unsupported: bool,
+    show_plan: bool,
+) -> None:
+    """``run --mission autopilot``: download, convert and check the autopilot's mission, then
+    fly it as any other (see :mod:`helixd.cli_autopilot`). Refusals exit 3."""
+    from helixd.cli_autopilot import AUTOPILOT_MISSION, fetch_autopilot_mission
+
+    try:
+        cfg = load_config(config)
+    except ConfigFileError as exc:
+        raise fail(exc.problems, ExitCode.USAGE) from None
+    url = check_connect(connect, cfg)
+    occupancy = load_occupancy(cfg, map_path)
+    server = None
+    if sim:
+        server, url = _start_sim(sim_choice, sim_world(cfg, occupancy))
+    try:
+        got = fetch_autopilot_mission(cfg, url, mode, skip_unsupported)
+        msn = got.mission
+        problems: list[str] = []
+        checked = mission_vs_config(cfg, msn, got.source, problems)
+        if problems or checked is None:
+            raise fail(problems, ExitCode.PREFLIGHT)
+        cfg = apply_mission_limits(cfg, msn)
+        mission_yaml = mission_to_yaml(msn)  # the run directory records what was downloaded
+        flight = _planned(cfg, msn, mission_yaml, Path(AUTOPILOT_MISSION), occupancy)
+        _fly(cfg, flight, url, run_dir, log_level, show_plan)
+    finally:
+        if server is not None:
+            server.stop()
+
+
+@dataclass(frozen=True)
+class _Flight:
+    """What is flown: the mission (planned around obstacles when there are any), the text the
+    run directory records, and the first-leg re-planner for the daemon's preflight."""
+
+    mission: Mission
+    mission_yaml: str
+    replan_from: Callable[[tuple[float, float], tuple[float, float] | None], Mission] | None
+
+
+def _planned(
+    cfg: HelixdConfig,
+    msn: Mission,
+    mission_yaml: str,
+    mission_path: Path,
+    occupancy: OccupancyMap | None,
+) -> _Flight:
+    """Plan around the map and keep-outs (refusals exit 2) and print the legs."""
+    planned, route = plan_loaded(cfg, msn, mission_path, occupancy)
+    if route is None:
+        return _Flight(msn, mission_yaml, None)
+    from helixd.planning.route import planned_mission_yaml
+
+    map_path = None if occupancy is None else occupancy.source
+    echo_route(route)
+    return _Flight(
+        planned,
+        planned_mission_yaml(planned, route, map_path),
+        first_leg_replanner(cfg, msn, planned, route),
+    )
+
+
+def _fly(
+    cfg: HelixdConfig,
+    flight: _Flight,
+    url: str,
+    run_dir: Path | None,
+    log_level: str,
+    show_plan: bool,
+) -> None:
+    """Run the daemon; exits with its code."""
+    import asyncio
+
+    from helixd.daemon import RunOptions, run_mission
+    from helixd.logging_setup import configure_logging
+
+    tty = sys.stderr.isatty()
+    configure_logging(tty=tty, level=log_level)
+    cfg = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})
+    opts = RunOptions(
+        cfg=cfg,
+        mission=flight.mission,
+        mission_yaml=flight.mission_yaml,
+        connect_url=url,
+        run_root=run_dir or cfg.recorder.run_root,
+        tty=tty,
+        replan_from=flight.replan_from,
+        show_plan=show_plan,
+    )
+    outcome = asyncio.run(run_mission(opts))
     if outcome.run_dir is not None:
         typer.echo(f"run directory: {outcome.run_dir}", err=True)
     for line in outcome.messages:  # the last one is the plain "helixd: RESULT" line

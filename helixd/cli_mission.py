@@ -1,4 +1,5 @@
-"""``helixd mission convert|survey`` and ``helixd export``: ground-station files and surveys.
+"""``helixd mission convert|survey|download|upload`` and ``helixd export``: ground-station
+files, surveys, and the autopilot's stored mission over the MAVLink mission protocol.
 
 Registered on the main app by :func:`register` (one line in :mod:`helixd.cli`).
 """
@@ -6,22 +7,37 @@ Registered on the main app by :func:`register` (one line in :mod:`helixd.cli`).
 from __future__ import annotations
 
 import math
+import sys
+from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 
-from helixd.config import ConfigFileError, load_config
+from helixd.config import ConfigFileError, HelixdConfig, LinkConfig, load_config
 from helixd.exitcodes import ExitCode
 from helixd.mission.formats import (
     FormatError,
+    GcsMission,
+    MissionFormat,
     detect_format,
+    items_to_mission,
     load_mission_file,
     lost_in,
+    mission_to_items,
+    read_gcs,
+    sniff_format,
     write_mission_file,
 )
+from helixd.mission.formats.items import mission_name
 from helixd.mission.model import MotionMode
 from helixd.yamlio import clip_line
+
+if TYPE_CHECKING:
+    from helixd.link.connection import Autopilot
+    from helixd.link.mission_link import Downloaded
+
+T = TypeVar("T")
 
 mission_app = typer.Typer(
     name="mission",
@@ -202,6 +218,217 @@ def survey(
             "another --angle-deg",
             err=True,
         )
+
+
+ConnectOpt = Annotated[
+    str | None, typer.Option("--connect", help="autopilot link (default: link.url)")
+]
+ConfigOpt = Annotated[Path | None, typer.Option("--config", "-c", help="helixd.yaml")]
+
+
+def _link_inputs(config: Path | None, connect: str | None) -> tuple[HelixdConfig, LinkConfig]:
+    from helixd.cli import check_connect
+
+    try:
+        cfg = load_config(config)
+    except ConfigFileError as exc:
+        raise _fail(exc.problems) from None
+    url = check_connect(connect, cfg)
+    return cfg, cfg.link.model_copy(update={"url": url})
+
+
+async def _on_autopilot(
+    cfg: HelixdConfig, link: LinkConfig, body: Callable[[Autopilot], Awaitable[T]]
+) -> T:
+    """Connect, wait for the autopilot's HEARTBEAT, run ``body``, close."""
+    from helixd.link.connection import Autopilot
+
+    ap = await Autopilot.connect(link, cfg.safety)
+    try:
+        await ap.wait_heartbeat(cfg.safety.connect_timeout_s)
+        return await body(ap)
+    finally:
+        await ap.close()
+
+
+def _run_on_link(
+    cfg: HelixdConfig, link: LinkConfig, body: Callable[[Autopilot], Awaitable[T]]
+) -> T:
+    """Run a mission transfer; link errors exit as ``helixd status`` does (LINK), a vehicle's
+    refusal names its MAV_MISSION_RESULT (PREFLIGHT: the autopilot would not take it), a
+    transfer without answers is a link problem (LINK)."""
+    import asyncio
+
+    from helixd.link.mission import MissionTransferError
+    from helixd.link.url import LinkError
+    from helixd.logging_setup import configure_logging
+
+    configure_logging(tty=sys.stderr.isatty(), level="warning")
+    try:
+        return asyncio.run(_on_autopilot(cfg, link, body))
+    except LinkError as exc:
+        raise _fail([str(exc)], ExitCode.LINK) from None
+    except MissionTransferError as exc:
+        code = ExitCode.LINK if exc.result is None else ExitCode.PREFLIGHT
+        raise _fail([f"{link.url}: {exc}"], code) from None
+    except KeyboardInterrupt:
+        raise _fail(["interrupted"], ExitCode.OPERATOR_STOP) from None
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)
+
+
+def describe_gcs(gcs: GcsMission) -> list[str]:
+    """Stdout summary of what the autopilot holds (pure)."""
+    from collections import Counter
+
+    from helixd.mission.formats.items import command_name
+
+    home = gcs.home_latlon_deg
+    lines = [f"home    : {home[0]:.7f}, {home[1]:.7f}" if home else "home    : not set"]
+    counts = Counter(command_name(it.command) for it in gcs.items)
+    kinds = ", ".join(f"{n} {name}" for name, n in counts.most_common()) or "none"
+    lines.append(f"mission : {len(gcs.items)} items ({kinds})")
+    for it in gcs.items:
+        lines.append(
+            f"  {it.seq:4d} {command_name(it.command):22s} frame {it.frame:2d}  "
+            f"x {it.x:.7f}  y {it.y:.7f}  z {it.z:g}"
+        )
+    inc = sum(p.inclusion for p in gcs.polygons) + sum(c.inclusion for c in gcs.circles)
+    exc = len(gcs.polygons) + len(gcs.circles) - inc
+    lines.append(
+        f"fence   : {len(gcs.polygons)} polygons, {len(gcs.circles)} circles "
+        f"({inc} inclusion, {exc} exclusion)"
+    )
+    return lines
+
+
+@mission_app.command("download")
+def download(
+    out: Annotated[
+        Path | None,
+        typer.Argument(help="write to .plan, .waypoints or .yaml; summary on stdout if omitted"),
+    ] = None,
+    connect: ConnectOpt = None,
+    mode: ModeOpt = None,
+    skip_unsupported: Annotated[
+        bool, typer.Option("--skip-unsupported", help=".yaml: leave out items helixd cannot fly")
+    ] = False,
+    config: ConfigOpt = None,
+) -> None:
+    """Read the autopilot's stored mission and fence over MAVLink (MISSION_ITEM_INT)."""
+    from helixd.link.mission_link import autopilot_sender, download_all
+    from helixd.mission.formats.qgc_plan import plan_to_text
+    from helixd.mission.formats.wire import wire_to_gcs
+    from helixd.mission.formats.wpl import wpl_to_text
+
+    fmt = None
+    if out is not None:
+        try:
+            fmt = detect_format(out)
+        except FormatError as exc:
+            raise _fail(exc.problems) from None
+    cfg, link = _link_inputs(config, connect)
+    gs_mode = mode or (
+        MotionMode(cfg.mission.ground_station_mode) if cfg.mission.ground_station_mode else None
+    )
+    if fmt is MissionFormat.YAML and gs_mode is None:
+        raise _fail(
+            [f"{out}: a helixd mission needs a motion mode: give --mode roll|scroll|omni or set "
+             "mission.ground_station_mode in the config"]
+        )  # fmt: skip
+
+    async def body(ap: Autopilot) -> Downloaded:
+        return await download_all(ap, autopilot_sender(ap))
+
+    got = _run_on_link(cfg, link, body)
+    try:
+        gcs, notes = wire_to_gcs(got.mission, got.fence)
+    except FormatError as exc:
+        raise _fail([f"{link.url}: {p}" for p in exc.problems], ExitCode.PREFLIGHT) from None
+    for note in notes:
+        typer.echo(f"warning: {clip_line(note)}", err=True)
+    if out is None or fmt is None:
+        for line in describe_gcs(gcs):
+            typer.echo(line)
+        return
+    try:
+        if fmt is MissionFormat.PLAN:
+            _write_atomic(out, plan_to_text(gcs))
+        elif fmt is MissionFormat.WAYPOINTS:
+            if gcs.polygons or gcs.circles:
+                typer.echo(f"warning: {out}: the format has no place for the fence; left out",
+                           err=True)  # fmt: skip
+            _write_atomic(out, wpl_to_text(gcs))
+        else:
+            assert gs_mode is not None
+            conv = items_to_mission(
+                gcs,
+                name=mission_name(out.stem),
+                mode=gs_mode,
+                skip_unsupported=skip_unsupported,
+                source=link.url,
+            )
+            for line in (*conv.skipped, *conv.notes):
+                typer.echo(f"warning: {clip_line(line)}", err=True)
+            write_mission_file(conv.mission, out)
+    except FormatError as exc:
+        raise _fail(exc.problems) from None
+    except OSError as exc:
+        raise _fail([f"{out}: cannot write: {exc.strerror or exc}"]) from None
+    fence = len(gcs.polygons) + len(gcs.circles)
+    typer.echo(
+        f"{link.url} → {out} ({fmt.value}): {len(gcs.items)} mission items, {fence} fence shapes"
+    )
+
+
+@mission_app.command("upload")
+def upload(
+    src: Annotated[Path, typer.Argument(help="mission file: .plan, .waypoints or .yaml")],
+    connect: ConnectOpt = None,
+    config: ConfigOpt = None,
+) -> None:
+    """Write a mission (and a .plan's geofence) to the autopilot over MAVLink, as QGC does.
+
+    A .plan also replaces the autopilot's fence (empty if the plan has none).
+
+    A .waypoints or helixd .yaml file leaves the fence as it is."""
+    from helixd.link.mission_link import autopilot_sender, upload_all
+    from helixd.mission.formats.wire import gcs_to_wire
+
+    cfg, link = _link_inputs(config, connect)
+    fmt = sniff_format(src)
+    try:
+        if fmt is MissionFormat.YAML:
+            gcs = mission_to_items(load_mission_file(src, cfg.mission).mission)
+        else:
+            gcs = read_gcs(src)
+        wire = gcs_to_wire(gcs)
+    except ConfigFileError as exc:
+        raise _fail(exc.problems) from None
+    except FormatError as exc:
+        raise _fail(
+            [p if p.startswith(str(src)) else f"{src}: {p}" for p in exc.problems]
+        ) from None
+    fence = wire.fence if fmt is MissionFormat.PLAN else None
+
+    async def body(ap: Autopilot) -> None:
+        if ap.state.armed:
+            typer.echo(
+                f"warning: the autopilot is armed (mode {ap.state.mode}): in AUTO it follows "
+                "the new mission at once",
+                err=True,
+            )
+        await upload_all(ap, autopilot_sender(ap), wire.mission, fence)
+
+    _run_on_link(cfg, link, body)
+    what = f"{len(wire.mission) - 1} mission items (+ home)"
+    if fence is not None:
+        what += f" and {len(fence)} fence items"
+    typer.echo(f"{src} → {link.url}: {what} accepted")
 
 
 MIN_COVERAGE = 0.95  # below this, the operator is told (the survey is still written)

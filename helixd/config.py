@@ -987,6 +987,15 @@ class GcsReportConfig(InputModel):
     named_value_rate_hz: float = Field(
         2.0, gt=0.0, le=50.0, description="NAMED_VALUE_FLOAT xtrack_m / wp_index rate (Hz)"
     )
+    tick_hz: float = Field(
+        10.0, ge=1.0, le=50.0, description="how often the daemon's report task sends (Hz)"
+    )
+    final_flush_s: float = Field(
+        1.0,
+        ge=0.0,
+        le=5.0,
+        description="at the end of a run, at most this long (s) to send the last texts",
+    )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -47,17 +47,20 @@ from helixd.flight import (
 )
 from helixd.flight_report import flight_row, rejected_progress, step_progress
 from helixd.frames import MissionFrame, NedPose
+from helixd.gcs_feed import GcsFeed, report_fallback
 from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
+from helixd.link.tlog import attach_tlog
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
 from helixd.mission.validate import apply_mission_limits, mission_problems
 from helixd.notify import ServiceNotifier
 from helixd.recorder.rows import FlightRow
-from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
+from helixd.recorder.rundir import TLOG_FILE, RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
 from helixd.safety.supervisor import fall_back
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause, pose_invalid_fault
+from helixd.show_plan import show_plan
 from helixd.signals import StopRequest, install, uninstall
 from helixd.vehicle import TelemetryBounds
 
@@ -97,6 +100,7 @@ class RunOptions:
     # planning: the mission with its first leg re-planned from the rover's (north_m, east_m)
     # (and the EKF origin's (lat, lon), for a global mission)
     replan_from: Callable[[tuple[float, float], tuple[float, float] | None], Mission] | None = None
+    show_plan: bool = False  # upload the resolved plan for the GCS to draw (helixd.show_plan)
 
 
 @dataclass
@@ -271,6 +275,7 @@ class MissionRunner:
         self.recorder: RunRecorder | None = None
         self.summary = SummaryBuilder()
         self.messages: list[str] = []
+        self.gcs = GcsFeed(self.cfg.gcs_report)  # what the ground station sees (helixd.gcs_feed)
 
     # -- helpers ------------------------------------------------------------------------------
 
@@ -302,6 +307,10 @@ class MissionRunner:
     async def _connect(self, held: Held) -> Autopilot:
         ap = await Autopilot.connect(self.cfg.link, self.cfg.safety)
         held.ap = ap
+        self.gcs.start(ap.send_message)
+        run_dir = self.recorder.run_dir if self.recorder is not None else None
+        if run_dir is not None and self.cfg.link.tlog_enabled:
+            attach_tlog(ap, run_dir / TLOG_FILE, self.cfg.link.tlog_max_bytes)
         await self._until_stopped(ap.wait_heartbeat(self.cfg.safety.connect_timeout_s))
         ap.start_heartbeat()
         ap.feed()
@@ -371,6 +380,14 @@ class MissionRunner:
         if origin is not None:
             self.summary.set_origin(*origin)
         return Checked(pose, origin, plan)
+
+    async def _show_plan(self, ap: Autopilot, checked: Checked) -> None:
+        timeout_s = self.cfg.link.command_timeout_s * 3
+        warning = await self._until_stopped(
+            show_plan(ap, checked.plan, checked.start_ned, checked.origin, timeout_s)
+        )
+        if warning is not None:
+            self.messages.append(f"warning: {warning}")
 
     def _pose_invalid_too_long(self, ap: Autopilot) -> Fault | None:
         """Pose telemetry rejected for longer than the stale limit (as the watchdog)."""
@@ -490,8 +507,11 @@ class MissionRunner:
         async with self._feeding(held):
             async with phase("connect", self.notifier, self.display):
                 ap = await self._connect(held)
+            self.gcs.phase("preflight")
             async with phase("preflight", self.notifier, self.display):
                 checked = await self._preflight(ap)
+            if self.opts.show_plan:  # for the GCS to draw; never flown (helixd.show_plan)
+                await self._show_plan(ap, checked)
             # READY once preflight passed: the start gate may wait minutes for the pilot, and
             # systemd's TimeoutStartSec must not kill that wait; the watchdog runs from here on.
             self.notifier.ready("preflight passed")
@@ -506,6 +526,7 @@ class MissionRunner:
                 await sink.start()
             async with phase("arm", self.notifier, self.display):
                 await self._until_stopped(self._arm(ap, held))
+            self.gcs.phase("armed")
             start_ned = self._start_pose(checked, await self._fresh_pose(ap), ap)
         frame = (
             MissionFrame.start_at(start_ned)
@@ -543,6 +564,7 @@ class MissionRunner:
         ap = ready.ap
 
         def on_step(report: StepReport) -> None:  # after the command left
+            self.gcs.progress(report.step.nav.cross_track_m, report.step.nav.target_index)
             self._on_row(flight_row(report, plan))
             self.display.update(lambda: step_progress(report, plan))  # built only if shown
 
@@ -558,6 +580,7 @@ class MissionRunner:
             if self.recorder is not None:
                 self.recorder.maybe_flush()
 
+        self.gcs.phase(f"fly {self.opts.mission.name}: {total} waypoints")
         async with phase("fly", self.notifier, self.display):
             result = await FlightLoop(
                 cfg=ready.cfg,
@@ -659,10 +682,12 @@ class MissionRunner:
         self.notifier.stopping()
         ap = held.ap
         touched = held.sink is not None or held.armed_by_us
+        if ending.fault is not None:
+            self.gcs.fault(ending.fault.cause.value, ending.fault.detail)
         if ap is not None and touched:
             pose = ending.last_pose or (ap.state.pose.ned if ap.state.pose else None)
             async with phase("stop", self.notifier, self.display):
-                await fall_back(
+                secured = await fall_back(
                     ending.fault,
                     sink=held.sink,
                     autopilot=ap,
@@ -672,6 +697,10 @@ class MissionRunner:
                     disarm=(held.armed_by_us and ending.code is ExitCode.OK) or None,
                     abandon=lambda: self.stop.forced,
                 )
+            report_fallback(self.gcs, secured)
+        if ending.code is ExitCode.OK:
+            self.gcs.phase("mission complete")
+        await self.gcs.close()
         if held.sink is not None:
             await self._bounded_close("sink", held.sink.close())
         if ap is not None:
@@ -727,6 +756,7 @@ class MissionRunner:
             self.recorder.record(row)
 
     def _on_arrival(self, index: int, total: int, t_boot_s: float, error_m: float) -> None:
+        self.gcs.waypoint(index, total)
         self.summary.arrival(index, t_boot_s, error_m)
         start = self.summary.start_t_boot_s
         log.info(

@@ -35,6 +35,7 @@ from helixd.config import LinkConfig
 from helixd.link.framing import FrameKind, scan_frames, x25_crc
 from helixd.link.ownid import OwnIdSenders
 from helixd.link.signing import enable_signing
+from helixd.link.tlog import LinkTlog
 from helixd.link.transport import Address, OnLost, make_transport
 from helixd.link.url import LinkError, LinkUrl
 
@@ -198,6 +199,7 @@ class MavlinkConnection:
         self.transport = make_transport(url, cfg, self._on_data, self._transport_lost)
         self.closed = False
         self._reopen_task: asyncio.Task[None] | None = None
+        self.tlog: LinkTlog | None = None  # every frame sent/read (helixd.link.tlog.attach_tlog)
 
     def _new_codec(self) -> Any:
         mav = mavlink.MAVLink(
@@ -248,6 +250,8 @@ class MavlinkConnection:
     def _write(self, buf: bytes) -> bool:
         ok = self.transport.write(buf)
         if ok:
+            if self.tlog is not None:
+                self.tlog.record(buf)
             if self.first_tx_s is None:
                 self.first_tx_s = time.monotonic()
             self.stats.tx_messages += 1
@@ -271,7 +275,10 @@ class MavlinkConnection:
         stats.bad_data += scan.bad_runs
         stats.bad_bytes += scan.bad_bytes
         from_target = False
+        tlog = self.tlog
         for frame in scan.frames:
+            if tlog is not None:
+                tlog.record(frame.data)
             if frame.kind is FrameKind.UNKNOWN_ID:
                 stats.unknown_messages += 1
                 continue
@@ -351,3 +358,5 @@ class MavlinkConnection:
             task.cancel()
             await asyncio.gather(task, return_exceptions=True)
         self.transport.close()
+        if self.tlog is not None:
+            self.tlog.close()

@@ -57,6 +57,7 @@ from helixd.link.signing import load_signing_key
 from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
 from helixd.link.telemetry import ChangeWaiters, Telemetry
+from helixd.link.tlog import LinkTlog
 from helixd.link.transport import Address, Transport, make_transport
 from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
 from helixd.mavconst import (
@@ -448,3 +449,17 @@ class Autopilot:
     def send_rc_override(self, channels_us: Sequence[int]) -> None:
         """RC_CHANNELS_OVERRIDE with 18 raw values (0/65535/65534 semantics are the caller's)."""
         self.action.send_rc_override(channels_us)
+
+    # -- raw messages and the link log --------------------------------------------------------
+
+    def send_message(self, msg: MavMsg) -> bool:
+        """Send one pymavlink message as it is (our system/component ids, the link's sequence,
+        signed when the link is). Never blocks; False when the transport dropped it (full
+        socket buffer, link down) — the caller decides whether that matters."""
+        sent: bool = self._conn.send(msg)
+        return sent
+
+    def attach_tlog(self, tlog: LinkTlog | None) -> None:
+        """Record every frame sent and read to ``tlog`` from now on (None stops recording);
+        see :func:`helixd.link.tlog.attach_tlog`."""
+        self._conn.tlog = tlog

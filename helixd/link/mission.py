@@ -98,6 +98,11 @@ class MissionTransferError(Exception):
     def __init__(self, message: str, result: int | None = None) -> None:
         super().__init__(message)
         self.result = result
+        self.vehicle_text: str | None = None  # what the vehicle said about it (STATUSTEXT)
+
+    def __str__(self) -> str:
+        base = super().__str__()
+        return base if not self.vehicle_text else f"{base} (autopilot: {self.vehicle_text})"
 
 
 def _u8(v: int) -> bool:

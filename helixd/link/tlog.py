@@ -11,19 +11,35 @@ It is bounded: a record that would take the file past ``max_bytes`` is not writt
 stops there (whole records only, so the file stays readable), and the buffer cannot grow
 past ``max_bytes`` either. Disk errors fail soft: the first one is logged, the log closes and
 every later call does nothing; flying never depends on the log.
+
+:class:`LinkTlog` puts a writer on the daemon's link: the codec
+(:class:`helixd.link.codec.MavlinkConnection`) hands it every frame it sends and every frame it
+reads, stamped with the wall clock; the first frame buffered after a flush arms one event-loop
+timer that flushes :data:`FLUSH_INTERVAL_S` later (no task of its own, nothing when the link is
+quiet). :func:`attach_tlog` opens one on an open Autopilot.
 """
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import math
 import struct
+import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 import structlog
 
-__all__ = ["MAX_FRAME_BYTES", "TlogWriter", "tlog_record"]
+__all__ = [
+    "FLUSH_INTERVAL_S",
+    "MAX_FRAME_BYTES",
+    "LinkTlog",
+    "TlogWriter",
+    "attach_tlog",
+    "tlog_record",
+]
 
 MAX_FRAME_BYTES = 280  # MAVLink2: 10 header + 255 payload + 2 crc + 13 signature
 MAVLINK_MAGICS = (0xFD, 0xFE)
@@ -119,3 +135,58 @@ class TlogWriter:
         if file is not None:
             with contextlib.suppress(OSError):  # already reported; the log is given up
                 file.close()
+
+
+FLUSH_INTERVAL_S = 0.25  # a buffered frame reaches the disk within this (the brief: <= 0.5 s)
+
+
+class LinkTlog:
+    """A :class:`TlogWriter` fed from the event loop, flushed by a one-shot timer.
+
+    Create it inside the running loop that owns the link; :meth:`record` must be called from
+    that loop (the codec's reader callback and its writes are)."""
+
+    def __init__(
+        self,
+        writer: TlogWriter,
+        flush_interval_s: float = FLUSH_INTERVAL_S,
+        clock: Callable[[], float] = time.time,
+    ) -> None:
+        if not (math.isfinite(flush_interval_s) and 0.0 < flush_interval_s <= 0.5):
+            raise ValueError("flush_interval_s must be in (0, 0.5]")
+        self.writer = writer
+        self.flush_interval_s = flush_interval_s
+        self._clock = clock
+        self._loop = asyncio.get_running_loop()
+        self._timer: asyncio.TimerHandle | None = None
+
+    @property
+    def flush_due(self) -> asyncio.TimerHandle | None:
+        """The armed flush timer (None: nothing buffered)."""
+        return self._timer
+
+    def record(self, frame: bytes) -> None:
+        """One frame sent or received, stamped now; never raises for a bad frame."""
+        if self.writer.write(frame, self._clock()) and self._timer is None:
+            self._timer = self._loop.call_later(self.flush_interval_s, self._flush)
+
+    def _flush(self) -> None:
+        self._timer = None
+        self.writer.flush()
+
+    def close(self) -> None:
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
+        self.writer.close()
+
+
+def attach_tlog(ap: Any, path: Path, max_bytes: int) -> LinkTlog:
+    """Log every frame of an open :class:`helixd.link.connection.Autopilot`'s link to ``path``
+    (closed with the link). Call it right after ``Autopilot.connect`` in the event loop.
+
+    Attached through the facade's public :meth:`Autopilot.attach_tlog`."""
+    tlog = LinkTlog(TlogWriter(path, max_bytes))
+    ap.attach_tlog(tlog)
+    log.info("tlog_open", path=str(path), max_bytes=max_bytes, active=tlog.writer.active)
+    return tlog

@@ -2,7 +2,8 @@
 
 Contents: ``config.yaml`` and ``mission.yaml`` (the exact resolved inputs), ``events.jsonl``
 (every structlog event, via :mod:`helixd.logging_setup`), ``flight.csv`` (one row per control
-step, see :mod:`helixd.recorder.rows`) and ``summary.json`` (written atomically at the end).
+step, see :mod:`helixd.recorder.rows`) and ``summary.json`` (written atomically at the end);
+``link.tlog`` (every MAVLink frame of the link, written by :mod:`helixd.link.tlog`).
 
 ``flight.csv`` is written through a buffer, flushed to the OS at least every
 ``flush_interval_s`` and fsync'ed (with ``events.jsonl``) by a background thread, so the
@@ -42,6 +43,7 @@ FLIGHT_FILE = "flight.csv"
 SUMMARY_FILE = "summary.json"
 CONFIG_FILE = "config.yaml"
 MISSION_FILE = "mission.yaml"
+TLOG_FILE = "link.tlog"  # every MAVLink frame of the link (helixd.link.tlog; link.tlog_enabled)
 CSV_BUFFER_BYTES = 64 * 1024  # > one flush interval of rows at 50 Hz (~330 B/row)
 SYNC_JOIN_TIMEOUT_S = 5.0  # wait this long for the last fsync when closing
 MAX_NAME_COLLISIONS = 100  # runs started within the same second get -2, -3, …

@@ -1,0 +1,133 @@
+"""``helixd run --mission autopilot``: fly the mission the autopilot holds.
+
+The mission (and fence) are downloaded over the MAVLink mission protocol
+(:func:`helixd.link.mission_link.download_all`) in a short link session on the run's own URL,
+right before the run connects for flight; the items then go through the converter every
+``.plan`` file goes through (:func:`helixd.mission.formats.wire.wire_to_gcs` →
+:func:`helixd.mission.formats.items.items_to_mission`), with the motion mode from ``--mode`` or
+``mission.ground_station_mode``, and from there through the same checks as a mission file.
+
+Refusals exit 3 (PREFLIGHT: the autopilot's mission cannot be flown; nothing was armed), one
+line per problem naming the item: an empty mission, an item helixd cannot fly (unless
+``--skip-unsupported``), a waypoint out of range.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import typer
+from pydantic import ValidationError
+
+from helixd.config import HelixdConfig, format_validation_error
+from helixd.exitcodes import ExitCode
+from helixd.link.mission import MissionItem as WireItem
+from helixd.mission import Mission, MotionMode
+from helixd.mission.formats.items import FormatError, items_to_mission
+from helixd.mission.formats.wire import wire_to_gcs
+from helixd.yamlio import clip_line
+
+__all__ = ["AUTOPILOT_MISSION", "FromAutopilot", "fetch_autopilot_mission", "wants_autopilot"]
+
+AUTOPILOT_MISSION = "autopilot"
+MISSION_NAME = "autopilot"
+
+
+def wants_autopilot(mission: Path) -> bool:
+    """``--mission autopilot`` (a file of that name must be given as ``./autopilot``)."""
+    return str(mission) == AUTOPILOT_MISSION
+
+
+@dataclass(frozen=True)
+class FromAutopilot:
+    mission: Mission
+    source: str  # "autopilot at URL", for messages
+    items: int  # mission items after home
+    fence_shapes: int
+
+
+def _refuse(problems: list[str]) -> typer.Exit:
+    for line in problems:
+        typer.echo(f"error: {clip_line(line)}", err=True)
+    return typer.Exit(int(ExitCode.PREFLIGHT))
+
+
+def convert(
+    got_mission: tuple[WireItem, ...],
+    got_fence: tuple[WireItem, ...],
+    *,
+    source: str,
+    cfg: HelixdConfig,
+    mode: MotionMode | None,
+    skip_unsupported: bool,
+) -> FromAutopilot:
+    """Downloaded items → a validated mission (pure but for the warnings echoed)."""
+    gs_mode = motion_mode(cfg, mode)
+    try:
+        gcs, notes = wire_to_gcs(got_mission, got_fence)
+        if not gcs.items:
+            raise FormatError(["the autopilot holds no mission (only home): nothing to fly"])
+        conv = items_to_mission(
+            gcs, name=MISSION_NAME, mode=gs_mode, skip_unsupported=skip_unsupported, source=source
+        )
+        # the range checks a mission file gets from the loader
+        msn = Mission.model_validate(conv.mission.model_dump(), context={"limits": cfg.mission})
+    except FormatError as exc:
+        raise _refuse(
+            [p if p.startswith(source) else f"{source}: {p}" for p in exc.problems]
+        ) from None
+    except ValidationError as exc:
+        raise _refuse(format_validation_error(source, exc, Mission)) from None
+    for line in (*notes, *conv.skipped, *conv.notes):
+        typer.echo(f"warning: {clip_line(line)}", err=True)
+    fence = len(gcs.polygons) + len(gcs.circles)
+    return FromAutopilot(msn, source, len(gcs.items), fence)
+
+
+def motion_mode(cfg: HelixdConfig, mode: MotionMode | None) -> MotionMode:
+    """``--mode``, else ``mission.ground_station_mode``; neither is a usage error (exit 2)."""
+    gs = mode or (
+        MotionMode(cfg.mission.ground_station_mode) if cfg.mission.ground_station_mode else None
+    )
+    if gs is None:
+        typer.echo(
+            "error: --mission autopilot carries no motion mode: give --mode roll|scroll|omni "
+            "or set mission.ground_station_mode in the config",
+            err=True,
+        )
+        raise typer.Exit(int(ExitCode.USAGE))
+    return gs
+
+
+def fetch_autopilot_mission(
+    cfg: HelixdConfig, url: str, mode: MotionMode | None, skip_unsupported: bool
+) -> FromAutopilot:
+    """Download the autopilot's mission and fence at ``url`` and convert them; link failures
+    exit 6 (LINK), the autopilot's refusal or an unflyable mission exit 3 (PREFLIGHT)."""
+    from helixd.cli_mission import _run_on_link
+    from helixd.link.connection import Autopilot
+    from helixd.link.mission_link import Downloaded, download_all
+
+    motion_mode(cfg, mode)  # before any link
+    link = cfg.link.model_copy(update={"url": url})
+
+    async def body(ap: Autopilot) -> Downloaded:
+        return await download_all(ap, ap.send_message)
+
+    got = _run_on_link(cfg, link, body)
+    source = f"autopilot at {url}"
+    out = convert(
+        got.mission,
+        got.fence,
+        source=source,
+        cfg=cfg,
+        mode=mode,
+        skip_unsupported=skip_unsupported,
+    )
+    typer.echo(
+        f"mission : {source}: {out.items} mission items, {out.fence_shapes} fence shapes "
+        f"→ {len(out.mission.waypoints)} waypoints ({out.mission.mode.value})",
+        err=True,
+    )
+    return out

@@ -1,0 +1,201 @@
+"""The mission protocol over the daemon's link: a :class:`helixd.link.mission.MissionLink` on an
+:class:`helixd.link.connection.Autopilot`, and whole-mission upload/download on it.
+
+Received MISSION_* messages come through the Autopilot's message listener (every message of
+the autopilot's system, already filtered by the codec) into a bounded queue that exists only
+while the transfer runs; everything else is left to the other consumers.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import structlog
+
+from helixd.config import LinkConfig
+from helixd.link.mission import (
+    MAV_MISSION_TYPE_FENCE,
+    MAV_MISSION_TYPE_MISSION,
+    Download,
+    MissionItem,
+    MissionTransferError,
+    Upload,
+    run_transfer,
+)
+
+__all__ = [
+    "MISSION_MESSAGES",
+    "AutopilotMissionLink",
+    "MissionHost",
+    "download_all",
+    "upload_all",
+]
+
+log = structlog.get_logger(__name__)
+
+MavMsg = Any
+MISSION_MESSAGES = frozenset(
+    {"MISSION_COUNT", "MISSION_ITEM", "MISSION_ITEM_INT", "MISSION_REQUEST",
+     "MISSION_REQUEST_INT", "MISSION_ACK"}
+)  # fmt: skip
+QUEUE_MAX = 256  # a transfer has at most a few messages in flight; older ones are dropped
+MAV_SEVERITY_WARNING = 4
+TYPE_NAMES = {MAV_MISSION_TYPE_MISSION: "mission", MAV_MISSION_TYPE_FENCE: "fence"}
+TEXTS_KEPT = 16
+TEXT_MAX_CHARS = 200
+
+
+class MissionHost(Protocol):
+    """What the adapter needs of the Autopilot facade."""
+
+    cfg: LinkConfig
+
+    def add_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None: ...
+
+    def remove_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None: ...
+
+
+def autopilot_sender(ap: Any) -> Callable[[MavMsg], bool]:
+    """The link's raw send: the facade's public :meth:`Autopilot.send_message`."""
+    send: Callable[[MavMsg], bool] = ap.send_message
+    return send
+
+
+class AutopilotMissionLink:
+    """``send`` / ``async recv(timeout_s)`` over the Autopilot; use as a context manager so
+    the listener is removed after the transfer."""
+
+    def __init__(self, host: MissionHost, send: Callable[[MavMsg], bool]) -> None:
+        self._host = host
+        self._send = send
+        self._queue: asyncio.Queue[MavMsg] = asyncio.Queue(QUEUE_MAX)
+        self.dropped = 0
+        self.texts: list[str] = []  # the vehicle's warnings (and worse) during the transfer
+        self._text_seen = asyncio.Event()
+
+    def _put(self, msg: MavMsg, rx_s: float) -> None:
+        kind = msg.get_type()
+        if kind == "STATUSTEXT":
+            self._note_text(msg)
+            return
+        if kind not in MISSION_MESSAGES:
+            return
+        if self._queue.full():
+            self._queue.get_nowait()
+            self.dropped += 1
+        self._queue.put_nowait(msg)
+
+    def _note_text(self, msg: MavMsg) -> None:
+        try:
+            severity, text = int(msg.severity), str(msg.text).strip()
+        except (AttributeError, TypeError, ValueError):
+            return
+        if severity <= MAV_SEVERITY_WARNING and text:
+            self.texts.append(text[:TEXT_MAX_CHARS])
+            del self.texts[:-TEXTS_KEPT]
+            self._text_seen.set()
+
+    async def refusal_text(self, since: int, grace_s: float) -> str | None:
+        """The first warning the vehicle sent after ``len(texts) == since`` (ArduPilot sends it
+        right after the refusing MISSION_ACK), waiting at most ``grace_s`` for it."""
+        if len(self.texts) <= since and grace_s > 0:
+            self._text_seen.clear()
+            try:
+                async with asyncio.timeout(grace_s):
+                    while len(self.texts) <= since:
+                        await self._text_seen.wait()
+                        self._text_seen.clear()
+            except TimeoutError:
+                return None
+        return self.texts[since] if len(self.texts) > since else None
+
+    def __enter__(self) -> AutopilotMissionLink:
+        self._host.add_message_listener(self._put)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._host.remove_message_listener(self._put)
+
+    def send(self, msg: MavMsg) -> None:
+        self._send(msg)
+
+    async def recv(self, timeout_s: float) -> MavMsg | None:
+        if not self._queue.empty():
+            return self._queue.get_nowait()
+        if timeout_s <= 0:
+            return None
+        try:
+            async with asyncio.timeout(timeout_s):
+                return await self._queue.get()
+        except TimeoutError:
+            return None
+
+
+@dataclass(frozen=True, slots=True)
+class Downloaded:
+    mission: tuple[MissionItem, ...]
+    fence: tuple[MissionItem, ...]
+
+
+async def transfer(
+    link: AutopilotMissionLink, t: Upload | Download, grace_s: float
+) -> Upload | Download:
+    """:func:`run_transfer`; a refusal carries the vehicle's warning that explains it."""
+    since = len(link.texts)
+    try:
+        return await run_transfer(t, link)
+    except MissionTransferError as exc:
+        kind = TYPE_NAMES.get(t.mission_type, "mission")
+        exc.args = (f"{kind} {exc.args[0]}", *exc.args[1:])  # "fence upload refused: ..."
+        if exc.result is not None:
+            exc.vehicle_text = await link.refusal_text(since, grace_s)
+        raise
+
+
+def _ids(cfg: LinkConfig) -> dict[str, Any]:
+    return {
+        "target_system": cfg.target_system,
+        "target_component": cfg.target_component,
+        "item_timeout_s": cfg.mission_item_timeout_s,
+        "retries": cfg.mission_retries,
+        "own_ids": (cfg.source_system, cfg.source_component),
+    }
+
+
+async def download_all(
+    host: MissionHost, send: Callable[[MavMsg], bool], fence: bool = True
+) -> Downloaded:
+    """The autopilot's mission (seq 0 = home) and, if ``fence``, its fence; raises
+    :class:`helixd.link.mission.MissionTransferError`."""
+    ids = _ids(host.cfg)
+    with AutopilotMissionLink(host, send) as link:
+        grace_s = host.cfg.statustext_grace_s
+        m = await transfer(link, Download(MAV_MISSION_TYPE_MISSION, **ids), grace_s)
+        log.info("mission_downloaded", mission_type="mission", items=len(m.items))
+        f_items: tuple[MissionItem, ...] = ()
+        if fence:
+            f = await transfer(link, Download(MAV_MISSION_TYPE_FENCE, **ids), grace_s)
+            f_items = f.items
+            log.info("mission_downloaded", mission_type="fence", items=len(f_items))
+    return Downloaded(m.items, f_items)
+
+
+async def upload_all(
+    host: MissionHost,
+    send: Callable[[MavMsg], bool],
+    mission: tuple[MissionItem, ...],
+    fence: tuple[MissionItem, ...] | None,
+) -> None:
+    """Upload the mission, then (unless None) the fence — an empty fence clears it, as QGC
+    does for a plan without one. Raises :class:`helixd.link.mission.MissionTransferError`."""
+    ids = _ids(host.cfg)
+    with AutopilotMissionLink(host, send) as link:
+        grace_s = host.cfg.statustext_grace_s
+        await transfer(link, Upload(mission, MAV_MISSION_TYPE_MISSION, **ids), grace_s)
+        log.info("mission_uploaded", mission_type="mission", items=len(mission))
+        if fence is not None:
+            await transfer(link, Upload(fence, MAV_MISSION_TYPE_FENCE, **ids), grace_s)
+            log.info("mission_uploaded", mission_type="fence", items=len(fence))

@@ -1,0 +1,287 @@
+"""The one place where the two mission-item worlds meet: a file's :class:`GcsMission`
+(:mod:`helixd.mission.formats.items`: x/y in degrees, NaN for "unset") and what
+MISSION_ITEM_INT carries (:class:`helixd.link.mission.MissionItem`: x/y in degE7, finite
+params, one list per mission type). Pure: no I/O.
+
+Mission (MAV_MISSION_TYPE_MISSION), as QGroundControl uploads to ArduPilot: seq 0 is home (the
+plan's planned home, else the first item's place; ArduPilot keeps its own home there and reads
+its own back), the file's items follow from seq 1. A parameter QGC leaves unset (NaN, JSON
+``null``) goes out as 0: ArduPilot refuses a non-finite parameter (MAV_MISSION_ERROR).
+
+Fence (MAV_MISSION_TYPE_FENCE), as QGC's GeoFenceManager writes it for ArduPilot
+(``AC_PolyFence_loader``/``MissionItemProtocol_Fence``): each polygon vertex is one item,
+MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION (5001) or _EXCLUSION (5002) with param1 = the
+polygon's vertex count; each circle one item, MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION (5003) or
+_EXCLUSION (5004) with param1 = radius (m); frame MAV_FRAME_GLOBAL. A downloaded fence is
+read back into polygons and circles; a return point (5000) has no place in a file and is
+reported.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from helixd.link.mission import (
+    MAV_MISSION_TYPE_FENCE,
+    MAV_MISSION_TYPE_MISSION,
+)
+from helixd.link.mission import MissionItem as WireItem
+from helixd.mission.formats.items import (
+    GLOBAL_FRAMES,
+    MAV_CMD_NAV_WAYPOINT,
+    FenceCircle,
+    FencePolygon,
+    FormatError,
+    GcsMission,
+    MissionItem,
+    check_latlon,
+)
+
+__all__ = [
+    "MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION",
+    "MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION",
+    "MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION",
+    "MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION",
+    "MAV_CMD_NAV_FENCE_RETURN_POINT",
+    "WireMission",
+    "gcs_to_wire",
+    "wire_to_gcs",
+]
+
+MAV_FRAME_GLOBAL = 0
+MAV_CMD_NAV_FENCE_RETURN_POINT = 5000
+MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION = 5001
+MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION = 5002
+MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION = 5003
+MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION = 5004
+DEG_E7 = 1e7
+INT32_MAX = 2**31 - 1
+
+
+@dataclass(frozen=True, slots=True)
+class WireMission:
+    """What goes over (or came over) the mission protocol: one item list per mission type."""
+
+    mission: tuple[WireItem, ...]
+    fence: tuple[WireItem, ...]
+
+
+def _finite_or_zero(v: float) -> float:
+    return v if math.isfinite(v) else 0.0
+
+
+def _deg_e7(deg: float, where: str) -> int:
+    if not math.isfinite(deg):
+        raise FormatError([f"{where}: x/y {deg} is not finite"])
+    v = round(deg * DEG_E7)
+    if abs(v) > INT32_MAX:
+        raise FormatError([f"{where}: x/y {deg} does not fit MISSION_ITEM_INT"])
+    return v
+
+
+def _raw_int(v: float, where: str) -> int:
+    """x/y of a non-global frame (e.g. MAV_FRAME_MISSION): sent as the integer they hold."""
+    if not math.isfinite(v):
+        return 0
+    r = round(v)
+    if abs(r) > INT32_MAX:
+        raise FormatError([f"{where}: x/y {v} does not fit MISSION_ITEM_INT"])
+    return r
+
+
+def _label(it: MissionItem) -> str:
+    return f"item {it.seq}" + (f" ({it.where})" if it.where else "")
+
+
+def _mission_item(it: MissionItem, seq: int) -> WireItem:
+    where = _label(it)
+    if it.frame in GLOBAL_FRAMES:
+        x, y = _deg_e7(it.x, where), _deg_e7(it.y, where)
+    else:
+        x, y = _raw_int(it.x, where), _raw_int(it.y, where)
+    if not 0 <= it.command <= 65535 or not 0 <= it.frame <= 255:
+        raise FormatError([f"{where}: command/frame out of range"])
+    return WireItem(
+        seq=seq,
+        frame=it.frame,
+        command=it.command,
+        autocontinue=int(it.autocontinue),
+        param1=_finite_or_zero(it.param1),
+        param2=_finite_or_zero(it.param2),
+        param3=_finite_or_zero(it.param3),
+        param4=_finite_or_zero(it.param4),
+        x=x,
+        y=y,
+        z=_finite_or_zero(it.z),
+        mission_type=MAV_MISSION_TYPE_MISSION,
+    )
+
+
+def _home(gcs: GcsMission) -> tuple[float, float]:
+    if gcs.home_latlon_deg is not None:
+        return gcs.home_latlon_deg
+    for it in gcs.items:
+        if it.frame in GLOBAL_FRAMES and not check_latlon("", it.x, it.y):
+            return (it.x, it.y)
+    raise FormatError(["no home position and no item with a latitude/longitude to stand for it"])
+
+
+def gcs_to_wire(gcs: GcsMission) -> WireMission:
+    """The file's items (home as seq 0) and its fence, as the mission protocol sends them."""
+    if not gcs.items:
+        raise FormatError(["no mission items to upload"])
+    home_lat, home_lon = _home(gcs)
+    home = WireItem(
+        seq=0,
+        frame=MAV_FRAME_GLOBAL,
+        command=MAV_CMD_NAV_WAYPOINT,
+        x=_deg_e7(home_lat, "home"),
+        y=_deg_e7(home_lon, "home"),
+        mission_type=MAV_MISSION_TYPE_MISSION,
+    )
+    mission = [home] + [_mission_item(it, i + 1) for i, it in enumerate(gcs.items)]
+    return WireMission(tuple(mission), fence_items(gcs))
+
+
+def fence_items(gcs: GcsMission) -> tuple[WireItem, ...]:
+    """The file's fence polygons and circles as MAV_MISSION_TYPE_FENCE items (seq 0..n-1)."""
+    out: list[WireItem] = []
+
+    def add(command: int, param1: float, lat: float, lon: float, where: str) -> None:
+        out.append(
+            WireItem(
+                seq=len(out),
+                frame=MAV_FRAME_GLOBAL,
+                command=command,
+                autocontinue=0,
+                param1=param1,
+                x=_deg_e7(lat, where),
+                y=_deg_e7(lon, where),
+                mission_type=MAV_MISSION_TYPE_FENCE,
+            )
+        )
+
+    for k, poly in enumerate(gcs.polygons):
+        cmd = (
+            MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+            if poly.inclusion
+            else MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+        )
+        n = len(poly.vertices_latlon_deg)
+        if n < 3:
+            raise FormatError([f"fence polygon {k}: {n} vertices (at least 3)"])
+        for lat, lon in poly.vertices_latlon_deg:
+            add(cmd, float(n), lat, lon, f"fence polygon {k}")
+    for k, circle in enumerate(gcs.circles):
+        cmd = (
+            MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION
+            if circle.inclusion
+            else MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
+        )
+        if not (math.isfinite(circle.radius_m) and circle.radius_m > 0):
+            raise FormatError([f"fence circle {k}: radius {circle.radius_m} m is not > 0"])
+        add(cmd, circle.radius_m, *circle.centre_latlon_deg, f"fence circle {k}")
+    return tuple(out)
+
+
+def _wire_latlon(it: WireItem) -> tuple[float, float]:
+    return it.x / DEG_E7, it.y / DEG_E7
+
+
+def _from_wire(it: WireItem) -> MissionItem:
+    if it.frame in GLOBAL_FRAMES:
+        x, y = _wire_latlon(it)
+    else:
+        x, y = float(it.x), float(it.y)
+    return MissionItem(
+        seq=it.seq,
+        frame=it.frame,
+        command=it.command,
+        param1=it.param1,
+        param2=it.param2,
+        param3=it.param3,
+        param4=it.param4,
+        x=x,
+        y=y,
+        z=it.z,
+        autocontinue=bool(it.autocontinue),
+        where=f"autopilot mission item {it.seq}",
+    )
+
+
+_POLY_CMDS = {
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION: True,
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION: False,
+}
+_CIRCLE_CMDS = {
+    MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION: True,
+    MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION: False,
+}
+
+
+def _fence_from_wire(
+    fence: tuple[WireItem, ...] | list[WireItem],
+) -> tuple[list[FencePolygon], list[FenceCircle], list[str]]:
+    polygons: list[FencePolygon] = []
+    circles: list[FenceCircle] = []
+    notes: list[str] = []
+    problems: list[str] = []
+    i = 0
+    while i < len(fence):
+        it = fence[i]
+        where = f"autopilot fence item {it.seq}"
+        lat, lon = _wire_latlon(it)
+        bad = check_latlon(where, lat, lon)
+        if it.command in _POLY_CMDS:
+            n = round(it.param1) if math.isfinite(it.param1) else 0
+            run = list(fence[i : i + n])
+            if n < 3 or len(run) < n or any(v.command != it.command for v in run):
+                problems.append(f"{where}: a polygon of {it.param1:g} vertices that is not whole")
+                i += 1
+                continue
+            for v in run:
+                problems += check_latlon(f"autopilot fence item {v.seq}", *_wire_latlon(v))
+            polygons.append(
+                FencePolygon(tuple(_wire_latlon(v) for v in run), _POLY_CMDS[it.command])
+            )
+            i += n
+            continue
+        if it.command in _CIRCLE_CMDS:
+            if not (math.isfinite(it.param1) and it.param1 > 0):
+                problems.append(f"{where}: circle radius {it.param1:g} m is not > 0")
+            problems += bad
+            circles.append(FenceCircle((lat, lon), it.param1, _CIRCLE_CMDS[it.command]))
+        elif it.command == MAV_CMD_NAV_FENCE_RETURN_POINT:
+            notes.append(f"{where}: fence return point ({lat:.7f}, {lon:.7f}) not kept")
+        else:
+            notes.append(f"{where}: fence command {it.command} not understood; left out")
+        i += 1
+    if problems:
+        raise FormatError(problems[:20])
+    return polygons, circles, notes
+
+
+def wire_to_gcs(
+    mission: tuple[WireItem, ...] | list[WireItem],
+    fence: tuple[WireItem, ...] | list[WireItem] = (),
+) -> tuple[GcsMission, list[str]]:
+    """What the autopilot holds → a :class:`GcsMission` (seq 0 = home; fence polygons and
+    circles) and notes on what has no place in it."""
+    home: tuple[float, float] | None = None
+    items: list[MissionItem] = []
+    for it in mission:
+        if it.seq == 0:
+            lat, lon = _wire_latlon(it)
+            if not check_latlon("home", lat, lon):
+                home = (lat, lon)
+            continue
+        items.append(_from_wire(it))
+    polygons, circles, notes = _fence_from_wire(fence)
+    gcs = GcsMission(
+        items=tuple(items),
+        home_latlon_deg=home,
+        polygons=tuple(polygons),
+        circles=tuple(circles),
+    )
+    return gcs, notes
