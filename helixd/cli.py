@@ -32,6 +32,7 @@ from helixd.sim.config import NoiseLevel, Plant, Terrain
 from helixd.yamlio import clip_line, paused_gc
 
 if TYPE_CHECKING:
+    from helixd.mission.resume import RunInputs
     from helixd.planning.route import RoutePlan
 
 app = typer.Typer(
@@ -324,30 +325,53 @@ def run(
     map_path: MapOpt = None,
     mode: ModeOpt = None,
     skip_unsupported: SkipOpt = False,
+    resume: Annotated[
+        Path | None,
+        typer.Option(
+            "--resume",
+            help="continue the mission of this run directory from its first waypoint not "
+            "reached (refused if the mission or config changed, or the run completed)",
+        ),
+    ] = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD."""
     import asyncio
 
     from helixd.daemon import RunOptions, run_mission
     from helixd.logging_setup import configure_logging
+    from helixd.mission.resume import fresh_inputs
 
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
-    cfg, msn, mission_path, _ = load_inputs(config, mission, mode, skip_unsupported)
-    url = check_connect(connect, cfg)
-    try:
-        if sniff_format(mission_path) is MissionFormat.YAML and mode is None:
-            mission_yaml = mission_path.read_text(encoding="utf-8")
-        else:  # the run directory keeps what is flown, as helixd YAML
-            mission_yaml = mission_to_yaml(msn)
-    except (OSError, UnicodeDecodeError) as exc:
-        raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
-    planned, route = plan_inputs(cfg, msn, mission_path, map_path)
-    if route is not None:  # fly (and record) the mission with the planned waypoints
-        from helixd.planning.route import planned_mission_yaml
+    if resume is not None:
+        given = [
+            name
+            for name, used in (
+                ("--mode", mode),
+                ("--map", map_path),
+                ("--skip-unsupported", skip_unsupported),
+            )
+            if used
+        ]
+        if given:
+            raise fail(
+                [f"--resume flies the recorded mission as it was: {', '.join(given)} not allowed"],
+                ExitCode.USAGE,
+            )
+        explicit = _explicit_mission(mission)
+        cfg, msn, mission_yaml, inputs = resume_inputs(config, resume, explicit)
+        url = check_connect(connect, cfg)
+    else:
+        cfg, msn, mission_path, _ = load_inputs(config, mission, mode, skip_unsupported)
+        url = check_connect(connect, cfg)
+        mission_yaml = _recorded_mission_yaml(mission_path, msn, mode)
+        planned, route = plan_inputs(cfg, msn, mission_path, map_path)
+        if route is not None:  # fly (and record) the mission with the planned waypoints
+            from helixd.planning.route import planned_mission_yaml
 
-        msn, mission_yaml = planned, planned_mission_yaml(planned, route, map_path)
-        echo_route(route)
+            msn, mission_yaml = planned, planned_mission_yaml(planned, route, map_path)
+            echo_route(route)
+        inputs = fresh_inputs(mission_yaml, config_sha256(config), msn)
     tty = sys.stderr.isatty()
     configure_logging(tty=tty, level=log_level)
     server = None
@@ -366,6 +390,7 @@ def run(
         connect_url=url,
         run_root=run_dir or cfg.recorder.run_root,
         tty=tty,
+        inputs=inputs,
     )
     try:
         outcome = asyncio.run(run_mission(opts))
@@ -377,6 +402,78 @@ def run(
     for line in outcome.messages:  # the last one is the plain "helixd: RESULT" line
         typer.echo(line, err=True)
     raise typer.Exit(int(outcome.exit_code))
+
+
+def _recorded_mission_yaml(mission_path: Path, msn: Mission, mode: MotionMode | None) -> str:
+    """What the run directory keeps as mission.yaml (and hashes): the YAML file as written,
+    else the flown mission as helixd YAML."""
+    try:
+        if sniff_format(mission_path) is MissionFormat.YAML and mode is None:
+            return mission_path.read_text(encoding="utf-8")
+        return mission_to_yaml(msn)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
+
+
+def config_sha256(config: Path | None) -> str:
+    """Hash of the loaded config (canonical YAML dump: a value change is a change, a comment
+    is not), before any command-line override such as --connect."""
+    from helixd.config import config_to_yaml
+    from helixd.mission.resume import sha256_text
+
+    try:
+        return sha256_text(config_to_yaml(load_config(config)))
+    except ConfigFileError as exc:
+        raise fail(exc.problems, ExitCode.USAGE) from None
+
+
+def _explicit_mission(mission: Path) -> Path | None:
+    """``--mission`` when the operator gave it (with --resume it must be the same mission)."""
+    from typer._click.core import ParameterSource
+    from typer._click.globals import get_current_context
+
+    ctx = get_current_context(silent=True)
+    if ctx is None or ctx.get_parameter_source("mission") is ParameterSource.DEFAULT:
+        return None
+    return mission
+
+
+def resume_inputs(
+    config: Path | None, run_dir: Path, explicit_mission: Path | None
+) -> tuple[HelixdConfig, Mission, str, RunInputs]:
+    """Config, remaining mission, its YAML and the new run's inputs record for
+    ``--resume RUN_DIR``; every refusal is one line and exit 2."""
+    from helixd.mission.resume import (
+        ResumeRefused,
+        check_inputs,
+        parse_inputs,
+        resume_point,
+        resumed_inputs,
+        sha256_text,
+    )
+    from helixd.mission.resume_dir import MISSION_FILE, read_run_dir
+
+    try:
+        contents = read_run_dir(run_dir)
+        recorded = parse_inputs(contents.inputs_text)
+        explicit_sha = None
+        if explicit_mission is not None:
+            _, given, given_path, _ = load_inputs(config, explicit_mission)
+            explicit_sha = sha256_text(_recorded_mission_yaml(given_path, given, None))
+        check_inputs(recorded, contents.mission_yaml, config_sha256(config), explicit_sha)
+        cfg, old, _, _ = load_inputs(config, run_dir / MISSION_FILE)
+        point = resume_point(
+            str(run_dir.resolve()), recorded, old, contents.events, contents.completed
+        )
+    except ResumeRefused as exc:
+        raise fail([f"--resume {run_dir}: {exc}"], ExitCode.USAGE) from None
+    mission_yaml = mission_to_yaml(point.mission)
+    typer.echo(
+        f"resume  : {run_dir}: from waypoint {point.first_index + 1}/"
+        f"{recorded.waypoints_total} ({len(point.mission.waypoints)} remaining)",
+        err=True,
+    )
+    return cfg, point.mission, mission_yaml, resumed_inputs(point, mission_yaml)
 
 
 @app.command()

@@ -33,6 +33,7 @@ from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
+from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
 from helixd.mission.validate import mission_problems
 from helixd.notify import ServiceNotifier
 from helixd.recorder.rows import FlightRow
@@ -76,6 +77,8 @@ class RunOptions:
     connect_url: str
     run_root: Path
     tty: bool
+    # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
+    inputs: RunInputs | None = None
 
 
 @dataclass
@@ -325,6 +328,15 @@ class MissionRunner:
         async with phase("preflight", self.notifier, self.display):
             start_ned, origin = await self._preflight(ap)
             self.plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
+            if self.opts.inputs is not None:  # a resume re-enters the interrupted leg
+                self.plan = with_leg_start(
+                    self.plan,
+                    self.opts.mission,
+                    self.opts.inputs.leg_start,
+                    self.cfg.control,
+                    self.cfg.mission,
+                    origin,
+                )
             # The same validation `helixd check` ran, now with the start pose and EKF origin
             # (geofence radius/polygon and time for local_ned/global missions).
             refused = mission_problems(
@@ -392,6 +404,7 @@ class MissionRunner:
                 mission_yaml=self.opts.mission_yaml,
                 cfg=self.cfg.recorder,
                 now_utc=datetime.now(UTC),
+                inputs_json=None if self.opts.inputs is None else self.opts.inputs.to_json(),
             )
         except RecorderUnavailable as exc:
             summary = self._build_summary(f"recorder: {exc}", ExitCode.PREFLIGHT, None)
@@ -403,6 +416,14 @@ class MissionRunner:
             connect=self.opts.connect_url,
             run_dir=str(self.recorder.run_dir),
         )
+        resumed = None if self.opts.inputs is None else self.opts.inputs.resumed_from
+        if resumed is not None and self.opts.inputs is not None:
+            log.info(
+                RUN_RESUMED_EVENT,
+                resumed_from=resumed.path,
+                resumed_mission_sha256=resumed.mission_sha256,
+                first_waypoint=f"{resumed.first_waypoint + 1}/{self.opts.inputs.waypoints_total}",
+            )
         code = ExitCode.INTERNAL_ERROR
         fault: Fault | None = None
         detected_s: float | None = None
@@ -507,7 +528,7 @@ class MissionRunner:
     def _build_summary(
         self, fault: str | None, code: ExitCode, wall_duration_s: float | None
     ) -> RunSummary:
-        return self.summary.build(
+        summary = self.summary.build(
             completed=code is ExitCode.OK,
             fault=fault,
             exit_code=int(code),
@@ -516,6 +537,9 @@ class MissionRunner:
             waypoints_total=len(self.opts.mission.waypoints),
             wall_duration_s=wall_duration_s,
         )
+        if self.opts.inputs is not None and self.opts.inputs.resumed_from is not None:
+            summary = summary.model_copy(update={"resumed_from": self.opts.inputs.resumed_from})
+        return summary
 
     def _finish(self, fault: Fault | None, code: ExitCode, started: float) -> RunSummary:
         summary = self._build_summary(
@@ -547,12 +571,20 @@ class MissionRunner:
             "waypoint_reached",
             waypoint=f"{index + 1}/{total}",  # 1-based, as the progress line counts
             index=index,  # 0-based plan index, as `helixd check` prints
+            **self._mission_waypoint(index),
             elapsed_autopilot_s=(
                 round(t_boot_s - start, 1) if start is not None and t_boot_s >= start else None
             ),
             t_boot_s=round(t_boot_s, 2),
             error_m=round(error_m, 3),
         )
+
+    def _mission_waypoint(self, index: int) -> dict[str, str]:
+        """A resumed run also counts waypoints of the whole mission (e.g. 12/38)."""
+        inputs = self.opts.inputs
+        if inputs is None or inputs.resumed_from is None:
+            return {}
+        return {"mission_waypoint": f"{inputs.index_offset + index + 1}/{inputs.waypoints_total}"}
 
     def _on_tick(self) -> None:
         if self.ap is not None:
