@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import math
 import time
 from collections.abc import AsyncIterator, Awaitable
@@ -25,7 +26,7 @@ from helixd import __version__
 from helixd.actuators import make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
-from helixd.display import ProgressDisplay, result_line
+from helixd.display import ProgressDisplay, ProgressInfo, result_line
 from helixd.exitcodes import ExitCode
 from helixd.flight import MANUAL_MODE, FlightLoop
 from helixd.frames import MissionFrame, NedPose
@@ -448,7 +449,7 @@ class MissionRunner:
                     stop=self.stop,
                     start_ned=start_ned,
                     on_row=self._on_row,
-                    on_progress=self.display.update,
+                    on_progress=self._on_progress,
                     on_arrival=self._on_arrival,
                     on_tick=self._on_tick,
                 ).run()
@@ -578,6 +579,17 @@ class MissionRunner:
             t_boot_s=round(t_boot_s, 2),
             error_m=round(error_m, 3),
         )
+
+    def _on_progress(self, info: ProgressInfo) -> None:
+        """The progress line counts waypoints of the whole mission on a resumed run."""
+        inputs = self.opts.inputs
+        if inputs is not None and inputs.resumed_from is not None:
+            info = dataclasses.replace(
+                info,
+                waypoint_index=inputs.index_offset + info.waypoint_index,
+                waypoints_total=inputs.waypoints_total,
+            )
+        self.display.update(info)
 
     def _mission_waypoint(self, index: int) -> dict[str, str]:
         """A resumed run also counts waypoints of the whole mission (e.g. 12/38)."""

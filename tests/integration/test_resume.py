@@ -101,6 +101,9 @@ def test_resume_after_fault_completes_the_remaining_waypoints(tmp_path: Path) ->
     assert resumed and resumed[0]["first_waypoint"] == "3/4"
     reached = [e for e in _events(run2) if e.get("event") == "waypoint_reached"]
     assert [e.get("mission_waypoint") for e in reached] == ["3/4", "4/4"]
+    # the progress line counts waypoints of the whole mission, not of the remainder
+    progress = [e.get("waypoint") for e in _events(run2) if e.get("event") == "progress"]
+    assert progress and progress[0] == "3/4" and set(progress) <= {"3/4", "4/4"}
     # and the completed run cannot be resumed again
     again = spawn_daemon(
         [*args[:2], str(run2), *args[3:], "--run-dir", str(tmp_path / "runs3")],
