@@ -473,6 +473,12 @@ def resume_inputs(
         f"{recorded.waypoints_total} ({len(point.mission.waypoints)} remaining)",
         err=True,
     )
+    if point.mission.frame is MissionFrameKind.LOCAL_NED:
+        typer.echo(
+            "warning: local_ned waypoints are relative to the EKF origin; if the autopilot "
+            "set a new origin since (reboot, GPS), they lie elsewhere (global is safe)",
+            err=True,
+        )
     return cfg, point.mission, mission_yaml, resumed_inputs(point, mission_yaml)
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -269,3 +270,21 @@ def test_missing_pieces_are_refused(tmp_path: Path) -> None:
 def test_completed_summary_is_read(tmp_path: Path) -> None:
     d = _run_dir(tmp_path, STARTED, json.dumps({"completed": True}))
     assert read_run_dir(d).completed
+
+
+@given(st.binary(max_size=300), st.one_of(st.none(), st.binary(max_size=100)))
+def test_read_run_dir_fuzz(events: bytes, summary: bytes | None) -> None:
+    with tempfile.TemporaryDirectory() as tmp:
+        d = _run_dir(Path(tmp), "")
+        (d / "events.jsonl").write_bytes(events)
+        if summary is not None:
+            (d / "summary.json").write_bytes(summary)
+        try:
+            got = read_run_dir(d)
+        except ResumeRefused as exc:
+            assert str(exc)  # a reason, one line
+            assert "\n" not in str(exc)
+        else:
+            assert isinstance(got.completed, bool)
+            with contextlib.suppress(ResumeRefused):  # an index outside the mission
+                first_not_reached(got.events, 5)
