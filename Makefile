@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: all venv test lint typecheck unit demo bench clean
+.PHONY: all venv test lint typecheck unit demo bench bench-loop clean
 
 all: test
 
@@ -36,8 +36,9 @@ demo: $(STAMP)
 # Both benchmarks write into bench/results/latest.json and latest.md (sections navigation and
 # control_loop); the second runs even if the first had a failed run, the exit status reports both.
 # e.g. make bench NAV_ARGS="--only square --runs 1" LOOP_ARGS="--seconds 10"
+# The control loop alone (about a minute): make bench-loop [LOOP_ARGS="--seconds 10 --rate-hz 50"]
 NAV_ARGS  ?=
-LOOP_ARGS ?= --rate-hz 25 --rate-hz 50
+LOOP_ARGS ?= --rate-hz 50 --rate-hz 200
 PLAN_ARGS ?=
 bench: $(STAMP)
 	@status=0; \
@@ -46,6 +47,9 @@ bench: $(STAMP)
 	$(BIN)/python tools/bench_planning.py $(PLAN_ARGS) || status=1; \
 	echo "results: bench/results/latest.json, bench/results/latest.md"; \
 	exit $$status
+
+bench-loop: $(STAMP)
+	$(BIN)/python tools/bench_control_loop.py $(LOOP_ARGS)
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache runs

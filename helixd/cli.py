@@ -32,8 +32,12 @@ from helixd.sim.config import NoiseLevel, Plant, Terrain
 from helixd.yamlio import clip_line, paused_gc
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from helixd.mission.resume import RunInputs
+    from helixd.planning.mapfile import OccupancyMap
     from helixd.planning.route import RoutePlan
+    from helixd.sim.obstacles import SimObstacles
 
 app = typer.Typer(
     name="helixd",
@@ -121,6 +125,8 @@ def load_inputs(
             mode=mode,
             default_mode=MotionMode(gs_mode) if gs_mode else None,
             skip_unsupported=skip_unsupported,
+            # planning routes the legs around a .plan's exclusion zones instead of refusing
+            route_keep_outs=cfg is not None and cfg.planning.enabled,
         )
         msn = loaded.mission
         for line in (*loaded.skipped, *loaded.notes):
@@ -151,17 +157,36 @@ def plan_inputs(
 ) -> tuple[Mission, RoutePlan | None]:
     """Plan around the map and keep-out shapes (helixd.planning) when there are any: the
     mission with the intermediate waypoints inserted, and the route; refusals exit 2."""
+    return plan_loaded(cfg, msn, path, load_occupancy(cfg, map_path))
+
+
+def load_occupancy(cfg: HelixdConfig, map_path: Path | None) -> OccupancyMap | None:
+    """The ``--map`` (helixd.planning.mapfile), or None; an unusable map exits 2."""
+    from helixd.planning import MapFileError, load_map
+
+    if map_path is None:
+        return None
+    try:
+        return load_map(map_path, cfg.planning.max_cells)
+    except MapFileError as exc:
+        raise fail([str(exc)], ExitCode.USAGE) from None
+
+
+def plan_loaded(
+    cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
+) -> tuple[Mission, RoutePlan | None]:
+    """:func:`plan_inputs` with the map already loaded."""
     from helixd.planning import (
         MapFileError,
         ObstacleError,
         PlanningError,
-        load_map,
         plan_mission,
         planning_wanted,
     )
 
     try:
-        occupancy = None if map_path is None else load_map(map_path, cfg.planning.max_cells)
+        if msn.frame is MissionFrameKind.GLOBAL and cfg.planning.enabled:
+            return plan_global(cfg, msn, path, occupancy)
         if not planning_wanted(cfg, occupancy):
             return msn, None
         return plan_mission(msn, cfg, occupancy)
@@ -169,6 +194,110 @@ def plan_inputs(
         raise fail([f"{path}: {p}" for p in exc.problems], ExitCode.USAGE) from None
     except (MapFileError, ObstacleError) as exc:
         raise fail([str(exc)], ExitCode.USAGE) from None
+
+
+def plan_global(
+    cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
+) -> tuple[Mission, RoutePlan | None]:
+    """A global mission: planned around its .plan's exclusion zones when it has any (in a
+    frame around waypoint 0, helixd.planning.fence); with only a --map or config keep-outs,
+    refused (they hang from the unknown EKF origin); else flown as it is."""
+    from helixd.mission.formats import has_keep_outs, plan_fence_ne
+    from helixd.planning import KeepOutCircle, planning_wanted
+    from helixd.planning.fence import plan_global_mission
+
+    own = has_keep_outs(path)
+    if not (own or planning_wanted(cfg, occupancy)):
+        return msn, None
+    origin = msn.points()[0]
+    polys: list[tuple[tuple[float, float], ...]] = []
+    circles: list[KeepOutCircle] = []
+    if own:
+        fence = plan_fence_ne(path, origin)
+        polys = list(fence.exclusion_polygons)
+        circles = [
+            KeepOutCircle(c.centre_ne_m[0], c.centre_ne_m[1], c.radius_m)
+            for c in fence.exclusion_circles
+        ]
+    return plan_global_mission(msn, cfg, polys, circles, origin, occupancy)
+
+
+def sim_world(
+    cfg: HelixdConfig, occupancy: OccupancyMap | None, mission_path: Path | None = None
+) -> SimObstacles:
+    """What is solid in the embedded simulator (``run --sim``): the config's keep-out shapes,
+    the map's occupied cells (unknown is not solid) and a .plan's exclusion zones (placed
+    around the simulator's EKF origin); the body radius from the vehicle."""
+    from helixd.config import KeepOutCircleConfig
+    from helixd.mission.formats import has_keep_outs, plan_fence_ne
+    from helixd.planning.obstacles import rover_half_width_m
+    from helixd.sim.config import SimConfig
+    from helixd.sim.obstacles import ObstacleRaster, SimObstacles
+
+    polys: list[tuple[tuple[float, float], ...]] = []
+    discs: list[KeepOutCircleConfig] = []
+    if mission_path is not None and has_keep_outs(mission_path):
+        sim = SimConfig()
+        fence = plan_fence_ne(mission_path, (sim.origin_lat_deg, sim.origin_lon_deg))
+        polys.extend(fence.exclusion_polygons)
+        discs.extend(
+            KeepOutCircleConfig(
+                north_m=c.centre_ne_m[0], east_m=c.centre_ne_m[1], radius_m=c.radius_m
+            )
+            for c in fence.exclusion_circles
+        )
+
+    raster = None
+    if occupancy is not None:
+        fr = occupancy.frame
+        raster = ObstacleRaster(
+            fr.origin_north_m, fr.origin_east_m, fr.resolution_m, occupancy.solid.astype(bool)
+        )
+    pl = cfg.planning
+    return SimObstacles(
+        polygons_ne_m=(*(p for p in pl.keep_out_polygons_ne_m if p), *polys),
+        circles=(*pl.keep_out_circles, *discs),
+        contact_radius_m=rover_half_width_m(cfg),
+        raster=raster,
+    )
+
+
+def first_leg_replanner(
+    cfg: HelixdConfig, original: Mission, planned: Mission, route: RoutePlan
+) -> Callable[[tuple[float, float], tuple[float, float] | None], Mission]:
+    """What the daemon calls at preflight with the rover's (north_m, east_m) and the EKF
+    origin: the planned
+    mission with its first leg re-planned from there (helixd.planning.replan); raises
+    PlanningError (a ValueError) naming the pose when it cannot."""
+    from helixd.planning.replan import replan_first_leg
+
+    def replan_from(
+        rover_ne_m: tuple[float, float], ekf_origin_latlon_deg: tuple[float, float] | None
+    ) -> Mission:
+        from helixd.base.frames import latlon_to_ne, ne_to_latlon
+        from helixd.planning import PlanningError
+
+        here = rover_ne_m
+        if route.origin_latlon_deg is not None:  # a global mission's route: around waypoint 0
+            if ekf_origin_latlon_deg is None:
+                raise PlanningError(["a global mission's first leg needs the EKF origin"])
+            latlon = ne_to_latlon(*rover_ne_m, *ekf_origin_latlon_deg)
+            here = latlon_to_ne(*latlon, *route.origin_latlon_deg)
+        again, again_route = replan_first_leg(planned, route, original, here, cfg)
+        if again is not planned:
+            import structlog
+
+            leg = again_route.legs[0]
+            structlog.get_logger("helixd.planning").info(
+                "first_leg_replanned",
+                rover_north_m=round(rover_ne_m[0], 2),
+                rover_east_m=round(rover_ne_m[1], 2),
+                vias=len(leg.points_ne_m) - 2,
+                length_m=round(leg.length_m, 2),
+            )
+        return again
+
+    return replan_from
 
 
 def echo_route(route: RoutePlan) -> None:
@@ -188,7 +317,8 @@ def echo_route(route: RoutePlan) -> None:
         for n, e in via:
             typer.echo(f"      via north {n:9.2f}  east {e:9.2f}")
     total = sum(leg.length_m for leg in route.legs)
-    typer.echo(f"  total {total:.1f} m from planning.start_ne_m")
+    start = "planning.start_ne_m" if route.origin_latlon_deg is None else "waypoint 0"
+    typer.echo(f"  total {total:.1f} m from {start} (run: re-planned from the rover's pose)")
 
 
 def check_connect(connect: str | None, cfg: HelixdConfig) -> str:
@@ -361,14 +491,23 @@ def run(
         explicit = _explicit_mission(mission)
         cfg, msn, mission_yaml, inputs = resume_inputs(config, resume, explicit)
         url = check_connect(connect, cfg)
+        # the recorded mission is already planned: no map, no first-leg replanning
+        mission_path = resume / "mission.yaml"
+        occupancy: OccupancyMap | None = None
+        replan_from: Callable[[tuple[float, float], tuple[float, float] | None], Mission] | None = (
+            None
+        )
     else:
         cfg, msn, mission_path, _ = load_inputs(config, mission, mode, skip_unsupported)
         url = check_connect(connect, cfg)
         mission_yaml = _recorded_mission_yaml(mission_path, msn, mode)
-        planned, route = plan_inputs(cfg, msn, mission_path, map_path)
+        occupancy = load_occupancy(cfg, map_path)
+        planned, route = plan_loaded(cfg, msn, mission_path, occupancy)
+        replan_from = None
         if route is not None:  # fly (and record) the mission with the planned waypoints
             from helixd.planning.route import planned_mission_yaml
 
+            replan_from = first_leg_replanner(cfg, msn, planned, route)
             msn, mission_yaml = planned, planned_mission_yaml(planned, route, map_path)
             echo_route(route)
         inputs = fresh_inputs(mission_yaml, config_sha256(config), msn)
@@ -379,7 +518,11 @@ def run(
         from helixd.sim import SimConfig, start_embedded
 
         sim_cfg = SimConfig(
-            speedup=sim_speedup, terrain=sim_terrain, noise=sim_noise, plant=sim_plant
+            speedup=sim_speedup,
+            terrain=sim_terrain,
+            noise=sim_noise,
+            plant=sim_plant,
+            obstacles=sim_world(cfg, occupancy, mission_path),
         )
         server, url = start_embedded(sim_cfg)
     cfg = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})
@@ -390,6 +533,7 @@ def run(
         connect_url=url,
         run_root=run_dir or cfg.recorder.run_root,
         tty=tty,
+        replan_from=replan_from,
         inputs=inputs,
     )
     try:

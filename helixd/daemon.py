@@ -1,10 +1,20 @@
-"""``helixd run``: explicit phases, each logged with its duration.
+"""``helixd run``: three explicit phases, startup → main_loop → shutdown.
 
-connect → preflight → start gate → set MANUAL → arm → fly → stop → disarm → exit.
+* :meth:`MissionRunner.startup` — connect → preflight → start gate → set MANUAL → arm; returns
+  a :class:`Ready` (the link, the sink, the plan, the mission frame, the start pose);
+* :meth:`MissionRunner.main_loop` — fly; returns an :class:`Ending`;
+* :meth:`MissionRunner.shutdown` — always: scrolls to neutral, every override released, HOLD
+  requested (:func:`helixd.safety.supervisor.fall_back`), then the sink and the link closed,
+  each bounded in time like the fall-back.
 
-Whatever ends the run — success, a watchdog, a signal, pilot takeover, an exception — the
-shutdown path is the same: scrolls to neutral, every override released, HOLD requested
-(:func:`helixd.safety.supervisor.fall_back`). Exit codes: :class:`helixd.exitcodes.ExitCode`.
+Each sub-phase is logged with its duration (``phase_start`` / ``phase_end``). What startup has
+taken hold of so far (link, sink, "we armed it") is kept in a :class:`Held` ledger that shutdown
+gives back, whatever stopped startup half way.
+
+An exception ends the run through one table (:data:`EXIT_RULES`): it maps the exception *and
+the stage it came from* to a fault cause and an exit code. A command refused during setup is
+exit 3 ("nothing was armed"); the same refusal in flight (a DO_SET_SERVO refused mid-mission)
+is a fault, exit 4, after the fall-back. Exit codes: :class:`helixd.exitcodes.ExitCode`.
 """
 
 from __future__ import annotations
@@ -14,28 +24,36 @@ import contextlib
 import dataclasses
 import math
 import time
-from collections.abc import AsyncIterator, Awaitable
+from collections.abc import AsyncIterator, Awaitable, Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from enum import StrEnum
 from pathlib import Path
 from typing import TypeVar
 
 import structlog
 
 from helixd import __version__
-from helixd.actuators import make_sink
+from helixd.actuators import ActuatorError, make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
 from helixd.display import ProgressDisplay, ProgressInfo, result_line
 from helixd.exitcodes import ExitCode
-from helixd.flight import MANUAL_MODE, FlightLoop
+from helixd.flight import (
+    MANUAL_MODE,
+    FlightLoop,
+    FlightResult,
+    PoseRejectedReport,
+    StepReport,
+)
+from helixd.flight_report import flight_row, rejected_progress, step_progress
 from helixd.frames import MissionFrame, NedPose
 from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
-from helixd.mission.validate import mission_problems
+from helixd.mission.validate import apply_mission_limits, mission_problems
 from helixd.notify import ServiceNotifier
 from helixd.recorder.rows import FlightRow
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
@@ -78,6 +96,9 @@ class RunOptions:
     connect_url: str
     run_root: Path
     tty: bool
+    # planning: the mission with its first leg re-planned from the rover's (north_m, east_m)
+    # (and the EKF origin's (lat, lon), for a global mission)
+    replan_from: Callable[[tuple[float, float], tuple[float, float] | None], Mission] | None = None
     # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
     inputs: RunInputs | None = None
 
@@ -110,8 +131,140 @@ async def phase(
     log.info("phase_end", phase=name, ok=True, duration_wall_s=round(time.monotonic() - t0, 3))
 
 
+class Stage(StrEnum):
+    """Where an exception came from: the same error means different things before and after
+    the rover was armed and driven."""
+
+    SETUP = "setup"  # startup: connect, preflight, start gate, MANUAL, arm
+    FLIGHT = "flight"  # main_loop: the scrolls are (or may be) driven
+
+
+@dataclass(frozen=True)
+class ExitRule:
+    """One row of :data:`EXIT_RULES`."""
+
+    exceptions: tuple[type[BaseException], ...]
+    stage: Stage | None  # None: either stage
+    cause: FaultCause | None  # None: the exception carries its own fault (StartRefused)
+    code: ExitCode
+    event: str | None  # the log event naming each problem (None: the fall-back's log says it)
+    message_prefix: str | None  # the operator's message line ("preflight: …"); None: none
+
+
+# First match wins. Setup failures happen before anything was driven (the fall-back still
+# runs if the sink was started or we armed); flight failures are faults of a moving rover.
+EXIT_RULES: tuple[ExitRule, ...] = (
+    ExitRule((StopBeforeFlight,), None, FaultCause.SIGNAL, ExitCode.OPERATOR_STOP, None, None),
+    ExitRule((StartRefused,), None, None, ExitCode.FAULT, None, None),
+    ExitRule(
+        (PreflightFailed, PlanError, CommandError),
+        Stage.SETUP,
+        FaultCause.PREFLIGHT,
+        ExitCode.PREFLIGHT,
+        "preflight_failed",
+        "preflight",
+    ),
+    ExitRule((LinkError,), Stage.SETUP, FaultCause.LINK_LOST, ExitCode.LINK, "link_failed", "link"),
+    ExitRule(
+        (ActuatorError, CommandError),
+        Stage.FLIGHT,
+        FaultCause.ACTUATOR,
+        ExitCode.FAULT,
+        "flight_command_failed",
+        None,
+    ),
+    ExitRule((LinkError,), Stage.FLIGHT, FaultCause.LINK_LOST, ExitCode.FAULT, "link_failed", None),
+    ExitRule((Exception,), None, FaultCause.EXCEPTION, ExitCode.INTERNAL_ERROR, None, None),
+)
+
+
+def exit_rule(exc: BaseException, stage: Stage) -> ExitRule:
+    """The first rule of :data:`EXIT_RULES` matching ``exc`` raised in ``stage``."""
+    for rule in EXIT_RULES:
+        if isinstance(exc, rule.exceptions) and rule.stage in (None, stage):
+            return rule
+    return EXIT_RULES[-1]
+
+
+def problems_of(exc: BaseException) -> list[str]:
+    """The human lines an exception stands for (a failed preflight has several)."""
+    return list(exc.problems) if isinstance(exc, PreflightFailed) else [str(exc)]
+
+
+@dataclass(frozen=True)
+class Ending:
+    """How the run ended: what shutdown and the summary need."""
+
+    fault: Fault | None
+    code: ExitCode
+    detected_s: float | None = None  # monotonic time the fault was detected
+    last_pose: NedPose | None = None
+
+
+def ending_for(exc: BaseException, stage: Stage, now_s: float) -> tuple[Ending, ExitRule]:
+    """Map an exception to the run's ending through :data:`EXIT_RULES` (pure)."""
+    rule = exit_rule(exc, stage)
+    if isinstance(exc, StartRefused):
+        return Ending(exc.fault, rule.code, exc.detected_s), rule
+    cause = rule.cause or FaultCause.EXCEPTION
+    detail = (
+        f"{type(exc).__name__}: {exc}"
+        if cause is FaultCause.EXCEPTION
+        else "; ".join(problems_of(exc))
+    )
+    detected = now_s if stage is Stage.FLIGHT else None
+    return Ending(Fault(cause, detail), rule.code, detected), rule
+
+
+def ending_of_flight(result: FlightResult) -> Ending:
+    """The ending of a flight the loop itself ended (mission done, a watchdog, a signal)."""
+    fault = result.fault
+    if fault is None:
+        code = ExitCode.OK
+    elif fault.cause in OPERATOR_CAUSES:
+        code = ExitCode.OPERATOR_STOP
+    else:
+        code = ExitCode.FAULT
+    return Ending(fault, code, result.detected_s, result.last_pose)
+
+
+@dataclass
+class Held:
+    """What startup has taken hold of so far: what shutdown must give back.
+
+    Filled as startup goes (a preflight can fail after the sink sent its first neutral), read
+    by shutdown only, which copes with every field unset.
+    """
+
+    ap: Autopilot | None = None
+    sink: ActuatorSink | None = None
+    armed_by_us: bool = False
+
+
+@dataclass(frozen=True)
+class Ready:
+    """What startup hands to the main loop."""
+
+    ap: Autopilot
+    sink: ActuatorSink
+    plan: Plan
+    frame: MissionFrame
+    start_ned: NedPose
+    cfg: HelixdConfig  # with the mission's own fence and time limit in place (exact now)
+
+
+@dataclass(frozen=True)
+class Checked:
+    """What preflight found: the start pose and, for a global mission, the EKF origin."""
+
+    start_ned: NedPose
+    origin: tuple[float, float] | None
+    plan: Plan
+
+
 class MissionRunner:
-    """Owns one run: the link, the sink, the recorder and the shutdown path."""
+    """Owns one run: startup → main_loop → shutdown, and the run's outputs (recorder, summary,
+    operator messages)."""
 
     def __init__(self, opts: RunOptions) -> None:
         self.opts = opts
@@ -119,12 +272,8 @@ class MissionRunner:
         self.stop = StopRequest()
         self.notifier = ServiceNotifier()
         self.display = ProgressDisplay(tty=opts.tty)
-        self.ap: Autopilot | None = None
-        self.sink: ActuatorSink | None = None
         self.recorder: RunRecorder | None = None
         self.summary = SummaryBuilder()
-        self.plan: Plan | None = None
-        self.armed_by_us = False
         self.messages: list[str] = []
 
     # -- helpers ------------------------------------------------------------------------------
@@ -152,23 +301,24 @@ class MissionRunner:
             f"yaw {math.degrees(ned.yaw_ned_rad) % 360:.0f}° (NED)"
         )
 
-    # -- phases -------------------------------------------------------------------------------
+    # -- startup ------------------------------------------------------------------------------
 
-    async def _connect(self) -> Autopilot:
+    async def _connect(self, held: Held) -> Autopilot:
         ap = await Autopilot.connect(self.cfg.link, self.cfg.safety)
-        self.ap = ap
+        held.ap = ap
         await self._until_stopped(ap.wait_heartbeat(self.cfg.safety.connect_timeout_s))
         ap.start_heartbeat()
         ap.feed()
         if self.cfg.actuation.backend is ActuationBackend.SERVO:
             # A previous run may have been killed with DO_SET_SERVO outputs latched: neutral
             # goes out before anything else.
-            self.sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
-            await self.sink.start()
+            sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
+            held.sink = sink
+            await sink.start()
         await ap.request_streams()  # logs ``streams_granted`` itself
         return ap
 
-    async def _preflight(self, ap: Autopilot) -> tuple[NedPose, tuple[float, float] | None]:
+    async def _preflight(self, ap: Autopilot) -> Checked:
         problems: list[str] = []
         for p in await check_obedience(ap, self.cfg.actuation, self.cfg.link):
             if p.severity == "error":
@@ -204,10 +354,36 @@ class MissionRunner:
             origin = await ap.request_gps_origin(self.cfg.link.command_timeout_s * 3)
             if origin is None:
                 problems.append("global mission needs GPS_GLOBAL_ORIGIN; the autopilot sent none")
-        if problems:
+        if problems or pose is None:
             raise PreflightFailed(problems)
-        assert pose is not None
-        return pose, origin
+        if self.opts.replan_from is not None:  # planned legs: the first from the rover
+            try:
+                here = (pose.north_m, pose.east_m)
+                self.opts.mission = self.opts.replan_from(here, origin)
+            except ValueError as exc:
+                raise PreflightFailed(str(exc).splitlines()) from None
+        plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
+        if self.opts.inputs is not None:  # a resume re-enters the interrupted leg
+            plan = with_leg_start(
+                plan,
+                self.opts.mission,
+                self.opts.inputs.leg_start,
+                self.cfg.control,
+                self.cfg.mission,
+                origin,
+            )
+        # The same validation `helixd check` ran, now with the start pose and EKF origin
+        # (geofence radius/polygon and time for local_ned/global missions).
+        refused = mission_problems(
+            self.opts.mission, self.cfg, start_ned=pose, origin_latlon_deg=origin
+        )
+        if refused:
+            raise PreflightFailed(refused)
+        last = plan.waypoints[-1]
+        self.summary = SummaryBuilder(final_xy_m=(last.x_m, last.y_m))
+        if origin is not None:
+            self.summary.set_origin(*origin)
+        return Checked(pose, origin, plan)
 
     def _pose_invalid_too_long(self, ap: Autopilot) -> Fault | None:
         """Pose telemetry rejected for longer than the stale limit (as the watchdog)."""
@@ -268,7 +444,7 @@ class MissionRunner:
             [f"start switch RC{ch} not flipped within {self.cfg.safety.start_gate_timeout_s} s"]
         )
 
-    async def _arm(self, ap: Autopilot) -> None:
+    async def _arm(self, ap: Autopilot, held: Held) -> None:
         """Arm, re-trying while PreArm checks refuse (e.g. 'waiting for home' after boot)."""
         if ap.state.armed:
             return
@@ -276,7 +452,7 @@ class MissionRunner:
         while True:
             try:
                 await ap.arm(force=self.cfg.safety.force_arm)
-                self.armed_by_us = True
+                held.armed_by_us = True
                 await self._confirm_armed(ap)
                 return
             except CommandRejected as exc:
@@ -299,7 +475,7 @@ class MissionRunner:
             await ap.wait_pose(after_rx_s=None, timeout_s=0.05)
 
     @contextlib.asynccontextmanager
-    async def _feeding(self) -> AsyncIterator[None]:
+    async def _feeding(self, held: Held) -> AsyncIterator[None]:
         """Keep our HEARTBEAT going during the setup phases (param reads, arming retries).
 
         The control loop feeds the heartbeat itself while flying; this feeder exists only
@@ -309,8 +485,8 @@ class MissionRunner:
 
         async def feeder() -> None:
             while True:
-                if self.ap is not None:
-                    self.ap.feed()
+                if held.ap is not None:
+                    held.ap.feed()
                     self.notifier.watchdog()
                 await asyncio.sleep(period_s)
 
@@ -322,60 +498,94 @@ class MissionRunner:
             with contextlib.suppress(asyncio.CancelledError):
                 await task
 
-    async def _setup(self) -> tuple[Autopilot, NedPose]:
-        """connect → preflight → start gate → MANUAL → arm. Returns the start pose."""
-        async with phase("connect", self.notifier, self.display):
-            ap = await self._connect()
-        async with phase("preflight", self.notifier, self.display):
-            start_ned, origin = await self._preflight(ap)
-            self.plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
-            if self.opts.inputs is not None:  # a resume re-enters the interrupted leg
-                self.plan = with_leg_start(
-                    self.plan,
-                    self.opts.mission,
-                    self.opts.inputs.leg_start,
-                    self.cfg.control,
-                    self.cfg.mission,
-                    origin,
-                )
-            # The same validation `helixd check` ran, now with the start pose and EKF origin
-            # (geofence radius/polygon and time for local_ned/global missions).
-            refused = mission_problems(
-                self.opts.mission, self.cfg, start_ned=start_ned, origin_latlon_deg=origin
-            )
-            if refused:
-                raise PreflightFailed(refused)
-            last = self.plan.waypoints[-1]
-            self.summary = SummaryBuilder(final_xy_m=(last.x_m, last.y_m))
-            if origin is not None:
-                self.summary.set_origin(*origin)
-        # READY once preflight passed: the start gate may wait minutes for the pilot, and
-        # systemd's TimeoutStartSec must not kill that wait; the watchdog runs from here on.
-        self.notifier.ready("preflight passed")
-        async with phase("start_gate", self.notifier, self.display):
-            await self._start_gate(ap)
-        async with phase("set_manual", self.notifier, self.display):
-            await self._until_stopped(ap.set_mode(MANUAL_MODE))
-        if self.sink is None:
-            self.sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
-            await self.sink.start()
-        async with phase("arm", self.notifier, self.display):
-            await self._until_stopped(self._arm(ap))
-        # The mission frame starts where the rover is now, after the pilot's start switch;
-        # never from an invalid pose: armed with pose telemetry rejected is a fault.
-        start = await self._fresh_pose(ap)
+    async def startup(self, held: Held) -> Ready:
+        """connect → preflight → start gate → MANUAL → arm. Returns what the flight needs."""
+        async with self._feeding(held):
+            async with phase("connect", self.notifier, self.display):
+                ap = await self._connect(held)
+            async with phase("preflight", self.notifier, self.display):
+                checked = await self._preflight(ap)
+            # READY once preflight passed: the start gate may wait minutes for the pilot, and
+            # systemd's TimeoutStartSec must not kill that wait; the watchdog runs from here on.
+            self.notifier.ready("preflight passed")
+            async with phase("start_gate", self.notifier, self.display):
+                await self._start_gate(ap)
+            async with phase("set_manual", self.notifier, self.display):
+                await self._until_stopped(ap.set_mode(MANUAL_MODE))
+            sink = held.sink
+            if sink is None:
+                sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
+                held.sink = sink
+                await sink.start()
+            async with phase("arm", self.notifier, self.display):
+                await self._until_stopped(self._arm(ap, held))
+            start_ned = self._start_pose(checked, await self._fresh_pose(ap), ap)
+        frame = (
+            MissionFrame.start_at(start_ned)
+            if checked.plan.frame is MissionFrameKind.START
+            else MissionFrame.enu()
+        )
+        # the mission's own geofence/time limit, now placed exactly (origin and start known)
+        cfg = apply_mission_limits(
+            self.cfg, self.opts.mission, origin_latlon_deg=checked.origin, start_ned=start_ned
+        )
+        return Ready(ap, sink, checked.plan, frame, start_ned, cfg)
+
+    def _start_pose(self, checked: Checked, now: NedPose | None, ap: Autopilot) -> NedPose:
+        """The mission frame starts where the rover is now, after the pilot's start switch;
+        never from an invalid pose: armed with pose telemetry rejected is a fault."""
         invalid = self._pose_invalid_too_long(ap)
-        if start is None and invalid is not None:
+        if now is None and invalid is not None:
             raise StartRefused(invalid, time.monotonic())
-        if start is not None and start != start_ned:
+        if now is not None and now != checked.start_ned:
             # The rover may have been moved while the start gate waited: check again from here.
             moved = mission_problems(
-                self.opts.mission, self.cfg, start_ned=start, origin_latlon_deg=origin
+                self.opts.mission, self.cfg, start_ned=now, origin_latlon_deg=checked.origin
             )
             if moved:
                 fault = Fault(FaultCause.PREFLIGHT, "from the pose at arming: " + "; ".join(moved))
                 raise StartRefused(fault, time.monotonic())
-        return ap, start or start_ned
+        return now or checked.start_ned
+
+    # -- main loop ----------------------------------------------------------------------------
+
+    async def main_loop(self, ready: Ready) -> Ending:
+        """Fly the plan; the loop returns its own ending (done, a watchdog, a signal)."""
+        plan = ready.plan
+        total = len(plan.waypoints)
+        ap = ready.ap
+
+        def on_step(report: StepReport) -> None:  # after the command left
+            self._on_row(flight_row(report, plan))
+            self.display.update(lambda: self._whole(step_progress(report, plan)))  # if shown
+
+        def on_pose_rejected(report: PoseRejectedReport) -> None:
+            self.display.update(self._whole(rejected_progress(report, plan)))
+
+        def on_arrival(index: int, t_boot_s: float, error_m: float) -> None:
+            self._on_arrival(index, total, t_boot_s, error_m)
+
+        def on_tick() -> None:
+            ap.feed()
+            self.notifier.watchdog()
+            if self.recorder is not None:
+                self.recorder.maybe_flush()
+
+        async with phase("fly", self.notifier, self.display):
+            result = await FlightLoop(
+                cfg=ready.cfg,
+                plan=ready.plan,
+                frame=ready.frame,
+                autopilot=ap,
+                sink=ready.sink,
+                stop=self.stop,
+                start_ned=ready.start_ned,
+                on_step=on_step,
+                on_pose_rejected=on_pose_rejected,
+                on_arrival=on_arrival,
+                on_tick=on_tick,
+            ).run()
+        return ending_of_flight(result)
 
     # -- the run ------------------------------------------------------------------------------
 
@@ -425,106 +635,82 @@ class MissionRunner:
                 resumed_mission_sha256=resumed.mission_sha256,
                 first_waypoint=f"{resumed.first_waypoint + 1}/{self.opts.inputs.waypoints_total}",
             )
-        code = ExitCode.INTERNAL_ERROR
-        fault: Fault | None = None
-        detected_s: float | None = None
-        last_pose: NedPose | None = None
         started = time.monotonic()
+        held = Held()
+        ending = Ending(None, ExitCode.INTERNAL_ERROR)  # if cancelled before an ending is known
         try:
-            async with self._feeding():
-                ap, start_ned = await self._setup()
-            assert self.plan is not None and self.sink is not None
-            frame = (
-                MissionFrame.start_at(start_ned)
-                if self.plan.frame is MissionFrameKind.START
-                else MissionFrame.enu()
-            )
-            async with phase("fly", self.notifier, self.display):
-                result = await FlightLoop(
-                    cfg=self.cfg,
-                    plan=self.plan,
-                    frame=frame,
-                    autopilot=ap,
-                    sink=self.sink,
-                    stop=self.stop,
-                    start_ned=start_ned,
-                    on_row=self._on_row,
-                    on_progress=self._on_progress,
-                    on_arrival=self._on_arrival,
-                    on_tick=self._on_tick,
-                ).run()
-            fault, detected_s, last_pose = result.fault, result.detected_s, result.last_pose
-            if fault is None:
-                code = ExitCode.OK
-            elif fault.cause in OPERATOR_CAUSES:
-                code = ExitCode.OPERATOR_STOP
-            else:
-                code = ExitCode.FAULT
-        except StopBeforeFlight as exc:
-            fault, code = Fault(FaultCause.SIGNAL, str(exc)), ExitCode.OPERATOR_STOP
-        except StartRefused as exc:
-            fault, detected_s, code = exc.fault, exc.detected_s, ExitCode.FAULT
-        except PreflightFailed as exc:
-            fault = Fault(FaultCause.PREFLIGHT, "; ".join(exc.problems))
-            code = ExitCode.PREFLIGHT
-            for p in exc.problems:
-                log.error("preflight_failed", problem=p)
-            self.messages.extend(f"preflight: {p}" for p in exc.problems)
-        except (PlanError, CommandError) as exc:
-            fault, code = Fault(FaultCause.PREFLIGHT, str(exc)), ExitCode.PREFLIGHT
-            log.error("preflight_failed", problem=str(exc))
-            self.messages.append(f"preflight: {exc}")
-        except LinkError as exc:
-            fault, code = Fault(FaultCause.LINK_LOST, str(exc)), ExitCode.LINK
-            log.error("link_failed", problem=str(exc))
-            self.messages.append(f"link: {exc}")
-        except Exception as exc:
-            fault = Fault(FaultCause.EXCEPTION, f"{type(exc).__name__}: {exc}")
-            code = ExitCode.INTERNAL_ERROR
-            log.exception("internal_error")
+            ending = await self._startup_then_fly(held)
         finally:
-            await self._shutdown(fault, detected_s, last_pose, code)
-        summary = self._finish(fault, code, started)
+            await self.shutdown(held, ending)
+        summary = self._finish(ending, started)
         return RunOutcome(
-            code,
+            ending.code,
             summary,
             self.recorder.run_dir if self.recorder else None,
             [*self.messages, result_line(summary)],  # the plain result line comes last
         )
 
-    async def _shutdown(
-        self,
-        fault: Fault | None,
-        detected_s: float | None,
-        last_pose: NedPose | None,
-        code: ExitCode,
-    ) -> None:
-        """Always: stop the scrolls, release overrides, ask for HOLD (if we touched anything)."""
+    async def _startup_then_fly(self, held: Held) -> Ending:
+        stage = Stage.SETUP
+        try:
+            ready = await self.startup(held)
+            stage = Stage.FLIGHT
+            return await self.main_loop(ready)
+        except Exception as exc:
+            ending, rule = ending_for(exc, stage, time.monotonic())
+            self._report_failure(exc, rule)
+            return ending
+
+    def _report_failure(self, exc: Exception, rule: ExitRule) -> None:
+        """The log events and operator lines of an exception that ended the run."""
+        if rule.cause is FaultCause.EXCEPTION:
+            log.exception("internal_error")
+            return
+        problems = problems_of(exc)
+        if rule.event is not None:
+            for p in problems:
+                log.error(rule.event, problem=p)
+        if rule.message_prefix is not None:
+            self.messages.extend(f"{rule.message_prefix}: {p}" for p in problems)
+
+    # -- shutdown -----------------------------------------------------------------------------
+
+    async def shutdown(self, held: Held, ending: Ending) -> None:
+        """Always: stop the scrolls, release overrides, ask for HOLD (if we touched anything);
+        then close the sink and the link, each bounded like the fall-back."""
         self.notifier.stopping()
-        ap = self.ap
-        touched = self.sink is not None or self.armed_by_us
+        ap = held.ap
+        touched = held.sink is not None or held.armed_by_us
         if ap is not None and touched:
-            pose = last_pose or (ap.state.pose.ned if ap.state.pose else None)
+            pose = ending.last_pose or (ap.state.pose.ned if ap.state.pose else None)
             async with phase("stop", self.notifier, self.display):
                 await fall_back(
-                    fault,
-                    sink=self.sink,
+                    ending.fault,
+                    sink=held.sink,
                     autopilot=ap,
                     cfg=self.cfg.safety,
-                    detected_s=detected_s or time.monotonic(),
+                    detected_s=ending.detected_s or time.monotonic(),
                     pose_text=self._pose_text(pose),
-                    disarm=(self.armed_by_us and code is ExitCode.OK) or None,
+                    disarm=(held.armed_by_us and ending.code is ExitCode.OK) or None,
                     abandon=lambda: self.stop.forced,
                 )
-        try:
-            if self.sink is not None:
-                await self.sink.close()
-            if ap is not None:
-                ap.stop_heartbeat()
-                await ap.close()
-        except Exception:  # the vehicle is already secured; closing must not mask the outcome
-            log.exception("close_failed")
+        if held.sink is not None:
+            await self._bounded_close("sink", held.sink.close())
+        if ap is not None:
+            ap.stop_heartbeat()
+            await self._bounded_close("link", ap.close())
         self.notifier.close()
+
+    async def _bounded_close(self, what: str, closing: Awaitable[None]) -> None:
+        """Closing must neither hang the exit nor mask the outcome: the vehicle is already
+        secured. Bounded by ``safety.fallback_deadline_s``, like the fall-back's stop."""
+        bound_s = self.cfg.safety.fallback_deadline_s
+        try:
+            await asyncio.wait_for(closing, timeout=bound_s)
+        except TimeoutError:
+            log.error("close_late", what=what, timeout_s=bound_s)
+        except Exception:
+            log.exception("close_failed", what=what)
 
     def _build_summary(
         self, fault: str | None, code: ExitCode, wall_duration_s: float | None
@@ -542,10 +728,11 @@ class MissionRunner:
             summary = summary.model_copy(update={"resumed_from": self.opts.inputs.resumed_from})
         return summary
 
-    def _finish(self, fault: Fault | None, code: ExitCode, started: float) -> RunSummary:
+    def _finish(self, ending: Ending, started: float) -> RunSummary:
+        fault = ending.fault
         summary = self._build_summary(
             None if fault is None else f"{fault.cause.value}: {fault.detail}",
-            code,
+            ending.code,
             time.monotonic() - started,
         )
         run_dir = self.recorder.run_dir if self.recorder else None
@@ -556,7 +743,7 @@ class MissionRunner:
         self.display.final(summary, run_dir, log_event=False)
         return summary
 
-    # -- loop callbacks (cheap: called at the control rate) --------------------------------------
+    # -- loop callbacks (cheap: called at the control rate, after the command left) -------------
 
     def _on_row(self, row: FlightRow) -> None:
         self.summary.add(row)
@@ -564,10 +751,9 @@ class MissionRunner:
         if self.recorder is not None:
             self.recorder.record(row)
 
-    def _on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
+    def _on_arrival(self, index: int, total: int, t_boot_s: float, error_m: float) -> None:
         self.summary.arrival(index, t_boot_s, error_m)
         start = self.summary.start_t_boot_s
-        total = len(self.plan.waypoints) if self.plan is not None else 0
         log.info(
             "waypoint_reached",
             waypoint=f"{index + 1}/{total}",  # 1-based, as the progress line counts
@@ -580,16 +766,16 @@ class MissionRunner:
             error_m=round(error_m, 3),
         )
 
-    def _on_progress(self, info: ProgressInfo) -> None:
+    def _whole(self, info: ProgressInfo) -> ProgressInfo:
         """The progress line counts waypoints of the whole mission on a resumed run."""
         inputs = self.opts.inputs
-        if inputs is not None and inputs.resumed_from is not None:
-            info = dataclasses.replace(
-                info,
-                waypoint_index=inputs.index_offset + info.waypoint_index,
-                waypoints_total=inputs.waypoints_total,
-            )
-        self.display.update(info)
+        if inputs is None or inputs.resumed_from is None:
+            return info
+        return dataclasses.replace(
+            info,
+            waypoint_index=inputs.index_offset + info.waypoint_index,
+            waypoints_total=inputs.waypoints_total,
+        )
 
     def _mission_waypoint(self, index: int) -> dict[str, str]:
         """A resumed run also counts waypoints of the whole mission (e.g. 12/38)."""
@@ -597,13 +783,6 @@ class MissionRunner:
         if inputs is None or inputs.resumed_from is None:
             return {}
         return {"mission_waypoint": f"{inputs.index_offset + index + 1}/{inputs.waypoints_total}"}
-
-    def _on_tick(self) -> None:
-        if self.ap is not None:
-            self.ap.feed()
-        self.notifier.watchdog()
-        if self.recorder is not None:
-            self.recorder.maybe_flush()
 
 
 async def run_mission(opts: RunOptions) -> RunOutcome:

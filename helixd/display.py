@@ -281,7 +281,7 @@ class ProgressDisplay:
         self._clock = clock
         self._min_gap_s = 1.0 / refresh_hz if tty else event_interval_s
         self._phase = "startup"
-        self._info: ProgressInfo | None = None
+        self._info: ProgressInfo | Callable[[], ProgressInfo] | None = None
         self._last_out_s = -math.inf
         self._live: Live | None = None
         self._autopilot = AutopilotElapsed()
@@ -303,8 +303,12 @@ class ProgressDisplay:
         """The autopilot clock of the latest control step (s), for the elapsed-time display."""
         self._autopilot.add(t_boot_s)
 
-    def update(self, info: ProgressInfo) -> None:
-        """New values; output only when a redraw (≤ refresh_hz) or an event is due."""
+    def update(self, info: ProgressInfo | Callable[[], ProgressInfo]) -> None:
+        """New values; output only when a redraw (≤ refresh_hz) or an event is due.
+
+        ``info`` may be a function building the values: it is called only when they are shown
+        (the control loop hands one per step, and most steps are never drawn).
+        """
         self._info = info
         now = self._clock()
         if now - self._last_out_s < self._min_gap_s:
@@ -364,6 +368,8 @@ class ProgressDisplay:
     def _shown(self) -> ProgressInfo | None:
         """The latest values, the autopilot clock filled in from the rows (only when drawn)."""
         info = self._info
+        if callable(info):
+            info = self._info = info()  # built once, when first shown
         if info is None or info.autopilot_elapsed_s is not None:
             return info
         if self._autopilot.elapsed_s is None:

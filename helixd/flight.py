@@ -9,6 +9,14 @@ monotonic wall clock, the stall duration counts autopilot time (see
 :mod:`helixd.safety.watchdogs`). It never stops the rover itself: it returns the fault and the
 daemon's supervisor does the fall-back.
 
+The step itself (:meth:`FlightLoop._step`) is pure: pose in, :class:`StepOutput` (the four
+scroll fractions and the navigator's output) out, no send and no callback. The command leaves
+first; what the recorder and the display need (:class:`StepReport`) is handed over after the
+send, so building the flight.csv row and the progress line costs nothing on the latency path
+(:mod:`helixd.flight_report` builds them). The safety supervisor
+(:class:`helixd.safety.supervisor.Supervisor`) owns the watchdogs: the loop asks it once per
+tick, before any command.
+
 Hostile telemetry: while the vehicle state reports rejected pose telemetry (an invalid-pose
 burst), the loop commands neutral at its next tick and steps nothing; the ``pose_invalid``
 watchdog ends the mission if no valid pose returns within the stale-pose limit. A non-finite
@@ -18,6 +26,7 @@ result is never sent: neutral, and a ``pose_invalid`` fault at once.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable
@@ -25,7 +34,7 @@ from dataclasses import dataclass
 
 import structlog
 
-from helixd.actuators.base import ActuatorSink
+from helixd.actuators.base import ActuatorError, ActuatorSink
 from helixd.config import HelixdConfig
 from helixd.control.angles import wrap_pi
 from helixd.control.kinematics import body_to_fractions
@@ -36,13 +45,12 @@ from helixd.control.slip import (
     measured_body_velocity,
     no_slip_body,
 )
-from helixd.display import ProgressInfo
 from helixd.frames import MissionFrame, NedPose
-from helixd.geometry import BodyVelocity, NonFiniteError
+from helixd.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.link.connection import Autopilot
 from helixd.mission import Plan
-from helixd.recorder.rows import FlightRow
-from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonitor
+from helixd.safety.supervisor import Motion, Supervisor
+from helixd.safety.watchdogs import Fault, FaultCause
 from helixd.signals import StopRequest
 from helixd.vehicle import PoseSample
 
@@ -51,6 +59,41 @@ log = structlog.get_logger(__name__)
 MANUAL_MODE = "MANUAL"
 NEUTRAL_FRACTIONS = (0.0, 0.0, 0.0, 0.0)
 CEILING_JITTER_FRACTION = 0.25  # of the ceiling's period: early arrivals still stepped
+
+
+@dataclass(frozen=True, slots=True)
+class StepOutput:
+    """What one control step decided (pure: nothing sent yet)."""
+
+    fractions: tuple[float, float, float, float]  # calibrated scroll fractions, sent as is
+    nav: NavOutput  # the navigator's output (its command before the slip feed-forward)
+    command: BodyVelocity  # the body velocity sent (slip feed-forward included)
+    mpose: Pose2D  # the pose in the mission frame
+    slip: SlipEstimate  # the slip fit after this step's measurement
+
+
+@dataclass(frozen=True, slots=True)
+class StepReport:
+    """One control step, handed to the recorder and the display after the command left."""
+
+    sample: PoseSample
+    step: StepOutput
+    pwm_us: tuple[int, int, int, int]
+    now_s: float  # monotonic time of the step
+    elapsed_s: float  # wall time since the loop started
+    pose_fresh: bool
+    mode: str
+    armed: bool
+    link_ok: bool
+
+
+@dataclass(frozen=True, slots=True)
+class PoseRejectedReport:
+    """A tick spent neutral while the pose telemetry is being rejected (for the display)."""
+
+    last_target_index: int  # the waypoint being flown to before the burst (0: none yet)
+    elapsed_s: float
+    link_ok: bool
 
 
 @dataclass
@@ -74,8 +117,8 @@ class FlightLoop:
         sink: ActuatorSink,
         stop: StopRequest,
         start_ned: NedPose,
-        on_row: Callable[[FlightRow], None],
-        on_progress: Callable[[ProgressInfo], None],
+        on_step: Callable[[StepReport], None],
+        on_pose_rejected: Callable[[PoseRejectedReport], None],
         on_arrival: Callable[[int, float, float], None],
         on_tick: Callable[[], None],
     ) -> None:
@@ -86,12 +129,12 @@ class FlightLoop:
         self.sink = sink
         self.stop = stop
         self.start_ned = start_ned
-        self.on_row = on_row
-        self.on_progress = on_progress
+        self.on_step = on_step
+        self.on_pose_rejected = on_pose_rejected
         self.on_arrival = on_arrival
         self.on_tick = on_tick
         self.navigator = Navigator(plan, cfg.control)
-        self.monitor = SafetyMonitor(cfg.safety)
+        self.supervisor = Supervisor(cfg.safety, start_ned, MANUAL_MODE)  # owns the watchdogs
         # The ceiling only thins out a pose flood, counted in autopilot time (pose
         # time_boot_ms), so a simulator speed-up does not lower the control rate the rover
         # sees; a pose at the ceiling rate arriving a little early (sample jitter) is still
@@ -109,50 +152,64 @@ class FlightLoop:
         self.slip = SlipEstimator(cfg.control.slip)
         # no-slip body velocity sent at the last step, and that step's autopilot clock (s)
         self._sent: tuple[float, BodyVelocity] | None = None
+        self._slip_enabled = cfg.control.slip.enabled
+        self._pose_stale_s = cfg.safety.pose_stale_s
 
     async def run(self) -> FlightResult:
         t_start = time.monotonic()
-        last_rx: float | None = None
         last_step_boot_s = -math.inf  # autopilot clock of the last pose stepped on
         out: NavOutput | None = None
         pose: PoseSample | None = None
-        while True:
-            sample = await self.ap.wait_pose(after_rx_s=last_rx, timeout_s=self._tick_s)
-            now = time.monotonic()
-            self.on_tick()
-            if sample is not None:
-                last_rx = sample.rx_monotonic_s
-                pose = sample
-                if self._t_boot_start_s is None:
-                    self._t_boot_start_s = sample.time_boot_ms / 1000.0
-                self._measure_yaw_rate(sample)
-            if self.stop.requested:
-                return FlightResult(
-                    Fault(FaultCause.SIGNAL, f"{self.stop.signal_name} received"),
-                    now,
-                    out,
-                    pose.ned if pose else None,
+        # a new pose, or None each tick without one: the watchdogs run either way
+        async with contextlib.aclosing(self.ap.telemetry.pose_or_tick(self._tick_s)) as ticks:
+            async for sample in ticks:
+                now = time.monotonic()
+                self.on_tick()
+                if sample is not None:
+                    pose = sample
+                    if self._t_boot_start_s is None:
+                        self._t_boot_start_s = sample.time_boot_ms / 1000.0
+                    self._measure_yaw_rate(sample)
+                if self.stop.requested:
+                    return FlightResult(
+                        Fault(FaultCause.SIGNAL, f"{self.stop.signal_name} received"),
+                        now,
+                        out,
+                        pose.ned if pose else None,
+                    )
+                fault = self.supervisor.check(
+                    now, self.ap.state, pose, self._motion(now, t_start, pose)
                 )
-            fault = self.monitor.check(self._inputs(now, t_start, pose))
-            if fault is not None:
-                return FlightResult(fault, now, out, pose.ned if pose else None)
-            if self._pose_rejected(now, t_start, out):
-                continue  # neutral until a valid pose (or the pose_invalid watchdog)
-            if sample is None:
-                continue
-            t_boot_s = sample.time_boot_ms / 1000.0
-            since_step_s = t_boot_s - last_step_boot_s
-            if 0.0 <= since_step_s < self._min_step_s:
-                continue  # (a clock that ran backwards, a reboot, is stepped on at once)
-            last_step_boot_s = t_boot_s
-            try:
-                out = self._step(sample, now, t_start)
-            except NonFiniteError as exc:
-                self._neutral()
-                fault = Fault(FaultCause.POSE_INVALID, f"non-finite value in control: {exc}")
-                return FlightResult(fault, now, out, sample.ned)
-            if out.done:
-                return FlightResult(None, None, out, sample.ned)
+                if fault is not None:
+                    return FlightResult(fault, now, out, pose.ned if pose else None)
+                try:
+                    if self._pose_rejected(now, t_start, out):
+                        continue  # neutral until a valid pose (or the pose_invalid watchdog)
+                    if sample is None:
+                        continue
+                    t_boot_s = sample.time_boot_ms / 1000.0
+                    since_step_s = t_boot_s - last_step_boot_s
+                    if 0.0 <= since_step_s < self._min_step_s:
+                        continue  # (a clock that ran backwards, a reboot, is stepped on at once)
+                    last_step_boot_s = t_boot_s
+                    try:
+                        step = self._step(sample, t_boot_s)
+                    except NonFiniteError as exc:
+                        self._neutral()
+                        fault = Fault(
+                            FaultCause.POSE_INVALID, f"non-finite value in control: {exc}"
+                        )
+                        return FlightResult(fault, now, out, sample.ned)
+                    self.sink.command(step.fractions)  # the command leaves first
+                    out = step.nav
+                    self._sent_step(step, t_boot_s)
+                    self._report(sample, step, now, t_start)
+                except ActuatorError as exc:  # e.g. a DO_SET_SERVO refused mid-mission: a fault
+                    fault = Fault(FaultCause.ACTUATOR, str(exc))
+                    return FlightResult(fault, now, out, pose.ned if pose else None)
+                if out.done:
+                    return FlightResult(None, None, out, sample.ned)
+        raise AssertionError("the pose stream never ends")  # pragma: no cover
 
     def _neutral(self) -> None:
         self.sink.command(NEUTRAL_FRACTIONS)
@@ -169,7 +226,7 @@ class FlightLoop:
         if since is None:
             if self._invalid_burst_s is not None:
                 log.info("pose_telemetry_valid_again", rejected_total=st.pose_rejected_count)
-            self._invalid_burst_s = None
+                self._invalid_burst_s = None
             return False
         if since != self._invalid_burst_s:
             self._invalid_burst_s = since
@@ -181,110 +238,64 @@ class FlightLoop:
                 kinds=dict(st.pose_rejected_kinds),
                 action="scrolls neutral; fall-back if no valid pose within pose_stale_s",
             )
-        n = len(self.plan.waypoints)
-        self.on_progress(
-            ProgressInfo(
-                waypoint_index=min((last.target_index if last else 0) + 1, n),
-                waypoints_total=n,
-                distance_to_go_m=math.nan,  # unknown: shown as "-"
-                speed_mps=math.nan,
-                heading_error_deg=math.nan,
-                link_ok=not st.link_lost,
-                pose_fresh=False,
+        self.on_pose_rejected(
+            PoseRejectedReport(
+                last_target_index=last.target_index if last else 0,
                 elapsed_s=now - t_start,
-                phase="fly",
-                nav_state="pose_invalid",
+                link_ok=not st.link_lost,
             )
         )
         return True
 
-    def _step(self, sample: PoseSample, now: float, t_start: float) -> NavOutput:
+    def _step(self, sample: PoseSample, t_boot_s: float) -> StepOutput:
+        """One control step, pure of I/O: pose → navigator → slip feed-forward → fractions.
+
+        Raises :class:`NonFiniteError` instead of returning a non-finite command.
+        """
         mpose = self.frame.to_mission(sample.ned)
-        t_boot_s = sample.time_boot_ms / 1000.0
         slip = self._learn_slip(sample, t_boot_s)
         out = self.navigator.step(mpose, t_boot_s)
         command = out.command
-        if self.cfg.control.slip.enabled:
+        if self._slip_enabled:
             command = self.slip.compensate(self.plan.mode, out.command)
-        fractions = body_to_fractions(command, self.cfg.vehicle, self.plan.mode)
+        f = body_to_fractions(command, self.cfg.vehicle, self.plan.mode)
+        fractions = (float(f[0]), float(f[1]), float(f[2]), float(f[3]))
         if (
             not out.command.is_finite()
             or not command.is_finite()
-            or not all(math.isfinite(f) for f in fractions)
+            or not all(math.isfinite(x) for x in fractions)
         ):
-            raise NonFiniteError(f"command {out.command} / fractions {fractions.tolist()}")
-        self.sink.command(tuple(float(f) for f in fractions))
+            raise NonFiniteError(f"command {out.command} / fractions {list(fractions)}")
+        return StepOutput(fractions, out, command, mpose, slip)
+
+    def _sent_step(self, step: StepOutput, t_boot_s: float) -> None:
+        """Bookkeeping of what was sent, for the stall watchdog and the slip fit."""
+        command = step.command
         # The stall watchdog compares the measured motion with what was sent (feed-forward
         # included): amplifying the command can only make a stall show sooner, never hide it.
         self._cmd_speed_mps = math.hypot(command.vx_mps, command.vy_mps)
         self._cmd_yaw_rate_radps = command.wz_radps
         self._sent = (t_boot_s, no_slip_body(command, self.cfg.vehicle, self.plan.mode))
+
+    def _report(self, sample: PoseSample, step: StepOutput, now: float, t_start: float) -> None:
+        """After the send: arrivals, then the step's report for the recorder and display."""
+        out = step.nav
         if out.reached_index is not None:
-            self.on_arrival(out.reached_index, t_boot_s, out.distance_error_m)
+            self.on_arrival(out.reached_index, sample.time_boot_ms / 1000.0, out.distance_error_m)
         state = self.ap.state
-        speed = math.hypot(sample.vn_mps, sample.ve_mps)
-        pose_fresh = now - sample.rx_monotonic_s <= self.cfg.safety.pose_stale_s
-        target = self.plan.waypoints[min(out.target_index, len(self.plan.waypoints) - 1)]
-        pwm = self.sink.last_pwm_us
-        self.on_row(
-            FlightRow(
-                t_boot_s=t_boot_s,
-                t_mono_s=now,
-                north_m=sample.ned.north_m,
-                east_m=sample.ned.east_m,
-                yaw_ned_rad=sample.ned.yaw_ned_rad,
-                x_m=mpose.x_m,
-                y_m=mpose.y_m,
-                yaw_rad=mpose.yaw_rad,
-                target_index=out.target_index,
-                target_x_m=target.x_m,
-                target_y_m=target.y_m,
-                distance_error_m=out.distance_error_m,
-                heading_error_rad=out.heading_error_rad,
-                cross_track_m=out.cross_track_m,
-                dist_p=out.distance_pid.p,
-                dist_i=out.distance_pid.i,
-                dist_d=out.distance_pid.d,
-                yaw_p=out.yaw_pid.p,
-                yaw_i=out.yaw_pid.i,
-                yaw_d=out.yaw_pid.d,
-                vx_cmd_mps=out.command.vx_mps,
-                vy_cmd_mps=out.command.vy_mps,
-                wz_cmd_radps=out.command.wz_radps,
-                speed_meas_mps=speed,
-                scroll1=float(fractions[0]),
-                scroll2=float(fractions[1]),
-                scroll3=float(fractions[2]),
-                scroll4=float(fractions[3]),
-                pwm1_us=pwm[0],
-                pwm2_us=pwm[1],
-                pwm3_us=pwm[2],
-                pwm4_us=pwm[3],
+        self.on_step(
+            StepReport(
+                sample=sample,
+                step=step,
+                pwm_us=self.sink.last_pwm_us,
+                now_s=now,
+                elapsed_s=now - t_start,
+                pose_fresh=now - sample.rx_monotonic_s <= self._pose_stale_s,
                 mode=state.mode,
                 armed=state.armed,
-                nav_state=out.state.value,
                 link_ok=not state.link_lost,
-                pose_fresh=pose_fresh,
-                slip_vx_frac=slip.vx_frac,
-                slip_vy_frac=slip.vy_frac,
-                slip_w_frac=slip.w_frac,
             )
         )
-        self.on_progress(
-            ProgressInfo(
-                waypoint_index=min(out.target_index + 1, len(self.plan.waypoints)),
-                waypoints_total=len(self.plan.waypoints),
-                distance_to_go_m=out.distance_error_m,
-                speed_mps=speed,
-                heading_error_deg=math.degrees(out.heading_error_rad),
-                link_ok=not state.link_lost,
-                pose_fresh=pose_fresh,
-                elapsed_s=now - t_start,
-                phase="fly",
-                nav_state=out.state.value,
-            )
-        )
-        return out
 
     def _learn_slip(self, sample: PoseSample, t_boot_s: float) -> SlipEstimate:
         """Step the slip fit with what was sent at the last step and the motion measured now
@@ -319,30 +330,10 @@ class FlightLoop:
             return wall_s
         return max(wall_s, pose.time_boot_ms / 1000.0 - self._t_boot_start_s)
 
-    def _inputs(self, now: float, t_start: float, pose: PoseSample | None) -> SafetyInputs:
-        st = self.ap.state
-        ekf = st.ekf
-        return SafetyInputs(
-            now_s=now,
-            last_heartbeat_s=st.last_heartbeat_s,
-            pose_rx_s=pose.rx_monotonic_s if pose else None,
-            ekf_healthy=None if ekf is None else ekf.healthy,
-            ekf_detail="" if ekf is None else ekf.describe(),
-            mode=st.mode,
-            expected_mode=MANUAL_MODE,
-            armed=st.armed,
-            rc_inputs_us=st.rc_inputs_us,
-            north_m=pose.ned.north_m if pose else None,
-            east_m=pose.ned.east_m if pose else None,
-            start_north_m=self.start_ned.north_m,
-            start_east_m=self.start_ned.east_m,
-            mission_elapsed_s=self._mission_elapsed_s(now - t_start, pose),
+    def _motion(self, now: float, t_start: float, pose: PoseSample | None) -> Motion:
+        return Motion(
             commanded_speed_mps=self._cmd_speed_mps,
-            measured_speed_mps=math.hypot(pose.vn_mps, pose.ve_mps) if pose else 0.0,
             commanded_yaw_rate_radps=self._cmd_yaw_rate_radps,
             measured_yaw_rate_radps=self._meas_yaw_rate_radps,
-            rc_receiver_healthy=st.rc_receiver_healthy,
-            pose_invalid_since_s=st.pose_invalid_since_s,
-            pose_invalid_detail=st.pose_invalid_reason,
-            vehicle_time_s=pose.time_boot_ms / 1000.0 if pose else None,
+            mission_elapsed_s=self._mission_elapsed_s(now - t_start, pose),
         )

@@ -704,9 +704,8 @@ def _pooled(mask: npt.NDArray[np.bool_], step: int) -> npt.NDArray[np.bool_]:
     rows, cols = mask.shape
     pr, pc = -rows % step, -cols % step
     padded = np.pad(mask, ((0, pr), (0, pc)))
-    out: npt.NDArray[np.bool_] = padded.reshape(
-        padded.shape[0] // step, step, padded.shape[1] // step, step
-    ).any(axis=(1, 3))
+    blocks = padded.reshape(padded.shape[0] // step, step, padded.shape[1] // step, step)
+    out: npt.NDArray[np.bool_] = np.asarray(blocks.any(axis=(1, 3)), dtype=np.bool_)
     return out
 
 
@@ -740,8 +739,10 @@ def draw_route(ax: Axes, route: Any) -> None:
     if route.legs:
         n, e = route.legs[0].points_ne_m[0]
         ax.plot(e, n, "^", color="black", ms=7, label="start")
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
+    around = getattr(route, "origin_latlon_deg", None)  # a global mission: around waypoint 0
+    where = "" if around is None else " of waypoint 0"
+    ax.set_xlabel(f"east{where} (m)")
+    ax.set_ylabel(f"north{where} (m)")
     ax.set_aspect("equal")
     _legend(ax)
 

@@ -23,34 +23,14 @@ import math
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from enum import IntFlag
 from typing import Any
 
 from helixd.config import SafetyConfig
 from helixd.frames import NedPose
+from helixd.mavconst import MAV_MODE_FLAG_SAFETY_ARMED, ROVER_MODE_NUMBERS, ROVER_MODES, UINT16_MAX
 
 MavMsg = Any  # pymavlink messages are untyped; every field is read through int()/float()
 
-# ArduPilot Rover mode numbers (Rover/mode.h)
-ROVER_MODES: dict[int, str] = {
-    0: "MANUAL",
-    1: "ACRO",
-    3: "STEERING",
-    4: "HOLD",
-    5: "LOITER",
-    6: "FOLLOW",
-    7: "SIMPLE",
-    8: "DOCK",
-    9: "CIRCLE",
-    10: "AUTO",
-    11: "RTL",
-    12: "SMART_RTL",
-    15: "GUIDED",
-    16: "INITIALISING",
-}
-ROVER_MODE_NUMBERS: dict[str, int] = {name: number for number, name in ROVER_MODES.items()}
-
-MAV_MODE_FLAG_SAFETY_ARMED = 128
 
 # EKF_STATUS_FLAGS
 EKF_ATTITUDE = 1
@@ -71,7 +51,6 @@ EKF_FORBIDDEN_FLAGS = {
 
 RC_CHANNEL_COUNT = 18
 SERVO_CHANNEL_COUNT = 16
-UINT16_MAX = 65535  # "not sent" in SYS_STATUS.voltage_battery
 SENSOR_RC_RECEIVER = 0x10000  # MAV_SYS_STATUS_SENSOR_RC_RECEIVER
 RSSI_UNKNOWN = 255
 LAT_MAX_DEG = 90.0
@@ -91,8 +70,13 @@ def mode_number(name: str) -> int:
     return ROVER_MODE_NUMBERS[key]
 
 
-class Change(IntFlag):
-    """What an applied message changed (several may be set at once)."""
+class Change:
+    """What an applied message changed: bit flags, several may be set at once.
+
+    Plain ``int`` constants, not an ``IntFlag``: every message goes through a few of these
+    operations, and enum arithmetic costs microseconds each where int arithmetic costs
+    nanoseconds.
+    """
 
     NONE = 0
     HEARTBEAT = 1
@@ -146,6 +130,17 @@ def position_problem(
     bounds: TelemetryBounds,
 ) -> str | None:
     """Why a LOCAL_POSITION_NED cannot be a pose (None when it can). Pure."""
+    p_max, v_max = bounds.position_max_m, bounds.speed_max_mps
+    vx, vy, vz = velocities_mps
+    # the common case in one expression: NaN and ±inf compare False and take the long way
+    if (
+        abs(north_m) <= p_max
+        and abs(east_m) <= p_max
+        and abs(vx) <= v_max
+        and abs(vy) <= v_max
+        and abs(vz) <= v_max
+    ):
+        return None
     for name, value in (("x (north)", north_m), ("y (east)", east_m)):
         if not math.isfinite(value):
             return f"position {name} is {value}"
@@ -161,6 +156,8 @@ def position_problem(
 
 def yaw_problem(yaw_rad: float, bounds: TelemetryBounds) -> str | None:
     """Why an ATTITUDE yaw cannot be used (None when it can). Pure."""
+    if abs(yaw_rad) <= bounds.yaw_max_rad:  # NaN compares False
+        return None
     if not math.isfinite(yaw_rad):
         return f"yaw is {yaw_rad}"
     if abs(yaw_rad) > bounds.yaw_max_rad:
@@ -317,7 +314,7 @@ class VehicleState:
 
     # -- message handlers ---------------------------------------------------------------------
 
-    def apply(self, msg: MavMsg, rx_s: float) -> Change:
+    def apply(self, msg: MavMsg, rx_s: float) -> int:
         """Update from one message of the autopilot's system; return what changed."""
         mtype = str(msg.get_type())
         handler = _HANDLERS.get(mtype)
@@ -336,7 +333,7 @@ class VehicleState:
         """True while the latest pose telemetry was rejected (no valid pose since)."""
         return self.pose_invalid_since_s is not None
 
-    def _reject(self, kind: str, reason: str, rx_s: float) -> Change:
+    def _reject(self, kind: str, reason: str, rx_s: float) -> int:
         self.pose_rejected_count += 1
         self.pose_rejected_kinds[kind] = self.pose_rejected_kinds.get(kind, 0) + 1
         self.pose_invalid_reason = reason
@@ -344,7 +341,7 @@ class VehicleState:
             self.pose_invalid_since_s = rx_s
         return Change.POSE_REJECTED
 
-    def _boot_time(self, time_boot_ms: int) -> Change:
+    def _boot_time(self, time_boot_ms: int) -> int:
         """Reboot detection: a backstep larger than ``reboot_backstep_ms`` is a new boot.
 
         A smaller backstep (a reordered or hostile message) leaves the clock at the newest
@@ -364,7 +361,7 @@ class VehicleState:
             return Change.REBOOT
         return Change.NONE
 
-    def _heartbeat(self, msg: MavMsg, rx_s: float) -> Change:
+    def _heartbeat(self, msg: MavMsg, rx_s: float) -> int:
         changed = Change.HEARTBEAT
         self.last_heartbeat_s = rx_s
         self.heartbeat_count += 1
@@ -385,7 +382,7 @@ class VehicleState:
             changed |= Change.MODE
         return changed
 
-    def _attitude(self, msg: MavMsg, rx_s: float) -> Change:
+    def _attitude(self, msg: MavMsg, rx_s: float) -> int:
         t_ms = int(msg.time_boot_ms)
         changed = self._boot_time(t_ms)
         t_prev = self.attitude_time_boot_ms
@@ -407,7 +404,7 @@ class VehicleState:
         self.attitude_time_boot_ms = t_ms
         return changed | Change.ATTITUDE
 
-    def _local_position(self, msg: MavMsg, rx_s: float) -> Change:
+    def _local_position(self, msg: MavMsg, rx_s: float) -> int:
         t_ms = int(msg.time_boot_ms)
         changed = self._boot_time(t_ms)
         last = self.pose
@@ -418,8 +415,12 @@ class VehicleState:
                 "than the last pose",
                 rx_s,
             )
-        north, east = _as_float(msg.x), _as_float(msg.y)
-        velocities = (_as_float(msg.vx), _as_float(msg.vy), _as_float(msg.vz))
+        try:  # pymavlink gives floats: one conversion each, no call per field
+            north, east = float(msg.x), float(msg.y)
+            velocities = (float(msg.vx), float(msg.vy), float(msg.vz))
+        except (TypeError, ValueError, OverflowError):
+            north, east = _as_float(msg.x), _as_float(msg.y)
+            velocities = (_as_float(msg.vx), _as_float(msg.vy), _as_float(msg.vz))
         problem = position_problem(north, east, velocities, self.bounds)
         if problem is not None:
             return changed | self._reject("position_invalid", f"LOCAL_POSITION_NED {problem}", rx_s)
@@ -437,7 +438,7 @@ class VehicleState:
         self.pose_invalid_since_s = None
         return changed | Change.POSE
 
-    def _ekf(self, msg: MavMsg, rx_s: float) -> Change:
+    def _ekf(self, msg: MavMsg, rx_s: float) -> int:
         self.ekf = EkfStatus(
             flags=int(msg.flags),
             velocity_variance=float(msg.velocity_variance),
@@ -450,7 +451,7 @@ class VehicleState:
         )
         return Change.EKF
 
-    def _rc(self, msg: MavMsg, rx_s: float) -> Change:
+    def _rc(self, msg: MavMsg, rx_s: float) -> int:
         changed = self._boot_time(int(msg.time_boot_ms))
         self.rc_inputs_us = tuple(
             int(getattr(msg, f"chan{i}_raw")) for i in range(1, RC_CHANNEL_COUNT + 1)
@@ -461,14 +462,14 @@ class VehicleState:
         self.rc_rx_s = rx_s
         return changed | Change.RC
 
-    def _servo(self, msg: MavMsg, rx_s: float) -> Change:
+    def _servo(self, msg: MavMsg, rx_s: float) -> int:
         self.servo_outputs_us = tuple(
             int(getattr(msg, f"servo{i}_raw", 0)) for i in range(1, SERVO_CHANNEL_COUNT + 1)
         )
         self.servo_rx_s = rx_s
         return Change.SERVO
 
-    def _origin(self, msg: MavMsg, rx_s: float) -> Change:
+    def _origin(self, msg: MavMsg, rx_s: float) -> int:
         lat_deg, lon_deg = int(msg.latitude) * 1e-7, int(msg.longitude) * 1e-7
         if not (-LAT_MAX_DEG <= lat_deg <= LAT_MAX_DEG and -LON_MAX_DEG <= lon_deg <= LON_MAX_DEG):
             self.origin_rejected_count += 1  # not a place on Earth: never an origin
@@ -477,13 +478,13 @@ class VehicleState:
         self.gps_origin_rx_s = rx_s
         return Change.GPS_ORIGIN
 
-    def _statustext(self, msg: MavMsg, rx_s: float) -> Change:
+    def _statustext(self, msg: MavMsg, rx_s: float) -> int:
         self.statustexts.append(StatusText(int(msg.severity), _text(msg.text), rx_s))
         while len(self.statustexts) > self.statustext_history:
             self.statustexts.popleft()
         return Change.STATUSTEXT
 
-    def _sys_status(self, msg: MavMsg, rx_s: float) -> Change:
+    def _sys_status(self, msg: MavMsg, rx_s: float) -> int:
         present = int(msg.onboard_control_sensors_present) & SENSOR_RC_RECEIVER
         enabled = int(msg.onboard_control_sensors_enabled) & SENSOR_RC_RECEIVER
         healthy = int(msg.onboard_control_sensors_health) & SENSOR_RC_RECEIVER
@@ -493,7 +494,7 @@ class VehicleState:
         return Change.SYS_STATUS
 
 
-_HANDLERS: dict[str, Callable[[VehicleState, MavMsg, float], Change]] = {
+_HANDLERS: dict[str, Callable[[VehicleState, MavMsg, float], int]] = {
     "HEARTBEAT": VehicleState._heartbeat,
     "ATTITUDE": VehicleState._attitude,
     "LOCAL_POSITION_NED": VehicleState._local_position,

@@ -140,11 +140,12 @@ def control_loop_markdown(loop: Mapping[str, Any]) -> list[str]:
                     fmt(lat.get("p50")), fmt(lat.get("p99")), fmt(lat.get("max")),
                     fmt(jit.get("p99")), fmt(fig.get("cpu_percent")),
                     fmt(fig.get("poses_not_stepped"), "d"),
+                    fmt(fig.get("floor_cpu_percent")), fmt(fig.get("ratio_to_floor")),
                 ]
             )  # fmt: skip
         lines += md_table(
             ["rate", "latency p50 ms", "latency p99 ms", "latency max ms", "jitter p99 ms",
-             "CPU %", "poses not stepped"],
+             "CPU %", "poses not stepped", "floor CPU %", "CPU / floor"],
             rows,
         )  # fmt: skip
     targets = loop.get("targets", {})

@@ -69,4 +69,8 @@ def checked_fractions(fractions: Sequence[float], clamp: float) -> tuple[float, 
     """Exactly four fractions, non-finite → 0, limited to ±``clamp`` (last line of defence)."""
     if len(fractions) != SCROLLS:
         raise ValueError(f"expected {SCROLLS} scroll fractions, got {len(fractions)}")
-    return tuple(max(-clamp, min(clamp, float(f))) if math.isfinite(f) else 0.0 for f in fractions)
+    out = []
+    for f in fractions:  # a plain loop: no generator frame at the control rate
+        x = float(f)
+        out.append(max(-clamp, min(clamp, x)) if math.isfinite(x) else 0.0)
+    return tuple(out)

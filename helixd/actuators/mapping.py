@@ -21,10 +21,10 @@ import math
 from collections.abc import Iterable, Mapping
 
 from helixd.config import ChannelConfig
+from helixd.mavconst import UINT16_MAX
 
 RC_OVERRIDE_CHANNELS = 18
 FIRST_EXTENDED_CHANNEL = 9  # channels 9..18 use the second set of semantics
-UINT16_MAX = 65535
 
 
 def neutral_pwm(ch: ChannelConfig) -> int:
@@ -71,7 +71,7 @@ def release_value(channel: int) -> int:
 
 def override_frame(values_us: Mapping[int, int]) -> tuple[int, ...]:
     """18 override fields: ``values_us`` (channel → µs) on ours, "leave unchanged" elsewhere."""
-    frame = [leave_unchanged_value(c) for c in range(1, RC_OVERRIDE_CHANNELS + 1)]
+    frame = list(_LEAVE_UNCHANGED)
     for channel, pwm in values_us.items():
         _check_channel(channel)
         if pwm in (0, UINT16_MAX, UINT16_MAX - 1):
@@ -82,7 +82,7 @@ def override_frame(values_us: Mapping[int, int]) -> tuple[int, ...]:
 
 def release_frame(channels: Iterable[int]) -> tuple[int, ...]:
     """18 override fields releasing ``channels`` and leaving every other channel alone."""
-    frame = [leave_unchanged_value(c) for c in range(1, RC_OVERRIDE_CHANNELS + 1)]
+    frame = list(_LEAVE_UNCHANGED)
     for channel in channels:
         frame[channel - 1] = release_value(channel)
     return tuple(frame)
@@ -91,3 +91,9 @@ def release_frame(channels: Iterable[int]) -> tuple[int, ...]:
 def _check_channel(channel: int) -> None:
     if not 1 <= channel <= RC_OVERRIDE_CHANNELS:
         raise ValueError(f"RC channel {channel} is outside 1..{RC_OVERRIDE_CHANNELS}")
+
+
+# the "leave unchanged" frame, built once (every override frame starts from it)
+_LEAVE_UNCHANGED: tuple[int, ...] = tuple(
+    leave_unchanged_value(c) for c in range(1, RC_OVERRIDE_CHANNELS + 1)
+)

@@ -29,16 +29,14 @@ from collections.abc import Sequence
 from typing import Protocol
 
 import structlog
-from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.actuators.base import ServoCommandRefused, checked_fractions
 from helixd.actuators.mapping import fraction_to_pwm, neutral_pwm
 from helixd.config import ActuationConfig, VehicleConfig
 from helixd.link.commands import CommandRejected, CommandTimeout
+from helixd.mavconst import MAV_CMD_DO_SET_SERVO
 
 log = structlog.get_logger(__name__)
-
-MAV_CMD_DO_SET_SERVO = int(mavlink.MAV_CMD_DO_SET_SERVO)
 
 
 class CommandSender(Protocol):

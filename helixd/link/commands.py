@@ -37,6 +37,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
 from helixd.link.url import LinkError
+from helixd.mavconst import MAV_RESULT_ACCEPTED, MAV_RESULT_IN_PROGRESS
 from helixd.vehicle import VehicleState
 
 log = structlog.get_logger(__name__)
@@ -44,8 +45,6 @@ log = structlog.get_logger(__name__)
 MavMsg = Any
 SendFn = Callable[[MavMsg], bool]
 
-MAV_RESULT_ACCEPTED = int(mavlink.MAV_RESULT_ACCEPTED)
-MAV_RESULT_IN_PROGRESS = int(mavlink.MAV_RESULT_IN_PROGRESS)
 ALL_RESULTS: frozenset[int] = frozenset(int(k) for k in mavlink.enums["MAV_RESULT"]) - {
     int(mavlink.MAV_RESULT_ENUM_END)
 }

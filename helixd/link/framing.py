@@ -156,6 +156,28 @@ def _valid_known_at(buf: bytes, i: int, crc_extra: Mapping[int, int]) -> bool:
     return extra is not None and _crc_ok(buf, i, h, extra)
 
 
+def _whole_frame(buf: bytes, n: int, crc_extra: Mapping[int, int]) -> Frame | None:
+    """The common datagram: exactly one CRC-valid MAVLink 2 frame of a known message, start
+    marker at 0 and nothing after it. What the full scan returns for it, found in one step;
+    None sends the datagram through the full scan."""
+    if n < HEADER_V2_BYTES + CRC_BYTES or buf[0] != MARKER_V2:
+        return None
+    incompat = buf[2]
+    if incompat & ~IFLAG_SIGNED:
+        return None
+    end = HEADER_V2_BYTES + buf[1]
+    if n != end + CRC_BYTES + (SIGNATURE_BYTES if incompat & IFLAG_SIGNED else 0):
+        return None
+    msgid = buf[7] | (buf[8] << 8) | (buf[9] << 16)
+    extra = crc_extra.get(msgid)
+    if extra is None:
+        return None
+    crc = x25_crc(bytes((extra,)), x25_crc(buf[1:end]))
+    if crc != buf[end] | (buf[end + 1] << 8):
+        return None
+    return Frame(FrameKind.KNOWN, msgid, buf[5], buf)
+
+
 def scan_frames(
     data: bytes | bytearray, *, final: bool, crc_extra: Mapping[int, int]
 ) -> ScanResult:
@@ -166,6 +188,10 @@ def scan_frames(
     """
     buf = bytes(data)
     n = len(buf)
+    if final:
+        whole = _whole_frame(buf, n, crc_extra)
+        if whole is not None:
+            return ScanResult([whole], n)
     out = ScanResult()
     i = 0
     bad_from: int | None = None

@@ -31,17 +31,15 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.config import LinkConfig
 from helixd.link.commands import (
     ALL_RESULTS,
-    MAV_RESULT_ACCEPTED,
     CommandError,
     result_name,
 )
+from helixd.mavconst import MAV_CMD_SET_MESSAGE_INTERVAL, MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED
 
 log = structlog.get_logger(__name__)
 
 POSE_STREAMS = ("LOCAL_POSITION_NED", "ATTITUDE")
 TELEMETRY_STREAMS = ("EKF_STATUS_REPORT", "SYS_STATUS", "RC_CHANNELS", "SERVO_OUTPUT_RAW")
-MAV_CMD_SET_MESSAGE_INTERVAL = int(mavlink.MAV_CMD_SET_MESSAGE_INTERVAL)
-MAV_RESULT_DENIED = int(mavlink.MAV_RESULT_DENIED)
 US_PER_S = 1_000_000
 US_PER_MS = 1000
 MS_DENY_FACTOR = 800  # cap_message_interval: denied when interval_ms * 800 < loop period (µs)

@@ -45,6 +45,12 @@ class OccupancyMap:
     frame: GridFrame
     blocked: npt.NDArray[Any]  # bool [row (north), col (east)]: occupied or unknown
     source: Path
+    # bool [row, col]: occupied only (what is solid: the simulator's walls); None = as blocked
+    occupied: npt.NDArray[Any] | None = None
+
+    @property
+    def solid(self) -> npt.NDArray[Any]:
+        return self.blocked if self.occupied is None else self.occupied
 
 
 def _number(doc: dict[str, Any], key: str, path: Path, lo: float, hi: float) -> float:
@@ -81,6 +87,16 @@ def _occupancy(
         return ~(value < free * 100.0)
     p = (pixels.astype(np.float64) / 255.0) if negate else (255.0 - pixels) / 255.0
     return ~(p < free)  # occupied (p > occupied_thresh) and unknown are both blocked
+
+
+def _occupied_only(
+    pixels: npt.NDArray[Any], mode: str, negate: bool, occupied: float
+) -> npt.NDArray[Any]:
+    """Occupied mask (unknown excluded) in image orientation."""
+    if mode == "raw":
+        return np.asarray(pixels.astype(np.float64) > occupied * 100.0)
+    p = (pixels.astype(np.float64) / 255.0) if negate else (255.0 - pixels) / 255.0
+    return np.asarray(p > occupied)
 
 
 def load_map(path: Path | str, max_cells: int) -> OccupancyMap:
@@ -147,7 +163,8 @@ def load_map(path: Path | str, max_cells: int) -> OccupancyMap:
     frame = GridFrame(
         origin_north_m=oy, origin_east_m=ox, resolution_m=res, rows=height, cols=width
     )
-    return OccupancyMap(frame=frame, blocked=blocked, source=p)
+    solid = _occupied_only(pixels, str(mode), bool(negate), occupied)[::-1].copy()
+    return OccupancyMap(frame=frame, blocked=blocked, source=p, occupied=solid)
 
 
 def save_map(

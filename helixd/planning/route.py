@@ -17,6 +17,7 @@ from typing import Any
 import numpy.typing as npt
 import yaml
 
+from helixd.base.frames import ne_to_latlon
 from helixd.config import HelixdConfig
 from helixd.mission.model import Mission, MissionFrameKind, WaypointSpec
 from helixd.planning.grid import GridFrame, PlanningGrid, build_grid, segment_is_free
@@ -57,6 +58,9 @@ class RoutePlan:
     legs: tuple[Leg, ...]
     seconds: float = 0.0
     notes: tuple[str, ...] = field(default=())
+    # a global mission's route: north/east around this (lat, lon) (its waypoint 0), not the
+    # EKF origin; its intermediate waypoints are written back as lat/lon
+    origin_latlon_deg: tuple[float, float] | None = None
 
     def polyline_ne_m(self) -> list[PointNE]:
         out: list[PointNE] = [self.legs[0].points_ne_m[0]] if self.legs else []
@@ -87,6 +91,27 @@ def grid_frame_for(
 
 def _name(index: int) -> str:
     return "start" if index < 0 else f"waypoint {index}"
+
+
+def plan_leg(
+    grid: PlanningGrid, a: PointNE, b: PointNE, from_index: int, search_weight: float = 1.0
+) -> Leg | str:
+    """One leg ``a`` → ``b`` (both free cells of ``grid``), or the problem line naming it."""
+    frame = grid.frame
+    ia, ib = from_index, from_index + 1
+    if segment_is_free(grid, a, b):
+        return Leg(ia, ib, (a, b))
+    cells = grid_path(grid.free, frame.cell_of(a), frame.cell_of(b), search_weight)
+    if cells is None:
+        return (
+            f"leg {_name(ia)} → {_name(ib)}: unreachable, no path keeps "
+            f"{grid.clearance_m:.2f} m clearance"
+        )
+    # a → its own cell's centre → turning cells' centres → b's cell centre → b: every
+    # segment stays inside cells the search walked, so the polyline is free before any
+    # shortcut (the shortcut only ever replaces a stretch by a segment checked free)
+    pts = [a, *(frame.centre_of(c) for c in turning_cells(cells)), b]
+    return Leg(ia, ib, tuple(shortcut(grid, pts)))
 
 
 def plan_route(
@@ -145,23 +170,13 @@ def plan_route(
             bad.add(k)
     legs: list[Leg] = []
     for k in range(len(points_ne_m) - 1):
-        a, b = points_ne_m[k], points_ne_m[k + 1]
-        ia, ib = first_index + k, first_index + k + 1
-        label = f"leg {_name(ia)} → {_name(ib)}"
         if k in bad or k + 1 in bad:
             continue
-        if segment_is_free(grid, a, b):
-            legs.append(Leg(ia, ib, (a, b)))
-            continue
-        cells = grid_path(grid.free, frame.cell_of(a), frame.cell_of(b), search_weight)
-        if cells is None:
-            problems.append(f"{label}: unreachable, no path keeps {clearance:.2f} m clearance")
-            continue
-        # a → its own cell's centre → turning cells' centres → b's cell centre → b: every
-        # segment stays inside cells the search walked, so the polyline is free before any
-        # shortcut (the shortcut only ever replaces a stretch by a segment checked free)
-        pts = [a, *(frame.centre_of(c) for c in turning_cells(cells)), b]
-        legs.append(Leg(ia, ib, tuple(shortcut(grid, pts))))
+        leg = plan_leg(grid, points_ne_m[k], points_ne_m[k + 1], first_index + k, search_weight)
+        if isinstance(leg, str):
+            problems.append(leg)
+        else:
+            legs.append(leg)
     if problems:
         raise PlanningError(problems)
     return RoutePlan(grid=grid, legs=tuple(legs), seconds=time.perf_counter() - t0)
@@ -207,13 +222,33 @@ def plan_mission(
         pad_m=pl.pad_m,
         max_cells=pl.max_cells,
     )
-    default_tol = mission.tolerance_m or cfg.control.waypoint_tolerance_m
     out: list[WaypointSpec] = []
     for leg, wp in zip(route.legs, mission.waypoints, strict=True):
-        tol = min(pl.via_tolerance_m, wp.tolerance_m or default_tol)
-        out.extend(WaypointSpec(north=n, east=e, tolerance_m=tol) for n, e in leg.points_ne_m[1:-1])
+        out.extend(via_waypoints(leg, via_tolerance_m(mission, wp, cfg)))
         out.append(wp)
     return mission.model_copy(update={"waypoints": tuple(out)}), route
+
+
+def via_tolerance_m(mission: Mission, wp: WaypointSpec, cfg: HelixdConfig) -> float:
+    """Tolerance of the intermediate waypoints before ``wp``: never looser than ``wp``'s own."""
+    default_tol = mission.tolerance_m or cfg.control.waypoint_tolerance_m
+    return min(cfg.planning.via_tolerance_m, wp.tolerance_m or default_tol)
+
+
+def via_waypoints(
+    leg: Leg, tolerance_m: float, origin_latlon_deg: tuple[float, float] | None = None
+) -> list[WaypointSpec]:
+    """The leg's intermediate points as waypoints (its end points excluded): north/east, or
+    lat/lon when the route is around ``origin_latlon_deg`` (a global mission)."""
+    if origin_latlon_deg is None:
+        return [
+            WaypointSpec(north=n, east=e, tolerance_m=tolerance_m) for n, e in leg.points_ne_m[1:-1]
+        ]
+    out = []
+    for n, e in leg.points_ne_m[1:-1]:
+        lat, lon = ne_to_latlon(n, e, *origin_latlon_deg)
+        out.append(WaypointSpec(lat=lat, lon=lon, tolerance_m=tolerance_m))
+    return out
 
 
 def planned_mission_yaml(mission: Mission, route: RoutePlan, map_path: object = None) -> str:

@@ -1,4 +1,6 @@
-"""The safety supervisor's fall-back: the one place that stops the rover.
+"""The safety supervisor: it owns the watchdogs while flying (:class:`Supervisor`, a
+:class:`helixd.safety.watchdogs.SafetyMonitor` fed from the vehicle state each tick) and the
+fall-back (:func:`fall_back`), the one place that stops the rover.
 
 Sequence, started within one control tick of detection and bounded in time:
 1. command all scrolls to neutral and release every override we hold (``sink.stop()``) —
@@ -12,6 +14,7 @@ The pilot's radio is in charge afterwards. The navigator never stops anything it
 from __future__ import annotations
 
 import asyncio
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -20,11 +23,79 @@ from typing import Protocol
 import structlog
 
 from helixd.config import SafetyConfig
-from helixd.safety.watchdogs import Fault
+from helixd.frames import NedPose
+from helixd.safety.watchdogs import Fault, SafetyInputs, SafetyMonitor
+from helixd.vehicle import PoseSample, VehicleState
 
 log = structlog.get_logger(__name__)
 
 HOLD_MODE = "HOLD"
+
+
+@dataclass(frozen=True, slots=True)
+class Motion:
+    """What the control loop commanded and measured (for the stall and time watchdogs)."""
+
+    commanded_speed_mps: float
+    commanded_yaw_rate_radps: float
+    measured_yaw_rate_radps: float
+    mission_elapsed_s: float
+
+
+def safety_inputs(
+    now_s: float,
+    state: VehicleState,
+    pose: PoseSample | None,
+    start_ned: NedPose,
+    expected_mode: str,
+    motion: Motion,
+) -> SafetyInputs:
+    """The watchdogs' snapshot from the vehicle state, the latest pose and the loop's motion
+    (pure)."""
+    ekf = state.ekf
+    ekf_healthy = None if ekf is None else ekf.healthy
+    return SafetyInputs(
+        now_s=now_s,
+        last_heartbeat_s=state.last_heartbeat_s,
+        pose_rx_s=pose.rx_monotonic_s if pose else None,
+        ekf_healthy=ekf_healthy,
+        # the text only matters when the watchdog reports it: not built while healthy
+        ekf_detail="" if ekf is None or ekf_healthy else ekf.describe(),
+        mode=state.mode,
+        expected_mode=expected_mode,
+        armed=state.armed,
+        rc_inputs_us=state.rc_inputs_us,
+        north_m=pose.ned.north_m if pose else None,
+        east_m=pose.ned.east_m if pose else None,
+        start_north_m=start_ned.north_m,
+        start_east_m=start_ned.east_m,
+        mission_elapsed_s=motion.mission_elapsed_s,
+        commanded_speed_mps=motion.commanded_speed_mps,
+        measured_speed_mps=math.hypot(pose.vn_mps, pose.ve_mps) if pose else 0.0,
+        commanded_yaw_rate_radps=motion.commanded_yaw_rate_radps,
+        measured_yaw_rate_radps=motion.measured_yaw_rate_radps,
+        rc_receiver_healthy=state.rc_receiver_healthy,
+        pose_invalid_since_s=state.pose_invalid_since_s,
+        pose_invalid_detail=state.pose_invalid_reason,
+        vehicle_time_s=pose.time_boot_ms / 1000.0 if pose else None,
+    )
+
+
+class Supervisor:
+    """Owns the watchdogs of one flight: the flight loop asks it once per tick, before any
+    command; the first fault it returns ends the flight (and :func:`fall_back` runs)."""
+
+    def __init__(self, cfg: SafetyConfig, start_ned: NedPose, expected_mode: str) -> None:
+        self.monitor = SafetyMonitor(cfg)
+        self.start_ned = start_ned
+        self.expected_mode = expected_mode
+
+    def check(
+        self, now_s: float, state: VehicleState, pose: PoseSample | None, motion: Motion
+    ) -> Fault | None:
+        return self.monitor.check(
+            safety_inputs(now_s, state, pose, self.start_ned, self.expected_mode, motion)
+        )
 
 
 class Stoppable(Protocol):

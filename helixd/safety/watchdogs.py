@@ -50,6 +50,7 @@ class FaultCause(StrEnum):
     SIGNAL = "signal"  # SIGINT / SIGTERM
     EXCEPTION = "exception"  # unhandled error inside helixd
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
+    ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
 
 
 # Causes that mean "a human took over or asked to stop", not "something broke".
@@ -93,7 +94,11 @@ class SafetyInputs:
 
 
 def _finite(*values: float | None) -> bool:
-    return all(v is None or math.isfinite(v) for v in values)
+    isfinite = math.isfinite
+    for v in values:  # noqa: SIM110 - a plain loop: no generator frame on the hot path
+        if v is not None and not isfinite(v):
+            return False
+    return True
 
 
 def pose_invalid_fault(

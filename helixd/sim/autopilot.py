@@ -13,6 +13,17 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from helixd.mavconst import (
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_DO_SET_SERVO,
+    MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_DENIED,
+    MAV_RESULT_FAILED,
+    MAV_RESULT_UNSUPPORTED,
+)
 from helixd.sim import modes
 from helixd.sim.config import SimConfig
 from helixd.sim.estimator import EkfStatus
@@ -21,15 +32,6 @@ from helixd.sim.outputs import MotorDemand, ServoOutputs
 from helixd.sim.params import ParamStore
 from helixd.sim.rc import RcInputs
 
-MAV_RESULT_ACCEPTED = 0
-MAV_RESULT_DENIED = 2
-MAV_RESULT_UNSUPPORTED = 3
-MAV_RESULT_FAILED = 4
-MAV_CMD_DO_SET_MODE = 176
-MAV_CMD_DO_SET_SERVO = 183
-MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN = 246
-MAV_CMD_COMPONENT_ARM_DISARM = 400
-MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
 FORCE_ARM_MAGIC = 21196
 MAV_OPTIONS_GCS_ONLY = 1 << 0
 SEVERITY_CRITICAL = 2

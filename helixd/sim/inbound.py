@@ -16,17 +16,19 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from helixd.sim import messages, telemetry
-from helixd.sim import streams as st
-from helixd.sim.autopilot import (
+from helixd.mavconst import (
+    MAV_CMD_GET_MESSAGE_INTERVAL,
     MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
+    MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
+    MAV_CMD_REQUEST_MESSAGE,
+    MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
-    Autopilot,
-    SimEvent,
-    StatusText,
 )
+from helixd.sim import messages, telemetry
+from helixd.sim import streams as st
+from helixd.sim.autopilot import Autopilot, SimEvent, StatusText
 from helixd.sim.estimator import EkfStatus
 from helixd.sim.messages import Message
 from helixd.sim.mission import MissionServer
@@ -34,10 +36,6 @@ from helixd.sim.params import ParamStore
 
 MISSION_MESSAGES = MissionServer.MESSAGES
 
-MAV_CMD_GET_MESSAGE_INTERVAL = 510
-MAV_CMD_SET_MESSAGE_INTERVAL = 511
-MAV_CMD_REQUEST_MESSAGE = 512
-MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES = 520
 MAVLINK_MSG_ID_SET_MODE = 11
 OUR_COMPID = 1
 SEVERITY_INFO = 6

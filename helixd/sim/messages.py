@@ -13,6 +13,20 @@ import os
 from collections.abc import Sequence
 from typing import Any, Protocol, cast
 
+from helixd.mavconst import (
+    MAV_AUTOPILOT_ARDUPILOTMEGA,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_MODE_FLAG_GUIDED_ENABLED,
+    MAV_MODE_FLAG_MANUAL_INPUT_ENABLED,
+    MAV_MODE_FLAG_SAFETY_ARMED,
+    MAV_TYPE_GROUND_ROVER,
+)
+from helixd.mavconst import MAV_STATE_ACTIVE as MAV_STATE_ACTIVE
+from helixd.mavconst import MAV_STATE_BOOT as MAV_STATE_BOOT
+from helixd.mavconst import MAV_STATE_CALIBRATING as MAV_STATE_CALIBRATING
+from helixd.mavconst import MAV_STATE_CRITICAL as MAV_STATE_CRITICAL
+from helixd.mavconst import MAV_STATE_STANDBY as MAV_STATE_STANDBY
+
 os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -34,17 +48,6 @@ def _m(msg: Any) -> Message:
     return cast(Message, msg)
 
 
-MAV_TYPE_GROUND_ROVER = 10
-MAV_AUTOPILOT_ARDUPILOTMEGA = 3
-MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
-MAV_MODE_FLAG_GUIDED_ENABLED = 8
-MAV_MODE_FLAG_MANUAL_INPUT_ENABLED = 64
-MAV_MODE_FLAG_SAFETY_ARMED = 128
-MAV_STATE_BOOT = 1
-MAV_STATE_CALIBRATING = 2
-MAV_STATE_STANDBY = 3
-MAV_STATE_ACTIVE = 4
-MAV_STATE_CRITICAL = 5
 STATUSTEXT_LEN = 50
 
 SENSOR_GYRO = 0x1

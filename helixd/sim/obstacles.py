@@ -12,6 +12,12 @@ is ever sent. The fault is reported by the rover stopping: helixd's stall watchd
 releases the overrides and asks for HOLD. For tests the simulator logs a ``contact`` history
 event (not on the wire) with where it happened.
 
+A map (``helixd run --sim --map``) reaches the simulator as an :class:`ObstacleRaster`: the
+map_server image's **occupied** cells (unknown cells are not solid; only the planner treats them
+as blocked). Each physics step looks up one cell of a precomputed "near" mask (occupied grown by
+the contact reach); only near a wall is a small window of cells measured, so a step costs the
+same on a 10 m or a 2 km map.
+
 Pure: numbers in, numbers out.
 """
 
@@ -19,10 +25,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import replace
-from typing import TYPE_CHECKING, Annotated
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import AfterValidator, Field
+import numpy as np
+import numpy.typing as npt
+from pydantic import AfterValidator, Field, InstanceOf, PrivateAttr
 
 from helixd.config import InputModel, KeepOutCircleConfig
 
@@ -44,6 +52,89 @@ def _polygons(
     return value
 
 
+RASTER_SLACK_M = 0.5  # raster distances are measured up to contact_radius_m + this; inf beyond
+MAX_RASTER_CELLS = 64_000_000
+
+
+@dataclass(frozen=True, eq=False)
+class ObstacleRaster:
+    """Solid cells on a north/east grid: cell (row, col) covers north ∈ [n0 + row·h, n0 +
+    (row+1)·h) and east ∈ [e0 + col·h, …), rows northwards (the planning grid's convention)."""
+
+    origin_north_m: float
+    origin_east_m: float
+    resolution_m: float
+    occupied: npt.NDArray[np.bool_]  # [row (north), col (east)]
+
+    def __post_init__(self) -> None:
+        vals = (self.origin_north_m, self.origin_east_m, self.resolution_m)
+        if not all(isinstance(v, int | float) and math.isfinite(v) for v in vals):
+            raise ValueError("raster origin and resolution must be finite numbers")
+        if not 0.001 <= self.resolution_m <= 100.0:
+            raise ValueError(f"raster resolution {self.resolution_m} m outside 0.001..100")
+        occ = self.occupied
+        if not isinstance(occ, np.ndarray) or occ.ndim != 2 or occ.dtype != np.bool_:
+            raise ValueError("raster occupied must be a 2-D bool array")
+        if not 0 < occ.size <= MAX_RASTER_CELLS:
+            raise ValueError(f"raster has {occ.size} cells, allowed 1..{MAX_RASTER_CELLS}")
+
+    def cell_of(self, north_m: float, east_m: float) -> tuple[int, int]:
+        h = self.resolution_m
+        return (
+            math.floor((north_m - self.origin_north_m) / h),
+            math.floor((east_m - self.origin_east_m) / h),
+        )
+
+    def reach_cells(self, reach_m: float) -> int:
+        return math.ceil(reach_m / self.resolution_m) + 1
+
+    def near_mask(self, reach_m: float) -> npt.NDArray[np.bool_]:
+        """Cells with an occupied cell within ``reach_cells`` rows and columns: a box dilation,
+        done as two 1-D running sums (one pass per axis, whatever the map size)."""
+        k = self.reach_cells(reach_m)
+        return _box_any(_box_any(self.occupied, k, 0), k, 1)
+
+    def distance_m(
+        self, north_m: float, east_m: float, reach_m: float, near: npt.NDArray[np.bool_]
+    ) -> float:
+        """Exact distance from the point to the nearest occupied square within ``reach_m``
+        (0 inside one); inf when none is that close or the point is off the raster's reach."""
+        row, col = self.cell_of(north_m, east_m)
+        rows, cols = self.occupied.shape
+        k = self.reach_cells(reach_m)
+        if not (-k <= row < rows + k and -k <= col < cols + k):
+            return math.inf
+        if 0 <= row < rows and 0 <= col < cols and not near[row, col]:
+            return math.inf
+        ra, rb = max(row - k, 0), min(row + k + 1, rows)
+        ca, cb = max(col - k, 0), min(col + k + 1, cols)
+        if ra >= rb or ca >= cb:
+            return math.inf
+        rr, cc = np.nonzero(self.occupied[ra:rb, ca:cb])
+        if rr.size == 0:
+            return math.inf
+        h = self.resolution_m
+        n_lo = self.origin_north_m + (rr + ra) * h
+        e_lo = self.origin_east_m + (cc + ca) * h
+        dn = np.maximum(np.maximum(n_lo - north_m, north_m - (n_lo + h)), 0.0)
+        de = np.maximum(np.maximum(e_lo - east_m, east_m - (e_lo + h)), 0.0)
+        d = float(np.sqrt(dn * dn + de * de).min())
+        return d if d <= reach_m else math.inf
+
+
+def _box_any(mask: npt.NDArray[np.bool_], k: int, axis: int) -> npt.NDArray[np.bool_]:
+    """True where ``mask`` has a True within ``k`` cells along ``axis``."""
+    m = np.moveaxis(mask, axis, 0)
+    n = m.shape[0]
+    run = np.zeros((n + 1, *m.shape[1:]), dtype=np.int32)
+    np.cumsum(m, axis=0, dtype=np.int32, out=run[1:])
+    idx = np.arange(n)
+    hi = np.minimum(idx + k + 1, n)
+    lo = np.maximum(idx - k, 0)
+    out = (run[hi] - run[lo]) > 0
+    return np.asarray(np.moveaxis(out, 0, axis), dtype=np.bool_)
+
+
 class SimObstacles(InputModel):
     polygons_ne_m: Annotated[tuple[tuple[PointNE, ...], ...], AfterValidator(_polygons)] = Field(
         (), max_length=1000, description="solid polygons, (north_m, east_m) vertices"
@@ -58,9 +149,22 @@ class SimObstacles(InputModel):
         description="rover body radius for contact: half-width ly/2 + scroll radius (m)",
     )
 
+    raster: InstanceOf[ObstacleRaster] | None = Field(
+        None, description="solid cells of a map (set in code by run --sim --map; not in YAML)"
+    )
+    _raster_near: Any = PrivateAttr(None)
+
+    def model_post_init(self, context: Any, /) -> None:
+        if self.raster is not None:
+            self._raster_near = self.raster.near_mask(self.raster_reach_m)
+
+    @property
+    def raster_reach_m(self) -> float:
+        return self.contact_radius_m + RASTER_SLACK_M
+
     @property
     def empty(self) -> bool:
-        return not (self.polygons_ne_m or self.circles)
+        return not (self.polygons_ne_m or self.circles or self.raster is not None)
 
 
 def _inside(poly: Sequence[PointNE], n: float, e: float) -> bool:
@@ -83,8 +187,15 @@ def _segment_distance(n: float, e: float, a: PointNE, b: PointNE) -> float:
 
 
 def distance_m(obstacles: SimObstacles, north_m: float, east_m: float) -> float:
-    """Distance from the point to the nearest obstacle (0 inside one; inf with none)."""
+    """Distance from the point to the nearest obstacle (0 inside one; inf with none; a map's
+    cells count only within ``raster_reach_m``)."""
     best = math.inf
+    if obstacles.raster is not None:
+        best = obstacles.raster.distance_m(
+            north_m, east_m, obstacles.raster_reach_m, obstacles._raster_near
+        )
+        if best == 0.0:
+            return 0.0
     for c in obstacles.circles:
         best = min(best, max(math.hypot(north_m - c.north_m, east_m - c.east_m) - c.radius_m, 0.0))
     for poly in obstacles.polygons_ne_m:

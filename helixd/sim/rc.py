@@ -20,8 +20,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from helixd.mavconst import UINT16_MAX
+
 NUM_RC_CHANNELS = 16
-UINT16_MAX = 0xFFFF
 RC_OPTION_IGNORE_RECEIVER = 1 << 0
 RC_OPTION_IGNORE_OVERRIDES = 1 << 1
 

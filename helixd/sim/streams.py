@@ -18,6 +18,9 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+from helixd.mavconst import MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED
+from helixd.mavconst import MAV_RESULT_FAILED as MAV_RESULT_FAILED
+
 MSG_HEARTBEAT = 0
 MSG_SYS_STATUS = 1
 MSG_SYSTEM_TIME = 2
@@ -48,10 +51,6 @@ STREAMED = tuple(m for msgs in STREAMS.values() for m in msgs)
 KNOWN_MESSAGES = frozenset(
     {*STREAMED, MSG_HEARTBEAT, MSG_GPS_GLOBAL_ORIGIN, MSG_AUTOPILOT_VERSION, MSG_HOME_POSITION}
 )
-
-MAV_RESULT_ACCEPTED = 0
-MAV_RESULT_DENIED = 2
-MAV_RESULT_FAILED = 4
 
 
 def loop_period_us(loop_rate_hz: int) -> int:

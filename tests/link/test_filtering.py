@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import math
 
 import pytest
@@ -78,6 +79,8 @@ async def test_state_from_the_autopilot() -> None:
         )
         assert ap.state.ekf is not None
         assert "constant-position" in ap.state.ekf.describe()
-        event = ap.pose_event()
-        event.clear()
-        await until(event.is_set, 2.0, "pose event set by a new pose")
+        poses = ap.telemetry.pose()
+        first = await asyncio.wait_for(anext(poses), 2.0)  # a new pose, streamed
+        second = await asyncio.wait_for(anext(poses), 2.0)
+        assert second.rx_monotonic_s > first.rx_monotonic_s  # none is yielded twice
+        await poses.aclose()

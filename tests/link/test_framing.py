@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.link.connection import CRC_EXTRA
+from helixd.link.codec import CRC_EXTRA
 from helixd.link.framing import MAX_FRAME_BYTES, FrameKind, _x25_crc_table, scan_frames, x25_crc
 
 

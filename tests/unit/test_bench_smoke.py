@@ -341,3 +341,25 @@ def test_control_loop_figures_and_results_section(tmp_path: Path) -> None:
     res.write_section("control_loop", section, tmp_path)
     md = (tmp_path / "latest.md").read_text(encoding="utf-8")
     assert "| 50 Hz | 0.50 | 0.50 | 0.50 | 0.00 | 4.00 | 0 |" in md
+
+
+def test_floor_ratio_and_cpu_targets() -> None:
+    floor = loop.FloorRecord(cpu_s=0.2, wall_s=10.0, steps=500)  # 400 us/step, 2 %
+    fig = loop.floor_figures(d_cpu_s=0.8, d_steps=500, wall_s=10.0, floor=floor)
+    assert fig["floor_cpu_percent"] == pytest.approx(2.0)
+    assert fig["floor_us_per_step"] == pytest.approx(400.0)
+    assert fig["ratio_to_floor"] == pytest.approx(4.0)  # per step, not per second
+    fewer = loop.floor_figures(d_cpu_s=0.8, d_steps=250, wall_s=10.0, floor=floor)
+    assert fewer["ratio_to_floor"] == pytest.approx(8.0)
+    assert loop.floor_figures(0.8, 500, 10.0, None)["ratio_to_floor"] is None
+    assert (
+        loop.floor_figures(0.8, 500, 10.0, loop.FloorRecord(0.0, 10.0, 0))["ratio_to_floor"] is None
+    )
+    assert loop.cpu_target_percent(25.0) == 2.0 and loop.cpu_target_percent(50.0) == 2.0
+    assert loop.cpu_target_percent(125.0) == pytest.approx(4.0)
+    assert loop.cpu_target_percent(200.0) == 6.0 and loop.cpu_target_percent(400.0) == 6.0
+    section = loop.results_section(
+        {"50": {"cpu_percent": 3.0, "floor_cpu_percent": 1.5, "ratio_to_floor": 2.0}}, 5
+    )
+    assert section["floor_cpu_percent"] == {"50": 1.5} and section["ratio_to_floor"] == {"50": 2.0}
+    assert section["targets"]["cpu_percent"] == {"50": 2.0, "200": 6.0}

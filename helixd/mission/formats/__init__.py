@@ -107,12 +107,15 @@ def load_mission_file(
     mode: MotionMode | None = None,
     default_mode: MotionMode | None = None,
     skip_unsupported: bool = False,
+    route_keep_outs: bool = False,
 ) -> LoadedMission:
     """Any supported file → a validated mission. Raises :class:`ConfigFileError` (one line per
     problem, each naming the file) like :func:`load_mission`.
 
     ``mode`` (the ``--mode`` flag) overrides any file's mode; ``default_mode`` (the config's
-    ``mission.ground_station_mode``) is used for ground-station files only, which carry none."""
+    ``mission.ground_station_mode``) is used for ground-station files only, which carry none.
+    ``route_keep_outs``: legs through a .plan's exclusion zones are planned around
+    (helixd.planning), not refused (see :func:`items_to_mission`)."""
     fmt = sniff_format(path)
     if fmt is MissionFormat.YAML:
         msn = load_mission(path, limits)
@@ -136,6 +139,7 @@ def load_mission_file(
             mode=mode,
             skip_unsupported=skip_unsupported,
             source=str(path),
+            route_keep_outs=route_keep_outs,
         )
     except FormatError as exc:
         raise ConfigFileError(path, exc.problems) from None
@@ -189,6 +193,14 @@ def write_mission_file(mission: Mission, path: Path) -> MissionFormat:
     return fmt
 
 
+def has_keep_outs(path: Path) -> bool:
+    """Whether a mission file is a .plan with exclusion polygons or circles in its geofence."""
+    if sniff_format(path) is not MissionFormat.PLAN:
+        return False
+    gcs = read_gcs(path)
+    return any(not p.inclusion for p in gcs.polygons) or any(not c.inclusion for c in gcs.circles)
+
+
 def plan_fence_ne(path: Path, origin_latlon_deg: tuple[float, float]) -> FenceNe:
     """The geofence of a .plan (or .waypoints: none) as plain north/east polygons and circles
     around the EKF origin — keep-out obstacles for a planner, keep-in boundaries."""
@@ -205,6 +217,7 @@ __all__ = [
     "ObstacleCircle",
     "detect_format",
     "fence_ne",
+    "has_keep_outs",
     "items_to_mission",
     "load_mission_file",
     "lost_in",

@@ -133,10 +133,13 @@ def items_to_mission(
     mode: MotionMode,
     skip_unsupported: bool = False,
     source: str = "",
+    route_keep_outs: bool = False,
 ) -> Converted:
     """NAV_WAYPOINT items (global frames) become a ``global`` mission; anything else is
     reported by sequence number and refused unless ``skip_unsupported``. The mission's keep-in
-    fence is the file's one inclusion polygon, if it has exactly one."""
+    fence is the file's one inclusion polygon, if it has exactly one. With ``route_keep_outs``
+    (helixd.planning will route the legs around the exclusion zones) a leg crossing one is
+    not refused; a waypoint inside one still is."""
     prefix = f"{source}: " if source else ""
     unsupported: list[str] = []
     problems: list[str] = []
@@ -166,7 +169,7 @@ def items_to_mission(
         points.append((it.x, it.y))
         labels.append(label)
     if points:
-        problems.extend(keep_out_problems(gcs, points, labels))
+        problems.extend(keep_out_problems(gcs, points, labels, legs=not route_keep_outs))
     if unsupported and not skip_unsupported:
         problems.extend(
             f"{u} (use --skip-unsupported to fly the waypoints without it)" for u in unsupported
@@ -220,7 +223,7 @@ def circle_polygon(circle: FenceCircle) -> tuple[tuple[float, float], ...]:
 
 
 def keep_out_problems(
-    gcs: GcsMission, points: list[tuple[float, float]], labels: list[str]
+    gcs: GcsMission, points: list[tuple[float, float]], labels: list[str], legs: bool = True
 ) -> list[str]:
     """Waypoints inside, or legs through, the file's exclusion polygons/circles (keep-outs).
 
@@ -245,7 +248,7 @@ def keep_out_problems(
         for label, p in zip(labels, ne, strict=True):
             if zone.intersects(Point(p)):
                 out.append(f"{label}: inside the geofence's {name}")
-        for i in range(1, len(ne)):
+        for i in range(1, len(ne) if legs else 1):
             leg = LineString([ne[i - 1], ne[i]])
             if zone.intersects(leg) and not any(
                 zone.intersects(Point(q)) for q in (ne[i - 1], ne[i])

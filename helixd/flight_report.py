@@ -1,0 +1,110 @@
+"""What a control step becomes once its command has left: the flight.csv row and the
+operator's progress line.
+
+Pure builders from :class:`helixd.flight.StepReport` (and the plan): the flight loop stays free
+of the recorder's schema and of the terminal UI's types, and none of this runs before the
+command is sent.
+"""
+
+from __future__ import annotations
+
+import math
+
+from helixd.display import ProgressInfo
+from helixd.flight import PoseRejectedReport, StepReport
+from helixd.mission import Plan
+from helixd.recorder.rows import FlightRow
+
+
+def flight_row(report: StepReport, plan: Plan) -> FlightRow:
+    """The flight.csv row of one step."""
+    sample = report.sample
+    step = report.step
+    out = step.nav
+    mpose = step.mpose
+    ned = sample.ned
+    waypoints = plan.waypoints
+    target = waypoints[min(out.target_index, len(waypoints) - 1)]
+    fractions = step.fractions
+    pwm = report.pwm_us
+    slip = step.slip
+    command = out.command
+    return FlightRow(
+        t_boot_s=sample.time_boot_ms / 1000.0,
+        t_mono_s=report.now_s,
+        north_m=ned.north_m,
+        east_m=ned.east_m,
+        yaw_ned_rad=ned.yaw_ned_rad,
+        x_m=mpose.x_m,
+        y_m=mpose.y_m,
+        yaw_rad=mpose.yaw_rad,
+        target_index=out.target_index,
+        target_x_m=target.x_m,
+        target_y_m=target.y_m,
+        distance_error_m=out.distance_error_m,
+        heading_error_rad=out.heading_error_rad,
+        cross_track_m=out.cross_track_m,
+        dist_p=out.distance_pid.p,
+        dist_i=out.distance_pid.i,
+        dist_d=out.distance_pid.d,
+        yaw_p=out.yaw_pid.p,
+        yaw_i=out.yaw_pid.i,
+        yaw_d=out.yaw_pid.d,
+        vx_cmd_mps=command.vx_mps,
+        vy_cmd_mps=command.vy_mps,
+        wz_cmd_radps=command.wz_radps,
+        speed_meas_mps=math.hypot(sample.vn_mps, sample.ve_mps),
+        scroll1=fractions[0],
+        scroll2=fractions[1],
+        scroll3=fractions[2],
+        scroll4=fractions[3],
+        pwm1_us=pwm[0],
+        pwm2_us=pwm[1],
+        pwm3_us=pwm[2],
+        pwm4_us=pwm[3],
+        mode=report.mode,
+        armed=report.armed,
+        nav_state=out.state.value,
+        link_ok=report.link_ok,
+        pose_fresh=report.pose_fresh,
+        slip_vx_frac=slip.vx_frac,
+        slip_vy_frac=slip.vy_frac,
+        slip_w_frac=slip.w_frac,
+    )
+
+
+def step_progress(report: StepReport, plan: Plan) -> ProgressInfo:
+    """The progress line of one step."""
+    out = report.step.nav
+    sample = report.sample
+    n = len(plan.waypoints)
+    return ProgressInfo(
+        waypoint_index=min(out.target_index + 1, n),
+        waypoints_total=n,
+        distance_to_go_m=out.distance_error_m,
+        speed_mps=math.hypot(sample.vn_mps, sample.ve_mps),
+        heading_error_deg=math.degrees(out.heading_error_rad),
+        link_ok=report.link_ok,
+        pose_fresh=report.pose_fresh,
+        elapsed_s=report.elapsed_s,
+        phase="fly",
+        nav_state=out.state.value,
+    )
+
+
+def rejected_progress(report: PoseRejectedReport, plan: Plan) -> ProgressInfo:
+    """The progress line while the pose telemetry is rejected: no distance, speed or heading
+    (shown as "-"), the pose not fresh."""
+    n = len(plan.waypoints)
+    return ProgressInfo(
+        waypoint_index=min(report.last_target_index + 1, n),
+        waypoints_total=n,
+        distance_to_go_m=math.nan,
+        speed_mps=math.nan,
+        heading_error_deg=math.nan,
+        link_ok=report.link_ok,
+        pose_fresh=False,
+        elapsed_s=report.elapsed_s,
+        phase="fly",
+        nav_state="pose_invalid",
+    )

@@ -1,0 +1,137 @@
+"""The action plugin (MAVSDK's shape): arm, disarm, flight mode, RC override, servo, and any
+COMMAND_LONG — the commands the daemon sends to the autopilot. Acknowledgements, re-sends and
+refusal texts are :class:`helixd.link.commands.CommandClient`'s; nothing here decides to stop
+the rover.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from collections.abc import Collection, Sequence
+
+import structlog
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.config import LinkConfig
+from helixd.link.codec import MavlinkConnection
+from helixd.link.commands import CommandClient, CommandError, CommandRejected
+from helixd.link.telemetry import ChangeWaiters
+from helixd.mavconst import (
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_DO_SET_SERVO,
+    MAV_CMD_REQUEST_MESSAGE,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_RESULT_ACCEPTED,
+    UINT16_MAX,
+)
+from helixd.vehicle import Change, VehicleState, mode_number
+
+log = structlog.get_logger(__name__)
+
+ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM: skip checks
+RC_OVERRIDE_CHANNELS = 18
+ARM_TEXT_PREFIXES = ("PreArm", "Arm")
+
+
+class Action:
+    def __init__(
+        self,
+        cfg: LinkConfig,
+        state: VehicleState,
+        commands: CommandClient,
+        waiters: ChangeWaiters,
+        conn: MavlinkConnection,
+    ) -> None:
+        self._cfg = cfg
+        self._state = state
+        self._commands = commands
+        self._waiters = waiters
+        self._conn = conn
+
+    async def command_long(
+        self,
+        command: int,
+        params: Sequence[float],
+        timeout_s: float | None = None,
+        retries: int | None = None,
+        ok_results: Collection[int] = (MAV_RESULT_ACCEPTED,),
+    ) -> int:
+        """MAV_RESULT (one of ``ok_results``); CommandRejected / CommandTimeout otherwise."""
+        return await self._commands.command_long(command, params, timeout_s, retries, ok_results)
+
+    async def arm(self, force: bool = False) -> None:
+        since = time.monotonic()
+        try:
+            await self.command_long(
+                MAV_CMD_COMPONENT_ARM_DISARM, (1, ARM_FORCE_MAGIC if force else 0)
+            )
+        except CommandRejected as exc:
+            text = await self._arm_text(since) or exc.statustext
+            hint = "" if force else "safety.force_arm forces it"
+            raise CommandRejected(exc.command_name, exc.result, text, hint) from None
+        log.info("armed", force=force)
+
+    async def _arm_text(self, since_s: float) -> str | None:
+        """The 'PreArm: …' STATUSTEXT explaining a refusal (it may trail the ack a little)."""
+        deadline = time.monotonic() + self._cfg.statustext_grace_s
+        while True:
+            for prefix in ARM_TEXT_PREFIXES:
+                text = self._state.latest_statustext(prefix, since_s)
+                if text:
+                    return text
+            if not await self._waiters.wait(Change.STATUSTEXT, deadline - time.monotonic()):
+                return None
+
+    async def disarm(
+        self, force: bool = False, timeout_s: float | None = None, retries: int | None = None
+    ) -> None:
+        await self.command_long(
+            MAV_CMD_COMPONENT_ARM_DISARM, (0, ARM_FORCE_MAGIC if force else 0), timeout_s, retries
+        )
+        log.info("disarmed", force=force)
+
+    async def set_mode(
+        self, name: str, timeout_s: float | None = None, retries: int | None = None
+    ) -> None:
+        """MAV_CMD_DO_SET_MODE with a Rover custom mode by name (ValueError if unknown).
+
+        ``timeout_s``/``retries`` override the link's per-try timeout and re-sends (a caller
+        with a deadline, e.g. the fall-back's HOLD request, can keep each call short).
+        """
+        number = mode_number(name)
+        await self.command_long(
+            MAV_CMD_DO_SET_MODE, (MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number), timeout_s, retries
+        )
+        log.info("mode_set", mode=name.upper(), custom_mode=number)
+
+    async def set_servo(self, channel: int, pwm_us: int) -> None:
+        """MAV_CMD_DO_SET_SERVO (a latched output: see :mod:`helixd.actuators.servo`)."""
+        await self.command_long(MAV_CMD_DO_SET_SERVO, (channel, pwm_us))
+
+    async def request_gps_origin(self, timeout_s: float) -> tuple[float, float] | None:
+        """(lat_deg, lon_deg) of the EKF origin via MAV_CMD_REQUEST_MESSAGE; None if none."""
+        since = time.monotonic()
+        msg_id = int(mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN)
+        try:
+            async with asyncio.timeout(timeout_s):
+                await self.command_long(MAV_CMD_REQUEST_MESSAGE, (msg_id,))
+                st = self._state
+                while st.gps_origin_rx_s is None or st.gps_origin_rx_s < since:
+                    await self._waiters.wait(Change.GPS_ORIGIN, timeout_s)
+                return st.gps_origin
+        except (TimeoutError, CommandError) as exc:
+            log.warning("gps_origin_unavailable", error=str(exc) or "timeout")
+            return None
+
+    def send_rc_override(self, channels_us: Sequence[int]) -> None:
+        """RC_CHANNELS_OVERRIDE with 18 raw values (0/65535/65534 semantics are the caller's)."""
+        if len(channels_us) != RC_OVERRIDE_CHANNELS:
+            raise ValueError(
+                f"RC override needs {RC_OVERRIDE_CHANNELS} values, got {len(channels_us)}"
+            )
+        values = tuple(map(int, channels_us))
+        if min(values) < 0 or max(values) > UINT16_MAX:
+            raise ValueError(f"RC override values must be 0..{UINT16_MAX}, got {list(values)}")
+        self._conn.send_rc_override(self._cfg.target_system, self._cfg.target_component, values)

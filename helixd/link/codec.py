@@ -1,0 +1,353 @@
+"""The codec: MAVLink 2 framing, decode, system filtering, encode and signing on a transport
+(:class:`MavlinkConnection`), and its fast paths.
+
+Fast paths. :func:`helixd.link.framing.scan_frames` has already checked the frame's CRC (with
+the message's CRC_EXTRA) before anything here runs; pymavlink's ``decode`` would parse the
+header and compute the CRC a second time and then build the message the same way this does.
+For an *unsigned* frame of a message without arrays or strings (every stream the daemon flies
+on: ATTITUDE, LOCAL_POSITION_NED, HEARTBEAT, SYS_STATUS, EKF_STATUS_REPORT, RC_CHANNELS,
+SERVO_OUTPUT_RAW, COMMAND_ACK, ...), :class:`FrameDecoder` unpacks the payload into the very
+pymavlink message class pymavlink would return, with the same fields and header. Anything
+else (signed frames, arrays, strings, MAVLink 1) goes to pymavlink's own ``decode``; the
+tests check both give the same message for arbitrary payloads.
+
+:func:`pack_rc_channels_override` writes the same bytes as pymavlink's
+``rc_channels_override_encode(...).pack(mav)`` for an unsigned link (MAVLink 2 trailing-zero
+truncation included); a signing link uses pymavlink.
+
+Reconnect: a serial device that vanishes (read error / EOF) or a TCP peer that closes is
+reopened every ``reconnect_interval_s`` (:meth:`MavlinkConnection._reopen`) with a fresh codec.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import struct
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import structlog
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.config import LinkConfig
+from helixd.link.framing import FrameKind, scan_frames, x25_crc
+from helixd.link.ownid import OwnIdSenders
+from helixd.link.signing import enable_signing
+from helixd.link.transport import Address, OnLost, make_transport
+from helixd.link.url import LinkError, LinkUrl
+
+log = structlog.get_logger(__name__)
+
+MavMsg = Any
+
+MARKER_V2 = 0xFD
+HEADER_V2_BYTES = 10
+CRC_EXTRA: dict[int, int] = {
+    int(msgid): int(cls.crc_extra) for msgid, cls in mavlink.mavlink_map.items()
+}
+
+_HEADER_V2 = struct.Struct("<BBBBBBBHB")
+_CRC = struct.Struct("<H")
+
+
+class _Plain:
+    """How to build one message type from its payload (no arrays, no strings)."""
+
+    __slots__ = ("cls", "order", "size", "unpack")
+
+    def __init__(self, cls: Any) -> None:
+        self.cls = cls
+        self.unpack = cls.unpacker.unpack
+        self.size = int(cls.unpacker.size)
+        self.order = tuple(int(i) for i in cls.orders)
+
+
+def _plain_entry(cls: Any) -> _Plain | None:
+    lengths = list(cls.lengths)
+    fmt = str(cls.unpacker.format)
+    if sum(lengths) != len(lengths) or "s" in fmt or "c" in fmt:
+        return None  # arrays or strings: pymavlink's decode handles them
+    return _Plain(cls)
+
+
+_PLAIN: dict[int, _Plain | None] = {
+    int(msgid): _plain_entry(cls) for msgid, cls in mavlink.mavlink_map.items()
+}
+
+
+class FrameDecoder:
+    """Decode one framed, CRC-checked frame: fast for plain unsigned MAVLink 2 messages,
+    pymavlink's ``mav.decode`` for everything else (and always when signing is on)."""
+
+    def __init__(self, mav: Any, signing: bool) -> None:
+        self._mav = mav
+        self._fast = not signing
+
+    def decode(self, data: bytes) -> MavMsg:
+        """The message; raises what ``mav.decode`` raises for frames it rejects."""
+        if self._fast and data[0] == MARKER_V2 and data[2] == 0:
+            msgid = data[7] | (data[8] << 8) | (data[9] << 16)
+            entry = _PLAIN.get(msgid)
+            plen = data[1]
+            if entry is not None and len(data) == HEADER_V2_BYTES + plen + 2:
+                return _decode_plain(entry, data, msgid, plen)
+        return self._mav.decode(bytearray(data))
+
+
+def _decode_plain(entry: _Plain, data: bytes, msgid: int, plen: int) -> MavMsg:
+    payload = data[HEADER_V2_BYTES : HEADER_V2_BYTES + plen]
+    size = entry.size
+    if plen < size:
+        payload += bytes(size - plen)  # MAVLink 2 trailing-zero truncation
+    t = entry.unpack(payload[:size])
+    m = entry.cls(*[t[i] for i in entry.order])
+    msgbuf = bytearray(data)
+    m._signed = False
+    m._msgbuf = msgbuf
+    m._payload = msgbuf[6:-2]  # as pymavlink (it slices from 6 for both versions)
+    m._crc = data[-2] | (data[-1] << 8)
+    m._header = mavlink.MAVLink_header(msgid, 0, data[3], plen, data[4], data[5], data[6])
+    return m
+
+
+_RC_OVERRIDE_ID = int(mavlink.MAVLINK_MSG_ID_RC_CHANNELS_OVERRIDE)
+_RC_OVERRIDE_EXTRA = bytes((CRC_EXTRA[_RC_OVERRIDE_ID],))
+_RC_OVERRIDE_PAYLOAD = struct.Struct("<8HBB10H")  # wire order: chan1..8, target, chan9..18
+
+
+def pack_rc_channels_override(
+    seq: int,
+    src_system: int,
+    src_component: int,
+    target_system: int,
+    target_component: int,
+    channels_us: Sequence[int],
+) -> bytes:
+    """An unsigned MAVLink 2 RC_CHANNELS_OVERRIDE frame with 18 channel values (checked by the
+    caller: 0..65535), byte for byte what pymavlink packs."""
+    payload = _RC_OVERRIDE_PAYLOAD.pack(
+        *channels_us[:8], target_system, target_component, *channels_us[8:18]
+    )
+    plen = len(payload)
+    while plen > 1 and payload[plen - 1] == 0:
+        plen -= 1
+    body = (
+        _HEADER_V2.pack(
+            MARKER_V2,
+            plen,
+            0,
+            0,
+            seq,
+            src_system,
+            src_component,
+            _RC_OVERRIDE_ID & 0xFFFF,
+            _RC_OVERRIDE_ID >> 16,
+        )
+        + payload[:plen]
+    )
+    crc = x25_crc(_RC_OVERRIDE_EXTRA, x25_crc(body[1:]))
+    return body + _CRC.pack(crc)
+
+
+# ---------------------------------------------------------------------------------------------
+# The connection: framing, decode, filtering by system, encode, reopen
+
+REOPEN_LOG_EVERY = 10  # log every Nth failed reopen attempt (the first is always logged)
+
+
+@dataclass
+class LinkStats:
+    rx_messages: int = 0
+    bad_data: int = 0  # runs of bytes that were no valid frame (garbage, bad CRC, truncated)
+    bad_bytes: int = 0
+    unknown_messages: int = 0  # well-framed messages with an id our dialect does not know
+    signature_rejects: int = 0
+    tx_messages: int = 0
+    tx_dropped: int = 0
+    reopen_count: int = 0
+
+
+class MavlinkConnection:
+    """MAVLink 2 codec on a transport: parse, drop other systems, dispatch, reopen."""
+
+    def __init__(
+        self,
+        cfg: LinkConfig,
+        url: LinkUrl,
+        signing_key: bytes | None,
+        on_message: Callable[[MavMsg, float], None],
+        on_foreign: Callable[[int], None],
+        on_lost: OnLost,
+        on_reopened: Callable[[], None],
+    ) -> None:
+        self.cfg = cfg
+        self.url = url
+        self._key = signing_key
+        self._on_message = on_message
+        self._on_foreign = on_foreign
+        self._on_lost = on_lost
+        self._on_reopened = on_reopened
+        self.stats = LinkStats()
+        self.own_id_senders = OwnIdSenders()
+        self.first_tx_s: float | None = None  # monotonic time of our first message sent
+        self.mav = self._new_codec()
+        self._decoder = FrameDecoder(self.mav, signing=signing_key is not None)
+        self._rxbuf = bytearray()  # stream transports: the incomplete frame at the end
+        self.transport = make_transport(url, cfg, self._on_data, self._transport_lost)
+        self.closed = False
+        self._reopen_task: asyncio.Task[None] | None = None
+
+    def _new_codec(self) -> Any:
+        mav = mavlink.MAVLink(
+            None, srcSystem=self.cfg.source_system, srcComponent=self.cfg.source_component
+        )
+        mav.robust_parsing = True
+        if self._key is not None:
+            enable_signing(mav, self._key)
+        return mav
+
+    async def open(self) -> None:
+        await self.transport.open()
+        log.info(
+            "link_open",
+            url=self.url.text,
+            kind=self.url.kind,
+            local=self.transport.local_address,
+            signed=self._key is not None,
+        )
+
+    def send(self, msg: MavMsg) -> bool:
+        mav = self.mav
+        buf = msg.pack(mav)
+        mav.seq = (mav.seq + 1) % 256
+        return self._write(bytes(buf))
+
+    def send_rc_override(
+        self, target_system: int, target_component: int, channels_us: Sequence[int]
+    ) -> bool:
+        """RC_CHANNELS_OVERRIDE (18 values, already checked), without a message object on an
+        unsigned link (see :mod:`helixd.link.codec`)."""
+        mav = self.mav
+        if self._key is not None:
+            return self.send(
+                mav.rc_channels_override_encode(target_system, target_component, *channels_us)
+            )
+        buf = pack_rc_channels_override(
+            mav.seq,
+            self.cfg.source_system,
+            self.cfg.source_component,
+            target_system,
+            target_component,
+            channels_us,
+        )
+        mav.seq = (mav.seq + 1) % 256
+        return self._write(buf)
+
+    def _write(self, buf: bytes) -> bool:
+        ok = self.transport.write(buf)
+        if ok:
+            if self.first_tx_s is None:
+                self.first_tx_s = time.monotonic()
+            self.stats.tx_messages += 1
+        else:
+            self.stats.tx_dropped += 1
+        return ok
+
+    def _on_data(self, data: bytes, addr: Address | None, rx_s: float) -> None:
+        """Parse what one read returned (see :mod:`helixd.link.framing`); never raises.
+
+        A UDP datagram (``addr`` set) is parsed on its own: no parser state is carried into
+        the next datagram. A stream keeps only an incomplete trailing frame for the next read.
+        """
+        if addr is not None:
+            scan = scan_frames(data, final=True, crc_extra=CRC_EXTRA)
+        else:
+            self._rxbuf += data
+            scan = scan_frames(self._rxbuf, final=False, crc_extra=CRC_EXTRA)
+            del self._rxbuf[: scan.consumed]
+        stats = self.stats
+        stats.bad_data += scan.bad_runs
+        stats.bad_bytes += scan.bad_bytes
+        from_target = False
+        for frame in scan.frames:
+            if frame.kind is FrameKind.UNKNOWN_ID:
+                stats.unknown_messages += 1
+                continue
+            try:
+                msg = self._decoder.decode(frame.data)
+            except mavlink.MAVError as exc:
+                reason = str(getattr(exc, "message", exc))
+                stats.bad_data += 1
+                if "signature" in reason.lower():
+                    stats.signature_rejects += 1
+                continue
+            except Exception as exc:  # a decoder bug must not take the link down
+                stats.bad_data += 1
+                log.warning("mavlink_decode_failed", msgid=frame.msgid, error=repr(exc))
+                continue
+            sysid = frame.src_system  # the header byte the decoded message carries too
+            if sysid != self.cfg.target_system:
+                if sysid == self.cfg.source_system:
+                    self._note_own_id(msg)
+                else:
+                    self._on_foreign(sysid)
+                continue
+            from_target = True
+            stats.rx_messages += 1
+            try:
+                self._on_message(msg, rx_s)
+            except Exception:
+                log.exception("message_handler_failed", type=msg.get_type())
+        if from_target and addr is not None:
+            self.transport.note_peer(addr)
+
+    def _note_own_id(self, msg: MavMsg) -> None:
+        """A message from *our* system id: somebody else uses it (see helixd.link.ownid)."""
+        mtype = str(msg.get_type())
+        mav_type = int(msg.type) if mtype == "HEARTBEAT" else None
+        compid = int(msg.get_srcComponent())
+        if self.own_id_senders.note(compid, mtype, mav_type):
+            log.warning(
+                "own_sysid_in_use",
+                sysid=self.cfg.source_system,
+                compid=compid,
+                type=mtype,
+                mav_type=mav_type,
+            )
+
+    def _transport_lost(self, reason: str) -> None:
+        if self.closed:
+            return
+        log.warning("link_transport_lost", url=self.url.text, reason=reason)
+        self._on_lost(reason)
+        if self._reopen_task is None or self._reopen_task.done():
+            self._reopen_task = asyncio.get_running_loop().create_task(self._reopen())
+
+    async def _reopen(self) -> None:
+        attempts = 0
+        while not self.closed:
+            await asyncio.sleep(self.cfg.reconnect_interval_s)
+            attempts += 1
+            try:
+                await self.transport.open()
+            except LinkError as exc:
+                if attempts == 1 or attempts % REOPEN_LOG_EVERY == 0:
+                    log.info("link_reopen_failed", attempt=attempts, error=str(exc))
+                continue
+            self.mav = self._new_codec()
+            self._decoder = FrameDecoder(self.mav, signing=self._key is not None)
+            self._rxbuf.clear()  # drop half a frame from the old stream
+            self.stats.reopen_count += 1
+            log.info("link_reopened", url=self.url.text, attempts=attempts)
+            self._on_reopened()
+            return
+
+    async def close(self) -> None:
+        self.closed = True
+        task = self._reopen_task
+        if task is not None and not task.done():
+            task.cancel()
+            await asyncio.gather(task, return_exceptions=True)
+        self.transport.close()

@@ -1,0 +1,134 @@
+"""The telemetry plugin: what the autopilot reports, as async streams (MAVSDK's shape).
+
+``async for pose in ap.telemetry.pose()`` yields every new valid pose;
+``ap.telemetry.pose_or_tick(tick_s)`` also yields None when ``tick_s`` passes without one (a
+loop that must run its watchdogs whether or not poses come); ``ap.telemetry.messages()`` yields
+every message of the autopilot's system with its receive time. The latest values are always
+in ``ap.state`` (:class:`helixd.vehicle.VehicleState`), which the link's reader updates before
+any of these wake.
+
+The waits here cost one future and one timer handle each (no ``wait_for`` wrapper): the
+control loop waits on a pose once per step.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import time
+from collections.abc import AsyncGenerator, Callable
+from typing import Any
+
+from helixd.vehicle import Change, PoseSample, VehicleState
+
+MavMsg = Any
+MESSAGE_QUEUE_MAX = 1024  # a stream consumer this far behind loses the oldest messages
+
+
+def _resolve(fut: asyncio.Future[bool], value: bool) -> None:
+    if not fut.done():
+        fut.set_result(value)
+
+
+class ChangeWaiters:
+    """Futures woken when :meth:`VehicleState.apply` reports a given change."""
+
+    def __init__(self) -> None:
+        self._waiters: dict[int, list[asyncio.Future[bool]]] = {}
+
+    def wake(self, changes: int) -> None:
+        for flag, futures in self._waiters.items():
+            if flag & changes:
+                for fut in futures:
+                    if not fut.done():
+                        fut.set_result(True)
+
+    async def wait(self, flag: int, timeout_s: float) -> bool:
+        """True when ``flag`` happened within ``timeout_s`` (or the link closed)."""
+        if timeout_s <= 0:
+            return False
+        loop = asyncio.get_running_loop()
+        fut: asyncio.Future[bool] = loop.create_future()
+        bucket = self._waiters.setdefault(flag, [])
+        bucket.append(fut)
+        timer = loop.call_later(timeout_s, _resolve, fut, False)
+        try:
+            return await fut
+        finally:
+            timer.cancel()
+            bucket.remove(fut)
+
+    def release_all(self) -> None:
+        """Wake every waiter (on close): they re-check their condition and time out normally."""
+        for futures in self._waiters.values():
+            for fut in futures:
+                if not fut.done():
+                    fut.set_result(True)
+
+
+class Telemetry:
+    """Streams over the vehicle state the link keeps up to date."""
+
+    def __init__(
+        self,
+        state: VehicleState,
+        waiters: ChangeWaiters,
+        add_listener: Callable[[Callable[[MavMsg, float], None]], None],
+        remove_listener: Callable[[Callable[[MavMsg, float], None]], None],
+    ) -> None:
+        self._state = state
+        self._waiters = waiters
+        self._add_listener = add_listener
+        self._remove_listener = remove_listener
+
+    async def next_pose(self, after_rx_s: float | None, timeout_s: float) -> PoseSample | None:
+        """The newest pose if it was read after ``after_rx_s``, else the next one to arrive.
+
+        ``after_rx_s=None`` waits for the next pose. None on timeout.
+        """
+        pose = self._state.pose
+        if pose is not None and after_rx_s is not None and pose.rx_monotonic_s > after_rx_s:
+            return pose
+        deadline = time.monotonic() + timeout_s
+        while await self._waiters.wait(Change.POSE, deadline - time.monotonic()):
+            pose = self._state.pose
+            if pose is not None and (after_rx_s is None or pose.rx_monotonic_s > after_rx_s):
+                return pose
+        return None
+
+    async def pose(self) -> AsyncGenerator[PoseSample, None]:
+        """Every new valid pose read after the stream started, as it arrives (none twice)."""
+        last = time.monotonic()
+        while True:
+            sample = await self.next_pose(last, math.inf)
+            if sample is not None:
+                last = sample.rx_monotonic_s
+                yield sample
+
+    async def pose_or_tick(self, tick_s: float) -> AsyncGenerator[PoseSample | None, None]:
+        """Every new valid pose read after the stream started, or None whenever ``tick_s``
+        passes without one."""
+        last = time.monotonic()
+        while True:
+            sample = await self.next_pose(last, tick_s)
+            if sample is not None:
+                last = sample.rx_monotonic_s
+            yield sample
+
+    async def messages(self) -> AsyncGenerator[tuple[MavMsg, float], None]:
+        """Every message of the autopilot's system with its receive time (monotonic s), from
+        the moment the stream is first awaited; a consumer more than ``MESSAGE_QUEUE_MAX``
+        behind loses the oldest."""
+        queue: asyncio.Queue[tuple[MavMsg, float]] = asyncio.Queue(MESSAGE_QUEUE_MAX)
+
+        def put(msg: MavMsg, rx_s: float) -> None:
+            if queue.full():
+                queue.get_nowait()
+            queue.put_nowait((msg, rx_s))
+
+        self._add_listener(put)
+        try:
+            while True:
+                yield await queue.get()
+        finally:
+            self._remove_listener(put)

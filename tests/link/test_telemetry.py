@@ -1,0 +1,84 @@
+"""The telemetry plugin's streams, driven by a vehicle state as the link's reader drives it."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from typing import Any
+
+from helixd.link.telemetry import ChangeWaiters, Telemetry
+from helixd.vehicle import VehicleState
+from tests.link.test_vehicle_state import att, lpn
+
+
+class Feed:
+    """The reader's part: apply a message, wake the waiters, call the listeners."""
+
+    def __init__(self) -> None:
+        self.state = VehicleState()
+        self.waiters = ChangeWaiters()
+        self.listeners: list[Any] = []
+        self.telemetry = Telemetry(
+            self.state, self.waiters, self.listeners.append, self.listeners.remove
+        )
+
+    def rx(self, msg: Any) -> None:
+        rx_s = time.monotonic()
+        self.waiters.wake(self.state.apply(msg, rx_s))
+        for cb in list(self.listeners):
+            cb(msg, rx_s)
+
+
+def test_pose_stream_yields_each_new_pose_once() -> None:
+    async def main() -> None:
+        f = Feed()
+        poses = f.telemetry.pose()
+        nxt = asyncio.ensure_future(anext(poses))
+        await asyncio.sleep(0)
+        f.rx(att(1000, 0.1))
+        assert not nxt.done()  # an attitude alone is no pose
+        f.rx(lpn(1000, 1.0, 2.0))
+        first = await asyncio.wait_for(nxt, 1.0)
+        assert (first.ned.north_m, first.time_boot_ms) == (1.0, 1000)
+        nxt = asyncio.ensure_future(anext(poses))
+        await asyncio.sleep(0.01)
+        assert not nxt.done()  # the same pose is not yielded again
+        f.rx(att(1020, 0.1))
+        f.rx(lpn(1020, 1.5, 2.0))
+        assert (await asyncio.wait_for(nxt, 1.0)).ned.north_m == 1.5
+        await poses.aclose()
+
+    asyncio.run(main())
+
+
+def test_pose_or_tick_yields_none_without_poses() -> None:
+    async def main() -> None:
+        f = Feed()
+        ticks = f.telemetry.pose_or_tick(0.02)
+        t0 = time.monotonic()
+        assert await anext(ticks) is None
+        assert time.monotonic() - t0 >= 0.015  # a tick, not a busy loop
+        f.rx(att(1000, 0.2))
+        f.rx(lpn(1000, 3.0, 4.0))
+        pose = await anext(ticks)  # the pose that arrived meanwhile
+        assert pose is not None and pose.ned.east_m == 4.0
+        assert await anext(ticks) is None  # not again
+        await ticks.aclose()
+
+    asyncio.run(main())
+
+
+def test_messages_stream_and_listener_removed_on_close() -> None:
+    async def main() -> None:
+        f = Feed()
+        msgs = f.telemetry.messages()
+        nxt = asyncio.ensure_future(anext(msgs))
+        await asyncio.sleep(0)
+        assert len(f.listeners) == 1
+        f.rx(att(1000, 0.2))
+        msg, rx_s = await asyncio.wait_for(nxt, 1.0)
+        assert msg.get_type() == "ATTITUDE" and rx_s > 0
+        await msgs.aclose()
+        assert f.listeners == []
+
+    asyncio.run(main())

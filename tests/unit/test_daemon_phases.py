@@ -1,0 +1,116 @@
+"""The daemon's exception → exit-code table (pure) and its bounded close."""
+
+from __future__ import annotations
+
+import asyncio
+
+import pytest
+
+from helixd.actuators import ServoCommandRefused
+from helixd.daemon import (
+    EXIT_RULES,
+    PreflightFailed,
+    Stage,
+    StartRefused,
+    StopBeforeFlight,
+    ending_for,
+    exit_rule,
+)
+from helixd.exitcodes import ExitCode
+from helixd.link.commands import CommandRejected, CommandTimeout
+from helixd.link.url import LinkError
+from helixd.mission import PlanError
+from helixd.safety.watchdogs import Fault, FaultCause
+
+
+def servo_refused() -> ServoCommandRefused:
+    return ServoCommandRefused(2, 1700, CommandRejected("DO_SET_SERVO", 4))
+
+
+@pytest.mark.parametrize(
+    ("exc", "stage", "cause", "code"),
+    [
+        (servo_refused(), Stage.SETUP, FaultCause.PREFLIGHT, ExitCode.PREFLIGHT),
+        # a refusal in flight is a fault of a moving rover, not "nothing was armed"
+        (servo_refused(), Stage.FLIGHT, FaultCause.ACTUATOR, ExitCode.FAULT),
+        (CommandTimeout("DO_SET_SERVO", 3, 0.5), Stage.FLIGHT, FaultCause.ACTUATOR, ExitCode.FAULT),
+        (CommandRejected("DO_SET_MODE", 4), Stage.SETUP, FaultCause.PREFLIGHT, ExitCode.PREFLIGHT),
+        (PlanError("bad plan"), Stage.SETUP, FaultCause.PREFLIGHT, ExitCode.PREFLIGHT),
+        (PreflightFailed(["a", "b"]), Stage.SETUP, FaultCause.PREFLIGHT, ExitCode.PREFLIGHT),
+        (LinkError("no such device"), Stage.SETUP, FaultCause.LINK_LOST, ExitCode.LINK),
+        (LinkError("gone"), Stage.FLIGHT, FaultCause.LINK_LOST, ExitCode.FAULT),
+        (
+            StopBeforeFlight("SIGINT received"),
+            Stage.SETUP,
+            FaultCause.SIGNAL,
+            ExitCode.OPERATOR_STOP,
+        ),
+        (RuntimeError("bug"), Stage.SETUP, FaultCause.EXCEPTION, ExitCode.INTERNAL_ERROR),
+        (RuntimeError("bug"), Stage.FLIGHT, FaultCause.EXCEPTION, ExitCode.INTERNAL_ERROR),
+    ],
+)
+def test_exit_table(exc: Exception, stage: Stage, cause: FaultCause, code: ExitCode) -> None:
+    ending, rule = ending_for(exc, stage, now_s=12.5)
+    assert rule is exit_rule(exc, stage)
+    assert ending.code is code
+    assert ending.fault is not None and ending.fault.cause is cause
+    # a flight failure is detected now (the fall-back's timing starts there); setup: no motion
+    assert ending.detected_s == (12.5 if stage is Stage.FLIGHT else None)
+
+
+def test_preflight_problems_are_joined_and_exceptions_named() -> None:
+    ending, rule = ending_for(PreflightFailed(["no pose", "EKF"]), Stage.SETUP, 0.0)
+    assert ending.fault == Fault(FaultCause.PREFLIGHT, "no pose; EKF")
+    assert (rule.event, rule.message_prefix) == ("preflight_failed", "preflight")
+    ending, _ = ending_for(ValueError("x"), Stage.FLIGHT, 0.0)
+    assert ending.fault == Fault(FaultCause.EXCEPTION, "ValueError: x")
+
+
+def test_start_refused_keeps_its_own_fault_and_time() -> None:
+    fault = Fault(FaultCause.PREFLIGHT, "moved out of the fence")
+    ending, _ = ending_for(StartRefused(fault, 3.0), Stage.SETUP, 9.0)
+    assert (ending.fault, ending.code, ending.detected_s) == (fault, ExitCode.FAULT, 3.0)
+
+
+def test_every_exit_code_of_a_run_is_reachable_and_last_rule_catches_all() -> None:
+    codes = {rule.code for rule in EXIT_RULES}
+    assert codes == {
+        ExitCode.OPERATOR_STOP,
+        ExitCode.FAULT,
+        ExitCode.PREFLIGHT,
+        ExitCode.LINK,
+        ExitCode.INTERNAL_ERROR,
+    }
+    assert EXIT_RULES[-1].exceptions == (Exception,) and EXIT_RULES[-1].stage is None
+
+
+def test_close_is_bounded(tmp_path: object) -> None:
+    """A link whose close() hangs does not hang the exit: bounded by fallback_deadline_s."""
+    from pathlib import Path
+
+    from helixd.config import HelixdConfig
+    from helixd.daemon import MissionRunner, RunOptions
+    from helixd.mission import Mission
+
+    cfg = HelixdConfig()
+    mission = Mission.model_validate(
+        {"name": "t", "mode": "roll", "frame": "start", "waypoints": [{"x": 1, "y": 0}]}
+    )
+    runner = MissionRunner(RunOptions(cfg, mission, "", "udpin:127.0.0.1:0", Path("."), False))
+    released = asyncio.Event()
+
+    async def hang() -> None:
+        try:
+            await asyncio.Event().wait()
+        finally:
+            released.set()
+
+    async def main() -> float:
+        loop = asyncio.get_running_loop()
+        t0 = loop.time()
+        await runner._bounded_close("link", hang())
+        assert released.is_set()  # the hanging close was cancelled, not left behind
+        return loop.time() - t0
+
+    took_s = asyncio.run(main())
+    assert cfg.safety.fallback_deadline_s <= took_s < cfg.safety.fallback_deadline_s + 0.5

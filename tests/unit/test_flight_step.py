@@ -1,0 +1,147 @@
+"""The flight loop's order of work and its actuator-fault path, against a fed vehicle state
+(no sockets: the link's reader is played by applying decoded messages)."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import pytest
+
+from helixd.actuators import ServoCommandRefused
+from helixd.config import HelixdConfig
+from helixd.flight import FlightLoop, StepReport
+from helixd.frames import MissionFrame, NedPose
+from helixd.link.commands import CommandRejected
+from helixd.link.telemetry import ChangeWaiters, Telemetry
+from helixd.mission import Mission, resolve_plan
+from helixd.safety.watchdogs import FaultCause
+from helixd.signals import StopRequest
+from helixd.vehicle import VehicleState
+from tests.link.test_vehicle_state import AP, att, decoded, hb, lpn
+
+EKF_OK = 0x1 | 0x2 | 0x4 | 0x8 | 0x10 | 0x20
+
+
+class FedAutopilot:
+    """What the flight loop uses of an Autopilot: state, telemetry, feed()."""
+
+    def __init__(self) -> None:
+        self.state = VehicleState()
+        self.waiters = ChangeWaiters()
+        self.telemetry = Telemetry(self.state, self.waiters, lambda cb: None, lambda cb: None)
+        self.t_ms = 1000
+
+    def feed(self) -> None:
+        pass
+
+    def rx(self, msg: Any) -> None:
+        self.waiters.wake(self.state.apply(msg, time.monotonic()))
+
+    def tick(self) -> None:
+        """One pose period: a heartbeat (armed, MANUAL), EKF healthy, attitude and position."""
+        self.t_ms += 20
+        self.rx(hb(0, armed=True))
+        self.rx(decoded(AP.ekf_status_report_encode(EKF_OK, 0.1, 0.1, 0.1, 0.05, 0.0), AP))
+        self.rx(att(self.t_ms, 0.0))
+        self.rx(lpn(self.t_ms, 0.0, 0.0))
+
+
+class Sink:
+    def __init__(self, trace: list[str], refuse_after: int | None = None) -> None:
+        self.trace = trace
+        self.refuse_after = refuse_after
+        self.commands: list[tuple[float, ...]] = []
+        self.last_pwm_us = (1500, 1500, 1500, 1500)
+        self.held_channels: frozenset[int] = frozenset()
+
+    async def start(self) -> None: ...
+
+    def command(self, fractions: Sequence[float]) -> None:
+        if self.refuse_after is not None and len(self.commands) >= self.refuse_after:
+            raise ServoCommandRefused(1, 1700, CommandRejected("DO_SET_SERVO", 4))
+        self.trace.append("command")
+        self.commands.append(tuple(fractions))
+
+    async def stop(self) -> None: ...
+
+    async def close(self) -> None: ...
+
+
+def make_loop(ap: FedAutopilot, sink: Sink, trace: list[str]) -> FlightLoop:
+    cfg = HelixdConfig()
+    mission = Mission.model_validate(
+        {"name": "t", "mode": "roll", "frame": "start", "waypoints": [{"x": 20, "y": 0}]}
+    )
+    plan = resolve_plan(mission, cfg.control, cfg.mission, None)
+    start = NedPose(0.0, 0.0, 0.0)
+
+    def on_step(report: StepReport) -> None:
+        trace.append("report")
+        assert report.step.fractions == sink.commands[-1]  # what was sent, reported after
+
+    return FlightLoop(
+        cfg=cfg,
+        plan=plan,
+        frame=MissionFrame.start_at(start),
+        autopilot=ap,  # type: ignore[arg-type]
+        sink=sink,
+        stop=StopRequest(),
+        start_ned=start,
+        on_step=on_step,
+        on_pose_rejected=lambda r: None,
+        on_arrival=lambda i, t, e: None,
+        on_tick=lambda: None,
+    )
+
+
+async def fly(ap: FedAutopilot, loop: FlightLoop, periods: int) -> Any:
+    task = asyncio.create_task(loop.run())
+    for _ in range(periods):
+        await asyncio.sleep(0.02)
+        ap.tick()
+        if task.done():
+            break
+    if not task.done():
+        loop.stop.trigger("test end")
+    return await asyncio.wait_for(task, 2.0)
+
+
+def test_command_leaves_before_the_report() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.tick()
+    sink = Sink(trace)
+    result = asyncio.run(fly(ap, make_loop(ap, sink, trace), 6))
+    assert result.fault is not None and result.fault.cause is FaultCause.SIGNAL  # our stop
+    assert len(sink.commands) >= 3
+    assert trace[:4] == ["command", "report", "command", "report"]
+    assert all(math.isfinite(f) for c in sink.commands for f in c)
+
+
+def test_step_is_pure_of_io() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.tick()
+    sink = Sink(trace)
+    loop = make_loop(ap, sink, trace)
+    assert ap.state.pose is not None
+    step = loop._step(ap.state.pose, ap.state.pose.time_boot_ms / 1000.0)
+    assert trace == [] and sink.commands == []  # nothing sent, nothing reported
+    assert len(step.fractions) == 4 and all(math.isfinite(f) for f in step.fractions)
+    assert step.nav.distance_error_m == pytest.approx(20.0)  # the navigator's output returned
+
+
+def test_servo_refused_in_flight_is_an_actuator_fault() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.tick()
+    sink = Sink(trace, refuse_after=2)
+    result = asyncio.run(fly(ap, make_loop(ap, sink, trace), 10))
+    assert result.fault is not None and result.fault.cause is FaultCause.ACTUATOR
+    assert "DO_SET_SERVO" in result.fault.detail
+    assert result.detected_s is not None and result.last_pose is not None
+    assert len(sink.commands) == 2

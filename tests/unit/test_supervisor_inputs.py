@@ -1,0 +1,55 @@
+"""The supervisor's snapshot of the vehicle state for the watchdogs (pure)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from helixd.config import SafetyConfig
+from helixd.frames import NedPose
+from helixd.safety.supervisor import Motion, Supervisor, safety_inputs
+from helixd.safety.watchdogs import FaultCause
+from helixd.vehicle import VehicleState
+from tests.link.test_vehicle_state import AP, att, decoded, hb, lpn
+
+MOTION = Motion(0.5, 0.1, 0.05, 12.0)
+
+
+def flying_state() -> VehicleState:
+    st = VehicleState()
+    st.apply(hb(0, armed=True), 1.0)
+    st.apply(decoded(AP.ekf_status_report_encode(0x3F, 0.1, 0.1, 0.1, 0.05, 0.0), AP), 1.0)
+    st.apply(att(1000, 0.3), 1.0)
+    st.apply(lpn(1000, 3.0, 4.0), 1.0)
+    return st
+
+
+def test_snapshot_carries_state_pose_and_motion() -> None:
+    st = flying_state()
+    s = safety_inputs(1.1, st, st.pose, NedPose(1.0, 2.0, 0.0), "MANUAL", MOTION)
+    assert (s.north_m, s.east_m, s.start_north_m, s.start_east_m) == (3.0, 4.0, 1.0, 2.0)
+    assert s.measured_speed_mps == pytest.approx(math.hypot(0.5, -0.2))  # float32 on the wire
+    assert (s.commanded_speed_mps, s.commanded_yaw_rate_radps) == (0.5, 0.1)
+    assert (s.measured_yaw_rate_radps, s.mission_elapsed_s) == (0.05, 12.0)
+    assert s.vehicle_time_s == 1.0 and s.mode == "MANUAL" and s.armed
+    assert s.ekf_healthy is True and s.ekf_detail == ""  # the text is built only when unhealthy
+
+
+def test_unhealthy_ekf_is_described_and_reported() -> None:
+    st = flying_state()
+    st.apply(decoded(AP.ekf_status_report_encode(0x1 | 0x80, 0.1, 0.1, 0.1, 0.05, 0.0), AP), 1.05)
+    s = safety_inputs(1.1, st, st.pose, NedPose(3.0, 4.0, 0.0), "MANUAL", MOTION)
+    assert s.ekf_healthy is False and "constant-position" in s.ekf_detail
+    fault = Supervisor(SafetyConfig(), NedPose(3.0, 4.0, 0.0), "MANUAL").check(
+        1.1, st, st.pose, MOTION
+    )
+    assert fault is not None and fault.cause is FaultCause.EKF_UNHEALTHY
+    assert "constant-position" in fault.detail
+
+
+def test_no_pose_yet() -> None:
+    st = VehicleState()
+    s = safety_inputs(5.0, st, None, NedPose(0.0, 0.0, 0.0), "MANUAL", MOTION)
+    assert s.north_m is None and s.pose_rx_s is None and s.measured_speed_mps == 0.0
+    assert s.vehicle_time_s is None and s.ekf_healthy is None
