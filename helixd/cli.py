@@ -35,6 +35,7 @@ from helixd.yamlio import clip_line, paused_gc
 if TYPE_CHECKING:
     from collections.abc import Callable
 
+    from helixd.mission.resume import RunInputs
     from helixd.planning.mapfile import OccupancyMap
     from helixd.planning.route import RoutePlan
     from helixd.sim.obstacles import SimObstacles
@@ -474,31 +475,58 @@ def run(
             "draws the path (helixd never switches to AUTO, so ArduPilot never flies it)",
         ),
     ] = False,
+    resume: Annotated[
+        Path | None,
+        typer.Option(
+            "--resume",
+            help="continue the mission of this run directory from its first waypoint not "
+            "reached (refused if the mission or config changed, or the run completed)",
+        ),
+    ] = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
-    ``--mission autopilot`` flies the mission the autopilot holds (downloaded over MAVLink)."""
+    ``--mission autopilot`` flies the mission the autopilot holds (downloaded over MAVLink);
+    ``--resume RUN_DIR`` continues a recorded run (helixd.mission.resume)."""
     from helixd.cli_autopilot import wants_autopilot
 
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
-    if wants_autopilot(mission):
+    occupancy: OccupancyMap | None = None
+    if resume is not None:
+        given = [
+            name
+            for name, used in (
+                ("--mode", mode),
+                ("--map", map_path),
+                ("--skip-unsupported", skip_unsupported),
+            )
+            if used
+        ]
+        if given:
+            raise fail(
+                [f"--resume flies the recorded mission as it was: {', '.join(given)} not allowed"],
+                ExitCode.USAGE,
+            )
+        explicit = _explicit_mission(mission)
+        cfg, msn, mission_yaml, inputs = resume_inputs(config, resume, explicit)
+        url = check_connect(connect, cfg)
+        # the recorded mission is already planned: no map, no first-leg replanning
+        mission_path = resume / "mission.yaml"
+        flight = _Flight(msn, mission_yaml, None, inputs)
+    elif wants_autopilot(mission):
         _run_autopilot_mission(
             config, connect, sim, SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise),
             run_dir, log_level, map_path, mode, skip_unsupported, show_plan,
         )  # fmt: skip
         return  # not reached: it exits with the run's code
-    cfg, msn, mission_path, _ = load_inputs(config, mission, mode, skip_unsupported)
-    url = check_connect(connect, cfg)
-    try:
-        if sniff_format(mission_path) is MissionFormat.YAML and mode is None:
-            mission_yaml = mission_path.read_text(encoding="utf-8")
-        else:  # the run directory keeps what is flown, as helixd YAML
-            mission_yaml = mission_to_yaml(msn)
-    except (OSError, UnicodeDecodeError) as exc:
-        raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
-    occupancy = load_occupancy(cfg, map_path)
-    flight = _planned(cfg, msn, mission_yaml, mission_path, occupancy)  # refusals before a sim
+    else:
+        cfg, msn, mission_path, _ = load_inputs(config, mission, mode, skip_unsupported)
+        url = check_connect(connect, cfg)
+        mission_yaml = _recorded_mission_yaml(mission_path, msn, mode)
+        occupancy = load_occupancy(cfg, map_path)
+        # planned around obstacles; refusals before a simulator starts
+        flight = _planned(cfg, msn, mission_yaml, mission_path, occupancy, config_sha256(config))
     server = None
     if sim:
         sim_choice = SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise)
@@ -565,7 +593,8 @@ def _run_autopilot_mission(
             raise fail(problems, ExitCode.PREFLIGHT)
         cfg = apply_mission_limits(cfg, msn)
         mission_yaml = mission_to_yaml(msn)  # the run directory records what was downloaded
-        flight = _planned(cfg, msn, mission_yaml, Path(AUTOPILOT_MISSION), occupancy)
+        path = Path(AUTOPILOT_MISSION)
+        flight = _planned(cfg, msn, mission_yaml, path, occupancy, config_sha256(config))
         _fly(cfg, flight, url, run_dir, log_level, show_plan)
     finally:
         if server is not None:
@@ -580,6 +609,7 @@ class _Flight:
     mission: Mission
     mission_yaml: str
     replan_from: Callable[[tuple[float, float], tuple[float, float] | None], Mission] | None
+    inputs: RunInputs  # inputs.json: mission/config hashes (what --resume checks)
 
 
 def _planned(
@@ -588,19 +618,24 @@ def _planned(
     mission_yaml: str,
     mission_path: Path,
     occupancy: OccupancyMap | None,
+    config_sha: str,
 ) -> _Flight:
     """Plan around the map and keep-outs (refusals exit 2) and print the legs."""
+    from helixd.mission.resume import fresh_inputs
+
     planned, route = plan_loaded(cfg, msn, mission_path, occupancy)
     if route is None:
-        return _Flight(msn, mission_yaml, None)
+        return _Flight(msn, mission_yaml, None, fresh_inputs(mission_yaml, config_sha, msn))
     from helixd.planning.route import planned_mission_yaml
 
     map_path = None if occupancy is None else occupancy.source
     echo_route(route)
+    planned_yaml = planned_mission_yaml(planned, route, map_path)
     return _Flight(
         planned,
-        planned_mission_yaml(planned, route, map_path),
+        planned_yaml,
         first_leg_replanner(cfg, msn, planned, route),
+        fresh_inputs(planned_yaml, config_sha, planned),
     )
 
 
@@ -630,6 +665,7 @@ def _fly(
         tty=tty,
         replan_from=flight.replan_from,
         show_plan=show_plan,
+        inputs=flight.inputs,
     )
     outcome = asyncio.run(run_mission(opts))
     if outcome.run_dir is not None:
@@ -637,6 +673,84 @@ def _fly(
     for line in outcome.messages:  # the last one is the plain "helixd: RESULT" line
         typer.echo(line, err=True)
     raise typer.Exit(int(outcome.exit_code))
+
+
+def _recorded_mission_yaml(mission_path: Path, msn: Mission, mode: MotionMode | None) -> str:
+    """What the run directory keeps as mission.yaml (and hashes): the YAML file as written,
+    else the flown mission as helixd YAML."""
+    try:
+        if sniff_format(mission_path) is MissionFormat.YAML and mode is None:
+            return mission_path.read_text(encoding="utf-8")
+        return mission_to_yaml(msn)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise fail([f"{mission_path}: cannot read file: {exc}"], ExitCode.USAGE) from None
+
+
+def config_sha256(config: Path | None) -> str:
+    """Hash of the loaded config (canonical YAML dump: a value change is a change, a comment
+    is not), before any command-line override such as --connect."""
+    from helixd.config import config_to_yaml
+    from helixd.mission.resume import sha256_text
+
+    try:
+        return sha256_text(config_to_yaml(load_config(config)))
+    except ConfigFileError as exc:
+        raise fail(exc.problems, ExitCode.USAGE) from None
+
+
+def _explicit_mission(mission: Path) -> Path | None:
+    """``--mission`` when the operator gave it (with --resume it must be the same mission)."""
+    from typer._click.core import ParameterSource
+    from typer._click.globals import get_current_context
+
+    ctx = get_current_context(silent=True)
+    if ctx is None or ctx.get_parameter_source("mission") is ParameterSource.DEFAULT:
+        return None
+    return mission
+
+
+def resume_inputs(
+    config: Path | None, run_dir: Path, explicit_mission: Path | None
+) -> tuple[HelixdConfig, Mission, str, RunInputs]:
+    """Config, remaining mission, its YAML and the new run's inputs record for
+    ``--resume RUN_DIR``; every refusal is one line and exit 2."""
+    from helixd.mission.resume import (
+        ResumeRefused,
+        check_inputs,
+        parse_inputs,
+        resume_point,
+        resumed_inputs,
+        sha256_text,
+    )
+    from helixd.mission.resume_dir import MISSION_FILE, read_run_dir
+
+    try:
+        contents = read_run_dir(run_dir)
+        recorded = parse_inputs(contents.inputs_text)
+        explicit_sha = None
+        if explicit_mission is not None:
+            _, given, given_path, _ = load_inputs(config, explicit_mission)
+            explicit_sha = sha256_text(_recorded_mission_yaml(given_path, given, None))
+        check_inputs(recorded, contents.mission_yaml, config_sha256(config), explicit_sha)
+        cfg, old, _, _ = load_inputs(config, run_dir / MISSION_FILE)
+        point = resume_point(
+            str(run_dir.resolve()), recorded, old, contents.events, contents.completed
+        )
+    except ResumeRefused as exc:
+        raise fail([f"--resume {run_dir}: {exc}"], ExitCode.USAGE) from None
+    mission_yaml = mission_to_yaml(point.mission)
+    typer.echo(
+        f"resume  : {run_dir}: from waypoint {point.first_index + 1}/"
+        f"{recorded.waypoints_total} ({len(point.mission.waypoints)} remaining)",
+        err=True,
+    )
+    if point.mission.frame is MissionFrameKind.LOCAL_NED:
+        typer.echo(
+            "warning: local_ned waypoints are relative to the EKF origin; if the autopilot "
+            "set a new origin since (reboot, GPS), they lie elsewhere (global is safe)",
+            err=True,
+        )
+    return cfg, point.mission, mission_yaml, resumed_inputs(point, mission_yaml)
 
 
 @app.command()

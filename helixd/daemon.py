@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import dataclasses
 import math
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable
@@ -36,7 +37,7 @@ from helixd import __version__
 from helixd.actuators import ActuatorError, make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
-from helixd.display import ProgressDisplay, result_line
+from helixd.display import ProgressDisplay, ProgressInfo, result_line
 from helixd.exitcodes import ExitCode
 from helixd.flight import (
     MANUAL_MODE,
@@ -53,6 +54,7 @@ from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
 from helixd.link.tlog import attach_tlog
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
+from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
 from helixd.mission.validate import apply_mission_limits, mission_problems
 from helixd.notify import ServiceNotifier
 from helixd.recorder.rows import FlightRow
@@ -101,6 +103,8 @@ class RunOptions:
     # (and the EKF origin's (lat, lon), for a global mission)
     replan_from: Callable[[tuple[float, float], tuple[float, float] | None], Mission] | None = None
     show_plan: bool = False  # upload the resolved plan for the GCS to draw (helixd.show_plan)
+    # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
+    inputs: RunInputs | None = None
 
 
 @dataclass
@@ -368,6 +372,15 @@ class MissionRunner:
             except ValueError as exc:
                 raise PreflightFailed(str(exc).splitlines()) from None
         plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
+        if self.opts.inputs is not None:  # a resume re-enters the interrupted leg
+            plan = with_leg_start(
+                plan,
+                self.opts.mission,
+                self.opts.inputs.leg_start,
+                self.cfg.control,
+                self.cfg.mission,
+                origin,
+            )
         # The same validation `helixd check` ran, now with the start pose and EKF origin
         # (geofence radius/polygon and time for local_ned/global missions).
         refused = mission_problems(
@@ -566,10 +579,10 @@ class MissionRunner:
         def on_step(report: StepReport) -> None:  # after the command left
             self.gcs.progress(report.step.nav.cross_track_m, report.step.nav.target_index)
             self._on_row(flight_row(report, plan))
-            self.display.update(lambda: step_progress(report, plan))  # built only if shown
+            self.display.update(lambda: self._whole(step_progress(report, plan)))  # if shown
 
         def on_pose_rejected(report: PoseRejectedReport) -> None:
-            self.display.update(rejected_progress(report, plan))
+            self.display.update(self._whole(rejected_progress(report, plan)))
 
         def on_arrival(index: int, t_boot_s: float, error_m: float) -> None:
             self._on_arrival(index, total, t_boot_s, error_m)
@@ -625,6 +638,7 @@ class MissionRunner:
                 mission_yaml=self.opts.mission_yaml,
                 cfg=self.cfg.recorder,
                 now_utc=datetime.now(UTC),
+                inputs_json=None if self.opts.inputs is None else self.opts.inputs.to_json(),
             )
         except RecorderUnavailable as exc:
             summary = self._build_summary(f"recorder: {exc}", ExitCode.PREFLIGHT, None)
@@ -636,6 +650,14 @@ class MissionRunner:
             connect=self.opts.connect_url,
             run_dir=str(self.recorder.run_dir),
         )
+        resumed = None if self.opts.inputs is None else self.opts.inputs.resumed_from
+        if resumed is not None and self.opts.inputs is not None:
+            log.info(
+                RUN_RESUMED_EVENT,
+                resumed_from=resumed.path,
+                resumed_mission_sha256=resumed.mission_sha256,
+                first_waypoint=f"{resumed.first_waypoint + 1}/{self.opts.inputs.waypoints_total}",
+            )
         started = time.monotonic()
         held = Held()
         ending = Ending(None, ExitCode.INTERNAL_ERROR)  # if cancelled before an ending is known
@@ -722,7 +744,7 @@ class MissionRunner:
     def _build_summary(
         self, fault: str | None, code: ExitCode, wall_duration_s: float | None
     ) -> RunSummary:
-        return self.summary.build(
+        summary = self.summary.build(
             completed=code is ExitCode.OK,
             fault=fault,
             exit_code=int(code),
@@ -731,6 +753,9 @@ class MissionRunner:
             waypoints_total=len(self.opts.mission.waypoints),
             wall_duration_s=wall_duration_s,
         )
+        if self.opts.inputs is not None and self.opts.inputs.resumed_from is not None:
+            summary = summary.model_copy(update={"resumed_from": self.opts.inputs.resumed_from})
+        return summary
 
     def _finish(self, ending: Ending, started: float) -> RunSummary:
         fault = ending.fault
@@ -763,12 +788,31 @@ class MissionRunner:
             "waypoint_reached",
             waypoint=f"{index + 1}/{total}",  # 1-based, as the progress line counts
             index=index,  # 0-based plan index, as `helixd check` prints
+            **self._mission_waypoint(index),
             elapsed_autopilot_s=(
                 round(t_boot_s - start, 1) if start is not None and t_boot_s >= start else None
             ),
             t_boot_s=round(t_boot_s, 2),
             error_m=round(error_m, 3),
         )
+
+    def _whole(self, info: ProgressInfo) -> ProgressInfo:
+        """The progress line counts waypoints of the whole mission on a resumed run."""
+        inputs = self.opts.inputs
+        if inputs is None or inputs.resumed_from is None:
+            return info
+        return dataclasses.replace(
+            info,
+            waypoint_index=inputs.index_offset + info.waypoint_index,
+            waypoints_total=inputs.waypoints_total,
+        )
+
+    def _mission_waypoint(self, index: int) -> dict[str, str]:
+        """A resumed run also counts waypoints of the whole mission (e.g. 12/38)."""
+        inputs = self.opts.inputs
+        if inputs is None or inputs.resumed_from is None:
+            return {}
+        return {"mission_waypoint": f"{inputs.index_offset + index + 1}/{inputs.waypoints_total}"}
 
 
 async def run_mission(opts: RunOptions) -> RunOutcome:

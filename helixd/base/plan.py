@@ -42,6 +42,10 @@ class Plan:
     frame: MissionFrameKind
     waypoints: tuple[PlanWaypoint, ...]
     speed_mps: float
+    # Start of the first leg (mission frame, m). None: the rover's pose at the first step, as
+    # for a fresh mission. A resumed mission sets the waypoint before its first one, so line
+    # guidance re-enters the interrupted leg instead of cutting across to the waypoint.
+    leg_start_xy_m: tuple[float, float] | None = None
 
     def path_length_m(self, start_xy_m: tuple[float, float] = (0.0, 0.0)) -> float:
         """Length of the polyline start → wp1 → … → wpN (m)."""

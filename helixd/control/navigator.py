@@ -83,6 +83,8 @@ class Navigator:
     def __init__(self, plan: Plan, control: NavigatorParams) -> None:
         if not plan.waypoints:
             raise ValueError(f"plan '{plan.name}' has no waypoints")
+        if plan.leg_start_xy_m is not None:
+            require_finite("plan leg start", *plan.leg_start_xy_m)
         self.plan = plan
         self.control = control
         self._distance_pid = PID(control.distance_pid, output_limit=plan.speed_mps)
@@ -91,7 +93,7 @@ class Navigator:
         self._target_index = 0
         self._waypoints_reached = 0
         self._final_heading_pending = False
-        self._leg_start_xy_m: tuple[float, float] | None = None
+        self._leg_start_xy_m: tuple[float, float] | None = plan.leg_start_xy_m
         self._last_t_s: float | None = None
         self._run_out_m: list[float] | None = None  # filled at the first step (needs the start)
         # Line guidance: path points (start pose first), per-waypoint pass speeds and stops,
@@ -133,7 +135,7 @@ class Navigator:
         if self._run_out_m is None:
             wps = self.plan.waypoints
             self._run_out_m = guidance.run_out_m(
-                [(pose.x_m, pose.y_m)] + [(w.x_m, w.y_m) for w in wps],
+                [self._leg_start(pose)] + [(w.x_m, w.y_m) for w in wps],
                 [w.final_yaw_rad is not None for w in wps],
                 self.control.corner_slowdown_rad,
             )
@@ -224,7 +226,7 @@ class Navigator:
 
     def _plan_line(self, pose: Pose2D) -> None:
         wps = self.plan.waypoints
-        self._points_xy_m = [(pose.x_m, pose.y_m)] + [(w.x_m, w.y_m) for w in wps]
+        self._points_xy_m = [self._leg_start(pose)] + [(w.x_m, w.y_m) for w in wps]
         self._pass_speed_mps, self._stops = line.waypoint_speed_limits(
             self._points_xy_m,
             [w.final_yaw_rad is not None for w in wps],

@@ -44,6 +44,7 @@ SUMMARY_FILE = "summary.json"
 CONFIG_FILE = "config.yaml"
 MISSION_FILE = "mission.yaml"
 TLOG_FILE = "link.tlog"  # every MAVLink frame of the link (helixd.link.tlog; link.tlog_enabled)
+INPUTS_FILE = "inputs.json"  # helixd.mission.resume.RunInputs
 CSV_BUFFER_BYTES = 64 * 1024  # > one flush interval of rows at 50 Hz (~330 B/row)
 SYNC_JOIN_TIMEOUT_S = 5.0  # wait this long for the last fsync when closing
 MAX_NAME_COLLISIONS = 100  # runs started within the same second get -2, -3, …
@@ -162,6 +163,7 @@ class RunRecorder:
         run_dir: Path | None = None,
         clock: Callable[[], float] = time.monotonic,
         opener: Opener = default_opener,
+        inputs_json: str | None = None,
     ) -> RunRecorder:
         """Make the run directory and start recording.
 
@@ -172,7 +174,9 @@ class RunRecorder:
         rec = cls(cfg, clock, opener)
         target = run_dir if run_dir is not None else run_root / run_dir_name(mission_name, now_utc)
         try:
-            rec._open(run_root, run_dir, mission_name, now_utc, config_yaml, mission_yaml)
+            rec._open(
+                run_root, run_dir, mission_name, now_utc, config_yaml, mission_yaml, inputs_json
+            )
         except OSError as exc:
             failed = Path(exc.filename) if exc.filename else rec.run_dir or target
             if cfg.on_write_error == "refuse":
@@ -190,6 +194,7 @@ class RunRecorder:
         now_utc: datetime,
         config_yaml: str,
         mission_yaml: str,
+        inputs_json: str | None = None,
     ) -> None:
         if run_dir is not None:
             run_dir.mkdir(parents=True, exist_ok=True)
@@ -200,6 +205,8 @@ class RunRecorder:
         logging_setup.attach_events_file(events_path)
         self._write_text(self.run_dir / CONFIG_FILE, config_yaml)
         self._write_text(self.run_dir / MISSION_FILE, mission_yaml)
+        if inputs_json is not None:  # hashes of mission and config, for `run --resume`
+            self._write_text(self.run_dir / INPUTS_FILE, inputs_json)
         self._csv_path = self.run_dir / FLIGHT_FILE
         self._csv = self._opener(self._csv_path, "w")
         self._csv.write(FlightRow.csv_header())

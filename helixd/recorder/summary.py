@@ -13,6 +13,7 @@ from pydantic import Field
 
 from helixd import __version__
 from helixd.config import StrictModel
+from helixd.mission.resume import ResumedFrom
 from helixd.recorder.rows import FlightRow
 
 # Driven path length is summed over pose steps of at least this length, so pose noise (GPS
@@ -75,6 +76,9 @@ class RunSummary(StrictModel):
     )
     origin_latlon_deg: tuple[float, float] | None = Field(
         None, description="EKF origin used for a global mission (lat, lon deg)"
+    )
+    resumed_from: ResumedFrom | None = Field(
+        None, description="the run this one resumed (`helixd run --resume`), None if none"
     )
     helixd_version: str = __version__
 
