@@ -483,6 +483,18 @@ class MissionRunner:
                 self.display.phase(f"arm (autopilot says: {exc.statustext or exc.result_name})")
                 await asyncio.sleep(self.cfg.safety.arm_retry_interval_s)
 
+    async def _confirm_mode(self, ap: Autopilot, mode: str) -> None:
+        """The ACK says 'accepted'; the HEARTBEAT's mode says it happened. Without this wait
+        a vehicle still armed in HOLD (left by a faulted run) would show its last HOLD
+        heartbeat to the flight loop, which reads it as a pilot takeover."""
+        deadline = time.monotonic() + self.cfg.safety.heartbeat_timeout_s * 2
+        while ap.state.mode != mode:
+            if time.monotonic() > deadline:
+                raise PreflightFailed(
+                    [f"mode {mode} was accepted but HEARTBEAT still shows {ap.state.mode}"]
+                )
+            await ap.wait_pose(after_rx_s=None, timeout_s=0.05)
+
     async def _confirm_armed(self, ap: Autopilot) -> None:
         """The ACK says 'accepted'; the HEARTBEAT's armed flag says it happened."""
         deadline = time.monotonic() + self.cfg.safety.heartbeat_timeout_s * 2
@@ -532,6 +544,7 @@ class MissionRunner:
                 await self._start_gate(ap)
             async with phase("set_manual", self.notifier, self.display):
                 await self._until_stopped(ap.set_mode(MANUAL_MODE))
+                await self._confirm_mode(ap, MANUAL_MODE)
             sink = held.sink
             if sink is None:
                 sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)

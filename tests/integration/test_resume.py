@@ -45,7 +45,8 @@ def _events(run_dir: Path) -> list[dict[str, Any]]:
     return out
 
 
-def test_resume_after_fault_completes_the_remaining_waypoints(tmp_path: Path) -> None:
+@pytest.mark.parametrize("reboot", [True, False], ids=["battery_swap", "still_armed_in_hold"])
+def test_resume_after_fault_completes_the_remaining_waypoints(tmp_path: Path, reboot: bool) -> None:
     mission = tmp_path / "lane.yaml"
     mission.write_text(MISSION, encoding="utf-8")
     with sim_and_daemon(tmp_path, mission) as (server, first):
@@ -64,8 +65,12 @@ def test_resume_after_fault_completes_the_remaining_waypoints(tmp_path: Path) ->
         assert stopped.north_m < 12.0 - ARRIVAL_M
 
         # battery swap: the autopilot reboots (disarmed, INITIALISING); resume with the same
-        # config once it is back
-        server.inject("reboot")
+        # config once it is back. Without it the autopilot is still armed in HOLD: the new
+        # run must see MANUAL in a HEARTBEAT before flying, or it reads HOLD as a takeover.
+        if reboot:
+            server.inject("reboot")
+        else:
+            assert stopped.armed and stopped.mode == "HOLD"
         run_root2 = tmp_path / "runs2"
         args = ["run", "--resume", str(run1), "--config", str(tmp_path / "helixd.yaml")]
         second = spawn_daemon(
