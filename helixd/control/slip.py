@@ -34,18 +34,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
-from helixd.control.kinematics import (
-    body_to_scroll_radps,
-    constrain,
-    fraction_to_radps,
-    radps_to_fraction,
-    saturate,
-    scroll_radps_to_body,
-)
+from helixd.control.kinematics import no_slip_body_velocity
 from helixd.control.params import SlipParams, VehicleParams
 
 
@@ -95,14 +86,9 @@ def no_slip_body(command: BodyVelocity, vehicle: VehicleParams, mode: MotionMode
     """The body velocity the scrolls would produce on ideal ground for ``command``: the mode's
     constraint and the joint saturation of :func:`helixd.control.kinematics.body_to_fractions`
     applied (per-scroll calibration is the actuators' business, not the ground's). Zero for a
-    non-finite command (the kinematics sends neutral then)."""
-    if not command.is_finite():
-        return BodyVelocity.zero()
-    with np.errstate(over="ignore", invalid="ignore"):
-        omega = body_to_scroll_radps(constrain(command, mode), vehicle)
-        fractions = saturate(radps_to_fraction(omega, vehicle.max_rpm), vehicle.output_clamp)
-        body = scroll_radps_to_body(fraction_to_radps(fractions, vehicle.max_rpm), vehicle)
-    return body if body.is_finite() else BodyVelocity.zero()
+    non-finite command (the kinematics sends neutral then). Plain floats
+    (:func:`helixd.control.kinematics.no_slip_body_velocity`): it runs every control step."""
+    return no_slip_body_velocity(command, vehicle, mode)
 
 
 class SlipEstimator:
