@@ -262,7 +262,7 @@ class FlightLoop:
         if (
             not out.command.is_finite()
             or not command.is_finite()
-            or not all(math.isfinite(x) for x in fractions)
+            or not math.isfinite(fractions[0] + fractions[1] + fractions[2] + fractions[3])
         ):
             raise NonFiniteError(f"command {out.command} / fractions {list(fractions)}")
         return StepOutput(fractions, out, command, mpose, slip)

@@ -97,6 +97,8 @@ class SlipEstimator:
     def __init__(self, cfg: SlipParams) -> None:
         self.cfg = cfg
         self._modes: dict[MotionMode, _ModeState] = {}
+        # the estimate of each mode's fits, until they learn again (read twice per step)
+        self._estimates: dict[MotionMode, SlipEstimate] = {}
 
     def _state(self, mode: MotionMode) -> _ModeState:
         st = self._modes.get(mode)
@@ -113,10 +115,14 @@ class SlipEstimator:
         return max(0.0, min(self.cfg.max_fraction, k))
 
     def estimate(self, mode: MotionMode) -> SlipEstimate:
-        st = self._state(mode)
-        return SlipEstimate(
-            self._bounded(st.vx.k()), self._bounded(st.vy.k()), self._bounded(st.w.k())
-        )
+        est = self._estimates.get(mode)
+        if est is None:
+            st = self._state(mode)
+            est = SlipEstimate(
+                self._bounded(st.vx.k()), self._bounded(st.vy.k()), self._bounded(st.w.k())
+            )
+            self._estimates[mode] = est
+        return est
 
     def update(
         self, mode: MotionMode, sent: BodyVelocity, measured: BodyVelocity, dt_s: float
@@ -151,6 +157,7 @@ class SlipEstimator:
         ):
             if abs(u) >= least and abs(now - u) <= cfg.steady_tolerance * abs(u):
                 fit.learn(u, self._clip(y, u), dt_s, forget)
+                self._estimates.pop(mode, None)
         return self.estimate(mode)
 
     def _clip(self, y: float, u: float) -> float:
