@@ -48,5 +48,7 @@ class BodyVelocity:
 
     def is_finite(self) -> bool:
         return (
-            math.isfinite(self.vx_mps) and math.isfinite(self.vy_mps) and math.isfinite(self.wz_radps)
+            math.isfinite(self.vx_mps)
+            and math.isfinite(self.vy_mps)
+            and math.isfinite(self.wz_radps)
         )

@@ -155,7 +155,9 @@ def waypoint_speed_limits(
 def braking_speed_mps(distance_m: float, end_speed_mps: float, accel_mps2: float) -> float:
     """Highest speed from which ``end_speed`` is reached within ``distance`` at ``accel``:
     √(v_end² + 2·a·d). Non-finite input → 0."""
-    if not (math.isfinite(distance_m) and math.isfinite(end_speed_mps) and math.isfinite(accel_mps2)):
+    if not (
+        math.isfinite(distance_m) and math.isfinite(end_speed_mps) and math.isfinite(accel_mps2)
+    ):
         return 0.0
     return math.sqrt(max(0.0, end_speed_mps**2 + 2.0 * max(0.0, accel_mps2) * max(0.0, distance_m)))
 
