@@ -37,7 +37,7 @@ import structlog
 from helixd.actuators.base import ActuatorError, ActuatorSink
 from helixd.config import HelixdConfig
 from helixd.control.angles import wrap_pi
-from helixd.control.kinematics import body_to_fractions
+from helixd.control.kinematics import scroll_fractions
 from helixd.control.navigator import Navigator, NavOutput
 from helixd.control.slip import (
     SlipEstimate,
@@ -258,12 +258,11 @@ class FlightLoop:
         command = out.command
         if self._slip_enabled:
             command = self.slip.compensate(self.plan.mode, out.command)
-        f = body_to_fractions(command, self.cfg.vehicle, self.plan.mode)
-        fractions = (float(f[0]), float(f[1]), float(f[2]), float(f[3]))
+        fractions = scroll_fractions(command, self.cfg.vehicle, self.plan.mode)
         if (
             not out.command.is_finite()
             or not command.is_finite()
-            or not all(math.isfinite(x) for x in fractions)
+            or not math.isfinite(fractions[0] + fractions[1] + fractions[2] + fractions[3])
         ):
             raise NonFiniteError(f"command {out.command} / fractions {list(fractions)}")
         return StepOutput(fractions, out, command, mpose, slip)

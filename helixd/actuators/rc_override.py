@@ -5,7 +5,10 @@ RCIN<n> passthrough. ArduPilot accepts overrides only from ``MAV_GCS_SYSID`` and
 channel's override ``RC_OVERRIDE_TIME`` (default 3 s) after its last update — so a dead
 helixd hands the scrolls back to the pilot's radio by itself. While healthy, the latest
 frame is re-sent at ``repeat_rate_hz`` (≥ 10 Hz) so that timeout never fires; a new
-command is sent at once (the repeater only fills the gaps).
+command is sent at once (the repeater only fills the gaps). The repeat is a one-shot loop
+timer re-armed by every send, so nothing wakes while commands flow faster than the repeat
+rate (a sleeping repeater task woke the loop ~25 times a second at 50 Hz for nothing:
++0.3× the pymavlink floor per step, tools/bench_control_loop.py).
 
 Channels we do not drive are sent as "leave unchanged" (65535 on 1–8, 0 on 9–18). Stopping
 sends neutral, holds it for ``neutral_hold_s`` (if the release is lost, the last override is
@@ -53,15 +56,18 @@ class RcOverrideSink:
         self.frames_sent = 0
         self._frame: tuple[int, ...] | None = None
         self._last_send_s = -math.inf
-        self._task: asyncio.Task[None] | None = None
+        self._started = False
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._timer: asyncio.TimerHandle | None = None
         self._warned_idle = False
 
     async def start(self) -> None:
-        if self._task is not None:
+        if self._started:
             return
+        self._loop = asyncio.get_running_loop()
+        self._started = True
         self._set(self._neutral)
         self.held_channels = frozenset(c.channel for c in self._channels)
-        self._task = asyncio.get_running_loop().create_task(self._repeat(), name="rc_repeater")
         log.info(
             "rc_override_started",
             channels=sorted(self.held_channels),
@@ -70,7 +76,7 @@ class RcOverrideSink:
 
     def command(self, fractions: Sequence[float]) -> None:
         f = checked_fractions(fractions, self._clamp)
-        if self._task is None:
+        if not self._started:
             if not self._warned_idle:
                 log.warning("rc_override_not_started", fractions=f)
                 self._warned_idle = True
@@ -89,22 +95,22 @@ class RcOverrideSink:
         self._ap.send_rc_override(frame)
         self._last_send_s = time.monotonic()
         self.frames_sent += 1
+        if self._started and self._loop is not None:  # the repeat: one period after this send
+            if self._timer is not None:
+                self._timer.cancel()
+            self._timer = self._loop.call_later(1.0 / self._cfg.repeat_rate_hz, self._refresh)
 
-    async def _repeat(self) -> None:
-        period_s = 1.0 / self._cfg.repeat_rate_hz
-        while True:
-            wait_s = self._last_send_s + period_s - time.monotonic()
-            if wait_s > 0:
-                await asyncio.sleep(wait_s)
-                continue
-            if self._frame is not None:
-                self._send(self._frame)
+    def _refresh(self) -> None:
+        """No command for one repeat period: send the latest frame again."""
+        self._timer = None
+        if self._started and self._frame is not None:
+            self._send(self._frame)
 
     async def stop(self) -> None:
-        task, self._task = self._task, None
-        if task is not None:
-            task.cancel()
-            await asyncio.gather(task, return_exceptions=True)
+        self._started = False
+        if self._timer is not None:
+            self._timer.cancel()
+            self._timer = None
         held = self.held_channels
         if not held:
             return

@@ -20,9 +20,9 @@ def wrap_pi(angle_rad: float) -> float:
     Angles already inside the interval are returned unchanged, so wrapping is idempotent
     (``(a + π) − π`` is not always ``a`` in floating point).
     """
-    require_finite("angle", angle_rad)
-    if -math.pi < angle_rad <= math.pi:
+    if -math.pi < angle_rad <= math.pi:  # the common case; NaN and ±inf compare False
         return angle_rad
+    require_finite("angle", angle_rad)
     wrapped = math.fmod(angle_rad + math.pi, TWO_PI)
     if wrapped <= 0.0:
         wrapped += TWO_PI

@@ -47,4 +47,8 @@ class BodyVelocity:
         return BodyVelocity(0.0, 0.0, 0.0)
 
     def is_finite(self) -> bool:
-        return all(math.isfinite(v) for v in (self.vx_mps, self.vy_mps, self.wz_radps))
+        return (
+            math.isfinite(self.vx_mps)
+            and math.isfinite(self.vy_mps)
+            and math.isfinite(self.wz_radps)
+        )

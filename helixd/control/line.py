@@ -155,7 +155,9 @@ def waypoint_speed_limits(
 def braking_speed_mps(distance_m: float, end_speed_mps: float, accel_mps2: float) -> float:
     """Highest speed from which ``end_speed`` is reached within ``distance`` at ``accel``:
     √(v_end² + 2·a·d). Non-finite input → 0."""
-    if not all(math.isfinite(x) for x in (distance_m, end_speed_mps, accel_mps2)):
+    if not (
+        math.isfinite(distance_m) and math.isfinite(end_speed_mps) and math.isfinite(accel_mps2)
+    ):
         return 0.0
     return math.sqrt(max(0.0, end_speed_mps**2 + 2.0 * max(0.0, accel_mps2) * max(0.0, distance_m)))
 
@@ -189,7 +191,7 @@ def profile_speed_mps(
 
 def step_toward(previous: float, target: float, max_step: float) -> float:
     """``target`` reached from ``previous`` by at most ``max_step``; non-finite → 0."""
-    if not all(math.isfinite(x) for x in (previous, target, max_step)):
+    if not (math.isfinite(previous) and math.isfinite(target) and math.isfinite(max_step)):
         return 0.0
     step = max(0.0, max_step)
     return max(previous - step, min(previous + step, target))
@@ -203,8 +205,13 @@ def step_toward_2d(
     it each change by at most ``max_step`` (a new direction is entered along a straight line,
     and the old velocity across it is shed at the full rate: no drift past an OMNI corner).
     A zero target is approached along the previous direction. Non-finite → (0, 0)."""
-    values = (*previous, *target, max_step)
-    if not all(math.isfinite(x) for x in values):
+    if not (
+        math.isfinite(previous[0])
+        and math.isfinite(previous[1])
+        and math.isfinite(target[0])
+        and math.isfinite(target[1])
+        and math.isfinite(max_step)
+    ):
         return 0.0, 0.0
     step = max(0.0, max_step)
     norm = math.hypot(*target)
@@ -232,7 +239,11 @@ def stoppable_yaw_rate_radps(
 ) -> float:
     """Cap a yaw-rate command so the turn can brake within the heading error at the yaw
     acceleration limit: |ω| ≤ √(2·α·|e_ψ|). Non-finite → 0."""
-    if not all(math.isfinite(x) for x in (rate_radps, heading_error_rad, yaw_accel_radps2)):
+    if not (
+        math.isfinite(rate_radps)
+        and math.isfinite(heading_error_rad)
+        and math.isfinite(yaw_accel_radps2)
+    ):
         return 0.0
     cap = math.sqrt(2.0 * max(0.0, yaw_accel_radps2) * abs(heading_error_rad))
     return max(-cap, min(cap, rate_radps))

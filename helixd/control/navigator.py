@@ -102,6 +102,7 @@ class Navigator:
         self._points_xy_m: list[tuple[float, float]] = []
         self._pass_speed_mps: list[float] = []
         self._stops: list[bool] = []
+        self._early_m: list[float] = []  # per waypoint: its speed limit holds this early (m)
         self._prev_command = BodyVelocity.zero()
 
     # -- public state ------------------------------------------------------------------------
@@ -236,6 +237,9 @@ class Navigator:
             self.control.max_lateral_accel_mps2,
             self.control.max_yaw_rate_radps,
         )
+        self._early_m = [
+            0.0 if stop else w.tolerance_m for stop, w in zip(self._stops, wps, strict=True)
+        ]
 
     def _is_precise(self, index: int) -> bool:
         """The final waypoint and waypoints with a final heading: stopped at precisely."""
@@ -303,17 +307,13 @@ class Navigator:
             a, b = self._points_xy_m[j + 1], self._points_xy_m[j + 2]
             e_go += math.hypot(b[0] - a[0], b[1] - a[1])
         distance_terms = self._distance_pid.update(0.0, -e_go, dt_s)
-        early = [
-            0.0 if stop else w.tolerance_m
-            for stop, w in zip(self._stops, self.plan.waypoints, strict=True)
-        ]
         profile = line.profile_speed_mps(
             leg.along_to_go_m,
             i,
             self._points_xy_m,
             self._pass_speed_mps,
             cfg.braking_accel_mps2,
-            early,
+            self._early_m,
         )
         if i > 0 and leg.length_m - leg.along_to_go_m < cfg.lookahead_m:
             # Still rounding the corner just passed (the arc spans about L past its vertex).

@@ -34,18 +34,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
-from helixd.control.kinematics import (
-    body_to_scroll_radps,
-    constrain,
-    fraction_to_radps,
-    radps_to_fraction,
-    saturate,
-    scroll_radps_to_body,
-)
+from helixd.control.kinematics import no_slip_body_velocity
 from helixd.control.params import SlipParams, VehicleParams
 
 
@@ -95,14 +86,9 @@ def no_slip_body(command: BodyVelocity, vehicle: VehicleParams, mode: MotionMode
     """The body velocity the scrolls would produce on ideal ground for ``command``: the mode's
     constraint and the joint saturation of :func:`helixd.control.kinematics.body_to_fractions`
     applied (per-scroll calibration is the actuators' business, not the ground's). Zero for a
-    non-finite command (the kinematics sends neutral then)."""
-    if not command.is_finite():
-        return BodyVelocity.zero()
-    with np.errstate(over="ignore", invalid="ignore"):
-        omega = body_to_scroll_radps(constrain(command, mode), vehicle)
-        fractions = saturate(radps_to_fraction(omega, vehicle.max_rpm), vehicle.output_clamp)
-        body = scroll_radps_to_body(fraction_to_radps(fractions, vehicle.max_rpm), vehicle)
-    return body if body.is_finite() else BodyVelocity.zero()
+    non-finite command (the kinematics sends neutral then). Plain floats
+    (:func:`helixd.control.kinematics.no_slip_body_velocity`): it runs every control step."""
+    return no_slip_body_velocity(command, vehicle, mode)
 
 
 class SlipEstimator:
@@ -111,6 +97,8 @@ class SlipEstimator:
     def __init__(self, cfg: SlipParams) -> None:
         self.cfg = cfg
         self._modes: dict[MotionMode, _ModeState] = {}
+        # the estimate of each mode's fits, until they learn again (read twice per step)
+        self._estimates: dict[MotionMode, SlipEstimate] = {}
 
     def _state(self, mode: MotionMode) -> _ModeState:
         st = self._modes.get(mode)
@@ -127,10 +115,14 @@ class SlipEstimator:
         return max(0.0, min(self.cfg.max_fraction, k))
 
     def estimate(self, mode: MotionMode) -> SlipEstimate:
-        st = self._state(mode)
-        return SlipEstimate(
-            self._bounded(st.vx.k()), self._bounded(st.vy.k()), self._bounded(st.w.k())
-        )
+        est = self._estimates.get(mode)
+        if est is None:
+            st = self._state(mode)
+            est = SlipEstimate(
+                self._bounded(st.vx.k()), self._bounded(st.vy.k()), self._bounded(st.w.k())
+            )
+            self._estimates[mode] = est
+        return est
 
     def update(
         self, mode: MotionMode, sent: BodyVelocity, measured: BodyVelocity, dt_s: float
@@ -165,6 +157,7 @@ class SlipEstimator:
         ):
             if abs(u) >= least and abs(now - u) <= cfg.steady_tolerance * abs(u):
                 fit.learn(u, self._clip(y, u), dt_s, forget)
+                self._estimates.pop(mode, None)
         return self.estimate(mode)
 
     def _clip(self, y: float, u: float) -> float:

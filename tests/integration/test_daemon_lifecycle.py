@@ -9,7 +9,6 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pytest
 
 import helixd.flight
@@ -38,15 +37,15 @@ async def test_unhandled_exception_falls_back_to_hold(
     """A bug inside the control step (here: the kinematics raising on the 100th step) must
     still end with neutral + release + HOLD, and exit code 1 (internal error)."""
     calls = {"n": 0}
-    real = helixd.flight.body_to_fractions
+    real = helixd.flight.scroll_fractions
 
-    def exploding(*args: Any, **kwargs: Any) -> np.ndarray[Any, Any]:
+    def exploding(*args: Any, **kwargs: Any) -> tuple[float, float, float, float]:
         calls["n"] += 1
         if calls["n"] == 100:
             raise ZeroDivisionError("injected bug in the control step")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(helixd.flight, "body_to_fractions", exploding)
+    monkeypatch.setattr(helixd.flight, "scroll_fractions", exploding)
     with running_sim(speedup=SPEEDUP) as (server, url):
         cfg = HelixdConfig.model_validate(
             {"link": {"url": url}, "safety": {"arm_retry_interval_s": 0.5}}

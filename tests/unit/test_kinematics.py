@@ -18,10 +18,13 @@ from helixd.control.kinematics import (
     forward_matrix,
     fraction_to_radps,
     inverse_matrix,
+    no_slip_body_velocity,
     radps_to_fraction,
     radps_to_rpm,
     rpm_to_radps,
     saturate,
+    saturate4,
+    scroll_fractions,
     scroll_radps_to_body,
 )
 from helixd.geometry import BodyVelocity
@@ -207,3 +210,59 @@ def test_calibrated_output_respects_the_clamp(
     for fi, oi in zip(f, out, strict=True):
         if oi != 0.0:
             assert (oi > 0) == ((fi > 0) != reversed_)
+
+
+# -- the plain-float path the control loop runs agrees with the matrix form --------------------
+
+
+def _matrix_fractions(body: BodyVelocity, vehicle: VehicleConfig, mode: MotionMode) -> np.ndarray:
+    """Eq. 2 with the 4×3 matrix, then the numpy saturation and calibration."""
+    omega = body_to_scroll_radps(constrain(body, mode), vehicle)
+    f = saturate(radps_to_fraction(omega, vehicle.max_rpm), vehicle.output_clamp)
+    return apply_calibration(f, vehicle.scrolls, vehicle.output_clamp)
+
+
+calibrated_vehicles = st.builds(
+    lambda gain, offset, deadband, rev: VehicleConfig(
+        scrolls=[
+            ScrollCalibration(gain=gain, offset=offset, deadband=deadband, reversed=rev),
+            ScrollCalibration(),
+            ScrollCalibration(reversed=not rev),
+            ScrollCalibration(gain=gain),
+        ]
+    ),
+    st.floats(0.5, 2.0),
+    st.floats(0.0, 0.2),
+    st.floats(0.0, 0.1),
+    st.booleans(),
+)
+
+
+@settings(deadline=None)
+@given(bodies, st.sampled_from(list(MotionMode)), calibrated_vehicles)
+def test_scroll_fractions_equal_the_matrix_pipeline(
+    body: BodyVelocity, mode: MotionMode, vehicle: VehicleConfig
+) -> None:
+    plain = scroll_fractions(body, vehicle, mode)
+    assert isinstance(plain, tuple) and all(type(x) is float for x in plain)
+    assert plain == pytest.approx(_matrix_fractions(body, vehicle, mode).tolist(), abs=1e-12)
+    assert body_to_fractions(body, vehicle, mode).tolist() == list(plain)
+
+
+@settings(deadline=None)
+@given(bodies, st.sampled_from(list(MotionMode)))
+def test_no_slip_body_velocity_equals_eq1_of_the_saturated_fractions(
+    body: BodyVelocity, mode: MotionMode
+) -> None:
+    omega = body_to_scroll_radps(constrain(body, mode), VEHICLE)
+    f = saturate(radps_to_fraction(omega, VEHICLE.max_rpm), VEHICLE.output_clamp)
+    want = scroll_radps_to_body(fraction_to_radps(f, VEHICLE.max_rpm), VEHICLE)
+    got = no_slip_body_velocity(body, VEHICLE, mode)
+    assert _close(got, want, tol=1e-12)
+
+
+@settings(deadline=None)
+@given(four_fractions, clamps)
+def test_saturate4_equals_saturate(f: np.ndarray, clamp: float) -> None:
+    four = (float(f[0]), float(f[1]), float(f[2]), float(f[3]))
+    assert list(saturate4(four, clamp)) == pytest.approx(saturate(f, clamp).tolist(), abs=1e-15)

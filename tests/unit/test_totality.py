@@ -22,7 +22,10 @@ from helixd.control.kinematics import (
     apply_calibration,
     body_to_fractions,
     body_to_scroll_radps,
+    no_slip_body_velocity,
     saturate,
+    saturate4,
+    scroll_fractions,
     scroll_radps_to_body,
 )
 from helixd.control.navigator import Navigator
@@ -420,3 +423,37 @@ def test_line_pass_speeds_finite_and_within_cruise(
     for j in range(len(speeds)):
         v = line.profile_speed_mps(1.0, j, points, speeds, 0.3, [0.5] * len(speeds))
         assert math.isfinite(v) and v >= 0.0
+
+
+# -- the plain-float kinematics the control loop runs -----------------------------------------
+
+
+@settings(max_examples=500)
+@given(with_one_bad(3), MODES)
+def test_scroll_fractions_non_finite_is_neutral(values: list[float], mode: MotionMode) -> None:
+    assert scroll_fractions(BodyVelocity(*values), VEHICLE, mode) == (0.0, 0.0, 0.0, 0.0)
+
+
+@settings(max_examples=300)
+@given(ANY, ANY, ANY, MODES)
+def test_scroll_fractions_always_finite_and_clamped(
+    vx: float, vy: float, wz: float, mode: MotionMode
+) -> None:
+    fractions = scroll_fractions(BodyVelocity(vx, vy, wz), VEHICLE, mode)
+    assert all(math.isfinite(f) and abs(f) <= VEHICLE.output_clamp for f in fractions)
+
+
+@settings(max_examples=300)
+@given(ANY, ANY, ANY, MODES)
+def test_no_slip_body_velocity_is_finite_and_zero_for_non_finite(
+    vx: float, vy: float, wz: float, mode: MotionMode
+) -> None:
+    out = no_slip_body_velocity(BodyVelocity(vx, vy, wz), VEHICLE, mode)
+    assert out.is_finite()
+    if not all(math.isfinite(v) for v in (vx, vy, wz)):
+        assert out == BodyVelocity(0.0, 0.0, 0.0)
+
+
+@given(with_one_bad(4))
+def test_saturate4_non_finite_is_neutral(values: list[float]) -> None:
+    assert saturate4((values[0], values[1], values[2], values[3]), 0.9) == (0.0, 0.0, 0.0, 0.0)
