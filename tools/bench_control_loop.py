@@ -993,8 +993,7 @@ def main(
             pstats.Stats(prof, stream=buf).sort_stats("tottime").print_stats(profile)
             lines += [
                 "",
-                "cProfile (daemon process, the measurement window, thread CPU time), "
-                "by tottime:",
+                "cProfile (daemon process, the measurement window, thread CPU time), by tottime:",
                 buf.getvalue(),
             ]
         else:
