@@ -203,10 +203,11 @@ def test_daemon_writes_the_link_tlog(tmp_path: Path) -> None:
         wait_moving(server)
         tlog = d.run_dir() / "link.tlog"
         # flushed while flying (not only at close): the overrides driving the rover are on disk
-        deadline = time.monotonic() + 2.0
+        # re-read the file on each new simulator snapshot (an event), within 2 s of wall time
+        deadline, snap = time.monotonic() + 2.0, None
         while not tlog_has_override(tlog):
             assert time.monotonic() < deadline, "no RC_CHANNELS_OVERRIDE in the .tlog in flight"
-            time.sleep(0.05)  # polling the file for a condition, bounded by the deadline
+            snap = server.next_snapshot(snap, 2.0)
         code = d.wait_exit(240.0)
         log = d.log_text()
     assert code == ExitCode.OK, log[-3000:]

@@ -67,22 +67,63 @@ ROVER_PARAMS: dict[str, float] = {
 }
 
 
+# Waiting is event-driven: the peer's thread announces every message it handled or sent, and
+# until()/stays() re-check their predicate on each announcement. RECHECK_S bounds the wait for
+# conditions that change on helixd's side without a message (a watchdog timer, a timeout).
+RECHECK_S = 0.05
+_watchers: list[tuple[asyncio.AbstractEventLoop, asyncio.Event]] = []
+_watchers_lock = threading.Lock()
+
+
+def announce_activity() -> None:
+    """From any thread: wake every until()/stays() waiting now."""
+    with _watchers_lock:
+        watchers = list(_watchers)
+    for loop, event in watchers:
+        with contextlib.suppress(RuntimeError):  # that loop has closed meanwhile
+            loop.call_soon_threadsafe(event.set)
+
+
+@contextlib.contextmanager
+def _watching() -> Any:
+    entry = (asyncio.get_running_loop(), asyncio.Event())
+    with _watchers_lock:
+        _watchers.append(entry)
+    try:
+        yield entry[1]
+    finally:
+        with _watchers_lock:
+            _watchers.remove(entry)
+
+
+async def _next_activity(event: asyncio.Event, timeout_s: float) -> None:
+    with contextlib.suppress(TimeoutError):
+        await asyncio.wait_for(event.wait(), timeout_s)
+    event.clear()
+
+
 async def until(predicate: Callable[[], bool], timeout_s: float, what: str) -> None:
-    """Poll ``predicate`` until true; AssertionError naming ``what`` after ``timeout_s``."""
+    """Wait until ``predicate`` holds; AssertionError naming ``what`` after ``timeout_s``."""
     deadline = time.monotonic() + timeout_s
-    while not predicate():
-        if time.monotonic() > deadline:
-            raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
-        await asyncio.sleep(0.01)
+    with _watching() as activity:
+        while not predicate():
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise AssertionError(f"timed out after {timeout_s} s waiting for {what}")
+            await _next_activity(activity, min(remaining, RECHECK_S))
 
 
 async def stays(predicate: Callable[[], bool], duration_s: float, what: str) -> None:
-    """Poll ``predicate`` for ``duration_s``; AssertionError naming ``what`` if it turns false."""
+    """``predicate`` holds for ``duration_s``; AssertionError naming ``what`` if it turns false."""
     deadline = time.monotonic() + duration_s
-    while time.monotonic() < deadline:
-        if not predicate():
-            raise AssertionError(f"{what} stopped holding")
-        await asyncio.sleep(0.01)
+    with _watching() as activity:
+        while True:
+            if not predicate():
+                raise AssertionError(f"{what} stopped holding")
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return
+            await _next_activity(activity, min(remaining, RECHECK_S))
 
 
 def free_port(kind: int = socket.SOCK_DGRAM) -> int:
@@ -415,6 +456,8 @@ class AutopilotPeer:
             for item in pending:
                 self._outbox.remove(item)
                 wire.send(item[1])
+            if readable or pending:
+                announce_activity()
 
     def _boot_ms(self, now: float) -> int:
         return int((now - self._boot_t) * 1000)

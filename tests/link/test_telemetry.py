@@ -8,7 +8,13 @@ from typing import Any
 
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.vehicle import VehicleState
-from tests.link.test_vehicle_state import att, lpn
+from tests.support.mavmsgs import att, lpn
+
+
+async def still_pending(fut: asyncio.Future[Any], window_s: float = 0.01) -> bool:
+    """Wait on ``fut`` for ``window_s``: True if it did not complete (lets it start, too)."""
+    done, _ = await asyncio.wait({fut}, timeout=window_s)
+    return not done
 
 
 class Feed:
@@ -34,15 +40,14 @@ def test_pose_stream_yields_each_new_pose_once() -> None:
         f = Feed()
         poses = f.telemetry.pose()
         nxt = asyncio.ensure_future(anext(poses))
-        await asyncio.sleep(0)
+        assert await still_pending(nxt)  # waiting for a pose
         f.rx(att(1000, 0.1))
         assert not nxt.done()  # an attitude alone is no pose
         f.rx(lpn(1000, 1.0, 2.0))
         first = await asyncio.wait_for(nxt, 1.0)
         assert (first.ned.north_m, first.time_boot_ms) == (1.0, 1000)
         nxt = asyncio.ensure_future(anext(poses))
-        await asyncio.sleep(0.01)
-        assert not nxt.done()  # the same pose is not yielded again
+        assert await still_pending(nxt)  # the same pose is not yielded again
         f.rx(att(1020, 0.1))
         f.rx(lpn(1020, 1.5, 2.0))
         assert (await asyncio.wait_for(nxt, 1.0)).ned.north_m == 1.5
@@ -73,7 +78,7 @@ def test_messages_stream_and_listener_removed_on_close() -> None:
         f = Feed()
         msgs = f.telemetry.messages()
         nxt = asyncio.ensure_future(anext(msgs))
-        await asyncio.sleep(0)
+        assert await still_pending(nxt)  # no message yet; the stream has started listening
         assert len(f.listeners) == 1
         f.rx(att(1000, 0.2))
         msg, rx_s = await asyncio.wait_for(nxt, 1.0)

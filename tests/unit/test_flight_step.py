@@ -21,9 +21,22 @@ from helixd.mission import Mission, resolve_plan
 from helixd.safety.watchdogs import FaultCause
 from helixd.signals import StopRequest
 from helixd.vehicle import VehicleState
-from tests.link.test_vehicle_state import AP, att, decoded, hb, lpn
+from tests.support.mavmsgs import AP, att, decoded, hb, lpn
 
 EKF_OK = 0x1 | 0x2 | 0x4 | 0x8 | 0x10 | 0x20
+
+
+class FedTelemetry(Telemetry):
+    """The telemetry plugin over the fed state; each time the loop asks for the next pose,
+    the fed autopilot delivers one pose period first (no wall-clock pacing)."""
+
+    def __init__(self, ap: FedAutopilot) -> None:
+        super().__init__(ap.state, ap.waiters, lambda cb: None, lambda cb: None)
+        self._ap = ap
+
+    async def next_pose(self, after_rx_s: float | None, timeout_s: float) -> Any:
+        self._ap.on_pose_asked()
+        return await super().next_pose(after_rx_s, timeout_s)
 
 
 class FedAutopilot:
@@ -32,8 +45,10 @@ class FedAutopilot:
     def __init__(self) -> None:
         self.state = VehicleState()
         self.waiters = ChangeWaiters()
-        self.telemetry = Telemetry(self.state, self.waiters, lambda cb: None, lambda cb: None)
+        self.telemetry = FedTelemetry(self)
         self.t_ms = 1000
+        self.periods_left = 0
+        self.stop: StopRequest | None = None
 
     def feed(self) -> None:
         pass
@@ -48,6 +63,13 @@ class FedAutopilot:
         self.rx(decoded(AP.ekf_status_report_encode(EKF_OK, 0.1, 0.1, 0.1, 0.05, 0.0), AP))
         self.rx(att(self.t_ms, 0.0))
         self.rx(lpn(self.t_ms, 0.0, 0.0))
+
+    def on_pose_asked(self) -> None:
+        if self.periods_left > 0:
+            self.periods_left -= 1
+            self.tick()
+        elif self.stop is not None:
+            self.stop.trigger("test end")
 
 
 class Sink:
@@ -99,15 +121,9 @@ def make_loop(ap: FedAutopilot, sink: Sink, trace: list[str]) -> FlightLoop:
 
 
 async def fly(ap: FedAutopilot, loop: FlightLoop, periods: int) -> Any:
-    task = asyncio.create_task(loop.run())
-    for _ in range(periods):
-        await asyncio.sleep(0.02)
-        ap.tick()
-        if task.done():
-            break
-    if not task.done():
-        loop.stop.trigger("test end")
-    return await asyncio.wait_for(task, 2.0)
+    """Run the loop over ``periods`` pose periods, then stop it."""
+    ap.periods_left, ap.stop = periods, loop.stop
+    return await asyncio.wait_for(loop.run(), 2.0)
 
 
 def test_command_leaves_before_the_report() -> None:

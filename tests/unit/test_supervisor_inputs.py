@@ -11,7 +11,7 @@ from helixd.frames import NedPose
 from helixd.safety.supervisor import Motion, Supervisor, safety_inputs
 from helixd.safety.watchdogs import FaultCause
 from helixd.vehicle import VehicleState
-from tests.link.test_vehicle_state import AP, att, decoded, hb, lpn
+from tests.support.mavmsgs import AP, att, decoded, hb, lpn
 
 MOTION = Motion(0.5, 0.1, 0.05, 12.0)
 

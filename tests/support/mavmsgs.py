@@ -1,0 +1,35 @@
+"""Decoded MAVLink messages as helixd's reader sees them, for tests that feed a vehicle state
+without a socket (one place, so test modules do not import each other)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+
+def codec(sysid: int = 1, compid: int = 1) -> Any:
+    c = mavlink.MAVLink(None, srcSystem=sysid, srcComponent=compid)
+    return c
+
+
+def decoded(msg: Any, c: Any) -> Any:
+    rx = mavlink.MAVLink(None)
+    out = rx.parse_buffer(bytes(msg.pack(c)))
+    assert out is not None
+    return out[0]
+
+
+AP = codec()
+
+
+def hb(custom_mode: int, armed: bool = False, c: Any = AP) -> Any:
+    return decoded(c.heartbeat_encode(10, 3, 1 | (128 if armed else 0), custom_mode, 4), c)
+
+
+def att(t_ms: int, yaw: float) -> Any:
+    return decoded(AP.attitude_encode(t_ms, 0, 0, yaw, 0, 0, 0), AP)
+
+
+def lpn(t_ms: int, north: float, east: float) -> Any:
+    return decoded(AP.local_position_ned_encode(t_ms, north, east, 0, 0.5, -0.2, 0.0), AP)
