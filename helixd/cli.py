@@ -6,6 +6,7 @@ message per problem and a non-zero exit code — never a traceback.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 from dataclasses import dataclass
@@ -16,6 +17,7 @@ import typer
 from typer.exceptions import TyperException
 
 from helixd import __version__, cli_mission
+from helixd.cli_common import config_or_exit, fail
 from helixd.config import ConfigFileError, HelixdConfig, load_config
 from helixd.exitcodes import ExitCode
 from helixd.mission import Mission, MissionFrameKind, MotionMode, Plan, PlanError
@@ -33,13 +35,12 @@ from helixd.sim.config import NoiseLevel, Plant, Terrain
 from helixd.yamlio import clip_line, paused_gc
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Iterator
 
     from helixd.mission.resume import RunInputs
     from helixd.planning.mapfile import OccupancyMap
     from helixd.planning.route import RoutePlan
     from helixd.sim.obstacles import SimObstacles
-    from helixd.sim.server import SimServer
 
 app = typer.Typer(
     name="helixd",
@@ -87,12 +88,6 @@ MapOpt = Annotated[
         "every leg around it and the planning.keep_out_* shapes (local_ned missions)",
     ),
 ]
-
-
-def fail(problems: list[str], code: ExitCode) -> typer.Exit:
-    for line in problems:
-        typer.echo(f"error: {clip_line(line)}", err=True)
-    return typer.Exit(int(code))
 
 
 def load_inputs(
@@ -527,15 +522,9 @@ def run(
         occupancy = load_occupancy(cfg, map_path)
         # planned around obstacles; refusals before a simulator starts
         flight = _planned(cfg, msn, mission_yaml, mission_path, occupancy, config_sha256(config))
-    server = None
-    if sim:
-        sim_choice = SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise)
-        server, url = _start_sim(sim_choice, sim_world(cfg, occupancy, mission_path))
-    try:
+    sim_choice = SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise) if sim else None
+    with _simulator(sim_choice, lambda: sim_world(cfg, occupancy, mission_path), url) as url:
         _fly(cfg, flight, url, run_dir, log_level, show_plan)
-    finally:
-        if server is not None:
-            server.stop()
 
 
 @dataclass(frozen=True)
@@ -546,7 +535,15 @@ class SimChoice:
     noise: NoiseLevel
 
 
-def _start_sim(choice: SimChoice, world: SimObstacles) -> tuple[SimServer, str]:
+@contextlib.contextmanager
+def _simulator(
+    choice: SimChoice | None, world: Callable[[], SimObstacles], url: str
+) -> Iterator[str]:
+    """The link URL to fly on: ``url``, or (``--sim``) an embedded simulator's, started with
+    ``world``'s obstacles and stopped on the way out."""
+    if choice is None:
+        yield url
+        return
     from helixd.sim import SimConfig, start_embedded
 
     sim_cfg = SimConfig(
@@ -554,9 +551,13 @@ def _start_sim(choice: SimChoice, world: SimObstacles) -> tuple[SimServer, str]:
         terrain=choice.terrain,
         noise=choice.noise,
         plant=choice.plant,
-        obstacles=world,
+        obstacles=world(),
     )
-    return start_embedded(sim_cfg)
+    server, sim_url = start_embedded(sim_cfg)
+    try:
+        yield sim_url
+    finally:
+        server.stop()
 
 
 def _run_autopilot_mission(
@@ -575,16 +576,10 @@ def _run_autopilot_mission(
     fly it as any other (see :mod:`helixd.cli_autopilot`). Refusals exit 3."""
     from helixd.cli_autopilot import AUTOPILOT_MISSION, fetch_autopilot_mission
 
-    try:
-        cfg = load_config(config)
-    except ConfigFileError as exc:
-        raise fail(exc.problems, ExitCode.USAGE) from None
+    cfg = config_or_exit(config)
     url = check_connect(connect, cfg)
     occupancy = load_occupancy(cfg, map_path)
-    server = None
-    if sim:
-        server, url = _start_sim(sim_choice, sim_world(cfg, occupancy))
-    try:
+    with _simulator(sim_choice if sim else None, lambda: sim_world(cfg, occupancy), url) as url:
         got = fetch_autopilot_mission(cfg, url, mode, skip_unsupported)
         msn = got.mission
         problems: list[str] = []
@@ -596,9 +591,6 @@ def _run_autopilot_mission(
         path = Path(AUTOPILOT_MISSION)
         flight = _planned(cfg, msn, mission_yaml, path, occupancy, config_sha256(config))
         _fly(cfg, flight, url, run_dir, log_level, show_plan)
-    finally:
-        if server is not None:
-            server.stop()
 
 
 @dataclass(frozen=True)
@@ -769,10 +761,7 @@ def status(
     from helixd.logging_setup import configure_logging
     from helixd.status import read_status
 
-    try:
-        cfg = load_config(config)
-    except ConfigFileError as exc:
-        raise fail(exc.problems, ExitCode.USAGE) from None
+    cfg = config_or_exit(config)
     url = check_connect(connect, cfg)
     configure_logging(tty=sys.stderr.isatty(), level="warning")
     link = cfg.link.model_copy(update={"url": url})

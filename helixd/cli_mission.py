@@ -14,7 +14,8 @@ from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 
-from helixd.config import ConfigFileError, HelixdConfig, LinkConfig, load_config
+from helixd.cli_common import config_or_exit, fail
+from helixd.config import ConfigFileError, HelixdConfig, LinkConfig
 from helixd.exitcodes import ExitCode
 from helixd.mission.formats import (
     FormatError,
@@ -49,12 +50,6 @@ mission_app = typer.Typer(
 )
 
 
-def _fail(problems: list[str], code: ExitCode = ExitCode.USAGE) -> typer.Exit:
-    for line in problems:
-        typer.echo(f"error: {clip_line(line)}", err=True)
-    return typer.Exit(int(code))
-
-
 ModeOpt = Annotated[
     MotionMode | None,
     typer.Option("--mode", help="motion mode (needed when reading .plan/.waypoints)"),
@@ -74,10 +69,7 @@ def convert(
     ] = None,
 ) -> None:
     """Convert a mission between helixd YAML, QGroundControl .plan and WPL 110 .waypoints."""
-    try:
-        cfg = load_config(config)
-    except ConfigFileError as exc:
-        raise _fail(exc.problems) from None
+    cfg = config_or_exit(config)
     gs_mode = cfg.mission.ground_station_mode
     try:
         loaded = load_mission_file(
@@ -88,7 +80,7 @@ def convert(
             skip_unsupported=skip_unsupported,
         )
     except ConfigFileError as exc:
-        raise _fail(exc.problems) from None
+        raise fail(exc.problems) from None
     for line in (*loaded.skipped, *loaded.notes):
         typer.echo(f"warning: {clip_line(line)}", err=True)
     try:
@@ -96,9 +88,9 @@ def convert(
             typer.echo(f"warning: {dst}: the format has no place for {what}; left out", err=True)
         fmt = write_mission_file(loaded.mission, dst)
     except FormatError as exc:
-        raise _fail(exc.problems) from None
+        raise fail(exc.problems) from None
     except OSError as exc:
-        raise _fail([f"{dst}: cannot write: {exc.strerror or exc}"]) from None
+        raise fail([f"{dst}: cannot write: {exc.strerror or exc}"]) from None
     n = len(loaded.mission.waypoints)
     typer.echo(f"{src} ({loaded.format.value}) → {dst} ({fmt.value}): {n} waypoints")
 
@@ -154,21 +146,18 @@ def survey(
     from helixd.mission.plan import resolve_plan
     from helixd.mission.survey import SurveyError, plan_survey
 
-    try:
-        cfg = load_config(config)
-    except ConfigFileError as exc:
-        raise _fail(exc.problems) from None
+    cfg = config_or_exit(config)
     try:
         area = read_area(polygon)
         result = plan_survey(
             area, spacing_m=spacing_m, angle_deg=angle_deg, margin_m=margin_m, inset_m=inset_m
         )
     except FormatError as exc:
-        raise _fail(exc.problems) from None
+        raise fail(exc.problems) from None
     except SurveyError as exc:
-        raise _fail([str(exc)]) from None
+        raise fail([str(exc)]) from None
     if len(result.fence_latlon_deg) > 1000:
-        raise _fail([f"{polygon}: the fence has {len(result.fence_latlon_deg)} vertices (> 1000)"])
+        raise fail([f"{polygon}: the fence has {len(result.fence_latlon_deg)} vertices (> 1000)"])
     data: dict[str, object] = {
         "name": mission_name(out.stem),
         "mode": mode.value,
@@ -180,12 +169,12 @@ def survey(
         msn = Mission.model_validate(data, context={"limits": cfg.mission})
         plan = resolve_plan(msn, cfg.control, cfg.mission, result.waypoints_latlon_deg[0])
     except Exception as exc:  # pydantic ValidationError / PlanError: say it, no traceback
-        raise _fail([f"{polygon}: the survey is not a valid mission: {exc}"]) from None
+        raise fail([f"{polygon}: the survey is not a valid mission: {exc}"]) from None
     first = plan.waypoints[0]
     eta_s = plan.estimated_time_s(cfg.control.max_yaw_rate_radps, (first.x_m, first.y_m))
     limit_s = math.ceil(eta_s * time_factor)
     if limit_s > 86_400:
-        raise _fail(
+        raise fail(
             [
                 f"{polygon}: estimated {eta_s / 3600:.1f} h x {time_factor} exceeds 24 h; split "
                 "the area"
@@ -197,9 +186,9 @@ def survey(
             typer.echo(f"warning: {out}: the format has no place for {what}; left out", err=True)
         write_mission_file(msn, out)
     except FormatError as exc:
-        raise _fail(exc.problems) from None
+        raise fail(exc.problems) from None
     except OSError as exc:
-        raise _fail([f"{out}: cannot write: {exc.strerror or exc}"]) from None
+        raise fail([f"{out}: cannot write: {exc.strerror or exc}"]) from None
     typer.echo(
         f"survey  : {polygon} → {out}  area {result.area_m2:.0f} m², {result.transects} "
         f"transects at {spacing_m:g} m, angle {angle_deg:g}°"
@@ -229,10 +218,7 @@ ConfigOpt = Annotated[Path | None, typer.Option("--config", "-c", help="helixd.y
 def _link_inputs(config: Path | None, connect: str | None) -> tuple[HelixdConfig, LinkConfig]:
     from helixd.cli import check_connect
 
-    try:
-        cfg = load_config(config)
-    except ConfigFileError as exc:
-        raise _fail(exc.problems) from None
+    cfg = config_or_exit(config)
     url = check_connect(connect, cfg)
     return cfg, cfg.link.model_copy(update={"url": url})
 
@@ -267,12 +253,12 @@ def _run_on_link(
     try:
         return asyncio.run(_on_autopilot(cfg, link, body))
     except LinkError as exc:
-        raise _fail([str(exc)], ExitCode.LINK) from None
+        raise fail([str(exc)], ExitCode.LINK) from None
     except MissionTransferError as exc:
         code = ExitCode.LINK if exc.result is None else ExitCode.PREFLIGHT
-        raise _fail([f"{link.url}: {exc}"], code) from None
+        raise fail([f"{link.url}: {exc}"], code) from None
     except KeyboardInterrupt:
-        raise _fail(["interrupted"], ExitCode.OPERATOR_STOP) from None
+        raise fail(["interrupted"], ExitCode.OPERATOR_STOP) from None
 
 
 def _write_atomic(path: Path, text: str) -> None:
@@ -330,13 +316,13 @@ def download(
         try:
             fmt = detect_format(out)
         except FormatError as exc:
-            raise _fail(exc.problems) from None
+            raise fail(exc.problems) from None
     cfg, link = _link_inputs(config, connect)
     gs_mode = mode or (
         MotionMode(cfg.mission.ground_station_mode) if cfg.mission.ground_station_mode else None
     )
     if fmt is MissionFormat.YAML and gs_mode is None:
-        raise _fail(
+        raise fail(
             [f"{out}: a helixd mission needs a motion mode: give --mode roll|scroll|omni or set "
              "mission.ground_station_mode in the config"]
         )  # fmt: skip
@@ -348,7 +334,7 @@ def download(
     try:
         gcs, notes = wire_to_gcs(got.mission, got.fence)
     except FormatError as exc:
-        raise _fail([f"{link.url}: {p}" for p in exc.problems], ExitCode.PREFLIGHT) from None
+        raise fail([f"{link.url}: {p}" for p in exc.problems], ExitCode.PREFLIGHT) from None
     for note in notes:
         typer.echo(f"warning: {clip_line(note)}", err=True)
     if out is None or fmt is None:
@@ -376,9 +362,9 @@ def download(
                 typer.echo(f"warning: {clip_line(line)}", err=True)
             write_mission_file(conv.mission, out)
     except FormatError as exc:
-        raise _fail(exc.problems) from None
+        raise fail(exc.problems) from None
     except OSError as exc:
-        raise _fail([f"{out}: cannot write: {exc.strerror or exc}"]) from None
+        raise fail([f"{out}: cannot write: {exc.strerror or exc}"]) from None
     fence = len(gcs.polygons) + len(gcs.circles)
     typer.echo(
         f"{link.url} → {out} ({fmt.value}): {len(gcs.items)} mission items, {fence} fence shapes"
@@ -408,11 +394,9 @@ def upload(
             gcs = read_gcs(src)
         wire = gcs_to_wire(gcs)
     except ConfigFileError as exc:
-        raise _fail(exc.problems) from None
+        raise fail(exc.problems) from None
     except FormatError as exc:
-        raise _fail(
-            [p if p.startswith(str(src)) else f"{src}: {p}" for p in exc.problems]
-        ) from None
+        raise fail([p if p.startswith(str(src)) else f"{src}: {p}" for p in exc.problems]) from None
     fence = wire.fence if fmt is MissionFormat.PLAN else None
 
     async def body(ap: Autopilot) -> None:
