@@ -909,6 +909,12 @@ class RecorderConfig(InputModel):
     flush_interval_s: float = Field(
         0.5, gt=0.0, le=1.0, description="flight.csv flushed at least this often (s)"
     )
+    batch_interval_s: float = Field(
+        0.25,
+        gt=0.0,
+        le=1.0,
+        description="flight.csv rows built in batches this often, off the control path (s)",
+    )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -46,7 +46,7 @@ from helixd.flight import (
     PoseRejectedReport,
     StepReport,
 )
-from helixd.flight_report import flight_row, rejected_progress, step_progress
+from helixd.flight_report import StepJournal, rejected_progress, step_progress
 from helixd.frames import MissionFrame, NedPose
 from helixd.gcs_feed import GcsFeed, report_fallback
 from helixd.link.commands import CommandError, CommandRejected
@@ -589,38 +589,46 @@ class MissionRunner:
         total = len(plan.waypoints)
         ap = ready.ap
 
+        # flight.csv rows and the summary's figures are built in batches, after sends
+        journal = StepJournal(plan, self._on_row, self.cfg.recorder.batch_interval_s)
+
         def on_step(report: StepReport) -> None:  # after the command left
             self.gcs.progress(report.step.nav.cross_track_m, report.step.nav.target_index)
-            self._on_row(flight_row(report, plan))
+            journal.add(report)
             self.display.update(lambda: self._whole(step_progress(report, plan)))  # if shown
 
         def on_pose_rejected(report: PoseRejectedReport) -> None:
             self.display.update(self._whole(rejected_progress(report, plan)))
 
         def on_arrival(index: int, t_boot_s: float, error_m: float) -> None:
+            journal.drain()  # the summary has every step before the arrival
             self._on_arrival(index, total, t_boot_s, error_m)
 
         def on_tick() -> None:
             ap.feed()
             self.notifier.watchdog()
+            journal.maybe_drain(time.monotonic())
             if self.recorder is not None:
                 self.recorder.maybe_flush()
 
         self.gcs.phase(f"fly {self.opts.mission.name}: {total} waypoints")
         async with phase("fly", self.notifier, self.display):
-            result = await FlightLoop(
-                cfg=ready.cfg,
-                plan=ready.plan,
-                frame=ready.frame,
-                autopilot=ap,
-                sink=ready.sink,
-                stop=self.stop,
-                start_ned=ready.start_ned,
-                on_step=on_step,
-                on_pose_rejected=on_pose_rejected,
-                on_arrival=on_arrival,
-                on_tick=on_tick,
-            ).run()
+            try:
+                result = await FlightLoop(
+                    cfg=ready.cfg,
+                    plan=ready.plan,
+                    frame=ready.frame,
+                    autopilot=ap,
+                    sink=ready.sink,
+                    stop=self.stop,
+                    start_ned=ready.start_ned,
+                    on_step=on_step,
+                    on_pose_rejected=on_pose_rejected,
+                    on_arrival=on_arrival,
+                    on_tick=on_tick,
+                ).run()
+            finally:
+                journal.drain()  # every step reaches flight.csv and the summary
         return ending_of_flight(result)
 
     # -- the run ------------------------------------------------------------------------------

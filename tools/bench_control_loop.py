@@ -54,7 +54,7 @@ import socket
 import tempfile
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -81,6 +81,7 @@ TARGET_JITTER_P99_MS = 2.0
 # CPU of one core: < 2 % at 50 Hz and < 6 % at 200 Hz (issue 11); linear in between
 TARGET_CPU_POINTS = ((50.0, 2.0), (200.0, 6.0))
 TARGET_RATIO_TO_FLOOR = 2.0  # daemon CPU per step over a bare pymavlink echo loop's
+ASYNCIO_PREFIX = "asyncio_"  # figures of the same echo loop written as an asyncio program
 MAX_RATE_HZ = 200.0
 POSE_RATE_REQUEST_MAX_HZ = 100.0  # link.pose_rate_hz's bound; the fake autopilot sends anyway
 MANUAL = 0
@@ -520,11 +521,12 @@ async def run_daemon_side(
     from helixd.config import HelixdConfig, config_to_yaml
     from helixd.display import ProgressDisplay
     from helixd.flight import MANUAL_MODE, FlightLoop, PoseRejectedReport, StepReport
-    from helixd.flight_report import flight_row, rejected_progress, step_progress
+    from helixd.flight_report import StepJournal, rejected_progress, step_progress
     from helixd.frames import MissionFrame
     from helixd.link.connection import Autopilot
     from helixd.link.preflight import check_obedience
     from helixd.mission import Mission, resolve_plan
+    from helixd.recorder.rows import FlightRow
     from helixd.recorder.rundir import RunRecorder
     from helixd.recorder.summary import SummaryBuilder
     from helixd.signals import StopRequest
@@ -584,19 +586,28 @@ async def run_daemon_side(
         summary = SummaryBuilder(final_xy_m=(last.x_m, last.y_m))
         display = ProgressDisplay(tty=False)
 
-        def on_step(report: StepReport) -> None:  # as the daemon's, after the send
-            row = flight_row(report, plan)
+        def on_row(row: FlightRow) -> None:  # as the daemon's
             summary.add(row)
             display.autopilot_time(row.t_boot_s)
             rec.record(row)
+
+        journal = StepJournal(plan, on_row, cfg.recorder.batch_interval_s)
+
+        def on_step(report: StepReport) -> None:  # as the daemon's, after the send
+            journal.add(report)
             display.update(lambda: step_progress(report, plan))
 
         def on_pose_rejected(report: PoseRejectedReport) -> None:
             display.update(rejected_progress(report, plan))
 
+        def on_arrival(index: int, t_boot_s: float, error_m: float) -> None:
+            journal.drain()
+            summary.arrival(index, t_boot_s, error_m)
+
         def on_tick() -> None:
             sink.woke()
             ap.feed()
+            journal.maybe_drain(time.monotonic())
             rec.maybe_flush()
 
         stop = StopRequest()
@@ -610,7 +621,7 @@ async def run_daemon_side(
             start_ned=start_ned,
             on_step=on_step,
             on_pose_rejected=on_pose_rejected,
-            on_arrival=summary.arrival,
+            on_arrival=on_arrival,
             on_tick=on_tick,
         )
         task = asyncio.create_task(flight.run(), name="flight")
@@ -625,6 +636,7 @@ async def run_daemon_side(
         ended_early = task.done()
         stop.trigger("benchmark end")
         result = await task
+        journal.drain()
         await sink.stop()
         fault = None
         if ended_early and result.fault is not None:  # a watchdog ended the loop, not we
@@ -671,6 +683,9 @@ class FloorRecord:
     cpu_s: float
     wall_s: float
     steps: int
+    t0_s: float = math.nan  # monotonic start of the window
+    # autopilot rtt (pose sent -> that pose's override read back), the window's poses
+    rtt_s: list[float] = field(default_factory=list)
 
 
 FLOOR_OVERRIDE_US = (1500, 1500, 1500, 1500, 65535, 65535, 65535, 65535) + (0,) * 10
@@ -687,7 +702,7 @@ def floor_loop(sock: socket.socket, seconds: float, warmup_s: float) -> FloorRec
     t_start = time.monotonic()
     t0 = t_start + warmup_s
     t1 = t0 + seconds
-    cpu0 = steps = 0
+    cpu0, steps = 0.0, 0
     measuring = False
     while True:
         now = time.monotonic()
@@ -705,11 +720,59 @@ def floor_loop(sock: socket.socket, seconds: float, warmup_s: float) -> FloorRec
                 out = mav.rc_channels_override_encode(1, 1, *FLOOR_OVERRIDE_US)
                 sock.sendto(out.pack(mav), peer)
                 steps += 1
-    return FloorRecord(cpu_s=_cpu_s() - cpu0, wall_s=time.monotonic() - t0, steps=steps)
+    return FloorRecord(cpu_s=_cpu_s() - cpu0, wall_s=time.monotonic() - t0, steps=steps, t0_s=t0)
 
 
-def run_floor(rate_hz: float, seconds: float, warmup_s: float) -> FloorRecord:
-    """The floor against a fresh autopilot process at ``rate_hz``."""
+def asyncio_floor_loop(sock: socket.socket, seconds: float, warmup_s: float) -> FloorRecord:
+    """The same echo as the least asyncio program can do it: the socket watched with
+    ``loop.add_reader``, every datagram decoded with pymavlink in the reader callback and the
+    override sent from there (no task, no future, no timer per step). What an event loop costs
+    over blocking reads on this machine, before any of helixd's own work."""
+
+    async def echo() -> FloorRecord:
+        mav = mavlink.MAVLink(None, srcSystem=LinkConfig().source_system, srcComponent=190)
+        mav.robust_parsing = True
+        pose_id = mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED
+        sock.setblocking(False)
+        steps = [0]
+
+        def readable() -> None:
+            while True:
+                try:
+                    data, peer = sock.recvfrom(65536)
+                except BlockingIOError:
+                    return
+                except ConnectionRefusedError:
+                    continue
+                for msg in mav.parse_buffer(data) or []:
+                    if msg.get_msgId() == pose_id:
+                        out = mav.rc_channels_override_encode(1, 1, *FLOOR_OVERRIDE_US)
+                        sock.sendto(out.pack(mav), peer)
+                        steps[0] += 1
+
+        loop = asyncio.get_running_loop()
+        loop.add_reader(sock.fileno(), readable)
+        try:
+            await asyncio.sleep(warmup_s)  # the window is timed, not synchronised
+            t0, cpu0, steps0 = time.monotonic(), _cpu_s(), steps[0]
+            await asyncio.sleep(seconds)
+            return FloorRecord(
+                cpu_s=_cpu_s() - cpu0,
+                wall_s=time.monotonic() - t0,
+                steps=steps[0] - steps0,
+                t0_s=t0,
+            )
+        finally:
+            loop.remove_reader(sock.fileno())
+
+    return asyncio.run(echo())
+
+
+def run_floor(
+    rate_hz: float, seconds: float, warmup_s: float, echo: Any = floor_loop
+) -> FloorRecord:
+    """A floor (``echo``: :func:`floor_loop` or :func:`asyncio_floor_loop`) against a fresh
+    autopilot process at ``rate_hz``."""
     ctx = multiprocessing.get_context("spawn")
     parent, child = ctx.Pipe()
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -718,29 +781,41 @@ def run_floor(rate_hz: float, seconds: float, warmup_s: float) -> FloorRecord:
         target=autopilot_main, args=(sock.getsockname()[1], rate_hz, child), daemon=True
     )
     proc.start()
+    a: AutopilotRecord | None = None
     try:
-        return floor_loop(sock, seconds, warmup_s)
+        result: FloorRecord = echo(sock, seconds, warmup_s)
     finally:
         parent.send("stop")
         if parent.poll(RECORD_TIMEOUT_S):
-            parent.recv()
+            a = parent.recv()
         proc.join(timeout=RECORD_TIMEOUT_S)
         sock.close()
+    if a is None:
+        return result
+    t0, t1 = result.t0_s, result.t0_s + result.wall_s
+    sends = [t for _, t in a.pose_sends if t0 <= t < t1]
+    rtt = first_responses(sends, in_window(a.override_arrivals, t0, t1 + 1.0))
+    return replace(result, rtt_s=[dt for dt in rtt if dt is not None])
 
 
 def floor_figures(
-    d_cpu_s: float, d_steps: int, wall_s: float, floor: FloorRecord | None
+    d_cpu_s: float, d_steps: int, wall_s: float, floor: FloorRecord | None, prefix: str = ""
 ) -> dict[str, float | None]:
     """CPU % of the floor and the daemon's CPU per step over the floor's (same run)."""
+    p = prefix
     if floor is None or floor.wall_s <= 0 or floor.steps == 0 or floor.cpu_s <= 0:
-        return {"floor_cpu_percent": None, "ratio_to_floor": None, "floor_us_per_step": None}
+        return {
+            f"{p}floor_cpu_percent": None,
+            f"ratio_to_{p}floor": None,
+            f"{p}floor_us_per_step": None,
+        }
     per_step = floor.cpu_s / floor.steps
     daemon_per_step = d_cpu_s / d_steps if d_steps else math.nan
     return {
-        "floor_cpu_percent": 100.0 * floor.cpu_s / floor.wall_s,
-        "floor_us_per_step": 1e6 * per_step,
+        f"{p}floor_cpu_percent": 100.0 * floor.cpu_s / floor.wall_s,
+        f"{p}floor_us_per_step": 1e6 * per_step,
         "daemon_us_per_step": 1e6 * daemon_per_step if d_steps else None,
-        "ratio_to_floor": daemon_per_step / per_step if d_steps else None,
+        f"ratio_to_{p}floor": daemon_per_step / per_step if d_steps else None,
     }
 
 
@@ -748,7 +823,11 @@ def floor_figures(
 
 
 def report_lines(
-    d: DaemonRecord, a: AutopilotRecord, rate_hz: float, floor: FloorRecord | None = None
+    d: DaemonRecord,
+    a: AutopilotRecord,
+    rate_hz: float,
+    floor: FloorRecord | None = None,
+    afloor: FloorRecord | None = None,
 ) -> list[str]:
     t0, t1 = d.window
     wall = t1 - t0
@@ -758,16 +837,7 @@ def report_lines(
     lat = match_latencies(dict(a.pose_sends), steps)
     jitter = stats(interval_deviations([s.out_s for s in steps], period))
     send_jitter = stats(interval_deviations([t for _, t in sends], period))
-    stepped = {s.time_boot_ms for s in steps}
-    arrivals = in_window(a.override_arrivals, t0, t1 + 1.0)
-    responses = first_responses([t for _, t in sends], arrivals)
-    rtt = stats(
-        [
-            dt
-            for (tb, _), dt in zip(sends, responses, strict=True)
-            if dt is not None and tb in stepped
-        ]
-    )
+    rtt = stats(daemon_rtt_s(d, a))
     total = stats(lat.total_s)
     cpu_pct = 100.0 * d.cpu_s / wall if wall > 0 else math.nan
     cpu_target = cpu_target_percent(rate_hz)
@@ -821,9 +891,21 @@ def report_lines(
             f"{'floor: bare pymavlink echo loop':<{LABEL_WIDTH}} {fl['floor_cpu_percent']:6.2f} %"
             f" of one core ({floor.cpu_s:.3f} CPU s, {floor.steps} overrides in "
             f"{floor.wall_s:.1f} s: {fl['floor_us_per_step']:.0f} us/step)",
+            format_stats_ms("  floor autopilot rtt (pose -> override)", stats(floor.rtt_s)),
             f"{'daemon CPU per step / floor':<{LABEL_WIDTH}} {ratio:6.2f} x"
             f"  ({fl['daemon_us_per_step']:.0f} us/step)"
             f"  target <= {TARGET_RATIO_TO_FLOOR:g} x: {verdict(ratio <= TARGET_RATIO_TO_FLOOR)}",
+        ]
+    afl = floor_figures(d.cpu_s, len(steps), wall, afloor, ASYNCIO_PREFIX)
+    if afl[f"ratio_to_{ASYNCIO_PREFIX}floor"] is not None and afloor is not None:
+        lines += [
+            f"{'  same echo as an asyncio program':<{LABEL_WIDTH}}"
+            f" {afl[f'{ASYNCIO_PREFIX}floor_cpu_percent']:6.2f} %"
+            f" of one core ({afloor.cpu_s:.3f} CPU s, {afloor.steps} overrides in "
+            f"{afloor.wall_s:.1f} s: {afl[f'{ASYNCIO_PREFIX}floor_us_per_step']:.0f} us/step)",
+            format_stats_ms("    its autopilot rtt (pose -> override)", stats(afloor.rtt_s)),
+            f"{'  daemon CPU per step / asyncio echo':<{LABEL_WIDTH}}"
+            f" {afl[f'ratio_to_{ASYNCIO_PREFIX}floor']:6.2f} x",
         ]
     lines += [
         f"{'':<{LABEL_WIDTH}} {d.rx_messages} messages received, "
@@ -833,6 +915,18 @@ def report_lines(
     return lines
 
 
+def daemon_rtt_s(d: DaemonRecord, a: AutopilotRecord) -> list[float]:
+    """Autopilot rtt of the window's stepped poses: pose sent -> its override read back (s)."""
+    t0, t1 = d.window
+    stepped = {s.time_boot_ms for s in d.steps if t0 <= s.out_s < t1}
+    sends = [(tb, t) for tb, t in a.pose_sends if t0 <= t < t1]
+    arrivals = in_window(a.override_arrivals, t0, t1 + 1.0)
+    responses = first_responses([t for _, t in sends], arrivals)
+    return [
+        dt for (tb, _), dt in zip(sends, responses, strict=True) if dt is not None and tb in stepped
+    ]
+
+
 def _ms(s: Stats | None) -> dict[str, float | int | None]:
     if s is None:
         return {"n": 0, "p50": None, "p99": None, "max": None}
@@ -840,7 +934,11 @@ def _ms(s: Stats | None) -> dict[str, float | int | None]:
 
 
 def rate_figures(
-    d: DaemonRecord, a: AutopilotRecord, rate_hz: float, floor: FloorRecord | None = None
+    d: DaemonRecord,
+    a: AutopilotRecord,
+    rate_hz: float,
+    floor: FloorRecord | None = None,
+    afloor: FloorRecord | None = None,
 ) -> dict[str, Any]:
     """The figures :func:`report_lines` prints, as JSON-ready numbers (ms, %)."""
     t0, t1 = d.window
@@ -854,10 +952,14 @@ def rate_figures(
         "window_s": wall,
         "latency_ms": _ms(stats(lat.total_s)),
         "latency_in_daemon_ms": _ms(stats(lat.inside_s)),
+        "autopilot_rtt_ms": _ms(stats(daemon_rtt_s(d, a))),
         "jitter_ms": _ms(jitter),
         "cpu_percent": 100.0 * d.cpu_s / wall if wall > 0 else None,
         "cpu_s": d.cpu_s,
         **floor_figures(d.cpu_s, len(steps), wall, floor),
+        **floor_figures(d.cpu_s, len(steps), wall, afloor, ASYNCIO_PREFIX),
+        "floor_rtt_ms": _ms(stats(floor.rtt_s)) if floor else None,
+        f"{ASYNCIO_PREFIX}floor_rtt_ms": _ms(stats(afloor.rtt_s)) if afloor else None,
         "cpu_target_percent": cpu_target_percent(rate_hz),
         "autopilot_cpu_percent": 100.0 * a.cpu_s / a.wall_s if a.wall_s > 0 else None,
         "poses_sent": len(sends),
@@ -888,6 +990,8 @@ def results_section(per_rate: dict[str, dict[str, Any]], seconds: float) -> dict
         "cpu_percent": by_rate("cpu_percent"),
         "floor_cpu_percent": by_rate("floor_cpu_percent"),
         "ratio_to_floor": by_rate("ratio_to_floor"),
+        f"{ASYNCIO_PREFIX}floor_cpu_percent": by_rate(f"{ASYNCIO_PREFIX}floor_cpu_percent"),
+        f"ratio_to_{ASYNCIO_PREFIX}floor": by_rate(f"ratio_to_{ASYNCIO_PREFIX}floor"),
         "per_rate": per_rate,
         "targets": {
             "latency_p99_ms": TARGET_LATENCY_P99_MS,
@@ -948,7 +1052,8 @@ def run_benchmark(
             for proc in procs:
                 proc.join(timeout=RECORD_TIMEOUT_S)
     fl = run_floor(rate_hz, seconds, warmup_s) if floor else None
-    return report_lines(d, a, rate_hz, fl), rate_figures(d, a, rate_hz, fl)
+    afl = run_floor(rate_hz, seconds, warmup_s, asyncio_floor_loop) if floor else None
+    return report_lines(d, a, rate_hz, fl, afl), rate_figures(d, a, rate_hz, fl, afl)
 
 
 def main(
@@ -961,7 +1066,9 @@ def main(
         None, help="override control.control_rate_max_hz (default: the daemon's default)"
     ),
     floor: bool = typer.Option(
-        True, help="also measure the floor (a bare pymavlink echo loop) and the ratio to it"
+        True,
+        help="also measure the floor (a bare pymavlink echo loop, blocking and as an asyncio "
+        "program) and the ratios to it",
     ),
     profile: int = typer.Option(
         0, min=0, help="run under cProfile and print the top N functions (inflates the figures)"

@@ -355,6 +355,10 @@ def test_floor_ratio_and_cpu_targets() -> None:
     assert (
         loop.floor_figures(0.8, 500, 10.0, loop.FloorRecord(0.0, 10.0, 0))["ratio_to_floor"] is None
     )
+    asy = loop.floor_figures(0.8, 500, 10.0, loop.FloorRecord(0.25, 10.0, 500), "asyncio_")
+    assert asy["asyncio_floor_us_per_step"] == pytest.approx(500.0)
+    assert asy["ratio_to_asyncio_floor"] == pytest.approx(3.2)  # the same daemon, other floor
+    assert "ratio_to_floor" not in asy
     assert loop.cpu_target_percent(25.0) == 2.0 and loop.cpu_target_percent(50.0) == 2.0
     assert loop.cpu_target_percent(125.0) == pytest.approx(4.0)
     assert loop.cpu_target_percent(200.0) == 6.0 and loop.cpu_target_percent(400.0) == 6.0

@@ -7,6 +7,7 @@ import asyncio
 import math
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import pytest
@@ -14,6 +15,7 @@ import pytest
 from helixd.actuators import ServoCommandRefused
 from helixd.config import HelixdConfig
 from helixd.flight import FlightLoop, StepReport
+from helixd.flight_report import StepJournal, flight_row
 from helixd.frames import MissionFrame, NedPose
 from helixd.link.commands import CommandRejected
 from helixd.link.telemetry import ChangeWaiters, Telemetry
@@ -161,3 +163,56 @@ def test_servo_refused_in_flight_is_an_actuator_fault() -> None:
     assert "DO_SET_SERVO" in result.fault.detail
     assert result.detected_s is not None and result.last_pose is not None
     assert len(sink.commands) == 2
+
+
+# -- the step journal: flight.csv rows built in batches, after sends ------------------------
+
+
+def one_report() -> tuple[StepReport, Any]:
+    """A real step report from the fed loop, and the loop's plan."""
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.tick()
+    reports: list[StepReport] = []
+    loop = make_loop(ap, Sink(trace), trace)
+    inner = loop.on_step
+
+    def on_step(r: StepReport) -> None:
+        inner(r)
+        reports.append(r)
+
+    loop.on_step = on_step
+    asyncio.run(fly(ap, loop, 3))
+    return reports[0], loop.plan
+
+
+def test_journal_builds_rows_in_batches_in_step_order() -> None:
+    report, plan = one_report()
+    rows: list[Any] = []
+    journal = StepJournal(plan, rows.append, batch_s=0.25)
+    for k in range(13):  # 0 … 0.24 s: younger than one batch
+        journal.add(replace(report, now_s=100.0 + 0.02 * k))
+    assert rows == [] and journal.pending == 13  # nothing built on the steps themselves
+    journal.add(replace(report, now_s=100.26))  # the oldest is now a batch old: all built
+    assert journal.pending == 0
+    assert [r.t_mono_s for r in rows] == pytest.approx(
+        [100.0 + 0.02 * k for k in range(13)] + [100.26]
+    )
+    assert rows[0] == flight_row(replace(report, now_s=100.0), plan)  # the row, as built alone
+
+
+def test_journal_hands_rows_on_when_steps_pause_and_on_demand() -> None:
+    report, plan = one_report()
+    rows: list[Any] = []
+    journal = StepJournal(plan, rows.append, batch_s=0.25)
+    journal.add(replace(report, now_s=10.0))
+    journal.maybe_drain(10.2)  # the newest step is younger than a batch: kept
+    assert rows == []
+    journal.maybe_drain(10.25)  # steps paused a batch long: handed on
+    assert len(rows) == 1 and journal.pending == 0
+    journal.add(replace(report, now_s=11.0))
+    journal.drain()  # e.g. before a waypoint arrival or the summary
+    assert len(rows) == 2 and rows[1].t_mono_s == 11.0
+    journal.drain()
+    journal.maybe_drain(99.0)
+    assert len(rows) == 2  # nothing twice
