@@ -32,6 +32,10 @@ Measured over a ``--seconds`` window after a warm-up:
 * jitter = |interval between consecutive control steps − 1/rate| (the autopilot's own send
   jitter is printed next to it: the loop cannot be steadier than its input).
 * CPU = ``getrusage(RUSAGE_SELF)`` user+sys of this process over the window ÷ wall time.
+* two floors, each against a fresh autopilot process at the same rate, over the same window:
+  a bare pymavlink echo loop with blocking reads (:func:`floor_loop`) and the same echo as
+  the least asyncio program (:func:`asyncio_floor_loop`); per floor its CPU, its CPU per step,
+  the daemon's CPU per step over it, and its autopilot rtt.
 
 Usage::
 
