@@ -695,12 +695,28 @@ class FloorRecord:
 FLOOR_OVERRIDE_US = (1500, 1500, 1500, 1500, 65535, 65535, 65535, 65535) + (0,) * 10
 
 
+def floor_mav() -> Any:
+    """pymavlink's codec as both floors use it (helixd's system id, robust parsing)."""
+    mav = mavlink.MAVLink(None, srcSystem=LinkConfig().source_system, srcComponent=190)
+    mav.robust_parsing = True
+    return mav
+
+
+def echo_poses(mav: Any, data: bytes, sock: socket.socket, peer: Any) -> int:
+    """Decode one datagram; send one override per LOCAL_POSITION_NED in it. How many sent."""
+    sent = 0
+    for msg in mav.parse_buffer(data) or []:
+        if msg.get_msgId() == mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED:
+            out = mav.rc_channels_override_encode(1, 1, *FLOOR_OVERRIDE_US)
+            sock.sendto(out.pack(mav), peer)
+            sent += 1
+    return sent
+
+
 def floor_loop(sock: socket.socket, seconds: float, warmup_s: float) -> FloorRecord:
     """Echo an override for every pose on ``sock`` (blocking reads) for ``warmup_s`` then a
     ``seconds`` window, measured with the process CPU clock (getrusage)."""
-    mav = mavlink.MAVLink(None, srcSystem=LinkConfig().source_system, srcComponent=190)
-    mav.robust_parsing = True
-    pose_id = mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED
+    mav = floor_mav()
     sock.settimeout(1.0)
     peer: Any = None
     t_start = time.monotonic()
@@ -719,11 +735,7 @@ def floor_loop(sock: socket.socket, seconds: float, warmup_s: float) -> FloorRec
             data, peer = sock.recvfrom(65536)
         except TimeoutError:
             continue
-        for msg in mav.parse_buffer(data) or []:
-            if msg.get_msgId() == pose_id:
-                out = mav.rc_channels_override_encode(1, 1, *FLOOR_OVERRIDE_US)
-                sock.sendto(out.pack(mav), peer)
-                steps += 1
+        steps += echo_poses(mav, data, sock, peer)
     return FloorRecord(cpu_s=_cpu_s() - cpu0, wall_s=time.monotonic() - t0, steps=steps, t0_s=t0)
 
 
@@ -734,9 +746,7 @@ def asyncio_floor_loop(sock: socket.socket, seconds: float, warmup_s: float) -> 
     over blocking reads on this machine, before any of helixd's own work."""
 
     async def echo() -> FloorRecord:
-        mav = mavlink.MAVLink(None, srcSystem=LinkConfig().source_system, srcComponent=190)
-        mav.robust_parsing = True
-        pose_id = mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED
+        mav = floor_mav()
         sock.setblocking(False)
         steps = [0]
 
@@ -748,11 +758,7 @@ def asyncio_floor_loop(sock: socket.socket, seconds: float, warmup_s: float) -> 
                     return
                 except ConnectionRefusedError:
                     continue
-                for msg in mav.parse_buffer(data) or []:
-                    if msg.get_msgId() == pose_id:
-                        out = mav.rc_channels_override_encode(1, 1, *FLOOR_OVERRIDE_US)
-                        sock.sendto(out.pack(mav), peer)
-                        steps[0] += 1
+                steps[0] += echo_poses(mav, data, sock, peer)
 
         loop = asyncio.get_running_loop()
         loop.add_reader(sock.fileno(), readable)

@@ -367,3 +367,26 @@ def test_floor_ratio_and_cpu_targets() -> None:
     )
     assert section["floor_cpu_percent"] == {"50": 1.5} and section["ratio_to_floor"] == {"50": 2.0}
     assert section["targets"]["cpu_percent"] == {"50": 2.0, "200": 6.0}
+
+
+def test_floor_echo_answers_each_pose_with_one_override() -> None:
+    import socket
+
+    from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+    ap = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    two = bytes(ap.attitude_encode(1000, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0).pack(ap)) + bytes(
+        ap.local_position_ned_encode(1000, 1.0, 2.0, 0.0, 0.0, 0.0, 0.0).pack(ap)
+    )
+    with (
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as rx,
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as tx,
+    ):
+        rx.bind(("127.0.0.1", 0))
+        rx.settimeout(2.0)
+        assert loop.echo_poses(loop.floor_mav(), two, tx, rx.getsockname()) == 1
+        data = rx.recv(65536)
+    msgs = mavlink.MAVLink(None).parse_buffer(data) or []
+    assert [m.get_type() for m in msgs] == ["RC_CHANNELS_OVERRIDE"]
+    assert (msgs[0].chan1_raw, msgs[0].chan5_raw) == (1500, 65535)
+    assert msgs[0].get_srcSystem() == 247  # helixd's own system id, as the daemon sends
