@@ -141,13 +141,22 @@ def control_loop_markdown(loop: Mapping[str, Any]) -> list[str]:
                     fmt(jit.get("p99")), fmt(fig.get("cpu_percent")),
                     fmt(fig.get("poses_not_stepped"), "d"),
                     fmt(fig.get("floor_cpu_percent")), fmt(fig.get("ratio_to_floor")),
+                    fmt(fig.get("asyncio_floor_cpu_percent")),
+                    fmt(fig.get("ratio_to_asyncio_floor")),
                 ]
             )  # fmt: skip
         lines += md_table(
             ["rate", "latency p50 ms", "latency p99 ms", "latency max ms", "jitter p99 ms",
-             "CPU %", "poses not stepped", "floor CPU %", "CPU / floor"],
+             "CPU %", "poses not stepped", "floor CPU %", "CPU / floor",
+             "asyncio echo CPU %", "CPU / asyncio echo"],
             rows,
         )  # fmt: skip
+        lines += [
+            "",
+            "floor: a bare pymavlink echo loop (blocking reads); asyncio echo: the same echo as "
+            "the least asyncio program (add_reader, override sent from the reader callback); "
+            "both against the same fake autopilot in the same run.",
+        ]
     targets = loop.get("targets", {})
     if isinstance(targets, Mapping) and targets:
         lines += ["", "Targets: " + ", ".join(f"{k} {fmt(v, 'g')}" for k, v in targets.items())]

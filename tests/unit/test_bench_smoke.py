@@ -330,7 +330,9 @@ def test_control_loop_figures_and_results_section(tmp_path: Path) -> None:
     a = loop.AutopilotRecord(
         pose_sends=[(100 + 20 * i, 1.0 + 0.02 * i) for i in range(51)], cpu_s=0.1, wall_s=1.0
     )
-    fig = loop.rate_figures(d, a, 50.0)
+    floors = (loop.FloorRecord(0.01, 1.0, 50), loop.FloorRecord(0.02, 1.0, 50))  # 200, 400 us
+    fig = loop.rate_figures(d, a, 50.0, *floors)
+    assert (fig["ratio_to_floor"], fig["ratio_to_asyncio_floor"]) == pytest.approx((4.0, 2.0))
     assert fig["latency_ms"]["p99"] == pytest.approx(0.5)
     assert fig["cpu_percent"] == pytest.approx(4.0)
     assert fig["poses_sent"] == 50 and fig["control_steps"] == 50  # the 51st is past t1
@@ -340,7 +342,8 @@ def test_control_loop_figures_and_results_section(tmp_path: Path) -> None:
     assert section["cpu_percent"] == {"50": pytest.approx(4.0), "20": 2}
     res.write_section("control_loop", section, tmp_path)
     md = (tmp_path / "latest.md").read_text(encoding="utf-8")
-    assert "| 50 Hz | 0.50 | 0.50 | 0.50 | 0.00 | 4.00 | 0 |" in md
+    assert "| 50 Hz | 0.50 | 0.50 | 0.50 | 0.00 | 4.00 | 0 | 1.00 | 4.00 | 2.00 | 2.00 |" in md
+    assert section["ratio_to_asyncio_floor"]["50"] == pytest.approx(2.0)
 
 
 def test_floor_ratio_and_cpu_targets() -> None:
