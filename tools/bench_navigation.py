@@ -8,7 +8,7 @@ guidance (``--roll-anywhere`` runs it anyway).
 
 Each run starts the built-in simulator in the worker process (:func:`helixd.sim.start_embedded`)
 and the real daemon as a subprocess (``python -m helixd run --connect …``), exactly as
-``tests/integration/daemon_harness.py`` does. While the daemon flies, a thread samples the
+``tests/integration/harness.py`` does. While the daemon flies, a thread samples the
 simulator's TRUE pose from its snapshots; afterwards the planned legs are put into NED with the
 mission frame the daemon recorded in ``flight.csv`` and the true path is measured against them
 (:mod:`navmetrics`): cross-track RMS/max, final error. Beside them: the estimated-pose figures

@@ -13,7 +13,7 @@ import pytest
 from helixd.exitcodes import ExitCode
 from helixd.frames import latlon_to_ne
 from helixd.sim.config import SimConfig
-from tests.integration.daemon_harness import secured, sim_and_daemon
+from tests.integration.harness import secured, sim_and_daemon
 
 pytestmark = pytest.mark.integration
 
