@@ -147,11 +147,15 @@ def _depth_ok(text: str) -> int:
     return deepest
 
 
-def load_json_text(text: str, source: Path | str) -> Any:
-    """Parse hostile JSON: bounded depth, no NaN/Infinity, no overflow, no duplicate keys."""
+def load_json_text(text: str, source: Path | str, kind: str = "") -> Any:
+    """Parse hostile JSON: bounded depth, no NaN/Infinity, no overflow, no duplicate keys.
+
+    ``kind`` (e.g. ``".plan"``) names what the file should have been in the errors."""
     src = str(source)
     if _depth_ok(text) > MAX_DEPTH:
-        raise FormatError([f"{src}: JSON nested deeper than {MAX_DEPTH} levels"])
+        tail = f"; not a {kind}" if kind else ""
+        raise FormatError([f"{src}: JSON nested deeper than {MAX_DEPTH} levels{tail}"])
+    usable = f"a usable {kind}" if kind else "usable JSON"
     try:
         return json.loads(
             text,
@@ -164,27 +168,13 @@ def load_json_text(text: str, source: Path | str) -> Any:
             [f"{src}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"]
         ) from None
     except (ValueError, RecursionError) as exc:
-        raise FormatError([clip_line(f"{src}: not usable JSON: {exc}")]) from None
+        raise FormatError([clip_line(f"{src}: not {usable}: {exc}")]) from None
 
 
 def parse_plan_text(text: str, source: Path | str) -> GcsMission:
     """A .plan's text → :class:`GcsMission`; raise :class:`FormatError` naming file and field."""
     src = str(source)
-    if _depth_ok(text) > MAX_DEPTH:
-        raise FormatError([f"{src}: JSON nested deeper than {MAX_DEPTH} levels; not a .plan"])
-    try:
-        raw = json.loads(
-            text,
-            parse_constant=_refuse_constant,
-            parse_float=_parse_float,
-            object_pairs_hook=_no_duplicates,
-        )
-    except json.JSONDecodeError as exc:
-        raise FormatError(
-            [f"{src}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"]
-        ) from None
-    except (ValueError, RecursionError) as exc:
-        raise FormatError([clip_line(f"{src}: not a usable .plan: {exc}")]) from None
+    raw = load_json_text(text, source, kind=".plan")
     if not isinstance(raw, dict):
         raise FormatError([f"{src}: (top level): expected a JSON object, got {type(raw).__name__}"])
     try:
