@@ -301,7 +301,7 @@ RALLY_RULES = TypeRules(
 )  # fmt: skip
 
 
-def item_from_int(msg: Any) -> StoredItem:
+def _stored(msg: Any, x: int, y: int) -> StoredItem:
     return StoredItem(
         int(msg.command),
         int(msg.frame),
@@ -309,10 +309,14 @@ def item_from_int(msg: Any) -> StoredItem:
         float(msg.param2),
         float(msg.param3),
         float(msg.param4),
-        int(msg.x),
-        int(msg.y),
+        x,
+        y,
         float(msg.z),
     )
+
+
+def item_from_int(msg: Any) -> StoredItem:
+    return _stored(msg, int(msg.x), int(msg.y))
 
 
 def item_from_float(msg: Any) -> StoredItem | None:
@@ -325,22 +329,7 @@ def item_from_float(msg: Any) -> StoredItem | None:
         x, y = x * 1e7, y * 1e7
     if abs(x) >= 2**31 or abs(y) >= 2**31:
         return None
-    base = replace(item_from_int_fields(msg), x=round(x), y=round(y))
-    return base
-
-
-def item_from_int_fields(msg: Any) -> StoredItem:
-    return StoredItem(
-        int(msg.command),
-        int(msg.frame),
-        float(msg.param1),
-        float(msg.param2),
-        float(msg.param3),
-        float(msg.param4),
-        0,
-        0,
-        float(msg.z),
-    )
+    return _stored(msg, round(x), round(y))
 
 
 class ItemProtocol:
