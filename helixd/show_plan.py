@@ -19,8 +19,6 @@ so QGC draws them where LOCAL_POSITION_NED puts the rover.
 
 from __future__ import annotations
 
-import math
-
 import structlog
 
 from helixd.frames import MissionFrame, NedPose, ne_to_latlon
@@ -28,13 +26,7 @@ from helixd.link.connection import Autopilot, LinkError
 from helixd.link.mission import MissionTransferError
 from helixd.link.mission_link import upload_all
 from helixd.mission import MissionFrameKind, Plan
-from helixd.mission.formats.items import (
-    MAV_CMD_NAV_WAYPOINT,
-    MAV_FRAME_GLOBAL_RELATIVE_ALT,
-    FormatError,
-    GcsMission,
-    MissionItem,
-)
+from helixd.mission.formats.items import FormatError, GcsMission, waypoint_item
 from helixd.mission.formats.wire import gcs_to_wire
 
 __all__ = ["plan_as_gcs", "show_plan"]
@@ -58,16 +50,7 @@ def plan_as_gcs(
     for i, wp in enumerate(plan.waypoints):
         north_m, east_m = frame.to_ned(wp.x_m, wp.y_m)
         lat, lon = ne_to_latlon(north_m, east_m, *origin_latlon_deg)
-        items.append(
-            MissionItem(
-                seq=i + 1,
-                frame=MAV_FRAME_GLOBAL_RELATIVE_ALT,
-                command=MAV_CMD_NAV_WAYPOINT,
-                param4=math.nan,
-                x=lat,
-                y=lon,
-            )
-        )
+        items.append(waypoint_item(i + 1, lat, lon))
     home = ne_to_latlon(start_ned.north_m, start_ned.east_m, *origin_latlon_deg)
     return GcsMission(items=tuple(items), home_latlon_deg=home)
 

@@ -269,6 +269,18 @@ def _same_point(a: tuple[float, float], b: tuple[float, float]) -> bool:
     return math.hypot(n, e) < 0.01
 
 
+def waypoint_item(seq: int, lat_deg: float, lon_deg: float) -> MissionItem:
+    """A plain NAV_WAYPOINT at lat/lon, altitude relative to home, no yaw (param4 NaN)."""
+    return MissionItem(
+        seq=seq,
+        frame=MAV_FRAME_GLOBAL_RELATIVE_ALT,
+        command=MAV_CMD_NAV_WAYPOINT,
+        param4=math.nan,
+        x=lat_deg,
+        y=lon_deg,
+    )
+
+
 def mission_to_items(mission: Mission) -> GcsMission:
     """A ``global`` mission as NAV_WAYPOINT items (seq 1..N; home = waypoint 0's place)."""
     if mission.frame is not MissionFrameKind.GLOBAL:
@@ -280,17 +292,7 @@ def mission_to_items(mission: Mission) -> GcsMission:
             ]
         )
     pts = mission.points()
-    items = tuple(
-        MissionItem(
-            seq=i + 1,
-            frame=MAV_FRAME_GLOBAL_RELATIVE_ALT,
-            command=MAV_CMD_NAV_WAYPOINT,
-            param4=math.nan,
-            x=lat,
-            y=lon,
-        )
-        for i, (lat, lon) in enumerate(pts)
-    )
+    items = tuple(waypoint_item(i + 1, lat, lon) for i, (lat, lon) in enumerate(pts))
     polygons = (
         (FencePolygon(mission.geofence_polygon, inclusion=True),)
         if mission.geofence_polygon
