@@ -17,7 +17,6 @@ import pytest
 import yaml
 
 os.environ.setdefault("MAVLINK20", "1")
-from pymavlink import mavutil
 
 from helixd.exitcodes import ExitCode
 from helixd.mission.formats import read_gcs
@@ -33,6 +32,7 @@ from tests.integration.harness import (
     sim_and_daemon,
     wait_moving,
 )
+from tests.support.mavmsgs import read_tlog
 
 pytestmark = pytest.mark.integration
 
@@ -181,17 +181,6 @@ def test_no_autopilot_exits_as_a_link_error(tmp_path: Path) -> None:
     assert res.returncode == ExitCode.LINK, res.stderr
     assert "Traceback" not in res.stderr
     assert res.stderr.count("error:") == 1 and "no HEARTBEAT" in res.stderr
-
-
-def read_tlog(path: Path) -> list[Any]:
-    conn = mavutil.mavlink_connection(str(path), dialect="ardupilotmega")
-    out = []
-    try:
-        while (msg := conn.recv_match(blocking=False)) is not None:
-            out.append(msg)
-    finally:
-        conn.close()
-    return out
 
 
 def tlog_has_override(path: Path) -> bool:

@@ -8,15 +8,14 @@ import asyncio
 import os
 import socket
 from pathlib import Path
-from typing import Any
 
 os.environ.setdefault("MAVLINK20", "1")
-from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig, SafetyConfig
 from helixd.link.connection import Autopilot
 from helixd.link.tlog import FLUSH_INTERVAL_S, LinkTlog, TlogWriter, attach_tlog
+from tests.support.mavmsgs import read_tlog
 
 T0 = 1_763_900_000.0
 
@@ -24,17 +23,6 @@ T0 = 1_763_900_000.0
 def heartbeat(sysid: int) -> bytes:
     mav = mavlink.MAVLink(None, srcSystem=sysid, srcComponent=1)
     return bytes(mavlink.MAVLink_heartbeat_message(10, 3, 0, 0, 4, 3).pack(mav))
-
-
-def read_back(path: Path) -> list[Any]:
-    conn = mavutil.mavlink_connection(str(path), dialect="ardupilotmega")
-    out = []
-    try:
-        while (msg := conn.recv_match(blocking=False)) is not None:
-            out.append(msg)
-    finally:
-        conn.close()
-    return out
 
 
 class SignallingWriter(TlogWriter):
@@ -68,7 +56,7 @@ def test_a_buffered_frame_is_flushed_by_a_timer_within_half_a_second(tmp_path: P
         assert tlog.flush_due is not None
         tlog.close()  # flushes what is left and cancels the timer
         assert tlog.flush_due is None
-        assert len(read_back(tmp_path / "a.tlog")) == 3
+        assert len(read_tlog(tmp_path / "a.tlog")) == 3
 
     asyncio.run(main())
 
@@ -92,7 +80,7 @@ def test_codec_logs_every_frame_in_and_out(tmp_path: Path) -> None:
             assert out[0] == 0xFD
             await ap.close()
         assert not tlog.writer.active  # closed with the link
-        msgs = read_back(path)
+        msgs = read_tlog(path)
         got = [(m.get_type(), m.get_srcSystem()) for m in msgs]
         assert got == [("HEARTBEAT", 77), ("HEARTBEAT", 1), ("RC_CHANNELS_OVERRIDE", 247)]
         assert bytes(msgs[2].get_msgbuf()) == out

@@ -4,15 +4,14 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Any
 
 import pytest
 
 os.environ.setdefault("MAVLINK20", "1")
-from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.link.tlog import TlogWriter, tlog_record
+from tests.support.mavmsgs import read_tlog
 
 T0 = 1_763_900_000.0  # a UNIX time in 2025
 
@@ -27,20 +26,6 @@ def frames() -> list[tuple[bytes, float, str]]:
             (bytes(v1), T0 + 0.5, "SYSTEM_TIME")]  # fmt: skip
 
 
-def read_back(path: Path) -> list[Any]:
-    conn = mavutil.mavlink_connection(str(path), dialect="ardupilotmega")
-    out = []
-    try:
-        while True:
-            msg = conn.recv_match(blocking=False)
-            if msg is None:
-                break
-            out.append(msg)
-    finally:
-        conn.close()
-    return out
-
-
 def test_round_trip_through_pymavlink(tmp_path: Path) -> None:
     path = tmp_path / "link.tlog"
     w = TlogWriter(path, 1024 * 1024)
@@ -49,7 +34,7 @@ def test_round_trip_through_pymavlink(tmp_path: Path) -> None:
     assert path.stat().st_size == 0  # buffered, not yet written
     w.flush()
     w.close()
-    got = read_back(path)
+    got = read_tlog(path)
     assert [m.get_type() for m in got] == [kind for _, _, kind in frames()]
     assert [round(m._timestamp, 6) for m in got] == [T0, T0 + 0.25, T0 + 0.5]
     assert (got[0].get_srcSystem(), got[1].get_srcSystem()) == (247, 1)
@@ -67,7 +52,7 @@ def test_size_cap_stops_on_a_whole_record(tmp_path: Path) -> None:
     assert not w.active and w.dropped_records == 3
     w.close()
     assert path.stat().st_size == rec * 3
-    assert len(read_back(path)) == 3
+    assert len(read_tlog(path)) == 3
 
 
 def test_disk_error_fails_soft_once(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -105,4 +90,4 @@ def test_appends_to_existing_and_counts_its_size(tmp_path: Path) -> None:
     assert w2.written_bytes == path.stat().st_size > 0
     w2.write(frame, t + 1)
     w2.close()
-    assert len(read_back(path)) == 2
+    assert len(read_tlog(path)) == 2

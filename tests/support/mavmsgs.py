@@ -3,8 +3,10 @@ without a socket (one place, so test modules do not import each other)."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
+from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 
@@ -33,3 +35,15 @@ def att(t_ms: int, yaw: float) -> Any:
 
 def lpn(t_ms: int, north: float, east: float) -> Any:
     return decoded(AP.local_position_ned_encode(t_ms, north, east, 0, 0.5, -0.2, 0.0), AP)
+
+
+def read_tlog(path: Path) -> list[Any]:
+    """Every message of a .tlog as pymavlink (MAVExplorer's reader) reads it back."""
+    conn = mavutil.mavlink_connection(str(path), dialect="ardupilotmega")
+    out = []
+    try:
+        while (msg := conn.recv_match(blocking=False)) is not None:
+            out.append(msg)
+    finally:
+        conn.close()
+    return out
