@@ -15,6 +15,7 @@ from helixd.sim.config import SimConfig
 from helixd.sim.core import SimCore
 from helixd.sim.obstacles import SimObstacles, constrain, distance_m
 from helixd.sim.physics import PhysicsState
+from tests.support.simcore import assert_step_never_closer
 
 POND: dict[str, Any] = {
     "circles": [{"north_m": 3.0, "east_m": 0.0, "radius_m": 1.0}],
@@ -82,15 +83,7 @@ def test_no_obstacles_no_change() -> None:
 def test_a_step_never_brings_the_body_closer_once_touching(
     n: float, e: float, dn: float, de: float
 ) -> None:
-    obs = SimObstacles.model_validate(POND)
-    before = PhysicsState(north_m=n, east_m=e)
-    after = PhysicsState(north_m=n + dn, east_m=e + de, vx_body_mps=0.3)
-    state, contact = constrain(obs, before, after)
-    d0, d1 = distance_m(obs, n, e), distance_m(obs, state.north_m, state.east_m)
-    if contact:
-        assert d1 >= d0 or d1 >= obs.contact_radius_m
-    else:
-        assert d1 >= obs.contact_radius_m and state == after
+    assert_step_never_closer(SimObstacles.model_validate(POND), n, e, dn, de)
 
 
 def test_bad_obstacles_are_refused() -> None:

@@ -7,7 +7,6 @@ import math
 import subprocess
 import sys
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
@@ -16,8 +15,8 @@ from hypothesis import strategies as st
 
 from helixd.sim.config import SimConfig
 from helixd.sim.core import SimCore
-from helixd.sim.obstacles import ObstacleRaster, SimObstacles, constrain, distance_m
-from helixd.sim.physics import PhysicsState
+from helixd.sim.obstacles import ObstacleRaster, SimObstacles, distance_m
+from tests.support.simcore import EmbeddedStart, assert_step_never_closer, capture_embedded_start
 
 # 0.1 m cells from (north 0, east -5), 120 rows × 100 cols: north 0..12, east -5..5
 RES = 0.1
@@ -87,15 +86,7 @@ def test_bad_rasters_are_refused() -> None:
 def test_a_step_never_brings_the_body_closer_to_the_map_once_touching(
     n: float, e: float, dn: float, de: float
 ) -> None:
-    obs = SimObstacles(raster=wall_raster())
-    before = PhysicsState(north_m=n, east_m=e)
-    after = PhysicsState(north_m=n + dn, east_m=e + de, vx_body_mps=0.3)
-    state, contact = constrain(obs, before, after)
-    d0, d1 = distance_m(obs, n, e), distance_m(obs, state.north_m, state.east_m)
-    if contact:
-        assert d1 >= d0 or d1 >= obs.contact_radius_m
-    else:
-        assert d1 >= obs.contact_radius_m and state == after
+    assert_step_never_closer(SimObstacles(raster=wall_raster()), n, e, dn, de)
 
 
 def test_driving_into_the_map_wall_stops_the_rover_and_logs_the_contact() -> None:
@@ -165,22 +156,10 @@ def test_sim_world_takes_the_maps_occupied_cells_and_the_config_keep_outs(
     assert bool(occ.blocked[165, 100]) and not bool(occ.solid[165, 100])  # planner: blocked
 
 
-class _Started(Exception):
-    pass
-
-
 def test_run_sim_map_hands_the_world_to_the_embedded_simulator(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    import helixd.sim
-
-    seen: list[SimConfig] = []
-
-    def start(cfg: SimConfig) -> Any:
-        seen.append(cfg)
-        raise _Started
-
-    monkeypatch.setattr(helixd.sim, "start_embedded", start)
+    seen = capture_embedded_start(monkeypatch)
     from helixd.cli import main
 
     mission = tmp_path / "across.yaml"
@@ -188,7 +167,7 @@ def test_run_sim_map_hands_the_world_to_the_embedded_simulator(
         "name: t\nmode: roll\nframe: local_ned\nwaypoints:\n- north: 16.0\n  east: 0.0\n",
         encoding="utf-8",
     )
-    with pytest.raises(_Started):
+    with pytest.raises(EmbeddedStart):
         main(["run", "--sim", "--mission", str(mission), "--map", str(_write_map(tmp_path))])
     (cfg,) = seen
     assert cfg.obstacles.raster is not None

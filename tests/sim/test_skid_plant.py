@@ -21,6 +21,7 @@ from helixd.sim import skid
 from helixd.sim.config import Plant, SimConfig
 from helixd.sim.core import SimCore
 from helixd.sim.physics import PhysicsState
+from tests.support.simcore import EmbeddedStart, capture_embedded_start
 
 MODEL = SimConfig().skid
 DT_S = 0.02  # the simulator's 50 Hz loop (SCHED_LOOP_RATE)
@@ -226,10 +227,6 @@ def test_core_helix_plant_unchanged_by_the_option() -> None:
 # -- command line: helixd sim --plant, helixd run --sim --sim-plant ------------------------
 
 
-class _Started(Exception):
-    """Raised by the stand-in for the simulator's start: the CLI got that far."""
-
-
 def _main_exit(argv: list[str]) -> int:
     from helixd.cli import main
 
@@ -257,20 +254,12 @@ def test_sim_command_plant_option(
 def test_run_sim_plant_option_reaches_the_embedded_simulator(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    import helixd.sim
-
-    seen: list[SimConfig] = []
-
-    def start(cfg: SimConfig) -> Any:
-        seen.append(cfg)
-        raise _Started
-
-    monkeypatch.setattr(helixd.sim, "start_embedded", start)
+    seen = capture_embedded_start(monkeypatch)
     from helixd.cli import main
 
-    with pytest.raises(_Started):
+    with pytest.raises(EmbeddedStart):
         main(["run", "--sim", "--sim-plant", "sitl_skid", "--mission", "square"])
-    with pytest.raises(_Started):
+    with pytest.raises(EmbeddedStart):
         main(["run", "--sim", "--mission", "square"])
     assert [c.plant for c in seen] == [Plant.SITL_SKID, Plant.HELIX]
     capsys.readouterr()

@@ -6,12 +6,15 @@ import os
 from typing import Any
 
 import numpy as np
+import pytest
 
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.sim.config import HELIXD_SYSID, SimConfig
 from helixd.sim.core import SimCore
+from helixd.sim.obstacles import SimObstacles, constrain, distance_m
+from helixd.sim.physics import PhysicsState
 
 
 def make_core(n_links: int = 2, **cfg: Any) -> SimCore:
@@ -45,3 +48,36 @@ def command(core: SimCore, link: int, cmd: int, *p: float, sysid: int = HELIXD_S
     acks = [m for _, m in core.drain_outbox() if m.get_type() == "COMMAND_ACK"]
     assert acks, "no COMMAND_ACK"
     return int(acks[-1].result)
+
+
+def assert_step_never_closer(obs: SimObstacles, n: float, e: float, dn: float, de: float) -> None:
+    """One physics step from (n, e) by (dn, de) through :func:`constrain`: a contact never ends
+    closer to the obstacles than it started (or than the contact radius); a free step is
+    left as it was and stays outside the contact radius."""
+    before = PhysicsState(north_m=n, east_m=e)
+    after = PhysicsState(north_m=n + dn, east_m=e + de, vx_body_mps=0.3)
+    state, contact = constrain(obs, before, after)
+    d0, d1 = distance_m(obs, n, e), distance_m(obs, state.north_m, state.east_m)
+    if contact:
+        assert d1 >= d0 or d1 >= obs.contact_radius_m
+    else:
+        assert d1 >= obs.contact_radius_m and state == after
+
+
+class EmbeddedStart(Exception):
+    """Raised by the stand-in for the simulator's start: the CLI got that far."""
+
+
+def capture_embedded_start(monkeypatch: pytest.MonkeyPatch) -> list[SimConfig]:
+    """Replace ``helixd.sim.start_embedded`` by a stand-in that records the configuration it
+    is given and raises :class:`EmbeddedStart`; the list fills as the CLI calls it."""
+    import helixd.sim
+
+    seen: list[SimConfig] = []
+
+    def start(cfg: SimConfig) -> Any:
+        seen.append(cfg)
+        raise EmbeddedStart
+
+    monkeypatch.setattr(helixd.sim, "start_embedded", start)
+    return seen
