@@ -4,9 +4,10 @@ wp_index — forwarded by the simulator from the companion's link as ArduPilot's
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +23,7 @@ from tests.integration.harness import (
     running_sim_links,
     wait_moving,
 )
+from tests.support.daemon import DaemonProc
 
 pytestmark = pytest.mark.integration
 
@@ -63,7 +65,10 @@ class Watcher:
         return any(t.startswith(prefix) for _, t, _ in self.texts)
 
 
-def test_gcs_sees_phases_waypoints_and_progress(tmp_path: Path) -> None:
+@contextlib.contextmanager
+def watched_square(tmp_path: Path) -> Iterator[tuple[Any, Watcher, DaemonProc]]:
+    """The simulator (mud) with a plain GCS watching its second link, and the daemon flying
+    the square over its first: (simulator, watcher, daemon)."""
     port = free_udp_port()
     links = ["udpin:127.0.0.1:0", f"udpout:127.0.0.1:{port}"]
     with running_sim_links(links, speedup=SPEEDUP, terrain="mud") as srv:
@@ -71,11 +76,16 @@ def test_gcs_sees_phases_waypoints_and_progress(tmp_path: Path) -> None:
         w = Watcher(port)
         try:
             with daemon(tmp_path, url, "square") as d:
-                w.pump_until(lambda: w.has("helixd: mission complete"), 180.0)
-                code = d.wait_exit(30.0)
-                log = d.log_text()
+                yield srv, w, d
         finally:
             w.client.close()
+
+
+def test_gcs_sees_phases_waypoints_and_progress(tmp_path: Path) -> None:
+    with watched_square(tmp_path) as (_, w, d):
+        w.pump_until(lambda: w.has("helixd: mission complete"), 180.0)
+        code = d.wait_exit(30.0)
+        log = d.log_text()
     assert code == ExitCode.OK, log[-3000:]
     texts = [t for _, t, _ in w.texts]
     for expected in (
@@ -96,21 +106,13 @@ def test_gcs_sees_phases_waypoints_and_progress(tmp_path: Path) -> None:
 
 
 def test_gcs_sees_a_fault_as_critical(tmp_path: Path) -> None:
-    port = free_udp_port()
-    links = ["udpin:127.0.0.1:0", f"udpout:127.0.0.1:{port}"]
-    with running_sim_links(links, speedup=SPEEDUP, terrain="mud") as srv:
-        url = f"udpout:127.0.0.1:{srv.local_ports[0]}"
-        w = Watcher(port)
-        try:
-            with daemon(tmp_path, url, "square") as d:
-                w.pump_until(lambda: w.has("helixd: fly"), 120.0)
-                wait_moving(srv)
-                srv.inject("ekf_unhealthy", duration_s=30.0 * SPEEDUP)
-                w.pump_until(lambda: w.has("helixd: secured"), 30.0)
-                code = d.wait_exit(30.0)
-                log = d.log_text()
-        finally:
-            w.client.close()
+    with watched_square(tmp_path) as (srv, w, d):
+        w.pump_until(lambda: w.has("helixd: fly"), 120.0)
+        wait_moving(srv)
+        srv.inject("ekf_unhealthy", duration_s=30.0 * SPEEDUP)
+        w.pump_until(lambda: w.has("helixd: secured"), 30.0)
+        code = d.wait_exit(30.0)
+        log = d.log_text()
     assert code == ExitCode.FAULT, log[-3000:]
     faults = [(sev, t) for sev, t, _ in w.texts if t.startswith("helixd: FAULT ekf_unhealthy")]
     assert faults and faults[0][0] == MAV_SEVERITY_CRITICAL, w.texts
