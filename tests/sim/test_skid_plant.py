@@ -21,6 +21,7 @@ from helixd.sim import skid
 from helixd.sim.config import Plant, SimConfig
 from helixd.sim.core import SimCore
 from helixd.sim.physics import PhysicsState
+from tests.support.cli import main_exit
 from tests.support.simcore import EmbeddedStart, capture_embedded_start
 
 MODEL = SimConfig().skid
@@ -227,15 +228,6 @@ def test_core_helix_plant_unchanged_by_the_option() -> None:
 # -- command line: helixd sim --plant, helixd run --sim --sim-plant ------------------------
 
 
-def _main_exit(argv: list[str]) -> int:
-    from helixd.cli import main
-
-    with pytest.raises(SystemExit) as info:
-        main(argv)
-    code = info.value.code
-    return code if isinstance(code, int) else 0
-
-
 def test_sim_command_plant_option(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -243,11 +235,11 @@ def test_sim_command_plant_option(
 
     seen: list[SimConfig] = []
     monkeypatch.setattr(command, "run_sim", lambda links, cfg, faults, dur: seen.append(cfg))
-    assert _main_exit(["sim", "--plant", "sitl_skid", "--duration", "1"]) == 0
-    assert _main_exit(["sim", "--duration", "1"]) == 0
+    assert main_exit(["sim", "--plant", "sitl_skid", "--duration", "1"]) == 0
+    assert main_exit(["sim", "--duration", "1"]) == 0
     assert [c.plant for c in seen] == [Plant.SITL_SKID, Plant.HELIX]
     capsys.readouterr()
-    assert _main_exit(["sim", "--plant", "tank"]) == 2
+    assert main_exit(["sim", "--plant", "tank"]) == 2
     assert "--plant" in capsys.readouterr().err
 
 
@@ -263,4 +255,4 @@ def test_run_sim_plant_option_reaches_the_embedded_simulator(
         main(["run", "--sim", "--mission", "square"])
     assert [c.plant for c in seen] == [Plant.SITL_SKID, Plant.HELIX]
     capsys.readouterr()
-    assert _main_exit(["run", "--sim", "--sim-plant", "tank", "--mission", "square"]) == 2
+    assert main_exit(["run", "--sim", "--sim-plant", "tank", "--mission", "square"]) == 2

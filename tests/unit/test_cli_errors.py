@@ -6,19 +6,11 @@ from pathlib import Path
 
 import pytest
 
-from helixd.cli import main
 from helixd.mission.locate import MissionNotFound, locate_mission
+from tests.support.cli import run_main
 
 ROOT = Path(__file__).resolve().parents[2]
 SQUARE = ROOT / "config" / "missions" / "square.yaml"
-
-
-def run_main(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as info:
-        main(argv)
-    out, err = capsys.readouterr()
-    code = info.value.code
-    return (code if isinstance(code, int) else 0), out, err
 
 
 @pytest.mark.parametrize(

@@ -9,19 +9,11 @@ import pytest
 import yaml
 from PIL import Image
 
-from helixd.cli import main
+from tests.support.cli import run_main
 
 ROOT = Path(__file__).resolve().parents[2]
 POND_MAP = ROOT / "config" / "maps" / "pond.yaml"
 POND_MISSION = ROOT / "config" / "missions" / "pond-crossing.yaml"
-
-
-def run_main(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    with pytest.raises(SystemExit) as info:
-        main(argv)
-    out, err = capsys.readouterr()
-    code = info.value.code
-    return (code if isinstance(code, int) else 0), out, err
 
 
 def mission(tmp_path: Path, points: list[tuple[float, float]], frame: str = "local_ned") -> Path:

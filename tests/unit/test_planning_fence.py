@@ -20,6 +20,7 @@ from helixd.mission.formats import load_mission_file
 from helixd.mission.model import MissionFrameKind, MotionMode
 from helixd.planning import KeepOutCircle, PlanningError, clearance_m
 from helixd.planning.fence import plan_global_mission
+from tests.support.cli import main_exit
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 LAT0, LON0 = 53.5233, -113.5263  # waypoint 0
@@ -137,25 +138,16 @@ def test_global_mission_with_origin_shapes_is_refused_saying_what_to_do(tmp_path
         plan_global_mission(msn, cfg, [], [], msn.points()[0])
 
 
-def _main_exit(argv: list[str]) -> int:
-    from helixd.cli import main
-
-    with pytest.raises(SystemExit) as info:
-        main(argv)
-    code = info.value.code
-    return code if isinstance(code, int) else 0
-
-
 def test_check_plans_a_plan_around_its_exclusions_and_refuses_without_planning(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     path = write_plan(tmp_path, [(0.0, 0.0), (20.0, 0.0)])
-    assert _main_exit(["check", "--mission", str(path), "--mode", "roll"]) == 0
+    assert main_exit(["check", "--mission", str(path), "--mode", "roll"]) == 0
     out = capsys.readouterr().out
     assert "leg wp 0 → wp 1" in out and "intermediate" in out
     off = tmp_path / "off.yaml"
     off.write_text("planning:\n  enabled: false\n", encoding="utf-8")
-    assert _main_exit(["check", "-m", str(path), "--mode", "roll", "-c", str(off)]) == 2
+    assert main_exit(["check", "-m", str(path), "--mode", "roll", "-c", str(off)]) == 2
     assert "crosses the geofence's exclusion polygon 0" in capsys.readouterr().err
 
 
@@ -200,7 +192,7 @@ def test_check_plot_of_a_global_plan_is_labelled_around_waypoint_0(tmp_path: Pat
     assert ax.get_xlabel() == "east of waypoint 0 (m)"
     assert ax.get_ylabel() == "north of waypoint 0 (m)"
     png = tmp_path / "p.png"
-    assert _main_exit(["check", "-m", str(path), "--mode", "roll", "--plot", str(png)]) == 0
+    assert main_exit(["check", "-m", str(path), "--mode", "roll", "--plot", str(png)]) == 0
     assert png.stat().st_size > 1000
 
 
