@@ -104,6 +104,11 @@ class Navigator:
         self._stops: list[bool] = []
         self._early_m: list[float] = []  # per waypoint: its speed limit holds this early (m)
         self._prev_command = BodyVelocity.zero()
+        # (pose, leg start, goal, errors) of the last leg_errors: the arrival test and the
+        # guidance of one step read the same leg (all immutable: identity is the key)
+        self._leg_memo: (
+            tuple[Pose2D, tuple[float, float] | None, PlanWaypoint, line.LegErrors] | None
+        ) = None
 
     # -- public state ------------------------------------------------------------------------
 
@@ -252,7 +257,7 @@ class Navigator:
             return distance_m < goal.tolerance_m
         i = self._target_index
         stop_m = min(goal.tolerance_m, self.control.stop_tolerance_m)
-        leg = line.leg_errors(self._leg_start(pose), (goal.x_m, goal.y_m), pose)
+        leg = self._leg(pose, goal)
         if leg.length_m <= 0.0:
             return distance_m < stop_m
         # Crossing the line through the waypoint, perpendicular to the leg, ends the leg: no
@@ -268,12 +273,21 @@ class Navigator:
     def _leg_start(self, pose: Pose2D) -> tuple[float, float]:
         return self._leg_start_xy_m or (pose.x_m, pose.y_m)
 
+    def _leg(self, pose: Pose2D, goal: PlanWaypoint) -> line.LegErrors:
+        """``pose`` on the leg (leg start → ``goal``), computed once per step and leg."""
+        memo, start = self._leg_memo, self._leg_start_xy_m
+        if memo is not None and memo[0] is pose and memo[1] is start and memo[2] is goal:
+            return memo[3]
+        leg = line.leg_errors(self._leg_start(pose), (goal.x_m, goal.y_m), pose)
+        self._leg_memo = (pose, start, goal, leg)
+        return leg
+
     def _follow_line(self, pose: Pose2D, dt_s: float) -> NavOutput:
         goal = self._goal()
         mode = self.plan.mode
         cfg = self.control
         e_d = _distance_m(pose, goal)
-        leg = line.leg_errors(self._leg_start(pose), (goal.x_m, goal.y_m), pose)
+        leg = self._leg(pose, goal)
         if leg.along_to_go_m < 0.0:
             # Past a stop it did not reach (far beside it): fly to the point itself.
             leg = line.leg_errors((goal.x_m, goal.y_m), (goal.x_m, goal.y_m), pose)

@@ -11,6 +11,7 @@ import itertools
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import given, settings
@@ -472,3 +473,21 @@ def test_noisy_pose_no_dithering_near_the_goals(mode: MotionMode, seed: int) -> 
     assert plant.t_s < 1.2 * clean.time_s
     assert len(arrivals) == len(plan.waypoints)
     assert max(arrivals) <= LINE.stop_tolerance_m + 3 * sigma_m
+
+
+def test_one_leg_computation_per_step(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The arrival test and the guidance of a step read the same leg: computed once."""
+    calls: list[Pose2D] = []
+    real = line.leg_errors
+
+    def counted(start: tuple[float, float], end: tuple[float, float], pose: Pose2D) -> Any:
+        calls.append(pose)
+        return real(start, end, pose)
+
+    monkeypatch.setattr(line, "leg_errors", counted)
+    nav = Navigator(shipped("square", MotionMode.OMNI), LINE)
+    for k in range(20):  # tracking the first leg: no waypoint switch
+        calls.clear()
+        out = nav.step(Pose2D(0.05 * k, 0.3, 0.0), k * DT_S)
+        assert out.state is NavState.TRACK and out.reached_index is None
+        assert len(calls) == 1
