@@ -18,7 +18,7 @@ channels       leave unchanged (not ours)  release to the pilot's radio
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 
 from helixd.config import ChannelConfig
 from helixd.mavconst import UINT16_MAX
@@ -71,12 +71,29 @@ def release_value(channel: int) -> int:
 
 def override_frame(values_us: Mapping[int, int]) -> tuple[int, ...]:
     """18 override fields: ``values_us`` (channel → µs) on ours, "leave unchanged" elsewhere."""
-    frame = list(_LEAVE_UNCHANGED)
     for channel, pwm in values_us.items():
         _check_channel(channel)
         if pwm in (0, UINT16_MAX, UINT16_MAX - 1):
             raise ValueError(f"channel {channel}: {pwm} is a reserved override value, not a PWM")
-        frame[channel - 1] = int(pwm)
+    return frame_at(override_slots(values_us), [int(p) for p in values_us.values()])
+
+
+def override_slots(channels: Iterable[int]) -> tuple[int, ...]:
+    """Positions of ``channels`` in the 18 override fields (checked once, for a sink that
+    fills the same channels at every command with :func:`frame_at`)."""
+    out = []
+    for channel in channels:
+        _check_channel(channel)
+        out.append(channel - 1)
+    return tuple(out)
+
+
+def frame_at(slots: Sequence[int], pwms_us: Sequence[int]) -> tuple[int, ...]:
+    """18 override fields: ``pwms_us`` at ``slots`` (from :func:`override_slots`; PWMs from
+    :func:`fraction_to_pwm`, never a reserved value), "leave unchanged" elsewhere."""
+    frame = list(_LEAVE_UNCHANGED)
+    for slot, pwm in zip(slots, pwms_us, strict=True):
+        frame[slot] = pwm
     return tuple(frame)
 
 

@@ -28,8 +28,9 @@ import structlog
 from helixd.actuators.base import checked_fractions
 from helixd.actuators.mapping import (
     fraction_to_pwm,
+    frame_at,
     neutral_pwm,
-    override_frame,
+    override_slots,
     release_frame,
 )
 from helixd.config import ActuationConfig, VehicleConfig
@@ -49,6 +50,7 @@ class RcOverrideSink:
         self._clamp = vehicle.output_clamp
         self._ap = ap
         self._channels = tuple(actuation.channels)
+        self._slots = override_slots(c.channel for c in self._channels)  # checked once
         neutral = tuple(neutral_pwm(c) for c in self._channels)
         self._neutral: tuple[int, int, int, int] = (neutral[0], neutral[1], neutral[2], neutral[3])
         self.last_pwm_us: tuple[int, int, int, int] = self._neutral
@@ -86,9 +88,7 @@ class RcOverrideSink:
 
     def _set(self, pwm: tuple[int, int, int, int]) -> None:
         self.last_pwm_us = pwm
-        self._frame = override_frame(
-            {ch.channel: p for ch, p in zip(self._channels, pwm, strict=True)}
-        )
+        self._frame = frame_at(self._slots, pwm)
         self._send(self._frame)
 
     def _send(self, frame: tuple[int, ...]) -> None:

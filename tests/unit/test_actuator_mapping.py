@@ -10,8 +10,10 @@ from hypothesis import strategies as st
 
 from helixd.actuators.mapping import (
     fraction_to_pwm,
+    frame_at,
     leave_unchanged_value,
     override_frame,
+    override_slots,
     pwm_to_fraction,
     release_frame,
     release_value,
@@ -138,3 +140,19 @@ def test_override_frame_refuses_reserved_values(reserved: int) -> None:
 def test_channel_range_is_checked() -> None:
     with pytest.raises(ValueError, match=r"outside 1\.\.18"):
         override_frame({19: 1500})
+
+
+@given(
+    st.dictionaries(st.integers(1, 18), st.integers(800, 2200), min_size=1, max_size=18),
+)
+def test_slots_once_then_frames_equal_the_checked_frame(values_us: dict[int, int]) -> None:
+    """The sink's path (channels checked once, PWMs placed per command) builds the frame
+    override_frame builds."""
+    slots = override_slots(values_us)
+    assert frame_at(slots, list(values_us.values())) == override_frame(values_us)
+
+
+def test_override_slots_check_the_channels() -> None:
+    assert override_slots([1, 4, 18]) == (0, 3, 17)
+    with pytest.raises(ValueError, match=r"outside 1\.\.18"):
+        override_slots([0])
