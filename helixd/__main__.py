@@ -1,3 +1,3 @@
-from helixd.cli import main
+from helixd.cli.app import main
 
 main()

@@ -24,7 +24,7 @@ from pydantic import (
     model_validator,
 )
 
-from helixd.yamlio import YamlFileError, clip, clip_line, load_yaml_file, paused_gc
+from helixd.files.yamlio import YamlFileError, clip, clip_line, load_yaml_file, paused_gc
 
 # ---------------------------------------------------------------------------------------------
 # Base model and error reporting
@@ -552,7 +552,7 @@ class MissionLimits(InputModel):
 
 
 def _valid_link_url(url: str) -> str:
-    from helixd.link.url import LinkError, parse_link_url  # lazy: helixd.link imports us
+    from helixd.mav.url import LinkError, parse_link_url  # lazy: helixd.link imports us
 
     try:
         parse_link_url(url, 115200)  # form only; the baud is checked with link.baud at open
@@ -791,7 +791,7 @@ def _distinct_channels(channels: tuple[int, ...]) -> tuple[int, ...]:
 def _sane_polygon(poly: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
     if not poly:
         return poly
-    from helixd.mission.polygon import polygon_problems  # lazy: helixd.mission imports us
+    from helixd.base.polygon import polygon_problems  # lazy: helixd.mission imports us
 
     problems = polygon_problems(poly)
     if problems:
@@ -973,7 +973,7 @@ class PlanningConfig(InputModel):
 
 
 # ---------------------------------------------------------------------------------------------
-# Ground-station report (STATUSTEXT / NAMED_VALUE_FLOAT, helixd.gcs_report)
+# Ground-station report (STATUSTEXT / NAMED_VALUE_FLOAT, helixd.runtime.gcs_report)
 
 
 class GcsReportConfig(InputModel):

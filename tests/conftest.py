@@ -7,7 +7,7 @@ from collections.abc import Iterator
 import pytest
 import structlog
 
-from helixd import logging_setup
+from helixd.recorder import logging_setup
 
 
 @pytest.fixture

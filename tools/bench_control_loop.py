@@ -15,7 +15,7 @@ Real parts on both sides of a loopback UDP link:
   the no-slip kinematics (eq. 1) so the pose moves and the mission progresses;
 * the *daemon* side, in this process, is what ``helixd run`` flies with:
   :class:`helixd.link.connection.Autopilot` (reader, heartbeat, stream monitor),
-  :class:`helixd.flight.FlightLoop` (safety monitor, navigator, kinematics),
+  :class:`helixd.runtime.flight.FlightLoop` (safety monitor, navigator, kinematics),
   :class:`helixd.actuators.RcOverrideSink` (with its 20 Hz repeater), the run recorder
   (flight.csv, events.jsonl), the summary builder and the progress display, with structlog
   configured as the daemon configures it (info level, logfmt to a file instead of stderr).
@@ -522,18 +522,18 @@ async def run_daemon_side(
     import yaml
 
     from helixd.actuators import RcOverrideSink
+    from helixd.base.frames import MissionFrame
     from helixd.config import HelixdConfig, config_to_yaml
-    from helixd.display import ProgressDisplay
-    from helixd.flight import MANUAL_MODE, FlightLoop, PoseRejectedReport, StepReport
-    from helixd.flight_report import StepJournal, rejected_progress, step_progress
-    from helixd.frames import MissionFrame
     from helixd.link.connection import Autopilot
     from helixd.link.preflight import check_obedience
     from helixd.mission import Mission, resolve_plan
     from helixd.recorder.rows import FlightRow
     from helixd.recorder.rundir import RunRecorder
     from helixd.recorder.summary import SummaryBuilder
-    from helixd.signals import StopRequest
+    from helixd.runtime.display import ProgressDisplay
+    from helixd.runtime.flight import MANUAL_MODE, FlightLoop, PoseRejectedReport, StepReport
+    from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
+    from helixd.runtime.signals import StopRequest
 
     cfg = HelixdConfig.model_validate(
         {
@@ -1032,7 +1032,7 @@ def run_benchmark(
     floor: bool = True,
     profiler: Any = None,
 ) -> tuple[list[str], dict[str, Any]]:
-    from helixd.logging_setup import configure_logging
+    from helixd.recorder.logging_setup import configure_logging
 
     ctx = multiprocessing.get_context("spawn")
     parent, child = ctx.Pipe()

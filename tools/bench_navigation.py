@@ -58,7 +58,7 @@ if str(ROOT / "tools") not in sys.path:
 import navmetrics  # noqa: E402 - after the path set-up above
 from bench_results import write_section  # noqa: E402
 
-from helixd.yamlio import parse_yaml_text  # noqa: E402
+from helixd.files.yamlio import parse_yaml_text  # noqa: E402
 
 MISSIONS_DIR = ROOT / "config" / "missions"
 MISSIONS = ("square", "hexagon", "circle")

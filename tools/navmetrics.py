@@ -2,7 +2,7 @@
 
 Pure: numbers in, numbers out (no files, clocks or sockets). Used by ``bench_navigation.py``
 on the simulator's TRUE pose; the geometry is :mod:`helixd.recorder.track`'s (the SITL
-observer's nearest-leg distance) and :class:`helixd.frames.MissionFrame`.
+observer's nearest-leg distance) and :class:`helixd.base.frames.MissionFrame`.
 
 * :func:`frame_from_flight` recovers the mission frame the daemon used (mission → NED) from the
   recorded estimated NED pose and mission-frame pose of ``flight.csv``;
@@ -19,7 +19,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from helixd.frames import MissionFrame, NedPose
+from helixd.base.frames import MissionFrame, NedPose
 from helixd.recorder.track import distance_to_polyline_m, distance_to_segment_m
 from helixd.recorder.track import planned_polyline_ned as track_polyline_ned
 

@@ -21,7 +21,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 
 from helixd.config import ChannelConfig
-from helixd.mavconst import UINT16_MAX
+from helixd.mav.constants import UINT16_MAX
 
 RC_OVERRIDE_CHANNELS = 18
 FIRST_EXTENDED_CHANNEL = 9  # channels 9..18 use the second set of semantics

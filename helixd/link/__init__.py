@@ -7,7 +7,7 @@ The daemon codes against :class:`helixd.link.connection.Autopilot`; errors are
 
 from helixd.link.commands import CommandError, CommandRejected, CommandTimeout
 from helixd.link.connection import Autopilot
-from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
+from helixd.mav.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
 
 __all__ = [
     "Autopilot",

@@ -17,7 +17,8 @@ from helixd.config import LinkConfig
 from helixd.link.codec import MavlinkConnection
 from helixd.link.commands import CommandClient, CommandError, CommandRejected
 from helixd.link.telemetry import ChangeWaiters
-from helixd.mavconst import (
+from helixd.link.vehicle import Change, VehicleState, mode_number
+from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_DO_SET_SERVO,
@@ -26,7 +27,6 @@ from helixd.mavconst import (
     MAV_RESULT_ACCEPTED,
     UINT16_MAX,
 )
-from helixd.vehicle import Change, VehicleState, mode_number
 
 log = structlog.get_logger(__name__)
 

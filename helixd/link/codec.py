@@ -37,7 +37,7 @@ from helixd.link.ownid import OwnIdSenders
 from helixd.link.signing import enable_signing
 from helixd.link.tlog import LinkTlog
 from helixd.link.transport import Address, OnLost, make_transport
-from helixd.link.url import LinkError, LinkUrl
+from helixd.mav.url import LinkError, LinkUrl
 
 log = structlog.get_logger(__name__)
 

@@ -36,9 +36,9 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
-from helixd.link.url import LinkError
-from helixd.mavconst import MAV_RESULT_ACCEPTED, MAV_RESULT_IN_PROGRESS
-from helixd.vehicle import VehicleState
+from helixd.link.vehicle import VehicleState
+from helixd.mav.constants import MAV_RESULT_ACCEPTED, MAV_RESULT_IN_PROGRESS
+from helixd.mav.url import LinkError
 
 log = structlog.get_logger(__name__)
 

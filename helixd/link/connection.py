@@ -59,11 +59,11 @@ from helixd.link.streams import StreamManager
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.tlog import LinkTlog
 from helixd.link.transport import Address, Transport, make_transport
-from helixd.link.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
-from helixd.mavconst import (
+from helixd.link.vehicle import Change, PoseSample, VehicleState
+from helixd.mav.constants import (
     MAV_RESULT_ACCEPTED,
 )
-from helixd.vehicle import Change, PoseSample, VehicleState
+from helixd.mav.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
 
 __all__ = [
     "Address",

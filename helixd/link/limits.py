@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Protocol
 
-from helixd.vehicle import TelemetryBounds
+from helixd.link.vehicle import TelemetryBounds
 
 
 class SafetyNumbers(Protocol):

@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from helixd.link.url import LinkError
+from helixd.mav.url import LinkError
 
 KEY_LEN = 32
 SIGNING_EPOCH_UNIX_S = 1_420_070_400  # MAVLink signing timestamps count from 2015-01-01

@@ -34,7 +34,11 @@ from helixd.link.commands import (
     CommandError,
     result_name,
 )
-from helixd.mavconst import MAV_CMD_SET_MESSAGE_INTERVAL, MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED
+from helixd.mav.constants import (
+    MAV_CMD_SET_MESSAGE_INTERVAL,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_DENIED,
+)
 
 log = structlog.get_logger(__name__)
 

@@ -4,7 +4,7 @@
 ``ap.telemetry.pose_or_tick(tick_s)`` also yields None when ``tick_s`` passes without one (a
 loop that must run its watchdogs whether or not poses come); ``ap.telemetry.messages()`` yields
 every message of the autopilot's system with its receive time. The latest values are always
-in ``ap.state`` (:class:`helixd.vehicle.VehicleState`), which the link's reader updates before
+in ``ap.state`` (:class:`helixd.link.vehicle.VehicleState`), which the link's reader updates before
 any of these wake.
 
 The waits here cost one future and one timer handle each (no ``wait_for`` wrapper): the
@@ -19,7 +19,7 @@ import time
 from collections.abc import AsyncGenerator, Callable
 from typing import Any
 
-from helixd.vehicle import Change, PoseSample, VehicleState
+from helixd.link.vehicle import Change, PoseSample, VehicleState
 
 MavMsg = Any
 MESSAGE_QUEUE_MAX = 1024  # a stream consumer this far behind loses the oldest messages

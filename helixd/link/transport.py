@@ -21,7 +21,7 @@ from collections.abc import Callable
 import structlog
 
 from helixd.config import LinkConfig
-from helixd.link.url import LinkError, LinkUrl
+from helixd.mav.url import LinkError, LinkUrl
 
 log = structlog.get_logger(__name__)
 

@@ -1,6 +1,6 @@
 """Mission files (``config/missions/*.yaml``): what to fly, in which mode and frame.
 
-Frames (see :mod:`helixd.frames`):
+Frames (see :mod:`helixd.base.frames`):
 
 * ``start``: waypoints as ``x``/``y`` metres, x forward and y left of the pose at mission
   start; ``heading_deg`` counter-clockwise from the start heading.
@@ -152,13 +152,13 @@ class Mission(InputModel):
             ]
             if bad:
                 return bad[:3]
-            from helixd.frames import latlon_to_ne
+            from helixd.base.frames import latlon_to_ne
 
             lat0, lon0 = poly[0]
             plane = [latlon_to_ne(a, b, lat0, lon0) for a, b in poly]
         else:
             plane = list(poly)
-        from helixd.mission.polygon import polygon_problems
+        from helixd.base.polygon import polygon_problems
 
         return polygon_problems(plane)
 

@@ -30,8 +30,8 @@ from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
 from shapely.ops import unary_union
 
-from helixd.frames import geodesic_latlon, geodesic_ne_m
 from helixd.mission.formats.areas import CIRCLE_SEGMENTS, SurveyArea
+from helixd.mission.geodesy import geodesic_latlon, geodesic_ne_m
 
 XY = tuple[float, float]  # (east_m, north_m): shapely's x, y
 EPS_M = 1e-6  # geometric tolerance for "inside" tests (1 µm)

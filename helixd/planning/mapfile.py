@@ -23,8 +23,8 @@ import numpy as np
 import numpy.typing as npt
 from PIL import Image, UnidentifiedImageError
 
+from helixd.files.yamlio import YamlFileError, clip, load_yaml_file
 from helixd.planning.grid import GridFrame
-from helixd.yamlio import YamlFileError, clip, load_yaml_file
 
 MAX_MAP_YAML_BYTES = 64 * 1024
 MAX_IMAGE_BYTES = 256 * 1024 * 1024

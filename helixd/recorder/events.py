@@ -1,4 +1,4 @@
-"""Reading a run's ``events.jsonl`` (written by :mod:`helixd.logging_setup`'s tee).
+"""Reading a run's ``events.jsonl`` (written by :mod:`helixd.recorder.logging_setup`'s tee).
 
 Every event carries ``event``, ``level``, ``ts`` (ISO UTC) and ``t_mono_s`` (monotonic clock,
 the same clock as ``flight.csv``'s ``t_mono_s``).

@@ -1,7 +1,8 @@
 """The flight recorder's run directory: ``<run_root>/<UTC stamp>-<mission>/``.
 
 Contents: ``config.yaml`` and ``mission.yaml`` (the exact resolved inputs), ``events.jsonl``
-(every structlog event, via :mod:`helixd.logging_setup`), ``flight.csv`` (one row per control
+(every structlog event, via :mod:`helixd.recorder.logging_setup`), ``flight.csv`` (one row per
+control
 step, see :mod:`helixd.recorder.rows`) and ``summary.json`` (written atomically at the end);
 ``link.tlog`` (every MAVLink frame of the link, written by :mod:`helixd.link.tlog`).
 
@@ -31,8 +32,8 @@ from typing import IO
 
 import structlog
 
-from helixd import logging_setup
 from helixd.config import RecorderConfig
+from helixd.recorder import logging_setup
 from helixd.recorder.events import EVENTS_FILE, RUN_STARTED_EVENT
 from helixd.recorder.rows import FlightRow, RowFormatter
 from helixd.recorder.summary import RunSummary

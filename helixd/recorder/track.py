@@ -12,7 +12,7 @@ real SITL's LOCAL_POSITION_NED seen on a second link. Same figures as the run su
 * elapsed: from the last sample at rest at the start to the first sample of the final rest.
   "At rest" = within ``rest_tolerance_m`` of the first (resp. last) sample.
 
-Total: a non-finite coordinate or time raises :class:`helixd.geometry.NonFiniteError`; a track
+Total: a non-finite coordinate or time raises :class:`helixd.base.geometry.NonFiniteError`; a track
 with fewer than two samples, or a polyline without a point, has no metrics (None).
 """
 
@@ -22,8 +22,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from helixd.frames import MissionFrame
-from helixd.geometry import require_finite
+from helixd.base.frames import MissionFrame
+from helixd.base.geometry import require_finite
 
 NE = tuple[float, float]  # (north_m, east_m)
 

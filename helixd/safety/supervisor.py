@@ -22,10 +22,10 @@ from typing import Protocol
 
 import structlog
 
+from helixd.base.frames import NedPose
 from helixd.config import SafetyConfig
-from helixd.frames import NedPose
+from helixd.link.vehicle import PoseSample, VehicleState
 from helixd.safety.watchdogs import Fault, SafetyInputs, SafetyMonitor
-from helixd.vehicle import PoseSample, VehicleState
 
 log = structlog.get_logger(__name__)
 

@@ -1,4 +1,4 @@
-"""CLI commands contributed by helixd.sim (registered by helixd.cli): ``helixd sim``."""
+"""CLI commands contributed by helixd.sim (registered by helixd.cli.app): ``helixd sim``."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ import structlog
 import typer
 from pydantic import ValidationError
 
+from helixd.base.exitcodes import ExitCode
 from helixd.config import ConfigFileError, format_validation_error, load_yaml_model
-from helixd.exitcodes import ExitCode
 from helixd.sim.config import NoiseLevel, Plant, SimConfig, Terrain
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from helixd.mavconst import (
+from helixd.mav.constants import (
     MAV_CMD_GET_MESSAGE_INTERVAL,
     MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
     MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,

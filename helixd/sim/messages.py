@@ -13,7 +13,7 @@ import os
 from collections.abc import Sequence
 from typing import Any, Protocol, cast
 
-from helixd.mavconst import (
+from helixd.mav.constants import (
     MAV_AUTOPILOT_ARDUPILOTMEGA,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     MAV_MODE_FLAG_GUIDED_ENABLED,
@@ -21,11 +21,11 @@ from helixd.mavconst import (
     MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_TYPE_GROUND_ROVER,
 )
-from helixd.mavconst import MAV_STATE_ACTIVE as MAV_STATE_ACTIVE
-from helixd.mavconst import MAV_STATE_BOOT as MAV_STATE_BOOT
-from helixd.mavconst import MAV_STATE_CALIBRATING as MAV_STATE_CALIBRATING
-from helixd.mavconst import MAV_STATE_CRITICAL as MAV_STATE_CRITICAL
-from helixd.mavconst import MAV_STATE_STANDBY as MAV_STATE_STANDBY
+from helixd.mav.constants import MAV_STATE_ACTIVE as MAV_STATE_ACTIVE
+from helixd.mav.constants import MAV_STATE_BOOT as MAV_STATE_BOOT
+from helixd.mav.constants import MAV_STATE_CALIBRATING as MAV_STATE_CALIBRATING
+from helixd.mav.constants import MAV_STATE_CRITICAL as MAV_STATE_CRITICAL
+from helixd.mav.constants import MAV_STATE_STANDBY as MAV_STATE_STANDBY
 
 os.environ.setdefault("MAVLINK20", "1")
 

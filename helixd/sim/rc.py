@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from helixd.mavconst import UINT16_MAX
+from helixd.mav.constants import UINT16_MAX
 
 NUM_RC_CHANNELS = 16
 RC_OPTION_IGNORE_RECEIVER = 1 << 0

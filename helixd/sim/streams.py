@@ -18,8 +18,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from helixd.mavconst import MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED
-from helixd.mavconst import MAV_RESULT_FAILED as MAV_RESULT_FAILED
+from helixd.mav.constants import MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED
+from helixd.mav.constants import MAV_RESULT_FAILED as MAV_RESULT_FAILED
 
 MSG_HEARTBEAT = 0
 MSG_SYS_STATUS = 1

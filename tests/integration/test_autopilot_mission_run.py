@@ -17,8 +17,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from helixd.exitcodes import ExitCode
-from helixd.frames import latlon_to_ne
+from helixd.base.exitcodes import ExitCode
+from helixd.base.frames import latlon_to_ne
 from helixd.sim.config import SimConfig
 from helixd.sim.server import SimServer
 from helixd.sim.snapshot import SimSnapshot

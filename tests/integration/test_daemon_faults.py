@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from tests.integration.harness import (
     SPEEDUP,
     overrides_released,

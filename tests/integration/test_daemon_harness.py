@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from tests.support.daemon import deep_merge, spawn_daemon
 
 pytestmark = pytest.mark.integration

@@ -11,11 +11,11 @@ from typing import Any
 
 import pytest
 
-import helixd.flight
+import helixd.runtime.flight
+from helixd.base.exitcodes import ExitCode
 from helixd.config import HelixdConfig
-from helixd.daemon import RunOptions, run_mission
-from helixd.exitcodes import ExitCode
 from helixd.mission import load_mission
+from helixd.runtime.daemon import RunOptions, run_mission
 from tests.integration.harness import (
     MISSIONS,
     SPEEDUP,
@@ -37,7 +37,7 @@ async def test_unhandled_exception_falls_back_to_hold(
     """A bug inside the control step (here: the kinematics raising on the 100th step) must
     still end with neutral + release + HOLD, and exit code 1 (internal error)."""
     calls = {"n": 0}
-    real = helixd.flight.scroll_fractions
+    real = helixd.runtime.flight.scroll_fractions
 
     def exploding(*args: Any, **kwargs: Any) -> tuple[float, float, float, float]:
         calls["n"] += 1
@@ -45,7 +45,7 @@ async def test_unhandled_exception_falls_back_to_hold(
             raise ZeroDivisionError("injected bug in the control step")
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(helixd.flight, "scroll_fractions", exploding)
+    monkeypatch.setattr(helixd.runtime.flight, "scroll_fractions", exploding)
     with running_sim(speedup=SPEEDUP) as (server, url):
         cfg = HelixdConfig.model_validate(
             {"link": {"url": url}, "safety": {"arm_retry_interval_s": 0.5}}

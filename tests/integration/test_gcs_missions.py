@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from helixd.exitcodes import ExitCode
-from helixd.frames import latlon_to_ne
+from helixd.base.exitcodes import ExitCode
+from helixd.base.frames import latlon_to_ne
 from helixd.sim.config import SimConfig
 from tests.integration.harness import secured, sim_and_daemon
 

@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from helixd.sim.config import HELIXD_SYSID
 from tests.integration.harness import (
     SPEEDUP,

@@ -20,7 +20,7 @@ import yaml
 from PIL import Image
 
 import helixd.sim
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from helixd.sim import SimConfig, SimServer
 from helixd.sim.obstacles import SimObstacles, distance_m
 from tests.integration.harness import BASE_CONFIG, SPEEDUP, Trace, record_until, secured
@@ -99,7 +99,7 @@ def _fly(
             recorded.set()
 
     monkeypatch.setattr(helixd.sim, "start_embedded", start)
-    from helixd.cli import main
+    from helixd.cli.app import main
 
     thread = threading.Thread(target=recorder, daemon=True)
     thread.start()

@@ -10,7 +10,7 @@ import pytest
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.telemetry import FlightMode, TelemetryAsync
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from tests.integration.harness import (
     SPEEDUP,
     daemon,

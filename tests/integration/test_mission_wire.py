@@ -18,7 +18,7 @@ import yaml
 
 os.environ.setdefault("MAVLINK20", "1")
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from helixd.mission.formats import read_gcs
 from helixd.mission.formats.items import GcsMission, MissionItem
 from helixd.sim.config import HELIXD_SYSID

@@ -14,7 +14,7 @@ from typing import Any
 
 import pytest
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from helixd.sim.obstacles import SimObstacles, distance_m
 from tests.integration.harness import record_until, secured, sim_and_daemon
 

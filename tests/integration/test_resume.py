@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from tests.integration.harness import SPEEDUP, secured, sim_and_daemon, time_until
 from tests.support.daemon import spawn_daemon
 

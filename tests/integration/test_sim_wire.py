@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 from typer.testing import CliRunner
 
-from helixd.cli import app
+from helixd.cli.app import app
 from helixd.sim import FaultError
 from tests.integration.harness import (
     FORCE_ARM,

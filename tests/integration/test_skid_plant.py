@@ -20,7 +20,7 @@ from typing import Any
 
 import pytest
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from helixd.recorder.track import TrackPoint
 from helixd.sim import SimServer, SimSnapshot
 from tests.integration.harness import (

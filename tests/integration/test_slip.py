@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from helixd.recorder.rows import read_flight_columns
 from helixd.sim.config import TerrainTable
 from tests.integration.harness import sim_and_daemon

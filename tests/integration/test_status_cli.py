@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from tests.integration.harness import running_sim
 
 pytestmark = pytest.mark.integration

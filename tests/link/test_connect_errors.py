@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from helixd.link.connection import Autopilot, LinkError
-from helixd.link.url import ALLOWED_FORMS, LinkTimeout
+from helixd.mav.url import ALLOWED_FORMS, LinkTimeout
 from tests.link.peer import free_port, link_config, safety_config, udp_peer
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from helixd.link.connection import Autopilot
-from helixd.link.url import LinkTimeout
+from helixd.mav.url import LinkTimeout
 from tests.link.peer import link_config, linked, safety_config, udp_peer, until
 
 KEY = bytes(range(32))

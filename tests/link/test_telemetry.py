@@ -7,7 +7,7 @@ import time
 from typing import Any
 
 from helixd.link.telemetry import ChangeWaiters, Telemetry
-from helixd.vehicle import VehicleState
+from helixd.link.vehicle import VehicleState
 from tests.support.mavmsgs import att, lpn
 
 

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.vehicle import Change, VehicleState, mode_name, mode_number
+from helixd.link.vehicle import Change, VehicleState, mode_name, mode_number
 from tests.support.mavmsgs import AP, att, codec, decoded, hb, lpn
 
 
@@ -244,7 +244,7 @@ def test_no_valid_pose_ever_when_nan_from_the_start() -> None:
 
 def test_bounds_come_from_the_safety_config() -> None:
     from helixd.config import SafetyConfig
-    from helixd.vehicle import TelemetryBounds
+    from helixd.link.vehicle import TelemetryBounds
 
     cfg = SafetyConfig(telemetry_position_max_m=100.0, telemetry_speed_max_mps=2.0)
     st = VehicleState(bounds=TelemetryBounds.from_safety(cfg))

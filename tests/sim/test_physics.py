@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from helixd.base.geometry import BodyVelocity
 from helixd.config import VehicleConfig
 from helixd.control.kinematics import body_to_fractions, rpm_to_radps
-from helixd.geometry import BodyVelocity
 from helixd.mission.model import MotionMode
 from helixd.sim.config import SimConfig, Terrain
 from helixd.sim.physics import MotorMap, PhysicsState, scroll_fractions_from_pwm, step

@@ -134,7 +134,7 @@ def _write_map(tmp_path: Path) -> Path:
 def test_sim_world_takes_the_maps_occupied_cells_and_the_config_keep_outs(
     tmp_path: Path,
 ) -> None:
-    from helixd.cli import sim_world
+    from helixd.cli.app import sim_world
     from helixd.config import HelixdConfig
     from helixd.planning import load_map
 
@@ -160,7 +160,7 @@ def test_run_sim_map_hands_the_world_to_the_embedded_simulator(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     seen = capture_embedded_start(monkeypatch)
-    from helixd.cli import main
+    from helixd.cli.app import main
 
     mission = tmp_path / "across.yaml"
     mission.write_text(

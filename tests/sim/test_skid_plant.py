@@ -247,7 +247,7 @@ def test_run_sim_plant_option_reaches_the_embedded_simulator(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     seen = capture_embedded_start(monkeypatch)
-    from helixd.cli import main
+    from helixd.cli.app import main
 
     with pytest.raises(EmbeddedStart):
         main(["run", "--sim", "--sim-plant", "sitl_skid", "--mission", "square"])

@@ -12,8 +12,8 @@ import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from helixd.base.frames import MissionFrame, NedPose
 from helixd.control.kinematics import rpm_to_radps
-from helixd.frames import MissionFrame, NedPose
 from helixd.recorder.track import (
     TrackMetrics,
     TrackPoint,

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 import pytest
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from helixd.recorder.track import TrackPoint
 from tests.sitl.skid_setup import square_metrics
 

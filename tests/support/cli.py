@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from helixd.cli import main
+from helixd.cli.app import main
 
 
 def main_exit(argv: list[str]) -> int:

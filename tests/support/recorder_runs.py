@@ -13,13 +13,12 @@ from pathlib import Path
 
 import structlog
 
-from helixd import logging_setup
 from helixd.base.angles import shortest_angular_distance, wrap_pi
 from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig, config_to_yaml
 from helixd.control.kinematics import body_to_fractions
-from helixd.recorder import FlightRow, RunRecorder, SummaryBuilder
+from helixd.recorder import FlightRow, RunRecorder, SummaryBuilder, logging_setup
 
 NOW = datetime(2026, 11, 21, 3, 15, 0, tzinfo=UTC)
 SQUARE_YAML = """\

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.control.angles import shortest_angular_distance, wrap_pi
+from helixd.base.angles import shortest_angular_distance, wrap_pi
 
 angles = st.floats(min_value=-1e4, max_value=1e4, allow_nan=False, allow_infinity=False)
 

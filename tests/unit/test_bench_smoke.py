@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from helixd.frames import MissionFrame, NedPose
+from helixd.base.frames import MissionFrame, NedPose
 from tests.support.tools import load_tool
 
 nav = load_tool("bench_navigation")

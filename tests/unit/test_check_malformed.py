@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from helixd.cli import app
+from helixd.cli.app import app
 
 ROOT = Path(__file__).resolve().parents[2]
 CORPUS = Path(__file__).with_name("malformed")

@@ -12,8 +12,8 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from helixd.cli import app
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
+from helixd.cli.app import app
 from tests.integration.harness import sim_and_daemon
 
 MISSION = "name: far\nmode: omni\nframe: local_ned\nwaypoints:\n  - {north: 60, east: 0}\n"

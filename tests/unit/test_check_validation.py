@@ -11,10 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
+from helixd.base.frames import NedPose
+from helixd.base.polygon import leg_leaves_polygon, polygon_problems, segments_intersect
 from helixd.config import HelixdConfig
-from helixd.frames import NedPose
 from helixd.mission.model import Mission
-from helixd.mission.polygon import leg_leaves_polygon, polygon_problems, segments_intersect
 from helixd.mission.validate import mission_problems, pending_checks
 
 

@@ -8,7 +8,7 @@ import pytest
 import yaml
 from typer.testing import CliRunner
 
-from helixd.cli import app
+from helixd.cli.app import app
 from helixd.mission.formats import load_mission_file
 from helixd.mission.model import MotionMode
 

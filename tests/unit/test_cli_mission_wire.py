@@ -7,8 +7,8 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from helixd.cli import app
-from helixd.cli_mission import describe_gcs
+from helixd.cli.app import app
+from helixd.cli.mission import describe_gcs
 from helixd.mission.formats import read_gcs
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -7,7 +7,11 @@ import asyncio
 import pytest
 
 from helixd.actuators import ServoCommandRefused
-from helixd.daemon import (
+from helixd.base.exitcodes import ExitCode
+from helixd.link.commands import CommandRejected, CommandTimeout
+from helixd.mav.url import LinkError
+from helixd.mission import PlanError
+from helixd.runtime.daemon import (
     EXIT_RULES,
     PreflightFailed,
     Stage,
@@ -16,10 +20,6 @@ from helixd.daemon import (
     ending_for,
     exit_rule,
 )
-from helixd.exitcodes import ExitCode
-from helixd.link.commands import CommandRejected, CommandTimeout
-from helixd.link.url import LinkError
-from helixd.mission import PlanError
 from helixd.safety.watchdogs import Fault, FaultCause
 
 
@@ -89,8 +89,8 @@ def test_close_is_bounded(tmp_path: object) -> None:
     from pathlib import Path
 
     from helixd.config import HelixdConfig
-    from helixd.daemon import MissionRunner, RunOptions
     from helixd.mission import Mission
+    from helixd.runtime.daemon import MissionRunner, RunOptions
 
     cfg = HelixdConfig()
     mission = Mission.model_validate(

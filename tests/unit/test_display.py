@@ -11,8 +11,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 from rich.console import Console
 
-from helixd import logging_setup
-from helixd.display import (
+from helixd.base.exitcodes import ExitCode
+from helixd.recorder import logging_setup
+from helixd.recorder.rows import nan_row
+from helixd.recorder.summary import RunSummary, SummaryBuilder
+from helixd.runtime.display import (
     AutopilotElapsed,
     ProgressDisplay,
     ProgressInfo,
@@ -22,9 +25,6 @@ from helixd.display import (
     result_line,
     summary_rows,
 )
-from helixd.exitcodes import ExitCode
-from helixd.recorder.rows import nan_row
-from helixd.recorder.summary import RunSummary, SummaryBuilder
 from tests.support.recorder_runs import FakeClock
 
 pytestmark = pytest.mark.usefixtures("reset_logging")

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from helixd.cli import app
+from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne, ne_to_latlon
+from helixd.cli.app import app
 from helixd.config import HelixdConfig, config_to_yaml
-from helixd.export import ExportError, build_export, load_run_export, to_geojson, to_kml
-from helixd.frames import MissionFrame, NedPose, latlon_to_ne, ne_to_latlon
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission
+from helixd.recorder.export import ExportError, build_export, load_run_export, to_geojson, to_kml
 from helixd.recorder.rows import COLUMNS, CSV_COMMENT, FlightRow, RowFormatter, nan_row
 from helixd.recorder.summary import SummaryBuilder
 

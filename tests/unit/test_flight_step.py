@@ -13,16 +13,16 @@ from typing import Any
 import pytest
 
 from helixd.actuators import ServoCommandRefused
+from helixd.base.frames import MissionFrame, NedPose
 from helixd.config import HelixdConfig
-from helixd.flight import FlightLoop, StepReport
-from helixd.flight_report import StepJournal, flight_row
-from helixd.frames import MissionFrame, NedPose
 from helixd.link.commands import CommandRejected
 from helixd.link.telemetry import ChangeWaiters, Telemetry
+from helixd.link.vehicle import VehicleState
 from helixd.mission import Mission, resolve_plan
+from helixd.runtime.flight import FlightLoop, StepReport
+from helixd.runtime.flight_report import StepJournal, flight_row
+from helixd.runtime.signals import StopRequest
 from helixd.safety.watchdogs import FaultCause
-from helixd.signals import StopRequest
-from helixd.vehicle import VehicleState
 from tests.support.mavmsgs import AP, att, decoded, hb, lpn
 
 EKF_OK = 0x1 | 0x2 | 0x4 | 0x8 | 0x10 | 0x20

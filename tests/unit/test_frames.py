@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from helixd.frames import MissionFrame, NedPose, latlon_to_ne, ne_to_latlon
+from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne, ne_to_latlon
 
 coord = st.floats(-500, 500, allow_nan=False)
 angle = st.floats(-math.pi, math.pi, allow_nan=False)

@@ -1,4 +1,4 @@
-"""helixd.gcs_report: STATUSTEXT / NAMED_VALUE_FLOAT as a ground station receives them."""
+"""helixd.runtime.gcs_report: STATUSTEXT / NAMED_VALUE_FLOAT as a ground station receives them."""
 
 from __future__ import annotations
 
@@ -13,7 +13,8 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import GcsReportConfig, HelixdConfig
-from helixd.gcs_report import (
+from helixd.link.statustext import StatusTextAssembler
+from helixd.runtime.gcs_report import (
     Fault,
     GcsReporter,
     PhaseChange,
@@ -21,7 +22,6 @@ from helixd.gcs_report import (
     WaypointReached,
     chunk_statustext,
 )
-from helixd.link.statustext import StatusTextAssembler
 
 CFG = GcsReportConfig()
 

@@ -8,8 +8,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from helixd.frames import geodesic_latlon, geodesic_ne_m, latlon_to_ne, ne_to_latlon
-from helixd.geometry import NonFiniteError
+from helixd.base.frames import latlon_to_ne, ne_to_latlon
+from helixd.base.geometry import NonFiniteError
+from helixd.mission.geodesy import geodesic_latlon, geodesic_ne_m
 
 # AP_Common/Location.h: LOCATION_SCALING_FACTOR, metres per 1e-7 degree (written out here,
 # not derived, so the test does not share the module's arithmetic)

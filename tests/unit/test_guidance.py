@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from helixd.base.geometry import Pose2D
 from helixd.control import guidance
 from helixd.control.guidance import (
     GuidanceResult,
@@ -17,7 +18,6 @@ from helixd.control.guidance import (
     track_speed_mps,
     world_to_body,
 )
-from helixd.geometry import Pose2D
 from helixd.mission.model import MotionMode
 from helixd.mission.plan import PlanWaypoint
 from tests.support.ideal_plant import integrate

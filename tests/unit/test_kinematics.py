@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from helixd.base.geometry import BodyVelocity
 from helixd.config import ScrollCalibration, VehicleConfig
 from helixd.control.kinematics import (
     apply_calibration,
@@ -27,7 +28,6 @@ from helixd.control.kinematics import (
     scroll_fractions,
     scroll_radps_to_body,
 )
-from helixd.geometry import BodyVelocity
 from helixd.mission.model import MotionMode
 
 VEHICLE = VehicleConfig()

@@ -89,9 +89,9 @@ def test_simulator_loads_nothing_of_the_controller_link_or_daemon() -> None:
     forbidden = (
         "helixd.control",
         "helixd.link",
-        "helixd.daemon",
-        "helixd.flight",
-        "helixd.vehicle",
+        "helixd.runtime.daemon",
+        "helixd.runtime.flight",
+        "helixd.link.vehicle",
     )
     bad = {m for m in helixd_modules(loaded) if m.startswith(forbidden)}
     assert not bad, f"helixd.sim loads {sorted(bad)}"

@@ -17,10 +17,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.config import ControlConfig, HelixdConfig
 from helixd.control import line
 from helixd.control.navigator import Navigator, NavState
-from helixd.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.mission import (
     MissionFrameKind,
     MotionMode,

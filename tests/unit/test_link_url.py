@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from helixd.link.url import ALLOWED_FORMS, STANDARD_BAUDS, LinkError, parse_link_url
+from helixd.mav.url import ALLOWED_FORMS, STANDARD_BAUDS, LinkError, parse_link_url
 
 
 @pytest.mark.parametrize(

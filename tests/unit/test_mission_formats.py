@@ -12,8 +12,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from helixd.base.frames import latlon_to_ne
 from helixd.config import ConfigFileError
-from helixd.frames import latlon_to_ne
 from helixd.mission.formats import (
     FormatError,
     MissionFormat,

@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
+from helixd.base.frames import NedPose, latlon_to_ne, ne_to_latlon
 from helixd.config import HelixdConfig
-from helixd.frames import NedPose, latlon_to_ne, ne_to_latlon
 from helixd.mission.model import Mission
 from helixd.mission.validate import (
     apply_mission_limits,

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import pytest
 
+from helixd.base.angles import shortest_angular_distance
+from helixd.base.geometry import BodyVelocity, Pose2D
 from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
-from helixd.control.angles import shortest_angular_distance
 from helixd.control.navigator import Navigator, NavState
-from helixd.geometry import BodyVelocity, Pose2D
 from helixd.mission import (
     MissionFrameKind,
     MotionMode,

@@ -6,9 +6,9 @@ import math
 
 import pytest
 
+from helixd.base.geometry import Pose2D
 from helixd.config import ControlConfig
 from helixd.control.navigator import Navigator, NavOutput, NavState
-from helixd.geometry import Pose2D
 from helixd.mission import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from tests.support.ideal_plant import IdealPlant
 

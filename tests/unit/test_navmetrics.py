@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from helixd.frames import MissionFrame, NedPose
+from helixd.base.frames import MissionFrame, NedPose
 from tests.support.tools import load_tool
 
 nm = load_tool("navmetrics")

@@ -1,4 +1,4 @@
-"""helixd.notify: real AF_UNIX datagram sockets stand in for systemd's notify socket."""
+"""helixd.runtime.notify: real AF_UNIX datagram sockets stand in for systemd's notify socket."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from structlog.testing import capture_logs
 
-from helixd.notify import (
+from helixd.runtime.notify import (
     ServiceNotifier,
     parse_watchdog_interval_s,
     sanitize_status,

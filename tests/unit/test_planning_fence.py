@@ -152,7 +152,7 @@ def test_check_plans_a_plan_around_its_exclusions_and_refuses_without_planning(
 
 
 def test_first_leg_of_a_global_plan_is_replanned_from_the_rover(tmp_path: Path) -> None:
-    from helixd.cli import first_leg_replanner
+    from helixd.cli.app import first_leg_replanner
 
     path = write_plan(tmp_path, [(20.0, 0.0), (20.0, 10.0)])  # waypoint 0 beyond the wall
     msn = load_mission_file(path, mode=MotionMode.ROLL, route_keep_outs=True).mission
@@ -180,7 +180,7 @@ def test_first_leg_of_a_global_plan_is_replanned_from_the_rover(tmp_path: Path) 
 def test_check_plot_of_a_global_plan_is_labelled_around_waypoint_0(tmp_path: Path) -> None:
     from matplotlib.figure import Figure
 
-    from helixd.plots import draw_route
+    from helixd.recorder.plots import draw_route
 
     path = write_plan(tmp_path, [(0.0, 0.0), (20.0, 0.0)])
     msn = load_mission_file(path, mode=MotionMode.ROLL, route_keep_outs=True).mission

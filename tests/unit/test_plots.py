@@ -12,7 +12,9 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
-from helixd.plots import (
+from helixd.cli import runs as command
+from helixd.recorder.events import read_events
+from helixd.recorder.plots import (
     AUTOPILOT_AXIS_LABEL,
     OVERVIEW_SIZE_PX,
     PANEL_FILES,
@@ -27,8 +29,6 @@ from helixd.plots import (
     sparse_label_mask,
     waypoint_labels,
 )
-from helixd.recorder import command
-from helixd.recorder.events import read_events
 from tests.support.recorder_runs import SQUARE, synth_run
 
 pytestmark = pytest.mark.usefixtures("reset_logging")

@@ -18,9 +18,14 @@ from typing import IO
 
 import pytest
 
-from helixd import logging_setup
 from helixd.config import RecorderConfig
-from helixd.recorder import FlightRow, RecorderUnavailable, RunRecorder, SummaryBuilder
+from helixd.recorder import (
+    FlightRow,
+    RecorderUnavailable,
+    RunRecorder,
+    SummaryBuilder,
+    logging_setup,
+)
 from helixd.recorder.rows import COLUMNS, CSV_COMMENT, nan_row, read_flight_csv
 from helixd.recorder.rundir import default_opener, run_dir_name
 from tests.support.recorder_runs import NOW, SQUARE_YAML, FakeClock, synth_run

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 import structlog
 
-from helixd import logging_setup
-from helixd.logging_setup import attach_events_file, configure_logging, detach_events_file
+from helixd.recorder import logging_setup
+from helixd.recorder.logging_setup import attach_events_file, configure_logging, detach_events_file
 
 pytestmark = pytest.mark.usefixtures("reset_logging")
 

@@ -15,8 +15,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from helixd import logging_setup
-from helixd.recorder import command
+from helixd.cli import runs as command
+from helixd.recorder import logging_setup
 from helixd.recorder.clocks import ClockMap, autopilot_axis_s
 from helixd.recorder.events import read_events, timeline
 from helixd.recorder.rows import COLUMNS

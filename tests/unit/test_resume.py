@@ -29,7 +29,7 @@ from helixd.mission.resume import (
     sha256_text,
     with_leg_start,
 )
-from helixd.mission.resume_dir import read_run_dir
+from helixd.recorder.resume_dir import read_run_dir
 
 CFG = HelixdConfig()
 CONFIG_SHA = sha256_text(config_to_yaml(CFG))

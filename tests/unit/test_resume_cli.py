@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from helixd.cli import config_sha256, main
+from helixd.cli.app import config_sha256, main
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission
 from helixd.mission.resume import INPUTS_FILE, fresh_inputs

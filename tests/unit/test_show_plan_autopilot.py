@@ -13,15 +13,15 @@ import typer
 from hypothesis import given
 from hypothesis import strategies as hs
 
-from helixd.cli_autopilot import convert, wants_autopilot
+from helixd.base.exitcodes import ExitCode
+from helixd.base.frames import NedPose, latlon_to_ne
+from helixd.cli.autopilot import convert, wants_autopilot
 from helixd.config import HelixdConfig
-from helixd.exitcodes import ExitCode
-from helixd.frames import NedPose, latlon_to_ne
 from helixd.link.mission import MissionItem as WireItem
 from helixd.mission import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.formats.wire import gcs_to_wire
-from helixd.show_plan import plan_as_gcs, show_plan
+from helixd.runtime.show_plan import plan_as_gcs, show_plan
 
 ORIGIN = (53.5233, -113.5263)
 CFG = HelixdConfig()

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from helixd.base.geometry import BodyVelocity
 from helixd.config import SafetyConfig, SlipConfig, StallConfig, VehicleConfig
 from helixd.control.kinematics import body_to_fractions
 from helixd.control.slip import (
@@ -17,7 +18,6 @@ from helixd.control.slip import (
     measured_body_velocity,
     no_slip_body,
 )
-from helixd.geometry import BodyVelocity
 from helixd.mission.model import MotionMode
 from helixd.safety.watchdogs import FaultCause, SafetyInputs, SafetyMonitor
 

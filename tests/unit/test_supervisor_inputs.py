@@ -6,11 +6,11 @@ import math
 
 import pytest
 
+from helixd.base.frames import NedPose
 from helixd.config import SafetyConfig
-from helixd.frames import NedPose
+from helixd.link.vehicle import VehicleState
 from helixd.safety.supervisor import Motion, Supervisor, safety_inputs
 from helixd.safety.watchdogs import FaultCause
-from helixd.vehicle import VehicleState
 from tests.support.mavmsgs import AP, att, decoded, hb, lpn
 
 MOTION = Motion(0.5, 0.1, 0.05, 12.0)

@@ -13,8 +13,7 @@ from hypothesis import strategies as st
 from shapely.geometry import LineString, Polygon
 from typer.testing import CliRunner
 
-from helixd.cli import app
-from helixd.frames import geodesic_latlon, geodesic_ne_m
+from helixd.cli.app import app
 from helixd.mission.formats import FormatError, load_mission_file
 from helixd.mission.formats.areas import (
     SurveyArea,
@@ -22,6 +21,7 @@ from helixd.mission.formats.areas import (
     area_from_kml,
     read_area,
 )
+from helixd.mission.geodesy import geodesic_latlon, geodesic_ne_m
 from helixd.mission.survey import SurveyError, plan_survey
 
 DATA = Path(__file__).resolve().parents[1] / "data"

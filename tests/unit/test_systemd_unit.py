@@ -20,8 +20,8 @@ from pathlib import Path
 
 import pytest
 
+from helixd.base.exitcodes import ExitCode
 from helixd.config import load_config
-from helixd.exitcodes import ExitCode
 
 REPO = Path(__file__).resolve().parents[2]
 UNIT = REPO / "systemd" / "helixd@.service"

@@ -15,9 +15,11 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from helixd.base.angles import shortest_angular_distance, wrap_pi
+from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne, ne_to_latlon
+from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.config import ControlConfig, PidGains, VehicleConfig
 from helixd.control import guidance
-from helixd.control.angles import shortest_angular_distance, wrap_pi
 from helixd.control.kinematics import (
     apply_calibration,
     body_to_fractions,
@@ -30,8 +32,6 @@ from helixd.control.kinematics import (
 )
 from helixd.control.navigator import Navigator
 from helixd.control.pid import PID
-from helixd.frames import MissionFrame, NedPose, latlon_to_ne, ne_to_latlon
-from helixd.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.mission import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 
 NAN, INF = math.nan, math.inf

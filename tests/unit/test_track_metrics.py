@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from helixd.frames import MissionFrame, NedPose
-from helixd.geometry import NonFiniteError
+from helixd.base.frames import MissionFrame, NedPose
+from helixd.base.geometry import NonFiniteError
 from helixd.recorder.track import (
     NE,
     TrackPoint,

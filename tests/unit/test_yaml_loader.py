@@ -1,4 +1,4 @@
-"""helixd.yamlio: the hostile-YAML loader (unit tests, fuzzing, the 100 000-waypoint budget)."""
+"""helixd.files.yamlio: the hostile-YAML loader (unit tests, fuzzing, 100 000-waypoint budget)."""
 
 from __future__ import annotations
 
@@ -11,10 +11,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from helixd.cli import app
+from helixd.cli.app import app
 from helixd.config import ConfigFileError, HelixdConfig, load_config
-from helixd.mission import load_mission
-from helixd.yamlio import (
+from helixd.files.yamlio import (
     LIBYAML,
     MAX_DEPTH,
     YamlFileError,
@@ -23,6 +22,7 @@ from helixd.yamlio import (
     parse_yaml_text,
     read_text_capped,
 )
+from helixd.mission import load_mission
 
 
 def test_libyaml_is_used_here() -> None:
@@ -96,7 +96,7 @@ def test_refusals(text: str, fragment: str) -> None:
 
 
 def test_value_count_is_capped(monkeypatch: pytest.MonkeyPatch) -> None:
-    import helixd.yamlio as yamlio
+    import helixd.files.yamlio as yamlio
 
     monkeypatch.setattr(yamlio, "MAX_EVENTS", 100)
     assert len(parse_yaml_text("[" + "1," * 80 + "1]")) == 81

@@ -16,6 +16,7 @@ import yaml
 from pydantic import ValidationError
 
 from helixd.config import ConfigFileError, MissionLimits, format_validation_error
+from helixd.files.yamlio import YamlFileError, read_text_capped
 from helixd.mission.formats.items import (
     Converted,
     FenceNe,
@@ -31,7 +32,6 @@ from helixd.mission.formats.items import (
 from helixd.mission.formats.qgc_plan import parse_plan_text, plan_to_text
 from helixd.mission.formats.wpl import parse_wpl_text, wpl_to_text
 from helixd.mission.model import Mission, MotionMode, load_mission
-from helixd.yamlio import YamlFileError, read_text_capped
 
 
 class MissionFormat(StrEnum):

@@ -11,9 +11,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from helixd.files.yamlio import YamlFileError, clip, read_text_capped
 from helixd.mission.formats.items import FormatError, check_latlon
 from helixd.mission.formats.qgc_plan import load_json_text, parse_plan_text
-from helixd.yamlio import YamlFileError, clip, read_text_capped
 
 MAX_VERTICES = 10_000  # per ring
 MAX_HOLES = 1_000

@@ -22,6 +22,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from helixd.config import format_validation_error
+from helixd.files.yamlio import clip, clip_line
 from helixd.mission.formats.items import (
     MAX_ITEMS,
     FenceCircle,
@@ -31,7 +32,6 @@ from helixd.mission.formats.items import (
     MissionItem,
     check_latlon,
 )
-from helixd.yamlio import clip, clip_line
 
 MAX_DEPTH = 24  # a .plan nests 6 deep (plan → mission → items → complex → transect → items)
 

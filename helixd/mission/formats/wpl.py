@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from helixd.files.yamlio import clip
 from helixd.mission.formats.items import (
     MAX_ITEMS,
     FormatError,
@@ -24,7 +25,6 @@ from helixd.mission.formats.items import (
     MissionItem,
     check_latlon,
 )
-from helixd.yamlio import clip
 
 HEADER = "QGC WPL 110"
 

@@ -13,7 +13,7 @@ path helixd would fly (NAV_WAYPOINT items only).
 
 The plan goes up as ``MAV_FRAME_GLOBAL_RELATIVE_ALT`` NAV_WAYPOINTs (seq 0 = home, here the
 rover's pose at preflight): mission-frame points → NED through the run's mission frame → lat/lon
-through the EKF origin (ArduPilot's own flat-earth map, :func:`helixd.frames.ne_to_latlon`),
+through the EKF origin (ArduPilot's own flat-earth map, :func:`helixd.base.frames.ne_to_latlon`),
 so QGC draws them where LOCAL_POSITION_NED puts the rover.
 """
 
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import structlog
 
-from helixd.frames import MissionFrame, NedPose, ne_to_latlon
+from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.mission import MissionTransferError
 from helixd.link.mission_link import upload_all

@@ -13,7 +13,7 @@ The step itself (:meth:`FlightLoop._step`) is pure: pose in, :class:`StepOutput`
 scroll fractions and the navigator's output) out, no send and no callback. The command leaves
 first; what the recorder and the display need (:class:`StepReport`) is handed over after the
 send, so building the flight.csv row and the progress line costs nothing on the latency path
-(:mod:`helixd.flight_report` builds them). The safety supervisor
+(:mod:`helixd.runtime.flight_report` builds them). The safety supervisor
 (:class:`helixd.safety.supervisor.Supervisor`) owns the watchdogs: the loop asks it once per
 tick, before any command.
 
@@ -35,8 +35,10 @@ from dataclasses import dataclass
 import structlog
 
 from helixd.actuators.base import ActuatorError, ActuatorSink
+from helixd.base.angles import wrap_pi
+from helixd.base.frames import MissionFrame, NedPose
+from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.config import HelixdConfig
-from helixd.control.angles import wrap_pi
 from helixd.control.kinematics import scroll_fractions
 from helixd.control.navigator import Navigator, NavOutput
 from helixd.control.slip import (
@@ -45,14 +47,12 @@ from helixd.control.slip import (
     measured_body_velocity,
     no_slip_body,
 )
-from helixd.frames import MissionFrame, NedPose
-from helixd.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.link.connection import Autopilot
+from helixd.link.vehicle import PoseSample
 from helixd.mission import Plan
+from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import Motion, Supervisor
 from helixd.safety.watchdogs import Fault, FaultCause
-from helixd.signals import StopRequest
-from helixd.vehicle import PoseSample
 
 log = structlog.get_logger(__name__)
 

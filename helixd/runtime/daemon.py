@@ -14,7 +14,7 @@ gives back, whatever stopped startup half way.
 An exception ends the run through one table (:data:`EXIT_RULES`): it maps the exception *and
 the stage it came from* to a fault cause and an exit code. A command refused during setup is
 exit 3 ("nothing was armed"); the same refusal in flight (a DO_SET_SERVO refused mid-mission)
-is a fault, exit 4, after the fall-back. Exit codes: :class:`helixd.exitcodes.ExitCode`.
+is a fault, exit 4, after the fall-back. Exit codes: :class:`helixd.base.exitcodes.ExitCode`.
 """
 
 from __future__ import annotations
@@ -36,35 +36,35 @@ import structlog
 from helixd import __version__
 from helixd.actuators import ActuatorError, make_sink
 from helixd.actuators.base import ActuatorSink
+from helixd.base.exitcodes import ExitCode
+from helixd.base.frames import MissionFrame, NedPose
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
-from helixd.display import ProgressDisplay, ProgressInfo, result_line
-from helixd.exitcodes import ExitCode
-from helixd.flight import (
+from helixd.link.commands import CommandError, CommandRejected
+from helixd.link.connection import Autopilot, LinkError
+from helixd.link.preflight import check_obedience
+from helixd.link.tlog import attach_tlog
+from helixd.link.vehicle import TelemetryBounds
+from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
+from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
+from helixd.mission.validate import apply_mission_limits, mission_problems
+from helixd.recorder.rows import FlightRow
+from helixd.recorder.rundir import TLOG_FILE, RecorderUnavailable, RunRecorder
+from helixd.recorder.summary import RunSummary, SummaryBuilder
+from helixd.runtime.display import ProgressDisplay, ProgressInfo, result_line
+from helixd.runtime.flight import (
     MANUAL_MODE,
     FlightLoop,
     FlightResult,
     PoseRejectedReport,
     StepReport,
 )
-from helixd.flight_report import StepJournal, rejected_progress, step_progress
-from helixd.frames import MissionFrame, NedPose
-from helixd.gcs_feed import GcsFeed, report_fallback
-from helixd.link.commands import CommandError, CommandRejected
-from helixd.link.connection import Autopilot, LinkError
-from helixd.link.preflight import check_obedience
-from helixd.link.tlog import attach_tlog
-from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
-from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
-from helixd.mission.validate import apply_mission_limits, mission_problems
-from helixd.notify import ServiceNotifier
-from helixd.recorder.rows import FlightRow
-from helixd.recorder.rundir import TLOG_FILE, RecorderUnavailable, RunRecorder
-from helixd.recorder.summary import RunSummary, SummaryBuilder
+from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
+from helixd.runtime.gcs_feed import GcsFeed, report_fallback
+from helixd.runtime.notify import ServiceNotifier
+from helixd.runtime.show_plan import show_plan
+from helixd.runtime.signals import StopRequest, install, uninstall
 from helixd.safety.supervisor import fall_back
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause, pose_invalid_fault
-from helixd.show_plan import show_plan
-from helixd.signals import StopRequest, install, uninstall
-from helixd.vehicle import TelemetryBounds
 
 log = structlog.get_logger(__name__)
 T = TypeVar("T")
@@ -102,7 +102,9 @@ class RunOptions:
     # planning: the mission with its first leg re-planned from the rover's (north_m, east_m)
     # (and the EKF origin's (lat, lon), for a global mission)
     replan_from: Callable[[tuple[float, float], tuple[float, float] | None], Mission] | None = None
-    show_plan: bool = False  # upload the resolved plan for the GCS to draw (helixd.show_plan)
+    show_plan: bool = (
+        False  # upload the resolved plan for the GCS to draw (helixd.runtime.show_plan)
+    )
     # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
     inputs: RunInputs | None = None
 
@@ -279,7 +281,9 @@ class MissionRunner:
         self.recorder: RunRecorder | None = None
         self.summary = SummaryBuilder()
         self.messages: list[str] = []
-        self.gcs = GcsFeed(self.cfg.gcs_report)  # what the ground station sees (helixd.gcs_feed)
+        self.gcs = GcsFeed(
+            self.cfg.gcs_report
+        )  # what the ground station sees (helixd.runtime.gcs_feed)
 
     # -- helpers ------------------------------------------------------------------------------
 
@@ -535,7 +539,7 @@ class MissionRunner:
             self.gcs.phase("preflight")
             async with phase("preflight", self.notifier, self.display):
                 checked = await self._preflight(ap)
-            if self.opts.show_plan:  # for the GCS to draw; never flown (helixd.show_plan)
+            if self.opts.show_plan:  # for the GCS to draw; never flown (helixd.runtime.show_plan)
                 await self._show_plan(ap, checked)
             # READY once preflight passed: the start gate may wait minutes for the pilot, and
             # systemd's TimeoutStartSec must not kill that wait; the watchdog runs from here on.

@@ -11,7 +11,7 @@ import time
 
 from helixd.config import LinkConfig, SafetyConfig
 from helixd.link.connection import Autopilot
-from helixd.vehicle import VehicleState
+from helixd.link.vehicle import VehicleState
 
 
 def format_status(st: VehicleState, now_s: float) -> list[str]:

@@ -6,7 +6,7 @@ whom to wake (pose waiters, stream re-requests after a reboot or a regained link
 reads a clock or touches a socket.
 
 Frames: the pose is kept exactly as MAVLink reports it (NED from the EKF origin, yaw clockwise
-from North); :mod:`helixd.frames` converts it once, at the edge of the control core.
+from North); :mod:`helixd.base.frames` converts it once, at the edge of the control core.
 
 Hostile telemetry: this is the edge where values from the wire are checked, once. A
 LOCAL_POSITION_NED or ATTITUDE with a non-finite or absurd value (beyond
@@ -25,9 +25,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from helixd.base.frames import NedPose
 from helixd.config import SafetyConfig
-from helixd.frames import NedPose
-from helixd.mavconst import MAV_MODE_FLAG_SAFETY_ARMED, ROVER_MODE_NUMBERS, ROVER_MODES, UINT16_MAX
+from helixd.mav.constants import (
+    MAV_MODE_FLAG_SAFETY_ARMED,
+    ROVER_MODE_NUMBERS,
+    ROVER_MODES,
+    UINT16_MAX,
+)
 
 MavMsg = Any  # pymavlink messages are untyped; every field is read through int()/float()
 

@@ -1,7 +1,8 @@
 """What a control step becomes once its command has left: the flight.csv row and the
 operator's progress line.
 
-Pure builders from :class:`helixd.flight.StepReport` (and the plan): the flight loop stays free
+Pure builders from :class:`helixd.runtime.flight.StepReport` (and the plan): the flight loop
+stays free
 of the recorder's schema and of the terminal UI's types, and none of this runs before the
 command is sent. :class:`StepJournal` batches the rows: a step only appends its report, and
 the rows are built and handed on in one go, a few times a second (one warm pass over a batch
@@ -13,10 +14,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from helixd.display import ProgressInfo
-from helixd.flight import PoseRejectedReport, StepReport
 from helixd.mission import Plan
 from helixd.recorder.rows import FlightRow
+from helixd.runtime.display import ProgressInfo
+from helixd.runtime.flight import PoseRejectedReport, StepReport
 
 
 def flight_row(report: StepReport, plan: Plan) -> FlightRow:

@@ -16,10 +16,13 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from typer.exceptions import TyperException
 
-from helixd import __version__, cli_mission
-from helixd.cli_common import config_or_exit, fail
+from helixd import __version__
+from helixd.base.exitcodes import ExitCode
+from helixd.cli import mission as cli_mission
+from helixd.cli import runs as recorder_command
+from helixd.cli.common import config_or_exit, fail
 from helixd.config import ConfigFileError, HelixdConfig, load_config
-from helixd.exitcodes import ExitCode
+from helixd.files.yamlio import clip_line, paused_gc
 from helixd.mission import Mission, MissionFrameKind, MotionMode, Plan, PlanError
 from helixd.mission.formats import MissionFormat, load_mission_file, mission_to_yaml, sniff_format
 from helixd.mission.locate import MissionNotFound, locate_mission
@@ -29,10 +32,8 @@ from helixd.mission.validate import (
     pending_checks,
     plan_for_check,
 )
-from helixd.recorder import command as recorder_command
 from helixd.sim import command as sim_command
 from helixd.sim.config import NoiseLevel, Plant, Terrain
-from helixd.yamlio import clip_line, paused_gc
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Iterator
@@ -333,7 +334,7 @@ def check_connect(connect: str | None, cfg: HelixdConfig) -> str:
     config's (validated when the config loaded)."""
     if connect is None:
         return cfg.link.url
-    from helixd.link.url import LinkError, parse_link_url
+    from helixd.mav.url import LinkError, parse_link_url
 
     try:
         parse_link_url(connect, cfg.link.baud)
@@ -415,7 +416,7 @@ def check(
     if route is not None:
         echo_route(route)
         if plot is not None:
-            from helixd.plots import render_route
+            from helixd.recorder.plots import render_route
 
             try:
                 typer.echo(f"plot    : {render_route(route, plot, title=plan.name)}")
@@ -483,7 +484,7 @@ def run(
 
     ``--mission autopilot`` flies the mission the autopilot holds (downloaded over MAVLink);
     ``--resume RUN_DIR`` continues a recorded run (helixd.mission.resume)."""
-    from helixd.cli_autopilot import wants_autopilot
+    from helixd.cli.autopilot import wants_autopilot
 
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
@@ -573,8 +574,8 @@ def _run_autopilot_mission(
     show_plan: bool,
 ) -> None:
     """``run --mission autopilot``: download, convert and check the autopilot's mission, then
-    fly it as any other (see :mod:`helixd.cli_autopilot`). Refusals exit 3."""
-    from helixd.cli_autopilot import AUTOPILOT_MISSION, fetch_autopilot_mission
+    fly it as any other (see :mod:`helixd.cli.autopilot`). Refusals exit 3."""
+    from helixd.cli.autopilot import AUTOPILOT_MISSION, fetch_autopilot_mission
 
     cfg = config_or_exit(config)
     url = check_connect(connect, cfg)
@@ -642,8 +643,8 @@ def _fly(
     """Run the daemon; exits with its code."""
     import asyncio
 
-    from helixd.daemon import RunOptions, run_mission
-    from helixd.logging_setup import configure_logging
+    from helixd.recorder.logging_setup import configure_logging
+    from helixd.runtime.daemon import RunOptions, run_mission
 
     tty = sys.stderr.isatty()
     configure_logging(tty=tty, level=log_level)
@@ -714,7 +715,7 @@ def resume_inputs(
         resumed_inputs,
         sha256_text,
     )
-    from helixd.mission.resume_dir import MISSION_FILE, read_run_dir
+    from helixd.recorder.resume_dir import MISSION_FILE, read_run_dir
 
     try:
         contents = read_run_dir(run_dir)
@@ -758,8 +759,8 @@ def status(
     import asyncio
 
     from helixd.link.connection import LinkError
-    from helixd.logging_setup import configure_logging
-    from helixd.status import read_status
+    from helixd.recorder.logging_setup import configure_logging
+    from helixd.runtime.status import read_status
 
     cfg = config_or_exit(config)
     url = check_connect(connect, cfg)

@@ -1,7 +1,7 @@
 """``helixd mission convert|survey|download|upload`` and ``helixd export``: ground-station
 files, surveys, and the autopilot's stored mission over the MAVLink mission protocol.
 
-Registered on the main app by :func:`register` (one line in :mod:`helixd.cli`).
+Registered on the main app by :func:`register` (one line in :mod:`helixd.cli.app`).
 """
 
 from __future__ import annotations
@@ -14,9 +14,10 @@ from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 
-from helixd.cli_common import config_or_exit, fail
+from helixd.base.exitcodes import ExitCode
+from helixd.cli.common import config_or_exit, fail
 from helixd.config import ConfigFileError, HelixdConfig, LinkConfig
-from helixd.exitcodes import ExitCode
+from helixd.files.yamlio import clip_line
 from helixd.mission.formats import (
     FormatError,
     GcsMission,
@@ -32,7 +33,6 @@ from helixd.mission.formats import (
 )
 from helixd.mission.formats.items import mission_name
 from helixd.mission.model import MotionMode
-from helixd.yamlio import clip_line
 
 if TYPE_CHECKING:
     from helixd.link.connection import Autopilot
@@ -216,7 +216,7 @@ ConfigOpt = Annotated[Path | None, typer.Option("--config", "-c", help="helixd.y
 
 
 def _link_inputs(config: Path | None, connect: str | None) -> tuple[HelixdConfig, LinkConfig]:
-    from helixd.cli import check_connect
+    from helixd.cli.app import check_connect
 
     cfg = config_or_exit(config)
     url = check_connect(connect, cfg)
@@ -246,8 +246,8 @@ def _run_on_link(
     import asyncio
 
     from helixd.link.mission import MissionTransferError
-    from helixd.link.url import LinkError
-    from helixd.logging_setup import configure_logging
+    from helixd.mav.url import LinkError
+    from helixd.recorder.logging_setup import configure_logging
 
     configure_logging(tty=sys.stderr.isatty(), level="warning")
     try:
@@ -419,7 +419,7 @@ MIN_COVERAGE = 0.95  # below this, the operator is told (the survey is still wri
 
 
 def register(app: typer.Typer) -> None:
-    from helixd import export
+    from helixd.recorder import export
 
     app.add_typer(mission_app, name="mission")
     export.register(app)

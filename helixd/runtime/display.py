@@ -29,7 +29,7 @@ from rich.live import Live
 from rich.table import Table
 from rich.text import Text
 
-from helixd.exitcodes import ExitCode
+from helixd.base.exitcodes import ExitCode
 from helixd.recorder.summary import RunSummary
 
 log = structlog.get_logger(__name__)

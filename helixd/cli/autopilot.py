@@ -20,13 +20,13 @@ from pathlib import Path
 import typer
 from pydantic import ValidationError
 
+from helixd.base.exitcodes import ExitCode
 from helixd.config import HelixdConfig, format_validation_error
-from helixd.exitcodes import ExitCode
+from helixd.files.yamlio import clip_line
 from helixd.link.mission import MissionItem as WireItem
 from helixd.mission import Mission, MotionMode
 from helixd.mission.formats.items import FormatError, items_to_mission
 from helixd.mission.formats.wire import wire_to_gcs
-from helixd.yamlio import clip_line
 
 __all__ = ["AUTOPILOT_MISSION", "FromAutopilot", "fetch_autopilot_mission", "wants_autopilot"]
 
@@ -105,7 +105,7 @@ def fetch_autopilot_mission(
 ) -> FromAutopilot:
     """Download the autopilot's mission and fence at ``url`` and convert them; link failures
     exit 6 (LINK), the autopilot's refusal or an unflyable mission exit 3 (PREFLIGHT)."""
-    from helixd.cli_mission import _run_on_link
+    from helixd.cli.mission import _run_on_link
     from helixd.link.connection import Autopilot
     from helixd.link.mission_link import Downloaded, download_all
 

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import typer
 
+from helixd.base.exitcodes import ExitCode
 from helixd.config import ConfigFileError, HelixdConfig, load_config
-from helixd.exitcodes import ExitCode
-from helixd.yamlio import clip_line
+from helixd.files.yamlio import clip_line
 
 
 def fail(problems: list[str], code: ExitCode = ExitCode.USAGE) -> typer.Exit:

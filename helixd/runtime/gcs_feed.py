@@ -1,6 +1,8 @@
-"""The daemon's side of :mod:`helixd.gcs_report`: notes events, sends what the reporter returns.
+"""The daemon's side of :mod:`helixd.runtime.gcs_report`: notes events, sends what the reporter
+returns.
 
-:class:`GcsFeed` is the I/O shell around the pure :class:`helixd.gcs_report.GcsReporter`. The
+:class:`GcsFeed` is the I/O shell around the pure
+:class:`helixd.runtime.gcs_report.GcsReporter`. The
 daemon calls :meth:`GcsFeed.phase`, :meth:`GcsFeed.waypoint`, :meth:`GcsFeed.fault` and
 :meth:`GcsFeed.progress` from wherever it is; those only remember (no socket, no await, never
 raise). A small task started by :meth:`GcsFeed.start` sends at ``gcs_report.tick_hz`` — off the
@@ -23,7 +25,7 @@ from typing import Any
 import structlog
 
 from helixd.config import GcsReportConfig
-from helixd.gcs_report import Fault, GcsReporter, PhaseChange, Progress, WaypointReached
+from helixd.runtime.gcs_report import Fault, GcsReporter, PhaseChange, Progress, WaypointReached
 from helixd.safety.supervisor import FallbackReport
 
 __all__ = ["GcsFeed", "report_fallback"]

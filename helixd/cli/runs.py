@@ -11,14 +11,14 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from helixd.display import summary_rows, summary_table
-from helixd.exitcodes import ExitCode
-from helixd.logging_setup import configure_logging
+from helixd.base.exitcodes import ExitCode
 from helixd.recorder.clocks import ClockMap
 from helixd.recorder.events import EVENTS_FILE, read_events, timeline
+from helixd.recorder.logging_setup import configure_logging
 from helixd.recorder.rows import Value, read_flight_csv
 from helixd.recorder.rundir import FLIGHT_FILE, SUMMARY_FILE
 from helixd.recorder.summary import RunSummary
+from helixd.runtime.display import summary_rows, summary_table
 
 RunDirArg = Annotated[
     Path,
@@ -140,7 +140,7 @@ def register(app: typer.Typer) -> None:
         """Render the thesis-style plots (a)–(f) and an overview of a recorded run as PNGs."""
         configure_logging(tty=sys.stderr.isatty(), level="warning")
         _check_run_dir(run_dir)
-        from helixd.plots import PlotError, render_run  # matplotlib only when plotting
+        from helixd.recorder.plots import PlotError, render_run  # matplotlib only when plotting
 
         try:
             paths = render_run(run_dir, out)

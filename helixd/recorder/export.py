@@ -4,7 +4,7 @@ The run directory holds ``mission.yaml``, ``config.yaml``, ``flight.csv`` (NED p
 EKF origin per control step) and ``summary.json`` (the EKF origin the run used, recorded for
 ``global`` missions). Without a recorded origin the NED track has no place on the Earth: the
 export says so and exits 2. Points go through the same EKF map as in flight
-(:func:`helixd.frames.ne_to_latlon`), so the track lands where the autopilot's GPS put it.
+(:func:`helixd.base.frames.ne_to_latlon`), so the track lands where the autopilot's GPS put it.
 
 Pure core (:func:`build_export`, :func:`to_geojson`, :func:`to_kml`); the CLI reads and writes.
 """
@@ -22,14 +22,14 @@ import numpy as np
 import numpy.typing as npt
 import typer
 
+from helixd.base.exitcodes import ExitCode
+from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
 from helixd.config import ConfigFileError, HelixdConfig, load_config
-from helixd.exitcodes import ExitCode
-from helixd.frames import MissionFrame, NedPose, ne_to_latlon
+from helixd.files.yamlio import clip_line
 from helixd.mission.model import Mission, MissionFrameKind, load_mission
 from helixd.recorder.rows import read_flight_columns
 from helixd.recorder.rundir import CONFIG_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
 from helixd.recorder.summary import RunSummary
-from helixd.yamlio import clip_line
 
 LatLon = tuple[float, float]
 DEFAULT_MIN_STEP_M = 0.1  # the flown track keeps a point each time the rover moved this far
