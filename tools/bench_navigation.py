@@ -228,7 +228,8 @@ def guidance_refusal(guidance: str, default: str) -> str | None:
     """None if this checkout's config model accepts the guidance; else why not (one line)."""
     from pydantic import ValidationError
 
-    from helixd.config import HelixdConfig, format_validation_error
+    from helixd.config import HelixdConfig
+    from helixd.files.models import format_validation_error
 
     try:
         HelixdConfig.model_validate(daemon_config(guidance, default))

@@ -1,4 +1,4 @@
-"""Plane polygon sanity for the keep-in geofence. Pure: numbers in, problem strings out.
+"""Plane polygons: keep-in geofence sanity and the point-in-polygon test. Pure: numbers in.
 
 Vertices are (north_m, east_m) pairs, as in ``safety.geofence_polygon_ne_m``.
 """
@@ -84,3 +84,16 @@ def leg_leaves_polygon(a: Point, b: Point, poly: Sequence[Point]) -> bool:
     """True if the straight leg a→b crosses the boundary of ``poly`` (both ends inside)."""
     n = len(poly)
     return any(segments_intersect(a, b, poly[i], poly[(i + 1) % n]) for i in range(n))
+
+
+def point_in_polygon(north_m: float, east_m: float, poly: Sequence[tuple[float, float]]) -> bool:
+    """Even-odd ray casting; vertices as (north_m, east_m)."""
+    inside = False
+    n = len(poly)
+    for i in range(n):
+        (n1, e1), (n2, e2) = poly[i], poly[(i + 1) % n]
+        if (e1 > east_m) != (e2 > east_m):
+            n_cross = n1 + (east_m - e1) * (n2 - n1) / (e2 - e1)
+            if north_m < n_cross:
+                inside = not inside
+    return inside

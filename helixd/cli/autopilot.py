@@ -21,9 +21,13 @@ import typer
 from pydantic import ValidationError
 
 from helixd.base.exitcodes import ExitCode
-from helixd.config import HelixdConfig, format_validation_error
+from helixd.cli.common import run_on_link
+from helixd.config import HelixdConfig
+from helixd.files.models import format_validation_error
 from helixd.files.yamlio import clip_line
-from helixd.link.mission import MissionItem as WireItem
+from helixd.link.connection import Autopilot
+from helixd.link.mission_link import Downloaded, download_all
+from helixd.mav.mission_item import WireItem
 from helixd.mission import Mission, MotionMode
 from helixd.mission.formats.items import FormatError, items_to_mission
 from helixd.mission.formats.wire import wire_to_gcs
@@ -105,17 +109,13 @@ def fetch_autopilot_mission(
 ) -> FromAutopilot:
     """Download the autopilot's mission and fence at ``url`` and convert them; link failures
     exit 6 (LINK), the autopilot's refusal or an unflyable mission exit 3 (PREFLIGHT)."""
-    from helixd.cli.mission import _run_on_link
-    from helixd.link.connection import Autopilot
-    from helixd.link.mission_link import Downloaded, download_all
-
     motion_mode(cfg, mode)  # before any link
     link = cfg.link.model_copy(update={"url": url})
 
     async def body(ap: Autopilot) -> Downloaded:
         return await download_all(ap, ap.send_message)
 
-    got = _run_on_link(cfg, link, body)
+    got = run_on_link(cfg, link, body)
     source = f"autopilot at {url}"
     out = convert(
         got.mission,

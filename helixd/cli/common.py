@@ -1,14 +1,27 @@
-"""What every CLI command shares: one ``error:`` line per problem, and the config or exit 2."""
+"""What every CLI command shares: one ``error:`` line per problem, the config or exit 2, the
+link URL checked once, and a short session on the autopilot's link."""
 
 from __future__ import annotations
 
+import asyncio
+import sys
+from collections.abc import Awaitable, Callable
 from pathlib import Path
+from typing import TypeVar
 
 import typer
 
 from helixd.base.exitcodes import ExitCode
-from helixd.config import ConfigFileError, HelixdConfig, load_config
+from helixd.config import HelixdConfig, LinkConfig, load_config
+from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
+from helixd.link.connection import Autopilot
+from helixd.link.mission import MissionTransferError
+from helixd.mav.url import LinkError, parse_link_url
+from helixd.recorder.logging_setup import configure_logging
+from helixd.runtime.inputs import InputsRefused
+
+T = TypeVar("T")
 
 
 def fail(problems: list[str], code: ExitCode = ExitCode.USAGE) -> typer.Exit:
@@ -24,3 +37,56 @@ def config_or_exit(config: Path | None) -> HelixdConfig:
         return load_config(config)
     except ConfigFileError as exc:
         raise fail(exc.problems) from None
+
+
+def refused(exc: InputsRefused) -> typer.Exit:
+    """An :class:`InputsRefused` as ``error:`` lines and its exit code."""
+    return fail(exc.problems, exc.code)
+
+
+def check_connect(connect: str | None, cfg: HelixdConfig) -> str:
+    """The link URL to use: ``--connect`` if given (validated; empty is an error), else the
+    config's (validated when the config loaded)."""
+    if connect is None:
+        return cfg.link.url
+    try:
+        parse_link_url(connect, cfg.link.baud)
+    except LinkError as exc:
+        raise fail([f"--connect: {exc}"], ExitCode.USAGE) from None
+    return connect.strip()
+
+
+def link_inputs(config: Path | None, connect: str | None) -> tuple[HelixdConfig, LinkConfig]:
+    cfg = config_or_exit(config)
+    url = check_connect(connect, cfg)
+    return cfg, cfg.link.model_copy(update={"url": url})
+
+
+async def on_autopilot(
+    cfg: HelixdConfig, link: LinkConfig, body: Callable[[Autopilot], Awaitable[T]]
+) -> T:
+    """Connect, wait for the autopilot's HEARTBEAT, run ``body``, close."""
+    ap = await Autopilot.connect(link, cfg.safety)
+    try:
+        await ap.wait_heartbeat(cfg.safety.connect_timeout_s)
+        return await body(ap)
+    finally:
+        await ap.close()
+
+
+def run_on_link(
+    cfg: HelixdConfig, link: LinkConfig, body: Callable[[Autopilot], Awaitable[T]]
+) -> T:
+    """Run a mission transfer; link errors exit as ``helixd status`` does (LINK), a vehicle's
+    refusal names its MAV_MISSION_RESULT (PREFLIGHT: the autopilot would not take it), a
+    transfer without answers is a link problem (LINK)."""
+    configure_logging(tty=sys.stderr.isatty(), level="warning")
+    try:
+        return asyncio.run(on_autopilot(cfg, link, body))
+    except LinkError as exc:
+        raise fail([str(exc)], ExitCode.LINK) from None
+    except MissionTransferError as exc:
+        code = ExitCode.LINK if exc.result is None else ExitCode.PREFLIGHT
+        raise fail([f"{link.url}: {exc}"], code) from None
+    except KeyboardInterrupt:
+        raise fail(["interrupted"], ExitCode.OPERATOR_STOP) from None

@@ -7,17 +7,18 @@ Registered on the main app by :func:`register` (one line in :mod:`helixd.cli.app
 from __future__ import annotations
 
 import math
-import sys
-from collections.abc import Awaitable, Callable
+from collections import Counter
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, TypeVar
+from typing import Annotated, TypeVar
 
 import typer
 
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import config_or_exit, fail
-from helixd.config import ConfigFileError, HelixdConfig, LinkConfig
+from helixd.cli.common import config_or_exit, fail, link_inputs, run_on_link
+from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
+from helixd.link.connection import Autopilot
+from helixd.link.mission_link import Downloaded, autopilot_sender, download_all, upload_all
 from helixd.mission.formats import (
     FormatError,
     GcsMission,
@@ -31,12 +32,15 @@ from helixd.mission.formats import (
     sniff_format,
     write_mission_file,
 )
-from helixd.mission.formats.items import mission_name
-from helixd.mission.model import MotionMode
-
-if TYPE_CHECKING:
-    from helixd.link.connection import Autopilot
-    from helixd.link.mission_link import Downloaded
+from helixd.mission.formats.areas import read_area
+from helixd.mission.formats.items import command_name, mission_name
+from helixd.mission.formats.qgc_plan import plan_to_text
+from helixd.mission.formats.wire import gcs_to_wire, wire_to_gcs
+from helixd.mission.formats.wpl import wpl_to_text
+from helixd.mission.model import Mission, MotionMode
+from helixd.mission.plan import resolve_plan
+from helixd.mission.survey import SurveyError, plan_survey
+from helixd.recorder import export
 
 T = TypeVar("T")
 
@@ -140,12 +144,6 @@ def survey(
     ] = None,
 ) -> None:
     """Boustrophedon survey of a polygon (holes cut out), with its own geofence and time limit."""
-    from helixd.mission.formats.areas import read_area
-    from helixd.mission.formats.items import mission_name
-    from helixd.mission.model import Mission
-    from helixd.mission.plan import resolve_plan
-    from helixd.mission.survey import SurveyError, plan_survey
-
     cfg = config_or_exit(config)
     try:
         area = read_area(polygon)
@@ -215,52 +213,6 @@ ConnectOpt = Annotated[
 ConfigOpt = Annotated[Path | None, typer.Option("--config", "-c", help="helixd.yaml")]
 
 
-def _link_inputs(config: Path | None, connect: str | None) -> tuple[HelixdConfig, LinkConfig]:
-    from helixd.cli.app import check_connect
-
-    cfg = config_or_exit(config)
-    url = check_connect(connect, cfg)
-    return cfg, cfg.link.model_copy(update={"url": url})
-
-
-async def _on_autopilot(
-    cfg: HelixdConfig, link: LinkConfig, body: Callable[[Autopilot], Awaitable[T]]
-) -> T:
-    """Connect, wait for the autopilot's HEARTBEAT, run ``body``, close."""
-    from helixd.link.connection import Autopilot
-
-    ap = await Autopilot.connect(link, cfg.safety)
-    try:
-        await ap.wait_heartbeat(cfg.safety.connect_timeout_s)
-        return await body(ap)
-    finally:
-        await ap.close()
-
-
-def _run_on_link(
-    cfg: HelixdConfig, link: LinkConfig, body: Callable[[Autopilot], Awaitable[T]]
-) -> T:
-    """Run a mission transfer; link errors exit as ``helixd status`` does (LINK), a vehicle's
-    refusal names its MAV_MISSION_RESULT (PREFLIGHT: the autopilot would not take it), a
-    transfer without answers is a link problem (LINK)."""
-    import asyncio
-
-    from helixd.link.mission import MissionTransferError
-    from helixd.mav.url import LinkError
-    from helixd.recorder.logging_setup import configure_logging
-
-    configure_logging(tty=sys.stderr.isatty(), level="warning")
-    try:
-        return asyncio.run(_on_autopilot(cfg, link, body))
-    except LinkError as exc:
-        raise fail([str(exc)], ExitCode.LINK) from None
-    except MissionTransferError as exc:
-        code = ExitCode.LINK if exc.result is None else ExitCode.PREFLIGHT
-        raise fail([f"{link.url}: {exc}"], code) from None
-    except KeyboardInterrupt:
-        raise fail(["interrupted"], ExitCode.OPERATOR_STOP) from None
-
-
 def _write_atomic(path: Path, text: str) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(text, encoding="utf-8")
@@ -269,10 +221,6 @@ def _write_atomic(path: Path, text: str) -> None:
 
 def describe_gcs(gcs: GcsMission) -> list[str]:
     """Stdout summary of what the autopilot holds (pure)."""
-    from collections import Counter
-
-    from helixd.mission.formats.items import command_name
-
     home = gcs.home_latlon_deg
     lines = [f"home    : {home[0]:.7f}, {home[1]:.7f}" if home else "home    : not set"]
     counts = Counter(command_name(it.command) for it in gcs.items)
@@ -306,18 +254,13 @@ def download(
     config: ConfigOpt = None,
 ) -> None:
     """Read the autopilot's stored mission and fence over MAVLink (MISSION_ITEM_INT)."""
-    from helixd.link.mission_link import autopilot_sender, download_all
-    from helixd.mission.formats.qgc_plan import plan_to_text
-    from helixd.mission.formats.wire import wire_to_gcs
-    from helixd.mission.formats.wpl import wpl_to_text
-
     fmt = None
     if out is not None:
         try:
             fmt = detect_format(out)
         except FormatError as exc:
             raise fail(exc.problems) from None
-    cfg, link = _link_inputs(config, connect)
+    cfg, link = link_inputs(config, connect)
     gs_mode = mode or (
         MotionMode(cfg.mission.ground_station_mode) if cfg.mission.ground_station_mode else None
     )
@@ -330,7 +273,7 @@ def download(
     async def body(ap: Autopilot) -> Downloaded:
         return await download_all(ap, autopilot_sender(ap))
 
-    got = _run_on_link(cfg, link, body)
+    got = run_on_link(cfg, link, body)
     try:
         gcs, notes = wire_to_gcs(got.mission, got.fence)
     except FormatError as exc:
@@ -382,10 +325,7 @@ def upload(
     A .plan also replaces the autopilot's fence (empty if the plan has none).
 
     A .waypoints or helixd .yaml file leaves the fence as it is."""
-    from helixd.link.mission_link import autopilot_sender, upload_all
-    from helixd.mission.formats.wire import gcs_to_wire
-
-    cfg, link = _link_inputs(config, connect)
+    cfg, link = link_inputs(config, connect)
     fmt = sniff_format(src)
     try:
         if fmt is MissionFormat.YAML:
@@ -408,7 +348,7 @@ def upload(
             )
         await upload_all(ap, autopilot_sender(ap), wire.mission, fence)
 
-    _run_on_link(cfg, link, body)
+    run_on_link(cfg, link, body)
     what = f"{len(wire.mission) - 1} mission items (+ home)"
     if fence is not None:
         what += f" and {len(fence)} fence items"
@@ -419,7 +359,5 @@ MIN_COVERAGE = 0.95  # below this, the operator is told (the survey is still wri
 
 
 def register(app: typer.Typer) -> None:
-    from helixd.recorder import export
-
     app.add_typer(mission_app, name="mission")
     export.register(app)

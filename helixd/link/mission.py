@@ -8,7 +8,7 @@ nothing. :func:`run_transfer` is the one thin async shell running either over a
 :class:`MissionLink`.
 
 Behaviour follows the clients ground stations use (QGroundControl's PlanManager, MAVSDK's
-MavlinkMissionTransfer) against ArduPilot (``MissionItemProtocol.cpp``):
+MavlinkMissionTransfer) against ArduPilot (``WireItemProtocol.cpp``):
 
 * Upload: MISSION_COUNT; the vehicle asks for each item with MISSION_REQUEST (ArduPilot) or
   MISSION_REQUEST_INT (the newer spec) — both are answered with MISSION_ITEM_INT. Duplicated or
@@ -35,61 +35,35 @@ import math
 import os
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any, Protocol
 
 os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.mav.mission_item import (
+    MAV_MISSION_ACCEPTED,
+    MAV_MISSION_INVALID_SEQUENCE,
+    MAV_MISSION_OPERATION_CANCELLED,
+    MAV_MISSION_TYPE_FENCE,
+    MAV_MISSION_TYPE_MISSION,
+    MAV_MISSION_TYPE_RALLY,
+    WireItem,
+    check_wire_item,
+    item_from_message,
+    mission_result_name,
+)
+
 __all__ = [
-    "MAV_MISSION_TYPE_FENCE",
-    "MAV_MISSION_TYPE_MISSION",
-    "MAV_MISSION_TYPE_RALLY",
     "Download",
-    "MissionItem",
     "MissionLink",
     "MissionTransferError",
     "Transfer",
     "Upload",
-    "mission_result_name",
     "run_transfer",
 ]
 
-MAV_MISSION_TYPE_MISSION = 0
-MAV_MISSION_TYPE_FENCE = 1
-MAV_MISSION_TYPE_RALLY = 2
-MAV_MISSION_ACCEPTED = 0
-MAV_MISSION_INVALID_SEQUENCE = 13
-MAV_MISSION_OPERATION_CANCELLED = 15
-MAV_FRAME_MISSION = 2  # x/y are not degE7 in this frame
-
 _mav = mavlink.MAVLink(None)
-
-
-def mission_result_name(result: int) -> str:
-    """MAV_MISSION_RESULT name (e.g. 'MAV_MISSION_NO_SPACE'), or the number if unknown."""
-    entry = mavlink.enums["MAV_MISSION_RESULT"].get(result)
-    return entry.name if entry is not None else f"MAV_MISSION_RESULT({result})"
-
-
-@dataclass(frozen=True, slots=True)
-class MissionItem:
-    """One item as MISSION_ITEM_INT carries it; x/y in degE7 for global frames."""
-
-    seq: int
-    frame: int
-    command: int
-    current: int = 0
-    autocontinue: int = 1
-    param1: float = 0.0
-    param2: float = 0.0
-    param3: float = 0.0
-    param4: float = 0.0
-    x: int = 0
-    y: int = 0
-    z: float = 0.0
-    mission_type: int = MAV_MISSION_TYPE_MISSION
 
 
 class MissionTransferError(Exception):
@@ -103,56 +77,6 @@ class MissionTransferError(Exception):
     def __str__(self) -> str:
         base = super().__str__()
         return base if not self.vehicle_text else f"{base} (autopilot: {self.vehicle_text})"
-
-
-def _u8(v: int) -> bool:
-    return 0 <= v <= 255
-
-
-def _check_item(item: MissionItem) -> None:
-    floats = (item.param1, item.param2, item.param3, item.param4, item.z)
-    if not all(isinstance(v, float | int) and math.isfinite(v) for v in floats):
-        raise ValueError(f"mission item {item.seq}: params and z must be finite")
-    if not (-(2**31) <= item.x < 2**31 and -(2**31) <= item.y < 2**31):
-        raise ValueError(f"mission item {item.seq}: x/y do not fit int32")
-    if not (0 <= item.command <= 65535 and _u8(item.frame) and _u8(item.current)):
-        raise ValueError(f"mission item {item.seq}: command/frame/current out of range")
-    if not _u8(item.autocontinue) or not _u8(item.mission_type):
-        raise ValueError(f"mission item {item.seq}: autocontinue/mission_type out of range")
-
-
-def item_from_message(msg: Any) -> MissionItem | None:
-    """A received MISSION_ITEM_INT or MISSION_ITEM as a :class:`MissionItem` (None: invalid)."""
-    try:
-        x_raw, y_raw = msg.x, msg.y
-        frame = int(msg.frame)
-        if msg.get_type() == "MISSION_ITEM":
-            scale = 1.0 if frame == MAV_FRAME_MISSION else 1e7
-            xf, yf = float(x_raw) * scale, float(y_raw) * scale
-            if not (math.isfinite(xf) and math.isfinite(yf)):
-                return None
-            x, y = round(xf), round(yf)
-        else:
-            x, y = int(x_raw), int(y_raw)
-        item = MissionItem(
-            seq=int(msg.seq),
-            frame=frame,
-            command=int(msg.command),
-            current=int(msg.current),
-            autocontinue=int(msg.autocontinue),
-            param1=float(msg.param1),
-            param2=float(msg.param2),
-            param3=float(msg.param3),
-            param4=float(msg.param4),
-            x=x,
-            y=y,
-            z=float(msg.z),
-            mission_type=int(getattr(msg, "mission_type", 0)),
-        )
-        _check_item(item)
-    except (AttributeError, TypeError, ValueError, OverflowError):
-        return None
-    return item
 
 
 class Transfer:
@@ -249,7 +173,7 @@ class Upload(Transfer):
 
     def __init__(
         self,
-        items: Sequence[MissionItem],
+        items: Sequence[WireItem],
         mission_type: int,
         target_system: int,
         target_component: int,
@@ -261,7 +185,7 @@ class Upload(Transfer):
             mission_type, target_system, target_component, item_timeout_s, retries, own_ids
         )
         for i, item in enumerate(items):
-            _check_item(item)
+            check_wire_item(item)
             if item.seq != i:
                 raise ValueError(f"mission item {i} has seq {item.seq}: seq must be 0..n-1")
             if item.mission_type != mission_type:
@@ -332,10 +256,10 @@ class Download(Transfer):
             mission_type, target_system, target_component, item_timeout_s, retries, own_ids
         )
         self.count: int | None = None
-        self.received: list[MissionItem] = []
+        self.received: list[WireItem] = []
 
     @property
-    def items(self) -> tuple[MissionItem, ...]:
+    def items(self) -> tuple[WireItem, ...]:
         return tuple(self.received)
 
     def _stage(self) -> str:

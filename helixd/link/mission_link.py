@@ -16,15 +16,9 @@ from typing import Any, Protocol
 import structlog
 
 from helixd.config import LinkConfig
-from helixd.link.mission import (
-    MAV_MISSION_TYPE_FENCE,
-    MAV_MISSION_TYPE_MISSION,
-    Download,
-    MissionItem,
-    MissionTransferError,
-    Upload,
-    run_transfer,
-)
+from helixd.link.mission import Download, MissionTransferError, Upload, run_transfer
+from helixd.mav.mission_item import MAV_MISSION_TYPE_FENCE, MAV_MISSION_TYPE_MISSION
+from helixd.mav.mission_item import WireItem as MissionItem
 
 __all__ = [
     "MISSION_MESSAGES",

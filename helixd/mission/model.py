@@ -22,8 +22,11 @@ from pathlib import Path
 
 from pydantic import Field, ValidationInfo, model_validator
 
+from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, MotionMode
-from helixd.config import ConfigFileError, InputModel, MissionLimits, load_yaml_model
+from helixd.base.polygon import polygon_problems
+from helixd.config import MissionLimits
+from helixd.files.models import ConfigFileError, InputModel, load_yaml_model
 
 DUPLICATE_EPSILON_M = 0.01  # consecutive points closer than this are the same point
 
@@ -113,8 +116,6 @@ class Mission(InputModel):
         for i in range(1, len(pts)):
             (a0, a1), (b0, b1) = pts[i - 1], pts[i]
             if is_global:
-                from helixd.base.frames import latlon_to_ne
-
                 dn, de = latlon_to_ne(b0, b1, a0, a1)
                 gap = hypot(dn, de)
             else:
@@ -152,14 +153,10 @@ class Mission(InputModel):
             ]
             if bad:
                 return bad[:3]
-            from helixd.base.frames import latlon_to_ne
-
             lat0, lon0 = poly[0]
             plane = [latlon_to_ne(a, b, lat0, lon0) for a, b in poly]
         else:
             plane = list(poly)
-        from helixd.base.polygon import polygon_problems
-
         return polygon_problems(plane)
 
     def points(self) -> list[tuple[float, float]]:

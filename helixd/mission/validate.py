@@ -20,11 +20,10 @@ from __future__ import annotations
 import math
 
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
-from helixd.base.polygon import leg_leaves_polygon
+from helixd.base.polygon import leg_leaves_polygon, point_in_polygon
 from helixd.config import HelixdConfig
 from helixd.mission.model import Mission, MissionFrameKind
 from helixd.mission.plan import Plan, PlanError, resolve_plan
-from helixd.safety.watchdogs import point_in_polygon
 
 MAX_LISTED = 5  # offending waypoints named one by one; the rest are counted
 

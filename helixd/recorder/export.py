@@ -24,7 +24,8 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
-from helixd.config import ConfigFileError, HelixdConfig, load_config
+from helixd.config import HelixdConfig, load_config
+from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.mission.model import Mission, MissionFrameKind, load_mission
 from helixd.recorder.rows import read_flight_columns

@@ -36,7 +36,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
-from helixd.config import ConfigFileError, load_config
+from helixd.config import load_config
+from helixd.files.models import ConfigFileError
 from helixd.mission import MissionFrameKind, PlanError, load_mission, resolve_plan
 from helixd.recorder.clocks import autopilot_axis_s
 from helixd.recorder.events import EVENTS_FILE, fault_time_mono_s, read_events

@@ -12,7 +12,7 @@ from typing import Literal
 from pydantic import Field
 
 from helixd import __version__
-from helixd.config import StrictModel
+from helixd.files.models import StrictModel
 from helixd.mission.resume import ResumedFrom
 from helixd.recorder.rows import FlightRow
 

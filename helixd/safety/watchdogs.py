@@ -31,6 +31,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
 
+from helixd.base.polygon import point_in_polygon
 from helixd.config import SafetyConfig
 
 RC_CENTRE_US = 1500  # stick centre of a standard RC channel (µs)
@@ -126,19 +127,6 @@ def pose_invalid_fault(
         f"no valid {what} for {invalid_s:.2f} s (limit {limit_s} s): "
         f"{detail or 'pose telemetry rejected'}",
     )
-
-
-def point_in_polygon(north_m: float, east_m: float, poly: Sequence[tuple[float, float]]) -> bool:
-    """Even-odd ray casting; vertices as (north_m, east_m)."""
-    inside = False
-    n = len(poly)
-    for i in range(n):
-        (n1, e1), (n2, e2) = poly[i], poly[(i + 1) % n]
-        if (e1 > east_m) != (e2 > east_m):
-            n_cross = n1 + (east_m - e1) * (n2 - n1) / (e2 - e1)
-            if north_m < n_cross:
-                inside = not inside
-    return inside
 
 
 class SafetyMonitor:

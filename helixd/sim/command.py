@@ -14,9 +14,10 @@ import typer
 from pydantic import ValidationError
 
 from helixd.base.exitcodes import ExitCode
-from helixd.config import ConfigFileError, format_validation_error, load_yaml_model
+from helixd.files.models import ConfigFileError, format_validation_error, load_yaml_model
 from helixd.sim.config import NoiseLevel, Plant, SimConfig, Terrain
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
+from helixd.sim.server import SimServer
 
 log = structlog.get_logger(__name__)
 
@@ -37,8 +38,6 @@ def run_sim(
     duration_s: float | None,
 ) -> None:
     """Run in the foreground until ``duration_s`` simulated seconds or Ctrl-C."""
-    from helixd.sim.server import SimServer
-
     try:
         server = SimServer(links, config)
     except ValueError as exc:

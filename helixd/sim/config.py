@@ -12,7 +12,8 @@ from enum import StrEnum
 
 from pydantic import Field, field_validator, model_validator
 
-from helixd.config import InputModel, LinkConfig, VehicleConfig
+from helixd.config import LinkConfig, VehicleConfig
+from helixd.files.models import InputModel
 from helixd.sim.obstacles import SimObstacles
 from helixd.sim.params import DEFAULT_PARAMS
 

@@ -22,7 +22,8 @@ from helixd.sim.messages import STATUSTEXT_LEN, Message, statustexts
 from helixd.sim.mission import MissionServer, Outcome
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.params import ParamStore
-from helixd.sim.physics import MotorMap, PhysicsState
+from helixd.sim.physics import MotorMap
+from helixd.sim.state import PhysicsState
 
 PARAMS_PER_LOOP = 2  # PARAM_REQUEST_LIST streaming pace (ArduPilot rate-limits it too)
 # a PWM in the middle of each mode-switch position (RC_Channel::read_mode_switch bands)

@@ -17,7 +17,7 @@ import numpy as np
 
 from helixd.base.angles import wrap_pi
 from helixd.sim.config import NoiseProfile
-from helixd.sim.physics import PhysicsState
+from helixd.sim.state import PhysicsState
 
 EKF_ATTITUDE = 1
 EKF_VELOCITY_HORIZ = 2

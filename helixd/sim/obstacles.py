@@ -26,16 +26,15 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import numpy as np
 import numpy.typing as npt
 from pydantic import AfterValidator, Field, InstanceOf, PrivateAttr
 
-from helixd.config import InputModel, KeepOutCircleConfig
-
-if TYPE_CHECKING:  # physics imports sim.config, which imports this module
-    from helixd.sim.physics import PhysicsState
+from helixd.config import KeepOutCircleConfig
+from helixd.files.models import InputModel
+from helixd.sim.state import PhysicsState
 
 PointNE = tuple[float, float]
 CONTACT_RELEASE_M = 0.05  # a contact ends once the body is this far clear of the obstacle

@@ -12,7 +12,7 @@ from helixd.sim import messages
 from helixd.sim import streams as st
 from helixd.sim.estimator import EkfStatus, PoseEstimate
 from helixd.sim.faults import FaultClock
-from helixd.sim.physics import PhysicsState
+from helixd.sim.state import PhysicsState
 
 POSE_MESSAGES = frozenset({st.MSG_LOCAL_POSITION_NED, st.MSG_GLOBAL_POSITION_INT})
 

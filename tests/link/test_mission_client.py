@@ -21,7 +21,8 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
 from helixd.link import mission as lm
-from helixd.link.mission import Download, MissionItem, MissionTransferError, Upload
+from helixd.link.mission import Download, MissionTransferError, Upload
+from helixd.mav.mission_item import WireItem
 from helixd.sim.mission import MissionServer
 
 GCS = (255, 190)
@@ -35,9 +36,9 @@ def stamp(msg: Any, who: tuple[int, int]) -> Any:
     return mav.decode(bytearray(msg.pack(mav)))
 
 
-def items(n: int, mission_type: int = 0, command: int = 16) -> list[MissionItem]:
+def items(n: int, mission_type: int = 0, command: int = 16) -> list[WireItem]:
     return [
-        MissionItem(
+        WireItem(
             seq=i,
             frame=3,
             command=command,
@@ -100,7 +101,7 @@ def server() -> MissionServer:
     return MissionServer(*HOME, max_mission_items=50, max_fence_items=20)
 
 
-def new_upload(its: list[MissionItem], mission_type: int = 0, retries: int = 5) -> Upload:
+def new_upload(its: list[WireItem], mission_type: int = 0, retries: int = 5) -> Upload:
     return Upload(its, mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
 
 
@@ -112,7 +113,7 @@ def stored_as_items(srv: MissionServer, mission_type: int) -> list[tuple[Any, ..
     return [(s.command, s.x, s.y, s.z, s.param1) for s in srv.stored(mission_type)]
 
 
-def as_tuples(its: list[MissionItem] | tuple[MissionItem, ...]) -> list[tuple[Any, ...]]:
+def as_tuples(its: list[WireItem] | tuple[WireItem, ...]) -> list[tuple[Any, ...]]:
     return [(i.command, i.x, i.y, i.z, i.param1) for i in its]
 
 
@@ -212,11 +213,11 @@ def test_early_accept_is_an_error() -> None:
 
 def test_bad_items_refused_before_sending() -> None:
     with pytest.raises(ValueError, match="finite"):
-        new_upload([MissionItem(seq=0, frame=3, command=16, param1=float("nan"))])
+        new_upload([WireItem(seq=0, frame=3, command=16, param1=float("nan"))])
     with pytest.raises(ValueError, match="seq"):
-        new_upload([MissionItem(seq=1, frame=3, command=16)])
+        new_upload([WireItem(seq=1, frame=3, command=16)])
     with pytest.raises(ValueError, match="int32"):
-        new_upload([MissionItem(seq=0, frame=3, command=16, x=2**31)])
+        new_upload([WireItem(seq=0, frame=3, command=16, x=2**31)])
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -331,7 +332,7 @@ def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
     me = (GCS_SYSID, GCS_COMPID)
     timeout_s, retries = CFG.mission_item_timeout_s, CFG.mission_retries
 
-    def up(its: list[MissionItem], kind: int = 0) -> Upload:
+    def up(its: list[WireItem], kind: int = 0) -> Upload:
         return Upload(its, kind, 1, 1, timeout_s, retries, own_ids=me)
 
     def dl(kind: int = 0) -> Download:

@@ -16,8 +16,10 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
-from helixd.link.mission import MAV_MISSION_TYPE_FENCE, MissionItem, MissionTransferError
+from helixd.link.mission import MissionTransferError
 from helixd.link.mission_link import AutopilotMissionLink, download_all, upload_all
+from helixd.mav.mission_item import MAV_MISSION_TYPE_FENCE
+from helixd.mav.mission_item import WireItem as WireItem
 from helixd.sim.mission import MissionServer
 
 CFG = LinkConfig(mission_item_timeout_s=0.2, mission_retries=2)
@@ -83,16 +85,15 @@ def test_recv_passes_mission_messages_only_and_times_out() -> None:
     asyncio.run(main())
 
 
-def items(n: int) -> tuple[MissionItem, ...]:
+def items(n: int) -> tuple[WireItem, ...]:
     return tuple(
-        MissionItem(seq=i, frame=3, command=16, x=536_000_000 + i, y=-1_135_000_000)
-        for i in range(n)
+        WireItem(seq=i, frame=3, command=16, x=536_000_000 + i, y=-1_135_000_000) for i in range(n)
     )
 
 
-def fence() -> tuple[MissionItem, ...]:
+def fence() -> tuple[WireItem, ...]:
     return tuple(
-        MissionItem(
+        WireItem(
             seq=i, frame=0, command=5001, param1=3.0, x=535_000_000 + 1000 * i,
             y=-1_135_000_000 + 1000 * (i % 2), mission_type=MAV_MISSION_TYPE_FENCE,
         )

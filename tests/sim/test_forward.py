@@ -24,7 +24,8 @@ from helixd.base.plan import MotionMode
 from helixd.config import VehicleConfig
 from helixd.sim import forward
 from helixd.sim.config import SimConfig, Terrain
-from helixd.sim.physics import PhysicsState, step
+from helixd.sim.physics import step
+from helixd.sim.state import PhysicsState
 
 VEHICLE = VehicleConfig()
 R, LX, LY = VEHICLE.scroll_radius_m, VEHICLE.lx_m, VEHICLE.ly_m

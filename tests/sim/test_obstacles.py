@@ -14,7 +14,7 @@ from pydantic import ValidationError
 from helixd.sim.config import SimConfig
 from helixd.sim.core import SimCore
 from helixd.sim.obstacles import SimObstacles, constrain, distance_m
-from helixd.sim.physics import PhysicsState
+from helixd.sim.state import PhysicsState
 from tests.support.simcore import assert_step_never_closer
 
 POND: dict[str, Any] = {

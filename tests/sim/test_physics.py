@@ -12,7 +12,8 @@ from helixd.config import VehicleConfig
 from helixd.control.kinematics import body_to_fractions, rpm_to_radps
 from helixd.mission.model import MotionMode
 from helixd.sim.config import SimConfig, Terrain
-from helixd.sim.physics import MotorMap, PhysicsState, scroll_fractions_from_pwm, step
+from helixd.sim.physics import MotorMap, scroll_fractions_from_pwm, step
+from helixd.sim.state import PhysicsState
 
 VEHICLE = VehicleConfig()
 TAU_S = 0.3

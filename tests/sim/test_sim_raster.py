@@ -134,7 +134,7 @@ def _write_map(tmp_path: Path) -> Path:
 def test_sim_world_takes_the_maps_occupied_cells_and_the_config_keep_outs(
     tmp_path: Path,
 ) -> None:
-    from helixd.cli.app import sim_world
+    from helixd.cli.simulated import sim_world
     from helixd.config import HelixdConfig
     from helixd.planning import load_map
 

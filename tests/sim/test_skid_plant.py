@@ -20,7 +20,7 @@ from pydantic import ValidationError
 from helixd.sim import skid
 from helixd.sim.config import Plant, SimConfig
 from helixd.sim.core import SimCore
-from helixd.sim.physics import PhysicsState
+from helixd.sim.state import PhysicsState
 from tests.support.cli import main_exit
 from tests.support.simcore import EmbeddedStart, capture_embedded_start
 

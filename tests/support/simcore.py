@@ -14,7 +14,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.sim.config import HELIXD_SYSID, SimConfig
 from helixd.sim.core import SimCore
 from helixd.sim.obstacles import SimObstacles, constrain, distance_m
-from helixd.sim.physics import PhysicsState
+from helixd.sim.state import PhysicsState
 
 
 def make_core(n_links: int = 2, **cfg: Any) -> SimCore:

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from helixd.config import ConfigFileError, HelixdConfig, load_config
+from helixd.config import HelixdConfig, load_config
+from helixd.files.models import ConfigFileError
 from helixd.mission import load_mission, resolve_plan
 from helixd.mission.model import MissionFrameKind, MotionMode
 

@@ -13,7 +13,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from helixd.base.frames import latlon_to_ne
-from helixd.config import ConfigFileError
+from helixd.files.models import ConfigFileError
 from helixd.mission.formats import (
     FormatError,
     MissionFormat,

@@ -11,8 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.link.mission import MAV_MISSION_TYPE_FENCE, MAV_MISSION_TYPE_MISSION
-from helixd.link.mission import MissionItem as WireItem
+from helixd.mav.mission_item import MAV_MISSION_TYPE_FENCE, MAV_MISSION_TYPE_MISSION, WireItem
 from helixd.mission.formats import read_gcs
 from helixd.mission.formats.items import (
     FenceCircle,

@@ -6,8 +6,9 @@ import dataclasses
 
 import pytest
 
+from helixd.base.polygon import point_in_polygon
 from helixd.config import SafetyConfig, StallConfig, TakeoverConfig
-from helixd.safety.watchdogs import FaultCause, SafetyInputs, SafetyMonitor, point_in_polygon
+from helixd.safety.watchdogs import FaultCause, SafetyInputs, SafetyMonitor
 
 HEALTHY = SafetyInputs(
     now_s=100.0,

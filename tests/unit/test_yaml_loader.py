@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from helixd.cli.app import app
-from helixd.config import ConfigFileError, HelixdConfig, load_config
+from helixd.config import HelixdConfig, load_config
+from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import (
     LIBYAML,
     MAX_DEPTH,

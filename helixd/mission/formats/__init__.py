@@ -15,7 +15,8 @@ from pathlib import Path
 import yaml
 from pydantic import ValidationError
 
-from helixd.config import ConfigFileError, MissionLimits, format_validation_error
+from helixd.config import MissionLimits
+from helixd.files.models import ConfigFileError, format_validation_error
 from helixd.files.yamlio import YamlFileError, read_text_capped
 from helixd.mission.formats.items import (
     Converted,

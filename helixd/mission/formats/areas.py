@@ -13,7 +13,7 @@ from typing import Any
 
 from helixd.files.yamlio import YamlFileError, clip, read_text_capped
 from helixd.mission.formats.items import FormatError, check_latlon
-from helixd.mission.formats.qgc_plan import load_json_text, parse_plan_text
+from helixd.mission.formats.qgc_plan import load_plan_json, parse_plan_text
 
 MAX_VERTICES = 10_000  # per ring
 MAX_HOLES = 1_000
@@ -128,7 +128,7 @@ def _geojson_polygons(obj: Any, where: str, out: list[tuple[Any, str]]) -> None:
 
 def area_from_geojson(text: str, src: str) -> SurveyArea:
     """Exactly one Polygon (RFC 7946, [lon, lat]); its interior rings are holes."""
-    raw = load_json_text(text, src)
+    raw = load_plan_json(text, src)
     polys: list[tuple[Any, str]] = []
     _geojson_polygons(raw, src, polys)
     if len(polys) != 1:

@@ -17,7 +17,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
-from helixd.config import format_validation_error
+from helixd.files.models import format_validation_error
 from helixd.mission.model import Mission, MissionFrameKind, MotionMode
 
 MAV_CMD_NAV_WAYPOINT = 16

@@ -21,8 +21,9 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from helixd.config import format_validation_error
-from helixd.files.yamlio import clip, clip_line
+from helixd.files.jsonio import JsonTextError, load_json_text
+from helixd.files.models import format_validation_error
+from helixd.files.yamlio import clip
 from helixd.mission.formats.items import (
     MAX_ITEMS,
     FenceCircle,
@@ -100,81 +101,18 @@ class PlanJson(_Json):
     geoFence: GeoFenceJson = Field(default_factory=GeoFenceJson)
 
 
-def _refuse_constant(name: str) -> Any:
-    raise ValueError(f"{name} is not a number JSON allows (write a finite number)")
-
-
-def _parse_float(text: str) -> float:
-    value = float(text)
-    if not math.isfinite(value):
-        raise ValueError(f"number {clip(text, 40)} overflows to infinity")
-    return value
-
-
-def _no_duplicates(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for k, v in pairs:
-        if k in out:
-            raise ValueError(
-                f"duplicate key {clip(k, 60)} in one object (each key may appear once)"
-            )
-        out[k] = v
-    return out
-
-
-def _depth_ok(text: str) -> int:
-    """Deepest bracket nesting outside strings (cheap scan, so json never recurses deeply)."""
-    depth = deepest = 0
-    in_str = esc = False
-    for ch in text:
-        if in_str:
-            if esc:
-                esc = False
-            elif ch == "\\":
-                esc = True
-            elif ch == '"':
-                in_str = False
-        elif ch == '"':
-            in_str = True
-        elif ch in "[{":
-            depth += 1
-            if depth > deepest:
-                deepest = depth
-                if deepest > MAX_DEPTH:
-                    return deepest
-        elif ch in "]}":
-            depth -= 1
-    return deepest
-
-
-def load_json_text(text: str, source: Path | str, kind: str = "") -> Any:
-    """Parse hostile JSON: bounded depth, no NaN/Infinity, no overflow, no duplicate keys.
-
-    ``kind`` (e.g. ``".plan"``) names what the file should have been in the errors."""
-    src = str(source)
-    if _depth_ok(text) > MAX_DEPTH:
-        tail = f"; not a {kind}" if kind else ""
-        raise FormatError([f"{src}: JSON nested deeper than {MAX_DEPTH} levels{tail}"])
-    usable = f"a usable {kind}" if kind else "usable JSON"
+def load_plan_json(text: str, source: Path | str, kind: str = "") -> Any:
+    """:func:`helixd.files.jsonio.load_json_text`, its one-line error as a :class:`FormatError`."""
     try:
-        return json.loads(
-            text,
-            parse_constant=_refuse_constant,
-            parse_float=_parse_float,
-            object_pairs_hook=_no_duplicates,
-        )
-    except json.JSONDecodeError as exc:
-        raise FormatError(
-            [f"{src}: not valid JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"]
-        ) from None
-    except (ValueError, RecursionError) as exc:
-        raise FormatError([clip_line(f"{src}: not {usable}: {exc}")]) from None
+        return load_json_text(text, source, kind=kind, max_depth=MAX_DEPTH)
+    except JsonTextError as exc:
+        raise FormatError([exc.message]) from None
 
 
 def parse_plan_text(text: str, source: Path | str) -> GcsMission:
     """A .plan's text → :class:`GcsMission`; raise :class:`FormatError` naming file and field."""
     src = str(source)
-    raw = load_json_text(text, source, kind=".plan")
+    raw = load_plan_json(text, source, kind=".plan")
     if not isinstance(raw, dict):
         raise FormatError([f"{src}: (top level): expected a JSON object, got {type(raw).__name__}"])
     try:

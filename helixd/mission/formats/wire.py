@@ -22,11 +22,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from helixd.link.mission import (
-    MAV_MISSION_TYPE_FENCE,
-    MAV_MISSION_TYPE_MISSION,
-)
-from helixd.link.mission import MissionItem as WireItem
+from helixd.mav.mission_item import MAV_MISSION_TYPE_FENCE, MAV_MISSION_TYPE_MISSION, WireItem
 from helixd.mission.formats.items import (
     GLOBAL_FRAMES,
     MAV_CMD_NAV_WAYPOINT,

@@ -1,0 +1,262 @@
+"""The strict-model machinery every file helixd reads is validated with: pydantic bases that
+refuse unknown keys, booleans-as-numbers and (for inputs) NaN/±inf; one error type carrying
+one line per problem that names the file, the dotted field, the bad value and the allowed
+range; and the YAML-file-to-model loader. The config, the mission models, the simulator's
+config and the recorder's summary build on it.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import cache
+from pathlib import Path
+from typing import Any, TypeVar
+
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
+
+from helixd.files.yamlio import YamlFileError, clip, clip_line, load_yaml_file, paused_gc
+
+# ---------------------------------------------------------------------------------------------
+# Base models and error reporting
+
+
+def _accepts_bool_uncached(annotation: Any) -> bool:
+    if annotation is bool:
+        return True
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return True
+    return any(_accepts_bool(arg) for arg in getattr(annotation, "__args__", ()))
+
+
+_accepts_bool_cached = cache(_accepts_bool_uncached)
+
+
+def _accepts_bool(annotation: Any) -> bool:
+    """True if ``annotation`` mentions bool or a nested model (which checks its own fields)."""
+    try:
+        return _accepts_bool_cached(annotation)
+    except TypeError:  # an unhashable annotation: just compute it
+        return _accepts_bool_uncached(annotation)
+
+
+def _contains_bool(value: Any) -> bool:
+    if type(value) is bool:
+        return True
+    if isinstance(value, (list, tuple)):
+        return any(_contains_bool(v) for v in value)
+    if isinstance(value, dict):
+        return any(_contains_bool(v) for v in value.values())
+    return False
+
+
+class StrictModel(BaseModel):
+    """Base for every config/mission model: unknown keys are errors, values are immutable.
+
+    A boolean is never a number: pydantic's lax mode would read ``true`` as 1.0 for a float
+    field (and YAML 1.1 read ``yes`` as true); here a bool anywhere in a field that is not
+    declared bool is an error.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_bool_as_number(cls, data: Any) -> Any:
+        # One call per model (not per field): 100 000 waypoints stay fast.
+        if not isinstance(data, dict):
+            return data
+        bad: list[str] = []
+        for key, value in data.items():
+            kind = type(value)
+            if kind is not bool and kind is not list and kind is not dict and kind is not tuple:
+                continue  # fast path: plain scalars
+            field = cls.model_fields.get(key)
+            if field is not None and not _accepts_bool(field.annotation) and _contains_bool(value):
+                bad.append(str(key))
+        if bad:
+            raise ValueError(
+                f"{', '.join(bad)}: true/false is not a number (write the number itself; "
+                "yes/no/on/off are not numbers either)"
+            )
+        return data
+
+
+class InputModel(StrictModel):
+    """Config and mission models: additionally NaN and ±infinity are refused everywhere."""
+
+    model_config = ConfigDict(allow_inf_nan=False)
+
+
+class ConfigFileError(Exception):
+    """A configuration or mission file could not be used. ``problems`` holds one line each."""
+
+    def __init__(self, path: Path | str, problems: list[str]) -> None:
+        self.path = Path(path)
+        self.problems = problems
+        super().__init__("\n".join(problems))
+
+
+_BOUND_WORDS = {
+    "greater_than": "> {gt}",
+    "greater_than_equal": ">= {ge}",
+    "less_than": "< {lt}",
+    "less_than_equal": "<= {le}",
+}
+
+
+_TYPE_WORDS = {
+    "float": "allowed: a number",
+    "int": "allowed: a whole number",
+    "bool": "allowed: true or false",
+    "string": "allowed: text",
+    "list": "allowed: a list",
+    "tuple": "allowed: a list",
+    "dict": "allowed: a mapping of keys",
+    "model": "allowed: a mapping of keys",
+}
+
+
+def _model_at(model: type[BaseModel], loc: tuple[int | str, ...]) -> type[BaseModel] | None:
+    """Walk ``loc`` through nested pydantic models; return the model owning the last key."""
+    current: Any = model
+    for part in loc[:-1]:
+        if isinstance(part, int):
+            continue
+        if not (isinstance(current, type) and issubclass(current, BaseModel)):
+            return None
+        field = current.model_fields.get(str(part))
+        if field is None:
+            return None
+        current = _inner_model(field.annotation)
+    if isinstance(current, type) and issubclass(current, BaseModel):
+        return current
+    return None
+
+
+def _inner_model(annotation: Any) -> Any:
+    """Find a BaseModel inside Optional[...] / list[...] / tuple[...] annotations."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in getattr(annotation, "__args__", ()):
+        found = _inner_model(arg)
+        if found is not None:
+            return found
+    return None
+
+
+def _bounds(metadata: Any) -> tuple[Any, Any]:
+    lo = hi = None
+    for meta in metadata:
+        for inner in (meta, *getattr(meta, "metadata", ())):
+            lo = getattr(inner, "ge", None) if lo is None else lo
+            lo = getattr(inner, "gt", None) if lo is None else lo
+            hi = getattr(inner, "le", None) if hi is None else hi
+            hi = getattr(inner, "lt", None) if hi is None else hi
+    return lo, hi
+
+
+def _item_bounds(annotation: Any) -> tuple[Any, Any]:
+    for arg in getattr(annotation, "__args__", ()):
+        lo, hi = _bounds(getattr(arg, "__metadata__", ()))
+        if lo is not None and hi is not None:
+            return lo, hi
+    return None, None
+
+
+def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) -> str:
+    etype = err["type"]
+    ctx = err.get("ctx") or {}
+    if etype in _BOUND_WORDS:
+        bound = _BOUND_WORDS[etype].format(**ctx)
+        owner = _model_at(model, loc)
+        if owner is not None and loc and isinstance(loc[-1], str):
+            field = owner.model_fields.get(loc[-1])
+            if field is not None:
+                lo, hi = _bounds(field.metadata)
+                if lo is not None and hi is not None:
+                    return f"allowed range {lo} .. {hi}"
+        if len(loc) >= 2 and isinstance(loc[-1], int) and isinstance(loc[-2], str):
+            # an item of a list field such as stick_channels: bounds sit on the item type
+            owner = _model_at(model, loc[:-1])
+            field = owner.model_fields.get(loc[-2]) if owner is not None else None
+            if field is not None:
+                lo, hi = _item_bounds(field.annotation)
+                if lo is not None and hi is not None:
+                    return f"allowed range {lo} .. {hi}"
+        return f"allowed: {bound}"
+    if etype == "extra_forbidden":
+        owner = _model_at(model, loc)
+        if owner is not None:
+            return "allowed keys here: " + ", ".join(sorted(owner.model_fields))
+        return "remove it"
+    if etype in ("enum", "literal_error"):
+        return "allowed: " + str(ctx.get("expected", "see the documentation"))
+    if etype == "missing":
+        return "this field is required"
+    return _TYPE_WORDS.get(etype.split("_")[0], "")
+
+
+_YAML11_BOOLS = frozenset({"yes", "no", "on", "off", "y", "n"})
+
+
+def format_validation_error(
+    path: Path | str, exc: ValidationError, model: type[BaseModel]
+) -> list[str]:
+    """One human line per pydantic error: ``file: dotted.path: problem (got X; allowed Y)``."""
+    lines: list[str] = []
+    for err in exc.errors(include_url=False):
+        loc = tuple(err["loc"])
+        dotted = ".".join(str(p) for p in loc) if loc else "(top level)"
+        etype = err["type"]
+        if etype == "extra_forbidden":
+            problem = "unknown key"
+        elif etype == "missing":
+            problem = "missing required field"
+        else:
+            problem = str(err["msg"]).removeprefix("Value error, ")
+        value = err.get("input")
+        shown = etype != "missing" and not isinstance(value, dict)
+        parts = [f"got {clip(value)}"] if shown else []
+        if not etype.startswith("value_error"):
+            allowed = _allowed_text(err, model, loc)
+            if allowed:
+                parts.append(allowed)
+        if etype == "value_error" and (not loc or "\n" in problem):
+            # a cross-field validator: one line per problem, each naming its fields itself
+            prefix = f"{path}: {dotted}: " if loc else f"{path}: "
+            lines.extend(clip_line(prefix + p) for p in problem.splitlines() if p)
+            continue
+        if isinstance(value, str) and value.lower() in _YAML11_BOOLS and "parsing" in etype:
+            parts.append("yes/no/on/off are text, not numbers or switches: write the number")
+        detail = f" ({'; '.join(parts)})" if parts else ""
+        lines.append(clip_line(f"{path}: {dotted}: {problem}{detail}"))
+    return lines
+
+
+M = TypeVar("M", bound=BaseModel)
+
+
+def load_yaml_model(path: Path | str, model: type[M], context: dict[str, Any] | None = None) -> M:
+    """Read ``path`` as YAML and validate it as ``model``; raise ConfigFileError otherwise."""
+    p = Path(path)
+    try:
+        data = load_yaml_file(p)
+    except YamlFileError as exc:
+        raise ConfigFileError(p, [exc.message]) from None
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigFileError(
+            p, [f"{p}: (top level): expected a mapping of keys, got {type(data).__name__}"]
+        )
+    try:
+        with paused_gc():
+            return model.model_validate(data, context=context)
+    except ValidationError as exc:
+        raise ConfigFileError(p, format_validation_error(p, exc, model)) from None
+
+
+def finite(value: float) -> float:
+    if not math.isfinite(value):
+        raise ValueError("must be a finite number")
+    return value

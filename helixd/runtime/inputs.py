@@ -1,0 +1,185 @@
+"""What a run flies, loaded and checked before anything connects: the config and the mission
+together (every problem at once, as ``check`` and ``run`` both need), the text the run
+directory records and hashes, and the inputs of ``run --resume RUN_DIR``.
+
+No printing and no exits: a refusal is :class:`InputsRefused` (one line per problem and the
+exit code); what the operator should read but which does not stop the run comes back as notes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from helixd.base.exitcodes import ExitCode
+from helixd.config import HelixdConfig, config_to_yaml, load_config
+from helixd.files.models import ConfigFileError
+from helixd.files.yamlio import clip_line, paused_gc
+from helixd.mission import Mission, MissionFrameKind, MotionMode, Plan, PlanError
+from helixd.mission.formats import MissionFormat, load_mission_file, mission_to_yaml, sniff_format
+from helixd.mission.locate import MissionNotFound, locate_mission
+from helixd.mission.resume import (
+    ResumeRefused,
+    RunInputs,
+    check_inputs,
+    parse_inputs,
+    resume_point,
+    resumed_inputs,
+    sha256_text,
+)
+from helixd.mission.validate import apply_mission_limits, mission_problems, plan_for_check
+from helixd.recorder.resume_dir import MISSION_FILE, read_run_dir
+
+
+class InputsRefused(Exception):
+    """The inputs cannot be flown; ``problems`` holds one line each, ``code`` the exit code."""
+
+    def __init__(self, problems: list[str], code: ExitCode = ExitCode.USAGE) -> None:
+        self.problems = problems
+        self.code = code
+        super().__init__("\n".join(problems))
+
+
+@dataclass(frozen=True)
+class LoadedInputs:
+    """The config (with the mission's own limits applied), the mission, the file actually used
+    and the plan as :func:`plan_for_check` resolves it; ``notes`` are warnings to show."""
+
+    cfg: HelixdConfig
+    mission: Mission
+    path: Path
+    plan: Plan
+    provisional: bool  # a global plan shown relative to waypoint 0 (EKF origin not known)
+    notes: tuple[str, ...] = field(default=())
+
+
+def load_inputs(
+    config: Path | None,
+    mission: Path,
+    mode: MotionMode | None = None,
+    skip_unsupported: bool = False,
+) -> LoadedInputs:
+    """Load config and mission together so the operator sees every problem at once.
+
+    Runs the shared mission-vs-config validation (what can be checked without the vehicle),
+    so ``check`` and ``run`` refuse the same files."""
+    problems: list[str] = []
+    notes: list[str] = []
+    cfg: HelixdConfig | None = None
+    try:
+        cfg = load_config(config)
+    except ConfigFileError as exc:
+        problems.extend(exc.problems)
+    limits = cfg.mission if cfg is not None else HelixdConfig().mission
+    msn = None
+    path = mission
+    try:
+        found = locate_mission(mission)
+        path = found.path
+        if found.searched:
+            notes.append(f"mission {mission}: using {path}")
+        gs_mode = cfg.mission.ground_station_mode if cfg is not None else None
+        loaded = load_mission_file(
+            path,
+            limits,
+            mode=mode,
+            default_mode=MotionMode(gs_mode) if gs_mode else None,
+            skip_unsupported=skip_unsupported,
+            # planning routes the legs around a .plan's exclusion zones instead of refusing
+            route_keep_outs=cfg is not None and cfg.planning.enabled,
+        )
+        msn = loaded.mission
+        notes.extend(f"warning: {clip_line(line)}" for line in (*loaded.skipped, *loaded.notes))
+    except MissionNotFound as exc:
+        problems.append(str(exc))
+    except ConfigFileError as exc:
+        problems.extend(exc.problems)
+    checked: tuple[Plan, bool] | None = None
+    if cfg is not None and msn is not None:
+        checked = mission_vs_config(cfg, msn, str(path), problems)
+    if problems or cfg is None or msn is None or checked is None:
+        raise InputsRefused(problems, ExitCode.USAGE)
+    # the mission's own fence/time limit (a survey's) replace the config's for this run
+    cfg = apply_mission_limits(cfg, msn)
+    return LoadedInputs(cfg, msn, path, checked[0], checked[1], tuple(notes))
+
+
+def mission_vs_config(
+    cfg: HelixdConfig, msn: Mission, label: str, problems: list[str]
+) -> tuple[Plan, bool] | None:
+    """The plan as :func:`plan_for_check` resolves it, and the mission-vs-config checks
+    (what can be checked without the vehicle); problems are appended, prefixed by ``label``."""
+    try:
+        with paused_gc():  # large acyclic plan: see yamlio.paused_gc
+            checked = plan_for_check(msn, cfg)
+    except PlanError as exc:
+        problems.append(f"{label}: {exc}")
+        return None
+    refused = mission_problems(msn, cfg, checked_plan=checked)
+    problems.extend(f"{label}: {p}" for p in refused)
+    return checked
+
+
+def recorded_mission_yaml(mission_path: Path, msn: Mission, mode: MotionMode | None) -> str:
+    """What the run directory keeps as mission.yaml (and hashes): the YAML file as written,
+    else the flown mission as helixd YAML."""
+    try:
+        if sniff_format(mission_path) is MissionFormat.YAML and mode is None:
+            return mission_path.read_text(encoding="utf-8")
+        return mission_to_yaml(msn)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputsRefused([f"{mission_path}: cannot read file: {exc}"]) from None
+
+
+def config_sha256(config: Path | None) -> str:
+    """Hash of the loaded config (canonical YAML dump: a value change is a change, a comment
+    is not), before any command-line override such as --connect."""
+    try:
+        return sha256_text(config_to_yaml(load_config(config)))
+    except ConfigFileError as exc:
+        raise InputsRefused(exc.problems) from None
+
+
+@dataclass(frozen=True)
+class ResumeInputs:
+    """Config, remaining mission, its YAML and the new run's inputs record for
+    ``--resume RUN_DIR``; ``notes`` are lines to show the operator."""
+
+    cfg: HelixdConfig
+    mission: Mission
+    mission_yaml: str
+    inputs: RunInputs
+    notes: tuple[str, ...]
+
+
+def resume_inputs(
+    config: Path | None, run_dir: Path, explicit_mission: Path | None
+) -> ResumeInputs:
+    """The inputs of ``run --resume RUN_DIR``; every refusal is one line and exit 2."""
+    try:
+        contents = read_run_dir(run_dir)
+        recorded = parse_inputs(contents.inputs_text)
+        explicit_sha = None
+        if explicit_mission is not None:
+            given = load_inputs(config, explicit_mission)
+            explicit_sha = sha256_text(recorded_mission_yaml(given.path, given.mission, None))
+        check_inputs(recorded, contents.mission_yaml, config_sha256(config), explicit_sha)
+        old = load_inputs(config, run_dir / MISSION_FILE)
+        point = resume_point(
+            str(run_dir.resolve()), recorded, old.mission, contents.events, contents.completed
+        )
+    except ResumeRefused as exc:
+        raise InputsRefused([f"--resume {run_dir}: {exc}"]) from None
+    mission_yaml = mission_to_yaml(point.mission)
+    notes = [
+        f"resume  : {run_dir}: from waypoint {point.first_index + 1}/"
+        f"{recorded.waypoints_total} ({len(point.mission.waypoints)} remaining)"
+    ]
+    if point.mission.frame is MissionFrameKind.LOCAL_NED:
+        notes.append(
+            "warning: local_ned waypoints are relative to the EKF origin; if the autopilot "
+            "set a new origin since (reboot, GPS), they lie elsewhere (global is safe)"
+        )
+    return ResumeInputs(
+        old.cfg, point.mission, mission_yaml, resumed_inputs(point, mission_yaml), tuple(notes)
+    )

@@ -1,0 +1,187 @@
+"""The flight a run makes of a checked mission: planned around the map, the config's keep-out
+shapes and a .plan's exclusion zones (helixd.planning) when there are any, with the re-planner
+the daemon calls at preflight for the first leg from the rover's real pose.
+
+No printing and no exits: refusals are :class:`helixd.runtime.inputs.InputsRefused`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import structlog
+
+from helixd.base.frames import latlon_to_ne, ne_to_latlon
+from helixd.config import HelixdConfig
+from helixd.mission import Mission, MissionFrameKind
+from helixd.mission.formats import has_keep_outs, plan_fence_ne
+from helixd.mission.resume import RunInputs, fresh_inputs
+from helixd.planning import (
+    KeepOutCircle,
+    MapFileError,
+    ObstacleError,
+    OccupancyMap,
+    PlanningError,
+    load_map,
+    plan_mission,
+    planning_wanted,
+)
+from helixd.planning.fence import plan_global_mission
+from helixd.planning.replan import replan_first_leg
+from helixd.planning.route import RoutePlan, planned_mission_yaml
+from helixd.runtime.inputs import InputsRefused
+
+Replanner = Callable[[tuple[float, float], tuple[float, float] | None], Mission]
+
+
+def load_occupancy(cfg: HelixdConfig, map_path: Path | None) -> OccupancyMap | None:
+    """The ``--map`` (helixd.planning.mapfile), or None; an unusable map is refused (exit 2)."""
+    if map_path is None:
+        return None
+    try:
+        return load_map(map_path, cfg.planning.max_cells)
+    except MapFileError as exc:
+        raise InputsRefused([str(exc)]) from None
+
+
+def plan_loaded(
+    cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
+) -> tuple[Mission, RoutePlan | None]:
+    """The mission with the intermediate waypoints inserted, and the route (None: nothing to
+    plan around); refusals exit 2."""
+    try:
+        if msn.frame is MissionFrameKind.GLOBAL and cfg.planning.enabled:
+            return plan_global(cfg, msn, path, occupancy)
+        if not planning_wanted(cfg, occupancy):
+            return msn, None
+        return plan_mission(msn, cfg, occupancy)
+    except PlanningError as exc:
+        raise InputsRefused([f"{path}: {p}" for p in exc.problems]) from None
+    except (MapFileError, ObstacleError) as exc:
+        raise InputsRefused([str(exc)]) from None
+
+
+def plan_global(
+    cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
+) -> tuple[Mission, RoutePlan | None]:
+    """A global mission: planned around its .plan's exclusion zones when it has any (in a
+    frame around waypoint 0, helixd.planning.fence); with only a --map or config keep-outs,
+    refused (they hang from the unknown EKF origin); else flown as it is."""
+    own = has_keep_outs(path)
+    if not (own or planning_wanted(cfg, occupancy)):
+        return msn, None
+    origin = msn.points()[0]
+    polys: list[tuple[tuple[float, float], ...]] = []
+    circles: list[KeepOutCircle] = []
+    if own:
+        fence = plan_fence_ne(path, origin)
+        polys = list(fence.exclusion_polygons)
+        circles = [
+            KeepOutCircle(c.centre_ne_m[0], c.centre_ne_m[1], c.radius_m)
+            for c in fence.exclusion_circles
+        ]
+    return plan_global_mission(msn, cfg, polys, circles, origin, occupancy)
+
+
+def first_leg_replanner(
+    cfg: HelixdConfig, original: Mission, planned: Mission, route: RoutePlan
+) -> Replanner:
+    """What the daemon calls at preflight with the rover's (north_m, east_m) and the EKF
+    origin: the planned mission with its first leg re-planned from there
+    (helixd.planning.replan); raises PlanningError (a ValueError) naming the pose when it
+    cannot."""
+
+    def replan_from(
+        rover_ne_m: tuple[float, float], ekf_origin_latlon_deg: tuple[float, float] | None
+    ) -> Mission:
+        here = rover_ne_m
+        if route.origin_latlon_deg is not None:  # a global mission's route: around waypoint 0
+            if ekf_origin_latlon_deg is None:
+                raise PlanningError(["a global mission's first leg needs the EKF origin"])
+            latlon = ne_to_latlon(*rover_ne_m, *ekf_origin_latlon_deg)
+            here = latlon_to_ne(*latlon, *route.origin_latlon_deg)
+        again, again_route = replan_first_leg(planned, route, original, here, cfg)
+        if again is not planned:
+            leg = again_route.legs[0]
+            structlog.get_logger("helixd.planning").info(
+                "first_leg_replanned",
+                rover_north_m=round(rover_ne_m[0], 2),
+                rover_east_m=round(rover_ne_m[1], 2),
+                vias=len(leg.points_ne_m) - 2,
+                length_m=round(leg.length_m, 2),
+            )
+        return again
+
+    return replan_from
+
+
+def route_lines(route: RoutePlan) -> list[str]:
+    """The planned legs, one line each, with their intermediate points."""
+    fr = route.grid.frame
+    lines = [
+        f"planned : clearance {route.grid.clearance_m:.2f} m (rover half-width + "
+        f"planning.margin_m), grid {fr.rows} × {fr.cols} at {fr.resolution_m:g} m, "
+        f"{route.seconds * 1000:.0f} ms"
+    ]
+    for leg in route.legs:
+        a = "start" if leg.from_index < 0 else f"wp {leg.from_index}"
+        via = leg.points_ne_m[1:-1]
+        straight = math.dist(leg.points_ne_m[0], leg.points_ne_m[-1])
+        how = "straight" if not via else f"{len(via)} intermediate, straight {straight:.1f} m"
+        lines.append(f"  leg {a} → wp {leg.to_index}: {leg.length_m:.1f} m ({how})")
+        lines.extend(f"      via north {n:9.2f}  east {e:9.2f}" for n, e in via)
+    total = sum(leg.length_m for leg in route.legs)
+    start = "planning.start_ne_m" if route.origin_latlon_deg is None else "waypoint 0"
+    lines.append(f"  total {total:.1f} m from {start} (run: re-planned from the rover's pose)")
+    return lines
+
+
+@dataclass(frozen=True)
+class Flight:
+    """What is flown: the mission (planned around obstacles when there are any), the text the
+    run directory records, the first-leg re-planner for the daemon's preflight, the inputs
+    record (mission/config hashes, what --resume checks) and the route (None: not planned)."""
+
+    mission: Mission
+    mission_yaml: str
+    replan_from: Replanner | None
+    inputs: RunInputs
+    route: RoutePlan | None = None
+
+
+def planned_flight(
+    cfg: HelixdConfig,
+    msn: Mission,
+    mission_yaml: str,
+    mission_path: Path,
+    occupancy: OccupancyMap | None,
+    config_sha: str,
+) -> Flight:
+    """Plan around the map and keep-outs (refusals exit 2)."""
+    planned, route = plan_loaded(cfg, msn, mission_path, occupancy)
+    if route is None:
+        return Flight(msn, mission_yaml, None, fresh_inputs(mission_yaml, config_sha, msn))
+    map_path = None if occupancy is None else occupancy.source
+    planned_yaml = planned_mission_yaml(planned, route, map_path)
+    return Flight(
+        planned,
+        planned_yaml,
+        first_leg_replanner(cfg, msn, planned, route),
+        fresh_inputs(planned_yaml, config_sha, planned),
+        route,
+    )
+
+
+__all__ = [
+    "Flight",
+    "Replanner",
+    "first_leg_replanner",
+    "load_occupancy",
+    "plan_global",
+    "plan_loaded",
+    "planned_flight",
+    "route_lines",
+]
