@@ -507,7 +507,7 @@ async def _until(predicate: Any, ap: Any, timeout_s: float, what: str) -> None:
     while not predicate():
         if time.monotonic() > deadline:
             raise RuntimeError(f"setup: {what} not seen within {timeout_s} s")
-        await ap.wait_pose(after_rx_s=None, timeout_s=0.05)
+        await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)
 
 
 async def run_daemon_side(
@@ -569,13 +569,13 @@ async def run_daemon_side(
         ap.start_heartbeat()
         granted = await ap.request_streams()
         preflight = [str(p) for p in await check_obedience(ap, cfg.actuation, cfg.link)]
-        await ap.set_mode(MANUAL_MODE)
-        await ap.arm(force=True)
+        await ap.action.set_mode(MANUAL_MODE)
+        await ap.action.arm(force=True)
         await _until(lambda: ap.state.armed, ap, SETUP_TIMEOUT_S, "armed HEARTBEAT")
         await _until(lambda: ap.state.pose is not None, ap, SETUP_TIMEOUT_S, "a pose")
         assert ap.state.pose is not None
         start_ned = ap.state.pose.ned
-        sink = ProbeSink(RcOverrideSink(cfg.actuation, cfg.vehicle, ap), ap)
+        sink = ProbeSink(RcOverrideSink(cfg.actuation, cfg.vehicle, ap.action), ap)
         await sink.start()
         recorder = RunRecorder.create(
             run_root=work / "runs",

@@ -38,5 +38,5 @@ def make_sink(
     if ap is None:
         raise ValueError(f"actuation.backend {actuation.backend.value!r} needs an autopilot link")
     if actuation.backend is ActuationBackend.SERVO:
-        return ServoSink(actuation, vehicle, ap)
-    return RcOverrideSink(actuation, vehicle, ap)
+        return ServoSink(actuation, vehicle, ap.action)
+    return RcOverrideSink(actuation, vehicle, ap.action)

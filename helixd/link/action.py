@@ -59,7 +59,7 @@ class Action:
         ok_results: Collection[int] = (MAV_RESULT_ACCEPTED,),
     ) -> int:
         """MAV_RESULT (one of ``ok_results``); CommandRejected / CommandTimeout otherwise."""
-        return await self._commands.command_long(command, params, timeout_s, retries, ok_results)
+        return await self._commands.exchange(command, params, timeout_s, retries, ok_results)
 
     async def arm(self, force: bool = False) -> None:
         since = time.monotonic()

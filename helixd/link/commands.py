@@ -200,7 +200,7 @@ class CommandClient:
 
     # -- commands -----------------------------------------------------------------------------
 
-    async def command_long(
+    async def exchange(
         self,
         command: int,
         params: Sequence[float],

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import asyncio
 import time
-from collections.abc import Callable, Collection, Coroutine, Sequence
+from collections.abc import Callable, Coroutine
 from typing import Any
 
 import structlog
@@ -59,10 +59,7 @@ from helixd.link.streams import StreamManager
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.tlog import LinkTlog
 from helixd.link.transport import Address, Transport, make_transport
-from helixd.link.vehicle import Change, PoseSample, VehicleState
-from helixd.mav.constants import (
-    MAV_RESULT_ACCEPTED,
-)
+from helixd.link.vehicle import Change, VehicleState
 from helixd.mav.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
 
 __all__ = [
@@ -116,13 +113,14 @@ _NOTABLE_CHANGES = Change.REBOOT | Change.LINK_REGAINED | Change.MODE | Change.A
 
 
 class Autopilot:
-    """One autopilot over one link: state, heartbeats, streams, commands, parameters.
+    """One autopilot over one link, holding its plugins as MAVSDK's ``System`` does.
 
-    Plugins (MAVSDK's shape): :attr:`telemetry` (:mod:`helixd.link.telemetry`:
-    ``async for pose in ap.telemetry.pose()``), :attr:`action` (:mod:`helixd.link.action`:
-    arm, mode, overrides, servo, COMMAND_LONG) and :attr:`param` (:mod:`helixd.link.param`);
-    the facade's methods of the same names delegate to them. Nothing here decides to stop the
-    rover.
+    Plugins: :attr:`telemetry` (:mod:`helixd.link.telemetry`: ``async for pose in
+    ap.telemetry.pose()``, ``ap.telemetry.next_pose(...)``), :attr:`action`
+    (:mod:`helixd.link.action`: arm, disarm, mode, RC override, servo, any COMMAND_LONG) and
+    :attr:`param` (:mod:`helixd.link.param`); callers use them directly. The facade itself
+    owns the link: the vehicle state (:attr:`state`), heartbeats, stream negotiation, raw
+    messages, the link log and closing. Nothing here decides to stop the rover.
     """
 
     def __init__(
@@ -153,7 +151,6 @@ class Autopilot:
             self._on_reopened,
         )
         self._commands = CommandClient(lambda: self._conn.mav, self._conn.send, cfg, self.state)
-        self._streams = StreamManager(self.command_long, cfg, self.get_param)
         self._heartbeat = HeartbeatSender(self._conn, cfg)
         self._texts = StatusTextAssembler(cfg.statustext_timeout_s)
         self._waiters = ChangeWaiters()
@@ -163,6 +160,7 @@ class Autopilot:
         )
         self.action = Action(cfg, self.state, self._commands, self._waiters, self._conn)
         self.param = Param(self._commands)
+        self._streams = StreamManager(self.action.command_long, cfg, self.param.get)
         self._tasks: set[asyncio.Task[None]] = set()
         self._rerequest: asyncio.Task[None] | None = None
         self._monitor: asyncio.Task[None] | None = None
@@ -401,54 +399,6 @@ class Autopilot:
                 self._streams.run_monitor(lambda: not self.state.link_lost), "stream_monitor"
             )
         return granted
-
-    async def wait_pose(self, after_rx_s: float | None, timeout_s: float) -> PoseSample | None:
-        """The newest pose if it was read after ``after_rx_s``, else the next one to arrive;
-        None on timeout (:meth:`helixd.link.telemetry.Telemetry.next_pose`)."""
-        return await self.telemetry.next_pose(after_rx_s, timeout_s)
-
-    # -- commands and parameters (the action and param plugins) ----------------------------
-
-    async def command_long(
-        self,
-        command: int,
-        params: Sequence[float],
-        timeout_s: float | None = None,
-        retries: int | None = None,
-        ok_results: Collection[int] = (MAV_RESULT_ACCEPTED,),
-    ) -> int:
-        """MAV_RESULT (one of ``ok_results``); CommandRejected / CommandTimeout otherwise."""
-        return await self.action.command_long(command, params, timeout_s, retries, ok_results)
-
-    async def arm(self, force: bool = False) -> None:
-        await self.action.arm(force)
-
-    async def disarm(
-        self, force: bool = False, timeout_s: float | None = None, retries: int | None = None
-    ) -> None:
-        await self.action.disarm(force, timeout_s, retries)
-
-    async def set_mode(
-        self, name: str, timeout_s: float | None = None, retries: int | None = None
-    ) -> None:
-        """MAV_CMD_DO_SET_MODE by Rover mode name (:meth:`helixd.link.action.Action.set_mode`)."""
-        await self.action.set_mode(name, timeout_s, retries)
-
-    async def get_param(
-        self, name: str, timeout_s: float | None = None, retries: int | None = None
-    ) -> float | None:
-        return await self.param.get(name, timeout_s, retries)
-
-    async def set_param(self, name: str, value: float) -> float:
-        return await self.param.set(name, value)
-
-    async def request_gps_origin(self, timeout_s: float) -> tuple[float, float] | None:
-        """(lat_deg, lon_deg) of the EKF origin via MAV_CMD_REQUEST_MESSAGE; None if none."""
-        return await self.action.request_gps_origin(timeout_s)
-
-    def send_rc_override(self, channels_us: Sequence[int]) -> None:
-        """RC_CHANNELS_OVERRIDE with 18 raw values (0/65535/65534 semantics are the caller's)."""
-        self.action.send_rc_override(channels_us)
 
     # -- raw messages and the link log --------------------------------------------------------
 

@@ -66,10 +66,17 @@ class PreflightProblem:
         return f"{self.severity}: {self.message}"
 
 
-class ParamReader(Protocol):
-    async def get_param(
+class ParamGetter(Protocol):
+    async def get(
         self, name: str, timeout_s: float | None = ..., retries: int | None = ...
     ) -> float | None: ...
+
+
+class ParamReader(Protocol):
+    """What preflight reads parameters through (the Autopilot's param plugin)."""
+
+    @property
+    def param(self) -> ParamGetter: ...
 
 
 @runtime_checkable
@@ -104,11 +111,11 @@ async def check_obedience(
     """Read the parameters that decide whether we are obeyed; return every problem found."""
     names = param_names(actuation)
     values, _ = await asyncio.gather(
-        asyncio.gather(*(ap.get_param(n) for n in names)), _listen_for_own_id(ap, link)
+        asyncio.gather(*(ap.param.get(n) for n in names)), _listen_for_own_id(ap, link)
     )
     params: dict[str, float | None] = dict(zip(names, values, strict=True))
     if params["MAV_GCS_SYSID"] is None:  # older firmware: the GCS sysid had another name
-        params[LEGACY_GCS_SYSID] = await ap.get_param(LEGACY_GCS_SYSID)
+        params[LEGACY_GCS_SYSID] = await ap.param.get(LEGACY_GCS_SYSID)
     problems = judge(params, actuation, link)
     if isinstance(ap, OwnIdWatch):
         problems = judge_own_id(ap.own_id_senders, link) + problems

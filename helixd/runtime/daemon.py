@@ -341,7 +341,7 @@ class MissionRunner:
                 self.messages.append(f"warning: {p.message}")
         gate = self.cfg.safety.start_switch_channel
         if gate is not None:
-            mode_ch = await ap.get_param("MODE_CH")
+            mode_ch = await ap.param.get("MODE_CH")
             if mode_ch is not None and int(mode_ch) == gate:
                 problems.append(
                     f"safety.start_switch_channel = {gate} is the autopilot's flight-mode channel "
@@ -364,7 +364,7 @@ class MissionRunner:
             )
         origin = None
         if self.opts.mission.frame is MissionFrameKind.GLOBAL:
-            origin = await ap.request_gps_origin(self.cfg.link.command_timeout_s * 3)
+            origin = await ap.action.request_gps_origin(self.cfg.link.command_timeout_s * 3)
             if origin is None:
                 problems.append("global mission needs GPS_GLOBAL_ORIGIN; the autopilot sent none")
         if problems or pose is None:
@@ -431,7 +431,9 @@ class MissionRunner:
         while time.monotonic() < deadline:
             ap.feed()
             poll_s = min(0.2, self.cfg.safety.pose_stale_s / 4)  # notice invalid poses early
-            sample = await self._until_stopped(ap.wait_pose(after_rx_s=None, timeout_s=poll_s))
+            sample = await self._until_stopped(
+                ap.telemetry.next_pose(after_rx_s=None, timeout_s=poll_s)
+            )
             if self._pose_invalid_too_long(ap) is not None:
                 return None
             ekf = ap.state.ekf
@@ -460,7 +462,7 @@ class MissionRunner:
             if len(rc) >= ch and rc[ch - 1] >= threshold:
                 log.info("start_switch_on", channel=ch, pwm_us=rc[ch - 1])
                 return
-            await self._until_stopped(ap.wait_pose(after_rx_s=None, timeout_s=0.2))
+            await self._until_stopped(ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.2))
         raise PreflightFailed(
             [f"start switch RC{ch} not flipped within {self.cfg.safety.start_gate_timeout_s} s"]
         )
@@ -472,7 +474,7 @@ class MissionRunner:
         deadline = time.monotonic() + self.cfg.safety.arm_timeout_s
         while True:
             try:
-                await ap.arm(force=self.cfg.safety.force_arm)
+                await ap.action.arm(force=self.cfg.safety.force_arm)
                 held.armed_by_us = True
                 await self._confirm_armed(ap)
                 return
@@ -497,7 +499,7 @@ class MissionRunner:
                 raise PreflightFailed(
                     [f"mode {mode} was accepted but HEARTBEAT still shows {ap.state.mode}"]
                 )
-            await ap.wait_pose(after_rx_s=None, timeout_s=0.05)
+            await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)
 
     async def _confirm_armed(self, ap: Autopilot) -> None:
         """The ACK says 'accepted'; the HEARTBEAT's armed flag says it happened."""
@@ -505,7 +507,7 @@ class MissionRunner:
         while not ap.state.armed:
             if time.monotonic() > deadline:
                 raise PreflightFailed(["arming was accepted but HEARTBEAT never showed armed"])
-            await ap.wait_pose(after_rx_s=None, timeout_s=0.05)
+            await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)
 
     @contextlib.asynccontextmanager
     async def _feeding(self, held: Held) -> AsyncIterator[None]:
@@ -547,7 +549,7 @@ class MissionRunner:
             async with phase("start_gate", self.notifier, self.display):
                 await self._start_gate(ap)
             async with phase("set_manual", self.notifier, self.display):
-                await self._until_stopped(ap.set_mode(MANUAL_MODE))
+                await self._until_stopped(ap.action.set_mode(MANUAL_MODE))
                 await self._confirm_mode(ap, MANUAL_MODE)
             sink = held.sink
             if sink is None:
@@ -737,7 +739,7 @@ class MissionRunner:
                 secured = await fall_back(
                     ending.fault,
                     sink=held.sink,
-                    autopilot=ap,
+                    autopilot=ap.action,
                     cfg=self.cfg.safety,
                     detected_s=ending.detected_s or time.monotonic(),
                     pose_text=self._pose_text(pose),

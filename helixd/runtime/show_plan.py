@@ -67,7 +67,7 @@ async def show_plan(
     if ap.state.mode == AUTO_MODE:
         return "--show-plan: the autopilot is in AUTO (it would follow a new mission): not uploaded"
     try:
-        origin = origin_latlon_deg or await ap.request_gps_origin(timeout_s)
+        origin = origin_latlon_deg or await ap.action.request_gps_origin(timeout_s)
         if origin is None:
             return "--show-plan: the autopilot sent no GPS_GLOBAL_ORIGIN: plan not uploaded"
         wire = gcs_to_wire(plan_as_gcs(plan, start_ned, origin))

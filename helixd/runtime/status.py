@@ -50,7 +50,7 @@ async def read_status(
     try:
         await ap.wait_heartbeat(safety.connect_timeout_s)
         await ap.request_streams()
-        await ap.wait_pose(after_rx_s=None, timeout_s=2.0)
+        await ap.telemetry.next_pose(after_rx_s=None, timeout_s=2.0)
         while True:
             for line in format_status(ap.state, time.monotonic()):
                 emit(line)

@@ -21,13 +21,13 @@ async def test_late_answer_is_taken_and_its_twin_does_not_satisfy_the_next_comma
         # every try answered 0.35 s late: the first try's ack arrives after the re-send
         peer.set_reply(SET_MODE, Reply(delay_s=0.35))
         t0 = time.monotonic()
-        assert await ap.command_long(SET_MODE, HOLD) == mavlink.MAV_RESULT_ACCEPTED
+        assert await ap.action.command_long(SET_MODE, HOLD) == mavlink.MAV_RESULT_ACCEPTED
         tries = peer.records.commands_of(SET_MODE, t0)
         assert [c.confirmation for c in tries] == [0, 1]  # re-sent once, confirmation counted
         # the re-send's own (late) ack is still on its way; the next command gets no answer
         peer.set_reply(SET_MODE, Reply(result=None))
         with pytest.raises(CommandTimeout) as info:
-            await ap.command_long(SET_MODE, HOLD)
+            await ap.action.command_long(SET_MODE, HOLD)
         assert "MAV_CMD_DO_SET_MODE" in str(info.value)
         assert ap.ack_stats.duplicates >= 1
 
@@ -35,10 +35,10 @@ async def test_late_answer_is_taken_and_its_twin_does_not_satisfy_the_next_comma
 async def test_duplicated_ack_does_not_satisfy_the_next_command() -> None:
     async with linked(command_settle_s=0.05) as (ap, peer):
         peer.set_reply(SET_MODE, Reply(copies=2))  # two identical acks back to back
-        assert await ap.command_long(SET_MODE, HOLD) == mavlink.MAV_RESULT_ACCEPTED
+        assert await ap.action.command_long(SET_MODE, HOLD) == mavlink.MAV_RESULT_ACCEPTED
         peer.set_reply(SET_MODE, Reply(result=DENIED))
         with pytest.raises(CommandRejected) as info:
-            await ap.command_long(SET_MODE, HOLD)  # must see DENIED, not the stale ACCEPTED
+            await ap.action.command_long(SET_MODE, HOLD)  # must see DENIED, not the stale ACCEPTED
         assert info.value.result_name == "DENIED"
         await until(
             lambda: ap.ack_stats.unexpected + ap.ack_stats.duplicates >= 1,
@@ -52,7 +52,7 @@ async def test_never_answered_gives_bounded_retries_then_timeout_naming_the_comm
         peer.set_reply(SET_MODE, Reply(result=None))
         t0 = time.monotonic()
         with pytest.raises(CommandTimeout) as info:
-            await ap.command_long(SET_MODE, HOLD)
+            await ap.action.command_long(SET_MODE, HOLD)
         elapsed = time.monotonic() - t0
         assert info.value.command_name == "MAV_CMD_DO_SET_MODE"
         assert info.value.tries == 3
@@ -60,7 +60,7 @@ async def test_never_answered_gives_bounded_retries_then_timeout_naming_the_comm
         assert len(peer.records.commands_of(SET_MODE, t0)) == 3
         # the link is still usable for the same command afterwards
         peer.set_reply(SET_MODE, None)
-        await ap.set_mode("HOLD")
+        await ap.action.set_mode("HOLD")
         await until(lambda: ap.state.mode == "HOLD", 2.0, "HOLD in the heartbeat")
 
 
@@ -69,7 +69,7 @@ async def test_refusals_carry_the_result_name(result: int, name: str) -> None:
     async with linked() as (ap, peer):
         peer.set_reply(SET_MODE, Reply(result=result))
         with pytest.raises(CommandRejected) as info:
-            await ap.set_mode("GUIDED")
+            await ap.action.set_mode("GUIDED")
         assert info.value.result_name == name
         assert name in str(info.value)
 
@@ -77,7 +77,7 @@ async def test_refusals_carry_the_result_name(result: int, name: str) -> None:
 async def test_unknown_command_is_unsupported() -> None:
     async with linked() as (ap, _peer):
         with pytest.raises(CommandRejected) as info:
-            await ap.command_long(31337, ())
+            await ap.action.command_long(31337, ())
         assert info.value.result_name == "UNSUPPORTED"
         assert "31337" in info.value.command_name
 
@@ -86,36 +86,36 @@ async def test_arm_refusal_carries_the_prearm_statustext_and_force_arms() -> Non
     async with linked() as (ap, peer):
         peer.prearm_text = "PreArm: Hardware safety switch"
         with pytest.raises(CommandRejected) as info:
-            await ap.arm(force=False)
+            await ap.action.arm(force=False)
         assert info.value.result_name == "FAILED"
         assert info.value.statustext == "PreArm: Hardware safety switch"
         assert "PreArm: Hardware safety switch" in str(info.value)
-        await ap.arm(force=True)
+        await ap.action.arm(force=True)
         forced = peer.records.commands_of(ARM)[-1]
         assert forced.params[:2] == (1.0, 21196.0)
         await until(lambda: ap.state.armed, 2.0, "armed in the heartbeat")
-        await ap.disarm()
+        await ap.action.disarm()
         await until(lambda: not ap.state.armed, 2.0, "disarmed in the heartbeat")
 
 
 async def test_set_mode_by_name_and_unknown_name() -> None:
     async with linked() as (ap, peer):
-        await ap.set_mode("hold")
+        await ap.action.set_mode("hold")
         sent = peer.records.commands_of(SET_MODE)[-1]
         assert sent.params[:2] == (float(mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED), 4.0)
         await until(lambda: ap.state.mode == "HOLD" and ap.state.custom_mode == 4, 2.0, "HOLD")
         with pytest.raises(ValueError, match="SMART_RTL"):
-            await ap.set_mode("WARP")
+            await ap.action.set_mode("WARP")
 
 
 async def test_params_get_set_and_missing() -> None:
     async with linked(command_timeout_s=0.15, command_retries=1) as (ap, peer):
-        assert await ap.get_param("RC_OVERRIDE_TIME") == 3.0
-        assert await ap.get_param("SYSID_MYGCS") is None  # gone in current ArduPilot
-        assert await ap.set_param("RC_OVERRIDE_TIME", 2.0) == 2.0
+        assert await ap.param.get("RC_OVERRIDE_TIME") == 3.0
+        assert await ap.param.get("SYSID_MYGCS") is None  # gone in current ArduPilot
+        assert await ap.param.set("RC_OVERRIDE_TIME", 2.0) == 2.0
         assert peer.params["RC_OVERRIDE_TIME"] == 2.0
         with pytest.raises(CommandTimeout, match="PARAM_SET NO_SUCH_PARAM"):
-            await ap.set_param("NO_SUCH_PARAM", 1.0)
+            await ap.param.set("NO_SUCH_PARAM", 1.0)
 
 
 @pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf])
@@ -123,13 +123,13 @@ async def test_non_finite_param_reads_as_unreadable(bad: float) -> None:
     async with linked(command_timeout_s=0.15, command_retries=1) as (ap, peer):
         peer.params["MAV_GCS_SYSID"] = bad
         started = time.monotonic()
-        assert await ap.get_param("MAV_GCS_SYSID") is None
+        assert await ap.param.get("MAV_GCS_SYSID") is None
         assert time.monotonic() - started < 0.15  # answered, not timed out
-        assert await ap.get_param("RC_OVERRIDE_TIME") == 3.0
+        assert await ap.param.get("RC_OVERRIDE_TIME") == 3.0
 
 
 async def test_gps_origin_on_request() -> None:
     async with linked() as (ap, peer):
-        assert await ap.request_gps_origin(2.0) == pytest.approx((45.0, -73.0))
+        assert await ap.action.request_gps_origin(2.0) == pytest.approx((45.0, -73.0))
         peer.origin = None  # no EKF origin yet: the autopilot says FAILED
-        assert await ap.request_gps_origin(2.0) is None
+        assert await ap.action.request_gps_origin(2.0) is None

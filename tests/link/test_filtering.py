@@ -35,7 +35,7 @@ async def test_an_ack_from_another_system_does_not_answer_our_command() -> None:
         for _ in range(4):
             peer.send_as(42, 1, lambda c: c.command_ack_encode(SET_MODE, 0, 0, 0, 255, 191))
         with pytest.raises(CommandTimeout):
-            await ap.command_long(SET_MODE, (1, 4))
+            await ap.action.command_long(SET_MODE, (1, 4))
 
 
 async def test_other_components_of_the_autopilot_do_not_set_the_mode() -> None:

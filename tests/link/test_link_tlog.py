@@ -75,7 +75,7 @@ def test_codec_logs_every_frame_in_and_out(tmp_path: Path) -> None:
             peer.sendto(heartbeat(1), addr)
             await ap.wait_heartbeat(5.0)
             assert ap.state.foreign_sysid_counts == {77: 1}
-            ap.send_rc_override([1500] * 8 + [0] * 10)
+            ap.action.send_rc_override([1500] * 8 + [0] * 10)
             out = peer.recv(512)  # what went out is what was logged
             assert out[0] == 0xFD
             await ap.close()

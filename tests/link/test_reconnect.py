@@ -37,7 +37,7 @@ async def lost_then_back(ap: Autopilot, peer: AutopilotPeer, restart: bool) -> N
     await until(lambda: not ap.state.link_lost, 5.0, "link regained")
     assert ap.state.link_lost_count == 1
     await until(lambda: rerequested(peer, t_back), 5.0, "streams re-requested")
-    pose = await ap.wait_pose(after_rx_s=time.monotonic(), timeout_s=3.0)
+    pose = await ap.telemetry.next_pose(after_rx_s=time.monotonic(), timeout_s=3.0)
     assert pose is not None
 
 

@@ -17,7 +17,7 @@ async def test_signed_link_works_both_ways(tmp_path: Path) -> None:
     key_file = tmp_path / "helix.key"
     key_file.write_text(KEY.hex() + "\n")
     async with linked(signing_key_file=key_file, peer_kwargs={"signing_key": KEY}) as (ap, peer):
-        assert await ap.get_param("RC_OVERRIDE_TIME") == 3.0
+        assert await ap.param.get("RC_OVERRIDE_TIME") == 3.0
         await until(lambda: peer.records.signed_rx >= 1, 2.0, "signed messages at the peer")
         assert peer.records.unsigned_rx == 0
 
