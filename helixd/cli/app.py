@@ -17,6 +17,7 @@ from typer.exceptions import TyperException
 
 from helixd import __version__
 from helixd.base.exitcodes import ExitCode
+from helixd.base.run_files import MISSION_FILE
 from helixd.cli import mission as cli_mission
 from helixd.cli import runs as recorder_command
 from helixd.cli.autopilot import AUTOPILOT_MISSION, fetch_autopilot_mission, wants_autopilot
@@ -271,7 +272,7 @@ def run(
         cfg = resumed.cfg
         url = check_connect(connect, cfg)
         # the recorded mission is already planned: no map, no first-leg replanning
-        mission_path = resume / "mission.yaml"
+        mission_path = resume / MISSION_FILE
         flight = Flight(resumed.mission, resumed.mission_yaml, None, resumed.inputs)
     elif wants_autopilot(mission):
         _run_autopilot_mission(

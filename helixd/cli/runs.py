@@ -12,11 +12,11 @@ from rich.console import Console
 from rich.table import Table
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.run_files import EVENTS_FILE, FLIGHT_FILE, SUMMARY_FILE
 from helixd.recorder.clocks import ClockMap
-from helixd.recorder.events import EVENTS_FILE, read_events, timeline
+from helixd.recorder.events import read_events, timeline
 from helixd.recorder.logging_setup import configure_logging
 from helixd.recorder.rows import Value, read_flight_csv
-from helixd.recorder.rundir import FLIGHT_FILE, SUMMARY_FILE
 from helixd.recorder.summary import RunSummary
 from helixd.runtime.display import summary_rows, summary_table
 

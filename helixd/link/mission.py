@@ -41,13 +41,15 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.mav.mission_item import (
+from helixd.mav.constants import (
     MAV_MISSION_ACCEPTED,
     MAV_MISSION_INVALID_SEQUENCE,
     MAV_MISSION_OPERATION_CANCELLED,
     MAV_MISSION_TYPE_FENCE,
     MAV_MISSION_TYPE_MISSION,
     MAV_MISSION_TYPE_RALLY,
+)
+from helixd.mav.mission_item import (
     WireItem,
     check_wire_item,
     item_from_message,

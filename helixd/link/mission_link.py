@@ -17,7 +17,11 @@ import structlog
 
 from helixd.config import LinkConfig
 from helixd.link.mission import Download, MissionTransferError, Upload, run_transfer
-from helixd.mav.mission_item import MAV_MISSION_TYPE_FENCE, MAV_MISSION_TYPE_MISSION
+from helixd.mav.constants import (
+    MAV_MISSION_TYPE_FENCE,
+    MAV_MISSION_TYPE_MISSION,
+    MAV_SEVERITY_WARNING,
+)
 from helixd.mav.mission_item import WireItem as MissionItem
 
 __all__ = [
@@ -36,7 +40,6 @@ MISSION_MESSAGES = frozenset(
      "MISSION_REQUEST_INT", "MISSION_ACK"}
 )  # fmt: skip
 QUEUE_MAX = 256  # a transfer has at most a few messages in flight; older ones are dropped
-MAV_SEVERITY_WARNING = 4
 TYPE_NAMES = {MAV_MISSION_TYPE_MISSION: "mission", MAV_MISSION_TYPE_FENCE: "fence"}
 TEXTS_KEPT = 16
 TEXT_MAX_CHARS = 200

@@ -15,14 +15,12 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.mav.constants import (
+    MAV_FRAME_MISSION,
+    MAV_MISSION_TYPE_MISSION,
+)
+
 # MAV_MISSION_TYPE, MAV_MISSION_RESULT and the frame whose x/y are not degE7
-MAV_MISSION_TYPE_MISSION = int(mavlink.MAV_MISSION_TYPE_MISSION)
-MAV_MISSION_TYPE_FENCE = int(mavlink.MAV_MISSION_TYPE_FENCE)
-MAV_MISSION_TYPE_RALLY = int(mavlink.MAV_MISSION_TYPE_RALLY)
-MAV_MISSION_ACCEPTED = int(mavlink.MAV_MISSION_ACCEPTED)
-MAV_MISSION_INVALID_SEQUENCE = int(mavlink.MAV_MISSION_INVALID_SEQUENCE)
-MAV_MISSION_OPERATION_CANCELLED = int(mavlink.MAV_MISSION_OPERATION_CANCELLED)
-MAV_FRAME_MISSION = int(mavlink.MAV_FRAME_MISSION)  # x/y are not degE7 in this frame
 
 
 def mission_result_name(result: int) -> str:

@@ -26,11 +26,11 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from helixd.base.plan import MissionFrameKind, Plan
+from helixd.base.run_files import INPUTS_FILE
 from helixd.config import ControlConfig, MissionLimits
 from helixd.mission.model import Mission, WaypointSpec
 from helixd.mission.plan import resolve_plan
 
-INPUTS_FILE = "inputs.json"
 INPUTS_FORMAT = 1
 WAYPOINT_REACHED_EVENT = "waypoint_reached"
 RUN_RESUMED_EVENT = "run_resumed"
@@ -232,7 +232,6 @@ def with_leg_start(
 
 
 __all__ = [
-    "INPUTS_FILE",
     "RUN_RESUMED_EVENT",
     "ResumePoint",
     "ResumeRefused",

@@ -13,7 +13,6 @@ from typing import Any
 
 from helixd.recorder.clocks import ClockMap
 
-EVENTS_FILE = "events.jsonl"
 RUN_STARTED_EVENT = "run_started"
 # Events that mark the moment a fault was detected or acted on (earliest one wins); an event
 # whose ``cause`` equals the summary's ``fault`` also counts.
@@ -126,7 +125,6 @@ def timeline(
 
 
 __all__ = [
-    "EVENTS_FILE",
     "FAULT_EVENTS",
     "TimelineEntry",
     "fault_event",

@@ -24,12 +24,12 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
+from helixd.base.run_files import CONFIG_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
 from helixd.config import HelixdConfig, load_config
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.mission.model import Mission, MissionFrameKind, load_mission
 from helixd.recorder.rows import read_flight_columns
-from helixd.recorder.rundir import CONFIG_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
 from helixd.recorder.summary import RunSummary
 
 LatLon = tuple[float, float]

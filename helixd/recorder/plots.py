@@ -36,18 +36,13 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
+from helixd.base.run_files import CONFIG_FILE, EVENTS_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
 from helixd.config import load_config
 from helixd.files.models import ConfigFileError
 from helixd.mission import MissionFrameKind, PlanError, load_mission, resolve_plan
 from helixd.recorder.clocks import autopilot_axis_s
-from helixd.recorder.events import EVENTS_FILE, fault_time_mono_s, read_events
+from helixd.recorder.events import fault_time_mono_s, read_events
 from helixd.recorder.rows import read_flight_columns
-from helixd.recorder.rundir import (
-    CONFIG_FILE,
-    FLIGHT_FILE,
-    MISSION_FILE,
-    SUMMARY_FILE,
-)
 from helixd.recorder.summary import PATH_MIN_STEP_M, RunSummary
 
 log = structlog.get_logger(__name__)

@@ -9,11 +9,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from helixd.mission.resume import INPUTS_FILE, ResumeRefused
-from helixd.recorder.events import EVENTS_FILE, RUN_STARTED_EVENT, read_events
+from helixd.base.run_files import EVENTS_FILE, INPUTS_FILE, MISSION_FILE, SUMMARY_FILE
+from helixd.mission.resume import ResumeRefused
+from helixd.recorder.events import RUN_STARTED_EVENT, read_events
 
-MISSION_FILE = "mission.yaml"  # as helixd.recorder.rundir writes it
-SUMMARY_FILE = "summary.json"
 MAX_INPUT_BYTES = 10_000_000  # inputs.json, mission.yaml, summary.json: larger is not ours
 
 

@@ -32,20 +32,22 @@ from typing import IO
 
 import structlog
 
+from helixd.base.run_files import (
+    CONFIG_FILE,
+    EVENTS_FILE,
+    FLIGHT_FILE,
+    INPUTS_FILE,
+    MISSION_FILE,
+    SUMMARY_FILE,
+)
 from helixd.config import RecorderConfig
 from helixd.recorder import logging_setup
-from helixd.recorder.events import EVENTS_FILE, RUN_STARTED_EVENT
+from helixd.recorder.events import RUN_STARTED_EVENT
 from helixd.recorder.rows import FlightRow, RowFormatter
 from helixd.recorder.summary import RunSummary
 
 log = structlog.get_logger(__name__)
 
-FLIGHT_FILE = "flight.csv"
-SUMMARY_FILE = "summary.json"
-CONFIG_FILE = "config.yaml"
-MISSION_FILE = "mission.yaml"
-TLOG_FILE = "link.tlog"  # every MAVLink frame of the link (helixd.link.tlog; link.tlog_enabled)
-INPUTS_FILE = "inputs.json"  # helixd.mission.resume.RunInputs
 CSV_BUFFER_BYTES = 64 * 1024  # > one flush interval of rows at 50 Hz (~330 B/row)
 SYNC_JOIN_TIMEOUT_S = 5.0  # wait this long for the last fsync when closing
 MAX_NAME_COLLISIONS = 100  # runs started within the same second get -2, -3, …
@@ -439,8 +441,6 @@ def _free_mb(path: Path) -> float | None:
 
 
 __all__ = [
-    "FLIGHT_FILE",
-    "SUMMARY_FILE",
     "RecorderUnavailable",
     "RunRecorder",
     "default_opener",

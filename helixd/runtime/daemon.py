@@ -38,6 +38,7 @@ from helixd.actuators import ActuatorError, make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
+from helixd.base.run_files import TLOG_FILE
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
 from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
@@ -48,7 +49,7 @@ from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_p
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
 from helixd.mission.validate import apply_mission_limits, mission_problems
 from helixd.recorder.rows import FlightRow
-from helixd.recorder.rundir import TLOG_FILE, RecorderUnavailable, RunRecorder
+from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
 from helixd.runtime.display import ProgressDisplay, ProgressInfo, result_line
 from helixd.runtime.flight import (

@@ -34,6 +34,12 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import GcsReportConfig
+from helixd.mav.constants import (
+    MAV_SEVERITY_CRITICAL,
+    MAV_SEVERITY_INFO,
+    MAV_SEVERITY_NOTICE,
+    MAV_SEVERITY_WARNING,
+)
 
 __all__ = [
     "CHUNK_CHARS",
@@ -49,10 +55,6 @@ CHUNK_CHARS = 50  # MAVLINK_MSG_STATUSTEXT_FIELD_TEXT_LEN
 MAX_CHUNKS = 256  # chunk_seq is a uint8
 NAME_CHARS = 10  # NAMED_VALUE_FLOAT name field
 FLOAT32_MAX = 3.4028234663852886e38
-MAV_SEVERITY_CRITICAL = 2
-MAV_SEVERITY_WARNING = 4
-MAV_SEVERITY_NOTICE = 5
-MAV_SEVERITY_INFO = 6
 PREFIX = "helixd: "
 XTRACK_NAME = "xtrack_m"
 WP_INDEX_NAME = "wp_index"

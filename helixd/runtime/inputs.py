@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig, config_to_yaml, load_config
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line, paused_gc
@@ -28,7 +29,7 @@ from helixd.mission.resume import (
     sha256_text,
 )
 from helixd.mission.validate import apply_mission_limits, mission_problems, plan_for_check
-from helixd.recorder.resume_dir import MISSION_FILE, read_run_dir
+from helixd.recorder.resume_dir import read_run_dir
 
 
 class InputsRefused(Exception):

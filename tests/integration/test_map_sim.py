@@ -19,7 +19,7 @@ import pytest
 import yaml
 from PIL import Image
 
-import helixd.sim
+import helixd.cli.simulated
 from helixd.base.exitcodes import ExitCode
 from helixd.sim import SimConfig, SimServer
 from helixd.sim.obstacles import SimObstacles, distance_m
@@ -60,7 +60,7 @@ def _fly(
         mission_args = ["--mission", str(mission), "--map", str(_write_map(tmp_path))]
     cfg_path = tmp_path / "helixd.yaml"
     cfg_path.write_text(yaml.safe_dump({**BASE_CONFIG, "planning": planning}), encoding="utf-8")
-    real_start = helixd.sim.start_embedded
+    real_start = helixd.cli.simulated.start_embedded
     started = threading.Event()
     servers: list[SimServer] = []
     traces: list[Trace] = []
@@ -98,7 +98,7 @@ def _fly(
         finally:
             recorded.set()
 
-    monkeypatch.setattr(helixd.sim, "start_embedded", start)
+    monkeypatch.setattr(helixd.cli.simulated, "start_embedded", start)
     from helixd.cli.app import main
 
     thread = threading.Thread(target=recorder, daemon=True)

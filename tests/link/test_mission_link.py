@@ -18,7 +18,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.config import LinkConfig
 from helixd.link.mission import MissionTransferError
 from helixd.link.mission_link import AutopilotMissionLink, download_all, upload_all
-from helixd.mav.mission_item import MAV_MISSION_TYPE_FENCE
+from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import WireItem as WireItem
 from helixd.sim.mission import MissionServer
 

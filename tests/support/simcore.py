@@ -69,9 +69,10 @@ class EmbeddedStart(Exception):
 
 
 def capture_embedded_start(monkeypatch: pytest.MonkeyPatch) -> list[SimConfig]:
-    """Replace ``helixd.sim.start_embedded`` by a stand-in that records the configuration it
-    is given and raises :class:`EmbeddedStart`; the list fills as the CLI calls it."""
-    import helixd.sim
+    """Replace the embedded simulator's start (as :mod:`helixd.cli.simulated` calls it) by a
+    stand-in that records the configuration it is given and raises :class:`EmbeddedStart`;
+    the list fills as the CLI calls it."""
+    import helixd.cli.simulated
 
     seen: list[SimConfig] = []
 
@@ -79,5 +80,5 @@ def capture_embedded_start(monkeypatch: pytest.MonkeyPatch) -> list[SimConfig]:
         seen.append(cfg)
         raise EmbeddedStart
 
-    monkeypatch.setattr(helixd.sim, "start_embedded", start)
+    monkeypatch.setattr(helixd.cli.simulated, "start_embedded", start)
     return seen

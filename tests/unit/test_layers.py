@@ -1,4 +1,11 @@
-"""The layers hold: checked through ``sys.modules`` in a fresh interpreter, not by reading code.
+"""The layers hold, checked two ways.
+
+Statically, over every module of ``helixd/`` (top-level, function-local and TYPE_CHECKING
+imports alike): each package imports only itself and the rows below it in :data:`LAYERS`; the
+simulator imports only :data:`SIM_MAY_IMPORT` and only the CLI imports it; there is no import
+loop between modules; no re-export shim module is left.
+
+Through ``sys.modules`` in a fresh interpreter:
 
 * the base layer (:mod:`helixd.base`) is standard library only;
 * the control core loads only the base (and numpy): no pydantic, YAML, asyncio or sockets, and
@@ -9,10 +16,13 @@
 
 from __future__ import annotations
 
+import ast
+import itertools
 import json
 import os
 import subprocess
 import sys
+from collections import defaultdict
 from pathlib import Path
 
 import pytest
@@ -21,6 +31,160 @@ from helixd.config import ControlConfig, ScrollCalibration, SlipConfig, VehicleC
 from helixd.control import params
 
 REPO = Path(__file__).resolve().parents[2]
+PACKAGE = REPO / "helixd"
+
+# Rows from the bottom: a package may import itself and any package of a lower row.
+LAYERS: tuple[tuple[str, ...], ...] = (
+    ("base",),  # stdlib only: geometry, angles, frames, plan types, exit codes, polygons
+    ("control", "files", "mav"),  # pure core; hostile-input readers; MAVLink constants, URLs
+    ("config",),  # helixd.yaml sections
+    ("mission",),  # models, formats, validation, survey, resume, geodesy
+    ("planning",),
+    ("link",),  # transport, codec, plugins, vehicle state
+    ("recorder", "actuators", "safety"),
+    ("runtime",),  # daemon phases, flight loop, GCS feed, notify, signals, status
+    ("cli",),  # typer app: parse, call, print
+)
+SIM_MAY_IMPORT = frozenset({"base", "files", "mav", "config", "sim"})
+ONLY_CLI_IMPORTS_SIM = frozenset({"cli", "sim"})
+RANK = {pkg: row for row, pkgs in enumerate(LAYERS) for pkg in pkgs}
+
+
+def _module_name(path: Path) -> str:
+    parts = list(path.relative_to(REPO).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+MODULES = {_module_name(p): p for p in sorted(PACKAGE.rglob("*.py"))}
+
+
+def _resolve(name: str) -> str | None:
+    while name and name not in MODULES:
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+def imports_of(module: str, path: Path | None = None) -> set[str]:
+    """Every helixd module ``module`` (at ``path``) imports, wherever the statement stands."""
+    path = MODULES[module] if path is None else path
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        targets: list[str] = []
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                up = package.split(".")[: len(package.split(".")) - (node.level - 1)]
+                base = ".".join([*up, base] if base else up)
+            subs = [f"{base}.{a.name}" for a in node.names if f"{base}.{a.name}" in MODULES]
+            targets = subs if len(subs) == len(node.names) else [*subs, base]
+        for target in targets:
+            if target == "helixd" or target.startswith("helixd."):
+                resolved = _resolve(target)
+                if resolved is not None and resolved != module:
+                    found.add(resolved)
+    return found
+
+
+def _room(module: str) -> str:
+    """The package (or top-level module) a module lives in: helixd.link.codec → link."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else ""
+
+
+def violation(module: str, target: str) -> str | None:
+    """Why ``module`` may not import ``target`` (None: it may)."""
+    here, there = _room(module), _room(target)
+    if there in ("", here) or here == "__main__":
+        return None  # the helixd package itself (its version), or the same package
+    if there == "sim" and here not in ONLY_CLI_IMPORTS_SIM:
+        return f"{module} imports {target}: only the CLI imports the simulator"
+    if here == "sim":
+        ok = there in SIM_MAY_IMPORT
+        return None if ok else f"{module} imports {target}: the simulator stands apart"
+    if there == "sim":
+        return None  # the CLI starts the simulator
+    if RANK[there] >= RANK[here]:
+        return f"{module} imports {target}: {there} is not below {here}"
+    return None
+
+
+def layer_violations() -> list[str]:
+    found = (violation(m, t) for m in MODULES for t in sorted(imports_of(m)))
+    return [why for why in found if why is not None]
+
+
+def test_every_package_has_a_row() -> None:
+    rooms = {_room(m) for m in MODULES} - {"", "__main__", "sim"}
+    assert rooms == set(RANK), f"not in LAYERS: {sorted(rooms - set(RANK))}"
+
+
+def test_packages_import_only_lower_rows() -> None:
+    assert layer_violations() == []
+
+
+@pytest.mark.parametrize(
+    ("module", "target"),
+    [
+        ("helixd.config", "helixd.link.connection"),  # a lower row importing a higher one
+        ("helixd.mission.model", "helixd.recorder.events"),
+        ("helixd.control.navigator", "helixd.files.yamlio"),  # same row, not below
+        ("helixd.sim.core", "helixd.link.codec"),  # the simulator stands apart
+        ("helixd.runtime.daemon", "helixd.sim.server"),  # only the CLI starts a simulator
+    ],
+)
+def test_the_checker_names_a_back_edge(module: str, target: str) -> None:
+    assert violation(module, target) is not None
+
+
+def test_the_checker_sees_function_local_and_type_checking_imports(tmp_path: Path) -> None:
+    src = tmp_path / "probe.py"
+    src.write_text(
+        "from typing import TYPE_CHECKING\n"
+        "if TYPE_CHECKING:\n    from helixd.link.connection import Autopilot\n"
+        "def f():\n    from helixd.runtime import daemon\n"
+    )
+    found = imports_of("helixd.config", src)
+    assert {"helixd.link.connection", "helixd.runtime.daemon"} <= found
+    assert violation("helixd.config", "helixd.runtime.daemon") is not None
+
+
+def test_no_import_loop_between_modules() -> None:
+    graph = {m: imports_of(m) for m in MODULES}
+    state: dict[str, int] = defaultdict(int)  # 0 new, 1 on the stack, 2 done
+    loops: list[list[str]] = []
+
+    def visit(node: str, stack: list[str]) -> None:
+        state[node] = 1
+        stack.append(node)
+        for nxt in sorted(graph[node]):
+            if state[nxt] == 1:
+                loops.append([*stack[stack.index(nxt) :], nxt])
+            elif state[nxt] == 0:
+                visit(nxt, stack)
+        stack.pop()
+        state[node] = 2
+
+    for module in sorted(graph):
+        if state[module] == 0:
+            visit(module, [])
+    # a package's __init__ importing its own submodules is how a package exports
+    real = [
+        loop
+        for loop in loops
+        if not any(m.rpartition(".")[0] == n or n == m for m, n in itertools.pairwise(loop))
+    ]
+    assert real == [], " ; ".join(" → ".join(loop) for loop in real)
+
+
+def test_no_reexport_shims_left() -> None:
+    for gone in ("helixd.frames", "helixd.geometry", "helixd.control.angles", "helixd.vehicle"):
+        assert gone not in MODULES
+
 
 BASE_MODULES = (
     "helixd.base.geometry",

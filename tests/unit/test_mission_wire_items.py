@@ -11,7 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.mav.mission_item import MAV_MISSION_TYPE_FENCE, MAV_MISSION_TYPE_MISSION, WireItem
+from helixd.mav.constants import MAV_MISSION_TYPE_FENCE, MAV_MISSION_TYPE_MISSION
+from helixd.mav.mission_item import WireItem
 from helixd.mission.formats import read_gcs
 from helixd.mission.formats.items import (
     FenceCircle,

@@ -13,12 +13,12 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from helixd.base.run_files import INPUTS_FILE
 from helixd.config import HelixdConfig, config_to_yaml
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission
 from helixd.mission.plan import resolve_plan
 from helixd.mission.resume import (
-    INPUTS_FILE,
     ResumeRefused,
     check_inputs,
     first_not_reached,

@@ -8,10 +8,11 @@ from pathlib import Path
 
 import pytest
 
+from helixd.base.run_files import INPUTS_FILE
 from helixd.cli.app import main
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission
-from helixd.mission.resume import INPUTS_FILE, fresh_inputs
+from helixd.mission.resume import fresh_inputs
 from helixd.runtime.inputs import config_sha256
 
 LANE = Mission.model_validate(

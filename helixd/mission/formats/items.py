@@ -18,14 +18,14 @@ from pydantic import ValidationError
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.files.models import format_validation_error
+from helixd.mav.constants import (
+    MAV_CMD_NAV_WAYPOINT,
+    MAV_FRAME_GLOBAL_RELATIVE_ALT,
+)
 from helixd.mission.model import Mission, MissionFrameKind, MotionMode
 
-MAV_CMD_NAV_WAYPOINT = 16
-# Frames whose x/y are latitude/longitude (MAV_FRAME_GLOBAL, _RELATIVE_ALT, _INT,
 # _RELATIVE_ALT_INT, _TERRAIN_ALT, _TERRAIN_ALT_INT); the altitude means nothing to a rover.
 GLOBAL_FRAMES = frozenset({0, 3, 5, 6, 10, 11})
-MAV_FRAME_GLOBAL = 0
-MAV_FRAME_GLOBAL_RELATIVE_ALT = 3
 MAX_ITEMS = 100_000  # as many as a helixd YAML mission may hold in practice
 COMMAND_NAMES = {
     16: "NAV_WAYPOINT",

@@ -22,10 +22,20 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from helixd.mav.mission_item import MAV_MISSION_TYPE_FENCE, MAV_MISSION_TYPE_MISSION, WireItem
+from helixd.mav.constants import (
+    MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
+    MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION,
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+    MAV_CMD_NAV_FENCE_RETURN_POINT,
+    MAV_CMD_NAV_WAYPOINT,
+    MAV_FRAME_GLOBAL,
+    MAV_MISSION_TYPE_FENCE,
+    MAV_MISSION_TYPE_MISSION,
+)
+from helixd.mav.mission_item import WireItem
 from helixd.mission.formats.items import (
     GLOBAL_FRAMES,
-    MAV_CMD_NAV_WAYPOINT,
     FenceCircle,
     FencePolygon,
     FormatError,
@@ -45,12 +55,6 @@ __all__ = [
     "wire_to_gcs",
 ]
 
-MAV_FRAME_GLOBAL = 0
-MAV_CMD_NAV_FENCE_RETURN_POINT = 5000
-MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION = 5001
-MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION = 5002
-MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION = 5003
-MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION = 5004
 DEG_E7 = 1e7
 INT32_MAX = 2**31 - 1
 
