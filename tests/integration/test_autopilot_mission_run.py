@@ -22,12 +22,13 @@ from helixd.base.frames import latlon_to_ne
 from helixd.sim.config import SimConfig
 from helixd.sim.server import SimServer
 from helixd.sim.snapshot import SimSnapshot
-from tests.integration.harness import BASE_CONFIG, MISSIONS, SPEEDUP, running_sim, secured
 from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
+from tests.support.harness import BASE_CONFIG, MISSIONS, SPEEDUP, running_sim, secured
+from tests.support.paths import DATA_DIR
 
 pytestmark = pytest.mark.integration
 
-PLAN = Path(__file__).resolve().parents[1] / "data" / "sim_square.plan"
+PLAN = DATA_DIR / "sim_square.plan"
 SIM_ORIGIN = (SimConfig().origin_lat_deg, SimConfig().origin_lon_deg)
 MAV_CMD_NAV_WAYPOINT = 16
 MAV_CMD_NAV_LOITER_TIME = 19

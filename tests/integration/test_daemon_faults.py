@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from tests.integration.harness import (
+from tests.support.harness import (
     SPEEDUP,
     overrides_released,
     scrolls_neutral,

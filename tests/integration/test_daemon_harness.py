@@ -11,10 +11,11 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from tests.support.daemon import deep_merge, spawn_daemon
+from tests.support.paths import REPO_ROOT
 
 pytestmark = pytest.mark.integration
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = REPO_ROOT
 SQUARE = str(ROOT / "config" / "missions" / "square.yaml")
 
 

@@ -16,7 +16,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.config import HelixdConfig
 from helixd.mission import load_mission
 from helixd.runtime.daemon import RunOptions, run_mission
-from tests.integration.harness import (
+from tests.support.harness import (
     MISSIONS,
     SPEEDUP,
     overrides_released,

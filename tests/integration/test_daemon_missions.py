@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from tests.integration.harness import (
+from tests.support.harness import (
     NEUTRAL_US,
     SPEEDUP,
     overrides_released,

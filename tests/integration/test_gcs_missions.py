@@ -13,11 +13,12 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import latlon_to_ne
 from helixd.sim.config import SimConfig
-from tests.integration.harness import secured, sim_and_daemon
+from tests.support.harness import secured, sim_and_daemon
+from tests.support.paths import DATA_DIR
 
 pytestmark = pytest.mark.integration
 
-PLAN = Path(__file__).resolve().parents[1] / "data" / "sim_square.plan"
+PLAN = DATA_DIR / "sim_square.plan"
 SIM_ORIGIN = (SimConfig().origin_lat_deg, SimConfig().origin_lon_deg)  # the sim's EKF origin
 
 

@@ -15,7 +15,8 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.sim.config import HELIXD_SYSID
-from tests.integration.harness import (
+from tests.support.daemon import DaemonProc
+from tests.support.harness import (
     SPEEDUP,
     MavClient,
     daemon,
@@ -23,7 +24,6 @@ from tests.integration.harness import (
     running_sim_links,
     wait_moving,
 )
-from tests.support.daemon import DaemonProc
 
 pytestmark = pytest.mark.integration
 

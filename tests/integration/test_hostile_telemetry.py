@@ -26,7 +26,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from tests.integration.harness import (
+from tests.support.harness import (
     SPEEDUP,
     Trace,
     daemon,

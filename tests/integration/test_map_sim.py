@@ -23,7 +23,7 @@ import helixd.cli.simulated
 from helixd.base.exitcodes import ExitCode
 from helixd.sim import SimConfig, SimServer
 from helixd.sim.obstacles import SimObstacles, distance_m
-from tests.integration.harness import BASE_CONFIG, SPEEDUP, Trace, record_until, secured
+from tests.support.harness import BASE_CONFIG, SPEEDUP, Trace, record_until, secured
 
 pytestmark = pytest.mark.integration
 

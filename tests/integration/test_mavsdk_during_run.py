@@ -11,7 +11,7 @@ from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.telemetry import FlightMode, TelemetryAsync
 
 from helixd.base.exitcodes import ExitCode
-from tests.integration.harness import (
+from tests.support.harness import (
     SPEEDUP,
     daemon,
     first_matching,

@@ -22,7 +22,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.mission.formats import read_gcs
 from helixd.mission.formats.items import GcsMission, MissionItem
 from helixd.sim.config import HELIXD_SYSID
-from tests.integration.harness import (
+from tests.support.harness import (
     FORCE_ARM,
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_RESULT_ACCEPTED,
@@ -33,10 +33,11 @@ from tests.integration.harness import (
     wait_moving,
 )
 from tests.support.mavmsgs import read_tlog
+from tests.support.paths import DATA_DIR
 
 pytestmark = pytest.mark.integration
 
-DATA = Path(__file__).resolve().parents[1] / "data"
+DATA = DATA_DIR
 PLAN = DATA / "pond_survey.plan"  # QGC: a waypoint, a Survey, RTL; fence: 2 polygons, 1 circle
 
 

@@ -16,7 +16,7 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.sim.obstacles import SimObstacles, distance_m
-from tests.integration.harness import record_until, secured, sim_and_daemon
+from tests.support.harness import record_until, secured, sim_and_daemon
 
 pytestmark = pytest.mark.integration
 

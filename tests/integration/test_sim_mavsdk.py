@@ -16,7 +16,7 @@ import pytest
 from mavsdk.asyncio import ComponentType, Configuration, Mavsdk
 from mavsdk.asyncio.plugins.telemetry import FlightMode, TelemetryAsync
 
-from tests.integration.harness import (
+from tests.support.harness import (
     FORCE_ARM,
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MODE,

@@ -15,7 +15,7 @@ from typer.testing import CliRunner
 
 from helixd.cli.app import app
 from helixd.sim import FaultError
-from tests.integration.harness import (
+from tests.support.harness import (
     FORCE_ARM,
     GCS_SYSID,
     MAV_CMD_COMPONENT_ARM_DISARM,

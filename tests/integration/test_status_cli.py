@@ -8,7 +8,7 @@ import sys
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from tests.integration.harness import running_sim
+from tests.support.harness import running_sim
 
 pytestmark = pytest.mark.integration
 

@@ -9,7 +9,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.link.commands import CommandRejected, CommandTimeout
-from tests.link.peer import DENIED, FAILED, Reply, linked, until
+from tests.support.peer import DENIED, FAILED, Reply, linked, until
 
 SET_MODE = mavlink.MAV_CMD_DO_SET_MODE
 ARM = mavlink.MAV_CMD_COMPONENT_ARM_DISARM

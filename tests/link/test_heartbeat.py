@@ -7,7 +7,7 @@ import time
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from tests.link.peer import HELIXD_SYSID, AutopilotPeer, linked, stays, until
+from tests.support.peer import HELIXD_SYSID, AutopilotPeer, linked, stays, until
 
 
 def ours(peer: AutopilotPeer, after_t: float = 0.0) -> list[tuple[float, int, int]]:

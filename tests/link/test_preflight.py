@@ -6,7 +6,7 @@ from collections.abc import Mapping
 
 from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, LinkConfig
 from helixd.link.preflight import check_obedience, judge
-from tests.link.peer import HELIXD_SYSID, linked
+from tests.support.peer import HELIXD_SYSID, linked
 
 RC = ActuationConfig()  # rc_override on channels 1..4
 SERVO = ActuationConfig(backend=ActuationBackend.SERVO)

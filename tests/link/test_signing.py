@@ -8,7 +8,7 @@ import pytest
 
 from helixd.link.connection import Autopilot
 from helixd.mav.url import LinkTimeout
-from tests.link.peer import link_config, linked, safety_config, udp_peer, until
+from tests.support.peer import link_config, linked, safety_config, udp_peer, until
 
 KEY = bytes(range(32))
 

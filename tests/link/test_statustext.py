@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from structlog.testing import capture_logs
 
 from helixd.link.statustext import CHUNK_CHARS, MISSING_MARK, StatusTextAssembler
-from tests.link.peer import linked, until
+from tests.support.peer import linked, until
 
 
 def ardupilot_chunks(text: str, text_id: int) -> list[tuple[int, int, str]]:

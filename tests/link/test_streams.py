@@ -12,7 +12,7 @@ from helixd.link.streams import (
     fastest_granted_interval_us,
     first_interval_us,
 )
-from tests.link.peer import AutopilotPeer, linked, until
+from tests.support.peer import AutopilotPeer, linked, until
 
 SET_INTERVAL = mavlink.MAV_CMD_SET_MESSAGE_INTERVAL
 LPN = mavlink.MAVLINK_MSG_ID_LOCAL_POSITION_NED

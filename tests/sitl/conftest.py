@@ -52,12 +52,13 @@ import pytest
 import yaml
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # MAVLink 2 framing
 
-from tests.sitl.skid_setup import HELIXD_SYSID, helixd_sitl_config
 from tests.support.daemon import DaemonProc, spawn_daemon
+from tests.support.paths import REPO_ROOT
+from tests.support.skid_setup import HELIXD_SYSID, helixd_sitl_config
 
 T = TypeVar("T")
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = REPO_ROOT
 PARM_FILE = Path(__file__).resolve().parent / "helix-skid.parm"
 SQUARE_MISSION = ROOT / "config" / "missions" / "square.yaml"
 

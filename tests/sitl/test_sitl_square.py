@@ -28,7 +28,7 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.recorder.track import TrackPoint
-from tests.sitl.skid_setup import square_metrics
+from tests.support.skid_setup import square_metrics
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun, ServoSample, SitlVehicle

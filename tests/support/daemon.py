@@ -2,7 +2,7 @@
 process, its stderr log pumped into memory line by line.
 
 Used by the integration suite (against the in-process simulator,
-:mod:`tests.integration.harness`) and by the opt-in SITL suite (``tests/sitl/conftest.py``).
+:mod:`tests.support.harness`) and by the opt-in SITL suite (``tests/sitl/conftest.py``).
 Waiting is on a condition the log pump notifies, never on sleeps.
 """
 

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import importlib.util
 import sys
-from pathlib import Path
 from types import ModuleType
 
-TOOLS = Path(__file__).resolve().parents[2] / "tools"
+from tests.support.paths import REPO_ROOT
+
+TOOLS = REPO_ROOT / "tools"
 
 
 def load_tool(name: str) -> ModuleType:

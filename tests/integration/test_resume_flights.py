@@ -1,0 +1,122 @@
+"""`helixd run --resume RUN_DIR` over UDP against the built-in simulator: a mission interrupted
+by an injected fault is continued from its first waypoint not reached, re-entering the
+interrupted leg, and completes — checked from the simulator's side (true pose)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from helixd.base.exitcodes import ExitCode
+from tests.support.daemon import spawn_daemon
+from tests.support.harness import SPEEDUP, secured, sim_and_daemon, time_until
+
+pytestmark = pytest.mark.integration
+
+# local_ned (x east, y north): north 6 → corner → north 12 → corner (north 12, east 12)
+MISSION = """name: resume-lane
+mode: roll
+frame: local_ned
+waypoints:
+- {north: 6.0, east: 0.0}
+- {north: 6.0, east: 6.0}
+- {north: 12.0, east: 6.0}
+- {north: 12.0, east: 12.0}
+"""
+LAST_NE_M = (12.0, 12.0)
+ARRIVAL_M = 1.0  # the default waypoint tolerance
+
+
+def _json(path: Path) -> Any:
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def _events(run_dir: Path) -> list[dict[str, Any]]:
+    out = []
+    for line in (run_dir / "events.jsonl").read_text(encoding="utf-8").splitlines():
+        try:
+            out.append(json.loads(line))
+        except json.JSONDecodeError:
+            continue
+    return out
+
+
+@pytest.mark.parametrize("reboot", [True, False], ids=["battery_swap", "still_armed_in_hold"])
+def test_resume_after_fault_completes_the_remaining_waypoints(tmp_path: Path, reboot: bool) -> None:
+    mission = tmp_path / "lane.yaml"
+    mission.write_text(MISSION, encoding="utf-8")
+    with sim_and_daemon(tmp_path, mission) as (server, first):
+        # interrupt on the third leg (east 6, going north from 6 to 12): waypoints 0, 1 reached
+        server.wait_for(lambda s: s.armed and s.north_m > 8.0 and abs(s.east_m - 6.0) < 1.5, 90.0)
+        server.inject("ekf_unhealthy", duration_s=2.0 * SPEEDUP)
+        time_until(server, secured, 0.0, timeout_s=20.0)
+        code1 = first.wait_exit(30.0)
+        log1 = first.log_text()
+        run1 = first.run_dir()
+        assert code1 == ExitCode.FAULT, log1[-3000:]
+        s1 = _json(run1 / "summary.json")
+        assert s1["completed"] is False and s1["waypoints_reached"] == 2, s1
+        assert (run1 / "inputs.json").is_file()
+        stopped = server.snapshot()
+        assert stopped.north_m < 12.0 - ARRIVAL_M
+
+        # battery swap: the autopilot reboots (disarmed, INITIALISING); resume with the same
+        # config once it is back. Without it the autopilot is still armed in HOLD: the new
+        # run must see MANUAL in a HEARTBEAT before flying, or it reads HOLD as a takeover.
+        if reboot:
+            server.inject("reboot")
+        else:
+            assert stopped.armed and stopped.mode == "HOLD"
+        run_root2 = tmp_path / "runs2"
+        args = ["run", "--resume", str(run1), "--config", str(tmp_path / "helixd.yaml")]
+        second = spawn_daemon(
+            [*args, "--run-dir", str(run_root2)], cwd=tmp_path, run_root=run_root2
+        )
+        try:
+            crossings: list[float] = []
+
+            def on_line_until_done(s: Any) -> bool:
+                if 6.0 + 1.0 < s.north_m < 12.0 - 1.0:
+                    crossings.append(abs(s.east_m - 6.0))
+                return math.hypot(s.north_m - LAST_NE_M[0], s.east_m - LAST_NE_M[1]) < ARRIVAL_M
+
+            try:
+                server.wait_for(on_line_until_done, 90.0)
+            except TimeoutError as exc:
+                raise AssertionError(f"{exc}\n{second.log_text()[-3000:]}") from None
+            code2 = second.wait_exit(30.0)
+            log2 = second.log_text()
+            run2 = second.run_dir()
+        finally:
+            second.kill()
+    assert code2 == ExitCode.OK, log2[-3000:]
+    assert "from waypoint 3/4 (2 remaining)" in log2
+    # the interrupted leg was re-entered along the surveyed line east = 6, not cut across
+    assert crossings and max(crossings) < 0.6, max(crossings or [0.0])
+    s2 = _json(run2 / "summary.json")
+    assert s2["completed"] is True and s2["waypoints_total"] == 2
+    assert s2["resumed_from"]["path"] == str(run1.resolve())
+    assert s2["resumed_from"]["first_waypoint"] == 2
+    assert (run2 / "mission.yaml").read_text().count("north:") == 2
+    resumed = [e for e in _events(run2) if e.get("event") == "run_resumed"]
+    assert resumed and resumed[0]["first_waypoint"] == "3/4"
+    reached = [e for e in _events(run2) if e.get("event") == "waypoint_reached"]
+    assert [e.get("mission_waypoint") for e in reached] == ["3/4", "4/4"]
+    # the progress line counts waypoints of the whole mission, not of the remainder
+    progress = [e.get("waypoint") for e in _events(run2) if e.get("event") == "progress"]
+    assert progress and progress[0] == "3/4" and set(progress) <= {"3/4", "4/4"}
+    # and the completed run cannot be resumed again
+    again = spawn_daemon(
+        [*args[:2], str(run2), *args[3:], "--run-dir", str(tmp_path / "runs3")],
+        cwd=tmp_path,
+        run_root=tmp_path / "runs3",
+    )
+    try:
+        assert again.wait_exit(30.0) == ExitCode.USAGE
+        assert "completed already" in again.log_text()
+    finally:
+        again.kill()
