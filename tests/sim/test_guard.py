@@ -1,0 +1,281 @@
+"""helixd-guard's pure mirror (helixd/sim/guard.py) and its agreement with the Lua script."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from helixd.sim import guard as g
+from tests.support.paths import REPO_ROOT
+
+LUA = REPO_ROOT / "autopilot" / "scripts" / "helixd-guard.lua"
+MANUAL = 0
+
+
+def run(
+    guard: g.HelixdGuard,
+    t0_s: float,
+    t1_s: float,
+    *,
+    armed: bool = True,
+    last_s: float | None,
+    mode: int = MANUAL,
+) -> list[tuple[float, g.GuardAction]]:
+    """Step every UPDATE_PERIOD_MS from t0 (inclusive) to t1 (exclusive)."""
+    out: list[tuple[float, g.GuardAction]] = []
+    k = 0
+    while True:
+        t = t0_s + k * g.UPDATE_PERIOD_MS / 1000.0
+        if t >= t1_s - 1e-9:
+            return out
+        out.append((t, guard.step(t, armed, last_s, mode)))
+        k += 1
+
+
+# --- parameters ------------------------------------------------------------------------------
+
+
+def test_defaults() -> None:
+    p = g.GuardParams()
+    assert p.enabled
+    assert p.timeout_ms == 500
+    assert p.outputs == (1, 2, 3, 4)
+    assert g.PARAM_DEFAULTS["HXG_VERSION"] == g.VERSION == 1
+
+
+@pytest.mark.parametrize(
+    ("chans", "outputs"),
+    [
+        ((3, 4, 1, 2), (3, 4, 1, 2)),  # order kept (the SITL skid mapping)
+        ((3, 0, 3, 0), (3,)),  # 0 = none, duplicates once
+        ((17, -1, 16, 0), (16,)),  # outside 1..16 ignored
+        ((2.6, 2.4, 0.4, 0.5), (3, 2, 1)),  # Lua's floor(x + 0.5)
+        ((0, 0, 0, 0), ()),
+    ],
+)
+def test_outputs_parsing(
+    chans: tuple[float, float, float, float], outputs: tuple[int, ...]
+) -> None:
+    p = g.GuardParams(chan1=chans[0], chan2=chans[1], chan3=chans[2], chan4=chans[3])
+    assert p.outputs == outputs
+
+
+@pytest.mark.parametrize(
+    ("timeout_s", "ms"), [(0.5, 500), (0.25, 250), (0.0, 100), (0.01, 100), (60.0, 10_000)]
+)
+def test_timeout_clamped(timeout_s: float, ms: int) -> None:
+    assert g.GuardParams(timeout_s=timeout_s).timeout_ms == ms
+
+
+def test_from_params_partial_and_nonfinite_rejected() -> None:
+    p = g.GuardParams.from_params({"HXG_TIMEOUT": 0.3, "HXG_CHAN2": 0.0, "OTHER": 9.0})
+    assert p.timeout_ms == 300
+    assert p.outputs == (1, 3, 4)
+    assert p.enabled
+    with pytest.raises(ValueError, match="timeout_s"):
+        g.GuardParams(timeout_s=float("nan"))
+    with pytest.raises(ValueError, match="chan3"):
+        g.GuardParams.from_params({"HXG_CHAN3": float("inf")})
+
+
+def test_start_text() -> None:
+    assert g.start_text(g.GuardParams()) == (
+        g.SEVERITY_INFO,
+        "helixd-guard: v1 on, outputs 1 2 3 4, 500 ms",
+    )
+    off = g.GuardParams(enable=0, chan1=0, chan2=0, chan3=0, chan4=0, timeout_s=0.75)
+    assert g.start_text(off)[1] == "helixd-guard: v1 off, outputs none, 750 ms"
+
+
+# --- the state machine -----------------------------------------------------------------------
+
+
+def test_disarmed_never_acts() -> None:
+    guard = g.HelixdGuard()
+    for _, action in run(guard, 0.0, 5.0, armed=False, last_s=None):
+        assert action == g.GuardAction()
+    for _, action in run(guard, 5.0, 10.0, armed=False, last_s=1.0):
+        assert action == g.GuardAction()
+
+
+def test_timeout_boundary_is_strict() -> None:
+    guard = g.HelixdGuard()
+    assert guard.step(10.5, True, 10.0, MANUAL) == g.GuardAction()  # 500 ms: not yet
+    action = guard.step(10.501, True, 10.0, MANUAL)  # 501 ms: silent
+    assert action.guarding
+    assert action.hold_trim == (1, 2, 3, 4)
+
+
+def test_engage_once_then_renew_without_repeats() -> None:
+    guard = g.HelixdGuard(g.GuardParams(chan1=3, chan2=4, chan3=1, chan4=2))
+    steps = run(guard, 1.0, 3.0, last_s=0.4)
+    first = steps[0][1]
+    assert first.guarding
+    assert first.hold_trim == (3, 4, 1, 2)
+    assert first.hold_ms == g.OVERRIDE_MS == 100
+    assert first.request_hold
+    assert first.texts == ((g.SEVERITY_CRITICAL, "helixd-guard: no heartbeat 500 ms, trim + HOLD"),)
+    for _, action in steps[1:]:
+        assert action.hold_trim == (3, 4, 1, 2)  # renewed every step
+        assert action.hold_ms == 100
+        assert not action.request_hold  # HOLD asked once per episode
+        assert action.texts == ()
+    # the renewal outlasts the update period, so one late step does not drop the outputs
+    assert g.OVERRIDE_MS > g.UPDATE_PERIOD_MS
+
+
+def test_already_in_hold_is_not_asked_again() -> None:
+    guard = g.HelixdGuard()
+    action = guard.step(2.0, True, 1.0, g.MODE_HOLD)
+    assert action.guarding
+    assert not action.request_hold
+    assert action.texts[0][1].startswith(g.TEXT_PREFIX)
+
+
+def test_pilot_leaving_hold_is_not_overruled() -> None:
+    guard = g.HelixdGuard()
+    assert guard.step(2.0, True, 1.0, MANUAL).request_hold
+    for _, action in run(guard, 2.05, 4.0, last_s=1.0, mode=MANUAL):  # pilot switched back
+        assert not action.request_hold
+        assert action.hold_trim == (1, 2, 3, 4)  # the scrolls stay at trim regardless
+
+
+@pytest.mark.parametrize("last_s", [None, 0.0, 0.0004])
+def test_never_seen_and_armed_guards(last_s: float | None) -> None:
+    """gcs:last_seen() is 0 until helixd's first HEARTBEAT: armed without helixd → trim."""
+    guard = g.HelixdGuard()
+    action = guard.step(0.01, True, last_s, MANUAL)
+    assert action.guarding
+    assert action.hold_trim == (1, 2, 3, 4)
+    assert action.request_hold
+    assert action.texts == ((g.SEVERITY_CRITICAL, g.NEVER_SEEN_TEXT),)
+
+
+def test_heartbeat_back_releases_once() -> None:
+    guard = g.HelixdGuard()
+    assert guard.step(3.0, True, 1.0, MANUAL).guarding
+    back = guard.step(3.05, True, 3.04, g.MODE_HOLD)
+    assert not back.guarding
+    assert back.hold_trim == ()
+    assert not back.request_hold
+    assert back.texts == ((g.SEVERITY_NOTICE, g.BACK_TEXT),)
+    for _, action in run(guard, 3.1, 4.0, last_s=3.9):
+        assert action == g.GuardAction()
+
+
+def test_disarm_releases_and_rearm_starts_a_new_episode() -> None:
+    guard = g.HelixdGuard()
+    assert guard.step(3.0, True, 1.0, MANUAL).request_hold
+    off = guard.step(3.05, False, 1.0, g.MODE_HOLD)
+    assert off.texts == ((g.SEVERITY_NOTICE, g.DISARMED_TEXT),)
+    assert off.hold_trim == ()
+    again = guard.step(4.0, True, 1.0, MANUAL)
+    assert again.request_hold
+    assert again.hold_trim == (1, 2, 3, 4)
+    assert again.texts[0][0] == g.SEVERITY_CRITICAL
+
+
+def test_disable_releases_and_reenable_guards() -> None:
+    guard = g.HelixdGuard()
+    assert guard.step(3.0, True, 1.0, MANUAL).guarding
+    guard.params = g.GuardParams(enable=0)
+    off = guard.step(3.05, True, 1.0, MANUAL)
+    assert off.texts == ((g.SEVERITY_NOTICE, g.DISABLED_TEXT),)
+    assert not off.guarding
+    assert guard.step(3.1, True, 1.0, MANUAL) == g.GuardAction()
+    guard.params = g.GuardParams()
+    assert guard.step(3.15, True, 1.0, MANUAL).request_hold
+
+
+def test_params_read_every_step() -> None:
+    guard = g.HelixdGuard()
+    assert guard.step(1.4, True, 1.0, MANUAL) == g.GuardAction()  # 400 ms < 500 ms
+    guard.params = g.GuardParams(timeout_s=0.3, chan2=0)
+    action = guard.step(1.45, True, 1.0, MANUAL)
+    assert action.hold_trim == (1, 3, 4)
+    assert action.texts[0][1] == "helixd-guard: no heartbeat 300 ms, trim + HOLD"
+
+
+def test_timeline_kill_latency_and_heartbeat_rate() -> None:
+    """5 Hz heartbeats never trip the 0.5 s guard; 1 Hz (helixd's default) does; after the
+    last heartbeat the guard engages within one update period of the timeout."""
+    guard = g.HelixdGuard()
+    for k in range(1, 50):  # 10 s at 5 Hz (millis() 0 would mean "never seen")
+        last = k * 0.2
+        for _, action in run(guard, last, last + 0.2, last_s=last):
+            assert not action.guarding
+    slow = g.HelixdGuard()
+    assert any(a.guarding for _, a in run(slow, 1.0, 2.0, last_s=1.0))
+
+    killed = g.HelixdGuard()
+    last_hb = 7.2
+    engaged = [t for t, a in run(killed, 7.2, 9.0, last_s=last_hb) if a.texts]
+    assert len(engaged) == 1
+    assert 0.5 < engaged[0] - last_hb <= 0.5 + g.UPDATE_PERIOD_MS / 1000.0 + 1e-9
+
+
+# --- the Lua script says the same ------------------------------------------------------------
+
+
+def lua_source() -> str:
+    return LUA.read_text(encoding="utf-8")
+
+
+def test_lua_params_match() -> None:
+    src = lua_source()
+    params = {
+        f"HXG_{name}": (int(idx), float(default))
+        for name, idx, default in re.findall(r'bind_add_param\("(\w+)",\s*(\d+),\s*([\d.]+)\)', src)
+    }
+    params["HXG_VERSION"] = (7, g.VERSION)  # bound with the VERSION constant
+    assert list(params) == list(g.PARAM_DEFAULTS)
+    assert [i for i, _ in params.values()] == list(range(1, 8))
+    assert {k: v for k, (_, v) in params.items()} == g.PARAM_DEFAULTS
+    assert re.search(r'bind_add_param\("VERSION",\s*7,\s*VERSION\)', src)
+    assert re.search(
+        rf"param:add_table\(PARAM_TABLE_KEY, PARAM_TABLE_PREFIX, {len(g.PARAM_DEFAULTS)}\)", src
+    )
+
+
+@pytest.mark.parametrize(
+    ("lua_name", "value"),
+    [
+        ("VERSION", g.VERSION),
+        ("PARAM_TABLE_KEY", g.PARAM_TABLE_KEY),
+        ("PERIOD_MS", g.UPDATE_PERIOD_MS),
+        ("OVERRIDE_MS", g.OVERRIDE_MS),
+        ("MODE_HOLD", g.MODE_HOLD),
+        ("MAX_OUTPUT", g.MAX_OUTPUT),
+        ("TIMEOUT_MIN_MS", g.TIMEOUT_MIN_MS),
+        ("TIMEOUT_MAX_MS", g.TIMEOUT_MAX_MS),
+    ],
+)
+def test_lua_constants_match(lua_name: str, value: int) -> None:
+    m = re.search(rf"^local {lua_name} = (\d+)", lua_source(), re.MULTILINE)
+    assert m is not None, lua_name
+    assert int(m.group(1)) == value
+    assert f'PARAM_TABLE_PREFIX = "{g.PARAM_PREFIX}"' in lua_source()
+
+
+@pytest.mark.parametrize(
+    ("severity", "text"),
+    [
+        ("CRITICAL", g.NEVER_SEEN_TEXT),
+        ("WARNING", g.HOLD_REFUSED_TEXT),
+        ("NOTICE", g.BACK_TEXT),
+        ("NOTICE", g.DISARMED_TEXT),
+        ("NOTICE", g.DISABLED_TEXT),
+    ],
+)
+def test_lua_texts_match(severity: str, text: str) -> None:
+    assert f'gcs:send_text(MAV_SEVERITY.{severity}, "{text}")' in lua_source()
+
+
+def test_lua_format_texts_match() -> None:
+    src = lua_source()
+    assert '"helixd-guard: no heartbeat %d ms, trim + HOLD", tmo' in src
+    assert g.silent_text(500) == "helixd-guard: no heartbeat 500 ms, trim + HOLD"
+    assert '"helixd-guard: v%d %s, outputs %s, %d ms"' in src
+    for text in (g.NEVER_SEEN_TEXT, g.silent_text(10_000), g.BACK_TEXT):
+        assert len(text) <= 50  # one STATUSTEXT, no chunking
