@@ -126,7 +126,7 @@ def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
     os.environ["WATCHDOG_USEC"] = "1000000"
     got: list[str] = []
     try:
-        from tests.integration import harness
+        from tests.support import harness
 
         harness.KEEP_NOTIFY_SOCKET = True
         with sim_and_daemon(tmp_path, "hexagon", terrain="mud") as (_server, d):
