@@ -22,7 +22,8 @@ from pydantic import (
 )
 
 from helixd.base.polygon import polygon_problems
-from helixd.files.models import InputModel, load_yaml_model
+from helixd.files.models import ConfigFileError, InputModel, load_yaml_model
+from helixd.mav.signing_key import SigningKeyError, parse_signing_key
 from helixd.mav.url import LinkError, parse_link_url
 
 # ---------------------------------------------------------------------------------------------
@@ -328,6 +329,15 @@ class LinkConfig(InputModel):
         "MAVROS): a ground station sharing our id would hide a dead helixd from the GCS "
         "failsafe and fight its overrides",
     )
+    observer_system: int = Field(
+        248,
+        ge=1,
+        le=255,
+        description="the sysid of every command that does not fly (status, mission "
+        "upload/download, the download before `run --mission autopilot`): never the GCS id "
+        "(source_system), and they send no HEARTBEAT, RC override or MANUAL_CONTROL, so the "
+        "autopilot never takes them for its GCS and its GCS failsafe never sees them",
+    )
     source_component: int = Field(191, ge=1, le=255, description="our compid (191 = onboard)")
     target_system: int = Field(1, ge=1, le=255, description="autopilot sysid")
     target_component: int = Field(1, ge=0, le=255, description="autopilot compid")
@@ -434,6 +444,16 @@ class LinkConfig(InputModel):
             raise ValueError(
                 f"link.source_system = {self.source_system} is the autopilot's system id "
                 "(link.target_system): helixd needs an id of its own (default 247)"
+            )
+        if self.observer_system in (self.source_system, self.target_system):
+            raise ValueError(
+                f"link.observer_system = {self.observer_system} is also "
+                + (
+                    "link.source_system, the GCS id"
+                    if self.observer_system == self.source_system
+                    else "the autopilot's system id (link.target_system)"
+                )
+                + ": the commands that do not fly need an id of their own (default 248)"
             )
         return self
 
@@ -604,7 +624,11 @@ class SafetyConfig(InputModel):
     hold_retry_bound_s: float = Field(
         3.0, gt=0.0, le=30.0, description="keep asking for HOLD until acked or this long (s)"
     )
-    disarm_on_fault: bool = Field(False, description="disarm after the fall-back to HOLD")
+    disarm_on_fault: bool = Field(
+        False,
+        description="also disarm after a fault's or a pilot takeover's fall-back to HOLD (after "
+        "a completed mission or a stop signal helixd always disarms what it armed)",
+    )
     force_arm: bool = Field(False, description="force-arm (21196) when PreArm checks refuse")
     arm_timeout_s: float = Field(
         30.0,
@@ -614,6 +638,14 @@ class SafetyConfig(InputModel):
     )
     arm_retry_interval_s: float = Field(
         2.0, gt=0.0, le=60.0, description="pause between arming attempts (s)"
+    )
+    home_timeout_s: float = Field(
+        30.0,
+        gt=0.0,
+        le=600.0,
+        description="before arming, wait at most this long for the autopilot's home "
+        "(HOME_POSITION): ArduPilot refuses to arm without one ('PreArm: AHRS: waiting for "
+        "home') (s)",
     )
     start_switch_channel: int | None = Field(
         None, ge=1, le=18, description="RC channel the pilot flips to start (None = start at once)"
@@ -851,10 +883,34 @@ PositiveFloat = Annotated[float, Field(gt=0.0)]
 
 
 def load_config(path: Path | str | None) -> HelixdConfig:
-    """Load ``path`` (or the built-in defaults when None)."""
+    """Load ``path`` (or the built-in defaults when None), and the files it names: what
+    ``run`` would refuse on opening them, ``check`` refuses too (ConfigFileError, one line
+    each)."""
     if path is None:
         return HelixdConfig()
-    return load_yaml_model(path, HelixdConfig)
+    cfg = load_yaml_model(path, HelixdConfig)
+    problems = named_file_problems(cfg, path)
+    if problems:
+        raise ConfigFileError(path, problems)
+    return cfg
+
+
+def named_file_problems(cfg: HelixdConfig, source: Path | str) -> list[str]:
+    """Files the config names that ``run`` reads: ``link.signing_key_file`` must be a readable
+    MAVLink signing key (the link reads it again when it opens)."""
+    key = cfg.link.signing_key_file
+    if key is None:
+        return []
+    where = f"{source}: link.signing_key_file"
+    try:
+        data = key.read_bytes()
+    except OSError as exc:
+        return [f"{where}: cannot read {key} ({exc.strerror or exc})"]
+    try:
+        parse_signing_key(data)
+    except SigningKeyError as exc:
+        return [f"{where}: {key}: {exc}"]
+    return []
 
 
 def config_to_yaml(cfg: BaseModel) -> str:

@@ -34,7 +34,7 @@ BAD_CONFIGS = {
     ),
     "out_of_range": (
         "vehicle:\n  output_clamp: 1.5\n",
-        ["vehicle.output_clamp", "got 1.5", "allowed range 0.0 .. 1.0"],
+        ["vehicle.output_clamp", "got 1.5", "allowed: > 0.0 and <= 1.0"],
     ),
     "negative_gain": (
         "control:\n  yaw_pid: {kp: -1, ki: 0, kd: 0, integral_limit: 0.1}\n",
@@ -258,3 +258,34 @@ def test_shipped_sitl_skid_config_is_the_sitl_suites() -> None:
 
     expected = helixd_sitl_config("rc_override", HelixdConfig().link.url)
     assert load_config(ROOT / "config" / "sitl-skid.yaml") == HelixdConfig.model_validate(expected)
+
+
+@pytest.mark.parametrize(
+    ("key", "fragment"),
+    [
+        (None, "cannot read"),  # the file does not exist
+        (b"short", "expected 32 raw bytes or 64 hex characters, found 5 bytes"),
+        (b"zz" * 32, "expected 32 raw bytes or 64 hex characters, found 64 bytes"),
+    ],
+)
+def test_a_signing_key_run_could_not_use_is_refused_at_load(
+    tmp_path: Path, key: bytes | None, fragment: str
+) -> None:
+    """Issue 24: `check` accepted a config naming a missing key file; `run` would only find
+    out when the link opened. The loader reads it as the link will."""
+    key_file = tmp_path / "helix.key"
+    if key is not None:
+        key_file.write_bytes(key)
+    cfg = _write(tmp_path, "c.yaml", f"link:\n  signing_key_file: {key_file}\n")
+    with pytest.raises(ConfigFileError) as info:
+        load_config(cfg)
+    [line] = info.value.problems
+    assert line.startswith(f"{cfg}: link.signing_key_file: ")
+    assert str(key_file) in line and fragment in line
+
+
+def test_a_readable_signing_key_loads(tmp_path: Path) -> None:
+    key_file = tmp_path / "helix.key"
+    key_file.write_text(bytes(range(32)).hex() + "\n")
+    cfg = _write(tmp_path, "c.yaml", f"link:\n  signing_key_file: {key_file}\n")
+    assert load_config(cfg).link.signing_key_file == key_file

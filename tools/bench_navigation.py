@@ -78,8 +78,6 @@ TARGET_TEXT = (
     f"RMS ratio <= {TARGET_RMS_RATIO:g} in every cell and no run slower than the baseline by "
     f"more than {100 * (TARGET_TIME_RATIO - 1):.0f} % (same seed)"
 )
-# Simulated PreArm checks pass this long after boot (sim s); the daemon retries arming.
-PREARM_DELAY_S = 5.0
 # Daemon settings for the benchmark: quicker setup, everything else at its field default.
 DAEMON_CONFIG: dict[str, Any] = {
     "safety": {"connect_timeout_s": 20.0, "arm_retry_interval_s": 0.5},
@@ -652,7 +650,6 @@ def run_one(
         terrain=combo.terrain,
         noise=noise,
         seed=seed,
-        prearm_delay_s=PREARM_DELAY_S,
     )
     server, url = start_embedded(sim_cfg)
     try:

@@ -7,7 +7,6 @@ message per problem and a non-zero exit code — never a traceback.
 from __future__ import annotations
 
 import asyncio
-import math
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -21,14 +20,21 @@ from helixd.base.run_files import MISSION_FILE
 from helixd.cli import mission as cli_mission
 from helixd.cli import runs as recorder_command
 from helixd.cli.autopilot import AUTOPILOT_MISSION, fetch_autopilot_mission, wants_autopilot
-from helixd.cli.common import check_connect, config_or_exit, fail, refused
+from helixd.cli.common import (
+    CONTEXT_SETTINGS,
+    WholeHelpGroup,
+    check_connect,
+    config_or_exit,
+    fail,
+    refused,
+)
 from helixd.cli.simulated import SimChoice, sim_world, simulator
 from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import LinkError
-from helixd.mission import MissionFrameKind, MotionMode
+from helixd.mission import MotionMode
 from helixd.mission.formats import mission_to_yaml
-from helixd.mission.validate import apply_mission_limits, pending_checks
+from helixd.mission.validate import apply_mission_limits
 from helixd.planning import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime.daemon import RunOptions, run_mission
@@ -40,6 +46,7 @@ from helixd.runtime.inputs import (
     recorded_mission_yaml,
     resume_inputs,
 )
+from helixd.runtime.plan_report import check_lines
 from helixd.runtime.planned import (
     Flight,
     load_occupancy,
@@ -49,7 +56,7 @@ from helixd.runtime.planned import (
 )
 from helixd.runtime.status import read_status
 from helixd.sim import command as sim_command
-from helixd.sim.config import NoiseLevel, Plant, Terrain
+from helixd.sim.config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
 app = typer.Typer(
     name="helixd",
@@ -57,7 +64,34 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    # plain help (click's): wrapped at any width, never cut with "…", flags without "<bool>"
+    rich_markup_mode=None,
+    context_settings=CONTEXT_SETTINGS,
+    cls=WholeHelpGroup,
 )
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(f"helixd {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def main_options(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version",
+            "-V",
+            callback=_print_version,
+            is_eager=True,
+            help="print the helixd version and exit",
+        ),
+    ] = False,
+) -> None:
+    """Fly the Helix-25 screw-propelled rover through waypoint missions over MAVLink."""
+
 
 ConfigOpt = Annotated[
     Path | None,
@@ -88,7 +122,6 @@ SkipOpt = Annotated[
         help="leave out .plan/.waypoints items helixd cannot fly (listed) instead of refusing",
     ),
 ]
-MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
 MapOpt = Annotated[
     Path | None,
     typer.Option(
@@ -120,69 +153,21 @@ def check(
     """Validate the config and a mission (as `run` would), and print the resolved plan."""
     try:
         got = load_inputs(config, mission, mode, skip_unsupported)
-        _, route = plan_loaded(got.cfg, got.mission, got.path, load_occupancy(got.cfg, map_path))
+        planned, route = plan_loaded(
+            got.cfg, got.mission, got.path, load_occupancy(got.cfg, map_path)
+        )
     except InputsRefused as exc:
         raise refused(exc) from None
     echo_notes(got.notes)
-    cfg, msn, path, plan, provisional = got.cfg, got.mission, got.path, got.plan, got.provisional
-    note = (
-        " (global: shown relative to waypoint 0; the EKF origin is used in flight)"
-        if provisional
-        else ""
-    )
-    axes = (
-        "x forward / y left of start" if msn.frame is MissionFrameKind.START else "x east / y north"
-    )
-    typer.echo(f"config  : {config or '(built-in defaults)'}  OK")
-    typer.echo(f"mission : {path}  OK")
-    typer.echo(f"plan    : {plan.name}  mode={plan.mode.value}  frame={plan.frame.value}{note}")
-    typer.echo(f"axes    : {axes} (metres)")
-    rows = [f"{'#':>3} {'x_m':>9} {'y_m':>9} {'tol_m':>6} {'heading_deg':>11}"]
-    count = len(plan.waypoints)
-    head = count if count <= MAX_TABLE_ROWS else MAX_TABLE_ROWS // 2
-    for i, wp in enumerate(plan.waypoints):
-        if head <= i < count - (MAX_TABLE_ROWS - head):
-            if i == head:
-                rows.append(f"... {count - MAX_TABLE_ROWS} waypoints not shown ...")
-            continue
-        hdg = "-" if wp.final_yaw_rad is None else f"{math.degrees(wp.final_yaw_rad):.1f}"
-        rows.append(f"{i:>3} {wp.x_m:>9.2f} {wp.y_m:>9.2f} {wp.tolerance_m:>6.2f} {hdg:>11}")
-    typer.echo("\n".join(rows))
-    # start frame: from the start point; ENU frames: from waypoint 0 (the start pose is not
-    # known yet), as mission_problems() estimates it.
-    first = plan.waypoints[0]
-    start = (0.0, 0.0) if msn.frame is MissionFrameKind.START else (first.x_m, first.y_m)
-    length = plan.path_length_m(start)
-    eta = plan.estimated_time_s(cfg.control.max_yaw_rate_radps, start)
-    origin_note = "" if msn.frame is MissionFrameKind.START else " (from waypoint 0)"
-    typer.echo(f"path    : {length:.1f} m at {plan.speed_mps:.2f} m/s{origin_note}")
-    typer.echo(
-        f"estimate: {eta:.0f} s ({eta / 60:.1f} min; limit "
-        f"safety.mission_time_limit_s = {cfg.safety.mission_time_limit_s:.0f} s)"
-    )
-    own = [
-        *(
-            [f"geofence polygon ({len(msn.geofence_polygon)} vertices)"]
-            if msn.geofence_polygon
-            else []
-        ),
-        *([f"geofence radius {msn.geofence_radius_m} m"] if msn.geofence_radius_m else []),
-        *([f"time limit {msn.time_limit_s:.0f} s"] if msn.time_limit_s is not None else []),
-    ]
-    if own:
-        typer.echo(f"limits  : the mission's own {', '.join(own)} replace the config's")
-    later = pending_checks(msn, cfg)
-    if later:
-        typer.echo(f"preflight: run checks with the start pose: {', '.join(later)}")
-    if route is not None:
-        typer.echo("\n".join(route_lines(route)))
-        if plot is not None:
-            from helixd.recorder.plots import render_route  # start-up: matplotlib when plotting
+    label = str(config or "(built-in defaults)")
+    typer.echo("\n".join(check_lines(got.cfg, got.mission, got.path, label, planned, route)))
+    if route is not None and plot is not None:
+        from helixd.recorder.plots import render_route  # start-up: matplotlib when plotting
 
-            try:
-                typer.echo(f"plot    : {render_route(route, plot, title=plan.name)}")
-            except OSError as exc:
-                raise fail([f"--plot: cannot write {plot}: {exc}"], ExitCode.USAGE) from None
+        try:
+            typer.echo(f"plot    : {render_route(route, plot, title=got.plan.name)}")
+        except OSError as exc:
+            raise fail([f"--plot: cannot write {plot}: {exc}"], ExitCode.USAGE) from None
 
 
 @app.command()
@@ -202,7 +187,10 @@ def run(
         bool, typer.Option("--sim", help="fly against the built-in simulator, started in-process")
     ] = False,
     sim_speedup: Annotated[
-        float, typer.Option(min=0.1, max=20.0, help="simulator speed-up factor (with --sim)")
+        float,
+        typer.Option(
+            min=SPEEDUP_MIN, max=SPEEDUP_MAX, help="simulator speed-up factor (with --sim)"
+        ),
     ] = 1.0,
     sim_terrain: Annotated[
         Terrain, typer.Option(help="simulator terrain (with --sim)")
@@ -219,7 +207,11 @@ def run(
     ] = NoiseLevel.LOW,
     run_dir: Annotated[
         Path | None,
-        typer.Option("--run-dir", help="root for run directories (default: recorder.run_root)"),
+        typer.Option(
+            "--run-dir",
+            help="root for run directories (default: recorder.run_root; with --resume, the "
+            "interrupted run's)",
+        ),
     ] = None,
     log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
     map_path: MapOpt = None,
@@ -244,11 +236,12 @@ def run(
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
-    ``--mission autopilot`` flies the mission the autopilot holds (downloaded over MAVLink);
-    ``--resume RUN_DIR`` continues a recorded run (helixd.mission.resume)."""
+    --mission autopilot flies the mission the autopilot holds (downloaded over MAVLink);
+    --resume RUN_DIR continues a recorded run from its first waypoint not reached."""
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
     occupancy: OccupancyMap | None = None
+    sim_start: tuple[float, float, float] | None = None
     if resume is not None:
         given = [
             name
@@ -274,6 +267,8 @@ def run(
         # the recorded mission is already planned: no map, no first-leg replanning
         mission_path = resume / MISSION_FILE
         flight = Flight(resumed.mission, resumed.mission_yaml, None, resumed.inputs)
+        run_dir = run_dir or resume.resolve().parent  # beside the interrupted run
+        sim_start = resumed.last_pose_ned  # --sim: the rover is where the run left it
     elif wants_autopilot(mission):
         _run_autopilot_mission(
             config, connect, sim, SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise),
@@ -295,7 +290,9 @@ def run(
         except InputsRefused as exc:
             raise refused(exc) from None
         echo_flight(flight)
-    sim_choice = SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise) if sim else None
+    sim_choice = (
+        SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise, sim_start) if sim else None
+    )
     with simulator(sim_choice, lambda: sim_world(cfg, occupancy, mission_path), url) as url:
         _fly(cfg, flight, url, run_dir, log_level, show_plan)
 
@@ -392,7 +389,12 @@ def echo_flight(flight: Flight) -> None:
 @app.command()
 def status(
     connect: Annotated[
-        str | None, typer.Option("--connect", help="autopilot link (default: link.url)")
+        str | None,
+        typer.Option(
+            "--connect",
+            help="autopilot link (default: link.url); spoken as link.observer_system (248), "
+            "never as the GCS id, and without a HEARTBEAT, so the GCS failsafe ignores it",
+        ),
     ] = None,
     config: ConfigOpt = None,
     watch: Annotated[bool, typer.Option("--watch", help="refresh until Ctrl-C")] = False,

@@ -24,7 +24,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import run_on_link
 from helixd.config import HelixdConfig
 from helixd.files.models import format_validation_error
-from helixd.files.yamlio import clip_line
+from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
 from helixd.link.mission_link import Downloaded, download_all
 from helixd.mav.mission_item import WireItem
@@ -53,7 +53,7 @@ class FromAutopilot:
 
 def _refuse(problems: list[str]) -> typer.Exit:
     for line in problems:
-        typer.echo(f"error: {clip_line(line)}", err=True)
+        typer.echo(f"error: {clip_line(line, MAX_ERROR_LINE_CHARS)}", err=True)
     return typer.Exit(int(ExitCode.PREFLIGHT))
 
 

@@ -7,14 +7,15 @@ import asyncio
 import sys
 from collections.abc import Awaitable, Callable
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import typer
+from typer.core import TyperGroup
 
 from helixd.base.exitcodes import ExitCode
 from helixd.config import HelixdConfig, LinkConfig, load_config
 from helixd.files.models import ConfigFileError
-from helixd.files.yamlio import clip_line
+from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
 from helixd.link.mission import MissionTransferError
 from helixd.mav.url import LinkError, parse_link_url
@@ -23,11 +24,30 @@ from helixd.runtime.inputs import InputsRefused
 
 T = TypeVar("T")
 
+# every command and group: -h as well as --help
+CONTEXT_SETTINGS = {"help_option_names": ["-h", "--help"]}
+WHOLE_SHORT_HELP_CHARS = 1000  # no command's first sentence is near this long
+
+
+class WholeHelpGroup(TyperGroup):
+    """A command group whose listing shows each command's first sentence whole, wrapped
+    (click cuts it at the terminal width with "...")."""
+
+    def format_commands(self, ctx: Any, formatter: Any) -> None:  # click's Context, formatter
+        rows = [
+            (name, cmd.get_short_help_str(WHOLE_SHORT_HELP_CHARS))
+            for name in self.list_commands(ctx)
+            if (cmd := self.get_command(ctx, name)) is not None and not cmd.hidden
+        ]
+        if rows:
+            with formatter.section("Commands"):
+                formatter.write_dl(rows)
+
 
 def fail(problems: list[str], code: ExitCode = ExitCode.USAGE) -> typer.Exit:
     """Print each problem as one ``error:`` line; the Exit to raise with ``code``."""
     for line in problems:
-        typer.echo(f"error: {clip_line(line)}", err=True)
+        typer.echo(f"error: {clip_line(line, MAX_ERROR_LINE_CHARS)}", err=True)
     return typer.Exit(int(code))
 
 
@@ -65,8 +85,10 @@ def link_inputs(config: Path | None, connect: str | None) -> tuple[HelixdConfig,
 async def on_autopilot(
     cfg: HelixdConfig, link: LinkConfig, body: Callable[[Autopilot], Awaitable[T]]
 ) -> T:
-    """Connect, wait for the autopilot's HEARTBEAT, run ``body``, close."""
-    ap = await Autopilot.connect(link, cfg.safety)
+    """Connect as an observer (``link.observer_system``, no HEARTBEAT: see
+    :meth:`helixd.link.connection.Autopilot.connect`), wait for the autopilot's HEARTBEAT,
+    run ``body``, close."""
+    ap = await Autopilot.connect(link, cfg.safety, observer=True)
     try:
         await ap.wait_heartbeat(cfg.safety.connect_timeout_s)
         return await body(ap)

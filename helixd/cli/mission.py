@@ -6,7 +6,6 @@ Registered on the main app by :func:`register` (one line in :mod:`helixd.cli.app
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 from pathlib import Path
 from typing import Annotated, TypeVar
@@ -14,7 +13,7 @@ from typing import Annotated, TypeVar
 import typer
 
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import config_or_exit, fail, link_inputs, run_on_link
+from helixd.cli.common import WholeHelpGroup, config_or_exit, fail, link_inputs, run_on_link
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import Autopilot
@@ -30,17 +29,19 @@ from helixd.mission.formats import (
     mission_to_items,
     read_gcs,
     sniff_format,
+    source_home,
     write_mission_file,
 )
 from helixd.mission.formats.areas import read_area
 from helixd.mission.formats.items import command_name, mission_name
 from helixd.mission.formats.qgc_plan import plan_to_text
-from helixd.mission.formats.wire import gcs_to_wire, wire_to_gcs
+from helixd.mission.formats.wire import WireMission, gcs_to_wire, wire_to_gcs
 from helixd.mission.formats.wpl import wpl_to_text
-from helixd.mission.model import Mission, MotionMode
-from helixd.mission.plan import resolve_plan
-from helixd.mission.survey import SurveyError, plan_survey
+from helixd.mission.model import MissionFrameKind, MotionMode
+from helixd.mission.placed import PlacementError, parse_latlon, placed_with
 from helixd.recorder import export
+from helixd.runtime.placement import place_on_autopilot
+from helixd.runtime.survey import SurveyRefused, survey_lines, survey_mission
 
 T = TypeVar("T")
 
@@ -51,6 +52,8 @@ mission_app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+    cls=WholeHelpGroup,
 )
 
 
@@ -58,6 +61,33 @@ ModeOpt = Annotated[
     MotionMode | None,
     typer.Option("--mode", help="motion mode (needed when reading .plan/.waypoints)"),
 ]
+OriginOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--origin",
+        help="LAT,LON of the EKF origin, to place a local_ned mission (or where the rover "
+        "starts, for a start mission) in lat/lon; a run records it in summary.json",
+    ),
+]
+HeadingOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--start-heading-deg",
+        min=-360.0,
+        max=360.0,
+        help="with --origin, a start mission's compass heading at its start (deg)",
+    ),
+]
+
+
+def _origin(text: str | None) -> tuple[float, float] | None:
+    """``--origin``, checked once at the edge (exit 2 naming it)."""
+    if text is None:
+        return None
+    try:
+        return parse_latlon(text)
+    except ValueError as exc:
+        raise fail([f"--origin {exc}"]) from None
 
 
 @mission_app.command("convert")
@@ -71,9 +101,12 @@ def convert(
     config: Annotated[
         Path | None, typer.Option("--config", "-c", help="helixd.yaml (mission limits, mode)")
     ] = None,
+    origin: OriginOpt = None,
+    start_heading_deg: HeadingOpt = None,
 ) -> None:
     """Convert a mission between helixd YAML, QGroundControl .plan and WPL 110 .waypoints."""
     cfg = config_or_exit(config)
+    where = _origin(origin)
     gs_mode = cfg.mission.ground_station_mode
     try:
         loaded = load_mission_file(
@@ -87,12 +120,18 @@ def convert(
         raise fail(exc.problems) from None
     for line in (*loaded.skipped, *loaded.notes):
         typer.echo(f"warning: {clip_line(line)}", err=True)
+    msn = loaded.mission
     try:
-        for what in lost_in(loaded.mission, detect_format(dst)):
+        target = detect_format(dst)
+        if target is not MissionFormat.YAML:  # a ground station needs lat/lon
+            msn = placed_with(msn, where, start_heading_deg)
+        for what in lost_in(msn, target):
             typer.echo(f"warning: {dst}: the format has no place for {what}; left out", err=True)
-        fmt = write_mission_file(loaded.mission, dst)
+        fmt = write_mission_file(msn, dst, source_home(loaded.gcs))
     except FormatError as exc:
         raise fail(exc.problems) from None
+    except PlacementError as exc:
+        raise fail([f"{src}: {exc}"]) from None
     except OSError as exc:
         raise fail([f"{dst}: cannot write: {exc.strerror or exc}"]) from None
     n = len(loaded.mission.waypoints)
@@ -122,63 +161,50 @@ def survey(
         ),
     ] = 2.0,
     inset_m: Annotated[
-        float,
+        float | None,
         typer.Option(
             "--inset-m",
             min=0.0,
             max=100.0,
-            help="keep the rover this far inside the edges and holes (shoreline, keep-outs) (m)",
+            help="keep the rover this far inside the edges (shoreline) and holes (m; default: "
+            "the rover's half-width from the vehicle config; off holes at least the planner's "
+            "clearance)",
         ),
-    ] = 0.0,
+    ] = None,
     time_factor: Annotated[
         float,
         typer.Option(
             "--time-factor",
             min=1.0,
             max=5.0,
-            help="mission time limit = estimated time x this (slip, turns, pauses)",
+            help="mission time limit = this x (estimated time + the longest approach "
+            "preflight allows) (slip, pauses)",
         ),
     ] = 1.5,
     config: Annotated[
         Path | None, typer.Option("--config", "-c", help="helixd.yaml (speed, yaw rate)")
     ] = None,
 ) -> None:
-    """Boustrophedon survey of a polygon (holes cut out), with its own geofence and time limit."""
+    """Boustrophedon survey of a polygon (holes cut out and kept out), with its own geofence,
+    keep-out areas and time limit."""
     cfg = config_or_exit(config)
     try:
-        area = read_area(polygon)
-        result = plan_survey(
-            area, spacing_m=spacing_m, angle_deg=angle_deg, margin_m=margin_m, inset_m=inset_m
+        got = survey_mission(
+            read_area(polygon),
+            cfg,
+            name=mission_name(out.stem),
+            mode=mode,
+            spacing_m=spacing_m,
+            angle_deg=angle_deg,
+            margin_m=margin_m,
+            inset_m=inset_m,
+            time_factor=time_factor,
         )
     except FormatError as exc:
         raise fail(exc.problems) from None
-    except SurveyError as exc:
+    except SurveyRefused as exc:
         raise fail([str(exc)]) from None
-    if len(result.fence_latlon_deg) > 1000:
-        raise fail([f"{polygon}: the fence has {len(result.fence_latlon_deg)} vertices (> 1000)"])
-    data: dict[str, object] = {
-        "name": mission_name(out.stem),
-        "mode": mode.value,
-        "frame": "global",
-        "waypoints": [{"lat": a, "lon": b} for a, b in result.waypoints_latlon_deg],
-        "geofence_polygon": [list(v) for v in result.fence_latlon_deg],
-    }
-    try:
-        msn = Mission.model_validate(data, context={"limits": cfg.mission})
-        plan = resolve_plan(msn, cfg.control, cfg.mission, result.waypoints_latlon_deg[0])
-    except Exception as exc:  # pydantic ValidationError / PlanError: say it, no traceback
-        raise fail([f"{polygon}: the survey is not a valid mission: {exc}"]) from None
-    first = plan.waypoints[0]
-    eta_s = plan.estimated_time_s(cfg.control.max_yaw_rate_radps, (first.x_m, first.y_m))
-    limit_s = math.ceil(eta_s * time_factor)
-    if limit_s > 86_400:
-        raise fail(
-            [
-                f"{polygon}: estimated {eta_s / 3600:.1f} h x {time_factor} exceeds 24 h; split "
-                "the area"
-            ]
-        )
-    msn = msn.model_copy(update={"time_limit_s": float(limit_s)})
+    msn, result = got.mission, got.result
     try:
         for what in lost_in(msn, detect_format(out)):
             typer.echo(f"warning: {out}: the format has no place for {what}; left out", err=True)
@@ -187,17 +213,8 @@ def survey(
         raise fail(exc.problems) from None
     except OSError as exc:
         raise fail([f"{out}: cannot write: {exc.strerror or exc}"]) from None
-    typer.echo(
-        f"survey  : {polygon} → {out}  area {result.area_m2:.0f} m², {result.transects} "
-        f"transects at {spacing_m:g} m, angle {angle_deg:g}°"
-    )
-    typer.echo(
-        f"path    : {result.path_length_m:.0f} m, {len(msn.waypoints)} waypoints, estimated "
-        f"{eta_s / 3600:.2f} h at {plan.speed_mps:.2f} m/s; time limit {limit_s} s"
-    )
-    typer.echo(
-        f"fence   : the polygon grown by {margin_m:g} m ({len(msn.geofence_polygon)} vertices)"
-    )
+    for line in survey_lines(got, polygon, out, angle_deg, margin_m):
+        typer.echo(line)
     typer.echo(f"coverage: {result.coverage * 100:.1f} % of the area within {spacing_m / 2:g} m")
     if result.coverage < MIN_COVERAGE:
         typer.echo(
@@ -208,7 +225,12 @@ def survey(
 
 
 ConnectOpt = Annotated[
-    str | None, typer.Option("--connect", help="autopilot link (default: link.url)")
+    str | None,
+    typer.Option(
+        "--connect",
+        help="autopilot link (default: link.url); spoken as link.observer_system (248), never "
+        "as the GCS id, and without a HEARTBEAT, so the autopilot's GCS failsafe ignores it",
+    ),
 ]
 ConfigOpt = Annotated[Path | None, typer.Option("--config", "-c", help="helixd.yaml")]
 
@@ -310,7 +332,8 @@ def download(
         raise fail([f"{out}: cannot write: {exc.strerror or exc}"]) from None
     fence = len(gcs.polygons) + len(gcs.circles)
     typer.echo(
-        f"{link.url} → {out} ({fmt.value}): {len(gcs.items)} mission items, {fence} fence shapes"
+        f"{link.url} → {out} ({fmt.value}): {len(gcs.items)} mission items, {fence} fence shapes "
+        f"(as system {link.observer_system})"
     )
 
 
@@ -319,40 +342,62 @@ def upload(
     src: Annotated[Path, typer.Argument(help="mission file: .plan, .waypoints or .yaml")],
     connect: ConnectOpt = None,
     config: ConfigOpt = None,
+    origin: OriginOpt = None,
+    start_heading_deg: HeadingOpt = None,
 ) -> None:
     """Write a mission (and a .plan's geofence) to the autopilot over MAVLink, as QGC does.
 
     A .plan also replaces the autopilot's fence (empty if the plan has none).
 
-    A .waypoints or helixd .yaml file leaves the fence as it is."""
+    A .waypoints or helixd .yaml file leaves the fence as it is. A local_ned (or start)
+    mission is placed in lat/lon through --origin, else through the autopilot's own EKF
+    origin (a start mission: at the rover's pose now)."""
     cfg, link = link_inputs(config, connect)
+    where = _origin(origin)
     fmt = sniff_format(src)
+    msn = None
     try:
         if fmt is MissionFormat.YAML:
-            gcs = mission_to_items(load_mission_file(src, cfg.mission).mission)
+            msn = load_mission_file(src, cfg.mission).mission
+            if where is not None:
+                msn = placed_with(msn, where, start_heading_deg)
+            gcs = None if msn.frame is not MissionFrameKind.GLOBAL else mission_to_items(msn)
         else:
             gcs = read_gcs(src)
-        wire = gcs_to_wire(gcs)
+        wire = None if gcs is None else gcs_to_wire(gcs)
     except ConfigFileError as exc:
         raise fail(exc.problems) from None
+    except PlacementError as exc:
+        raise fail([f"{src}: {exc}"]) from None
     except FormatError as exc:
         raise fail([p if p.startswith(str(src)) else f"{src}: {p}" for p in exc.problems]) from None
-    fence = wire.fence if fmt is MissionFormat.PLAN else None
 
-    async def body(ap: Autopilot) -> None:
+    async def body(ap: Autopilot) -> WireMission:
         if ap.state.armed:
             typer.echo(
                 f"warning: the autopilot is armed (mode {ap.state.mode}): in AUTO it follows "
                 "the new mission at once",
                 err=True,
             )
-        await upload_all(ap, autopilot_sender(ap), wire.mission, fence)
+        got = wire
+        if got is None:  # place it through the autopilot's EKF origin (and the rover's pose)
+            assert msn is not None
+            got = await place_on_autopilot(ap, msn, cfg.link.command_timeout_s * 3)
+            typer.echo(f"{src}: placed through the autopilot's EKF origin", err=True)
+        await upload_all(
+            ap, autopilot_sender(ap), got.mission, got.fence if fmt is MissionFormat.PLAN else None
+        )
+        return got
 
-    run_on_link(cfg, link, body)
+    try:
+        wire = run_on_link(cfg, link, body)
+    except PlacementError as exc:
+        raise fail([f"{src}: {exc}"], ExitCode.PREFLIGHT) from None
+    fence = wire.fence if fmt is MissionFormat.PLAN else None
     what = f"{len(wire.mission) - 1} mission items (+ home)"
     if fence is not None:
         what += f" and {len(fence)} fence items"
-    typer.echo(f"{src} → {link.url}: {what} accepted")
+    typer.echo(f"{src} → {link.url}: {what} accepted (as system {link.observer_system})")
 
 
 MIN_COVERAGE = 0.95  # below this, the operator is told (the survey is still written)

@@ -24,6 +24,9 @@ class SimChoice:
     terrain: Terrain
     plant: Plant
     noise: NoiseLevel
+    # (north_m, east_m, yaw_ned_rad) the rover starts at: a resumed run's simulator puts it
+    # where the interrupted run left it; None: the EKF origin, facing North
+    start_ned: tuple[float, float, float] | None = None
 
 
 def sim_world(
@@ -69,12 +72,17 @@ def simulator(
     if choice is None:
         yield url
         return
+    start = {}
+    if choice.start_ned is not None:
+        north, east, yaw = choice.start_ned
+        start = {"initial_north_m": north, "initial_east_m": east, "initial_yaw_ned_rad": yaw}
     sim_cfg = SimConfig(
         speedup=choice.speedup,
         terrain=choice.terrain,
         noise=choice.noise,
         plant=choice.plant,
         obstacles=world(),
+        **start,
     )
     server, sim_url = start_embedded(sim_cfg)
     try:

@@ -144,23 +144,40 @@ def _inner_model(annotation: Any) -> Any:
     return None
 
 
-def _bounds(metadata: Any) -> tuple[Any, Any]:
-    lo = hi = None
+_Bound = tuple[Any, bool] | None  # (value, inclusive)
+
+
+def _bounds(metadata: Any) -> tuple[_Bound, _Bound]:
+    lo: _Bound = None
+    hi: _Bound = None
     for meta in metadata:
         for inner in (meta, *getattr(meta, "metadata", ())):
-            lo = getattr(inner, "ge", None) if lo is None else lo
-            lo = getattr(inner, "gt", None) if lo is None else lo
-            hi = getattr(inner, "le", None) if hi is None else hi
-            hi = getattr(inner, "lt", None) if hi is None else hi
+            for name, inclusive in (("ge", True), ("gt", False)):
+                value = getattr(inner, name, None)
+                if lo is None and value is not None:
+                    lo = (value, inclusive)
+            for name, inclusive in (("le", True), ("lt", False)):
+                value = getattr(inner, name, None)
+                if hi is None and value is not None:
+                    hi = (value, inclusive)
     return lo, hi
 
 
-def _item_bounds(annotation: Any) -> tuple[Any, Any]:
+def _item_bounds(annotation: Any) -> tuple[_Bound, _Bound]:
     for arg in getattr(annotation, "__args__", ()):
         lo, hi = _bounds(getattr(arg, "__metadata__", ()))
         if lo is not None and hi is not None:
             return lo, hi
     return None, None
+
+
+def range_text(lo: tuple[Any, bool], hi: tuple[Any, bool]) -> str:
+    """The allowed range, exact: ``allowed range 1 .. 18`` when both ends are allowed,
+    otherwise each end with its own operator (``allowed: > 0.0 and <= 5.0``)."""
+    (low, low_in), (high, high_in) = lo, hi
+    if low_in and high_in:
+        return f"allowed range {low} .. {high}"
+    return f"allowed: {'>=' if low_in else '>'} {low} and {'<=' if high_in else '<'} {high}"
 
 
 def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) -> str:
@@ -174,7 +191,7 @@ def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) 
             if field is not None:
                 lo, hi = _bounds(field.metadata)
                 if lo is not None and hi is not None:
-                    return f"allowed range {lo} .. {hi}"
+                    return range_text(lo, hi)
         if len(loc) >= 2 and isinstance(loc[-1], int) and isinstance(loc[-2], str):
             # an item of a list field such as stick_channels: bounds sit on the item type
             owner = _model_at(model, loc[:-1])
@@ -182,7 +199,7 @@ def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) 
             if field is not None:
                 lo, hi = _item_bounds(field.annotation)
                 if lo is not None and hi is not None:
-                    return f"allowed range {lo} .. {hi}"
+                    return range_text(lo, hi)
         return f"allowed: {bound}"
     if etype == "extra_forbidden":
         owner = _model_at(model, loc)
@@ -216,20 +233,27 @@ def format_validation_error(
             problem = str(err["msg"]).removeprefix("Value error, ")
         value = err.get("input")
         shown = etype != "missing" and not isinstance(value, dict)
-        parts = [f"got {clip(value)}"] if shown else []
+        got = f" (got {clip(value)}" if shown else ""
+        # what helixd adds (allowed keys, ranges, hints) is never cut: only what came from
+        # the file (key names, values) is, so a long list of allowed keys stays whole
+        ours: list[str] = []
         if not etype.startswith("value_error"):
             allowed = _allowed_text(err, model, loc)
             if allowed:
-                parts.append(allowed)
+                ours.append(allowed)
         if etype == "value_error" and (not loc or "\n" in problem):
             # a cross-field validator: one line per problem, each naming its fields itself
             prefix = f"{path}: {dotted}: " if loc else f"{path}: "
             lines.extend(clip_line(prefix + p) for p in problem.splitlines() if p)
             continue
         if isinstance(value, str) and value.lower() in _YAML11_BOOLS and "parsing" in etype:
-            parts.append("yes/no/on/off are text, not numbers or switches: write the number")
-        detail = f" ({'; '.join(parts)})" if parts else ""
-        lines.append(clip_line(f"{path}: {dotted}: {problem}{detail}"))
+            ours.append("yes/no/on/off are text, not numbers or switches: write the number")
+        head = clip_line(f"{path}: {dotted}: {problem}{got}")
+        if ours:
+            tail = "; ".join(ours) + ")"
+            lines.append(f"{head}; {tail}" if got else f"{head} ({tail}")
+        else:
+            lines.append(f"{head})" if got else head)
     return lines
 
 

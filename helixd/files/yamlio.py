@@ -48,7 +48,10 @@ MAX_FILE_BYTES = 16 * 1024 * 1024  # a 100 000-waypoint mission is about 2.5 MB
 MAX_DEPTH = 32  # deepest real config nesting is 5 (sim terrain table); missions use 3
 MAX_EVENTS = 1_000_000  # parser events (values + collections); 100 000 waypoints are ~600 000
 MAX_SHOWN_CHARS = 120  # longest quoted value in a message
-MAX_LINE_CHARS = 400  # longest problem line
+MAX_LINE_CHARS = 400  # longest problem line (of what came from the input)
+# longest line an operator is shown: the clipped part from the input, plus what helixd adds
+# whole (e.g. every allowed key of the largest config section)
+MAX_ERROR_LINE_CHARS = 2000
 
 try:
     _BaseLoader: type[yaml.SafeLoader] = yaml.CSafeLoader  # type: ignore[assignment]

@@ -170,8 +170,17 @@ class LinkStats:
     reopen_count: int = 0
 
 
+class NeverSent(Exception):
+    """A message this link must never send (an observer's HEARTBEAT, RC override or
+    MANUAL_CONTROL): a bug in the caller, refused before it reaches the wire."""
+
+
 class MavlinkConnection:
-    """MAVLink 2 codec on a transport: parse, drop other systems, dispatch, reopen."""
+    """MAVLink 2 codec on a transport: parse, drop other systems, dispatch, reopen.
+
+    ``never_send``: message ids refused with :class:`NeverSent` instead of being sent (an
+    observer link never sends what the autopilot counts as GCS contact).
+    """
 
     def __init__(
         self,
@@ -182,8 +191,10 @@ class MavlinkConnection:
         on_foreign: Callable[[int], None],
         on_lost: OnLost,
         on_reopened: Callable[[], None],
+        never_send: frozenset[int] = frozenset(),
     ) -> None:
         self.cfg = cfg
+        self.never_send = never_send
         self.url = url
         self._key = signing_key
         self._on_message = on_message
@@ -221,6 +232,8 @@ class MavlinkConnection:
         )
 
     def send(self, msg: MavMsg) -> bool:
+        if self.never_send and int(msg.get_msgId()) in self.never_send:
+            raise NeverSent(f"this link never sends {msg.get_type()}")
         mav = self.mav
         buf = msg.pack(mav)
         mav.seq = (mav.seq + 1) % 256
@@ -231,6 +244,8 @@ class MavlinkConnection:
     ) -> bool:
         """RC_CHANNELS_OVERRIDE (18 values, already checked), without a message object on an
         unsigned link (see :mod:`helixd.link.codec`)."""
+        if _RC_OVERRIDE_ID in self.never_send:
+            raise NeverSent("this link never sends RC_CHANNELS_OVERRIDE")
         mav = self.mav
         if self._key is not None:
             return self.send(

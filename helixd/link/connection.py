@@ -43,6 +43,7 @@ from helixd.link.action import Action
 from helixd.link.codec import (
     LinkStats,
     MavlinkConnection,
+    NeverSent,
 )
 from helixd.link.commands import (
     AckStats,
@@ -60,6 +61,11 @@ from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.tlog import LinkTlog
 from helixd.link.transport import Address, Transport, make_transport
 from helixd.link.vehicle import Change, VehicleState
+from helixd.mav.constants import (
+    GCS_CONTACT_MESSAGE_IDS,
+    MAV_CMD_REQUEST_MESSAGE,
+    MAVLINK_MSG_ID_HEARTBEAT,
+)
 from helixd.mav.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
 
 __all__ = [
@@ -129,7 +135,12 @@ class Autopilot:
         limits: LinkLimits | SafetyNumbers,
         url: LinkUrl,
         signing_key: bytes | None,
+        *,
+        observer: bool = False,
     ) -> None:
+        self.observer = observer
+        if observer:
+            cfg = cfg.model_copy(update={"source_system": cfg.observer_system})
         self.cfg = cfg
         self.limits = link_limits(limits)
         self.url = url
@@ -149,6 +160,7 @@ class Autopilot:
             self._on_foreign,
             self._on_transport_lost,
             self._on_reopened,
+            never_send=GCS_CONTACT_MESSAGE_IDS if observer else frozenset(),
         )
         self._commands = CommandClient(lambda: self._conn.mav, self._conn.send, cfg, self.state)
         self._heartbeat = HeartbeatSender(self._conn, cfg)
@@ -168,15 +180,24 @@ class Autopilot:
     # -- lifecycle ----------------------------------------------------------------------------
 
     @classmethod
-    async def connect(cls, cfg: LinkConfig, limits: LinkLimits | SafetyNumbers) -> Autopilot:
+    async def connect(
+        cls, cfg: LinkConfig, limits: LinkLimits | SafetyNumbers, *, observer: bool = False
+    ) -> Autopilot:
         """Open the link and start reading; LinkError (one human message) if it cannot.
 
         ``limits``: the link's few safety numbers (:mod:`helixd.link.limits`); a
         ``SafetyConfig`` is read for them.
+
+        ``observer``: for every command that does not fly. It speaks as
+        ``link.observer_system``, not as the GCS id, and never sends what ArduPilot counts as
+        contact with its GCS (:data:`helixd.mav.constants.GCS_CONTACT_MESSAGE_IDS`: HEARTBEAT,
+        RC_CHANNELS_OVERRIDE, MANUAL_CONTROL — refused with
+        :class:`helixd.link.codec.NeverSent`), so the autopilot's GCS failsafe neither counts
+        on it nor fires after it closes.
         """
         url = parse_link_url(cfg.url, cfg.baud)
         key = load_signing_key(cfg.signing_key_file) if cfg.signing_key_file else None
-        ap = cls(cfg, limits, url, key)
+        ap = cls(cfg, limits, url, key, observer=observer)
         await ap._conn.open()
         ap._spawn(ap._watch_link(), "link_watchdog")
         return ap
@@ -369,14 +390,38 @@ class Autopilot:
                     no_heartbeat_text(self.cfg, self.url, self._conn.stats, st, timeout_s)
                 )
             if announce:  # a udpout peer learns our address from what we send
-                self._heartbeat.send_now()
+                self._announce()
             await self._waiters.wait(
                 Change.HEARTBEAT, min(remaining, 1.0 / self.cfg.heartbeat_rate_hz)
             )
         log.info("autopilot_heartbeat", mode=st.mode, armed=st.armed, mav_type=st.mav_type)
 
+    def _announce(self) -> None:
+        """Something for a udpout peer to learn our address from: our HEARTBEAT, or for an
+        observer (which never sends one) a request for the autopilot's HEARTBEAT."""
+        if not self.observer:
+            self._heartbeat.send_now()
+            return
+        self._conn.send(
+            self._conn.mav.command_long_encode(
+                self.cfg.target_system,
+                self.cfg.target_component,
+                MAV_CMD_REQUEST_MESSAGE,
+                0,
+                float(MAVLINK_MSG_ID_HEARTBEAT),
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+            )
+        )
+
     def start_heartbeat(self) -> None:
         """Start our HEARTBEAT; counts as a feed(). Call feed() from the control loop."""
+        if self.observer:
+            raise NeverSent("an observer link never sends HEARTBEAT")
         self._heartbeat.start()
 
     def feed(self) -> None:

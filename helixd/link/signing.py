@@ -1,20 +1,20 @@
 """Optional MAVLink 2 signing (``link.signing_key_file``).
 
-The key file holds the 32-byte secret either raw or as 64 hex characters (what MAVProxy's
-``signing setup`` and QGroundControl export). With a key, every message we send is signed and
-unsigned or badly signed messages from the autopilot are rejected (counted, never processed).
+The key file holds the 32-byte secret either raw or as 64 hex characters
+(:mod:`helixd.mav.signing_key`; the config loader checks the file too). With a key, every
+message we send is signed and unsigned or badly signed messages from the autopilot are rejected
+(counted, never processed).
 """
 
 from __future__ import annotations
 
-import string
 import time
 from pathlib import Path
 from typing import Any
 
+from helixd.mav.signing_key import SigningKeyError, parse_signing_key
 from helixd.mav.url import LinkError
 
-KEY_LEN = 32
 SIGNING_EPOCH_UNIX_S = 1_420_070_400  # MAVLink signing timestamps count from 2015-01-01
 SIGNING_TICKS_PER_S = 100_000  # 10 µs units
 
@@ -25,15 +25,10 @@ def load_signing_key(path: Path) -> bytes:
         data = path.read_bytes()
     except OSError as exc:
         raise LinkError(f"signing key file {path}: cannot read it ({exc.strerror})") from None
-    if len(data) == KEY_LEN:
-        return data
-    text = data.decode("ascii", errors="replace").strip()
-    if len(text) == 2 * KEY_LEN and all(c in string.hexdigits for c in text):
-        return bytes.fromhex(text)
-    raise LinkError(
-        f"signing key file {path}: expected {KEY_LEN} raw bytes or {2 * KEY_LEN} hex "
-        f"characters, found {len(data)} bytes"
-    )
+    try:
+        return parse_signing_key(data)
+    except SigningKeyError as exc:
+        raise LinkError(f"signing key file {path}: {exc}") from None
 
 
 def signing_timestamp(now_unix_s: float) -> int:

@@ -96,6 +96,20 @@ class Telemetry:
                 return pose
         return None
 
+    async def wait_for(
+        self, holds: Callable[[VehicleState], bool], changes: int, timeout_s: float
+    ) -> bool:
+        """True as soon as ``holds(state)`` is true, re-checked whenever one of the
+        ``changes`` (:class:`helixd.link.vehicle.Change` bits) is applied; False when it is
+        still false after ``timeout_s``."""
+        deadline = time.monotonic() + timeout_s
+        while not holds(self._state):
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return False
+            await self._waiters.wait(changes, remaining)
+        return True
+
     async def pose(self) -> AsyncGenerator[PoseSample, None]:
         """Every new valid pose read after the stream started, as it arrives (none twice)."""
         last = time.monotonic()

@@ -57,6 +57,7 @@ EKF_FORBIDDEN_FLAGS = {
 RC_CHANNEL_COUNT = 18
 SERVO_CHANNEL_COUNT = 16
 SENSOR_RC_RECEIVER = 0x10000  # MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+GPS_FIX_TYPE_MAX = 8  # GPS_FIX_TYPE_PPP
 RSSI_UNKNOWN = 255
 LAT_MAX_DEG = 90.0
 LON_MAX_DEG = 180.0
@@ -98,6 +99,8 @@ class Change:
     REBOOT = 2048
     SYS_STATUS = 4096
     POSE_REJECTED = 8192  # a LOCAL_POSITION_NED / ATTITUDE was rejected (see pose_invalid_*)
+    HOME = 16384  # HOME_POSITION: the autopilot has a home (it arms only then)
+    GPS = 32768  # GPS_RAW_INT: fix type and satellites
 
 
 @dataclass(frozen=True, slots=True)
@@ -266,7 +269,14 @@ class VehicleState:
     gps_origin: tuple[float, float] | None = None  # (lat_deg, lon_deg)
     origin_rejected_count: int = 0  # GPS_GLOBAL_ORIGIN with a latitude/longitude off the Earth
     gps_origin_rx_s: float | None = None
+    # HOME_POSITION (lat_deg, lon_deg): ArduPilot sets home from the EKF's first position and
+    # refuses to arm before ("PreArm: AHRS: waiting for home"); cleared by a reboot
+    home: tuple[float, float] | None = None
+    home_rx_s: float | None = None
     battery_voltage_v: float | None = None
+    battery_remaining_pct: int | None = None  # SYS_STATUS, 0..100; None: not reported
+    gps_fix_type: int | None = None  # GPS_RAW_INT.fix_type (GPS_FIX_TYPE, 0..8)
+    gps_satellites: int | None = None  # GPS_RAW_INT.satellites_visible; None: unknown (255)
     # SYS_STATUS RC-receiver bit: None when the autopilot reports no receiver at all.
     # While helixd streams overrides ArduPilot's own RC failsafe cannot fire (overrides count
     # as valid RC input), so this bit is how helixd notices the pilot's radio is gone.
@@ -363,6 +373,7 @@ class VehicleState:
             self.pose = None
             self.yaw_ned_rad = None
             self.attitude_time_boot_ms = None
+            self.home = None  # a new boot sets its own
             return Change.REBOOT
         return Change.NONE
 
@@ -483,6 +494,14 @@ class VehicleState:
         self.gps_origin_rx_s = rx_s
         return Change.GPS_ORIGIN
 
+    def _home(self, msg: MavMsg, rx_s: float) -> int:
+        lat_deg, lon_deg = int(msg.latitude) * 1e-7, int(msg.longitude) * 1e-7
+        if not (-LAT_MAX_DEG <= lat_deg <= LAT_MAX_DEG and -LON_MAX_DEG <= lon_deg <= LON_MAX_DEG):
+            return Change.NONE  # not a place on Earth: never a home
+        self.home = (lat_deg, lon_deg)
+        self.home_rx_s = rx_s
+        return Change.HOME
+
     def _statustext(self, msg: MavMsg, rx_s: float) -> int:
         self.statustexts.append(StatusText(int(msg.severity), _text(msg.text), rx_s))
         while len(self.statustexts) > self.statustext_history:
@@ -496,7 +515,16 @@ class VehicleState:
         self.rc_receiver_healthy = bool(healthy) if (present and enabled) else None
         mv = int(msg.voltage_battery)
         self.battery_voltage_v = None if mv == UINT16_MAX else mv / 1000.0
+        pct = int(msg.battery_remaining)
+        self.battery_remaining_pct = pct if 0 <= pct <= 100 else None  # -1: not estimated
         return Change.SYS_STATUS
+
+    def _gps_raw(self, msg: MavMsg, rx_s: float) -> int:
+        fix = int(msg.fix_type)
+        sats = int(msg.satellites_visible)
+        self.gps_fix_type = fix if 0 <= fix <= GPS_FIX_TYPE_MAX else None
+        self.gps_satellites = sats if 0 <= sats < 255 else None  # 255: unknown
+        return Change.GPS
 
 
 _HANDLERS: dict[str, Callable[[VehicleState, MavMsg, float], int]] = {
@@ -507,6 +535,8 @@ _HANDLERS: dict[str, Callable[[VehicleState, MavMsg, float], int]] = {
     "RC_CHANNELS": VehicleState._rc,
     "SERVO_OUTPUT_RAW": VehicleState._servo,
     "GPS_GLOBAL_ORIGIN": VehicleState._origin,
+    "HOME_POSITION": VehicleState._home,
     "STATUSTEXT": VehicleState._statustext,
     "SYS_STATUS": VehicleState._sys_status,
+    "GPS_RAW_INT": VehicleState._gps_raw,
 }

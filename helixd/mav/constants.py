@@ -20,7 +20,30 @@ MAV_RESULT_UNSUPPORTED = int(_mav.MAV_RESULT_UNSUPPORTED)
 MAV_RESULT_FAILED = int(_mav.MAV_RESULT_FAILED)
 MAV_RESULT_IN_PROGRESS = int(_mav.MAV_RESULT_IN_PROGRESS)
 
+# Message ids
+MAVLINK_MSG_ID_HEARTBEAT = int(_mav.MAVLINK_MSG_ID_HEARTBEAT)
+MAVLINK_MSG_ID_RC_CHANNELS_OVERRIDE = int(_mav.MAVLINK_MSG_ID_RC_CHANNELS_OVERRIDE)
+MAVLINK_MSG_ID_MANUAL_CONTROL = int(_mav.MAVLINK_MSG_ID_MANUAL_CONTROL)
+MAVLINK_MSG_ID_HOME_POSITION = int(_mav.MAVLINK_MSG_ID_HOME_POSITION)
+MAVLINK_MSG_ID_ATTITUDE = int(_mav.MAVLINK_MSG_ID_ATTITUDE)
+MAVLINK_MSG_ID_LOCAL_POSITION_NED = int(_mav.MAVLINK_MSG_ID_LOCAL_POSITION_NED)
+MAVLINK_MSG_ID_GPS_RAW_INT = int(_mav.MAVLINK_MSG_ID_GPS_RAW_INT)
+
+# What ArduPilot takes for contact with its ground station when the sender's system id is
+# MAV_GCS_SYSID (GCS::sysid_is_gcs): GCS_MAVLINK::handle_heartbeat (any MAV_TYPE),
+# handle_rc_channels_override and handle_manual_control are the only callers of
+# sysid_mygcs_seen, the clock of the GCS failsafe. A command that must never pass for the GCS
+# sends none of these.
+GCS_CONTACT_MESSAGE_IDS = frozenset(
+    {
+        MAVLINK_MSG_ID_HEARTBEAT,
+        MAVLINK_MSG_ID_RC_CHANNELS_OVERRIDE,
+        MAVLINK_MSG_ID_MANUAL_CONTROL,
+    }
+)
+
 # MAV_CMD
+MAV_CMD_DO_SET_HOME = int(_mav.MAV_CMD_DO_SET_HOME)
 MAV_CMD_DO_SET_MODE = int(_mav.MAV_CMD_DO_SET_MODE)
 MAV_CMD_DO_SET_SERVO = int(_mav.MAV_CMD_DO_SET_SERVO)
 MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN = int(_mav.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN)

@@ -3,7 +3,9 @@
 Accepted forms::
 
     /dev/ttyACM0               serial device, baud from ``link.baud``
-    /dev/serial0:921600        serial device with its baud (``,921600`` also accepted)
+    /dev/serial0:921600        serial device with its baud (``,921600`` also accepted); what
+                               follows the last ':' or ',' must be a standard baud, except in
+                               the colon-laden /dev/serial/by-path/ names
     udpin:0.0.0.0:14550        listen for the autopilot (``udp:`` means the same, as in pymavlink)
     udpout:192.168.1.10:14550  send to the autopilot first
     tcp:127.0.0.1:5760         connect to a TCP server (ArduPilot SITL serves 5760)
@@ -23,6 +25,9 @@ ALLOWED_FORMS = (
 )
 
 MIN_BAUD = 1200
+MAX_BAUD_DIGITS = 7
+# udev's names by port; they contain colons (…-usb-0:1.4:1.0) that are no baud separator
+BY_PATH_DIR = "/dev/serial/by-path/"
 # Rates every Linux serial driver accepts through termios (B1200 .. B4000000).
 STANDARD_BAUDS = (
     1200,
@@ -124,13 +129,19 @@ def parse_link_url(url: str, default_baud: int) -> LinkUrl:
     if not text.startswith("/"):
         raise _bad(url, "a serial device must be an absolute path such as /dev/ttyACM0")
     device, baud = text, default_baud
-    for separator in (":", ","):
-        head, sep, tail = text.rpartition(separator)
-        # "/dev/serial/by-path/pci-0000:00:14.0-usb-0:1" has colons of its own: only a
-        # trailing number that could be a baud (>= 1200) is taken as one.
-        if sep and head and tail.isdigit() and int(tail) >= MIN_BAUD:
+    head, sep, tail = text.rpartition(",")
+    if not sep:
+        head, sep, tail = text.rpartition(":")
+    # "/dev/serial/by-path/pci-0000:00:14.0-usb-0:1.0" has colons of its own: there, a
+    # trailing part that is no baud (< 1200, or not a number) belongs to the name. Anywhere
+    # else what follows the last ',' or ':' is the baud, and must be one.
+    by_path = text.startswith(BY_PATH_DIR)
+    if sep and head:
+        number = tail.isascii() and tail.isdigit() and len(tail) <= MAX_BAUD_DIGITS
+        if number and (int(tail) >= MIN_BAUD or not by_path or sep == ","):
             device, baud = head, int(tail)
-            break
+        elif not by_path or sep == ",":
+            raise _bad(url, f"baud {_shown(tail)} is not a number such as 921600")
     if baud not in STANDARD_BAUDS:
         allowed = ", ".join(str(b) for b in STANDARD_BAUDS)
         raise _bad(url, f"baud {baud} is not a standard serial rate ({allowed})")

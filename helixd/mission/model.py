@@ -52,6 +52,11 @@ class WaypointSpec(InputModel):
     tolerance_m: float | None = Field(
         None, gt=0.05, le=20.0, description="per-waypoint arrival radius override (m)"
     )
+    via: bool = Field(
+        False,
+        description="an intermediate point the planner inserted on the way to the next "
+        "waypoint, not one of the operator's waypoints (not numbered or counted as one)",
+    )
 
     def given(self) -> set[str]:
         return {
@@ -84,6 +89,13 @@ class Mission(InputModel):
     )
     time_limit_s: float | None = Field(
         None, gt=0.0, le=86_400.0, description="replaces safety.mission_time_limit_s (s)"
+    )
+    keep_out_polygons: tuple[tuple[tuple[float, float], ...], ...] = Field(
+        (),
+        max_length=1000,
+        description="areas the rover must not enter (islands, exclusion zones), each a polygon "
+        "in the mission's own coordinates (north/east or lat/lon pairs; not in the start "
+        "frame): legs are planned around them, a waypoint inside one is refused",
     )
 
     @model_validator(mode="after")
@@ -129,6 +141,9 @@ class Mission(InputModel):
         fence_problems = self.fence_problems()
         if fence_problems:
             raise ValueError("\n".join(f"geofence_polygon: {p}" for p in fence_problems))
+        keep_out_problems = self.keep_out_problems()
+        if keep_out_problems:
+            raise ValueError("\n".join(keep_out_problems))
         limits = (info.context or {}).get("limits") if info.context else None
         if isinstance(limits, MissionLimits) and self.frame is not MissionFrameKind.GLOBAL:
             for i, (a, b) in enumerate(pts):
@@ -140,9 +155,41 @@ class Mission(InputModel):
                     )
         return self
 
+    def keep_out_problems(self) -> list[str]:
+        """Why ``keep_out_polygons`` cannot be used (empty when absent or usable)."""
+        if not self.keep_out_polygons:
+            return []
+        if self.frame is MissionFrameKind.START:
+            return [
+                "keep_out_polygons: a start-frame mission moves with the rover; keep-out areas "
+                "need a local_ned or global mission"
+            ]
+        out: list[str] = []
+        for i, poly in enumerate(self.keep_out_polygons):
+            if len(poly) > 1000:
+                out.append(f"keep_out_polygons.{i}: {len(poly)} vertices; allowed at most 1000")
+                continue
+            out.extend(f"keep_out_polygons.{i}: {p}" for p in self._ring_problems(poly))
+        return out[:5]
+
+    def keep_outs_ne(
+        self, origin_latlon_deg: tuple[float, float] | None = None
+    ) -> list[tuple[tuple[float, float], ...]]:
+        """``keep_out_polygons`` as (north_m, east_m) polygons: as written (``local_ned``), or
+        around ``origin_latlon_deg`` (``global``; default: waypoint 0)."""
+        if self.frame is not MissionFrameKind.GLOBAL:
+            return [tuple(p) for p in self.keep_out_polygons]
+        origin = origin_latlon_deg or self.points()[0]
+        return [
+            tuple(latlon_to_ne(a, b, *origin) for a, b in poly) for poly in self.keep_out_polygons
+        ]
+
     def fence_problems(self) -> list[str]:
         """Why ``geofence_polygon`` cannot fence anything (empty when absent or usable)."""
-        poly = self.geofence_polygon
+        return self._ring_problems(self.geofence_polygon)
+
+    def _ring_problems(self, poly: tuple[tuple[float, float], ...]) -> list[str]:
+        """Why ``poly`` (mission coordinates) is no usable polygon (empty: none or usable)."""
         if not poly:
             return []
         if self.frame is MissionFrameKind.GLOBAL:

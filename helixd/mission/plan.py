@@ -56,7 +56,7 @@ def resolve_plan(
                 f"waypoints.{i}: {rng:.1f} m from the origin; allowed at most "
                 f"mission.max_range_m = {limits.max_range_m} m"
             )
-        out.append(PlanWaypoint(x_m=x, y_m=y, tolerance_m=tol, final_yaw_rad=yaw))
+        out.append(PlanWaypoint(x_m=x, y_m=y, tolerance_m=tol, final_yaw_rad=yaw, via=wp.via))
     speed = min(mission.speed_mps or control.max_speed_mps, control.max_speed_mps)
     return Plan(
         name=mission.name,

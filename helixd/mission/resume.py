@@ -20,12 +20,13 @@ different place. Fly such surveys in ``local_ned`` or, best for battery swaps, `
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from helixd.base.plan import MissionFrameKind, Plan
+from helixd.base.plan import MissionFrameKind, Numbering, Plan
 from helixd.base.run_files import INPUTS_FILE
 from helixd.config import ControlConfig, MissionLimits
 from helixd.mission.model import Mission, WaypointSpec
@@ -74,7 +75,25 @@ class RunInputs(_Strict):
     leg_start: WaypointSpec | None = Field(
         None, description="waypoint before this run's first (start of its first leg), if any"
     )
+    operator_offset: int = Field(
+        0,
+        ge=0,
+        description="the operator's waypoints (via points not counted) of the whole mission "
+        "before this run's first",
+    )
+    operator_total: int | None = Field(
+        None,
+        ge=1,
+        description="the operator's waypoints in the whole mission (None: recorded before "
+        "via points were told apart: every waypoint counts)",
+    )
     resumed_from: ResumedFrom | None = None
+
+    def numbering(self, vias: Sequence[bool]) -> Numbering:
+        """The operator's numbering of this run's plan (``vias``: its via flags)."""
+        if self.operator_total is None:  # older record: every waypoint was counted
+            return Numbering.of(vias, self.index_offset + 1, self.waypoints_total)
+        return Numbering.of(vias, self.operator_offset + 1, self.operator_total)
 
     def to_json(self) -> str:
         return self.model_dump_json(indent=2, exclude_none=True) + "\n"
@@ -89,6 +108,7 @@ def fresh_inputs(mission_yaml: str, config_sha256: str, mission: Mission) -> Run
         root_mission_sha256=digest,
         frame=mission.frame,
         waypoints_total=len(mission.waypoints),
+        operator_total=max(1, sum(not w.via for w in mission.waypoints)),
     )
 
 
@@ -191,6 +211,7 @@ def resume_point(
     leg_start = mission.waypoints[k - 1] if k > 0 else inputs.leg_start
     remaining = mission.model_copy(update={"waypoints": tuple(mission.waypoints[k:])})
     first = inputs.index_offset + k
+    done_own = sum(not w.via for w in mission.waypoints[:k])
     new = RunInputs(
         mission_sha256="",  # of the new run's mission.yaml, filled in by resumed_inputs()
         config_sha256=inputs.config_sha256,
@@ -199,6 +220,8 @@ def resume_point(
         index_offset=first,
         waypoints_total=inputs.waypoints_total,
         leg_start=leg_start,
+        operator_offset=inputs.operator_offset + done_own,
+        operator_total=inputs.operator_total,
         resumed_from=ResumedFrom(
             path=run_path,
             mission_sha256=inputs.mission_sha256,

@@ -4,10 +4,10 @@ Pure geometry: a :class:`~helixd.mission.formats.areas.SurveyArea` (lat/lon) is 
 local plane in true metres (WGS-84 azimuthal-equidistant around the area's first vertex,
 geographiclib), covered with parallel transects ``spacing_m`` apart at ``angle_deg`` (compass:
 degrees clockwise from North, as QGroundControl's survey angle), each clipped to the area minus
-its holes, and joined into one path. The first transect runs half a band inside the edge,
-so each transect covers ``spacing_m / 2`` either side: the width across the transects is
-split into ``ceil(width / spacing_m)`` equal bands, one transect down the middle of each (the
-actual spacing is at most ``spacing_m``).
+its holes, and joined into one path. Transects are exactly ``spacing_m`` apart (measured
+perpendicular to them, in true metres: the spacing asked for is the spacing flown), each
+covering ``spacing_m / 2`` either side: ``ceil(width / spacing_m)`` of them, centred on the
+width, so the outer bands reach at most half a spacing past the edges.
 
 Joining: from the current end, the nearest unvisited transect piece is taken next (for a convex
 area that is the classic back-and-forth; a non-convex area or a hole splits a line into pieces,
@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 import shapely
 from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.base import BaseGeometry
@@ -37,6 +38,8 @@ XY = tuple[float, float]  # (east_m, north_m): shapely's x, y
 EPS_M = 1e-6  # geometric tolerance for "inside" tests (1 µm)
 MIN_GAP_M = 0.01  # consecutive waypoints closer than this are one
 MAX_TRANSECTS = 5_000  # 50 km of width at 10 m; keeps planning to seconds
+COVERAGE_GRID_M = 1e-3  # the coverage overlay snaps to this grid (robust noding; 1 mm)
+PLACEMENTS = 7  # positions of the transect set across the width tried (besides centred)
 
 
 class SurveyError(ValueError):
@@ -54,9 +57,23 @@ class SurveyResult:
     # in the local plane, for tests and plots: (east_m, north_m)
     path_xy_m: tuple[XY, ...]
     area_xy: Polygon
+    # the holes (islands, exclusion zones; circles as circumscribed polygons), which the
+    # mission carries as keep-out areas
+    keep_outs_latlon_deg: tuple[tuple[tuple[float, float], ...], ...] = ()
+    spacing_m: float = 0.0  # between adjacent transects (the spacing asked for)
 
 
-def _to_xy(area: SurveyArea) -> tuple[Polygon, tuple[float, float]]:
+@dataclass(frozen=True)
+class _Plane:
+    """The area in the local plane: its outer ring, the holes, and what is left."""
+
+    shell: Polygon
+    holes: tuple[Polygon, ...]
+    region: Polygon
+    origin: tuple[float, float]
+
+
+def _to_xy(area: SurveyArea) -> _Plane:
     origin = area.outer[0]
 
     def xy(ring: tuple[tuple[float, float], ...]) -> list[XY]:
@@ -93,7 +110,8 @@ def _to_xy(area: SurveyArea) -> tuple[Polygon, tuple[float, float]]:
             "each part on its own"
         )
     assert isinstance(region, Polygon)
-    return region, origin
+    holes = tuple(h for h in cut if isinstance(h, Polygon) and h.intersects(shell))
+    return _Plane(shell, holes, region, origin)
 
 
 def _transect_pieces(region: Polygon, spacing_m: float, angle_deg: float) -> list[LineString]:
@@ -106,21 +124,43 @@ def _transect_pieces(region: Polygon, spacing_m: float, angle_deg: float) -> lis
     across = [p[0] * nrm[0] + p[1] * nrm[1] for p in pts]
     lo, hi = min(across), max(across)
     a0, a1 = min(along) - 1.0, max(along) + 1.0
-    # n lines spread evenly across the width: spacing <= spacing_m, each covering its band
+    # exactly spacing_m apart (the spacing asked for is the spacing flown), as few as cover the
+    # width with spacing_m / 2 either side; where the set sits across the width is free within
+    # the slack (the outer bands reach past the edges): of a few placements, the one with the
+    # longest transects inside the area (centred on a tie) — a sliver's ends lose least
     count = max(1, math.ceil((hi - lo) / spacing_m - 1e-9))
     if count > MAX_TRANSECTS:
         raise SurveyError(
             f"{count} transects at {spacing_m} m across {hi - lo:.0f} m: more than "
             f"{MAX_TRANSECTS}; split the area or widen the spacing"
         )
-    step = (hi - lo) / count
+    earliest = hi - (count - 1) * spacing_m - spacing_m / 2.0
+    latest = lo + spacing_m / 2.0
+    centred = (earliest + latest) / 2.0
+    firsts = [centred] + [
+        earliest + (latest - earliest) * k / (PLACEMENTS - 1) for k in range(PLACEMENTS)
+    ]
+    offsets = np.arange(count, dtype=np.float64) * spacing_m
+    best: tuple[float, npt.NDArray[np.object_]] | None = None
+    for first in firsts:
+        off = first + offsets
+        lines = shapely.linestrings(
+            np.stack(
+                [
+                    np.stack([a0 * d[0] + off * nrm[0], a0 * d[1] + off * nrm[1]], axis=1),
+                    np.stack([a1 * d[0] + off * nrm[0], a1 * d[1] + off * nrm[1]], axis=1),
+                ],
+                axis=1,
+            )
+        )
+        clipped = shapely.intersection(region, lines)
+        total = float(shapely.length(clipped).sum())
+        if best is None or total > best[0] * (1.0 + 1e-9):
+            best = (total, clipped)
+    assert best is not None
     pieces: list[LineString] = []
-    for k in range(count):
-        off = lo + (k + 0.5) * step
-        p0 = (a0 * d[0] + off * nrm[0], a0 * d[1] + off * nrm[1])
-        p1 = (a1 * d[0] + off * nrm[0], a1 * d[1] + off * nrm[1])
-        clipped = region.intersection(LineString([p0, p1]))
-        for g in getattr(clipped, "geoms", [clipped]):
+    for piece in best[1]:
+        for g in getattr(piece, "geoms", [piece]):
             if isinstance(g, LineString) and g.length > MIN_GAP_M:
                 pieces.append(g)
     return pieces
@@ -249,6 +289,25 @@ def _join(pieces: list[LineString], region: Polygon, entry: XY) -> list[XY]:
     return dedup
 
 
+def _covered_m2(path: list[XY], half_width_m: float, region: Polygon) -> float:
+    """Area of ``region`` within ``half_width_m`` of the path (flat ends, round joins). When
+    GEOS cannot node the one buffer of a folded zigzag, each leg's band and each joint's disc
+    on their own, then their union on a 1 mm grid (slower, robust)."""
+    if len(path) < 2:
+        return 0.0
+    try:
+        band = LineString(path).buffer(half_width_m, cap_style="flat")
+        return float(band.intersection(region).area)
+    except shapely.errors.GEOSException:
+        pass
+    pts = np.asarray(path, dtype=np.float64)
+    legs = shapely.linestrings(np.stack([pts[:-1], pts[1:]], axis=1))
+    bands = shapely.buffer(legs, half_width_m, cap_style="flat")
+    joints = shapely.buffer(shapely.points(pts[1:-1]), half_width_m)
+    covered = shapely.union_all(np.concatenate([bands, joints]), grid_size=COVERAGE_GRID_M)
+    return float(shapely.intersection(covered, region, grid_size=COVERAGE_GRID_M).area)
+
+
 FENCE_VERTICES_MAX = 1000  # Mission.geofence_polygon / safety.geofence_polygon_ne_m bound
 
 
@@ -277,26 +336,36 @@ def plan_survey(
     angle_deg: float,
     margin_m: float,
     inset_m: float = 0.0,
+    keep_out_inset_m: float | None = None,
 ) -> SurveyResult:
-    """Transects over ``area``; the fence is the outer ring grown by ``margin_m``. With
-    ``inset_m`` > 0 the rover keeps that far inside the edges and holes (a shoreline, a
-    keep-out): transects and legs use the area shrunk by it; coverage is still measured over
-    the whole area."""
+    """Transects over ``area``; the fence is the outer ring grown by ``margin_m``. The rover
+    keeps ``inset_m`` inside the outer edge (a shoreline: its half-width keeps its body in the
+    area) and ``keep_out_inset_m`` (default ``inset_m``) off the holes (islands, exclusion
+    zones: the clearance a planner keeps from a keep-out): transects and legs use the area
+    shrunk by them; coverage is still measured over the whole area. The holes come back as
+    keep-out polygons for the mission to carry."""
+    hole_inset_m = inset_m if keep_out_inset_m is None else keep_out_inset_m
     for name, v, lo, hi in (
         ("spacing_m", spacing_m, 0.1, 1000.0),
         ("angle_deg", angle_deg, -360.0, 360.0),
         ("margin_m", margin_m, 0.0, 1000.0),
         ("inset_m", inset_m, 0.0, 1000.0),
+        ("keep_out_inset_m", hole_inset_m, 0.0, 1000.0),
     ):
         if not (math.isfinite(v) and lo <= v <= hi):
             raise SurveyError(f"{name} = {v}; allowed {lo} .. {hi}")
-    region, origin = _to_xy(area)
+    plane = _to_xy(area)
+    region, origin = plane.region, plane.origin
     driven = region
-    if inset_m > 0:
-        shrunk = region.buffer(-inset_m, join_style="mitre")
+    if inset_m > 0 or (hole_inset_m > 0 and plane.holes):
+        shrunk: BaseGeometry = plane.shell.buffer(-inset_m, join_style="mitre")
+        if plane.holes:
+            grown = unary_union([h.buffer(hole_inset_m, join_style="mitre") for h in plane.holes])
+            shrunk = shrunk.difference(grown)
         if not isinstance(shrunk, Polygon) or shrunk.is_empty:
             raise SurveyError(
-                f"{area.source}: {inset_m} m inside the edges leaves "
+                f"{area.source}: {inset_m} m inside the edges and {hole_inset_m} m off the "
+                "holes leaves "
                 + ("nothing" if shrunk.is_empty else f"{len(getattr(shrunk, 'geoms', []))} parts")
                 + "; use a smaller --inset-m"
             )
@@ -309,13 +378,14 @@ def plan_survey(
         )
     first = driven.exterior.coords[0]
     path = _join(pieces, driven, (first[0], first[1]))
-    line = LineString(path) if len(path) > 1 else Point(path[0])
-    covered = line.buffer(spacing_m / 2, cap_style="flat").intersection(region).area
+    covered = _covered_m2(path, spacing_m / 2, region)
     coverage = covered / region.area
     fence_xy = _fence(Polygon(region.exterior.coords), margin_m, area.source)
 
     def ll(p: tuple[float, ...]) -> tuple[float, float]:
         return geodesic_latlon(p[1], p[0], *origin)
+
+    keep_outs = tuple(tuple(ll(p) for p in list(h.exterior.coords)[:-1]) for h in plane.holes)
 
     return SurveyResult(
         waypoints_latlon_deg=tuple(ll(p) for p in path),
@@ -326,6 +396,8 @@ def plan_survey(
         coverage=coverage,
         path_xy_m=tuple(path),
         area_xy=region,
+        keep_outs_latlon_deg=keep_outs,
+        spacing_m=spacing_m,
     )
 
 

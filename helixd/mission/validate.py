@@ -8,8 +8,12 @@ be decided without the pose is decided identically in both places:
   so every waypoint is checked; the keep-in polygon (EKF-origin coordinates) needs the pose.
 * ``local_ned`` missions: the polygon is checked; the radius needs the start pose.
 * ``global`` missions: both need the EKF origin (and the radius the pose too).
-* estimated time vs ``safety.mission_time_limit_s``: without the pose the first leg (start →
-  waypoint 0) of an ENU mission is unknown and left out, which only shortens the estimate.
+* keep-out areas the mission carries: no waypoint inside one (nor a leg through one when
+  nothing plans around it).
+
+The estimated time against ``safety.mission_time_limit_s`` needs the navigator's speed
+profile (:mod:`helixd.control.estimate`), which the mission loader does not load:
+:func:`helixd.runtime.timing.flight_problems` adds it.
 
 Config-only rules (channel conflicts, timeouts, polygon shape) are pydantic validators in
 :mod:`helixd.config`; they already ran when the config loaded.
@@ -18,9 +22,10 @@ Config-only rules (channel conflicts, timeouts, polygon shape) are pydantic vali
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
-from helixd.base.polygon import leg_leaves_polygon, point_in_polygon
+from helixd.base.polygon import leg_leaves_polygon, point_in_polygon, segments_intersect
 from helixd.config import HelixdConfig
 from helixd.mission.model import Mission, MissionFrameKind
 from helixd.mission.plan import Plan, PlanError, resolve_plan
@@ -108,27 +113,43 @@ def _polygon_problems(
     return _listed(crossing, "whose legs leave the polygon")
 
 
-def _time_problems(plan: Plan, cfg: HelixdConfig, start: NedPose | None) -> list[str]:
-    limit = cfg.safety.mission_time_limit_s
-    if plan.frame is MissionFrameKind.START:
-        start_xy = (0.0, 0.0)
-        note = ""
-    elif start is not None:
-        start_xy = (start.east_m, start.north_m)
-        note = ""
+def _keep_out_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
+    """The mission's own keep-out areas: a waypoint inside one is refused; a leg through one
+    too when nothing plans around it (``planning.enabled: false``)."""
+    if not mission.keep_out_polygons:
+        return []
+    areas = mission.keep_outs_ne()  # a global mission: around its first waypoint
+    if mission.frame is MissionFrameKind.GLOBAL:
+        lat0, lon0 = mission.points()[0]
+        pts = [latlon_to_ne(a, b, lat0, lon0) for a, b in mission.points()]
     else:
-        first = plan.waypoints[0]
-        start_xy = (first.x_m, first.y_m)
-        note = " from waypoint 0"
-    eta = plan.estimated_time_s(cfg.control.max_yaw_rate_radps, start_xy)
-    if not math.isfinite(eta) or eta > limit:
-        length = plan.path_length_m(start_xy)
-        return [
-            f"estimated time{note} {eta:.0f} s ({length:.1f} m at {plan.speed_mps:.2f} m/s plus "
-            f"turns) exceeds safety.mission_time_limit_s = {limit:.0f} s; the run would be "
-            "aborted (split the mission or raise the limit)"
-        ]
-    return []
+        pts = mission.points()
+    inside = [
+        f"waypoints.{i}: inside keep_out_polygons.{k} (a keep-out area)"
+        for i, (n, e) in enumerate(pts)
+        for k, area in enumerate(areas)
+        if point_in_polygon(n, e, area)
+    ]
+    if inside or cfg.planning.enabled:
+        return _listed(inside, "inside keep-out areas")
+    crossing = [
+        f"leg waypoints.{i - 1} → waypoints.{i} crosses keep_out_polygons.{k} "
+        "(planning.enabled is false: nothing plans around it)"
+        for i in range(1, len(pts))
+        for k, area in enumerate(areas)
+        if _crosses(pts[i - 1], pts[i], area)
+    ]
+    return _listed(crossing, "whose legs cross keep-out areas")
+
+
+def _crosses(
+    a: tuple[float, float], b: tuple[float, float], area: Sequence[tuple[float, float]]
+) -> bool:
+    """The segment a → b enters the polygon (an edge crossed, or an end inside it)."""
+    if point_in_polygon(*a, area) or point_in_polygon(*b, area):
+        return True
+    n = len(area)
+    return any(segments_intersect(a, b, area[j], area[(j + 1) % n]) for j in range(n))
 
 
 def _start_distance_problems(plan: Plan, cfg: HelixdConfig, start: NedPose | None) -> list[str]:
@@ -273,7 +294,7 @@ def mission_problems(
         else "safety.geofence_polygon_ne_m"
     )
     problems += _polygon_problems(cfg, ned, start_ned, fence_name)
-    problems += _time_problems(plan, cfg, start_ned)
+    problems += _keep_out_problems(mission, cfg)
     problems += _start_distance_problems(plan, cfg, None if provisional else start_ned)
     return problems
 
@@ -291,5 +312,5 @@ def pending_checks(mission: Mission, cfg: HelixdConfig) -> list[str]:
         later.append("keep-in polygon")
     if mission.frame is not MissionFrameKind.START:
         later.append("time of the first leg")
-        later.append("distance from the rover to waypoint 0")
+        later.append("distance from the rover to waypoint 1")
     return later

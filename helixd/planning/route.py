@@ -22,7 +22,13 @@ from helixd.config import HelixdConfig
 from helixd.mission.model import Mission, MissionFrameKind, WaypointSpec
 from helixd.planning.grid import GridFrame, PlanningGrid, build_grid, segment_is_free
 from helixd.planning.mapfile import OccupancyMap
-from helixd.planning.obstacles import Obstacles, PointNE, clearance_m, obstacles_from_config
+from helixd.planning.obstacles import (
+    Obstacles,
+    PointNE,
+    clearance_m,
+    obstacles_from_config,
+    with_geofence,
+)
 from helixd.planning.search import grid_path, shortcut, turning_cells
 
 
@@ -90,7 +96,7 @@ def grid_frame_for(
 
 
 def _name(index: int) -> str:
-    return "start" if index < 0 else f"waypoint {index}"
+    return "start" if index < 0 else f"waypoint {index + 1}"  # numbered from 1, as a GCS does
 
 
 def plan_leg(
@@ -212,6 +218,8 @@ def plan_mission(
         )
     pl = cfg.planning
     obs = obstacles if obstacles is not None else obstacles_from_config(cfg)
+    if mission.keep_out_polygons:  # the mission's own keep-out areas (a survey's islands)
+        obs = with_geofence(obs, exclusion_polygons_ne_m=mission.keep_outs_ne())
     pts: list[PointNE] = [pl.start_ne_m, *mission.points()]
     route = plan_route(
         pts,
@@ -242,12 +250,13 @@ def via_waypoints(
     lat/lon when the route is around ``origin_latlon_deg`` (a global mission)."""
     if origin_latlon_deg is None:
         return [
-            WaypointSpec(north=n, east=e, tolerance_m=tolerance_m) for n, e in leg.points_ne_m[1:-1]
+            WaypointSpec(north=n, east=e, tolerance_m=tolerance_m, via=True)
+            for n, e in leg.points_ne_m[1:-1]
         ]
     out = []
     for n, e in leg.points_ne_m[1:-1]:
         lat, lon = ne_to_latlon(n, e, *origin_latlon_deg)
-        out.append(WaypointSpec(lat=lat, lon=lon, tolerance_m=tolerance_m))
+        out.append(WaypointSpec(lat=lat, lon=lon, tolerance_m=tolerance_m, via=True))
     return out
 
 
@@ -261,6 +270,7 @@ def planned_mission_yaml(mission: Mission, route: RoutePlan, map_path: object = 
     )
     doc = mission.model_dump(mode="json", exclude_none=True)
     doc["waypoints"] = [
-        {k: v for k, v in wp.items() if v is not None} for wp in doc.get("waypoints", [])
+        {k: v for k, v in wp.items() if v is not None and (k != "via" or v)}
+        for wp in doc.get("waypoints", [])
     ]
     return head + yaml.safe_dump(doc, sort_keys=False)

@@ -1,9 +1,11 @@
 """``helixd export RUN_DIR --geojson|--kml``: the planned path and the flown track in lat/lon.
 
 The run directory holds ``mission.yaml``, ``config.yaml``, ``flight.csv`` (NED pose from the
-EKF origin per control step) and ``summary.json`` (the EKF origin the run used, recorded for
-``global`` missions). Without a recorded origin the NED track has no place on the Earth: the
-export says so and exits 2. Points go through the same EKF map as in flight
+EKF origin per control step) and ``summary.json`` (the EKF origin the autopilot reported at
+preflight, recorded for every run where it had one). Without a recorded origin the NED track
+has no place on the Earth: the export says so and exits 2. Waypoints are numbered from 1 (the
+operator's, as a ground station numbers them); the planner's via points are marked ``via``.
+Points go through the same EKF map as in flight
 (:func:`helixd.base.frames.ne_to_latlon`), so the track lands where the autopilot's GPS put it.
 
 Pure core (:func:`build_export`, :func:`to_geojson`, :func:`to_kml`); the CLI reads and writes.
@@ -24,11 +26,18 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
-from helixd.base.run_files import CONFIG_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
+from helixd.base.plan import Numbering, operator_numbers
+from helixd.base.run_files import (
+    CONFIG_FILE,
+    FLIGHT_FILE,
+    MISSION_FILE,
+    SUMMARY_FILE,
+)
 from helixd.config import HelixdConfig, load_config
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.mission.model import Mission, MissionFrameKind, load_mission
+from helixd.recorder.resume_dir import run_numbering
 from helixd.recorder.rows import read_flight_columns
 from helixd.recorder.summary import RunSummary
 
@@ -48,6 +57,9 @@ class ExportData:
     flown: tuple[LatLon, ...]
     fence: tuple[LatLon, ...]
     origin: LatLon
+    numbers: tuple[int, ...] = ()  # per planned point: the operator's number (1-based)
+    vias: tuple[bool, ...] = ()  # per planned point: a via point the planner inserted
+    keep_outs: tuple[tuple[LatLon, ...], ...] = ()
 
 
 def _start_frame(cols: dict[str, npt.NDArray[Any]]) -> MissionFrame | None:
@@ -71,8 +83,10 @@ def build_export(
     origin: LatLon,
     cols: dict[str, npt.NDArray[Any]],
     min_step_m: float = DEFAULT_MIN_STEP_M,
+    numbering: Numbering | None = None,
 ) -> ExportData:
-    """Planned waypoints and the flown track (decimated to ``min_step_m``) in lat/lon."""
+    """Planned waypoints and the flown track (decimated to ``min_step_m``) in lat/lon;
+    ``numbering``: the run's (a resumed run continues the mission's count)."""
     north = np.asarray(cols.get("north_m", []), dtype=np.float64)
     east = np.asarray(cols.get("east_m", []), dtype=np.float64)
     flown: list[LatLon] = []
@@ -89,19 +103,48 @@ def build_export(
         if flown[-1] != end:
             flown.append(end)
     pts = mission.points()
+    keep_outs: list[tuple[LatLon, ...]] = []
     if mission.frame is MissionFrameKind.GLOBAL:
         planned = [(a, b) for a, b in pts]
         fence = list(mission.geofence_polygon)
+        keep_outs = [tuple(p) for p in mission.keep_out_polygons]
     elif mission.frame is MissionFrameKind.LOCAL_NED:
         planned = [ne_to_latlon(a, b, *origin) for a, b in pts]
         fence = [ne_to_latlon(a, b, *origin) for a, b in mission.geofence_polygon]
+        keep_outs = [
+            tuple(ne_to_latlon(a, b, *origin) for a, b in p) for p in mission.keep_out_polygons
+        ]
     else:
         frame = _start_frame(cols)
         if frame is None:
             raise ExportError("start-frame mission but no row with a pose: cannot place the plan")
         planned = [ne_to_latlon(*frame.to_ned(x, y), *origin) for x, y in pts]
         fence = [ne_to_latlon(*frame.to_ned(x, y), *origin) for x, y in mission.geofence_polygon]
-    return ExportData(mission.name, tuple(planned), tuple(flown), tuple(fence), origin)
+    vias = [w.via for w in mission.waypoints]
+    return ExportData(
+        mission.name,
+        tuple(planned),
+        tuple(flown),
+        tuple(fence),
+        origin,
+        numbering.numbers if numbering is not None else operator_numbers(vias),
+        numbering.vias if numbering is not None else tuple(vias),
+        tuple(keep_outs),
+    )
+
+
+def _number(data: ExportData, i: int) -> int:
+    return data.numbers[i] if i < len(data.numbers) else i + 1
+
+
+def _is_via(data: ExportData, i: int) -> bool:
+    return i < len(data.vias) and data.vias[i]
+
+
+def _point_name(data: ExportData, i: int) -> str:
+    """``waypoint 3`` (the operator's number), ``via → 3`` for a via point on the leg to it."""
+    number = _number(data, i)
+    return f"via → {number}" if _is_via(data, i) else f"waypoint {number}"
 
 
 def _pos(p: LatLon) -> list[float]:
@@ -128,10 +171,23 @@ def to_geojson(data: ExportData) -> str:
     feats.extend(
         {
             "type": "Feature",
-            "properties": {"name": f"waypoint {i}", "kind": "waypoint", "index": i},
+            "properties": {
+                "name": _point_name(data, i),
+                "kind": "via" if _is_via(data, i) else "waypoint",
+                "number": _number(data, i),
+            },
             "geometry": {"type": "Point", "coordinates": _pos(p)},
         }
         for i, p in enumerate(data.planned)
+    )
+    feats.extend(
+        {
+            "type": "Feature",
+            "properties": {"name": f"{data.name} keep-out {k + 1}", "kind": "keep_out"},
+            "geometry": {"type": "Polygon", "coordinates": [[_pos(p) for p in (*ring, ring[0])]]},
+        }
+        for k, ring in enumerate(data.keep_outs)
+        if ring
     )
     if data.fence:
         ring = [_pos(p) for p in (*data.fence, data.fence[0])]
@@ -167,9 +223,16 @@ def to_kml(data: ExportData) -> str:
             "</LineString></Placemark>"
         )
     marks.extend(
-        f"<Placemark><name>{i}</name><Point><coordinates>{_kml_coords([p])}</coordinates>"
-        "</Point></Placemark>"
+        f"<Placemark><name>{escape(_point_name(data, i))}</name><Point><coordinates>"
+        f"{_kml_coords([p])}</coordinates></Point></Placemark>"
         for i, p in enumerate(data.planned)
+    )
+    marks.extend(
+        f"<Placemark><name>{name} keep-out {k + 1}</name><Polygon><outerBoundaryIs><LinearRing>"
+        f"<coordinates>{_kml_coords([*ring, ring[0]])}</coordinates></LinearRing>"
+        "</outerBoundaryIs></Polygon></Placemark>"
+        for k, ring in enumerate(data.keep_outs)
+        if ring
     )
     if data.fence:
         ring = _kml_coords([*data.fence, data.fence[0]])
@@ -204,8 +267,9 @@ def load_run_export(run_dir: Path, min_step_m: float = DEFAULT_MIN_STEP_M) -> Ex
     origin = summary.origin_latlon_deg
     if origin is None:
         raise ExportError(
-            f"{run_dir}: no EKF origin was recorded in {SUMMARY_FILE} (helixd records it for "
-            "global missions): the track cannot be placed in latitude/longitude"
+            f"{run_dir}: no EKF origin was recorded in {SUMMARY_FILE} (the autopilot reported "
+            "none at preflight, or an older helixd recorded it for global missions only): the "
+            "track cannot be placed in latitude/longitude"
         )
     try:
         cfg = load_config(run_dir / CONFIG_FILE)
@@ -217,7 +281,8 @@ def load_run_export(run_dir: Path, min_step_m: float = DEFAULT_MIN_STEP_M) -> Ex
         raise ExportError("; ".join(exc.problems)) from None
     flight = run_dir / FLIGHT_FILE
     cols = read_flight_columns(flight) if flight.exists() else {}
-    return build_export(mission, origin, cols, min_step_m)
+    numbering = run_numbering(run_dir, [w.via for w in mission.waypoints])
+    return build_export(mission, origin, cols, min_step_m, numbering)
 
 
 def register(app: typer.Typer) -> None:

@@ -36,12 +36,15 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
+from helixd.base.plan import Numbering
 from helixd.base.run_files import CONFIG_FILE, EVENTS_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
 from helixd.config import load_config
 from helixd.files.models import ConfigFileError
 from helixd.mission import MissionFrameKind, PlanError, load_mission, resolve_plan
+from helixd.mission.resume import with_leg_start
 from helixd.recorder.clocks import autopilot_axis_s
 from helixd.recorder.events import fault_time_mono_s, read_events
+from helixd.recorder.resume_dir import recorded_inputs
 from helixd.recorder.rows import read_flight_columns
 from helixd.recorder.summary import PATH_MIN_STEP_M, RunSummary
 
@@ -93,12 +96,15 @@ class RunData:
     on_autopilot_clock: bool  # t_s is autopilot time (False: it is the wall clock)
     summary: RunSummary | None
     waypoints: list[tuple[float, float, float]]  # x_m, y_m, tolerance_m
-    path_start: tuple[float, float] | None
-    arrivals: list[tuple[int, float]]  # plan index, t_s
+    path_start: tuple[float, float] | None  # a resumed run: the interrupted leg's start
+    arrivals: list[tuple[str, float]]  # the operator's waypoint number, t_s (no via points)
     fault: str | None
     fault_t_s: float | None
     clamp_pct: float | None
     notes: list[str] = field(default_factory=list)
+    # per waypoint: the operator's number ("3", numbered from 1 over the whole mission as a
+    # ground station does); "" for a via point the planner inserted
+    labels: list[str] = field(default_factory=list)
 
     @property
     def time_label(self) -> str:
@@ -157,19 +163,26 @@ def interp_linear(x_in: npt.ArrayLike, xp: Array, fp: Array) -> Array:
 
 
 def waypoint_labels(
-    points_m: list[tuple[float, float]], same_m: float = SAME_POINT_M
+    points_m: list[tuple[float, float]],
+    same_m: float = SAME_POINT_M,
+    labels: Sequence[str] | None = None,
 ) -> list[tuple[str, tuple[float, float]]]:
-    """One label per distinct point: waypoints closer than ``same_m`` share it (``0,24``: a
-    closed circle's first and last point), instead of printing numbers on top of each other."""
+    """One label per distinct point: waypoints closer than ``same_m`` share it (``1,25``: a
+    closed circle's first and last point), instead of printing numbers on top of each other.
+    ``labels``: per point (default its 1-based number); an empty label (a via point) is not
+    printed."""
+    names = [str(i + 1) for i in range(len(points_m))] if labels is None else list(labels)
     groups: list[tuple[list[int], tuple[float, float]]] = []
     for i, (x, y) in enumerate(points_m):
+        if not names[i]:
+            continue
         for members, (gx, gy) in groups:
             if math.hypot(x - gx, y - gy) < same_m:
                 members.append(i)
                 break
         else:
             groups.append(([i], (x, y)))
-    return [(",".join(str(i) for i in members), xy) for members, xy in groups]
+    return [(",".join(names[i] for i in members), xy) for members, xy in groups]
 
 
 def sparse_label_mask(times_s: list[float], span_s: float, min_gap_frac: float) -> list[bool]:
@@ -201,15 +214,18 @@ def load_run(run_dir: Path) -> RunData:
     t0 = float(t_mono[0])
     summary = _load_summary(run_dir / SUMMARY_FILE)
     notes: list[str] = []
-    waypoints, start = _load_plan(run_dir, summary, cols, notes)
+    waypoints, start, labels = _load_plan(run_dir, summary, cols, notes)
     t_boot = np.asarray(cols.get("t_boot_s", np.full(t_mono.shape, np.nan)), dtype=np.float64)
     wall_s = t_mono - t0
     ap = autopilot_axis(t_boot, t_mono)
     t_s = wall_s if ap is None else ap
     arrivals = []
     for arr in summary.arrivals if summary else ():
+        if arr.via:
+            continue  # the planner's via points are not the operator's waypoints
         idx = int(np.nanargmin(np.abs(t_boot - arr.t_boot_s))) if np.isfinite(t_boot).any() else 0
-        arrivals.append((arr.index, float(t_s[idx])))
+        number = arr.index + 1 if arr.number is None else arr.number
+        arrivals.append((str(number), float(t_s[idx])))
     fault = summary.fault if summary else None
     fault_t: float | None = None
     if fault is not None:
@@ -230,6 +246,7 @@ def load_run(run_dir: Path) -> RunData:
         fault_t_s=fault_t,
         clamp_pct=_clamp_pct(run_dir),
         notes=notes,
+        labels=labels,
     )
 
 
@@ -248,24 +265,34 @@ def _load_plan(
     summary: RunSummary | None,
     cols: dict[str, npt.NDArray[Any]],
     notes: list[str],
-) -> tuple[list[tuple[float, float, float]], tuple[float, float] | None]:
+) -> tuple[list[tuple[float, float, float]], tuple[float, float] | None, list[str]]:
+    """The planned waypoints, where the planned path starts (a resumed run: at the start of
+    the interrupted leg, not where the rover stood) and the waypoints' labels."""
+    inputs = recorded_inputs(run_dir)
     try:
         cfg = load_config(run_dir / CONFIG_FILE)
         msn = load_mission(run_dir / MISSION_FILE, cfg.mission)
         origin = summary.origin_latlon_deg if summary else None
         plan = resolve_plan(msn, cfg.control, cfg.mission, origin)
+        if inputs is not None and inputs.leg_start is not None:
+            plan = with_leg_start(plan, msn, inputs.leg_start, cfg.control, cfg.mission, origin)
     except (ConfigFileError, PlanError) as exc:
         log.warning("plot_plan_unavailable", run_dir=str(run_dir), error=str(exc))
         notes.append("planned path unavailable")
-        return [], None
+        return [], None, []
+    vias = [w.via for w in plan.waypoints]
+    numbering = Numbering.of(vias) if inputs is None else inputs.numbering(vias)
+    labels = ["" if via else str(n) for n, via in zip(numbering.numbers, vias, strict=True)]
     wps = [(w.x_m, w.y_m, w.tolerance_m) for w in plan.waypoints]
+    if plan.leg_start_xy_m is not None:
+        return wps, plan.leg_start_xy_m, labels
     if msn.frame is MissionFrameKind.START:
-        return wps, (0.0, 0.0)
+        return wps, (0.0, 0.0), labels
     x = np.asarray(cols["x_m"], dtype=np.float64)
     y = np.asarray(cols["y_m"], dtype=np.float64)
     ok = np.isfinite(x) & np.isfinite(y)
     start = (float(x[ok][0]), float(y[ok][0])) if ok.any() else None
-    return wps, start
+    return wps, start, labels
 
 
 def _clamp_pct(run_dir: Path) -> float | None:
@@ -334,13 +361,13 @@ def _lost_intervals(data: RunData) -> list[tuple[float, float]]:
 
 def _arrival_lines(
     ax: Axes,
-    marks: Sequence[tuple[int, float]],
+    marks: Sequence[tuple[str, float]],
     span: float,
     min_gap_frac: float,
     *,
     labels: bool,
 ) -> None:
-    """A dotted line at each (waypoint index, x) arrival; ``WPn`` labels spaced sparsely."""
+    """A dotted line at each (waypoint number, x) arrival; ``WPn`` labels spaced sparsely."""
     show = sparse_label_mask([x for _, x in marks], span, min_gap_frac)
     for k, (index, x) in enumerate(marks):
         ax.axvline(x, **ARRIVAL_STYLE, label="waypoint reached" if k == 0 and labels else None)
@@ -417,7 +444,14 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
         px = [data.path_start[0]] + [w[0] for w in data.waypoints]
         py = [data.path_start[1]] + [w[1] for w in data.waypoints]
         ax.plot(px, py, "--", color="0.5", linewidth=1.2, label="planned path")
-    for i, (wx, wy, tol) in enumerate(data.waypoints):
+    labels = data.labels or [str(i + 1) for i in range(len(data.waypoints))]
+    first_wp = first_via = True
+    for (wx, wy, tol), text in zip(data.waypoints, labels, strict=True):
+        if not text:  # a via point the planner inserted: not one of the operator's waypoints
+            ax.plot(wx, wy, ".", color="tab:gray", markersize=5,
+                    label="via point (planned)" if first_via else None)  # fmt: skip
+            first_via = False
+            continue
         ax.add_patch(Circle((wx, wy), tol, fill=False, linestyle=":", color="tab:green"))
         ax.plot(
             wx,
@@ -425,9 +459,10 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
             "o",
             color="tab:green",
             markersize=6,
-            label="waypoint (tolerance circle)" if i == 0 else None,
+            label="waypoint (tolerance circle)" if first_wp else None,
         )
-    for text, (wx, wy) in waypoint_labels([(w[0], w[1]) for w in data.waypoints]):
+        first_wp = False
+    for text, (wx, wy) in waypoint_labels([(w[0], w[1]) for w in data.waypoints], labels=labels):
         ax.annotate(
             text,
             (wx, wy),
@@ -536,7 +571,7 @@ def draw_cross_track_along(ax: Axes, data: RunData) -> None:
         good = np.flatnonzero(np.isfinite(along[: max(k, 0) + 1]))
         return float(along[good[-1]]) if good.size else None
 
-    marks = [(index, d) for index, t in data.arrivals if (d := along_at(t)) is not None]
+    marks = [(number, d) for number, t in data.arrivals if (d := along_at(t)) is not None]
     span = float(np.nanmax(along)) if ok.any() else 0.0
     _arrival_lines(ax, marks, span, LABEL_MIN_GAP_PANEL, labels=True)
     if data.fault_t_s is not None and (d_fault := along_at(data.fault_t_s)) is not None:
@@ -731,12 +766,12 @@ def draw_route(ax: Axes, route: Any) -> None:
     for leg in route.legs:
         n, e = leg.points_ne_m[-1]
         ax.plot(e, n, "D", color="tab:green", ms=6)
-        ax.annotate(str(leg.to_index), (e, n), textcoords="offset points", xytext=(5, 5))
+        ax.annotate(str(leg.to_index + 1), (e, n), textcoords="offset points", xytext=(5, 5))
     if route.legs:
         n, e = route.legs[0].points_ne_m[0]
         ax.plot(e, n, "^", color="black", ms=7, label="start")
-    around = getattr(route, "origin_latlon_deg", None)  # a global mission: around waypoint 0
-    where = "" if around is None else " of waypoint 0"
+    around = getattr(route, "origin_latlon_deg", None)  # a global mission: around waypoint 1
+    where = "" if around is None else " of waypoint 1"
     ax.set_xlabel(f"east{where} (m)")
     ax.set_ylabel(f"north{where} (m)")
     ax.set_aspect("equal")

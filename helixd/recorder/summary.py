@@ -22,9 +22,18 @@ PATH_MIN_STEP_M = 0.1
 
 
 class Arrival(StrictModel):
-    index: int = Field(description="plan waypoint index (0-based, as `helixd check` prints)")
+    index: int = Field(
+        description="plan index (0-based, via points included: flight.csv's "
+        "target_index, what --resume counts)"
+    )
     t_boot_s: float = Field(description="autopilot time of arrival (s)")
     error_m: float = Field(description="distance to the waypoint when it was declared reached (m)")
+    number: int | None = Field(
+        None,
+        description="the operator's waypoint number (1-based over the whole mission, as the "
+        "ground station numbers mission items; a via point: the waypoint it leads to)",
+    )
+    via: bool = Field(False, description="a via point the planner inserted")
 
 
 class RunSummary(StrictModel):
@@ -33,8 +42,10 @@ class RunSummary(StrictModel):
     completed: bool = Field(description="every waypoint reached")
     fault: str | None = Field(description="cause that ended the run early, None if none")
     exit_code: int
-    waypoints_reached: int
-    waypoints_total: int
+    waypoints_reached: int = Field(description="the operator's waypoints reached (no via points)")
+    waypoints_total: int = Field(description="the operator's waypoints in this run")
+    via_points_reached: int = Field(0, description="via points (inserted by the planner) reached")
+    via_points_total: int = Field(0, description="via points in this run")
     arrivals: tuple[Arrival, ...] = ()
     duration_s: float = Field(
         description="first to last recorded step on the autopilot's clock (time_boot_ms), so a "
@@ -49,6 +60,11 @@ class RunSummary(StrictModel):
         None,
         description="the same first-to-last recorded step on the companion's monotonic (wall) "
         "clock; differs from duration_s under a simulator speed-up (s)",
+    )
+    estimated_s: float | None = Field(
+        None,
+        description="the navigator's own estimate of the flight at preflight, from the start "
+        "pose (autopilot clock, s; helixd.control.estimate): compare with duration_s",
     )
     start_t_boot_s: float | None = Field(
         None, description="autopilot time (time_boot_ms) of the first recorded step (s)"
@@ -75,7 +91,10 @@ class RunSummary(StrictModel):
         None, description="last slip estimate for the yaw rate (1 = no slip)"
     )
     origin_latlon_deg: tuple[float, float] | None = Field(
-        None, description="EKF origin used for a global mission (lat, lon deg)"
+        None,
+        description="the EKF origin (GPS_GLOBAL_ORIGIN) the autopilot reported at preflight, "
+        "recorded for every run where it has one: local_ned and start tracks hang from it "
+        "(lat, lon deg)",
     )
     resumed_from: ResumedFrom | None = Field(
         None, description="the run this one resumed (`helixd run --resume`), None if none"
@@ -100,14 +119,20 @@ class SummaryBuilder:
         waypoints_total: int = 0,
         final_xy_m: tuple[float, float] | None = None,
         *,
+        via_points_total: int = 0,
         path_min_step_m: float = PATH_MIN_STEP_M,
+        join_m: float | None = None,
+        estimated_s: float | None = None,
     ) -> None:
         """``final_xy_m``: the last waypoint in the mission frame (for ``final_error_m``; the
-        last row's ``distance_error_m`` is used without it). Identity fields may also be given
-        to :meth:`build`."""
+        last row's ``distance_error_m`` is used without it). ``join_m``: a resumed run's
+        cross-track counts from the first row within this of the interrupted leg (or the
+        first arrival): the approach to the leg is not the mission's error. Identity fields
+        may also be given to :meth:`build`."""
         self._name = mission_name
         self._mode = mode
         self._total = waypoints_total
+        self._via_total = via_points_total
         self._final_xy = final_xy_m
         self._min_step = path_min_step_m
         self._origin: tuple[float, float] | None = None
@@ -125,10 +150,15 @@ class SummaryBuilder:
         self._last_xy: tuple[float, float] | None = None
         self._last_dist_err: float | None = None
         self._arrivals: dict[int, Arrival] = {}
+        self._join_m = join_m
+        self._estimated_s = (
+            estimated_s if estimated_s is None or math.isfinite(estimated_s) else None
+        )
+        self._joined = join_m is None
         self._slip: tuple[float, float, float] | None = None  # last finite (vx, vy, w) estimate
 
     def set_origin(self, lat_deg: float, lon_deg: float) -> None:
-        """Record the EKF origin a global mission was resolved with (plots need it)."""
+        """Record the autopilot's EKF origin (plots and export place the run with it)."""
         self._origin = (lat_deg, lon_deg)
 
     def add(self, row: FlightRow) -> None:
@@ -158,7 +188,9 @@ class SummaryBuilder:
                     self._path_m += step
                     self._anchor = (x, y)
         xt = row.cross_track_m
-        if math.isfinite(xt):
+        if not self._joined and self._join_m is not None and abs(xt) <= self._join_m:
+            self._joined = True  # on the leg: the approach to it is over
+        if self._joined and math.isfinite(xt):
             self._xt_sq += xt * xt
             self._xt_n += 1
             self._xt_max = max(self._xt_max, abs(xt))
@@ -168,10 +200,22 @@ class SummaryBuilder:
         if all(math.isfinite(f) for f in slip):
             self._slip = slip
 
-    def arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
-        """A waypoint was reached (the first notice per index counts)."""
+    def arrival(
+        self,
+        index: int,
+        t_boot_s: float,
+        error_m: float,
+        *,
+        number: int | None = None,
+        via: bool = False,
+    ) -> None:
+        """A waypoint (plan index ``index``; the operator's ``number``) was reached (the first
+        notice per index counts)."""
+        self._joined = True
         if index not in self._arrivals:
-            self._arrivals[index] = Arrival(index=index, t_boot_s=t_boot_s, error_m=error_m)
+            self._arrivals[index] = Arrival(
+                index=index, t_boot_s=t_boot_s, error_m=error_m, number=number, via=via
+            )
 
     @property
     def start_t_boot_s(self) -> float | None:
@@ -180,7 +224,8 @@ class SummaryBuilder:
 
     @property
     def waypoints_reached(self) -> int:
-        return len(self._arrivals)
+        """The operator's waypoints reached (via points not counted)."""
+        return sum(not a.via for a in self._arrivals.values())
 
     def build(
         self,
@@ -191,6 +236,7 @@ class SummaryBuilder:
         mission_name: str | None = None,
         mode: str | None = None,
         waypoints_total: int | None = None,
+        via_points_total: int | None = None,
         wall_duration_s: float | None = None,
     ) -> RunSummary:
         """The summary so far; keyword arguments override the constructor's identity fields."""
@@ -221,12 +267,15 @@ class SummaryBuilder:
             completed=completed,
             fault=fault,
             exit_code=exit_code,
-            waypoints_reached=len(self._arrivals),
+            waypoints_reached=self.waypoints_reached,
             waypoints_total=self._total if waypoints_total is None else waypoints_total,
+            via_points_reached=len(self._arrivals) - self.waypoints_reached,
+            via_points_total=self._via_total if via_points_total is None else via_points_total,
             arrivals=tuple(sorted(self._arrivals.values(), key=lambda a: a.t_boot_s)),
             duration_s=duration,
             duration_clock=clock,
             duration_mono_s=mono,
+            estimated_s=self._estimated_s,
             start_t_boot_s=self._tb_first,
             wall_duration_s=wall_duration_s,
             path_length_m=path_m,

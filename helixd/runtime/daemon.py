@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import dataclasses
 import math
 import time
 from collections.abc import AsyncIterator, Awaitable, Callable
@@ -38,20 +37,22 @@ from helixd.actuators import ActuatorError, make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
+from helixd.base.plan import Numbering
 from helixd.base.run_files import TLOG_FILE
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
 from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
 from helixd.link.tlog import attach_tlog
-from helixd.link.vehicle import TelemetryBounds
+from helixd.link.vehicle import Change, TelemetryBounds
+from helixd.mav.constants import MAV_CMD_REQUEST_MESSAGE, MAVLINK_MSG_ID_HOME_POSITION
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
-from helixd.mission.validate import apply_mission_limits, mission_problems
+from helixd.mission.validate import apply_mission_limits
 from helixd.recorder.rows import FlightRow
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
-from helixd.runtime.display import ProgressDisplay, ProgressInfo, result_line
+from helixd.runtime.display import ProgressDisplay, result_line
 from helixd.runtime.flight import (
     MANUAL_MODE,
     FlightLoop,
@@ -64,6 +65,7 @@ from helixd.runtime.gcs_feed import GcsFeed, report_fallback
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.show_plan import show_plan
 from helixd.runtime.signals import StopRequest, install, uninstall
+from helixd.runtime.timing import flight_problems, plan_time_estimate
 from helixd.safety.supervisor import fall_back
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause, pose_invalid_fault
 
@@ -118,24 +120,42 @@ class RunOutcome:
     messages: list[str] = field(default_factory=list)
 
 
+@dataclass
+class PhaseEnd:
+    """How a phase that raised nothing ended: the fly phase returns its fault (a watchdog, a
+    pilot's takeover, a stop signal) instead of raising it, and says so here."""
+
+    ok: bool = True
+    cause: str | None = None
+
+    def failed(self, cause: str) -> None:
+        self.ok, self.cause = False, cause
+
+
 @contextlib.asynccontextmanager
 async def phase(
     name: str, notifier: ServiceNotifier, display: ProgressDisplay
-) -> AsyncIterator[None]:
+) -> AsyncIterator[PhaseEnd]:
     """Log a phase's start and end with its duration; tell systemd and the operator.
 
-    ``phase_start`` is the one log event for entering a phase (the display only redraws).
+    ``phase_start`` is the one log event for entering a phase (the display only redraws);
+    ``phase_end`` says ``ok=false`` when the phase raised or marked its :class:`PhaseEnd`
+    failed (with the cause).
     """
     t0 = time.monotonic()
     log.info("phase_start", phase=name)
     notifier.status(f"phase: {name}")
     display.phase(name)
+    end = PhaseEnd()
     try:
-        yield
+        yield end
     except BaseException:
         log.info("phase_end", phase=name, ok=False, duration_wall_s=round(time.monotonic() - t0, 3))
         raise
-    log.info("phase_end", phase=name, ok=True, duration_wall_s=round(time.monotonic() - t0, 3))
+    cause = {} if end.cause is None else {"cause": end.cause}
+    log.info(
+        "phase_end", phase=name, ok=end.ok, **cause, duration_wall_s=round(time.monotonic() - t0, 3)
+    )
 
 
 class Stage(StrEnum):
@@ -233,6 +253,21 @@ def ending_of_flight(result: FlightResult) -> Ending:
     else:
         code = ExitCode.FAULT
     return Ending(fault, code, result.detected_s, result.last_pose)
+
+
+def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
+    """Whether the fall-back disarms (pure). What we armed is disarmed after a completed
+    mission and after an operator's stop signal (Ctrl-C, SIGTERM: nobody drives it now, and
+    an armed rover in HOLD is one switch away from moving). After a fault, a pilot's takeover
+    (the pilot may be driving it) or on a vehicle we did not arm, ``safety.disarm_on_fault``
+    decides (None)."""
+    if not armed_by_us:
+        return None
+    if ending.code is ExitCode.OK:
+        return True
+    if ending.fault is not None and ending.fault.cause is FaultCause.SIGNAL:
+        return True
+    return None
 
 
 @dataclass
@@ -363,11 +398,12 @@ class MissionRunner:
             problems.append(
                 "EKF not healthy: " + ("no EKF_STATUS_REPORT" if ekf is None else ekf.describe())
             )
-        origin = None
-        if self.opts.mission.frame is MissionFrameKind.GLOBAL:
-            origin = await ap.action.request_gps_origin(self.cfg.link.command_timeout_s * 3)
-            if origin is None:
-                problems.append("global mission needs GPS_GLOBAL_ORIGIN; the autopilot sent none")
+        # the EKF origin: a global mission needs it; every run records it (export, plots)
+        needed = self.opts.mission.frame is MissionFrameKind.GLOBAL
+        timeout_s = self.cfg.link.command_timeout_s * (3 if needed else 1)
+        origin = await ap.action.request_gps_origin(timeout_s)
+        if origin is None and needed:
+            problems.append("global mission needs GPS_GLOBAL_ORIGIN; the autopilot sent none")
         if problems or pose is None:
             raise PreflightFailed(problems)
         if self.opts.replan_from is not None:  # planned legs: the first from the rover
@@ -388,13 +424,19 @@ class MissionRunner:
             )
         # The same validation `helixd check` ran, now with the start pose and EKF origin
         # (geofence radius/polygon and time for local_ned/global missions).
-        refused = mission_problems(
+        refused = flight_problems(
             self.opts.mission, self.cfg, start_ned=pose, origin_latlon_deg=origin
         )
         if refused:
             raise PreflightFailed(refused)
         last = plan.waypoints[-1]
-        self.summary = SummaryBuilder(final_xy_m=(last.x_m, last.y_m))
+        # a resume's approach to the interrupted leg is not the mission's cross-track error
+        join_m = None if plan.leg_start_xy_m is None else self.cfg.control.stop_tolerance_m
+        estimate = plan_time_estimate(plan, self.cfg, pose)  # what `check` says, from here
+        log.info("flight_estimate", estimated_s=round(estimate.total_s, 1), pivots=estimate.pivots)
+        self.summary = SummaryBuilder(
+            final_xy_m=(last.x_m, last.y_m), join_m=join_m, estimated_s=estimate.total_s
+        )
         if origin is not None:
             self.summary.set_origin(*origin)
         return Checked(pose, origin, plan)
@@ -468,10 +510,55 @@ class MissionRunner:
             [f"start switch RC{ch} not flipped within {self.cfg.safety.start_gate_timeout_s} s"]
         )
 
+    async def _wait_home(self, ap: Autopilot) -> None:
+        """Wait for the autopilot's home before arming, instead of forcing the arm.
+
+        ArduPilot Rover sets home from the EKF's first position (``Rover::ahrs_update``),
+        sends HOME_POSITION when it does, and until then refuses to arm ("PreArm: AHRS:
+        waiting for home"). HOME_POSITION is asked for every ``safety.arm_retry_interval_s``
+        (ArduPilot answers only once home is set) for at most ``safety.home_timeout_s``; then
+        the run is refused (exit 3, nothing armed), or with ``safety.force_arm`` armed anyway.
+        """
+        safety = self.cfg.safety
+        deadline = time.monotonic() + safety.home_timeout_s
+        waiting = False
+        while ap.state.home is None:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0.0:
+                text = (
+                    f"the autopilot reported no home (HOME_POSITION) within "
+                    f"safety.home_timeout_s = {safety.home_timeout_s:g} s; ArduPilot arms only "
+                    "once its EKF has a position (GPS fix, EKF origin)"
+                )
+                if not safety.force_arm:
+                    raise PreflightFailed([text])
+                log.warning("home_unknown_forcing", problem=text)
+                self.messages.append(f"warning: {text}; arming forced (safety.force_arm)")
+                return
+            if not waiting:
+                waiting = True
+                log.info("waiting_for_home", timeout_s=safety.home_timeout_s)
+                self.display.phase("arm (waiting for the autopilot's home)")
+            try:
+                await ap.action.command_long(
+                    MAV_CMD_REQUEST_MESSAGE, (MAVLINK_MSG_ID_HOME_POSITION,)
+                )
+            except CommandError as exc:  # it also sends HOME_POSITION by itself once set
+                log.info("home_request_failed", error=str(exc))
+            await ap.telemetry.wait_for(
+                lambda st: st.home is not None,
+                Change.HOME,
+                min(remaining, safety.arm_retry_interval_s),
+            )
+        if ap.state.home is not None:
+            lat, lon = ap.state.home
+            log.info("home_known", lat_deg=round(lat, 7), lon_deg=round(lon, 7), waited=waiting)
+
     async def _arm(self, ap: Autopilot, held: Held) -> None:
-        """Arm, re-trying while PreArm checks refuse (e.g. 'waiting for home' after boot)."""
+        """Arm once the autopilot has a home, re-trying while PreArm checks refuse."""
         if ap.state.armed:
             return
+        await self._wait_home(ap)
         deadline = time.monotonic() + self.cfg.safety.arm_timeout_s
         while True:
             try:
@@ -580,7 +667,7 @@ class MissionRunner:
             raise StartRefused(invalid, time.monotonic())
         if now is not None and now != checked.start_ned:
             # The rover may have been moved while the start gate waited: check again from here.
-            moved = mission_problems(
+            moved = flight_problems(
                 self.opts.mission, self.cfg, start_ned=now, origin_latlon_deg=checked.origin
             )
             if moved:
@@ -593,23 +680,24 @@ class MissionRunner:
     async def main_loop(self, ready: Ready) -> Ending:
         """Fly the plan; the loop returns its own ending (done, a watchdog, a signal)."""
         plan = ready.plan
-        total = len(plan.waypoints)
+        numbering = self._numbering()
         ap = ready.ap
 
         # flight.csv rows and the summary's figures are built in batches, after sends
         journal = StepJournal(plan, self._on_row, self.cfg.recorder.batch_interval_s)
 
         def on_step(report: StepReport) -> None:  # after the command left
-            self.gcs.progress(report.step.nav.cross_track_m, report.step.nav.target_index)
+            nav = report.step.nav
+            self.gcs.progress(nav.cross_track_m, numbering.number(nav.target_index))
             journal.add(report)
-            self.display.update(lambda: self._whole(step_progress(report, plan)))  # if shown
+            self.display.update(lambda: step_progress(report, numbering))  # if shown
 
         def on_pose_rejected(report: PoseRejectedReport) -> None:
-            self.display.update(self._whole(rejected_progress(report, plan)))
+            self.display.update(rejected_progress(report, numbering))
 
         def on_arrival(index: int, t_boot_s: float, error_m: float) -> None:
             journal.drain()  # the summary has every step before the arrival
-            self._on_arrival(index, total, t_boot_s, error_m)
+            self._on_arrival(index, numbering, t_boot_s, error_m)
 
         def on_tick() -> None:
             ap.feed()
@@ -618,8 +706,8 @@ class MissionRunner:
             if self.recorder is not None:
                 self.recorder.maybe_flush()
 
-        self.gcs.phase(f"fly {self.opts.mission.name}: {total} waypoints")
-        async with phase("fly", self.notifier, self.display):
+        self.gcs.phase(f"fly {self.opts.mission.name}: {numbering.operator_count} waypoints")
+        async with phase("fly", self.notifier, self.display) as fly:
             try:
                 result = await FlightLoop(
                     cfg=ready.cfg,
@@ -636,6 +724,8 @@ class MissionRunner:
                 ).run()
             finally:
                 journal.drain()  # every step reaches flight.csv and the summary
+            if result.fault is not None:  # e.g. Ctrl-C: an operator stop, not "ok"
+                fly.failed(result.fault.cause.value)
         return ending_of_flight(result)
 
     # -- the run ------------------------------------------------------------------------------
@@ -684,7 +774,7 @@ class MissionRunner:
                 RUN_RESUMED_EVENT,
                 resumed_from=resumed.path,
                 resumed_mission_sha256=resumed.mission_sha256,
-                first_waypoint=f"{resumed.first_waypoint + 1}/{self.opts.inputs.waypoints_total}",
+                first_waypoint=self._numbering().label(0),
             )
         started = time.monotonic()
         held = Held()
@@ -744,7 +834,7 @@ class MissionRunner:
                     cfg=self.cfg.safety,
                     detected_s=ending.detected_s or time.monotonic(),
                     pose_text=self._pose_text(pose),
-                    disarm=(held.armed_by_us and ending.code is ExitCode.OK) or None,
+                    disarm=disarm_after(held.armed_by_us, ending),
                     abandon=lambda: self.stop.forced,
                 )
             report_fallback(self.gcs, secured)
@@ -778,7 +868,8 @@ class MissionRunner:
             exit_code=int(code),
             mission_name=self.opts.mission.name,
             mode=self.opts.mission.mode.value,
-            waypoints_total=len(self.opts.mission.waypoints),
+            waypoints_total=self._numbering().operator_count,
+            via_points_total=sum(w.via for w in self.opts.mission.waypoints),
             wall_duration_s=wall_duration_s,
         )
         if self.opts.inputs is not None and self.opts.inputs.resumed_from is not None:
@@ -808,39 +899,31 @@ class MissionRunner:
         if self.recorder is not None:
             self.recorder.record(row)
 
-    def _on_arrival(self, index: int, total: int, t_boot_s: float, error_m: float) -> None:
-        self.gcs.waypoint(index, total)
-        self.summary.arrival(index, t_boot_s, error_m)
+    def _numbering(self) -> Numbering:
+        """The operator's numbering of this run's waypoints: 1-based over the whole mission
+        (a resumed run continues the count), the planner's via points not counted."""
+        vias = [w.via for w in self.opts.mission.waypoints]
+        inputs = self.opts.inputs
+        return Numbering.of(vias) if inputs is None else inputs.numbering(vias)
+
+    def _on_arrival(
+        self, index: int, numbering: Numbering, t_boot_s: float, error_m: float
+    ) -> None:
+        number, via = numbering.number(index), numbering.via(index)
+        if not via:
+            self.gcs.waypoint(number - 1, numbering.total)
+        self.summary.arrival(index, t_boot_s, error_m, number=number, via=via)
         start = self.summary.start_t_boot_s
         log.info(
             "waypoint_reached",
-            waypoint=f"{index + 1}/{total}",  # 1-based, as the progress line counts
-            index=index,  # 0-based plan index, as `helixd check` prints
-            **self._mission_waypoint(index),
+            waypoint=numbering.label(index),  # as the ground station numbers it: "3/5"
+            index=index,  # 0-based plan index, via points included (what --resume counts)
             elapsed_autopilot_s=(
                 round(t_boot_s - start, 1) if start is not None and t_boot_s >= start else None
             ),
             t_boot_s=round(t_boot_s, 2),
             error_m=round(error_m, 3),
         )
-
-    def _whole(self, info: ProgressInfo) -> ProgressInfo:
-        """The progress line counts waypoints of the whole mission on a resumed run."""
-        inputs = self.opts.inputs
-        if inputs is None or inputs.resumed_from is None:
-            return info
-        return dataclasses.replace(
-            info,
-            waypoint_index=inputs.index_offset + info.waypoint_index,
-            waypoints_total=inputs.waypoints_total,
-        )
-
-    def _mission_waypoint(self, index: int) -> dict[str, str]:
-        """A resumed run also counts waypoints of the whole mission (e.g. 12/38)."""
-        inputs = self.opts.inputs
-        if inputs is None or inputs.resumed_from is None:
-            return {}
-        return {"mission_waypoint": f"{inputs.index_offset + index + 1}/{inputs.waypoints_total}"}
 
 
 async def run_mission(opts: RunOptions) -> RunOutcome:

@@ -30,7 +30,8 @@ from rich.table import Table
 from rich.text import Text
 
 from helixd.base.exitcodes import ExitCode
-from helixd.recorder.summary import RunSummary
+from helixd.base.plan import waypoint_label
+from helixd.recorder.summary import Arrival, RunSummary
 
 log = structlog.get_logger(__name__)
 
@@ -66,6 +67,7 @@ class ProgressInfo:
     # autopilot time since the mission started; None: ProgressDisplay fills it from the rows
     # it was told about (ProgressDisplay.autopilot_time), or it is shown as unknown
     autopilot_elapsed_s: float | None = None
+    via: bool = False  # flying to a via point on the leg to waypoint i
 
 
 class AutopilotElapsed:
@@ -113,10 +115,12 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
         ("result", "completed" if summary.completed else "NOT completed"),
         ("fault", summary.fault or "-"),
         ("exit code", str(summary.exit_code)),
-        ("waypoints", f"{summary.waypoints_reached}/{summary.waypoints_total}"),
+        ("waypoints", waypoints_text(summary)),
     ]
     if summary.duration_clock == "autopilot":
         rows.append(("flight time (autopilot clock)", seconds(summary.duration_s)))
+        if summary.estimated_s is not None:
+            rows.append(("estimated at preflight", seconds(summary.estimated_s)))
     else:
         rows.append(("flight time (autopilot clock)", "- (autopilot rebooted)"))
     rows += [
@@ -134,29 +138,41 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
     return rows
 
 
+def waypoints_text(summary: RunSummary) -> str:
+    """``3/3`` (the operator's waypoints), ``3/3 (+9/9 via points)`` with planned via points."""
+    text = f"{summary.waypoints_reached}/{summary.waypoints_total}"
+    if summary.via_points_total:
+        text += f" (+{summary.via_points_reached}/{summary.via_points_total} via points)"
+    return text
+
+
 def _arrivals_text(summary: RunSummary) -> str:
-    """``#0 +17.6 s (0.99 m)``: plan index, autopilot time since the first step, error.
+    """``#1 +17.6 s (0.99 m)``: the operator's waypoint number (1-based, as the ground station
+    numbers it), autopilot time since the first step, error. Via points are left out.
 
     More than :data:`ARRIVALS_LISTED_MAX` (a 25-point circle) are condensed to one line.
     """
-    arrivals = summary.arrivals
+    arrivals = [a for a in summary.arrivals if not a.via]
     if not arrivals:
         return "-"
     t0 = summary.start_t_boot_s
     clock = "" if t0 is None else " (autopilot clock)"
 
-    def one(index: int, t_boot_s: float, error_m: float) -> str:
+    def one(number: int, t_boot_s: float, error_m: float) -> str:
         when = "" if t0 is None or t_boot_s < t0 else f" +{t_boot_s - t0:.1f} s"
-        return f"#{index}{when} ({error_m:.2f} m)"
+        return f"#{number}{when} ({error_m:.2f} m)"
+
+    def num(a: Arrival) -> int:
+        return a.index + 1 if a.number is None else a.number  # older summaries: index
 
     if len(arrivals) > ARRIVALS_LISTED_MAX:
         errors = [a.error_m for a in arrivals]
         last = arrivals[-1]
         return (
             f"{len(arrivals)} waypoints, error {min(errors):.2f}–{max(errors):.2f} m, "
-            f"last {one(last.index, last.t_boot_s, last.error_m)}{clock}; each in summary.json"
+            f"last {one(num(last), last.t_boot_s, last.error_m)}{clock}; each in summary.json"
         )
-    return ", ".join(one(a.index, a.t_boot_s, a.error_m) for a in arrivals) + clock
+    return ", ".join(one(num(a), a.t_boot_s, a.error_m) for a in arrivals) + clock
 
 
 def _cause_text(fault: str | None) -> str:
@@ -178,6 +194,8 @@ def result_line(summary: RunSummary) -> str:
     code = summary.exit_code
     word = RESULT_WORDS.get(code, "exit")
     done = f"{summary.waypoints_reached}/{summary.waypoints_total} waypoints"
+    if summary.via_points_total:  # the planner's via points are not the operator's waypoints
+        done += f" (+{summary.via_points_reached}/{summary.via_points_total} via points)"
     wall = summary.duration_mono_s
     if summary.rows == 0 or wall is None:
         times = "not flown"
@@ -226,7 +244,7 @@ def progress_fields(phase: str, info: ProgressInfo | None) -> dict[str, object]:
     return {
         "phase": info.phase or phase,
         "nav_state": info.nav_state or None,
-        "waypoint": f"{info.waypoint_index}/{info.waypoints_total}",
+        "waypoint": waypoint_label(info.waypoint_index, info.via, info.waypoints_total),
         "distance_to_go_m": _round(info.distance_to_go_m, 2),
         "speed_mps": _round(info.speed_mps, 2),
         "heading_error_deg": _round(info.heading_error_deg, 1),
@@ -245,7 +263,8 @@ def progress_line(phase: str, info: ProgressInfo | None) -> Text:
     if info is None:
         return text
     state = f" {info.nav_state}" if info.nav_state else ""
-    text.append(f" wp {info.waypoint_index}/{info.waypoints_total}{state}")
+    wp = waypoint_label(info.waypoint_index, info.via, info.waypoints_total)
+    text.append(f" wp {wp}{state}")
     text.append(f"  {_fmt(info.distance_to_go_m, '.1f')} m to go")
     text.append(f"  {_fmt(info.speed_mps, '.2f')} m/s")
     text.append(f"  hdg {_fmt(info.heading_error_deg, '+.0f')}°")
@@ -345,7 +364,7 @@ class ProgressDisplay:
             completed=summary.completed,
             fault=summary.fault,
             exit_code=summary.exit_code,
-            waypoints=f"{summary.waypoints_reached}/{summary.waypoints_total}",
+            waypoints=waypoints_text(summary),
             flight_autopilot_s=round(summary.duration_s, 1) if on_ap else None,
             flight_wall_s=None if wall is None else round(wall, 1),
             run_wall_s=(

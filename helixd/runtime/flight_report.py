@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
+from helixd.base.plan import Numbering
 from helixd.mission import Plan
 from helixd.recorder.rows import FlightRow
 from helixd.runtime.display import ProgressInfo
@@ -77,14 +78,15 @@ def flight_row(report: StepReport, plan: Plan) -> FlightRow:
     )
 
 
-def step_progress(report: StepReport, plan: Plan) -> ProgressInfo:
-    """The progress line of one step."""
+def step_progress(report: StepReport, numbering: Numbering) -> ProgressInfo:
+    """The progress line of one step (the operator's numbering: 1-based over the whole
+    mission, via points shown as the leg to a waypoint)."""
     out = report.step.nav
     sample = report.sample
-    n = len(plan.waypoints)
     return ProgressInfo(
-        waypoint_index=min(out.target_index + 1, n),
-        waypoints_total=n,
+        waypoint_index=numbering.number(out.target_index),
+        waypoints_total=numbering.total,
+        via=numbering.via(out.target_index),
         distance_to_go_m=out.distance_error_m,
         speed_mps=math.hypot(sample.vn_mps, sample.ve_mps),
         heading_error_deg=math.degrees(out.heading_error_rad),
@@ -96,13 +98,13 @@ def step_progress(report: StepReport, plan: Plan) -> ProgressInfo:
     )
 
 
-def rejected_progress(report: PoseRejectedReport, plan: Plan) -> ProgressInfo:
+def rejected_progress(report: PoseRejectedReport, numbering: Numbering) -> ProgressInfo:
     """The progress line while the pose telemetry is rejected: no distance, speed or heading
     (shown as "-"), the pose not fresh."""
-    n = len(plan.waypoints)
     return ProgressInfo(
-        waypoint_index=min(report.last_target_index + 1, n),
-        waypoints_total=n,
+        waypoint_index=numbering.number(report.last_target_index),
+        waypoints_total=numbering.total,
+        via=numbering.via(report.last_target_index),
         distance_to_go_m=math.nan,
         speed_mps=math.nan,
         heading_error_deg=math.nan,

@@ -28,8 +28,9 @@ from helixd.mission.resume import (
     resumed_inputs,
     sha256_text,
 )
-from helixd.mission.validate import apply_mission_limits, mission_problems, plan_for_check
+from helixd.mission.validate import apply_mission_limits, plan_for_check
 from helixd.recorder.resume_dir import read_run_dir
+from helixd.runtime.timing import flight_problems
 
 
 class InputsRefused(Exception):
@@ -116,7 +117,7 @@ def mission_vs_config(
     except PlanError as exc:
         problems.append(f"{label}: {exc}")
         return None
-    refused = mission_problems(msn, cfg, checked_plan=checked)
+    refused = flight_problems(msn, cfg, checked_plan=checked)
     problems.extend(f"{label}: {p}" for p in refused)
     return checked
 
@@ -151,6 +152,8 @@ class ResumeInputs:
     mission_yaml: str
     inputs: RunInputs
     notes: tuple[str, ...]
+    # where the interrupted run left the rover (north_m, east_m, yaw_ned_rad), if recorded
+    last_pose_ned: tuple[float, float, float] | None = None
 
 
 def resume_inputs(
@@ -172,9 +175,11 @@ def resume_inputs(
     except ResumeRefused as exc:
         raise InputsRefused([f"--resume {run_dir}: {exc}"]) from None
     mission_yaml = mission_to_yaml(point.mission)
+    numbering = point.inputs.numbering([w.via for w in point.mission.waypoints])
+    left = numbering.operator_count
     notes = [
-        f"resume  : {run_dir}: from waypoint {point.first_index + 1}/"
-        f"{recorded.waypoints_total} ({len(point.mission.waypoints)} remaining)"
+        f"resume  : {run_dir}: from waypoint {numbering.label(0)} ({left} remaining"
+        + (f", {len(numbering.vias) - left} via points)" if left < len(numbering.vias) else ")")
     ]
     if point.mission.frame is MissionFrameKind.LOCAL_NED:
         notes.append(
@@ -182,5 +187,10 @@ def resume_inputs(
             "set a new origin since (reboot, GPS), they lie elsewhere (global is safe)"
         )
     return ResumeInputs(
-        old.cfg, point.mission, mission_yaml, resumed_inputs(point, mission_yaml), tuple(notes)
+        old.cfg,
+        point.mission,
+        mission_yaml,
+        resumed_inputs(point, mission_yaml),
+        tuple(notes),
+        contents.last_pose_ned,
     )

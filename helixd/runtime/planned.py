@@ -16,9 +16,11 @@ import structlog
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.config import HelixdConfig
-from helixd.mission import Mission, MissionFrameKind
+from helixd.control.estimate import TimeEstimate
+from helixd.mission import Mission, MissionFrameKind, PlanError
 from helixd.mission.formats import has_keep_outs, plan_fence_ne
 from helixd.mission.resume import RunInputs, fresh_inputs
+from helixd.mission.validate import plan_for_check
 from helixd.planning import (
     KeepOutCircle,
     MapFileError,
@@ -33,6 +35,7 @@ from helixd.planning.fence import plan_global_mission
 from helixd.planning.replan import replan_first_leg
 from helixd.planning.route import RoutePlan, planned_mission_yaml
 from helixd.runtime.inputs import InputsRefused
+from helixd.runtime.timing import plan_time_estimate, time_problems
 
 Replanner = Callable[[tuple[float, float], tuple[float, float] | None], Mission]
 
@@ -54,31 +57,61 @@ def plan_loaded(
     plan around); refusals exit 2."""
     try:
         if msn.frame is MissionFrameKind.GLOBAL and cfg.planning.enabled:
-            return plan_global(cfg, msn, path, occupancy)
-        if not planning_wanted(cfg, occupancy):
+            planned, route = plan_global(cfg, msn, path, occupancy)
+        elif not (
+            planning_wanted(cfg, occupancy) or (cfg.planning.enabled and msn.keep_out_polygons)
+        ):
             return msn, None
-        return plan_mission(msn, cfg, occupancy)
+        else:
+            planned, route = plan_mission(msn, cfg, occupancy)
     except PlanningError as exc:
         raise InputsRefused([f"{path}: {p}" for p in exc.problems]) from None
     except (MapFileError, ObstacleError) as exc:
         raise InputsRefused([str(exc)]) from None
+    if route is not None:  # the detours take time: the planned route must fit the limit
+        estimate, note = route_time_estimate(cfg, planned, route, path)
+        late = time_problems(estimate, cfg.safety.mission_time_limit_s, note)
+        if late:
+            raise InputsRefused([f"{path}: planned route: {p}" for p in late])
+    return planned, route
+
+
+def route_time_estimate(
+    cfg: HelixdConfig, planned: Mission, route: RoutePlan | None, path: Path
+) -> tuple[TimeEstimate, str]:
+    """The estimate of the mission as flown (the planned route, via points included) and
+    where it is counted from: a ``local_ned`` route from ``planning.start_ne_m``, where its
+    first leg was planned from; ``start`` missions from the start point; else the first
+    waypoint."""
+    try:
+        plan, _ = plan_for_check(planned, cfg)
+    except PlanError as exc:
+        raise InputsRefused([f"{path}: {exc}"]) from None
+    if planned.frame is MissionFrameKind.LOCAL_NED and route is not None:
+        north, east = cfg.planning.start_ne_m
+        return plan_time_estimate(plan, cfg, start_xy_m=(east, north)), (
+            " from planning.start_ne_m"
+        )
+    note = "" if planned.frame is MissionFrameKind.START else " from waypoint 1"
+    return plan_time_estimate(plan, cfg), note
 
 
 def plan_global(
     cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
 ) -> tuple[Mission, RoutePlan | None]:
-    """A global mission: planned around its .plan's exclusion zones when it has any (in a
-    frame around waypoint 0, helixd.planning.fence); with only a --map or config keep-outs,
-    refused (they hang from the unknown EKF origin); else flown as it is."""
+    """A global mission: planned around its .plan's exclusion zones and its own keep-out
+    areas when it has any (in a frame around its first waypoint, helixd.planning.fence); with
+    only a --map or config keep-outs, refused (they hang from the unknown EKF origin); else
+    flown as it is."""
     own = has_keep_outs(path)
-    if not (own or planning_wanted(cfg, occupancy)):
+    if not (own or msn.keep_out_polygons or planning_wanted(cfg, occupancy)):
         return msn, None
     origin = msn.points()[0]
-    polys: list[tuple[tuple[float, float], ...]] = []
+    polys: list[tuple[tuple[float, float], ...]] = msn.keep_outs_ne(origin)
     circles: list[KeepOutCircle] = []
     if own:
         fence = plan_fence_ne(path, origin)
-        polys = list(fence.exclusion_polygons)
+        polys.extend(fence.exclusion_polygons)
         circles = [
             KeepOutCircle(c.centre_ne_m[0], c.centre_ne_m[1], c.radius_m)
             for c in fence.exclusion_circles
@@ -119,7 +152,8 @@ def first_leg_replanner(
 
 
 def route_lines(route: RoutePlan) -> list[str]:
-    """The planned legs, one line each, with their intermediate points."""
+    """The planned legs, one line each, with their intermediate points (waypoints numbered
+    from 1, as the ground station numbers mission items)."""
     fr = route.grid.frame
     lines = [
         f"planned : clearance {route.grid.clearance_m:.2f} m (rover half-width + "
@@ -127,14 +161,14 @@ def route_lines(route: RoutePlan) -> list[str]:
         f"{route.seconds * 1000:.0f} ms"
     ]
     for leg in route.legs:
-        a = "start" if leg.from_index < 0 else f"wp {leg.from_index}"
+        a = "start" if leg.from_index < 0 else f"wp {leg.from_index + 1}"
         via = leg.points_ne_m[1:-1]
         straight = math.dist(leg.points_ne_m[0], leg.points_ne_m[-1])
         how = "straight" if not via else f"{len(via)} intermediate, straight {straight:.1f} m"
-        lines.append(f"  leg {a} → wp {leg.to_index}: {leg.length_m:.1f} m ({how})")
+        lines.append(f"  leg {a} → wp {leg.to_index + 1}: {leg.length_m:.1f} m ({how})")
         lines.extend(f"      via north {n:9.2f}  east {e:9.2f}" for n, e in via)
     total = sum(leg.length_m for leg in route.legs)
-    start = "planning.start_ne_m" if route.origin_latlon_deg is None else "waypoint 0"
+    start = "planning.start_ne_m" if route.origin_latlon_deg is None else "waypoint 1"
     lines.append(f"  total {total:.1f} m from {start} (run: re-planned from the rover's pose)")
     return lines
 
@@ -184,4 +218,5 @@ __all__ = [
     "plan_loaded",
     "planned_flight",
     "route_lines",
+    "route_time_estimate",
 ]

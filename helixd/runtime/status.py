@@ -1,17 +1,37 @@
 """``helixd status``: what the autopilot says right now — once, or live with ``--watch``.
 
-Read-only: it never sends overrides, commands or mode changes (it only requests streams).
+Read-only: it never sends overrides, commands or mode changes (it only requests streams),
+and it speaks as ``link.observer_system`` without a HEARTBEAT, so the autopilot never takes it
+for its GCS (whose silence after ``status`` exits would fire the GCS failsafe).
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 import time
 
+from helixd.base.frames import ne_to_latlon
 from helixd.config import LinkConfig, SafetyConfig
+from helixd.link.commands import CommandError
 from helixd.link.connection import Autopilot
-from helixd.link.vehicle import VehicleState
+from helixd.link.vehicle import Change, VehicleState
+from helixd.mav.constants import MAV_CMD_REQUEST_MESSAGE, MAVLINK_MSG_ID_GPS_RAW_INT
+
+FIRST_REPORT_S = 2.0  # wait this long for the first pose, then for the slower streams (s)
+
+
+def _has_every_report(st: VehicleState) -> bool:
+    return st.ekf is not None and bool(st.rc_inputs_us) and bool(st.servo_outputs_us)
+
+
+def observer_line(link: LinkConfig) -> str:
+    """Who we are on the link (``status`` says it, so nobody wonders about the failsafe)."""
+    return (
+        f"us        : MAVLink system {link.observer_system} (link.observer_system), no "
+        f"HEARTBEAT: not the GCS id {link.source_system}, so the GCS failsafe never counts on us"
+    )
 
 
 def format_status(st: VehicleState, now_s: float) -> list[str]:
@@ -30,9 +50,16 @@ def format_status(st: VehicleState, now_s: float) -> list[str]:
             f"yaw {math.degrees(p.ned.yaw_ned_rad) % 360:.1f}° (NED, clockwise from North)  "
             f"speed {math.hypot(p.vn_mps, p.ve_mps):.2f} m/s  age {now_s - p.rx_monotonic_s:.2f} s"
         )
+    if p is not None and st.gps_origin is not None:
+        lat, lon = ne_to_latlon(p.ned.north_m, p.ned.east_m, *st.gps_origin)
+        lines.append(f"position  : {lat:.7f}°, {lon:.7f}° (the EKF pose through its origin)")
     lines.append("ekf       : " + ("no EKF_STATUS_REPORT" if st.ekf is None else st.ekf.describe()))
     if st.gps_origin is not None:
         lines.append(f"origin    : {st.gps_origin[0]:.7f}°, {st.gps_origin[1]:.7f}°")
+    else:
+        lines.append("origin    : none reported (no GPS_GLOBAL_ORIGIN: no GPS fix yet?)")
+    lines.append(f"gps       : {gps_text(st)}")
+    lines.append(f"battery   : {battery_text(st)}")
     rc = " ".join(f"{v:4d}" for v in st.rc_inputs_us[:8]) or "none"
     rx = {None: "not reported", True: "healthy", False: "UNHEALTHY"}[st.rc_receiver_healthy]
     lines.append(f"rc in µs  : {rc}  (receiver {rx})")
@@ -41,16 +68,65 @@ def format_status(st: VehicleState, now_s: float) -> list[str]:
     return lines
 
 
+GPS_FIX_NAMES = {
+    0: "no GPS",
+    1: "no fix",
+    2: "2D fix",
+    3: "3D fix",
+    4: "DGPS",
+    5: "RTK float",
+    6: "RTK fixed",
+    7: "static",
+    8: "PPP",
+}
+
+
+def gps_text(st: VehicleState) -> str:
+    """``3D fix, 12 satellites`` from GPS_RAW_INT."""
+    if st.gps_fix_type is None:
+        return "no GPS_RAW_INT"
+    sats = "satellites unknown" if st.gps_satellites is None else f"{st.gps_satellites} satellites"
+    return f"{GPS_FIX_NAMES.get(st.gps_fix_type, str(st.gps_fix_type))}, {sats}"
+
+
+def battery_text(st: VehicleState) -> str:
+    """``12.40 V, 80 %`` from SYS_STATUS."""
+    if st.battery_voltage_v is None and st.battery_remaining_pct is None:
+        return "not reported"
+    volts = "voltage unknown" if st.battery_voltage_v is None else f"{st.battery_voltage_v:.2f} V"
+    pct = "" if st.battery_remaining_pct is None else f", {st.battery_remaining_pct} %"
+    return volts + pct
+
+
+async def _ask_for(ap: Autopilot, timeout_s: float, origin: bool = False) -> None:
+    """GPS_RAW_INT (and with ``origin`` GPS_GLOBAL_ORIGIN) once: not streamed to us."""
+    with contextlib.suppress(CommandError, TimeoutError):
+        async with asyncio.timeout(timeout_s):
+            await ap.action.command_long(MAV_CMD_REQUEST_MESSAGE, (MAVLINK_MSG_ID_GPS_RAW_INT,))
+    if origin and ap.state.gps_origin is None:
+        await ap.action.request_gps_origin(timeout_s)
+
+
 async def read_status(
     link: LinkConfig, safety: SafetyConfig, watch: bool, interval_s: float, emit: object
 ) -> int:
     """Connect, wait for a heartbeat and the streams, print. Returns a process exit code."""
     assert callable(emit)
-    ap = await Autopilot.connect(link, safety)
+    emit(
+        f"status    : waiting up to {safety.connect_timeout_s:g} s "
+        f"(safety.connect_timeout_s) for the autopilot's HEARTBEAT on {link.url} …"
+    )
+    ap = await Autopilot.connect(link, safety, observer=True)
     try:
         await ap.wait_heartbeat(safety.connect_timeout_s)
         await ap.request_streams()
-        await ap.telemetry.next_pose(after_rx_s=None, timeout_s=2.0)
+        await _ask_for(ap, link.command_timeout_s, origin=True)
+        await ap.telemetry.next_pose(after_rx_s=None, timeout_s=FIRST_REPORT_S)
+        # the slower streams (EKF, RC, servo at link.telemetry_rate_hz) trail the first pose
+        await ap.telemetry.wait_for(
+            _has_every_report, Change.EKF | Change.RC | Change.SERVO, FIRST_REPORT_S
+        )
+        emit(observer_line(link))
         while True:
             for line in format_status(ap.state, time.monotonic()):
                 emit(line)
@@ -58,5 +134,6 @@ async def read_status(
                 return 0
             emit("")
             await asyncio.sleep(interval_s)
+            await _ask_for(ap, min(interval_s, link.command_timeout_s))
     finally:
         await ap.close()

@@ -1,11 +1,13 @@
 """ArduPilot Rover behaviour model (pure: no sockets, no clocks; times are simulated seconds).
 
 Boot: silent, then HEARTBEAT custom_mode 16 (INITIALISING) for ``boot_duration_s``, then
-INITIAL_MODE (0 = MANUAL). Arming (GCS_Common.cpp handle_command_component_arm_disarm):
-already armed / disarmed → ACCEPTED; PreArm failures → FAILED with "PreArm: …" CRITICAL
-STATUSTEXT unless param2 = 21196 (force). Mode changes (Rover::set_mode, Mode::enter):
-position-requiring modes are refused while armed without a good EKF position or in EKF
-failsafe ("Flight mode change failed"); AUTO is refused without a mission.
+INITIAL_MODE (0 = MANUAL); the EKF origin, then home ("Set HOME to …", as Rover::set_home).
+Arming (GCS_Common.cpp handle_command_component_arm_disarm): already armed / disarmed →
+ACCEPTED; PreArm failures ("AHRS: waiting for home" until home is set) → FAILED with
+"PreArm: …" CRITICAL STATUSTEXT unless param2 = 21196 (force). Mode changes
+(Rover::set_mode, Mode::enter): position-requiring modes are refused while armed without a
+good EKF position or in EKF failsafe ("Flight mode change failed"); AUTO is refused without a
+mission.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from dataclasses import dataclass, field
 
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_HOME,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_DO_SET_SERVO,
     MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
@@ -83,6 +86,8 @@ class Autopilot:
         self.boot_start_s = self.silent_until_s
         self.boot_end_s = self.boot_start_s + self.config.boot_duration_s
         self.origin_time_s = self.boot_end_s + self.config.ekf_origin_delay_s
+        home_delay = self.config.home_delay_s
+        self.home_time_s = None if home_delay is None else self.origin_time_s + home_delay
         delay = self.config.prearm_delay_s
         self.prearm_ok_time_s = None if delay is None else self.boot_end_s + delay
         self.mode = modes.INITIALISING
@@ -95,6 +100,7 @@ class Autopilot:
         self.gcs_last_seen_s: float | None = None
         self._booted = False
         self._origin_announced = False
+        self._home_announced = False
         self._last_slow_check = -1
         self._overrides_prev: tuple[bool, ...] = (False,) * 16
 
@@ -111,6 +117,10 @@ class Autopilot:
 
     def origin_set(self, now_s: float) -> bool:
         return now_s >= self.origin_time_s
+
+    def home_set(self, now_s: float) -> bool:
+        """Rover::ahrs_update sets home from the EKF's position (``home_delay_s`` after it)."""
+        return self.home_time_s is not None and now_s >= self.home_time_s
 
     def time_boot_ms(self, now_s: float) -> int:
         return max(0, round((now_s - self.boot_start_s) * 1000.0))
@@ -182,8 +192,8 @@ class Autopilot:
             self._say(SEVERITY_WARNING, "Flight mode change failed")
             return False
         # _enter() refusals: AUTO has no mission and SmartRTL no saved path in the simulator;
-        # RTL needs home (set with the EKF origin)
-        no_home = number == modes.RTL and not self.origin_set(now_s)
+        # RTL needs home
+        no_home = number == modes.RTL and not self.home_set(now_s)
         if number in (modes.AUTO, modes.SMART_RTL) or no_home:
             self._say(SEVERITY_WARNING, "Flight mode change failed")
             return False
@@ -198,8 +208,12 @@ class Autopilot:
         return True
 
     def prearm_failure(self, now_s: float, ekf: EkfStatus) -> str | None:
-        if self.prearm_ok_time_s is None or now_s < self.prearm_ok_time_s:
+        """AP_Arming::gps_checks refuses before home is set; the other checks (simulated by
+        ``prearm_delay_s``) and the EKF's position after."""
+        if not self.home_set(now_s):
             return "AHRS: waiting for home"
+        if self.prearm_ok_time_s is None or now_s < self.prearm_ok_time_s:
+            return "AHRS: EKF3 still initialising"
         if not ekf.position_ok:
             return "AHRS not healthy"
         if self.failsafes.radio_on():
@@ -244,6 +258,8 @@ class Autopilot:
             if text:
                 self._say(SEVERITY_INFO, text)
             return MAV_RESULT_FAILED
+        if command == MAV_CMD_DO_SET_HOME:
+            return self.do_set_home(p, now_s)
         if command == MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
             if self.armed:
                 return MAV_RESULT_FAILED
@@ -251,6 +267,20 @@ class Autopilot:
                 return MAV_RESULT_UNSUPPORTED
             return MAV_RESULT_ACCEPTED  # the caller reboots after sending the ACK
         return None
+
+    def do_set_home(self, p: Sequence[float], now_s: float) -> int:
+        """GCS_MAVLINK::handle_command_do_set_home. Home here is always where the rover booted
+        (the EKF origin), so only "here" is taken: param1 = 1 (or lat/lon 0) sets it once the
+        EKF has a position, as Rover::set_home_to_current_location; an explicit location is
+        refused (DENIED), which ArduPilot would take."""
+        here = p[0] == 1.0 or (p[4] == 0.0 and p[5] == 0.0)
+        if here:
+            if not self.origin_set(now_s):
+                return MAV_RESULT_FAILED
+            if not self.home_set(now_s):
+                self.home_time_s = now_s
+            return MAV_RESULT_ACCEPTED
+        return MAV_RESULT_FAILED if p[0] != 0.0 else MAV_RESULT_DENIED
 
     def do_set_mode(self, base_mode: int, custom_mode: int, now_s: float, ekf: EkfStatus) -> int:
         """GCS_MAVLINK::_set_mode_common: only custom modes are understood."""
@@ -313,6 +343,15 @@ class Autopilot:
             self._origin_announced = True
             self._say(SEVERITY_INFO, "EKF3 IMU0 origin set")
             self._say(SEVERITY_INFO, "EKF3 IMU0 is using GPS")
+        if not self._home_announced and self.home_set(now_s):
+            self._home_announced = True  # Rover::set_home's text (HOME_POSITION: the core)
+            cfg = self.config
+            self._say(
+                SEVERITY_INFO,
+                f"Set HOME to {cfg.origin_lat_deg:.6f} {cfg.origin_lon_deg:.6f} "
+                f"at {cfg.origin_alt_m:.2f}m",
+            )
+            self.events.append(SimEvent("home", {"lat_deg": cfg.origin_lat_deg}))
         params = self.params
         timeout_s = params.get("RC_OVERRIDE_TIME")
         rc_ok = self.rc.read_input(now_s, timeout_s, params.get_int("RC_OPTIONS"))

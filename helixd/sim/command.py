@@ -15,7 +15,7 @@ from pydantic import ValidationError
 
 from helixd.base.exitcodes import ExitCode
 from helixd.files.models import ConfigFileError, format_validation_error, load_yaml_model
-from helixd.sim.config import NoiseLevel, Plant, SimConfig, Terrain
+from helixd.sim.config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, SimConfig, Terrain
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
 from helixd.sim.server import SimServer
 
@@ -114,7 +114,13 @@ def register(app: typer.Typer) -> None:
             NoiseLevel | None, typer.Option("--noise", help="pose noise preset")
         ] = None,
         speedup: Annotated[
-            float | None, typer.Option("--speedup", help="simulated seconds per wall second")
+            float | None,
+            typer.Option(
+                "--speedup",
+                min=SPEEDUP_MIN,
+                max=SPEEDUP_MAX,
+                help="simulated seconds per wall second (as run --sim-speedup)",
+            ),
         ] = None,
         fault: Annotated[
             list[str] | None,

@@ -20,6 +20,12 @@ from helixd.sim.params import DEFAULT_PARAMS
 # helixd's own MAVLink system id (link.source_system's default)
 HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)
 
+# The speed-up the command lines accept, the same for `helixd sim --speedup` and `helixd run
+# --sim-speedup` (a 50 Hz control loop keeps up to here); benchmarks may run the simulator
+# faster in-process (SimConfig.speedup).
+SPEEDUP_MIN = 0.1
+SPEEDUP_MAX = 20.0
+
 
 class Terrain(StrEnum):
     HARD = "hard"
@@ -244,13 +250,24 @@ class SimConfig(InputModel):
         1.5, ge=0.0, le=60.0, description="no MAVLink at all after a reboot, before booting (s)"
     )
     ekf_origin_delay_s: float = Field(
-        3.0, ge=0.0, le=600.0, description="after boot: EKF origin/home set, pose streams start"
+        3.0, ge=0.0, le=600.0, description="after boot: EKF origin set, pose streams start (s)"
+    )
+    home_delay_s: float | None = Field(
+        0.0,
+        ge=0.0,
+        le=600.0,
+        description="after the EKF origin: home set, announced ('Set HOME to …', "
+        "HOME_POSITION) (s); ArduPilot Rover sets it from the EKF's first position, in the "
+        "same loop (0). Before it arming is refused: 'PreArm: AHRS: waiting for home'. "
+        "None = never (only force-arm works)",
     )
     prearm_delay_s: float | None = Field(
-        20.0,
+        0.0,
         ge=0.0,
         le=3600.0,
-        description="after boot: PreArm checks pass (None = never; only force-arm works)",
+        description="after boot: the PreArm checks other than home pass (s); before, arming is "
+        "refused with 'PreArm: AHRS: EKF3 still initialising'. None = never (only force-arm "
+        "works, as observed in a per-scroll passthrough setup)",
     )
     origin_lat_deg: float = Field(53.52325, ge=-90.0, le=90.0, description="EKF origin latitude")
     origin_lon_deg: float = Field(

@@ -67,6 +67,7 @@ class SimCore:
         self._n = 0
         self._chunk_id = 0
         self._origin_sent = False
+        self._home_sent = False
         self.inbound = InboundHandler(self)
         self.mission = MissionServer(
             config.origin_lat_deg, config.origin_lon_deg, config.origin_alt_m
@@ -177,6 +178,7 @@ class SimCore:
             self.links = [self._new_link() for _ in self.links]
             self._epoch_s, self._n = now, 0
             self._origin_sent = False
+            self._home_sent = False
         elif spec.name == "gps_jump":
             bearing = math.radians(float(str(kw["bearing_deg"])))
             self.est = estimator.gps_jump(self.est, float(str(kw["distance_m"])), bearing)
@@ -293,6 +295,7 @@ class SimCore:
             booting=ap.booting(now),
             failsafe_active=bool(ap.failsafes.triggered) or ap.failsafes.ekf_failsafe,
             origin_set=ap.origin_set(now),
+            home_set=ap.home_set(now),
             prearm_ok=not ap.booting(now) and ap.prearm_failure(now, ekf) is None,
             rc_ok=ap.receiver_ok,
             estimate=estimator.estimate(self.est, self.phys),
@@ -318,6 +321,11 @@ class SimCore:
             origin = telemetry.build(st.MSG_GPS_GLOBAL_ORIGIN, view)
             if origin is not None:
                 self.send(None, origin)
+        if view.home_set and not self._home_sent:
+            self._home_sent = True  # AP_AHRS::set_home: GCS_SEND_MESSAGE(MSG_HOME) to all
+            home = telemetry.build(st.MSG_HOME_POSITION, view)
+            if home is not None:
+                self.send(None, home)
         hidden: set[int] = set()
         if self.faults.on("stale_pose"):
             hidden |= telemetry.POSE_MESSAGES

@@ -25,6 +25,7 @@ class TelemetryView:
     booting: bool
     failsafe_active: bool
     origin_set: bool
+    home_set: bool
     prearm_ok: bool
     rc_ok: bool
     estimate: PoseEstimate
@@ -132,5 +133,7 @@ def build(
             v.origin_lat_deg, v.origin_lon_deg, v.origin_alt_m, t * 1000
         )
     if msg_id == st.MSG_HOME_POSITION:
+        if not v.home_set:
+            return None  # GCS_MAVLINK::send_home_position: nothing before home is set
         return messages.home_position(v.origin_lat_deg, v.origin_lon_deg, v.origin_alt_m, t * 1000)
     return None

@@ -26,6 +26,7 @@ SQUARE = ROOT / "config" / "missions" / "square.yaml"
         ("", "empty"),
         ("   ", "empty"),
         ("/dev/ttyACM0:12345", "not a standard serial rate"),
+        ("/dev/ttyACM0:abc", "baud 'abc' is not a number"),  # was exit 6 with a run directory
     ],
 )
 def test_bad_connect_is_exit_2_before_anything_is_created(
@@ -71,11 +72,25 @@ def test_bad_config_url_is_refused_at_load(
     assert not runs.exists()
 
 
+def test_check_refuses_a_signing_key_file_run_could_not_read(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(f"link:\n  signing_key_file: {tmp_path / 'nope.key'}\n", encoding="utf-8")
+    code, out, err = run_main(["check", "-c", str(cfg), "-m", str(SQUARE)], capsys)
+    assert code == 2, out + err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert lines == [
+        f"error: {cfg}: link.signing_key_file: cannot read {tmp_path / 'nope.key'} "
+        "(No such file or directory)"
+    ]
+
+
 @pytest.mark.parametrize(
     ("argv", "fragments"),
     [
-        (["sim", "--speedup", "0"], ["--speedup", "greater than 0"]),
-        (["sim", "--speedup", "1000"], ["--speedup", "less than or equal to 100"]),
+        (["sim", "--speedup", "0"], ["--speedup", "greater than or equal to 0.1"]),
+        (["sim", "--speedup", "50"], ["--speedup", "less than or equal to 20"]),  # as run's
         (["sim", "--seed", "-1"], ["--seed", "greater than or equal to 0"]),
         (["sim", "--duration", "0"], ["--duration must be > 0"]),
         (["sim", "--fault", "meteor@3"], ["unknown fault 'meteor'"]),

@@ -2,18 +2,21 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
 import yaml
 from typer.testing import CliRunner
 
+from helixd.base.frames import latlon_to_ne
 from helixd.cli.app import app
-from helixd.mission.formats import load_mission_file
+from helixd.mission.formats import load_mission_file, read_gcs
 from helixd.mission.model import MotionMode
-from tests.support.paths import DATA_DIR
+from tests.support.paths import DATA_DIR, REPO_ROOT
 
 DATA = DATA_DIR
+MISSIONS = REPO_ROOT / "config" / "missions"
 PLAN = DATA / "pond_survey.plan"
 WPL = DATA / "square.waypoints"
 runner = CliRunner()
@@ -94,5 +97,89 @@ def test_convert_errors(tmp_path: Path) -> None:
     start = tmp_path / "s.yaml"
     start.write_text("name: s\nmode: roll\nwaypoints: [{x: 1, y: 0}]\n")
     res = runner.invoke(app, ["mission", "convert", str(start), str(tmp_path / "s.plan")])
-    assert res.exit_code == 2 and "only global" in res.output
+    assert res.exit_code == 2 and "give the EKF origin with --origin LAT,LON" in res.output
     assert not (tmp_path / "s.plan").exists()
+    res = runner.invoke(
+        app, ["mission", "convert", str(start), str(tmp_path / "s.plan"), "--origin", "53.5,x"]
+    )
+    assert res.exit_code == 2 and "LAT and LON must be numbers" in res.output
+    res = runner.invoke(
+        app, ["mission", "convert", str(start), str(tmp_path / "s.plan"), "--origin", "53.5,-113"]
+    )
+    assert res.exit_code == 2 and "--start-heading-deg" in res.output
+
+
+ORIGIN = (53.52325, -113.52632)
+
+
+def test_convert_places_a_local_ned_mission_through_the_origin(tmp_path: Path) -> None:
+    """A local_ned mission for a ground station, with the EKF origin a run recorded."""
+    src = tmp_path / "lane.yaml"
+    src.write_text(
+        "name: lane\nmode: roll\nframe: local_ned\ntime_limit_s: 600\n"
+        "keep_out_polygons: [[[3, 3], [3, 5], [5, 5], [5, 3]]]\n"
+        "waypoints: [{north: 6, east: 0}, {north: 6, east: 6, heading_deg: 90}]\n"
+    )
+    out = tmp_path / "lane.plan"
+    origin = f"{ORIGIN[0]},{ORIGIN[1]}"
+    res = runner.invoke(app, ["mission", "convert", str(src), str(out), "--origin", origin])
+    assert res.exit_code == 0, res.output
+    back = load_mission_file(out, mode=MotionMode.ROLL).mission
+    ne = [latlon_to_ne(a, b, *ORIGIN) for a, b in back.points()]
+    assert ne == [pytest.approx((6.0, 0.0), abs=1e-6), pytest.approx((6.0, 6.0), abs=1e-6)]
+    assert back.time_limit_s == 600.0  # the .plan keeps the mission's time limit
+    gcs = read_gcs(out)
+    assert [p.inclusion for p in gcs.polygons] == [False]  # the keep-out: an exclusion zone
+
+
+def test_convert_places_a_start_mission_at_a_start_pose(tmp_path: Path) -> None:
+    out = tmp_path / "sq.yaml"
+    args = ["--origin", f"{ORIGIN[0]},{ORIGIN[1]}", "--start-heading-deg", "90"]
+    res = runner.invoke(
+        app, ["mission", "convert", str(MISSIONS / "square.yaml"), str(tmp_path / "sq.plan"), *args]
+    )
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(
+        app, ["mission", "convert", str(tmp_path / "sq.plan"), str(out), "--mode", "roll"]
+    )
+    assert res.exit_code == 0, res.output
+    ne = [latlon_to_ne(a, b, *ORIGIN) for a, b in load_mission_file(out).mission.points()]
+    # facing East: x forward is east, y left is north
+    expected = [(0.0, 10.0), (10.0, 10.0), (10.0, 0.0), (0.0, 0.0)]
+    assert ne == [pytest.approx(p, abs=1e-6) for p in expected]
+
+
+def test_waypoints_to_plan_keeps_the_home_and_its_altitude(tmp_path: Path) -> None:
+    """It used to put home on the first waypoint at altitude 0."""
+    out = tmp_path / "sq.plan"
+    res = runner.invoke(
+        app,
+        ["mission", "convert", str(DATA / "square.waypoints"), str(out), "--mode", "roll",
+         "--skip-unsupported"],
+    )  # fmt: skip
+    assert res.exit_code == 0, res.output
+    doc = json.loads(out.read_text())
+    assert doc["mission"]["plannedHomePosition"] == [53.52325, -113.52611, 668.0]
+    back = tmp_path / "sq.waypoints"
+    assert (
+        runner.invoke(app, ["mission", "convert", str(out), str(back), "--mode", "roll"]).exit_code
+        == 0
+    )
+    assert back.read_text().splitlines()[1].split("\t")[8:11] == [
+        "53.52325000", "-113.52611000", "668.00000000",
+    ]  # fmt: skip
+
+
+def test_ignored_qgc_fields_are_said_naming_the_item(tmp_path: Path) -> None:
+    """Acceptance radius (param2), hold time (param1) and cruiseSpeed are not used yet."""
+    doc = json.loads(PLAN.read_text())
+    first = doc["mission"]["items"][0]
+    first["params"][0], first["params"][1] = 5, 2.5
+    doc["mission"]["cruiseSpeed"] = 1.2
+    plan = tmp_path / "p.plan"
+    plan.write_text(json.dumps(doc))
+    res = runner.invoke(app, ["check", "-m", str(plan), "--mode", "roll", "--skip-unsupported"])
+    assert res.exit_code == 0, res.output
+    assert "item 1 (mission.items.0): hold time 5 s (param1) ignored" in res.output
+    assert "item 1 (mission.items.0): acceptance radius 2.5 m (param2) ignored" in res.output
+    assert "cruiseSpeed 1.2 m/s ignored" in res.output

@@ -33,7 +33,10 @@ def test_download_to_yaml_needs_a_mode(tmp_path: Path) -> None:
     assert "needs a motion mode: give --mode" in res.output
 
 
-def test_upload_of_a_local_frame_mission_is_refused(tmp_path: Path) -> None:
+def test_upload_of_a_start_mission_with_an_origin_needs_its_heading(tmp_path: Path) -> None:
+    """Without --origin a start/local_ned mission is placed through the autopilot's EKF
+    origin (tests/integration/test_mission_wire.py); with it, a start mission needs its
+    heading too: refused before any link is opened."""
     res = runner.invoke(
         app,
         [
@@ -42,10 +45,12 @@ def test_upload_of_a_local_frame_mission_is_refused(tmp_path: Path) -> None:
             str(ROOT / "config" / "missions" / "square.yaml"),
             "--connect",
             NOWHERE,
+            "--origin",
+            "53.52325,-113.52632",
         ],
     )
     assert res.exit_code == 2
-    assert "only global (lat/lon) missions" in res.output
+    assert "--start-heading-deg" in res.output
 
 
 def test_upload_of_a_broken_plan_names_the_file(tmp_path: Path) -> None:

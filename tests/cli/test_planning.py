@@ -40,8 +40,8 @@ def test_check_prints_the_planned_legs_and_draws_the_plan(
     )
     assert code == 0, err
     assert "planned : clearance 0.93 m" in out
-    assert "leg start → wp 0:" in out and "intermediate" in out
-    assert "leg wp 0 → wp 1: 20.0 m (straight)" in out
+    assert "leg start → wp 1:" in out and "intermediate" in out  # numbered from 1
+    assert "leg wp 1 → wp 2: 20.0 m (straight)" in out
     assert "via north" in out
     with Image.open(png) as img:
         assert img.size[0] > 500
@@ -55,7 +55,7 @@ def test_check_refuses_a_waypoint_in_an_obstacle_naming_it(
     code, _, err = run_main(["check", "--mission", str(path), "--map", str(POND_MAP)], capsys)
     assert code == 2
     assert err.strip() == (
-        f"error: {path}: waypoint 1 (north 19.50 m, east 0.00 m) lies inside an obstacle "
+        f"error: {path}: waypoint 2 (north 19.50 m, east 0.00 m) lies inside an obstacle "
         "(inflated by rover half-width + planning.margin_m)"
     )
 
@@ -77,7 +77,7 @@ def test_check_refuses_an_unreachable_leg_naming_it(
     )
     assert code == 2
     assert err.strip() == (
-        f"error: {path}: leg waypoint 0 → waypoint 1: unreachable, no path keeps 0.93 m clearance"
+        f"error: {path}: leg waypoint 1 → waypoint 2: unreachable, no path keeps 0.93 m clearance"
     )
 
 
@@ -94,7 +94,7 @@ def test_keep_out_shapes_from_the_config_plan_without_a_map(
     path = mission(tmp_path, [(10.0, 0.0)])
     code, out, err = run_main(["check", "--mission", str(path), "--config", str(cfg)], capsys)
     assert code == 0, err
-    assert "leg start → wp 0:" in out and "(straight)" not in out
+    assert "leg start → wp 1:" in out and "(straight)" not in out
 
 
 def test_map_errors_and_frames_are_refused(

@@ -15,6 +15,7 @@ import pytest
 from helixd.base.angles import shortest_angular_distance
 from helixd.base.geometry import BodyVelocity, Pose2D
 from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
+from helixd.control.estimate import estimate_time
 from helixd.control.navigator import Navigator, NavState
 from helixd.mission import (
     MissionFrameKind,
@@ -125,7 +126,7 @@ def assert_mission_flown(plan: Plan, start: Pose2D, result: RunResult) -> None:
     assert result.max_cross_track_m <= tolerance + CROSS_TRACK_MARGIN_M
     # No orbiting or dithering: within a generous multiple of the plan's own estimate (the
     # circle's 0.5 m legs run mostly inside the slow-down ramp, hence the factor).
-    estimate_s = plan.estimated_time_s(CONTROL.max_yaw_rate_radps, (start.x_m, start.y_m))
+    estimate_s = estimate_time(plan, CONTROL, (start.x_m, start.y_m), start.yaw_rad).total_s
     assert result.duration_s < 5.0 * estimate_s + 30.0
     if plan.mode is MotionMode.OMNI:
         assert NavState.ALIGN not in result.states

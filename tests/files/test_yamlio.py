@@ -17,6 +17,7 @@ from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import (
     LIBYAML,
     MAX_DEPTH,
+    MAX_ERROR_LINE_CHARS,
     YamlFileError,
     clip,
     load_yaml_file,
@@ -213,7 +214,7 @@ def test_fuzz_config_files_from_bytes(tmp_path_factory: pytest.TempPathFactory, 
     try:
         load_config(path)
     except ConfigFileError as exc:
-        assert exc.problems and all(len(p) <= 400 for p in exc.problems)
+        assert exc.problems and all(len(p) <= MAX_ERROR_LINE_CHARS for p in exc.problems)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -72,6 +72,27 @@ def test_sigint_mid_mission(tmp_path: Path) -> None:
     check_fallback(tmp_path, "signal:SIGINT", 0.1, ExitCode.OPERATOR_STOP, "signal")
 
 
+def test_ctrl_c_is_an_operator_stop_and_disarms_what_it_armed(tmp_path: Path) -> None:
+    """Issue 24: after Ctrl-C the log said `phase=fly ok=true` and the rover was left armed
+    in HOLD. The fly phase ends not ok (cause signal), the run is an operator stop (exit 5,
+    not completed), and the autopilot — not the daemon's word — shows HOLD and disarmed."""
+    with sim_and_daemon(tmp_path, "square") as (server, d):
+        wait_moving(server)
+        d.signal(signal.SIGINT)
+        code = d.wait_exit(20.0)
+        after = server.wait_for(lambda s: secured(s) and not s.armed, 10.0)
+        log = d.log_text()
+        run_dir = d.run_dir()
+    assert code == ExitCode.OPERATOR_STOP, log[-3000:]
+    assert after.mode == "HOLD" and not after.armed
+    assert "event=phase_end phase=fly ok=false cause=signal" in log
+    assert "event=phase_end phase=fly ok=true" not in log
+    assert "disarmed=true" in log
+    s = summary(run_dir)
+    assert s["completed"] is False and s["exit_code"] == ExitCode.OPERATOR_STOP
+    assert s["fault"].startswith("signal")
+
+
 def test_sigterm_mid_mission(tmp_path: Path) -> None:
     check_fallback(tmp_path, "signal:SIGTERM", 0.1, ExitCode.OPERATOR_STOP, "signal")
 
@@ -144,13 +165,13 @@ def test_geofence(tmp_path: Path) -> None:
 
 
 def test_mission_time_limit(tmp_path: Path) -> None:
-    # The square's estimate is ~71 s (check refuses a smaller limit). The scrolls dig in (the
+    # The square's estimate is 83.4 s (check refuses a smaller limit). The scrolls dig in (the
     # stall watchdog is set out of the way), so the limit, on the autopilot clock, fires first.
-    cfg = {"safety": {"mission_time_limit_s": 72.0, "stall": {"duration_s": 120.0}}}
+    cfg = {"safety": {"mission_time_limit_s": 84.0, "stall": {"duration_s": 120.0}}}
     with sim_and_daemon(tmp_path, "square", cfg) as (server, d):
         wait_moving(server)
         server.inject("stall", duration_s=600.0)
-        server.wait_for(secured, 72.0 / SPEEDUP + 10.0)
+        server.wait_for(secured, 84.0 / SPEEDUP + 10.0)
         code = d.wait_exit(20.0)
         log = d.log_text()
     assert code == ExitCode.FAULT and "cause=mission_time" in log, log[-3000:]

@@ -11,11 +11,15 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from tests.support.harness import (
     GCS_SYSID,
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_HOME,
+    MAV_RESULT_ACCEPTED,
     SPEEDUP,
     client,
     daemon,
     running_sim_links,
     sim_and_daemon,
+    wait_moving,
 )
 
 pytestmark = pytest.mark.integration
@@ -105,3 +109,47 @@ def test_ground_station_on_helixd_s_system_id_is_refused(tmp_path: Path) -> None
     assert "component 190" in refusal and "HEARTBEAT type GCS" in refusal
     assert arms == [] and not snap.armed
     assert "Traceback" not in log
+
+
+def test_arming_waits_for_the_autopilot_s_home_instead_of_being_refused(tmp_path: Path) -> None:
+    """Issue 24: every demo warned "FAILED …; it said: 'PreArm: AHRS: waiting for home'".
+    Here the autopilot has an EKF origin and a pose but no home until a ground station (on
+    another link, its own id) sets it with MAV_CMD_DO_SET_HOME once helixd says it waits:
+    helixd arms after HOME_POSITION, once, unforced — the autopilot saw no refused arming."""
+    links = ["udpin:127.0.0.1:0", "udpin:127.0.0.1:0"]
+    with running_sim_links(links, speedup=SPEEDUP, home_delay_s=None) as server:
+        helixd_port, gcs_port = server.local_ports
+        with daemon(tmp_path, f"udpout:127.0.0.1:{helixd_port}", "square") as d:
+            d.wait_line("event=waiting_for_home", 60.0)
+            assert server.history.entries("arm") == []
+            with client(f"udpout:127.0.0.1:{gcs_port}", sysid=255) as gcs:
+                assert gcs.command(MAV_CMD_DO_SET_HOME, 1) == MAV_RESULT_ACCEPTED
+            wait_moving(server)
+            d.stop(20.0)
+            log = d.log_text()
+        homes = server.history.entries("home")
+        arms = server.history.entries("arm")
+        refused = [
+            e
+            for e in server.history.entries("command")
+            if e.details["command"] == MAV_CMD_COMPONENT_ARM_DISARM
+            and e.details["result"] != MAV_RESULT_ACCEPTED
+        ]
+    assert len(homes) == 1 and len(arms) == 1, log[-3000:]
+    assert arms[0].sim_time_s >= homes[0].sim_time_s
+    assert arms[0].details["forced"] is False
+    assert refused == []
+    assert "event=home_known" in log
+    assert "arm_refused_retrying" not in log and "waiting for home" not in log
+
+
+def test_no_home_within_the_timeout_is_a_preflight_refusal(tmp_path: Path) -> None:
+    config = {"safety": {"home_timeout_s": 1.0}}
+    with sim_and_daemon(tmp_path, "square", config, home_delay_s=None) as (server, d):
+        code = d.wait_exit(60.0)
+        log = d.log_text()
+        arms = server.history.entries("arm")
+    assert code == ExitCode.PREFLIGHT, log[-3000:]
+    assert "preflight: the autopilot reported no home (HOME_POSITION)" in log
+    assert "safety.home_timeout_s = 1 s" in log
+    assert arms == []

@@ -19,9 +19,10 @@ import yaml
 os.environ.setdefault("MAVLINK20", "1")
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.frames import latlon_to_ne
 from helixd.mission.formats import read_gcs
 from helixd.mission.formats.items import GcsMission, MissionItem
-from helixd.sim.config import HELIXD_SYSID
+from helixd.sim.config import HELIXD_SYSID, SimConfig
 from tests.support.harness import (
     FORCE_ARM,
     MAV_CMD_COMPONENT_ARM_DISARM,
@@ -33,7 +34,7 @@ from tests.support.harness import (
     wait_moving,
 )
 from tests.support.mavmsgs import read_tlog
-from tests.support.paths import DATA_DIR
+from tests.support.paths import DATA_DIR, REPO_ROOT
 
 pytestmark = pytest.mark.integration
 
@@ -131,6 +132,32 @@ def test_plan_upload_then_download_gives_it_back(tmp_path: Path) -> None:
     assert summary.returncode == 0, summary.stderr
     assert f"mission : {len(sent.items)} items" in summary.stdout
     assert "fence   : 2 polygons, 1 circles (1 inclusion, 2 exclusion)" in summary.stdout
+
+
+def test_a_local_ned_mission_is_uploaded_through_the_autopilots_origin() -> None:
+    """The autopilot knows its EKF origin: a local_ned mission goes up in lat/lon through it
+    (and a start mission at the rover's pose), as the daemon would fly it."""
+    with running_sim(speedup=5.0) as (server, url):
+        local = helixd("mission", "upload", REPO_ROOT / "config/missions/pond-crossing.yaml",
+                       "--connect", url)  # fmt: skip
+        stored = server.snapshot().mission_items[1:]
+        start = helixd("mission", "upload", REPO_ROOT / "config/missions/square.yaml",
+                       "--connect", url)  # fmt: skip
+        square = server.snapshot().mission_items[1:]
+    assert local.returncode == 0, local.stderr
+    assert "placed through the autopilot's EKF origin" in local.stderr
+    sim = SimConfig()
+    ne = [
+        latlon_to_ne(s.x / 1e7, s.y / 1e7, sim.origin_lat_deg, sim.origin_lon_deg) for s in stored
+    ]
+    expected = [(40.0, 0.0), (40.0, 20.0), (5.0, 25.0)]  # config/missions/pond-crossing.yaml
+    assert ne == [pytest.approx(p, abs=0.02) for p in expected]  # 1e-7 degree steps
+    assert start.returncode == 0, start.stderr
+    ne = [
+        latlon_to_ne(s.x / 1e7, s.y / 1e7, sim.origin_lat_deg, sim.origin_lon_deg) for s in square
+    ]
+    # the rover stands at the origin facing North: x forward is north, y left is west
+    assert ne == [pytest.approx(p, abs=0.3) for p in [(10, 0), (10, -10), (0, -10), (0, 0)]]
 
 
 def waypoints_file(path: Path, n: int) -> Path:

@@ -64,10 +64,15 @@ def test_planned_path_goes_around_the_box_without_touching_it(tmp_path: Path) ->
     assert closest >= obstacles.contact_radius_m
     assert math.hypot(final.north_m - 16.0, final.east_m) <= 1.0
     summary = json.loads((run_dir / "summary.json").read_text())
-    assert summary["completed"] is True and summary["waypoints_reached"] >= 2
+    assert summary["completed"] is True
+    # the operator's one waypoint, reached through the planner's via points (not counted as
+    # waypoints: "1/1 waypoints (+2/2 via points)")
+    assert summary["waypoints_reached"] == summary["waypoints_total"] == 1
+    assert summary["via_points_reached"] == summary["via_points_total"] >= 1
     # the run records the mission it flew: the planned one, intermediate waypoints included
     flown = (run_dir / "mission.yaml").read_text()
     assert flown.startswith("# Planned by helixd.planning")
+    assert flown.count("via: true") == summary["via_points_total"]
 
 
 def test_unplanned_straight_leg_hits_the_box_and_ends_in_a_fault(tmp_path: Path) -> None:

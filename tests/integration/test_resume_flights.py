@@ -103,9 +103,10 @@ def test_resume_after_fault_completes_the_remaining_waypoints(tmp_path: Path, re
     assert s2["resumed_from"]["first_waypoint"] == 2
     assert (run2 / "mission.yaml").read_text().count("north:") == 2
     resumed = [e for e in _events(run2) if e.get("event") == "run_resumed"]
-    assert resumed and resumed[0]["first_waypoint"] == "3/4"
+    assert len(resumed) == 1 and resumed[0]["first_waypoint"] == "3/4"
     reached = [e for e in _events(run2) if e.get("event") == "waypoint_reached"]
-    assert [e.get("mission_waypoint") for e in reached] == ["3/4", "4/4"]
+    assert [e.get("waypoint") for e in reached] == ["3/4", "4/4"]  # of the whole mission
+    assert [e.get("index") for e in reached] == [0, 1]  # of this run's plan
     # the progress line counts waypoints of the whole mission, not of the remainder
     progress = [e.get("waypoint") for e in _events(run2) if e.get("event") == "progress"]
     assert progress and progress[0] == "3/4" and set(progress) <= {"3/4", "4/4"}
@@ -120,3 +121,44 @@ def test_resume_after_fault_completes_the_remaining_waypoints(tmp_path: Path, re
         assert "completed already" in again.log_text()
     finally:
         again.kill()
+
+
+def test_a_resumed_simulator_run_starts_where_the_interrupted_one_stopped(tmp_path: Path) -> None:
+    """`run --sim --resume RUN`: the built-in simulator puts the rover where the interrupted
+    run left it (not at home), so a clean resume shows no approach error; the new run lands
+    beside the interrupted one, whatever the working directory; run_resumed once."""
+    mission = tmp_path / "lane.yaml"
+    mission.write_text(MISSION, encoding="utf-8")
+    with sim_and_daemon(tmp_path, mission) as (server, first):
+        server.wait_for(lambda s: s.armed and s.north_m > 8.0 and abs(s.east_m - 6.0) < 1.5, 90.0)
+        server.inject("ekf_unhealthy", duration_s=2.0 * SPEEDUP)
+        assert first.wait_exit(30.0) == ExitCode.FAULT
+        run1 = first.run_dir()
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    args = ["run", "--sim", "--sim-speedup", str(SPEEDUP), "--resume", str(run1),
+            "--config", str(tmp_path / "helixd.yaml")]  # fmt: skip
+    second = spawn_daemon(args, cwd=elsewhere, run_root=run1.parent)
+    try:
+        code2 = second.wait_exit(120.0)
+        log2 = second.log_text()
+        run2 = second.run_dir()
+    finally:
+        second.kill()
+    assert code2 == ExitCode.OK, log2[-3000:]
+    assert run2.parent == run1.parent and not (elsewhere / "runs").exists()
+    last1 = _flight_rows(run1)[-1]
+    first2 = _flight_rows(run2)[0]
+    assert math.hypot(first2[0] - last1[0], first2[1] - last1[1]) < 0.5  # not home (0, 0)
+    s2 = _json(run2 / "summary.json")
+    assert s2["completed"] is True
+    assert s2["cross_track_max_m"] < 0.5, s2  # no approach from home in it
+    assert len([e for e in _events(run2) if e.get("event") == "run_resumed"]) == 1
+
+
+def _flight_rows(run_dir: Path) -> list[tuple[float, float]]:
+    """(north_m, east_m) of every flight.csv row."""
+    lines = [x for x in (run_dir / "flight.csv").read_text().splitlines() if not x.startswith("#")]
+    head = lines[0].split(",")
+    n, e = head.index("north_m"), head.index("east_m")
+    return [(float(c[n]), float(c[e])) for c in (x.split(",") for x in lines[1:])]

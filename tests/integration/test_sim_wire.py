@@ -236,7 +236,7 @@ def test_rc_loss_fault_gives_radio_failsafe_hold_and_pilot_switch_retakes() -> N
 
 def test_cli_sim_runs_for_a_duration_and_rejects_bad_faults() -> None:
     runner = CliRunner()
-    args = ["sim", "--listen", "udpin:127.0.0.1:0", "--speedup", "50", "--noise", "none"]
+    args = ["sim", "--listen", "udpin:127.0.0.1:0", "--speedup", "20", "--noise", "none"]
     ok = runner.invoke(app, [*args, "--duration", "4", "--fault", "stall@1:duration_s=1"])
     assert ok.exit_code == 0, ok.output
     bad = runner.invoke(app, [*args, "--fault", "stall@soon"])

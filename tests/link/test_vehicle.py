@@ -114,6 +114,18 @@ def test_rc_servo_origin() -> None:
     assert st.gps_origin == pytest.approx((45.1234567, -73.1234567))
 
 
+def test_gps_fix_satellites_and_battery() -> None:
+    st = VehicleState()
+    st.apply(decoded(AP.gps_raw_int_encode(0, 3, 0, 0, 0, 100, 100, 0, 0, 12), AP), 1.0)
+    assert (st.gps_fix_type, st.gps_satellites) == (3, 12)
+    st.apply(decoded(AP.gps_raw_int_encode(0, 200, 0, 0, 0, 100, 100, 0, 0, 255), AP), 2.0)
+    assert (st.gps_fix_type, st.gps_satellites) == (None, None)  # not a fix type; unknown
+    st.apply(decoded(AP.sys_status_encode(0, 0, 0, 0, 12400, -1, 80, 0, 0, 0, 0, 0, 0), AP), 3.0)
+    assert (st.battery_voltage_v, st.battery_remaining_pct) == (12.4, 80)
+    st.apply(decoded(AP.sys_status_encode(0, 0, 0, 0, 65535, -1, -1, 0, 0, 0, 0, 0, 0), AP), 4.0)
+    assert (st.battery_voltage_v, st.battery_remaining_pct) == (None, None)
+
+
 @pytest.mark.parametrize("lat_e7, lon_e7", [(900_000_001, 0), (0, -1_800_000_001), (2**31 - 1, 0)])
 def test_origin_off_the_earth_is_rejected(lat_e7: int, lon_e7: int) -> None:
     st = VehicleState()

@@ -188,6 +188,26 @@ def test_resume_of_a_resume_counts_the_whole_mission() -> None:
     assert [w.east for w in later.mission.waypoints] == [20.0, 24.0]
 
 
+def test_the_operators_numbers_continue_past_via_points() -> None:
+    """Waypoints 0 and 2 of the planned mission are via points: after reaching the first
+    three, the remainder starts at the operator's waypoint 2 of 3."""
+    msn = _mission()
+    vias = (True, False, True, False, False)
+    msn = msn.model_copy(
+        update={
+            "waypoints": tuple(
+                w.model_copy(update={"via": v}) for w, v in zip(msn.waypoints, vias, strict=True)
+            )
+        }
+    )
+    _, inputs = _inputs_for(msn)
+    assert inputs.operator_total == 3
+    point = resume_point("/runs/a", inputs, msn, _reached(0, 1, 2), completed=False)
+    assert (point.inputs.operator_offset, point.inputs.operator_total) == (1, 3)
+    numbering = point.inputs.numbering([w.via for w in point.mission.waypoints])
+    assert [numbering.label(i) for i in range(2)] == ["2/3", "3/3"]
+
+
 def test_completed_run_is_refused() -> None:
     msn = _mission()
     _, inputs = _inputs_for(msn)

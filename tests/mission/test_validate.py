@@ -131,38 +131,42 @@ def test_start_outside_polygon_is_refused() -> None:
     assert problems[0].startswith("the start point (N 80.0 m, E 0.0 m) is outside")
 
 
-# -- mission time -------------------------------------------------------------------------------
+# -- keep-out areas the mission carries ---------------------------------------------------------
+
+ISLAND_NE = ((10.0, 10.0), (10.0, 20.0), (20.0, 20.0), (20.0, 10.0))
 
 
-def test_estimate_over_the_limit_is_refused() -> None:
-    msn = mission("start", [(90.0, 0.0), (0.0, 0.0)] * 15)  # 2 700 m at 0.6 m/s = 4 500 s
-    problems = mission_problems(msn, HelixdConfig())
-    assert problems == [
-        "estimated time 4500 s (2700.0 m at 0.60 m/s plus turns) exceeds "
-        "safety.mission_time_limit_s = 1800 s; the run would be aborted (split the mission or "
-        "raise the limit)"
+def with_island(points: list[tuple[float, float]]) -> Mission:
+    msn = mission("local_ned", points)
+    return msn.model_copy(update={"keep_out_polygons": (ISLAND_NE,)})
+
+
+def test_waypoint_inside_a_keep_out_area_is_refused() -> None:
+    problems = mission_problems(with_island([(0.0, 0.0), (15.0, 15.0)]), config())
+    assert problems == ["waypoints.1: inside keep_out_polygons.0 (a keep-out area)"]
+
+
+def test_leg_through_a_keep_out_area_is_refused_only_when_nothing_plans_around_it() -> None:
+    msn = with_island([(15.0, 0.0), (15.0, 30.0)])  # the leg crosses the island
+    assert mission_problems(msn, config()) == []  # planning routes it around
+    off = HelixdConfig.model_validate({"planning": {"enabled": False}})
+    assert mission_problems(msn, off) == [
+        "leg waypoints.0 → waypoints.1 crosses keep_out_polygons.0 (planning.enabled is "
+        "false: nothing plans around it)"
     ]
-    assert mission_problems(msn, config(mission_time_limit_s=5000.0)) == []
 
 
-def test_turns_count_in_roll_mode() -> None:
-    # 4 × 10 m at 0.6 m/s = 66.7 s of driving plus 2π rad of turning at 1 rad/s
-    msn = mission("start", [(10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0)], mode="roll")
-    assert mission_problems(msn, config(mission_time_limit_s=72.0)) == []
-    problems = mission_problems(msn, config(mission_time_limit_s=70.0))
-    assert problems and problems[0].startswith("estimated time 71 s")
-
-
-def test_local_ned_time_without_pose_is_a_lower_bound() -> None:
-    msn = mission("local_ned", [(0.0, 0.0), (60.0, 0.0)])
-    assert mission_problems(msn, config(mission_time_limit_s=101.0)) == []
-    problems = mission_problems(msn, config(mission_time_limit_s=99.0))
-    assert problems[0].startswith("estimated time from waypoint 0 100 s")
-    start = NedPose(north_m=-60.0, east_m=0.0, yaw_ned_rad=0.0)  # first leg adds 100 s
-    problems = mission_problems(
-        msn, config(mission_time_limit_s=150.0, geofence_radius_m=None), start_ned=start
-    )
-    assert problems[0].startswith("estimated time 200 s")
+def test_keep_out_areas_need_a_frame_fixed_to_the_ground() -> None:
+    with pytest.raises(ValidationError, match="keep-out areas need a local_ned or global"):
+        Mission.model_validate(
+            {
+                "name": "t",
+                "mode": "roll",
+                "frame": "start",
+                "waypoints": [{"x": 1.0, "y": 0.0}],
+                "keep_out_polygons": [list(ISLAND_NE)],
+            }
+        )
 
 
 # -- polygon geometry ----------------------------------------------------------------------------

@@ -126,7 +126,7 @@ def test_waypoint_in_the_inflated_exclusion_is_refused_naming_it(tmp_path: Path)
     with pytest.raises(PlanningError) as err:
         plan_global_mission(msn, HelixdConfig(), polys, circles, origin)
     assert len(err.value.problems) == 1
-    assert err.value.problems[0].startswith("waypoint 1 (north 8.60 m")
+    assert err.value.problems[0].startswith("waypoint 2 (north 8.60 m")  # numbered from 1
     assert "clearance of an obstacle" in err.value.problems[0]
 
 
@@ -146,7 +146,7 @@ def test_check_plans_a_plan_around_its_exclusions_and_refuses_without_planning(
     path = write_plan(tmp_path, [(0.0, 0.0), (20.0, 0.0)])
     assert main_exit(["check", "--mission", str(path), "--mode", "roll"]) == 0
     out = capsys.readouterr().out
-    assert "leg wp 0 → wp 1" in out and "intermediate" in out
+    assert "leg wp 1 → wp 2" in out and "intermediate" in out
     off = tmp_path / "off.yaml"
     off.write_text("planning:\n  enabled: false\n", encoding="utf-8")
     assert main_exit(["check", "-m", str(path), "--mode", "roll", "-c", str(off)]) == 2
@@ -191,8 +191,8 @@ def test_check_plot_of_a_global_plan_is_labelled_around_waypoint_0(tmp_path: Pat
     _, route = plan_global_mission(msn, HelixdConfig(), polys, circles, origin)
     ax = Figure().subplots()
     draw_route(ax, route)
-    assert ax.get_xlabel() == "east of waypoint 0 (m)"
-    assert ax.get_ylabel() == "north of waypoint 0 (m)"
+    assert ax.get_xlabel() == "east of waypoint 1 (m)"
+    assert ax.get_ylabel() == "north of waypoint 1 (m)"
     png = tmp_path / "p.png"
     assert main_exit(["check", "-m", str(path), "--mode", "roll", "--plot", str(png)]) == 0
     assert png.stat().st_size > 1000

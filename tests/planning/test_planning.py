@@ -287,7 +287,7 @@ def test_keep_out_circle_and_inclusion_polygon() -> None:
     blocked = with_geofence(
         Obstacles(), exclusion_circles=[KeepOutCircle(12.0, 1.5, 9.0)], inclusion_ne_m=fence
     )
-    with pytest.raises(PlanningError, match="leg waypoint 0 → waypoint 1: unreachable"):
+    with pytest.raises(PlanningError, match="leg waypoint 1 → waypoint 2: unreachable"):
         plan_route([(0.0, 0.0), (25.0, 0.0)], blocked, 0.93, first_index=0)
 
 
@@ -296,7 +296,7 @@ def test_waypoint_inside_an_inflated_obstacle_is_named() -> None:
     with pytest.raises(PlanningError) as err:
         plan_route([(0.0, 0.0), (10.0, 2.5), (20.0, 0.0)], obs, 0.93)
     assert err.value.problems == [
-        "waypoint 0 (north 10.00 m, east 2.50 m) lies inside the 0.93 m clearance of an obstacle "
+        "waypoint 1 (north 10.00 m, east 2.50 m) lies inside the 0.93 m clearance of an obstacle "
         "(inflated by rover half-width + planning.margin_m)"
     ]
 

@@ -54,6 +54,25 @@ def test_flown_track_goes_through_the_ekf_map_and_is_decimated() -> None:
     assert len(data.fence) == 4
 
 
+def test_waypoints_are_numbered_from_1_and_via_points_marked() -> None:
+    msn = global_mission()
+    wps = list(msn.waypoints)
+    wps[1] = wps[1].model_copy(update={"via": True})
+    island = [ne_to_latlon(n, e, *ORIGIN) for n, e in [(2, 2), (2, 4), (4, 4), (4, 2)]]
+    msn = msn.model_copy(update={"waypoints": tuple(wps), "keep_out_polygons": (tuple(island),)})
+    data = build_export(msn, ORIGIN, track())
+    doc = json.loads(to_geojson(data))
+    points = [f["properties"] for f in doc["features"] if f["geometry"]["type"] == "Point"]
+    assert [(p["name"], p["kind"], p["number"]) for p in points] == [
+        ("waypoint 1", "waypoint", 1),
+        ("via → 2", "via", 2),
+        ("waypoint 2", "waypoint", 2),
+    ]
+    kinds = [f["properties"]["kind"] for f in doc["features"]]
+    assert kinds.count("keep_out") == 1
+    assert "<name>waypoint 1</name>" in to_kml(data) and "keep-out 1" in to_kml(data)
+
+
 def test_local_and_start_missions_are_placed_through_the_origin() -> None:
     local = Mission.model_validate(
         {"name": "l", "mode": "roll", "frame": "local_ned", "waypoints": [{"north": 3, "east": 4}]}

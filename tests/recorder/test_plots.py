@@ -12,7 +12,10 @@ import pytest
 import typer
 from typer.testing import CliRunner
 
+from helixd.base.plan import MissionFrameKind
 from helixd.cli import runs as command
+from helixd.mission.model import WaypointSpec
+from helixd.mission.resume import RunInputs
 from helixd.recorder.events import read_events
 from helixd.recorder.plots import (
     AUTOPILOT_AXIS_LABEL,
@@ -77,12 +80,57 @@ def test_plan_arrivals_and_fault_are_loaded(tmp_path: Path) -> None:
     assert [(x, y) for x, y, _ in data.waypoints] == SQUARE
     assert all(tol == 1.0 for _, _, tol in data.waypoints)
     assert data.path_start == (0.0, 0.0)
-    assert [i for i, _ in data.arrivals] == [0, 1]  # 40 s: two sides flown
+    assert [i for i, _ in data.arrivals] == ["1", "2"]  # 40 s: two sides flown (from 1)
     assert all(0.0 < t < 40.0 for _, t in data.arrivals)
     assert data.fault == "stall"
     fallback = next(e for e in read_events(run_dir / "events.jsonl") if e["event"] == "fallback")
     assert data.fault_t_s == pytest.approx(fallback["t_mono_s"] - data.cols["t_mono_s"][0])
     assert data.fault_t_s == pytest.approx(40.0, abs=0.06)
+
+
+def test_via_points_are_not_numbered_as_the_operators_waypoints(tmp_path: Path) -> None:
+    """A planned route's via points are drawn as such; the operator's waypoints keep their
+    numbers from 1 (the plots once renumbered them 6, 7, 11)."""
+    run_dir, _ = synth_run(tmp_path)
+    (run_dir / "mission.yaml").write_text(
+        "name: square\nmode: roll\nframe: start\nwaypoints:\n"
+        "- {x: 5.0, y: 0.0, via: true}\n- {x: 10.0, y: 0.0}\n- {x: 10.0, y: 5.0, via: true}\n"
+        "- {x: 10.0, y: 10.0}\n- {x: 0.0, y: 10.0}\n",
+        encoding="utf-8",
+    )
+    data = load_run(run_dir)
+    assert data.labels == ["", "1", "", "2", "3"]
+    texts = [
+        t for t, _ in waypoint_labels([(w[0], w[1]) for w in data.waypoints], labels=data.labels)
+    ]
+    assert texts == ["1", "2", "3"]
+    assert len(render_run(run_dir)) == len(PANEL_FILES) + 1
+
+
+def test_a_resumed_runs_planned_path_starts_on_the_interrupted_leg(tmp_path: Path) -> None:
+    """Not where the rover stood when the resumed run started: the approach to the leg is no
+    planned path; and the waypoints continue the whole mission's numbers."""
+    run_dir, _ = synth_run(tmp_path)
+    (run_dir / "mission.yaml").write_text(
+        "name: lane\nmode: roll\nframe: local_ned\nwaypoints:\n"
+        "- {north: 12.0, east: 6.0}\n- {north: 12.0, east: 12.0}\n",
+        encoding="utf-8",
+    )
+    inputs = RunInputs(
+        mission_sha256="a",
+        config_sha256="b",
+        root_mission_sha256="c",
+        frame=MissionFrameKind.LOCAL_NED,
+        index_offset=2,
+        waypoints_total=4,
+        leg_start=WaypointSpec(north=6.0, east=6.0),
+        operator_offset=2,
+        operator_total=4,
+    )
+    (run_dir / "inputs.json").write_text(inputs.to_json(), encoding="utf-8")
+    data = load_run(run_dir)
+    assert data.path_start == (6.0, 6.0)  # x east, y north: the waypoint before the first
+    assert data.labels == ["3", "4"]
 
 
 def test_fault_is_drawn_in_red(tmp_path: Path) -> None:
@@ -170,14 +218,14 @@ def test_waypoint_labels_are_sparse_on_time_axes() -> None:
 
 def test_coincident_waypoints_share_one_label() -> None:
     pts = [(4.0, 2.0), (3.9, 2.5), (2.0, 4.0), (4.0 + 1e-9, 2.0)]
-    assert [t for t, _ in waypoint_labels(pts)] == ["0,3", "1", "2"]
+    assert [t for t, _ in waypoint_labels(pts)] == ["1,4", "2", "3"]  # numbered from 1
 
 
 def test_many_waypoint_labels_do_not_overlap_in_the_rendered_figure(tmp_path: Path) -> None:
     run_dir, _ = synth_run(tmp_path)
     data = load_run(run_dir)
     span = float(data.t_s[-1])
-    data.arrivals = [(i, span * (0.3 + 0.025 * i)) for i in range(25)]  # a 25-point circle
+    data.arrivals = [(str(i + 1), span * (0.3 + 0.025 * i)) for i in range(25)]  # a circle
     fig = _panel_figure(data, "e")
     fig.canvas.draw()  # type: ignore[no-untyped-call]
     ax = fig.axes[0]

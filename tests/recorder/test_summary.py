@@ -105,3 +105,39 @@ def _boot_row(t_mono_s: float, t_boot_s: float):  # type: ignore[no-untyped-def]
     import dataclasses
 
     return dataclasses.replace(row(t_mono_s, 0.0, 0.0, 0.0), t_boot_s=t_boot_s)
+
+
+def test_via_points_are_not_counted_as_the_operators_waypoints() -> None:
+    """A 3-waypoint mission planned with 9 via points is "3/3 waypoints", not "12/12"."""
+    b = SummaryBuilder("pond", "roll", 3, via_points_total=9)
+    numbers = [1, 1, 1, 1, 2, 2, 2, 3, 3, 3, 3, 3]
+    vias = [True, True, True, False, True, True, False, True, True, True, True, False]
+    for i, (number, via) in enumerate(zip(numbers, vias, strict=True)):
+        b.arrival(i, 100.0 + i, 0.1, number=number, via=via)
+    assert b.waypoints_reached == 3
+    s = b.build(True, None, 0)
+    assert (s.waypoints_reached, s.waypoints_total) == (3, 3)
+    assert (s.via_points_reached, s.via_points_total) == (9, 9)
+    assert [a.number for a in s.arrivals if not a.via] == [1, 2, 3]
+    assert RunSummary.from_json(s.to_json()) == s
+
+
+def test_a_resumed_runs_approach_is_not_cross_track_error() -> None:
+    """Until the rover is on the interrupted leg (within join_m of it) or reaches a waypoint,
+    its distance from the leg is the approach, not the mission's error."""
+    b = SummaryBuilder("lane", "roll", 2, join_m=0.1)
+    b.add(row(0.0, 0.0, 0.0, 5.25))  # the approach from where the rover stood
+    b.add(row(1.0, 0.0, 0.0, 2.0))
+    b.add(row(2.0, 0.0, 0.0, 0.05))  # on the leg: counted from here
+    b.add(row(3.0, 0.0, 0.0, -0.2))
+    s = b.build(True, None, 0)
+    assert s.cross_track_max_m == pytest.approx(0.2)
+    assert s.cross_track_rms_m == pytest.approx(math.sqrt((0.05**2 + 0.2**2) / 2))
+    fresh = SummaryBuilder("lane", "roll", 2)  # a fresh run counts from its first row
+    fresh.add(row(0.0, 0.0, 0.0, 5.25))
+    assert fresh.build(True, None, 0).cross_track_max_m == pytest.approx(5.25)
+    arrived = SummaryBuilder("lane", "roll", 2, join_m=0.1)
+    arrived.add(row(0.0, 0.0, 0.0, 3.0))
+    arrived.arrival(0, 1.0, 0.2)  # a waypoint reached: the approach is over
+    arrived.add(row(1.0, 0.0, 0.0, 0.5))
+    assert arrived.build(True, None, 0).cross_track_max_m == pytest.approx(0.5)

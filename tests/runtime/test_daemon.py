@@ -13,10 +13,12 @@ from helixd.mav.url import LinkError
 from helixd.mission import PlanError
 from helixd.runtime.daemon import (
     EXIT_RULES,
+    Ending,
     PreflightFailed,
     Stage,
     StartRefused,
     StopBeforeFlight,
+    disarm_after,
     ending_for,
     exit_rule,
 )
@@ -114,3 +116,21 @@ def test_close_is_bounded(tmp_path: object) -> None:
 
     took_s = asyncio.run(main())
     assert cfg.safety.fallback_deadline_s <= took_s < cfg.safety.fallback_deadline_s + 0.5
+
+
+@pytest.mark.parametrize(
+    ("armed_by_us", "ending", "disarm"),
+    [
+        (True, Ending(None, ExitCode.OK), True),
+        # Ctrl-C / SIGTERM, in flight or while arming: nobody drives it, disarm what we armed
+        (True, Ending(Fault(FaultCause.SIGNAL, "SIGINT received"), ExitCode.OPERATOR_STOP), True),
+        # the pilot took over and may be driving: the config decides (disarm_on_fault)
+        (True, Ending(Fault(FaultCause.PILOT_TAKEOVER, "HOLD"), ExitCode.OPERATOR_STOP), None),
+        (True, Ending(Fault(FaultCause.GEOFENCE, "out"), ExitCode.FAULT), None),
+        # armed before we came (a resume in HOLD): never ours to disarm by default
+        (False, Ending(Fault(FaultCause.SIGNAL, "SIGINT received"), ExitCode.OPERATOR_STOP), None),
+        (False, Ending(None, ExitCode.OK), None),
+    ],
+)
+def test_disarm_after(armed_by_us: bool, ending: Ending, disarm: bool | None) -> None:
+    assert disarm_after(armed_by_us, ending) is disarm

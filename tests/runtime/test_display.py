@@ -243,7 +243,7 @@ def test_result_table_labels_every_time_with_its_clock() -> None:
     assert rows["flight time (autopilot clock)"] == "72.0 s"
     assert rows["flight time (wall clock)"] == "18.0 s"
     assert rows["whole run (wall clock)"] == "30.0 s"
-    assert rows["arrivals"].startswith("#0 +1.0 s (0.90 m), #1 +2.0 s")
+    assert rows["arrivals"].startswith("#1 +1.0 s (0.90 m), #2 +2.0 s")  # numbered from 1
     assert rows["arrivals"].endswith("(autopilot clock)")
     assert not any(label == "duration" for label in rows)
 
@@ -270,7 +270,7 @@ def test_many_arrivals_are_condensed_in_the_table() -> None:
         b.arrival(i, 12.0 + 2.0 * i, 0.28 + 0.001 * i)
     text = dict(summary_rows(b.build(True, None, 0)))["arrivals"]
     assert text == (
-        "25 waypoints, error 0.28–0.30 m, last #24 +50.0 s (0.30 m) (autopilot clock); "
+        "25 waypoints, error 0.28–0.30 m, last #25 +50.0 s (0.30 m) (autopilot clock); "
         "each in summary.json"
     )
 
@@ -320,3 +320,21 @@ def test_exit_result_line_without_a_run() -> None:
     assert line == (
         "helixd: RESULT usage-error mission.yaml: waypoints: field required — not flown, exit 2"
     )
+
+
+def test_via_points_are_shown_as_such_not_as_the_operators_waypoints() -> None:
+    """The pond crossing (3 waypoints, 9 planned via points) said "12/12 waypoints"."""
+    b = SummaryBuilder("pond-crossing", "roll", 3, via_points_total=9)
+    b.add(nan_row(t_mono_s=0.0, t_boot_s=10.0))
+    b.add(nan_row(t_mono_s=28.8, t_boot_s=240.2))
+    for i in range(12):
+        b.arrival(i, 20.0 + i, 0.1, number=1 + (i > 3) + (i > 6), via=i not in (3, 6, 11))
+    s = b.build(True, None, 0)
+    assert result_line(s).startswith(
+        "helixd: RESULT ok — 3/3 waypoints (+9/9 via points), 230.2 s autopilot time"
+    )
+    rows = dict(summary_rows(s))
+    assert rows["waypoints"] == "3/3 (+9/9 via points)"
+    assert rows["arrivals"].startswith("#1 +13.0 s (0.10 m), #2 +16.0 s (0.10 m), #3 +21.0 s")
+    shown = progress_fields("fly", info(0, waypoint_index=2, waypoints_total=3, via=True))
+    assert shown["waypoint"] == "via → 2/3"

@@ -6,6 +6,7 @@ from typing import Any
 
 import pytest
 
+from helixd.mav.constants import MAV_CMD_DO_SET_HOME
 from helixd.sim import estimator, modes
 from helixd.sim.autopilot import (
     FORCE_ARM_MAGIC,
@@ -241,10 +242,62 @@ def test_do_set_servo_on_passthrough_holds_until_rc_moves_beyond_dead_zone() -> 
     assert rig.outputs[1] == 1520
 
 
-def test_arming_prearm_refusal_force_and_later_success() -> None:
-    rig = Rig().boot()
+def test_arming_is_refused_until_home_is_set_then_accepted() -> None:
+    """AP_Arming::gps_checks: "AHRS: waiting for home" until Rover::ahrs_update sets home
+    from the EKF's first position ("Set HOME to …"); nothing else holds arming back here."""
+    rig = Rig(ekf_origin_delay_s=3.0, prearm_delay_s=0.0)
+    rig.run(BOOT_S + 0.1)
+    assert rig.ap.mode == modes.MANUAL and not rig.ap.home_set(rig.now)
     assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_FAILED
     assert rig.texts()[-1] == "PreArm: AHRS: waiting for home"
+    rig.run(3.0)
+    assert rig.ap.home_set(rig.now)
+    assert "Set HOME to 53.523250 -113.526320 at 668.00m" in rig.texts()
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+    assert rig.ap.armed
+
+
+def test_by_default_arming_is_accepted_as_soon_as_home_is_set() -> None:
+    """The built-in simulator's defaults (`run --sim`, `make demo`): nothing but home holds
+    arming back, as on ArduPilot once its EKF has a position — so a demo arms without a
+    refusal (it used to refuse "waiting for home" for 20 s after home was set)."""
+    cfg = SimConfig()
+    ap = Autopilot(cfg, ParamStore(cfg.params), 0.0)
+    now, ekf = 0.0, healthy_ekf()
+    while not ap.home_set(now):
+        now = round(now + DT_S, 9)
+        ap.step(now, ekf)
+    assert now == pytest.approx(cfg.boot_duration_s + cfg.ekf_origin_delay_s, abs=DT_S)
+    assert ap.arm_disarm(1.0, 0.0, now, ekf) == MAV_RESULT_ACCEPTED
+
+
+def test_do_set_home_here_once_the_ekf_has_a_position() -> None:
+    rig = Rig(home_delay_s=None, ekf_origin_delay_s=2.0, prearm_delay_s=0.0)
+    rig.run(BOOT_S + 0.1)
+    assert rig.command(MAV_CMD_DO_SET_HOME, 1) == MAV_RESULT_FAILED  # no position yet
+    rig.run(2.0)
+    assert rig.command(MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 53.5, -113.5) == MAV_RESULT_DENIED
+    assert not rig.ap.home_set(rig.now)
+    assert rig.command(MAV_CMD_DO_SET_HOME, 1) == MAV_RESULT_ACCEPTED
+    rig.run(0.04)
+    assert rig.ap.home_set(rig.now) and rig.texts()[-1].startswith("Set HOME to ")
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+
+
+def test_home_never_set_only_force_arms() -> None:
+    rig = Rig(home_delay_s=None).boot()
+    rig.run(60.0)
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_FAILED
+    assert rig.texts()[-1] == "PreArm: AHRS: waiting for home"
+    assert not any(t.startswith("Set HOME") for t in rig.texts())
+    rig.force_arm()
+    assert rig.ap.armed
+
+
+def test_arming_prearm_refusal_force_and_later_success() -> None:
+    rig = Rig().boot()  # home set; the other PreArm checks pass 5 s after boot
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_FAILED
+    assert rig.texts()[-1] == "PreArm: AHRS: EKF3 still initialising"
     rig.force_arm()
     assert rig.ap.armed
     assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 0) == MAV_RESULT_ACCEPTED

@@ -10,6 +10,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.mav.constants import GCS_CONTACT_MESSAGE_IDS
 from helixd.sim.faults import FaultError, make_spec, parse_fault
 from tests.support.simcore import command, incoming, make_core, of_type, run
 
@@ -178,3 +179,52 @@ def test_gcs_contact_counts_heartbeat_override_and_manual_control_from_the_gcs_i
     run(core, 0.5)
     core.handle(1, incoming(hb))
     assert ap.gcs_last_seen_s == core.now_s
+
+
+def test_only_heartbeat_override_and_manual_control_are_gcs_contact() -> None:
+    """GCS_Common.cpp: sysid_mygcs_seen has three callers (handle_heartbeat of any MAV_TYPE,
+    handle_rc_channels_override, handle_manual_control); what a read-only tool sends from the
+    GCS id — commands, parameter, mission and stream requests, SET_MODE — is no contact."""
+    core = make_core()
+    run(core, 2.0)
+    ap = core.ap
+    others = [
+        mavlink.MAVLink_command_long_message(1, 1, 512, 0, 33, 0, 0, 0, 0, 0, 0),
+        mavlink.MAVLink_command_int_message(1, 1, 0, 512, 0, 0, 33, 0, 0, 0, 0, 0, 0),
+        mavlink.MAVLink_param_request_read_message(1, 1, b"FS_GCS_ENABLE", -1),
+        mavlink.MAVLink_param_request_list_message(1, 1),
+        mavlink.MAVLink_mission_request_list_message(1, 1, 0),
+        mavlink.MAVLink_request_data_stream_message(1, 1, 0, 4, 1),
+        mavlink.MAVLink_set_mode_message(1, 1, 0),
+        mavlink.MAVLink_statustext_message(6, b"hello", 0, 0),
+    ]
+    for msg in others:
+        core.handle(0, incoming(msg))
+        core.drain_outbox()
+    assert ap.gcs_last_seen_s is None
+    contact = {
+        0: mavlink.MAVLink_heartbeat_message(18, 8, 0, 0, 4, 3),  # onboard controller: counts
+        70: mavlink.MAVLink_rc_channels_override_message(1, 1, *([65535] * 8), *([0] * 10)),
+        69: mavlink.MAVLink_manual_control_message(1, 0, 0, 500, 0, 0),
+    }
+    assert set(contact) == GCS_CONTACT_MESSAGE_IDS
+    for msg in contact.values():
+        run(core, 0.2)
+        core.handle(1, incoming(msg))
+        assert ap.gcs_last_seen_s == core.now_s, msg.get_type()
+
+
+def test_home_position_is_announced_once_when_home_is_set_and_not_before() -> None:
+    """AP_AHRS::set_home sends HOME_POSITION (and the origin) to every link; before home is
+    set a REQUEST_MESSAGE for it is accepted and answered with nothing."""
+    core = make_core(ekf_origin_delay_s=2.0)
+    out = run(core, 2.0)
+    assert command(core, 0, 512, 242) == 0  # MAV_CMD_REQUEST_MESSAGE HOME_POSITION
+    assert not of_type(out + core.drain_outbox(), "HOME_POSITION")
+    out = run(core, 2.0)
+    homes = of_type(out, "HOME_POSITION")
+    assert sorted(lk for lk, m in out if m.get_type() == "HOME_POSITION") == [0, 1]
+    assert int(homes[0].latitude) == round(core.config.origin_lat_deg * 1e7)
+    texts = [str(m.text) for m in of_type(out, "STATUSTEXT")]
+    assert any(t.startswith("Set HOME to 53.523250 -113.526320") for t in texts)
+    assert command(core, 1, 512, 242) == 0

@@ -49,6 +49,7 @@ MAV_RESULT_UNSUPPORTED = 3
 MAV_RESULT_FAILED = 4
 MAV_CMD_DO_SET_MODE = 176
 MAV_CMD_DO_SET_SERVO = 183
+MAV_CMD_DO_SET_HOME = 179
 MAV_CMD_COMPONENT_ARM_DISARM = 400
 MAV_CMD_SET_MESSAGE_INTERVAL = 511
 FORCE_ARM = 21196
@@ -56,8 +57,9 @@ MSG_LOCAL_POSITION_NED = 32
 MODE_MANUAL = 0
 MODE_HOLD = 4
 
-# fast, deterministic defaults for wire tests: 10× SITL-style speed-up, exact pose
-FAST = {"speedup": 10.0, "noise": "none", "seed": 7, "prearm_delay_s": 5.0}
+# fast, deterministic defaults for wire tests: 10× SITL-style speed-up, exact pose (arming
+# is allowed once home is set, with the EKF origin: the simulator's default, as ArduPilot)
+FAST = {"speedup": 10.0, "noise": "none", "seed": 7}
 # Clients pace their HEARTBEATs in wall time while FS_GCS_TIMEOUT runs on simulated time, so
 # the GCS failsafe is off in tests unless a test turns it on (its params are merged over this).
 FAST_PARAMS = {"FS_GCS_ENABLE": 0.0}

@@ -8,6 +8,7 @@ Ground-station files carry no motion mode: it comes from ``--mode`` or the confi
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -156,12 +157,19 @@ def load_mission_file(
 def mission_to_yaml(mission: Mission) -> str:
     """The mission as helixd YAML (loads back equal)."""
     data = mission.model_dump(mode="json", exclude_none=True, exclude_defaults=False)
-    data["waypoints"] = [{k: v for k, v in wp.items() if v is not None} for wp in data["waypoints"]]
+    data["waypoints"] = [
+        {k: v for k, v in wp.items() if v is not None and (k != "via" or v)}
+        for wp in data["waypoints"]
+    ]
     for key in ("geofence_polygon",):
         if not data.get(key):
             data.pop(key, None)
         else:
             data[key] = [list(v) for v in data[key]]
+    if not data.get("keep_out_polygons"):
+        data.pop("keep_out_polygons", None)
+    else:
+        data["keep_out_polygons"] = [[list(v) for v in p] for p in data["keep_out_polygons"]]
     return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
 
 
@@ -171,27 +179,42 @@ def lost_in(mission: Mission, fmt: MissionFormat) -> list[str]:
         return []
     lost = ["mode", *(["tolerance_m"] if mission.tolerance_m is not None else [])]
     lost += ["speed_mps"] if mission.speed_mps is not None else []
-    lost += [k for k in ("time_limit_s", "geofence_radius_m") if getattr(mission, k) is not None]
+    lost += ["geofence_radius_m"] if mission.geofence_radius_m is not None else []
+    if fmt is MissionFormat.WAYPOINTS:  # a .plan keeps it in its "helixd" key
+        lost += ["time_limit_s"] if mission.time_limit_s is not None else []
     if any(w.heading_deg is not None or w.tolerance_m is not None for w in mission.waypoints):
         lost.append("per-waypoint heading_deg/tolerance_m")
     if fmt is MissionFormat.WAYPOINTS:
         lost += ["geofence_polygon"] if mission.geofence_polygon else []
+        lost += ["keep_out_polygons"] if mission.keep_out_polygons else []
     return lost
 
 
-def write_mission_file(mission: Mission, path: Path) -> MissionFormat:
-    """Write ``mission`` in the format ``path``'s suffix names (atomic replace)."""
+def write_mission_file(
+    mission: Mission, path: Path, home: tuple[float, float, float] | None = None
+) -> MissionFormat:
+    """Write ``mission`` in the format ``path``'s suffix names (atomic replace); ``home``
+    (lat, lon, alt) for a ground-station file: the source file's, else waypoint 1's place."""
     fmt = detect_format(path)
     if fmt is MissionFormat.YAML:
         text = mission_to_yaml(mission)
     elif fmt is MissionFormat.PLAN:
-        text = plan_to_text(mission_to_items(mission), mission.speed_mps)
+        text = plan_to_text(mission_to_items(mission, home), mission.speed_mps)
     else:
-        text = wpl_to_text(mission_to_items(mission))
+        text = wpl_to_text(mission_to_items(mission, home))
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(text, encoding="utf-8")
     tmp.replace(path)
     return fmt
+
+
+def source_home(gcs: GcsMission | None) -> tuple[float, float, float] | None:
+    """A ground-station file's home (lat, lon, alt; alt 0 when it had none), to keep when the
+    mission is written to another one; None when it had no home (or is not such a file)."""
+    if gcs is None or gcs.home_latlon_deg is None:
+        return None
+    alt = gcs.home_alt_m if gcs.home_alt_m is not None and math.isfinite(gcs.home_alt_m) else 0.0
+    return gcs.home_latlon_deg[0], gcs.home_latlon_deg[1], alt
 
 
 def has_keep_outs(path: Path) -> bool:
@@ -227,5 +250,6 @@ __all__ = [
     "plan_fence_ne",
     "read_gcs",
     "sniff_format",
+    "source_home",
     "write_mission_file",
 ]

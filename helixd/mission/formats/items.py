@@ -92,6 +92,9 @@ class GcsMission:
     polygons: tuple[FencePolygon, ...] = ()
     circles: tuple[FenceCircle, ...] = ()
     survey_polygons: tuple[tuple[tuple[float, float], ...], ...] = field(default=())
+    home_alt_m: float | None = None  # the home row's / planned home's altitude, if it has one
+    cruise_speed_mps: float | None = None  # a QGC .plan's cruiseSpeed (not used yet: a note)
+    time_limit_s: float | None = None  # helixd's own key in a .plan it wrote
 
 
 def command_name(command: int) -> str:
@@ -162,7 +165,14 @@ def items_to_mission(
             problems.extend(bad)
             continue
         if math.isfinite(it.param1) and it.param1 > 0:
-            notes.append(f"{label}: hold time {it.param1:g} s ignored (helixd does not hold)")
+            notes.append(
+                f"{label}: hold time {it.param1:g} s (param1) ignored: helixd does not hold"
+            )
+        if math.isfinite(it.param2) and it.param2 > 0:
+            notes.append(
+                f"{label}: acceptance radius {it.param2:g} m (param2) ignored: helixd reaches "
+                "waypoints within control.waypoint_tolerance_m or the mission's tolerance_m"
+            )
         if points and _same_point(points[-1], (it.x, it.y)):
             notes.append(f"{label}: same place as the item before; dropped")
             continue
@@ -198,6 +208,13 @@ def items_to_mission(
     }
     if fence:
         data["geofence_polygon"] = [list(v) for v in fence]
+    if gcs.time_limit_s is not None:
+        data["time_limit_s"] = gcs.time_limit_s
+    if gcs.cruise_speed_mps is not None:
+        notes.append(
+            f"cruiseSpeed {gcs.cruise_speed_mps:g} m/s ignored: helixd flies at "
+            "control.max_speed_mps (or a YAML mission's speed_mps)"
+        )
     try:
         mission = Mission.model_validate(data)
     except ValidationError as exc:
@@ -281,8 +298,11 @@ def waypoint_item(seq: int, lat_deg: float, lon_deg: float) -> MissionItem:
     )
 
 
-def mission_to_items(mission: Mission) -> GcsMission:
-    """A ``global`` mission as NAV_WAYPOINT items (seq 1..N; home = waypoint 0's place)."""
+def mission_to_items(
+    mission: Mission, home: tuple[float, float, float] | None = None
+) -> GcsMission:
+    """A ``global`` mission as NAV_WAYPOINT items (seq 1..N; home = ``home`` (lat, lon, alt),
+    e.g. the one the source file had, else waypoint 1's place)."""
     if mission.frame is not MissionFrameKind.GLOBAL:
         raise FormatError(
             [
@@ -293,12 +313,20 @@ def mission_to_items(mission: Mission) -> GcsMission:
         )
     pts = mission.points()
     items = tuple(waypoint_item(i + 1, lat, lon) for i, (lat, lon) in enumerate(pts))
-    polygons = (
+    polygons: tuple[FencePolygon, ...] = (
         (FencePolygon(mission.geofence_polygon, inclusion=True),)
         if mission.geofence_polygon
         else ()
     )
-    return GcsMission(items=items, home_latlon_deg=pts[0], polygons=polygons)
+    # keep-out areas are the geofence's exclusion polygons for a ground station
+    polygons += tuple(FencePolygon(p, inclusion=False) for p in mission.keep_out_polygons)
+    return GcsMission(
+        items=items,
+        home_latlon_deg=pts[0] if home is None else (home[0], home[1]),
+        polygons=polygons,
+        home_alt_m=None if home is None else home[2],
+        time_limit_s=mission.time_limit_s,
+    )
 
 
 @dataclass(frozen=True, slots=True)

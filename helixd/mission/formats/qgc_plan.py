@@ -71,6 +71,7 @@ class MissionJson(_Json):
         max_length=MAX_ITEMS
     )
     plannedHomePosition: list[float | None] | None = Field(None, min_length=2, max_length=3)
+    cruiseSpeed: float | None = Field(None, ge=0.0, le=1000.0)
     version: int = 2
 
 
@@ -94,11 +95,18 @@ class GeoFenceJson(_Json):
     circles: list[CircleJson] = Field(default_factory=list, max_length=1000)
 
 
+class HelixdJson(_Json):
+    """What helixd keeps in a .plan that QGC has no key for (QGC ignores unknown keys)."""
+
+    time_limit_s: float | None = Field(None, gt=0.0, le=86_400.0)
+
+
 class PlanJson(_Json):
     fileType: Literal["Plan"]
     version: int = 1
     mission: MissionJson
     geoFence: GeoFenceJson = Field(default_factory=GeoFenceJson)
+    helixd: HelixdJson | None = None  # written by helixd
 
 
 def load_plan_json(text: str, source: Path | str, kind: str = "") -> Any:
@@ -180,6 +188,7 @@ def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
         and not check_latlon("home", hp[0], hp[1])
     ):
         home = (hp[0], hp[1])
+    home_alt = hp[2] if hp is not None and home is not None and len(hp) > 2 else None
     fence = plan.geoFence
     for i, pj in enumerate(fence.polygons):
         for k, (a, b) in enumerate(pj.polygon):
@@ -200,6 +209,10 @@ def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
             for cj in fence.circles
         ),
         survey_polygons=tuple(surveys),
+        home_alt_m=home_alt,
+        # a plan helixd wrote carries the mission's speed itself; QGC's cruiseSpeed is noted
+        cruise_speed_mps=None if plan.helixd is not None else plan.mission.cruiseSpeed,
+        time_limit_s=None if plan.helixd is None else plan.helixd.time_limit_s,
     )
 
 
@@ -254,11 +267,13 @@ def plan_to_text(gcs: GcsMission, cruise_speed_mps: float | None = None) -> str:
             "globalPlanAltitudeMode": 1,
             "hoverSpeed": 5,
             "items": items,
-            "plannedHomePosition": [home[0], home[1], 0],
+            "plannedHomePosition": [home[0], home[1], gcs.home_alt_m or 0],
             "vehicleType": 10,  # MAV_TYPE_GROUND_ROVER
             "version": 2,
         },
         "rallyPoints": {"points": [], "version": 2},
         "version": 1,
+        # what QGC has no key for (QGC ignores unknown keys); read back by helixd
+        "helixd": {} if gcs.time_limit_s is None else {"time_limit_s": gcs.time_limit_s},
     }
     return json.dumps(doc, indent=4, allow_nan=False) + "\n"

@@ -68,7 +68,11 @@ def parse_wpl_text(text: str, source: Path | str) -> GcsMission:
             problems += check_latlon(f"{src}: line {lineno}", item.x, item.y)
     if problems:
         raise FormatError(problems[:20])
-    return GcsMission(items=tuple(item for _, item in rows[1:]), home_latlon_deg=home_latlon)
+    return GcsMission(
+        items=tuple(item for _, item in rows[1:]),
+        home_latlon_deg=home_latlon,
+        home_alt_m=None if home_latlon is None or not math.isfinite(home.z) else home.z,
+    )
 
 
 _INT_COLUMNS = {0: "index", 1: "current", 2: "frame", 3: "command", 11: "autocontinue"}
@@ -144,7 +148,7 @@ def wpl_to_text(gcs: GcsMission) -> str:
                 *(_fmt(0.0) for _ in range(4)),
                 _fmt(home[0]),
                 _fmt(home[1]),
-                _fmt(0.0),
+                _fmt(gcs.home_alt_m or 0.0),
                 "1",
             ]
         )

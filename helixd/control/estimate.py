@@ -1,0 +1,439 @@
+"""How long a plan takes to fly: the navigator's own speed profile, integrated along the path.
+
+Pure: numbers in, numbers out (no clock, no I/O). :func:`estimate_time` follows the rules
+:mod:`helixd.control.navigator` flies by, on an ideal plant (every command delivered: the slip
+feed-forward makes up what the ground takes, up to ``control.slip.max_gain``):
+
+* line guidance (the default): the pass speed and stop of every waypoint from
+  :func:`helixd.control.line.waypoint_speed_limits` (pivot corners, final headings and the last
+  waypoint are stops, gentle corners are flown at their corner speed); the speed command is
+  the navigator's ``max(min_speed, min(cruise, distance PID, braking profile, corner being
+  rounded))`` and changes by at most ``max_accel_mps2`` — the braking profile of
+  :func:`helixd.control.line.profile_speed_mps` at ``braking_accel_mps2``, reached
+  ``tolerance`` before a flown-through waypoint and held for ``lookahead_m`` past it;
+* pivots in place (ROLL/SCROLL) where the heading error exceeds the pivot angle — at the
+  start and at the stops — until it is below ``heading_threshold_rad``, with the yaw PID, the
+  yaw-rate cap, the yaw-acceleration limit and the rate that can still brake; turns to a final
+  heading until ``final_heading_tolerance_rad``;
+* thesis guidance: the same pivots (at ``heading_threshold_rad``, no acceleration limits) and
+  the thesis speed law (:func:`helixd.control.guidance.track_speed_mps` with the slow-down
+  ramp and the corners' run-out), each leg ending ``tolerance`` before its waypoint.
+
+The speed profile is integrated in one dimension along the path (cross-track and the small
+heading errors of TRACK are left out, as are the corners cut inside a waypoint's radius);
+stretches at a constant speed are taken in one step, so a 100 000-waypoint plan costs
+milliseconds. ``tests/control/test_estimate.py`` holds the estimate against the navigator
+flown on an ideal plant and against flights in the built-in simulator.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+from helixd.base.angles import shortest_angular_distance
+from helixd.base.geometry import require_finite
+from helixd.base.plan import MotionMode, Plan
+from helixd.control import guidance, line
+from helixd.control.params import NavigatorParams
+
+DT_S = 0.02  # integration step of the speed and yaw profiles (s)
+TURN_QUANTUM_RAD = 1e-3  # turns are computed once per angle rounded to this (rad)
+SPEED_FLOOR_MPS = 0.01  # below this nothing arrives: the estimate's own floor (m/s)
+SAME_SPEED_MPS = 1e-9  # command and target equal within this: a constant-speed stretch
+MAX_STEPS_PER_LEG = 1_000_000  # guard against a profile that never arrives
+
+
+@dataclass(frozen=True, slots=True)
+class TimeEstimate:
+    """The estimate and what it is made of (seconds of autopilot time, metres)."""
+
+    total_s: float
+    driving_s: float  # translation, acceleration and braking included
+    turning_s: float  # turns in place: alignment at the start, pivots, final headings
+    path_length_m: float  # the polyline start → waypoint 0 → … → last waypoint
+    pivots: int  # turns in place
+    arrivals_s: tuple[float, ...]  # when each waypoint is reached (s from the start)
+
+
+def estimate_time(
+    plan: Plan,
+    control: NavigatorParams,
+    start_xy_m: tuple[float, float] | None = None,
+    start_yaw_rad: float | None = None,
+) -> TimeEstimate:
+    """Time to fly ``plan`` from ``start_xy_m`` (mission frame) with the rover's yaw
+    ``start_yaw_rad`` (None: its driving axis already along the first leg). ``start_xy_m``
+    None: the first leg is not known yet (an ENU mission before preflight): the estimate
+    begins at waypoint 0, reached, facing waypoint 1."""
+    wps = plan.waypoints
+    if not wps:
+        return TimeEstimate(0.0, 0.0, 0.0, 0.0, 0, ())
+    for w in wps:
+        require_finite("plan waypoint", w.x_m, w.y_m, w.tolerance_m)
+    pts = [(w.x_m, w.y_m) for w in wps]
+    begin = pts[0] if start_xy_m is None else start_xy_m
+    require_finite("start", *begin)
+    if start_xy_m is None or start_yaw_rad is None:
+        yaw0 = None
+    else:
+        require_finite("start yaw", start_yaw_rad)
+        yaw0 = start_yaw_rad
+    path = _Path([begin, *pts], [w.final_yaw_rad for w in wps], yaw0, plan.mode)
+    if control.guidance == "thesis":
+        return _Thesis(plan, control, path).run()
+    return _Line(plan, control, path).run()
+
+
+# -- the path ----------------------------------------------------------------------------------
+
+
+class _Path:
+    """Start + waypoints: leg lengths, arc length at each point, leg courses, headings."""
+
+    def __init__(
+        self,
+        points: list[tuple[float, float]],
+        final_yaw_rad: list[float | None],
+        start_yaw_rad: float | None,
+        mode: MotionMode,
+    ) -> None:
+        self.points = points
+        self.final_yaw_rad = final_yaw_rad
+        self.mode = mode
+        self.axis_rad = guidance.driving_axis_rad(mode)
+        n = len(points) - 1
+        self.lengths = [math.dist(points[j], points[j + 1]) for j in range(n)]
+        self.s = [0.0]
+        for length in self.lengths:
+            self.s.append(self.s[-1] + length)
+        # course of each leg; a degenerate leg keeps the course of the one before (or after)
+        courses: list[float | None] = [
+            math.atan2(points[j + 1][1] - points[j][1], points[j + 1][0] - points[j][0])
+            if self.lengths[j] >= line.MIN_LEG_M
+            else None
+            for j in range(n)
+        ]
+        known = next((c for c in courses if c is not None), 0.0)
+        filled: list[float] = []
+        for c in courses:
+            known = known if c is None else c
+            filled.append(known)
+        self.courses = filled
+        # the heading the rover starts with (None: aligned with its first real leg)
+        self.start_yaw_rad = (
+            start_yaw_rad if start_yaw_rad is not None else self.courses[0] - self.axis_rad
+        )
+
+    @property
+    def length_m(self) -> float:
+        return self.s[-1]
+
+
+@lru_cache(maxsize=4096)
+def _turn_s(
+    angle_rad: float,
+    until_rad: float,
+    kp: float,
+    kd: float,
+    max_rate_radps: float,
+    max_accel_radps2: float | None,
+) -> float:
+    """Turning in place from rest through ``angle_rad`` until the error is below
+    ``until_rad``: the yaw PID (derivative on the measurement), the rate cap and — with
+    ``max_accel_radps2`` (line guidance) — the rate that can still brake and the acceleration
+    limit, stepped as the navigator steps them."""
+    e, w, t = angle_rad, 0.0, 0.0
+    for _ in range(MAX_STEPS_PER_LEG):
+        if e <= until_rad:
+            break
+        out = max(-max_rate_radps, min(max_rate_radps, kp * e - kd * w))
+        if max_accel_radps2 is None:
+            w = out
+        else:
+            out = line.stoppable_yaw_rate_radps(out, e, max_accel_radps2)
+            w = line.step_toward(w, out, max_accel_radps2 * DT_S)
+        if w <= 0.0 and kp * e <= 0.0:
+            return math.inf  # nothing turns the rover
+        e -= w * DT_S
+        t += DT_S
+    return t
+
+
+def _turn_time_s(
+    angle_rad: float, until_rad: float, control: NavigatorParams, limited: bool
+) -> float:
+    quantised = math.ceil(abs(angle_rad) / TURN_QUANTUM_RAD) * TURN_QUANTUM_RAD
+    pid = control.yaw_pid
+    return _turn_s(
+        quantised,
+        until_rad,
+        pid.kp,
+        pid.kd,
+        control.max_yaw_rate_radps,
+        control.max_yaw_accel_radps2 if limited else None,
+    )
+
+
+# -- line guidance -----------------------------------------------------------------------------
+
+
+class _Line:
+    """The line guidance's profile (see the module docstring)."""
+
+    def __init__(self, plan: Plan, control: NavigatorParams, path: _Path) -> None:
+        self.plan, self.control, self.path = plan, control, path
+        self.cruise = plan.speed_mps
+        self.floor = max(control.min_speed_mps, SPEED_FLOOR_MPS)
+        self.brake = control.braking_accel_mps2
+        wps = plan.waypoints
+        self.speeds, self.stops = line.waypoint_speed_limits(
+            path.points,
+            [y is not None for y in path.final_yaw_rad],
+            self.cruise,
+            control.pivot_angle_rad,
+            control.lookahead_m,
+            control.max_lateral_accel_mps2,
+            control.max_yaw_rate_radps,
+        )
+        n = len(wps)
+        self.leg_end = [
+            path.s[j + 1] - (0.0 if self.stops[j] else wps[j].tolerance_m) for j in range(n)
+        ]
+        # Braking: the profile at arc length s on leg j is √(M_j − 2·b·s), M_j the smallest
+        # u_k² + 2·b·(end of leg k) over the waypoints k ≥ j up to the next stop.
+        self.brake_m = [0.0] * n
+        self.stop_s = [0.0] * n  # arc length of the next stop (the distance PID's goal)
+        for j in range(n - 1, -1, -1):
+            own = self.speeds[j] ** 2 + 2.0 * self.brake * self.leg_end[j]
+            last = self.stops[j] or j == n - 1
+            self.brake_m[j] = own if last else min(own, self.brake_m[j + 1])
+            self.stop_s[j] = path.s[j + 1] if last else self.stop_s[j + 1]
+
+    def run(self) -> TimeEstimate:
+        path, control, mode = self.path, self.control, self.plan.mode
+        enter = max(control.pivot_angle_rad, control.heading_threshold_rad)
+        t = driving = turning = 0.0
+        pivots = 0
+        arrivals: list[float] = []
+        heading = path.start_yaw_rad
+        v = 0.0
+        s = 0.0
+        for j in range(len(self.plan.waypoints)):
+            course = path.courses[j]
+            if path.lengths[j] >= line.MIN_LEG_M and mode is not MotionMode.OMNI:
+                e = abs(shortest_angular_distance(heading, course - path.axis_rad))
+                if e > enter:  # ALIGN: the translation decays while the rover pivots
+                    dt = _turn_time_s(e, control.heading_threshold_rad, control, True)
+                    turning += dt
+                    pivots += 1
+                    v = 0.0
+                heading = course - path.axis_rad
+            elif j > 0 and self.stops[j - 1]:  # OMNI leaving a stop: keep what points ahead
+                v *= max(0.0, math.cos(course - path.courses[j - 1]))
+            s, v, dt = self._drive(j, s, v)
+            driving += dt
+            t = driving + turning
+            arrivals.append(t)
+            final = path.final_yaw_rad[j]
+            if final is not None and mode is not MotionMode.OMNI:
+                e = abs(shortest_angular_distance(heading, final))
+                if e > control.final_heading_tolerance_rad:
+                    turning += _turn_time_s(e, control.final_heading_tolerance_rad, control, True)
+                    pivots += 1
+                    v = 0.0
+                heading = final
+        total = driving + turning
+        return TimeEstimate(total, driving, turning, path.length_m, pivots, tuple(arrivals))
+
+    def _target(self, j: int, s: float, v: float) -> tuple[float, float, str]:
+        """The speed command the navigator aims at, at arc length ``s`` on leg ``j``; the arc
+        length up to which that target stays the same; and what sets it: ``"cap"`` (cruise,
+        the corner being rounded, or the floor: constant), ``"profile"`` (braking) or
+        ``"pid"`` (the distance PID close to a stop)."""
+        control = self.control
+        kp, kd = control.distance_pid.kp, control.distance_pid.kd
+        m = self.brake_m[j]
+        profile = math.sqrt(max(0.0, m - 2.0 * self.brake * s))
+        pid = kp * max(0.0, self.stop_s[j] - s) - kd * v
+        cap, until = self.cruise, math.inf
+        corner_end = self.path.s[j] + control.lookahead_m
+        if j > 0 and 0.0 < self.speeds[j - 1] < cap and s < corner_end:
+            cap, until = self.speeds[j - 1], corner_end  # still rounding the corner just passed
+        if min(profile, pid) < self.floor:
+            return self.floor, math.inf, "cap"  # both only fall: the floor holds to the end
+        if cap < self.floor:
+            return self.floor, until, "cap"
+        if profile < cap and profile <= pid:
+            return profile, s, "profile"
+        if pid < cap:
+            return pid, s, "pid"
+        # constant until the profile or the PID falls below the cap
+        if self.brake > 0.0:
+            until = min(until, (m - cap * cap) / (2.0 * self.brake))
+        if kp > 0.0:
+            until = min(until, self.stop_s[j] - cap * (1.0 + kd) / kp)
+        return cap, until, "cap"
+
+    def _pid_ok(self, j: int, s: float, v: float) -> bool:
+        """The distance PID still allows ``v`` at ``s`` (it only falls as s and v grow)."""
+        pid = self.control.distance_pid
+        return pid.kp * (self.stop_s[j] - s) - pid.kd * v >= v
+
+    def _accelerate(
+        self, j: int, s: float, v: float, target: float, until: float, end: float
+    ) -> tuple[float, float, float] | None:
+        """At ``max_accel`` from ``v`` until the command meets the cap or the braking profile:
+        (s, v, time), or None when the PID would bite first (stepped instead)."""
+        a, b = self.control.max_accel_mps2, self.brake
+        m = self.brake_m[j]
+        x = (target * target - v * v) / (2.0 * a)
+        x = min(x, (m - 2.0 * b * s - v * v) / (2.0 * (a + b)), until - s, end - s)
+        if x <= 0.0:
+            return None
+        v1 = math.sqrt(v * v + 2.0 * a * x)
+        if not self._pid_ok(j, s + x, v1):
+            return None
+        return s + x, v1, (v1 - v) / a
+
+    def _follow_profile(
+        self, j: int, s: float, v: float, end: float
+    ) -> tuple[float, float, float] | None:
+        """Braking along √(M − 2·b·s) until the PID or the floor takes over or the leg ends."""
+        b, m, stop = self.brake, self.brake_m[j], self.stop_s[j]
+        pid = self.control.distance_pid
+        c = 1.0 + pid.kd
+        c0 = m - 2.0 * b * stop
+        s_next = min(end, (m - self.floor**2) / (2.0 * b))
+        if pid.kp > 0.0:
+            # kp·(S − s) = (1 + kd)·√(M − 2·b·s): with y = S − s, kp²y² − 2b·c²·y − c²·c0 = 0
+            disc = (b * c * c) ** 2 + pid.kp**2 * c * c * c0
+            if disc >= 0.0:
+                y = (b * c * c + math.sqrt(disc)) / pid.kp**2
+                s_next = min(s_next, stop - y)
+        if s_next <= s:
+            return None
+        v1 = math.sqrt(max(0.0, m - 2.0 * b * s_next))
+        return s_next, v1, (v - v1) / b
+
+    def _drive(self, j: int, s: float, v: float) -> tuple[float, float, float]:
+        """Drive leg ``j`` from arc length ``s`` at speed ``v`` to its end: (s, v, time).
+
+        Constant speed, acceleration to a cap and braking along the profile are taken in
+        closed form; the rest (the PID's last metres, changes of the binding limit) in
+        ``DT_S`` steps of the navigator's acceleration-limited command."""
+        end = self.leg_end[j]
+        t = 0.0
+        step = self.control.max_accel_mps2 * DT_S
+        for _ in range(MAX_STEPS_PER_LEG):
+            if s >= end:
+                break
+            target, until, kind = self._target(j, s, v)
+            if abs(v - target) <= SAME_SPEED_MPS and until > s and v > 0.0:
+                reach = min(until, end)
+                t += (reach - s) / v
+                s = reach
+                continue
+            jump = None
+            if v < target and kind == "cap":
+                jump = self._accelerate(j, s, v, target, until, end)
+            elif v < target and kind == "profile":
+                jump = self._accelerate(j, s, v, math.inf, until, end)
+            elif kind == "profile" and abs(v - target) <= SAME_SPEED_MPS and self.brake > 0.0:
+                jump = self._follow_profile(j, s, v, end)
+            if jump is not None:
+                s, v, dt = jump
+                t += dt
+                continue
+            v = line.step_toward(v, target, step)
+            ds = v * DT_S
+            if s + ds >= end:
+                t += (end - s) / v if v > 0.0 else DT_S
+                s = end
+                break
+            s += ds
+            t += DT_S
+        else:
+            return end, v, math.inf
+        return max(s, end), v, t
+
+
+# -- thesis guidance ---------------------------------------------------------------------------
+
+
+class _Thesis:
+    """The thesis law: turn to the waypoint, drive at it, reached ``tolerance`` before it."""
+
+    def __init__(self, plan: Plan, control: NavigatorParams, path: _Path) -> None:
+        self.plan, self.control, self.path = plan, control, path
+
+    def run(self) -> TimeEstimate:
+        plan, control, path = self.plan, self.control, self.path
+        wps = plan.waypoints
+        run_out = guidance.run_out_m(
+            path.points, [y is not None for y in path.final_yaw_rad], control.corner_slowdown_rad
+        )
+        here = path.points[0]
+        heading = path.start_yaw_rad
+        driving = turning = 0.0
+        pivots = 0
+        arrivals: list[float] = []
+        for j, wp in enumerate(wps):
+            goal = (wp.x_m, wp.y_m)
+            distance = math.dist(here, goal)
+            if distance >= wp.tolerance_m:
+                course = math.atan2(goal[1] - here[1], goal[0] - here[0])
+                if plan.mode is not MotionMode.OMNI:
+                    e = abs(shortest_angular_distance(heading, course - path.axis_rad))
+                    if e > control.heading_threshold_rad:
+                        turning += _turn_time_s(e, control.heading_threshold_rad, control, False)
+                        pivots += 1
+                    heading = course - path.axis_rad
+                driving += self._leg_s(distance, wp.tolerance_m, run_out[j])
+                k = (distance - wp.tolerance_m) / distance
+                here = (here[0] + (goal[0] - here[0]) * k, here[1] + (goal[1] - here[1]) * k)
+            arrivals.append(driving + turning)
+            final = path.final_yaw_rad[j]
+            if final is not None and plan.mode is not MotionMode.OMNI:
+                e = abs(shortest_angular_distance(heading, final))
+                if e > control.final_heading_tolerance_rad:
+                    turning += _turn_time_s(e, control.final_heading_tolerance_rad, control, False)
+                    pivots += 1
+                heading = final
+        return TimeEstimate(
+            driving + turning, driving, turning, path.length_m, pivots, tuple(arrivals)
+        )
+
+    def _leg_s(self, distance_m: float, tolerance_m: float, run_out_m: float) -> float:
+        """From ``distance_m`` to ``tolerance_m`` off the waypoint at the thesis speed law."""
+        control, cruise = self.control, self.plan.speed_mps
+        kp = control.distance_pid.kp
+        full = max(control.slowdown_radius_m, cruise / kp if kp > 0.0 else math.inf)
+        e, t = distance_m, 0.0
+        free = e + run_out_m - full  # distance at cruise before the ramp or the PID bites
+        if free > 0.0:
+            cruise_m = min(free, e - tolerance_m)
+            t += cruise_m / cruise
+            e -= cruise_m
+        ds = cruise * DT_S
+        for _ in range(MAX_STEPS_PER_LEG):
+            if e <= tolerance_m:
+                break
+            e_go = e + run_out_m
+            v = guidance.track_speed_mps(
+                min(cruise, kp * e_go),
+                e_go,
+                tolerance_m,
+                cruise,
+                control.slowdown_radius_m,
+                control.min_speed_mps,
+            )
+            v = max(v, SPEED_FLOOR_MPS)
+            step = min(ds, e - tolerance_m)
+            t += step / v
+            e -= step
+        return t
+
+
+__all__ = ["TimeEstimate", "estimate_time"]

@@ -1,0 +1,127 @@
+"""What ``helixd check`` prints about a checked mission: the plan (the operator's waypoints
+numbered from 1 as a ground station numbers mission items, the planner's via points marked
+as such), the path as it will be flown (planned detours included), the time estimate from
+the navigator's own speed profile (:mod:`helixd.control.estimate`) and its margin to the
+mission time limit, the limits and the checks left for preflight.
+
+Pure: lines of text out; the CLI prints them.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from helixd.base.plan import Plan, waypoint_label
+from helixd.config import HelixdConfig
+from helixd.control.estimate import TimeEstimate
+from helixd.mission import Mission, MissionFrameKind
+from helixd.mission.validate import pending_checks, plan_for_check
+from helixd.planning.route import RoutePlan
+from helixd.runtime.planned import route_lines, route_time_estimate
+
+MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
+
+
+def waypoint_table(plan: Plan) -> list[str]:
+    """One row per waypoint: the operator's numbered 1…N, via points as ``via → N``."""
+    rows = [f"{'#':>7} {'x_m':>9} {'y_m':>9} {'tol_m':>6} {'heading_deg':>11}"]
+    count = len(plan.waypoints)
+    head = count if count <= MAX_TABLE_ROWS else MAX_TABLE_ROWS // 2
+    for i, (wp, number) in enumerate(zip(plan.waypoints, plan.numbers(), strict=True)):
+        if head <= i < count - (MAX_TABLE_ROWS - head):
+            if i == head:
+                rows.append(f"... {count - MAX_TABLE_ROWS} waypoints not shown ...")
+            continue
+        hdg = "-" if wp.final_yaw_rad is None else f"{math.degrees(wp.final_yaw_rad):.1f}"
+        label = waypoint_label(number, wp.via)
+        rows.append(f"{label:>7} {wp.x_m:>9.2f} {wp.y_m:>9.2f} {wp.tolerance_m:>6.2f} {hdg:>11}")
+    return rows
+
+
+def estimate_line(estimate: TimeEstimate, cfg: HelixdConfig, msn: Mission, note: str) -> str:
+    """The estimate, what it is made of, and its margin to the time limit in force."""
+    eta = estimate.total_s
+    limit = cfg.safety.mission_time_limit_s
+    source = (
+        "the mission's time_limit_s"
+        if msn.time_limit_s is not None
+        else "safety.mission_time_limit_s"
+    )
+    parts = f"{estimate.driving_s:.0f} s driving"
+    if estimate.pivots:
+        parts += f", {estimate.turning_s:.0f} s in {estimate.pivots} turns in place"
+    if not math.isfinite(eta):
+        return f"estimate: never arrives{note}; limit {source} = {limit:.0f} s"
+    margin = limit - eta
+    ratio = f"{limit / eta:.1f}× the estimate" if eta > 0 else "no time needed"
+    return (
+        f"estimate: {eta:.0f} s{note} ({eta / 60:.1f} min: {parts}); limit {source} = "
+        f"{limit:.0f} s, margin {margin:.0f} s ({ratio})"
+    )
+
+
+def check_lines(
+    cfg: HelixdConfig,
+    msn: Mission,
+    path: Path,
+    config_label: str,
+    planned: Mission,
+    route: RoutePlan | None,
+) -> list[str]:
+    """Everything ``check`` prints after the inputs passed (``planned``: the mission with the
+    planner's via points, ``msn`` itself when nothing was planned)."""
+    plan, provisional = plan_for_check(planned, cfg)
+    note = (
+        " (global: shown relative to waypoint 1; the EKF origin is used in flight)"
+        if provisional
+        else ""
+    )
+    axes = (
+        "x forward / y left of start" if msn.frame is MissionFrameKind.START else "x east / y north"
+    )
+    vias = len(plan.waypoints) - plan.operator_count
+    lines = [
+        f"config  : {config_label}  OK",
+        f"mission : {path}  OK",
+        f"plan    : {plan.name}  mode={plan.mode.value}  frame={plan.frame.value}{note}",
+        f"axes    : {axes} (metres); waypoints numbered from 1"
+        + (f", {vias} via points inserted by the planner" if vias else ""),
+        *waypoint_table(plan),
+    ]
+    estimate, start_note = route_time_estimate(cfg, planned, route, path)
+    straight = ""
+    if route is not None:  # the detours, against the straight legs from the same start
+        original, _ = plan_for_check(msn, cfg)
+        first = original.waypoints[0]
+        start_xy = (first.x_m, first.y_m)
+        if msn.frame is MissionFrameKind.LOCAL_NED:
+            start_xy = (cfg.planning.start_ne_m[1], cfg.planning.start_ne_m[0])
+        straight = (
+            f", planned around obstacles (straight legs {original.path_length_m(start_xy):.1f} m)"
+        )
+    lines.append(
+        f"path    : {estimate.path_length_m:.1f} m{start_note}{straight} at "
+        f"{plan.speed_mps:.2f} m/s"
+    )
+    lines.append(estimate_line(estimate, cfg, msn, start_note))
+    own = [
+        *(
+            [f"geofence polygon ({len(msn.geofence_polygon)} vertices)"]
+            if msn.geofence_polygon
+            else []
+        ),
+        *([f"geofence radius {msn.geofence_radius_m} m"] if msn.geofence_radius_m else []),
+        *([f"time limit {msn.time_limit_s:.0f} s"] if msn.time_limit_s is not None else []),
+    ]
+    if own:
+        lines.append(f"limits  : the mission's own {', '.join(own)} replace the config's")
+    later = pending_checks(msn, cfg)
+    if later:
+        lines.append(f"preflight: run checks with the start pose: {', '.join(later)}")
+    if route is not None:
+        lines.extend(route_lines(route))
+    return lines
+
+
+__all__ = ["MAX_TABLE_ROWS", "check_lines", "estimate_line", "waypoint_table"]

@@ -1,0 +1,88 @@
+"""How long a mission takes, against its time limit: the navigator's own speed profile
+(:func:`helixd.control.estimate.estimate_time`) on the plan as it will be flown.
+
+:func:`flight_problems` is :func:`helixd.mission.validate.mission_problems` plus the time
+check, so ``check``, ``run`` and the daemon's preflight refuse the same missions; the mission
+loader itself loads nothing of the controller.
+
+* ``start`` missions are estimated from the start point, facing +x;
+* ``local_ned``/``global`` missions from the pose at preflight; before it (``check``) from
+  waypoint 1 — the first leg is unknown, which only shortens the estimate — or, for a route
+  planned around obstacles, from ``planning.start_ne_m`` where its first leg was planned from.
+
+Pure: no I/O, no clocks.
+"""
+
+from __future__ import annotations
+
+import math
+
+from helixd.base.frames import NedPose
+from helixd.config import HelixdConfig
+from helixd.control.estimate import TimeEstimate, estimate_time
+from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
+from helixd.mission.validate import apply_mission_limits, mission_problems, plan_for_check
+
+
+def plan_time_estimate(
+    plan: Plan,
+    cfg: HelixdConfig,
+    start_ned: NedPose | None = None,
+    start_xy_m: tuple[float, float] | None = None,
+) -> TimeEstimate:
+    """The navigator's time for ``plan``: a ``start`` mission from its origin facing +x; an
+    ENU mission from ``start_ned`` (the pose at preflight), else from ``start_xy_m`` (mission
+    frame, facing the first leg), else from its first waypoint."""
+    if plan.frame is MissionFrameKind.START:
+        return estimate_time(plan, cfg.control, (0.0, 0.0), 0.0)
+    if start_ned is not None:
+        yaw = math.pi / 2 - start_ned.yaw_ned_rad  # compass → counter-clockwise from East
+        return estimate_time(plan, cfg.control, (start_ned.east_m, start_ned.north_m), yaw)
+    return estimate_time(plan, cfg.control, start_xy_m)
+
+
+def time_problems(estimate: TimeEstimate, limit_s: float, note: str = "") -> list[str]:
+    """The refusal when the estimate does not fit the mission time limit (else nothing)."""
+    eta = estimate.total_s
+    if math.isfinite(eta) and eta <= limit_s:
+        return []
+    return [
+        f"estimated time{note} {eta:.0f} s ({estimate.path_length_m:.1f} m with acceleration, "
+        f"braking and {estimate.pivots} turns in place) exceeds safety.mission_time_limit_s = "
+        f"{limit_s:.0f} s; the run would be aborted (split the mission or raise the limit)"
+    ]
+
+
+def flight_problems(
+    mission: Mission,
+    cfg: HelixdConfig,
+    *,
+    start_ned: NedPose | None = None,
+    origin_latlon_deg: tuple[float, float] | None = None,
+    checked_plan: tuple[Plan, bool] | None = None,
+) -> list[str]:
+    """:func:`helixd.mission.validate.mission_problems` and the estimated time against the
+    time limit in force (the mission's own, else the config's)."""
+    problems = mission_problems(
+        mission,
+        cfg,
+        start_ned=start_ned,
+        origin_latlon_deg=origin_latlon_deg,
+        checked_plan=checked_plan,
+    )
+    try:
+        if checked_plan is not None and origin_latlon_deg is None:
+            plan = checked_plan[0]
+        elif mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
+            plan = resolve_plan(mission, cfg.control, cfg.mission, origin_latlon_deg)
+        else:
+            plan = plan_for_check(mission, cfg)[0]
+    except PlanError:
+        return problems  # mission_problems said so
+    limit_s = apply_mission_limits(cfg, mission).safety.mission_time_limit_s
+    ned = None if plan.frame is MissionFrameKind.START else start_ned
+    note = "" if plan.frame is MissionFrameKind.START or ned is not None else " from waypoint 1"
+    return problems + time_problems(plan_time_estimate(plan, cfg, ned), limit_s, note)
+
+
+__all__ = ["flight_problems", "plan_time_estimate", "time_problems"]

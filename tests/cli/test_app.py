@@ -1,0 +1,85 @@
+"""The command line itself: --version and -h, flags, help texts whole and free of internals."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from helixd import __version__
+from tests.support.cli import run_main
+
+COMMANDS = [
+    [],
+    ["check"],
+    ["run"],
+    ["status"],
+    ["sim"],
+    ["plot"],
+    ["replay"],
+    ["export"],
+    ["version"],
+    ["mission"],
+    ["mission", "convert"],
+    ["mission", "survey"],
+    ["mission", "download"],
+    ["mission", "upload"],
+]
+
+
+@pytest.mark.parametrize("flag", ["--version", "-V"])
+def test_version_flag(flag: str, capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run_main([flag], capsys)
+    assert (code, out, err) == (0, f"helixd {__version__}\n", "")
+
+
+@pytest.mark.parametrize("command", COMMANDS, ids=lambda c: " ".join(c) or "helixd")
+def test_every_help_is_whole_and_speaks_to_the_operator(
+    command: list[str], capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """-h works everywhere; at 80 columns nothing is cut ("mission.ground_station_…", a
+    command's summary ending in "..."), no flag shows a "<bool>" argument, and no help names
+    helixd's modules or carries reStructuredText markup."""
+    monkeypatch.setenv("COLUMNS", "80")
+    code, out, err = run_main([*command, "-h"], capsys)
+    assert code == 0 and err == "", err
+    assert out.startswith("Usage: ")
+    assert "…" not in out and "<bool>" not in out
+    body = [ln for ln in out.splitlines() if not ln.startswith("Usage:")]
+    assert not [ln for ln in body if ln.rstrip().endswith("...")]
+    assert not re.search(r"\bhelixd\.(?!yaml)[a-z]", out), out
+    assert "``" not in out and ":mod:" not in out and ":func:" not in out
+
+
+def test_run_help_names_every_option_whole(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("COLUMNS", "80")
+    _, out, _ = run_main(["run", "-h"], capsys)
+    text = " ".join(out.split())
+    assert "(default: mission.ground_station_mode)" in text
+    assert re.search(r"^\s+--sim\s+fly against", out, re.MULTILINE)  # a plain flag
+
+
+def test_a_flag_takes_no_value(capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run_main(["run", "--mission", "square", "--sim", "true"], capsys)
+    assert code == 2
+    assert err.count("error:") == 1 and "unexpected extra argument(s) (true)" in err
+
+
+@pytest.mark.parametrize("argv", [["sim", "--speedup", "50"], ["run", "--sim-speedup", "50"]])
+def test_sim_and_run_share_the_speedup_bound(
+    argv: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, _, err = run_main([*argv, "--mission", "square"] if argv[0] == "run" else argv, capsys)
+    assert code == 2
+    assert err.count("error:") == 1 and "less than or equal to 20" in err
+
+
+@pytest.mark.parametrize("command", [["sim"], ["run"]])
+def test_sim_and_run_show_the_same_speedup_range(
+    command: list[str], capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("COLUMNS", "200")
+    _, out, _ = run_main([*command, "-h"], capsys)
+    assert "0.1<=x<=20.0" in out

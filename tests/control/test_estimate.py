@@ -1,0 +1,167 @@
+"""helixd.control.estimate: the time estimate against the navigator itself, flown in-process
+on the ideal plant through the real scroll pipeline (tests/support/ideal_plant.py).
+
+The flights in the built-in simulator are compared in
+tests/integration/test_daemon_missions.py (square 83.4 s estimated / 83–85 s flown)."""
+
+from __future__ import annotations
+
+import math
+import random
+import time
+from dataclasses import replace
+
+import pytest
+
+from helixd.base.geometry import Pose2D
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
+from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
+from helixd.control.estimate import estimate_time
+from helixd.control.navigator import Navigator
+from helixd.mission import load_mission, resolve_plan
+from helixd.planning import load_map, plan_mission
+from tests.support.ideal_plant import IdealPlant
+from tests.support.paths import REPO_ROOT
+
+CFG = HelixdConfig()
+LINE = CFG.control
+THESIS = CFG.control.model_copy(update={"guidance": "thesis"})
+DT_S = 0.025  # the 40 Hz pose rate the autopilot grants
+LINE_REL = 0.03  # the estimate is within this of the navigator's own time (line guidance)
+THESIS_REL = 0.05
+
+
+def fly_s(plan: Plan, start: Pose2D, control: ControlConfig) -> float:
+    """Autopilot seconds the navigator needs on the ideal plant (the scroll pipeline)."""
+    nav = Navigator(plan, control)
+    plant = IdealPlant(start, plan.mode, VehicleConfig())
+    for _ in range(400_000):
+        out = nav.step(plant.pose, plant.t_s)
+        if out.done:
+            return plant.t_s
+        plant.step(out.command, DT_S)
+    raise AssertionError("the navigator never finished")
+
+
+def shipped(name: str, mode: MotionMode) -> Plan:
+    msn = load_mission(REPO_ROOT / "config" / "missions" / f"{name}.yaml")
+    return replace(resolve_plan(msn, CFG.control, CFG.mission), mode=mode)
+
+
+@pytest.mark.parametrize(("guidance", "rel"), [(LINE, LINE_REL), (THESIS, THESIS_REL)])
+@pytest.mark.parametrize("mode", list(MotionMode))
+@pytest.mark.parametrize("name", ["square", "hexagon", "circle"])
+def test_shipped_missions_take_the_estimated_time(
+    name: str, mode: MotionMode, guidance: ControlConfig, rel: float
+) -> None:
+    plan = shipped(name, mode)
+    start = Pose2D(0.0, 0.0, 0.0)
+    estimate = estimate_time(plan, guidance, (0.0, 0.0), 0.0)
+    flown = fly_s(plan, start, guidance)
+    assert estimate.total_s == pytest.approx(flown, rel=rel)
+
+
+def test_the_square_counts_acceleration_braking_and_pivots() -> None:
+    """The field engineer's square: 71 s at cruise plus turns at the full yaw rate; the
+    navigator takes 83 s (the simulator flies it in 83.1 s)."""
+    plan = shipped("square", MotionMode.ROLL)
+    est = estimate_time(plan, LINE, (0.0, 0.0), 0.0)
+    assert est.path_length_m == pytest.approx(40.0)
+    assert est.pivots == 3  # the three corners; the last waypoint is a stop, not a turn
+    assert est.driving_s > 40.0 / plan.speed_mps + 10.0  # four accelerations and brakings
+    assert est.turning_s > 3 * (math.pi / 2) / LINE.max_yaw_rate_radps  # yaw acceleration
+    assert est.total_s == pytest.approx(fly_s(plan, Pose2D(0.0, 0.0, 0.0), LINE), rel=0.01)
+    assert len(est.arrivals_s) == 4 and est.arrivals_s[-1] == pytest.approx(est.total_s)
+    assert list(est.arrivals_s) == sorted(est.arrivals_s)
+
+
+def test_the_pond_crossing_route_is_estimated_with_its_detours() -> None:
+    """The planned pond crossing (9 via points around the pontoon and the pipe), from the
+    simulator's start (north-facing at the origin): 229.5 s estimated, 230.2 s flown."""
+    msn = load_mission(REPO_ROOT / "config" / "missions" / "pond-crossing.yaml")
+    occupancy = load_map(REPO_ROOT / "config" / "maps" / "pond.yaml", CFG.planning.max_cells)
+    planned, _ = plan_mission(msn, CFG, occupancy)
+    plan = resolve_plan(planned, CFG.control, CFG.mission)
+    assert len(plan.waypoints) > len(msn.waypoints)  # the detours are in it
+    north = math.pi / 2  # ENU: counter-clockwise from East
+    est = estimate_time(plan, LINE, (0.0, 0.0), north)
+    assert est.path_length_m > 110.0  # straight it would be 55 m
+    assert est.total_s == pytest.approx(fly_s(plan, Pose2D(0.0, 0.0, north), LINE), rel=0.02)
+
+
+def random_plans(seed: int, count: int) -> list[tuple[Plan, Pose2D]]:
+    rng = random.Random(seed)
+    out = []
+    for _ in range(count):
+        n = rng.randint(1, 7)
+        wps = tuple(
+            PlanWaypoint(
+                rng.uniform(-15.0, 15.0),
+                rng.uniform(-15.0, 15.0),
+                rng.choice([0.3, 0.5, 1.0, 2.0]),
+                rng.choice([None, None, None, rng.uniform(-3.0, 3.0)]),
+            )
+            for _ in range(n)
+        )
+        mode = rng.choice(list(MotionMode))
+        speed = rng.choice([0.3, 0.6, 1.0])
+        plan = Plan("r", mode, MissionFrameKind.START, wps, speed)
+        out.append((plan, Pose2D(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-3, 3))))
+    return out
+
+
+@pytest.mark.parametrize(("guidance", "rel"), [(LINE, LINE_REL), (THESIS, THESIS_REL)])
+def test_random_missions_take_the_estimated_time(guidance: ControlConfig, rel: float) -> None:
+    """Random corners, final headings, tolerances, speeds and start poses."""
+    for plan, start in random_plans(24, 25):
+        est = estimate_time(plan, guidance, (start.x_m, start.y_m), start.yaw_rad).total_s
+        flown = fly_s(plan, start, guidance)
+        if flown < 2.0:  # a waypoint inside its tolerance at the start: nothing to time
+            assert est < 2.0
+            continue
+        assert est == pytest.approx(flown, rel=rel), (plan, start)
+
+
+def test_without_a_start_the_estimate_begins_at_waypoint_1_facing_waypoint_2() -> None:
+    wps = (PlanWaypoint(0.0, 0.0, 1.0), PlanWaypoint(0.0, 20.0, 1.0))
+    plan = Plan("n", MotionMode.ROLL, MissionFrameKind.LOCAL_NED, wps, 0.6)
+    est = estimate_time(plan, LINE)
+    assert est.pivots == 0 and est.path_length_m == pytest.approx(20.0)
+    assert est.arrivals_s[0] == 0.0
+    facing_away = estimate_time(plan, LINE, (0.0, 0.0), -math.pi / 2)
+    assert facing_away.pivots == 1 and facing_away.total_s > est.total_s + 2.0
+
+
+def test_a_slower_cruise_or_braking_takes_longer() -> None:
+    plan = shipped("square", MotionMode.ROLL)
+    base = estimate_time(plan, LINE, (0.0, 0.0), 0.0).total_s
+    gentle = LINE.model_copy(update={"braking_accel_mps2": 0.05})
+    assert estimate_time(plan, gentle, (0.0, 0.0), 0.0).total_s > base + 5.0
+    slow = replace(plan, speed_mps=0.3)
+    assert estimate_time(slow, LINE, (0.0, 0.0), 0.0).total_s > base + 50.0
+
+
+def test_a_long_dense_mission_is_estimated_in_well_under_a_second() -> None:
+    """The 100 000-waypoint check budget (tests/files/test_yamlio.py) holds with the estimate."""
+    n, step_m, radius_m = 100_000, 0.3, 40.0
+    wps = tuple(
+        PlanWaypoint(
+            radius_m * math.cos(i * step_m / radius_m) - radius_m,
+            radius_m * math.sin(i * step_m / radius_m),
+            1.0,
+        )
+        for i in range(n)
+    )
+    plan = Plan("big", MotionMode.OMNI, MissionFrameKind.START, wps, 0.6)
+    cpu0 = time.process_time()
+    est = estimate_time(plan, LINE, (0.0, 0.0), 0.0)
+    assert time.process_time() - cpu0 < 2.0
+    assert est.total_s == pytest.approx(est.path_length_m / 0.6, rel=0.01)
+
+
+def test_an_empty_or_unreachable_profile_is_not_a_hang() -> None:
+    plan = Plan("e", MotionMode.ROLL, MissionFrameKind.START, (), 0.6)
+    assert estimate_time(plan, LINE).total_s == 0.0
+    stuck = LINE.model_copy(update={"min_speed_mps": 0.0})
+    one = Plan("s", MotionMode.OMNI, MissionFrameKind.START, (PlanWaypoint(5.0, 0.0, 1.0),), 0.6)
+    assert math.isfinite(estimate_time(one, stuck, (0.0, 0.0), 0.0).total_s)

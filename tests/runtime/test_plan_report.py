@@ -1,0 +1,68 @@
+"""helixd.runtime.plan_report: what `helixd check` prints — the operator's waypoints numbered
+from 1, via points as such, the path and the estimate of the route as flown, the margin."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from helixd.config import HelixdConfig
+from helixd.mission import load_mission
+from helixd.mission.validate import apply_mission_limits, plan_for_check
+from helixd.planning import load_map
+from helixd.runtime.plan_report import check_lines, estimate_line, waypoint_table
+from helixd.runtime.planned import plan_loaded
+from helixd.runtime.timing import plan_time_estimate
+from tests.support.paths import REPO_ROOT
+
+CFG = HelixdConfig()
+MISSIONS = REPO_ROOT / "config" / "missions"
+
+
+def pond_lines() -> list[str]:
+    path = MISSIONS / "pond-crossing.yaml"
+    msn = load_mission(path)
+    occupancy = load_map(REPO_ROOT / "config" / "maps" / "pond.yaml", CFG.planning.max_cells)
+    planned, route = plan_loaded(CFG, msn, path, occupancy)
+    return check_lines(CFG, msn, path, "(built-in defaults)", planned, route)
+
+
+def test_the_planned_route_is_estimated_with_its_detours_and_a_margin() -> None:
+    """The field engineer's pond crossing: "path 55.4 m … estimate 94 s" for a route of
+    119.6 m that took 229 s; now the route as flown, from where it is planned."""
+    lines = pond_lines()
+    path = next(line for line in lines if line.startswith("path    :"))
+    assert path.startswith("path    : 119.6 m from planning.start_ne_m, planned around obstacles")
+    estimate = next(line for line in lines if line.startswith("estimate:"))
+    seconds = float(estimate.split()[1])
+    assert seconds == pytest.approx(230.2, rel=0.10)  # flown: 230.2 s (--sim --sim-speedup 8)
+    assert "limit safety.mission_time_limit_s = 1800 s, margin 157" in estimate
+
+
+def test_waypoints_are_numbered_from_1_and_via_points_are_shown_as_such() -> None:
+    lines = pond_lines()
+    table = lines[lines.index(next(x for x in lines if x.strip().startswith("#"))) + 1 :]
+    labels = [row[:7].strip() for row in table[:12]]
+    assert labels == ["via → 1"] * 6 + ["1", "2"] + ["via → 3"] * 3 + ["3"]
+    assert any("waypoints numbered from 1, 9 via points inserted" in x for x in lines)
+    assert "  leg start → wp 1: 56.4 m (6 intermediate, straight 40.0 m)" in lines
+
+
+def test_the_square_estimate_counts_acceleration_braking_and_pivots() -> None:
+    msn = load_mission(MISSIONS / "square.yaml")
+    lines = check_lines(CFG, msn, Path("square.yaml"), "x", msn, None)
+    assert "path    : 40.0 m at 0.60 m/s" in lines
+    estimate = next(line for line in lines if line.startswith("estimate:"))
+    assert estimate.startswith("estimate: 83 s (1.4 min: 79 s driving, 5 s in 3 turns in place)")
+    assert estimate.endswith("margin 1717 s (21.6× the estimate)")
+    plan, _ = plan_for_check(msn, CFG)
+    assert waypoint_table(plan)[1].strip().startswith("1 ")
+
+
+def test_the_margin_names_the_missions_own_time_limit() -> None:
+    msn = load_mission(MISSIONS / "square.yaml").model_copy(update={"time_limit_s": 90.0})
+    plan, _ = plan_for_check(msn, CFG)
+    cfg = apply_mission_limits(CFG, msn)
+    line = estimate_line(plan_time_estimate(plan, cfg), cfg, msn, "")
+    assert "limit the mission's time_limit_s = 90 s, margin 7 s (1.1× the estimate)" in line
