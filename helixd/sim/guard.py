@@ -118,3 +118,16 @@ class HelixdGuard:
             text = BACK_TEXT if armed else DISARMED_TEXT
             return GuardAction(texts=((SEVERITY_NOTICE, text),))
         return GuardAction()
+
+
+def passthrough_input(output: int, function: int) -> tuple[int | None, bool]:
+    """The Lua's ``passthrough_input``: the RC input (1-based) that feeds an RC-passthrough
+    output (None if ``function`` is no passthrough), and whether it is a *mapped* passthrough
+    (140..155), held at that input's RCn_TRIM rather than the output's SERVOn_TRIM."""
+    if function == 1:
+        return output, False  # k_manual: RC input n -> output n
+    if 51 <= function <= 66:
+        return function - 50, False  # k_rcin1..16
+    if 140 <= function <= 155:
+        return function - 139, True  # k_rcin1_mapped..16
+    return None, False
