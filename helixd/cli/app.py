@@ -18,6 +18,7 @@ from typer.exceptions import TyperException
 from helixd import __version__
 from helixd.base.exitcodes import ExitCode
 from helixd.base.run_files import MISSION_FILE
+from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
 from helixd.cli import runs as recorder_command
 from helixd.cli.autopilot import AUTOPILOT_MISSION, fetch_autopilot_mission, wants_autopilot
@@ -415,6 +416,7 @@ def status(
 sim_command.register(app)
 recorder_command.register(app)
 cli_mission.register(app)
+cli_guard.register(app)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -81,16 +81,24 @@ _MAX_FILE_BYTES = 0xFFFF_FFFF  # offsets are u32
 
 
 class FtpTransferError(Exception):
-    """Why an FTP transfer failed: ``path``, the operation ``op`` that failed, and the
-    autopilot's NAK (``nak``; None for a timeout or a local check)."""
+    """Why an FTP transfer failed: ``path``, the operation ``op`` that failed, the autopilot's
+    NAK (``nak``; None for a timeout or a local check) and whether the autopilot stopped
+    answering (``timed_out``: a link problem rather than a refusal)."""
 
     def __init__(
-        self, message: str, *, path: str, op: FtpOp | None = None, nak: Nak | None = None
+        self,
+        message: str,
+        *,
+        path: str,
+        op: FtpOp | None = None,
+        nak: Nak | None = None,
+        timed_out: bool = False,
     ) -> None:
         super().__init__(message)
         self.path = path
         self.op = op
         self.nak = nak
+        self.timed_out = timed_out
 
 
 class _Stage(Enum):
@@ -204,6 +212,7 @@ class FtpExchange:
                 f"no reply to {self._what(pending)} after {self._tries} retries{last}",
                 FtpOp(pending.opcode),
                 self._last_nak,
+                timed_out=True,
             )
         self._tries += 1
         self.resends += 1
@@ -240,10 +249,20 @@ class FtpExchange:
         return self._fail(f"{self._what(sent)} refused: {nak}", FtpOp(sent.opcode), nak)
 
     def _fail(
-        self, reason: str, op: FtpOp | None, nak: Nak | None, *, release: bool = True
+        self,
+        reason: str,
+        op: FtpOp | None,
+        nak: Nak | None,
+        *,
+        release: bool = True,
+        timed_out: bool = False,
     ) -> list[bytes]:
         self.error = FtpTransferError(
-            f"FTP {self.what} of {self.path}: {reason}", path=self.path, op=op, nak=nak
+            f"FTP {self.what} of {self.path}: {reason}",
+            path=self.path,
+            op=op,
+            nak=nak,
+            timed_out=timed_out,
         )
         out: list[bytes] = []
         if release and self._started:

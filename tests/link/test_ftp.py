@@ -303,6 +303,7 @@ def test_silence_fails_after_the_retries(root: Path) -> None:
     assert up.done and isinstance(up.error, FtpTransferError)
     assert str(up.error) == f"FTP upload of {GUARD}: no reply to ResetSessions after 3 retries"
     assert (up.error.path, up.error.op, up.error.nak) == (GUARD, FtpOp.ResetSessions, None)
+    assert up.error.timed_out  # a link problem, not a refusal
     assert up.resends == 3 and up.deadline_s == float("inf")
 
 
@@ -317,6 +318,7 @@ def test_a_read_only_path_fails_naming_the_path_the_op_and_the_errno(root: Path)
     )
     assert err.op == FtpOp.CreateFile and err.nak is not None
     assert (err.nak.error, err.nak.errno) == (FtpErr.FailErrno, errno.EROFS)
+    assert not err.timed_out
     assert ch.ops()[-1] == FtpOp.TerminateSession  # the session is released, unanswered
 
 
