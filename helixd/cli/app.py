@@ -297,7 +297,7 @@ def run(
             raise refused(exc) from None
         echo_flight(flight)
     sim_choice = SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise) if sim else None
-    with simulator(sim_choice, lambda: sim_world(cfg, occupancy, mission_path), url) as url:
+    with simulator(sim_choice, lambda: sim_world(cfg, occupancy, mission_path), url, cfg) as url:
         _fly(cfg, flight, url, run_dir, log_level, show_plan)
 
 
@@ -321,7 +321,8 @@ def _run_autopilot_mission(
         occupancy = load_occupancy(cfg, map_path)
     except InputsRefused as exc:
         raise refused(exc) from None
-    with simulator(sim_choice if sim else None, lambda: sim_world(cfg, occupancy), url) as url:
+    choice = sim_choice if sim else None
+    with simulator(choice, lambda: sim_world(cfg, occupancy), url, cfg) as url:
         got = fetch_autopilot_mission(cfg, url, mode, skip_unsupported)
         msn = got.mission
         problems: list[str] = []
