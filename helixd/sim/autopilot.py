@@ -375,7 +375,9 @@ class Autopilot:
         guard = self.guard
         if guard is None or now_s < guard.next_s - 1e-9:
             return
-        guard.next_s = now_s + UPDATE_PERIOD_MS / 1000.0
+        period_s = UPDATE_PERIOD_MS / 1000.0
+        while guard.next_s <= now_s + 1e-9:  # every 50 ms, as the script's own scheduler;
+            guard.next_s += period_s  # here at the first main loop at or after that time
         if self.params.get(HXG_VERSION) != guard.version:  # the Lua re-asserts its version
             self.params.set(HXG_VERSION, float(guard.version))
         guard.machine.params = self._guard_params()

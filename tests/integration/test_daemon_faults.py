@@ -192,8 +192,8 @@ def test_autopilot_reboot(tmp_path: Path) -> None:
 # --- kill -9 and helixd-guard -------------------------------------------------------------------
 
 GUARD_TIMEOUT_S = 0.5  # HXG_TIMEOUT's default
-GUARD_PERIOD_S = 0.05  # the script runs every 50 ms
-LOOP_S = 0.02  # Rover's 50 Hz main loop: the override shows in the next one (RC: two)
+GUARD_PERIOD_S = 0.05  # the script runs every 50 ms …
+LOOP_S = 0.02  # … here in the first 50 Hz main loop after that; RC: the override shows one later
 SERVO_OUTPUTS = {f"SERVO{n}_FUNCTION": 0 for n in range(1, 5)}
 
 
@@ -236,7 +236,8 @@ def test_kill9_helixd_guard_stops_the_scrolls_and_holds(tmp_path: Path, backend:
         hold = server.history.first("mode", lambda e: e.details["mode"] == "HOLD")
         trim = last_change(server, range(1, 5), last_seen)
         texts = [str(e.details["text"]) for e in server.history.entries("statustext")]
-    assert "warning: helixd-guard" not in log  # preflight: it runs and guards 1..4
+    # preflight did not warn: the guard runs and guards 1..4
+    assert not [ln for ln in log.splitlines() if "preflight_warning" in ln and "guard" in ln]
     assert engaged is not None and hold is not None and trim is not None
     engaged_s = engaged.sim_time_s - last_seen
     trim_s = trim.sim_time_s - last_seen
@@ -247,7 +248,7 @@ def test_kill9_helixd_guard_stops_the_scrolls_and_holds(tmp_path: Path, backend:
         f"after helixd's last message (guard engaged at {engaged_s:.3f} s)"
     )
     assert engaged.details["guarding"] is True and engaged.wall_monotonic_s >= t_kill
-    assert GUARD_TIMEOUT_S < engaged_s <= GUARD_TIMEOUT_S + GUARD_PERIOD_S + 1e-6
+    assert GUARD_TIMEOUT_S < engaged_s <= GUARD_TIMEOUT_S + GUARD_PERIOD_S + LOOP_S + 1e-6
     assert trim_s <= GUARD_TIMEOUT_S + GUARD_PERIOD_S + 2 * LOOP_S + 1e-6
     assert hold_s == pytest.approx(engaged_s) and hold.details["reason"] == "helixd_guard"
     assert trim_wall <= GUARD_TIMEOUT_S + GUARD_PERIOD_S + SCHEDULING_SLACK_S
