@@ -341,7 +341,14 @@ class LinkConfig(InputModel):
     source_component: int = Field(191, ge=1, le=255, description="our compid (191 = onboard)")
     target_system: int = Field(1, ge=1, le=255, description="autopilot sysid")
     target_component: int = Field(1, ge=0, le=255, description="autopilot compid")
-    heartbeat_rate_hz: float = Field(1.0, ge=0.2, le=10.0, description="our HEARTBEAT rate (Hz)")
+    heartbeat_rate_hz: float = Field(
+        5.0,
+        ge=0.2,
+        le=10.0,
+        description="our HEARTBEAT rate (Hz); helixd-guard stops the rover after HXG_TIMEOUT "
+        "(0.5 s) without one, so keep it >= 2.5 / HXG_TIMEOUT: one lost HEARTBEAT then does "
+        "not trip the guard (preflight checks it)",
+    )
     pose_rate_hz: float = Field(
         50.0, ge=1.0, le=100.0, description="LOCAL_POSITION_NED/ATTITUDE rate to ask for (Hz)"
     )
@@ -521,6 +528,14 @@ class ActuationConfig(InputModel):
         le=5.0,
         description="stop() gives up (and logs) after this long; keep < safety.fallback_deadline_s",
     )
+    servo_refresh_s: float = Field(
+        1.0,
+        ge=0.1,
+        le=10.0,
+        description="servo backend: each channel's DO_SET_SERVO is sent again after this long "
+        "even when unchanged (s); an ACK is no proof: a value sent while helixd-guard holds the "
+        "output is accepted and dropped",
+    )
 
     @model_validator(mode="after")
     def _distinct(self) -> ActuationConfig:
@@ -628,6 +643,13 @@ class SafetyConfig(InputModel):
         False,
         description="also disarm after a fault's or a pilot takeover's fall-back to HOLD (after "
         "a completed mission or a stop signal helixd always disarms what it armed)",
+    )
+    servo_guard: Literal["required", "warn"] = Field(
+        "required",
+        description="servo backend without helixd-guard running on the autopilot (missing, "
+        "disabled, another version, a scroll output not guarded, or a HEARTBEAT too slow for "
+        "it): refuse to arm (required, exit 3) or only warn; a killed helixd otherwise leaves "
+        "DO_SET_SERVO outputs driving",
     )
     force_arm: bool = Field(False, description="force-arm (21196) when PreArm checks refuse")
     arm_timeout_s: float = Field(

@@ -3,28 +3,34 @@
 DO_SET_SERVO outputs are LATCHED in ArduPilot: there is no timeout. If helixd is killed
 (SIGKILL, power loss of the companion, a hung process, a cut cable), every scroll output stays
 at the last value it was given — the rover keeps driving — until something else commands that
-output: helixd's next start (which sends neutral to every mapped channel first), a GCS, or a
-reboot of the autopilot. Neither HOLD nor disarm stops these outputs (DESIGN §3). helixd sends
-neutral at start and at stop, but it cannot do so once dead. The pilot must keep a hardware
-means to cut the scroll motors (motor-controller kill switch / E-stop) within reach, and should
-prefer the ``rc_override`` backend, whose overrides expire after RC_OVERRIDE_TIME.
+output. Neither HOLD nor disarm stops these outputs (DESIGN §3). helixd sends neutral at start
+and at stop, but it cannot do so once dead. That something else is helixd-guard, the Lua
+dead-man switch on the autopilot (``helixd autopilot install-guard``; preflight refuses this
+backend without it unless ``safety.servo_guard: warn``): it holds the outputs at trim and asks
+for HOLD when helixd's HEARTBEATs stop for HXG_TIMEOUT (0.5 s). Keep a hardware means to cut
+the scroll motors (motor-controller kill switch / E-stop) within reach all the same.
 
 ArduPilot only accepts DO_SET_SERVO on an output whose SERVOn_FUNCTION is 0, 1, 22, 23 or
 51–66; anything else is refused (FAILED). A refusal is surfaced as
 :class:`helixd.actuators.base.ServoCommandRefused`: raised from ``start()``, and kept in
 ``fault`` and raised from the next ``command()`` when it happens while driving.
 
-Sending policy: on change, coalesced. Each DO_SET_SERVO is an acknowledged COMMAND_LONG and a
-latched value needs no refresh, so re-sending every tick would only load the link (4 channels
-× 40 Hz × 45 bytes is more than a 57600-baud telemetry radio carries) and ArduPilot's command
-queue. A sender task sends, channel by channel, the *latest* desired PWM of every channel whose
-acknowledged value differs; intermediate values are skipped, so the rate is bounded by the
-acknowledgement round trip.
+Sending policy: on change, coalesced, and refreshed. Each DO_SET_SERVO is an acknowledged
+COMMAND_LONG, so re-sending every tick would only load the link (4 channels × 40 Hz × 45 bytes
+is more than a 57600-baud telemetry radio carries) and ArduPilot's command queue. A sender task
+sends, channel by channel, the *latest* desired PWM of every channel whose acknowledged value
+differs; intermediate values are skipped, so the rate is bounded by the acknowledgement round
+trip. An ACK is no proof that the value is on the output, though: while helixd-guard holds an
+output (``set_output_pwm_chan_timeout``) a DO_SET_SERVO is ACCEPTED and dropped, and the output
+keeps the guard's trim afterwards. So every channel is sent again once its last send is
+``actuation.servo_refresh_s`` (1 s) old, even when unchanged.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
+import time
 from collections.abc import Sequence
 from typing import Protocol
 
@@ -64,6 +70,7 @@ class ServoSink:
         self._neutral = _four([neutral_pwm(c) for c in self._channels])
         self._desired: list[int] = list(self._neutral)
         self._acked: list[int | None] = [None] * len(self._channels)
+        self._sent_s: list[float] = [-float("inf")] * len(self._channels)  # monotonic
         self.last_pwm_us: tuple[int, int, int, int] = self._neutral
         self.fault: ServoCommandRefused | None = None
         self._wake = asyncio.Event()
@@ -110,19 +117,37 @@ class ServoSink:
         pwm[i] = pwm_us
         self.last_pwm_us = _four(pwm)
         self._acked[i] = None  # unknown until acknowledged
+        self._sent_s[i] = time.monotonic()
         try:
             await self._ap.command_long(MAV_CMD_DO_SET_SERVO, (channel, pwm_us))
         except CommandRejected as exc:
             raise ServoCommandRefused(channel, pwm_us, exc) from None
         self._acked[i] = pwm_us
 
+    def _due(self, i: int, now_s: float) -> bool:
+        """Channel ``i`` needs a DO_SET_SERVO: changed, or its last one is refresh-old."""
+        return (
+            self._desired[i] != self._acked[i]
+            or now_s - self._sent_s[i] >= self._cfg.servo_refresh_s
+        )
+
+    async def _wait_for_work(self) -> None:
+        """Until a new command arrives or the oldest send is due for its refresh."""
+        next_refresh_s = min(self._sent_s) + self._cfg.servo_refresh_s
+        wait_s = next_refresh_s - time.monotonic()
+        if wait_s > 0:
+            with contextlib.suppress(TimeoutError):
+                async with asyncio.timeout(wait_s):
+                    await self._wake.wait()
+        self._wake.clear()
+
     async def _sender(self) -> None:
         while True:
-            await self._wake.wait()
-            self._wake.clear()
-            for i, want in enumerate(self._desired):
-                if want == self._acked[i]:
+            await self._wait_for_work()
+            for i in range(len(self._channels)):
+                if not self._due(i, time.monotonic()):
                     continue
+                want = self._desired[i]
                 try:
                     await self._set_one(i, want)
                 except ServoCommandRefused as exc:

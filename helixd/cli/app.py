@@ -17,6 +17,7 @@ from typer.exceptions import TyperException
 from helixd import __version__
 from helixd.base.exitcodes import ExitCode
 from helixd.base.run_files import MISSION_FILE
+from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
 from helixd.cli import runs as recorder_command
 from helixd.cli.autopilot import AUTOPILOT_MISSION, fetch_autopilot_mission, wants_autopilot
@@ -293,7 +294,7 @@ def run(
     sim_choice = (
         SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise, sim_start) if sim else None
     )
-    with simulator(sim_choice, lambda: sim_world(cfg, occupancy, mission_path), url) as url:
+    with simulator(sim_choice, lambda: sim_world(cfg, occupancy, mission_path), url, cfg) as url:
         _fly(cfg, flight, url, run_dir, log_level, show_plan)
 
 
@@ -317,7 +318,8 @@ def _run_autopilot_mission(
         occupancy = load_occupancy(cfg, map_path)
     except InputsRefused as exc:
         raise refused(exc) from None
-    with simulator(sim_choice if sim else None, lambda: sim_world(cfg, occupancy), url) as url:
+    choice = sim_choice if sim else None
+    with simulator(choice, lambda: sim_world(cfg, occupancy), url, cfg) as url:
         got = fetch_autopilot_mission(cfg, url, mode, skip_unsupported)
         msn = got.mission
         problems: list[str] = []
@@ -417,6 +419,7 @@ def status(
 sim_command.register(app)
 recorder_command.register(app)
 cli_mission.register(app)
+cli_guard.register(app)
 
 
 def main(argv: list[str] | None = None) -> None:

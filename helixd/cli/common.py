@@ -17,6 +17,7 @@ from helixd.config import HelixdConfig, LinkConfig, load_config
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
+from helixd.link.ftp import FtpTransferError
 from helixd.link.mission import MissionTransferError
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.recorder.logging_setup import configure_logging
@@ -99,9 +100,9 @@ async def on_autopilot(
 def run_on_link(
     cfg: HelixdConfig, link: LinkConfig, body: Callable[[Autopilot], Awaitable[T]]
 ) -> T:
-    """Run a mission transfer; link errors exit as ``helixd status`` does (LINK), a vehicle's
-    refusal names its MAV_MISSION_RESULT (PREFLIGHT: the autopilot would not take it), a
-    transfer without answers is a link problem (LINK)."""
+    """Run a mission or FTP transfer; link errors exit as ``helixd status`` does (LINK), a
+    vehicle's refusal names its MAV_MISSION_RESULT or FTP error (PREFLIGHT: the autopilot would
+    not take it), a transfer without answers is a link problem (LINK)."""
     configure_logging(tty=sys.stderr.isatty(), level="warning")
     try:
         return asyncio.run(on_autopilot(cfg, link, body))
@@ -109,6 +110,9 @@ def run_on_link(
         raise fail([str(exc)], ExitCode.LINK) from None
     except MissionTransferError as exc:
         code = ExitCode.LINK if exc.result is None else ExitCode.PREFLIGHT
+        raise fail([f"{link.url}: {exc}"], code) from None
+    except FtpTransferError as exc:
+        code = ExitCode.LINK if exc.timed_out else ExitCode.PREFLIGHT
         raise fail([f"{link.url}: {exc}"], code) from None
     except KeyboardInterrupt:
         raise fail(["interrupted"], ExitCode.OPERATOR_STOP) from None

@@ -1,6 +1,13 @@
 """``run --sim``: the built-in simulator started in-process around a flight, with the world the
 flight is planned in made solid (the CLI is the one layer that may import both the simulator
-and the daemon)."""
+and the daemon).
+
+The embedded simulator is set up as the README asks a real vehicle to be, helixd-guard
+included: installed, guarding the config's scroll outputs. Its timeout is stretched by the
+speed-up (0.5 s of wall time), because helixd paces its HEARTBEAT on the wall clock while the
+guard counts simulated time: at ``--sim-speedup 4`` a 5 Hz HEARTBEAT is 1.25 simulated seconds
+apart and would trip a 0.5 s guard between two of them.
+"""
 
 from __future__ import annotations
 
@@ -10,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from helixd.config import HelixdConfig, KeepOutCircleConfig
+from helixd.mav.guard import HXG_CHANS, HXG_TIMEOUT, MAX_OUTPUT, PARAM_DEFAULTS, TIMEOUT_MAX_MS
 from helixd.mission.formats import has_keep_outs, plan_fence_ne
 from helixd.planning import OccupancyMap
 from helixd.planning.obstacles import rover_half_width_m
@@ -63,12 +71,20 @@ def sim_world(
     )
 
 
+def embedded_guard(cfg: HelixdConfig, speedup: float) -> dict[str, float]:
+    """helixd-guard's stored settings in the embedded simulator: the config's scroll outputs
+    (those it can guard), the default timeout in wall seconds (see the module docstring)."""
+    timeout_s = min(PARAM_DEFAULTS[HXG_TIMEOUT] * speedup, TIMEOUT_MAX_MS / 1000.0)
+    chans = [ch.channel if ch.channel <= MAX_OUTPUT else 0 for ch in cfg.actuation.channels]
+    return {HXG_TIMEOUT: timeout_s, **dict(zip(HXG_CHANS, map(float, chans), strict=True))}
+
+
 @contextlib.contextmanager
 def simulator(
-    choice: SimChoice | None, world: Callable[[], SimObstacles], url: str
+    choice: SimChoice | None, world: Callable[[], SimObstacles], url: str, cfg: HelixdConfig
 ) -> Iterator[str]:
     """The link URL to fly on: ``url``, or (``--sim``) an embedded simulator's, started with
-    ``world``'s obstacles and stopped on the way out."""
+    ``world``'s obstacles and helixd-guard installed, and stopped on the way out."""
     if choice is None:
         yield url
         return
@@ -83,6 +99,8 @@ def simulator(
         plant=choice.plant,
         obstacles=world(),
         **start,
+        guard_installed=True,
+        guard_params=embedded_guard(cfg, choice.speedup),
     )
     server, sim_url = start_embedded(sim_cfg)
     try:

@@ -24,13 +24,12 @@ apart from that command's answer.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import math
 import time
 from collections import defaultdict, deque
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -44,6 +43,7 @@ log = structlog.get_logger(__name__)
 
 MavMsg = Any
 SendFn = Callable[[MavMsg], bool]
+T = TypeVar("T")
 
 ALL_RESULTS: frozenset[int] = frozenset(int(k) for k in mavlink.enums["MAV_RESULT"]) - {
     int(mavlink.MAV_RESULT_ENUM_END)
@@ -268,9 +268,8 @@ class CommandClient:
             deadline = now + timeout_s
             while True:
                 remaining = deadline - time.monotonic()
-                if remaining > 0:
-                    with contextlib.suppress(TimeoutError):
-                        return await asyncio.wait_for(asyncio.shield(pending.future), remaining)
+                if remaining > 0 and await answered(pending.future, remaining):
+                    return pending.future.result()
                 if pending.last_progress_s is not None:
                     progress_deadline = pending.last_progress_s + timeout_s
                     if progress_deadline > time.monotonic():
@@ -345,8 +344,8 @@ class CommandClient:
             try:
                 for _ in range(tries):
                     self._send(request())
-                    with contextlib.suppress(TimeoutError):
-                        value = await asyncio.wait_for(asyncio.shield(fut), timeout)
+                    if await answered(fut, timeout):
+                        value = fut.result()
                         if math.isfinite(value):
                             return value
                         # Checked once, at the edge: a NaN/inf parameter reads as unreadable
@@ -358,6 +357,18 @@ class CommandClient:
                 waiters.remove(fut)
                 if not waiters:
                     self._param_waiters.pop(name, None)
+
+
+async def answered(future: asyncio.Future[T], timeout_s: float) -> bool:
+    """Wait up to ``timeout_s`` for ``future`` (never cancelling it); True when it is done.
+
+    Not ``asyncio.wait_for(shield(future))``: on Python 3.11 that swallows a cancellation of
+    the waiting task when the answer arrives in the same loop iteration (measured on SITL: an
+    ACK and the HEARTBEAT that triggers a stop read in one TCP segment left the servo sender
+    running and its stop() waiting 0.5 s). ``asyncio.wait`` lets the CancelledError through.
+    """
+    done, _ = await asyncio.wait({future}, timeout=timeout_s)
+    return bool(done)
 
 
 def _param_text(value: object) -> str:

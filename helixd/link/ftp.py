@@ -1,12 +1,17 @@
 """MAVLink FTP client, sans-IO: upload one file to the autopilot (e.g. a Lua script into
-``APM/scripts/`` for ``helixd autopilot install-guard``).
+``APM/scripts/`` for ``helixd autopilot install-guard``), and ask whether a directory exists.
 
-:class:`Upload` is a state machine over FTP payloads (:mod:`helixd.mav.ftp`): ``start(now_s)``,
+:class:`Upload` and :class:`DirectoryProbe` are state machines over FTP payloads
+(:mod:`helixd.mav.ftp`) sharing one request machinery: ``start(now_s)``,
 ``on_reply(payload, now_s)`` and ``on_time(now_s)`` return the request payloads to send, each
 to go out as a FILE_TRANSFER_PROTOCOL message to the autopilot (``helixd.mav.ftp.to_message``).
 ``done`` says it ended, ``error`` why it failed (None: success), ``deadline_s`` when
-``on_time`` is due next. It reads no clock, does no I/O and logs nothing; :func:`run_upload`
-is the thin async shell over an :class:`FtpLink`.
+``on_time`` is due next. They read no clock, do no I/O and log nothing; :func:`run_ftp` is the
+thin async shell over an :class:`FtpLink` (``helixd.link.ftp_link`` adapts the Autopilot).
+
+A :class:`DirectoryProbe` sends ListDirectory of its path at offset 0: an ACK (entries) or an
+EndOfFile NAK (an empty directory) means it exists, a FileNotFound NAK that it does not
+(``GCS_FTP::Session::list_dir``: opendir's ENOENT); then TerminateSession frees the slot.
 
 The exchange (ArduPilot ``GCS_FTP.cpp``; pymavlink's ``mavftp`` ``put`` sends the same
 CreateFile, WriteFile…, TerminateSession core):
@@ -45,7 +50,7 @@ import struct
 import time
 from collections.abc import Callable
 from enum import Enum
-from typing import Protocol
+from typing import Protocol, TypeVar
 
 from helixd.mav.ftp import (
     MAX_DATA_LEN,
@@ -62,10 +67,12 @@ from helixd.mav.ftp import (
 __all__ = [
     "DEFAULT_REPLY_TIMEOUT_S",
     "DEFAULT_RETRIES",
+    "DirectoryProbe",
+    "FtpExchange",
     "FtpLink",
     "FtpTransferError",
     "Upload",
-    "run_upload",
+    "run_ftp",
 ]
 
 DEFAULT_REPLY_TIMEOUT_S = 0.5  # pymavlink mavftp retry_time
@@ -74,16 +81,24 @@ _MAX_FILE_BYTES = 0xFFFF_FFFF  # offsets are u32
 
 
 class FtpTransferError(Exception):
-    """Why an FTP transfer failed: ``path``, the operation ``op`` that failed, and the
-    autopilot's NAK (``nak``; None for a timeout or a local check)."""
+    """Why an FTP transfer failed: ``path``, the operation ``op`` that failed, the autopilot's
+    NAK (``nak``; None for a timeout or a local check) and whether the autopilot stopped
+    answering (``timed_out``: a link problem rather than a refusal)."""
 
     def __init__(
-        self, message: str, *, path: str, op: FtpOp | None = None, nak: Nak | None = None
+        self,
+        message: str,
+        *,
+        path: str,
+        op: FtpOp | None = None,
+        nak: Nak | None = None,
+        timed_out: bool = False,
     ) -> None:
         super().__init__(message)
         self.path = path
         self.op = op
         self.nak = nak
+        self.timed_out = timed_out
 
 
 class _Stage(Enum):
@@ -103,73 +118,57 @@ def _parents(path: str) -> list[str]:
     return [lead + "/".join(parts[:i]) for i in range(1, len(parts))]
 
 
-class Upload:
-    """Write ``data`` to ``path`` on the autopilot (replacing any file there)."""
+class FtpExchange:
+    """The request machinery :class:`Upload` and :class:`DirectoryProbe` share: one request
+    outstanding, replies matched to it, sent again on a timeout, failures named by ``path``.
+
+    ``what`` names the exchange in errors ("upload", "listing").
+    """
+
+    what = "exchange"
 
     def __init__(
         self,
         path: str,
-        data: bytes,
         *,
         reply_timeout_s: float = DEFAULT_REPLY_TIMEOUT_S,
         retries: int = DEFAULT_RETRIES,
-        create_dirs: bool = True,
-        verify_crc: bool = True,
-        chunk_len: int = MAX_DATA_LEN,
         session: int = 1,
     ) -> None:
         try:
             self._path_bytes = encode_path(path)
         except FtpPayloadError as exc:
             raise ValueError(str(exc)) from exc
-        if path.endswith("/"):
-            raise ValueError(f"FTP path {path!r}: names a directory, not a file")
-        if not isinstance(data, bytes | bytearray):
-            raise ValueError(f"FTP upload of {path}: data must be bytes")
-        if len(data) > _MAX_FILE_BYTES:
-            raise ValueError(f"FTP upload of {path}: {len(data)} bytes do not fit u32 offsets")
         if not (isinstance(reply_timeout_s, int | float) and math.isfinite(reply_timeout_s)):
             raise ValueError("reply_timeout_s must be a finite number")
         if reply_timeout_s <= 0.0:
             raise ValueError("reply_timeout_s must be > 0")
         if not isinstance(retries, int) or retries < 0:
             raise ValueError("retries must be an int >= 0")
-        if not isinstance(chunk_len, int) or not 1 <= chunk_len <= MAX_DATA_LEN:
-            raise ValueError(f"chunk_len must be 1..{MAX_DATA_LEN}")
         if not isinstance(session, int) or not 0 <= session <= 255:
             raise ValueError("session must be 0..255 (0: let ArduPilot 4.7 assign one)")
         self.path = path
-        self.data = bytes(data)
         self.reply_timeout_s = float(reply_timeout_s)
         self.retries = retries
-        self.create_dirs = create_dirs
-        self.verify_crc = verify_crc
-        self.chunk_len = chunk_len
-        self.local_crc32 = crc32_ardupilot(self.data)
 
         self.done = False
         self.error: FtpTransferError | None = None
         self.deadline_s = math.inf
         self.resends = 0  # requests sent again on timeout (for tests and logs)
-        self.remote_crc32: int | None = None  # what CalcFileCRC32 answered
-        self.bytes_acked = 0  # file bytes the autopilot acknowledged
-        self._stage = _Stage.RESET
         self._seq = 0
         self._session = session
         self._pending: FtpPayload | None = None
         self._tries = 0
         self._last_nak: Nak | None = None
-        self._dirs: list[str] = []
-        self._dirs_tried = False
-        self._mismatch: str | None = None
+        self._started = False  # a session may hold something open: release on failure
 
     # --- driving --------------------------------------------------------------------------
 
     def start(self, now_s: float) -> list[bytes]:
-        """The first request (ResetSessions)."""
+        """The first request."""
         if self._pending is not None or self.done:
             return []
-        return self._send(FtpOp.ResetSessions, now_s)
+        return self._first(now_s)
 
     def on_reply(self, payload: bytes, now_s: float) -> list[bytes]:
         """A received FILE_TRANSFER_PROTOCOL payload from the autopilot."""
@@ -213,11 +212,116 @@ class Upload:
                 f"no reply to {self._what(pending)} after {self._tries} retries{last}",
                 FtpOp(pending.opcode),
                 self._last_nak,
+                timed_out=True,
             )
         self._tries += 1
         self.resends += 1
         self.deadline_s = now_s + self.reply_timeout_s
         return [pending.pack()]
+
+    # --- for the exchanges ----------------------------------------------------------------
+
+    def _first(self, now_s: float) -> list[bytes]:
+        raise NotImplementedError
+
+    def _advance(
+        self, sent: FtpPayload, reply: FtpPayload, nak: Nak | None, now_s: float
+    ) -> list[bytes]:
+        raise NotImplementedError
+
+    def _send(self, op: FtpOp, now_s: float, *, data: bytes = b"", offset: int = 0) -> list[bytes]:
+        request = FtpPayload.request(op, self._seq, self._session, data=data, offset=offset)
+        self._seq = (self._seq + 1) & 0xFFFF
+        self._pending = request
+        self._tries = 0
+        self.deadline_s = now_s + self.reply_timeout_s
+        return [request.pack()]
+
+    def _what(self, request: FtpPayload) -> str:
+        op = FtpOp(request.opcode)
+        if op == FtpOp.WriteFile:
+            return f"WriteFile at offset {request.offset}"
+        if op == FtpOp.CreateDirectory:
+            return f"CreateDirectory {request.data.decode('ascii')}"
+        return op.name
+
+    def _refused(self, sent: FtpPayload, nak: Nak) -> list[bytes]:
+        return self._fail(f"{self._what(sent)} refused: {nak}", FtpOp(sent.opcode), nak)
+
+    def _fail(
+        self,
+        reason: str,
+        op: FtpOp | None,
+        nak: Nak | None,
+        *,
+        release: bool = True,
+        timed_out: bool = False,
+    ) -> list[bytes]:
+        self.error = FtpTransferError(
+            f"FTP {self.what} of {self.path}: {reason}",
+            path=self.path,
+            op=op,
+            nak=nak,
+            timed_out=timed_out,
+        )
+        out: list[bytes] = []
+        if release and self._started:
+            # best effort, unanswered: close what this session may hold open
+            out = self._send(FtpOp.TerminateSession, 0.0)
+        self._finish()
+        return out
+
+    def _succeed(self) -> list[bytes]:
+        self._finish()
+        return []
+
+    def _finish(self) -> None:
+        self.done = True
+        self._pending = None
+        self.deadline_s = math.inf
+
+
+class Upload(FtpExchange):
+    """Write ``data`` to ``path`` on the autopilot (replacing any file there)."""
+
+    what = "upload"
+
+    def __init__(
+        self,
+        path: str,
+        data: bytes,
+        *,
+        reply_timeout_s: float = DEFAULT_REPLY_TIMEOUT_S,
+        retries: int = DEFAULT_RETRIES,
+        create_dirs: bool = True,
+        verify_crc: bool = True,
+        chunk_len: int = MAX_DATA_LEN,
+        session: int = 1,
+    ) -> None:
+        super().__init__(path, reply_timeout_s=reply_timeout_s, retries=retries, session=session)
+        if path.endswith("/"):
+            raise ValueError(f"FTP path {path!r}: names a directory, not a file")
+        if not isinstance(data, bytes | bytearray):
+            raise ValueError(f"FTP upload of {path}: data must be bytes")
+        if len(data) > _MAX_FILE_BYTES:
+            raise ValueError(f"FTP upload of {path}: {len(data)} bytes do not fit u32 offsets")
+        if not isinstance(chunk_len, int) or not 1 <= chunk_len <= MAX_DATA_LEN:
+            raise ValueError(f"chunk_len must be 1..{MAX_DATA_LEN}")
+        self.data = bytes(data)
+        self.create_dirs = create_dirs
+        self.verify_crc = verify_crc
+        self.chunk_len = chunk_len
+        self.local_crc32 = crc32_ardupilot(self.data)
+        self.remote_crc32: int | None = None  # what CalcFileCRC32 answered
+        self.bytes_acked = 0  # file bytes the autopilot acknowledged
+        self._stage = _Stage.RESET
+        self._dirs: list[str] = []
+        self._dirs_tried = False
+        self._mismatch: str | None = None
+
+    def _first(self, now_s: float) -> list[bytes]:
+        """ResetSessions."""
+        return self._send(FtpOp.ResetSessions, now_s)
 
     # --- the exchange ---------------------------------------------------------------------
 
@@ -248,6 +352,7 @@ class Upload:
             return self._refused(sent, nak)
         if stage is _Stage.RESET:
             self._stage = _Stage.CREATE
+            self._started = True
             return self._send(FtpOp.CreateFile, now_s, data=self._path_bytes)
         if stage is _Stage.CREATE or stage is _Stage.WRITE:
             if stage is _Stage.WRITE:
@@ -279,50 +384,44 @@ class Upload:
         chunk = self.data[offset : offset + self.chunk_len]
         return self._send(FtpOp.WriteFile, now_s, data=chunk, offset=offset)
 
-    def _send(self, op: FtpOp, now_s: float, *, data: bytes = b"", offset: int = 0) -> list[bytes]:
-        request = FtpPayload.request(op, self._seq, self._session, data=data, offset=offset)
-        self._seq = (self._seq + 1) & 0xFFFF
-        self._pending = request
-        self._tries = 0
-        self.deadline_s = now_s + self.reply_timeout_s
-        return [request.pack()]
 
-    def _what(self, request: FtpPayload) -> str:
-        op = FtpOp(request.opcode)
-        if op == FtpOp.WriteFile:
-            return f"WriteFile at offset {request.offset}"
-        if op == FtpOp.CreateDirectory:
-            return f"CreateDirectory {request.data.decode('ascii')}"
-        return op.name
+class DirectoryProbe(FtpExchange):
+    """Does directory ``path`` exist on the autopilot? ``exists`` holds the answer once done
+    without error."""
 
-    def _refused(self, sent: FtpPayload, nak: Nak) -> list[bytes]:
-        return self._fail(f"{self._what(sent)} refused: {nak}", FtpOp(sent.opcode), nak)
+    what = "listing"
 
-    def _fail(
-        self, reason: str, op: FtpOp | None, nak: Nak | None, *, release: bool = True
+    def __init__(
+        self,
+        path: str,
+        *,
+        reply_timeout_s: float = DEFAULT_REPLY_TIMEOUT_S,
+        retries: int = DEFAULT_RETRIES,
+        session: int = 1,
+    ) -> None:
+        super().__init__(path, reply_timeout_s=reply_timeout_s, retries=retries, session=session)
+        self.exists: bool | None = None
+
+    def _first(self, now_s: float) -> list[bytes]:
+        self._started = True
+        return self._send(FtpOp.ListDirectory, now_s, data=self._path_bytes)
+
+    def _advance(
+        self, sent: FtpPayload, reply: FtpPayload, nak: Nak | None, now_s: float
     ) -> list[bytes]:
-        self.error = FtpTransferError(
-            f"FTP upload of {self.path}: {reason}", path=self.path, op=op, nak=nak
-        )
-        out: list[bytes] = []
-        if release and self._stage is not _Stage.RESET:
-            # best effort, unanswered: close what this session may hold open
-            out = self._send(FtpOp.TerminateSession, 0.0)
-        self._finish()
-        return out
-
-    def _succeed(self) -> list[bytes]:
-        self._finish()
-        return []
-
-    def _finish(self) -> None:
-        self.done = True
-        self._pending = None
-        self.deadline_s = math.inf
+        if sent.opcode == FtpOp.TerminateSession:
+            return self._succeed()
+        if nak is None or nak.error == FtpErr.EndOfFile:
+            self.exists = True
+        elif nak.error == FtpErr.FileNotFound:
+            self.exists = False
+        else:
+            return self._refused(sent, nak)
+        return self._send(FtpOp.TerminateSession, now_s)
 
 
 class FtpLink(Protocol):
-    """What :func:`run_upload` needs: send a payload to the autopilot, receive its payloads
+    """What :func:`run_ftp` needs: send a payload to the autopilot, receive its payloads
     (already filtered to FILE_TRANSFER_PROTOCOL from the autopilot, addressed to us)."""
 
     def send(self, payload: bytes) -> None: ...
@@ -332,20 +431,21 @@ class FtpLink(Protocol):
         ...
 
 
-async def run_upload(
-    upload: Upload, link: FtpLink, clock: Callable[[], float] = time.monotonic
-) -> Upload:
-    """Drive ``upload`` over ``link`` until it ends; raises its error if it failed."""
-    for first in upload.start(clock()):
+E = TypeVar("E", bound=FtpExchange)
+
+
+async def run_ftp(exchange: E, link: FtpLink, clock: Callable[[], float] = time.monotonic) -> E:
+    """Drive ``exchange`` over ``link`` until it ends; raises its error if it failed."""
+    for first in exchange.start(clock()):
         link.send(first)
-    while not upload.done:
-        wait_s = max(0.0, upload.deadline_s - clock())
+    while not exchange.done:
+        wait_s = max(0.0, exchange.deadline_s - clock())
         payload = await link.recv(wait_s)
         t = clock()
-        out = upload.on_reply(payload, t) if payload is not None else []
-        out += upload.on_time(t)
+        out = exchange.on_reply(payload, t) if payload is not None else []
+        out += exchange.on_time(t)
         for request in out:
             link.send(request)
-    if upload.error is not None:
-        raise upload.error
-    return upload
+    if exchange.error is not None:
+        raise exchange.error
+    return exchange

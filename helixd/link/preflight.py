@@ -30,6 +30,14 @@ What is checked (ArduPilot Rover, DESIGN §3):
 * Per driven channel n (servo): DO_SET_SERVO is refused unless ``SERVOn_FUNCTION`` is 0, 1, 22,
   23 or 51–66 → error; anything but 0 also feeds the output from elsewhere → warning.
 * ``FS_GCS_ENABLE`` = 0 → warning: nothing on the autopilot notices a dead helixd.
+* helixd-guard (the dead-man switch on the autopilot, :mod:`helixd.mav.guard`): its
+  parameters say whether it runs (HXG_VERSION exists), in this helixd's version, enabled
+  (HXG_ENABLE), guarding every scroll output (HXG_CHAN1..4), and whether helixd refreshes
+  ``gcs:last_seen()`` often enough for HXG_TIMEOUT (one lost message tolerated: period × 2.5
+  ≤ timeout; with the RC-override backend the override repeats count too). With the servo
+  backend a failing check is an error when ``safety.servo_guard`` is ``required`` (a killed
+  helixd would leave DO_SET_SERVO outputs driving), a warning with ``warn``; with the
+  RC-override backend it is a warning (overrides expire after RC_OVERRIDE_TIME anyway).
 """
 
 from __future__ import annotations
@@ -41,8 +49,20 @@ from typing import Literal, Protocol, runtime_checkable
 
 from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
 from helixd.link.ownid import OwnIdSenders
+from helixd.mav.guard import (
+    HXG_CHANS,
+    HXG_ENABLE,
+    HXG_TIMEOUT,
+    HXG_VERSION,
+    MAX_OUTPUT,
+    PARAM_DEFAULTS,
+    SCR_ENABLE,
+    VERSION,
+    GuardParams,
+)
 
 Severity = Literal["error", "warning"]
+ServoGuardPolicy = Literal["required", "warn"]
 
 RCIN_FIRST_FUNCTION = 51  # RCIN1; RCINn = 50 + n
 RCIN_LAST_CHANNEL = 16
@@ -51,6 +71,13 @@ SERVO_FUNCTION_RC_PASSTHRU = 1
 SERVO_ALLOWED_FUNCTIONS = frozenset({0, 1, 22, 23, *range(51, 67)})
 RC_OPTIONS_IGNORE_OVERRIDES = 2  # bit 1
 RECOMMENDED_OVERRIDE_TIME_S = 3.0
+# A lost HEARTBEAT must not trip helixd-guard: two periods plus half a period of jitter
+# have to fit in its timeout.
+GUARD_PERIODS_PER_TIMEOUT = 2.5
+INSTALL_GUARD = (
+    "install it with `helixd autopilot install-guard --connect URL` and reboot the autopilot "
+    "(README: If the process is killed)"
+)
 # Default system ids of common ground stations: 255 QGroundControl, Mission Planner, MAVProxy
 # and pymavlink scripts; 245 MAVSDK in its GroundStation role. helixd must not share them.
 GCS_DEFAULT_SYSIDS = {255: "QGroundControl/Mission Planner/MAVProxy", 245: "MAVSDK"}
@@ -93,8 +120,11 @@ LEGACY_GCS_SYSID = "SYSID_MYGCS"
 
 
 def param_names(actuation: ActuationConfig) -> list[str]:
-    """Parameters to read (the legacy SYSID_MYGCS only if MAV_GCS_SYSID turns out missing)."""
+    """Parameters to read (the legacy SYSID_MYGCS only if MAV_GCS_SYSID turns out missing, the
+    guard's settings only if HXG_VERSION says it runs)."""
     names = ["MAV_GCS_SYSID", "MAV_GCS_SYSID_HI", "FS_GCS_ENABLE"]
+    if actuation.backend is not ActuationBackend.DRY_RUN:
+        names += [SCR_ENABLE, HXG_VERSION]
     if actuation.backend is ActuationBackend.RC_OVERRIDE:
         names += ["RC_OVERRIDE_TIME", "RC_OPTIONS", "MODE_CH"]
         names += [
@@ -106,7 +136,10 @@ def param_names(actuation: ActuationConfig) -> list[str]:
 
 
 async def check_obedience(
-    ap: ParamReader, actuation: ActuationConfig, link: LinkConfig
+    ap: ParamReader,
+    actuation: ActuationConfig,
+    link: LinkConfig,
+    servo_guard: ServoGuardPolicy = "required",
 ) -> list[PreflightProblem]:
     """Read the parameters that decide whether we are obeyed; return every problem found."""
     names = param_names(actuation)
@@ -116,7 +149,11 @@ async def check_obedience(
     params: dict[str, float | None] = dict(zip(names, values, strict=True))
     if params["MAV_GCS_SYSID"] is None:  # older firmware: the GCS sysid had another name
         params[LEGACY_GCS_SYSID] = await ap.param.get(LEGACY_GCS_SYSID)
-    problems = judge(params, actuation, link)
+    if params.get(HXG_VERSION) is not None:  # the guard runs: read its settings
+        settings = [n for n in PARAM_DEFAULTS if n != HXG_VERSION]
+        got = await asyncio.gather(*(ap.param.get(n) for n in settings))
+        params.update(zip(settings, got, strict=True))
+    problems = judge(params, actuation, link, servo_guard)
     if isinstance(ap, OwnIdWatch):
         problems = judge_own_id(ap.own_id_senders, link) + problems
     return problems
@@ -157,7 +194,10 @@ def _int(value: float) -> int:
 
 
 def judge(
-    params: Mapping[str, float | None], actuation: ActuationConfig, link: LinkConfig
+    params: Mapping[str, float | None],
+    actuation: ActuationConfig,
+    link: LinkConfig,
+    servo_guard: ServoGuardPolicy = "required",
 ) -> list[PreflightProblem]:
     """The pure part of :func:`check_obedience`."""
     out = _gcs_sysid(params, actuation, link)
@@ -179,7 +219,102 @@ def judge(
                 "FS_GCS_ENABLE",
             )
         )
+    out += judge_guard(params, actuation, link, servo_guard)
     return out
+
+
+def judge_guard(
+    params: Mapping[str, float | None],
+    actuation: ActuationConfig,
+    link: LinkConfig,
+    servo_guard: ServoGuardPolicy = "required",
+) -> list[PreflightProblem]:
+    """helixd-guard's checks (pure; the module docstring lists them)."""
+    backend = actuation.backend
+    if backend is ActuationBackend.DRY_RUN:
+        return []
+    servo = backend is ActuationBackend.SERVO
+    severity: Severity = "error" if servo and servo_guard == "required" else "warning"
+    risk = (
+        "a killed helixd leaves the DO_SET_SERVO outputs driving"
+        if servo
+        else "a killed helixd's RC overrides drive on until RC_OVERRIDE_TIME"
+    )
+    version = params.get(HXG_VERSION)
+    if version is None:
+        why = "helixd-guard does not run on the autopilot (no HXG_VERSION parameter)"
+        scr = params.get(SCR_ENABLE)
+        if scr is None:
+            why += "; the autopilot has no SCR_ENABLE: its firmware has no Lua scripting"
+        elif _int(scr) != 1:
+            why += f"; SCR_ENABLE = {scr:g}"
+        return [PreflightProblem(severity, f"{why}: {risk}; {INSTALL_GUARD}", HXG_VERSION)]
+    out: list[PreflightProblem] = []
+    if _int(version) != VERSION:
+        out.append(
+            PreflightProblem(
+                severity,
+                f"helixd-guard v{_int(version)} runs on the autopilot, this helixd needs "
+                f"v{VERSION}: {INSTALL_GUARD}",
+                HXG_VERSION,
+            )
+        )
+    guard = GuardParams.from_params({n: v for n, v in params.items() if v is not None})
+    if not guard.enabled:
+        out.append(
+            PreflightProblem(
+                severity,
+                f"HXG_ENABLE = {guard.enable:g}: helixd-guard is off and {risk}; set "
+                "HXG_ENABLE = 1",
+                HXG_ENABLE,
+            )
+        )
+    scroll_outputs = [ch.channel for ch in actuation.channels]
+    unguarded = [n for n in scroll_outputs if n not in guard.outputs]
+    if unguarded:
+        chans = ", ".join(f"{v:g}" for v in (guard.chan1, guard.chan2, guard.chan3, guard.chan4))
+        fix = (
+            f"set HXG_CHAN1..4 = {', '.join(str(n) for n in scroll_outputs)}"
+            if max(scroll_outputs) <= MAX_OUTPUT
+            else f"drive the scrolls on outputs 1..{MAX_OUTPUT}, which the guard can hold"
+        )
+        out.append(
+            PreflightProblem(
+                severity,
+                f"helixd-guard does not guard scroll output{'s' if len(unguarded) > 1 else ''} "
+                f"{', '.join(str(n) for n in unguarded)} (HXG_CHAN1..4 = {chans}): {fix}",
+                HXG_CHANS[0],
+            )
+        )
+    if guard.enabled:
+        out += _guard_rate(guard, actuation, link, severity)
+    return out
+
+
+def _guard_rate(
+    guard: GuardParams, actuation: ActuationConfig, link: LinkConfig, severity: Severity
+) -> list[PreflightProblem]:
+    """Does helixd refresh gcs:last_seen() often enough? HEARTBEATs always; the RC-override
+    backend's repeated overrides count as well (GCS_Common.cpp sysid_myggcs_seen)."""
+    rate_hz = link.heartbeat_rate_hz
+    if actuation.backend is ActuationBackend.RC_OVERRIDE:
+        rate_hz = max(rate_hz, actuation.repeat_rate_hz)
+    period_s = 1.0 / rate_hz
+    timeout_s = guard.timeout_ms / 1000.0
+    if period_s * GUARD_PERIODS_PER_TIMEOUT <= timeout_s + 1e-9:
+        return []
+    need_hz = GUARD_PERIODS_PER_TIMEOUT / timeout_s
+    need_timeout_s = period_s * GUARD_PERIODS_PER_TIMEOUT
+    return [
+        PreflightProblem(
+            severity if actuation.backend is ActuationBackend.SERVO else "warning",
+            f"link.heartbeat_rate_hz = {link.heartbeat_rate_hz:g} is too slow for helixd-guard's "
+            f"HXG_TIMEOUT = {timeout_s:g} s: one lost HEARTBEAT leaves helixd silent for "
+            f"{2 * period_s:.2f} s and the guard would stop the rover mid-mission; set "
+            f"link.heartbeat_rate_hz >= {need_hz:g} or HXG_TIMEOUT >= {need_timeout_s:g}",
+            HXG_TIMEOUT,
+        )
+    ]
 
 
 def is_gcs(sysid: int, low: int, high: int | None) -> bool:

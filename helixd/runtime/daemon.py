@@ -369,7 +369,8 @@ class MissionRunner:
 
     async def _preflight(self, ap: Autopilot) -> Checked:
         problems: list[str] = []
-        for p in await check_obedience(ap, self.cfg.actuation, self.cfg.link):
+        cfg = self.cfg
+        for p in await check_obedience(ap, cfg.actuation, cfg.link, cfg.safety.servo_guard):
             if p.severity == "error":
                 problems.append(p.message)
             else:

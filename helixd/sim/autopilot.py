@@ -8,11 +8,20 @@ ACCEPTED; PreArm failures ("AHRS: waiting for home" until home is set) → FAILE
 (Rover::set_mode, Mode::enter): position-requiring modes are refused while armed without a
 good EKF position or in EKF failsafe ("Flight mode change failed"); AUTO is refused without a
 mission.
+
+Scripting (AP_Scripting): with SCR_ENABLE 1 at boot the scripts in the working directory's
+``scripts/`` are loaded once, when the boot ends. The simulator runs one script:
+``helixd-guard.lua``, as its Python mirror (:mod:`helixd.sim.guard`) every 50 ms, with the
+parameters the script adds (HXG_*, values kept in storage across reboots) and HXG_VERSION
+set to the ``local VERSION`` the file declares. Its actions are applied as the Lua's are:
+``set_output_pwm_chan_timeout`` on each guarded output (:meth:`ServoOutputs.hold`), an RC
+override of the input feeding an RC-passthrough output, one HOLD request, its STATUSTEXTs.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from helixd.mav.constants import (
@@ -27,10 +36,26 @@ from helixd.mav.constants import (
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
 )
+from helixd.mav.guard import (
+    HXG_VERSION,
+    PARAM_DEFAULTS,
+    SCR_ENABLE,
+    SCRIPT_NAME,
+    GuardParams,
+    script_version,
+)
 from helixd.sim import modes
 from helixd.sim.config import SimConfig
 from helixd.sim.estimator import EkfStatus
 from helixd.sim.failsafe import EkfHealth, FailsafeDecision, Failsafes
+from helixd.sim.guard import (
+    HOLD_REFUSED_TEXT,
+    UPDATE_PERIOD_MS,
+    GuardAction,
+    HelixdGuard,
+    passthrough_input,
+    start_text,
+)
 from helixd.sim.outputs import MotorDemand, ServoOutputs
 from helixd.sim.params import ParamStore
 from helixd.sim.rc import RcInputs
@@ -41,6 +66,25 @@ SEVERITY_CRITICAL = 2
 SEVERITY_WARNING = 4
 SEVERITY_INFO = 6
 FIRMWARE_TEXT = "ArduRover V4.7.0-dev (helixd sim)"
+
+# The autopilot's scripts directory (name → contents), read once per boot; the I/O shell
+# (helixd.sim.server) reads it from the working directory.
+ScriptReader = Callable[[], Mapping[str, bytes]]
+
+
+def no_scripts() -> Mapping[str, bytes]:
+    """An autopilot without scripts."""
+    return {}
+
+
+@dataclass(slots=True)
+class RunningGuard:
+    """helixd-guard.lua as loaded at boot: its mirror, the version its file declares, and when
+    its update runs next (simulated s)."""
+
+    machine: HelixdGuard
+    version: int
+    next_s: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -69,9 +113,16 @@ def _rc_norm(pwm: int, n: int, params: ParamStore) -> float:
 
 
 class Autopilot:
-    def __init__(self, config: SimConfig, params: ParamStore, now_s: float = 0.0) -> None:
+    def __init__(
+        self,
+        config: SimConfig,
+        params: ParamStore,
+        now_s: float = 0.0,
+        scripts: ScriptReader = no_scripts,
+    ) -> None:
         self.config = config
         self.params = params
+        self._scripts = scripts
         self.events: list[SimEvent] = []
         self.texts: list[StatusText] = []
         self.pilot_rc_us: list[int] = list(config.pilot_rc_us)
@@ -98,6 +149,7 @@ class Autopilot:
         self.failsafes = Failsafes()
         self.mode_switch = modes.ModeSwitch()
         self.gcs_last_seen_s: float | None = None
+        self.guard: RunningGuard | None = None
         self._booted = False
         self._origin_announced = False
         self._home_announced = False
@@ -310,7 +362,7 @@ class Autopilot:
             if self.set_mode(number, "failsafe", now_s, ekf):
                 break
 
-    def _finish_boot(self) -> None:
+    def _finish_boot(self, now_s: float) -> None:
         self._booted = True
         initial = self.params.get_int("INITIAL_MODE")
         self.mode = initial if initial in modes.MODE_NAMES else modes.MANUAL
@@ -322,6 +374,67 @@ class Autopilot:
             )
         )
         self._say(SEVERITY_INFO, FIRMWARE_TEXT)
+        self._start_scripts(now_s)
+
+    # -- scripting ---------------------------------------------------------------------------
+
+    def _start_scripts(self, now_s: float) -> None:
+        """AP_Scripting at boot: only with SCR_ENABLE set when the autopilot booted."""
+        if self.params.boot_value(SCR_ENABLE) <= 0:
+            return
+        source = self._scripts().get(SCRIPT_NAME)
+        if source is None:
+            return
+        version = script_version(source)
+        if version is None:
+            self._say(SEVERITY_WARNING, f"Lua: {SCRIPT_NAME} is no helixd-guard script (sim)")
+            return
+        for name, default in PARAM_DEFAULTS.items():
+            self.params.add_script_param(name, default)
+        self.params.set(HXG_VERSION, float(version))
+        params = self._guard_params()
+        self.guard = RunningGuard(HelixdGuard(params), version, now_s)
+        self.events.append(SimEvent("script", {"name": SCRIPT_NAME, "version": version}))
+        self._say(*start_text(params))
+
+    def _guard_params(self) -> GuardParams:
+        return GuardParams.from_params({name: self.params.get(name) for name in PARAM_DEFAULTS})
+
+    def _run_guard(self, now_s: float, ekf: EkfStatus) -> None:
+        """One update of helixd-guard when it is due (every UPDATE_PERIOD_MS)."""
+        guard = self.guard
+        if guard is None or now_s < guard.next_s - 1e-9:
+            return
+        period_s = UPDATE_PERIOD_MS / 1000.0
+        while guard.next_s <= now_s + 1e-9:  # every 50 ms, as the script's own scheduler;
+            guard.next_s += period_s  # here at the first main loop at or after that time
+        if self.params.get(HXG_VERSION) != guard.version:  # the Lua re-asserts its version
+            self.params.set(HXG_VERSION, float(guard.version))
+        guard.machine.params = self._guard_params()
+        since_boot = now_s - self.boot_start_s  # millis(): since boot
+        last = self.gcs_last_seen_s
+        action = guard.machine.step(
+            since_boot, self.armed, None if last is None else last - self.boot_start_s, self.mode
+        )
+        self._apply_guard(action, now_s, ekf)
+
+    def _apply_guard(self, action: GuardAction, now_s: float, ekf: EkfStatus) -> None:
+        params = self.params
+        if action.hold_trim:
+            period_ms = 1000.0 / self.loop_rate_hz()
+            loops = math.ceil(action.hold_ms / period_ms - 1e-9)
+            for n in action.hold_trim:
+                trim = params.get_int(f"SERVO{n}_TRIM")
+                self.outputs.hold(n, trim, loops)
+                source, mapped = passthrough_input(n, params.get_int(f"SERVO{n}_FUNCTION"))
+                if source is not None:
+                    value = params.get_int(f"RC{source}_TRIM") if mapped else trim
+                    self.rc.set_override(source, value, now_s)
+        for severity, text in action.texts:
+            self._say(severity, text)
+            self.events.append(SimEvent("guard", {"guarding": action.guarding, "text": text}))
+        if action.request_hold and not self.set_mode(modes.HOLD, "helixd_guard", now_s, ekf):
+            self._say(SEVERITY_WARNING, HOLD_REFUSED_TEXT)
 
     def motor_demand(self) -> MotorDemand | None:
         if not self.armed:
@@ -338,7 +451,7 @@ class Autopilot:
         if self.booting(now_s):
             return [0] * 16
         if not self._booted:
-            self._finish_boot()
+            self._finish_boot(now_s)
         if not self._origin_announced and self.origin_set(now_s):
             self._origin_announced = True
             self._say(SEVERITY_INFO, "EKF3 IMU0 origin set")
@@ -370,6 +483,7 @@ class Autopilot:
                 position = self.mode_switch.update(self.rc.radio_in_us[mode_ch - 1], now_s)
                 if position is not None:
                     self.set_mode(params.get_int(f"MODE{position + 1}"), "rc_switch", now_s, ekf)
+        self._run_guard(now_s, ekf)
         slow = int(now_s * 10.0)  # the 10 Hz checks
         if slow != self._last_slow_check:
             self._last_slow_check = slow

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import math
 from enum import StrEnum
+from pathlib import Path
 
 from pydantic import Field, field_validator, model_validator
 
 from helixd.config import LinkConfig, VehicleConfig
 from helixd.files.models import InputModel
+from helixd.mav.guard import HXG_VERSION, PARAM_DEFAULTS
 from helixd.sim.obstacles import SimObstacles
 from helixd.sim.params import DEFAULT_PARAMS
 
@@ -299,6 +301,22 @@ class SimConfig(InputModel):
     obstacles: SimObstacles = Field(
         default_factory=SimObstacles, description="solid shapes the rover stops against"
     )
+    workdir: Path | None = Field(
+        None,
+        description="the autopilot's working directory (SITL's): MAVLink FTP serves it and its "
+        "scripts/ holds the Lua scripts loaded at boot; None = a temporary directory made for "
+        "the run and removed when the simulator stops",
+    )
+    guard_installed: bool = Field(
+        False,
+        description="helixd-guard.lua written into scripts/ and SCR_ENABLE 1 at start, as after "
+        "`helixd autopilot install-guard` and a reboot",
+    )
+    guard_params: dict[str, float] = Field(
+        default_factory=dict,
+        description="HXG_* values in the autopilot's storage (the script's defaults otherwise; "
+        "ArduPilot takes them from storage only, never from --defaults files)",
+    )
 
     @field_validator("params", mode="after")
     @classmethod
@@ -318,6 +336,12 @@ class SimConfig(InputModel):
         unknown = sorted(set(self.params) - set(DEFAULT_PARAMS))
         if unknown:
             raise ValueError(f"unknown parameter names in params: {', '.join(unknown)}")
+        settable = set(PARAM_DEFAULTS) - {HXG_VERSION}
+        unknown = sorted(set(self.guard_params) - settable)
+        if unknown:
+            raise ValueError(
+                f"guard_params takes {', '.join(sorted(settable))}; not {', '.join(unknown)}"
+            )
         return self
 
     def traction(self) -> TerrainTraction:

@@ -9,16 +9,18 @@ import math
 from collections import deque
 from collections.abc import Mapping
 from types import MappingProxyType
+from typing import Protocol
 
 import numpy as np
 
+from helixd.mav.guard import SCR_ENABLE
 from helixd.sim import estimator, obstacles, physics, skid, telemetry
 from helixd.sim import streams as st
-from helixd.sim.autopilot import Autopilot, SimEvent, StatusText
+from helixd.sim.autopilot import Autopilot, ScriptReader, SimEvent, StatusText, no_scripts
 from helixd.sim.config import Plant, SimConfig
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
 from helixd.sim.inbound import InboundHandler
-from helixd.sim.messages import STATUSTEXT_LEN, Message, statustexts
+from helixd.sim.messages import STATUSTEXT_LEN, Message, file_transfer_protocol, statustexts
 from helixd.sim.mission import MissionServer, Outcome
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.params import ParamStore
@@ -30,6 +32,14 @@ PARAMS_PER_LOOP = 2  # PARAM_REQUEST_LIST streaming pace (ArduPilot rate-limits 
 SWITCH_POSITION_PWM_US = (1100, 1295, 1425, 1555, 1685, 1900)
 
 
+class FtpHandler(Protocol):
+    """The autopilot's MAVLink FTP server (helixd.sim.ftp.FtpServer over its working directory)."""
+
+    def handle(
+        self, payload: bytes, *, sysid: int, compid: int, now_s: float, link: int = 0
+    ) -> list[bytes]: ...
+
+
 class LinkState:
     def __init__(self, default_rate_hz: float, loop_rate_hz: int) -> None:
         self.streams = st.StreamSchedule(default_rate_hz, loop_rate_hz)
@@ -37,11 +47,26 @@ class LinkState:
 
 
 class SimCore:
-    def __init__(self, config: SimConfig, n_links: int, rng: np.random.Generator) -> None:
+    """``ftp``: the FTP server that answers FILE_TRANSFER_PROTOCOL (None: not answered);
+    ``scripts``: reads the scripts directory when the autopilot boots (the shell's I/O)."""
+
+    def __init__(
+        self,
+        config: SimConfig,
+        n_links: int,
+        rng: np.random.Generator,
+        *,
+        ftp: FtpHandler | None = None,
+        scripts: ScriptReader = no_scripts,
+    ) -> None:
         self.config = config
         self.rng = rng
-        self.params = ParamStore(config.params)
-        self.ap = Autopilot(config, self.params, 0.0)
+        params = dict(config.params)
+        if config.guard_installed:
+            params[SCR_ENABLE] = 1.0
+        self.params = ParamStore(params, stored=config.guard_params)
+        self._ftp = ftp
+        self.ap = Autopilot(config, self.params, 0.0, scripts)
         self.links = [self._new_link() for _ in range(n_links)]
         self.faults = FaultClock()
         self.pending: list[tuple[float, FaultSpec]] = []
@@ -124,6 +149,15 @@ class SimCore:
 
     def mission_message(self, link: int, msg: Message) -> None:
         self._mission_outcome(self.mission.handle(link, msg, self.now_s))
+
+    def ftp_request(self, link: int, payload: bytes, sysid: int, compid: int) -> None:
+        """GCS_FTP: each reply goes back to the sender on the link the request came in on."""
+        if self._ftp is None:
+            return
+        for reply in self._ftp.handle(
+            payload, sysid=sysid, compid=compid, now_s=self.now_s, link=link
+        ):
+            self.send(link, file_transfer_protocol(reply, sysid, compid))
 
     def _mission_outcome(self, out: Outcome) -> None:
         for step in out.steps:

@@ -1,7 +1,8 @@
 """helixd-guard, the autopilot's dead-man switch, as a pure state machine (no sockets, no clocks).
 
-This mirrors ``autopilot/scripts/helixd-guard.lua`` (version 1) line for line, so that the
-built-in simulator can run the same guard ArduPilot runs:
+This mirrors ``helixd/mav/scripts/helixd-guard.lua`` (version 1) line for line, so that the
+built-in simulator can run the same guard ArduPilot runs (its parameters, their defaults and
+:class:`helixd.mav.guard.GuardParams` live in :mod:`helixd.mav.guard`, shared with preflight):
 
 * parameters HXG_ENABLE (1), HXG_TIMEOUT (0.5 s, clamped to 0.1 … 10 s), HXG_CHAN1..4
   (1, 2, 3, 4: 1-based servo outputs, 0 = none, outside 1..16 ignored, duplicates once),
@@ -23,19 +24,13 @@ Times are quantised to whole milliseconds, as ArduPilot's ``millis()``.
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 
-VERSION = 1
-PARAM_TABLE_KEY = 144
-PARAM_PREFIX = "HXG_"
+from helixd.mav.guard import VERSION, GuardParams, to_ms
+
 UPDATE_PERIOD_MS = 50
 OVERRIDE_MS = 100  # each renewal holds the outputs this long (2 update periods)
 MODE_HOLD = 4
-MAX_OUTPUT = 16
-TIMEOUT_MIN_MS = 100
-TIMEOUT_MAX_MS = 10_000
 
 SEVERITY_CRITICAL = 2
 SEVERITY_WARNING = 4
@@ -49,80 +44,9 @@ BACK_TEXT = "helixd-guard: heartbeat back, released"
 DISARMED_TEXT = "helixd-guard: disarmed, released"
 DISABLED_TEXT = "helixd-guard: disabled, released"
 
-# name → default, in the Lua's table order (index 1..7)
-PARAM_DEFAULTS: dict[str, float] = {
-    "HXG_ENABLE": 1.0,
-    "HXG_TIMEOUT": 0.5,
-    "HXG_CHAN1": 1.0,
-    "HXG_CHAN2": 2.0,
-    "HXG_CHAN3": 3.0,
-    "HXG_CHAN4": 4.0,
-    "HXG_VERSION": float(VERSION),
-}
-
 
 def silent_text(timeout_ms: int) -> str:
     return f"helixd-guard: no heartbeat {timeout_ms} ms, trim + HOLD"
-
-
-def to_ms(t_s: float) -> int:
-    """Seconds → whole milliseconds (round half up), the unit of ArduPilot's millis()."""
-    return math.floor(t_s * 1000.0 + 0.5)
-
-
-def _lua_round(value: float) -> int:
-    return math.floor(value + 0.5)
-
-
-@dataclass(frozen=True, slots=True)
-class GuardParams:
-    """The HXG_ parameters as ArduPilot stores them (floats)."""
-
-    enable: float = PARAM_DEFAULTS["HXG_ENABLE"]
-    timeout_s: float = PARAM_DEFAULTS["HXG_TIMEOUT"]
-    chan1: float = PARAM_DEFAULTS["HXG_CHAN1"]
-    chan2: float = PARAM_DEFAULTS["HXG_CHAN2"]
-    chan3: float = PARAM_DEFAULTS["HXG_CHAN3"]
-    chan4: float = PARAM_DEFAULTS["HXG_CHAN4"]
-
-    def __post_init__(self) -> None:
-        for name in ("enable", "timeout_s", "chan1", "chan2", "chan3", "chan4"):
-            if not math.isfinite(getattr(self, name)):
-                raise ValueError(f"GuardParams.{name} must be finite")
-
-    @classmethod
-    def from_params(cls, values: Mapping[str, float]) -> GuardParams:
-        """From HXG_* names (missing ones take the script's defaults)."""
-
-        def get(name: str) -> float:
-            return float(values.get(name, PARAM_DEFAULTS[name]))
-
-        return cls(
-            enable=get("HXG_ENABLE"),
-            timeout_s=get("HXG_TIMEOUT"),
-            chan1=get("HXG_CHAN1"),
-            chan2=get("HXG_CHAN2"),
-            chan3=get("HXG_CHAN3"),
-            chan4=get("HXG_CHAN4"),
-        )
-
-    @property
-    def enabled(self) -> bool:
-        return self.enable > 0
-
-    @property
-    def timeout_ms(self) -> int:
-        return min(max(to_ms(self.timeout_s), TIMEOUT_MIN_MS), TIMEOUT_MAX_MS)
-
-    @property
-    def outputs(self) -> tuple[int, ...]:
-        """Guarded outputs (1-based) in HXG_CHAN1..4 order, valid and unique."""
-        out: list[int] = []
-        for value in (self.chan1, self.chan2, self.chan3, self.chan4):
-            n = _lua_round(value)
-            if 1 <= n <= MAX_OUTPUT and n not in out:
-                out.append(n)
-        return tuple(out)
 
 
 @dataclass(frozen=True, slots=True)
@@ -194,3 +118,16 @@ class HelixdGuard:
             text = BACK_TEXT if armed else DISARMED_TEXT
             return GuardAction(texts=((SEVERITY_NOTICE, text),))
         return GuardAction()
+
+
+def passthrough_input(output: int, function: int) -> tuple[int | None, bool]:
+    """The Lua's ``passthrough_input``: the RC input (1-based) that feeds an RC-passthrough
+    output (None if ``function`` is no passthrough), and whether it is a *mapped* passthrough
+    (140..155), held at that input's RCn_TRIM rather than the output's SERVOn_TRIM."""
+    if function == 1:
+        return output, False  # k_manual: RC input n -> output n
+    if 51 <= function <= 66:
+        return function - 50, False  # k_rcin1..16
+    if 140 <= function <= 155:
+        return function - 139, True  # k_rcin1_mapped..16
+    return None, False

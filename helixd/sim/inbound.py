@@ -26,6 +26,7 @@ from helixd.mav.constants import (
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
 )
+from helixd.mav.ftp import FtpPayloadError, from_message
 from helixd.sim import messages, telemetry
 from helixd.sim import streams as st
 from helixd.sim.autopilot import Autopilot, SimEvent, StatusText
@@ -93,6 +94,10 @@ class InboundPort(Protocol):
         """A MISSION_* message for the mission protocol (helixd.sim.mission)."""
         ...
 
+    def ftp_request(self, link: int, payload: bytes, sysid: int, compid: int) -> None:
+        """A FILE_TRANSFER_PROTOCOL payload for the autopilot's FTP server."""
+        ...
+
 
 class InboundHandler:
     def __init__(self, core: InboundPort) -> None:
@@ -108,6 +113,7 @@ class InboundHandler:
             "PARAM_REQUEST_LIST": self._param_request_list,
             "PARAM_SET": self._param_set,
             "REQUEST_DATA_STREAM": self._request_data_stream,
+            "FILE_TRANSFER_PROTOCOL": self._file_transfer,
         }
         for kind in MISSION_MESSAGES:  # GCS_MAVLINK::handle_common_mission_message
             self._handlers[kind] = self._mission
@@ -227,6 +233,13 @@ class InboundHandler:
 
     def _mission(self, link: int, msg: Message, src: int, comp: int) -> None:
         self.core.mission_message(link, msg)
+
+    def _file_transfer(self, link: int, msg: Message, src: int, comp: int) -> None:
+        try:
+            payload = from_message(msg)
+        except FtpPayloadError:
+            return
+        self.core.ftp_request(link, payload, src, comp)
 
     # -- parameters ------------------------------------------------------------------------
 

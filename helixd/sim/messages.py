@@ -265,6 +265,15 @@ def param_value(name: str, value: float, kind: int, count: int, index: int) -> M
     return _m(mavlink.MAVLink_param_value_message(name.encode("ascii"), value, kind, count, index))
 
 
+def file_transfer_protocol(payload: bytes, target_system: int, target_component: int) -> Message:
+    """An FTP reply (GCS_FTP::send_reply: target_network 0, to the request's sender)."""
+    return _m(
+        mavlink.MAVLink_file_transfer_protocol_message(
+            0, target_system, target_component, list(payload)
+        )
+    )
+
+
 def message_interval(message_id: int, interval_us: int) -> Message:
     return _m(mavlink.MAVLink_message_interval_message(message_id, interval_us))
 

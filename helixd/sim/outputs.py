@@ -11,6 +11,14 @@
   is latched (set_output_pwm, no timeout). On a passthrough channel it holds until the RC
   input moves by more than the channel's dead zone (ignore_small_rcin_changes).
 * Function 0 before any DO_SET_SERVO outputs SERVOn_TRIM (an approximation).
+* A script's ``SRV_Channels:set_output_pwm_chan_timeout`` (:meth:`ServoOutputs.hold`;
+  SRV_Channels.cpp): the output is forced to the value for a number of main loops (the timeout
+  rounded up to loops). While it is active, a DO_SET_SERVO is accepted but changes nothing
+  (``set_output_pwm`` without force); ArduPilot's own functions keep the value instead of
+  their computed one. An RC passthrough output ignores it: ``output_ch`` copies the RC input
+  onto the output after the override is applied (helixd-guard overrides the RC input as well).
+  When it ends, a function-0 output keeps the held value (``have_pwm_mask``), ArduPilot's own
+  functions are computed again.
 """
 
 from __future__ import annotations
@@ -53,6 +61,9 @@ class _Channel:
     ignore_small_rcin_changes: bool = False
     previous_radio_in_us: int = 0
     output_pwm_us: int = 0
+    override_loops: int = 0  # SRV_Channels::override_counter
+    override_active: bool = False
+    override_pwm_us: int = 0
 
 
 def _scaled_pwm(value: float, n: int, params: ParamStore) -> int:
@@ -90,11 +101,29 @@ class ServoOutputs:
         if function not in DO_SET_SERVO_FUNCTIONS:
             return f"ServoRelayEvent: Channel {channel} is already in use"
         c = self._ch[channel - 1]
+        c.ignore_small_rcin_changes = True
+        if c.override_active:
+            return None  # set_output_pwm() does not overwrite an override: ACCEPTED, no effect
         c.latched = True
         c.latched_pwm_us = int(pwm_us)
         c.output_pwm_us = int(pwm_us)
-        c.ignore_small_rcin_changes = True
         return None
+
+    def hold(self, channel: int, pwm_us: int, loops: int) -> None:
+        """``set_output_pwm_chan_timeout(channel - 1, pwm_us, ·)`` lasting ``loops`` main loops."""
+        if not 1 <= channel <= NUM_SERVO_CHANNELS:
+            return
+        c = self._ch[channel - 1]
+        c.override_loops = max(0, int(loops))
+        c.override_active = True
+        c.override_pwm_us = int(pwm_us)
+        c.output_pwm_us = int(pwm_us)
+        if c.latched:  # had_pwm: the held value stays after the timeout
+            c.latched_pwm_us = int(pwm_us)
+
+    def held_channels(self) -> tuple[int, ...]:
+        """Outputs (1-based) under a script's timed override."""
+        return tuple(i + 1 for i, c in enumerate(self._ch) if c.override_active)
 
     def update(
         self,
@@ -106,6 +135,12 @@ class ServoOutputs:
         left_right = skid_mix(demand) if demand is not None else (0.0, 0.0)
         for i, c in enumerate(self._ch):
             n = i + 1
+            # SRV_Channels::calc_pwm: count the override down, one main loop at a time
+            if c.override_loops == 0:
+                c.override_active = False
+            else:
+                c.override_active = True
+                c.override_loops -= 1
             function = params.get_int(f"SERVO{n}_FUNCTION")
             source = -1
             if function == K_MANUAL:
@@ -121,6 +156,8 @@ class ServoOutputs:
                     c.output_pwm_us = radio_in
                     c.ignore_small_rcin_changes = False
                     c.latched = False
+            elif c.override_active:
+                c.output_pwm_us = c.override_pwm_us
             elif function == K_THROTTLE:
                 c.output_pwm_us = _scaled_pwm(demand.throttle if demand else 0.0, n, params)
             elif function == K_STEERING:

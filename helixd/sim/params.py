@@ -53,6 +53,7 @@ def _build_defaults() -> dict[str, ParamSpec]:
         "FS_EKF_THRESH": ParamSpec(0.8, f32),
         "INITIAL_MODE": ParamSpec(0, i8),
         "MODE_CH": ParamSpec(8, i8),
+        "SCR_ENABLE": ParamSpec(0, i8),  # AP_Scripting: scripts start at boot when 1
     }
     for n in range(1, 7):
         table[f"MODE{n}"] = ParamSpec(0, i8)  # Rover Parameters.cpp: every MODEn = MANUAL
@@ -74,7 +75,7 @@ def _build_defaults() -> dict[str, ParamSpec]:
 DEFAULT_PARAMS: Mapping[str, ParamSpec] = MappingProxyType(_build_defaults())
 
 # Parameters whose new value is only read at boot (the scheduler is set up once).
-REBOOT_REQUIRED = frozenset({"SCHED_LOOP_RATE", "MAV_SYSID"})
+REBOOT_REQUIRED = frozenset({"SCHED_LOOP_RATE", "MAV_SYSID", "SCR_ENABLE"})
 
 
 def _coerce(value: float, kind: ParamType) -> float:
@@ -84,10 +85,23 @@ def _coerce(value: float, kind: ParamType) -> float:
 
 
 class ParamStore:
-    """Current values, in ArduPilot's order (PARAM_REQUEST_LIST index order)."""
+    """Current values, in ArduPilot's order (PARAM_REQUEST_LIST index order).
 
-    def __init__(self, overrides: Mapping[str, float] | None = None) -> None:
+    Besides the firmware's parameters, a running script may add its own
+    (:meth:`add_script_param`, as ``param:add_param``; REAL32, listed after the firmware's).
+    They exist only while the script runs: a reboot removes them, but their values stay in
+    storage (``stored``) and come back when the script adds them again. ArduPilot does not
+    take them from ``--defaults`` files either: a script's parameters load from storage only.
+    """
+
+    def __init__(
+        self,
+        overrides: Mapping[str, float] | None = None,
+        stored: Mapping[str, float] | None = None,
+    ) -> None:
         self._values: dict[str, float] = {k: float(s.default) for k, s in DEFAULT_PARAMS.items()}
+        self._specs: dict[str, ParamSpec] = dict(DEFAULT_PARAMS)
+        self._stored: dict[str, float] = {k: float(v) for k, v in (stored or {}).items()}
         self._version = 0
         for name, value in (overrides or {}).items():
             self.set(name, value)
@@ -119,7 +133,7 @@ class ParamStore:
         return self._boot_values[name]
 
     def kind(self, name: str) -> ParamType:
-        return DEFAULT_PARAMS[name].kind
+        return self._specs[name].kind
 
     def index(self, name: str) -> int:
         return list(self._values).index(name)
@@ -131,14 +145,30 @@ class ParamStore:
 
     def set(self, name: str, value: float) -> float:
         """Set a known parameter (KeyError otherwise); returns the stored value."""
-        spec = DEFAULT_PARAMS[name]
+        spec = self._specs[name]
         stored = _coerce(value, spec.kind)
+        if name not in DEFAULT_PARAMS:
+            self._stored[name] = stored
         if self._values[name] != stored:
             self._values[name] = stored
             self._version += 1
         return stored
 
+    def add_script_param(self, name: str, default: float) -> float:
+        """A script's ``param:add_param``: the parameter appears (REAL32) with its stored value,
+        else ``default``; returns the value. Adding one that exists keeps it as it is."""
+        if name in self._values:
+            return self._values[name]
+        self._specs[name] = ParamSpec(default, ParamType.REAL32)
+        self._values[name] = float(self._stored.get(name, default))
+        self._version += 1
+        return self._values[name]
+
     def on_reboot(self) -> None:
+        for name in [n for n in self._values if n not in DEFAULT_PARAMS]:
+            del self._values[name]
+            del self._specs[name]
+            self._version += 1
         self._boot_values = dict(self._values)
 
     def as_dict(self) -> dict[str, float]:

@@ -78,6 +78,15 @@ class RcInputs:
                 events.append(OverrideEvent("set", i + 1, pwm))
         return events
 
+    def set_override(self, channel: int, pwm_us: int, now_s: float) -> None:
+        """RC_Channel::set_override from a script (``rc:get_channel(c):set_override(v)``): as a
+        GCS override it expires after RC_OVERRIDE_TIME; it is no GCS contact."""
+        if not 1 <= channel <= NUM_RC_CHANNELS:
+            return
+        self.override_us[channel - 1] = int(pwm_us)
+        self.override_time_s[channel - 1] = now_s
+        self.has_new_overrides = True
+
     def has_override(self, index: int, now_s: float, timeout_s: float) -> bool:
         if self.override_us[index] <= 0:
             return False

@@ -10,6 +10,12 @@ Links are pymavlink-style strings: ``udpin:HOST:PORT`` (bind; reply to whoever s
 TCP clients, like SITL's tcp:5760). Each link has its own message intervals. Messages are
 forwarded between links as ArduPilot's MAVLink_routing does (:class:`helixd.sim.inbound.Router`):
 a ground station on one link is heard on the others.
+
+The autopilot's working directory (``SimConfig.workdir``, or a temporary directory made for
+the run and removed at :meth:`SimServer.stop`) is SITL's: MAVLink FTP serves it
+(:class:`helixd.sim.ftp.FtpServer`, as ArduPilot's GCS_FTP over ``AP_Filesystem``), and the
+Lua scripts in its ``scripts/`` are read when the autopilot boots. With
+``guard_installed`` the shell writes helixd-guard.lua there before the first boot.
 """
 
 from __future__ import annotations
@@ -17,10 +23,13 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import os
+import shutil
+import tempfile
 import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
@@ -29,9 +38,11 @@ import structlog
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.mav.guard import POSIX_SCRIPTS_DIR, SCRIPT_NAME, script_bytes
 from helixd.sim.config import SimConfig
 from helixd.sim.core import SimCore
 from helixd.sim.faults import make_spec
+from helixd.sim.ftp import FtpServer
 from helixd.sim.inbound import Router
 from helixd.sim.snapshot import History, HistoryEntry, SimSnapshot, take_snapshot
 
@@ -173,7 +184,16 @@ class SimServer:
         self._quiet_kinds = ECHOED_BY_HELIXD_KINDS if embedded else frozenset()
         self.history = History(config.history_max_entries)
         rng = np.random.default_rng(config.seed)
-        self._core = SimCore(config, len(self.link_specs), rng)
+        self._own_workdir = config.workdir is None
+        self.workdir = prepare_workdir(config)
+        self._ftp = FtpServer(self.workdir)
+        self._core = SimCore(
+            config,
+            len(self.link_specs),
+            rng,
+            ftp=self._ftp,
+            scripts=lambda: read_scripts(self.workdir),
+        )
         self._router = Router()
         self._links: list[_Link] = []
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -207,6 +227,10 @@ class SimServer:
             self._thread.join(timeout=START_TIMEOUT_S)
             if self._thread.is_alive():
                 log.error("sim_stop_timeout")
+                return  # the thread may still use the FTP server and the directory
+        self._ftp.close()
+        if self._own_workdir:
+            shutil.rmtree(self.workdir, ignore_errors=True)
 
     def __enter__(self) -> SimServer:
         self.start()
@@ -398,6 +422,33 @@ class SimServer:
                     raise TimeoutError(f"simulator stopped; last: {self._snapshot.describe()}")
                 self._cond.wait(min(remaining, 0.2))
             return self._snapshot
+
+
+def prepare_workdir(config: SimConfig) -> Path:
+    """The autopilot's working directory: ``config.workdir`` (made if missing) or a fresh
+    temporary one; with ``guard_installed`` helixd-guard.lua is written into its scripts/."""
+    if config.workdir is None:
+        workdir = Path(tempfile.mkdtemp(prefix="helixd-sim-"))
+    else:
+        workdir = config.workdir
+        workdir.mkdir(parents=True, exist_ok=True)
+    if config.guard_installed:
+        scripts = workdir / POSIX_SCRIPTS_DIR
+        scripts.mkdir(exist_ok=True)
+        (scripts / SCRIPT_NAME).write_bytes(script_bytes())
+    return workdir.resolve()
+
+
+def read_scripts(workdir: Path) -> dict[str, bytes]:
+    """What AP_Scripting finds at boot: every ``*.lua`` in ``workdir/scripts`` (name → bytes)."""
+    found: dict[str, bytes] = {}
+    try:
+        for path in sorted((workdir / POSIX_SCRIPTS_DIR).glob("*.lua")):
+            if path.is_file():
+                found[path.name] = path.read_bytes()
+    except OSError as exc:
+        log.warning("sim_scripts_unreadable", workdir=str(workdir), error=str(exc))
+    return found
 
 
 def start_embedded(config: SimConfig) -> tuple[SimServer, str]:

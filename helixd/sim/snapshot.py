@@ -35,6 +35,7 @@ class SimSnapshot:
     overrides_active: tuple[bool, ...]  # RC1..16
     override_us: tuple[int, ...]
     latched_servo_channels: tuple[int, ...]  # DO_SET_SERVO latched (1-based)
+    held_servo_channels: tuple[int, ...]  # under a script's timed override (1-based)
     scroll_pwm_us: tuple[int, int, int, int]  # the outputs driving scrolls 1..4
     scroll_rpm: tuple[float, float, float, float]
     north_m: float  # truth
@@ -64,6 +65,8 @@ class SimSnapshot:
     fence_items: tuple[StoredItem, ...] = ()
     rally_items: tuple[StoredItem, ...] = ()
     mission_current_seq: int = 0
+    guard_version: int | None = None  # helixd-guard.lua running (its VERSION); None: not
+    guard_guarding: bool = False  # the guard holds the scrolls (helixd silent while armed)
 
     def describe(self) -> str:
         return (
@@ -96,6 +99,7 @@ def take_snapshot(core: SimCore) -> SimSnapshot:
         overrides_active=ap.rc.active_overrides(now, timeout),
         override_us=tuple(ap.rc.override_us),
         latched_servo_channels=ap.outputs.latched_channels(),
+        held_servo_channels=ap.outputs.held_channels(),
         scroll_pwm_us=(
             outputs[chans[0] - 1],
             outputs[chans[1] - 1],
@@ -134,6 +138,8 @@ def take_snapshot(core: SimCore) -> SimSnapshot:
         fence_items=core.mission.stored(MAV_MISSION_TYPE_FENCE),
         rally_items=core.mission.stored(MAV_MISSION_TYPE_RALLY),
         mission_current_seq=core.mission.current_seq,
+        guard_version=None if ap.guard is None else ap.guard.version,
+        guard_guarding=ap.guard is not None and ap.guard.machine.guarding,
     )
 
 

@@ -130,6 +130,30 @@ async def test_servo_start_sends_neutral_first_and_sends_on_change() -> None:
         assert peer.servo_out[0] == 1500 and sink.held_channels == frozenset()
 
 
+async def test_servo_values_are_refreshed_because_an_ack_is_no_proof() -> None:
+    """helixd-guard may have held an output while a DO_SET_SERVO came in (ACCEPTED, dropped):
+    each channel is sent again once its last send is actuation.servo_refresh_s old."""
+    cfg = actuation(ActuationBackend.SERVO, channels=(1, 2, 3, 4), servo_refresh_s=0.2)
+    async with linked() as (ap, peer):
+        sink = make_sink(cfg, VehicleConfig(), ap)
+        await sink.start()
+        sink.command([0.5, 0.0, 0.0, 0.0])
+        await until(lambda: peer.servo_out[0] == 1750, 2.0, "channel 1 at 1750")
+        peer.servo_out[0] = 1500  # the guard's trim stayed on the output after an episode
+        t0 = time.monotonic()
+        await until(lambda: peer.servo_out[0] == 1750, 1.0, "channel 1 restored by a refresh")
+        restored_s = time.monotonic() - t0
+        assert restored_s <= 0.2 + 0.15
+        t1 = time.monotonic()
+        await until(lambda: time.monotonic() - t1 >= 0.5, 1.0, "0.5 s of refreshes")
+        sent = peer.records.commands_of(SET_SERVO, t1)
+        for ch in (1, 2, 3, 4):  # every channel, about every 0.2 s, at its desired value
+            values = [int(c.params[1]) for c in sent if int(c.params[0]) == ch]
+            assert 2 <= len(values) <= 4, (ch, values)
+            assert set(values) == {1750 if ch == 1 else 1500}
+        await sink.stop()
+
+
 async def test_servo_refusal_at_start_is_a_typed_error() -> None:
     cfg = actuation(ActuationBackend.SERVO, channels=(1, 2, 3, 4))
     async with linked() as (ap, peer):

@@ -1,5 +1,7 @@
 """Every fault mid-mission ends with scrolls neutral, overrides released and HOLD — as the
-autopilot (simulator) sees it — within 0.5 s of detection, and the documented exit code."""
+autopilot (simulator) sees it — within 0.5 s of detection, and the documented exit code.
+``kill -9`` of the daemon, which can do nothing itself, is caught by helixd-guard on the
+autopilot: scrolls at trim and HOLD within its timeout, for both backends."""
 
 from __future__ import annotations
 
@@ -12,9 +14,13 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
+from helixd.sim import SimServer
+from helixd.sim.snapshot import HistoryEntry
 from tests.support.harness import (
+    NEUTRAL_US,
     SPEEDUP,
     overrides_released,
+    record_until,
     scrolls_neutral,
     secured,
     sim_and_daemon,
@@ -202,3 +208,72 @@ def test_autopilot_reboot(tmp_path: Path) -> None:
     assert not snap.armed
     assert overrides_released(snap)
     assert "event=fallback" in log
+
+
+# --- kill -9 and helixd-guard -------------------------------------------------------------------
+
+GUARD_TIMEOUT_S = 0.5  # HXG_TIMEOUT's default
+GUARD_PERIOD_S = 0.05  # the script runs every 50 ms …
+LOOP_S = 0.02  # … here in the first 50 Hz main loop after that; RC: the override shows one later
+SERVO_OUTPUTS = {f"SERVO{n}_FUNCTION": 0 for n in range(1, 5)}
+
+
+def last_change(server: SimServer, channels: range, after_sim_s: float) -> HistoryEntry | None:
+    """The last ``output`` event of ``channels`` after ``after_sim_s`` (simulated time)."""
+    changes = [
+        e
+        for e in server.history.entries("output")
+        if e.sim_time_s > after_sim_s and int(str(e.details["channel"])) in channels
+    ]
+    return changes[-1] if changes else None
+
+
+@pytest.mark.parametrize("backend", ["rc_override", "servo"])
+def test_kill9_helixd_guard_stops_the_scrolls_and_holds(tmp_path: Path, backend: str) -> None:
+    """At speed-up 1 with the defaults (5 Hz HEARTBEAT, HXG_TIMEOUT 0.5 s): while helixd
+    flies the guard never acts; after kill -9 it holds outputs 1..4 at trim and asks for HOLD
+    within its timeout of helixd's last message, and keeps them there past RC_OVERRIDE_TIME."""
+    cfg = {"actuation": {"backend": backend}}
+    sim: dict[str, Any] = {"speedup": 1.0, "guard_installed": True}
+    if backend == "servo":
+        sim["params"] = SERVO_OUTPUTS
+    with sim_and_daemon(tmp_path, "square", cfg, **sim) as (server, d):
+        wait_moving(server)
+        flying = server.snapshot()
+        assert flying.guard_version == 1 and not flying.guard_guarding
+        assert not scrolls_neutral(flying)
+        t_kill = time.monotonic()
+        d.signal(signal.SIGKILL)
+        trace = record_until(server, lambda s: scrolls_neutral(s) and s.mode == "HOLD", 10.0)
+        assert d.wait_exit(10.0) == -signal.SIGKILL
+        trim_wall = trace.first(scrolls_neutral) - t_kill
+        hold_wall = trace.first(lambda s: s.mode == "HOLD") - t_kill
+        secured_snap = trace.samples[-1][1]
+        last_seen = secured_snap.gcs_last_seen_s  # helixd's last HEARTBEAT/override
+        assert last_seen is not None
+        later = server.wait_for(lambda s: s.sim_time_s > last_seen + 4.0, 10.0)
+        log = d.log_text()
+        engaged = server.history.first("guard")
+        hold = server.history.first("mode", lambda e: e.details["mode"] == "HOLD")
+        trim = last_change(server, range(1, 5), last_seen)
+        texts = [str(e.details["text"]) for e in server.history.entries("statustext")]
+    # preflight did not warn: the guard runs and guards 1..4
+    assert not [ln for ln in log.splitlines() if "preflight_warning" in ln and "guard" in ln]
+    assert engaged is not None and hold is not None and trim is not None
+    engaged_s = engaged.sim_time_s - last_seen
+    trim_s = trim.sim_time_s - last_seen
+    hold_s = hold.sim_time_s - last_seen
+    print(
+        f"kill -9 ({backend}, helixd-guard): outputs 1-4 at trim {trim_wall:.3f} s, HOLD "
+        f"{hold_wall:.3f} s (wall) after the kill; {trim_s:.3f} s / {hold_s:.3f} s (autopilot) "
+        f"after helixd's last message (guard engaged at {engaged_s:.3f} s)"
+    )
+    assert engaged.details["guarding"] is True and engaged.wall_monotonic_s >= t_kill
+    assert GUARD_TIMEOUT_S < engaged_s <= GUARD_TIMEOUT_S + GUARD_PERIOD_S + LOOP_S + 1e-6
+    assert trim_s <= GUARD_TIMEOUT_S + GUARD_PERIOD_S + 2 * LOOP_S + 1e-6
+    assert hold_s == pytest.approx(engaged_s) and hold.details["reason"] == "helixd_guard"
+    assert trim_wall <= GUARD_TIMEOUT_S + GUARD_PERIOD_S + SCHEDULING_SLACK_S
+    assert "helixd-guard: no heartbeat 500 ms, trim + HOLD" in texts
+    # held while the silence lasts: past RC_OVERRIDE_TIME (3 s) and still HOLD
+    assert later.scroll_pwm_us == (NEUTRAL_US,) * 4 and later.mode == "HOLD"
+    assert later.armed and later.guard_guarding

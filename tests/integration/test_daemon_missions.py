@@ -21,6 +21,7 @@ from helixd.sim.config import SimConfig
 from tests.support.harness import (
     NEUTRAL_US,
     SPEEDUP,
+    guard_installed,
     overrides_released,
     scrolls_neutral,
     secured,
@@ -123,8 +124,10 @@ def test_kill9_with_rc_override_returns_outputs_to_the_pilot(tmp_path: Path) -> 
     assert snap.mode == "MANUAL"  # nobody asked for HOLD: the daemon was dead
 
 
-def test_kill9_with_servo_backend_leaves_outputs_latched(tmp_path: Path) -> None:
-    """kill -9 with DO_SET_SERVO: the outputs stay latched (no timeout in ArduPilot).
+def test_kill9_with_servo_backend_leaves_outputs_latched_without_the_guard(tmp_path: Path) -> None:
+    """kill -9 with DO_SET_SERVO and no helixd-guard on the autopilot: the outputs stay latched
+    (no timeout in ArduPilot). Preflight only warns because the config says
+    ``safety.servo_guard: warn``; by default it refuses (test_daemon_preflight.py).
 
     This is the behaviour the README states; the test documents it from the autopilot's side.
     """
@@ -132,7 +135,8 @@ def test_kill9_with_servo_backend_leaves_outputs_latched(tmp_path: Path) -> None
         "actuation": {
             "backend": "servo",
             "channels": [{"channel": 5}, {"channel": 6}, {"channel": 7}, {"channel": 8}],
-        }
+        },
+        "safety": {"servo_guard": "warn"},
     }
     params = {
         "SERVO1_FUNCTION": 0,
@@ -151,6 +155,8 @@ def test_kill9_with_servo_backend_leaves_outputs_latched(tmp_path: Path) -> None
         assert d.wait_exit(10.0) == -signal.SIGKILL
         killed = server.snapshot()
         later = server.wait_for(lambda s: s.sim_time_s > killed.sim_time_s + 10.0, 10.0)
+        log = d.log_text()
+    assert "helixd-guard does not run on the autopilot" in log  # preflight_warning
     print(
         f"kill -9 (servo): outputs {killed.scroll_pwm_us} at the kill, "
         f"{later.scroll_pwm_us} 10 s (sim) later"
@@ -168,13 +174,25 @@ def test_servo_backend_flies_and_ends_neutral(tmp_path: Path) -> None:
         }
     }
     params = {f"SERVO{n}_FUNCTION": 0 for n in range(5, 9)}
-    sim = {"scroll_output_channels": (5, 6, 7, 8), "params": params}
+    sim = {
+        "scroll_output_channels": (5, 6, 7, 8),
+        "params": params,
+        **guard_installed(SPEEDUP, (5, 6, 7, 8)),
+    }
     with sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud", **sim) as (server, d):
         wait_moving(server)
+        stopped = time.monotonic()
         d.signal(signal.SIGINT)
         code = d.wait_exit(20.0)
         snap = server.snapshot()
-    assert code == ExitCode.OPERATOR_STOP
+        log = d.log_text()
+    assert code == ExitCode.OPERATOR_STOP, log[-3000:]
+    assert snap.guard_version == 1
+    # helixd's HEARTBEATs kept the guard quiet while it flew (once helixd stops its HEARTBEAT
+    # on the way out the guard may hold trim: armed in HOLD without helixd)
+    assert [e for e in server.history.entries("guard") if e.wall_monotonic_s < stopped] == []
+    # no preflight warning about the guard: it runs, v1, guarding 5..8
+    assert not [ln for ln in log.splitlines() if "preflight_warning" in ln and "guard" in ln]
     assert snap.mode == "HOLD"
     assert scrolls_neutral(snap)  # neutral was sent and acknowledged before exit
     assert math.isclose(snap.speed_mps, 0.0, abs_tol=0.05) or snap.speed_mps < 0.3

@@ -153,3 +153,45 @@ def test_no_home_within_the_timeout_is_a_preflight_refusal(tmp_path: Path) -> No
     assert "preflight: the autopilot reported no home (HOME_POSITION)" in log
     assert "safety.home_timeout_s = 1 s" in log
     assert arms == []
+
+
+SERVO_ON_1_TO_4 = {
+    "actuation": {"backend": "servo"},
+}
+FUNCTION_0 = {f"SERVO{n}_FUNCTION": 0 for n in range(1, 5)}
+
+
+@pytest.mark.parametrize(
+    ("sim", "needles"),
+    [
+        pytest.param(
+            {},
+            [
+                "helixd-guard does not run on the autopilot (no HXG_VERSION parameter); "
+                "SCR_ENABLE = 0",
+                "helixd autopilot install-guard --connect URL",
+            ],
+            id="guard_missing",
+        ),
+        pytest.param(
+            {"guard_installed": True, "guard_params": {"HXG_CHAN3": 0.0}},
+            ["helixd-guard does not guard scroll output 3", "set HXG_CHAN1..4 = 1, 2, 3, 4"],
+            id="output_not_guarded",
+        ),
+    ],
+)
+def test_servo_backend_refuses_without_the_guard(
+    tmp_path: Path, sim: dict[str, Any], needles: list[str]
+) -> None:
+    with sim_and_daemon(tmp_path, "square", SERVO_ON_1_TO_4, params=FUNCTION_0, **sim) as (
+        server,
+        d,
+    ):
+        code = d.wait_exit(60.0)
+        log = d.log_text()
+        arms = server.history.entries("arm")
+    assert code == ExitCode.PREFLIGHT, log[-3000:]
+    refusal = "\n".join(line for line in log.splitlines() if line.startswith("preflight:"))
+    for needle in needles:
+        assert needle in refusal, f"{needle!r} not in {refusal!r}"
+    assert arms == []

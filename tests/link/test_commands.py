@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import asyncio
 import math
 import time
+from typing import Any
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.link.commands import CommandRejected, CommandTimeout
+from helixd.config import LinkConfig
+from helixd.link.commands import CommandClient, CommandRejected, CommandTimeout
+from helixd.link.vehicle import VehicleState
 from tests.support.peer import DENIED, FAILED, Reply, linked, until
 
 SET_MODE = mavlink.MAV_CMD_DO_SET_MODE
@@ -133,3 +137,33 @@ async def test_gps_origin_on_request() -> None:
         assert await ap.action.request_gps_origin(2.0) == pytest.approx((45.0, -73.0))
         peer.origin = None  # no EKF origin yet: the autopilot says FAILED
         assert await ap.action.request_gps_origin(2.0) is None
+
+
+async def test_a_stop_in_the_same_loop_turn_as_the_answer_is_not_swallowed() -> None:
+    """The answer and a cancellation of the waiting task in one loop iteration (SITL sends the
+    ACK and the HEARTBEAT that makes helixd stop in one TCP segment): the task is cancelled.
+    ``asyncio.wait_for(shield(...))`` on Python 3.11 returned the answer instead, and the
+    servo sender kept running until the fall-back's 0.5 s deadline."""
+    cfg = LinkConfig()
+    sent: list[Any] = []
+    client = CommandClient(
+        lambda: mavlink.MAVLink(None, cfg.source_system, cfg.source_component),
+        lambda msg: sent.append(msg) is None,
+        cfg,
+        VehicleState(),
+    )
+    task = asyncio.create_task(client.exchange(SET_MODE, HOLD))
+    await until(lambda: len(sent) == 1, 1.0, "the command sent")
+    ack = mavlink.MAVLink(None, cfg.target_system, cfg.target_component)
+    msg = ack.decode(
+        bytearray(
+            mavlink.MAVLink_command_ack_message(
+                SET_MODE, 0, 0, 0, cfg.source_system, cfg.source_component
+            ).pack(ack)
+        )
+    )
+    client.on_message(msg, time.monotonic())  # the answer …
+    task.cancel()  # … and the stop, before the task runs again
+    with pytest.raises(asyncio.CancelledError):
+        await task
+    assert client.stats.matched == 1

@@ -20,7 +20,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
-from helixd.link.ftp import FtpTransferError, Upload, run_upload
+from helixd.link.ftp import DirectoryProbe, FtpTransferError, Upload, run_ftp
 from helixd.mav.ftp import MAX_DATA_LEN, FtpErr, FtpOp, FtpPayload, crc32_ardupilot
 from helixd.sim.ftp import FtpServer
 
@@ -303,6 +303,7 @@ def test_silence_fails_after_the_retries(root: Path) -> None:
     assert up.done and isinstance(up.error, FtpTransferError)
     assert str(up.error) == f"FTP upload of {GUARD}: no reply to ResetSessions after 3 retries"
     assert (up.error.path, up.error.op, up.error.nak) == (GUARD, FtpOp.ResetSessions, None)
+    assert up.error.timed_out  # a link problem, not a refusal
     assert up.resends == 3 and up.deadline_s == float("inf")
 
 
@@ -317,6 +318,7 @@ def test_a_read_only_path_fails_naming_the_path_the_op_and_the_errno(root: Path)
     )
     assert err.op == FtpOp.CreateFile and err.nak is not None
     assert (err.nak.error, err.nak.errno) == (FtpErr.FailErrno, errno.EROFS)
+    assert not err.timed_out
     assert ch.ops()[-1] == FtpOp.TerminateSession  # the session is released, unanswered
 
 
@@ -459,7 +461,7 @@ class MemoryLink:
 async def test_run_upload_over_a_link(root: Path) -> None:
     with FtpServer(root) as srv:
         link = MemoryLink(srv)
-        up = await run_upload(Upload(GUARD, five_kb()), link, link.clock)
+        up = await run_ftp(Upload(GUARD, five_kb()), link, link.clock)
         assert up.done and up.error is None
     assert (root / "APM" / "scripts" / "helixd-guard.lua").read_bytes() == five_kb()
 
@@ -468,5 +470,56 @@ async def test_run_upload_raises_the_error_and_releases(root: Path) -> None:
     with FtpServer(root) as srv:
         link = MemoryLink(srv)
         with pytest.raises(FtpTransferError, match="EROFS"):
-            await run_upload(Upload("@ROMFS/x.lua", b"x"), link, link.clock)
+            await run_ftp(Upload("@ROMFS/x.lua", b"x"), link, link.clock)
         assert FtpPayload.unpack(link.sent[-1]).opcode == FtpOp.TerminateSession
+
+
+# --- DirectoryProbe ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("files", "exists"),
+    [
+        ((), True),  # an empty directory: EndOfFile NAK
+        (("a.lua",), True),  # entries: ACK
+        (None, False),  # FileNotFound
+    ],
+    ids=["empty_dir", "dir_with_a_file", "missing"],
+)
+def test_directory_probe(root: Path, files: tuple[str, ...] | None, exists: bool) -> None:
+    if files is not None:
+        (root / "APM" / "scripts").mkdir(parents=True)
+        for name in files:
+            (root / "APM" / "scripts" / name).write_bytes(b"x")
+    with FtpServer(root) as srv:
+        ch = Channel(srv)
+        probe = ch.run(DirectoryProbe("/APM/scripts"))
+        assert probe.done and probe.error is None
+        assert probe.exists is exists
+        assert ch.ops() == [FtpOp.ListDirectory, FtpOp.TerminateSession]
+        assert srv.open_files == 0
+
+
+def test_directory_probe_survives_lost_and_duplicated_messages(root: Path) -> None:
+    (root / "scripts").mkdir()
+    with FtpServer(root) as srv:
+        ch = Channel(srv, fates=[DROP, DUPLICATE, DELIVER, DROP, DELAY])
+        probe = ch.run(DirectoryProbe("scripts"))
+        assert probe.error is None and probe.exists is True
+        assert probe.resends >= 1  # the dropped ListDirectory was sent again
+
+
+def test_directory_probe_of_a_file_is_an_error_naming_it(root: Path) -> None:
+    (root / "scripts").write_bytes(b"not a directory")
+    with FtpServer(root) as srv:
+        probe = Channel(srv).run(DirectoryProbe("scripts"))
+    assert probe.done and probe.exists is None
+    assert isinstance(probe.error, FtpTransferError)
+    assert str(probe.error).startswith("FTP listing of scripts: ListDirectory refused")
+
+
+async def test_run_ftp_probes_over_a_link(root: Path) -> None:
+    with FtpServer(root) as srv:
+        link = MemoryLink(srv)
+        probe = await run_ftp(DirectoryProbe("/APM"), link, link.clock)
+    assert probe.exists is False

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+import pytest
+
 from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, LinkConfig
 from helixd.link.preflight import check_obedience, judge
+from helixd.mav.guard import PARAM_DEFAULTS as GUARD_DEFAULTS
 from tests.support.peer import HELIXD_SYSID, linked
 
 RC = ActuationConfig()  # rc_override on channels 1..4
@@ -20,6 +23,8 @@ GOOD_RC = {
     "MODE_CH": 8.0,
     **{f"SERVO{n}_FUNCTION": 50.0 + n for n in range(1, 5)},
     **{f"RC{n}_OPTION": 0.0 for n in range(1, 5)},
+    "SCR_ENABLE": 1.0,
+    **GUARD_DEFAULTS,  # helixd-guard runs, guarding outputs 1..4 after 0.5 s
 }
 
 
@@ -101,6 +106,8 @@ def test_servo_backend_functions() -> None:
         "SERVO2_FUNCTION": 73.0,
         "SERVO3_FUNCTION": 51.0,
         "SERVO4_FUNCTION": None,
+        "SCR_ENABLE": 1.0,
+        **GUARD_DEFAULTS,
     }
     text = messages(params, SERVO)
     assert (
@@ -161,3 +168,108 @@ async def test_another_sender_on_our_id_is_refused() -> None:
         assert f"another sender uses helixd's system id {HELIXD_SYSID}" in text
         assert "component 190" in text and "HEARTBEAT type GCS" in text
         assert not ap.state.foreign_sysid_counts  # not mistaken for another vehicle
+
+
+# --- helixd-guard -----------------------------------------------------------------------------
+
+GOOD_SERVO = {
+    "MAV_GCS_SYSID": float(HELIXD_SYSID),
+    "FS_GCS_ENABLE": 1.0,
+    **{f"SERVO{n}_FUNCTION": 0.0 for n in range(1, 5)},
+    "SCR_ENABLE": 1.0,
+    **GUARD_DEFAULTS,
+}
+NO_GUARD = {"HXG_VERSION": None, "HXG_ENABLE": None, "HXG_TIMEOUT": None}
+
+
+def test_the_default_guard_passes_both_backends() -> None:
+    assert messages(GOOD_SERVO, SERVO) == []
+    assert messages(GOOD_RC, RC) == []
+
+
+@pytest.mark.parametrize(
+    ("change", "says"),
+    [
+        (
+            {**NO_GUARD, "SCR_ENABLE": 0.0},
+            "helixd-guard does not run on the autopilot (no HXG_VERSION parameter); "
+            "SCR_ENABLE = 0: a killed helixd leaves the DO_SET_SERVO outputs driving; install "
+            "it with `helixd autopilot install-guard --connect URL` and reboot the autopilot",
+        ),
+        (
+            {**NO_GUARD, "SCR_ENABLE": None},
+            "; the autopilot has no SCR_ENABLE: its firmware has no Lua scripting:",
+        ),
+        (
+            {"HXG_VERSION": 2.0},
+            "helixd-guard v2 runs on the autopilot, this helixd needs v1: install it with",
+        ),
+        ({"HXG_ENABLE": 0.0}, "HXG_ENABLE = 0: helixd-guard is off and a killed helixd"),
+        (
+            {"HXG_CHAN2": 0.0, "HXG_CHAN4": 1.0},
+            "helixd-guard does not guard scroll outputs 2, 4 (HXG_CHAN1..4 = 1, 0, 3, 1): set "
+            "HXG_CHAN1..4 = 1, 2, 3, 4",
+        ),
+        (
+            {"HXG_TIMEOUT": 0.3},
+            "link.heartbeat_rate_hz = 5 is too slow for helixd-guard's HXG_TIMEOUT = 0.3 s: one "
+            "lost HEARTBEAT leaves helixd silent for 0.40 s and the guard would stop the rover "
+            "mid-mission; set link.heartbeat_rate_hz >= 8.33333 or HXG_TIMEOUT >= 0.5",
+        ),
+    ],
+    ids=["missing", "no_scripting", "other_version", "disabled", "unguarded", "slow_heartbeat"],
+)
+def test_servo_backend_refuses_without_a_working_guard(
+    change: dict[str, float | None], says: str
+) -> None:
+    params = {**GOOD_SERVO, **change}
+    problems = judge(params, SERVO, LINK)
+    assert len(problems) == 1, problems
+    assert problems[0].severity == "error"
+    assert says in problems[0].message
+    warned = judge(params, SERVO, LINK, servo_guard="warn")
+    assert [(p.severity, p.message) for p in warned] == [("warning", problems[0].message)]
+
+
+def test_rc_override_backend_only_warns_about_the_guard() -> None:
+    missing = messages({**GOOD_RC, **NO_GUARD})
+    assert len(missing) == 1
+    assert missing[0].startswith("warning: helixd-guard does not run on the autopilot")
+    assert "a killed helixd's RC overrides drive on until RC_OVERRIDE_TIME" in missing[0]
+    assert messages({**GOOD_RC, "HXG_ENABLE": 0.0})[0].startswith("warning: HXG_ENABLE = 0")
+
+
+def test_heartbeat_rate_rule() -> None:
+    """period × 2.5 ≤ HXG_TIMEOUT: 5 Hz fits the default 0.5 s, 4 Hz and the old 1 Hz do not;
+    the RC-override backend's 20 Hz overrides refresh the guard as well."""
+    assert LinkConfig().heartbeat_rate_hz == 5.0
+    for rate, ok in ((5.0, True), (4.0, False), (1.0, False), (10.0, True)):
+        link = LinkConfig(heartbeat_rate_hz=rate)
+        assert (judge(GOOD_SERVO, SERVO, link) == []) is ok, rate
+        assert judge(GOOD_RC, RC, link) == []  # overrides at 20 Hz: 0.125 s ≤ 0.5 s
+    slow = LinkConfig(heartbeat_rate_hz=1.0)
+    assert judge({**GOOD_SERVO, "HXG_TIMEOUT": 2.5}, SERVO, slow) == []
+    tight = [str(p) for p in judge({**GOOD_RC, "HXG_TIMEOUT": 0.1}, RC, slow)]
+    assert len(tight) == 1 and tight[0].startswith("warning: link.heartbeat_rate_hz = 1 is too")
+
+
+def test_scroll_outputs_above_16_cannot_be_guarded() -> None:
+    high = ActuationConfig(
+        backend=ActuationBackend.SERVO, channels=(ChannelConfig(channel=17), *SERVO.channels[1:])
+    )
+    text = messages({**GOOD_SERVO, "SERVO17_FUNCTION": 0.0}, high)
+    assert text == [
+        "error: helixd-guard does not guard scroll output 17 (HXG_CHAN1..4 = 1, 2, 3, 4): drive "
+        "the scrolls on outputs 1..16, which the guard can hold"
+    ]
+
+
+async def test_guard_read_from_the_autopilot() -> None:
+    async with linked(command_timeout_s=0.15, command_retries=1) as (ap, peer):
+        peer.params.update({"HXG_CHAN3": 0.0})
+        problems = await check_obedience(ap, SERVO, ap.cfg)
+        assert [(p.severity, p.param) for p in problems] == [("error", "HXG_CHAN1")]
+        for name in GUARD_DEFAULTS:
+            del peer.params[name]
+        problems = await check_obedience(ap, SERVO, ap.cfg, "warn")
+        assert [(p.severity, p.param) for p in problems] == [("warning", "HXG_VERSION")]

@@ -7,7 +7,9 @@ from typing import Any
 import pytest
 
 from helixd.mav.constants import MAV_CMD_DO_SET_HOME
+from helixd.mav.guard import SCRIPT_NAME, VERSION, script_bytes
 from helixd.sim import estimator, modes
+from helixd.sim import guard as g
 from helixd.sim.autopilot import (
     FORCE_ARM_MAGIC,
     MAV_CMD_COMPONENT_ARM_DISARM,
@@ -41,11 +43,14 @@ def bad_ekf() -> estimator.EkfStatus:
 class Rig:
     """An Autopilot plus a simulated clock stepping at 50 Hz."""
 
-    def __init__(self, **config: Any) -> None:
+    def __init__(self, scripts: dict[str, bytes] | None = None, **config: Any) -> None:
         cfg = SimConfig.model_validate(
             {"boot_duration_s": BOOT_S, "ekf_origin_delay_s": 0.5, "prearm_delay_s": 5.0, **config}
         )
-        self.ap = Autopilot(cfg, ParamStore(cfg.params), 0.0)
+        self.scripts = dict(scripts or {})
+        self.ap = Autopilot(
+            cfg, ParamStore(cfg.params, stored=cfg.guard_params), 0.0, lambda: self.scripts
+        )
         self.now = 0.0
         self.ekf = healthy_ekf()
         self.outputs: list[int] = [0] * 16
@@ -463,3 +468,154 @@ def test_expired_override_leaves_outputs_frozen_while_receiver_is_lost() -> None
     rig.override(0)  # ... and a release falls back to the last frame the receiver gave
     rig.run(0.04)
     assert rig.outputs[0] == 1500
+
+
+# --- scripting: helixd-guard.lua ---------------------------------------------------------------
+
+GUARD = {SCRIPT_NAME: script_bytes()}
+SERVO_BACKEND = {f"SERVO{n}_FUNCTION": 0 for n in range(1, 5)}
+
+
+def guarded(**config: Any) -> Rig:
+    params = {"SCR_ENABLE": 1, **config.pop("params", {})}
+    return Rig(scripts=config.pop("scripts", GUARD), params=params, **config).boot()
+
+
+def heartbeat_until(seconds: float) -> Any:
+    """A step hook: helixd's HEARTBEAT every 0.2 s (5 Hz) until ``seconds`` of simulated time."""
+
+    def each(rig: Rig) -> None:
+        if rig.now <= seconds and round(rig.now / DT_S) % 10 == 0:
+            rig.ap.on_heartbeat(GCS, rig.now)
+
+    return each
+
+
+def test_guard_loads_at_boot_with_scripting_on() -> None:
+    rig = guarded()
+    assert rig.ap.guard is not None and rig.ap.guard.version == VERSION
+    assert "helixd-guard: v1 on, outputs 1 2 3 4, 500 ms" in rig.texts()
+    params = rig.ap.params
+    assert [params.get(f"HXG_{n}") for n in ("ENABLE", "TIMEOUT", "CHAN1", "CHAN4")] == [
+        1.0,
+        0.5,
+        1.0,
+        4.0,
+    ]
+    assert params.get("HXG_VERSION") == VERSION
+
+
+@pytest.mark.parametrize(
+    ("scr_enable", "scripts"),
+    [(0, GUARD), (1, {}), (1, {"other.lua": b"return"})],
+    ids=["scripting_off", "no_script", "another_script"],
+)
+def test_no_guard_without_scripting_or_script(scr_enable: int, scripts: dict[str, bytes]) -> None:
+    rig = Rig(scripts=scripts, params={"SCR_ENABLE": scr_enable}).boot()
+    assert rig.ap.guard is None
+    assert "HXG_VERSION" not in rig.ap.params
+    rig.force_arm()
+    rig.run(2.0)  # armed, no helixd: nothing holds the outputs
+    assert rig.ap.mode == modes.MANUAL
+
+
+def test_scr_enable_takes_effect_at_the_next_boot() -> None:
+    rig = Rig(scripts=GUARD).boot()
+    rig.ap.params.set("SCR_ENABLE", 1)
+    rig.run(1.0)
+    assert rig.ap.guard is None
+    rig.ap.reboot(rig.now, 0.5)
+    rig.run(BOOT_S + 1.0)
+    assert rig.ap.guard is not None
+
+
+def test_guard_version_is_the_files() -> None:
+    old = script_bytes().replace(b"local VERSION = 1\n", b"local VERSION = 0\n")
+    rig = guarded(scripts={SCRIPT_NAME: old})
+    assert rig.ap.params.get("HXG_VERSION") == 0.0
+    rig.ap.params.set("HXG_VERSION", 5)  # the script re-asserts its own
+    rig.run(0.1)
+    assert rig.ap.params.get("HXG_VERSION") == 0.0
+
+
+def test_guard_params_from_storage_survive_a_reboot_but_vanish_without_the_script() -> None:
+    rig = guarded(guard_params={"HXG_TIMEOUT": 0.3})
+    assert rig.ap.params.get("HXG_TIMEOUT") == pytest.approx(0.3)
+    rig.ap.params.set("HXG_CHAN2", 0)
+    rig.ap.reboot(rig.now, 0.5)
+    assert "HXG_CHAN2" not in rig.ap.params  # gone until the script adds it again
+    rig.run(BOOT_S + 1.0)
+    assert rig.ap.params.get("HXG_CHAN2") == 0.0
+    assert "helixd-guard: v1 on, outputs 1 3 4, 300 ms" in rig.texts()
+
+
+def test_killed_helixd_servo_outputs_trim_and_hold_within_the_timeout() -> None:
+    rig = guarded(params=SERVO_BACKEND)
+    rig.run(0.4, heartbeat_until(1e9))
+    rig.force_arm()
+    for ch in (1, 2, 3, 4):
+        assert rig.command(MAV_CMD_DO_SET_SERVO, ch, 1600) == MAV_RESULT_ACCEPTED
+    last_hb = rig.now + 1.0
+    rig.run(1.0, heartbeat_until(last_hb))  # 5 Hz heartbeats never trip the guard
+    assert rig.outputs[:4] == [1600] * 4 and rig.ap.mode == modes.MANUAL
+    assert not any(t.startswith(g.TEXT_PREFIX + "no heartbeat") for t in rig.texts())
+    trim_at = hold_at = None
+    while rig.now < last_hb + 2.0:
+        rig.run(DT_S)
+        if trim_at is None and rig.outputs[:4] == [1500] * 4:
+            trim_at = rig.now
+        if hold_at is None and rig.ap.mode == modes.HOLD:
+            hold_at = rig.now
+    assert trim_at is not None and hold_at is not None
+    # silent > 500 ms, noticed at the next 50 ms update, applied in that main loop
+    assert 0.5 < trim_at - last_hb <= 0.5 + 0.05 + DT_S + 1e-9
+    assert hold_at == trim_at
+    assert "helixd-guard: no heartbeat 500 ms, trim + HOLD" in rig.texts()
+    assert rig.outputs[:4] == [1500] * 4  # renewed while the silence lasts
+
+
+def test_do_set_servo_while_the_guard_holds_is_accepted_but_ignored() -> None:
+    rig = guarded(params=SERVO_BACKEND)
+    rig.force_arm()  # no helixd heard since boot: the guard holds at once
+    rig.run(0.1)
+    assert rig.ap.mode == modes.HOLD and g.NEVER_SEEN_TEXT in rig.texts()
+    assert rig.command(MAV_CMD_DO_SET_SERVO, 1, 1700) == MAV_RESULT_ACCEPTED
+    rig.run(0.1)
+    assert rig.outputs[0] == 1500
+    rig.run(0.3, heartbeat_until(1e9))  # helixd back: released, the output keeps trim …
+    assert g.BACK_TEXT in rig.texts()
+    rig.run(0.4, heartbeat_until(1e9))
+    assert rig.outputs[0] == 1500
+    assert rig.command(MAV_CMD_DO_SET_SERVO, 1, 1700) == MAV_RESULT_ACCEPTED  # … until re-sent
+    rig.run(0.04, heartbeat_until(1e9))
+    assert rig.outputs[0] == 1700
+
+
+def test_guard_holds_rc_passthrough_by_overriding_its_input() -> None:
+    """RCIN passthrough copies the input after the servo override: the guard overrides RC
+    input n at trim, outliving RC_OVERRIDE_TIME while helixd stays silent."""
+    rig = guarded(params={"SERVO2_FUNCTION": 51})  # output 2 follows RC input 1
+    rig.run(0.2, heartbeat_until(1e9))
+    rig.force_arm()
+    rig.override(1700, 1800)
+    rig.run(0.1)
+    assert rig.outputs[:2] == [1700, 1700]
+    rig.ap.set_pilot_rc(1, 1650)  # the pilot's stick is no override
+    rig.run(8.0)  # helixd dead: guard on after 0.5 s, RC_OVERRIDE_TIME (3 s) long past
+    assert rig.outputs[:4] == [1500, 1500, 1500, 1500]
+    assert rig.ap.rc.active_overrides(rig.now, 3.0)[0]  # the guard's own override
+    assert rig.ap.mode == modes.HOLD
+    assert rig.ap.gcs_last_seen_s is not None and rig.ap.gcs_last_seen_s < rig.now - 7.0
+
+
+def test_guard_disabled_lets_go_and_the_pilot_drives() -> None:
+    rig = guarded()
+    rig.force_arm()
+    rig.ap.set_pilot_rc(1, 1650)
+    rig.run(0.5)
+    assert rig.outputs[0] == 1500  # armed without helixd: held at trim
+    rig.ap.params.set("HXG_ENABLE", 0)
+    rig.run(0.1)
+    assert g.DISABLED_TEXT in rig.texts()
+    rig.run(3.1)  # its last RC override expires with RC_OVERRIDE_TIME
+    assert rig.outputs[0] == 1650

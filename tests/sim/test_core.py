@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import os
+from pathlib import Path
 
 import pytest
 
@@ -11,7 +12,9 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.mav.constants import GCS_CONTACT_MESSAGE_IDS
+from helixd.mav.ftp import FtpOp, FtpPayload, from_message, to_message
 from helixd.sim.faults import FaultError, make_spec, parse_fault
+from helixd.sim.ftp import FtpServer
 from tests.support.simcore import command, incoming, make_core, of_type, run
 
 
@@ -228,3 +231,34 @@ def test_home_position_is_announced_once_when_home_is_set_and_not_before() -> No
     texts = [str(m.text) for m in of_type(out, "STATUSTEXT")]
     assert any(t.startswith("Set HOME to 53.523250 -113.526320") for t in texts)
     assert command(core, 1, 512, 242) == 0
+
+
+def test_ftp_requests_are_answered_to_their_sender_on_their_link(tmp_path: Path) -> None:
+    (tmp_path / "scripts").mkdir()
+    with FtpServer(tmp_path) as srv:
+        core = make_core(ftp=srv)
+        run(core, 2.0)
+        listing = FtpPayload.request(FtpOp.ListDirectory, 7, 1, data=b"scripts")
+        core.handle(1, incoming(to_message(listing, 1, 1), sysid=250, compid=190))
+        replies = of_type(core.drain_outbox(), "FILE_TRANSFER_PROTOCOL")
+        assert len(replies) == 1
+        reply = replies[0]
+        assert (int(reply.target_system), int(reply.target_component)) == (250, 190)
+        got = FtpPayload.unpack(from_message(reply))
+        assert (got.opcode, got.req_opcode, got.seq_number) == (
+            FtpOp.Nack,  # an empty directory: EndOfFile
+            FtpOp.ListDirectory,
+            8,
+        )
+        core.handle(1, incoming(to_message(listing, 1, 1), sysid=250, compid=190))  # repeated
+        assert [lk for lk, _ in core.drain_outbox()] == [1]  # the kept reply, to link 1 only
+        core.handle(0, incoming(to_message(listing, 5, 1)))  # for another vehicle
+        assert of_type(core.drain_outbox(), "FILE_TRANSFER_PROTOCOL") == []
+
+
+def test_without_an_ftp_server_ftp_goes_unanswered() -> None:
+    core = make_core()
+    run(core, 2.0)
+    listing = FtpPayload.request(FtpOp.ListDirectory, 0, 1, data=b"/")
+    core.handle(0, incoming(to_message(listing, 1, 1)))
+    assert of_type(core.drain_outbox(), "FILE_TRANSFER_PROTOCOL") == []

@@ -6,10 +6,11 @@ import re
 
 import pytest
 
+from helixd.mav import guard as mg
 from helixd.sim import guard as g
 from tests.support.paths import REPO_ROOT
 
-LUA = REPO_ROOT / "autopilot" / "scripts" / "helixd-guard.lua"
+LUA = REPO_ROOT / "helixd" / "mav" / "scripts" / "helixd-guard.lua"
 MANUAL = 0
 
 
@@ -33,58 +34,12 @@ def run(
         k += 1
 
 
-# --- parameters ------------------------------------------------------------------------------
-
-
-def test_defaults() -> None:
-    p = g.GuardParams()
-    assert p.enabled
-    assert p.timeout_ms == 500
-    assert p.outputs == (1, 2, 3, 4)
-    assert g.PARAM_DEFAULTS["HXG_VERSION"] == g.VERSION == 1
-
-
-@pytest.mark.parametrize(
-    ("chans", "outputs"),
-    [
-        ((3, 4, 1, 2), (3, 4, 1, 2)),  # order kept (the SITL skid mapping)
-        ((3, 0, 3, 0), (3,)),  # 0 = none, duplicates once
-        ((17, -1, 16, 0), (16,)),  # outside 1..16 ignored
-        ((2.6, 2.4, 0.4, 0.5), (3, 2, 1)),  # Lua's floor(x + 0.5)
-        ((0, 0, 0, 0), ()),
-    ],
-)
-def test_outputs_parsing(
-    chans: tuple[float, float, float, float], outputs: tuple[int, ...]
-) -> None:
-    p = g.GuardParams(chan1=chans[0], chan2=chans[1], chan3=chans[2], chan4=chans[3])
-    assert p.outputs == outputs
-
-
-@pytest.mark.parametrize(
-    ("timeout_s", "ms"), [(0.5, 500), (0.25, 250), (0.0, 100), (0.01, 100), (60.0, 10_000)]
-)
-def test_timeout_clamped(timeout_s: float, ms: int) -> None:
-    assert g.GuardParams(timeout_s=timeout_s).timeout_ms == ms
-
-
-def test_from_params_partial_and_nonfinite_rejected() -> None:
-    p = g.GuardParams.from_params({"HXG_TIMEOUT": 0.3, "HXG_CHAN2": 0.0, "OTHER": 9.0})
-    assert p.timeout_ms == 300
-    assert p.outputs == (1, 3, 4)
-    assert p.enabled
-    with pytest.raises(ValueError, match="timeout_s"):
-        g.GuardParams(timeout_s=float("nan"))
-    with pytest.raises(ValueError, match="chan3"):
-        g.GuardParams.from_params({"HXG_CHAN3": float("inf")})
-
-
 def test_start_text() -> None:
-    assert g.start_text(g.GuardParams()) == (
+    assert g.start_text(mg.GuardParams()) == (
         g.SEVERITY_INFO,
         "helixd-guard: v1 on, outputs 1 2 3 4, 500 ms",
     )
-    off = g.GuardParams(enable=0, chan1=0, chan2=0, chan3=0, chan4=0, timeout_s=0.75)
+    off = mg.GuardParams(enable=0, chan1=0, chan2=0, chan3=0, chan4=0, timeout_s=0.75)
     assert g.start_text(off)[1] == "helixd-guard: v1 off, outputs none, 750 ms"
 
 
@@ -108,7 +63,7 @@ def test_timeout_boundary_is_strict() -> None:
 
 
 def test_engage_once_then_renew_without_repeats() -> None:
-    guard = g.HelixdGuard(g.GuardParams(chan1=3, chan2=4, chan3=1, chan4=2))
+    guard = g.HelixdGuard(mg.GuardParams(chan1=3, chan2=4, chan3=1, chan4=2))
     steps = run(guard, 1.0, 3.0, last_s=0.4)
     first = steps[0][1]
     assert first.guarding
@@ -179,19 +134,19 @@ def test_disarm_releases_and_rearm_starts_a_new_episode() -> None:
 def test_disable_releases_and_reenable_guards() -> None:
     guard = g.HelixdGuard()
     assert guard.step(3.0, True, 1.0, MANUAL).guarding
-    guard.params = g.GuardParams(enable=0)
+    guard.params = mg.GuardParams(enable=0)
     off = guard.step(3.05, True, 1.0, MANUAL)
     assert off.texts == ((g.SEVERITY_NOTICE, g.DISABLED_TEXT),)
     assert not off.guarding
     assert guard.step(3.1, True, 1.0, MANUAL) == g.GuardAction()
-    guard.params = g.GuardParams()
+    guard.params = mg.GuardParams()
     assert guard.step(3.15, True, 1.0, MANUAL).request_hold
 
 
 def test_params_read_every_step() -> None:
     guard = g.HelixdGuard()
     assert guard.step(1.4, True, 1.0, MANUAL) == g.GuardAction()  # 400 ms < 500 ms
-    guard.params = g.GuardParams(timeout_s=0.3, chan2=0)
+    guard.params = mg.GuardParams(timeout_s=0.3, chan2=0)
     action = guard.step(1.45, True, 1.0, MANUAL)
     assert action.hold_trim == (1, 3, 4)
     assert action.texts[0][1] == "helixd-guard: no heartbeat 300 ms, trim + HOLD"
@@ -222,40 +177,18 @@ def lua_source() -> str:
     return LUA.read_text(encoding="utf-8")
 
 
-def test_lua_params_match() -> None:
-    src = lua_source()
-    params = {
-        f"HXG_{name}": (int(idx), float(default))
-        for name, idx, default in re.findall(r'bind_add_param\("(\w+)",\s*(\d+),\s*([\d.]+)\)', src)
-    }
-    params["HXG_VERSION"] = (7, g.VERSION)  # bound with the VERSION constant
-    assert list(params) == list(g.PARAM_DEFAULTS)
-    assert [i for i, _ in params.values()] == list(range(1, 8))
-    assert {k: v for k, (_, v) in params.items()} == g.PARAM_DEFAULTS
-    assert re.search(r'bind_add_param\("VERSION",\s*7,\s*VERSION\)', src)
-    assert re.search(
-        rf"param:add_table\(PARAM_TABLE_KEY, PARAM_TABLE_PREFIX, {len(g.PARAM_DEFAULTS)}\)", src
-    )
-
-
 @pytest.mark.parametrize(
     ("lua_name", "value"),
     [
-        ("VERSION", g.VERSION),
-        ("PARAM_TABLE_KEY", g.PARAM_TABLE_KEY),
         ("PERIOD_MS", g.UPDATE_PERIOD_MS),
         ("OVERRIDE_MS", g.OVERRIDE_MS),
         ("MODE_HOLD", g.MODE_HOLD),
-        ("MAX_OUTPUT", g.MAX_OUTPUT),
-        ("TIMEOUT_MIN_MS", g.TIMEOUT_MIN_MS),
-        ("TIMEOUT_MAX_MS", g.TIMEOUT_MAX_MS),
     ],
 )
 def test_lua_constants_match(lua_name: str, value: int) -> None:
     m = re.search(rf"^local {lua_name} = (\d+)", lua_source(), re.MULTILINE)
     assert m is not None, lua_name
     assert int(m.group(1)) == value
-    assert f'PARAM_TABLE_PREFIX = "{g.PARAM_PREFIX}"' in lua_source()
 
 
 @pytest.mark.parametrize(

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+from pydantic import ValidationError
+
 from helixd.config import LinkConfig
 from helixd.sim.config import HELIXD_SYSID, SimConfig
-from helixd.sim.params import DEFAULT_PARAMS
+from helixd.sim.params import DEFAULT_PARAMS, ParamStore, ParamType
 
 
 def test_defaults_are_helixd_s_recommended_setup() -> None:
@@ -37,3 +40,27 @@ def test_the_real_sitl_parameter_file_matches_helixd_s_id() -> None:
     )
     assert float(values["MAV_GCS_SYSID"]) == HELIXD_SYSID
     assert values["FS_GCS_ENABLE"] == "1"
+
+
+def test_script_params_appear_when_added_and_keep_their_stored_values() -> None:
+    store = ParamStore(stored={"HXG_TIMEOUT": 0.3})
+    n = len(store)
+    assert "HXG_TIMEOUT" not in store
+    assert store.add_script_param("HXG_TIMEOUT", 0.5) == 0.3  # from storage
+    assert store.add_script_param("HXG_ENABLE", 1.0) == 1.0  # the script's default
+    assert len(store) == n + 2 and store.name_at(n) == "HXG_TIMEOUT"
+    assert store.kind("HXG_ENABLE") is ParamType.REAL32
+    store.set("HXG_ENABLE", 0.0)
+    assert store.add_script_param("HXG_ENABLE", 1.0) == 0.0  # adding again keeps the value
+    store.on_reboot()
+    assert "HXG_ENABLE" not in store and len(store) == n
+    assert store.add_script_param("HXG_ENABLE", 1.0) == 0.0  # the set value was stored
+
+
+def test_guard_settings_are_checked() -> None:
+    assert SimConfig(guard_params={"HXG_TIMEOUT": 2.0}).guard_params == {"HXG_TIMEOUT": 2.0}
+    with pytest.raises(ValidationError, match="HXG_VERSION"):
+        SimConfig(guard_params={"HXG_VERSION": 2.0})
+    with pytest.raises(ValidationError, match="HXG_TIMOUT"):
+        SimConfig(guard_params={"HXG_TIMOUT": 2.0})
+    assert SimConfig().guard_installed is False and SimConfig().workdir is None

@@ -7,12 +7,14 @@ one-line reason. Per test, the ``sitl`` fixture starts
     ardurover --model rover-skid --defaults tests/sitl/helix-skid.parm -I <n> --speedup <s>
               --home <CMAC> --wipe
 
-in the test's temp dir, waits (bounded) for SERIAL0 (tcp 5760+10·n) to accept and send its
-first HEARTBEAT, attaches an *observer* on SERIAL1 (tcp 5762+10·n) and waits until the EKF has
-a GPS position. The observer never sends a HEARTBEAT and uses system id 250, so ArduPilot's
-GCS failsafe (keyed on MAV_GCS_SYSID 247 = helixd, set in helix-skid.parm) and RC-override
-rule see helixd alone; it reads HEARTBEAT / SERVO_OUTPUT_RAW / LOCAL_POSITION_NED / ATTITUDE
-and can switch modes or set params.
+in the test's temp dir, with the real helixd-guard.lua in ``scripts/`` of that working
+directory (helix-skid.parm sets ``SCR_ENABLE 1``, so ardurover loads it at boot), waits
+(bounded) for SERIAL0 (tcp 5760+10·n) to accept and send its first HEARTBEAT, attaches an
+*observer* on SERIAL1 (tcp 5762+10·n), waits until the EKF has a GPS position and checks that
+the guard's HXG_VERSION parameter exists. The observer never sends a HEARTBEAT and uses system
+id 250, so ArduPilot's GCS failsafe (keyed on MAV_GCS_SYSID 247 = helixd, set in
+helix-skid.parm), its RC-override rule and helixd-guard see helixd alone; it reads HEARTBEAT /
+SERVO_OUTPUT_RAW / LOCAL_POSITION_NED / ATTITUDE and can switch modes or set params.
 The pilot's radio is SITL's RC-input UDP port (5501+10·n: 8 or 16 little-endian uint16 PWM,
 0 = leave that channel unchanged).
 
@@ -52,6 +54,7 @@ import pytest
 import yaml
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # MAVLink 2 framing
 
+from helixd.mav.guard import HXG_VERSION, POSIX_SCRIPTS_DIR, SCRIPT_NAME, VERSION, script_bytes
 from tests.support.daemon import DaemonProc, spawn_daemon
 from tests.support.paths import REPO_ROOT
 from tests.support.skid_setup import HELIXD_SYSID, helixd_sitl_config
@@ -101,6 +104,7 @@ CONNECT_TIMEOUT_S = 30.0  # a TCP port to accept
 COMMAND_TIMEOUT_S = 3.0  # per COMMAND_ACK / PARAM_VALUE try
 COMMAND_TRIES = 3
 STREAM_RATE_HZ = 10.0  # observer message rates (accepted: ≥ 1.25 × the 50 Hz loop period)
+FAST_STREAM_RATE_HZ = 20.0  # SERVO_OUTPUT_RAW and HEARTBEAT: when outputs and mode change
 SITL_STOP_TIMEOUT_S = 10.0
 DAEMON_STOP_TIMEOUT_S = 15.0
 
@@ -403,6 +407,26 @@ class MavClient:
             f"SET_MESSAGE_INTERVAL({msg_id}, {rate_hz} Hz) refused: result {result}"
         )
 
+    def get_param(self, name: str) -> float | None:
+        """PARAM_REQUEST_READ by name; None when the autopilot does not answer (no such
+        parameter: ArduPilot stays silent)."""
+        for _ in range(COMMAND_TRIES):
+            with self._cond:
+                self.params.pop(name, None)
+            self.send(
+                self.mav.param_request_read_encode(
+                    AUTOPILOT_SYSID, AUTOPILOT_COMPID, name.encode("ascii"), -1
+                )
+            )
+            try:
+                return self.wait_value(
+                    lambda: self.params.get(name), COMMAND_TIMEOUT_S, f"PARAM_VALUE {name}"
+                )
+            except AssertionError:
+                if self.closed_reason is not None:
+                    raise
+        return None
+
     def set_param(self, name: str, value: float) -> None:
         """PARAM_SET, confirmed by the PARAM_VALUE echo."""
         for attempt in range(COMMAND_TRIES):
@@ -531,6 +555,11 @@ class SitlVehicle:
             return f"(no SITL log: {exc})"
         return "\n".join(text.splitlines()[-lines:])
 
+    def guard_version(self) -> int | None:
+        """HXG_VERSION as the autopilot reports it: the helixd-guard that runs (None: none)."""
+        value = self.obs.get_param(HXG_VERSION)
+        return None if value is None else round(value)
+
     def pilot_rc(self, values_us: dict[int, int]) -> None:
         """The pilot's radio: set RC inputs (channel → µs); other channels keep their value."""
         pwm = [0] * RC_INPUT_CHANNELS
@@ -625,8 +654,24 @@ def wait_first_heartbeat(port: int, timeout_s: float, alive: Callable[[], str | 
                 raise AssertionError(f"no HEARTBEAT on tcp:{port} within {timeout_s} s")
 
 
-def start_sitl(binary: Path, workdir: Path, instance: int, speedup: float) -> SitlVehicle:
+def install_guard_file(workdir: Path) -> Path:
+    """The packaged helixd-guard.lua into SITL's ./scripts (SCRIPTING_DIRECTORY), as the
+    README's manual install puts it on an SD card's APM/scripts."""
+    scripts = workdir / POSIX_SCRIPTS_DIR
+    scripts.mkdir(exist_ok=True)
+    path = scripts / SCRIPT_NAME
+    path.write_bytes(script_bytes())
+    return path
+
+
+def start_sitl(
+    binary: Path, workdir: Path, instance: int, speedup: float, guard: bool = True
+) -> SitlVehicle:
+    """ardurover in ``workdir``; with ``guard`` helixd-guard.lua is in its scripts/ first and
+    this waits until the script has loaded (its HXG_VERSION parameter exists)."""
     log_path = workdir / "sitl.log"
+    if guard:
+        install_guard_file(workdir)
     cmd = [
         str(binary),
         "--model",
@@ -652,8 +697,9 @@ def start_sitl(binary: Path, workdir: Path, instance: int, speedup: float) -> Si
             SERIAL1_PORT + PORT_STRIDE * instance, "observer", CONNECT_TIMEOUT_S, vehicle.dead
         )
         obs = vehicle.obs
+        for msg_id in (mavlink2.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW, mavlink2.MAVLINK_MSG_ID_HEARTBEAT):
+            obs.set_message_interval(msg_id, FAST_STREAM_RATE_HZ)
         for msg_id in (
-            mavlink2.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW,
             mavlink2.MAVLINK_MSG_ID_LOCAL_POSITION_NED,
             mavlink2.MAVLINK_MSG_ID_ATTITUDE,  # the heading the square's start frame takes
             mavlink2.MAVLINK_MSG_ID_EKF_STATUS_REPORT,
@@ -663,6 +709,12 @@ def start_sitl(binary: Path, workdir: Path, instance: int, speedup: float) -> Si
         obs.wait_until(
             obs.ekf_has_position, READY_TIMEOUT_S, "GPS fix and EKF position", abort=vehicle.dead
         )
+        if guard:  # scripts load at boot: long done by the time the EKF has a position
+            running = vehicle.guard_version()
+            assert running == VERSION, (
+                f"helixd-guard not running in SITL (HXG_VERSION {running}); "
+                f"STATUSTEXT {obs.statustexts[-8:]}; log tail:\n{vehicle.log_tail()}"
+            )
         start = obs.position()
         assert start is not None
         vehicle.start_ne_m = (start.north_m, start.east_m)
@@ -673,16 +725,27 @@ def start_sitl(binary: Path, workdir: Path, instance: int, speedup: float) -> Si
     return vehicle
 
 
-@pytest.fixture
-def sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
+def _sitl(tmp_path: Path, guard: bool) -> Iterator[SitlVehicle]:
     binary = Path(os.environ[SITL_BIN_ENV]).resolve()
     workdir = tmp_path / "sitl"
     workdir.mkdir()
-    vehicle = start_sitl(binary, workdir, pick_instance(), sitl_speedup())
+    vehicle = start_sitl(binary, workdir, pick_instance(), sitl_speedup(), guard)
     try:
         yield vehicle
     finally:
         vehicle.stop()
+
+
+@pytest.fixture
+def sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
+    """ardurover with helixd-guard running (the field setup)."""
+    yield from _sitl(tmp_path, guard=True)
+
+
+@pytest.fixture
+def bare_sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
+    """ardurover with scripting on but no script in its scripts/ (before an install)."""
+    yield from _sitl(tmp_path, guard=False)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -8,9 +8,13 @@ both actuation backends. Assertions are made on what ArduPilot reports on a seco
 * the ROLL-mode 10 m square completes (exit 0, summary.json completed) and the rover really
   drove a counter-clockwise square back to its start;
 * pilot takeover: the pilot switches to HOLD from another link mid-mission → exit 5, outputs 1
-  and 3 back at trim, and (RC override) released: the pilot's radio drives them again;
-* ``kill -9`` of helixd mid-mission: the outputs are watched for ≥ 5 s and reported. RC
-  override: held until RC_OVERRIDE_TIME, then back to the pilot's radio (1500). Servo: latched.
+  and 3 back at trim; RC override: with helixd-guard off (HXG_ENABLE 0, the README's way to
+  drive by radio alone) the pilot's radio drives them again;
+* ``kill -9`` of helixd mid-mission, with the real helixd-guard.lua running in ardurover: the
+  outputs are watched for ≥ 5 s and reported; both backends: outputs 1..4 at trim within
+  HXG_TIMEOUT + 0.3 s of the kill and HOLD, kept until the end (past RC_OVERRIDE_TIME);
+* ``helixd autopilot install-guard`` over ArduPilot's own MAVLink FTP: the file lands in
+  SITL's ``scripts/`` byte for byte.
 """
 
 from __future__ import annotations
@@ -18,6 +22,8 @@ from __future__ import annotations
 import json
 import math
 import signal
+import subprocess
+import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -27,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
+from helixd.mav.guard import PARAM_DEFAULTS, VERSION, script_bytes
 from helixd.recorder.track import TrackPoint
 from tests.support.skid_setup import square_metrics
 
@@ -45,6 +52,8 @@ DEFLECTED_US = 10  # a held output further than this from 1500 shows the scrolls
 MODE_HOLD = 4
 MAV_RESULT_ACCEPTED = 0
 RC_OVERRIDE_TIME_S = 3.0  # helix-skid.parm
+GUARD_TIMEOUT_S = PARAM_DEFAULTS["HXG_TIMEOUT"]  # helixd-guard's default (0.5 s)
+GUARD_SLACK_S = 0.3  # its 50 ms period, the observer's 20 Hz samples, SITL's scheduling
 
 # Wall-clock bounds (s); the mission itself is bounded in simulated seconds.
 SETUP_WALL_S = 180.0  # helixd connect → preflight → arm on a freshly booted SITL
@@ -58,7 +67,7 @@ OBSERVE_WALL_S = 5.0  # watch the outputs at least this long after kill -9 …
 # … and, in simulated time, past RC_OVERRIDE_TIME and the GCS failsafe's action
 # (FS_GCS_TIMEOUT 5 s + FS_TIMEOUT 1.5 s, Rover defaults) plus a margin.
 OBSERVE_SIM_S = 8.0
-SETTLE_S = 0.5  # simulated s after the kill for the last in-flight command to land
+SETTLE_S = 0.2  # simulated s after the kill for the last in-flight command to land (< the guard)
 
 # The square (config/missions/square.yaml): 10 m legs, counter-clockwise, back to the start.
 SQUARE_FAR_CORNER_M = 10.0 * math.sqrt(2.0)
@@ -124,6 +133,7 @@ class KillReport:
     held_pwm: tuple[int, int, int, int] | None  # outputs 1..4 once in-flight commands landed
     first_change_s: float | None  # since the kill: outputs 1/3 first left the held value
     neutral_from_s: float | None  # since the kill: outputs 1/3 at 1500 from here to the end
+    trim_from_s: float | None  # since the kill: outputs 1..4 at 1500 from here to the end
     final_pwm: tuple[int, int, int, int] | None
     observed_s: float  # simulated seconds watched after the kill
     changes: tuple[tuple[float, tuple[int, int, int, int]], ...]  # (s since kill, outputs)
@@ -150,15 +160,26 @@ def analyse_after_kill(samples: Sequence[ServoSample], kill_t_boot_s: float) -> 
         if not near(s.pwm_us, NEUTRAL_US, NEUTRAL_US):
             break
         neutral_from = s.t_boot_s - kill_t_boot_s
+    trim_from = None
+    for s in reversed(after):
+        if not all_trim(s.pwm_us):
+            break
+        trim_from = s.t_boot_s - kill_t_boot_s
     return KillReport(
         kill_t_boot_s=kill_t_boot_s,
         held_pwm=held,
         first_change_s=first_change,
         neutral_from_s=neutral_from,
+        trim_from_s=trim_from,
         final_pwm=after[-1].pwm_us,
         observed_s=after[-1].t_boot_s - kill_t_boot_s,
         changes=tuple(changes),
     )
+
+
+def all_trim(pwm: Sequence[int] | None) -> bool:
+    """Outputs 1..4 (every output helixd-guard holds here) at 1500."""
+    return pwm is not None and all(abs(v - NEUTRAL_US) <= TOLERANCE_US for v in pwm[:4])
 
 
 def describe_kill(backend: str, r: KillReport, extra: str) -> str:
@@ -166,7 +187,8 @@ def describe_kill(backend: str, r: KillReport, extra: str) -> str:
     lines += [f"  +{t:6.2f} s  {pwm}" for t, pwm in r.changes]
     lines.append(
         f"  held {r.held_pwm}; first change after {_s(r.first_change_s)}; neutral from "
-        f"{_s(r.neutral_from_s)}; final {r.final_pwm}; watched {r.observed_s:.1f} s (simulated)"
+        f"{_s(r.neutral_from_s)}; outputs 1-4 at trim from {_s(r.trim_from_s)}; final "
+        f"{r.final_pwm}; watched {r.observed_s:.1f} s (simulated)"
     )
     lines.append(f"  {extra}")
     return "\n".join(lines)
@@ -262,11 +284,15 @@ def test_pilot_takeover_by_mode_switch(
     assert near(obs.servo_pwm(), NEUTRAL_US, NEUTRAL_US)
 
     if backend == RC_OVERRIDE:
-        # Released, not just neutral: the pilot's radio now drives the passthrough outputs.
+        # Still armed without helixd, helixd-guard holds the scrolls at trim; the pilot who
+        # wants to drive by radio alone switches it off (README). Then the radio drives the
+        # passthrough outputs: helixd released its overrides (the guard's own trim override
+        # expires with RC_OVERRIDE_TIME).
         sitl.pilot_rc({1: 1650, 3: 1350})
+        obs.set_param("HXG_ENABLE", 0.0)
         obs.wait_until(
             lambda: near(obs.servo_pwm(), 1650, 1350),
-            STICK_FOLLOW_S,
+            STICK_FOLLOW_S + RC_OVERRIDE_TIME_S,
             "outputs 1/3 following the pilot's radio (helixd's overrides released)",
         )
         sitl.pilot_rc({1: NEUTRAL_US, 3: NEUTRAL_US})
@@ -308,10 +334,12 @@ def test_kill_9_mid_mission_reports_outputs(
     )
     report = analyse_after_kill(obs.servo_since(last.t_boot_s), last.t_boot_s)
     modes = [
-        f"{mode} at {wall - killed_wall:+.1f} s (wall)"
+        f"{mode} at {wall - killed_wall:+.2f} s (wall)"
         for wall, mode in obs.mode_changes
         if wall >= killed_wall
     ]
+    holds = [w - killed_wall for w, mode in obs.mode_changes if w >= killed_wall and mode == 4]
+    hold_wall_s = holds[0] if holds else None
     heartbeat = (
         "not seen on the observer link"
         if obs.helixd_heartbeat_wall_s is None
@@ -328,14 +356,40 @@ def test_kill_9_mid_mission_reports_outputs(
     )
 
     assert deflected(report.held_pwm), "the scrolls were not driving when helixd was killed"
-    if backend == RC_OVERRIDE:
-        # ArduPilot keeps the last override until RC_OVERRIDE_TIME, then the outputs follow
-        # the pilot's radio again (SITL's radio sits at 1500).
-        slack_s = 1.0 + 0.2 * sitl.speedup  # last override ≤ one observer period before kill
-        assert report.first_change_s is not None
-        assert report.first_change_s >= RC_OVERRIDE_TIME_S - SETTLE_S
-        assert report.neutral_from_s is not None
-        assert report.neutral_from_s <= RC_OVERRIDE_TIME_S + slack_s
-    else:
-        # DO_SET_SERVO has no timeout: the last command stays on the outputs (README).
-        assert report.first_change_s is None
+    assert report.first_change_s is not None and report.first_change_s > SETTLE_S
+    # helixd-guard (the real Lua, running in ardurover) for both backends: HXG_TIMEOUT after
+    # helixd's last message it holds outputs 1..4 at trim and asks HOLD; held to the end,
+    # past RC_OVERRIDE_TIME and the GCS failsafe's time.
+    print(
+        f"kill -9 ({backend}, helixd-guard v{VERSION}): outputs 1-4 at trim from "
+        f"{_s(report.trim_from_s)} (autopilot time), HOLD at "
+        f"{'never' if hold_wall_s is None else f'+{hold_wall_s:.2f} s'} (wall) after the kill"
+    )
+    assert report.trim_from_s is not None
+    assert report.trim_from_s <= GUARD_TIMEOUT_S + GUARD_SLACK_S
+    assert hold_wall_s is not None and hold_wall_s <= GUARD_TIMEOUT_S + GUARD_SLACK_S
+    assert obs.mode() == MODE_HOLD and obs.armed() is True
+    assert any(t.startswith("helixd-guard: no heartbeat 500 ms") for t in obs.statustexts)
+
+
+def test_install_guard_over_ardupilots_mavftp(bare_sitl: SitlVehicle, tmp_path: Path) -> None:
+    """``helixd autopilot install-guard`` against ArduPilot's GCS_FTP: the scripts directory
+    found by listing (SITL: ./scripts, made by scripting at boot), the file written byte for
+    byte with the autopilot's CRC32 checked, SCR_ENABLE already 1."""
+    sitl = bare_sitl
+    assert sitl.guard_version() is None  # nothing runs yet
+    assert (sitl.workdir / "scripts").is_dir()  # AP_Scripting made SCRIPTING_DIRECTORY
+    res = subprocess.run(
+        [sys.executable, "-m", "helixd", "autopilot", "install-guard", "--connect",
+         sitl.helixd_url],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )  # fmt: skip
+    print(res.stdout + res.stderr[-2000:])
+    assert res.returncode == 0, res.stderr[-3000:]
+    assert (sitl.workdir / "scripts" / "helixd-guard.lua").read_bytes() == script_bytes()
+    assert " scripts/helixd-guard.lua (" in res.stdout and "found on the autopilot" in res.stdout
+    assert "SCR_ENABLE = 1 (already set)" in res.stdout
+    assert "reboot the autopilot to load it" in res.stdout

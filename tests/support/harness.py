@@ -316,6 +316,17 @@ def sim_and_daemon(
         yield server, d
 
 
+def guard_installed(speedup: float, outputs: tuple[int, ...] = (1, 2, 3, 4)) -> dict[str, Any]:
+    """Simulator settings with helixd-guard installed on ``outputs``, its timeout 0.5 s of wall
+    time: helixd paces its HEARTBEAT on the wall clock, the guard counts simulated time (as
+    ``run --sim`` sets it up, helixd.cli.simulated)."""
+    chans = {f"HXG_CHAN{i + 1}": float(n) for i, n in enumerate(outputs)}
+    return {
+        "guard_installed": True,
+        "guard_params": {"HXG_TIMEOUT": min(0.5 * speedup, 10.0), **chans},
+    }
+
+
 def scrolls_neutral(s: SimSnapshot) -> bool:
     return all(abs(p - NEUTRAL_US) <= NEUTRAL_TOLERANCE_US for p in s.scroll_pwm_us)
 

@@ -37,6 +37,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.config import LinkConfig, SafetyConfig
 from helixd.link.connection import Autopilot
 from helixd.link.signing import enable_signing
+from helixd.mav.guard import PARAM_DEFAULTS as GUARD_PARAM_DEFAULTS
 
 Address = tuple[str, int]
 
@@ -64,6 +65,9 @@ ROVER_PARAMS: dict[str, float] = {
     "MODE_CH": 8.0,
     "SCHED_LOOP_RATE": 50.0,  # Rover's default: 25 ms is the fastest interval granted
     **{f"SERVO{n}_FUNCTION": 0.0 for n in range(1, 17)},
+    # helixd-guard installed and running (the script's own parameters, at their defaults)
+    "SCR_ENABLE": 1.0,
+    **GUARD_PARAM_DEFAULTS,
 }
 
 

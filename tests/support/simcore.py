@@ -12,16 +12,16 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.sim.config import HELIXD_SYSID, SimConfig
-from helixd.sim.core import SimCore
+from helixd.sim.core import FtpHandler, SimCore
 from helixd.sim.obstacles import SimObstacles, constrain, distance_m
 from helixd.sim.state import PhysicsState
 
 
-def make_core(n_links: int = 2, **cfg: Any) -> SimCore:
+def make_core(n_links: int = 2, ftp: FtpHandler | None = None, **cfg: Any) -> SimCore:
     config = SimConfig.model_validate(
         {"noise": "none", "boot_duration_s": 1.0, "ekf_origin_delay_s": 0.5, **cfg}
     )
-    return SimCore(config, n_links, np.random.default_rng(1))
+    return SimCore(config, n_links, np.random.default_rng(1), ftp=ftp)
 
 
 def run(core: SimCore, seconds: float) -> list[tuple[int | None, Any]]:

@@ -1,0 +1,105 @@
+"""MAVLink FTP over the daemon's link: an :class:`helixd.link.ftp.FtpLink` on an
+:class:`helixd.link.connection.Autopilot`, so :func:`helixd.link.ftp.run_ftp` works over a real
+autopilot.
+
+Received FILE_TRANSFER_PROTOCOL messages come through the Autopilot's message listener (every
+message of the autopilot's system, already filtered by the codec); this adapter keeps those
+from the autopilot's component addressed to us (``target_system`` = our system id,
+``target_component`` ours or 0: ArduPilot's ``GCS_FTP::send_reply`` answers the request's
+sender) in a bounded queue that exists only while the exchange runs. Requests go out addressed
+to ``link.target_system`` / ``link.target_component`` with target_network 0.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import Callable
+from typing import Any, Protocol, TypeVar
+
+from helixd.config import LinkConfig
+from helixd.link.ftp import FtpExchange, run_ftp
+from helixd.mav.ftp import FtpPayload, FtpPayloadError, from_message, to_message
+
+__all__ = ["AutopilotFtpLink", "FtpHost", "run_on_autopilot"]
+
+MavMsg = Any
+QUEUE_MAX = 64  # one request is outstanding; a burst or duplicates are all that can pile up
+E = TypeVar("E", bound=FtpExchange)
+
+
+class FtpHost(Protocol):
+    """What the adapter needs of the Autopilot facade."""
+
+    cfg: LinkConfig
+
+    def add_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None: ...
+
+    def remove_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None: ...
+
+    def send_message(self, msg: MavMsg) -> bool: ...
+
+
+class AutopilotFtpLink:
+    """``send(payload)`` / ``async recv(timeout_s)`` over the Autopilot; use as a context
+    manager so the listener is removed after the exchange."""
+
+    def __init__(self, host: FtpHost) -> None:
+        self._host = host
+        cfg = host.cfg
+        self._ours = (cfg.source_system, cfg.source_component)
+        self._theirs = (cfg.target_system, cfg.target_component)
+        self._queue: asyncio.Queue[bytes] = asyncio.Queue(QUEUE_MAX)
+        self.dropped = 0  # replies dropped because the queue was full
+        self.ignored = 0  # FILE_TRANSFER_PROTOCOL not for us (or unreadable)
+        self.send_failed = 0  # requests the transport dropped (the exchange sends again)
+
+    def _put(self, msg: MavMsg, rx_s: float) -> None:
+        if msg.get_type() != "FILE_TRANSFER_PROTOCOL":
+            return
+        target_comp = self._theirs[1]
+        if (
+            (target_comp != 0 and int(msg.get_srcComponent()) != target_comp)
+            or int(msg.target_system) != self._ours[0]
+            or int(msg.target_component) not in (0, self._ours[1])
+        ):
+            self.ignored += 1
+            return
+        try:
+            payload = from_message(msg)
+        except FtpPayloadError:
+            self.ignored += 1
+            return
+        if self._queue.full():
+            self._queue.get_nowait()
+            self.dropped += 1
+        self._queue.put_nowait(payload)
+
+    def __enter__(self) -> AutopilotFtpLink:
+        self._host.add_message_listener(self._put)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._host.remove_message_listener(self._put)
+
+    def send(self, payload: bytes) -> None:
+        msg = to_message(FtpPayload.unpack(payload), *self._theirs)
+        if not self._host.send_message(msg):
+            self.send_failed += 1
+
+    async def recv(self, timeout_s: float) -> bytes | None:
+        if not self._queue.empty():
+            return self._queue.get_nowait()
+        if timeout_s <= 0:
+            return None
+        try:
+            async with asyncio.timeout(timeout_s):
+                return await self._queue.get()
+        except TimeoutError:
+            return None
+
+
+async def run_on_autopilot(host: FtpHost, exchange: E) -> E:
+    """:func:`run_ftp` over the autopilot's link; raises the exchange's
+    :class:`helixd.link.ftp.FtpTransferError` if it failed."""
+    with AutopilotFtpLink(host) as link:
+        return await run_ftp(exchange, link)

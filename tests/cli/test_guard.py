@@ -1,0 +1,108 @@
+"""``helixd autopilot install-guard`` against the simulator over UDP: the file lands where
+ArduPilot loads scripts from, SCR_ENABLE is set, and after a reboot the guard runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from helixd.base.exitcodes import ExitCode
+from helixd.mav.guard import VERSION, script_bytes
+from tests.support.cli import run_main
+from tests.support.harness import running_sim
+
+FAST_CONNECT = "safety:\n  connect_timeout_s: 5.0\n"
+
+
+def config(tmp_path: Path) -> str:
+    path = tmp_path / "helixd.yaml"
+    path.write_text(FAST_CONNECT, encoding="utf-8")
+    return str(path)
+
+
+def test_install_then_reboot_runs_the_guard(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with running_sim() as (server, url):
+        assert server.snapshot().params["SCR_ENABLE"] == 0.0
+        code, out, err = run_main(
+            ["autopilot", "install-guard", "--connect", url, "--config", config(tmp_path)], capsys
+        )
+        assert code == 0, err
+        # SITL layout (no /APM): ./scripts in the autopilot's working directory
+        assert (server.workdir / "scripts" / "helixd-guard.lua").read_bytes() == script_bytes()
+        assert f"helixd-guard v{VERSION} → {url} scripts/helixd-guard.lua" in out
+        assert "found on the autopilot" in out
+        assert "SCR_ENABLE = 1 (was 0)" in out
+        assert "reboot the autopilot to load it" in out and "no helixd-guard runs yet" in out
+        snap = server.snapshot()
+        assert snap.params["SCR_ENABLE"] == 1.0
+        assert snap.guard_version is None  # scripts load at boot only
+        server.inject("reboot")
+        snap = server.wait_for(lambda s: s.guard_version is not None, 20.0)
+        assert snap.guard_version == VERSION
+        assert snap.params["HXG_VERSION"] == VERSION and snap.params["HXG_ENABLE"] == 1.0
+        code, out, err = run_main(
+            ["autopilot", "install-guard", "--connect", url, "--config", config(tmp_path)], capsys
+        )
+        assert code == 0, err
+        assert "SCR_ENABLE = 1 (already set)" in out
+        assert f"helixd-guard v{VERSION} runs until then" in out
+
+
+def test_an_sd_card_layout_gets_apm_scripts(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    workdir = tmp_path / "card"
+    (workdir / "APM" / "LOGS").mkdir(parents=True)  # an SD card where scripting never ran
+    with running_sim(workdir=workdir) as (_, url):
+        code, out, err = run_main(
+            ["autopilot", "install-guard", "--connect", url, "--config", config(tmp_path)], capsys
+        )
+    assert code == 0, err
+    assert (workdir / "APM" / "scripts" / "helixd-guard.lua").read_bytes() == script_bytes()
+    assert " /APM/scripts/helixd-guard.lua (" in out
+
+
+def test_a_given_scripts_dir_is_used(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    workdir = tmp_path / "ap"
+    with running_sim(workdir=workdir) as (_, url):
+        code, out, err = run_main(
+            [
+                "autopilot", "install-guard", "--connect", url, "--config", config(tmp_path),
+                "--scripts-dir", "/APM/scripts/",
+            ],
+            capsys,
+        )  # fmt: skip
+    assert code == 0, err
+    assert (workdir / "APM" / "scripts" / "helixd-guard.lua").is_file()
+    assert "scripts directory as given" in out
+
+
+def test_a_refused_upload_exits_3_naming_the_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with running_sim() as (server, url):
+        code, _, err = run_main(
+            [
+                "autopilot", "install-guard", "--connect", url, "--config", config(tmp_path),
+                "--scripts-dir", "@ROMFS/scripts",
+            ],
+            capsys,
+        )  # fmt: skip
+        assert server.snapshot().params["SCR_ENABLE"] == 0.0  # nothing set after a refusal
+    assert code == ExitCode.PREFLIGHT
+    assert err.strip().splitlines() == [
+        f"error: {url}: FTP upload of @ROMFS/scripts/helixd-guard.lua: CreateFile refused: "
+        "FailErrno (errno 30 EROFS)"
+    ]
+
+
+def test_a_bad_scripts_dir_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run_main(
+        ["autopilot", "install-guard", "--connect", "udpout:127.0.0.1:9", "--scripts-dir", "ü"],
+        capsys,
+    )
+    assert code == ExitCode.USAGE
+    assert "--scripts-dir: FTP path" in err and "only ASCII names are sent" in err
