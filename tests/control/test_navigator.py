@@ -258,7 +258,7 @@ def test_line_leg_ends_on_crossing_the_perpendicular_far_beside_a_pass_through_w
 
 
 def test_line_arc_corner_ends_on_its_bisector_not_at_its_radius() -> None:
-    # Leg (0,0) → (5,0) → (5,5), a 90° corner rounded on an arc (budget 0.15 m): its leg ends
+    # Leg (0,0) → (5,0) → (5,5), a 90° corner rounded on an arc (the default budget): its leg ends
     # where the rover crosses the corner's bisector, x − 5 + y = 0 (the arc's middle), not on
     # entering the waypoint's 1 m radius nor on the perpendicular through it.
     nav = Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0), (5.0, 5.0), tol=1.0), LINE)

@@ -21,6 +21,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
+from helixd.config import ControlConfig
 from helixd.recorder.track import TrackPoint
 from helixd.sim import SimServer, SimSnapshot
 from tests.support.harness import (
@@ -30,6 +31,9 @@ from tests.support.harness import (
     wait_moving,
 )
 from tests.support.skid_setup import (
+    SURVEY_XY_M,
+    helixd_start_frame,
+    metrics_in_frame,
     skid_actuation,
     skid_vehicle_geometry,
     square_metrics,
@@ -47,11 +51,14 @@ MISSION_WALL_S = 240.0
 # The square before corner arcs (issue 22), this plant, truth: 80.3–80.4 s (main, 2026-11-23);
 # on real SITL 81 s (DESIGN §3). Its corners are arcs now: it must not be slower.
 SQUARE_BEFORE_S = 81.0
+# The arcs' designed distance from the legs at a 90° corner, e·cos 45° (e = corner_error_m),
+# plus 0.05 m of tracking error on this plant.
+LINE_CORNER_BOUND_M = ControlConfig().corner_error_m * math.cos(math.pi / 4) + 0.05
 # ArduPilot's own AUTO on the survey block, real Rover SITL (rover-skid, WP_SPEED 0.6,
 # WP_RADIUS 1.0), observer on SERIAL1 against the planned polyline
 # (tests/sitl/test_sitl_survey.py, 2026-11-23): the figures to beat.
-AUTO_SURVEY_S = 0.0  # filled below
-AUTO_SURVEY_MAX_M = 0.0
+AUTO_SURVEY_S = 333.1
+AUTO_SURVEY_MAX_M = 0.626
 FALLBACK_BOUND_S = 0.5 + 0.1 + 0.25  # DESIGN §6 + signal detection + loaded-box slack
 STOPPED_MPS = 0.02
 FINAL_TOLERANCE_M = 2.0  # the SITL suite's bound on the return to the start
@@ -124,10 +131,13 @@ def test_roll_square_on_the_sitl_skid_plant(tmp_path: Path) -> None:
     assert far >= 10.0 * math.sqrt(2.0) - 2.0
     assert metrics.final_error_m <= FINAL_TOLERANCE_M
     assert metrics.cross_track_max_m < 3.0  # a leg missed by more would not be "the square"
-    # corner arcs (issue 22): no slower than the square with pivots, as precise on the pose
-    # helixd steers by (the truth adds the 'low' noise estimator's ~0.1 m offset to both)
+    # corner arcs (issue 22): no slower than the square with pivots; on the pose helixd steers
+    # by its RMS grows from 0.023–0.024 m (pivots, main) to ≈ 0.030 m: the three arcs pass up
+    # to e·cos 45° = 0.18 m inside the corners by design (the truth adds the 'low' noise
+    # estimator's ~0.1 m offset to both)
     assert metrics.elapsed_s <= SQUARE_BEFORE_S
-    assert summary["cross_track_rms_m"] <= 0.03
+    assert summary["cross_track_rms_m"] <= 0.04
+    assert summary["cross_track_max_m"] <= LINE_CORNER_BOUND_M
 
 
 def test_survey_block_on_the_sitl_skid_plant_beats_auto(tmp_path: Path) -> None:
@@ -148,10 +158,17 @@ def test_survey_block_on_the_sitl_skid_plant_beats_auto(tmp_path: Path) -> None:
     summary: dict[str, Any] = json.loads((run_dir / "summary.json").read_text())
     assert summary["completed"] is True
     assert summary["waypoints_reached"] == summary["waypoints_total"] == 11
-    metrics = survey_metrics(track, recorder.yaw_at)
-    assert metrics is not None
+    # The plan where helixd laid it (its start frame, from its estimated pose) and the true
+    # path against it: the 'low' noise estimator's start heading is off by up to ~0.5°, which
+    # alone puts the far end of a 30 m transect 0.26 m from a plan anchored at the true yaw.
+    start, _ = helixd_start_frame(run_dir)
+    metrics = metrics_in_frame(track, SURVEY_XY_M, start)
+    truth_anchored = survey_metrics(track, recorder.yaw_at)
+    assert metrics is not None and truth_anchored is not None
     print(
-        f"sitl_skid ROLL survey block, simulator truth: {metrics.line()}; helixd's summary: "
+        f"sitl_skid ROLL survey block, true path vs the plan in helixd's frame: "
+        f"{metrics.line()} (plan anchored at the true start pose: {truth_anchored.line()}); "
+        "helixd's summary: "
         f"{summary['duration_s']:.1f} s, cross-track rms {summary['cross_track_rms_m']:.3f} "
         f"max {summary['cross_track_max_m']:.3f} m | real SITL AUTO: {AUTO_SURVEY_S:.1f} s, "
         f"max {AUTO_SURVEY_MAX_M:.3f} m"

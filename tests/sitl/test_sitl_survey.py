@@ -38,7 +38,7 @@ from tests.sitl.conftest import (
     start_sitl,
 )
 from tests.support.paths import REPO_ROOT
-from tests.support.skid_setup import SURVEY_XY_M, survey_metrics
+from tests.support.skid_setup import SURVEY_XY_M, first_step_t_s, survey_metrics
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun
@@ -95,9 +95,7 @@ def fly_helixd(sitl: SitlVehicle, launch: Callable[..., DaemonRun]) -> TrackMetr
     code = daemon.wait_exit(SETUP_WALL_S + MISSION_SIM_S / sitl.speedup)
     assert code == ExitCode.OK, daemon.log_text()[-4000:]
     # helixd's start frame is the pose at its first control step (flight.csv's first row)
-    rows = (daemon.run_dir() / "flight.csv").read_text(encoding="utf-8").splitlines()
-    first = next(r for r in rows if r and r[0].isdigit())
-    return survey_metrics(track_of(sitl), sitl.obs.yaw_at, float(first.split(",", 1)[0]))
+    return survey_metrics(track_of(sitl), sitl.obs.yaw_at, first_step_t_s(daemon.run_dir()))
 
 
 def fly_auto(sitl: SitlVehicle, workdir: Path) -> TrackMetrics | None:

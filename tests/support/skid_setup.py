@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from helixd.base.frames import MissionFrame, NedPose
@@ -81,6 +82,36 @@ def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
     }
 
 
+def first_step_t_s(run_dir: Path) -> float:
+    """Autopilot time of helixd's first control step (flight.csv's first row): where its
+    'start' frame was taken."""
+    rows = (run_dir / "flight.csv").read_text(encoding="utf-8").splitlines()
+    return float(next(r for r in rows if r and r[0].isdigit()).split(",", 1)[0])
+
+
+def helixd_start_frame(run_dir: Path) -> tuple[NedPose, float]:
+    """(pose, autopilot time) of helixd's first control step — its 'start' frame — from the
+    run's flight.csv (north_m, east_m, yaw_ned_rad of the pose it steered by)."""
+    lines = (run_dir / "flight.csv").read_text(encoding="utf-8").splitlines()
+    rows = [ln.split(",") for ln in lines if ln and not ln.startswith("#")]
+    col = {name: i for i, name in enumerate(rows[0])}
+    first = rows[1]
+    pose = NedPose(
+        float(first[col["north_m"]]), float(first[col["east_m"]]), float(first[col["yaw_ned_rad"]])
+    )
+    return pose, float(first[col["t_boot_s"]])
+
+
+def metrics_in_frame(
+    track: Sequence[TrackPoint], waypoints_xy_m: Sequence[tuple[float, float]], start: NedPose
+) -> TrackMetrics | None:
+    """Observer metrics of ``track`` against the plan laid out in the 'start' frame at
+    ``start`` (e.g. the frame helixd flew in, :func:`helixd_start_frame`)."""
+    frame = MissionFrame.start_at(start)
+    polyline = planned_polyline_ned(waypoints_xy_m, frame, (start.north_m, start.east_m))
+    return track_metrics(track, polyline, REST_TOLERANCE_M)
+
+
 def mission_metrics(
     track: Sequence[TrackPoint],
     yaw_at: Callable[[float], float | None],
@@ -108,10 +139,12 @@ def mission_metrics(
 
 
 def square_metrics(
-    track: Sequence[TrackPoint], yaw_at: Callable[[float], float | None]
+    track: Sequence[TrackPoint],
+    yaw_at: Callable[[float], float | None],
+    start_t_s: float | None = None,
 ) -> TrackMetrics | None:
     """:func:`mission_metrics` of the square."""
-    return mission_metrics(track, yaw_at, SQUARE_XY_M)
+    return mission_metrics(track, yaw_at, SQUARE_XY_M, start_t_s)
 
 
 def survey_metrics(
