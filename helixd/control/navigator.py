@@ -29,6 +29,19 @@ Two guidance laws, chosen by ``control.guidance``:
   ALIGN below ``heading_threshold_rad``. Gentle corners are flown at the turn-geometry speed,
   collinear ones at cruise. Translation and yaw-rate commands are acceleration limited.
 
+  With a corner error budget (``corner_error_m`` > 0, the default) every corner that is not a
+  stop is flown as an arc tangent to both legs (:func:`line.corner_arc`: the largest radius
+  that passes within the budget — and the waypoint's tolerance — of the waypoint, fits on half
+  of each leg and is no larger than cruise needs), at the speed ``max_lateral_accel`` and the
+  yaw-rate limit allow on it; the arc's yaw rate v/R is fed forward, ramped at the yaw
+  acceleration limit across the arc's ends with the heading reference shifted to match
+  (:func:`line.arc_blend`), and the lookahead law steers onto the arc as onto a leg. Its leg
+  ends on the corner's bisector (the arc's middle). A corner whose arc would be flown below
+  ``min_speed_mps`` (too sharp for the budget: ≈ 130° with the defaults) is a pivot stop;
+  waypoints with a final heading and the last one stay stops. Without a budget
+  (``corner_error_m`` = 0) corners sharper than ``pivot_angle_rad`` are pivots and gentler
+  ones are rounded by the lookahead law.
+
 Stepped with (pose, t_s); derives dt from successive t_s. Never touches a clock or a socket,
 and never decides to stop the vehicle: the supervisor owns that.
 

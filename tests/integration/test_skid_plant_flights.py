@@ -57,8 +57,8 @@ LINE_CORNER_BOUND_M = ControlConfig().corner_error_m * math.cos(math.pi / 4) + 0
 # ArduPilot's own AUTO on the survey block, real Rover SITL (rover-skid, WP_SPEED 0.6,
 # WP_RADIUS 1.0), observer on SERIAL1 against the planned polyline
 # (tests/sitl/test_sitl_survey.py, 2026-11-23): the figures to beat.
-AUTO_SURVEY_S = 333.1
-AUTO_SURVEY_MAX_M = 0.626
+AUTO_SURVEY_S = 333.0
+AUTO_SURVEY_MAX_M = 0.588
 FALLBACK_BOUND_S = 0.5 + 0.1 + 0.25  # DESIGN §6 + signal detection + loaded-box slack
 STOPPED_MPS = 0.02
 FINAL_TOLERANCE_M = 2.0  # the SITL suite's bound on the return to the start
