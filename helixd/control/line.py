@@ -356,10 +356,15 @@ def profile_speed_mps(
     speeds_mps: list[float],
     accel_mps2: float,
     early_m: list[float] | None = None,
+    horizon_m: float = math.inf,
 ) -> float:
     """Speed allowed now so that every coming waypoint j ≥ index is passed at ≤ speeds[j],
     already ``early_m[j]`` before it (a flown-through waypoint ends its leg at its
-    pass-through radius, so its corner speed must be reached there)."""
+    pass-through radius, so its corner speed must be reached there).
+
+    Waypoints farther than ``horizon_m`` along the path are not looked at: with
+    horizon ≥ v_max²/(2a) + max(early_m) none of them could limit a speed ≤ v_max (a path of
+    flown-through corners would otherwise cost a loop over every remaining waypoint per step)."""
     if not (math.isfinite(along_to_go_m) and math.isfinite(accel_mps2)):
         return 0.0
     wps = points_xy_m[1:]
@@ -369,6 +374,8 @@ def profile_speed_mps(
         if j > index:
             a, b = wps[j - 1], wps[j]
             distance += math.hypot(b[0] - a[0], b[1] - a[1])
+            if distance > horizon_m:
+                break
         early = early_m[j] if early_m is not None else 0.0
         best = min(best, braking_speed_mps(distance - early, speeds_mps[j], accel_mps2))
         if speeds_mps[j] <= 0.0:

@@ -117,6 +117,7 @@ class Navigator:
         self._stops: list[bool] = []
         self._early_m: list[float] = []  # per waypoint: its speed limit holds this early (m)
         self._arcs: list[line.CornerArc | None] = []  # per waypoint: the arc of its corner
+        self._horizon_m = math.inf  # how far ahead the speed profile looks (m)
         self._prev_command = BodyVelocity.zero()
         # (pose, leg start, goal, errors) of the last leg_errors: the arrival test and the
         # guidance of one step read the same leg (all immutable: identity is the key)
@@ -282,6 +283,24 @@ class Navigator:
             0.0 if stop else (arc.tangent_m if arc is not None else w.tolerance_m)
             for stop, arc, w in zip(self._stops, self._arcs, wps, strict=True)
         ]
+        # Beyond this distance along the path no waypoint limits the speed profile, and the
+        # distance loop's output is past the cruise speed (see _horizon_m).
+        self._horizon_m = self._lookahead_horizon_m()
+
+    def _lookahead_horizon_m(self) -> float:
+        """How far along the path the speed profile and the distance to the next stop need to
+        look: a waypoint farther than v²/(2·a_brake) + its early distance cannot limit a speed
+        ≤ v, and the distance loop's output kp·e − |I| − |D| exceeds v once e ≥
+        (v + I_max + kd·v)/kp (its D term only rises when the distance jumps up). Infinite
+        when the loop has no proportional gain."""
+        cfg = self.control
+        v = self.plan.speed_mps
+        profile_m = v * v / (2.0 * cfg.braking_accel_mps2) + max(self._early_m, default=0.0)
+        gains = cfg.distance_pid
+        if gains.kp <= 0.0:
+            return math.inf
+        pid_m = (v + abs(gains.integral_limit) + abs(gains.kd) * v) / gains.kp
+        return max(profile_m, pid_m) + 1.0
 
     def _is_precise(self, index: int) -> bool:
         """The final waypoint and waypoints with a final heading: stopped at precisely."""
@@ -366,8 +385,8 @@ class Navigator:
         i = self._target_index
         e_go = max(0.0, leg.along_to_go_m)
         for j in range(i, len(self._stops) - 1):  # distance to the next stop, for the PID
-            if self._stops[j]:
-                break
+            if self._stops[j] or e_go > self._horizon_m:
+                break  # (beyond the horizon the PID's output is past cruise anyway)
             a, b = self._points_xy_m[j + 1], self._points_xy_m[j + 2]
             e_go += math.hypot(b[0] - a[0], b[1] - a[1])
         distance_terms = self._distance_pid.update(0.0, -e_go, dt_s)
@@ -378,6 +397,7 @@ class Navigator:
             self._pass_speed_mps,
             cfg.braking_accel_mps2,
             self._early_m,
+            self._horizon_m,
         )
         if i > 0:
             prev_arc = self._arcs[i - 1]

@@ -28,6 +28,7 @@ from helixd.mission import (
     load_mission,
     resolve_plan,
 )
+from helixd.mission.shapes import survey_block
 from tests.support.ideal_plant import IdealPlant
 from tests.support.paths import REPO_ROOT
 
@@ -374,6 +375,32 @@ def test_survey_block_arcs_beat_the_pivots(mode: MotionMode) -> None:
     assert arcs.done and pivots.done
     assert arcs.time_s <= pivots.time_s - 15.0
     assert NavState.ALIGN not in arcs.states
+
+
+def test_speed_profile_looks_only_as_far_as_it_can_matter(monkeypatch: pytest.MonkeyPatch) -> None:
+    # A lawn-mower of 41 flown-through arc corners: without a horizon the speed profile and the
+    # distance to the next stop would loop over every remaining waypoint at every step. With
+    # it: the same commands, and a handful of waypoints looked at per step.
+    plan = Plan(
+        "mower", MotionMode.ROLL, MissionFrameKind.START,
+        tuple(PlanWaypoint(*xy, 1.0) for xy in survey_block(21, 6.0, 2.0)), LINE.max_speed_mps,
+    )  # fmt: skip
+    calls: list[int] = []
+    real = line.braking_speed_mps
+
+    def counted(d: float, v: float, a: float) -> float:
+        calls.append(1)
+        return real(d, v, a)
+
+    monkeypatch.setattr(line, "braking_speed_mps", counted)
+    bounded = fly(plan, start_pose(MotionMode.ROLL), limit_s=900.0)
+    per_step = len(calls) / len(bounded.commands)
+    monkeypatch.setattr(Navigator, "_lookahead_horizon_m", lambda self: math.inf)
+    calls.clear()
+    unbounded = fly(plan, start_pose(MotionMode.ROLL), limit_s=900.0)
+    assert bounded.done and unbounded.done
+    assert bounded.commands == unbounded.commands
+    assert per_step <= 4.0 < len(calls) / len(unbounded.commands)
 
 
 def test_waypoint_with_a_heading_is_a_stop_even_where_an_arc_would_fit() -> None:
