@@ -86,7 +86,7 @@ def navigation_markdown(nav: Mapping[str, Any]) -> list[str]:
         rows = [
             [
                 str(c.get("mission")), str(c.get("mode")), str(c.get("terrain")),
-                str(c.get("guidance")), str(c.get("completed")),
+                str(c.get("noise", "-")), str(c.get("guidance")), str(c.get("completed")),
                 _stat(c, "xt_rms_m"), _stat(c, "xt_max_m"), _stat(c, "final_error_m"),
                 _stat(c, "time_s", ".1f"), _stat(c, "effort", ".1f"), _stat(c, "est_xt_rms_m"),
             ]
@@ -94,7 +94,7 @@ def navigation_markdown(nav: Mapping[str, Any]) -> list[str]:
             if isinstance(c, Mapping)
         ]  # fmt: skip
         lines += md_table(
-            ["mission", "mode", "terrain", "guidance", "completed", "RMS m", "max m",
+            ["mission", "mode", "terrain", "noise", "guidance", "completed", "RMS m", "max m",
              "final m", "time s", "effort", "est RMS m"],
             rows,
         )  # fmt: skip
@@ -105,7 +105,8 @@ def navigation_markdown(nav: Mapping[str, Any]) -> list[str]:
         rows = [
             [
                 str(r.get("mission")), str(r.get("mode")), str(r.get("terrain")),
-                f"{r.get('new')} / {r.get('baseline')}",
+                str(r.get("noise", "-")),
+                f"{r.get('new')} / {r.get('baseline')}, {r.get('time_baseline', '-')}",
                 fmt(r.get("rms_ratio")), fmt(r.get("est_rms_ratio")), fmt(r.get("time_ratio")),
                 fmt(r.get("worst_time_ratio")), str(r.get("verdict")),
             ]
@@ -113,14 +114,51 @@ def navigation_markdown(nav: Mapping[str, Any]) -> list[str]:
             if isinstance(r, Mapping)
         ]  # fmt: skip
         lines += md_table(
-            ["mission", "mode", "terrain", "new / baseline", "RMS ratio (true)", "est RMS ratio",
-             "time ratio",
-             "worst seed time ratio", "target"],
+            ["mission", "mode", "terrain", "noise", "new / RMS, time baseline", "RMS ratio (true)",
+             "est RMS ratio", "time ratio", "worst seed time ratio", "target"],
             rows,
         )  # fmt: skip
+    whys = nav.get("explanations", [])
+    if isinstance(whys, list) and whys:
+        lines += ["", "Where a target is missed, by how much and why:", ""]
+        lines += [f"- {why}" for why in whys]
+    survey = nav.get("survey")
+    if isinstance(survey, Mapping):
+        lines += ["", *survey_markdown(survey)]
     failures = nav.get("failures", [])
     if isinstance(failures, list) and failures:
         lines += ["", "Failed runs:", ""] + [f"- {f}" for f in failures]
+    return lines
+
+
+def survey_markdown(survey: Mapping[str, Any]) -> list[str]:
+    """The survey block's line-law runs against ArduPilot AUTO's real-SITL figures."""
+    helixd = survey.get("helixd", {}) or {}
+    auto = survey.get("auto", {}) or {}
+    lines = [
+        f"### Survey block against ArduPilot AUTO ({survey.get('plant')} plant, "
+        f"{survey.get('completed')} completed)",
+        "",
+    ]
+    lines += md_table(
+        ["pilot", "time s", "RMS m", "max m", "final m"],
+        [
+            [
+                "helixd (line law, corner arcs), mean / worst",
+                _stat(helixd, "time_s", ".1f"), _stat(helixd, "xt_rms_m", ".3f"),
+                _stat(helixd, "xt_max_m", ".3f"), _stat(helixd, "final_error_m", ".3f"),
+            ],
+            [
+                "ArduPilot AUTO, real SITL", fmt(auto.get("time_s"), ".1f"),
+                fmt(auto.get("xt_rms_m"), ".3f"), fmt(auto.get("xt_max_m"), ".3f"),
+                fmt(auto.get("final_error_m"), ".3f"),
+            ],
+        ],
+    )  # fmt: skip
+    lines += [
+        "",
+        f"Target: {survey.get('target')} — {survey.get('verdict')}. AUTO: {auto.get('source')}.",
+    ]
     return lines
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Generate the shipped mission files (square, hexagon, circle) from helixd.mission.shapes.
+"""Generate the shipped mission files (square, hexagon, circle, survey) from helixd.mission.shapes.
 
 Usage: python tools/make_missions.py [OUTPUT_DIR]   (default: config/missions)
 """
@@ -11,12 +11,17 @@ from pathlib import Path
 
 import yaml
 
-from helixd.mission.shapes import circle, hexagon, square
+from helixd.mission.shapes import circle, hexagon, square, survey_block
 
 MISSIONS = {
     "square": ("roll", "10 m x 10 m counter-clockwise square, the thesis's field test", square()),
     "hexagon": ("omni", "hexagon with 2 m sides, six vertices", hexagon()),
     "circle": ("scroll", "circle r = 2 m centred at (2, 2), 25 waypoints from (4, 2)", circle()),
+    "survey": (
+        "roll",
+        "survey block: six 30 m transects 3 m apart joined by 3 m crossovers (195 m)",
+        survey_block(),
+    ),
 }
 # Arrival radius per shape (m): the square keeps the thesis's 1.0 m; the small shapes need a
 # tighter radius or neighbouring waypoints (0.52 m apart on the circle) count as reached at once.
@@ -24,6 +29,7 @@ TOLERANCE_M = {
     "square": None,
     "hexagon": 0.4,
     "circle": 0.3,
+    "survey": None,
 }
 
 

@@ -34,6 +34,7 @@ from helixd.base.angles import shortest_angular_distance, wrap_pi
 from helixd.base.geometry import Pose2D, require_finite
 
 MIN_LEG_M = 1e-6  # shorter legs have no direction: they are flown as a point
+COLLINEAR_RAD = 2e-6  # a corner turning less than this is a straight line (no arc needed)
 
 
 @dataclass(frozen=True, slots=True)
@@ -118,6 +119,182 @@ def corner_speed_mps(
     return max(0.0, v)
 
 
+@dataclass(frozen=True, slots=True)
+class CornerArc:
+    """The circular arc a flown-through corner is rounded with, tangent to both legs.
+
+    The arc starts ``tangent_m`` before the vertex on the leg in and ends ``tangent_m`` after
+    it on the leg out; its middle passes ``corner_error_m`` from the vertex (on the bisector,
+    inside the turn). ``turn_rad`` is signed (+ left, counter-clockwise)."""
+
+    vertex_xy_m: tuple[float, float]
+    center_xy_m: tuple[float, float]
+    radius_m: float
+    tangent_m: float
+    turn_rad: float
+    speed_mps: float
+    corner_error_m: float
+    # u_in + u_out: (p − vertex)·this ≥ 0 once p is past the bisector (the arc's middle)
+    mean_course_xy: tuple[float, float]
+
+    @property
+    def curvature_per_m(self) -> float:
+        """Signed curvature 1/R (+ left)."""
+        return math.copysign(1.0 / self.radius_m, self.turn_rad)
+
+
+def corner_arc(
+    a_xy_m: tuple[float, float],
+    b_xy_m: tuple[float, float],
+    c_xy_m: tuple[float, float],
+    corner_error_m: float,
+    cruise_mps: float,
+    max_lateral_accel_mps2: float,
+    max_yaw_rate_radps: float | None,
+    min_speed_mps: float,
+) -> CornerArc | None:
+    """The arc that rounds the corner b of a → b → c, or None where the corner must be a stop.
+
+    Radius: the largest of the arcs that (1) pass at most ``corner_error_m`` from the vertex,
+    R·(1/cos(θ/2) − 1) ≤ e, (2) fit on half of each leg, R·tan(θ/2) ≤ min(|ab|, |bc|)/2, so
+    the arcs of neighbouring corners never overlap, and (3) are no larger than needed to pass
+    at cruise, R ≤ max(v²/a_lat, v/ω_max) (a larger one only moves farther from the corner).
+    Speed: v = min(cruise, √(a_lat·R), ω_max·R) (``max_yaw_rate_radps`` None: no yaw, OMNI).
+    None when the corner is collinear (θ ≈ 0: no arc needed), a reversal (θ ≈ π), a leg is
+    degenerate, or the arc could only be flown below ``min_speed_mps``: too sharp for the
+    budget, a pivot is the better turn. Non-finite input → None.
+    """
+    values = (*a_xy_m, *b_xy_m, *c_xy_m, corner_error_m, cruise_mps, max_lateral_accel_mps2)
+    if not all(math.isfinite(x) for x in values) or corner_error_m <= 0.0 or cruise_mps <= 0.0:
+        return None
+    l1x, l1y = b_xy_m[0] - a_xy_m[0], b_xy_m[1] - a_xy_m[1]
+    l2x, l2y = c_xy_m[0] - b_xy_m[0], c_xy_m[1] - b_xy_m[1]
+    len1, len2 = math.hypot(l1x, l1y), math.hypot(l2x, l2y)
+    if len1 < MIN_LEG_M or len2 < MIN_LEG_M:
+        return None
+    u1 = (l1x / len1, l1y / len1)
+    u2 = (l2x / len2, l2y / len2)
+    turn = math.atan2(u1[0] * u2[1] - u1[1] * u2[0], u1[0] * u2[0] + u1[1] * u2[1])
+    half = abs(turn) / 2.0
+    if abs(turn) < COLLINEAR_RAD or half > math.pi / 2 - 1e-6:
+        return None
+    radius = min(
+        corner_error_m / (1.0 / math.cos(half) - 1.0),
+        0.5 * min(len1, len2) / math.tan(half),
+    )
+    yaw = max_yaw_rate_radps
+    useful = cruise_mps**2 / max_lateral_accel_mps2 if max_lateral_accel_mps2 > 0.0 else math.inf
+    if yaw is not None and math.isfinite(yaw) and yaw > 0.0:
+        useful = max(useful, cruise_mps / yaw)
+    radius = min(radius, useful)
+    speed = min(cruise_mps, math.sqrt(max(0.0, max_lateral_accel_mps2 * radius)))
+    if yaw is not None:
+        speed = min(speed, max(0.0, yaw) * radius if math.isfinite(yaw) else 0.0)
+    if not (math.isfinite(radius) and radius > 0.0) or speed < max(min_speed_mps, 1e-6):
+        return None
+    # The centre lies on the inner bisector (direction u_out − u_in) at R/cos(θ/2).
+    nx, ny = u2[0] - u1[0], u2[1] - u1[1]
+    norm = math.hypot(nx, ny)
+    dist = radius / math.cos(half)
+    center = (b_xy_m[0] + nx / norm * dist, b_xy_m[1] + ny / norm * dist)
+    return CornerArc(
+        vertex_xy_m=b_xy_m,
+        center_xy_m=center,
+        radius_m=radius,
+        tangent_m=radius * math.tan(half),
+        turn_rad=turn,
+        speed_mps=speed,
+        corner_error_m=dist - radius,
+        mean_course_xy=(u1[0] + u2[0], u1[1] + u2[1]),
+    )
+
+
+def past_corner(arc: CornerArc, pose: Pose2D) -> bool:
+    """True once ``pose`` is past the corner's bisector (the middle of its arc)."""
+    mx, my = arc.mean_course_xy
+    return (pose.x_m - arc.vertex_xy_m[0]) * mx + (pose.y_m - arc.vertex_xy_m[1]) * my >= 0.0
+
+
+def arc_errors(arc: CornerArc, pose: Pose2D) -> tuple[float, float]:
+    """(course of the arc's tangent at the point nearest ``pose``, signed cross-track error,
+    + left of the direction of travel) — the arc's counterparts of :func:`leg_errors`."""
+    require_finite("arc input", pose.x_m, pose.y_m)
+    dx, dy = pose.x_m - arc.center_xy_m[0], pose.y_m - arc.center_xy_m[1]
+    rho = math.hypot(dx, dy)
+    side = 1.0 if arc.turn_rad > 0.0 else -1.0
+    if rho < 1e-9:  # at the centre every direction is as near: the mean course
+        course = math.atan2(arc.mean_course_xy[1], arc.mean_course_xy[0])
+    else:
+        course = wrap_pi(math.atan2(dy, dx) + side * math.pi / 2)
+    return course, side * (arc.radius_m - rho)
+
+
+def arc_ramp_m(arc: CornerArc, yaw_accel_radps2: float) -> float:
+    """Distance over which the yaw rate ramps between 0 and the arc's v/R at the yaw
+    acceleration limit α: d = v · (v/R) / α (0 with no limit)."""
+    if not (math.isfinite(yaw_accel_radps2) and yaw_accel_radps2 > 0.0):
+        return 0.0
+    return arc.speed_mps**2 * abs(arc.curvature_per_m) / yaw_accel_radps2
+
+
+def arc_blend(arc: CornerArc, into_m: float, left_m: float, ramp_m: float) -> tuple[float, float]:
+    """(share of the arc's yaw rate to feed forward, heading offset) near the ends of ``arc``.
+
+    The yaw rate cannot step to v/R where the arc meets a leg: it ramps over ``ramp_m``
+    (:func:`arc_ramp_m`), centred on each end — the path flown is a clothoid-like blend that
+    starts turning ``ramp_m``/2 before the arc and keeps turning ``ramp_m``/2 past it. Its
+    heading leads the arc's tangent on the way in by κ·(d/2·w² − max(0, s)) (w = ½ + s/d, s
+    the distance past the arc's start, ``into_m``) and lags it on the way out by the same
+    amount (s: ``left_m``, the distance still to go to the arc's end); the offset is 0 once
+    the ramp is done. Steering onto tangent + offset with v·κ·w fed forward leaves the heading
+    loop nothing to correct on a perfect plant. Non-finite input → (0, 0)."""
+    if not (math.isfinite(into_m) and math.isfinite(left_m) and math.isfinite(ramp_m)):
+        return 0.0, 0.0
+    k = arc.curvature_per_m
+    if ramp_m <= 1e-9:
+        return (1.0 if into_m >= 0.0 and left_m >= 0.0 else 0.0), 0.0
+
+    def ramp(s_m: float) -> tuple[float, float]:
+        if s_m >= ramp_m / 2.0:
+            return 1.0, 0.0
+        w = max(0.0, min(1.0, 0.5 + s_m / ramp_m))
+        return w, k * (ramp_m / 2.0 * w * w - max(0.0, s_m))
+
+    w_in, lead = ramp(into_m)
+    w_out, lag = ramp(left_m)
+    return min(w_in, w_out), lead - lag
+
+
+def corner_arcs(
+    points_xy_m: list[tuple[float, float]],
+    stop_at: list[bool],
+    corner_error_m: float,
+    cruise_mps: float,
+    max_lateral_accel_mps2: float,
+    max_yaw_rate_radps: float | None,
+    min_speed_mps: float,
+) -> list[CornerArc | None]:
+    """Per waypoint (``points_xy_m[0]`` is the start of the first leg): the arc its corner is
+    flown on (:func:`corner_arc`), or None — the last waypoint, waypoints flagged in
+    ``stop_at`` (a hold or a final heading) and corners with no arc."""
+    wps = points_xy_m[1:]
+    arcs: list[CornerArc | None] = [None] * len(wps)
+    for i in range(len(wps) - 1):
+        if stop_at[i]:
+            continue
+        arcs[i] = corner_arc(
+            points_xy_m[i],
+            wps[i],
+            wps[i + 1],
+            corner_error_m,
+            cruise_mps,
+            max_lateral_accel_mps2,
+            max_yaw_rate_radps,
+            min_speed_mps,
+        )
+    return arcs
+
+
 def waypoint_speed_limits(
     points_xy_m: list[tuple[float, float]],
     stop_at: list[bool],
@@ -126,12 +303,15 @@ def waypoint_speed_limits(
     lookahead_m: float,
     max_lateral_accel_mps2: float,
     max_yaw_rate_radps: float,
+    arcs: list[CornerArc | None] | None = None,
 ) -> tuple[list[float], list[bool]]:
     """For each waypoint: the speed to pass it at, and whether it is a stop (pivot/final).
 
     ``points_xy_m[0]`` is the start of the first leg. The last waypoint and those flagged in
-    ``stop_at`` (final heading) are stops; a corner turning more than ``pivot_angle_rad`` is
-    a stop (pivot); the rest are flown at :func:`corner_speed_mps`.
+    ``stop_at`` (final heading) are stops. Without ``arcs`` (no corner error budget) a corner
+    turning more than ``pivot_angle_rad`` is a stop (pivot) and the rest are flown at
+    :func:`corner_speed_mps`. With ``arcs`` (:func:`corner_arcs`) a corner with an arc is
+    passed at the arc's speed, a collinear one at cruise, and any other is a stop (pivot).
     """
     for point in points_xy_m:
         require_finite("path point", *point)
@@ -143,6 +323,13 @@ def waypoint_speed_limits(
         if stop_at[i]:
             continue
         turn = turn_angle_rad(points_xy_m[i], wps[i], wps[i + 1])
+        if arcs is not None:
+            arc = arcs[i]
+            if arc is not None:
+                stops[i], speeds[i] = False, arc.speed_mps
+            elif turn < COLLINEAR_RAD:
+                stops[i], speeds[i] = False, max(0.0, cruise_mps)
+            continue
         if turn > pivot_angle_rad:
             continue
         stops[i] = False
@@ -169,10 +356,15 @@ def profile_speed_mps(
     speeds_mps: list[float],
     accel_mps2: float,
     early_m: list[float] | None = None,
+    horizon_m: float = math.inf,
 ) -> float:
     """Speed allowed now so that every coming waypoint j ≥ index is passed at ≤ speeds[j],
     already ``early_m[j]`` before it (a flown-through waypoint ends its leg at its
-    pass-through radius, so its corner speed must be reached there)."""
+    pass-through radius, so its corner speed must be reached there).
+
+    Waypoints farther than ``horizon_m`` along the path are not looked at: with
+    horizon ≥ v_max²/(2a) + max(early_m) none of them could limit a speed ≤ v_max (a path of
+    flown-through corners would otherwise cost a loop over every remaining waypoint per step)."""
     if not (math.isfinite(along_to_go_m) and math.isfinite(accel_mps2)):
         return 0.0
     wps = points_xy_m[1:]
@@ -182,6 +374,8 @@ def profile_speed_mps(
         if j > index:
             a, b = wps[j - 1], wps[j]
             distance += math.hypot(b[0] - a[0], b[1] - a[1])
+            if distance > horizon_m:
+                break
         early = early_m[j] if early_m is not None else 0.0
         best = min(best, braking_speed_mps(distance - early, speeds_mps[j], accel_mps2))
         if speeds_mps[j] <= 0.0:

@@ -29,6 +29,19 @@ Two guidance laws, chosen by ``control.guidance``:
   ALIGN below ``heading_threshold_rad``. Gentle corners are flown at the turn-geometry speed,
   collinear ones at cruise. Translation and yaw-rate commands are acceleration limited.
 
+  With a corner error budget (``corner_error_m`` > 0, the default) every corner that is not a
+  stop is flown as an arc tangent to both legs (:func:`line.corner_arc`: the largest radius
+  that passes within the budget — and the waypoint's tolerance — of the waypoint, fits on half
+  of each leg and is no larger than cruise needs), at the speed ``max_lateral_accel`` and the
+  yaw-rate limit allow on it; the arc's yaw rate v/R is fed forward, ramped at the yaw
+  acceleration limit across the arc's ends with the heading reference shifted to match
+  (:func:`line.arc_blend`), and the lookahead law steers onto the arc as onto a leg. Its leg
+  ends on the corner's bisector (the arc's middle). A corner whose arc would be flown below
+  ``min_speed_mps`` (too sharp for the budget: ≈ 130° with the defaults) is a pivot stop;
+  waypoints with a final heading and the last one stay stops. Without a budget
+  (``corner_error_m`` = 0) corners sharper than ``pivot_angle_rad`` are pivots and gentler
+  ones are rounded by the lookahead law.
+
 Stepped with (pose, t_s); derives dt from successive t_s. Never touches a clock or a socket,
 and never decides to stop the vehicle: the supervisor owns that.
 
@@ -103,6 +116,8 @@ class Navigator:
         self._pass_speed_mps: list[float] = []
         self._stops: list[bool] = []
         self._early_m: list[float] = []  # per waypoint: its speed limit holds this early (m)
+        self._arcs: list[line.CornerArc | None] = []  # per waypoint: the arc of its corner
+        self._horizon_m = math.inf  # how far ahead the speed profile looks (m)
         self._prev_command = BodyVelocity.zero()
         # (pose, leg start, goal, errors) of the last leg_errors: the arrival test and the
         # guidance of one step read the same leg (all immutable: identity is the key)
@@ -232,19 +247,60 @@ class Navigator:
 
     def _plan_line(self, pose: Pose2D) -> None:
         wps = self.plan.waypoints
+        cfg = self.control
         self._points_xy_m = [self._leg_start(pose)] + [(w.x_m, w.y_m) for w in wps]
+        stop_at = [w.final_yaw_rad is not None for w in wps]
+        arcs: list[line.CornerArc | None] | None = None
+        if cfg.corner_error_m > 0.0:
+            yaw_rate = None if self.plan.mode is MotionMode.OMNI else cfg.max_yaw_rate_radps
+            arcs = [
+                line.corner_arc(
+                    self._points_xy_m[i],
+                    (w.x_m, w.y_m),
+                    self._points_xy_m[i + 2],
+                    min(cfg.corner_error_m, w.tolerance_m),
+                    self.plan.speed_mps,
+                    cfg.max_lateral_accel_mps2,
+                    yaw_rate,
+                    cfg.min_speed_mps,
+                )
+                if i + 1 < len(wps) and not stop_at[i]
+                else None
+                for i, w in enumerate(wps)
+            ]
+        self._arcs = arcs if arcs is not None else [None] * len(wps)
         self._pass_speed_mps, self._stops = line.waypoint_speed_limits(
             self._points_xy_m,
-            [w.final_yaw_rad is not None for w in wps],
+            stop_at,
             self.plan.speed_mps,
-            self.control.pivot_angle_rad,
-            self.control.lookahead_m,
-            self.control.max_lateral_accel_mps2,
-            self.control.max_yaw_rate_radps,
+            cfg.pivot_angle_rad,
+            cfg.lookahead_m,
+            cfg.max_lateral_accel_mps2,
+            cfg.max_yaw_rate_radps,
+            arcs,
         )
         self._early_m = [
-            0.0 if stop else w.tolerance_m for stop, w in zip(self._stops, wps, strict=True)
+            0.0 if stop else (arc.tangent_m if arc is not None else w.tolerance_m)
+            for stop, arc, w in zip(self._stops, self._arcs, wps, strict=True)
         ]
+        # Beyond this distance along the path no waypoint limits the speed profile, and the
+        # distance loop's output is past the cruise speed (see _horizon_m).
+        self._horizon_m = self._lookahead_horizon_m()
+
+    def _lookahead_horizon_m(self) -> float:
+        """How far along the path the speed profile and the distance to the next stop need to
+        look: a waypoint farther than v²/(2·a_brake) + its early distance cannot limit a speed
+        ≤ v, and the distance loop's output kp·e − |I| − |D| exceeds v once e ≥
+        (v + I_max + kd·v)/kp (its D term only rises when the distance jumps up). Infinite
+        when the loop has no proportional gain."""
+        cfg = self.control
+        v = self.plan.speed_mps
+        profile_m = v * v / (2.0 * cfg.braking_accel_mps2) + max(self._early_m, default=0.0)
+        gains = cfg.distance_pid
+        if gains.kp <= 0.0:
+            return math.inf
+        pid_m = (v + abs(gains.integral_limit) + abs(gains.kd) * v) / gains.kp
+        return max(profile_m, pid_m) + 1.0
 
     def _is_precise(self, index: int) -> bool:
         """The final waypoint and waypoints with a final heading: stopped at precisely."""
@@ -263,6 +319,9 @@ class Navigator:
         # Crossing the line through the waypoint, perpendicular to the leg, ends the leg: no
         # orbiting a point that noise put behind the rover.
         crossed = leg.along_to_go_m <= 0.0
+        arc = self._arcs[i]
+        if arc is not None:  # rounded on its arc: passed at the arc's middle
+            return line.past_corner(arc, pose)
         if not self._stops[i]:
             return distance_m < goal.tolerance_m or crossed  # flown through
         # A stop is driven onto that line at min_speed (never creeping), so it ends on the
@@ -288,17 +347,27 @@ class Navigator:
         cfg = self.control
         e_d = _distance_m(pose, goal)
         leg = self._leg(pose, goal)
-        if leg.along_to_go_m < 0.0:
+        arc = self._active_arc(leg)
+        if arc is not None:
+            # On a corner's arc: the same lookahead law, on the arc's tangent and radial error.
+            tangent_rad, arc_cross_m = line.arc_errors(arc, pose)
+            course_rad = line.line_course_rad(tangent_rad, arc_cross_m, cfg.lookahead_m)
+        elif leg.along_to_go_m < 0.0:
             # Past a stop it did not reach (far beside it): fly to the point itself.
             leg = line.leg_errors((goal.x_m, goal.y_m), (goal.x_m, goal.y_m), pose)
             course_rad = leg.course_rad
         else:
             course_rad = line.line_course_rad(leg.course_rad, leg.cross_track_m, cfg.lookahead_m)
 
+        curvature = 0.0
         if mode is MotionMode.OMNI:
             heading_goal_rad, e_psi = pose.yaw_rad, 0.0
         else:
-            heading_goal_rad = wrap_pi(course_rad - guidance.driving_axis_rad(mode))
+            turning, heading_offset_rad = self._arc_turning(leg)
+            curvature = turning
+            heading_goal_rad = wrap_pi(
+                course_rad + heading_offset_rad - guidance.driving_axis_rad(mode)
+            )
             e_psi = shortest_angular_distance(pose.yaw_rad, heading_goal_rad)
 
         if mode is not MotionMode.OMNI:
@@ -316,8 +385,8 @@ class Navigator:
         i = self._target_index
         e_go = max(0.0, leg.along_to_go_m)
         for j in range(i, len(self._stops) - 1):  # distance to the next stop, for the PID
-            if self._stops[j]:
-                break
+            if self._stops[j] or e_go > self._horizon_m:
+                break  # (beyond the horizon the PID's output is past cruise anyway)
             a, b = self._points_xy_m[j + 1], self._points_xy_m[j + 2]
             e_go += math.hypot(b[0] - a[0], b[1] - a[1])
         distance_terms = self._distance_pid.update(0.0, -e_go, dt_s)
@@ -328,10 +397,15 @@ class Navigator:
             self._pass_speed_mps,
             cfg.braking_accel_mps2,
             self._early_m,
+            self._horizon_m,
         )
-        if i > 0 and leg.length_m - leg.along_to_go_m < cfg.lookahead_m:
-            # Still rounding the corner just passed (the arc spans about L past its vertex).
-            profile = min(profile, self._pass_speed_mps[i - 1] or profile)
+        if i > 0:
+            prev_arc = self._arcs[i - 1]
+            rounding_m = cfg.lookahead_m if prev_arc is None else prev_arc.tangent_m
+            if leg.length_m - leg.along_to_go_m < rounding_m:
+                # Still rounding the corner just passed: its arc (or, without one, the
+                # lookahead law's rounding, about L) spans this far past the vertex.
+                profile = min(profile, self._pass_speed_mps[i - 1] or profile)
         speed_mps = min(distance_terms.output, profile, self.plan.speed_mps)
         speed_mps = max(speed_mps, cfg.min_speed_mps)  # not reached yet: never creep
         speed_mps = max(0.0, speed_mps) * max(0.0, math.cos(e_psi))
@@ -346,21 +420,65 @@ class Navigator:
             yaw_terms = self._yaw_pid.update(heading_goal_rad, pose.yaw_rad, dt_s)
             errors = guidance.GuidanceResult(e_d, course_rad, heading_goal_rad, e_psi, 0.0, 0.0)
             target = guidance.compute_command(errors, mode, speed_mps, yaw_terms.output)
-        command = self._smooth(target, e_psi, dt_s)
+        command = self._smooth(target, e_psi, dt_s, curvature)
         return self._output(
             pose, command, e_d, e_psi, distance_pid=distance_terms, yaw_pid=yaw_terms
         )
 
-    def _smooth(self, target: BodyVelocity, e_psi: float, dt_s: float) -> BodyVelocity:
+    def _active_arc(self, leg: line.LegErrors) -> line.CornerArc | None:
+        """The corner arc the rover is on: the one ending this leg once within its tangent
+        length of the vertex, or the one that began this leg until its tangent length past
+        the vertex; None on the straight part of the leg."""
+        i = self._target_index
+        arc = self._arcs[i]
+        if arc is not None and leg.along_to_go_m < arc.tangent_m:
+            return arc
+        prev = self._arcs[i - 1] if i > 0 else None
+        if prev is not None and leg.length_m - leg.along_to_go_m < prev.tangent_m:
+            return prev
+        return None
+
+    def _arc_turning(self, leg: line.LegErrors) -> tuple[float, float]:
+        """(curvature whose yaw rate is fed forward, heading offset) from the arc the rover
+        is on or about to enter or leave, with the yaw-acceleration ramps at its ends
+        (:func:`line.arc_blend`); (0, 0) on the straight part of a leg."""
+        i = self._target_index
+        alpha = self.control.max_yaw_accel_radps2
+        arc = self._arcs[i]
+        if arc is not None:
+            ramp = line.arc_ramp_m(arc, alpha)
+            into = arc.tangent_m - leg.along_to_go_m
+            if into > -ramp / 2.0:
+                share, offset = line.arc_blend(arc, into, _arc_length_m(arc) - into, ramp)
+                return arc.curvature_per_m * share, offset
+        prev = self._arcs[i - 1] if i > 0 else None
+        if prev is not None:
+            ramp = line.arc_ramp_m(prev, alpha)
+            left = prev.tangent_m - (leg.length_m - leg.along_to_go_m)
+            if left > -ramp / 2.0:
+                share, offset = line.arc_blend(prev, _arc_length_m(prev) - left, left, ramp)
+                return prev.curvature_per_m * share, offset
+        return 0.0, 0.0
+
+    def _smooth(
+        self, target: BodyVelocity, e_psi: float, dt_s: float, curvature_per_m: float = 0.0
+    ) -> BodyVelocity:
         """Acceleration limits (line guidance): translation by ``max_accel`` (along and across
         the commanded direction, :func:`line.step_toward_2d`), yaw rate by
-        ``max_yaw_accel``, and a yaw rate that can still brake within the heading error."""
+        ``max_yaw_accel``, and a yaw rate that can still brake within the heading error.
+
+        On an arc (``curvature_per_m`` ≠ 0) the yaw rate the arc needs at the commanded
+        speed, v/R, is fed forward and added to the heading loop's correction (which alone is
+        limited by the heading error); the sum stays within ``max_yaw_rate``."""
         cfg = self.control
-        wz = line.stoppable_yaw_rate_radps(target.wz_radps, e_psi, cfg.max_yaw_accel_radps2)
         prev = self._prev_command
         vx, vy = line.step_toward_2d(
             (prev.vx_mps, prev.vy_mps), (target.vx_mps, target.vy_mps), cfg.max_accel_mps2 * dt_s
         )
+        wz = line.stoppable_yaw_rate_radps(target.wz_radps, e_psi, cfg.max_yaw_accel_radps2)
+        if curvature_per_m != 0.0:
+            limit = cfg.max_yaw_rate_radps
+            wz = max(-limit, min(limit, wz + curvature_per_m * math.hypot(vx, vy)))
         wz = line.step_toward(prev.wz_radps, wz, cfg.max_yaw_accel_radps2 * dt_s)
         command = BodyVelocity(vx, vy, wz)
         self._prev_command = command
@@ -463,6 +581,10 @@ class Navigator:
             yaw_pid=yaw_pid or PidTerms.zero(),
             done=done,
         )
+
+
+def _arc_length_m(arc: line.CornerArc) -> float:
+    return arc.radius_m * abs(arc.turn_rad)
 
 
 def _distance_m(pose: Pose2D, goal: PlanWaypoint) -> float:

@@ -34,3 +34,16 @@ def circle(
         )
         for k in range(count)
     ]
+
+
+def survey_block(
+    transects: int = 6, length_m: float = 30.0, spacing_m: float = 3.0
+) -> list[tuple[float, float]]:
+    """A lawn-mower survey block from the start pose: ``transects`` parallel lines along +x,
+    ``length_m`` long and ``spacing_m`` apart (stepping left, +y), joined by short crossovers;
+    the turns alternate left-left, right-right. The first transect starts at the start pose."""
+    pts = [(length_m, 0.0)]
+    for k in range(1, transects):
+        x_start = length_m if k % 2 == 1 else 0.0
+        pts += [(x_start, k * spacing_m), (length_m - x_start, k * spacing_m)]
+    return pts

@@ -242,16 +242,30 @@ def test_empty_plan_is_refused() -> None:
 # -- line guidance: the leg-switching rules -----------------------------------------------------
 
 LINE = ControlConfig(guidance="line")
+NO_ARCS = ControlConfig(guidance="line", corner_error_m=0.0)  # corners: pivots (before arcs)
 
 
 def test_line_leg_ends_on_crossing_the_perpendicular_far_beside_a_pass_through_waypoint() -> None:
     # Leg (0,0) → (5,0) → (5,5). Crossing x = 5 at y = 0.8 (outside the 0.3 m radius) ends the
     # leg to waypoint 0 (a 90° pivot corner, within its 1 m tolerance): no orbit back to it.
-    nav = Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0), (5.0, 5.0), tol=1.0), LINE)
+    nav = Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0), (5.0, 5.0), tol=1.0), NO_ARCS)
     nav.step(Pose2D(0.0, 0.0, 0.0), 0.0)
     before = nav.step(Pose2D(4.99, 0.8, 0.0), DT)
     assert before.reached_index is None
     out = nav.step(Pose2D(5.01, 0.8, 0.0), 2 * DT)
+    assert out.reached_index == 0
+    assert nav.target_index == 1
+
+
+def test_line_arc_corner_ends_on_its_bisector_not_at_its_radius() -> None:
+    # Leg (0,0) → (5,0) → (5,5), a 90° corner rounded on an arc (the default budget): its leg ends
+    # where the rover crosses the corner's bisector, x − 5 + y = 0 (the arc's middle), not on
+    # entering the waypoint's 1 m radius nor on the perpendicular through it.
+    nav = Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0), (5.0, 5.0), tol=1.0), LINE)
+    nav.step(Pose2D(0.0, 0.0, 0.0), 0.0)
+    assert nav.step(Pose2D(4.5, 0.0, 0.0), DT).reached_index is None  # inside 1 m
+    assert nav.step(Pose2D(5.05, -0.1, 0.0), 2 * DT).reached_index is None  # past x = 5
+    out = nav.step(Pose2D(4.95, 0.06, 0.5), 3 * DT)
     assert out.reached_index == 0
     assert nav.target_index == 1
 

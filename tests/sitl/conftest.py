@@ -755,14 +755,16 @@ def bare_sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
 DaemonRun = DaemonProc  # the one subprocess harness for the daemon (tests/support/daemon.py)
 
 
-def start_helixd(tmp_path: Path, vehicle: SitlVehicle, backend: str) -> DaemonRun:
+def start_helixd(
+    tmp_path: Path, vehicle: SitlVehicle, backend: str, mission: Path = SQUARE_MISSION
+) -> DaemonRun:
     cfg_path = tmp_path / f"helixd-sitl-{backend}.yaml"
     cfg_path.write_text(
         yaml.safe_dump(helixd_sitl_config(backend, vehicle.helixd_url), sort_keys=False),
         encoding="utf-8",
     )
     run_root = tmp_path / "runs"
-    args = ["run", "--connect", vehicle.helixd_url, "--mission", str(SQUARE_MISSION)]
+    args = ["run", "--connect", vehicle.helixd_url, "--mission", str(mission)]
     return spawn_daemon(
         [*args, "--config", str(cfg_path), "--run-dir", str(run_root)],
         cwd=tmp_path,
@@ -772,12 +774,13 @@ def start_helixd(tmp_path: Path, vehicle: SitlVehicle, backend: str) -> DaemonRu
 
 
 @pytest.fixture
-def launch_helixd(tmp_path: Path, sitl: SitlVehicle) -> Iterator[Callable[[str], DaemonRun]]:
-    """``launch_helixd(backend)`` starts ``helixd run`` against this test's SITL."""
+def launch_helixd(tmp_path: Path, sitl: SitlVehicle) -> Iterator[Callable[..., DaemonRun]]:
+    """``launch_helixd(backend[, mission])`` starts ``helixd run`` against this test's SITL
+    (the square unless another mission file is given)."""
     runs: list[DaemonRun] = []
 
-    def launch(backend: str) -> DaemonRun:
-        run = start_helixd(tmp_path, sitl, backend)
+    def launch(backend: str, mission: Path = SQUARE_MISSION) -> DaemonRun:
+        run = start_helixd(tmp_path, sitl, backend, mission)
         runs.append(run)
         return run
 

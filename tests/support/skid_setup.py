@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.control.kinematics import rpm_to_radps
+from helixd.mission.shapes import survey_block
 from helixd.recorder.track import (
     TrackMetrics,
     TrackPoint,
@@ -33,6 +35,8 @@ MAX_RPM = 195.0
 
 # The ROLL-mode 10 m square (config/missions/square.yaml): x forward, y left of the start pose.
 SQUARE_XY_M: tuple[tuple[float, float], ...] = ((10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0))
+# The survey block (config/missions/survey.yaml): six 30 m transects 3 m apart.
+SURVEY_XY_M: tuple[tuple[float, float], ...] = tuple(survey_block())
 REST_TOLERANCE_M = 0.05  # observer: "not yet left the start" / "come to rest"
 
 
@@ -78,18 +82,75 @@ def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
     }
 
 
-def square_metrics(
-    track: Sequence[TrackPoint], yaw_at: Callable[[float], float | None]
+def first_step_t_s(run_dir: Path) -> float:
+    """Autopilot time of helixd's first control step (flight.csv's first row): where its
+    'start' frame was taken."""
+    rows = (run_dir / "flight.csv").read_text(encoding="utf-8").splitlines()
+    return float(next(r for r in rows if r and r[0].isdigit()).split(",", 1)[0])
+
+
+def helixd_start_frame(run_dir: Path) -> tuple[NedPose, float]:
+    """(pose, autopilot time) of helixd's first control step — its 'start' frame — from the
+    run's flight.csv (north_m, east_m, yaw_ned_rad of the pose it steered by)."""
+    lines = (run_dir / "flight.csv").read_text(encoding="utf-8").splitlines()
+    rows = [ln.split(",") for ln in lines if ln and not ln.startswith("#")]
+    col = {name: i for i, name in enumerate(rows[0])}
+    first = rows[1]
+    pose = NedPose(
+        float(first[col["north_m"]]), float(first[col["east_m"]]), float(first[col["yaw_ned_rad"]])
+    )
+    return pose, float(first[col["t_boot_s"]])
+
+
+def metrics_in_frame(
+    track: Sequence[TrackPoint], waypoints_xy_m: Sequence[tuple[float, float]], start: NedPose
 ) -> TrackMetrics | None:
-    """Observer metrics of the square (helixd.recorder.track): the planned polygon starts at the
-    last position still at rest, heading as ATTITUDE reported it then (helixd's 'start' frame)."""
+    """Observer metrics of ``track`` against the plan laid out in the 'start' frame at
+    ``start`` (e.g. the frame helixd flew in, :func:`helixd_start_frame`)."""
+    frame = MissionFrame.start_at(start)
+    polyline = planned_polyline_ned(waypoints_xy_m, frame, (start.north_m, start.east_m))
+    return track_metrics(track, polyline, REST_TOLERANCE_M)
+
+
+def mission_metrics(
+    track: Sequence[TrackPoint],
+    yaw_at: Callable[[float], float | None],
+    waypoints_xy_m: Sequence[tuple[float, float]],
+    start_t_s: float | None = None,
+) -> TrackMetrics | None:
+    """Observer metrics of a ``start``-frame mission (helixd.recorder.track): the planned
+    polyline starts at the last position still at rest, heading as ATTITUDE reported it then
+    (helixd's 'start' frame). With ``start_t_s`` (the autopilot time the mission's frame was
+    taken, e.g. helixd's first control step) the frame is the observer's position and ATTITUDE
+    at that time instead: on 30 m legs a 0.25° drift of the EKF's yaw between that moment
+    and the rover's departure moves the far end of the plan by 0.13 m."""
     if len(track) < 2:
         return None
     first, _ = mission_window(track, REST_TOLERANCE_M)
+    if start_t_s is not None:
+        first = min(range(len(track)), key=lambda i: abs(track[i].t_s - start_t_s))
     start = track[first]
     yaw = yaw_at(start.t_s)
     if yaw is None:
         return None
     frame = MissionFrame.start_at(NedPose(start.north_m, start.east_m, yaw))
-    polyline = planned_polyline_ned(SQUARE_XY_M, frame, (start.north_m, start.east_m))
+    polyline = planned_polyline_ned(waypoints_xy_m, frame, (start.north_m, start.east_m))
     return track_metrics(track, polyline, REST_TOLERANCE_M)
+
+
+def square_metrics(
+    track: Sequence[TrackPoint],
+    yaw_at: Callable[[float], float | None],
+    start_t_s: float | None = None,
+) -> TrackMetrics | None:
+    """:func:`mission_metrics` of the square."""
+    return mission_metrics(track, yaw_at, SQUARE_XY_M, start_t_s)
+
+
+def survey_metrics(
+    track: Sequence[TrackPoint],
+    yaw_at: Callable[[float], float | None],
+    start_t_s: float | None = None,
+) -> TrackMetrics | None:
+    """:func:`mission_metrics` of the survey block."""
+    return mission_metrics(track, yaw_at, SURVEY_XY_M, start_t_s)

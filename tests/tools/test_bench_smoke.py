@@ -22,34 +22,44 @@ res = load_tool("bench_results")
 
 def test_default_matrix_roll_on_hard_only() -> None:
     combos = nav.select_combos(
-        [], nav.parse_terrains([]), nav.parse_guidances([]), roll_anywhere=False
+        [], nav.parse_terrains([]), nav.parse_guidances([]), False, nav.parse_noises([])
     )
     cells = {c.cell for c in combos}
-    # 3 missions x (roll/hard, scroll/hard, scroll/mud, omni/hard, omni/mud)
-    assert len(cells) == 15 and len(combos) == 30
+    # noise low: 3 missions x (roll/hard, scroll/hard, scroll/mud, omni/hard, omni/mud);
+    # noise thesis: the square's 5; plus the survey block (line law, sitl_skid plant)
+    assert len(cells) == 15 + 5 + 1 and len(combos) == 3 * 20 + 1
     assert not any(c.mode == "roll" and c.terrain == "mud" for c in combos)
-    assert {c.guidance for c in combos} == {"line", "thesis"}
+    assert {c.guidance for c in combos} == {"line", "thesis", "thesis-tight"}
+    assert {c.mission for c in combos if c.noise == "thesis"} == {"square"}
+    (survey,) = [c for c in combos if c.mission == "survey"]
+    assert (survey.mode, survey.plant, survey.guidance, survey.noise) == (
+        "roll", "sitl_skid", "line", "low",
+    )  # fmt: skip
     anywhere = nav.select_combos([], ("hard", "mud"), ("thesis",), roll_anywhere=True)
-    assert len(anywhere) == 18
+    assert len(anywhere) == 18  # no survey without the line law
+    with pytest.raises(ValueError, match="--noise"):
+        nav.parse_noises(["loud"])
 
 
 def test_only_filters_terrain_and_guidance_options() -> None:
     picked = nav.select_combos(["square/roll", "omni/mud", "circle/scroll/hard"], ("hard", "mud"))
     assert [c.label for c in picked] == [
-        "square/roll/hard/thesis",
-        "square/omni/mud/thesis",
-        "hexagon/omni/mud/thesis",
-        "circle/scroll/hard/thesis",
-        "circle/omni/mud/thesis",
+        "square/roll/hard/low/thesis",
+        "square/omni/mud/low/thesis",
+        "hexagon/omni/mud/low/thesis",
+        "circle/scroll/hard/low/thesis",
+        "circle/omni/mud/low/thesis",
     ]
     assert [c.label for c in nav.select_combos(["mud", "hexagon/mud"], ("mud",))] == [
-        "square/scroll/mud/thesis",
-        "square/omni/mud/thesis",
-        "hexagon/scroll/mud/thesis",
-        "hexagon/omni/mud/thesis",
-        "circle/scroll/mud/thesis",
-        "circle/omni/mud/thesis",
+        "square/scroll/mud/low/thesis",
+        "square/omni/mud/low/thesis",
+        "hexagon/scroll/mud/low/thesis",
+        "hexagon/omni/mud/low/thesis",
+        "circle/scroll/mud/low/thesis",
+        "circle/omni/mud/low/thesis",
     ]
+    only_survey = nav.select_combos(["survey"], ("hard",), ("line", "thesis"))
+    assert [c.label for c in only_survey] == ["survey/roll/hard/low/line"]
     with pytest.raises(ValueError, match="--only"):
         nav.select_combos(["triangle"], ("hard",))
     with pytest.raises(ValueError, match="--only"):
@@ -65,11 +75,22 @@ def test_guidance_goes_to_the_daemon_only_when_not_its_default() -> None:
     assert "control" not in nav.daemon_config("thesis", "thesis")
     assert nav.daemon_config("line", "thesis")["control"] == {"guidance": "line"}
     assert nav.daemon_config("thesis", "line")["control"] == {"guidance": "thesis"}
+    assert nav.daemon_config("thesis-tight", "line")["control"] == {"guidance": "thesis"}
     default = nav.default_guidance()
     assert nav.guidance_refusal(default, default) is None
     # a law no daemon knows is refused with the config loader's own words
     why = nav.guidance_refusal("zigzag", default)
     assert why is not None and "control.guidance" in why
+
+
+def test_skid_plant_runs_get_the_sitl_suite_config() -> None:
+    from helixd.config import HelixdConfig
+
+    skid = nav.daemon_config("line", "line", "sitl_skid")
+    cfg = HelixdConfig.model_validate(skid)
+    assert [ch.channel for ch in cfg.actuation.channels] == [3, 4, 1, 2]
+    assert cfg.safety.force_arm and cfg.safety.connect_timeout_s == 20.0  # the bench's own
+    assert "actuation" not in nav.daemon_config("line", "line")
 
 
 def test_mission_mode_is_replaced_and_shipped_missions_load() -> None:
@@ -79,6 +100,14 @@ def test_mission_mode_is_replaced_and_shipped_missions_load() -> None:
     changed = Mission.model_validate(yaml.safe_load(nav.mission_with_mode(text, "roll")))
     assert changed.mode.value == "roll"
     assert len(changed.waypoints) == 6
+    assert changed.tolerance_m == 0.4
+    # the thesis baseline flies at the line law's corner precision: its stop tolerance
+    tight = nav.mission_with_mode(text, "omni", nav.baseline_tolerance_m())
+    assert Mission.model_validate(yaml.safe_load(tight)).tolerance_m == 0.1
+    survey = Mission.model_validate(
+        yaml.safe_load((nav.MISSIONS_DIR / "survey.yaml").read_text(encoding="utf-8"))
+    )
+    assert len(survey.waypoints) == 11
 
 
 def test_autopilot_duration_from_flight_csv() -> None:
@@ -135,12 +164,15 @@ def _run(
     rms: float | None,
     t: float | None,
     completed: bool = True,
+    noise: str = "low",
+    est_rms: float = 0.9,
 ) -> object:
-    combo = nav.Combo(mission, mode, "hard", guidance)
+    plant = "sitl_skid" if mission == "survey" else "helix"
+    combo = nav.Combo(mission, mode, "hard", guidance, noise, plant)
     summary = {
         "completed": completed, "fault": None if completed else "stall: x",
         "waypoints_reached": 4 if completed else 1, "waypoints_total": 4,
-        "cross_track_rms_m": 0.9, "cross_track_max_m": 1.5, "final_error_m": 0.2,
+        "cross_track_rms_m": est_rms, "cross_track_max_m": 1.5, "final_error_m": 0.2,
     }  # fmt: skip
     fig = nav.TrueFigures(rms, None if rms is None else 2 * rms, 0.1, t, 30.0, 100)
     return nav.result_from_summary(
@@ -179,15 +211,15 @@ def test_failed_run_is_reported_with_its_fault() -> None:
     r = _run("square", "omni", "thesis", 3, 0.5, 40.0, completed=False)
     assert not r.completed and r.reached == 1 and r.est_xt_rms_m == 0.9
     row = nav.run_row(r)
-    assert row[5] == "FAILED" and row[6] == "1/4" and row[-1] == "4"
+    assert row[6] == "FAILED" and row[7] == "1/4" and row[-1] == "4"
     (line,) = nav.failure_lines([r])
-    assert "square/omni/hard/thesis" in line and "stall" in line and "seed 3" in line
+    assert "square/omni/hard/low/thesis" in line and "stall" in line and "seed 3" in line
     missing = nav.result_from_summary(
         nav.Combo("square", "omni", "mud", "line"), 5, None, nav.TrueFigures(), 3.0, 2,
         "error: helixd.yaml: control.guidance: unknown key (got 'line')",
     )  # fmt: skip
     assert not missing.completed and missing.refused and "refused" in (missing.fault or "")
-    assert nav.run_row(missing)[5] == "REFUSED"
+    assert nav.run_row(missing)[6] == "REFUSED"
 
 
 def test_aggregate_and_ratio_to_the_baseline() -> None:
@@ -216,14 +248,55 @@ def test_aggregate_and_ratio_to_the_baseline() -> None:
     assert sq_r["est_rms_ratio"] == pytest.approx(1.0)  # every synthetic summary says 0.9
     assert sq_r["time_ratio"] == pytest.approx(1.08)
     assert sq_r["worst_time_ratio"] == pytest.approx(1.12)
-    assert sq_r["verdict"] == "misses (time)"
-    assert ratios[("circle", "omni")]["verdict"] == "misses (RMS)"
+    assert sq_r["verdict"] == "misses (time 1.12 > 1.10)"
+    # the circle's RMS (ratio 0.6) is reported, not judged; its time is
+    assert ratios[("circle", "omni")]["verdict"] == "meets (time; RMS reported, not judged)"
     assert ratios[("hexagon", "scroll")]["verdict"].startswith("misses (line failed")
     rows = nav.ratio_rows(nav.compare(results))
-    table = nav.format_table(nav.RATIO_HEADERS, rows)
-    assert "1.12" in table and "misses (time)" in table
+    table = nav.format_table(nav.RATIO_HEADERS, rows, left=4)
+    assert "1.12" in table and "misses (time 1.12 > 1.10)" in table
+    (why,) = nav.explanations(nav.compare(results))
+    assert why.startswith("square (noise low) misses time: roll/hard time 1.12 > 1.10.")
     agg = nav.format_table(nav.AGG_HEADERS, nav.aggregate_rows(cells))
     assert "0.50/0.60" in agg
+
+
+def test_time_is_compared_with_the_thesis_law_at_equal_corner_precision() -> None:
+    results = [
+        _run("square", "roll", "thesis", 1, 0.5, 60.0),  # cuts corners: fast, imprecise
+        _run("square", "roll", "thesis-tight", 1, 0.05, 80.0),  # stops at each corner
+        _run("square", "roll", "line", 1, 0.05, 72.0),
+    ]
+    (r,) = nav.compare(results)
+    assert r["rms_ratio"] == pytest.approx(0.1)  # against the plain thesis law
+    assert r["time_ratio"] == pytest.approx(0.9)  # against thesis-tight, not 1.2
+    assert (r["baseline"], r["time_baseline"]) == ("thesis", "thesis-tight")
+    assert r["verdict"] == "meets"
+
+
+def test_thesis_noise_judges_the_square_on_the_estimated_pose() -> None:
+    results = [
+        _run("square", "omni", "thesis", 1, 0.6, 100.0, noise="thesis", est_rms=0.6),
+        _run("square", "omni", "line", 1, 0.6, 100.0, noise="thesis", est_rms=0.2),
+        _run("square", "scroll", "thesis", 1, 0.6, 100.0, noise="thesis", est_rms=0.6),
+        _run("square", "scroll", "line", 1, 0.2, 100.0, noise="thesis", est_rms=0.4),
+    ]
+    verdicts = {r["mode"]: r["verdict"] for r in nav.compare(results)}
+    assert verdicts["omni"] == "meets"  # true ratio 1.0 does not count under this noise
+    assert verdicts["scroll"] == "misses (RMS est 0.67 > 0.5)"  # true ratio 0.33 does not help
+
+
+def test_survey_is_judged_against_autos_sitl_figures() -> None:
+    auto = {"time_s": 350.0, "xt_rms_m": 0.16, "xt_max_m": 0.45, "final_error_m": 1.0}
+    fast = [_run("survey", "roll", "line", s, 0.05, 340.0 + s) for s in (1, 2)]
+    out = nav.survey_against_auto(fast, auto)
+    assert out is not None and out["verdict"] == "meets" and out["completed"] == "2/2"
+    assert out["helixd"]["time_s"]["worst"] == pytest.approx(342.0)
+    slow = [_run("survey", "roll", "line", 1, 0.2, 355.0)]  # max = 2·rms = 0.4 m here
+    assert nav.survey_against_auto(slow, auto)["verdict"] == (
+        "misses (time 355.0 > AUTO 350.0 s, max 0.400 > half AUTO's 0.225 m)"
+    )
+    assert nav.survey_against_auto([_run("square", "roll", "line", 1, 0.1, 80.0)], auto) is None
 
 
 def test_results_written_to_json_and_markdown(tmp_path: Path) -> None:
@@ -246,12 +319,17 @@ def test_results_written_to_json_and_markdown(tmp_path: Path) -> None:
     assert data["control_loop"]["latency_ms"]["p99"] == {"50": 2.5}
     md = (tmp_path / "latest.md").read_text(encoding="utf-8")
     assert "## Navigation" in md and "## Control loop" in md
-    assert "| square | roll | hard | thesis | 1/1 | 0.40 / 0.40 |" in md
-    assert "a note" in md and "FAILED square/roll/hard/line, seed 2" in md
+    assert "| square | roll | hard | low | thesis | 1/1 | 0.40 / 0.40 |" in md
+    assert "a note" in md and "FAILED square/roll/hard/low/line, seed 2" in md
     assert (
-        "| square | roll | hard | line / thesis | 0.25 | 1.00 | 1.00 | 1.00 | misses (line failed"
+        "| square | roll | hard | low | line / thesis, thesis | 0.25 | 1.00 | 1.00 | 1.00 | misses"
         in md
     )
+    survey = [_run("survey", "roll", "line", 1, 0.05, 300.0)]
+    res.write_section("navigation", nav.results_section(survey, {}, []), tmp_path)
+    md = (tmp_path / "latest.md").read_text(encoding="utf-8")
+    assert "### Survey block against ArduPilot AUTO (sitl_skid plant, 1/1 completed)" in md
+    assert "| helixd (line law, corner arcs), mean / worst | 300.0 / 300.0 |" in md
 
 
 def test_results_merge_and_jsonable() -> None:
