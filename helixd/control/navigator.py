@@ -29,6 +29,15 @@ Two guidance laws, chosen by ``control.guidance``:
   ALIGN below ``heading_threshold_rad``. Gentle corners are flown at the turn-geometry speed,
   collinear ones at cruise. Translation and yaw-rate commands are acceleration limited.
 
+A mission with commands (:class:`~helixd.base.plan.Program`) adds three things, set by the
+flight loop from :mod:`helixd.control.sequencer`: waypoints flagged ``stop`` (a hold, a delay
+or a return follows) are stops like the final one; :meth:`Navigator.set_speed` changes the
+cruise speed from the next step on (DO_CHANGE_SPEED: the corner and braking speeds are planned
+for the highest speed the program may set and capped by the current one, so a slower stretch
+brakes with the acceleration limits); :meth:`Navigator.set_reverse` drives the mode's axis
+backwards (DO_SET_REVERSE; OMNI has no axis and ignores it). Without a program all three stay
+at the plan's values and nothing changes.
+
 Stepped with (pose, t_s); derives dt from successive t_s. Never touches a clock or a socket,
 and never decides to stop the vehicle: the supervisor owns that.
 
@@ -87,7 +96,12 @@ class Navigator:
             require_finite("plan leg start", *plan.leg_start_xy_m)
         self.plan = plan
         self.control = control
-        self._distance_pid = PID(control.distance_pid, output_limit=plan.speed_mps)
+        # corner speeds and the distance PID allow the highest speed the program may set; the
+        # current cruise speed caps every step (DO_CHANGE_SPEED changes it)
+        self._peak_speed_mps = plan.peak_speed_mps
+        self._cruise_mps = plan.speed_mps
+        self._reverse = False
+        self._distance_pid = PID(control.distance_pid, output_limit=self._peak_speed_mps)
         self._yaw_pid = PID(control.yaw_pid, output_limit=control.max_yaw_rate_radps, angular=True)
         self._state = NavState.IDLE
         self._target_index = 0
@@ -128,6 +142,26 @@ class Navigator:
     def done(self) -> bool:
         return self._state is NavState.DONE
 
+    @property
+    def cruise_speed_mps(self) -> float:
+        return self._cruise_mps
+
+    @property
+    def reverse(self) -> bool:
+        return self._reverse
+
+    def set_speed(self, speed_mps: float) -> None:
+        """Cruise at ``speed_mps`` from the next step on (0 < speed ≤ the plan's peak speed)."""
+        if not (math.isfinite(speed_mps) and 0.0 < speed_mps <= self._peak_speed_mps):
+            raise ValueError(
+                f"cruise speed {speed_mps} m/s outside (0, {self._peak_speed_mps}] m/s"
+            )
+        self._cruise_mps = speed_mps
+
+    def set_reverse(self, reverse: bool) -> None:
+        """Drive the mode's axis backwards (ROLL −x, SCROLL −y) from the next step on."""
+        self._reverse = reverse and self.plan.mode is not MotionMode.OMNI
+
     # -- the step ----------------------------------------------------------------------------
 
     def step(self, pose: Pose2D, t_s: float) -> NavOutput:
@@ -142,7 +176,7 @@ class Navigator:
             wps = self.plan.waypoints
             self._run_out_m = guidance.run_out_m(
                 [self._leg_start(pose)] + [(w.x_m, w.y_m) for w in wps],
-                [w.final_yaw_rad is not None for w in wps],
+                [w.final_yaw_rad is not None or w.stop for w in wps],
                 self.control.corner_slowdown_rad,
             )
             if self._line:
@@ -195,7 +229,7 @@ class Navigator:
     def _go_to_goal(self, pose: Pose2D, dt_s: float) -> NavOutput:
         goal = self._goal()
         mode = self.plan.mode
-        errors = guidance.compute_errors(pose, goal, mode)
+        errors = guidance.compute_errors(pose, goal, mode, self._reverse)
         e_d, e_psi = errors.distance_error_m, errors.heading_error_rad
 
         must_align = mode is not MotionMode.OMNI and abs(e_psi) > self.control.heading_threshold_rad
@@ -216,10 +250,12 @@ class Navigator:
             distance_terms.output,
             e_go,
             goal.tolerance_m,
-            self.plan.speed_mps,
+            self._cruise_mps,
             self.control.slowdown_radius_m,
             self.control.min_speed_mps,
         )
+        if self._reverse:
+            speed_mps = -speed_mps
         yaw_terms = PidTerms.zero()
         if mode is not MotionMode.OMNI:
             yaw_terms = self._yaw_pid.update(errors.heading_goal_rad, pose.yaw_rad, dt_s)
@@ -235,8 +271,8 @@ class Navigator:
         self._points_xy_m = [self._leg_start(pose)] + [(w.x_m, w.y_m) for w in wps]
         self._pass_speed_mps, self._stops = line.waypoint_speed_limits(
             self._points_xy_m,
-            [w.final_yaw_rad is not None for w in wps],
-            self.plan.speed_mps,
+            [w.final_yaw_rad is not None or w.stop for w in wps],
+            self._peak_speed_mps,
             self.control.pivot_angle_rad,
             self.control.lookahead_m,
             self.control.max_lateral_accel_mps2,
@@ -247,9 +283,10 @@ class Navigator:
         ]
 
     def _is_precise(self, index: int) -> bool:
-        """The final waypoint and waypoints with a final heading: stopped at precisely."""
+        """The final waypoint, waypoints with a final heading and flagged stops (a hold or a
+        delay follows): stopped at precisely."""
         wp = self.plan.waypoints[index]
-        return index == len(self.plan.waypoints) - 1 or wp.final_yaw_rad is not None
+        return index == len(self.plan.waypoints) - 1 or wp.final_yaw_rad is not None or wp.stop
 
     def _is_reached(self, pose: Pose2D, goal: PlanWaypoint) -> bool:
         distance_m = _distance_m(pose, goal)
@@ -298,7 +335,8 @@ class Navigator:
         if mode is MotionMode.OMNI:
             heading_goal_rad, e_psi = pose.yaw_rad, 0.0
         else:
-            heading_goal_rad = wrap_pi(course_rad - guidance.driving_axis_rad(mode))
+            axis = guidance.driving_axis_rad(mode) + (math.pi if self._reverse else 0.0)
+            heading_goal_rad = wrap_pi(course_rad - axis)
             e_psi = shortest_angular_distance(pose.yaw_rad, heading_goal_rad)
 
         if mode is not MotionMode.OMNI:
@@ -332,9 +370,11 @@ class Navigator:
         if i > 0 and leg.length_m - leg.along_to_go_m < cfg.lookahead_m:
             # Still rounding the corner just passed (the arc spans about L past its vertex).
             profile = min(profile, self._pass_speed_mps[i - 1] or profile)
-        speed_mps = min(distance_terms.output, profile, self.plan.speed_mps)
+        speed_mps = min(distance_terms.output, profile, self._cruise_mps)
         speed_mps = max(speed_mps, cfg.min_speed_mps)  # not reached yet: never creep
         speed_mps = max(0.0, speed_mps) * max(0.0, math.cos(e_psi))
+        if self._reverse:
+            speed_mps = -speed_mps
 
         yaw_terms = PidTerms.zero()
         if mode is MotionMode.OMNI:
@@ -380,7 +420,7 @@ class Navigator:
 
     def _arrival(self, pose: Pose2D, goal: PlanWaypoint) -> NavOutput:
         """The errors at the moment ``goal`` (the current target) is reached."""
-        errors = guidance.compute_errors(pose, goal, self.plan.mode)
+        errors = guidance.compute_errors(pose, goal, self.plan.mode, self._reverse)
         return NavOutput(
             command=BodyVelocity.zero(),
             state=NavState.REACHED,

@@ -22,25 +22,13 @@ from helixd.mav.constants import (
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL_RELATIVE_ALT,
 )
-from helixd.mission.model import Mission, MissionFrameKind, MotionMode
+from helixd.mission.commands import MAX_PARAMS, command_name, command_spec
+from helixd.mission.model import Mission, MissionFrameKind, MotionMode, WaypointSpec
 
+# Frames whose x/y are a latitude/longitude (MAV_FRAME_GLOBAL, _RELATIVE_ALT, _INT,
 # _RELATIVE_ALT_INT, _TERRAIN_ALT, _TERRAIN_ALT_INT); the altitude means nothing to a rover.
 GLOBAL_FRAMES = frozenset({0, 3, 5, 6, 10, 11})
 MAX_ITEMS = 100_000  # as many as a helixd YAML mission may hold in practice
-COMMAND_NAMES = {
-    16: "NAV_WAYPOINT",
-    17: "NAV_LOITER_UNLIM",
-    19: "NAV_LOITER_TIME",
-    20: "NAV_RETURN_TO_LAUNCH",
-    21: "NAV_LAND",
-    22: "NAV_TAKEOFF",
-    177: "DO_JUMP",
-    178: "DO_CHANGE_SPEED",
-    183: "DO_SET_SERVO",
-    206: "DO_SET_CAM_TRIGG_DIST",
-    2000: "IMAGE_START_CAPTURE",
-    2001: "IMAGE_STOP_CAPTURE",
-}
 
 
 class FormatError(ValueError):
@@ -94,10 +82,6 @@ class GcsMission:
     survey_polygons: tuple[tuple[tuple[float, float], ...], ...] = field(default=())
 
 
-def command_name(command: int) -> str:
-    return COMMAND_NAMES.get(command, f"command {command}")
-
-
 def _latlon_problem(lat: float, lon: float) -> str | None:
     if not (math.isfinite(lat) and math.isfinite(lon)):
         return f"latitude/longitude ({lat}, {lon}) is not finite"
@@ -122,8 +106,54 @@ def mission_name(stem: str) -> str:
 @dataclass(frozen=True, slots=True)
 class Converted:
     mission: Mission
-    skipped: tuple[str, ...]  # unsupported items left out (with --skip-unsupported)
+    skipped: tuple[str, ...]  # items left out (kept for callers; conversion keeps them all)
     notes: tuple[str, ...]  # what was read but has no meaning for helixd
+
+
+def _label(it: MissionItem) -> str:
+    return f"item {it.seq}" + (f" ({it.where})" if it.where else "")
+
+
+def _params(values: list[float], spec_defaults: tuple[float | None, ...]) -> list[float | None]:
+    return [None if math.isnan(v) else v for v in values]
+
+
+def item_entry(it: MissionItem) -> tuple[dict[str, object] | None, list[str]]:
+    """One ground-station item as a mission entry (a dict for :class:`WaypointSpec`), with
+    every value it carries, or the problems naming it. Lat/lon 0, 0 on a place is ArduPilot's
+    "where the rover is" (``Location::sanitize``): the entry gets no coordinates."""
+    spec = command_spec(it.command)
+    label = _label(it)
+    raw = [it.param1, it.param2, it.param3, it.param4]
+    entry: dict[str, object] = {"command": it.command}
+    if spec.has_place:
+        here = it.x == 0.0 and it.y == 0.0
+        if not here:
+            if it.frame not in GLOBAL_FRAMES:
+                return None, [
+                    f"{label}: {spec.name} in frame {it.frame}: ArduPilot refuses the frame "
+                    f"(MAV_MISSION_UNSUPPORTED_FRAME; global lat/lon frames are "
+                    f"{sorted(GLOBAL_FRAMES)})"
+                ]
+            bad = check_latlon(label, it.x, it.y)
+            if bad:
+                return None, bad
+            entry["lat"], entry["lon"] = it.x, it.y
+        values = raw
+    else:
+        values = [*raw, it.x, it.y][:MAX_PARAMS]
+        if not all(math.isfinite(v) for v in values[4:]):
+            return None, [f"{label}: x/y of {spec.name} are not finite"]
+    params = _params(values, spec.defaults())
+    if tuple(params) != spec.defaults():
+        entry["params"] = params
+    if math.isfinite(it.z) and it.z != 0.0:
+        entry["z"] = it.z
+    if it.frame != spec.default_frame():
+        entry["frame"] = it.frame
+    if not it.autocontinue:
+        entry["autocontinue"] = False
+    return entry, []
 
 
 def items_to_mission(
@@ -131,51 +161,45 @@ def items_to_mission(
     *,
     name: str,
     mode: MotionMode,
-    skip_unsupported: bool = False,
     source: str = "",
     route_keep_outs: bool = False,
 ) -> Converted:
-    """NAV_WAYPOINT items (global frames) become a ``global`` mission; anything else is
-    reported by sequence number and refused unless ``skip_unsupported``. The mission's keep-in
-    fence is the file's one inclusion polygon, if it has exactly one. With ``route_keep_outs``
-    (helixd.planning will route the legs around the exclusion zones) a leg crossing one is
-    not refused; a waypoint inside one still is."""
+    """Every item of the file, in order, becomes an entry of a ``global`` mission (commands
+    included, nothing dropped: what ArduPilot Rover skips or helixd cannot fly is decided by
+    :mod:`helixd.mission.expand` when the mission is checked). The mission's keep-in fence is
+    the file's one inclusion polygon, if it has exactly one; its home is the file's. With
+    ``route_keep_outs`` (helixd.planning will route the legs around the exclusion zones) a leg
+    crossing one is not refused; a waypoint inside one still is."""
     prefix = f"{source}: " if source else ""
-    unsupported: list[str] = []
     problems: list[str] = []
     notes: list[str] = []
+    entries: list[dict[str, object]] = []
     points: list[tuple[float, float]] = []
     labels: list[str] = []
+    previous_plain: tuple[float, float] | None = None
     for it in gcs.items:
-        label = f"item {it.seq}" + (f" ({it.where})" if it.where else "")
-        if it.command != MAV_CMD_NAV_WAYPOINT:
-            unsupported.append(f"{label}: {command_name(it.command)} cannot be flown by helixd")
-            continue
-        if it.frame not in GLOBAL_FRAMES:
-            unsupported.append(
-                f"{label}: NAV_WAYPOINT in frame {it.frame} (only global lat/lon frames "
-                f"{sorted(GLOBAL_FRAMES)} are understood)"
-            )
-            continue
-        bad = check_latlon(label, it.x, it.y)
-        if bad:
+        entry, bad = item_entry(it)
+        if entry is None:
             problems.extend(bad)
             continue
-        if math.isfinite(it.param1) and it.param1 > 0:
-            notes.append(f"{label}: hold time {it.param1:g} s ignored (helixd does not hold)")
-        if points and _same_point(points[-1], (it.x, it.y)):
-            notes.append(f"{label}: same place as the item before; dropped")
-            continue
-        points.append((it.x, it.y))
-        labels.append(label)
+        place = (entry.get("lat"), entry.get("lon"))
+        plain = it.command == MAV_CMD_NAV_WAYPOINT and place[0] is not None and "params" not in entry
+        if plain and previous_plain is not None:
+            here = (float(str(place[0])), float(str(place[1])))
+            if _same_point(previous_plain, here):
+                notes.append(f"{_label(it)}: same place as the item before; dropped")
+                continue
+        if place[0] is not None and command_spec(it.command).role.value in (
+            "waypoint", "loiter_time", "loiter_turns", "loiter_unlim",
+        ):  # fmt: skip
+            points.append((float(str(place[0])), float(str(place[1]))))
+            labels.append(_label(it))
+        previous_plain = (float(str(place[0])), float(str(place[1]))) if plain else None
+        entries.append(entry)
     if points:
         problems.extend(keep_out_problems(gcs, points, labels, legs=not route_keep_outs))
-    if unsupported and not skip_unsupported:
-        problems.extend(
-            f"{u} (use --skip-unsupported to fly the waypoints without it)" for u in unsupported
-        )
     if not points and not problems:
-        problems.append("no NAV_WAYPOINT items with a latitude/longitude: nothing to fly")
+        problems.append("no item with a latitude/longitude to go to: nothing to fly")
     if problems:
         raise FormatError([prefix + p for p in problems[:20]] + _more(problems, 20, prefix))
     fence: tuple[tuple[float, float], ...] = ()
@@ -194,15 +218,17 @@ def items_to_mission(
         "name": name,
         "mode": mode.value,
         "frame": MissionFrameKind.GLOBAL.value,
-        "waypoints": [{"lat": a, "lon": b} for a, b in points],
+        "waypoints": entries,
     }
     if fence:
         data["geofence_polygon"] = [list(v) for v in fence]
+    if gcs.home_latlon_deg is not None:
+        data["home"] = list(gcs.home_latlon_deg)
     try:
         mission = Mission.model_validate(data)
     except ValidationError as exc:
         raise FormatError(format_validation_error(source or "mission", exc, Mission)) from None
-    return Converted(mission, tuple(prefix + u for u in unsupported), tuple(notes))
+    return Converted(mission, (), tuple(prefix + n for n in notes))
 
 
 CIRCLE_FENCE_VERTICES = 64
@@ -281,8 +307,33 @@ def waypoint_item(seq: int, lat_deg: float, lon_deg: float) -> MissionItem:
     )
 
 
+def entry_item(seq: int, wp: WaypointSpec) -> MissionItem:
+    """A mission entry as the item a ground station holds (the reverse of :func:`item_entry`)."""
+    spec = wp.spec
+    p = [wp.param(i) for i in range(MAX_PARAMS)]
+    if spec.has_place:
+        x = wp.lat if wp.lat is not None else 0.0
+        y = wp.lon if wp.lon is not None else 0.0
+    else:
+        x, y = p[4], p[5]
+    return MissionItem(
+        seq=seq,
+        frame=wp.frame if wp.frame is not None else spec.default_frame(),
+        command=wp.command,
+        param1=p[0],
+        param2=p[1],
+        param3=p[2],
+        param4=p[3],
+        x=x,
+        y=y,
+        z=wp.z or 0.0,
+        autocontinue=wp.autocontinue,
+    )
+
+
 def mission_to_items(mission: Mission) -> GcsMission:
-    """A ``global`` mission as NAV_WAYPOINT items (seq 1..N; home = waypoint 0's place)."""
+    """A ``global`` mission as ground-station items (seq 1..N, every entry; home = the
+    mission's home, else waypoint 0's place)."""
     if mission.frame is not MissionFrameKind.GLOBAL:
         raise FormatError(
             [
@@ -291,14 +342,14 @@ def mission_to_items(mission: Mission) -> GcsMission:
                 "x/y have no place on the map until the rover's EKF origin is known)"
             ]
         )
-    pts = mission.points()
-    items = tuple(waypoint_item(i + 1, lat, lon) for i, (lat, lon) in enumerate(pts))
+    items = tuple(entry_item(i + 1, wp) for i, wp in enumerate(mission.waypoints))
     polygons = (
         (FencePolygon(mission.geofence_polygon, inclusion=True),)
         if mission.geofence_polygon
         else ()
     )
-    return GcsMission(items=items, home_latlon_deg=pts[0], polygons=polygons)
+    home = mission.home if mission.home is not None else mission.points()[0]
+    return GcsMission(items=items, home_latlon_deg=home, polygons=polygons)
 
 
 @dataclass(frozen=True, slots=True)
