@@ -6,7 +6,7 @@ a :class:`Plan`; the navigator only ever sees this module's types.
 A mission with commands (ArduPilot's mission: navigation items and the do/condition items
 between them) also resolves into a :class:`Program`: the navigation steps in the order
 ArduPilot Rover flies them (jumps expanded, :mod:`helixd.mission.expand`), each with the plan
-waypoints it flies to, the time it waits, and the :class:`Action` s started with it. The
+waypoints it flies to, the time it waits, and the :class:`MissionAction` s started with it. The
 navigator flies the plan's waypoints; :mod:`helixd.control.sequencer` steps through the
 program beside it.
 """
@@ -56,7 +56,7 @@ class ActionKind(StrEnum):
 
 
 @dataclass(frozen=True, slots=True)
-class Action:
+class MissionAction:
     """One do/condition item, at its place in the mission."""
 
     item: int  # mission item number (sequence number as the ground station shows it)
@@ -76,7 +76,7 @@ class NavStep:
     first_waypoint: int | None  # plan waypoints first..last flown in this step; None: in place
     last_waypoint: int | None
     hold_s: float  # waited after arriving (in place: the whole step)
-    actions: tuple[Action, ...]  # the do/condition items started when this step starts
+    actions: tuple[MissionAction, ...]  # the do/condition items started when this step starts
     speed_mps: float  # cruise expected on this step's legs (the estimate; set by its actions)
     text: str
     forever: bool = False  # NAV_LOITER_UNLIM: the step never ends by itself
@@ -88,7 +88,7 @@ class Program:
     """The mission's navigation steps in flight order (jumps expanded) and how it ends."""
 
     steps: tuple[NavStep, ...]
-    final_actions: tuple[Action, ...] = ()  # started when the last step completes
+    final_actions: tuple[MissionAction, ...] = ()  # started when the last step completes
     ending: str = ""  # why the mission ends where it does, when not simply at its last item
     never_ends: bool = False  # a jump repeated forever or a loiter without end
     notes: tuple[str, ...] = field(default=())
@@ -166,8 +166,8 @@ class Plan:
 
 
 __all__ = [
-    "Action",
     "ActionKind",
+    "MissionAction",
     "MissionFrameKind",
     "MotionMode",
     "NavStep",

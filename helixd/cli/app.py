@@ -27,8 +27,10 @@ from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import LinkError
 from helixd.mission import MissionFrameKind, MotionMode
+from helixd.mission.describe import program_lines
+from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml
-from helixd.mission.validate import apply_mission_limits, pending_checks
+from helixd.mission.validate import apply_mission_limits, pending_checks, plan_for_check
 from helixd.planning import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime.daemon import RunOptions, run_mission
@@ -85,7 +87,24 @@ SkipOpt = Annotated[
     bool,
     typer.Option(
         "--skip-unsupported",
-        help="leave out .plan/.waypoints items helixd cannot fly (listed) instead of refusing",
+        help="pass over mission items helixd cannot fly (listed, logged) instead of refusing "
+        "the mission, as ArduPilot Rover passes over what it cannot do",
+    ),
+]
+StrictOpt = Annotated[
+    bool,
+    typer.Option(
+        "--strict",
+        help="refuse the items ArduPilot Rover itself skips or ignores (NAV_TAKEOFF, "
+        "NAV_LAND, altitude-only items, mount control…) instead of skipping them",
+    ),
+]
+FenceOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--fence",
+        help="fence file: a Mission Planner fence (QGC WPL 110, commands 5000-5004) or a "
+        ".plan's geoFence; inclusion shapes keep the rover in, exclusions are planned around",
     ),
 ]
 MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
@@ -116,15 +135,20 @@ def check(
     ] = None,
     mode: ModeOpt = None,
     skip_unsupported: SkipOpt = False,
+    strict: StrictOpt = False,
+    fence: FenceOpt = None,
 ) -> None:
     """Validate the config and a mission (as `run` would), and print the resolved plan."""
     try:
-        got = load_inputs(config, mission, mode, skip_unsupported)
-        _, route = plan_loaded(got.cfg, got.mission, got.path, load_occupancy(got.cfg, map_path))
+        got = load_inputs(config, mission, mode, skip_unsupported, fence=fence, strict=strict)
+        occupancy = load_occupancy(got.cfg, map_path)
+        planned, route = plan_loaded(got.cfg, got.mission, got.path, occupancy, got.fence)
     except InputsRefused as exc:
         raise refused(exc) from None
     echo_notes(got.notes)
     cfg, msn, path, plan, provisional = got.cfg, got.mission, got.path, got.plan, got.provisional
+    if route is not None:  # the estimate and the table of the path as planned and flown
+        plan, provisional = plan_for_check(planned, cfg, got.options)
     note = (
         " (global: shown relative to waypoint 0; the EKF origin is used in flight)"
         if provisional
@@ -137,6 +161,12 @@ def check(
     typer.echo(f"mission : {path}  OK")
     typer.echo(f"plan    : {plan.name}  mode={plan.mode.value}  frame={plan.frame.value}{note}")
     typer.echo(f"axes    : {axes} (metres)")
+    # start frame: from the start point; ENU frames: from waypoint 0 (the start pose is not
+    # known yet), as mission_problems() estimates it.
+    first = plan.waypoints[0]
+    start = (0.0, 0.0) if msn.frame is MissionFrameKind.START else (first.x_m, first.y_m)
+    if plan.program is not None:
+        typer.echo("\n".join(program_lines(plan, cfg.control.max_yaw_rate_radps, start)))
     rows = [f"{'#':>3} {'x_m':>9} {'y_m':>9} {'tol_m':>6} {'heading_deg':>11}"]
     count = len(plan.waypoints)
     head = count if count <= MAX_TABLE_ROWS else MAX_TABLE_ROWS // 2
@@ -147,15 +177,20 @@ def check(
             continue
         hdg = "-" if wp.final_yaw_rad is None else f"{math.degrees(wp.final_yaw_rad):.1f}"
         rows.append(f"{i:>3} {wp.x_m:>9.2f} {wp.y_m:>9.2f} {wp.tolerance_m:>6.2f} {hdg:>11}")
-    typer.echo("\n".join(rows))
-    # start frame: from the start point; ENU frames: from waypoint 0 (the start pose is not
-    # known yet), as mission_problems() estimates it.
-    first = plan.waypoints[0]
-    start = (0.0, 0.0) if msn.frame is MissionFrameKind.START else (first.x_m, first.y_m)
+    if plan.program is None:
+        typer.echo("\n".join(rows))
     length = plan.path_length_m(start)
     eta = plan.estimated_time_s(cfg.control.max_yaw_rate_radps, start)
     origin_note = "" if msn.frame is MissionFrameKind.START else " (from waypoint 0)"
-    typer.echo(f"path    : {length:.1f} m at {plan.speed_mps:.2f} m/s{origin_note}")
+    if plan.program is None:
+        typer.echo(f"path    : {length:.1f} m at {plan.speed_mps:.2f} m/s{origin_note}")
+    else:
+        speeds = sorted({s.speed_mps for s in plan.program.steps if s.first_waypoint is not None})
+        typer.echo(
+            f"path    : {length:.1f} m in {len(plan.waypoints)} waypoints at "
+            f"{', '.join(f'{v:.2f}' for v in speeds)} m/s, {plan.waits_s():.0f} s of holds"
+            f"{origin_note}"
+        )
     typer.echo(
         f"estimate: {eta:.0f} s ({eta / 60:.1f} min; limit "
         f"safety.mission_time_limit_s = {cfg.safety.mission_time_limit_s:.0f} s)"
@@ -225,6 +260,8 @@ def run(
     map_path: MapOpt = None,
     mode: ModeOpt = None,
     skip_unsupported: SkipOpt = False,
+    strict: StrictOpt = False,
+    fence: FenceOpt = None,
     show_plan: Annotated[
         bool,
         typer.Option(
@@ -256,6 +293,8 @@ def run(
                 ("--mode", mode),
                 ("--map", map_path),
                 ("--skip-unsupported", skip_unsupported),
+                ("--strict", strict),
+                ("--fence", fence),
             )
             if used
         ]
@@ -274,29 +313,38 @@ def run(
         # the recorded mission is already planned: no map, no first-leg replanning
         mission_path = resume / MISSION_FILE
         flight = Flight(resumed.mission, resumed.mission_yaml, None, resumed.inputs)
+        fence_gcs = None
     elif wants_autopilot(mission):
         _run_autopilot_mission(
             config, connect, sim, SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise),
-            run_dir, log_level, map_path, mode, skip_unsupported, show_plan,
+            run_dir, log_level, map_path, mode, ExpandOptions(strict, skip_unsupported),
+            show_plan, fence,
         )  # fmt: skip
         return  # not reached: it exits with the run's code
     else:
         try:
-            got = load_inputs(config, mission, mode, skip_unsupported)
+            got = load_inputs(config, mission, mode, skip_unsupported, fence=fence, strict=strict)
             echo_notes(got.notes)
-            cfg, mission_path = got.cfg, got.path
+            cfg, mission_path, fence_gcs = got.cfg, got.path, got.fence
             url = check_connect(connect, cfg)
             mission_yaml = recorded_mission_yaml(mission_path, got.mission, mode)
             occupancy = load_occupancy(cfg, map_path)
             # planned around obstacles; refusals before a simulator starts
             flight = planned_flight(
-                cfg, got.mission, mission_yaml, mission_path, occupancy, config_sha256(config)
+                cfg,
+                got.mission,
+                mission_yaml,
+                mission_path,
+                occupancy,
+                config_sha256(config),
+                got.fence,
+                got.options,
             )
         except InputsRefused as exc:
             raise refused(exc) from None
         echo_flight(flight)
     sim_choice = SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise) if sim else None
-    with simulator(sim_choice, lambda: sim_world(cfg, occupancy, mission_path), url) as url:
+    with simulator(sim_choice, lambda: sim_world(cfg, occupancy, fence_gcs), url) as url:
         _fly(cfg, flight, url, run_dir, log_level, show_plan)
 
 
@@ -309,11 +357,13 @@ def _run_autopilot_mission(
     log_level: str,
     map_path: Path | None,
     mode: MotionMode | None,
-    skip_unsupported: bool,
+    options: ExpandOptions,
     show_plan: bool,
+    fence: Path | None,
 ) -> None:
-    """``run --mission autopilot``: download, convert and check the autopilot's mission, then
-    fly it as any other (see :mod:`helixd.cli.autopilot`). Refusals exit 3."""
+    """``run --mission autopilot``: download, convert and check the autopilot's mission (its
+    stored fence with it), then fly it as any other (see :mod:`helixd.cli.autopilot`).
+    Refusals exit 3."""
     cfg = config_or_exit(config)
     url = check_connect(connect, cfg)
     try:
@@ -321,17 +371,21 @@ def _run_autopilot_mission(
     except InputsRefused as exc:
         raise refused(exc) from None
     with simulator(sim_choice if sim else None, lambda: sim_world(cfg, occupancy), url) as url:
-        got = fetch_autopilot_mission(cfg, url, mode, skip_unsupported)
+        got = fetch_autopilot_mission(cfg, url, mode, fence)
         msn = got.mission
         problems: list[str] = []
-        checked = mission_vs_config(cfg, msn, got.source, problems)
+        notes: list[str] = []
+        checked = mission_vs_config(cfg, msn, got.source, problems, options, notes)
+        echo_notes(tuple(notes))
         if problems or checked is None:
             raise fail(problems, ExitCode.PREFLIGHT)
         cfg = apply_mission_limits(cfg, msn)
         mission_yaml = mission_to_yaml(msn)  # the run directory records what was downloaded
         path = Path(AUTOPILOT_MISSION)
         try:
-            flight = planned_flight(cfg, msn, mission_yaml, path, occupancy, config_sha256(config))
+            flight = planned_flight(
+                cfg, msn, mission_yaml, path, occupancy, config_sha256(config), got.fence, options
+            )
         except InputsRefused as exc:
             raise refused(exc) from None
         echo_flight(flight)
@@ -360,6 +414,7 @@ def _fly(
         replan_from=flight.replan_from,
         show_plan=show_plan,
         inputs=flight.inputs,
+        options=flight.options,
     )
     outcome = asyncio.run(run_mission(opts))
     if outcome.run_dir is not None:

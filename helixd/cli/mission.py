@@ -19,6 +19,7 @@ from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import Autopilot
 from helixd.link.mission_link import Downloaded, autopilot_sender, download_all, upload_all
+from helixd.mission.commands import command_name
 from helixd.mission.formats import (
     FormatError,
     GcsMission,
@@ -33,7 +34,7 @@ from helixd.mission.formats import (
     write_mission_file,
 )
 from helixd.mission.formats.areas import read_area
-from helixd.mission.formats.items import command_name, mission_name
+from helixd.mission.formats.items import mission_name
 from helixd.mission.formats.qgc_plan import plan_to_text
 from helixd.mission.formats.wire import gcs_to_wire, wire_to_gcs
 from helixd.mission.formats.wpl import wpl_to_text
@@ -65,9 +66,6 @@ def convert(
     src: Annotated[Path, typer.Argument(help="mission file: .yaml, .plan or .waypoints")],
     dst: Annotated[Path, typer.Argument(help="output; its suffix names the format")],
     mode: ModeOpt = None,
-    skip_unsupported: Annotated[
-        bool, typer.Option("--skip-unsupported", help="leave out items helixd cannot fly")
-    ] = False,
     config: Annotated[
         Path | None, typer.Option("--config", "-c", help="helixd.yaml (mission limits, mode)")
     ] = None,
@@ -81,7 +79,6 @@ def convert(
             cfg.mission,
             mode=mode,
             default_mode=MotionMode(gs_mode) if gs_mode else None,
-            skip_unsupported=skip_unsupported,
         )
     except ConfigFileError as exc:
         raise fail(exc.problems) from None
@@ -96,7 +93,7 @@ def convert(
     except OSError as exc:
         raise fail([f"{dst}: cannot write: {exc.strerror or exc}"]) from None
     n = len(loaded.mission.waypoints)
-    typer.echo(f"{src} ({loaded.format.value}) → {dst} ({fmt.value}): {n} waypoints")
+    typer.echo(f"{src} ({loaded.format.value}) → {dst} ({fmt.value}): {n} items")
 
 
 @mission_app.command("survey")
@@ -248,9 +245,6 @@ def download(
     ] = None,
     connect: ConnectOpt = None,
     mode: ModeOpt = None,
-    skip_unsupported: Annotated[
-        bool, typer.Option("--skip-unsupported", help=".yaml: leave out items helixd cannot fly")
-    ] = False,
     config: ConfigOpt = None,
 ) -> None:
     """Read the autopilot's stored mission and fence over MAVLink (MISSION_ITEM_INT)."""
@@ -298,7 +292,6 @@ def download(
                 gcs,
                 name=mission_name(out.stem),
                 mode=gs_mode,
-                skip_unsupported=skip_unsupported,
                 source=link.url,
             )
             for line in (*conv.skipped, *conv.notes):

@@ -162,6 +162,25 @@ class Navigator:
         """Drive the mode's axis backwards (ROLL −x, SCROLL −y) from the next step on."""
         self._reverse = reverse and self.plan.mode is not MotionMode.OMNI
 
+    def standing(self, pose: Pose2D) -> NavOutput:
+        """What a step spent standing (a hold of the mission) reports: nothing commanded,
+        the errors to the current target, the state unchanged."""
+        require_finite("navigator pose", pose.x_m, pose.y_m, pose.yaw_rad)
+        goal = self.plan.waypoints[self.target_index]
+        return NavOutput(
+            command=BodyVelocity.zero(),
+            state=self._state,
+            target_index=self.target_index,
+            waypoints_reached=self._waypoints_reached,
+            reached_index=None,
+            distance_error_m=_distance_m(pose, goal),
+            heading_error_rad=0.0,
+            cross_track_m=0.0,
+            distance_pid=PidTerms.zero(),
+            yaw_pid=PidTerms.zero(),
+            done=self.done,
+        )
+
     # -- the step ----------------------------------------------------------------------------
 
     def step(self, pose: Pose2D, t_s: float) -> NavOutput:

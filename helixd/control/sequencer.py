@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from helixd.base.plan import Action, ActionKind, NavStep, Program
+from helixd.base.plan import ActionKind, MissionAction, NavStep, Program
 
 MAX_STEPS_PER_UPDATE = 10_000  # in-place steps without a wait complete within one update
 
@@ -43,7 +43,7 @@ class SequencerEvent:
 
 @dataclass(frozen=True, slots=True)
 class SequencerOutput:
-    actions: tuple[Action, ...]  # due now, in mission order (SEND, SPEED, REVERSE, NOTE)
+    actions: tuple[MissionAction, ...]  # due now, in mission order (SEND, SPEED, REVERSE, NOTE)
     holding: bool  # keep the scrolls stopped; the navigator is not stepped
     done: bool  # the whole program has run
     events: tuple[SequencerEvent, ...]
@@ -60,7 +60,7 @@ class Sequencer:
         self._holding = False
         self._arrived = False
         self._hold_until_s = math.inf
-        self._pending: list[Action] = []  # do items of the active step not yet run
+        self._pending: list[MissionAction] = []  # do items of the active step not yet run
         self._wait_since_s: float | None = None  # when the waiting CONDITION_DELAY started
         self._done = False
 
@@ -81,26 +81,28 @@ class Sequencer:
         """Start the first step (and whatever completes at once after it)."""
         if not math.isfinite(t_s):
             raise ValueError("sequencer time must be finite")
-        actions: list[Action] = []
+        actions: list[MissionAction] = []
         events: list[SequencerEvent] = []
         self._advance(t_s, actions, events)
         return self._output(actions, events)
 
-    def update(
-        self, t_s: float, reached_index: int | None, distance_m: float
-    ) -> SequencerOutput:
+    def update(self, t_s: float, reached_index: int | None, distance_m: float) -> SequencerOutput:
         """One control step: ``reached_index`` is the plan waypoint the navigator reached on
         this step (None: none), ``distance_m`` its distance to the current target."""
         if not math.isfinite(t_s):
             raise ValueError("sequencer time must be finite")
-        actions: list[Action] = []
+        actions: list[MissionAction] = []
         events: list[SequencerEvent] = []
         if self._done:
             return self._output(actions, events)
         step = self.current()
-        if step is not None and not self._holding and reached_index is not None:
-            if step.last_waypoint == reached_index:
-                self._arrive(step, t_s, events)
+        if (
+            step is not None
+            and not self._holding
+            and reached_index is not None
+            and step.last_waypoint == reached_index
+        ):
+            self._arrive(step, t_s, events)
         self._run_pending(t_s, distance_m if not self._holding else 0.0, actions)
         if self._holding and self._hold_ended(t_s):
             self._complete(t_s, actions, events)
@@ -108,7 +110,9 @@ class Sequencer:
 
     # -- internals ---------------------------------------------------------------------------
 
-    def _output(self, actions: list[Action], events: list[SequencerEvent]) -> SequencerOutput:
+    def _output(
+        self, actions: list[MissionAction], events: list[SequencerEvent]
+    ) -> SequencerOutput:
         return SequencerOutput(
             tuple(actions), self._holding and not self._done, self._done, tuple(events),
             self._index,
@@ -125,7 +129,9 @@ class Sequencer:
     def _hold_ended(self, t_s: float) -> bool:
         return t_s >= self._hold_until_s
 
-    def _complete(self, t_s: float, actions: list[Action], events: list[SequencerEvent]) -> None:
+    def _complete(
+        self, t_s: float, actions: list[MissionAction], events: list[SequencerEvent]
+    ) -> None:
         step = self.current()
         if step is not None:
             for a in self._pending:
@@ -142,7 +148,9 @@ class Sequencer:
             events.append(self._event("step_completed", step, step.text))
         self._advance(t_s, actions, events)
 
-    def _advance(self, t_s: float, actions: list[Action], events: list[SequencerEvent]) -> None:
+    def _advance(
+        self, t_s: float, actions: list[MissionAction], events: list[SequencerEvent]
+    ) -> None:
         """Start the next step; in-place steps without a wait complete at once."""
         for _ in range(MAX_STEPS_PER_UPDATE):
             self._index += 1
@@ -178,7 +186,7 @@ class Sequencer:
             events.append(self._event("step_completed", step, step.text))
         raise RuntimeError("the program completes more steps in place than it can hold")
 
-    def _run_pending(self, t_s: float, distance_m: float, actions: list[Action]) -> None:
+    def _run_pending(self, t_s: float, distance_m: float, actions: list[MissionAction]) -> None:
         """Run the active step's do items up to the first condition still waiting."""
         while self._pending:
             a = self._pending[0]

@@ -98,6 +98,19 @@ class Change:
     REBOOT = 2048
     SYS_STATUS = 4096
     POSE_REJECTED = 8192  # a LOCAL_POSITION_NED / ATTITUDE was rejected (see pose_invalid_*)
+    HOME = 16384
+
+
+@dataclass(frozen=True, slots=True)
+class HomePosition:
+    """The autopilot's home (HOME_POSITION): where NAV_RETURN_TO_LAUNCH drives to."""
+
+    lat_deg: float
+    lon_deg: float
+    # north/east of the EKF origin (m), as ArduPilot sends them; None when it could not
+    # (no origin yet: GCS_MAVLINK::send_home_position sends NaN)
+    north_m: float | None
+    east_m: float | None
 
 
 @dataclass(frozen=True, slots=True)
@@ -266,6 +279,9 @@ class VehicleState:
     gps_origin: tuple[float, float] | None = None  # (lat_deg, lon_deg)
     origin_rejected_count: int = 0  # GPS_GLOBAL_ORIGIN with a latitude/longitude off the Earth
     gps_origin_rx_s: float | None = None
+    home: HomePosition | None = None
+    home_rx_s: float | None = None
+    home_rejected_count: int = 0  # HOME_POSITION off the Earth or with absurd values
     battery_voltage_v: float | None = None
     # SYS_STATUS RC-receiver bit: None when the autopilot reports no receiver at all.
     # While helixd streams overrides ArduPilot's own RC failsafe cannot fire (overrides count
@@ -483,6 +499,22 @@ class VehicleState:
         self.gps_origin_rx_s = rx_s
         return Change.GPS_ORIGIN
 
+    def _home(self, msg: MavMsg, rx_s: float) -> int:
+        """HOME_POSITION, checked once here: on the Earth, and a north/east that is finite
+        and within the telemetry bounds (else kept as unknown)."""
+        lat_deg, lon_deg = int(msg.latitude) * 1e-7, int(msg.longitude) * 1e-7
+        if not (-LAT_MAX_DEG <= lat_deg <= LAT_MAX_DEG and -LON_MAX_DEG <= lon_deg <= LON_MAX_DEG):
+            self.home_rejected_count += 1
+            return Change.NONE
+        north, east = float(msg.x), float(msg.y)
+        limit = self.bounds.position_max_m
+        placed = math.isfinite(north) and math.isfinite(east) and math.hypot(north, east) <= limit
+        self.home = HomePosition(
+            lat_deg, lon_deg, north if placed else None, east if placed else None
+        )
+        self.home_rx_s = rx_s
+        return Change.HOME
+
     def _statustext(self, msg: MavMsg, rx_s: float) -> int:
         self.statustexts.append(StatusText(int(msg.severity), _text(msg.text), rx_s))
         while len(self.statustexts) > self.statustext_history:
@@ -507,6 +539,7 @@ _HANDLERS: dict[str, Callable[[VehicleState, MavMsg, float], int]] = {
     "RC_CHANNELS": VehicleState._rc,
     "SERVO_OUTPUT_RAW": VehicleState._servo,
     "GPS_GLOBAL_ORIGIN": VehicleState._origin,
+    "HOME_POSITION": VehicleState._home,
     "STATUSTEXT": VehicleState._statustext,
     "SYS_STATUS": VehicleState._sys_status,
 }

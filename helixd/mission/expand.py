@@ -40,8 +40,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 from helixd.base.plan import (
-    Action,
     ActionKind,
+    MissionAction,
     MotionMode,
     NavStep,
     PlanWaypoint,
@@ -82,6 +82,9 @@ class ExpandOptions:
 
     strict: bool = False  # refuse what ArduPilot Rover skips, instead of skipping it
     skip_unsupported: bool = False  # pass over what helixd cannot fly, instead of refusing
+
+
+DEFAULT_OPTIONS = ExpandOptions()
 
 
 @dataclass(frozen=True)
@@ -342,19 +345,21 @@ class _Builder:
 
     # -- do/condition items ----------------------------------------------------------------
 
-    def actions(self, chain: Sequence[_Cmd]) -> list[Action]:
-        out: list[Action] = []
+    def actions(self, chain: Sequence[_Cmd]) -> list[MissionAction]:
+        out: list[MissionAction] = []
         for c in chain:
             out.append(self.action(c))
         return out
 
-    def action(self, c: _Cmd) -> Action:
+    def action(self, c: _Cmd) -> MissionAction:
         role = c.role
         item, command = c.index, c.wp.command
         named = _named(c)
         text = f"{c.name} {named}".strip()
         if role is Role.SEND:
-            return Action(item, command, ActionKind.SEND, params=self.send_params(c), text=text)
+            return MissionAction(
+                item, command, ActionKind.SEND, params=self.send_params(c), text=text
+            )
         if role is Role.SET_HOME:
             return self.set_home(c)
         if role is Role.SPEED:
@@ -363,31 +368,35 @@ class _Builder:
             back = stored_whole(c.p(0)) == 1
             if self.ctx.mode is MotionMode.OMNI:
                 self.note(c, "ignored in OMNI: the rover drives any way without turning")
-                return Action(item, command, ActionKind.NOTE, text=f"{text} (ignored in OMNI)")
-            return Action(item, command, ActionKind.REVERSE, 1.0 if back else 0.0, text=text)
+                return MissionAction(
+                    item, command, ActionKind.NOTE, text=f"{text} (ignored in OMNI)"
+                )
+            return MissionAction(item, command, ActionKind.REVERSE, 1.0 if back else 0.0, text=text)
         if role is Role.CONDITION_DELAY:
             delay = max(0.0, c.p(0)) if math.isfinite(c.p(0)) else 0.0
             text = f"{c.name}: the items after it wait {delay:g} s"
-            return Action(item, command, ActionKind.WAIT_TIME, delay, text=text)
+            return MissionAction(item, command, ActionKind.WAIT_TIME, delay, text=text)
         if role is Role.CONDITION_DISTANCE:
             dist = c.p(0) if math.isfinite(c.p(0)) else 0.0
             text = f"{c.name}: the items after it wait until {dist:g} m from the target"
-            return Action(item, command, ActionKind.WAIT_DISTANCE, dist, text=text)
+            return MissionAction(item, command, ActionKind.WAIT_DISTANCE, dist, text=text)
         if role is Role.TAG:
-            return Action(item, command, ActionKind.NOTE, text=f"JUMP_TAG {stored_whole(c.p(0))}")
+            return MissionAction(
+                item, command, ActionKind.NOTE, text=f"JUMP_TAG {stored_whole(c.p(0))}"
+            )
         if role in SKIP_ROLES:
             why = self.skip_text(c)
             if self.options.strict:
                 self.problem(c, f"{why}; --strict refuses it")
             else:
                 self.note(c, why)
-            return Action(item, command, ActionKind.NOTE, text=f"{text}: {why}")
+            return MissionAction(item, command, ActionKind.NOTE, text=f"{text}: {why}")
         why = c.wp.spec.why or "helixd cannot run it"
         if self.options.skip_unsupported:
             self.note(c, f"passed over (--skip-unsupported): {why}")
-            return Action(item, command, ActionKind.NOTE, text=f"{text}: passed over")
+            return MissionAction(item, command, ActionKind.NOTE, text=f"{text}: passed over")
         self.problem(c, f"{why} (--skip-unsupported passes over it)")
-        return Action(item, command, ActionKind.NOTE, text=text)
+        return MissionAction(item, command, ActionKind.NOTE, text=text)
 
     def send_params(self, c: _Cmd) -> tuple[float, float, float, float, float, float, float]:
         p = [c.p(i) for i in range(6)]
@@ -398,7 +407,7 @@ class _Builder:
             return (p[0], p[1], p[2], p[3], lat, lon, z)
         return (p[0], p[1], p[2], p[3], p[4], p[5], z)
 
-    def set_home(self, c: _Cmd) -> Action:
+    def set_home(self, c: _Cmd) -> MissionAction:
         current = stored_whole(c.p(0)) == 1
         text = f"{c.name}: home where the rover is {_fmt_xy(self.here)}"
         if current:
@@ -421,14 +430,16 @@ class _Builder:
         params = self.send_params(c)
         if current:
             params = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-        return Action(c.index, MAV_CMD_DO_SET_HOME, ActionKind.SEND, params=params, text=text)
+        return MissionAction(
+            c.index, MAV_CMD_DO_SET_HOME, ActionKind.SEND, params=params, text=text
+        )
 
-    def change_speed(self, c: _Cmd) -> Action:
+    def change_speed(self, c: _Cmd) -> MissionAction:
         asked = c.p(1)
         item, command = c.index, c.wp.command
         if not (math.isfinite(asked) and asked >= SPEED_MIN_MPS):
             text = f"{c.name} {asked:g} m/s: no change (below {SPEED_MIN_MPS} m/s, as Rover)"
-            return Action(item, command, ActionKind.NOTE, text=text)
+            return MissionAction(item, command, ActionKind.NOTE, text=text)
         lo = max(self.ctx.min_speed_mps, SPEED_MIN_MPS)
         bounded = min(max(asked, lo), self.ctx.max_speed_mps)
         text = f"{c.name} → {bounded:.2f} m/s"
@@ -437,7 +448,7 @@ class _Builder:
             self.note(c, f"{asked:g} m/s bounded to {bounded:.2f} m/s by {limit}")
             text += f" ({asked:g} asked, bounded by {limit})"
         self.speed = bounded
-        return Action(item, command, ActionKind.SPEED, bounded, text=text)
+        return MissionAction(item, command, ActionKind.SPEED, bounded, text=text)
 
     # -- navigation items ------------------------------------------------------------------
 
@@ -505,12 +516,12 @@ class _Builder:
             where = f"{turns:g} turns, radius {radius:g} m around {_fmt_xy(centre)}"
             if turns > 0.0:
                 pts = _circle(centre, radius, turns, ccw, self.here)
-                first = len(self.waypoints)
+                begin = len(self.waypoints)
                 for xy in pts:
                     self.go(wp, xy, False)
-                if len(self.waypoints) > first:
-                    span = (first, len(self.waypoints) - 1)
-                    where += f" ({len(self.waypoints) - first} points)"
+                if len(self.waypoints) > begin:
+                    span = (begin, len(self.waypoints) - 1)
+                    where += f" ({len(self.waypoints) - begin} points)"
         elif role is Role.NAV_DELAY:
             delay = c.p(0)
             if not (math.isfinite(delay) and delay > 0.0):
@@ -555,7 +566,7 @@ def expand(
     latlons: Sequence[tuple[float, float] | None],
     ctx: Context,
     waypoint_for: Callable[[WaypointSpec, XY, bool], PlanWaypoint],
-    options: ExpandOptions = ExpandOptions(),
+    options: ExpandOptions = DEFAULT_OPTIONS,
 ) -> Expansion:
     """Walk the mission as ArduPilot does and build the flight: plan waypoints and program.
 
@@ -599,13 +610,12 @@ def expand(
             break
         if len(b.steps) >= MAX_STEPS:
             b.problems.append(
-                f"the mission expands to more than {MAX_STEPS} navigation steps (jumps): "
-                "split it"
+                f"the mission expands to more than {MAX_STEPS} navigation steps (jumps): split it"
             )
             break
         jumps_before = dict(walker.runs)
         nav, first_do, passed = walker.advance_nav(nav.index, _starts)
-    final: list[Action] = []
+    final: list[MissionAction] = []
     if nav is None and not never_ends:
         visited.update(p.index for p in passed)
         for p in passed:
@@ -646,4 +656,4 @@ def _via(walker: _Walker, before: dict[int, int], cmds: Sequence[_Cmd]) -> str:
     return ""
 
 
-__all__ = ["Context", "ExpandOptions", "Expansion", "expand", "loiter_turns"]
+__all__ = ["DEFAULT_OPTIONS", "Context", "ExpandOptions", "Expansion", "expand", "loiter_turns"]

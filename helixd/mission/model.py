@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-
 from typing import Any
 
 from pydantic import Field, ValidationInfo, model_validator
@@ -103,6 +102,48 @@ def _named_params(data: dict[str, Any], spec: CommandSpec) -> dict[str, Any]:
             raise ValueError(f"{key}: {clip(value)} must be a whole number (ArduPilot keeps one)")
         values[index] = v
     out["params"] = values
+    return out
+
+
+def entry_yaml(wp: WaypointSpec) -> dict[str, Any]:
+    """An entry as the YAML format writes it (loads back equal): the command by name, its
+    parameters by name where every non-default one has a name (else ``params``), and only
+    what differs from the defaults."""
+    out: dict[str, Any] = {}
+    if wp.command != MAV_CMD_NAV_WAYPOINT or "command" in wp.model_fields_set:
+        out["command"] = wp.name if wp.name == command_name(wp.command) else wp.command
+        if out["command"].startswith("command "):
+            out["command"] = wp.command
+    for key in ("x", "y", "north", "east", "lat", "lon", "heading_deg", "tolerance_m"):
+        value = getattr(wp, key)
+        if value is not None:
+            out[key] = value
+    if wp.params is not None:
+        spec = wp.spec
+        defaults = spec.defaults()
+        named: dict[str, float | None] = {}
+        by_name = True
+        for i, value in enumerate(wp.params):
+            default = defaults[i] if i < len(defaults) else 0.0
+            if value == default or (value is None and default is None):
+                continue
+            pspec = spec.params[i] if i < len(spec.params) else None
+            if pspec is None:
+                by_name = False
+                break
+            named[pspec.name] = value
+        if by_name:
+            out.update(named)
+            if not named and wp.command == MAV_CMD_NAV_WAYPOINT and not wp.given():
+                out["command"] = wp.name  # "stay where it is": keep it a navigation item
+        else:
+            out["params"] = list(wp.params)
+    if wp.z is not None:
+        out["z"] = wp.z
+    if wp.frame is not None:
+        out["frame"] = wp.frame
+    if not wp.autocontinue:
+        out["autocontinue"] = False
     return out
 
 
@@ -205,11 +246,13 @@ class WaypointSpec(InputModel):
 
     def is_plain(self) -> bool:
         """A NAV_WAYPOINT with a place and nothing else to do (no hold)."""
-        return (
-            self.command == MAV_CMD_NAV_WAYPOINT
-            and bool(self.given())
-            and (self.params is None or not self.param(0) > 0.0)
+        if self.command != MAV_CMD_NAV_WAYPOINT:
+            return False
+        d = self.__dict__  # plain attribute reads: called once per waypoint of big missions
+        placed = (d["x"] is not None or d["north"] is not None or d["lat"] is not None) and (
+            d["y"] is not None or d["east"] is not None or d["lon"] is not None
         )
+        return placed and (self.params is None or not self.param(0) > 0.0)
 
 
 class Mission(InputModel):
@@ -284,13 +327,13 @@ class Mission(InputModel):
         is_global = self.frame is MissionFrameKind.GLOBAL
         hypot = math.hypot
         wps = self.waypoints
-        a, b = _COORDS[self.frame]
+        key_a, key_b = _COORDS[self.frame]
         for i in range(1, len(wps)):
             prev, here = wps[i - 1], wps[i]
             if not (prev.is_plain() and here.is_plain()):
                 continue  # a hold, a command between: ArduPilot's "reached at once" is fine
-            a0, a1 = getattr(prev, a), getattr(prev, b)
-            b0, b1 = getattr(here, a), getattr(here, b)
+            a0, a1 = getattr(prev, key_a), getattr(prev, key_b)
+            b0, b1 = getattr(here, key_a), getattr(here, key_b)
             if is_global:
                 dn, de = latlon_to_ne(b0, b1, a0, a1)
                 gap = hypot(dn, de)
@@ -306,13 +349,15 @@ class Mission(InputModel):
             lat, lon = self.home
             if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
                 raise ValueError(f"home: ({lat}, {lon}) is not a latitude/longitude pair")
-        pts = self.points()
         fence_problems = self.fence_problems()
         if fence_problems:
             raise ValueError("\n".join(f"geofence_polygon: {p}" for p in fence_problems))
         limits = (info.context or {}).get("limits") if info.context else None
         if isinstance(limits, MissionLimits) and self.frame is not MissionFrameKind.GLOBAL:
-            for i, (a, b) in enumerate(pts):
+            for i, wp in enumerate(wps):
+                if getattr(wp, key_a) is None or getattr(wp, key_b) is None:
+                    continue
+                a, b = float(getattr(wp, key_a)), float(getattr(wp, key_b))
                 rng = math.hypot(a, b)
                 if rng > limits.max_range_m:
                     raise ValueError(
@@ -384,5 +429,6 @@ __all__ = [
     "MotionMode",
     "WaypointSpec",
     "coordinate_keys",
+    "entry_yaml",
     "load_mission",
 ]

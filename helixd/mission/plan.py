@@ -19,7 +19,7 @@ from helixd.base.angles import wrap_pi
 from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan, PlanWaypoint
 from helixd.config import ControlConfig, MissionLimits
-from helixd.mission.expand import Context, ExpandOptions, expand
+from helixd.mission.expand import DEFAULT_OPTIONS, Context, ExpandOptions, expand
 from helixd.mission.model import Mission, WaypointSpec
 
 XY = tuple[float, float]
@@ -38,6 +38,9 @@ class Where:
 
     start_xy_m: XY | None = None
     home_xy_m: XY | None = None
+
+
+NOWHERE = Where()
 
 
 @dataclass(frozen=True)
@@ -91,8 +94,8 @@ def resolve_plan(
     control: ControlConfig,
     limits: MissionLimits,
     origin_latlon_deg: tuple[float, float] | None = None,
-    where: Where = Where(),
-    options: ExpandOptions = ExpandOptions(),
+    where: Where = NOWHERE,
+    options: ExpandOptions = DEFAULT_OPTIONS,
 ) -> Plan:
     """Convert the file's waypoints into the mission frame used by the control core.
 
@@ -107,8 +110,8 @@ def resolve(
     control: ControlConfig,
     limits: MissionLimits,
     origin_latlon_deg: tuple[float, float] | None = None,
-    where: Where = Where(),
-    options: ExpandOptions = ExpandOptions(),
+    where: Where = NOWHERE,
+    options: ExpandOptions = DEFAULT_OPTIONS,
 ) -> Resolved:
     """:func:`resolve_plan`, with what the walk through a mission's commands found."""
     frame = _Frame(mission, origin_latlon_deg)

@@ -37,15 +37,20 @@ from helixd import __version__
 from helixd.actuators import ActuatorError, make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.base.exitcodes import ExitCode
-from helixd.base.frames import MissionFrame, NedPose
+from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.run_files import TLOG_FILE
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
+from helixd.control.sequencer import SequencerEvent
 from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
 from helixd.link.tlog import attach_tlog
-from helixd.link.vehicle import TelemetryBounds
-from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
+from helixd.link.vehicle import HomePosition, TelemetryBounds
+from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH
+from helixd.mission import Mission, MissionFrameKind, Plan, PlanError
+from helixd.mission.commands import command_name
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.plan import Where, resolve
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
 from helixd.mission.validate import apply_mission_limits, mission_problems
 from helixd.recorder.rows import FlightRow
@@ -61,6 +66,7 @@ from helixd.runtime.flight import (
 )
 from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
 from helixd.runtime.gcs_feed import GcsFeed, report_fallback
+from helixd.runtime.mission_commands import MissionCommands
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.show_plan import show_plan
 from helixd.runtime.signals import StopRequest, install, uninstall
@@ -108,6 +114,7 @@ class RunOptions:
     )
     # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
     inputs: RunInputs | None = None
+    options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported (commands)
 
 
 @dataclass
@@ -267,6 +274,7 @@ class Checked:
     start_ned: NedPose
     origin: tuple[float, float] | None
     plan: Plan
+    home: HomePosition | None = None  # the autopilot's home (missions with commands)
 
 
 class MissionRunner:
@@ -285,6 +293,7 @@ class MissionRunner:
         self.gcs = GcsFeed(
             self.cfg.gcs_report
         )  # what the ground station sees (helixd.runtime.gcs_feed)
+        self._waypoints_total: int | None = None  # the plan's (a program expands the mission)
 
     # -- helpers ------------------------------------------------------------------------------
 
@@ -376,7 +385,11 @@ class MissionRunner:
                 self.opts.mission = self.opts.replan_from(here, origin)
             except ValueError as exc:
                 raise PreflightFailed(str(exc).splitlines()) from None
-        plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
+        home = await self._home(ap, origin)
+        start_frame = self.opts.mission.frame is MissionFrameKind.START
+        plan = self._resolve(
+            origin, pose, home, MissionFrame.start_at(pose) if start_frame else MissionFrame.enu()
+        )
         if self.opts.inputs is not None:  # a resume re-enters the interrupted leg
             plan = with_leg_start(
                 plan,
@@ -389,15 +402,81 @@ class MissionRunner:
         # The same validation `helixd check` ran, now with the start pose and EKF origin
         # (geofence radius/polygon and time for local_ned/global missions).
         refused = mission_problems(
-            self.opts.mission, self.cfg, start_ned=pose, origin_latlon_deg=origin
+            self.opts.mission,
+            self.cfg,
+            start_ned=pose,
+            origin_latlon_deg=origin,
+            options=self.opts.options,
         )
         if refused:
             raise PreflightFailed(refused)
         last = plan.waypoints[-1]
         self.summary = SummaryBuilder(final_xy_m=(last.x_m, last.y_m))
+        self._waypoints_total = len(plan.waypoints)
         if origin is not None:
             self.summary.set_origin(*origin)
-        return Checked(pose, origin, plan)
+        return Checked(pose, origin, plan, home)
+
+    def _resolve(
+        self,
+        origin: tuple[float, float] | None,
+        start: NedPose,
+        home: HomePosition | None,
+        frame: MissionFrame,
+    ) -> Plan:
+        """The plan, and for a mission with commands its program from where the rover is
+        (``start``) and the autopilot's home; what the program cannot fly is refused."""
+        msn = self.opts.mission
+        where = Where()
+        if msn.has_commands():
+            here = frame.to_mission(start)
+            home_xy = None
+            if home is not None and home.north_m is not None and home.east_m is not None:
+                home_ned = NedPose(home.north_m, home.east_m, 0.0)
+                at = frame.to_mission(home_ned)
+                home_xy = (at.x_m, at.y_m)
+            where = Where(start_xy_m=(here.x_m, here.y_m), home_xy_m=home_xy)
+        resolved = resolve(
+            msn, self.cfg.control, self.cfg.mission, origin, where, self.opts.options
+        )
+        if resolved.problems:
+            raise PreflightFailed(list(resolved.problems))
+        program = resolved.plan.program
+        returns = program is not None and any(
+            s.command == MAV_CMD_NAV_RETURN_TO_LAUNCH for s in program.steps
+        )
+        if returns and where.home_xy_m is None:
+            raise PreflightFailed(
+                [
+                    "the mission returns home (NAV_RETURN_TO_LAUNCH) but the autopilot sent no "
+                    "home position (HOME_POSITION): wait for its GPS home and try again"
+                ]
+            )
+        for note in resolved.notes:
+            log.info("mission_note", note=note)
+        return resolved.plan
+
+    async def _home(
+        self, ap: Autopilot, origin: tuple[float, float] | None
+    ) -> HomePosition | None:
+        """The autopilot's home, for a mission with commands (NAV_RETURN_TO_LAUNCH)."""
+        if not self.opts.mission.has_commands():
+            return None
+        home = await self._until_stopped(
+            ap.action.request_home(self.cfg.link.command_timeout_s * 3)
+        )
+        if home is not None:
+            log.info(
+                "home_position",
+                lat_deg=round(home.lat_deg, 7),
+                lon_deg=round(home.lon_deg, 7),
+                north_m=None if home.north_m is None else round(home.north_m, 2),
+                east_m=None if home.east_m is None else round(home.east_m, 2),
+            )
+            if home.north_m is None and origin is not None:  # sent without north/east
+                n, e = latlon_to_ne(home.lat_deg, home.lon_deg, *origin)
+                home = HomePosition(home.lat_deg, home.lon_deg, n, e)
+        return home
 
     async def _show_plan(self, ap: Autopilot, checked: Checked) -> None:
         timeout_s = self.cfg.link.command_timeout_s * 3
@@ -566,11 +645,16 @@ class MissionRunner:
             if checked.plan.frame is MissionFrameKind.START
             else MissionFrame.enu()
         )
+        plan = checked.plan
+        if self.opts.mission.has_commands():
+            # from where the rover is now, to the home the autopilot set when it armed
+            home = await self._home(ap, checked.origin) or checked.home
+            plan = self._resolve(checked.origin, start_ned, home, frame)
         # the mission's own geofence/time limit, now placed exactly (origin and start known)
         cfg = apply_mission_limits(
             self.cfg, self.opts.mission, origin_latlon_deg=checked.origin, start_ned=start_ned
         )
-        return Ready(ap, sink, checked.plan, frame, start_ned, cfg)
+        return Ready(ap, sink, plan, frame, start_ned, cfg)
 
     def _start_pose(self, checked: Checked, now: NedPose | None, ap: Autopilot) -> NedPose:
         """The mission frame starts where the rover is now, after the pilot's start switch;
@@ -595,6 +679,21 @@ class MissionRunner:
         plan = ready.plan
         total = len(plan.waypoints)
         ap = ready.ap
+        commands = MissionCommands(ap.action)
+        if plan.program is not None:
+            commands.start()
+
+        def on_mission_event(ev: SequencerEvent) -> None:
+            log.info(
+                "mission_step",
+                kind=ev.kind,
+                item=ev.item,
+                command=command_name(ev.command),
+                step=ev.step + 1,
+                text=ev.text,
+            )
+            if ev.kind == "hold_started":
+                self.gcs.phase(f"item {ev.item}: {ev.text}")
 
         # flight.csv rows and the summary's figures are built in batches, after sends
         journal = StepJournal(plan, self._on_row, self.cfg.recorder.batch_interval_s)
@@ -633,9 +732,13 @@ class MissionRunner:
                     on_pose_rejected=on_pose_rejected,
                     on_arrival=on_arrival,
                     on_tick=on_tick,
+                    on_action=commands.submit,
+                    on_mission_event=on_mission_event,
                 ).run()
             finally:
                 journal.drain()  # every step reaches flight.csv and the summary
+                # the payload commands already due still go out (bounded), before the stop
+                await commands.close(self.cfg.safety.fallback_deadline_s)
         return ending_of_flight(result)
 
     # -- the run ------------------------------------------------------------------------------
@@ -778,7 +881,7 @@ class MissionRunner:
             exit_code=int(code),
             mission_name=self.opts.mission.name,
             mode=self.opts.mission.mode.value,
-            waypoints_total=len(self.opts.mission.waypoints),
+            waypoints_total=self._waypoints_total or len(self.opts.mission.waypoints),
             wall_duration_s=wall_duration_s,
         )
         if self.opts.inputs is not None and self.opts.inputs.resumed_from is not None:

@@ -17,7 +17,8 @@ import structlog
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.config import HelixdConfig
 from helixd.mission import Mission, MissionFrameKind
-from helixd.mission.formats import has_keep_outs, plan_fence_ne
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.formats import GcsMission, fence_has_keep_outs, fence_ne
 from helixd.mission.resume import RunInputs, fresh_inputs
 from helixd.planning import (
     KeepOutCircle,
@@ -48,13 +49,18 @@ def load_occupancy(cfg: HelixdConfig, map_path: Path | None) -> OccupancyMap | N
 
 
 def plan_loaded(
-    cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
+    cfg: HelixdConfig,
+    msn: Mission,
+    path: Path,
+    occupancy: OccupancyMap | None,
+    fence: GcsMission | None = None,
 ) -> tuple[Mission, RoutePlan | None]:
     """The mission with the intermediate waypoints inserted, and the route (None: nothing to
-    plan around); refusals exit 2."""
+    plan around); ``fence``: the lat/lon fence (a .plan's geofence, --fence, the autopilot's)
+    whose exclusion zones a global mission is planned around; refusals exit 2."""
     try:
         if msn.frame is MissionFrameKind.GLOBAL and cfg.planning.enabled:
-            return plan_global(cfg, msn, path, occupancy)
+            return plan_global(cfg, msn, fence, occupancy)
         if not planning_wanted(cfg, occupancy):
             return msn, None
         return plan_mission(msn, cfg, occupancy)
@@ -65,23 +71,23 @@ def plan_loaded(
 
 
 def plan_global(
-    cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
+    cfg: HelixdConfig, msn: Mission, fence: GcsMission | None, occupancy: OccupancyMap | None
 ) -> tuple[Mission, RoutePlan | None]:
-    """A global mission: planned around its .plan's exclusion zones when it has any (in a
+    """A global mission: planned around its fence's exclusion zones when it has any (in a
     frame around waypoint 0, helixd.planning.fence); with only a --map or config keep-outs,
     refused (they hang from the unknown EKF origin); else flown as it is."""
-    own = has_keep_outs(path)
+    own = fence_has_keep_outs(fence)
     if not (own or planning_wanted(cfg, occupancy)):
         return msn, None
     origin = msn.points()[0]
     polys: list[tuple[tuple[float, float], ...]] = []
     circles: list[KeepOutCircle] = []
-    if own:
-        fence = plan_fence_ne(path, origin)
-        polys = list(fence.exclusion_polygons)
+    if own and fence is not None:
+        shapes = fence_ne(fence, origin)
+        polys = list(shapes.exclusion_polygons)
         circles = [
             KeepOutCircle(c.centre_ne_m[0], c.centre_ne_m[1], c.radius_m)
-            for c in fence.exclusion_circles
+            for c in shapes.exclusion_circles
         ]
     return plan_global_mission(msn, cfg, polys, circles, origin, occupancy)
 
@@ -150,6 +156,7 @@ class Flight:
     replan_from: Replanner | None
     inputs: RunInputs
     route: RoutePlan | None = None
+    options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported
 
 
 def planned_flight(
@@ -159,11 +166,14 @@ def planned_flight(
     mission_path: Path,
     occupancy: OccupancyMap | None,
     config_sha: str,
+    fence: GcsMission | None = None,
+    options: ExpandOptions = DEFAULT_OPTIONS,
 ) -> Flight:
-    """Plan around the map and keep-outs (refusals exit 2)."""
-    planned, route = plan_loaded(cfg, msn, mission_path, occupancy)
+    """Plan around the map, keep-outs and the fence's exclusion zones (refusals exit 2)."""
+    planned, route = plan_loaded(cfg, msn, mission_path, occupancy, fence)
     if route is None:
-        return Flight(msn, mission_yaml, None, fresh_inputs(mission_yaml, config_sha, msn))
+        inputs = fresh_inputs(mission_yaml, config_sha, msn)
+        return Flight(msn, mission_yaml, None, inputs, options=options)
     map_path = None if occupancy is None else occupancy.source
     planned_yaml = planned_mission_yaml(planned, route, map_path)
     return Flight(
@@ -172,6 +182,7 @@ def planned_flight(
         first_leg_replanner(cfg, msn, planned, route),
         fresh_inputs(planned_yaml, config_sha, planned),
         route,
+        options,
     )
 
 

@@ -19,10 +19,15 @@ from pydantic import ValidationError
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.files.models import format_validation_error
 from helixd.mav.constants import (
+    MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
+    MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION,
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+    MAV_CMD_NAV_FENCE_RETURN_POINT,
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL_RELATIVE_ALT,
 )
-from helixd.mission.commands import MAX_PARAMS, command_name, command_spec
+from helixd.mission.commands import MAX_PARAMS, command_spec
 from helixd.mission.model import Mission, MissionFrameKind, MotionMode, WaypointSpec
 
 # Frames whose x/y are a latitude/longitude (MAV_FRAME_GLOBAL, _RELATIVE_ALT, _INT,
@@ -72,6 +77,73 @@ class FenceCircle:
 
 
 @dataclass(frozen=True, slots=True)
+class FenceRow:
+    """One fence item, wherever it came from (a fence file's row, the autopilot's fence)."""
+
+    seq: int
+    command: int  # MAV_CMD_NAV_FENCE_* (5000..5004)
+    param1: float  # polygon vertex count, or circle radius (m)
+    lat: float
+    lon: float
+    where: str
+
+
+def fence_shapes(
+    rows: list[FenceRow],
+) -> tuple[list[FencePolygon], list[FenceCircle], list[str]]:
+    """Fence items → polygons (consecutive vertices of one kind, param1 = their count) and
+    circles (param1 = radius), as ArduPilot's AC_PolyFence_loader reads them; a return point
+    is reported, not kept. FormatError naming the item for what is not whole."""
+    polygons: list[FencePolygon] = []
+    circles: list[FenceCircle] = []
+    notes: list[str] = []
+    problems: list[str] = []
+    i = 0
+    while i < len(rows):
+        it = rows[i]
+        bad = check_latlon(it.where, it.lat, it.lon)
+        if it.command in _POLY_CMDS:
+            n = round(it.param1) if math.isfinite(it.param1) else 0
+            run = rows[i : i + n]
+            if n < 3 or len(run) < n or any(v.command != it.command for v in run):
+                problems.append(
+                    f"{it.where}: a polygon of {it.param1:g} vertices that is not whole"
+                )
+                i += 1
+                continue
+            for v in run:
+                problems += check_latlon(v.where, v.lat, v.lon)
+            polygons.append(
+                FencePolygon(tuple((v.lat, v.lon) for v in run), _POLY_CMDS[it.command])
+            )
+            i += n
+            continue
+        if it.command in _CIRCLE_CMDS:
+            if not (math.isfinite(it.param1) and it.param1 > 0):
+                problems.append(f"{it.where}: circle radius {it.param1:g} m is not > 0")
+            problems += bad
+            circles.append(FenceCircle((it.lat, it.lon), it.param1, _CIRCLE_CMDS[it.command]))
+        elif it.command == MAV_CMD_NAV_FENCE_RETURN_POINT:
+            notes.append(f"{it.where}: fence return point ({it.lat:.7f}, {it.lon:.7f}) not kept")
+        else:
+            notes.append(f"{it.where}: fence command {it.command} not understood; left out")
+        i += 1
+    if problems:
+        raise FormatError(problems[:20])
+    return polygons, circles, notes
+
+
+_POLY_CMDS = {
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION: True,
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION: False,
+}
+_CIRCLE_CMDS = {
+    MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION: True,
+    MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION: False,
+}
+
+
+@dataclass(frozen=True, slots=True)
 class GcsMission:
     """What a .plan / .waypoints file (or the autopilot) holds."""
 
@@ -80,6 +152,7 @@ class GcsMission:
     polygons: tuple[FencePolygon, ...] = ()
     circles: tuple[FenceCircle, ...] = ()
     survey_polygons: tuple[tuple[tuple[float, float], ...], ...] = field(default=())
+    notes: tuple[str, ...] = ()  # what the reader left out or made up, for the operator
 
 
 def _latlon_problem(lat: float, lon: float) -> str | None:
@@ -114,7 +187,7 @@ def _label(it: MissionItem) -> str:
     return f"item {it.seq}" + (f" ({it.where})" if it.where else "")
 
 
-def _params(values: list[float], spec_defaults: tuple[float | None, ...]) -> list[float | None]:
+def _params(values: list[float]) -> list[float | None]:
     return [None if math.isnan(v) else v for v in values]
 
 
@@ -144,7 +217,7 @@ def item_entry(it: MissionItem) -> tuple[dict[str, object] | None, list[str]]:
         values = [*raw, it.x, it.y][:MAX_PARAMS]
         if not all(math.isfinite(v) for v in values[4:]):
             return None, [f"{label}: x/y of {spec.name} are not finite"]
-    params = _params(values, spec.defaults())
+    params = _params(values)
     if tuple(params) != spec.defaults():
         entry["params"] = params
     if math.isfinite(it.z) and it.z != 0.0:
@@ -183,7 +256,9 @@ def items_to_mission(
             problems.extend(bad)
             continue
         place = (entry.get("lat"), entry.get("lon"))
-        plain = it.command == MAV_CMD_NAV_WAYPOINT and place[0] is not None and "params" not in entry
+        plain = (
+            it.command == MAV_CMD_NAV_WAYPOINT and place[0] is not None and "params" not in entry
+        )
         if plain and previous_plain is not None:
             here = (float(str(place[0])), float(str(place[1])))
             if _same_point(previous_plain, here):
@@ -228,7 +303,7 @@ def items_to_mission(
         mission = Mission.model_validate(data)
     except ValidationError as exc:
         raise FormatError(format_validation_error(source or "mission", exc, Mission)) from None
-    return Converted(mission, (), tuple(prefix + n for n in notes))
+    return Converted(mission, (), (*gcs.notes, *(prefix + n for n in notes)))
 
 
 CIRCLE_FENCE_VERTICES = 64
