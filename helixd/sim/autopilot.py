@@ -6,15 +6,26 @@ already armed / disarmed → ACCEPTED; PreArm failures → FAILED with "PreArm: 
 STATUSTEXT unless param2 = 21196 (force). Mode changes (Rover::set_mode, Mode::enter):
 position-requiring modes are refused while armed without a good EKF position or in EKF
 failsafe ("Flight mode change failed"); AUTO is refused without a mission.
+
+Home (``Rover::update_home``, ``Rover::set_home``, ``AP_AHRS::set_home``): set where the EKF
+puts the rover once it has an origin, then moved once a second while disarmed when the rover
+is more than 0.5 m (DISTANCE_HOME_MINCHANGE) from it, unless locked; MAV_CMD_DO_SET_HOME
+(``GCS_MAVLINK::handle_command_do_set_home``) sets it where the rover is (param1 = 1, or x/y
+both 0) or at param5/6, and locks it; every change says "Set HOME to …" and sends
+HOME_POSITION and GPS_GLOBAL_ORIGIN to every link. The payload commands (relays, camera,
+gripper, …) are :mod:`helixd.sim.payload`'s.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_HOME,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_DO_SET_SERVO,
     MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
@@ -30,6 +41,7 @@ from helixd.sim.estimator import EkfStatus
 from helixd.sim.failsafe import EkfHealth, FailsafeDecision, Failsafes
 from helixd.sim.outputs import MotorDemand, ServoOutputs
 from helixd.sim.params import ParamStore
+from helixd.sim.payload import PAYLOAD_COMMANDS, Payload
 from helixd.sim.rc import RcInputs
 
 FORCE_ARM_MAGIC = 21196
@@ -38,6 +50,17 @@ SEVERITY_CRITICAL = 2
 SEVERITY_WARNING = 4
 SEVERITY_INFO = 6
 FIRMWARE_TEXT = "ArduRover V4.7.0-dev (helixd sim)"
+DISTANCE_HOME_MINCHANGE_M = 0.5  # Rover/defines.h
+HOME_UPDATE_PERIOD_S = 1.0  # Rover::one_second_loop
+
+
+@dataclass(frozen=True, slots=True)
+class Home:
+    north_m: float  # of the EKF origin
+    east_m: float
+    lat_deg: float
+    lon_deg: float
+    locked: bool
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,6 +113,11 @@ class Autopilot:
         self.rc = RcInputs(self.pilot_rc_us)
         self.rc.receiver_ok = self.receiver_ok
         self.outputs = ServoOutputs()
+        self.payload = Payload()
+        self.home: Home | None = None
+        self.home_changed = False  # HOME_POSITION (and the origin) go to every link
+        self.here_ne: tuple[float, float] | None = None  # the EKF's position, once it has one
+        self._next_home_update_s = 0.0
         self.failsafes = Failsafes()
         self.mode_switch = modes.ModeSwitch()
         self.gcs_last_seen_s: float | None = None
@@ -228,14 +256,83 @@ class Autopilot:
         self.events.append(SimEvent("arm", {"forced": forced}))
         return MAV_RESULT_ACCEPTED
 
-    def command(self, command: int, p: Sequence[float], now_s: float, ekf: EkfStatus) -> int | None:
+    # -- home --------------------------------------------------------------------------------
+
+    def set_home(self, north_m: float, east_m: float, locked: bool, reason: str) -> None:
+        cfg = self.config
+        lat, lon = ne_to_latlon(north_m, east_m, cfg.origin_lat_deg, cfg.origin_lon_deg)
+        self.home = Home(north_m, east_m, lat, lon, locked)
+        self.home_changed = True
+        self._say(SEVERITY_INFO, f"Set HOME to {lat:.6f} {lon:.6f} at {cfg.origin_alt_m:.2f}m")
+        self.events.append(
+            SimEvent(
+                "home",
+                {"north_m": north_m, "east_m": east_m, "lat_deg": lat, "lon_deg": lon,
+                 "locked": locked, "reason": reason},
+            )
+        )  # fmt: skip
+
+    def observe_position(self, now_s: float, north_m: float, east_m: float, ok: bool) -> None:
+        """The EKF's position this loop (``ok``: it has one): home follows it while disarmed
+        (Rover::update_home, once a second), the payload's timers and distance trigger run."""
+        self.here_ne = (north_m, east_m) if ok else None
+        if ok and not self.armed and now_s >= self._next_home_update_s:
+            self._next_home_update_s = now_s + HOME_UPDATE_PERIOD_S
+            home = self.home
+            if home is None or (
+                not home.locked
+                and math.hypot(north_m - home.north_m, east_m - home.east_m)
+                >= DISTANCE_HOME_MINCHANGE_M
+            ):
+                self.set_home(north_m, east_m, locked=False, reason="update_home")
+        for ev in self.payload.update(now_s, self.params, self.outputs, self.here_ne or (0, 0)):
+            self.events.append(SimEvent(ev.kind, ev.details))
+
+    def do_set_home(self, p: Sequence[float], is_int: bool) -> int:
+        """GCS_MAVLINK::handle_command_do_set_home (COMMAND_LONG's location is converted to
+        COMMAND_INT's degE7 first, so x/y 0 means 0 either way)."""
+        x, y = p[4], p[5]
+        if p[0] == 1.0 or (x == 0.0 and y == 0.0):
+            if self.here_ne is None:
+                return MAV_RESULT_FAILED
+            self.set_home(*self.here_ne, locked=True, reason="DO_SET_HOME current")
+            return MAV_RESULT_ACCEPTED
+        if p[0] != 0.0:
+            return MAV_RESULT_FAILED
+        lat, lon = (x / 1e7, y / 1e7) if is_int else (x, y)
+        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+            return MAV_RESULT_DENIED
+        cfg = self.config
+        north, east = latlon_to_ne(lat, lon, cfg.origin_lat_deg, cfg.origin_lon_deg)
+        self.set_home(north, east, locked=True, reason="DO_SET_HOME location")
+        return MAV_RESULT_ACCEPTED
+
+    def command(
+        self,
+        command: int,
+        p: Sequence[float],
+        now_s: float,
+        ekf: EkfStatus,
+        is_int: bool = False,
+    ) -> int | None:
         """Vehicle-level COMMAND_LONG/INT; None = not handled here (the caller decides)."""
         if command == MAV_CMD_COMPONENT_ARM_DISARM:
             return self.arm_disarm(p[0], p[1], now_s, ekf)
         if command == MAV_CMD_DO_SET_MODE:
             return self.do_set_mode(int(p[0]), int(p[1]), now_s, ekf)
+        if command == MAV_CMD_DO_SET_HOME:
+            return self.do_set_home(p, is_int)
+        if command in PAYLOAD_COMMANDS:
+            result, events = self.payload.command(
+                command, list(p), self.params, self.outputs, self.here_ne or (0, 0), now_s
+            )
+            self.events.extend(SimEvent(ev.kind, ev.details) for ev in events)
+            return result
         if command == MAV_CMD_DO_SET_SERVO:
             text = self.outputs.do_set_servo(int(p[0]), int(p[1]), self.params)
+            repeat = self.payload.repeat
+            if text is None and repeat is not None and repeat.servo and repeat.channel == int(p[0]):
+                self.payload.repeat = None  # a DO_SET_SERVO cancels a repeat on its output
             if text is None:
                 self.events.append(
                     SimEvent("servo_set", {"channel": int(p[0]), "pwm_us": int(p[1])})

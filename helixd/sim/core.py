@@ -247,8 +247,23 @@ class SimCore:
         if contact is not None:
             self.events.append(SimEvent(*contact))
         self.est = estimator.step(self.est, self.dt_s(), self.config.noise_profile(), self.rng)
+        here = estimator.estimate(self.est, self.phys)
+        self.ap.observe_position(
+            now, here.north_m, here.east_m, self.ap.origin_set(now) and not self.ap.booting(now)
+        )
         self._collect()
         self.view = self._view(ekf, now)
+        if self.ap.home_changed and not self.ap.silent(now):
+            # AP_AHRS::set_home pushes MSG_HOME and MSG_ORIGIN; a push already pending this
+            # loop (the origin just set, sent below) goes out once (GCS_MAVLINK's bitmask)
+            self.ap.home_changed = False
+            pushed = [st.MSG_HOME_POSITION]
+            if self._origin_sent:
+                pushed.append(st.MSG_GPS_GLOBAL_ORIGIN)
+            for msg_id in pushed:
+                built = telemetry.build(msg_id, self.view)
+                if built is not None:
+                    self.send(None, built)
         self._mission_outcome(self.mission.update(now))
         self._telemetry(now)
 
@@ -307,6 +322,10 @@ class SimCore:
             origin_lon_deg=cfg.origin_lon_deg,
             origin_alt_m=cfg.origin_alt_m,
             sysid=ap.sysid(),
+            home=None
+            if ap.home is None
+            else (ap.home.lat_deg, ap.home.lon_deg, ap.home.north_m, ap.home.east_m),
+            relay_masks=ap.payload.relay_status(self.params),
         )
 
     def _telemetry(self, now: float) -> None:
