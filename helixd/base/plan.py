@@ -92,6 +92,7 @@ class Program:
     ending: str = ""  # why the mission ends where it does, when not simply at its last item
     never_ends: bool = False  # a jump repeated forever or a loiter without end
     notes: tuple[str, ...] = field(default=())
+    start_xy_m: tuple[float, float] = (0.0, 0.0)  # where the walk assumed the rover starts
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,6 +114,16 @@ class Plan:
         if self.program is None or not self.program.steps:
             return self.speed_mps
         return max(self.speed_mps, *(s.speed_mps for s in self.program.steps))
+
+    def assumed_start_xy_m(self) -> tuple[float, float]:
+        """Where an estimate without the rover's pose starts: the start the program was
+        resolved from, else waypoint 0 (a start-frame mission: the origin)."""
+        if self.frame is MissionFrameKind.START:
+            return (0.0, 0.0)
+        if self.program is not None:
+            return self.program.start_xy_m
+        first = self.waypoints[0]
+        return (first.x_m, first.y_m)
 
     def path_length_m(self, start_xy_m: tuple[float, float] = (0.0, 0.0)) -> float:
         """Length of the polyline start → wp1 → … → wpN (m)."""

@@ -163,8 +163,7 @@ def check(
     typer.echo(f"axes    : {axes} (metres)")
     # start frame: from the start point; ENU frames: from waypoint 0 (the start pose is not
     # known yet), as mission_problems() estimates it.
-    first = plan.waypoints[0]
-    start = (0.0, 0.0) if msn.frame is MissionFrameKind.START else (first.x_m, first.y_m)
+    start = plan.assumed_start_xy_m()
     if plan.program is not None:
         typer.echo("\n".join(program_lines(plan, cfg.control.max_yaw_rate_radps, start)))
     rows = [f"{'#':>3} {'x_m':>9} {'y_m':>9} {'tol_m':>6} {'heading_deg':>11}"]

@@ -585,7 +585,7 @@ def expand(
     never_ends = False
     jumps_before: dict[int, int] = {}
     while nav is not None:
-        forever = [i for i, n in walker.forever_taken.items() if n >= 2]
+        forever = [i for i, n in walker.forever_taken.items() if n >= 1]
         if forever:
             ending = f"item {forever[0]} DO_JUMP repeats forever: its loop is shown once"
             never_ends = True
@@ -641,6 +641,7 @@ def expand(
         ending=ending,
         never_ends=never_ends,
         notes=tuple(b.notes),
+        start_xy_m=ctx.start_xy_m,
     )
     return Expansion(b.waypoints, program, b.problems, b.notes)
 

@@ -19,6 +19,7 @@ from helixd.base.angles import wrap_pi
 from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan, PlanWaypoint
 from helixd.config import ControlConfig, MissionLimits
+from helixd.mission.commands import FLY_ROLES
 from helixd.mission.expand import DEFAULT_OPTIONS, Context, ExpandOptions, expand
 from helixd.mission.model import Mission, WaypointSpec
 
@@ -141,7 +142,7 @@ def resolve(
             latlons.append(None)
             continue
         xy = frame.xy(*pos)
-        if wp.spec.nav:
+        if wp.spec.role in FLY_ROLES:
             _check_range(xy, limits, f"waypoints.{i} (item {i + 1})")
         places.append(xy)
         latlons.append(pos if mission.frame is MissionFrameKind.GLOBAL else None)

@@ -119,8 +119,7 @@ def _time_problems(plan: Plan, cfg: HelixdConfig, start: NedPose | None) -> list
         start_xy = (start.east_m, start.north_m)
         note = ""
     else:
-        first = plan.waypoints[0]
-        start_xy = (first.x_m, first.y_m)
+        start_xy = plan.assumed_start_xy_m()
         note = " from waypoint 0"
     eta = plan.estimated_time_s(cfg.control.max_yaw_rate_radps, start_xy)
     if not math.isfinite(eta) or eta > limit:

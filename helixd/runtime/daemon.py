@@ -456,9 +456,7 @@ class MissionRunner:
             log.info("mission_note", note=note)
         return resolved.plan
 
-    async def _home(
-        self, ap: Autopilot, origin: tuple[float, float] | None
-    ) -> HomePosition | None:
+    async def _home(self, ap: Autopilot, origin: tuple[float, float] | None) -> HomePosition | None:
         """The autopilot's home, for a mission with commands (NAV_RETURN_TO_LAUNCH)."""
         if not self.opts.mission.has_commands():
             return None

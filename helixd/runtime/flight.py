@@ -239,9 +239,9 @@ class FlightLoop:
                         )
                         return FlightResult(fault, now, out, sample.ned)
                     out = step.nav
+                    self._report(sample, step, now, t_start)  # arrivals before what follows
                     if seq_out is not None:
                         self._apply(seq_out)
-                    self._report(sample, step, now, t_start)
                 except ActuatorError as exc:  # e.g. a DO_SET_SERVO refused mid-mission: a fault
                     fault = Fault(FaultCause.ACTUATOR, str(exc))
                     return FlightResult(fault, now, out, pose.ned if pose else None)

@@ -19,7 +19,9 @@ from helixd.config import HelixdConfig
 from helixd.mission import Mission, MissionFrameKind
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import GcsMission, fence_has_keep_outs, fence_ne
+from helixd.mission.formats.items import keep_out_problems
 from helixd.mission.resume import RunInputs, fresh_inputs
+from helixd.mission.validate import plan_for_check
 from helixd.planning import (
     KeepOutCircle,
     MapFileError,
@@ -60,7 +62,12 @@ def plan_loaded(
     whose exclusion zones a global mission is planned around; refusals exit 2."""
     try:
         if msn.frame is MissionFrameKind.GLOBAL and cfg.planning.enabled:
-            return plan_global(cfg, msn, fence, occupancy)
+            planned, route = plan_global(cfg, msn, fence, occupancy)
+            if route is not None and planned.has_commands() and fence is not None:
+                unplanned = unplanned_leg_problems(planned, cfg, fence)
+                if unplanned:
+                    raise InputsRefused([f"{path}: {p}" for p in unplanned])
+            return planned, route
         if not planning_wanted(cfg, occupancy):
             return msn, None
         return plan_mission(msn, cfg, occupancy)
@@ -68,6 +75,28 @@ def plan_loaded(
         raise InputsRefused([f"{path}: {p}" for p in exc.problems]) from None
     except (MapFileError, ObstacleError) as exc:
         raise InputsRefused([str(exc)]) from None
+
+
+def unplanned_leg_problems(planned: Mission, cfg: HelixdConfig, fence: GcsMission) -> list[str]:
+    """The legs of a mission with commands that planning does not route (a return home, the
+    leg after a jump) checked against the fence's exclusion zones, with home where the
+    mission's file put it: such a leg through a zone is refused (planning routes only the legs
+    from one place to the next in the list)."""
+    plan, _ = plan_for_check(planned, cfg)
+    origin = planned.points()[0]
+    pts = [ne_to_latlon(w.y_m, w.x_m, *origin) for w in plan.waypoints]
+    labels = [f"plan waypoint {i}" for i in range(len(pts))]
+    program = plan.program
+    if program is not None:
+        for step in program.steps:
+            if step.first_waypoint is not None and step.last_waypoint is not None:
+                for i in range(step.first_waypoint, step.last_waypoint + 1):
+                    labels[i] = f"item {step.item} ({step.text.split(' (')[0][:40]})"
+    why = "(a return or the leg after a jump is not planned around obstacles: add waypoints)"
+    return [
+        p.replace("(helixd flies straight legs)", why)
+        for p in keep_out_problems(fence, pts, labels, legs=True)
+    ]
 
 
 def plan_global(

@@ -8,6 +8,7 @@ Ground-station files carry no motion mode: it comes from ``--mode`` or the confi
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -21,10 +22,12 @@ from helixd.files.yamlio import YamlFileError, read_text_capped
 from helixd.mission.formats.items import (
     Converted,
     FenceNe,
+    FencePolygon,
     FormatError,
     GcsMission,
     MissionItem,
     ObstacleCircle,
+    check_latlon,
     circle_polygon,
     fence_ne,
     items_to_mission,
@@ -81,6 +84,66 @@ def sniff_format(path: Path) -> MissionFormat:
     return fmt
 
 
+def _old_text_kind(path: Path) -> str | None:
+    """A ``.txt`` that is neither WPL nor YAML but MAVProxy's older formats: "rally" (lines
+    ``RALLY lat lon …``) or "fence" (lines ``lat lon``: the return point, then a polygon)."""
+    if path.suffix.lower() != ".txt":
+        return None
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(4096).removeprefix(b"\xef\xbb\xbf").decode("utf-8", "replace")
+    except OSError:
+        return None
+    lines = [ln.split() for ln in head.splitlines() if ln.strip() and not ln.startswith("#")]
+    if not lines:
+        return None
+    if lines[0][0].upper() == "RALLY":
+        return "rally"
+    try:
+        if all(len(ln) == 2 and all(math.isfinite(float(v)) for v in ln) for ln in lines[:20]):
+            return "fence"
+    except ValueError:
+        return None
+    return None
+
+
+def parse_point_fence_text(text: str, source: Path | str) -> GcsMission:
+    """MAVProxy's older polygon fence (``fence load`` of a lat/lon list, the one ArduPilot's
+    autotest still carries): the first point is the return point, the rest one inclusion
+    polygon (its closing repeat of the first vertex dropped)."""
+    src = str(source)
+    pts: list[tuple[float, float]] = []
+    problems: list[str] = []
+    for n, line in enumerate(text.splitlines(), start=1):
+        cols = line.split()
+        if not cols or line.startswith("#"):
+            continue
+        try:
+            if len(cols) != 2:
+                raise ValueError
+            lat, lon = float(cols[0]), float(cols[1])
+        except ValueError:
+            problems.append(f"{src}: line {n}: expected 'latitude longitude'")
+            continue
+        bad = check_latlon(f"{src}: line {n}", lat, lon)
+        if bad:
+            problems.extend(bad)
+            continue
+        pts.append((lat, lon))
+    if problems:
+        raise FormatError(problems[:20])
+    polygon = pts[1:]
+    if len(polygon) > 1 and polygon[0] == polygon[-1]:
+        polygon = polygon[:-1]
+    if len(polygon) < 3:
+        raise FormatError([f"{src}: a return point and at least 3 polygon vertices are needed"])
+    return GcsMission(
+        items=(),
+        polygons=(FencePolygon(tuple(polygon), inclusion=True),),
+        notes=(f"{src}: line 1: fence return point {pts[0]} not kept",),
+    )
+
+
 def read_gcs(path: Path) -> GcsMission:
     """A .plan or .waypoints file's items and fences (no conversion)."""
     fmt = sniff_format(path)
@@ -120,6 +183,23 @@ def load_mission_file(
     ``route_keep_outs``: legs through a .plan's exclusion zones are planned around
     (helixd.planning), not refused (see :func:`items_to_mission`)."""
     fmt = sniff_format(path)
+    old = _old_text_kind(path) if fmt is MissionFormat.YAML else None
+    if old == "fence":
+        raise ConfigFileError(
+            path,
+            [
+                f"{path}: a fence file (MAVProxy's lat/lon list: return point, then a polygon), "
+                f"not a mission: give it with --fence {path}"
+            ],
+        )
+    if old == "rally":
+        raise ConfigFileError(
+            path,
+            [
+                f"{path}: rally points (RALLY lines), not a mission: helixd flies missions; its "
+                "NAV_RETURN_TO_LAUNCH goes to the autopilot's home, not to rally points"
+            ],
+        )
     if fmt is MissionFormat.YAML:
         msn = load_mission(path, limits)
         if mode is not None and mode is not msn.mode:
@@ -233,11 +313,14 @@ def read_fence(path: Path) -> GcsMission:
         fence = GcsMission(items=(), polygons=gcs.polygons, circles=gcs.circles)
     elif fmt is MissionFormat.WAYPOINTS:
         fence = parse_wpl_fence_text(text, path)
+    elif _old_text_kind(path) == "fence":
+        fence = parse_point_fence_text(text, path)
     else:
         raise FormatError(
             [
-                f"{path}: a fence is a .plan (its geoFence) or a Mission Planner fence file "
-                "(.waypoints/.txt, QGC WPL 110 with commands 5000-5004)"
+                f"{path}: a fence is a .plan (its geoFence), a Mission Planner fence file "
+                "(.waypoints/.txt, QGC WPL 110 with commands 5000-5004) or MAVProxy's lat/lon "
+                "list (.txt)"
             ]
         )
     if not fence.polygons and not fence.circles:

@@ -27,12 +27,15 @@ from helixd.mav.constants import (
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL_RELATIVE_ALT,
 )
-from helixd.mission.commands import MAX_PARAMS, command_spec
+from helixd.mission.commands import MAX_PARAMS, command_name, command_spec
 from helixd.mission.model import Mission, MissionFrameKind, MotionMode, WaypointSpec
 
 # Frames whose x/y are a latitude/longitude (MAV_FRAME_GLOBAL, _RELATIVE_ALT, _INT,
 # _RELATIVE_ALT_INT, _TERRAIN_ALT, _TERRAIN_ALT_INT); the altitude means nothing to a rover.
 GLOBAL_FRAMES = frozenset({0, 3, 5, 6, 10, 11})
+# AP_Mission::mavlink_int_to_mission_cmd also reads a place in MAV_FRAME_MISSION (2) as
+# lat/lon (absolute altitude)
+PLACE_FRAMES = GLOBAL_FRAMES | {2}
 MAX_ITEMS = 100_000  # as many as a helixd YAML mission may hold in practice
 
 
@@ -202,11 +205,11 @@ def item_entry(it: MissionItem) -> tuple[dict[str, object] | None, list[str]]:
     if spec.has_place:
         here = it.x == 0.0 and it.y == 0.0
         if not here:
-            if it.frame not in GLOBAL_FRAMES:
+            if it.frame not in PLACE_FRAMES:
                 return None, [
                     f"{label}: {spec.name} in frame {it.frame}: ArduPilot refuses the frame "
-                    f"(MAV_MISSION_UNSUPPORTED_FRAME; global lat/lon frames are "
-                    f"{sorted(GLOBAL_FRAMES)})"
+                    f"(MAV_MISSION_UNSUPPORTED_FRAME; lat/lon frames are "
+                    f"{sorted(PLACE_FRAMES)})"
                 ]
             bad = check_latlon(label, it.x, it.y)
             if bad:
@@ -274,7 +277,16 @@ def items_to_mission(
     if points:
         problems.extend(keep_out_problems(gcs, points, labels, legs=not route_keep_outs))
     if not points and not problems:
-        problems.append("no item with a latitude/longitude to go to: nothing to fly")
+        navs = [
+            f"{_label(it)} {command_name(it.command)}"
+            for it in gcs.items
+            if command_spec(it.command).nav
+        ]
+        problems.append(
+            "no item with a latitude/longitude to go to"
+            + (f" ({', '.join(navs[:5])}: none drives anywhere)" if navs else "")
+            + ": nothing to fly"
+        )
     if problems:
         raise FormatError([prefix + p for p in problems[:20]] + _more(problems, 20, prefix))
     fence: tuple[tuple[float, float], ...] = ()

@@ -34,8 +34,8 @@ from helixd.mav.constants import (
     MAV_MISSION_TYPE_MISSION,
 )
 from helixd.mav.mission_item import WireItem
+from helixd.mission.commands import PLACE_COMMANDS
 from helixd.mission.formats.items import (
-    GLOBAL_FRAMES,
     FenceCircle,
     FencePolygon,
     FenceRow,
@@ -98,7 +98,7 @@ def _label(it: MissionItem) -> str:
 
 def _mission_item(it: MissionItem, seq: int) -> WireItem:
     where = _label(it)
-    if it.frame in GLOBAL_FRAMES:
+    if it.command in PLACE_COMMANDS:  # AP_Mission::cmd_has_location: x/y are lat/lon
         x, y = _deg_e7(it.x, where), _deg_e7(it.y, where)
     else:
         x, y = _raw_int(it.x, where), _raw_int(it.y, where)
@@ -124,7 +124,7 @@ def _home(gcs: GcsMission) -> tuple[float, float]:
     if gcs.home_latlon_deg is not None:
         return gcs.home_latlon_deg
     for it in gcs.items:
-        if it.frame in GLOBAL_FRAMES and not check_latlon("", it.x, it.y):
+        if it.command in PLACE_COMMANDS and not check_latlon("", it.x, it.y):
             return (it.x, it.y)
     raise FormatError(["no home position and no item with a latitude/longitude to stand for it"])
 
@@ -192,7 +192,7 @@ def _wire_latlon(it: WireItem) -> tuple[float, float]:
 
 
 def _from_wire(it: WireItem) -> MissionItem:
-    if it.frame in GLOBAL_FRAMES:
+    if it.command in PLACE_COMMANDS:
         x, y = _wire_latlon(it)
     else:
         x, y = float(it.x), float(it.y)
