@@ -21,7 +21,7 @@ from typing import Protocol
 import structlog
 
 from helixd.base.plan import MissionAction
-from helixd.link.commands import CommandError, CommandRejected
+from helixd.link.commands import CommandError, CommandRejected, result_name
 from helixd.mission.commands import command_name
 
 log = structlog.get_logger(__name__)
@@ -97,9 +97,7 @@ class MissionCommands:
         name = command_name(action.command)
         try:
             result = await self._sender.command_long(action.command, action.params)
-            accepted, text = True, f"MAV_RESULT {result} (accepted)"
-            if result == 0:
-                text = "MAV_RESULT_ACCEPTED"
+            accepted, text = True, result_name(result)
         except CommandRejected as exc:
             accepted, text = False, str(exc)
         except CommandError as exc:

@@ -4,6 +4,7 @@ backwards — and without a program nothing changes."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
@@ -65,7 +66,7 @@ def test_set_speed_changes_the_cruise_from_the_next_step() -> None:
     nav.set_speed(0.25)
     slow = run(nav, plant, 10.0)
     assert slow[-1][1] == pytest.approx(0.25, abs=1e-6)  # braked with the accel limit
-    assert all(b[1] <= a[1] + 1e-9 for a, b in zip(slow, slow[1:], strict=False))
+    assert all(b[1] <= a[1] + 1e-9 for a, b in itertools.pairwise(slow))
     with pytest.raises(ValueError):
         nav.set_speed(0.7)  # above the program's peak
 

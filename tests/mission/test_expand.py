@@ -28,7 +28,12 @@ def flown(
     *entries: dict[str, Any], options: ExpandOptions | None = None, where: Where | None = None
 ) -> Resolved:
     return resolve(
-        mission(*entries), CFG.control, CFG.mission, None, where or Where(), options or ExpandOptions()
+        mission(*entries),
+        CFG.control,
+        CFG.mission,
+        None,
+        where or Where(),
+        options or ExpandOptions(),
     )
 
 

@@ -61,7 +61,7 @@ def test_a_bad_entry_is_one_clear_error(entry: dict[str, Any], words: str) -> No
 def test_navigation_without_coordinates_stays_where_it_is() -> None:
     m = mission({"x": 1, "y": 0}, {"command": "NAV_WAYPOINT", "hold_s": 10}, {"x": 1, "y": 0})
     assert m.points() == [(1.0, 0.0), (1.0, 0.0)]  # a hold between: the repeat is fine
-    with pytest.raises(ValidationError, match="same point as waypoints.0"):
+    with pytest.raises(ValidationError, match=r"same point as waypoints\.0"):
         mission({"x": 1, "y": 0}, {"x": 1, "y": 0})
     with pytest.raises(ValidationError, match="no entry has a place to go"):
         mission({"command": "NAV_RETURN_TO_LAUNCH"})

@@ -132,7 +132,7 @@ def test_home_is_where_the_rover_is_and_follows_it_while_disarmed() -> None:
     out = run(c, 2.0)
     (pushed,) = of_type(out, "HOME_POSITION", 0)  # AP_AHRS::set_home pushes it
     assert (pushed.x, pushed.y) == pytest.approx((3.0, -2.0), abs=0.01)
-    lat, lon, n, e = home_position(c)
+    _, _, n, e = home_position(c)
     assert (n, e) == pytest.approx((3.0, -2.0), abs=0.01)
     assert any("Set HOME to" in str(d["text"]) for d in kinds(c, "statustext"))
 

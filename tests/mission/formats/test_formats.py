@@ -318,9 +318,7 @@ def test_other_suffixes_are_helixd_yaml_as_before(tmp_path: Path) -> None:
     txt.write_text(legacy.read_text())
     assert load_mission_file(txt).format is MissionFormat.YAML
     txt.write_text(WPL.read_text())
-    assert load_mission_file(txt, mode=SCROLL).format is (
-        MissionFormat.WAYPOINTS
-    )
+    assert load_mission_file(txt, mode=SCROLL).format is (MissionFormat.WAYPOINTS)
     with pytest.raises(ConfigFileError, match="not valid YAML"):
         bad = tmp_path / "x.kml"
         bad.write_text("<kml>: [")
