@@ -64,6 +64,9 @@ class SimSnapshot:
     fence_items: tuple[StoredItem, ...] = ()
     rally_items: tuple[StoredItem, ...] = ()
     mission_current_seq: int = 0
+    home_ne_m: tuple[float, float] | None = None  # the autopilot's home (None: not set)
+    relays_on: tuple[int, ...] = ()  # relay instances switched on (0 = RELAY1)
+    pictures: int = 0  # camera pictures taken (CAM1_TYPE set)
 
     def describe(self) -> str:
         return (
@@ -134,6 +137,9 @@ def take_snapshot(core: SimCore) -> SimSnapshot:
         fence_items=core.mission.stored(MAV_MISSION_TYPE_FENCE),
         rally_items=core.mission.stored(MAV_MISSION_TYPE_RALLY),
         mission_current_seq=core.mission.current_seq,
+        home_ne_m=None if ap.home is None else (ap.home.north_m, ap.home.east_m),
+        relays_on=tuple(sorted(i for i, on in ap.payload.relays.items() if on)),
+        pictures=ap.payload.pictures,
     )
 
 
