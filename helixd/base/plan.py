@@ -92,7 +92,8 @@ class Program:
     ending: str = ""  # why the mission ends where it does, when not simply at its last item
     never_ends: bool = False  # a jump repeated forever or a loiter without end
     notes: tuple[str, ...] = field(default=())
-    start_xy_m: tuple[float, float] = (0.0, 0.0)  # where the walk assumed the rover starts
+    # where the walk assumed the rover starts (None: not known, the estimate starts at wp 0)
+    start_xy_m: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -120,7 +121,7 @@ class Plan:
         resolved from, else waypoint 0 (a start-frame mission: the origin)."""
         if self.frame is MissionFrameKind.START:
             return (0.0, 0.0)
-        if self.program is not None:
+        if self.program is not None and self.program.start_xy_m is not None:
             return self.program.start_xy_m
         first = self.waypoints[0]
         return (first.x_m, first.y_m)

@@ -96,7 +96,7 @@ class Context:
     min_speed_mps: float
     max_speed_mps: float
     tolerance_m: float  # the mission's default arrival radius
-    start_xy_m: XY  # where the rover is when the mission starts
+    start_xy_m: XY | None  # where the rover is when the mission starts (None: not known)
     home_xy_m: XY  # where NAV_RETURN_TO_LAUNCH goes until a DO_SET_HOME moves it
     global_frame: bool  # lat/lon mission: DO_SET_HOME with a place can be sent
 
@@ -310,7 +310,7 @@ class _Builder:
         self.problems: list[str] = []
         self.notes: list[str] = []
         self.noted: set[tuple[int, str]] = set()
-        self.here: XY = ctx.start_xy_m
+        self.here: XY | None = ctx.start_xy_m  # None: not known yet (check, ENU mission)
         self.home: XY = ctx.home_xy_m
         self.speed = ctx.speed_mps
 
@@ -407,11 +407,14 @@ class _Builder:
             return (p[0], p[1], p[2], p[3], lat, lon, z)
         return (p[0], p[1], p[2], p[3], p[4], p[5], z)
 
+    def where_here(self) -> str:
+        return "the start" if self.here is None else _fmt_xy(self.here)
+
     def set_home(self, c: _Cmd) -> MissionAction:
         current = stored_whole(c.p(0)) == 1
-        text = f"{c.name}: home where the rover is {_fmt_xy(self.here)}"
+        text = f"{c.name}: home where the rover is ({self.where_here()})"
         if current:
-            self.home = self.here
+            self.home = self.here if self.here is not None else self.home
         elif c.xy is None:
             self.problem(
                 c,
@@ -454,7 +457,7 @@ class _Builder:
 
     def go(self, wp: WaypointSpec, xy: XY, stop: bool) -> tuple[int, int] | None:
         """Add a plan waypoint to ``xy`` (none when the rover is already there)."""
-        if math.dist(xy, self.here) < SAME_PLACE_M:
+        if self.here is not None and math.dist(xy, self.here) < SAME_PLACE_M:
             if stop:
                 self.stop_here()
             return None
@@ -495,7 +498,7 @@ class _Builder:
             forever = role is Role.LOITER_UNLIM
             stop = hold > 0.0 or role is not Role.WAYPOINT
             if c.xy is None:
-                where = f"stays where it is {_fmt_xy(self.here)}"
+                where = f"stays where it is ({self.where_here()})"
                 if stop:
                     self.stop_here()
             else:
@@ -512,10 +515,10 @@ class _Builder:
             where = f"→ home {_fmt_xy(self.home)}"
         elif role is Role.LOITER_TURNS:
             turns, radius, ccw = loiter_turns(wp)
-            centre = c.xy if c.xy is not None else self.here
+            centre = c.xy if c.xy is not None else (self.here or self.home)
             where = f"{turns:g} turns, radius {radius:g} m around {_fmt_xy(centre)}"
             if turns > 0.0:
-                pts = _circle(centre, radius, turns, ccw, self.here)
+                pts = _circle(centre, radius, turns, ccw, self.here or centre)
                 begin = len(self.waypoints)
                 for xy in pts:
                     self.go(wp, xy, False)

@@ -147,13 +147,12 @@ def resolve(
         places.append(xy)
         latlons.append(pos if mission.frame is MissionFrameKind.GLOBAL else None)
     first = frame.xy(*mission.points()[0])
-    if mission.frame is MissionFrameKind.START:
-        start = where.start_xy_m or (0.0, 0.0)
-    else:
-        start = where.start_xy_m or first
+    start = where.start_xy_m
+    if mission.frame is MissionFrameKind.START and start is None:
+        start = (0.0, 0.0)  # the frame's origin is the start, by definition
     home = where.home_xy_m
     if home is None:
-        home = frame.xy(*mission.home) if mission.home is not None else start
+        home = frame.xy(*mission.home) if mission.home is not None else (start or first)
     _check_range(home, limits, "home")
 
     def waypoint_for(wp: WaypointSpec, xy: XY, stop: bool) -> PlanWaypoint:

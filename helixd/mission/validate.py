@@ -25,7 +25,7 @@ from helixd.config import HelixdConfig
 from helixd.mission.commands import SERVO_COMMANDS, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission, MissionFrameKind
-from helixd.mission.plan import Plan, PlanError, Resolved, resolve, resolve_plan
+from helixd.mission.plan import NOWHERE, Plan, PlanError, Resolved, Where, resolve, resolve_plan
 
 MAX_LISTED = 5  # offending waypoints named one by one; the rest are counted
 
@@ -296,6 +296,7 @@ def mission_problems(
     origin_latlon_deg: tuple[float, float] | None = None,
     checked_plan: tuple[Plan, bool] | None = None,
     options: ExpandOptions = DEFAULT_OPTIONS,
+    where: Where = NOWHERE,
 ) -> list[str]:
     """Everything that would make ``helixd run`` refuse or abort this mission with this
     config; one line per problem naming the field or waypoint and the allowed range.
@@ -306,8 +307,11 @@ def mission_problems(
             plan, provisional = checked_plan
         elif mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
             plan = resolve_plan(
-                mission, cfg.control, cfg.mission, origin_latlon_deg, options=options
+                mission, cfg.control, cfg.mission, origin_latlon_deg, where, options
             )
+            provisional = False
+        elif where is not NOWHERE:
+            plan = resolve_plan(mission, cfg.control, cfg.mission, None, where, options)
             provisional = False
         else:
             plan, provisional = plan_for_check(mission, cfg, options)

@@ -294,6 +294,7 @@ class MissionRunner:
             self.cfg.gcs_report
         )  # what the ground station sees (helixd.runtime.gcs_feed)
         self._waypoints_total: int | None = None  # the plan's (a program expands the mission)
+        self._where = Where()  # a program's start and home, as preflight resolved it
 
     # -- helpers ------------------------------------------------------------------------------
 
@@ -407,6 +408,7 @@ class MissionRunner:
             start_ned=pose,
             origin_latlon_deg=origin,
             options=self.opts.options,
+            where=self._where,
         )
         if refused:
             raise PreflightFailed(refused)
@@ -436,6 +438,7 @@ class MissionRunner:
                 at = frame.to_mission(home_ned)
                 home_xy = (at.x_m, at.y_m)
             where = Where(start_xy_m=(here.x_m, here.y_m), home_xy_m=home_xy)
+        self._where = where
         resolved = resolve(
             msn, self.cfg.control, self.cfg.mission, origin, where, self.opts.options
         )
@@ -663,7 +666,11 @@ class MissionRunner:
         if now is not None and now != checked.start_ned:
             # The rover may have been moved while the start gate waited: check again from here.
             moved = mission_problems(
-                self.opts.mission, self.cfg, start_ned=now, origin_latlon_deg=checked.origin
+                self.opts.mission,
+                self.cfg,
+                start_ned=now,
+                origin_latlon_deg=checked.origin,
+                options=self.opts.options,
             )
             if moved:
                 fault = Fault(FaultCause.PREFLIGHT, "from the pose at arming: " + "; ".join(moved))
