@@ -142,7 +142,7 @@ def fetch_autopilot_mission(
     )
     typer.echo(
         f"mission : {source}: {out.items} mission items, {out.fence_shapes} fence shapes "
-        f"→ {len(out.mission.waypoints)} waypoints ({out.mission.mode.value})",
+        f"→ {len(out.mission.points())} places ({out.mission.mode.value})",
         err=True,
     )
     return out

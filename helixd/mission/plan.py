@@ -19,6 +19,7 @@ from helixd.base.angles import wrap_pi
 from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan, PlanWaypoint
 from helixd.config import ControlConfig, MissionLimits
+from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH
 from helixd.mission.commands import FLY_ROLES
 from helixd.mission.expand import DEFAULT_OPTIONS, Context, ExpandOptions, expand
 from helixd.mission.model import Mission, WaypointSpec
@@ -189,7 +190,18 @@ def resolve(
         speed,
         program=got.program,
     )
-    return Resolved(plan, tuple(got.problems), tuple(got.notes))
+    notes = list(got.notes)
+    returns = any(s.command == MAV_CMD_NAV_RETURN_TO_LAUNCH for s in got.program.steps)
+    if returns and where.home_xy_m is None:
+        if mission.home is not None:
+            said = "the mission's home"
+        else:
+            said = "the start" if start is not None else "the first place (the start is not known)"
+        notes.append(
+            f"NAV_RETURN_TO_LAUNCH shown going to {said}; a run returns to the autopilot's own "
+            "home (HOME_POSITION, where it was armed)"
+        )
+    return Resolved(plan, tuple(got.problems), tuple(notes))
 
 
 __all__ = ["Plan", "PlanError", "PlanWaypoint", "Resolved", "Where", "resolve", "resolve_plan"]

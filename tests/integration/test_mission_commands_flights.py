@@ -166,9 +166,7 @@ def test_speed_changes_hold_jump_servo_and_return_home(tmp_path: Path) -> None:
     # the run's record: every payload command sent with its answer, the steps in order
     events = [json.loads(ln) for ln in (run_dir / "events.jsonl").read_text().splitlines()]
     sent = [e for e in events if e["event"] == "mission_command"]
-    assert [(e["item"], e["command"], e["accepted"]) for e in sent] == [
-        (4, "DO_SET_SERVO", True)
-    ]
+    assert [(e["item"], e["command"], e["accepted"]) for e in sent] == [(4, "DO_SET_SERVO", True)]
     started = [e["item"] for e in events if e.get("kind") == "step_started"]
     assert started == [1, 3, 5, 7, 8, 7, 8, 10]
     summary = json.loads((run_dir / "summary.json").read_text())
