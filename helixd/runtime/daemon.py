@@ -48,7 +48,7 @@ from helixd.link.tlog import attach_tlog
 from helixd.link.vehicle import HomePosition, TelemetryBounds
 from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError
-from helixd.mission.commands import command_name
+from helixd.mission.commands import SERVO_COMMANDS, command_name, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.plan import Where, resolve
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
@@ -75,6 +75,12 @@ from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause, pose_inv
 
 log = structlog.get_logger(__name__)
 T = TypeVar("T")
+
+# AP_ServoRelayEvents::do_set_servo: the output functions a servo command may move (none,
+# manual, sprayer pump/spinner, gripper, RCIN1..16 passthrough, RCIN1..16 mapped)
+RCIN_FUNCTION_BASE = 50
+RCIN_FUNCTIONS_FIRST = 51
+SERVO_SETTABLE_FUNCTIONS = frozenset({0, 1, 22, 23, 28, *range(51, 67), *range(140, 156)})
 
 
 class PreflightFailed(Exception):
@@ -359,6 +365,7 @@ class MissionRunner:
                     f"(MODE_CH = {int(mode_ch)}): flipping it would change the mode; use another "
                     "channel"
                 )
+        problems += await self._servo_outputs(ap)
         pose = await self._fresh_pose(ap)
         invalid = self._pose_invalid_too_long(ap)
         if pose is None and invalid is not None:
@@ -458,6 +465,39 @@ class MissionRunner:
         for note in resolved.notes:
             log.info("mission_note", note=note)
         return resolved.plan
+
+    async def _servo_outputs(self, ap: Autopilot) -> list[str]:
+        """The mission's servo commands against the outputs' SERVOn_FUNCTION: ArduPilot
+        refuses one on an output with another function ("Channel N is already in use"), and
+        one on an output that passes a scroll's RC channel through (RC-override backend) would
+        latch that scroll (``helixd check`` caught the same channel numbers already)."""
+        out: list[str] = []
+        scroll_rc = {c.channel: k for k, c in enumerate(self.cfg.actuation.channels)}
+        rc_backend = self.cfg.actuation.backend is ActuationBackend.RC_OVERRIDE
+        for n, wp in enumerate(self.opts.mission.waypoints, start=1):
+            if wp.command not in SERVO_COMMANDS:
+                continue
+            output = stored_whole(wp.param(0))
+            function = await ap.param.get(f"SERVO{output}_FUNCTION")
+            if function is None:
+                out.append(f"item {n} {wp.name}: the autopilot has no output {output}")
+                continue
+            f = int(function)
+            passthrough = f - RCIN_FUNCTION_BASE if RCIN_FUNCTIONS_FIRST <= f <= 66 else None
+            if rc_backend and passthrough in scroll_rc:
+                k = scroll_rc[passthrough]
+                out.append(
+                    f"item {n} {wp.name}: output {output} passes RC{passthrough} through "
+                    f"(SERVO{output}_FUNCTION = {f}), which drives scroll {k + 1}: a latched "
+                    "servo command would hold that scroll"
+                )
+            elif f not in SERVO_SETTABLE_FUNCTIONS:
+                out.append(
+                    f"item {n} {wp.name}: the autopilot refuses it on output {output} "
+                    f"(SERVO{output}_FUNCTION = {f}: 'ServoRelayEvent: Channel {output} is "
+                    "already in use'); give the output function 0"
+                )
+        return out
 
     async def _home(self, ap: Autopilot, origin: tuple[float, float] | None) -> HomePosition | None:
         """The autopilot's home, for a mission with commands (NAV_RETURN_TO_LAUNCH)."""
