@@ -237,3 +237,29 @@ def test_ardupilots_camera_mission_triggers_the_camera_by_distance(tmp_path: Pat
     # 65 m at 2 m, then about 100 m at 5 m: the camera's own count
     print(f"pictures taken: {snap.pictures}")
     assert 45 <= snap.pictures <= 60
+
+
+def test_a_servo_command_on_a_scroll_passthrough_is_refused_before_arming(tmp_path: Path) -> None:
+    """Output 5 passes RC1 through (SERVO5_FUNCTION 51), and RC1 drives scroll 1: `check`
+    cannot know the autopilot's functions, preflight reads them and refuses (exit 3, nothing
+    armed), naming item, output and function; the servo is never touched."""
+    path = tmp_path / "servo.yaml"
+    mission = {
+        "name": "servo",
+        "mode": "roll",
+        "frame": "start",
+        "waypoints": [
+            {"x": 3, "y": 0},
+            {"command": "DO_SET_SERVO", "channel": 5, "pwm_us": 1900},
+            {"x": 6, "y": 0},
+        ],
+    }
+    path.write_text(yaml.safe_dump(mission))
+    with sim_and_daemon(tmp_path, path, params={"SERVO5_FUNCTION": 51}) as (server, d):
+        code = d.wait_exit(60.0)
+        log = d.log_text()
+        snap = server.snapshot()
+        servo_sets = server.history.entries("servo_set")
+    assert code == ExitCode.PREFLIGHT, log[-3000:]
+    assert "item 2 DO_SET_SERVO: output 5 passes RC1 through (SERVO5_FUNCTION = 51)" in log
+    assert not snap.armed and servo_sets == []
