@@ -9,18 +9,18 @@ from __future__ import annotations
 import json
 import math
 import statistics
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 import yaml
 
 from helixd.base.exitcodes import ExitCode
-from helixd.sim.snapshot import SimSnapshot
+from helixd.sim.snapshot import HistoryEntry
 from tests.support.harness import (
+    NEUTRAL_TOLERANCE_US,
+    NEUTRAL_US,
     Trace,
     record_until,
-    scrolls_neutral,
     secured,
     sim_and_daemon,
 )
@@ -28,7 +28,8 @@ from tests.support.paths import DATA_DIR
 
 pytestmark = pytest.mark.integration
 
-SPEEDUP = 8.0
+SPEEDUP = 5.0
+RUN_DOWN_S = 1.0  # the motors' lag (and the last override in flight) after neutral
 SERVO = 9  # a servo output that drives no scroll (SERVO9_FUNCTION 0)
 
 # items, numbered as a ground station numbers them (1 = the first entry)
@@ -44,7 +45,7 @@ MISSION = {
         {"x": 2, "y": 8},  # 5  still 0.3 m/s
         {"command": "DO_CHANGE_SPEED", "speed_mps": 0.5},  # 6
         {"x": 2, "y": 2},  # 7  0.5 m/s
-        {"x": 6, "y": 2},  # 8
+        {"x": 8, "y": 2},  # 8
         {"command": "DO_JUMP", "item": 7, "repeat": 1},  # 9  back to 7 once: 7, 8 twice
         {"command": "NAV_RETURN_TO_LAUNCH"},  # 10 to the autopilot's home
     ],
@@ -55,15 +56,15 @@ LEGS = [
     ((10, 0), (10, 8), 0.3),
     ((10, 8), (2, 8), 0.3),
     ((2, 8), (2, 2), 0.5),
-    ((2, 2), (6, 2), 0.5),
-    ((6, 2), (2, 2), 0.5),
-    ((6, 2), (0, 0), 0.5),  # the return home
+    ((2, 2), (8, 2), 0.5),  # twice
+    ((8, 2), (2, 2), 0.5),  # the leg after the jump
+    ((8, 2), (0, 0), 0.5),  # the return home
 ]
 
 
 def leg_speeds(trace: Trace, a: tuple[float, float], b: tuple[float, float]) -> list[float]:
-    """The rover's true speed wherever it was on the leg a → b, away from its ends (1.5 m:
-    where it accelerates and brakes) and within 0.3 m of the line."""
+    """The rover's true speed wherever it drove the leg a → b in that direction, away from
+    its ends (1.5 m: where it accelerates and brakes) and within 0.3 m of the line."""
     (ax, ay), (bx, by) = a, b
     length = math.hypot(bx - ax, by - ay)
     ux, uy = (bx - ax) / length, (by - ay) / length
@@ -72,7 +73,9 @@ def leg_speeds(trace: Trace, a: tuple[float, float], b: tuple[float, float]) -> 
         x, y = s.north_m, -s.east_m  # start frame: rover at the origin facing north (yaw 0)
         along = (x - ax) * ux + (y - ay) * uy
         across = abs(-(x - ax) * uy + (y - ay) * ux)
-        if 1.5 <= along <= length - 1.5 and across < 0.3:
+        heading_x, heading_y = math.cos(s.yaw_ned_rad), -math.sin(s.yaw_ned_rad)
+        forward = heading_x * ux + heading_y * uy > 0.9  # ROLL drives along its heading
+        if 1.5 <= along <= length - 1.5 and across < 0.3 and forward:
             out.append(s.speed_mps)
     return out
 
@@ -88,21 +91,24 @@ def visits(trace: Trace, x: float, y: float, radius_m: float = 0.4) -> int:
     return count
 
 
-def stopped_intervals(
-    trace: Trace, x: float, y: float, still: Callable[[SimSnapshot], bool]
-) -> list[float]:
-    """Simulated seconds of each stretch within 0.3 m of (x, y) where ``still`` held."""
-    out: list[float] = []
+def neutral_intervals(outputs: list[HistoryEntry]) -> list[tuple[float, float]]:
+    """(start, end) in simulated seconds of every stretch the four scroll outputs (1..4) all
+    stood at neutral, from the simulator's own log of output changes (exact, whatever the
+    test process saw of its snapshots)."""
+    pwm = [0, 0, 0, 0]
+    out: list[tuple[float, float]] = []
     since: float | None = None
-    last: SimSnapshot | None = None
-    for _, s in trace.samples:
-        here = math.hypot(s.north_m - x, -s.east_m - y) < 0.3 and still(s)
-        if here and since is None:
-            since = s.sim_time_s
-        if not here and since is not None and last is not None:
-            out.append(last.sim_time_s - since)
+    for e in outputs:
+        ch = int(str(e.details["channel"]))
+        if ch > 4:
+            continue
+        pwm[ch - 1] = int(str(e.details["pwm_us"]))
+        neutral = all(abs(p - NEUTRAL_US) <= NEUTRAL_TOLERANCE_US for p in pwm)
+        if neutral and since is None:
+            since = e.sim_time_s
+        elif not neutral and since is not None:
+            out.append((since, e.sim_time_s))
             since = None
-        last = s
     return out
 
 
@@ -118,6 +124,7 @@ def test_speed_changes_hold_jump_servo_and_return_home(tmp_path: Path) -> None:
         log = d.log_text()
         run_dir = d.run_dir()
         servo_sets = server.history.entries("servo_set")
+        outputs = server.history.entries("output")
         snap = server.snapshot()
     assert code == ExitCode.OK, log[-3000:]
     assert secured(snap)
@@ -130,24 +137,30 @@ def test_speed_changes_hold_jump_servo_and_return_home(tmp_path: Path) -> None:
         print(f"leg {a} → {b}: {measured:.3f} m/s measured, {commanded} commanded")
         assert measured == pytest.approx(commanded, rel=0.10), (a, b)
 
-    # stopped at item 3 for its 6 s, not faulted (the run completed: exit 0): the scrolls held
-    # at neutral for the 6 s, and the rover standing still (not rolling, not turning) for all of
-    # it but the motors' run-down
-    neutral = max(stopped_intervals(trace, 10, 8, scrolls_neutral))
-    standing = max(
-        stopped_intervals(
-            trace, 10, 8, lambda s: s.speed_mps < 0.02 and abs(s.wz_body_radps) < 0.02
-        )
-    )
+    # stopped at item 3 for its 6 s, not faulted (the run completed: exit 0): the scrolls at
+    # neutral for the 6 s (the simulator's own output log), the rover standing still (not
+    # rolling, not turning) in every snapshot of it after the motors ran down, at (10, 8)
+    at_wp3 = [
+        s.sim_time_s
+        for _, s in trace.samples
+        if math.hypot(s.north_m - 10, -s.east_m - 8) < 0.3 and s.speed_mps < 0.02
+    ]
+    (start, end), *others = [
+        (a, b) for a, b in neutral_intervals(outputs) if any(a <= t <= b for t in at_wp3)
+    ]
+    assert not others
+    inside = [s for _, s in trace.samples if start + RUN_DOWN_S <= s.sim_time_s <= end]
+    still = all(s.speed_mps < 0.02 and abs(s.wz_body_radps) < 0.02 for s in inside)
+    where = max(math.hypot(s.north_m - 10, -s.east_m - 8) for s in inside)
     print(
-        f"hold at (10, 8): scrolls neutral {neutral:.2f} s, rover standing {standing:.2f} s "
-        "of autopilot time (6 s asked)"
+        f"hold at (10, 8): scrolls neutral {end - start:.2f} s of autopilot time (6 s asked); "
+        f"rover still in all {len(inside)} snapshots after {RUN_DOWN_S} s, within {where:.3f} m"
     )
-    assert 6.0 <= neutral <= 6.5
-    assert 5.3 <= standing <= neutral
+    assert 6.0 <= end - start <= 6.5
+    assert still and len(inside) > 10 and where < 0.2
 
-    # the DO_JUMP loop flown twice: (2, 2) and (6, 2) each reached twice
-    assert visits(trace, 2, 2) == 2 and visits(trace, 6, 2) == 2
+    # the DO_JUMP loop flown twice: (2, 2) and (8, 2) each reached twice
+    assert visits(trace, 2, 2) == 2 and visits(trace, 8, 2) == 2
 
     # the servo command the autopilot got, once per pass over item 4: at waypoint 3 (10, 8)
     (entry,) = [e for e in servo_sets if e.details["channel"] == SERVO]
