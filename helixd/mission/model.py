@@ -106,11 +106,11 @@ def _named_params(data: dict[str, Any], spec: CommandSpec) -> dict[str, Any]:
 
 
 def entry_yaml(wp: WaypointSpec) -> dict[str, Any]:
-    """An entry as the YAML format writes it (loads back equal): the command by name, its
-    parameters by name where every non-default one has a name (else ``params``), and only
-    what differs from the defaults."""
+    """An entry as the YAML format writes it (loads back equal): the command by name (not
+    for a NAV_WAYPOINT with a place), its parameters by name where every non-default one has
+    a name (else ``params``), and only what differs from the defaults."""
     out: dict[str, Any] = {}
-    if wp.command != MAV_CMD_NAV_WAYPOINT or "command" in wp.model_fields_set:
+    if wp.command != MAV_CMD_NAV_WAYPOINT or not wp.given():
         out["command"] = wp.name if wp.name == command_name(wp.command) else wp.command
         if out["command"].startswith("command "):
             out["command"] = wp.command
@@ -134,8 +134,6 @@ def entry_yaml(wp: WaypointSpec) -> dict[str, Any]:
             named[pspec.name] = value
         if by_name:
             out.update(named)
-            if not named and wp.command == MAV_CMD_NAV_WAYPOINT and not wp.given():
-                out["command"] = wp.name  # "stay where it is": keep it a navigation item
         else:
             out["params"] = list(wp.params)
     if wp.z is not None:
