@@ -88,7 +88,7 @@ def convert(
         )
         # the range checks a mission file gets from the loader
         msn = Mission.model_validate(conv.mission.model_dump(), context={"limits": cfg.mission})
-        loaded = LoadedMission(msn, MissionFormat.PLAN, conv.skipped, conv.notes, gcs)
+        loaded = LoadedMission(msn, MissionFormat.PLAN, conv.notes, gcs)
         if fence is not None:
             loaded = with_fence(loaded, read_fence(fence), str(fence), route_keep_outs=route)
             msn = loaded.mission
@@ -98,7 +98,7 @@ def convert(
         ) from None
     except ValidationError as exc:
         raise _refuse(format_validation_error(source, exc, Mission)) from None
-    for line in (*notes, *loaded.skipped, *loaded.notes):
+    for line in (*notes, *loaded.notes):
         typer.echo(f"warning: {clip_line(line)}", err=True)
     shapes = len(gcs.polygons) + len(gcs.circles)
     return FromAutopilot(msn, source, len(gcs.items), shapes, loaded.gcs)

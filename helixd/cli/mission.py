@@ -82,7 +82,7 @@ def convert(
         )
     except ConfigFileError as exc:
         raise fail(exc.problems) from None
-    for line in (*loaded.skipped, *loaded.notes):
+    for line in loaded.notes:
         typer.echo(f"warning: {clip_line(line)}", err=True)
     try:
         for what in lost_in(loaded.mission, detect_format(dst)):
@@ -294,7 +294,7 @@ def download(
                 mode=gs_mode,
                 source=link.url,
             )
-            for line in (*conv.skipped, *conv.notes):
+            for line in conv.notes:
                 typer.echo(f"warning: {clip_line(line)}", err=True)
             write_mission_file(conv.mission, out)
     except FormatError as exc:

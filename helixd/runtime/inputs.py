@@ -123,7 +123,7 @@ def load_inputs(
             )
         msn = loaded.mission
         fence_gcs = loaded.gcs
-        notes.extend(f"warning: {clip_line(line)}" for line in (*loaded.skipped, *loaded.notes))
+        notes.extend(f"warning: {clip_line(line)}" for line in loaded.notes)
     except MissionNotFound as exc:
         problems.append(str(exc))
     except ConfigFileError as exc:

@@ -162,7 +162,6 @@ def read_gcs(path: Path) -> GcsMission:
 class LoadedMission:
     mission: Mission
     format: MissionFormat
-    skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     gcs: GcsMission | None = None
 
@@ -231,7 +230,7 @@ def load_mission_file(
             msn = Mission.model_validate(msn.model_dump(), context={"limits": limits})
         except ValidationError as exc:
             raise ConfigFileError(path, format_validation_error(path, exc, Mission)) from None
-    return LoadedMission(msn, fmt, conv.skipped, conv.notes, gcs)
+    return LoadedMission(msn, fmt, conv.notes, gcs)
 
 
 def mission_to_yaml(mission: Mission) -> str:
@@ -380,7 +379,7 @@ def with_fence(
         circles=(*(own.circles if own is not None else ()), *fence.circles),
         survey_polygons=own.survey_polygons if own is not None else (),
     )
-    return LoadedMission(msn, loaded.format, loaded.skipped, tuple(notes), merged)
+    return LoadedMission(msn, loaded.format, tuple(notes), merged)
 
 
 __all__ = [

@@ -2,9 +2,12 @@
 to and from helixd's :class:`~helixd.mission.model.Mission`. Pure: no I/O.
 
 A :class:`MissionItem` is what MISSION_ITEM_INT carries (seq, frame, command, param1..4,
-x/y/z with x/y in degrees), so the MAVLink mission download of a later session can feed
-:func:`items_to_mission` the same way the file readers do. Sequence numbers follow the
-autopilot's: 0 is home (ArduPilot keeps home in slot 0), flown items start at 1.
+x/y/z with x/y in degrees), so the MAVLink mission download feeds :func:`items_to_mission`
+the same way the file readers do. Sequence numbers follow the autopilot's: 0 is home
+(ArduPilot keeps home in slot 0), the mission's items start at 1. Every item becomes a mission
+entry and back (:func:`item_entry`, :func:`entry_item`) with all it carries: command, frame,
+parameters (NaN as unset), place (lat/lon 0, 0 as "where the rover is"), altitude,
+autocontinue.
 """
 
 from __future__ import annotations
@@ -182,8 +185,7 @@ def mission_name(stem: str) -> str:
 @dataclass(frozen=True, slots=True)
 class Converted:
     mission: Mission
-    skipped: tuple[str, ...]  # items left out (kept for callers; conversion keeps them all)
-    notes: tuple[str, ...]  # what was read but has no meaning for helixd
+    notes: tuple[str, ...]  # what was read but has no meaning for helixd, or was made up
 
 
 def _label(it: MissionItem) -> str:
@@ -315,7 +317,7 @@ def items_to_mission(
         mission = Mission.model_validate(data)
     except ValidationError as exc:
         raise FormatError(format_validation_error(source or "mission", exc, Mission)) from None
-    return Converted(mission, (), (*gcs.notes, *(prefix + n for n in notes)))
+    return Converted(mission, (*gcs.notes, *(prefix + n for n in notes)))
 
 
 CIRCLE_FENCE_VERTICES = 64

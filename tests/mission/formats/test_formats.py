@@ -69,7 +69,6 @@ def test_plan_survey_waypoints_and_fence() -> None:
         (53.52344, -113.5257),
         (53.52344, -113.526),
     ]
-    assert loaded.skipped == ()
     # the one inclusion polygon becomes the mission's keep-in fence
     assert msn.geofence_polygon[0] == (53.523, -113.5265)
     gcs = loaded.gcs
