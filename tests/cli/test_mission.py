@@ -31,7 +31,8 @@ def test_check_shows_the_commands_where_they_are_flown() -> None:
     res = runner.invoke(app, ["check", "-m", str(PLAN), "--mode", "scroll"])
     assert res.exit_code == 0, res.output
     lines = res.output.splitlines()
-    (rtl,) = [ln for ln in lines if "NAV_RETURN_TO_LAUNCH" in ln]
+    (rtl,) = [ln for ln in lines if "NAV_RETURN_TO_LAUNCH →" in ln]
+    assert any("NAV_RETURN_TO_LAUNCH shown going to the mission's home" in ln for ln in lines)
     assert rtl.split()[:2] == ["6", "8"]  # step 6 is item 8
     assert "→ home" in rtl
     assert any(ln.split()[:2] == ["3", "+"] and "DO_SET_CAM_TRIGG_DIST" in ln for ln in lines)
