@@ -163,8 +163,8 @@ BAD_MISSIONS = {
         ["mode", "missing required field"],
     ),
     "unknown_waypoint_key": (
-        "name: m\nmode: roll\nwaypoints:\n  - {x: 1, y: 0, z: 3}\n",
-        ["waypoints.0.z", "unknown key", "heading_deg"],
+        "name: m\nmode: roll\nwaypoints:\n  - {x: 1, y: 0, speed: 3}\n",
+        ["waypoints.0", "speed: unknown key", "hold_s"],
     ),
     "bad_latitude": (
         "name: g\nmode: roll\nframe: global\nwaypoints:\n  - {lat: 95, lon: 10}\n",

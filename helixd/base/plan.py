@@ -2,13 +2,20 @@
 
 :mod:`helixd.mission` loads and validates mission files (pydantic, YAML) and resolves them into
 a :class:`Plan`; the navigator only ever sees this module's types.
+
+A mission with commands (ArduPilot's mission: navigation items and the do/condition items
+between them) also resolves into a :class:`Program`: the navigation steps in the order
+ArduPilot Rover flies them (jumps expanded, :mod:`helixd.mission.expand`), each with the plan
+waypoints it flies to, the time it waits, and the :class:`MissionAction` s started with it. The
+navigator flies the plan's waypoints; :mod:`helixd.control.sequencer` steps through the
+program beside it.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import StrEnum
 
 
@@ -33,6 +40,60 @@ class PlanWaypoint:
     tolerance_m: float
     final_yaw_rad: float | None = None
     via: bool = False  # inserted by the planner on the way to the next waypoint
+    # stopped at precisely (a hold, a delay or a return follows), like the final waypoint
+    stop: bool = False
+
+
+class ActionKind(StrEnum):
+    """What the flight does with one do/condition item of the mission."""
+
+    SEND = "send"  # a command the autopilot runs (COMMAND_LONG), acknowledgement checked
+    SPEED = "speed"  # cruise speed from here on (m/s, already bounded by the config)
+    REVERSE = "reverse"  # drive backwards (value 1) or forwards (value 0) from here on
+    WAIT_TIME = "wait_time"  # CONDITION_DELAY: the items after it wait ``value`` seconds
+    WAIT_DISTANCE = "wait_distance"  # CONDITION_DISTANCE: … until within ``value`` m of the target
+    NOTE = "note"  # nothing is done (an item ArduPilot Rover skips or ignores): logged
+
+
+@dataclass(frozen=True, slots=True)
+class MissionAction:
+    """One do/condition item, at its place in the mission."""
+
+    item: int  # mission item number (sequence number as the ground station shows it)
+    command: int  # MAV_CMD
+    kind: ActionKind
+    value: float = 0.0  # speed (m/s), reverse (0/1), wait (s) or distance (m)
+    params: tuple[float, float, float, float, float, float, float] = (0.0,) * 7  # COMMAND_LONG
+    text: str = ""  # what it does, for the operator
+
+
+@dataclass(frozen=True, slots=True)
+class NavStep:
+    """One navigation item as flown: where it goes, how long it waits, what starts with it."""
+
+    item: int
+    command: int
+    first_waypoint: int | None  # plan waypoints first..last flown in this step; None: in place
+    last_waypoint: int | None
+    hold_s: float  # waited after arriving (in place: the whole step)
+    actions: tuple[MissionAction, ...]  # the do/condition items started when this step starts
+    speed_mps: float  # cruise expected on this step's legs (the estimate; set by its actions)
+    text: str
+    forever: bool = False  # NAV_LOITER_UNLIM: the step never ends by itself
+    skipped: tuple[str, ...] = ()  # navigation items passed over on the way to this one
+
+
+@dataclass(frozen=True, slots=True)
+class Program:
+    """The mission's navigation steps in flight order (jumps expanded) and how it ends."""
+
+    steps: tuple[NavStep, ...]
+    final_actions: tuple[MissionAction, ...] = ()  # started when the last step completes
+    ending: str = ""  # why the mission ends where it does, when not simply at its last item
+    never_ends: bool = False  # a jump repeated forever or a loiter without end
+    notes: tuple[str, ...] = field(default=())
+    # where the walk assumed the rover starts (None: not known, the estimate starts at wp 0)
+    start_xy_m: tuple[float, float] | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,6 +107,24 @@ class Plan:
     # for a fresh mission. A resumed mission sets the waypoint before its first one, so line
     # guidance re-enters the interrupted leg instead of cutting across to the waypoint.
     leg_start_xy_m: tuple[float, float] | None = None
+    program: Program | None = None  # None: a plain list of waypoints, nothing between them
+
+    @property
+    def peak_speed_mps(self) -> float:
+        """The highest cruise speed the program may set (the plan's speed without one)."""
+        if self.program is None or not self.program.steps:
+            return self.speed_mps
+        return max(self.speed_mps, *(s.speed_mps for s in self.program.steps))
+
+    def assumed_start_xy_m(self) -> tuple[float, float]:
+        """Where an estimate without the rover's pose starts: the start the program was
+        resolved from, else waypoint 0 (a start-frame mission: the origin)."""
+        if self.frame is MissionFrameKind.START:
+            return (0.0, 0.0)
+        if self.program is not None and self.program.start_xy_m is not None:
+            return self.program.start_xy_m
+        first = self.waypoints[0]
+        return (first.x_m, first.y_m)
 
     def path_length_m(self, start_xy_m: tuple[float, float] = (0.0, 0.0)) -> float:
         """Length of the polyline start → wp1 → … → wpN (m)."""
@@ -59,6 +138,22 @@ class Plan:
     def numbers(self) -> tuple[int, ...]:
         """Per waypoint, see :func:`operator_numbers`."""
         return operator_numbers([w.via for w in self.waypoints])
+
+    def leg_speeds_mps(self) -> list[float]:
+        """The cruise speed expected on the leg to each waypoint (the program's, or the plan's)."""
+        speeds = [self.speed_mps] * len(self.waypoints)
+        if self.program is not None:
+            for step in self.program.steps:
+                if step.first_waypoint is not None and step.last_waypoint is not None:
+                    for i in range(step.first_waypoint, step.last_waypoint + 1):
+                        speeds[i] = step.speed_mps
+        return speeds
+
+    def waits_s(self) -> float:
+        """Time the program waits in holds and delays (s; 0 without a program)."""
+        if self.program is None:
+            return 0.0
+        return sum(s.hold_s for s in self.program.steps)
 
     @property
     def operator_count(self) -> int:
@@ -123,11 +218,15 @@ def waypoint_label(number: int, via: bool, total: int | None = None) -> str:
 
 
 __all__ = [
+    "ActionKind",
+    "MissionAction",
     "MissionFrameKind",
     "MotionMode",
+    "NavStep",
     "Numbering",
     "Plan",
     "PlanWaypoint",
+    "Program",
     "operator_numbers",
     "waypoint_label",
 ]

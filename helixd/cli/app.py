@@ -34,6 +34,7 @@ from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import LinkError
 from helixd.mission import MotionMode
+from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.validate import apply_mission_limits
 from helixd.planning import OccupancyMap
@@ -120,7 +121,24 @@ SkipOpt = Annotated[
     bool,
     typer.Option(
         "--skip-unsupported",
-        help="leave out .plan/.waypoints items helixd cannot fly (listed) instead of refusing",
+        help="pass over mission items helixd cannot fly (listed, logged) instead of refusing "
+        "the mission, as ArduPilot Rover passes over what it cannot do",
+    ),
+]
+StrictOpt = Annotated[
+    bool,
+    typer.Option(
+        "--strict",
+        help="refuse the items ArduPilot Rover itself skips or ignores (NAV_TAKEOFF, "
+        "NAV_LAND, altitude-only items, mount control and the like) instead of skipping them",
+    ),
+]
+FenceOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--fence",
+        help="fence file: a Mission Planner fence (QGC WPL 110, commands 5000-5004) or a "
+        ".plan's geoFence; inclusion shapes keep the rover in, exclusions are planned around",
     ),
 ]
 MapOpt = Annotated[
@@ -150,18 +168,20 @@ def check(
     ] = None,
     mode: ModeOpt = None,
     skip_unsupported: SkipOpt = False,
+    strict: StrictOpt = False,
+    fence: FenceOpt = None,
 ) -> None:
     """Validate the config and a mission (as `run` would), and print the resolved plan."""
     try:
-        got = load_inputs(config, mission, mode, skip_unsupported)
-        planned, route = plan_loaded(
-            got.cfg, got.mission, got.path, load_occupancy(got.cfg, map_path)
-        )
+        got = load_inputs(config, mission, mode, skip_unsupported, fence=fence, strict=strict)
+        occupancy = load_occupancy(got.cfg, map_path)
+        planned, route = plan_loaded(got.cfg, got.mission, got.path, occupancy, got.fence)
     except InputsRefused as exc:
         raise refused(exc) from None
     echo_notes(got.notes)
     label = str(config or "(built-in defaults)")
-    typer.echo("\n".join(check_lines(got.cfg, got.mission, got.path, label, planned, route)))
+    lines = check_lines(got.cfg, got.mission, got.path, label, planned, route, got.options)
+    typer.echo("\n".join(lines))
     if route is not None and plot is not None:
         from helixd.recorder.plots import render_route  # start-up: matplotlib when plotting
 
@@ -218,6 +238,8 @@ def run(
     map_path: MapOpt = None,
     mode: ModeOpt = None,
     skip_unsupported: SkipOpt = False,
+    strict: StrictOpt = False,
+    fence: FenceOpt = None,
     show_plan: Annotated[
         bool,
         typer.Option(
@@ -250,6 +272,8 @@ def run(
                 ("--mode", mode),
                 ("--map", map_path),
                 ("--skip-unsupported", skip_unsupported),
+                ("--strict", strict),
+                ("--fence", fence),
             )
             if used
         ]
@@ -270,23 +294,32 @@ def run(
         flight = Flight(resumed.mission, resumed.mission_yaml, None, resumed.inputs)
         run_dir = run_dir or resume.resolve().parent  # beside the interrupted run
         sim_start = resumed.last_pose_ned  # --sim: the rover is where the run left it
+        fence_gcs = None
     elif wants_autopilot(mission):
         _run_autopilot_mission(
             config, connect, sim, SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise),
-            run_dir, log_level, map_path, mode, skip_unsupported, show_plan,
+            run_dir, log_level, map_path, mode, ExpandOptions(strict, skip_unsupported),
+            show_plan, fence,
         )  # fmt: skip
         return  # not reached: it exits with the run's code
     else:
         try:
-            got = load_inputs(config, mission, mode, skip_unsupported)
+            got = load_inputs(config, mission, mode, skip_unsupported, fence=fence, strict=strict)
             echo_notes(got.notes)
-            cfg, mission_path = got.cfg, got.path
+            cfg, mission_path, fence_gcs = got.cfg, got.path, got.fence
             url = check_connect(connect, cfg)
             mission_yaml = recorded_mission_yaml(mission_path, got.mission, mode)
             occupancy = load_occupancy(cfg, map_path)
             # planned around obstacles; refusals before a simulator starts
             flight = planned_flight(
-                cfg, got.mission, mission_yaml, mission_path, occupancy, config_sha256(config)
+                cfg,
+                got.mission,
+                mission_yaml,
+                mission_path,
+                occupancy,
+                config_sha256(config),
+                got.fence,
+                got.options,
             )
         except InputsRefused as exc:
             raise refused(exc) from None
@@ -294,7 +327,7 @@ def run(
     sim_choice = (
         SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise, sim_start) if sim else None
     )
-    with simulator(sim_choice, lambda: sim_world(cfg, occupancy, mission_path), url, cfg) as url:
+    with simulator(sim_choice, lambda: sim_world(cfg, occupancy, fence_gcs), url, cfg) as url:
         _fly(cfg, flight, url, run_dir, log_level, show_plan)
 
 
@@ -307,11 +340,13 @@ def _run_autopilot_mission(
     log_level: str,
     map_path: Path | None,
     mode: MotionMode | None,
-    skip_unsupported: bool,
+    options: ExpandOptions,
     show_plan: bool,
+    fence: Path | None,
 ) -> None:
-    """``run --mission autopilot``: download, convert and check the autopilot's mission, then
-    fly it as any other (see :mod:`helixd.cli.autopilot`). Refusals exit 3."""
+    """``run --mission autopilot``: download, convert and check the autopilot's mission (its
+    stored fence with it), then fly it as any other (see :mod:`helixd.cli.autopilot`).
+    Refusals exit 3."""
     cfg = config_or_exit(config)
     url = check_connect(connect, cfg)
     try:
@@ -320,17 +355,21 @@ def _run_autopilot_mission(
         raise refused(exc) from None
     choice = sim_choice if sim else None
     with simulator(choice, lambda: sim_world(cfg, occupancy), url, cfg) as url:
-        got = fetch_autopilot_mission(cfg, url, mode, skip_unsupported)
+        got = fetch_autopilot_mission(cfg, url, mode, fence)
         msn = got.mission
         problems: list[str] = []
-        checked = mission_vs_config(cfg, msn, got.source, problems)
+        notes: list[str] = []
+        checked = mission_vs_config(cfg, msn, got.source, problems, options, notes)
+        echo_notes(tuple(notes))
         if problems or checked is None:
             raise fail(problems, ExitCode.PREFLIGHT)
         cfg = apply_mission_limits(cfg, msn)
         mission_yaml = mission_to_yaml(msn)  # the run directory records what was downloaded
         path = Path(AUTOPILOT_MISSION)
         try:
-            flight = planned_flight(cfg, msn, mission_yaml, path, occupancy, config_sha256(config))
+            flight = planned_flight(
+                cfg, msn, mission_yaml, path, occupancy, config_sha256(config), got.fence, options
+            )
         except InputsRefused as exc:
             raise refused(exc) from None
         echo_flight(flight)
@@ -359,6 +398,7 @@ def _fly(
         replan_from=flight.replan_from,
         show_plan=show_plan,
         inputs=flight.inputs,
+        options=flight.options,
     )
     outcome = asyncio.run(run_mission(opts))
     if outcome.run_dir is not None:

@@ -9,7 +9,9 @@ right before the run connects for flight; the items then go through the converte
 
 Refusals exit 3 (PREFLIGHT: the autopilot's mission cannot be flown; nothing was armed), one
 line per problem naming the item: an empty mission, an item helixd cannot fly (unless
-``--skip-unsupported``), a waypoint out of range.
+``--skip-unsupported``), a waypoint out of range. The autopilot's stored fence comes with it:
+its inclusion polygon keeps the rover in, its exclusion zones are planned around (a
+``--fence`` file adds its shapes).
 """
 
 from __future__ import annotations
@@ -29,6 +31,13 @@ from helixd.link.connection import Autopilot
 from helixd.link.mission_link import Downloaded, download_all
 from helixd.mav.mission_item import WireItem
 from helixd.mission import Mission, MotionMode
+from helixd.mission.formats import (
+    GcsMission,
+    LoadedMission,
+    MissionFormat,
+    read_fence,
+    with_fence,
+)
 from helixd.mission.formats.items import FormatError, items_to_mission
 from helixd.mission.formats.wire import wire_to_gcs
 
@@ -49,6 +58,7 @@ class FromAutopilot:
     source: str  # "autopilot at URL", for messages
     items: int  # mission items after home
     fence_shapes: int
+    fence: GcsMission | None = None  # the autopilot's fence (and --fence's), for planning
 
 
 def _refuse(problems: list[str]) -> typer.Exit:
@@ -64,29 +74,34 @@ def convert(
     source: str,
     cfg: HelixdConfig,
     mode: MotionMode | None,
-    skip_unsupported: bool,
+    fence: Path | None = None,
 ) -> FromAutopilot:
     """Downloaded items → a validated mission (pure but for the warnings echoed)."""
     gs_mode = motion_mode(cfg, mode)
+    route = cfg.planning.enabled
     try:
         gcs, notes = wire_to_gcs(got_mission, got_fence)
         if not gcs.items:
             raise FormatError(["the autopilot holds no mission (only home): nothing to fly"])
         conv = items_to_mission(
-            gcs, name=MISSION_NAME, mode=gs_mode, skip_unsupported=skip_unsupported, source=source
+            gcs, name=MISSION_NAME, mode=gs_mode, source=source, route_keep_outs=route
         )
         # the range checks a mission file gets from the loader
         msn = Mission.model_validate(conv.mission.model_dump(), context={"limits": cfg.mission})
+        loaded = LoadedMission(msn, MissionFormat.PLAN, conv.notes, gcs)
+        if fence is not None:
+            loaded = with_fence(loaded, read_fence(fence), str(fence), route_keep_outs=route)
+            msn = loaded.mission
     except FormatError as exc:
         raise _refuse(
             [p if p.startswith(source) else f"{source}: {p}" for p in exc.problems]
         ) from None
     except ValidationError as exc:
         raise _refuse(format_validation_error(source, exc, Mission)) from None
-    for line in (*notes, *conv.skipped, *conv.notes):
+    for line in (*notes, *loaded.notes):
         typer.echo(f"warning: {clip_line(line)}", err=True)
-    fence = len(gcs.polygons) + len(gcs.circles)
-    return FromAutopilot(msn, source, len(gcs.items), fence)
+    shapes = len(gcs.polygons) + len(gcs.circles)
+    return FromAutopilot(msn, source, len(gcs.items), shapes, loaded.gcs)
 
 
 def motion_mode(cfg: HelixdConfig, mode: MotionMode | None) -> MotionMode:
@@ -105,7 +120,7 @@ def motion_mode(cfg: HelixdConfig, mode: MotionMode | None) -> MotionMode:
 
 
 def fetch_autopilot_mission(
-    cfg: HelixdConfig, url: str, mode: MotionMode | None, skip_unsupported: bool
+    cfg: HelixdConfig, url: str, mode: MotionMode | None, fence: Path | None = None
 ) -> FromAutopilot:
     """Download the autopilot's mission and fence at ``url`` and convert them; link failures
     exit 6 (LINK), the autopilot's refusal or an unflyable mission exit 3 (PREFLIGHT)."""
@@ -123,11 +138,11 @@ def fetch_autopilot_mission(
         source=source,
         cfg=cfg,
         mode=mode,
-        skip_unsupported=skip_unsupported,
+        fence=fence,
     )
     typer.echo(
         f"mission : {source}: {out.items} mission items, {out.fence_shapes} fence shapes "
-        f"→ {len(out.mission.waypoints)} waypoints ({out.mission.mode.value})",
+        f"→ {len(out.mission.points())} places ({out.mission.mode.value})",
         err=True,
     )
     return out

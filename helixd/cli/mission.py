@@ -18,6 +18,7 @@ from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import Autopilot
 from helixd.link.mission_link import Downloaded, autopilot_sender, download_all, upload_all
+from helixd.mission.commands import command_name
 from helixd.mission.formats import (
     FormatError,
     GcsMission,
@@ -33,7 +34,7 @@ from helixd.mission.formats import (
     write_mission_file,
 )
 from helixd.mission.formats.areas import read_area
-from helixd.mission.formats.items import command_name, mission_name
+from helixd.mission.formats.items import mission_name
 from helixd.mission.formats.qgc_plan import plan_to_text
 from helixd.mission.formats.wire import WireMission, gcs_to_wire, wire_to_gcs
 from helixd.mission.formats.wpl import wpl_to_text
@@ -95,9 +96,6 @@ def convert(
     src: Annotated[Path, typer.Argument(help="mission file: .yaml, .plan or .waypoints")],
     dst: Annotated[Path, typer.Argument(help="output; its suffix names the format")],
     mode: ModeOpt = None,
-    skip_unsupported: Annotated[
-        bool, typer.Option("--skip-unsupported", help="leave out items helixd cannot fly")
-    ] = False,
     config: Annotated[
         Path | None, typer.Option("--config", "-c", help="helixd.yaml (mission limits, mode)")
     ] = None,
@@ -114,11 +112,10 @@ def convert(
             cfg.mission,
             mode=mode,
             default_mode=MotionMode(gs_mode) if gs_mode else None,
-            skip_unsupported=skip_unsupported,
         )
     except ConfigFileError as exc:
         raise fail(exc.problems) from None
-    for line in (*loaded.skipped, *loaded.notes):
+    for line in loaded.notes:
         typer.echo(f"warning: {clip_line(line)}", err=True)
     msn = loaded.mission
     try:
@@ -135,7 +132,7 @@ def convert(
     except OSError as exc:
         raise fail([f"{dst}: cannot write: {exc.strerror or exc}"]) from None
     n = len(loaded.mission.waypoints)
-    typer.echo(f"{src} ({loaded.format.value}) → {dst} ({fmt.value}): {n} waypoints")
+    typer.echo(f"{src} ({loaded.format.value}) → {dst} ({fmt.value}): {n} items")
 
 
 @mission_app.command("survey")
@@ -270,9 +267,6 @@ def download(
     ] = None,
     connect: ConnectOpt = None,
     mode: ModeOpt = None,
-    skip_unsupported: Annotated[
-        bool, typer.Option("--skip-unsupported", help=".yaml: leave out items helixd cannot fly")
-    ] = False,
     config: ConfigOpt = None,
 ) -> None:
     """Read the autopilot's stored mission and fence over MAVLink (MISSION_ITEM_INT)."""
@@ -320,10 +314,9 @@ def download(
                 gcs,
                 name=mission_name(out.stem),
                 mode=gs_mode,
-                skip_unsupported=skip_unsupported,
                 source=link.url,
             )
-            for line in (*conv.skipped, *conv.notes):
+            for line in conv.notes:
                 typer.echo(f"warning: {clip_line(line)}", err=True)
             write_mission_file(conv.mission, out)
     except FormatError as exc:

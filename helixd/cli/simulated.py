@@ -14,11 +14,10 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from pathlib import Path
 
 from helixd.config import HelixdConfig, KeepOutCircleConfig
 from helixd.mav.guard import HXG_CHANS, HXG_TIMEOUT, MAX_OUTPUT, PARAM_DEFAULTS, TIMEOUT_MAX_MS
-from helixd.mission.formats import has_keep_outs, plan_fence_ne
+from helixd.mission.formats import GcsMission, fence_has_keep_outs, fence_ne
 from helixd.planning import OccupancyMap
 from helixd.planning.obstacles import rover_half_width_m
 from helixd.sim import SimConfig, start_embedded
@@ -38,16 +37,17 @@ class SimChoice:
 
 
 def sim_world(
-    cfg: HelixdConfig, occupancy: OccupancyMap | None, mission_path: Path | None = None
+    cfg: HelixdConfig, occupancy: OccupancyMap | None, fence_gcs: GcsMission | None = None
 ) -> SimObstacles:
     """What is solid in the embedded simulator (``run --sim``): the config's keep-out shapes,
-    the map's occupied cells (unknown is not solid) and a .plan's exclusion zones (placed
-    around the simulator's EKF origin); the body radius from the vehicle."""
+    the map's occupied cells (unknown is not solid) and the fence's exclusion zones (a
+    .plan's, --fence's; placed around the simulator's EKF origin); the body radius from the
+    vehicle."""
     polys: list[tuple[tuple[float, float], ...]] = []
     discs: list[KeepOutCircleConfig] = []
-    if mission_path is not None and has_keep_outs(mission_path):
+    if fence_gcs is not None and fence_has_keep_outs(fence_gcs):
         sim = SimConfig()
-        fence = plan_fence_ne(mission_path, (sim.origin_lat_deg, sim.origin_lon_deg))
+        fence = fence_ne(fence_gcs, (sim.origin_lat_deg, sim.origin_lon_deg))
         polys.extend(fence.exclusion_polygons)
         discs.extend(
             KeepOutCircleConfig(

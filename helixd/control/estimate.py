@@ -29,7 +29,7 @@ flown on an ideal plant and against flights in the built-in simulator.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 from helixd.base.angles import shortest_angular_distance
@@ -82,8 +82,11 @@ def estimate_time(
         yaw0 = start_yaw_rad
     path = _Path([begin, *pts], [w.final_yaw_rad for w in wps], yaw0, plan.mode)
     if control.guidance == "thesis":
-        return _Thesis(plan, control, path).run()
-    return _Line(plan, control, path).run()
+        got = _Thesis(plan, control, path).run()
+    else:
+        got = _Line(plan, control, path).run()
+    waits = plan.waits_s()  # a mission with commands: its holds and delays (at cruise speed)
+    return got if waits <= 0.0 else replace(got, total_s=got.total_s + waits)
 
 
 # -- the path ----------------------------------------------------------------------------------

@@ -57,8 +57,11 @@ def world_to_body(dx_m: float, dy_m: float, yaw_rad: float) -> tuple[float, floa
     return c * dx_m + s * dy_m, -s * dx_m + c * dy_m
 
 
-def compute_errors(pose: Pose2D, goal: PlanWaypoint, mode: MotionMode) -> GuidanceResult:
-    """Distance and heading errors of ``pose`` towards ``goal`` in ``mode``."""
+def compute_errors(
+    pose: Pose2D, goal: PlanWaypoint, mode: MotionMode, reverse: bool = False
+) -> GuidanceResult:
+    """Distance and heading errors of ``pose`` towards ``goal`` in ``mode`` (``reverse``: the
+    driving axis points away from the goal, DO_SET_REVERSE)."""
     require_finite("pose", pose.x_m, pose.y_m, pose.yaw_rad)
     require_finite("goal", goal.x_m, goal.y_m)
     dx = goal.x_m - pose.x_m
@@ -71,7 +74,8 @@ def compute_errors(pose: Pose2D, goal: PlanWaypoint, mode: MotionMode) -> Guidan
         heading_goal = pose.yaw_rad
         e_psi = 0.0
     else:
-        heading_goal = wrap_pi(bearing - driving_axis_rad(mode))
+        axis = driving_axis_rad(mode) + (math.pi if reverse else 0.0)
+        heading_goal = wrap_pi(bearing - axis)
         e_psi = shortest_angular_distance(pose.yaw_rad, heading_goal)
     bx, by = world_to_body(dx, dy, pose.yaw_rad)
     ux, uy = (bx / e_d, by / e_d) if e_d > 0.0 else (0.0, 0.0)

@@ -42,6 +42,15 @@ Two guidance laws, chosen by ``control.guidance``:
   (``corner_error_m`` = 0) corners sharper than ``pivot_angle_rad`` are pivots and gentler
   ones are rounded by the lookahead law.
 
+A mission with commands (:class:`~helixd.base.plan.Program`) adds three things, set by the
+flight loop from :mod:`helixd.control.sequencer`: waypoints flagged ``stop`` (a hold, a delay
+or a return follows) are stops like the final one; :meth:`Navigator.set_speed` changes the
+cruise speed from the next step on (DO_CHANGE_SPEED: the corner and braking speeds are planned
+for the highest speed the program may set and capped by the current one, so a slower stretch
+brakes with the acceleration limits); :meth:`Navigator.set_reverse` drives the mode's axis
+backwards (DO_SET_REVERSE; OMNI has no axis and ignores it). Without a program all three stay
+at the plan's values and nothing changes.
+
 Stepped with (pose, t_s); derives dt from successive t_s. Never touches a clock or a socket,
 and never decides to stop the vehicle: the supervisor owns that.
 
@@ -100,7 +109,12 @@ class Navigator:
             require_finite("plan leg start", *plan.leg_start_xy_m)
         self.plan = plan
         self.control = control
-        self._distance_pid = PID(control.distance_pid, output_limit=plan.speed_mps)
+        # corner speeds and the distance PID allow the highest speed the program may set; the
+        # current cruise speed caps every step (DO_CHANGE_SPEED changes it)
+        self._peak_speed_mps = plan.peak_speed_mps
+        self._cruise_mps = plan.speed_mps
+        self._reverse = False
+        self._distance_pid = PID(control.distance_pid, output_limit=self._peak_speed_mps)
         self._yaw_pid = PID(control.yaw_pid, output_limit=control.max_yaw_rate_radps, angular=True)
         self._state = NavState.IDLE
         self._target_index = 0
@@ -143,6 +157,45 @@ class Navigator:
     def done(self) -> bool:
         return self._state is NavState.DONE
 
+    @property
+    def cruise_speed_mps(self) -> float:
+        return self._cruise_mps
+
+    @property
+    def reverse(self) -> bool:
+        return self._reverse
+
+    def set_speed(self, speed_mps: float) -> None:
+        """Cruise at ``speed_mps`` from the next step on (0 < speed ≤ the plan's peak speed)."""
+        if not (math.isfinite(speed_mps) and 0.0 < speed_mps <= self._peak_speed_mps):
+            raise ValueError(
+                f"cruise speed {speed_mps} m/s outside (0, {self._peak_speed_mps}] m/s"
+            )
+        self._cruise_mps = speed_mps
+
+    def set_reverse(self, reverse: bool) -> None:
+        """Drive the mode's axis backwards (ROLL −x, SCROLL −y) from the next step on."""
+        self._reverse = reverse and self.plan.mode is not MotionMode.OMNI
+
+    def standing(self, pose: Pose2D) -> NavOutput:
+        """What a step spent standing (a hold of the mission) reports: nothing commanded,
+        the errors to the current target, the state unchanged."""
+        require_finite("navigator pose", pose.x_m, pose.y_m, pose.yaw_rad)
+        goal = self.plan.waypoints[self.target_index]
+        return NavOutput(
+            command=BodyVelocity.zero(),
+            state=self._state,
+            target_index=self.target_index,
+            waypoints_reached=self._waypoints_reached,
+            reached_index=None,
+            distance_error_m=_distance_m(pose, goal),
+            heading_error_rad=0.0,
+            cross_track_m=0.0,
+            distance_pid=PidTerms.zero(),
+            yaw_pid=PidTerms.zero(),
+            done=self.done,
+        )
+
     # -- the step ----------------------------------------------------------------------------
 
     def step(self, pose: Pose2D, t_s: float) -> NavOutput:
@@ -157,7 +210,7 @@ class Navigator:
             wps = self.plan.waypoints
             self._run_out_m = guidance.run_out_m(
                 [self._leg_start(pose)] + [(w.x_m, w.y_m) for w in wps],
-                [w.final_yaw_rad is not None for w in wps],
+                [w.final_yaw_rad is not None or w.stop for w in wps],
                 self.control.corner_slowdown_rad,
             )
             if self._line:
@@ -210,7 +263,7 @@ class Navigator:
     def _go_to_goal(self, pose: Pose2D, dt_s: float) -> NavOutput:
         goal = self._goal()
         mode = self.plan.mode
-        errors = guidance.compute_errors(pose, goal, mode)
+        errors = guidance.compute_errors(pose, goal, mode, self._reverse)
         e_d, e_psi = errors.distance_error_m, errors.heading_error_rad
 
         must_align = mode is not MotionMode.OMNI and abs(e_psi) > self.control.heading_threshold_rad
@@ -231,10 +284,12 @@ class Navigator:
             distance_terms.output,
             e_go,
             goal.tolerance_m,
-            self.plan.speed_mps,
+            self._cruise_mps,
             self.control.slowdown_radius_m,
             self.control.min_speed_mps,
         )
+        if self._reverse:
+            speed_mps = -speed_mps
         yaw_terms = PidTerms.zero()
         if mode is not MotionMode.OMNI:
             yaw_terms = self._yaw_pid.update(errors.heading_goal_rad, pose.yaw_rad, dt_s)
@@ -249,7 +304,7 @@ class Navigator:
         wps = self.plan.waypoints
         cfg = self.control
         self._points_xy_m = [self._leg_start(pose)] + [(w.x_m, w.y_m) for w in wps]
-        stop_at = [w.final_yaw_rad is not None for w in wps]
+        stop_at = [w.final_yaw_rad is not None or w.stop for w in wps]
         arcs: list[line.CornerArc | None] | None = None
         if cfg.corner_error_m > 0.0:
             yaw_rate = None if self.plan.mode is MotionMode.OMNI else cfg.max_yaw_rate_radps
@@ -259,7 +314,7 @@ class Navigator:
                     (w.x_m, w.y_m),
                     self._points_xy_m[i + 2],
                     min(cfg.corner_error_m, w.tolerance_m),
-                    self.plan.speed_mps,
+                    self._peak_speed_mps,
                     cfg.max_lateral_accel_mps2,
                     yaw_rate,
                     cfg.min_speed_mps,
@@ -272,7 +327,7 @@ class Navigator:
         self._pass_speed_mps, self._stops = line.waypoint_speed_limits(
             self._points_xy_m,
             stop_at,
-            self.plan.speed_mps,
+            self._peak_speed_mps,
             cfg.pivot_angle_rad,
             cfg.lookahead_m,
             cfg.max_lateral_accel_mps2,
@@ -294,7 +349,7 @@ class Navigator:
         (v + I_max + kd·v)/kp (its D term only rises when the distance jumps up). Infinite
         when the loop has no proportional gain."""
         cfg = self.control
-        v = self.plan.speed_mps
+        v = self._peak_speed_mps
         profile_m = v * v / (2.0 * cfg.braking_accel_mps2) + max(self._early_m, default=0.0)
         gains = cfg.distance_pid
         if gains.kp <= 0.0:
@@ -303,9 +358,10 @@ class Navigator:
         return max(profile_m, pid_m) + 1.0
 
     def _is_precise(self, index: int) -> bool:
-        """The final waypoint and waypoints with a final heading: stopped at precisely."""
+        """The final waypoint, waypoints with a final heading and flagged stops (a hold or a
+        delay follows): stopped at precisely."""
         wp = self.plan.waypoints[index]
-        return index == len(self.plan.waypoints) - 1 or wp.final_yaw_rad is not None
+        return index == len(self.plan.waypoints) - 1 or wp.final_yaw_rad is not None or wp.stop
 
     def _is_reached(self, pose: Pose2D, goal: PlanWaypoint) -> bool:
         distance_m = _distance_m(pose, goal)
@@ -365,9 +421,8 @@ class Navigator:
         else:
             turning, heading_offset_rad = self._arc_turning(leg)
             curvature = turning
-            heading_goal_rad = wrap_pi(
-                course_rad + heading_offset_rad - guidance.driving_axis_rad(mode)
-            )
+            axis = guidance.driving_axis_rad(mode) + (math.pi if self._reverse else 0.0)
+            heading_goal_rad = wrap_pi(course_rad + heading_offset_rad - axis)
             e_psi = shortest_angular_distance(pose.yaw_rad, heading_goal_rad)
 
         if mode is not MotionMode.OMNI:
@@ -406,9 +461,11 @@ class Navigator:
                 # Still rounding the corner just passed: its arc (or, without one, the
                 # lookahead law's rounding, about L) spans this far past the vertex.
                 profile = min(profile, self._pass_speed_mps[i - 1] or profile)
-        speed_mps = min(distance_terms.output, profile, self.plan.speed_mps)
+        speed_mps = min(distance_terms.output, profile, self._cruise_mps)
         speed_mps = max(speed_mps, cfg.min_speed_mps)  # not reached yet: never creep
         speed_mps = max(0.0, speed_mps) * max(0.0, math.cos(e_psi))
+        if self._reverse:
+            speed_mps = -speed_mps
 
         yaw_terms = PidTerms.zero()
         if mode is MotionMode.OMNI:
@@ -498,7 +555,7 @@ class Navigator:
 
     def _arrival(self, pose: Pose2D, goal: PlanWaypoint) -> NavOutput:
         """The errors at the moment ``goal`` (the current target) is reached."""
-        errors = guidance.compute_errors(pose, goal, self.plan.mode)
+        errors = guidance.compute_errors(pose, goal, self.plan.mode, self._reverse)
         return NavOutput(
             command=BodyVelocity.zero(),
             state=NavState.REACHED,

@@ -17,7 +17,7 @@ from helixd.config import LinkConfig
 from helixd.link.codec import MavlinkConnection
 from helixd.link.commands import CommandClient, CommandError, CommandRejected
 from helixd.link.telemetry import ChangeWaiters
-from helixd.link.vehicle import Change, VehicleState, mode_number
+from helixd.link.vehicle import Change, HomePosition, VehicleState, mode_number
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MODE,
@@ -25,6 +25,7 @@ from helixd.mav.constants import (
     MAV_CMD_REQUEST_MESSAGE,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     MAV_RESULT_ACCEPTED,
+    MAVLINK_MSG_ID_HOME_POSITION,
     UINT16_MAX,
 )
 
@@ -123,6 +124,21 @@ class Action:
                 return st.gps_origin
         except (TimeoutError, CommandError) as exc:
             log.warning("gps_origin_unavailable", error=str(exc) or "timeout")
+            return None
+
+    async def request_home(self, timeout_s: float) -> HomePosition | None:
+        """The autopilot's home (HOME_POSITION) via MAV_CMD_REQUEST_MESSAGE, fresher than the
+        request; None if it sent none in time (ArduPilot refuses while home is not set)."""
+        since = time.monotonic()
+        try:
+            async with asyncio.timeout(timeout_s):
+                await self.command_long(MAV_CMD_REQUEST_MESSAGE, (MAVLINK_MSG_ID_HOME_POSITION,))
+                st = self._state
+                while st.home_rx_s is None or st.home_rx_s < since:
+                    await self._waiters.wait(Change.HOME, timeout_s)
+                return st.home
+        except (TimeoutError, CommandError) as exc:
+            log.warning("home_position_unavailable", error=str(exc) or "timeout")
             return None
 
     def send_rc_override(self, channels_us: Sequence[int]) -> None:

@@ -104,6 +104,18 @@ class Change:
 
 
 @dataclass(frozen=True, slots=True)
+class HomePosition:
+    """The autopilot's home (HOME_POSITION): where NAV_RETURN_TO_LAUNCH drives to."""
+
+    lat_deg: float
+    lon_deg: float
+    # north/east of the EKF origin (m), as ArduPilot sends them; None when it could not
+    # (no origin yet: GCS_MAVLINK::send_home_position sends NaN)
+    north_m: float | None
+    east_m: float | None
+
+
+@dataclass(frozen=True, slots=True)
 class TelemetryBounds:
     """What a sane pose looks like; beyond these a value is absurd and rejected.
 
@@ -269,10 +281,9 @@ class VehicleState:
     gps_origin: tuple[float, float] | None = None  # (lat_deg, lon_deg)
     origin_rejected_count: int = 0  # GPS_GLOBAL_ORIGIN with a latitude/longitude off the Earth
     gps_origin_rx_s: float | None = None
-    # HOME_POSITION (lat_deg, lon_deg): ArduPilot sets home from the EKF's first position and
-    # refuses to arm before ("PreArm: AHRS: waiting for home"); cleared by a reboot
-    home: tuple[float, float] | None = None
+    home: HomePosition | None = None
     home_rx_s: float | None = None
+    home_rejected_count: int = 0  # HOME_POSITION off the Earth or with absurd values
     battery_voltage_v: float | None = None
     battery_remaining_pct: int | None = None  # SYS_STATUS, 0..100; None: not reported
     gps_fix_type: int | None = None  # GPS_RAW_INT.fix_type (GPS_FIX_TYPE, 0..8)
@@ -495,10 +506,18 @@ class VehicleState:
         return Change.GPS_ORIGIN
 
     def _home(self, msg: MavMsg, rx_s: float) -> int:
+        """HOME_POSITION, checked once here: on the Earth, and a north/east that is finite
+        and within the telemetry bounds (else kept as unknown)."""
         lat_deg, lon_deg = int(msg.latitude) * 1e-7, int(msg.longitude) * 1e-7
         if not (-LAT_MAX_DEG <= lat_deg <= LAT_MAX_DEG and -LON_MAX_DEG <= lon_deg <= LON_MAX_DEG):
-            return Change.NONE  # not a place on Earth: never a home
-        self.home = (lat_deg, lon_deg)
+            self.home_rejected_count += 1
+            return Change.NONE
+        north, east = float(msg.x), float(msg.y)
+        limit = self.bounds.position_max_m
+        placed = math.isfinite(north) and math.isfinite(east) and math.hypot(north, east) <= limit
+        self.home = HomePosition(
+            lat_deg, lon_deg, north if placed else None, east if placed else None
+        )
         self.home_rx_s = rx_s
         return Change.HOME
 

@@ -13,12 +13,23 @@ mission's own coordinates) replaces the config's keep-in polygon and radius,
 ``geofence_radius_m`` a radius, ``time_limit_s`` the time limit — see
 :func:`helixd.mission.validate.apply_mission_limits`. Ground-station files (.plan, .waypoints)
 are read into this model by :mod:`helixd.mission.formats`.
+
+Commands: the ``waypoints`` list is ArduPilot's mission item list (as Mission Planner's
+"waypoints" are): an entry without ``command`` is a NAV_WAYPOINT; with one it may be any
+mission command, its parameters named as :mod:`helixd.mission.commands` lists them
+(``{command: DO_CHANGE_SPEED, speed_mps: 0.3}``, ``{command: DO_SET_SERVO, channel: 9,
+pwm_us: 1900}``, ``{command: DO_JUMP, item: 2, repeat: 1}``) or given as ``params: [p1, …]``.
+A navigation entry without coordinates stays where the rover is when it starts (ArduPilot's
+lat/lon 0, 0). ``z``, ``frame`` and ``autocontinue`` keep what a ground station wrote, so its
+files convert both ways without loss. Entries are numbered from 1, as a ground station numbers
+them (ArduPilot's item 0 is home); ``DO_JUMP``'s ``item`` counts the same way.
 """
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 from pydantic import Field, ValidationInfo, model_validator
 
@@ -27,6 +38,16 @@ from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.base.polygon import polygon_problems
 from helixd.config import MissionLimits
 from helixd.files.models import ConfigFileError, InputModel, load_yaml_model
+from helixd.files.yamlio import clip
+from helixd.mav.constants import MAV_CMD_NAV_WAYPOINT
+from helixd.mission.commands import (
+    FLY_ROLES,
+    MAX_PARAMS,
+    CommandSpec,
+    command_name,
+    command_number,
+    command_spec,
+)
 
 DUPLICATE_EPSILON_M = 0.01  # consecutive points closer than this are the same point
 
@@ -39,7 +60,102 @@ _COORDS = {
 }
 
 
+_NOT_PARAMS = frozenset(
+    {"command", "params", "x", "y", "north", "east", "lat", "lon", "z", "frame", "autocontinue",
+     "heading_deg", "tolerance_m", "via"}
+)  # fmt: skip
+
+
+def _named_params(data: dict[str, Any], spec: CommandSpec) -> dict[str, Any]:
+    """An entry's named parameters (``hold_s``, ``channel``, …) → ``params`` [p1, …]; every
+    value checked here, at the edge: a number (or null: unset), finite, in its range."""
+    named = {k: v for k, v in data.items() if k not in _NOT_PARAMS}
+    if not named:
+        return data
+    out = {k: v for k, v in data.items() if k in _NOT_PARAMS}
+    if "params" in data:
+        raise ValueError(
+            f"give {spec.name}'s parameters by name or as params, not both "
+            f"(got params and {', '.join(sorted(named))})"
+        )
+    values: list[float | None] = list(spec.defaults())
+    for key, value in named.items():
+        found = spec.param(key)
+        if found is None:
+            allowed = [p.name for p in spec.params if p is not None]
+            hint = (
+                f"{spec.name} takes {', '.join(allowed)}"
+                if allowed
+                else f"{spec.name} has no named parameters: give params: [p1, p2, …]"
+            )
+            raise ValueError(f"{key}: unknown key ({hint})")
+        index, pspec = found
+        if value is None:
+            values[index] = None
+            continue
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f"{key}: expected a number, got {clip(value)}")
+        v = float(value)
+        if not (math.isfinite(v) and pspec.lo <= v <= pspec.hi):
+            raise ValueError(f"{key}: {clip(value)} is outside {pspec.lo:g} .. {pspec.hi:g}")
+        if pspec.whole and v != int(v):
+            raise ValueError(f"{key}: {clip(value)} must be a whole number (ArduPilot keeps one)")
+        values[index] = v
+    out["params"] = values
+    return out
+
+
+def entry_yaml(wp: WaypointSpec) -> dict[str, Any]:
+    """An entry as the YAML format writes it (loads back equal): the command by name (not
+    for a NAV_WAYPOINT with a place), its parameters by name where every non-default one has
+    a name (else ``params``), and only what differs from the defaults."""
+    out: dict[str, Any] = {}
+    if wp.command != MAV_CMD_NAV_WAYPOINT or not wp.given():
+        out["command"] = wp.name if wp.name == command_name(wp.command) else wp.command
+        if out["command"].startswith("command "):
+            out["command"] = wp.command
+    for key in ("x", "y", "north", "east", "lat", "lon", "heading_deg", "tolerance_m"):
+        value = getattr(wp, key)
+        if value is not None:
+            out[key] = value
+    if wp.params is not None:
+        spec = wp.spec
+        defaults = spec.defaults()
+        named: dict[str, float | None] = {}
+        by_name = True
+        for i, value in enumerate(wp.params):
+            default = defaults[i] if i < len(defaults) else 0.0
+            if value == default or (value is None and default is None):
+                continue
+            pspec = spec.params[i] if i < len(spec.params) else None
+            if pspec is None:
+                by_name = False
+                break
+            named[pspec.name] = value
+        if by_name:
+            out.update(named)
+        else:
+            out["params"] = list(wp.params)
+    if wp.z is not None:
+        out["z"] = wp.z
+    if wp.frame is not None:
+        out["frame"] = wp.frame
+    if not wp.autocontinue:
+        out["autocontinue"] = False
+    if wp.via:
+        out["via"] = True
+    return out
+
+
 class WaypointSpec(InputModel):
+    """One mission item: a place to go (NAV_WAYPOINT, the default) or a command."""
+
+    command: int = Field(
+        MAV_CMD_NAV_WAYPOINT,
+        ge=0,
+        le=65535,
+        description="MAVLink command, by name (NAV_WAYPOINT, DO_SET_SERVO, …) or number",
+    )
     x: float | None = Field(None, description="metres forward of the start pose (start frame)")
     y: float | None = Field(None, description="metres left of the start pose (start frame)")
     north: float | None = Field(None, description="metres north of the EKF origin (local_ned)")
@@ -57,18 +173,101 @@ class WaypointSpec(InputModel):
         description="an intermediate point the planner inserted on the way to the next "
         "waypoint, not one of the operator's waypoints (not numbered or counted as one)",
     )
+    params: tuple[float | None, ...] | None = Field(
+        None,
+        max_length=MAX_PARAMS,
+        description="the command's param1.. as MAVLink numbers them (null: unset); None: the "
+        "command's defaults. Written by name in YAML where the command has names",
+    )
+    z: float | None = Field(
+        None, ge=-1e6, le=1e6, description="altitude (m) or param7; a rover ignores it"
+    )
+    frame: int | None = Field(
+        None, ge=0, le=255, description="MAVLink frame a ground station gave it (kept)"
+    )
+    autocontinue: bool = Field(True, description="ground-station flag (kept; ArduPilot ignores)")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _by_name(cls, data: Any) -> Any:
+        if not isinstance(data, dict):
+            return data
+        if "command" not in data:
+            for key in data:
+                if key not in _NOT_PARAMS:
+                    break
+            else:
+                return data  # fast path: a waypoint without named parameters
+        else:
+            data = {**data, "command": command_number(data["command"])}
+        spec = command_spec(int(data.get("command", MAV_CMD_NAV_WAYPOINT)))
+        return _named_params(data, spec)
+
+    @model_validator(mode="after")
+    def _fits_command(self) -> WaypointSpec:
+        if self.command == MAV_CMD_NAV_WAYPOINT and self.params is None:
+            return self  # fast path
+        spec = command_spec(self.command)
+        if self.params is not None:
+            size = 4 if spec.has_place else MAX_PARAMS
+            if len(self.params) > size:
+                raise ValueError(
+                    f"params: {spec.name} has {size} parameters before its "
+                    f"{'place' if spec.has_place else 'x/y'}; got {len(self.params)}"
+                )
+            bad = [v for v in self.params if v is not None and not math.isfinite(v)]
+            if bad:
+                raise ValueError("params: must be finite numbers or null")
+        if not spec.has_place and self.given():
+            raise ValueError(
+                f"{sorted(self.given())}: {spec.name} has no place (give its x/y as params)"
+            )
+        if (self.heading_deg is not None or self.tolerance_m is not None) and (
+            spec.role not in FLY_ROLES
+        ):
+            raise ValueError(f"heading_deg/tolerance_m: only for a place to go, not {spec.name}")
+        return self
 
     def given(self) -> set[str]:
         return {
             k for k in ("x", "y", "north", "east", "lat", "lon") if getattr(self, k) is not None
         }
 
+    @property
+    def spec(self) -> CommandSpec:
+        return command_spec(self.command)
+
+    @property
+    def name(self) -> str:
+        return command_name(self.command)
+
+    def param(self, index: int) -> float:
+        """param1.. (0-based ``index``): the value, the command's default, NaN when unset."""
+        values = self.params if self.params is not None else self.spec.defaults()
+        if index >= len(values):
+            return 0.0
+        v = values[index]
+        return math.nan if v is None else v
+
+    def is_plain(self) -> bool:
+        """A NAV_WAYPOINT with a place and nothing else to do (no hold)."""
+        if self.command != MAV_CMD_NAV_WAYPOINT:
+            return False
+        d = self.__dict__  # plain attribute reads: called once per waypoint of big missions
+        placed = (d["x"] is not None or d["north"] is not None or d["lat"] is not None) and (
+            d["y"] is not None or d["east"] is not None or d["lon"] is not None
+        )
+        return placed and (self.params is None or not self.param(0) > 0.0)
+
 
 class Mission(InputModel):
     name: str = Field(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.\- ]+$")
     mode: MotionMode
     frame: MissionFrameKind = MissionFrameKind.START
-    waypoints: tuple[WaypointSpec, ...] = Field(description="at least one waypoint")
+    waypoints: tuple[WaypointSpec, ...] = Field(
+        description="the mission items in order: places to go, and commands between them; at "
+        "least one place"
+    )
     tolerance_m: float | None = Field(
         None, gt=0.05, le=20.0, description="arrival radius for every waypoint (m)"
     )
@@ -97,6 +296,12 @@ class Mission(InputModel):
         "in the mission's own coordinates (north/east or lat/lon pairs; not in the start "
         "frame): legs are planned around them, a waypoint inside one is refused",
     )
+    home: tuple[float, float] | None = Field(
+        None,
+        description="where the mission was planned to start (the ground station's home, in "
+        "the mission's own coordinates): NAV_RETURN_TO_LAUNCH goes there in `check`; a run "
+        "returns to the autopilot's own home (HOME_POSITION)",
+    )
 
     @model_validator(mode="after")
     def _check_points(self, info: ValidationInfo) -> Mission:
@@ -117,16 +322,30 @@ class Mission(InputModel):
             ):
                 continue
             got = wp.given()
+            if not got and wp.command != MAV_CMD_NAV_WAYPOINT:
+                continue  # a command without a place, or a navigation item that stays put
+            if not got and (wp.params is not None or "command" in wp.model_fields_set):
+                continue  # a NAV_WAYPOINT that stays where it starts (e.g. a hold)
             if got != set(wanted):
                 raise ValueError(
                     f"waypoints.{i}: frame '{self.frame.value}' needs exactly "
                     f"{wanted[0]} and {wanted[1]}, got {sorted(got) or 'no coordinates'}"
                 )
-        pts = self.points()
+        if not self.places():
+            raise ValueError(
+                "waypoints: no entry has a place to go (a navigation item without coordinates "
+                "stays where the rover is): nothing to fly"
+            )
         is_global = self.frame is MissionFrameKind.GLOBAL
         hypot = math.hypot
-        for i in range(1, len(pts)):
-            (a0, a1), (b0, b1) = pts[i - 1], pts[i]
+        wps = self.waypoints
+        key_a, key_b = _COORDS[self.frame]
+        for i in range(1, len(wps)):
+            prev, here = wps[i - 1], wps[i]
+            if not (prev.is_plain() and here.is_plain()):
+                continue  # a hold, a command between: ArduPilot's "reached at once" is fine
+            a0, a1 = getattr(prev, key_a), getattr(prev, key_b)
+            b0, b1 = getattr(here, key_a), getattr(here, key_b)
             if is_global:
                 dn, de = latlon_to_ne(b0, b1, a0, a1)
                 gap = hypot(dn, de)
@@ -138,6 +357,10 @@ class Mission(InputModel):
                     f"({b0}, {b1}); consecutive waypoints must differ by >= "
                     f"{DUPLICATE_EPSILON_M} m"
                 )
+        if self.home is not None and is_global:
+            lat, lon = self.home
+            if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+                raise ValueError(f"home: ({lat}, {lon}) is not a latitude/longitude pair")
         fence_problems = self.fence_problems()
         if fence_problems:
             raise ValueError("\n".join(f"geofence_polygon: {p}" for p in fence_problems))
@@ -146,7 +369,10 @@ class Mission(InputModel):
             raise ValueError("\n".join(keep_out_problems))
         limits = (info.context or {}).get("limits") if info.context else None
         if isinstance(limits, MissionLimits) and self.frame is not MissionFrameKind.GLOBAL:
-            for i, (a, b) in enumerate(pts):
+            for i, wp in enumerate(wps):
+                if getattr(wp, key_a) is None or getattr(wp, key_b) is None:
+                    continue
+                a, b = float(getattr(wp, key_a)), float(getattr(wp, key_b))
                 rng = math.hypot(a, b)
                 if rng > limits.max_range_m:
                     raise ValueError(
@@ -206,10 +432,36 @@ class Mission(InputModel):
             plane = list(poly)
         return polygon_problems(plane)
 
+    def places(self) -> list[WaypointSpec]:
+        """The entries that are places to go (NAV_WAYPOINT, loiters) with coordinates."""
+        a = _COORDS[self.frame][0]
+        return [
+            w
+            for w in self.waypoints
+            if getattr(w, a) is not None
+            and (w.command == MAV_CMD_NAV_WAYPOINT or w.spec.role in FLY_ROLES)
+        ]
+
     def points(self) -> list[tuple[float, float]]:
-        """Raw coordinate pairs in the file's own frame: (x, y), (north, east) or (lat, lon)."""
+        """The places' raw coordinate pairs in the file's own frame: (x, y), (north, east) or
+        (lat, lon), in item order (jumps, returns and commands are the program's business)."""
         a, b = _COORDS[self.frame]
-        return [(float(getattr(w, a)), float(getattr(w, b))) for w in self.waypoints]
+        return [(float(getattr(w, a)), float(getattr(w, b))) for w in self.places()]
+
+    def position(self, wp: WaypointSpec) -> tuple[float, float] | None:
+        """An entry's coordinate pair in the file's own frame, None when it has none."""
+        a, b = _COORDS[self.frame]
+        va, vb = getattr(wp, a), getattr(wp, b)
+        return None if va is None or vb is None else (float(va), float(vb))
+
+    def has_commands(self) -> bool:
+        """Anything beyond plain waypoints: a command, a hold, a place-less entry."""
+        return not all(w.is_plain() for w in self.waypoints)
+
+
+def coordinate_keys(frame: MissionFrameKind) -> tuple[str, str]:
+    """The two coordinate keys of a frame: ("x", "y"), ("north", "east") or ("lat", "lon")."""
+    return _COORDS[frame]
 
 
 def load_mission(path: Path | str, limits: MissionLimits | None = None) -> Mission:
@@ -223,5 +475,7 @@ __all__ = [
     "MissionFrameKind",
     "MotionMode",
     "WaypointSpec",
+    "coordinate_keys",
+    "entry_yaml",
     "load_mission",
 ]

@@ -2,21 +2,93 @@
 
 Pure: no I/O. ``global`` missions need the EKF origin (GPS_GLOBAL_ORIGIN) to resolve.
 :class:`Plan` and :class:`PlanWaypoint` live in :mod:`helixd.base.plan` (re-exported here).
+
+A plain list of waypoints resolves one plan waypoint per entry. A mission with commands is
+walked as ArduPilot Rover flies it (:mod:`helixd.mission.expand`): the plan then carries the
+:class:`~helixd.base.plan.Program` (jumps expanded, holds, returns, payload commands), and
+``where`` says where the mission starts and where home is (``check``: the start point or the
+mission's home; ``run``: the rover's pose and the autopilot's HOME_POSITION).
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 
 from helixd.base.angles import wrap_pi
 from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan, PlanWaypoint
 from helixd.config import ControlConfig, MissionLimits
-from helixd.mission.model import Mission
+from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH
+from helixd.mission.commands import FLY_ROLES
+from helixd.mission.expand import DEFAULT_OPTIONS, Context, ExpandOptions, expand
+from helixd.mission.model import Mission, WaypointSpec
+
+XY = tuple[float, float]
 
 
 class PlanError(ValueError):
     """The mission cannot be resolved (e.g. a global point beyond the max range)."""
+
+
+@dataclass(frozen=True)
+class Where:
+    """Where a mission with commands starts and where its home is, in the mission frame
+    (x/y metres: start frame as written, ENU = east/north of the EKF origin). None: not known
+    (``check``): the start point of a start-frame mission, else the mission's own home, else
+    its first place stands in."""
+
+    start_xy_m: XY | None = None
+    home_xy_m: XY | None = None
+
+
+NOWHERE = Where()
+
+
+@dataclass(frozen=True)
+class Resolved:
+    """A resolved plan and what the walk through its commands found."""
+
+    plan: Plan
+    problems: tuple[str, ...] = field(default=())  # what run (and check) refuse
+    notes: tuple[str, ...] = field(default=())  # what check lists (skipped items, …)
+
+
+class _Frame:
+    """The mission's coordinates → the control core's x/y (and compass headings → yaw)."""
+
+    def __init__(self, mission: Mission, origin_latlon_deg: tuple[float, float] | None) -> None:
+        self.kind = mission.frame
+        if self.kind is MissionFrameKind.GLOBAL and origin_latlon_deg is None:
+            raise PlanError("a global mission needs the EKF origin (GPS_GLOBAL_ORIGIN)")
+        self.origin = origin_latlon_deg
+
+    def xy(self, a: float, b: float) -> XY:
+        """start frame: (x, y) as written. local_ned/global: x = East, y = North (ENU)."""
+        if self.kind is MissionFrameKind.START:
+            return a, b
+        if self.kind is MissionFrameKind.GLOBAL:
+            assert self.origin is not None
+            north, east = latlon_to_ne(a, b, *self.origin)
+        else:
+            north, east = a, b
+        return east, north
+
+    def yaw(self, heading_deg: float | None) -> float | None:
+        if heading_deg is None:
+            return None
+        if self.kind is MissionFrameKind.START:
+            return wrap_pi(math.radians(heading_deg))
+        return wrap_pi(math.pi / 2 - math.radians(heading_deg))
+
+
+def _check_range(xy: XY, limits: MissionLimits, what: str) -> None:
+    rng = math.hypot(*xy)
+    if rng > limits.max_range_m:
+        raise PlanError(
+            f"{what}: {rng:.1f} m from the origin; allowed at most "
+            f"mission.max_range_m = {limits.max_range_m} m"
+        )
 
 
 def resolve_plan(
@@ -24,47 +96,113 @@ def resolve_plan(
     control: ControlConfig,
     limits: MissionLimits,
     origin_latlon_deg: tuple[float, float] | None = None,
+    where: Where = NOWHERE,
+    options: ExpandOptions = DEFAULT_OPTIONS,
 ) -> Plan:
     """Convert the file's waypoints into the mission frame used by the control core.
 
     start frame: (x, y) as written.  local_ned/global: x = East, y = North (ENU), compass
     headings converted to CCW-from-East.
     """
+    return resolve(mission, control, limits, origin_latlon_deg, where, options).plan
+
+
+def resolve(
+    mission: Mission,
+    control: ControlConfig,
+    limits: MissionLimits,
+    origin_latlon_deg: tuple[float, float] | None = None,
+    where: Where = NOWHERE,
+    options: ExpandOptions = DEFAULT_OPTIONS,
+) -> Resolved:
+    """:func:`resolve_plan`, with what the walk through a mission's commands found."""
+    frame = _Frame(mission, origin_latlon_deg)
     default_tol = mission.tolerance_m or control.waypoint_tolerance_m
-    out: list[PlanWaypoint] = []
-    for i, (wp, (a, b)) in enumerate(zip(mission.waypoints, mission.points(), strict=True)):
-        tol = wp.tolerance_m or default_tol
-        if mission.frame is MissionFrameKind.START:
-            x, y = a, b
-            yaw = None if wp.heading_deg is None else wrap_pi(math.radians(wp.heading_deg))
-        else:
-            if mission.frame is MissionFrameKind.GLOBAL:
-                if origin_latlon_deg is None:
-                    raise PlanError("a global mission needs the EKF origin (GPS_GLOBAL_ORIGIN)")
-                north, east = latlon_to_ne(a, b, *origin_latlon_deg)
-            else:
-                north, east = a, b
-            x, y = east, north
-            yaw = (
-                None
-                if wp.heading_deg is None
-                else wrap_pi(math.pi / 2 - math.radians(wp.heading_deg))
-            )
-        rng = math.hypot(x, y)
-        if rng > limits.max_range_m:
-            raise PlanError(
-                f"waypoints.{i}: {rng:.1f} m from the origin; allowed at most "
-                f"mission.max_range_m = {limits.max_range_m} m"
-            )
-        out.append(PlanWaypoint(x_m=x, y_m=y, tolerance_m=tol, final_yaw_rad=yaw, via=wp.via))
     speed = min(mission.speed_mps or control.max_speed_mps, control.max_speed_mps)
-    return Plan(
-        name=mission.name,
+    if not mission.has_commands():
+        out: list[PlanWaypoint] = []
+        for i, (wp, (a, b)) in enumerate(zip(mission.waypoints, mission.points(), strict=True)):
+            xy = frame.xy(a, b)
+            _check_range(xy, limits, f"waypoints.{i}")
+            out.append(
+                PlanWaypoint(
+                    x_m=xy[0],
+                    y_m=xy[1],
+                    tolerance_m=wp.tolerance_m or default_tol,
+                    final_yaw_rad=frame.yaw(wp.heading_deg),
+                    via=wp.via,
+                )
+            )
+        plan = Plan(mission.name, mission.mode, mission.frame, tuple(out), speed)
+        return Resolved(plan)
+    places: list[XY | None] = []
+    latlons: list[tuple[float, float] | None] = []
+    for i, wp in enumerate(mission.waypoints):
+        pos = mission.position(wp)
+        if pos is None:
+            places.append(None)
+            latlons.append(None)
+            continue
+        xy = frame.xy(*pos)
+        if wp.spec.role in FLY_ROLES:
+            _check_range(xy, limits, f"waypoints.{i} (item {i + 1})")
+        places.append(xy)
+        latlons.append(pos if mission.frame is MissionFrameKind.GLOBAL else None)
+    first = frame.xy(*mission.points()[0])
+    start = where.start_xy_m
+    if mission.frame is MissionFrameKind.START and start is None:
+        start = (0.0, 0.0)  # the frame's origin is the start, by definition
+    home = where.home_xy_m
+    if home is None:
+        home = frame.xy(*mission.home) if mission.home is not None else (start or first)
+    _check_range(home, limits, "home")
+
+    def waypoint_for(wp: WaypointSpec, xy: XY, stop: bool) -> PlanWaypoint:
+        return PlanWaypoint(
+            x_m=xy[0],
+            y_m=xy[1],
+            tolerance_m=wp.tolerance_m or default_tol,
+            final_yaw_rad=frame.yaw(wp.heading_deg),
+            stop=stop,
+        )
+
+    ctx = Context(
         mode=mission.mode,
-        frame=mission.frame,
-        waypoints=tuple(out),
         speed_mps=speed,
+        min_speed_mps=control.min_speed_mps,
+        max_speed_mps=control.max_speed_mps,
+        tolerance_m=default_tol,
+        start_xy_m=start,
+        home_xy_m=home,
+        global_frame=mission.frame is MissionFrameKind.GLOBAL,
     )
+    got = expand(mission.waypoints, places, latlons, ctx, waypoint_for, options)
+    if not got.waypoints:
+        got.problems.append(
+            "the mission as ArduPilot Rover flies it goes nowhere (every place is where the "
+            "rover already is): nothing to fly"
+        )
+        got.waypoints.append(waypoint_for(mission.places()[0], first, True))
+    plan = Plan(
+        mission.name,
+        mission.mode,
+        mission.frame,
+        tuple(got.waypoints),
+        speed,
+        program=got.program,
+    )
+    notes = list(got.notes)
+    returns = any(s.command == MAV_CMD_NAV_RETURN_TO_LAUNCH for s in got.program.steps)
+    if returns and where.home_xy_m is None:
+        if mission.home is not None:
+            said = "the mission's home"
+        else:
+            said = "the start" if start is not None else "the first place (the start is not known)"
+        notes.append(
+            f"NAV_RETURN_TO_LAUNCH shown going to {said}; a run returns to the autopilot's own "
+            "home (HOME_POSITION, where it was armed)"
+        )
+    return Resolved(plan, tuple(got.problems), tuple(notes))
 
 
-__all__ = ["Plan", "PlanError", "PlanWaypoint", "resolve_plan"]
+__all__ = ["Plan", "PlanError", "PlanWaypoint", "Resolved", "Where", "resolve", "resolve_plan"]

@@ -190,6 +190,11 @@ def resume_point(
     completed: bool,
 ) -> ResumePoint:
     """The remaining mission after the run ``run_path`` (already hash-checked)."""
+    if mission.has_commands():
+        raise ResumeRefused(
+            "the mission has commands (holds, jumps, returns, payload commands): where it "
+            "stopped in them cannot be resumed yet; fly it again from the start"
+        )
     if mission.frame is MissionFrameKind.START or inputs.frame is MissionFrameKind.START:
         raise ResumeRefused(
             "a start-frame mission cannot be resumed: its frame was the rover's pose at "

@@ -27,8 +27,10 @@ from collections.abc import Sequence
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.polygon import leg_leaves_polygon, point_in_polygon, segments_intersect
 from helixd.config import HelixdConfig
+from helixd.mission.commands import SERVO_COMMANDS, stored_whole
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission, MissionFrameKind
-from helixd.mission.plan import Plan, PlanError, resolve_plan
+from helixd.mission.plan import NOWHERE, Plan, PlanError, Resolved, Where, resolve, resolve_plan
 
 MAX_LISTED = 5  # offending waypoints named one by one; the rest are counted
 
@@ -251,14 +253,59 @@ def apply_mission_limits(
     return cfg.model_copy(update={"safety": saf.model_copy(update=update)})
 
 
-def plan_for_check(mission: Mission, cfg: HelixdConfig) -> tuple[Plan, bool]:
+def plan_for_check(
+    mission: Mission, cfg: HelixdConfig, options: ExpandOptions = DEFAULT_OPTIONS
+) -> tuple[Plan, bool]:
     """Resolve without the EKF origin; a global mission is shown relative to waypoint 0.
 
     Returns the plan and whether it is only provisional (global without origin)."""
+    resolved, provisional = resolved_for_check(mission, cfg, options)
+    return resolved.plan, provisional
+
+
+def resolved_for_check(
+    mission: Mission, cfg: HelixdConfig, options: ExpandOptions = DEFAULT_OPTIONS
+) -> tuple[Resolved, bool]:
+    """:func:`plan_for_check` with what the walk through the mission's commands found."""
     if mission.frame is MissionFrameKind.GLOBAL:
         lat, lon = mission.points()[0]
-        return resolve_plan(mission, cfg.control, cfg.mission, (lat, lon)), True
-    return resolve_plan(mission, cfg.control, cfg.mission, None), False
+        return resolve(mission, cfg.control, cfg.mission, (lat, lon), options=options), True
+    return resolve(mission, cfg.control, cfg.mission, None, options=options), False
+
+
+def servo_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
+    """DO_SET_SERVO / DO_REPEAT_SERVO on an output that drives a scroll or on one of the
+    pilot's switch channels: the latched output would fight helixd's commands or the pilot's
+    switch (ArduPilot keeps a DO_SET_SERVO output latched, even after disarm)."""
+    if not mission.has_commands():
+        return []
+    scrolls = {c.channel: i for i, c in enumerate(cfg.actuation.channels)}
+    saf = cfg.safety
+    pilot: dict[int, str] = {}
+    if saf.takeover.switch_channel is not None:
+        pilot[saf.takeover.switch_channel] = "safety.takeover.switch_channel"
+    if saf.start_switch_channel is not None:
+        pilot[saf.start_switch_channel] = "safety.start_switch_channel"
+    for i, ch in enumerate(saf.takeover.stick_channels):
+        pilot.setdefault(ch, f"safety.takeover.stick_channels.{i}")
+    out: list[str] = []
+    for n, wp in enumerate(mission.waypoints, start=1):
+        if wp.command not in SERVO_COMMANDS:
+            continue
+        channel = stored_whole(wp.param(0))
+        if channel in scrolls:
+            k = scrolls[channel]
+            out.append(
+                f"item {n} {wp.name}: output {channel} drives scroll {k + 1} "
+                f"(actuation.channels.{k}.channel = {channel}); a servo command there would "
+                "latch it against helixd's own commands"
+            )
+        elif channel in pilot:
+            out.append(
+                f"item {n} {wp.name}: channel {channel} is the pilot's switch ({pilot[channel]}); "
+                "a latched servo command there would hide the pilot's switch"
+            )
+    return out
 
 
 def mission_problems(
@@ -268,6 +315,8 @@ def mission_problems(
     start_ned: NedPose | None = None,
     origin_latlon_deg: tuple[float, float] | None = None,
     checked_plan: tuple[Plan, bool] | None = None,
+    options: ExpandOptions = DEFAULT_OPTIONS,
+    where: Where = NOWHERE,
 ) -> list[str]:
     """Everything that would make ``helixd run`` refuse or abort this mission with this
     config; one line per problem naming the field or waypoint and the allowed range.
@@ -277,10 +326,15 @@ def mission_problems(
         if checked_plan is not None and origin_latlon_deg is None:
             plan, provisional = checked_plan
         elif mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
-            plan = resolve_plan(mission, cfg.control, cfg.mission, origin_latlon_deg)
+            plan = resolve_plan(
+                mission, cfg.control, cfg.mission, origin_latlon_deg, where, options
+            )
+            provisional = False
+        elif where is not NOWHERE:
+            plan = resolve_plan(mission, cfg.control, cfg.mission, None, where, options)
             provisional = False
         else:
-            plan, provisional = plan_for_check(mission, cfg)
+            plan, provisional = plan_for_check(mission, cfg, options)
     except PlanError as exc:
         return [str(exc)]
     cfg = apply_mission_limits(

@@ -23,7 +23,7 @@ from collections.abc import Sequence
 
 from helixd.base.frames import latlon_to_ne
 from helixd.config import HelixdConfig
-from helixd.mission.model import Mission, MissionFrameKind, WaypointSpec
+from helixd.mission.model import Mission, MissionFrameKind
 from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import (
     KeepOutCircle,
@@ -39,6 +39,7 @@ from helixd.planning.route import (
     plan_route,
     via_tolerance_m,
     via_waypoints,
+    with_vias,
 )
 
 ORIGIN_SHAPES_REFUSED = (
@@ -105,8 +106,8 @@ def plan_global_mission(
         notes=(*route.notes, "planned around waypoint 0 (global mission)"),
         origin_latlon_deg=origin_latlon_deg,
     )
-    out: list[WaypointSpec] = []
-    for leg, wp in zip(route.legs, mission.waypoints, strict=True):
-        out.extend(via_waypoints(leg, via_tolerance_m(mission, wp, cfg), origin_latlon_deg))
-        out.append(wp)
-    return mission.model_copy(update={"waypoints": tuple(out)}), route
+    vias = [
+        via_waypoints(leg, via_tolerance_m(mission, wp, cfg), origin_latlon_deg)
+        for leg, wp in zip(route.legs, mission.places(), strict=True)
+    ]
+    return with_vias(mission, vias), route

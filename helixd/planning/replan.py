@@ -23,6 +23,7 @@ from helixd.planning.route import (
     plan_leg,
     via_tolerance_m,
     via_waypoints,
+    with_vias,
 )
 
 _FIX = "move the rover, or set planning.start_ne_m to where it starts and check again"
@@ -60,9 +61,9 @@ def replan_first_leg(
     leg = plan_leg(grid, (n, e), first.points_ne_m[-1], -1)
     if isinstance(leg, str):
         raise PlanningError([f"{where}: {leg}; {_FIX}"])
-    n_old_vias = len(first.points_ne_m) - 2
-    wp0 = original.waypoints[0]
-    vias = via_waypoints(leg, via_tolerance_m(original, wp0, cfg), route.origin_latlon_deg)
-    waypoints = (*vias, *planned.waypoints[n_old_vias:])
     new_route = replace(route, legs=(leg, *route.legs[1:]))
-    return planned.model_copy(update={"waypoints": waypoints}), new_route
+    vias = [
+        via_waypoints(lg, via_tolerance_m(original, wp, cfg), route.origin_latlon_deg)
+        for lg, wp in zip(new_route.legs, original.places(), strict=True)
+    ]
+    return with_vias(original, vias), new_route

@@ -19,7 +19,9 @@ import yaml
 
 from helixd.base.frames import ne_to_latlon
 from helixd.config import HelixdConfig
-from helixd.mission.model import Mission, MissionFrameKind, WaypointSpec
+from helixd.mav.constants import MAV_CMD_DO_JUMP
+from helixd.mission.commands import stored_whole
+from helixd.mission.model import Mission, MissionFrameKind, WaypointSpec, entry_yaml
 from helixd.planning.grid import GridFrame, PlanningGrid, build_grid, segment_is_free
 from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import (
@@ -230,11 +232,38 @@ def plan_mission(
         pad_m=pl.pad_m,
         max_cells=pl.max_cells,
     )
+    vias = [
+        via_waypoints(leg, via_tolerance_m(mission, wp, cfg))
+        for leg, wp in zip(route.legs, mission.places(), strict=True)
+    ]
+    return with_vias(mission, vias), route
+
+
+def with_vias(mission: Mission, vias_before: list[list[WaypointSpec]]) -> Mission:
+    """The mission with ``vias_before[k]`` inserted before its k-th place
+    (:meth:`Mission.places`). In a mission with commands, DO_JUMP targets are renumbered so
+    they still name the same item (a jump lands on the place itself; the leg a jump or a
+    return flies is not planned around obstacles)."""
+    places = {id(wp): k for k, wp in enumerate(mission.places())}
     out: list[WaypointSpec] = []
-    for leg, wp in zip(route.legs, mission.waypoints, strict=True):
-        out.extend(via_waypoints(leg, via_tolerance_m(mission, wp, cfg)))
+    shift: dict[int, int] = {}  # old item number → new
+    for n, wp in enumerate(mission.waypoints, start=1):
+        k = places.get(id(wp))
+        if k is not None:
+            out.extend(vias_before[k])
         out.append(wp)
-    return mission.model_copy(update={"waypoints": tuple(out)}), route
+        shift[n] = len(out)
+    if len(out) == len(mission.waypoints):
+        return mission
+    renumbered: list[WaypointSpec] = []
+    for wp in out:
+        if wp.command == MAV_CMD_DO_JUMP and wp.params is not None:
+            target = stored_whole(wp.param(0))
+            if target in shift:
+                params = (float(shift[target]), *wp.params[1:])
+                wp = wp.model_copy(update={"params": params})
+        renumbered.append(wp)
+    return mission.model_copy(update={"waypoints": tuple(renumbered)})
 
 
 def via_tolerance_m(mission: Mission, wp: WaypointSpec, cfg: HelixdConfig) -> float:
@@ -269,8 +298,5 @@ def planned_mission_yaml(mission: Mission, route: RoutePlan, map_path: object = 
         + "\n"
     )
     doc = mission.model_dump(mode="json", exclude_none=True)
-    doc["waypoints"] = [
-        {k: v for k, v in wp.items() if v is not None and (k != "via" or v)}
-        for wp in doc.get("waypoints", [])
-    ]
+    doc["waypoints"] = [entry_yaml(wp) for wp in mission.waypoints]
     return head + yaml.safe_dump(doc, sort_keys=False)

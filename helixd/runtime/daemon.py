@@ -36,17 +36,25 @@ from helixd import __version__
 from helixd.actuators import ActuatorError, make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.base.exitcodes import ExitCode
-from helixd.base.frames import MissionFrame, NedPose
+from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import Numbering
 from helixd.base.run_files import TLOG_FILE
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
+from helixd.control.sequencer import SequencerEvent
 from helixd.link.commands import CommandError, CommandRejected
 from helixd.link.connection import Autopilot, LinkError
 from helixd.link.preflight import check_obedience
 from helixd.link.tlog import attach_tlog
-from helixd.link.vehicle import Change, TelemetryBounds
-from helixd.mav.constants import MAV_CMD_REQUEST_MESSAGE, MAVLINK_MSG_ID_HOME_POSITION
-from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
+from helixd.link.vehicle import Change, HomePosition, TelemetryBounds
+from helixd.mav.constants import (
+    MAV_CMD_NAV_RETURN_TO_LAUNCH,
+    MAV_CMD_REQUEST_MESSAGE,
+    MAVLINK_MSG_ID_HOME_POSITION,
+)
+from helixd.mission import Mission, MissionFrameKind, Plan, PlanError
+from helixd.mission.commands import SERVO_COMMANDS, command_name, stored_whole
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.plan import Where, resolve
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
 from helixd.mission.validate import apply_mission_limits
 from helixd.recorder.rows import FlightRow
@@ -62,6 +70,7 @@ from helixd.runtime.flight import (
 )
 from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
 from helixd.runtime.gcs_feed import GcsFeed, report_fallback
+from helixd.runtime.mission_commands import MissionCommands
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.show_plan import show_plan
 from helixd.runtime.signals import StopRequest, install, uninstall
@@ -71,6 +80,12 @@ from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause, pose_inv
 
 log = structlog.get_logger(__name__)
 T = TypeVar("T")
+
+# AP_ServoRelayEvents::do_set_servo: the output functions a servo command may move (none,
+# manual, sprayer pump/spinner, gripper, RCIN1..16 passthrough, RCIN1..16 mapped)
+RCIN_FUNCTION_BASE = 50
+RCIN_FUNCTIONS_FIRST = 51
+SERVO_SETTABLE_FUNCTIONS = frozenset({0, 1, 22, 23, 28, *range(51, 67), *range(140, 156)})
 
 
 class PreflightFailed(Exception):
@@ -110,6 +125,7 @@ class RunOptions:
     )
     # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
     inputs: RunInputs | None = None
+    options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported (commands)
 
 
 @dataclass
@@ -302,6 +318,7 @@ class Checked:
     start_ned: NedPose
     origin: tuple[float, float] | None
     plan: Plan
+    home: HomePosition | None = None  # the autopilot's home (missions with commands)
 
 
 class MissionRunner:
@@ -320,6 +337,10 @@ class MissionRunner:
         self.gcs = GcsFeed(
             self.cfg.gcs_report
         )  # what the ground station sees (helixd.runtime.gcs_feed)
+        # the plan's via flags per waypoint (a program expands the mission: its waypoints
+        # are the plan's, jumps repeated)
+        self._plan_vias: tuple[bool, ...] | None = None
+        self._where = Where()  # a program's start and home, as preflight resolved it
 
     # -- helpers ------------------------------------------------------------------------------
 
@@ -385,6 +406,7 @@ class MissionRunner:
                     f"(MODE_CH = {int(mode_ch)}): flipping it would change the mode; use another "
                     "channel"
                 )
+        problems += await self._servo_outputs(ap)
         pose = await self._fresh_pose(ap)
         invalid = self._pose_invalid_too_long(ap)
         if pose is None and invalid is not None:
@@ -413,7 +435,11 @@ class MissionRunner:
                 self.opts.mission = self.opts.replan_from(here, origin)
             except ValueError as exc:
                 raise PreflightFailed(str(exc).splitlines()) from None
-        plan = resolve_plan(self.opts.mission, self.cfg.control, self.cfg.mission, origin)
+        home = await self._home(ap, origin)
+        start_frame = self.opts.mission.frame is MissionFrameKind.START
+        plan = self._resolve(
+            origin, pose, home, MissionFrame.start_at(pose) if start_frame else MissionFrame.enu()
+        )
         if self.opts.inputs is not None:  # a resume re-enters the interrupted leg
             plan = with_leg_start(
                 plan,
@@ -426,7 +452,12 @@ class MissionRunner:
         # The same validation `helixd check` ran, now with the start pose and EKF origin
         # (geofence radius/polygon and time for local_ned/global missions).
         refused = flight_problems(
-            self.opts.mission, self.cfg, start_ned=pose, origin_latlon_deg=origin
+            self.opts.mission,
+            self.cfg,
+            start_ned=pose,
+            origin_latlon_deg=origin,
+            options=self.opts.options,
+            where=self._where,
         )
         if refused:
             raise PreflightFailed(refused)
@@ -438,9 +469,103 @@ class MissionRunner:
         self.summary = SummaryBuilder(
             final_xy_m=(last.x_m, last.y_m), join_m=join_m, estimated_s=estimate.total_s
         )
+        self._plan_vias = tuple(w.via for w in plan.waypoints)
         if origin is not None:
             self.summary.set_origin(*origin)
-        return Checked(pose, origin, plan)
+        return Checked(pose, origin, plan, home)
+
+    def _resolve(
+        self,
+        origin: tuple[float, float] | None,
+        start: NedPose,
+        home: HomePosition | None,
+        frame: MissionFrame,
+    ) -> Plan:
+        """The plan, and for a mission with commands its program from where the rover is
+        (``start``) and the autopilot's home; what the program cannot fly is refused."""
+        msn = self.opts.mission
+        where = Where()
+        if msn.has_commands():
+            here = frame.to_mission(start)
+            home_xy = None
+            if home is not None and home.north_m is not None and home.east_m is not None:
+                home_ned = NedPose(home.north_m, home.east_m, 0.0)
+                at = frame.to_mission(home_ned)
+                home_xy = (at.x_m, at.y_m)
+            where = Where(start_xy_m=(here.x_m, here.y_m), home_xy_m=home_xy)
+        self._where = where
+        resolved = resolve(
+            msn, self.cfg.control, self.cfg.mission, origin, where, self.opts.options
+        )
+        if resolved.problems:
+            raise PreflightFailed(list(resolved.problems))
+        program = resolved.plan.program
+        returns = program is not None and any(
+            s.command == MAV_CMD_NAV_RETURN_TO_LAUNCH for s in program.steps
+        )
+        if returns and where.home_xy_m is None:
+            raise PreflightFailed(
+                [
+                    "the mission returns home (NAV_RETURN_TO_LAUNCH) but the autopilot sent no "
+                    "home position (HOME_POSITION): wait for its GPS home and try again"
+                ]
+            )
+        for note in resolved.notes:
+            log.info("mission_note", note=note)
+        return resolved.plan
+
+    async def _servo_outputs(self, ap: Autopilot) -> list[str]:
+        """The mission's servo commands against the outputs' SERVOn_FUNCTION: ArduPilot
+        refuses one on an output with another function ("Channel N is already in use"), and
+        one on an output that passes a scroll's RC channel through (RC-override backend) would
+        latch that scroll (``helixd check`` caught the same channel numbers already)."""
+        out: list[str] = []
+        scroll_rc = {c.channel: k for k, c in enumerate(self.cfg.actuation.channels)}
+        rc_backend = self.cfg.actuation.backend is ActuationBackend.RC_OVERRIDE
+        for n, wp in enumerate(self.opts.mission.waypoints, start=1):
+            if wp.command not in SERVO_COMMANDS:
+                continue
+            output = stored_whole(wp.param(0))
+            function = await ap.param.get(f"SERVO{output}_FUNCTION")
+            if function is None:
+                out.append(f"item {n} {wp.name}: the autopilot has no output {output}")
+                continue
+            f = int(function)
+            passthrough = f - RCIN_FUNCTION_BASE if RCIN_FUNCTIONS_FIRST <= f <= 66 else None
+            if rc_backend and passthrough in scroll_rc:
+                k = scroll_rc[passthrough]
+                out.append(
+                    f"item {n} {wp.name}: output {output} passes RC{passthrough} through "
+                    f"(SERVO{output}_FUNCTION = {f}), which drives scroll {k + 1}: a latched "
+                    "servo command would hold that scroll"
+                )
+            elif f not in SERVO_SETTABLE_FUNCTIONS:
+                out.append(
+                    f"item {n} {wp.name}: the autopilot refuses it on output {output} "
+                    f"(SERVO{output}_FUNCTION = {f}: 'ServoRelayEvent: Channel {output} is "
+                    "already in use'); give the output function 0"
+                )
+        return out
+
+    async def _home(self, ap: Autopilot, origin: tuple[float, float] | None) -> HomePosition | None:
+        """The autopilot's home, for a mission with commands (NAV_RETURN_TO_LAUNCH)."""
+        if not self.opts.mission.has_commands():
+            return None
+        home = await self._until_stopped(
+            ap.action.request_home(self.cfg.link.command_timeout_s * 3)
+        )
+        if home is not None:
+            log.info(
+                "home_position",
+                lat_deg=round(home.lat_deg, 7),
+                lon_deg=round(home.lon_deg, 7),
+                north_m=None if home.north_m is None else round(home.north_m, 2),
+                east_m=None if home.east_m is None else round(home.east_m, 2),
+            )
+            if home.north_m is None and origin is not None:  # sent without north/east
+                n, e = latlon_to_ne(home.lat_deg, home.lon_deg, *origin)
+                home = HomePosition(home.lat_deg, home.lon_deg, n, e)
+        return home
 
     async def _show_plan(self, ap: Autopilot, checked: Checked) -> None:
         timeout_s = self.cfg.link.command_timeout_s * 3
@@ -552,8 +677,13 @@ class MissionRunner:
                 min(remaining, safety.arm_retry_interval_s),
             )
         if ap.state.home is not None:
-            lat, lon = ap.state.home
-            log.info("home_known", lat_deg=round(lat, 7), lon_deg=round(lon, 7), waited=waiting)
+            home = ap.state.home
+            log.info(
+                "home_known",
+                lat_deg=round(home.lat_deg, 7),
+                lon_deg=round(home.lon_deg, 7),
+                waited=waiting,
+            )
 
     async def _arm(self, ap: Autopilot, held: Held) -> None:
         """Arm once the autopilot has a home, re-trying while PreArm checks refuse."""
@@ -654,11 +784,16 @@ class MissionRunner:
             if checked.plan.frame is MissionFrameKind.START
             else MissionFrame.enu()
         )
+        plan = checked.plan
+        if self.opts.mission.has_commands():
+            # from where the rover is now, to the home the autopilot set when it armed
+            home = await self._home(ap, checked.origin) or checked.home
+            plan = self._resolve(checked.origin, start_ned, home, frame)
         # the mission's own geofence/time limit, now placed exactly (origin and start known)
         cfg = apply_mission_limits(
             self.cfg, self.opts.mission, origin_latlon_deg=checked.origin, start_ned=start_ned
         )
-        return Ready(ap, sink, checked.plan, frame, start_ned, cfg)
+        return Ready(ap, sink, plan, frame, start_ned, cfg)
 
     def _start_pose(self, checked: Checked, now: NedPose | None, ap: Autopilot) -> NedPose:
         """The mission frame starts where the rover is now, after the pilot's start switch;
@@ -669,7 +804,11 @@ class MissionRunner:
         if now is not None and now != checked.start_ned:
             # The rover may have been moved while the start gate waited: check again from here.
             moved = flight_problems(
-                self.opts.mission, self.cfg, start_ned=now, origin_latlon_deg=checked.origin
+                self.opts.mission,
+                self.cfg,
+                start_ned=now,
+                origin_latlon_deg=checked.origin,
+                options=self.opts.options,
             )
             if moved:
                 fault = Fault(FaultCause.PREFLIGHT, "from the pose at arming: " + "; ".join(moved))
@@ -683,6 +822,21 @@ class MissionRunner:
         plan = ready.plan
         numbering = self._numbering()
         ap = ready.ap
+        commands = MissionCommands(ap.action)
+        if plan.program is not None:
+            commands.start()
+
+        def on_mission_event(ev: SequencerEvent) -> None:
+            log.info(
+                "mission_step",
+                kind=ev.kind,
+                item=ev.item,
+                command=command_name(ev.command),
+                step=ev.step + 1,
+                text=ev.text,
+            )
+            if ev.kind == "hold_started":
+                self.gcs.phase(f"item {ev.item}: {ev.text}")
 
         # flight.csv rows and the summary's figures are built in batches, after sends
         journal = StepJournal(plan, self._on_row, self.cfg.recorder.batch_interval_s)
@@ -722,9 +876,13 @@ class MissionRunner:
                     on_pose_rejected=on_pose_rejected,
                     on_arrival=on_arrival,
                     on_tick=on_tick,
+                    on_action=commands.submit,
+                    on_mission_event=on_mission_event,
                 ).run()
             finally:
                 journal.drain()  # every step reaches flight.csv and the summary
+                # the payload commands already due still go out (bounded), before the stop
+                await commands.close(self.cfg.safety.fallback_deadline_s)
             if result.fault is not None:  # e.g. Ctrl-C: an operator stop, not "ok"
                 fly.failed(result.fault.cause.value)
         return ending_of_flight(result)
@@ -903,7 +1061,10 @@ class MissionRunner:
     def _numbering(self) -> Numbering:
         """The operator's numbering of this run's waypoints: 1-based over the whole mission
         (a resumed run continues the count), the planner's via points not counted."""
-        vias = [w.via for w in self.opts.mission.waypoints]
+        if self._plan_vias is not None and self.opts.mission.has_commands():
+            vias = list(self._plan_vias)
+        else:
+            vias = [w.via for w in self.opts.mission.waypoints]
         inputs = self.opts.inputs
         return Numbering.of(vias) if inputs is None else inputs.numbering(vias)
 

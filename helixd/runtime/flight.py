@@ -17,6 +17,16 @@ send, so building the flight.csv row and the progress line costs nothing on the 
 (:class:`helixd.safety.supervisor.Supervisor`) owns the watchdogs: the loop asks it once per
 tick, before any command.
 
+A mission with commands (the plan's :class:`~helixd.base.plan.Program`) is stepped beside the
+navigator by :class:`~helixd.control.sequencer.Sequencer`, pure too: at every step the loop
+gives it the waypoint just reached and the distance to go, and does what it returns before
+the command leaves — while it holds (a waypoint's hold, NAV_LOITER_TIME, NAV_DELAY) the
+scrolls get neutral instead of the navigator's command and the navigator is not stepped (the
+stall watchdog sees nothing commanded, so a planned stop is never a stall); a speed change or
+DO_SET_REVERSE is set on the navigator; payload commands are handed to ``on_action`` (queued,
+sent off the loop by :mod:`helixd.runtime.mission_commands`); its events go to
+``on_mission_event``. The flight is done when the sequencer is.
+
 Hostile telemetry: while the vehicle state reports rejected pose telemetry (an invalid-pose
 burst), the loop commands neutral at its next tick and steps nothing; the ``pose_invalid``
 watchdog ends the mission if no valid pose returns within the stale-pose limit. A non-finite
@@ -30,7 +40,7 @@ import contextlib
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import structlog
 
@@ -38,9 +48,11 @@ from helixd.actuators.base import ActuatorError, ActuatorSink
 from helixd.base.angles import wrap_pi
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
+from helixd.base.plan import ActionKind, MissionAction
 from helixd.config import HelixdConfig
 from helixd.control.kinematics import scroll_fractions
 from helixd.control.navigator import Navigator, NavOutput
+from helixd.control.sequencer import Sequencer, SequencerEvent, SequencerOutput
 from helixd.control.slip import (
     SlipEstimate,
     SlipEstimator,
@@ -121,6 +133,8 @@ class FlightLoop:
         on_pose_rejected: Callable[[PoseRejectedReport], None],
         on_arrival: Callable[[int, float, float], None],
         on_tick: Callable[[], None],
+        on_action: Callable[[MissionAction], None] | None = None,
+        on_mission_event: Callable[[SequencerEvent], None] | None = None,
     ) -> None:
         self.cfg = cfg
         self.plan = plan
@@ -134,6 +148,9 @@ class FlightLoop:
         self.on_arrival = on_arrival
         self.on_tick = on_tick
         self.navigator = Navigator(plan, cfg.control)
+        self.sequencer = Sequencer(plan.program) if plan.program is not None else None
+        self.on_action = on_action
+        self.on_mission_event = on_mission_event
         self.supervisor = Supervisor(cfg.safety, start_ned, MANUAL_MODE)  # owns the watchdogs
         # The ceiling only thins out a pose flood, counted in autopilot time (pose
         # time_boot_ms), so a simulator speed-up does not lower the control rate the rover
@@ -154,6 +171,7 @@ class FlightLoop:
         self._sent: tuple[float, BodyVelocity] | None = None
         self._slip_enabled = cfg.control.slip.enabled
         self._pose_stale_s = cfg.safety.pose_stale_s
+        self._seq_holding = False
 
     async def run(self) -> FlightResult:
         t_start = time.monotonic()
@@ -192,24 +210,79 @@ class FlightLoop:
                     if 0.0 <= since_step_s < self._min_step_s:
                         continue  # (a clock that ran backwards, a reboot, is stepped on at once)
                     last_step_boot_s = t_boot_s
+                    seq = self.sequencer
+                    if seq is not None and seq.step_index < 0:
+                        self._apply(seq.start(t_boot_s))
                     try:
-                        step = self._step(sample, t_boot_s)
+                        if seq is not None and (seq.done or self._holding):
+                            step = self._held(sample, None)
+                            self._neutral()
+                            seq_out = seq.update(t_boot_s, None, 0.0)
+                        else:
+                            step = self._step(sample, t_boot_s)
+                            seq_out = None
+                            if seq is not None:  # pure: decided before the command leaves
+                                nav = step.nav
+                                seq_out = seq.update(
+                                    t_boot_s, nav.reached_index, nav.distance_error_m
+                                )
+                            if seq_out is not None and seq_out.holding:
+                                self._neutral()
+                                step = self._held(sample, step.nav)
+                            else:
+                                self.sink.command(step.fractions)  # the command leaves first
+                                self._sent_step(step, t_boot_s)
                     except NonFiniteError as exc:
                         self._neutral()
                         fault = Fault(
                             FaultCause.POSE_INVALID, f"non-finite value in control: {exc}"
                         )
                         return FlightResult(fault, now, out, sample.ned)
-                    self.sink.command(step.fractions)  # the command leaves first
                     out = step.nav
-                    self._sent_step(step, t_boot_s)
-                    self._report(sample, step, now, t_start)
+                    self._report(sample, step, now, t_start)  # arrivals before what follows
+                    if seq_out is not None:
+                        self._apply(seq_out)
                 except ActuatorError as exc:  # e.g. a DO_SET_SERVO refused mid-mission: a fault
                     fault = Fault(FaultCause.ACTUATOR, str(exc))
                     return FlightResult(fault, now, out, pose.ned if pose else None)
-                if out.done:
+                done = out.done if self.sequencer is None else self.sequencer.done
+                if done:
                     return FlightResult(None, None, out, sample.ned)
         raise AssertionError("the pose stream never ends")  # pragma: no cover
+
+    @property
+    def _holding(self) -> bool:
+        return self._seq_holding
+
+    def _apply(self, seq_out: SequencerOutput) -> None:
+        """Do what the sequencer found due (after the command left): speed and direction on
+        the navigator, payload commands queued, events recorded."""
+        self._seq_holding = seq_out.holding
+        for a in seq_out.actions:
+            if a.kind is ActionKind.SPEED:
+                self.navigator.set_speed(a.value)
+                log.info("mission_speed", item=a.item, speed_mps=round(a.value, 3))
+            elif a.kind is ActionKind.REVERSE:
+                self.navigator.set_reverse(a.value == 1.0)
+                log.info("mission_reverse", item=a.item, reverse=a.value == 1.0)
+            elif a.kind is ActionKind.SEND:
+                if self.on_action is not None:
+                    self.on_action(a)
+            elif a.kind is ActionKind.NOTE:
+                log.info("mission_item_note", item=a.item, text=a.text)
+        if self.on_mission_event is not None:
+            for ev in seq_out.events:
+                self.on_mission_event(ev)
+
+    def _held(self, sample: PoseSample, last: NavOutput | None) -> StepOutput:
+        """A step spent holding: neutral out, the navigator not stepped (its last output, with
+        nothing commanded, describes the row)."""
+        mpose = self.frame.to_mission(sample.ned)
+        nav = self.navigator.standing(mpose)
+        if last is not None and last.reached_index is not None:
+            nav = replace(last, command=BodyVelocity.zero())  # the arrival row itself
+        slip = self.slip.estimate(self.plan.mode)
+        return StepOutput(NEUTRAL_FRACTIONS, nav, BodyVelocity.zero(), mpose, slip)
 
     def _neutral(self) -> None:
         self.sink.command(NEUTRAL_FRACTIONS)

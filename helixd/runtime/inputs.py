@@ -17,7 +17,17 @@ from helixd.config import HelixdConfig, config_to_yaml, load_config
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line, paused_gc
 from helixd.mission import Mission, MissionFrameKind, MotionMode, Plan, PlanError
-from helixd.mission.formats import MissionFormat, load_mission_file, mission_to_yaml, sniff_format
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.formats import (
+    FormatError,
+    GcsMission,
+    MissionFormat,
+    load_mission_file,
+    mission_to_yaml,
+    read_fence,
+    sniff_format,
+    with_fence,
+)
 from helixd.mission.locate import MissionNotFound, locate_mission
 from helixd.mission.resume import (
     ResumeRefused,
@@ -28,7 +38,11 @@ from helixd.mission.resume import (
     resumed_inputs,
     sha256_text,
 )
-from helixd.mission.validate import apply_mission_limits, plan_for_check
+from helixd.mission.validate import (
+    apply_mission_limits,
+    resolved_for_check,
+    servo_problems,
+)
 from helixd.recorder.resume_dir import read_run_dir
 from helixd.runtime.timing import flight_problems
 
@@ -53,6 +67,10 @@ class LoadedInputs:
     plan: Plan
     provisional: bool  # a global plan shown relative to waypoint 0 (EKF origin not known)
     notes: tuple[str, ...] = field(default=())
+    # the lat/lon fence the flight is planned and fenced by: a .plan's own geofence and the
+    # --fence file's shapes (None: none)
+    fence: GcsMission | None = None
+    options: ExpandOptions = DEFAULT_OPTIONS
 
 
 def load_inputs(
@@ -60,11 +78,17 @@ def load_inputs(
     mission: Path,
     mode: MotionMode | None = None,
     skip_unsupported: bool = False,
+    *,
+    fence: Path | None = None,
+    strict: bool = False,
 ) -> LoadedInputs:
     """Load config and mission together so the operator sees every problem at once.
 
     Runs the shared mission-vs-config validation (what can be checked without the vehicle),
-    so ``check`` and ``run`` refuse the same files."""
+    so ``check`` and ``run`` refuse the same files. ``fence``: a fence file (``--fence``);
+    ``strict`` refuses what ArduPilot Rover skips, ``skip_unsupported`` passes over what
+    helixd cannot fly (both for missions with commands)."""
+    options = ExpandOptions(strict=strict, skip_unsupported=skip_unsupported)
     problems: list[str] = []
     notes: list[str] = []
     cfg: HelixdConfig | None = None
@@ -74,6 +98,7 @@ def load_inputs(
         problems.extend(exc.problems)
     limits = cfg.mission if cfg is not None else HelixdConfig().mission
     msn = None
+    fence_gcs: GcsMission | None = None
     path = mission
     try:
         found = locate_mission(mission)
@@ -86,38 +111,57 @@ def load_inputs(
             limits,
             mode=mode,
             default_mode=MotionMode(gs_mode) if gs_mode else None,
-            skip_unsupported=skip_unsupported,
             # planning routes the legs around a .plan's exclusion zones instead of refusing
             route_keep_outs=cfg is not None and cfg.planning.enabled,
         )
+        if fence is not None:
+            loaded = with_fence(
+                loaded,
+                read_fence(fence),
+                str(fence),
+                route_keep_outs=cfg is not None and cfg.planning.enabled,
+            )
         msn = loaded.mission
-        notes.extend(f"warning: {clip_line(line)}" for line in (*loaded.skipped, *loaded.notes))
+        fence_gcs = loaded.gcs
+        notes.extend(f"warning: {clip_line(line)}" for line in loaded.notes)
     except MissionNotFound as exc:
         problems.append(str(exc))
     except ConfigFileError as exc:
         problems.extend(exc.problems)
+    except FormatError as exc:  # the --fence file
+        problems.extend(exc.problems)
     checked: tuple[Plan, bool] | None = None
     if cfg is not None and msn is not None:
-        checked = mission_vs_config(cfg, msn, str(path), problems)
+        checked = mission_vs_config(cfg, msn, str(path), problems, options, notes)
     if problems or cfg is None or msn is None or checked is None:
         raise InputsRefused(problems, ExitCode.USAGE)
     # the mission's own fence/time limit (a survey's) replace the config's for this run
     cfg = apply_mission_limits(cfg, msn)
-    return LoadedInputs(cfg, msn, path, checked[0], checked[1], tuple(notes))
+    return LoadedInputs(cfg, msn, path, checked[0], checked[1], tuple(notes), fence_gcs, options)
 
 
 def mission_vs_config(
-    cfg: HelixdConfig, msn: Mission, label: str, problems: list[str]
+    cfg: HelixdConfig,
+    msn: Mission,
+    label: str,
+    problems: list[str],
+    options: ExpandOptions = DEFAULT_OPTIONS,
+    notes: list[str] | None = None,
 ) -> tuple[Plan, bool] | None:
     """The plan as :func:`plan_for_check` resolves it, and the mission-vs-config checks
-    (what can be checked without the vehicle); problems are appended, prefixed by ``label``."""
+    (what can be checked without the vehicle); problems are appended, prefixed by ``label``,
+    and what the walk through the mission's commands noted (skipped items, …) to ``notes``."""
     try:
         with paused_gc():  # large acyclic plan: see yamlio.paused_gc
-            checked = plan_for_check(msn, cfg)
+            resolved, provisional = resolved_for_check(msn, cfg, options)
     except PlanError as exc:
         problems.append(f"{label}: {exc}")
         return None
-    refused = flight_problems(msn, cfg, checked_plan=checked)
+    checked = (resolved.plan, provisional)
+    problems.extend(f"{label}: {p}" for p in (*resolved.problems, *servo_problems(msn, cfg)))
+    if notes is not None:
+        notes.extend(f"note: {n}" for n in resolved.notes)
+    refused = flight_problems(msn, cfg, checked_plan=checked, options=options)
     problems.extend(f"{label}: {p}" for p in refused)
     return checked
 

@@ -16,6 +16,8 @@ from helixd.base.plan import Plan, waypoint_label
 from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate
 from helixd.mission import Mission, MissionFrameKind
+from helixd.mission.describe import program_lines
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.validate import pending_checks, plan_for_check
 from helixd.planning.route import RoutePlan
 from helixd.runtime.planned import route_lines, route_time_estimate
@@ -68,10 +70,12 @@ def check_lines(
     config_label: str,
     planned: Mission,
     route: RoutePlan | None,
+    options: ExpandOptions = DEFAULT_OPTIONS,
 ) -> list[str]:
     """Everything ``check`` prints after the inputs passed (``planned``: the mission with the
-    planner's via points, ``msn`` itself when nothing was planned)."""
-    plan, provisional = plan_for_check(planned, cfg)
+    planner's via points, ``msn`` itself when nothing was planned). A mission with commands
+    shows its flight (each step, its actions and when it ends) instead of the waypoint table."""
+    plan, provisional = plan_for_check(planned, cfg, options)
     note = (
         " (global: shown relative to waypoint 1; the EKF origin is used in flight)"
         if provisional
@@ -87,8 +91,12 @@ def check_lines(
         f"plan    : {plan.name}  mode={plan.mode.value}  frame={plan.frame.value}{note}",
         f"axes    : {axes} (metres); waypoints numbered from 1"
         + (f", {vias} via points inserted by the planner" if vias else ""),
-        *waypoint_table(plan),
     ]
+    if plan.program is not None:
+        start = plan.assumed_start_xy_m()
+        lines.extend(program_lines(plan, cfg.control.max_yaw_rate_radps, start))
+    else:
+        lines.extend(waypoint_table(plan))
     estimate, start_note = route_time_estimate(cfg, planned, route, path)
     straight = ""
     if route is not None:  # the detours, against the straight legs from the same start
@@ -100,10 +108,14 @@ def check_lines(
         straight = (
             f", planned around obstacles (straight legs {original.path_length_m(start_xy):.1f} m)"
         )
-    lines.append(
-        f"path    : {estimate.path_length_m:.1f} m{start_note}{straight} at "
-        f"{plan.speed_mps:.2f} m/s"
-    )
+    if plan.program is None:
+        speeds = f"{plan.speed_mps:.2f} m/s"
+    else:
+        steps = plan.program.steps
+        flown = sorted({s.speed_mps for s in steps if s.first_waypoint is not None})
+        speeds = f"{', '.join(f'{v:.2f}' for v in flown) or f'{plan.speed_mps:.2f}'} m/s"
+        speeds += f", {plan.waits_s():.0f} s of holds"
+    lines.append(f"path    : {estimate.path_length_m:.1f} m{start_note}{straight} at {speeds}")
     lines.append(estimate_line(estimate, cfg, msn, start_note))
     own = [
         *(

@@ -18,7 +18,9 @@ from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate
 from helixd.mission import Mission, MissionFrameKind, PlanError
-from helixd.mission.formats import has_keep_outs, plan_fence_ne
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.formats import GcsMission, fence_has_keep_outs, fence_ne
+from helixd.mission.formats.items import keep_out_problems
 from helixd.mission.resume import RunInputs, fresh_inputs
 from helixd.mission.validate import plan_for_check
 from helixd.planning import (
@@ -51,13 +53,22 @@ def load_occupancy(cfg: HelixdConfig, map_path: Path | None) -> OccupancyMap | N
 
 
 def plan_loaded(
-    cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
+    cfg: HelixdConfig,
+    msn: Mission,
+    path: Path,
+    occupancy: OccupancyMap | None,
+    fence: GcsMission | None = None,
 ) -> tuple[Mission, RoutePlan | None]:
     """The mission with the intermediate waypoints inserted, and the route (None: nothing to
-    plan around); refusals exit 2."""
+    plan around); ``fence``: the lat/lon fence (a .plan's geofence, --fence, the autopilot's)
+    whose exclusion zones a global mission is planned around; refusals exit 2."""
     try:
         if msn.frame is MissionFrameKind.GLOBAL and cfg.planning.enabled:
-            planned, route = plan_global(cfg, msn, path, occupancy)
+            planned, route = plan_global(cfg, msn, fence, occupancy)
+            if route is not None and planned.has_commands() and fence is not None:
+                unplanned = unplanned_leg_problems(planned, cfg, fence)
+                if unplanned:
+                    raise InputsRefused([f"{path}: {p}" for p in unplanned])
         elif not (
             planning_wanted(cfg, occupancy) or (cfg.planning.enabled and msn.keep_out_polygons)
         ):
@@ -96,25 +107,47 @@ def route_time_estimate(
     return plan_time_estimate(plan, cfg), note
 
 
+def unplanned_leg_problems(planned: Mission, cfg: HelixdConfig, fence: GcsMission) -> list[str]:
+    """The legs of a mission with commands that planning does not route (a return home, the
+    leg after a jump) checked against the fence's exclusion zones, with home where the
+    mission's file put it: such a leg through a zone is refused (planning routes only the legs
+    from one place to the next in the list)."""
+    plan, _ = plan_for_check(planned, cfg)
+    origin = planned.points()[0]
+    pts = [ne_to_latlon(w.y_m, w.x_m, *origin) for w in plan.waypoints]
+    labels = [f"plan waypoint {i}" for i in range(len(pts))]
+    program = plan.program
+    if program is not None:
+        for step in program.steps:
+            if step.first_waypoint is not None and step.last_waypoint is not None:
+                for i in range(step.first_waypoint, step.last_waypoint + 1):
+                    labels[i] = f"item {step.item} ({step.text.split(' (')[0][:40]})"
+    why = "(a return or the leg after a jump is not planned around obstacles: add waypoints)"
+    return [
+        p.replace("(helixd flies straight legs)", why)
+        for p in keep_out_problems(fence, pts, labels, legs=True)
+    ]
+
+
 def plan_global(
-    cfg: HelixdConfig, msn: Mission, path: Path, occupancy: OccupancyMap | None
+    cfg: HelixdConfig, msn: Mission, fence: GcsMission | None, occupancy: OccupancyMap | None
 ) -> tuple[Mission, RoutePlan | None]:
     """A global mission: planned around its .plan's exclusion zones and its own keep-out
     areas when it has any (in a frame around its first waypoint, helixd.planning.fence); with
     only a --map or config keep-outs, refused (they hang from the unknown EKF origin); else
     flown as it is."""
-    own = has_keep_outs(path)
+    own = fence_has_keep_outs(fence)
     if not (own or msn.keep_out_polygons or planning_wanted(cfg, occupancy)):
         return msn, None
     origin = msn.points()[0]
     polys: list[tuple[tuple[float, float], ...]] = msn.keep_outs_ne(origin)
     circles: list[KeepOutCircle] = []
-    if own:
-        fence = plan_fence_ne(path, origin)
-        polys.extend(fence.exclusion_polygons)
+    if own and fence is not None:
+        shapes = fence_ne(fence, origin)
+        polys.extend(shapes.exclusion_polygons)
         circles = [
             KeepOutCircle(c.centre_ne_m[0], c.centre_ne_m[1], c.radius_m)
-            for c in fence.exclusion_circles
+            for c in shapes.exclusion_circles
         ]
     return plan_global_mission(msn, cfg, polys, circles, origin, occupancy)
 
@@ -184,6 +217,7 @@ class Flight:
     replan_from: Replanner | None
     inputs: RunInputs
     route: RoutePlan | None = None
+    options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported
 
 
 def planned_flight(
@@ -193,11 +227,14 @@ def planned_flight(
     mission_path: Path,
     occupancy: OccupancyMap | None,
     config_sha: str,
+    fence: GcsMission | None = None,
+    options: ExpandOptions = DEFAULT_OPTIONS,
 ) -> Flight:
-    """Plan around the map and keep-outs (refusals exit 2)."""
-    planned, route = plan_loaded(cfg, msn, mission_path, occupancy)
+    """Plan around the map, keep-outs and the fence's exclusion zones (refusals exit 2)."""
+    planned, route = plan_loaded(cfg, msn, mission_path, occupancy, fence)
     if route is None:
-        return Flight(msn, mission_yaml, None, fresh_inputs(mission_yaml, config_sha, msn))
+        inputs = fresh_inputs(mission_yaml, config_sha, msn)
+        return Flight(msn, mission_yaml, None, inputs, options=options)
     map_path = None if occupancy is None else occupancy.source
     planned_yaml = planned_mission_yaml(planned, route, map_path)
     return Flight(
@@ -206,6 +243,7 @@ def planned_flight(
         first_leg_replanner(cfg, msn, planned, route),
         fresh_inputs(planned_yaml, config_sha, planned),
         route,
+        options,
     )
 
 

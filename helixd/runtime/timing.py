@@ -21,6 +21,8 @@ from helixd.base.frames import NedPose
 from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.plan import NOWHERE, Where
 from helixd.mission.validate import apply_mission_limits, mission_problems, plan_for_check
 
 
@@ -60,6 +62,8 @@ def flight_problems(
     start_ned: NedPose | None = None,
     origin_latlon_deg: tuple[float, float] | None = None,
     checked_plan: tuple[Plan, bool] | None = None,
+    options: ExpandOptions = DEFAULT_OPTIONS,
+    where: Where = NOWHERE,
 ) -> list[str]:
     """:func:`helixd.mission.validate.mission_problems` and the estimated time against the
     time limit in force (the mission's own, else the config's)."""
@@ -69,12 +73,16 @@ def flight_problems(
         start_ned=start_ned,
         origin_latlon_deg=origin_latlon_deg,
         checked_plan=checked_plan,
+        options=options,
+        where=where,
     )
     try:
         if checked_plan is not None and origin_latlon_deg is None:
             plan = checked_plan[0]
         elif mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
-            plan = resolve_plan(mission, cfg.control, cfg.mission, origin_latlon_deg)
+            plan = resolve_plan(
+                mission, cfg.control, cfg.mission, origin_latlon_deg, where, options
+            )
         else:
             plan = plan_for_check(mission, cfg)[0]
     except PlanError:

@@ -1,13 +1,21 @@
 """ArduPilot Rover behaviour model (pure: no sockets, no clocks; times are simulated seconds).
 
 Boot: silent, then HEARTBEAT custom_mode 16 (INITIALISING) for ``boot_duration_s``, then
-INITIAL_MODE (0 = MANUAL); the EKF origin, then home ("Set HOME to …", as Rover::set_home).
-Arming (GCS_Common.cpp handle_command_component_arm_disarm): already armed / disarmed →
-ACCEPTED; PreArm failures ("AHRS: waiting for home" until home is set) → FAILED with
-"PreArm: …" CRITICAL STATUSTEXT unless param2 = 21196 (force). Mode changes
-(Rover::set_mode, Mode::enter): position-requiring modes are refused while armed without a
-good EKF position or in EKF failsafe ("Flight mode change failed"); AUTO is refused without a
-mission.
+INITIAL_MODE (0 = MANUAL). Arming (GCS_Common.cpp handle_command_component_arm_disarm):
+already armed / disarmed → ACCEPTED; PreArm failures ("AHRS: waiting for home" until home is
+set) → FAILED with "PreArm: …" CRITICAL STATUSTEXT unless param2 = 21196 (force). Mode
+changes (Rover::set_mode, Mode::enter): position-requiring modes are refused while armed
+without a good EKF position or in EKF failsafe ("Flight mode change failed"); AUTO is refused
+without a mission.
+
+Home (``Rover::update_home``, ``Rover::set_home``, ``AP_AHRS::set_home``): set where the EKF
+puts the rover once it has an origin (``home_delay_s`` after it; ArduPilot: the same loop),
+then moved once a second while disarmed when the rover is more than 0.5 m
+(DISTANCE_HOME_MINCHANGE) from it, unless locked; MAV_CMD_DO_SET_HOME
+(``GCS_MAVLINK::handle_command_do_set_home``) sets it where the rover is (param1 = 1, or x/y
+both 0) or at param5/6, and locks it; every change says "Set HOME to …" and sends
+HOME_POSITION and GPS_GLOBAL_ORIGIN to every link. The payload commands (relays, camera,
+gripper, …) are :mod:`helixd.sim.payload`'s.
 
 Scripting (AP_Scripting): with SCR_ENABLE 1 at boot the scripts in the working directory's
 ``scripts/`` are loaded once, when the boot ends. The simulator runs one script:
@@ -24,6 +32,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
+from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_HOME,
@@ -58,6 +67,7 @@ from helixd.sim.guard import (
 )
 from helixd.sim.outputs import MotorDemand, ServoOutputs
 from helixd.sim.params import ParamStore
+from helixd.sim.payload import PAYLOAD_COMMANDS, Payload
 from helixd.sim.rc import RcInputs
 
 FORCE_ARM_MAGIC = 21196
@@ -66,6 +76,18 @@ SEVERITY_CRITICAL = 2
 SEVERITY_WARNING = 4
 SEVERITY_INFO = 6
 FIRMWARE_TEXT = "ArduRover V4.7.0-dev (helixd sim)"
+DISTANCE_HOME_MINCHANGE_M = 0.5  # Rover/defines.h
+HOME_UPDATE_PERIOD_S = 1.0  # Rover::one_second_loop
+
+
+@dataclass(frozen=True, slots=True)
+class Home:
+    north_m: float  # of the EKF origin
+    east_m: float
+    lat_deg: float
+    lon_deg: float
+    locked: bool
+
 
 # The autopilot's scripts directory (name → contents), read once per boot; the I/O shell
 # (helixd.sim.server) reads it from the working directory.
@@ -146,13 +168,17 @@ class Autopilot:
         self.rc = RcInputs(self.pilot_rc_us)
         self.rc.receiver_ok = self.receiver_ok
         self.outputs = ServoOutputs()
+        self.payload = Payload()
+        self.home: Home | None = None
+        self.home_changed = False  # HOME_POSITION (and the origin) go to every link
+        self.here_ne: tuple[float, float] | None = None  # the EKF's position, once it has one
+        self._next_home_update_s = 0.0
         self.failsafes = Failsafes()
         self.mode_switch = modes.ModeSwitch()
         self.gcs_last_seen_s: float | None = None
         self.guard: RunningGuard | None = None
         self._booted = False
         self._origin_announced = False
-        self._home_announced = False
         self._last_slow_check = -1
         self._overrides_prev: tuple[bool, ...] = (False,) * 16
 
@@ -171,8 +197,9 @@ class Autopilot:
         return now_s >= self.origin_time_s
 
     def home_set(self, now_s: float) -> bool:
-        """Rover::ahrs_update sets home from the EKF's position (``home_delay_s`` after it)."""
-        return self.home_time_s is not None and now_s >= self.home_time_s
+        """Home is set (from the EKF's position ``home_delay_s`` after the origin, or by
+        DO_SET_HOME)."""
+        return self.home is not None
 
     def time_boot_ms(self, now_s: float) -> int:
         return max(0, round((now_s - self.boot_start_s) * 1000.0))
@@ -294,14 +321,89 @@ class Autopilot:
         self.events.append(SimEvent("arm", {"forced": forced}))
         return MAV_RESULT_ACCEPTED
 
-    def command(self, command: int, p: Sequence[float], now_s: float, ekf: EkfStatus) -> int | None:
+    # -- home --------------------------------------------------------------------------------
+
+    def set_home(self, north_m: float, east_m: float, locked: bool, reason: str) -> None:
+        cfg = self.config
+        lat, lon = ne_to_latlon(north_m, east_m, cfg.origin_lat_deg, cfg.origin_lon_deg)
+        self.home = Home(north_m, east_m, lat, lon, locked)
+        self.home_changed = True
+        self._say(SEVERITY_INFO, f"Set HOME to {lat:.6f} {lon:.6f} at {cfg.origin_alt_m:.2f}m")
+        self.events.append(
+            SimEvent(
+                "home",
+                {"north_m": north_m, "east_m": east_m, "lat_deg": lat, "lon_deg": lon,
+                 "locked": locked, "reason": reason},
+            )
+        )  # fmt: skip
+
+    def observe_position(self, now_s: float, north_m: float, east_m: float, ok: bool) -> None:
+        """The EKF's position this loop (``ok``: it has one): home follows it while disarmed
+        (Rover::update_home, once a second), the payload's timers and distance trigger run."""
+        self.here_ne = (north_m, east_m) if ok else None
+        home = self.home
+        if ok and home is None:
+            # Rover::ahrs_update: home from the EKF's first position (``home_delay_s`` after
+            # the origin in the simulator; None: never by itself)
+            if self.home_time_s is not None and now_s >= self.home_time_s:
+                self._next_home_update_s = now_s + HOME_UPDATE_PERIOD_S
+                self.set_home(north_m, east_m, locked=False, reason="ekf")
+        elif ok and home is not None and not self.armed and now_s >= self._next_home_update_s:
+            self._next_home_update_s = now_s + HOME_UPDATE_PERIOD_S
+            if (
+                not home.locked
+                and math.hypot(north_m - home.north_m, east_m - home.east_m)
+                >= DISTANCE_HOME_MINCHANGE_M
+            ):
+                self.set_home(north_m, east_m, locked=False, reason="update_home")
+        for ev in self.payload.update(now_s, self.params, self.outputs, self.here_ne or (0, 0)):
+            self.events.append(SimEvent(ev.kind, ev.details))
+
+    def do_set_home(self, p: Sequence[float], is_int: bool) -> int:
+        """GCS_MAVLINK::handle_command_do_set_home (COMMAND_LONG's location is converted to
+        COMMAND_INT's degE7 first, so x/y 0 means 0 either way)."""
+        x, y = p[4], p[5]
+        if p[0] == 1.0 or (x == 0.0 and y == 0.0):
+            if self.here_ne is None:
+                return MAV_RESULT_FAILED
+            self.set_home(*self.here_ne, locked=True, reason="DO_SET_HOME current")
+            return MAV_RESULT_ACCEPTED
+        if p[0] != 0.0:
+            return MAV_RESULT_FAILED
+        lat, lon = (x / 1e7, y / 1e7) if is_int else (x, y)
+        if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+            return MAV_RESULT_DENIED
+        cfg = self.config
+        north, east = latlon_to_ne(lat, lon, cfg.origin_lat_deg, cfg.origin_lon_deg)
+        self.set_home(north, east, locked=True, reason="DO_SET_HOME location")
+        return MAV_RESULT_ACCEPTED
+
+    def command(
+        self,
+        command: int,
+        p: Sequence[float],
+        now_s: float,
+        ekf: EkfStatus,
+        is_int: bool = False,
+    ) -> int | None:
         """Vehicle-level COMMAND_LONG/INT; None = not handled here (the caller decides)."""
         if command == MAV_CMD_COMPONENT_ARM_DISARM:
             return self.arm_disarm(p[0], p[1], now_s, ekf)
         if command == MAV_CMD_DO_SET_MODE:
             return self.do_set_mode(int(p[0]), int(p[1]), now_s, ekf)
+        if command == MAV_CMD_DO_SET_HOME:
+            return self.do_set_home(p, is_int)
+        if command in PAYLOAD_COMMANDS:
+            result, events = self.payload.command(
+                command, list(p), self.params, self.outputs, self.here_ne or (0, 0), now_s
+            )
+            self.events.extend(SimEvent(ev.kind, ev.details) for ev in events)
+            return result
         if command == MAV_CMD_DO_SET_SERVO:
             text = self.outputs.do_set_servo(int(p[0]), int(p[1]), self.params)
+            repeat = self.payload.repeat
+            if text is None and repeat is not None and repeat.servo and repeat.channel == int(p[0]):
+                self.payload.repeat = None  # a DO_SET_SERVO cancels a repeat on its output
             if text is None:
                 self.events.append(
                     SimEvent("servo_set", {"channel": int(p[0]), "pwm_us": int(p[1])})
@@ -310,8 +412,6 @@ class Autopilot:
             if text:
                 self._say(SEVERITY_INFO, text)
             return MAV_RESULT_FAILED
-        if command == MAV_CMD_DO_SET_HOME:
-            return self.do_set_home(p, now_s)
         if command == MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
             if self.armed:
                 return MAV_RESULT_FAILED
@@ -319,20 +419,6 @@ class Autopilot:
                 return MAV_RESULT_UNSUPPORTED
             return MAV_RESULT_ACCEPTED  # the caller reboots after sending the ACK
         return None
-
-    def do_set_home(self, p: Sequence[float], now_s: float) -> int:
-        """GCS_MAVLINK::handle_command_do_set_home. Home here is always where the rover booted
-        (the EKF origin), so only "here" is taken: param1 = 1 (or lat/lon 0) sets it once the
-        EKF has a position, as Rover::set_home_to_current_location; an explicit location is
-        refused (DENIED), which ArduPilot would take."""
-        here = p[0] == 1.0 or (p[4] == 0.0 and p[5] == 0.0)
-        if here:
-            if not self.origin_set(now_s):
-                return MAV_RESULT_FAILED
-            if not self.home_set(now_s):
-                self.home_time_s = now_s
-            return MAV_RESULT_ACCEPTED
-        return MAV_RESULT_FAILED if p[0] != 0.0 else MAV_RESULT_DENIED
 
     def do_set_mode(self, base_mode: int, custom_mode: int, now_s: float, ekf: EkfStatus) -> int:
         """GCS_MAVLINK::_set_mode_common: only custom modes are understood."""
@@ -456,15 +542,6 @@ class Autopilot:
             self._origin_announced = True
             self._say(SEVERITY_INFO, "EKF3 IMU0 origin set")
             self._say(SEVERITY_INFO, "EKF3 IMU0 is using GPS")
-        if not self._home_announced and self.home_set(now_s):
-            self._home_announced = True  # Rover::set_home's text (HOME_POSITION: the core)
-            cfg = self.config
-            self._say(
-                SEVERITY_INFO,
-                f"Set HOME to {cfg.origin_lat_deg:.6f} {cfg.origin_lon_deg:.6f} "
-                f"at {cfg.origin_alt_m:.2f}m",
-            )
-            self.events.append(SimEvent("home", {"lat_deg": cfg.origin_lat_deg}))
         params = self.params
         timeout_s = params.get("RC_OVERRIDE_TIME")
         rc_ok = self.rc.read_input(now_s, timeout_s, params.get_int("RC_OPTIONS"))

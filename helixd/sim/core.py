@@ -92,7 +92,6 @@ class SimCore:
         self._n = 0
         self._chunk_id = 0
         self._origin_sent = False
-        self._home_sent = False
         self.inbound = InboundHandler(self)
         self.mission = MissionServer(
             config.origin_lat_deg, config.origin_lon_deg, config.origin_alt_m
@@ -212,7 +211,6 @@ class SimCore:
             self.links = [self._new_link() for _ in self.links]
             self._epoch_s, self._n = now, 0
             self._origin_sent = False
-            self._home_sent = False
         elif spec.name == "gps_jump":
             bearing = math.radians(float(str(kw["bearing_deg"])))
             self.est = estimator.gps_jump(self.est, float(str(kw["distance_m"])), bearing)
@@ -283,8 +281,23 @@ class SimCore:
         if contact is not None:
             self.events.append(SimEvent(*contact))
         self.est = estimator.step(self.est, self.dt_s(), self.config.noise_profile(), self.rng)
+        here = estimator.estimate(self.est, self.phys)
+        self.ap.observe_position(
+            now, here.north_m, here.east_m, self.ap.origin_set(now) and not self.ap.booting(now)
+        )
         self._collect()
         self.view = self._view(ekf, now)
+        if self.ap.home_changed and not self.ap.silent(now):
+            # AP_AHRS::set_home pushes MSG_HOME and MSG_ORIGIN; a push already pending this
+            # loop (the origin just set, sent below) goes out once (GCS_MAVLINK's bitmask)
+            self.ap.home_changed = False
+            pushed = [st.MSG_HOME_POSITION]
+            if self._origin_sent:
+                pushed.append(st.MSG_GPS_GLOBAL_ORIGIN)
+            for msg_id in pushed:
+                built = telemetry.build(msg_id, self.view)
+                if built is not None:
+                    self.send(None, built)
         self._mission_outcome(self.mission.update(now))
         self._telemetry(now)
 
@@ -344,6 +357,10 @@ class SimCore:
             origin_lon_deg=cfg.origin_lon_deg,
             origin_alt_m=cfg.origin_alt_m,
             sysid=ap.sysid(),
+            home=None
+            if ap.home is None
+            else (ap.home.lat_deg, ap.home.lon_deg, ap.home.north_m, ap.home.east_m),
+            relay_masks=ap.payload.relay_status(self.params),
         )
 
     def _telemetry(self, now: float) -> None:
@@ -355,11 +372,6 @@ class SimCore:
             origin = telemetry.build(st.MSG_GPS_GLOBAL_ORIGIN, view)
             if origin is not None:
                 self.send(None, origin)
-        if view.home_set and not self._home_sent:
-            self._home_sent = True  # AP_AHRS::set_home: GCS_SEND_MESSAGE(MSG_HOME) to all
-            home = telemetry.build(st.MSG_HOME_POSITION, view)
-            if home is not None:
-                self.send(None, home)
         hidden: set[int] = set()
         if self.faults.on("stale_pose"):
             hidden |= telemetry.POSE_MESSAGES

@@ -168,13 +168,15 @@ class InboundHandler:
     def _command_int(self, link: int, msg: Message, src: int, comp: int) -> None:
         params = [_f(msg, f"param{n}") for n in range(1, 5)]
         params += [float(_i(msg, "x")), float(_i(msg, "y")), _f(msg, "z")]
-        self._command(link, _i(msg, "command"), params, src, comp)
+        self._command(link, _i(msg, "command"), params, src, comp, is_int=True)
 
-    def _command(self, link: int, command: int, p: list[float], src: int, comp: int) -> None:
+    def _command(
+        self, link: int, command: int, p: list[float], src: int, comp: int, is_int: bool = False
+    ) -> None:
         core = self.core
         result = self._link_command(link, command, p)
         if result is None:
-            result = core.ap.command(command, p, core.now_s, core.ekf_status())
+            result = core.ap.command(command, p, core.now_s, core.ekf_status(), is_int)
         if result is None:
             result = MAV_RESULT_UNSUPPORTED
         core.record(SimEvent("command", {"command": command, "result": result, "sysid": src}))

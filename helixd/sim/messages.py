@@ -195,22 +195,36 @@ def gps_global_origin(lat_deg: float, lon_deg: float, alt_m: float, time_usec: i
     )
 
 
-def home_position(lat_deg: float, lon_deg: float, alt_m: float, time_usec: int) -> Message:
+def home_position(
+    lat_deg: float,
+    lon_deg: float,
+    alt_m: float,
+    time_usec: int,
+    north_m: float = 0.0,
+    east_m: float = 0.0,
+) -> Message:
+    """GCS_MAVLINK::send_home_position: lat/lon/alt, and x/y/z = home north/east/down of the
+    EKF origin (m); q unused (NaN), approach vector 0."""
+    nan = math.nan
     return _m(
         mavlink.MAVLink_home_position_message(
             round(lat_deg * 1e7),
             round(lon_deg * 1e7),
             round(alt_m * 1000.0),
+            north_m,
+            east_m,
             0.0,
-            0.0,
-            0.0,
-            [1.0, 0.0, 0.0, 0.0],
+            [nan, nan, nan, nan],
             0.0,
             0.0,
             0.0,
             time_usec,
         )
     )
+
+
+def relay_status(time_boot_ms: int, on_mask: int, present_mask: int) -> Message:
+    return _m(mavlink.MAVLink_relay_status_message(time_boot_ms, on_mask, present_mask))
 
 
 def rc_channels(time_boot_ms: int, radio_in_us: Sequence[int], rc_ok: bool) -> Message:

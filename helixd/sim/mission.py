@@ -76,6 +76,7 @@ from helixd.mav.constants import (
     MAV_MISSION_ACCEPTED,
     MAV_MISSION_DENIED,
     MAV_MISSION_ERROR,
+    MAV_MISSION_INVALID_PARAM1,
     MAV_MISSION_INVALID_PARAM5_X,
     MAV_MISSION_INVALID_PARAM6_Y,
     MAV_MISSION_INVALID_PARAM7,
@@ -117,13 +118,18 @@ ACCEPTED_FRAMES = frozenset(
 )
 FLOAT_XY_FRAMES = frozenset({MAV_FRAME_MISSION})  # x/y not scaled by 1e7 in MISSION_ITEM
 
-# a rover uses); anything else is MAV_MISSION_UNSUPPORTED.
+# The commands AP_Mission::mavlink_int_to_mission_cmd stores (its switch, current master);
+# anything else is MAV_MISSION_UNSUPPORTED.
 MISSION_COMMANDS = frozenset(
-    {16, 17, 18, 19, 20, 21, 31, 93, 112, 114, 115, 176, 177, 178, 179, 181, 183, 184, 189, 201,
-     203, 206, 211, 216, 223}
+    {16, 17, 18, 19, 20, 21, 22, 30, 31, 36, 82, 83, 84, 85, 92, 93, 94, 112, 114, 115, 177,
+     178, 179, 181, 182, 183, 184, 188, 189, 191, 193, 194, 195, 197, 201, 202, 203, 205,
+     206, 207, 208, 210, 211, 212, 213, 215, 216, 217, 218, 222, 223, 531, 532, 534, 600,
+     601, 1000, 2000, 2001, 2500, 2501, 3000, 42600, 42702, 42703}
 )  # fmt: skip
-# Commands with a location whose x/y ArduPilot range-checks (check_lat / check_lng)
-LOCATION_COMMANDS = frozenset({16, 17, 18, 19, 21, 31, 179, 201})
+# Commands with a location whose x/y ArduPilot range-checks (AP_Mission::stored_in_location)
+LOCATION_COMMANDS = frozenset(
+    {16, 17, 18, 19, 21, 22, 30, 31, 36, 82, 84, 85, 92, 94, 179, 188, 189, 191, 195, 201}
+)
 # MissionItemProtocol_Fence: AC_PolyFenceItem types
 FENCE_COMMANDS = frozenset({5000, 5001, 5002, 5003, 5004})
 FENCE_FRAMES = ACCEPTED_FRAMES - {MAV_FRAME_MISSION}
@@ -219,6 +225,8 @@ def validate_mission_item(item: StoredItem) -> int:
         return MAV_MISSION_UNSUPPORTED
     if not _finite(item):
         return MAV_MISSION_ERROR
+    if item.command == MAV_CMD_NAV_WAYPOINT and not 0.0 <= item.param1 <= 65535.0:
+        return MAV_MISSION_INVALID_PARAM1  # a rover's hold time is a uint16 of seconds
     if item.command in LOCATION_COMMANDS and item.frame != MAV_FRAME_MISSION:
         lat_lng = _check_lat_lng(item)
         if lat_lng != MAV_MISSION_ACCEPTED:

@@ -93,13 +93,18 @@ class ServoOutputs:
     def latched_channels(self) -> tuple[int, ...]:
         return tuple(i + 1 for i, c in enumerate(self._ch) if c.latched)
 
-    def do_set_servo(self, channel: int, pwm_us: int, params: ParamStore) -> str | None:
-        """Returns None when accepted, else the STATUSTEXT ArduPilot sends (or '')."""
+    def check_servo(self, channel: int, params: ParamStore) -> str | None:
+        """Why DO_SET_SERVO / DO_REPEAT_SERVO is refused on ``channel`` (None: it is not); the
+        STATUSTEXT ArduPilot sends, or '' when it sends none."""
         if not 1 <= channel <= NUM_SERVO_CHANNELS:
             return ""  # srv_channel(channel-1) == nullptr → false → FAILED, no text
         function = params.get_int(f"SERVO{channel}_FUNCTION")
         if function not in DO_SET_SERVO_FUNCTIONS:
             return f"ServoRelayEvent: Channel {channel} is already in use"
+        return None
+
+    def latch(self, channel: int, pwm_us: int) -> None:
+        """SRV_Channel::set_output_pwm + ignore_small_rcin_changes (a checked channel)."""
         c = self._ch[channel - 1]
         c.ignore_small_rcin_changes = True
         if c.override_active:
@@ -107,6 +112,13 @@ class ServoOutputs:
         c.latched = True
         c.latched_pwm_us = int(pwm_us)
         c.output_pwm_us = int(pwm_us)
+
+    def do_set_servo(self, channel: int, pwm_us: int, params: ParamStore) -> str | None:
+        """Returns None when accepted, else the STATUSTEXT ArduPilot sends (or '')."""
+        refusal = self.check_servo(channel, params)
+        if refusal is not None:
+            return refusal
+        self.latch(channel, pwm_us)
         return None
 
     def hold(self, channel: int, pwm_us: int, loops: int) -> None:

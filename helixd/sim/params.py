@@ -69,6 +69,11 @@ def _build_defaults() -> dict[str, ParamSpec]:
         table[f"SERVO{n}_TRIM"] = ParamSpec(1500, i16)
         table[f"SERVO{n}_MAX"] = ParamSpec(1900, i16)
         table[f"SERVO{n}_REVERSED"] = ParamSpec(0, i8)
+    table["CAM1_TYPE"] = ParamSpec(0, i8)  # 0: no camera (AP_Camera has no backend)
+    table["GRIP_ENABLE"] = ParamSpec(0, i8)
+    for n in range(1, 7):  # AP_Relay: RELAYn_FUNCTION 1 = relay, and a pin, make it usable
+        table[f"RELAY{n}_FUNCTION"] = ParamSpec(0, i8)
+        table[f"RELAY{n}_PIN"] = ParamSpec(-1, i8)
     return table
 
 

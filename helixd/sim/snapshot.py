@@ -67,6 +67,9 @@ class SimSnapshot:
     mission_current_seq: int = 0
     guard_version: int | None = None  # helixd-guard.lua running (its VERSION); None: not
     guard_guarding: bool = False  # the guard holds the scrolls (helixd silent while armed)
+    home_ne_m: tuple[float, float] | None = None  # the autopilot's home (None: not set)
+    relays_on: tuple[int, ...] = ()  # relay instances switched on (0 = RELAY1)
+    pictures: int = 0  # camera pictures taken (CAM1_TYPE set)
 
     def describe(self) -> str:
         return (
@@ -140,6 +143,9 @@ def take_snapshot(core: SimCore) -> SimSnapshot:
         mission_current_seq=core.mission.current_seq,
         guard_version=None if ap.guard is None else ap.guard.version,
         guard_guarding=ap.guard is not None and ap.guard.machine.guarding,
+        home_ne_m=None if ap.home is None else (ap.home.north_m, ap.home.east_m),
+        relays_on=tuple(sorted(i for i, on in ap.payload.relays.items() if on)),
+        pictures=ap.payload.pictures,
     )
 
 

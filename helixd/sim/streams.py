@@ -35,6 +35,7 @@ MSG_VFR_HUD = 74
 MSG_AUTOPILOT_VERSION = 148
 MSG_EKF_STATUS_REPORT = 193
 MSG_HOME_POSITION = 242
+MSG_RELAY_STATUS = 376
 
 # MAV_DATA_STREAM ids → the messages ArduPilot puts in them (the ones this simulator sends)
 STREAM_ALL = 0
@@ -49,7 +50,14 @@ STREAMS: dict[int, tuple[int, ...]] = {
 STREAMED = tuple(m for msgs in STREAMS.values() for m in msgs)
 # messages that can be asked for with REQUEST_MESSAGE / SET_MESSAGE_INTERVAL
 KNOWN_MESSAGES = frozenset(
-    {*STREAMED, MSG_HEARTBEAT, MSG_GPS_GLOBAL_ORIGIN, MSG_AUTOPILOT_VERSION, MSG_HOME_POSITION}
+    {
+        *STREAMED,
+        MSG_HEARTBEAT,
+        MSG_GPS_GLOBAL_ORIGIN,
+        MSG_AUTOPILOT_VERSION,
+        MSG_HOME_POSITION,
+        MSG_RELAY_STATUS,
+    }
 )
 
 

@@ -40,6 +40,9 @@ class TelemetryView:
     origin_lon_deg: float
     origin_alt_m: float
     sysid: int
+    # home as (lat_deg, lon_deg, north_m, east_m); None: not set yet (nothing is sent)
+    home: tuple[float, float, float, float] | None = None
+    relay_masks: tuple[int, int] = (0, 0)  # RELAY_STATUS (on, present)
 
     def system_status(self) -> int:
         """GCS_MAVLINK_Rover::vehicle_system_status."""
@@ -111,6 +114,8 @@ def build(
         return messages.system_time(t)
     if msg_id == st.MSG_AUTOPILOT_VERSION:
         return messages.autopilot_version(v.sysid)
+    if msg_id == st.MSG_RELAY_STATUS:
+        return messages.relay_status(t, *v.relay_masks)
     if not v.origin_set:
         return None
     if msg_id == st.MSG_LOCAL_POSITION_NED:
@@ -133,7 +138,8 @@ def build(
             v.origin_lat_deg, v.origin_lon_deg, v.origin_alt_m, t * 1000
         )
     if msg_id == st.MSG_HOME_POSITION:
-        if not v.home_set:
-            return None  # GCS_MAVLINK::send_home_position: nothing before home is set
-        return messages.home_position(v.origin_lat_deg, v.origin_lon_deg, v.origin_alt_m, t * 1000)
+        if v.home is None:
+            return None  # GCS_MAVLINK::send_home_position: nothing while home is not set
+        lat, lon, north, east = v.home
+        return messages.home_position(lat, lon, v.origin_alt_m, t * 1000, north, east)
     return None

@@ -28,23 +28,27 @@ def test_check_needs_a_mode_for_a_plan() -> None:
     assert "carries no motion mode: give --mode" in res.output
 
 
-def test_check_refuses_unsupported_items_by_number() -> None:
+def test_check_shows_the_commands_where_they_are_flown() -> None:
+    """The Survey's camera triggers and the closing RTL are flown, not refused: one line per
+    step, the items under the step they start with."""
     res = runner.invoke(app, ["check", "-m", str(PLAN), "--mode", "scroll"])
-    assert res.exit_code == 2
-    assert f"error: {PLAN}: item 3 (mission.items.1 survey item 1): DO_SET_CAM_TRIGG_DIST" in (
-        res.output
-    )
-    assert "item 8 (mission.items.2): NAV_RETURN_TO_LAUNCH" in res.output
+    assert res.exit_code == 0, res.output
+    lines = res.output.splitlines()
+    (rtl,) = [ln for ln in lines if "NAV_RETURN_TO_LAUNCH →" in ln]
+    assert any("NAV_RETURN_TO_LAUNCH shown going to the mission's home" in ln for ln in lines)
+    assert rtl.split()[:2] == ["6", "8"]  # step 6 is item 8
+    assert "→ home" in rtl
+    assert any(ln.split()[:2] == ["3", "+"] and "DO_SET_CAM_TRIGG_DIST" in ln for ln in lines)
 
 
-def test_check_flies_the_waypoints_with_skip_and_a_config_mode(tmp_path: Path) -> None:
+def test_check_with_a_config_mode(tmp_path: Path) -> None:
     cfg = tmp_path / "helixd.yaml"
     cfg.write_text(yaml.safe_dump({"mission": {"ground_station_mode": "omni"}}))
-    res = runner.invoke(app, ["check", "-m", str(WPL), "-c", str(cfg), "--skip-unsupported"])
+    res = runner.invoke(app, ["check", "-m", str(WPL), "-c", str(cfg)])
     assert res.exit_code == 0, res.output
-    assert "warning: " in res.output and "DO_CHANGE_SPEED" in res.output
+    assert "DO_CHANGE_SPEED → 0.50 m/s" in res.output
     assert "mode=omni  frame=global" in res.output
-    res = runner.invoke(app, ["check", "-m", str(WPL), "--mode", "roll", "--skip-unsupported"])
+    res = runner.invoke(app, ["check", "-m", str(WPL), "--mode", "roll"])
     assert "mode=roll" in res.output
 
 
@@ -65,24 +69,25 @@ def test_a_bare_name_finds_a_plan(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
     missions.mkdir(parents=True)
     (missions / "pond.plan").write_text(PLAN.read_text())
     monkeypatch.chdir(tmp_path)
-    res = runner.invoke(app, ["check", "-m", "pond", "--mode", "scroll", "--skip-unsupported"])
+    res = runner.invoke(app, ["check", "-m", "pond", "--mode", "scroll"])
     assert res.exit_code == 0, res.output
     assert "config/missions/pond.plan" in res.output
 
 
 def test_convert_round_trip_and_what_is_lost(tmp_path: Path) -> None:
     out = tmp_path / "pond.waypoints"
-    res = runner.invoke(
-        app, ["mission", "convert", str(PLAN), str(out), "--mode", "scroll", "--skip-unsupported"]
-    )
+    res = runner.invoke(app, ["mission", "convert", str(PLAN), str(out), "--mode", "scroll"])
     assert res.exit_code == 0, res.output
     assert "has no place for geofence_polygon" in res.output
     assert out.read_text().startswith("QGC WPL 110\n0\t1\t0\t16\t")
     back = tmp_path / "back.yaml"
     res = runner.invoke(app, ["mission", "convert", str(out), str(back), "--mode", "scroll"])
     assert res.exit_code == 0, res.output
-    first = load_mission_file(PLAN, mode=MotionMode.SCROLL, skip_unsupported=True).mission
-    assert load_mission_file(back).mission.points() == first.points()
+    first = load_mission_file(PLAN, mode=MotionMode.SCROLL).mission
+    again = load_mission_file(back).mission
+    assert again.points() == first.points()
+    # every item came through, commands included (what .waypoints cannot hold: NaN → 0)
+    assert [w.command for w in again.waypoints] == [w.command for w in first.waypoints]
 
 
 def test_convert_errors(tmp_path: Path) -> None:
@@ -90,8 +95,7 @@ def test_convert_errors(tmp_path: Path) -> None:
     assert res.exit_code == 2
     res = runner.invoke(
         app,
-        ["mission", "convert", str(PLAN), str(tmp_path / "x.kml"), "--mode", "roll",
-         "--skip-unsupported"],
+        ["mission", "convert", str(PLAN), str(tmp_path / "x.kml"), "--mode", "roll"],
     )  # fmt: skip
     assert res.exit_code == 2 and "unknown mission file type '.kml'" in res.output
     start = tmp_path / "s.yaml"
@@ -154,9 +158,8 @@ def test_waypoints_to_plan_keeps_the_home_and_its_altitude(tmp_path: Path) -> No
     out = tmp_path / "sq.plan"
     res = runner.invoke(
         app,
-        ["mission", "convert", str(DATA / "square.waypoints"), str(out), "--mode", "roll",
-         "--skip-unsupported"],
-    )  # fmt: skip
+        ["mission", "convert", str(DATA / "square.waypoints"), str(out), "--mode", "roll"],
+    )  # fmt: skip  (issue 20: conversion keeps every item; convert has no --skip-unsupported)
     assert res.exit_code == 0, res.output
     doc = json.loads(out.read_text())
     assert doc["mission"]["plannedHomePosition"] == [53.52325, -113.52611, 668.0]
@@ -171,7 +174,8 @@ def test_waypoints_to_plan_keeps_the_home_and_its_altitude(tmp_path: Path) -> No
 
 
 def test_ignored_qgc_fields_are_said_naming_the_item(tmp_path: Path) -> None:
-    """Acceptance radius (param2), hold time (param1) and cruiseSpeed are not used yet."""
+    """Acceptance radius (param2) and cruiseSpeed are not used yet; the hold time (param1) is
+    flown since mission commands (issue 20): not said to be ignored, shown as a hold."""
     doc = json.loads(PLAN.read_text())
     first = doc["mission"]["items"][0]
     first["params"][0], first["params"][1] = 5, 2.5
@@ -180,6 +184,6 @@ def test_ignored_qgc_fields_are_said_naming_the_item(tmp_path: Path) -> None:
     plan.write_text(json.dumps(doc))
     res = runner.invoke(app, ["check", "-m", str(plan), "--mode", "roll", "--skip-unsupported"])
     assert res.exit_code == 0, res.output
-    assert "item 1 (mission.items.0): hold time 5 s (param1) ignored" in res.output
+    assert "hold time 5 s (param1) ignored" not in res.output
     assert "item 1 (mission.items.0): acceptance radius 2.5 m (param2) ignored" in res.output
     assert "cruiseSpeed 1.2 m/s ignored" in res.output

@@ -31,7 +31,7 @@ pytestmark = pytest.mark.integration
 PLAN = DATA_DIR / "sim_square.plan"
 SIM_ORIGIN = (SimConfig().origin_lat_deg, SimConfig().origin_lon_deg)
 MAV_CMD_NAV_WAYPOINT = 16
-MAV_CMD_NAV_LOITER_TIME = 19
+MAV_CMD_NAV_GUIDED_ENABLE = 92  # Rover hands navigation away: helixd cannot fly it
 
 
 def write_config(tmp_path: Path, url: str) -> Path:
@@ -142,7 +142,7 @@ def test_empty_autopilot_mission_is_refused(tmp_path: Path) -> None:
 def test_unsupported_item_is_refused_by_number(tmp_path: Path) -> None:
     doc = json.loads(PLAN.read_text())
     loiter = copy.deepcopy(doc["mission"]["items"][1])
-    loiter["command"], loiter["doJumpId"] = MAV_CMD_NAV_LOITER_TIME, 9
+    loiter["command"], loiter["doJumpId"] = MAV_CMD_NAV_GUIDED_ENABLE, 9
     doc["mission"]["items"].insert(1, loiter)
     plan = tmp_path / "loiter.plan"
     plan.write_text(json.dumps(doc), "utf-8")
@@ -154,7 +154,7 @@ def test_unsupported_item_is_refused_by_number(tmp_path: Path) -> None:
     errors = [line for line in res.stderr.splitlines() if line.startswith("error:")]
     assert res.returncode == ExitCode.PREFLIGHT, res.stderr
     assert len(errors) == 1, res.stderr
-    assert "item 2" in errors[0] and "LOITER_TIME" in errors[0], errors
+    assert "item 2 NAV_GUIDED_ENABLE" in errors[0] and "offboard" in errors[0], errors
     assert not snap.armed
 
 

@@ -84,10 +84,7 @@ def test_plan_upload_then_download_gives_it_back(tmp_path: Path) -> None:
         back = tmp_path / "back.plan"
         down = helixd("mission", "download", back, "--connect", url)
         as_yaml = tmp_path / "back.yaml"
-        down_yaml = helixd(
-            "mission", "download", as_yaml, "--connect", url, "--mode", "roll",
-            "--skip-unsupported",
-        )  # fmt: skip
+        down_yaml = helixd("mission", "download", as_yaml, "--connect", url, "--mode", "roll")
         summary = helixd("mission", "download", "--connect", url)
     assert up.returncode == 0, up.stderr
     assert "Traceback" not in up.stderr
@@ -112,22 +109,24 @@ def test_plan_upload_then_download_gives_it_back(tmp_path: Path) -> None:
         (c.inclusion, c.radius_m) for c in sent.circles
     ]
     assert got.circles[0].centre_latlon_deg == pytest.approx(sent.circles[0].centre_latlon_deg)
-    # ... and as a helixd mission (the waypoints; the Survey's camera items and RTL skipped)
+    # ... and as a helixd mission: every item, the Survey's camera items and the RTL included
     assert down_yaml.returncode == 0, down_yaml.stderr
     msn = yaml.safe_load(as_yaml.read_text())
     n_wp = sum(it.command == 16 for it in sent.items)
-    assert msn["frame"] == "global" and len(msn["waypoints"]) == n_wp
+    assert msn["frame"] == "global" and len(msn["waypoints"]) == len(sent.items)
+    assert sum("command" not in w for w in msn["waypoints"]) == n_wp
+    assert [w["command"] for w in msn["waypoints"] if "command" in w] == [
+        "DO_SET_CAM_TRIGG_DIST",
+        "DO_SET_CAM_TRIGG_DIST",
+        "NAV_RETURN_TO_LAUNCH",
+    ]
     assert flat(msn["geofence_polygon"]) == pytest.approx(
         flat(sent.polygons[0].vertices_latlon_deg), abs=1e-7
     )
-    assert "DO_SET_CAM_TRIGG_DIST cannot be flown" in down_yaml.stderr
     # the downloaded .plan feeds `mission convert` like any QGC file
-    conv = helixd(
-        "mission", "convert", back, tmp_path / "conv.waypoints", "--mode", "roll",
-        "--skip-unsupported",
-    )  # fmt: skip
+    conv = helixd("mission", "convert", back, tmp_path / "conv.waypoints", "--mode", "roll")
     assert conv.returncode == 0, conv.stderr
-    assert f"{n_wp} waypoints" in conv.stdout
+    assert f"{len(sent.items)} items" in conv.stdout
     # without OUT: a summary on stdout
     assert summary.returncode == 0, summary.stderr
     assert f"mission : {len(sent.items)} items" in summary.stdout

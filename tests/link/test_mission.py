@@ -167,7 +167,7 @@ def test_nack_by_name() -> None:
 
 def test_unsupported_item_fails_upload_with_its_name() -> None:
     srv = server()
-    up = new_upload(items(3, command=22))
+    up = new_upload(items(3, command=176))
     Channel(srv).run(up)
     assert up.error is not None and "MAV_MISSION_UNSUPPORTED" in str(up.error)
 

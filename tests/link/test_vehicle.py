@@ -309,3 +309,24 @@ def test_fuzz_stored_pose_is_always_finite_and_in_bounds(
             assert math.isfinite(st_.yaw_ned_rad)
         if changes & Change.POSE:
             assert not st_.pose_invalid
+
+
+def test_home_position_is_checked_at_the_edge() -> None:
+    """HOME_POSITION: lat/lon on the Earth or ignored; north/east kept when finite and within
+    the telemetry bounds, else unknown (ArduPilot sends NaN before it has an origin)."""
+
+    def home(lat: float, lon: float, x: float, y: float) -> Any:
+        q = [math.nan] * 4
+        msg = AP.home_position_encode(round(lat * 1e7), round(lon * 1e7), 0, x, y, 0.0, q,
+                                      0, 0, 0, 0)  # fmt: skip
+        return decoded(msg, AP)
+
+    st = VehicleState()
+    assert st.apply(home(53.5, -113.5, 3.0, -2.0), 1.0) & Change.HOME
+    assert st.home is not None and (st.home.north_m, st.home.east_m) == (3.0, -2.0)
+    st.apply(home(53.5, -113.5, math.nan, 0.0), 2.0)
+    assert st.home is not None and st.home.north_m is None and st.home_rx_s == 2.0
+    st.apply(home(53.5, -113.5, 1e9, 0.0), 3.0)
+    assert st.home is not None and st.home.north_m is None
+    assert st.apply(home(95.0, 0.0, 0.0, 0.0), 4.0) == Change.NONE
+    assert st.home_rejected_count == 1 and st.home_rx_s == 3.0

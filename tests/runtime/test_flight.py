@@ -216,3 +216,55 @@ def test_journal_hands_rows_on_when_steps_pause_and_on_demand() -> None:
     journal.drain()
     journal.maybe_drain(99.0)
     assert len(rows) == 2  # nothing twice
+
+
+# -- a mission with commands: the sequencer beside the navigator ------------------------------
+
+
+def test_a_hold_sends_neutral_then_the_leg_and_queues_the_commands_due() -> None:
+    """NAV_DELAY 0.2 s, a servo command, then a waypoint 20 m ahead: neutral (the navigator not
+    stepped) for the 0.2 s of autopilot time, the servo command handed over when the delay
+    ends and the leg starts, then the leg's commands."""
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.tick()
+    sink = Sink(trace)
+    cfg = HelixdConfig()
+    mission = Mission.model_validate(
+        {
+            "name": "t",
+            "mode": "roll",
+            "frame": "start",
+            "waypoints": [
+                {"command": "NAV_DELAY", "delay_s": 0.2},
+                {"command": "DO_SET_SERVO", "channel": 9, "pwm_us": 1900},
+                {"x": 20, "y": 0},
+            ],
+        }
+    )
+    plan = resolve_plan(mission, cfg.control, cfg.mission, None)
+    start = NedPose(0.0, 0.0, 0.0)
+    actions: list[Any] = []
+    events: list[Any] = []
+    loop = FlightLoop(
+        cfg=cfg,
+        plan=plan,
+        frame=MissionFrame.start_at(start),
+        autopilot=ap,  # type: ignore[arg-type]
+        sink=sink,
+        stop=StopRequest(),
+        start_ned=start,
+        on_step=lambda r: trace.append("report"),
+        on_pose_rejected=lambda r: None,
+        on_arrival=lambda i, t, e: None,
+        on_tick=lambda: None,
+        on_action=actions.append,
+        on_mission_event=events.append,
+    )
+    asyncio.run(fly(ap, loop, 30))
+    neutral = [c == (0.0, 0.0, 0.0, 0.0) for c in sink.commands]
+    first_drive = neutral.index(False)
+    assert 9 <= first_drive <= 12  # 0.2 s at 20 ms a pose, stepped at the control ceiling
+    assert all(neutral[:first_drive]) and not any(neutral[first_drive:])
+    assert [(a.item, a.command) for a in actions] == [(2, 183)]
+    assert [e.kind for e in events][:3] == ["step_started", "hold_started", "step_completed"]

@@ -21,6 +21,7 @@ from helixd.mav.mission_item import WireItem
 from helixd.mission import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.formats.wire import gcs_to_wire
+from helixd.runtime.inputs import mission_vs_config
 from helixd.runtime.show_plan import plan_as_gcs, show_plan
 
 ORIGIN = (53.5233, -113.5263)
@@ -89,7 +90,6 @@ def test_convert_flies_the_waypoints_with_the_given_mode() -> None:
         source="autopilot at X",
         cfg=CFG,
         mode=MotionMode.OMNI,
-        skip_unsupported=False,
     )
     assert got.mission.frame is MissionFrameKind.GLOBAL and got.mission.mode is MotionMode.OMNI
     assert len(got.mission.waypoints) == 2 and got.items == 2
@@ -97,8 +97,7 @@ def test_convert_flies_the_waypoints_with_the_given_mode() -> None:
 
 def refusal(mission: tuple[WireItem, ...], capsys: pytest.CaptureFixture[str]) -> list[str]:
     with pytest.raises(typer.Exit) as info:
-        convert(mission, (), source="autopilot at X", cfg=CFG, mode=MotionMode.ROLL,
-                skip_unsupported=False)  # fmt: skip
+        convert(mission, (), source="autopilot at X", cfg=CFG, mode=MotionMode.ROLL)
     assert info.value.exit_code == ExitCode.PREFLIGHT
     return [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("error:")]
 
@@ -109,14 +108,21 @@ def test_empty_mission_refused(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_unsupported_item_named(capsys: pytest.CaptureFixture[str]) -> None:
-    mission = (HOME, wire_wp(1, 53.5234, -113.5263), wire_wp(2, 53.5234, -113.5262, 19))
-    (line,) = refusal(mission, capsys)
-    assert "item 2" in line and "skip-unsupported" in line
+    """A waypoint off the Earth is refused by the conversion, naming the item; what helixd
+    cannot fly (NAV_GUIDED_ENABLE) is kept by it and refused by the mission check."""
+    bad = WireItem(seq=2, frame=3, command=16, x=95 * 10**7, y=0)
+    (line,) = refusal((HOME, wire_wp(1, 53.5234, -113.5263), bad), capsys)
+    assert "autopilot mission item 2" in line and "off the Earth" in line
+    mission = (HOME, wire_wp(1, 53.5234, -113.5263), wire_wp(2, 53.5234, -113.5262, 92))
+    got = convert(mission, (), source="autopilot at X", cfg=CFG, mode=MotionMode.ROLL)
+    problems: list[str] = []
+    mission_vs_config(CFG, got.mission, "autopilot at X", problems)
+    assert any("item 2 NAV_GUIDED_ENABLE" in p and "skip-unsupported" in p for p in problems)
 
 
 def test_no_mode_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(typer.Exit) as info:
-        convert((HOME,), (), source="s", cfg=CFG, mode=None, skip_unsupported=False)
+        convert((HOME,), (), source="s", cfg=CFG, mode=None)
     assert info.value.exit_code == ExitCode.USAGE
     assert "--mode" in capsys.readouterr().err
 

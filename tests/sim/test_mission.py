@@ -143,7 +143,8 @@ def test_wrong_sequence_is_complained_about_and_upload_goes_on() -> None:
 def test_unsupported_command_and_bad_latitude_end_the_upload() -> None:
     srv = server()
     srv.handle(0, stamp(count(2)), 0.0)
-    out = srv.handle(0, stamp(item(0, command=22)), 0.1)  # NAV_TAKEOFF: not a rover command
+    # DO_SET_MODE: not a command AP_Mission stores (NAV_TAKEOFF is: Rover skips it in flight)
+    out = srv.handle(0, stamp(item(0, command=176)), 0.1)
     assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
     assert srv.update(5.0).sends == []  # no upload left to re-request
     srv.handle(0, stamp(count(1)), 6.0)

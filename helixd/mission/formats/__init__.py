@@ -22,18 +22,22 @@ from helixd.files.yamlio import YamlFileError, read_text_capped
 from helixd.mission.formats.items import (
     Converted,
     FenceNe,
+    FencePolygon,
     FormatError,
     GcsMission,
     MissionItem,
     ObstacleCircle,
+    check_latlon,
+    circle_polygon,
     fence_ne,
     items_to_mission,
+    keep_out_problems,
     mission_name,
     mission_to_items,
 )
 from helixd.mission.formats.qgc_plan import parse_plan_text, plan_to_text
-from helixd.mission.formats.wpl import parse_wpl_text, wpl_to_text
-from helixd.mission.model import Mission, MotionMode, load_mission
+from helixd.mission.formats.wpl import parse_wpl_fence_text, parse_wpl_text, wpl_to_text
+from helixd.mission.model import Mission, MissionFrameKind, MotionMode, entry_yaml, load_mission
 
 
 class MissionFormat(StrEnum):
@@ -46,6 +50,7 @@ SUFFIXES = {
     ".yaml": MissionFormat.YAML,
     ".yml": MissionFormat.YAML,
     ".plan": MissionFormat.PLAN,
+    ".mission": MissionFormat.PLAN,  # QGroundControl's older mission file (read only)
     ".waypoints": MissionFormat.WAYPOINTS,
     ".txt": MissionFormat.WAYPOINTS,  # Mission Planner's "save WP file" also offers .txt
 }
@@ -54,7 +59,7 @@ SUFFIXES = {
 def detect_format(path: Path) -> MissionFormat:
     """The format a file name asks for (writing, and ``convert``'s output)."""
     fmt = SUFFIXES.get(path.suffix.lower())
-    if fmt is None:
+    if fmt is None or path.suffix.lower() == ".mission":
         raise FormatError(
             [
                 f"{path}: unknown mission file type {path.suffix or '(no suffix)'!r}; allowed: "
@@ -79,6 +84,66 @@ def sniff_format(path: Path) -> MissionFormat:
     return fmt
 
 
+def _old_text_kind(path: Path) -> str | None:
+    """A ``.txt`` that is neither WPL nor YAML but MAVProxy's older formats: "rally" (lines
+    ``RALLY lat lon …``) or "fence" (lines ``lat lon``: the return point, then a polygon)."""
+    if path.suffix.lower() != ".txt":
+        return None
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(4096).removeprefix(b"\xef\xbb\xbf").decode("utf-8", "replace")
+    except OSError:
+        return None
+    lines = [ln.split() for ln in head.splitlines() if ln.strip() and not ln.startswith("#")]
+    if not lines:
+        return None
+    if lines[0][0].upper() == "RALLY":
+        return "rally"
+    try:
+        if all(len(ln) == 2 and all(math.isfinite(float(v)) for v in ln) for ln in lines[:20]):
+            return "fence"
+    except ValueError:
+        return None
+    return None
+
+
+def parse_point_fence_text(text: str, source: Path | str) -> GcsMission:
+    """MAVProxy's older polygon fence (``fence load`` of a lat/lon list, the one ArduPilot's
+    autotest still carries): the first point is the return point, the rest one inclusion
+    polygon (its closing repeat of the first vertex dropped)."""
+    src = str(source)
+    pts: list[tuple[float, float]] = []
+    problems: list[str] = []
+    for n, line in enumerate(text.splitlines(), start=1):
+        cols = line.split()
+        if not cols or line.startswith("#"):
+            continue
+        try:
+            if len(cols) != 2:
+                raise ValueError
+            lat, lon = float(cols[0]), float(cols[1])
+        except ValueError:
+            problems.append(f"{src}: line {n}: expected 'latitude longitude'")
+            continue
+        bad = check_latlon(f"{src}: line {n}", lat, lon)
+        if bad:
+            problems.extend(bad)
+            continue
+        pts.append((lat, lon))
+    if problems:
+        raise FormatError(problems[:20])
+    polygon = pts[1:]
+    if len(polygon) > 1 and polygon[0] == polygon[-1]:
+        polygon = polygon[:-1]
+    if len(polygon) < 3:
+        raise FormatError([f"{src}: a return point and at least 3 polygon vertices are needed"])
+    return GcsMission(
+        items=(),
+        polygons=(FencePolygon(tuple(polygon), inclusion=True),),
+        notes=(f"{src}: line 1: fence return point {pts[0]} not kept",),
+    )
+
+
 def read_gcs(path: Path) -> GcsMission:
     """A .plan or .waypoints file's items and fences (no conversion)."""
     fmt = sniff_format(path)
@@ -97,7 +162,6 @@ def read_gcs(path: Path) -> GcsMission:
 class LoadedMission:
     mission: Mission
     format: MissionFormat
-    skipped: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     gcs: GcsMission | None = None
 
@@ -108,7 +172,6 @@ def load_mission_file(
     *,
     mode: MotionMode | None = None,
     default_mode: MotionMode | None = None,
-    skip_unsupported: bool = False,
     route_keep_outs: bool = False,
 ) -> LoadedMission:
     """Any supported file → a validated mission. Raises :class:`ConfigFileError` (one line per
@@ -119,6 +182,23 @@ def load_mission_file(
     ``route_keep_outs``: legs through a .plan's exclusion zones are planned around
     (helixd.planning), not refused (see :func:`items_to_mission`)."""
     fmt = sniff_format(path)
+    old = _old_text_kind(path) if fmt is MissionFormat.YAML else None
+    if old == "fence":
+        raise ConfigFileError(
+            path,
+            [
+                f"{path}: a fence file (MAVProxy's lat/lon list: return point, then a polygon), "
+                f"not a mission: give it with --fence {path}"
+            ],
+        )
+    if old == "rally":
+        raise ConfigFileError(
+            path,
+            [
+                f"{path}: rally points (RALLY lines), not a mission: helixd flies missions; its "
+                "NAV_RETURN_TO_LAUNCH goes to the autopilot's home, not to rally points"
+            ],
+        )
     if fmt is MissionFormat.YAML:
         msn = load_mission(path, limits)
         if mode is not None and mode is not msn.mode:
@@ -139,7 +219,6 @@ def load_mission_file(
             gcs,
             name=mission_name(path.stem),
             mode=mode,
-            skip_unsupported=skip_unsupported,
             source=str(path),
             route_keep_outs=route_keep_outs,
         )
@@ -151,16 +230,13 @@ def load_mission_file(
             msn = Mission.model_validate(msn.model_dump(), context={"limits": limits})
         except ValidationError as exc:
             raise ConfigFileError(path, format_validation_error(path, exc, Mission)) from None
-    return LoadedMission(msn, fmt, conv.skipped, conv.notes, gcs)
+    return LoadedMission(msn, fmt, conv.notes, gcs)
 
 
 def mission_to_yaml(mission: Mission) -> str:
     """The mission as helixd YAML (loads back equal)."""
     data = mission.model_dump(mode="json", exclude_none=True, exclude_defaults=False)
-    data["waypoints"] = [
-        {k: v for k, v in wp.items() if v is not None and (k != "via" or v)}
-        for wp in data["waypoints"]
-    ]
+    data["waypoints"] = [entry_yaml(wp) for wp in mission.waypoints]
     for key in ("geofence_polygon",):
         if not data.get(key):
             data.pop(key, None)
@@ -170,6 +246,8 @@ def mission_to_yaml(mission: Mission) -> str:
         data.pop("keep_out_polygons", None)
     else:
         data["keep_out_polygons"] = [[list(v) for v in p] for p in data["keep_out_polygons"]]
+    if "home" in data:
+        data["home"] = list(data["home"])
     return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
 
 
@@ -221,14 +299,106 @@ def has_keep_outs(path: Path) -> bool:
     """Whether a mission file is a .plan with exclusion polygons or circles in its geofence."""
     if sniff_format(path) is not MissionFormat.PLAN:
         return False
-    gcs = read_gcs(path)
-    return any(not p.inclusion for p in gcs.polygons) or any(not c.inclusion for c in gcs.circles)
+    return fence_has_keep_outs(read_gcs(path))
+
+
+def fence_has_keep_outs(fence: GcsMission | None) -> bool:
+    """Whether a fence has exclusion polygons or circles (keep-outs to plan around)."""
+    if fence is None:
+        return False
+    return any(not p.inclusion for p in fence.polygons) or any(
+        not c.inclusion for c in fence.circles
+    )
 
 
 def plan_fence_ne(path: Path, origin_latlon_deg: tuple[float, float]) -> FenceNe:
     """The geofence of a .plan (or .waypoints: none) as plain north/east polygons and circles
     around the EKF origin — keep-out obstacles for a planner, keep-in boundaries."""
     return fence_ne(read_gcs(path), origin_latlon_deg)
+
+
+def read_fence(path: Path) -> GcsMission:
+    """A fence where operators keep one: a ``.plan``'s geoFence (its mission items are not
+    read as a mission) or a Mission Planner fence file (QGC WPL 110 rows of commands
+    5000-5004). FormatError naming the file."""
+    fmt = sniff_format(path)
+    try:
+        text = read_text_capped(path).removeprefix("\ufeff")
+    except YamlFileError as exc:
+        raise FormatError([exc.message.replace("YAML file", "fence file")]) from None
+    if fmt is MissionFormat.PLAN:
+        gcs = parse_plan_text(text, path)
+        fence = GcsMission(items=(), polygons=gcs.polygons, circles=gcs.circles)
+    elif fmt is MissionFormat.WAYPOINTS:
+        fence = parse_wpl_fence_text(text, path)
+    elif _old_text_kind(path) == "fence":
+        fence = parse_point_fence_text(text, path)
+    else:
+        raise FormatError(
+            [
+                f"{path}: a fence is a .plan (its geoFence), a Mission Planner fence file "
+                "(.waypoints/.txt, QGC WPL 110 with commands 5000-5004) or MAVProxy's lat/lon "
+                "list (.txt)"
+            ]
+        )
+    if not fence.polygons and not fence.circles:
+        raise FormatError([f"{path}: holds no fence polygon or circle"])
+    return fence
+
+
+def with_fence(
+    loaded: LoadedMission, fence: GcsMission, source: str, *, route_keep_outs: bool = False
+) -> LoadedMission:
+    """The mission with a fence file's shapes: its one inclusion polygon (or circle) becomes
+    the mission's keep-in fence (replacing the mission's own, said in a note), its exclusion
+    zones are refused around the waypoints (and the legs, unless planned around) and kept for
+    the planner. Only a global (lat/lon) mission can be fenced by lat/lon shapes."""
+    msn = loaded.mission
+    if msn.frame is not MissionFrameKind.GLOBAL:
+        raise FormatError(
+            [
+                f"--fence {source}: the fence is latitude/longitude; mission {msn.name!r} is in "
+                f"the '{msn.frame.value}' frame (use safety.geofence_polygon_ne_m / "
+                "planning.keep_out_* for north/east shapes, or a global mission)"
+            ]
+        )
+    notes = list(loaded.notes)
+    inclusions = [p for p in fence.polygons if p.inclusion]
+    circles = [c for c in fence.circles if c.inclusion]
+    keep_in: tuple[tuple[float, float], ...] = ()
+    if len(inclusions) == 1 and not circles:
+        keep_in = inclusions[0].vertices_latlon_deg
+    elif len(circles) == 1 and not inclusions:
+        keep_in = circle_polygon(circles[0])
+    elif inclusions or circles:
+        notes.append(
+            f"--fence {source}: {len(inclusions)} inclusion polygons and {len(circles)} "
+            "inclusion circles: none used as the keep-in fence (helixd keeps one)"
+        )
+    points = msn.points()
+    labels = [f"waypoints.{msn.waypoints.index(wp)} (item {msn.waypoints.index(wp) + 1})"
+              for wp in msn.places()]  # fmt: skip
+    problems = keep_out_problems(fence, points, labels, legs=not route_keep_outs)
+    if problems:
+        raise FormatError([f"--fence {source}: {p}" for p in problems[:20]])
+    if keep_in:
+        if msn.geofence_polygon:
+            notes.append(f"--fence {source}: its inclusion polygon replaces the mission's own")
+        try:
+            msn = Mission.model_validate(
+                {**msn.model_dump(), "geofence_polygon": [list(v) for v in keep_in]}
+            )
+        except ValidationError as exc:
+            raise FormatError(format_validation_error(source, exc, Mission)) from None
+    own = loaded.gcs
+    merged = GcsMission(
+        items=own.items if own is not None else (),
+        home_latlon_deg=own.home_latlon_deg if own is not None else None,
+        polygons=(*(own.polygons if own is not None else ()), *fence.polygons),
+        circles=(*(own.circles if own is not None else ()), *fence.circles),
+        survey_polygons=own.survey_polygons if own is not None else (),
+    )
+    return LoadedMission(msn, loaded.format, tuple(notes), merged)
 
 
 __all__ = [
@@ -240,6 +410,7 @@ __all__ = [
     "MissionItem",
     "ObstacleCircle",
     "detect_format",
+    "fence_has_keep_outs",
     "fence_ne",
     "has_keep_outs",
     "items_to_mission",
@@ -248,8 +419,10 @@ __all__ = [
     "mission_to_items",
     "mission_to_yaml",
     "plan_fence_ne",
+    "read_fence",
     "read_gcs",
     "sniff_format",
     "source_home",
+    "with_fence",
     "write_mission_file",
 ]

@@ -2,9 +2,12 @@
 to and from helixd's :class:`~helixd.mission.model.Mission`. Pure: no I/O.
 
 A :class:`MissionItem` is what MISSION_ITEM_INT carries (seq, frame, command, param1..4,
-x/y/z with x/y in degrees), so the MAVLink mission download of a later session can feed
-:func:`items_to_mission` the same way the file readers do. Sequence numbers follow the
-autopilot's: 0 is home (ArduPilot keeps home in slot 0), flown items start at 1.
+x/y/z with x/y in degrees), so the MAVLink mission download feeds :func:`items_to_mission`
+the same way the file readers do. Sequence numbers follow the autopilot's: 0 is home
+(ArduPilot keeps home in slot 0), the mission's items start at 1. Every item becomes a mission
+entry and back (:func:`item_entry`, :func:`entry_item`) with all it carries: command, frame,
+parameters (NaN as unset), place (lat/lon 0, 0 as "where the rover is"), altitude,
+autocontinue.
 """
 
 from __future__ import annotations
@@ -19,28 +22,24 @@ from pydantic import ValidationError
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.files.models import format_validation_error
 from helixd.mav.constants import (
+    MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
+    MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION,
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION,
+    MAV_CMD_NAV_FENCE_RETURN_POINT,
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL_RELATIVE_ALT,
 )
-from helixd.mission.model import Mission, MissionFrameKind, MotionMode
+from helixd.mission.commands import MAX_PARAMS, command_name, command_spec
+from helixd.mission.model import Mission, MissionFrameKind, MotionMode, WaypointSpec
 
+# Frames whose x/y are a latitude/longitude (MAV_FRAME_GLOBAL, _RELATIVE_ALT, _INT,
 # _RELATIVE_ALT_INT, _TERRAIN_ALT, _TERRAIN_ALT_INT); the altitude means nothing to a rover.
 GLOBAL_FRAMES = frozenset({0, 3, 5, 6, 10, 11})
+# AP_Mission::mavlink_int_to_mission_cmd also reads a place in MAV_FRAME_MISSION (2) as
+# lat/lon (absolute altitude)
+PLACE_FRAMES = GLOBAL_FRAMES | {2}
 MAX_ITEMS = 100_000  # as many as a helixd YAML mission may hold in practice
-COMMAND_NAMES = {
-    16: "NAV_WAYPOINT",
-    17: "NAV_LOITER_UNLIM",
-    19: "NAV_LOITER_TIME",
-    20: "NAV_RETURN_TO_LAUNCH",
-    21: "NAV_LAND",
-    22: "NAV_TAKEOFF",
-    177: "DO_JUMP",
-    178: "DO_CHANGE_SPEED",
-    183: "DO_SET_SERVO",
-    206: "DO_SET_CAM_TRIGG_DIST",
-    2000: "IMAGE_START_CAPTURE",
-    2001: "IMAGE_STOP_CAPTURE",
-}
 
 
 class FormatError(ValueError):
@@ -84,6 +83,73 @@ class FenceCircle:
 
 
 @dataclass(frozen=True, slots=True)
+class FenceRow:
+    """One fence item, wherever it came from (a fence file's row, the autopilot's fence)."""
+
+    seq: int
+    command: int  # MAV_CMD_NAV_FENCE_* (5000..5004)
+    param1: float  # polygon vertex count, or circle radius (m)
+    lat: float
+    lon: float
+    where: str
+
+
+def fence_shapes(
+    rows: list[FenceRow],
+) -> tuple[list[FencePolygon], list[FenceCircle], list[str]]:
+    """Fence items → polygons (consecutive vertices of one kind, param1 = their count) and
+    circles (param1 = radius), as ArduPilot's AC_PolyFence_loader reads them; a return point
+    is reported, not kept. FormatError naming the item for what is not whole."""
+    polygons: list[FencePolygon] = []
+    circles: list[FenceCircle] = []
+    notes: list[str] = []
+    problems: list[str] = []
+    i = 0
+    while i < len(rows):
+        it = rows[i]
+        bad = check_latlon(it.where, it.lat, it.lon)
+        if it.command in _POLY_CMDS:
+            n = round(it.param1) if math.isfinite(it.param1) else 0
+            run = rows[i : i + n]
+            if n < 3 or len(run) < n or any(v.command != it.command for v in run):
+                problems.append(
+                    f"{it.where}: a polygon of {it.param1:g} vertices that is not whole"
+                )
+                i += 1
+                continue
+            for v in run:
+                problems += check_latlon(v.where, v.lat, v.lon)
+            polygons.append(
+                FencePolygon(tuple((v.lat, v.lon) for v in run), _POLY_CMDS[it.command])
+            )
+            i += n
+            continue
+        if it.command in _CIRCLE_CMDS:
+            if not (math.isfinite(it.param1) and it.param1 > 0):
+                problems.append(f"{it.where}: circle radius {it.param1:g} m is not > 0")
+            problems += bad
+            circles.append(FenceCircle((it.lat, it.lon), it.param1, _CIRCLE_CMDS[it.command]))
+        elif it.command == MAV_CMD_NAV_FENCE_RETURN_POINT:
+            notes.append(f"{it.where}: fence return point ({it.lat:.7f}, {it.lon:.7f}) not kept")
+        else:
+            notes.append(f"{it.where}: fence command {it.command} not understood; left out")
+        i += 1
+    if problems:
+        raise FormatError(problems[:20])
+    return polygons, circles, notes
+
+
+_POLY_CMDS = {
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION: True,
+    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION: False,
+}
+_CIRCLE_CMDS = {
+    MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION: True,
+    MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION: False,
+}
+
+
+@dataclass(frozen=True, slots=True)
 class GcsMission:
     """What a .plan / .waypoints file (or the autopilot) holds."""
 
@@ -95,10 +161,7 @@ class GcsMission:
     home_alt_m: float | None = None  # the home row's / planned home's altitude, if it has one
     cruise_speed_mps: float | None = None  # a QGC .plan's cruiseSpeed (not used yet: a note)
     time_limit_s: float | None = None  # helixd's own key in a .plan it wrote
-
-
-def command_name(command: int) -> str:
-    return COMMAND_NAMES.get(command, f"command {command}")
+    notes: tuple[str, ...] = ()  # what the reader left out or made up, for the operator
 
 
 def _latlon_problem(lat: float, lon: float) -> str | None:
@@ -125,8 +188,53 @@ def mission_name(stem: str) -> str:
 @dataclass(frozen=True, slots=True)
 class Converted:
     mission: Mission
-    skipped: tuple[str, ...]  # unsupported items left out (with --skip-unsupported)
-    notes: tuple[str, ...]  # what was read but has no meaning for helixd
+    notes: tuple[str, ...]  # what was read but has no meaning for helixd, or was made up
+
+
+def _label(it: MissionItem) -> str:
+    return f"item {it.seq}" + (f" ({it.where})" if it.where else "")
+
+
+def _params(values: list[float]) -> list[float | None]:
+    return [None if math.isnan(v) else v for v in values]
+
+
+def item_entry(it: MissionItem) -> tuple[dict[str, object] | None, list[str]]:
+    """One ground-station item as a mission entry (a dict for :class:`WaypointSpec`), with
+    every value it carries, or the problems naming it. Lat/lon 0, 0 on a place is ArduPilot's
+    "where the rover is" (``Location::sanitize``): the entry gets no coordinates."""
+    spec = command_spec(it.command)
+    label = _label(it)
+    raw = [it.param1, it.param2, it.param3, it.param4]
+    entry: dict[str, object] = {"command": it.command}
+    if spec.has_place:
+        here = it.x == 0.0 and it.y == 0.0
+        if not here:
+            if it.frame not in PLACE_FRAMES:
+                return None, [
+                    f"{label}: {spec.name} in frame {it.frame}: ArduPilot refuses the frame "
+                    f"(MAV_MISSION_UNSUPPORTED_FRAME; lat/lon frames are "
+                    f"{sorted(PLACE_FRAMES)})"
+                ]
+            bad = check_latlon(label, it.x, it.y)
+            if bad:
+                return None, bad
+            entry["lat"], entry["lon"] = it.x, it.y
+        values = raw
+    else:
+        values = [*raw, it.x, it.y][:MAX_PARAMS]
+        if not all(math.isfinite(v) for v in values[4:]):
+            return None, [f"{label}: x/y of {spec.name} are not finite"]
+    params = _params(values)
+    if tuple(params) != spec.defaults():
+        entry["params"] = params
+    if math.isfinite(it.z) and it.z != 0.0:
+        entry["z"] = it.z
+    if it.frame != spec.default_frame():
+        entry["frame"] = it.frame
+    if not it.autocontinue:
+        entry["autocontinue"] = False
+    return entry, []
 
 
 def items_to_mission(
@@ -134,58 +242,62 @@ def items_to_mission(
     *,
     name: str,
     mode: MotionMode,
-    skip_unsupported: bool = False,
     source: str = "",
     route_keep_outs: bool = False,
 ) -> Converted:
-    """NAV_WAYPOINT items (global frames) become a ``global`` mission; anything else is
-    reported by sequence number and refused unless ``skip_unsupported``. The mission's keep-in
-    fence is the file's one inclusion polygon, if it has exactly one. With ``route_keep_outs``
-    (helixd.planning will route the legs around the exclusion zones) a leg crossing one is
-    not refused; a waypoint inside one still is."""
+    """Every item of the file, in order, becomes an entry of a ``global`` mission (commands
+    included, nothing dropped: what ArduPilot Rover skips or helixd cannot fly is decided by
+    :mod:`helixd.mission.expand` when the mission is checked). The mission's keep-in fence is
+    the file's one inclusion polygon, if it has exactly one; its home is the file's. With
+    ``route_keep_outs`` (helixd.planning will route the legs around the exclusion zones) a leg
+    crossing one is not refused; a waypoint inside one still is."""
     prefix = f"{source}: " if source else ""
-    unsupported: list[str] = []
     problems: list[str] = []
     notes: list[str] = []
+    entries: list[dict[str, object]] = []
     points: list[tuple[float, float]] = []
     labels: list[str] = []
+    previous_plain: tuple[float, float] | None = None
     for it in gcs.items:
-        label = f"item {it.seq}" + (f" ({it.where})" if it.where else "")
-        if it.command != MAV_CMD_NAV_WAYPOINT:
-            unsupported.append(f"{label}: {command_name(it.command)} cannot be flown by helixd")
-            continue
-        if it.frame not in GLOBAL_FRAMES:
-            unsupported.append(
-                f"{label}: NAV_WAYPOINT in frame {it.frame} (only global lat/lon frames "
-                f"{sorted(GLOBAL_FRAMES)} are understood)"
-            )
-            continue
-        bad = check_latlon(label, it.x, it.y)
-        if bad:
+        entry, bad = item_entry(it)
+        if entry is None:
             problems.extend(bad)
             continue
-        if math.isfinite(it.param1) and it.param1 > 0:
+        if it.command == MAV_CMD_NAV_WAYPOINT and math.isfinite(it.param2) and it.param2 > 0:
             notes.append(
-                f"{label}: hold time {it.param1:g} s (param1) ignored: helixd does not hold"
+                f"{_label(it)}: acceptance radius {it.param2:g} m (param2) ignored: helixd "
+                "reaches waypoints within control.waypoint_tolerance_m or the mission's "
+                "tolerance_m"
             )
-        if math.isfinite(it.param2) and it.param2 > 0:
-            notes.append(
-                f"{label}: acceptance radius {it.param2:g} m (param2) ignored: helixd reaches "
-                "waypoints within control.waypoint_tolerance_m or the mission's tolerance_m"
-            )
-        if points and _same_point(points[-1], (it.x, it.y)):
-            notes.append(f"{label}: same place as the item before; dropped")
-            continue
-        points.append((it.x, it.y))
-        labels.append(label)
+        place = (entry.get("lat"), entry.get("lon"))
+        plain = (
+            it.command == MAV_CMD_NAV_WAYPOINT and place[0] is not None and "params" not in entry
+        )
+        if plain and previous_plain is not None:
+            here = (float(str(place[0])), float(str(place[1])))
+            if _same_point(previous_plain, here):
+                notes.append(f"{_label(it)}: same place as the item before; dropped")
+                continue
+        if place[0] is not None and command_spec(it.command).role.value in (
+            "waypoint", "loiter_time", "loiter_turns", "loiter_unlim",
+        ):  # fmt: skip
+            points.append((float(str(place[0])), float(str(place[1]))))
+            labels.append(_label(it))
+        previous_plain = (float(str(place[0])), float(str(place[1]))) if plain else None
+        entries.append(entry)
     if points:
         problems.extend(keep_out_problems(gcs, points, labels, legs=not route_keep_outs))
-    if unsupported and not skip_unsupported:
-        problems.extend(
-            f"{u} (use --skip-unsupported to fly the waypoints without it)" for u in unsupported
-        )
     if not points and not problems:
-        problems.append("no NAV_WAYPOINT items with a latitude/longitude: nothing to fly")
+        navs = [
+            f"{_label(it)} {command_name(it.command)}"
+            for it in gcs.items
+            if command_spec(it.command).nav
+        ]
+        problems.append(
+            "no item with a latitude/longitude to go to"
+            + (f" ({', '.join(navs[:5])}: none drives anywhere)" if navs else "")
+            + ": nothing to fly"
+        )
     if problems:
         raise FormatError([prefix + p for p in problems[:20]] + _more(problems, 20, prefix))
     fence: tuple[tuple[float, float], ...] = ()
@@ -204,7 +316,7 @@ def items_to_mission(
         "name": name,
         "mode": mode.value,
         "frame": MissionFrameKind.GLOBAL.value,
-        "waypoints": [{"lat": a, "lon": b} for a, b in points],
+        "waypoints": entries,
     }
     if fence:
         data["geofence_polygon"] = [list(v) for v in fence]
@@ -215,11 +327,13 @@ def items_to_mission(
             f"cruiseSpeed {gcs.cruise_speed_mps:g} m/s ignored: helixd flies at "
             "control.max_speed_mps (or a YAML mission's speed_mps)"
         )
+    if gcs.home_latlon_deg is not None:
+        data["home"] = list(gcs.home_latlon_deg)
     try:
         mission = Mission.model_validate(data)
     except ValidationError as exc:
         raise FormatError(format_validation_error(source or "mission", exc, Mission)) from None
-    return Converted(mission, tuple(prefix + u for u in unsupported), tuple(notes))
+    return Converted(mission, (*gcs.notes, *(prefix + n for n in notes)))
 
 
 CIRCLE_FENCE_VERTICES = 64
@@ -298,11 +412,36 @@ def waypoint_item(seq: int, lat_deg: float, lon_deg: float) -> MissionItem:
     )
 
 
+def entry_item(seq: int, wp: WaypointSpec) -> MissionItem:
+    """A mission entry as the item a ground station holds (the reverse of :func:`item_entry`)."""
+    spec = wp.spec
+    p = [wp.param(i) for i in range(MAX_PARAMS)]
+    if spec.has_place:
+        x = wp.lat if wp.lat is not None else 0.0
+        y = wp.lon if wp.lon is not None else 0.0
+    else:
+        x, y = p[4], p[5]
+    return MissionItem(
+        seq=seq,
+        frame=wp.frame if wp.frame is not None else spec.default_frame(),
+        command=wp.command,
+        param1=p[0],
+        param2=p[1],
+        param3=p[2],
+        param4=p[3],
+        x=x,
+        y=y,
+        z=wp.z or 0.0,
+        autocontinue=wp.autocontinue,
+    )
+
+
 def mission_to_items(
     mission: Mission, home: tuple[float, float, float] | None = None
 ) -> GcsMission:
-    """A ``global`` mission as NAV_WAYPOINT items (seq 1..N; home = ``home`` (lat, lon, alt),
-    e.g. the one the source file had, else waypoint 1's place)."""
+    """A ``global`` mission as ground-station items (seq 1..N, every entry; home = ``home``
+    (lat, lon, alt), e.g. the one the source file had, else the mission's home, else waypoint
+    0's place)."""
     if mission.frame is not MissionFrameKind.GLOBAL:
         raise FormatError(
             [
@@ -311,8 +450,7 @@ def mission_to_items(
                 "x/y have no place on the map until the rover's EKF origin is known)"
             ]
         )
-    pts = mission.points()
-    items = tuple(waypoint_item(i + 1, lat, lon) for i, (lat, lon) in enumerate(pts))
+    items = tuple(entry_item(i + 1, wp) for i, wp in enumerate(mission.waypoints))
     polygons: tuple[FencePolygon, ...] = (
         (FencePolygon(mission.geofence_polygon, inclusion=True),)
         if mission.geofence_polygon
@@ -320,9 +458,13 @@ def mission_to_items(
     )
     # keep-out areas are the geofence's exclusion polygons for a ground station
     polygons += tuple(FencePolygon(p, inclusion=False) for p in mission.keep_out_polygons)
+    if home is not None:
+        home_latlon: tuple[float, float] = (home[0], home[1])
+    else:
+        home_latlon = mission.home if mission.home is not None else mission.points()[0]
     return GcsMission(
         items=items,
-        home_latlon_deg=pts[0] if home is None else (home[0], home[1]),
+        home_latlon_deg=home_latlon,
         polygons=polygons,
         home_alt_m=None if home is None else home[2],
         time_limit_s=mission.time_limit_s,

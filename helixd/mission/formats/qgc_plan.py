@@ -1,10 +1,17 @@
 """QGroundControl ``.plan`` files (JSON, ``fileType: Plan``), read and written.
 
 Read: SimpleItems, the mission items a Survey / CorridorScan ComplexItem already holds
-(``TransectStyleComplexItem.Items``, which QGC saves with the plan), the planned home, and the
-geofence's inclusion/exclusion polygons and circles. Format as QGC writes it
-(src/MissionManager/MissionController.cc, SimpleMissionItem.cc, GeoFenceController.cc,
-QGCMapPolygon.cc, TransectStyleComplexItem.cc; "Plan File Format" in the QGC developer guide).
+(``TransectStyleComplexItem.Items``, which QGC saves with the plan; without them, a waypoint at
+each of its ``VisualTransectPoints``), the planned home, and the geofence's inclusion/exclusion
+polygons and circles. Format as QGC writes it (src/MissionManager/MissionController.cc,
+SimpleMissionItem.cc, MissionItem.cc, GeoFenceController.cc, QGCMapPolygon.cc,
+TransectStyleComplexItem.cc; "Plan File Format" in the QGC developer guide), in every layout
+QGC still opens (``MissionItem::load`` converts them): items with 7 ``params``; the older
+4 ``params`` + ``coordinate`` [lat, lon, alt]; the oldest ``type: missionItem`` with
+``param1``..``param4`` keys; a version 1 geofence (one ``polygon``); and the older ``.mission``
+file (the mission object at the top level, no ``fileType``). A landing pattern (a plane's) is
+skipped, as ArduPilot Rover skips landing; a structure scan is refused (it circles a structure
+at heights).
 
 Hostile input: the size is capped before parsing; NaN/Infinity literals, duplicate keys, numbers
 that overflow to infinity, nesting deeper than :data:`MAX_DEPTH`, and more than
@@ -19,11 +26,12 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from helixd.files.jsonio import JsonTextError, load_json_text
 from helixd.files.models import format_validation_error
 from helixd.files.yamlio import clip
+from helixd.mav.constants import MAV_CMD_NAV_WAYPOINT, MAV_FRAME_GLOBAL_RELATIVE_ALT
 from helixd.mission.formats.items import (
     MAX_ITEMS,
     FenceCircle,
@@ -47,16 +55,55 @@ class _Json(BaseModel):
 
 
 class SimpleItemJson(_Json):
-    type: Literal["SimpleItem"]
+    type: Literal["SimpleItem", "missionItem"]
     command: int = Field(ge=0, le=65535)
     frame: int = Field(ge=0, le=255)
-    params: list[float | None] = Field(min_length=7, max_length=7)
+    params: list[float | None] | None = Field(None, min_length=4, max_length=7)
+    coordinate: list[float | None] | None = Field(None, min_length=3, max_length=3)
+    param1: float | None = None  # the oldest layout (MissionItem::_convertJsonV1ToV2)
+    param2: float | None = None
+    param3: float | None = None
+    param4: float | None = None
     autoContinue: bool = True
     doJumpId: int | None = Field(None, ge=0)
+
+    @model_validator(mode="after")
+    def _layout(self) -> SimpleItemJson:
+        """The 7 values MissionItem::load ends up with, whichever layout."""
+        if self.params is None:
+            if None in (self.param1, self.param2, self.param3, self.param4) and not (
+                self.coordinate is not None
+            ):
+                raise ValueError(
+                    "params: missing (QGroundControl's layouts: 7 params; 4 params with a "
+                    "coordinate [lat, lon, alt]; param1..param4 with a coordinate)"
+                )
+        elif self.coordinate is None and len(self.params) != 7:
+            raise ValueError(
+                f"params: {len(self.params)} values; QGroundControl reads 7, or 4 with a "
+                "coordinate [lat, lon, alt]"
+            )
+        elif self.coordinate is not None and len(self.params) != 4:
+            raise ValueError(
+                f"params: {len(self.params)} values with a coordinate; QGroundControl reads 4 "
+                "params with a coordinate [lat, lon, alt]"
+            )
+        return self
+
+    def values(self) -> list[float | None]:
+        if self.params is not None and self.coordinate is None:
+            return list(self.params)
+        head = (
+            list(self.params)
+            if self.params is not None
+            else [self.param1, self.param2, self.param3, self.param4]
+        )
+        return [*head, *(self.coordinate or [0.0, 0.0, 0.0])]
 
 
 class TransectJson(_Json):
     Items: list[SimpleItemJson] = Field(default_factory=list, max_length=MAX_ITEMS)
+    VisualTransectPoints: list[LatLon] = Field(default_factory=list, max_length=MAX_ITEMS)
 
 
 class ComplexItemJson(_Json):
@@ -93,6 +140,13 @@ class CircleJson(_Json):
 class GeoFenceJson(_Json):
     polygons: list[PolygonJson] = Field(default_factory=list, max_length=1000)
     circles: list[CircleJson] = Field(default_factory=list, max_length=1000)
+    polygon: list[LatLon] = Field(default_factory=list, max_length=10_000)  # version 1
+
+    def all_polygons(self) -> list[PolygonJson]:
+        """Version 2's polygons, and version 1's one (an inclusion) when it has vertices."""
+        if len(self.polygon) >= 3:
+            return [*self.polygons, PolygonJson(polygon=self.polygon, inclusion=True)]
+        return list(self.polygons)
 
 
 class HelixdJson(_Json):
@@ -118,11 +172,14 @@ def load_plan_json(text: str, source: Path | str, kind: str = "") -> Any:
 
 
 def parse_plan_text(text: str, source: Path | str) -> GcsMission:
-    """A .plan's text → :class:`GcsMission`; raise :class:`FormatError` naming file and field."""
+    """A .plan's (or an older .mission's) text → :class:`GcsMission`; raise
+    :class:`FormatError` naming file and field."""
     src = str(source)
     raw = load_plan_json(text, source, kind=".plan")
     if not isinstance(raw, dict):
         raise FormatError([f"{src}: (top level): expected a JSON object, got {type(raw).__name__}"])
+    if "fileType" not in raw and "items" in raw:  # a .mission: the mission object alone
+        raw = {"fileType": "Plan", "mission": raw}
     try:
         plan = PlanJson.model_validate(raw)
     except ValidationError as exc:
@@ -130,8 +187,11 @@ def parse_plan_text(text: str, source: Path | str) -> GcsMission:
     return _to_gcs(plan, src)
 
 
+LANDING_PATTERNS = frozenset({"fwLandingPattern", "vtolLandingPattern"})
+
+
 def _item(sj: SimpleItemJson, seq: int, where: str) -> MissionItem:
-    p = [math.nan if v is None else float(v) for v in sj.params]
+    p = [math.nan if v is None else float(v) for v in sj.values()]
     return MissionItem(
         seq=seq,
         frame=sj.frame,
@@ -148,9 +208,22 @@ def _item(sj: SimpleItemJson, seq: int, where: str) -> MissionItem:
     )
 
 
+def _transect_point(seq: int, lat: float, lon: float, where: str) -> MissionItem:
+    return MissionItem(
+        seq=seq,
+        frame=MAV_FRAME_GLOBAL_RELATIVE_ALT,
+        command=MAV_CMD_NAV_WAYPOINT,
+        param4=math.nan,
+        x=lat,
+        y=lon,
+        where=where,
+    )
+
+
 def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
     items: list[MissionItem] = []
     surveys: list[tuple[tuple[float, float], ...]] = []
+    notes: list[str] = []
     seq = 1  # home is 0 on ArduPilot; QGC numbers the uploaded items from 1
     for i, entry in enumerate(plan.mission.items):
         where = f"mission.items.{i}"
@@ -159,19 +232,41 @@ def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
             seq += 1
             continue
         kind = entry.complexItemType
+        if kind in LANDING_PATTERNS:
+            notes.append(
+                f"{src}: {where}: ComplexItem {kind} skipped, as ArduPilot Rover skips landing "
+                "(a plane's landing pattern)"
+            )
+            continue
         if entry.polygon:
             surveys.append(tuple((a, b) for a, b in entry.polygon))
-        if entry.TransectStyleComplexItem is None or not entry.TransectStyleComplexItem.Items:
+        transect = entry.TransectStyleComplexItem
+        if transect is not None and transect.Items:
+            for k, sub in enumerate(transect.Items):
+                items.append(_item(sub, seq, f"{where} {kind} item {k}"))
+                seq += 1
+        elif transect is not None and transect.VisualTransectPoints:
+            for k, (lat, lon) in enumerate(transect.VisualTransectPoints):
+                label = f"{where} {kind} VisualTransectPoints.{k}"
+                items.append(_transect_point(seq, lat, lon, label))
+                seq += 1
+            notes.append(
+                f"{src}: {where}: ComplexItem {clip(kind, 40)}: flown through its "
+                f"{len(transect.VisualTransectPoints)} VisualTransectPoints (it holds no "
+                "generated items, so no camera triggers)"
+            )
+        else:
             raise FormatError(
                 [
                     f"{src}: {where}: ComplexItem {clip(kind, 40)} holds no mission items "
-                    "(TransectStyleComplexItem.Items); open and save the plan in QGroundControl "
-                    "so it writes them"
+                    "(TransectStyleComplexItem.Items) and no VisualTransectPoints"
+                    + (
+                        ": a structure scan circles a structure at heights, which a rover cannot"
+                        if kind == "StructureScan"
+                        else "; open and save the plan in QGroundControl so it writes them"
+                    )
                 ]
             )
-        for k, sub in enumerate(entry.TransectStyleComplexItem.Items):
-            items.append(_item(sub, seq, f"{where} {kind} item {k}"))
-            seq += 1
         if len(items) > MAX_ITEMS:
             raise FormatError([f"{src}: more than {MAX_ITEMS} mission items; refused"])
     home = None
@@ -190,7 +285,8 @@ def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
         home = (hp[0], hp[1])
     home_alt = hp[2] if hp is not None and home is not None and len(hp) > 2 else None
     fence = plan.geoFence
-    for i, pj in enumerate(fence.polygons):
+    polygons = fence.all_polygons()
+    for i, pj in enumerate(polygons):
         for k, (a, b) in enumerate(pj.polygon):
             problems += check_latlon(f"{src}: geoFence.polygons.{i}.polygon.{k}", a, b)
     for i, cj in enumerate(fence.circles):
@@ -201,8 +297,7 @@ def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
         items=tuple(items),
         home_latlon_deg=home,
         polygons=tuple(
-            FencePolygon(tuple((a, b) for a, b in pj.polygon), pj.inclusion)
-            for pj in fence.polygons
+            FencePolygon(tuple((a, b) for a, b in pj.polygon), pj.inclusion) for pj in polygons
         ),
         circles=tuple(
             FenceCircle((cj.circle.center[0], cj.circle.center[1]), cj.circle.radius, cj.inclusion)
@@ -213,6 +308,7 @@ def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
         # a plan helixd wrote carries the mission's speed itself; QGC's cruiseSpeed is noted
         cruise_speed_mps=None if plan.helixd is not None else plan.mission.cruiseSpeed,
         time_limit_s=None if plan.helixd is None else plan.helixd.time_limit_s,
+        notes=tuple(notes),
     )
 
 

@@ -34,14 +34,16 @@ from helixd.mav.constants import (
     MAV_MISSION_TYPE_MISSION,
 )
 from helixd.mav.mission_item import WireItem
+from helixd.mission.commands import PLACE_COMMANDS
 from helixd.mission.formats.items import (
-    GLOBAL_FRAMES,
     FenceCircle,
     FencePolygon,
+    FenceRow,
     FormatError,
     GcsMission,
     MissionItem,
     check_latlon,
+    fence_shapes,
 )
 
 __all__ = [
@@ -96,7 +98,7 @@ def _label(it: MissionItem) -> str:
 
 def _mission_item(it: MissionItem, seq: int) -> WireItem:
     where = _label(it)
-    if it.frame in GLOBAL_FRAMES:
+    if it.command in PLACE_COMMANDS:  # AP_Mission::cmd_has_location: x/y are lat/lon
         x, y = _deg_e7(it.x, where), _deg_e7(it.y, where)
     else:
         x, y = _raw_int(it.x, where), _raw_int(it.y, where)
@@ -122,7 +124,7 @@ def _home(gcs: GcsMission) -> tuple[float, float]:
     if gcs.home_latlon_deg is not None:
         return gcs.home_latlon_deg
     for it in gcs.items:
-        if it.frame in GLOBAL_FRAMES and not check_latlon("", it.x, it.y):
+        if it.command in PLACE_COMMANDS and not check_latlon("", it.x, it.y):
             return (it.x, it.y)
     raise FormatError(["no home position and no item with a latitude/longitude to stand for it"])
 
@@ -190,7 +192,7 @@ def _wire_latlon(it: WireItem) -> tuple[float, float]:
 
 
 def _from_wire(it: WireItem) -> MissionItem:
-    if it.frame in GLOBAL_FRAMES:
+    if it.command in PLACE_COMMANDS:
         x, y = _wire_latlon(it)
     else:
         x, y = float(it.x), float(it.y)
@@ -210,56 +212,14 @@ def _from_wire(it: WireItem) -> MissionItem:
     )
 
 
-_POLY_CMDS = {
-    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION: True,
-    MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION: False,
-}
-_CIRCLE_CMDS = {
-    MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION: True,
-    MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION: False,
-}
-
-
 def _fence_from_wire(
     fence: tuple[WireItem, ...] | list[WireItem],
 ) -> tuple[list[FencePolygon], list[FenceCircle], list[str]]:
-    polygons: list[FencePolygon] = []
-    circles: list[FenceCircle] = []
-    notes: list[str] = []
-    problems: list[str] = []
-    i = 0
-    while i < len(fence):
-        it = fence[i]
-        where = f"autopilot fence item {it.seq}"
-        lat, lon = _wire_latlon(it)
-        bad = check_latlon(where, lat, lon)
-        if it.command in _POLY_CMDS:
-            n = round(it.param1) if math.isfinite(it.param1) else 0
-            run = list(fence[i : i + n])
-            if n < 3 or len(run) < n or any(v.command != it.command for v in run):
-                problems.append(f"{where}: a polygon of {it.param1:g} vertices that is not whole")
-                i += 1
-                continue
-            for v in run:
-                problems += check_latlon(f"autopilot fence item {v.seq}", *_wire_latlon(v))
-            polygons.append(
-                FencePolygon(tuple(_wire_latlon(v) for v in run), _POLY_CMDS[it.command])
-            )
-            i += n
-            continue
-        if it.command in _CIRCLE_CMDS:
-            if not (math.isfinite(it.param1) and it.param1 > 0):
-                problems.append(f"{where}: circle radius {it.param1:g} m is not > 0")
-            problems += bad
-            circles.append(FenceCircle((lat, lon), it.param1, _CIRCLE_CMDS[it.command]))
-        elif it.command == MAV_CMD_NAV_FENCE_RETURN_POINT:
-            notes.append(f"{where}: fence return point ({lat:.7f}, {lon:.7f}) not kept")
-        else:
-            notes.append(f"{where}: fence command {it.command} not understood; left out")
-        i += 1
-    if problems:
-        raise FormatError(problems[:20])
-    return polygons, circles, notes
+    rows = [
+        FenceRow(it.seq, it.command, it.param1, *_wire_latlon(it), f"autopilot fence item {it.seq}")
+        for it in fence
+    ]
+    return fence_shapes(rows)
 
 
 def wire_to_gcs(

@@ -20,17 +20,84 @@ from pathlib import Path
 from helixd.files.yamlio import clip
 from helixd.mission.formats.items import (
     MAX_ITEMS,
+    FenceRow,
     FormatError,
     GcsMission,
     MissionItem,
     check_latlon,
+    fence_shapes,
 )
 
 HEADER = "QGC WPL 110"
 
 
+FENCE_COMMANDS = range(5000, 5005)  # MAV_CMD_NAV_FENCE_RETURN_POINT .. _CIRCLE_EXCLUSION
+
+
 def parse_wpl_text(text: str, source: Path | str) -> GcsMission:
+    """A mission file; a fence file (rows with commands 5000–5004) is refused, saying so."""
     src = str(source)
+    rows = _rows(text, src)
+    fence = [lineno for lineno, item in rows if item.command in FENCE_COMMANDS]
+    if fence:
+        raise FormatError(
+            [
+                f"{src}: a fence file (QGC WPL 110 rows with fence commands 5000-5004, line "
+                f"{fence[0]}), not a mission: give it with --fence {src}"
+            ]
+        )
+    _check_sequence(rows, src)
+    home_line, home = rows[0]
+    bad = check_latlon(f"{src}: line {home_line} (home)", home.x, home.y)
+    home_latlon = None if bad else (home.x, home.y)
+    problems: list[str] = []
+    for lineno, item in rows[1:]:
+        if item.command == 16 and not (item.x == 0.0 and item.y == 0.0):
+            # 0, 0 is "where the rover is"; others may carry no position at all
+            problems += check_latlon(f"{src}: line {lineno}", item.x, item.y)
+    if problems:
+        raise FormatError(problems[:20])
+    return GcsMission(
+        items=tuple(item for _, item in rows[1:]),
+        home_latlon_deg=home_latlon,
+        home_alt_m=None if home_latlon is None or not math.isfinite(home.z) else home.z,
+    )
+
+
+def parse_wpl_fence_text(text: str, source: Path | str) -> GcsMission:
+    """A Mission Planner fence file: QGC WPL 110 rows of fence commands (no home row), read
+    into polygons (param1 = vertex count) and circles (param1 = radius)."""
+    src = str(source)
+    rows = _rows(text, src)
+    other = [(n, it.command) for n, it in rows if it.command not in FENCE_COMMANDS]
+    if other:
+        n, cmd = other[0]
+        raise FormatError(
+            [f"{src}: line {n}: command {cmd} is not a fence command (5000-5004): not a fence file"]
+        )
+    for k, (lineno, item) in enumerate(rows):
+        if item.seq != k:
+            raise FormatError(
+                [f"{src}: line {lineno}: index {item.seq}, expected {k} (rows must count 0, 1, …)"]
+            )
+    shapes = [
+        FenceRow(it.seq, it.command, it.param1, it.x, it.y, f"{src}: line {n}") for n, it in rows
+    ]
+    polygons, circles, notes = fence_shapes(shapes)
+    return GcsMission(
+        items=(), polygons=tuple(polygons), circles=tuple(circles), notes=tuple(notes)
+    )
+
+
+def _check_sequence(rows: list[tuple[int, MissionItem]], src: str) -> None:
+    for k, (lineno, item) in enumerate(rows):
+        if item.seq != k:
+            raise FormatError(
+                [f"{src}: line {lineno}: index {item.seq}, expected {k} (rows must count 0, 1, …)"]
+            )
+
+
+def _rows(text: str, src: str) -> list[tuple[int, MissionItem]]:
     lines = text.splitlines()
     if not lines or lines[0].strip() != HEADER:
         first = clip(lines[0].strip(), 40) if lines else "(empty file)"
@@ -53,26 +120,9 @@ def parse_wpl_text(text: str, source: Path | str) -> GcsMission:
         rows.append((lineno, item))
     if problems:
         raise FormatError(problems[:20])
-    for k, (lineno, item) in enumerate(rows):
-        if item.seq != k:
-            raise FormatError(
-                [f"{src}: line {lineno}: index {item.seq}, expected {k} (rows must count 0, 1, …)"]
-            )
     if not rows:
         raise FormatError([f"{src}: no rows after the header: nothing to fly"])
-    home_line, home = rows[0]
-    bad = check_latlon(f"{src}: line {home_line} (home)", home.x, home.y)
-    home_latlon = None if bad else (home.x, home.y)
-    for lineno, item in rows[1:]:
-        if item.command == 16:  # others may carry no position; items_to_mission reports them
-            problems += check_latlon(f"{src}: line {lineno}", item.x, item.y)
-    if problems:
-        raise FormatError(problems[:20])
-    return GcsMission(
-        items=tuple(item for _, item in rows[1:]),
-        home_latlon_deg=home_latlon,
-        home_alt_m=None if home_latlon is None or not math.isfinite(home.z) else home.z,
-    )
+    return rows
 
 
 _INT_COLUMNS = {0: "index", 1: "current", 2: "frame", 3: "command", 11: "autocontinue"}

@@ -37,18 +37,27 @@ SCROLL = MotionMode.SCROLL
 # -- the QGroundControl .plan with a Survey -----------------------------------------------------
 
 
-def test_plan_unsupported_items_are_named_by_sequence_and_refused() -> None:
-    with pytest.raises(ConfigFileError) as err:
-        load_mission_file(PLAN, mode=SCROLL)
-    lines = err.value.problems
-    assert [ln.split(": ")[1].split(" (")[0] for ln in lines] == ["item 3", "item 7", "item 8"]
-    assert "DO_SET_CAM_TRIGG_DIST" in lines[0] and "survey item 1" in lines[0]
-    assert "NAV_RETURN_TO_LAUNCH" in lines[2] and "--skip-unsupported" in lines[2]
-    assert all(ln.startswith(str(PLAN)) for ln in lines)
+def test_plan_commands_are_kept_in_order_not_refused() -> None:
+    """The camera triggers the Survey holds and the closing RTL are mission entries now, in
+    their places (item numbers as QGC uploads them: 1..8)."""
+    msn = load_mission_file(PLAN, mode=SCROLL).mission
+    names = [wp.name for wp in msn.waypoints]
+    assert names == [
+        "NAV_WAYPOINT",
+        "NAV_WAYPOINT",
+        "DO_SET_CAM_TRIGG_DIST",
+        "NAV_WAYPOINT",
+        "NAV_WAYPOINT",
+        "NAV_WAYPOINT",
+        "DO_SET_CAM_TRIGG_DIST",
+        "NAV_RETURN_TO_LAUNCH",
+    ]
+    assert msn.waypoints[2].param(0) > 0 and msn.waypoints[6].param(0) == 0.0
+    assert msn.home == (53.52325, -113.52611)
 
 
 def test_plan_survey_waypoints_and_fence() -> None:
-    loaded = load_mission_file(PLAN, mode=SCROLL, skip_unsupported=True)
+    loaded = load_mission_file(PLAN, mode=SCROLL)
     msn = loaded.mission
     assert loaded.format is MissionFormat.PLAN
     assert msn.frame.value == "global" and msn.mode is SCROLL and msn.name == "pond_survey"
@@ -60,7 +69,6 @@ def test_plan_survey_waypoints_and_fence() -> None:
         (53.52344, -113.5257),
         (53.52344, -113.526),
     ]
-    assert len(loaded.skipped) == 3
     # the one inclusion polygon becomes the mission's keep-in fence
     assert msn.geofence_polygon[0] == (53.523, -113.5265)
     gcs = loaded.gcs
@@ -88,7 +96,7 @@ def test_an_inclusion_circle_becomes_the_fence() -> None:
         {"circle": {"center": [53.5234, -113.5259], "radius": 60}, "inclusion": True}
     ]
     gcs = parse_plan_text(json.dumps(doc), "c.plan")
-    msn = items_to_mission(gcs, name="c", mode=SCROLL, skip_unsupported=True).mission
+    msn = items_to_mission(gcs, name="c", mode=SCROLL).mission
     assert len(msn.geofence_polygon) == 64
     for lat, lon in msn.geofence_polygon:
         n, e = latlon_to_ne(lat, lon, 53.5234, -113.5259)
@@ -109,7 +117,7 @@ def test_keep_outs_of_the_plan_are_refused() -> None:
     ]
     gcs = parse_plan_text(json.dumps(doc), "k.plan")
     with pytest.raises(FormatError) as err:
-        items_to_mission(gcs, name="k", mode=SCROLL, skip_unsupported=True, source="k.plan")
+        items_to_mission(gcs, name="k", mode=SCROLL, source="k.plan")
     assert err.value.problems == [
         "k.plan: leg item 5 → item 6 crosses the geofence's exclusion polygon 0 "
         "(helixd flies straight legs)",
@@ -122,15 +130,11 @@ def test_keep_outs_of_the_plan_are_refused() -> None:
 
 
 def test_waypoints_home_row_is_not_flown_and_items_are_numbered() -> None:
-    with pytest.raises(ConfigFileError) as err:
-        load_mission_file(WPL, mode=MotionMode.ROLL)
-    assert err.value.problems == [
-        f"{WPL}: item 3 (line 5): DO_CHANGE_SPEED cannot be flown by helixd "
-        "(use --skip-unsupported to fly the waypoints without it)"
-    ]
-    loaded = load_mission_file(WPL, mode=MotionMode.ROLL, skip_unsupported=True)
+    loaded = load_mission_file(WPL, mode=MotionMode.ROLL)
     assert loaded.mission.points()[0] == (53.5233, -113.52605)  # row 1, not home (row 0)
-    assert len(loaded.mission.waypoints) == 4
+    assert len(loaded.mission.points()) == 4
+    speed = loaded.mission.waypoints[2]  # item 3 (line 5): the DO_CHANGE_SPEED, kept
+    assert speed.name == "DO_CHANGE_SPEED" and speed.param(1) == 0.5
     gcs = read_gcs(WPL)
     assert gcs.home_latlon_deg == (53.52325, -113.52611)
 
@@ -139,12 +143,12 @@ def test_windows_line_ends_and_bom(tmp_path: Path) -> None:
     """Mission Planner on Windows: CRLF line ends, sometimes a UTF-8 BOM."""
     f = tmp_path / "mp.waypoints"
     f.write_bytes(b"\xef\xbb\xbf" + WPL.read_text().replace("\n", "\r\n").encode())
-    a = load_mission_file(f, mode=SCROLL, skip_unsupported=True).mission
-    b = load_mission_file(WPL, mode=SCROLL, skip_unsupported=True).mission
+    a = load_mission_file(f, mode=SCROLL).mission
+    b = load_mission_file(WPL, mode=SCROLL).mission
     assert a.points() == b.points()
     p = tmp_path / "bom.plan"
     p.write_bytes(b"\xef\xbb\xbf" + PLAN.read_bytes())
-    assert load_mission_file(p, mode=SCROLL, skip_unsupported=True).mission.points()
+    assert load_mission_file(p, mode=SCROLL).mission.points()
 
 
 def test_no_mode_no_flight() -> None:
@@ -157,7 +161,7 @@ def test_no_mode_no_flight() -> None:
 
 @pytest.mark.parametrize("chain", [(".plan",), (".waypoints",), (".plan", ".waypoints", ".yaml")])
 def test_round_trip(tmp_path: Path, chain: tuple[str, ...]) -> None:
-    start = load_mission_file(PLAN, mode=SCROLL, skip_unsupported=True).mission
+    start = load_mission_file(PLAN, mode=SCROLL).mission
     msn = start
     for k, suffix in enumerate((*chain, ".yaml")):
         out = tmp_path / f"step{k}{suffix}"
@@ -170,21 +174,24 @@ def test_round_trip(tmp_path: Path, chain: tuple[str, ...]) -> None:
 
 
 def test_yaml_round_trip_is_exact(tmp_path: Path) -> None:
-    start = load_mission_file(PLAN, mode=SCROLL, skip_unsupported=True).mission
+    start = load_mission_file(PLAN, mode=SCROLL).mission
     start = start.model_copy(update={"time_limit_s": 9000.0, "speed_mps": 0.5})
     write_mission_file(start, tmp_path / "a.yaml")
     assert load_mission_file(tmp_path / "a.yaml").mission == start
 
 
 def test_written_plan_is_what_qgc_reads(tmp_path: Path) -> None:
-    msn = load_mission_file(WPL, mode=SCROLL, skip_unsupported=True).mission
+    msn = load_mission_file(WPL, mode=SCROLL).mission
     write_mission_file(msn, tmp_path / "a.plan")
     doc = json.loads((tmp_path / "a.plan").read_text())
     assert doc["fileType"] == "Plan" and doc["mission"]["vehicleType"] == 10
     items = doc["mission"]["items"]
-    assert [it["doJumpId"] for it in items] == [1, 2, 3, 4]
-    assert items[0]["params"][3] is None  # yaw: NaN is null, as QGC writes it
+    assert [it["doJumpId"] for it in items] == [1, 2, 3, 4, 5]
+    assert items[0]["params"][3] == 0.0  # yaw as Mission Planner wrote it (kept, not made up)
     assert items[0]["params"][4:6] == [53.5233, -113.52605]
+    # the DO_CHANGE_SPEED as Mission Planner wrote it: type 1, 0.5 m/s, throttle -1
+    assert items[2]["command"] == 178 and items[2]["params"][:3] == [1.0, 0.5, -1.0]
+    assert items[2]["frame"] == 3
 
 
 def test_local_missions_cannot_go_on_a_map(tmp_path: Path) -> None:
@@ -213,7 +220,7 @@ def plan_text(lat: object = 53.5233, extra: str = "") -> str:
         (plan_text(lat="53.5"), "mission.items.0.SimpleItem.params.4"),
         (plan_text(lat=True), "mission.items.0.SimpleItem.params.4"),
         (plan_text(lat=95.0), "off the Earth"),
-        (plan_text(lat=0.0).replace("-113.52605", "0", 1), "(0, 0)"),
+        (plan_text().replace("[53.523, -113.5265]", "[0, 0]", 1), "(0, 0)"),
         ('{"fileType": "Plan", "fileType": "Plan"}', "duplicate key 'fileType'"),
         ("[" * 100_000 + "]" * 100_000, "nested deeper than 24"),
         ("{not json", "not valid JSON at line 1"),
@@ -226,7 +233,7 @@ def plan_text(lat: object = 53.5233, extra: str = "") -> str:
 def test_hostile_plan_is_one_clear_error(text: str, words: str) -> None:
     with pytest.raises(FormatError) as err:
         gcs = parse_plan_text(text, "x.plan")
-        items_to_mission(gcs, name="x", mode=SCROLL, skip_unsupported=True, source="x.plan")
+        items_to_mission(gcs, name="x", mode=SCROLL, source="x.plan")
     assert any(words in p for p in err.value.problems), err.value.problems
     assert all(p.startswith("x.plan") for p in err.value.problems)
     assert all(len(p) <= 400 for p in err.value.problems)
@@ -238,14 +245,25 @@ def test_plan_with_a_crossed_fence_is_refused() -> None:
     poly[1], poly[2] = poly[2], poly[1]
     with pytest.raises(FormatError, match=r"x\.plan: geofence_polygon: edges 0-1 and 2-3 cross"):
         gcs = parse_plan_text(json.dumps(doc), "x.plan")
-        items_to_mission(gcs, name="x", mode=SCROLL, skip_unsupported=True, source="x.plan")
+        items_to_mission(gcs, name="x", mode=SCROLL, source="x.plan")
 
 
 def test_plan_survey_without_items_is_refused() -> None:
     doc = json.loads(PLAN.read_text())
     del doc["mission"]["items"][1]["TransectStyleComplexItem"]["Items"]
+    del doc["mission"]["items"][1]["TransectStyleComplexItem"]["VisualTransectPoints"]
     with pytest.raises(FormatError, match=r"mission.items.1: ComplexItem 'survey' holds no"):
         parse_plan_text(json.dumps(doc), "x.plan")
+
+
+def test_plan_survey_without_items_flies_its_transect_points() -> None:
+    doc = json.loads(PLAN.read_text())
+    transect = doc["mission"]["items"][1]["TransectStyleComplexItem"]
+    del transect["Items"]
+    gcs = parse_plan_text(json.dumps(doc), "x.plan")
+    points = [(it.x, it.y) for it in gcs.items if it.command == 16][1:]
+    assert points == [tuple(p) for p in transect["VisualTransectPoints"]]
+    assert any("VisualTransectPoints" in n for n in gcs.notes)
 
 
 WPL_ROW = "1\t0\t3\t16\t0\t0\t0\t0\t53.5233\t-113.52605\t0\t1"
@@ -299,9 +317,7 @@ def test_other_suffixes_are_helixd_yaml_as_before(tmp_path: Path) -> None:
     txt.write_text(legacy.read_text())
     assert load_mission_file(txt).format is MissionFormat.YAML
     txt.write_text(WPL.read_text())
-    assert load_mission_file(txt, mode=SCROLL, skip_unsupported=True).format is (
-        MissionFormat.WAYPOINTS
-    )
+    assert load_mission_file(txt, mode=SCROLL).format is (MissionFormat.WAYPOINTS)
     with pytest.raises(ConfigFileError, match="not valid YAML"):
         bad = tmp_path / "x.kml"
         bad.write_text("<kml>: [")
@@ -322,7 +338,7 @@ json_values = st.recursive(
 def test_fuzz_plan_json_never_escapes(value: object) -> None:
     with contextlib.suppress(FormatError):
         gcs = parse_plan_text(json.dumps(value), "f.plan")
-        items_to_mission(gcs, name="f", mode=SCROLL, skip_unsupported=True)
+        items_to_mission(gcs, name="f", mode=SCROLL)
 
 
 @settings(max_examples=300)
@@ -337,7 +353,7 @@ def test_fuzz_plan_items_never_escape(tokens: list[str]) -> None:
     doc["mission"]["items"][0]["params"] = tokens[:7]
     with contextlib.suppress(FormatError):
         gcs = parse_plan_text(json.dumps(doc), "f.plan")
-        items_to_mission(gcs, name="f", mode=SCROLL, skip_unsupported=True)
+        items_to_mission(gcs, name="f", mode=SCROLL)
 
 
 @settings(max_examples=300)

@@ -1,0 +1,663 @@
+"""A mission with commands, as ArduPilot Rover flies it: the navigation steps in flight order
+(jumps expanded), the plan waypoints each one drives to, what it waits, and the do/condition
+items started with it. Pure: no I/O, no clocks.
+
+The walk is a port of ``libraries/AP_Mission/AP_Mission.cpp``, so the order is ArduPilot's, not
+a reading of the list:
+
+* ``get_next_cmd``: DO_JUMP (and DO_JUMP_TAG, through the first JUMP_TAG with its tag) is
+  followed while it has been taken fewer times than its repeat count (−1: forever); a jump
+  counts only when the *navigation* command is advanced, and a finished jump's counter is reset
+  so an outer loop runs the inner one again; at most 64 jumps per search; a jump to item 0 or
+  past the end ends the mission.
+* ``advance_current_nav_cmd``: after a navigation command completes, the items after it are
+  scanned; the first do/condition item met is started, navigation items Rover does not start
+  (NAV_TAKEOFF, NAV_LAND, altitude-only items) are passed over, and the next navigation item
+  it starts becomes current (at most 255 items scanned). Nothing left: the mission is complete
+  — and the do item met on the way was still started.
+* ``advance_current_do_cmd`` / ``get_next_do_cmd``: the remaining do/condition items run one
+  after another from the first, following jumps without counting them, up to the next
+  navigation item of *any* kind; a condition (CONDITION_DELAY, CONDITION_DISTANCE) holds the
+  items after it. When the navigation command completes, whatever is left is dropped.
+
+Then ``Rover/mode_auto.cpp`` decides what each navigation item does: NAV_WAYPOINT drives to its
+place (lat/lon 0, 0: where the rover is when it starts, ``Location::sanitize``) and holds
+``param1`` whole seconds (a hold makes it a stop); NAV_LOITER_TIME drives there, stops and
+waits; NAV_LOITER_TURNS drives ``param1`` circles of radius ``param3`` (negative:
+counter-clockwise) around its place, entering at the nearest point (flown here as a polygon);
+NAV_RETURN_TO_LAUNCH drives to home (moved by DO_SET_HOME); NAV_DELAY stops for ``param1``
+seconds; NAV_LOITER_UNLIM waits until the operator continues (refused: helixd cannot continue
+it yet). DO_CHANGE_SPEED sets the cruise speed from its place on (below 0.05 m/s, e.g. −1: no
+change; bounded by ``control.min_speed_mps`` .. ``control.max_speed_mps``), DO_SET_REVERSE
+drives backwards, DO_SET_HOME moves home (and is sent), the payload commands are sent to the
+autopilot at their place.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+from helixd.base.plan import (
+    ActionKind,
+    MissionAction,
+    MotionMode,
+    NavStep,
+    PlanWaypoint,
+    Program,
+)
+from helixd.mav.constants import (
+    MAV_CMD_DO_JUMP,
+    MAV_CMD_DO_JUMP_TAG,
+    MAV_CMD_DO_SET_HOME,
+    MAV_CMD_JUMP_TAG,
+)
+from helixd.mission.commands import (
+    CIRCLE_RADIUS_MIN_M,
+    JUMP_FOREVER,
+    SKIP_ROLES,
+    SPEED_MIN_MPS,
+    Role,
+    command_name,
+    stored_whole,
+)
+from helixd.mission.model import WaypointSpec
+
+XY = tuple[float, float]
+
+MAX_JUMPS_PER_SEARCH = 64  # AP_Mission::get_next_cmd
+MAX_SCAN = 255  # AP_Mission::advance_current_nav_cmd
+MAX_STEPS = 100_000  # navigation steps after expansion (a mission this long is a mistake)
+MAX_CHAIN = 1_000  # do items started with one step
+SAME_PLACE_M = 0.01  # a step to where the rover already is drives nowhere
+CIRCLE_SEGMENT_M = 2.0  # a circle is flown as a polygon with sides about this long …
+CIRCLE_POINTS_MIN = 8  # … with at least this many corners per turn …
+CIRCLE_POINTS_MAX = 72  # … and at most this many
+
+
+@dataclass(frozen=True)
+class ExpandOptions:
+    """The operator's choices for what is not simply flown."""
+
+    strict: bool = False  # refuse what ArduPilot Rover skips, instead of skipping it
+    skip_unsupported: bool = False  # pass over what helixd cannot fly, instead of refusing
+
+
+DEFAULT_OPTIONS = ExpandOptions()
+
+
+@dataclass(frozen=True)
+class Context:
+    """What the expansion needs from the rest of the mission (all in the mission frame)."""
+
+    mode: MotionMode
+    speed_mps: float  # the cruise speed before any DO_CHANGE_SPEED
+    min_speed_mps: float
+    max_speed_mps: float
+    tolerance_m: float  # the mission's default arrival radius
+    start_xy_m: XY | None  # where the rover is when the mission starts (None: not known)
+    home_xy_m: XY  # where NAV_RETURN_TO_LAUNCH goes until a DO_SET_HOME moves it
+    global_frame: bool  # lat/lon mission: DO_SET_HOME with a place can be sent
+
+
+@dataclass
+class Expansion:
+    waypoints: list[PlanWaypoint]
+    program: Program
+    problems: list[str] = field(default_factory=list)  # what run (and check) refuse
+    notes: list[str] = field(default_factory=list)  # what check lists
+
+
+@dataclass(frozen=True)
+class _Cmd:
+    index: int  # 1-based mission item number
+    wp: WaypointSpec
+    xy: XY | None  # its place in the mission frame (None: none, or "where the rover is")
+    latlon: tuple[float, float] | None  # a global mission's lat/lon, for commands sent
+
+    @property
+    def role(self) -> Role:
+        return self.wp.spec.role
+
+    @property
+    def nav(self) -> bool:
+        return self.wp.spec.nav
+
+    @property
+    def name(self) -> str:
+        return self.wp.name
+
+    def p(self, i: int) -> float:
+        return self.wp.param(i)
+
+
+class _Walker:
+    """AP_Mission's command walk over items 1..N (index 0 is home and never walked)."""
+
+    def __init__(self, cmds: Sequence[_Cmd]) -> None:
+        self.cmds = cmds
+        self.total = len(cmds) + 1
+        self.runs: dict[int, int] = {}
+        self.forever_taken: dict[int, int] = {}  # forever jumps: index → times taken
+        self.bad_jumps: set[tuple[int, int]] = set()  # (jump item, target)
+
+    def cmd(self, index: int) -> _Cmd:
+        return self.cmds[index - 1]
+
+    def tag_index(self, tag: int) -> int:
+        """AP_Mission::get_index_of_jump_tag: the first JUMP_TAG with this tag, else 0."""
+        for c in self.cmds:
+            if c.wp.command == MAV_CMD_JUMP_TAG and stored_whole(c.p(0)) == tag:
+                return c.index
+        return 0
+
+    def next_cmd(self, start: int, increment: bool) -> _Cmd | None:
+        """AP_Mission::get_next_cmd."""
+        index = start
+        jump_index: int | None = None
+        loops = MAX_JUMPS_PER_SEARCH
+        while index < self.total:
+            c = self.cmd(index)
+            command = c.wp.command
+            if command not in (MAV_CMD_DO_JUMP, MAV_CMD_DO_JUMP_TAG):
+                return c
+            target = stored_whole(c.p(0))
+            if command == MAV_CMD_DO_JUMP_TAG:
+                target = self.tag_index(target)
+            times = stored_whole(c.p(1))
+            if loops == 0:
+                return None
+            loops -= 1
+            if target >= self.total or target == 0:
+                self.bad_jumps.add((c.index, target))
+                return None
+            if not increment and jump_index == index:
+                return None
+            if jump_index is None:
+                jump_index = index
+            if times == JUMP_FOREVER or self.runs.get(index, 0) < times:
+                if increment:
+                    self.runs[index] = self.runs.get(index, 0) + 1
+                    if times == JUMP_FOREVER:
+                        self.forever_taken[index] = self.forever_taken.get(index, 0) + 1
+                index = target
+            else:
+                if increment:
+                    self.runs[index] = 0  # MIS_OPTIONS DONT_ZERO_COUNTER is off by default
+                index += 1
+        return None
+
+    def advance_nav(
+        self, after: int | None, starts: Callable[[_Cmd], bool]
+    ) -> tuple[_Cmd | None, _Cmd | None, list[_Cmd]]:
+        """AP_Mission::advance_current_nav_cmd: (the navigation item started, the first do
+        item started on the way, the navigation items passed over)."""
+        index = 1 if after is None else after + 1
+        first_do: _Cmd | None = None
+        passed: list[_Cmd] = []
+        for _ in range(MAX_SCAN):
+            c = self.next_cmd(index, increment=True)
+            if c is None:
+                return None, first_do, passed
+            if c.nav:
+                if starts(c):
+                    return c, first_do, passed
+                passed.append(c)
+            elif first_do is None:
+                first_do = c
+            index = c.index + 1
+        return None, first_do, passed
+
+    def do_chain(self, first: _Cmd) -> tuple[list[_Cmd], bool]:
+        """AP_Mission::advance_current_do_cmd, repeated: the do items after ``first`` up to the
+        next navigation item; True when they loop without end (a jump over do items only)."""
+        chain = [first]
+        seen = {first.index}
+        current = first
+        while True:
+            if current.index + 1 >= self.total:
+                return chain, False
+            c = self.next_cmd(current.index + 1, increment=False)
+            if c is None or c.nav:
+                return chain, False
+            if c.index in seen or len(chain) >= MAX_CHAIN:
+                return chain, True
+            seen.add(c.index)
+            chain.append(c)
+            current = c
+
+
+def _starts(c: _Cmd) -> bool:
+    """Rover's ModeAuto::start_command returns true (the navigation item becomes current)."""
+    return c.role not in (Role.NAV_SKIPPED, Role.UNKNOWN)
+
+
+def _label(c: _Cmd) -> str:
+    return f"item {c.index} {c.name}"
+
+
+def _fmt_xy(xy: XY) -> str:
+    return f"({xy[0]:.2f}, {xy[1]:.2f})"
+
+
+def _named(c: _Cmd) -> str:
+    """A command's non-default named parameters, e.g. "channel 9, pwm_us 1900"."""
+    spec = c.wp.spec
+    parts: list[str] = []
+    defaults = spec.defaults()
+    for i, pspec in enumerate(spec.params):
+        if pspec is None:
+            continue
+        v = c.p(i)
+        d = defaults[i] if i < len(defaults) else 0.0
+        if math.isnan(v) and d is None:
+            continue
+        if d is not None and v == d:
+            continue
+        parts.append(f"{pspec.name} {v:g}")
+    if not spec.params and c.wp.params is not None:
+        parts.append("params " + ", ".join(f"{c.p(i):g}" for i in range(len(c.wp.params))))
+    return ", ".join(parts)
+
+
+def _circle(centre: XY, radius_m: float, turns: float, ccw: bool, entry_from: XY) -> list[XY]:
+    """NAV_LOITER_TURNS as a polygon: the point of the circle nearest ``entry_from``, then
+    ``turns`` times around (Rover/mode_circle.cpp drives to the nearest edge point first)."""
+    cx, cy = centre
+    dx, dy = entry_from[0] - cx, entry_from[1] - cy
+    theta0 = math.atan2(dy, dx) if math.hypot(dx, dy) > 1e-9 else 0.0
+    per_turn = min(
+        CIRCLE_POINTS_MAX,
+        max(CIRCLE_POINTS_MIN, math.ceil(2 * math.pi * radius_m / CIRCLE_SEGMENT_M)),
+    )
+    n = max(1, math.ceil(turns * per_turn - 1e-9))
+    sweep = (1.0 if ccw else -1.0) * turns * 2 * math.pi
+    pts = [(cx + radius_m * math.cos(theta0), cy + radius_m * math.sin(theta0))]
+    for k in range(1, n + 1):
+        a = theta0 + sweep * k / n
+        pts.append((cx + radius_m * math.cos(a), cy + radius_m * math.sin(a)))
+    return pts
+
+
+def loiter_turns(c: WaypointSpec) -> tuple[float, float, bool]:
+    """(turns, radius_m, counter-clockwise) as AP_Mission stores NAV_LOITER_TURNS: turns below
+    one in 1/256ths, else whole turns up to 255; the radius in whole metres up to 255 m, tens of
+    metres above; Rover drives at least 0.1 m (AR_CIRCLE_RADIUS_MIN)."""
+    p1, p3 = c.param(0), c.param(2)
+    p1 = p1 if math.isfinite(p1) else 0.0
+    p3 = p3 if math.isfinite(p3) else 0.0
+    turns = math.floor(p1 * 256.0) / 256.0 if 0.0 < p1 < 1.0 else float(int(min(255.0, p1)))
+    r = abs(p3)
+    radius = float(int(r)) if r <= 255.0 else float(int(min(255.0, r * 0.1)) * 10)
+    return max(0.0, turns), max(radius, CIRCLE_RADIUS_MIN_M), p3 < 0.0
+
+
+class _Builder:
+    """Turns the walk into plan waypoints and steps, following Rover's start_command."""
+
+    def __init__(
+        self,
+        ctx: Context,
+        options: ExpandOptions,
+        waypoint_for: Callable[[WaypointSpec, XY, bool], PlanWaypoint],
+    ) -> None:
+        self.ctx = ctx
+        self.options = options
+        self.waypoint_for = waypoint_for
+        self.waypoints: list[PlanWaypoint] = []
+        self.steps: list[NavStep] = []
+        self.problems: list[str] = []
+        self.notes: list[str] = []
+        self.noted: set[tuple[int, str]] = set()
+        self.here: XY | None = ctx.start_xy_m  # None: not known yet (check, ENU mission)
+        self.home: XY = ctx.home_xy_m
+        self.speed = ctx.speed_mps
+
+    def problem(self, c: _Cmd, text: str) -> None:
+        line = f"{_label(c)}: {text}"
+        if line not in self.problems:
+            self.problems.append(line)
+
+    def note(self, c: _Cmd, text: str) -> None:
+        if (c.index, text) not in self.noted:
+            self.noted.add((c.index, text))
+            self.notes.append(f"{_label(c)}: {text}")
+
+    def skip_text(self, c: _Cmd) -> str:
+        why = c.wp.spec.why
+        if c.role is Role.IGNORED:
+            return f"ignored, as ArduPilot Rover ignores it here ({why})"
+        return f"skipped, as ArduPilot Rover skips it ({why})"
+
+    def passed_over(self, c: _Cmd) -> str:
+        """A navigation item Rover does not start, or one helixd cannot fly."""
+        if c.role is Role.NAV_SKIPPED:
+            text = self.skip_text(c)
+            if self.options.strict:
+                self.problem(c, f"{text}; --strict refuses it")
+            else:
+                self.note(c, text)
+            return f"{_label(c)}: {text}"
+        why = c.wp.spec.why
+        self.problem(c, f"{why} (ArduPilot refuses it at upload)")
+        return f"{_label(c)}: not a mission command"
+
+    # -- do/condition items ----------------------------------------------------------------
+
+    def actions(self, chain: Sequence[_Cmd]) -> list[MissionAction]:
+        out: list[MissionAction] = []
+        for c in chain:
+            out.append(self.action(c))
+        return out
+
+    def action(self, c: _Cmd) -> MissionAction:
+        role = c.role
+        item, command = c.index, c.wp.command
+        named = _named(c)
+        text = f"{c.name} {named}".strip()
+        if role is Role.SEND:
+            return MissionAction(
+                item, command, ActionKind.SEND, params=self.send_params(c), text=text
+            )
+        if role is Role.SET_HOME:
+            return self.set_home(c)
+        if role is Role.SPEED:
+            return self.change_speed(c)
+        if role is Role.REVERSE:
+            back = stored_whole(c.p(0)) == 1
+            if self.ctx.mode is MotionMode.OMNI:
+                self.note(c, "ignored in OMNI: the rover drives any way without turning")
+                return MissionAction(
+                    item, command, ActionKind.NOTE, text=f"{text} (ignored in OMNI)"
+                )
+            return MissionAction(item, command, ActionKind.REVERSE, 1.0 if back else 0.0, text=text)
+        if role is Role.CONDITION_DELAY:
+            delay = max(0.0, c.p(0)) if math.isfinite(c.p(0)) else 0.0
+            text = f"{c.name}: the items after it wait {delay:g} s"
+            return MissionAction(item, command, ActionKind.WAIT_TIME, delay, text=text)
+        if role is Role.CONDITION_DISTANCE:
+            dist = c.p(0) if math.isfinite(c.p(0)) else 0.0
+            text = f"{c.name}: the items after it wait until {dist:g} m from the target"
+            return MissionAction(item, command, ActionKind.WAIT_DISTANCE, dist, text=text)
+        if role is Role.TAG:
+            return MissionAction(
+                item, command, ActionKind.NOTE, text=f"JUMP_TAG {stored_whole(c.p(0))}"
+            )
+        if role in SKIP_ROLES:
+            why = self.skip_text(c)
+            if self.options.strict:
+                self.problem(c, f"{why}; --strict refuses it")
+            else:
+                self.note(c, why)
+            return MissionAction(item, command, ActionKind.NOTE, text=f"{text}: {why}")
+        why = c.wp.spec.why or "helixd cannot run it"
+        if self.options.skip_unsupported:
+            self.note(c, f"passed over (--skip-unsupported): {why}")
+            return MissionAction(item, command, ActionKind.NOTE, text=f"{text}: passed over")
+        self.problem(c, f"{why} (--skip-unsupported passes over it)")
+        return MissionAction(item, command, ActionKind.NOTE, text=text)
+
+    def send_params(self, c: _Cmd) -> tuple[float, float, float, float, float, float, float]:
+        p = [c.p(i) for i in range(6)]
+        p = [v if math.isfinite(v) else 0.0 for v in p]
+        z = c.wp.z or 0.0
+        if c.wp.spec.has_place:
+            lat, lon = c.latlon if c.latlon is not None else (0.0, 0.0)
+            return (p[0], p[1], p[2], p[3], lat, lon, z)
+        return (p[0], p[1], p[2], p[3], p[4], p[5], z)
+
+    def where_here(self) -> str:
+        return "the start" if self.here is None else _fmt_xy(self.here)
+
+    def set_home(self, c: _Cmd) -> MissionAction:
+        current = stored_whole(c.p(0)) == 1
+        text = f"{c.name}: home where the rover is ({self.where_here()})"
+        if current:
+            self.home = self.here if self.here is not None else self.home
+        elif c.xy is None:
+            self.problem(
+                c,
+                "home at latitude/longitude 0, 0: ArduPilot's mission would put home there; "
+                "give a place or use_current: 1",
+            )
+        elif not self.ctx.global_frame:
+            self.problem(
+                c,
+                "a home with a place needs a global (lat/lon) mission to tell the autopilot "
+                "where; use use_current: 1",
+            )
+        else:
+            self.home = c.xy
+            text = f"{c.name}: home at {_fmt_xy(c.xy)}"
+        params = self.send_params(c)
+        if current:
+            params = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return MissionAction(
+            c.index, MAV_CMD_DO_SET_HOME, ActionKind.SEND, params=params, text=text
+        )
+
+    def change_speed(self, c: _Cmd) -> MissionAction:
+        asked = c.p(1)
+        item, command = c.index, c.wp.command
+        if not (math.isfinite(asked) and asked >= SPEED_MIN_MPS):
+            text = f"{c.name} {asked:g} m/s: no change (below {SPEED_MIN_MPS} m/s, as Rover)"
+            return MissionAction(item, command, ActionKind.NOTE, text=text)
+        lo = max(self.ctx.min_speed_mps, SPEED_MIN_MPS)
+        bounded = min(max(asked, lo), self.ctx.max_speed_mps)
+        text = f"{c.name} → {bounded:.2f} m/s"
+        if bounded != asked:
+            limit = "control.max_speed_mps" if asked > bounded else "control.min_speed_mps"
+            self.note(c, f"{asked:g} m/s bounded to {bounded:.2f} m/s by {limit}")
+            text += f" ({asked:g} asked, bounded by {limit})"
+        self.speed = bounded
+        return MissionAction(item, command, ActionKind.SPEED, bounded, text=text)
+
+    # -- navigation items ------------------------------------------------------------------
+
+    def go(self, wp: WaypointSpec, xy: XY, stop: bool) -> tuple[int, int] | None:
+        """Add a plan waypoint to ``xy`` (none when the rover is already there)."""
+        if self.here is not None and math.dist(xy, self.here) < SAME_PLACE_M:
+            if stop:
+                self.stop_here()
+            return None
+        self.waypoints.append(self.waypoint_for(wp, xy, stop))
+        self.here = xy
+        n = len(self.waypoints) - 1
+        return n, n
+
+    def stop_here(self) -> None:
+        """The rover stops where the last leg ended (a hold or a delay follows it)."""
+        if self.waypoints and not self.waypoints[-1].stop:
+            self.waypoints[-1] = replace(self.waypoints[-1], stop=True)
+
+    def step(
+        self,
+        c: _Cmd,
+        chain: Sequence[_Cmd],
+        passed: Sequence[str],
+        via: str,
+        endless_chain: bool,
+    ) -> NavStep:
+        actions = self.actions(chain)
+        if endless_chain:
+            first = chain[0]
+            self.problem(
+                first,
+                "a DO_JUMP loops over do items only: ArduPilot would repeat them without end "
+                "until the next waypoint",
+            )
+        role, wp = c.role, c.wp
+        hold = 0.0
+        span: tuple[int, int] | None = None
+        forever = False
+        where = ""
+        if role in (Role.WAYPOINT, Role.LOITER_TIME, Role.LOITER_UNLIM):
+            raw = c.p(0) if role is not Role.LOITER_UNLIM else 0.0
+            hold = float(max(0, stored_whole(raw)))
+            forever = role is Role.LOITER_UNLIM
+            stop = hold > 0.0 or role is not Role.WAYPOINT
+            if c.xy is None:
+                where = f"stays where it is ({self.where_here()})"
+                if stop:
+                    self.stop_here()
+            else:
+                span = self.go(wp, c.xy, stop)
+                where = f"→ {_fmt_xy(c.xy)}"
+            if forever:
+                self.problem(
+                    c,
+                    "waits until the operator continues the mission; `helixd run` cannot "
+                    "continue it yet: use NAV_LOITER_TIME with a time",
+                )
+        elif role is Role.RETURN:
+            span = self.go(wp, self.home, True)
+            where = f"→ home {_fmt_xy(self.home)}"
+        elif role is Role.LOITER_TURNS:
+            turns, radius, ccw = loiter_turns(wp)
+            centre = c.xy if c.xy is not None else (self.here or self.home)
+            where = f"{turns:g} turns, radius {radius:g} m around {_fmt_xy(centre)}"
+            if turns > 0.0:
+                pts = _circle(centre, radius, turns, ccw, self.here or centre)
+                begin = len(self.waypoints)
+                for xy in pts:
+                    self.go(wp, xy, False)
+                if len(self.waypoints) > begin:
+                    span = (begin, len(self.waypoints) - 1)
+                    where += f" ({len(self.waypoints) - begin} points)"
+        elif role is Role.NAV_DELAY:
+            delay = c.p(0)
+            if not (math.isfinite(delay) and delay > 0.0):
+                self.problem(
+                    c,
+                    "waits until a time of day (param1 not > 0): helixd has no clock for it; "
+                    "give delay_s",
+                )
+                delay = 0.0
+            hold = delay
+            self.stop_here()
+            where = f"stops {delay:g} s"
+        else:  # NAV_REFUSED: Rover would start it
+            why = wp.spec.why
+            if self.options.skip_unsupported:
+                self.note(c, f"passed over (--skip-unsupported): {why}")
+            else:
+                self.problem(c, f"{why} (--skip-unsupported passes over it)")
+            where = "not flown"
+        if hold > 0.0 and role is not Role.NAV_DELAY:
+            where += f", hold {hold:g} s"
+        if forever:
+            where += ", waits for the operator"
+        text = f"{c.name} {where}".strip() + (f" {via}" if via else "")
+        return NavStep(
+            item=c.index,
+            command=wp.command,
+            first_waypoint=None if span is None else span[0],
+            last_waypoint=None if span is None else span[1],
+            hold_s=hold,
+            actions=tuple(actions),
+            speed_mps=self.speed,
+            text=text,
+            forever=forever,
+            skipped=tuple(passed),
+        )
+
+
+def expand(
+    entries: Sequence[WaypointSpec],
+    places: Sequence[XY | None],
+    latlons: Sequence[tuple[float, float] | None],
+    ctx: Context,
+    waypoint_for: Callable[[WaypointSpec, XY, bool], PlanWaypoint],
+    options: ExpandOptions = DEFAULT_OPTIONS,
+) -> Expansion:
+    """Walk the mission as ArduPilot does and build the flight: plan waypoints and program.
+
+    ``places`` holds each entry's place in the mission frame (None: none or "here"),
+    ``latlons`` a global mission's lat/lon (for commands sent to the autopilot), and
+    ``waypoint_for(entry, xy, stop)`` makes the plan waypoint for an entry's place."""
+    cmds = [
+        _Cmd(i + 1, wp, xy, ll)
+        for i, (wp, xy, ll) in enumerate(zip(entries, places, latlons, strict=True))
+    ]
+    walker = _Walker(cmds)
+    b = _Builder(ctx, options, waypoint_for)
+    visited: set[int] = set()
+    nav, first_do, passed = walker.advance_nav(None, _starts)
+    ending = ""
+    never_ends = False
+    jumps_before: dict[int, int] = {}
+    while nav is not None:
+        forever = [i for i, n in walker.forever_taken.items() if n >= 1]
+        if forever:
+            ending = f"item {forever[0]} DO_JUMP repeats forever: its loop is shown once"
+            never_ends = True
+            b.problems.append(
+                f"item {forever[0]} DO_JUMP: repeats forever (repeat -1): the mission never "
+                "ends; give a repeat count"
+            )
+            nav = None
+            first_do = None
+            passed = []
+            break
+        visited.add(nav.index)
+        visited.update(p.index for p in passed)
+        chain, endless = walker.do_chain(first_do) if first_do is not None else ([], False)
+        visited.update(c.index for c in chain)
+        via = _via(walker, jumps_before, cmds)
+        passed_text = [b.passed_over(p) for p in passed]
+        b.steps.append(b.step(nav, chain, passed_text, via, endless))
+        if nav.role is Role.LOITER_UNLIM:
+            ending = f"item {nav.index} NAV_LOITER_UNLIM waits for the operator"
+            never_ends = True
+            break
+        if len(b.steps) >= MAX_STEPS:
+            b.problems.append(
+                f"the mission expands to more than {MAX_STEPS} navigation steps (jumps): split it"
+            )
+            break
+        jumps_before = dict(walker.runs)
+        nav, first_do, passed = walker.advance_nav(nav.index, _starts)
+    final: list[MissionAction] = []
+    if nav is None and not never_ends:
+        visited.update(p.index for p in passed)
+        for p in passed:
+            b.passed_over(p)
+        if first_do is not None:
+            # AP_Mission started the do item met before finding nothing more to fly
+            visited.add(first_do.index)
+            final = b.actions([first_do])
+    for jump, target in sorted(walker.bad_jumps):
+        b.notes.append(
+            f"item {jump} {cmds[jump - 1].name}: jumps to item {target}, which is not in the "
+            "mission: ArduPilot ends the mission there"
+        )
+        ending = ending or f"item {jump} jumps to a missing item"
+    for c in cmds:
+        if c.index not in visited and c.wp.command not in (MAV_CMD_DO_JUMP, MAV_CMD_DO_JUMP_TAG):
+            b.notes.append(
+                f"{_label(c)}: never run (ArduPilot's walk through the mission never starts it)"
+            )
+    program = Program(
+        steps=tuple(b.steps),
+        final_actions=tuple(final),
+        ending=ending,
+        never_ends=never_ends,
+        notes=tuple(b.notes),
+        start_xy_m=ctx.start_xy_m,
+    )
+    return Expansion(b.waypoints, program, b.problems, b.notes)
+
+
+def _via(walker: _Walker, before: dict[int, int], cmds: Sequence[_Cmd]) -> str:
+    """Which jump the walk took to reach this step, e.g. "(DO_JUMP item 5, 1 of 2)"."""
+    for index, runs in walker.runs.items():
+        if runs > before.get(index, 0):
+            c = cmds[index - 1]
+            times = stored_whole(c.p(1))
+            count = "forever" if times == JUMP_FOREVER else f"{runs} of {times}"
+            return f"(after {command_name(c.wp.command)} item {index}, {count})"
+    return ""
+
+
+__all__ = ["DEFAULT_OPTIONS", "Context", "ExpandOptions", "Expansion", "expand", "loiter_turns"]

@@ -1,0 +1,278 @@
+"""Missions with ArduPilot Rover's commands, flown by the real CLI against the simulator over
+UDP and judged from the simulator's side: the speed on each leg against DO_CHANGE_SPEED, a
+hold at a waypoint, a DO_JUMP loop flown twice, a DO_SET_SERVO seen by the autopilot at its
+waypoint, NAV_RETURN_TO_LAUNCH ending at the autopilot's home — and ground-station files
+written by ArduPilot's own test suite."""
+
+from __future__ import annotations
+
+import json
+import math
+import statistics
+from pathlib import Path
+
+import pytest
+import yaml
+
+from helixd.base.exitcodes import ExitCode
+from helixd.sim.snapshot import HistoryEntry
+from tests.support.harness import (
+    NEUTRAL_TOLERANCE_US,
+    NEUTRAL_US,
+    Trace,
+    record_until,
+    secured,
+    sim_and_daemon,
+)
+from tests.support.paths import DATA_DIR
+
+pytestmark = pytest.mark.integration
+
+SPEEDUP = 5.0
+RUN_DOWN_S = 1.0  # the motors' lag (and the last override in flight) after neutral
+SERVO = 9  # a servo output that drives no scroll (SERVO9_FUNCTION 0)
+
+# items, numbered as a ground station numbers them (1 = the first entry)
+MISSION = {
+    "name": "commands",
+    "mode": "roll",
+    "frame": "start",
+    "waypoints": [
+        {"x": 10, "y": 0},  # 1  leg at the cruise speed, 0.6 m/s
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 0.3},  # 2
+        {"x": 10, "y": 8, "hold_s": 6},  # 3  at 0.3 m/s, then stopped 6 s
+        {"command": "DO_SET_SERVO", "channel": SERVO, "pwm_us": 1900},  # 4 when 3 completes
+        {"x": 2, "y": 8},  # 5  still 0.3 m/s
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 0.5},  # 6
+        {"x": 2, "y": 2},  # 7  0.5 m/s
+        {"x": 8, "y": 2},  # 8
+        {"command": "DO_JUMP", "item": 7, "repeat": 1},  # 9  back to 7 once: 7, 8 twice
+        {"command": "NAV_RETURN_TO_LAUNCH"},  # 10 to the autopilot's home
+    ],
+}
+# (from, to, commanded speed): the legs as flown, the loop's twice
+LEGS = [
+    ((0, 0), (10, 0), 0.6),
+    ((10, 0), (10, 8), 0.3),
+    ((10, 8), (2, 8), 0.3),
+    ((2, 8), (2, 2), 0.5),
+    ((2, 2), (8, 2), 0.5),  # twice
+    ((8, 2), (2, 2), 0.5),  # the leg after the jump
+    ((8, 2), (0, 0), 0.5),  # the return home
+]
+
+
+def leg_speeds(trace: Trace, a: tuple[float, float], b: tuple[float, float]) -> list[float]:
+    """The rover's true speed wherever it drove the leg a → b in that direction, away from
+    its ends (1.5 m: where it accelerates and brakes) and within 0.3 m of the line."""
+    (ax, ay), (bx, by) = a, b
+    length = math.hypot(bx - ax, by - ay)
+    ux, uy = (bx - ax) / length, (by - ay) / length
+    out = []
+    for _, s in trace.samples:
+        x, y = s.north_m, -s.east_m  # start frame: rover at the origin facing north (yaw 0)
+        along = (x - ax) * ux + (y - ay) * uy
+        across = abs(-(x - ax) * uy + (y - ay) * ux)
+        heading_x, heading_y = math.cos(s.yaw_ned_rad), -math.sin(s.yaw_ned_rad)
+        forward = heading_x * ux + heading_y * uy > 0.9  # ROLL drives along its heading
+        if 1.5 <= along <= length - 1.5 and across < 0.3 and forward:
+            out.append(s.speed_mps)
+    return out
+
+
+def visits(trace: Trace, x: float, y: float, radius_m: float = 0.4) -> int:
+    """How many times the rover came within ``radius_m`` of (x, y) (start frame)."""
+    inside, count = False, 0
+    for _, s in trace.samples:
+        near = math.hypot(s.north_m - x, -s.east_m - y) < radius_m
+        if near and not inside:
+            count += 1
+        inside = near
+    return count
+
+
+def neutral_intervals(outputs: list[HistoryEntry]) -> list[tuple[float, float]]:
+    """(start, end) in simulated seconds of every stretch the four scroll outputs (1..4) all
+    stood at neutral, from the simulator's own log of output changes (exact, whatever the
+    test process saw of its snapshots)."""
+    pwm = [0, 0, 0, 0]
+    out: list[tuple[float, float]] = []
+    since: float | None = None
+    for e in outputs:
+        ch = int(str(e.details["channel"]))
+        if ch > 4:
+            continue
+        pwm[ch - 1] = int(str(e.details["pwm_us"]))
+        neutral = all(abs(p - NEUTRAL_US) <= NEUTRAL_TOLERANCE_US for p in pwm)
+        if neutral and since is None:
+            since = e.sim_time_s
+        elif not neutral and since is not None:
+            out.append((since, e.sim_time_s))
+            since = None
+    return out
+
+
+def test_speed_changes_hold_jump_servo_and_return_home(tmp_path: Path) -> None:
+    path = tmp_path / "commands.yaml"
+    path.write_text(yaml.safe_dump(MISSION))
+    with sim_and_daemon(
+        tmp_path, path, speedup=SPEEDUP, terrain="hard", noise="none", initial_yaw_ned_rad=0.0
+    ) as (server, d):
+        server.wait_for(lambda s: s.armed, 60.0)
+        trace = record_until(server, lambda s: not s.armed, 240.0)
+        code = d.wait_exit(30.0)
+        log = d.log_text()
+        run_dir = d.run_dir()
+        servo_sets = server.history.entries("servo_set")
+        outputs = server.history.entries("output")
+        snap = server.snapshot()
+    assert code == ExitCode.OK, log[-3000:]
+    assert secured(snap)
+
+    # each leg at its commanded speed (median of the rover's true speed, 10 %)
+    for a, b, commanded in LEGS:
+        speeds = leg_speeds(trace, a, b)
+        assert len(speeds) > 20, (a, b)
+        measured = statistics.median(speeds)
+        print(f"leg {a} → {b}: {measured:.3f} m/s measured, {commanded} commanded")
+        assert measured == pytest.approx(commanded, rel=0.10), (a, b)
+
+    # stopped at item 3 for its 6 s, not faulted (the run completed: exit 0): the scrolls at
+    # neutral for the 6 s (the simulator's own output log), the rover standing still (not
+    # rolling, not turning) in every snapshot of it after the motors ran down, at (10, 8)
+    at_wp3 = [
+        s.sim_time_s
+        for _, s in trace.samples
+        if math.hypot(s.north_m - 10, -s.east_m - 8) < 0.3 and s.speed_mps < 0.02
+    ]
+    (start, end), *others = [
+        (a, b) for a, b in neutral_intervals(outputs) if any(a <= t <= b for t in at_wp3)
+    ]
+    assert not others
+    inside = [s for _, s in trace.samples if start + RUN_DOWN_S <= s.sim_time_s <= end]
+    still = all(s.speed_mps < 0.02 and abs(s.wz_body_radps) < 0.02 for s in inside)
+    where = max(math.hypot(s.north_m - 10, -s.east_m - 8) for s in inside)
+    print(
+        f"hold at (10, 8): scrolls neutral {end - start:.2f} s of autopilot time (6 s asked); "
+        f"rover still in all {len(inside)} snapshots after {RUN_DOWN_S} s, within {where:.3f} m"
+    )
+    assert 6.0 <= end - start <= 6.5
+    assert still and len(inside) > 10 and where < 0.2
+
+    # the DO_JUMP loop flown twice: (2, 2) and (8, 2) each reached twice
+    assert visits(trace, 2, 2) == 2 and visits(trace, 8, 2) == 2
+
+    # the servo command the autopilot got, once per pass over item 4: at waypoint 3 (10, 8)
+    (entry,) = [e for e in servo_sets if e.details["channel"] == SERVO]
+    assert entry.details["pwm_us"] == 1900
+    at = min(trace.samples, key=lambda ts: abs(ts[1].sim_time_s - entry.sim_time_s))[1]
+    print(f"DO_SET_SERVO {SERVO} seen at ({at.north_m:.2f}, {-at.east_m:.2f}) (waypoint (10, 8))")
+    assert math.hypot(at.north_m - 10, -at.east_m - 8) < 0.5
+    assert snap.outputs_us[SERVO - 1] == 1900  # latched, as ArduPilot keeps it
+
+    # NAV_RETURN_TO_LAUNCH ended at the autopilot's home
+    assert snap.home_ne_m is not None
+    end = math.hypot(snap.north_m - snap.home_ne_m[0], snap.east_m - snap.home_ne_m[1])
+    print(f"RTL ended {end:.3f} m from home")
+    assert end < 0.3
+
+    # the run's record: every payload command sent with its answer, the steps in order
+    events = [json.loads(ln) for ln in (run_dir / "events.jsonl").read_text().splitlines()]
+    sent = [e for e in events if e["event"] == "mission_command"]
+    assert [(e["item"], e["command"], e["accepted"]) for e in sent] == [(4, "DO_SET_SERVO", True)]
+    started = [e["item"] for e in events if e.get("kind") == "step_started"]
+    assert started == [1, 3, 5, 7, 8, 7, 8, 10]
+    summary = json.loads((run_dir / "summary.json").read_text())
+    assert summary["completed"] and summary["waypoints_total"] == 8
+
+
+SIM_HOME_RTL = (40.071377, -105.229790)  # row 0 (home) of ArduPilot's DriveRTL/rtl.txt
+
+
+def test_ardupilots_own_rtl_mission_flies_and_returns_home(tmp_path: Path) -> None:
+    """ArduPilot's autotest DriveRTL mission (two waypoints, then NAV_RETURN_TO_LAUNCH with
+    lat/lon 0, 0), with the simulator's origin at the file's home."""
+    cfg = {
+        "mission": {"ground_station_mode": "roll"},
+        "safety": {"geofence_radius_m": 200.0},
+    }
+    mission = DATA_DIR / "gcs" / "ap-DriveRTL-rtl.txt"
+    with sim_and_daemon(
+        tmp_path,
+        mission,
+        cfg,
+        speedup=10.0,
+        terrain="hard",
+        noise="low",
+        origin_lat_deg=SIM_HOME_RTL[0],
+        origin_lon_deg=SIM_HOME_RTL[1],
+    ) as (server, d):
+        code = d.wait_exit(240.0)
+        log = d.log_text()
+        snap = server.snapshot()
+    assert code == ExitCode.OK, log[-3000:]
+    assert snap.home_ne_m is not None
+    end = math.hypot(snap.north_m - snap.home_ne_m[0], snap.east_m - snap.home_ne_m[1])
+    assert end < 0.5
+
+
+SIM_HOME_CAMERA = (40.071377, -105.229790)
+
+
+def test_ardupilots_camera_mission_triggers_the_camera_by_distance(tmp_path: Path) -> None:
+    """ArduPilot's CameraMission: DO_SET_CAM_TRIGG_DIST 2 m, then 5 m; the simulator's camera
+    (CAM1_TYPE 1) takes the pictures as AP_Camera does, and helixd sent the commands at their
+    places."""
+    cfg = {
+        "mission": {"ground_station_mode": "roll", "max_range_m": 1000.0},
+        "safety": {"geofence_radius_m": 300.0},
+    }
+    mission = DATA_DIR / "gcs" / "ap-CameraMission-rover-camera-mission.txt"
+    with sim_and_daemon(
+        tmp_path,
+        mission,
+        cfg,
+        speedup=10.0,
+        terrain="hard",
+        noise="low",
+        origin_lat_deg=SIM_HOME_CAMERA[0],
+        origin_lon_deg=SIM_HOME_CAMERA[1],
+        params={"CAM1_TYPE": 1},
+    ) as (server, d):
+        code = d.wait_exit(300.0)
+        log = d.log_text()
+        run_dir = d.run_dir()
+        snap = server.snapshot()
+    assert code == ExitCode.OK, log[-3000:]
+    events = [json.loads(ln) for ln in (run_dir / "events.jsonl").read_text().splitlines()]
+    sent = [(e["item"], e["params"][0]) for e in events if e["event"] == "mission_command"]
+    assert sent == [(1, 2.0), (3, 5.0)]
+    # 65 m at 2 m, then about 100 m at 5 m: the camera's own count
+    print(f"pictures taken: {snap.pictures}")
+    assert 45 <= snap.pictures <= 60
+
+
+def test_a_servo_command_on_a_scroll_passthrough_is_refused_before_arming(tmp_path: Path) -> None:
+    """Output 5 passes RC1 through (SERVO5_FUNCTION 51), and RC1 drives scroll 1: `check`
+    cannot know the autopilot's functions, preflight reads them and refuses (exit 3, nothing
+    armed), naming item, output and function; the servo is never touched."""
+    path = tmp_path / "servo.yaml"
+    mission = {
+        "name": "servo",
+        "mode": "roll",
+        "frame": "start",
+        "waypoints": [
+            {"x": 3, "y": 0},
+            {"command": "DO_SET_SERVO", "channel": 5, "pwm_us": 1900},
+            {"x": 6, "y": 0},
+        ],
+    }
+    path.write_text(yaml.safe_dump(mission))
+    with sim_and_daemon(tmp_path, path, params={"SERVO5_FUNCTION": 51}) as (server, d):
+        code = d.wait_exit(60.0)
+        log = d.log_text()
+        snap = server.snapshot()
+        servo_sets = server.history.entries("servo_set")
+    assert code == ExitCode.PREFLIGHT, log[-3000:]
+    assert "item 2 DO_SET_SERVO: output 5 passes RC1 through (SERVO5_FUNCTION = 51)" in log
+    assert not snap.armed and servo_sets == []

@@ -1,0 +1,270 @@
+"""ArduPilot's walk through a mission (AP_Mission.cpp) and what Rover does with each item
+(mode_auto.cpp), as :mod:`helixd.mission.expand` ports them: checked on small missions whose
+flown order and timing are worked out by hand from the C++."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import pytest
+
+from helixd.base.plan import ActionKind, Plan
+from helixd.config import HelixdConfig
+from helixd.mission.expand import ExpandOptions
+from helixd.mission.model import Mission
+from helixd.mission.plan import Resolved, Where, resolve
+
+CFG = HelixdConfig()
+
+
+def mission(*entries: dict[str, Any], frame: str = "start", **extra: Any) -> Mission:
+    return Mission.model_validate(
+        {"name": "t", "mode": "roll", "frame": frame, "waypoints": list(entries), **extra}
+    )
+
+
+def flown(
+    *entries: dict[str, Any], options: ExpandOptions | None = None, where: Where | None = None
+) -> Resolved:
+    return resolve(
+        mission(*entries),
+        CFG.control,
+        CFG.mission,
+        None,
+        where or Where(),
+        options or ExpandOptions(),
+    )
+
+
+def items(r: Resolved) -> list[int]:
+    """The mission items of the steps, in flight order."""
+    assert r.plan.program is not None
+    return [s.item for s in r.plan.program.steps]
+
+
+def points(plan: Plan) -> list[tuple[float, float]]:
+    return [(round(w.x_m, 3), round(w.y_m, 3)) for w in plan.waypoints]
+
+
+A, B, C = {"x": 5, "y": 0}, {"x": 5, "y": 5}, {"x": 0, "y": 5}
+
+
+def jump(item: int, repeat: int) -> dict[str, Any]:
+    return {"command": "DO_JUMP", "item": item, "repeat": repeat}
+
+
+def test_do_jump_repeat_one_flies_the_loop_twice() -> None:
+    r = flown(A, B, C, jump(2, 1))  # items 1..4: the jump back to item 2 once
+    assert items(r) == [1, 2, 3, 2, 3]
+    assert points(r.plan) == [(5, 0), (5, 5), (0, 5), (5, 5), (0, 5)]
+    assert r.problems == ()
+
+
+def test_nested_jumps_reset_the_inner_counter_as_ardupilot_does() -> None:
+    """get_next_cmd zeroes a finished jump's counter (MIS_OPTIONS DONT_ZERO_COUNTER off), so
+    the outer loop runs the inner loop in full again: 2 × (2 × inner) passes."""
+    inner, outer = jump(2, 1), jump(1, 1)  # items 3 and 5
+    r = flown(A, B, inner, C, outer)
+    assert items(r) == [1, 2, 2, 4, 1, 2, 2, 4]
+
+
+def test_a_jump_forever_is_refused_and_shown_once() -> None:
+    r = flown(A, B, jump(1, -1))
+    assert items(r) == [1, 2]
+    assert any("repeats forever" in p and "item 3" in p for p in r.problems)
+    assert r.plan.program is not None and r.plan.program.never_ends
+
+
+def test_a_jump_to_a_missing_item_ends_the_mission_there() -> None:
+    r = flown(A, jump(9, 1), B)
+    assert items(r) == [1]  # AP_Mission: get_next_cmd fails → complete()
+    assert any("item 9, which is not in the mission" in n for n in r.notes)
+    assert any("item 3" in n and "never run" in n for n in r.notes)
+
+
+def test_do_jump_tag_jumps_to_the_first_jump_tag_with_its_tag() -> None:
+    tag = {"command": "JUMP_TAG", "tag": 7}
+    r = flown(A, tag, B, {"command": "DO_JUMP_TAG", "tag": 7, "repeat": 2}, C)
+    assert items(r) == [1, 3, 3, 3, 5]
+
+
+def test_do_items_start_when_the_navigation_item_before_them_completes() -> None:
+    servo = {"command": "DO_SET_SERVO", "channel": 9, "pwm_us": 1900}
+    r = flown(A, servo, B)
+    assert r.plan.program is not None
+    step_a, step_b = r.plan.program.steps
+    assert step_a.actions == ()
+    (action,) = step_b.actions  # started with the leg A → B
+    assert action.kind is ActionKind.SEND and action.item == 2
+    assert action.params == (9.0, 1900.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+def test_the_do_chain_stops_at_any_navigation_item_even_one_rover_skips() -> None:
+    """advance_current_do_cmd stops at the next navigation command of any kind: a relay after
+    a NAV_TAKEOFF (which Rover passes over) is never run."""
+    servo = {"command": "DO_SET_SERVO", "channel": 9, "pwm_us": 1900}
+    relay = {"command": "DO_SET_RELAY", "relay": 0, "state": 1}
+    r = flown(A, servo, {"command": "NAV_TAKEOFF"}, relay, B)
+    assert r.plan.program is not None
+    step_b = r.plan.program.steps[1]
+    assert [a.item for a in step_b.actions] == [2]
+    assert any("item 4 DO_SET_RELAY" in n and "never run" in n for n in r.notes)
+    assert any("item 3 NAV_TAKEOFF" in n and "skipped" in n for n in r.notes)
+    assert step_b.skipped and "NAV_TAKEOFF" in step_b.skipped[0]
+
+
+def test_the_first_do_item_after_the_last_waypoint_still_runs() -> None:
+    """The scan that finds no navigation item left started the do item it met first."""
+    r = flown(A, {"command": "DO_SET_SERVO", "channel": 9, "pwm_us": 1100},
+              {"command": "DO_SET_SERVO", "channel": 10, "pwm_us": 1100})  # fmt: skip
+    assert r.plan.program is not None
+    assert [a.item for a in r.plan.program.final_actions] == [2]
+    assert any("item 3" in n and "never run" in n for n in r.notes)
+
+
+def test_hold_makes_the_waypoint_a_stop_and_keeps_whole_seconds() -> None:
+    r = flown(A, {**B, "hold_s": 5}, C)
+    assert [w.stop for w in r.plan.waypoints] == [False, True, False]
+    assert r.plan.program is not None
+    assert [s.hold_s for s in r.plan.program.steps] == [0.0, 5.0, 0.0]
+    raw = flown(A, {**B, "command": "NAV_WAYPOINT", "params": [2.7, 0, 0, None]}, C)
+    assert raw.plan.program is not None and raw.plan.program.steps[1].hold_s == 2.0
+
+
+def test_here_means_where_the_rover_is_when_the_item_starts() -> None:
+    here = {"command": "NAV_WAYPOINT", "hold_s": 4}  # lat/lon 0, 0 in a ground-station file
+    r = flown(A, here, B)
+    assert points(r.plan) == [(5, 0), (5, 5)]
+    assert r.plan.waypoints[0].stop  # the rover stops where it is for the hold
+    assert r.plan.program is not None
+    step = r.plan.program.steps[1]
+    assert step.first_waypoint is None and step.hold_s == 4.0
+
+
+def test_nav_delay_stops_in_place() -> None:
+    r = flown(A, {"command": "NAV_DELAY", "delay_s": 12}, B)
+    assert r.plan.program is not None and r.plan.program.steps[1].hold_s == 12.0
+    assert r.plan.waypoints[0].stop
+    clock = flown(A, {"command": "NAV_DELAY", "delay_s": -1, "hour": 12}, B)
+    assert any("time of day" in p for p in clock.problems)
+
+
+def test_loiter_time_stops_and_waits() -> None:
+    r = flown(A, {"command": "NAV_LOITER_TIME", "x": 5, "y": 5, "hold_s": 30}, C)
+    assert r.plan.waypoints[1].stop
+    assert r.plan.program is not None and r.plan.program.steps[1].hold_s == 30.0
+
+
+def test_loiter_unlimited_is_refused_for_run() -> None:
+    r = flown(A, {"command": "NAV_LOITER_UNLIM", "x": 5, "y": 5}, C)
+    assert items(r) == [1, 2]
+    assert any("NAV_LOITER_UNLIM" in p and "operator" in p for p in r.problems)
+
+
+def test_return_to_launch_goes_home_and_set_home_moves_it() -> None:
+    r = flown(A, {"command": "NAV_RETURN_TO_LAUNCH"}, where=Where(home_xy_m=(1.0, -1.0)))
+    assert points(r.plan)[-1] == (1.0, -1.0) and r.plan.waypoints[-1].stop
+    moved = flown(A, {"command": "DO_SET_HOME", "use_current": 1}, B,
+                  {"command": "NAV_RETURN_TO_LAUNCH"})  # fmt: skip
+    assert points(moved.plan)[-1] == (5, 0)  # home where the rover was when item 2 ran
+    assert moved.plan.program is not None
+    (send,) = moved.plan.program.steps[1].actions
+    assert send.kind is ActionKind.SEND and send.params[0] == 1.0
+
+
+def test_set_home_with_a_place_needs_a_global_mission() -> None:
+    m = mission(A, {"command": "DO_SET_HOME", "x": 1, "y": 1}, B)
+    r = resolve(m, CFG.control, CFG.mission)
+    assert any("global" in p for p in r.problems)
+
+
+def test_speed_changes_are_bounded_and_minus_one_is_no_change() -> None:
+    r = flown(
+        A,
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 0.3},
+        B,
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 5.0},
+        C,
+        {"command": "DO_CHANGE_SPEED", "speed_mps": -1},
+        {"x": 0, "y": 0},
+    )
+    assert r.plan.program is not None
+    assert [s.speed_mps for s in r.plan.program.steps] == [0.6, 0.3, 0.6, 0.6]
+    assert any("bounded to 0.60 m/s by control.max_speed_mps" in n for n in r.notes)
+    kinds = [a.kind for a in r.plan.program.steps[3].actions]
+    assert kinds == [ActionKind.NOTE]  # -1: no change, as AR_WPNav::set_speed_max refuses it
+    assert r.plan.peak_speed_mps == 0.6
+    assert r.plan.leg_speeds_mps() == [0.6, 0.3, 0.6, 0.6]
+
+
+def test_conditions_are_kept_in_the_chain() -> None:
+    r = flown(A, {"command": "CONDITION_DELAY", "delay_s": 3},
+              {"command": "DO_SET_SERVO", "channel": 9, "pwm_us": 1900}, B)  # fmt: skip
+    assert r.plan.program is not None
+    kinds = [a.kind for a in r.plan.program.steps[1].actions]
+    assert kinds == [ActionKind.WAIT_TIME, ActionKind.SEND]
+
+
+def test_loiter_turns_flies_a_circle_from_its_nearest_point() -> None:
+    r = flown({"x": 20, "y": 0}, {"command": "NAV_LOITER_TURNS", "x": 10, "y": 0,
+                                  "turns": 1, "radius_m": -5})  # fmt: skip
+    pts = r.plan.waypoints[1:]
+    assert (pts[0].x_m, pts[0].y_m) == pytest.approx((15.0, 0.0))  # nearest point to (20, 0)
+    assert all(math.hypot(w.x_m - 10, w.y_m) == pytest.approx(5.0) for w in pts)
+    # counter-clockwise (negative radius): the second corner is to the left (+y)
+    assert pts[1].y_m > 0
+    assert (pts[-1].x_m, pts[-1].y_m) == pytest.approx((15.0, 0.0))
+    assert r.plan.program is not None
+    step = r.plan.program.steps[1]
+    assert (step.first_waypoint, step.last_waypoint) == (1, len(r.plan.waypoints) - 1)
+
+
+def test_skipped_items_are_listed_and_strict_refuses_them() -> None:
+    entries = ({"command": "NAV_TAKEOFF"}, A, {"command": "DO_SET_ROI_NONE"}, B)
+    r = flown(*entries)
+    assert r.problems == ()
+    assert any(n.startswith("item 1 NAV_TAKEOFF: skipped, as ArduPilot Rover") for n in r.notes)
+    assert any(n.startswith("item 3 DO_SET_ROI_NONE: ignored") for n in r.notes)
+    strict = flown(*entries, options=ExpandOptions(strict=True))
+    assert any("item 1 NAV_TAKEOFF" in p and "--strict" in p for p in strict.problems)
+    assert any("item 3 DO_SET_ROI_NONE" in p and "--strict" in p for p in strict.problems)
+
+
+def test_what_helixd_cannot_fly_is_refused_or_passed_over() -> None:
+    guided = {"command": "NAV_GUIDED_ENABLE", "enable": 1}
+    r = flown(A, guided, B)
+    assert any("item 2 NAV_GUIDED_ENABLE" in p and "--skip-unsupported" in p for p in r.problems)
+    passed = flown(A, guided, B, options=ExpandOptions(skip_unsupported=True))
+    assert passed.problems == () and items(passed) == [1, 2, 3]
+    unknown = flown(A, {"command": 31000}, B)
+    assert any("MAV_MISSION_UNSUPPORTED" in p for p in unknown.problems)
+
+
+def test_a_loop_over_do_items_only_is_refused() -> None:
+    servo = {"command": "DO_SET_SERVO", "channel": 9, "pwm_us": 1900}
+    r = flown(A, servo, jump(2, 1), B)
+    assert any("loops over do items only" in p for p in r.problems)
+
+
+def test_global_missions_keep_lat_lon_for_the_commands_they_send() -> None:
+    m = Mission.model_validate(
+        {
+            "name": "g",
+            "mode": "roll",
+            "frame": "global",
+            "waypoints": [
+                {"lat": 53.5233, "lon": -113.5263},
+                {"command": "DO_SET_HOME", "lat": 53.5234, "lon": -113.5262},
+                {"lat": 53.5235, "lon": -113.5263},
+                {"command": "NAV_RETURN_TO_LAUNCH"},
+            ],
+        }
+    )
+    r = resolve(m, CFG.control, CFG.mission, (53.5233, -113.5263))
+    assert r.problems == ()
+    assert r.plan.program is not None
+    (send,) = r.plan.program.steps[1].actions
+    assert send.params[4:6] == (53.5234, -113.5262) and send.params[0] == 0.0
+    home = r.plan.waypoints[-1]
+    assert (home.y_m, home.x_m) == pytest.approx((11.13, 6.62), abs=0.01)  # north, east
