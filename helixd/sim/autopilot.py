@@ -516,11 +516,19 @@ class Autopilot:
                 if source is not None:
                     value = params.get_int(f"RC{source}_TRIM") if mapped else trim
                     self.rc.set_override(source, value, now_s)
+        for n in action.release_rc:  # the Lua's set_override(0) on the passthrough inputs
+            source, _ = passthrough_input(n, params.get_int(f"SERVO{n}_FUNCTION"))
+            if source is not None:
+                self.rc.set_override(source, 0, now_s)
         for severity, text in action.texts:
             self._say(severity, text)
             self.events.append(SimEvent("guard", {"guarding": action.guarding, "text": text}))
-        if action.request_hold and not self.set_mode(modes.HOLD, "helixd_guard", now_s, ekf):
-            self._say(SEVERITY_WARNING, HOLD_REFUSED_TEXT)
+        if action.request_hold:
+            if self.set_mode(modes.HOLD, "helixd_guard", now_s, ekf):
+                if self.guard is not None:
+                    self.guard.machine.hold_granted()
+            else:
+                self._say(SEVERITY_WARNING, HOLD_REFUSED_TEXT)
 
     def motor_demand(self) -> MotorDemand | None:
         if not self.armed:

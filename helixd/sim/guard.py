@@ -13,7 +13,14 @@ built-in simulator can run the same guard ArduPilot runs (its parameters, their 
   ``OVERRIDE_MS`` (renewed each step while the silence lasts), HOLD (Rover mode 4) is asked
   once per episode unless already in HOLD, and one CRITICAL STATUSTEXT is sent;
 * when helixd is heard again, the vehicle is disarmed or HXG_ENABLE is 0, it lets go: no more
-  renewals and one NOTICE STATUSTEXT. Disarmed it never acts.
+  renewals and one NOTICE STATUSTEXT. Disarmed it never acts;
+* pilot takeover: while guarding it keeps ``base_mode`` (HOLD once granted or seen, else the
+  mode found at engagement); a mode other than HOLD and other than ``base_mode`` lets go at once
+  (:attr:`GuardAction.release_rc`: clear its RC overrides of the passthrough inputs; one NOTICE
+  :func:`takeover_text`) and it stays released until helixd is heard again (last heard newer
+  than the release), a disarm or HXG_ENABLE 0. The edge cases are written down in the Lua's
+  header. The shell reports a granted HOLD request with :meth:`HelixdGuard.hold_granted`
+  (the Lua's ``vehicle:set_mode`` returning true).
 
 The Lua holds an RC-passthrough output at trim by overriding its RC input as well (ArduPilot
 copies the RC input onto a passthrough output after a servo override); here that is the
@@ -49,6 +56,11 @@ def silent_text(timeout_ms: int) -> str:
     return f"helixd-guard: no heartbeat {timeout_ms} ms, trim + HOLD"
 
 
+def takeover_text(mode: int) -> str:
+    """NOTICE when a human left the guard's mode: ``mode`` is the Rover mode number."""
+    return f"helixd-guard: mode {mode}, pilot in charge, released"
+
+
 @dataclass(frozen=True, slots=True)
 class GuardAction:
     """What one step asks of the autopilot."""
@@ -58,6 +70,7 @@ class GuardAction:
     request_hold: bool = False  # vehicle:set_mode(4); on failure send HOLD_REFUSED_TEXT
     texts: tuple[tuple[int, str], ...] = ()  # (MAV_SEVERITY, STATUSTEXT)
     guarding: bool = False  # state after this step
+    release_rc: tuple[int, ...] = ()  # outputs (1-based) whose passthrough RC override to clear
 
 
 def start_text(params: GuardParams) -> tuple[int, str]:
@@ -79,6 +92,14 @@ class HelixdGuard:
     def __init__(self, params: GuardParams | None = None) -> None:
         self.params = params if params is not None else GuardParams()
         self.guarding = False
+        self.base_mode: int | None = None  # while guarding: the mode it expects
+        self.released_ms: int | None = None  # millis() of a takeover release (None: not)
+
+    def hold_granted(self) -> None:
+        """The shell's HOLD request (``request_hold``) succeeded: the Lua's
+        ``if vehicle:set_mode(MODE_HOLD) then base_mode = MODE_HOLD``."""
+        if self.guarding:
+            self.base_mode = MODE_HOLD
 
     def step(
         self, now_s: float, armed: bool, last_gcs_heartbeat_s: float | None, mode: int
@@ -92,19 +113,43 @@ class HelixdGuard:
         )
 
         if not p.enabled:
+            self.released_ms = None
             if self.guarding:
                 self.guarding = False
                 return GuardAction(texts=((SEVERITY_NOTICE, DISABLED_TEXT),))
             return GuardAction()
+
+        if self.released_ms is not None:
+            # a pilot took over: hands off until disarm or until helixd is heard again
+            heard_since = (
+                not never
+                and last_gcs_heartbeat_s is not None
+                and to_ms(last_gcs_heartbeat_s) - self.released_ms > 0
+            )
+            if not armed or heard_since:
+                self.released_ms = None
+            else:
+                return GuardAction()
 
         if armed and silent:
             texts: tuple[tuple[int, str], ...] = ()
             request_hold = False
             if not self.guarding:
                 self.guarding = True
+                self.base_mode = mode
                 text = NEVER_SEEN_TEXT if never else silent_text(tmo)
                 texts = ((SEVERITY_CRITICAL, text),)
-                request_hold = mode != MODE_HOLD
+                request_hold = mode != MODE_HOLD  # granted: the shell calls hold_granted()
+            elif mode == MODE_HOLD:
+                self.base_mode = MODE_HOLD
+            elif mode != self.base_mode:
+                # a human (mode switch, ground station) left the guard's mode: let go
+                self.guarding = False
+                self.base_mode = None
+                self.released_ms = now_ms
+                return GuardAction(
+                    texts=((SEVERITY_NOTICE, takeover_text(mode)),), release_rc=p.outputs
+                )
             return GuardAction(
                 hold_trim=p.outputs,
                 hold_ms=OVERRIDE_MS,
@@ -115,6 +160,7 @@ class HelixdGuard:
 
         if self.guarding:
             self.guarding = False
+            self.base_mode = None
             text = BACK_TEXT if armed else DISARMED_TEXT
             return GuardAction(texts=((SEVERITY_NOTICE, text),))
         return GuardAction()

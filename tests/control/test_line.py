@@ -34,7 +34,8 @@ from tests.support.paths import REPO_ROOT
 
 DT_S = 1.0 / 40.0
 CONFIG = HelixdConfig()
-LINE = CONFIG.control.model_copy(update={"guidance": "line"})
+# corner arcs are opt-in (control.corner_error_m defaults to 0): these tests fly them at 0.25 m
+LINE = CONFIG.control.model_copy(update={"guidance": "line", "corner_error_m": 0.25})
 THESIS = CONFIG.control.model_copy(update={"guidance": "thesis"})
 MISSIONS = REPO_ROOT / "config" / "missions"
 AXIS_RAD = {MotionMode.ROLL: 0.0, MotionMode.SCROLL: math.pi / 2, MotionMode.OMNI: 0.0}

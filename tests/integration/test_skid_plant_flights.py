@@ -21,7 +21,6 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.config import ControlConfig
 from helixd.recorder.track import TrackPoint
 from helixd.sim import SimServer, SimSnapshot
 from tests.support.harness import (
@@ -31,6 +30,7 @@ from tests.support.harness import (
     wait_moving,
 )
 from tests.support.skid_setup import (
+    ARC_BUDGET_M,
     SURVEY_XY_M,
     helixd_start_frame,
     metrics_in_frame,
@@ -43,6 +43,7 @@ from tests.support.skid_setup import (
 pytestmark = pytest.mark.integration
 
 SKID_CONFIG: dict[str, Any] = {
+    "control": {"corner_error_m": ARC_BUDGET_M},  # arcs are opt-in
     "vehicle": skid_vehicle_geometry(),
     "actuation": skid_actuation("rc_override"),
     "safety": {"force_arm": True},  # as the SITL suite (ArduPilot refuses passthrough arming)
@@ -53,7 +54,7 @@ MISSION_WALL_S = 240.0
 SQUARE_BEFORE_S = 81.0
 # The arcs' designed distance from the legs at a 90° corner, e·cos 45° (e = corner_error_m),
 # plus 0.05 m of tracking error on this plant.
-LINE_CORNER_BOUND_M = ControlConfig().corner_error_m * math.cos(math.pi / 4) + 0.05
+LINE_CORNER_BOUND_M = ARC_BUDGET_M * math.cos(math.pi / 4) + 0.05
 # ArduPilot's own AUTO on the survey block, real Rover SITL (rover-skid, WP_SPEED 0.6,
 # WP_RADIUS 1.0), observer on SERIAL1 against the planned polyline
 # (tests/sitl/test_sitl_survey.py, 2026-11-23): the figures to beat.

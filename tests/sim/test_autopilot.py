@@ -625,3 +625,82 @@ def test_guard_disabled_lets_go_and_the_pilot_drives() -> None:
     assert g.DISABLED_TEXT in rig.texts()
     rig.run(3.1)  # its last RC override expires with RC_OVERRIDE_TIME
     assert rig.outputs[0] == 1650
+
+
+def test_pilot_mode_switch_out_of_hold_releases_passthrough_to_the_radio() -> None:
+    """After a guard episode (helixd silent, trim + HOLD) the pilot flips the mode switch to
+    MANUAL: the guard lets go at once — its RC override cleared, so the radio drives the
+    passthrough output now, not RC_OVERRIDE_TIME later — and stays off while helixd is silent."""
+    rig = guarded(params={"SERVO2_FUNCTION": 51})  # output 2 follows RC input 1
+    rig.run(0.2, heartbeat_until(1e9))
+    rig.force_arm()
+    rig.override(1700, 1800)
+    rig.run(0.1)
+    assert rig.outputs[:2] == [1700, 1700]
+    rig.ap.set_pilot_rc(1, 1650)
+    rig.run(2.0)  # helixd dead: guard on after 0.5 s
+    assert rig.outputs[:4] == [1500] * 4 and rig.ap.mode == modes.HOLD
+    switched = rig.now
+    rig.ap.set_pilot_rc(8, 1100)  # MODE1 = MANUAL
+    released_at = None
+    while rig.now < switched + 1.0:
+        rig.run(DT_S)
+        if released_at is None and rig.outputs[:2] == [1650, 1650]:
+            released_at = rig.now
+    assert rig.ap.mode == modes.MANUAL
+    assert released_at is not None
+    print(f"sim: mode switch → radio drives outputs 1/2 after {released_at - switched:.2f} s")
+    assert released_at - switched < 0.5  # debounce + one 50 ms update, not RC_OVERRIDE_TIME
+    assert "helixd-guard: mode 0, pilot in charge, released" in rig.texts()
+    assert not rig.ap.rc.active_overrides(rig.now, 3.0)[0]
+    rig.ap.set_pilot_rc(1, 1350)  # the radio keeps driving, however long helixd is silent
+    rig.run(6.0)
+    assert rig.outputs[:2] == [1350, 1350]
+    # helixd silent in MANUAL: the GCS failsafe (FS_GCS_TIMEOUT) switches to HOLD; that is no
+    # guard episode (it stays released) and HOLD does not stop a passthrough output
+    assert rig.ap.mode == modes.HOLD
+    assert any(e.kind == "failsafe" for e in rig.ap.events)
+    assert sum(t.startswith(g.TEXT_PREFIX + "mode ") for t in rig.texts()) == 1
+    # helixd back, then silent again: a new guard episode
+    rig.run(0.4, heartbeat_until(rig.now + 0.2))
+    assert rig.outputs[:2] == [1350, 1350]
+    rig.run(0.6)
+    assert rig.outputs[:2] == [1500, 1500] and rig.ap.mode == modes.HOLD
+    assert rig.texts().count("helixd-guard: no heartbeat 500 ms, trim + HOLD") == 2
+
+
+def test_gcs_mode_change_releases_servo_outputs_which_keep_trim() -> None:
+    """Servo backend: after the takeover release a function-0 output keeps the held trim (no
+    timeout returns it to anything) and a DO_SET_SERVO moves it again at once."""
+    rig = guarded(params=SERVO_BACKEND)
+    rig.run(0.4, heartbeat_until(1e9))
+    rig.force_arm()
+    for ch in (1, 2, 3, 4):
+        assert rig.command(MAV_CMD_DO_SET_SERVO, ch, 1600) == MAV_RESULT_ACCEPTED
+    rig.run(1.0)
+    assert rig.outputs[:4] == [1500] * 4 and rig.ap.mode == modes.HOLD
+    assert rig.ap.do_set_mode(1, modes.MANUAL, rig.now, rig.ekf) == MAV_RESULT_ACCEPTED
+    rig.run(0.1)
+    assert "helixd-guard: mode 0, pilot in charge, released" in rig.texts()
+    rig.run(5.0)
+    assert rig.outputs[:4] == [1500] * 4 and rig.ap.mode == modes.MANUAL
+    assert rig.command(MAV_CMD_DO_SET_SERVO, 1, 1700) == MAV_RESULT_ACCEPTED
+    rig.run(0.04)
+    assert rig.outputs[0] == 1700  # no guard override in the way any more
+
+
+def test_disarm_after_takeover_release_rearms_the_watch() -> None:
+    rig = guarded()
+    rig.force_arm()  # no helixd heard: trim + HOLD at once
+    rig.run(0.2)
+    assert rig.ap.mode == modes.HOLD
+    assert rig.ap.do_set_mode(1, modes.MANUAL, rig.now, rig.ekf) == MAV_RESULT_ACCEPTED
+    rig.run(0.2)
+    assert rig.ap.guard is not None and rig.ap.guard.machine.released_ms is not None
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 0) == MAV_RESULT_ACCEPTED
+    rig.run(0.1)
+    assert rig.ap.guard.machine.released_ms is None
+    rig.force_arm()
+    rig.run(0.1)
+    assert rig.ap.mode == modes.HOLD
+    assert rig.texts().count(g.NEVER_SEEN_TEXT) == 2

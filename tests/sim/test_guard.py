@@ -88,12 +88,111 @@ def test_already_in_hold_is_not_asked_again() -> None:
     assert action.texts[0][1].startswith(g.TEXT_PREFIX)
 
 
-def test_pilot_leaving_hold_is_not_overruled() -> None:
+def test_refused_hold_and_unchanged_mode_is_no_takeover() -> None:
+    """HOLD asked but not granted (no hold_granted()): staying in the mode found at engagement
+    is no human taking over, the scrolls stay at trim."""
     guard = g.HelixdGuard()
     assert guard.step(2.0, True, 1.0, MANUAL).request_hold
-    for _, action in run(guard, 2.05, 4.0, last_s=1.0, mode=MANUAL):  # pilot switched back
+    for _, action in run(guard, 2.05, 4.0, last_s=1.0, mode=MANUAL):
         assert not action.request_hold
-        assert action.hold_trim == (1, 2, 3, 4)  # the scrolls stay at trim regardless
+        assert action.hold_trim == (1, 2, 3, 4)
+        assert action.release_rc == ()
+
+
+AUTO = 10
+RTL = 11
+
+
+def takeover(mode: int) -> g.GuardAction:
+    return g.GuardAction(
+        texts=((g.SEVERITY_NOTICE, g.takeover_text(mode)),), release_rc=(1, 2, 3, 4)
+    )
+
+
+def test_leaving_granted_hold_releases_until_helixd_is_heard_again() -> None:
+    guard = g.HelixdGuard()
+    first = guard.step(2.0, True, 1.0, AUTO)
+    assert first.request_hold
+    guard.hold_granted()  # vehicle:set_mode(HOLD) returned true
+    assert guard.step(2.05, True, 1.0, g.MODE_HOLD).hold_trim == (1, 2, 3, 4)
+    # the pilot flips the mode switch to MANUAL: released at once, said once
+    assert guard.step(2.1, True, 1.0, MANUAL) == takeover(MANUAL)
+    assert g.takeover_text(MANUAL) == "helixd-guard: mode 0, pilot in charge, released"
+    # hands off, whatever the mode, however long helixd stays silent
+    for mode in (MANUAL, g.MODE_HOLD, AUTO):
+        for _, action in run(guard, 2.15, 20.0, last_s=1.0, mode=mode):
+            assert action == g.GuardAction()
+    # helixd heard again (newer than the release) → watching again; its next silence engages
+    assert guard.step(20.0, True, 19.99, MANUAL) == g.GuardAction()
+    again = guard.step(20.6, True, 19.99, MANUAL)
+    assert again.guarding and again.request_hold
+    assert again.texts == ((g.SEVERITY_CRITICAL, g.silent_text(500)),)
+
+
+def test_granted_hold_then_other_mode_before_it_was_seen_releases() -> None:
+    """Rapid switch: HOLD granted at engagement, the pilot is out of it again before the next
+    update ever saw HOLD: still a takeover (base_mode is HOLD)."""
+    guard = g.HelixdGuard()
+    assert guard.step(2.0, True, 1.0, AUTO).request_hold
+    guard.hold_granted()
+    assert guard.step(2.05, True, 1.0, AUTO) == takeover(AUTO)
+
+
+def test_already_hold_at_engagement_then_manual_releases() -> None:
+    """helixd's own fallback (or a takeover to HOLD) left the vehicle in HOLD."""
+    guard = g.HelixdGuard()
+    first = guard.step(2.0, True, 1.0, g.MODE_HOLD)
+    assert first.guarding and not first.request_hold
+    assert guard.step(2.05, True, 1.0, g.MODE_HOLD).hold_trim == (1, 2, 3, 4)
+    assert guard.step(2.1, True, 1.0, MANUAL) == takeover(MANUAL)
+
+
+def test_refused_hold_then_hold_seen_then_leaving_releases() -> None:
+    guard = g.HelixdGuard()
+    assert guard.step(2.0, True, 1.0, AUTO).request_hold  # refused: no hold_granted()
+    assert guard.step(2.05, True, 1.0, AUTO).hold_trim == (1, 2, 3, 4)
+    assert guard.step(2.1, True, 1.0, g.MODE_HOLD).hold_trim == (1, 2, 3, 4)  # HOLD observed
+    assert guard.step(2.15, True, 1.0, AUTO) == takeover(AUTO)  # back to AUTO: a human
+
+
+def test_refused_hold_then_another_mode_releases() -> None:
+    guard = g.HelixdGuard()
+    assert guard.step(2.0, True, 1.0, AUTO).request_hold  # refused
+    assert guard.step(2.05, True, 1.0, RTL) == takeover(RTL)
+
+
+def test_takeover_release_is_reset_by_disarm_and_by_disable() -> None:
+    guard = g.HelixdGuard()
+    guard.step(2.0, True, 1.0, g.MODE_HOLD)
+    assert guard.step(2.05, True, 1.0, MANUAL) == takeover(MANUAL)
+    assert guard.step(3.0, False, 1.0, MANUAL) == g.GuardAction()  # disarm: silent reset
+    again = guard.step(4.0, True, 1.0, MANUAL)  # re-armed, helixd still silent: guards
+    assert again.guarding and again.request_hold
+    guard.hold_granted()
+    assert guard.step(4.05, True, 1.0, MANUAL) == takeover(MANUAL)
+    guard.params = mg.GuardParams(enable=0)
+    assert guard.step(4.1, True, 1.0, MANUAL) == g.GuardAction()
+    guard.params = mg.GuardParams()
+    assert guard.step(4.15, True, 1.0, MANUAL).guarding  # re-enabled: watching again
+
+
+def test_takeover_when_never_heard_stays_released_until_first_heartbeat() -> None:
+    guard = g.HelixdGuard()
+    assert guard.step(0.5, True, None, g.MODE_HOLD).guarding
+    assert guard.step(0.55, True, None, MANUAL) == takeover(MANUAL)
+    for _, action in run(guard, 0.6, 5.0, last_s=None):
+        assert action == g.GuardAction()
+    assert guard.step(5.0, True, 4.99, MANUAL) == g.GuardAction()
+    assert guard.step(5.6, True, 4.99, MANUAL).guarding
+
+
+def test_heartbeat_older_than_release_does_not_rearm() -> None:
+    guard = g.HelixdGuard()
+    guard.step(2.0, True, 1.0, g.MODE_HOLD)
+    assert guard.step(2.05, True, 1.0, MANUAL) == takeover(MANUAL)
+    assert guard.step(2.1, True, 2.05, MANUAL) == g.GuardAction()  # same ms as the release
+    assert guard.step(2.15, True, 2.05, MANUAL) == g.GuardAction()
+    assert not guard.guarding and guard.released_ms == 2050
 
 
 @pytest.mark.parametrize("last_s", [None, 0.0, 0.0004])
@@ -210,5 +309,21 @@ def test_lua_format_texts_match() -> None:
     assert '"helixd-guard: no heartbeat %d ms, trim + HOLD", tmo' in src
     assert g.silent_text(500) == "helixd-guard: no heartbeat 500 ms, trim + HOLD"
     assert '"helixd-guard: v%d %s, outputs %s, %d ms"' in src
-    for text in (g.NEVER_SEEN_TEXT, g.silent_text(10_000), g.BACK_TEXT):
+    assert '"helixd-guard: mode %d, pilot in charge, released", mode' in src
+    for text in (g.NEVER_SEEN_TEXT, g.silent_text(10_000), g.BACK_TEXT, g.takeover_text(255)):
         assert len(text) <= 50  # one STATUSTEXT, no chunking
+
+
+def test_lua_takeover_logic_present() -> None:
+    """The mirror's takeover transitions, as the Lua spells them."""
+    src = lua_source()
+    for line in (
+        "base_mode = mode",
+        "if vehicle:set_mode(MODE_HOLD) then",
+        "elseif mode == MODE_HOLD then",
+        "elseif mode ~= base_mode then",
+        "released_ms = now_ms",
+        "(seen_ms - released_ms):toint() > 0",
+        "ch:set_override(0)",
+    ):
+        assert line in src, line

@@ -172,7 +172,7 @@ def test_run_sim_map_hands_the_world_to_the_embedded_simulator(
     (cfg,) = seen
     assert cfg.obstacles.raster is not None
     assert distance_m(cfg.obstacles, 8.5, 0.0) == 0.0
-    assert "leg start → wp 0" in capsys.readouterr().out  # and the legs were planned
+    assert "leg start → wp 1" in capsys.readouterr().out  # and the legs were planned
 
 
 def test_the_simulator_loads_nothing_of_planning() -> None:

@@ -8,8 +8,10 @@ both actuation backends. Assertions are made on what ArduPilot reports on a seco
 * the ROLL-mode 10 m square completes (exit 0, summary.json completed) and the rover really
   drove a counter-clockwise square back to its start;
 * pilot takeover: the pilot switches to HOLD from another link mid-mission → exit 5, outputs 1
-  and 3 back at trim; RC override: with helixd-guard off (HXG_ENABLE 0, the README's way to
-  drive by radio alone) the pilot's radio drives them again;
+  and 3 back at trim; helixd-guard then engages (helixd silent, armed); the pilot switches to
+  MANUAL (second link): the guard says "mode 0, pilot in charge, released" and lets go,
+  HXG_ENABLE stays 1. RC override: the pilot's radio drives the passthrough outputs at once and
+  keeps them; servo: the function-0 outputs keep the trim;
 * ``kill -9`` of helixd mid-mission, with the real helixd-guard.lua running in ardurover: the
   outputs are watched for ≥ 5 s and reported; both backends: outputs 1..4 at trim within
   HXG_TIMEOUT + 0.3 s of the kill and HOLD, kept until the end (past RC_OVERRIDE_TIME);
@@ -50,6 +52,10 @@ NEUTRAL_US = 1500
 TOLERANCE_US = 5
 DEFLECTED_US = 10  # a held output further than this from 1500 shows the scrolls were driving
 MODE_HOLD = 4
+MODE_MANUAL = 0
+GUARD_ENGAGED_TEXT = "helixd-guard: no heartbeat"
+GUARD_RELEASED_TEXT = "helixd-guard: mode 0, pilot in charge, released"
+POST_RELEASE_WATCH_S = 7.0  # past RC_OVERRIDE_TIME (3 s) and the GCS failsafe (5 s)
 MAV_RESULT_ACCEPTED = 0
 RC_OVERRIDE_TIME_S = 3.0  # helix-skid.parm
 GUARD_TIMEOUT_S = PARAM_DEFAULTS["HXG_TIMEOUT"]  # helixd-guard's default (0.5 s)
@@ -288,24 +294,70 @@ def test_pilot_takeover_by_mode_switch(
     assert obs.mode() == MODE_HOLD
     assert near(obs.servo_pwm(), NEUTRAL_US, NEUTRAL_US)
 
+    # Still armed without helixd: helixd-guard engages (trim, already in HOLD). The pilot then
+    # flips the mode out of HOLD (here MANUAL from the second link): a human took over, the
+    # guard lets go and stays off while helixd is silent — HXG_ENABLE stays 1.
+    assert obs.get_param("HXG_ENABLE") == 1.0
+    obs.wait_until(
+        lambda: any(t.startswith(GUARD_ENGAGED_TEXT) for t in obs.statustexts),
+        GUARD_TIMEOUT_S + GUARD_SLACK_S + 2.0,
+        "helixd-guard engaged after helixd's exit",
+    )
     if backend == RC_OVERRIDE:
-        # Still armed without helixd, helixd-guard holds the scrolls at trim; the pilot who
-        # wants to drive by radio alone switches it off (README). Then the radio drives the
-        # passthrough outputs: helixd released its overrides (the guard's own trim override
-        # expires with RC_OVERRIDE_TIME).
-        sitl.pilot_rc({1: 1650, 3: 1350})
-        obs.set_param("HXG_ENABLE", 0.0)
+        sitl.pilot_rc({1: 1650, 3: 1350})  # sticks deflected; the guard's override holds trim
+        time.sleep(0.5)
+        assert near(obs.servo_pwm(), NEUTRAL_US, NEUTRAL_US)
+    assert obs.set_mode(MODE_MANUAL) == MAV_RESULT_ACCEPTED
+    to_manual = time.monotonic()
+    obs.wait_until(
+        lambda: GUARD_RELEASED_TEXT in obs.statustexts,
+        GUARD_SLACK_S + 2.0,
+        f"{GUARD_RELEASED_TEXT!r} after the switch to MANUAL",
+    )
+    released_s = time.monotonic() - to_manual
+    if backend == RC_OVERRIDE:
+        # RC passthrough: the guard cleared its own RC overrides, helixd had released its own:
+        # the radio drives the outputs at once (not after RC_OVERRIDE_TIME)
         obs.wait_until(
             lambda: near(obs.servo_pwm(), 1650, 1350),
-            STICK_FOLLOW_S + RC_OVERRIDE_TIME_S,
-            "outputs 1/3 following the pilot's radio (helixd's overrides released)",
+            STICK_FOLLOW_S,
+            "outputs 1/3 following the pilot's radio after the switch to MANUAL",
         )
+        follow_s = time.monotonic() - to_manual
+        print(
+            f"{backend}: MANUAL → guard released after {released_s:.2f} s, outputs follow the "
+            f"radio after {follow_s:.2f} s (wall)"
+        )
+        assert follow_s < RC_OVERRIDE_TIME_S
+        sitl.pilot_rc({1: 1600, 3: 1400})
+        obs.wait_until(
+            lambda: near(obs.servo_pwm(), 1600, 1400),
+            STICK_FOLLOW_S,
+            "outputs 1/3 following the sticks again",
+        )
+        # the radio keeps them past RC_OVERRIDE_TIME and the GCS failsafe (which may switch to
+        # HOLD: no guard episode, and HOLD does not stop a passthrough output)
+        time.sleep(POST_RELEASE_WATCH_S)
+        assert near(obs.servo_pwm(), 1600, 1400), obs.servo_pwm()
         sitl.pilot_rc({1: NEUTRAL_US, 3: NEUTRAL_US})
         obs.wait_until(
             lambda: near(obs.servo_pwm(), NEUTRAL_US, NEUTRAL_US),
             STICK_FOLLOW_S,
             "outputs back at trim with the sticks centred",
         )
+    else:
+        # function 0: no radio input feeds it; ArduPilot leaves the guard's last value (trim)
+        # on the output when the override times out
+        time.sleep(POST_RELEASE_WATCH_S)
+        pwm = obs.servo_pwm()
+        print(
+            f"{backend}: MANUAL → guard released after {released_s:.2f} s; outputs "
+            f"{None if pwm is None else pwm[:4]} {POST_RELEASE_WATCH_S:.0f} s later"
+        )
+        assert pwm is not None and all(abs(v - NEUTRAL_US) <= TOLERANCE_US for v in pwm[:4])
+    assert obs.armed() is True
+    assert sum(t.startswith("helixd-guard: mode ") for t in obs.statustexts) == 1
+    print(f"{backend}: STATUSTEXT {obs.statustexts[-5:]}; mode now {obs.mode()}")
 
 
 @pytest.mark.parametrize("backend", BACKENDS)

@@ -14,14 +14,46 @@ What it does
       ArduPilot copies the RC input to the output after the servo override is applied, so the
       script also overrides that RC input channel (rc:get_channel(c):set_override) with the
       trim (RCc_TRIM for the "mapped" functions 140..155), renewed the same way;
-    * asks for HOLD (Rover mode 4) once per guard episode, unless already in HOLD (a pilot may
-      switch away again; the outputs stay at trim regardless);
+    * asks for HOLD (Rover mode 4) once per guard episode, unless already in HOLD;
     * says so once: STATUSTEXT CRITICAL "helixd-guard: no heartbeat <T> ms, trim + HOLD"
       (or "helixd-guard: no heartbeat yet, trim + HOLD" when helixd was never heard since
       boot); "helixd-guard: HOLD refused" (WARNING) if the mode change fails.
   When the heartbeat returns (or the vehicle is disarmed, or HXG_ENABLE is set to 0) it lets
   go: it stops renewing, says so once (NOTICE "helixd-guard: heartbeat back, released",
   "helixd-guard: disarmed, released" or "helixd-guard: disabled, released").
+
+Pilot takeover: leaving HOLD hands the scrolls to the pilot
+  While it guards, the script remembers the mode it expects, base_mode: HOLD once HOLD was
+  granted or seen, else the mode it found at engagement. Each update (50 ms) it reads
+  vehicle:get_mode() (the mode number): HOLD -> base_mode = HOLD; another mode that differs
+  from base_mode -> a human (the pilot's mode switch, a ground station) has taken over: it
+  lets go at once (no more renewals; it clears its own RC overrides of the passthrough inputs
+  with set_override(0), so the radio drives a passthrough output now, not after
+  RC_OVERRIDE_TIME) and says once NOTICE "helixd-guard: mode <n>, pilot in charge, released"
+  (n = Rover mode number, 0 = MANUAL). It then stays released, whatever the mode and however
+  long helixd is silent, until helixd is heard again (gcs:last_seen() newer than the release),
+  the vehicle is disarmed or HXG_ENABLE goes to 0; after that it watches as before (a later
+  silence of helixd engages it again). So after helixd's fallback (helixd asked HOLD, released
+  its overrides and exited), the pilot flips the mode switch out of HOLD to drive by radio.
+  Edge cases:
+    * already HOLD at engagement (helixd's own fallback, a pilot takeover to HOLD): no request,
+      base_mode = HOLD; any later non-HOLD mode releases.
+    * HOLD asked and granted (vehicle:set_mode true; Rover switches at once): base_mode = HOLD.
+    * HOLD refused (e.g. the mode cannot be left, "HOLD refused" sent): base_mode = the mode
+      found at engagement, and staying in it is no takeover: the outputs stay at trim. A later
+      change to HOLD makes base_mode HOLD; a change to any other mode releases.
+    * rapid switch: the script samples the mode every 50 ms. A pilot who goes to HOLD and out
+      again between two samples is still seen (the mode differs from base_mode = HOLD). Only a
+      round trip back to exactly base_mode within 50 ms goes unseen; flip again.
+    * a mode change made before the guard engages (within HXG_TIMEOUT of helixd's last
+      message) is undone by its HOLD request: that is no takeover of the guard's HOLD; flip
+      the switch out of HOLD again after the "trim + HOLD" message.
+    * a failsafe that changes the mode while the guard holds (e.g. FS_ACTION RTL after a
+      refused HOLD; the GCS failsafe does not act in HOLD) also counts as leaving base_mode
+      and releases: the autopilot's failsafe mode is in charge then.
+  After a takeover release a function-0 output (servo backend) keeps the trim value
+  (ArduPilot leaves the last override value on the output when its timeout runs out; nothing
+  else writes it until a DO_SET_SERVO); an RC-passthrough output follows the pilot's RC input.
   After letting go, a function-0 output keeps the trim value until the next DO_SET_SERVO; a
   DO_SET_SERVO that arrives while the guard still holds (before it has seen the heartbeat and
   its last 100 ms renewal has run out, about 0.2 s) is ACKed ACCEPTED but has no effect, so
@@ -31,8 +63,9 @@ What it does
   override; and as the vehicle is then in HOLD, Rover's GCS failsafe does not fire (it skips
   HOLD) unless someone leaves HOLD.
   Disarmed, it does nothing: it never fights the pilot or helixd's own neutral on the bench.
-  Armed but helixd never heard from since boot counts as silent: the scrolls are held at trim.
-  To drive the scrolls by radio alone (no helixd) set HXG_ENABLE 0.
+  Armed but helixd never heard from since boot counts as silent: the scrolls are held at trim
+  and HOLD asked; to drive by radio alone (no helixd) switch out of HOLD (see above), or set
+  HXG_ENABLE 0.
 
   Times: ArduPilot's millis(), whole milliseconds. Silent means now - last_seen > timeout.
   helixd must refresh last_seen faster than HXG_TIMEOUT: with the servo (DO_SET_SERVO) backend
@@ -174,7 +207,24 @@ local function hold_trim(outputs)
 end
 
 local guarding = false
+local base_mode = nil -- while guarding: the mode the guard expects (HOLD once seen or granted)
+local released_ms = nil -- millis() when a pilot took over (nil: not released by a takeover)
 local last_error_ms = nil
+
+-- let go of the RC overrides the guard put on passthrough inputs (override 0 clears one), so
+-- that the pilot's radio drives a passthrough output at once, not after RC_OVERRIDE_TIME
+local function release_rc(outputs)
+  for _, n in ipairs(outputs) do
+    local fn = param_value(string.format("SERVO%d_FUNCTION", n)) or 0
+    local input = passthrough_input(n, math.floor(fn + 0.5))
+    if input then
+      local ch = rc:get_channel(input) -- 1-based
+      if ch then
+        ch:set_override(0)
+      end
+    end
+  end
+end
 
 local function update()
   if HXG_VERSION:get() ~= VERSION then
@@ -189,6 +239,7 @@ local function update()
   local silent = never or (now_ms - seen_ms):toint() > tmo
 
   if not enabled then
+    released_ms = nil
     if guarding then
       guarding = false
       gcs:send_text(MAV_SEVERITY.NOTICE, "helixd-guard: disabled, released")
@@ -196,24 +247,50 @@ local function update()
     return
   end
 
+  if released_ms ~= nil then
+    -- a pilot took over: hands off until disarm or until helixd is heard again
+    if not armed or (not never and (seen_ms - released_ms):toint() > 0) then
+      released_ms = nil
+    else
+      return
+    end
+  end
+
   if armed and silent then
-    hold_trim(guarded_outputs())
+    local mode = vehicle:get_mode()
     if not guarding then
       guarding = true
+      base_mode = mode
       if never then
         gcs:send_text(MAV_SEVERITY.CRITICAL, "helixd-guard: no heartbeat yet, trim + HOLD")
       else
         gcs:send_text(MAV_SEVERITY.CRITICAL,
                       string.format("helixd-guard: no heartbeat %d ms, trim + HOLD", tmo))
       end
-      if vehicle:get_mode() ~= MODE_HOLD then
-        if not vehicle:set_mode(MODE_HOLD) then
+      if mode ~= MODE_HOLD then
+        if vehicle:set_mode(MODE_HOLD) then
+          base_mode = MODE_HOLD
+        else
           gcs:send_text(MAV_SEVERITY.WARNING, "helixd-guard: HOLD refused")
         end
       end
+    elseif mode == MODE_HOLD then
+      base_mode = MODE_HOLD
+    elseif mode ~= base_mode then
+      -- a human (mode switch, ground station) left the mode the guard put or found: let go
+      local outputs = guarded_outputs()
+      guarding = false
+      base_mode = nil
+      released_ms = now_ms
+      release_rc(outputs)
+      gcs:send_text(MAV_SEVERITY.NOTICE,
+                    string.format("helixd-guard: mode %d, pilot in charge, released", mode))
+      return
     end
+    hold_trim(guarded_outputs())
   elseif guarding then
     guarding = false
+    base_mode = nil
     if not armed then
       gcs:send_text(MAV_SEVERITY.NOTICE, "helixd-guard: disarmed, released")
     else
