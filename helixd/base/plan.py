@@ -112,9 +112,13 @@ class Plan:
     @property
     def peak_speed_mps(self) -> float:
         """The highest cruise speed the program may set (the plan's speed without one)."""
-        if self.program is None or not self.program.steps:
+        if self.program is None:
             return self.speed_mps
-        return max(self.speed_mps, *(s.speed_mps for s in self.program.steps))
+        speeds = [self.speed_mps, *(s.speed_mps for s in self.program.steps)]
+        actions = [a for s in self.program.steps for a in s.actions]
+        actions += self.program.final_actions
+        speeds += [a.value for a in actions if a.kind is ActionKind.SPEED]
+        return max(speeds)
 
     def assumed_start_xy_m(self) -> tuple[float, float]:
         """Where an estimate without the rover's pose starts: the start the program was

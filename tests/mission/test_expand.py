@@ -25,16 +25,13 @@ def mission(*entries: dict[str, Any], frame: str = "start", **extra: Any) -> Mis
 
 
 def flown(
-    *entries: dict[str, Any], options: ExpandOptions | None = None, where: Where | None = None
+    *entries: dict[str, Any],
+    options: ExpandOptions | None = None,
+    where: Where | None = None,
+    extra: dict[str, Any] | None = None,
 ) -> Resolved:
-    return resolve(
-        mission(*entries),
-        CFG.control,
-        CFG.mission,
-        None,
-        where or Where(),
-        options or ExpandOptions(),
-    )
+    m = mission(*entries, **(extra or {}))
+    return resolve(m, CFG.control, CFG.mission, None, where or Where(), options or ExpandOptions())
 
 
 def items(r: Resolved) -> list[int]:
@@ -268,3 +265,20 @@ def test_global_missions_keep_lat_lon_for_the_commands_they_send() -> None:
     assert send.params[4:6] == (53.5234, -113.5262) and send.params[0] == 0.0
     home = r.plan.waypoints[-1]
     assert (home.y_m, home.x_m) == pytest.approx((11.13, 6.62), abs=0.01)  # north, east
+
+
+def test_every_speed_the_program_may_set_is_under_the_peak() -> None:
+    """A faster change followed by a slower one in the same chain still bounds the plan's peak
+    speed (the navigator is set to each in turn)."""
+    r = flown(
+        A,
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 0.2},
+        B,
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 0.5},
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 0.25},
+        C,
+        extra={"speed_mps": 0.4},
+    )
+    assert r.plan.program is not None
+    assert [s.speed_mps for s in r.plan.program.steps] == [0.4, 0.2, 0.25]
+    assert r.plan.peak_speed_mps == 0.5
