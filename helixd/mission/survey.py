@@ -298,8 +298,13 @@ def _covered_m2(path: list[XY], half_width_m: float, region: Polygon) -> float:
     try:
         band = LineString(path).buffer(half_width_m, cap_style="flat")
         return float(band.intersection(region).area)
-    except shapely.errors.GEOSException:
-        pass
+    except shapely.errors.GEOSException:  # a folded zigzag GEOS cannot node in one buffer
+        return _covered_leg_by_leg_m2(path, half_width_m, region)
+
+
+def _covered_leg_by_leg_m2(path: list[XY], half_width_m: float, region: Polygon) -> float:
+    """:func:`_covered_m2` the robust way: each leg's band and each joint's disc, united on a
+    1 mm grid."""
     pts = np.asarray(path, dtype=np.float64)
     legs = shapely.linestrings(np.stack([pts[:-1], pts[1:]], axis=1))
     bands = shapely.buffer(legs, half_width_m, cap_style="flat")
