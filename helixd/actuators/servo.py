@@ -44,6 +44,8 @@ from helixd.mav.constants import MAV_CMD_DO_SET_SERVO
 
 log = structlog.get_logger(__name__)
 
+SERVO_REFUSAL_TEXT_PREFIX = "ServoRelayEvent"  # ArduPilot's ServoRelayEvents::do_set_servo
+
 
 class CommandSender(Protocol):
     async def command_long(
@@ -53,6 +55,8 @@ class CommandSender(Protocol):
         timeout_s: float | None = ...,
         retries: int | None = ...,
     ) -> int: ...
+
+    async def refusal_text(self, since_s: float, prefix: str = ...) -> str | None: ...
 
 
 def _four(values: Sequence[int]) -> tuple[int, int, int, int]:
@@ -94,7 +98,22 @@ class ServoSink:
             return
         self.fault = None
         for i in range(len(self._channels)):
-            await self._set_one(i, self._neutral[i])
+            since_s = time.monotonic()
+            try:
+                await self._set_one(i, self._neutral[i])
+            except ServoCommandRefused as exc:
+                if exc.statustext:
+                    raise
+                # preflight, not the flight: worth a moment for ArduPilot's explanation
+                # ("ServoRelayEvent: Channel N is already in use"), sent after its ACK
+                text = await self._ap.refusal_text(since_s, SERVO_REFUSAL_TEXT_PREFIX)
+                if text is None:
+                    raise
+                raise ServoCommandRefused(
+                    exc.channel,
+                    exc.pwm_us,
+                    CommandRejected(exc.command_name, exc.result, text),
+                ) from None
         self._desired = list(self._neutral)
         self._task = asyncio.get_running_loop().create_task(self._sender(), name="servo_sender")
         log.info("servo_sink_started", channels=[c.channel for c in self._channels])

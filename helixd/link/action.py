@@ -74,6 +74,19 @@ class Action:
             raise CommandRejected(exc.command_name, exc.result, text, hint) from None
         log.info("armed", force=force)
 
+    async def refusal_text(self, since_s: float, prefix: str = "") -> str | None:
+        """The STATUSTEXT (starting with ``prefix``) that explains a refusal, read after
+        ``since_s``. ArduPilot queues such texts (GCS::send_text) and sends them after the
+        COMMAND_ACK, so one may trail the ack by a scheduler tick: waits at most
+        ``link.statustext_grace_s``."""
+        deadline = time.monotonic() + self._cfg.statustext_grace_s
+        while True:
+            text = self._state.latest_statustext(prefix, since_s)
+            if text:
+                return text
+            if not await self._waiters.wait(Change.STATUSTEXT, deadline - time.monotonic()):
+                return None
+
     async def _arm_text(self, since_s: float) -> str | None:
         """The 'PreArm: …' STATUSTEXT explaining a refusal (it may trail the ack a little)."""
         deadline = time.monotonic() + self._cfg.statustext_grace_s

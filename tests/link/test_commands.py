@@ -167,3 +167,19 @@ async def test_a_stop_in_the_same_loop_turn_as_the_answer_is_not_swallowed() -> 
     with pytest.raises(asyncio.CancelledError):
         await task
     assert client.stats.matched == 1
+
+
+async def test_a_refusals_text_that_trails_the_ack_is_waited_for() -> None:
+    """ArduPilot queues the STATUSTEXT explaining a refusal and sends it after the COMMAND_ACK
+    ("ServoRelayEvent: Channel 5 is already in use"): refusal_text waits for it a moment."""
+    servo = mavlink.MAV_CMD_DO_SET_SERVO
+    async with linked() as (ap, peer):
+        peer.set_reply(servo, Reply(result=FAILED))
+        since = time.monotonic()
+        with pytest.raises(CommandRejected) as info:
+            await ap.action.command_long(servo, (5, 1500))
+        assert info.value.statustext is None  # nothing said yet when the ack came
+        peer.statustext("ServoRelayEvent: Channel 5 is already in use", severity=6)
+        text = await ap.action.refusal_text(since, "ServoRelayEvent")
+        assert text == "ServoRelayEvent: Channel 5 is already in use"
+        assert await ap.action.refusal_text(time.monotonic(), "ServoRelayEvent") is None
