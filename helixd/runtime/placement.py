@@ -5,6 +5,7 @@ its EKF origin (GPS_GLOBAL_ORIGIN) and, for a ``start`` mission, the rover's pos
 from __future__ import annotations
 
 import contextlib
+import time
 
 from helixd.link.commands import CommandError
 from helixd.link.connection import Autopilot
@@ -30,10 +31,11 @@ async def place_on_autopilot(ap: Autopilot, mission: Mission, timeout_s: float) 
         )
     start = None
     if mission.frame is MissionFrameKind.START:
+        asked_s = time.monotonic()  # a pose read after this answers (it may beat the wait)
         for msg_id in (MAVLINK_MSG_ID_ATTITUDE, MAVLINK_MSG_ID_LOCAL_POSITION_NED):
             with contextlib.suppress(CommandError):  # streamed anyway on most links
                 await ap.action.command_long(MAV_CMD_REQUEST_MESSAGE, (msg_id,))
-        sample = await ap.telemetry.next_pose(after_rx_s=None, timeout_s=timeout_s)
+        sample = await ap.telemetry.next_pose(after_rx_s=asked_s, timeout_s=timeout_s)
         if sample is None:
             raise PlacementError(
                 f"{mission.name!r} is in the 'start' frame and the autopilot sent no pose to "
