@@ -34,7 +34,13 @@ from tests.support.paths import REPO_ROOT
 
 DT_S = 1.0 / 40.0
 CONFIG = HelixdConfig()
-LINE = CONFIG.control.model_copy(update={"guidance": "line"})
+# The ideal plant responds at once: no scroll lag for the OMNI arcs' course lead to cancel.
+LINE = CONFIG.control.model_copy(
+    update={
+        "guidance": "line",
+        "slip": CONFIG.control.slip.model_copy(update={"command_lag_s": 0.0}),
+    }
+)
 THESIS = CONFIG.control.model_copy(update={"guidance": "thesis"})
 MISSIONS = REPO_ROOT / "config" / "missions"
 AXIS_RAD = {MotionMode.ROLL: 0.0, MotionMode.SCROLL: math.pi / 2, MotionMode.OMNI: 0.0}
@@ -401,6 +407,39 @@ def test_speed_profile_looks_only_as_far_as_it_can_matter(monkeypatch: pytest.Mo
     assert bounded.done and unbounded.done
     assert bounded.commands == unbounded.commands
     assert per_step <= 4.0 < len(calls) / len(unbounded.commands)
+
+
+def test_omni_arc_course_lead_cancels_the_scroll_lag() -> None:
+    # A plant whose velocity follows the command through a first-order lag τ = 0.3 s (the
+    # simulator's scroll motors): flown without the lead the rover drifts out of each arc by
+    # ≈ L·(v/R)·τ; with control.slip.command_lag_s = τ the course leads by (v/R)·τ.
+    tau_s = 0.3
+    plan = shipped("hexagon", MotionMode.OMNI)
+    start = start_pose(MotionMode.OMNI)
+    path = designed_path(plan, start, LINE)
+    worst = {}
+    for lag_s in (0.0, tau_s):
+        slip = LINE.slip.model_copy(update={"command_lag_s": lag_s})
+        nav = Navigator(plan, LINE.model_copy(update={"slip": slip}))
+        plant = IdealPlant(start, MotionMode.OMNI)
+        applied = BodyVelocity.zero()
+        errors = []
+        while plant.t_s < 120.0:
+            out = nav.step(plant.pose, plant.t_s)
+            if out.done:
+                break
+            k = DT_S / tau_s
+            applied = BodyVelocity(
+                applied.vx_mps + k * (out.command.vx_mps - applied.vx_mps),
+                applied.vy_mps + k * (out.command.vy_mps - applied.vy_mps),
+                0.0,
+            )
+            plant.step(applied, DT_S)
+            errors.append(distance_to_polyline_m(plant.pose, path))
+        assert out.done
+        worst[lag_s] = max(errors)
+    assert worst[tau_s] <= 0.5 * worst[0.0], worst
+    assert worst[tau_s] <= 0.07, worst  # measured 0.055 m
 
 
 def test_waypoint_with_a_heading_is_a_stop_even_where_an_arc_would_fit() -> None:
