@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.link.vehicle import Change, VehicleState, mode_name, mode_number
+from helixd.link.vehicle import Change, EkfStatus, VehicleState, mode_name, mode_number
 from tests.support.mavmsgs import AP, att, codec, decoded, hb, lpn
 
 
@@ -297,3 +297,15 @@ def test_fuzz_stored_pose_is_always_finite_and_in_bounds(
             assert math.isfinite(st_.yaw_ned_rad)
         if changes & Change.POSE:
             assert not st_.pose_invalid
+
+
+@settings(max_examples=200)
+@given(
+    st.integers(0, 0xFFFF),
+    st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=5, max_size=5),
+)
+def test_ekf_health_is_judged_once_when_the_report_arrives(flags: int, var: list[float]) -> None:
+    """EkfStatus.healthy is computed at construction (5 Hz), not per read (every tick): the
+    same verdict as its list of problems."""
+    ekf = EkfStatus(flags, var[0], var[1], var[2], var[3], var[4], 1.0, 0.8)
+    assert ekf.healthy is (not ekf.problems())
