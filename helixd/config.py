@@ -343,6 +343,12 @@ class LinkConfig(InputModel):
         "failsafe and fight its overrides",
     )
     source_component: int = Field(191, ge=1, le=255, description="our compid (191 = onboard)")
+    event_loop: Literal["auto", "asyncio"] = Field(
+        "auto",
+        description="the daemon's event loop: 'auto' = uvloop when installed (pip install "
+        "'helixd[fast]'; a third of the standard loop's instructions per pose → override round "
+        "trip), else the standard asyncio loop; 'asyncio' = always the standard loop",
+    )
     target_system: int = Field(1, ge=1, le=255, description="autopilot sysid")
     target_component: int = Field(1, ge=0, le=255, description="autopilot compid")
     heartbeat_rate_hz: float = Field(1.0, ge=0.2, le=10.0, description="our HEARTBEAT rate (Hz)")

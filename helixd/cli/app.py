@@ -31,6 +31,7 @@ from helixd.mission.formats import mission_to_yaml
 from helixd.mission.validate import apply_mission_limits, pending_checks
 from helixd.planning import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
+from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.runtime.inputs import (
     InputsRefused,
@@ -361,7 +362,7 @@ def _fly(
         show_plan=show_plan,
         inputs=flight.inputs,
     )
-    outcome = asyncio.run(run_mission(opts))
+    outcome = eventloop.run(run_mission(opts), cfg.link.event_loop)
     if outcome.run_dir is not None:
         typer.echo(f"run directory: {outcome.run_dir}", err=True)
     for line in outcome.messages:  # the last one is the plain "helixd: RESULT" line
