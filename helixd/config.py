@@ -343,11 +343,12 @@ class LinkConfig(InputModel):
         "failsafe and fight its overrides",
     )
     source_component: int = Field(191, ge=1, le=255, description="our compid (191 = onboard)")
-    event_loop: Literal["auto", "asyncio"] = Field(
-        "auto",
-        description="the daemon's event loop: 'auto' = uvloop when installed (pip install "
-        "'helixd[fast]'; a third of the standard loop's instructions per pose → override round "
-        "trip), else the standard asyncio loop; 'asyncio' = always the standard loop",
+    event_loop: Literal["asyncio", "uvloop"] = Field(
+        "asyncio",
+        description="the daemon's event loop: 'asyncio' (the standard loop) or 'uvloop' (pip "
+        "install 'helixd[fast]'; falls back to the standard loop, with a warning, when it is "
+        "not installed). Default asyncio: on the whole daemon uvloop measured within noise of "
+        "it (tools/bench_control_loop.py runs both; helixd/runtime/eventloop.py)",
     )
     target_system: int = Field(1, ge=1, le=255, description="autopilot sysid")
     target_component: int = Field(1, ge=0, le=255, description="autopilot compid")

@@ -1054,7 +1054,7 @@ def run_benchmark(
                     run_daemon_side(
                         rate_hz, seconds, warmup_s, control_rate_max_hz, work, spawn, profiler
                     ),
-                    "auto" if event_loop == "uvloop" else "asyncio",
+                    "uvloop" if event_loop == "uvloop" else "asyncio",
                 )
             finally:
                 if procs and procs[0].is_alive():
@@ -1082,10 +1082,10 @@ def _num(v: Any, spec: str = ".0f") -> str:
 
 def event_loops(choices: list[str]) -> list[str]:
     """The loops to measure, in order: the given ones (uvloop only when installed), by default
-    uvloop (when installed) then asyncio, each in the same run."""
+    asyncio (the daemon's default: the headline) then uvloop (when installed), in one run."""
     from helixd.runtime.eventloop import uvloop_available
 
-    wanted = choices or ["uvloop", "asyncio"]
+    wanted = choices or ["asyncio", "uvloop"]
     bad = [c for c in wanted if c not in ("uvloop", "asyncio")]
     if bad:
         raise ValueError(f"--event-loop {bad[0]!r}: expected uvloop or asyncio")
@@ -1132,8 +1132,8 @@ def main(
     ),
     event_loop: list[str] = typer.Option(  # noqa: B008 - typer's idiom
         [],
-        help="the daemon side's event loop, repeatable: uvloop, asyncio (default: both, uvloop "
-        "first, when it is installed); the first one's figures are the headline",
+        help="the daemon side's event loop, repeatable: asyncio, uvloop (default: both, asyncio "
+        "first; uvloop when installed); the first one's figures are the headline",
     ),
 ) -> None:
     """Measure pose-in → command-out latency, loop jitter and CPU of helixd's control loop."""
