@@ -602,6 +602,15 @@ def test_waypoint_speed_limits_marks_pivots_and_stops() -> None:
         line.corner_speed_mps(math.atan2(1.0, 4.0), 0.6, 1.0, 0.3, 1.0)
     )
     assert speeds[1] == speeds[3] == 0.0
+    # with arcs: a corner with one is passed at its speed, a collinear one at cruise, one
+    # without an arc (too sharp for the budget) is a stop
+    arc = line.corner_arc(points[1], points[2], points[3], 0.25, 0.6, 0.3, 1.0, 0.1)
+    assert arc is not None
+    speeds, stops = line.waypoint_speed_limits(
+        points, [False] * 4, 0.6, 0.785, 1.0, 0.3, 1.0, [None, arc, None, None]
+    )
+    assert stops == [False, False, True, True]
+    assert speeds[:2] == [0.6, arc.speed_mps]
 
 
 def test_corner_arc_numbers_for_a_90_degree_corner() -> None:
