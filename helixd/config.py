@@ -354,6 +354,13 @@ class LinkConfig(InputModel):
         "autopilot never takes them for its GCS and its GCS failsafe never sees them",
     )
     source_component: int = Field(191, ge=1, le=255, description="our compid (191 = onboard)")
+    event_loop: Literal["asyncio", "uvloop"] = Field(
+        "asyncio",
+        description="the daemon's event loop: 'asyncio' (the standard loop) or 'uvloop' (pip "
+        "install 'helixd[fast]'; falls back to the standard loop, with a warning, when it is "
+        "not installed). Default asyncio: on the whole daemon uvloop measured within noise of "
+        "it (tools/bench_control_loop.py runs both; helixd/runtime/eventloop.py)",
+    )
     target_system: int = Field(1, ge=1, le=255, description="autopilot sysid")
     target_component: int = Field(1, ge=0, le=255, description="autopilot compid")
     heartbeat_rate_hz: float = Field(

@@ -1031,8 +1031,10 @@ def run_benchmark(
     control_rate_max_hz: float | None,
     floor: bool = True,
     profiler: Any = None,
+    event_loop: str = "asyncio",
 ) -> tuple[list[str], dict[str, Any]]:
     from helixd.recorder.logging_setup import configure_logging
+    from helixd.runtime import eventloop
 
     ctx = multiprocessing.get_context("spawn")
     parent, child = ctx.Pipe()
@@ -1048,10 +1050,11 @@ def run_benchmark(
         with (work / "daemon.log").open("w", encoding="utf-8") as log_fh:
             configure_logging(tty=False, level="info", stream=log_fh)
             try:
-                d = asyncio.run(
+                d = eventloop.run(
                     run_daemon_side(
                         rate_hz, seconds, warmup_s, control_rate_max_hz, work, spawn, profiler
-                    )
+                    ),
+                    "uvloop" if event_loop == "uvloop" else "asyncio",
                 )
             finally:
                 if procs and procs[0].is_alive():
@@ -1063,7 +1066,46 @@ def run_benchmark(
                 proc.join(timeout=RECORD_TIMEOUT_S)
     fl = run_floor(rate_hz, seconds, warmup_s) if floor else None
     afl = run_floor(rate_hz, seconds, warmup_s, asyncio_floor_loop) if floor else None
-    return report_lines(d, a, rate_hz, fl, afl), rate_figures(d, a, rate_hz, fl, afl)
+    figures = rate_figures(d, a, rate_hz, fl, afl)
+    figures["event_loop"] = event_loop
+    lines = [f"event loop: {event_loop}", *report_lines(d, a, rate_hz, fl, afl)]
+    return lines, figures
+
+
+def _pct(v: Any) -> str:
+    return "-" if v is None else f"{v:.2f} %"
+
+
+def _num(v: Any, spec: str = ".0f") -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def event_loops(choices: list[str]) -> list[str]:
+    """The loops to measure, in order: the given ones (uvloop only when installed), by default
+    asyncio (the daemon's default: the headline) then uvloop (when installed), in one run."""
+    from helixd.runtime.eventloop import uvloop_available
+
+    wanted = choices or ["asyncio", "uvloop"]
+    bad = [c for c in wanted if c not in ("uvloop", "asyncio")]
+    if bad:
+        raise ValueError(f"--event-loop {bad[0]!r}: expected uvloop or asyncio")
+    return [c for c in dict.fromkeys(wanted) if c != "uvloop" or uvloop_available()]
+
+
+def loop_comparison(per_loop: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per event loop, the figures the adoption decision reads: CPU %, CPU per step,
+    autopilot round trip p99, poses not stepped."""
+    out: dict[str, dict[str, Any]] = {}
+    for loop, fig in per_loop.items():
+        steps = fig.get("control_steps") or 0
+        cpu_s = fig.get("cpu_s")
+        out[loop] = {
+            "cpu_percent": fig.get("cpu_percent"),
+            "cpu_us_per_step": 1e6 * cpu_s / steps if steps and cpu_s is not None else None,
+            "autopilot_rtt_p99_ms": (fig.get("autopilot_rtt_ms") or {}).get("p99"),
+            "poses_not_stepped": fig.get("poses_not_stepped"),
+        }
+    return out
 
 
 def main(
@@ -1088,11 +1130,29 @@ def main(
         help="where latest.json / latest.md are written (default bench/results; not written "
         "with --profile)",
     ),
+    event_loop: list[str] = typer.Option(  # noqa: B008 - typer's idiom
+        [],
+        help="the daemon side's event loop, repeatable: asyncio, uvloop (default: both, asyncio "
+        "first; uvloop when installed); the first one's figures are the headline",
+    ),
 ) -> None:
     """Measure pose-in → command-out latency, loop jitter and CPU of helixd's control loop."""
+    try:
+        loops = event_loops(event_loop)
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc)) from None
     per_rate: dict[str, dict[str, Any]] = {}
     for i, rate in enumerate(rate_hz):
         if i:
+            typer.echo("")
+        per_loop: dict[str, dict[str, Any]] = {}
+        for loop in loops[1:] if not profile else []:  # the others first: the headline last
+            lines, figures = run_benchmark(
+                rate, seconds, warmup_s, control_rate_max_hz, False, None, loop
+            )
+            per_loop[loop] = figures
+            for line in lines:
+                typer.echo(line)
             typer.echo("")
         if profile:
             import cProfile
@@ -1104,7 +1164,7 @@ def main(
             # whatever ran when the scheduler preempted it)
             prof = cProfile.Profile(time.thread_time)
             lines, figures = run_benchmark(
-                rate, seconds, warmup_s, control_rate_max_hz, False, prof
+                rate, seconds, warmup_s, control_rate_max_hz, False, prof, loops[0]
             )
             buf = io.StringIO()
             pstats.Stats(prof, stream=buf).sort_stats("tottime").print_stats(profile)
@@ -1114,7 +1174,20 @@ def main(
                 buf.getvalue(),
             ]
         else:
-            lines, figures = run_benchmark(rate, seconds, warmup_s, control_rate_max_hz, floor)
+            lines, figures = run_benchmark(
+                rate, seconds, warmup_s, control_rate_max_hz, floor, None, loops[0]
+            )
+        per_loop = {loops[0]: figures, **per_loop}
+        figures["event_loops"] = loop_comparison(per_loop)
+        if len(per_loop) > 1:
+            lines.append(
+                "event loops, same run: "
+                + "; ".join(
+                    f"{name} CPU {_pct(c['cpu_percent'])}, {_num(c['cpu_us_per_step'])} µs/step, "
+                    f"rtt p99 {_num(c['autopilot_rtt_p99_ms'], '.2f')} ms"
+                    for name, c in figures["event_loops"].items()
+                )
+            )
         per_rate[rate_key(rate)] = figures
         for line in lines:
             typer.echo(line)

@@ -195,6 +195,28 @@ def control_loop_markdown(loop: Mapping[str, Any]) -> list[str]:
             "the least asyncio program (add_reader, override sent from the reader callback); "
             "both against the same fake autopilot in the same run.",
         ]
+        loop_rows = []
+        for rate, fig in per_rate.items():
+            if not isinstance(fig, Mapping):
+                continue
+            loops = fig.get("event_loops") or {}
+            for name, c in loops.items() if isinstance(loops, Mapping) else ():
+                if isinstance(c, Mapping):
+                    headline = " (headline)" if name == fig.get("event_loop") else ""
+                    loop_rows.append(
+                        [
+                            f"{rate} Hz", f"{name}{headline}", fmt(c.get("cpu_percent")),
+                            fmt(c.get("cpu_us_per_step"), ".0f"),
+                            fmt(c.get("autopilot_rtt_p99_ms")), fmt(c.get("poses_not_stepped")),
+                        ]
+                    )  # fmt: skip
+        if len(loop_rows) > len(per_rate):
+            lines += ["", "Event loops of the daemon side, measured in the same run:", ""]
+            lines += md_table(
+                ["rate", "event loop", "CPU %", "CPU µs / step", "autopilot rtt p99 ms",
+                 "poses not stepped"],
+                loop_rows,
+            )  # fmt: skip
     targets = loop.get("targets", {})
     if isinstance(targets, Mapping) and targets:
         lines += ["", "Targets: " + ", ".join(f"{k} {fmt(v, 'g')}" for k, v in targets.items())]

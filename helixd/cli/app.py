@@ -39,6 +39,7 @@ from helixd.mission.formats import mission_to_yaml
 from helixd.mission.validate import apply_mission_limits
 from helixd.planning import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
+from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.runtime.inputs import (
     InputsRefused,
@@ -400,7 +401,7 @@ def _fly(
         inputs=flight.inputs,
         options=flight.options,
     )
-    outcome = asyncio.run(run_mission(opts))
+    outcome = eventloop.run(run_mission(opts), cfg.link.event_loop)
     if outcome.run_dir is not None:
         typer.echo(f"run directory: {outcome.run_dir}", err=True)
     for line in outcome.messages:  # the last one is the plain "helixd: RESULT" line

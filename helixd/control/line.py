@@ -265,36 +265,6 @@ def arc_blend(arc: CornerArc, into_m: float, left_m: float, ramp_m: float) -> tu
     return min(w_in, w_out), lead - lag
 
 
-def corner_arcs(
-    points_xy_m: list[tuple[float, float]],
-    stop_at: list[bool],
-    corner_error_m: float,
-    cruise_mps: float,
-    max_lateral_accel_mps2: float,
-    max_yaw_rate_radps: float | None,
-    min_speed_mps: float,
-) -> list[CornerArc | None]:
-    """Per waypoint (``points_xy_m[0]`` is the start of the first leg): the arc its corner is
-    flown on (:func:`corner_arc`), or None — the last waypoint, waypoints flagged in
-    ``stop_at`` (a hold or a final heading) and corners with no arc."""
-    wps = points_xy_m[1:]
-    arcs: list[CornerArc | None] = [None] * len(wps)
-    for i in range(len(wps) - 1):
-        if stop_at[i]:
-            continue
-        arcs[i] = corner_arc(
-            points_xy_m[i],
-            wps[i],
-            wps[i + 1],
-            corner_error_m,
-            cruise_mps,
-            max_lateral_accel_mps2,
-            max_yaw_rate_radps,
-            min_speed_mps,
-        )
-    return arcs
-
-
 def waypoint_speed_limits(
     points_xy_m: list[tuple[float, float]],
     stop_at: list[bool],
@@ -310,8 +280,9 @@ def waypoint_speed_limits(
     ``points_xy_m[0]`` is the start of the first leg. The last waypoint and those flagged in
     ``stop_at`` (final heading) are stops. Without ``arcs`` (no corner error budget) a corner
     turning more than ``pivot_angle_rad`` is a stop (pivot) and the rest are flown at
-    :func:`corner_speed_mps`. With ``arcs`` (:func:`corner_arcs`) a corner with an arc is
+    :func:`corner_speed_mps`. With ``arcs`` a corner with an arc is
     passed at the arc's speed, a collinear one at cruise, and any other is a stop (pivot).
+    (``arcs``: one :func:`corner_arc` or None per waypoint, as the navigator plans them.)
     """
     for point in points_xy_m:
         require_finite("path point", *point)

@@ -469,6 +469,12 @@ class Navigator:
 
         yaw_terms = PidTerms.zero()
         if mode is MotionMode.OMNI:
+            # On an arc the commanded direction turns at v/R; the scrolls deliver it through
+            # their response lag τ (control.slip.command_lag_s), so the motion trails the
+            # command by ≈ (v/R)·τ and the rover would drift out until the lookahead term
+            # cancels that (e = L·(v/R)·τ, ~0.1 m on the hexagon): lead the course by it.
+            turning, _ = self._arc_turning(leg)
+            course_rad += turning * speed_mps * cfg.slip.command_lag_s
             vx, vy = guidance.world_to_body(
                 speed_mps * math.cos(course_rad), speed_mps * math.sin(course_rad), pose.yaw_rad
             )

@@ -32,7 +32,7 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
-from helixd.link.framing import FrameKind, scan_frames, x25_crc
+from helixd.link.framing import FrameKind, scan_frames, whole_frame_msgid, x25_crc
 from helixd.link.ownid import OwnIdSenders
 from helixd.link.signing import enable_signing
 from helixd.link.tlog import LinkTlog
@@ -279,8 +279,14 @@ class MavlinkConnection:
 
         A UDP datagram (``addr`` set) is parsed on its own: no parser state is carried into
         the next datagram. A stream keeps only an incomplete trailing frame for the next read.
+        The common datagram — one whole known frame — is handled without a scan.
         """
         if addr is not None:
+            msgid = whole_frame_msgid(data, CRC_EXTRA)
+            if msgid is not None:
+                if self._on_frame(FrameKind.KNOWN, msgid, data[5], data, rx_s):
+                    self.transport.note_peer(addr)
+                return
             scan = scan_frames(data, final=True, crc_extra=CRC_EXTRA)
         else:
             self._rxbuf += data
@@ -290,40 +296,47 @@ class MavlinkConnection:
         stats.bad_data += scan.bad_runs
         stats.bad_bytes += scan.bad_bytes
         from_target = False
-        tlog = self.tlog
         for frame in scan.frames:
-            if tlog is not None:
-                tlog.record(frame.data)
-            if frame.kind is FrameKind.UNKNOWN_ID:
-                stats.unknown_messages += 1
-                continue
-            try:
-                msg = self._decoder.decode(frame.data)
-            except mavlink.MAVError as exc:
-                reason = str(getattr(exc, "message", exc))
-                stats.bad_data += 1
-                if "signature" in reason.lower():
-                    stats.signature_rejects += 1
-                continue
-            except Exception as exc:  # a decoder bug must not take the link down
-                stats.bad_data += 1
-                log.warning("mavlink_decode_failed", msgid=frame.msgid, error=repr(exc))
-                continue
-            sysid = frame.src_system  # the header byte the decoded message carries too
-            if sysid != self.cfg.target_system:
-                if sysid == self.cfg.source_system:
-                    self._note_own_id(msg)
-                else:
-                    self._on_foreign(sysid)
-                continue
-            from_target = True
-            stats.rx_messages += 1
-            try:
-                self._on_message(msg, rx_s)
-            except Exception:
-                log.exception("message_handler_failed", type=msg.get_type())
+            if self._on_frame(frame.kind, frame.msgid, frame.src_system, frame.data, rx_s):
+                from_target = True
         if from_target and addr is not None:
             self.transport.note_peer(addr)
+
+    def _on_frame(
+        self, kind: FrameKind, msgid: int, src_system: int, data: bytes, rx_s: float
+    ) -> bool:
+        """Log, decode, filter by system and dispatch one frame; True if it came from the
+        target system."""
+        stats = self.stats
+        if self.tlog is not None:
+            self.tlog.record(data)
+        if kind is FrameKind.UNKNOWN_ID:
+            stats.unknown_messages += 1
+            return False
+        try:
+            msg = self._decoder.decode(data)
+        except mavlink.MAVError as exc:
+            reason = str(getattr(exc, "message", exc))
+            stats.bad_data += 1
+            if "signature" in reason.lower():
+                stats.signature_rejects += 1
+            return False
+        except Exception as exc:  # a decoder bug must not take the link down
+            stats.bad_data += 1
+            log.warning("mavlink_decode_failed", msgid=msgid, error=repr(exc))
+            return False
+        if src_system != self.cfg.target_system:  # the header byte the message carries too
+            if src_system == self.cfg.source_system:
+                self._note_own_id(msg)
+            else:
+                self._on_foreign(src_system)
+            return False
+        stats.rx_messages += 1
+        try:
+            self._on_message(msg, rx_s)
+        except Exception:
+            log.exception("message_handler_failed", type=msg.get_type())
+        return True
 
     def _note_own_id(self, msg: MavMsg) -> None:
         """A message from *our* system id: somebody else uses it (see helixd.link.ownid)."""

@@ -175,7 +175,7 @@ class Autopilot:
         self._streams = StreamManager(self.action.command_long, cfg, self.param.get)
         self._tasks: set[asyncio.Task[None]] = set()
         self._rerequest: asyncio.Task[None] | None = None
-        self._monitor: asyncio.Task[None] | None = None
+        self._monitoring = False  # streams requested: the housekeeping tick checks their rates
 
     # -- lifecycle ----------------------------------------------------------------------------
 
@@ -199,7 +199,7 @@ class Autopilot:
         key = load_signing_key(cfg.signing_key_file) if cfg.signing_key_file else None
         ap = cls(cfg, limits, url, key, observer=observer)
         await ap._conn.open()
-        ap._spawn(ap._watch_link(), "link_watchdog")
+        ap._spawn(ap._housekeeping(), "link_housekeeping")
         return ap
 
     async def close(self) -> None:
@@ -346,21 +346,34 @@ class Autopilot:
     def _on_reopened(self) -> None:
         log.info("link_waiting_for_heartbeat", url=self.url.text)
 
-    async def _watch_link(self) -> None:
+    async def _housekeeping(self) -> None:
+        """One periodic wake-up for the link's chores (it used to be one task each): the
+        heartbeat-silence watch and expired STATUSTEXT chunks every heartbeat_timeout/4, and
+        — once streams were requested — the stream-rate check (its re-requests run as a task
+        of their own, so a slow COMMAND_ACK never delays the watch)."""
         timeout_s = self.limits.heartbeat_timeout_s
+        period_s = min(timeout_s, self.cfg.stream_check_window_s) / 4
+        rerequest: asyncio.Task[None] | None = None
         while True:
-            await asyncio.sleep(timeout_s / 4)
+            await asyncio.sleep(period_s)
             st = self.state
-            changes = self._expired_texts(time.monotonic())  # a text whose end never came
+            now = time.monotonic()
+            changes = self._expired_texts(now)  # a text whose end never came
             if changes:
                 self._on_changes(changes)
-            if st.check_link(time.monotonic(), timeout_s):
+            if st.check_link(now, timeout_s):
                 log.warning(
                     "link_lost",
                     cause="heartbeat silence",
                     timeout_s=timeout_s,
                     link_lost_count=st.link_lost_count,
                 )
+            if self._monitoring and (rerequest is None or rerequest.done()):
+                slow = self._streams.due(now, not st.link_lost)
+                if slow:
+                    rerequest = self._spawn(
+                        self._streams.rerequest_and_restart(slow), "stream_rerequest"
+                    )
 
     def _rerequest_streams(self) -> None:
         if not self._streams.requested:
@@ -439,10 +452,7 @@ class Autopilot:
     async def request_streams(self) -> dict[str, float]:
         """Negotiate every stream (see :mod:`helixd.link.streams`); name → granted Hz."""
         granted = await self._streams.request_all()
-        if self._monitor is None or self._monitor.done():
-            self._monitor = self._spawn(
-                self._streams.run_monitor(lambda: not self.state.link_lost), "stream_monitor"
-            )
+        self._monitoring = True  # the housekeeping tick checks the stream rates from now on
         return granted
 
     # -- raw messages and the link log --------------------------------------------------------

@@ -156,10 +156,12 @@ def _valid_known_at(buf: bytes, i: int, crc_extra: Mapping[int, int]) -> bool:
     return extra is not None and _crc_ok(buf, i, h, extra)
 
 
-def _whole_frame(buf: bytes, n: int, crc_extra: Mapping[int, int]) -> Frame | None:
+def whole_frame_msgid(buf: bytes, crc_extra: Mapping[int, int]) -> int | None:
     """The common datagram: exactly one CRC-valid MAVLink 2 frame of a known message, start
-    marker at 0 and nothing after it. What the full scan returns for it, found in one step;
-    None sends the datagram through the full scan."""
+    marker at 0 and nothing after it — its message id (the source system is ``buf[5]``), found
+    in one step with no object built; None sends the datagram through :func:`scan_frames`,
+    which returns the same frame for it."""
+    n = len(buf)
     if n < HEADER_V2_BYTES + CRC_BYTES or buf[0] != MARKER_V2:
         return None
     incompat = buf[2]
@@ -175,7 +177,7 @@ def _whole_frame(buf: bytes, n: int, crc_extra: Mapping[int, int]) -> Frame | No
     crc = x25_crc(bytes((extra,)), x25_crc(buf[1:end]))
     if crc != buf[end] | (buf[end + 1] << 8):
         return None
-    return Frame(FrameKind.KNOWN, msgid, buf[5], buf)
+    return msgid
 
 
 def scan_frames(
@@ -189,9 +191,9 @@ def scan_frames(
     buf = bytes(data)
     n = len(buf)
     if final:
-        whole = _whole_frame(buf, n, crc_extra)
-        if whole is not None:
-            return ScanResult([whole], n)
+        msgid = whole_frame_msgid(buf, crc_extra)
+        if msgid is not None:
+            return ScanResult([Frame(FrameKind.KNOWN, msgid, buf[5], buf)], n)
     out = ScanResult()
     i = 0
     bad_from: int | None = None

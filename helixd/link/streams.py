@@ -261,16 +261,15 @@ class StreamManager:
             except CommandError as exc:
                 log.warning("stream_rerequest_failed", stream=name, error=str(exc))
 
-    async def run_monitor(self, link_up: Callable[[], bool]) -> None:
-        """Forever: once per window, re-request the slow streams (while the link is up)."""
-        poll_s = self._cfg.stream_check_window_s / 4  # check() itself acts once per window
-        while True:
-            await asyncio.sleep(poll_s)
-            now = time.monotonic()
-            if not link_up() or self._lock.locked():
-                self.monitor.restart(now)
-                continue
-            slow = self.monitor.check(now)
-            if slow:
-                await self.rerequest(slow)
-                self.monitor.restart(time.monotonic())
+    def due(self, now_s: float, link_up: bool) -> list[tuple[str, float]] | None:
+        """The slow streams to re-request now (once per window, while the link is up and no
+        request is in flight); None otherwise. Called by the link's housekeeping tick."""
+        if not link_up or self._lock.locked():
+            self.monitor.restart(now_s)
+            return None
+        return self.monitor.check(now_s) or None
+
+    async def rerequest_and_restart(self, slow: list[tuple[str, float]]) -> None:
+        """Re-request ``slow`` and start a new observation window."""
+        await self.rerequest(slow)
+        self.monitor.restart(time.monotonic())

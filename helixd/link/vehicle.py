@@ -209,6 +209,11 @@ class EkfStatus:
     terrain_alt_variance: float
     rx_monotonic_s: float
     variance_max: float
+    # judged once, when the report arrives (5 Hz), not at every read (every control tick)
+    healthy: bool = field(init=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "healthy", not self.problems())
 
     def problems(self) -> list[str]:
         out = [f"no {what}" for bit, what in EKF_REQUIRED_FLAGS.items() if not self.flags & bit]
@@ -221,10 +226,6 @@ class EkfStatus:
             if not math.isfinite(value) or value > self.variance_max:
                 out.append(f"{name} variance {value:.2f} > {self.variance_max:.2f}")
         return out
-
-    @property
-    def healthy(self) -> bool:
-        return not self.problems()
 
     @property
     def gps_glitching(self) -> bool:

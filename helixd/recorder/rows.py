@@ -46,9 +46,12 @@ def _f(fmt: str) -> Any:
     return field(metadata={"fmt": fmt})
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class FlightRow:
-    """One control step as recorded in ``flight.csv`` (field order = column order)."""
+    """One control step as recorded in ``flight.csv`` (field order = column order).
+
+    Not frozen: a frozen dataclass sets each of its 40 fields through object.__setattr__,
+    a third of the cost of building, summarising and formatting a row (callgrind)."""
 
     t_boot_s: float = _f(_MM)
     t_mono_s: float = _f("%.4f")

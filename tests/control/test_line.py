@@ -34,8 +34,15 @@ from tests.support.paths import REPO_ROOT
 
 DT_S = 1.0 / 40.0
 CONFIG = HelixdConfig()
-# corner arcs are opt-in (control.corner_error_m defaults to 0): these tests fly them at 0.25 m
-LINE = CONFIG.control.model_copy(update={"guidance": "line", "corner_error_m": 0.25})
+# corner arcs are opt-in (control.corner_error_m defaults to 0): these tests fly them at 0.25 m.
+# The ideal plant responds at once: no scroll lag for the OMNI arcs' course lead to cancel.
+LINE = CONFIG.control.model_copy(
+    update={
+        "guidance": "line",
+        "corner_error_m": 0.25,
+        "slip": CONFIG.control.slip.model_copy(update={"command_lag_s": 0.0}),
+    }
+)
 THESIS = CONFIG.control.model_copy(update={"guidance": "thesis"})
 MISSIONS = REPO_ROOT / "config" / "missions"
 AXIS_RAD = {MotionMode.ROLL: 0.0, MotionMode.SCROLL: math.pi / 2, MotionMode.OMNI: 0.0}
@@ -404,6 +411,39 @@ def test_speed_profile_looks_only_as_far_as_it_can_matter(monkeypatch: pytest.Mo
     assert per_step <= 4.0 < len(calls) / len(unbounded.commands)
 
 
+def test_omni_arc_course_lead_cancels_the_scroll_lag() -> None:
+    # A plant whose velocity follows the command through a first-order lag τ = 0.3 s (the
+    # simulator's scroll motors): flown without the lead the rover drifts out of each arc by
+    # ≈ L·(v/R)·τ; with control.slip.command_lag_s = τ the course leads by (v/R)·τ.
+    tau_s = 0.3
+    plan = shipped("hexagon", MotionMode.OMNI)
+    start = start_pose(MotionMode.OMNI)
+    path = designed_path(plan, start, LINE)
+    worst = {}
+    for lag_s in (0.0, tau_s):
+        slip = LINE.slip.model_copy(update={"command_lag_s": lag_s})
+        nav = Navigator(plan, LINE.model_copy(update={"slip": slip}))
+        plant = IdealPlant(start, MotionMode.OMNI)
+        applied = BodyVelocity.zero()
+        errors = []
+        while plant.t_s < 120.0:
+            out = nav.step(plant.pose, plant.t_s)
+            if out.done:
+                break
+            k = DT_S / tau_s
+            applied = BodyVelocity(
+                applied.vx_mps + k * (out.command.vx_mps - applied.vx_mps),
+                applied.vy_mps + k * (out.command.vy_mps - applied.vy_mps),
+                0.0,
+            )
+            plant.step(applied, DT_S)
+            errors.append(distance_to_polyline_m(plant.pose, path))
+        assert out.done
+        worst[lag_s] = max(errors)
+    assert worst[tau_s] <= 0.5 * worst[0.0], worst
+    assert worst[tau_s] <= 0.07, worst  # measured 0.055 m
+
+
 def test_waypoint_with_a_heading_is_a_stop_even_where_an_arc_would_fit() -> None:
     heading = PlanWaypoint(10.0, 0.0, 1.0, final_yaw_rad=math.pi / 2)
     plan = Plan(
@@ -564,6 +604,15 @@ def test_waypoint_speed_limits_marks_pivots_and_stops() -> None:
         line.corner_speed_mps(math.atan2(1.0, 4.0), 0.6, 1.0, 0.3, 1.0)
     )
     assert speeds[1] == speeds[3] == 0.0
+    # with arcs: a corner with one is passed at its speed, a collinear one at cruise, one
+    # without an arc (too sharp for the budget) is a stop
+    arc = line.corner_arc(points[1], points[2], points[3], 0.25, 0.6, 0.3, 1.0, 0.1)
+    assert arc is not None
+    speeds, stops = line.waypoint_speed_limits(
+        points, [False] * 4, 0.6, 0.785, 1.0, 0.3, 1.0, [None, arc, None, None]
+    )
+    assert stops == [False, False, True, True]
+    assert speeds[:2] == [0.6, arc.speed_mps]
 
 
 def test_corner_arc_numbers_for_a_90_degree_corner() -> None:

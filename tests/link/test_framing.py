@@ -9,7 +9,14 @@ from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.link.codec import CRC_EXTRA
-from helixd.link.framing import MAX_FRAME_BYTES, FrameKind, _x25_crc_table, scan_frames, x25_crc
+from helixd.link.framing import (
+    MAX_FRAME_BYTES,
+    FrameKind,
+    _x25_crc_table,
+    scan_frames,
+    whole_frame_msgid,
+    x25_crc,
+)
 
 
 def codec(sysid: int = 1) -> Any:
@@ -124,3 +131,36 @@ def test_scanner_is_total(data: bytes, final: bool) -> None:
 @given(st.binary(max_size=300), st.integers(0, 0xFFFF))
 def test_fast_crc_equals_the_table(data: bytes, init: int) -> None:
     assert x25_crc(data, init) == _x25_crc_table(data, init)
+
+
+@settings(max_examples=300)
+@given(
+    st.integers(0, 2**32 - 1),
+    st.lists(st.integers(0, 255), max_size=4),
+    st.lists(st.tuples(st.integers(0, 80), st.integers(0, 255)), max_size=3),
+    st.integers(1, 255),
+)
+def test_one_frame_fast_path_agrees_with_the_scan(
+    t: int, tail: list[int], flips: list[tuple[int, int]], sysid: int
+) -> None:
+    """The common datagram's fast path (no ScanResult, no Frame) says what the full scan says:
+    its message id (and the source system at byte 5) exactly when the scan finds one whole
+    known frame and nothing else; otherwise it declines and the scan decides."""
+    data = bytearray(attitude(t % 1000, sysid) + bytes(tail))
+    for i, v in flips:
+        if i < len(data):
+            data[i] = v
+    buf = bytes(data)
+    msgid = whole_frame_msgid(buf, CRC_EXTRA)
+    scan = scan_frames(buf, final=True, crc_extra=CRC_EXTRA)
+    whole = (
+        len(scan.frames) == 1
+        and scan.frames[0].kind is FrameKind.KNOWN
+        and scan.frames[0].data == buf
+        and scan.bad_runs == 0
+    )
+    if msgid is not None:
+        assert whole
+        assert (scan.frames[0].msgid, scan.frames[0].src_system) == (msgid, buf[5])
+    elif not tail and not flips:
+        raise AssertionError("an untouched single frame must take the fast path")

@@ -112,3 +112,10 @@ async def test_slow_stream_is_rerequested_once_per_window() -> None:
         assert 1 <= len(rerequests) <= 6  # bounded: at most once per 0.5 s window
         assert asked(peer, LPN, t_slow) == []  # the healthy stream is left alone
         del peer.rate_cap_hz["ATTITUDE"]
+
+
+async def test_one_housekeeping_task_watches_the_link_and_the_streams() -> None:
+    # The heartbeat watch and the stream-rate check share one periodic wake-up.
+    async with linked(stream_check_window_s=0.5) as (ap, _peer):
+        await ap.request_streams()
+        assert sorted(t.get_name() for t in ap._tasks) == ["link_housekeeping"]

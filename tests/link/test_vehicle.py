@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.link.vehicle import Change, VehicleState, mode_name, mode_number
+from helixd.link.vehicle import Change, EkfStatus, VehicleState, mode_name, mode_number
 from tests.support.mavmsgs import AP, att, codec, decoded, hb, lpn
 
 
@@ -330,3 +330,15 @@ def test_home_position_is_checked_at_the_edge() -> None:
     assert st.home is not None and st.home.north_m is None
     assert st.apply(home(95.0, 0.0, 0.0, 0.0), 4.0) == Change.NONE
     assert st.home_rejected_count == 1 and st.home_rx_s == 3.0
+
+
+@settings(max_examples=200)
+@given(
+    st.integers(0, 0xFFFF),
+    st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=5, max_size=5),
+)
+def test_ekf_health_is_judged_once_when_the_report_arrives(flags: int, var: list[float]) -> None:
+    """EkfStatus.healthy is computed at construction (5 Hz), not per read (every tick): the
+    same verdict as its list of problems."""
+    ekf = EkfStatus(flags, var[0], var[1], var[2], var[3], var[4], 1.0, 0.8)
+    assert ekf.healthy is (not ekf.problems())

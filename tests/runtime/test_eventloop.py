@@ -1,0 +1,28 @@
+"""The daemon's event loop: the standard loop by default, uvloop when asked and installed."""
+
+from __future__ import annotations
+
+import asyncio
+
+import pytest
+
+from helixd.config import LinkConfig
+from helixd.runtime import eventloop
+
+
+async def _loop_module() -> str:
+    return type(asyncio.get_running_loop()).__module__
+
+
+def test_asyncio_is_the_default_and_the_standard_loop() -> None:
+    assert LinkConfig().event_loop == "asyncio"
+    assert eventloop.run(_loop_module(), LinkConfig().event_loop).startswith("asyncio")
+    assert eventloop.run(asyncio.sleep(0, result=42)) == 42
+
+
+def test_uvloop_when_installed_else_the_standard_loop(monkeypatch: pytest.MonkeyPatch) -> None:
+    module = eventloop.run(_loop_module(), "uvloop")
+    assert module.startswith("uvloop") is eventloop.uvloop_available()
+    monkeypatch.setattr(eventloop, "uvloop_available", lambda: False)  # not installed: fallback
+    assert eventloop.run(_loop_module(), "uvloop").startswith("asyncio")
+    assert eventloop.loop_factory("uvloop")[1] == "asyncio"
