@@ -830,6 +830,62 @@ class GcsReportConfig(InputModel):
 
 
 # ---------------------------------------------------------------------------------------------
+# helixd serve: the all-day service (helixd.runtime.serve)
+
+
+class ServeConfig(InputModel):
+    gcs_system_ids: list[Annotated[int, Field(ge=1, le=255)]] = Field(
+        default_factory=lambda: [255],
+        min_length=1,
+        max_length=16,
+        description="system ids whose MISSION_START / DO_PAUSE_CONTINUE helixd obeys; any "
+        "other sender is DENIED. 255: QGroundControl and Mission Planner",
+    )
+    reconnect_initial_s: float = Field(
+        1.0, gt=0.0, le=60.0, description="first wait before re-opening a link that failed (s)"
+    )
+    reconnect_max_s: float = Field(
+        30.0,
+        gt=0.0,
+        le=600.0,
+        description="the wait doubles after each failed attempt up to this (s)",
+    )
+    mission_poll_s: float = Field(
+        5.0,
+        gt=0.0,
+        le=600.0,
+        description="while idle, the autopilot's mission is re-read this often when its item "
+        "count or 'Flight plan received' did not already say it changed (s)",
+    )
+    state_rate_hz: float = Field(
+        1.0,
+        gt=0.0,
+        le=10.0,
+        description="NAMED_VALUE_INT hx_state is sent on every change and this often (Hz)",
+    )
+    tick_s: float = Field(
+        0.1,
+        gt=0.0,
+        le=1.0,
+        description="the service's idle tick: start switch read, heartbeat fed, timers (s)",
+    )
+    state_file: Path | None = Field(
+        None,
+        description="where the service records which mission was interrupted where (a JSON "
+        "file); None: serve-state.json under recorder.run_root",
+    )
+
+    @model_validator(mode="after")
+    def _backoff_order(self) -> ServeConfig:
+        if self.reconnect_max_s < self.reconnect_initial_s:
+            raise ValueError(
+                f"serve.reconnect_max_s = {self.reconnect_max_s} is below "
+                f"serve.reconnect_initial_s = {self.reconnect_initial_s}"
+            )
+        return self
+
+
+# ---------------------------------------------------------------------------------------------
 # Top level
 
 
@@ -843,6 +899,7 @@ class HelixdConfig(InputModel):
     recorder: RecorderConfig = Field(default_factory=RecorderConfig)
     planning: PlanningConfig = Field(default_factory=PlanningConfig)
     gcs_report: GcsReportConfig = Field(default_factory=GcsReportConfig)
+    serve: ServeConfig = Field(default_factory=ServeConfig)
 
     @model_validator(mode="after")
     def _consistent(self) -> HelixdConfig:

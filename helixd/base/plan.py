@@ -214,6 +214,18 @@ class Numbering:
         return waypoint_label(self.number(index), self.via(index), self.total)
 
 
+def mission_item_of(plan: Plan, numbering: Numbering, index: int) -> int:
+    """The mission item (its sequence number, as the ground station shows it) being flown
+    while plan waypoint ``index`` is the target: the navigation step that flies it, else (a
+    plain list of waypoints) the operator's number of the waypoint."""
+    if plan.program is not None:
+        for step in plan.program.steps:
+            first, last = step.first_waypoint, step.last_waypoint
+            if first is not None and last is not None and first <= index <= last:
+                return step.item
+    return numbering.number(index)
+
+
 def waypoint_label(number: int, via: bool, total: int | None = None) -> str:
     """``"3"`` (or ``"3/5"`` with ``total``) for the operator's waypoint 3; ``"via → 3"`` (or
     ``"via → 3/5"``) for a via point on the leg to it."""
@@ -231,6 +243,7 @@ __all__ = [
     "Plan",
     "PlanWaypoint",
     "Program",
+    "mission_item_of",
     "operator_numbers",
     "waypoint_label",
 ]

@@ -20,6 +20,7 @@ from helixd.base.run_files import MISSION_FILE
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
 from helixd.cli import runs as recorder_command
+from helixd.cli import serve as cli_serve
 from helixd.cli.autopilot import AUTOPILOT_MISSION, fetch_autopilot_mission, wants_autopilot
 from helixd.cli.common import (
     CONTEXT_SETTINGS,
@@ -461,6 +462,7 @@ sim_command.register(app)
 recorder_command.register(app)
 cli_mission.register(app)
 cli_guard.register(app)
+cli_serve.register(app)
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -16,49 +16,34 @@ its inclusion polygon keeps the rover in, its exclusion zones are planned around
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 import typer
-from pydantic import ValidationError
 
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import run_on_link
 from helixd.config import HelixdConfig
-from helixd.files.models import format_validation_error
 from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
 from helixd.link.mission_link import Downloaded, download_all
 from helixd.mav.mission_item import WireItem
-from helixd.mission import Mission, MotionMode
-from helixd.mission.formats import (
-    GcsMission,
-    LoadedMission,
-    MissionFormat,
-    read_fence,
-    with_fence,
+from helixd.mission import MotionMode
+from helixd.runtime.autopilot_mission import (
+    MISSION_NAME,
+    FromAutopilot,
+    MissionRefused,
+    convert_download,
+    ground_station_mode,
 )
-from helixd.mission.formats.items import FormatError, items_to_mission
-from helixd.mission.formats.wire import wire_to_gcs
 
 __all__ = ["AUTOPILOT_MISSION", "FromAutopilot", "fetch_autopilot_mission", "wants_autopilot"]
 
-AUTOPILOT_MISSION = "autopilot"
-MISSION_NAME = "autopilot"
+AUTOPILOT_MISSION = MISSION_NAME
 
 
 def wants_autopilot(mission: Path) -> bool:
     """``--mission autopilot`` (a file of that name must be given as ``./autopilot``)."""
     return str(mission) == AUTOPILOT_MISSION
-
-
-@dataclass(frozen=True)
-class FromAutopilot:
-    mission: Mission
-    source: str  # "autopilot at URL", for messages
-    items: int  # mission items after home
-    fence_shapes: int
-    fence: GcsMission | None = None  # the autopilot's fence (and --fence's), for planning
 
 
 def _refuse(problems: list[str]) -> typer.Exit:
@@ -76,39 +61,23 @@ def convert(
     mode: MotionMode | None,
     fence: Path | None = None,
 ) -> FromAutopilot:
-    """Downloaded items → a validated mission (pure but for the warnings echoed)."""
+    """Downloaded items → a validated mission (:func:`convert_download`), its warnings
+    printed; a refusal exits 3."""
     gs_mode = motion_mode(cfg, mode)
-    route = cfg.planning.enabled
     try:
-        gcs, notes = wire_to_gcs(got_mission, got_fence)
-        if not gcs.items:
-            raise FormatError(["the autopilot holds no mission (only home): nothing to fly"])
-        conv = items_to_mission(
-            gcs, name=MISSION_NAME, mode=gs_mode, source=source, route_keep_outs=route
+        out = convert_download(
+            got_mission, got_fence, source=source, cfg=cfg, mode=gs_mode, fence=fence
         )
-        # the range checks a mission file gets from the loader
-        msn = Mission.model_validate(conv.mission.model_dump(), context={"limits": cfg.mission})
-        loaded = LoadedMission(msn, MissionFormat.PLAN, conv.notes, gcs)
-        if fence is not None:
-            loaded = with_fence(loaded, read_fence(fence), str(fence), route_keep_outs=route)
-            msn = loaded.mission
-    except FormatError as exc:
-        raise _refuse(
-            [p if p.startswith(source) else f"{source}: {p}" for p in exc.problems]
-        ) from None
-    except ValidationError as exc:
-        raise _refuse(format_validation_error(source, exc, Mission)) from None
-    for line in (*notes, *loaded.notes):
+    except MissionRefused as exc:
+        raise _refuse(exc.problems) from None
+    for line in out.notes:
         typer.echo(f"warning: {clip_line(line)}", err=True)
-    shapes = len(gcs.polygons) + len(gcs.circles)
-    return FromAutopilot(msn, source, len(gcs.items), shapes, loaded.gcs)
+    return out
 
 
 def motion_mode(cfg: HelixdConfig, mode: MotionMode | None) -> MotionMode:
     """``--mode``, else ``mission.ground_station_mode``; neither is a usage error (exit 2)."""
-    gs = mode or (
-        MotionMode(cfg.mission.ground_station_mode) if cfg.mission.ground_station_mode else None
-    )
+    gs = ground_station_mode(cfg, mode)
     if gs is None:
         typer.echo(
             "error: --mission autopilot carries no motion mode: give --mode roll|scroll|omni "

@@ -34,6 +34,8 @@ class SimChoice:
     # (north_m, east_m, yaw_ned_rad) the rover starts at: a resumed run's simulator puts it
     # where the interrupted run left it; None: the EKF origin, facing North
     start_ned: tuple[float, float, float] | None = None
+    # more simulator links (``serve --sim-gcs``: a ground station beside helixd)
+    extra_links: tuple[str, ...] = ()
 
 
 def sim_world(
@@ -102,7 +104,7 @@ def simulator(
         guard_installed=True,
         guard_params=embedded_guard(cfg, choice.speedup),
     )
-    server, sim_url = start_embedded(sim_cfg)
+    server, sim_url = start_embedded(sim_cfg, choice.extra_links)
     try:
         yield sim_url
     finally:

@@ -114,6 +114,10 @@ def _decode_plain(entry: _Plain, data: bytes, msgid: int, plen: int) -> MavMsg:
 
 
 _RC_OVERRIDE_ID = int(mavlink.MAVLINK_MSG_ID_RC_CHANNELS_OVERRIDE)
+# what another system (a ground station) may address to helixd itself: commands
+ADDRESSED_MESSAGE_IDS = frozenset(
+    {int(mavlink.MAVLINK_MSG_ID_COMMAND_LONG), int(mavlink.MAVLINK_MSG_ID_COMMAND_INT)}
+)
 _RC_OVERRIDE_EXTRA = bytes((CRC_EXTRA[_RC_OVERRIDE_ID],))
 _RC_OVERRIDE_PAYLOAD = struct.Struct("<8HBB10H")  # wire order: chan1..8, target, chan9..18
 
@@ -168,6 +172,7 @@ class LinkStats:
     tx_messages: int = 0
     tx_dropped: int = 0
     reopen_count: int = 0
+    rx_addressed: int = 0  # commands from another system addressed to us (a GCS's)
 
 
 class NeverSent(Exception):
@@ -192,8 +197,10 @@ class MavlinkConnection:
         on_lost: OnLost,
         on_reopened: Callable[[], None],
         never_send: frozenset[int] = frozenset(),
+        on_addressed: Callable[[MavMsg, float], None] | None = None,
     ) -> None:
         self.cfg = cfg
+        self._on_addressed = on_addressed
         self.never_send = never_send
         self.url = url
         self._key = signing_key
@@ -328,6 +335,8 @@ class MavlinkConnection:
         if src_system != self.cfg.target_system:  # the header byte the message carries too
             if src_system == self.cfg.source_system:
                 self._note_own_id(msg)
+            elif self._addressed_to_us(msgid, msg):
+                self._dispatch_addressed(msg, rx_s)
             else:
                 self._on_foreign(src_system)
             return False
@@ -337,6 +346,22 @@ class MavlinkConnection:
         except Exception:
             log.exception("message_handler_failed", type=msg.get_type())
         return True
+
+    def _addressed_to_us(self, msgid: int, msg: MavMsg) -> bool:
+        """A command from another system (a ground station, routed by the autopilot) whose
+        target is our system and component (or every component)."""
+        if self._on_addressed is None or msgid not in ADDRESSED_MESSAGE_IDS:
+            return False
+        ours = int(msg.target_system) == self.cfg.source_system
+        return ours and int(msg.target_component) in (0, self.cfg.source_component)
+
+    def _dispatch_addressed(self, msg: MavMsg, rx_s: float) -> None:
+        assert self._on_addressed is not None
+        self.stats.rx_addressed += 1
+        try:
+            self._on_addressed(msg, rx_s)
+        except Exception:
+            log.exception("message_handler_failed", type=msg.get_type())
 
     def _note_own_id(self, msg: MavMsg) -> None:
         """A message from *our* system id: somebody else uses it (see helixd.link.ownid)."""

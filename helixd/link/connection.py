@@ -161,12 +161,14 @@ class Autopilot:
             self._on_transport_lost,
             self._on_reopened,
             never_send=GCS_CONTACT_MESSAGE_IDS if observer else frozenset(),
+            on_addressed=self._on_addressed,
         )
         self._commands = CommandClient(lambda: self._conn.mav, self._conn.send, cfg, self.state)
         self._heartbeat = HeartbeatSender(self._conn, cfg)
         self._texts = StatusTextAssembler(cfg.statustext_timeout_s)
         self._waiters = ChangeWaiters()
         self._listeners: list[Callable[[MavMsg, float], None]] = []
+        self._command_listeners: list[Callable[[MavMsg, float], None]] = []
         self.telemetry = Telemetry(
             self.state, self._waiters, self.add_message_listener, self.remove_message_listener
         )
@@ -261,7 +263,21 @@ class Autopilot:
     def remove_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None:
         self._listeners.remove(callback)
 
+    def add_command_listener(self, callback: Callable[[MavMsg, float], None]) -> None:
+        """``callback(msg, rx_monotonic_s)`` for every COMMAND_LONG / COMMAND_INT another
+        system (a ground station, routed by the autopilot) addresses to our system and
+        component; the listener answers it (COMMAND_ACK). Without a listener such commands
+        are dropped as any other system's messages are."""
+        self._command_listeners.append(callback)
+
+    def remove_command_listener(self, callback: Callable[[MavMsg, float], None]) -> None:
+        self._command_listeners.remove(callback)
+
     # -- reader side --------------------------------------------------------------------------
+
+    def _on_addressed(self, msg: MavMsg, rx_s: float) -> None:
+        for callback in self._command_listeners:
+            callback(msg, rx_s)
 
     def _on_message(self, msg: MavMsg, rx_s: float) -> None:
         mtype = msg.get_type()

@@ -37,7 +37,7 @@ from helixd.actuators import ActuatorError, make_sink
 from helixd.actuators.base import ActuatorSink
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
-from helixd.base.plan import Numbering
+from helixd.base.plan import Numbering, mission_item_of
 from helixd.base.run_files import TLOG_FILE
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
 from helixd.control.sequencer import SequencerEvent
@@ -126,6 +126,15 @@ class RunOptions:
     # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
     inputs: RunInputs | None = None
     options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported (commands)
+    # helixd serve: the service's link (connected, heartbeating, streams negotiated; the run
+    # neither connects nor closes it), its stop request (the service owns the signals and
+    # pauses through it), no start gate (the service started the flight on the operator's
+    # word), and the mission item being flown, each time it changes (the GCS's current item)
+    link: Autopilot | None = None
+    stop: StopRequest | None = None
+    start_gate: bool = True
+    on_item: Callable[[int], None] | None = None
+    notifier: ServiceNotifier | None = None  # None: the run's own (helixd run under systemd)
 
 
 @dataclass
@@ -281,7 +290,7 @@ def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
         return None
     if ending.code is ExitCode.OK:
         return True
-    if ending.fault is not None and ending.fault.cause is FaultCause.SIGNAL:
+    if ending.fault is not None and ending.fault.cause in (FaultCause.SIGNAL, FaultCause.PAUSED):
         return True
     return None
 
@@ -328,8 +337,8 @@ class MissionRunner:
     def __init__(self, opts: RunOptions) -> None:
         self.opts = opts
         self.cfg = opts.cfg
-        self.stop = StopRequest()
-        self.notifier = ServiceNotifier()
+        self.stop = opts.stop or StopRequest()
+        self.notifier = opts.notifier or ServiceNotifier()
         self.display = ProgressDisplay(tty=opts.tty)
         self.recorder: RunRecorder | None = None
         self.summary = SummaryBuilder()
@@ -370,6 +379,15 @@ class MissionRunner:
     # -- startup ------------------------------------------------------------------------------
 
     async def _connect(self, held: Held) -> Autopilot:
+        if self.opts.link is not None:  # the service's link: already up
+            ap = held.ap = self.opts.link
+            self.gcs.start(ap.send_message)
+            await self._until_stopped(ap.wait_heartbeat(self.cfg.safety.connect_timeout_s))
+            ap.feed()
+            if self.cfg.actuation.backend is ActuationBackend.SERVO:
+                held.sink = make_sink(self.cfg.actuation, self.cfg.vehicle, ap)
+                await held.sink.start()
+            return ap
         ap = await Autopilot.connect(self.cfg.link, self.cfg.safety)
         held.ap = ap
         self.gcs.start(ap.send_message)
@@ -765,8 +783,9 @@ class MissionRunner:
             # READY once preflight passed: the start gate may wait minutes for the pilot, and
             # systemd's TimeoutStartSec must not kill that wait; the watchdog runs from here on.
             self.notifier.ready("preflight passed")
-            async with phase("start_gate", self.notifier, self.display):
-                await self._start_gate(ap)
+            if self.opts.start_gate:
+                async with phase("start_gate", self.notifier, self.display):
+                    await self._start_gate(ap)
             async with phase("set_manual", self.notifier, self.display):
                 await self._until_stopped(ap.action.set_mode(MANUAL_MODE))
                 await self._confirm_mode(ap, MANUAL_MODE)
@@ -850,9 +869,16 @@ class MissionRunner:
         def on_pose_rejected(report: PoseRejectedReport) -> None:
             self.display.update(rejected_progress(report, numbering))
 
+        on_item = self.opts.on_item
+
         def on_arrival(index: int, t_boot_s: float, error_m: float) -> None:
             journal.drain()  # the summary has every step before the arrival
             self._on_arrival(index, numbering, t_boot_s, error_m)
+            if on_item is not None and index + 1 < len(plan.waypoints):
+                on_item(mission_item_of(plan, numbering, index + 1))
+
+        if on_item is not None:
+            on_item(mission_item_of(plan, numbering, 0))
 
         def on_tick() -> None:
             ap.feed()
@@ -891,7 +917,9 @@ class MissionRunner:
 
     async def run(self) -> RunOutcome:
         loop = asyncio.get_running_loop()
-        install(loop, self.stop)
+        own_signals = self.opts.stop is None  # else the service owns them
+        if own_signals:
+            install(loop, self.stop)
         try:
             return await self._run()
         except Exception as exc:  # escaped the shutdown path itself: still end with a result
@@ -903,7 +931,8 @@ class MissionRunner:
                 ExitCode.INTERNAL_ERROR, summary, run_dir, [*self.messages, result_line(summary)]
             )
         finally:
-            uninstall(loop)
+            if own_signals:
+                uninstall(loop)
             self.display.close()
 
     async def _run(self) -> RunOutcome:
@@ -1002,7 +1031,7 @@ class MissionRunner:
         await self.gcs.close()
         if held.sink is not None:
             await self._bounded_close("sink", held.sink.close())
-        if ap is not None:
+        if ap is not None and self.opts.link is None:  # the service's link stays up
             ap.stop_heartbeat()
             await self._bounded_close("link", ap.close())
         self.notifier.close()

@@ -190,7 +190,7 @@ class FlightLoop:
                     self._measure_yaw_rate(sample)
                 if self.stop.requested:
                     return FlightResult(
-                        Fault(FaultCause.SIGNAL, f"{self.stop.signal_name} received"),
+                        self.stop.fault(),
                         now,
                         out,
                         pose.ned if pose else None,

@@ -25,7 +25,14 @@ from typing import Any
 import structlog
 
 from helixd.config import GcsReportConfig
-from helixd.runtime.gcs_report import Fault, GcsReporter, PhaseChange, Progress, WaypointReached
+from helixd.runtime.gcs_report import (
+    Fault,
+    GcsReporter,
+    PhaseChange,
+    Progress,
+    Said,
+    WaypointReached,
+)
 from helixd.safety.supervisor import FallbackReport
 
 __all__ = ["GcsFeed", "report_fallback"]
@@ -60,12 +67,16 @@ class GcsFeed:
     def fault(self, name: str, detail: str = "", stopped: bool = True) -> None:
         self._feed(Fault(name, detail, stopped))
 
+    def say(self, text: str, severity: int) -> None:
+        """One line of the service's own at ``severity`` (MAV_SEVERITY)."""
+        self._feed(Said(text, severity))
+
     def progress(self, xtrack_m: float | None, wp_index: int | None) -> None:
         """Latest guidance numbers (called at the control rate: only remembered here)."""
         if not self.dead:
             self._progress = Progress(xtrack_m, wp_index)
 
-    def _feed(self, event: PhaseChange | WaypointReached | Fault) -> None:
+    def _feed(self, event: PhaseChange | WaypointReached | Fault | Said) -> None:
         if self.dead:
             return
         try:

@@ -36,6 +36,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.config import GcsReportConfig
 from helixd.mav.constants import (
     MAV_SEVERITY_CRITICAL,
+    MAV_SEVERITY_ERROR,
     MAV_SEVERITY_INFO,
     MAV_SEVERITY_NOTICE,
     MAV_SEVERITY_WARNING,
@@ -47,6 +48,7 @@ __all__ = [
     "GcsReporter",
     "PhaseChange",
     "Progress",
+    "Said",
     "WaypointReached",
     "chunk_statustext",
 ]
@@ -81,6 +83,15 @@ class Fault:
 
 
 @dataclass(frozen=True, slots=True)
+class Said:
+    """A line of the service's own (``helixd serve``: state changes, a mission refused), at
+    the MAV_SEVERITY given; ERROR and worse go ahead of other texts as faults do."""
+
+    text: str
+    severity: int
+
+
+@dataclass(frozen=True, slots=True)
 class Progress:
     """Latest guidance numbers; None clears one (no longer sent)."""
 
@@ -88,7 +99,7 @@ class Progress:
     wp_index: int | None
 
 
-Event = PhaseChange | WaypointReached | Fault | Progress
+Event = PhaseChange | WaypointReached | Fault | Said | Progress
 
 
 def _ascii(text: str) -> str:
@@ -159,6 +170,9 @@ class GcsReporter:
             return []
         if isinstance(event, PhaseChange):
             self._enqueue(_Queued(MAV_SEVERITY_NOTICE, f"{PREFIX}{event.phase}", False))
+        elif isinstance(event, Said):
+            urgent = event.severity <= MAV_SEVERITY_ERROR
+            self._enqueue(_Queued(event.severity, f"{PREFIX}{event.text}", urgent))
         elif isinstance(event, WaypointReached):
             text = f"{PREFIX}reached WP {event.index + 1}/{event.total}"
             self._enqueue(_Queued(MAV_SEVERITY_INFO, text, False))

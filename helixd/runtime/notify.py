@@ -176,3 +176,15 @@ class ServiceNotifier:
             log.info("sd_notify_recovered", failed_sends=self._failed_sends)
             self._failed_sends = 0
         return True
+
+
+class FlightInServiceNotifier(ServiceNotifier):
+    """sd_notify for one flight inside ``helixd serve``: READY and STOPPING are the service's
+    to say (a flight ending is not the service stopping); the flight's STATUS lines and
+    watchdog pings go through as for ``helixd run``."""
+
+    def ready(self, status: str | None = None) -> bool:
+        return False if status is None else self.status(status)
+
+    def stopping(self, status: str | None = None) -> bool:
+        return False if status is None else self.status(status)

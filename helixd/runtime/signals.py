@@ -10,12 +10,19 @@ import asyncio
 import signal
 from dataclasses import dataclass, field
 
+from helixd.safety.watchdogs import Fault, FaultCause
+
 
 @dataclass
 class StopRequest:
+    """A request to end the flight: a signal (SIGINT/SIGTERM), or ``helixd serve``'s pause
+    (the start switch low, DO_PAUSE_CONTINUE 0), which ends it the same way — scrolls stopped,
+    overrides released, HOLD — but as a pause the service can continue from."""
+
     signal_name: str | None = None
     count: int = 0
     event: asyncio.Event = field(default_factory=asyncio.Event)
+    paused: bool = False  # the first request was a pause, not a signal
 
     @property
     def requested(self) -> bool:
@@ -29,6 +36,18 @@ class StopRequest:
         self.count += 1
         self.signal_name = self.signal_name or name
         self.event.set()
+
+    def pause(self, why: str) -> None:
+        """End the flight as a pause (``why``: who asked, e.g. "start switch RC7 low")."""
+        if self.count == 0:
+            self.paused = True
+        self.trigger(why)
+
+    def fault(self) -> Fault:
+        """How the flight ends on this request."""
+        if self.paused:
+            return Fault(FaultCause.PAUSED, f"paused: {self.signal_name}")
+        return Fault(FaultCause.SIGNAL, f"{self.signal_name} received")
 
 
 def install(loop: asyncio.AbstractEventLoop, stop: StopRequest) -> None:

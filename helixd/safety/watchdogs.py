@@ -49,13 +49,14 @@ class FaultCause(StrEnum):
     MISSION_TIME = "mission_time"
     STALL = "stall"  # scrolls commanded, rover not moving: the sand pit of field test 1
     SIGNAL = "signal"  # SIGINT / SIGTERM
+    PAUSED = "paused"  # helixd serve: the operator paused (start switch low, DO_PAUSE_CONTINUE)
     EXCEPTION = "exception"  # unhandled error inside helixd
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
     ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
 
 
 # Causes that mean "a human took over or asked to stop", not "something broke".
-OPERATOR_CAUSES = frozenset({FaultCause.PILOT_TAKEOVER, FaultCause.SIGNAL})
+OPERATOR_CAUSES = frozenset({FaultCause.PILOT_TAKEOVER, FaultCause.SIGNAL, FaultCause.PAUSED})
 
 
 @dataclass(frozen=True, slots=True)

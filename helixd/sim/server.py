@@ -451,11 +451,12 @@ def read_scripts(workdir: Path) -> dict[str, bytes]:
     return found
 
 
-def start_embedded(config: SimConfig) -> tuple[SimServer, str]:
-    """Run the simulator in-process on a free 127.0.0.1 UDP port.
+def start_embedded(config: SimConfig, extra_links: tuple[str, ...] = ()) -> tuple[SimServer, str]:
+    """Run the simulator in-process on a free 127.0.0.1 UDP port (and ``extra_links``, e.g. a
+    ground station's ``udpout:127.0.0.1:14550``, routed as ArduPilot routes its ports).
 
     Returns the server and the URL helixd should open (``udpout:127.0.0.1:PORT``).
     """
-    server = SimServer(["udpin:127.0.0.1:0"], config, embedded=True)
+    server = SimServer(["udpin:127.0.0.1:0", *extra_links], config, embedded=True)
     server.start()
     return server, f"udpout:127.0.0.1:{server.local_ports[0]}"

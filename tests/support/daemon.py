@@ -59,10 +59,16 @@ class DaemonProc:
         if self._pump_thread is not None:
             self._pump_thread.join(timeout=timeout_s)
 
-    def wait_line(self, needle: str, timeout_s: float) -> str:
-        """Block until a log line containing ``needle`` appears (or fail with the log)."""
+    def mark(self) -> int:
+        """How many lines were logged so far (for ``wait_line(after=...)``)."""
+        with self._cond:
+            return len(self.lines)
+
+    def wait_line(self, needle: str, timeout_s: float, after: int = 0) -> str:
+        """Block until a log line containing ``needle`` appears (or fail with the log); only
+        lines from number ``after`` on count (see :meth:`mark`)."""
         deadline = time.monotonic() + timeout_s
-        seen = 0
+        seen = after
         with self._cond:
             while True:
                 for line in self.lines[seen:]:

@@ -1,0 +1,121 @@
+"""``helixd serve``: the all-day service (:mod:`helixd.runtime.serve`) on the command line."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from helixd.base.exitcodes import ExitCode
+from helixd.cli.common import check_connect, config_or_exit, fail, refused
+from helixd.cli.simulated import SimChoice, sim_world, simulator
+from helixd.mav.url import LinkError, parse_link_url
+from helixd.mission import MotionMode
+from helixd.mission.expand import ExpandOptions
+from helixd.recorder.logging_setup import configure_logging
+from helixd.runtime import eventloop
+from helixd.runtime.inputs import InputsRefused
+from helixd.runtime.planned import load_occupancy
+from helixd.runtime.serve import ServeOptions, serve
+from helixd.sim.config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
+
+__all__ = ["register"]
+
+
+def serve_command(
+    config: Annotated[
+        Path | None,
+        typer.Option("--config", "-c", help="helixd.yaml (defaults built in when omitted)"),
+    ] = None,
+    connect: Annotated[
+        str | None,
+        typer.Option(
+            "--connect",
+            help="autopilot link: /dev/ttyACM0[:baud], udpin:HOST:PORT, udpout:HOST:PORT, "
+            "tcp:HOST:PORT (default: link.url from the config)",
+        ),
+    ] = None,
+    sim: Annotated[
+        bool, typer.Option("--sim", help="serve the built-in simulator, started in-process")
+    ] = False,
+    sim_speedup: Annotated[
+        float,
+        typer.Option(min=SPEEDUP_MIN, max=SPEEDUP_MAX, help="simulator speed-up (with --sim)"),
+    ] = 1.0,
+    sim_terrain: Annotated[Terrain, typer.Option(help="simulator terrain (with --sim)")] = (
+        Terrain.HARD
+    ),
+    sim_gcs: Annotated[
+        str | None,
+        typer.Option(
+            "--sim-gcs",
+            help="with --sim: also give a ground station a link to the simulator, e.g. "
+            "udpout:127.0.0.1:14550 for QGroundControl on this machine",
+        ),
+    ] = None,
+    run_dir: Annotated[
+        Path | None,
+        typer.Option("--run-dir", help="root for run directories (default: recorder.run_root)"),
+    ] = None,
+    mode: Annotated[
+        MotionMode | None,
+        typer.Option(
+            "--mode",
+            help="motion mode for the autopilot's missions (default: mission.ground_station_mode)",
+        ),
+    ] = None,
+    map_path: Annotated[
+        Path | None,
+        typer.Option("--map", help="ROS map_server map to plan every mission around"),
+    ] = None,
+    log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
+) -> None:
+    """Run all day: fly the autopilot's mission when an operator starts it (start switch,
+    MISSION_START), pause and continue on the switch or DO_PAUSE_CONTINUE; never moves on its
+    own. Stops on SIGINT/SIGTERM (a flight in progress falls back to HOLD first)."""
+    if sim and connect is not None:
+        raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
+    if sim_gcs is not None:
+        if not sim:
+            raise fail(["--sim-gcs needs --sim"], ExitCode.USAGE)
+        try:
+            parse_link_url(sim_gcs, 115200)
+        except LinkError as exc:
+            raise fail([f"--sim-gcs: {exc}"], ExitCode.USAGE) from None
+    cfg = config_or_exit(config)
+    url = check_connect(connect, cfg)
+    try:
+        occupancy = load_occupancy(cfg, map_path)
+    except InputsRefused as exc:
+        raise refused(exc) from None
+    tty = sys.stderr.isatty()
+    configure_logging(tty=tty, level=log_level)
+    choice = (
+        SimChoice(
+            sim_speedup,
+            sim_terrain,
+            Plant.HELIX,
+            NoiseLevel.LOW,
+            extra_links=() if sim_gcs is None else (sim_gcs,),
+        )
+        if sim
+        else None
+    )
+    with simulator(choice, lambda: sim_world(cfg, occupancy), url, cfg) as link_url:
+        served = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": link_url})})
+        opts = ServeOptions(
+            cfg=served,
+            config_path=config,
+            run_root=run_dir or cfg.recorder.run_root,
+            mode=mode,
+            occupancy=occupancy,
+            options=ExpandOptions(),
+        )
+        code = eventloop.run(serve(opts), cfg.link.event_loop)
+    raise typer.Exit(int(code))
+
+
+def register(app: typer.Typer) -> None:
+    app.command(name="serve")(serve_command)

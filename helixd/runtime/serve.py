@@ -1,0 +1,564 @@
+"""``helixd serve``: the all-day service the field crew drives from the radio and the GCS.
+
+Phases as uvicorn's: startup (signals, sd_notify READY at once: the service is up even with no
+autopilot) → the main loop (connect with backoff; on a link: heartbeats, the start switch, the
+autopilot's mission watched and checked, commands answered; flights run as tasks) → shutdown
+(a flight in progress is stopped through its own fall-back; the link closed).
+
+Decisions are :mod:`helixd.runtime.serve_core`'s (pure); this module is the shell around
+them. Each flight is a :class:`helixd.runtime.daemon.MissionRunner` on the service's link, so
+every invariant of ``helixd run`` holds per flight: stop, release, HOLD on every ending; a
+run directory per flight; nothing carried from one flight into the next but the resume
+record. The service never moves the rover on its own: a flight starts only on an operator's
+start (switch edge or MISSION_START), and a service (re)started by systemd comes back idle.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import time
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+
+import structlog
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.base.exitcodes import ExitCode
+from helixd.config import HelixdConfig
+from helixd.link.commands import CommandError
+from helixd.link.connection import Autopilot, LinkError, MavMsg
+from helixd.link.mission import MissionTransferError
+from helixd.link.mission_link import download_all
+from helixd.mav.constants import (
+    MAV_CMD_DO_SET_MISSION_CURRENT,
+    MAV_RESULT_ACCEPTED,
+    MAV_SEVERITY_ERROR,
+    MAV_SEVERITY_INFO,
+    MAV_SEVERITY_NOTICE,
+    MAV_SEVERITY_WARNING,
+)
+from helixd.mission import Mission, MotionMode
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.formats import mission_to_yaml
+from helixd.mission.validate import apply_mission_limits
+from helixd.planning import OccupancyMap
+from helixd.runtime.autopilot_mission import (
+    MISSION_NAME,
+    MissionRefused,
+    convert_download,
+    ground_station_mode,
+    items_sha256,
+)
+from helixd.runtime.daemon import MissionRunner, RunOptions
+from helixd.runtime.gcs_feed import GcsFeed
+from helixd.runtime.inputs import InputsRefused, config_sha256, mission_vs_config, resume_inputs
+from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
+from helixd.runtime.planned import Flight, planned_flight
+from helixd.runtime.serve_core import (
+    Answer,
+    Request,
+    ServeState,
+    ServeView,
+    SwitchWatch,
+    answer_command,
+    answer_switch,
+    state_after_flight,
+)
+from helixd.runtime.signals import StopRequest, install, uninstall
+from helixd.safety.watchdogs import FaultCause
+
+log = structlog.get_logger(__name__)
+_mav = mavlink.MAVLink(None)  # encoder only: Autopilot.send_message packs with our ids
+
+STATE_FILE_NAME = "serve-state.json"
+HX_STATE_NAME = b"hx_state"
+FLIGHT_PLAN_RECEIVED = "Flight plan received"  # ArduPilot, when an upload completes
+MAX_REFUSAL_TEXTS = 4  # STATUSTEXT lines per refused mission (the log has them all)
+
+
+@dataclass
+class ServeOptions:
+    cfg: HelixdConfig
+    config_path: Path | None  # hashed into each run's inputs (what a continue checks)
+    run_root: Path
+    mode: MotionMode | None = None  # --mode; else mission.ground_station_mode
+    occupancy: OccupancyMap | None = None
+    options: ExpandOptions = DEFAULT_OPTIONS
+
+    @property
+    def state_file(self) -> Path:
+        return self.cfg.serve.state_file or self.run_root / STATE_FILE_NAME
+
+
+@dataclass(frozen=True)
+class Checked:
+    """The autopilot's mission, checked and ready to fly."""
+
+    fingerprint: str
+    flight: Flight
+    cfg: HelixdConfig  # with the mission's own limits
+    last_item: int  # the mission's last item number
+    waypoints: int
+
+
+class Service:
+    """One ``helixd serve`` process: :meth:`run` returns only on SIGINT/SIGTERM."""
+
+    def __init__(self, opts: ServeOptions) -> None:
+        self.opts = opts
+        self.cfg = opts.cfg
+        self.stop = StopRequest()
+        self.notifier = ServiceNotifier()
+        self.state = ServeState.CONNECTING
+        self.detail = ""  # the refusal, the fault, …: what the state's text says
+        self.gcs = GcsFeed(self.cfg.gcs_report)
+        self.switch = (
+            None
+            if self.cfg.safety.start_switch_channel is None
+            else SwitchWatch(self.cfg.safety.start_switch_threshold_us)
+        )
+        self.checked: Checked | None = None
+        self.fingerprint: str | None = None  # of the mission last downloaded
+        self.busy = False
+        self.flight_task: asyncio.Task[None] | None = None
+        self.flight_stop: StopRequest | None = None
+        self.flights = 0
+        self._ap: Autopilot | None = None
+        self._mission_due = True
+        self._mission_total: int | None = None
+        self._next_poll_s = 0.0
+        self._next_state_s = 0.0
+        self._side_tasks: set[asyncio.Task[None]] = set()
+        self._interrupted = _read_state_file(opts.state_file)  # (fingerprint, run_dir) or None
+
+    # -- state --------------------------------------------------------------------------------
+
+    def _set_state(self, state: ServeState, detail: str = "", severity: int | None = None) -> None:
+        if state is self.state and detail == self.detail:
+            return
+        self.state, self.detail = state, detail
+        text = state.name.lower() + (f": {detail}" if detail else "")
+        log.info("serve_state", state=state.name.lower(), hx_state=int(state), detail=detail)
+        self.notifier.status(text)
+        self.gcs.say(text, severity or MAV_SEVERITY_NOTICE)
+        self._send_state()
+
+    def _send_state(self) -> None:
+        ap = self._ap
+        if ap is None:
+            return
+        boot_ms = int(time.monotonic() * 1000) & 0xFFFFFFFF
+        with contextlib.suppress(LinkError, OSError):
+            ap.send_message(_mav.named_value_int_encode(boot_ms, HX_STATE_NAME, int(self.state)))
+        self._next_state_s = time.monotonic() + 1.0 / self.cfg.serve.state_rate_hz
+
+    def view(self) -> ServeView:
+        resumable = (
+            self._interrupted is not None
+            and self.checked is not None
+            and self._interrupted[0] == self.checked.fingerprint
+        )
+        return ServeView(
+            state=self.state,
+            busy=self.busy,
+            refusal=self.detail if self.state in (ServeState.REFUSED, ServeState.IDLE) else "",
+            resumable=resumable,
+            switch_low=self.switch is not None and self.switch.low,
+            last_item=0 if self.checked is None else self.checked.last_item,
+        )
+
+    # -- the service --------------------------------------------------------------------------
+
+    async def run(self) -> ExitCode:
+        loop = asyncio.get_running_loop()
+        install(loop, self.stop)
+        self.notifier.ready("connecting")
+        log.info("serve_start", url=self.cfg.link.url, run_root=str(self.opts.run_root))
+        try:
+            backoff_s = self.cfg.serve.reconnect_initial_s
+            while not self.stop.requested:
+                ap = await self._open()
+                if ap is None:
+                    await self._pause(backoff_s)
+                    backoff_s = min(backoff_s * 2, self.cfg.serve.reconnect_max_s)
+                    continue
+                backoff_s = self.cfg.serve.reconnect_initial_s
+                try:
+                    await self._serve(ap)
+                finally:
+                    await self._close(ap)
+        finally:
+            self.notifier.stopping("stopping")
+            uninstall(loop)
+            await self.gcs.close()
+            self.notifier.close()
+        log.info("serve_stopped", flights=self.flights)
+        return ExitCode.OK
+
+    async def _pause(self, seconds: float) -> None:
+        with contextlib.suppress(TimeoutError):
+            await asyncio.wait_for(self.stop.event.wait(), seconds)
+
+    async def _open(self) -> Autopilot | None:
+        try:
+            ap = await Autopilot.connect(self.cfg.link, self.cfg.safety)
+        except LinkError as exc:
+            if self.state is not ServeState.CONNECTING or not self.detail:
+                self._set_state(ServeState.CONNECTING, f"link: {exc}", MAV_SEVERITY_WARNING)
+            return None
+        self._ap = ap
+        ap.start_heartbeat()  # as our own component, all day
+        ap.add_command_listener(self._on_command)
+        ap.add_message_listener(self._on_message)
+        self.gcs.start(ap.send_message)
+        return ap
+
+    async def _close(self, ap: Autopilot) -> None:
+        await self._stop_flight("service stopping")
+        for task in list(self._side_tasks):
+            task.cancel()
+        await asyncio.gather(*self._side_tasks, return_exceptions=True)
+        ap.remove_command_listener(self._on_command)
+        ap.remove_message_listener(self._on_message)
+        ap.stop_heartbeat()
+        await ap.close()
+        self._ap = None
+
+    async def _serve(self, ap: Autopilot) -> None:
+        streams = False
+        while not self.stop.requested:
+            ap.feed()
+            self.notifier.watchdog()
+            now = time.monotonic()
+            up = ap.state.last_heartbeat_s is not None and not ap.state.link_lost
+            flying = self.flight_task is not None
+            if not up and not flying:
+                self._set_state(ServeState.CONNECTING, "waiting for the autopilot's HEARTBEAT")
+                streams = False
+            elif up and not flying:
+                if not streams:
+                    streams = await self._streams(ap)
+                    self._mission_due = True
+                    if self.state is ServeState.CONNECTING:
+                        self._set_state(ServeState.IDLE, "reading the autopilot's mission")
+                if self._mission_due or now >= self._next_poll_s:
+                    await self._read_mission(ap)
+                self._watch_switch(ap)
+            elif flying:
+                self._watch_switch(ap)
+            if now >= self._next_state_s:
+                self._send_state()
+            await self._pause(self.cfg.serve.tick_s)
+
+    async def _streams(self, ap: Autopilot) -> bool:
+        try:
+            await ap.request_streams()
+        except (CommandError, LinkError) as exc:
+            log.warning("streams_request_failed", error=str(exc))
+            return False
+        return True
+
+    # -- the autopilot's mission --------------------------------------------------------------
+
+    def _on_message(self, msg: MavMsg, rx_s: float) -> None:
+        kind = msg.get_type()
+        if kind == "MISSION_CURRENT":
+            total = int(msg.total)
+            if total != self._mission_total:
+                if self._mission_total is not None:
+                    log.info("autopilot_mission_count", total=total)
+                    self._mission_due = True
+                self._mission_total = total
+        elif kind == "STATUSTEXT" and FLIGHT_PLAN_RECEIVED in str(msg.text):
+            self._mission_due = True
+
+    async def _read_mission(self, ap: Autopilot) -> None:
+        """Download the autopilot's mission (and fence); check it when it changed."""
+        self._mission_due = False
+        self._next_poll_s = time.monotonic() + self.cfg.serve.mission_poll_s
+        try:
+            got = await download_all(ap, ap.send_message)
+        except (MissionTransferError, LinkError) as exc:
+            log.info("serve_mission_read_failed", error=str(exc))
+            self._mission_due = False
+            return
+        fingerprint = items_sha256(got.mission, got.fence)
+        if fingerprint == self.fingerprint and self.state is not ServeState.IDLE:
+            return
+        self.fingerprint = fingerprint
+        self._check(got.mission, got.fence, fingerprint)
+
+    def _check(self, mission: tuple[Any, ...], fence: tuple[Any, ...], fingerprint: str) -> None:
+        """``helixd check``'s checks of the downloaded mission; the GCS is told the verdict."""
+        cfg = self.cfg
+        source = f"autopilot at {cfg.link.url}"
+        self.checked = None
+        problems: list[str] = []
+        mode = ground_station_mode(cfg, self.opts.mode)
+        if mode is None:
+            problems.append(
+                "the autopilot's mission carries no motion mode: set "
+                "mission.ground_station_mode in the config (or serve --mode)"
+            )
+        elif len(mission) <= 1:
+            self._set_state(ServeState.IDLE, "no mission on the autopilot: upload one")
+            return
+        else:
+            try:
+                got = convert_download(mission, fence, source=source, cfg=cfg, mode=mode)
+                for note in got.notes:
+                    log.info("mission_note", note=note)
+                msn = got.mission
+                notes: list[str] = []
+                checked = mission_vs_config(cfg, msn, source, problems, self.opts.options, notes)
+                if not problems and checked is not None:
+                    limited = apply_mission_limits(cfg, msn)
+                    flight = planned_flight(
+                        limited,
+                        msn,
+                        mission_to_yaml(msn),
+                        Path(MISSION_NAME),
+                        self.opts.occupancy,
+                        config_sha256(self.opts.config_path),
+                        got.fence,
+                        self.opts.options,
+                    )
+                    last_item = len(mission) - 1
+                    self.checked = Checked(
+                        fingerprint, flight, limited, last_item, _operator_waypoints(msn)
+                    )
+            except MissionRefused as exc:
+                problems.extend(exc.problems)
+            except InputsRefused as exc:
+                problems.extend(exc.problems)
+        if self.checked is None:
+            for p in problems:
+                log.error("serve_mission_refused", problem=p)
+            shown = [p.removeprefix(f"{source}: ") for p in problems]
+            self._set_state(ServeState.REFUSED, "; ".join(shown[:1]), MAV_SEVERITY_ERROR)
+            for p in shown[1:MAX_REFUSAL_TEXTS]:
+                self.gcs.say(f"refused: {p}", MAV_SEVERITY_ERROR)
+            return
+        n = self.checked.waypoints
+        resume = self.view().resumable
+        detail = f"mission checked, {n} waypoints" + (
+            " (interrupted: a start continues it)" if resume else ""
+        )
+        log.info("serve_mission_checked", waypoints=n, fingerprint=fingerprint[:12])
+        self._set_state(ServeState.READY, detail, MAV_SEVERITY_INFO)
+
+    # -- operators ----------------------------------------------------------------------------
+
+    def _watch_switch(self, ap: Autopilot) -> None:
+        if self.switch is None:
+            return
+        ch = self.cfg.safety.start_switch_channel
+        assert ch is not None
+        rc = ap.state.rc_inputs_us
+        edge = self.switch.update(rc[ch - 1] if len(rc) >= ch else None)
+        answer = answer_switch(self.view(), edge)
+        if answer is not None:
+            log.info("start_switch", edge=edge.value, result=answer.result, text=answer.text)
+            self._act(answer, f"start switch RC{ch}")
+
+    def _on_command(self, msg: MavMsg, rx_s: float) -> None:
+        """A COMMAND_LONG/INT addressed to helixd: answered at once (COMMAND_ACK)."""
+        ap = self._ap
+        if ap is None:
+            return
+        command = int(msg.command)
+        params = (float(msg.param1), float(msg.param2))
+        sender = int(msg.get_srcSystem())
+        answer = answer_command(
+            self.view(), command, params, sender, frozenset(self.cfg.serve.gcs_system_ids)
+        )
+        log.info(
+            "serve_command",
+            command=command,
+            params=params,
+            sender_sysid=sender,
+            result=answer.result,
+            text=answer.text,
+        )
+        ack = _mav.command_ack_encode(
+            command, answer.result, 0, 0, sender, int(msg.get_srcComponent())
+        )
+        with contextlib.suppress(LinkError, OSError):
+            ap.send_message(ack)
+        self._act(answer, f"system {sender}")
+
+    def _act(self, answer: Answer, who: str) -> None:
+        if answer.result != MAV_RESULT_ACCEPTED:
+            if answer.text:
+                self.gcs.say(answer.text, MAV_SEVERITY_WARNING)
+            return
+        if answer.request is Request.PAUSE:
+            if self.flight_stop is not None:
+                self.flight_stop.pause(f"{answer.text.removeprefix('pausing: ')} ({who})")
+            return
+        if answer.request is not None and self._ap is not None:
+            self.busy = True  # until the flight is under way (or refused)
+            self.flight_task = asyncio.create_task(
+                self._fly(self._ap, answer.request, who), name="serve-flight"
+            )
+
+    # -- flights ------------------------------------------------------------------------------
+
+    def _flight_for(self, request: Request) -> tuple[Flight, HelixdConfig, Path]:
+        """What to fly: the checked mission from item 1, or the interrupted run's remainder."""
+        checked = self.checked
+        assert checked is not None
+        interrupted = self._interrupted
+        if request is Request.CONTINUE and interrupted is not None:
+            run_dir = interrupted[1]
+            resumed = resume_inputs(self.opts.config_path, run_dir, None)
+            for note in resumed.notes:
+                log.info("serve_resume", note=note)
+            flight = Flight(resumed.mission, resumed.mission_yaml, None, resumed.inputs)
+            cfg = resumed.cfg.model_copy(update={"link": self.cfg.link})
+            return flight, apply_mission_limits(cfg, resumed.mission), run_dir.parent
+        return checked.flight, checked.cfg, self.opts.run_root
+
+    async def _fly(self, ap: Autopilot, request: Request, who: str) -> None:
+        try:
+            await self._fly_once(ap, request, who)
+        finally:
+            self.busy = False
+            self.flight_task = None
+            self.flight_stop = None
+
+    async def _fly_once(self, ap: Autopilot, request: Request, who: str) -> None:
+        before = self.fingerprint
+        await self._read_mission(ap)  # fly what the autopilot holds now
+        if self.checked is None or self.fingerprint != before:
+            self.gcs.say("start refused: the mission changed; checked it again", MAV_SEVERITY_ERROR)
+            return
+        try:
+            flight, cfg, run_root = self._flight_for(request)
+        except InputsRefused as exc:
+            text = "; ".join(exc.problems)
+            log.error("serve_continue_refused", problem=text)
+            self.gcs.say(f"cannot continue: {text}", MAV_SEVERITY_ERROR)
+            return
+        if self.switch is not None and self.switch.low:
+            self.gcs.say("start refused: the start switch is low", MAV_SEVERITY_WARNING)
+            return
+        if self.stop.requested:
+            return
+        self.flight_stop = StopRequest()
+        fingerprint = self.checked.fingerprint
+        self.flights += 1
+        log.info("serve_flight_start", request=request.value, by=who, flight=self.flights)
+        self._set_state(ServeState.FLYING, f"{request.value} by {who}")
+        self.busy = False
+        runner = MissionRunner(
+            RunOptions(
+                cfg=cfg,
+                mission=flight.mission,
+                mission_yaml=flight.mission_yaml,
+                connect_url=self.cfg.link.url,
+                run_root=run_root,
+                tty=False,
+                replan_from=flight.replan_from,
+                inputs=flight.inputs,
+                options=flight.options,
+                link=ap,
+                stop=self.flight_stop,
+                start_gate=False,
+                on_item=self._set_current_item,
+                notifier=FlightInServiceNotifier(),
+            )
+        )
+        outcome = await runner.run()
+        self.busy = True
+        summary = outcome.summary
+        cause = _cause(summary.fault if summary is not None else None)
+        state = state_after_flight(outcome.exit_code, cause, self.flight_stop.paused)
+        if state is ServeState.COMPLETED:
+            self._interrupted = None
+        elif outcome.run_dir is not None:
+            self._interrupted = (fingerprint, outcome.run_dir)
+        _write_state_file(self.opts.state_file, self._interrupted, state)
+        text = outcome.messages[-1].removeprefix("helixd: ") if outcome.messages else ""
+        severity = MAV_SEVERITY_NOTICE if state is not ServeState.FAULTED else MAV_SEVERITY_ERROR
+        log.info("serve_flight_end", state=state.name.lower(), exit_code=int(outcome.exit_code))
+        self._set_state(state, text, severity)
+
+    def _set_current_item(self, seq: int) -> None:
+        """The GCS highlights the item being flown (MAV_CMD_DO_SET_MISSION_CURRENT)."""
+        ap = self._ap
+        if ap is None:
+            return
+
+        async def send() -> None:
+            try:
+                await ap.action.command_long(MAV_CMD_DO_SET_MISSION_CURRENT, (float(seq), 0.0))
+            except CommandError as exc:
+                log.warning("mission_current_refused", seq=seq, error=str(exc))
+
+        task = asyncio.create_task(send(), name="mission-current")
+        self._side_tasks.add(task)
+        task.add_done_callback(self._side_tasks.discard)
+
+    async def _stop_flight(self, why: str) -> None:
+        task, stop = self.flight_task, self.flight_stop
+        if task is None:
+            return
+        if stop is not None:
+            stop.trigger(why)
+        await asyncio.gather(task, return_exceptions=True)
+
+
+def _operator_waypoints(msn: Mission) -> int:
+    return sum(not w.via for w in msn.waypoints)
+
+
+def _cause(fault_text: str | None) -> FaultCause | None:
+    """The fault cause a summary's ``fault`` ("cause: detail") starts with."""
+    from_text = (fault_text or "").split(":", 1)[0]
+    return next((c for c in FaultCause if c.value == from_text), None)
+
+
+# -- the state file (which mission was interrupted where) ------------------------------------
+
+
+def _read_state_file(path: Path) -> tuple[str, Path] | None:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError) as exc:
+        log.warning("serve_state_file_unreadable", path=str(path), error=str(exc))
+        return None
+    fingerprint, run_dir = data.get("mission_sha256"), data.get("run_dir")
+    if not isinstance(fingerprint, str) or not isinstance(run_dir, str):
+        return None
+    if not Path(run_dir).is_dir():
+        log.warning("serve_state_run_dir_gone", path=str(path), run_dir=run_dir)
+        return None
+    log.info("serve_state_loaded", run_dir=run_dir, mission_sha256=fingerprint[:12])
+    return fingerprint, Path(run_dir)
+
+
+def _write_state_file(path: Path, interrupted: tuple[str, Path] | None, state: ServeState) -> None:
+    record = {
+        "state": state.name.lower(),
+        "mission_sha256": None if interrupted is None else interrupted[0],
+        "run_dir": None if interrupted is None else str(interrupted[1].resolve()),
+        "updated_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+    }
+    tmp = path.with_suffix(".tmp")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp.write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
+        tmp.replace(path)  # atomic: a reboot mid-write leaves the old record
+    except OSError as exc:
+        log.error("serve_state_file_unwritable", path=str(path), error=str(exc))
+
+
+async def serve(opts: ServeOptions) -> ExitCode:
+    return await Service(opts).run()

@@ -1,0 +1,217 @@
+"""``helixd serve``'s decisions, pure: what the service is doing, and what it answers.
+
+No socket, clock or log here (:mod:`helixd.runtime.serve` is the shell). The service is in
+one :class:`ServeState` at a time, told to the ground station as NAMED_VALUE_INT ``hx_state``
+(the enum's value) and a STATUSTEXT on every change. Requests come from three places and are
+judged the same way:
+
+* the start switch (``safety.start_switch_channel``): a low → high edge asks to start (or
+  continue), high → low mid-flight asks to pause. A switch found high when the service comes
+  up is *not* a start: it must be seen low first, so a reboot never drives off on its own;
+* ``MAV_CMD_MISSION_START`` (param1 first item: 0 continues where the last flight stopped, 1
+  starts from item 1; param2 last item: 0 or the mission's last item) addressed to helixd;
+* ``MAV_CMD_DO_PAUSE_CONTINUE`` (param1 0 pause, 1 continue) addressed to helixd.
+
+Each command gets one :class:`Answer`: ACCEPTED with an action, DENIED with why (also for a
+sender that is not one of ``serve.gcs_system_ids``), TEMPORARILY_REJECTED while a flight is
+starting or stopping.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum, StrEnum
+
+from helixd.base.exitcodes import ExitCode
+from helixd.mav.constants import (
+    MAV_CMD_DO_PAUSE_CONTINUE,
+    MAV_CMD_MISSION_START,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_DENIED,
+    MAV_RESULT_TEMPORARILY_REJECTED,
+    MAV_RESULT_UNSUPPORTED,
+)
+from helixd.safety.watchdogs import FaultCause
+
+__all__ = [
+    "Answer",
+    "Request",
+    "ServeState",
+    "ServeView",
+    "SwitchEdge",
+    "SwitchWatch",
+    "answer_command",
+    "answer_switch",
+    "state_after_flight",
+]
+
+
+class ServeState(IntEnum):
+    """What the service is doing (NAMED_VALUE_INT ``hx_state`` carries the value)."""
+
+    CONNECTING = 0  # no autopilot HEARTBEAT
+    IDLE = 1  # connected; no mission checked yet (none stored, or reading it)
+    READY = 2  # the autopilot's mission is checked: it will fly it on an operator's start
+    REFUSED = 3  # the autopilot's mission was checked and refused (the GCS was told why)
+    FLYING = 4
+    PAUSED = 5  # an operator paused: a continue goes on from the interrupted leg
+    FAULTED = 6  # a fault or a pilot takeover ended the flight (the fall-back ran)
+    COMPLETED = 7  # the last flight completed the mission
+
+
+class Request(StrEnum):
+    """What an operator's command or switch asks the service to do."""
+
+    START = "start"  # from item 1
+    CONTINUE = "continue"  # from the first waypoint not reached (or item 1 if none)
+    PAUSE = "pause"
+
+
+@dataclass(frozen=True, slots=True)
+class ServeView:
+    """What the decisions look at."""
+
+    state: ServeState
+    busy: bool  # a flight is starting or stopping
+    refusal: str  # why the mission was refused (REFUSED), or why nothing can start yet
+    resumable: bool  # an interrupted flight of this mission can be continued
+    switch_low: bool  # a start switch is configured and is low (the pilot's veto)
+    last_item: int  # the mission's last item number (0: no mission)
+
+
+@dataclass(frozen=True, slots=True)
+class Answer:
+    result: int  # MAV_RESULT
+    text: str  # what the GCS is told (empty: nothing to say)
+    request: Request | None = None  # what to do (ACCEPTED only)
+
+
+def _finite_int(value: float) -> int | None:
+    return int(value) if math.isfinite(value) and float(value).is_integer() else None
+
+
+def _startable(view: ServeView) -> str | None:
+    """Why nothing can start now (None: it can)."""
+    if view.state is ServeState.CONNECTING:
+        return "no autopilot"
+    if view.state is ServeState.REFUSED:
+        return f"mission refused: {view.refusal}"
+    if view.state is ServeState.IDLE:
+        return view.refusal or "no mission checked yet"
+    if view.switch_low:
+        return "the start switch is low (pause): flip it high to start"
+    return None
+
+
+def answer_command(
+    view: ServeView,
+    command: int,
+    params: tuple[float, ...],
+    sender_sysid: int,
+    gcs_ids: frozenset[int],
+) -> Answer:
+    """The service's answer to one command addressed to it."""
+    if command not in (MAV_CMD_MISSION_START, MAV_CMD_DO_PAUSE_CONTINUE):
+        return Answer(MAV_RESULT_UNSUPPORTED, "")
+    if sender_sysid not in gcs_ids:
+        ids = ", ".join(str(i) for i in sorted(gcs_ids))
+        return Answer(
+            MAV_RESULT_DENIED,
+            f"system {sender_sysid} is not a ground station of this rover "
+            f"(serve.gcs_system_ids: {ids})",
+        )
+    if view.busy:
+        return Answer(MAV_RESULT_TEMPORARILY_REJECTED, "busy: a flight is starting or stopping")
+    p1 = _finite_int(params[0]) if params else None
+    if command == MAV_CMD_DO_PAUSE_CONTINUE:
+        if p1 == 0:
+            if view.state is not ServeState.FLYING:
+                return Answer(MAV_RESULT_DENIED, "pause: not flying")
+            return Answer(MAV_RESULT_ACCEPTED, "pausing", Request.PAUSE)
+        if p1 == 1:
+            return _start(view, Request.CONTINUE)
+        return Answer(MAV_RESULT_DENIED, "DO_PAUSE_CONTINUE param1 must be 0 (pause) or 1")
+    p2 = _finite_int(params[1]) if len(params) > 1 else None
+    if p1 not in (0, 1):
+        return Answer(
+            MAV_RESULT_DENIED,
+            "MISSION_START param1 (first item) must be 0 (continue) or 1 (from the start)",
+        )
+    if p2 is None or (p2 != 0 and p2 != view.last_item):
+        return Answer(
+            MAV_RESULT_DENIED,
+            f"MISSION_START param2 (last item) must be 0 or {view.last_item}: helixd flies "
+            "the whole mission",
+        )
+    return _start(view, Request.START if p1 == 1 else Request.CONTINUE)
+
+
+def _start(view: ServeView, request: Request) -> Answer:
+    if view.state is ServeState.FLYING:
+        return Answer(MAV_RESULT_TEMPORARILY_REJECTED, "busy: flying")
+    why = _startable(view)
+    if why is not None:
+        return Answer(MAV_RESULT_DENIED, f"cannot start: {why}")
+    if request is Request.CONTINUE and not view.resumable:
+        request = Request.START  # nothing interrupted: from the start
+    text = "continuing" if request is Request.CONTINUE else "starting from item 1"
+    return Answer(MAV_RESULT_ACCEPTED, text, request)
+
+
+class SwitchEdge(StrEnum):
+    NONE = "none"
+    RISING = "rising"  # low → high: start / continue
+    FALLING = "falling"  # high → low: pause
+
+
+@dataclass(slots=True)
+class SwitchWatch:
+    """The start switch's edges. ``None`` readings (no RC_CHANNELS yet, channel not sent)
+    change nothing. A switch first seen high is not an edge: it must be seen low first."""
+
+    threshold_us: int
+    _seen_low: bool = False
+    _high: bool | None = None
+
+    def update(self, pwm_us: int | None) -> SwitchEdge:
+        if pwm_us is None or pwm_us <= 0:
+            return SwitchEdge.NONE
+        high = pwm_us >= self.threshold_us
+        was, self._high = self._high, high
+        if not high:
+            self._seen_low = True
+            return SwitchEdge.FALLING if was else SwitchEdge.NONE
+        if was is False and self._seen_low:
+            return SwitchEdge.RISING
+        return SwitchEdge.NONE
+
+    @property
+    def low(self) -> bool:
+        """Low now (or never seen high): the pilot's veto on starting."""
+        return not self._high
+
+
+def answer_switch(view: ServeView, edge: SwitchEdge) -> Answer | None:
+    """What a switch edge asks (None: nothing). A rising edge that cannot start is answered
+    DENIED (the text goes to the GCS); a falling edge pauses a flight."""
+    if edge is SwitchEdge.FALLING:
+        if view.state is ServeState.FLYING:
+            return Answer(MAV_RESULT_ACCEPTED, "pausing: start switch low", Request.PAUSE)
+        return None
+    if edge is SwitchEdge.RISING:
+        if view.busy:
+            return Answer(MAV_RESULT_TEMPORARILY_REJECTED, "busy: a flight is starting or stopping")
+        return _start(view, Request.CONTINUE)
+    return None
+
+
+def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -> ServeState:
+    """Where a flight leaves the service: completed; paused (the flight ended on an operator's
+    pause, ``paused``, even one that came while it was still starting); or faulted (a fault,
+    a pilot's takeover, a refusal at its start)."""
+    if code is ExitCode.OK:
+        return ServeState.COMPLETED
+    if cause is FaultCause.PAUSED or (paused and cause in (FaultCause.SIGNAL, None)):
+        return ServeState.PAUSED
+    return ServeState.FAULTED

@@ -1,0 +1,75 @@
+"""A ground station as QGroundControl behaves on the wire, for ``helixd serve`` tests: system
+255, heartbeats, uploads a mission with the MAVLink mission protocol (MISSION_COUNT, answering
+each MISSION_REQUEST(_INT) with MISSION_ITEM_INT, until MISSION_ACK) and sends commands to
+helixd's own system/component id, reading the COMMAND_ACK helixd sends back. Waiting is on
+messages with deadlines, never on sleeps."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.base.frames import ne_to_latlon
+from helixd.config import LinkConfig
+from helixd.sim import SimConfig
+from tests.support.harness import MavClient
+
+QGC_SYSID = 255
+HELIXD = (
+    int(LinkConfig.model_fields["source_system"].default),
+    int(LinkConfig.model_fields["source_component"].default),
+)
+SIM = SimConfig()
+
+
+def latlon(north_m: float, east_m: float) -> tuple[float, float]:
+    return ne_to_latlon(north_m, east_m, SIM.origin_lat_deg, SIM.origin_lon_deg)
+
+
+def waypoint(seq: int, north_m: float, east_m: float) -> Any:
+    lat, lon = latlon(north_m, east_m)
+    return mavlink.MAVLink_mission_item_int_message(
+        1, 1, seq, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_WAYPOINT,
+        0, 1, 0.0, 0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0,
+        mavlink.MAV_MISSION_TYPE_MISSION,
+    )  # fmt: skip
+
+
+def upload(gcs: MavClient, points_ne_m: list[tuple[float, float]], timeout_s: float = 20.0) -> None:
+    """Upload home + one NAV_WAYPOINT per point; AssertionError unless MISSION_ACK ACCEPTED."""
+    items = [
+        waypoint(0, 0.0, 0.0),
+        *(waypoint(i + 1, n, e) for i, (n, e) in enumerate(points_ne_m)),
+    ]
+    gcs.mav.mission_count_send(1, 1, len(items), mavlink.MAV_MISSION_TYPE_MISSION)
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        msg = gcs.conn.recv_match(
+            type=["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"], blocking=True,
+            timeout=0.5,
+        )  # fmt: skip
+        if msg is None or int(msg.target_system) != QGC_SYSID:
+            continue
+        if msg.get_type() == "MISSION_ACK":
+            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, f"upload refused: {msg}"
+            return
+        item = items[int(msg.seq)]
+        item.seq = int(msg.seq)
+        gcs.mav.send(item)
+    raise AssertionError("mission upload: no MISSION_ACK")
+
+
+def command(gcs: MavClient, cmd: int, *params: float, timeout_s: float = 10.0) -> int:
+    """COMMAND_LONG to helixd; the result of helixd's COMMAND_ACK for it."""
+    p = [*params, *([0.0] * (7 - len(params)))]
+    gcs.heartbeat()  # a GCS heartbeats all the time: the autopilot knows its route
+    gcs.mav.command_long_send(HELIXD[0], HELIXD[1], cmd, 0, *p)
+    ack = gcs.recv(
+        "COMMAND_ACK",
+        timeout_s,
+        lambda m: int(m.command) == cmd and int(m.get_srcSystem()) == HELIXD[0],
+    )
+    assert ack is not None, f"no COMMAND_ACK from helixd for command {cmd}"
+    return int(ack.result)
