@@ -1,0 +1,190 @@
+"""helixd serve's decisions, with numbers alone (helixd.runtime.serve_core)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from helixd.base.exitcodes import ExitCode
+from helixd.mav.constants import (
+    MAV_CMD_DO_PAUSE_CONTINUE,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_MISSION_START,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_DENIED,
+    MAV_RESULT_TEMPORARILY_REJECTED,
+    MAV_RESULT_UNSUPPORTED,
+)
+from helixd.runtime.serve_core import (
+    Request,
+    ServeState,
+    ServeView,
+    SwitchEdge,
+    SwitchWatch,
+    answer_command,
+    answer_switch,
+    state_after_flight,
+)
+from helixd.safety.watchdogs import FaultCause
+
+GCS = frozenset({255})
+
+
+def view(state: ServeState = ServeState.READY, **kw: object) -> ServeView:
+    base: dict[str, object] = {
+        "state": state,
+        "busy": False,
+        "refusal": "",
+        "resumable": False,
+        "switch_low": False,
+        "last_item": 4,
+    }
+    return ServeView(**{**base, **kw})  # type: ignore[arg-type]
+
+
+def test_mission_start_from_a_ground_station_starts_a_checked_mission() -> None:
+    a = answer_command(view(), MAV_CMD_MISSION_START, (0.0, 0.0), 255, GCS)
+    assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.START)  # nothing to continue
+    a = answer_command(view(resumable=True), MAV_CMD_MISSION_START, (0.0, 4.0), 255, GCS)
+    assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.CONTINUE)
+    a = answer_command(view(resumable=True), MAV_CMD_MISSION_START, (1.0, 0.0), 255, GCS)
+    assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.START)  # from item 1
+
+
+@pytest.mark.parametrize(
+    ("state", "kw", "result", "why"),
+    [
+        (ServeState.READY, {"busy": True}, MAV_RESULT_TEMPORARILY_REJECTED, "busy"),
+        (ServeState.FLYING, {}, MAV_RESULT_TEMPORARILY_REJECTED, "busy: flying"),
+        (ServeState.REFUSED, {"refusal": "wp 2 too far"}, MAV_RESULT_DENIED, "wp 2 too far"),
+        (ServeState.IDLE, {}, MAV_RESULT_DENIED, "no mission checked"),
+        (ServeState.CONNECTING, {}, MAV_RESULT_DENIED, "no autopilot"),
+        (ServeState.READY, {"switch_low": True}, MAV_RESULT_DENIED, "start switch is low"),
+    ],
+)
+def test_mission_start_refused_with_the_reason(
+    state: ServeState, kw: dict[str, object], result: int, why: str
+) -> None:
+    a = answer_command(view(state, **kw), MAV_CMD_MISSION_START, (0.0, 0.0), 255, GCS)
+    assert a.result == result and why in a.text and a.request is None
+
+
+@pytest.mark.parametrize(
+    ("params", "why"),
+    [
+        ((2.0, 0.0), "param1"),
+        ((math.nan, 0.0), "param1"),
+        ((0.5, 0.0), "param1"),
+        ((0.0, 3.0), "param2"),
+        ((0.0, math.inf), "param2"),
+    ],
+)
+def test_mission_start_params_outside_what_helixd_flies_are_denied(
+    params: tuple[float, float], why: str
+) -> None:
+    a = answer_command(view(), MAV_CMD_MISSION_START, params, 255, GCS)
+    assert a.result == MAV_RESULT_DENIED and why in a.text
+
+
+def test_commands_from_other_systems_are_denied_and_others_unsupported() -> None:
+    a = answer_command(view(), MAV_CMD_MISSION_START, (0.0, 0.0), 250, GCS)
+    assert a.result == MAV_RESULT_DENIED and "system 250" in a.text and "255" in a.text
+    a = answer_command(view(), MAV_CMD_DO_SET_MODE, (1.0, 4.0), 255, GCS)
+    assert a.result == MAV_RESULT_UNSUPPORTED
+
+
+def test_pause_and_continue() -> None:
+    flying = view(ServeState.FLYING)
+    a = answer_command(flying, MAV_CMD_DO_PAUSE_CONTINUE, (0.0,), 255, GCS)
+    assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.PAUSE)
+    a = answer_command(view(), MAV_CMD_DO_PAUSE_CONTINUE, (0.0,), 255, GCS)
+    assert a.result == MAV_RESULT_DENIED and "not flying" in a.text
+    paused = view(ServeState.PAUSED, resumable=True)
+    a = answer_command(paused, MAV_CMD_DO_PAUSE_CONTINUE, (1.0,), 255, GCS)
+    assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.CONTINUE)
+    a = answer_command(paused, MAV_CMD_DO_PAUSE_CONTINUE, (2.0,), 255, GCS)
+    assert a.result == MAV_RESULT_DENIED
+
+
+@given(
+    st.sampled_from(list(ServeState)),
+    st.booleans(),
+    st.booleans(),
+    st.booleans(),
+    st.sampled_from([MAV_CMD_MISSION_START, MAV_CMD_DO_PAUSE_CONTINUE]),
+    st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=0, max_size=2),
+    st.integers(1, 255),
+)
+def test_only_a_ground_station_with_a_startable_mission_ever_gets_a_start(
+    state: ServeState,
+    busy: bool,
+    resumable: bool,
+    switch_low: bool,
+    command: int,
+    params: list[float],
+    sender: int,
+) -> None:
+    """Total on any input; a start or continue is accepted only from a ground station, not
+    busy, with a checked mission (READY, PAUSED, FAULTED, COMPLETED) and the switch not low."""
+    v = view(state, busy=busy, resumable=resumable, switch_low=switch_low)
+    a = answer_command(v, command, tuple(params), sender, GCS)
+    if a.request in (Request.START, Request.CONTINUE):
+        assert sender in GCS and not busy and not switch_low
+        assert state in (
+            ServeState.READY,
+            ServeState.PAUSED,
+            ServeState.FAULTED,
+            ServeState.COMPLETED,
+        )
+    if a.request is Request.PAUSE:
+        assert state is ServeState.FLYING and sender in GCS
+    if a.result != MAV_RESULT_ACCEPTED:
+        assert a.request is None
+
+
+def test_a_switch_found_high_is_no_start_until_seen_low() -> None:
+    w = SwitchWatch(threshold_us=1700)
+    assert w.update(None) is SwitchEdge.NONE and w.low
+    assert w.update(1900) is SwitchEdge.NONE  # high at boot: not a start
+    assert w.update(1900) is SwitchEdge.NONE
+    assert w.update(1100) is SwitchEdge.FALLING
+    assert w.low
+    assert w.update(1100) is SwitchEdge.NONE
+    assert w.update(1900) is SwitchEdge.RISING
+    assert not w.low
+    assert w.update(0) is SwitchEdge.NONE  # not sent: no change
+    assert w.update(1600) is SwitchEdge.FALLING
+
+
+def test_switch_edges_start_and_pause() -> None:
+    a = answer_switch(view(), SwitchEdge.RISING)
+    assert a is not None and (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.START)
+    a = answer_switch(view(ServeState.PAUSED, resumable=True), SwitchEdge.RISING)
+    assert a is not None and a.request is Request.CONTINUE
+    a = answer_switch(view(ServeState.REFUSED, refusal="too far"), SwitchEdge.RISING)
+    assert a is not None and a.result == MAV_RESULT_DENIED and "too far" in a.text
+    a = answer_switch(view(ServeState.FLYING), SwitchEdge.FALLING)
+    assert a is not None and a.request is Request.PAUSE
+    assert answer_switch(view(), SwitchEdge.FALLING) is None
+    assert answer_switch(view(ServeState.FLYING), SwitchEdge.NONE) is None
+
+
+@pytest.mark.parametrize(
+    ("code", "cause", "paused", "state"),
+    [
+        (ExitCode.OK, None, False, ServeState.COMPLETED),
+        (ExitCode.OPERATOR_STOP, FaultCause.PAUSED, True, ServeState.PAUSED),
+        (ExitCode.OPERATOR_STOP, FaultCause.SIGNAL, True, ServeState.PAUSED),  # while starting
+        (ExitCode.OPERATOR_STOP, FaultCause.PILOT_TAKEOVER, False, ServeState.FAULTED),
+        (ExitCode.OPERATOR_STOP, FaultCause.PILOT_TAKEOVER, True, ServeState.FAULTED),
+        (ExitCode.FAULT, FaultCause.LINK_LOST, False, ServeState.FAULTED),
+        (ExitCode.PREFLIGHT, FaultCause.PREFLIGHT, False, ServeState.FAULTED),
+    ],
+)
+def test_state_after_flight(
+    code: ExitCode, cause: FaultCause | None, paused: bool, state: ServeState
+) -> None:
+    assert state_after_flight(code, cause, paused) is state
