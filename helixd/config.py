@@ -375,7 +375,7 @@ class LinkConfig(InputModel):
         50.0, ge=1.0, le=100.0, description="LOCAL_POSITION_NED/ATTITUDE rate to ask for (Hz)"
     )
     telemetry_rate_hz: float = Field(
-        5.0, ge=0.5, le=50.0, description="EKF/SYS_STATUS/RC/SERVO stream rate (Hz)"
+        5.0, ge=0.5, le=50.0, description="EKF/SYS_STATUS/RC/SERVO/MISSION_CURRENT stream rate (Hz)"
     )
     command_timeout_s: float = Field(
         1.0, gt=0.0, le=30.0, description="wait for COMMAND_ACK/PARAM_VALUE per try (s)"

@@ -20,6 +20,7 @@ from helixd.link.telemetry import ChangeWaiters
 from helixd.link.vehicle import Change, HomePosition, VehicleState, mode_number
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MISSION_CURRENT,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_DO_SET_SERVO,
     MAV_CMD_REQUEST_MESSAGE,
@@ -123,6 +124,21 @@ class Action:
     async def set_servo(self, channel: int, pwm_us: int) -> None:
         """MAV_CMD_DO_SET_SERVO (a latched output: see :mod:`helixd.actuators.servo`)."""
         await self.command_long(MAV_CMD_DO_SET_SERVO, (channel, pwm_us))
+
+    async def set_mission_current(self, seq: int) -> None:
+        """MAV_CMD_DO_SET_MISSION_CURRENT (param1 ``seq``, param2 0: no reset): make ``seq``
+        the autopilot's current mission item (ValueError outside 0..65535).
+
+        ArduPilot (handle_command_do_set_mission_current, AP_Mission::set_current_cmd) moves
+        its current item to the first NAV command at or after ``seq`` (0 means 1) and answers
+        DENIED for an index past the end, FAILED when no NAV command follows: both raise
+        :class:`CommandRejected`. The item it chose arrives as MISSION_CURRENT
+        (``VehicleState.mission_current``, :attr:`Change.MISSION_CURRENT`).
+        """
+        if isinstance(seq, bool) or not isinstance(seq, int) or not 0 <= seq <= UINT16_MAX:
+            raise ValueError(f"mission item must be an integer 0..{UINT16_MAX}, got {seq!r}")
+        await self.command_long(MAV_CMD_DO_SET_MISSION_CURRENT, (seq, 0))
+        log.info("mission_current_set", seq=seq)
 
     async def request_gps_origin(self, timeout_s: float) -> tuple[float, float] | None:
         """(lat_deg, lon_deg) of the EKF origin via MAV_CMD_REQUEST_MESSAGE; None if none."""

@@ -43,7 +43,15 @@ from helixd.mav.constants import (
 log = structlog.get_logger(__name__)
 
 POSE_STREAMS = ("LOCAL_POSITION_NED", "ATTITUDE")
-TELEMETRY_STREAMS = ("EKF_STATUS_REPORT", "SYS_STATUS", "RC_CHANNELS", "SERVO_OUTPUT_RAW")
+TELEMETRY_STREAMS = (
+    "EKF_STATUS_REPORT",
+    "SYS_STATUS",
+    "RC_CHANNELS",
+    "SERVO_OUTPUT_RAW",
+    # ArduPilot streams it in EXTENDED_STATUS at SRn_EXT_STAT (Rover: 1 Hz), which a GCS's
+    # REQUEST_DATA_STREAM can stop; asked for by id like the rest (MSG_CURRENT_WAYPOINT)
+    "MISSION_CURRENT",
+)
 US_PER_S = 1_000_000
 US_PER_MS = 1000
 MS_DENY_FACTOR = 800  # cap_message_interval: denied when interval_ms * 800 < loop period (µs)

@@ -29,6 +29,8 @@ from helixd.base.frames import NedPose
 from helixd.config import SafetyConfig
 from helixd.mav.constants import (
     MAV_MODE_FLAG_SAFETY_ARMED,
+    MISSION_STATE_MAX,
+    MISSION_STATE_UNKNOWN,
     ROVER_MODE_NUMBERS,
     ROVER_MODES,
     UINT16_MAX,
@@ -101,6 +103,7 @@ class Change:
     POSE_REJECTED = 8192  # a LOCAL_POSITION_NED / ATTITUDE was rejected (see pose_invalid_*)
     HOME = 16384  # HOME_POSITION: the autopilot has a home (it arms only then)
     GPS = 32768  # GPS_RAW_INT: fix type and satellites
+    MISSION_CURRENT = 65536  # MISSION_CURRENT: the autopilot's current item / mission size
 
 
 @dataclass(frozen=True, slots=True)
@@ -113,6 +116,23 @@ class HomePosition:
     # (no origin yet: GCS_MAVLINK::send_home_position sends NaN)
     north_m: float | None
     east_m: float | None
+
+
+@dataclass(frozen=True, slots=True)
+class MissionCurrent:
+    """MISSION_CURRENT: the autopilot's mission as it reports it.
+
+    ArduPilot (GCS_MAVLINK::send_mission_current): ``seq`` is the current NAV item
+    (AP_Mission::get_current_nav_index, 0 while there is none), ``total`` the stored items
+    without home (row 0), ``mission_state`` a MISSION_STATE (NO_MISSION, NOT_STARTED outside
+    AUTO, ACTIVE while AUTO runs it, COMPLETE; UNKNOWN from an autopilot that does not fill
+    it or sent a value this dialect does not know).
+    """
+
+    seq: int
+    total: int
+    mission_state: int
+    rx_monotonic_s: float
 
 
 @dataclass(frozen=True, slots=True)
@@ -246,6 +266,13 @@ class StatusText:
     rx_monotonic_s: float
 
 
+def _uint16(value: object) -> int | None:
+    """A wire field that must be an integer 0..65535 (bool and float are not); else None."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        return None
+    return value if 0 <= value <= UINT16_MAX else None
+
+
 def _text(value: object) -> str:
     if isinstance(value, bytes | bytearray):
         value = value.decode("utf-8", errors="replace")
@@ -285,6 +312,8 @@ class VehicleState:
     home: HomePosition | None = None
     home_rx_s: float | None = None
     home_rejected_count: int = 0  # HOME_POSITION off the Earth or with absurd values
+    mission_current: MissionCurrent | None = None
+    mission_current_rejected_count: int = 0  # MISSION_CURRENT with seq/total beyond uint16
     battery_voltage_v: float | None = None
     battery_remaining_pct: int | None = None  # SYS_STATUS, 0..100; None: not reported
     gps_fix_type: int | None = None  # GPS_RAW_INT.fix_type (GPS_FIX_TYPE, 0..8)
@@ -386,6 +415,7 @@ class VehicleState:
             self.yaw_ned_rad = None
             self.attitude_time_boot_ms = None
             self.home = None  # a new boot sets its own
+            self.mission_current = None  # a new boot has no current item yet
             return Change.REBOOT
         return Change.NONE
 
@@ -522,6 +552,20 @@ class VehicleState:
         self.home_rx_s = rx_s
         return Change.HOME
 
+    def _mission_current(self, msg: MavMsg, rx_s: float) -> int:
+        """MISSION_CURRENT, checked once here: seq and total must be uint16 integers (else
+        the message is counted and dropped); a mission_state outside MISSION_STATE (or
+        missing: a MAVLink 1 sender) reads as UNKNOWN."""
+        seq, total = _uint16(getattr(msg, "seq", None)), _uint16(getattr(msg, "total", None))
+        if seq is None or total is None:
+            self.mission_current_rejected_count += 1
+            return Change.NONE
+        state = _uint16(getattr(msg, "mission_state", None))
+        if state is None or state > MISSION_STATE_MAX:
+            state = MISSION_STATE_UNKNOWN
+        self.mission_current = MissionCurrent(seq, total, state, rx_s)
+        return Change.MISSION_CURRENT
+
     def _statustext(self, msg: MavMsg, rx_s: float) -> int:
         self.statustexts.append(StatusText(int(msg.severity), _text(msg.text), rx_s))
         while len(self.statustexts) > self.statustext_history:
@@ -559,4 +603,5 @@ _HANDLERS: dict[str, Callable[[VehicleState, MavMsg, float], int]] = {
     "STATUSTEXT": VehicleState._statustext,
     "SYS_STATUS": VehicleState._sys_status,
     "GPS_RAW_INT": VehicleState._gps_raw,
+    "MISSION_CURRENT": VehicleState._mission_current,
 }

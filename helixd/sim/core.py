@@ -94,7 +94,10 @@ class SimCore:
         self._origin_sent = False
         self.inbound = InboundHandler(self)
         self.mission = MissionServer(
-            config.origin_lat_deg, config.origin_lon_deg, config.origin_alt_m
+            config.origin_lat_deg,
+            config.origin_lon_deg,
+            config.origin_alt_m,
+            requires_mission=lambda: self.ap.mode == MODE_NUMBERS["AUTO"],
         )
         self._params_view: tuple[int, Mapping[str, float]] = (-1, MappingProxyType({}))
         self.view = self._view(self.ekf_status(), self.now_s)
@@ -147,7 +150,10 @@ class SimCore:
         self.inject(make_spec("reboot", {}))
 
     def mission_message(self, link: int, msg: Message) -> None:
-        self._mission_outcome(self.mission.handle(link, msg, self.now_s))
+        self.mission_outcome(self.mission.handle(link, msg, self.now_s))
+
+    def set_mission_current(self, link: int, param1: float, param2: float) -> tuple[int, Outcome]:
+        return self.mission.do_set_mission_current(link, param1, param2)
 
     def ftp_request(self, link: int, payload: bytes, sysid: int, compid: int) -> None:
         """GCS_FTP: each reply goes back to the sender on the link the request came in on."""
@@ -158,7 +164,7 @@ class SimCore:
         ):
             self.send(link, file_transfer_protocol(reply, sysid, compid))
 
-    def _mission_outcome(self, out: Outcome) -> None:
+    def mission_outcome(self, out: Outcome) -> None:
         for step in out.steps:
             if isinstance(step, StatusText):
                 self.say(step)
@@ -298,7 +304,7 @@ class SimCore:
                 built = telemetry.build(msg_id, self.view)
                 if built is not None:
                     self.send(None, built)
-        self._mission_outcome(self.mission.update(now))
+        self.mission_outcome(self.mission.update(now))
         self._telemetry(now)
 
     def _plant_step(self, outputs: list[int]) -> PhysicsState:
@@ -361,6 +367,7 @@ class SimCore:
             if ap.home is None
             else (ap.home.lat_deg, ap.home.lon_deg, ap.home.north_m, ap.home.east_m),
             relay_masks=ap.payload.relay_status(self.params),
+            mission_current=self.mission.mission_current_fields(),
         )
 
     def _telemetry(self, now: float) -> None:

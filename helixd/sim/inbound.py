@@ -7,7 +7,9 @@ the handler and hands itself in as the port).
 Routing as ArduPilot's MAVLink_routing::check_and_forward: a message carrying a
 target_system is processed only when it is 0 (broadcast) or our sysid, and for our sysid only
 when target_component is 0 or ours. Commands come back with COMMAND_ACK to the sender's
-link; unknown commands → MAV_RESULT_UNSUPPORTED. PARAM_SET answers with PARAM_VALUE on every
+link; unknown commands → MAV_RESULT_UNSUPPORTED. MAV_CMD_DO_SET_MISSION_CURRENT goes to the
+mission (helixd.sim.mission); what it queues (MISSION_CURRENT, jump texts) follows the ACK, as
+ArduPilot's deferred ``send_message`` does. PARAM_SET answers with PARAM_VALUE on every
 link (GCS::send_parameter_value); an unknown name gets no answer at all.
 """
 
@@ -17,6 +19,7 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from helixd.mav.constants import (
+    MAV_CMD_DO_SET_MISSION_CURRENT,
     MAV_CMD_GET_MESSAGE_INTERVAL,
     MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
     MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
@@ -32,7 +35,7 @@ from helixd.sim import streams as st
 from helixd.sim.autopilot import Autopilot, SimEvent, StatusText
 from helixd.sim.estimator import EkfStatus
 from helixd.sim.messages import Message
-from helixd.sim.mission import MissionServer
+from helixd.sim.mission import MissionServer, Outcome
 from helixd.sim.params import ParamStore
 
 MISSION_MESSAGES = MissionServer.MESSAGES
@@ -92,6 +95,14 @@ class InboundPort(Protocol):
 
     def mission_message(self, link: int, msg: Message) -> None:
         """A MISSION_* message for the mission protocol (helixd.sim.mission)."""
+        ...
+
+    def set_mission_current(self, link: int, param1: float, param2: float) -> tuple[int, Outcome]:
+        """MAV_CMD_DO_SET_MISSION_CURRENT: (MAV_RESULT, what to send after the ACK)."""
+        ...
+
+    def mission_outcome(self, out: Outcome) -> None:
+        """Put a mission outcome's messages and texts on the wire, in order."""
         ...
 
     def ftp_request(self, link: int, payload: bytes, sysid: int, compid: int) -> None:
@@ -174,13 +185,20 @@ class InboundHandler:
         self, link: int, command: int, p: list[float], src: int, comp: int, is_int: bool = False
     ) -> None:
         core = self.core
-        result = self._link_command(link, command, p)
+        after_ack: Outcome | None = None
+        result: int | None
+        if command == MAV_CMD_DO_SET_MISSION_CURRENT:
+            result, after_ack = core.set_mission_current(link, p[0], p[1])
+        else:
+            result = self._link_command(link, command, p)
         if result is None:
             result = core.ap.command(command, p, core.now_s, core.ekf_status(), is_int)
         if result is None:
             result = MAV_RESULT_UNSUPPORTED
         core.record(SimEvent("command", {"command": command, "result": result, "sysid": src}))
         core.send(link, messages.command_ack(command, result, src, comp))
+        if after_ack is not None:
+            core.mission_outcome(after_ack)
         if command == MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN and result == MAV_RESULT_ACCEPTED:
             core.reboot_after_replies()  # the ACK goes out before the reboot
 

@@ -223,6 +223,10 @@ def home_position(
     )
 
 
+def mission_current(seq: int, total: int, mission_state: int, mission_mode: int) -> Message:
+    return _m(mavlink.MAVLink_mission_current_message(seq, total, mission_state, mission_mode))
+
+
 def relay_status(time_boot_ms: int, on_mask: int, present_mask: int) -> Message:
     return _m(mavlink.MAVLink_relay_status_message(time_boot_ms, on_mask, present_mask))
 

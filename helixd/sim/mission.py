@@ -32,9 +32,37 @@ Behaviours (each cites its ArduPilot function):
   own home there (``read_cmd_from_storage`` index 0), whatever an upload wrote to it.
 * MISSION_CLEAR_ALL → ACCEPTED, or ERROR while an upload is in progress
   (``handle_mission_clear_all``); clearing the mission leaves 0 items (``AP_Mission::clear``).
-* MISSION_SET_CURRENT (``GCS_MAVLINK::handle_mission_set_current``): a valid seq (1 .. count-1)
-  becomes current and MISSION_CURRENT goes to every link; otherwise nothing.
-* MISSION_CURRENT (``GCS_MAVLINK::send_mission_current``): seq and total (home excluded).
+* The current item (``AP_Mission::set_current_cmd`` with the mission not running — Rover
+  runs it only in AUTO, which the simulator refuses): an index past the end, or a mission of
+  home alone, fails; index 0 means 1 and restarts the jump counters; the current *nav* index
+  becomes the first NAV command (``is_nav_cmd``: id ≤ MAV_CMD_NAV_LAST, NAV_SET_YAW_SPEED,
+  NAV_SCRIPT_TIME, NAV_ATTITUDE_TIME) at or after it, following DO_JUMP / DO_JUMP_TAG
+  (``get_next_cmd`` with its jump counters, "Mission: N Jump i/n" texts and the 64-jump
+  limit); no NAV command there fails and leaves no current command (seq 0). The mission
+  stays stopped. At boot and after a clear there is no current command
+  (``get_current_nav_index`` reads 0); an upload leaves it as it was.
+* MISSION_SET_CURRENT (``GCS_MAVLINK::handle_mission_set_current``): ``set_current_cmd(seq)``;
+  on success MISSION_CURRENT with the *requested* seq goes back to the sender's link only
+  (``send_mission_current(mission, packet.seq)``, some GCSs take it as the ack); on failure
+  nothing.
+* MAV_CMD_DO_SET_MISSION_CURRENT (``GCS_MAVLINK::handle_command_do_set_mission_current``,
+  :meth:`MissionServer.do_set_mission_current`): seq = param1 as uint32, narrowed to uint16 by
+  ``is_valid_index``; seq ≥ count → DENIED (a NaN/negative param1, undefined in C++, is DENIED
+  here); param2 == 1 ``reset()``s the mission first (current command and jump counters) and
+  ``resume()``s it after; ``set_current_cmd`` failing → FAILED; ACCEPTED → MISSION_CURRENT
+  (``send_message(MSG_CURRENT_WAYPOINT)``: the nav index) after the ACK, on the commanding
+  link only (``GCS_MAVLINK::send_message`` is per channel despite the source's "all
+  listeners" comment). A resumed mission is RUNNING: further set-current calls take
+  ``advance_current_nav_cmd``'s search (same NAV item found; the DO/NAV ``start_command``
+  callbacks it runs, even outside AUTO, are not modelled).
+* MISSION_CURRENT (``GCS_MAVLINK::send_mission_current``, streamed in EXTENDED_STATUS as
+  MSG_CURRENT_WAYPOINT): seq = ``get_current_nav_index()``, total excludes home, mission_state
+  from ``GCS_MAVLINK::mission_state`` (NO_MISSION unless ``present()`` — more than home —,
+  stopped NOT_STARTED, running ACTIVE, complete COMPLETE), mission_mode 1 only in a mode that
+  ``current_mode_requires_mission`` (Rover: AUTO).
+* MISSION_ITEM(_INT).current as ``MissionItemProtocol_Waypoints::get_item`` sets it: 1 when the
+  item's *command id* equals the current nav index (ArduPilot compares ``cmd.id``, not the
+  index), so normally 0.
 * Per type (:class:`TypeRules`): the mission and rally points are written item by item and
   truncated to the announced count at MISSION_COUNT; the fence is collected aside and written
   on completion (``MissionItemProtocol_Fence::complete``), so a failed fence upload keeps the
@@ -65,6 +93,12 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.mav.constants import (
     MAV_CMD_DO_JUMP,
+    MAV_CMD_DO_JUMP_TAG,
+    MAV_CMD_JUMP_TAG,
+    MAV_CMD_NAV_ATTITUDE_TIME,
+    MAV_CMD_NAV_LAST,
+    MAV_CMD_NAV_SCRIPT_TIME,
+    MAV_CMD_NAV_SET_YAW_SPEED,
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL,
     MAV_FRAME_GLOBAL_INT,
@@ -88,8 +122,16 @@ from helixd.mav.constants import (
     MAV_MISSION_TYPE_RALLY,
     MAV_MISSION_UNSUPPORTED,
     MAV_MISSION_UNSUPPORTED_FRAME,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_DENIED,
+    MAV_RESULT_FAILED,
     MAV_SEVERITY_INFO,
     MAV_SEVERITY_WARNING,
+    MISSION_STATE_ACTIVE,
+    MISSION_STATE_COMPLETE,
+    MISSION_STATE_NO_MISSION,
+    MISSION_STATE_NOT_STARTED,
+    UINT16_MAX,
 )
 from helixd.sim.autopilot import StatusText
 from helixd.sim.messages import Message
@@ -134,6 +176,24 @@ LOCATION_COMMANDS = frozenset(
 FENCE_COMMANDS = frozenset({5000, 5001, 5002, 5003, 5004})
 FENCE_FRAMES = ACCEPTED_FRAMES - {MAV_FRAME_MISSION}
 RALLY_COMMANDS = frozenset({5100})  # MissionItemProtocol_Rally: MAV_CMD_NAV_RALLY_POINT
+
+# AP_Mission
+CMD_INDEX_NONE = UINT16_MAX  # AP_MISSION_CMD_INDEX_NONE
+NAV_EXCEPTIONS = frozenset(
+    {MAV_CMD_NAV_SET_YAW_SPEED, MAV_CMD_NAV_SCRIPT_TIME, MAV_CMD_NAV_ATTITUDE_TIME}
+)
+MAX_JUMP_COMMANDS = 100  # AP_MISSION_MAX_NUM_DO_JUMP_COMMANDS (HAL_MEM_CLASS_500 and SITL)
+JUMP_TIMES_MAX = 32767  # AP_MISSION_JUMP_TIMES_MAX: what an untracked jump has "run"
+JUMP_REPEAT_FOREVER = -1  # AP_MISSION_JUMP_REPEAT_FOREVER
+GET_NEXT_CMD_MAX_JUMPS = 64  # get_next_cmd's max_loops
+ADVANCE_MAX_LOOPS = 255  # advance_current_nav_cmd's max_loops
+FLT_EPSILON = 1.1920929e-07  # is_equal(float, float)
+MISSION_STOPPED, MISSION_RUNNING, MISSION_COMPLETE = 0, 1, 2  # AP_Mission::mission_state
+MISSION_STATES = {  # GCS_MAVLINK::mission_state
+    MISSION_STOPPED: MISSION_STATE_NOT_STARTED,
+    MISSION_RUNNING: MISSION_STATE_ACTIVE,
+    MISSION_COMPLETE: MISSION_STATE_COMPLETE,
+}
 
 UPLOAD_TIMEOUT_S = 8.0  # MissionItemProtocol::upload_timeout_ms
 REREQUEST_S = 1.0  # MissionItemProtocol::update: wp_recv_timeout_ms (no stream slowdown)
@@ -486,9 +546,10 @@ class ItemProtocol:
         who: tuple[int, int],
         msg: Any,
         as_int: bool,
-        current_seq: int,
+        nav_index: int,
     ) -> None:
-        """handle_mission_request_int / handle_mission_request."""
+        """handle_mission_request_int / handle_mission_request (``nav_index``: AP_Mission's
+        raw current nav index, CMD_INDEX_NONE when there is none)."""
         if not self._mavlink2_ok(out, link, who, msg):
             return
         if self.upload is not None:
@@ -499,7 +560,10 @@ class ItemProtocol:
         if item is None or (seq != 0 and seq >= len(self.items)):
             self._past_end(out, link, who, seq)
             return
-        current = 1 if self.mission_type == MAV_MISSION_TYPE_MISSION and seq == current_seq else 0
+        # MissionItemProtocol_Waypoints::get_item compares the item's command id with the
+        # current nav index (``cmd.id == get_current_nav_cmd().index``)
+        is_mission = self.mission_type == MAV_MISSION_TYPE_MISSION
+        current = 1 if is_mission and item.command == nav_index else 0
         auto = self.rules.autocontinue
         if as_int:
             reply = _mav.mission_item_int_encode(
@@ -553,8 +617,23 @@ class ItemProtocol:
             out.send((up.link, self._request(up)))
 
 
+def is_nav_cmd(command: int) -> bool:
+    """AP_Mission::is_nav_cmd."""
+    return command <= MAV_CMD_NAV_LAST or command in NAV_EXCEPTIONS
+
+
+def seq_from_param(param1: float) -> int | None:
+    """handle_command_do_set_mission_current: ``(uint32_t)packet.param1``, then the uint16 of
+    ``is_valid_index`` / ``set_current_cmd``. None where C++ is undefined (NaN, negative,
+    beyond uint32): the simulator refuses those rather than guess."""
+    if not math.isfinite(param1) or param1 < 0.0 or param1 >= 2.0**32:
+        return None
+    return int(param1) & UINT16_MAX
+
+
 class MissionServer:
-    """GCS_MAVLINK::handle_common_mission_message: the three protocols and the current item."""
+    """GCS_MAVLINK::handle_common_mission_message: the three protocols and AP_Mission's
+    current command (nav index, DO_JUMP counters, mission state)."""
 
     MESSAGES = frozenset(
         {
@@ -578,7 +657,9 @@ class MissionServer:
         max_mission_items: int = 700,
         max_fence_items: int = 84,
         max_rally_items: int = 10,
+        requires_mission: Callable[[], bool] = lambda: False,
     ) -> None:
+        """``requires_mission``: AP_Vehicle::current_mode_requires_mission (Rover: in AUTO)."""
         home = StoredItem(
             MAV_CMD_NAV_WAYPOINT,
             MAV_FRAME_GLOBAL,
@@ -597,15 +678,184 @@ class MissionServer:
                 MAV_MISSION_TYPE_RALLY, RALLY_RULES, max_rally_items
             ),
         }
-        self.current_seq = 0
+        self.requires_mission = requires_mission
+        # AP_Mission: _nav_cmd.index / _do_cmd.index (CMD_INDEX_NONE: none), _flags.state,
+        # _jump_tracking (jump index → times run, at most MAX_JUMP_COMMANDS entries)
+        self.nav_index = CMD_INDEX_NONE
+        self.do_index = CMD_INDEX_NONE
+        self.state = MISSION_STOPPED
+        self.jumps_run: dict[int, int] = {}
+
+    @property
+    def current_seq(self) -> int:
+        """AP_Mission::get_current_nav_index: 0 while there is no current command."""
+        return 0 if self.nav_index == CMD_INDEX_NONE else self.nav_index
+
+    @property
+    def _mission(self) -> ItemProtocol:
+        return self.protocols[MAV_MISSION_TYPE_MISSION]
 
     def stored(self, mission_type: int = MAV_MISSION_TYPE_MISSION) -> tuple[StoredItem, ...]:
         return tuple(self.protocols[mission_type].items)
 
-    def mission_current(self) -> Message:
-        """GCS_MAVLINK::send_mission_current: total excludes home (row 0)."""
-        total = max(0, len(self.protocols[MAV_MISSION_TYPE_MISSION].items) - 1)
-        return _m(_mav.mission_current_encode(self.current_seq, total))
+    def mission_state(self) -> int:
+        """GCS_MAVLINK::mission_state: NO_MISSION unless AP_Mission::present() (> home)."""
+        if len(self._mission.items) <= 1:
+            return MISSION_STATE_NO_MISSION
+        return MISSION_STATES[self.state]
+
+    def mission_current_fields(self, seq: int | None = None) -> tuple[int, int, int, int]:
+        """(seq, total, mission_state, mission_mode) as GCS_MAVLINK::send_mission_current
+        fills them; ``seq`` defaults to the current nav index (MSG_CURRENT_WAYPOINT)."""
+        total = max(0, len(self._mission.items) - 1)  # home excluded
+        return (
+            self.current_seq if seq is None else seq,
+            total,
+            self.mission_state(),
+            1 if self.requires_mission() else 0,
+        )
+
+    def mission_current(self, seq: int | None = None) -> Message:
+        return _m(_mav.mission_current_encode(*self.mission_current_fields(seq)))
+
+    # -- AP_Mission's current command ------------------------------------------------------
+
+    def _command_at(self, index: int) -> StoredItem:
+        """read_cmd_from_storage: row 0 is home (a NAV_WAYPOINT)."""
+        prot = self._mission
+        if index == 0 and prot.home is not None:
+            return prot.home
+        return prot.items[index]
+
+    def _jump_tag_index(self, tag: int) -> int:
+        """get_index_of_jump_tag: the first JUMP_TAG with this tag, 0 if none."""
+        for i in range(1, len(self._mission.items)):
+            cmd = self._command_at(i)
+            if cmd.command == MAV_CMD_JUMP_TAG and int(cmd.param1) == tag:
+                return i
+        return 0
+
+    def _jump_times_run(self, index: int) -> int:
+        """get_jump_times_run (allocates a tracking entry on first use)."""
+        if index in self.jumps_run:
+            return self.jumps_run[index]
+        if len(self.jumps_run) >= MAX_JUMP_COMMANDS:
+            return JUMP_TIMES_MAX
+        self.jumps_run[index] = 0
+        return 0
+
+    def _next_cmd(self, start: int, out: Outcome) -> tuple[int, StoredItem] | None:
+        """get_next_cmd(start, cmd, increment_jump_num_times_if_found=true): the first
+        non-jump command at or after ``start``, following jumps and counting them."""
+        total = len(self._mission.items)
+        index = start
+        jumps_left = GET_NEXT_CMD_MAX_JUMPS
+        while index < total:
+            cmd = self._command_at(index)
+            if cmd.command not in (MAV_CMD_DO_JUMP, MAV_CMD_DO_JUMP_TAG):
+                return index, cmd
+            target = int(cmd.param1)
+            if cmd.command == MAV_CMD_DO_JUMP_TAG:
+                target = self._jump_tag_index(target)
+            if jumps_left == 0:
+                return None
+            jumps_left -= 1
+            if target >= total or target == 0:
+                return None
+            times = int(cmd.param2)
+            run = self._jump_times_run(index)
+            if times == JUMP_REPEAT_FOREVER or run < times:
+                if index in self.jumps_run:  # increment_jump_times_run
+                    self.jumps_run[index] += 1
+                    of = "unlimited" if times == JUMP_REPEAT_FOREVER else str(times)
+                    out.say(
+                        StatusText(
+                            MAV_SEVERITY_INFO, f"Mission: {index} Jump {self.jumps_run[index]}/{of}"
+                        )
+                    )
+                index = target
+            else:
+                if index in self.jumps_run:  # a finished loop starts over (MIS_OPTIONS 0)
+                    self.jumps_run[index] = 0
+                index += 1
+        return None
+
+    def set_current_cmd(self, index: int, out: Outcome) -> bool:
+        """AP_Mission::set_current_cmd."""
+        total = len(self._mission.items)
+        if index >= total or total == 1:
+            return False
+        self.do_index = CMD_INDEX_NONE
+        if index == 0 or self.state == MISSION_COMPLETE:
+            self.jumps_run.clear()  # init_jump_tracking
+            index = max(index, 1)
+        if self.state == MISSION_RUNNING:
+            return self._advance_current_nav_cmd(index, out)
+        while True:
+            found = self._next_cmd(index, out)
+            if found is None:
+                self.nav_index = CMD_INDEX_NONE
+                return False
+            at, cmd = found
+            if is_nav_cmd(cmd.command):
+                self.nav_index = at
+                break
+            if self.do_index == CMD_INDEX_NONE:
+                self.do_index = at
+            index = at + 1
+        self.state = MISSION_STOPPED
+        return True
+
+    def _advance_current_nav_cmd(self, index: int, out: Outcome) -> bool:
+        """AP_Mission::advance_current_nav_cmd from ``index`` (the mission running); every
+        start_command is taken to succeed. Running out of commands completes the mission."""
+        for _ in range(ADVANCE_MAX_LOOPS):
+            found = self._next_cmd(index, out)
+            if found is None:
+                break
+            at, cmd = found
+            if is_nav_cmd(cmd.command):
+                self.nav_index = at
+                return True
+            if self.do_index == CMD_INDEX_NONE:
+                self.do_index = at
+            index = at + 1
+        self.state = MISSION_COMPLETE  # set_current_cmd: "on failure set mission complete"
+        return False
+
+    def _reset(self) -> None:
+        """AP_Mission::reset."""
+        self.nav_index = CMD_INDEX_NONE
+        self.do_index = CMD_INDEX_NONE
+        self.jumps_run.clear()
+
+    def _resume(self, out: Outcome) -> None:
+        """AP_Mission::resume, for a mission set_current_cmd has just stopped at a NAV item
+        (``start()`` and the repeat-distance rewind are not reachable from here)."""
+        self.state = MISSION_RUNNING
+        index = self.do_index if self.do_index != CMD_INDEX_NONE else self.nav_index
+        self.set_current_cmd(index, out)
+
+    def do_set_mission_current(
+        self, link: int, param1: float, param2: float
+    ) -> tuple[int, Outcome]:
+        """GCS_MAVLINK::handle_command_do_set_mission_current: (MAV_RESULT, what follows the
+        COMMAND_ACK: jump texts, and MISSION_CURRENT to ``link`` when ACCEPTED)."""
+        out = Outcome()
+        seq = seq_from_param(param1)
+        if seq is None or seq >= len(self._mission.items):  # is_valid_index
+            return MAV_RESULT_DENIED, out
+        reset_and_restart = abs(param2 - 1.0) < FLT_EPSILON
+        if reset_and_restart:
+            self._reset()
+        if not self.set_current_cmd(seq, out):
+            return MAV_RESULT_FAILED, out
+        if reset_and_restart:
+            self._resume(out)
+        out.send((link, self.mission_current()))  # send_message(MSG_CURRENT_WAYPOINT)
+        return MAV_RESULT_ACCEPTED, out
+
+    # -- messages --------------------------------------------------------------------------
 
     def handle(self, link: int, msg: Any, now_s: float) -> Outcome:
         out = Outcome()
@@ -615,9 +865,8 @@ class MissionServer:
         who = (int(msg.get_srcSystem()), int(msg.get_srcComponent()))
         if kind == "MISSION_SET_CURRENT":
             seq = int(msg.seq)
-            if 0 < seq < len(self.protocols[MAV_MISSION_TYPE_MISSION].items):
-                self.current_seq = seq
-                out.send((None, self.mission_current()))
+            if self.set_current_cmd(seq, out):
+                out.send((link, self.mission_current(seq)))  # the requested seq, echoed
             return out
         mission_type = int(getattr(msg, "mission_type", 0))
         prot = self.protocols.get(mission_type)
@@ -632,20 +881,26 @@ class MissionServer:
             prot.handle_item(out, link, who, item_from_float(msg), int(msg.seq), now_s)
         elif kind in ("MISSION_REQUEST_INT", "MISSION_REQUEST"):
             as_int = kind == "MISSION_REQUEST_INT"
-            prot.handle_request(out, link, who, msg, as_int, self.current_seq)
+            prot.handle_request(out, link, who, msg, as_int, self.nav_index)
         elif kind == "MISSION_REQUEST_LIST":
             prot.handle_request_list(out, link, who, msg)
         elif kind == "MISSION_CLEAR_ALL":
+            cleared = prot.upload is None
             prot.handle_clear_all(out, link, who)
-            if mission_type == MAV_MISSION_TYPE_MISSION:
-                self.current_seq = 0
+            if mission_type == MAV_MISSION_TYPE_MISSION and cleared:
+                # AP_Mission::clear (refused only while armed with the mission running,
+                # which the simulator's Rover, never in AUTO, cannot be)
+                self._reset()
+                self.state = MISSION_STOPPED
         return out
 
     def reboot(self) -> None:
-        """A reboot loses uploads in progress and the current item; stored items persist."""
+        """A reboot loses uploads in progress and the current command (AP_Mission's
+        constructor: no nav command, stopped); stored items persist."""
         for prot in self.protocols.values():
             prot.upload = None
-        self.current_seq = 0
+        self._reset()
+        self.state = MISSION_STOPPED
 
     def update(self, now_s: float) -> Outcome:
         out = Outcome()

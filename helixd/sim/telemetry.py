@@ -8,6 +8,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from helixd.base.frames import ne_to_latlon
+from helixd.mav.constants import MISSION_STATE_NO_MISSION
 from helixd.sim import messages
 from helixd.sim import streams as st
 from helixd.sim.estimator import EkfStatus, PoseEstimate
@@ -43,6 +44,8 @@ class TelemetryView:
     # home as (lat_deg, lon_deg, north_m, east_m); None: not set yet (nothing is sent)
     home: tuple[float, float, float, float] | None = None
     relay_masks: tuple[int, int] = (0, 0)  # RELAY_STATUS (on, present)
+    # MISSION_CURRENT (seq, total, mission_state, mission_mode): MissionServer's
+    mission_current: tuple[int, int, int, int] = (0, 0, MISSION_STATE_NO_MISSION, 0)
 
     def system_status(self) -> int:
         """GCS_MAVLINK_Rover::vehicle_system_status."""
@@ -116,6 +119,8 @@ def build(
         return messages.autopilot_version(v.sysid)
     if msg_id == st.MSG_RELAY_STATUS:
         return messages.relay_status(t, *v.relay_masks)
+    if msg_id == st.MSG_MISSION_CURRENT:
+        return messages.mission_current(*v.mission_current)
     if not v.origin_set:
         return None
     if msg_id == st.MSG_LOCAL_POSITION_NED:

@@ -8,6 +8,7 @@ import time
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.link.streams import (
+    TELEMETRY_STREAMS,
     candidate_intervals,
     fastest_granted_interval_us,
     first_interval_us,
@@ -52,7 +53,7 @@ async def test_asks_for_what_sched_loop_rate_grants_no_denied() -> None:
         assert granted["LOCAL_POSITION_NED"] == 40.0 and granted["ATTITUDE"] == 40.0
         assert asked(peer, LPN) == [25_000] and asked(peer, ATT) == [25_000]
         results = [c for c in peer.records.commands if c.command == SET_INTERVAL]
-        assert results and len(results) == 6  # one per stream: nothing was DENIED
+        assert results and len(results) == 7  # one per stream: nothing was DENIED
     async with linked(pose_rate_hz=50.0, peer_kwargs={"min_interval_us": 4_000}) as (ap, peer):
         peer.params["SCHED_LOOP_RATE"] = 400.0
         granted = await ap.request_streams()
@@ -65,8 +66,9 @@ async def test_pose_rate_steps_down_from_denied_20ms_to_granted_25ms() -> None:
         granted = await ap.request_streams()
         assert granted["LOCAL_POSITION_NED"] == 40.0
         assert granted["ATTITUDE"] == 40.0
-        for name in ("EKF_STATUS_REPORT", "SYS_STATUS", "RC_CHANNELS", "SERVO_OUTPUT_RAW"):
+        for name in TELEMETRY_STREAMS:
             assert granted[name] == 5.0
+        assert "MISSION_CURRENT" in TELEMETRY_STREAMS
         assert asked(peer, LPN) == [20_000, 25_000]  # DENIED, then granted
         assert asked(peer, ATT) == [25_000]  # starts from what was granted
         # and the stream really arrives at about 40 Hz

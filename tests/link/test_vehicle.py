@@ -9,7 +9,20 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.link.vehicle import Change, EkfStatus, VehicleState, mode_name, mode_number
+from helixd.link.vehicle import (
+    Change,
+    EkfStatus,
+    MissionCurrent,
+    VehicleState,
+    mode_name,
+    mode_number,
+)
+from helixd.mav.constants import (
+    MISSION_STATE_MAX,
+    MISSION_STATE_NOT_STARTED,
+    MISSION_STATE_UNKNOWN,
+    UINT16_MAX,
+)
 from tests.support.mavmsgs import AP, att, codec, decoded, hb, lpn
 
 
@@ -342,3 +355,79 @@ def test_ekf_health_is_judged_once_when_the_report_arrives(flags: int, var: list
     same verdict as its list of problems."""
     ekf = EkfStatus(flags, var[0], var[1], var[2], var[3], var[4], 1.0, 0.8)
     assert ekf.healthy is (not ekf.problems())
+
+
+def mission_current(seq: int, total: int, state: int, mode: int = 0) -> Any:
+    return decoded(AP.mission_current_encode(seq, total, state, mode), AP)
+
+
+class FakeMissionCurrent:
+    """A MISSION_CURRENT as a hostile or broken decoder might hand it over."""
+
+    def __init__(self, seq: object, total: object, mission_state: object) -> None:
+        self.seq, self.total, self.mission_state = seq, total, mission_state
+
+    def get_type(self) -> str:
+        return "MISSION_CURRENT"
+
+    def get_srcComponent(self) -> int:
+        return 1
+
+
+def test_mission_current_is_kept_with_its_state_and_cleared_by_a_reboot() -> None:
+    st_ = VehicleState()
+    assert st_.apply(mission_current(3, 5, MISSION_STATE_NOT_STARTED), 1.0) == (
+        Change.MISSION_CURRENT
+    )
+    assert st_.mission_current == MissionCurrent(3, 5, MISSION_STATE_NOT_STARTED, 1.0)
+    # a mission_state this dialect does not define reads as UNKNOWN; seq/total are kept
+    st_.apply(mission_current(4, 5, 200), 2.0)
+    assert st_.mission_current == MissionCurrent(4, 5, MISSION_STATE_UNKNOWN, 2.0)
+    st_.apply(att(10_000, 0.0), 3.0)
+    assert st_.apply(att(100, 0.0), 4.0) & Change.REBOOT
+    assert st_.mission_current is None
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, UINT16_MAX), st.integers(0, UINT16_MAX), st.integers(0, 255))
+def test_fuzz_mission_current_from_the_wire(seq: int, total: int, state: int) -> None:
+    st_ = VehicleState()
+    assert st_.apply(mission_current(seq, total, state), 5.0) & Change.MISSION_CURRENT
+    mc = st_.mission_current
+    assert mc is not None and (mc.seq, mc.total) == (seq, total)
+    assert mc.mission_state == (state if state <= MISSION_STATE_MAX else MISSION_STATE_UNKNOWN)
+
+
+ANY_FIELD = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-(2**40), 2**40),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.text(max_size=3),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(ANY_FIELD, ANY_FIELD, ANY_FIELD)
+def test_fuzz_mission_current_fields_are_checked_at_the_edge(
+    seq: object, total: object, state: object
+) -> None:
+    """Whatever the fields hold: stored only as uint16 ints and a known MISSION_STATE, or
+    counted as rejected with the previous value kept."""
+    st_ = VehicleState()
+    st_.apply(mission_current(1, 2, MISSION_STATE_NOT_STARTED), 1.0)
+    before = st_.mission_current
+    changes = st_.apply(FakeMissionCurrent(seq, total, state), 2.0)
+
+    def uint16(v: object) -> bool:
+        return type(v) is int and 0 <= v <= UINT16_MAX
+
+    if uint16(seq) and uint16(total):
+        assert changes == Change.MISSION_CURRENT
+        mc = st_.mission_current
+        assert mc is not None and (mc.seq, mc.total) == (seq, total)
+        assert type(mc.mission_state) is int and 0 <= mc.mission_state <= MISSION_STATE_MAX
+        assert st_.mission_current_rejected_count == 0
+    else:
+        assert changes == Change.NONE
+        assert st_.mission_current == before and st_.mission_current_rejected_count == 1

@@ -215,14 +215,22 @@ def test_clear_all_and_unknown_type() -> None:
     assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
 
 
-def test_set_current_broadcasts_mission_current() -> None:
+def test_set_current_answers_the_sender_with_the_requested_seq() -> None:
+    # GCS_MAVLINK::handle_mission_set_current: send_mission_current(mission, packet.seq) on
+    # the receiving channel; an index ArduPilot refuses gets nothing
     srv = server()
     upload(srv, 3)
-    out = srv.handle(0, stamp(_mav.mission_set_current_encode(1, 1, 2)), 1.0)
+    out = srv.handle(1, stamp(_mav.mission_set_current_encode(1, 1, 2)), 1.0)
     (cur,) = sends(out, "MISSION_CURRENT")
-    assert out.sends[0][0] is None
+    assert [link for link, _ in out.sends] == [1]
     assert (int(cur.seq), int(cur.total)) == (2, 2)
+    assert srv.current_seq == 2
     assert srv.handle(0, stamp(_mav.mission_set_current_encode(1, 1, 9)), 1.0).sends == []
+    assert srv.current_seq == 2
+    # seq 0 restarts at 1, but the reply echoes the 0 that was asked for
+    out = srv.handle(0, stamp(_mav.mission_set_current_encode(1, 1, 0)), 1.0)
+    assert [int(m.seq) for m in sends(out, "MISSION_CURRENT")] == [0]
+    assert srv.current_seq == 1
 
 
 def test_stray_item_without_upload_gets_no_answer() -> None:

@@ -53,6 +53,7 @@ STREAM_NAMES = (
     "SYS_STATUS",
     "RC_CHANNELS",
     "SERVO_OUTPUT_RAW",
+    "MISSION_CURRENT",
 )
 MSG_NAME_BY_ID = {int(getattr(mavlink, f"MAVLINK_MSG_ID_{n}")): n for n in STREAM_NAMES}
 EKF_HEALTHY_FLAGS = 0x1 | 0x2 | 0x4 | 0x8 | 0x10 | 0x20
@@ -503,6 +504,8 @@ class AutopilotPeer:
             return tx.sys_status_encode(0, 0, 0, 100, 12600, -1, -1, 0, 0, 0, 0, 0, 0)
         if name == "RC_CHANNELS":
             return tx.rc_channels_encode(t_ms, 8, *self.rc_in, 255)
+        if name == "MISSION_CURRENT":
+            return tx.mission_current_encode(0, 0, 1, 0)  # MISSION_STATE_NO_MISSION
         return tx.servo_output_raw_encode(t_ms * 1000 % 2**32, 0, *self.servo_out)
 
     def _handle(self, msg: Any, now: float) -> None:
