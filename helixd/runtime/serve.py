@@ -34,7 +34,6 @@ from helixd.link.connection import Autopilot, LinkError, MavMsg
 from helixd.link.mission import MissionTransferError
 from helixd.link.mission_link import download_all
 from helixd.mav.constants import (
-    MAV_CMD_DO_SET_MISSION_CURRENT,
     MAV_RESULT_ACCEPTED,
     MAV_SEVERITY_ERROR,
     MAV_SEVERITY_INFO,
@@ -496,7 +495,7 @@ class Service:
 
         async def send() -> None:
             try:
-                await ap.action.command_long(MAV_CMD_DO_SET_MISSION_CURRENT, (float(seq), 0.0))
+                await ap.action.set_mission_current(seq)
             except CommandError as exc:
                 log.warning("mission_current_refused", seq=seq, error=str(exc))
 

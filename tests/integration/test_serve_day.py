@@ -90,7 +90,7 @@ def test_a_field_day(tmp_path: Path) -> None:
                 assert command(gcs, MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_DENIED
                 # the fixed mission: checked, then started by the switch
                 upload(gcs, MISSION_A)
-                d.wait_line("state=ready", 30.0)
+                d.wait_line("event=serve_state state=ready", 30.0)
                 assert not server.snapshot().armed  # checked, never moved on its own
                 server.set_rc(SWITCH_CH, HIGH_US)
                 server.wait_for(moving, 40.0)
@@ -99,38 +99,39 @@ def test_a_field_day(tmp_path: Path) -> None:
                 assert command(other, MAV_CMD_DO_PAUSE_CONTINUE, 0) == MAV_RESULT_DENIED
                 # pause by the switch mid-leg: stopped, released, HOLD
                 server.set_rc(SWITCH_CH, LOW_US)
-                d.wait_line("state=paused", 30.0)
+                d.wait_line("event=serve_state state=paused", 30.0)
                 server.wait_for(secured, 10.0)
                 paused_at = server.snapshot()
                 assert paused_at.mode == "HOLD"
                 # continue: from the interrupted leg, not from the start
                 server.set_rc(SWITCH_CH, HIGH_US)
                 d.wait_line("event=run_resumed", 30.0)
-                d.wait_line("state=completed", 90.0)
+                d.wait_line("event=serve_state state=completed", 90.0)
                 done_a = d.mark()
                 server.wait_for(secured, 10.0)
                 # the second mission, started from the GCS
                 mark = d.mark()
                 upload(gcs, MISSION_B)
-                d.wait_line("state=ready", 30.0, after=mark)
+                d.wait_line("event=serve_state state=ready", 30.0, after=mark)
                 assert command(gcs, MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
                 server.wait_for(moving, 40.0)
                 # the autopilot's current item follows the rover (the GCS highlights it)
                 server.wait_for(lambda s: s.mission_current_seq == 1, 10.0)
                 # the pilot takes over (HOLD from the GCS): the service is left faulted
                 assert gcs.command(MAV_CMD_DO_SET_MODE, 1, 4) == MAV_RESULT_ACCEPTED
-                d.wait_line("state=faulted", 30.0)
+                d.wait_line("event=serve_state state=faulted", 30.0)
                 server.wait_for(secured, 10.0)
                 # start again: continues where it stopped, and completes
                 assert command(gcs, MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
                 server.wait_for(lambda s: s.mission_current_seq == 2, 60.0)
-                d.wait_line("state=completed", 90.0, after=done_a)
+                d.wait_line("event=serve_state state=completed", 90.0, after=done_a)
                 assert states(d).count("completed") == 2, states(d)
                 assert d.ended() is None  # never exited
             d.signal(signal.SIGTERM)
             assert d.wait_exit(30.0) == 0
         finally:
             d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")  # for a failure
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
     assert len(runs) == 4, runs  # A, A continued, B, B continued: one directory per flight
     summaries = [json.loads((r / "summary.json").read_text()) for r in runs]

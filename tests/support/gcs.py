@@ -64,6 +64,7 @@ def upload(gcs: MavClient, points_ne_m: list[tuple[float, float]], timeout_s: fl
 def command(gcs: MavClient, cmd: int, *params: float, timeout_s: float = 10.0) -> int:
     """COMMAND_LONG to helixd; the result of helixd's COMMAND_ACK for it."""
     p = [*params, *([0.0] * (7 - len(params)))]
+    gcs.drain()  # a full socket buffer would drop the ACK: read what queued up meanwhile
     gcs.heartbeat()  # a GCS heartbeats all the time: the autopilot knows its route
     gcs.mav.command_long_send(HELIXD[0], HELIXD[1], cmd, 0, *p)
     ack = gcs.recv(
