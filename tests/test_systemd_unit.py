@@ -310,6 +310,83 @@ def test_unit_hardening_exposure_is_low(tmp_path: Path) -> None:
 
 
 # ---------------------------------------------------------------------------------------------
+# helixd.service: helixd serve, all day
+
+SERVE_UNIT = REPO / "systemd" / "helixd.service"
+# helixd serve comes back idle (it never moves on its own): restarting after a crash is safe
+SERVE_EXPECTED_RESTART: dict[Ending, bool] = {
+    ("exit", str(int(ExitCode.OK))): False,  # stopped by systemctl stop
+    ("exit", str(int(ExitCode.INTERNAL_ERROR))): True,
+    ("exit", str(int(ExitCode.USAGE))): False,  # bad config: a human must fix it
+    ("watchdog", "SIGABRT"): True,
+    ("signal", "SIGKILL"): True,
+    ("signal", "SIGSEGV"): True,
+    ("signal", "SIGTERM"): False,
+}
+
+
+def check_serve_unit(unit: Unit) -> None:
+    svc = unit["Service"]
+    assert one(unit, "Service", "Type") == "notify"
+    assert one(unit, "Service", "NotifyAccess") == "main"
+    assert one(unit, "Service", "ExecStart") == (
+        f"{INSTALLED_EXEC} serve --config /etc/helixd/helixd.yaml --run-dir /var/lib/helixd/runs"
+    )
+    cfg = load_config(REPO / "config" / "helixd.yaml")
+    # the liveness task pings every serve.tick_s: several pings per watchdog period
+    assert seconds(one(unit, "Service", "WatchdogSec")) >= 10 * cfg.serve.tick_s
+    fallback_s = cfg.safety.fallback_deadline_s + cfg.safety.hold_retry_bound_s
+    assert seconds(one(unit, "Service", "TimeoutStopSec")) >= 2.0 * fallback_s
+    assert one(unit, "Service", "KillSignal") in {"SIGINT", "SIGTERM"}
+    for ending, expected in SERVE_EXPECTED_RESTART.items():
+        assert would_restart(unit, ending) is expected, ending
+    assert "StartLimitBurst" not in svc
+    assert 1 <= int(one(unit, "Unit", "StartLimitBurst")) <= 10
+    # the same identity and hardening as the one-shot unit
+    one_shot = parse_unit(UNIT.read_text())["Service"]
+    for key in (
+        "User",
+        "SupplementaryGroups",
+        "StateDirectory",
+        "UMask",
+        "CapabilityBoundingSet",
+        "ProtectSystem",
+        "DevicePolicy",
+        "DeviceAllow",
+        "RestrictAddressFamilies",
+        "SystemCallFilter",
+        "MemoryDenyWriteExecute",
+        "NoNewPrivileges",
+    ):
+        assert svc[key] == one_shot[key], key
+    assert one(unit, "Install", "WantedBy") == "multi-user.target"
+
+
+def test_serve_unit_structure() -> None:
+    check_serve_unit(parse_unit(SERVE_UNIT.read_text()))
+
+
+def test_serve_unit_check_catches_a_restart_after_a_bad_config() -> None:
+    text = SERVE_UNIT.read_text().replace("RestartPreventExitStatus=2", "RestartPreventExitStatus=")
+    with pytest.raises(AssertionError):
+        check_serve_unit(parse_unit(text))
+
+
+def test_serve_unit_passes_systemd_analyze_verify(tmp_path: Path) -> None:
+    if shutil.which("systemd-analyze") is None:
+        check_serve_unit(parse_unit(SERVE_UNIT.read_text()))
+        return
+    executable = shutil.which("true")
+    assert executable is not None
+    unit = tmp_path / "helixd.service"
+    unit.write_text(SERVE_UNIT.read_text().replace(INSTALLED_EXEC, executable))
+    result = systemd_analyze("verify", str(unit))
+    ours = [line for line in result.stderr.splitlines() if "helixd.service" in line]
+    assert result.returncode == 0, result.stderr
+    assert ours == []
+
+
+# ---------------------------------------------------------------------------------------------
 # sysusers.d / tmpfiles.d
 
 
@@ -398,6 +475,7 @@ def test_install_into_a_root_is_complete_and_idempotent(tmp_path: Path) -> None:
 
     unit = root / "etc/systemd/system/helixd@.service"
     assert unit.read_text() == UNIT.read_text()
+    assert (root / "etc/systemd/system/helixd.service").read_text() == SERVE_UNIT.read_text()
     assert (root / "etc/sysusers.d/helixd.conf").read_text() == SYSUSERS.read_text()
     assert (root / "etc/tmpfiles.d/helixd.conf").read_text() == TMPFILES.read_text()
     assert (root / "opt/helixd/share/README.systemd.md").is_file()

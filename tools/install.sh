@@ -11,8 +11,9 @@
 #   3. /etc/helixd/helixd.yaml and /etc/helixd/missions/*.yaml from config/ — an existing,
 #      edited file is never overwritten: the new version is written next to it as *.new
 #   4. /var/lib/helixd/runs (flight records)             systemd-tmpfiles, else install -d
-#   5. /etc/systemd/system/helixd@.service, then `systemctl daemon-reload`
-# Then: systemctl start helixd@square   (flies /etc/helixd/missions/square.yaml)
+#   5. /etc/systemd/system/helixd@.service and helixd.service, then `systemctl daemon-reload`
+# Then: systemctl start helixd@square   (flies /etc/helixd/missions/square.yaml once)
+#   or: systemctl enable --now helixd    (helixd serve: all day, started from the radio/GCS)
 set -euo pipefail
 
 usage() {
@@ -264,6 +265,9 @@ step_state_dirs() {
 step_unit() {
     install_owned_file "$REPO_DIR/systemd/README.md" "$SHARE_DIR/README.systemd.md" 0644
     install_owned_file "$REPO_DIR/systemd/helixd@.service" "$UNIT_DIR/helixd@.service" 0644
+    local unit_changed="$CHANGED"
+    install_owned_file "$REPO_DIR/systemd/helixd.service" "$UNIT_DIR/helixd.service" 0644
+    [[ "$unit_changed" -eq 0 ]] || CHANGED=1
     if [[ -n "$ROOT" ]]; then
         say "not calling systemctl (installing into $ROOT)"
     elif [[ ! -d /run/systemd/system ]]; then

@@ -177,26 +177,45 @@ class Service:
         install(loop, self.stop)
         self.notifier.ready("connecting")
         log.info("serve_start", url=self.cfg.link.url, run_root=str(self.opts.run_root))
+        alive = asyncio.create_task(self._liveness(), name="serve-liveness")
         try:
-            backoff_s = self.cfg.serve.reconnect_initial_s
-            while not self.stop.requested:
-                ap = await self._open()
-                if ap is None:
-                    await self._pause(backoff_s)
-                    backoff_s = min(backoff_s * 2, self.cfg.serve.reconnect_max_s)
-                    continue
-                backoff_s = self.cfg.serve.reconnect_initial_s
-                try:
-                    await self._serve(ap)
-                finally:
-                    await self._close(ap)
+            await self._main()
+        except Exception:  # a bug: whatever flew was stopped by _close; systemd restarts us
+            log.exception("internal_error")
+            return ExitCode.INTERNAL_ERROR
         finally:
+            alive.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await alive
             self.notifier.stopping("stopping")
             uninstall(loop)
             await self.gcs.close()
             self.notifier.close()
         log.info("serve_stopped", flights=self.flights)
         return ExitCode.OK
+
+    async def _liveness(self) -> None:
+        """The event loop is alive: systemd's watchdog pinged, our HEARTBEAT fed, every tick —
+        also while the main loop awaits a mission download or a reconnect."""
+        while True:
+            self.notifier.watchdog()
+            if self._ap is not None:
+                self._ap.feed()
+            await asyncio.sleep(self.cfg.serve.tick_s)
+
+    async def _main(self) -> None:
+        backoff_s = self.cfg.serve.reconnect_initial_s
+        while not self.stop.requested:
+            ap = await self._open()
+            if ap is None:
+                await self._pause(backoff_s)
+                backoff_s = min(backoff_s * 2, self.cfg.serve.reconnect_max_s)
+                continue
+            backoff_s = self.cfg.serve.reconnect_initial_s
+            try:
+                await self._serve(ap)
+            finally:
+                await self._close(ap)
 
     async def _pause(self, seconds: float) -> None:
         with contextlib.suppress(TimeoutError):
@@ -230,8 +249,6 @@ class Service:
     async def _serve(self, ap: Autopilot) -> None:
         streams = False
         while not self.stop.requested:
-            ap.feed()
-            self.notifier.watchdog()
             now = time.monotonic()
             up = ap.state.last_heartbeat_s is not None and not ap.state.link_lost
             flying = self.flight_task is not None
