@@ -1,0 +1,141 @@
+"""``helixd serve`` as a service: it reconnects, survives its own restart with the interrupted
+mission remembered, and stays flat in memory and file descriptors over many flights.
+
+Real UDP against the in-process simulator; the daemon is a subprocess (tests.support.daemon)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from helixd.mav.constants import (
+    MAV_CMD_DO_PAUSE_CONTINUE,
+    MAV_CMD_MISSION_START,
+    MAV_RESULT_ACCEPTED,
+)
+from helixd.sim.snapshot import SimSnapshot
+from tests.integration.test_serve_day import serve_proc
+from tests.support.gcs import QGC_SYSID, command, upload
+from tests.support.harness import (
+    MavClient,
+    free_udp_port,
+    running_sim_links,
+    secured,
+)
+
+NO_SWITCH: dict[str, Any] = {"safety": {"start_switch_channel": None}}
+
+
+def moving(s: SimSnapshot) -> bool:
+    return s.armed and s.speed_mps > 0.1
+
+
+def rss_kib(pid: int) -> int:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1])
+    raise AssertionError("no VmRSS")
+
+
+def open_fds(pid: int) -> int:
+    return len(os.listdir(f"/proc/{pid}/fd"))
+
+
+def test_reconnects_when_the_autopilot_comes_goes_and_comes_back(tmp_path: Path) -> None:
+    port = free_udp_port()
+    fast = {"serve": {"reconnect_initial_s": 0.2, "reconnect_max_s": 1.0}, **NO_SWITCH}
+    d = serve_proc(tmp_path, f"udpout:127.0.0.1:{port}", fast)
+    d.start_pump()
+    try:
+        d.wait_line("event=serve_state state=connecting", 30.0)
+        for _ in range(2):  # up, down, up again
+            mark = d.mark()
+            with running_sim_links([f"udpin:127.0.0.1:{port}"], speedup=5.0):
+                d.wait_line("no mission on the autopilot", 60.0, after=mark)
+                mark = d.mark()
+            d.wait_line("event=serve_state state=connecting", 30.0, after=mark)
+        assert d.ended() is None
+        lines = [ln for ln in d.lines if "event=serve_state state=connecting" in ln]
+        assert len(lines) == 3  # once per change, not once per attempt
+    finally:
+        d.stop(20.0)
+    assert d.proc.returncode == 0
+
+
+def test_a_restarted_service_remembers_the_interrupted_mission_and_waits(tmp_path: Path) -> None:
+    links = ["udpin:127.0.0.1:0"] * 2
+    with running_sim_links(links, speedup=5.0) as server:
+        helixd_url, gcs_url = (f"udpout:127.0.0.1:{p}" for p in server.local_ports)
+        with MavClient(gcs_url, sysid=QGC_SYSID) as gcs:
+            d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
+            d.start_pump()
+            try:
+                d.wait_line("no mission on the autopilot", 60.0)
+                upload(gcs, [(12.0, 0.0), (12.0, -4.0)])
+                d.wait_line("event=serve_state state=ready", 30.0)
+                assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+                server.wait_for(moving, 40.0)
+                assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 0) == MAV_RESULT_ACCEPTED
+                d.wait_line("event=serve_state state=paused", 30.0)
+                server.wait_for(secured, 10.0)
+                d.signal(signal.SIGTERM)
+                assert d.wait_exit(30.0) == 0
+            finally:
+                d.kill()
+            record = json.loads((tmp_path / "runs" / "serve-state.json").read_text())
+            assert record["state"] == "paused" and Path(record["run_dir"]).is_dir()
+            again = serve_proc(tmp_path, helixd_url, NO_SWITCH)
+            again.start_pump()
+            try:
+                again.wait_line("event=serve_state_loaded", 30.0)
+                again.wait_line("interrupted: a start continues it", 60.0)
+                assert not server.snapshot().armed  # remembered, and still waiting
+                assert command(gcs, MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+                again.wait_line("event=run_resumed", 30.0)
+                again.wait_line("event=serve_state state=completed", 90.0)
+            finally:
+                again.stop(20.0)
+    summaries = [
+        json.loads((r / "summary.json").read_text())
+        for r in sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    ]
+    assert [s["completed"] for s in summaries] == [False, True]
+    assert summaries[1]["resumed_from"]["path"] == record["run_dir"]
+
+
+@pytest.mark.timeout(420)
+def test_twenty_flights_keep_memory_and_descriptors_flat(tmp_path: Path) -> None:
+    flights = 20
+    links = ["udpin:127.0.0.1:0"] * 2
+    with running_sim_links(links, speedup=10.0) as server:
+        helixd_url, gcs_url = (f"udpout:127.0.0.1:{p}" for p in server.local_ports)
+        with MavClient(gcs_url, sysid=QGC_SYSID) as gcs:
+            d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
+            d.start_pump()
+            pid = d.proc.pid
+            samples: list[tuple[int, int]] = []
+            try:
+                d.wait_line("no mission on the autopilot", 60.0)
+                upload(gcs, [(3.0, 0.0), (0.0, 0.0)])  # out and back: every flight the same
+                d.wait_line("event=serve_state state=ready", 30.0)
+                for _ in range(flights):
+                    mark = d.mark()
+                    assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+                    d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+                    server.wait_for(secured, 10.0)
+                    samples.append((rss_kib(pid), open_fds(pid)))
+                assert d.ended() is None
+            finally:
+                d.stop(20.0)
+    print(f"\nRSS KiB / open fds after each of {flights} flights: {samples}")
+    rss2, fds2 = samples[1]
+    for rss, fds in samples[1:]:
+        assert abs(rss - rss2) <= 0.10 * rss2, samples
+        assert abs(fds - fds2) <= max(1, 0.10 * fds2), samples
+    runs = [p for p in (tmp_path / "runs").iterdir() if p.is_dir()]
+    assert len(runs) == flights
