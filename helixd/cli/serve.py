@@ -13,12 +13,11 @@ from helixd.cli.common import check_connect, config_or_exit, fail, refused
 from helixd.cli.simulated import SimChoice, sim_world, simulator
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.mission import MotionMode
-from helixd.mission.expand import ExpandOptions
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import load_occupancy
-from helixd.runtime.serve import ServeOptions, serve
+from helixd.runtime.serve import SERVE_OPTIONS, ServeOptions, serve
 from helixd.sim.config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
 __all__ = ["register"]
@@ -111,7 +110,7 @@ def serve_command(
             run_root=run_dir or cfg.recorder.run_root,
             mode=mode,
             occupancy=occupancy,
-            options=ExpandOptions(),
+            options=SERVE_OPTIONS,
         )
         code = eventloop.run(serve(opts), cfg.link.event_loop)
     raise typer.Exit(int(code))

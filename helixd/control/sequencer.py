@@ -108,6 +108,20 @@ class Sequencer:
             self._complete(t_s, actions, events)
         return self._output(actions, events)
 
+    @property
+    def holding_forever(self) -> bool:
+        """Arrived at a NAV_LOITER_UNLIM: holding until the operator continues."""
+        step = self.current()
+        return self._holding and not self._done and step is not None and step.forever
+
+    def release_hold(self) -> bool:
+        """The operator continues (``helixd serve``: DO_PAUSE_CONTINUE 1): a NAV_LOITER_UNLIM
+        hold ends at the next update. False (nothing changed) when not holding at one."""
+        if not self.holding_forever:
+            return False
+        self._hold_until_s = -math.inf
+        return True
+
     # -- internals ---------------------------------------------------------------------------
 
     def _output(

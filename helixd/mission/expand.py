@@ -26,11 +26,12 @@ place (lat/lon 0, 0: where the rover is when it starts, ``Location::sanitize``) 
 waits; NAV_LOITER_TURNS drives ``param1`` circles of radius ``param3`` (negative:
 counter-clockwise) around its place, entering at the nearest point (flown here as a polygon);
 NAV_RETURN_TO_LAUNCH drives to home (moved by DO_SET_HOME); NAV_DELAY stops for ``param1``
-seconds; NAV_LOITER_UNLIM waits until the operator continues (refused: helixd cannot continue
-it yet). DO_CHANGE_SPEED sets the cruise speed from its place on (below 0.05 m/s, e.g. −1: no
-change; bounded by ``control.min_speed_mps`` .. ``control.max_speed_mps``), DO_SET_REVERSE
-drives backwards, DO_SET_HOME moves home (and is sent), the payload commands are sent to the
-autopilot at their place.
+seconds; NAV_LOITER_UNLIM waits until the operator continues (``helixd serve``: a
+DO_PAUSE_CONTINUE 1 addressed to helixd, and the mission goes on after it; refused by
+``helixd run``, which cannot be continued). DO_CHANGE_SPEED sets the cruise speed from its
+place on (below 0.05 m/s, e.g. −1: no change; bounded by ``control.min_speed_mps`` ..
+``control.max_speed_mps``), DO_SET_REVERSE drives backwards, DO_SET_HOME moves home (and is
+sent), the payload commands are sent to the autopilot at their place.
 """
 
 from __future__ import annotations
@@ -82,6 +83,9 @@ class ExpandOptions:
 
     strict: bool = False  # refuse what ArduPilot Rover skips, instead of skipping it
     skip_unsupported: bool = False  # pass over what helixd cannot fly, instead of refusing
+    # helixd serve: an operator can continue a NAV_LOITER_UNLIM (DO_PAUSE_CONTINUE 1), so it
+    # holds there and the mission goes on after it; `helixd run` cannot, and refuses it
+    operator_continue: bool = False
 
 
 DEFAULT_OPTIONS = ExpandOptions()
@@ -504,7 +508,7 @@ class _Builder:
             else:
                 span = self.go(wp, c.xy, stop)
                 where = f"→ {_fmt_xy(c.xy)}"
-            if forever:
+            if forever and not self.options.operator_continue:
                 self.problem(
                     c,
                     "waits until the operator continues the mission; `helixd run` cannot "
@@ -607,7 +611,7 @@ def expand(
         via = _via(walker, jumps_before, cmds)
         passed_text = [b.passed_over(p) for p in passed]
         b.steps.append(b.step(nav, chain, passed_text, via, endless))
-        if nav.role is Role.LOITER_UNLIM:
+        if nav.role is Role.LOITER_UNLIM and not options.operator_continue:
             ending = f"item {nav.index} NAV_LOITER_UNLIM waits for the operator"
             never_ends = True
             break

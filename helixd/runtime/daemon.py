@@ -350,6 +350,20 @@ class MissionRunner:
         # are the plan's, jumps repeated)
         self._plan_vias: tuple[bool, ...] | None = None
         self._where = Where()  # a program's start and home, as preflight resolved it
+        self.flight_loop: FlightLoop | None = None  # while flying
+
+    def holding_forever(self) -> bool:
+        """Flying, and holding at a NAV_LOITER_UNLIM until the operator continues."""
+        seq = None if self.flight_loop is None else self.flight_loop.sequencer
+        return seq is not None and seq.holding_forever
+
+    def release_hold(self) -> bool:
+        """The operator continues a NAV_LOITER_UNLIM hold (``helixd serve``)."""
+        seq = None if self.flight_loop is None else self.flight_loop.sequencer
+        released = seq is not None and seq.release_hold()
+        if released:
+            log.info("hold_released", by="operator")
+        return released
 
     # -- helpers ------------------------------------------------------------------------------
 
@@ -890,7 +904,7 @@ class MissionRunner:
         self.gcs.phase(f"fly {self.opts.mission.name}: {numbering.operator_count} waypoints")
         async with phase("fly", self.notifier, self.display) as fly:
             try:
-                result = await FlightLoop(
+                self.flight_loop = FlightLoop(
                     cfg=ready.cfg,
                     plan=ready.plan,
                     frame=ready.frame,
@@ -904,8 +918,10 @@ class MissionRunner:
                     on_tick=on_tick,
                     on_action=commands.submit,
                     on_mission_event=on_mission_event,
-                ).run()
+                )
+                result = await self.flight_loop.run()
             finally:
+                self.flight_loop = None
                 journal.drain()  # every step reaches flight.csv and the summary
                 # the payload commands already due still go out (bounded), before the stop
                 await commands.close(self.cfg.safety.fallback_deadline_s)

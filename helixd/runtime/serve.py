@@ -41,7 +41,7 @@ from helixd.mav.constants import (
     MAV_SEVERITY_WARNING,
 )
 from helixd.mission import Mission, MotionMode
-from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.validate import apply_mission_limits
 from helixd.planning import OccupancyMap
@@ -73,6 +73,7 @@ from helixd.safety.watchdogs import FaultCause
 log = structlog.get_logger(__name__)
 _mav = mavlink.MAVLink(None)  # encoder only: Autopilot.send_message packs with our ids
 
+SERVE_OPTIONS = ExpandOptions(operator_continue=True)
 STATE_FILE_NAME = "serve-state.json"
 HX_STATE_NAME = b"hx_state"
 FLIGHT_PLAN_RECEIVED = "Flight plan received"  # ArduPilot, when an upload completes
@@ -86,7 +87,8 @@ class ServeOptions:
     run_root: Path
     mode: MotionMode | None = None  # --mode; else mission.ground_station_mode
     occupancy: OccupancyMap | None = None
-    options: ExpandOptions = DEFAULT_OPTIONS
+    # an operator can continue a NAV_LOITER_UNLIM here (DO_PAUSE_CONTINUE 1)
+    options: ExpandOptions = SERVE_OPTIONS
 
     @property
     def state_file(self) -> Path:
@@ -125,6 +127,7 @@ class Service:
         self.busy = False
         self.flight_task: asyncio.Task[None] | None = None
         self.flight_stop: StopRequest | None = None
+        self.runner: MissionRunner | None = None  # while a flight runs
         self.flights = 0
         self._ap: Autopilot | None = None
         self._mission_due = True
@@ -168,6 +171,7 @@ class Service:
             resumable=resumable,
             switch_low=self.switch is not None and self.switch.low,
             last_item=0 if self.checked is None else self.checked.last_item,
+            holding=self.runner is not None and self.runner.holding_forever(),
         )
 
     # -- the service --------------------------------------------------------------------------
@@ -412,6 +416,10 @@ class Service:
             if answer.text:
                 self.gcs.say(answer.text, MAV_SEVERITY_WARNING)
             return
+        if answer.request is Request.RELEASE:
+            if self.runner is not None:
+                self.runner.release_hold()
+            return
         if answer.request is Request.PAUSE:
             if self.flight_stop is not None:
                 self.flight_stop.pause(f"{answer.text.removeprefix('pausing: ')} ({who})")
@@ -489,7 +497,11 @@ class Service:
                 notifier=FlightInServiceNotifier(),
             )
         )
-        outcome = await runner.run()
+        self.runner = runner
+        try:
+            outcome = await runner.run()
+        finally:
+            self.runner = None
         self.busy = True
         summary = outcome.summary
         cause = _cause(summary.fault if summary is not None else None)

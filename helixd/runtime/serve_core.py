@@ -10,7 +10,8 @@ judged the same way:
   up is *not* a start: it must be seen low first, so a reboot never drives off on its own;
 * ``MAV_CMD_MISSION_START`` (param1 first item: 0 continues where the last flight stopped, 1
   starts from item 1; param2 last item: 0 or the mission's last item) addressed to helixd;
-* ``MAV_CMD_DO_PAUSE_CONTINUE`` (param1 0 pause, 1 continue) addressed to helixd.
+* ``MAV_CMD_DO_PAUSE_CONTINUE`` (param1 0 pause, 1 continue) addressed to helixd; 1 also
+  ends a NAV_LOITER_UNLIM hold of the flight in progress.
 
 Each command gets one :class:`Answer`: ACCEPTED with an action, DENIED with why (also for a
 sender that is not one of ``serve.gcs_system_ids``), TEMPORARILY_REJECTED while a flight is
@@ -65,6 +66,7 @@ class Request(StrEnum):
 
     START = "start"  # from item 1
     CONTINUE = "continue"  # from the first waypoint not reached (or item 1 if none)
+    RELEASE = "release"  # flying, held at a NAV_LOITER_UNLIM: go on with the mission
     PAUSE = "pause"
 
 
@@ -78,6 +80,7 @@ class ServeView:
     resumable: bool  # an interrupted flight of this mission can be continued
     switch_low: bool  # a start switch is configured and is low (the pilot's veto)
     last_item: int  # the mission's last item number (0: no mission)
+    holding: bool = False  # flying, held at a NAV_LOITER_UNLIM until an operator continues
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,6 +133,8 @@ def answer_command(
                 return Answer(MAV_RESULT_DENIED, "pause: not flying")
             return Answer(MAV_RESULT_ACCEPTED, "pausing", Request.PAUSE)
         if p1 == 1:
+            if view.state is ServeState.FLYING and view.holding:
+                return Answer(MAV_RESULT_ACCEPTED, "continuing after the hold", Request.RELEASE)
             return _start(view, Request.CONTINUE)
         return Answer(MAV_RESULT_DENIED, "DO_PAUSE_CONTINUE param1 must be 0 (pause) or 1")
     p2 = _finite_int(params[1]) if len(params) > 1 else None

@@ -110,6 +110,19 @@ def test_a_loiter_without_end_never_completes() -> None:
     assert out.holding and not out.done
 
 
+def test_an_operators_continue_ends_a_loiter_without_end() -> None:
+    seq = Sequencer(Program((step(1, 0), step(2, 1, forever=True), step(3, 2))))
+    seq.start(0.0)
+    assert not seq.release_hold()  # not at the loiter: nothing to continue
+    seq.update(1.0, 0, 0.0)
+    assert seq.update(2.0, 1, 0.0).holding and seq.holding_forever
+    assert seq.update(1e6, None, 0.0).holding  # still there
+    assert seq.release_hold()
+    out = seq.update(1e6 + 0.1, None, 0.0)
+    assert not out.holding and not seq.holding_forever and out.step == 2
+    assert not seq.release_hold()
+
+
 def test_skipped_items_are_reported_when_their_step_starts() -> None:
     s = NavStep(3, 16, 0, 0, 0.0, (), 0.5, "step 3", skipped=("item 2 NAV_TAKEOFF: skipped",))
     seq = Sequencer(Program((s,)))

@@ -16,6 +16,7 @@ import pytest
 from helixd.mav.constants import (
     MAV_CMD_DO_PAUSE_CONTINUE,
     MAV_CMD_MISSION_START,
+    MAV_CMD_NAV_LOITER_UNLIM,
     MAV_RESULT_ACCEPTED,
 )
 from helixd.sim.snapshot import SimSnapshot
@@ -106,6 +107,32 @@ def test_a_restarted_service_remembers_the_interrupted_mission_and_waits(tmp_pat
     ]
     assert [s["completed"] for s in summaries] == [False, True]
     assert summaries[1]["resumed_from"]["path"] == record["run_dir"]
+
+
+def test_a_loiter_without_end_holds_until_the_ground_station_continues(tmp_path: Path) -> None:
+    links = ["udpin:127.0.0.1:0"] * 2
+    with running_sim_links(links, speedup=5.0) as server:
+        helixd_url, gcs_url = (f"udpout:127.0.0.1:{p}" for p in server.local_ports)
+        with MavClient(gcs_url, sysid=QGC_SYSID) as gcs:
+            d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
+            d.start_pump()
+            try:
+                d.wait_line("no mission on the autopilot", 60.0)
+                loiter = {2: MAV_CMD_NAV_LOITER_UNLIM}
+                upload(gcs, [(4.0, 0.0), (4.0, -4.0), (0.0, 0.0)], commands=loiter)
+                d.wait_line("event=serve_state state=ready", 30.0)
+                assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+                d.wait_line("kind=hold_started", 60.0)
+                held = server.wait_for(lambda s: s.armed and s.speed_mps < 0.02, 10.0)
+                mark = d.mark()
+                assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 1) == MAV_RESULT_ACCEPTED
+                d.wait_line("event=hold_released", 10.0, after=mark)
+                d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+            finally:
+                d.stop(20.0)
+    assert (held.north_m, held.east_m) == pytest.approx((4.0, -4.0), abs=0.5)
+    (run,) = [p for p in (tmp_path / "runs").iterdir() if p.is_dir()]
+    assert json.loads((run / "summary.json").read_text())["completed"] is True
 
 
 @pytest.mark.timeout(420)

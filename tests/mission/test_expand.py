@@ -159,6 +159,17 @@ def test_loiter_unlimited_is_refused_for_run() -> None:
     assert any("NAV_LOITER_UNLIM" in p and "operator" in p for p in r.problems)
 
 
+def test_loiter_unlimited_holds_and_goes_on_where_an_operator_can_continue() -> None:
+    """helixd serve: DO_PAUSE_CONTINUE 1 ends the hold, and the mission goes on after it."""
+    r = flown(A, {"command": "NAV_LOITER_UNLIM", "x": 5, "y": 5}, C,
+              options=ExpandOptions(operator_continue=True))  # fmt: skip
+    assert r.problems == () or list(r.problems) == []
+    assert items(r) == [1, 2, 3]
+    assert r.plan.program is not None and r.plan.program.steps[1].forever
+    assert not r.plan.program.never_ends
+    assert r.plan.waypoints[1].stop
+
+
 def test_return_to_launch_goes_home_and_set_home_moves_it() -> None:
     r = flown(A, {"command": "NAV_RETURN_TO_LAUNCH"}, where=Where(home_xy_m=(1.0, -1.0)))
     assert points(r.plan)[-1] == (1.0, -1.0) and r.plan.waypoints[-1].stop

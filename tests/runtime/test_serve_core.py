@@ -139,10 +139,20 @@ def test_only_a_ground_station_with_a_startable_mission_ever_gets_a_start(
             ServeState.FAULTED,
             ServeState.COMPLETED,
         )
-    if a.request is Request.PAUSE:
+    if a.request in (Request.PAUSE, Request.RELEASE):
         assert state is ServeState.FLYING and sender in GCS
     if a.result != MAV_RESULT_ACCEPTED:
         assert a.request is None
+
+
+def test_continue_releases_a_loiter_without_end_in_flight() -> None:
+    held = view(ServeState.FLYING, holding=True)
+    a = answer_command(held, MAV_CMD_DO_PAUSE_CONTINUE, (1.0,), 255, GCS)
+    assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.RELEASE)
+    a = answer_command(view(ServeState.FLYING), MAV_CMD_DO_PAUSE_CONTINUE, (1.0,), 255, GCS)
+    assert a.result == MAV_RESULT_TEMPORARILY_REJECTED and a.request is None
+    a = answer_command(held, MAV_CMD_DO_PAUSE_CONTINUE, (1.0,), 250, GCS)
+    assert a.result == MAV_RESULT_DENIED
 
 
 def test_a_switch_found_high_is_no_start_until_seen_low() -> None:

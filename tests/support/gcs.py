@@ -28,20 +28,32 @@ def latlon(north_m: float, east_m: float) -> tuple[float, float]:
     return ne_to_latlon(north_m, east_m, SIM.origin_lat_deg, SIM.origin_lon_deg)
 
 
-def waypoint(seq: int, north_m: float, east_m: float) -> Any:
+def waypoint(
+    seq: int, north_m: float, east_m: float, command: int = mavlink.MAV_CMD_NAV_WAYPOINT
+) -> Any:
     lat, lon = latlon(north_m, east_m)
     return mavlink.MAVLink_mission_item_int_message(
-        1, 1, seq, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, mavlink.MAV_CMD_NAV_WAYPOINT,
+        1, 1, seq, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, command,
         0, 1, 0.0, 0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0,
         mavlink.MAV_MISSION_TYPE_MISSION,
     )  # fmt: skip
 
 
-def upload(gcs: MavClient, points_ne_m: list[tuple[float, float]], timeout_s: float = 20.0) -> None:
-    """Upload home + one NAV_WAYPOINT per point; AssertionError unless MISSION_ACK ACCEPTED."""
+def upload(
+    gcs: MavClient,
+    points_ne_m: list[tuple[float, float]],
+    timeout_s: float = 20.0,
+    commands: dict[int, int] | None = None,
+) -> None:
+    """Upload home + one NAV_WAYPOINT per point (``commands``: item number → another
+    navigation command at that point); AssertionError unless MISSION_ACK ACCEPTED."""
+    cmds = commands or {}
     items = [
         waypoint(0, 0.0, 0.0),
-        *(waypoint(i + 1, n, e) for i, (n, e) in enumerate(points_ne_m)),
+        *(
+            waypoint(i + 1, n, e, cmds.get(i + 1, mavlink.MAV_CMD_NAV_WAYPOINT))
+            for i, (n, e) in enumerate(points_ne_m)
+        ),
     ]
     gcs.mav.mission_count_send(1, 1, len(items), mavlink.MAV_MISSION_TYPE_MISSION)
     deadline = time.monotonic() + timeout_s
