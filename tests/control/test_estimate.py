@@ -26,6 +26,8 @@ from tests.support.paths import REPO_ROOT
 CFG = HelixdConfig()
 LINE = CFG.control
 THESIS = CFG.control.model_copy(update={"guidance": "thesis"})
+ARCS = LINE.model_copy(update={"corner_error_m": 0.25})  # corners flown as arcs
+NO_ARCS = LINE.model_copy(update={"corner_error_m": 0.0})  # stop and pivot at corners
 DT_S = 0.025  # the 40 Hz pose rate the autopilot grants
 LINE_REL = 0.03  # the estimate is within this of the navigator's own time (line guidance)
 THESIS_REL = 0.05
@@ -48,7 +50,11 @@ def shipped(name: str, mode: MotionMode) -> Plan:
     return replace(resolve_plan(msn, CFG.control, CFG.mission), mode=mode)
 
 
-@pytest.mark.parametrize(("guidance", "rel"), [(LINE, LINE_REL), (THESIS, THESIS_REL)])
+@pytest.mark.parametrize(
+    ("guidance", "rel"),
+    [(ARCS, LINE_REL), (NO_ARCS, LINE_REL), (THESIS, THESIS_REL)],
+    ids=["arcs", "pivots", "thesis"],
+)
 @pytest.mark.parametrize("mode", list(MotionMode))
 @pytest.mark.parametrize("name", ["square", "hexagon", "circle"])
 def test_shipped_missions_take_the_estimated_time(
@@ -65,14 +71,29 @@ def test_the_square_counts_acceleration_braking_and_pivots() -> None:
     """The field engineer's square: 71 s at cruise plus turns at the full yaw rate; the
     navigator takes 83 s (the simulator flies it in 83.1 s)."""
     plan = shipped("square", MotionMode.ROLL)
-    est = estimate_time(plan, LINE, (0.0, 0.0), 0.0)
+    est = estimate_time(plan, NO_ARCS, (0.0, 0.0), 0.0)
     assert est.path_length_m == pytest.approx(40.0)
     assert est.pivots == 3  # the three corners; the last waypoint is a stop, not a turn
     assert est.driving_s > 40.0 / plan.speed_mps + 10.0  # four accelerations and brakings
     assert est.turning_s > 3 * (math.pi / 2) / LINE.max_yaw_rate_radps  # yaw acceleration
-    assert est.total_s == pytest.approx(fly_s(plan, Pose2D(0.0, 0.0, 0.0), LINE), rel=0.01)
+    assert est.total_s == pytest.approx(fly_s(plan, Pose2D(0.0, 0.0, 0.0), NO_ARCS), rel=0.01)
     assert len(est.arrivals_s) == 4 and est.arrivals_s[-1] == pytest.approx(est.total_s)
     assert list(est.arrivals_s) == sorted(est.arrivals_s)
+
+
+def test_the_square_with_corner_arcs_follows_the_arcs() -> None:
+    """With a corner budget the three corners are arcs (R 0.60 m at 0.43 m/s), not stops and
+    pivots: the navigator flies the square in 71.1 s, not 83.5 s, and so does the estimate
+    (it planned 83.4 s, stop and pivot, before it followed the arcs)."""
+    plan = shipped("square", MotionMode.ROLL)
+    est = estimate_time(plan, ARCS, (0.0, 0.0), 0.0)
+    flown = fly_s(plan, Pose2D(0.0, 0.0, 0.0), ARCS)
+    assert est.pivots == 0 and est.turning_s == 0.0
+    assert est.path_length_m == pytest.approx(40.0)  # the polyline, as the operator wrote it
+    assert est.total_s == pytest.approx(flown, rel=0.01)
+    assert est.total_s < estimate_time(plan, NO_ARCS, (0.0, 0.0), 0.0).total_s - 10.0
+    # each corner is reached at its arc's middle, a quarter of the way round
+    assert len(est.arrivals_s) == 4 and list(est.arrivals_s) == sorted(est.arrivals_s)
 
 
 def test_the_pond_crossing_route_is_estimated_with_its_detours() -> None:
@@ -110,7 +131,11 @@ def random_plans(seed: int, count: int) -> list[tuple[Plan, Pose2D]]:
     return out
 
 
-@pytest.mark.parametrize(("guidance", "rel"), [(LINE, LINE_REL), (THESIS, THESIS_REL)])
+@pytest.mark.parametrize(
+    ("guidance", "rel"),
+    [(ARCS, LINE_REL), (NO_ARCS, LINE_REL), (THESIS, THESIS_REL)],
+    ids=["arcs", "pivots", "thesis"],
+)
 def test_random_missions_take_the_estimated_time(guidance: ControlConfig, rel: float) -> None:
     """Random corners, final headings, tolerances, speeds and start poses."""
     for plan, start in random_plans(24, 25):
