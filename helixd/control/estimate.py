@@ -10,19 +10,21 @@ feed-forward makes up what the ground takes, up to ``control.slip.max_gain``):
   arc's speed, braked for to reach it at the arc's start, the leg ending at the arc's middle,
   with no turn in place; pivot corners, final headings, holds and the last waypoint are stops;
   without arcs gentle corners are flown at their corner speed. The speed command is the
-  navigator's ``max(min_speed, min(cruise, distance PID, braking profile, corner
+  navigator's ``max(min_speed, min(cruise of the leg, distance PID, braking profile, corner
   being rounded))`` and changes by at most ``max_accel_mps2`` — the braking profile of
   :func:`helixd.control.line.profile_speed_mps` at ``braking_accel_mps2``, reached at an
   arc's start or ``tolerance`` before a flown-through waypoint, and held over the arc's second
-  half or ``lookahead_m`` past the waypoint. Corners are planned for the plan's peak speed,
-  as the navigator plans them;
+  half or ``lookahead_m`` past the waypoint. The cruise of each leg is the one its
+  DO_CHANGE_SPEED sets (:meth:`helixd.base.plan.Plan.leg_speeds_mps`); corners are planned
+  for the plan's peak speed, as the navigator plans them;
 * pivots in place (ROLL/SCROLL) where the heading error exceeds the pivot angle — at the
   start and at the stops — until it is below ``heading_threshold_rad``, with the yaw PID, the
   yaw-rate cap, the yaw-acceleration limit and the rate that can still brake; turns to a final
   heading until ``final_heading_tolerance_rad``;
 * thesis guidance: the same pivots (at ``heading_threshold_rad``, no acceleration limits) and
   the thesis speed law (:func:`helixd.control.guidance.track_speed_mps` with the slow-down
-  ramp and the corners' run-out), each leg ending ``tolerance`` before its waypoint.
+  ramp and the corners' run-out, at each leg's cruise), each leg ending ``tolerance`` before
+  its waypoint.
 
 The speed profile is integrated in one dimension along the path (cross-track and the small
 heading errors of TRACK are left out, as are the corners cut inside a waypoint's radius);
@@ -192,7 +194,7 @@ class _Line:
 
     def __init__(self, plan: Plan, control: NavigatorParams, path: _Path) -> None:
         self.plan, self.control, self.path = plan, control, path
-        self.cruise = [plan.speed_mps] * len(plan.waypoints)
+        self.cruise = plan.leg_speeds_mps()  # per leg: DO_CHANGE_SPEED sets it
         self.floor = max(control.min_speed_mps, SPEED_FLOOR_MPS)
         self.brake = control.braking_accel_mps2
         wps = plan.waypoints
@@ -213,7 +215,7 @@ class _Line:
         # at the arc's middle (where its leg ends), the arc being shorter than its tangents.
         self.at = [0.0]
         for j in range(n):
-            arc_out_m, tangent_out_m = (self.half_arc_m[j - 1], tangent[j - 1]) if j else (0.0, 0.0)
+            arc_out_m, tangent_out_m = (self.half_arc_m[j - 1], tangent[j - 1]) if j else (0, 0)
             straight_m = max(0.0, path.lengths[j] - tangent_out_m - tangent[j])
             self.at.append(self.at[j] + arc_out_m + straight_m + self.half_arc_m[j])
         self.leg_end = [
@@ -427,8 +429,11 @@ class _Thesis:
         plan, control, path = self.plan, self.control, self.path
         wps = plan.waypoints
         run_out = guidance.run_out_m(
-            path.points, [y is not None for y in path.final_yaw_rad], control.corner_slowdown_rad
+            path.points,
+            [w.final_yaw_rad is not None or w.stop for w in wps],
+            control.corner_slowdown_rad,
         )
+        cruise = plan.leg_speeds_mps()  # per leg: DO_CHANGE_SPEED sets it
         here = path.points[0]
         heading = path.start_yaw_rad
         driving = turning = 0.0
@@ -445,7 +450,7 @@ class _Thesis:
                         turning += _turn_time_s(e, control.heading_threshold_rad, control, False)
                         pivots += 1
                     heading = course - path.axis_rad
-                driving += self._leg_s(distance, wp.tolerance_m, run_out[j])
+                driving += self._leg_s(distance, wp.tolerance_m, run_out[j], cruise[j])
                 k = (distance - wp.tolerance_m) / distance
                 here = (here[0] + (goal[0] - here[0]) * k, here[1] + (goal[1] - here[1]) * k)
             arrivals.append(driving + turning)
@@ -460,9 +465,12 @@ class _Thesis:
             driving + turning, driving, turning, path.length_m, pivots, tuple(arrivals)
         )
 
-    def _leg_s(self, distance_m: float, tolerance_m: float, run_out_m: float) -> float:
-        """From ``distance_m`` to ``tolerance_m`` off the waypoint at the thesis speed law."""
-        control, cruise = self.control, self.plan.speed_mps
+    def _leg_s(
+        self, distance_m: float, tolerance_m: float, run_out_m: float, cruise: float
+    ) -> float:
+        """From ``distance_m`` to ``tolerance_m`` off the waypoint at the thesis speed law,
+        cruising at ``cruise`` (m/s)."""
+        control = self.control
         kp = control.distance_pid.kp
         full = max(control.slowdown_radius_m, cruise / kp if kp > 0.0 else math.inf)
         e, t = distance_m, 0.0

@@ -13,12 +13,13 @@ from dataclasses import replace
 
 import pytest
 
-from helixd.base.geometry import Pose2D
-from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
+from helixd.base.geometry import BodyVelocity, Pose2D
+from helixd.base.plan import ActionKind, MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
 from helixd.control.estimate import estimate_time
 from helixd.control.navigator import Navigator
-from helixd.mission import load_mission, resolve_plan
+from helixd.control.sequencer import Sequencer, SequencerOutput
+from helixd.mission import Mission, load_mission, resolve_plan
 from helixd.planning import load_map, plan_mission
 from tests.support.ideal_plant import IdealPlant
 from tests.support.paths import REPO_ROOT
@@ -43,6 +44,35 @@ def fly_s(plan: Plan, start: Pose2D, control: ControlConfig) -> float:
             return plant.t_s
         plant.step(out.command, DT_S)
     raise AssertionError("the navigator never finished")
+
+
+def fly_program_s(plan: Plan, start: Pose2D, control: ControlConfig) -> float:
+    """Autopilot seconds a mission with commands takes on the ideal plant: the navigator and
+    the sequencer stepped as the flight loop steps them (DO_CHANGE_SPEED sets the cruise,
+    holds keep the rover standing)."""
+    assert plan.program is not None
+    nav = Navigator(plan, control)
+    seq = Sequencer(plan.program)
+    plant = IdealPlant(start, plan.mode, VehicleConfig())
+
+    def apply(out: SequencerOutput) -> bool:
+        for action in out.actions:
+            if action.kind is ActionKind.SPEED:
+                nav.set_speed(action.value)
+        return out.holding
+
+    holding = apply(seq.start(plant.t_s))
+    for _ in range(400_000):
+        if seq.done:
+            return plant.t_s
+        if holding:
+            holding = apply(seq.update(plant.t_s, None, 0.0))
+            plant.step(BodyVelocity.zero(), DT_S)
+            continue
+        out = nav.step(plant.pose, plant.t_s)
+        holding = apply(seq.update(plant.t_s, out.reached_index, out.distance_error_m))
+        plant.step(BodyVelocity.zero() if holding else out.command, DT_S)
+    raise AssertionError("the program never finished")
 
 
 def shipped(name: str, mode: MotionMode) -> Plan:
@@ -108,6 +138,43 @@ def test_the_pond_crossing_route_is_estimated_with_its_detours() -> None:
     est = estimate_time(plan, LINE, (0.0, 0.0), north)
     assert est.path_length_m > 110.0  # straight it would be 55 m
     assert est.total_s == pytest.approx(fly_s(plan, Pose2D(0.0, 0.0, north), LINE), rel=0.02)
+
+
+# DO_CHANGE_SPEED on the way, a hold, a loop flown twice (tests/integration/
+# test_mission_commands_flights.py flies the same legs in the simulator)
+SPEEDS = {
+    "name": "speeds",
+    "mode": "roll",
+    "frame": "start",
+    "waypoints": [
+        {"x": 10, "y": 0},
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 0.3},
+        {"x": 10, "y": 8, "hold_s": 6},
+        {"x": 2, "y": 8},
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 0.5},
+        {"x": 2, "y": 2},
+        {"x": 8, "y": 2},
+        {"command": "DO_JUMP", "item": 6, "repeat": 1},
+    ],
+}
+
+
+@pytest.mark.parametrize("guidance", [ARCS, NO_ARCS, THESIS], ids=["arcs", "pivots", "thesis"])
+def test_each_leg_is_estimated_at_the_speed_its_do_change_speed_sets(
+    guidance: ControlConfig,
+) -> None:
+    """0.6 m/s to the first waypoint, 0.3 m/s to the hold and on, 0.5 m/s round the loop:
+    141.5 s flown in the simulator, 140.2 s estimated (110.6 s when every leg was estimated
+    at the mission's 0.6 m/s)."""
+    plan = resolve_plan(Mission.model_validate(SPEEDS), guidance, CFG.mission)
+    assert plan.leg_speeds_mps() == [0.6, 0.3, 0.3, 0.5, 0.5, 0.5, 0.5]
+    assert plan.waypoints[1].stop  # the hold: a stop, not an arc
+    est = estimate_time(plan, guidance, (0.0, 0.0), 0.0)
+    flown = fly_program_s(plan, Pose2D(0.0, 0.0, 0.0), guidance)
+    rel = THESIS_REL if guidance.guidance == "thesis" else LINE_REL
+    assert est.total_s == pytest.approx(flown, rel=rel)
+    all_fast = replace(plan, program=None)  # the same legs, all at the mission's speed
+    assert est.total_s > estimate_time(all_fast, guidance, (0.0, 0.0), 0.0).total_s + 20.0
 
 
 def random_plans(seed: int, count: int) -> list[tuple[Plan, Pose2D]]:
