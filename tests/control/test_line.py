@@ -34,7 +34,8 @@ from tests.support.paths import REPO_ROOT
 
 DT_S = 1.0 / 40.0
 CONFIG = HelixdConfig()
-# corner arcs are opt-in (control.corner_error_m defaults to 0): these tests fly them at 0.25 m.
+# corner arcs (control.corner_error_m, default 0.25 m): these tests fly them at 0.25 m, set
+# explicitly so they keep doing so whatever the default.
 # The ideal plant responds at once: no scroll lag for the OMNI arcs' course lead to cancel.
 LINE = CONFIG.control.model_copy(
     update={
