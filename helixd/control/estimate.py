@@ -4,20 +4,27 @@ Pure: numbers in, numbers out (no clock, no I/O). :func:`estimate_time` follows 
 :mod:`helixd.control.navigator` flies by, on an ideal plant (every command delivered: the slip
 feed-forward makes up what the ground takes, up to ``control.slip.max_gain``):
 
-* line guidance (the default): the pass speed and stop of every waypoint from
-  :func:`helixd.control.line.waypoint_speed_limits` (pivot corners, final headings and the last
-  waypoint are stops, gentle corners are flown at their corner speed); the speed command is
-  the navigator's ``max(min_speed, min(cruise, distance PID, braking profile, corner being
-  rounded))`` and changes by at most ``max_accel_mps2`` — the braking profile of
-  :func:`helixd.control.line.profile_speed_mps` at ``braking_accel_mps2``, reached
-  ``tolerance`` before a flown-through waypoint and held for ``lookahead_m`` past it;
+* line guidance (the default): the corners as the navigator plans them
+  (:func:`helixd.control.line.plan_corners`, shared with it): corners flown as arcs
+  (``corner_error_m`` > 0) are driven along the arc — shorter than its two tangents — at the
+  arc's speed, braked for to reach it at the arc's start, the leg ending at the arc's middle,
+  with no turn in place; pivot corners, final headings, holds and the last waypoint are stops;
+  without arcs gentle corners are flown at their corner speed. The speed command is the
+  navigator's ``max(min_speed, min(cruise of the leg, distance PID, braking profile, corner
+  being rounded))`` and changes by at most ``max_accel_mps2`` — the braking profile of
+  :func:`helixd.control.line.profile_speed_mps` at ``braking_accel_mps2``, reached at an
+  arc's start or ``tolerance`` before a flown-through waypoint, and held over the arc's second
+  half or ``lookahead_m`` past the waypoint. The cruise of each leg is the one its
+  DO_CHANGE_SPEED sets (:meth:`helixd.base.plan.Plan.leg_speeds_mps`); corners are planned
+  for the plan's peak speed, as the navigator plans them;
 * pivots in place (ROLL/SCROLL) where the heading error exceeds the pivot angle — at the
   start and at the stops — until it is below ``heading_threshold_rad``, with the yaw PID, the
   yaw-rate cap, the yaw-acceleration limit and the rate that can still brake; turns to a final
   heading until ``final_heading_tolerance_rad``;
 * thesis guidance: the same pivots (at ``heading_threshold_rad``, no acceleration limits) and
   the thesis speed law (:func:`helixd.control.guidance.track_speed_mps` with the slow-down
-  ramp and the corners' run-out), each leg ending ``tolerance`` before its waypoint.
+  ramp and the corners' run-out, at each leg's cruise), each leg ending ``tolerance`` before
+  its waypoint.
 
 The speed profile is integrated in one dimension along the path (cross-track and the small
 heading errors of TRACK are left out, as are the corners cut inside a waypoint's radius);
@@ -187,32 +194,53 @@ class _Line:
 
     def __init__(self, plan: Plan, control: NavigatorParams, path: _Path) -> None:
         self.plan, self.control, self.path = plan, control, path
-        self.cruise = plan.speed_mps
+        self.cruise = plan.leg_speeds_mps()  # per leg: DO_CHANGE_SPEED sets it
         self.floor = max(control.min_speed_mps, SPEED_FLOOR_MPS)
         self.brake = control.braking_accel_mps2
         wps = plan.waypoints
-        self.speeds, self.stops = line.waypoint_speed_limits(
+        corners = line.plan_corners(
             path.points,
-            [y is not None for y in path.final_yaw_rad],
-            self.cruise,
-            control.pivot_angle_rad,
-            control.lookahead_m,
-            control.max_lateral_accel_mps2,
-            control.max_yaw_rate_radps,
+            [w.tolerance_m for w in wps],
+            [w.final_yaw_rad is not None or w.stop for w in wps],
+            plan.peak_speed_mps,
+            control,
         )
+        self.speeds, self.stops, self.arcs = corners.speeds_mps, corners.stops, corners.arcs
         n = len(wps)
-        self.leg_end = [
-            path.s[j + 1] - (0.0 if self.stops[j] else wps[j].tolerance_m) for j in range(n)
+        tangent = [0.0 if a is None else a.tangent_m for a in self.arcs]
+        self.half_arc_m = [
+            0.0 if a is None else a.radius_m * abs(a.turn_rad) / 2 for a in self.arcs
         ]
+        # Arc length along the path flown of each path point: a corner rounded on an arc is
+        # at the arc's middle (where its leg ends), the arc being shorter than its tangents.
+        self.at = [0.0]
+        for j in range(n):
+            arc_out_m, tangent_out_m = (self.half_arc_m[j - 1], tangent[j - 1]) if j else (0, 0)
+            straight_m = max(0.0, path.lengths[j] - tangent_out_m - tangent[j])
+            self.at.append(self.at[j] + arc_out_m + straight_m + self.half_arc_m[j])
+        self.leg_end = [
+            self.at[j + 1]
+            - (0.0 if self.stops[j] or self.arcs[j] is not None else wps[j].tolerance_m)
+            for j in range(n)
+        ]
+        # where each waypoint's pass speed must be reached: its arc's start, else its leg's end
+        self.arc_in = [
+            self.at[j + 1] - self.half_arc_m[j] if self.arcs[j] is not None else math.inf
+            for j in range(n)
+        ]
+        reach = [min(self.arc_in[j], self.leg_end[j]) for j in range(n)]
         # Braking: the profile at arc length s on leg j is √(M_j − 2·b·s), M_j the smallest
-        # u_k² + 2·b·(end of leg k) over the waypoints k ≥ j up to the next stop.
+        # u_k² + 2·b·reach_k over the waypoints k ≥ j up to the next stop (``after``: k > j, on
+        # the arc ending leg j, where its own speed is held).
         self.brake_m = [0.0] * n
+        self.after_m = [math.inf] * n
         self.stop_s = [0.0] * n  # arc length of the next stop (the distance PID's goal)
         for j in range(n - 1, -1, -1):
-            own = self.speeds[j] ** 2 + 2.0 * self.brake * self.leg_end[j]
+            own = self.speeds[j] ** 2 + 2.0 * self.brake * reach[j]
             last = self.stops[j] or j == n - 1
-            self.brake_m[j] = own if last else min(own, self.brake_m[j + 1])
-            self.stop_s[j] = path.s[j + 1] if last else self.stop_s[j + 1]
+            self.after_m[j] = math.inf if last else self.brake_m[j + 1]
+            self.brake_m[j] = min(own, self.after_m[j])
+            self.stop_s[j] = self.at[j + 1] if last else self.stop_s[j + 1]
 
     def run(self) -> TimeEstimate:
         path, control, mode = self.path, self.control, self.plan.mode
@@ -225,9 +253,10 @@ class _Line:
         s = 0.0
         for j in range(len(self.plan.waypoints)):
             course = path.courses[j]
+            rounded = j > 0 and self.arcs[j - 1] is not None  # the arc turned the rover
             if path.lengths[j] >= line.MIN_LEG_M and mode is not MotionMode.OMNI:
                 e = abs(shortest_angular_distance(heading, course - path.axis_rad))
-                if e > enter:  # ALIGN: the translation decays while the rover pivots
+                if e > enter and not rounded:  # ALIGN: the translation decays while it pivots
                     dt = _turn_time_s(e, control.heading_threshold_rad, control, True)
                     turning += dt
                     pivots += 1
@@ -250,20 +279,22 @@ class _Line:
         total = driving + turning
         return TimeEstimate(total, driving, turning, path.length_m, pivots, tuple(arrivals))
 
-    def _target(self, j: int, s: float, v: float) -> tuple[float, float, str]:
-        """The speed command the navigator aims at, at arc length ``s`` on leg ``j``; the arc
-        length up to which that target stays the same; and what sets it: ``"cap"`` (cruise,
-        the corner being rounded, or the floor: constant), ``"profile"`` (braking) or
-        ``"pid"`` (the distance PID close to a stop)."""
+    def _target(self, j: int, s: float, v: float, m: float, cap: float) -> tuple[float, float, str]:
+        """The speed command the navigator aims at, at arc length ``s`` on leg ``j`` (braking
+        profile √(m − 2·b·s), at most ``cap``); the arc length up to which
+        that target stays the same; and what sets it: ``"cap"`` (cruise, the corner being
+        rounded, or the floor: constant), ``"profile"`` (braking) or ``"pid"`` (the distance
+        PID close to a stop)."""
         control = self.control
         kp, kd = control.distance_pid.kp, control.distance_pid.kd
-        m = self.brake_m[j]
         profile = math.sqrt(max(0.0, m - 2.0 * self.brake * s))
         pid = kp * max(0.0, self.stop_s[j] - s) - kd * v
-        cap, until = self.cruise, math.inf
-        corner_end = self.path.s[j] + control.lookahead_m
-        if j > 0 and 0.0 < self.speeds[j - 1] < cap and s < corner_end:
-            cap, until = self.speeds[j - 1], corner_end  # still rounding the corner just passed
+        until = math.inf
+        if j > 0:  # still rounding the corner just passed: its arc, else about L past it
+            rounding_m = control.lookahead_m if self.arcs[j - 1] is None else self.half_arc_m[j - 1]
+            corner_end = self.at[j] + rounding_m
+            if 0.0 < self.speeds[j - 1] < cap and s < corner_end:
+                cap, until = self.speeds[j - 1], corner_end
         if min(profile, pid) < self.floor:
             return self.floor, math.inf, "cap"  # both only fall: the floor holds to the end
         if cap < self.floor:
@@ -285,12 +316,11 @@ class _Line:
         return pid.kp * (self.stop_s[j] - s) - pid.kd * v >= v
 
     def _accelerate(
-        self, j: int, s: float, v: float, target: float, until: float, end: float
+        self, j: int, s: float, v: float, target: float, until: float, end: float, m: float
     ) -> tuple[float, float, float] | None:
-        """At ``max_accel`` from ``v`` until the command meets the cap or the braking profile:
-        (s, v, time), or None when the PID would bite first (stepped instead)."""
+        """At ``max_accel`` from ``v`` until the command meets the cap or the braking profile
+        √(m − 2·b·s): (s, v, time), or None when the PID would bite first (stepped instead)."""
         a, b = self.control.max_accel_mps2, self.brake
-        m = self.brake_m[j]
         x = (target * target - v * v) / (2.0 * a)
         x = min(x, (m - 2.0 * b * s - v * v) / (2.0 * (a + b)), until - s, end - s)
         if x <= 0.0:
@@ -301,10 +331,10 @@ class _Line:
         return s + x, v1, (v1 - v) / a
 
     def _follow_profile(
-        self, j: int, s: float, v: float, end: float
+        self, j: int, s: float, v: float, end: float, m: float
     ) -> tuple[float, float, float] | None:
-        """Braking along √(M − 2·b·s) until the PID or the floor takes over or the leg ends."""
-        b, m, stop = self.brake, self.brake_m[j], self.stop_s[j]
+        """Braking along √(m − 2·b·s) until the PID or the floor takes over or ``end``."""
+        b, stop = self.brake, self.stop_s[j]
         pid = self.control.distance_pid
         c = 1.0 + pid.kd
         c0 = m - 2.0 * b * stop
@@ -323,16 +353,40 @@ class _Line:
     def _drive(self, j: int, s: float, v: float) -> tuple[float, float, float]:
         """Drive leg ``j`` from arc length ``s`` at speed ``v`` to its end: (s, v, time).
 
+        A leg ending in a corner arc is driven in two stretches: up to the arc, braking for
+        the arc's speed, then on the arc's first half at that speed."""
+        t = 0.0
+        cruise = self.cruise[j]
+        arc_in = self.arc_in[j]
+        if s < min(arc_in, self.leg_end[j]):
+            s, v, t = self._stretch(j, s, v, min(arc_in, self.leg_end[j]), self.brake_m[j], cruise)
+        if s < self.leg_end[j]:
+            on_arc = min(cruise, self.speeds[j])
+            s, v, dt = self._stretch(j, s, v, self.leg_end[j], self.after_m[j], on_arc)
+            t += dt
+        return s, v, t
+
+    def _stretch(
+        self,
+        j: int,
+        s: float,
+        v: float,
+        end: float,
+        m: float,
+        cap: float,
+    ) -> tuple[float, float, float]:
+        """Drive from arc length ``s`` at speed ``v`` to ``end`` on leg ``j`` under the
+        braking profile √(m − 2·b·s) and at most ``cap``: (s, v, time).
+
         Constant speed, acceleration to a cap and braking along the profile are taken in
         closed form; the rest (the PID's last metres, changes of the binding limit) in
         ``DT_S`` steps of the navigator's acceleration-limited command."""
-        end = self.leg_end[j]
         t = 0.0
         step = self.control.max_accel_mps2 * DT_S
         for _ in range(MAX_STEPS_PER_LEG):
             if s >= end:
                 break
-            target, until, kind = self._target(j, s, v)
+            target, until, kind = self._target(j, s, v, m, cap)
             if abs(v - target) <= SAME_SPEED_MPS and until > s and v > 0.0:
                 reach = min(until, end)
                 t += (reach - s) / v
@@ -340,11 +394,11 @@ class _Line:
                 continue
             jump = None
             if v < target and kind == "cap":
-                jump = self._accelerate(j, s, v, target, until, end)
+                jump = self._accelerate(j, s, v, target, until, end, m)
             elif v < target and kind == "profile":
-                jump = self._accelerate(j, s, v, math.inf, until, end)
+                jump = self._accelerate(j, s, v, math.inf, until, end, m)
             elif kind == "profile" and abs(v - target) <= SAME_SPEED_MPS and self.brake > 0.0:
-                jump = self._follow_profile(j, s, v, end)
+                jump = self._follow_profile(j, s, v, end, m)
             if jump is not None:
                 s, v, dt = jump
                 t += dt
@@ -375,8 +429,11 @@ class _Thesis:
         plan, control, path = self.plan, self.control, self.path
         wps = plan.waypoints
         run_out = guidance.run_out_m(
-            path.points, [y is not None for y in path.final_yaw_rad], control.corner_slowdown_rad
+            path.points,
+            [w.final_yaw_rad is not None or w.stop for w in wps],
+            control.corner_slowdown_rad,
         )
+        cruise = plan.leg_speeds_mps()  # per leg: DO_CHANGE_SPEED sets it
         here = path.points[0]
         heading = path.start_yaw_rad
         driving = turning = 0.0
@@ -393,7 +450,7 @@ class _Thesis:
                         turning += _turn_time_s(e, control.heading_threshold_rad, control, False)
                         pivots += 1
                     heading = course - path.axis_rad
-                driving += self._leg_s(distance, wp.tolerance_m, run_out[j])
+                driving += self._leg_s(distance, wp.tolerance_m, run_out[j], cruise[j])
                 k = (distance - wp.tolerance_m) / distance
                 here = (here[0] + (goal[0] - here[0]) * k, here[1] + (goal[1] - here[1]) * k)
             arrivals.append(driving + turning)
@@ -408,9 +465,12 @@ class _Thesis:
             driving + turning, driving, turning, path.length_m, pivots, tuple(arrivals)
         )
 
-    def _leg_s(self, distance_m: float, tolerance_m: float, run_out_m: float) -> float:
-        """From ``distance_m`` to ``tolerance_m`` off the waypoint at the thesis speed law."""
-        control, cruise = self.control, self.plan.speed_mps
+    def _leg_s(
+        self, distance_m: float, tolerance_m: float, run_out_m: float, cruise: float
+    ) -> float:
+        """From ``distance_m`` to ``tolerance_m`` off the waypoint at the thesis speed law,
+        cruising at ``cruise`` (m/s)."""
+        control = self.control
         kp = control.distance_pid.kp
         full = max(control.slowdown_radius_m, cruise / kp if kp > 0.0 else math.inf)
         e, t = distance_m, 0.0

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 from helixd.base.angles import shortest_angular_distance, wrap_pi
 from helixd.base.geometry import Pose2D, require_finite
+from helixd.control.params import NavigatorParams
 
 MIN_LEG_M = 1e-6  # shorter legs have no direction: they are flown as a point
 COLLINEAR_RAD = 2e-6  # a corner turning less than this is a straight line (no arc needed)
@@ -159,7 +160,8 @@ def corner_arc(
     R·(1/cos(θ/2) − 1) ≤ e, (2) fit on half of each leg, R·tan(θ/2) ≤ min(|ab|, |bc|)/2, so
     the arcs of neighbouring corners never overlap, and (3) are no larger than needed to pass
     at cruise, R ≤ max(v²/a_lat, v/ω_max) (a larger one only moves farther from the corner).
-    Speed: v = min(cruise, √(a_lat·R), ω_max·R) (``max_yaw_rate_radps`` None: no yaw, OMNI).
+    Speed: v = min(cruise, √(a_lat·R), ω_max·R) (``max_yaw_rate_radps`` None: no turn-rate
+    limit).
     None when the corner is collinear (θ ≈ 0: no arc needed), a reversal (θ ≈ π), a leg is
     degenerate, or the arc could only be flown below ``min_speed_mps``: too sharp for the
     budget, a pivot is the better turn. Non-finite input → None.
@@ -308,6 +310,77 @@ def waypoint_speed_limits(
             turn, cruise_mps, lookahead_m, max_lateral_accel_mps2, max_yaw_rate_radps
         )
     return speeds, stops
+
+
+@dataclass(frozen=True, slots=True)
+class CornerPlan:
+    """How line guidance takes each waypoint of a path (one entry per waypoint).
+
+    ``arcs``: the arc its corner is rounded with (None: no arc); ``speeds_mps``: the speed to
+    pass it at (0 at a stop); ``stops``: stopped at (pivot corner, final heading, a hold, the
+    last waypoint); ``early_m``: how far before the waypoint its pass speed must be reached
+    (an arc's start, a flown-through waypoint's tolerance, 0 at a stop)."""
+
+    arcs: list[CornerArc | None]
+    speeds_mps: list[float]
+    stops: list[bool]
+    early_m: list[float]
+
+
+def plan_corners(
+    points_xy_m: list[tuple[float, float]],
+    tolerances_m: list[float],
+    stop_at: list[bool],
+    peak_speed_mps: float,
+    control: NavigatorParams,
+) -> CornerPlan:
+    """The navigator's corner decisions for the path ``points_xy_m`` (start first, then the
+    waypoints with their ``tolerances_m``; ``stop_at``: a final heading or a hold follows).
+
+    With a corner error budget (``control.corner_error_m`` > 0) every corner that is not a
+    stop gets its :func:`corner_arc` with the budget capped by the waypoint's tolerance,
+    planned for ``peak_speed_mps`` (the highest cruise the mission may set);
+    :func:`waypoint_speed_limits` then gives the pass speeds and stops. The navigator flies by
+    this plan and the time estimate integrates it.
+
+    OMNI does not turn, but its direction of travel does, and no faster than
+    ``max_yaw_rate_radps`` either (v ≤ ω·R): a tighter arc cannot be followed through the
+    scrolls' lag (a 164° corner got a 0.04 m arc at 0.11 m/s, v/R = 2.7 rad/s, and the rover
+    orbited it for ever), so such a corner is a stop, as in ROLL and SCROLL."""
+    n = len(points_xy_m) - 1
+    arcs: list[CornerArc | None] | None = None
+    if control.corner_error_m > 0.0:
+        arcs = [
+            corner_arc(
+                points_xy_m[i],
+                points_xy_m[i + 1],
+                points_xy_m[i + 2],
+                min(control.corner_error_m, tolerances_m[i]),
+                peak_speed_mps,
+                control.max_lateral_accel_mps2,
+                control.max_yaw_rate_radps,
+                control.min_speed_mps,
+            )
+            if i + 1 < n and not stop_at[i]
+            else None
+            for i in range(n)
+        ]
+    speeds, stops = waypoint_speed_limits(
+        points_xy_m,
+        stop_at,
+        peak_speed_mps,
+        control.pivot_angle_rad,
+        control.lookahead_m,
+        control.max_lateral_accel_mps2,
+        control.max_yaw_rate_radps,
+        arcs,
+    )
+    planned: list[CornerArc | None] = arcs if arcs is not None else [None] * n
+    early = [
+        0.0 if stop else (arc.tangent_m if arc is not None else tolerance)
+        for stop, arc, tolerance in zip(stops, planned, tolerances_m, strict=True)
+    ]
+    return CornerPlan(planned, speeds, stops, early)
 
 
 def braking_speed_mps(distance_m: float, end_speed_mps: float, accel_mps2: float) -> float:

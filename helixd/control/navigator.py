@@ -33,11 +33,13 @@ Two guidance laws, chosen by ``control.guidance``:
   stop is flown as an arc tangent to both legs (:func:`line.corner_arc`: the largest radius
   that passes within the budget — and the waypoint's tolerance — of the waypoint, fits on half
   of each leg and is no larger than cruise needs), at the speed ``max_lateral_accel`` and the
-  yaw-rate limit allow on it; the arc's yaw rate v/R is fed forward, ramped at the yaw
-  acceleration limit across the arc's ends with the heading reference shifted to match
-  (:func:`line.arc_blend`), and the lookahead law steers onto the arc as onto a leg. Its leg
+  yaw-rate limit allow on it (in OMNI: on the turn of its direction of travel), planned by
+  :func:`line.plan_corners`, which the time estimate shares; the arc's yaw rate v/R is fed
+  forward, ramped at the yaw acceleration limit across the arc's ends with the heading
+  reference shifted to match (:func:`line.arc_blend`), and the lookahead law steers onto the
+  arc as onto a leg. Its leg
   ends on the corner's bisector (the arc's middle). A corner whose arc would be flown below
-  ``min_speed_mps`` (too sharp for the budget: ≈ 130° with the defaults) is a pivot stop;
+  ``min_speed_mps`` (too sharp for the budget: beyond ≈ 146° with the defaults) is a pivot stop;
   waypoints with a final heading and the last one stay stops. Without a budget
   (``corner_error_m`` = 0) corners sharper than ``pivot_angle_rad`` are pivots and gentler
   ones are rounded by the lookahead law.
@@ -304,40 +306,16 @@ class Navigator:
         wps = self.plan.waypoints
         cfg = self.control
         self._points_xy_m = [self._leg_start(pose)] + [(w.x_m, w.y_m) for w in wps]
-        stop_at = [w.final_yaw_rad is not None or w.stop for w in wps]
-        arcs: list[line.CornerArc | None] | None = None
-        if cfg.corner_error_m > 0.0:
-            yaw_rate = None if self.plan.mode is MotionMode.OMNI else cfg.max_yaw_rate_radps
-            arcs = [
-                line.corner_arc(
-                    self._points_xy_m[i],
-                    (w.x_m, w.y_m),
-                    self._points_xy_m[i + 2],
-                    min(cfg.corner_error_m, w.tolerance_m),
-                    self._peak_speed_mps,
-                    cfg.max_lateral_accel_mps2,
-                    yaw_rate,
-                    cfg.min_speed_mps,
-                )
-                if i + 1 < len(wps) and not stop_at[i]
-                else None
-                for i, w in enumerate(wps)
-            ]
-        self._arcs = arcs if arcs is not None else [None] * len(wps)
-        self._pass_speed_mps, self._stops = line.waypoint_speed_limits(
+        corners = line.plan_corners(
             self._points_xy_m,
-            stop_at,
+            [w.tolerance_m for w in wps],
+            [w.final_yaw_rad is not None or w.stop for w in wps],
             self._peak_speed_mps,
-            cfg.pivot_angle_rad,
-            cfg.lookahead_m,
-            cfg.max_lateral_accel_mps2,
-            cfg.max_yaw_rate_radps,
-            arcs,
+            cfg,
         )
-        self._early_m = [
-            0.0 if stop else (arc.tangent_m if arc is not None else w.tolerance_m)
-            for stop, arc, w in zip(self._stops, self._arcs, wps, strict=True)
-        ]
+        self._arcs = corners.arcs
+        self._pass_speed_mps, self._stops = corners.speeds_mps, corners.stops
+        self._early_m = corners.early_m
         # Beyond this distance along the path no waypoint limits the speed profile, and the
         # distance loop's output is past the cruise speed (see _horizon_m).
         self._horizon_m = self._lookahead_horizon_m()

@@ -2,7 +2,8 @@
 on the ideal plant through the real scroll pipeline (tests/support/ideal_plant.py).
 
 The flights in the built-in simulator are compared in
-tests/integration/test_daemon_missions.py (square 83.4 s estimated / 83–85 s flown)."""
+tests/integration/test_daemon_missions.py (square with the default corner arcs: 71.0 s
+estimated / 71.8–72.1 s flown; 83.4 s / 83–85 s with stop and pivot)."""
 
 from __future__ import annotations
 
@@ -13,12 +14,13 @@ from dataclasses import replace
 
 import pytest
 
-from helixd.base.geometry import Pose2D
-from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
+from helixd.base.geometry import BodyVelocity, Pose2D
+from helixd.base.plan import ActionKind, MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
 from helixd.control.estimate import estimate_time
 from helixd.control.navigator import Navigator
-from helixd.mission import load_mission, resolve_plan
+from helixd.control.sequencer import Sequencer, SequencerOutput
+from helixd.mission import Mission, load_mission, resolve_plan
 from helixd.planning import load_map, plan_mission
 from tests.support.ideal_plant import IdealPlant
 from tests.support.paths import REPO_ROOT
@@ -26,6 +28,8 @@ from tests.support.paths import REPO_ROOT
 CFG = HelixdConfig()
 LINE = CFG.control
 THESIS = CFG.control.model_copy(update={"guidance": "thesis"})
+ARCS = LINE.model_copy(update={"corner_error_m": 0.25})  # corners flown as arcs
+NO_ARCS = LINE.model_copy(update={"corner_error_m": 0.0})  # stop and pivot at corners
 DT_S = 0.025  # the 40 Hz pose rate the autopilot grants
 LINE_REL = 0.03  # the estimate is within this of the navigator's own time (line guidance)
 THESIS_REL = 0.05
@@ -43,12 +47,45 @@ def fly_s(plan: Plan, start: Pose2D, control: ControlConfig) -> float:
     raise AssertionError("the navigator never finished")
 
 
+def fly_program_s(plan: Plan, start: Pose2D, control: ControlConfig) -> float:
+    """Autopilot seconds a mission with commands takes on the ideal plant: the navigator and
+    the sequencer stepped as the flight loop steps them (DO_CHANGE_SPEED sets the cruise,
+    holds keep the rover standing)."""
+    assert plan.program is not None
+    nav = Navigator(plan, control)
+    seq = Sequencer(plan.program)
+    plant = IdealPlant(start, plan.mode, VehicleConfig())
+
+    def apply(out: SequencerOutput) -> bool:
+        for action in out.actions:
+            if action.kind is ActionKind.SPEED:
+                nav.set_speed(action.value)
+        return out.holding
+
+    holding = apply(seq.start(plant.t_s))
+    for _ in range(400_000):
+        if seq.done:
+            return plant.t_s
+        if holding:
+            holding = apply(seq.update(plant.t_s, None, 0.0))
+            plant.step(BodyVelocity.zero(), DT_S)
+            continue
+        out = nav.step(plant.pose, plant.t_s)
+        holding = apply(seq.update(plant.t_s, out.reached_index, out.distance_error_m))
+        plant.step(BodyVelocity.zero() if holding else out.command, DT_S)
+    raise AssertionError("the program never finished")
+
+
 def shipped(name: str, mode: MotionMode) -> Plan:
     msn = load_mission(REPO_ROOT / "config" / "missions" / f"{name}.yaml")
     return replace(resolve_plan(msn, CFG.control, CFG.mission), mode=mode)
 
 
-@pytest.mark.parametrize(("guidance", "rel"), [(LINE, LINE_REL), (THESIS, THESIS_REL)])
+@pytest.mark.parametrize(
+    ("guidance", "rel"),
+    [(ARCS, LINE_REL), (NO_ARCS, LINE_REL), (THESIS, THESIS_REL)],
+    ids=["arcs", "pivots", "thesis"],
+)
 @pytest.mark.parametrize("mode", list(MotionMode))
 @pytest.mark.parametrize("name", ["square", "hexagon", "circle"])
 def test_shipped_missions_take_the_estimated_time(
@@ -65,14 +102,29 @@ def test_the_square_counts_acceleration_braking_and_pivots() -> None:
     """The field engineer's square: 71 s at cruise plus turns at the full yaw rate; the
     navigator takes 83 s (the simulator flies it in 83.1 s)."""
     plan = shipped("square", MotionMode.ROLL)
-    est = estimate_time(plan, LINE, (0.0, 0.0), 0.0)
+    est = estimate_time(plan, NO_ARCS, (0.0, 0.0), 0.0)
     assert est.path_length_m == pytest.approx(40.0)
     assert est.pivots == 3  # the three corners; the last waypoint is a stop, not a turn
     assert est.driving_s > 40.0 / plan.speed_mps + 10.0  # four accelerations and brakings
     assert est.turning_s > 3 * (math.pi / 2) / LINE.max_yaw_rate_radps  # yaw acceleration
-    assert est.total_s == pytest.approx(fly_s(plan, Pose2D(0.0, 0.0, 0.0), LINE), rel=0.01)
+    assert est.total_s == pytest.approx(fly_s(plan, Pose2D(0.0, 0.0, 0.0), NO_ARCS), rel=0.01)
     assert len(est.arrivals_s) == 4 and est.arrivals_s[-1] == pytest.approx(est.total_s)
     assert list(est.arrivals_s) == sorted(est.arrivals_s)
+
+
+def test_the_square_with_corner_arcs_follows_the_arcs() -> None:
+    """With a corner budget the three corners are arcs (R 0.60 m at 0.43 m/s), not stops and
+    pivots: the navigator flies the square in 71.1 s, not 83.5 s, and so does the estimate
+    (it planned 83.4 s, stop and pivot, before it followed the arcs)."""
+    plan = shipped("square", MotionMode.ROLL)
+    est = estimate_time(plan, ARCS, (0.0, 0.0), 0.0)
+    flown = fly_s(plan, Pose2D(0.0, 0.0, 0.0), ARCS)
+    assert est.pivots == 0 and est.turning_s == 0.0
+    assert est.path_length_m == pytest.approx(40.0)  # the polyline, as the operator wrote it
+    assert est.total_s == pytest.approx(flown, rel=0.01)
+    assert est.total_s < estimate_time(plan, NO_ARCS, (0.0, 0.0), 0.0).total_s - 10.0
+    # each corner is reached at its arc's middle, a quarter of the way round
+    assert len(est.arrivals_s) == 4 and list(est.arrivals_s) == sorted(est.arrivals_s)
 
 
 def test_the_pond_crossing_route_is_estimated_with_its_detours() -> None:
@@ -87,6 +139,43 @@ def test_the_pond_crossing_route_is_estimated_with_its_detours() -> None:
     est = estimate_time(plan, LINE, (0.0, 0.0), north)
     assert est.path_length_m > 110.0  # straight it would be 55 m
     assert est.total_s == pytest.approx(fly_s(plan, Pose2D(0.0, 0.0, north), LINE), rel=0.02)
+
+
+# DO_CHANGE_SPEED on the way, a hold, a loop flown twice (tests/integration/
+# test_mission_commands_flights.py flies the same legs in the simulator)
+SPEEDS = {
+    "name": "speeds",
+    "mode": "roll",
+    "frame": "start",
+    "waypoints": [
+        {"x": 10, "y": 0},
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 0.3},
+        {"x": 10, "y": 8, "hold_s": 6},
+        {"x": 2, "y": 8},
+        {"command": "DO_CHANGE_SPEED", "speed_mps": 0.5},
+        {"x": 2, "y": 2},
+        {"x": 8, "y": 2},
+        {"command": "DO_JUMP", "item": 6, "repeat": 1},
+    ],
+}
+
+
+@pytest.mark.parametrize("guidance", [ARCS, NO_ARCS, THESIS], ids=["arcs", "pivots", "thesis"])
+def test_each_leg_is_estimated_at_the_speed_its_do_change_speed_sets(
+    guidance: ControlConfig,
+) -> None:
+    """0.6 m/s to the first waypoint, 0.3 m/s to the hold and on, 0.5 m/s round the loop:
+    141.5 s flown in the simulator, 140.2 s estimated (110.6 s when every leg was estimated
+    at the mission's 0.6 m/s)."""
+    plan = resolve_plan(Mission.model_validate(SPEEDS), guidance, CFG.mission)
+    assert plan.leg_speeds_mps() == [0.6, 0.3, 0.3, 0.5, 0.5, 0.5, 0.5]
+    assert plan.waypoints[1].stop  # the hold: a stop, not an arc
+    est = estimate_time(plan, guidance, (0.0, 0.0), 0.0)
+    flown = fly_program_s(plan, Pose2D(0.0, 0.0, 0.0), guidance)
+    rel = THESIS_REL if guidance.guidance == "thesis" else LINE_REL
+    assert est.total_s == pytest.approx(flown, rel=rel)
+    all_fast = replace(plan, program=None)  # the same legs, all at the mission's speed
+    assert est.total_s > estimate_time(all_fast, guidance, (0.0, 0.0), 0.0).total_s + 20.0
 
 
 def random_plans(seed: int, count: int) -> list[tuple[Plan, Pose2D]]:
@@ -110,7 +199,11 @@ def random_plans(seed: int, count: int) -> list[tuple[Plan, Pose2D]]:
     return out
 
 
-@pytest.mark.parametrize(("guidance", "rel"), [(LINE, LINE_REL), (THESIS, THESIS_REL)])
+@pytest.mark.parametrize(
+    ("guidance", "rel"),
+    [(ARCS, LINE_REL), (NO_ARCS, LINE_REL), (THESIS, THESIS_REL)],
+    ids=["arcs", "pivots", "thesis"],
+)
 def test_random_missions_take_the_estimated_time(guidance: ControlConfig, rel: float) -> None:
     """Random corners, final headings, tolerances, speeds and start poses."""
     for plan, start in random_plans(24, 25):
@@ -132,13 +225,18 @@ def test_without_a_start_the_estimate_begins_at_waypoint_1_facing_waypoint_2() -
     assert facing_away.pivots == 1 and facing_away.total_s > est.total_s + 2.0
 
 
-def test_a_slower_cruise_or_braking_takes_longer() -> None:
+@pytest.mark.parametrize(
+    ("control", "braking_s"), [(NO_ARCS, 10.0), (ARCS, 3.0)], ids=["pivots", "arcs"]
+)
+def test_a_slower_cruise_or_braking_takes_longer(control: ControlConfig, braking_s: float) -> None:
+    # gentler braking: four stops (12.1 s more), or the arcs' 0.6 → 0.43 m/s and the last stop
+    # (4.0 s more); half the cruise: 60.7 / 62.5 s more
     plan = shipped("square", MotionMode.ROLL)
-    base = estimate_time(plan, LINE, (0.0, 0.0), 0.0).total_s
-    gentle = LINE.model_copy(update={"braking_accel_mps2": 0.05})
-    assert estimate_time(plan, gentle, (0.0, 0.0), 0.0).total_s > base + 5.0
+    base = estimate_time(plan, control, (0.0, 0.0), 0.0).total_s
+    gentle = control.model_copy(update={"braking_accel_mps2": 0.05})
+    assert estimate_time(plan, gentle, (0.0, 0.0), 0.0).total_s > base + braking_s
     slow = replace(plan, speed_mps=0.3)
-    assert estimate_time(slow, LINE, (0.0, 0.0), 0.0).total_s > base + 50.0
+    assert estimate_time(slow, control, (0.0, 0.0), 0.0).total_s > base + 50.0
 
 
 def test_a_long_dense_mission_is_estimated_in_well_under_a_second() -> None:

@@ -34,7 +34,8 @@ from tests.support.paths import REPO_ROOT
 
 DT_S = 1.0 / 40.0
 CONFIG = HelixdConfig()
-# corner arcs are opt-in (control.corner_error_m defaults to 0): these tests fly them at 0.25 m.
+# corner arcs (control.corner_error_m, default 0.25 m): these tests fly them at 0.25 m, set
+# explicitly so they keep doing so whatever the default.
 # The ideal plant responds at once: no scroll lag for the OMNI arcs' course lead to cancel.
 LINE = CONFIG.control.model_copy(
     update={
@@ -232,7 +233,7 @@ def designed_path(plan: Plan, start: Pose2D, control: ControlConfig) -> list[tup
     """The path the navigator plans, densely sampled: the legs with every corner that is not a
     stop replaced by its arc (from the arc's start on the leg in to its end on the leg out)."""
     points = [(start.x_m, start.y_m)] + [(w.x_m, w.y_m) for w in plan.waypoints]
-    yaw = None if plan.mode is MotionMode.OMNI else control.max_yaw_rate_radps
+    yaw = control.max_yaw_rate_radps  # OMNI: the turn rate of its direction of travel
     path = [points[0]]
     for a, b, c in zip(points, points[1:], points[2:], strict=False):
         tol = next(w.tolerance_m for w in plan.waypoints if (w.x_m, w.y_m) == b)
@@ -353,7 +354,7 @@ def test_corner_within_the_budget_is_an_arc_flown_at_its_speed(
     flown = corner_plan(math.radians(turn_deg), mode)
     flight = fly(flown, start_pose(mode))
     assert flight.done
-    yaw = None if mode is MotionMode.OMNI else LINE.max_yaw_rate_radps
+    yaw = LINE.max_yaw_rate_radps  # OMNI: the turn rate of its direction of travel
     arc = line.corner_arc(
         (0.0, 0.0), (10.0, 0.0), (flown.waypoints[1].x_m, flown.waypoints[1].y_m),
         LINE.corner_error_m, LINE.max_speed_mps, LINE.max_lateral_accel_mps2, yaw,
@@ -442,6 +443,54 @@ def test_omni_arc_course_lead_cancels_the_scroll_lag() -> None:
         worst[lag_s] = max(errors)
     assert worst[tau_s] <= 0.5 * worst[0.0], worst
     assert worst[tau_s] <= 0.07, worst  # measured 0.055 m
+
+
+def test_sharp_omni_corners_are_stops_not_orbits() -> None:
+    # OMNI turns its direction of travel, not its heading, on an arc; without a bound on that
+    # turn rate a 164° corner got a 0.04 m arc at √(a_lat·R) = 0.11 m/s (v/R = 2.7 rad/s) the
+    # rover could not follow through the scrolls' lag: it orbited the corner for ever. The
+    # direction turns no faster than max_yaw_rate_radps (v ≤ ω·R, as ROLL and SCROLL turn):
+    # such corners are stops, the gentler ones keep their arcs. (A random plan of
+    # tests/control/test_estimate.py, flown through a first-order lag τ = 0.3 s with the
+    # matching course lead.)
+    tau_s = 0.3
+    start = Pose2D(-1.4146166416610395, 1.7093702905833879, -0.4008862589170521)
+    xy_tol = [
+        (6.059613429428733, 2.1849273230620128, 0.3),
+        (-14.645650523529612, 3.8140958018370377, 0.3),
+        (10.60378977674323, -5.558938139354142, 1.0),
+        (-3.897284085029108, 10.234422776966333, 0.3),
+        (-2.3159035270609643, -13.388647229132589, 1.0),
+    ]
+    wps = tuple(PlanWaypoint(x, y, tol) for x, y, tol in xy_tol)
+    plan = Plan("sharp-omni", MotionMode.OMNI, MissionFrameKind.START, wps, 1.0)
+    control = LINE.model_copy(
+        update={"slip": LINE.slip.model_copy(update={"command_lag_s": tau_s})}
+    )
+    points = [(start.x_m, start.y_m)] + [(w.x_m, w.y_m) for w in wps]
+    corners = line.plan_corners(
+        points, [w.tolerance_m for w in wps], [False] * len(wps), 1.0, control
+    )
+    for arc in corners.arcs:
+        if arc is not None:
+            assert arc.speed_mps <= control.max_yaw_rate_radps * arc.radius_m + 1e-9
+    # 172°, 164° and 153° corners are stops; the 141° one keeps an arc (R 0.12 m, 0.12 m/s)
+    assert corners.stops[:3] == [True, True, True] and corners.arcs[3] is not None
+    nav = Navigator(plan, control)
+    plant = IdealPlant(start, MotionMode.OMNI)
+    applied = BodyVelocity.zero()
+    while plant.t_s < 300.0:
+        out = nav.step(plant.pose, plant.t_s)
+        if out.done:
+            break
+        k = DT_S / tau_s
+        applied = BodyVelocity(
+            applied.vx_mps + k * (out.command.vx_mps - applied.vx_mps),
+            applied.vy_mps + k * (out.command.vy_mps - applied.vy_mps),
+            0.0,
+        )
+        plant.step(applied, DT_S)
+    assert out.done, (plant.t_s, out.target_index)  # measured: done in 125 s
 
 
 def test_waypoint_with_a_heading_is_a_stop_even_where_an_arc_would_fit() -> None:

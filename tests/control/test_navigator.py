@@ -258,9 +258,10 @@ def test_line_leg_ends_on_crossing_the_perpendicular_far_beside_a_pass_through_w
 
 
 def test_line_arc_corner_ends_on_its_bisector_not_at_its_radius() -> None:
-    # Leg (0,0) → (5,0) → (5,5), a 90° corner rounded on an arc (a 0.25 m budget; arcs are
-    # opt-in): its leg ends where the rover crosses the corner's bisector, x − 5 + y = 0 (the
-    # arc's middle), not on entering the waypoint's 1 m radius nor on the perpendicular.
+    # Leg (0,0) → (5,0) → (5,5), a 90° corner rounded on an arc (a 0.25 m budget, the
+    # default, set explicitly): its leg ends where the rover crosses the corner's bisector,
+    # x − 5 + y = 0 (the arc's middle), not on entering the waypoint's 1 m radius nor on the
+    # perpendicular.
     arcs = LINE.model_copy(update={"corner_error_m": 0.25})
     nav = Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0), (5.0, 5.0), tol=1.0), arcs)
     nav.step(Pose2D(0.0, 0.0, 0.0), 0.0)

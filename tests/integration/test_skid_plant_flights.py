@@ -43,7 +43,7 @@ from tests.support.skid_setup import (
 pytestmark = pytest.mark.integration
 
 SKID_CONFIG: dict[str, Any] = {
-    "control": {"corner_error_m": ARC_BUDGET_M},  # arcs are opt-in
+    "control": {"corner_error_m": ARC_BUDGET_M},  # the arcs measured against AUTO
     "vehicle": skid_vehicle_geometry(),
     "actuation": skid_actuation("rc_override"),
     "safety": {"force_arm": True},  # as the SITL suite (ArduPilot refuses passthrough arming)

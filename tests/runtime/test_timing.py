@@ -26,8 +26,8 @@ def mission(
     )
 
 
-def config(**safety: Any) -> HelixdConfig:
-    return HelixdConfig.model_validate({"safety": safety})
+def config(control: dict[str, Any] | None = None, **safety: Any) -> HelixdConfig:
+    return HelixdConfig.model_validate({"safety": safety, "control": control or {}})
 
 
 def test_estimate_over_the_limit_is_refused() -> None:
@@ -44,12 +44,18 @@ def test_estimate_over_the_limit_is_refused() -> None:
 
 def test_acceleration_braking_and_pivots_count() -> None:
     """The 10 m ROLL square: 40 m at 0.6 m/s is 67 s; with the acceleration, the braking into
-    each corner and three pivots the navigator takes 83 s (the simulator flies it in 83.1 s)."""
+    each corner and three pivots (no corner arcs) the navigator takes 83 s (the simulator
+    flies it in 83.1 s); with the default corner arcs 71 s and no pivot (flown: 71.8 s)."""
     msn = mission("start", [(10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0)], mode="roll")
-    assert flight_problems(msn, config(mission_time_limit_s=84.0)) == []
-    problems = flight_problems(msn, config(mission_time_limit_s=80.0))
+    pivots = {"control": {"corner_error_m": 0.0}}
+    assert flight_problems(msn, config(mission_time_limit_s=84.0, **pivots)) == []
+    problems = flight_problems(msn, config(mission_time_limit_s=80.0, **pivots))
     assert problems and problems[0].startswith("estimated time 83 s (40.0 m with acceleration")
     assert "3 turns in place" in problems[0]
+    assert flight_problems(msn, config(mission_time_limit_s=72.0)) == []
+    problems = flight_problems(msn, config(mission_time_limit_s=70.0))
+    assert problems and problems[0].startswith("estimated time 71 s (40.0 m with acceleration")
+    assert "0 turns in place" in problems[0]
 
 
 def test_local_ned_time_without_pose_is_a_lower_bound() -> None:

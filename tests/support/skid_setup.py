@@ -60,8 +60,8 @@ def skid_actuation(backend: str) -> dict[str, Any]:
     }
 
 
-# Corner arcs (issue 22) are opt-in while the time estimate still plans pivots at corners; the
-# suite flies them with this budget (m), the value they were measured with against AUTO.
+# Corner arcs (issue 22): the suite flies them with this budget (m), the value they were
+# measured with against AUTO and the default (set explicitly, so the suite keeps it).
 ARC_BUDGET_M = 0.25
 
 
