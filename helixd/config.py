@@ -851,11 +851,13 @@ class ServeConfig(InputModel):
         description="the wait doubles after each failed attempt up to this (s)",
     )
     mission_poll_s: float = Field(
-        5.0,
+        30.0,
         gt=0.0,
-        le=600.0,
-        description="while idle, the autopilot's mission is re-read this often when its item "
-        "count or 'Flight plan received' did not already say it changed (s)",
+        le=3600.0,
+        description="while idle, the autopilot's mission is also re-read this often (s); a "
+        "change of MISSION_CURRENT's item count or ArduPilot's 'Flight plan received' makes "
+        "it re-read at once, and every start re-reads it, so this only catches an edit that "
+        "kept the count and whose text was lost",
     )
     state_rate_hz: float = Field(
         1.0,
@@ -873,6 +875,12 @@ class ServeConfig(InputModel):
         None,
         description="where the service records which mission was interrupted where (a JSON "
         "file); None: serve-state.json under recorder.run_root",
+    )
+    mission_file: Path | None = Field(
+        None,
+        description="for crews without a ground station: fly this mission file (as `helixd "
+        "run --mission` reads it; re-read while idle) instead of the autopilot's mission; "
+        "None: the autopilot's",
     )
 
     @model_validator(mode="after")

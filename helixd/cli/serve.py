@@ -65,6 +65,15 @@ def serve_command(
             help="motion mode for the autopilot's missions (default: mission.ground_station_mode)",
         ),
     ] = None,
+    mission: Annotated[
+        Path | None,
+        typer.Option(
+            "--mission",
+            "-m",
+            help="for crews without a ground station: fly this mission file instead of the "
+            "autopilot's (default: serve.mission_file, else the autopilot's mission)",
+        ),
+    ] = None,
     map_path: Annotated[
         Path | None,
         typer.Option("--map", help="ROS map_server map to plan every mission around"),
@@ -111,6 +120,7 @@ def serve_command(
             mode=mode,
             occupancy=occupancy,
             options=SERVE_OPTIONS,
+            mission_file=mission or cfg.serve.mission_file,
         )
         code = eventloop.run(serve(opts), cfg.link.event_loop)
     raise typer.Exit(int(code))

@@ -43,6 +43,7 @@ from helixd.mav.constants import (
 from helixd.mission import Mission, MotionMode
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml
+from helixd.mission.resume import sha256_text
 from helixd.mission.validate import apply_mission_limits
 from helixd.planning import OccupancyMap
 from helixd.runtime.autopilot_mission import (
@@ -54,7 +55,14 @@ from helixd.runtime.autopilot_mission import (
 )
 from helixd.runtime.daemon import MissionRunner, RunOptions
 from helixd.runtime.gcs_feed import GcsFeed
-from helixd.runtime.inputs import InputsRefused, config_sha256, mission_vs_config, resume_inputs
+from helixd.runtime.inputs import (
+    InputsRefused,
+    config_sha256,
+    load_inputs,
+    mission_vs_config,
+    recorded_mission_yaml,
+    resume_inputs,
+)
 from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
 from helixd.runtime.planned import Flight, planned_flight
 from helixd.runtime.serve_core import (
@@ -89,6 +97,7 @@ class ServeOptions:
     occupancy: OccupancyMap | None = None
     # an operator can continue a NAV_LOITER_UNLIM here (DO_PAUSE_CONTINUE 1)
     options: ExpandOptions = SERVE_OPTIONS
+    mission_file: Path | None = None  # fly this file instead of the autopilot's mission
 
     @property
     def state_file(self) -> Path:
@@ -300,6 +309,9 @@ class Service:
         """Download the autopilot's mission (and fence); check it when it changed."""
         self._mission_due = False
         self._next_poll_s = time.monotonic() + self.cfg.serve.mission_poll_s
+        if self.opts.mission_file is not None:
+            self._check_file(self.opts.mission_file)
+            return
         try:
             got = await download_all(ap, ap.send_message)
         except (MissionTransferError, LinkError) as exc:
@@ -370,6 +382,45 @@ class Service:
         )
         log.info("serve_mission_checked", waypoints=n, fingerprint=fingerprint[:12])
         self._set_state(ServeState.READY, detail, MAV_SEVERITY_INFO)
+
+    def _check_file(self, path: Path) -> None:
+        """The mission file (``serve.mission_file``, ``--mission``), checked as ``helixd run``
+        checks it; the GCS is told the verdict when it changed."""
+        try:
+            got = load_inputs(self.opts.config_path, path, self.opts.mode)
+            text = recorded_mission_yaml(got.path, got.mission, self.opts.mode)
+        except InputsRefused as exc:
+            fingerprint = "refused:" + "; ".join(exc.problems)
+            if fingerprint != self.fingerprint:
+                self.fingerprint, self.checked = fingerprint, None
+                for p in exc.problems:
+                    log.error("serve_mission_refused", problem=p)
+                self._set_state(ServeState.REFUSED, exc.problems[0], MAV_SEVERITY_ERROR)
+            return
+        fingerprint = sha256_text(text)
+        if fingerprint == self.fingerprint and self.checked is not None:
+            return
+        self.fingerprint = fingerprint
+        cfg = got.cfg.model_copy(update={"link": self.cfg.link})
+        try:
+            flight = planned_flight(
+                cfg,
+                got.mission,
+                text,
+                got.path,
+                self.opts.occupancy,
+                config_sha256(self.opts.config_path),
+                got.fence,
+                got.options,
+            )
+        except InputsRefused as exc:
+            self.checked = None
+            self._set_state(ServeState.REFUSED, exc.problems[0], MAV_SEVERITY_ERROR)
+            return
+        n = _operator_waypoints(got.mission)
+        self.checked = Checked(fingerprint, flight, cfg, len(got.mission.waypoints), n)
+        log.info("serve_mission_checked", waypoints=n, path=str(got.path))
+        self._set_state(ServeState.READY, f"{got.path.name} checked, {n} waypoints")
 
     # -- operators ----------------------------------------------------------------------------
 
@@ -493,7 +544,7 @@ class Service:
                 link=ap,
                 stop=self.flight_stop,
                 start_gate=False,
-                on_item=self._set_current_item,
+                on_item=None if self.opts.mission_file is not None else self._set_current_item,
                 notifier=FlightInServiceNotifier(),
             )
         )

@@ -135,6 +135,30 @@ def test_a_loiter_without_end_holds_until_the_ground_station_continues(tmp_path:
     assert json.loads((run / "summary.json").read_text())["completed"] is True
 
 
+def test_a_crew_without_a_ground_station_flies_a_mission_file(tmp_path: Path) -> None:
+    """serve.mission_file: checked as `helixd run` checks it, started by the switch; the
+    autopilot's own mission (and current item) is left alone."""
+    mission = tmp_path / "short.yaml"
+    mission.write_text(
+        "name: short\nmode: roll\nframe: start\nwaypoints:\n  - {x: 4, y: 0}\n  - {x: 4, y: 3}\n"
+    )
+    with running_sim_links(["udpin:127.0.0.1:0"], speedup=5.0) as server:
+        server.set_rc(7, 1100)
+        url = f"udpout:127.0.0.1:{server.local_ports[0]}"
+        d = serve_proc(tmp_path, url, {"serve": {"mission_file": str(mission)}})
+        d.start_pump()
+        try:
+            d.wait_line("short.yaml checked, 2 waypoints", 60.0)
+            assert not server.snapshot().armed
+            server.set_rc(7, 1900)
+            d.wait_line("event=serve_state state=completed", 60.0)
+            snap = server.wait_for(secured, 10.0)
+        finally:
+            d.stop(20.0)
+    assert snap.mission_current_seq == 0 and len(snap.mission_items) <= 1
+    assert (snap.north_m, snap.east_m) == pytest.approx((4.0, -3.0), abs=0.5)  # y left = west
+
+
 @pytest.mark.timeout(420)
 def test_twenty_flights_keep_memory_and_descriptors_flat(tmp_path: Path) -> None:
     flights = 20
