@@ -85,6 +85,7 @@ SERVE_OPTIONS = ExpandOptions(operator_continue=True)
 STATE_FILE_NAME = "serve-state.json"
 HX_STATE_NAME = b"hx_state"
 FLIGHT_PLAN_RECEIVED = "Flight plan received"  # ArduPilot, when an upload completes
+MISSION_RETRY_S = 2.0  # a failed read is tried again this soon (s), not a whole poll later
 MAX_REFUSAL_TEXTS = 4  # STATUSTEXT lines per refused mission (the log has them all)
 
 
@@ -314,9 +315,10 @@ class Service:
             return
         try:
             got = await download_all(ap, ap.send_message)
-        except (MissionTransferError, LinkError) as exc:
+        except (MissionTransferError, LinkError) as exc:  # e.g. a GCS uploading right now
             log.info("serve_mission_read_failed", error=str(exc))
-            self._mission_due = False
+            retry_s = min(self.cfg.serve.mission_poll_s, MISSION_RETRY_S)
+            self._next_poll_s = time.monotonic() + retry_s
             return
         fingerprint = items_sha256(got.mission, got.fence)
         if fingerprint == self.fingerprint and self.state is not ServeState.IDLE:
