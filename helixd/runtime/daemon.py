@@ -1026,7 +1026,9 @@ class MissionRunner:
         self.notifier.stopping()
         ap = held.ap
         touched = held.sink is not None or held.armed_by_us
-        if ending.fault is not None:
+        if ending.fault is not None and ending.fault.cause is FaultCause.PAUSED:
+            self.gcs.phase(f"pausing: {ending.fault.detail}")  # an operator's, not a fault
+        elif ending.fault is not None:
             self.gcs.fault(ending.fault.cause.value, ending.fault.detail)
         if ap is not None and touched:
             pose = ending.last_pose or (ap.state.pose.ned if ap.state.pose else None)

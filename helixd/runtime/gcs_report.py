@@ -102,8 +102,12 @@ class Progress:
 Event = PhaseChange | WaypointReached | Fault | Said | Progress
 
 
+# what helixd's own texts use beyond ASCII, spelt in ASCII (anything else becomes '?')
+_ASCII_SPELLING = str.maketrans({"—": "-", "–": "-", "→": "->", "°": " deg", "×": "x", "µ": "u"})
+
+
 def _ascii(text: str) -> str:
-    return "".join(c if " " <= c <= "~" else "?" for c in text)
+    return "".join(c if " " <= c <= "~" else "?" for c in text.translate(_ASCII_SPELLING))
 
 
 def chunk_statustext(severity: int, text: str, text_id: int) -> list[Any]:

@@ -145,6 +145,7 @@ class Service:
         self._next_poll_s = 0.0
         self._next_state_s = 0.0
         self._side_tasks: set[asyncio.Task[None]] = set()
+        self._current_item: int | None = None  # the item last set as the autopilot's current
         self._interrupted = _read_state_file(opts.state_file)  # (fingerprint, run_dir) or None
 
     # -- state --------------------------------------------------------------------------------
@@ -564,6 +565,11 @@ class Service:
         elif outcome.run_dir is not None:
             self._interrupted = (fingerprint, outcome.run_dir)
         _write_state_file(self.opts.state_file, self._interrupted, state)
+        if state is not ServeState.COMPLETED and self._current_item is not None:
+            # ArduPilot resets its mission when disarmed outside AUTO (AP_Arming_Rover::
+            # disarm): show the interrupted item again, where a continue goes on
+            self._set_current_item(self._current_item)
+        self._current_item = None
         text = outcome.messages[-1].removeprefix("helixd: ") if outcome.messages else ""
         severity = MAV_SEVERITY_NOTICE if state is not ServeState.FAULTED else MAV_SEVERITY_ERROR
         log.info("serve_flight_end", state=state.name.lower(), exit_code=int(outcome.exit_code))
@@ -574,6 +580,7 @@ class Service:
         ap = self._ap
         if ap is None:
             return
+        self._current_item = seq
 
         async def send() -> None:
             try:

@@ -46,7 +46,7 @@ class StopRequest:
     def fault(self) -> Fault:
         """How the flight ends on this request."""
         if self.paused:
-            return Fault(FaultCause.PAUSED, f"paused: {self.signal_name}")
+            return Fault(FaultCause.PAUSED, f"{self.signal_name}")
         return Fault(FaultCause.SIGNAL, f"{self.signal_name} received")
 
 

@@ -67,6 +67,7 @@ class SimCore:
         self.params = ParamStore(params, stored=config.guard_params)
         self._ftp = ftp
         self.ap = Autopilot(config, self.params, 0.0, scripts)
+        self._was_armed = False  # for the mission reset on disarm
         self.links = [self._new_link() for _ in range(n_links)]
         self.faults = FaultClock()
         self.pending: list[tuple[float, FaultSpec]] = []
@@ -304,6 +305,11 @@ class SimCore:
                 built = telemetry.build(msg_id, self.view)
                 if built is not None:
                     self.send(None, built)
+        if self._was_armed and not self.ap.armed:
+            # AP_Arming_Rover::disarm: outside AUTO (always, here) the mission is reset, so
+            # MISSION_CURRENT reads 0 until something sets the current item again
+            self.mission.reset_on_disarm()
+        self._was_armed = self.ap.armed
         self.mission_outcome(self.mission.update(now))
         self._telemetry(now)
 

@@ -60,6 +60,8 @@ Behaviours (each cites its ArduPilot function):
   from ``GCS_MAVLINK::mission_state`` (NO_MISSION unless ``present()`` — more than home —,
   stopped NOT_STARTED, running ACTIVE, complete COMPLETE), mission_mode 1 only in a mode that
   ``current_mode_requires_mission`` (Rover: AUTO).
+* A disarm outside AUTO resets the mission (``AP_Arming_Rover::disarm`` → ``AP_Mission::reset``):
+  no current command, so MISSION_CURRENT reads seq 0 until the current item is set again.
 * MISSION_ITEM(_INT).current as ``MissionItemProtocol_Waypoints::get_item`` sets it: 1 when the
   item's *command id* equals the current nav index (ArduPilot compares ``cmd.id``, not the
   index), so normally 0.
@@ -893,6 +895,11 @@ class MissionServer:
                 self._reset()
                 self.state = MISSION_STOPPED
         return out
+
+    def reset_on_disarm(self) -> None:
+        """``AP_Arming_Rover::disarm`` outside AUTO: ``mission.reset()`` — no current command
+        (MISSION_CURRENT seq 0), jump counters cleared; the state is left as it was."""
+        self._reset()
 
     def reboot(self) -> None:
         """A reboot loses uploads in progress and the current command (AP_Mission's

@@ -103,6 +103,11 @@ def test_a_field_day(tmp_path: Path) -> None:
                 server.wait_for(secured, 10.0)
                 paused_at = server.snapshot()
                 assert paused_at.mode == "HOLD"
+                # the GCS is told it is a pause, not a fault; the interrupted item stays shown
+                # although ArduPilot resets its mission on the disarm
+                assert "pausing: start switch low" in gcs.wait_text("helixd: pausing", 10.0)
+                assert not any("FAULT" in text for text in gcs.texts), gcs.texts
+                server.wait_for(lambda s: s.mission_current_seq == 1, 10.0)
                 # continue: from the interrupted leg, not from the start
                 server.set_rc(SWITCH_CH, HIGH_US)
                 d.wait_line("event=run_resumed", 30.0)

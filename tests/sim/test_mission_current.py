@@ -256,3 +256,18 @@ def test_mission_current_is_streamed_on_every_link_in_extended_status() -> None:
             (int(m.seq), int(m.total), int(m.mission_state), int(m.mission_mode)) for m in streamed
         }
         assert fields == {(2, 2, MISSION_STATE_NOT_STARTED, 0)}
+
+
+def test_a_disarm_resets_the_mission_so_the_current_item_reads_0() -> None:
+    """AP_Arming_Rover::disarm outside AUTO calls mission.reset(): MISSION_CURRENT seq 0."""
+    core = core_with_mission(3)
+    core.handle(0, incoming(command_msg("long", 2.0)))
+    core.drain_outbox()
+    core.ap.armed = True
+    run(core, 0.1)
+    assert core.mission.current_seq == 2  # armed: nothing reset
+    core.ap.armed = False
+    run(core, 0.1)
+    assert core.mission.current_seq == 0
+    core.handle(0, incoming(command_msg("long", 2.0)))  # set again after the disarm
+    assert core.mission.current_seq == 2
