@@ -27,8 +27,9 @@ typecheck: $(STAMP)
 test: lint typecheck
 	$(BIN)/pytest -q
 
+# the fast part: everything but the daemon-against-simulator flights and the opt-in SITL suite
 unit: $(STAMP)
-	$(BIN)/pytest -q tests/unit
+	$(BIN)/pytest -q --ignore=tests/integration --ignore=tests/sitl
 
 demo: $(STAMP)
 	$(BIN)/helixd run --sim --sim-speedup 4 --mission config/missions/square.yaml --config config/helixd.yaml --run-dir runs
