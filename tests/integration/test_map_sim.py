@@ -68,8 +68,8 @@ def _fly(
 
     recorded = threading.Event()
 
-    def start(cfg: SimConfig) -> tuple[SimServer, str]:
-        server, url = real_start(cfg)
+    def start(cfg: SimConfig, extra_links: tuple[str, ...] = ()) -> tuple[SimServer, str]:
+        server, url = real_start(cfg, extra_links)
         real_stop = server.stop
 
         def stop() -> None:  # the CLI stops the simulator when the run ends: record it first

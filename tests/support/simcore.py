@@ -76,7 +76,7 @@ def capture_embedded_start(monkeypatch: pytest.MonkeyPatch) -> list[SimConfig]:
 
     seen: list[SimConfig] = []
 
-    def start(cfg: SimConfig) -> Any:
+    def start(cfg: SimConfig, extra_links: tuple[str, ...] = ()) -> Any:
         seen.append(cfg)
         raise EmbeddedStart
 
