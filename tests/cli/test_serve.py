@@ -1,0 +1,51 @@
+"""``helixd serve`` on the command line: usage errors are one line and exit 2, before anything
+connects; --sim-gcs gives the embedded simulator its second link."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+from helixd.base.exitcodes import ExitCode
+from helixd.sim import SimConfig
+from tests.support.cli import run_main
+from tests.support.simcore import EmbeddedStart
+
+GCS_URL = "udpout:127.0.0.1:14550"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--sim-gcs", "udpout:127.0.0.1:14550"], "error: --sim-gcs needs --sim"),
+        (["--sim", "--sim-gcs", "udpout:nowhere"], "error: --sim-gcs: "),
+        (["--sim", "--connect", "udpin:0.0.0.0:14550"], "error: --sim and --connect exclude"),
+    ],
+)
+def test_usage_errors_are_one_line(
+    args: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, _, err = run_main(["serve", *args], capsys)
+    assert code == ExitCode.USAGE
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(message), err
+
+
+def test_sim_gcs_reaches_the_embedded_simulator(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import helixd.cli.simulated
+
+    links: list[tuple[str, ...]] = []
+
+    def start(cfg: SimConfig, extra_links: tuple[str, ...] = ()) -> Any:
+        links.append(extra_links)
+        raise EmbeddedStart
+
+    monkeypatch.setattr(helixd.cli.simulated, "start_embedded", start)
+    with pytest.raises(EmbeddedStart):
+        run_main(
+            ["serve", "--sim", "--sim-gcs", "udpout:127.0.0.1:14550", "--mode", "roll"], capsys
+        )
+    assert links == [(GCS_URL,)]
