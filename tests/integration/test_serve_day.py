@@ -12,9 +12,6 @@ from __future__ import annotations
 import json
 import signal
 from pathlib import Path
-from typing import Any
-
-import yaml
 
 from helixd.mav.constants import (
     MAV_CMD_DO_PAUSE_CONTINUE,
@@ -24,44 +21,14 @@ from helixd.mav.constants import (
     MAV_RESULT_DENIED,
     MAV_RESULT_TEMPORARILY_REJECTED,
 )
-from helixd.sim.snapshot import SimSnapshot
-from tests.support.daemon import DaemonProc, spawn_daemon
+from tests.support.daemon import DaemonProc
 from tests.support.gcs import QGC_SYSID, command, upload
-from tests.support.harness import (
-    BASE_CONFIG,
-    MavClient,
-    deep_merge,
-    running_sim_links,
-    secured,
-)
+from tests.support.harness import MavClient, running_sim_links, secured
+from tests.support.serve import HIGH_US, LOW_US, SPEEDUP, SWITCH_CH, moving, serve_proc
 
-SWITCH_CH = 7
-LOW_US, HIGH_US = 1100, 1900
-SPEEDUP = 5.0
-CONFIG: dict[str, Any] = {
-    "mission": {"ground_station_mode": "roll"},
-    "safety": {"start_switch_channel": SWITCH_CH},
-    "serve": {"mission_poll_s": 1.0, "tick_s": 0.05, "state_rate_hz": 2.0},
-}
 MISSION_A = [(6.0, 0.0), (6.0, -6.0)]  # north/east from the EKF origin (m)
 MISSION_B = [(0.0, -12.0), (0.0, 0.0)]
 FAR_AWAY = [(6.0, 0.0), (800.0, 0.0)]  # beyond mission.max_range_m (500 m)
-
-
-def serve_proc(tmp_path: Path, url: str, extra: dict[str, Any] | None = None) -> DaemonProc:
-    cfg = deep_merge(deep_merge(BASE_CONFIG, CONFIG), {"link": {"url": url}, **(extra or {})})
-    cfg_path = tmp_path / "helixd.yaml"
-    cfg_path.write_text(yaml.safe_dump(cfg), encoding="utf-8")
-    run_root = tmp_path / "runs"
-    return spawn_daemon(
-        ["serve", "--config", str(cfg_path), "--run-dir", str(run_root)],
-        cwd=tmp_path,
-        run_root=run_root,
-    )
-
-
-def moving(s: SimSnapshot) -> bool:
-    return s.armed and s.speed_mps > 0.1
 
 
 def states(d: DaemonProc) -> list[str]:

@@ -19,21 +19,15 @@ from helixd.mav.constants import (
     MAV_CMD_NAV_LOITER_UNLIM,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.snapshot import SimSnapshot
-from tests.integration.test_serve_day import serve_proc
-from tests.support.gcs import QGC_SYSID, command, upload
+from tests.support.gcs import command, upload
 from tests.support.harness import (
-    MavClient,
     free_udp_port,
     running_sim_links,
     secured,
 )
+from tests.support.serve import moving, serve_proc, sim_with_ground_station
 
 NO_SWITCH: dict[str, Any] = {"safety": {"start_switch_channel": None}}
-
-
-def moving(s: SimSnapshot) -> bool:
-    return s.armed and s.speed_mps > 0.1
 
 
 def rss_kib(pid: int) -> int:
@@ -69,38 +63,36 @@ def test_reconnects_when_the_autopilot_comes_goes_and_comes_back(tmp_path: Path)
 
 
 def test_a_restarted_service_remembers_the_interrupted_mission_and_waits(tmp_path: Path) -> None:
-    links = ["udpin:127.0.0.1:0"] * 2
-    with running_sim_links(links, speedup=5.0) as server:
-        helixd_url, gcs_url = (f"udpout:127.0.0.1:{p}" for p in server.local_ports)
-        with MavClient(gcs_url, sysid=QGC_SYSID) as gcs:
-            d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
-            d.start_pump()
-            try:
-                d.wait_line("no mission on the autopilot", 60.0)
-                upload(gcs, [(12.0, 0.0), (12.0, -4.0)])
-                d.wait_line("event=serve_state state=ready", 30.0)
-                assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
-                server.wait_for(moving, 40.0)
-                assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 0) == MAV_RESULT_ACCEPTED
-                d.wait_line("event=serve_state state=paused", 30.0)
-                server.wait_for(secured, 10.0)
-                d.signal(signal.SIGTERM)
-                assert d.wait_exit(30.0) == 0
-            finally:
-                d.kill()
-            record = json.loads((tmp_path / "runs" / "serve-state.json").read_text())
-            assert record["state"] == "paused" and Path(record["run_dir"]).is_dir()
-            again = serve_proc(tmp_path, helixd_url, NO_SWITCH)
-            again.start_pump()
-            try:
-                again.wait_line("event=serve_state_loaded", 30.0)
-                again.wait_line("interrupted: a start continues it", 60.0)
-                assert not server.snapshot().armed  # remembered, and still waiting
-                assert command(gcs, MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
-                again.wait_line("event=run_resumed", 30.0)
-                again.wait_line("event=serve_state state=completed", 90.0)
-            finally:
-                again.stop(20.0)
+    with sim_with_ground_station() as (server, urls, gcs):
+        helixd_url = urls[0]
+        d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
+        d.start_pump()
+        try:
+            d.wait_line("no mission on the autopilot", 60.0)
+            upload(gcs, [(12.0, 0.0), (12.0, -4.0)])
+            d.wait_line("event=serve_state state=ready", 30.0)
+            assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+            server.wait_for(moving, 40.0)
+            assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 0) == MAV_RESULT_ACCEPTED
+            d.wait_line("event=serve_state state=paused", 30.0)
+            server.wait_for(secured, 10.0)
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+        record = json.loads((tmp_path / "runs" / "serve-state.json").read_text())
+        assert record["state"] == "paused" and Path(record["run_dir"]).is_dir()
+        again = serve_proc(tmp_path, helixd_url, NO_SWITCH)
+        again.start_pump()
+        try:
+            again.wait_line("event=serve_state_loaded", 30.0)
+            again.wait_line("interrupted: a start continues it", 60.0)
+            assert not server.snapshot().armed  # remembered, and still waiting
+            assert command(gcs, MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+            again.wait_line("event=run_resumed", 30.0)
+            again.wait_line("event=serve_state state=completed", 90.0)
+        finally:
+            again.stop(20.0)
     summaries = [
         json.loads((r / "summary.json").read_text())
         for r in sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
@@ -110,26 +102,24 @@ def test_a_restarted_service_remembers_the_interrupted_mission_and_waits(tmp_pat
 
 
 def test_a_loiter_without_end_holds_until_the_ground_station_continues(tmp_path: Path) -> None:
-    links = ["udpin:127.0.0.1:0"] * 2
-    with running_sim_links(links, speedup=5.0) as server:
-        helixd_url, gcs_url = (f"udpout:127.0.0.1:{p}" for p in server.local_ports)
-        with MavClient(gcs_url, sysid=QGC_SYSID) as gcs:
-            d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
-            d.start_pump()
-            try:
-                d.wait_line("no mission on the autopilot", 60.0)
-                loiter = {2: MAV_CMD_NAV_LOITER_UNLIM}
-                upload(gcs, [(4.0, 0.0), (4.0, -4.0), (0.0, 0.0)], commands=loiter)
-                d.wait_line("event=serve_state state=ready", 30.0)
-                assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
-                d.wait_line("kind=hold_started", 60.0)
-                held = server.wait_for(lambda s: s.armed and s.speed_mps < 0.02, 10.0)
-                mark = d.mark()
-                assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 1) == MAV_RESULT_ACCEPTED
-                d.wait_line("event=hold_released", 10.0, after=mark)
-                d.wait_line("event=serve_state state=completed", 60.0, after=mark)
-            finally:
-                d.stop(20.0)
+    with sim_with_ground_station() as (server, urls, gcs):
+        helixd_url = urls[0]
+        d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
+        d.start_pump()
+        try:
+            d.wait_line("no mission on the autopilot", 60.0)
+            loiter = {2: MAV_CMD_NAV_LOITER_UNLIM}
+            upload(gcs, [(4.0, 0.0), (4.0, -4.0), (0.0, 0.0)], commands=loiter)
+            d.wait_line("event=serve_state state=ready", 30.0)
+            assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+            d.wait_line("kind=hold_started", 60.0)
+            held = server.wait_for(lambda s: s.armed and s.speed_mps < 0.02, 10.0)
+            mark = d.mark()
+            assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 1) == MAV_RESULT_ACCEPTED
+            d.wait_line("event=hold_released", 10.0, after=mark)
+            d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+        finally:
+            d.stop(20.0)
     assert (held.north_m, held.east_m) == pytest.approx((4.0, -4.0), abs=0.5)
     (run,) = [p for p in (tmp_path / "runs").iterdir() if p.is_dir()]
     assert json.loads((run / "summary.json").read_text())["completed"] is True
@@ -162,27 +152,25 @@ def test_a_crew_without_a_ground_station_flies_a_mission_file(tmp_path: Path) ->
 @pytest.mark.timeout(420)
 def test_twenty_flights_keep_memory_and_descriptors_flat(tmp_path: Path) -> None:
     flights = 20
-    links = ["udpin:127.0.0.1:0"] * 2
-    with running_sim_links(links, speedup=10.0) as server:
-        helixd_url, gcs_url = (f"udpout:127.0.0.1:{p}" for p in server.local_ports)
-        with MavClient(gcs_url, sysid=QGC_SYSID) as gcs:
-            d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
-            d.start_pump()
-            pid = d.proc.pid
-            samples: list[tuple[int, int]] = []
-            try:
-                d.wait_line("no mission on the autopilot", 60.0)
-                upload(gcs, [(3.0, 0.0), (0.0, 0.0)])  # out and back: every flight the same
-                d.wait_line("event=serve_state state=ready", 30.0)
-                for _ in range(flights):
-                    mark = d.mark()
-                    assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
-                    d.wait_line("event=serve_state state=completed", 60.0, after=mark)
-                    server.wait_for(secured, 10.0)
-                    samples.append((rss_kib(pid), open_fds(pid)))
-                assert d.ended() is None
-            finally:
-                d.stop(20.0)
+    with sim_with_ground_station(speedup=10.0) as (server, urls, gcs):
+        helixd_url = urls[0]
+        d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
+        d.start_pump()
+        pid = d.proc.pid
+        samples: list[tuple[int, int]] = []
+        try:
+            d.wait_line("no mission on the autopilot", 60.0)
+            upload(gcs, [(3.0, 0.0), (0.0, 0.0)])  # out and back: every flight the same
+            d.wait_line("event=serve_state state=ready", 30.0)
+            for _ in range(flights):
+                mark = d.mark()
+                assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+                d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+                server.wait_for(secured, 10.0)
+                samples.append((rss_kib(pid), open_fds(pid)))
+            assert d.ended() is None
+        finally:
+            d.stop(20.0)
     print(f"\nRSS KiB / open fds after each of {flights} flights: {samples}")
     rss2, fds2 = samples[1]
     for rss, fds in samples[1:]:
