@@ -22,7 +22,7 @@ lint: $(STAMP)
 	$(BIN)/ruff check helixd tests tools
 
 typecheck: $(STAMP)
-	$(BIN)/mypy helixd
+	$(BIN)/mypy helixd tools
 
 test: lint typecheck
 	$(BIN)/pytest -q

@@ -140,7 +140,6 @@ class Step:
 
     time_boot_ms: int
     rx_s: float  # the link's receive stamp of that LOCAL_POSITION_NED
-    woke_s: float  # the flight loop's wait for a pose returned (its on_tick callback)
     cmd_s: float  # sink.command() was called (safety check, navigator, kinematics done)
     out_s: float  # sink.command() returned (override handed to the kernel)
 
@@ -150,7 +149,6 @@ class Latencies:
     total_s: list[float] = field(default_factory=list)
     wire_s: list[float] = field(default_factory=list)
     inside_s: list[float] = field(default_factory=list)
-    wake_s: list[float] = field(default_factory=list)
     compute_s: list[float] = field(default_factory=list)
     send_s: list[float] = field(default_factory=list)
     unmatched: int = 0
@@ -167,8 +165,7 @@ def match_latencies(sent_s_by_tboot: dict[int, float], steps: Sequence[Step]) ->
         out.total_s.append(st.out_s - sent)
         out.wire_s.append(st.rx_s - sent)
         out.inside_s.append(st.out_s - st.rx_s)
-        out.wake_s.append(st.woke_s - st.rx_s)
-        out.compute_s.append(st.cmd_s - st.woke_s)
+        out.compute_s.append(st.cmd_s - st.rx_s)
         out.send_s.append(st.out_s - st.cmd_s)
     return out
 
@@ -440,18 +437,14 @@ def autopilot_main(port: int, rate_hz: float, ctrl: Connection) -> None:
 class ProbeSink:
     """The real RC-override sink, stamping when each command has left.
 
-    FlightLoop reads a pose, calls ``on_tick`` (→ :meth:`woke`) and then ``command`` without
-    awaiting in between, so at that moment ``autopilot.state.pose`` is the pose the step used.
+    FlightLoop reads a pose and calls ``command`` without awaiting in between, so at that
+    moment ``autopilot.state.pose`` is the pose the step used.
     """
 
     def __init__(self, inner: Any, autopilot: Any) -> None:
         self.inner = inner
         self.ap = autopilot
         self.steps: list[Step] = []
-        self.woke_s = math.nan
-
-    def woke(self) -> None:
-        self.woke_s = time.monotonic()
 
     @property
     def last_pwm_us(self) -> tuple[int, int, int, int]:
@@ -473,7 +466,7 @@ class ProbeSink:
         pose = self.ap.state.pose
         if pose is not None:
             self.steps.append(
-                Step(pose.time_boot_ms, pose.rx_monotonic_s, self.woke_s, cmd_s, out_s)
+                Step(pose.time_boot_ms, pose.rx_monotonic_s, cmd_s, out_s)
             )
 
     async def stop(self) -> None:
@@ -523,6 +516,7 @@ async def run_daemon_side(
 
     from helixd.actuators import RcOverrideSink
     from helixd.base.frames import MissionFrame
+    from helixd.base.plan import Numbering
     from helixd.config import HelixdConfig, config_to_yaml
     from helixd.link.connection import Autopilot
     from helixd.link.preflight import check_obedience
@@ -596,20 +590,20 @@ async def run_daemon_side(
             rec.record(row)
 
         journal = StepJournal(plan, on_row, cfg.recorder.batch_interval_s)
+        numbering = Numbering.of([w.via for w in mission.waypoints])  # as the daemon's
 
         def on_step(report: StepReport) -> None:  # as the daemon's, after the send
             journal.add(report)
-            display.update(lambda: step_progress(report, plan))
+            display.update(lambda: step_progress(report, numbering))
 
         def on_pose_rejected(report: PoseRejectedReport) -> None:
-            display.update(rejected_progress(report, plan))
+            display.update(rejected_progress(report, numbering))
 
         def on_arrival(index: int, t_boot_s: float, error_m: float) -> None:
             journal.drain()
             summary.arrival(index, t_boot_s, error_m)
 
         def on_tick() -> None:
-            sink.woke()
             ap.feed()
             journal.maybe_drain(time.monotonic())
             rec.maybe_flush()
@@ -876,8 +870,7 @@ def report_lines(
         ),
         format_stats_ms("  wire (sent -> link rx stamp)", stats(lat.wire_s)),
         format_stats_ms("  in daemon (rx stamp -> sent)", stats(lat.inside_s)),
-        format_stats_ms("    loop wake (rx -> pose wait ends)", stats(lat.wake_s)),
-        format_stats_ms("    compute (safety, nav, kinematics)", stats(lat.compute_s)),
+        format_stats_ms("    wake + compute (safety, nav)", stats(lat.compute_s)),
         format_stats_ms("    sink.command incl. sendto", stats(lat.send_s)),
         format_stats_ms("  autopilot rtt (pose -> override)", rtt),
         format_stats_ms(
@@ -1167,10 +1160,12 @@ def main(
                 rate, seconds, warmup_s, control_rate_max_hz, False, prof, loops[0]
             )
             buf = io.StringIO()
+            prof.dump_stats(Path(tempfile.gettempdir()) / "helixd-bench-loop.prof")
             pstats.Stats(prof, stream=buf).sort_stats("tottime").print_stats(profile)
             lines += [
                 "",
-                "cProfile (daemon process, the measurement window, thread CPU time), by tottime:",
+                "cProfile (daemon process, the measurement window, thread CPU time), by tottime"
+                f" (all of it: {Path(tempfile.gettempdir()) / 'helixd-bench-loop.prof'}):",
                 buf.getvalue(),
             ]
         else:

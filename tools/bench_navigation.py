@@ -68,7 +68,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -369,7 +369,7 @@ class TrueFigures:
 
 
 def true_figures(
-    columns: dict[str, Sequence[float]],
+    columns: Mapping[str, Sequence[float]],
     waypoints_xy_m: Sequence[tuple[float, float]],
     samples: Sequence[tuple[float, float, float]],
 ) -> TrueFigures:

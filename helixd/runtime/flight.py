@@ -172,83 +172,85 @@ class FlightLoop:
         self._slip_enabled = cfg.control.slip.enabled
         self._pose_stale_s = cfg.safety.pose_stale_s
         self._seq_holding = False
+        self._t_start_s = 0.0  # monotonic start of run()
+        self._last_step_boot_s = -math.inf  # autopilot clock of the last pose stepped on
+        self._last_out: NavOutput | None = None  # the navigator's latest output
+        self._pose: PoseSample | None = None  # the latest pose
 
     async def run(self) -> FlightResult:
-        t_start = time.monotonic()
-        last_step_boot_s = -math.inf  # autopilot clock of the last pose stepped on
-        out: NavOutput | None = None
-        pose: PoseSample | None = None
+        self._t_start_s = time.monotonic()
         # a new pose, or None each tick without one: the watchdogs run either way
         async with contextlib.aclosing(self.ap.telemetry.pose_or_tick(self._tick_s)) as ticks:
             async for sample in ticks:
-                now = time.monotonic()
+                result = self._iteration(sample, time.monotonic())
+                # after the command left: batches, flushes and watchdog feeds never delay a
+                # step (run before it, a 0.25 s row batch sat in front of every 12th pose)
                 self.on_tick()
-                if sample is not None:
-                    pose = sample
-                    if self._t_boot_start_s is None:
-                        self._t_boot_start_s = sample.time_boot_ms / 1000.0
-                    self._measure_yaw_rate(sample)
-                if self.stop.requested:
-                    return FlightResult(
-                        self.stop.fault(),
-                        now,
-                        out,
-                        pose.ned if pose else None,
-                    )
-                fault = self.supervisor.check(
-                    now, self.ap.state, pose, self._motion(now, t_start, pose)
-                )
-                if fault is not None:
-                    return FlightResult(fault, now, out, pose.ned if pose else None)
-                try:
-                    if self._pose_rejected(now, t_start, out):
-                        continue  # neutral until a valid pose (or the pose_invalid watchdog)
-                    if sample is None:
-                        continue
-                    t_boot_s = sample.time_boot_ms / 1000.0
-                    since_step_s = t_boot_s - last_step_boot_s
-                    if 0.0 <= since_step_s < self._min_step_s:
-                        continue  # (a clock that ran backwards, a reboot, is stepped on at once)
-                    last_step_boot_s = t_boot_s
-                    seq = self.sequencer
-                    if seq is not None and seq.step_index < 0:
-                        self._apply(seq.start(t_boot_s))
-                    try:
-                        if seq is not None and (seq.done or self._holding):
-                            step = self._held(sample, None)
-                            self._neutral()
-                            seq_out = seq.update(t_boot_s, None, 0.0)
-                        else:
-                            step = self._step(sample, t_boot_s)
-                            seq_out = None
-                            if seq is not None:  # pure: decided before the command leaves
-                                nav = step.nav
-                                seq_out = seq.update(
-                                    t_boot_s, nav.reached_index, nav.distance_error_m
-                                )
-                            if seq_out is not None and seq_out.holding:
-                                self._neutral()
-                                step = self._held(sample, step.nav)
-                            else:
-                                self.sink.command(step.fractions)  # the command leaves first
-                                self._sent_step(step, t_boot_s)
-                    except NonFiniteError as exc:
-                        self._neutral()
-                        fault = Fault(
-                            FaultCause.POSE_INVALID, f"non-finite value in control: {exc}"
-                        )
-                        return FlightResult(fault, now, out, sample.ned)
-                    out = step.nav
-                    self._report(sample, step, now, t_start)  # arrivals before what follows
-                    if seq_out is not None:
-                        self._apply(seq_out)
-                except ActuatorError as exc:  # e.g. a DO_SET_SERVO refused mid-mission: a fault
-                    fault = Fault(FaultCause.ACTUATOR, str(exc))
-                    return FlightResult(fault, now, out, pose.ned if pose else None)
-                done = out.done if self.sequencer is None else self.sequencer.done
-                if done:
-                    return FlightResult(None, None, out, sample.ned)
+                if result is not None:
+                    return result
         raise AssertionError("the pose stream never ends")  # pragma: no cover
+
+    def _iteration(self, sample: PoseSample | None, now: float) -> FlightResult | None:
+        """One wake-up: the watchdogs, then (on a fresh pose due a step) the step and its
+        command. The result when the flight ends here, else None."""
+        out = self._last_out
+        if sample is not None:
+            self._pose = sample
+            if self._t_boot_start_s is None:
+                self._t_boot_start_s = sample.time_boot_ms / 1000.0
+            self._measure_yaw_rate(sample)
+        pose = self._pose
+        if self.stop.requested:
+            return FlightResult(self.stop.fault(), now, out, pose.ned if pose else None)
+        t_start = self._t_start_s
+        fault = self.supervisor.check(now, self.ap.state, pose, self._motion(now, t_start, pose))
+        if fault is not None:
+            return FlightResult(fault, now, out, pose.ned if pose else None)
+        try:
+            if self._pose_rejected(now, t_start, out):
+                return None  # neutral until a valid pose (or the pose_invalid watchdog)
+            if sample is None:
+                return None
+            t_boot_s = sample.time_boot_ms / 1000.0
+            since_step_s = t_boot_s - self._last_step_boot_s
+            if 0.0 <= since_step_s < self._min_step_s:
+                return None  # (a clock that ran backwards, a reboot, is stepped on at once)
+            self._last_step_boot_s = t_boot_s
+            seq = self.sequencer
+            if seq is not None and seq.step_index < 0:
+                self._apply(seq.start(t_boot_s))
+            try:
+                if seq is not None and (seq.done or self._holding):
+                    step = self._held(sample, None)
+                    self._neutral()
+                    seq_out = seq.update(t_boot_s, None, 0.0)
+                else:
+                    step = self._step(sample, t_boot_s)
+                    seq_out = None
+                    if seq is not None:  # pure: decided before the command leaves
+                        nav = step.nav
+                        seq_out = seq.update(t_boot_s, nav.reached_index, nav.distance_error_m)
+                    if seq_out is not None and seq_out.holding:
+                        self._neutral()
+                        step = self._held(sample, step.nav)
+                    else:
+                        self.sink.command(step.fractions)  # the command leaves first
+                        self._sent_step(step, t_boot_s)
+            except NonFiniteError as exc:
+                self._neutral()
+                fault = Fault(FaultCause.POSE_INVALID, f"non-finite value in control: {exc}")
+                return FlightResult(fault, now, out, sample.ned)
+            out = self._last_out = step.nav
+            self._report(sample, step, now, t_start)  # arrivals before what follows
+            if seq_out is not None:
+                self._apply(seq_out)
+        except ActuatorError as exc:  # e.g. a DO_SET_SERVO refused mid-mission: a fault
+            fault = Fault(FaultCause.ACTUATOR, str(exc))
+            return FlightResult(fault, now, out, pose.ned if pose else None)
+        done = out.done if self.sequencer is None else self.sequencer.done
+        if done:
+            return FlightResult(None, None, out, sample.ned)
+        return None
 
     @property
     def _holding(self) -> bool:
