@@ -46,6 +46,7 @@ import yaml
 
 MAX_FILE_BYTES = 16 * 1024 * 1024  # a 100 000-waypoint mission is about 2.5 MB
 MAX_DEPTH = 32  # deepest real config nesting is 5 (sim terrain table); missions use 3
+NESTING_REFUSAL = "exceeded maximum nesting depth"  # PyYAML's own limit's message (>= 6.0.4)
 MAX_EVENTS = 1_000_000  # parser events (values + collections); 100 000 waypoints are ~600 000
 MAX_SHOWN_CHARS = 120  # longest quoted value in a message
 MAX_LINE_CHARS = 400  # longest problem line (of what came from the input)
@@ -254,6 +255,10 @@ def _yaml_problem(exc: yaml.YAMLError, text: str | None = None) -> str:
     mark = getattr(exc, "problem_mark", None)
     where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
     reason = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+    if NESTING_REFUSAL in reason and mark is not None:
+        # PyYAML >= 6.0.4 scans a flow collection's tokens ahead of its events and stops at
+        # its own depth limit (1 000) before the parser hands over the event past ours
+        return f"nested deeper than {MAX_DEPTH} levels at line {mark.line + 1}"
     if mark is not None and text is not None:
         lines = text.splitlines()
         row = lines[mark.line] if mark.line < len(lines) else ""

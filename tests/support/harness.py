@@ -163,8 +163,9 @@ class MavClient:
             if msg.get_type() == "STATUSTEXT":
                 self._note_text(msg)
 
-    def command(self, command: int, *params: float, timeout_s: float = 3.0) -> int:
+    def command(self, command: int, *params: float, timeout_s: float = 10.0) -> int:
         p = [float(x) for x in params] + [0.0] * (7 - len(params))
+        self.drain()  # a socket buffer filled while nobody read would drop the ACK
         self.mav.command_long_send(1, 1, command, 0, *p)
         ack = self.expect("COMMAND_ACK", timeout_s, lambda m: int(m.command) == command)
         return int(ack.result)
