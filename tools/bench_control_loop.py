@@ -465,9 +465,7 @@ class ProbeSink:
         out_s = time.monotonic()
         pose = self.ap.state.pose
         if pose is not None:
-            self.steps.append(
-                Step(pose.time_boot_ms, pose.rx_monotonic_s, cmd_s, out_s)
-            )
+            self.steps.append(Step(pose.time_boot_ms, pose.rx_monotonic_s, cmd_s, out_s))
 
     async def stop(self) -> None:
         await self.inner.stop()
