@@ -178,6 +178,20 @@ def test_a_repeated_request_gets_the_last_reply_again(srv: FtpServer, root: Path
     )
 
 
+def test_an_ack_as_a_request_is_eaten_and_its_repeat_replays_an_unsent_reply(
+    srv: FtpServer,
+) -> None:
+    """ArduPilot's worker sets up the reply before Session::handle_request eats an Ack or Nack
+    request, so a repeat of that seq gets the never-sent reply: opcode None (hypothesis found
+    it; the simulator keeps ArduPilot's behaviour, a client must ignore such a reply)."""
+    sid = ack(one(srv, req(FtpOp.CreateDirectory, 1, 0, b"/a"))).session
+    eaten = req(FtpOp.Ack, 4, sid)
+    assert srv.handle(eaten, sysid=GCS[0], compid=GCS[1], now_s=0.1) == []
+    (replayed,) = srv.handle(eaten, sysid=GCS[0], compid=GCS[1], now_s=0.2)
+    r = FtpPayload.unpack(replayed)
+    assert (r.opcode, r.req_opcode, r.seq_number) == (FtpOp.None_, FtpOp.Ack, 5)
+
+
 def test_a_repeated_session_zero_request_runs_again_in_a_new_session(srv: FtpServer) -> None:
     # ArduPilot 4.7 hands session 0 a fresh id, so the repeat no longer matches its reply
     mkdir = req(FtpOp.CreateDirectory, 5, 0, b"/d")
@@ -499,7 +513,13 @@ def test_hostile_requests_never_break_the_server_or_leave_root(
                 out = server.handle(payload, sysid=who[0], compid=who[1], now_s=now_s)
                 for raw in out:
                     r = FtpPayload.unpack(raw)
-                    assert r.opcode in (FtpOp.Ack, FtpOp.Nack)
+                    # an Ack or Nack as a request is eaten without a reply (Session::
+                    # handle_request), but GCS_FTP::worker has already set up its reply, with
+                    # opcode None: a repeat of that request's seq replays it, as ArduPilot does
+                    eaten = r.req_opcode in (FtpOp.Ack, FtpOp.Nack)
+                    assert r.opcode in (FtpOp.Ack, FtpOp.Nack) or (
+                        eaten and r.opcode == FtpOp.None_
+                    )
                     # the answer to this request, or (a replay matches on sender, session and
                     # seq only, as in ArduPilot) the last reply to an earlier one
                     assert r.req_opcode in sent

@@ -362,17 +362,16 @@ def test_percentiles_and_jitter() -> None:
 def test_latency_matching_and_autopilot_round_trip() -> None:
     sent = {100: 1.000, 120: 1.020}
     steps = [
-        loop.Step(100, 1.0001, 1.0002, 1.0003, 1.0004),
-        loop.Step(120, 1.0202, 1.0205, 1.0206, 1.0209),
-        loop.Step(140, 2, 2, 2, 2),
+        loop.Step(100, 1.0001, 1.0003, 1.0004),
+        loop.Step(120, 1.0202, 1.0206, 1.0209),
+        loop.Step(140, 2, 2, 2),
     ]
     lat = loop.match_latencies(sent, steps)
     assert lat.unmatched == 1
     assert lat.total_s == pytest.approx([0.0004, 0.0009])
     assert lat.wire_s == pytest.approx([0.0001, 0.0002])
     assert lat.inside_s == pytest.approx([0.0003, 0.0007])
-    assert lat.wake_s == pytest.approx([0.0001, 0.0003])
-    assert lat.compute_s == pytest.approx([0.0001, 0.0001])
+    assert lat.compute_s == pytest.approx([0.0002, 0.0004])  # rx stamp -> command called
     assert lat.send_s == pytest.approx([0.0001, 0.0003])
     # the second pose got no answer before the third was sent
     rtt = loop.first_responses([1.0, 1.02, 1.04], [1.0005, 1.0006, 1.0410])
@@ -398,7 +397,7 @@ def test_square_laps() -> None:
 
 
 def test_control_loop_figures_and_results_section(tmp_path: Path) -> None:
-    steps = [loop.Step(100 + 20 * i, 1.0 + 0.02 * i + 1e-4, 0, 0, 1.0 + 0.02 * i + 5e-4)
+    steps = [loop.Step(100 + 20 * i, 1.0 + 0.02 * i + 1e-4, 0, 1.0 + 0.02 * i + 5e-4)
              for i in range(50)]  # fmt: skip
     d = loop.DaemonRecord(
         steps=steps, window=(1.0, 2.0), cpu_s=0.04, granted_hz={}, preflight=[],
