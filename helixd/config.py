@@ -80,6 +80,9 @@ class PidGains(InputModel):
     )
 
 
+GROUND_FRACTION_FIELDS = ("ground_roll_fraction", "ground_scroll_fraction", "ground_yaw_fraction")
+
+
 class SlipConfig(InputModel):
     """Online slip estimate and its feed-forward (:mod:`helixd.control.slip`).
 
@@ -87,6 +90,13 @@ class SlipConfig(InputModel):
     ground delivers is learnt from the pose telemetry; the navigator's command is divided by it
     so tracking holds on grass, mud and sand without retuning. The estimate is computed and
     logged (``slip_v_frac``, ``slip_w_frac`` in flight.csv) whether or not it is fed forward.
+
+    ``ground_*_fraction`` declare the ground the operator expects (1 = no slip, the thesis's
+    eq. 1): the estimate starts from it instead of from no slip, and the time estimate of
+    ``check``, ``run`` and ``mission survey`` counts it (an axis that gets a fraction f of its
+    command is delivered min(1, f · max_gain) of it with the feed-forward, f without). The
+    built-in simulator's grounds: ``sim.terrains`` (hard ground: roll 0.95, scroll 0.45,
+    yaw 0.85).
     """
 
     enabled: bool = Field(
@@ -158,6 +168,38 @@ class SlipConfig(InputModel):
         le=3.0,
         description="upper bound of the estimate (more motion than commanded: noise, slope) (1)",
     )
+    ground_roll_fraction: float = Field(
+        1.0,
+        gt=0.0,
+        le=1.0,
+        description="the ground the operator expects: fraction of the no-slip (eq. 1) velocity "
+        "along the roll axis it delivers. The estimate starts from it and the time estimate "
+        "counts it; 1 = no slip (1)",
+    )
+    ground_scroll_fraction: float = Field(
+        1.0,
+        gt=0.0,
+        le=1.0,
+        description="the same along the scroll axis (1)",
+    )
+    ground_yaw_fraction: float = Field(
+        1.0,
+        gt=0.0,
+        le=1.0,
+        description="the same for the yaw rate (1)",
+    )
+
+    @model_validator(mode="after")
+    def _ground_is_not_a_stall(self) -> SlipConfig:
+        for name in GROUND_FRACTION_FIELDS:
+            value = getattr(self, name)
+            if value < self.stuck_fraction:
+                raise ValueError(
+                    f"{name} = {value:g} is below stuck_fraction = {self.stuck_fraction:g}: a "
+                    "ground that delivers that little is a stall, and the stall watchdog would "
+                    f"stop the run (allowed range {self.stuck_fraction:g} .. 1)"
+                )
+        return self
 
 
 class ControlConfig(InputModel):

@@ -1,8 +1,11 @@
 """How long a plan takes to fly: the navigator's own speed profile, integrated along the path.
 
 Pure: numbers in, numbers out (no clock, no I/O). :func:`estimate_time` follows the rules
-:mod:`helixd.control.navigator` flies by, on an ideal plant (every command delivered: the slip
-feed-forward makes up what the ground takes, up to ``control.slip.max_gain``):
+:mod:`helixd.control.navigator` flies by, on the ground the operator declared
+(``control.slip.ground_*_fraction``; by default one that gives every command): the slip
+feed-forward makes up what the ground takes up to ``control.slip.max_gain``, so an axis that
+gets a fraction f of its command is delivered min(1, f · max_gain) of it
+(:func:`delivered_fraction`), and the driving and the turns in place take that much longer:
 
 * line guidance (the default): the corners as the navigator plans them
   (:func:`helixd.control.line.plan_corners`, shared with it): corners flown as arcs
@@ -43,7 +46,7 @@ from helixd.base.angles import shortest_angular_distance
 from helixd.base.geometry import require_finite
 from helixd.base.plan import MotionMode, Plan
 from helixd.control import guidance, line
-from helixd.control.params import NavigatorParams
+from helixd.control.params import NavigatorParams, SlipParams
 
 DT_S = 0.02  # integration step of the speed and yaw profiles (s)
 TURN_QUANTUM_RAD = 1e-3  # turns are computed once per angle rounded to this (rad)
@@ -88,12 +91,56 @@ def estimate_time(
         require_finite("start yaw", start_yaw_rad)
         yaw0 = start_yaw_rad
     path = _Path([begin, *pts], [w.final_yaw_rad for w in wps], yaw0, plan.mode)
+    ground = _Ground(control.slip)
     if control.guidance == "thesis":
-        got = _Thesis(plan, control, path).run()
+        got = _Thesis(plan, control, path, ground).run()
     else:
-        got = _Line(plan, control, path).run()
+        got = _Line(plan, control, path, ground).run()
     waits = plan.waits_s()  # a mission with commands: its holds and delays (at cruise speed)
     return got if waits <= 0.0 else replace(got, total_s=got.total_s + waits)
+
+
+def delivered_fraction(ground_fraction: float, slip: SlipParams) -> float:
+    """What an axis whose ground gives ``ground_fraction`` of the command delivers of the
+    navigator's command: with the feed-forward min(1, f · max_gain) (none below
+    ``stuck_fraction``: a stall), else f (:meth:`helixd.control.slip.SlipEstimator.gains`)."""
+    f = ground_fraction
+    if not (math.isfinite(f) and f > 0.0):
+        return SPEED_FLOOR_MPS  # nothing delivered: the estimate's own floor, never a 1/0
+    if not slip.enabled or f < slip.stuck_fraction:
+        return min(1.0, f)
+    return min(1.0, f * slip.max_gain)
+
+
+def along_fraction(body_angle_rad: float, roll: float, scroll: float) -> float:
+    """The speed along a course ``body_angle_rad`` from body +x that a command of unit speed
+    yields when the roll axis delivers ``roll`` and the scroll axis ``scroll`` of it: the
+    guidance steers the command so the motion stays on the course, so u·cos θ / roll and
+    u·sin θ / scroll make up the command: u = 1 / ‖(cos θ / roll, sin θ / scroll)‖ (ROLL:
+    θ = 0, ``roll``; SCROLL: θ = 90°, ``scroll``; OMNI in between)."""
+    return 1.0 / math.hypot(math.cos(body_angle_rad) / roll, math.sin(body_angle_rad) / scroll)
+
+
+def delivered_fractions(mode: MotionMode, slip: SlipParams) -> tuple[float, float]:
+    """(translation along the mode's driving axis, yaw rate) delivered on the declared ground
+    with the feed-forward."""
+    ground = _Ground(slip)
+    return ground.move(guidance.driving_axis_rad(mode), 0.0), ground.turn
+
+
+class _Ground:
+    """What the declared ground delivers of the navigator's command (1: all of it)."""
+
+    def __init__(self, slip: SlipParams) -> None:
+        self.roll = delivered_fraction(slip.ground_roll_fraction, slip)
+        self.scroll = delivered_fraction(slip.ground_scroll_fraction, slip)
+        self.turn = delivered_fraction(slip.ground_yaw_fraction, slip)
+
+    def move(self, course_rad: float, heading_rad: float) -> float:
+        """Along a leg of course ``course_rad`` with the body's +x at ``heading_rad``."""
+        if self.roll == self.scroll:
+            return self.roll
+        return along_fraction(course_rad - heading_rad, self.roll, self.scroll)
 
 
 # -- the path ----------------------------------------------------------------------------------
@@ -192,8 +239,8 @@ def _turn_time_s(
 class _Line:
     """The line guidance's profile (see the module docstring)."""
 
-    def __init__(self, plan: Plan, control: NavigatorParams, path: _Path) -> None:
-        self.plan, self.control, self.path = plan, control, path
+    def __init__(self, plan: Plan, control: NavigatorParams, path: _Path, ground: _Ground) -> None:
+        self.plan, self.control, self.path, self.ground = plan, control, path, ground
         self.cruise = plan.leg_speeds_mps()  # per leg: DO_CHANGE_SPEED sets it
         self.floor = max(control.min_speed_mps, SPEED_FLOOR_MPS)
         self.brake = control.braking_accel_mps2
@@ -243,9 +290,9 @@ class _Line:
             self.stop_s[j] = self.at[j + 1] if last else self.stop_s[j + 1]
 
     def run(self) -> TimeEstimate:
-        path, control, mode = self.path, self.control, self.plan.mode
+        path, control, mode, ground = self.path, self.control, self.plan.mode, self.ground
         enter = max(control.pivot_angle_rad, control.heading_threshold_rad)
-        t = driving = turning = 0.0
+        driving = turning = 0.0
         pivots = 0
         arrivals: list[float] = []
         heading = path.start_yaw_rad
@@ -258,21 +305,21 @@ class _Line:
                 e = abs(shortest_angular_distance(heading, course - path.axis_rad))
                 if e > enter and not rounded:  # ALIGN: the translation decays while it pivots
                     dt = _turn_time_s(e, control.heading_threshold_rad, control, True)
-                    turning += dt
+                    turning += dt / ground.turn
                     pivots += 1
                     v = 0.0
                 heading = course - path.axis_rad
             elif j > 0 and self.stops[j - 1]:  # OMNI leaving a stop: keep what points ahead
                 v *= max(0.0, math.cos(course - path.courses[j - 1]))
             s, v, dt = self._drive(j, s, v)
-            driving += dt
-            t = driving + turning
-            arrivals.append(t)
+            driving += dt / ground.move(course, heading)
+            arrivals.append(driving + turning)
             final = path.final_yaw_rad[j]
             if final is not None and mode is not MotionMode.OMNI:
                 e = abs(shortest_angular_distance(heading, final))
                 if e > control.final_heading_tolerance_rad:
-                    turning += _turn_time_s(e, control.final_heading_tolerance_rad, control, True)
+                    dt = _turn_time_s(e, control.final_heading_tolerance_rad, control, True)
+                    turning += dt / ground.turn
                     pivots += 1
                     v = 0.0
                 heading = final
@@ -422,11 +469,11 @@ class _Line:
 class _Thesis:
     """The thesis law: turn to the waypoint, drive at it, reached ``tolerance`` before it."""
 
-    def __init__(self, plan: Plan, control: NavigatorParams, path: _Path) -> None:
-        self.plan, self.control, self.path = plan, control, path
+    def __init__(self, plan: Plan, control: NavigatorParams, path: _Path, ground: _Ground) -> None:
+        self.plan, self.control, self.path, self.ground = plan, control, path, ground
 
     def run(self) -> TimeEstimate:
-        plan, control, path = self.plan, self.control, self.path
+        plan, control, path, ground = self.plan, self.control, self.path, self.ground
         wps = plan.waypoints
         run_out = guidance.run_out_m(
             path.points,
@@ -447,10 +494,12 @@ class _Thesis:
                 if plan.mode is not MotionMode.OMNI:
                     e = abs(shortest_angular_distance(heading, course - path.axis_rad))
                     if e > control.heading_threshold_rad:
-                        turning += _turn_time_s(e, control.heading_threshold_rad, control, False)
+                        dt = _turn_time_s(e, control.heading_threshold_rad, control, False)
+                        turning += dt / ground.turn
                         pivots += 1
                     heading = course - path.axis_rad
-                driving += self._leg_s(distance, wp.tolerance_m, run_out[j], cruise[j])
+                leg_s = self._leg_s(distance, wp.tolerance_m, run_out[j], cruise[j])
+                driving += leg_s / ground.move(course, heading)
                 k = (distance - wp.tolerance_m) / distance
                 here = (here[0] + (goal[0] - here[0]) * k, here[1] + (goal[1] - here[1]) * k)
             arrivals.append(driving + turning)
@@ -458,7 +507,8 @@ class _Thesis:
             if final is not None and plan.mode is not MotionMode.OMNI:
                 e = abs(shortest_angular_distance(heading, final))
                 if e > control.final_heading_tolerance_rad:
-                    turning += _turn_time_s(e, control.final_heading_tolerance_rad, control, False)
+                    dt = _turn_time_s(e, control.final_heading_tolerance_rad, control, False)
+                    turning += dt / ground.turn
                     pivots += 1
                 heading = final
         return TimeEstimate(
@@ -499,4 +549,10 @@ class _Thesis:
         return t
 
 
-__all__ = ["TimeEstimate", "estimate_time"]
+__all__ = [
+    "TimeEstimate",
+    "along_fraction",
+    "delivered_fraction",
+    "delivered_fractions",
+    "estimate_time",
+]

@@ -12,7 +12,8 @@ terrains differ per axis: in mud the scrolls roll poorly but screw well):
 Each is an exponentially weighted least-squares fit of ``measured = k · commanded`` through
 the origin (a recursive least squares with a forgetting time constant, counted in the
 autopilot time between samples, so the memory does not depend on the control rate), started
-from the no-slip prior ``k = 1``. The command fed to the fit is the one actually sent (after
+from the ground the operator declared (``ground_*_fraction``; by default the no-slip prior
+``k = 1``). The command fed to the fit is the one actually sent (after
 the feed-forward and the scrolls' joint saturation), low-passed by the scrolls' response lag,
 and each axis's fit is frozen while its command is too small to learn from (so translation
 is frozen while turning in place) or still changing (the response delay of scrolls, EKF and
@@ -105,7 +106,12 @@ class SlipEstimator:
         if st is None:
             w_v = self.cfg.prior_weight_s * self.cfg.min_speed_mps**2
             w_w = self.cfg.prior_weight_s * self.cfg.min_yaw_rate_radps**2
-            st = _ModeState(vx=_Fit(w_v, w_v), vy=_Fit(w_v, w_v), w=_Fit(w_w, w_w))
+            cfg = self.cfg  # the prior: the ground the operator declared (1: no slip)
+            st = _ModeState(
+                vx=_Fit(w_v, w_v * cfg.ground_roll_fraction),
+                vy=_Fit(w_v, w_v * cfg.ground_scroll_fraction),
+                w=_Fit(w_w, w_w * cfg.ground_yaw_fraction),
+            )
             self._modes[mode] = st
         return st
 

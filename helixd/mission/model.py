@@ -10,7 +10,8 @@ Frames (see :mod:`helixd.base.frames`):
 
 Mission-level safety overrides (a survey writes them): ``geofence_polygon`` (vertices in the
 mission's own coordinates) replaces the config's keep-in polygon and radius,
-``geofence_radius_m`` a radius, ``time_limit_s`` the time limit — see
+``geofence_radius_m`` a radius, ``time_limit_s`` the time limit, and ``ground`` the ground it
+crosses (``control.slip.ground_*_fraction``) — see
 :func:`helixd.mission.validate.apply_mission_limits`. Ground-station files (.plan, .waypoints)
 are read into this model by :mod:`helixd.mission.formats`.
 
@@ -260,6 +261,20 @@ class WaypointSpec(InputModel):
         return placed and (self.params is None or not self.param(0) > 0.0)
 
 
+class GroundSpec(InputModel):
+    """The ground a mission crosses: the fraction of the no-slip (eq. 1) motion it delivers,
+    per body axis. Replaces ``control.slip.ground_*_fraction`` for the run: the slip estimate
+    starts from it and the time estimate counts it."""
+
+    roll_fraction: float = Field(
+        1.0, gt=0.0, le=1.0, description="delivered along the roll axis (1)"
+    )
+    scroll_fraction: float = Field(
+        1.0, gt=0.0, le=1.0, description="delivered along the scroll axis (1)"
+    )
+    yaw_fraction: float = Field(1.0, gt=0.0, le=1.0, description="delivered yaw rate (1)")
+
+
 class Mission(InputModel):
     name: str = Field(min_length=1, max_length=80, pattern=r"^[A-Za-z0-9_.\- ]+$")
     mode: MotionMode
@@ -288,6 +303,11 @@ class Mission(InputModel):
     )
     time_limit_s: float | None = Field(
         None, gt=0.0, le=86_400.0, description="replaces safety.mission_time_limit_s (s)"
+    )
+    ground: GroundSpec | None = Field(
+        None,
+        description="the ground it crosses (roll_fraction, scroll_fraction, yaw_fraction); "
+        "replaces control.slip.ground_*_fraction",
     )
     keep_out_polygons: tuple[tuple[tuple[float, float], ...], ...] = Field(
         (),
@@ -471,6 +491,7 @@ def load_mission(path: Path | str, limits: MissionLimits | None = None) -> Missi
 
 __all__ = [
     "ConfigFileError",
+    "GroundSpec",
     "Mission",
     "MissionFrameKind",
     "MotionMode",

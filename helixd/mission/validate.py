@@ -221,7 +221,8 @@ def apply_mission_limits(
     origin_latlon_deg: tuple[float, float] | None = None,
     start_ned: NedPose | None = None,
 ) -> HelixdConfig:
-    """The config with the mission's own fence and time limit in ``safety`` (pure).
+    """The config with the mission's own fence and time limit in ``safety`` and its ground in
+    ``control.slip`` (pure).
 
     * ``time_limit_s`` replaces ``safety.mission_time_limit_s``.
     * ``geofence_polygon`` replaces ``safety.geofence_polygon_ne_m`` and the mission's
@@ -229,6 +230,7 @@ def apply_mission_limits(
       polygon cannot be placed yet (see :func:`mission_fence_ne`), a radius around the start
       point that contains it fences the run instead, and the config's polygon stays.
     * without a polygon, a given ``geofence_radius_m`` replaces the config's radius.
+    * ``ground`` replaces ``control.slip.ground_*_fraction``.
 
     Idempotent: applying it again with the origin/pose known gives the exact fence.
     """
@@ -248,9 +250,35 @@ def apply_mission_limits(
         update["geofence_radius_m"] = mission.geofence_radius_m
     elif mission.geofence_radius_m is not None:
         update["geofence_radius_m"] = mission.geofence_radius_m
-    if not update:
-        return cfg
-    return cfg.model_copy(update={"safety": saf.model_copy(update=update)})
+    limited = (
+        cfg if not update else cfg.model_copy(update={"safety": saf.model_copy(update=update)})
+    )
+    ground = mission.ground
+    if ground is None:
+        return limited
+    slip = cfg.control.slip.model_copy(
+        update={
+            "ground_roll_fraction": ground.roll_fraction,
+            "ground_scroll_fraction": ground.scroll_fraction,
+            "ground_yaw_fraction": ground.yaw_fraction,
+        }
+    )
+    control = cfg.control.model_copy(update={"slip": slip})
+    return limited.model_copy(update={"control": control})
+
+
+def _ground_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
+    """A declared ground below ``control.slip.stuck_fraction`` is a stall, not a ground."""
+    if mission.ground is None:
+        return []
+    stuck = cfg.control.slip.stuck_fraction
+    return [
+        f"ground.{name} = {value:g} is below control.slip.stuck_fraction = {stuck:g}: a ground "
+        f"that delivers that little is a stall, and the stall watchdog would stop the run "
+        f"(allowed range {stuck:g} .. 1)"
+        for name, value in mission.ground
+        if value < stuck
+    ]
 
 
 def plan_for_check(
@@ -349,6 +377,7 @@ def mission_problems(
     )
     problems += _polygon_problems(cfg, ned, start_ned, fence_name)
     problems += _keep_out_problems(mission, cfg)
+    problems += _ground_problems(mission, cfg)
     problems += _start_distance_problems(plan, cfg, None if provisional else start_ned)
     return problems
 

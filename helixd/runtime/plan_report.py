@@ -12,9 +12,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from helixd.base.plan import Plan, waypoint_label
+from helixd.base.plan import MotionMode, Plan, waypoint_label
 from helixd.config import HelixdConfig
-from helixd.control.estimate import TimeEstimate
+from helixd.control.estimate import TimeEstimate, delivered_fractions
 from helixd.mission import Mission, MissionFrameKind
 from helixd.mission.describe import program_lines
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
@@ -60,6 +60,27 @@ def estimate_line(estimate: TimeEstimate, cfg: HelixdConfig, msn: Mission, note:
     return (
         f"estimate: {eta:.0f} s{note} ({eta / 60:.1f} min: {parts}); limit {source} = "
         f"{limit:.0f} s, margin {margin:.0f} s ({ratio})"
+    )
+
+
+def ground_line(cfg: HelixdConfig, msn: Mission, mode: MotionMode) -> str:
+    """The ground the estimate counts (the mission's, else the config's) and what of the
+    command it delivers in ``mode`` with the slip feed-forward."""
+    slip = cfg.control.slip
+    source = "the mission's ground" if msn.ground is not None else "control.slip.ground_*"
+    fractions = (slip.ground_roll_fraction, slip.ground_scroll_fraction, slip.ground_yaw_fraction)
+    if all(f >= 1.0 for f in fractions):
+        return (
+            f"ground  : no slip assumed ({source} = 1); where the ground slips the flight takes "
+            f"longer: an axis that gets a fraction f of its command, 1 / min(1, f × "
+            f"{slip.max_gain:g}) times"
+        )
+    move, turn = delivered_fractions(mode, slip)
+    return (
+        f"ground  : {source}: roll {fractions[0]:.2f}, scroll {fractions[1]:.2f}, yaw "
+        f"{fractions[2]:.2f} of the command; with the slip feed-forward (at most "
+        f"{slip.max_gain:g}×) {mode.value} drives at {move:.2f} and turns at {turn:.2f} of the "
+        "navigator's command, counted in the estimate"
     )
 
 
@@ -117,6 +138,7 @@ def check_lines(
         speeds += f", {plan.waits_s():.0f} s of holds"
     lines.append(f"path    : {estimate.path_length_m:.1f} m{start_note}{straight} at {speeds}")
     lines.append(estimate_line(estimate, cfg, msn, start_note))
+    lines.append(ground_line(cfg, msn, plan.mode))
     own = [
         *(
             [f"geofence polygon ({len(msn.geofence_polygon)} vertices)"]
@@ -136,4 +158,4 @@ def check_lines(
     return lines
 
 
-__all__ = ["MAX_TABLE_ROWS", "check_lines", "estimate_line", "waypoint_table"]
+__all__ = ["MAX_TABLE_ROWS", "check_lines", "estimate_line", "ground_line", "waypoint_table"]

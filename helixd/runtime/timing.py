@@ -108,10 +108,11 @@ def flight_problems(
             plan = plan_for_check(mission, cfg)[0]
     except PlanError:
         return problems  # mission_problems said so
-    limit_s = apply_mission_limits(cfg, mission).safety.mission_time_limit_s
+    limited = apply_mission_limits(cfg, mission)  # its time limit and its ground
+    limit_s = limited.safety.mission_time_limit_s
     ned = None if plan.frame is MissionFrameKind.START else start_ned
     note = "" if plan.frame is MissionFrameKind.START or ned is not None else " from waypoint 1"
-    return problems + time_problems(plan_time_estimate(plan, cfg, ned), limit_s, note)
+    return problems + time_problems(plan_time_estimate(plan, limited, ned), limit_s, note)
 
 
 __all__ = ["flight_problems", "plan_time_estimate", "time_problems"]

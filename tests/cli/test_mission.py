@@ -121,6 +121,7 @@ def test_convert_places_a_local_ned_mission_through_the_origin(tmp_path: Path) -
     src = tmp_path / "lane.yaml"
     src.write_text(
         "name: lane\nmode: roll\nframe: local_ned\ntime_limit_s: 600\n"
+        "ground: {roll_fraction: 0.5}\n"
         "keep_out_polygons: [[[3, 3], [3, 5], [5, 5], [5, 3]]]\n"
         "waypoints: [{north: 6, east: 0}, {north: 6, east: 6, heading_deg: 90}]\n"
     )
@@ -132,6 +133,7 @@ def test_convert_places_a_local_ned_mission_through_the_origin(tmp_path: Path) -
     ne = [latlon_to_ne(a, b, *ORIGIN) for a, b in back.points()]
     assert ne == [pytest.approx((6.0, 0.0), abs=1e-6), pytest.approx((6.0, 6.0), abs=1e-6)]
     assert back.time_limit_s == 600.0  # the .plan keeps the mission's time limit
+    assert "has no place for ground" in res.output and back.ground is None  # said, not silent
     gcs = read_gcs(out)
     assert [p.inclusion for p in gcs.polygons] == [False]  # the keep-out: an exclusion zone
 

@@ -17,7 +17,12 @@ import pytest
 from helixd.base.geometry import BodyVelocity, Pose2D
 from helixd.base.plan import ActionKind, MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
-from helixd.control.estimate import estimate_time
+from helixd.control.estimate import (
+    along_fraction,
+    delivered_fraction,
+    delivered_fractions,
+    estimate_time,
+)
 from helixd.control.navigator import Navigator
 from helixd.control.sequencer import Sequencer, SequencerOutput
 from helixd.mission import Mission, load_mission, resolve_plan
@@ -263,3 +268,65 @@ def test_an_empty_or_unreachable_profile_is_not_a_hang() -> None:
     stuck = LINE.model_copy(update={"min_speed_mps": 0.0})
     one = Plan("s", MotionMode.OMNI, MissionFrameKind.START, (PlanWaypoint(5.0, 0.0, 1.0),), 0.6)
     assert math.isfinite(estimate_time(one, stuck, (0.0, 0.0), 0.0).total_s)
+
+
+def slipping(**fractions: float) -> ControlConfig:
+    slip = LINE.slip.model_copy(update={f"ground_{k}_fraction": v for k, v in fractions.items()})
+    return LINE.model_copy(update={"slip": slip})
+
+
+@pytest.mark.parametrize("guidance", [LINE, THESIS], ids=["line", "thesis"])
+def test_a_declared_ground_slows_the_estimate_by_what_the_feed_forward_cannot_make_up(
+    guidance: ControlConfig,
+) -> None:
+    """An axis that gets a fraction f of its command is delivered min(1, f · max_gain) of it:
+    the square in ROLL on a roll axis of 40 % drives at 80 % (so 1/0.8 as long), turns in place
+    on a yaw of 30 % at 60 %; at 60 % or more the feed-forward makes it all up; without the
+    feed-forward an axis gets f."""
+    plan = shipped("square", MotionMode.ROLL)
+    base = estimate_time(plan, guidance, (0.0, 0.0), 0.0)
+    ground = slipping(roll=0.4, scroll=0.2, yaw=0.3).model_copy(
+        update={"guidance": guidance.guidance}
+    )
+    slow = estimate_time(plan, ground, (0.0, 0.0), 0.0)
+    assert slow.driving_s == pytest.approx(base.driving_s / 0.8)
+    assert slow.turning_s == pytest.approx(base.turning_s / 0.6)
+    assert slow.total_s == pytest.approx(slow.driving_s + slow.turning_s)
+    assert slow.arrivals_s[-1] == pytest.approx(slow.total_s)
+    assert slow.pivots == base.pivots and slow.path_length_m == base.path_length_m
+    made_up = slipping(roll=0.6, yaw=0.5).model_copy(update={"guidance": guidance.guidance})
+    assert estimate_time(plan, made_up, (0.0, 0.0), 0.0).total_s == pytest.approx(base.total_s)
+    off = ground.model_copy(update={"slip": ground.slip.model_copy(update={"enabled": False})})
+    bare = estimate_time(plan, off, (0.0, 0.0), 0.0)
+    assert bare.driving_s == pytest.approx(base.driving_s / 0.4)
+
+
+def test_omni_drives_each_leg_at_what_its_direction_gets() -> None:
+    """OMNI keeps its heading, so each leg runs at its own angle to the body: along the roll
+    axis it gets the roll fraction, along the scroll axis the scroll fraction, between them
+    1 / ‖(cos θ / roll, sin θ / scroll)‖ (the guidance steers the command onto the course)."""
+    assert along_fraction(0.0, 0.6, 1.0) == pytest.approx(0.6)
+    assert along_fraction(math.pi / 2, 0.6, 1.0) == pytest.approx(1.0)
+    assert along_fraction(-math.pi, 0.6, 1.0) == pytest.approx(0.6)
+    diagonal = along_fraction(math.pi / 4, 0.6, 1.0)
+    assert 0.6 < diagonal < 1.0
+    assert diagonal == pytest.approx(1 / math.hypot(math.sqrt(0.5) / 0.6, math.sqrt(0.5)))
+    plan = shipped("hexagon", MotionMode.OMNI)
+    base = estimate_time(plan, LINE, (0.0, 0.0), 0.0).total_s
+    mud = estimate_time(plan, slipping(roll=0.3, scroll=0.85, yaw=0.55), (0.0, 0.0), 0.0).total_s
+    assert base / 0.6 * 0.99 > mud > base * 1.05  # some legs at 60 %, none slower
+    assert delivered_fractions(MotionMode.OMNI, LINE.slip) == (1.0, 1.0)
+    assert delivered_fractions(MotionMode.SCROLL, slipping(scroll=0.45).slip) == pytest.approx(
+        (0.9, 1.0)
+    )
+
+
+def test_the_delivered_fraction_is_total() -> None:
+    """Numbers a config cannot hold still give a finite, positive fraction, never 1/0."""
+    slip = LINE.slip
+    for f in (math.nan, math.inf, -1.0, 0.0):
+        got = delivered_fraction(f, slip)
+        assert math.isfinite(got) and 0.0 < got <= 1.0
+    assert delivered_fraction(0.1, slip) == pytest.approx(0.1)  # a stall: not amplified
+    assert delivered_fraction(0.45, slip) == pytest.approx(0.9)
+    assert delivered_fraction(1.0, slip) == 1.0

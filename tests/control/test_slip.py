@@ -289,3 +289,30 @@ def test_a_late_response_is_not_read_as_slip() -> None:
         sent = BodyVelocity(0.6 if i % 2 else 0.2, 0.0, 1.0 if i % 2 else 0.3)
         est.update(ROLL, sent, BodyVelocity.zero(), DT_S)
     assert est.estimate(ROLL) == before
+
+
+def test_starts_from_the_declared_ground() -> None:
+    """A ground the operator declared is where the estimate starts (the circle on hard
+    ground: the scroll axis gets 45 %, fed forward 2× from the first pose, not after seconds of
+    learning), and learning still moves it to the ground actually met."""
+    cfg = SlipConfig(
+        ground_roll_fraction=0.95, ground_scroll_fraction=0.45, ground_yaw_fraction=0.85
+    )
+    est = SlipEstimator(cfg)
+    for mode in MotionMode:
+        got = est.estimate(mode)
+        assert (got.vx_frac, got.vy_frac, got.w_frac) == pytest.approx((0.95, 0.45, 0.85))
+    assert est.gains(MotionMode.SCROLL) == pytest.approx((1 / 0.95, 2.0, 1 / 0.85))
+    for _ in range(4):  # the ground met gives 80 % of the roll axis, not 95 %
+        fly(est, BodyVelocity(0.5, 0.0, 0.0), 0.8, 0.85, 6.0)
+        out = fly(est, BodyVelocity(0.0, 0.0, 0.8), 0.8, 0.85, 3.0)
+    assert out.vx_frac == pytest.approx(0.8, abs=0.03)
+
+
+def test_a_declared_ground_below_the_stall_fraction_is_refused() -> None:
+    with pytest.raises(ValueError, match=r"ground_scroll_fraction = 0.1 is below stuck_fraction"):
+        SlipConfig(ground_scroll_fraction=0.1)
+    with pytest.raises(ValueError, match=r"allowed range 0.3 .. 1"):
+        SlipConfig(stuck_fraction=0.3, ground_yaw_fraction=0.2)
+    with pytest.raises(ValueError, match="less than or equal to 1"):
+        SlipConfig(ground_roll_fraction=1.5)

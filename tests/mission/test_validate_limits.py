@@ -234,3 +234,34 @@ def test_mission_limits_are_total(
         assert 0 < cfg.safety.mission_time_limit_s <= 86_400.0
         problems = mission_problems(msn, HelixdConfig(), start_ned=start, origin_latlon_deg=origin)
         assert all(isinstance(p, str) and "\n" not in p for p in problems)
+
+
+def test_the_missions_ground_replaces_the_configs() -> None:
+    msn = mission("start", [(1.0, 0.0)], ground={"scroll_fraction": 0.45, "yaw_fraction": 0.8})
+    slip = apply_mission_limits(HelixdConfig(), msn).control.slip
+    assert (slip.ground_roll_fraction, slip.ground_scroll_fraction, slip.ground_yaw_fraction) == (
+        1.0,
+        0.45,
+        0.8,
+    )
+    assert slip.max_gain == HelixdConfig().control.slip.max_gain  # the rest stays the config's
+    plain = mission("start", [(1.0, 0.0)])
+    assert apply_mission_limits(HelixdConfig(), plain) == HelixdConfig()
+
+
+def test_a_missions_ground_that_is_a_stall_is_refused() -> None:
+    """Below control.slip.stuck_fraction the feed-forward gives up and the stall watchdog stops
+    the run: a mission that declares such ground is refused, naming the field and the range."""
+    msn = mission("start", [(1.0, 0.0)], ground={"roll_fraction": 0.1})
+    problems = mission_problems(msn, HelixdConfig())
+    assert any(
+        p.startswith("ground.roll_fraction = 0.1 is below control.slip.stuck_fraction = 0.15")
+        and p.endswith("(allowed range 0.15 .. 1)")
+        for p in problems
+    ), problems
+    assert mission_problems(msn.model_copy(update={"ground": None}), HelixdConfig()) == []
+    for bad in (0.0, 1.5, "x"):
+        with pytest.raises(ValidationError, match=r"ground\.scroll_fraction"):
+            mission("start", [(1.0, 0.0)], ground={"scroll_fraction": bad})
+    with pytest.raises(ValidationError, match=r"ground\.sand"):
+        mission("start", [(1.0, 0.0)], ground={"sand": 0.5})

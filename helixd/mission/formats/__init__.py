@@ -258,6 +258,7 @@ def lost_in(mission: Mission, fmt: MissionFormat) -> list[str]:
     lost = ["mode", *(["tolerance_m"] if mission.tolerance_m is not None else [])]
     lost += ["speed_mps"] if mission.speed_mps is not None else []
     lost += ["geofence_radius_m"] if mission.geofence_radius_m is not None else []
+    lost += ["ground"] if mission.ground is not None else []
     if fmt is MissionFormat.WAYPOINTS:  # a .plan keeps it in its "helixd" key
         lost += ["time_limit_s"] if mission.time_limit_s is not None else []
     if any(w.heading_deg is not None or w.tolerance_m is not None for w in mission.waypoints):
