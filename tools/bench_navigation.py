@@ -276,10 +276,13 @@ def select_combos(
 
 def mission_with_mode(mission_yaml: str, mode: str, tolerance_m: float | None = None) -> str:
     """The mission file's text with its motion mode (and, given, its waypoint tolerance)
-    replaced (comments are dropped)."""
+    replaced, and without a declared ``ground``: every cell flies on a terrain the slip
+    estimate learns from no slip, whatever ground the shipped file declares (comments are
+    dropped)."""
     data = parse_yaml_text(mission_yaml)
     if not isinstance(data, dict):
         raise ValueError("a mission file is a YAML mapping")
+    data.pop("ground", None)
     data["mode"] = mode
     if tolerance_m is not None:
         data["tolerance_m"] = tolerance_m

@@ -101,6 +101,9 @@ def test_mission_mode_is_replaced_and_shipped_missions_load() -> None:
     assert changed.mode.value == "roll"
     assert len(changed.waypoints) == 6
     assert changed.tolerance_m == 0.4
+    # the shipped hexagon declares hard ground; the bench flies every terrain undeclared
+    assert Mission.model_validate(yaml.safe_load(text)).ground is not None
+    assert changed.ground is None
     # the thesis baseline flies at the line law's corner precision: its stop tolerance
     tight = nav.mission_with_mode(text, "omni", nav.baseline_tolerance_m())
     assert Mission.model_validate(yaml.safe_load(tight)).tolerance_m == 0.1
