@@ -168,6 +168,14 @@ class SlipConfig(InputModel):
         le=3.0,
         description="upper bound of the estimate (more motion than commanded: noise, slope) (1)",
     )
+    skew_share: float = Field(
+        0.2,
+        gt=0.0,
+        le=0.5,
+        description="OMNI: the translation axis that delivers more is slowed to the other's "
+        "fraction, so the rover moves in the direction commanded; ramped in while the other "
+        "axis carries less than this share of the command (1)",
+    )
     ground_roll_fraction: float = Field(
         1.0,
         gt=0.0,

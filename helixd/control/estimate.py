@@ -47,6 +47,7 @@ from helixd.base.geometry import require_finite
 from helixd.base.plan import MotionMode, Plan
 from helixd.control import guidance, line
 from helixd.control.params import NavigatorParams, SlipParams
+from helixd.control.slip import same_direction
 
 DT_S = 0.02  # integration step of the speed and yaw profiles (s)
 TURN_QUANTUM_RAD = 1e-3  # turns are computed once per angle rounded to this (rad)
@@ -112,13 +113,15 @@ def delivered_fraction(ground_fraction: float, slip: SlipParams) -> float:
     return min(1.0, f * slip.max_gain)
 
 
-def along_fraction(body_angle_rad: float, roll: float, scroll: float) -> float:
+def along_fraction(body_angle_rad: float, roll: float, scroll: float, skew_share: float) -> float:
     """The speed along a course ``body_angle_rad`` from body +x that a command of unit speed
-    yields when the roll axis delivers ``roll`` and the scroll axis ``scroll`` of it: the
-    guidance steers the command so the motion stays on the course, so u·cos θ / roll and
-    u·sin θ / scroll make up the command: u = 1 / ‖(cos θ / roll, sin θ / scroll)‖ (ROLL:
-    θ = 0, ``roll``; SCROLL: θ = 90°, ``scroll``; OMNI in between)."""
-    return 1.0 / math.hypot(math.cos(body_angle_rad) / roll, math.sin(body_angle_rad) / scroll)
+    yields when the roll axis delivers ``roll`` and the scroll axis ``scroll`` of it, with the
+    feed-forward keeping the command's direction (:func:`helixd.control.slip.same_direction`):
+    ROLL (θ = 0) gets ``roll``, SCROLL (θ = 90°) ``scroll``, OMNI between the two axes the
+    lower one (the delivered velocity projected on the course)."""
+    c, s = math.cos(body_angle_rad), math.sin(body_angle_rad)
+    k_x, k_y = same_direction(c, s, roll, scroll, skew_share)
+    return c * c * roll * k_x + s * s * scroll * k_y
 
 
 def delivered_fractions(mode: MotionMode, slip: SlipParams) -> tuple[float, float]:
@@ -132,6 +135,7 @@ class _Ground:
     """What the declared ground delivers of the navigator's command (1: all of it)."""
 
     def __init__(self, slip: SlipParams) -> None:
+        self.skew_share = slip.skew_share if slip.enabled else 0.0
         self.roll = delivered_fraction(slip.ground_roll_fraction, slip)
         self.scroll = delivered_fraction(slip.ground_scroll_fraction, slip)
         self.turn = delivered_fraction(slip.ground_yaw_fraction, slip)
@@ -140,7 +144,10 @@ class _Ground:
         """Along a leg of course ``course_rad`` with the body's +x at ``heading_rad``."""
         if self.roll == self.scroll:
             return self.roll
-        return along_fraction(course_rad - heading_rad, self.roll, self.scroll)
+        if self.skew_share <= 0.0:  # no feed-forward: the guidance steers against the skew
+            theta = course_rad - heading_rad
+            return 1.0 / math.hypot(math.cos(theta) / self.roll, math.sin(theta) / self.scroll)
+        return along_fraction(course_rad - heading_rad, self.roll, self.scroll, self.skew_share)
 
 
 # -- the path ----------------------------------------------------------------------------------

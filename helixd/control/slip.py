@@ -184,13 +184,59 @@ class SlipEstimator:
         return min(self.cfg.max_gain, 1.0 / frac)
 
     def compensate(self, mode: MotionMode, command: BodyVelocity) -> BodyVelocity:
-        """The navigator's command divided by the delivered fraction (bounded). A non-finite
-        command (or one that overflows) comes back neutral: a NaN is never amplified."""
+        """The navigator's command divided by the delivered fraction (bounded), the translation
+        kept in the direction commanded (:func:`same_direction`). A non-finite command (or one
+        that overflows) comes back neutral: a NaN is never amplified."""
         if not command.is_finite():
             return BodyVelocity.zero()
         g_x, g_y, g_w = self.gains(mode)
-        out = BodyVelocity(command.vx_mps * g_x, command.vy_mps * g_y, command.wz_radps * g_w)
+        est = self.estimate(mode)
+        k_x, k_y = same_direction(
+            command.vx_mps,
+            command.vy_mps,
+            self._delivered(est.vx_frac, g_x),
+            self._delivered(est.vy_frac, g_y),
+            self.cfg.skew_share,
+        )
+        out = BodyVelocity(
+            command.vx_mps * g_x * k_x, command.vy_mps * g_y * k_y, command.wz_radps * g_w
+        )
         return out if out.is_finite() else BodyVelocity.zero()  # an absurd command overflowed
+
+    def _delivered(self, frac: float, gain: float) -> float:
+        """What an axis delivers of the navigator's command with its feed-forward (1: all);
+        a stalled axis counts as delivering all: the stall watchdog, not the skew, judges it."""
+        if not frac >= self.cfg.stuck_fraction:
+            return 1.0
+        return min(1.0, frac * gain)
+
+
+def same_direction(
+    vx_mps: float, vy_mps: float, delivered_x: float, delivered_y: float, skew_share: float
+) -> tuple[float, float]:
+    """Factors (at most 1) for the two translation axes that keep the delivered translation
+    in the direction commanded when one axis cannot be made up (on mud the roll axis gets
+    30 %, 60 % with the 2× feed-forward, the scroll axis all of it): the axis that delivers
+    more is slowed to the other's fraction, so the rover moves along the command at the lower
+    speed instead of skewed off it (up to ~15° on a hexagon side in mud), which the guidance
+    would only correct after the cross-track error it makes.
+
+    While the axis that delivers less carries under ``skew_share`` of the command (|v| of the
+    axis over |vx| + |vy|) the slowing ramps in from none, so the command stays continuous as
+    its direction turns onto one axis; the skew left is at most ``skew_share`` × the
+    shortfall (0.05 × 0.4: 1°). ROLL and SCROLL command one axis: factors (1, 1)."""
+    if not (0.0 < delivered_x < math.inf and 0.0 < delivered_y < math.inf):
+        return 1.0, 1.0
+    ax, ay = abs(vx_mps), abs(vy_mps)
+    total = ax + ay
+    if not (math.isfinite(total) and total > 0.0) or delivered_x == delivered_y:
+        return 1.0, 1.0
+    low_is_x = delivered_x < delivered_y
+    low, high = (delivered_x, delivered_y) if low_is_x else (delivered_y, delivered_x)
+    share = (ax if low_is_x else ay) / total
+    ramp = 1.0 if share >= skew_share else share / skew_share
+    k = 1.0 - (1.0 - low / high) * ramp
+    return (1.0, k) if low_is_x else (k, 1.0)
 
 
 __all__ = [
@@ -198,4 +244,5 @@ __all__ = [
     "SlipEstimator",
     "measured_body_velocity",
     "no_slip_body",
+    "same_direction",
 ]

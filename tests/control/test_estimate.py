@@ -244,9 +244,8 @@ def test_a_slower_cruise_or_braking_takes_longer(control: ControlConfig, braking
     assert estimate_time(slow, control, (0.0, 0.0), 0.0).total_s > base + 50.0
 
 
-def test_a_long_dense_mission_is_estimated_in_well_under_a_second() -> None:
-    """The 100 000-waypoint check budget (tests/files/test_yamlio.py) holds with the estimate."""
-    n, step_m, radius_m = 100_000, 0.3, 40.0
+def dense_circle(n: int) -> Plan:
+    step_m, radius_m = 0.3, 40.0
     wps = tuple(
         PlanWaypoint(
             radius_m * math.cos(i * step_m / radius_m) - radius_m,
@@ -255,11 +254,22 @@ def test_a_long_dense_mission_is_estimated_in_well_under_a_second() -> None:
         )
         for i in range(n)
     )
-    plan = Plan("big", MotionMode.OMNI, MissionFrameKind.START, wps, 0.6)
-    cpu0 = time.process_time()
-    est = estimate_time(plan, LINE, (0.0, 0.0), 0.0)
-    assert time.process_time() - cpu0 < 2.0
-    assert est.total_s == pytest.approx(est.path_length_m / 0.6, rel=0.01)
+    return Plan("big", MotionMode.OMNI, MissionFrameKind.START, wps, 0.6)
+
+
+def test_a_long_dense_mission_is_estimated_in_linear_time() -> None:
+    """100 000 waypoints cost at most 20x what 10 000 cost (no quadratic step; ~1.5 s of CPU
+    on this VM, whose speed varies by half from run to run: the seconds are printed, not
+    judged), and the estimate is the path at cruise."""
+    seconds = []
+    for n in (10_000, 100_000):
+        plan = dense_circle(n)
+        cpu0 = time.process_time()
+        est = estimate_time(plan, LINE, (0.0, 0.0), 0.0)
+        seconds.append(time.process_time() - cpu0)
+        assert est.total_s == pytest.approx(est.path_length_m / 0.6, rel=0.01)
+    print(f"estimate: 10k waypoints {seconds[0]:.2f} s, 100k {seconds[1]:.2f} s of CPU")
+    assert seconds[1] <= 20.0 * max(seconds[0], 0.01)
 
 
 def test_an_empty_or_unreachable_profile_is_not_a_hang() -> None:
@@ -304,17 +314,20 @@ def test_a_declared_ground_slows_the_estimate_by_what_the_feed_forward_cannot_ma
 def test_omni_drives_each_leg_at_what_its_direction_gets() -> None:
     """OMNI keeps its heading, so each leg runs at its own angle to the body: along the roll
     axis it gets the roll fraction, along the scroll axis the scroll fraction, between them
-    1 / ‖(cos θ / roll, sin θ / scroll)‖ (the guidance steers the command onto the course)."""
-    assert along_fraction(0.0, 0.6, 1.0) == pytest.approx(0.6)
-    assert along_fraction(math.pi / 2, 0.6, 1.0) == pytest.approx(1.0)
-    assert along_fraction(-math.pi, 0.6, 1.0) == pytest.approx(0.6)
-    diagonal = along_fraction(math.pi / 4, 0.6, 1.0)
-    assert 0.6 < diagonal < 1.0
-    assert diagonal == pytest.approx(1 / math.hypot(math.sqrt(0.5) / 0.6, math.sqrt(0.5)))
+    the lower of the two (the feed-forward keeps the command's direction: slip.same_direction);
+    without the feed-forward the guidance steers the command against the skew."""
+    share = LINE.slip.skew_share
+    assert along_fraction(0.0, 0.6, 1.0, share) == pytest.approx(0.6)
+    assert along_fraction(math.pi / 2, 0.6, 1.0, share) == pytest.approx(1.0)
+    assert along_fraction(-math.pi, 0.6, 1.0, share) == pytest.approx(0.6)
+    assert along_fraction(math.pi / 4, 0.6, 1.0, share) == pytest.approx(0.6)
+    assert along_fraction(math.radians(60.0), 0.6, 1.0, share) == pytest.approx(0.6)
+    nearly_y = along_fraction(math.radians(88.0), 0.6, 1.0, share)  # ramped: share 0.03
+    assert 0.6 < nearly_y < 1.0
     plan = shipped("hexagon", MotionMode.OMNI)
-    base = estimate_time(plan, LINE, (0.0, 0.0), 0.0).total_s
-    mud = estimate_time(plan, slipping(roll=0.3, scroll=0.85, yaw=0.55), (0.0, 0.0), 0.0).total_s
-    assert base / 0.6 * 0.99 > mud > base * 1.05  # some legs at 60 %, none slower
+    base = estimate_time(plan, LINE, (0.0, 0.0), 0.0)
+    mud = estimate_time(plan, slipping(roll=0.3, scroll=0.85, yaw=0.55), (0.0, 0.0), 0.0)
+    assert mud.driving_s == pytest.approx(base.driving_s / 0.6)  # every side at 60 %
     assert delivered_fractions(MotionMode.OMNI, LINE.slip) == (1.0, 1.0)
     assert delivered_fractions(MotionMode.SCROLL, slipping(scroll=0.45).slip) == pytest.approx(
         (0.9, 1.0)

@@ -17,6 +17,7 @@ from helixd.control.slip import (
     SlipEstimator,
     measured_body_velocity,
     no_slip_body,
+    same_direction,
 )
 from helixd.mission.model import MotionMode
 from helixd.safety.watchdogs import FaultCause, SafetyInputs, SafetyMonitor
@@ -131,7 +132,11 @@ def test_each_axis_has_its_own_fraction() -> None:
     assert out.w_frac == 1.0
     cmd = est.compensate(omni, BodyVelocity(0.2, 0.2, 0.0))
     assert cmd.vx_mps == pytest.approx(0.2 * cfg.max_gain)  # 1/0.3 capped
-    assert cmd.vy_mps == pytest.approx(0.2 / out.vy_frac)
+    # the scroll axis, made up in full, is slowed to what the roll axis gets (0.3 x 2): the
+    # rover moves along the command, at 60 % of its speed
+    assert cmd.vy_mps == pytest.approx(0.2 / out.vy_frac * out.vx_frac * cfg.max_gain)
+    delivered = (cmd.vx_mps * 0.3, cmd.vy_mps * 0.85)
+    assert math.degrees(math.atan2(delivered[1], delivered[0])) == pytest.approx(45.0, abs=2.0)
 
 
 def test_feed_forward_divides_by_the_fraction() -> None:
@@ -316,3 +321,79 @@ def test_a_declared_ground_below_the_stall_fraction_is_refused() -> None:
         SlipConfig(stuck_fraction=0.3, ground_yaw_fraction=0.2)
     with pytest.raises(ValueError, match="less than or equal to 1"):
         SlipConfig(ground_roll_fraction=1.5)
+
+
+MUD = SlipConfig(ground_roll_fraction=0.3, ground_scroll_fraction=0.85, ground_yaw_fraction=0.55)
+
+
+def test_omni_on_mud_moves_in_the_direction_commanded() -> None:
+    """Mud gives the roll axis 30 % (60 % with the 2x cap) and the scroll axis 85 % (all of
+    it): a 60-degree hexagon side would come out skewed ~15 degrees towards the scroll axis.
+    The scroll axis is slowed to the roll axis's 60 %, so the motion keeps the command's
+    direction at 60 % of its speed."""
+    est = SlipEstimator(MUD)
+    omni = MotionMode.OMNI
+    side = math.radians(60.0)
+    cmd = BodyVelocity(0.5 * math.cos(side), 0.5 * math.sin(side), 0.0)
+    sent = est.compensate(omni, cmd)
+    got = BodyVelocity(sent.vx_mps * 0.3, sent.vy_mps * 0.85, 0.0)  # what mud delivers
+    assert math.atan2(got.vy_mps, got.vx_mps) == pytest.approx(side, abs=1e-9)
+    assert math.hypot(got.vx_mps, got.vy_mps) == pytest.approx(0.6 * 0.5)
+    assert sent.vx_mps == pytest.approx(cmd.vx_mps * 2.0)  # the roll axis still gets its 2x
+    # without it the same command is skewed by ~15 degrees
+    skewed = math.atan2(cmd.vy_mps / 0.85 * 0.85, cmd.vx_mps * 2.0 * 0.3)
+    assert math.degrees(skewed - side) > 10.0
+
+
+def test_one_axis_commands_are_not_slowed() -> None:
+    """ROLL and SCROLL command one translation axis: nothing to keep in line, nothing slowed;
+    along one axis in OMNI the same."""
+    est = SlipEstimator(MUD)
+    for mode, cmd in (
+        (MotionMode.ROLL, BodyVelocity(0.5, 0.0, 0.3)),
+        (MotionMode.SCROLL, BodyVelocity(0.0, 0.5, 0.3)),
+        (MotionMode.OMNI, BodyVelocity(0.0, 0.5, 0.0)),
+    ):
+        g_x, g_y, g_w = est.gains(mode)
+        assert est.compensate(mode, cmd) == BodyVelocity(
+            cmd.vx_mps * g_x, cmd.vy_mps * g_y, cmd.wz_radps * g_w
+        )
+
+
+@given(
+    st.floats(-2.0, 2.0),
+    st.floats(-2.0, 2.0),
+    st.floats(0.01, 1.0),
+    st.floats(0.01, 1.0),
+    st.floats(0.01, 0.5),
+)
+def test_same_direction_never_amplifies_and_is_continuous(
+    vx: float, vy: float, d_x: float, d_y: float, share: float
+) -> None:
+    """Factors in [min(d_x, d_y) / max(d_x, d_y), 1]; only the axis that delivers more is
+    slowed; a small turn of the command moves the scaled command a little (no jump as a
+    command turns onto one axis); full direction keeping once the slower axis carries
+    ``share`` of it."""
+    k_x, k_y = same_direction(vx, vy, d_x, d_y, share)
+    low = min(d_x, d_y) / max(d_x, d_y)
+    assert low - 1e-12 <= k_x <= 1.0 and low - 1e-12 <= k_y <= 1.0
+    assert k_x == 1.0 or k_y == 1.0
+    if d_x < d_y:
+        assert k_x == 1.0
+    eps = 1e-6  # the command it scales moves a little when the command does
+    k2 = same_direction(vx + eps, vy, d_x, d_y, share)
+    assert abs((vx + eps) * k2[0] - vx * k_x) < 1e-3
+    assert abs(vy * k2[1] - vy * k_y) < 1e-3
+    total = abs(vx) + abs(vy)
+    slower = abs(vx) if d_x < d_y else abs(vy)
+    if total > 0 and slower / total >= share and d_x != d_y:
+        delivered = (vx * d_x * k_x, vy * d_y * k_y)
+        assert delivered[0] * vy == pytest.approx(delivered[1] * vx, abs=1e-9)  # parallel
+
+
+def test_same_direction_is_total() -> None:
+    for bad in (math.nan, math.inf, -math.inf):
+        assert same_direction(bad, 0.3, 0.6, 1.0, 0.2) == (1.0, 1.0)
+        assert same_direction(0.3, 0.3, bad, 1.0, 0.2) == (1.0, 1.0)
+    assert same_direction(0.0, 0.0, 0.6, 1.0, 0.2) == (1.0, 1.0)
+    assert same_direction(0.3, 0.3, 0.0, 1.0, 0.2) == (1.0, 1.0)
