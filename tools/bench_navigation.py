@@ -605,16 +605,15 @@ def compare(
 # (bench/results/latest.md prints each beside the cells it explains).
 EXPLANATIONS: dict[tuple[str, str, str], str] = {
     ("low", "hexagon", "RMS"): (
-        "OMNI in mud (2026-11-23: 0.142 m against the thesis law's 0.201 m; on hard ground "
-        "0.068 against 0.139, ratio 0.49): the simulator's mud delivers 30 % of a roll-axis "
-        "command and 85 % of a scroll-axis one (slip_vx_frac 0.30, slip_vy_frac 0.85 in every "
-        "run), the slip feed-forward amplifies at most control.slip.max_gain = 2x, so the "
-        "velocity OMNI gets is skewed towards the scroll axis by up to ~15 deg on every hexagon "
-        "side that needs the roll axis, and the lookahead law only corrects what that skew "
-        "has already done; the thesis law's error has the same source. Besides, the corner "
-        "budget rounds each 60 deg corner of the 2 m hexagon on an arc of R 1.6 m spanning "
-        "0.93 m of each side: on the ideal plant the line law's RMS against the polygon is "
-        "0.048 m by design. Not met by 0.21 (0.71 against 0.5)."
+        "SCROLL in mud, by at most 0.06 (2026-11-26: line law 0.07-0.08 m against the thesis "
+        "law's 0.14-0.15 m, ratio 0.50-0.56 in three runs; 0.53 with the code of the session's "
+        "start, so not the slip feed-forward's direction keeping, which acts in OMNI only). The "
+        "corner budget rounds each 60 deg corner of the 2 m hexagon on an arc of R 1.6 m "
+        "spanning 0.93 m of each side: on the ideal plant the line law's RMS against the "
+        "polygon is 0.048 m by design, a third of the thesis law's figure. Why this cell moved "
+        "from 0.44 (the latest.md before 2026-11-26) to 0.50-0.56 is not analysed. (OMNI in "
+        "mud, missed by 0.21 until 2026-11-26, meets since the feed-forward keeps OMNI's "
+        "direction: 0.46.)"
     ),
 }
 

@@ -5,7 +5,8 @@ Pure: numbers in, numbers out (no clock, no I/O). :func:`estimate_time` follows 
 (``control.slip.ground_*_fraction``; by default one that gives every command): the slip
 feed-forward makes up what the ground takes up to ``control.slip.max_gain``, so an axis that
 gets a fraction f of its command is delivered min(1, f · max_gain) of it
-(:func:`delivered_fraction`), and the driving and the turns in place take that much longer:
+(:func:`delivered_fraction`), and the driving and the turns in place take that much longer
+(OMNI: each leg at the lower of the two axes, :func:`along_fraction`). The rules:
 
 * line guidance (the default): the corners as the navigator plans them
   (:func:`helixd.control.line.plan_corners`, shared with it): corners flown as arcs
@@ -92,7 +93,7 @@ def estimate_time(
         require_finite("start yaw", start_yaw_rad)
         yaw0 = start_yaw_rad
     path = _Path([begin, *pts], [w.final_yaw_rad for w in wps], yaw0, plan.mode)
-    ground = _Ground(control.slip)
+    ground = _Ground(control.slip, plan.mode)
     if control.guidance == "thesis":
         got = _Thesis(plan, control, path, ground).run()
     else:
@@ -127,14 +128,15 @@ def along_fraction(body_angle_rad: float, roll: float, scroll: float, skew_share
 def delivered_fractions(mode: MotionMode, slip: SlipParams) -> tuple[float, float]:
     """(translation along the mode's driving axis, yaw rate) delivered on the declared ground
     with the feed-forward."""
-    ground = _Ground(slip)
+    ground = _Ground(slip, mode)
     return ground.move(guidance.driving_axis_rad(mode), 0.0), ground.turn
 
 
 class _Ground:
     """What the declared ground delivers of the navigator's command (1: all of it)."""
 
-    def __init__(self, slip: SlipParams) -> None:
+    def __init__(self, slip: SlipParams, mode: MotionMode) -> None:
+        self.mode = mode
         self.skew_share = slip.skew_share if slip.enabled else 0.0
         self.roll = delivered_fraction(slip.ground_roll_fraction, slip)
         self.scroll = delivered_fraction(slip.ground_scroll_fraction, slip)
@@ -142,6 +144,8 @@ class _Ground:
 
     def move(self, course_rad: float, heading_rad: float) -> float:
         """Along a leg of course ``course_rad`` with the body's +x at ``heading_rad``."""
+        if self.mode is not MotionMode.OMNI:  # one axis: the one it drives along
+            return self.scroll if self.mode is MotionMode.SCROLL else self.roll
         if self.roll == self.scroll:
             return self.roll
         if self.skew_share <= 0.0:  # no feed-forward: the guidance steers against the skew

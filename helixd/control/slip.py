@@ -190,14 +190,16 @@ class SlipEstimator:
         if not command.is_finite():
             return BodyVelocity.zero()
         g_x, g_y, g_w = self.gains(mode)
-        est = self.estimate(mode)
-        k_x, k_y = same_direction(
-            command.vx_mps,
-            command.vy_mps,
-            self._delivered(est.vx_frac, g_x),
-            self._delivered(est.vy_frac, g_y),
-            self.cfg.skew_share,
-        )
+        k_x = k_y = 1.0
+        if mode is MotionMode.OMNI:  # ROLL and SCROLL drive one axis (the other is dropped)
+            est = self.estimate(mode)
+            k_x, k_y = same_direction(
+                command.vx_mps,
+                command.vy_mps,
+                self._delivered(est.vx_frac, g_x),
+                self._delivered(est.vy_frac, g_y),
+                self.cfg.skew_share,
+            )
         out = BodyVelocity(
             command.vx_mps * g_x * k_x, command.vy_mps * g_y * k_y, command.wz_radps * g_w
         )
@@ -223,8 +225,8 @@ def same_direction(
 
     While the axis that delivers less carries under ``skew_share`` of the command (|v| of the
     axis over |vx| + |vy|) the slowing ramps in from none, so the command stays continuous as
-    its direction turns onto one axis; the skew left is at most ``skew_share`` × the
-    shortfall (0.05 × 0.4: 1°). ROLL and SCROLL command one axis: factors (1, 1)."""
+    its direction turns onto one axis. Only OMNI drives both axes: ROLL and SCROLL drop the
+    other axis's command, so :meth:`SlipEstimator.compensate` keeps theirs as it is."""
     if not (0.0 < delivered_x < math.inf and 0.0 < delivered_y < math.inf):
         return 1.0, 1.0
     ax, ay = abs(vx_mps), abs(vy_mps)

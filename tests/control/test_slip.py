@@ -346,12 +346,14 @@ def test_omni_on_mud_moves_in_the_direction_commanded() -> None:
 
 
 def test_one_axis_commands_are_not_slowed() -> None:
-    """ROLL and SCROLL command one translation axis: nothing to keep in line, nothing slowed;
-    along one axis in OMNI the same."""
+    """ROLL and SCROLL drive one translation axis (the navigator's other component is
+    dropped by the mode's constraint): nothing to keep in line, nothing slowed, even with the
+    mud declared (SCROLL never learns its roll axis: it stays at the declared 30 %); along one
+    axis in OMNI the same."""
     est = SlipEstimator(MUD)
     for mode, cmd in (
-        (MotionMode.ROLL, BodyVelocity(0.5, 0.0, 0.3)),
-        (MotionMode.SCROLL, BodyVelocity(0.0, 0.5, 0.3)),
+        (MotionMode.ROLL, BodyVelocity(0.5, 0.3, 0.3)),
+        (MotionMode.SCROLL, BodyVelocity(0.3, 0.5, 0.3)),
         (MotionMode.OMNI, BodyVelocity(0.0, 0.5, 0.0)),
     ):
         g_x, g_y, g_w = est.gains(mode)
