@@ -48,7 +48,7 @@ from helixd.base.geometry import require_finite
 from helixd.base.plan import MotionMode, Plan
 from helixd.control import guidance, line
 from helixd.control.params import NavigatorParams, SlipParams
-from helixd.control.slip import same_direction
+from helixd.control.slip import feed_forward_gain, same_direction
 
 DT_S = 0.02  # integration step of the speed and yaw profiles (s)
 TURN_QUANTUM_RAD = 1e-3  # turns are computed once per angle rounded to this (rad)
@@ -105,13 +105,12 @@ def estimate_time(
 def delivered_fraction(ground_fraction: float, slip: SlipParams) -> float:
     """What an axis whose ground gives ``ground_fraction`` of the command delivers of the
     navigator's command: with the feed-forward min(1, f · max_gain) (none below
-    ``stuck_fraction``: a stall), else f (:meth:`helixd.control.slip.SlipEstimator.gains`)."""
+    ``stuck_fraction``: a stall), else f (:func:`helixd.control.slip.feed_forward_gain`)."""
     f = ground_fraction
     if not (math.isfinite(f) and f > 0.0):
         return SPEED_FLOOR_MPS  # nothing delivered: the estimate's own floor, never a 1/0
-    if not slip.enabled or f < slip.stuck_fraction:
-        return min(1.0, f)
-    return min(1.0, f * slip.max_gain)
+    gain = feed_forward_gain(f, slip) if slip.enabled else 1.0
+    return min(1.0, f * gain)
 
 
 def along_fraction(body_angle_rad: float, roll: float, scroll: float, skew_share: float) -> float:

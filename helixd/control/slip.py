@@ -176,12 +176,12 @@ class SlipEstimator:
         """Feed-forward factors (x, y, yaw): 1 / fraction within [1/max_fraction, max_gain];
         1 when the fraction is below ``stuck_fraction`` (a stall, not slip)."""
         est = self.estimate(mode)
-        return self._gain(est.vx_frac), self._gain(est.vy_frac), self._gain(est.w_frac)
-
-    def _gain(self, frac: float) -> float:
-        if not frac >= self.cfg.stuck_fraction:
-            return 1.0
-        return min(self.cfg.max_gain, 1.0 / frac)
+        cfg = self.cfg
+        return (
+            feed_forward_gain(est.vx_frac, cfg),
+            feed_forward_gain(est.vy_frac, cfg),
+            feed_forward_gain(est.w_frac, cfg),
+        )
 
     def compensate(self, mode: MotionMode, command: BodyVelocity) -> BodyVelocity:
         """The navigator's command divided by the delivered fraction (bounded), the translation
@@ -211,6 +211,15 @@ class SlipEstimator:
         if not frac >= self.cfg.stuck_fraction:
             return 1.0
         return min(1.0, frac * gain)
+
+
+def feed_forward_gain(frac: float, cfg: SlipParams) -> float:
+    """The factor an axis's command is multiplied by for a delivered fraction ``frac``:
+    1 / frac within [1/max_fraction, max_gain]; 1 below ``stuck_fraction`` (a stall, not
+    slip) or for a non-finite fraction."""
+    if not frac >= cfg.stuck_fraction:
+        return 1.0
+    return min(cfg.max_gain, 1.0 / frac)
 
 
 def same_direction(
@@ -244,6 +253,7 @@ def same_direction(
 __all__ = [
     "SlipEstimate",
     "SlipEstimator",
+    "feed_forward_gain",
     "measured_body_velocity",
     "no_slip_body",
     "same_direction",
