@@ -334,6 +334,8 @@ class Autopilot:
         if changes & _NOTABLE_CHANGES:
             self._log_changes(changes)
         self._waiters.wake(changes)
+        if changes & Change.POSE and self.state.pose is not None:
+            self.telemetry.pose_read(self.state.pose)  # the control step, in this wake-up
 
     def _log_changes(self, changes: int) -> None:
         st = self.state

@@ -7,6 +7,10 @@ every message of the autopilot's system with its receive time. The latest values
 in ``ap.state`` (:class:`helixd.link.vehicle.VehicleState`), which the link's reader updates before
 any of these wake.
 
+The control loop does not wait on a stream: ``ap.telemetry.on_pose(callback)`` has the link's
+reader call it with each new valid pose as the pose is read, so the command can leave in the
+same wake-up as the datagram that carried the pose (no task switch, no future, no timer).
+
 The waits here cost one future and one timer handle each (no ``wait_for`` wrapper): the
 control loop waits on a pose once per step.
 """
@@ -80,6 +84,26 @@ class Telemetry:
         self._waiters = waiters
         self._add_listener = add_listener
         self._remove_listener = remove_listener
+        self._pose_callbacks: list[Callable[[PoseSample], None]] = []
+
+    def on_pose(self, callback: Callable[[PoseSample], None]) -> Callable[[], None]:
+        """Have ``callback(pose)`` called with every new valid pose, by the link's reader as the
+        pose is read (after the vehicle state took it, before the reader reads on). The
+        callback runs inside the reader: it must not raise and must not block. Returns the
+        function that ends the subscription."""
+        self._pose_callbacks.append(callback)
+
+        def unsubscribe() -> None:
+            if callback in self._pose_callbacks:
+                self._pose_callbacks.remove(callback)
+
+        return unsubscribe
+
+    def pose_read(self, sample: PoseSample) -> None:
+        """The link's reader read a new valid pose (the vehicle state holds it): call the
+        :meth:`on_pose` subscribers."""
+        for callback in tuple(self._pose_callbacks):
+            callback(sample)
 
     async def next_pose(self, after_rx_s: float | None, timeout_s: float) -> PoseSample | None:
         """The newest pose if it was read after ``after_rx_s``, else the next one to arrive.

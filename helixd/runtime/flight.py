@@ -1,13 +1,14 @@
 """The control loop: fresh pose in → navigator → kinematics → actuator command out.
 
 Steps on every fresh pose (at whatever rate the autopilot granted) under a configured ceiling,
-with dt from the autopilot's ``time_boot_ms``. The ceiling counts autopilot time too, so the
-control rate *in vehicle terms* (steps per second of the rover's motion) does not depend on a
-simulator speed-up. Between poses it still ticks (wall clock) so the watchdogs run even when
-poses stop: the tick and the reception watchdogs (link, stale/invalid pose) stay on the
-monotonic wall clock, the stall duration counts autopilot time (see
-:mod:`helixd.safety.watchdogs`). It never stops the rover itself: it returns the fault and the
-daemon's supervisor does the fall-back.
+with dt from the autopilot's ``time_boot_ms``, in the link's reader as the pose is read (the
+command leaves in the wake-up that read the pose: no task switch, future or timer per step).
+The ceiling counts autopilot time too, so the control rate *in vehicle terms* (steps per
+second of the rover's motion) does not depend on a simulator speed-up. Between poses it still
+ticks (wall clock) so the watchdogs run even when poses stop: the tick and the reception
+watchdogs (link, stale/invalid pose) stay on the monotonic wall clock, the stall duration
+counts autopilot time (see :mod:`helixd.safety.watchdogs`). It never stops the rover itself:
+it returns the fault and the daemon's supervisor does the fall-back.
 
 The step itself (:meth:`FlightLoop._step`) is pure: pose in, :class:`StepOutput` (the four
 scroll fractions and the navigator's output) out, no send and no callback. The command leaves
@@ -36,7 +37,7 @@ result is never sent: neutral, and a ``pose_invalid`` fault at once.
 
 from __future__ import annotations
 
-import contextlib
+import asyncio
 import math
 import time
 from collections.abc import Callable
@@ -176,19 +177,56 @@ class FlightLoop:
         self._last_step_boot_s = -math.inf  # autopilot clock of the last pose stepped on
         self._last_out: NavOutput | None = None  # the navigator's latest output
         self._pose: PoseSample | None = None  # the latest pose
+        self._result: asyncio.Future[FlightResult] | None = None  # while run() runs
+        self._last_wake_s = 0.0  # monotonic time of the last wake-up (pose or tick)
 
     async def run(self) -> FlightResult:
-        self._t_start_s = time.monotonic()
-        # a new pose, or None each tick without one: the watchdogs run either way
-        async with contextlib.aclosing(self.ap.telemetry.pose_or_tick(self._tick_s)) as ticks:
-            async for sample in ticks:
-                result = self._iteration(sample, time.monotonic())
-                # after the command left: batches, flushes and watchdog feeds never delay a
-                # step (run before it, a 0.25 s row batch sat in front of every 12th pose)
-                self.on_tick()
-                if result is not None:
-                    return result
-        raise AssertionError("the pose stream never ends")  # pragma: no cover
+        """Fly until the mission is done or a fault (or stop) ends it.
+
+        Each new pose is stepped on by the link's reader as it is read
+        (:meth:`helixd.link.telemetry.Telemetry.on_pose`): the command leaves in the wake-up
+        that read the pose. This task only ticks: whenever ``_tick_s`` passes without a
+        wake-up it runs the watchdogs with no pose, so a silent link is still caught. What a
+        wake-up raises (a bug) is raised here, as the flight's own exception.
+        """
+        self._t_start_s = self._last_wake_s = time.monotonic()
+        result: asyncio.Future[FlightResult] = asyncio.get_running_loop().create_future()
+        self._result = result
+        unsubscribe = self.ap.telemetry.on_pose(self._on_pose)
+        try:
+            while not result.done():
+                wait_s = self._last_wake_s + self._tick_s - time.monotonic()
+                if wait_s > 0:
+                    await asyncio.wait((result,), timeout=wait_s)
+                else:
+                    self._wake(None)
+            return result.result()
+        finally:
+            unsubscribe()
+            self._result = None
+
+    def _on_pose(self, sample: PoseSample) -> None:
+        """The reader read a new pose: step on it now (nothing more once the flight ended)."""
+        if self._result is not None and not self._result.done():
+            self._wake(sample)
+
+    def _wake(self, sample: PoseSample | None) -> None:
+        """One wake-up (a pose, or a tick without one); its end or its exception goes to
+        :meth:`run`, never into the reader that called it."""
+        result = self._result
+        assert result is not None
+        now = time.monotonic()
+        self._last_wake_s = now
+        try:
+            ended = self._iteration(sample, now)
+            # after the command left: batches, flushes and watchdog feeds never delay a
+            # step (run before it, a 0.25 s row batch sat in front of every 12th pose)
+            self.on_tick()
+        except Exception as exc:
+            result.set_exception(exc)
+            return
+        if ended is not None:
+            result.set_result(ended)
 
     def _iteration(self, sample: PoseSample | None, now: float) -> FlightResult | None:
         """One wake-up: the watchdogs, then (on a fresh pose due a step) the step and its

@@ -7,8 +7,9 @@ import time
 from typing import Any
 
 from helixd.link.telemetry import ChangeWaiters, Telemetry
-from helixd.link.vehicle import VehicleState
+from helixd.link.vehicle import PoseSample, VehicleState
 from tests.support.mavmsgs import att, lpn
+from tests.support.peer import linked, until
 
 
 async def still_pending(fut: asyncio.Future[Any], window_s: float = 0.01) -> bool:
@@ -87,3 +88,31 @@ def test_messages_stream_and_listener_removed_on_close() -> None:
         assert f.listeners == []
 
     asyncio.run(main())
+
+
+async def test_pose_subscribers_are_called_by_the_reader_with_each_new_pose() -> None:
+    """Over a real UDP link: every new valid pose reaches an ``on_pose`` subscriber in the
+    reader, as the vehicle state holds it (one call per pose, in order), and none after the
+    subscription ended."""
+    async with linked() as (ap, _peer):
+        await ap.request_streams()
+        seen: list[tuple[PoseSample, PoseSample | None]] = []
+
+        def on_pose(sample: PoseSample) -> None:
+            seen.append((sample, ap.state.pose))
+
+        unsubscribe = ap.telemetry.on_pose(on_pose)
+        await until(lambda: len(seen) >= 5, 5.0, "five poses through the subscription")
+        unsubscribe()
+        unsubscribe()  # twice is harmless
+        n = len(seen)
+        assert all(sample is state_pose for sample, state_pose in seen)  # the pose just read
+        times = [sample.time_boot_ms for sample, _ in seen]
+        assert times == sorted(set(times))  # each new pose once, in order
+        last_ms = times[-1]
+        await until(
+            lambda: (p := ap.state.pose) is not None and p.time_boot_ms > last_ms + 100,
+            5.0,
+            "more poses read after the subscription ended",
+        )
+        assert len(seen) == n

@@ -6,7 +6,7 @@ from __future__ import annotations
 import asyncio
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -17,7 +17,7 @@ from helixd.base.frames import MissionFrame, NedPose
 from helixd.config import HelixdConfig
 from helixd.link.commands import CommandRejected
 from helixd.link.telemetry import ChangeWaiters, Telemetry
-from helixd.link.vehicle import VehicleState
+from helixd.link.vehicle import Change, PoseSample, VehicleState
 from helixd.mission import Mission, resolve_plan
 from helixd.runtime.flight import FlightLoop, StepReport
 from helixd.runtime.flight_report import StepJournal, flight_row
@@ -29,16 +29,17 @@ EKF_OK = 0x1 | 0x2 | 0x4 | 0x8 | 0x10 | 0x20
 
 
 class FedTelemetry(Telemetry):
-    """The telemetry plugin over the fed state; each time the loop asks for the next pose,
-    the fed autopilot delivers one pose period first (no wall-clock pacing)."""
+    """The telemetry plugin over the fed state; once the loop subscribes to poses, the fed
+    autopilot delivers its pose periods, one per event-loop turn (no wall-clock pacing)."""
 
     def __init__(self, ap: FedAutopilot) -> None:
         super().__init__(ap.state, ap.waiters, lambda cb: None, lambda cb: None)
         self._ap = ap
 
-    async def next_pose(self, after_rx_s: float | None, timeout_s: float) -> Any:
-        self._ap.on_pose_asked()
-        return await super().next_pose(after_rx_s, timeout_s)
+    def on_pose(self, callback: Callable[[PoseSample], None]) -> Callable[[], None]:
+        unsubscribe = super().on_pose(callback)
+        asyncio.get_running_loop().call_soon(self._ap.deliver)
+        return unsubscribe
 
 
 class FedAutopilot:
@@ -56,7 +57,12 @@ class FedAutopilot:
         pass
 
     def rx(self, msg: Any) -> None:
-        self.waiters.wake(self.state.apply(msg, time.monotonic()))
+        """As the link's reader: the state takes the message, then waiters and pose
+        subscribers (the flight loop's step) are called."""
+        changes = self.state.apply(msg, time.monotonic())
+        self.waiters.wake(changes)
+        if changes & Change.POSE and self.state.pose is not None:
+            self.telemetry.pose_read(self.state.pose)
 
     def tick(self) -> None:
         """One pose period: a heartbeat (armed, MANUAL), EKF healthy, attitude and position."""
@@ -66,10 +72,13 @@ class FedAutopilot:
         self.rx(att(self.t_ms, 0.0))
         self.rx(lpn(self.t_ms, 0.0, 0.0))
 
-    def on_pose_asked(self) -> None:
+    def deliver(self) -> None:
+        """The next pose period, then (on the next loop turn) the one after; the stop once
+        they are all delivered."""
         if self.periods_left > 0:
             self.periods_left -= 1
             self.tick()
+            asyncio.get_running_loop().call_soon(self.deliver)
         elif self.stop is not None:
             self.stop.trigger("test end")
 
@@ -163,6 +172,60 @@ def test_servo_refused_in_flight_is_an_actuator_fault() -> None:
     assert "DO_SET_SERVO" in result.fault.detail
     assert result.detected_s is not None and result.last_pose is not None
     assert len(sink.commands) == 2
+
+
+class BrokenSink(Sink):
+    """A sink with a bug: its third command raises what no fault path expects."""
+
+    def command(self, fractions: Sequence[float]) -> None:
+        if len(self.commands) == 2:
+            raise RuntimeError("a bug in the sink")
+        super().command(fractions)
+
+
+def test_a_bug_in_a_step_is_raised_by_run_not_swallowed_by_the_reader() -> None:
+    """The step runs inside the link's reader (which logs and goes on after a handler's
+    exception); the flight must still end with the exception, for the daemon's crash path."""
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.tick()
+    sink = BrokenSink(trace)
+    with pytest.raises(RuntimeError, match="a bug in the sink"):
+        asyncio.run(fly(ap, make_loop(ap, sink, trace), 10))
+    assert len(sink.commands) == 2
+
+
+def test_no_step_after_the_flight_ended() -> None:
+    """Poses read after ``run()`` returned (a fault, a stop) are not stepped on: nothing is
+    commanded behind the daemon's fall-back."""
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.tick()
+    sink = Sink(trace)
+    loop = make_loop(ap, sink, trace)
+    result = asyncio.run(fly(ap, loop, 4))
+    assert result.fault is not None and result.fault.cause is FaultCause.SIGNAL
+    sent = len(sink.commands)
+    assert sent >= 2
+    for _ in range(5):
+        ap.tick()  # the reader goes on reading poses
+    assert len(sink.commands) == sent
+
+
+def test_watchdogs_tick_without_poses() -> None:
+    """No pose at all after the start: the loop still wakes (every tick) and the stale-pose
+    watchdog ends the flight, within the stale-pose limit and a tick."""
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.tick()
+    sink = Sink(trace)
+    loop = make_loop(ap, sink, trace)
+    t0 = time.monotonic()
+    result = asyncio.run(asyncio.wait_for(loop.run(), 5.0))  # no stop asked: a watchdog ends it
+    elapsed_s = time.monotonic() - t0
+    assert result.fault is not None and result.fault.cause is FaultCause.POSE_STALE
+    assert elapsed_s < loop.cfg.safety.pose_stale_s + 0.5
+    assert sink.commands == []
 
 
 # -- the step journal: flight.csv rows built in batches, after sends ------------------------
