@@ -5,10 +5,13 @@ RCIN<n> passthrough. ArduPilot accepts overrides only from ``MAV_GCS_SYSID`` and
 channel's override ``RC_OVERRIDE_TIME`` (default 3 s) after its last update — so a dead
 helixd hands the scrolls back to the pilot's radio by itself. While healthy, the latest
 frame is re-sent at ``repeat_rate_hz`` (≥ 10 Hz) so that timeout never fires; a new
-command is sent at once (the repeater only fills the gaps). The repeat is a one-shot loop
-timer re-armed by every send, so nothing wakes while commands flow faster than the repeat
-rate (a sleeping repeater task woke the loop ~25 times a second at 50 Hz for nothing:
-+0.3× the pymavlink floor per step, tools/bench_control_loop.py).
+command is sent at once (the repeater only fills the gaps). The repeat is one loop timer,
+due one repeat period after the last send: when it fires after a newer send it is moved to
+one period after that send, so while commands flow faster than the repeat rate it wakes at
+the repeat rate and sends nothing, and a command costs no timer of its own (a sleeping
+repeater task woke the loop ~25 times a second at 50 Hz for nothing: +0.3× the pymavlink
+floor per step; a timer cancelled and re-armed by every command cost a heap push per step,
+tools/bench_control_loop.py).
 
 Channels we do not drive are sent as "leave unchanged" (65535 on 1–8, 0 on 9–18). Stopping
 sends neutral, holds it for ``neutral_hold_s`` (if the release is lost, the last override is
@@ -58,6 +61,7 @@ class RcOverrideSink:
         self.frames_sent = 0
         self._frame: tuple[int, ...] | None = None
         self._last_send_s = -math.inf
+        self._repeat_s = 1.0 / actuation.repeat_rate_hz
         self._started = False
         self._loop: asyncio.AbstractEventLoop | None = None
         self._timer: asyncio.TimerHandle | None = None
@@ -95,15 +99,19 @@ class RcOverrideSink:
         self._ap.send_rc_override(frame)
         self._last_send_s = time.monotonic()
         self.frames_sent += 1
-        if self._started and self._loop is not None:  # the repeat: one period after this send
-            if self._timer is not None:
-                self._timer.cancel()
-            self._timer = self._loop.call_later(1.0 / self._cfg.repeat_rate_hz, self._refresh)
+        if self._timer is None and self._started and self._loop is not None:
+            self._timer = self._loop.call_later(self._repeat_s, self._refresh)
 
     def _refresh(self) -> None:
-        """No command for one repeat period: send the latest frame again."""
+        """The repeat is due: send the latest frame again if nothing was sent for one repeat
+        period, else wait until one period after the last send."""
         self._timer = None
-        if self._started and self._frame is not None:
+        if not self._started or self._frame is None or self._loop is None:
+            return
+        wait_s = self._last_send_s + self._repeat_s - time.monotonic()
+        if wait_s > 0:
+            self._timer = self._loop.call_later(wait_s, self._refresh)
+        else:
             self._send(self._frame)
 
     async def stop(self) -> None:

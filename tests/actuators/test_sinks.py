@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import asyncio
 import time
+from collections.abc import Sequence
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -78,6 +80,51 @@ async def test_rc_override_repeats_values_and_releases() -> None:
         await stays(lambda: overrides(peer, t_after) == [], 0.4, "no overrides after stop")
         await sink.stop()  # idempotent: nothing more is sent
         assert overrides(peer, t_after) == []
+
+
+class RecordingSender:
+    """An OverrideSender that keeps (monotonic time, frame) of every send."""
+
+    def __init__(self) -> None:
+        self.sent: list[tuple[float, tuple[int, ...]]] = []
+        self.changed = asyncio.Event()
+
+    def send_rc_override(self, channels_us: Sequence[int]) -> None:
+        self.sent.append((time.monotonic(), tuple(channels_us)))
+        self.changed.set()
+
+
+async def test_rc_override_repeats_only_in_the_gaps_between_commands() -> None:
+    """Commands every 10 ms with a 10 Hz repeat: nothing but the commands is sent; once they
+    stop, the latest frame is repeated one repeat period after the last command, then at the
+    repeat rate."""
+    cfg = actuation(ActuationBackend.RC_OVERRIDE, repeat_rate_hz=10.0)
+    sender = RecordingSender()
+    sink = RcOverrideSink(cfg, VehicleConfig(), sender)
+    loop = asyncio.get_running_loop()
+    await sink.start()
+    commands_done = asyncio.Event()
+    n_commands = 30
+
+    def command(k: int) -> None:
+        sink.command([0.01 * k, 0.0, 0.0, 0.0])
+        if k + 1 < n_commands:
+            loop.call_later(0.01, command, k + 1)
+        else:
+            commands_done.set()
+
+    loop.call_soon(command, 0)
+    await asyncio.wait_for(commands_done.wait(), 5.0)
+    assert len(sender.sent) == 1 + n_commands  # the neutral at start, then each command once
+    t_last, last_frame = sender.sent[-1]
+    while len(sender.sent) < n_commands + 3:  # two repeats
+        sender.changed.clear()
+        await asyncio.wait_for(sender.changed.wait(), 2.0)
+    (t_r1, f1), (t_r2, f2) = sender.sent[-2:]
+    assert f1 == f2 == last_frame  # the latest frame, repeated
+    assert 0.1 <= t_r1 - t_last < 0.3  # one repeat period after the last command
+    assert 0.1 <= t_r2 - t_r1 < 0.3  # then at the repeat rate
+    await sink.stop()
 
 
 async def test_rc_override_stop_on_a_dead_link_does_not_raise() -> None:
