@@ -11,8 +11,7 @@ The control loop does not wait on a stream: ``ap.telemetry.on_pose(callback)`` h
 reader call it with each new valid pose as the pose is read, so the command can leave in the
 same wake-up as the datagram that carried the pose (no task switch, no future, no timer).
 
-The waits here cost one future and one timer handle each (no ``wait_for`` wrapper): the
-control loop waits on a pose once per step.
+The waits here cost one future and one timer handle each (no ``wait_for`` wrapper).
 """
 
 from __future__ import annotations

@@ -74,6 +74,31 @@ NEUTRAL_FRACTIONS = (0.0, 0.0, 0.0, 0.0)
 CEILING_JITTER_FRACTION = 0.25  # of the ceiling's period: early arrivals still stepped
 
 
+def ceiling_next_due(
+    t_s: float, last_s: float, due_s: float, period_s: float, early_s: float
+) -> float | None:
+    """The control-rate ceiling (pure): whether the pose of autopilot time ``t_s`` is stepped
+    on — then the time the next step is due, else None (thinned out).
+
+    Steps keep to a schedule one ``period_s`` apart. A pose is stepped on from ``early_s``
+    before its step is due (sample jitter: a pose at exactly the ceiling rate that comes a
+    little early is not dropped), and the next step is then due one period after this one
+    was due — not one period after the pose, so a late pose does not make the next, on-time
+    one look early and get dropped. A flood faster than the ceiling is thinned to the
+    ceiling's rate. A pose a whole period or more after its step was due (the first pose, a
+    gap in the stream) restarts the schedule from itself; so does a clock that ran backwards
+    (``t_s`` before the last pose stepped on, ``last_s``: an autopilot reboot), stepped on
+    at once.
+    """
+    if t_s < last_s:
+        return t_s + period_s
+    if t_s < due_s - early_s:
+        return None
+    if t_s < due_s + period_s:
+        return due_s + period_s
+    return t_s + period_s
+
+
 @dataclass(frozen=True, slots=True)
 class StepOutput:
     """What one control step decided (pure: nothing sent yet)."""
@@ -155,10 +180,10 @@ class FlightLoop:
         self.supervisor = Supervisor(cfg.safety, start_ned, MANUAL_MODE)  # owns the watchdogs
         # The ceiling only thins out a pose flood, counted in autopilot time (pose
         # time_boot_ms), so a simulator speed-up does not lower the control rate the rover
-        # sees; a pose at the ceiling rate arriving a little early (sample jitter) is still
-        # stepped, or every other pose would be dropped when the autopilot grants exactly the
-        # ceiling rate.
-        self._min_step_s = (1.0 - CEILING_JITTER_FRACTION) / cfg.control.control_rate_max_hz
+        # sees (see ceiling_next_due).
+        self._step_period_s = 1.0 / cfg.control.control_rate_max_hz
+        self._step_early_s = CEILING_JITTER_FRACTION * self._step_period_s
+        self._step_due_boot_s = -math.inf  # autopilot time the next step is due
         # tick at least this often without poses, so watchdogs always run (s)
         self._tick_s = min(0.05, cfg.safety.pose_stale_s / 4)
         self._cmd_speed_mps = 0.0
@@ -250,10 +275,17 @@ class FlightLoop:
             if sample is None:
                 return None
             t_boot_s = sample.time_boot_ms / 1000.0
-            since_step_s = t_boot_s - self._last_step_boot_s
-            if 0.0 <= since_step_s < self._min_step_s:
-                return None  # (a clock that ran backwards, a reboot, is stepped on at once)
+            due_s = ceiling_next_due(
+                t_boot_s,
+                self._last_step_boot_s,
+                self._step_due_boot_s,
+                self._step_period_s,
+                self._step_early_s,
+            )
+            if due_s is None:
+                return None  # thinned out by the control-rate ceiling
             self._last_step_boot_s = t_boot_s
+            self._step_due_boot_s = due_s
             seq = self.sequencer
             if seq is not None and seq.step_index < 0:
                 self._apply(seq.start(t_boot_s))

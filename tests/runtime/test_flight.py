@@ -4,13 +4,17 @@
 from __future__ import annotations
 
 import asyncio
+import itertools
 import math
+import random
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from helixd.actuators import ServoCommandRefused
 from helixd.base.frames import MissionFrame, NedPose
@@ -19,7 +23,7 @@ from helixd.link.commands import CommandRejected
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.vehicle import Change, PoseSample, VehicleState
 from helixd.mission import Mission, resolve_plan
-from helixd.runtime.flight import FlightLoop, StepReport
+from helixd.runtime.flight import FlightLoop, StepReport, ceiling_next_due
 from helixd.runtime.flight_report import StepJournal, flight_row
 from helixd.runtime.signals import StopRequest
 from helixd.safety.watchdogs import FaultCause
@@ -331,3 +335,63 @@ def test_a_hold_sends_neutral_then_the_leg_and_queues_the_commands_due() -> None
     assert all(neutral[:first_drive]) and not any(neutral[first_drive:])
     assert [(a.item, a.command) for a in actions] == [(2, 183)]
     assert [e.kind for e in events][:3] == ["step_started", "hold_started", "step_completed"]
+
+
+# -- the control-rate ceiling (autopilot time) --------------------------------------------------
+
+PERIOD_S = 0.005  # a 200 Hz ceiling
+EARLY_S = 0.25 * PERIOD_S
+
+
+def stepped(times_s: Sequence[float]) -> list[float]:
+    """The poses the ceiling steps on, of poses at these autopilot times."""
+    out: list[float] = []
+    last, due = -math.inf, -math.inf
+    for t in times_s:
+        nxt = ceiling_next_due(t, last, due, PERIOD_S, EARLY_S)
+        if nxt is not None:
+            out.append(t)
+            last, due = t, nxt
+    return out
+
+
+def test_ceiling_steps_every_pose_at_its_rate_despite_jitter() -> None:
+    """Poses at the ceiling rate, each up to 0.2 ms early or up to 4 ms late: all stepped
+    (a late pose does not make the next, on-time one look early)."""
+    rng = random.Random(7)
+    times = [
+        k * PERIOD_S + rng.choice((-0.0002, 0.0, 0.0, 0.004 * rng.random())) for k in range(1000)
+    ]
+    assert stepped(times) == times
+
+
+def test_ceiling_thins_a_flood_to_its_rate() -> None:
+    flood = [k * PERIOD_S / 4 for k in range(4000)]  # 800 Hz for 5 s
+    steps = stepped(flood)
+    assert len(steps) in (1000, 1001)
+    gaps = [b - a for a, b in itertools.pairwise(steps)]
+    assert min(gaps) >= PERIOD_S - EARLY_S - 1e-9  # never closer than the jitter allows
+
+
+def test_ceiling_restarts_after_a_gap_and_after_a_reboot() -> None:
+    before = [k * PERIOD_S for k in range(10)]
+    after_gap = [1.0 + k * PERIOD_S / 4 for k in range(8)]  # a flood resuming after 1 s
+    assert stepped(before + after_gap) == [*before, after_gap[0], after_gap[3], after_gap[7]]
+    rebooted = [0.002, 0.0021, 0.0075]  # the autopilot's clock starts again
+    assert stepped(before + rebooted) == [*before, 0.002, 0.0075]
+
+
+@given(
+    gaps=st.lists(
+        st.floats(min_value=0.0, max_value=3 * PERIOD_S, allow_nan=False), min_size=1, max_size=300
+    )
+)
+def test_ceiling_never_exceeds_its_rate(gaps: list[float]) -> None:
+    """Whatever the arrival times (non-decreasing), no window of k periods holds more than
+    k + 2 steps."""
+    times = list(itertools.accumulate(gaps))
+    steps = stepped(times)
+    for i, a in enumerate(steps):
+        k = 4
+        in_window = [b for b in steps[i:] if b < a + k * PERIOD_S]
+        assert len(in_window) <= k + 2
