@@ -605,15 +605,16 @@ def compare(
 # (bench/results/latest.md prints each beside the cells it explains).
 EXPLANATIONS: dict[tuple[str, str, str], str] = {
     ("low", "hexagon", "RMS"): (
-        "SCROLL in mud, by at most 0.06 (2026-11-26: line law 0.07-0.08 m against the thesis "
-        "law's 0.14-0.15 m, ratio 0.50-0.56 in three runs; 0.53 with the code of the session's "
-        "start, so not the slip feed-forward's direction keeping, which acts in OMNI only). The "
-        "corner budget rounds each 60 deg corner of the 2 m hexagon on an arc of R 1.6 m "
-        "spanning 0.93 m of each side: on the ideal plant the line law's RMS against the "
-        "polygon is 0.048 m by design, a third of the thesis law's figure. Why this cell moved "
-        "from 0.44 (the latest.md before 2026-11-26) to 0.50-0.56 is not analysed. (OMNI in "
-        "mud, missed by 0.21 until 2026-11-26, meets since the feed-forward keeps OMNI's "
-        "direction: 0.46.)"
+        "Until 2026-11-26 SCROLL in mud missed, by at most 0.06 (line law 0.07-0.08 m against "
+        "the thesis law's 0.14-0.15 m, ratio 0.44-0.56 from run to run). Cause, from the runs' "
+        "flight.csv: a limit cycle of the line law's heading loop (kp 8 /s on the scrolls' "
+        "0.28 s yaw lag: damping 0.32), held up by the 1 rad/s yaw-rate cap at the corner "
+        "arcs, where 79 % of the squared error was made (heading error 0.25 rad RMS in mud, "
+        "0.17 on hard ground). Since then the heading loop acts on the heading predicted over "
+        "that lag, the slip fit is no longer biased low near a fraction of 1, and an arc's yaw "
+        "is fed forward at the delivered speed: 0.37 in an A/B of 3 seeds (hard ground 0.37 -> "
+        "0.40). A miss here again would be a new cause. The floor: arcs flown perfectly (R 1.2 "
+        "m, 0.16 m from the sides) are 0.046 m RMS against the polygon, ratio ~0.32."
     ),
 }
 

@@ -231,15 +231,18 @@ CPU_PER_ECHO_TARGET = 2.0  # issue 14/16: daemon CPU at most 2x the asyncio echo
 RTT_PER_ECHO_TARGET = 1.5  # and the autopilot's round trip p99 at most 1.5x the echo's
 CPU_MISS_WHY = (
     "Why the CPU target is missed: per step the daemon does what the echo does (read, decode, "
-    "encode, sendto) plus the vehicle state, the safety supervisor, the navigator (~200 small "
-    "pure-function calls, ~70 finiteness checks), the slip fit, the kinematics, the row "
-    "journal and the display. Timed warm in a tight loop that was ~70 µs a step on "
-    "2026-11-26 (navigator 32, pose + attitude decoded into the vehicle state 14, kinematics "
-    "7, slip 3), but each step runs on a loop just woken from sleep, with cold caches, which "
-    "multiplies every line touched (the ratios above); no single frame is more than a few "
-    "percent of the profile. The round trip misses for the "
-    "same reason: that work sits between the pose and the override (the row batches, flushes "
-    "and feeds no longer do: they run after the send since issue 14/16)."
+    "encode, sendto, and since 2026-11-26 in the same place: the step runs in the link's "
+    "reader callback, as the echo's does) plus the vehicle state, the safety supervisor, the "
+    "navigator (~200 small pure-function calls, ~70 finiteness checks), the slip fit, the "
+    "kinematics, the row journal and the display. Timed warm in a tight loop that was ~70 µs "
+    "a step; timed in this benchmark at 200 Hz with the thread's CPU clock (2026-11-26) it is "
+    "~400 µs: navigator 88, RC override sink 103 (of which encode + sendto 41), supervisor "
+    "43, slip fit 32, the rest of the step 44, report 36, bookkeeping 23, feeds 8, and ~73 µs "
+    "for each of the ~2 messages read per step — more than the echo's whole step (~180 µs). "
+    "Each step runs on a process just woken from sleep, with cold caches, which multiplies "
+    "every line touched; no single frame is more than a few percent of the profile. The "
+    "round trip misses for the same reason: that work sits between the pose and the override "
+    "(the row batches, flushes and feeds no longer do: they run after the send)."
 )
 
 
