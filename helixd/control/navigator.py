@@ -116,6 +116,8 @@ class Navigator:
         self._peak_speed_mps = plan.peak_speed_mps
         self._cruise_mps = plan.speed_mps
         self._reverse = False
+        # the fraction of the commanded speed the ground delivers (set_delivered_fraction)
+        self._delivered_fraction = 1.0
         self._distance_pid = PID(control.distance_pid, output_limit=self._peak_speed_mps)
         self._yaw_pid = PID(control.yaw_pid, output_limit=control.max_yaw_rate_radps, angular=True)
         self._state = NavState.IDLE
@@ -135,6 +137,9 @@ class Navigator:
         self._arcs: list[line.CornerArc | None] = []  # per waypoint: the arc of its corner
         self._horizon_m = math.inf  # how far ahead the speed profile looks (m)
         self._prev_command = BodyVelocity.zero()
+        # The yaw rate the rover delivers of the commands sent (line guidance): the yaw-rate
+        # command low-passed by the scrolls' response lag (control.slip.command_lag_s)
+        self._yaw_rate_model_radps = 0.0
         # (pose, leg start, goal, errors) of the last leg_errors: the arrival test and the
         # guidance of one step read the same leg (all immutable: identity is the key)
         self._leg_memo: (
@@ -178,6 +183,15 @@ class Navigator:
     def set_reverse(self, reverse: bool) -> None:
         """Drive the mode's axis backwards (ROLL −x, SCROLL −y) from the next step on."""
         self._reverse = reverse and self.plan.mode is not MotionMode.OMNI
+
+    def set_delivered_fraction(self, fraction: float) -> None:
+        """The fraction of the commanded speed the ground delivers (after the slip
+        feed-forward; 1: all, the default), from the next step on. An arc's yaw rate v/R is
+        fed forward at the delivered v: at the commanded one, a rover delivering 0.9 of it
+        (SCROLL on hard ground, the feed-forward capped) turns on a 0.9·R circle and cuts
+        inside the arc. Anything outside (0, 1] counts as 1."""
+        ok = math.isfinite(fraction) and 0.0 < fraction <= 1.0
+        self._delivered_fraction = fraction if ok else 1.0
 
     def standing(self, pose: Pose2D) -> NavOutput:
         """What a step spent standing (a hold of the mission) reports: nothing commanded,
@@ -406,12 +420,15 @@ class Navigator:
         if mode is not MotionMode.OMNI:
             enter = max(cfg.pivot_angle_rad, cfg.heading_threshold_rad)
             leave = cfg.heading_threshold_rad
+            self._step_yaw_rate_model(dt_s)
             if abs(e_psi) > (leave if self._state is NavState.ALIGN else enter):
                 if self._state is not NavState.ALIGN:
                     self._distance_pid.reset()
                 self._state = NavState.ALIGN
-                yaw_terms = self._yaw_pid.update(heading_goal_rad, pose.yaw_rad, dt_s)
-                command = self._smooth(BodyVelocity(0.0, 0.0, yaw_terms.output), e_psi, dt_s)
+                yaw_now = self._predicted_yaw_rad(pose, 0.0)
+                yaw_terms = self._yaw_pid.update(heading_goal_rad, yaw_now, dt_s)
+                e_now = shortest_angular_distance(yaw_now, heading_goal_rad)
+                command = self._smooth(BodyVelocity(0.0, 0.0, yaw_terms.output), e_now, dt_s)
                 return self._output(pose, command, e_d, e_psi, yaw_pid=yaw_terms)
 
         self._state = NavState.TRACK
@@ -457,14 +474,42 @@ class Navigator:
                 speed_mps * math.cos(course_rad), speed_mps * math.sin(course_rad), pose.yaw_rad
             )
             target = BodyVelocity(vx, vy, 0.0)
+            e_now = e_psi
         else:
-            yaw_terms = self._yaw_pid.update(heading_goal_rad, pose.yaw_rad, dt_s)
+            speed_prev = math.hypot(self._prev_command.vx_mps, self._prev_command.vy_mps)
+            goal_rate = curvature * speed_prev * self._delivered_fraction
+            yaw_now = self._predicted_yaw_rad(pose, goal_rate)
+            yaw_terms = self._yaw_pid.update(heading_goal_rad, yaw_now, dt_s)
+            e_now = shortest_angular_distance(yaw_now, heading_goal_rad)
             errors = guidance.GuidanceResult(e_d, course_rad, heading_goal_rad, e_psi, 0.0, 0.0)
             target = guidance.compute_command(errors, mode, speed_mps, yaw_terms.output)
-        command = self._smooth(target, e_psi, dt_s, curvature)
+        command = self._smooth(target, e_now, dt_s, curvature)
         return self._output(
             pose, command, e_d, e_psi, distance_pid=distance_terms, yaw_pid=yaw_terms
         )
+
+    def _step_yaw_rate_model(self, dt_s: float) -> None:
+        """Advance the model of the delivered yaw rate by ``dt_s`` under the last command."""
+        lag_s = self.control.slip.command_lag_s
+        if lag_s <= 0.0 or not (math.isfinite(dt_s) and dt_s > 0.0):
+            if lag_s <= 0.0:
+                self._yaw_rate_model_radps = self._prev_command.wz_radps
+            return
+        alpha = 1.0 - math.exp(-dt_s / lag_s)
+        rate = self._yaw_rate_model_radps
+        self._yaw_rate_model_radps = rate + (self._prev_command.wz_radps - rate) * alpha
+
+    def _predicted_yaw_rad(self, pose: Pose2D, goal_rate_radps: float) -> float:
+        """The heading the yaw loop acts on: the measured one, ahead by what the scrolls'
+        response lag τ (control.slip.command_lag_s) still has in store. A first-order lag
+        delivering ω turns the rover by τ·ω more after its command stops, and a heading
+        reference turning at ω_ref (an arc's v/R) moves τ·ω_ref meanwhile, so the loop sees
+        ψ + τ·(ω − ω_ref): kp = 8 /s on a τ = 0.3 s plant would otherwise limit-cycle
+        (±0.2–0.6 rad at the 1 rad/s cap on the hexagon in SCROLL), and with it the damping
+        is ζ = (1 + kp·τ)/(2·√(kp·τ)) ≈ 1.1."""
+        lag_s = self.control.slip.command_lag_s
+        ahead = lag_s * (self._yaw_rate_model_radps - goal_rate_radps)
+        return wrap_pi(pose.yaw_rad + ahead) if math.isfinite(ahead) else pose.yaw_rad
 
     def _active_arc(self, leg: line.LegErrors) -> line.CornerArc | None:
         """The corner arc the rover is on: the one ending this leg once within its tangent
@@ -508,9 +553,10 @@ class Navigator:
         the commanded direction, :func:`line.step_toward_2d`), yaw rate by
         ``max_yaw_accel``, and a yaw rate that can still brake within the heading error.
 
-        On an arc (``curvature_per_m`` ≠ 0) the yaw rate the arc needs at the commanded
-        speed, v/R, is fed forward and added to the heading loop's correction (which alone is
-        limited by the heading error); the sum stays within ``max_yaw_rate``."""
+        On an arc (``curvature_per_m`` ≠ 0) the yaw rate the arc needs at the delivered
+        speed (:meth:`set_delivered_fraction`), v/R, is fed forward and added to the heading
+        loop's correction (which alone is limited by the heading error); the sum stays within
+        ``max_yaw_rate``."""
         cfg = self.control
         prev = self._prev_command
         vx, vy = line.step_toward_2d(
@@ -519,7 +565,8 @@ class Navigator:
         wz = line.stoppable_yaw_rate_radps(target.wz_radps, e_psi, cfg.max_yaw_accel_radps2)
         if curvature_per_m != 0.0:
             limit = cfg.max_yaw_rate_radps
-            wz = max(-limit, min(limit, wz + curvature_per_m * math.hypot(vx, vy)))
+            arc_rate = curvature_per_m * math.hypot(vx, vy) * self._delivered_fraction
+            wz = max(-limit, min(limit, wz + arc_rate))
         wz = line.step_toward(prev.wz_radps, wz, cfg.max_yaw_accel_radps2 * dt_s)
         command = BodyVelocity(vx, vy, wz)
         self._prev_command = command
@@ -534,6 +581,7 @@ class Navigator:
         yaw_terms = self._yaw_pid.update(final_yaw_rad, pose.yaw_rad, dt_s)
         command = BodyVelocity(0.0, 0.0, yaw_terms.output)
         if self._line:
+            self._step_yaw_rate_model(dt_s)
             command = self._smooth(command, e_psi, dt_s)
         return self._output(pose, command, e_d, e_psi, yaw_pid=yaw_terms)
 
@@ -592,6 +640,7 @@ class Navigator:
             self._reset_pids()
             if dt_s != 0.0:  # a gap or a time jump: restart the acceleration limits from rest
                 self._prev_command = BodyVelocity.zero()
+                self._yaw_rate_model_radps = 0.0
             return 0.0
         return dt_s
 

@@ -18,8 +18,9 @@ the feed-forward and the scrolls' joint saturation), low-passed by the scrolls' 
 and each axis's fit is frozen while its command is too small to learn from (so translation
 is frozen while turning in place) or still changing (the response delay of scrolls, EKF and
 link would read as slip), across telemetry gaps, and on any non-finite number. One sample's
-measured motion counts as at most ``max_fraction`` and at least none of the command, so a late
-sample moving against the command weighs no more than a stall.
+measured motion counts as at least none of the command, so a late sample moving against the
+command weighs no more than a stall, and as at most twice the current estimate (at least
+``max_fraction``): a window symmetric about the estimate, so the clipped noise does not bias it.
 
 The feed-forward divides the navigator's command by the fraction, bounded: never by less than
 ``1 / max_gain`` (the command is amplified at most ``max_gain`` times), and not at all when the
@@ -162,14 +163,19 @@ class SlipEstimator:
             (st.w, lag.wz_radps, sent.wz_radps, measured.wz_radps, cfg.min_yaw_rate_radps),
         ):
             if abs(u) >= least and abs(now - u) <= cfg.steady_tolerance * abs(u):
-                fit.learn(u, self._clip(y, u), dt_s, forget)
+                fit.learn(u, self._clip(y, u, self._bounded(fit.k())), dt_s, forget)
                 self._estimates.pop(mode, None)
         return self.estimate(mode)
 
-    def _clip(self, y: float, u: float) -> float:
-        """One sample's measured motion bounded to [0, max_fraction] of the command: a late or
-        noisy sample (moving against the command) weighs no more than "nothing delivered"."""
-        lo, hi = sorted((0.0, self.cfg.max_fraction * u))
+    def _clip(self, y: float, u: float, k: float) -> float:
+        """One sample's measured motion bounded to [0, max(max_fraction, 2·k)] of the command,
+        ``k`` the current estimate: a late or noisy sample (moving against the command) weighs
+        no more than "nothing delivered", and the window is symmetric about the estimate
+        (k ± k) wherever the bound allows it, so clipping the noise's tails does not bias the
+        fit. A fixed [0, max_fraction] window cut the upper tail only once the fraction
+        neared 1: on hard ground (yaw 0.85) the yaw fit settled at 0.75."""
+        hi_frac = max(self.cfg.max_fraction, 2.0 * k)
+        lo, hi = sorted((0.0, hi_frac * u))
         return max(lo, min(hi, y))
 
     def gains(self, mode: MotionMode) -> tuple[float, float, float]:
@@ -204,6 +210,14 @@ class SlipEstimator:
             command.vx_mps * g_x * k_x, command.vy_mps * g_y * k_y, command.wz_radps * g_w
         )
         return out if out.is_finite() else BodyVelocity.zero()  # an absurd command overflowed
+
+    def delivered(self, mode: MotionMode) -> tuple[float, float]:
+        """What each translation axis (x, y) delivers of the navigator's command with the
+        feed-forward (1: all): min(1, fraction · gain), 1 for a stalled axis. On hard ground
+        SCROLL's scroll axis gets 0.45 of its command, 0.9 with the feed-forward's 2× cap."""
+        est = self.estimate(mode)
+        g_x, g_y, _ = self.gains(mode)
+        return self._delivered(est.vx_frac, g_x), self._delivered(est.vy_frac, g_y)
 
     def _delivered(self, frac: float, gain: float) -> float:
         """What an axis delivers of the navigator's command with its feed-forward (1: all);

@@ -49,7 +49,7 @@ from helixd.actuators.base import ActuatorError, ActuatorSink
 from helixd.base.angles import wrap_pi
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
-from helixd.base.plan import ActionKind, MissionAction
+from helixd.base.plan import ActionKind, MissionAction, MotionMode
 from helixd.config import HelixdConfig
 from helixd.control.kinematics import scroll_fractions
 from helixd.control.navigator import Navigator, NavOutput
@@ -399,6 +399,10 @@ class FlightLoop:
         """
         mpose = self.frame.to_mission(sample.ned)
         slip = self._learn_slip(sample, t_boot_s)
+        if self._slip_enabled and self.plan.mode is not MotionMode.OMNI:
+            delivered_x, delivered_y = self.slip.delivered(self.plan.mode)
+            scroll = self.plan.mode is MotionMode.SCROLL
+            self.navigator.set_delivered_fraction(delivered_y if scroll else delivered_x)
         out = self.navigator.step(mpose, t_boot_s)
         command = out.command
         if self._slip_enabled:

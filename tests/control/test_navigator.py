@@ -309,3 +309,21 @@ def test_guidance_field_rejects_unknown_law() -> None:
         ControlConfig(guidance="pure_pursuit")
     with pytest.raises(ValueError, match="braking_accel_mps2"):
         ControlConfig(max_accel_mps2=0.1, braking_accel_mps2=0.2)
+
+
+def test_line_arc_yaw_feed_forward_counts_the_delivered_speed() -> None:
+    # A rover delivering 0.9 of the commanded speed (SCROLL on hard ground, the slip
+    # feed-forward capped) turns on a 0.9·R circle at the yaw rate v/R of the commanded v:
+    # the arc's yaw rate is fed forward at the delivered speed instead.
+    def yaw_rates(fraction: float | None) -> list[float]:
+        nav = Navigator(make_plan(MotionMode.ROLL, (5.0, 0.0), (5.0, 5.0), tol=1.0), LINE)
+        if fraction is not None:
+            nav.set_delivered_fraction(fraction)
+        outputs, _ = fly(nav, Pose2D(0.0, 0.0, 0.0))
+        return [o.command.wz_radps for o in outputs]
+
+    full, slow = yaw_rates(None), yaw_rates(0.9)
+    first = next(i for i, (a, b) in enumerate(zip(full, slow, strict=False)) if a != b)
+    assert 0.0 < slow[first] < full[first]  # the same history until the arc's feed-forward
+    for nonsense in (0.0, -1.0, 1.5, math.nan, math.inf):
+        assert yaw_rates(nonsense) == full
