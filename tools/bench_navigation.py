@@ -605,15 +605,15 @@ def compare(
 # (bench/results/latest.md prints each beside the cells it explains).
 EXPLANATIONS: dict[tuple[str, str, str], str] = {
     ("low", "hexagon", "RMS"): (
-        "SCROLL in mud, by at most 0.06 (line law 0.07-0.08 m against the thesis law's "
-        "0.14-0.15 m, ratio 0.44-0.56 from run to run). Cause, from the runs' flight.csv: a "
-        "limit cycle of the line law's heading loop (kp 8 /s on the scrolls' 0.28 s yaw lag: "
-        "damping 0.32), held up by the 1 rad/s yaw-rate cap at the corner arcs, where 79 % of "
-        "the squared error is made (heading error 0.25 rad RMS in mud, 0.17 on hard ground); "
-        "timing-sensitive, hence the spread. A fix (heading predicted over the lag, an unbiased "
-        "slip fit, the arc's yaw fed forward at the delivered speed) gave 0.37 in an A/B of 3 "
-        "seeds on 2026-11-26 and was reverted: it put a 20 ms neutral output into the pivot "
-        "after a waypoint hold, not understood in time. The floor: arcs flown perfectly (R 1.2 "
+        "Until 2026-11-26 SCROLL in mud missed, by at most 0.06 (line law 0.07-0.08 m against "
+        "the thesis law's 0.14-0.15 m, ratio 0.44-0.56 from run to run). Cause, from the runs' "
+        "flight.csv: a limit cycle of the line law's heading loop (kp 8 /s on the scrolls' "
+        "0.28 s yaw lag: damping 0.32), held up by the 1 rad/s yaw-rate cap at the corner "
+        "arcs, where 79 % of the squared error was made (heading error 0.25 rad RMS in mud, "
+        "0.17 on hard ground). Since then the heading loop acts on the heading predicted over "
+        "that lag, the slip fit is no longer biased low near a fraction of 1, and an arc's yaw "
+        "is fed forward at the delivered speed: 0.37 in an A/B of 3 seeds (hard ground 0.37 -> "
+        "0.40). A miss here again would be a new cause. The floor: arcs flown perfectly (R 1.2 "
         "m, 0.16 m from the sides) are 0.046 m RMS against the polygon, ratio ~0.32."
     ),
 }
