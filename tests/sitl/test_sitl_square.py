@@ -148,7 +148,7 @@ class KillReport:
 def analyse_after_kill(samples: Sequence[ServoSample], kill_t_boot_s: float) -> KillReport:
     after = [s for s in samples if s.t_boot_s >= kill_t_boot_s]
     if not after:
-        return KillReport(kill_t_boot_s, None, None, None, None, 0.0, ())
+        return KillReport(kill_t_boot_s, None, None, None, None, None, 0.0, ())
     changes: list[tuple[float, tuple[int, int, int, int]]] = []
     for s in after:
         if not changes or not near(s.pwm_us, changes[-1][1][0], changes[-1][1][2]):
