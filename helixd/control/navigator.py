@@ -491,13 +491,12 @@ class Navigator:
     def _step_yaw_rate_model(self, dt_s: float) -> None:
         """Advance the model of the delivered yaw rate by ``dt_s`` under the last command."""
         lag_s = self.control.slip.command_lag_s
-        if lag_s <= 0.0 or not (math.isfinite(dt_s) and dt_s > 0.0):
-            if lag_s <= 0.0:
-                self._yaw_rate_model_radps = self._prev_command.wz_radps
-            return
-        alpha = 1.0 - math.exp(-dt_s / lag_s)
-        rate = self._yaw_rate_model_radps
-        self._yaw_rate_model_radps = rate + (self._prev_command.wz_radps - rate) * alpha
+        commanded = self._prev_command.wz_radps
+        if lag_s <= 0.0:  # no lag: the rover turns as commanded
+            self._yaw_rate_model_radps = commanded
+        elif math.isfinite(dt_s) and dt_s > 0.0:  # else (a restart, dt 0) the model holds
+            rate = self._yaw_rate_model_radps
+            self._yaw_rate_model_radps = rate + (commanded - rate) * (1.0 - math.exp(-dt_s / lag_s))
 
     def _predicted_yaw_rad(self, pose: Pose2D, goal_rate_radps: float) -> float:
         """The heading the yaw loop acts on: the measured one, ahead by what the scrolls'
