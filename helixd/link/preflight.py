@@ -27,8 +27,9 @@ What is checked (ArduPilot Rover, DESIGN §3):
   ArduPilot drives that output itself (or nothing does) → error. RC inputs only exist for
   passthrough on 1..16. ``MODE_CH`` = n would turn every override into a mode change, and an
   ``RCn_OPTION`` aux function would fire on override values → errors.
-* Per driven channel n (servo): DO_SET_SERVO is refused unless ``SERVOn_FUNCTION`` is 0, 1, 22,
-  23 or 51–66 → error; anything but 0 also feeds the output from elsewhere → warning.
+* Per driven channel n (servo): DO_SET_SERVO is refused unless ``SERVOn_FUNCTION`` is one of
+  :data:`helixd.mav.servo_functions.DO_SET_SERVO_FUNCTIONS` (0, 1, 22, 23, 28, 51–66, 140–155)
+  → error; anything but 0 also feeds the output from elsewhere → warning.
 * ``FS_GCS_ENABLE`` = 0 → warning: nothing on the autopilot notices a dead helixd.
 * helixd-guard (the dead-man switch on the autopilot, :mod:`helixd.mav.guard`): its
   parameters say whether it runs (HXG_VERSION exists), in this helixd's version, enabled
@@ -60,15 +61,21 @@ from helixd.mav.guard import (
     VERSION,
     GuardParams,
 )
+from helixd.mav.servo_functions import (
+    DO_SET_SERVO_FUNCTIONS,
+    K_GRIPPER,
+    K_MANUAL,
+    K_NONE,
+    K_SPRAYER_PUMP,
+    K_SPRAYER_SPINNER,
+    RCIN_CHANNELS,
+    passthrough_input,
+    rcin_function,
+)
 
 Severity = Literal["error", "warning"]
 ServoGuardPolicy = Literal["required", "warn"]
 
-RCIN_FIRST_FUNCTION = 51  # RCIN1; RCINn = 50 + n
-RCIN_LAST_CHANNEL = 16
-SERVO_FUNCTION_DISABLED = 0
-SERVO_FUNCTION_RC_PASSTHRU = 1
-SERVO_ALLOWED_FUNCTIONS = frozenset({0, 1, 22, 23, *range(51, 67)})
 RC_OPTIONS_IGNORE_OVERRIDES = 2  # bit 1
 RECOMMENDED_OVERRIDE_TIME_S = 3.0
 # A lost HEARTBEAT must not trip helixd-guard: two periods plus half a period of jitter
@@ -128,7 +135,7 @@ def param_names(actuation: ActuationConfig) -> list[str]:
     if actuation.backend is ActuationBackend.RC_OVERRIDE:
         names += ["RC_OVERRIDE_TIME", "RC_OPTIONS", "MODE_CH"]
         names += [
-            f"RC{ch.channel}_OPTION" for ch in actuation.channels if ch.channel <= RCIN_LAST_CHANNEL
+            f"RC{ch.channel}_OPTION" for ch in actuation.channels if ch.channel <= RCIN_CHANNELS
         ]
     if actuation.backend is not ActuationBackend.DRY_RUN:
         names += [f"SERVO{ch.channel}_FUNCTION" for ch in actuation.channels]
@@ -464,7 +471,7 @@ def _rc_channel(params: Mapping[str, float | None], n: int) -> list[PreflightPro
                 f"RC{n}_OPTION",
             )
         )
-    if n > RCIN_LAST_CHANNEL:
+    if n > RCIN_CHANNELS:
         out.append(
             PreflightProblem(
                 "error",
@@ -475,19 +482,17 @@ def _rc_channel(params: Mapping[str, float | None], n: int) -> list[PreflightPro
         return out
     name = f"SERVO{n}_FUNCTION"
     f = params.get(name)
-    rcin = RCIN_FIRST_FUNCTION - 1 + n
+    rcin = rcin_function(n)
     if f is None:
         out.append(PreflightProblem("warning", f"cannot read {name}", name))
         return out
     func = _int(f)
-    if func in (rcin, SERVO_FUNCTION_RC_PASSTHRU):
+    if func in (rcin, K_MANUAL):
         return out
-    if RCIN_FIRST_FUNCTION <= func <= RCIN_FIRST_FUNCTION + 15:
-        why = (
-            f"makes output {n} follow RC input {func - RCIN_FIRST_FUNCTION + 1}, "
-            f"not the overridden RC channel {n}"
-        )
-    elif func == SERVO_FUNCTION_DISABLED:
+    source = passthrough_input(func)
+    if source is not None:
+        why = f"makes output {n} follow RC input {source}, not the overridden RC channel {n}"
+    elif func == K_NONE:
         why = f"leaves output {n} unused, so the override on RC channel {n} drives nothing"
     else:
         why = f"gives output {n} to ArduPilot itself, so the override on RC channel {n} is lost"
@@ -497,20 +502,29 @@ def _rc_channel(params: Mapping[str, float | None], n: int) -> list[PreflightPro
     return out
 
 
+def _other_driver(func: int) -> str:
+    """Who else moves an output whose function DO_SET_SERVO accepts (other than 0)."""
+    if func in (K_SPRAYER_PUMP, K_SPRAYER_SPINNER):
+        return "the sprayer"
+    if func == K_GRIPPER:
+        return "the gripper"
+    return "RC input"
+
+
 def _servo_channel(params: Mapping[str, float | None], n: int) -> list[PreflightProblem]:
     name = f"SERVO{n}_FUNCTION"
     f = params.get(name)
     if f is None:
         return [PreflightProblem("warning", f"cannot read {name}", name)]
     func = _int(f)
-    if func == SERVO_FUNCTION_DISABLED:
+    if func == K_NONE:
         return []
-    if func in SERVO_ALLOWED_FUNCTIONS:
+    if func in DO_SET_SERVO_FUNCTIONS:
         return [
             PreflightProblem(
                 "warning",
                 f"{name} = {func}: DO_SET_SERVO is accepted but the output is also driven by "
-                f"{'RC input' if func != 22 and func != 23 else 'the sprayer'}; "
+                f"{_other_driver(func)}; "
                 f"{name} = 0 is the clean choice",
                 name,
             )

@@ -51,6 +51,7 @@ from helixd.mav.constants import (
     MAV_CMD_REQUEST_MESSAGE,
     MAVLINK_MSG_ID_HOME_POSITION,
 )
+from helixd.mav.servo_functions import DO_SET_SERVO_FUNCTIONS, passthrough_input
 from helixd.mission import Mission, MissionFrameKind, Plan, PlanError
 from helixd.mission.commands import SERVO_COMMANDS, command_name, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
@@ -80,12 +81,6 @@ from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause, pose_inv
 
 log = structlog.get_logger(__name__)
 T = TypeVar("T")
-
-# AP_ServoRelayEvents::do_set_servo: the output functions a servo command may move (none,
-# manual, sprayer pump/spinner, gripper, RCIN1..16 passthrough, RCIN1..16 mapped)
-RCIN_FUNCTION_BASE = 50
-RCIN_FUNCTIONS_FIRST = 51
-SERVO_SETTABLE_FUNCTIONS = frozenset({0, 1, 22, 23, 28, *range(51, 67), *range(140, 156)})
 
 
 class PreflightFailed(Exception):
@@ -563,7 +558,7 @@ class MissionRunner:
                 out.append(f"item {n} {wp.name}: the autopilot has no output {output}")
                 continue
             f = int(function)
-            passthrough = f - RCIN_FUNCTION_BASE if RCIN_FUNCTIONS_FIRST <= f <= 66 else None
+            passthrough = passthrough_input(f)
             if rc_backend and passthrough in scroll_rc:
                 k = scroll_rc[passthrough]
                 out.append(
@@ -571,7 +566,7 @@ class MissionRunner:
                     f"(SERVO{output}_FUNCTION = {f}), which drives scroll {k + 1}: a latched "
                     "servo command would hold that scroll"
                 )
-            elif f not in SERVO_SETTABLE_FUNCTIONS:
+            elif f not in DO_SET_SERVO_FUNCTIONS:
                 out.append(
                     f"item {n} {wp.name}: the autopilot refuses it on output {output} "
                     f"(SERVO{output}_FUNCTION = {f}: 'ServoRelayEvent: Channel {output} is "

@@ -6,10 +6,12 @@
   them — only ArduPilot's own throttle/steering functions go to trim in HOLD
   (Rover/mode_hold.cpp sets throttle and steering to 0) or when disarmed (safety output).
 * MAV_CMD_DO_SET_SERVO (AP_ServoRelayEvents::do_set_servo): allowed only when the channel's
-  function is none (0), manual (1), sprayer pump/spinner (22/23), gripper (28) or RCIN1..16
-  (51..66); otherwise FAILED with "ServoRelayEvent: Channel N is already in use". The value
-  is latched (set_output_pwm, no timeout). On a passthrough channel it holds until the RC
-  input moves by more than the channel's dead zone (ignore_small_rcin_changes).
+  function is in :data:`helixd.mav.servo_functions.DO_SET_SERVO_FUNCTIONS` (none, manual,
+  sprayer, gripper, RCIN1..16 and RCIN1..16 mapped); otherwise FAILED with "ServoRelayEvent:
+  Channel N is already in use". A mapped function's rescaling of the PWM to ±4500 is not
+  modelled: the value is latched as sent. The value is latched (set_output_pwm, no timeout).
+  On a passthrough channel it holds until the RC input moves by more than the channel's dead
+  zone (ignore_small_rcin_changes).
 * Function 0 before any DO_SET_SERVO outputs SERVOn_TRIM (an approximation).
 * A script's ``SRV_Channels:set_output_pwm_chan_timeout`` (:meth:`ServoOutputs.hold`;
   SRV_Channels.cpp): the output is forced to the value for a number of main loops (the timeout
@@ -26,24 +28,19 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from helixd.mav.servo_functions import (
+    DO_SET_SERVO_FUNCTIONS,
+    K_MANUAL,
+    K_RCIN1,
+    K_RCIN16,
+    K_STEERING,
+    K_THROTTLE,
+    K_THROTTLE_LEFT,
+    K_THROTTLE_RIGHT,
+)
 from helixd.sim.params import ParamStore
 
 NUM_SERVO_CHANNELS = 16
-K_NONE = 0
-K_MANUAL = 1
-K_SPRAYER_PUMP = 22
-K_SPRAYER_SPINNER = 23
-K_STEERING = 26
-K_GRIPPER = 28
-K_RCIN1 = 51
-K_RCIN16 = 66
-K_THROTTLE = 70
-K_THROTTLE_LEFT = 73
-K_THROTTLE_RIGHT = 74
-
-DO_SET_SERVO_FUNCTIONS = frozenset(
-    {K_NONE, K_MANUAL, K_SPRAYER_PUMP, K_SPRAYER_SPINNER, K_GRIPPER, *range(K_RCIN1, K_RCIN16 + 1)}
-)
 
 
 @dataclass(frozen=True, slots=True)

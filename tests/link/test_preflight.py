@@ -121,6 +121,24 @@ def test_servo_backend_functions() -> None:
     assert messages({**params, "MAV_GCS_SYSID": 1.0}, SERVO)[0].startswith("warning:")
 
 
+@pytest.mark.parametrize(
+    ("function", "severity"),
+    [(28, "warning"), (140, "warning"), (155, "warning"), (94, "error"), (156, "error")],
+)
+def test_servo_backend_judges_outputs_as_do_set_servo_does(function: int, severity: str) -> None:
+    """The gripper (28) and RCIN1..16 mapped (140..155) pass AP_ServoRelayEvents::do_set_servo;
+    a scripting output (94) does not."""
+    params = {
+        "MAV_GCS_SYSID": float(HELIXD_SYSID),
+        "FS_GCS_ENABLE": 1.0,
+        **{f"SERVO{n}_FUNCTION": 0.0 for n in range(1, 5)},
+        "SERVO2_FUNCTION": float(function),
+        "SCR_ENABLE": 1.0,
+        **GUARD_DEFAULTS,
+    }
+    assert [t.split(":")[0] for t in messages(params, SERVO)] == [severity]
+
+
 async def test_legacy_firmware_against_the_peer() -> None:
     async with linked(command_timeout_s=0.15, command_retries=1) as (ap, peer):
         peer.params.update({f"SERVO{n}_FUNCTION": 50.0 + n for n in range(1, 5)})

@@ -38,6 +38,7 @@ from helixd.config import LinkConfig, SafetyConfig
 from helixd.link.connection import Autopilot
 from helixd.link.signing import enable_signing
 from helixd.mav.guard import PARAM_DEFAULTS as GUARD_PARAM_DEFAULTS
+from helixd.mav.servo_functions import DO_SET_SERVO_FUNCTIONS
 
 Address = tuple[str, int]
 
@@ -45,7 +46,6 @@ ACCEPTED = int(mavlink.MAV_RESULT_ACCEPTED)
 DENIED = int(mavlink.MAV_RESULT_DENIED)
 FAILED = int(mavlink.MAV_RESULT_FAILED)
 UNSUPPORTED = int(mavlink.MAV_RESULT_UNSUPPORTED)
-SERVO_ALLOWED_FUNCTIONS = {0, 1, 22, 23, *range(51, 67)}
 STREAM_NAMES = (
     "ATTITUDE",
     "LOCAL_POSITION_NED",
@@ -586,7 +586,7 @@ class AutopilotPeer:
         if cmd == mavlink.MAV_CMD_DO_SET_SERVO:
             channel, pwm = int(p[0]), int(p[1])
             function = int(self.params.get(f"SERVO{channel}_FUNCTION", 0))
-            if not 1 <= channel <= 16 or function not in SERVO_ALLOWED_FUNCTIONS:
+            if not 1 <= channel <= 16 or function not in DO_SET_SERVO_FUNCTIONS:
                 return FAILED
             self.servo_out[channel - 1] = pwm
             return ACCEPTED
