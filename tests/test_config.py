@@ -10,10 +10,11 @@ from pathlib import Path
 
 import pytest
 
+from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.config import HelixdConfig, load_config
 from helixd.files.models import ConfigFileError
-from helixd.mission import load_mission, resolve_plan
-from helixd.mission.model import MissionFrameKind, MotionMode
+from helixd.mission.model import load_mission
+from helixd.mission.plan import resolve_plan
 from tests.support.paths import REPO_ROOT
 
 ROOT = REPO_ROOT

@@ -288,3 +288,120 @@ def test_mission_loader_loads_nothing_of_the_controller() -> None:
     assert "helixd.mission.plan" in loaded
     bad = {m for m in helixd_modules(loaded) if m.startswith("helixd.control")}
     assert not bad, f"helixd.mission loads {sorted(bad)}"
+
+
+# One import path per name: every name is imported from the module that defines it, and a
+# package's __init__.py re-exports nothing.
+IMPORT_ROOTS = ("helixd", "tests", "tools")
+# __init__.py files that define real code of their own (and may import what that code uses)
+INIT_WITH_CODE = frozenset({"helixd.mission.formats"})
+
+
+def _defined_names(path: Path) -> set[str]:
+    """The names a module defines at module level: def, class, assignment or annotated
+    assignment (``X: TypeAlias = ...`` included; Python 3.11 has no ``type`` statement), not a
+    bare import; including inside a module-level if/try/with."""
+    names: set[str] = set()
+
+    def targets(node: ast.expr) -> None:
+        if isinstance(node, ast.Name):
+            names.add(node.id)
+        elif isinstance(node, ast.Tuple | ast.List):
+            for elt in node.elts:
+                targets(elt)
+        elif isinstance(node, ast.Starred):
+            targets(node.value)
+
+    def walk(body: list[ast.stmt]) -> None:
+        for stmt in body:
+            if isinstance(stmt, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+                names.add(stmt.name)
+            elif isinstance(stmt, ast.Assign):
+                for target in stmt.targets:
+                    targets(target)
+            elif isinstance(stmt, ast.AnnAssign | ast.AugAssign):
+                targets(stmt.target)
+            elif isinstance(stmt, ast.If | ast.Try | ast.With):
+                walk(stmt.body)
+                walk(getattr(stmt, "orelse", []))
+                for handler in getattr(stmt, "handlers", []):
+                    walk(handler.body)
+                walk(getattr(stmt, "finalbody", []))
+
+    walk(ast.parse(path.read_text(encoding="utf-8")).body)
+    return names
+
+
+def _is_module(name: str) -> bool:
+    return name in MODULES or (REPO / Path(*name.split("."))).is_dir()
+
+
+def _shown(path: Path) -> str:
+    return str(path.relative_to(REPO)) if path.is_relative_to(REPO) else path.name
+
+
+def indirect_imports(paths: list[Path]) -> list[str]:
+    """``file:line name`` for each ``from helixd.X import Name`` where ``Name`` is neither a
+    submodule of ``helixd.X`` nor defined at module level in ``helixd.X``."""
+    defined: dict[str, set[str]] = {}
+    found: list[str] = []
+    for path in paths:
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, ast.ImportFrom) or node.level or node.module is None:
+                continue
+            module = node.module
+            if module != "helixd" and not module.startswith("helixd."):
+                continue
+            if module not in MODULES:
+                found.append(f"{_shown(path)}:{node.lineno} {module}: no such module")
+                continue
+            if module not in defined:
+                defined[module] = _defined_names(MODULES[module])
+                if module == "helixd":
+                    defined[module].add("__version__")  # computed by its __getattr__ (PEP 562)
+            for alias in node.names:
+                if alias.name in defined[module] or _is_module(f"{module}.{alias.name}"):
+                    continue
+                where = f"{_shown(path)}:{node.lineno}"
+                found.append(f"{where} {alias.name} from {module}, which does not define it")
+    return found
+
+
+def _python_files() -> list[Path]:
+    return sorted(p for root in IMPORT_ROOTS for p in (REPO / root).rglob("*.py"))
+
+
+def test_every_name_is_imported_from_the_module_that_defines_it() -> None:
+    offenders = indirect_imports(_python_files())
+    assert offenders == [], "\n".join(offenders)
+
+
+def test_the_import_checker_names_a_reexported_name(tmp_path: Path) -> None:
+    probe = tmp_path / "probe.py"
+    probe.write_text(
+        "from helixd.mav.constants import MAV_CMD_DO_SET_SERVO\n"  # defined there
+        "from helixd.mav import servo_functions\n"  # a submodule
+        "from helixd.link.preflight import DO_SET_SERVO_FUNCTIONS\n"  # only imported there
+    )
+    offenders = indirect_imports([probe])
+    assert len(offenders) == 1
+    assert offenders[0].endswith(
+        ":3 DO_SET_SERVO_FUNCTIONS from helixd.link.preflight, which does not define it"
+    )
+
+
+def test_package_inits_import_no_helixd_module() -> None:
+    offenders = []
+    for module, path in MODULES.items():
+        if path.name != "__init__.py" or module in INIT_WITH_CODE:
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [f"{'.' * node.level}{node.module or ''}"]
+            else:
+                continue
+            bad = [n for n in names if n.startswith(("helixd", "."))]
+            offenders += [f"{path.relative_to(REPO)}:{node.lineno} imports {n}" for n in bad]
+    assert offenders == [], "\n".join(offenders)

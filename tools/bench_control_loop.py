@@ -16,7 +16,7 @@ Real parts on both sides of a loopback UDP link:
 * the *daemon* side, in this process, is what ``helixd run`` flies with:
   :class:`helixd.link.connection.Autopilot` (reader, heartbeat, stream monitor),
   :class:`helixd.runtime.flight.FlightLoop` (safety monitor, navigator, kinematics),
-  :class:`helixd.actuators.RcOverrideSink` (with its 20 Hz repeater), the run recorder
+  :class:`helixd.actuators.rc_override.RcOverrideSink` (with its 20 Hz repeater), the run recorder
   (flight.csv, events.jsonl), the summary builder and the progress display, with structlog
   configured as the daemon configures it (info level, logfmt to a file instead of stderr).
 
@@ -512,13 +512,14 @@ async def run_daemon_side(
 ) -> DaemonRecord:
     import yaml
 
-    from helixd.actuators import RcOverrideSink
+    from helixd.actuators.rc_override import RcOverrideSink
     from helixd.base.frames import MissionFrame
     from helixd.base.plan import Numbering
     from helixd.config import HelixdConfig, config_to_yaml
     from helixd.link.connection import Autopilot
     from helixd.link.preflight import check_obedience
-    from helixd.mission import Mission, resolve_plan
+    from helixd.mission.model import Mission
+    from helixd.mission.plan import resolve_plan
     from helixd.recorder.rows import FlightRow
     from helixd.recorder.rundir import RunRecorder
     from helixd.recorder.summary import SummaryBuilder

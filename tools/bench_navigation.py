@@ -830,7 +830,7 @@ class TruePoseSampler:
 
 def _mission_waypoints(mission_path: Path) -> list[tuple[float, float]]:
     from helixd.config import ControlConfig, MissionLimits
-    from helixd.mission import load_mission
+    from helixd.mission.model import load_mission
     from helixd.mission.plan import resolve_plan
 
     plan = resolve_plan(load_mission(mission_path), ControlConfig(), MissionLimits())
@@ -851,7 +851,8 @@ def run_one(
     import structlog
 
     from helixd.recorder.rows import read_flight_columns
-    from helixd.sim import SimConfig, start_embedded
+    from helixd.sim.config import SimConfig
+    from helixd.sim.server import start_embedded
 
     structlog.configure(
         wrapper_class=structlog.make_filtering_bound_logger(logging.WARNING),

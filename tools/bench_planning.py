@@ -40,10 +40,11 @@ import numpy as np
 import typer
 
 from helixd.config import HelixdConfig
-from helixd.planning import GridFrame, Obstacles, build_grid, grid_path, plan_route, shortcut
+from helixd.planning.grid import GridFrame, build_grid
 from helixd.planning.mapfile import OccupancyMap
-from helixd.planning.obstacles import clearance_m
-from helixd.planning.search import turning_cells
+from helixd.planning.obstacles import Obstacles, clearance_m
+from helixd.planning.route import plan_route
+from helixd.planning.search import grid_path, shortcut, turning_cells
 
 CELLS = 2000
 RESOLUTION_M = 0.1

@@ -1,42 +1,7 @@
 """helixd.actuators: four scroll fractions → PWM on the autopilot's outputs.
 
-``make_sink`` picks the backend from ``actuation.backend``: ``rc_override`` (default; overrides
-expire on their own if helixd dies), ``servo`` (DO_SET_SERVO, latched — read
-:mod:`helixd.actuators.servo`), or ``dry_run`` (logs only; needs no autopilot).
+:func:`helixd.actuators.factory.make_sink` picks the backend from ``actuation.backend``:
+``rc_override`` (default; overrides expire on their own if helixd dies), ``servo``
+(DO_SET_SERVO, latched — read :mod:`helixd.actuators.servo`), or ``dry_run`` (logs only; needs
+no autopilot).
 """
-
-from __future__ import annotations
-
-from typing import TYPE_CHECKING
-
-from helixd.actuators.base import ActuatorError, ActuatorSink, ServoCommandRefused
-from helixd.actuators.dry_run import DryRunSink
-from helixd.actuators.rc_override import RcOverrideSink
-from helixd.actuators.servo import ServoSink
-from helixd.config import ActuationBackend, ActuationConfig, VehicleConfig
-
-if TYPE_CHECKING:
-    from helixd.link.connection import Autopilot
-
-__all__ = [
-    "ActuatorError",
-    "ActuatorSink",
-    "DryRunSink",
-    "RcOverrideSink",
-    "ServoCommandRefused",
-    "ServoSink",
-    "make_sink",
-]
-
-
-def make_sink(
-    actuation: ActuationConfig, vehicle: VehicleConfig, ap: Autopilot | None
-) -> ActuatorSink:
-    """The configured backend. ``ap`` may be None only for ``dry_run``."""
-    if actuation.backend is ActuationBackend.DRY_RUN:
-        return DryRunSink(actuation, vehicle)
-    if ap is None:
-        raise ValueError(f"actuation.backend {actuation.backend.value!r} needs an autopilot link")
-    if actuation.backend is ActuationBackend.SERVO:
-        return ServoSink(actuation, vehicle, ap.action)
-    return RcOverrideSink(actuation, vehicle, ap.action)

@@ -16,6 +16,7 @@ from typer.exceptions import TyperException
 
 from helixd import __version__
 from helixd.base.exitcodes import ExitCode
+from helixd.base.plan import MotionMode
 from helixd.base.run_files import MISSION_FILE
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
@@ -33,12 +34,11 @@ from helixd.cli.common import (
 from helixd.cli.simulated import SimChoice, sim_world, simulator
 from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
-from helixd.link.connection import LinkError
-from helixd.mission import MotionMode
+from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.validate import apply_mission_limits
-from helixd.planning import OccupancyMap
+from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission

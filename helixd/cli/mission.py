@@ -13,6 +13,7 @@ from typing import Annotated, TypeVar
 import typer
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.cli.common import WholeHelpGroup, config_or_exit, fail, link_inputs, run_on_link
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
@@ -20,25 +21,26 @@ from helixd.link.connection import Autopilot
 from helixd.link.mission_link import Downloaded, autopilot_sender, download_all, upload_all
 from helixd.mission.commands import command_name
 from helixd.mission.formats import (
-    FormatError,
-    GcsMission,
     MissionFormat,
     detect_format,
-    items_to_mission,
     load_mission_file,
     lost_in,
-    mission_to_items,
     read_gcs,
     sniff_format,
     source_home,
     write_mission_file,
 )
 from helixd.mission.formats.areas import read_area
-from helixd.mission.formats.items import mission_name
+from helixd.mission.formats.items import (
+    FormatError,
+    GcsMission,
+    items_to_mission,
+    mission_name,
+    mission_to_items,
+)
 from helixd.mission.formats.qgc_plan import plan_to_text
 from helixd.mission.formats.wire import WireMission, gcs_to_wire, wire_to_gcs
 from helixd.mission.formats.wpl import wpl_to_text
-from helixd.mission.model import MissionFrameKind, MotionMode
 from helixd.mission.placed import PlacementError, parse_latlon, placed_with
 from helixd.recorder import export
 from helixd.runtime.placement import place_on_autopilot

@@ -9,10 +9,10 @@ from typing import Annotated
 import typer
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.plan import MotionMode
 from helixd.cli.common import check_connect, config_or_exit, fail, refused
 from helixd.cli.simulated import SimChoice, sim_world, simulator
 from helixd.mav.url import LinkError, parse_link_url
-from helixd.mission import MotionMode
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.inputs import InputsRefused

@@ -15,7 +15,8 @@ import math
 from typing import Any
 
 from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
-from helixd.mission.model import Mission, MissionFrameKind
+from helixd.base.plan import MissionFrameKind
+from helixd.mission.model import Mission
 
 
 class PlacementError(ValueError):

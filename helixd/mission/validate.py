@@ -25,12 +25,13 @@ import math
 from collections.abc import Sequence
 
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
+from helixd.base.plan import MissionFrameKind, Plan
 from helixd.base.polygon import leg_leaves_polygon, point_in_polygon, segments_intersect
 from helixd.config import HelixdConfig
 from helixd.mission.commands import SERVO_COMMANDS, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
-from helixd.mission.model import Mission, MissionFrameKind
-from helixd.mission.plan import NOWHERE, Plan, PlanError, Resolved, Where, resolve, resolve_plan
+from helixd.mission.model import Mission
+from helixd.mission.plan import NOWHERE, PlanError, Resolved, Where, resolve, resolve_plan
 
 MAX_LISTED = 5  # offending waypoints named one by one; the rest are counted
 

@@ -18,10 +18,11 @@ import numpy.typing as npt
 import yaml
 
 from helixd.base.frames import ne_to_latlon
+from helixd.base.plan import MissionFrameKind
 from helixd.config import HelixdConfig
 from helixd.mav.constants import MAV_CMD_DO_JUMP
 from helixd.mission.commands import stored_whole
-from helixd.mission.model import Mission, MissionFrameKind, WaypointSpec, entry_yaml
+from helixd.mission.model import Mission, WaypointSpec, entry_yaml
 from helixd.planning.grid import GridFrame, PlanningGrid, build_grid, segment_is_free
 from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import (

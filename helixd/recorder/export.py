@@ -26,7 +26,7 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
-from helixd.base.plan import Numbering, operator_numbers
+from helixd.base.plan import MissionFrameKind, Numbering, operator_numbers
 from helixd.base.run_files import (
     CONFIG_FILE,
     FLIGHT_FILE,
@@ -36,7 +36,7 @@ from helixd.base.run_files import (
 from helixd.config import HelixdConfig, load_config
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
-from helixd.mission.model import Mission, MissionFrameKind, load_mission
+from helixd.mission.model import Mission, load_mission
 from helixd.recorder.resume_dir import run_numbering
 from helixd.recorder.rows import read_flight_columns
 from helixd.recorder.summary import RunSummary

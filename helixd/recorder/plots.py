@@ -36,11 +36,12 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
-from helixd.base.plan import Numbering
+from helixd.base.plan import MissionFrameKind, Numbering
 from helixd.base.run_files import CONFIG_FILE, EVENTS_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
 from helixd.config import load_config
 from helixd.files.models import ConfigFileError
-from helixd.mission import MissionFrameKind, PlanError, load_mission, resolve_plan
+from helixd.mission.model import load_mission
+from helixd.mission.plan import PlanError, resolve_plan
 from helixd.mission.resume import with_leg_start
 from helixd.recorder.clocks import autopilot_axis_s
 from helixd.recorder.events import fault_time_mono_s, read_events

@@ -13,19 +13,14 @@ from pathlib import Path
 
 from pydantic import ValidationError
 
+from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
 from helixd.files.models import format_validation_error
 from helixd.mav.mission_item import WireItem
-from helixd.mission import Mission, MotionMode
-from helixd.mission.formats import (
-    GcsMission,
-    LoadedMission,
-    MissionFormat,
-    read_fence,
-    with_fence,
-)
-from helixd.mission.formats.items import FormatError, items_to_mission
+from helixd.mission.formats import LoadedMission, MissionFormat, read_fence, with_fence
+from helixd.mission.formats.items import FormatError, GcsMission, items_to_mission
 from helixd.mission.formats.wire import wire_to_gcs
+from helixd.mission.model import Mission
 
 __all__ = [
     "MISSION_NAME",

@@ -33,16 +33,16 @@ from typing import TypeVar
 import structlog
 
 from helixd import __version__
-from helixd.actuators import ActuatorError, make_sink
-from helixd.actuators.base import ActuatorSink
+from helixd.actuators.base import ActuatorError, ActuatorSink
+from helixd.actuators.factory import make_sink
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
-from helixd.base.plan import Numbering, mission_item_of
+from helixd.base.plan import MissionFrameKind, Numbering, Plan, mission_item_of
 from helixd.base.run_files import TLOG_FILE
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
 from helixd.control.sequencer import SequencerEvent
 from helixd.link.commands import CommandError, CommandRejected
-from helixd.link.connection import Autopilot, LinkError
+from helixd.link.connection import Autopilot
 from helixd.link.preflight import check_obedience
 from helixd.link.tlog import attach_tlog
 from helixd.link.vehicle import Change, HomePosition, TelemetryBounds
@@ -52,10 +52,11 @@ from helixd.mav.constants import (
     MAVLINK_MSG_ID_HOME_POSITION,
 )
 from helixd.mav.servo_functions import DO_SET_SERVO_FUNCTIONS, passthrough_input
-from helixd.mission import Mission, MissionFrameKind, Plan, PlanError
+from helixd.mav.url import LinkError
 from helixd.mission.commands import SERVO_COMMANDS, command_name, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
-from helixd.mission.plan import Where, resolve
+from helixd.mission.model import Mission
+from helixd.mission.plan import PlanError, Where, resolve
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
 from helixd.mission.validate import apply_mission_limits
 from helixd.recorder.rows import FlightRow

@@ -49,7 +49,7 @@ from helixd.actuators.base import ActuatorError, ActuatorSink
 from helixd.base.angles import wrap_pi
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
-from helixd.base.plan import ActionKind, MissionAction, MotionMode
+from helixd.base.plan import ActionKind, MissionAction, MotionMode, Plan
 from helixd.config import HelixdConfig
 from helixd.control.kinematics import scroll_fractions
 from helixd.control.navigator import Navigator, NavOutput
@@ -62,7 +62,6 @@ from helixd.control.slip import (
 )
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample
-from helixd.mission import Plan
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import Motion, Supervisor
 from helixd.safety.watchdogs import Fault, FaultCause

@@ -14,8 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-from helixd.base.plan import Numbering
-from helixd.mission import Plan
+from helixd.base.plan import Numbering, Plan
 from helixd.recorder.rows import FlightRow
 from helixd.runtime.display import ProgressInfo
 from helixd.runtime.flight import PoseRejectedReport, StepReport

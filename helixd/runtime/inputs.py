@@ -12,15 +12,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig, config_to_yaml, load_config
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line, paused_gc
-from helixd.mission import Mission, MissionFrameKind, MotionMode, Plan, PlanError
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import (
-    FormatError,
-    GcsMission,
     MissionFormat,
     load_mission_file,
     mission_to_yaml,
@@ -28,7 +26,10 @@ from helixd.mission.formats import (
     sniff_format,
     with_fence,
 )
+from helixd.mission.formats.items import FormatError, GcsMission
 from helixd.mission.locate import MissionNotFound, locate_mission
+from helixd.mission.model import Mission
+from helixd.mission.plan import PlanError
 from helixd.mission.resume import (
     ResumeRefused,
     RunInputs,

@@ -7,6 +7,7 @@ from __future__ import annotations
 import contextlib
 import time
 
+from helixd.base.plan import MissionFrameKind
 from helixd.link.commands import CommandError
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import (
@@ -14,9 +15,9 @@ from helixd.mav.constants import (
     MAVLINK_MSG_ID_ATTITUDE,
     MAVLINK_MSG_ID_LOCAL_POSITION_NED,
 )
-from helixd.mission import Mission, MissionFrameKind
-from helixd.mission.formats import mission_to_items
+from helixd.mission.formats.items import mission_to_items
 from helixd.mission.formats.wire import WireMission, gcs_to_wire
+from helixd.mission.model import Mission
 from helixd.mission.placed import PlacementError, placed_globally
 
 

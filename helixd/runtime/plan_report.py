@@ -12,12 +12,12 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from helixd.base.plan import MotionMode, Plan, waypoint_label
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan, waypoint_label
 from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate, delivered_fractions
-from helixd.mission import Mission, MissionFrameKind
 from helixd.mission.describe import program_lines
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.model import Mission
 from helixd.mission.validate import pending_checks, plan_for_check
 from helixd.planning.route import RoutePlan
 from helixd.runtime.planned import route_lines, route_time_estimate

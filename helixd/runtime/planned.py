@@ -15,27 +15,27 @@ from pathlib import Path
 import structlog
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
+from helixd.base.plan import MissionFrameKind
 from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate
-from helixd.mission import Mission, MissionFrameKind, PlanError
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
-from helixd.mission.formats import GcsMission, fence_has_keep_outs, fence_ne
-from helixd.mission.formats.items import keep_out_problems
+from helixd.mission.formats import fence_has_keep_outs
+from helixd.mission.formats.items import GcsMission, fence_ne, keep_out_problems
+from helixd.mission.model import Mission
+from helixd.mission.plan import PlanError
 from helixd.mission.resume import RunInputs, fresh_inputs
 from helixd.mission.validate import plan_for_check
-from helixd.planning import (
-    KeepOutCircle,
-    MapFileError,
-    ObstacleError,
-    OccupancyMap,
+from helixd.planning.fence import plan_global_mission
+from helixd.planning.mapfile import MapFileError, OccupancyMap, load_map
+from helixd.planning.obstacles import KeepOutCircle, ObstacleError
+from helixd.planning.replan import replan_first_leg
+from helixd.planning.route import (
     PlanningError,
-    load_map,
+    RoutePlan,
     plan_mission,
+    planned_mission_yaml,
     planning_wanted,
 )
-from helixd.planning.fence import plan_global_mission
-from helixd.planning.replan import replan_first_leg
-from helixd.planning.route import RoutePlan, planned_mission_yaml
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.timing import plan_time_estimate, time_problems
 

@@ -28,9 +28,10 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
 from helixd.link.commands import CommandError
-from helixd.link.connection import Autopilot, LinkError, MavMsg
+from helixd.link.connection import Autopilot, MavMsg
 from helixd.link.mission import MissionTransferError
 from helixd.link.mission_link import download_all
 from helixd.mav.constants import (
@@ -40,12 +41,13 @@ from helixd.mav.constants import (
     MAV_SEVERITY_NOTICE,
     MAV_SEVERITY_WARNING,
 )
-from helixd.mission import Mission, MotionMode
+from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml
+from helixd.mission.model import Mission
 from helixd.mission.resume import sha256_text
 from helixd.mission.validate import apply_mission_limits
-from helixd.planning import OccupancyMap
+from helixd.planning.mapfile import OccupancyMap
 from helixd.runtime.autopilot_mission import (
     MISSION_NAME,
     MissionRefused,

@@ -20,11 +20,12 @@ from __future__ import annotations
 import math
 
 from helixd.base.frames import NedPose
+from helixd.base.plan import MissionFrameKind, Plan
 from helixd.config import ControlConfig, HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
-from helixd.mission import Mission, MissionFrameKind, Plan, PlanError, resolve_plan
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
-from helixd.mission.plan import NOWHERE, Where
+from helixd.mission.model import Mission
+from helixd.mission.plan import NOWHERE, PlanError, Where, resolve_plan
 from helixd.mission.validate import apply_mission_limits, mission_problems, plan_for_check
 
 _EstimateKey = tuple[Plan, ControlConfig, tuple[float, float] | None, float | None]

@@ -8,15 +8,15 @@ from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
-from helixd.sim import modes
-from helixd.sim.core import SimCore
-from helixd.sim.forward import radps_to_rpm
-from helixd.sim.mission import (
+from helixd.mav.constants import (
     MAV_MISSION_TYPE_FENCE,
     MAV_MISSION_TYPE_MISSION,
     MAV_MISSION_TYPE_RALLY,
-    StoredItem,
 )
+from helixd.sim import modes
+from helixd.sim.core import SimCore
+from helixd.sim.forward import radps_to_rpm
+from helixd.sim.mission import StoredItem
 
 
 @dataclass(frozen=True, slots=True)

@@ -10,7 +10,11 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from structlog.testing import capture_logs
 
-from helixd.actuators import DryRunSink, RcOverrideSink, ServoCommandRefused, ServoSink, make_sink
+from helixd.actuators.base import ServoCommandRefused
+from helixd.actuators.dry_run import DryRunSink
+from helixd.actuators.factory import make_sink
+from helixd.actuators.rc_override import RcOverrideSink
+from helixd.actuators.servo import ServoSink
 from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, VehicleConfig
 from helixd.link.commands import CommandError
 from tests.support.peer import HELIXD_SYSID, AutopilotPeer, OverrideRecord, linked, stays, until

@@ -10,9 +10,9 @@ import yaml
 from typer.testing import CliRunner
 
 from helixd.base.frames import latlon_to_ne
+from helixd.base.plan import MotionMode
 from helixd.cli.app import app
 from helixd.mission.formats import load_mission_file, read_gcs
-from helixd.mission.model import MotionMode
 from tests.support.paths import DATA_DIR, REPO_ROOT
 
 DATA = DATA_DIR

@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from helixd.base.geometry import Pose2D
+from helixd.base.plan import MotionMode, PlanWaypoint
 from helixd.control import guidance
 from helixd.control.guidance import (
     GuidanceResult,
@@ -18,8 +19,6 @@ from helixd.control.guidance import (
     track_speed_mps,
     world_to_body,
 )
-from helixd.mission.model import MotionMode
-from helixd.mission.plan import PlanWaypoint
 from tests.support.ideal_plant import integrate
 
 coords = st.floats(-50.0, 50.0, allow_nan=False)

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from helixd.base.geometry import BodyVelocity
+from helixd.base.plan import MotionMode
 from helixd.config import ScrollCalibration, VehicleConfig
 from helixd.control.kinematics import (
     apply_calibration,
@@ -28,7 +29,6 @@ from helixd.control.kinematics import (
     scroll_fractions,
     scroll_radps_to_body,
 )
-from helixd.mission.model import MotionMode
 
 VEHICLE = VehicleConfig()
 R, K = VEHICLE.scroll_radius_m, VEHICLE.lx_m + VEHICLE.ly_m

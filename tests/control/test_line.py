@@ -17,17 +17,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.config import ControlConfig, HelixdConfig
 from helixd.control import line
 from helixd.control.navigator import Navigator, NavState
-from helixd.mission import (
-    MissionFrameKind,
-    MotionMode,
-    Plan,
-    PlanWaypoint,
-    load_mission,
-    resolve_plan,
-)
+from helixd.mission.model import load_mission
+from helixd.mission.plan import resolve_plan
 from helixd.mission.shapes import survey_block
 from tests.support.ideal_plant import IdealPlant
 from tests.support.paths import REPO_ROOT

@@ -7,9 +7,9 @@ import math
 import pytest
 
 from helixd.base.geometry import Pose2D
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.config import ControlConfig
 from helixd.control.navigator import Navigator, NavOutput, NavState
-from helixd.mission import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from tests.support.ideal_plant import IdealPlant
 
 DT = 1.0 / 40.0

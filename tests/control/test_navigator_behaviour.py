@@ -14,17 +14,12 @@ import pytest
 
 from helixd.base.angles import shortest_angular_distance
 from helixd.base.geometry import BodyVelocity, Pose2D
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
 from helixd.control.estimate import estimate_time
 from helixd.control.navigator import Navigator, NavState
-from helixd.mission import (
-    MissionFrameKind,
-    MotionMode,
-    Plan,
-    PlanWaypoint,
-    load_mission,
-    resolve_plan,
-)
+from helixd.mission.model import load_mission
+from helixd.mission.plan import resolve_plan
 from tests.support.ideal_plant import IdealPlant
 from tests.support.paths import REPO_ROOT
 

@@ -11,6 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from helixd.base.geometry import BodyVelocity
+from helixd.base.plan import MotionMode
 from helixd.config import SafetyConfig, SlipConfig, StallConfig, VehicleConfig
 from helixd.control.kinematics import body_to_fractions
 from helixd.control.slip import (
@@ -20,7 +21,6 @@ from helixd.control.slip import (
     no_slip_body,
     same_direction,
 )
-from helixd.mission.model import MotionMode
 from helixd.safety.watchdogs import FaultCause, SafetyInputs, SafetyMonitor
 
 ROLL = MotionMode.ROLL

@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from helixd.base.angles import shortest_angular_distance, wrap_pi
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne, ne_to_latlon
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.config import ControlConfig, PidGains, VehicleConfig
 from helixd.control import guidance
 from helixd.control.kinematics import (
@@ -32,7 +33,6 @@ from helixd.control.kinematics import (
 )
 from helixd.control.navigator import Navigator
 from helixd.control.pid import PID
-from helixd.mission import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 
 NAN, INF = math.nan, math.inf
 BAD = st.sampled_from([NAN, INF, -INF])

@@ -24,7 +24,7 @@ from helixd.files.yamlio import (
     parse_yaml_text,
     read_text_capped,
 )
-from helixd.mission import load_mission
+from helixd.mission.model import load_mission
 from tests.support.paths import REPO_ROOT
 
 

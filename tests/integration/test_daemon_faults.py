@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.sim import SimServer
+from helixd.sim.server import SimServer
 from helixd.sim.snapshot import HistoryEntry
 from tests.support.harness import (
     NEUTRAL_US,

@@ -14,7 +14,7 @@ import pytest
 import helixd.runtime.flight
 from helixd.base.exitcodes import ExitCode
 from helixd.config import HelixdConfig
-from helixd.mission import load_mission
+from helixd.mission.model import load_mission
 from helixd.runtime.daemon import RunOptions, run_mission
 from tests.support.harness import (
     MISSIONS,

@@ -13,9 +13,8 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.config import HelixdConfig
-from helixd.mission import load_mission
 from helixd.mission.formats import mission_to_yaml
-from helixd.mission.model import GroundSpec
+from helixd.mission.model import GroundSpec, load_mission
 from helixd.mission.validate import apply_mission_limits, plan_for_check
 from helixd.recorder.export import load_run_export
 from helixd.runtime.timing import plan_time_estimate

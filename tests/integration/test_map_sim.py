@@ -21,8 +21,9 @@ from PIL import Image
 
 import helixd.cli.simulated
 from helixd.base.exitcodes import ExitCode
-from helixd.sim import SimConfig, SimServer
+from helixd.sim.config import SimConfig
 from helixd.sim.obstacles import SimObstacles, distance_m
+from helixd.sim.server import SimServer
 from tests.support.harness import BASE_CONFIG, SPEEDUP, Trace, record_until, secured
 
 pytestmark = pytest.mark.integration

@@ -14,7 +14,7 @@ import pytest
 from typer.testing import CliRunner
 
 from helixd.cli.app import app
-from helixd.sim import FaultError
+from helixd.sim.faults import FaultError
 from tests.support.harness import (
     FORCE_ARM,
     GCS_SYSID,

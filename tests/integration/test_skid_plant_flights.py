@@ -22,7 +22,8 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.recorder.track import TrackPoint
-from helixd.sim import SimServer, SimSnapshot
+from helixd.sim.server import SimServer
+from helixd.sim.snapshot import SimSnapshot
 from tests.support.harness import (
     secured,
     sim_and_daemon,

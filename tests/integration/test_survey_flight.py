@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
-from helixd.mission import MotionMode
 from helixd.mission.formats import write_mission_file
 from helixd.mission.formats.areas import read_area
 from helixd.runtime.survey import survey_mission

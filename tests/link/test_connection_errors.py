@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from helixd.link.connection import Autopilot, LinkError
-from helixd.mav.url import ALLOWED_FORMS, LinkTimeout
+from helixd.link.connection import Autopilot
+from helixd.mav.url import ALLOWED_FORMS, LinkError, LinkTimeout
 from tests.support.peer import free_port, link_config, safety_config, udp_peer
 
 

@@ -16,13 +16,14 @@ from shapely.geometry import LineString, Polygon
 from typer.testing import CliRunner
 
 from helixd.cli.app import app
-from helixd.mission.formats import FormatError, load_mission_file
+from helixd.mission.formats import load_mission_file
 from helixd.mission.formats.areas import (
     SurveyArea,
     area_from_geojson,
     area_from_kml,
     read_area,
 )
+from helixd.mission.formats.items import FormatError
 from helixd.mission.geodesy import geodesic_latlon, geodesic_ne_m
 from helixd.mission.survey import SurveyError, plan_survey
 from tests.support.paths import DATA_DIR

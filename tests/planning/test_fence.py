@@ -15,12 +15,13 @@ from hypothesis import strategies as st
 from shapely.geometry import LineString, Point, Polygon
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
+from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.config import HelixdConfig
 from helixd.files.models import ConfigFileError
 from helixd.mission.formats import load_mission_file
-from helixd.mission.model import MissionFrameKind, MotionMode
-from helixd.planning import KeepOutCircle, PlanningError, clearance_m
 from helixd.planning.fence import plan_global_mission
+from helixd.planning.obstacles import KeepOutCircle, clearance_m
+from helixd.planning.route import PlanningError
 from tests.support.cli import main_exit
 from tests.support.paths import DATA_DIR
 

@@ -11,8 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
-from helixd.planning import MapFileError, load_map
-from helixd.planning.mapfile import save_map
+from helixd.planning.mapfile import MapFileError, load_map, save_map
 
 GOOD = {
     "image": "m.pgm",

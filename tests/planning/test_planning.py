@@ -18,22 +18,17 @@ from hypothesis import strategies as st
 
 from helixd.config import HelixdConfig
 from helixd.mission.model import Mission
-from helixd.planning import (
-    GridFrame,
+from helixd.planning.grid import GridFrame, build_grid, inflate, segment_is_free
+from helixd.planning.obstacles import (
     KeepOutCircle,
+    ObstacleError,
     Obstacles,
-    PlanningError,
-    build_grid,
     clearance_m,
-    grid_path,
-    inflate,
-    plan_mission,
-    plan_route,
-    segment_is_free,
+    rover_half_width_m,
     with_geofence,
 )
-from helixd.planning.obstacles import ObstacleError, rover_half_width_m
-from helixd.planning.search import cell_path_length
+from helixd.planning.route import PlanningError, plan_mission, plan_route
+from helixd.planning.search import cell_path_length, grid_path
 
 STEPS = [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)]
 

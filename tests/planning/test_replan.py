@@ -11,9 +11,9 @@ from hypothesis import strategies as st
 
 from helixd.config import HelixdConfig
 from helixd.mission.model import Mission
-from helixd.planning import PlanningError, plan_mission, segment_is_free
+from helixd.planning.grid import segment_is_free
 from helixd.planning.replan import replan_first_leg
-from helixd.planning.route import RoutePlan
+from helixd.planning.route import PlanningError, RoutePlan, plan_mission
 
 # a wall across north 8..10, east -3..3; the mission goes to (18, 0) then (18, 5)
 CFG = HelixdConfig.model_validate(

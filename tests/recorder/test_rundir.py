@@ -19,15 +19,10 @@ from typing import IO
 import pytest
 
 from helixd.config import RecorderConfig
-from helixd.recorder import (
-    FlightRow,
-    RecorderUnavailable,
-    RunRecorder,
-    SummaryBuilder,
-    logging_setup,
-)
-from helixd.recorder.rows import COLUMNS, CSV_COMMENT, nan_row, read_flight_csv
-from helixd.recorder.rundir import default_opener, run_dir_name
+from helixd.recorder import logging_setup
+from helixd.recorder.rows import COLUMNS, CSV_COMMENT, FlightRow, nan_row, read_flight_csv
+from helixd.recorder.rundir import RecorderUnavailable, RunRecorder, default_opener, run_dir_name
+from helixd.recorder.summary import SummaryBuilder
 from tests.support.recorder_runs import NOW, SQUARE_YAML, FakeClock, synth_run
 
 pytestmark = pytest.mark.usefixtures("reset_logging")

@@ -6,11 +6,11 @@ import asyncio
 
 import pytest
 
-from helixd.actuators import ServoCommandRefused
+from helixd.actuators.base import ServoCommandRefused
 from helixd.base.exitcodes import ExitCode
 from helixd.link.commands import CommandRejected, CommandTimeout
 from helixd.mav.url import LinkError
-from helixd.mission import PlanError
+from helixd.mission.plan import PlanError
 from helixd.runtime.daemon import (
     EXIT_RULES,
     Ending,
@@ -91,7 +91,7 @@ def test_close_is_bounded(tmp_path: object) -> None:
     from pathlib import Path
 
     from helixd.config import HelixdConfig
-    from helixd.mission import Mission
+    from helixd.mission.model import Mission
     from helixd.runtime.daemon import MissionRunner, RunOptions
 
     cfg = HelixdConfig()

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from helixd.mission import MotionMode
+from helixd.base.plan import MotionMode
 from helixd.runtime.inputs import InputsRefused, load_inputs
 from tests.support.paths import DATA_DIR
 

@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 from helixd.config import HelixdConfig
-from helixd.mission import load_mission
+from helixd.mission.model import load_mission
 from helixd.mission.validate import apply_mission_limits, plan_for_check
-from helixd.planning import load_map
+from helixd.planning.mapfile import load_map
 from helixd.runtime.plan_report import check_lines, estimate_line, waypoint_table
 from helixd.runtime.planned import plan_loaded
 from helixd.runtime.timing import plan_time_estimate

@@ -15,10 +15,10 @@ from hypothesis import strategies as hs
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import NedPose, latlon_to_ne
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.cli.autopilot import convert, wants_autopilot
 from helixd.config import HelixdConfig
 from helixd.mav.mission_item import WireItem
-from helixd.mission import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.formats.wire import gcs_to_wire
 from helixd.runtime.inputs import mission_vs_config

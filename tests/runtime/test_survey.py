@@ -10,10 +10,11 @@ import pytest
 from shapely.geometry import LineString, Point, Polygon
 
 from helixd.base.frames import latlon_to_ne
+from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
 from helixd.control.estimate import estimate_time
-from helixd.mission import MotionMode, resolve_plan
 from helixd.mission.formats.areas import read_area
+from helixd.mission.plan import resolve_plan
 from helixd.mission.validate import apply_mission_limits
 from helixd.planning.obstacles import clearance_m, rover_half_width_m
 from helixd.runtime.planned import plan_loaded

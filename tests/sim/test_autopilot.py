@@ -6,23 +6,22 @@ from typing import Any
 
 import pytest
 
-from helixd.mav.constants import MAV_CMD_DO_SET_HOME
-from helixd.mav.guard import SCRIPT_NAME, VERSION, script_bytes
-from helixd.sim import estimator, modes
-from helixd.sim import guard as g
-from helixd.sim.autopilot import (
-    FORCE_ARM_MAGIC,
+from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_HOME,
     MAV_CMD_DO_SET_SERVO,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_DENIED,
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
-    Autopilot,
+    UINT16_MAX,
 )
+from helixd.mav.guard import SCRIPT_NAME, VERSION, script_bytes
+from helixd.sim import estimator, modes
+from helixd.sim import guard as g
+from helixd.sim.autopilot import FORCE_ARM_MAGIC, Autopilot
 from helixd.sim.config import HELIXD_SYSID, SimConfig
 from helixd.sim.params import ParamStore
-from helixd.sim.rc import UINT16_MAX
 
 DT_S = 0.02
 BOOT_S = 2.0

@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from helixd.mav.guard import script_bytes
-from helixd.sim import SimConfig, SimServer
-from helixd.sim.server import prepare_workdir, read_scripts
+from helixd.sim.config import SimConfig
+from helixd.sim.server import SimServer, prepare_workdir, read_scripts
 
 
 def test_a_temporary_workdir_is_made_and_removed() -> None:

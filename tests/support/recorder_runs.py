@@ -18,7 +18,10 @@ from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig, config_to_yaml
 from helixd.control.kinematics import body_to_fractions
-from helixd.recorder import FlightRow, RunRecorder, SummaryBuilder, logging_setup
+from helixd.recorder import logging_setup
+from helixd.recorder.rows import FlightRow
+from helixd.recorder.rundir import RunRecorder
+from helixd.recorder.summary import SummaryBuilder
 
 NOW = datetime(2026, 11, 21, 3, 15, 0, tzinfo=UTC)
 SQUARE_YAML = """\

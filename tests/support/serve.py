@@ -10,7 +10,7 @@ from typing import Any
 
 import yaml
 
-from helixd.sim import SimServer
+from helixd.sim.server import SimServer
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import DaemonProc, spawn_daemon
 from tests.support.gcs import QGC_SYSID

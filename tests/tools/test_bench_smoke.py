@@ -94,7 +94,7 @@ def test_skid_plant_runs_get_the_sitl_suite_config() -> None:
 
 
 def test_mission_mode_is_replaced_and_shipped_missions_load() -> None:
-    from helixd.mission import Mission
+    from helixd.mission.model import Mission
 
     text = (nav.MISSIONS_DIR / "hexagon.yaml").read_text(encoding="utf-8")
     changed = Mission.model_validate(yaml.safe_load(nav.mission_with_mode(text, "roll")))

@@ -16,6 +16,7 @@ from pathlib import Path
 import yaml
 from pydantic import ValidationError
 
+from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.config import MissionLimits
 from helixd.files.models import ConfigFileError, format_validation_error
 from helixd.files.yamlio import YamlFileError, read_text_capped
@@ -25,8 +26,6 @@ from helixd.mission.formats.items import (
     FencePolygon,
     FormatError,
     GcsMission,
-    MissionItem,
-    ObstacleCircle,
     check_latlon,
     circle_polygon,
     fence_ne,
@@ -37,7 +36,7 @@ from helixd.mission.formats.items import (
 )
 from helixd.mission.formats.qgc_plan import parse_plan_text, plan_to_text
 from helixd.mission.formats.wpl import parse_wpl_fence_text, parse_wpl_text, wpl_to_text
-from helixd.mission.model import Mission, MissionFrameKind, MotionMode, entry_yaml, load_mission
+from helixd.mission.model import Mission, entry_yaml, load_mission
 
 
 class MissionFormat(StrEnum):
@@ -403,21 +402,13 @@ def with_fence(
 
 
 __all__ = [
-    "FenceNe",
-    "FormatError",
-    "GcsMission",
     "LoadedMission",
     "MissionFormat",
-    "MissionItem",
-    "ObstacleCircle",
     "detect_format",
     "fence_has_keep_outs",
-    "fence_ne",
     "has_keep_outs",
-    "items_to_mission",
     "load_mission_file",
     "lost_in",
-    "mission_to_items",
     "mission_to_yaml",
     "plan_fence_ne",
     "read_fence",

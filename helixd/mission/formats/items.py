@@ -20,6 +20,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
+from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.files.models import format_validation_error
 from helixd.mav.constants import (
     MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
@@ -31,7 +32,7 @@ from helixd.mav.constants import (
     MAV_FRAME_GLOBAL_RELATIVE_ALT,
 )
 from helixd.mission.commands import MAX_PARAMS, command_name, command_spec
-from helixd.mission.model import Mission, MissionFrameKind, MotionMode, WaypointSpec
+from helixd.mission.model import Mission, WaypointSpec
 
 # Frames whose x/y are a latitude/longitude (MAV_FRAME_GLOBAL, _RELATIVE_ALT, _INT,
 # _RELATIVE_ALT_INT, _TERRAIN_ALT, _TERRAIN_ALT_INT); the altitude means nothing to a rover.

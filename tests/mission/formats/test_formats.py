@@ -13,19 +13,19 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from helixd.base.frames import latlon_to_ne
+from helixd.base.plan import MotionMode
 from helixd.files.models import ConfigFileError
 from helixd.mission.formats import (
-    FormatError,
     MissionFormat,
     load_mission_file,
     plan_fence_ne,
     read_gcs,
     write_mission_file,
 )
-from helixd.mission.formats.items import items_to_mission
+from helixd.mission.formats.items import FormatError, items_to_mission
 from helixd.mission.formats.qgc_plan import parse_plan_text
 from helixd.mission.formats.wpl import parse_wpl_text
-from helixd.mission.model import Mission, MotionMode
+from helixd.mission.model import Mission
 from tests.support.paths import DATA_DIR
 
 DATA = DATA_DIR

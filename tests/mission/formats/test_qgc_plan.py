@@ -9,15 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from helixd.mission.formats import (
-    FormatError,
-    MissionFormat,
-    load_mission_file,
-    read_gcs,
-    write_mission_file,
-)
+from helixd.base.plan import MotionMode
+from helixd.mission.formats import MissionFormat, load_mission_file, read_gcs, write_mission_file
+from helixd.mission.formats.items import FormatError
 from helixd.mission.formats.qgc_plan import parse_plan_text
-from helixd.mission.model import MotionMode
 from tests.support.paths import DATA_DIR
 
 GCS = DATA_DIR / "gcs"
