@@ -1,9 +1,10 @@
 """``helixd run --mission autopilot``: fly the mission the autopilot holds.
 
 The mission (and fence) are downloaded over the MAVLink mission protocol
-(:func:`helixd.link.mission_link.download_all`) in a short link session on the run's own URL,
-right before the run connects for flight; the items then go through the converter every
-``.plan`` file goes through (:func:`helixd.mission.formats.wire.wire_to_gcs` →
+(``ap.mission.download()``, :class:`helixd.link.mission_link.MissionClient`) in a short link
+session on the run's own URL, right before the run connects for flight; the items then go
+through the converter every ``.plan`` file goes through
+(:func:`helixd.mission.formats.wire.wire_to_gcs` →
 :func:`helixd.mission.formats.items.items_to_mission`), with the motion mode from ``--mode`` or
 ``mission.ground_station_mode``, and from there through the same checks as a mission file.
 
@@ -26,7 +27,7 @@ from helixd.cli.common import run_on_link
 from helixd.config import HelixdConfig
 from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
-from helixd.link.mission_link import Downloaded, download_all
+from helixd.link.mission_link import Downloaded
 from helixd.mav.mission_item import WireItem
 from helixd.runtime.autopilot_mission import (
     MISSION_NAME,
@@ -97,7 +98,7 @@ def fetch_autopilot_mission(
     link = cfg.link.model_copy(update={"url": url})
 
     async def body(ap: Autopilot) -> Downloaded:
-        return await download_all(ap, ap.send_message)
+        return await ap.mission.download()
 
     got = run_on_link(cfg, link, body)
     source = f"autopilot at {url}"

@@ -18,7 +18,7 @@ from helixd.cli.common import WholeHelpGroup, config_or_exit, fail, link_inputs,
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import Autopilot
-from helixd.link.mission_link import Downloaded, autopilot_sender, download_all, upload_all
+from helixd.link.mission_link import Downloaded
 from helixd.mission.commands import command_name
 from helixd.mission.formats import (
     MissionFormat,
@@ -289,7 +289,7 @@ def download(
         )  # fmt: skip
 
     async def body(ap: Autopilot) -> Downloaded:
-        return await download_all(ap, autopilot_sender(ap))
+        return await ap.mission.download()
 
     got = run_on_link(cfg, link, body)
     try:
@@ -379,9 +379,7 @@ def upload(
             assert msn is not None
             got = await place_on_autopilot(ap, msn, cfg.link.command_timeout_s * 3)
             typer.echo(f"{src}: placed through the autopilot's EKF origin", err=True)
-        await upload_all(
-            ap, autopilot_sender(ap), got.mission, got.fence if fmt is MissionFormat.PLAN else None
-        )
+        await ap.mission.upload(got.mission, got.fence if fmt is MissionFormat.PLAN else None)
         return got
 
     try:

@@ -1,9 +1,8 @@
 """The MAVLink link: the :class:`Autopilot` facade the daemon uses, over the plumbing
 (:mod:`helixd.link.transport`, :mod:`helixd.link.codec`, :mod:`helixd.link.heartbeat`) and
 with its plugins (:mod:`helixd.link.telemetry`, :mod:`helixd.link.action`,
-:mod:`helixd.link.param`; a mission plugin sits beside them as ``helixd/link/mission.py``,
-built like ``param`` on the same :class:`helixd.link.commands.CommandClient` and attached in
-:meth:`Autopilot.__init__`).
+:mod:`helixd.link.param`, :mod:`helixd.link.mission_link` and :mod:`helixd.link.ftp_link`,
+attached in :meth:`Autopilot.__init__`).
 
 Reading never blocks the event loop: every transport is a non-blocking file descriptor watched
 with ``loop.add_reader`` (UDP socket, TCP socket, or a termios-configured serial device). The
@@ -50,8 +49,10 @@ from helixd.link.commands import (
     CommandClient,
     CommandError,
 )
+from helixd.link.ftp_link import FtpClient
 from helixd.link.heartbeat import HeartbeatSender, heartbeat_due
 from helixd.link.limits import LinkLimits, SafetyNumbers, link_limits
+from helixd.link.mission_link import MissionClient
 from helixd.link.ownid import OwnIdSenders
 from helixd.link.param import Param
 from helixd.link.signing import load_signing_key
@@ -123,10 +124,12 @@ class Autopilot:
 
     Plugins: :attr:`telemetry` (:mod:`helixd.link.telemetry`: ``async for pose in
     ap.telemetry.pose()``, ``ap.telemetry.next_pose(...)``), :attr:`action`
-    (:mod:`helixd.link.action`: arm, disarm, mode, RC override, servo, any COMMAND_LONG) and
-    :attr:`param` (:mod:`helixd.link.param`); callers use them directly. The facade itself
-    owns the link: the vehicle state (:attr:`state`), heartbeats, stream negotiation, raw
-    messages, the link log and closing. Nothing here decides to stop the rover.
+    (:mod:`helixd.link.action`: arm, disarm, mode, RC override, servo, any COMMAND_LONG),
+    :attr:`param` (:mod:`helixd.link.param`), :attr:`mission` (:mod:`helixd.link.mission_link`:
+    ``ap.mission.download()``, ``ap.mission.upload(...)``) and :attr:`ftp`
+    (:mod:`helixd.link.ftp_link`: ``ap.ftp.run(exchange)``); callers use them directly. The
+    facade itself owns the link: the vehicle state (:attr:`state`), heartbeats, stream
+    negotiation, raw messages, the link log and closing. Nothing here decides to stop the rover.
     """
 
     def __init__(
@@ -174,6 +177,8 @@ class Autopilot:
         )
         self.action = Action(cfg, self.state, self._commands, self._waiters, self._conn)
         self.param = Param(self._commands)
+        self.mission = MissionClient(self, self.send_message)
+        self.ftp = FtpClient(self)
         self._streams = StreamManager(self.action.command_long, cfg, self.param.get)
         self._tasks: set[asyncio.Task[None]] = set()
         self._rerequest: asyncio.Task[None] | None = None

@@ -1,6 +1,7 @@
-"""MAVLink FTP over the daemon's link: an :class:`helixd.link.ftp.FtpLink` on an
-:class:`helixd.link.connection.Autopilot`, so :func:`helixd.link.ftp.run_ftp` works over a real
-autopilot.
+"""The FTP plugin: MAVLink FTP over the daemon's link, attached to
+:class:`helixd.link.connection.Autopilot` as ``ap.ftp`` (``await ap.ftp.run(exchange)``), over an
+:class:`helixd.link.ftp.FtpLink` adapter on the Autopilot, so :func:`helixd.link.ftp.run_ftp`
+works over a real autopilot.
 
 Received FILE_TRANSFER_PROTOCOL messages come through the Autopilot's message listener (every
 message of the autopilot's system, already filtered by the codec); this adapter keeps those
@@ -20,7 +21,7 @@ from helixd.config import LinkConfig
 from helixd.link.ftp import FtpExchange, run_ftp
 from helixd.mav.ftp import FtpPayload, FtpPayloadError, from_message, to_message
 
-__all__ = ["AutopilotFtpLink", "FtpHost", "run_on_autopilot"]
+__all__ = ["AutopilotFtpLink", "FtpClient", "FtpHost"]
 
 MavMsg = Any
 QUEUE_MAX = 64  # one request is outstanding; a burst or duplicates are all that can pile up
@@ -98,8 +99,14 @@ class AutopilotFtpLink:
             return None
 
 
-async def run_on_autopilot(host: FtpHost, exchange: E) -> E:
-    """:func:`run_ftp` over the autopilot's link; raises the exchange's
-    :class:`helixd.link.ftp.FtpTransferError` if it failed."""
-    with AutopilotFtpLink(host) as link:
-        return await run_ftp(exchange, link)
+class FtpClient:
+    """The FTP plugin (MAVSDK's ``Ftp``): runs one exchange at a time over ``host``."""
+
+    def __init__(self, host: FtpHost) -> None:
+        self._host = host
+
+    async def run(self, exchange: E) -> E:
+        """:func:`run_ftp` over the autopilot's link; raises the exchange's
+        :class:`helixd.link.ftp.FtpTransferError` if it failed."""
+        with AutopilotFtpLink(self._host) as link:
+            return await run_ftp(exchange, link)

@@ -1,5 +1,7 @@
-"""The mission protocol over the daemon's link: a :class:`helixd.link.mission.MissionLink` on an
-:class:`helixd.link.connection.Autopilot`, and whole-mission upload/download on it.
+"""The mission plugin: the mission protocol over the daemon's link, attached to
+:class:`helixd.link.connection.Autopilot` as ``ap.mission`` (``await ap.mission.download()``,
+``await ap.mission.upload(mission, fence)``), over a :class:`helixd.link.mission.MissionLink`
+adapter on the Autopilot's message listener.
 
 Received MISSION_* messages come through the Autopilot's message listener (every message of
 the autopilot's system, already filtered by the codec) into a bounded queue that exists only
@@ -27,9 +29,8 @@ from helixd.mav.mission_item import WireItem as MissionItem
 __all__ = [
     "MISSION_MESSAGES",
     "AutopilotMissionLink",
+    "MissionClient",
     "MissionHost",
-    "download_all",
-    "upload_all",
 ]
 
 log = structlog.get_logger(__name__)
@@ -53,12 +54,6 @@ class MissionHost(Protocol):
     def add_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None: ...
 
     def remove_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None: ...
-
-
-def autopilot_sender(ap: Any) -> Callable[[MavMsg], bool]:
-    """The link's raw send: the facade's public :meth:`Autopilot.send_message`."""
-    send: Callable[[MavMsg], bool] = ap.send_message
-    return send
 
 
 class AutopilotMissionLink:
@@ -162,37 +157,39 @@ def _ids(cfg: LinkConfig) -> dict[str, Any]:
     }
 
 
-async def download_all(
-    host: MissionHost, send: Callable[[MavMsg], bool], fence: bool = True
-) -> Downloaded:
-    """The autopilot's mission (seq 0 = home) and, if ``fence``, its fence; raises
-    :class:`helixd.link.mission.MissionTransferError`."""
-    ids = _ids(host.cfg)
-    with AutopilotMissionLink(host, send) as link:
-        grace_s = host.cfg.statustext_grace_s
-        m = await transfer(link, Download(MAV_MISSION_TYPE_MISSION, **ids), grace_s)
-        log.info("mission_downloaded", mission_type="mission", items=len(m.items))
-        f_items: tuple[MissionItem, ...] = ()
-        if fence:
-            f = await transfer(link, Download(MAV_MISSION_TYPE_FENCE, **ids), grace_s)
-            f_items = f.items
-            log.info("mission_downloaded", mission_type="fence", items=len(f_items))
-    return Downloaded(m.items, f_items)
+class MissionClient:
+    """The mission plugin (MAVSDK's ``Mission``): whole-mission download and upload, each in
+    its own :class:`AutopilotMissionLink` on ``host`` sending with ``send``."""
 
+    def __init__(self, host: MissionHost, send: Callable[[MavMsg], bool]) -> None:
+        self._host = host
+        self._send = send
 
-async def upload_all(
-    host: MissionHost,
-    send: Callable[[MavMsg], bool],
-    mission: tuple[MissionItem, ...],
-    fence: tuple[MissionItem, ...] | None,
-) -> None:
-    """Upload the mission, then (unless None) the fence — an empty fence clears it, as QGC
-    does for a plan without one. Raises :class:`helixd.link.mission.MissionTransferError`."""
-    ids = _ids(host.cfg)
-    with AutopilotMissionLink(host, send) as link:
-        grace_s = host.cfg.statustext_grace_s
-        await transfer(link, Upload(mission, MAV_MISSION_TYPE_MISSION, **ids), grace_s)
-        log.info("mission_uploaded", mission_type="mission", items=len(mission))
-        if fence is not None:
-            await transfer(link, Upload(fence, MAV_MISSION_TYPE_FENCE, **ids), grace_s)
-            log.info("mission_uploaded", mission_type="fence", items=len(fence))
+    async def download(self, fence: bool = True) -> Downloaded:
+        """The autopilot's mission (seq 0 = home) and, if ``fence``, its fence; raises
+        :class:`helixd.link.mission.MissionTransferError`."""
+        ids = _ids(self._host.cfg)
+        with AutopilotMissionLink(self._host, self._send) as link:
+            grace_s = self._host.cfg.statustext_grace_s
+            m = await transfer(link, Download(MAV_MISSION_TYPE_MISSION, **ids), grace_s)
+            log.info("mission_downloaded", mission_type="mission", items=len(m.items))
+            f_items: tuple[MissionItem, ...] = ()
+            if fence:
+                f = await transfer(link, Download(MAV_MISSION_TYPE_FENCE, **ids), grace_s)
+                f_items = f.items
+                log.info("mission_downloaded", mission_type="fence", items=len(f_items))
+        return Downloaded(m.items, f_items)
+
+    async def upload(
+        self, mission: tuple[MissionItem, ...], fence: tuple[MissionItem, ...] | None
+    ) -> None:
+        """Upload the mission, then (unless None) the fence — an empty fence clears it, as QGC
+        does for a plan without one. Raises :class:`helixd.link.mission.MissionTransferError`."""
+        ids = _ids(self._host.cfg)
+        with AutopilotMissionLink(self._host, self._send) as link:
+            grace_s = self._host.cfg.statustext_grace_s
+            await transfer(link, Upload(mission, MAV_MISSION_TYPE_MISSION, **ids), grace_s)
+            log.info("mission_uploaded", mission_type="mission", items=len(mission))
+            if fence is not None:
+                await transfer(link, Upload(fence, MAV_MISSION_TYPE_FENCE, **ids), grace_s)
+                log.info("mission_uploaded", mission_type="fence", items=len(fence))

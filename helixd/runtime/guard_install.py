@@ -27,7 +27,7 @@ from typing import Protocol
 import structlog
 
 from helixd.link.ftp import DirectoryProbe, Upload
-from helixd.link.ftp_link import FtpHost, run_on_autopilot
+from helixd.link.ftp_link import FtpClient
 from helixd.mav.guard import (
     BOARD_SCRIPTS_DIR,
     HXG_VERSION,
@@ -57,8 +57,15 @@ class ParamPlugin(Protocol):
     async def set(self, name: str, value: float) -> float: ...
 
 
+class FtpHost(Protocol):
+    """What the scripts-directory probe needs of the Autopilot facade: its FTP plugin."""
+
+    @property
+    def ftp(self) -> FtpClient: ...
+
+
 class GuardHost(FtpHost, Protocol):
-    """What the installer needs of the Autopilot facade: FTP and its param plugin."""
+    """What the installer needs of the Autopilot facade: its FTP and param plugins."""
 
     @property
     def param(self) -> ParamPlugin: ...
@@ -77,7 +84,7 @@ class GuardInstalled:
 
 
 async def _exists(ap: FtpHost, path: str) -> bool:
-    probe = await run_on_autopilot(ap, DirectoryProbe(path))
+    probe = await ap.ftp.run(DirectoryProbe(path))
     return bool(probe.exists)
 
 
@@ -109,7 +116,7 @@ async def install_guard(ap: GuardHost, scripts_dir: str | None = None) -> GuardI
     data = script_bytes()
     version = script_version(data)
     assert version is not None, "the packaged helixd-guard.lua declares its VERSION"
-    upload = await run_on_autopilot(ap, Upload(path, data))
+    upload = await ap.ftp.run(Upload(path, data))
     assert upload.remote_crc32 is not None  # verified: equal to the local CRC32
     log.info("guard_uploaded", path=path, bytes=len(data), crc32=f"0x{upload.remote_crc32:08x}")
     after = before

@@ -33,7 +33,6 @@ from helixd.config import HelixdConfig
 from helixd.link.commands import CommandError
 from helixd.link.connection import Autopilot, MavMsg
 from helixd.link.mission import MissionTransferError
-from helixd.link.mission_link import download_all
 from helixd.mav.constants import (
     MAV_RESULT_ACCEPTED,
     MAV_SEVERITY_ERROR,
@@ -317,7 +316,7 @@ class Service:
             self._check_file(self.opts.mission_file)
             return
         try:
-            got = await download_all(ap, ap.send_message)
+            got = await ap.mission.download()
         except (MissionTransferError, LinkError) as exc:  # e.g. a GCS uploading right now
             log.info("serve_mission_read_failed", error=str(exc))
             retry_s = min(self.cfg.serve.mission_poll_s, MISSION_RETRY_S)

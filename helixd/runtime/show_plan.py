@@ -25,7 +25,6 @@ from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
 from helixd.base.plan import MissionFrameKind, Plan
 from helixd.link.connection import Autopilot
 from helixd.link.mission import MissionTransferError
-from helixd.link.mission_link import upload_all
 from helixd.mav.url import LinkError
 from helixd.mission.formats.items import FormatError, GcsMission, waypoint_item
 from helixd.mission.formats.wire import gcs_to_wire
@@ -72,7 +71,7 @@ async def show_plan(
         if origin is None:
             return "--show-plan: the autopilot sent no GPS_GLOBAL_ORIGIN: plan not uploaded"
         wire = gcs_to_wire(plan_as_gcs(plan, start_ned, origin))
-        await upload_all(ap, ap.send_message, wire.mission, None)
+        await ap.mission.upload(wire.mission, None)
     except (MissionTransferError, LinkError, TimeoutError, FormatError, ValueError) as exc:
         log.warning("show_plan_failed", error=str(exc))
         return f"--show-plan: plan not uploaded: {exc}"

@@ -10,7 +10,6 @@ import pytest
 from helixd.config import LinkConfig, SafetyConfig
 from helixd.link.commands import CommandRejected
 from helixd.link.connection import Autopilot
-from helixd.link.mission_link import autopilot_sender, upload_all
 from helixd.link.vehicle import Change, VehicleState
 from helixd.mav.constants import (
     MAV_CMD_DO_SET_SERVO,
@@ -69,7 +68,7 @@ async def test_set_mission_current_against_the_simulator() -> None:
                 MISSION_STATE_NO_MISSION,
             )
 
-            await upload_all(ap, autopilot_sender(ap), MISSION, None)
+            await ap.mission.upload(MISSION, None)
             t0 = time.monotonic()
             await ap.action.set_mission_current(1)
             st = await current_after(ap, t0, 1)

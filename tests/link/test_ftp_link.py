@@ -13,7 +13,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.config import LinkConfig
 from helixd.link.connection import Autopilot
 from helixd.link.ftp import DirectoryProbe, Upload
-from helixd.link.ftp_link import AutopilotFtpLink, run_on_autopilot
+from helixd.link.ftp_link import AutopilotFtpLink
 from helixd.mav.ftp import FtpOp, FtpPayload, crc32_ardupilot, to_message
 from tests.support.harness import running_sim
 from tests.support.peer import safety_config
@@ -34,9 +34,9 @@ async def test_upload_and_probe_over_a_real_autopilot_link() -> None:
         ap = await Autopilot.connect(CFG.model_copy(update={"url": url}), safety_config())
         try:
             await ap.wait_heartbeat(10.0)
-            before = await run_on_autopilot(ap, DirectoryProbe("scripts"))
-            up = await run_on_autopilot(ap, Upload("scripts/x.lua", data))
-            after = await run_on_autopilot(ap, DirectoryProbe("scripts"))
+            before = await ap.ftp.run(DirectoryProbe("scripts"))
+            up = await ap.ftp.run(Upload("scripts/x.lua", data))
+            after = await ap.ftp.run(DirectoryProbe("scripts"))
         finally:
             await ap.close()
         assert (server.workdir / "scripts" / "x.lua").read_bytes() == data

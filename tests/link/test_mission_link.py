@@ -17,7 +17,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
 from helixd.link.mission import MissionTransferError
-from helixd.link.mission_link import AutopilotMissionLink, download_all, upload_all
+from helixd.link.mission_link import AutopilotMissionLink, MissionClient
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import WireItem as WireItem
 from helixd.sim.mission import MissionServer
@@ -105,15 +105,15 @@ def test_upload_then_download_through_the_adapter() -> None:
     async def main() -> None:
         srv = MissionServer(53.5, -113.5, 600.0, max_mission_items=20, max_fence_items=10)
         host = Host(srv)
-        await upload_all(host, host.send, items(5), fence())
+        await MissionClient(host, host.send).upload(items(5), fence())
         assert len(srv.stored()) == 5 and len(srv.stored(MAV_MISSION_TYPE_FENCE)) == 3
-        got = await download_all(host, host.send)
+        got = await MissionClient(host, host.send).download()
         assert [(i.seq, i.x) for i in got.mission[1:]] == [(i.seq, i.x) for i in items(5)[1:]]
         assert got.mission[0].x == 535_000_000  # home: the vehicle's own, not what we wrote
         assert [(i.command, i.param1, i.x) for i in got.fence] == [
             (f.command, f.param1, f.x) for f in fence()
         ]
-        await upload_all(host, host.send, items(3), ())  # an empty fence clears it
+        await MissionClient(host, host.send).upload(items(3), ())  # an empty fence clears it
         assert srv.stored(MAV_MISSION_TYPE_FENCE) == ()
         assert host.listeners == []
 
@@ -125,7 +125,7 @@ def test_a_refusal_names_the_result_and_the_vehicles_text() -> None:
         srv = MissionServer(53.5, -113.5, 600.0, max_mission_items=4)
         host = Host(srv)
         with pytest.raises(MissionTransferError) as err:
-            await upload_all(host, host.send, items(5), None)
+            await MissionClient(host, host.send).upload(items(5), None)
         assert err.value.result == 4
         assert str(err.value) == (
             "mission upload refused: MAV_MISSION_NO_SPACE (autopilot: Only 4 items are supported)"
@@ -141,7 +141,7 @@ def test_silence_fails_after_the_retries() -> None:
         with pytest.raises(
             MissionTransferError, match=r"^mission download .* no answer after 2 retries"
         ) as err:
-            await download_all(host, host.send)
+            await MissionClient(host, host.send).download()
         assert err.value.result is None and err.value.vehicle_text is None
         assert host.sent.count("MISSION_REQUEST_LIST") == 3
 

@@ -15,6 +15,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
 from helixd.link.ftp import FtpTransferError
+from helixd.link.ftp_link import FtpClient
 from helixd.mav.ftp import FtpOp, FtpPayload, from_message, to_message
 from helixd.mav.guard import script_bytes
 from helixd.runtime.guard_install import GuardInstallRefused, find_scripts_dir, install_guard
@@ -57,6 +58,7 @@ class Vehicle:
         self.listeners: list[Callable[[Any, float], None]] = []
         self.requests: list[FtpPayload] = []
         self.noise: list[Any] = []  # messages delivered before each reply
+        self.ftp = FtpClient(self)
 
     def add_message_listener(self, callback: Callable[[Any, float], None]) -> None:
         self.listeners.append(callback)
