@@ -47,7 +47,7 @@ log = structlog.get_logger(__name__)
 SERVO_REFUSAL_TEXT_PREFIX = "ServoRelayEvent"  # ArduPilot's ServoRelayEvents::do_set_servo
 
 
-class CommandSender(Protocol):
+class ServoCommandSender(Protocol):
     async def command_long(
         self,
         command: int,
@@ -65,7 +65,7 @@ def _four(values: Sequence[int]) -> tuple[int, int, int, int]:
 
 class ServoSink:
     def __init__(
-        self, actuation: ActuationConfig, vehicle: VehicleConfig, ap: CommandSender
+        self, actuation: ActuationConfig, vehicle: VehicleConfig, ap: ServoCommandSender
     ) -> None:
         self._cfg = actuation
         self._clamp = vehicle.output_clamp

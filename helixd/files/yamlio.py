@@ -105,7 +105,7 @@ class _DuplicateKey(yaml.YAMLError):
         super().__init__(self.text)
 
 
-class _Refused(yaml.YAMLError):
+class _YamlRefused(yaml.YAMLError):
     def __init__(self, text: str) -> None:
         self.text = text
         super().__init__(text)
@@ -139,7 +139,7 @@ def _plain_scalar(value: str, event: Any) -> Any:
             text = value.replace("_", "")
             body = text.lstrip("+-")
             if len(body) > _MAX_DIGITS:
-                raise _Refused(
+                raise _YamlRefused(
                     f"number at line {_line(event)} has {len(body)} digits (at most {_MAX_DIGITS})"
                 )
             sign = -1 if text[0] == "-" else 1
@@ -158,7 +158,7 @@ def _plain_scalar(value: str, event: Any) -> Any:
 def _scalar(event: Any) -> Any:
     tag = event.tag
     if tag not in _STR_TAGS:
-        raise _Refused(f"explicit tag {clip(tag, 60)} at line {_line(event)} is not allowed")
+        raise _YamlRefused(f"explicit tag {clip(tag, 60)} at line {_line(event)} is not allowed")
     if not event.style and tag is None and event.implicit[0]:  # plain: C gives "", Python None
         return _plain_scalar(event.value, event)
     return event.value
@@ -167,7 +167,7 @@ def _scalar(event: Any) -> Any:
 _NO_KEY = object()
 
 
-class _Frame:
+class _Container:
     __slots__ = ("key", "marks", "obj")
 
     def __init__(self, obj: dict[Any, Any] | list[Any]) -> None:
@@ -179,7 +179,7 @@ class _Frame:
 def _build(text: str) -> Any:
     """One pass over libyaml's events: refuse aliases, tags, depth, duplicate keys and extra
     documents; build plain dicts/lists/scalars. Iterative: nesting costs no recursion."""
-    stack: list[_Frame] = []
+    stack: list[_Container] = []
     root: Any = None
     documents = 0
     event: Any
@@ -193,7 +193,7 @@ def _build(text: str) -> Any:
     decimal, to_float, no_key, max_events = _DECIMAL_RE.match, float, _NO_KEY, MAX_EVENTS
     for count, event in enumerate(yaml.parse(text, Loader=_BaseLoader)):
         if count >= max_events:
-            raise _Refused(
+            raise _YamlRefused(
                 f"more than {MAX_EVENTS} values by line {_line(event)}; refused (split the file)"
             )
         kind = type(event)
@@ -205,24 +205,24 @@ def _build(text: str) -> Any:
                 value = _scalar(event)
         elif kind is mapping_start or kind is sequence_start:
             if len(stack) >= MAX_DEPTH:
-                raise _Refused(f"nested deeper than {MAX_DEPTH} levels at line {_line(event)}")
+                raise _YamlRefused(f"nested deeper than {MAX_DEPTH} levels at line {_line(event)}")
             if event.tag not in (None, "!"):
-                raise _Refused(
+                raise _YamlRefused(
                     f"explicit tag {clip(event.tag, 60)} at line {_line(event)} is not allowed"
                 )
-            stack.append(_Frame({} if kind is mapping_start else []))
+            stack.append(_Container({} if kind is mapping_start else []))
             continue
         elif kind is mapping_end or kind is sequence_end:
             value = stack.pop().obj
         elif kind is yaml.AliasEvent:
-            raise _Refused(
+            raise _YamlRefused(
                 f"alias *{clip(event.anchor, 40)[1:-1]} at line {_line(event)}: aliases "
                 "(&anchor/*alias) are not allowed; write the value out"
             )
         elif kind is yaml.DocumentStartEvent:
             documents += 1
             if documents > 1:
-                raise _Refused(f"a second YAML document at line {_line(event)}; one per file")
+                raise _YamlRefused(f"a second YAML document at line {_line(event)}; one per file")
             continue
         else:  # stream start/end, document end
             continue
@@ -235,9 +235,9 @@ def _build(text: str) -> Any:
             obj.append(value)
         elif top.key is no_key:
             if isinstance(value, (dict, list)):
-                raise _Refused(f"a list or mapping used as a key at line {_line(event)}")
+                raise _YamlRefused(f"a list or mapping used as a key at line {_line(event)}")
             if value == "<<" and kind is scalar_event and not event.style:
-                raise _Refused(f"merge key '<<' at line {_line(event)} is not supported")
+                raise _YamlRefused(f"merge key '<<' at line {_line(event)} is not supported")
             if value in top.marks:
                 first = top.marks[value]
                 raise _DuplicateKey(value, int(first.line) + 1 if first else 0, _line(event))
@@ -250,7 +250,7 @@ def _build(text: str) -> Any:
 
 
 def _yaml_problem(exc: yaml.YAMLError, text: str | None = None) -> str:
-    if isinstance(exc, (_Refused, _DuplicateKey)):
+    if isinstance(exc, (_YamlRefused, _DuplicateKey)):
         return exc.text
     mark = getattr(exc, "problem_mark", None)
     where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""

@@ -95,7 +95,7 @@ class CommandTimeout(CommandError):
 
 
 @dataclass(eq=False)
-class _Pending:
+class _PendingCommand:
     command: int
     future: asyncio.Future[int]
     last_progress_s: float | None = None
@@ -104,7 +104,7 @@ class _Pending:
 @dataclass(eq=False)
 class _Send:
     sent_s: float
-    owner: _Pending | None  # None once the command is over (answered or given up)
+    owner: _PendingCommand | None  # None once the command is over (answered or given up)
 
 
 @dataclass
@@ -223,7 +223,7 @@ class CommandClient:
             settle_s = self._q.answered_s.get(command, -math.inf) + self._cfg.command_settle_s
             if settle_s > time.monotonic():
                 await asyncio.sleep(settle_s - time.monotonic())
-            pending = _Pending(command, loop.create_future())
+            pending = _PendingCommand(command, loop.create_future())
             queue = self._q.sends[command]
             started_s = time.monotonic()
             result: int | None = None
@@ -251,7 +251,7 @@ class CommandClient:
 
     async def _attempts(
         self,
-        pending: _Pending,
+        pending: _PendingCommand,
         queue: deque[_Send],
         params: list[float],
         timeout_s: float,

@@ -1,7 +1,7 @@
 """MAVLink FTP client, sans-IO: upload one file to the autopilot (e.g. a Lua script into
 ``APM/scripts/`` for ``helixd autopilot install-guard``), and ask whether a directory exists.
 
-:class:`Upload` and :class:`DirectoryProbe` are state machines over FTP payloads
+:class:`FtpUpload` and :class:`DirectoryProbe` are state machines over FTP payloads
 (:mod:`helixd.mav.ftp`) sharing one request machinery: ``start(now_s)``,
 ``on_reply(payload, now_s)`` and ``on_time(now_s)`` return the request payloads to send, each
 to go out as a FILE_TRANSFER_PROTOCOL message to the autopilot (``helixd.mav.ftp.to_message``).
@@ -71,7 +71,7 @@ __all__ = [
     "FtpExchange",
     "FtpLink",
     "FtpTransferError",
-    "Upload",
+    "FtpUpload",
     "run_ftp",
 ]
 
@@ -119,7 +119,7 @@ def _parents(path: str) -> list[str]:
 
 
 class FtpExchange:
-    """The request machinery :class:`Upload` and :class:`DirectoryProbe` share: one request
+    """The request machinery :class:`FtpUpload` and :class:`DirectoryProbe` share: one request
     outstanding, replies matched to it, sent again on a timeout, failures named by ``path``.
 
     ``what`` names the exchange in errors ("upload", "listing").
@@ -281,7 +281,7 @@ class FtpExchange:
         self.deadline_s = math.inf
 
 
-class Upload(FtpExchange):
+class FtpUpload(FtpExchange):
     """Write ``data`` to ``path`` on the autopilot (replacing any file there)."""
 
     what = "upload"

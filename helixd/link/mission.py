@@ -1,14 +1,14 @@
 """MAVLink mission protocol client, sans-IO: upload and download of mission items.
 
-:class:`Upload` and :class:`Download` are state machines. Feed them each received message with
-``on_message(msg, now_s)`` and the passing of time with ``on_time(now_s)``; both return the
-messages to send. ``done`` says the transfer ended, ``error`` why it failed (None: success),
-``deadline_s`` when ``on_time`` must be called next. They do no I/O, read no clock and log
+:class:`MissionUpload` and :class:`MissionDownload` are state machines. Feed them each received
+message with ``on_message(msg, now_s)`` and the passing of time with ``on_time(now_s)``; both
+return the messages to send. ``done`` says the transfer ended, ``error`` why it failed (None:
+success), ``deadline_s`` when ``on_time`` must be called next. They do no I/O, read no clock and log
 nothing. :func:`run_transfer` is the one thin async shell running either over a
 :class:`MissionLink`.
 
 Behaviour follows the clients ground stations use (QGroundControl's PlanManager, MAVSDK's
-MavlinkMissionTransfer) against ArduPilot (``WireItemProtocol.cpp``):
+MavlinkMissionTransfer) against ArduPilot (``MissionItemProtocol.cpp``):
 
 * Upload: MISSION_COUNT; the vehicle asks for each item with MISSION_REQUEST (ArduPilot) or
   MISSION_REQUEST_INT (the newer spec) — both are answered with MISSION_ITEM_INT. Duplicated or
@@ -57,11 +57,11 @@ from helixd.mav.mission_item import (
 )
 
 __all__ = [
-    "Download",
+    "MissionDownload",
     "MissionLink",
     "MissionTransferError",
+    "MissionUpload",
     "Transfer",
-    "Upload",
     "run_transfer",
 ]
 
@@ -170,7 +170,7 @@ class Transfer:
         )
 
 
-class Upload(Transfer):
+class MissionUpload(Transfer):
     """Send ``items`` (their seq must be 0..n-1 in order) to the vehicle."""
 
     def __init__(
@@ -242,7 +242,7 @@ class Upload(Transfer):
         return self._send([self._item_msg(seq)], now_s, progress)
 
 
-class Download(Transfer):
+class MissionDownload(Transfer):
     """Read the vehicle's items of ``mission_type``; ``items`` holds them when ``done``."""
 
     def __init__(
@@ -327,10 +327,10 @@ class MissionLink(Protocol):
 
 
 async def run_transfer(
-    transfer: Upload | Download,
+    transfer: MissionUpload | MissionDownload,
     link: MissionLink,
     clock: Callable[[], float] = time.monotonic,
-) -> Upload | Download:
+) -> MissionUpload | MissionDownload:
     """Drive ``transfer`` over ``link`` until it ends; raises its error if it failed."""
     now = clock
     for msg in transfer.start(now()):

@@ -18,7 +18,7 @@ from typing import Any, Protocol
 import structlog
 
 from helixd.config import LinkConfig
-from helixd.link.mission import Download, MissionTransferError, Upload, run_transfer
+from helixd.link.mission import MissionDownload, MissionTransferError, MissionUpload, run_transfer
 from helixd.mav.constants import (
     MAV_MISSION_TYPE_FENCE,
     MAV_MISSION_TYPE_MISSION,
@@ -133,8 +133,8 @@ class Downloaded:
 
 
 async def transfer(
-    link: AutopilotMissionLink, t: Upload | Download, grace_s: float
-) -> Upload | Download:
+    link: AutopilotMissionLink, t: MissionUpload | MissionDownload, grace_s: float
+) -> MissionUpload | MissionDownload:
     """:func:`run_transfer`; a refusal carries the vehicle's warning that explains it."""
     since = len(link.texts)
     try:
@@ -171,11 +171,11 @@ class MissionClient:
         ids = _ids(self._host.cfg)
         with AutopilotMissionLink(self._host, self._send) as link:
             grace_s = self._host.cfg.statustext_grace_s
-            m = await transfer(link, Download(MAV_MISSION_TYPE_MISSION, **ids), grace_s)
+            m = await transfer(link, MissionDownload(MAV_MISSION_TYPE_MISSION, **ids), grace_s)
             log.info("mission_downloaded", mission_type="mission", items=len(m.items))
             f_items: tuple[MissionItem, ...] = ()
             if fence:
-                f = await transfer(link, Download(MAV_MISSION_TYPE_FENCE, **ids), grace_s)
+                f = await transfer(link, MissionDownload(MAV_MISSION_TYPE_FENCE, **ids), grace_s)
                 f_items = f.items
                 log.info("mission_downloaded", mission_type="fence", items=len(f_items))
         return Downloaded(m.items, f_items)
@@ -188,8 +188,8 @@ class MissionClient:
         ids = _ids(self._host.cfg)
         with AutopilotMissionLink(self._host, self._send) as link:
             grace_s = self._host.cfg.statustext_grace_s
-            await transfer(link, Upload(mission, MAV_MISSION_TYPE_MISSION, **ids), grace_s)
+            await transfer(link, MissionUpload(mission, MAV_MISSION_TYPE_MISSION, **ids), grace_s)
             log.info("mission_uploaded", mission_type="mission", items=len(mission))
             if fence is not None:
-                await transfer(link, Upload(fence, MAV_MISSION_TYPE_FENCE, **ids), grace_s)
+                await transfer(link, MissionUpload(fence, MAV_MISSION_TYPE_FENCE, **ids), grace_s)
                 log.info("mission_uploaded", mission_type="fence", items=len(fence))

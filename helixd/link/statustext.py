@@ -31,7 +31,7 @@ class AssembledText:
 
 
 @dataclass(slots=True)
-class _Pending:
+class _PendingText:
     severity: int
     first_rx_s: float
     chunks: dict[int, str] = field(default_factory=dict)
@@ -47,7 +47,7 @@ class StatusTextAssembler:
             raise ValueError("timeout_s must be > 0 and max_pending >= 1")
         self.timeout_s = timeout_s
         self.max_pending = max_pending
-        self._pending: dict[Key, _Pending] = {}
+        self._pending: dict[Key, _PendingText] = {}
 
     @property
     def pending(self) -> int:
@@ -76,7 +76,7 @@ class StatusTextAssembler:
             if len(self._pending) >= self.max_pending:
                 oldest = min(self._pending, key=lambda k: self._pending[k].first_rx_s)
                 out.append(self._emit(self._pending.pop(oldest)))
-            pending = self._pending[key] = _Pending(severity, now_s)
+            pending = self._pending[key] = _PendingText(severity, now_s)
         pending.chunks[chunk_seq] = text
         if len(text) < CHUNK_CHARS:
             pending.last_seq = chunk_seq
@@ -90,7 +90,7 @@ class StatusTextAssembler:
         return [self._emit(self._pending.pop(k)) for k in old]
 
     @staticmethod
-    def _emit(p: _Pending) -> AssembledText:
+    def _emit(p: _PendingText) -> AssembledText:
         last = p.last_seq if p.last_seq is not None else max(p.chunks)
         parts = [p.chunks.get(seq, MISSING_MARK) for seq in range(last + 1)]
         complete = p.last_seq is not None and all(seq in p.chunks for seq in range(last + 1))

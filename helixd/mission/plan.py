@@ -54,7 +54,7 @@ class Resolved:
     notes: tuple[str, ...] = field(default=())  # what check lists (skipped items, …)
 
 
-class _Frame:
+class _MissionToPlane:
     """The mission's coordinates → the control core's x/y (and compass headings → yaw)."""
 
     def __init__(self, mission: Mission, origin_latlon_deg: tuple[float, float] | None) -> None:
@@ -116,7 +116,7 @@ def resolve(
     options: ExpandOptions = DEFAULT_OPTIONS,
 ) -> Resolved:
     """:func:`resolve_plan`, with what the walk through a mission's commands found."""
-    frame = _Frame(mission, origin_latlon_deg)
+    frame = _MissionToPlane(mission, origin_latlon_deg)
     default_tol = mission.tolerance_m or control.waypoint_tolerance_m
     speed = min(mission.speed_mps or control.max_speed_mps, control.max_speed_mps)
     if not mission.has_commands():

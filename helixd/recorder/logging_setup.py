@@ -178,7 +178,7 @@ def event_json(event_dict: MutableMapping[str, Any]) -> str:
         return json.dumps({k: repr(v) for k, v in data.items()} | {"tee_error": str(exc)})
 
 
-class _Sink:
+class _LogSink:
     def __init__(self, stream: IO[str], path: str, owned: bool) -> None:
         self.stream = stream
         self.path = path
@@ -190,17 +190,17 @@ class _Tee:
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
-        self.run: _Sink | None = None
-        self.extra: _Sink | None = None
+        self.run: _LogSink | None = None
+        self.extra: _LogSink | None = None
 
     def __call__(self, _: WrappedLogger, __: str, event_dict: EventDict) -> EventDict:
         if self.run is None and self.extra is None:
             return event_dict
         line = event_json(event_dict) + "\n"
-        failed: list[tuple[_Sink, OSError]] = []
+        failed: list[tuple[_LogSink, OSError]] = []
         with self._lock:
             for attr in ("run", "extra"):
-                sink: _Sink | None = getattr(self, attr)
+                sink: _LogSink | None = getattr(self, attr)
                 if sink is None:
                     continue
                 try:
@@ -220,22 +220,22 @@ class _Tee:
             )
         return event_dict
 
-    def attach_run(self, sink: _Sink) -> _Sink | None:
+    def attach_run(self, sink: _LogSink) -> _LogSink | None:
         with self._lock:
             old, self.run = self.run, sink
         return old
 
-    def detach_run(self) -> _Sink | None:
+    def detach_run(self) -> _LogSink | None:
         with self._lock:
             old, self.run = self.run, None
         return old
 
-    def set_extra(self, sink: _Sink | None) -> None:
+    def set_extra(self, sink: _LogSink | None) -> None:
         with self._lock:
             self.extra = sink
 
 
-def _close_quietly(sink: _Sink) -> OSError | None:
+def _close_quietly(sink: _LogSink) -> OSError | None:
     """Close a sink we opened; return (not raise) the error, the caller decides how to log it."""
     if not sink.owned:
         return None
@@ -253,7 +253,7 @@ def attach_events_file(path: Path) -> None:
     """Start teeing every event as JSON lines to ``path`` (append). Raises OSError if it cannot
     be opened — the caller (the run recorder) decides whether that refuses the run."""
     stream = path.open("a", encoding="utf-8")
-    old = _TEE.attach_run(_Sink(stream, str(path), owned=True))
+    old = _TEE.attach_run(_LogSink(stream, str(path), owned=True))
     if old is not None:
         _report_close(old)
 
@@ -271,7 +271,7 @@ def events_file_path() -> str | None:
     return None if sink is None else sink.path
 
 
-def _report_close(sink: _Sink) -> None:
+def _report_close(sink: _LogSink) -> None:
     err = _close_quietly(sink)
     if err is not None:
         log.warning(
@@ -308,7 +308,7 @@ def configure_logging(
         event_dict[MONO_KEY] = round(clock(), 6)
         return event_dict
 
-    _TEE.set_extra(None if json_file is None else _Sink(json_file, "json_file", owned=False))
+    _TEE.set_extra(None if json_file is None else _LogSink(json_file, "json_file", owned=False))
     processors: list[Processor] = [
         structlog.contextvars.merge_contextvars,
         structlog.processors.add_log_level,

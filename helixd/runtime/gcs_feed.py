@@ -26,10 +26,10 @@ import structlog
 
 from helixd.config import GcsReportConfig
 from helixd.runtime.gcs_report import (
-    Fault,
     GcsReporter,
     PhaseChange,
     Progress,
+    ReportedFault,
     Said,
     WaypointReached,
 )
@@ -65,7 +65,7 @@ class GcsFeed:
         self._feed(WaypointReached(index, total))
 
     def fault(self, name: str, detail: str = "", stopped: bool = True) -> None:
-        self._feed(Fault(name, detail, stopped))
+        self._feed(ReportedFault(name, detail, stopped))
 
     def say(self, text: str, severity: int) -> None:
         """One line of the service's own at ``severity`` (MAV_SEVERITY)."""
@@ -76,7 +76,7 @@ class GcsFeed:
         if not self.dead:
             self._progress = Progress(xtrack_m, wp_index)
 
-    def _feed(self, event: PhaseChange | WaypointReached | Fault | Said) -> None:
+    def _feed(self, event: PhaseChange | WaypointReached | ReportedFault | Said) -> None:
         if self.dead:
             return
         try:

@@ -44,10 +44,10 @@ from helixd.mav.constants import (
 
 __all__ = [
     "CHUNK_CHARS",
-    "Fault",
     "GcsReporter",
     "PhaseChange",
     "Progress",
+    "ReportedFault",
     "Said",
     "WaypointReached",
     "chunk_statustext",
@@ -76,7 +76,7 @@ class WaypointReached:
 
 
 @dataclass(frozen=True, slots=True)
-class Fault:
+class ReportedFault:
     name: str
     detail: str = ""
     stopped: bool = True  # the run was stopped by it (CRITICAL) or it is a warning
@@ -99,7 +99,7 @@ class Progress:
     wp_index: int | None
 
 
-Event = PhaseChange | WaypointReached | Fault | Said | Progress
+Event = PhaseChange | WaypointReached | ReportedFault | Said | Progress
 
 
 # what helixd's own texts use beyond ASCII, spelt in ASCII (anything else becomes '?')

@@ -11,7 +11,7 @@ Steps, on a short link session (:func:`install_guard`):
    directory), else ``/APM`` exists (an SD card where scripting never ran: ``/APM/scripts`` is
    made), else ``scripts``.
 3. The packaged script (:func:`helixd.mav.guard.script_bytes`) is uploaded over MAVLink FTP
-   (:class:`helixd.link.ftp.Upload`: missing directories made, the autopilot's CRC32 of the
+   (:class:`helixd.link.ftp.FtpUpload`: missing directories made, the autopilot's CRC32 of the
    written file compared with the bytes sent).
 4. ``SCR_ENABLE`` set to 1 if it was not (confirmed by the autopilot's PARAM_VALUE).
 
@@ -26,7 +26,7 @@ from typing import Protocol
 
 import structlog
 
-from helixd.link.ftp import DirectoryProbe, Upload
+from helixd.link.ftp import DirectoryProbe, FtpUpload
 from helixd.link.ftp_link import FtpClient
 from helixd.mav.guard import (
     BOARD_SCRIPTS_DIR,
@@ -57,14 +57,14 @@ class ParamPlugin(Protocol):
     async def set(self, name: str, value: float) -> float: ...
 
 
-class FtpHost(Protocol):
+class FtpPluginHost(Protocol):
     """What the scripts-directory probe needs of the Autopilot facade: its FTP plugin."""
 
     @property
     def ftp(self) -> FtpClient: ...
 
 
-class GuardHost(FtpHost, Protocol):
+class GuardHost(FtpPluginHost, Protocol):
     """What the installer needs of the Autopilot facade: its FTP and param plugins."""
 
     @property
@@ -83,12 +83,12 @@ class GuardInstalled:
     running_version: int | None  # HXG_VERSION before the reboot: the guard that runs now
 
 
-async def _exists(ap: FtpHost, path: str) -> bool:
+async def _exists(ap: FtpPluginHost, path: str) -> bool:
     probe = await ap.ftp.run(DirectoryProbe(path))
     return bool(probe.exists)
 
 
-async def find_scripts_dir(ap: FtpHost) -> str:
+async def find_scripts_dir(ap: FtpPluginHost) -> str:
     """The autopilot's scripts directory, found by listing (step 2 of the module's list)."""
     if await _exists(ap, BOARD_SCRIPTS_DIR):
         return BOARD_SCRIPTS_DIR
@@ -116,7 +116,7 @@ async def install_guard(ap: GuardHost, scripts_dir: str | None = None) -> GuardI
     data = script_bytes()
     version = script_version(data)
     assert version is not None, "the packaged helixd-guard.lua declares its VERSION"
-    upload = await ap.ftp.run(Upload(path, data))
+    upload = await ap.ftp.run(FtpUpload(path, data))
     assert upload.remote_crc32 is not None  # verified: equal to the local CRC32
     log.info("guard_uploaded", path=path, bytes=len(data), crc32=f"0x{upload.remote_crc32:08x}")
     after = before

@@ -27,7 +27,7 @@ from helixd.mission.commands import command_name
 log = structlog.get_logger(__name__)
 
 
-class CommandSender(Protocol):
+class MissionCommandSender(Protocol):
     async def command_long(
         self,
         command: int,
@@ -51,7 +51,7 @@ class MissionCommands:
 
     def __init__(
         self,
-        sender: CommandSender,
+        sender: MissionCommandSender,
         on_outcome: Callable[[CommandOutcome], None] | None = None,
     ) -> None:
         self._sender = sender
@@ -120,4 +120,4 @@ class MissionCommands:
             self._on_outcome(outcome)
 
 
-__all__ = ["CommandOutcome", "CommandSender", "MissionCommands"]
+__all__ = ["CommandOutcome", "MissionCommandSender", "MissionCommands"]

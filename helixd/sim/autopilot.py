@@ -55,7 +55,7 @@ from helixd.mav.guard import (
 )
 from helixd.sim import modes
 from helixd.sim.config import SimConfig
-from helixd.sim.estimator import EkfStatus
+from helixd.sim.estimator import SimEkfStatus
 from helixd.sim.failsafe import EkfHealth, FailsafeDecision, Failsafes
 from helixd.sim.guard import (
     HOLD_REFUSED_TEXT,
@@ -118,7 +118,7 @@ class SimEvent:
 
 
 @dataclass(frozen=True, slots=True)
-class StatusText:
+class SimStatusText:
     severity: int
     text: str
 
@@ -134,7 +134,7 @@ def _rc_norm(pwm: int, n: int, params: ParamStore) -> float:
     return max(-1.0, (pwm - trim + dz) / max(1, trim - lo - dz))
 
 
-class Autopilot:
+class SimAutopilot:
     def __init__(
         self,
         config: SimConfig,
@@ -146,7 +146,7 @@ class Autopilot:
         self.params = params
         self._scripts = scripts
         self.events: list[SimEvent] = []
-        self.texts: list[StatusText] = []
+        self.texts: list[SimStatusText] = []
         self.pilot_rc_us: list[int] = list(config.pilot_rc_us)
         self.receiver_ok = True
         self.gcs_heartbeats_seen = 0
@@ -253,9 +253,9 @@ class Autopilot:
     # -- modes and arming ------------------------------------------------------------------
 
     def _say(self, severity: int, text: str) -> None:
-        self.texts.append(StatusText(severity, text))
+        self.texts.append(SimStatusText(severity, text))
 
-    def set_mode(self, number: int, reason: str, now_s: float, ekf: EkfStatus) -> bool:
+    def set_mode(self, number: int, reason: str, now_s: float, ekf: SimEkfStatus) -> bool:
         if number not in modes.MODE_NAMES or number == modes.INITIALISING:
             self._say(SEVERITY_WARNING, f"No such mode {number}")
             return False
@@ -286,7 +286,7 @@ class Autopilot:
         )
         return True
 
-    def prearm_failure(self, now_s: float, ekf: EkfStatus) -> str | None:
+    def prearm_failure(self, now_s: float, ekf: SimEkfStatus) -> str | None:
         """AP_Arming::gps_checks refuses before home is set; the other checks (simulated by
         ``prearm_delay_s``) and the EKF's position after."""
         if not self.home_set(now_s):
@@ -299,7 +299,7 @@ class Autopilot:
             return "Radio failsafe on"
         return None
 
-    def arm_disarm(self, param1: float, param2: float, now_s: float, ekf: EkfStatus) -> int:
+    def arm_disarm(self, param1: float, param2: float, now_s: float, ekf: SimEkfStatus) -> int:
         if param1 == 0.0:
             if self.armed:
                 self.armed = False
@@ -383,7 +383,7 @@ class Autopilot:
         command: int,
         p: Sequence[float],
         now_s: float,
-        ekf: EkfStatus,
+        ekf: SimEkfStatus,
         is_int: bool = False,
     ) -> int | None:
         """Vehicle-level COMMAND_LONG/INT; None = not handled here (the caller decides)."""
@@ -420,7 +420,7 @@ class Autopilot:
             return MAV_RESULT_ACCEPTED  # the caller reboots after sending the ACK
         return None
 
-    def do_set_mode(self, base_mode: int, custom_mode: int, now_s: float, ekf: EkfStatus) -> int:
+    def do_set_mode(self, base_mode: int, custom_mode: int, now_s: float, ekf: SimEkfStatus) -> int:
         """GCS_MAVLINK::_set_mode_common: only custom modes are understood."""
         if not base_mode & MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
             return MAV_RESULT_DENIED
@@ -429,7 +429,7 @@ class Autopilot:
 
     # -- the main loop ---------------------------------------------------------------------
 
-    def _apply(self, decision: FailsafeDecision, now_s: float, ekf: EkfStatus) -> None:
+    def _apply(self, decision: FailsafeDecision, now_s: float, ekf: SimEkfStatus) -> None:
         for severity, text in decision.texts:
             self._say(severity, text)
         if decision.triggered:
@@ -486,7 +486,7 @@ class Autopilot:
     def _guard_params(self) -> GuardParams:
         return GuardParams.from_params({name: self.params.get(name) for name in PARAM_DEFAULTS})
 
-    def _run_guard(self, now_s: float, ekf: EkfStatus) -> None:
+    def _run_guard(self, now_s: float, ekf: SimEkfStatus) -> None:
         """One update of helixd-guard when it is due (every UPDATE_PERIOD_MS)."""
         guard = self.guard
         if guard is None or now_s < guard.next_s - 1e-9:
@@ -504,7 +504,7 @@ class Autopilot:
         )
         self._apply_guard(action, now_s, ekf)
 
-    def _apply_guard(self, action: GuardAction, now_s: float, ekf: EkfStatus) -> None:
+    def _apply_guard(self, action: GuardAction, now_s: float, ekf: SimEkfStatus) -> None:
         params = self.params
         if action.hold_trim:
             period_ms = 1000.0 / self.loop_rate_hz()
@@ -540,7 +540,7 @@ class Autopilot:
             return MotorDemand(throttle, steering)
         return MotorDemand()  # HOLD and the (unsimulated) navigation modes: stop
 
-    def step(self, now_s: float, ekf: EkfStatus) -> list[int]:
+    def step(self, now_s: float, ekf: SimEkfStatus) -> list[int]:
         """One scheduler loop; returns the 16 servo outputs (µs, 0 = no pulses)."""
         if self.booting(now_s):
             return [0] * 16

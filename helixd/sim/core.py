@@ -16,7 +16,7 @@ import numpy as np
 from helixd.mav.guard import SCR_ENABLE
 from helixd.sim import estimator, obstacles, physics, skid, telemetry
 from helixd.sim import streams as st
-from helixd.sim.autopilot import Autopilot, ScriptReader, SimEvent, StatusText, no_scripts
+from helixd.sim.autopilot import ScriptReader, SimAutopilot, SimEvent, SimStatusText, no_scripts
 from helixd.sim.config import Plant, SimConfig
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
 from helixd.sim.inbound import InboundHandler
@@ -66,7 +66,7 @@ class SimCore:
             params[SCR_ENABLE] = 1.0
         self.params = ParamStore(params, stored=config.guard_params)
         self._ftp = ftp
-        self.ap = Autopilot(config, self.params, 0.0, scripts)
+        self.ap = SimAutopilot(config, self.params, 0.0, scripts)
         self._was_armed = False  # for the mission reset on disarm
         self.links = [self._new_link() for _ in range(n_links)]
         self.faults = FaultClock()
@@ -128,7 +128,7 @@ class SimCore:
     def send(self, link: int | None, msg: Message) -> None:
         self.outbox.append((link, msg))
 
-    def say(self, text: StatusText) -> None:
+    def say(self, text: SimStatusText) -> None:
         if len(text.text) > STATUSTEXT_LEN:  # only chunked texts take a fresh id (never 0)
             self._chunk_id = self._chunk_id % 65535 + 1
         for m in statustexts(text.severity, text.text, self._chunk_id):
@@ -167,7 +167,7 @@ class SimCore:
 
     def mission_outcome(self, out: Outcome) -> None:
         for step in out.steps:
-            if isinstance(step, StatusText):
+            if isinstance(step, SimStatusText):
                 self.say(step)
             else:
                 self.send(*step)
@@ -254,7 +254,7 @@ class SimCore:
 
     # -- the loop --------------------------------------------------------------------------
 
-    def ekf_status(self) -> estimator.EkfStatus:
+    def ekf_status(self) -> estimator.SimEkfStatus:
         return estimator.ekf_status(
             self.est,
             self.config.noise_profile(),
@@ -343,7 +343,7 @@ class SimCore:
             stalled=stalled,
         )
 
-    def _view(self, ekf: estimator.EkfStatus, now: float) -> telemetry.TelemetryView:
+    def _view(self, ekf: estimator.SimEkfStatus, now: float) -> telemetry.TelemetryView:
         ap, cfg = self.ap, self.config
         gps_n, gps_e = estimator.gps_fix(self.est, self.phys)
         profile = cfg.noise_profile()

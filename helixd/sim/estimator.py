@@ -75,7 +75,7 @@ class PoseEstimate:
 
 
 @dataclass(frozen=True, slots=True)
-class EkfStatus:
+class SimEkfStatus:
     flags: int
     velocity_variance: float
     pos_horiz_variance: float
@@ -158,14 +158,14 @@ def gps_fix(state: EstimatorState, truth: PhysicsState) -> tuple[float, float]:
 
 def ekf_status(
     state: EstimatorState, profile: NoiseProfile, origin_set: bool, unhealthy: bool
-) -> EkfStatus:
+) -> SimEkfStatus:
     if not origin_set:
-        return EkfStatus(EKF_ATTITUDE | EKF_UNINITIALIZED, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return SimEkfStatus(EKF_ATTITUDE | EKF_UNINITIALIZED, 0.0, 0.0, 0.0, 0.0, 0.0)
     if unhealthy:
         v = UNHEALTHY_VARIANCE
-        return EkfStatus(UNHEALTHY_FLAGS, v, v, v, v, 0.0)
+        return SimEkfStatus(UNHEALTHY_FLAGS, v, v, v, v, 0.0)
     base = profile.variance_base
-    return EkfStatus(
+    return SimEkfStatus(
         HEALTHY_FLAGS,
         velocity_variance=base * 0.5,
         pos_horiz_variance=min(1.5, base + state.pos_variance_boost),

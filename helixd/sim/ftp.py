@@ -100,7 +100,7 @@ class _Mode(Enum):
     WRITE = "write"
 
 
-class _Refused(Exception):
+class _FtpRefused(Exception):
     """A path the simulator will not touch (outside root, or root itself)."""
 
 
@@ -370,18 +370,18 @@ class FtpServer:
     # --- paths ----------------------------------------------------------------------------
 
     def _path(self, name: bytes, *, removing: bool = False) -> tuple[Path, bool]:
-        """(host path, read-only) of a remote name; raises _Refused."""
+        """(host path, read-only) of a remote name; raises _FtpRefused."""
         parts = [p for p in os.fsdecode(name).split("/") if p not in ("", ".")]
         if ".." in parts:
-            raise _Refused(name)
+            raise _FtpRefused(name)
         try:
             path = self.root.joinpath(*parts).resolve(strict=False)
         except (OSError, RuntimeError) as exc:  # a symlink loop under root
-            raise _Refused(name) from exc
+            raise _FtpRefused(name) from exc
         if path != self.root and not path.is_relative_to(self.root):
-            raise _Refused(name)
+            raise _FtpRefused(name)
         if removing and path == self.root:
-            raise _Refused(name)
+            raise _FtpRefused(name)
         rel = path.relative_to(self.root).parts
         return path, bool(rel) and rel[0] == ROMFS_PREFIX
 
@@ -428,7 +428,7 @@ class FtpServer:
                 self._rename(request, reply)
             else:  # TruncateFile, and anything unknown
                 _error(reply, FtpErr.UnknownCommand)
-        except _Refused:
+        except _FtpRefused:
             _error(reply, FtpErr.FileProtected)
         return False
 

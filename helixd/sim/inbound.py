@@ -32,8 +32,8 @@ from helixd.mav.constants import (
 from helixd.mav.ftp import FtpPayloadError, from_message
 from helixd.sim import messages, telemetry
 from helixd.sim import streams as st
-from helixd.sim.autopilot import Autopilot, SimEvent, StatusText
-from helixd.sim.estimator import EkfStatus
+from helixd.sim.autopilot import SimAutopilot, SimEvent, SimStatusText
+from helixd.sim.estimator import SimEkfStatus
 from helixd.sim.messages import Message
 from helixd.sim.mission import MissionServer, Outcome
 from helixd.sim.params import ParamStore
@@ -63,7 +63,7 @@ class InboundPort(Protocol):
     """What the inbound handler reads of the simulator core and asks of it."""
 
     @property
-    def ap(self) -> Autopilot: ...
+    def ap(self) -> SimAutopilot: ...
     @property
     def params(self) -> ParamStore: ...
     @property
@@ -71,7 +71,7 @@ class InboundPort(Protocol):
     @property
     def view(self) -> telemetry.TelemetryView: ...
 
-    def ekf_status(self) -> EkfStatus: ...
+    def ekf_status(self) -> SimEkfStatus: ...
     def streams(self, link: int) -> st.StreamSchedule:
         """The message-interval schedule of one link."""
         ...
@@ -80,7 +80,7 @@ class InboundPort(Protocol):
         """Queue a reply for one link (None: every link)."""
         ...
 
-    def say(self, text: StatusText) -> None: ...
+    def say(self, text: SimStatusText) -> None: ...
     def record(self, event: SimEvent) -> None:
         """Add an event to the simulator's log."""
         ...
@@ -215,7 +215,7 @@ class InboundHandler:
                 schedule.default_interval_ms(msg_id),
             )
             if decision.text:
-                core.say(StatusText(SEVERITY_INFO, decision.text))
+                core.say(SimStatusText(SEVERITY_INFO, decision.text))
             if decision.interval_ms is not None:
                 schedule.set_interval(msg_id, decision.interval_ms, core.now_s)
             return decision.result

@@ -33,7 +33,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.angles import wrap_pi
 from helixd.sim import modes
-from helixd.sim.estimator import EkfStatus, PoseEstimate
+from helixd.sim.estimator import PoseEstimate, SimEkfStatus
 
 
 class Message(Protocol):
@@ -101,7 +101,7 @@ def sys_status(rc_ok: bool, gps_ok: bool, ekf_ok: bool, prearm_ok: bool) -> Mess
     )
 
 
-def ekf_status_report(status: EkfStatus) -> Message:
+def ekf_status_report(status: SimEkfStatus) -> Message:
     return _m(
         mavlink.MAVLink_ekf_status_report_message(
             status.flags,

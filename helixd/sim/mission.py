@@ -135,7 +135,7 @@ from helixd.mav.constants import (
     MISSION_STATE_NOT_STARTED,
     UINT16_MAX,
 )
-from helixd.sim.autopilot import StatusText
+from helixd.sim.autopilot import SimStatusText
 from helixd.sim.messages import Message
 
 __all__ = [
@@ -225,21 +225,21 @@ Send = tuple[int | None, Message]  # (link, or None for every link; message)
 class Outcome:
     """What handling one message (or the passing of time) produced, in ArduPilot's order."""
 
-    steps: list[Send | StatusText] = field(default_factory=list)
+    steps: list[Send | SimStatusText] = field(default_factory=list)
 
     def send(self, item: Send) -> None:
         self.steps.append(item)
 
-    def say(self, text: StatusText) -> None:
+    def say(self, text: SimStatusText) -> None:
         self.steps.append(text)
 
     @property
     def sends(self) -> list[Send]:
-        return [s for s in self.steps if not isinstance(s, StatusText)]
+        return [s for s in self.steps if not isinstance(s, SimStatusText)]
 
     @property
-    def texts(self) -> list[StatusText]:
-        return [s for s in self.steps if isinstance(s, StatusText)]
+    def texts(self) -> list[SimStatusText]:
+        return [s for s in self.steps if isinstance(s, SimStatusText)]
 
 
 @dataclass(slots=True)
@@ -432,7 +432,7 @@ class ItemProtocol:
         """MissionItemProtocol::mavlink2_requirement_met."""
         if self.mission_type == MAV_MISSION_TYPE_MISSION or not _is_mavlink1(msg):
             return True
-        out.say(StatusText(MAV_SEVERITY_WARNING, "Need mavlink2 for item transfer"))
+        out.say(SimStatusText(MAV_SEVERITY_WARNING, "Need mavlink2 for item transfer"))
         self._ack(out, link, who, MAV_MISSION_UNSUPPORTED)
         return False
 
@@ -449,7 +449,9 @@ class ItemProtocol:
         self.upload = None  # the same sender restarts
         if count > self.max_items:
             self._ack(out, link, who, MAV_MISSION_NO_SPACE)
-            out.say(StatusText(MAV_SEVERITY_WARNING, f"Only {self.max_items} items are supported"))
+            out.say(
+                SimStatusText(MAV_SEVERITY_WARNING, f"Only {self.max_items} items are supported")
+            )
             return
         if self.rules.staged:
             staged: list[StoredItem] = []  # fence: allocate_receive_resources; truncate is a no-op
@@ -516,7 +518,7 @@ class ItemProtocol:
     def _complete(self, out: Outcome, link: int, who: tuple[int, int]) -> None:
         """MissionItemProtocol::transfer_is_complete."""
         if self.rules.complete_text is not None:
-            out.say(StatusText(MAV_SEVERITY_INFO, self.rules.complete_text))
+            out.say(SimStatusText(MAV_SEVERITY_INFO, self.rules.complete_text))
         self.version += 1
         self._ack(out, link, who, MAV_MISSION_ACCEPTED)
 
@@ -608,7 +610,7 @@ class ItemProtocol:
             return
         if now_s - up.last_receive_s > UPLOAD_TIMEOUT_S:
             self.upload = None
-            out.say(StatusText(MAV_SEVERITY_WARNING, self.rules.timeout_text))
+            out.say(SimStatusText(MAV_SEVERITY_WARNING, self.rules.timeout_text))
             out.send(
                 (up.link, mission_ack((up.sysid, up.compid), MAV_MISSION_OPERATION_CANCELLED,
                                       self.mission_type))
@@ -771,7 +773,7 @@ class MissionServer:
                     self.jumps_run[index] += 1
                     of = "unlimited" if times == JUMP_REPEAT_FOREVER else str(times)
                     out.say(
-                        StatusText(
+                        SimStatusText(
                             MAV_SEVERITY_INFO, f"Mission: {index} Jump {self.jumps_run[index]}/{of}"
                         )
                     )

@@ -25,59 +25,59 @@ class ParamType(IntEnum):
 
 
 @dataclass(frozen=True, slots=True)
-class ParamSpec:
+class SimParamSpec:
     default: float
     kind: ParamType
 
 
-def _build_defaults() -> dict[str, ParamSpec]:
+def _build_defaults() -> dict[str, SimParamSpec]:
     i8, i16, i32, f32 = ParamType.INT8, ParamType.INT16, ParamType.INT32, ParamType.REAL32
-    table: dict[str, ParamSpec] = {
-        "MAV_SYSID": ParamSpec(1, i16),
-        "MAV_GCS_SYSID": ParamSpec(255, i16),
-        "MAV_GCS_SYSID_HI": ParamSpec(0, i16),
-        "MAV_OPTIONS": ParamSpec(0, i16),
-        "SCHED_LOOP_RATE": ParamSpec(50, i16),  # Rover default; takes effect after reboot
-        "RC_OVERRIDE_TIME": ParamSpec(3.0, f32),  # RC_Channels.cpp _OVERRIDE_TIME
-        "RC_OPTIONS": ParamSpec(0, i32),
-        "RC_FS_TIMEOUT": ParamSpec(1.0, f32),
-        "RCMAP_THROTTLE": ParamSpec(3, i8),
-        "FS_ACTION": ParamSpec(2, i8),  # 2 = Hold
-        "FS_TIMEOUT": ParamSpec(1.5, f32),
-        "FS_OPTIONS": ParamSpec(0, i32),
-        "FS_GCS_ENABLE": ParamSpec(0, i8),
-        "FS_GCS_TIMEOUT": ParamSpec(5.0, f32),
-        "FS_THR_ENABLE": ParamSpec(1, i8),
-        "FS_THR_VALUE": ParamSpec(910, i16),
-        "FS_EKF_ACTION": ParamSpec(1, i8),  # 1 = Hold
-        "FS_EKF_THRESH": ParamSpec(0.8, f32),
-        "INITIAL_MODE": ParamSpec(0, i8),
-        "MODE_CH": ParamSpec(8, i8),
-        "SCR_ENABLE": ParamSpec(0, i8),  # AP_Scripting: scripts start at boot when 1
+    table: dict[str, SimParamSpec] = {
+        "MAV_SYSID": SimParamSpec(1, i16),
+        "MAV_GCS_SYSID": SimParamSpec(255, i16),
+        "MAV_GCS_SYSID_HI": SimParamSpec(0, i16),
+        "MAV_OPTIONS": SimParamSpec(0, i16),
+        "SCHED_LOOP_RATE": SimParamSpec(50, i16),  # Rover default; takes effect after reboot
+        "RC_OVERRIDE_TIME": SimParamSpec(3.0, f32),  # RC_Channels.cpp _OVERRIDE_TIME
+        "RC_OPTIONS": SimParamSpec(0, i32),
+        "RC_FS_TIMEOUT": SimParamSpec(1.0, f32),
+        "RCMAP_THROTTLE": SimParamSpec(3, i8),
+        "FS_ACTION": SimParamSpec(2, i8),  # 2 = Hold
+        "FS_TIMEOUT": SimParamSpec(1.5, f32),
+        "FS_OPTIONS": SimParamSpec(0, i32),
+        "FS_GCS_ENABLE": SimParamSpec(0, i8),
+        "FS_GCS_TIMEOUT": SimParamSpec(5.0, f32),
+        "FS_THR_ENABLE": SimParamSpec(1, i8),
+        "FS_THR_VALUE": SimParamSpec(910, i16),
+        "FS_EKF_ACTION": SimParamSpec(1, i8),  # 1 = Hold
+        "FS_EKF_THRESH": SimParamSpec(0.8, f32),
+        "INITIAL_MODE": SimParamSpec(0, i8),
+        "MODE_CH": SimParamSpec(8, i8),
+        "SCR_ENABLE": SimParamSpec(0, i8),  # AP_Scripting: scripts start at boot when 1
     }
     for n in range(1, 7):
-        table[f"MODE{n}"] = ParamSpec(0, i8)  # Rover Parameters.cpp: every MODEn = MANUAL
+        table[f"MODE{n}"] = SimParamSpec(0, i8)  # Rover Parameters.cpp: every MODEn = MANUAL
     for n in range(1, 17):
-        table[f"RC{n}_MIN"] = ParamSpec(1100, i16)
-        table[f"RC{n}_TRIM"] = ParamSpec(1500, i16)
-        table[f"RC{n}_MAX"] = ParamSpec(1900, i16)
+        table[f"RC{n}_MIN"] = SimParamSpec(1100, i16)
+        table[f"RC{n}_TRIM"] = SimParamSpec(1500, i16)
+        table[f"RC{n}_MAX"] = SimParamSpec(1900, i16)
         # Rover::init_rc_in sets a 30 µs dead zone on steering (1) and throttle (3)
-        table[f"RC{n}_DZ"] = ParamSpec(30 if n in (1, 3) else 0, i16)
+        table[f"RC{n}_DZ"] = SimParamSpec(30 if n in (1, 3) else 0, i16)
     for n in range(1, 17):
-        table[f"SERVO{n}_FUNCTION"] = ParamSpec(50 + n if n <= 4 else 0, i16)
-        table[f"SERVO{n}_MIN"] = ParamSpec(1100, i16)
-        table[f"SERVO{n}_TRIM"] = ParamSpec(1500, i16)
-        table[f"SERVO{n}_MAX"] = ParamSpec(1900, i16)
-        table[f"SERVO{n}_REVERSED"] = ParamSpec(0, i8)
-    table["CAM1_TYPE"] = ParamSpec(0, i8)  # 0: no camera (AP_Camera has no backend)
-    table["GRIP_ENABLE"] = ParamSpec(0, i8)
+        table[f"SERVO{n}_FUNCTION"] = SimParamSpec(50 + n if n <= 4 else 0, i16)
+        table[f"SERVO{n}_MIN"] = SimParamSpec(1100, i16)
+        table[f"SERVO{n}_TRIM"] = SimParamSpec(1500, i16)
+        table[f"SERVO{n}_MAX"] = SimParamSpec(1900, i16)
+        table[f"SERVO{n}_REVERSED"] = SimParamSpec(0, i8)
+    table["CAM1_TYPE"] = SimParamSpec(0, i8)  # 0: no camera (AP_Camera has no backend)
+    table["GRIP_ENABLE"] = SimParamSpec(0, i8)
     for n in range(1, 7):  # AP_Relay: RELAYn_FUNCTION 1 = relay, and a pin, make it usable
-        table[f"RELAY{n}_FUNCTION"] = ParamSpec(0, i8)
-        table[f"RELAY{n}_PIN"] = ParamSpec(-1, i8)
+        table[f"RELAY{n}_FUNCTION"] = SimParamSpec(0, i8)
+        table[f"RELAY{n}_PIN"] = SimParamSpec(-1, i8)
     return table
 
 
-DEFAULT_PARAMS: Mapping[str, ParamSpec] = MappingProxyType(_build_defaults())
+DEFAULT_PARAMS: Mapping[str, SimParamSpec] = MappingProxyType(_build_defaults())
 
 # Parameters whose new value is only read at boot (the scheduler is set up once).
 REBOOT_REQUIRED = frozenset({"SCHED_LOOP_RATE", "MAV_SYSID", "SCR_ENABLE"})
@@ -105,7 +105,7 @@ class ParamStore:
         stored: Mapping[str, float] | None = None,
     ) -> None:
         self._values: dict[str, float] = {k: float(s.default) for k, s in DEFAULT_PARAMS.items()}
-        self._specs: dict[str, ParamSpec] = dict(DEFAULT_PARAMS)
+        self._specs: dict[str, SimParamSpec] = dict(DEFAULT_PARAMS)
         self._stored: dict[str, float] = {k: float(v) for k, v in (stored or {}).items()}
         self._version = 0
         for name, value in (overrides or {}).items():
@@ -164,7 +164,7 @@ class ParamStore:
         else ``default``; returns the value. Adding one that exists keeps it as it is."""
         if name in self._values:
             return self._values[name]
-        self._specs[name] = ParamSpec(default, ParamType.REAL32)
+        self._specs[name] = SimParamSpec(default, ParamType.REAL32)
         self._values[name] = float(self._stored.get(name, default))
         self._version += 1
         return self._values[name]

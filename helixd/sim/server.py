@@ -86,7 +86,7 @@ class LinkSpec:
         return LinkSpec(kind, host, port)
 
 
-class _Sink:
+class _PackBuffer:
     """File-like object pymavlink writes packed messages into."""
 
     def __init__(self) -> None:
@@ -107,7 +107,7 @@ class _Link(asyncio.DatagramProtocol, asyncio.Protocol):
         self.index = index
         self.spec = spec
         self.on_bytes = on_bytes
-        self.sink = _Sink()
+        self.sink = _PackBuffer()
         self.mav = mavlink.MAVLink(self.sink, srcSystem=1, srcComponent=1)
         self.mav.robust_parsing = True
         self.udp: asyncio.DatagramTransport | None = None

@@ -11,7 +11,7 @@ from helixd.base.frames import ne_to_latlon
 from helixd.mav.constants import MISSION_STATE_NO_MISSION
 from helixd.sim import messages
 from helixd.sim import streams as st
-from helixd.sim.estimator import EkfStatus, PoseEstimate
+from helixd.sim.estimator import PoseEstimate, SimEkfStatus
 from helixd.sim.faults import FaultClock
 from helixd.sim.state import PhysicsState
 
@@ -34,7 +34,7 @@ class TelemetryView:
     gps_east_m: float
     gps_accuracy_m: float
     truth: PhysicsState
-    ekf: EkfStatus
+    ekf: SimEkfStatus
     radio_in_us: Sequence[int]
     outputs_us: Sequence[int]
     origin_lat_deg: float

@@ -1,6 +1,6 @@
 """The sans-IO FTP upload client (helixd.link.ftp) against the simulator's FTP server.
 
-No sockets: request and reply payloads travel between helixd.link.ftp.Upload and
+No sockets: request and reply payloads travel between helixd.link.ftp.FtpUpload and
 helixd.sim.ftp.FtpServer (over a real temp directory) through a channel that can drop,
 duplicate and (replies only) delay each one, under hypothesis; time is a simulated clock.
 """
@@ -20,7 +20,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
-from helixd.link.ftp import DirectoryProbe, FtpTransferError, Upload, run_ftp
+from helixd.link.ftp import DirectoryProbe, FtpTransferError, FtpUpload, run_ftp
 from helixd.mav.ftp import MAX_DATA_LEN, FtpErr, FtpOp, FtpPayload, crc32_ardupilot
 from helixd.sim.ftp import FtpServer
 
@@ -82,7 +82,7 @@ class Channel:
                     r = self.tamper(FtpPayload.unpack(r)).pack()
                 self._queue(self.to_gcs, r, reply=True)
 
-    def run(self, up: Upload, step_s: float = 0.05, limit_s: float = 600.0) -> Upload:
+    def run(self, up: FtpUpload, step_s: float = 0.05, limit_s: float = 600.0) -> FtpUpload:
         self._to_vehicle(up.start(self.now_s))
         while not up.done and self.now_s < limit_s:
             self._deliver_requests()
@@ -108,7 +108,7 @@ def test_upload_of_5_kB_makes_the_directories_and_verifies_the_crc(root: Path) -
     data = five_kb()
     with FtpServer(root) as srv:
         ch = Channel(srv)
-        up = ch.run(Upload(GUARD, data))
+        up = ch.run(FtpUpload(GUARD, data))
         assert up.error is None and up.done
         assert srv.open_files == 0
     assert (root / "APM" / "scripts" / "helixd-guard.lua").read_bytes() == data
@@ -145,7 +145,7 @@ def test_with_session_zero_the_client_follows_the_id_ardupilot_assigns(root: Pat
     with FtpServer(root) as srv:
         srv.handle(FtpPayload(0, 0, FtpOp.None_).pack(), sysid=9, compid=9, now_s=0.0)  # id 1
         ch = Channel(srv)
-        up = ch.run(Upload(GUARD, five_kb(), session=0))
+        up = ch.run(FtpUpload(GUARD, five_kb(), session=0))
     assert up.error is None
     sessions = [p.session for p in ch.vehicle_saw]
     assert sessions[:2] == [0, 0]  # ResetSessions, CreateFile
@@ -158,7 +158,7 @@ def test_an_existing_file_is_replaced_without_making_directories(root: Path) -> 
     (root / "APM" / "scripts" / "helixd-guard.lua").write_bytes(b"x" * 9000)
     with FtpServer(root) as srv:
         ch = Channel(srv)
-        up = ch.run(Upload(GUARD, b"-- new guard\n", chunk_len=5))
+        up = ch.run(FtpUpload(GUARD, b"-- new guard\n", chunk_len=5))
     assert up.error is None
     assert (root / "APM" / "scripts" / "helixd-guard.lua").read_bytes() == b"-- new guard\n"
     assert FtpOp.CreateDirectory not in ch.ops()
@@ -168,7 +168,7 @@ def test_an_existing_file_is_replaced_without_making_directories(root: Path) -> 
 def test_an_empty_file(root: Path) -> None:
     with FtpServer(root) as srv:
         ch = Channel(srv)
-        up = ch.run(Upload("/empty.lua", b""))
+        up = ch.run(FtpUpload("/empty.lua", b""))
     assert up.error is None and up.remote_crc32 == 0
     assert (root / "empty.lua").read_bytes() == b""
     assert FtpOp.WriteFile not in ch.ops()
@@ -178,7 +178,7 @@ def test_existing_directories_are_fine(root: Path) -> None:
     (root / "APM").mkdir()
     with FtpServer(root) as srv:
         ch = Channel(srv)
-        up = ch.run(Upload(GUARD, b"x", verify_crc=False))
+        up = ch.run(FtpUpload(GUARD, b"x", verify_crc=False))
     assert up.error is None and up.remote_crc32 is None
     mkdirs = [p for p in ch.vehicle_saw if p.opcode == FtpOp.CreateDirectory]
     assert len(mkdirs) == 2  # /APM answered FileExists, which is fine
@@ -192,7 +192,7 @@ def test_a_lost_reply_is_asked_again_with_the_same_request(root: Path) -> None:
     fates = [DELIVER] * 11 + [DROP]
     with FtpServer(root) as srv:
         ch = Channel(srv, fates)
-        up = ch.run(Upload(GUARD, five_kb()))
+        up = ch.run(FtpUpload(GUARD, five_kb()))
     assert up.error is None and up.resends == 1
     writes = [p for p in ch.vehicle_saw if p.opcode == FtpOp.WriteFile]
     assert writes[0] == writes[1]  # sent again unchanged: ArduPilot answers from its last reply
@@ -206,7 +206,7 @@ def test_a_stale_reply_is_ignored(root: Path) -> None:
             (request,) = requests
             return srv.handle(request, sysid=GCS[0], compid=GCS[1], now_s=0.0)
 
-        up = Upload("/d/x.lua", b"x")
+        up = FtpUpload("/d/x.lua", b"x")
         (reset_ack,) = serve(up.start(0.0))
         (not_found,) = serve(up.on_reply(reset_ack, 0.0))  # CreateFile: FileNotFound
         (mkdir_ack,) = serve(up.on_reply(not_found, 0.0))
@@ -233,7 +233,7 @@ def test_a_lost_first_reply_on_a_one_session_autopilot(
     fates = [DELIVER, DELIVER, DELIVER, DROP]
     with FtpServer(root, max_sessions=1) as srv:
         ch = Channel(srv, fates)
-        up = ch.run(Upload(GUARD, b"x", session=session))
+        up = ch.run(FtpUpload(GUARD, b"x", session=session))
     assert up.error is None
     # with its own session the repeat finds the slot and gets the kept NAK again at once;
     # with session 0 it claims anew and must wait out the 3 s the first claim holds the slot
@@ -269,7 +269,7 @@ def test_upload_survives_lost_duplicated_and_late_payloads(
         root = Path(tmp)
         with FtpServer(root, max_sessions=max_sessions) as srv:
             ch = Channel(srv, fates)
-            up = ch.run(Upload(GUARD, data, chunk_len=chunk_len))
+            up = ch.run(FtpUpload(GUARD, data, chunk_len=chunk_len))
             assert up.error is None, up.error
             assert srv.open_files == 0
         assert (root / "APM" / "scripts" / "helixd-guard.lua").read_bytes() == data
@@ -284,7 +284,7 @@ def test_no_sessions_available_is_waited_out(root: Path) -> None:
             FtpOp.Ack
         )
         ch = Channel(srv)
-        up = ch.run(Upload("/mine.lua", b"mine"))
+        up = ch.run(FtpUpload("/mine.lua", b"mine"))
         assert up.error is None
         assert up.resends >= 5  # ~3 s of NoSessionsAvailable at 0.5 s per retry
         assert srv.open_files == 0
@@ -292,7 +292,7 @@ def test_no_sessions_available_is_waited_out(root: Path) -> None:
 
 
 def test_silence_fails_after_the_retries(root: Path) -> None:
-    up = Upload(GUARD, b"x", reply_timeout_s=1.0, retries=3)
+    up = FtpUpload(GUARD, b"x", reply_timeout_s=1.0, retries=3)
     sent = up.start(10.0)
     assert up.deadline_s == 11.0
     for t in (10.5, 11.0, 12.0, 13.0):
@@ -310,7 +310,7 @@ def test_silence_fails_after_the_retries(root: Path) -> None:
 def test_a_read_only_path_fails_naming_the_path_the_op_and_the_errno(root: Path) -> None:
     with FtpServer(root) as srv:
         ch = Channel(srv)
-        up = ch.run(Upload("@ROMFS/scripts/guard.lua", b"x"))
+        up = ch.run(FtpUpload("@ROMFS/scripts/guard.lua", b"x"))
     err = up.error
     assert isinstance(err, FtpTransferError)
     assert str(err) == (
@@ -325,7 +325,7 @@ def test_a_read_only_path_fails_naming_the_path_the_op_and_the_errno(root: Path)
 def test_a_write_refused_midway_fails_and_closes_the_file(root: Path) -> None:
     with FtpServer(root, max_file_bytes=1000) as srv:
         ch = Channel(srv)
-        up = ch.run(Upload("/big.bin", five_kb()))
+        up = ch.run(FtpUpload("/big.bin", five_kb()))
         assert srv.open_files == 0  # the final TerminateSession closed it
     assert isinstance(up.error, FtpTransferError)
     assert str(up.error) == (
@@ -338,7 +338,7 @@ def test_a_write_refused_midway_fails_and_closes_the_file(root: Path) -> None:
 def test_a_parent_that_is_a_file_fails(root: Path) -> None:
     (root / "APM").write_bytes(b"not a dir")
     with FtpServer(root) as srv:
-        up = Channel(srv).run(Upload(GUARD, b"x"))
+        up = Channel(srv).run(FtpUpload(GUARD, b"x"))
     assert isinstance(up.error, FtpTransferError)
     assert "CreateFile refused: FailErrno (errno 20 ENOTDIR)" in str(up.error)
 
@@ -346,7 +346,7 @@ def test_a_parent_that_is_a_file_fails(root: Path) -> None:
 def test_missing_directories_without_create_dirs(root: Path) -> None:
     with FtpServer(root) as srv:
         ch = Channel(srv)
-        up = ch.run(Upload(GUARD, b"x", create_dirs=False))
+        up = ch.run(FtpUpload(GUARD, b"x", create_dirs=False))
     assert isinstance(up.error, FtpTransferError)
     assert str(up.error) == f"FTP upload of {GUARD}: CreateFile refused: FileNotFound"
     assert FtpOp.CreateDirectory not in ch.ops()
@@ -362,7 +362,7 @@ def test_a_crc_mismatch_fails_after_releasing_the_session(root: Path) -> None:
     data = five_kb()
     with FtpServer(root) as srv:
         ch = Channel(srv, tamper=corrupt)
-        up = ch.run(Upload(GUARD, data))
+        up = ch.run(FtpUpload(GUARD, data))
         assert srv.open_files == 0
     assert isinstance(up.error, FtpTransferError)
     good = FIVE_KB_CRC32
@@ -390,7 +390,7 @@ def test_a_crc_mismatch_fails_after_releasing_the_session(root: Path) -> None:
 )
 def test_arguments_are_checked(path: str, kwargs: dict[str, float], match: str) -> None:
     with pytest.raises(ValueError, match=match):
-        Upload(path, b"x", **kwargs)  # type: ignore[arg-type]
+        FtpUpload(path, b"x", **kwargs)  # type: ignore[arg-type]
 
 
 junk = hs.one_of(
@@ -415,7 +415,7 @@ def test_hostile_replies_end_in_success_or_a_clear_error(noise: list[bytes]) -> 
         root = Path(tmp)
         with FtpServer(root) as srv:
             ch = Channel(srv)
-            up = Upload("/x.lua", b"0123456789" * 60)
+            up = FtpUpload("/x.lua", b"0123456789" * 60)
             ch._to_vehicle(up.start(0.0))
             pending = deque(noise)
             while not up.done and ch.now_s < 300.0:
@@ -461,7 +461,7 @@ class MemoryLink:
 async def test_run_upload_over_a_link(root: Path) -> None:
     with FtpServer(root) as srv:
         link = MemoryLink(srv)
-        up = await run_ftp(Upload(GUARD, five_kb()), link, link.clock)
+        up = await run_ftp(FtpUpload(GUARD, five_kb()), link, link.clock)
         assert up.done and up.error is None
     assert (root / "APM" / "scripts" / "helixd-guard.lua").read_bytes() == five_kb()
 
@@ -470,7 +470,7 @@ async def test_run_upload_raises_the_error_and_releases(root: Path) -> None:
     with FtpServer(root) as srv:
         link = MemoryLink(srv)
         with pytest.raises(FtpTransferError, match="EROFS"):
-            await run_ftp(Upload("@ROMFS/x.lua", b"x"), link, link.clock)
+            await run_ftp(FtpUpload("@ROMFS/x.lua", b"x"), link, link.clock)
         assert FtpPayload.unpack(link.sent[-1]).opcode == FtpOp.TerminateSession
 
 

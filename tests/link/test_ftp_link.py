@@ -12,7 +12,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
 from helixd.link.connection import Autopilot
-from helixd.link.ftp import DirectoryProbe, Upload
+from helixd.link.ftp import DirectoryProbe, FtpUpload
 from helixd.link.ftp_link import AutopilotFtpLink
 from helixd.mav.ftp import FtpOp, FtpPayload, crc32_ardupilot, to_message
 from tests.support.harness import running_sim
@@ -35,7 +35,7 @@ async def test_upload_and_probe_over_a_real_autopilot_link() -> None:
         try:
             await ap.wait_heartbeat(10.0)
             before = await ap.ftp.run(DirectoryProbe("scripts"))
-            up = await ap.ftp.run(Upload("scripts/x.lua", data))
+            up = await ap.ftp.run(FtpUpload("scripts/x.lua", data))
             after = await ap.ftp.run(DirectoryProbe("scripts"))
         finally:
             await ap.close()

@@ -21,7 +21,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
 from helixd.link import mission as lm
-from helixd.link.mission import Download, MissionTransferError, Upload
+from helixd.link.mission import MissionDownload, MissionTransferError, MissionUpload
 from helixd.mav.mission_item import WireItem
 from helixd.sim.mission import MissionServer
 
@@ -72,7 +72,12 @@ class Channel:
         if fate == 2:
             q.append(stamp(msg, who))
 
-    def run(self, t: lm.Upload | lm.Download, step_s: float = 0.05, limit_s: float = 600.0) -> None:
+    def run(
+        self,
+        t: lm.MissionUpload | lm.MissionDownload,
+        step_s: float = 0.05,
+        limit_s: float = 600.0,
+    ) -> None:
         now = 0.0
         for m in t.start(now):
             self._queue(self.to_vehicle, m, GCS)
@@ -101,12 +106,12 @@ def server() -> MissionServer:
     return MissionServer(*HOME, max_mission_items=50, max_fence_items=20)
 
 
-def new_upload(its: list[WireItem], mission_type: int = 0, retries: int = 5) -> Upload:
-    return Upload(its, mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
+def new_upload(its: list[WireItem], mission_type: int = 0, retries: int = 5) -> MissionUpload:
+    return MissionUpload(its, mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
 
 
-def new_download(mission_type: int = 0, retries: int = 5) -> Download:
-    return Download(mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
+def new_download(mission_type: int = 0, retries: int = 5) -> MissionDownload:
+    return MissionDownload(mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
 
 
 def stored_as_items(srv: MissionServer, mission_type: int) -> list[tuple[Any, ...]]:
@@ -301,7 +306,7 @@ def test_run_transfer_async() -> None:
         link = QueueLink(srv)
         await lm.run_transfer(new_upload(items(3)), link)
         down = await lm.run_transfer(new_download(), link)
-        assert isinstance(down, Download) and len(down.items) == 3
+        assert isinstance(down, MissionDownload) and len(down.items) == 3
         with pytest.raises(MissionTransferError, match="NO_SPACE"):
             await lm.run_transfer(new_upload(items(51)), link)
 
@@ -332,23 +337,23 @@ def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
     me = (GCS_SYSID, GCS_COMPID)
     timeout_s, retries = CFG.mission_item_timeout_s, CFG.mission_retries
 
-    def up(its: list[WireItem], kind: int = 0) -> Upload:
-        return Upload(its, kind, 1, 1, timeout_s, retries, own_ids=me)
+    def up(its: list[WireItem], kind: int = 0) -> MissionUpload:
+        return MissionUpload(its, kind, 1, 1, timeout_s, retries, own_ids=me)
 
-    def dl(kind: int = 0) -> Download:
-        return Download(kind, 1, 1, timeout_s, retries, own_ids=me)
+    def dl(kind: int = 0) -> MissionDownload:
+        return MissionDownload(kind, 1, 1, timeout_s, retries, own_ids=me)
 
     with running_sim(speedup=1.0) as (sim, url), MavClient(url) as client:
         link = PymavlinkLink(client)
         its = items(5)
         fence = items(4, lm.MAV_MISSION_TYPE_FENCE, command=5001)
 
-        async def go() -> tuple[Download, Download]:
+        async def go() -> tuple[MissionDownload, MissionDownload]:
             await lm.run_transfer(up(its), link)
             await lm.run_transfer(up(fence, lm.MAV_MISSION_TYPE_FENCE), link)
             down = await lm.run_transfer(dl(), link)
             fdown = await lm.run_transfer(dl(lm.MAV_MISSION_TYPE_FENCE), link)
-            assert isinstance(down, Download) and isinstance(fdown, Download)
+            assert isinstance(down, MissionDownload) and isinstance(fdown, MissionDownload)
             return down, fdown
 
         down, fdown = asyncio.run(go())

@@ -15,10 +15,10 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.config import GcsReportConfig, HelixdConfig
 from helixd.link.statustext import StatusTextAssembler
 from helixd.runtime.gcs_report import (
-    Fault,
     GcsReporter,
     PhaseChange,
     Progress,
+    ReportedFault,
     WaypointReached,
     chunk_statustext,
 )
@@ -55,8 +55,8 @@ def test_severities() -> None:
     r = GcsReporter(CFG, 0.0)
     out = r.feed(PhaseChange("run"), 0.0)
     out += r.feed(WaypointReached(2, 10), 0.0)
-    out += r.feed(Fault("pose_stale", "no pose for 0.6 s"), 0.0)
-    out += r.feed(Fault("slip_high", stopped=False), 0.0)
+    out += r.feed(ReportedFault("pose_stale", "no pose for 0.6 s"), 0.0)
+    out += r.feed(ReportedFault("slip_high", stopped=False), 0.0)
     assert texts(out) == [
         (5, "helixd: run"),
         (6, "helixd: reached WP 3/10"),
@@ -69,12 +69,12 @@ def test_severities() -> None:
 def test_long_text_chunked_as_arduplot_does() -> None:
     r = GcsReporter(CFG, 0.0)
     detail = "x" * 92  # "helixd: FAULT f: " is 17 chars → 109 chars: 3 chunks
-    out = r.feed(Fault("f", detail), 0.0)
+    out = r.feed(ReportedFault("f", detail), 0.0)
     assert [len(m.text) for m in out] == [50, 50, 9]
     assert len({int(m.id) for m in out}) == 1 and int(out[0].id) != 0
     assert [int(m.chunk_seq) for m in out] == [0, 1, 2]
     assert texts(out) == [(2, "helixd: FAULT f: " + detail)]
-    out2 = r.feed(Fault("f", detail), 0.0)
+    out2 = r.feed(ReportedFault("f", detail), 0.0)
     assert int(out2[0].id) != int(out[0].id)  # a fresh id per long text
 
 
@@ -118,7 +118,7 @@ def test_rate_limit_with_burst_and_faults_first() -> None:
         out += r.feed(WaypointReached(i, 10), 0.0)
     assert len(out) == 3 and r.queued == 7
     assert r.tick(0.2) == []  # 0.4 token
-    out = r.feed(Fault("stall"), 0.3)  # jumps the queue, still waits for a token
+    out = r.feed(ReportedFault("stall"), 0.3)  # jumps the queue, still waits for a token
     assert out == [] and r.queued == 8
     out = r.tick(0.5)
     assert texts(out) == [(2, "helixd: FAULT stall")]
@@ -136,8 +136,8 @@ def test_queue_overflow_drops_non_faults_and_says_so() -> None:
     r.feed(PhaseChange("a"), 0.0)  # goes out (the burst)
     for i in range(3):
         r.feed(WaypointReached(i, 9), 0.0)
-    r.feed(Fault("one"), 0.0)
-    r.feed(Fault("two"), 0.0)
+    r.feed(ReportedFault("one"), 0.0)
+    r.feed(ReportedFault("two"), 0.0)
     assert r.queued == 3 and r.dropped == 2
     got: list[tuple[int, str]] = []
     for k in range(1, 6):
@@ -172,7 +172,7 @@ def test_named_values_at_rate_and_never_nan() -> None:
 def test_disabled_sends_nothing() -> None:
     r = GcsReporter(GcsReportConfig(enabled=False), 0.0)
     r.feed(Progress(1.0, 1), 0.0)
-    assert r.feed(Fault("x"), 0.0) == [] and r.tick(5.0) == []
+    assert r.feed(ReportedFault("x"), 0.0) == [] and r.tick(5.0) == []
 
 
 def test_config_section_in_top_level() -> None:
@@ -185,7 +185,7 @@ _times = hs.one_of(
 _events = hs.one_of(
     hs.builds(PhaseChange, hs.text(max_size=80)),
     hs.builds(WaypointReached, hs.integers(-5, 10**6), hs.integers(-5, 10**6)),
-    hs.builds(Fault, hs.text(max_size=300), hs.text(max_size=300), hs.booleans()),
+    hs.builds(ReportedFault, hs.text(max_size=300), hs.text(max_size=300), hs.booleans()),
     hs.builds(
         Progress,
         hs.one_of(hs.none(), hs.floats(allow_nan=True, allow_infinity=True)),
@@ -225,7 +225,9 @@ def test_seen_by_a_second_ground_station_through_the_simulated_autopilot() -> No
             asm = StatusTextAssembler(timeout_s=5.0)
             got: list[tuple[int, str]] = []
             names: set[str] = set()
-            long_fault = Fault("pose_stale", "no LOCAL_POSITION_NED for 0.62 s; HOLD requested")
+            long_fault = ReportedFault(
+                "pose_stale", "no LOCAL_POSITION_NED for 0.62 s; HOLD requested"
+            )
             deadline = time.monotonic() + 10.0
             while time.monotonic() < deadline and (len(got) < 2 or len(names) < 2):
                 ours.heartbeat()

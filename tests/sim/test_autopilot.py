@@ -19,7 +19,7 @@ from helixd.mav.constants import (
 from helixd.mav.guard import SCRIPT_NAME, VERSION, script_bytes
 from helixd.sim import estimator, modes
 from helixd.sim import guard as g
-from helixd.sim.autopilot import FORCE_ARM_MAGIC, Autopilot
+from helixd.sim.autopilot import FORCE_ARM_MAGIC, SimAutopilot
 from helixd.sim.config import HELIXD_SYSID, SimConfig
 from helixd.sim.params import ParamStore
 
@@ -29,25 +29,25 @@ NOT_SET = UINT16_MAX  # channels 1–8: leave unchanged
 GCS = HELIXD_SYSID  # the simulator's MAV_GCS_SYSID for helixd (ArduPilot's default is 255)
 
 
-def healthy_ekf() -> estimator.EkfStatus:
+def healthy_ekf() -> estimator.SimEkfStatus:
     profile = SimConfig().noise_profiles.none
     return estimator.ekf_status(estimator.EstimatorState(), profile, True, False)
 
 
-def bad_ekf() -> estimator.EkfStatus:
+def bad_ekf() -> estimator.SimEkfStatus:
     profile = SimConfig().noise_profiles.none
     return estimator.ekf_status(estimator.EstimatorState(), profile, True, True)
 
 
 class Rig:
-    """An Autopilot plus a simulated clock stepping at 50 Hz."""
+    """An SimAutopilot plus a simulated clock stepping at 50 Hz."""
 
     def __init__(self, scripts: dict[str, bytes] | None = None, **config: Any) -> None:
         cfg = SimConfig.model_validate(
             {"boot_duration_s": BOOT_S, "ekf_origin_delay_s": 0.5, "prearm_delay_s": 5.0, **config}
         )
         self.scripts = dict(scripts or {})
-        self.ap = Autopilot(
+        self.ap = SimAutopilot(
             cfg, ParamStore(cfg.params, stored=cfg.guard_params), 0.0, lambda: self.scripts
         )
         self.now = 0.0
@@ -269,7 +269,7 @@ def test_by_default_arming_is_accepted_as_soon_as_home_is_set() -> None:
     arming back, as on ArduPilot once its EKF has a position — so a demo arms without a
     refusal (it used to refuse "waiting for home" for 20 s after home was set)."""
     cfg = SimConfig()
-    ap = Autopilot(cfg, ParamStore(cfg.params), 0.0)
+    ap = SimAutopilot(cfg, ParamStore(cfg.params), 0.0)
     now, ekf = 0.0, healthy_ekf()
     while not ap.home_set(now):
         now = round(now + DT_S, 9)

@@ -321,10 +321,10 @@ def test_order_of_text_and_ack_as_arduplot() -> None:
     srv.handle(0, stamp(count(1)), 0.0)
     out = srv.handle(0, stamp(item(0)), 0.1)
     # transfer_is_complete: complete() says "Flight plan received", then the ACK
-    assert [type(s).__name__ for s in out.steps] == ["StatusText", "tuple"]
+    assert [type(s).__name__ for s in out.steps] == ["SimStatusText", "tuple"]
     out = srv.handle(0, stamp(count(99)), 0.2)
     # handle_mission_count: NO_SPACE ack first, then the text
-    assert [type(s).__name__ for s in out.steps] == ["tuple", "StatusText"]
+    assert [type(s).__name__ for s in out.steps] == ["tuple", "SimStatusText"]
 
 
 def test_reboot_loses_the_upload_keeps_the_mission() -> None:
