@@ -14,7 +14,7 @@ from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.config import HelixdConfig, load_config
 from helixd.files.models import ConfigFileError
 from helixd.mission.model import load_mission
-from helixd.mission.plan import resolve_plan
+from helixd.mission.resolve import resolve_plan
 from tests.support.paths import REPO_ROOT
 
 ROOT = REPO_ROOT

@@ -285,7 +285,7 @@ def test_config_models_provide_what_control_reads(protocol: type, model: object)
 
 def test_mission_loader_loads_nothing_of_the_controller() -> None:
     loaded = loaded_after_import("helixd.mission", "helixd.mission.validate")
-    assert "helixd.mission.plan" in loaded
+    assert "helixd.mission.resolve" in loaded
     bad = {m for m in helixd_modules(loaded) if m.startswith("helixd.control")}
     assert not bad, f"helixd.mission loads {sorted(bad)}"
 

@@ -519,7 +519,7 @@ async def run_daemon_side(
     from helixd.link.connection import Autopilot
     from helixd.link.preflight import check_obedience
     from helixd.mission.model import Mission
-    from helixd.mission.plan import resolve_plan
+    from helixd.mission.resolve import resolve_plan
     from helixd.recorder.rows import FlightRow
     from helixd.recorder.rundir import RunRecorder
     from helixd.recorder.summary import SummaryBuilder

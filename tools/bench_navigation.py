@@ -831,7 +831,7 @@ class TruePoseSampler:
 def _mission_waypoints(mission_path: Path) -> list[tuple[float, float]]:
     from helixd.config import ControlConfig, MissionLimits
     from helixd.mission.model import load_mission
-    from helixd.mission.plan import resolve_plan
+    from helixd.mission.resolve import resolve_plan
 
     plan = resolve_plan(load_mission(mission_path), ControlConfig(), MissionLimits())
     return [(w.x_m, w.y_m) for w in plan.waypoints]
@@ -851,8 +851,8 @@ def run_one(
     import structlog
 
     from helixd.recorder.rows import read_flight_columns
-    from helixd.sim.config import SimConfig
     from helixd.sim.server import start_embedded
+    from helixd.sim.sim_config import SimConfig
 
     structlog.configure(
         wrapper_class=structlog.make_filtering_bound_logger(logging.WARNING),

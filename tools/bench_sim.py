@@ -22,10 +22,10 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink import mavutil
 
-from helixd.sim import streams as st
-from helixd.sim.config import SimConfig
+from helixd.sim import stream_rates as st
 from helixd.sim.core import SimCore
 from helixd.sim.server import start_embedded
+from helixd.sim.sim_config import SimConfig
 
 POSE_INTERVAL_MS = 25
 TELEMETRY_INTERVAL_MS = 100

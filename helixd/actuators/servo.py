@@ -39,7 +39,7 @@ import structlog
 from helixd.actuators.base import ServoCommandRefused, checked_fractions
 from helixd.actuators.mapping import fraction_to_pwm, neutral_pwm
 from helixd.config import ActuationConfig, VehicleConfig
-from helixd.link.commands import CommandRejected, CommandTimeout
+from helixd.link.command_client import CommandRejected, CommandTimeout
 from helixd.mav.constants import MAV_CMD_DO_SET_SERVO
 
 log = structlog.get_logger(__name__)

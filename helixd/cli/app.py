@@ -60,7 +60,7 @@ from helixd.runtime.planned import (
 )
 from helixd.runtime.status import read_status
 from helixd.sim import command as sim_command
-from helixd.sim.config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
+from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
 app = typer.Typer(
     name="helixd",

@@ -17,8 +17,8 @@ from helixd.config import HelixdConfig, LinkConfig, load_config
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
-from helixd.link.ftp import FtpTransferError
-from helixd.link.mission import MissionTransferError
+from helixd.link.ftp_transfer import FtpTransferError
+from helixd.link.mission_transfer import MissionTransferError
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime.inputs import InputsRefused

@@ -16,8 +16,8 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import fail, link_inputs, run_on_link
 from helixd.link.connection import Autopilot
-from helixd.mav.ftp import FtpPayloadError, encode_path
-from helixd.mav.guard import BOARD_SCRIPTS_DIR, POSIX_SCRIPTS_DIR, SCRIPT_NAME
+from helixd.mav.ftp_wire import FtpPayloadError, encode_path
+from helixd.mav.guard_script import BOARD_SCRIPTS_DIR, POSIX_SCRIPTS_DIR, SCRIPT_NAME
 from helixd.runtime.guard_install import GuardInstalled, GuardInstallRefused, install_guard
 
 autopilot_app = typer.Typer(

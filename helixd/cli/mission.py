@@ -44,7 +44,7 @@ from helixd.mission.formats.wpl import wpl_to_text
 from helixd.mission.placed import PlacementError, parse_latlon, placed_with
 from helixd.recorder import export
 from helixd.runtime.placement import place_on_autopilot
-from helixd.runtime.survey import SurveyRefused, survey_lines, survey_mission
+from helixd.runtime.survey_mission import SurveyRefused, survey_lines, survey_mission
 
 T = TypeVar("T")
 

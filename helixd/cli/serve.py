@@ -18,7 +18,7 @@ from helixd.runtime import eventloop
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import load_occupancy
 from helixd.runtime.serve import SERVE_OPTIONS, ServeOptions, serve
-from helixd.sim.config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
+from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
 __all__ = ["register"]
 

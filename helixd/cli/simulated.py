@@ -16,14 +16,20 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from helixd.config import HelixdConfig, KeepOutCircleConfig
-from helixd.mav.guard import HXG_CHANS, HXG_TIMEOUT, MAX_OUTPUT, PARAM_DEFAULTS, TIMEOUT_MAX_MS
+from helixd.mav.guard_script import (
+    HXG_CHANS,
+    HXG_TIMEOUT,
+    MAX_OUTPUT,
+    PARAM_DEFAULTS,
+    TIMEOUT_MAX_MS,
+)
 from helixd.mission.formats import fence_has_keep_outs
 from helixd.mission.formats.items import GcsMission, fence_ne
 from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import rover_half_width_m
-from helixd.sim.config import NoiseLevel, Plant, SimConfig, Terrain
-from helixd.sim.obstacles import ObstacleRaster, SimObstacles
+from helixd.sim.collisions import ObstacleRaster, SimObstacles
 from helixd.sim.server import start_embedded
+from helixd.sim.sim_config import NoiseLevel, Plant, SimConfig, Terrain
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """The action plugin (MAVSDK's shape): arm, disarm, flight mode, RC override, servo, and any
 COMMAND_LONG — the commands the daemon sends to the autopilot. Acknowledgements, re-sends and
-refusal texts are :class:`helixd.link.commands.CommandClient`'s; nothing here decides to stop
+refusal texts are :class:`helixd.link.command_client.CommandClient`'s; nothing here decides to stop
 the rover.
 """
 
@@ -15,7 +15,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
 from helixd.link.codec import MavlinkConnection
-from helixd.link.commands import CommandClient, CommandError, CommandRejected
+from helixd.link.command_client import CommandClient, CommandError, CommandRejected
 from helixd.link.telemetry import ChangeWaiters
 from helixd.link.vehicle import Change, HomePosition, VehicleState, mode_number
 from helixd.mav.constants import (

@@ -13,7 +13,7 @@ the loop thread — no thread hand-over, no extra wake-up. Measured with
 p50 75–90 µs and a busy-loop p99 450–500 µs for a reader thread handing messages over with
 ``call_soon_threadsafe``, at 10–20 % less CPU per message. Draining before any woken coroutine
 runs also keeps already-queued duplicate COMMAND_ACKs away from the next command
-(see :mod:`helixd.link.commands`).
+(see :mod:`helixd.link.command_client`).
 
 Writes never block either: UDP ``sendto`` on a non-blocking socket (a full buffer drops the
 datagram, as the network would), TCP/serial through a bounded write buffer flushed with
@@ -44,7 +44,7 @@ from helixd.link.codec import (
     MavlinkConnection,
     NeverSent,
 )
-from helixd.link.commands import (
+from helixd.link.command_client import (
     AckStats,
     CommandClient,
     CommandError,

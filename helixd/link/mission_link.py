@@ -1,7 +1,7 @@
 """The mission plugin: the mission protocol over the daemon's link, attached to
 :class:`helixd.link.connection.Autopilot` as ``ap.mission`` (``await ap.mission.download()``,
-``await ap.mission.upload(mission, fence)``), over a :class:`helixd.link.mission.MissionLink`
-adapter on the Autopilot's message listener.
+``await ap.mission.upload(mission, fence)``), over a
+:class:`helixd.link.mission_transfer.MissionLink` adapter on the Autopilot's message listener.
 
 Received MISSION_* messages come through the Autopilot's message listener (every message of
 the autopilot's system, already filtered by the codec) into a bounded queue that exists only
@@ -18,7 +18,12 @@ from typing import Any, Protocol
 import structlog
 
 from helixd.config import LinkConfig
-from helixd.link.mission import MissionDownload, MissionTransferError, MissionUpload, run_transfer
+from helixd.link.mission_transfer import (
+    MissionDownload,
+    MissionTransferError,
+    MissionUpload,
+    run_transfer,
+)
 from helixd.mav.constants import (
     MAV_MISSION_TYPE_FENCE,
     MAV_MISSION_TYPE_MISSION,
@@ -167,7 +172,7 @@ class MissionClient:
 
     async def download(self, fence: bool = True) -> Downloaded:
         """The autopilot's mission (seq 0 = home) and, if ``fence``, its fence; raises
-        :class:`helixd.link.mission.MissionTransferError`."""
+        :class:`helixd.link.mission_transfer.MissionTransferError`."""
         ids = _ids(self._host.cfg)
         with AutopilotMissionLink(self._host, self._send) as link:
             grace_s = self._host.cfg.statustext_grace_s
@@ -184,7 +189,8 @@ class MissionClient:
         self, mission: tuple[MissionItem, ...], fence: tuple[MissionItem, ...] | None
     ) -> None:
         """Upload the mission, then (unless None) the fence — an empty fence clears it, as QGC
-        does for a plan without one. Raises :class:`helixd.link.mission.MissionTransferError`."""
+        does for a plan without one. Raises
+        :class:`helixd.link.mission_transfer.MissionTransferError`."""
         ids = _ids(self._host.cfg)
         with AutopilotMissionLink(self._host, self._send) as link:
             grace_s = self._host.cfg.statustext_grace_s

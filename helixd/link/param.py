@@ -1,12 +1,12 @@
 """The param plugin (MAVSDK's shape): read and write autopilot parameters by name.
 
 PARAM_REQUEST_READ / PARAM_SET with their answers matched and re-sent by
-:class:`helixd.link.commands.CommandClient`.
+:class:`helixd.link.command_client.CommandClient`.
 """
 
 from __future__ import annotations
 
-from helixd.link.commands import CommandClient
+from helixd.link.command_client import CommandClient
 
 
 class Param:

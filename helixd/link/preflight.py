@@ -31,7 +31,7 @@ What is checked (ArduPilot Rover, DESIGN §3):
   :data:`helixd.mav.servo_functions.DO_SET_SERVO_FUNCTIONS` (0, 1, 22, 23, 28, 51–66, 140–155)
   → error; anything but 0 also feeds the output from elsewhere → warning.
 * ``FS_GCS_ENABLE`` = 0 → warning: nothing on the autopilot notices a dead helixd.
-* helixd-guard (the dead-man switch on the autopilot, :mod:`helixd.mav.guard`): its
+* helixd-guard (the dead-man switch on the autopilot, :mod:`helixd.mav.guard_script`): its
   parameters say whether it runs (HXG_VERSION exists), in this helixd's version, enabled
   (HXG_ENABLE), guarding every scroll output (HXG_CHAN1..4), and whether helixd refreshes
   ``gcs:last_seen()`` often enough for HXG_TIMEOUT (one lost message tolerated: period × 2.5
@@ -50,7 +50,7 @@ from typing import Literal, Protocol, runtime_checkable
 
 from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
 from helixd.link.ownid import OwnIdSenders
-from helixd.mav.guard import (
+from helixd.mav.guard_script import (
     HXG_CHANS,
     HXG_ENABLE,
     HXG_TIMEOUT,

@@ -29,7 +29,7 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
-from helixd.link.commands import (
+from helixd.link.command_client import (
     ALL_RESULTS,
     CommandError,
     result_name,

@@ -30,7 +30,7 @@ from helixd.base.plan import MissionFrameKind, Numbering, Plan
 from helixd.base.run_files import INPUTS_FILE
 from helixd.config import ControlConfig, MissionLimits
 from helixd.mission.model import Mission, WaypointSpec
-from helixd.mission.plan import resolve_plan
+from helixd.mission.resolve import resolve_plan
 
 INPUTS_FORMAT = 1
 WAYPOINT_REACHED_EVENT = "waypoint_reached"

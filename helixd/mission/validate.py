@@ -31,7 +31,7 @@ from helixd.config import HelixdConfig
 from helixd.mission.commands import SERVO_COMMANDS, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
-from helixd.mission.plan import NOWHERE, PlanError, Resolved, Where, resolve, resolve_plan
+from helixd.mission.resolve import NOWHERE, PlanError, Resolved, Where, resolve, resolve_plan
 
 MAX_LISTED = 5  # offending waypoints named one by one; the rest are counted
 

@@ -41,7 +41,7 @@ from helixd.base.run_files import CONFIG_FILE, EVENTS_FILE, FLIGHT_FILE, MISSION
 from helixd.config import load_config
 from helixd.files.models import ConfigFileError
 from helixd.mission.model import load_mission
-from helixd.mission.plan import PlanError, resolve_plan
+from helixd.mission.resolve import PlanError, resolve_plan
 from helixd.mission.resume import with_leg_start
 from helixd.recorder.clocks import autopilot_axis_s
 from helixd.recorder.events import fault_time_mono_s, read_events

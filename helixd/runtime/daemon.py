@@ -41,7 +41,7 @@ from helixd.base.plan import MissionFrameKind, Numbering, Plan, mission_item_of
 from helixd.base.run_files import TLOG_FILE
 from helixd.config import ActuationBackend, HelixdConfig, config_to_yaml
 from helixd.control.sequencer import SequencerEvent
-from helixd.link.commands import CommandError, CommandRejected
+from helixd.link.command_client import CommandError, CommandRejected
 from helixd.link.connection import Autopilot
 from helixd.link.preflight import check_obedience
 from helixd.link.tlog import attach_tlog
@@ -56,7 +56,7 @@ from helixd.mav.url import LinkError
 from helixd.mission.commands import SERVO_COMMANDS, command_name, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
-from helixd.mission.plan import PlanError, Where, resolve
+from helixd.mission.resolve import PlanError, Where, resolve
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs, with_leg_start
 from helixd.mission.validate import apply_mission_limits
 from helixd.recorder.rows import FlightRow

@@ -5,14 +5,14 @@ Steps, on a short link session (:func:`install_guard`):
 
 1. ``SCR_ENABLE`` must exist: firmware built without Lua scripting has no such parameter, and
    nothing is copied then.
-2. The scripts directory (ArduPilot ``SCRIPTING_DIRECTORY``, see :mod:`helixd.mav.guard`): given,
-   or found with MAVLink FTP ListDirectory probes — ``/APM/scripts`` (an SD card: scripting was
-   already on), else ``scripts`` (SITL or a Linux board, relative to the autopilot's working
-   directory), else ``/APM`` exists (an SD card where scripting never ran: ``/APM/scripts`` is
-   made), else ``scripts``.
-3. The packaged script (:func:`helixd.mav.guard.script_bytes`) is uploaded over MAVLink FTP
-   (:class:`helixd.link.ftp.FtpUpload`: missing directories made, the autopilot's CRC32 of the
-   written file compared with the bytes sent).
+2. The scripts directory (ArduPilot ``SCRIPTING_DIRECTORY``, see
+   :mod:`helixd.mav.guard_script`): given, or found with MAVLink FTP ListDirectory probes —
+   ``/APM/scripts`` (an SD card: scripting was already on), else ``scripts`` (SITL or a Linux
+   board, relative to the autopilot's working directory), else ``/APM`` exists (an SD card
+   where scripting never ran: ``/APM/scripts`` is made), else ``scripts``.
+3. The packaged script (:func:`helixd.mav.guard_script.script_bytes`) is uploaded over MAVLink FTP
+   (:class:`helixd.link.ftp_transfer.FtpUpload`: missing directories made, the autopilot's
+   CRC32 of the written file compared with the bytes sent).
 4. ``SCR_ENABLE`` set to 1 if it was not (confirmed by the autopilot's PARAM_VALUE).
 
 The script loads only when the autopilot boots: the caller says so. ``HXG_VERSION`` tells which
@@ -26,9 +26,9 @@ from typing import Protocol
 
 import structlog
 
-from helixd.link.ftp import DirectoryProbe, FtpUpload
 from helixd.link.ftp_link import FtpClient
-from helixd.mav.guard import (
+from helixd.link.ftp_transfer import DirectoryProbe, FtpUpload
+from helixd.mav.guard_script import (
     BOARD_SCRIPTS_DIR,
     HXG_VERSION,
     POSIX_SCRIPTS_DIR,
@@ -101,7 +101,7 @@ async def find_scripts_dir(ap: FtpPluginHost) -> str:
 
 async def install_guard(ap: GuardHost, scripts_dir: str | None = None) -> GuardInstalled:
     """Steps 1–4; raises :class:`GuardInstallRefused`, or the link's and FTP's own errors
-    (:class:`helixd.mav.url.LinkError`, :class:`helixd.link.ftp.FtpTransferError`)."""
+    (:class:`helixd.mav.url.LinkError`, :class:`helixd.link.ftp_transfer.FtpTransferError`)."""
     before = await ap.param.get(SCR_ENABLE)
     if before is None:
         raise GuardInstallRefused(

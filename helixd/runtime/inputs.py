@@ -29,7 +29,7 @@ from helixd.mission.formats import (
 from helixd.mission.formats.items import FormatError, GcsMission
 from helixd.mission.locate import MissionNotFound, locate_mission
 from helixd.mission.model import Mission
-from helixd.mission.plan import PlanError
+from helixd.mission.resolve import PlanError
 from helixd.mission.resume import (
     ResumeRefused,
     RunInputs,

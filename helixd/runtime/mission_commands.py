@@ -21,7 +21,7 @@ from typing import Protocol
 import structlog
 
 from helixd.base.plan import MissionAction
-from helixd.link.commands import CommandError, CommandRejected, result_name
+from helixd.link.command_client import CommandError, CommandRejected, result_name
 from helixd.mission.commands import command_name
 
 log = structlog.get_logger(__name__)

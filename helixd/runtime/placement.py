@@ -8,7 +8,7 @@ import contextlib
 import time
 
 from helixd.base.plan import MissionFrameKind
-from helixd.link.commands import CommandError
+from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import (
     MAV_CMD_REQUEST_MESSAGE,

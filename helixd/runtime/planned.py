@@ -22,7 +22,7 @@ from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import fence_has_keep_outs
 from helixd.mission.formats.items import GcsMission, fence_ne, keep_out_problems
 from helixd.mission.model import Mission
-from helixd.mission.plan import PlanError
+from helixd.mission.resolve import PlanError
 from helixd.mission.resume import RunInputs, fresh_inputs
 from helixd.mission.validate import plan_for_check
 from helixd.planning.fence import plan_global_mission

@@ -30,9 +30,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
-from helixd.link.commands import CommandError
+from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
-from helixd.link.mission import MissionTransferError
+from helixd.link.mission_transfer import MissionTransferError
 from helixd.mav.constants import (
     MAV_RESULT_ACCEPTED,
     MAV_SEVERITY_ERROR,

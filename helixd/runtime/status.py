@@ -14,7 +14,7 @@ import time
 
 from helixd.base.frames import ne_to_latlon
 from helixd.config import LinkConfig, SafetyConfig
-from helixd.link.commands import CommandError
+from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import Change, VehicleState
 from helixd.mav.constants import MAV_CMD_REQUEST_MESSAGE, MAVLINK_MSG_ID_GPS_RAW_INT

@@ -25,7 +25,7 @@ from helixd.config import ControlConfig, HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
-from helixd.mission.plan import NOWHERE, PlanError, Where, resolve_plan
+from helixd.mission.resolve import NOWHERE, PlanError, Where, resolve_plan
 from helixd.mission.validate import apply_mission_limits, mission_problems, plan_for_check
 
 _EstimateKey = tuple[Plan, ControlConfig, tuple[float, float] | None, float | None]

@@ -2,7 +2,7 @@
 
 Public API::
 
-    from helixd.sim.config import SimConfig
+    from helixd.sim.sim_config import SimConfig
     from helixd.sim.server import start_embedded
     server, url = start_embedded(SimConfig(noise="none", speedup=10))
     ...  # helixd opens ``url``

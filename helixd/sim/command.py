@@ -15,9 +15,9 @@ from pydantic import ValidationError
 
 from helixd.base.exitcodes import ExitCode
 from helixd.files.models import ConfigFileError, format_validation_error, load_yaml_model
-from helixd.sim.config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, SimConfig, Terrain
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
 from helixd.sim.server import SimServer
+from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, SimConfig, Terrain
 
 log = structlog.get_logger(__name__)
 

@@ -13,18 +13,24 @@ from typing import Protocol
 
 import numpy as np
 
-from helixd.mav.guard import SCR_ENABLE
-from helixd.sim import estimator, obstacles, physics, skid, telemetry
-from helixd.sim import streams as st
-from helixd.sim.autopilot import ScriptReader, SimAutopilot, SimEvent, SimStatusText, no_scripts
-from helixd.sim.config import Plant, SimConfig
+from helixd.mav.guard_script import SCR_ENABLE
+from helixd.sim import collisions, estimator, physics, skid, vehicle_reports
+from helixd.sim import stream_rates as st
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
 from helixd.sim.inbound import InboundHandler
 from helixd.sim.messages import STATUSTEXT_LEN, Message, file_transfer_protocol, statustexts
-from helixd.sim.mission import MissionServer, Outcome
+from helixd.sim.mission_server import MissionServer, Outcome
 from helixd.sim.modes import MODE_NUMBERS
-from helixd.sim.params import ParamStore
+from helixd.sim.param_store import ParamStore
 from helixd.sim.physics import MotorMap
+from helixd.sim.rover_firmware import (
+    ScriptReader,
+    SimAutopilot,
+    SimEvent,
+    SimStatusText,
+    no_scripts,
+)
+from helixd.sim.sim_config import Plant, SimConfig
 from helixd.sim.state import PhysicsState
 
 PARAMS_PER_LOOP = 2  # PARAM_REQUEST_LIST streaming pace (ArduPilot rate-limits it too)
@@ -33,7 +39,8 @@ SWITCH_POSITION_PWM_US = (1100, 1295, 1425, 1555, 1685, 1900)
 
 
 class FtpHandler(Protocol):
-    """The autopilot's MAVLink FTP server (helixd.sim.ftp.FtpServer over its working directory)."""
+    """The autopilot's MAVLink FTP server (helixd.sim.ftp_server.FtpServer over its working
+    directory)."""
 
     def handle(
         self, payload: bytes, *, sysid: int, compid: int, now_s: float, link: int = 0
@@ -80,7 +87,7 @@ class SimCore:
             yaw_ned_rad=config.initial_yaw_ned_rad,
         )
         self.est = estimator.EstimatorState()
-        self._contact = False  # rover body touching an obstacle (helixd.sim.obstacles)
+        self._contact = False  # rover body touching an obstacle (helixd.sim.collisions)
         self.motor = MotorMap(
             config.motor_pwm_min_us,
             config.motor_pwm_trim_us,
@@ -282,7 +289,7 @@ class SimCore:
             if old != new:
                 self.events.append(SimEvent("output", {"channel": i + 1, "pwm_us": new}))
         self.outputs_us = outputs
-        self.phys, self._contact, contact = obstacles.contact_step(
+        self.phys, self._contact, contact = collisions.contact_step(
             self.config.obstacles, self.phys, self._plant_step(outputs), self._contact
         )
         if contact is not None:
@@ -302,7 +309,7 @@ class SimCore:
             if self._origin_sent:
                 pushed.append(st.MSG_GPS_GLOBAL_ORIGIN)
             for msg_id in pushed:
-                built = telemetry.build(msg_id, self.view)
+                built = vehicle_reports.build(msg_id, self.view)
                 if built is not None:
                     self.send(None, built)
         if self._was_armed and not self.ap.armed:
@@ -343,11 +350,11 @@ class SimCore:
             stalled=stalled,
         )
 
-    def _view(self, ekf: estimator.SimEkfStatus, now: float) -> telemetry.TelemetryView:
+    def _view(self, ekf: estimator.SimEkfStatus, now: float) -> vehicle_reports.TelemetryView:
         ap, cfg = self.ap, self.config
         gps_n, gps_e = estimator.gps_fix(self.est, self.phys)
         profile = cfg.noise_profile()
-        return telemetry.TelemetryView(
+        return vehicle_reports.TelemetryView(
             time_boot_ms=ap.time_boot_ms(now),
             mode=ap.mode,
             armed=ap.armed,
@@ -382,19 +389,19 @@ class SimCore:
         view = self.view
         if view.origin_set and not self._origin_sent:
             self._origin_sent = True
-            origin = telemetry.build(st.MSG_GPS_GLOBAL_ORIGIN, view)
+            origin = vehicle_reports.build(st.MSG_GPS_GLOBAL_ORIGIN, view)
             if origin is not None:
                 self.send(None, origin)
         hidden: set[int] = set()
         if self.faults.on("stale_pose"):
-            hidden |= telemetry.POSE_MESSAGES
+            hidden |= vehicle_reports.POSE_MESSAGES
             if self.faults.args["stale_pose"].get("attitude"):
                 hidden.add(st.MSG_ATTITUDE)
         for i, link in enumerate(self.links):
             for msg_id in link.streams.due(now):
                 if msg_id in hidden or (view.booting and msg_id != st.MSG_HEARTBEAT):
                     continue
-                msg = telemetry.build(msg_id, view, self.faults)
+                msg = vehicle_reports.build(msg_id, view, self.faults)
                 if msg is not None:
                     self.send(i, msg)
             for _ in range(PARAMS_PER_LOOP):

@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from helixd.base.angles import wrap_pi
-from helixd.sim.config import NoiseProfile
+from helixd.sim.sim_config import NoiseProfile
 from helixd.sim.state import PhysicsState
 
 EKF_ATTITUDE = 1

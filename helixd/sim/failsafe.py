@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from helixd.sim.params import ParamStore
+from helixd.sim.param_store import ParamStore
 
 FAILSAFE_EVENT_THROTTLE = 1 << 0
 FAILSAFE_EVENT_GCS = 1 << 1

@@ -8,8 +8,8 @@ Routing as ArduPilot's MAVLink_routing::check_and_forward: a message carrying a
 target_system is processed only when it is 0 (broadcast) or our sysid, and for our sysid only
 when target_component is 0 or ours. Commands come back with COMMAND_ACK to the sender's
 link; unknown commands → MAV_RESULT_UNSUPPORTED. MAV_CMD_DO_SET_MISSION_CURRENT goes to the
-mission (helixd.sim.mission); what it queues (MISSION_CURRENT, jump texts) follows the ACK, as
-ArduPilot's deferred ``send_message`` does. PARAM_SET answers with PARAM_VALUE on every
+mission (helixd.sim.mission_server); what it queues (MISSION_CURRENT, jump texts) follows the
+ACK, as ArduPilot's deferred ``send_message`` does. PARAM_SET answers with PARAM_VALUE on every
 link (GCS::send_parameter_value); an unknown name gets no answer at all.
 """
 
@@ -29,14 +29,14 @@ from helixd.mav.constants import (
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
 )
-from helixd.mav.ftp import FtpPayloadError, from_message
-from helixd.sim import messages, telemetry
-from helixd.sim import streams as st
-from helixd.sim.autopilot import SimAutopilot, SimEvent, SimStatusText
+from helixd.mav.ftp_wire import FtpPayloadError, from_message
+from helixd.sim import messages, vehicle_reports
+from helixd.sim import stream_rates as st
 from helixd.sim.estimator import SimEkfStatus
 from helixd.sim.messages import Message
-from helixd.sim.mission import MissionServer, Outcome
-from helixd.sim.params import ParamStore
+from helixd.sim.mission_server import MissionServer, Outcome
+from helixd.sim.param_store import ParamStore
+from helixd.sim.rover_firmware import SimAutopilot, SimEvent, SimStatusText
 
 MISSION_MESSAGES = MissionServer.MESSAGES
 
@@ -69,7 +69,7 @@ class InboundPort(Protocol):
     @property
     def now_s(self) -> float: ...
     @property
-    def view(self) -> telemetry.TelemetryView: ...
+    def view(self) -> vehicle_reports.TelemetryView: ...
 
     def ekf_status(self) -> SimEkfStatus: ...
     def streams(self, link: int) -> st.StreamSchedule:
@@ -94,7 +94,7 @@ class InboundPort(Protocol):
         ...
 
     def mission_message(self, link: int, msg: Message) -> None:
-        """A MISSION_* message for the mission protocol (helixd.sim.mission)."""
+        """A MISSION_* message for the mission protocol (helixd.sim.mission_server)."""
         ...
 
     def set_mission_current(self, link: int, param1: float, param2: float) -> tuple[int, Outcome]:
@@ -231,7 +231,7 @@ class InboundHandler:
             msg_id = int(p[0])
             if msg_id not in st.KNOWN_MESSAGES:
                 return MAV_RESULT_FAILED
-            built = telemetry.build(msg_id, core.view)
+            built = vehicle_reports.build(msg_id, core.view)
             if built is not None:
                 core.send(link, built)
             return MAV_RESULT_ACCEPTED

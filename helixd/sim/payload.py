@@ -49,7 +49,7 @@ from helixd.mav.constants import (
     MAV_RESULT_UNSUPPORTED,
 )
 from helixd.sim.outputs import ServoOutputs
-from helixd.sim.params import ParamStore
+from helixd.sim.param_store import ParamStore
 
 NUM_RELAYS = 6  # RELAY1..RELAY6 as the simulator models them
 RELAY_FUNCTION_RELAY = 1

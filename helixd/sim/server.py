@@ -13,7 +13,7 @@ a ground station on one link is heard on the others.
 
 The autopilot's working directory (``SimConfig.workdir``, or a temporary directory made for
 the run and removed at :meth:`SimServer.stop`) is SITL's: MAVLink FTP serves it
-(:class:`helixd.sim.ftp.FtpServer`, as ArduPilot's GCS_FTP over ``AP_Filesystem``), and the
+(:class:`helixd.sim.ftp_server.FtpServer`, as ArduPilot's GCS_FTP over ``AP_Filesystem``), and the
 Lua scripts in its ``scripts/`` are read when the autopilot boots. With
 ``guard_installed`` the shell writes helixd-guard.lua there before the first boot.
 """
@@ -38,12 +38,12 @@ import structlog
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.mav.guard import POSIX_SCRIPTS_DIR, SCRIPT_NAME, script_bytes
-from helixd.sim.config import SimConfig
+from helixd.mav.guard_script import POSIX_SCRIPTS_DIR, SCRIPT_NAME, script_bytes
 from helixd.sim.core import SimCore
 from helixd.sim.faults import make_spec
-from helixd.sim.ftp import FtpServer
+from helixd.sim.ftp_server import FtpServer
 from helixd.sim.inbound import Router
+from helixd.sim.sim_config import SimConfig
 from helixd.sim.snapshot import History, HistoryEntry, SimSnapshot, take_snapshot
 
 log = structlog.get_logger(__name__)

@@ -16,7 +16,7 @@ from helixd.mav.constants import (
 from helixd.sim import modes
 from helixd.sim.core import SimCore
 from helixd.sim.forward import radps_to_rpm
-from helixd.sim.mission import StoredItem
+from helixd.sim.mission_server import StoredItem
 
 
 @dataclass(frozen=True, slots=True)
@@ -60,7 +60,7 @@ class SimSnapshot:
     gcs_heartbeats_seen: int
     gcs_last_seen_s: float | None
     terrain: str
-    # the stored mission protocol items (helixd.sim.mission); row 0 of the mission is home
+    # the stored mission protocol items (helixd.sim.mission_server); row 0 of the mission is home
     mission_items: tuple[StoredItem, ...] = ()
     fence_items: tuple[StoredItem, ...] = ()
     rally_items: tuple[StoredItem, ...] = ()

@@ -16,7 +16,7 @@ from helixd.actuators.factory import make_sink
 from helixd.actuators.rc_override import RcOverrideSink
 from helixd.actuators.servo import ServoSink
 from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, VehicleConfig
-from helixd.link.commands import CommandError
+from helixd.link.command_client import CommandError
 from tests.support.peer import HELIXD_SYSID, AutopilotPeer, OverrideRecord, linked, stays, until
 
 SET_SERVO = mavlink.MAV_CMD_DO_SET_SERVO

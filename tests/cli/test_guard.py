@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.mav.guard import VERSION, script_bytes
+from helixd.mav.guard_script import VERSION, script_bytes
 from tests.support.cli import run_main
 from tests.support.harness import running_sim
 

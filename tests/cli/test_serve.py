@@ -8,7 +8,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.sim.config import SimConfig
+from helixd.sim.sim_config import SimConfig
 from tests.support.cli import run_main
 from tests.support.simcore import EmbeddedStart
 

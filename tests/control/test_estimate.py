@@ -26,7 +26,7 @@ from helixd.control.estimate import (
 from helixd.control.navigator import Navigator
 from helixd.control.sequencer import Sequencer, SequencerOutput
 from helixd.mission.model import Mission, load_mission
-from helixd.mission.plan import resolve_plan
+from helixd.mission.resolve import resolve_plan
 from helixd.planning.mapfile import load_map
 from helixd.planning.route import plan_mission
 from tests.support.ideal_plant import IdealPlant

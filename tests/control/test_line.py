@@ -22,7 +22,7 @@ from helixd.config import ControlConfig, HelixdConfig
 from helixd.control import line
 from helixd.control.navigator import Navigator, NavState
 from helixd.mission.model import load_mission
-from helixd.mission.plan import resolve_plan
+from helixd.mission.resolve import resolve_plan
 from helixd.mission.shapes import survey_block
 from tests.support.ideal_plant import IdealPlant
 from tests.support.paths import REPO_ROOT

@@ -19,7 +19,7 @@ from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
 from helixd.control.estimate import estimate_time
 from helixd.control.navigator import Navigator, NavState
 from helixd.mission.model import load_mission
-from helixd.mission.plan import resolve_plan
+from helixd.mission.resolve import resolve_plan
 from tests.support.ideal_plant import IdealPlant
 from tests.support.paths import REPO_ROOT
 

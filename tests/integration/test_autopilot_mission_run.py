@@ -19,8 +19,8 @@ import yaml
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import latlon_to_ne
-from helixd.sim.config import SimConfig
 from helixd.sim.server import SimServer
+from helixd.sim.sim_config import SimConfig
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
 from tests.support.harness import BASE_CONFIG, MISSIONS, SPEEDUP, running_sim, secured

@@ -18,7 +18,7 @@ from helixd.mission.model import GroundSpec, load_mission
 from helixd.mission.validate import apply_mission_limits, plan_for_check
 from helixd.recorder.export import load_run_export
 from helixd.runtime.timing import plan_time_estimate
-from helixd.sim.config import SimConfig, Terrain
+from helixd.sim.sim_config import SimConfig, Terrain
 from tests.support.harness import (
     NEUTRAL_US,
     SPEEDUP,

@@ -12,7 +12,7 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import latlon_to_ne
-from helixd.sim.config import SimConfig
+from helixd.sim.sim_config import SimConfig
 from tests.support.harness import secured, sim_and_daemon
 from tests.support.paths import DATA_DIR
 

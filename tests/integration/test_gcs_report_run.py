@@ -14,7 +14,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.sim.config import HELIXD_SYSID
+from helixd.sim.sim_config import HELIXD_SYSID
 from tests.support.daemon import DaemonProc
 from tests.support.harness import (
     SPEEDUP,

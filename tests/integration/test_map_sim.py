@@ -21,9 +21,9 @@ from PIL import Image
 
 import helixd.cli.simulated
 from helixd.base.exitcodes import ExitCode
-from helixd.sim.config import SimConfig
-from helixd.sim.obstacles import SimObstacles, distance_m
+from helixd.sim.collisions import SimObstacles, distance_m
 from helixd.sim.server import SimServer
+from helixd.sim.sim_config import SimConfig
 from tests.support.harness import BASE_CONFIG, SPEEDUP, Trace, record_until, secured
 
 pytestmark = pytest.mark.integration

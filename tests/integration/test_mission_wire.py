@@ -22,7 +22,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import latlon_to_ne
 from helixd.mission.formats import read_gcs
 from helixd.mission.formats.items import GcsMission, MissionItem
-from helixd.sim.config import HELIXD_SYSID, SimConfig
+from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 from tests.support.harness import (
     FORCE_ARM,
     MAV_CMD_COMPONENT_ARM_DISARM,

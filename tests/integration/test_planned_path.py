@@ -15,7 +15,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.sim.obstacles import SimObstacles, distance_m
+from helixd.sim.collisions import SimObstacles, distance_m
 from tests.support.harness import record_until, secured, sim_and_daemon
 
 pytestmark = pytest.mark.integration

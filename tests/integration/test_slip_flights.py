@@ -10,7 +10,7 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.recorder.rows import read_flight_columns
-from helixd.sim.config import TerrainTable
+from helixd.sim.sim_config import TerrainTable
 from tests.support.harness import sim_and_daemon
 
 pytestmark = pytest.mark.integration

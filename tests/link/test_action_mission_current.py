@@ -8,7 +8,7 @@ import time
 import pytest
 
 from helixd.config import LinkConfig, SafetyConfig
-from helixd.link.commands import CommandRejected
+from helixd.link.command_client import CommandRejected
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import Change, VehicleState
 from helixd.mav.constants import (

@@ -8,7 +8,7 @@ import math
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.link.commands import CommandTimeout
+from helixd.link.command_client import CommandTimeout
 from tests.support.peer import Reply, linked, until
 
 SET_MODE = mavlink.MAV_CMD_DO_SET_MODE

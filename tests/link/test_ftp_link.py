@@ -12,9 +12,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
 from helixd.link.connection import Autopilot
-from helixd.link.ftp import DirectoryProbe, FtpUpload
 from helixd.link.ftp_link import AutopilotFtpLink
-from helixd.mav.ftp import FtpOp, FtpPayload, crc32_ardupilot, to_message
+from helixd.link.ftp_transfer import DirectoryProbe, FtpUpload
+from helixd.mav.ftp_wire import FtpOp, FtpPayload, crc32_ardupilot, to_message
 from tests.support.harness import running_sim
 from tests.support.peer import safety_config
 

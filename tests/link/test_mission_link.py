@@ -16,11 +16,11 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
-from helixd.link.mission import MissionTransferError
 from helixd.link.mission_link import AutopilotMissionLink, MissionClient
+from helixd.link.mission_transfer import MissionTransferError
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import WireItem as WireItem
-from helixd.sim.mission import MissionServer
+from helixd.sim.mission_server import MissionServer
 
 CFG = LinkConfig(mission_item_timeout_s=0.2, mission_retries=2)
 GCS = (CFG.source_system, CFG.source_component)

@@ -8,7 +8,7 @@ import pytest
 
 from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, LinkConfig
 from helixd.link.preflight import check_obedience, judge
-from helixd.mav.guard import PARAM_DEFAULTS as GUARD_DEFAULTS
+from helixd.mav.guard_script import PARAM_DEFAULTS as GUARD_DEFAULTS
 from tests.support.peer import HELIXD_SYSID, linked
 
 RC = ActuationConfig()  # rc_override on channels 1..4

@@ -8,7 +8,7 @@ import pytest
 from helixd.config import HelixdConfig
 from helixd.mission.describe import program_lines, step_end_times_s
 from helixd.mission.model import Mission
-from helixd.mission.plan import resolve
+from helixd.mission.resolve import resolve
 
 CFG = HelixdConfig()
 

@@ -13,7 +13,7 @@ from helixd.base.plan import ActionKind, Plan
 from helixd.config import HelixdConfig
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.model import Mission
-from helixd.mission.plan import Resolved, Where, resolve
+from helixd.mission.resolve import Resolved, Where, resolve
 
 CFG = HelixdConfig()
 

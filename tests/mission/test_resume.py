@@ -17,7 +17,7 @@ from helixd.base.run_files import INPUTS_FILE
 from helixd.config import HelixdConfig, config_to_yaml
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission
-from helixd.mission.plan import resolve_plan
+from helixd.mission.resolve import resolve_plan
 from helixd.mission.resume import (
     ResumeRefused,
     check_inputs,

@@ -8,9 +8,9 @@ import pytest
 
 from helixd.actuators.base import ServoCommandRefused
 from helixd.base.exitcodes import ExitCode
-from helixd.link.commands import CommandRejected, CommandTimeout
+from helixd.link.command_client import CommandRejected, CommandTimeout
 from helixd.mav.url import LinkError
-from helixd.mission.plan import PlanError
+from helixd.mission.resolve import PlanError
 from helixd.runtime.daemon import (
     EXIT_RULES,
     Ending,

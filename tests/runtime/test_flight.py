@@ -19,11 +19,11 @@ from hypothesis import strategies as st
 from helixd.actuators.base import ServoCommandRefused
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.config import HelixdConfig
-from helixd.link.commands import CommandRejected
+from helixd.link.command_client import CommandRejected
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.vehicle import Change, PoseSample, VehicleState
 from helixd.mission.model import Mission
-from helixd.mission.plan import resolve_plan
+from helixd.mission.resolve import resolve_plan
 from helixd.runtime.flight import FlightLoop, StepReport, ceiling_next_due
 from helixd.runtime.flight_report import StepJournal, flight_row
 from helixd.runtime.signals import StopRequest

@@ -14,12 +14,12 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
-from helixd.link.ftp import FtpTransferError
 from helixd.link.ftp_link import FtpClient
-from helixd.mav.ftp import FtpOp, FtpPayload, from_message, to_message
-from helixd.mav.guard import script_bytes
+from helixd.link.ftp_transfer import FtpTransferError
+from helixd.mav.ftp_wire import FtpOp, FtpPayload, from_message, to_message
+from helixd.mav.guard_script import script_bytes
 from helixd.runtime.guard_install import GuardInstallRefused, find_scripts_dir, install_guard
-from helixd.sim.ftp import FtpServer
+from helixd.sim.ftp_server import FtpServer
 
 CFG = LinkConfig()
 GCS = (CFG.source_system, CFG.source_component)

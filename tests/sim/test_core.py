@@ -12,9 +12,9 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.mav.constants import GCS_CONTACT_MESSAGE_IDS
-from helixd.mav.ftp import FtpOp, FtpPayload, from_message, to_message
+from helixd.mav.ftp_wire import FtpOp, FtpPayload, from_message, to_message
 from helixd.sim.faults import FaultError, make_spec, parse_fault
-from helixd.sim.ftp import FtpServer
+from helixd.sim.ftp_server import FtpServer
 from tests.support.simcore import command, incoming, make_core, of_type, run
 
 

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 import helixd.sim.inbound as inbound
-from helixd.sim.config import SimConfig
 from helixd.sim.core import SimCore
+from helixd.sim.sim_config import SimConfig
 
 
 def imported_modules(path: Path) -> set[str]:

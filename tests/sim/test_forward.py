@@ -23,8 +23,8 @@ from helixd.base.geometry import BodyVelocity, NonFiniteError
 from helixd.base.plan import MotionMode
 from helixd.config import VehicleConfig
 from helixd.sim import forward
-from helixd.sim.config import SimConfig, Terrain
 from helixd.sim.physics import step
+from helixd.sim.sim_config import SimConfig, Terrain
 from helixd.sim.state import PhysicsState
 
 VEHICLE = VehicleConfig()

@@ -30,8 +30,8 @@ from helixd.mav.constants import (
     MISSION_STATE_NO_MISSION,
     MISSION_STATE_NOT_STARTED,
 )
-from helixd.sim import streams as st
-from helixd.sim.mission import MissionServer, Outcome
+from helixd.sim import stream_rates as st
+from helixd.sim.mission_server import MissionServer, Outcome
 from tests.support.simcore import incoming, make_core, of_type, run
 
 GCS = (255, 190)

@@ -1,4 +1,4 @@
-"""The simulator's map: a raster of solid cells (helixd.sim.obstacles.ObstacleRaster) that the
+"""The simulator's map: a raster of solid cells (helixd.sim.collisions.ObstacleRaster) that the
 rover stops against, and what ``helixd run --sim --map`` hands the embedded simulator."""
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.sim.config import SimConfig
+from helixd.sim.collisions import ObstacleRaster, SimObstacles, distance_m
 from helixd.sim.core import SimCore
-from helixd.sim.obstacles import ObstacleRaster, SimObstacles, distance_m
+from helixd.sim.sim_config import SimConfig
 from tests.support.simcore import EmbeddedStart, assert_step_never_closer, capture_embedded_start
 
 # 0.1 m cells from (north 0, east -5), 120 rows × 100 cols: north 0..12, east -5..5
@@ -177,7 +177,7 @@ def test_run_sim_map_hands_the_world_to_the_embedded_simulator(
 
 def test_the_simulator_loads_nothing_of_planning() -> None:
     code = (
-        "import sys, helixd.sim, helixd.sim.obstacles, helixd.sim.command;"
+        "import sys, helixd.sim, helixd.sim.collisions, helixd.sim.command;"
         "bad = sorted(m for m in sys.modules if m.startswith(('helixd.planning', "
         "'helixd.control')));"
         "print(bad); assert not bad"

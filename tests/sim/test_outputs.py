@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from helixd.sim.config import SimConfig
 from helixd.sim.outputs import MotorDemand, ServoOutputs
-from helixd.sim.params import ParamStore
+from helixd.sim.param_store import ParamStore
+from helixd.sim.sim_config import SimConfig
 
 RADIO = [1500] * 16
 

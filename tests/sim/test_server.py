@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from helixd.mav.guard import script_bytes
-from helixd.sim.config import SimConfig
+from helixd.mav.guard_script import script_bytes
 from helixd.sim.server import SimServer, prepare_workdir, read_scripts
+from helixd.sim.sim_config import SimConfig
 
 
 def test_a_temporary_workdir_is_made_and_removed() -> None:

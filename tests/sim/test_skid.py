@@ -18,8 +18,8 @@ from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from helixd.sim import skid
-from helixd.sim.config import Plant, SimConfig
 from helixd.sim.core import SimCore
+from helixd.sim.sim_config import Plant, SimConfig
 from helixd.sim.state import PhysicsState
 from tests.support.cli import main_exit
 from tests.support.simcore import EmbeddedStart, capture_embedded_start

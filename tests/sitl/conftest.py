@@ -54,7 +54,13 @@ import pytest
 import yaml
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # MAVLink 2 framing
 
-from helixd.mav.guard import HXG_VERSION, POSIX_SCRIPTS_DIR, SCRIPT_NAME, VERSION, script_bytes
+from helixd.mav.guard_script import (
+    HXG_VERSION,
+    POSIX_SCRIPTS_DIR,
+    SCRIPT_NAME,
+    VERSION,
+    script_bytes,
+)
 from tests.support.daemon import DaemonProc, spawn_daemon
 from tests.support.paths import REPO_ROOT
 from tests.support.skid_setup import HELIXD_SYSID, helixd_sitl_config

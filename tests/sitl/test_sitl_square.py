@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.mav.guard import PARAM_DEFAULTS, VERSION, script_bytes
+from helixd.mav.guard_script import PARAM_DEFAULTS, VERSION, script_bytes
 from helixd.recorder.track import TrackPoint
 from tests.support.skid_setup import first_step_t_s, square_metrics
 

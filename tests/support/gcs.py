@@ -13,7 +13,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.frames import ne_to_latlon
 from helixd.config import LinkConfig
-from helixd.sim.config import SimConfig
+from helixd.sim.sim_config import SimConfig
 from tests.support.harness import MavClient
 
 QGC_SYSID = 255

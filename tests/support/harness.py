@@ -29,8 +29,8 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink import mavutil
 
-from helixd.sim.config import HELIXD_SYSID, SimConfig
 from helixd.sim.server import SimServer, start_embedded
+from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
 from tests.support.paths import REPO_ROOT

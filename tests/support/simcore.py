@@ -11,9 +11,9 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.sim.config import HELIXD_SYSID, SimConfig
+from helixd.sim.collisions import SimObstacles, constrain, distance_m
 from helixd.sim.core import FtpHandler, SimCore
-from helixd.sim.obstacles import SimObstacles, constrain, distance_m
+from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 from helixd.sim.state import PhysicsState
 
 

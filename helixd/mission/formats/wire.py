@@ -1,6 +1,6 @@
 """The one place where the two mission-item worlds meet: a file's :class:`GcsMission`
 (:mod:`helixd.mission.formats.items`: x/y in degrees, NaN for "unset") and what
-MISSION_ITEM_INT carries (:class:`helixd.link.mission.MissionItem`: x/y in degE7, finite
+MISSION_ITEM_INT carries (:class:`helixd.link.mission_transfer.MissionItem`: x/y in degE7, finite
 params, one list per mission type). Pure: no I/O.
 
 Mission (MAV_MISSION_TYPE_MISSION), as QGroundControl uploads to ArduPilot: seq 0 is home (the

@@ -15,9 +15,9 @@ from pydantic import Field, field_validator, model_validator
 
 from helixd.config import LinkConfig, VehicleConfig
 from helixd.files.models import InputModel
-from helixd.mav.guard import HXG_VERSION, PARAM_DEFAULTS
-from helixd.sim.obstacles import SimObstacles
-from helixd.sim.params import DEFAULT_PARAMS
+from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS
+from helixd.sim.collisions import SimObstacles
+from helixd.sim.param_store import DEFAULT_PARAMS
 
 # helixd's own MAVLink system id (link.source_system's default)
 HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)

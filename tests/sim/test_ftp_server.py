@@ -1,6 +1,6 @@
-"""The simulator's FTP server (helixd.sim.ftp) against ArduPilot's GCS_FTP.cpp semantics.
+"""The simulator's FTP server (helixd.sim.ftp_server) against ArduPilot's GCS_FTP.cpp semantics.
 
-Requests are built and replies read with helixd.mav.ftp; files live in a real temp directory.
+Requests are built and replies read with helixd.mav.ftp_wire; files live in a real temp directory.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
-from helixd.mav.ftp import FtpErr, FtpOp, FtpPayload, crc32_ardupilot
-from helixd.sim.ftp import FtpServer
+from helixd.mav.ftp_wire import FtpErr, FtpOp, FtpPayload, crc32_ardupilot
+from helixd.sim.ftp_server import FtpServer
 
 GCS = (255, 190)
 OTHER = (254, 190)
@@ -417,7 +417,7 @@ def test_crc32_is_ardupilots(srv: FtpServer, root: Path) -> None:
     (root / "f.bin").write_bytes(content)
     r = ack(one(srv, req(FtpOp.CalcFileCRC32, 1, sid, b"/f.bin")))
     assert r.size == 4
-    # crc_crc32 from 0 (tests/mav/test_ftp.py checks crc32_ardupilot against its transcription)
+    # crc_crc32 from 0 (tests/mav/test_ftp_wire.py checks crc32_ardupilot against its transcription)
     assert struct.unpack("<I", r.data) == (crc32_ardupilot(content),) == (0x298D2CE0,)
     (root / "empty").write_bytes(b"")
     r = ack(one(srv, req(FtpOp.CalcFileCRC32, 2, sid, b"/empty")))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from helixd.sim import streams as st
+from helixd.sim import stream_rates as st
 
 
 @pytest.mark.parametrize(

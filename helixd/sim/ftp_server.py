@@ -63,7 +63,7 @@ from enum import Enum
 from pathlib import Path
 from types import TracebackType
 
-from helixd.mav.ftp import (
+from helixd.mav.ftp_wire import (
     HEADER_LEN,
     MAX_DATA_LEN,
     PAYLOAD_LEN,

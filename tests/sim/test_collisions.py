@@ -11,9 +11,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from helixd.sim.config import SimConfig
+from helixd.sim.collisions import SimObstacles, constrain, distance_m
 from helixd.sim.core import SimCore
-from helixd.sim.obstacles import SimObstacles, constrain, distance_m
+from helixd.sim.sim_config import SimConfig
 from helixd.sim.state import PhysicsState
 from tests.support.simcore import assert_step_never_closer
 

@@ -28,7 +28,7 @@ from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
 from helixd.mission.formats.areas import SurveyArea
 from helixd.mission.model import Mission
-from helixd.mission.plan import PlanError, resolve_plan
+from helixd.mission.resolve import PlanError, resolve_plan
 from helixd.mission.survey import SurveyError, SurveyResult, plan_survey
 from helixd.planning.obstacles import clearance_m, rover_half_width_m
 

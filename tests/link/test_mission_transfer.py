@@ -1,7 +1,8 @@
-"""The sans-IO mission client (helixd.link.mission) against the simulator's mission protocol.
+"""The sans-IO mission client (helixd.link.mission_transfer) against the simulator's mission
+protocol.
 
 No sockets: messages are packed and decoded as on the wire (so sender ids are real) and carried
-between the client and helixd.sim.mission.MissionServer by a channel that can drop and
+between the client and helixd.sim.mission_server.MissionServer by a channel that can drop and
 duplicate them, under hypothesis.
 """
 
@@ -20,10 +21,10 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
-from helixd.link import mission as lm
-from helixd.link.mission import MissionDownload, MissionTransferError, MissionUpload
+from helixd.link import mission_transfer as lm
+from helixd.link.mission_transfer import MissionDownload, MissionTransferError, MissionUpload
 from helixd.mav.mission_item import WireItem
-from helixd.sim.mission import MissionServer
+from helixd.sim.mission_server import MissionServer
 
 GCS = (255, 190)
 VEHICLE = (1, 1)

@@ -1,4 +1,4 @@
-"""The simulator's mission protocol (helixd.sim.mission) against ArduPilot's behaviour."""
+"""The simulator's mission protocol (helixd.sim.mission_server) against ArduPilot's behaviour."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as hs
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.sim import mission as sm
+from helixd.sim import mission_server as sm
 from helixd.sim.faults import make_spec
-from helixd.sim.mission import MissionServer, Outcome
+from helixd.sim.mission_server import MissionServer, Outcome
 from tests.support.simcore import incoming, make_core, of_type, run
 
 GCS = (255, 190)

@@ -1,4 +1,4 @@
-"""helixd-guard's script (package data) and parameters (helixd/mav/guard.py), and their
+"""helixd-guard's script (package data) and parameters (helixd/mav/guard_script.py), and their
 agreement with the Lua."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from helixd.mav import guard as mg
+from helixd.mav import guard_script as mg
 from tests.support.paths import REPO_ROOT
 
 LUA = REPO_ROOT / "helixd" / "mav" / "scripts" / "helixd-guard.lua"

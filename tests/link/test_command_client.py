@@ -11,7 +11,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
-from helixd.link.commands import CommandClient, CommandRejected, CommandTimeout
+from helixd.link.command_client import CommandClient, CommandRejected, CommandTimeout
 from helixd.link.vehicle import VehicleState
 from tests.support.peer import DENIED, FAILED, Reply, linked, until
 

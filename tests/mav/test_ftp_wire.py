@@ -1,4 +1,5 @@
-"""helixd.mav.ftp: the MAVLink FTP payload layout, its checks, NAK decoding and ArduPilot's CRC."""
+"""helixd.mav.ftp_wire: the MAVLink FTP payload layout, its checks, NAK decoding and ArduPilot's
+CRC."""
 
 from __future__ import annotations
 
@@ -10,8 +11,8 @@ from hypothesis import given
 from hypothesis import strategies as hs
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.mav import ftp
-from helixd.mav.ftp import (
+from helixd.mav import ftp_wire
+from helixd.mav.ftp_wire import (
     MAX_DATA_LEN,
     PAYLOAD_LEN,
     FtpErr,
@@ -74,7 +75,7 @@ def test_enums_are_the_mavlink_ones_ardupilot_uses() -> None:
     assert [int(e) for e in FtpErr] == list(range(11))
     assert FtpErr.EndOfFile == mavlink.MAV_FTP_ERR_EOF == 6
     assert int(FtpErr.FileNotFound) == 10
-    assert ftp.MSG_ID_FILE_TRANSFER_PROTOCOL == 110
+    assert ftp_wire.MSG_ID_FILE_TRANSFER_PROTOCOL == 110
 
 
 def test_pack_layout_is_little_endian_with_a_zero_padding_byte() -> None:

@@ -16,12 +16,12 @@ from helixd.mav.constants import (
     MAV_RESULT_UNSUPPORTED,
     UINT16_MAX,
 )
-from helixd.mav.guard import SCRIPT_NAME, VERSION, script_bytes
+from helixd.mav.guard_script import SCRIPT_NAME, VERSION, script_bytes
 from helixd.sim import estimator, modes
-from helixd.sim import guard as g
-from helixd.sim.autopilot import FORCE_ARM_MAGIC, SimAutopilot
-from helixd.sim.config import HELIXD_SYSID, SimConfig
-from helixd.sim.params import ParamStore
+from helixd.sim import guard_model as g
+from helixd.sim.param_store import ParamStore
+from helixd.sim.rover_firmware import FORCE_ARM_MAGIC, SimAutopilot
+from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 
 DT_S = 0.02
 BOOT_S = 2.0

@@ -2,7 +2,8 @@
 
 This mirrors ``helixd/mav/scripts/helixd-guard.lua`` (version 1) line for line, so that the
 built-in simulator can run the same guard ArduPilot runs (its parameters, their defaults and
-:class:`helixd.mav.guard.GuardParams` live in :mod:`helixd.mav.guard`, shared with preflight):
+:class:`helixd.mav.guard_script.GuardParams` live in :mod:`helixd.mav.guard_script`, shared
+with preflight):
 
 * parameters HXG_ENABLE (1), HXG_TIMEOUT (0.5 s, clamped to 0.1 … 10 s), HXG_CHAN1..4
   (1, 2, 3, 4: 1-based servo outputs, 0 = none, outside 1..16 ignored, duplicates once),
@@ -33,7 +34,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from helixd.mav.guard import VERSION, GuardParams, to_ms
+from helixd.mav.guard_script import VERSION, GuardParams, to_ms
 
 UPDATE_PERIOD_MS = 50
 OVERRIDE_MS = 100  # each renewal holds the outputs this long (2 update periods)

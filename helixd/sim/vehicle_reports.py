@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from helixd.base.frames import ne_to_latlon
 from helixd.mav.constants import MISSION_STATE_NO_MISSION
 from helixd.sim import messages
-from helixd.sim import streams as st
+from helixd.sim import stream_rates as st
 from helixd.sim.estimator import PoseEstimate, SimEkfStatus
 from helixd.sim.faults import FaultClock
 from helixd.sim.state import PhysicsState

@@ -8,8 +8,8 @@ import pytest
 from pydantic import ValidationError
 
 from helixd.config import LinkConfig
-from helixd.sim.config import HELIXD_SYSID, SimConfig
-from helixd.sim.params import DEFAULT_PARAMS, ParamStore, ParamType
+from helixd.sim.param_store import DEFAULT_PARAMS, ParamStore, ParamType
+from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 
 
 def test_defaults_are_helixd_s_recommended_setup() -> None:

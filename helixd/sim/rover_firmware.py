@@ -19,7 +19,7 @@ gripper, …) are :mod:`helixd.sim.payload`'s.
 
 Scripting (AP_Scripting): with SCR_ENABLE 1 at boot the scripts in the working directory's
 ``scripts/`` are loaded once, when the boot ends. The simulator runs one script:
-``helixd-guard.lua``, as its Python mirror (:mod:`helixd.sim.guard`) every 50 ms, with the
+``helixd-guard.lua``, as its Python mirror (:mod:`helixd.sim.guard_model`) every 50 ms, with the
 parameters the script adds (HXG_*, values kept in storage across reboots) and HXG_VERSION
 set to the ``local VERSION`` the file declares. Its actions are applied as the Lua's are:
 ``set_output_pwm_chan_timeout`` on each guarded output (:meth:`ServoOutputs.hold`), an RC
@@ -45,7 +45,7 @@ from helixd.mav.constants import (
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
 )
-from helixd.mav.guard import (
+from helixd.mav.guard_script import (
     HXG_VERSION,
     PARAM_DEFAULTS,
     SCR_ENABLE,
@@ -54,10 +54,9 @@ from helixd.mav.guard import (
     script_version,
 )
 from helixd.sim import modes
-from helixd.sim.config import SimConfig
 from helixd.sim.estimator import SimEkfStatus
 from helixd.sim.failsafe import EkfHealth, FailsafeDecision, Failsafes
-from helixd.sim.guard import (
+from helixd.sim.guard_model import (
     HOLD_REFUSED_TEXT,
     UPDATE_PERIOD_MS,
     GuardAction,
@@ -66,9 +65,10 @@ from helixd.sim.guard import (
     start_text,
 )
 from helixd.sim.outputs import MotorDemand, ServoOutputs
-from helixd.sim.params import ParamStore
+from helixd.sim.param_store import ParamStore
 from helixd.sim.payload import PAYLOAD_COMMANDS, Payload
 from helixd.sim.rc import RcInputs
+from helixd.sim.sim_config import SimConfig
 
 FORCE_ARM_MAGIC = 21196
 MAV_OPTIONS_GCS_ONLY = 1 << 0

@@ -2,9 +2,9 @@
 ``APM/scripts/`` for ``helixd autopilot install-guard``), and ask whether a directory exists.
 
 :class:`FtpUpload` and :class:`DirectoryProbe` are state machines over FTP payloads
-(:mod:`helixd.mav.ftp`) sharing one request machinery: ``start(now_s)``,
+(:mod:`helixd.mav.ftp_wire`) sharing one request machinery: ``start(now_s)``,
 ``on_reply(payload, now_s)`` and ``on_time(now_s)`` return the request payloads to send, each
-to go out as a FILE_TRANSFER_PROTOCOL message to the autopilot (``helixd.mav.ftp.to_message``).
+to go out as a FILE_TRANSFER_PROTOCOL message to the autopilot (``helixd.mav.ftp_wire.to_message``).
 ``done`` says it ended, ``error`` why it failed (None: success), ``deadline_s`` when
 ``on_time`` is due next. They read no clock, do no I/O and log nothing; :func:`run_ftp` is the
 thin async shell over an :class:`FtpLink` (``helixd.link.ftp_link`` adapts the Autopilot).
@@ -52,7 +52,7 @@ from collections.abc import Callable
 from enum import Enum
 from typing import Protocol, TypeVar
 
-from helixd.mav.ftp import (
+from helixd.mav.ftp_wire import (
     MAX_DATA_LEN,
     FtpErr,
     FtpOp,

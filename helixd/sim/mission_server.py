@@ -135,8 +135,8 @@ from helixd.mav.constants import (
     MISSION_STATE_NOT_STARTED,
     UINT16_MAX,
 )
-from helixd.sim.autopilot import SimStatusText
 from helixd.sim.messages import Message
+from helixd.sim.rover_firmware import SimStatusText
 
 __all__ = [
     "MAV_MISSION_TYPE_FENCE",
