@@ -37,7 +37,7 @@ from helixd.runtime.autopilot_mission import (
     ground_station_mode,
 )
 
-__all__ = ["AUTOPILOT_MISSION", "FromAutopilot", "fetch_autopilot_mission", "wants_autopilot"]
+__all__ = ["AUTOPILOT_MISSION", "fetch_autopilot_mission", "wants_autopilot"]
 
 AUTOPILOT_MISSION = MISSION_NAME
 

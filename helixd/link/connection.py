@@ -50,7 +50,7 @@ from helixd.link.command_client import (
     CommandError,
 )
 from helixd.link.ftp_link import FtpClient
-from helixd.link.heartbeat import HeartbeatSender, heartbeat_due
+from helixd.link.heartbeat import HeartbeatSender
 from helixd.link.limits import LinkLimits, SafetyNumbers, link_limits
 from helixd.link.mission_link import MissionClient
 from helixd.link.ownid import OwnIdSenders
@@ -60,26 +60,16 @@ from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.tlog import LinkTlog
-from helixd.link.transport import Address, Transport, make_transport
 from helixd.link.vehicle import Change, VehicleState
 from helixd.mav.constants import (
     GCS_CONTACT_MESSAGE_IDS,
     MAV_CMD_REQUEST_MESSAGE,
     MAVLINK_MSG_ID_HEARTBEAT,
 )
-from helixd.mav.url import LinkError, LinkTimeout, LinkUrl, parse_link_url
+from helixd.mav.url import LinkTimeout, LinkUrl, parse_link_url
 
 __all__ = [
-    "Address",
     "Autopilot",
-    "HeartbeatSender",
-    "LinkError",
-    "LinkStats",
-    "LinkTimeout",
-    "MavlinkConnection",
-    "Transport",
-    "heartbeat_due",
-    "make_transport",
 ]
 
 log = structlog.get_logger(__name__)

@@ -38,7 +38,7 @@ from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.base.polygon import polygon_problems
 from helixd.config import MissionLimits
-from helixd.files.models import ConfigFileError, InputModel, load_yaml_model
+from helixd.files.models import InputModel, load_yaml_model
 from helixd.files.yamlio import clip
 from helixd.mav.constants import MAV_CMD_NAV_WAYPOINT
 from helixd.mission.commands import (
@@ -490,11 +490,8 @@ def load_mission(path: Path | str, limits: MissionLimits | None = None) -> Missi
 
 
 __all__ = [
-    "ConfigFileError",
     "GroundSpec",
     "Mission",
-    "MissionFrameKind",
-    "MotionMode",
     "WaypointSpec",
     "coordinate_keys",
     "entry_yaml",

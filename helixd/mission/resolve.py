@@ -205,4 +205,4 @@ def resolve(
     return Resolved(plan, tuple(got.problems), tuple(notes))
 
 
-__all__ = ["Plan", "PlanError", "PlanWaypoint", "Resolved", "Where", "resolve", "resolve_plan"]
+__all__ = ["PlanError", "Resolved", "Where", "resolve", "resolve_plan"]

@@ -139,9 +139,6 @@ from helixd.sim.messages import Message
 from helixd.sim.rover_firmware import SimStatusText
 
 __all__ = [
-    "MAV_MISSION_TYPE_FENCE",
-    "MAV_MISSION_TYPE_MISSION",
-    "MAV_MISSION_TYPE_RALLY",
     "ItemProtocol",
     "MissionServer",
     "Outcome",

@@ -23,6 +23,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.config import LinkConfig
 from helixd.link import mission_transfer as lm
 from helixd.link.mission_transfer import MissionDownload, MissionTransferError, MissionUpload
+from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import WireItem
 from helixd.sim.mission_server import MissionServer
 
@@ -143,21 +144,21 @@ def test_upload_then_download_round_trip() -> None:
 
 def test_fence_round_trip() -> None:
     srv = server()
-    its = items(3, lm.MAV_MISSION_TYPE_FENCE, command=5001)
-    up = new_upload(its, lm.MAV_MISSION_TYPE_FENCE)
+    its = items(3, MAV_MISSION_TYPE_FENCE, command=5001)
+    up = new_upload(its, MAV_MISSION_TYPE_FENCE)
     Channel(srv).run(up)
     assert up.error is None
-    down = new_download(lm.MAV_MISSION_TYPE_FENCE)
+    down = new_download(MAV_MISSION_TYPE_FENCE)
     Channel(srv).run(down)
     assert as_tuples(down.items) == as_tuples(its)
 
 
 def test_empty_upload_and_download() -> None:
     srv = server()
-    up = new_upload([], lm.MAV_MISSION_TYPE_FENCE)
+    up = new_upload([], MAV_MISSION_TYPE_FENCE)
     Channel(srv).run(up)
     assert up.error is None
-    down = new_download(lm.MAV_MISSION_TYPE_FENCE)
+    down = new_download(MAV_MISSION_TYPE_FENCE)
     Channel(srv).run(down)
     assert down.error is None and down.items == ()
 
@@ -255,11 +256,11 @@ def test_lossy_link_never_corrupts(n: int, fates: list[int], mission_type: int) 
 @given(n=hs.integers(0, 8), dups=hs.lists(hs.sampled_from([0, 2]), max_size=60))
 def test_duplicates_alone_always_succeed(n: int, dups: list[int]) -> None:
     srv = server()
-    its = items(n, lm.MAV_MISSION_TYPE_FENCE, 5001)
-    up = new_upload(its, lm.MAV_MISSION_TYPE_FENCE)
+    its = items(n, MAV_MISSION_TYPE_FENCE, 5001)
+    up = new_upload(its, MAV_MISSION_TYPE_FENCE)
     Channel(srv, dups).run(up)
     assert up.error is None
-    down = new_download(lm.MAV_MISSION_TYPE_FENCE)
+    down = new_download(MAV_MISSION_TYPE_FENCE)
     Channel(srv, list(dups)).run(down)
     assert down.error is None and as_tuples(down.items) == as_tuples(its)
 
@@ -347,13 +348,13 @@ def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
     with running_sim(speedup=1.0) as (sim, url), MavClient(url) as client:
         link = PymavlinkLink(client)
         its = items(5)
-        fence = items(4, lm.MAV_MISSION_TYPE_FENCE, command=5001)
+        fence = items(4, MAV_MISSION_TYPE_FENCE, command=5001)
 
         async def go() -> tuple[MissionDownload, MissionDownload]:
             await lm.run_transfer(up(its), link)
-            await lm.run_transfer(up(fence, lm.MAV_MISSION_TYPE_FENCE), link)
+            await lm.run_transfer(up(fence, MAV_MISSION_TYPE_FENCE), link)
             down = await lm.run_transfer(dl(), link)
-            fdown = await lm.run_transfer(dl(lm.MAV_MISSION_TYPE_FENCE), link)
+            fdown = await lm.run_transfer(dl(MAV_MISSION_TYPE_FENCE), link)
             assert isinstance(down, MissionDownload) and isinstance(fdown, MissionDownload)
             return down, fdown
 

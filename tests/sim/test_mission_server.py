@@ -10,6 +10,19 @@ from hypothesis import given, settings
 from hypothesis import strategies as hs
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.mav.constants import (
+    MAV_MISSION_ACCEPTED,
+    MAV_MISSION_DENIED,
+    MAV_MISSION_ERROR,
+    MAV_MISSION_INVALID_PARAM5_X,
+    MAV_MISSION_INVALID_PARAM7,
+    MAV_MISSION_INVALID_SEQUENCE,
+    MAV_MISSION_NO_SPACE,
+    MAV_MISSION_OPERATION_CANCELLED,
+    MAV_MISSION_TYPE_FENCE,
+    MAV_MISSION_UNSUPPORTED,
+    MAV_MISSION_UNSUPPORTED_FRAME,
+)
 from helixd.sim import mission_server as sm
 from helixd.sim.faults import make_spec
 from helixd.sim.mission_server import MissionServer, Outcome
@@ -70,7 +83,7 @@ def test_upload_is_requested_with_mission_request_and_acked() -> None:
         out = srv.handle(0, stamp(item(seq, 53.5 + seq * 1e-4)), 0.1)
         if seq < 2:
             assert [int(r.seq) for r in sends(out, "MISSION_REQUEST")] == [seq + 1]
-    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert acks(out) == [MAV_MISSION_ACCEPTED]
     assert [t.text for t in out.texts] == ["Flight plan received"]
     stored = srv.stored()
     assert len(stored) == 3 and stored[2].x == round((53.5 + 2e-4) * 1e7)
@@ -101,13 +114,13 @@ def test_second_uploader_denied_same_uploader_restarts() -> None:
     srv = server()
     srv.handle(0, stamp(count(3)), 0.0)
     out = srv.handle(1, stamp(count(2), OTHER), 0.1)
-    assert acks(out) == [sm.MAV_MISSION_DENIED]
+    assert acks(out) == [MAV_MISSION_DENIED]
     out = srv.handle(0, stamp(item(0), OTHER), 0.1)
-    assert acks(out) == [sm.MAV_MISSION_DENIED]
+    assert acks(out) == [MAV_MISSION_DENIED]
     out = srv.handle(0, stamp(count(1)), 0.2)  # the uploader restarts with another count
     assert [int(r.seq) for r in sends(out, "MISSION_REQUEST")] == [0]
     out = srv.handle(0, stamp(item(0)), 0.3)
-    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert acks(out) == [MAV_MISSION_ACCEPTED]
     assert len(srv.stored()) == 1
 
 
@@ -115,27 +128,27 @@ def test_download_denied_during_upload_and_clear_is_error() -> None:
     srv = server()
     srv.handle(0, stamp(count(3)), 0.0)
     out = srv.handle(1, stamp(_mav.mission_request_list_encode(1, 1, 0), OTHER), 0.1)
-    assert acks(out) == [sm.MAV_MISSION_DENIED]
+    assert acks(out) == [MAV_MISSION_DENIED]
     out = srv.handle(1, stamp(_mav.mission_request_int_encode(1, 1, 0, 0), OTHER), 0.1)
-    assert acks(out) == [sm.MAV_MISSION_DENIED]
+    assert acks(out) == [MAV_MISSION_DENIED]
     out = srv.handle(1, stamp(_mav.mission_clear_all_encode(1, 1, 0), OTHER), 0.1)
-    assert acks(out) == [sm.MAV_MISSION_ERROR]
+    assert acks(out) == [MAV_MISSION_ERROR]
 
 
 def test_no_space() -> None:
     srv = server()
     out = srv.handle(0, stamp(count(6)), 0.0)
-    assert acks(out) == [sm.MAV_MISSION_NO_SPACE]
+    assert acks(out) == [MAV_MISSION_NO_SPACE]
     assert [t.text for t in out.texts] == ["Only 5 items are supported"]
-    out = srv.handle(0, stamp(count(5, sm.MAV_MISSION_TYPE_FENCE)), 0.0)
-    assert acks(out) == [sm.MAV_MISSION_NO_SPACE]
+    out = srv.handle(0, stamp(count(5, MAV_MISSION_TYPE_FENCE)), 0.0)
+    assert acks(out) == [MAV_MISSION_NO_SPACE]
 
 
 def test_wrong_sequence_is_complained_about_and_upload_goes_on() -> None:
     srv = server()
     srv.handle(0, stamp(count(2)), 0.0)
     out = srv.handle(0, stamp(item(1)), 0.1)
-    assert acks(out) == [sm.MAV_MISSION_INVALID_SEQUENCE]
+    assert acks(out) == [MAV_MISSION_INVALID_SEQUENCE]
     out = srv.handle(0, stamp(item(0)), 0.2)
     assert [int(r.seq) for r in sends(out, "MISSION_REQUEST")] == [1]
 
@@ -145,14 +158,14 @@ def test_unsupported_command_and_bad_latitude_end_the_upload() -> None:
     srv.handle(0, stamp(count(2)), 0.0)
     # DO_SET_MODE: not a command AP_Mission stores (NAV_TAKEOFF is: Rover skips it in flight)
     out = srv.handle(0, stamp(item(0, command=176)), 0.1)
-    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
+    assert acks(out) == [MAV_MISSION_UNSUPPORTED]
     assert srv.update(5.0).sends == []  # no upload left to re-request
     srv.handle(0, stamp(count(1)), 6.0)
     out = srv.handle(0, stamp(item(0, lat_deg=91.0)), 6.1)
-    assert acks(out) == [sm.MAV_MISSION_INVALID_PARAM5_X]
+    assert acks(out) == [MAV_MISSION_INVALID_PARAM5_X]
     srv.handle(0, stamp(count(1)), 7.0)
     out = srv.handle(0, stamp(item(0, frame=1)), 7.1)  # MAV_FRAME_LOCAL_NED
-    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED_FRAME]
+    assert acks(out) == [MAV_MISSION_UNSUPPORTED_FRAME]
 
 
 def test_rerequest_after_one_second_and_cancel_after_eight() -> None:
@@ -165,7 +178,7 @@ def test_rerequest_after_one_second_and_cancel_after_eight() -> None:
     assert sends(srv.update(2.9), "MISSION_REQUEST") == []
     assert [int(r.seq) for r in sends(srv.update(3.1), "MISSION_REQUEST")] == [1]
     out = srv.update(10.05)
-    assert acks(out) == [sm.MAV_MISSION_OPERATION_CANCELLED]
+    assert acks(out) == [MAV_MISSION_OPERATION_CANCELLED]
     assert [t.text for t in out.texts] == ["Mission upload timeout"]
     out = srv.handle(0, stamp(_mav.mission_request_list_encode(1, 1, 0)), 10.1)
     assert sends(out, "MISSION_COUNT")  # no longer receiving
@@ -173,28 +186,28 @@ def test_rerequest_after_one_second_and_cancel_after_eight() -> None:
 
 def test_fence_and_rally_need_mavlink2_mission_does_not() -> None:
     srv = server()
-    out = srv.handle(0, stamp(count(1, sm.MAV_MISSION_TYPE_FENCE), v1=True), 0.0)
-    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
+    out = srv.handle(0, stamp(count(1, MAV_MISSION_TYPE_FENCE), v1=True), 0.0)
+    assert acks(out) == [MAV_MISSION_UNSUPPORTED]
     assert [t.text for t in out.texts] == ["Need mavlink2 for item transfer"]
     out = srv.handle(0, stamp(_mav.mission_request_list_encode(1, 1, 2), v1=True), 0.0)
-    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
+    assert acks(out) == [MAV_MISSION_UNSUPPORTED]
     out = srv.handle(0, stamp(count(1), v1=True), 0.0)
     assert sends(out, "MISSION_REQUEST")
 
 
 def test_fence_upload_stored_on_completion_and_bad_seq_invalid() -> None:
     srv = server()
-    out = upload(srv, 3, mission_type=sm.MAV_MISSION_TYPE_FENCE, command=5001)
-    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
-    assert [i.command for i in srv.stored(sm.MAV_MISSION_TYPE_FENCE)] == [5001] * 3
+    out = upload(srv, 3, mission_type=MAV_MISSION_TYPE_FENCE, command=5001)
+    assert acks(out) == [MAV_MISSION_ACCEPTED]
+    assert [i.command for i in srv.stored(MAV_MISSION_TYPE_FENCE)] == [5001] * 3
     out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 3, 1)), 1.0)
-    assert acks(out) == [sm.MAV_MISSION_ERROR]  # seq == count: ArduPilot checks seq > count
+    assert acks(out) == [MAV_MISSION_ERROR]  # seq == count: ArduPilot checks seq > count
     out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 4, 1)), 1.0)
-    assert acks(out) == [sm.MAV_MISSION_INVALID_SEQUENCE]
-    srv.handle(0, stamp(count(1, sm.MAV_MISSION_TYPE_FENCE)), 2.0)
+    assert acks(out) == [MAV_MISSION_INVALID_SEQUENCE]
+    srv.handle(0, stamp(count(1, MAV_MISSION_TYPE_FENCE)), 2.0)
     out = srv.handle(0, stamp(item(0, command=16, mission_type=1)), 2.1)
-    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
-    assert len(srv.stored(sm.MAV_MISSION_TYPE_FENCE)) == 3  # failed upload kept the old fence
+    assert acks(out) == [MAV_MISSION_UNSUPPORTED]
+    assert len(srv.stored(MAV_MISSION_TYPE_FENCE)) == 3  # failed upload kept the old fence
 
 
 def test_request_past_the_end_educates_with_count() -> None:
@@ -202,17 +215,17 @@ def test_request_past_the_end_educates_with_count() -> None:
     upload(srv, 2)
     out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 7, 0)), 1.0)
     assert [int(m.count) for m in sends(out, "MISSION_COUNT")] == [2]
-    assert acks(out) == [sm.MAV_MISSION_ERROR]
+    assert acks(out) == [MAV_MISSION_ERROR]
 
 
 def test_clear_all_and_unknown_type() -> None:
     srv = server()
     upload(srv, 3)
     out = srv.handle(0, stamp(_mav.mission_clear_all_encode(1, 1, 0)), 1.0)
-    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert acks(out) == [MAV_MISSION_ACCEPTED]
     assert srv.stored() == ()
     out = srv.handle(0, stamp(_mav.mission_request_list_encode(1, 1, 7)), 1.0)
-    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED]
+    assert acks(out) == [MAV_MISSION_UNSUPPORTED]
 
 
 def test_set_current_answers_the_sender_with_the_requested_seq() -> None:
@@ -269,13 +282,13 @@ def test_fence_item_rules_and_readback() -> None:
     srv = server()
     srv.handle(0, stamp(count(1, 1)), 0.0)
     out = srv.handle(0, stamp(item(0, command=5001, frame=2, mission_type=1)), 0.1)
-    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED_FRAME]  # frame checked before command
+    assert acks(out) == [MAV_MISSION_UNSUPPORTED_FRAME]  # frame checked before command
     srv.handle(0, stamp(count(1, 1)), 0.2)
     vertex = _mav.mission_item_int_encode(
         1, 1, 0, 6, 5001, 0, 1, 4.0, 7.0, 8.0, 9.0, 535_000_000, -1_135_000_000, 12.0, 1
     )
     out = srv.handle(0, stamp(vertex), 0.3)
-    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert acks(out) == [MAV_MISSION_ACCEPTED]
     assert out.texts == []  # no text on a fence upload
     out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 0, 1)), 0.4)
     (got,) = sends(out, "MISSION_ITEM_INT")
@@ -288,14 +301,14 @@ def test_rally_rules_readback_and_texts() -> None:
     srv = server()
     srv.handle(0, stamp(count(1, 2)), 0.0)
     out = srv.handle(0, stamp(item(0, command=5100, frame=0, mission_type=2)), 0.1)
-    assert acks(out) == [sm.MAV_MISSION_UNSUPPORTED_FRAME]  # only relative-altitude frames
+    assert acks(out) == [MAV_MISSION_UNSUPPORTED_FRAME]  # only relative-altitude frames
     srv.handle(0, stamp(count(1, 2)), 0.2)
     high = _mav.mission_item_int_encode(1, 1, 0, 3, 5100, 0, 1, 0, 0, 0, 0, 1, 2, 40000.0, 2)
-    assert acks(srv.handle(0, stamp(high), 0.3)) == [sm.MAV_MISSION_INVALID_PARAM7]
+    assert acks(srv.handle(0, stamp(high), 0.3)) == [MAV_MISSION_INVALID_PARAM7]
     srv.handle(0, stamp(count(1, 2)), 0.4)
     ok = _mav.mission_item_int_encode(1, 1, 0, 6, 5100, 0, 1, 0, 0, 0, 0, 1, 2, 12.7, 2)
     out = srv.handle(0, stamp(ok), 0.5)
-    assert acks(out) == [sm.MAV_MISSION_ACCEPTED]
+    assert acks(out) == [MAV_MISSION_ACCEPTED]
     assert [t.text for t in out.texts] == ["Rally points received"]
     out = srv.handle(0, stamp(_mav.mission_request_int_encode(1, 1, 0, 2)), 0.6)
     (got,) = sends(out, "MISSION_ITEM_INT")
@@ -413,4 +426,4 @@ def test_fuzz_any_mission_messages(steps: list[tuple[Any, tuple[int, int], bool,
         for kind, prot in srv.protocols.items():
             assert len(prot.items) <= prot.max_items
             for stored in prot.items[1:] if kind == 0 else prot.items:
-                assert prot.rules.validate(stored) == sm.MAV_MISSION_ACCEPTED
+                assert prot.rules.validate(stored) == MAV_MISSION_ACCEPTED
