@@ -1038,7 +1038,6 @@ def _channel_conflicts(cfg: HelixdConfig) -> list[str]:
     return problems
 
 
-PositiveFloat = Annotated[float, Field(gt=0.0)]
 
 
 def load_config(path: Path | str | None) -> HelixdConfig:

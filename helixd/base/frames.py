@@ -23,7 +23,6 @@ from helixd.base.geometry import Pose2D, require_finite
 # ArduPilot's Location maths (libraries/AP_Common/Location.cpp, AP_Math/definitions.h):
 # RADIUS_OF_EARTH 6378100 m, LOCATION_SCALING_FACTOR = 1e-7 * DEG_TO_RAD * RADIUS_OF_EARTH.
 ARDUPILOT_EARTH_RADIUS_M = 6_378_100.0
-EARTH_RADIUS_M = ARDUPILOT_EARTH_RADIUS_M  # the old name
 METRES_PER_DEGREE = math.radians(1.0) * ARDUPILOT_EARTH_RADIUS_M  # 111 318.845 m
 LONGITUDE_SCALE_MIN = 0.01  # Location::longitude_scale() clamps cos(lat) to [0.01, 1]
 

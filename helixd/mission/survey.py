@@ -35,7 +35,6 @@ from helixd.mission.formats.areas import CIRCLE_SEGMENTS, SurveyArea
 from helixd.mission.geodesy import geodesic_latlon, geodesic_ne_m
 
 XY = tuple[float, float]  # (east_m, north_m): shapely's x, y
-EPS_M = 1e-6  # geometric tolerance for "inside" tests (1 µm)
 MIN_GAP_M = 0.01  # consecutive waypoints closer than this are one
 MAX_TRANSECTS = 5_000  # 50 km of width at 10 m; keeps planning to seconds
 COVERAGE_GRID_M = 1e-3  # the coverage overlay snaps to this grid (robust noding; 1 mm)

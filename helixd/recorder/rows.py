@@ -110,8 +110,6 @@ COLUMNS: tuple[str, ...] = tuple(f.name for f in _FIELDS)
 COLUMN_TYPES: dict[str, type] = {
     f.name: {"float": float, "int": int, "str": str, "bool": bool}[str(f.type)] for f in _FIELDS
 }
-STR_COLUMNS = tuple(n for n, t in COLUMN_TYPES.items() if t is str)
-BOOL_COLUMNS = tuple(n for n, t in COLUMN_TYPES.items() if t is bool)
 
 
 class RowFormatter:

@@ -205,10 +205,6 @@ def distance_m(obstacles: SimObstacles, north_m: float, east_m: float) -> float:
     return best
 
 
-def in_contact(obstacles: SimObstacles, state: PhysicsState) -> bool:
-    return distance_m(obstacles, state.north_m, state.east_m) < obstacles.contact_radius_m
-
-
 def constrain(
     obstacles: SimObstacles, before: PhysicsState, after: PhysicsState
 ) -> tuple[PhysicsState, bool]:

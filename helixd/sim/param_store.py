@@ -80,8 +80,6 @@ def _build_defaults() -> dict[str, SimParamSpec]:
 DEFAULT_PARAMS: Mapping[str, SimParamSpec] = MappingProxyType(_build_defaults())
 
 # Parameters whose new value is only read at boot (the scheduler is set up once).
-REBOOT_REQUIRED = frozenset({"SCHED_LOOP_RATE", "MAV_SYSID", "SCR_ENABLE"})
-
 
 def _coerce(value: float, kind: ParamType) -> float:
     if kind is ParamType.REAL32:
@@ -110,7 +108,7 @@ class ParamStore:
         self._version = 0
         for name, value in (overrides or {}).items():
             self.set(name, value)
-        # values the running "firmware" booted with (for REBOOT_REQUIRED ones)
+        # values the running "firmware" booted with (those read at boot: SCHED_LOOP_RATE, ...)
         self._boot_values = dict(self._values)
 
     @property
