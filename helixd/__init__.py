@@ -10,7 +10,7 @@ __all__ = ["__version__"]
 @cache
 def _version() -> str:
     # importlib.metadata pulls in email and socket: looked up only when asked, so the pure
-    # layers (helixd.base, helixd.control) import without them (tests/unit/test_layers.py).
+    # layers (helixd.base, helixd.control) import without them (tests/test_layers.py).
     from importlib.metadata import PackageNotFoundError, version
 
     try:

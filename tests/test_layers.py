@@ -3,7 +3,10 @@
 Statically, over every module of ``helixd/`` (top-level, function-local and TYPE_CHECKING
 imports alike): each package imports only itself and the rows below it in :data:`LAYERS`; the
 simulator imports only :data:`SIM_MAY_IMPORT` and only the CLI imports it; there is no import
-loop between modules; no re-export shim module is left.
+loop between modules; no re-export shim module is left. One import path per name: every
+``from helixd.X import Name`` in helixd/, tests/ and tools/ names the module that defines
+``Name`` (or ``Name`` is a submodule of ``helixd.X``), and no package ``__init__.py`` imports a
+helixd module (``helixd.mission.formats``, which defines code of its own, excepted).
 
 Through ``sys.modules`` in a fresh interpreter:
 
