@@ -1038,8 +1038,6 @@ def _channel_conflicts(cfg: HelixdConfig) -> list[str]:
     return problems
 
 
-
-
 def load_config(path: Path | str | None) -> HelixdConfig:
     """Load ``path`` (or the built-in defaults when None), and the files it names: what
     ``run`` would refuse on opening them, ``check`` refuses too (ConfigFileError, one line

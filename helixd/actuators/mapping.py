@@ -18,7 +18,7 @@ channels       leave unchanged (not ours)  release to the pilot's radio
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 
 from helixd.config import ChannelConfig
 from helixd.mav.constants import UINT16_MAX
@@ -67,15 +67,6 @@ def leave_unchanged_value(channel: int) -> int:
 def release_value(channel: int) -> int:
     _check_channel(channel)
     return 0 if channel < FIRST_EXTENDED_CHANNEL else UINT16_MAX - 1
-
-
-def override_frame(values_us: Mapping[int, int]) -> tuple[int, ...]:
-    """18 override fields: ``values_us`` (channel → µs) on ours, "leave unchanged" elsewhere."""
-    for channel, pwm in values_us.items():
-        _check_channel(channel)
-        if pwm in (0, UINT16_MAX, UINT16_MAX - 1):
-            raise ValueError(f"channel {channel}: {pwm} is a reserved override value, not a PWM")
-    return frame_at(override_slots(values_us), [int(p) for p in values_us.values()])
 
 
 def override_slots(channels: Iterable[int]) -> tuple[int, ...]:

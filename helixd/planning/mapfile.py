@@ -165,21 +165,3 @@ def load_map(path: Path | str, max_cells: int) -> OccupancyMap:
     )
     solid = _occupied_only(pixels, str(mode), bool(negate), occupied)[::-1].copy()
     return OccupancyMap(frame=frame, blocked=blocked, source=p, occupied=solid)
-
-
-def save_map(
-    yaml_path: Path,
-    blocked: npt.NDArray[Any],
-    resolution_m: float,
-    origin_ne_m: tuple[float, float],
-) -> None:
-    """Write a trinary map_server map (PGM + YAML) from a blocked mask [row north, col east]."""
-    pixels = np.where(blocked[::-1], 0, 254).astype(np.uint8)
-    image = yaml_path.with_suffix(".pgm")
-    Image.fromarray(pixels, mode="L").save(image)
-    yaml_path.write_text(
-        f"image: {image.name}\nresolution: {resolution_m}\n"
-        f"origin: [{origin_ne_m[1]}, {origin_ne_m[0]}, 0.0]\n"
-        "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n",
-        encoding="utf-8",
-    )

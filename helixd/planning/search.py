@@ -110,14 +110,6 @@ def turning_cells(path: list[Cell]) -> list[Cell]:
     return [(int(r), int(c)) for r, c in p[keep]]
 
 
-def cell_path_length(path: list[Cell]) -> float:
-    """Length in cell units (1 straight, √2 diagonal)."""
-    if len(path) < 2:
-        return 0.0
-    d = np.abs(np.diff(np.asarray(path, dtype=np.float64), axis=0))
-    return float(np.hypot(d[:, 0], d[:, 1]).sum())
-
-
 def shortcut(grid: PlanningGrid, points: list[PointNE]) -> list[PointNE]:
     """Greedy line-of-sight shortcutting: from each kept point, jump to the last point that is
     still in sight (the segment crosses no inflated cell); keeps both ends."""

@@ -79,8 +79,6 @@ def _build_defaults() -> dict[str, SimParamSpec]:
 
 DEFAULT_PARAMS: Mapping[str, SimParamSpec] = MappingProxyType(_build_defaults())
 
-# Parameters whose new value is only read at boot (the scheduler is set up once).
-
 def _coerce(value: float, kind: ParamType) -> float:
     if kind is ParamType.REAL32:
         return float(value)

@@ -73,14 +73,6 @@ def yaw_rate_ned_radps(steering: float, turn_rate_dps: float, max_yaw_rate_dps: 
     return math.radians(rate_dps)
 
 
-def steady_state(
-    left_us: int, right_us: int, max_speed_mps: float, turn_rate_dps: float
-) -> tuple[float, float]:
-    """(forward speed m/s, NED yaw rate rad/s) the model settles at for constant outputs."""
-    steering, throttle = steering_throttle(left_us, right_us)
-    return throttle * max_speed_mps, math.radians(steering * turn_rate_dps)
-
-
 def _wrap_pi(angle_rad: float) -> float:
     return (angle_rad + math.pi) % _TWO_PI - math.pi
 

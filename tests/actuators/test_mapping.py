@@ -12,7 +12,6 @@ from helixd.actuators.mapping import (
     fraction_to_pwm,
     frame_at,
     leave_unchanged_value,
-    override_frame,
     override_slots,
     pwm_to_fraction,
     release_frame,
@@ -118,7 +117,8 @@ def test_leave_unchanged_and_release_values_per_mavlink_spec() -> None:
 
 
 def test_override_frame_leaves_other_channels_alone() -> None:
-    frame = override_frame({1: 1600, 3: 1400, 10: 1700, 18: 1100})
+    values_us = {1: 1600, 3: 1400, 10: 1700, 18: 1100}
+    frame = frame_at(override_slots(values_us), list(values_us.values()))
     assert len(frame) == 18
     assert frame[0] == 1600 and frame[2] == 1400 and frame[9] == 1700 and frame[17] == 1100
     assert [frame[i] for i in (1, 3, 4, 5, 6, 7)] == [65535] * 6
@@ -131,25 +131,20 @@ def test_release_frame_releases_only_ours() -> None:
     assert frame[0] == 65535 and frame[8] == 0 and frame[17] == 0
 
 
-@pytest.mark.parametrize("reserved", [0, 65535, 65534])
-def test_override_frame_refuses_reserved_values(reserved: int) -> None:
-    with pytest.raises(ValueError, match="reserved"):
-        override_frame({1: reserved})
-
-
 def test_channel_range_is_checked() -> None:
     with pytest.raises(ValueError, match=r"outside 1\.\.18"):
-        override_frame({19: 1500})
+        override_slots([19])
 
 
 @given(
     st.dictionaries(st.integers(1, 18), st.integers(800, 2200), min_size=1, max_size=18),
 )
 def test_slots_once_then_frames_equal_the_checked_frame(values_us: dict[int, int]) -> None:
-    """The sink's path (channels checked once, PWMs placed per command) builds the frame
-    override_frame builds."""
+    """The sink's path (channels checked once, PWMs placed per command): our PWMs on our
+    channels, "leave unchanged" (65535 on 1..8, 0 on 9..18) elsewhere."""
     slots = override_slots(values_us)
-    assert frame_at(slots, list(values_us.values())) == override_frame(values_us)
+    expected = [values_us.get(ch, 65535 if ch <= 8 else 0) for ch in range(1, 19)]
+    assert frame_at(slots, list(values_us.values())) == tuple(expected)
 
 
 def test_override_slots_check_the_channels() -> None:

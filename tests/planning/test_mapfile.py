@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
-from helixd.planning.mapfile import MapFileError, load_map, save_map
+from helixd.planning.mapfile import MapFileError, load_map
 
 GOOD = {
     "image": "m.pgm",
@@ -22,6 +24,24 @@ GOOD = {
     "free_thresh": 0.196,
     "mode": "trinary",
 }
+
+
+def save_map(
+    yaml_path: Path,
+    blocked: npt.NDArray[Any],
+    resolution_m: float,
+    origin_ne_m: tuple[float, float],
+) -> None:
+    """Write a trinary map_server map (PGM + YAML) from a blocked mask [row north, col east]."""
+    pixels = np.where(blocked[::-1], 0, 254).astype(np.uint8)
+    image = yaml_path.with_suffix(".pgm")
+    Image.fromarray(pixels, mode="L").save(image)
+    yaml_path.write_text(
+        f"image: {image.name}\nresolution: {resolution_m}\n"
+        f"origin: [{origin_ne_m[1]}, {origin_ne_m[0]}, 0.0]\n"
+        "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nmode: trinary\n",
+        encoding="utf-8",
+    )
 
 
 def write(tmp: Path, pixels: np.ndarray | None = None, **fields: object) -> Path:

@@ -28,9 +28,17 @@ from helixd.planning.obstacles import (
     with_geofence,
 )
 from helixd.planning.route import PlanningError, plan_mission, plan_route
-from helixd.planning.search import cell_path_length, grid_path
+from helixd.planning.search import Cell, grid_path
 
 STEPS = [(-1, -1), (-1, 0), (-1, 1), (0, -1), (0, 1), (1, -1), (1, 0), (1, 1)]
+
+
+def _cell_path_length(path: list[Cell]) -> float:
+    """Length in cell units (1 straight, √2 diagonal)."""
+    if len(path) < 2:
+        return 0.0
+    d = np.abs(np.diff(np.asarray(path, dtype=np.float64), axis=0))
+    return float(np.hypot(d[:, 0], d[:, 1]).sum())
 
 
 def _step_ok(free: np.ndarray, a: tuple[int, int], dr: int, dc: int) -> bool:
@@ -88,7 +96,7 @@ def test_report_five_by_five_example_gives_the_same_shortest_path() -> None:
     free[2, 0:4] = False
     path = grid_path(free, (1, 2), (3, 2))
     assert path == [(1, 2), (1, 3), (1, 4), (2, 4), (3, 4), (3, 3), (3, 2)]
-    assert cell_path_length(path) == pytest.approx(6.0)
+    assert _cell_path_length(path) == pytest.approx(6.0)
 
 
 def test_blocked_or_outside_end_cell_has_no_path() -> None:
@@ -130,7 +138,7 @@ def test_random_maps_path_exists_iff_bfs_finds_one_and_is_shortest(
         assert max(abs(dr), abs(dc)) == 1
         assert _step_ok(free, a, dr, dc), f"step {a}→{b} enters or cuts an inflated cell"
     # 70/99 integer costs: within 0.01 % of the true octile shortest length
-    assert cell_path_length(path) == pytest.approx(dijkstra_length(free, s, g), rel=1e-4)
+    assert _cell_path_length(path) == pytest.approx(dijkstra_length(free, s, g), rel=1e-4)
 
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -146,7 +154,7 @@ def test_weighted_search_is_valid_and_within_its_bound(
     for a, b in itertools.pairwise(path):
         assert _step_ok(free, a, b[0] - a[0], b[1] - a[1])
     bound = max(round(70 * weight) / 70, round(99 * weight) / 99) * (1 + 1e-4)
-    assert cell_path_length(path) <= bound * dijkstra_length(free, s, g) + 1e-9
+    assert _cell_path_length(path) <= bound * dijkstra_length(free, s, g) + 1e-9
 
 
 @settings(max_examples=150, deadline=None)
