@@ -79,6 +79,7 @@ def _build_defaults() -> dict[str, SimParamSpec]:
 
 DEFAULT_PARAMS: Mapping[str, SimParamSpec] = MappingProxyType(_build_defaults())
 
+
 def _coerce(value: float, kind: ParamType) -> float:
     if kind is ParamType.REAL32:
         return float(value)
