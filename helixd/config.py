@@ -1,7 +1,7 @@
 """helixd configuration (``config/helixd.yaml``), validated by pydantic.
 
 Every tunable lives here with its unit (in the name or the description), its bounds and a
-default taken from the Helix-25 thesis or DESIGN.md. Unknown keys are errors. Loading a bad
+default taken from the Helix-25 thesis (docs/physics.md). Unknown keys are errors. Loading a bad
 file raises :class:`ConfigFileError` carrying one message per problem, each naming the file,
 the dotted field path, the bad value and what is allowed (the machinery: helixd.files.models).
 """
@@ -287,7 +287,7 @@ class ControlConfig(InputModel):
         "Default 0.25 m, the value measured against AUTO (the time estimate follows the "
         "arcs): a 90° survey turn gets R = 0.60 m at 0.43 m/s instead of a "
         "stop and a pivot (≈ 0.8 s lost instead of ≈ 8 s); the arc passes 0.18 m from the "
-        "legs, under half of ArduPilot AUTO's 0.45 m largest cross-track on SITL (issue 22); "
+        "legs, under half of ArduPilot AUTO's 0.45 m largest cross-track on SITL; "
         "0.15–0.2 m would not beat AUTO's time (m)",
     )
     max_accel_mps2: float = Field(

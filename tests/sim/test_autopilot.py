@@ -286,7 +286,7 @@ def test_do_set_home_here_once_the_ekf_has_a_position() -> None:
     assert rig.command(MAV_CMD_DO_SET_HOME, 1) == MAV_RESULT_FAILED  # no position yet
     rig.run(2.0)
     assert not rig.ap.home_set(rig.now)
-    # a location is taken, as ArduPilot takes it (issue 20's home: DO_SET_HOME at a place)
+    # a location is taken, as ArduPilot takes it (DO_SET_HOME at a place)
     assert rig.command(MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 53.5, -113.5) == MAV_RESULT_ACCEPTED
     assert rig.ap.home_set(rig.now) and rig.texts()[-1].startswith("Set HOME to 53.500000")
     assert rig.command(MAV_CMD_DO_SET_HOME, 1) == MAV_RESULT_ACCEPTED
