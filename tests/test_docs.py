@@ -27,7 +27,7 @@ _DESIGN = "DES" + "IGN"
 CITATIONS = (
     re.compile(rf"\b{_DESIGN}\.md\b"),
     re.compile(rf"\b{_DESIGN}\s*§"),
-    re.compile(r"\b(?:issue|ticket)s?\s*#?\d+", re.IGNORECASE),
+    re.compile(r"(?<![a-z])(?:issue|ticket)s?[\s_]*#?\d+", re.IGNORECASE),
     re.compile(r"§\s?\d"),
 )
 LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)\)")
@@ -71,6 +71,7 @@ def test_the_patterns_catch_citations_and_spare_mavlink_names() -> None:
     assert citations(f"see {design}.md") and citations(f"({design} §3)")
     assert citations("target restated in issue 22") and citations("(Issue 14/16)")
     assert citations("issues 6/10") and citations("ticket #12") and citations("thesis §3.7")
+    assert citations("def test_issue_6_10_nan_pose()")
     assert not citations("MISSION_ITEM_INT, MISSION_ISSUED, last #25 +50.0 s, the issue's owner")
     assert not citations("designed path, design choices, §-less text")
 

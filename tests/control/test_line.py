@@ -282,7 +282,7 @@ def test_shipped_missions_fly_the_designed_path(shape: str, mode: MotionMode) ->
 
 
 @pytest.mark.parametrize("mode", list(MotionMode))
-def test_square_meets_the_issue_goals_and_beats_the_thesis_law(mode: MotionMode) -> None:
+def test_square_meets_its_goals_and_beats_the_thesis_law(mode: MotionMode) -> None:
     # The targets: RMS ≤ 0.10 m, max ≤ 0.40 m, final ≤ 0.15 m, time ≤ 100 s.
     plan = shipped("square", mode)
     start = start_pose(mode)

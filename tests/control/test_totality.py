@@ -326,7 +326,7 @@ def test_nan_burst_mid_mission_then_recovery() -> None:
 # -- the hostile-telemetry numbers, end to end through the pure core ----------------------------
 
 
-def test_issue_6_10_nan_pose_gives_neutral_pwm_not_1734_1566() -> None:
+def test_nan_pose_gives_neutral_pwm_not_1734_1566() -> None:
     """Regression: x = y = NaN gave 1734/1734/1566/1566 µs (0.6 m/s at the full yaw rate).
     Now: the navigator refuses the pose; and even a NaN body command reaching kinematics
     maps to neutral PWM on every scroll."""
@@ -351,7 +351,7 @@ def test_issue_6_10_nan_pose_gives_neutral_pwm_not_1734_1566() -> None:
         assert pwm == [ch.pwm_trim_us for ch in channels]
 
 
-def test_issue_6_10_inf_yaw_is_no_math_domain_error() -> None:
+def test_inf_yaw_is_no_math_domain_error() -> None:
     """Regression: ATTITUDE yaw = ±inf crashed with 'math domain error' (exit 1)."""
     for yaw in (INF, -INF):
         with pytest.raises(NonFiniteError, match="not finite"):
