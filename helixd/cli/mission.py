@@ -154,7 +154,11 @@ def survey(
     margin_m: Annotated[
         float,
         typer.Option(
-            "--margin-m", min=0.0, max=100.0, help="geofence = the polygon grown by this (m)"
+            "--margin-m",
+            min=0.0,
+            max=100.0,
+            help="geofence = the polygon grown by this (m); the rover must start inside it "
+            "(run refuses a start outside the fence), so grow this to start farther out",
         ),
     ] = 2.0,
     inset_m: Annotated[
@@ -174,16 +178,18 @@ def survey(
             "--time-factor",
             min=1.0,
             max=5.0,
-            help="mission time limit = this x (estimated time + the longest approach "
-            "preflight allows) (slip, pauses)",
+            help="mission time limit = this x (estimated time + the longest approach run "
+            "lets through: from the fence's farthest corner, at most "
+            "mission.max_start_distance_m) (slip, pauses)",
         ),
     ] = 1.5,
     config: Annotated[
         Path | None, typer.Option("--config", "-c", help="helixd.yaml (speed, yaw rate)")
     ] = None,
 ) -> None:
-    """Boustrophedon survey of a polygon (holes cut out and kept out), with its own geofence,
-    keep-out areas and time limit."""
+    """Boustrophedon survey of a polygon (holes cut out and kept out), with its own geofence
+    (the polygon grown by --margin-m: the rover must start inside it), keep-out areas and time
+    limit."""
     cfg = config_or_exit(config)
     try:
         got = survey_mission(
