@@ -8,9 +8,11 @@ from pathlib import Path
 import pytest
 
 from helixd.base.exitcodes import ExitCode
+from helixd.mav.constants import MAV_CMD_COMPONENT_ARM_DISARM
 from helixd.mav.guard import VERSION, script_bytes
+from helixd.sim.autopilot import FORCE_ARM_MAGIC
 from tests.support.cli import run_main
-from tests.support.harness import running_sim
+from tests.support.harness import client, running_sim, running_sim_links
 
 FAST_CONNECT = "safety:\n  connect_timeout_s: 5.0\n"
 
@@ -106,3 +108,52 @@ def test_a_bad_scripts_dir_is_a_usage_error(capsys: pytest.CaptureFixture[str]) 
     )
     assert code == ExitCode.USAGE
     assert "--scripts-dir: FTP path" in err and "only ASCII names are sent" in err
+
+
+def test_reboot_installs_then_reboots_and_the_guard_runs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 36: install-guard said a reboot was needed and could not do it. ``--reboot``
+    sends MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN param1=1 (printed); the simulator ACKs, goes
+    silent, boots again and loads the guard."""
+    with running_sim() as (server, url):
+        code, out, err = run_main(
+            [
+                "autopilot", "install-guard", "--connect", url, "--config", config(tmp_path),
+                "--reboot",
+            ],
+            capsys,
+        )  # fmt: skip
+        assert code == 0, err
+        assert (
+            "sending COMMAND_LONG MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (246) param1=1 (reboot the "
+            "autopilot) to system 1 component 1"
+        ) in out
+        assert "the autopilot accepted the reboot" in out
+        snap = server.wait_for(lambda s: s.guard_version is not None, 20.0)
+        assert snap.guard_version == VERSION
+        reboots = server.history.entries("reboot")
+        assert len(reboots) == 1
+
+
+def test_reboot_is_refused_while_armed_and_nothing_is_installed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with running_sim_links(["udpin:127.0.0.1:0", "udpin:127.0.0.1:0"]) as server:
+        ours, gcs_url = (f"udpout:127.0.0.1:{p}" for p in server.local_ports)
+        with client(gcs_url, sysid=255) as gcs:
+            gcs.heartbeat()
+            server.wait_for(lambda s: s.home_ne_m is not None and not s.booting, 20.0)
+            assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM_MAGIC) == 0
+            code, out, err = run_main(
+                [
+                    "autopilot", "install-guard", "--connect", ours, "--config",
+                    config(tmp_path), "--reboot",
+                ],
+                capsys,
+            )  # fmt: skip
+        assert server.snapshot().armed
+        assert not (server.workdir / "scripts" / "helixd-guard.lua").exists()
+    assert code == ExitCode.PREFLIGHT
+    assert "MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN" not in out
+    assert "the autopilot is armed: --reboot only while disarmed (nothing installed)" in err
