@@ -44,7 +44,9 @@ from helixd.sim.core import SimCore
 from helixd.sim.faults import make_spec
 from helixd.sim.ftp import FtpServer
 from helixd.sim.inbound import Router
+from helixd.sim.params import ParamStore
 from helixd.sim.snapshot import History, HistoryEntry, SimSnapshot, take_snapshot
+from helixd.sim.storage import read_storage, storage_values, with_storage, write_storage
 
 log = structlog.get_logger(__name__)
 
@@ -187,13 +189,19 @@ class SimServer:
         self._own_workdir = config.workdir is None
         self.workdir = prepare_workdir(config)
         self._ftp = FtpServer(self.workdir)
+        # a working directory of its own keeps the parameter storage across restarts
+        boot_config = (
+            config if self._own_workdir else with_storage(config, read_storage(self.workdir))
+        )
         self._core = SimCore(
-            config,
+            boot_config,
             len(self.link_specs),
             rng,
             ftp=self._ftp,
             scripts=lambda: read_scripts(self.workdir),
         )
+        self._stored_version = self._core.params.version
+        self._param_defaults = ParamStore(dict(config.params)).as_dict()
         self._router = Router()
         self._links: list[_Link] = []
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -348,6 +356,9 @@ class SimServer:
         with self._cond:
             self._snapshot = snap
             self._cond.notify_all()
+        if not self._own_workdir and core.params.version != self._stored_version:
+            self._stored_version = core.params.version
+            write_storage(self.workdir, storage_values(core.params, self._param_defaults))
         sysid = core.ap.sysid()
         for index, msg in core.drain_outbox():
             if index is not None:

@@ -157,3 +157,38 @@ def test_reboot_is_refused_while_armed_and_nothing_is_installed(
     assert code == ExitCode.PREFLIGHT
     assert "MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN" not in out
     assert "the autopilot is armed: --reboot only while disarmed (nothing installed)" in err
+
+
+def test_a_simulator_with_a_state_dir_remembers_the_installed_guard_across_a_restart(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 36: `helixd sim` forgot an installed guard when restarted (a fresh temporary
+    directory each time). With a working directory of its own (``--state-dir``) the script
+    and the parameters set (SCR_ENABLE, as SITL's eeprom.bin) survive: the restarted
+    simulator boots with the guard running."""
+    state = tmp_path / "ap"
+    with running_sim(workdir=state) as (server, url):
+        code, _, err = run_main(
+            ["autopilot", "install-guard", "--connect", url, "--config", config(tmp_path)], capsys
+        )
+        assert code == 0, err
+        assert server.snapshot().params["SCR_ENABLE"] == 1.0
+    with running_sim(workdir=state) as (server, _):
+        snap = server.wait_for(lambda s: s.guard_version is not None, 20.0)
+        assert snap.guard_version == VERSION
+        assert snap.params["SCR_ENABLE"] == 1.0
+    with running_sim() as (server, _):  # a fresh temporary directory: nothing remembered
+        assert server.snapshot().params["SCR_ENABLE"] == 0.0
+
+
+def test_sim_state_dir_is_the_simulators_working_directory(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    state = tmp_path / "state"
+    code, _, err = run_main(
+        ["sim", "--listen", "udpin:127.0.0.1:0", "--speedup", "10", "--duration", "3",
+         "--state-dir", str(state)],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    assert state.is_dir()  # kept: not a temporary directory removed at stop
