@@ -19,7 +19,7 @@ from typing import Annotated
 import typer
 
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import fail, link_inputs, run_on_link
+from helixd.cli.common import config_option, fail, link_inputs, run_on_link
 from helixd.link.commands import CommandError
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
@@ -38,7 +38,7 @@ autopilot_app = typer.Typer(
 ConnectOpt = Annotated[
     str | None, typer.Option("--connect", help="autopilot link (default: link.url)")
 ]
-ConfigOpt = Annotated[Path | None, typer.Option("--config", "-c", help="helixd.yaml")]
+ConfigOpt = Annotated[Path | None, config_option()]
 ScriptsDirOpt = Annotated[
     str | None,
     typer.Option(
