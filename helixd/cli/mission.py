@@ -186,9 +186,8 @@ def survey(
             "--time-factor",
             min=1.0,
             max=5.0,
-            help="mission time limit = this x (estimated time + the longest approach run "
-            "lets through: from the fence's farthest corner, at most "
-            "mission.max_start_distance_m) (slip, pauses)",
+            help="mission time limit = this x (estimated time + the longest approach "
+            "preflight allows) (slip, pauses)",
         ),
     ] = 1.5,
     config: ConfigOpt = None,

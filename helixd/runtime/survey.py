@@ -13,9 +13,11 @@ What the rover needs around them comes from the config:
   refuses a start outside the mission's ``geofence_polygon``, and the approach to the first
   transect is driven inside it (routed around the keep-outs when planning is on);
 * the time limit is ``time_factor`` × (the navigator's own estimate from the first waypoint
-  (:mod:`helixd.control.estimate`) + the longest approach ``run`` lets through: a turn about
-  and a straight drive from the fence's farthest corner to the first waypoint, at most
-  ``mission.max_start_distance_m``).
+  (:mod:`helixd.control.estimate`) + the longest approach preflight allows: a turn about and
+  ``mission.max_start_distance_m`` to the first waypoint). The fence is usually tighter than
+  that (the start must lie inside it); the slack covers an approach routed around the
+  keep-outs and a slow start (a budget cut to the fence's corners ran out on the simulator:
+  ``tests/integration/test_survey_flight.py``).
 
 Pure: no printing; :class:`SurveyRefused` carries the one-line reason.
 """
@@ -32,7 +34,6 @@ from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
 from helixd.mission import Mission, PlanError
 from helixd.mission.formats.areas import SurveyArea
-from helixd.mission.geodesy import geodesic_ne_m
 from helixd.mission.plan import resolve_plan
 from helixd.mission.survey import SurveyError, SurveyResult, plan_survey
 from helixd.planning.obstacles import clearance_m, rover_half_width_m
@@ -53,7 +54,6 @@ class SurveyMission:
     keep_out_inset_m: float  # off the holes
     estimate: TimeEstimate  # from the first waypoint
     approach: TimeEstimate  # the longest approach preflight lets through
-    approach_m: float  # its length: from the fence's farthest corner, capped by preflight
     time_factor: float
     time_limit_s: float
 
@@ -70,23 +70,10 @@ def default_insets(cfg: HelixdConfig, inset_m: float | None) -> tuple[float, flo
     return edge, max(edge, clearance_m(cfg) + cells_m)
 
 
-def approach_distance_m(cfg: HelixdConfig, result: SurveyResult) -> float:
-    """The longest straight approach ``run`` lets through: the rover starts inside the fence
-    (preflight refuses a start outside it) and at most ``mission.max_start_distance_m`` from
-    the first waypoint: the farthest fence corner's distance, capped by that."""
-    lat0, lon0 = result.waypoints_latlon_deg[0]
-    farthest_m = max(
-        math.hypot(*geodesic_ne_m(lat, lon, lat0, lon0)) for lat, lon in result.fence_latlon_deg
-    )
-    return min(farthest_m, cfg.mission.max_start_distance_m)
-
-
-def approach_estimate(
-    cfg: HelixdConfig, mode: MotionMode, speed_mps: float, distance_m: float | None = None
-) -> TimeEstimate:
-    """An approach of ``distance_m`` (default ``mission.max_start_distance_m``, the longest
-    preflight allows) to the first waypoint, turned about."""
-    distance = cfg.mission.max_start_distance_m if distance_m is None else distance_m
+def approach_estimate(cfg: HelixdConfig, mode: MotionMode, speed_mps: float) -> TimeEstimate:
+    """The longest approach preflight allows: turned about, ``mission.max_start_distance_m``
+    from the first waypoint."""
+    distance = cfg.mission.max_start_distance_m
     plan = Plan(
         "approach",
         mode,
@@ -140,8 +127,7 @@ def survey_mission(
     except (ValidationError, PlanError) as exc:
         raise SurveyRefused(f"{area.source}: the survey is not a valid mission: {exc}") from None
     estimate = estimate_time(plan, cfg.control)  # from the first waypoint, facing the second
-    approach_m = approach_distance_m(cfg, result)
-    approach = approach_estimate(cfg, mode, plan.speed_mps, approach_m)
+    approach = approach_estimate(cfg, mode, plan.speed_mps)
     limit_s = float(math.ceil(time_factor * (estimate.total_s + approach.total_s)))
     if not limit_s <= TIME_LIMIT_MAX_S:
         raise SurveyRefused(
@@ -150,9 +136,7 @@ def survey_mission(
             "the area"
         )
     msn = msn.model_copy(update={"time_limit_s": limit_s})
-    return SurveyMission(
-        msn, result, edge_m, hole_m, estimate, approach, approach_m, time_factor, limit_s
-    )
+    return SurveyMission(msn, result, edge_m, hole_m, estimate, approach, time_factor, limit_s)
 
 
 def survey_lines(
@@ -172,7 +156,7 @@ def survey_lines(
         f"{est.turning_s:.0f} s in {est.pivots} turns in place) from waypoint 1",
         f"limit   : time limit {got.time_limit_s:.0f} s = {got.time_factor:g} x ("
         f"{est.total_s:.0f} s + {app.total_s:.0f} s for an approach of up to "
-        f"{got.approach_m:.0f} m from inside the fence), rounded up",
+        "mission.max_start_distance_m), rounded up",
         f"fence   : the polygon grown by {margin_m:g} m ({len(msn.geofence_polygon)} vertices)"
         + (f"; {keep} keep-out areas (the holes) travel with the mission" if keep else ""),
         f"start   : the rover must start inside the fence (at most {margin_m:g} m outside the "
@@ -183,7 +167,6 @@ def survey_lines(
 __all__ = [
     "SurveyMission",
     "SurveyRefused",
-    "approach_distance_m",
     "approach_estimate",
     "default_insets",
     "survey_lines",

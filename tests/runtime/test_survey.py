@@ -84,37 +84,10 @@ def test_the_time_limit_is_built_on_the_navigators_estimate_and_the_approach() -
         got.estimate.total_s
         > plan.path_length_m((plan.waypoints[0].x_m, plan.waypoints[0].y_m)) / 0.6
     )
-    approach = approach_estimate(CFG, MotionMode.SCROLL, plan.speed_mps, got.approach_m)
-    assert approach.total_s > got.approach_m / plan.speed_mps  # + a turn
+    approach = approach_estimate(CFG, MotionMode.SCROLL, plan.speed_mps)
+    assert approach.total_s > CFG.mission.max_start_distance_m / plan.speed_mps  # + a turn
     assert got.time_limit_s == math.ceil(1.5 * (estimate.total_s + approach.total_s))
     assert got.mission.time_limit_s == got.time_limit_s
-
-
-def test_the_approach_budgeted_is_the_one_run_lets_through_from_inside_the_fence() -> None:
-    """Issue 36: the time limit budgeted a 100 m approach while the fence (the area grown by
-    2 m) refused any start more than 2 m outside the area. The approach is now from the
-    fence's farthest corner to waypoint 1, capped by mission.max_start_distance_m."""
-    got = survey()
-    lat0, lon0 = got.mission.points()[0]
-    corners_m = [
-        math.hypot(*latlon_to_ne(a, b, lat0, lon0)) for a, b in got.mission.geofence_polygon
-    ]
-    assert got.approach_m == pytest.approx(
-        min(max(corners_m), CFG.mission.max_start_distance_m), abs=0.05
-    )
-    small = survey_mission(
-        read_area(DATA_DIR / "pond_with_island.geojson"),
-        HelixdConfig.model_validate({"mission": {"max_start_distance_m": 20.0}}),
-        name="pond",
-        mode=MotionMode.SCROLL,
-        spacing_m=10.0,
-        angle_deg=30.0,
-        margin_m=2.0,
-        inset_m=None,
-        time_factor=1.5,
-    )
-    assert small.approach_m == 20.0
-    assert small.time_limit_s < got.time_limit_s
 
 
 def test_a_start_outside_the_survey_fence_is_refused_with_what_to_do() -> None:
