@@ -9,6 +9,8 @@ the dotted field path, the bad value and what is allowed (the machinery: helixd.
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Mapping
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Literal
@@ -1039,6 +1041,26 @@ def _channel_conflicts(cfg: HelixdConfig) -> list[str]:
 
 
 PositiveFloat = Annotated[float, Field(gt=0.0)]
+
+
+CONFIG_ENV = "HELIXD_CONFIG"  # the config file when no -c is given; set empty: built-in defaults
+ROVER_CONFIG_PATH = Path("/etc/helixd/helixd.yaml")  # tools/install.sh writes it on the rover
+
+
+def default_config_path(environ: Mapping[str, str] | None = None) -> Path | None:
+    """The config a command reads when not given one (``-c``): ``$HELIXD_CONFIG`` when set
+    (empty: the built-in defaults), else :data:`ROVER_CONFIG_PATH` when it exists (the rover),
+    else None (the built-in defaults)."""
+    env = os.environ if environ is None else environ
+    named = env.get(CONFIG_ENV)
+    if named is not None:
+        return Path(named) if named.strip() else None
+    return ROVER_CONFIG_PATH if ROVER_CONFIG_PATH.is_file() else None
+
+
+def config_label(path: Path | str | None) -> str:
+    """How a command names the config it read."""
+    return "built-in defaults" if path is None else str(path)
 
 
 def load_config(path: Path | str | None) -> HelixdConfig:

@@ -12,14 +12,18 @@ apart and would trip a 0.5 s guard between two of them.
 from __future__ import annotations
 
 import contextlib
+import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+
+import structlog
 
 from helixd.config import HelixdConfig, KeepOutCircleConfig
 from helixd.mav.guard import HXG_CHANS, HXG_TIMEOUT, MAX_OUTPUT, PARAM_DEFAULTS, TIMEOUT_MAX_MS
 from helixd.mission.formats import GcsMission, fence_has_keep_outs, fence_ne
 from helixd.planning import OccupancyMap
 from helixd.planning.obstacles import rover_half_width_m
+from helixd.recorder.logging_setup import configure_logging
 from helixd.sim import SimConfig, start_embedded
 from helixd.sim.config import NoiseLevel, Plant, Terrain
 from helixd.sim.obstacles import ObstacleRaster, SimObstacles
@@ -90,6 +94,8 @@ def simulator(
     if choice is None:
         yield url
         return
+    if not structlog.is_configured():  # the run's console format from the first line on
+        configure_logging(tty=sys.stderr.isatty())
     start = {}
     if choice.start_ned is not None:
         north, east, yaw = choice.start_ned

@@ -6,12 +6,13 @@ from typing import Any
 
 import pytest
 
-from helixd.mav.constants import MAV_CMD_DO_SET_HOME
+from helixd.mav.constants import MAV_CMD_DO_SET_HOME, MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
 from helixd.mav.guard import SCRIPT_NAME, VERSION, script_bytes
 from helixd.sim import estimator, modes
 from helixd.sim import guard as g
 from helixd.sim.autopilot import (
     FORCE_ARM_MAGIC,
+    FORCE_REBOOT_MAGIC,
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_SERVO,
     MAV_RESULT_ACCEPTED,
@@ -454,6 +455,21 @@ def test_reboot_keeps_params_and_restarts_boot() -> None:
     assert rig.ap.time_boot_ms(rig.now + 1.5) == 500
     assert not rig.ap.armed
     assert rig.ap.params.get("FS_GCS_ENABLE") == 1.0
+
+
+def test_the_reboot_command_is_refused_while_armed_unless_forced_as_ardupilot_does() -> None:
+    """GCS_MAVLINK::handle_preflight_reboot: armed → FAILED unless param6 (y) is 20190226;
+    param1 other than 1 or 3 → UNSUPPORTED; else ACCEPTED (the core reboots after the ACK)."""
+    rig = Rig().boot()
+    assert rig.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 2) == MAV_RESULT_UNSUPPORTED
+    assert rig.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == MAV_RESULT_ACCEPTED
+    rig.force_arm()
+    assert rig.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == MAV_RESULT_FAILED
+    assert rig.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1, 0, 0, 0, 0, 20190) == (
+        MAV_RESULT_FAILED
+    )
+    forced = rig.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1, 0, 0, 0, 0, FORCE_REBOOT_MAGIC)
+    assert forced == MAV_RESULT_ACCEPTED
 
 
 def test_expired_override_leaves_outputs_frozen_while_receiver_is_lost() -> None:
