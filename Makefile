@@ -31,8 +31,10 @@ test: lint typecheck
 unit: $(STAMP)
 	$(BIN)/pytest -q --ignore=tests/integration --ignore=tests/sitl
 
+# the console: the live progress line (on a terminal), warnings, the result table, and the
+# plain `helixd: RESULT` line last; every event is in the run directory's events.jsonl
 demo: $(STAMP)
-	$(BIN)/helixd run --sim --sim-speedup 4 --mission config/missions/square.yaml --config config/helixd.yaml --run-dir runs
+	$(BIN)/helixd run --sim --sim-speedup 4 --mission config/missions/square.yaml --config config/helixd.yaml --run-dir runs --log-level warning
 
 # Both benchmarks write into bench/results/latest.json and latest.md (sections navigation and
 # control_loop); the second runs even if the first had a failed run, the exit status reports both.

@@ -1,7 +1,7 @@
 """helixd configuration (``config/helixd.yaml``), validated by pydantic.
 
 Every tunable lives here with its unit (in the name or the description), its bounds and a
-default taken from the Helix-25 thesis or DESIGN.md. Unknown keys are errors. Loading a bad
+default taken from the Helix-25 thesis (docs/physics.md). Unknown keys are errors. Loading a bad
 file raises :class:`ConfigFileError` carrying one message per problem, each naming the file,
 the dotted field path, the bad value and what is allowed (the machinery: helixd.files.models).
 """
@@ -9,6 +9,8 @@ the dotted field path, the bad value and what is allowed (the machinery: helixd.
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Mapping
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated, Literal
@@ -287,7 +289,7 @@ class ControlConfig(InputModel):
         "Default 0.25 m, the value measured against AUTO (the time estimate follows the "
         "arcs): a 90° survey turn gets R = 0.60 m at 0.43 m/s instead of a "
         "stop and a pivot (≈ 0.8 s lost instead of ≈ 8 s); the arc passes 0.18 m from the "
-        "legs, under half of ArduPilot AUTO's 0.45 m largest cross-track on SITL (issue 22); "
+        "legs, under half of ArduPilot AUTO's 0.45 m largest cross-track on SITL; "
         "0.15–0.2 m would not beat AUTO's time (m)",
     )
     max_accel_mps2: float = Field(
@@ -1036,6 +1038,26 @@ def _channel_conflicts(cfg: HelixdConfig) -> list[str]:
                 "flipping the start switch would be read as a stick deflection"
             )
     return problems
+
+
+CONFIG_ENV = "HELIXD_CONFIG"  # the config file when no -c is given; set empty: built-in defaults
+ROVER_CONFIG_PATH = Path("/etc/helixd/helixd.yaml")  # tools/install.sh writes it on the rover
+
+
+def default_config_path(environ: Mapping[str, str] | None = None) -> Path | None:
+    """The config a command reads when not given one (``-c``): ``$HELIXD_CONFIG`` when set
+    (empty: the built-in defaults), else :data:`ROVER_CONFIG_PATH` when it exists (the rover),
+    else None (the built-in defaults)."""
+    env = os.environ if environ is None else environ
+    named = env.get(CONFIG_ENV)
+    if named is not None:
+        return Path(named) if named.strip() else None
+    return ROVER_CONFIG_PATH if ROVER_CONFIG_PATH.is_file() else None
+
+
+def config_label(path: Path | str | None) -> str:
+    """How a command names the config it read."""
+    return "built-in defaults" if path is None else str(path)
 
 
 def load_config(path: Path | str | None) -> HelixdConfig:

@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 
 import pytest
 import structlog
 
+from helixd.config import CONFIG_ENV
 from helixd.recorder import logging_setup
+
+# Without -c a command reads $HELIXD_CONFIG, else /etc/helixd/helixd.yaml where it exists (a
+# rover): the tests read the built-in defaults on any machine unless they point it elsewhere.
+os.environ[CONFIG_ENV] = ""
 
 
 @pytest.fixture

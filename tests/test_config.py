@@ -272,7 +272,7 @@ def test_shipped_sitl_skid_config_is_the_sitl_suites() -> None:
 def test_a_signing_key_run_could_not_use_is_refused_at_load(
     tmp_path: Path, key: bytes | None, fragment: str
 ) -> None:
-    """Issue 24: `check` accepted a config naming a missing key file; `run` would only find
+    """Regression: `check` accepted a config naming a missing key file; `run` would only find
     out when the link opened. The loader reads it as the link will."""
     key_file = tmp_path / "helix.key"
     if key is not None:

@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Control-loop benchmark: pose-in → command-out latency, loop jitter and CPU at 50 Hz.
 
-DESIGN §6: "pose-in → command-out latency p99 < 1 ms, 50 Hz loop jitter p99 < 2 ms,
-CPU < 5 % of one core at 50 Hz telemetry — printed by a benchmark, not asserted by a test."
+The quality bar (docs/measurements.md): pose-in → command-out latency p99 < 1 ms, 50 Hz loop
+jitter p99 < 2 ms, CPU < 5 % of one core at 50 Hz telemetry — printed by a benchmark, not
+asserted by a test.
 
 Real parts on both sides of a loopback UDP link:
 
@@ -82,7 +83,7 @@ RECORD_TIMEOUT_S = 10.0
 LABEL_WIDTH = 37
 TARGET_LATENCY_P99_MS = 0.5
 TARGET_JITTER_P99_MS = 2.0
-# CPU of one core: < 2 % at 50 Hz and < 6 % at 200 Hz (issue 11); linear in between
+# CPU of one core: < 2 % at 50 Hz and < 6 % at 200 Hz (the original targets); linear in between
 TARGET_CPU_POINTS = ((50.0, 2.0), (200.0, 6.0))
 TARGET_RATIO_TO_FLOOR = 2.0  # daemon CPU per step over a bare pymavlink echo loop's
 ASYNCIO_PREFIX = "asyncio_"  # figures of the same echo loop written as an asyncio program
@@ -201,7 +202,7 @@ def format_stats_ms(name: str, s: Stats | None, target: str = "") -> str:
 
 
 def cpu_target_percent(rate_hz: float) -> float:
-    """The CPU target at ``rate_hz``: the issue's two points, linear between, flat outside."""
+    """The CPU target at ``rate_hz``: the two target points, linear between, flat outside."""
     (r0, c0), (r1, c1) = TARGET_CPU_POINTS
     if rate_hz <= r0:
         return c0

@@ -6,7 +6,7 @@ corner, through :func:`helixd.planning.plan_route` — the code path ``helixd ch
 Two synthetic maps (seeded, so every run plans the same problem):
 
 * ``clutter``: 300 random discs 0.5–6 m across the map (a pond full of pontoons and islands).
-  The target of issue 13 — **< 1 s on this machine** — is measured on this one.
+  The target — **< 1 s on this machine** — is measured on this one.
 * ``walls``: nine berms across the map with gaps at alternate ends, a serpentine that makes A*
   expand ~85 % of the grid: the worst case, reported beside it, not held to the target.
 

@@ -227,7 +227,7 @@ def control_loop_markdown(loop: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-CPU_PER_ECHO_TARGET = 2.0  # issue 14/16: daemon CPU at most 2x the asyncio echo's
+CPU_PER_ECHO_TARGET = 2.0  # daemon CPU at most 2x the asyncio echo's
 RTT_PER_ECHO_TARGET = 1.5  # and the autopilot's round trip p99 at most 1.5x the echo's
 CPU_MISS_WHY = (
     "Why the CPU target is missed: per step the daemon does what the echo does (read, decode, "
@@ -247,7 +247,7 @@ CPU_MISS_WHY = (
 
 
 def floor_target_lines(per_rate: Mapping[str, Any]) -> list[str]:
-    """Issue 14/16's targets against the asyncio echo measured in the same run, with the miss."""
+    """The loop-cost targets against the asyncio echo measured in the same run, with the miss."""
     rows, misses = [], []
     for rate, fig in per_rate.items():
         if not isinstance(fig, Mapping):
@@ -274,7 +274,7 @@ def floor_target_lines(per_rate: Mapping[str, Any]) -> list[str]:
             misses.append(f"200 Hz: {unstepped} poses not stepped")
     if not rows:
         return []
-    lines = ["", "Against the asyncio echo of the same run (issue 14/16):", ""]
+    lines = ["", "Against the asyncio echo of the same run:", ""]
     lines += md_table(
         ["rate", "CPU / echo (target <= 2.0)", "autopilot rtt p99 ms", "echo rtt p99 ms",
          "rtt p99 / echo (target <= 1.5)", "poses not stepped (target 0 at 200 Hz)"],

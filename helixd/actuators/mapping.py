@@ -5,7 +5,7 @@ PWM per :class:`helixd.config.ChannelConfig`: ``trim + f·(max − trim)`` for f
 deadband_us`` sent as trim, clamped to [min, max].
 
 RC_CHANNELS_OVERRIDE field semantics (ArduPilot GCS_MAVLINK::handle_rc_channels_override and
-the MAVLink spec; DESIGN §3):
+the MAVLink spec; docs/ardupilot.md, RC override):
 
 =============  ==========================  ===================================
 channels       leave unchanged (not ours)  release to the pilot's radio

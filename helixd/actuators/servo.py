@@ -3,8 +3,8 @@
 DO_SET_SERVO outputs are LATCHED in ArduPilot: there is no timeout. If helixd is killed
 (SIGKILL, power loss of the companion, a hung process, a cut cable), every scroll output stays
 at the last value it was given — the rover keeps driving — until something else commands that
-output. Neither HOLD nor disarm stops these outputs (DESIGN §3). helixd sends neutral at start
-and at stop, but it cannot do so once dead. That something else is helixd-guard, the Lua
+output. Neither HOLD nor disarm stops these outputs (docs/ardupilot.md). helixd sends neutral at
+start and at stop, but it cannot do so once dead. That something else is helixd-guard, the Lua
 dead-man switch on the autopilot (``helixd autopilot install-guard``; preflight refuses this
 backend without it unless ``safety.servo_guard: warn``): it holds the outputs at trim and asks
 for HOLD when helixd's HEARTBEATs stop for HXG_TIMEOUT (0.5 s). Keep a hardware means to cut

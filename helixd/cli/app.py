@@ -27,6 +27,7 @@ from helixd.cli.common import (
     CONTEXT_SETTINGS,
     WholeHelpGroup,
     check_connect,
+    config_option,
     config_or_exit,
     fail,
     refused,
@@ -99,7 +100,7 @@ def main_options(
 
 ConfigOpt = Annotated[
     Path | None,
-    typer.Option("--config", "-c", help="helixd.yaml (defaults built in when omitted)"),
+    config_option(),
 ]
 MissionOpt = Annotated[
     Path,

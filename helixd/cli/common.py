@@ -6,6 +6,7 @@ from __future__ import annotations
 import asyncio
 import sys
 from collections.abc import Awaitable, Callable
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -13,7 +14,13 @@ import typer
 from typer.core import TyperGroup
 
 from helixd.base.exitcodes import ExitCode
-from helixd.config import HelixdConfig, LinkConfig, load_config
+from helixd.config import (
+    HelixdConfig,
+    LinkConfig,
+    config_label,
+    default_config_path,
+    load_config,
+)
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
@@ -52,12 +59,50 @@ def fail(problems: list[str], code: ExitCode = ExitCode.USAGE) -> typer.Exit:
     return typer.Exit(int(code))
 
 
+# set by --config's callback for the command being run: whether it said the config already
+_CONFIG_SAID: ContextVar[bool] = ContextVar("helixd_config_said", default=False)
+
+
+def announce_config(path: Path | None) -> None:
+    """``config  : FILE`` (or built-in defaults) on stdout, as ``check`` reports it."""
+    typer.echo(f"config  : {config_label(path)}")
+
+
+def resolve_config(ctx: typer.Context, value: Path | None) -> Path | None:
+    """``--config``'s callback: the file given, else the default one
+    (:func:`helixd.config.default_config_path`: ``$HELIXD_CONFIG``, else
+    /etc/helixd/helixd.yaml on the rover), else None (built-in defaults). ``run`` says at once
+    which one it reads (``check`` prints it in its report; the others when they load it)."""
+    path = value if value is not None else default_config_path()
+    say = ctx.info_name == "run" and not ctx.resilient_parsing
+    if say:
+        announce_config(path)
+    _CONFIG_SAID.set(say)
+    return path
+
+
+CONFIG_HELP = (
+    "helixd.yaml (default: $HELIXD_CONFIG, else /etc/helixd/helixd.yaml where it exists, the "
+    "rover's; else the built-in defaults)"
+)
+
+
+def config_option() -> Any:
+    """The ``--config/-c`` option every command shares (resolved by :func:`resolve_config`)."""
+    return typer.Option("--config", "-c", help=CONFIG_HELP, callback=resolve_config)
+
+
 def config_or_exit(config: Path | None) -> HelixdConfig:
-    """The config file (built-in defaults for None), or exit 2 naming every problem."""
+    """The config file (``None``: :func:`helixd.config.default_config_path`, else the built-in
+    defaults), said on stdout, or exit 2 naming every problem."""
+    path = config if config is not None else default_config_path()
     try:
-        return load_config(config)
+        cfg = load_config(path)
     except ConfigFileError as exc:
         raise fail(exc.problems) from None
+    if not _CONFIG_SAID.get():
+        announce_config(path)
+    return cfg
 
 
 def refused(exc: InputsRefused) -> typer.Exit:

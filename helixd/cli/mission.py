@@ -14,7 +14,14 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode
-from helixd.cli.common import WholeHelpGroup, config_or_exit, fail, link_inputs, run_on_link
+from helixd.cli.common import (
+    WholeHelpGroup,
+    config_option,
+    config_or_exit,
+    fail,
+    link_inputs,
+    run_on_link,
+)
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import Autopilot
@@ -47,6 +54,9 @@ from helixd.runtime.placement import place_on_autopilot
 from helixd.runtime.survey_mission import SurveyRefused, survey_lines, survey_mission
 
 T = TypeVar("T")
+
+ConfigOpt = Annotated[Path | None, config_option()]
+
 
 mission_app = typer.Typer(
     name="mission",
@@ -98,9 +108,7 @@ def convert(
     src: Annotated[Path, typer.Argument(help="mission file: .yaml, .plan or .waypoints")],
     dst: Annotated[Path, typer.Argument(help="output; its suffix names the format")],
     mode: ModeOpt = None,
-    config: Annotated[
-        Path | None, typer.Option("--config", "-c", help="helixd.yaml (mission limits, mode)")
-    ] = None,
+    config: ConfigOpt = None,
     origin: OriginOpt = None,
     start_heading_deg: HeadingOpt = None,
 ) -> None:
@@ -156,7 +164,11 @@ def survey(
     margin_m: Annotated[
         float,
         typer.Option(
-            "--margin-m", min=0.0, max=100.0, help="geofence = the polygon grown by this (m)"
+            "--margin-m",
+            min=0.0,
+            max=100.0,
+            help="geofence = the polygon grown by this (m); the rover must start inside it "
+            "(run refuses a start outside the fence), so grow this to start farther out",
         ),
     ] = 2.0,
     inset_m: Annotated[
@@ -180,12 +192,11 @@ def survey(
             "preflight allows) (slip, pauses)",
         ),
     ] = 1.5,
-    config: Annotated[
-        Path | None, typer.Option("--config", "-c", help="helixd.yaml (speed, yaw rate)")
-    ] = None,
+    config: ConfigOpt = None,
 ) -> None:
-    """Boustrophedon survey of a polygon (holes cut out and kept out), with its own geofence,
-    keep-out areas and time limit."""
+    """Boustrophedon survey of a polygon (holes cut out and kept out), with its own geofence
+    (the polygon grown by --margin-m: the rover must start inside it), keep-out areas and time
+    limit."""
     cfg = config_or_exit(config)
     try:
         got = survey_mission(
@@ -231,7 +242,6 @@ ConnectOpt = Annotated[
         "as the GCS id, and without a HEARTBEAT, so the autopilot's GCS failsafe ignores it",
     ),
 ]
-ConfigOpt = Annotated[Path | None, typer.Option("--config", "-c", help="helixd.yaml")]
 
 
 def _write_atomic(path: Path, text: str) -> None:

@@ -10,7 +10,7 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.cli.common import check_connect, config_or_exit, fail, refused
+from helixd.cli.common import check_connect, config_option, config_or_exit, fail, refused
 from helixd.cli.simulated import SimChoice, sim_world, simulator
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.recorder.logging_setup import configure_logging
@@ -26,7 +26,7 @@ __all__ = ["register"]
 def serve_command(
     config: Annotated[
         Path | None,
-        typer.Option("--config", "-c", help="helixd.yaml (defaults built in when omitted)"),
+        config_option(),
     ] = None,
     connect: Annotated[
         str | None,

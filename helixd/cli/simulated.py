@@ -12,8 +12,11 @@ apart and would trip a 0.5 s guard between two of them.
 from __future__ import annotations
 
 import contextlib
+import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+
+import structlog
 
 from helixd.config import HelixdConfig, KeepOutCircleConfig
 from helixd.mav.guard_script import (
@@ -27,6 +30,7 @@ from helixd.mission.formats import fence_has_keep_outs
 from helixd.mission.formats.items import GcsMission, fence_ne
 from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import rover_half_width_m
+from helixd.recorder.logging_setup import configure_logging
 from helixd.sim.collisions import ObstacleRaster, SimObstacles
 from helixd.sim.server import start_embedded
 from helixd.sim.sim_config import NoiseLevel, Plant, SimConfig, Terrain
@@ -97,6 +101,8 @@ def simulator(
     if choice is None:
         yield url
         return
+    if not structlog.is_configured():  # the run's console format from the first line on
+        configure_logging(tty=sys.stderr.isatty())
     start = {}
     if choice.start_ned is not None:
         north, east, yaw = choice.start_ned

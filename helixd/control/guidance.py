@@ -1,6 +1,6 @@
 """Guidance: from (pose, goal) to errors and a body-velocity command, per motion mode.
 
-Pure functions (thesis §3.7, eq. 3–6):
+Pure functions (the thesis's Algorithm 2, eq. 3–6; docs/physics.md, guidance):
 
     Δx, Δy = x_ref − x, y_ref − y
     e_d    = hypot(Δx, Δy)                                  (eq. 6)

@@ -3,7 +3,7 @@
 Reads the parameters concurrently (a missing one costs one command timeout, in parallel) and
 judges them with the pure :func:`judge`. Every problem says exactly what to change.
 
-What is checked (ArduPilot Rover, DESIGN §3):
+What is checked (ArduPilot Rover; docs/ardupilot.md):
 
 * GCS system id — ``MAV_GCS_SYSID`` (current; with ``MAV_GCS_SYSID_HI`` a range, as
   ``GCS::sysid_is_gcs``) or ``SYSID_MYGCS`` (legacy), whichever exists, must cover

@@ -28,6 +28,7 @@ them (ArduPilot's item 0 is home); ``DO_JUMP``'s ``item`` counts the same way.
 
 from __future__ import annotations
 
+import difflib
 import math
 from pathlib import Path
 from typing import Any
@@ -67,6 +68,28 @@ _NOT_PARAMS = frozenset(
 )  # fmt: skip
 
 
+# every entry's own keys, in the order an operator reads them (the place: one pair of them)
+ENTRY_KEYS = (
+    "x", "y", "north", "east", "lat", "lon", "z", "heading_deg", "tolerance_m", "via",
+    "command", "params", "frame", "autocontinue",
+)  # fmt: skip
+
+
+def unknown_key_hint(key: str, spec: CommandSpec) -> str:
+    """What an entry takes: its own keys and the command's named parameters, the nearest
+    first when the key looks like a misspelling of one."""
+    allowed = [p.name for p in spec.params if p is not None]
+    near = difflib.get_close_matches(key, [*ENTRY_KEYS, *allowed], n=1)
+    named = (
+        f"{spec.name} also takes {', '.join(allowed)}"
+        if allowed
+        else f"{spec.name} has no named parameters: give params: [p1, p2, …]"
+    )
+    return (
+        f"did you mean {near[0]}? " if near else ""
+    ) + f"an entry takes {', '.join(ENTRY_KEYS)}; {named}"
+
+
 def _named_params(data: dict[str, Any], spec: CommandSpec) -> dict[str, Any]:
     """An entry's named parameters (``hold_s``, ``channel``, …) → ``params`` [p1, …]; every
     value checked here, at the edge: a number (or null: unset), finite, in its range."""
@@ -83,13 +106,7 @@ def _named_params(data: dict[str, Any], spec: CommandSpec) -> dict[str, Any]:
     for key, value in named.items():
         found = spec.param(key)
         if found is None:
-            allowed = [p.name for p in spec.params if p is not None]
-            hint = (
-                f"{spec.name} takes {', '.join(allowed)}"
-                if allowed
-                else f"{spec.name} has no named parameters: give params: [p1, p2, …]"
-            )
-            raise ValueError(f"{key}: unknown key ({hint})")
+            raise ValueError(f"{key}: unknown key ({unknown_key_hint(key, spec)})")
         index, pspec = found
         if value is None:
             values[index] = None

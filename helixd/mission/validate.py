@@ -97,6 +97,7 @@ def _polygon_problems(
     if start is not None and not point_in_polygon(start.north_m, start.east_m, poly):
         problems.append(
             f"the start point (N {start.north_m:.1f} m, E {start.east_m:.1f} m) is outside {name}"
+            ": drive the rover inside it (a survey's: the area grown by mission survey --margin-m)"
         )
     offenders = [
         f"waypoints.{i}: N {n:.1f} m, E {e:.1f} m is outside {name}"

@@ -294,7 +294,10 @@ def configure_logging(
     """Configure structlog for the whole process (safe to call again, e.g. in tests).
 
     ``tty``: console renderer (True) or logfmt lines without escape codes (False).
-    ``level``: debug | info | warning | error | critical.
+    ``level``: debug | info | warning | error | critical: what the console shows. The events
+    tee (events.jsonl) gets every event from info up whatever the console shows (debug too at
+    ``level="debug"``): a quiet console (``make demo``'s ``--log-level warning``) never
+    thins the run's record.
     ``json_file``: an extra stream receiving every event as a JSON line (not closed here).
     ``stream``: where console lines go (default: ``sys.stderr`` looked up at each write).
     ``clock``: monotonic clock stamped as ``t_mono_s`` on every event.
@@ -308,6 +311,13 @@ def configure_logging(
         event_dict[MONO_KEY] = round(clock(), 6)
         return event_dict
 
+    record_level_no = min(level_no, LEVELS["info"])
+
+    def console_only(_: WrappedLogger, __: str, event_dict: EventDict) -> EventDict:
+        if LEVELS.get(str(event_dict.get("level")), level_no) < level_no:  # tee only
+            raise structlog.DropEvent
+        return event_dict
+
     _TEE.set_extra(None if json_file is None else _LogSink(json_file, "json_file", owned=False))
     processors: list[Processor] = [
         structlog.contextvars.merge_contextvars,
@@ -316,6 +326,7 @@ def configure_logging(
         stamp_mono,
         structlog.processors.StackInfoRenderer(),
         _TEE,
+        console_only,
         _drop_internal,
     ]
     if tty:
@@ -333,7 +344,7 @@ def configure_logging(
         processors += [structlog.processors.format_exc_info, render_logfmt]
     structlog.configure(
         processors=processors,
-        wrapper_class=structlog.make_filtering_bound_logger(level_no),
+        wrapper_class=structlog.make_filtering_bound_logger(record_level_no),
         logger_factory=lambda *_: _StreamLogger(stream),
         cache_logger_on_first_use=False,
     )

@@ -33,8 +33,10 @@ import numpy as np
 import numpy.typing as npt
 import structlog
 from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
+from matplotlib.transforms import Bbox
 
 from helixd.base.plan import MissionFrameKind, Numbering
 from helixd.base.run_files import CONFIG_FILE, EVENTS_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
@@ -74,6 +76,11 @@ FAULT_LABEL_MAX_CHARS = 48  # long causes are cut in legends (the summary keeps 
 LABEL_MIN_GAP_PANEL = 0.06
 LABEL_MIN_GAP_OVERVIEW = 0.12
 SAME_POINT_M = 0.05  # waypoints closer than this share one number label on the trajectory
+# waypoint number labels: off the point on the outer side of its turn, every other one farther
+# out, so the labels of neighbouring turns (a survey's transect ends) do not print over each
+# other (points)
+LABEL_OFFSET_PT = 9.0
+LABEL_STAGGER_PT = 10.0
 AUTOPILOT_AXIS_LABEL = "autopilot time since the first control step (s)"
 WALL_AXIS_LABEL = "wall time since the first control step (s)"
 SCROLL_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red")
@@ -106,6 +113,8 @@ class RunData:
     # per waypoint: the operator's number ("3", numbered from 1 over the whole mission as a
     # ground station does); "" for a via point the planner inserted
     labels: list[str] = field(default_factory=list)
+    # the trajectory's axis labels: what x and y are in the mission's frame
+    axis_labels: tuple[str, str] = ("x (m)", "y (m)")
 
     @property
     def time_label(self) -> str:
@@ -186,6 +195,78 @@ def waypoint_labels(
     return [(",".join(names[i] for i in members), xy) for members, xy in groups]
 
 
+def label_offsets_pt(points: Sequence[tuple[float, float]]) -> list[tuple[float, float]]:
+    """Per point of a path (equal axes): where its label goes, in points from it — away from
+    both legs at the point (the outer side of the turn; left of a straight pass; away from the
+    one neighbour at an end), :data:`LABEL_OFFSET_PT` out, every other point
+    :data:`LABEL_STAGGER_PT` farther, so neighbouring labels land apart."""
+    out: list[tuple[float, float]] = []
+    for i, (x, y) in enumerate(points):
+        away = [0.0, 0.0]
+        for j in (i - 1, i + 1):
+            if 0 <= j < len(points):
+                dx, dy = points[j][0] - x, points[j][1] - y
+                d = math.hypot(dx, dy)
+                if d > 0.0:
+                    away[0] -= dx / d
+                    away[1] -= dy / d
+        norm = math.hypot(*away)
+        if norm < 1e-6:  # a straight pass (or a lone point): to the left of the path
+            j = i + 1 if i + 1 < len(points) else i - 1
+            dx, dy = (points[j][0] - x, points[j][1] - y) if 0 <= j < len(points) else (1.0, 0.0)
+            d = math.hypot(dx, dy) or 1.0
+            away, norm = [-dy / d, dx / d], 1.0
+        dist = LABEL_OFFSET_PT + (LABEL_STAGGER_PT if i % 2 else 0.0)
+        out.append((away[0] / norm * dist, away[1] / norm * dist))
+    return out
+
+
+WAYPOINT_LABEL_GID = "waypoint_label"
+LABEL_TIERS = (1.0, 1.8, 2.6)  # a label that would overlap another moves out this many times
+LABEL_MARKER_CLEAR_PX = 4.0  # around a waypoint's marker: no label there
+
+
+def _label_waypoint(ax: Axes, text: str, xy: tuple[float, float], offset_pt: tuple[float, float],
+                    **style: Any) -> None:  # fmt: skip
+    ax.annotate(text, xy, textcoords="offset points", xytext=offset_pt, ha="center",
+                va="center", gid=WAYPOINT_LABEL_GID, **style)  # fmt: skip
+
+
+def declutter_waypoint_labels(fig: Figure) -> Figure:
+    """Move each waypoint label that would print over an earlier one (or a waypoint's marker):
+    farther out, then mirrored across the point, until it is clear (else where it was). Call
+    on the finished figure: the layout decides where the labels land."""
+    labels = [t for ax in fig.axes for t in ax.texts if t.get_gid() == WAYPOINT_LABEL_GID]
+    if len(labels) < 2:
+        return fig
+    # a real render (autoscale, aspect, layout: where the labels land); a bare Figure's
+    # canvas draws nothing
+    canvas = fig.canvas if isinstance(fig.canvas, FigureCanvasAgg) else FigureCanvasAgg(fig)
+    canvas.draw()  # type: ignore[no-untyped-call]
+    placed: list[Any] = []
+    for t in labels:  # the waypoints' markers: no label over one
+        x, y = t.axes.transData.transform(t.xy)  # type: ignore[attr-defined, union-attr]
+        r = LABEL_MARKER_CLEAR_PX
+        placed.append(Bbox.from_extents(x - r, y - r, x + r, y + r))
+    for label in labels:
+        dx, dy = label.xyann  # type: ignore[attr-defined]
+        tries = [
+            (sx * dx * k, sy * dy * k)
+            for k in LABEL_TIERS
+            for sx, sy in ((1, 1), (-1, 1), (1, -1), (-1, -1))
+        ]
+        for offset in tries:
+            label.xyann = offset  # type: ignore[attr-defined]
+            box = label.get_window_extent()
+            if not any(box.overlaps(other) for other in placed):
+                break
+        else:
+            label.xyann = (dx, dy)  # type: ignore[attr-defined]
+            box = label.get_window_extent()
+        placed.append(box)
+    return fig
+
+
 def sparse_label_mask(times_s: list[float], span_s: float, min_gap_frac: float) -> list[bool]:
     """Which time markers get a text label: greedily, each at least ``min_gap_frac`` of the
     axis span after the previous labelled one (the first always; the last if it fits)."""
@@ -248,6 +329,9 @@ def load_run(run_dir: Path) -> RunData:
         clamp_pct=_clamp_pct(run_dir),
         notes=notes,
         labels=labels,
+        axis_labels=axis_labels(
+            _mission_frame(run_dir), summary.origin_latlon_deg if summary else None
+        ),
     )
 
 
@@ -258,6 +342,28 @@ def _load_summary(path: Path) -> RunSummary | None:
         return None
     except (OSError, ValueError) as exc:
         log.warning("plot_summary_unreadable", path=str(path), error=str(exc))
+        return None
+
+
+def axis_labels(
+    frame: MissionFrameKind | None, origin_latlon_deg: tuple[float, float] | None
+) -> tuple[str, str]:
+    """The trajectory's axes in the mission frame (rows.py: a start mission's x forward and
+    y left of the start pose; local_ned and global: x East, y North of the EKF origin)."""
+    if frame is MissionFrameKind.START:
+        return ("x, forward of the start pose (m)", "y, left of the start pose (m)")
+    if frame is None:
+        return ("x (m)", "y (m)")
+    where = "the EKF origin"
+    if origin_latlon_deg is not None:
+        where += f" {origin_latlon_deg[0]:.6f}°, {origin_latlon_deg[1]:.6f}°"
+    return (f"x, east of {where} (m)", f"y, north of {where} (m)")
+
+
+def _mission_frame(run_dir: Path) -> MissionFrameKind | None:
+    try:
+        return load_mission(run_dir / MISSION_FILE).frame
+    except (ConfigFileError, PlanError, OSError):
         return None
 
 
@@ -463,16 +569,12 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
             label="waypoint (tolerance circle)" if first_wp else None,
         )
         first_wp = False
-    for text, (wx, wy) in waypoint_labels([(w[0], w[1]) for w in data.waypoints], labels=labels):
-        ax.annotate(
-            text,
-            (wx, wy),
-            textcoords="offset points",
-            xytext=(6, 6),
-            fontsize=9,
-            color="darkgreen",
-            weight="bold",
-        )
+    points = [(w[0], w[1]) for w in data.waypoints]
+    path = points if data.path_start is None else [data.path_start, *points]
+    offsets = label_offsets_pt(path)[len(path) - len(points) :]
+    at = {xy: off for xy, off in zip(points, offsets, strict=True)}
+    for text, xy in waypoint_labels(points, labels=labels):
+        _label_waypoint(ax, text, xy, at[xy], fontsize=9, color="darkgreen", weight="bold")
     ax.plot(x, y, "-", color="tab:blue", linewidth=1.5, label="driven")
     ok = np.isfinite(x) & np.isfinite(y)
     if ok.any():
@@ -482,8 +584,8 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
     if k is not None and math.isfinite(float(x[k])) and math.isfinite(float(y[k])):
         ax.plot(x[k], y[k], "X", color=FAULT_COLOR, markersize=12, label=data.fault_label())
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
+    ax.set_xlabel(data.axis_labels[0])
+    ax.set_ylabel(data.axis_labels[1])
     ax.grid(True, alpha=0.3)
     _legend(ax, below=overview)
 
@@ -712,10 +814,10 @@ def render_run(run_dir: Path, out_dir: Path | None = None) -> list[Path]:
     written: list[Path] = []
     for key, name in PANEL_FILES.items():
         path = out / name
-        _panel_figure(data, key).savefig(path, dpi=DPI)
+        declutter_waypoint_labels(_panel_figure(data, key)).savefig(path, dpi=DPI)
         written.append(path)
     path = out / OVERVIEW_FILE
-    _overview_figure(data).savefig(path, dpi=DPI)
+    declutter_waypoint_labels(_overview_figure(data)).savefig(path, dpi=DPI)
     written.append(path)
     log.info("plots_written", run_dir=str(run_dir), out_dir=str(out), files=len(written))
     return written
@@ -764,10 +866,13 @@ def draw_route(ax: Axes, route: Any) -> None:
     if via:
         ax.plot([p[1] for p in via], [p[0] for p in via], "o", ms=4, color="tab:blue",
                 label="intermediate")  # fmt: skip
-    for leg in route.legs:
-        n, e = leg.points_ne_m[-1]
+    ends = [(leg.points_ne_m[-1][1], leg.points_ne_m[-1][0]) for leg in route.legs]  # (e, n)
+    starts = [(route.legs[0].points_ne_m[0][1], route.legs[0].points_ne_m[0][0])] if ends else []
+    offsets = label_offsets_pt([*starts, *ends])[len(starts) :]
+    for leg, (e, n), off in zip(route.legs, ends, offsets, strict=True):
         ax.plot(e, n, "D", color="tab:green", ms=6)
-        ax.annotate(str(leg.to_index + 1), (e, n), textcoords="offset points", xytext=(5, 5))
+        _label_waypoint(ax, str(leg.to_index + 1), (e, n), off, fontsize=9, color="darkgreen",
+                        weight="bold")  # fmt: skip
     if route.legs:
         n, e = route.legs[0].points_ne_m[0]
         ax.plot(e, n, "^", color="black", ms=7, label="start")
@@ -786,7 +891,7 @@ def render_route(route: Any, out_path: Path, *, title: str = "") -> Path:
     draw_route(ax, route)
     ax.set_title(f"planned path {title}".strip())
     out_path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out_path, dpi=DPI)
+    declutter_waypoint_labels(fig).savefig(out_path, dpi=DPI)
     return out_path
 
 
@@ -798,8 +903,11 @@ __all__ = [
     "PlotError",
     "RunData",
     "autopilot_axis",
+    "axis_labels",
+    "declutter_waypoint_labels",
     "distance_along_m",
     "interp_linear",
+    "label_offsets_pt",
     "load_run",
     "render_route",
     "render_run",

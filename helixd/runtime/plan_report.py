@@ -150,6 +150,11 @@ def check_lines(
     ]
     if own:
         lines.append(f"limits  : the mission's own {', '.join(own)} replace the config's")
+    if msn.geofence_polygon:
+        lines.append(
+            "warning : the rover must start inside the mission's geofence_polygon: run refuses "
+            "a start outside it (a survey's fence is its area grown by --margin-m)"
+        )
     later = pending_checks(msn, cfg)
     if later:
         lines.append(f"preflight: run checks with the start pose: {', '.join(later)}")

@@ -11,6 +11,7 @@ import asyncio
 import contextlib
 import math
 import time
+from collections.abc import Mapping
 
 from helixd.base.frames import ne_to_latlon
 from helixd.config import LinkConfig, SafetyConfig
@@ -18,8 +19,19 @@ from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import Change, VehicleState
 from helixd.mav.constants import MAV_CMD_REQUEST_MESSAGE, MAVLINK_MSG_ID_GPS_RAW_INT
+from helixd.mav.guard_script import (
+    HXG_CHANS,
+    HXG_ENABLE,
+    HXG_VERSION,
+    SCR_ENABLE,
+    VERSION,
+    GuardParams,
+)
 
 FIRST_REPORT_S = 2.0  # wait this long for the first pose, then for the slower streams (s)
+GUARD_PARAMS = (SCR_ENABLE, HXG_VERSION, HXG_ENABLE, *HXG_CHANS)
+GUARD_PARAM_RETRIES = 1  # a missing parameter is never answered: ask it once more, not more
+INSTALL_HINT = "helixd autopilot install-guard --reboot"
 
 
 def _has_every_report(st: VehicleState) -> bool:
@@ -66,6 +78,38 @@ def format_status(st: VehicleState, now_s: float) -> list[str]:
     servo = " ".join(f"{v:4d}" for v in st.servo_outputs_us[:8]) or "none"
     lines.append(f"servo µs  : {servo}")
     return lines
+
+
+def guard_text(params: Mapping[str, float | None]) -> str:
+    """Whether helixd-guard runs on the autopilot and is enabled, from SCR_ENABLE and the
+    HXG_* parameters it adds when it runs (pure)."""
+    version = params.get(HXG_VERSION)
+    if version is None:
+        scr = params.get(SCR_ENABLE)
+        if scr is None:
+            return "helixd-guard cannot run: no SCR_ENABLE (the firmware has no Lua scripting)"
+        if round(scr) != 1:
+            return f"helixd-guard not running (SCR_ENABLE = {scr:g}): {INSTALL_HINT}"
+        return (
+            "helixd-guard not running (SCR_ENABLE = 1, no HXG_VERSION: not installed, or "
+            f"installed since the last boot): {INSTALL_HINT}"
+        )
+    guard = GuardParams.from_params({n: v for n, v in params.items() if v is not None})
+    text = f"helixd-guard v{round(version)} runs"
+    if round(version) != VERSION:
+        text += f" (this helixd needs v{VERSION}: {INSTALL_HINT})"
+    if not guard.enabled:
+        return f"{text}, DISABLED (HXG_ENABLE = {guard.enable:g}): it holds nothing"
+    outputs = ", ".join(str(n) for n in guard.outputs) or "none"
+    return f"{text}, enabled (HXG_ENABLE = 1), holds outputs {outputs}"
+
+
+async def read_guard(ap: Autopilot) -> str:
+    """:func:`guard_text` from the parameters read now."""
+    values = await asyncio.gather(
+        *(ap.param.get(n, retries=GUARD_PARAM_RETRIES) for n in GUARD_PARAMS)
+    )
+    return guard_text(dict(zip(GUARD_PARAMS, values, strict=True)))
 
 
 GPS_FIX_NAMES = {
@@ -127,6 +171,7 @@ async def read_status(
             _has_every_report, Change.EKF | Change.RC | Change.SERVO, FIRST_REPORT_S
         )
         emit(observer_line(link))
+        emit(f"guard     : {await read_guard(ap)}")
         while True:
             for line in format_status(ap.state, time.monotonic()):
                 emit(line)

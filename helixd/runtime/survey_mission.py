@@ -9,9 +9,15 @@ What the rover needs around them comes from the config:
   ``check``/``run`` plan every leg around them; the transects keep the planner's clearance
   (half-width + ``planning.margin_m``, plus two grid cells) off them, so no waypoint lies in
   a keep-out's inflated border;
+* the fence is the area grown by ``margin_m``; it is also where the rover must start: ``run``
+  refuses a start outside the mission's ``geofence_polygon``, and the approach to the first
+  transect is driven inside it (routed around the keep-outs when planning is on);
 * the time limit is ``time_factor`` × (the navigator's own estimate from the first waypoint
   (:mod:`helixd.control.estimate`) + the longest approach preflight allows: a turn about and
-  ``mission.max_start_distance_m`` to the first waypoint).
+  ``mission.max_start_distance_m`` to the first waypoint). The fence is usually tighter than
+  that (the start must lie inside it); the slack covers an approach routed around the
+  keep-outs and a slow start (a budget cut to the fence's corners ran out on the simulator:
+  ``tests/integration/test_survey_flight.py``).
 
 Pure: no printing; :class:`SurveyRefused` carries the one-line reason.
 """
@@ -153,6 +159,8 @@ def survey_lines(
         "mission.max_start_distance_m), rounded up",
         f"fence   : the polygon grown by {margin_m:g} m ({len(msn.geofence_polygon)} vertices)"
         + (f"; {keep} keep-out areas (the holes) travel with the mission" if keep else ""),
+        f"start   : the rover must start inside the fence (at most {margin_m:g} m outside the "
+        "area; run refuses a start outside it): drive it there, or grow --margin-m",
     ]
 
 

@@ -4,7 +4,7 @@ fall-back (:func:`fall_back`), the one place that stops the rover.
 
 Sequence, started within one control tick of detection and bounded in time:
 1. command all scrolls to neutral and release every override we hold (``sink.stop()``) —
-   HOLD alone does not stop an RC-passthrough output (DESIGN §3), so this comes first;
+   HOLD alone does not stop an RC-passthrough output (docs/ardupilot.md), so this comes first;
 2. request HOLD, re-sent until acknowledged or ``hold_retry_bound_s`` passes;
 3. optionally disarm;
 4. log one ``fallback`` event naming the cause and the pose.

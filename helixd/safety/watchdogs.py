@@ -131,7 +131,10 @@ def pose_invalid_fault(
 
 
 class SafetyMonitor:
-    """All watchdogs of DESIGN §5 / issue 4/7. Pure apart from the stall timer it carries."""
+    """All watchdogs of the fall-back (docs/architecture.md, safety invariants).
+
+    Pure apart from the stall timer it carries.
+    """
 
     def __init__(self, cfg: SafetyConfig) -> None:
         self.cfg = cfg

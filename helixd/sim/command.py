@@ -137,6 +137,17 @@ def register(app: typer.Typer) -> None:
         config: Annotated[
             Path | None, typer.Option("--config", "-c", help="simulator YAML (SimConfig keys)")
         ] = None,
+        state_dir: Annotated[
+            Path | None,
+            typer.Option(
+                "--state-dir",
+                file_okay=False,
+                help="the autopilot's working directory, kept across restarts as SITL's: "
+                "scripts/ (an installed helixd-guard) and the parameters set (SCR_ENABLE, "
+                "HXG_*); default: a fresh temporary directory each start, so a restarted "
+                "simulator forgets an installed guard",
+            ),
+        ] = None,
     ) -> None:
         """Run the built-in ArduPilot Rover simulator (QGroundControl/MAVProxy can connect)."""
         try:
@@ -156,6 +167,8 @@ def register(app: typer.Typer) -> None:
             updates["speedup"] = speedup
         if seed is not None:
             updates["seed"] = seed
+        if state_dir is not None:
+            updates["workdir"] = state_dir
         try:
             cfg = SimConfig.model_validate({**base.model_dump(), **updates})
         except ValidationError as exc:

@@ -154,7 +154,10 @@ class SimCore:
         self.links[link].param_queue = deque(range(len(self.params)))
 
     def reboot_after_replies(self) -> None:
-        self.flushed.extend(self.drain_outbox())
+        # drain first: drain_outbox replaces self.flushed, so ``self.flushed.extend(
+        # self.drain_outbox())`` extended the old list and lost the reboot's COMMAND_ACK
+        resolved = self.drain_outbox()
+        self.flushed.extend(resolved)
         self.inject(make_spec("reboot", {}))
 
     def mission_message(self, link: int, msg: Message) -> None:

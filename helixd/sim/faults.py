@@ -15,7 +15,7 @@ FAULTS: dict[str, dict[str, object]] = {
     "pilot_takeover": {"mode": "HOLD"},  # pilot moves the RC mode switch
     "rc_loss": {"duration_s": None},  # pilot's receiver stops
     "stall": {"duration_s": None},  # scrolls dig in: they turn, the rover does not move
-    # Hostile telemetry (issue 6/10): the autopilot reports values no pose can be made of.
+    # Hostile telemetry: the autopilot reports values no pose can be made of.
     # armed_only: corrupt only while armed (inject before arming = bad "from the moment of
     # arming"). LOCAL_POSITION_NED x = y = NaN:
     "nan_position": {"duration_s": None, "armed_only": False},

@@ -175,3 +175,7 @@ class ParamStore:
 
     def as_dict(self) -> dict[str, float]:
         return dict(self._values)
+
+    def stored(self) -> dict[str, float]:
+        """A script's parameter values in storage (kept while the script is not running)."""
+        return dict(self._stored)

@@ -71,6 +71,7 @@ from helixd.sim.rc import RcInputs
 from helixd.sim.sim_config import SimConfig
 
 FORCE_ARM_MAGIC = 21196
+FORCE_REBOOT_MAGIC = 20190226  # GCS_MAVLINK::handle_preflight_reboot: reboot even when armed
 MAV_OPTIONS_GCS_ONLY = 1 << 0
 SEVERITY_CRITICAL = 2
 SEVERITY_WARNING = 4
@@ -413,7 +414,9 @@ class SimAutopilot:
                 self._say(SEVERITY_INFO, text)
             return MAV_RESULT_FAILED
         if command == MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN:
-            if self.armed:
+            # GCS_MAVLINK::handle_preflight_reboot: refused while armed unless forced (param6,
+            # COMMAND_INT's y); param1 1 (reboot) or 3 (to the bootloader)
+            if self.armed and int(p[5]) != FORCE_REBOOT_MAGIC:
                 return MAV_RESULT_FAILED
             if p[0] not in (1.0, 3.0):
                 return MAV_RESULT_UNSUPPORTED

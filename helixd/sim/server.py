@@ -43,8 +43,10 @@ from helixd.sim.core import SimCore
 from helixd.sim.faults import make_spec
 from helixd.sim.ftp_server import FtpServer
 from helixd.sim.inbound import Router
+from helixd.sim.param_store import ParamStore
 from helixd.sim.sim_config import SimConfig
 from helixd.sim.snapshot import History, HistoryEntry, SimSnapshot, take_snapshot
+from helixd.sim.storage import read_storage, storage_values, with_storage, write_storage
 
 log = structlog.get_logger(__name__)
 
@@ -54,7 +56,9 @@ LOGGED_KINDS = frozenset(
 )  # fmt: skip
 # In-process (helixd run --sim) helixd logs what it sees of these itself (autopilot_mode,
 # autopilot_statustext, armed): the simulator's own copies go to debug there.
-ECHOED_BY_HELIXD_KINDS = frozenset({"mode", "arm", "disarm", "statustext"})
+# (and its boot and reboots: autopilot_heartbeat, autopilot_rebooted). Its own start, stop and
+# link peers go to debug there too: helixd's console is the run's, ending in its RESULT line.
+ECHOED_BY_HELIXD_KINDS = frozenset({"mode", "arm", "disarm", "statustext", "boot", "reboot"})
 MAX_LOOPS_PER_WAKEUP = 50
 MIN_SLEEP_S = 0.0005
 START_TIMEOUT_S = 10.0
@@ -103,8 +107,15 @@ class _PackBuffer:
 class _Link(asyncio.DatagramProtocol, asyncio.Protocol):
     """One MAVLink link: parser, encoder and transport(s)."""
 
-    def __init__(self, index: int, spec: LinkSpec, on_bytes: Callable[[int, bytes], None]) -> None:
+    def __init__(
+        self,
+        index: int,
+        spec: LinkSpec,
+        on_bytes: Callable[[int, bytes], None],
+        embedded: bool = False,
+    ) -> None:
         self.index = index
+        self.embedded = embedded
         self.spec = spec
         self.on_bytes = on_bytes
         self.sink = _PackBuffer()
@@ -129,7 +140,8 @@ class _Link(asyncio.DatagramProtocol, asyncio.Protocol):
     def datagram_received(self, data: bytes, addr: tuple[str, int]) -> None:
         if self.spec.kind == "udpin" and addr != self.peer:
             self.peer = addr
-            log.info("sim_link_peer", link=self.index, peer=f"{addr[0]}:{addr[1]}")
+            emit = log.debug if self.embedded else log.info
+            emit("sim_link_peer", link=self.index, peer=f"{addr[0]}:{addr[1]}")
         self.on_bytes(self.index, data)
 
     def error_received(self, exc: Exception) -> None:
@@ -182,18 +194,25 @@ class SimServer:
         self.link_specs = [LinkSpec.parse(url) for url in links]
         self.config = config
         self._quiet_kinds = ECHOED_BY_HELIXD_KINDS if embedded else frozenset()
+        self._embedded = embedded
         self.history = History(config.history_max_entries)
         rng = np.random.default_rng(config.seed)
         self._own_workdir = config.workdir is None
         self.workdir = prepare_workdir(config)
         self._ftp = FtpServer(self.workdir)
+        # a working directory of its own keeps the parameter storage across restarts
+        boot_config = (
+            config if self._own_workdir else with_storage(config, read_storage(self.workdir))
+        )
         self._core = SimCore(
-            config,
+            boot_config,
             len(self.link_specs),
             rng,
             ftp=self._ftp,
             scripts=lambda: read_scripts(self.workdir),
         )
+        self._stored_version = self._core.params.version
+        self._param_defaults = ParamStore(dict(config.params)).as_dict()
         self._router = Router()
         self._links: list[_Link] = []
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -261,7 +280,7 @@ class SimServer:
             for i, spec in enumerate(self.link_specs):
                 self._links.append(await self._open(loop, i, spec))
             self.local_ports = [link.local_port for link in self._links]
-            log.info(
+            (log.debug if self._embedded else log.info)(
                 "sim_started",
                 links=[
                     f"{s.kind}:{s.host}:{p}"
@@ -277,10 +296,11 @@ class SimServer:
         finally:
             for link in self._links:
                 link.close()
-            log.info("sim_stopped", sim_time_s=round(self._core.now_s, 3))
+            emit = log.debug if self._embedded else log.info
+            emit("sim_stopped", sim_time_s=round(self._core.now_s, 3))
 
     async def _open(self, loop: asyncio.AbstractEventLoop, i: int, spec: LinkSpec) -> _Link:
-        link = _Link(i, spec, self._on_bytes)
+        link = _Link(i, spec, self._on_bytes, self._embedded)
         if spec.kind == "udpin":
             transport, _ = await loop.create_datagram_endpoint(
                 lambda: link, local_addr=(spec.host, spec.port)
@@ -348,6 +368,9 @@ class SimServer:
         with self._cond:
             self._snapshot = snap
             self._cond.notify_all()
+        if not self._own_workdir and core.params.version != self._stored_version:
+            self._stored_version = core.params.version
+            write_storage(self.workdir, storage_values(core.params, self._param_defaults))
         sysid = core.ap.sysid()
         for index, msg in core.drain_outbox():
             if index is not None:

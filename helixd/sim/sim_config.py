@@ -303,9 +303,10 @@ class SimConfig(InputModel):
     )
     workdir: Path | None = Field(
         None,
-        description="the autopilot's working directory (SITL's): MAVLink FTP serves it and its "
-        "scripts/ holds the Lua scripts loaded at boot; None = a temporary directory made for "
-        "the run and removed when the simulator stops",
+        description="the autopilot's working directory (SITL's): MAVLink FTP serves it, its "
+        "scripts/ holds the Lua scripts loaded at boot and helixd-sim-params.json the "
+        "parameters set (SITL's eeprom.bin), both kept across restarts; None = a temporary "
+        "directory made for the run and removed when the simulator stops",
     )
     guard_installed: bool = Field(
         False,

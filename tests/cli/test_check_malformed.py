@@ -18,7 +18,7 @@ from tests.support.paths import DATA_DIR, REPO_ROOT
 ROOT = REPO_ROOT
 CORPUS = DATA_DIR / "malformed"
 SQUARE = ROOT / "config" / "missions" / "square.yaml"
-MAX_MESSAGE_CHARS = 500  # per error line; the 10 MB echo of issue 6/10 must never come back
+MAX_MESSAGE_CHARS = 500  # per error line; a 10 MB echo must never come back
 
 # file → fragments that must all appear in the output (the table is the corpus's sidecar)
 EXPECTED: dict[str, list[str]] = {

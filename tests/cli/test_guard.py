@@ -8,9 +8,11 @@ from pathlib import Path
 import pytest
 
 from helixd.base.exitcodes import ExitCode
+from helixd.mav.constants import MAV_CMD_COMPONENT_ARM_DISARM
 from helixd.mav.guard_script import VERSION, script_bytes
+from helixd.sim.rover_firmware import FORCE_ARM_MAGIC
 from tests.support.cli import run_main
-from tests.support.harness import running_sim
+from tests.support.harness import client, running_sim, running_sim_links
 
 FAST_CONNECT = "safety:\n  connect_timeout_s: 5.0\n"
 
@@ -106,3 +108,87 @@ def test_a_bad_scripts_dir_is_a_usage_error(capsys: pytest.CaptureFixture[str]) 
     )
     assert code == ExitCode.USAGE
     assert "--scripts-dir: FTP path" in err and "only ASCII names are sent" in err
+
+
+def test_reboot_installs_then_reboots_and_the_guard_runs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 36: install-guard said a reboot was needed and could not do it. ``--reboot``
+    sends MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN param1=1 (printed); the simulator ACKs, goes
+    silent, boots again and loads the guard."""
+    with running_sim() as (server, url):
+        code, out, err = run_main(
+            [
+                "autopilot", "install-guard", "--connect", url, "--config", config(tmp_path),
+                "--reboot",
+            ],
+            capsys,
+        )  # fmt: skip
+        assert code == 0, err
+        assert (
+            "sending COMMAND_LONG MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (246) param1=1 (reboot the "
+            "autopilot) to system 1 component 1"
+        ) in out
+        assert "the autopilot accepted the reboot" in out
+        snap = server.wait_for(lambda s: s.guard_version is not None, 20.0)
+        assert snap.guard_version == VERSION
+        reboots = server.history.entries("reboot")
+        assert len(reboots) == 1
+
+
+def test_reboot_is_refused_while_armed_and_nothing_is_installed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with running_sim_links(["udpin:127.0.0.1:0", "udpin:127.0.0.1:0"]) as server:
+        ours, gcs_url = (f"udpout:127.0.0.1:{p}" for p in server.local_ports)
+        with client(gcs_url, sysid=255) as gcs:
+            gcs.heartbeat()
+            server.wait_for(lambda s: s.home_ne_m is not None and not s.booting, 20.0)
+            assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM_MAGIC) == 0
+            code, out, err = run_main(
+                [
+                    "autopilot", "install-guard", "--connect", ours, "--config",
+                    config(tmp_path), "--reboot",
+                ],
+                capsys,
+            )  # fmt: skip
+        assert server.snapshot().armed
+        assert not (server.workdir / "scripts" / "helixd-guard.lua").exists()
+    assert code == ExitCode.PREFLIGHT
+    assert "MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN" not in out
+    assert "the autopilot is armed: --reboot only while disarmed (nothing installed)" in err
+
+
+def test_a_simulator_with_a_state_dir_remembers_the_installed_guard_across_a_restart(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Issue 36: `helixd sim` forgot an installed guard when restarted (a fresh temporary
+    directory each time). With a working directory of its own (``--state-dir``) the script
+    and the parameters set (SCR_ENABLE, as SITL's eeprom.bin) survive: the restarted
+    simulator boots with the guard running."""
+    state = tmp_path / "ap"
+    with running_sim(workdir=state) as (server, url):
+        code, _, err = run_main(
+            ["autopilot", "install-guard", "--connect", url, "--config", config(tmp_path)], capsys
+        )
+        assert code == 0, err
+        assert server.snapshot().params["SCR_ENABLE"] == 1.0
+    with running_sim(workdir=state) as (server, _):
+        snap = server.wait_for(lambda s: s.guard_version is not None, 20.0)
+        assert snap.guard_version == VERSION
+        assert snap.params["SCR_ENABLE"] == 1.0
+    with running_sim() as (server, _):  # a fresh temporary directory: nothing remembered
+        assert server.snapshot().params["SCR_ENABLE"] == 0.0
+
+
+def test_sim_state_dir_is_the_simulators_working_directory(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    state = tmp_path / "state"
+    code, _, err = run_main(
+        ["sim", "--listen", "udpin:127.0.0.1:0", "--speedup", "10", "--duration", "3",
+         "--state-dir", str(state)],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, err
+    assert state.is_dir()  # kept: not a temporary directory removed at stop

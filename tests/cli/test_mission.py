@@ -161,7 +161,7 @@ def test_waypoints_to_plan_keeps_the_home_and_its_altitude(tmp_path: Path) -> No
     res = runner.invoke(
         app,
         ["mission", "convert", str(DATA / "square.waypoints"), str(out), "--mode", "roll"],
-    )  # fmt: skip  (issue 20: conversion keeps every item; convert has no --skip-unsupported)
+    )  # fmt: skip  (conversion keeps every item; convert has no --skip-unsupported)
     assert res.exit_code == 0, res.output
     doc = json.loads(out.read_text())
     assert doc["mission"]["plannedHomePosition"] == [53.52325, -113.52611, 668.0]
@@ -177,7 +177,7 @@ def test_waypoints_to_plan_keeps_the_home_and_its_altitude(tmp_path: Path) -> No
 
 def test_ignored_qgc_fields_are_said_naming_the_item(tmp_path: Path) -> None:
     """Acceptance radius (param2) and cruiseSpeed are not used yet; the hold time (param1) is
-    flown since mission commands (issue 20): not said to be ignored, shown as a hold."""
+    flown since mission commands: not said to be ignored, shown as a hold."""
     doc = json.loads(PLAN.read_text())
     first = doc["mission"]["items"][0]
     first["params"][0], first["params"][1] = 5, 2.5

@@ -170,7 +170,7 @@ def test_convergence_is_monotonic_no_crossing_of_the_line(mode: MotionMode) -> N
     assert min(p.y_m for p in flight.poses) > -0.05
 
 
-# -- the shipped missions: the issue's goals --------------------------------------------------
+# -- the shipped missions: their goals --------------------------------------------------
 
 
 # Corner bounds with the default corner error budget e (0.25 m): each corner that is not a
@@ -186,7 +186,7 @@ ARC_BOUND_M = {
     "hexagon": LINE.corner_error_m * math.cos(math.pi / 6) + 0.02,
     "circle": 0.12,
 }
-# Without arcs (corner_error_m = 0, the behaviour before issue 22): a pivot corner (square
+# Without arcs (corner_error_m = 0, the behaviour before corner arcs): a pivot corner (square
 # 90°, hexagon 60° > pivot 45°) is driven onto the perpendicular line at min_speed
 # v_min = 0.1 m/s and braked at a = 0.3 m/s², so it runs past by at most v_min²/(2a) =
 # 0.017 m plus one 40 Hz step (v_min·dt = 0.0025 m): 0.02 m. The gentle circle corners (15°)
@@ -277,8 +277,8 @@ def test_shipped_missions_fly_the_designed_path(shape: str, mode: MotionMode) ->
 
 
 @pytest.mark.parametrize("mode", list(MotionMode))
-def test_square_meets_the_issue_goals_and_beats_the_thesis_law(mode: MotionMode) -> None:
-    # Issue 7/10: RMS ≤ 0.10 m, max ≤ 0.40 m, final ≤ 0.15 m, time ≤ 100 s.
+def test_square_meets_its_goals_and_beats_the_thesis_law(mode: MotionMode) -> None:
+    # The targets: RMS ≤ 0.10 m, max ≤ 0.40 m, final ≤ 0.15 m, time ≤ 100 s.
     plan = shipped("square", mode)
     start = start_pose(mode)
     points = [(0.0, 0.0)] + [(w.x_m, w.y_m) for w in plan.waypoints]

@@ -23,7 +23,7 @@ from helixd.mission.resolve import resolve_plan
 from tests.support.ideal_plant import IdealPlant
 from tests.support.paths import REPO_ROOT
 
-POSE_RATE_HZ = 40.0  # the fastest LOCAL_POSITION_NED rate ArduPilot Rover grants (DESIGN §3)
+POSE_RATE_HZ = 40.0  # the fastest LOCAL_POSITION_NED rate Rover grants (docs/ardupilot.md)
 DT_S = 1.0 / POSE_RATE_HZ
 MISSIONS = REPO_ROOT / "config" / "missions"
 CONFIG = HelixdConfig()

@@ -2,7 +2,7 @@
 
 NaN/inf in gives a raised :class:`NonFiniteError` or a finite, bounded, neutral-leaning output —
 never a saturated command. These are the functions whose NaN behaviour sent 1734/1734/1566/1566
-µs (0.6 m/s at the full yaw rate) to the rover in issue "6/10 Hostile input":
+µs (0.6 m/s at the full yaw rate) to the rover before these checks:
 ``max(-l, min(l, nan))`` is the limit, ``min(1.0, nan)`` is 1.0, ``nan > x`` is False.
 """
 
@@ -309,7 +309,7 @@ def test_navigator_finite_poses_give_finite_bounded_commands(
 
 
 def test_nan_burst_mid_mission_then_recovery() -> None:
-    """The issue's scenario at the core: valid poses, NaN poses (raise, nothing changes),
+    """The hostile-telemetry scenario at the core: valid poses, NaN poses (raise, nothing changes),
     valid poses again — the commands stay finite and bounded throughout."""
     nav = Navigator(make_plan(MotionMode.ROLL), CONTROL)
     t = 0.0
@@ -323,11 +323,11 @@ def test_nan_burst_mid_mission_then_recovery() -> None:
     assert out.command.is_finite() and abs(out.command.wz_radps) < 0.5
 
 
-# -- the issue's numbers, end to end through the pure core --------------------------------------
+# -- the hostile-telemetry numbers, end to end through the pure core ----------------------------
 
 
-def test_issue_6_10_nan_pose_gives_neutral_pwm_not_1734_1566() -> None:
-    """Issue 6/10: x = y = NaN gave 1734/1734/1566/1566 µs (0.6 m/s at the full yaw rate).
+def test_nan_pose_gives_neutral_pwm_not_1734_1566() -> None:
+    """Regression: x = y = NaN gave 1734/1734/1566/1566 µs (0.6 m/s at the full yaw rate).
     Now: the navigator refuses the pose; and even a NaN body command reaching kinematics
     maps to neutral PWM on every scroll."""
     from helixd.actuators.mapping import fraction_to_pwm
@@ -351,8 +351,8 @@ def test_issue_6_10_nan_pose_gives_neutral_pwm_not_1734_1566() -> None:
         assert pwm == [ch.pwm_trim_us for ch in channels]
 
 
-def test_issue_6_10_inf_yaw_is_no_math_domain_error() -> None:
-    """Issue 6/10: ATTITUDE yaw = ±inf crashed with 'math domain error' (exit 1)."""
+def test_inf_yaw_is_no_math_domain_error() -> None:
+    """Regression: ATTITUDE yaw = ±inf crashed with 'math domain error' (exit 1)."""
     for yaw in (INF, -INF):
         with pytest.raises(NonFiniteError, match="not finite"):
             MissionFrame.enu().to_mission(NedPose(1.0, 2.0, yaw))

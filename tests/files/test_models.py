@@ -20,7 +20,7 @@ class Bounded(InputModel):
 @pytest.mark.parametrize(
     ("key", "value", "allowed"),
     [
-        # "greater than 0 … allowed range 0.0 .. 10.0" contradicted itself (issue 24)
+        # "greater than 0 … allowed range 0.0 .. 10.0" contradicted itself (a regression)
         ("open_low", -3, "allowed: > 0.0 and <= 10.0)"),
         ("open_high", 10, "allowed: >= 0.0 and < 10.0)"),
         ("closed", 19, "allowed range 1 .. 18)"),

@@ -218,7 +218,7 @@ def test_fuzz_config_files_from_bytes(tmp_path_factory: pytest.TempPathFactory, 
 
 
 # ---------------------------------------------------------------------------------------------
-# Speed: issue 6/10 measured 41 s for 100 000 waypoints with the pure-Python loader
+# Speed: the first version measured 41 s for 100 000 waypoints with the pure-Python loader
 
 
 def _circle_mission(path: Path, n: int) -> Path:
@@ -242,7 +242,7 @@ def _check_cpu_s(config: Path, mission: Path) -> tuple[float, float, str]:
 def test_100k_waypoints_check_in_linear_time(tmp_path: Path) -> None:
     """``helixd check`` of 100 000 waypoints works and costs about 10x what 10 000 cost (no
     quadratic step). The seconds are printed, not judged: on this shared virtual machine the
-    same check measured 3.8-5.7 s of CPU from one run to the next (issue 14/16's note)."""
+    same check measured 3.8-5.7 s of CPU from one run to the next (a shared 2-core machine)."""
     n = 100_000
     mission = _circle_mission(tmp_path / "big.yaml", n)
     small = _circle_mission(tmp_path / "small.yaml", n // 10)

@@ -112,7 +112,7 @@ def test_ground_station_on_helixd_s_system_id_is_refused(tmp_path: Path) -> None
 
 
 def test_arming_waits_for_the_autopilot_s_home_instead_of_being_refused(tmp_path: Path) -> None:
-    """Issue 24: every demo warned "FAILED …; it said: 'PreArm: AHRS: waiting for home'".
+    """Regression: every demo warned "FAILED …; it said: 'PreArm: AHRS: waiting for home'".
     Here the autopilot has an EKF origin and a pose but no home until a ground station (on
     another link, its own id) sets it with MAV_CMD_DO_SET_HOME once helixd says it waits:
     helixd arms after HOME_POSITION, once, unforced — the autopilot saw no refused arming."""

@@ -1,6 +1,6 @@
 """The simulator on the wire: a plain pymavlink GCS over real UDP against start_embedded().
 
-Each test checks one ArduPilot Rover behaviour listed in DESIGN.md §3. Times are measured in
+Each test checks one ArduPilot Rover behaviour listed in docs/ardupilot.md. Times are measured in
 *simulated* time (time_boot_ms / SERVO_OUTPUT_RAW time_usec / the history's sim_time_s), so a
 loaded machine slows the simulation down but does not change the numbers.
 """

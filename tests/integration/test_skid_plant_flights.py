@@ -50,8 +50,8 @@ SKID_CONFIG: dict[str, Any] = {
     "safety": {"force_arm": True},  # as the SITL suite (ArduPilot refuses passthrough arming)
 }
 MISSION_WALL_S = 240.0
-# The square before corner arcs (issue 22), this plant, truth: 80.3–80.4 s (main, 2026-11-23);
-# on real SITL 81 s (DESIGN §3). Its corners are arcs now: it must not be slower.
+# The square before corner arcs, this plant, truth: 80.3–80.4 s (main, 2026-11-23);
+# on real SITL 81 s (docs/measurements.md). Its corners are arcs now: it must not be slower.
 SQUARE_BEFORE_S = 81.0
 # The arcs' designed distance from the legs at a 90° corner, e·cos 45° (e = corner_error_m),
 # plus 0.05 m of tracking error on this plant.
@@ -61,7 +61,7 @@ LINE_CORNER_BOUND_M = ARC_BUDGET_M * math.cos(math.pi / 4) + 0.05
 # (tests/sitl/test_sitl_survey.py, 2026-11-23): the figures to beat.
 AUTO_SURVEY_S = 333.0
 AUTO_SURVEY_MAX_M = 0.588
-FALLBACK_BOUND_S = 0.5 + 0.1 + 0.25  # DESIGN §6 + signal detection + loaded-box slack
+FALLBACK_BOUND_S = 0.5 + 0.1 + 0.25  # fall-back bound + signal detection + loaded-box slack
 STOPPED_MPS = 0.02
 FINAL_TOLERANCE_M = 2.0  # the SITL suite's bound on the return to the start
 
@@ -133,7 +133,7 @@ def test_roll_square_on_the_sitl_skid_plant(tmp_path: Path) -> None:
     assert far >= 10.0 * math.sqrt(2.0) - 2.0
     assert metrics.final_error_m <= FINAL_TOLERANCE_M
     assert metrics.cross_track_max_m < 3.0  # a leg missed by more would not be "the square"
-    # corner arcs (issue 22): no slower than the square with pivots; on the pose helixd steers
+    # corner arcs: no slower than the square with pivots; on the pose helixd steers
     # by its RMS grows from 0.023–0.024 m (pivots, main) to ≈ 0.030 m: the three arcs pass up
     # to e·cos 45° = 0.18 m inside the corners by design (the truth adds the 'low' noise
     # estimator's ~0.1 m offset to both)
@@ -145,7 +145,7 @@ def test_roll_square_on_the_sitl_skid_plant(tmp_path: Path) -> None:
 def test_survey_block_on_the_sitl_skid_plant_beats_auto(tmp_path: Path) -> None:
     """Six 30 m transects joined by 3 m crossovers: the corners flown as arcs, the block no
     slower than ArduPilot's AUTO on real SITL and its largest cross-track at most half of
-    AUTO's (issue 22)."""
+    AUTO's."""
     with sim_and_daemon(tmp_path, "survey", SKID_CONFIG, plant="sitl_skid", noise="low") as (
         server,
         d,

@@ -261,7 +261,7 @@ def test_tcp_fuzz() -> None:
 
 
 async def test_fd_ff_datagrams_between_every_frame_cost_nothing() -> None:
-    """The issue's flood: a 2-byte ``FD FF`` datagram before every one of the autopilot's."""
+    """The flood: a 2-byte ``FD FF`` datagram before every one of the autopilot's."""
     async with udp_link() as (ap, send):
         received = Received(ap)
         send(heartbeat())

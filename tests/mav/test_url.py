@@ -80,14 +80,14 @@ def test_serial_urls(url: str, device: str, baud: int) -> None:
         ("udpout:10.0.0.1:0", "outside 1..65535"),
         ("udpin:bad host:14550", "not a host name"),
         ("/dev/ttyACM0:12345", "not a standard serial rate"),
-        # issue 24: what follows ':' or ',' is a baud, never silently part of the device name
+        # regression: what follows ':' or ',' is a baud, never silently part of the device name
         ("/dev/ttyACM0:abc", "baud 'abc' is not a number"),
         ("/dev/ttyUSB0,fast", "baud 'fast' is not a number"),
         ("/dev/ttyACM0:", "baud '' is not a number"),
         ("/dev/ttyACM0:115", "baud 115 is not a standard serial rate"),
         ("/dev/ttyACM0:١١٥٢٠٠", "is not a number"),
         ("/dev/serial/by-path/pci-0000:00:14.0-usb-0:1,x", "baud 'x' is not a number"),
-        # the forms of issue 6/10, each exit 2 from the CLI (tests/unit/test_cli_errors.py)
+        # the hostile forms, each exit 2 from the CLI (tests/unit/test_cli_errors.py)
         ("foo", "absolute path"),
         ("tcp:", "HOST:PORT"),
         ("tcp:host:99999", "outside 1..65535"),

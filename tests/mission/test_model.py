@@ -13,7 +13,7 @@ from pydantic import ValidationError
 
 from helixd.files.models import ConfigFileError
 from helixd.mission.formats import mission_to_yaml
-from helixd.mission.model import Mission, entry_yaml, load_mission
+from helixd.mission.model import _NOT_PARAMS, ENTRY_KEYS, Mission, entry_yaml, load_mission
 
 
 def mission(*entries: Any, frame: str = "start") -> Mission:
@@ -40,7 +40,10 @@ def test_named_parameters_become_mavlink_params() -> None:
 @pytest.mark.parametrize(
     ("entry", "words"),
     [
-        ({"command": "DO_SET_SERVO", "chanel": 9}, "chanel: unknown key (DO_SET_SERVO takes"),
+        (
+            {"command": "DO_SET_SERVO", "chanel": 9},
+            "chanel: unknown key (did you mean channel? an entry takes x, y, north, east",
+        ),
         ({"command": "DO_SET_SERVO", "channel": 0, "pwm_us": 1500}, "outside 1 .. 32"),
         ({"command": "DO_SET_SERVO", "channel": True}, "expected a number"),
         ({"command": "DO_JUMP", "item": 1.5}, "must be a whole number"),
@@ -56,6 +59,20 @@ def test_a_bad_entry_is_one_clear_error(entry: dict[str, Any], words: str) -> No
     with pytest.raises(ValidationError) as err:
         mission({"x": 1, "y": 0}, entry)
     assert words in str(err.value), str(err.value)
+
+
+def test_a_waypoints_unknown_key_hint_names_the_place_keys_too() -> None:
+    """Issue 36: a misspelt key on a plain waypoint listed only NAV_WAYPOINT's optional
+    parameters (hold_s, …), never x/y/north/east/heading_deg/tolerance_m."""
+    with pytest.raises(ValidationError) as err:
+        mission({"x": 1, "y": 0, "tolerence_m": 1.0})
+    text = str(err.value)
+    assert (
+        "tolerence_m: unknown key (did you mean tolerance_m? an entry takes x, y, north, " in text
+    )
+    for key in ("lat", "lon", "heading_deg", "via", "hold_s", "accept_radius_m"):
+        assert key in text
+    assert frozenset(ENTRY_KEYS) == _NOT_PARAMS  # the hint lists every key an entry takes
 
 
 def test_navigation_without_coordinates_stays_where_it_is() -> None:

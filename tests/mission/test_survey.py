@@ -55,7 +55,7 @@ def test_convex_pond_is_covered_by_transects_inside_it(angle: float) -> None:
     assert r.coverage >= 0.95
     assert stays_inside(r.path_xy_m, r.area_xy)
     assert r.area_m2 == pytest.approx(60_000.0, rel=1e-3)
-    assert 5_500 < r.path_length_m < 7_500  # ~6 km, as the issue's 200 m x 300 m pond
+    assert 5_500 < r.path_length_m < 7_500  # ~6 km, as a 200 m x 300 m pond
     # transects are parallel to the angle: the longest legs point along it
     legs = list(zip(r.path_xy_m, r.path_xy_m[1:], strict=False))
     longest = max(legs, key=lambda ab: math.dist(*ab))
@@ -78,7 +78,7 @@ def test_non_convex_with_a_hole(angle: float) -> None:
 @pytest.mark.parametrize("angle", [0.0, 30.0, 137.0])
 def test_the_spacing_asked_for_is_the_spacing_flown(spacing: float, angle: float) -> None:
     """Adjacent transects are ``spacing_m`` apart, measured perpendicular to them on the
-    ellipsoid (the issue: "6 transects at 8 m" were 6.68 m apart, 12 m gave 9.52 m)."""
+    ellipsoid (a regression: "6 transects at 8 m" were 6.68 m apart, 12 m gave 9.52 m)."""
     r = plan_survey(POND, spacing_m=spacing, angle_deg=angle, margin_m=2.0)
     wps = r.waypoints_latlon_deg
     assert len(wps) == 2 * r.transects  # convex: one piece per transect, no routing

@@ -89,9 +89,10 @@ def dijkstra_length(free: np.ndarray, s: tuple[int, int], g: tuple[int, int]) ->
 
 
 def test_report_five_by_five_example_gives_the_same_shortest_path() -> None:
-    """Report §8.1.1: S(1, 2), E(3, 2), a wall across row 2 open only at column 4. Its A*
-    answer S(1,2), (1,3), (1,4), (2,4), (3,4), (3,3), E(3,2) has length 6; squeezing
-    diagonally past the wall's end (1,3)→(2,4) is corner cutting and is not allowed."""
+    """The TurtleBot report's 5 × 5 example: S(1, 2), E(3, 2), a wall across row 2 open
+    only at column 4. Its A* answer S(1,2), (1,3), (1,4), (2,4), (3,4), (3,3), E(3,2) has
+    length 6; squeezing diagonally past the wall's end (1,3)→(2,4) is corner cutting and is
+    not allowed."""
     free = np.ones((5, 5), dtype=bool)
     free[2, 0:4] = False
     path = grid_path(free, (1, 2), (3, 2))

@@ -138,3 +138,20 @@ def test_console_renderer_writes_lists_without_python_repr() -> None:
     structlog.get_logger("t").info("sim_started", links=["udpin:1.2.3.4:5"], local=("h", 0))
     text = out.getvalue()
     assert "[udpin:1.2.3.4:5]" in text and "['" not in text and "('" not in text
+
+
+def test_a_quiet_console_keeps_the_run_record_whole(tmp_path: Path) -> None:
+    """``make demo`` runs with ``--log-level warning`` (issue 36: ~70 lines in two formats);
+    the console then shows warnings only, and events.jsonl still gets the info events."""
+    out = io.StringIO()
+    configure_logging(tty=False, stream=out, level="warning")
+    log = structlog.get_logger("t")
+    path = tmp_path / "events.jsonl"
+    attach_events_file(path)
+    log.debug("not_recorded")
+    log.info("waypoint_reached", index=1)
+    log.warning("fallback", cause="stall")
+    detach_events_file()
+    assert [line.split()[2] for line in out.getvalue().splitlines()] == ["event=fallback"]
+    events = [json.loads(line)["event"] for line in path.read_text().splitlines()]
+    assert events == ["waypoint_reached", "fallback"]

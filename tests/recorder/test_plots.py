@@ -280,3 +280,62 @@ def test_cross_track_along_the_path_panel(tmp_path: Path) -> None:
     render_run(run_dir)
     png = run_dir / "plots" / PANEL_FILES["f"]
     assert png_size(png) == PANEL_SIZE_PX and red_pixels(png) > 100  # the fault, in red
+
+
+def test_a_surveys_waypoint_labels_are_moved_clear_of_each_other() -> None:
+    """Issue 36: on the pond survey's plan plot the numbers of neighbouring transect ends
+    printed over each other. Labels go to the outer side of each turn, every other one
+    farther out, and a finished figure moves any that still collide."""
+    from matplotlib.figure import Figure
+
+    from helixd.recorder.plots import (
+        _label_waypoint,
+        declutter_waypoint_labels,
+        label_offsets_pt,
+    )
+
+    # a boustrophedon: 24 transects 10 m apart, 300 m long (the pond-with-island survey)
+    path: list[tuple[float, float]] = []
+    for i in range(24):
+        ends = [(10.0 * i, 0.0), (10.0 * i, -300.0)]
+        path += ends if i % 2 == 0 else ends[::-1]
+    offsets = label_offsets_pt(path)
+    assert offsets[1][1] < 0 and offsets[2][1] < 0 < offsets[3][1]  # below / above the turns
+    assert offsets[1][0] < 0 < offsets[2][0]  # the two ends of a turn: outward, apart
+    fig = Figure(figsize=(10, 7.5), dpi=100, layout="constrained")
+    ax = fig.subplots()
+    ax.plot([p[0] for p in path], [p[1] for p in path], "-")
+    for i, (xy, off) in enumerate(zip(path, offsets, strict=True)):
+        _label_waypoint(ax, str(i + 1), xy, off, fontsize=9, weight="bold")
+    ax.set_aspect("equal")
+    declutter_waypoint_labels(fig)
+    boxes = [t.get_window_extent() for t in ax.texts]
+    assert len(boxes) == 48
+    clashes = [
+        (i, j) for i, j in itertools.combinations(range(48), 2) if boxes[i].overlaps(boxes[j])
+    ]
+    assert clashes == []
+
+
+def test_the_trajectory_axes_say_what_x_and_y_are_in_the_missions_frame(tmp_path: Path) -> None:
+    """Issue 36: a global mission's plot said "x (m)"/"y (m)", no north/east, no origin."""
+    from helixd.recorder.plots import axis_labels
+
+    assert axis_labels(MissionFrameKind.GLOBAL, (53.52325, -113.52632)) == (
+        "x, east of the EKF origin 53.523250°, -113.526320° (m)",
+        "y, north of the EKF origin 53.523250°, -113.526320° (m)",
+    )
+    assert axis_labels(MissionFrameKind.LOCAL_NED, None)[1] == "y, north of the EKF origin (m)"
+    run_dir, _ = synth_run(tmp_path)
+    data = load_run(run_dir)
+    assert data.axis_labels == axis_labels(
+        load_mission_frame(run_dir), data.summary.origin_latlon_deg if data.summary else None
+    )
+    fig = _panel_figure(data, "a")
+    assert (fig.axes[0].get_xlabel(), fig.axes[0].get_ylabel()) == data.axis_labels
+
+
+def load_mission_frame(run_dir: Path) -> MissionFrameKind:
+    from helixd.mission.model import load_mission
+
+    return load_mission(run_dir / "mission.yaml").frame

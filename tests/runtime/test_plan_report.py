@@ -97,3 +97,28 @@ def test_check_counts_the_ground_the_mission_declares() -> None:
     assert any(
         line.startswith("ground  : no slip assumed (control.slip.ground_* = 1)") for line in lines
     )
+
+
+def test_check_warns_that_a_fenced_mission_must_start_inside_its_fence(tmp_path: Path) -> None:
+    """Issue 36: `check` passed a survey that `run` then refused (the start outside the
+    survey's fence); `check` now says it before `run` does."""
+    path = tmp_path / "fenced.yaml"
+    path.write_text(
+        "name: fenced\nmode: scroll\nframe: global\n"
+        "waypoints:\n  - {lat: 53.52330, lon: -113.52630}\n  - {lat: 53.52340, lon: -113.52630}\n"
+        "geofence_polygon:\n  - [53.52320, -113.52640]\n  - [53.52350, -113.52640]\n"
+        "  - [53.52350, -113.52620]\n  - [53.52320, -113.52620]\n"
+    )
+    msn = load_mission(path)
+    lines = check_lines(CFG, msn, path, "x", msn, None)
+    warning = [line for line in lines if line.startswith("warning :")]
+    assert warning == [
+        "warning : the rover must start inside the mission's geofence_polygon: run refuses a "
+        "start outside it (a survey's fence is its area grown by --margin-m)"
+    ]
+    plain = load_mission(MISSIONS / "pond-crossing.yaml")
+    assert not [
+        line
+        for line in check_lines(CFG, plain, path, "x", plain, None)
+        if line.startswith("warning :")
+    ]

@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+import pytest
+
 from helixd.base.frames import NedPose
 from helixd.link.vehicle import PoseSample, VehicleState
-from helixd.runtime.status import format_status
+from helixd.mav.guard_script import VERSION
+from helixd.runtime.status import format_status, guard_text
+from tests.support.cli import run_main
+from tests.support.harness import running_sim
 
 
 def test_gps_battery_and_lat_lon_are_shown() -> None:
@@ -23,3 +28,34 @@ def test_gps_battery_and_lat_lon_are_shown() -> None:
     assert "origin    : none reported (no GPS_GLOBAL_ORIGIN: no GPS fix yet?)" in format_status(
         st, 1.0
     )
+
+
+def test_the_guard_line_says_whether_it_runs_and_is_enabled() -> None:
+    """Issue 36: `status` did not show whether helixd-guard is installed and enabled."""
+    running = {"SCR_ENABLE": 1.0, "HXG_VERSION": float(VERSION), "HXG_ENABLE": 1.0}
+    running |= {"HXG_CHAN1": 1.0, "HXG_CHAN2": 3.0, "HXG_CHAN3": 0.0, "HXG_CHAN4": 0.0}
+    assert guard_text(running) == (
+        f"helixd-guard v{VERSION} runs, enabled (HXG_ENABLE = 1), holds outputs 1, 3"
+    )
+    assert "DISABLED (HXG_ENABLE = 0)" in guard_text({**running, "HXG_ENABLE": 0.0})
+    assert "this helixd needs" in guard_text({**running, "HXG_VERSION": float(VERSION + 1)})
+    absent = {n: None for n in ("HXG_VERSION", "HXG_ENABLE", "HXG_CHAN1")}
+    assert guard_text({**absent, "SCR_ENABLE": 0.0}) == (
+        "helixd-guard not running (SCR_ENABLE = 0): helixd autopilot install-guard --reboot"
+    )
+    assert "installed since the last boot" in guard_text({**absent, "SCR_ENABLE": 1.0})
+    assert "no Lua scripting" in guard_text({**absent, "SCR_ENABLE": None})
+
+
+def test_status_shows_the_guard_of_a_simulated_autopilot(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with running_sim(guard_installed=True) as (server, url):
+        server.wait_for(lambda s: s.guard_version is not None, 20.0)
+        code, out, err = run_main(["status", "--connect", url], capsys)
+    assert code == 0, err
+    guard = [line for line in out.splitlines() if line.startswith("guard     :")]
+    assert guard == [
+        f"guard     : helixd-guard v{VERSION} runs, enabled (HXG_ENABLE = 1), holds outputs "
+        "1, 2, 3, 4"
+    ]

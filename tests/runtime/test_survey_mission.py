@@ -9,13 +9,13 @@ from pathlib import Path
 import pytest
 from shapely.geometry import LineString, Point, Polygon
 
-from helixd.base.frames import latlon_to_ne
+from helixd.base.frames import NedPose, latlon_to_ne
 from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
 from helixd.control.estimate import estimate_time
 from helixd.mission.formats.areas import read_area
 from helixd.mission.resolve import resolve_plan
-from helixd.mission.validate import apply_mission_limits
+from helixd.mission.validate import apply_mission_limits, mission_problems
 from helixd.planning.obstacles import clearance_m, rover_half_width_m
 from helixd.runtime.planned import plan_loaded
 from helixd.runtime.survey_mission import approach_estimate, default_insets, survey_mission
@@ -89,6 +89,35 @@ def test_the_time_limit_is_built_on_the_navigators_estimate_and_the_approach() -
     assert approach.total_s > CFG.mission.max_start_distance_m / plan.speed_mps  # + a turn
     assert got.time_limit_s == math.ceil(1.5 * (estimate.total_s + approach.total_s))
     assert got.mission.time_limit_s == got.time_limit_s
+
+
+def test_a_start_outside_the_survey_fence_is_refused_with_what_to_do() -> None:
+    """The field engineer's rover stood 4 m outside the area, the fence 2 m: the refusal says
+    to drive the rover inside the fence or grow --margin-m; inside it, no refusal."""
+    got = survey()
+    msn = got.mission
+    lat0, lon0 = msn.points()[0]
+    area = Polygon([latlon_to_ne(a, b, lat0, lon0) for a, b in msn.geofence_polygon])
+    outside = area.exterior.interpolate(0.0)
+    centroid = area.centroid
+    # 4 m beyond the fence's first corner, away from the centroid
+    dx, dy = outside.x - centroid.x, outside.y - centroid.y
+    k = 4.0 / math.hypot(dx, dy)
+    start_ne = (outside.x + dx * k, outside.y + dy * k)
+    problems = mission_problems(
+        msn, CFG, origin_latlon_deg=(lat0, lon0), start_ned=NedPose(*start_ne, 0.0)
+    )
+    text = [p for p in problems if p.startswith("the start point")]
+    assert len(text) == 1
+    assert "is outside the mission's geofence_polygon: drive the rover inside it" in text[0]
+    assert "--margin-m" in text[0]
+    inside = mission_problems(
+        msn,
+        CFG,
+        origin_latlon_deg=(lat0, lon0),
+        start_ned=NedPose(centroid.x, centroid.y, 0.0),
+    )
+    assert not [p for p in inside if p.startswith("the start point")]
 
 
 def test_without_planning_the_holes_keep_the_same_inset() -> None:

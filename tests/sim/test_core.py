@@ -11,7 +11,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.mav.constants import GCS_CONTACT_MESSAGE_IDS
+from helixd.mav.constants import GCS_CONTACT_MESSAGE_IDS, MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
 from helixd.mav.ftp_wire import FtpOp, FtpPayload, from_message, to_message
 from helixd.sim.faults import FaultError, make_spec, parse_fault
 from helixd.sim.ftp_server import FtpServer
@@ -81,6 +81,18 @@ def test_stale_pose_stops_position_but_not_heartbeat() -> None:
     assert not of_type(out, "GLOBAL_POSITION_INT")
     assert of_type(out, "ATTITUDE")
     assert of_type(out, "HEARTBEAT")
+
+
+def test_the_reboot_command_is_acked_then_the_autopilot_goes_silent_and_boots_again() -> None:
+    """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN param1=1: COMMAND_ACK ACCEPTED on the wire first (the
+    ACK was lost: reboot_after_replies extended a list drain_outbox had replaced), then no
+    MAVLink for reboot_silent_s, then HEARTBEATs in the boot state (custom_mode 16)."""
+    core = make_core()
+    run(core, 3.0)
+    assert command(core, 0, MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == 0  # ACCEPTED
+    assert not run(core, core.config.reboot_silent_s - 0.1)
+    beats = of_type(run(core, 0.4), "HEARTBEAT")
+    assert beats and int(beats[0].custom_mode) == 16
 
 
 def test_reboot_restarts_time_boot_ms_and_keeps_params() -> None:

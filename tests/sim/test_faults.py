@@ -1,5 +1,5 @@
 """Hostile-telemetry fault injection: the simulator emits NaN/inf/absurd pose values and
-backwards time on the wire (issue 6/10), for a duration, mid-run or from the moment of arming."""
+backwards time on the wire, for a duration, mid-run or from the moment of arming."""
 
 from __future__ import annotations
 

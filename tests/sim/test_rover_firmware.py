@@ -10,6 +10,7 @@ from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_HOME,
     MAV_CMD_DO_SET_SERVO,
+    MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_DENIED,
     MAV_RESULT_FAILED,
@@ -20,7 +21,7 @@ from helixd.mav.guard_script import SCRIPT_NAME, VERSION, script_bytes
 from helixd.sim import estimator, modes
 from helixd.sim import guard_model as g
 from helixd.sim.param_store import ParamStore
-from helixd.sim.rover_firmware import FORCE_ARM_MAGIC, SimAutopilot
+from helixd.sim.rover_firmware import FORCE_ARM_MAGIC, FORCE_REBOOT_MAGIC, SimAutopilot
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 
 DT_S = 0.02
@@ -285,7 +286,7 @@ def test_do_set_home_here_once_the_ekf_has_a_position() -> None:
     assert rig.command(MAV_CMD_DO_SET_HOME, 1) == MAV_RESULT_FAILED  # no position yet
     rig.run(2.0)
     assert not rig.ap.home_set(rig.now)
-    # a location is taken, as ArduPilot takes it (issue 20's home: DO_SET_HOME at a place)
+    # a location is taken, as ArduPilot takes it (DO_SET_HOME at a place)
     assert rig.command(MAV_CMD_DO_SET_HOME, 0, 0, 0, 0, 53.5, -113.5) == MAV_RESULT_ACCEPTED
     assert rig.ap.home_set(rig.now) and rig.texts()[-1].startswith("Set HOME to 53.500000")
     assert rig.command(MAV_CMD_DO_SET_HOME, 1) == MAV_RESULT_ACCEPTED
@@ -453,6 +454,21 @@ def test_reboot_keeps_params_and_restarts_boot() -> None:
     assert rig.ap.time_boot_ms(rig.now + 1.5) == 500
     assert not rig.ap.armed
     assert rig.ap.params.get("FS_GCS_ENABLE") == 1.0
+
+
+def test_the_reboot_command_is_refused_while_armed_unless_forced_as_ardupilot_does() -> None:
+    """GCS_MAVLINK::handle_preflight_reboot: armed → FAILED unless param6 (y) is 20190226;
+    param1 other than 1 or 3 → UNSUPPORTED; else ACCEPTED (the core reboots after the ACK)."""
+    rig = Rig().boot()
+    assert rig.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 2) == MAV_RESULT_UNSUPPORTED
+    assert rig.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == MAV_RESULT_ACCEPTED
+    rig.force_arm()
+    assert rig.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1) == MAV_RESULT_FAILED
+    assert rig.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1, 0, 0, 0, 0, 20190) == (
+        MAV_RESULT_FAILED
+    )
+    forced = rig.command(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, 1, 0, 0, 0, 0, FORCE_REBOOT_MAGIC)
+    assert forced == MAV_RESULT_ACCEPTED
 
 
 def test_expired_override_leaves_outputs_frozen_while_receiver_is_lost() -> None:

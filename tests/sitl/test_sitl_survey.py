@@ -10,9 +10,9 @@ against the planned polyline, :func:`tests.support.skid_setup.survey_metrics`):
   ``helixd mission upload`` (a QGC WPL 110 file), outputs 1/3 given back to ArduPilot's skid
   mixer (functions 73/74 and the steering/throttle settings of ArduPilot's own
   rover-skid.parm), ``WP_SPEED`` 0.6 m/s and ``WP_RADIUS`` 1.0 m (the settings of the AUTO
-  square in DESIGN §3), armed and switched to AUTO by the observer.
+  square in docs/measurements.md), armed and switched to AUTO by the observer.
 
-Asserted (issue 22): helixd is no slower than AUTO and its largest cross-track error is at
+Asserted: helixd is no slower than AUTO and its largest cross-track error is at
 most half of AUTO's. ``-s`` prints both rows.
 """
 
@@ -66,7 +66,7 @@ AUTO_PARAMS = {
     "CRUISE_SPEED": 3.0,
     "CRUISE_THROTTLE": 75.0,
     "WP_SPEED": 0.6,  # helixd's cruise speed (control.max_speed_mps)
-    "WP_RADIUS": 1.0,  # the thesis's waypoint tolerance, as in DESIGN §3's AUTO square
+    "WP_RADIUS": 1.0,  # the thesis's waypoint tolerance, as in docs/measurements.md
     "FS_GCS_ENABLE": 0.0,  # nobody sends GCS heartbeats while AUTO flies
 }
 

@@ -1,6 +1,6 @@
 """A scriptable autopilot for the link tests: pymavlink on a real socket, in its own thread.
 
-It behaves like ArduPilot Rover where helixd cares (DESIGN §3): HEARTBEAT (GROUND_ROVER,
+It behaves like ArduPilot Rover where helixd cares (docs/ardupilot.md): HEARTBEAT (GROUND_ROVER,
 ARDUPILOTMEGA, custom_mode), message intervals (DENIED below ``min_interval_us``, 25 ms like
 Rover's 50 Hz loop; slow default streams until asked), ARM with a "PreArm: …" STATUSTEXT
 before FAILED, DO_SET_MODE, DO_SET_SERVO with the SERVOn_FUNCTION rule, REQUEST_MESSAGE for

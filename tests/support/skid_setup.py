@@ -60,7 +60,7 @@ def skid_actuation(backend: str) -> dict[str, Any]:
     }
 
 
-# Corner arcs (issue 22): the suite flies them with this budget (m), the value they were
+# Corner arcs: the suite flies them with this budget (m), the value they were
 # measured with against AUTO and the default (set explicitly, so the suite keeps it).
 ARC_BUDGET_M = 0.25
 
@@ -79,7 +79,7 @@ def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
         "actuation": skid_actuation(backend),
         "safety": {
             # ArduPilot's PreArm checks refuse this passthrough setup shortly after boot
-            # (DESIGN §3); the daemon's documented escape hatch.
+            # (docs/ardupilot.md, arming); the daemon's documented escape hatch.
             "force_arm": True,
             "connect_timeout_s": 60.0,
             "arm_timeout_s": 60.0,
