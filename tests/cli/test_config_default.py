@@ -1,4 +1,4 @@
-"""Issue 36: without -c, `run`, `check` and `serve` used the built-in defaults while the rover's
+"""Before: without -c, `run`, `check` and `serve` used the built-in defaults while the rover's
 config sat in /etc/helixd/helixd.yaml, and `run` never said which config it read. Now the
 default is $HELIXD_CONFIG, else /etc/helixd/helixd.yaml where it exists, else the built-in
 defaults, and every command says which it read."""

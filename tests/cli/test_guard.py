@@ -113,7 +113,7 @@ def test_a_bad_scripts_dir_is_a_usage_error(capsys: pytest.CaptureFixture[str]) 
 def test_reboot_installs_then_reboots_and_the_guard_runs(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """Issue 36: install-guard said a reboot was needed and could not do it. ``--reboot``
+    """Before: install-guard said a reboot was needed and could not do it. ``--reboot``
     sends MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN param1=1 (printed); the simulator ACKs, goes
     silent, boots again and loads the guard."""
     with running_sim() as (server, url):
@@ -162,7 +162,7 @@ def test_reboot_is_refused_while_armed_and_nothing_is_installed(
 def test_a_simulator_with_a_state_dir_remembers_the_installed_guard_across_a_restart(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """Issue 36: `helixd sim` forgot an installed guard when restarted (a fresh temporary
+    """Before: `helixd sim` forgot an installed guard when restarted (a fresh temporary
     directory each time). With a working directory of its own (``--state-dir``) the script
     and the parameters set (SCR_ENABLE, as SITL's eeprom.bin) survive: the restarted
     simulator boots with the guard running."""

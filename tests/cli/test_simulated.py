@@ -50,7 +50,7 @@ def test_embedded_guard_timeout_is_clamped_and_high_channels_are_left_out() -> N
 def test_run_sim_console_is_one_format_and_ends_with_the_result_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """Issue 36: ``make demo`` printed the simulator's lines in another format (before the
+    """Before: ``make demo`` printed the simulator's lines in another format (before the
     run's logging was set up) and its ``sim_stopped`` after the RESULT line. A run refused at
     preflight (the start outside the mission's fence) is the quickest whole run."""
     mission = tmp_path / "fenced.yaml"

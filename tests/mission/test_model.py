@@ -62,7 +62,7 @@ def test_a_bad_entry_is_one_clear_error(entry: dict[str, Any], words: str) -> No
 
 
 def test_a_waypoints_unknown_key_hint_names_the_place_keys_too() -> None:
-    """Issue 36: a misspelt key on a plain waypoint listed only NAV_WAYPOINT's optional
+    """Before: a misspelt key on a plain waypoint listed only NAV_WAYPOINT's optional
     parameters (hold_s, …), never x/y/north/east/heading_deg/tolerance_m."""
     with pytest.raises(ValidationError) as err:
         mission({"x": 1, "y": 0, "tolerence_m": 1.0})

@@ -141,7 +141,7 @@ def test_console_renderer_writes_lists_without_python_repr() -> None:
 
 
 def test_a_quiet_console_keeps_the_run_record_whole(tmp_path: Path) -> None:
-    """``make demo`` runs with ``--log-level warning`` (issue 36: ~70 lines in two formats);
+    """``make demo`` runs with ``--log-level warning`` (before: ~70 lines in two formats);
     the console then shows warnings only, and events.jsonl still gets the info events."""
     out = io.StringIO()
     configure_logging(tty=False, stream=out, level="warning")

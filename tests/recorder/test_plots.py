@@ -283,7 +283,7 @@ def test_cross_track_along_the_path_panel(tmp_path: Path) -> None:
 
 
 def test_a_surveys_waypoint_labels_are_moved_clear_of_each_other() -> None:
-    """Issue 36: on the pond survey's plan plot the numbers of neighbouring transect ends
+    """Before: on the pond survey's plan plot the numbers of neighbouring transect ends
     printed over each other. Labels go to the outer side of each turn, every other one
     farther out, and a finished figure moves any that still collide."""
     from matplotlib.figure import Figure
@@ -318,7 +318,7 @@ def test_a_surveys_waypoint_labels_are_moved_clear_of_each_other() -> None:
 
 
 def test_the_trajectory_axes_say_what_x_and_y_are_in_the_missions_frame(tmp_path: Path) -> None:
-    """Issue 36: a global mission's plot said "x (m)"/"y (m)", no north/east, no origin."""
+    """Before: a global mission's plot said "x (m)"/"y (m)", no north/east, no origin."""
     from helixd.recorder.plots import axis_labels
 
     assert axis_labels(MissionFrameKind.GLOBAL, (53.52325, -113.52632)) == (

@@ -100,7 +100,7 @@ def test_check_counts_the_ground_the_mission_declares() -> None:
 
 
 def test_check_warns_that_a_fenced_mission_must_start_inside_its_fence(tmp_path: Path) -> None:
-    """Issue 36: `check` passed a survey that `run` then refused (the start outside the
+    """Before: `check` passed a survey that `run` then refused (the start outside the
     survey's fence); `check` now says it before `run` does."""
     path = tmp_path / "fenced.yaml"
     path.write_text(

@@ -31,7 +31,7 @@ def test_gps_battery_and_lat_lon_are_shown() -> None:
 
 
 def test_the_guard_line_says_whether_it_runs_and_is_enabled() -> None:
-    """Issue 36: `status` did not show whether helixd-guard is installed and enabled."""
+    """Before: `status` did not show whether helixd-guard is installed and enabled."""
     running = {"SCR_ENABLE": 1.0, "HXG_VERSION": float(VERSION), "HXG_ENABLE": 1.0}
     running |= {"HXG_CHAN1": 1.0, "HXG_CHAN2": 3.0, "HXG_CHAN3": 0.0, "HXG_CHAN4": 0.0}
     assert guard_text(running) == (
