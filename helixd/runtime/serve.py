@@ -52,10 +52,9 @@ from helixd.runtime.autopilot_mission import (
 )
 from helixd.runtime.daemon import MissionRunner, RunOptions
 from helixd.runtime.gcs_feed import GcsFeed
-from helixd.runtime.inputs import (
-    InputsRefused,
-)
-from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
+from helixd.runtime.host import ServeHost
+from helixd.runtime.inputs import InputsRefused
+from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import AutopilotMission, MissionFile, Resume, prepare_flight
 from helixd.runtime.serve_core import (
@@ -502,24 +501,22 @@ class Service:
         log.info("serve_flight_start", request=request.value, by=who, flight=self.flights)
         self._set_state(ServeState.FLYING, f"{request.value} by {who}")
         self.busy = False
-        runner = MissionRunner(
-            RunOptions(
-                cfg=cfg,
-                mission=flight.mission,
-                mission_yaml=flight.mission_yaml,
-                connect_url=self.cfg.link.url,
-                run_root=run_root,
-                tty=False,
-                replan_from=flight.replan_from,
-                inputs=flight.inputs,
-                options=flight.options,
-                link=ap,
-                stop=self.flight_stop,
-                start_gate=False,
-                on_item=None if self.opts.mission_file is not None else self._set_current_item,
-                notifier=FlightInServiceNotifier(),
-            )
+        opts = RunOptions(
+            cfg=cfg,
+            mission=flight.mission,
+            mission_yaml=flight.mission_yaml,
+            connect_url=self.cfg.link.url,
+            run_root=run_root,
+            tty=False,
+            replan_from=flight.replan_from,
+            inputs=flight.inputs,
+            options=flight.options,
         )
+        shows_item = self.opts.mission_file is None  # the GCS highlights the autopilot's item
+        host = ServeHost(
+            ap, self.flight_stop, set_item=self._set_current_item if shows_item else None
+        )
+        runner = MissionRunner(opts, host)
         self.runner = runner
         try:
             outcome = await runner.run()
