@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import asyncio
 import sys
+from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
@@ -187,71 +188,77 @@ def check(
             raise fail([f"--plot: cannot write {plot}: {exc}"], ExitCode.USAGE) from None
 
 
+ConnectOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--connect",
+        help="autopilot link: /dev/ttyACM0[:baud], udpin:HOST:PORT, udpout:HOST:PORT, "
+        "tcp:HOST:PORT (default: link.url from the config)",
+    ),
+]
+SimOpt = Annotated[
+    bool, typer.Option("--sim", help="fly against the built-in simulator, started in-process")
+]
+SpeedupOpt = Annotated[
+    float,
+    typer.Option(min=SPEEDUP_MIN, max=SPEEDUP_MAX, help="simulator speed-up factor (with --sim)"),
+]
+TerrainOpt = Annotated[Terrain, typer.Option(help="simulator terrain (with --sim)")]
+PlantOpt = Annotated[
+    Plant,
+    typer.Option(
+        help="simulator vehicle model (with --sim); sitl_skid needs the SITL channel "
+        "mapping in --config (tests/sitl/README.md)"
+    ),
+]
+NoiseOpt = Annotated[NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")]
+RunDirOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--run-dir",
+        help="root for run directories (default: recorder.run_root; with --resume, the "
+        "interrupted run's)",
+    ),
+]
+LogLevelOpt = Annotated[str, typer.Option(help="debug, info, warning or error")]
+ShowPlanOpt = Annotated[
+    bool,
+    typer.Option(
+        "--show-plan",
+        help="upload the resolved plan as the autopilot's mission so the ground station "
+        "draws the path (helixd never switches to AUTO, so ArduPilot never flies it)",
+    ),
+]
+ResumeOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--resume",
+        help="continue the mission of this run directory from its first waypoint not "
+        "reached (refused if the mission or config changed, or the run completed)",
+    ),
+]
+
+
 @app.command()
 def run(
     ctx: typer.Context,
     mission: MissionOpt = Path("mission.yaml"),
     config: ConfigOpt = None,
-    connect: Annotated[
-        str | None,
-        typer.Option(
-            "--connect",
-            help="autopilot link: /dev/ttyACM0[:baud], udpin:HOST:PORT, udpout:HOST:PORT, "
-            "tcp:HOST:PORT (default: link.url from the config)",
-        ),
-    ] = None,
-    sim: Annotated[
-        bool, typer.Option("--sim", help="fly against the built-in simulator, started in-process")
-    ] = False,
-    sim_speedup: Annotated[
-        float,
-        typer.Option(
-            min=SPEEDUP_MIN, max=SPEEDUP_MAX, help="simulator speed-up factor (with --sim)"
-        ),
-    ] = 1.0,
-    sim_terrain: Annotated[
-        Terrain, typer.Option(help="simulator terrain (with --sim)")
-    ] = Terrain.HARD,
-    sim_plant: Annotated[
-        Plant,
-        typer.Option(
-            help="simulator vehicle model (with --sim); sitl_skid needs the SITL channel "
-            "mapping in --config (tests/sitl/README.md)"
-        ),
-    ] = Plant.HELIX,
-    sim_noise: Annotated[
-        NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")
-    ] = NoiseLevel.LOW,
-    run_dir: Annotated[
-        Path | None,
-        typer.Option(
-            "--run-dir",
-            help="root for run directories (default: recorder.run_root; with --resume, the "
-            "interrupted run's)",
-        ),
-    ] = None,
-    log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
+    connect: ConnectOpt = None,
+    sim: SimOpt = False,
+    sim_speedup: SpeedupOpt = 1.0,
+    sim_terrain: TerrainOpt = Terrain.HARD,
+    sim_plant: PlantOpt = Plant.HELIX,
+    sim_noise: NoiseOpt = NoiseLevel.LOW,
+    run_dir: RunDirOpt = None,
+    log_level: LogLevelOpt = "info",
     map_path: MapOpt = None,
     mode: ModeOpt = None,
     skip_unsupported: SkipOpt = False,
     strict: StrictOpt = False,
     fence: FenceOpt = None,
-    show_plan: Annotated[
-        bool,
-        typer.Option(
-            "--show-plan",
-            help="upload the resolved plan as the autopilot's mission so the ground station "
-            "draws the path (helixd never switches to AUTO, so ArduPilot never flies it)",
-        ),
-    ] = False,
-    resume: Annotated[
-        Path | None,
-        typer.Option(
-            "--resume",
-            help="continue the mission of this run directory from its first waypoint not "
-            "reached (refused if the mission or config changed, or the run completed)",
-        ),
-    ] = None,
+    show_plan: ShowPlanOpt = False,
+    resume: ResumeOpt = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
@@ -266,28 +273,17 @@ def run(
             config, connect, choice, run_dir, log_level, map_path, mode, options, show_plan, fence
         )
         return  # not reached: it exits with the run's code
-    source: FlightSource
+    source: FlightSource = MissionFile(mission, mode, fence, options)
     if resume is not None:
-        given = [
-            name
-            for name, used in (
-                ("--mode", mode),
-                ("--map", map_path),
-                ("--skip-unsupported", skip_unsupported),
-                ("--strict", strict),
-                ("--fence", fence),
-            )
-            if used
-        ]
-        if given:
-            raise fail(
-                [f"--resume flies the recorded mission as it was: {', '.join(given)} not allowed"],
-                ExitCode.USAGE,
-            )
-        source = Resume(resume, _explicit_mission(ctx, mission))
+        not_allowed = {
+            "--mode": mode,
+            "--map": map_path,
+            "--skip-unsupported": skip_unsupported,
+            "--strict": strict,
+            "--fence": fence,
+        }
+        source = _resume_source(ctx, mission, resume, not_allowed)
         run_dir = run_dir or resume.resolve().parent  # beside the interrupted run
-    else:
-        source = MissionFile(mission, mode, fence, options)
     try:
         # planned around obstacles; refusals before a simulator starts
         got = prepare_flight(source, config, map_path)
@@ -365,6 +361,20 @@ def _fly(
     for line in outcome.messages:  # the last one is the plain "helixd: RESULT" line
         typer.echo(line, err=True)
     raise typer.Exit(int(outcome.exit_code))
+
+
+def _resume_source(
+    ctx: typer.Context, mission: Path, run_dir: Path, not_allowed: Mapping[str, object]
+) -> Resume:
+    """``--resume RUN_DIR``: the recorded mission as it was; the options that would change it
+    are a usage error."""
+    given = [name for name, used in not_allowed.items() if used]
+    if given:
+        raise fail(
+            [f"--resume flies the recorded mission as it was: {', '.join(given)} not allowed"],
+            ExitCode.USAGE,
+        )
+    return Resume(run_dir, _explicit_mission(ctx, mission))
 
 
 def _explicit_mission(ctx: typer.Context, mission: Path) -> Path | None:

@@ -345,7 +345,7 @@ class MissionRunner:
             async with phase("set_manual", self.notifier, self.display):
                 await until_stopped(stop, ap.action.set_mode(MANUAL_MODE))
                 await confirm_mode(ap, cfg, MANUAL_MODE)
-            sink = held.sink or await start_sink(cfg, ap, held)
+            sink = held.sink if held.sink is not None else await start_sink(cfg, ap, held)
             async with phase("arm", self.notifier, self.display):
                 self._warn(await until_stopped(stop, arm(ap, cfg, held, self.display.phase)))
             self.gcs.phase("armed")
