@@ -7,7 +7,12 @@ be decided without the pose is decided identically in both places:
 * ``start`` missions: the geofence radius is around the start point, i.e. the frame's origin,
   so every waypoint is checked; the keep-in polygon (EKF-origin coordinates) needs the pose.
 * ``local_ned`` missions: the polygon is checked; the radius needs the start pose.
-* ``global`` missions: both need the EKF origin (and the radius the pose too).
+* ``global`` missions: both need the EKF origin (and the radius the pose too). Until it is
+  known, the home the mission carries (a ground-station file's home row or planned home, the
+  autopilot's home) stands for it: ArduPilot sets both where the rover gets its GPS fix. Its
+  places are judged against ``mission.max_range_m`` and its first waypoint against
+  ``mission.max_start_distance_m`` from that home; once connected, from the EKF origin and the
+  rover's pose instead.
 * keep-out areas the mission carries: no waypoint inside one (nor a leg through one when
   nothing plans around it).
 
