@@ -170,6 +170,7 @@ def check(
     try:
         got = prepare_flight(source, config, map_path)
     except InputsRefused as exc:
+        echo_notes(exc.notes)
         raise refused(exc) from None
     echo_notes(got.notes)
     label = str(config or "(built-in defaults)")
@@ -288,6 +289,7 @@ def run(
         # planned around obstacles; refusals before a simulator starts
         got = prepare_flight(source, config, map_path)
     except InputsRefused as exc:
+        echo_notes(exc.notes)
         raise refused(exc) from None
     echo_notes(got.notes)
     cfg = got.cfg
@@ -325,6 +327,7 @@ def _run_autopilot_mission(
         try:
             prepared = prepare_flight(AutopilotMission(got, cfg, options), config, occupancy)
         except InputsRefused as exc:
+            echo_notes(exc.notes)
             raise refused(exc) from None
         echo_notes(prepared.notes)
         echo_flight(prepared.flight)

@@ -12,8 +12,8 @@ is judged again in preflight (:mod:`helixd.runtime.setup`); ``check`` lists it a
 preflight.
 
 No printing and no exits: a refusal is :class:`helixd.runtime.inputs.InputsRefused` (one line
-per problem, and the exit code ``run`` gives it: 2 for a file or a resume, 3 for the
-autopilot's mission); notes are lines to show.
+per problem, the exit code ``run`` gives it: 2 for a file or a resume, 3 for the autopilot's
+mission failing its checks, and the notes to show with it); notes are lines to show.
 """
 
 from __future__ import annotations
@@ -125,7 +125,7 @@ def prepare_flight(
         notes: list[str] = []
         checked = mission_vs_config(source.cfg, msn, got.source, problems, source.options, notes)
         if problems or checked is None:
-            raise InputsRefused(problems, ExitCode.PREFLIGHT)
+            raise InputsRefused(problems, ExitCode.PREFLIGHT, tuple(notes))
         cfg = apply_mission_limits(source.cfg, msn)
         path = Path(MISSION_NAME)
         text = mission_to_yaml(msn)  # the run directory records what was downloaded
@@ -142,6 +142,9 @@ def prepare_flight(
         cfg, msn, path = loaded.cfg, loaded.mission, loaded.path
         text = recorded_mission_yaml(path, msn, source.mode)
         fence, options, shown = loaded.fence, source.options, loaded.notes
-    occ = load_occupancy(cfg, occupancy) if isinstance(occupancy, Path) else occupancy
-    flight = planned_flight(cfg, msn, text, path, occ, config_sha256(config), fence, options)
+    try:
+        occ = load_occupancy(cfg, occupancy) if isinstance(occupancy, Path) else occupancy
+        flight = planned_flight(cfg, msn, text, path, occ, config_sha256(config), fence, options)
+    except InputsRefused as exc:  # the notes about the mission still stand
+        raise InputsRefused(exc.problems, exc.code, shown) from None
     return Prepared(cfg, msn, path, flight, shown, fence, occ)
