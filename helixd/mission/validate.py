@@ -177,7 +177,7 @@ def _start_distance_problems(
         why = "wrong mission, wrong place, or an EKF origin that moved?"
     elif home is not None:
         at = home
-        where = "the mission's home (where its ground station expects the rover to start)"
+        where = "the mission's home (where the rover should start)"
         why = "wrong mission or wrong place?"
     else:
         return []
@@ -215,9 +215,8 @@ def _home_range_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
         rng = math.hypot(*latlon_to_ne(*pos, *mission.home))
         if rng > limit:
             offenders.append(
-                f"waypoints.{i}: {rng:.1f} m from the mission's home; allowed at most "
-                f"mission.max_range_m = {limit} m (measured from the EKF origin in flight, "
-                "which ArduPilot sets where home is)"
+                f"waypoints.{i}: {rng:.1f} m from the mission's home (where the EKF origin "
+                f"will be); allowed at most mission.max_range_m = {limit} m"
             )
     return _listed(offenders, "beyond mission.max_range_m from the mission's home")
 
