@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import asyncio
 import sys
+from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -17,12 +19,11 @@ from typer.exceptions import TyperException
 from helixd import __version__
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.base.run_files import MISSION_FILE
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
 from helixd.cli import runs as recorder_command
 from helixd.cli import serve as cli_serve
-from helixd.cli.autopilot import AUTOPILOT_MISSION, fetch_autopilot_mission, wants_autopilot
+from helixd.cli.autopilot import fetch_autopilot_mission, wants_autopilot
 from helixd.cli.common import (
     CONTEXT_SETTINGS,
     WholeHelpGroup,
@@ -37,27 +38,18 @@ from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
-from helixd.mission.formats import mission_to_yaml
-from helixd.mission.validate import apply_mission_limits
-from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
-from helixd.runtime.inputs import (
-    InputsRefused,
-    config_sha256,
-    load_inputs,
-    mission_vs_config,
-    recorded_mission_yaml,
-    resume_inputs,
-)
+from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.plan_report import check_lines
-from helixd.runtime.planned import (
-    Flight,
-    load_occupancy,
-    plan_loaded,
-    planned_flight,
-    route_lines,
+from helixd.runtime.planned import Flight, load_occupancy, route_lines
+from helixd.runtime.prepare import (
+    AutopilotMission,
+    FlightSource,
+    MissionFile,
+    Resume,
+    prepare_flight,
 )
 from helixd.runtime.status import read_status
 from helixd.sim import command as sim_command
@@ -175,23 +167,78 @@ def check(
     fence: FenceOpt = None,
 ) -> None:
     """Validate the config and a mission (as `run` would), and print the resolved plan."""
+    source = MissionFile(mission, mode, fence, ExpandOptions(strict, skip_unsupported))
     try:
-        got = load_inputs(config, mission, mode, skip_unsupported, fence=fence, strict=strict)
-        occupancy = load_occupancy(got.cfg, map_path)
-        planned, route = plan_loaded(got.cfg, got.mission, got.path, occupancy, got.fence)
+        got = prepare_flight(source, config, map_path)
     except InputsRefused as exc:
+        echo_notes(exc.notes)
         raise refused(exc) from None
     echo_notes(got.notes)
     label = str(config or "(built-in defaults)")
-    lines = check_lines(got.cfg, got.mission, got.path, label, planned, route, got.options)
+    flight = got.flight
+    route = flight.route
+    lines = check_lines(
+        got.cfg, got.mission, got.path, label, flight.mission, route, flight.options
+    )
     typer.echo("\n".join(lines))
     if route is not None and plot is not None:
         from helixd.recorder.plots import render_route  # start-up: matplotlib when plotting
 
         try:
-            typer.echo(f"plot    : {render_route(route, plot, title=got.plan.name)}")
+            typer.echo(f"plot    : {render_route(route, plot, title=got.mission.name)}")
         except OSError as exc:
             raise fail([f"--plot: cannot write {plot}: {exc}"], ExitCode.USAGE) from None
+
+
+ConnectOpt = Annotated[
+    str | None,
+    typer.Option(
+        "--connect",
+        help="autopilot link: /dev/ttyACM0[:baud], udpin:HOST:PORT, udpout:HOST:PORT, "
+        "tcp:HOST:PORT (default: link.url from the config)",
+    ),
+]
+SimOpt = Annotated[
+    bool, typer.Option("--sim", help="fly against the built-in simulator, started in-process")
+]
+SpeedupOpt = Annotated[
+    float,
+    typer.Option(min=SPEEDUP_MIN, max=SPEEDUP_MAX, help="simulator speed-up factor (with --sim)"),
+]
+TerrainOpt = Annotated[Terrain, typer.Option(help="simulator terrain (with --sim)")]
+PlantOpt = Annotated[
+    Plant,
+    typer.Option(
+        help="simulator vehicle model (with --sim); sitl_skid needs the SITL channel "
+        "mapping in --config (tests/sitl/README.md)"
+    ),
+]
+NoiseOpt = Annotated[NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")]
+RunDirOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--run-dir",
+        help="root for run directories (default: recorder.run_root; with --resume, the "
+        "interrupted run's)",
+    ),
+]
+LogLevelOpt = Annotated[str, typer.Option(help="debug, info, warning or error")]
+ShowPlanOpt = Annotated[
+    bool,
+    typer.Option(
+        "--show-plan",
+        help="upload the resolved plan as the autopilot's mission so the ground station "
+        "draws the path (helixd never switches to AUTO, so ArduPilot never flies it)",
+    ),
+]
+ResumeOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--resume",
+        help="continue the mission of this run directory from its first waypoint not "
+        "reached (refused if the mission or config changed, or the run completed)",
+    ),
+]
 
 
 @app.command()
@@ -199,66 +246,21 @@ def run(
     ctx: typer.Context,
     mission: MissionOpt = Path("mission.yaml"),
     config: ConfigOpt = None,
-    connect: Annotated[
-        str | None,
-        typer.Option(
-            "--connect",
-            help="autopilot link: /dev/ttyACM0[:baud], udpin:HOST:PORT, udpout:HOST:PORT, "
-            "tcp:HOST:PORT (default: link.url from the config)",
-        ),
-    ] = None,
-    sim: Annotated[
-        bool, typer.Option("--sim", help="fly against the built-in simulator, started in-process")
-    ] = False,
-    sim_speedup: Annotated[
-        float,
-        typer.Option(
-            min=SPEEDUP_MIN, max=SPEEDUP_MAX, help="simulator speed-up factor (with --sim)"
-        ),
-    ] = 1.0,
-    sim_terrain: Annotated[
-        Terrain, typer.Option(help="simulator terrain (with --sim)")
-    ] = Terrain.HARD,
-    sim_plant: Annotated[
-        Plant,
-        typer.Option(
-            help="simulator vehicle model (with --sim); sitl_skid needs the SITL channel "
-            "mapping in --config (tests/sitl/README.md)"
-        ),
-    ] = Plant.HELIX,
-    sim_noise: Annotated[
-        NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")
-    ] = NoiseLevel.LOW,
-    run_dir: Annotated[
-        Path | None,
-        typer.Option(
-            "--run-dir",
-            help="root for run directories (default: recorder.run_root; with --resume, the "
-            "interrupted run's)",
-        ),
-    ] = None,
-    log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
+    connect: ConnectOpt = None,
+    sim: SimOpt = False,
+    sim_speedup: SpeedupOpt = 1.0,
+    sim_terrain: TerrainOpt = Terrain.HARD,
+    sim_plant: PlantOpt = Plant.HELIX,
+    sim_noise: NoiseOpt = NoiseLevel.LOW,
+    run_dir: RunDirOpt = None,
+    log_level: LogLevelOpt = "info",
     map_path: MapOpt = None,
     mode: ModeOpt = None,
     skip_unsupported: SkipOpt = False,
     strict: StrictOpt = False,
     fence: FenceOpt = None,
-    show_plan: Annotated[
-        bool,
-        typer.Option(
-            "--show-plan",
-            help="upload the resolved plan as the autopilot's mission so the ground station "
-            "draws the path (helixd never switches to AUTO, so ArduPilot never flies it)",
-        ),
-    ] = False,
-    resume: Annotated[
-        Path | None,
-        typer.Option(
-            "--resume",
-            help="continue the mission of this run directory from its first waypoint not "
-            "reached (refused if the mission or config changed, or the run completed)",
-        ),
-    ] = None,
+    show_plan: ShowPlanOpt = False,
+    resume: ResumeOpt = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
@@ -266,79 +268,44 @@ def run(
     --resume RUN_DIR continues a recorded run from its first waypoint not reached."""
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
-    occupancy: OccupancyMap | None = None
-    sim_start: tuple[float, float, float] | None = None
-    if resume is not None:
-        given = [
-            name
-            for name, used in (
-                ("--mode", mode),
-                ("--map", map_path),
-                ("--skip-unsupported", skip_unsupported),
-                ("--strict", strict),
-                ("--fence", fence),
-            )
-            if used
-        ]
-        if given:
-            raise fail(
-                [f"--resume flies the recorded mission as it was: {', '.join(given)} not allowed"],
-                ExitCode.USAGE,
-            )
-        try:
-            resumed = resume_inputs(config, resume, _explicit_mission(ctx, mission))
-        except InputsRefused as exc:
-            raise refused(exc) from None
-        echo_notes(resumed.notes)
-        cfg = resumed.cfg
-        url = check_connect(connect, cfg)
-        # the recorded mission is already planned: no map, no first-leg replanning
-        mission_path = resume / MISSION_FILE
-        flight = Flight(resumed.mission, resumed.mission_yaml, None, resumed.inputs)
-        run_dir = run_dir or resume.resolve().parent  # beside the interrupted run
-        sim_start = resumed.last_pose_ned  # --sim: the rover is where the run left it
-        fence_gcs = None
-    elif wants_autopilot(mission):
+    choice = SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise) if sim else None
+    options = ExpandOptions(strict, skip_unsupported)
+    if wants_autopilot(mission) and resume is None:
         _run_autopilot_mission(
-            config, connect, sim, SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise),
-            run_dir, log_level, map_path, mode, ExpandOptions(strict, skip_unsupported),
-            show_plan, fence,
-        )  # fmt: skip
+            config, connect, choice, run_dir, log_level, map_path, mode, options, show_plan, fence
+        )
         return  # not reached: it exits with the run's code
-    else:
-        try:
-            got = load_inputs(config, mission, mode, skip_unsupported, fence=fence, strict=strict)
-            echo_notes(got.notes)
-            cfg, mission_path, fence_gcs = got.cfg, got.path, got.fence
-            url = check_connect(connect, cfg)
-            mission_yaml = recorded_mission_yaml(mission_path, got.mission, mode)
-            occupancy = load_occupancy(cfg, map_path)
-            # planned around obstacles; refusals before a simulator starts
-            flight = planned_flight(
-                cfg,
-                got.mission,
-                mission_yaml,
-                mission_path,
-                occupancy,
-                config_sha256(config),
-                got.fence,
-                got.options,
-            )
-        except InputsRefused as exc:
-            raise refused(exc) from None
-        echo_flight(flight)
-    sim_choice = (
-        SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise, sim_start) if sim else None
-    )
-    with simulator(sim_choice, lambda: sim_world(cfg, occupancy, fence_gcs), url, cfg) as url:
-        _fly(cfg, flight, url, run_dir, log_level, show_plan)
+    source: FlightSource = MissionFile(mission, mode, fence, options)
+    if resume is not None:
+        not_allowed = {
+            "--mode": mode,
+            "--map": map_path,
+            "--skip-unsupported": skip_unsupported,
+            "--strict": strict,
+            "--fence": fence,
+        }
+        source = _resume_source(ctx, mission, resume, not_allowed)
+        run_dir = run_dir or resume.resolve().parent  # beside the interrupted run
+    try:
+        # planned around obstacles; refusals before a simulator starts
+        got = prepare_flight(source, config, map_path)
+    except InputsRefused as exc:
+        echo_notes(exc.notes)
+        raise refused(exc) from None
+    echo_notes(got.notes)
+    cfg = got.cfg
+    url = check_connect(connect, cfg)
+    echo_flight(got.flight)
+    if choice is not None:  # --resume: the rover is where the run left it
+        choice = replace(choice, start_ned=got.last_pose_ned)
+    with simulator(choice, lambda: sim_world(cfg, got.occupancy, got.fence), url, cfg) as url:
+        _fly(cfg, got.flight, url, run_dir, log_level, show_plan)
 
 
 def _run_autopilot_mission(
     config: Path | None,
     connect: str | None,
-    sim: bool,
-    sim_choice: SimChoice,
+    sim_choice: SimChoice | None,
     run_dir: Path | None,
     log_level: str,
     map_path: Path | None,
@@ -347,36 +314,25 @@ def _run_autopilot_mission(
     show_plan: bool,
     fence: Path | None,
 ) -> None:
-    """``run --mission autopilot``: download, convert and check the autopilot's mission (its
-    stored fence with it), then fly it as any other (see :mod:`helixd.cli.autopilot`).
-    Refusals exit 3."""
+    """``run --mission autopilot``: download and convert the autopilot's mission (its stored
+    fence with it), then check and fly it as any other (see :mod:`helixd.cli.autopilot`).
+    Refusals of the mission exit 3."""
     cfg = config_or_exit(config)
     url = check_connect(connect, cfg)
     try:
         occupancy = load_occupancy(cfg, map_path)
     except InputsRefused as exc:
         raise refused(exc) from None
-    choice = sim_choice if sim else None
-    with simulator(choice, lambda: sim_world(cfg, occupancy), url, cfg) as url:
+    with simulator(sim_choice, lambda: sim_world(cfg, occupancy), url, cfg) as url:
         got = fetch_autopilot_mission(cfg, url, mode, fence)
-        msn = got.mission
-        problems: list[str] = []
-        notes: list[str] = []
-        checked = mission_vs_config(cfg, msn, got.source, problems, options, notes)
-        echo_notes(tuple(notes))
-        if problems or checked is None:
-            raise fail(problems, ExitCode.PREFLIGHT)
-        cfg = apply_mission_limits(cfg, msn)
-        mission_yaml = mission_to_yaml(msn)  # the run directory records what was downloaded
-        path = Path(AUTOPILOT_MISSION)
         try:
-            flight = planned_flight(
-                cfg, msn, mission_yaml, path, occupancy, config_sha256(config), got.fence, options
-            )
+            prepared = prepare_flight(AutopilotMission(got, cfg, options), config, occupancy)
         except InputsRefused as exc:
+            echo_notes(exc.notes)
             raise refused(exc) from None
-        echo_flight(flight)
-        _fly(cfg, flight, url, run_dir, log_level, show_plan)
+        echo_notes(prepared.notes)
+        echo_flight(prepared.flight)
+        _fly(prepared.cfg, prepared.flight, url, run_dir, log_level, show_plan)
 
 
 def _fly(
@@ -409,6 +365,20 @@ def _fly(
     for line in outcome.messages:  # the last one is the plain "helixd: RESULT" line
         typer.echo(line, err=True)
     raise typer.Exit(int(outcome.exit_code))
+
+
+def _resume_source(
+    ctx: typer.Context, mission: Path, run_dir: Path, not_allowed: Mapping[str, object]
+) -> Resume:
+    """``--resume RUN_DIR``: the recorded mission as it was; the options that would change it
+    are a usage error."""
+    given = [name for name, used in not_allowed.items() if used]
+    if given:
+        raise fail(
+            [f"--resume flies the recorded mission as it was: {', '.join(given)} not allowed"],
+            ExitCode.USAGE,
+        )
+    return Resume(run_dir, _explicit_mission(ctx, mission))
 
 
 def _explicit_mission(ctx: typer.Context, mission: Path) -> Path | None:

@@ -17,7 +17,7 @@ from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import load_occupancy
-from helixd.runtime.serve import SERVE_OPTIONS, ServeOptions, serve
+from helixd.runtime.serve import ServeOptions, serve
 from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
 __all__ = ["register"]
@@ -83,6 +83,32 @@ def serve_command(
     """Run all day: fly the autopilot's mission when an operator starts it (start switch,
     MISSION_START), pause and continue on the switch or DO_PAUSE_CONTINUE; never moves on its
     own. Stops on SIGINT/SIGTERM (a flight in progress falls back to HOLD first)."""
+    choice = _sim_choice(sim, connect, sim_speedup, sim_terrain, sim_gcs)
+    cfg = config_or_exit(config)
+    url = check_connect(connect, cfg)
+    try:
+        occupancy = load_occupancy(cfg, map_path)
+    except InputsRefused as exc:
+        raise refused(exc) from None
+    configure_logging(tty=sys.stderr.isatty(), level=log_level)
+    with simulator(choice, lambda: sim_world(cfg, occupancy), url, cfg) as link_url:
+        served = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": link_url})})
+        opts = ServeOptions(
+            cfg=served,
+            config_path=config,
+            run_root=run_dir or cfg.recorder.run_root,
+            mode=mode,
+            occupancy=occupancy,
+            mission_file=mission or cfg.serve.mission_file,
+        )
+        code = eventloop.run(serve(opts), cfg.link.event_loop)
+    raise typer.Exit(int(code))
+
+
+def _sim_choice(
+    sim: bool, connect: str | None, speedup: float, terrain: Terrain, sim_gcs: str | None
+) -> SimChoice | None:
+    """The simulator to serve (``--sim``), with a ground station's link (``--sim-gcs``)."""
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
     if sim_gcs is not None:
@@ -92,38 +118,10 @@ def serve_command(
             parse_link_url(sim_gcs, 115200)
         except LinkError as exc:
             raise fail([f"--sim-gcs: {exc}"], ExitCode.USAGE) from None
-    cfg = config_or_exit(config)
-    url = check_connect(connect, cfg)
-    try:
-        occupancy = load_occupancy(cfg, map_path)
-    except InputsRefused as exc:
-        raise refused(exc) from None
-    tty = sys.stderr.isatty()
-    configure_logging(tty=tty, level=log_level)
-    choice = (
-        SimChoice(
-            sim_speedup,
-            sim_terrain,
-            Plant.HELIX,
-            NoiseLevel.LOW,
-            extra_links=() if sim_gcs is None else (sim_gcs,),
-        )
-        if sim
-        else None
-    )
-    with simulator(choice, lambda: sim_world(cfg, occupancy), url, cfg) as link_url:
-        served = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": link_url})})
-        opts = ServeOptions(
-            cfg=served,
-            config_path=config,
-            run_root=run_dir or cfg.recorder.run_root,
-            mode=mode,
-            occupancy=occupancy,
-            options=SERVE_OPTIONS,
-            mission_file=mission or cfg.serve.mission_file,
-        )
-        code = eventloop.run(serve(opts), cfg.link.event_loop)
-    raise typer.Exit(int(code))
+    if not sim:
+        return None
+    links = () if sim_gcs is None else (sim_gcs,)
+    return SimChoice(speedup, terrain, Plant.HELIX, NoiseLevel.LOW, extra_links=links)
 
 
 def register(app: typer.Typer) -> None:

@@ -7,7 +7,12 @@ be decided without the pose is decided identically in both places:
 * ``start`` missions: the geofence radius is around the start point, i.e. the frame's origin,
   so every waypoint is checked; the keep-in polygon (EKF-origin coordinates) needs the pose.
 * ``local_ned`` missions: the polygon is checked; the radius needs the start pose.
-* ``global`` missions: both need the EKF origin (and the radius the pose too).
+* ``global`` missions: both need the EKF origin (and the radius the pose too). Until it is
+  known, the home the mission carries (a ground-station file's home row or planned home, the
+  autopilot's home) stands for it: ArduPilot sets both where the rover gets its GPS fix. Its
+  places are judged against ``mission.max_range_m`` and its first waypoint against
+  ``mission.max_start_distance_m`` from that home; once connected, from the EKF origin and the
+  rover's pose instead.
 * keep-out areas the mission carries: no waypoint inside one (nor a leg through one when
   nothing plans around it).
 
@@ -28,7 +33,7 @@ from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan
 from helixd.base.polygon import leg_leaves_polygon, point_in_polygon, segments_intersect
 from helixd.config import HelixdConfig
-from helixd.mission.commands import SERVO_COMMANDS, stored_whole
+from helixd.mission.commands import FLY_ROLES, SERVO_COMMANDS, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import NOWHERE, PlanError, Resolved, Where, resolve, resolve_plan
@@ -156,23 +161,66 @@ def _crosses(
     return any(segments_intersect(a, b, area[j], area[(j + 1) % n]) for j in range(n))
 
 
-def _start_distance_problems(plan: Plan, cfg: HelixdConfig, start: NedPose | None) -> list[str]:
+def _start_distance_problems(
+    plan: Plan, cfg: HelixdConfig, start: NedPose | None, home: tuple[float, float] | None
+) -> list[str]:
     """The first waypoint of a ``local_ned``/``global`` mission must be near the rover
     (``mission.max_start_distance_m``): a global mission planned for another pond, or an EKF
-    origin that moved, is refused here. Needs the start pose (preflight)."""
+    origin that moved, is refused here. Judged against the start pose once connected; before
+    that, a global mission is judged against the home its file (or the autopilot) carries:
+    ``home`` is its (north_m, east_m) in the plan's frame."""
     limit = cfg.mission.max_start_distance_m
     first = plan.waypoints[0]
-    if plan.frame is MissionFrameKind.START or start is None:
+    if plan.frame is MissionFrameKind.START:
         return []  # a start-frame mission is placed at the rover by definition
-    dist = math.hypot(first.x_m - start.east_m, first.y_m - start.north_m)
-    where = f"the rover (N {start.north_m:.1f} m, E {start.east_m:.1f} m)"
+    if start is not None:
+        at = (start.north_m, start.east_m)
+        where = f"the rover (N {start.north_m:.1f} m, E {start.east_m:.1f} m)"
+        why = "wrong mission, wrong place, or an EKF origin that moved?"
+    elif home is not None:
+        at = home
+        where = "the mission's home (where the rover should start)"
+        why = "wrong mission or wrong place?"
+    else:
+        return []
+    dist = math.hypot(first.x_m - at[1], first.y_m - at[0])
     if not dist <= limit:
         return [
             f"waypoints.0: {dist:.1f} m from {where}; the first waypoint may be at most "
-            f"mission.max_start_distance_m = {limit} m away (wrong mission, wrong place, or an "
-            "EKF origin that moved?)"
+            f"mission.max_start_distance_m = {limit} m away ({why})"
         ]
     return []
+
+
+def _home_ne(mission: Mission) -> tuple[float, float] | None:
+    """A global mission's home as (north_m, east_m) from its waypoint 0 (the frame of the plan
+    ``check`` resolves); None without a home."""
+    if mission.frame is not MissionFrameKind.GLOBAL or mission.home is None:
+        return None
+    return latlon_to_ne(*mission.home, *mission.points()[0])
+
+
+def _home_range_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
+    """Before the EKF origin is known, a global mission's home (a ground-station file's home
+    row or planned home, the autopilot's home) stands for it: ArduPilot sets both where the
+    rover gets its first GPS fix. A place farther than ``mission.max_range_m`` from it would be
+    refused from the EKF origin in preflight; it is refused here."""
+    if mission.frame is not MissionFrameKind.GLOBAL or mission.home is None:
+        return []
+    limit = cfg.mission.max_range_m
+    commands = mission.has_commands()
+    offenders = []
+    for i, wp in enumerate(mission.waypoints):
+        pos = mission.position(wp)
+        if pos is None or (commands and wp.spec.role not in FLY_ROLES):
+            continue
+        rng = math.hypot(*latlon_to_ne(*pos, *mission.home))
+        if rng > limit:
+            offenders.append(
+                f"waypoints.{i}: {rng:.1f} m from the mission's home (where the EKF origin "
+                f"will be); allowed at most mission.max_range_m = {limit} m"
+            )
+    return _listed(offenders, "beyond mission.max_range_m from the mission's home")
 
 
 GEOFENCE_FALLBACK_SLACK = 1.005  # 0.5 %: the EKF map seen from another origin differs less
@@ -380,7 +428,11 @@ def mission_problems(
     problems += _polygon_problems(cfg, ned, start_ned, fence_name)
     problems += _keep_out_problems(mission, cfg)
     problems += _ground_problems(mission, cfg)
-    problems += _start_distance_problems(plan, cfg, None if provisional else start_ned)
+    if provisional:  # before the EKF origin is known, the mission's home stands for it
+        problems += _home_range_problems(mission, cfg)
+        problems += _start_distance_problems(plan, cfg, None, _home_ne(mission))
+    else:
+        problems += _start_distance_problems(plan, cfg, start_ned, None)
     return problems
 
 

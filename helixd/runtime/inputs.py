@@ -49,11 +49,15 @@ from helixd.runtime.timing import flight_problems
 
 
 class InputsRefused(Exception):
-    """The inputs cannot be flown; ``problems`` holds one line each, ``code`` the exit code."""
+    """The inputs cannot be flown; ``problems`` holds one line each, ``code`` the exit code,
+    ``notes`` what the operator should read with them (skipped items, …)."""
 
-    def __init__(self, problems: list[str], code: ExitCode = ExitCode.USAGE) -> None:
+    def __init__(
+        self, problems: list[str], code: ExitCode = ExitCode.USAGE, notes: tuple[str, ...] = ()
+    ) -> None:
         self.problems = problems
         self.code = code
+        self.notes = notes
         super().__init__("\n".join(problems))
 
 

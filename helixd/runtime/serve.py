@@ -42,13 +42,10 @@ from helixd.mav.constants import (
 )
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
-from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission
 from helixd.mission.resume import sha256_text
-from helixd.mission.validate import apply_mission_limits
 from helixd.planning.mapfile import OccupancyMap
 from helixd.runtime.autopilot_mission import (
-    MISSION_NAME,
     MissionRefused,
     convert_download,
     ground_station_mode,
@@ -56,16 +53,11 @@ from helixd.runtime.autopilot_mission import (
 )
 from helixd.runtime.daemon import MissionRunner, RunOptions
 from helixd.runtime.gcs_feed import GcsFeed
-from helixd.runtime.inputs import (
-    InputsRefused,
-    config_sha256,
-    load_inputs,
-    mission_vs_config,
-    recorded_mission_yaml,
-    resume_inputs,
-)
-from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
-from helixd.runtime.planned import Flight, planned_flight
+from helixd.runtime.host import ServeHost
+from helixd.runtime.inputs import InputsRefused
+from helixd.runtime.notify import ServiceNotifier
+from helixd.runtime.planned import Flight
+from helixd.runtime.prepare import AutopilotMission, MissionFile, Resume, prepare_flight
 from helixd.runtime.serve_core import (
     Answer,
     Request,
@@ -348,25 +340,16 @@ class Service:
                 got = convert_download(mission, fence, source=source, cfg=cfg, mode=mode)
                 for note in got.notes:
                     log.info("mission_note", note=note)
-                msn = got.mission
-                notes: list[str] = []
-                checked = mission_vs_config(cfg, msn, source, problems, self.opts.options, notes)
-                if not problems and checked is not None:
-                    limited = apply_mission_limits(cfg, msn)
-                    flight = planned_flight(
-                        limited,
-                        msn,
-                        mission_to_yaml(msn),
-                        Path(MISSION_NAME),
-                        self.opts.occupancy,
-                        config_sha256(self.opts.config_path),
-                        got.fence,
-                        self.opts.options,
-                    )
-                    last_item = len(mission) - 1
-                    self.checked = Checked(
-                        fingerprint, flight, limited, last_item, _operator_waypoints(msn)
-                    )
+                prepared = prepare_flight(
+                    AutopilotMission(got, cfg, self.opts.options),
+                    self.opts.config_path,
+                    self.opts.occupancy,
+                )
+                for note in prepared.notes:
+                    log.info("mission_note", note=note)
+                n = _operator_waypoints(got.mission)
+                last_item = len(mission) - 1
+                self.checked = Checked(fingerprint, prepared.flight, prepared.cfg, last_item, n)
             except MissionRefused as exc:
                 problems.extend(exc.problems)
             except InputsRefused as exc:
@@ -391,8 +374,9 @@ class Service:
         """The mission file (``serve.mission_file``, ``--mission``), checked as ``helixd run``
         checks it; the GCS is told the verdict when it changed."""
         try:
-            got = load_inputs(self.opts.config_path, path, self.opts.mode)
-            text = recorded_mission_yaml(got.path, got.mission, self.opts.mode)
+            got = prepare_flight(
+                MissionFile(path, self.opts.mode), self.opts.config_path, self.opts.occupancy
+            )
         except InputsRefused as exc:
             fingerprint = "refused:" + "; ".join(exc.problems)
             if fingerprint != self.fingerprint:
@@ -401,28 +385,13 @@ class Service:
                     log.error("serve_mission_refused", problem=p)
                 self._set_state(ServeState.REFUSED, exc.problems[0], MAV_SEVERITY_ERROR)
             return
-        fingerprint = sha256_text(text)
+        fingerprint = sha256_text(got.flight.mission_yaml)
         if fingerprint == self.fingerprint and self.checked is not None:
             return
         self.fingerprint = fingerprint
         cfg = got.cfg.model_copy(update={"link": self.cfg.link})
-        try:
-            flight = planned_flight(
-                cfg,
-                got.mission,
-                text,
-                got.path,
-                self.opts.occupancy,
-                config_sha256(self.opts.config_path),
-                got.fence,
-                got.options,
-            )
-        except InputsRefused as exc:
-            self.checked = None
-            self._set_state(ServeState.REFUSED, exc.problems[0], MAV_SEVERITY_ERROR)
-            return
         n = _operator_waypoints(got.mission)
-        self.checked = Checked(fingerprint, flight, cfg, len(got.mission.waypoints), n)
+        self.checked = Checked(fingerprint, got.flight, cfg, len(got.mission.waypoints), n)
         log.info("serve_mission_checked", waypoints=n, path=str(got.path))
         self._set_state(ServeState.READY, f"{got.path.name} checked, {n} waypoints")
 
@@ -494,12 +463,11 @@ class Service:
         interrupted = self._interrupted
         if request is Request.CONTINUE and interrupted is not None:
             run_dir = interrupted[1]
-            resumed = resume_inputs(self.opts.config_path, run_dir, None)
+            resumed = prepare_flight(Resume(run_dir), self.opts.config_path)
             for note in resumed.notes:
                 log.info("serve_resume", note=note)
-            flight = Flight(resumed.mission, resumed.mission_yaml, None, resumed.inputs)
             cfg = resumed.cfg.model_copy(update={"link": self.cfg.link})
-            return flight, apply_mission_limits(cfg, resumed.mission), run_dir.parent
+            return resumed.flight, cfg, run_dir.parent
         return checked.flight, checked.cfg, self.opts.run_root
 
     async def _fly(self, ap: Autopilot, request: Request, who: str) -> None:
@@ -534,24 +502,22 @@ class Service:
         log.info("serve_flight_start", request=request.value, by=who, flight=self.flights)
         self._set_state(ServeState.FLYING, f"{request.value} by {who}")
         self.busy = False
-        runner = MissionRunner(
-            RunOptions(
-                cfg=cfg,
-                mission=flight.mission,
-                mission_yaml=flight.mission_yaml,
-                connect_url=self.cfg.link.url,
-                run_root=run_root,
-                tty=False,
-                replan_from=flight.replan_from,
-                inputs=flight.inputs,
-                options=flight.options,
-                link=ap,
-                stop=self.flight_stop,
-                start_gate=False,
-                on_item=None if self.opts.mission_file is not None else self._set_current_item,
-                notifier=FlightInServiceNotifier(),
-            )
+        opts = RunOptions(
+            cfg=cfg,
+            mission=flight.mission,
+            mission_yaml=flight.mission_yaml,
+            connect_url=self.cfg.link.url,
+            run_root=run_root,
+            tty=False,
+            replan_from=flight.replan_from,
+            inputs=flight.inputs,
+            options=flight.options,
         )
+        shows_item = self.opts.mission_file is None  # the GCS highlights the autopilot's item
+        host = ServeHost(
+            ap, self.flight_stop, set_item=self._set_current_item if shows_item else None
+        )
+        runner = MissionRunner(opts, host)
         self.runner = runner
         try:
             outcome = await runner.run()

@@ -14,14 +14,12 @@ from helixd.mission.resolve import PlanError
 from helixd.runtime.daemon import (
     EXIT_RULES,
     Ending,
-    PreflightFailed,
     Stage,
-    StartRefused,
-    StopBeforeFlight,
     disarm_after,
     ending_for,
     exit_rule,
 )
+from helixd.runtime.setup import PreflightFailed, StartRefused, StopBeforeFlight
 from helixd.safety.watchdogs import Fault, FaultCause
 
 

@@ -1,0 +1,136 @@
+"""What a flight runs on: its host, as uvicorn's ``Server`` takes the sockets it is given or
+opens its own.
+
+* ``helixd run`` is its own host (:class:`OwnLink`): it connects the link and closes it, owns
+  SIGINT/SIGTERM, and waits for the pilot's start switch before arming;
+* ``helixd serve`` lends each flight what it holds (:class:`ServeHost`): its link (connected,
+  heartbeating, streams negotiated; the flight neither connects nor closes it), its stop
+  request (the service owns the signals and pauses through it), its notifier, and where the
+  item being flown goes (the GCS's current item). No start gate: the service started the
+  flight on the operator's word.
+
+:class:`helixd.runtime.daemon.MissionRunner` asks its host and never looks at which one it is.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Protocol
+
+from helixd.config import HelixdConfig
+from helixd.link.connection import Autopilot
+from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
+from helixd.runtime.setup import Held, attach, connect
+from helixd.runtime.signals import StopRequest, install, uninstall
+
+__all__ = ["FlightHost", "OwnLink", "ServeHost"]
+
+
+class FlightHost(Protocol):
+    """What a flight takes from where it runs."""
+
+    @property
+    def stop(self) -> StopRequest: ...
+
+    @property
+    def notifier(self) -> ServiceNotifier: ...
+
+    @property
+    def start_gate(self) -> bool:
+        """Wait for the pilot's start switch (``safety.start_switch_channel``) before arming."""
+        ...
+
+    def signals(self) -> contextlib.AbstractContextManager[None]:
+        """While the flight runs: SIGINT/SIGTERM trigger :attr:`stop` (or someone else's do)."""
+        ...
+
+    async def open(
+        self,
+        cfg: HelixdConfig,
+        held: Held,
+        on_link: Callable[[Autopilot], None],
+        run_dir: Path | None,
+    ) -> Autopilot:
+        """The link, the autopilot heard, neutral on the servo outputs (held in ``held``)."""
+        ...
+
+    async def close(self, ap: Autopilot) -> None:
+        """Give the link back after the flight."""
+        ...
+
+    def on_item(self, seq: int) -> None:
+        """The mission item being flown, each time it changes."""
+        ...
+
+
+class OwnLink:
+    """``helixd run``: its own link, signals and start gate."""
+
+    start_gate = True
+
+    def __init__(self) -> None:
+        self.stop = StopRequest()
+        self.notifier = ServiceNotifier()  # the run's own (helixd run under systemd)
+
+    @contextlib.contextmanager
+    def signals(self) -> Iterator[None]:
+        loop = asyncio.get_running_loop()
+        install(loop, self.stop)
+        try:
+            yield
+        finally:
+            uninstall(loop)
+
+    async def open(
+        self,
+        cfg: HelixdConfig,
+        held: Held,
+        on_link: Callable[[Autopilot], None],
+        run_dir: Path | None,
+    ) -> Autopilot:
+        return await connect(cfg, held, self.stop, on_link, run_dir)
+
+    async def close(self, ap: Autopilot) -> None:
+        ap.stop_heartbeat()
+        await ap.close()
+
+    def on_item(self, seq: int) -> None:
+        """Nobody to tell: ``helixd run`` sets no current item."""
+
+
+@dataclass(frozen=True)
+class ServeHost:
+    """``helixd serve``'s link, stop request, notifier and current-item setter, lent to one
+    flight."""
+
+    link: Autopilot
+    stop: StopRequest
+    notifier: ServiceNotifier = field(default_factory=FlightInServiceNotifier)
+    set_item: Callable[[int], None] | None = None  # None: nobody shows the current item
+
+    @property
+    def start_gate(self) -> bool:
+        return False
+
+    def signals(self) -> contextlib.AbstractContextManager[None]:
+        return contextlib.nullcontext()  # the service owns them
+
+    async def open(
+        self,
+        cfg: HelixdConfig,
+        held: Held,
+        on_link: Callable[[Autopilot], None],
+        run_dir: Path | None,
+    ) -> Autopilot:
+        return await attach(self.link, cfg, held, self.stop, on_link)
+
+    async def close(self, ap: Autopilot) -> None:
+        """The service's link stays up."""
+
+    def on_item(self, seq: int) -> None:
+        if self.set_item is not None:
+            self.set_item(seq)

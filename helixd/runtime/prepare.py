@@ -1,0 +1,152 @@
+"""One builder for a flight: a source (a mission file, the autopilot's mission, a resume) and
+the config → the checked flight, or the refusal.
+
+``helixd check``, ``helixd run`` and ``helixd serve`` all call :func:`prepare_flight`, so what
+it refuses all three refuse, with the same lines, before anything connects or moves. What it
+judges: the config and the mission together (every problem at once), the mission against the
+config (:func:`helixd.runtime.inputs.mission_vs_config`: ranges, fence, keep-outs, servo
+outputs, the time limit; a global mission's places against the home it carries, which stands
+for the EKF origin until connected), the route planned around the map, keep-outs and fence
+(:func:`helixd.runtime.planned.planned_flight`). What needs the rover's pose and the EKF origin
+is judged again in preflight (:mod:`helixd.runtime.setup`); ``check`` lists it as left for
+preflight.
+
+No printing and no exits: a refusal is :class:`helixd.runtime.inputs.InputsRefused` (one line
+per problem, the exit code ``run`` gives it: 2 for a file or a resume, 3 for the autopilot's
+mission failing its checks, and the notes to show with it); notes are lines to show.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from helixd.base.exitcodes import ExitCode
+from helixd.base.plan import MotionMode
+from helixd.base.run_files import MISSION_FILE
+from helixd.config import HelixdConfig
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.formats import mission_to_yaml
+from helixd.mission.formats.items import GcsMission
+from helixd.mission.model import Mission
+from helixd.mission.validate import apply_mission_limits
+from helixd.planning.mapfile import OccupancyMap
+from helixd.runtime.autopilot_mission import MISSION_NAME, FromAutopilot
+from helixd.runtime.inputs import (
+    InputsRefused,
+    config_sha256,
+    load_inputs,
+    mission_vs_config,
+    recorded_mission_yaml,
+    resume_inputs,
+)
+from helixd.runtime.planned import Flight, load_occupancy, planned_flight
+
+__all__ = [
+    "AutopilotMission",
+    "FlightSource",
+    "MissionFile",
+    "Prepared",
+    "Resume",
+    "prepare_flight",
+]
+
+
+@dataclass(frozen=True)
+class MissionFile:
+    """A mission file (YAML, .plan, .waypoints, …) as ``--mission`` names it."""
+
+    path: Path
+    mode: MotionMode | None = None  # --mode
+    fence: Path | None = None  # --fence
+    options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported
+
+
+@dataclass(frozen=True)
+class AutopilotMission:
+    """The autopilot's mission, downloaded and converted (its home is the autopilot's)."""
+
+    got: FromAutopilot
+    cfg: HelixdConfig  # the config it was converted with
+    options: ExpandOptions = DEFAULT_OPTIONS
+
+
+@dataclass(frozen=True)
+class Resume:
+    """The rest of an interrupted run (``--resume RUN_DIR``, a continue in ``serve``)."""
+
+    run_dir: Path
+    explicit_mission: Path | None = None  # --mission given with --resume: must be the same
+
+
+FlightSource = MissionFile | AutopilotMission | Resume
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """A checked flight: the config with the mission's own limits in place, the mission as
+    loaded (before planning), the file it came from, the flight (planned), the notes to show,
+    the lat/lon fence and the map (for the simulator's world) and, for a resume, where the
+    interrupted run left the rover (north_m, east_m, yaw_ned_rad)."""
+
+    cfg: HelixdConfig
+    mission: Mission
+    path: Path
+    flight: Flight
+    notes: tuple[str, ...] = ()
+    fence: GcsMission | None = None
+    occupancy: OccupancyMap | None = None
+    last_pose_ned: tuple[float, float, float] | None = None
+
+
+def prepare_flight(
+    source: FlightSource,
+    config: Path | None,
+    occupancy: OccupancyMap | Path | None = None,
+) -> Prepared:
+    """The checked flight of ``source`` with the config file ``config`` (hashed into the run's
+    inputs record; an :class:`AutopilotMission` brings the config it was converted with);
+    ``occupancy``: the map (already loaded, or its file); a resume flies the recorded mission
+    as it was planned. Raises :class:`InputsRefused`."""
+    if isinstance(source, Resume):
+        resumed = resume_inputs(config, source.run_dir, source.explicit_mission)
+        flight = Flight(resumed.mission, resumed.mission_yaml, None, resumed.inputs)
+        path = source.run_dir / MISSION_FILE
+        return Prepared(
+            resumed.cfg,
+            resumed.mission,
+            path,
+            flight,
+            resumed.notes,
+            last_pose_ned=resumed.last_pose_ned,
+        )
+    if isinstance(source, AutopilotMission):
+        got = source.got
+        msn = got.mission
+        problems: list[str] = []
+        notes: list[str] = []
+        checked = mission_vs_config(source.cfg, msn, got.source, problems, source.options, notes)
+        if problems or checked is None:
+            raise InputsRefused(problems, ExitCode.PREFLIGHT, tuple(notes))
+        cfg = apply_mission_limits(source.cfg, msn)
+        path = Path(MISSION_NAME)
+        text = mission_to_yaml(msn)  # the run directory records what was downloaded
+        fence, options, shown = got.fence, source.options, tuple(notes)
+    else:
+        loaded = load_inputs(
+            config,
+            source.path,
+            source.mode,
+            source.options.skip_unsupported,
+            fence=source.fence,
+            strict=source.options.strict,
+        )
+        cfg, msn, path = loaded.cfg, loaded.mission, loaded.path
+        text = recorded_mission_yaml(path, msn, source.mode)
+        fence, options, shown = loaded.fence, source.options, loaded.notes
+    try:
+        occ = load_occupancy(cfg, occupancy) if isinstance(occupancy, Path) else occupancy
+        flight = planned_flight(cfg, msn, text, path, occ, config_sha256(config), fence, options)
+    except InputsRefused as exc:  # the notes about the mission still stand
+        raise InputsRefused(exc.problems, exc.code, shown) from None
+    return Prepared(cfg, msn, path, flight, shown, fence, occ)

@@ -1,0 +1,646 @@
+"""The setup phases of a flight, as functions over the link and the config: connect, preflight
+(the vehicle, its servo outputs, a fresh pose, the EKF origin; then the mission placed from the
+rover's pose), the pilot's start gate, the autopilot's home, arming and the confirmations that
+a mode change or an arm happened. :class:`helixd.runtime.daemon.MissionRunner` calls them in
+order; each returns what it found or raises.
+
+In runtime/, beside the runner: they need the link and the config, and also the safety
+layer's faults (a pose rejected too long) and the actuators (the sink sends neutral first).
+
+What setup has taken hold of (the link, the sink, "we armed it") is written to the
+:class:`Held` ledger as soon as it is held, so the runner's shutdown gives it back whatever
+stopped setup half way. A stop signal ends any wait (:func:`until_stopped`) with
+:class:`StopBeforeFlight`; a refusal is :class:`PreflightFailed` (one line per problem).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import time
+from collections.abc import AsyncIterator, Awaitable, Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TypeVar
+
+import structlog
+
+from helixd.actuators.base import ActuatorSink
+from helixd.actuators.factory import make_sink
+from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
+from helixd.base.plan import MissionFrameKind, Plan
+from helixd.base.run_files import TLOG_FILE
+from helixd.config import ActuationBackend, HelixdConfig
+from helixd.link.command_client import CommandError, CommandRejected
+from helixd.link.connection import Autopilot
+from helixd.link.preflight import check_obedience
+from helixd.link.tlog import attach_tlog
+from helixd.link.vehicle import Change, HomePosition, TelemetryBounds
+from helixd.mav.constants import (
+    MAV_CMD_NAV_RETURN_TO_LAUNCH,
+    MAV_CMD_REQUEST_MESSAGE,
+    MAVLINK_MSG_ID_HOME_POSITION,
+)
+from helixd.mav.servo_functions import DO_SET_SERVO_FUNCTIONS, passthrough_input
+from helixd.mission.commands import SERVO_COMMANDS, stored_whole
+from helixd.mission.expand import ExpandOptions
+from helixd.mission.model import Mission
+from helixd.mission.resolve import Where, resolve
+from helixd.mission.resume import RunInputs, with_leg_start
+from helixd.runtime.notify import ServiceNotifier
+from helixd.runtime.planned import Replanner
+from helixd.runtime.show_plan import show_plan
+from helixd.runtime.signals import StopRequest
+from helixd.runtime.timing import flight_problems
+from helixd.safety.watchdogs import Fault, FaultCause, pose_invalid_fault
+
+log = structlog.get_logger(__name__)
+T = TypeVar("T")
+
+
+# AP_ServoRelayEvents::do_set_servo: the output functions a servo command may move (none,
+# manual, sprayer pump/spinner, gripper, RCIN1..16 passthrough, RCIN1..16 mapped)
+class PreflightFailed(Exception):
+    def __init__(self, problems: list[str]) -> None:
+        self.problems = problems
+        super().__init__("; ".join(problems))
+
+
+class StopBeforeFlight(Exception):
+    """A signal arrived before the mission started (nothing was armed)."""
+
+
+class StartRefused(Exception):
+    """Armed, but the mission cannot start: the pose telemetry is being rejected (no valid
+    start pose), or the rover was moved during the start gate to where the mission would leave
+    the geofence. A fault: the fall-back runs."""
+
+    def __init__(self, fault: Fault, detected_s: float) -> None:
+        self.fault = fault
+        self.detected_s = detected_s
+        super().__init__(fault.detail)
+
+
+@dataclass
+class Held:
+    """What setup has taken hold of so far: what shutdown must give back.
+
+    Filled as setup goes (a preflight can fail after the sink sent its first neutral), read
+    by shutdown only, which copes with every field unset.
+    """
+
+    ap: Autopilot | None = None
+    sink: ActuatorSink | None = None
+    armed_by_us: bool = False
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """What the vehicle's preflight found: the start pose and the EKF origin (None: not sent;
+    a global mission is refused without it)."""
+
+    pose: NedPose
+    origin: tuple[float, float] | None
+
+
+@dataclass(frozen=True)
+class Checked:
+    """What preflight found: the start pose, the EKF origin, the mission as flown (its first
+    leg re-planned from the rover when it was planned around obstacles), its plan, and the
+    autopilot's home (missions with commands)."""
+
+    start_ned: NedPose
+    origin: tuple[float, float] | None
+    plan: Plan
+    mission: Mission
+    home: HomePosition | None = None
+
+
+async def until_stopped(stop: StopRequest, awaitable: Awaitable[T]) -> T:
+    """Await ``awaitable`` unless a stop signal arrives first (:class:`StopBeforeFlight`)."""
+    task = asyncio.ensure_future(awaitable)
+    stopper = asyncio.ensure_future(stop.event.wait())
+    try:
+        done, _ = await asyncio.wait({task, stopper}, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        stopper.cancel()
+    if task in done:
+        return task.result()
+    task.cancel()
+    with contextlib.suppress(asyncio.CancelledError, Exception):
+        await task
+    raise StopBeforeFlight(f"{stop.signal_name} received")
+
+
+@contextlib.asynccontextmanager
+async def feeding(held: Held, cfg: HelixdConfig, notifier: ServiceNotifier) -> AsyncIterator[None]:
+    """Keep our HEARTBEAT going during the setup phases (param reads, arming retries).
+
+    The control loop feeds the heartbeat itself while flying; this feeder exists only
+    before it, and is cancelled before the fly phase starts.
+    """
+    period_s = cfg.link.heartbeat_liveness_s / 3
+
+    async def feeder() -> None:
+        while True:
+            if held.ap is not None:
+                held.ap.feed()
+                notifier.watchdog()
+            await asyncio.sleep(period_s)
+
+    task = asyncio.create_task(feeder(), name="setup-feeder")
+    try:
+        yield
+    finally:
+        task.cancel()
+        with contextlib.suppress(asyncio.CancelledError):
+            await task
+
+
+# -- connect ---------------------------------------------------------------------------------
+
+
+async def start_sink(cfg: HelixdConfig, ap: Autopilot, held: Held) -> ActuatorSink:
+    """The actuator sink, started (it sends neutral first), held for shutdown."""
+    sink = make_sink(cfg.actuation, cfg.vehicle, ap)
+    held.sink = sink
+    await sink.start()
+    return sink
+
+
+async def connect(
+    cfg: HelixdConfig,
+    held: Held,
+    stop: StopRequest,
+    on_link: Callable[[Autopilot], None],
+    run_dir: Path | None,
+) -> Autopilot:
+    """``helixd run``'s own link: connect, record the tlog in ``run_dir``, wait for the
+    autopilot's HEARTBEAT, start ours, neutral on the servo outputs, then the streams."""
+    ap = await Autopilot.connect(cfg.link, cfg.safety)
+    held.ap = ap
+    on_link(ap)
+    if run_dir is not None and cfg.link.tlog_enabled:
+        attach_tlog(ap, run_dir / TLOG_FILE, cfg.link.tlog_max_bytes)
+    await until_stopped(stop, ap.wait_heartbeat(cfg.safety.connect_timeout_s))
+    ap.start_heartbeat()
+    ap.feed()
+    if cfg.actuation.backend is ActuationBackend.SERVO:
+        # A previous run may have been killed with DO_SET_SERVO outputs latched: neutral
+        # goes out before anything else.
+        await start_sink(cfg, ap, held)
+    await ap.request_streams()  # logs ``streams_granted`` itself
+    return ap
+
+
+async def attach(
+    ap: Autopilot,
+    cfg: HelixdConfig,
+    held: Held,
+    stop: StopRequest,
+    on_link: Callable[[Autopilot], None],
+) -> Autopilot:
+    """A link already up (``helixd serve``'s: heartbeating, streams negotiated): wait for the
+    autopilot's HEARTBEAT, neutral on the servo outputs."""
+    held.ap = ap
+    on_link(ap)
+    await until_stopped(stop, ap.wait_heartbeat(cfg.safety.connect_timeout_s))
+    ap.feed()
+    if cfg.actuation.backend is ActuationBackend.SERVO:
+        await start_sink(cfg, ap, held)
+    return ap
+
+
+# -- preflight: the vehicle ------------------------------------------------------------------
+
+
+def pose_invalid_too_long(ap: Autopilot, cfg: HelixdConfig) -> Fault | None:
+    """Pose telemetry rejected for longer than the stale limit (as the watchdog)."""
+    st = ap.state
+    return pose_invalid_fault(
+        time.monotonic(),
+        None if st.pose is None else st.pose.rx_monotonic_s,
+        st.pose_invalid_since_s,
+        st.pose_invalid_reason,
+        cfg.safety.pose_stale_s,
+        what="start pose",
+    )
+
+
+async def fresh_pose(ap: Autopilot, cfg: HelixdConfig, stop: StopRequest) -> NedPose | None:
+    """A fresh, valid pose with a healthy EKF; None when there is none.
+
+    Never an invalid one: the vehicle state stores only valid poses (checked against the
+    configured ``safety.telemetry_*`` bounds), and while pose telemetry is being rejected
+    the last stored pose is not taken; rejected for longer than the stale limit, this gives
+    up at once (None) instead of waiting out the timeout.
+    """
+    safety = cfg.safety
+    ap.state.bounds = TelemetryBounds.from_safety(safety)
+    deadline = time.monotonic() + safety.connect_timeout_s
+    while time.monotonic() < deadline:
+        ap.feed()
+        poll_s = min(0.2, safety.pose_stale_s / 4)  # notice invalid poses early
+        sample = await until_stopped(
+            stop, ap.telemetry.next_pose(after_rx_s=None, timeout_s=poll_s)
+        )
+        if pose_invalid_too_long(ap, cfg) is not None:
+            return None
+        ekf = ap.state.ekf
+        fresh = (
+            sample is not None
+            and not ap.state.pose_invalid
+            and time.monotonic() - sample.rx_monotonic_s <= safety.pose_stale_s
+        )
+        if sample is not None and fresh and ekf is not None and ekf.healthy:
+            return sample.ned
+    sample = ap.state.pose
+    return None if sample is None or ap.state.pose_invalid else sample.ned
+
+
+async def servo_output_problems(ap: Autopilot, cfg: HelixdConfig, mission: Mission) -> list[str]:
+    """The mission's servo commands against the outputs' SERVOn_FUNCTION: ArduPilot
+    refuses one on an output with another function ("Channel N is already in use"), and
+    one on an output that passes a scroll's RC channel through (RC-override backend) would
+    latch that scroll (``helixd check`` caught the same channel numbers already)."""
+    out: list[str] = []
+    scroll_rc = {c.channel: k for k, c in enumerate(cfg.actuation.channels)}
+    rc_backend = cfg.actuation.backend is ActuationBackend.RC_OVERRIDE
+    for n, wp in enumerate(mission.waypoints, start=1):
+        if wp.command not in SERVO_COMMANDS:
+            continue
+        output = stored_whole(wp.param(0))
+        function = await ap.param.get(f"SERVO{output}_FUNCTION")
+        if function is None:
+            out.append(f"item {n} {wp.name}: the autopilot has no output {output}")
+            continue
+        f = int(function)
+        passthrough = passthrough_input(f)
+        if rc_backend and passthrough in scroll_rc:
+            k = scroll_rc[passthrough]
+            out.append(
+                f"item {n} {wp.name}: output {output} passes RC{passthrough} through "
+                f"(SERVO{output}_FUNCTION = {f}), which drives scroll {k + 1}: a latched "
+                "servo command would hold that scroll"
+            )
+        elif f not in DO_SET_SERVO_FUNCTIONS:
+            out.append(
+                f"item {n} {wp.name}: the autopilot refuses it on output {output} "
+                f"(SERVO{output}_FUNCTION = {f}: 'ServoRelayEvent: Channel {output} is "
+                "already in use'); give the output function 0"
+            )
+    return out
+
+
+async def preflight(
+    ap: Autopilot,
+    cfg: HelixdConfig,
+    mission: Mission,
+    stop: StopRequest,
+    on_warning: Callable[[str], None],
+) -> Vehicle:
+    """The vehicle obeys, its servo outputs take the mission's servo commands, a fresh pose
+    with a healthy EKF, the EKF origin (a global mission needs it); every problem at once
+    (:class:`PreflightFailed`); warnings go to ``on_warning`` as found."""
+    problems: list[str] = []
+    for p in await check_obedience(ap, cfg.actuation, cfg.link, cfg.safety.servo_guard):
+        if p.severity == "error":
+            problems.append(p.message)
+        else:
+            log.warning("preflight_warning", message=p.message)
+            on_warning(p.message)
+    gate = cfg.safety.start_switch_channel
+    if gate is not None:
+        mode_ch = await ap.param.get("MODE_CH")
+        if mode_ch is not None and int(mode_ch) == gate:
+            problems.append(
+                f"safety.start_switch_channel = {gate} is the autopilot's flight-mode channel "
+                f"(MODE_CH = {int(mode_ch)}): flipping it would change the mode; use another "
+                "channel"
+            )
+    problems += await servo_output_problems(ap, cfg, mission)
+    pose = await fresh_pose(ap, cfg, stop)
+    invalid = pose_invalid_too_long(ap, cfg)
+    if pose is None and invalid is not None:
+        problems.append(f"pose telemetry rejected: {invalid.detail}")
+    elif pose is None:
+        problems.append(
+            f"no fresh pose (LOCAL_POSITION_NED + ATTITUDE) within "
+            f"{cfg.safety.connect_timeout_s} s: check the EKF has an origin and GPS"
+        )
+    ekf = ap.state.ekf
+    if ekf is None or not ekf.healthy:
+        problems.append(
+            "EKF not healthy: " + ("no EKF_STATUS_REPORT" if ekf is None else ekf.describe())
+        )
+    # the EKF origin: a global mission needs it; every run records it (export, plots)
+    needed = mission.frame is MissionFrameKind.GLOBAL
+    timeout_s = cfg.link.command_timeout_s * (3 if needed else 1)
+    origin = await ap.action.request_gps_origin(timeout_s)
+    if origin is None and needed:
+        problems.append("global mission needs GPS_GLOBAL_ORIGIN; the autopilot sent none")
+    if problems or pose is None:
+        raise PreflightFailed(problems)
+    return Vehicle(pose, origin)
+
+
+# -- preflight: the mission from where the rover is ------------------------------------------
+
+
+async def autopilot_home(
+    ap: Autopilot,
+    cfg: HelixdConfig,
+    mission: Mission,
+    origin: tuple[float, float] | None,
+    stop: StopRequest,
+) -> HomePosition | None:
+    """The autopilot's home, for a mission with commands (NAV_RETURN_TO_LAUNCH)."""
+    if not mission.has_commands():
+        return None
+    home = await until_stopped(stop, ap.action.request_home(cfg.link.command_timeout_s * 3))
+    if home is not None:
+        log.info(
+            "home_position",
+            lat_deg=round(home.lat_deg, 7),
+            lon_deg=round(home.lon_deg, 7),
+            north_m=None if home.north_m is None else round(home.north_m, 2),
+            east_m=None if home.east_m is None else round(home.east_m, 2),
+        )
+        if home.north_m is None and origin is not None:  # sent without north/east
+            n, e = latlon_to_ne(home.lat_deg, home.lon_deg, *origin)
+            home = HomePosition(home.lat_deg, home.lon_deg, n, e)
+    return home
+
+
+def mission_frame(mission: Mission, start: NedPose) -> MissionFrame:
+    """The frame the plan is flown in: a ``start`` mission's starts at the rover."""
+    if mission.frame is MissionFrameKind.START:
+        return MissionFrame.start_at(start)
+    return MissionFrame.enu()
+
+
+def resolve_flight(
+    mission: Mission,
+    cfg: HelixdConfig,
+    origin: tuple[float, float] | None,
+    start: NedPose,
+    home: HomePosition | None,
+    options: ExpandOptions,
+) -> tuple[Plan, Where]:
+    """The plan, and for a mission with commands its program from where the rover is
+    (``start``) and the autopilot's home; what the program cannot fly is refused."""
+    frame = mission_frame(mission, start)
+    where = Where()
+    if mission.has_commands():
+        here = frame.to_mission(start)
+        home_xy = None
+        if home is not None and home.north_m is not None and home.east_m is not None:
+            at = frame.to_mission(NedPose(home.north_m, home.east_m, 0.0))
+            home_xy = (at.x_m, at.y_m)
+        where = Where(start_xy_m=(here.x_m, here.y_m), home_xy_m=home_xy)
+    resolved = resolve(mission, cfg.control, cfg.mission, origin, where, options)
+    if resolved.problems:
+        raise PreflightFailed(list(resolved.problems))
+    program = resolved.plan.program
+    returns = program is not None and any(
+        s.command == MAV_CMD_NAV_RETURN_TO_LAUNCH for s in program.steps
+    )
+    if returns and where.home_xy_m is None:
+        raise PreflightFailed(
+            [
+                "the mission returns home (NAV_RETURN_TO_LAUNCH) but the autopilot sent no "
+                "home position (HOME_POSITION): wait for its GPS home and try again"
+            ]
+        )
+    for note in resolved.notes:
+        log.info("mission_note", note=note)
+    return resolved.plan, where
+
+
+async def place_mission(
+    ap: Autopilot,
+    cfg: HelixdConfig,
+    mission: Mission,
+    vehicle: Vehicle,
+    stop: StopRequest,
+    *,
+    replan_from: Replanner | None = None,
+    inputs: RunInputs | None = None,
+    options: ExpandOptions,
+) -> Checked:
+    """The mission placed from the rover's pose and the EKF origin: its first leg re-planned
+    from the rover (a route planned around obstacles), its plan (from the autopilot's home
+    for a mission with commands; a resume re-enters the interrupted leg), and the checks
+    ``helixd check`` ran, now with the start pose and the EKF origin (geofence radius and
+    polygon, distance to the first waypoint, time)."""
+    pose, origin = vehicle.pose, vehicle.origin
+    if replan_from is not None:  # planned legs: the first from the rover
+        try:
+            mission = replan_from((pose.north_m, pose.east_m), origin)
+        except ValueError as exc:
+            raise PreflightFailed(str(exc).splitlines()) from None
+    home = await autopilot_home(ap, cfg, mission, origin, stop)
+    plan, where = resolve_flight(mission, cfg, origin, pose, home, options)
+    if inputs is not None:  # a resume re-enters the interrupted leg
+        plan = with_leg_start(plan, mission, inputs.leg_start, cfg.control, cfg.mission, origin)
+    refused = flight_problems(
+        mission, cfg, start_ned=pose, origin_latlon_deg=origin, options=options, where=where
+    )
+    if refused:
+        raise PreflightFailed(refused)
+    return Checked(pose, origin, plan, mission, home)
+
+
+async def show_checked_plan(
+    ap: Autopilot, cfg: HelixdConfig, checked: Checked, stop: StopRequest
+) -> str | None:
+    """Upload the resolved plan for the GCS to draw (never flown: helixd.runtime.show_plan);
+    a warning when it could not."""
+    timeout_s = cfg.link.command_timeout_s * 3
+    return await until_stopped(
+        stop, show_plan(ap, checked.plan, checked.start_ned, checked.origin, timeout_s)
+    )
+
+
+# -- the start gate, home, arm ---------------------------------------------------------------
+
+
+async def start_gate(
+    ap: Autopilot, cfg: HelixdConfig, stop: StopRequest, notifier: ServiceNotifier
+) -> None:
+    """Wait for the pilot's start switch (``safety.start_switch_channel``), if there is one."""
+    ch = cfg.safety.start_switch_channel
+    if ch is None:
+        return
+    threshold = cfg.safety.start_switch_threshold_us
+    log.info("waiting_for_start_switch", channel=ch, threshold_us=threshold)
+    notifier.status(f"waiting for the pilot: RC{ch} >= {threshold} us")
+    deadline = time.monotonic() + cfg.safety.start_gate_timeout_s
+    while time.monotonic() < deadline:
+        ap.feed()
+        notifier.watchdog()
+        rc = ap.state.rc_inputs_us
+        if len(rc) >= ch and rc[ch - 1] >= threshold:
+            log.info("start_switch_on", channel=ch, pwm_us=rc[ch - 1])
+            return
+        await until_stopped(stop, ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.2))
+    raise PreflightFailed(
+        [f"start switch RC{ch} not flipped within {cfg.safety.start_gate_timeout_s} s"]
+    )
+
+
+async def wait_home(
+    ap: Autopilot, cfg: HelixdConfig, on_status: Callable[[str], None]
+) -> str | None:
+    """Wait for the autopilot's home before arming, instead of forcing the arm; returns a
+    warning when arming is forced without one.
+
+    ArduPilot Rover sets home from the EKF's first position (``Rover::ahrs_update``),
+    sends HOME_POSITION when it does, and until then refuses to arm ("PreArm: AHRS:
+    waiting for home"). HOME_POSITION is asked for every ``safety.arm_retry_interval_s``
+    (ArduPilot answers only once home is set) for at most ``safety.home_timeout_s``; then
+    the run is refused (exit 3, nothing armed), or with ``safety.force_arm`` armed anyway.
+    """
+    safety = cfg.safety
+    deadline = time.monotonic() + safety.home_timeout_s
+    waiting = False
+    while ap.state.home is None:
+        remaining = deadline - time.monotonic()
+        if remaining <= 0.0:
+            text = (
+                f"the autopilot reported no home (HOME_POSITION) within "
+                f"safety.home_timeout_s = {safety.home_timeout_s:g} s; ArduPilot arms only "
+                "once its EKF has a position (GPS fix, EKF origin)"
+            )
+            if not safety.force_arm:
+                raise PreflightFailed([text])
+            log.warning("home_unknown_forcing", problem=text)
+            return f"{text}; arming forced (safety.force_arm)"
+        if not waiting:
+            waiting = True
+            log.info("waiting_for_home", timeout_s=safety.home_timeout_s)
+            on_status("arm (waiting for the autopilot's home)")
+        try:
+            await ap.action.command_long(MAV_CMD_REQUEST_MESSAGE, (MAVLINK_MSG_ID_HOME_POSITION,))
+        except CommandError as exc:  # it also sends HOME_POSITION by itself once set
+            log.info("home_request_failed", error=str(exc))
+        await ap.telemetry.wait_for(
+            lambda st: st.home is not None,
+            Change.HOME,
+            min(remaining, safety.arm_retry_interval_s),
+        )
+    home = ap.state.home
+    if home is not None:
+        log.info(
+            "home_known",
+            lat_deg=round(home.lat_deg, 7),
+            lon_deg=round(home.lon_deg, 7),
+            waited=waiting,
+        )
+    return None
+
+
+async def arm(
+    ap: Autopilot, cfg: HelixdConfig, held: Held, on_status: Callable[[str], None]
+) -> str | None:
+    """Arm once the autopilot has a home, re-trying while PreArm checks refuse; returns the
+    warning of an arm forced without a home."""
+    if ap.state.armed:
+        return None
+    warning = await wait_home(ap, cfg, on_status)
+    safety = cfg.safety
+    deadline = time.monotonic() + safety.arm_timeout_s
+    while True:
+        try:
+            await ap.action.arm(force=safety.force_arm)
+            held.armed_by_us = True
+            await confirm_armed(ap, cfg)
+            return warning
+        except CommandRejected as exc:
+            if time.monotonic() + safety.arm_retry_interval_s > deadline:
+                raise
+            log.warning(
+                "arm_refused_retrying", reason=str(exc), retry_in_s=safety.arm_retry_interval_s
+            )
+            on_status(f"arm (autopilot says: {exc.statustext or exc.result_name})")
+            await asyncio.sleep(safety.arm_retry_interval_s)
+
+
+async def confirm_mode(ap: Autopilot, cfg: HelixdConfig, mode: str) -> None:
+    """The ACK says 'accepted'; the HEARTBEAT's mode says it happened. Without this wait
+    a vehicle still armed in HOLD (left by a faulted run) would show its last HOLD
+    heartbeat to the flight loop, which reads it as a pilot takeover."""
+    deadline = time.monotonic() + cfg.safety.heartbeat_timeout_s * 2
+    while ap.state.mode != mode:
+        if time.monotonic() > deadline:
+            raise PreflightFailed(
+                [f"mode {mode} was accepted but HEARTBEAT still shows {ap.state.mode}"]
+            )
+        await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)
+
+
+async def confirm_armed(ap: Autopilot, cfg: HelixdConfig) -> None:
+    """The ACK says 'accepted'; the HEARTBEAT's armed flag says it happened."""
+    deadline = time.monotonic() + cfg.safety.heartbeat_timeout_s * 2
+    while not ap.state.armed:
+        if time.monotonic() > deadline:
+            raise PreflightFailed(["arming was accepted but HEARTBEAT never showed armed"])
+        await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)
+
+
+def start_pose(
+    checked: Checked,
+    now: NedPose | None,
+    ap: Autopilot,
+    cfg: HelixdConfig,
+    options: ExpandOptions,
+) -> NedPose:
+    """The mission frame starts where the rover is now, after the pilot's start switch;
+    never from an invalid pose: armed with pose telemetry rejected is a fault
+    (:class:`StartRefused`)."""
+    invalid = pose_invalid_too_long(ap, cfg)
+    if now is None and invalid is not None:
+        raise StartRefused(invalid, time.monotonic())
+    if now is not None and now != checked.start_ned:
+        # The rover may have been moved while the start gate waited: check again from here.
+        moved = flight_problems(
+            checked.mission,
+            cfg,
+            start_ned=now,
+            origin_latlon_deg=checked.origin,
+            options=options,
+        )
+        if moved:
+            fault = Fault(FaultCause.PREFLIGHT, "from the pose at arming: " + "; ".join(moved))
+            raise StartRefused(fault, time.monotonic())
+    return now or checked.start_ned
+
+
+__all__ = [
+    "Checked",
+    "Held",
+    "PreflightFailed",
+    "StartRefused",
+    "StopBeforeFlight",
+    "Vehicle",
+    "arm",
+    "attach",
+    "autopilot_home",
+    "confirm_armed",
+    "confirm_mode",
+    "connect",
+    "feeding",
+    "fresh_pose",
+    "mission_frame",
+    "place_mission",
+    "pose_invalid_too_long",
+    "preflight",
+    "resolve_flight",
+    "servo_output_problems",
+    "show_checked_plan",
+    "start_gate",
+    "start_pose",
+    "start_sink",
+    "until_stopped",
+    "wait_home",
+]

@@ -1,0 +1,67 @@
+"""The one builder for a flight: a file and the autopilot's copy of the same mission are
+refused for the same reason, before anything connects (the autopilot's home stands for the
+EKF origin as a file's home row does)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from helixd.base.exitcodes import ExitCode
+from helixd.base.plan import MotionMode
+from helixd.config import HelixdConfig
+from helixd.mission.formats import read_gcs
+from helixd.mission.formats.wire import gcs_to_wire
+from helixd.runtime.autopilot_mission import convert_download
+from helixd.runtime.inputs import InputsRefused
+from helixd.runtime.prepare import AutopilotMission, MissionFile, prepare_flight
+from tests.support.paths import DATA_DIR
+
+HOME = (53.523250, -113.526110)
+DEG_PER_M = 1 / 111_320.0
+
+
+def _waypoints(tmp_path: Path, first_north_m: float) -> Path:
+    rows = [
+        "QGC WPL 110",
+        f"0\t1\t0\t16\t0\t0\t0\t0\t{HOME[0]:.8f}\t{HOME[1]:.8f}\t668.0\t1",
+        *(
+            f"{i}\t0\t3\t16\t0\t0\t0\t0\t{HOME[0] + n * DEG_PER_M:.8f}\t{HOME[1]:.8f}\t0.0\t1"
+            for i, n in enumerate((first_north_m, first_north_m + 20.0), start=1)
+        ),
+    ]
+    path = tmp_path / "mission.waypoints"
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def test_a_file_and_its_upload_are_refused_alike(tmp_path: Path) -> None:
+    path = _waypoints(tmp_path, 794.0)
+    with pytest.raises(InputsRefused) as from_file:
+        prepare_flight(MissionFile(path, MotionMode.ROLL), None)
+    assert from_file.value.code is ExitCode.USAGE
+    wire = gcs_to_wire(read_gcs(path))
+    cfg = HelixdConfig()
+    source = "autopilot at test"
+    got = convert_download(wire.mission, (), source=source, cfg=cfg, mode=MotionMode.ROLL)
+    assert got.mission.home == pytest.approx(HOME)
+    with pytest.raises(InputsRefused) as from_autopilot:
+        prepare_flight(AutopilotMission(got, cfg), None)
+    assert from_autopilot.value.code is ExitCode.PREFLIGHT  # as `run --mission autopilot`
+    reasons = [p.split(": ", 1)[1] for p in from_file.value.problems]
+    assert reasons == [p.split(": ", 1)[1] for p in from_autopilot.value.problems]
+    assert any("794.0 m from the mission's home" in r for r in reasons), reasons
+
+
+def test_a_file_near_its_home_is_a_flight(tmp_path: Path) -> None:
+    got = prepare_flight(MissionFile(_waypoints(tmp_path, 30.0), MotionMode.ROLL), None)
+    assert got.flight.mission is got.mission  # nothing to plan around
+    assert got.flight.inputs.mission_sha256
+    assert got.cfg.safety.mission_time_limit_s > 0
+
+
+def test_the_shipped_ground_station_files_are_flights() -> None:
+    for name in ("square.waypoints", "sim_square.plan"):
+        got = prepare_flight(MissionFile(DATA_DIR / name, MotionMode.ROLL), None)
+        assert got.path == DATA_DIR / name

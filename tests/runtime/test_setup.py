@@ -1,0 +1,48 @@
+"""The setup phases' pure parts: the plan placed from the rover (and the autopilot's home)."""
+
+from __future__ import annotations
+
+import pytest
+
+from helixd.base.frames import NedPose
+from helixd.base.plan import MissionFrameKind
+from helixd.config import HelixdConfig
+from helixd.link.vehicle import HomePosition
+from helixd.mission.expand import DEFAULT_OPTIONS
+from helixd.mission.model import Mission
+from helixd.runtime.setup import PreflightFailed, mission_frame, resolve_flight
+
+CFG = HelixdConfig()
+RETURNS = Mission.model_validate(
+    {
+        "name": "out and home",
+        "mode": "roll",
+        "frame": "local_ned",
+        "waypoints": [{"north": 5, "east": 0}, {"command": "NAV_RETURN_TO_LAUNCH"}],
+    }
+)
+HERE = NedPose(1.0, 2.0, 0.0)
+
+
+def test_a_return_home_without_the_autopilots_home_is_refused() -> None:
+    with pytest.raises(PreflightFailed, match="NAV_RETURN_TO_LAUNCH"):
+        resolve_flight(RETURNS, CFG, None, HERE, None, DEFAULT_OPTIONS)
+
+
+def test_a_return_home_ends_at_the_autopilots_home() -> None:
+    home = HomePosition(53.5, -113.5, -3.0, 4.0)
+    plan, where = resolve_flight(RETURNS, CFG, None, HERE, home, DEFAULT_OPTIONS)
+    assert where.home_xy_m == (4.0, -3.0)  # x east, y north
+    assert where.start_xy_m == (2.0, 1.0)
+    last = plan.waypoints[-1]
+    assert (last.x_m, last.y_m) == (4.0, -3.0)
+
+
+def test_a_start_mission_is_framed_at_the_rover() -> None:
+    start = Mission.model_validate(
+        {"name": "s", "mode": "roll", "frame": "start", "waypoints": [{"x": 1, "y": 0}]}
+    )
+    assert start.frame is MissionFrameKind.START
+    frame = mission_frame(start, HERE)
+    assert frame.to_ned(0.0, 0.0)[:2] == pytest.approx((1.0, 2.0))
+    assert mission_frame(RETURNS, HERE).to_ned(0.0, 0.0)[:2] == pytest.approx((0.0, 0.0))
