@@ -22,7 +22,7 @@ from helixd.base.plan import MotionMode
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
 from helixd.cli import runs as recorder_command
-from helixd.cli import serve as cli_serve
+from helixd.cli import serve_command as cli_serve
 from helixd.cli.autopilot import fetch_autopilot_mission, wants_autopilot
 from helixd.cli.common import (
     CONTEXT_SETTINGS,

@@ -99,7 +99,7 @@ class ServeOptions:
 
 
 @dataclass(frozen=True)
-class Checked:
+class ReadyMission:
     """The autopilot's mission, checked and ready to fly."""
 
     fingerprint: str
@@ -125,7 +125,7 @@ class Service:
             if self.cfg.safety.start_switch_channel is None
             else SwitchWatch(self.cfg.safety.start_switch_threshold_us)
         )
-        self.checked: Checked | None = None
+        self.checked: ReadyMission | None = None
         self.fingerprint: str | None = None  # of the mission last downloaded
         self.busy = False
         self.flight_task: asyncio.Task[None] | None = None
@@ -349,7 +349,9 @@ class Service:
                     log.info("mission_note", note=note)
                 n = _operator_waypoints(got.mission)
                 last_item = len(mission) - 1
-                self.checked = Checked(fingerprint, prepared.flight, prepared.cfg, last_item, n)
+                self.checked = ReadyMission(
+                    fingerprint, prepared.flight, prepared.cfg, last_item, n
+                )
             except MissionRefused as exc:
                 problems.extend(exc.problems)
             except InputsRefused as exc:
@@ -391,7 +393,7 @@ class Service:
         self.fingerprint = fingerprint
         cfg = got.cfg.model_copy(update={"link": self.cfg.link})
         n = _operator_waypoints(got.mission)
-        self.checked = Checked(fingerprint, got.flight, cfg, len(got.mission.waypoints), n)
+        self.checked = ReadyMission(fingerprint, got.flight, cfg, len(got.mission.waypoints), n)
         log.info("serve_mission_checked", waypoints=n, path=str(got.path))
         self._set_state(ServeState.READY, f"{got.path.name} checked, {n} waypoints")
 
