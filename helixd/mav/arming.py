@@ -62,7 +62,9 @@ def motor_prearm_failure(functions: Mapping[int, int], frame_type: int = 0) -> s
     right = K_THROTTLE_RIGHT in assigned
     throttle = K_THROTTLE in assigned
     steering = K_STEERING in assigned
-    if not (left or right or throttle or steering or K_SCRIPTING1 in assigned or has_sail or motors):
+    if not (
+        left or right or throttle or steering or K_SCRIPTING1 in assigned or has_sail or motors
+    ):
         return NO_OUTPUTS_TEXT
     if left != right:
         return SKID_TEXT

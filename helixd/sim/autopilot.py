@@ -36,6 +36,12 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
+from helixd.mav.arming import (
+    FORCE_ARM_MAGIC,
+    PREARM_PREFIX,
+    motor_prearm_failure,
+    servo_functions,
+)
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_HOME,
@@ -47,12 +53,6 @@ from helixd.mav.constants import (
     MAV_RESULT_DENIED,
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
-)
-from helixd.mav.arming import (
-    FORCE_ARM_MAGIC,
-    PREARM_PREFIX,
-    motor_prearm_failure,
-    servo_functions,
 )
 from helixd.mav.guard import (
     HXG_VERSION,
