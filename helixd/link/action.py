@@ -18,6 +18,7 @@ from helixd.link.codec import MavlinkConnection
 from helixd.link.commands import CommandClient, CommandError, CommandRejected
 from helixd.link.telemetry import ChangeWaiters
 from helixd.link.vehicle import Change, HomePosition, VehicleState, mode_number
+from helixd.mav.arming import K_SCRIPTING1, NO_OUTPUTS_TEXT
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MISSION_CURRENT,
@@ -35,6 +36,9 @@ log = structlog.get_logger(__name__)
 ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM: skip checks
 RC_OVERRIDE_CHANNELS = 18
 ARM_TEXT_PREFIXES = ("PreArm", "Arm")
+# "PreArm: " + the text is 51 characters: a receiver that does not join STATUSTEXT chunks
+# sees the first 50
+STATUSTEXT_FIRST_PIECE = 50 - len("PreArm: ")
 
 
 class Action:
@@ -93,6 +97,11 @@ class Action:
         except CommandRejected as exc:
             text = await self._arm_text(since) or exc.statustext
             hint = "" if forced else "safety.force_arm forces it"
+            if text and NO_OUTPUTS_TEXT[:STATUSTEXT_FIRST_PIECE] in text:  # 1st chunk
+                hint = (
+                    f"a Helix needs one spare output with SERVOn_FUNCTION = {K_SCRIPTING1} "
+                    "(Script1) to arm normally: `helixd autopilot check` names it"
+                )
             raise CommandRejected(exc.command_name, exc.result, text, hint) from None
 
     async def refusal_text(self, since_s: float, prefix: str = "") -> str | None:

@@ -199,3 +199,12 @@ async def test_force_arm_is_not_used_when_a_normal_arm_passes() -> None:
         assert [c.params[:2] for c in peer.records.commands_of(ARM)] == [(1.0, 0.0)]
         assert not [e for e in logs if e["event"] == "arm_forced"]
         await until(lambda: ap.state.armed, 2.0, "armed in the heartbeat")
+
+
+async def test_no_motor_outputs_refusal_names_the_helix_setup() -> None:
+    async with linked() as (ap, peer):
+        peer.prearm_text = "PreArm: no motor, sail or scripting outputs defined"
+        with pytest.raises(CommandRejected) as info:
+            await ap.action.arm()
+        assert "SERVOn_FUNCTION = 94 (Script1)" in str(info.value)
+        assert "`helixd autopilot check` names it" in str(info.value)
