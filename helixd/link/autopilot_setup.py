@@ -6,7 +6,7 @@ A normal arm (no force, every PreArm check made) needs, besides GPS/EKF/battery/
   RC-passthrough scroll outputs (51..54) or function-0 ones (DO_SET_SERVO) are no motor
   outputs to ArduPilot, which then refuses "PreArm: no motor, sail or scripting outputs
   defined". The Helix setup: one spare output, with nothing connected, set to
-  ``SERVOn_FUNCTION = 94`` (Script1). No script drives it, ArduPilot holds it at trim.
+  ``SERVOn_FUNCTION = 94`` (Script1). No script drives it.
 * **no checks skipped**: ``ARMING_SKIPCHK = 0`` (current firmware; -1 skips all of them,
   the motor-output check too) or ``ARMING_CHECK = 1`` (older firmware; 0 skips all).
 * what preflight checks before every run (:func:`helixd.link.preflight.judge`): the scroll
@@ -121,8 +121,8 @@ def judge_motor_outputs(
             "error",
             topic,
             f"{refused}; set {name} = {K_SCRIPTING1} (Script1) on this spare output with nothing "
-            f"connected to it: ArduPilot then counts a scripting output, no script drives it "
-            f"(it stays at SERVO{spare}_TRIM), and every other PreArm check is still made",
+            f"connected to it: ArduPilot then counts a scripting output (no script drives it) "
+            f"and every other PreArm check is still made",
             name,
         )
     own = ", ".join(
