@@ -20,7 +20,8 @@ outputs are passthrough (or function 0 for DO_SET_SERVO) has "no motor outputs".
 setup: one spare, unconnected output with SERVOn_FUNCTION = 94 (Script1). No script drives
 it (helixd-guard.lua only touches the HXG_CHANn outputs by number): ArduPilot gives it its
 idle value only (Script1 is an angle output, 0 → SERVOn_TRIM; SITL reports output 16 as 0, no
-pulses), and ``AP_Arming::servo_checks`` lets a scripting function sit on a disabled channel. Every other PreArm check is still made.
+pulses), and ``AP_Arming::servo_checks`` lets a
+scripting function sit on a disabled channel. Every other PreArm check is still made.
 
 The relay check for MOT_PWM_TYPE 5 (brushed with relay) is not modelled: a Helix's scroll
 motor controllers are not ArduPilot's motors.
