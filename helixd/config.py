@@ -725,7 +725,11 @@ class SafetyConfig(InputModel):
         "it): refuse to arm (required, exit 3) or only warn; a killed helixd otherwise leaves "
         "DO_SET_SERVO outputs driving",
     )
-    force_arm: bool = Field(False, description="force-arm (21196) when PreArm checks refuse")
+    force_arm: bool = Field(
+        False,
+        description="the explicit exception: force-arm (21196, skips every PreArm check) when a "
+        "normal arm is refused; logged as WARNING arm_forced with the PreArm text it overrides",
+    )
     arm_timeout_s: float = Field(
         30.0,
         gt=0.0,

@@ -18,6 +18,7 @@ from helixd.link.codec import MavlinkConnection
 from helixd.link.command_client import CommandClient, CommandError, CommandRejected
 from helixd.link.telemetry import ChangeWaiters
 from helixd.link.vehicle import Change, HomePosition, VehicleState, mode_number
+from helixd.mav.arming import K_SCRIPTING1, NO_OUTPUTS_TEXT
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MISSION_CURRENT,
@@ -35,6 +36,9 @@ log = structlog.get_logger(__name__)
 ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM: skip checks
 RC_OVERRIDE_CHANNELS = 18
 ARM_TEXT_PREFIXES = ("PreArm", "Arm")
+# "PreArm: " + the text is 51 characters: a receiver that does not join STATUSTEXT chunks
+# sees the first 50
+STATUSTEXT_FIRST_PIECE = 50 - len("PreArm: ")
 
 
 class Action:
@@ -64,16 +68,41 @@ class Action:
         return await self._commands.exchange(command, params, timeout_s, retries, ok_results)
 
     async def arm(self, force: bool = False) -> None:
+        """Arm with every PreArm check. ``force`` (``safety.force_arm``) is the explicit
+        exception: still a normal arm first; only when the autopilot refuses it, a forced one
+        (param2 21196: ArduPilot then skips *every* PreArm check — GPS, EKF, battery, fence),
+        logged as a WARNING naming the PreArm text it overrides."""
+        try:
+            await self._arm_once(forced=False)
+        except CommandRejected as exc:
+            if not force:
+                raise
+            log.warning(
+                "arm_forced",
+                overrides=exc.statustext or exc.result_name,
+                why="safety.force_arm: the autopilot refused a normal arm; forcing it skips "
+                "every PreArm check",
+            )
+            await self._arm_once(forced=True)
+            log.info("armed", force=True)
+            return
+        log.info("armed", force=False)
+
+    async def _arm_once(self, forced: bool) -> None:
         since = time.monotonic()
         try:
             await self.command_long(
-                MAV_CMD_COMPONENT_ARM_DISARM, (1, ARM_FORCE_MAGIC if force else 0)
+                MAV_CMD_COMPONENT_ARM_DISARM, (1, ARM_FORCE_MAGIC if forced else 0)
             )
         except CommandRejected as exc:
             text = await self._arm_text(since) or exc.statustext
-            hint = "" if force else "safety.force_arm forces it"
+            hint = "" if forced else "safety.force_arm forces it"
+            if text and NO_OUTPUTS_TEXT[:STATUSTEXT_FIRST_PIECE] in text:  # 1st chunk
+                hint = (
+                    f"a Helix needs one spare output with SERVOn_FUNCTION = {K_SCRIPTING1} "
+                    "(Script1) to arm normally: `helixd autopilot check` names it"
+                )
             raise CommandRejected(exc.command_name, exc.result, text, hint) from None
-        log.info("armed", force=force)
 
     async def refusal_text(self, since_s: float, prefix: str = "") -> str | None:
         """The STATUSTEXT (starting with ``prefix``) that explains a refusal, read after

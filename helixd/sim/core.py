@@ -365,7 +365,7 @@ class SimCore:
             failsafe_active=bool(ap.failsafes.triggered) or ap.failsafes.ekf_failsafe,
             origin_set=ap.origin_set(now),
             home_set=ap.home_set(now),
-            prearm_ok=not ap.booting(now) and ap.prearm_failure(now, ekf) is None,
+            prearm_ok=not ap.booting(now) and not ap.prearm_failures(now, ekf),
             rc_ok=ap.receiver_ok,
             estimate=estimator.estimate(self.est, self.phys),
             gps_north_m=gps_n,

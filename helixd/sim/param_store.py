@@ -3,8 +3,10 @@
 Names follow current ArduPilot master: ``MAV_SYSID`` / ``MAV_GCS_SYSID`` / ``MAV_GCS_SYSID_HI``
 / ``MAV_OPTIONS`` (libraries/GCS_MAVLink/GCS.cpp var_info) replaced ``SYSID_THISMAV`` /
 ``SYSID_MYGCS``, which therefore do not exist here. Servo outputs 1–4 default to RCIN1..RCIN4
-passthrough (51..54) and 5..16 to 0 — the Helix per-scroll setup; stock Rover would have
-SERVO1_FUNCTION 26 (steering) and SERVO3_FUNCTION 70 (throttle).
+passthrough (51..54), 16 to 94 (Script1, a spare output nothing is connected to: without a
+motor, sail or scripting output ArduPilot refuses a normal arm, :mod:`helixd.mav.arming`) and
+5..15 to 0 — the Helix per-scroll setup; stock Rover would have SERVO1_FUNCTION 26 (steering)
+and SERVO3_FUNCTION 70 (throttle).
 """
 
 from __future__ import annotations
@@ -13,6 +15,8 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from enum import IntEnum
 from types import MappingProxyType
+
+from helixd.mav.arming import K_SCRIPTING1
 
 
 class ParamType(IntEnum):
@@ -28,6 +32,16 @@ class ParamType(IntEnum):
 class SimParamSpec:
     default: float
     kind: ParamType
+
+
+HELIX_SPARE_OUTPUT = 16  # SERVO16_FUNCTION = 94 (Script1): lets a passthrough Helix arm
+
+
+def _helix_function(n: int) -> int:
+    """The Helix's SERVOn_FUNCTION: RCINn on the scroll outputs 1-4, Script1 on the spare."""
+    if n <= 4:
+        return 50 + n
+    return K_SCRIPTING1 if n == HELIX_SPARE_OUTPUT else 0
 
 
 def _build_defaults() -> dict[str, SimParamSpec]:
@@ -54,6 +68,7 @@ def _build_defaults() -> dict[str, SimParamSpec]:
         "INITIAL_MODE": SimParamSpec(0, i8),
         "MODE_CH": SimParamSpec(8, i8),
         "SCR_ENABLE": SimParamSpec(0, i8),  # AP_Scripting: scripts start at boot when 1
+        "ARMING_SKIPCHK": SimParamSpec(0, i32),  # AP_Arming: checks to skip; -1 = all
     }
     for n in range(1, 7):
         table[f"MODE{n}"] = SimParamSpec(0, i8)  # Rover Parameters.cpp: every MODEn = MANUAL
@@ -64,7 +79,7 @@ def _build_defaults() -> dict[str, SimParamSpec]:
         # Rover::init_rc_in sets a 30 µs dead zone on steering (1) and throttle (3)
         table[f"RC{n}_DZ"] = SimParamSpec(30 if n in (1, 3) else 0, i16)
     for n in range(1, 17):
-        table[f"SERVO{n}_FUNCTION"] = SimParamSpec(50 + n if n <= 4 else 0, i16)
+        table[f"SERVO{n}_FUNCTION"] = SimParamSpec(_helix_function(n), i16)
         table[f"SERVO{n}_MIN"] = SimParamSpec(1100, i16)
         table[f"SERVO{n}_TRIM"] = SimParamSpec(1500, i16)
         table[f"SERVO{n}_MAX"] = SimParamSpec(1900, i16)

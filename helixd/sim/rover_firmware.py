@@ -3,7 +3,10 @@
 Boot: silent, then HEARTBEAT custom_mode 16 (INITIALISING) for ``boot_duration_s``, then
 INITIAL_MODE (0 = MANUAL). Arming (GCS_Common.cpp handle_command_component_arm_disarm):
 already armed / disarmed → ACCEPTED; PreArm failures ("AHRS: waiting for home" until home is
-set) → FAILED with "PreArm: …" CRITICAL STATUSTEXT unless param2 = 21196 (force). Mode
+set; AP_MotorsUGV::pre_arm_check on the SERVOn_FUNCTIONs, :mod:`helixd.mav.arming`: "no motor,
+sail or scripting outputs defined" for a Helix without its spare Script1 output) → FAILED with
+one "PreArm: …" CRITICAL STATUSTEXT per failing check unless param2 = 21196 (force);
+ARMING_SKIPCHK = -1 skips them (AP_Arming::should_skip_all_checks). Mode
 changes (Rover::set_mode, Mode::enter): position-requiring modes are refused while armed
 without a good EKF position or in EKF failsafe ("Flight mode change failed"); AUTO is refused
 without a mission.
@@ -33,6 +36,12 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
+from helixd.mav.arming import (
+    FORCE_ARM_MAGIC,
+    PREARM_PREFIX,
+    motor_prearm_failure,
+    servo_functions,
+)
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_HOME,
@@ -70,7 +79,6 @@ from helixd.sim.payload import PAYLOAD_COMMANDS, Payload
 from helixd.sim.rc import RcInputs
 from helixd.sim.sim_config import SimConfig
 
-FORCE_ARM_MAGIC = 21196
 FORCE_REBOOT_MAGIC = 20190226  # GCS_MAVLINK::handle_preflight_reboot: reboot even when armed
 MAV_OPTIONS_GCS_ONLY = 1 << 0
 SEVERITY_CRITICAL = 2
@@ -287,6 +295,17 @@ class SimAutopilot:
         )
         return True
 
+    def prearm_failures(self, now_s: float, ekf: SimEkfStatus) -> list[str]:
+        """Every PreArm text an arm would get now (AP_Arming_Rover::pre_arm_checks runs every
+        check and reports each failing one): :meth:`prearm_failure`'s, then the motor outputs'
+        (AP_Arming_Rover::motor_checks). None with ARMING_SKIPCHK = -1 (all skipped)."""
+        if self.params.get_int("ARMING_SKIPCHK") == -1:
+            return []
+        out = [] if (first := self.prearm_failure(now_s, ekf)) is None else [first]
+        frame = self.params.get_int("FRAME_TYPE") if "FRAME_TYPE" in self.params else 0
+        motors = motor_prearm_failure(servo_functions(self.params.as_dict()), frame)
+        return out if motors is None else [*out, motors]
+
     def prearm_failure(self, now_s: float, ekf: SimEkfStatus) -> str | None:
         """AP_Arming::gps_checks refuses before home is set; the other checks (simulated by
         ``prearm_delay_s``) and the EKF's position after."""
@@ -314,9 +333,10 @@ class SimAutopilot:
             return MAV_RESULT_FAILED
         forced = int(param2) == FORCE_ARM_MAGIC
         if not forced:
-            reason = self.prearm_failure(now_s, ekf)
-            if reason is not None:
-                self._say(SEVERITY_CRITICAL, f"PreArm: {reason}")
+            reasons = self.prearm_failures(now_s, ekf)
+            for reason in reasons:
+                self._say(SEVERITY_CRITICAL, f"{PREARM_PREFIX}{reason}")
+            if reasons:
                 return MAV_RESULT_FAILED
         self.armed = True
         self.events.append(SimEvent("arm", {"forced": forced}))

@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 from helixd.base.exitcodes import ExitCode
+from helixd.mav.arming import FORCE_ARM_MAGIC
 from helixd.mav.constants import MAV_CMD_COMPONENT_ARM_DISARM
 from helixd.mav.guard_script import VERSION, script_bytes
-from helixd.sim.rover_firmware import FORCE_ARM_MAGIC
 from tests.support.cli import run_main
 from tests.support.harness import client, running_sim, running_sim_links
 

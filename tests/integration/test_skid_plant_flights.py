@@ -47,7 +47,7 @@ SKID_CONFIG: dict[str, Any] = {
     "control": {"corner_error_m": ARC_BUDGET_M},  # the arcs measured against AUTO
     "vehicle": skid_vehicle_geometry(),
     "actuation": skid_actuation("rc_override"),
-    "safety": {"force_arm": True},  # as the SITL suite (ArduPilot refuses passthrough arming)
+    # no force_arm: as the SITL suite, a normal arm (the simulator's SERVO16 = Script1)
 }
 MISSION_WALL_S = 240.0
 # The square before corner arcs, this plant, truth: 80.3–80.4 s (main, 2026-11-23);

@@ -8,6 +8,8 @@ import time
 from typing import Any
 
 import pytest
+import structlog
+import structlog.testing
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
@@ -94,9 +96,14 @@ async def test_arm_refusal_carries_the_prearm_statustext_and_force_arms() -> Non
         assert info.value.result_name == "FAILED"
         assert info.value.statustext == "PreArm: Hardware safety switch"
         assert "PreArm: Hardware safety switch" in str(info.value)
-        await ap.action.arm(force=True)
-        forced = peer.records.commands_of(ARM)[-1]
+        with structlog.testing.capture_logs() as logs:
+            await ap.action.arm(force=True)
+        normal, forced = peer.records.commands_of(ARM)[-2:]
+        assert normal.params[:2] == (1.0, 0.0)  # force only after a normal arm is refused
         assert forced.params[:2] == (1.0, 21196.0)
+        warned = [e for e in logs if e["event"] == "arm_forced"]
+        assert warned and warned[0]["log_level"] == "warning"
+        assert warned[0]["overrides"] == "PreArm: Hardware safety switch"
         await until(lambda: ap.state.armed, 2.0, "armed in the heartbeat")
         await ap.action.disarm()
         await until(lambda: not ap.state.armed, 2.0, "disarmed in the heartbeat")
@@ -183,3 +190,21 @@ async def test_a_refusals_text_that_trails_the_ack_is_waited_for() -> None:
         text = await ap.action.refusal_text(since, "ServoRelayEvent")
         assert text == "ServoRelayEvent: Channel 5 is already in use"
         assert await ap.action.refusal_text(time.monotonic(), "ServoRelayEvent") is None
+
+
+async def test_force_arm_is_not_used_when_a_normal_arm_passes() -> None:
+    async with linked() as (ap, peer):
+        with structlog.testing.capture_logs() as logs:
+            await ap.action.arm(force=True)
+        assert [c.params[:2] for c in peer.records.commands_of(ARM)] == [(1.0, 0.0)]
+        assert not [e for e in logs if e["event"] == "arm_forced"]
+        await until(lambda: ap.state.armed, 2.0, "armed in the heartbeat")
+
+
+async def test_no_motor_outputs_refusal_names_the_helix_setup() -> None:
+    async with linked() as (ap, peer):
+        peer.prearm_text = "PreArm: no motor, sail or scripting outputs defined"
+        with pytest.raises(CommandRejected) as info:
+            await ap.action.arm()
+        assert "SERVOn_FUNCTION = 94 (Script1)" in str(info.value)
+        assert "`helixd autopilot check` names it" in str(info.value)

@@ -6,6 +6,7 @@ from typing import Any
 
 import pytest
 
+from helixd.mav.arming import FORCE_ARM_MAGIC
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_HOME,
@@ -21,7 +22,7 @@ from helixd.mav.guard_script import SCRIPT_NAME, VERSION, script_bytes
 from helixd.sim import estimator, modes
 from helixd.sim import guard_model as g
 from helixd.sim.param_store import ParamStore
-from helixd.sim.rover_firmware import FORCE_ARM_MAGIC, FORCE_REBOOT_MAGIC, SimAutopilot
+from helixd.sim.rover_firmware import FORCE_REBOOT_MAGIC, SimAutopilot
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 
 DT_S = 0.02

@@ -21,6 +21,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -41,7 +42,7 @@ from tests.support.paths import REPO_ROOT
 from tests.support.skid_setup import SURVEY_XY_M, first_step_t_s, survey_metrics
 
 if TYPE_CHECKING:
-    from tests.sitl.conftest import DaemonRun
+    from tests.sitl.conftest import DaemonRun, MavClient
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(3000)]
 
@@ -55,7 +56,8 @@ AT_REST_M = 0.02
 MAV_CMD_COMPONENT_ARM_DISARM = 400
 MAV_CMD_REQUEST_MESSAGE = 512
 MSG_GPS_GLOBAL_ORIGIN = 49
-FORCE_ARM = 21196.0
+ARM_WAIT_S = 60.0
+NORMAL_ARM = 0.0  # param2: every PreArm check made (helix-skid.parm's Script1 output)
 MODE_AUTO = 10
 MAV_RESULT_ACCEPTED = 0
 # ArduPilot's Tools/autotest/default_params/rover-skid.parm, plus the AUTO square's settings.
@@ -98,6 +100,15 @@ def fly_helixd(sitl: SitlVehicle, launch: Callable[..., DaemonRun]) -> TrackMetr
     return survey_metrics(track_of(sitl), sitl.obs.yaw_at, first_step_t_s(daemon.run_dir()))
 
 
+def arm_normally(obs: MavClient) -> None:
+    """Arm as a ground station does, every PreArm check made; retried while ArduPilot still
+    refuses after boot (EKF, home), never forced."""
+    deadline = time.monotonic() + ARM_WAIT_S
+    while obs.command_long(MAV_CMD_COMPONENT_ARM_DISARM, (1.0, NORMAL_ARM)) != MAV_RESULT_ACCEPTED:
+        assert time.monotonic() < deadline, "ArduPilot refused a normal arm for ARM_WAIT_S"
+        time.sleep(1.0)
+
+
 def fly_auto(sitl: SitlVehicle, workdir: Path) -> TrackMetrics | None:
     obs = sitl.obs
     for name, value in AUTO_PARAMS.items():
@@ -120,7 +131,7 @@ def fly_auto(sitl: SitlVehicle, workdir: Path) -> TrackMetrics | None:
         cwd=workdir, env=env, capture_output=True, text=True, timeout=UPLOAD_TIMEOUT_S,
     )  # fmt: skip
     assert upload.returncode == 0, upload.stdout + upload.stderr
-    assert obs.command_long(MAV_CMD_COMPONENT_ARM_DISARM, (1.0, FORCE_ARM)) == MAV_RESULT_ACCEPTED
+    arm_normally(obs)
     assert obs.set_mode(MODE_AUTO) == MAV_RESULT_ACCEPTED
     last_seq = len(SURVEY_XY_M)
 

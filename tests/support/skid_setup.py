@@ -78,9 +78,9 @@ def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
         },
         "actuation": skid_actuation(backend),
         "safety": {
-            # ArduPilot's PreArm checks refuse this passthrough setup shortly after boot
-            # (docs/ardupilot.md, arming); the daemon's documented escape hatch.
-            "force_arm": True,
+            # a normal arm, every PreArm check made: helix-skid.parm's SERVO16_FUNCTION 94
+            # (Script1) passes ArduPilot's motor-output check; the daemon retries while the
+            # EKF/home checks still refuse after boot
             "connect_timeout_s": 60.0,
             "arm_timeout_s": 60.0,
             "arm_retry_interval_s": 1.0,

@@ -1,0 +1,87 @@
+"""``helixd autopilot check``: is the autopilot set up so that the Helix arms honestly — a
+normal arm, every PreArm check made — and obeys helixd? (:mod:`helixd.link.autopilot_setup`)
+
+Registered on the ``autopilot`` group by :func:`register` (one line in :mod:`helixd.cli.app`).
+Prints one line per topic (``ok`` / ``warning`` / ``error``, what to set). Exit codes: 0 all
+good (warnings allowed); 2 bad command line or config; 3 something to change (PREFLIGHT);
+6 no link or no answers.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator
+from typing import Annotated
+
+import typer
+
+from helixd.base.exitcodes import ExitCode
+from helixd.cli.common import fail, link_inputs, run_on_link
+from helixd.cli.guard import ConfigOpt, ConnectOpt, autopilot_app
+from helixd.cli.simulated import embedded_guard
+from helixd.config import HelixdConfig
+from helixd.link.autopilot_setup import SetupLine, failed, judge_setup, read_setup
+from helixd.link.connection import Autopilot
+from helixd.sim.server import start_embedded
+from helixd.sim.sim_config import SimConfig
+
+SIM_BOOT_WAIT_S = 30.0
+SimOpt = Annotated[
+    bool,
+    typer.Option(
+        "--sim",
+        help="check the built-in simulator (set up as the README asks a real Helix to be)",
+    ),
+]
+
+
+@contextlib.contextmanager
+def _target(cfg: HelixdConfig, url: str, sim: bool) -> Iterator[str]:
+    if not sim:
+        yield url
+        return
+    sim_cfg = SimConfig(guard_installed=True, guard_params=embedded_guard(cfg, 1.0))
+    server, sim_url = start_embedded(sim_cfg)
+    try:
+        # its scripts (helixd-guard and its HXG_* parameters) start when the boot ends
+        server.wait_for(lambda s: not s.booting and not s.silent, SIM_BOOT_WAIT_S)
+        yield sim_url
+    finally:
+        server.stop()
+
+
+def report(url: str, lines: list[SetupLine]) -> list[str]:
+    """What the operator reads (pure): every line, then the verdict."""
+    out = [str(line) for line in lines]
+    if failed(lines):
+        out.append(f"{url}: not ready — change the parameters above (then reboot the autopilot)")
+    else:
+        out.append(f"{url}: a normal arm is possible (no force) and the autopilot obeys helixd")
+    return out
+
+
+def check_command(
+    connect: ConnectOpt = None, config: ConfigOpt = None, sim: SimOpt = False
+) -> None:
+    """Check the autopilot's setup for helixd: a normal arm passes the motor-output check (a
+    spare output with SERVOn_FUNCTION = 94), no PreArm check is skipped, the scroll outputs
+    suit the backend, helixd's system id is the GCS id."""
+    if sim and connect is not None:
+        raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
+    cfg, link = link_inputs(config, connect)
+
+    async def body(ap: Autopilot) -> list[SetupLine]:
+        params = await read_setup(ap, cfg.actuation)
+        return judge_setup(params, cfg.actuation, cfg.link, cfg.safety.servo_guard)
+
+    with _target(cfg, link.url, sim) as url:
+        target = link.model_copy(update={"url": url})
+        lines = run_on_link(cfg, target, body)
+    for line in report(url, lines):
+        typer.echo(line)
+    if failed(lines):
+        raise typer.Exit(int(ExitCode.PREFLIGHT))
+
+
+def register(app: typer.Typer = autopilot_app) -> None:
+    app.command("check")(check_command)
