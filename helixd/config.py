@@ -725,6 +725,29 @@ class SafetyConfig(InputModel):
         "it): refuse to arm (required, exit 3) or only warn; a killed helixd otherwise leaves "
         "DO_SET_SERVO outputs driving",
     )
+    # Hostile-telemetry bounds: a LOCAL_POSITION_NED / ATTITUDE value beyond these (or not
+    # finite) is rejected at the vehicle-state edge and never becomes the pose.
+    telemetry_position_max_m: float = Field(
+        50_000.0,
+        gt=0.0,
+        le=1_000_000.0,
+        description="|north|, |east| from the EKF origin above this is absurd (m)",
+    )
+    telemetry_speed_max_mps: float = Field(
+        20.0, gt=0.0, le=1000.0, description="|vn|, |ve|, |vd| above this is absurd (m/s)"
+    )
+    telemetry_yaw_max_rad: float = Field(
+        4.0 * math.pi,
+        ge=math.pi,
+        le=100.0,
+        description="|ATTITUDE yaw| above this is absurd (rad; ArduPilot sends ±π)",
+    )
+
+
+class StartupConfig(InputModel):
+    """Getting to the start line: the autopilot's first HEARTBEAT, its home, the pilot's start
+    switch, and arming (normally, with every PreArm check; force only when configured)."""
+
     force_arm: bool = Field(
         False,
         description="the explicit exception: force-arm (21196, skips every PreArm check) when a "
@@ -758,23 +781,6 @@ class SafetyConfig(InputModel):
     )
     connect_timeout_s: float = Field(
         30.0, gt=0.0, le=600.0, description="wait for the autopilot's first HEARTBEAT (s)"
-    )
-    # Hostile-telemetry bounds: a LOCAL_POSITION_NED / ATTITUDE value beyond these (or not
-    # finite) is rejected at the vehicle-state edge and never becomes the pose.
-    telemetry_position_max_m: float = Field(
-        50_000.0,
-        gt=0.0,
-        le=1_000_000.0,
-        description="|north|, |east| from the EKF origin above this is absurd (m)",
-    )
-    telemetry_speed_max_mps: float = Field(
-        20.0, gt=0.0, le=1000.0, description="|vn|, |ve|, |vd| above this is absurd (m/s)"
-    )
-    telemetry_yaw_max_rad: float = Field(
-        4.0 * math.pi,
-        ge=math.pi,
-        le=100.0,
-        description="|ATTITUDE yaw| above this is absurd (rad; ArduPilot sends ±π)",
     )
 
 
@@ -960,6 +966,7 @@ class HelixdConfig(InputModel):
     link: LinkConfig = Field(default_factory=LinkConfig)
     actuation: ActuationConfig = Field(default_factory=ActuationConfig)
     safety: SafetyConfig = Field(default_factory=SafetyConfig)
+    startup: StartupConfig = Field(default_factory=StartupConfig)
     recorder: RecorderConfig = Field(default_factory=RecorderConfig)
     planning: PlanningConfig = Field(default_factory=PlanningConfig)
     gcs_report: GcsReportConfig = Field(default_factory=GcsReportConfig)
@@ -997,24 +1004,25 @@ def config_consistency_problems(cfg: HelixdConfig) -> list[str]:
             f"safety.pose_stale_s = {saf.pose_stale_s} s must be > 1 / link.pose_rate_min_hz = "
             f"{min_period_s:.3f} s (at the slowest accepted pose rate every pose would be stale)"
         )
-    if saf.arm_retry_interval_s > saf.arm_timeout_s:
+    sta = cfg.startup
+    if sta.arm_retry_interval_s > sta.arm_timeout_s:
         problems.append(
-            f"safety.arm_retry_interval_s = {saf.arm_retry_interval_s} s must be <= "
-            f"safety.arm_timeout_s = {saf.arm_timeout_s} s"
+            f"startup.arm_retry_interval_s = {sta.arm_retry_interval_s} s must be <= "
+            f"startup.arm_timeout_s = {sta.arm_timeout_s} s"
         )
     problems.extend(_channel_conflicts(cfg))
     return problems
 
 
 def _channel_conflicts(cfg: HelixdConfig) -> list[str]:
-    act, saf, tk = cfg.actuation, cfg.safety, cfg.safety.takeover
+    act, sta, tk = cfg.actuation, cfg.startup, cfg.safety.takeover
     problems: list[str] = []
     scrolls = {c.channel: i for i, c in enumerate(act.channels)}
     pilot: list[tuple[str, int]] = []
     if tk.switch_channel is not None:
         pilot.append(("safety.takeover.switch_channel", tk.switch_channel))
-    if saf.start_switch_channel is not None:
-        pilot.append(("safety.start_switch_channel", saf.start_switch_channel))
+    if sta.start_switch_channel is not None:
+        pilot.append(("startup.start_switch_channel", sta.start_switch_channel))
     pilot.extend(
         (f"safety.takeover.stick_channels.{i}", ch) for i, ch in enumerate(tk.stick_channels)
     )
@@ -1028,17 +1036,17 @@ def _channel_conflicts(cfg: HelixdConfig) -> list[str]:
                 )
     if (
         tk.switch_channel is not None
-        and saf.start_switch_channel is not None
-        and tk.switch_channel == saf.start_switch_channel
+        and sta.start_switch_channel is not None
+        and tk.switch_channel == sta.start_switch_channel
     ):
         problems.append(
-            f"safety.takeover.switch_channel and safety.start_switch_channel are both "
+            f"safety.takeover.switch_channel and startup.start_switch_channel are both "
             f"{tk.switch_channel}: flipping the start switch would be read as a takeover"
         )
     for name, ch in pilot[:2]:
-        if name == "safety.start_switch_channel" and ch in tk.stick_channels:
+        if name == "startup.start_switch_channel" and ch in tk.stick_channels:
             problems.append(
-                f"safety.start_switch_channel = {ch} is also in safety.takeover.stick_channels: "
+                f"startup.start_switch_channel = {ch} is also in safety.takeover.stick_channels: "
                 "flipping the start switch would be read as a stick deflection"
             )
     return problems

@@ -146,7 +146,7 @@ def check_unit_structure(unit: Unit) -> None:
     watchdog_s = seconds(one(unit, "Service", "WatchdogSec"))
     assert 1.0 <= watchdog_s <= 30.0
     # time to READY covers waiting for the autopilot's first heartbeat, then preflight
-    assert seconds(one(unit, "Service", "TimeoutStartSec")) >= 2 * cfg.safety.connect_timeout_s
+    assert seconds(one(unit, "Service", "TimeoutStartSec")) >= 2 * cfg.startup.connect_timeout_s
     # SIGKILL must not cut the bounded fall-back (neutral+release+HOLD, HOLD retries) short
     fallback_s = cfg.safety.fallback_deadline_s + cfg.safety.hold_retry_bound_s
     assert seconds(one(unit, "Service", "TimeoutStopSec")) >= 2.0 * fallback_s

@@ -141,7 +141,7 @@ AUTO_SURVEY: dict[str, Any] = {
 SURVEY_TARGET_TEXT = "no slower than AUTO, largest cross-track at most half of AUTO's"
 # Daemon settings for the benchmark: quicker setup, everything else at its field default.
 DAEMON_CONFIG: dict[str, Any] = {
-    "safety": {"connect_timeout_s": 20.0, "arm_retry_interval_s": 0.5},
+    "startup": {"connect_timeout_s": 20.0, "arm_retry_interval_s": 0.5},
 }
 KILL_GRACE_S = 15.0
 LOG_TAIL_LINES = 3

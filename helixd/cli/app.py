@@ -422,7 +422,11 @@ def status(
     configure_logging(tty=sys.stderr.isatty(), level="warning")
     link = cfg.link.model_copy(update={"url": url})
     try:
-        code = asyncio.run(read_status(link, cfg.safety, watch, interval_s, typer.echo))
+        code = asyncio.run(
+            read_status(
+                link, cfg.safety, cfg.startup.connect_timeout_s, watch, interval_s, typer.echo
+            )
+        )
     except LinkError as exc:
         raise fail([str(exc)], ExitCode.LINK) from None
     except KeyboardInterrupt:

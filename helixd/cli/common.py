@@ -136,7 +136,7 @@ async def on_autopilot(
     run ``body``, close."""
     ap = await Autopilot.connect(link, cfg.safety, observer=True)
     try:
-        await ap.wait_heartbeat(cfg.safety.connect_timeout_s)
+        await ap.wait_heartbeat(cfg.startup.connect_timeout_s)
         return await body(ap)
     finally:
         await ap.close()

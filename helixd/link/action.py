@@ -68,7 +68,7 @@ class Action:
         return await self._commands.exchange(command, params, timeout_s, retries, ok_results)
 
     async def arm(self, force: bool = False) -> None:
-        """Arm with every PreArm check. ``force`` (``safety.force_arm``) is the explicit
+        """Arm with every PreArm check. ``force`` (``startup.force_arm``) is the explicit
         exception: still a normal arm first; only when the autopilot refuses it, a forced one
         (param2 21196: ArduPilot then skips *every* PreArm check — GPS, EKF, battery, fence),
         logged as a WARNING naming the PreArm text it overrides."""
@@ -80,7 +80,7 @@ class Action:
             log.warning(
                 "arm_forced",
                 overrides=exc.statustext or exc.result_name,
-                why="safety.force_arm: the autopilot refused a normal arm; forcing it skips "
+                why="startup.force_arm: the autopilot refused a normal arm; forcing it skips "
                 "every PreArm check",
             )
             await self._arm_once(forced=True)
@@ -96,7 +96,7 @@ class Action:
             )
         except CommandRejected as exc:
             text = await self._arm_text(since) or exc.statustext
-            hint = "" if forced else "safety.force_arm forces it"
+            hint = "" if forced else "startup.force_arm forces it"
             if text and NO_OUTPUTS_TEXT[:STATUSTEXT_FIRST_PIECE] in text:  # 1st chunk
                 hint = (
                     f"a Helix needs one spare output with SERVOn_FUNCTION = {K_SCRIPTING1} "

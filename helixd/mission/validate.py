@@ -362,8 +362,8 @@ def servo_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
     pilot: dict[int, str] = {}
     if saf.takeover.switch_channel is not None:
         pilot[saf.takeover.switch_channel] = "safety.takeover.switch_channel"
-    if saf.start_switch_channel is not None:
-        pilot[saf.start_switch_channel] = "safety.start_switch_channel"
+    if cfg.startup.start_switch_channel is not None:
+        pilot[cfg.startup.start_switch_channel] = "startup.start_switch_channel"
     for i, ch in enumerate(saf.takeover.stick_channels):
         pilot.setdefault(ch, f"safety.takeover.stick_channels.{i}")
     out: list[str] = []

@@ -41,7 +41,7 @@ class FlightHost(Protocol):
 
     @property
     def start_gate(self) -> bool:
-        """Wait for the pilot's start switch (``safety.start_switch_channel``) before arming."""
+        """Wait for the pilot's start switch (``startup.start_switch_channel``) before arming."""
         ...
 
     def signals(self) -> contextlib.AbstractContextManager[None]:

@@ -122,8 +122,8 @@ class Service:
         self.gcs = GcsFeed(self.cfg.gcs_report)
         self.switch = (
             None
-            if self.cfg.safety.start_switch_channel is None
-            else SwitchWatch(self.cfg.safety.start_switch_threshold_us)
+            if self.cfg.startup.start_switch_channel is None
+            else SwitchWatch(self.cfg.startup.start_switch_threshold_us)
         )
         self.checked: ReadyMission | None = None
         self.fingerprint: str | None = None  # of the mission last downloaded
@@ -402,7 +402,7 @@ class Service:
     def _watch_switch(self, ap: Autopilot) -> None:
         if self.switch is None:
             return
-        ch = self.cfg.safety.start_switch_channel
+        ch = self.cfg.startup.start_switch_channel
         assert ch is not None
         rc = ap.state.rc_inputs_us
         edge = self.switch.update(rc[ch - 1] if len(rc) >= ch else None)

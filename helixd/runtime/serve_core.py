@@ -5,7 +5,7 @@ one :class:`ServeState` at a time, told to the ground station as NAMED_VALUE_INT
 (the enum's value) and a STATUSTEXT on every change. Requests come from three places and are
 judged the same way:
 
-* the start switch (``safety.start_switch_channel``): a low → high edge asks to start (or
+* the start switch (``startup.start_switch_channel``): a low → high edge asks to start (or
   continue), high → low mid-flight asks to pause. A switch found high when the service comes
   up is *not* a start: it must be seen low first, so a reboot never drives off on its own;
 * ``MAV_CMD_MISSION_START`` (param1 first item: 0 continues where the last flight stopped, 1

@@ -182,7 +182,7 @@ async def connect(
     on_link(ap)
     if run_dir is not None and cfg.link.tlog_enabled:
         attach_tlog(ap, run_dir / TLOG_FILE, cfg.link.tlog_max_bytes)
-    await until_stopped(stop, ap.wait_heartbeat(cfg.safety.connect_timeout_s))
+    await until_stopped(stop, ap.wait_heartbeat(cfg.startup.connect_timeout_s))
     ap.start_heartbeat()
     ap.feed()
     if cfg.actuation.backend is ActuationBackend.SERVO:
@@ -204,7 +204,7 @@ async def attach(
     autopilot's HEARTBEAT, neutral on the servo outputs."""
     held.ap = ap
     on_link(ap)
-    await until_stopped(stop, ap.wait_heartbeat(cfg.safety.connect_timeout_s))
+    await until_stopped(stop, ap.wait_heartbeat(cfg.startup.connect_timeout_s))
     ap.feed()
     if cfg.actuation.backend is ActuationBackend.SERVO:
         await start_sink(cfg, ap, held)
@@ -237,7 +237,7 @@ async def fresh_pose(ap: Autopilot, cfg: HelixdConfig, stop: StopRequest) -> Ned
     """
     safety = cfg.safety
     ap.state.bounds = TelemetryBounds.from_safety(safety)
-    deadline = time.monotonic() + safety.connect_timeout_s
+    deadline = time.monotonic() + cfg.startup.connect_timeout_s
     while time.monotonic() < deadline:
         ap.feed()
         poll_s = min(0.2, safety.pose_stale_s / 4)  # notice invalid poses early
@@ -309,12 +309,12 @@ async def preflight(
         else:
             log.warning("preflight_warning", message=p.message)
             on_warning(p.message)
-    gate = cfg.safety.start_switch_channel
+    gate = cfg.startup.start_switch_channel
     if gate is not None:
         mode_ch = await ap.param.get("MODE_CH")
         if mode_ch is not None and int(mode_ch) == gate:
             problems.append(
-                f"safety.start_switch_channel = {gate} is the autopilot's flight-mode channel "
+                f"startup.start_switch_channel = {gate} is the autopilot's flight-mode channel "
                 f"(MODE_CH = {int(mode_ch)}): flipping it would change the mode; use another "
                 "channel"
             )
@@ -326,7 +326,7 @@ async def preflight(
     elif pose is None:
         problems.append(
             f"no fresh pose (LOCAL_POSITION_NED + ATTITUDE) within "
-            f"{cfg.safety.connect_timeout_s} s: check the EKF has an origin and GPS"
+            f"{cfg.startup.connect_timeout_s} s: check the EKF has an origin and GPS"
         )
     ekf = ap.state.ekf
     if ekf is None or not ekf.healthy:
@@ -468,14 +468,14 @@ async def show_checked_plan(
 async def start_gate(
     ap: Autopilot, cfg: HelixdConfig, stop: StopRequest, notifier: ServiceNotifier
 ) -> None:
-    """Wait for the pilot's start switch (``safety.start_switch_channel``), if there is one."""
-    ch = cfg.safety.start_switch_channel
+    """Wait for the pilot's start switch (``startup.start_switch_channel``), if there is one."""
+    ch = cfg.startup.start_switch_channel
     if ch is None:
         return
-    threshold = cfg.safety.start_switch_threshold_us
+    threshold = cfg.startup.start_switch_threshold_us
     log.info("waiting_for_start_switch", channel=ch, threshold_us=threshold)
     notifier.status(f"waiting for the pilot: RC{ch} >= {threshold} us")
-    deadline = time.monotonic() + cfg.safety.start_gate_timeout_s
+    deadline = time.monotonic() + cfg.startup.start_gate_timeout_s
     while time.monotonic() < deadline:
         ap.feed()
         notifier.watchdog()
@@ -485,7 +485,7 @@ async def start_gate(
             return
         await until_stopped(stop, ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.2))
     raise PreflightFailed(
-        [f"start switch RC{ch} not flipped within {cfg.safety.start_gate_timeout_s} s"]
+        [f"start switch RC{ch} not flipped within {cfg.startup.start_gate_timeout_s} s"]
     )
 
 
@@ -497,28 +497,28 @@ async def wait_home(
 
     ArduPilot Rover sets home from the EKF's first position (``Rover::ahrs_update``),
     sends HOME_POSITION when it does, and until then refuses to arm ("PreArm: AHRS:
-    waiting for home"). HOME_POSITION is asked for every ``safety.arm_retry_interval_s``
-    (ArduPilot answers only once home is set) for at most ``safety.home_timeout_s``; then
-    the run is refused (exit 3, nothing armed), or with ``safety.force_arm`` armed anyway.
+    waiting for home"). HOME_POSITION is asked for every ``startup.arm_retry_interval_s``
+    (ArduPilot answers only once home is set) for at most ``startup.home_timeout_s``; then
+    the run is refused (exit 3, nothing armed), or with ``startup.force_arm`` armed anyway.
     """
-    safety = cfg.safety
-    deadline = time.monotonic() + safety.home_timeout_s
+    startup = cfg.startup
+    deadline = time.monotonic() + startup.home_timeout_s
     waiting = False
     while ap.state.home is None:
         remaining = deadline - time.monotonic()
         if remaining <= 0.0:
             text = (
                 f"the autopilot reported no home (HOME_POSITION) within "
-                f"safety.home_timeout_s = {safety.home_timeout_s:g} s; ArduPilot arms only "
+                f"startup.home_timeout_s = {startup.home_timeout_s:g} s; ArduPilot arms only "
                 "once its EKF has a position (GPS fix, EKF origin)"
             )
-            if not safety.force_arm:
+            if not startup.force_arm:
                 raise PreflightFailed([text])
             log.warning("home_unknown_forcing", problem=text)
-            return f"{text}; arming forced (safety.force_arm)"
+            return f"{text}; arming forced (startup.force_arm)"
         if not waiting:
             waiting = True
-            log.info("waiting_for_home", timeout_s=safety.home_timeout_s)
+            log.info("waiting_for_home", timeout_s=startup.home_timeout_s)
             on_status("arm (waiting for the autopilot's home)")
         try:
             await ap.action.command_long(MAV_CMD_REQUEST_MESSAGE, (MAVLINK_MSG_ID_HOME_POSITION,))
@@ -527,7 +527,7 @@ async def wait_home(
         await ap.telemetry.wait_for(
             lambda st: st.home is not None,
             Change.HOME,
-            min(remaining, safety.arm_retry_interval_s),
+            min(remaining, startup.arm_retry_interval_s),
         )
     home = ap.state.home
     if home is not None:
@@ -548,22 +548,22 @@ async def arm(
     if ap.state.armed:
         return None
     warning = await wait_home(ap, cfg, on_status)
-    safety = cfg.safety
-    deadline = time.monotonic() + safety.arm_timeout_s
+    startup = cfg.startup
+    deadline = time.monotonic() + startup.arm_timeout_s
     while True:
         try:
-            await ap.action.arm(force=safety.force_arm)
+            await ap.action.arm(force=startup.force_arm)
             held.armed_by_us = True
             await confirm_armed(ap, cfg)
             return warning
         except CommandRejected as exc:
-            if time.monotonic() + safety.arm_retry_interval_s > deadline:
+            if time.monotonic() + startup.arm_retry_interval_s > deadline:
                 raise
             log.warning(
-                "arm_refused_retrying", reason=str(exc), retry_in_s=safety.arm_retry_interval_s
+                "arm_refused_retrying", reason=str(exc), retry_in_s=startup.arm_retry_interval_s
             )
             on_status(f"arm (autopilot says: {exc.statustext or exc.result_name})")
-            await asyncio.sleep(safety.arm_retry_interval_s)
+            await asyncio.sleep(startup.arm_retry_interval_s)
 
 
 async def confirm_mode(ap: Autopilot, cfg: HelixdConfig, mode: str) -> None:

@@ -152,17 +152,22 @@ async def _ask_for(ap: Autopilot, timeout_s: float, origin: bool = False) -> Non
 
 
 async def read_status(
-    link: LinkConfig, safety: SafetyConfig, watch: bool, interval_s: float, emit: object
+    link: LinkConfig,
+    safety: SafetyConfig,
+    connect_timeout_s: float,
+    watch: bool,
+    interval_s: float,
+    emit: object,
 ) -> int:
     """Connect, wait for a heartbeat and the streams, print. Returns a process exit code."""
     assert callable(emit)
     emit(
-        f"status    : waiting up to {safety.connect_timeout_s:g} s "
-        f"(safety.connect_timeout_s) for the autopilot's HEARTBEAT on {link.url} …"
+        f"status    : waiting up to {connect_timeout_s:g} s "
+        f"(startup.connect_timeout_s) for the autopilot's HEARTBEAT on {link.url} …"
     )
     ap = await Autopilot.connect(link, safety, observer=True)
     try:
-        await ap.wait_heartbeat(safety.connect_timeout_s)
+        await ap.wait_heartbeat(connect_timeout_s)
         await ap.request_streams()
         await _ask_for(ap, link.command_timeout_s, origin=True)
         await ap.telemetry.next_pose(after_rx_s=None, timeout_s=FIRST_REPORT_S)

@@ -11,7 +11,7 @@ from helixd.base.exitcodes import ExitCode
 from tests.support.cli import run_main
 from tests.support.harness import running_sim
 
-FAST = "safety:\n  connect_timeout_s: 5.0\nlink:\n  command_timeout_s: 0.3\n"
+FAST = "startup:\n  connect_timeout_s: 5.0\nlink:\n  command_timeout_s: 0.3\n"
 
 
 def config(tmp_path: Path) -> str:

@@ -48,9 +48,9 @@ EXPECTED: dict[str, list[str]] = {
     "c_polygon_two_vertices.yaml": ["safety.geofence_polygon_ne_m", "at least 3 vertices, got 2"],
     "c_pose_stale.yaml": ["safety.pose_stale_s = 0.1", "link.pose_rate_min_hz"],
     "c_python_tag.yaml": ["explicit tag", "python/object/apply", "not allowed"],
-    "c_sexagesimal.yaml": ["safety.connect_timeout_s", "'1:30'", "number"],
+    "c_sexagesimal.yaml": ["startup.connect_timeout_s", "'1:30'", "number"],
     "c_start_eq_takeover.yaml": [
-        "safety.takeover.switch_channel and safety.start_switch_channel are both 7"
+        "safety.takeover.switch_channel and startup.start_switch_channel are both 7"
     ],
     "c_stick_99.yaml": ["safety.takeover.stick_channels.0", "got 99", "allowed range 1 .. 18"],
     "c_stop_timeout.yaml": ["actuation.stop_timeout_s = 0.8", "safety.fallback_deadline_s = 0.5"],

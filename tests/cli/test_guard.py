@@ -14,7 +14,7 @@ from helixd.mav.guard_script import VERSION, script_bytes
 from tests.support.cli import run_main
 from tests.support.harness import client, running_sim, running_sim_links
 
-FAST_CONNECT = "safety:\n  connect_timeout_s: 5.0\n"
+FAST_CONNECT = "startup:\n  connect_timeout_s: 5.0\n"
 
 
 def config(tmp_path: Path) -> str:

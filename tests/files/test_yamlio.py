@@ -170,9 +170,11 @@ def test_name_no_is_text_not_false(tmp_path: Path) -> None:
 
 def test_booleans_remain_booleans_where_declared(tmp_path: Path) -> None:
     path = tmp_path / "c.yaml"
-    path.write_text("safety:\n  force_arm: true\n  disarm_on_fault: false\n", encoding="utf-8")
+    path.write_text(
+        "startup:\n  force_arm: true\nsafety:\n  disarm_on_fault: false\n", encoding="utf-8"
+    )
     cfg = load_config(path)
-    assert cfg.safety.force_arm is True and cfg.safety.disarm_on_fault is False
+    assert cfg.startup.force_arm is True and cfg.safety.disarm_on_fault is False
 
 
 def test_shipped_config_still_loads() -> None:

@@ -48,7 +48,7 @@ async def test_unhandled_exception_falls_back_to_hold(
     monkeypatch.setattr(helixd.runtime.flight, "scroll_fractions", exploding)
     with running_sim(speedup=SPEEDUP) as (server, url):
         cfg = HelixdConfig.model_validate(
-            {"link": {"url": url}, "safety": {"arm_retry_interval_s": 0.5}}
+            {"link": {"url": url}, "startup": {"arm_retry_interval_s": 0.5}}
         )
         mission_path = MISSIONS / "square.yaml"
         outcome = await run_mission(
@@ -151,7 +151,7 @@ def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
 def test_start_gate_waits_for_the_pilots_switch(tmp_path: Path) -> None:
     """Nobody types on a rover in a pond: with a start switch configured, helixd connects and
     passes preflight, then waits — nothing armed, no override — until the pilot flips it."""
-    cfg = {"safety": {"start_switch_channel": 7, "start_switch_threshold_us": 1700}}
+    cfg = {"startup": {"start_switch_channel": 7, "start_switch_threshold_us": 1700}}
     with sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud") as (server, d):
         d.wait_line("event=waiting_for_start_switch", 60.0)
         waiting = server.snapshot()
@@ -167,7 +167,7 @@ def test_start_gate_waits_for_the_pilots_switch(tmp_path: Path) -> None:
 
 
 def test_start_switch_on_the_mode_channel_is_refused(tmp_path: Path) -> None:
-    cfg = {"safety": {"start_switch_channel": 8}}  # MODE_CH = 8 on the autopilot
+    cfg = {"startup": {"start_switch_channel": 8}}  # MODE_CH = 8 on the autopilot
     with sim_and_daemon(tmp_path, "hexagon", cfg) as (server, d):
         code = d.wait_exit(60.0)
         result = d.wait_line("helixd: RESULT", 5.0)
@@ -175,7 +175,7 @@ def test_start_switch_on_the_mode_channel_is_refused(tmp_path: Path) -> None:
         assert not server.snapshot().armed
     assert code == ExitCode.PREFLIGHT
     assert "flight-mode channel (MODE_CH = 8)" in log
-    assert result.startswith("helixd: RESULT refused preflight: safety.start_switch_channel = 8")
+    assert result.startswith("helixd: RESULT refused preflight: startup.start_switch_channel = 8")
     assert result.endswith("— 0/6 waypoints, not flown, exit 3")
     assert log.splitlines()[-1] == result or log.splitlines()[-2] == result  # at the end
 
@@ -186,7 +186,7 @@ async def test_no_autopilot_ends_with_a_link_failed_result(tmp_path: Path) -> No
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]  # a UDP port nobody listens on once this closes
     url = f"udpout:127.0.0.1:{port}"
-    cfg = HelixdConfig.model_validate({"link": {"url": url}, "safety": {"connect_timeout_s": 1.0}})
+    cfg = HelixdConfig.model_validate({"link": {"url": url}, "startup": {"connect_timeout_s": 1.0}})
     mission_path = MISSIONS / "square.yaml"
     outcome = await run_mission(
         RunOptions(

@@ -144,14 +144,14 @@ def test_arming_waits_for_the_autopilot_s_home_instead_of_being_refused(tmp_path
 
 
 def test_no_home_within_the_timeout_is_a_preflight_refusal(tmp_path: Path) -> None:
-    config = {"safety": {"home_timeout_s": 1.0}}
+    config = {"startup": {"home_timeout_s": 1.0}}
     with sim_and_daemon(tmp_path, "square", config, home_delay_s=None) as (server, d):
         code = d.wait_exit(60.0)
         log = d.log_text()
         arms = server.history.entries("arm")
     assert code == ExitCode.PREFLIGHT, log[-3000:]
     assert "preflight: the autopilot reported no home (HOME_POSITION)" in log
-    assert "safety.home_timeout_s = 1 s" in log
+    assert "startup.home_timeout_s = 1 s" in log
     assert arms == []
 
 

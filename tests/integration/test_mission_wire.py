@@ -202,7 +202,7 @@ def test_upload_to_an_armed_autopilot_warns(tmp_path: Path) -> None:
 
 def test_no_autopilot_exits_as_a_link_error(tmp_path: Path) -> None:
     cfg = tmp_path / "helixd.yaml"
-    cfg.write_text(yaml.safe_dump({"safety": {"connect_timeout_s": 1.0}}))
+    cfg.write_text(yaml.safe_dump({"startup": {"connect_timeout_s": 1.0}}))
     url = f"udpout:127.0.0.1:{free_udp_port()}"
     res = helixd("mission", "download", "--connect", url, "--config", cfg)
     assert res.returncode == ExitCode.LINK, res.stderr

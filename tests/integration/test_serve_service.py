@@ -27,7 +27,7 @@ from tests.support.harness import (
 )
 from tests.support.serve import moving, serve_proc, sim_with_ground_station
 
-NO_SWITCH: dict[str, Any] = {"safety": {"start_switch_channel": None}}
+NO_SWITCH: dict[str, Any] = {"startup": {"start_switch_channel": None}}
 
 
 def rss_kib(pid: int) -> int:

@@ -273,9 +273,7 @@ async def test_helixd_asks_for_granted_rates_without_a_too_fast_text() -> None:
     from helixd.link.connection import Autopilot
 
     with running_sim() as (srv, url):
-        ap = await Autopilot.connect(
-            LinkConfig(url=url, command_timeout_s=0.5), SafetyConfig(connect_timeout_s=10.0)
-        )
+        ap = await Autopilot.connect(LinkConfig(url=url, command_timeout_s=0.5), SafetyConfig())
         try:
             await ap.wait_heartbeat(10.0)
             ap.start_heartbeat()

@@ -31,7 +31,7 @@ def test_status_once() -> None:
     assert "pose      : N " in out and "(NED, clockwise from North)" in out
     assert "ekf       : EKF healthy" in out
     assert "rc in µs  : 1500" in out
-    assert out.startswith("status    : waiting up to 30 s (safety.connect_timeout_s)")
+    assert out.startswith("status    : waiting up to 30 s (startup.connect_timeout_s)")
     assert "gps       : 3D fix, " in out and " satellites" in out
     assert "battery   : " in out and " V" in out
     assert "position  : 53.52" in out and "(the EKF pose through its origin)" in out
@@ -42,14 +42,14 @@ def test_status_says_what_it_waits_for_and_when_it_gives_up(tmp_path: Path) -> N
     """Nothing answers: a line at once, and one clear line at the timeout (not 30 s of
     silence)."""
     config = tmp_path / "c.yaml"
-    config.write_text("safety:\n  connect_timeout_s: 1.0\n", encoding="utf-8")
+    config.write_text("startup:\n  connect_timeout_s: 1.0\n", encoding="utf-8")
     res = subprocess.run(
         [sys.executable, "-m", "helixd", "status", "-c", str(config), "--connect",
          f"udpout:127.0.0.1:{free_udp_port()}"],
         capture_output=True, text=True, timeout=60, check=False,
     )  # fmt: skip
     assert res.returncode == ExitCode.LINK
-    assert res.stdout.startswith("status    : waiting up to 1 s (safety.connect_timeout_s)")
+    assert res.stdout.startswith("status    : waiting up to 1 s (startup.connect_timeout_s)")
     assert res.stderr.count("error:") == 1 and "no HEARTBEAT" in res.stderr
 
 

@@ -54,9 +54,7 @@ async def current_after(ap: Autopilot, since_s: float, seq: int) -> VehicleState
 
 async def test_set_mission_current_against_the_simulator() -> None:
     with running_sim(speedup=1.0) as (sim, url):
-        ap = await Autopilot.connect(
-            LinkConfig(url=url, command_timeout_s=0.5), SafetyConfig(connect_timeout_s=10.0)
-        )
+        ap = await Autopilot.connect(LinkConfig(url=url, command_timeout_s=0.5), SafetyConfig())
         try:
             await ap.wait_heartbeat(10.0)
             granted = await ap.request_streams()

@@ -218,19 +218,22 @@ def config_errors(data: dict[str, Any]) -> str:
             "safety.takeover.switch_channel = 2 is the RC channel that drives scroll 2",
         ),
         (
-            {"safety": {"start_switch_channel": 4}},
-            "safety.start_switch_channel = 4 is the RC channel that drives scroll 4",
+            {"startup": {"start_switch_channel": 4}},
+            "startup.start_switch_channel = 4 is the RC channel that drives scroll 4",
         ),
         (
             {"safety": {"takeover": {"stick_channels": [6, 3]}}},
             "safety.takeover.stick_channels.1 = 3 is the RC channel that drives scroll 3",
         ),
         (
-            {"safety": {"start_switch_channel": 7, "takeover": {"switch_channel": 7}}},
+            {"startup": {"start_switch_channel": 7}, "safety": {"takeover": {"switch_channel": 7}}},
             "are both 7",
         ),
         (
-            {"safety": {"start_switch_channel": 7, "takeover": {"stick_channels": [7]}}},
+            {
+                "startup": {"start_switch_channel": 7},
+                "safety": {"takeover": {"stick_channels": [7]}},
+            },
             "is also in safety.takeover.stick_channels",
         ),
         ({"safety": {"takeover": {"stick_channels": [0]}}}, "greater than or equal to 1"),
@@ -243,8 +246,8 @@ def config_errors(data: dict[str, Any]) -> str:
         ),
         ({"safety": {"pose_stale_s": 0.2}}, "1 / link.pose_rate_min_hz = 0.200 s"),
         (
-            {"safety": {"arm_timeout_s": 1.0, "arm_retry_interval_s": 2.0}},
-            "safety.arm_retry_interval_s = 2.0 s must be <=",
+            {"startup": {"arm_timeout_s": 1.0, "arm_retry_interval_s": 2.0}},
+            "startup.arm_retry_interval_s = 2.0 s must be <=",
         ),
         ({"link": {"url": "tcp:"}}, "expected HOST:PORT"),
         ({"vehicle": {"max_rpm": True}}, "true/false is not a number"),

@@ -89,7 +89,7 @@ ARRIVAL_TOLERANCE_M = 1.0
 
 CONFIG: dict[str, Any] = {
     "mission": {"ground_station_mode": "roll"},
-    "safety": {"start_switch_channel": SWITCH_CH},
+    "startup": {"start_switch_channel": SWITCH_CH},
     "serve": {
         "gcs_system_ids": [GCS_SYSID],
         "mission_poll_s": 1.0,

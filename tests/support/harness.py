@@ -274,7 +274,7 @@ KEEP_NOTIFY_SOCKET = False  # the systemd test hands its own NOTIFY_SOCKET to th
 
 # Daemon settings for tests: faster setup, everything else at its field default.
 BASE_CONFIG: dict[str, Any] = {
-    "safety": {"connect_timeout_s": 20.0, "arm_retry_interval_s": 0.5},
+    "startup": {"connect_timeout_s": 20.0, "arm_retry_interval_s": 0.5},
 }
 
 

@@ -22,7 +22,7 @@ SPEEDUP = 5.0
 MOVING_MPS = 0.1  # faster than this is driving
 CONFIG: dict[str, Any] = {
     "mission": {"ground_station_mode": "roll"},
-    "safety": {"start_switch_channel": SWITCH_CH},
+    "startup": {"start_switch_channel": SWITCH_CH},
     "serve": {"mission_poll_s": 1.0, "tick_s": 0.05, "state_rate_hz": 2.0},
 }
 

@@ -77,7 +77,7 @@ def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
             "heartbeat_rate_hz": 5.0,
         },
         "actuation": skid_actuation(backend),
-        "safety": {
+        "startup": {
             # a normal arm, every PreArm check made: helix-skid.parm's SERVO16_FUNCTION 94
             # (Script1) passes ArduPilot's motor-output check; the daemon retries while the
             # EKF/home checks still refuse after boot

@@ -89,7 +89,7 @@ def test_skid_plant_runs_get_the_sitl_suite_config() -> None:
     skid = nav.daemon_config("line", "line", "sitl_skid")
     cfg = HelixdConfig.model_validate(skid)
     assert [ch.channel for ch in cfg.actuation.channels] == [3, 4, 1, 2]
-    assert cfg.safety.force_arm and cfg.safety.connect_timeout_s == 20.0  # the bench's own
+    assert cfg.startup.force_arm and cfg.startup.connect_timeout_s == 20.0  # the bench's own
     assert "actuation" not in nav.daemon_config("line", "line")
 
 
