@@ -53,6 +53,7 @@ __all__ = [
 
 DEG_E7 = 1e7
 INT32_MAX = 2**31 - 1
+INT32_MIN = -(2**31)
 
 
 @dataclass(frozen=True, slots=True)
@@ -71,7 +72,7 @@ def _deg_e7(deg: float, where: str) -> int:
     if not math.isfinite(deg):
         raise FormatError([f"{where}: x/y {deg} is not finite"])
     v = round(deg * DEG_E7)
-    if abs(v) > INT32_MAX:
+    if not INT32_MIN <= v <= INT32_MAX:
         raise FormatError([f"{where}: x/y {deg} does not fit MISSION_ITEM_INT"])
     return v
 
@@ -81,7 +82,7 @@ def _raw_int(v: float, where: str) -> int:
     if not math.isfinite(v):
         return 0
     r = round(v)
-    if abs(r) > INT32_MAX:
+    if not INT32_MIN <= r <= INT32_MAX:
         raise FormatError([f"{where}: x/y {v} does not fit MISSION_ITEM_INT"])
     return r
 
