@@ -28,7 +28,7 @@ from helixd.config import HelixdConfig
 from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
 from helixd.link.mission_link import Downloaded
-from helixd.mav.mission_item import WireItem
+from helixd.mav.mission_item import MissionItem
 from helixd.runtime.autopilot_mission import (
     MISSION_NAME,
     FromAutopilot,
@@ -54,8 +54,8 @@ def _refuse(problems: list[str]) -> typer.Exit:
 
 
 def convert(
-    got_mission: tuple[WireItem, ...],
-    got_fence: tuple[WireItem, ...],
+    got_mission: tuple[MissionItem, ...],
+    got_fence: tuple[MissionItem, ...],
     *,
     source: str,
     cfg: HelixdConfig,

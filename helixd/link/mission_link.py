@@ -29,7 +29,7 @@ from helixd.mav.constants import (
     MAV_MISSION_TYPE_MISSION,
     MAV_SEVERITY_WARNING,
 )
-from helixd.mav.mission_item import WireItem as MissionItem
+from helixd.mav.mission_item import MissionItem
 
 __all__ = [
     "MISSION_MESSAGES",

@@ -50,10 +50,11 @@ from helixd.mav.constants import (
     MAV_MISSION_TYPE_RALLY,
 )
 from helixd.mav.mission_item import (
-    WireItem,
-    check_wire_item,
+    MissionItem,
+    check_item,
     item_from_message,
     mission_result_name,
+    wire_xy,
 )
 
 __all__ = [
@@ -175,7 +176,7 @@ class MissionUpload(Transfer):
 
     def __init__(
         self,
-        items: Sequence[WireItem],
+        items: Sequence[MissionItem],
         mission_type: int,
         target_system: int,
         target_component: int,
@@ -187,7 +188,7 @@ class MissionUpload(Transfer):
             mission_type, target_system, target_component, item_timeout_s, retries, own_ids
         )
         for i, item in enumerate(items):
-            check_wire_item(item)
+            check_item(item)
             if item.seq != i:
                 raise ValueError(f"mission item {i} has seq {item.seq}: seq must be 0..n-1")
             if item.mission_type != mission_type:
@@ -208,10 +209,11 @@ class MissionUpload(Transfer):
 
     def _item_msg(self, seq: int) -> Any:
         it = self.items[seq]
+        x, y = wire_xy(it)
         return _mav.mission_item_int_encode(
             self.target_system, self.target_component, it.seq, it.frame, it.command,
             it.current, it.autocontinue, it.param1, it.param2, it.param3, it.param4,
-            it.x, it.y, it.z, it.mission_type,
+            x, y, it.z, it.mission_type,
         )  # fmt: skip
 
     def on_message(self, msg: Any, now_s: float) -> list[Any]:
@@ -258,10 +260,10 @@ class MissionDownload(Transfer):
             mission_type, target_system, target_component, item_timeout_s, retries, own_ids
         )
         self.count: int | None = None
-        self.received: list[WireItem] = []
+        self.received: list[MissionItem] = []
 
     @property
-    def items(self) -> tuple[WireItem, ...]:
+    def items(self) -> tuple[MissionItem, ...]:
         return tuple(self.received)
 
     def _stage(self) -> str:

@@ -95,6 +95,7 @@ from helixd.mav.constants import (
     MAV_FRAME_GLOBAL_RELATIVE_ALT,
     MAV_FRAME_MISSION,
 )
+from helixd.mav.mission_item import PLACE_COMMANDS
 
 MAX_PARAMS = 6  # param1..param6 of a command without a place (param5/6 are x/y then)
 HOLD_MAX_S = 65535.0  # AP_Mission stores a waypoint's hold in a uint16 of whole seconds
@@ -303,19 +304,6 @@ _COMMANDS: tuple[CommandSpec, ...] = (
 
 COMMANDS: dict[int, CommandSpec] = {c.number: c for c in _COMMANDS}
 
-# AP_Mission::stored_in_location (mission commands only; fences and rally are elsewhere)
-PLACE_COMMANDS = frozenset(
-    {
-        MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LOITER_UNLIM, MAV_CMD_NAV_LOITER_TURNS,
-        MAV_CMD_NAV_LOITER_TIME, MAV_CMD_NAV_LAND, MAV_CMD_NAV_TAKEOFF,
-        MAV_CMD_NAV_CONTINUE_AND_CHANGE_ALT, MAV_CMD_NAV_LOITER_TO_ALT,
-        MAV_CMD_NAV_SPLINE_WAYPOINT, MAV_CMD_NAV_GUIDED_ENABLE, MAV_CMD_DO_SET_HOME,
-        MAV_CMD_DO_RETURN_PATH_START, MAV_CMD_DO_LAND_START, MAV_CMD_DO_GO_AROUND,
-        MAV_CMD_DO_SET_ROI_LOCATION, MAV_CMD_DO_SET_ROI, MAV_CMD_NAV_VTOL_TAKEOFF,
-        MAV_CMD_NAV_VTOL_LAND, MAV_CMD_NAV_PAYLOAD_PLACE, MAV_CMD_NAV_ARC_WAYPOINT,
-    }
-)  # fmt: skip
-
 # The commands a helixd waypoint list flies to (a place, a route): what ``points()`` lists
 FLY_ROLES = frozenset({Role.WAYPOINT, Role.LOITER_TIME, Role.LOITER_TURNS, Role.LOITER_UNLIM})
 # Skipped or ignored, as ArduPilot Rover does: listed by ``check``, refused with --strict
@@ -387,7 +375,6 @@ __all__ = [
     "HOLD_MAX_S",
     "JUMP_FOREVER",
     "MAX_PARAMS",
-    "PLACE_COMMANDS",
     "REFUSED_ROLES",
     "SERVO_COMMANDS",
     "SKIP_ROLES",

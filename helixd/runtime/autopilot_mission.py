@@ -16,7 +16,7 @@ from pydantic import ValidationError
 from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
 from helixd.files.models import format_validation_error
-from helixd.mav.mission_item import WireItem
+from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats import LoadedMission, MissionFormat, read_fence, with_fence
 from helixd.mission.formats.items import FormatError, GcsMission, items_to_mission
 from helixd.mission.formats.wire import wire_to_gcs
@@ -61,7 +61,7 @@ def ground_station_mode(cfg: HelixdConfig, mode: MotionMode | None) -> MotionMod
     return MotionMode(gs) if gs else None
 
 
-def items_sha256(mission: tuple[WireItem, ...], fence: tuple[WireItem, ...]) -> str:
+def items_sha256(mission: tuple[MissionItem, ...], fence: tuple[MissionItem, ...]) -> str:
     """A fingerprint of what the autopilot stores (mission after home, and fence): equal
     fingerprints, the same mission. Home (row 0) is left out: ArduPilot rewrites it."""
     h = hashlib.sha256()
@@ -73,8 +73,8 @@ def items_sha256(mission: tuple[WireItem, ...], fence: tuple[WireItem, ...]) -> 
 
 
 def convert_download(
-    got_mission: tuple[WireItem, ...],
-    got_fence: tuple[WireItem, ...],
+    got_mission: tuple[MissionItem, ...],
+    got_fence: tuple[MissionItem, ...],
     *,
     source: str,
     cfg: HelixdConfig,

@@ -202,7 +202,14 @@ _mav = mavlink.MAVLink(None)
 
 @dataclass(frozen=True, slots=True)
 class StoredItem:
-    """One stored item, as MISSION_ITEM_INT carries it (x/y: degE7 for global frames)."""
+    """One item as AP_Mission stores it (x/y: the int32 degE7 of its Location for global
+    frames). Not :class:`helixd.mav.mission_item.MissionItem` on purpose: the simulator is an
+    independent model of the autopilot's storage, checked against helixd's client. It holds what
+    ArduPilot keeps (no seq: the slot is the index; no current, autocontinue or mission_type:
+    get_item makes them up per type, see :class:`TypeRules`), in ArduPilot's integer units, so
+    its validation and read-back (:func:`validate_mission_item`, :func:`fence_readback`, ...)
+    work on the values ArduPilot works on, and a unit mistake in helixd's edge is caught rather
+    than shared."""
 
     command: int
     frame: int = MAV_FRAME_GLOBAL_RELATIVE_ALT

@@ -20,8 +20,9 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import latlon_to_ne
+from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats import read_gcs
-from helixd.mission.formats.items import GcsMission, MissionItem
+from helixd.mission.formats.items import GcsMission
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 from tests.support.harness import (
     FORCE_ARM,

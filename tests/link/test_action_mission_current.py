@@ -19,14 +19,14 @@ from helixd.mav.constants import (
     MISSION_STATE_NO_MISSION,
     MISSION_STATE_NOT_STARTED,
 )
-from helixd.mav.mission_item import WireItem
+from helixd.mav.mission_item import MissionItem
 from tests.support.harness import running_sim
 
 WAIT_S = 5.0
 
 
-def row(seq: int, command: int) -> WireItem:
-    return WireItem(seq=seq, frame=3, command=command, x=535_000_000 + seq, y=-1_135_000_000)
+def row(seq: int, command: int) -> MissionItem:
+    return MissionItem(seq=seq, frame=3, command=command, x=(535_000_000 + seq) / 1e7, y=-113.5)
 
 
 # 0: home, 1: WP, 2: DO_SET_SERVO, 3: WP, 4: DO_SET_SERVO (no NAV item after it)

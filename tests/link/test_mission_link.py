@@ -19,7 +19,7 @@ from helixd.config import LinkConfig
 from helixd.link.mission_link import AutopilotMissionLink, MissionClient
 from helixd.link.mission_transfer import MissionTransferError
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
-from helixd.mav.mission_item import WireItem as WireItem
+from helixd.mav.mission_item import MissionItem
 from helixd.sim.mission_server import MissionServer
 
 CFG = LinkConfig(mission_item_timeout_s=0.2, mission_retries=2)
@@ -85,17 +85,18 @@ def test_recv_passes_mission_messages_only_and_times_out() -> None:
     asyncio.run(main())
 
 
-def items(n: int) -> tuple[WireItem, ...]:
+def items(n: int) -> tuple[MissionItem, ...]:
     return tuple(
-        WireItem(seq=i, frame=3, command=16, x=536_000_000 + i, y=-1_135_000_000) for i in range(n)
+        MissionItem(seq=i, frame=3, command=16, x=(536_000_000 + i) / 1e7, y=-113.5)
+        for i in range(n)
     )
 
 
-def fence() -> tuple[WireItem, ...]:
+def fence() -> tuple[MissionItem, ...]:
     return tuple(
-        WireItem(
-            seq=i, frame=0, command=5001, param1=3.0, x=535_000_000 + 1000 * i,
-            y=-1_135_000_000 + 1000 * (i % 2), mission_type=MAV_MISSION_TYPE_FENCE,
+        MissionItem(
+            seq=i, frame=0, command=5001, param1=3.0, x=(535_000_000 + 1000 * i) / 1e7,
+            y=(-1_135_000_000 + 1000 * (i % 2)) / 1e7, mission_type=MAV_MISSION_TYPE_FENCE,
         )
         for i in range(3)
     )  # fmt: skip
@@ -109,7 +110,7 @@ def test_upload_then_download_through_the_adapter() -> None:
         assert len(srv.stored()) == 5 and len(srv.stored(MAV_MISSION_TYPE_FENCE)) == 3
         got = await MissionClient(host, host.send).download()
         assert [(i.seq, i.x) for i in got.mission[1:]] == [(i.seq, i.x) for i in items(5)[1:]]
-        assert got.mission[0].x == 535_000_000  # home: the vehicle's own, not what we wrote
+        assert got.mission[0].x == 53.5  # home: the vehicle's own, not what we wrote
         assert [(i.command, i.param1, i.x) for i in got.fence] == [
             (f.command, f.param1, f.x) for f in fence()
         ]

@@ -24,7 +24,7 @@ from helixd.config import LinkConfig
 from helixd.link import mission_transfer as lm
 from helixd.link.mission_transfer import MissionDownload, MissionTransferError, MissionUpload
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
-from helixd.mav.mission_item import WireItem
+from helixd.mav.mission_item import MissionItem, wire_xy
 from helixd.sim.mission_server import MissionServer
 
 GCS = (255, 190)
@@ -38,15 +38,15 @@ def stamp(msg: Any, who: tuple[int, int]) -> Any:
     return mav.decode(bytearray(msg.pack(mav)))
 
 
-def items(n: int, mission_type: int = 0, command: int = 16) -> list[WireItem]:
+def items(n: int, mission_type: int = 0, command: int = 16) -> list[MissionItem]:
     return [
-        WireItem(
+        MissionItem(
             seq=i,
             frame=3,
             command=command,
             param1=float(i),
-            x=535_000_000 + i * 1000,
-            y=-1_135_000_000 - i,
+            x=(535_000_000 + i * 1000) / 1e7,
+            y=(-1_135_000_000 - i) / 1e7,
             z=float(i) / 2 if mission_type == 0 else 0.0,  # a fence keeps no altitude
             mission_type=mission_type,
         )
@@ -108,7 +108,7 @@ def server() -> MissionServer:
     return MissionServer(*HOME, max_mission_items=50, max_fence_items=20)
 
 
-def new_upload(its: list[WireItem], mission_type: int = 0, retries: int = 5) -> MissionUpload:
+def new_upload(its: list[MissionItem], mission_type: int = 0, retries: int = 5) -> MissionUpload:
     return MissionUpload(its, mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
 
 
@@ -120,8 +120,9 @@ def stored_as_items(srv: MissionServer, mission_type: int) -> list[tuple[Any, ..
     return [(s.command, s.x, s.y, s.z, s.param1) for s in srv.stored(mission_type)]
 
 
-def as_tuples(its: list[WireItem] | tuple[WireItem, ...]) -> list[tuple[Any, ...]]:
-    return [(i.command, i.x, i.y, i.z, i.param1) for i in its]
+def as_tuples(its: list[MissionItem] | tuple[MissionItem, ...]) -> list[tuple[Any, ...]]:
+    """The items as the wire (and the simulator's storage) hold them: x/y int32."""
+    return [(i.command, *wire_xy(i), i.z, i.param1) for i in its]
 
 
 def test_upload_then_download_round_trip() -> None:
@@ -137,7 +138,7 @@ def test_upload_then_download_round_trip() -> None:
     assert down.error is None and len(down.items) == 4
     assert as_tuples(down.items)[1:] == as_tuples(its)[1:]
     home = down.items[0]  # ArduPilot keeps its own home in row 0
-    assert (home.x, home.y) == (round(HOME[0] * 1e7), round(HOME[1] * 1e7))
+    assert wire_xy(home) == (round(HOME[0] * 1e7), round(HOME[1] * 1e7))
     assert ch.vehicle_saw[-1] == "MISSION_ACK"  # we acked the download
     assert ch.vehicle_saw.count("MISSION_REQUEST_INT") == 4
 
@@ -220,11 +221,11 @@ def test_early_accept_is_an_error() -> None:
 
 def test_bad_items_refused_before_sending() -> None:
     with pytest.raises(ValueError, match="finite"):
-        new_upload([WireItem(seq=0, frame=3, command=16, param1=float("nan"))])
+        new_upload([MissionItem(seq=0, frame=3, command=16, param1=float("nan"))])
     with pytest.raises(ValueError, match="seq"):
-        new_upload([WireItem(seq=1, frame=3, command=16)])
+        new_upload([MissionItem(seq=1, frame=3, command=16)])
     with pytest.raises(ValueError, match="int32"):
-        new_upload([WireItem(seq=0, frame=3, command=16, x=2**31)])
+        new_upload([MissionItem(seq=0, frame=3, command=16, x=2**31)])
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -339,7 +340,7 @@ def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
     me = (GCS_SYSID, GCS_COMPID)
     timeout_s, retries = CFG.mission_item_timeout_s, CFG.mission_retries
 
-    def up(its: list[WireItem], kind: int = 0) -> MissionUpload:
+    def up(its: list[MissionItem], kind: int = 0) -> MissionUpload:
         return MissionUpload(its, kind, 1, 1, timeout_s, retries, own_ids=me)
 
     def dl(kind: int = 0) -> MissionDownload:
@@ -362,7 +363,7 @@ def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
         assert as_tuples(down.items)[1:] == as_tuples(its)[1:]
         assert as_tuples(fdown.items) == as_tuples(fence)
         snap = sim.snapshot()
-        assert [(i.x, i.y) for i in snap.mission_items[1:]] == [(i.x, i.y) for i in its[1:]]
+        assert [(i.x, i.y) for i in snap.mission_items[1:]] == [wire_xy(i) for i in its[1:]]
         assert len(snap.fence_items) == 4
         assert "Flight plan received" in link.texts
 

@@ -18,7 +18,7 @@ from helixd.base.frames import NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.cli.autopilot import convert, wants_autopilot
 from helixd.config import HelixdConfig
-from helixd.mav.mission_item import WireItem
+from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.formats.wire import gcs_to_wire
 from helixd.runtime.inputs import mission_vs_config
@@ -76,8 +76,8 @@ def test_show_plan_uploads_nothing_in_auto() -> None:
     assert warning is not None and "AUTO" in warning and sent == []
 
 
-def wire_wp(seq: int, lat: float, lon: float, command: int = 16) -> WireItem:
-    return WireItem(seq=seq, frame=3, command=command, x=round(lat * 1e7), y=round(lon * 1e7))
+def wire_wp(seq: int, lat: float, lon: float, command: int = 16) -> MissionItem:
+    return MissionItem(seq=seq, frame=3, command=command, x=lat, y=lon)
 
 
 HOME = wire_wp(0, *ORIGIN)
@@ -95,7 +95,7 @@ def test_convert_flies_the_waypoints_with_the_given_mode() -> None:
     assert len(got.mission.waypoints) == 2 and got.items == 2
 
 
-def refusal(mission: tuple[WireItem, ...], capsys: pytest.CaptureFixture[str]) -> list[str]:
+def refusal(mission: tuple[MissionItem, ...], capsys: pytest.CaptureFixture[str]) -> list[str]:
     with pytest.raises(typer.Exit) as info:
         convert(mission, (), source="autopilot at X", cfg=CFG, mode=MotionMode.ROLL)
     assert info.value.exit_code == ExitCode.PREFLIGHT
@@ -110,7 +110,7 @@ def test_empty_mission_refused(capsys: pytest.CaptureFixture[str]) -> None:
 def test_unsupported_item_named(capsys: pytest.CaptureFixture[str]) -> None:
     """A waypoint off the Earth is refused by the conversion, naming the item; what helixd
     cannot fly (NAV_GUIDED_ENABLE) is kept by it and refused by the mission check."""
-    bad = WireItem(seq=2, frame=3, command=16, x=95 * 10**7, y=0)
+    bad = MissionItem(seq=2, frame=3, command=16, x=95.0, y=0.0)
     (line,) = refusal((HOME, wire_wp(1, 53.5234, -113.5263), bad), capsys)
     assert "autopilot mission item 2" in line and "off the Earth" in line
     mission = (HOME, wire_wp(1, 53.5234, -113.5263), wire_wp(2, 53.5234, -113.5262, 92))

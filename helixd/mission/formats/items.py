@@ -1,13 +1,13 @@
 """Ground-station missions in ArduPilot's terms: mission items, fences, and their conversion
 to and from helixd's :class:`~helixd.mission.model.Mission`. Pure: no I/O.
 
-A :class:`MissionItem` is what MISSION_ITEM_INT carries (seq, frame, command, param1..4,
-x/y/z with x/y in degrees), so the MAVLink mission download feeds :func:`items_to_mission`
-the same way the file readers do. Sequence numbers follow the autopilot's: 0 is home
-(ArduPilot keeps home in slot 0), the mission's items start at 1. Every item becomes a mission
-entry and back (:func:`item_entry`, :func:`entry_item`) with all it carries: command, frame,
-parameters (NaN as unset), place (lat/lon 0, 0 as "where the rover is"), altitude,
-autocontinue.
+A :class:`~helixd.mav.mission_item.MissionItem` is what MISSION_ITEM_INT carries (seq, frame,
+command, param1..4, x/y/z with x/y in degrees for a place), so the MAVLink mission download
+feeds :func:`items_to_mission` the same way the file readers do. Sequence numbers follow the
+autopilot's: 0 is home (ArduPilot keeps home in slot 0), the mission's items start at 1. Every
+item becomes a mission entry and back (:func:`item_entry`, :func:`entry_item`) with all it
+carries: command, frame, parameters (NaN as unset), place (lat/lon 0, 0 as "where the rover
+is"), altitude, autocontinue.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from helixd.mav.constants import (
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL_RELATIVE_ALT,
 )
+from helixd.mav.mission_item import MissionItem
 from helixd.mission.commands import MAX_PARAMS, command_name, command_spec
 from helixd.mission.model import Mission, WaypointSpec
 
@@ -49,25 +50,6 @@ class FormatError(ValueError):
     def __init__(self, problems: list[str]) -> None:
         self.problems = problems
         super().__init__("\n".join(problems))
-
-
-@dataclass(frozen=True, slots=True)
-class MissionItem:
-    """One mission item as ArduPilot stores it (x = latitude, y = longitude in degrees for the
-    global frames). ``where`` says where it came from, for messages (e.g. "mission.items.3")."""
-
-    seq: int
-    frame: int
-    command: int
-    param1: float = 0.0
-    param2: float = 0.0
-    param3: float = 0.0
-    param4: float = 0.0
-    x: float = 0.0
-    y: float = 0.0
-    z: float = 0.0
-    autocontinue: bool = True
-    where: str = ""
 
 
 @dataclass(frozen=True, slots=True)

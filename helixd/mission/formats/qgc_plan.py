@@ -32,13 +32,13 @@ from helixd.files.jsonio import JsonTextError, load_json_text
 from helixd.files.models import format_validation_error
 from helixd.files.yamlio import clip
 from helixd.mav.constants import MAV_CMD_NAV_WAYPOINT, MAV_FRAME_GLOBAL_RELATIVE_ALT
+from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats.items import (
     MAX_ITEMS,
     FenceCircle,
     FencePolygon,
     FormatError,
     GcsMission,
-    MissionItem,
     check_latlon,
 )
 

@@ -1,7 +1,7 @@
-"""The one place where the two mission-item worlds meet: a file's :class:`GcsMission`
-(:mod:`helixd.mission.formats.items`: x/y in degrees, NaN for "unset") and what
-MISSION_ITEM_INT carries (:class:`helixd.link.mission_transfer.MissionItem`: x/y in degE7, finite
-params, one list per mission type). Pure: no I/O.
+"""A file's :class:`GcsMission` (:mod:`helixd.mission.formats.items`: NaN for "unset", fence as
+shapes, home apart) ⇄ the item lists the mission protocol carries (finite params, home in slot
+0, one list per mission type). Both hold :class:`helixd.mav.mission_item.MissionItem`, x/y in
+degrees for a place; the int32 degE7 form exists only at the wire's edge. Pure: no I/O.
 
 Mission (MAV_MISSION_TYPE_MISSION), as QGroundControl uploads to ArduPilot: seq 0 is home (the
 plan's planned home, else the first item's place; ArduPilot keeps its own home there and reads
@@ -20,7 +20,7 @@ reported.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from helixd.mav.constants import (
     MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
@@ -32,15 +32,13 @@ from helixd.mav.constants import (
     MAV_MISSION_TYPE_FENCE,
     MAV_MISSION_TYPE_MISSION,
 )
-from helixd.mav.mission_item import WireItem
-from helixd.mission.commands import PLACE_COMMANDS
+from helixd.mav.mission_item import PLACE_COMMANDS, MissionItem, wire_xy, xy_in_degrees
 from helixd.mission.formats.items import (
     FenceCircle,
     FencePolygon,
     FenceRow,
     FormatError,
     GcsMission,
-    MissionItem,
     check_latlon,
     fence_shapes,
 )
@@ -53,56 +51,58 @@ __all__ = [
 
 DEG_E7 = 1e7
 INT32_MAX = 2**31 - 1
+INT32_MIN = -(2**31)
 
 
 @dataclass(frozen=True, slots=True)
 class WireMission:
     """What goes over (or came over) the mission protocol: one item list per mission type."""
 
-    mission: tuple[WireItem, ...]
-    fence: tuple[WireItem, ...]
+    mission: tuple[MissionItem, ...]
+    fence: tuple[MissionItem, ...]
 
 
 def _finite_or_zero(v: float) -> float:
     return v if math.isfinite(v) else 0.0
 
 
-def _deg_e7(deg: float, where: str) -> int:
+def _deg(deg: float, where: str) -> float:
+    """A latitude/longitude that fits MISSION_ITEM_INT's degE7, as it is (FormatError if not)."""
     if not math.isfinite(deg):
         raise FormatError([f"{where}: x/y {deg} is not finite"])
     v = round(deg * DEG_E7)
-    if abs(v) > INT32_MAX:
+    if not INT32_MIN <= v <= INT32_MAX:
         raise FormatError([f"{where}: x/y {deg} does not fit MISSION_ITEM_INT"])
-    return v
+    return deg
 
 
-def _raw_int(v: float, where: str) -> int:
-    """x/y of a non-global frame (e.g. MAV_FRAME_MISSION): sent as the integer they hold."""
+def _raw_int(v: float, where: str) -> float:
+    """x/y that are not a place (e.g. a DO_JUMP's): sent as the integer they hold."""
     if not math.isfinite(v):
-        return 0
+        return 0.0
     r = round(v)
-    if abs(r) > INT32_MAX:
+    if not INT32_MIN <= r <= INT32_MAX:
         raise FormatError([f"{where}: x/y {v} does not fit MISSION_ITEM_INT"])
-    return r
+    return float(r)
 
 
 def _label(it: MissionItem) -> str:
     return f"item {it.seq}" + (f" ({it.where})" if it.where else "")
 
 
-def _mission_item(it: MissionItem, seq: int) -> WireItem:
+def _mission_item(it: MissionItem, seq: int) -> MissionItem:
     where = _label(it)
     if it.command in PLACE_COMMANDS:  # AP_Mission::cmd_has_location: x/y are lat/lon
-        x, y = _deg_e7(it.x, where), _deg_e7(it.y, where)
+        x, y = _deg(it.x, where), _deg(it.y, where)
     else:
         x, y = _raw_int(it.x, where), _raw_int(it.y, where)
     if not 0 <= it.command <= 65535 or not 0 <= it.frame <= 255:
         raise FormatError([f"{where}: command/frame out of range"])
-    return WireItem(
+    return MissionItem(
         seq=seq,
         frame=it.frame,
         command=it.command,
-        autocontinue=int(it.autocontinue),
+        autocontinue=int(bool(it.autocontinue)),
         param1=_finite_or_zero(it.param1),
         param2=_finite_or_zero(it.param2),
         param3=_finite_or_zero(it.param3),
@@ -128,32 +128,32 @@ def gcs_to_wire(gcs: GcsMission) -> WireMission:
     if not gcs.items:
         raise FormatError(["no mission items to upload"])
     home_lat, home_lon = _home(gcs)
-    home = WireItem(
+    home = MissionItem(
         seq=0,
         frame=MAV_FRAME_GLOBAL,
         command=MAV_CMD_NAV_WAYPOINT,
-        x=_deg_e7(home_lat, "home"),
-        y=_deg_e7(home_lon, "home"),
+        x=_deg(home_lat, "home"),
+        y=_deg(home_lon, "home"),
         mission_type=MAV_MISSION_TYPE_MISSION,
     )
     mission = [home] + [_mission_item(it, i + 1) for i, it in enumerate(gcs.items)]
     return WireMission(tuple(mission), fence_items(gcs))
 
 
-def fence_items(gcs: GcsMission) -> tuple[WireItem, ...]:
+def fence_items(gcs: GcsMission) -> tuple[MissionItem, ...]:
     """The file's fence polygons and circles as MAV_MISSION_TYPE_FENCE items (seq 0..n-1)."""
-    out: list[WireItem] = []
+    out: list[MissionItem] = []
 
     def add(command: int, param1: float, lat: float, lon: float, where: str) -> None:
         out.append(
-            WireItem(
+            MissionItem(
                 seq=len(out),
                 frame=MAV_FRAME_GLOBAL,
                 command=command,
                 autocontinue=0,
                 param1=param1,
-                x=_deg_e7(lat, where),
-                y=_deg_e7(lon, where),
+                x=_deg(lat, where),
+                y=_deg(lon, where),
                 mission_type=MAV_MISSION_TYPE_FENCE,
             )
         )
@@ -181,33 +181,26 @@ def fence_items(gcs: GcsMission) -> tuple[WireItem, ...]:
     return tuple(out)
 
 
-def _wire_latlon(it: WireItem) -> tuple[float, float]:
-    return it.x / DEG_E7, it.y / DEG_E7
+def _wire_latlon(it: MissionItem) -> tuple[float, float]:
+    """The item's x/y as latitude/longitude, whatever its command (as home and fence are)."""
+    if xy_in_degrees(it.command, it.mission_type):
+        return it.x, it.y
+    x, y = wire_xy(it)
+    return x / DEG_E7, y / DEG_E7
 
 
-def _from_wire(it: WireItem) -> MissionItem:
-    if it.command in PLACE_COMMANDS:
-        x, y = _wire_latlon(it)
-    else:
-        x, y = float(it.x), float(it.y)
-    return MissionItem(
-        seq=it.seq,
-        frame=it.frame,
-        command=it.command,
-        param1=it.param1,
-        param2=it.param2,
-        param3=it.param3,
-        param4=it.param4,
-        x=x,
-        y=y,
-        z=it.z,
+def _from_wire(it: MissionItem) -> MissionItem:
+    return replace(
+        it,
+        current=0,
         autocontinue=bool(it.autocontinue),
+        mission_type=MAV_MISSION_TYPE_MISSION,
         where=f"autopilot mission item {it.seq}",
     )
 
 
 def _fence_from_wire(
-    fence: tuple[WireItem, ...] | list[WireItem],
+    fence: tuple[MissionItem, ...] | list[MissionItem],
 ) -> tuple[list[FencePolygon], list[FenceCircle], list[str]]:
     rows = [
         FenceRow(it.seq, it.command, it.param1, *_wire_latlon(it), f"autopilot fence item {it.seq}")
@@ -217,8 +210,8 @@ def _fence_from_wire(
 
 
 def wire_to_gcs(
-    mission: tuple[WireItem, ...] | list[WireItem],
-    fence: tuple[WireItem, ...] | list[WireItem] = (),
+    mission: tuple[MissionItem, ...] | list[MissionItem],
+    fence: tuple[MissionItem, ...] | list[MissionItem] = (),
 ) -> tuple[GcsMission, list[str]]:
     """What the autopilot holds → a :class:`GcsMission` (seq 0 = home; fence polygons and
     circles) and notes on what has no place in it."""

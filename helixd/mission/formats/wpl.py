@@ -18,12 +18,12 @@ import math
 from pathlib import Path
 
 from helixd.files.yamlio import clip
+from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats.items import (
     MAX_ITEMS,
     FenceRow,
     FormatError,
     GcsMission,
-    MissionItem,
     check_latlon,
     fence_shapes,
 )

@@ -11,14 +11,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE, MAV_MISSION_TYPE_MISSION
-from helixd.mav.mission_item import WireItem
+from helixd.mav.mission_item import MissionItem, wire_xy, xy_in_degrees
 from helixd.mission.formats import read_gcs
 from helixd.mission.formats.items import (
     FenceCircle,
     FencePolygon,
     FormatError,
     GcsMission,
-    MissionItem,
 )
 from helixd.mission.formats.wire import fence_items, gcs_to_wire, wire_to_gcs
 from tests.support.paths import DATA_DIR
@@ -64,7 +63,7 @@ def test_home_is_seq_0_and_items_follow_as_qgc_sends_them() -> None:
     home = wire.mission[0]
     assert (home.seq, home.command, home.frame) == (0, 16, 0)
     assert gcs.home_latlon_deg is not None
-    assert (home.x, home.y) == (
+    assert wire_xy(home) == (
         round(gcs.home_latlon_deg[0] * 1e7),
         round(gcs.home_latlon_deg[1] * 1e7),
     )
@@ -80,10 +79,12 @@ def test_home_is_seq_0_and_items_follow_as_qgc_sends_them() -> None:
     assert all(w.mission_type == MAV_MISSION_TYPE_FENCE and w.frame == 0 for w in wire.fence)
 
 
-def fw(seq: int, command: int, param1: float, lat: float = 53.5, lon: float = -113.5) -> WireItem:
-    return WireItem(
-        seq=seq, frame=0, command=command, param1=param1, x=round(lat * 1e7),
-        y=round(lon * 1e7), mission_type=MAV_MISSION_TYPE_FENCE,
+def fw(
+    seq: int, command: int, param1: float, lat: float = 53.5, lon: float = -113.5
+) -> MissionItem:
+    return MissionItem(
+        seq=seq, frame=0, command=command, param1=param1, x=lat, y=lon,
+        mission_type=MAV_MISSION_TYPE_FENCE,
     )  # fmt: skip
 
 
@@ -158,22 +159,29 @@ def test_any_file_mission_round_trips_over_the_wire(gcs: GcsMission) -> None:
 
 
 i32 = st.integers(-(2**31), 2**31 - 1)
-wire_items = st.builds(
-    WireItem,
-    seq=st.integers(0, 50),
-    frame=st.integers(0, 255),
-    command=st.sampled_from([16, 177, 5000, 5001, 5002, 5003, 5004, 0, 65535]),
-    param1=st.floats(allow_nan=True, allow_infinity=True),
-    x=i32,
-    y=i32,
-    z=st.floats(-1e6, 1e6),
-)
+
+
+@st.composite
+def wire_items(draw: st.DrawFn) -> MissionItem:
+    """Any item a vehicle could send back, x/y as item_from_message makes them of an int32."""
+    command = draw(st.sampled_from([16, 177, 5000, 5001, 5002, 5003, 5004, 0, 65535]))
+    degrees = xy_in_degrees(command, MAV_MISSION_TYPE_MISSION)
+    x, y = draw(i32), draw(i32)
+    return MissionItem(
+        seq=draw(st.integers(0, 50)),
+        frame=draw(st.integers(0, 255)),
+        command=command,
+        param1=draw(st.floats(allow_nan=True, allow_infinity=True)),
+        x=x / 1e7 if degrees else float(x),
+        y=y / 1e7 if degrees else float(y),
+        z=draw(st.floats(-1e6, 1e6)),
+    )
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.lists(wire_items, max_size=30), st.lists(wire_items, max_size=30))
+@given(st.lists(wire_items(), max_size=30), st.lists(wire_items(), max_size=30))
 def test_anything_a_vehicle_sends_back_converts_or_is_refused_by_name(
-    mission: list[WireItem], fence: list[WireItem]
+    mission: list[MissionItem], fence: list[MissionItem]
 ) -> None:
     try:
         gcs, notes = wire_to_gcs(mission, fence)
