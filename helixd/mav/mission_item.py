@@ -62,8 +62,6 @@ PLACE_COMMANDS = frozenset(
 )  # fmt: skip
 DEG_E7 = 1e7
 
-# MAV_MISSION_TYPE, MAV_MISSION_RESULT and the frame whose x/y are not degE7
-
 
 def mission_result_name(result: int) -> str:
     """MAV_MISSION_RESULT name (e.g. 'MAV_MISSION_NO_SPACE'), or the number if unknown."""
