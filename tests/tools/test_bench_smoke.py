@@ -89,7 +89,8 @@ def test_skid_plant_runs_get_the_sitl_suite_config() -> None:
     skid = nav.daemon_config("line", "line", "sitl_skid")
     cfg = HelixdConfig.model_validate(skid)
     assert [ch.channel for ch in cfg.actuation.channels] == [3, 4, 1, 2]
-    assert cfg.startup.force_arm and cfg.startup.connect_timeout_s == 20.0  # the bench's own
+    # the SITL suite's config: a normal arm (no force); the bench's own connect timeout
+    assert not cfg.startup.force_arm and cfg.startup.connect_timeout_s == 20.0
     assert "actuation" not in nav.daemon_config("line", "line")
 
 
