@@ -338,13 +338,18 @@ class RunRecorder:
             if not self.degraded:
                 self._close_csv()
             self._release()
-            if self.degraded:
-                summary = summary.model_copy(
-                    update={"record_cut_at_s": self.cut_at_s, "record_cut_files": self.cut_files}
-                )
+            summary = self.annotate(summary)
             self._free_reserve()
             self._write_summary(summary)
         self.close()
+
+    def annotate(self, summary: RunSummary) -> RunSummary:
+        """``summary`` with the record cut (from when, which files) if the record was cut."""
+        if not self.degraded or summary.record_cut_at_s is not None:
+            return summary
+        return summary.model_copy(
+            update={"record_cut_at_s": self.cut_at_s, "record_cut_files": self.cut_files}
+        )
 
     def close(self) -> None:
         """Flush and close without a summary (also called by finish). Never raises."""

@@ -651,6 +651,8 @@ class MissionRunner:
             ending.code,
             time.monotonic() - started,
         )
+        if self.recorder is not None:  # the RESULT line says from when the record is missing
+            summary = self.recorder.annotate(summary)
         run_dir = self.recorder.run_dir if self.recorder else None
         # the one ``result`` event goes out while events.jsonl is still attached
         self.display.log_result(summary, run_dir)

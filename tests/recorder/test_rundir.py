@@ -30,6 +30,7 @@ from helixd.recorder.rundir import (
     run_dir_name,
 )
 from helixd.recorder.summary import SummaryBuilder
+from tests.support.full_disk import FullAfter
 from tests.support.recorder_runs import NOW, SQUARE_YAML, FakeClock, synth_run
 
 pytestmark = pytest.mark.usefixtures("reset_logging")
@@ -358,31 +359,6 @@ def test_disk_full_mid_run_degrades_once_and_never_raises(
     assert summary["record_cut_files"] == ["flight.csv"]
     assert summary["record_cut_at_s"] is not None
     assert not (rec.run_dir / RESERVE_FILE).exists()
-
-
-class FullAfter:
-    """An opener whose flight.csv raises ENOSPC once ``limit`` bytes have been written."""
-
-    def __init__(self, limit: int) -> None:
-        self.limit = limit
-
-    def __call__(self, path: Path, mode: str) -> IO[str]:
-        fh = default_opener(path, mode)
-        if path.name != "flight.csv":
-            return fh
-        limit = self.limit
-        written = 0
-        real_write = fh.write
-
-        def write(text: str) -> int:
-            nonlocal written
-            written += len(text)
-            if written > limit:
-                raise OSError(errno.ENOSPC, "No space left on device", str(path))
-            return real_write(text)
-
-        fh.write = write  # type: ignore[method-assign]
-        return fh
 
 
 def test_card_full_mid_flight_summary_says_from_when(
