@@ -163,6 +163,7 @@ class RunRecorder:
         self.cut_at_s: float | None = None  # record cut: from this flight time on (s)
         self.cut_files: tuple[str, ...] = ()
         self.on_cut: Callable[[str], None] | None = None  # the one text for the ground station
+        self._cut_lock = threading.Lock()
 
     # -- creation ---------------------------------------------------------------------------
 
@@ -219,7 +220,7 @@ class RunRecorder:
             self.run_dir = _make_unique_dir(run_root, run_dir_name(mission_name, now_utc))
         self._reserve_summary_space()
         events_path = self.run_dir / EVENTS_FILE
-        logging_setup.attach_events_file(events_path)
+        logging_setup.attach_events_file(events_path, on_error=self._events_cut)
         self._write_text(self.run_dir / CONFIG_FILE, config_yaml)
         self._write_text(self.run_dir / MISSION_FILE, mission_yaml)
         if inputs_json is not None:  # hashes of mission and config, for `run --resume`
@@ -259,6 +260,9 @@ class RunRecorder:
             (self.run_dir / RESERVE_FILE).unlink(missing_ok=True)
         except OSError as exc:
             log.debug("summary_reserve_unlink_failed", error=str(exc))
+
+    def _events_cut(self, path: str, exc: OSError) -> None:
+        self.cut(Path(path), exc, stage="events")
 
     def _write_text(self, path: Path, text: str) -> None:
         fh = self._opener(path, "w")
@@ -345,7 +349,7 @@ class RunRecorder:
 
     def annotate(self, summary: RunSummary) -> RunSummary:
         """``summary`` with the record cut (from when, which files) if the record was cut."""
-        if not self.degraded or summary.record_cut_at_s is not None:
+        if self.cut_at_s is None or summary.record_cut_at_s is not None:
             return summary
         return summary.model_copy(
             update={"record_cut_at_s": self.cut_at_s, "record_cut_files": self.cut_files}
@@ -420,11 +424,26 @@ class RunRecorder:
             return
         self.degraded = True
         self._release()
-        first, last = self._first_t_boot_s, self._last_t_boot_s
-        self.cut_at_s = round(last - first, 2) if first is not None and last is not None else 0.0
+        self.cut(path, exc, stage=stage)
+
+    def cut(self, path: Path | None, exc: OSError, *, stage: str = "write") -> None:
+        """One of the run's files stopped being written (flight.csv, events.jsonl, link.tlog):
+        the first cut logs the ONE ``record_cut`` warning and tells the ground station; later
+        ones only add their file to the list. Never raises; callable from any thread."""
         name = path.name if path is not None else "run directory"
-        self.cut_files = (name,)
+        with self._cut_lock:
+            first_cut = self.cut_at_s is None
+            if name not in self.cut_files:
+                self.cut_files = (*self.cut_files, name)
+            if first_cut:
+                first, last = self._first_t_boot_s, self._last_t_boot_s
+                at = 0.0 if first is None or last is None else round(last - first, 2)
+                self.cut_at_s = at
         code = errno_mod.errorcode.get(exc.errno or 0)
+        if not first_cut:
+            log.info("record_cut_also", path=str(path), file=name, errno=exc.errno, stage=stage)
+            return
+        assert self.cut_at_s is not None
         log.warning(
             "record_cut",
             path=str(path),

@@ -334,6 +334,8 @@ class MissionRunner:
             async with phase("connect", self.notifier, self.display):
                 run_dir = self.recorder.run_dir if self.recorder is not None else None
                 ap = await self.host.open(cfg, held, self._gcs_on, run_dir)
+                if ap.tlog is not None and self.recorder is not None:  # link.tlog cut: ours
+                    ap.tlog.writer.on_error = self._tlog_cut
             self.gcs.phase("preflight")
             async with phase("preflight", self.notifier, self.display):
                 checked = await self._preflight(ap)
@@ -402,6 +404,10 @@ class MissionRunner:
 
     def _gcs_on(self, ap: Autopilot) -> None:
         self.gcs.start(ap.send_message)
+
+    def _tlog_cut(self, path: Path, exc: OSError) -> None:
+        if self.recorder is not None:
+            self.recorder.cut(path, exc, stage="tlog")
 
     def _record_cut(self, text: str) -> None:
         """The recorder's one record-cut warning, to the ground station at once."""

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import IO
 
 import pytest
+import structlog
 
 from helixd.config import RecorderConfig
 from helixd.recorder import logging_setup
@@ -472,3 +473,50 @@ def test_record_after_close_is_ignored(tmp_path: Path, clock: FakeClock, logs: L
 def test_nan_row_helper() -> None:
     row = replace(nan_row(mode="X"), x_m=1.0)
     assert row.mode == "X" and row.x_m == 1.0 and math.isnan(row.y_m)
+
+
+def test_every_file_cut_still_one_warning(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    """events.jsonl and link.tlog failing after flight.csv: one record_cut warning, every
+    file named in the summary, no events_file_degraded."""
+    rec = create(tmp_path, clock, opener=FullAfter(5_000))
+    assert rec.run_dir is not None
+    said: list[str] = []
+    rec.on_cut = said.append
+    b = SummaryBuilder("square", "roll", 4)
+    for _ in range(100):
+        clock.advance(0.02)
+        row = make_row(clock())
+        b.add(row)
+        rec.record(row)
+    assert rec.degraded
+    rec.cut(rec.run_dir / "link.tlog", OSError(errno.ENOSPC, "No space left on device"))
+    rec._events_cut(str(rec.run_dir / "events.jsonl"), OSError(errno.ENOSPC, "full"))
+    rec.finish(b.build(True, None, 0))
+    assert len(logs.events("record_cut")) == 1 and len(said) == 1
+    assert logs.events("events_file_degraded") == []
+    summary = json.loads((rec.run_dir / "summary.json").read_text())
+    assert summary["record_cut_files"] == ["flight.csv", "link.tlog", "events.jsonl"]
+
+
+def test_events_file_failure_is_the_record_cut(tmp_path: Path, clock: FakeClock) -> None:
+    """The events tee's write error reaches the recorder (not events_file_degraded)."""
+    console = io.StringIO()
+    logging_setup.configure_logging(tty=False, stream=console, clock=clock)
+    rec = create(tmp_path, clock)
+    assert rec.run_dir is not None
+    full = os.open("/dev/full", os.O_WRONLY)  # the events file's disk fills up
+    sink = logging_setup._TEE.run
+    assert sink is not None
+    os.dup2(full, sink.stream.fileno())
+    os.close(full)
+    for _ in range(200):  # enough events to overflow the stream's buffer
+        rec.record(make_row(clock()))
+        structlog.get_logger("t").info("tick", payload="x" * 100)
+    rec.finish(SummaryBuilder("square", "roll", 4).build(True, None, 0))
+    text = console.getvalue()
+    assert text.count("event=record_cut ") == 1 and "events_file_degraded" not in text
+    summary = json.loads((rec.run_dir / "summary.json").read_text())
+    assert summary["record_cut_files"] == ["events.jsonl"]
+    assert not rec.degraded  # flight.csv kept going
