@@ -11,11 +11,13 @@ from typing import Any
 
 import pytest
 
+import helixd.runtime.daemon
 from helixd.base.exitcodes import ExitCode
 from helixd.config import HelixdConfig
 from helixd.mav.constants import MAV_SEVERITY_WARNING
 from helixd.mission.model import load_mission
 from helixd.recorder import logging_setup
+from helixd.recorder.retention import check_free_space
 from helixd.recorder.rundir import RESERVE_FILE, RunRecorder
 from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.runtime.gcs_feed import GcsFeed
@@ -42,6 +44,14 @@ async def test_card_full_mid_flight(tmp_path: Path, monkeypatch: pytest.MonkeyPa
 
     console = io.StringIO()
     logging_setup.configure_logging(tty=False, stream=console)  # events.jsonl as the CLI has it
+
+    def low_space(path: Path, estimated_s: float | None) -> str | None:
+        def disk_usage(_: Path) -> tuple[int, int, int]:
+            return (10**9, 10**9 - 1_000_000, 1_000_000)  # 1 MB free: below one flight
+
+        return check_free_space(path, estimated_s, disk_usage=disk_usage)
+
+    monkeypatch.setattr(helixd.runtime.daemon, "check_free_space", low_space)
     monkeypatch.setattr(RunRecorder, "create", create)
     monkeypatch.setattr(GcsFeed, "say", say)
     with running_sim(speedup=SPEEDUP) as (_, url):
@@ -70,7 +80,12 @@ async def test_card_full_mid_flight(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     cuts = [e for e in events if e["event"] == "record_cut"]
     assert len(cuts) == 1 and cuts[0]["level"] == "warning" and cuts[0]["file"] == "flight.csv"
     lines = console.getvalue().splitlines()
-    warned = [ln for ln in lines if "level=warning" in ln and "preflight_warning" not in ln]
+    # preflight warned of the low space (console and GCS); the cut is the one warning after
+    assert sum("event=disk_space_low " in ln for ln in lines) == 1
+    assert any(m.startswith("warning: low disk space") for m in outcome.messages)
+    assert ("low disk space for the flight record", MAV_SEVERITY_WARNING) in said
+    flying = next(i for i, ln in enumerate(lines) if "phase=fly" in ln)
+    warned = [ln for ln in lines[flying:] if "level=warning" in ln]
     assert len(warned) == 1 and "event=record_cut " in warned[0], warned
     warnings = [t for t, sev in said if sev == MAV_SEVERITY_WARNING and "record cut" in t]
     assert len(warnings) == 1, said
