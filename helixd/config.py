@@ -802,6 +802,20 @@ class RecorderConfig(InputModel):
         le=1.0,
         description="flight.csv rows built in batches this often, off the control path (s)",
     )
+    keep_runs: int = Field(
+        200,
+        ge=1,
+        le=100_000,
+        description="run directories kept under run_root; the oldest are pruned at the start "
+        "of a run (count)",
+    )
+    keep_bytes: int | None = Field(
+        None,
+        ge=10_000_000,
+        le=10**15,
+        description="run directories under run_root kept within this total size; the oldest "
+        "are pruned at the start of a run; None: no size limit (bytes)",
+    )
 
 
 # ---------------------------------------------------------------------------------------------

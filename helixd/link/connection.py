@@ -477,6 +477,11 @@ class Autopilot:
         sent: bool = self._conn.send(msg)
         return sent
 
+    @property
+    def tlog(self) -> LinkTlog | None:
+        """The link log being recorded, if any."""
+        return self._conn.tlog
+
     def attach_tlog(self, tlog: LinkTlog | None) -> None:
         """Record every frame sent and read to ``tlog`` from now on (None stops recording);
         see :func:`helixd.link.tlog.attach_tlog`."""

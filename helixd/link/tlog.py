@@ -69,6 +69,7 @@ class TlogWriter:
         self._file: BinaryIO | None = None
         self._stopped = False
         self._full = False
+        self.on_error: Callable[[Path, OSError], None] | None = None  # instead of tlog_error
         try:
             self._file = path.open("ab")
             self.written_bytes = self._file.tell()
@@ -128,7 +129,10 @@ class TlogWriter:
 
     def _fail(self, what: str, exc: OSError) -> None:
         if not self._stopped:
-            log.error("tlog_error", path=str(self.path), op=what, error=str(exc))
+            if self.on_error is not None:  # the run recorder reports it (one record_cut)
+                self.on_error(self.path, exc)
+            else:
+                log.error("tlog_error", path=str(self.path), op=what, error=str(exc))
         self._stopped = True
         self._buffer = bytearray()
         file, self._file = self._file, None

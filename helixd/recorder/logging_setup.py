@@ -192,12 +192,14 @@ class _Tee:
         self._lock = threading.Lock()
         self.run: _LogSink | None = None
         self.extra: _LogSink | None = None
+        # told instead of the events_file_degraded warning when the run's file fails
+        self.on_run_error: Callable[[str, OSError], None] | None = None
 
     def __call__(self, _: WrappedLogger, __: str, event_dict: EventDict) -> EventDict:
         if self.run is None and self.extra is None:
             return event_dict
         line = event_json(event_dict) + "\n"
-        failed: list[tuple[_LogSink, OSError]] = []
+        failed: list[tuple[str, _LogSink, OSError]] = []
         with self._lock:
             for attr in ("run", "extra"):
                 sink: _LogSink | None = getattr(self, attr)
@@ -208,9 +210,13 @@ class _Tee:
                     sink.stream.flush()
                 except OSError as exc:
                     setattr(self, attr, None)
-                    failed.append((sink, exc))
-        for sink, err in failed:
+                    failed.append((attr, sink, exc))
+        for attr, sink, err in failed:
             _close_quietly(sink)
+            on_error = self.on_run_error if attr == "run" else None
+            if on_error is not None:
+                on_error(sink.path, err)  # the run recorder's one record_cut warning
+                continue
             log.warning(
                 "events_file_degraded",
                 path=sink.path,
@@ -228,6 +234,7 @@ class _Tee:
     def detach_run(self) -> _LogSink | None:
         with self._lock:
             old, self.run = self.run, None
+            self.on_run_error = None
         return old
 
     def set_extra(self, sink: _LogSink | None) -> None:
@@ -249,10 +256,13 @@ def _close_quietly(sink: _LogSink) -> OSError | None:
 _TEE = _Tee()
 
 
-def attach_events_file(path: Path) -> None:
+def attach_events_file(path: Path, on_error: Callable[[str, OSError], None] | None = None) -> None:
     """Start teeing every event as JSON lines to ``path`` (append). Raises OSError if it cannot
-    be opened — the caller (the run recorder) decides whether that refuses the run."""
+    be opened — the caller (the run recorder) decides whether that refuses the run. A write
+    error later calls ``on_error(path, error)`` (the run recorder's record cut) instead of
+    logging ``events_file_degraded``."""
     stream = path.open("a", encoding="utf-8")
+    _TEE.on_run_error = on_error
     old = _TEE.attach_run(_LogSink(stream, str(path), owned=True))
     if old is not None:
         _report_close(old)

@@ -12,9 +12,13 @@ control loop never waits for the disk and a crash or power loss loses at most ab
 flush interval of rows.
 
 A disk that fails must not stop the safety logic: with ``on_write_error: continue`` the
-recorder stops writing and logs ONE ``recorder_degraded`` event; ``record()``/``finish()``
-never raise. With ``refuse``, :meth:`RunRecorder.create` raises :class:`RecorderUnavailable`
-so the daemon refuses to start; once running, write errors degrade as with ``continue``.
+recorder stops writing and logs ONE ``record_cut`` WARNING (naming the file and errno; the
+daemon passes it to the ground station through ``on_cut``); ``record()``/``finish()`` never
+raise. ``summary.json`` is still written, and says from when the record is missing
+(``record_cut_at_s``): its space is reserved when the run directory is created (a
+``SUMMARY_RESERVE_BYTES`` file, removed just before the summary is written). With
+``refuse``, :meth:`RunRecorder.create` raises :class:`RecorderUnavailable` so the daemon
+refuses to start; once running, write errors degrade as with ``continue``.
 """
 
 from __future__ import annotations
@@ -52,6 +56,10 @@ CSV_BUFFER_BYTES = 64 * 1024  # > one flush interval of rows at 50 Hz (~330 B/ro
 SYNC_JOIN_TIMEOUT_S = 5.0  # wait this long for the last fsync when closing
 MAX_NAME_COLLISIONS = 100  # runs started within the same second get -2, -3, …
 STAMP_FORMAT = "%Y%m%dT%H%M%SZ"
+# Space kept for summary.json from the start of the run: a summary is ~3 kB; the margin covers
+# a long arrivals list and the filesystem's block rounding.
+SUMMARY_RESERVE_BYTES = 256 * 1024
+RESERVE_FILE = ".summary.reserve"
 
 Opener = Callable[[Path, str], IO[str]]
 
@@ -150,6 +158,12 @@ class RunRecorder:
         self._last_flush_s = 0.0
         self._bad_row_logged = False
         self._closed = False
+        self._first_t_boot_s: float | None = None
+        self._last_t_boot_s: float | None = None
+        self.cut_at_s: float | None = None  # record cut: from this flight time on (s)
+        self.cut_files: tuple[str, ...] = ()
+        self.on_cut: Callable[[str], None] | None = None  # the one text for the ground station
+        self._cut_lock = threading.Lock()
 
     # -- creation ---------------------------------------------------------------------------
 
@@ -204,8 +218,9 @@ class RunRecorder:
             self.run_dir = run_dir
         else:
             self.run_dir = _make_unique_dir(run_root, run_dir_name(mission_name, now_utc))
+        self._reserve_summary_space()
         events_path = self.run_dir / EVENTS_FILE
-        logging_setup.attach_events_file(events_path)
+        logging_setup.attach_events_file(events_path, on_error=self._events_cut)
         self._write_text(self.run_dir / CONFIG_FILE, config_yaml)
         self._write_text(self.run_dir / MISSION_FILE, mission_yaml)
         if inputs_json is not None:  # hashes of mission and config, for `run --resume`
@@ -223,6 +238,31 @@ class RunRecorder:
             mission=mission_name,
             disk_free_mb=_free_mb(self.run_dir),
         )
+
+    def _reserve_summary_space(self) -> None:
+        """Hold SUMMARY_RESERVE_BYTES for summary.json (written and fsync'ed, so the blocks are
+        allocated). A card already too full for it: the run goes on without the reserve."""
+        assert self.run_dir is not None
+        path = self.run_dir / RESERVE_FILE
+        try:
+            with path.open("wb") as fh:
+                fh.write(b"\0" * SUMMARY_RESERVE_BYTES)
+                fh.flush()
+                _fsync_if_supported(fh.fileno())
+        except OSError as exc:
+            log.warning("summary_reserve_failed", path=str(path), errno=exc.errno, error=str(exc))
+            path.unlink(missing_ok=True)
+
+    def _free_reserve(self) -> None:
+        if self.run_dir is None:
+            return
+        try:
+            (self.run_dir / RESERVE_FILE).unlink(missing_ok=True)
+        except OSError as exc:
+            log.debug("summary_reserve_unlink_failed", error=str(exc))
+
+    def _events_cut(self, path: str, exc: OSError) -> None:
+        self.cut(Path(path), exc, stage="events")
 
     def _write_text(self, path: Path, text: str) -> None:
         fh = self._opener(path, "w")
@@ -257,6 +297,9 @@ class RunRecorder:
                 self._bad_row_logged = True
                 log.error("recorder_bad_row", error=str(exc), note="row skipped")
             return
+        if self._first_t_boot_s is None:
+            self._first_t_boot_s = row.t_boot_s
+        self._last_t_boot_s = row.t_boot_s
         try:
             csv.write(line)
         except OSError as exc:
@@ -295,11 +338,22 @@ class RunRecorder:
         """Write summary.json atomically (tmp + rename), close everything. Never raises."""
         if self._closed:
             return
-        if not self.degraded and self.run_dir is not None:
-            self._close_csv()
+        if self.run_dir is not None:
             if not self.degraded:
-                self._write_summary(summary)
+                self._close_csv()
+            self._release()
+            summary = self.annotate(summary)
+            self._free_reserve()
+            self._write_summary(summary)
         self.close()
+
+    def annotate(self, summary: RunSummary) -> RunSummary:
+        """``summary`` with the record cut (from when, which files) if the record was cut."""
+        if self.cut_at_s is None or summary.record_cut_at_s is not None:
+            return summary
+        return summary.model_copy(
+            update={"record_cut_at_s": self.cut_at_s, "record_cut_files": self.cut_files}
+        )
 
     def close(self) -> None:
         """Flush and close without a summary (also called by finish). Never raises."""
@@ -358,7 +412,10 @@ class RunRecorder:
             finally:
                 os.close(dir_fd)
         except OSError as exc:
-            self._degrade(exc, tmp, stage="summary")
+            if self.degraded:  # the record was already cut: one warning only
+                log.debug("summary_write_failed", path=str(tmp), error=str(exc))
+            else:
+                self._degrade(exc, tmp, stage="summary")
 
     # -- failure ----------------------------------------------------------------------------
 
@@ -367,16 +424,43 @@ class RunRecorder:
             return
         self.degraded = True
         self._release()
-        log.error(
-            "recorder_degraded",
+        self.cut(path, exc, stage=stage)
+
+    def cut(self, path: Path | None, exc: OSError, *, stage: str = "write") -> None:
+        """One of the run's files stopped being written (flight.csv, events.jsonl, link.tlog):
+        the first cut logs the ONE ``record_cut`` warning and tells the ground station; later
+        ones only add their file to the list. Never raises; callable from any thread."""
+        name = path.name if path is not None else "run directory"
+        with self._cut_lock:
+            first_cut = self.cut_at_s is None
+            if name not in self.cut_files:
+                self.cut_files = (*self.cut_files, name)
+            if first_cut:
+                first, last = self._first_t_boot_s, self._last_t_boot_s
+                at = 0.0 if first is None or last is None else round(last - first, 2)
+                self.cut_at_s = at
+        code = errno_mod.errorcode.get(exc.errno or 0)
+        if not first_cut:
+            log.info("record_cut_also", path=str(path), file=name, errno=exc.errno, stage=stage)
+            return
+        assert self.cut_at_s is not None
+        log.warning(
+            "record_cut",
             path=str(path),
+            file=name,
             errno=exc.errno,
-            errno_name=errno_mod.errorcode.get(exc.errno or 0),
+            errno_name=code,
             error=exc.strerror or str(exc),
             stage=stage,
             rows_written=self.rows_written,
+            record_cut_at_s=self.cut_at_s,
             note="flight recording stopped; the mission and the safety logic continue",
         )
+        if self.on_cut is not None:
+            try:
+                self.on_cut(f"record cut at {self.cut_at_s:.0f}s: {name} {code or exc.errno}")
+            except Exception:  # the ground station's text must not stop the recorder
+                log.exception("record_cut_report_failed")
 
     def _release(self) -> None:
         """Drop the csv and the sync thread without raising (error paths)."""
@@ -441,6 +525,8 @@ def _free_mb(path: Path) -> float | None:
 
 
 __all__ = [
+    "RESERVE_FILE",
+    "SUMMARY_RESERVE_BYTES",
     "RecorderUnavailable",
     "RunRecorder",
     "default_opener",

@@ -99,6 +99,14 @@ class RunSummary(StrictModel):
     resumed_from: ResumedFrom | None = Field(
         None, description="the run this one resumed (`helixd run --resume`), None if none"
     )
+    record_cut_at_s: float | None = Field(
+        None,
+        description="the flight record (flight.csv) is missing from this time on, counted like "
+        "duration_s from the first recorded step (disk full or unwritable); None: complete (s)",
+    )
+    record_cut_files: tuple[str, ...] = Field(
+        (), description="the run directory's files whose writing stopped (record cut)"
+    )
     helixd_version: str = __version__
 
     def to_json(self) -> str:

@@ -43,6 +43,7 @@ from helixd.config import HelixdConfig, config_to_yaml
 from helixd.control.sequencer import SequencerEvent
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
+from helixd.mav.constants import MAV_SEVERITY_WARNING
 from helixd.mav.url import LinkError
 from helixd.mission.commands import command_name
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
@@ -50,6 +51,7 @@ from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs
 from helixd.mission.validate import apply_mission_limits
+from helixd.recorder.retention import check_free_space, prune_runs
 from helixd.recorder.rows import FlightRow
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
@@ -332,6 +334,8 @@ class MissionRunner:
             async with phase("connect", self.notifier, self.display):
                 run_dir = self.recorder.run_dir if self.recorder is not None else None
                 ap = await self.host.open(cfg, held, self._gcs_on, run_dir)
+                if ap.tlog is not None and self.recorder is not None:  # link.tlog cut: ours
+                    ap.tlog.writer.on_error = self._tlog_cut
             self.gcs.phase("preflight")
             async with phase("preflight", self.notifier, self.display):
                 checked = await self._preflight(ap)
@@ -385,6 +389,11 @@ class MissionRunner:
         join_m = None if plan.leg_start_xy_m is None else self.cfg.control.stop_tolerance_m
         estimate = plan_time_estimate(plan, self.cfg, checked.start_ned)  # as `check` says
         log.info("flight_estimate", estimated_s=round(estimate.total_s, 1), pivots=estimate.pivots)
+        if self.recorder is not None and self.recorder.run_dir is not None:
+            low_space = check_free_space(self.recorder.run_dir, estimate.total_s)
+            if low_space is not None:
+                self._warn(low_space)
+                self.gcs.say("low disk space for the flight record", MAV_SEVERITY_WARNING)
         self.summary = SummaryBuilder(
             final_xy_m=(last.x_m, last.y_m), join_m=join_m, estimated_s=estimate.total_s
         )
@@ -395,6 +404,14 @@ class MissionRunner:
 
     def _gcs_on(self, ap: Autopilot) -> None:
         self.gcs.start(ap.send_message)
+
+    def _tlog_cut(self, path: Path, exc: OSError) -> None:
+        if self.recorder is not None:
+            self.recorder.cut(path, exc, stage="tlog")
+
+    def _record_cut(self, text: str) -> None:
+        """The recorder's one record-cut warning, to the ground station at once."""
+        self.gcs.say(text, MAV_SEVERITY_WARNING)
 
     def _warn(self, warning: str | None) -> None:
         """A warning for the operator (printed after the run)."""
@@ -510,6 +527,13 @@ class MissionRunner:
         except RecorderUnavailable as exc:
             summary = self._build_summary(f"recorder: {exc}", ExitCode.PREFLIGHT, None)
             return RunOutcome(ExitCode.PREFLIGHT, None, None, [str(exc), result_line(summary)])
+        self.recorder.on_cut = self._record_cut
+        prune_runs(
+            self.opts.run_root,
+            self.cfg.recorder.keep_runs,
+            self.cfg.recorder.keep_bytes,
+            self.recorder.run_dir,
+        )
         log.info(
             "helixd_start",
             version=__version__,
@@ -633,6 +657,8 @@ class MissionRunner:
             ending.code,
             time.monotonic() - started,
         )
+        if self.recorder is not None:  # the RESULT line says from when the record is missing
+            summary = self.recorder.annotate(summary)
         run_dir = self.recorder.run_dir if self.recorder else None
         # the one ``result`` event goes out while events.jsonl is still attached
         self.display.log_result(summary, run_dir)

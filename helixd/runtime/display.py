@@ -203,6 +203,8 @@ def result_line(summary: RunSummary) -> str:
         times = f"{summary.duration_s:.1f} s autopilot time ({wall:.1f} s wall)"
     else:
         times = f"{wall:.1f} s wall (autopilot clock reset: rebooted)"
+    if summary.record_cut_at_s is not None:  # the flight may be fine; its record is not
+        times += f", record cut at {summary.record_cut_at_s:.1f} s"
     return f"{RESULT_PREFIX} {word}{_cause_text(summary.fault)} — {done}, {times}, exit {code}"
 
 

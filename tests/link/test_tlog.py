@@ -91,3 +91,17 @@ def test_appends_to_existing_and_counts_its_size(tmp_path: Path) -> None:
     w2.write(frame, t + 1)
     w2.close()
     assert len(read_tlog(path)) == 2
+
+
+def test_disk_error_goes_to_on_error_once(capsys: pytest.CaptureFixture[str]) -> None:
+    """With ``on_error`` set (the run recorder's record cut) the error is handed over once
+    instead of logged as tlog_error."""
+    w = TlogWriter(Path("/dev/full"), 1024 * 1024)
+    told: list[tuple[Path, int | None]] = []
+    w.on_error = lambda path, exc: told.append((path, exc.errno))
+    frame, t, _ = frames()[0]
+    assert w.write(frame, t)
+    w.flush()
+    w.close()
+    assert told == [(Path("/dev/full"), 28)]  # ENOSPC
+    assert "tlog_error" not in capsys.readouterr().err

@@ -17,12 +17,21 @@ from pathlib import Path
 from typing import IO
 
 import pytest
+import structlog
 
 from helixd.config import RecorderConfig
 from helixd.recorder import logging_setup
 from helixd.recorder.rows import COLUMNS, CSV_COMMENT, FlightRow, nan_row, read_flight_csv
-from helixd.recorder.rundir import RecorderUnavailable, RunRecorder, default_opener, run_dir_name
+from helixd.recorder.rundir import (
+    RESERVE_FILE,
+    SUMMARY_RESERVE_BYTES,
+    RecorderUnavailable,
+    RunRecorder,
+    default_opener,
+    run_dir_name,
+)
 from helixd.recorder.summary import SummaryBuilder
+from tests.support.full_disk import FullAfter
 from tests.support.recorder_runs import NOW, SQUARE_YAML, FakeClock, synth_run
 
 pytestmark = pytest.mark.usefixtures("reset_logging")
@@ -340,12 +349,59 @@ def test_disk_full_mid_run_degrades_once_and_never_raises(
     assert rec.degraded
     b = SummaryBuilder("square", "roll", 4)
     rec.finish(b.build(False, None, 0))
-    degraded = logs.events("recorder_degraded")
+    degraded = logs.events("record_cut")
     assert len(degraded) == 1
     assert degraded[0]["errno"] == errno.ENOSPC
     assert str(degraded[0]["path"]).endswith("flight.csv")
-    assert "recorder_degraded" in logs.console.getvalue()
-    assert rec.run_dir is not None and not (rec.run_dir / "summary.json").exists()
+    assert "record_cut" in logs.console.getvalue()
+    # the summary is still written (its space was reserved) and says the record was cut
+    assert rec.run_dir is not None
+    summary = json.loads((rec.run_dir / "summary.json").read_text())
+    assert summary["record_cut_files"] == ["flight.csv"]
+    assert summary["record_cut_at_s"] is not None
+    assert not (rec.run_dir / RESERVE_FILE).exists()
+
+
+def test_card_full_mid_flight_summary_says_from_when(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    rec = create(tmp_path, clock, opener=FullAfter(20_000))
+    assert rec.run_dir is not None
+    reserve = rec.run_dir / RESERVE_FILE
+    assert reserve.stat().st_size == SUMMARY_RESERVE_BYTES  # held from the start
+    said: list[str] = []
+    rec.on_cut = said.append
+    b = SummaryBuilder("square", "roll", 4)
+    for _ in range(500):  # 10 s of steps at 50 Hz; the card fills after ~60 rows
+        clock.advance(0.02)
+        row = make_row(clock())
+        b.add(row)
+        rec.record(row)
+    assert rec.degraded and 0 < rec.rows_written < 500
+    rec.finish(b.build(True, None, 0))
+    (event,) = logs.events("record_cut")
+    assert event["level"] == "warning"
+    assert event["file"] == "flight.csv" and event["errno"] == errno.ENOSPC
+    assert len(said) == 1 and "flight.csv" in said[0] and "ENOSPC" in said[0]
+    summary = json.loads((rec.run_dir / "summary.json").read_text())
+    assert summary["completed"] is True  # the flight was fine; its record was not
+    # the record is missing from the step that failed: flight time of the last row written
+    rows = read_flight_csv(rec.run_dir / "flight.csv")
+    written_s = float(rows[-1]["t_boot_s"]) - float(rows[0]["t_boot_s"])  # type: ignore[arg-type]
+    assert written_s <= summary["record_cut_at_s"] <= written_s + 0.1
+    assert summary["record_cut_at_s"] < summary["duration_s"]
+    assert summary["record_cut_files"] == ["flight.csv"]
+    assert not reserve.exists()
+
+
+def test_summary_of_a_whole_record_has_no_cut(tmp_path: Path, clock: FakeClock) -> None:
+    rec = create(tmp_path, clock)
+    assert rec.run_dir is not None and (rec.run_dir / RESERVE_FILE).exists()
+    rec.record(make_row(clock()))
+    rec.finish(SummaryBuilder("square", "roll", 4).build(True, None, 0))
+    summary = json.loads((rec.run_dir / "summary.json").read_text())
+    assert summary["record_cut_at_s"] is None and summary["record_cut_files"] == []
+    assert not (rec.run_dir / RESERVE_FILE).exists()
 
 
 def test_disk_full_at_start_continue_mode(
@@ -357,7 +413,7 @@ def test_disk_full_at_start_continue_mode(
         clock.advance(0.02)
         rec.record(make_row(clock()))
     rec.finish(SummaryBuilder("square", "roll", 4).build(True, None, 0))
-    (event,) = logs.events("recorder_degraded")
+    (event,) = logs.events("record_cut")
     assert event["errno"] == errno.ENOSPC and event["stage"] == "create"
 
 
@@ -386,7 +442,7 @@ def test_unwritable_run_root_refuse_and_continue(
     assert rec.degraded and rec.run_dir is None
     rec.record(make_row(clock()))
     rec.finish(SummaryBuilder().build(False, None, 0))
-    assert len(logs.events("recorder_degraded")) == 1
+    assert len(logs.events("record_cut")) == 1
 
 
 def test_chmod_read_only_run_root(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
@@ -417,3 +473,50 @@ def test_record_after_close_is_ignored(tmp_path: Path, clock: FakeClock, logs: L
 def test_nan_row_helper() -> None:
     row = replace(nan_row(mode="X"), x_m=1.0)
     assert row.mode == "X" and row.x_m == 1.0 and math.isnan(row.y_m)
+
+
+def test_every_file_cut_still_one_warning(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    """events.jsonl and link.tlog failing after flight.csv: one record_cut warning, every
+    file named in the summary, no events_file_degraded."""
+    rec = create(tmp_path, clock, opener=FullAfter(5_000))
+    assert rec.run_dir is not None
+    said: list[str] = []
+    rec.on_cut = said.append
+    b = SummaryBuilder("square", "roll", 4)
+    for _ in range(100):
+        clock.advance(0.02)
+        row = make_row(clock())
+        b.add(row)
+        rec.record(row)
+    assert rec.degraded
+    rec.cut(rec.run_dir / "link.tlog", OSError(errno.ENOSPC, "No space left on device"))
+    rec._events_cut(str(rec.run_dir / "events.jsonl"), OSError(errno.ENOSPC, "full"))
+    rec.finish(b.build(True, None, 0))
+    assert len(logs.events("record_cut")) == 1 and len(said) == 1
+    assert logs.events("events_file_degraded") == []
+    summary = json.loads((rec.run_dir / "summary.json").read_text())
+    assert summary["record_cut_files"] == ["flight.csv", "link.tlog", "events.jsonl"]
+
+
+def test_events_file_failure_is_the_record_cut(tmp_path: Path, clock: FakeClock) -> None:
+    """The events tee's write error reaches the recorder (not events_file_degraded)."""
+    console = io.StringIO()
+    logging_setup.configure_logging(tty=False, stream=console, clock=clock)
+    rec = create(tmp_path, clock)
+    assert rec.run_dir is not None
+    full = os.open("/dev/full", os.O_WRONLY)  # the events file's disk fills up
+    sink = logging_setup._TEE.run
+    assert sink is not None
+    os.dup2(full, sink.stream.fileno())
+    os.close(full)
+    for _ in range(200):  # enough events to overflow the stream's buffer
+        rec.record(make_row(clock()))
+        structlog.get_logger("t").info("tick", payload="x" * 100)
+    rec.finish(SummaryBuilder("square", "roll", 4).build(True, None, 0))
+    text = console.getvalue()
+    assert text.count("event=record_cut ") == 1 and "events_file_degraded" not in text
+    summary = json.loads((rec.run_dir / "summary.json").read_text())
+    assert summary["record_cut_files"] == ["events.jsonl"]
+    assert not rec.degraded  # flight.csv kept going
