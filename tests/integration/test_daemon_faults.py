@@ -277,3 +277,13 @@ def test_kill9_helixd_guard_stops_the_scrolls_and_holds(tmp_path: Path, backend:
     # held while the silence lasts: past RC_OVERRIDE_TIME (3 s) and still HOLD
     assert later.scroll_pwm_us == (NEUTRAL_US,) * 4 and later.mode == "HOLD"
     assert later.armed and later.guard_guarding
+
+
+def test_gps_lost(tmp_path: Path) -> None:
+    # The receiver stops mid-leg: GPS_RAW_INT says no fix 0.4 s later while the EKF goes on
+    # dead-reckoning for 7.3 s (as ArduPilot SITL does); the GPS watchdog, not the EKF, stops
+    # the scrolls within 1 s of the loss.
+    elapsed = check_fallback(
+        tmp_path, "gps_loss", 0.4 / SPEEDUP + 0.2, ExitCode.FAULT, "gps_lost", duration_s=600.0
+    )
+    assert elapsed <= 1.0
