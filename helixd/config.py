@@ -686,6 +686,27 @@ class SafetyConfig(InputModel):
     ekf_variance_max: float = Field(
         0.8, gt=0.0, le=10.0, description="EKF variance above this is unhealthy (FS_EKF_THRESH)"
     )
+    gps_min_fix_type: int = Field(
+        3,
+        ge=2,
+        le=6,
+        description="lowest GPS_RAW_INT fix_type to drive on (GPS_FIX_TYPE: 3 = 3D, ArduPilot's "
+        "own arming minimum; 5 = RTK float, 6 = RTK fixed for precision work)",
+    )
+    gps_min_satellites: int = Field(
+        6,
+        ge=4,
+        le=40,
+        description="fewest satellites to drive on (6: what ArduPilot's EKF3 asks before it "
+        "uses a GPS, EK3_GPS_CHECK's 'numsats' test)",
+    )
+    gps_stale_s: float = Field(
+        0.7,
+        gt=0.05,
+        le=10.0,
+        description="GPS_RAW_INT age that is a lost GPS (s); with the control tick and the "
+        "fall-back this stops the scrolls within 1 s of the stream stopping",
+    )
     takeover: TakeoverConfig = Field(default_factory=TakeoverConfig)
     stop_on_rc_loss: bool = Field(
         True,
@@ -1017,6 +1038,12 @@ def config_consistency_problems(cfg: HelixdConfig) -> list[str]:
         problems.append(
             f"safety.pose_stale_s = {saf.pose_stale_s} s must be > 1 / link.pose_rate_min_hz = "
             f"{min_period_s:.3f} s (at the slowest accepted pose rate every pose would be stale)"
+        )
+    telemetry_period_s = 1.0 / cfg.link.telemetry_rate_hz
+    if saf.gps_stale_s <= telemetry_period_s:
+        problems.append(
+            f"safety.gps_stale_s = {saf.gps_stale_s} s must be > 1 / link.telemetry_rate_hz = "
+            f"{telemetry_period_s:.3f} s (GPS_RAW_INT comes at the telemetry rate)"
         )
     sta = cfg.startup
     if sta.arm_retry_interval_s > sta.arm_timeout_s:

@@ -69,6 +69,14 @@ BAD_CONFIGS = {
         "actuation:\n  repeat_rate_hz: 2\n",
         ["actuation.repeat_rate_hz", "got 2", "allowed range 10.0 .. 100.0"],
     ),
+    "gps_stale_below_telemetry_period": (
+        "link:\n  telemetry_rate_hz: 1.0\n",
+        ["safety.gps_stale_s = 0.7 s must be > 1 / link.telemetry_rate_hz = 1.000 s"],
+    ),
+    "gps_fix_below_2d": (
+        "safety:\n  gps_min_fix_type: 1\n",
+        ["safety.gps_min_fix_type", "got 1", "allowed range 2 .. 6"],
+    ),
     "not_a_mapping": ("- just\n- a list\n", ["(top level)", "expected a mapping", "list"]),
     "bad_yaml": ("vehicle: {scroll_radius_m: 0.2\n", ["not valid YAML", "line"]),
 }

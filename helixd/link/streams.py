@@ -51,6 +51,9 @@ TELEMETRY_STREAMS = (
     # ArduPilot streams it in EXTENDED_STATUS at SRn_EXT_STAT (Rover: 1 Hz), which a GCS's
     # REQUEST_DATA_STREAM can stop; asked for by id like the rest (MSG_CURRENT_WAYPOINT)
     "MISSION_CURRENT",
+    # fix type and satellites, watched in flight (safety.gps_*): the EKF dead-reckons for
+    # seconds after a GPS loss before it reports anything
+    "GPS_RAW_INT",
 )
 US_PER_S = 1_000_000
 US_PER_MS = 1000

@@ -318,6 +318,7 @@ class VehicleState:
     battery_remaining_pct: int | None = None  # SYS_STATUS, 0..100; None: not reported
     gps_fix_type: int | None = None  # GPS_RAW_INT.fix_type (GPS_FIX_TYPE, 0..8)
     gps_satellites: int | None = None  # GPS_RAW_INT.satellites_visible; None: unknown (255)
+    gps_rx_s: float | None = None  # reception of the latest GPS_RAW_INT (monotonic)
     # SYS_STATUS RC-receiver bit: None when the autopilot reports no receiver at all.
     # While helixd streams overrides ArduPilot's own RC failsafe cannot fire (overrides count
     # as valid RC input), so this bit is how helixd notices the pilot's radio is gone.
@@ -588,6 +589,7 @@ class VehicleState:
         sats = int(msg.satellites_visible)
         self.gps_fix_type = fix if 0 <= fix <= GPS_FIX_TYPE_MAX else None
         self.gps_satellites = sats if 0 <= sats < 255 else None  # 255: unknown
+        self.gps_rx_s = rx_s
         return Change.GPS
 
 

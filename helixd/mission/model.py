@@ -10,8 +10,9 @@ Frames (see :mod:`helixd.base.frames`):
 
 Mission-level safety overrides (a survey writes them): ``geofence_polygon`` (vertices in the
 mission's own coordinates) replaces the config's keep-in polygon and radius,
-``geofence_radius_m`` a radius, ``time_limit_s`` the time limit, and ``ground`` the ground it
-crosses (``control.slip.ground_*_fraction``) — see
+``geofence_radius_m`` a radius, ``time_limit_s`` the time limit, ``gps_min_fix`` (``rtk_float``
+or ``rtk_fixed``) raises ``safety.gps_min_fix_type`` for precision work, and ``ground`` the
+ground it crosses (``control.slip.ground_*_fraction``) — see
 :func:`helixd.mission.validate.apply_mission_limits`. Ground-station files (.plan, .waypoints)
 are read into this model by :mod:`helixd.mission.formats`.
 
@@ -31,7 +32,7 @@ from __future__ import annotations
 import difflib
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import Field, ValidationInfo, model_validator
 
@@ -320,6 +321,11 @@ class Mission(InputModel):
     )
     time_limit_s: float | None = Field(
         None, gt=0.0, le=86_400.0, description="replaces safety.mission_time_limit_s (s)"
+    )
+    gps_min_fix: Literal["rtk_float", "rtk_fixed"] | None = Field(
+        None,
+        description="a precision mission's GPS minimum: raises safety.gps_min_fix_type to RTK "
+        "float (5) or RTK fixed (6); never lowers it",
     )
     ground: GroundSpec | None = Field(
         None,

@@ -264,6 +264,10 @@ def _fallback_radius_m(mission: Mission, cfg: HelixdConfig) -> float:
     return (far + cfg.mission.max_start_distance_m) * GEOFENCE_FALLBACK_SLACK
 
 
+# Mission.gps_min_fix → GPS_RAW_INT fix_type (GPS_FIX_TYPE_RTK_FLOAT, GPS_FIX_TYPE_RTK_FIXED)
+GPS_FIX_TYPE_OF = {"rtk_float": 5, "rtk_fixed": 6}
+
+
 def apply_mission_limits(
     cfg: HelixdConfig,
     mission: Mission,
@@ -275,6 +279,7 @@ def apply_mission_limits(
     ``control.slip`` (pure).
 
     * ``time_limit_s`` replaces ``safety.mission_time_limit_s``.
+    * ``gps_min_fix`` raises ``safety.gps_min_fix_type`` (RTK float 5, RTK fixed 6).
     * ``geofence_polygon`` replaces ``safety.geofence_polygon_ne_m`` and the mission's
       ``geofence_radius_m`` (None: no radius) replaces ``safety.geofence_radius_m``. While the
       polygon cannot be placed yet (see :func:`mission_fence_ne`), a radius around the start
@@ -288,6 +293,9 @@ def apply_mission_limits(
     update: dict[str, object] = {}
     if mission.time_limit_s is not None:
         update["mission_time_limit_s"] = mission.time_limit_s
+    if mission.gps_min_fix is not None:
+        wanted = GPS_FIX_TYPE_OF[mission.gps_min_fix]
+        update["gps_min_fix_type"] = max(saf.gps_min_fix_type, wanted)
     fence = mission_fence_ne(mission, origin_latlon_deg=origin_latlon_deg, start_ned=start_ned)
     if fence is None:
         # bounded like safety.geofence_radius_m, so the run's config.yaml loads back

@@ -52,7 +52,7 @@ from helixd.runtime.planned import Replanner
 from helixd.runtime.show_plan import show_plan
 from helixd.runtime.signals import StopRequest
 from helixd.runtime.timing import flight_problems
-from helixd.safety.watchdogs import Fault, FaultCause, pose_invalid_fault
+from helixd.safety.watchdogs import Fault, FaultCause, gps_fault, pose_invalid_fault
 
 log = structlog.get_logger(__name__)
 T = TypeVar("T")
@@ -332,6 +332,13 @@ async def preflight(
     if ekf is None or not ekf.healthy:
         problems.append(
             "EKF not healthy: " + ("no EKF_STATUS_REPORT" if ekf is None else ekf.describe())
+        )
+    st = ap.state
+    gps = gps_fault(time.monotonic(), st.gps_rx_s, st.gps_fix_type, st.gps_satellites, cfg.safety)
+    if gps is not None:
+        problems.append(
+            f"GPS not good enough to drive on: {gps.detail} (safety.gps_min_fix_type, "
+            "safety.gps_min_satellites)"
         )
     # the EKF origin: a global mission needs it; every run records it (export, plots)
     needed = mission.frame is MissionFrameKind.GLOBAL

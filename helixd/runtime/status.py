@@ -27,6 +27,7 @@ from helixd.mav.guard_script import (
     VERSION,
     GuardParams,
 )
+from helixd.safety.watchdogs import GPS_FIX_NAMES
 
 FIRST_REPORT_S = 2.0  # wait this long for the first pose, then for the slower streams (s)
 GUARD_PARAMS = (SCR_ENABLE, HXG_VERSION, HXG_ENABLE, *HXG_CHANS)
@@ -110,19 +111,6 @@ async def read_guard(ap: Autopilot) -> str:
         *(ap.param.get(n, retries=GUARD_PARAM_RETRIES) for n in GUARD_PARAMS)
     )
     return guard_text(dict(zip(GUARD_PARAMS, values, strict=True)))
-
-
-GPS_FIX_NAMES = {
-    0: "no GPS",
-    1: "no fix",
-    2: "2D fix",
-    3: "3D fix",
-    4: "DGPS",
-    5: "RTK float",
-    6: "RTK fixed",
-    7: "static",
-    8: "PPP",
-}
 
 
 def gps_text(st: VehicleState) -> str:

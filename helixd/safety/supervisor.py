@@ -78,6 +78,10 @@ def safety_inputs(
         pose_invalid_since_s=state.pose_invalid_since_s,
         pose_invalid_detail=state.pose_invalid_reason,
         vehicle_time_s=pose.time_boot_ms / 1000.0 if pose else None,
+        gps_monitored=True,
+        gps_rx_s=state.gps_rx_s,
+        gps_fix_type=state.gps_fix_type,
+        gps_satellites=state.gps_satellites,
     )
 
 

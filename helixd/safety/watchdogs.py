@@ -17,6 +17,10 @@ ours; a dead or rebooting autopilot has no clock at all):
   between the two restarts the timer rather than mixing them.
 - ``mission_time``: the later of both clocks (computed by the flight loop as
   ``mission_elapsed_s``): the plan's estimate is autopilot time, and a reboot restarts that.
+- ``gps_lost``: the fix and satellites of the latest GPS_RAW_INT are states, judged at once;
+  the stream's silence is our reception of it (``gps_rx_s``, wall clock, ``gps_stale_s``).
+  The EKF dead-reckons for seconds after a GPS loss before it drops its position (observed
+  on ArduPilot SITL: 7.3 s, 4.8 m), so this rule, not ``ekf_unhealthy``, stops the scrolls.
 - ``ekf_unhealthy``, ``disarmed``, ``pilot_takeover``, ``rc_lost``, ``geofence``: states, judged
   at once; no clock.
 
@@ -53,6 +57,7 @@ class FaultCause(StrEnum):
     EXCEPTION = "exception"  # unhandled error inside helixd
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
     ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
+    GPS_LOST = "gps_lost"  # fix below the minimum, too few satellites or GPS_RAW_INT stopped
 
 
 # Causes that mean "a human took over or asked to stop", not "something broke".
@@ -93,6 +98,11 @@ class SafetyInputs:
     pose_invalid_detail: str = ""
     # autopilot clock (s since its boot) of the latest pose; None: no pose yet
     vehicle_time_s: float | None = None
+    # GPS_RAW_INT: judged only when gps_monitored (the supervisor always sets it)
+    gps_monitored: bool = False
+    gps_rx_s: float | None = None  # our reception of the latest GPS_RAW_INT
+    gps_fix_type: int | None = None  # GPS_FIX_TYPE; None: never received or out of range
+    gps_satellites: int | None = None  # None: unknown
 
 
 def _finite(*values: float | None) -> bool:
@@ -130,6 +140,54 @@ def pose_invalid_fault(
     )
 
 
+GPS_FIX_NAMES = {
+    0: "no GPS",
+    1: "no fix",
+    2: "2D fix",
+    3: "3D fix",
+    4: "DGPS",
+    5: "RTK float",
+    6: "RTK fixed",
+    7: "static",
+    8: "PPP",
+}
+
+
+def gps_fault(
+    now_s: float,
+    rx_s: float | None,
+    fix_type: int | None,
+    satellites: int | None,
+    cfg: SafetyConfig,
+) -> Fault | None:
+    """The GPS is not good enough to drive on: no GPS_RAW_INT for ``gps_stale_s``, a fix
+    below ``gps_min_fix_type`` or fewer than ``gps_min_satellites``. Shared by the watchdog
+    and preflight. Unknown (None) is never good enough."""
+    if rx_s is None:
+        return Fault(FaultCause.GPS_LOST, "no GPS_RAW_INT received")
+    age = now_s - rx_s
+    if not age <= cfg.gps_stale_s:
+        return Fault(
+            FaultCause.GPS_LOST,
+            f"GPS_RAW_INT is {age:.2f} s old (limit {cfg.gps_stale_s} s)",
+        )
+    want = cfg.gps_min_fix_type
+    if fix_type is None or fix_type < want:
+        have = "unknown" if fix_type is None else GPS_FIX_NAMES.get(fix_type, str(fix_type))
+        return Fault(
+            FaultCause.GPS_LOST,
+            f"GPS fix {have} (fix_type {fix_type}), below the minimum "
+            f"{GPS_FIX_NAMES.get(want, str(want))} (fix_type {want})",
+        )
+    if satellites is None or satellites < cfg.gps_min_satellites:
+        return Fault(
+            FaultCause.GPS_LOST,
+            f"GPS sees {'an unknown number of' if satellites is None else satellites} "
+            f"satellites (minimum {cfg.gps_min_satellites})",
+        )
+    return None
+
+
 class SafetyMonitor:
     """All watchdogs of the fall-back (docs/architecture.md, safety invariants).
 
@@ -152,6 +210,7 @@ class SafetyMonitor:
             self._pose_invalid,
             self._pose,
             self._ekf,
+            self._gps,
             self._armed,
             self._takeover,
             self._rc_receiver,
@@ -167,7 +226,12 @@ class SafetyMonitor:
     def _inputs_finite(self, s: SafetyInputs) -> Fault | None:
         """Non-finite numbers the watchdogs rely on: no rule could judge them."""
         if not _finite(
-            s.now_s, s.last_heartbeat_s, s.pose_rx_s, s.mission_elapsed_s, s.vehicle_time_s
+            s.now_s,
+            s.last_heartbeat_s,
+            s.pose_rx_s,
+            s.mission_elapsed_s,
+            s.vehicle_time_s,
+            s.gps_rx_s,
         ):
             return Fault(FaultCause.EXCEPTION, "non-finite clock value in the safety inputs")
         if not _finite(s.commanded_speed_mps, s.commanded_yaw_rate_radps):
@@ -217,6 +281,11 @@ class SafetyMonitor:
         if s.ekf_healthy is False:
             return Fault(FaultCause.EKF_UNHEALTHY, s.ekf_detail or "EKF reports unhealthy")
         return None
+
+    def _gps(self, s: SafetyInputs) -> Fault | None:
+        if not s.gps_monitored:
+            return None
+        return gps_fault(s.now_s, s.gps_rx_s, s.gps_fix_type, s.gps_satellites, self.cfg)
 
     def _armed(self, s: SafetyInputs) -> Fault | None:
         if not s.armed:

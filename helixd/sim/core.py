@@ -77,6 +77,7 @@ class SimCore:
         self._was_armed = False  # for the mission reset on disarm
         self.links = [self._new_link() for _ in range(n_links)]
         self.faults = FaultClock()
+        self._gps_lost_since_s: float | None = None  # fault gps_loss, simulated time
         self.pending: list[tuple[float, FaultSpec]] = []
         self.outbox: list[tuple[int | None, Message]] = []
         self.flushed: list[tuple[int | None, Message]] = []  # resolved, sent even if now silent
@@ -237,6 +238,8 @@ class SimCore:
             self.faults.start(spec, now)
             if spec.name == "rc_loss":
                 self.ap.set_receiver_ok(False)
+            elif spec.name == "gps_loss":
+                self._gps_lost_since_s = now
 
     def _switch_pwm(self, mode: str) -> int:
         number = MODE_NUMBERS.get(mode.upper())
@@ -255,6 +258,8 @@ class SimCore:
         self.events.append(SimEvent("fault_end", {"name": name}))
         if name == "rc_loss":
             self.ap.set_receiver_ok(True)
+        elif name == "gps_loss":
+            self._gps_lost_since_s = None
 
     def set_rc(self, channel: int, pwm_us: int) -> None:
         if not 1 <= channel <= 16:
@@ -269,8 +274,13 @@ class SimCore:
             self.est,
             self.config.noise_profile(),
             self.ap.origin_set(self.now_s) and not self.ap.booting(self.now_s),
-            self.faults.on("ekf_unhealthy"),
+            self.faults.on("ekf_unhealthy") or self._gps_lost_for(self.config.gps_dead_reckon_s),
         )
+
+    def _gps_lost_for(self, at_least_s: float) -> bool:
+        """The gps_loss fault has lasted ``at_least_s`` (simulated seconds)."""
+        since = self._gps_lost_since_s
+        return since is not None and self.now_s - since >= at_least_s
 
     def handle(self, link: int, msg: Message) -> None:
         if self.link_up(link):
@@ -384,6 +394,7 @@ class SimCore:
             else (ap.home.lat_deg, ap.home.lon_deg, ap.home.north_m, ap.home.east_m),
             relay_masks=ap.payload.relay_status(self.params),
             mission_current=self.mission.mission_current_fields(),
+            gps_lost=self._gps_lost_for(cfg.gps_loss_report_s),
         )
 
     def _telemetry(self, now: float) -> None:

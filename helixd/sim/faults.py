@@ -12,6 +12,9 @@ FAULTS: dict[str, dict[str, object]] = {
     "ekf_unhealthy": {"duration_s": None},
     "reboot": {"silent_s": None},  # time_boot_ms restarts, boots through INITIALISING
     "gps_jump": {"distance_m": 10.0, "bearing_deg": 90.0},
+    # the receiver stops (SIM_GPS1_ENABLE 0): GPS_RAW_INT says no fix, 0 satellites after
+    # gps_loss_report_s; the EKF dead-reckons and drops its position after gps_dead_reckon_s
+    "gps_loss": {"duration_s": None},
     "pilot_takeover": {"mode": "HOLD"},  # pilot moves the RC mode switch
     "rc_loss": {"duration_s": None},  # pilot's receiver stops
     "stall": {"duration_s": None},  # scrolls dig in: they turn, the rover does not move
@@ -31,7 +34,7 @@ HOSTILE_TELEMETRY_FAULTS = frozenset(
     {"nan_position", "nan_yaw", "inf_yaw", "absurd_position", "time_backwards"}
 )
 DURATION_FAULTS = (
-    frozenset({"link_drop", "stale_pose", "ekf_unhealthy", "rc_loss", "stall"})
+    frozenset({"link_drop", "stale_pose", "ekf_unhealthy", "rc_loss", "stall", "gps_loss"})
     | HOSTILE_TELEMETRY_FAULTS
 )
 

@@ -163,20 +163,25 @@ def gps_raw_int(
     speed_mps: float,
     course_rad: float,
     accuracy_m: float,
+    fix_type: int = 3,  # GPS_FIX_TYPE_3D_FIX; 1: no fix
+    satellites: int = 12,
 ) -> Message:
-    eph = max(1, min(65534, round(max(accuracy_m, 0.01) * 100.0)))
+    eph = max(1, min(32767, round(max(accuracy_m, 0.01) * 100.0)))
+    epv = eph * 2
+    if fix_type < 2:  # no fix: ArduPilot sends UINT16_MAX (unknown) for both
+        eph = epv = 65535
     return _m(
         mavlink.MAVLink_gps_raw_int_message(
             time_boot_ms * 1000,
-            3,  # GPS_FIX_TYPE_3D_FIX
+            fix_type,
             round(lat_deg * 1e7),
             round(lon_deg * 1e7),
             round(alt_m * 1000.0),
             eph,
-            eph * 2,
+            epv,
             round(speed_mps * 100.0),
             _cdeg_0_360(course_rad),
-            12,
+            satellites,
             0,
             0,
             0,

@@ -251,6 +251,20 @@ class SimConfig(InputModel):
     reboot_silent_s: float = Field(
         1.5, ge=0.0, le=60.0, description="no MAVLink at all after a reboot, before booting (s)"
     )
+    gps_loss_report_s: float = Field(
+        0.4,
+        ge=0.0,
+        le=10.0,
+        description="after a gps_loss, GPS_RAW_INT reports no fix (ArduPilot SITL, "
+        "SIM_GPS1_ENABLE 0: 0.4 s) (s)",
+    )
+    gps_dead_reckon_s: float = Field(
+        7.3,
+        ge=0.0,
+        le=60.0,
+        description="after a gps_loss, the EKF keeps its horizontal position this long on dead "
+        "reckoning before it drops it (ArduPilot SITL, Rover: 7.3 s) (s)",
+    )
     ekf_origin_delay_s: float = Field(
         3.0, ge=0.0, le=600.0, description="after boot: EKF origin set, pose streams start (s)"
     )

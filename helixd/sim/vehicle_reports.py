@@ -46,6 +46,7 @@ class TelemetryView:
     relay_masks: tuple[int, int] = (0, 0)  # RELAY_STATUS (on, present)
     # MISSION_CURRENT (seq, total, mission_state, mission_mode): MissionServer's
     mission_current: tuple[int, int, int, int] = (0, 0, MISSION_STATE_NO_MISSION, 0)
+    gps_lost: bool = False  # the receiver reports no fix (fault gps_loss)
 
     def system_status(self) -> int:
         """GCS_MAVLINK_Rover::vehicle_system_status."""
@@ -102,7 +103,8 @@ def build(
     if msg_id == st.MSG_HEARTBEAT:
         return messages.heartbeat(v.mode, v.armed, v.system_status())
     if msg_id == st.MSG_SYS_STATUS:
-        return messages.sys_status(v.rc_ok, v.origin_set, v.ekf.position_ok, v.prearm_ok)
+        gps_ok = v.origin_set and not v.gps_lost
+        return messages.sys_status(v.rc_ok, gps_ok, v.ekf.position_ok, v.prearm_ok)
     if msg_id == st.MSG_EKF_STATUS_REPORT:
         return messages.ekf_status_report(v.ekf)
     if msg_id == st.MSG_ATTITUDE:
@@ -131,6 +133,8 @@ def build(
         )
         return messages.global_position_int(t, lat, lon, v.origin_alt_m, v.estimate)
     if msg_id == st.MSG_GPS_RAW_INT:
+        if v.gps_lost:
+            return messages.gps_raw_int(t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, fix_type=1, satellites=0)
         lat, lon = ne_to_latlon(v.gps_north_m, v.gps_east_m, v.origin_lat_deg, v.origin_lon_deg)
         course = math.atan2(v.truth.v_east_mps, v.truth.v_north_mps)
         return messages.gps_raw_int(

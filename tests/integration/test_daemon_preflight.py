@@ -195,3 +195,18 @@ def test_servo_backend_refuses_without_the_guard(
     for needle in needles:
         assert needle in refusal, f"{needle!r} not in {refusal!r}"
     assert arms == []
+
+
+def test_no_gps_fix_is_refused(tmp_path: Path) -> None:
+    """The receiver has no fix when helixd starts: preflight refuses (exit 3), names the fix
+    and the setting, and nothing is armed."""
+    with sim_and_daemon(tmp_path, "square") as (server, d):
+        server.inject("gps_loss")
+        code = d.wait_exit(60.0)
+        log = d.log_text()
+        arms = server.history.entries("arm")
+    assert code == ExitCode.PREFLIGHT, log[-3000:]
+    refusal = "\n".join(line for line in log.splitlines() if line.startswith("preflight:"))
+    assert "GPS not good enough to drive on: GPS fix no fix (fix_type 1)" in refusal, log[-3000:]
+    assert "safety.gps_min_fix_type" in refusal
+    assert arms == []

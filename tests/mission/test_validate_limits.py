@@ -265,3 +265,17 @@ def test_a_missions_ground_that_is_a_stall_is_refused() -> None:
             mission("start", [(1.0, 0.0)], ground={"scroll_fraction": bad})
     with pytest.raises(ValidationError, match=r"ground\.sand"):
         mission("start", [(1.0, 0.0)], ground={"sand": 0.5})
+
+
+def test_a_precision_mission_raises_the_gps_minimum_and_never_lowers_it() -> None:
+    cfg = HelixdConfig()
+    assert apply_mission_limits(cfg, mission("start", [(5.0, 0.0)])).safety.gps_min_fix_type == 3
+    fixed = mission("start", [(5.0, 0.0)], gps_min_fix="rtk_fixed")
+    assert apply_mission_limits(cfg, fixed).safety.gps_min_fix_type == 6
+    float_ = mission("start", [(5.0, 0.0)], gps_min_fix="rtk_float")
+    strict = cfg.model_copy(
+        update={"safety": cfg.safety.model_copy(update={"gps_min_fix_type": 6})}
+    )
+    assert apply_mission_limits(strict, float_).safety.gps_min_fix_type == 6
+    with pytest.raises(ValidationError, match="gps_min_fix"):
+        mission("start", [(5.0, 0.0)], gps_min_fix="dgps")

@@ -70,10 +70,12 @@ class FedAutopilot:
             self.telemetry.pose_read(self.state.pose)
 
     def tick(self) -> None:
-        """One pose period: a heartbeat (armed, MANUAL), EKF healthy, attitude and position."""
+        """One pose period: a heartbeat (armed, MANUAL), EKF healthy, a 3D GPS fix, attitude
+        and position."""
         self.t_ms += 20
         self.rx(hb(0, armed=True))
         self.rx(decoded(AP.ekf_status_report_encode(EKF_OK, 0.1, 0.1, 0.1, 0.05, 0.0), AP))
+        self.rx(decoded(AP.gps_raw_int_encode(0, 3, 0, 0, 0, 100, 200, 0, 0, 12), AP))
         self.rx(att(self.t_ms, 0.0))
         self.rx(lpn(self.t_ms, 0.0, 0.0))
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import pytest
 
@@ -277,4 +278,50 @@ def test_non_finite_autopilot_clock_is_a_fault() -> None:
     fault = SafetyMonitor(SafetyConfig()).check(
         dataclasses.replace(HEALTHY, vehicle_time_s=float("nan"))
     )
+    assert fault is not None and fault.cause is FaultCause.EXCEPTION
+
+
+GPS_OK = dataclasses.replace(
+    HEALTHY, gps_monitored=True, gps_rx_s=99.9, gps_fix_type=3, gps_satellites=10
+)
+
+
+def test_gps_good_enough_passes_and_unmonitored_is_not_judged() -> None:
+    monitor = SafetyMonitor(SafetyConfig())
+    assert monitor.check(GPS_OK) is None
+    assert monitor.check(dataclasses.replace(GPS_OK, gps_satellites=6)) is None  # inclusive
+    assert monitor.check(dataclasses.replace(GPS_OK, gps_rx_s=99.31)) is None  # within the limit
+    assert monitor.check(dataclasses.replace(HEALTHY, gps_fix_type=0)) is None
+
+
+@pytest.mark.parametrize(
+    ("change", "needle"),
+    [
+        ({"gps_fix_type": 1, "gps_satellites": 0}, "no fix (fix_type 1), below the minimum 3D"),
+        ({"gps_fix_type": 0}, "no GPS (fix_type 0)"),
+        ({"gps_fix_type": 2}, "2D fix"),
+        ({"gps_fix_type": None}, "unknown"),
+        ({"gps_satellites": 5}, "5 satellites (minimum 6)"),
+        ({"gps_satellites": None}, "unknown number of satellites"),
+        ({"gps_rx_s": 99.2}, "GPS_RAW_INT is 0.80 s old (limit 0.7 s)"),
+        ({"gps_rx_s": None}, "no GPS_RAW_INT received"),
+    ],
+)
+def test_gps_lost_fires(change: dict[str, object], needle: str) -> None:
+    fault = SafetyMonitor(SafetyConfig()).check(dataclasses.replace(GPS_OK, **change))  # type: ignore[arg-type]
+    assert fault is not None and fault.cause is FaultCause.GPS_LOST
+    assert needle in fault.detail
+
+
+def test_gps_minimum_fix_is_configurable_for_precision_work() -> None:
+    rtk = SafetyMonitor(SafetyConfig(gps_min_fix_type=6))
+    fault = rtk.check(dataclasses.replace(GPS_OK, gps_fix_type=5))
+    assert fault is not None and "RTK float (fix_type 5), below the minimum RTK fixed" in (
+        fault.detail
+    )
+    assert rtk.check(dataclasses.replace(GPS_OK, gps_fix_type=6)) is None
+
+
+def test_gps_non_finite_reception_clock_is_a_fault() -> None:
+    fault = SafetyMonitor(SafetyConfig()).check(dataclasses.replace(GPS_OK, gps_rx_s=math.nan))
     assert fault is not None and fault.cause is FaultCause.EXCEPTION

@@ -141,6 +141,28 @@ def test_ekf_unhealthy_reports_variances_over_threshold() -> None:
     assert all(int(m.flags) & 16 == 0 for m in reports)  # no absolute horizontal position
 
 
+def test_gps_loss_reports_no_fix_then_the_ekf_drops_its_position_after_dead_reckoning() -> None:
+    # as ArduPilot SITL with SIM_GPS1_ENABLE 0: GPS_RAW_INT no fix, 0 satellites 0.4 s after
+    # the loss; the EKF keeps a healthy horizontal position for 7.3 s on dead reckoning
+    core = make_core()
+    run(core, 5.0)
+    assert command(core, 0, 511, 24, 200_000) == 0  # GPS_RAW_INT at 5 Hz
+    core.inject(make_spec("gps_loss", {}))
+    early = of_type(run(core, 0.35), "GPS_RAW_INT", 0)
+    assert early and all(int(m.fix_type) == 3 for m in early)
+    lost = of_type(run(core, 0.45), "GPS_RAW_INT", 0)
+    assert lost and int(lost[-1].fix_type) == 1 and int(lost[-1].satellites_visible) == 0
+    assert core.ekf_status().position_ok
+    run(core, 6.4)
+    assert core.ekf_status().position_ok  # 7.2 s: still dead-reckoning
+    run(core, 0.2)
+    assert not core.ekf_status().position_ok
+    core.clear_fault("gps_loss")
+    run(core, 0.5)
+    assert core.ekf_status().position_ok
+    assert int(of_type(run(core, 0.5), "GPS_RAW_INT", 0)[-1].fix_type) == 3
+
+
 def test_scheduled_fault_fires_at_its_sim_time() -> None:
     core = make_core()
     spec, at_s = parse_fault("stall@3.5:duration_s=2")

@@ -54,6 +54,7 @@ STREAM_NAMES = (
     "RC_CHANNELS",
     "SERVO_OUTPUT_RAW",
     "MISSION_CURRENT",
+    "GPS_RAW_INT",
 )
 MSG_NAME_BY_ID = {int(getattr(mavlink, f"MAVLINK_MSG_ID_{n}")): n for n in STREAM_NAMES}
 EKF_HEALTHY_FLAGS = 0x1 | 0x2 | 0x4 | 0x8 | 0x10 | 0x20
@@ -506,6 +507,8 @@ class AutopilotPeer:
             return tx.rc_channels_encode(t_ms, 8, *self.rc_in, 255)
         if name == "MISSION_CURRENT":
             return tx.mission_current_encode(0, 0, 1, 0)  # MISSION_STATE_NO_MISSION
+        if name == "GPS_RAW_INT":  # a 3D fix with 12 satellites
+            return tx.gps_raw_int_encode(t_ms * 1000, 3, 0, 0, 0, 100, 200, 0, 0, 12)
         return tx.servo_output_raw_encode(t_ms * 1000 % 2**32, 0, *self.servo_out)
 
     def _handle(self, msg: Any, now: float) -> None:
