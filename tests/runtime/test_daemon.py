@@ -127,7 +127,9 @@ def test_close_is_bounded(tmp_path: object) -> None:
         (True, Ending(Fault(FaultCause.GEOFENCE, "out"), ExitCode.FAULT), None),
         # armed before we came (a resume in HOLD): never ours to disarm by default
         (False, Ending(Fault(FaultCause.SIGNAL, "SIGINT received"), ExitCode.OPERATOR_STOP), None),
-        (False, Ending(None, ExitCode.OK), None),
+        # a completed mission ends disarmed even when a ground station armed it (exit 0
+        # means disarmed): the next start after a takeover found it armed in HOLD
+        (False, Ending(None, ExitCode.OK), True),
     ],
 )
 def test_disarm_after(armed_by_us: bool, ending: Ending, disarm: bool | None) -> None:
