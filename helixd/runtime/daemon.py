@@ -650,6 +650,10 @@ class MissionRunner:
         if self.recorder is not None:
             self.recorder.record(row)
 
+    def numbering(self) -> Numbering:
+        """The operator's numbering of this run's waypoints (see :meth:`_numbering`)."""
+        return self._numbering()
+
     def _numbering(self) -> Numbering:
         """The operator's numbering of this run's waypoints: 1-based over the whole mission
         (a resumed run continues the count), the planner's via points not counted."""
