@@ -335,7 +335,7 @@ class MissionRunner:
                 ap = await self.host.open(cfg, held, self._gcs_on, run_dir)
             self.gcs.phase("preflight")
             async with phase("preflight", self.notifier, self.display):
-                checked = await self._preflight(ap)
+                checked = await until_stopped(stop, self._preflight(ap))
             if self.opts.show_plan:  # for the GCS to draw; never flown (helixd.runtime.show_plan)
                 self._warn(await show_checked_plan(ap, cfg, checked, stop))
             # READY once preflight passed: the start gate may wait minutes for the pilot, and
