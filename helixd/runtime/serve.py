@@ -540,7 +540,7 @@ class Service:
             # disarm): show the interrupted item again, where a continue goes on
             self._set_current_item(self._current_item)
         self._current_item = None
-        text = flight_end_text(outcome.exit_code, summary, runner.numbering(), outcome.messages)
+        text = flight_end_text(summary, runner.numbering(), outcome.messages)
         severity = MAV_SEVERITY_NOTICE if state is not ServeState.FAULTED else MAV_SEVERITY_ERROR
         log.info("serve_flight_end", state=state.name.lower(), exit_code=int(outcome.exit_code))
         self._set_state(state, text, severity)
@@ -622,9 +622,7 @@ async def serve(opts: ServeOptions) -> ExitCode:
     return await Service(opts).run()
 
 
-def flight_end_text(
-    code: ExitCode, summary: RunSummary | None, numbering: Numbering, messages: list[str]
-) -> str:
+def flight_end_text(summary: RunSummary | None, numbering: Numbering, messages: list[str]) -> str:
     """What the ground station reads after the state word when a flight ends: the waypoints
     reached in its own numbering (of the whole mission, as 'reached WP 3/3' counted them),
     and why a flight never started. No exit code, no result line: the fault itself went out
