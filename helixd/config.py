@@ -910,7 +910,13 @@ class GcsReportConfig(InputModel):
         20, ge=1, le=500, description="texts waiting for the rate limit; faults go first"
     )
     max_text_chars: int = Field(
-        150, ge=50, le=500, description="longer texts are cut (sent as 50-char chunks)"
+        150,
+        ge=50,
+        le=500,
+        description=(
+            "texts go out as lines of up to 50 chars split between words; at most this "
+            "many chars, a longer text ends in '...'"
+        ),
     )
     named_value_rate_hz: float = Field(
         2.0, gt=0.0, le=50.0, description="NAMED_VALUE_FLOAT xtrack_m / wp_index rate (Hz)"

@@ -39,6 +39,7 @@ from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
+from helixd.mission.locate import SEARCH_DIRS, available_missions
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
@@ -105,6 +106,15 @@ MissionOpt = Annotated[
         "mission the autopilot holds",
     ),
 ]
+CheckMissionOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--mission",
+        "-m",
+        help="mission YAML file; a bare name such as square.yaml is also looked up in "
+        "config/missions/ and /etc/helixd/missions/",
+    ),
+]
 ModeOpt = Annotated[
     MotionMode | None,
     typer.Option(
@@ -156,7 +166,7 @@ def version() -> None:
 @app.command()
 def check(
     config: ConfigOpt = None,
-    mission: MissionOpt = Path("mission.yaml"),
+    mission: CheckMissionOpt = None,
     map_path: MapOpt = None,
     plot: Annotated[
         Path | None,
@@ -168,6 +178,10 @@ def check(
     fence: FenceOpt = None,
 ) -> None:
     """Validate the config and a mission (as `run` would), and print the resolved plan."""
+    if mission is None:
+        known = available_missions()
+        listed = ", ".join(known) if known else "none in " + ", ".join(map(str, SEARCH_DIRS))
+        raise fail([f"check needs --mission FILE; available: {listed}"], ExitCode.USAGE)
     source = MissionFile(mission, mode, fence, ExpandOptions(strict, skip_unsupported))
     try:
         got = prepare_flight(source, config, map_path)

@@ -44,3 +44,15 @@ def locate_mission(given: Path, search_dirs: tuple[Path, ...] = SEARCH_DIRS) -> 
             return MissionLocation(candidate, searched=True)
     places = ", ".join(str(p) for p in [given, *tried])
     raise MissionNotFound(f"{given}: mission file not found; looked for {places}")
+
+
+def available_missions(search_dirs: tuple[Path, ...] = SEARCH_DIRS) -> list[str]:
+    """The mission files a bare ``--mission`` name would find, as ``dir/name``, sorted."""
+    found: list[str] = []
+    for d in search_dirs:
+        try:
+            names = sorted(p.name for p in d.iterdir() if p.suffix in SUFFIXES and p.is_file())
+        except OSError:
+            continue
+        found += [str(d / n) for n in names]
+    return found

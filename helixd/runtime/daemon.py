@@ -262,15 +262,16 @@ def ending_of_flight(result: FlightResult) -> Ending:
 
 
 def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
-    """Whether the fall-back disarms (pure). What we armed is disarmed after a completed
-    mission and after an operator's stop signal (Ctrl-C, SIGTERM: nobody drives it now, and
-    an armed rover in HOLD is one switch away from moving). After a fault, a pilot's takeover
-    (the pilot may be driving it) or on a vehicle we did not arm, ``safety.disarm_on_fault``
-    decides (None)."""
-    if not armed_by_us:
-        return None
+    """Whether the fall-back disarms (pure). A completed mission always ends disarmed, even
+    on a vehicle someone else armed (a ground station after a takeover): exit 0 means
+    disarmed, and a finished rover left armed in HOLD is one switch away from moving. What
+    we armed is also disarmed after an operator's stop signal (Ctrl-C, SIGTERM: nobody
+    drives it now). After a fault, a pilot's takeover (the pilot may be driving it) or a
+    stop on a vehicle we did not arm, ``safety.disarm_on_fault`` decides (None)."""
     if ending.code is ExitCode.OK:
         return True
+    if not armed_by_us:
+        return None
     if ending.fault is not None and ending.fault.cause in (FaultCause.SIGNAL, FaultCause.PAUSED):
         return True
     return None
@@ -338,7 +339,7 @@ class MissionRunner:
                     ap.tlog.writer.on_error = self._tlog_cut
             self.gcs.phase("preflight")
             async with phase("preflight", self.notifier, self.display):
-                checked = await self._preflight(ap)
+                checked = await until_stopped(stop, self._preflight(ap))
             if self.opts.show_plan:  # for the GCS to draw; never flown (helixd.runtime.show_plan)
                 self._warn(await show_checked_plan(ap, cfg, checked, stop))
             # READY once preflight passed: the start gate may wait minutes for the pilot, and
@@ -674,6 +675,10 @@ class MissionRunner:
         self.display.autopilot_time(row.t_boot_s)
         if self.recorder is not None:
             self.recorder.record(row)
+
+    def numbering(self) -> Numbering:
+        """The operator's numbering of this run's waypoints (see :meth:`_numbering`)."""
+        return self._numbering()
 
     def _numbering(self) -> Numbering:
         """The operator's numbering of this run's waypoints: 1-based over the whole mission

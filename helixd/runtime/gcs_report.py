@@ -7,12 +7,13 @@ reads no clock and logs nothing: :meth:`GcsReporter.feed` takes one event,
 :meth:`GcsReporter.tick` the current time, and both return the pymavlink messages to send now.
 
 Severities (MAV_SEVERITY): a fault CRITICAL when it stopped the run, otherwise WARNING; a phase
-change NOTICE; a waypoint reached INFO. Texts are ASCII (anything else becomes '?'), cut to
-``max_text_chars``, and sent as ArduPilot sends them (GCS::send_statustext, GCS_Common.cpp): up
-to 50 characters as one STATUSTEXT with id 0; longer as 50-character chunks sharing a fresh
-non-zero id (a uint16 counter that skips 0), chunk_seq 0, 1, …, the last chunk shorter than 50
-— an empty one when the length is a multiple of 50 — which is what
-:class:`helixd.link.statustext.StatusTextAssembler` expects.
+change NOTICE; a waypoint reached INFO. Texts are ASCII (anything else becomes '?'); one of up
+to 50 characters goes out as one STATUSTEXT with id 0, a longer one as several such texts,
+split between words (:func:`gcs_lines`), each a whole line on a ground station that does not
+reassemble chunks. :func:`chunk_statustext` is ArduPilot's own chunking (GCS::send_statustext,
+GCS_Common.cpp: 50-character chunks sharing a fresh non-zero id, the last shorter than 50 —
+an empty one when the length is a multiple of 50), which
+:class:`helixd.link.statustext.StatusTextAssembler` reassembles.
 
 Rate limit: a token bucket (``rate_hz`` texts per second on average, ``burst`` back to back).
 Waiting texts are queued, faults ahead of everything else; when the queue is full the oldest
@@ -51,6 +52,7 @@ __all__ = [
     "Said",
     "WaypointReached",
     "chunk_statustext",
+    "gcs_lines",
 ]
 
 CHUNK_CHARS = 50  # MAVLINK_MSG_STATUSTEXT_FIELD_TEXT_LEN
@@ -146,7 +148,6 @@ class GcsReporter:
         self._last_s = start_s
         self._queue: list[_Queued] = []
         self._dropped = 0
-        self._text_id = 0
         self._xtrack_m: float | None = None
         self._wp_index: int | None = None
         self._next_value_s = start_s
@@ -243,7 +244,36 @@ class GcsReporter:
         return out
 
     def _statustext(self, severity: int, text: str) -> list[Any]:
-        text = _ascii(text)[: self.config.max_text_chars]
-        if len(text) > CHUNK_CHARS:
-            self._text_id = self._text_id % 65535 + 1
-        return chunk_statustext(severity, text, self._text_id)
+        lines = gcs_lines(_ascii(text), self.config.max_text_chars)
+        return [_mav.statustext_encode(severity, line.encode("ascii"), 0, 0) for line in lines]
+
+
+def gcs_lines(text: str, max_chars: int, width: int = CHUNK_CHARS) -> list[str]:
+    """``text`` as whole lines of at most ``width`` characters, split between words, each
+    sent as a STATUSTEXT of its own: many ground stations show every chunk of a chunked text
+    as a line, so a 50-character cut split words across lines and a text of exactly 100 or
+    150 characters ended in an empty line. At most ``max_chars // width`` lines; a text
+    longer than that (helixd's own texts are kept shorter) ends its last line with '...'."""
+    lines: list[str] = []
+    current = ""
+    for word in text.split():
+        while len(word) > width:  # one word longer than a line: only it is cut
+            if current:
+                lines.append(current)
+                current = ""
+            lines.append(word[:width])
+            word = word[width:]
+        if not current:
+            current = word
+        elif len(current) + 1 + len(word) <= width:
+            current += " " + word
+        else:
+            lines.append(current)
+            current = word
+    if current or not lines:
+        lines.append(current)
+    most = max(1, max_chars // width)
+    if len(lines) > most:
+        lines = lines[:most]
+        lines[-1] = lines[-1][: width - 3].rstrip() + "..."
+    return lines

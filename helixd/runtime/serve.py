@@ -28,7 +28,7 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.exitcodes import ExitCode
-from helixd.base.plan import MotionMode
+from helixd.base.plan import MotionMode, Numbering
 from helixd.config import HelixdConfig
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
@@ -45,6 +45,7 @@ from helixd.mission.expand import ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resume import sha256_text
 from helixd.planning.mapfile import OccupancyMap
+from helixd.recorder.summary import RunSummary
 from helixd.runtime.autopilot_mission import (
     MissionRefused,
     convert_download,
@@ -539,7 +540,7 @@ class Service:
             # disarm): show the interrupted item again, where a continue goes on
             self._set_current_item(self._current_item)
         self._current_item = None
-        text = outcome.messages[-1].removeprefix("helixd: ") if outcome.messages else ""
+        text = flight_end_text(summary, runner.numbering(), outcome.messages)
         severity = MAV_SEVERITY_NOTICE if state is not ServeState.FAULTED else MAV_SEVERITY_ERROR
         log.info("serve_flight_end", state=state.name.lower(), exit_code=int(outcome.exit_code))
         self._set_state(state, text, severity)
@@ -619,3 +620,15 @@ def _write_state_file(path: Path, interrupted: tuple[str, Path] | None, state: S
 
 async def serve(opts: ServeOptions) -> ExitCode:
     return await Service(opts).run()
+
+
+def flight_end_text(summary: RunSummary | None, numbering: Numbering, messages: list[str]) -> str:
+    """What the ground station reads after the state word when a flight ends: the waypoints
+    reached in its own numbering (of the whole mission, as 'reached WP 3/3' counted them),
+    and why a flight never started. No exit code, no result line: the fault itself went out
+    when it happened."""
+    if summary is None or summary.rows == 0:
+        why = [m for m in messages if not m.startswith("helixd: RESULT")]
+        return why[0] if why else "not flown"
+    first = numbering.numbers[0] if numbering.numbers else 1
+    return f"{first - 1 + summary.waypoints_reached}/{numbering.total} waypoints"

@@ -25,7 +25,7 @@ import structlog
 from helixd.base.frames import NedPose
 from helixd.config import SafetyConfig
 from helixd.link.vehicle import PoseSample, VehicleState
-from helixd.safety.watchdogs import Fault, SafetyInputs, SafetyMonitor
+from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonitor
 
 log = structlog.get_logger(__name__)
 
@@ -179,9 +179,11 @@ async def fall_back(
                 report.disarmed = True
             except Exception as exc:
                 report.errors.append(f"disarm: {exc}")
-    emit = log.info if fault is None else log.warning
+    # a completed mission and an operator's pause are no faults: info, each by its name
+    paused = fault is not None and fault.cause is FaultCause.PAUSED
+    emit = log.info if fault is None or paused else log.warning
     emit(
-        "vehicle_secured" if fault is None else "fallback",
+        "vehicle_secured" if fault is None else "paused" if paused else "fallback",
         cause=report.cause,
         detail=report.detail,
         pose=pose_text,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import pytest
 
@@ -83,3 +84,20 @@ def test_sim_and_run_show_the_same_speedup_range(
     monkeypatch.setenv("COLUMNS", "200")
     _, out, _ = run_main([*command, "-h"], capsys)
     assert "0.1<=x<=20.0" in out
+
+
+def test_bare_check_asks_for_a_mission_and_lists_the_available_ones(
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+) -> None:
+    """It said 'mission.yaml: mission file not found', naming a file nobody asked for."""
+    monkeypatch.chdir(tmp_path)
+    missions = tmp_path / "config" / "missions"
+    missions.mkdir(parents=True)
+    (missions / "square.yaml").write_text("name: square\n", encoding="utf-8")
+    (missions / "notes.txt").write_text("not a mission\n", encoding="utf-8")
+    code, _, err = run_main(["check"], capsys)
+    assert code == 2
+    assert "check needs --mission FILE; available: config/missions/square.yaml" in err
+    assert "mission.yaml" not in err and "notes.txt" not in err

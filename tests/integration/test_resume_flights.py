@@ -90,10 +90,13 @@ def test_resume_after_fault_completes_the_remaining_waypoints(tmp_path: Path, re
                 raise AssertionError(f"{exc}\n{second.log_text()[-3000:]}") from None
             code2 = second.wait_exit(30.0)
             log2 = second.log_text()
+            end = server.snapshot()
             run2 = second.run_dir()
         finally:
             second.kill()
     assert code2 == ExitCode.OK, log2[-3000:]
+    # exit 0 means disarmed, also when the run found the vehicle armed (still in HOLD)
+    assert not end.armed and end.mode == "HOLD", (end.armed, end.mode)
     assert "from waypoint 3/4 (2 remaining)" in log2
     # the interrupted leg was re-entered along the surveyed line east = 6, not cut across
     assert crossings and max(crossings) < 0.6, max(crossings or [0.0])

@@ -10,6 +10,7 @@ station receives; the daemon must still be running at the end.
 from __future__ import annotations
 
 import json
+import re
 import signal
 from pathlib import Path
 
@@ -53,7 +54,9 @@ def test_a_field_day(tmp_path: Path) -> None:
                 upload(gcs, FAR_AWAY)
                 d.wait_line("event=serve_mission_refused", 30.0)
                 refusal = gcs.wait_text("helixd: refused", 20.0)
-                assert "800" in refusal or "max_range" in refusal, refusal
+                # the first of its whole lines names the waypoint; the log has the rest
+                assert refusal.startswith("helixd: refused: waypoints.1:"), refusal
+                assert len(refusal) <= 50 and not refusal.endswith(" "), refusal
                 assert command(gcs, MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_DENIED
                 # the fixed mission: checked, then started by the switch
                 upload(gcs, MISSION_A)
@@ -74,6 +77,12 @@ def test_a_field_day(tmp_path: Path) -> None:
                 # although ArduPilot resets its mission on the disarm
                 assert "pausing: start switch low" in gcs.wait_text("helixd: pausing", 10.0)
                 assert not any("FAULT" in text for text in gcs.texts), gcs.texts
+                # short and whole: no result line, no exit code, no internal cause name
+                said = gcs.wait_text("helixd: paused", 10.0)
+                assert re.fullmatch(r"helixd: paused: \d/\d waypoints", said), said
+                assert not any("exit" in t or "RESULT" in t for t in gcs.texts), gcs.texts
+                assert "level=warning event=fallback" not in d.log_text()
+                assert "event=paused" in d.log_text()
                 server.wait_for(lambda s: s.mission_current_seq == 1, 10.0)
                 # continue: from the interrupted leg, not from the start
                 server.set_rc(SWITCH_CH, HIGH_US)

@@ -127,8 +127,54 @@ def test_close_is_bounded(tmp_path: object) -> None:
         (True, Ending(Fault(FaultCause.GEOFENCE, "out"), ExitCode.FAULT), None),
         # armed before we came (a resume in HOLD): never ours to disarm by default
         (False, Ending(Fault(FaultCause.SIGNAL, "SIGINT received"), ExitCode.OPERATOR_STOP), None),
-        (False, Ending(None, ExitCode.OK), None),
+        # a completed mission ends disarmed even when a ground station armed it (exit 0
+        # means disarmed): the next start after a takeover found it armed in HOLD
+        (False, Ending(None, ExitCode.OK), True),
     ],
 )
 def test_disarm_after(armed_by_us: bool, ending: Ending, disarm: bool | None) -> None:
     assert disarm_after(armed_by_us, ending) is disarm
+
+
+def test_a_stop_during_preflight_acts_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C while preflight waited on the autopilot (the EKF origin request: 3 s) took
+    that long to act: the whole preflight is raced against the stop request now."""
+    from pathlib import Path
+    from typing import Any
+
+    from helixd.config import HelixdConfig
+    from helixd.mission.model import Mission
+    from helixd.runtime.daemon import MissionRunner, RunOptions
+    from helixd.runtime.setup import Held
+
+    cfg = HelixdConfig()
+    mission = Mission.model_validate(
+        {"name": "t", "mode": "roll", "frame": "start", "waypoints": [{"x": 1, "y": 0}]}
+    )
+    runner = MissionRunner(RunOptions(cfg, mission, "", "udpin:127.0.0.1:0", Path("."), False))
+    waiting = asyncio.Event()
+    abandoned = asyncio.Event()
+
+    async def open_link(*_: Any) -> object:
+        return object()
+
+    async def slow_preflight(_: object) -> None:
+        waiting.set()
+        try:
+            await asyncio.Event().wait()  # an answer that never comes
+        finally:
+            abandoned.set()
+
+    monkeypatch.setattr(runner.host, "open", open_link)
+    monkeypatch.setattr(runner, "_preflight", slow_preflight)
+
+    async def main() -> None:
+        startup = asyncio.create_task(runner.startup(Held()))
+        await waiting.wait()
+        runner.stop.trigger("SIGINT")
+        async with asyncio.timeout(0.5):  # at once, not after the wait's own timeout
+            with pytest.raises(StopBeforeFlight):
+                await startup
+        assert abandoned.is_set()
+
+    asyncio.run(main())

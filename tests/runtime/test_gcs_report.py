@@ -66,16 +66,23 @@ def test_severities() -> None:
     assert all(int(m.id) == 0 for m in out)  # short texts: id 0
 
 
-def test_long_text_chunked_as_arduplot_does() -> None:
+def test_long_text_goes_out_as_whole_lines_split_between_words() -> None:
+    # a GCS showing each chunk as a line used to read "…DO_PAUSE_CO" / "NTINUE 0 …"
     r = GcsReporter(CFG, 0.0)
-    detail = "x" * 92  # "helixd: FAULT f: " is 17 chars → 109 chars: 3 chunks
+    detail = "DO_PAUSE_CONTINUE 0 (system 255) then a few more words to wrap"
     out = r.feed(ReportedFault("f", detail), 0.0)
-    assert [len(m.text) for m in out] == [50, 50, 9]
-    assert len({int(m.id) for m in out}) == 1 and int(out[0].id) != 0
-    assert [int(m.chunk_seq) for m in out] == [0, 1, 2]
-    assert texts(out) == [(2, "helixd: FAULT f: " + detail)]
-    out2 = r.feed(ReportedFault("f", detail), 0.0)
-    assert int(out2[0].id) != int(out[0].id)  # a fresh id per long text
+    lines = [t for _, t in texts(out)]
+    assert all(int(m.id) == 0 for m in out)  # each line stands alone
+    assert all(0 < len(t) <= 50 for t in lines)
+    assert " ".join(lines) == "helixd: FAULT f: " + detail  # nothing lost, no word cut
+
+
+def test_text_of_150_chars_keeps_its_tail_and_sends_no_empty_line() -> None:
+    r = GcsReporter(CFG, 0.0)
+    words = " ".join(["abcd"] * 28)  # 8 + 139 = 147 characters
+    lines = [t for _, t in texts(r.feed(PhaseChange(words), 0.0))]
+    assert " ".join(lines) == "helixd: " + words
+    assert all(lines) and len(lines) == 3
 
 
 def test_multiple_of_fifty_ends_with_empty_chunk() -> None:
@@ -84,12 +91,12 @@ def test_multiple_of_fifty_ends_with_empty_chunk() -> None:
     assert texts(msgs) == [(4, "a" * 100)]
 
 
-def test_non_ascii_and_overlong_cut() -> None:
+def test_non_ascii_and_overlong_marked() -> None:
     cfg = GcsReportConfig(max_text_chars=60)
     r = GcsReporter(cfg, 0.0)
     out = r.feed(PhaseChange("pond ✓ " + "y" * 200), 0.0)
     ((_, text),) = texts(out)
-    assert text == ("helixd: pond ? " + "y" * 200)[:60]
+    assert text == "helixd: pond ?..."  # the overlong word goes; the cut is marked
 
 
 def test_helixds_own_non_ascii_is_spelt_in_ascii() -> None:
@@ -255,5 +262,6 @@ def test_seen_by_a_second_ground_station_through_the_simulated_autopilot() -> No
                     elif m.get_type() == "NAMED_VALUE_FLOAT":
                         names.add(str(m.name))
             assert (5, "helixd: run") in got
-            assert (2, "helixd: FAULT pose_stale: " + long_fault.detail) in got
+            faults = [t for sev, t in got if sev == 2]  # whole lines, split between words
+            assert " ".join(faults) == "helixd: FAULT pose_stale: " + long_fault.detail
             assert names == {"xtrack_m", "wp_index"}
