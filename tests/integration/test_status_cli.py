@@ -31,7 +31,9 @@ def test_status_once() -> None:
     assert "pose      : N " in out and "(NED, clockwise from North)" in out
     assert "ekf       : EKF healthy" in out
     assert "rc in µs  : 1500" in out
-    assert out.startswith("status    : waiting up to 30 s (startup.connect_timeout_s)")
+    first, second = out.splitlines()[:2]  # which config, then what it waits for
+    assert first == "config  : built-in defaults"
+    assert second.startswith("status    : waiting up to 30 s (startup.connect_timeout_s)")
     assert "gps       : 3D fix, " in out and " satellites" in out
     assert "battery   : " in out and " V" in out
     assert "position  : 53.52" in out and "(the EKF pose through its origin)" in out
@@ -49,7 +51,10 @@ def test_status_says_what_it_waits_for_and_when_it_gives_up(tmp_path: Path) -> N
         capture_output=True, text=True, timeout=60, check=False,
     )  # fmt: skip
     assert res.returncode == ExitCode.LINK
-    assert res.stdout.startswith("status    : waiting up to 1 s (startup.connect_timeout_s)")
+    assert res.stdout.splitlines()[0] == f"config  : {config}"
+    assert res.stdout.splitlines()[1].startswith(
+        "status    : waiting up to 1 s (startup.connect_timeout_s)"
+    )
     assert res.stderr.count("error:") == 1 and "no HEARTBEAT" in res.stderr
 
 
