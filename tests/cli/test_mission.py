@@ -90,6 +90,31 @@ def test_convert_round_trip_and_what_is_lost(tmp_path: Path) -> None:
     assert [w.command for w in again.waypoints] == [w.command for w in first.waypoints]
 
 
+def test_convert_between_ground_station_files_needs_no_mode(tmp_path: Path) -> None:
+    """.waypoints ↔ .plan: neither has a place for a mode, so none is asked for or lost."""
+    out = tmp_path / "sq.plan"
+    res = runner.invoke(app, ["mission", "convert", str(WPL), str(out)])
+    assert res.exit_code == 0, res.output
+    assert "warning" not in res.output
+    back = tmp_path / "sq.waypoints"
+    res = runner.invoke(app, ["mission", "convert", str(out), str(back)])
+    assert res.exit_code == 0, res.output
+    assert "warning" not in res.output
+
+
+def test_convert_to_yaml_needs_a_mode_from_the_flag_or_the_config(tmp_path: Path) -> None:
+    out = tmp_path / "pond.yaml"
+    res = runner.invoke(app, ["mission", "convert", str(PLAN), str(out)])
+    assert res.exit_code == 2 and not out.exists()
+    (line,) = [ln for ln in res.output.splitlines() if "motion mode" in ln]
+    assert "--mode roll|scroll|omni" in line and "mission.ground_station_mode" in line
+    cfg = tmp_path / "helixd.yaml"
+    cfg.write_text("mission:\n  ground_station_mode: scroll\n")
+    res = runner.invoke(app, ["mission", "convert", str(PLAN), str(out), "--config", str(cfg)])
+    assert res.exit_code == 0, res.output
+    assert load_mission_file(out).mission.mode is MotionMode.SCROLL
+
+
 def test_convert_errors(tmp_path: Path) -> None:
     res = runner.invoke(app, ["mission", "convert", str(PLAN), str(tmp_path / "x.kml")])
     assert res.exit_code == 2
