@@ -200,6 +200,48 @@ def test_waypoints_to_plan_keeps_the_home_and_its_altitude(tmp_path: Path) -> No
     ]  # fmt: skip
 
 
+def test_waypoints_through_yaml_keep_the_home_row(tmp_path: Path) -> None:
+    """.waypoints → YAML → .waypoints: the home row comes back the same, altitude included
+    (it used to come back at altitude 0)."""
+    mid, back = tmp_path / "sq.yaml", tmp_path / "sq.waypoints"
+    res = runner.invoke(app, ["mission", "convert", str(WPL), str(mid), "--mode", "roll"])
+    assert res.exit_code == 0, res.output
+    assert yaml.safe_load(mid.read_text())["home_alt_m"] == 668.0
+    res = runner.invoke(app, ["mission", "convert", str(mid), str(back)])
+    assert res.exit_code == 0, res.output
+    home = next(ln for ln in WPL.read_text().splitlines() if ln.startswith("0\t"))
+    assert back.read_text().splitlines()[1].split("\t")[8:11] == [
+        f"{float(v):.8f}" for v in home.split("\t")[8:11]
+    ]
+
+
+def test_whole_number_parameters_are_written_as_integers(tmp_path: Path) -> None:
+    """DO_SET_SERVO's channel and DO_JUMP's repeat are integers in ArduPilot: `channel: 9`,
+    not `channel: 9.0`; a float parameter stays a float."""
+    src = tmp_path / "s.waypoints"
+    src.write_text(
+        "QGC WPL 110\n"
+        "0\t1\t0\t16\t0\t0\t0\t0\t53.52325\t-113.52611\t668\t1\n"
+        "1\t0\t3\t16\t0\t0\t0\t0\t53.5233\t-113.52605\t0\t1\n"
+        "2\t0\t0\t183\t9\t1500\t0\t0\t0\t0\t0\t1\n"
+        "3\t0\t3\t16\t0\t0\t0\t0\t53.5233\t-113.5259\t0\t1\n"
+        "4\t0\t0\t177\t1\t2\t0\t0\t0\t0\t0\t1\n"
+    )
+    out = tmp_path / "s.yaml"
+    res = runner.invoke(app, ["mission", "convert", str(src), str(out), "--mode", "roll"])
+    assert res.exit_code == 0, res.output
+    text = out.read_text()
+    assert "channel: 9," in text and "repeat: 2," in text, text
+    servo, jump = yaml.safe_load(text)["waypoints"][1::2]
+    assert type(servo["channel"]) is int and type(jump["repeat"]) is int
+    back = tmp_path / "back.waypoints"
+    res = runner.invoke(app, ["mission", "convert", str(out), str(back)])
+    assert res.exit_code == 0, res.output
+    rows = [ln.split("\t") for ln in back.read_text().splitlines()[2:]]
+    assert [float(v) for v in rows[1][4:6]] == [9.0, 1500.0]
+    assert [float(v) for v in rows[3][4:6]] == [1.0, 2.0]
+
+
 def test_ignored_qgc_fields_are_said_naming_the_item(tmp_path: Path) -> None:
     """Acceptance radius (param2) and cruiseSpeed are not used yet; the hold time (param1) is
     flown since mission commands: not said to be ignored, shown as a hold."""
