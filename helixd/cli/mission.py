@@ -116,23 +116,26 @@ def convert(
     cfg = config_or_exit(config)
     where = _origin(origin)
     gs_mode = cfg.mission.ground_station_mode
+    default_mode = MotionMode(gs_mode) if gs_mode else None
     try:
-        loaded = load_mission_file(
-            src,
-            cfg.mission,
-            mode=mode,
-            default_mode=MotionMode(gs_mode) if gs_mode else None,
-        )
+        target = detect_format(dst)
+    except FormatError as exc:
+        raise fail(exc.problems) from None
+    # ground station → ground station: neither file has a place for a mode, so none is needed
+    gcs_only = target is not MissionFormat.YAML and sniff_format(src) is not MissionFormat.YAML
+    if gcs_only and mode is None and default_mode is None:
+        default_mode = MotionMode.ROLL  # a placeholder the output drops
+    try:
+        loaded = load_mission_file(src, cfg.mission, mode=mode, default_mode=default_mode)
     except ConfigFileError as exc:
         raise fail(exc.problems) from None
     for line in loaded.notes:
         typer.echo(f"warning: {clip_line(line)}", err=True)
     msn = loaded.mission
     try:
-        target = detect_format(dst)
         if target is not MissionFormat.YAML:  # a ground station needs lat/lon
             msn = placed_with(msn, where, start_heading_deg)
-        for what in lost_in(msn, target):
+        for what in lost_in(msn, target, had_mode=loaded.format is MissionFormat.YAML):
             typer.echo(f"warning: {dst}: the format has no place for {what}; left out", err=True)
         fmt = write_mission_file(msn, dst, source_home(loaded.gcs))
     except FormatError as exc:

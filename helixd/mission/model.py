@@ -47,6 +47,7 @@ from helixd.mission.commands import (
     FLY_ROLES,
     MAX_PARAMS,
     CommandSpec,
+    ParamSpec,
     command_name,
     command_number,
     command_spec,
@@ -124,6 +125,13 @@ def _named_params(data: dict[str, Any], spec: CommandSpec) -> dict[str, Any]:
     return out
 
 
+def _whole(value: float | None, pspec: ParamSpec | None) -> float | int | None:
+    """A parameter ArduPilot stores as an integer, written as one when it is whole."""
+    if value is None or pspec is None or not pspec.whole:
+        return value
+    return int(value) if math.isfinite(value) and value == int(value) else value
+
+
 def entry_yaml(wp: WaypointSpec) -> dict[str, Any]:
     """An entry as the YAML format writes it (loads back equal): the command by name (not
     for a NAV_WAYPOINT with a place), its parameters by name where every non-default one has
@@ -150,11 +158,14 @@ def entry_yaml(wp: WaypointSpec) -> dict[str, Any]:
             if pspec is None:
                 by_name = False
                 break
-            named[pspec.name] = value
+            named[pspec.name] = _whole(value, pspec)
         if by_name:
             out.update(named)
         else:
-            out["params"] = list(wp.params)
+            out["params"] = [
+                _whole(v, spec.params[i] if i < len(spec.params) else None)
+                for i, v in enumerate(wp.params)
+            ]
     if wp.z is not None:
         out["z"] = wp.z
     if wp.frame is not None:
@@ -345,6 +356,13 @@ class Mission(InputModel):
         "the mission's own coordinates): NAV_RETURN_TO_LAUNCH goes there in `check`; a run "
         "returns to the autopilot's own home (HOME_POSITION)",
     )
+    home_alt_m: float | None = Field(
+        None,
+        ge=-1e6,
+        le=1e6,
+        description="the home's altitude (m) from the ground station, kept so a conversion "
+        "back writes it; a rover ignores it",
+    )
 
     @model_validator(mode="after")
     def _check_points(self, info: ValidationInfo) -> Mission:
@@ -404,6 +422,8 @@ class Mission(InputModel):
             lat, lon = self.home
             if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
                 raise ValueError(f"home: ({lat}, {lon}) is not a latitude/longitude pair")
+        if self.home_alt_m is not None and self.home is None:
+            raise ValueError("home_alt_m: given without a home")
         fence_problems = self.fence_problems()
         if fence_problems:
             raise ValueError("\n".join(f"geofence_polygon: {p}" for p in fence_problems))

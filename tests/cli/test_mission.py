@@ -90,6 +90,31 @@ def test_convert_round_trip_and_what_is_lost(tmp_path: Path) -> None:
     assert [w.command for w in again.waypoints] == [w.command for w in first.waypoints]
 
 
+def test_convert_between_ground_station_files_needs_no_mode(tmp_path: Path) -> None:
+    """.waypoints ↔ .plan: neither has a place for a mode, so none is asked for or lost."""
+    out = tmp_path / "sq.plan"
+    res = runner.invoke(app, ["mission", "convert", str(WPL), str(out)])
+    assert res.exit_code == 0, res.output
+    assert "warning" not in res.output
+    back = tmp_path / "sq.waypoints"
+    res = runner.invoke(app, ["mission", "convert", str(out), str(back)])
+    assert res.exit_code == 0, res.output
+    assert "warning" not in res.output
+
+
+def test_convert_to_yaml_needs_a_mode_from_the_flag_or_the_config(tmp_path: Path) -> None:
+    out = tmp_path / "pond.yaml"
+    res = runner.invoke(app, ["mission", "convert", str(PLAN), str(out)])
+    assert res.exit_code == 2 and not out.exists()
+    (line,) = [ln for ln in res.output.splitlines() if "motion mode" in ln]
+    assert "--mode roll|scroll|omni" in line and "mission.ground_station_mode" in line
+    cfg = tmp_path / "helixd.yaml"
+    cfg.write_text("mission:\n  ground_station_mode: scroll\n")
+    res = runner.invoke(app, ["mission", "convert", str(PLAN), str(out), "--config", str(cfg)])
+    assert res.exit_code == 0, res.output
+    assert load_mission_file(out).mission.mode is MotionMode.SCROLL
+
+
 def test_convert_errors(tmp_path: Path) -> None:
     res = runner.invoke(app, ["mission", "convert", str(PLAN), str(tmp_path / "x.kml")])
     assert res.exit_code == 2
@@ -173,6 +198,48 @@ def test_waypoints_to_plan_keeps_the_home_and_its_altitude(tmp_path: Path) -> No
     assert back.read_text().splitlines()[1].split("\t")[8:11] == [
         "53.52325000", "-113.52611000", "668.00000000",
     ]  # fmt: skip
+
+
+def test_waypoints_through_yaml_keep_the_home_row(tmp_path: Path) -> None:
+    """.waypoints → YAML → .waypoints: the home row comes back the same, altitude included
+    (it used to come back at altitude 0)."""
+    mid, back = tmp_path / "sq.yaml", tmp_path / "sq.waypoints"
+    res = runner.invoke(app, ["mission", "convert", str(WPL), str(mid), "--mode", "roll"])
+    assert res.exit_code == 0, res.output
+    assert yaml.safe_load(mid.read_text())["home_alt_m"] == 668.0
+    res = runner.invoke(app, ["mission", "convert", str(mid), str(back)])
+    assert res.exit_code == 0, res.output
+    home = next(ln for ln in WPL.read_text().splitlines() if ln.startswith("0\t"))
+    assert back.read_text().splitlines()[1].split("\t")[8:11] == [
+        f"{float(v):.8f}" for v in home.split("\t")[8:11]
+    ]
+
+
+def test_whole_number_parameters_are_written_as_integers(tmp_path: Path) -> None:
+    """DO_SET_SERVO's channel and DO_JUMP's repeat are integers in ArduPilot: `channel: 9`,
+    not `channel: 9.0`; a float parameter stays a float."""
+    src = tmp_path / "s.waypoints"
+    src.write_text(
+        "QGC WPL 110\n"
+        "0\t1\t0\t16\t0\t0\t0\t0\t53.52325\t-113.52611\t668\t1\n"
+        "1\t0\t3\t16\t0\t0\t0\t0\t53.5233\t-113.52605\t0\t1\n"
+        "2\t0\t0\t183\t9\t1500\t0\t0\t0\t0\t0\t1\n"
+        "3\t0\t3\t16\t0\t0\t0\t0\t53.5233\t-113.5259\t0\t1\n"
+        "4\t0\t0\t177\t1\t2\t0\t0\t0\t0\t0\t1\n"
+    )
+    out = tmp_path / "s.yaml"
+    res = runner.invoke(app, ["mission", "convert", str(src), str(out), "--mode", "roll"])
+    assert res.exit_code == 0, res.output
+    text = out.read_text()
+    assert "channel: 9," in text and "repeat: 2," in text, text
+    servo, jump = yaml.safe_load(text)["waypoints"][1::2]
+    assert type(servo["channel"]) is int and type(jump["repeat"]) is int
+    back = tmp_path / "back.waypoints"
+    res = runner.invoke(app, ["mission", "convert", str(out), str(back)])
+    assert res.exit_code == 0, res.output
+    rows = [ln.split("\t") for ln in back.read_text().splitlines()[2:]]
+    assert [float(v) for v in rows[1][4:6]] == [9.0, 1500.0]
+    assert [float(v) for v in rows[3][4:6]] == [1.0, 2.0]
 
 
 def test_ignored_qgc_fields_are_said_naming_the_item(tmp_path: Path) -> None:

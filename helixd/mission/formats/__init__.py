@@ -250,11 +250,13 @@ def mission_to_yaml(mission: Mission) -> str:
     return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
 
 
-def lost_in(mission: Mission, fmt: MissionFormat) -> list[str]:
-    """What of ``mission`` the format cannot hold (said when converting)."""
+def lost_in(mission: Mission, fmt: MissionFormat, *, had_mode: bool = True) -> list[str]:
+    """What of ``mission`` the format cannot hold (said when converting); ``had_mode``: the
+    mode came from a helixd mission (a ground-station source has none to lose)."""
     if fmt is MissionFormat.YAML:
         return []
-    lost = ["mode", *(["tolerance_m"] if mission.tolerance_m is not None else [])]
+    lost = ["mode"] if had_mode else []
+    lost += ["tolerance_m"] if mission.tolerance_m is not None else []
     lost += ["speed_mps"] if mission.speed_mps is not None else []
     lost += ["geofence_radius_m"] if mission.geofence_radius_m is not None else []
     lost += ["ground"] if mission.ground is not None else []

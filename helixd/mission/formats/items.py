@@ -312,6 +312,8 @@ def items_to_mission(
         )
     if gcs.home_latlon_deg is not None:
         data["home"] = list(gcs.home_latlon_deg)
+        if gcs.home_alt_m is not None and math.isfinite(gcs.home_alt_m) and gcs.home_alt_m:
+            data["home_alt_m"] = gcs.home_alt_m
     try:
         mission = Mission.model_validate(data)
     except ValidationError as exc:
@@ -449,7 +451,7 @@ def mission_to_items(
         items=items,
         home_latlon_deg=home_latlon,
         polygons=polygons,
-        home_alt_m=None if home is None else home[2],
+        home_alt_m=mission.home_alt_m if home is None else home[2],
         time_limit_s=mission.time_limit_s,
     )
 
