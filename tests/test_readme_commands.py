@@ -143,3 +143,16 @@ def test_online_command_parses(command: str, tmp_path: Path) -> None:
         o for o in options if not re.search(rf"(?<![\w-]){re.escape(o)}(?![\w-])", done.stdout)
     )
     assert not unknown, f"{command}: not in `helixd {' '.join(sub)} --help`: {unknown}"
+
+
+TOP_DIRS = ("config", "tests", "tools", "helixd", "docs", "systemd", "autopilot")
+PATTERN_PATHS = {"helixd/x/y.py", "tests/x/test_y.py"}  # the layout's naming rule
+
+
+def test_paths_in_the_text_exist() -> None:
+    """Every `path` in the README's text under one of the checkout's folders exists."""
+    text = (REPO_ROOT / "README.md").read_text(encoding="utf-8")
+    spans = set(re.findall(r"`([^`\s]+)`", text)) - PATTERN_PATHS
+    paths = [s for s in spans if s.split("/")[0] in TOP_DIRS and "/" in s]
+    missing = sorted(p for p in paths if not list(REPO_ROOT.glob(p.rstrip("/"))))
+    assert paths and not missing, missing
