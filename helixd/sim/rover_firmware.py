@@ -172,6 +172,8 @@ class SimAutopilot:
         self.home_time_s = None if home_delay is None else self.origin_time_s + home_delay
         delay = self.config.prearm_delay_s
         self.prearm_ok_time_s = None if delay is None else self.boot_end_s + delay
+        self._motor_check: str | None = None
+        self._motor_check_version = -1  # ParamStore.version it was judged at
         self.mode = modes.INITIALISING
         self.armed = False
         self.rc = RcInputs(self.pilot_rc_us)
@@ -302,9 +304,19 @@ class SimAutopilot:
         if self.params.get_int("ARMING_SKIPCHK") == -1:
             return []
         out = [] if (first := self.prearm_failure(now_s, ekf)) is None else [first]
-        frame = self.params.get_int("FRAME_TYPE") if "FRAME_TYPE" in self.params else 0
-        motors = motor_prearm_failure(servo_functions(self.params.as_dict()), frame)
+        motors = self._motor_prearm_failure()
         return out if motors is None else [*out, motors]
+
+    def _motor_prearm_failure(self) -> str | None:
+        """AP_MotorsUGV::pre_arm_check over the SERVOn_FUNCTION parameters, judged again only
+        when a parameter changed (the telemetry view asks at every step)."""
+        version = self.params.version
+        if self._motor_check_version != version:
+            frame = self.params.get_int("FRAME_TYPE") if "FRAME_TYPE" in self.params else 0
+            functions = servo_functions(self.params.as_dict())
+            self._motor_check = motor_prearm_failure(functions, frame)
+            self._motor_check_version = version
+        return self._motor_check
 
     def prearm_failure(self, now_s: float, ekf: SimEkfStatus) -> str | None:
         """AP_Arming::gps_checks refuses before home is set; the other checks (simulated by
