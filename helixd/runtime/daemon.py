@@ -515,6 +515,16 @@ class MissionRunner:
             self.display.close()
 
     async def _run(self) -> RunOutcome:
+        # A link never made is a connect failure, not a flight: no run directory, no fault.
+        try:
+            reached = await self.host.reach(self.cfg)
+        except LinkError as exc:
+            url = self.opts.connect_url
+            line = f"error: could not connect to {url}: {str(exc).removeprefix(f'{url}: ')}"
+            return RunOutcome(ExitCode.LINK, None, None, [line])
+        except StopBeforeFlight:
+            line = f"stopped while connecting to {self.opts.connect_url}"
+            return RunOutcome(ExitCode.OPERATOR_STOP, None, None, [line])
         try:
             self.recorder = RunRecorder.create(
                 run_root=self.opts.run_root,
@@ -526,6 +536,8 @@ class MissionRunner:
                 inputs_json=None if self.opts.inputs is None else self.opts.inputs.to_json(),
             )
         except RecorderUnavailable as exc:
+            if reached is not None:
+                await self._bounded_close("link", self.host.close(reached))
             summary = self._build_summary(f"recorder: {exc}", ExitCode.PREFLIGHT, None)
             return RunOutcome(ExitCode.PREFLIGHT, None, None, [str(exc), result_line(summary)])
         self.recorder.on_cut = self._record_cut
