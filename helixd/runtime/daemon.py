@@ -25,6 +25,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
+import os
 import time
 from collections.abc import AsyncIterator, Awaitable
 from dataclasses import dataclass, field
@@ -516,8 +517,9 @@ class MissionRunner:
 
     async def _run(self) -> RunOutcome:
         # A link never made is a connect failure, not a flight: no run directory, no fault.
+        # A run root that cannot be written is refused first, without connecting.
         try:
-            reached = await self.host.reach(self.cfg)
+            reached = await self.host.reach(self.cfg) if _may_write(self.opts.run_root) else None
         except LinkError as exc:
             url = self.opts.connect_url
             line = f"error: could not connect to {url}: {str(exc).removeprefix(f'{url}: ')}"
@@ -730,6 +732,14 @@ def pose_text(ned: NedPose | None) -> str:
         f"N {ned.north_m:.2f} m, E {ned.east_m:.2f} m, "
         f"yaw {math.degrees(ned.yaw_ned_rad) % 360:.0f}° (NED)"
     )
+
+
+def _may_write(root: Path) -> bool:
+    """Whether the run root (or the nearest folder it would be made in) looks writable."""
+    where = root
+    while not where.exists() and where.parent != where:
+        where = where.parent
+    return where.is_dir() and os.access(where, os.W_OK)
 
 
 async def run_mission(opts: RunOptions, host: FlightHost | None = None) -> RunOutcome:
