@@ -25,6 +25,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import math
+import os
 import time
 from collections.abc import AsyncIterator, Awaitable
 from dataclasses import dataclass, field
@@ -515,6 +516,17 @@ class MissionRunner:
             self.display.close()
 
     async def _run(self) -> RunOutcome:
+        # A link never made is a connect failure, not a flight: no run directory, no fault.
+        # A run root that cannot be written is refused first, without connecting.
+        try:
+            reached = await self.host.reach(self.cfg) if _may_write(self.opts.run_root) else None
+        except LinkError as exc:
+            url = self.opts.connect_url
+            line = f"error: could not connect to {url}: {str(exc).removeprefix(f'{url}: ')}"
+            return RunOutcome(ExitCode.LINK, None, None, [line])
+        except StopBeforeFlight:
+            line = f"stopped while connecting to {self.opts.connect_url}"
+            return RunOutcome(ExitCode.OPERATOR_STOP, None, None, [line])
         try:
             self.recorder = RunRecorder.create(
                 run_root=self.opts.run_root,
@@ -526,6 +538,8 @@ class MissionRunner:
                 inputs_json=None if self.opts.inputs is None else self.opts.inputs.to_json(),
             )
         except RecorderUnavailable as exc:
+            if reached is not None:
+                await self._bounded_close("link", self.host.close(reached))
             summary = self._build_summary(f"recorder: {exc}", ExitCode.PREFLIGHT, None)
             return RunOutcome(ExitCode.PREFLIGHT, None, None, [str(exc), result_line(summary)])
         self.recorder.on_cut = self._record_cut
@@ -718,6 +732,14 @@ def pose_text(ned: NedPose | None) -> str:
         f"N {ned.north_m:.2f} m, E {ned.east_m:.2f} m, "
         f"yaw {math.degrees(ned.yaw_ned_rad) % 360:.0f}° (NED)"
     )
+
+
+def _may_write(root: Path) -> bool:
+    """Whether the run root (or the nearest folder it would be made in) looks writable."""
+    where = root
+    while not where.exists() and where.parent != where:
+        where = where.parent
+    return where.is_dir() and os.access(where, os.W_OK)
 
 
 async def run_mission(opts: RunOptions, host: FlightHost | None = None) -> RunOutcome:

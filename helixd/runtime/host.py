@@ -24,7 +24,7 @@ from typing import Protocol
 from helixd.config import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
-from helixd.runtime.setup import Held, attach, connect
+from helixd.runtime.setup import Held, attach, connect, reach
 from helixd.runtime.signals import StopRequest, install, uninstall
 
 __all__ = ["FlightHost", "OwnLink", "ServeHost"]
@@ -46,6 +46,11 @@ class FlightHost(Protocol):
 
     def signals(self) -> contextlib.AbstractContextManager[None]:
         """While the flight runs: SIGINT/SIGTERM trigger :attr:`stop` (or someone else's do)."""
+        ...
+
+    async def reach(self, cfg: HelixdConfig) -> Autopilot | None:
+        """Before the run directory exists: make the link, or raise LinkError (a link never
+        made leaves nothing behind)."""
         ...
 
     async def open(
@@ -75,6 +80,7 @@ class OwnLink:
     def __init__(self) -> None:
         self.stop = StopRequest()
         self.notifier = ServiceNotifier()  # the run's own (helixd run under systemd)
+        self._reached: Autopilot | None = None
 
     @contextlib.contextmanager
     def signals(self) -> Iterator[None]:
@@ -92,7 +98,14 @@ class OwnLink:
         on_link: Callable[[Autopilot], None],
         run_dir: Path | None,
     ) -> Autopilot:
-        return await connect(cfg, held, self.stop, on_link, run_dir)
+        ap, self._reached = self._reached, None
+        if ap is None:
+            ap = await reach(cfg, self.stop)
+        return await connect(ap, cfg, held, self.stop, on_link, run_dir)
+
+    async def reach(self, cfg: HelixdConfig) -> Autopilot | None:
+        self._reached = await reach(cfg, self.stop)
+        return self._reached
 
     async def close(self, ap: Autopilot) -> None:
         ap.stop_heartbeat()
@@ -118,6 +131,10 @@ class ServeHost:
 
     def signals(self) -> contextlib.AbstractContextManager[None]:
         return contextlib.nullcontext()  # the service owns them
+
+    async def reach(self, cfg: HelixdConfig) -> Autopilot | None:
+        """The service's link is up already."""
+        return None
 
     async def open(
         self,

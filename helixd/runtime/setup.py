@@ -168,16 +168,32 @@ async def start_sink(cfg: HelixdConfig, ap: Autopilot, held: Held) -> ActuatorSi
     return sink
 
 
+async def reach(cfg: HelixdConfig, stop: StopRequest) -> Autopilot:
+    """``helixd run``'s own link, made before anything is recorded: open the transport and
+    wait for the autopilot's HEARTBEAT (``startup.connect_timeout_s``). The link closed and
+    LinkError (one human message) when it cannot be made; nothing is sent but the udpout
+    announce, and these first frames are not in the tlog (it opens with the run directory)."""
+    ap = await Autopilot.connect(cfg.link, cfg.safety)
+    try:
+        await until_stopped(stop, ap.wait_heartbeat(cfg.startup.connect_timeout_s))
+    except BaseException:
+        with contextlib.suppress(Exception):
+            await ap.close()
+        raise
+    return ap
+
+
 async def connect(
+    ap: Autopilot,
     cfg: HelixdConfig,
     held: Held,
     stop: StopRequest,
     on_link: Callable[[Autopilot], None],
     run_dir: Path | None,
 ) -> Autopilot:
-    """``helixd run``'s own link: connect, record the tlog in ``run_dir``, wait for the
-    autopilot's HEARTBEAT, start ours, neutral on the servo outputs, then the streams."""
-    ap = await Autopilot.connect(cfg.link, cfg.safety)
+    """``helixd run``'s own link, reached (:func:`reach`): record the tlog in ``run_dir``,
+    wait for the autopilot's HEARTBEAT, start ours, neutral on the servo outputs, then the
+    streams."""
     held.ap = ap
     on_link(ap)
     if run_dir is not None and cfg.link.tlog_enabled:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import socket
 from pathlib import Path
 
 import pytest
@@ -178,3 +179,38 @@ def test_search_order(tmp_path: Path) -> None:
     assert found.path == second / "m.yaml" and found.searched
     (first / "m.yml").write_text("x")
     assert locate_mission(Path("m"), (first, second)).path == first / "m.yml"
+
+
+def _free_port(kind: socket.SocketKind) -> int:
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.mark.parametrize(
+    ("scheme", "kind", "why"),
+    [
+        ("tcp", socket.SOCK_STREAM, "connection refused"),
+        ("udpout", socket.SOCK_DGRAM, "no HEARTBEAT"),
+    ],
+)
+def test_a_link_never_made_is_exit_6_with_one_line_and_no_run_directory(
+    scheme: str,
+    kind: socket.SocketKind,
+    why: str,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    url = f"{scheme}:127.0.0.1:{_free_port(kind)}"  # bound and closed: nobody there
+    config = tmp_path / "helixd.yaml"
+    config.write_text("startup:\n  connect_timeout_s: 1.0\n")
+    runs = tmp_path / "runs"
+    argv = ["run", "--mission", str(SQUARE), "--connect", url, "--run-dir", str(runs)]
+    code, out, err = run_main([*argv, "--config", str(config)], capsys)
+    assert code == 6, err
+    errors = [ln for ln in err.splitlines() if ln.startswith("error:")]
+    assert errors == [errors[0]] and errors[0].startswith(f"error: could not connect to {url}: ")
+    assert why in errors[0]
+    assert "Traceback" not in out + err
+    assert "link_lost" not in out + err and "run directory" not in err
+    assert not runs.exists()

@@ -181,7 +181,7 @@ def test_start_switch_on_the_mode_channel_is_refused(tmp_path: Path) -> None:
 
 
 async def test_no_autopilot_ends_with_a_link_failed_result(tmp_path: Path) -> None:
-    """Nothing answers on the link: exit 6 and one plain result line saying so."""
+    """Nothing answers on the link: exit 6, one error line saying so, no run directory."""
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]  # a UDP port nobody listens on once this closes
@@ -199,9 +199,11 @@ async def test_no_autopilot_ends_with_a_link_failed_result(tmp_path: Path) -> No
         )
     )
     assert outcome.exit_code is ExitCode.LINK
-    last = outcome.messages[-1]
-    assert last.startswith("helixd: RESULT link-failed link_lost: ")
-    assert last.endswith("— 0/4 waypoints, not flown, exit 6")
+    assert outcome.run_dir is None and not (tmp_path / "runs").exists()
+    assert outcome.messages == [
+        f"error: could not connect to {url}: no HEARTBEAT from system 1 on {url} within 1 s; "
+        "nothing received at all"
+    ]
 
 
 async def test_unwritable_recorder_refusal_ends_with_a_result(tmp_path: Path) -> None:

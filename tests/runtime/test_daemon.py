@@ -140,6 +140,7 @@ def test_a_stop_during_preflight_acts_at_once(monkeypatch: pytest.MonkeyPatch) -
     """Ctrl-C while preflight waited on the autopilot (the EKF origin request: 3 s) took
     that long to act: the whole preflight is raced against the stop request now."""
     from pathlib import Path
+    from types import SimpleNamespace
     from typing import Any
 
     from helixd.config import HelixdConfig
@@ -156,7 +157,7 @@ def test_a_stop_during_preflight_acts_at_once(monkeypatch: pytest.MonkeyPatch) -
     abandoned = asyncio.Event()
 
     async def open_link(*_: Any) -> object:
-        return object()
+        return SimpleNamespace(tlog=None)  # no tlog attached
 
     async def slow_preflight(_: object) -> None:
         waiting.set()
