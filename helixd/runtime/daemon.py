@@ -525,7 +525,8 @@ class MissionRunner:
             line = f"error: could not connect to {url}: {str(exc).removeprefix(f'{url}: ')}"
             return RunOutcome(ExitCode.LINK, None, None, [line])
         except StopBeforeFlight:
-            line = f"stopped while connecting to {self.opts.connect_url}"
+            by = self.host.stop.signal_name or "a stop request"
+            line = f"stopped by {by} while connecting to {self.opts.connect_url}; nothing recorded"
             return RunOutcome(ExitCode.OPERATOR_STOP, None, None, [line])
         try:
             self.recorder = RunRecorder.create(
