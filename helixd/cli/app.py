@@ -369,6 +369,7 @@ def _fly(
         connect_url=url,
         run_root=run_dir or cfg.recorder.run_root,
         tty=tty,
+        plain_progress=not tty and log_level not in ("debug", "info"),
         replan_from=flight.replan_from,
         show_plan=show_plan,
         inputs=flight.inputs,

@@ -108,6 +108,8 @@ class RunOptions:
     connect_url: str
     run_root: Path
     tty: bool
+    # not on a terminal and the console quieter than info: plain progress lines and the table
+    plain_progress: bool = False
     # planning: the mission with its first leg re-planned from the rover's (north_m, east_m)
     # (and the EKF origin's (lat, lon), for a global mission)
     replan_from: Replanner | None = None
@@ -300,7 +302,7 @@ class MissionRunner:
         self.host: FlightHost = host or OwnLink()
         self.stop = self.host.stop
         self.notifier = self.host.notifier
-        self.display = ProgressDisplay(tty=opts.tty)
+        self.display = ProgressDisplay(tty=opts.tty, plain_lines=opts.plain_progress)
         self.recorder: RunRecorder | None = None
         self.summary = SummaryBuilder()
         self.messages: list[str] = []

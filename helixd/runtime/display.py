@@ -286,18 +286,26 @@ def progress_line(phase: str, info: ProgressInfo | None) -> Text:
 
 
 class ProgressDisplay:
-    """Operator display; ``tty`` picks the live line (True) or progress events (False)."""
+    """Operator display; ``tty`` picks the live line (True) or progress events (False).
+
+    ``plain_lines`` (not on a terminal, with a console quieter than the info events, e.g.
+    ``make demo``): the progress line is also printed as plain text every event interval, and
+    the result table at the end, so the operator sees progress and a summary without the
+    event stream.
+    """
 
     def __init__(
         self,
         tty: bool,
         *,
+        plain_lines: bool = False,
         console: Console | None = None,
         clock: Callable[[], float] = time.monotonic,
         refresh_hz: float = REFRESH_HZ,
         event_interval_s: float = EVENT_INTERVAL_S,
     ) -> None:
         self._tty = tty
+        self._plain_lines = plain_lines and not tty
         self._console = console
         self._clock = clock
         self._min_gap_s = 1.0 / refresh_hz if tty else event_interval_s
@@ -340,6 +348,9 @@ class ProgressDisplay:
             self._last_out_s = now
             self.outputs += 1
             log.info("progress", **progress_fields(self._phase, self._shown()))
+            if self._plain_lines:
+                line = progress_line(self._phase, self._shown()).plain
+                self._get_console().print(" ".join(line.split()), highlight=False, soft_wrap=True)
 
     def final(
         self, summary: RunSummary, run_dir: Path | None = None, *, log_event: bool = True
@@ -352,7 +363,7 @@ class ProgressDisplay:
         self.close()
         if log_event:
             self.log_result(summary, run_dir)
-        if self._tty:
+        if self._tty or self._plain_lines:
             self._get_console().print(summary_table(summary, run_dir))
 
     def log_result(self, summary: RunSummary, run_dir: Path | None = None) -> None:

@@ -338,3 +338,34 @@ def test_via_points_are_shown_as_such_not_as_the_operators_waypoints() -> None:
     assert rows["arrivals"].startswith("#1 +13.0 s (0.10 m), #2 +16.0 s (0.10 m), #3 +21.0 s")
     shown = progress_fields("fly", info(0, waypoint_index=2, waypoints_total=3, via=True))
     assert shown["waypoint"] == "via → 2/3"
+
+
+def test_a_quiet_console_off_a_terminal_still_gets_progress_lines_and_the_table() -> None:
+    """``make demo`` (console at warning, not a terminal): the info progress events are
+    hidden, so the progress line is printed plain every event interval and the table at the
+    end — without escape codes."""
+    clock = FakeClock()
+    logging_setup.configure_logging(tty=False, stream=io.StringIO(), clock=clock, level="warning")
+    buf = io.StringIO()
+    console = Console(file=buf, width=100, color_system=None)
+    display = ProgressDisplay(tty=False, plain_lines=True, console=console, clock=clock)
+    display.phase("fly")
+    fly(display, clock, 10.0)
+    display.final(_summary(ExitCode.OK, None, 73, 4))
+    text = buf.getvalue()
+    assert "\x1b" not in text
+    progress = [ln for ln in text.splitlines() if ln.startswith("FLY wp ")]
+    assert len(progress) == 5  # one per 2 s event interval over 10 s, one line each
+    assert "helixd run result" in text
+
+
+def test_plain_lines_are_off_on_a_terminal_and_by_default() -> None:
+    buf = io.StringIO()
+    console = Console(file=buf, width=100, color_system=None)
+    clock = FakeClock()
+    logging_setup.configure_logging(tty=False, stream=io.StringIO(), clock=clock)
+    display = ProgressDisplay(tty=False, console=console, clock=clock)
+    display.phase("fly")
+    fly(display, clock, 10.0)
+    display.final(_summary(ExitCode.OK, None, 73, 4))
+    assert buf.getvalue() == ""  # the events say it; nothing printed twice
