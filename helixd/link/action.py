@@ -18,7 +18,7 @@ from helixd.link.codec import MavlinkConnection
 from helixd.link.command_client import CommandClient, CommandError, CommandRejected
 from helixd.link.telemetry import ChangeWaiters
 from helixd.link.vehicle import Change, HomePosition, VehicleState, mode_number
-from helixd.mav.arming import K_SCRIPTING1, NO_OUTPUTS_TEXT
+from helixd.mav.arming import FORCE_ARM_MAGIC, K_SCRIPTING1, NO_OUTPUTS_TEXT
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MISSION_CURRENT,
@@ -33,7 +33,6 @@ from helixd.mav.constants import (
 
 log = structlog.get_logger(__name__)
 
-ARM_FORCE_MAGIC = 21196  # param2 of COMPONENT_ARM_DISARM: skip checks
 RC_OVERRIDE_CHANNELS = 18
 ARM_TEXT_PREFIXES = ("PreArm", "Arm")
 # "PreArm: " + the text is 51 characters: a receiver that does not join STATUSTEXT chunks
@@ -92,7 +91,7 @@ class Action:
         since = time.monotonic()
         try:
             await self.command_long(
-                MAV_CMD_COMPONENT_ARM_DISARM, (1, ARM_FORCE_MAGIC if forced else 0)
+                MAV_CMD_COMPONENT_ARM_DISARM, (1, FORCE_ARM_MAGIC if forced else 0)
             )
         except CommandRejected as exc:
             text = await self._arm_text(since) or exc.statustext
@@ -132,7 +131,7 @@ class Action:
         self, force: bool = False, timeout_s: float | None = None, retries: int | None = None
     ) -> None:
         await self.command_long(
-            MAV_CMD_COMPONENT_ARM_DISARM, (0, ARM_FORCE_MAGIC if force else 0), timeout_s, retries
+            MAV_CMD_COMPONENT_ARM_DISARM, (0, FORCE_ARM_MAGIC if force else 0), timeout_s, retries
         )
         log.info("disarmed", force=force)
 

@@ -29,6 +29,7 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink import mavutil
 
+from helixd.mav.arming import FORCE_ARM_MAGIC
 from helixd.sim.server import SimServer, start_embedded
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 from helixd.sim.snapshot import SimSnapshot
@@ -52,7 +53,7 @@ MAV_CMD_DO_SET_SERVO = 183
 MAV_CMD_DO_SET_HOME = 179
 MAV_CMD_COMPONENT_ARM_DISARM = 400
 MAV_CMD_SET_MESSAGE_INTERVAL = 511
-FORCE_ARM = 21196
+FORCE_ARM = FORCE_ARM_MAGIC  # the simulator's forced arm, for wire tests of the simulator itself
 MSG_LOCAL_POSITION_NED = 32
 MODE_MANUAL = 0
 MODE_HOLD = 4
