@@ -13,6 +13,7 @@ package helixd says so and runs on the standard loop.
 from __future__ import annotations
 
 import asyncio
+import gc
 import importlib.util
 from collections.abc import Callable, Coroutine
 from typing import Any, Literal, TypeVar
@@ -45,8 +46,19 @@ def run(coro: Coroutine[Any, Any, T], choice: EventLoopChoice = "asyncio") -> T:
         log.warning("event_loop_fallback", wanted=choice, loop=name, reason="uvloop not installed")
     else:
         log.info("event_loop", loop=name)
+    settle_collector()
     with asyncio.Runner(loop_factory=factory) as runner:
         return runner.run(coro)
 
 
-__all__ = ["EventLoopChoice", "loop_factory", "run", "uvloop_available"]
+def settle_collector() -> None:
+    """Collect once, then move everything alive (the imported modules, pymavlink's dialect,
+    the validated config: ~110 000 objects) out of the collector's reach: its full passes in
+    flight then scan only what the flight allocates. Without it a full pass over the startup
+    heap stalls every task of the process for 0.05–0.4 s (measured on the 2-core build box),
+    as long as the pose watchdog's whole budget when the simulator shares the process."""
+    gc.collect()
+    gc.freeze()
+
+
+__all__ = ["EventLoopChoice", "loop_factory", "run", "settle_collector", "uvloop_available"]
