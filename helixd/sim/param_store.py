@@ -69,6 +69,8 @@ def _build_defaults() -> dict[str, SimParamSpec]:
         "MODE_CH": SimParamSpec(8, i8),
         "SCR_ENABLE": SimParamSpec(0, i8),  # AP_Scripting: scripts start at boot when 1
         "ARMING_SKIPCHK": SimParamSpec(0, i32),  # AP_Arming: checks to skip; -1 = all
+        "WP_RADIUS": SimParamSpec(2.0, f32),  # AR_WPNav: a waypoint is reached within (m)
+        "MIS_DONE_BEHAVE": SimParamSpec(0, i8),  # ModeAuto::exit_mission: 0 = HOLD (stop)
     }
     for n in range(1, 7):
         table[f"MODE{n}"] = SimParamSpec(0, i8)  # Rover Parameters.cpp: every MODEn = MANUAL
