@@ -80,6 +80,7 @@ def _build_defaults() -> dict[str, SimParamSpec]:
         table[f"RC{n}_MAX"] = SimParamSpec(1900, i16)
         # Rover::init_rc_in sets a 30 µs dead zone on steering (1) and throttle (3)
         table[f"RC{n}_DZ"] = SimParamSpec(30 if n in (1, 3) else 0, i16)
+        table[f"RC{n}_OPTION"] = SimParamSpec(0, i16)  # RC_Channel: aux function, 0 = none
     for n in range(1, 17):
         table[f"SERVO{n}_FUNCTION"] = SimParamSpec(_helix_function(n), i16)
         table[f"SERVO{n}_MIN"] = SimParamSpec(1100, i16)
