@@ -799,8 +799,11 @@ class MissionServer:
         if index == 0 or self.state == MISSION_COMPLETE:
             self.jumps_run.clear()  # init_jump_tracking
             index = max(index, 1)
-        if self.state == MISSION_RUNNING:
-            return self._advance_current_nav_cmd(index, out)
+        if self.state == MISSION_RUNNING:  # in AUTO: the command starts at once
+            started = self._advance_current_nav_cmd(index, out)
+            if started:
+                self._say_started(out)
+            return started
         while True:
             found = self._next_cmd(index, out)
             if found is None:

@@ -9,8 +9,9 @@ From ArduPilot Rover's ``ModeAuto`` and ``AR_WPNav``:
   none or the mission had completed);
 * a NAV_WAYPOINT is reached when the EKF's position is within WP_RADIUS of it, or has passed
   the line through it square to the leg (``AR_WPNav::update``,
-  ``Location::past_interval_finish_line``); the leg starts at the previous waypoint when one
-  was reached, else where the rover was when the command started. Then "Reached waypoint
+  ``Location::past_interval_finish_line``); the leg starts at the previous destination while
+  the controller runs (``AR_WPNav::set_desired_location``), else (AUTO just entered) where the
+  rover is. Then "Reached waypoint
   #N" (``ModeAuto::verify_nav_wp``), MISSION_ITEM_REACHED N to every link
   (``verify_command_callback``), and the next nav command starts ("Mission: M WP"); after the
   last one "Mission Complete" (``ModeAuto::exit_mission``) and, with MIS_DONE_BEHAVE 0
@@ -81,13 +82,12 @@ class ModeAuto:
     leg_index: int | None = None  # the nav command whose leg is set
     leg_origin_ne: tuple[float, float] | None = None
     leg_dest_ne: tuple[float, float] | None = None
-    reached_ne: tuple[float, float] | None = None  # the last waypoint reached (next origin)
 
     def enter(self) -> None:
         """ModeAuto::_enter (the caller checked the mission is present)."""
         self.waiting_to_start = True
         self.leg_index = None
-        self.reached_ne = None
+        self.leg_dest_ne = None  # AR_WPNav::init: the next leg starts where the rover is
 
     def update(
         self,
@@ -113,7 +113,7 @@ class ModeAuto:
                 return out  # not modelled: the mission waits here
             if index != self.leg_index:
                 self.leg_index = index
-                self.leg_origin_ne = self.reached_ne or here_ne
+                self.leg_origin_ne = self.leg_dest_ne or here_ne
                 self.leg_dest_ne = latlon_to_ne(cmd.x / 1e7, cmd.y / 1e7, *origin_latlon_deg)
             dest = self.leg_dest_ne
             origin = self.leg_origin_ne
@@ -123,7 +123,6 @@ class ModeAuto:
                 return out
             out.say(SimStatusText(MAV_SEVERITY_INFO, f"Reached waypoint #{index}"))
             out.send((None, mission_item_reached(index)))
-            self.reached_ne = dest
             if not mission.nav_done(out):
                 out.say(SimStatusText(MAV_SEVERITY_NOTICE, MISSION_COMPLETE_TEXT))
                 return out

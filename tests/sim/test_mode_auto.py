@@ -134,3 +134,20 @@ def test_finish_line() -> None:
     assert passed_finish_line((0.0, 0.0), (10.0, 0.0), (10.0, 5.0))
     assert not passed_finish_line((0.0, 0.0), (10.0, 0.0), (9.9, -5.0))
     assert passed_finish_line((1.0, 1.0), (1.0, 1.0), (50.0, 50.0))  # no leg: passed
+
+
+def test_set_current_in_auto_starts_that_item_at_once() -> None:
+    core = ready_core()
+    upload(core, WAYPOINTS_NE)
+    assert command(core, 0, MAV_CMD_COMPONENT_ARM_DISARM, 1, sysid=GCS_SYSID) == 0
+    assert command(core, 0, MAV_CMD_MISSION_START, 0, 0, sysid=GCS_SYSID) == 0
+    run(core, 0.3)
+    assert core.mission.current_seq == 1
+    # the crew's "set current waypoint" (MISSION_SET_CURRENT) while the mission runs
+    core.handle(0, incoming(_mav.mission_set_current_encode(1, 1, 3), GCS_SYSID))
+    out = core.drain_outbox()
+    assert "Mission: 3 WP" in texts(out)
+    assert [m.seq for m in of_type(out, "MISSION_CURRENT", 0)] == [3]
+    teleport(core, 0.0, 10.0)  # at waypoint 3: reached, the mission completes
+    out = run(core, 0.3)
+    assert texts(out)[:2] == ["Reached waypoint #3", "Mission Complete"]
