@@ -274,8 +274,11 @@ def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
     stop on a vehicle we did not arm, ``safety.disarm_on_fault`` decides (None)."""
     if ending.code is ExitCode.OK:
         return True
-    if ending.fault is not None and ending.fault.cause is FaultCause.RELEASED:
-        return False  # the crew chose a mode the pilot drives: the pilot is driving it
+    if ending.fault is not None and ending.fault.cause in (
+        FaultCause.RELEASED,
+        FaultCause.ITEM_SET,
+    ):
+        return False  # the pilot drives it, or the next flight of AUTO does
     if not armed_by_us:
         return None
     if ending.fault is not None and ending.fault.cause in (FaultCause.SIGNAL, FaultCause.PAUSED):
@@ -637,6 +640,8 @@ class MissionRunner:
             self.gcs.phase(f"pausing: {ending.fault.detail}")  # an operator's, not a fault
         elif ending.fault is not None and ending.fault.cause is FaultCause.RELEASED:
             pass  # the flight loop told the GCS already (released: the pilot drives)
+        elif ending.fault is not None and ending.fault.cause is FaultCause.ITEM_SET:
+            self.gcs.phase(ending.fault.detail)
         elif ending.fault is not None:
             self.gcs.fault(ending.fault.cause.value, ending.fault.detail)
         if ap is not None and touched:

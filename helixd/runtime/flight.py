@@ -62,7 +62,7 @@ from helixd.control.slip import (
 )
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample
-from helixd.runtime.mode_gate import Gate, crew_mode, gate_of
+from helixd.runtime.mode_gate import Gate, crew_mode, gate_of, item_set_by_crew
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import Motion, Supervisor
 from helixd.safety.watchdogs import Fault, FaultCause
@@ -186,6 +186,7 @@ class FlightLoop:
         self._gated = driving_mode != MANUAL_MODE
         self._gate = Gate.DRIVE
         self.on_gate = on_gate
+        self._autopilot_item: int | None = None  # MISSION_CURRENT.seq last seen (gated)
         # The ceiling only thins out a pose flood, counted in autopilot time (pose
         # time_boot_ms), so a simulator speed-up does not lower the control rate the rover
         # sees (see ceiling_next_due).
@@ -367,6 +368,11 @@ class FlightLoop:
         if gate is Gate.RELEASE:
             fault = Fault(FaultCause.RELEASED, f"mode {mode}: the pilot drives")
             return FlightResult(fault, now, out, pose.ned if pose else None)
+        if mc is not None:
+            previous, self._autopilot_item = self._autopilot_item, mc.seq
+            if item_set_by_crew(previous, mc.seq):
+                fault = Fault(FaultCause.ITEM_SET, f"item {mc.seq} set: flying there")
+                return FlightResult(fault, now, out, pose.ned if pose else None)
         return None
 
     @property

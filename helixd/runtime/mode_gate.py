@@ -18,6 +18,10 @@ last HEARTBEAT that disagrees with it tells a change into or out of AUTO before 
 HEARTBEAT names the new mode (:func:`crew_mode`) — trusted only from an autopilot seen to fill
 it (older ones send 0 in every mode).
 
+The crew's *set current waypoint* (MISSION_SET_CURRENT / MAV_CMD_DO_SET_MISSION_CURRENT to
+the autopilot) shows as MISSION_CURRENT moving anywhere but on to the next item
+(:func:`item_set_by_crew`): the flight ends and the next one starts at that item.
+
 A flight that sets MANUAL itself (``helixd run``) has no gate: a mode change is a takeover.
 """
 
@@ -72,4 +76,20 @@ def crew_mode(
     return heartbeat_mode
 
 
-__all__ = ["AUTO_MODE", "LEFT_AUTO", "PILOT_MODES", "Gate", "crew_mode", "gate_of"]
+def item_set_by_crew(previous_seq: int | None, seq: int) -> bool:
+    """Whether the autopilot's current item (MISSION_CURRENT.seq) moved as only a crew's *set
+    current waypoint* moves it: anywhere but on to the next item (ArduPilot's own progress,
+    one item per verified waypoint). The next item set by hand cannot be told from progress;
+    neither can 0 (no current item)."""
+    return previous_seq is not None and seq not in (previous_seq, previous_seq + 1) and seq > 0
+
+
+__all__ = [
+    "AUTO_MODE",
+    "LEFT_AUTO",
+    "PILOT_MODES",
+    "Gate",
+    "crew_mode",
+    "gate_of",
+    "item_set_by_crew",
+]

@@ -576,7 +576,8 @@ class Service:
         self.busy = True
         summary = outcome.summary
         cause = _cause(summary.fault if summary is not None else None)
-        self.auto_watch.flight_ended(left_auto=cause is FaultCause.RELEASED)
+        # released to the pilot, or moved to another item: AUTO again (or still) starts
+        self.auto_watch.flight_ended(left_auto=cause in (FaultCause.RELEASED, FaultCause.ITEM_SET))
         state = state_after_flight(outcome.exit_code, cause, self.flight_stop.paused)
         if state is ServeState.COMPLETED:
             self._interrupted = None

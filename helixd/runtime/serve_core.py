@@ -272,7 +272,7 @@ def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -
     a pilot's takeover, a refusal at its start)."""
     if code is ExitCode.OK:
         return ServeState.COMPLETED
-    if cause in (FaultCause.PAUSED, FaultCause.RELEASED) or (
+    if cause in (FaultCause.PAUSED, FaultCause.RELEASED, FaultCause.ITEM_SET) or (
         paused and cause in (FaultCause.SIGNAL, None)
     ):
         return ServeState.PAUSED

@@ -161,7 +161,8 @@ async def fall_back(
         except Exception as exc:  # the fall-back must go on to HOLD whatever happened
             report.errors.append(f"stopping the scrolls failed: {exc!r}")
         report.stopped_after_s = time.monotonic() - detected_s
-    released = fault is not None and fault.cause is FaultCause.RELEASED  # the pilot drives
+    # the pilot drives, or the crew moved the autopilot's AUTO to another item: no HOLD
+    released = fault is not None and fault.cause in (FaultCause.RELEASED, FaultCause.ITEM_SET)
     if autopilot is not None and not released:
         report.hold_requested_after_s = time.monotonic() - detected_s
         deadline = time.monotonic() + cfg.hold_retry_bound_s

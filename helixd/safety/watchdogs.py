@@ -57,6 +57,9 @@ class FaultCause(StrEnum):
     # helixd serve, a flight the autopilot's AUTO drives: the crew chose a mode the pilot
     # drives (MANUAL, ACRO, STEERING): overrides released at once, no HOLD asked
     RELEASED = "released"
+    # helixd serve, a flight of AUTO: the crew set the autopilot's current item (not the next
+    # one): the flight ends without asking HOLD and the next starts at that item
+    ITEM_SET = "item_set"
     EXCEPTION = "exception"  # unhandled error inside helixd
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
     ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
@@ -65,7 +68,13 @@ class FaultCause(StrEnum):
 
 # Causes that mean "a human took over or asked to stop", not "something broke".
 OPERATOR_CAUSES = frozenset(
-    {FaultCause.PILOT_TAKEOVER, FaultCause.SIGNAL, FaultCause.PAUSED, FaultCause.RELEASED}
+    {
+        FaultCause.PILOT_TAKEOVER,
+        FaultCause.SIGNAL,
+        FaultCause.PAUSED,
+        FaultCause.RELEASED,
+        FaultCause.ITEM_SET,
+    }
 )
 
 

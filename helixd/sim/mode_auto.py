@@ -104,26 +104,24 @@ class ModeAuto:
         if self.waiting_to_start:
             self.waiting_to_start = False
             mission.start_or_resume(out)
-        for _ in range(8):  # several short legs may be passed in one loop (bounded)
-            current = mission.nav_item()
-            if current is None:
-                return out
-            index, cmd = current
-            if cmd.command != MAV_CMD_NAV_WAYPOINT or cmd.frame not in GLOBAL_FRAMES:
-                return out  # not modelled: the mission waits here
-            if index != self.leg_index:
-                self.leg_index = index
-                self.leg_origin_ne = self.leg_dest_ne or here_ne
-                self.leg_dest_ne = latlon_to_ne(cmd.x / 1e7, cmd.y / 1e7, *origin_latlon_deg)
-            dest = self.leg_dest_ne
-            origin = self.leg_origin_ne
-            assert dest is not None and origin is not None
-            near = math.hypot(here_ne[0] - dest[0], here_ne[1] - dest[1]) <= wp_radius_m
-            if not (near or passed_finish_line(origin, dest, here_ne)):
-                return out
-            out.say(SimStatusText(MAV_SEVERITY_INFO, f"Reached waypoint #{index}"))
-            out.send((None, mission_item_reached(index)))
-            if not mission.nav_done(out):
-                out.say(SimStatusText(MAV_SEVERITY_NOTICE, MISSION_COMPLETE_TEXT))
-                return out
+        current = mission.nav_item()  # AP_Mission::update: one verify per loop
+        if current is None:
+            return out
+        index, cmd = current
+        if cmd.command != MAV_CMD_NAV_WAYPOINT or cmd.frame not in GLOBAL_FRAMES:
+            return out  # not modelled: the mission waits here
+        if index != self.leg_index:
+            self.leg_index = index
+            self.leg_origin_ne = self.leg_dest_ne or here_ne
+            self.leg_dest_ne = latlon_to_ne(cmd.x / 1e7, cmd.y / 1e7, *origin_latlon_deg)
+        dest = self.leg_dest_ne
+        origin = self.leg_origin_ne
+        assert dest is not None and origin is not None
+        near = math.hypot(here_ne[0] - dest[0], here_ne[1] - dest[1]) <= wp_radius_m
+        if not (near or passed_finish_line(origin, dest, here_ne)):
+            return out
+        out.say(SimStatusText(MAV_SEVERITY_INFO, f"Reached waypoint #{index}"))
+        out.send((None, mission_item_reached(index)))
+        if not mission.nav_done(out):
+            out.say(SimStatusText(MAV_SEVERITY_NOTICE, MISSION_COMPLETE_TEXT))
         return out

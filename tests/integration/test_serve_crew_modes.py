@@ -18,6 +18,7 @@ from typing import Any
 
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MISSION_CURRENT,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_MISSION_START,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
@@ -44,10 +45,11 @@ CONFIG: dict[str, Any] = {
     "startup": {"start_switch_channel": None},
     "link": {"own_id_watch_s": 0.5},
 }
-MISSION = [(10.0, 0.0), (10.0, -8.0)]  # north/east from the EKF origin (m)
+MISSION = [(10.0, 0.0), (10.0, -8.0), (0.0, -8.0)]  # north/east from the EKF origin (m)
 START_LATENCY_MAX_S = 1.0
 PAUSE_LATENCY_MAX_S = 0.5
 CONTINUE_LATENCY_MAX_S = 1.0
+ITEM_LATENCY_MAX_S = 1.0
 
 
 def set_mode(gcs: MavClient, server: Any, name: str) -> float:
@@ -117,6 +119,17 @@ def test_the_crew_drives_helixd_with_qgroundcontrols_buttons(tmp_path: Path) -> 
             server.wait_for(moving, 10.0)
             assert sum("event=auto_start" in ln for ln in d.lines) == 1  # the same flight
 
+            # Set current waypoint (Vehicle::setCurrentMissionSequence: DO_SET_MISSION_CURRENT
+            # to the autopilot) from item 1 to item 3: helixd goes there
+            mark = d.mark()
+            t_item = time.monotonic()
+            assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 3) == MAV_RESULT_ACCEPTED
+            d.wait_line("event=auto_start item=3", 10.0, after=mark)
+            item_s = time_until(server, driving, t_item, 10.0)
+            print(f"Set current waypoint 3 → new flight driving: {item_s:.3f} s")
+            assert item_s <= ITEM_LATENCY_MAX_S, item_s
+            assert server.snapshot().mode == "AUTO"  # no HOLD asked between the flights
+
             # MANUAL from the flight-mode menu: the pilot drives, helixd lets go at once
             t_manual = set_mode(gcs, server, "MANUAL")
             manual_s = time_until(server, overrides_released, t_manual, 5.0)
@@ -132,7 +145,7 @@ def test_the_crew_drives_helixd_with_qgroundcontrols_buttons(tmp_path: Path) -> 
             server.wait_for(moving, 20.0)
             # read on: a ground station's socket left unread overflows and drops the newest
             assert gcs.wait_text("Mission Complete", 120.0) == "Mission Complete"  # ArduPilot's
-            assert gcs.wait_text("helixd: completed", 60.0).endswith("2/2 waypoints")
+            assert gcs.wait_text("helixd: completed", 60.0).endswith("3/3 waypoints")
             d.wait_line("event=serve_state state=completed", 10.0, after=mark)
             d.signal(signal.SIGTERM)
             assert d.wait_exit(30.0) == 0
@@ -141,5 +154,6 @@ def test_the_crew_drives_helixd_with_qgroundcontrols_buttons(tmp_path: Path) -> 
             (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
     summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
-    assert [s["completed"] for s in summaries] == [False, True], summaries
-    assert summaries[0]["fault"].startswith("released: mode MANUAL"), summaries[0]
+    assert [s["completed"] for s in summaries] == [False, False, True], summaries
+    assert summaries[0]["fault"].startswith("item_set: item 3 set"), summaries[0]
+    assert summaries[1]["fault"].startswith("released: mode MANUAL"), summaries[1]

@@ -437,3 +437,25 @@ def test_a_flight_that_set_manual_takes_a_mode_change_for_a_takeover() -> None:
     ap.tick()
     result = asyncio.run(fly(ap, make_loop(ap, Sink(trace), trace), 10))
     assert result.fault is not None and result.fault.cause is FaultCause.PILOT_TAKEOVER
+
+
+def test_a_flight_of_auto_ends_when_the_crew_sets_another_item() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.modes = [AUTO] * 30
+    ap.tick()
+    loop = make_loop(ap, Sink(trace), trace, driving_mode="AUTO")
+    ap.rx(decoded(AP.mission_current_encode(1, 3, 3, 1), AP))
+    ap.rx(decoded(AP.mission_current_encode(2, 3, 3, 1), AP))  # ArduPilot's own progress
+    ap.periods_left, ap.stop = 30, loop.stop
+
+    async def main() -> Any:
+        task = asyncio.create_task(loop.run())
+        for _ in range(5):
+            await asyncio.sleep(0)
+        ap.rx(decoded(AP.mission_current_encode(1, 3, 3, 1), AP))  # set back to item 1
+        return await asyncio.wait_for(task, 2.0)
+
+    result = asyncio.run(main())
+    assert result.fault is not None and result.fault.cause is FaultCause.ITEM_SET
+    assert "item 1" in result.fault.detail

@@ -5,7 +5,14 @@ from __future__ import annotations
 
 import pytest
 
-from helixd.runtime.mode_gate import AUTO_MODE, LEFT_AUTO, Gate, crew_mode, gate_of
+from helixd.runtime.mode_gate import (
+    AUTO_MODE,
+    LEFT_AUTO,
+    Gate,
+    crew_mode,
+    gate_of,
+    item_set_by_crew,
+)
 
 
 @pytest.mark.parametrize(
@@ -41,3 +48,12 @@ def test_the_freshest_report_tells_the_mode() -> None:
     # agreeing reports: the HEARTBEAT's mode (it names it)
     assert crew_mode("MANUAL", 10.0, 0, 10.1, True) == "MANUAL"
     assert crew_mode("AUTO", 10.0, 1, 10.1, True) == "AUTO"
+
+
+def test_the_crews_set_current_waypoint_is_any_move_but_on_to_the_next_item() -> None:
+    assert not item_set_by_crew(None, 3)  # the first report
+    assert not item_set_by_crew(2, 2)
+    assert not item_set_by_crew(2, 3)  # ArduPilot's own progress (or the next set by hand)
+    assert item_set_by_crew(1, 3)
+    assert item_set_by_crew(3, 1)
+    assert not item_set_by_crew(3, 0)  # no current item (a reset), not a place to go

@@ -84,6 +84,8 @@ class FakeAutopilot:
         (FaultCause.PAUSED, ["stop", "mode HOLD"]),
         # a flight of AUTO released to the pilot (MANUAL): no HOLD taking it from the pilot
         (FaultCause.RELEASED, ["stop"]),
+        # the crew set the autopilot's current item: the next flight of AUTO goes there
+        (FaultCause.ITEM_SET, ["stop"]),
     ],
 )
 def test_fall_back_stops_and_asks_hold_except_for_a_release(
@@ -102,4 +104,5 @@ def test_fall_back_stops_and_asks_hold_except_for_a_release(
         )
     )
     assert seen == calls
-    assert (report.hold_requested_after_s is None) is (cause is FaultCause.RELEASED)
+    no_hold = cause in (FaultCause.RELEASED, FaultCause.ITEM_SET)
+    assert (report.hold_requested_after_s is None) is no_hold
