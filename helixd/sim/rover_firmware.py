@@ -47,6 +47,7 @@ from helixd.mav.arming import (
 )
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_CHANGE_SPEED,
     MAV_CMD_DO_SET_HOME,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_DO_SET_SERVO,
@@ -89,6 +90,7 @@ SEVERITY_CRITICAL = 2
 SEVERITY_WARNING = 4
 SEVERITY_NOTICE = 5
 NO_MISSION_TEXT = "No Mission. Can't set AUTO."  # ModeAuto::_enter
+WPNAV_SPEED_MIN_MPS = 0.05  # AR_WPNAV_SPEED_MIN
 SEVERITY_INFO = 6
 FIRMWARE_TEXT = "ArduRover V4.7.0-dev (helixd sim)"
 DISTANCE_HOME_MINCHANGE_M = 0.5  # Rover/defines.h
@@ -438,6 +440,8 @@ class SimAutopilot:
             return self.do_set_mode(int(p[0]), int(p[1]), now_s, ekf)
         if command == MAV_CMD_DO_SET_HOME:
             return self.do_set_home(p, is_int)
+        if command == MAV_CMD_DO_CHANGE_SPEED:
+            return self.change_speed(p[0], p[1])
         if command == MAV_CMD_MISSION_START:
             # GCS_MAVLINK_Rover::handle_command_int_packet: a first or last item is DENIED;
             # else AUTO (armed or not: ModeAuto::_enter asks only for a mission)
@@ -473,6 +477,19 @@ class SimAutopilot:
                 return MAV_RESULT_UNSUPPORTED
             return MAV_RESULT_ACCEPTED  # the caller reboots after sending the ACK
         return None
+
+    def change_speed(self, speed_type: float, speed_mps: float) -> int:
+        """Rover's MAV_CMD_DO_CHANGE_SPEED: a climb or descent speed (param1 2, 3, 4) is
+        DENIED; else the mode's ``set_desired_speed``: the modes without navigation (MANUAL,
+        ACRO, STEERING, HOLD) refuse (FAILED); the navigating ones set AR_WPNav's maximum
+        speed, refused under 0.05 m/s (``AR_WPNAV_SPEED_MIN``). Nothing on MAVLink reports the
+        new speed (the simulator records it as an event)."""
+        if int(speed_type) in (2, 3, 4):
+            return MAV_RESULT_DENIED
+        if self.mode in modes.NO_POSITION_MODES or not speed_mps >= WPNAV_SPEED_MIN_MPS:
+            return MAV_RESULT_FAILED
+        self.events.append(SimEvent("speed", {"speed_mps": speed_mps}))
+        return MAV_RESULT_ACCEPTED
 
     def do_set_mode(self, base_mode: int, custom_mode: int, now_s: float, ekf: SimEkfStatus) -> int:
         """GCS_MAVLINK::_set_mode_common: only custom modes are understood."""

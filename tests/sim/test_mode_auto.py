@@ -15,6 +15,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.base.frames import ne_to_latlon
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_CHANGE_SPEED,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_MISSION_START,
     MAV_CMD_NAV_WAYPOINT,
@@ -151,3 +152,15 @@ def test_set_current_in_auto_starts_that_item_at_once() -> None:
     teleport(core, 0.0, 10.0)  # at waypoint 3: reached, the mission completes
     out = run(core, 0.3)
     assert texts(out)[:2] == ["Reached waypoint #3", "Mission Complete"]
+
+
+def test_change_speed_is_taken_by_a_navigating_mode_and_reported_by_nothing() -> None:
+    core = ready_core()
+    upload(core, WAYPOINTS_NE)
+    # MANUAL: no navigation, FAILED; a climb speed is DENIED in any mode
+    speed = MAV_CMD_DO_CHANGE_SPEED
+    assert command(core, 0, speed, 1, 0.5, sysid=GCS_SYSID) == MAV_RESULT_FAILED
+    assert command(core, 0, speed, 2, 0.5, sysid=GCS_SYSID) == MAV_RESULT_DENIED
+    assert command(core, 0, MAV_CMD_MISSION_START, 0, 0, sysid=GCS_SYSID) == 0
+    assert command(core, 0, speed, 1, 0.01, sysid=GCS_SYSID) == MAV_RESULT_FAILED
+    assert command(core, 0, speed, 1, 0.5, sysid=GCS_SYSID) == MAV_RESULT_ACCEPTED
