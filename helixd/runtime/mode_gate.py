@@ -20,7 +20,8 @@ it (older ones send 0 in every mode).
 
 The crew's *set current waypoint* (MISSION_SET_CURRENT / MAV_CMD_DO_SET_MISSION_CURRENT to
 the autopilot) shows as MISSION_CURRENT moving anywhere but on to the next item
-(:func:`item_set_by_crew`): the flight ends and the next one starts at that item.
+(:func:`item_set_by_crew`): the flight ends and the next one starts at that item. Only for a
+plain list of waypoints: a mission with commands moves the item by itself (DO_JUMP).
 
 A flight that sets MANUAL itself (``helixd run``) has no gate: a mode change is a takeover.
 """
