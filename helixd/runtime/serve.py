@@ -189,6 +189,7 @@ class Service:
             switch_low=self.switch is not None and self.switch.low,
             last_item=0 if self.checked is None else self.checked.last_item,
             holding=self.runner is not None and self.runner.holding_forever(),
+            flies_file=self.opts.mission_file is not None,
         )
 
     # -- the service --------------------------------------------------------------------------

@@ -92,6 +92,7 @@ class ServeView:
     switch_low: bool  # a start switch is configured and is low (the pilot's veto)
     last_item: int  # the mission's last item number (0: no mission)
     holding: bool = False  # flying, held at a NAV_LOITER_UNLIM until an operator continues
+    flies_file: bool = False  # serve.mission_file: not the autopilot's mission (no AUTO start)
 
 
 @dataclass(frozen=True, slots=True)
@@ -260,6 +261,12 @@ def answer_auto(view: ServeView) -> Answer | None:
         return None
     if view.state is ServeState.IDLE and not view.refusal.startswith("no mission"):
         return None
+    if view.flies_file:
+        return Answer(
+            MAV_RESULT_DENIED,
+            "AUTO: helixd flies serve.mission_file, not the autopilot's mission: start it "
+            "with the start switch or MISSION_START to helixd",
+        )
     why = _startable(view)
     if why is not None:
         return Answer(MAV_RESULT_DENIED, f"AUTO: helixd will not drive: {why}")

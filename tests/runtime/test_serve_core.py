@@ -253,3 +253,5 @@ def test_a_pending_start_from_auto_is_answered_once_the_mission_is_judged() -> N
     assert a is not None and a.result == MAV_RESULT_DENIED
     a = answer_auto(view(switch_low=True))  # the pilot's veto holds for the ground station too
     assert a is not None and a.result == MAV_RESULT_DENIED and "switch" in a.text
+    a = answer_auto(view(flies_file=True))  # not the autopilot's mission: AUTO means nothing
+    assert a is not None and a.result == MAV_RESULT_DENIED and "mission_file" in a.text
