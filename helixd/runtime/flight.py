@@ -368,8 +368,9 @@ class FlightLoop:
         if gate is Gate.RELEASE:
             fault = Fault(FaultCause.RELEASED, f"mode {mode}: the pilot drives")
             return FlightResult(fault, now, out, pose.ned if pose else None)
-        # a mission with commands moves the autopilot's item by itself (DO_JUMP): not watched
-        if mc is not None and self.plan.program is None:
+        # a mission with commands moves the autopilot's item by itself (DO_JUMP): not watched;
+        # an item set while paused is taken when AUTO comes back (the overrides stay meanwhile)
+        if mc is not None and self.plan.program is None and gate is Gate.DRIVE:
             previous, self._autopilot_item = self._autopilot_item, mc.seq
             if item_set_by_crew(previous, mc.seq):
                 fault = Fault(FaultCause.ITEM_SET, f"item {mc.seq} set: flying there")
