@@ -15,8 +15,8 @@ buttons talk to the autopilot, and the mode they leave it in is what helixd obey
 The mode is the HEARTBEAT's (1 Hz on ArduPilot), made sooner by MISSION_CURRENT's
 ``mission_mode`` (1 only in AUTO, streamed at ``link.telemetry_rate_hz``): one newer than the
 last HEARTBEAT that disagrees with it tells a change into or out of AUTO before the next
-HEARTBEAT names the new mode (:func:`crew_mode`) — trusted only from an autopilot seen to fill
-it (older ones send 0 in every mode).
+HEARTBEAT names the new mode (:func:`crew_mode`); a 0 is taken for "AUTO left" only from an
+autopilot seen to fill the field (older ones send 0 in every mode).
 
 The crew's *set current waypoint* (MISSION_SET_CURRENT / MAV_CMD_DO_SET_MISSION_CURRENT to
 the autopilot) shows as MISSION_CURRENT moving anywhere but on to the next item
@@ -61,18 +61,17 @@ def crew_mode(
     mission_mode_reported: bool,
 ) -> str:
     """The autopilot's mode as the freshest report tells it: the HEARTBEAT's, unless a later
-    MISSION_CURRENT (from an autopilot that fills ``mission_mode``) says AUTO was entered
-    (AUTO) or left (:data:`LEFT_AUTO`) since."""
+    MISSION_CURRENT says AUTO was entered (``mission_mode`` 1) or left (0, from an autopilot
+    seen to fill the field: :data:`LEFT_AUTO`) since."""
     if (
-        not mission_mode_reported
-        or mission_mode is None
+        mission_mode is None
         or mission_current_rx_s is None
         or (heartbeat_rx_s is not None and mission_current_rx_s <= heartbeat_rx_s)
     ):
         return heartbeat_mode
     if mission_mode == 1 and heartbeat_mode != AUTO_MODE:
-        return AUTO_MODE
-    if mission_mode == 0 and heartbeat_mode == AUTO_MODE:
+        return AUTO_MODE  # only an autopilot that fills the field sends 1
+    if mission_mode == 0 and heartbeat_mode == AUTO_MODE and mission_mode_reported:
         return LEFT_AUTO
     return heartbeat_mode
 

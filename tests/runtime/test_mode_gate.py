@@ -38,7 +38,8 @@ def test_what_each_mode_lets_a_flight_of_auto_do(mode: str, gate: Gate) -> None:
 def test_the_freshest_report_tells_the_mode() -> None:
     # no MISSION_CURRENT newer than the HEARTBEAT, or an autopilot that does not fill it
     assert crew_mode("AUTO", 10.0, 0, 9.9, True) == "AUTO"
-    assert crew_mode("AUTO", 10.0, 0, 10.1, False) == "AUTO"
+    assert crew_mode("AUTO", 10.0, 0, 10.1, False) == "AUTO"  # 0 from any firmware
+    assert crew_mode("HOLD", 10.0, 1, 10.1, False) == AUTO_MODE  # 1 only from one that fills
     assert crew_mode("AUTO", 10.0, None, 10.1, True) == "AUTO"
     assert crew_mode("HOLD", 10.0, 1, None, True) == "HOLD"
     # a later MISSION_CURRENT says AUTO was left, or entered, before the next HEARTBEAT
