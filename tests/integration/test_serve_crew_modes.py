@@ -22,6 +22,7 @@ from helixd.mav.constants import (
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_MISSION_START,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_RESULT_ACCEPTED,
 )
 from helixd.sim.modes import MODE_NUMBERS
@@ -52,7 +53,7 @@ CONTINUE_LATENCY_MAX_S = 1.0
 ITEM_LATENCY_MAX_S = 1.0
 
 
-def set_mode(gcs: MavClient, server: Any, name: str) -> float:
+def set_mode(gcs: MavClient, name: str) -> float:
     """QGroundControl's Vehicle::setFlightMode for ArduPilot: MAV_CMD_DO_SET_MODE to the
     autopilot with the custom mode; returns the monotonic time it was sent."""
     sent = time.monotonic()
@@ -60,6 +61,12 @@ def set_mode(gcs: MavClient, server: Any, name: str) -> float:
     result = gcs.command(MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
     assert result == MAV_RESULT_ACCEPTED, (name, result)
     return sent
+
+
+def heartbeat_shows(gcs: MavClient, condition: Any) -> None:
+    """What QGroundControl's _setFlightModeAndValidate / _armVehicleAndValidate wait for: the
+    autopilot's HEARTBEAT on the ground station's own link showing the change."""
+    gcs.expect("HEARTBEAT", 10.0, lambda m: m.get_srcSystem() == 1 and condition(m))
 
 
 def driving(s: SimSnapshot) -> bool:
@@ -84,22 +91,23 @@ def test_the_crew_drives_helixd_with_qgroundcontrols_buttons(tmp_path: Path) -> 
             # Start Mission: APMFirmwarePlugin::startMission on a disarmed rover —
             # _setFlightModeAndValidate(Guided), _armVehicleAndValidate, then
             # sendMavCommand(defaultComponentId, MAV_CMD_MISSION_START) with params 0
-            set_mode(gcs, server, "GUIDED")
-            server.wait_for(lambda s: s.mode == "GUIDED", 10.0)
+            set_mode(gcs, "GUIDED")
+            heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
             assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-            server.wait_for(lambda s: s.armed, 10.0)
+            heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
             assert not server.snapshot().overrides_active[0]  # nothing moves before the start
             t_start = time.monotonic()
             assert gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+            driven_s = time_until(server, driving, t_start, 20.0)
             start_s = time_until(server, moving, t_start, 20.0)
-            print(f"\nStart Mission → rover moving: {start_s:.3f} s")
+            print(f"\nStart Mission → scrolls driven: {driven_s:.3f} s, moving: {start_s:.3f} s")
             assert start_s <= START_LATENCY_MAX_S, start_s
             snap = server.snapshot()
             assert snap.mode == "AUTO" and snap.armed  # helixd neither set MANUAL nor re-armed
             d.wait_line("event=auto_start", 5.0)
 
             # Pause: APMFirmwarePlugin::pauseVehicle sets the pause flight mode (Rover: Hold)
-            t_pause = set_mode(gcs, server, "HOLD")
+            t_pause = set_mode(gcs, "HOLD")
             pause_s = time_until(server, scrolls_neutral, t_pause, 5.0)
             print(f"Pause (HOLD) → scrolls neutral: {pause_s:.3f} s")
             assert pause_s <= PAUSE_LATENCY_MAX_S, pause_s
@@ -112,7 +120,7 @@ def test_the_crew_drives_helixd_with_qgroundcontrols_buttons(tmp_path: Path) -> 
 
             # Continue: Auto again (startMission on a rover already under way, or the
             # flight-mode menu: _setFlightModeAndValidate(Auto))
-            t_continue = set_mode(gcs, server, "AUTO")
+            t_continue = set_mode(gcs, "AUTO")
             continue_s = time_until(server, driving, t_continue, 10.0)
             print(f"Continue (AUTO) → scrolls driven: {continue_s:.3f} s")
             assert continue_s <= CONTINUE_LATENCY_MAX_S, continue_s
@@ -131,7 +139,7 @@ def test_the_crew_drives_helixd_with_qgroundcontrols_buttons(tmp_path: Path) -> 
             assert server.snapshot().mode == "AUTO"  # no HOLD asked between the flights
 
             # MANUAL from the flight-mode menu: the pilot drives, helixd lets go at once
-            t_manual = set_mode(gcs, server, "MANUAL")
+            t_manual = set_mode(gcs, "MANUAL")
             manual_s = time_until(server, overrides_released, t_manual, 5.0)
             print(f"MANUAL → overrides released: {manual_s:.3f} s")
             d.wait_line("event=serve_state state=paused", 30.0)
@@ -141,7 +149,7 @@ def test_the_crew_drives_helixd_with_qgroundcontrols_buttons(tmp_path: Path) -> 
 
             # AUTO again: a new flight from the item the autopilot is on, to the end
             mark = d.mark()
-            set_mode(gcs, server, "AUTO")
+            set_mode(gcs, "AUTO")
             server.wait_for(moving, 20.0)
             # read on: a ground station's socket left unread overflows and drops the newest
             assert gcs.wait_text("Mission Complete", 120.0) == "Mission Complete"  # ArduPilot's
