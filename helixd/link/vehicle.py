@@ -133,6 +133,10 @@ class MissionCurrent:
     total: int
     mission_state: int
     rx_monotonic_s: float
+    # 1 while the autopilot is in a mode that runs the mission (Rover: AUTO), 0 otherwise;
+    # None: not sent (a MAVLink 1 sender). Streamed faster than the 1 Hz HEARTBEAT, it shows
+    # a mode change into or out of AUTO sooner.
+    mission_mode: int | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -313,6 +317,8 @@ class VehicleState:
     home_rx_s: float | None = None
     home_rejected_count: int = 0  # HOME_POSITION off the Earth or with absurd values
     mission_current: MissionCurrent | None = None
+    # MISSION_CURRENT.mission_mode was seen 1: the autopilot fills it (older ones send 0)
+    mission_mode_reported: bool = False
     mission_current_rejected_count: int = 0  # MISSION_CURRENT with seq/total beyond uint16
     battery_voltage_v: float | None = None
     battery_remaining_pct: int | None = None  # SYS_STATUS, 0..100; None: not reported
@@ -564,7 +570,10 @@ class VehicleState:
         state = _uint16(getattr(msg, "mission_state", None))
         if state is None or state > MISSION_STATE_MAX:
             state = MISSION_STATE_UNKNOWN
-        self.mission_current = MissionCurrent(seq, total, state, rx_s)
+        mode = _uint16(getattr(msg, "mission_mode", None))
+        if mode == 1:
+            self.mission_mode_reported = True  # an autopilot that fills the field
+        self.mission_current = MissionCurrent(seq, total, state, rx_s, mode)
         return Change.MISSION_CURRENT
 
     def _statustext(self, msg: MavMsg, rx_s: float) -> int:

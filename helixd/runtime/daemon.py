@@ -68,6 +68,7 @@ from helixd.runtime.flight_report import StepJournal, rejected_progress, step_pr
 from helixd.runtime.gcs_feed import GcsFeed, report_fallback
 from helixd.runtime.host import FlightHost, OwnLink
 from helixd.runtime.mission_commands import MissionCommands
+from helixd.runtime.mode_gate import Gate
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Replanner
 from helixd.runtime.setup import (
@@ -273,6 +274,11 @@ def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
     stop on a vehicle we did not arm, ``safety.disarm_on_fault`` decides (None)."""
     if ending.code is ExitCode.OK:
         return True
+    if ending.fault is not None and ending.fault.cause in (
+        FaultCause.RELEASED,
+        FaultCause.ITEM_SET,
+    ):
+        return False  # the pilot drives it, or the next flight of AUTO does
     if not armed_by_us:
         return None
     if ending.fault is not None and ending.fault.cause in (FaultCause.SIGNAL, FaultCause.PAUSED):
@@ -351,13 +357,19 @@ class MissionRunner:
             if self.host.start_gate:
                 async with phase("start_gate", self.notifier, self.display):
                     await start_gate(ap, cfg, stop, self.notifier)
-            async with phase("set_manual", self.notifier, self.display):
-                await until_stopped(stop, ap.action.set_mode(MANUAL_MODE))
-                await confirm_mode(ap, cfg, MANUAL_MODE)
+            if self.host.driving_mode == MANUAL_MODE:
+                async with phase("set_manual", self.notifier, self.display):
+                    await until_stopped(stop, ap.action.set_mode(MANUAL_MODE))
+                    await confirm_mode(ap, cfg, MANUAL_MODE)
             sink = held.sink if held.sink is not None else await start_sink(cfg, ap, held)
-            async with phase("arm", self.notifier, self.display):
-                self._warn(await until_stopped(stop, arm(ap, cfg, held, self.display.phase)))
-            self.gcs.phase("armed")
+            if self.host.driving_mode == MANUAL_MODE:
+                async with phase("arm", self.notifier, self.display):
+                    self._warn(await until_stopped(stop, arm(ap, cfg, held, self.display.phase)))
+                self.gcs.phase("armed")
+            elif not ap.state.armed:  # the crew armed it; a disarm since ends the start
+                raise PreflightFailed(
+                    [f"the autopilot is not armed (mode {ap.state.mode}): arm it in AUTO"]
+                )
             now = await fresh_pose(ap, cfg, stop)
             start_ned = start_pose(checked, now, ap, cfg, self.opts.options)
         plan = checked.plan
@@ -405,6 +417,15 @@ class MissionRunner:
         if checked.origin is not None:
             self.summary.set_origin(*checked.origin)
         return checked
+
+    def _on_gate(self, gate: Gate, mode: str) -> None:
+        """The autopilot's mode changed what a flight of its AUTO may do: tell the GCS."""
+        if gate is Gate.HOLD:
+            self.gcs.phase(f"paused: mode {mode}, scrolls held at neutral until AUTO")
+        elif gate is Gate.DRIVE:
+            self.gcs.phase(f"continuing in {mode}")
+        else:
+            self.gcs.phase(f"released: mode {mode}, the pilot drives")
 
     def _gcs_on(self, ap: Autopilot) -> None:
         self.gcs.start(ap.send_message)
@@ -489,6 +510,8 @@ class MissionRunner:
                     on_tick=on_tick,
                     on_action=commands.submit,
                     on_mission_event=on_mission_event,
+                    driving_mode=self.host.driving_mode,
+                    on_gate=self._on_gate,
                 )
                 result = await self.flight_loop.run()
             finally:
@@ -615,6 +638,10 @@ class MissionRunner:
         touched = held.sink is not None or held.armed_by_us
         if ending.fault is not None and ending.fault.cause is FaultCause.PAUSED:
             self.gcs.phase(f"pausing: {ending.fault.detail}")  # an operator's, not a fault
+        elif ending.fault is not None and ending.fault.cause is FaultCause.RELEASED:
+            pass  # the flight loop told the GCS already (released: the pilot drives)
+        elif ending.fault is not None and ending.fault.cause is FaultCause.ITEM_SET:
+            self.gcs.phase(ending.fault.detail)
         elif ending.fault is not None:
             self.gcs.fault(ending.fault.cause.value, ending.fault.detail)
         if ap is not None and touched:

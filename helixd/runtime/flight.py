@@ -62,6 +62,7 @@ from helixd.control.slip import (
 )
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample
+from helixd.runtime.mode_gate import Gate, crew_mode, gate_of, item_set_by_crew
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import Motion, Supervisor
 from helixd.safety.watchdogs import Fault, FaultCause
@@ -160,6 +161,8 @@ class FlightLoop:
         on_tick: Callable[[], None],
         on_action: Callable[[MissionAction], None] | None = None,
         on_mission_event: Callable[[SequencerEvent], None] | None = None,
+        driving_mode: str = MANUAL_MODE,
+        on_gate: Callable[[Gate, str], None] | None = None,
     ) -> None:
         self.cfg = cfg
         self.plan = plan
@@ -176,7 +179,14 @@ class FlightLoop:
         self.sequencer = Sequencer(plan.program) if plan.program is not None else None
         self.on_action = on_action
         self.on_mission_event = on_mission_event
-        self.supervisor = Supervisor(cfg.safety, start_ned, MANUAL_MODE)  # owns the watchdogs
+        self.supervisor = Supervisor(cfg.safety, start_ned, driving_mode)  # owns the watchdogs
+        # a flight of the autopilot's AUTO follows the mode (helixd.runtime.mode_gate); one
+        # that set MANUAL itself takes a mode change for a takeover (the supervisor's rule)
+        self.driving_mode = driving_mode
+        self._gated = driving_mode != MANUAL_MODE
+        self._gate = Gate.DRIVE
+        self.on_gate = on_gate
+        self._autopilot_item: int | None = None  # MISSION_CURRENT.seq last seen (gated)
         # The ceiling only thins out a pose flood, counted in autopilot time (pose
         # time_boot_ms), so a simulator speed-up does not lower the control rate the rover
         # sees (see ceiling_next_due).
@@ -264,6 +274,10 @@ class FlightLoop:
         pose = self._pose
         if self.stop.requested:
             return FlightResult(self.stop.fault(), now, out, pose.ned if pose else None)
+        if self._gated:
+            released = self._follow_mode(now, out, pose)
+            if released is not None:
+                return released
         t_start = self._t_start_s
         fault = self.supervisor.check(now, self.ap.state, pose, self._motion(now, t_start, pose))
         if fault is not None:
@@ -285,6 +299,12 @@ class FlightLoop:
                 return None  # thinned out by the control-rate ceiling
             self._last_step_boot_s = t_boot_s
             self._step_due_boot_s = due_s
+            if self._gate is Gate.HOLD:  # paused by the mode: neutral, the navigator waits
+                self._neutral()
+                step = self._held(sample, None)
+                self._last_out = step.nav
+                self._report(sample, step, now, t_start)
+                return None
             seq = self.sequencer
             if seq is not None and seq.step_index < 0:
                 self._apply(seq.start(t_boot_s))
@@ -319,6 +339,42 @@ class FlightLoop:
         done = out.done if self.sequencer is None else self.sequencer.done
         if done:
             return FlightResult(None, None, out, sample.ned)
+        return None
+
+    def _follow_mode(
+        self, now: float, out: NavOutput | None, pose: PoseSample | None
+    ) -> FlightResult | None:
+        """The autopilot's mode is the crew's command (:mod:`helixd.runtime.mode_gate`): a
+        mode change is a pause or a release, never a takeover. Neutral goes out at once on a
+        pause (this wake-up, a tick at most after the HEARTBEAT); a release ends the flight."""
+        st = self.ap.state
+        mc = st.mission_current
+        mode = crew_mode(
+            st.mode,
+            st.last_heartbeat_s,
+            None if mc is None else mc.mission_mode,
+            None if mc is None else mc.rx_monotonic_s,
+            st.mission_mode_reported,
+        )
+        gate = gate_of(mode, self.driving_mode)
+        self.supervisor.expected_mode = st.mode  # the takeover rule judges sticks and switch only
+        if gate is not self._gate:
+            self._gate = gate
+            log.info("mode_gate", gate=gate.value, mode=mode)
+            if gate is Gate.HOLD:
+                self._neutral()
+            if self.on_gate is not None:
+                self.on_gate(gate, mode)
+        if gate is Gate.RELEASE:
+            fault = Fault(FaultCause.RELEASED, f"mode {mode}: the pilot drives")
+            return FlightResult(fault, now, out, pose.ned if pose else None)
+        # a mission with commands moves the autopilot's item by itself (DO_JUMP): not watched;
+        # an item set while paused is taken when AUTO comes back (the overrides stay meanwhile)
+        if mc is not None and self.plan.program is None and gate is Gate.DRIVE:
+            previous, self._autopilot_item = self._autopilot_item, mc.seq
+            if item_set_by_crew(previous, mc.seq):
+                fault = Fault(FaultCause.ITEM_SET, f"item {mc.seq} set: flying there")
+                return FlightResult(fault, now, out, pose.ned if pose else None)
         return None
 
     @property

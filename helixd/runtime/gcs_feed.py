@@ -34,6 +34,7 @@ from helixd.runtime.gcs_report import (
     WaypointReached,
 )
 from helixd.safety.supervisor import FallbackReport
+from helixd.safety.watchdogs import FaultCause
 
 __all__ = ["GcsFeed", "report_fallback"]
 
@@ -156,8 +157,13 @@ class GcsFeed:
 
 
 def report_fallback(feed: GcsFeed, report: FallbackReport) -> None:
-    """The fall-back's own outcome: secured (NOTICE), or a fault naming what went wrong."""
-    if report.errors or not report.hold_acked:
+    """The fall-back's own outcome: secured (NOTICE), or a fault naming what went wrong; a
+    release to the pilot asks no HOLD (``released``)."""
+    if report.cause == FaultCause.RELEASED.value and not report.errors:
+        feed.phase("released: overrides released, the pilot's radio drives")
+    elif report.cause == FaultCause.ITEM_SET.value and not report.errors:
+        pass  # the next flight starts at once
+    elif report.errors or not report.hold_acked:
         detail = "; ".join(report.errors) or "HOLD not acknowledged"
         feed.fault("fallback", detail)
     else:

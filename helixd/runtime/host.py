@@ -7,7 +7,8 @@ opens its own.
   heartbeating, streams negotiated; the flight neither connects nor closes it), its stop
   request (the service owns the signals and pauses through it), its notifier, and where the
   item being flown goes (the GCS's current item). No start gate: the service started the
-  flight on the operator's word.
+  flight on the operator's word. A flight the crew started in the autopilot's AUTO drives in
+  AUTO (:attr:`FlightHost.driving_mode`): the flight neither sets a mode nor arms.
 
 :class:`helixd.runtime.daemon.MissionRunner` asks its host and never looks at which one it is.
 """
@@ -23,6 +24,7 @@ from typing import Protocol
 
 from helixd.config import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.runtime.flight import MANUAL_MODE
 from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
 from helixd.runtime.setup import Held, attach, connect, reach
 from helixd.runtime.signals import StopRequest, install, uninstall
@@ -42,6 +44,14 @@ class FlightHost(Protocol):
     @property
     def start_gate(self) -> bool:
         """Wait for the pilot's start switch (``startup.start_switch_channel``) before arming."""
+        ...
+
+    @property
+    def driving_mode(self) -> str:
+        """The autopilot's mode the flight drives in: MANUAL (set, then armed, by the flight
+        itself; any other mode is a takeover) or AUTO (a flight the crew started in the
+        autopilot's AUTO: neither set nor armed by the flight, and the mode is the crew's
+        command, :mod:`helixd.runtime.mode_gate`)."""
         ...
 
     def signals(self) -> contextlib.AbstractContextManager[None]:
@@ -76,6 +86,7 @@ class OwnLink:
     """``helixd run``: its own link, signals and start gate."""
 
     start_gate = True
+    driving_mode = MANUAL_MODE
 
     def __init__(self) -> None:
         self.stop = StopRequest()
@@ -124,6 +135,7 @@ class ServeHost:
     stop: StopRequest
     notifier: ServiceNotifier = field(default_factory=FlightInServiceNotifier)
     set_item: Callable[[int], None] | None = None  # None: nobody shows the current item
+    driving_mode: str = MANUAL_MODE  # AUTO: a flight the crew started in the autopilot's AUTO
 
     @property
     def start_gate(self) -> bool:

@@ -22,13 +22,19 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from helixd.base.exitcodes import ExitCode
-from helixd.base.plan import MotionMode
+from helixd.base.plan import MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.model import Mission
+from helixd.mission.resume import (
+    WAYPOINT_REACHED_EVENT,
+    ResumeRefused,
+    resume_point,
+    resumed_inputs,
+)
 from helixd.mission.validate import apply_mission_limits
 from helixd.planning.mapfile import OccupancyMap
 from helixd.runtime.autopilot_mission import MISSION_NAME, FromAutopilot
@@ -48,6 +54,7 @@ __all__ = [
     "MissionFile",
     "Prepared",
     "Resume",
+    "from_autopilot_item",
     "prepare_flight",
 ]
 
@@ -150,3 +157,28 @@ def prepare_flight(
     except InputsRefused as exc:  # the notes about the mission still stand
         raise InputsRefused(exc.problems, exc.code, shown) from None
     return Prepared(cfg, msn, path, flight, shown, fence, occ)
+
+
+def from_autopilot_item(flight: Flight, seq: int) -> Flight:
+    """The checked flight from the autopilot's current item ``seq`` (MISSION_CURRENT, where
+    its AUTO runs the mission from): the waypoints before it left out, the first leg starting
+    at the one before (line guidance re-enters that leg, as a resume does); the whole flight
+    for item 0 (none current) or the first. Raises :class:`InputsRefused`."""
+    msn = flight.mission
+    numbers = operator_numbers([w.via for w in msn.waypoints])
+    k = next((i for i, n in enumerate(numbers) if n >= seq), None)
+    if k is None:
+        raise InputsRefused(
+            [f"the autopilot's current item {seq} is past the mission's last waypoint"]
+        )
+    if k == 0:
+        return flight
+    reached = [{"event": WAYPOINT_REACHED_EVENT, "index": k - 1}]
+    try:
+        point = resume_point(f"autopilot item {seq}", flight.inputs, msn, reached, False)
+    except ResumeRefused as exc:
+        raise InputsRefused(
+            [f"cannot start at the autopilot's item {seq}: {exc}; set the current item to 1"]
+        ) from None
+    text = mission_to_yaml(point.mission)
+    return Flight(point.mission, text, None, resumed_inputs(point, text), options=flight.options)

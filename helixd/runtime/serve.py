@@ -53,18 +53,28 @@ from helixd.runtime.autopilot_mission import (
     items_sha256,
 )
 from helixd.runtime.daemon import MissionRunner, RunOptions
+from helixd.runtime.flight import MANUAL_MODE
 from helixd.runtime.gcs_feed import GcsFeed
 from helixd.runtime.host import ServeHost
 from helixd.runtime.inputs import InputsRefused
+from helixd.runtime.mode_gate import AUTO_MODE, crew_mode
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Flight
-from helixd.runtime.prepare import AutopilotMission, MissionFile, Resume, prepare_flight
+from helixd.runtime.prepare import (
+    AutopilotMission,
+    MissionFile,
+    Resume,
+    from_autopilot_item,
+    prepare_flight,
+)
 from helixd.runtime.serve_core import (
     Answer,
+    AutoWatch,
     Request,
     ServeState,
     ServeView,
     SwitchWatch,
+    answer_auto,
     answer_command,
     answer_switch,
     state_after_flight,
@@ -126,6 +136,8 @@ class Service:
             if self.cfg.startup.start_switch_channel is None
             else SwitchWatch(self.cfg.startup.start_switch_threshold_us)
         )
+        self.auto_watch = AutoWatch()  # the crew's start: the autopilot armed in AUTO
+        self._autopilot_item = 0  # MISSION_CURRENT.seq: where the autopilot's AUTO runs from
         self.checked: ReadyMission | None = None
         self.fingerprint: str | None = None  # of the mission last downloaded
         self.busy = False
@@ -177,6 +189,7 @@ class Service:
             switch_low=self.switch is not None and self.switch.low,
             last_item=0 if self.checked is None else self.checked.last_item,
             holding=self.runner is not None and self.runner.holding_forever(),
+            flies_file=self.opts.mission_file is not None,
         )
 
     # -- the service --------------------------------------------------------------------------
@@ -273,8 +286,10 @@ class Service:
                 if self._mission_due or now >= self._next_poll_s:
                     await self._read_mission(ap)
                 self._watch_switch(ap)
+                self._watch_auto(ap)
             elif flying:
                 self._watch_switch(ap)
+                self._watch_auto(ap)
             if now >= self._next_state_s:
                 self._send_state()
             await self._pause(self.cfg.serve.tick_s)
@@ -292,6 +307,7 @@ class Service:
     def _on_message(self, msg: MavMsg, rx_s: float) -> None:
         kind = msg.get_type()
         if kind == "MISSION_CURRENT":
+            self._autopilot_item = int(msg.seq)
             total = int(msg.total)
             if total != self._mission_total:
                 if self._mission_total is not None:
@@ -412,6 +428,30 @@ class Service:
             log.info("start_switch", edge=edge.value, result=answer.result, text=answer.text)
             self._act(answer, f"start switch RC{ch}")
 
+    def _watch_auto(self, ap: Autopilot) -> None:
+        """The crew's start from the ground station: the autopilot armed in AUTO."""
+        st = ap.state
+        flying = self.flight_task is not None
+        mc = st.mission_current
+        mode = crew_mode(
+            st.mode,
+            st.last_heartbeat_s,
+            None if mc is None else mc.mission_mode,
+            None if mc is None else mc.rx_monotonic_s,
+            st.mission_mode_reported,
+        )
+        if not self.auto_watch.update(st.armed, mode, flying):
+            return
+        answer = answer_auto(self.view())
+        if answer is None:
+            return  # the mission is still being read: the start waits for the verdict
+        self.auto_watch.taken()
+        log.info("auto_start", item=self._autopilot_item, result=answer.result, text=answer.text)
+        if answer.result != MAV_RESULT_ACCEPTED:
+            self.gcs.say(answer.text, MAV_SEVERITY_ERROR)
+            return
+        self._act(answer, f"the autopilot's {AUTO_MODE}")
+
     def _on_command(self, msg: MavMsg, rx_s: float) -> None:
         """A COMMAND_LONG/INT addressed to helixd: answered at once (COMMAND_ACK)."""
         ap = self._ap
@@ -463,6 +503,9 @@ class Service:
         """What to fly: the checked mission from item 1, or the interrupted run's remainder."""
         checked = self.checked
         assert checked is not None
+        if request is Request.AUTO:
+            flight = from_autopilot_item(checked.flight, self._autopilot_item)
+            return flight, checked.cfg, self.opts.run_root
         interrupted = self._interrupted
         if request is Request.CONTINUE and interrupted is not None:
             run_dir = interrupted[1]
@@ -516,9 +559,14 @@ class Service:
             inputs=flight.inputs,
             options=flight.options,
         )
-        shows_item = self.opts.mission_file is None  # the GCS highlights the autopilot's item
+        auto = request is Request.AUTO  # the autopilot runs its own item progress in AUTO
+        # else the GCS highlights the item helixd flies as the autopilot's current
+        shows_item = self.opts.mission_file is None and not auto
         host = ServeHost(
-            ap, self.flight_stop, set_item=self._set_current_item if shows_item else None
+            ap,
+            self.flight_stop,
+            set_item=self._set_current_item if shows_item else None,
+            driving_mode=AUTO_MODE if auto else MANUAL_MODE,
         )
         runner = MissionRunner(opts, host)
         self.runner = runner
@@ -529,6 +577,8 @@ class Service:
         self.busy = True
         summary = outcome.summary
         cause = _cause(summary.fault if summary is not None else None)
+        # released to the pilot, or moved to another item: AUTO again (or still) starts
+        self.auto_watch.flight_ended(left_auto=cause in (FaultCause.RELEASED, FaultCause.ITEM_SET))
         state = state_after_flight(outcome.exit_code, cause, self.flight_stop.paused)
         if state is ServeState.COMPLETED:
             self._interrupted = None

@@ -12,6 +12,13 @@ judged the same way:
   starts from item 1; param2 last item: 0 or the mission's last item) addressed to helixd;
 * ``MAV_CMD_DO_PAUSE_CONTINUE`` (param1 0 pause, 1 continue) addressed to helixd; 1 also
   ends a NAV_LOITER_UNLIM hold of the flight in progress.
+* the autopilot's own mode (:class:`AutoWatch`, :func:`answer_auto`): the crew's ground
+  station (QGroundControl's Start Mission: GUIDED, arm, MAV_CMD_MISSION_START to the
+  autopilot, which switches to AUTO) leaves the autopilot armed in AUTO: a flight of the
+  checked mission starts from the item the autopilot is on, driving in AUTO. The mode then
+  is the crew's command (:mod:`helixd.runtime.mode_gate`). Like the switch, an autopilot
+  found armed in AUTO when the service comes up (or when a flight ends) is not a start: it
+  must be seen out of it first.
 
 Each command gets one :class:`Answer`: ACCEPTED with an action, DENIED with why (also for a
 sender that is not one of ``serve.gcs_system_ids``), TEMPORARILY_REJECTED while a flight is
@@ -33,15 +40,18 @@ from helixd.mav.constants import (
     MAV_RESULT_TEMPORARILY_REJECTED,
     MAV_RESULT_UNSUPPORTED,
 )
+from helixd.runtime.mode_gate import AUTO_MODE
 from helixd.safety.watchdogs import FaultCause
 
 __all__ = [
     "Answer",
+    "AutoWatch",
     "Request",
     "ServeState",
     "ServeView",
     "SwitchEdge",
     "SwitchWatch",
+    "answer_auto",
     "answer_command",
     "answer_switch",
     "state_after_flight",
@@ -68,6 +78,7 @@ class Request(StrEnum):
     CONTINUE = "continue"  # from the first waypoint not reached (or item 1 if none)
     RELEASE = "release"  # flying, held at a NAV_LOITER_UNLIM: go on with the mission
     PAUSE = "pause"
+    AUTO = "auto"  # the autopilot armed in AUTO: from its current item, driving in AUTO
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,6 +92,7 @@ class ServeView:
     switch_low: bool  # a start switch is configured and is low (the pilot's veto)
     last_item: int  # the mission's last item number (0: no mission)
     holding: bool = False  # flying, held at a NAV_LOITER_UNLIM until an operator continues
+    flies_file: bool = False  # serve.mission_file: not the autopilot's mission (no AUTO start)
 
 
 @dataclass(frozen=True, slots=True)
@@ -211,12 +223,64 @@ def answer_switch(view: ServeView, edge: SwitchEdge) -> Answer | None:
     return None
 
 
+@dataclass(slots=True)
+class AutoWatch:
+    """The autopilot armed in AUTO, as a start: pending from the moment it is seen armed in
+    AUTO after having been seen otherwise, until the service took it (:meth:`taken`). Blind
+    while a flight runs (the flight follows the mode itself); when it ends, the watch is told
+    whether the crew had left AUTO (:meth:`flight_ended`): after a release to a mode the
+    pilot drives, AUTO again starts the next flight at once; after any other ending (the
+    fall-back asks HOLD) the autopilot must first be seen out of AUTO, so a flight ending with
+    the autopilot still in AUTO never starts the next by itself."""
+
+    _seen_out: bool = False
+    _pending: bool = False
+
+    def update(self, armed: bool, mode: str, flying: bool) -> bool:
+        """Whether a start from AUTO is pending now."""
+        if flying:
+            return False
+        if not (armed and mode == AUTO_MODE):
+            self._seen_out, self._pending = True, False
+        elif self._seen_out:
+            self._seen_out, self._pending = False, True
+        return self._pending
+
+    def taken(self) -> None:
+        self._pending = False
+
+    def flight_ended(self, left_auto: bool) -> None:
+        self._seen_out, self._pending = left_auto, False
+
+
+def answer_auto(view: ServeView) -> Answer | None:
+    """A pending start from AUTO: ACCEPTED (a flight from the autopilot's current item), or
+    DENIED with why (the GCS is told; the crew leaves AUTO and tries again); None while the
+    mission is still being read (IDLE): the start waits for the verdict."""
+    if view.busy or view.state is ServeState.FLYING:
+        return None
+    if view.state is ServeState.IDLE and not view.refusal.startswith("no mission"):
+        return None
+    if view.flies_file:
+        return Answer(
+            MAV_RESULT_DENIED,
+            "AUTO: helixd flies serve.mission_file, not the autopilot's mission: start it "
+            "with the start switch or MISSION_START to helixd",
+        )
+    why = _startable(view)
+    if why is not None:
+        return Answer(MAV_RESULT_DENIED, f"AUTO: helixd will not drive: {why}")
+    return Answer(MAV_RESULT_ACCEPTED, "AUTO: driving the mission", Request.AUTO)
+
+
 def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -> ServeState:
     """Where a flight leaves the service: completed; paused (the flight ended on an operator's
     pause, ``paused``, even one that came while it was still starting); or faulted (a fault,
     a pilot's takeover, a refusal at its start)."""
     if code is ExitCode.OK:
         return ServeState.COMPLETED
-    if cause is FaultCause.PAUSED or (paused and cause in (FaultCause.SIGNAL, None)):
+    if cause in (FaultCause.PAUSED, FaultCause.RELEASED, FaultCause.ITEM_SET) or (
+        paused and cause in (FaultCause.SIGNAL, None)
+    ):
         return ServeState.PAUSED
     return ServeState.FAULTED

@@ -5,7 +5,9 @@ fall-back (:func:`fall_back`), the one place that stops the rover.
 Sequence, started within one control tick of detection and bounded in time:
 1. command all scrolls to neutral and release every override we hold (``sink.stop()``) —
    HOLD alone does not stop an RC-passthrough output (docs/ardupilot.md), so this comes first;
-2. request HOLD, re-sent until acknowledged or ``hold_retry_bound_s`` passes;
+2. request HOLD, re-sent until acknowledged or ``hold_retry_bound_s`` passes — except when the
+   crew ended a flight of the autopilot's AUTO by choosing a mode the pilot drives
+   (``released``: MANUAL, ACRO, STEERING), where HOLD would take the rover from the pilot;
 3. optionally disarm;
 4. log one ``fallback`` event naming the cause and the pose.
 The pilot's radio is in charge afterwards. The navigator never stops anything itself.
@@ -159,7 +161,9 @@ async def fall_back(
         except Exception as exc:  # the fall-back must go on to HOLD whatever happened
             report.errors.append(f"stopping the scrolls failed: {exc!r}")
         report.stopped_after_s = time.monotonic() - detected_s
-    if autopilot is not None:
+    # the pilot drives, or the crew moved the autopilot's AUTO to another item: no HOLD
+    released = fault is not None and fault.cause in (FaultCause.RELEASED, FaultCause.ITEM_SET)
+    if autopilot is not None and not released:
         report.hold_requested_after_s = time.monotonic() - detected_s
         deadline = time.monotonic() + cfg.hold_retry_bound_s
         while time.monotonic() < deadline:
@@ -181,9 +185,10 @@ async def fall_back(
                 report.errors.append(f"disarm: {exc}")
     # a completed mission and an operator's pause are no faults: info, each by its name
     paused = fault is not None and fault.cause is FaultCause.PAUSED
-    emit = log.info if fault is None or paused else log.warning
+    emit = log.info if fault is None or paused or released else log.warning
+    event = "vehicle_secured" if fault is None else "fallback"
     emit(
-        "vehicle_secured" if fault is None else "paused" if paused else "fallback",
+        "paused" if paused else "released" if released else event,
         cause=report.cause,
         detail=report.detail,
         pose=pose_text,

@@ -54,6 +54,12 @@ class FaultCause(StrEnum):
     STALL = "stall"  # scrolls commanded, rover not moving: the sand pit of field test 1
     SIGNAL = "signal"  # SIGINT / SIGTERM
     PAUSED = "paused"  # helixd serve: the operator paused (start switch low, DO_PAUSE_CONTINUE)
+    # helixd serve, a flight the autopilot's AUTO drives: the crew chose a mode the pilot
+    # drives (MANUAL, ACRO, STEERING): overrides released at once, no HOLD asked
+    RELEASED = "released"
+    # helixd serve, a flight of AUTO: the crew set the autopilot's current item (not the next
+    # one): the flight ends without asking HOLD and the next starts at that item
+    ITEM_SET = "item_set"
     EXCEPTION = "exception"  # unhandled error inside helixd
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
     ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
@@ -61,7 +67,15 @@ class FaultCause(StrEnum):
 
 
 # Causes that mean "a human took over or asked to stop", not "something broke".
-OPERATOR_CAUSES = frozenset({FaultCause.PILOT_TAKEOVER, FaultCause.SIGNAL, FaultCause.PAUSED})
+OPERATOR_CAUSES = frozenset(
+    {
+        FaultCause.PILOT_TAKEOVER,
+        FaultCause.SIGNAL,
+        FaultCause.PAUSED,
+        FaultCause.RELEASED,
+        FaultCause.ITEM_SET,
+    }
+)
 
 
 @dataclass(frozen=True, slots=True)

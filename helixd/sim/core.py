@@ -20,6 +20,7 @@ from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
 from helixd.sim.inbound import InboundHandler
 from helixd.sim.messages import STATUSTEXT_LEN, Message, file_transfer_protocol, statustexts
 from helixd.sim.mission_server import MissionServer, Outcome
+from helixd.sim.mode_auto import ModeAuto
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.param_store import ParamStore
 from helixd.sim.physics import MotorMap
@@ -108,6 +109,9 @@ class SimCore:
             config.origin_alt_m,
             requires_mission=lambda: self.ap.mode == MODE_NUMBERS["AUTO"],
         )
+        self.ap.mission_present = lambda: len(self.mission.stored()) > 1
+        self.auto = ModeAuto()
+        self._mode_before = self.ap.mode  # AUTO entered or left: ModeAuto's enter/exit
         self._params_view: tuple[int, Mapping[str, float]] = (-1, MappingProxyType({}))
         self.view = self._view(self.ekf_status(), self.now_s)
 
@@ -325,13 +329,37 @@ class SimCore:
                 built = vehicle_reports.build(msg_id, self.view)
                 if built is not None:
                     self.send(None, built)
-        if self._was_armed and not self.ap.armed:
-            # AP_Arming_Rover::disarm: outside AUTO (always, here) the mission is reset, so
-            # MISSION_CURRENT reads 0 until something sets the current item again
+        auto = MODE_NUMBERS["AUTO"]
+        if self._was_armed and not self.ap.armed and self.ap.mode != auto:
+            # AP_Arming_Rover::disarm: outside AUTO the mission is reset, so MISSION_CURRENT
+            # reads 0 until something sets the current item again
             self.mission.reset_on_disarm()
         self._was_armed = self.ap.armed
+        self._mode_auto(now)
         self.mission_outcome(self.mission.update(now))
         self._telemetry(now)
+
+    def _mode_auto(self, now: float) -> None:
+        """AUTO entered (ModeAuto::_enter), left (``_exit``: the mission stops) or running
+        (the mission verified against the EKF's position: :mod:`helixd.sim.mode_auto`)."""
+        auto = MODE_NUMBERS["AUTO"]
+        mode = self.ap.mode
+        if mode != self._mode_before:
+            if self._mode_before == auto:
+                self.mission.stop()
+            if mode == auto:
+                self.auto.enter()
+            self._mode_before = mode
+        if mode != auto:
+            return
+        cfg = self.config
+        origin = (
+            (cfg.origin_lat_deg, cfg.origin_lon_deg)
+            if self.ap.origin_set(now) and not self.ap.booting(now)
+            else None
+        )
+        radius_m = self.params.get("WP_RADIUS")
+        self.mission_outcome(self.auto.update(self.mission, self.ap.here_ne, origin, radius_m))
 
     def _plant_step(self, outputs: list[int]) -> PhysicsState:
         cfg, dt = self.config, self.dt_s()

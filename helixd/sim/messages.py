@@ -232,6 +232,10 @@ def mission_current(seq: int, total: int, mission_state: int, mission_mode: int)
     return _m(mavlink.MAVLink_mission_current_message(seq, total, mission_state, mission_mode))
 
 
+def mission_item_reached(seq: int) -> Message:
+    return _m(mavlink.MAVLink_mission_item_reached_message(seq))
+
+
 def relay_status(time_boot_ms: int, on_mask: int, present_mask: int) -> Message:
     return _m(mavlink.MAVLink_relay_status_message(time_boot_ms, on_mask, present_mask))
 

@@ -33,7 +33,7 @@ Behaviours (each cites its ArduPilot function):
 * MISSION_CLEAR_ALL → ACCEPTED, or ERROR while an upload is in progress
   (``handle_mission_clear_all``); clearing the mission leaves 0 items (``AP_Mission::clear``).
 * The current item (``AP_Mission::set_current_cmd`` with the mission not running — Rover
-  runs it only in AUTO, which the simulator refuses): an index past the end, or a mission of
+  runs it only in AUTO, :mod:`helixd.sim.mode_auto`): an index past the end, or a mission of
   home alone, fails; index 0 means 1 and restarts the jump counters; the current *nav* index
   becomes the first NAV command (``is_nav_cmd``: id ≤ MAV_CMD_NAV_LAST, NAV_SET_YAW_SPEED,
   NAV_SCRIPT_TIME, NAV_ATTITUDE_TIME) at or after it, following DO_JUMP / DO_JUMP_TAG
@@ -188,6 +188,8 @@ GET_NEXT_CMD_MAX_JUMPS = 64  # get_next_cmd's max_loops
 ADVANCE_MAX_LOOPS = 255  # advance_current_nav_cmd's max_loops
 FLT_EPSILON = 1.1920929e-07  # is_equal(float, float)
 MISSION_STOPPED, MISSION_RUNNING, MISSION_COMPLETE = 0, 1, 2  # AP_Mission::mission_state
+# AP_Mission::Mission_Command::type(): the names "Mission: N <type>" says (the few modelled)
+COMMAND_TYPES = {16: "WP", 17: "LoitUnlim", 19: "LoitTime", 20: "RTL", 93: "Delay"}
 MISSION_STATES = {  # GCS_MAVLINK::mission_state
     MISSION_STOPPED: MISSION_STATE_NOT_STARTED,
     MISSION_RUNNING: MISSION_STATE_ACTIVE,
@@ -797,8 +799,11 @@ class MissionServer:
         if index == 0 or self.state == MISSION_COMPLETE:
             self.jumps_run.clear()  # init_jump_tracking
             index = max(index, 1)
-        if self.state == MISSION_RUNNING:
-            return self._advance_current_nav_cmd(index, out)
+        if self.state == MISSION_RUNNING:  # in AUTO: the command starts at once
+            started = self._advance_current_nav_cmd(index, out)
+            if started:
+                self._say_started(out)
+            return started
         while True:
             found = self._next_cmd(index, out)
             if found is None:
@@ -896,11 +901,59 @@ class MissionServer:
             cleared = prot.upload is None
             prot.handle_clear_all(out, link, who)
             if mission_type == MAV_MISSION_TYPE_MISSION and cleared:
-                # AP_Mission::clear (refused only while armed with the mission running,
-                # which the simulator's Rover, never in AUTO, cannot be)
+                # AP_Mission::clear (ArduPilot refuses it while armed with the mission
+                # running in AUTO: not modelled)
                 self._reset()
                 self.state = MISSION_STOPPED
         return out
+
+    # -- AP_Mission running in AUTO (ModeAuto drives it: helixd.sim.mode_auto) ---------------
+
+    def nav_item(self) -> tuple[int, StoredItem] | None:
+        """The current nav command (index, item) while the mission runs; None otherwise."""
+        if self.state != MISSION_RUNNING or self.nav_index == CMD_INDEX_NONE:
+            return None
+        if self.nav_index >= len(self._mission.items):
+            return None
+        return self.nav_index, self._command_at(self.nav_index)
+
+    def start_or_resume(self, out: Outcome) -> None:
+        """AP_Mission::start_or_resume with MIS_RESTART 0 (resume): a completed mission, or
+        one with no current command, starts from its first command (jump counters cleared);
+        otherwise the current nav command starts again. Each nav command started says
+        "Mission: N WP" (AP_Mission::start_command)."""
+        if self.state == MISSION_RUNNING:
+            return
+        restart = self.state == MISSION_COMPLETE or self.nav_index == CMD_INDEX_NONE
+        self.state = MISSION_RUNNING
+        if restart:
+            self.jumps_run.clear()
+            self.do_index = CMD_INDEX_NONE
+            if not self._advance_current_nav_cmd(1, out):
+                return
+        self._say_started(out)
+
+    def stop(self) -> None:
+        """AP_Mission::stop (ModeAuto::_exit: leaving AUTO stops a running mission)."""
+        if self.state == MISSION_RUNNING:
+            self.state = MISSION_STOPPED
+
+    def nav_done(self, out: Outcome) -> bool:
+        """The current nav command verified: on to the next one (True), or the mission is
+        complete (False; the caller says "Mission Complete", ModeAuto::exit_mission)."""
+        if self.state != MISSION_RUNNING or self.nav_index == CMD_INDEX_NONE:
+            return False
+        self.do_index = CMD_INDEX_NONE
+        if not self._advance_current_nav_cmd(self.nav_index + 1, out):
+            return False
+        self._say_started(out)
+        return True
+
+    def _say_started(self, out: Outcome) -> None:
+        if self.state == MISSION_RUNNING and self.nav_index != CMD_INDEX_NONE:
+            cmd = self._command_at(self.nav_index)
+            name = COMMAND_TYPES.get(cmd.command, f"Cmd{cmd.command}")
+            out.say(SimStatusText(MAV_SEVERITY_INFO, f"Mission: {self.nav_index} {name}"))
 
     def reset_on_disarm(self) -> None:
         """``AP_Arming_Rover::disarm`` outside AUTO: ``mission.reset()`` — no current command

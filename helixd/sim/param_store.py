@@ -69,6 +69,8 @@ def _build_defaults() -> dict[str, SimParamSpec]:
         "MODE_CH": SimParamSpec(8, i8),
         "SCR_ENABLE": SimParamSpec(0, i8),  # AP_Scripting: scripts start at boot when 1
         "ARMING_SKIPCHK": SimParamSpec(0, i32),  # AP_Arming: checks to skip; -1 = all
+        "WP_RADIUS": SimParamSpec(2.0, f32),  # AR_WPNav: a waypoint is reached within (m)
+        "MIS_DONE_BEHAVE": SimParamSpec(0, i8),  # ModeAuto::exit_mission: 0 = HOLD (stop)
     }
     for n in range(1, 7):
         table[f"MODE{n}"] = SimParamSpec(0, i8)  # Rover Parameters.cpp: every MODEn = MANUAL
@@ -78,6 +80,7 @@ def _build_defaults() -> dict[str, SimParamSpec]:
         table[f"RC{n}_MAX"] = SimParamSpec(1900, i16)
         # Rover::init_rc_in sets a 30 µs dead zone on steering (1) and throttle (3)
         table[f"RC{n}_DZ"] = SimParamSpec(30 if n in (1, 3) else 0, i16)
+        table[f"RC{n}_OPTION"] = SimParamSpec(0, i16)  # RC_Channel: aux function, 0 = none
     for n in range(1, 17):
         table[f"SERVO{n}_FUNCTION"] = SimParamSpec(_helix_function(n), i16)
         table[f"SERVO{n}_MIN"] = SimParamSpec(1100, i16)

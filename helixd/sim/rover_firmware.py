@@ -9,7 +9,10 @@ one "PreArm: …" CRITICAL STATUSTEXT per failing check unless param2 = 21196 (f
 ARMING_SKIPCHK = -1 skips them (AP_Arming::should_skip_all_checks). Mode
 changes (Rover::set_mode, Mode::enter): position-requiring modes are refused while armed
 without a good EKF position or in EKF failsafe ("Flight mode change failed"); AUTO is refused
-without a mission.
+without a mission ("No Mission. Can't set AUTO."). MAV_CMD_MISSION_START (Rover's command
+handler) is DENIED with a first or last item (param1/param2 not 0), else it sets AUTO,
+armed or not: ACCEPTED, or FAILED when the mode change fails. What AUTO does with the
+mission: :mod:`helixd.sim.mode_auto`.
 
 Home (``Rover::update_home``, ``Rover::set_home``, ``AP_AHRS::set_home``): set where the EKF
 puts the rover once it has an origin (``home_delay_s`` after it; ArduPilot: the same loop),
@@ -44,9 +47,11 @@ from helixd.mav.arming import (
 )
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_CHANGE_SPEED,
     MAV_CMD_DO_SET_HOME,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_DO_SET_SERVO,
+    MAV_CMD_MISSION_START,
     MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     MAV_RESULT_ACCEPTED,
@@ -83,6 +88,9 @@ FORCE_REBOOT_MAGIC = 20190226  # GCS_MAVLINK::handle_preflight_reboot: reboot ev
 MAV_OPTIONS_GCS_ONLY = 1 << 0
 SEVERITY_CRITICAL = 2
 SEVERITY_WARNING = 4
+SEVERITY_NOTICE = 5
+NO_MISSION_TEXT = "No Mission. Can't set AUTO."  # ModeAuto::_enter
+WPNAV_SPEED_MIN_MPS = 0.05  # AR_WPNAV_SPEED_MIN
 SEVERITY_INFO = 6
 FIRMWARE_TEXT = "ArduRover V4.7.0-dev (helixd sim)"
 DISTANCE_HOME_MINCHANGE_M = 0.5  # Rover/defines.h
@@ -159,6 +167,8 @@ class SimAutopilot:
         self.pilot_rc_us: list[int] = list(config.pilot_rc_us)
         self.receiver_ok = True
         self.gcs_heartbeats_seen = 0
+        # AP_Mission::present (more than home): the simulator's core answers it
+        self.mission_present: Callable[[], bool] = lambda: False
         self._boot(now_s, silent_s=0.0)
 
     # -- lifecycle -------------------------------------------------------------------------
@@ -281,10 +291,14 @@ class SimAutopilot:
         ):
             self._say(SEVERITY_WARNING, "Flight mode change failed")
             return False
-        # _enter() refusals: AUTO has no mission and SmartRTL no saved path in the simulator;
-        # RTL needs home
+        # _enter() refusals: AUTO without a mission (ModeAuto::_enter), SmartRTL with no
+        # saved path (none in the simulator); RTL needs home
+        if number == modes.AUTO and not self.mission_present():
+            self._say(SEVERITY_NOTICE, NO_MISSION_TEXT)
+            self._say(SEVERITY_WARNING, "Flight mode change failed")
+            return False
         no_home = number == modes.RTL and not self.home_set(now_s)
-        if number in (modes.AUTO, modes.SMART_RTL) or no_home:
+        if number == modes.SMART_RTL or no_home:
             self._say(SEVERITY_WARNING, "Flight mode change failed")
             return False
         old = self.mode
@@ -426,6 +440,15 @@ class SimAutopilot:
             return self.do_set_mode(int(p[0]), int(p[1]), now_s, ekf)
         if command == MAV_CMD_DO_SET_HOME:
             return self.do_set_home(p, is_int)
+        if command == MAV_CMD_DO_CHANGE_SPEED:
+            return self.change_speed(p[0], p[1])
+        if command == MAV_CMD_MISSION_START:
+            # GCS_MAVLINK_Rover::handle_command_int_packet: a first or last item is DENIED;
+            # else AUTO (armed or not: ModeAuto::_enter asks only for a mission)
+            if p[0] != 0.0 or p[1] != 0.0:
+                return MAV_RESULT_DENIED
+            ok = self.set_mode(modes.AUTO, "gcs_command", now_s, ekf)
+            return MAV_RESULT_ACCEPTED if ok else MAV_RESULT_FAILED
         if command in PAYLOAD_COMMANDS:
             result, events = self.payload.command(
                 command, list(p), self.params, self.outputs, self.here_ne or (0, 0), now_s
@@ -454,6 +477,19 @@ class SimAutopilot:
                 return MAV_RESULT_UNSUPPORTED
             return MAV_RESULT_ACCEPTED  # the caller reboots after sending the ACK
         return None
+
+    def change_speed(self, speed_type: float, speed_mps: float) -> int:
+        """Rover's MAV_CMD_DO_CHANGE_SPEED: a climb or descent speed (param1 2, 3, 4) is
+        DENIED; else the mode's ``set_desired_speed``: the modes without navigation (MANUAL,
+        ACRO, STEERING, HOLD) refuse (FAILED); the navigating ones set AR_WPNav's maximum
+        speed, refused under 0.05 m/s (``AR_WPNAV_SPEED_MIN``). Nothing on MAVLink reports the
+        new speed (the simulator records it as an event)."""
+        if int(speed_type) in (2, 3, 4):
+            return MAV_RESULT_DENIED
+        if self.mode in modes.NO_POSITION_MODES or not speed_mps >= WPNAV_SPEED_MIN_MPS:
+            return MAV_RESULT_FAILED
+        self.events.append(SimEvent("speed", {"speed_mps": speed_mps}))
+        return MAV_RESULT_ACCEPTED
 
     def do_set_mode(self, base_mode: int, custom_mode: int, now_s: float, ekf: SimEkfStatus) -> int:
         """GCS_MAVLINK::_set_mode_common: only custom modes are understood."""

@@ -379,10 +379,14 @@ def test_mission_current_is_kept_with_its_state_and_cleared_by_a_reboot() -> Non
     assert st_.apply(mission_current(3, 5, MISSION_STATE_NOT_STARTED), 1.0) == (
         Change.MISSION_CURRENT
     )
-    assert st_.mission_current == MissionCurrent(3, 5, MISSION_STATE_NOT_STARTED, 1.0)
+    assert st_.mission_current == MissionCurrent(3, 5, MISSION_STATE_NOT_STARTED, 1.0, 0)
     # a mission_state this dialect does not define reads as UNKNOWN; seq/total are kept
     st_.apply(mission_current(4, 5, 200), 2.0)
-    assert st_.mission_current == MissionCurrent(4, 5, MISSION_STATE_UNKNOWN, 2.0)
+    assert st_.mission_current == MissionCurrent(4, 5, MISSION_STATE_UNKNOWN, 2.0, 0)
+    assert not st_.mission_mode_reported  # 0 in every mode: an autopilot may not fill it
+    st_.apply(mission_current(4, 5, MISSION_STATE_NOT_STARTED, mode=1), 2.5)
+    assert st_.mission_current is not None and st_.mission_current.mission_mode == 1
+    assert st_.mission_mode_reported  # seen 1 (AUTO): the field is filled from now on
     st_.apply(att(10_000, 0.0), 3.0)
     assert st_.apply(att(100, 0.0), 4.0) & Change.REBOOT
     assert st_.mission_current is None

@@ -130,6 +130,8 @@ def test_close_is_bounded(tmp_path: object) -> None:
         # a completed mission ends disarmed even when a ground station armed it (exit 0
         # means disarmed): the next start after a takeover found it armed in HOLD
         (False, Ending(None, ExitCode.OK), True),
+        # the crew released a flight of AUTO to the pilot (MANUAL): the pilot drives it
+        (False, Ending(Fault(FaultCause.RELEASED, "MANUAL"), ExitCode.OPERATOR_STOP), False),
     ],
 )
 def test_disarm_after(armed_by_us: bool, ending: Ending, disarm: bool | None) -> None:

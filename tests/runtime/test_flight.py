@@ -57,6 +57,7 @@ class FedAutopilot:
         self.t_ms = 1000
         self.periods_left = 0
         self.stop: StopRequest | None = None
+        self.modes: list[int] = []  # the HEARTBEAT's custom mode per period (then MANUAL)
 
     def feed(self) -> None:
         pass
@@ -73,7 +74,7 @@ class FedAutopilot:
         """One pose period: a heartbeat (armed, MANUAL), EKF healthy, a 3D GPS fix, attitude
         and position."""
         self.t_ms += 20
-        self.rx(hb(0, armed=True))
+        self.rx(hb(self.modes.pop(0) if self.modes else 0, armed=True))
         self.rx(decoded(AP.ekf_status_report_encode(EKF_OK, 0.1, 0.1, 0.1, 0.05, 0.0), AP))
         self.rx(decoded(AP.gps_raw_int_encode(0, 3, 0, 0, 0, 100, 200, 0, 0, 12), AP))
         self.rx(att(self.t_ms, 0.0))
@@ -111,7 +112,9 @@ class Sink:
     async def close(self) -> None: ...
 
 
-def make_loop(ap: FedAutopilot, sink: Sink, trace: list[str]) -> FlightLoop:
+def make_loop(
+    ap: FedAutopilot, sink: Sink, trace: list[str], driving_mode: str = "MANUAL"
+) -> FlightLoop:
     cfg = HelixdConfig()
     mission = Mission.model_validate(
         {"name": "t", "mode": "roll", "frame": "start", "waypoints": [{"x": 20, "y": 0}]}
@@ -135,6 +138,7 @@ def make_loop(ap: FedAutopilot, sink: Sink, trace: list[str]) -> FlightLoop:
         on_pose_rejected=lambda r: None,
         on_arrival=lambda i, t, e: None,
         on_tick=lambda: None,
+        driving_mode=driving_mode,
     )
 
 
@@ -398,3 +402,60 @@ def test_ceiling_never_exceeds_its_rate(gaps: list[float]) -> None:
         k = 4
         in_window = [b for b in steps[i:] if b < a + k * PERIOD_S]
         assert len(in_window) <= k + 2
+
+
+AUTO, HOLD, MANUAL = 10, 4, 0  # ArduPilot Rover's custom modes
+
+
+def test_a_flight_of_auto_pauses_in_hold_goes_on_in_auto_and_lets_go_in_manual() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.modes = [AUTO] * 8 + [HOLD] * 8 + [AUTO] * 8 + [MANUAL]
+    ap.tick()
+    sink = Sink(trace)
+    loop = make_loop(ap, sink, trace, driving_mode="AUTO")
+    gates: list[str] = []
+    loop.on_gate = lambda gate, mode: gates.append(f"{gate.value} {mode}")
+    result = asyncio.run(fly(ap, loop, 30))
+    # MANUAL: the flight ends as a release to the pilot (no takeover fault, no HOLD asked)
+    assert result.fault is not None and result.fault.cause is FaultCause.RELEASED
+    assert gates == ["hold HOLD", "drive AUTO", "release MANUAL"]
+    neutral = (0.0, 0.0, 0.0, 0.0)
+    driven = [c != neutral for c in sink.commands]
+    # driven, then neutral at every step of the pause (the overrides kept), then driven again
+    first_hold = driven.index(False, 1)  # the first step starts from rest
+    again = driven.index(True, first_hold)
+    assert any(driven[:first_hold]) and again - first_hold >= 6
+    assert all(not d for d in driven[first_hold:again])
+    assert any(driven[again:])
+
+
+def test_a_flight_that_set_manual_takes_a_mode_change_for_a_takeover() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.modes = [MANUAL] * 4 + [HOLD]
+    ap.tick()
+    result = asyncio.run(fly(ap, make_loop(ap, Sink(trace), trace), 10))
+    assert result.fault is not None and result.fault.cause is FaultCause.PILOT_TAKEOVER
+
+
+def test_a_flight_of_auto_ends_when_the_crew_sets_another_item() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.modes = [AUTO] * 30
+    ap.tick()
+    loop = make_loop(ap, Sink(trace), trace, driving_mode="AUTO")
+    ap.rx(decoded(AP.mission_current_encode(1, 3, 3, 1), AP))
+    ap.rx(decoded(AP.mission_current_encode(2, 3, 3, 1), AP))  # ArduPilot's own progress
+    ap.periods_left, ap.stop = 30, loop.stop
+
+    async def main() -> Any:
+        task = asyncio.create_task(loop.run())
+        for _ in range(5):
+            await asyncio.sleep(0)
+        ap.rx(decoded(AP.mission_current_encode(1, 3, 3, 1), AP))  # set back to item 1
+        return await asyncio.wait_for(task, 2.0)
+
+    result = asyncio.run(main())
+    assert result.fault is not None and result.fault.cause is FaultCause.ITEM_SET
+    assert "item 1" in result.fault.detail

@@ -11,11 +11,19 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
-from helixd.mission.formats import read_gcs
+from helixd.mission.formats import mission_to_yaml, read_gcs
 from helixd.mission.formats.wire import gcs_to_wire
+from helixd.mission.model import Mission
+from helixd.mission.resume import fresh_inputs
 from helixd.runtime.autopilot_mission import convert_download
 from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.prepare import AutopilotMission, MissionFile, prepare_flight
+from helixd.runtime.planned import Flight
+from helixd.runtime.prepare import (
+    AutopilotMission,
+    MissionFile,
+    from_autopilot_item,
+    prepare_flight,
+)
 from tests.support.paths import DATA_DIR
 
 HOME = (53.523250, -113.526110)
@@ -65,3 +73,34 @@ def test_the_shipped_ground_station_files_are_flights() -> None:
     for name in ("square.waypoints", "sim_square.plan"):
         got = prepare_flight(MissionFile(DATA_DIR / name, MotionMode.ROLL), None)
         assert got.path == DATA_DIR / name
+
+
+def three_waypoints() -> Flight:
+    msn = Mission.model_validate(
+        {
+            "name": "m",
+            "mode": "roll",
+            "frame": "local_ned",
+            "waypoints": [
+                {"north": 0, "east": 10},
+                {"north": 8, "east": 10},
+                {"north": 8, "east": 0},
+            ],
+        }
+    )
+    text = mission_to_yaml(msn)
+    return Flight(msn, text, None, fresh_inputs(text, "c" * 64, msn))
+
+
+def test_a_flight_from_the_autopilots_current_item() -> None:
+    flight = three_waypoints()
+    assert from_autopilot_item(flight, 0) is flight  # no current item: from the start
+    assert from_autopilot_item(flight, 1) is flight
+    later = from_autopilot_item(flight, 3)
+    assert [(w.north, w.east) for w in later.mission.waypoints] == [(8, 0)]
+    # the first leg re-enters the one from waypoint 2; numbered as the whole mission
+    start = later.inputs.leg_start
+    assert start is not None and (start.north, start.east) == (8, 10)
+    assert later.inputs.numbering([False]).label(0) == "3/3"
+    with pytest.raises(InputsRefused, match="past the mission's last waypoint"):
+        from_autopilot_item(flight, 4)

@@ -19,11 +19,13 @@ from helixd.mav.constants import (
     MAV_RESULT_UNSUPPORTED,
 )
 from helixd.runtime.serve_core import (
+    AutoWatch,
     Request,
     ServeState,
     ServeView,
     SwitchEdge,
     SwitchWatch,
+    answer_auto,
     answer_command,
     answer_switch,
     state_after_flight,
@@ -192,9 +194,64 @@ def test_switch_edges_start_and_pause() -> None:
         (ExitCode.OPERATOR_STOP, FaultCause.PILOT_TAKEOVER, True, ServeState.FAULTED),
         (ExitCode.FAULT, FaultCause.LINK_LOST, False, ServeState.FAULTED),
         (ExitCode.PREFLIGHT, FaultCause.PREFLIGHT, False, ServeState.FAULTED),
+        # a flight of AUTO the crew released to the pilot (MANUAL): AUTO again goes on
+        (ExitCode.OPERATOR_STOP, FaultCause.RELEASED, False, ServeState.PAUSED),
     ],
 )
 def test_state_after_flight(
     code: ExitCode, cause: FaultCause | None, paused: bool, state: ServeState
 ) -> None:
     assert state_after_flight(code, cause, paused) is state
+
+
+def test_armed_in_auto_is_a_start_only_after_being_seen_otherwise() -> None:
+    w = AutoWatch()
+    assert not w.update(True, "AUTO", flying=False)  # found armed in AUTO: not a start
+    assert not w.update(True, "HOLD", flying=False)
+    assert w.update(True, "AUTO", flying=False)  # AUTO after HOLD: pending
+    assert w.update(True, "AUTO", flying=False)  # until taken
+    w.taken()
+    assert not w.update(True, "AUTO", flying=False)
+    # disarmed in AUTO is no start (ArduPilot enters AUTO disarmed; nothing moves)
+    w = AutoWatch()
+    assert not w.update(False, "GUIDED", flying=False)
+    assert not w.update(False, "AUTO", flying=False)
+    assert w.update(True, "AUTO", flying=False)  # QGroundControl armed, then MISSION_START
+
+
+def test_the_watch_is_blind_while_flying_and_told_how_a_flight_ended() -> None:
+    w = AutoWatch()
+    w.update(True, "HOLD", flying=False)
+    assert w.update(True, "AUTO", flying=False)
+    w.taken()
+    # a pause and a continue inside the flight are the flight's
+    assert not w.update(True, "HOLD", flying=True)
+    assert not w.update(True, "AUTO", flying=True)
+    # completed (or faulted): the autopilot still shows AUTO until the fall-back's HOLD
+    w.flight_ended(left_auto=False)
+    assert not w.update(True, "AUTO", flying=False)
+    assert not w.update(True, "HOLD", flying=False)
+    assert w.update(True, "AUTO", flying=False)
+    w.taken()
+    # released to the pilot (MANUAL): AUTO again, however soon, starts the next flight
+    w.flight_ended(left_auto=True)
+    assert w.update(True, "AUTO", flying=False)
+
+
+def test_a_pending_start_from_auto_is_answered_once_the_mission_is_judged() -> None:
+    a = answer_auto(view(ServeState.READY))
+    assert a is not None and a.result == MAV_RESULT_ACCEPTED and a.request is Request.AUTO
+    for state in (ServeState.COMPLETED, ServeState.PAUSED, ServeState.FAULTED):
+        a = answer_auto(view(state))
+        assert a is not None and a.request is Request.AUTO
+    assert answer_auto(view(ServeState.IDLE, refusal="reading the autopilot's mission")) is None
+    assert answer_auto(view(ServeState.FLYING)) is None
+    assert answer_auto(view(busy=True)) is None
+    a = answer_auto(view(ServeState.REFUSED, refusal="too far"))
+    assert a is not None and a.result == MAV_RESULT_DENIED and "too far" in a.text
+    a = answer_auto(view(ServeState.IDLE, refusal="no mission on the autopilot: upload one"))
+    assert a is not None and a.result == MAV_RESULT_DENIED
+    a = answer_auto(view(switch_low=True))  # the pilot's veto holds for the ground station too
+    assert a is not None and a.result == MAV_RESULT_DENIED and "switch" in a.text
+    a = answer_auto(view(flies_file=True))  # not the autopilot's mission: AUTO means nothing
+    assert a is not None and a.result == MAV_RESULT_DENIED and "mission_file" in a.text

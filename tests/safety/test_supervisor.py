@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import math
 
 import pytest
@@ -9,8 +10,8 @@ import pytest
 from helixd.base.frames import NedPose
 from helixd.config import SafetyConfig
 from helixd.link.vehicle import VehicleState
-from helixd.safety.supervisor import Motion, Supervisor, safety_inputs
-from helixd.safety.watchdogs import FaultCause
+from helixd.safety.supervisor import Motion, Supervisor, fall_back, safety_inputs
+from helixd.safety.watchdogs import Fault, FaultCause
 from tests.support.mavmsgs import AP, att, decoded, hb, lpn
 
 MOTION = Motion(0.5, 0.1, 0.05, 12.0)
@@ -53,3 +54,55 @@ def test_no_pose_yet() -> None:
     s = safety_inputs(5.0, st, None, NedPose(0.0, 0.0, 0.0), "MANUAL", MOTION)
     assert s.north_m is None and s.pose_rx_s is None and s.measured_speed_mps == 0.0
     assert s.vehicle_time_s is None and s.ekf_healthy is None
+
+
+class FakeSink:
+    def __init__(self, calls: list[str]) -> None:
+        self.calls = calls
+
+    async def stop(self) -> None:
+        self.calls.append("stop")
+
+
+class FakeAutopilot:
+    def __init__(self, calls: list[str]) -> None:
+        self.calls = calls
+
+    async def set_mode(
+        self, name: str, timeout_s: float | None = None, retries: int | None = None
+    ) -> None:
+        self.calls.append(f"mode {name}")
+
+    async def disarm(self, force: bool = False) -> None:
+        self.calls.append("disarm")
+
+
+@pytest.mark.parametrize(
+    ("cause", "calls"),
+    [
+        (FaultCause.PILOT_TAKEOVER, ["stop", "mode HOLD"]),
+        (FaultCause.PAUSED, ["stop", "mode HOLD"]),
+        # a flight of AUTO released to the pilot (MANUAL): no HOLD taking it from the pilot
+        (FaultCause.RELEASED, ["stop"]),
+        # the crew set the autopilot's current item: the next flight of AUTO goes there
+        (FaultCause.ITEM_SET, ["stop"]),
+    ],
+)
+def test_fall_back_stops_and_asks_hold_except_for_a_release(
+    cause: FaultCause, calls: list[str]
+) -> None:
+    seen: list[str] = []
+    report = asyncio.run(
+        fall_back(
+            Fault(cause, "x"),
+            sink=FakeSink(seen),
+            autopilot=FakeAutopilot(seen),
+            cfg=SafetyConfig(),
+            detected_s=0.0,
+            pose_text="here",
+            disarm=False,
+        )
+    )
+    assert seen == calls
+    no_hold = cause in (FaultCause.RELEASED, FaultCause.ITEM_SET)
+    assert (report.hold_requested_after_s is None) is no_hold

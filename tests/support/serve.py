@@ -28,7 +28,8 @@ CONFIG: dict[str, Any] = {
 
 
 def serve_proc(tmp_path: Path, url: str, extra: dict[str, Any] | None = None) -> DaemonProc:
-    cfg = deep_merge(deep_merge(BASE_CONFIG, CONFIG), {"link": {"url": url}, **(extra or {})})
+    cfg = deep_merge(deep_merge(BASE_CONFIG, CONFIG), {"link": {"url": url}})
+    cfg = deep_merge(cfg, extra or {})
     cfg_path = tmp_path / "helixd.yaml"
     cfg_path.write_text(yaml.safe_dump(cfg), encoding="utf-8")
     run_root = tmp_path / "runs"
@@ -41,11 +42,13 @@ def serve_proc(tmp_path: Path, url: str, extra: dict[str, Any] | None = None) ->
 
 @contextmanager
 def sim_with_ground_station(
-    speedup: float = SPEEDUP, links: int = 2
+    speedup: float = SPEEDUP, links: int = 2, **overrides: Any
 ) -> Iterator[tuple[SimServer, list[str], MavClient]]:
     """The simulator with ``links`` UDP links: helixd's URL first, the ground station (system
-    255, connected) on the second, any others for the test; yields (server, urls, gcs)."""
-    with running_sim_links(["udpin:127.0.0.1:0"] * links, speedup=speedup) as server:
+    255, connected) on the second, any others for the test; yields (server, urls, gcs).
+    ``overrides``: more simulator settings (SimConfig keys)."""
+    links_ = ["udpin:127.0.0.1:0"] * links
+    with running_sim_links(links_, speedup=speedup, **overrides) as server:
         urls = [f"udpout:127.0.0.1:{p}" for p in server.local_ports]
         with MavClient(urls[1], sysid=QGC_SYSID) as gcs:
             yield server, urls, gcs

@@ -1,0 +1,95 @@
+"""What the autopilot's mode lets a flight do, when the crew's command is the mode (pure).
+
+``helixd serve`` flies a mission the crew started from the ground station in the autopilot's
+AUTO (:mod:`helixd.runtime.serve_core`): QGroundControl's Start Mission, Pause and mode
+buttons talk to the autopilot, and the mode they leave it in is what helixd obeys:
+
+* AUTO (the flight's driving mode): helixd drives with its own guidance;
+* a mode in which the pilot drives (MANUAL, ACRO, STEERING: ArduPilot Rover's modes with
+  manual input): the flight ends and every override is released at once, no HOLD asked;
+* any other mode (HOLD — QGroundControl's Pause for a rover —, LOITER, GUIDED, RTL, …): the
+  scrolls are held at neutral by helixd's overrides (with the scroll outputs on RC
+  passthrough, ArduPilot's own HOLD would pass the sticks through) until AUTO comes back, when
+  the flight goes on from where it stopped.
+
+The mode is the HEARTBEAT's (1 Hz on ArduPilot), made sooner by MISSION_CURRENT's
+``mission_mode`` (1 only in AUTO, streamed at ``link.telemetry_rate_hz``): one newer than the
+last HEARTBEAT that disagrees with it tells a change into or out of AUTO before the next
+HEARTBEAT names the new mode (:func:`crew_mode`); a 0 is taken for "AUTO left" only from an
+autopilot seen to fill the field (older ones send 0 in every mode).
+
+The crew's *set current waypoint* (MISSION_SET_CURRENT / MAV_CMD_DO_SET_MISSION_CURRENT to
+the autopilot) shows as MISSION_CURRENT moving anywhere but on to the next item
+(:func:`item_set_by_crew`): the flight ends and the next one starts at that item. Only for a
+plain list of waypoints: a mission with commands moves the item by itself (DO_JUMP).
+
+A flight that sets MANUAL itself (``helixd run``) has no gate: a mode change is a takeover.
+"""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+AUTO_MODE = "AUTO"
+# ArduPilot Rover's Mode::has_manual_input(): the pilot's sticks drive
+PILOT_MODES = frozenset({"MANUAL", "ACRO", "STEERING"})
+
+
+LEFT_AUTO = "not AUTO"  # MISSION_CURRENT says AUTO was left; the next HEARTBEAT says for what
+
+
+class Gate(StrEnum):
+    DRIVE = "drive"  # helixd drives
+    HOLD = "hold"  # neutral, overrides kept (a pause: the flight goes on in the driving mode)
+    RELEASE = "release"  # overrides released, the flight ends: the pilot drives
+
+
+def gate_of(mode: str, driving_mode: str) -> Gate:
+    """What the autopilot's ``mode`` lets a flight whose driving mode is ``driving_mode`` do."""
+    if mode == driving_mode:
+        return Gate.DRIVE
+    if mode in PILOT_MODES:
+        return Gate.RELEASE
+    return Gate.HOLD
+
+
+def crew_mode(
+    heartbeat_mode: str,
+    heartbeat_rx_s: float | None,
+    mission_mode: int | None,
+    mission_current_rx_s: float | None,
+    mission_mode_reported: bool,
+) -> str:
+    """The autopilot's mode as the freshest report tells it: the HEARTBEAT's, unless a later
+    MISSION_CURRENT says AUTO was entered (``mission_mode`` 1) or left (0, from an autopilot
+    seen to fill the field: :data:`LEFT_AUTO`) since."""
+    if (
+        mission_mode is None
+        or mission_current_rx_s is None
+        or (heartbeat_rx_s is not None and mission_current_rx_s <= heartbeat_rx_s)
+    ):
+        return heartbeat_mode
+    if mission_mode == 1 and heartbeat_mode != AUTO_MODE:
+        return AUTO_MODE  # only an autopilot that fills the field sends 1
+    if mission_mode == 0 and heartbeat_mode == AUTO_MODE and mission_mode_reported:
+        return LEFT_AUTO
+    return heartbeat_mode
+
+
+def item_set_by_crew(previous_seq: int | None, seq: int) -> bool:
+    """Whether the autopilot's current item (MISSION_CURRENT.seq) moved as only a crew's *set
+    current waypoint* moves it: anywhere but on to the next item (ArduPilot's own progress,
+    one item per verified waypoint). The next item set by hand cannot be told from progress;
+    neither can 0 (no current item)."""
+    return previous_seq is not None and seq not in (previous_seq, previous_seq + 1) and seq > 0
+
+
+__all__ = [
+    "AUTO_MODE",
+    "LEFT_AUTO",
+    "PILOT_MODES",
+    "Gate",
+    "crew_mode",
+    "gate_of",
+    "item_set_by_crew",
+]
