@@ -27,6 +27,7 @@ from typing import Literal
 from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
 from helixd.link.preflight import (
     LEGACY_GCS_SYSID,
+    RADIO_PARAMS,
     ParamReader,
     PreflightProblem,
     ServoGuardPolicy,
@@ -177,11 +178,25 @@ def _topic(problem: PreflightProblem) -> str:
     param = problem.param or ""
     if param.startswith(("MAV_GCS_SYSID", LEGACY_GCS_SYSID)):
         return "GCS system id"
-    if param.startswith(("SERVO", "RC", "MODE_CH")) and param != "RC_OVERRIDE_TIME":
+    if param.startswith(("SERVO", "RC", "MODE_CH")) and param not in (
+        "RC_OVERRIDE_TIME",
+        *RADIO_PARAMS,
+    ):
         return "scroll outputs"
     if param.startswith(("HXG_", "SCR_")):
         return "helixd-guard"
+    if param in RADIO_PARAMS:
+        return "pilot's radio"
     return "link and failsafe"
+
+
+def _radio_fine(params: Mapping[str, float | None]) -> str:
+    ch, value = params.get("RCMAP_THROTTLE"), params.get("FS_THR_VALUE")
+    return (
+        f"ArduPilot's radio failsafe is on and reads channel {_shown(ch)}, which helixd does "
+        f"not override: a receiver whose failsafe sends it below {_shown(value)} µs is seen "
+        "while helixd drives (a receiver that just stops sending is not)"
+    )
 
 
 def judge_setup(
@@ -207,6 +222,8 @@ def judge_setup(
         "scroll outputs": _scrolls_fine(params, actuation),
         "link and failsafe": _failsafe_fine(params, actuation),
     }
+    if actuation.backend is not ActuationBackend.DRY_RUN:
+        fine["pilot's radio"] = _radio_fine(params)
     if actuation.backend is not ActuationBackend.DRY_RUN:
         fine["helixd-guard"] = f"v{_shown(params.get(HXG_VERSION))} runs and guards every scroll"
     for topic, text in fine.items():

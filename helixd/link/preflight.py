@@ -31,6 +31,13 @@ What is checked (ArduPilot Rover; docs/ardupilot.md):
   :data:`helixd.mav.servo_functions.DO_SET_SERVO_FUNCTIONS` (0, 1, 22, 23, 28, 51–66, 140–155)
   → error; anything but 0 also feeds the output from elsewhere → warning.
 * ``FS_GCS_ENABLE`` = 0 → warning: nothing on the autopilot notices a dead helixd.
+* The pilot's radio (:func:`judge_radio`): ArduPilot counts every new RC override as fresh RC
+  input, so while helixd overrides, a receiver that stops sending is invisible (Rover's radio
+  failsafe never times out, SYS_STATUS keeps the receiver healthy; measured on SITL). What
+  ArduPilot still sees is a receiver that sends its failsafe frame with the throttle channel
+  below ``FS_THR_VALUE``, on a throttle channel (``RCMAP_THROTTLE``) helixd does not
+  override. ``FS_THR_ENABLE`` = 0, or helixd overriding ``RCMAP_THROTTLE``'s channel →
+  warning (when ``safety.stop_on_rc_loss`` asks helixd to stop on a lost radio).
 * helixd-guard (the dead-man switch on the autopilot, :mod:`helixd.mav.guard_script`): its
   parameters say whether it runs (HXG_VERSION exists), in this helixd's version, enabled
   (HXG_ENABLE), guarding every scroll output (HXG_CHAN1..4), and whether helixd refreshes
@@ -124,12 +131,15 @@ class OwnIdWatch(Protocol):
 
 
 LEGACY_GCS_SYSID = "SYSID_MYGCS"
+RADIO_PARAMS = ["FS_THR_ENABLE", "RCMAP_THROTTLE", "FS_THR_VALUE"]
 
 
 def param_names(actuation: ActuationConfig) -> list[str]:
     """Parameters to read (the legacy SYSID_MYGCS only if MAV_GCS_SYSID turns out missing, the
     guard's settings only if HXG_VERSION says it runs)."""
     names = ["MAV_GCS_SYSID", "MAV_GCS_SYSID_HI", "FS_GCS_ENABLE"]
+    if actuation.backend is not ActuationBackend.DRY_RUN:
+        names += RADIO_PARAMS
     if actuation.backend is not ActuationBackend.DRY_RUN:
         names += [SCR_ENABLE, HXG_VERSION]
     if actuation.backend is ActuationBackend.RC_OVERRIDE:
@@ -147,6 +157,7 @@ async def check_obedience(
     actuation: ActuationConfig,
     link: LinkConfig,
     servo_guard: ServoGuardPolicy = "required",
+    watch_radio: bool = True,
 ) -> list[PreflightProblem]:
     """Read the parameters that decide whether we are obeyed; return every problem found."""
     names = param_names(actuation)
@@ -160,7 +171,7 @@ async def check_obedience(
         settings = [n for n in PARAM_DEFAULTS if n != HXG_VERSION]
         got = await asyncio.gather(*(ap.param.get(n) for n in settings))
         params.update(zip(settings, got, strict=True))
-    problems = judge(params, actuation, link, servo_guard)
+    problems = judge(params, actuation, link, servo_guard, watch_radio)
     if isinstance(ap, OwnIdWatch):
         problems = judge_own_id(ap.own_id_senders, link) + problems
     return problems
@@ -205,6 +216,7 @@ def judge(
     actuation: ActuationConfig,
     link: LinkConfig,
     servo_guard: ServoGuardPolicy = "required",
+    watch_radio: bool = True,
 ) -> list[PreflightProblem]:
     """The pure part of :func:`check_obedience`."""
     out = _gcs_sysid(params, actuation, link)
@@ -226,8 +238,48 @@ def judge(
                 "FS_GCS_ENABLE",
             )
         )
+    if watch_radio:
+        out += judge_radio(params, actuation)
     out += judge_guard(params, actuation, link, servo_guard)
     return out
+
+
+def judge_radio(
+    params: Mapping[str, float | None], actuation: ActuationConfig
+) -> list[PreflightProblem]:
+    """Can anyone notice the pilot's radio is lost while helixd drives? (pure)"""
+    if actuation.backend is ActuationBackend.DRY_RUN:
+        return []
+    enabled, throttle_ch = params.get("FS_THR_ENABLE"), params.get("RCMAP_THROTTLE")
+    if enabled is not None and _int(enabled) == 0:
+        return [
+            PreflightProblem(
+                "warning",
+                "FS_THR_ENABLE = 0: nobody notices a lost radio (ArduPilot's radio failsafe is "
+                "off); set FS_THR_ENABLE = 1 and program the receiver's failsafe to send "
+                "throttle below FS_THR_VALUE",
+                "FS_THR_ENABLE",
+            )
+        ]
+    overridden = actuation.backend is ActuationBackend.RC_OVERRIDE and throttle_ch is not None
+    if overridden and _int(throttle_ch or 0) in {ch.channel for ch in actuation.channels}:
+        n = _int(throttle_ch or 0)
+        driven = {ch.channel for ch in actuation.channels}
+        spare = next((c for c in range(5, RCIN_CHANNELS + 1) if c not in driven), None)
+        instead = "a channel helixd does not drive" + ("" if spare is None else f" (e.g. {spare})")
+        value = params.get("FS_THR_VALUE")
+        below = "FS_THR_VALUE" if value is None else f"FS_THR_VALUE ({_int(value)} µs)"
+        return [
+            PreflightProblem(
+                "warning",
+                f"RCMAP_THROTTLE = {n} is a channel helixd overrides: while it drives, "
+                f"ArduPilot cannot see a lost radio and nobody could take over; set "
+                f"RCMAP_THROTTLE to {instead}, reboot the autopilot, and program the "
+                f"receiver's failsafe to send that channel below {below}",
+                "RCMAP_THROTTLE",
+            )
+        ]
+    return []
 
 
 def judge_guard(

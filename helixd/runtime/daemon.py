@@ -486,8 +486,21 @@ class MissionRunner:
 
         self.host.on_item(mission_item_of(plan, numbering, 0))
 
+        radio_lost_told = False
+
+        def tell_radio_lost() -> None:
+            """With ``safety.stop_on_rc_loss`` off helixd drives on when the radio is lost
+            (as ArduPilot reports it): the ground station is told, once per loss."""
+            nonlocal radio_lost_told
+            lost = ap.state.rc_receiver_healthy is False
+            if lost and not radio_lost_told and not self.cfg.safety.stop_on_rc_loss:
+                log.warning("rc_lost_driving_on", reason="safety.stop_on_rc_loss is off")
+                self.gcs.say("radio lost: driving on, no safety pilot", MAV_SEVERITY_WARNING)
+            radio_lost_told = lost
+
         def on_tick() -> None:
             ap.feed()
+            tell_radio_lost()
             self.notifier.watchdog()
             journal.maybe_drain(time.monotonic())
             if self.recorder is not None:

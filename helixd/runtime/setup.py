@@ -319,7 +319,9 @@ async def preflight(
     with a healthy EKF, the EKF origin (a global mission needs it); every problem at once
     (:class:`PreflightFailed`); warnings go to ``on_warning`` as found."""
     problems: list[str] = []
-    for p in await check_obedience(ap, cfg.actuation, cfg.link, cfg.safety.servo_guard):
+    for p in await check_obedience(
+        ap, cfg.actuation, cfg.link, cfg.safety.servo_guard, cfg.safety.stop_on_rc_loss
+    ):
         if p.severity == "error":
             problems.append(p.message)
         else:

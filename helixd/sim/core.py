@@ -240,7 +240,9 @@ class SimCore:
             self.set_rc(self.params.get_int("MODE_CH"), switch_pwm)
         else:
             self.faults.start(spec, now)
-            if spec.name == "rc_loss":
+            if spec.name == "rc_loss" and kw.get("kind") == "failsafe_values":
+                self.ap.set_receiver_failsafe_values(True)
+            elif spec.name == "rc_loss":
                 self.ap.set_receiver_ok(False)
             elif spec.name == "gps_loss":
                 self._gps_lost_since_s = now
@@ -262,6 +264,7 @@ class SimCore:
         self.events.append(SimEvent("fault_end", {"name": name}))
         if name == "rc_loss":
             self.ap.set_receiver_ok(True)
+            self.ap.set_receiver_failsafe_values(False)
         elif name == "gps_loss":
             self._gps_lost_since_s = None
 
@@ -404,7 +407,7 @@ class SimCore:
             origin_set=ap.origin_set(now),
             home_set=ap.home_set(now),
             prearm_ok=not ap.booting(now) and not ap.prearm_failures(now, ekf),
-            rc_ok=ap.receiver_ok,
+            rc_ok=not ap.failsafes.radio_on(),  # rc().in_rc_failsafe(), not the receiver
             estimate=estimator.estimate(self.est, self.phys),
             gps_north_m=gps_n,
             gps_east_m=gps_e,

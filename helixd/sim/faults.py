@@ -16,7 +16,9 @@ FAULTS: dict[str, dict[str, object]] = {
     # gps_loss_report_s; the EKF dead-reckons and drops its position after gps_dead_reckon_s
     "gps_loss": {"duration_s": None},
     "pilot_takeover": {"mode": "HOLD"},  # pilot moves the RC mode switch
-    "rc_loss": {"duration_s": None},  # pilot's receiver stops
+    # the pilot's radio is lost. kind no_pulses: the receiver stops (SIM_RC_FAIL 1);
+    # failsafe_values: it sends its failsafe frame, throttle channel 3 at 950 µs (SIM_RC_FAIL 2)
+    "rc_loss": {"duration_s": None, "kind": "no_pulses"},
     "stall": {"duration_s": None},  # scrolls dig in: they turn, the rover does not move
     # Hostile telemetry: the autopilot reports values no pose can be made of.
     # armed_only: corrupt only while armed (inject before arming = bad "from the moment of
@@ -30,6 +32,7 @@ FAULTS: dict[str, dict[str, object]] = {
     # than a reboot's when step_s < 1 s)
     "time_backwards": {"duration_s": None, "armed_only": False, "step_s": 0.9},
 }
+RC_LOSS_KINDS = ("no_pulses", "failsafe_values")
 HOSTILE_TELEMETRY_FAULTS = frozenset(
     {"nan_position", "nan_yaw", "inf_yaw", "absurd_position", "time_backwards"}
 )
@@ -53,6 +56,8 @@ def _convert(name: str, key: str, raw: str) -> object:
     default = FAULTS[name][key]
     if key == "mode":
         return raw.upper()
+    if key == "kind":
+        return raw  # checked with the programmatic arguments, in make_spec
     if isinstance(default, bool):
         if raw.lower() in ("1", "true", "yes", "on"):
             return True
@@ -82,6 +87,9 @@ def make_spec(name: str, kwargs: Mapping[str, object]) -> FaultSpec:
     step = merged.get("step_s")
     if step is not None and float(str(step)) <= 0.0:
         raise FaultError(f"{name}: step_s must be > 0")
+    kind = merged.get("kind")
+    if kind is not None and kind not in RC_LOSS_KINDS:
+        raise FaultError(f"{name}: kind must be one of {', '.join(RC_LOSS_KINDS)}, got {kind!r}")
     sign = merged.get("sign")
     if sign is not None and float(str(sign)) == 0.0:
         raise FaultError(f"{name}: sign must be +1 or -1")

@@ -240,12 +240,12 @@ def relay_status(time_boot_ms: int, on_mask: int, present_mask: int) -> Message:
     return _m(mavlink.MAVLink_relay_status_message(time_boot_ms, on_mask, present_mask))
 
 
-def rc_channels(time_boot_ms: int, radio_in_us: Sequence[int], rc_ok: bool) -> Message:
+def rc_channels(time_boot_ms: int, radio_in_us: Sequence[int]) -> Message:
+    """GCS_MAVLINK::send_rc_channels: every channel's radio_in (an override where one is
+    active), the receiver's channel count, RSSI 255 (unknown: no RSSI source). A receiver that
+    stops changes none of it: the count stays, the values hold their last frame."""
     chans = [*[int(v) for v in radio_in_us][:16], 0, 0]
-    chancount = 16 if rc_ok else 0
-    return _m(
-        mavlink.MAVLink_rc_channels_message(time_boot_ms, chancount, *chans, 255 if rc_ok else 0)
-    )
+    return _m(mavlink.MAVLink_rc_channels_message(time_boot_ms, 16, *chans, 255))
 
 
 def servo_output_raw(time_boot_ms: int, outputs_us: Sequence[int]) -> Message:

@@ -23,6 +23,13 @@ from dataclasses import dataclass
 from helixd.mav.constants import UINT16_MAX
 
 NUM_RC_CHANNELS = 16
+# What SITL's receiver sends in its failsafe (SIM_RC_FAIL 2, AP_RCProtocol_UDP): every channel
+# centred, the throttle channel at 950 µs: the "low throttle" receiver failsafe ArduPilot's
+# radio failsafe looks for (below FS_THR_VALUE), on a receiver that keeps sending. SITL
+# assumes throttle is channel 3; here it is ArduPilot's RCMAP_THROTTLE, as a receiver
+# programmed for the vehicle would have it.
+FAILSAFE_CENTRE_US = 1500
+FAILSAFE_THROTTLE_US = 950
 RC_OPTION_IGNORE_RECEIVER = 1 << 0
 RC_OPTION_IGNORE_OVERRIDES = 1 << 1
 
@@ -40,6 +47,8 @@ class RcInputs:
     def __init__(self, receiver_us: Sequence[int]) -> None:
         self.receiver_us: list[int] = [int(v) for v in receiver_us][:NUM_RC_CHANNELS]
         self.receiver_ok = True
+        self.failsafe_values = False  # the receiver sends its failsafe frame (SIM_RC_FAIL 2)
+        self.throttle_channel = 3  # RCMAP_THROTTLE: the channel that frame puts low
         self.has_had_receiver = False
         # what hal.rcin->read() returns: the last frame actually received
         self.last_frame_us: list[int] = list(self.receiver_us)
@@ -114,7 +123,11 @@ class RcInputs:
         new_frame = self.receiver_ok and not (rc_options & RC_OPTION_IGNORE_RECEIVER)
         if new_frame:
             self.has_had_receiver = True
-            self.last_frame_us = list(self.receiver_us)
+            self.last_frame_us = (
+                failsafe_frame(self.throttle_channel)
+                if self.failsafe_values
+                else list(self.receiver_us)
+            )
         elif not self.has_new_overrides:
             return False
         self.has_new_overrides = False
@@ -129,3 +142,11 @@ class RcInputs:
                 self.radio_in_us[i] = self.last_frame_us[i]
                 updated = True
         return updated
+
+
+def failsafe_frame(throttle_channel: int) -> list[int]:
+    """The frame a receiver in failsafe sends (SITL's SIM_RC_FAIL 2)."""
+    frame = [FAILSAFE_CENTRE_US] * NUM_RC_CHANNELS
+    if 1 <= throttle_channel <= NUM_RC_CHANNELS:
+        frame[throttle_channel - 1] = FAILSAFE_THROTTLE_US
+    return frame

@@ -166,6 +166,7 @@ class SimAutopilot:
         self.texts: list[SimStatusText] = []
         self.pilot_rc_us: list[int] = list(config.pilot_rc_us)
         self.receiver_ok = True
+        self.receiver_failsafe_values = False
         self.gcs_heartbeats_seen = 0
         # AP_Mission::present (more than home): the simulator's core answers it
         self.mission_present: Callable[[], bool] = lambda: False
@@ -188,6 +189,7 @@ class SimAutopilot:
         self.armed = False
         self.rc = RcInputs(self.pilot_rc_us)
         self.rc.receiver_ok = self.receiver_ok
+        self.rc.failsafe_values = self.receiver_failsafe_values
         self.outputs = ServoOutputs()
         self.payload = Payload()
         self.home: Home | None = None
@@ -268,8 +270,14 @@ class SimAutopilot:
         self.rc.set_receiver(channel, pwm_us)
 
     def set_receiver_ok(self, ok: bool) -> None:
+        """The pilot's receiver sends frames (or stops: SIM_RC_FAIL 1, no pulses)."""
         self.receiver_ok = ok
         self.rc.receiver_ok = ok
+
+    def set_receiver_failsafe_values(self, on: bool) -> None:
+        """The receiver keeps sending, its failsafe frame (SIM_RC_FAIL 2)."""
+        self.receiver_failsafe_values = on
+        self.rc.failsafe_values = on
 
     # -- modes and arming ------------------------------------------------------------------
 
@@ -623,6 +631,7 @@ class SimAutopilot:
             self._say(SEVERITY_INFO, "EKF3 IMU0 is using GPS")
         params = self.params
         timeout_s = params.get("RC_OVERRIDE_TIME")
+        self.rc.throttle_channel = params.get_int("RCMAP_THROTTLE")
         rc_ok = self.rc.read_input(now_s, timeout_s, params.get_int("RC_OPTIONS"))
         self._note_override_expiry(now_s, timeout_s)
         t_ch = params.get_int("RCMAP_THROTTLE")

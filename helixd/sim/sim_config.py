@@ -196,13 +196,19 @@ def _helix_params() -> dict[str, float]:
     ``make demo`` and ``helixd sim`` start configured as a real vehicle should be (a
     preflight warning there then means something): helixd's system id is the GCS id
     (MAV_GCS_SYSID; ArduPilot's default 255 is the ground stations'), and the GCS failsafe
-    is on with HOLD as its action. Tests of raw ArduPilot defaults pass ``params`` explicitly.
+    is on with HOLD as its action; the radio failsafe reads a channel helixd does not override.
+    Tests of raw ArduPilot defaults pass ``params`` explicitly.
     """
     return {
         "MAV_GCS_SYSID": float(HELIXD_SYSID),
         "FS_GCS_ENABLE": 1.0,
         "FS_ACTION": 2.0,  # HOLD
         "MODE6": 4.0,  # pilot's mode switch high = HOLD (ArduPilot default: all MANUAL)
+        # ArduPilot's throttle channel on one helixd does not override (5, not 3), so that its
+        # radio failsafe still sees the receiver's low-throttle failsafe (960: above the 950
+        # µs the receiver sends then) while helixd drives
+        "RCMAP_THROTTLE": 5.0,
+        "FS_THR_VALUE": 960.0,
         "SERVO1_MIN": 1000.0,
         "SERVO1_MAX": 2000.0,
         "SERVO2_MIN": 1000.0,

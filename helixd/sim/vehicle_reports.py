@@ -28,7 +28,7 @@ class TelemetryView:
     origin_set: bool
     home_set: bool
     prearm_ok: bool
-    rc_ok: bool
+    rc_ok: bool  # SYS_STATUS RC receiver health: not in Rover's radio failsafe
     estimate: PoseEstimate
     gps_north_m: float
     gps_east_m: float
@@ -112,7 +112,7 @@ def build(
             return None
         return messages.attitude(t, v.estimate, raw_yaw_rad=_attitude_yaw(v, faults))
     if msg_id == st.MSG_RC_CHANNELS:
-        return messages.rc_channels(t, v.radio_in_us, v.rc_ok)
+        return messages.rc_channels(t, v.radio_in_us)
     if msg_id == st.MSG_SERVO_OUTPUT_RAW:
         return messages.servo_output_raw(t, v.outputs_us)
     if msg_id == st.MSG_SYSTEM_TIME:

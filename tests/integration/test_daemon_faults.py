@@ -191,9 +191,28 @@ def test_stall_dig_in(tmp_path: Path) -> None:
 
 
 def test_rc_signal_loss(tmp_path: Path) -> None:
-    # While helixd streams overrides ArduPilot's own RC failsafe cannot fire (overrides count
-    # as valid RC input); helixd watches the SYS_STATUS receiver bit and stops by itself.
-    check_fallback(tmp_path, "rc_loss", 0.3, ExitCode.FAULT, "rc_lost", duration_s=60.0)
+    # The receiver sends its failsafe frame, throttle below FS_THR_VALUE on ArduPilot's throttle
+    # channel (RCMAP_THROTTLE 5 in the Helix setup), which helixd does not override: Rover's
+    # radio failsafe starts at once, SYS_STATUS says the receiver is unhealthy, helixd stops
+    # (before ArduPilot's own FS_TIMEOUT of 1.5 s).
+    check_fallback(
+        tmp_path, "rc_loss", 0.3, ExitCode.FAULT, "rc_lost", duration_s=60.0, kind="failsafe_values"
+    )
+
+
+def test_rc_signal_loss_with_stop_on_rc_loss_off_drives_on_and_says_so(tmp_path: Path) -> None:
+    """``safety.stop_on_rc_loss: false`` and ArduPilot's failsafe action none (FS_ACTION 0):
+    the mission goes on without a safety pilot and the ground station is told once."""
+    cfg = {"safety": {"stop_on_rc_loss": False}}
+    with sim_and_daemon(tmp_path, "square", cfg, params={"FS_ACTION": 0}) as (server, d):
+        wait_moving(server)
+        server.inject("rc_loss", kind="failsafe_values")
+        code = d.wait_exit(60.0)
+        log = d.log_text()
+        run_dir = d.run_dir()
+    assert code == ExitCode.OK, log[-3000:]
+    assert log.count("event=rc_lost_driving_on") == 1, log[-3000:]
+    assert summary(run_dir)["completed"] is True
 
 
 def test_autopilot_reboot(tmp_path: Path) -> None:

@@ -8,6 +8,7 @@ loaded machine slows the simulation down but does not change the numbers.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any
 
 import pytest
@@ -290,3 +291,94 @@ async def test_helixd_asks_for_granted_rates_without_a_too_fast_text() -> None:
         finally:
             ap.stop_heartbeat()
             await ap.close()
+
+
+RC_RECEIVER_BIT = 0x10000
+
+
+def _stream_overrides_until(
+    c: MavClient,
+    srv: Any,
+    channels: tuple[int, ...],
+    until_sim_s: float,
+    seen: list[Any],
+    stop: Callable[[Any], bool] = lambda m: False,
+) -> Any:
+    """Stream RC_CHANNELS_OVERRIDE (as helixd does, every 50 ms of wall time) while collecting
+    SYS_STATUS, HEARTBEAT and STATUSTEXT until the simulator's clock reaches ``until_sim_s``
+    or a message satisfies ``stop`` (returned)."""
+    next_send = 0.0
+    while srv.snapshot().sim_time_s < until_sim_s:
+        if time.monotonic() >= next_send:
+            c.override(*channels)
+            next_send = time.monotonic() + 0.05
+        msg = c.conn.recv_match(type=["SYS_STATUS", "HEARTBEAT", "STATUSTEXT"], timeout=0.05)
+        if msg is None:
+            continue
+        seen.append((srv.snapshot().sim_time_s, msg))
+        if stop(msg):
+            return msg
+    return None
+
+
+def test_a_receiver_that_stops_is_invisible_while_overrides_stream() -> None:
+    """As on real ArduPilot (SITL, SIM_RC_FAIL 1 with a GCS overriding channels 1-4: nothing
+    changed for 6 s): new overrides count as valid RC input, so Rover's radio failsafe never
+    times out, SYS_STATUS keeps the receiver healthy and RC_CHANNELS shows the overrides.
+    Before: the simulator reported the loss from the receiver itself, which ArduPilot does not."""
+    with running_sim(speedup=1.0) as (srv, url), client(url) as c:
+        wait_manual(c)
+        seen: list[Any] = []
+        t0 = srv.snapshot().sim_time_s
+        _stream_overrides_until(c, srv, (1500, 1500, 1500, 1500), t0 + 1.0, seen)
+        srv.inject("rc_loss")  # no pulses
+        t_lost = srv.snapshot().sim_time_s
+        _stream_overrides_until(c, srv, (1500, 1500, 1500, 1500), t_lost + 4.0, seen)
+        after = [m for t, m in seen if t >= t_lost + 0.5]
+        status = [m for m in after if m.get_type() == "SYS_STATUS"]
+        assert status, "no SYS_STATUS after the loss"
+        assert all(int(m.onboard_control_sensors_health) & RC_RECEIVER_BIT for m in status)
+        assert all(int(m.custom_mode) == 0 for m in after if m.get_type() == "HEARTBEAT")
+        assert not [m for m in after if m.get_type() == "STATUSTEXT" and "Failsafe" in m.text]
+        rc = c.expect("RC_CHANNELS", 2.0)
+        assert int(rc.chancount) == 16 and int(rc.rssi) == 255  # nothing there either
+
+
+def test_a_receivers_low_throttle_failsafe_is_seen_on_a_channel_not_overridden() -> None:
+    """A receiver that keeps sending its failsafe frame (SIM_RC_FAIL 2: the throttle channel
+    at 950 µs) below FS_THR_VALUE (960 in the Helix setup): with ArduPilot's throttle channel
+    (RCMAP_THROTTLE 5) not overridden, Rover's radio failsafe starts at once (SYS_STATUS
+    receiver unhealthy) while overrides stream on 1-4, and acts after FS_TIMEOUT (1.5 s):
+    "Radio Failsafe", HOLD."""
+    with running_sim(speedup=1.0) as (srv, url), client(url) as c:
+        wait_manual(c)
+        assert c.param_read("RCMAP_THROTTLE") == 5 and c.param_read("FS_THR_VALUE") == 960
+        assert c.request_interval(1, 100_000) == MAV_RESULT_ACCEPTED  # SYS_STATUS at 10 Hz
+        seen: list[Any] = []
+        helixd_like = (1500, 1500, 1500, 1500)  # channels 1-4; RCMAP_THROTTLE is 5
+        t0 = srv.snapshot().sim_time_s
+        _stream_overrides_until(c, srv, helixd_like, t0 + 1.0, seen)
+        srv.inject("rc_loss", kind="failsafe_values")
+        t_lost = srv.snapshot().sim_time_s
+        hold = _stream_overrides_until(
+            c,
+            srv,
+            helixd_like,
+            t_lost + 5.0,
+            seen,
+            lambda m: m.get_type() == "HEARTBEAT" and int(m.custom_mode) == MODE_HOLD,
+        )
+        assert hold is not None, "no HOLD after the receiver's failsafe"
+        unhealthy = next(
+            t
+            for t, m in seen
+            if t >= t_lost
+            and m.get_type() == "SYS_STATUS"
+            and not int(m.onboard_control_sensors_health) & RC_RECEIVER_BIT
+        )
+        fired = srv.history.first("failsafe")
+        assert fired is not None
+        assert unhealthy - t_lost <= 0.15  # SYS_STATUS's own period: no timeout first
+        assert fired.sim_time_s - t_lost == pytest.approx(1.5, abs=0.05)  # FS_TIMEOUT
+        texts = [m.text for t, m in seen if m.get_type() == "STATUSTEXT"]
+        assert "Radio Failsafe" in texts or c.wait_text("Radio Failsafe", 2.0)

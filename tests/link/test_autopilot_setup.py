@@ -16,6 +16,7 @@ from helixd.link.autopilot_setup import (
     read_setup,
     spare_output,
 )
+from helixd.link.preflight import judge
 from helixd.mav.guard_script import PARAM_DEFAULTS as GUARD_DEFAULTS
 from tests.support.peer import HELIXD_SYSID, linked
 
@@ -29,6 +30,9 @@ HELIX_RC = {
     "RC_OVERRIDE_TIME": 3.0,
     "RC_OPTIONS": 0.0,
     "FS_GCS_ENABLE": 1.0,
+    "FS_THR_ENABLE": 1.0,
+    "RCMAP_THROTTLE": 5.0,  # a channel helixd does not override
+    "FS_THR_VALUE": 960.0,
     "MODE_CH": 8.0,
     **OUTPUTS,
     **{f"SERVO{n}_FUNCTION": 50.0 + n for n in range(1, 5)},
@@ -55,11 +59,38 @@ def judged(params: Mapping[str, float | None], act: ActuationConfig = RC) -> lis
 @pytest.mark.parametrize(("params", "act"), [(HELIX_RC, RC), (HELIX_SERVO, SERVO)])
 def test_the_helix_setup_is_all_ok(params: dict[str, float], act: ActuationConfig) -> None:
     lines = judged(params, act)
-    assert [line.status for line in lines] == ["ok"] * 6, [str(x) for x in lines]
+    assert [line.status for line in lines] == ["ok"] * 7, [str(x) for x in lines]
     assert not failed(lines)
     by = topics(lines)
     assert "SERVO16_FUNCTION = 94 (Script1)" in by["arming (motor outputs)"][0].message
     assert by["GCS system id"][0].message.startswith("MAV_GCS_SYSID = 247 is helixd's")
+    assert "reads channel 5, which helixd does not override" in by["pilot's radio"][0].message
+
+
+def test_a_throttle_channel_helixd_overrides_hides_a_lost_radio() -> None:
+    """Measured on SITL: while a GCS overrides ArduPilot's throttle channel, a receiver that
+    sends its failsafe frame (or stops) changes nothing ArduPilot reports."""
+    by = topics(judged({**HELIX_RC, "RCMAP_THROTTLE": 3.0}))
+    (line,) = by["pilot's radio"]
+    assert line.status == "warning" and line.param == "RCMAP_THROTTLE"
+    assert line.message.startswith("RCMAP_THROTTLE = 3 is a channel helixd overrides")
+    assert "(e.g. 5)" in line.message and "below FS_THR_VALUE (960 µs)" in line.message
+    # the servo backend overrides nothing: ArduPilot's own radio failsafe sees the receiver
+    assert (
+        topics(judged({**HELIX_SERVO, "RCMAP_THROTTLE": 3.0}, SERVO))["pilot's radio"][0].status
+        == "ok"
+    )
+
+
+def test_a_radio_failsafe_switched_off_is_a_warning() -> None:
+    (line,) = topics(judged({**HELIX_RC, "FS_THR_ENABLE": 0.0}))["pilot's radio"]
+    assert line.status == "warning" and line.message.startswith("FS_THR_ENABLE = 0")
+
+
+def test_no_radio_warning_when_the_config_drives_on_without_a_pilot() -> None:
+    params = {**HELIX_RC, "RCMAP_THROTTLE": 3.0}
+    assert [p.param for p in judge(params, RC, LINK, watch_radio=False)] == []
+    assert [p.param for p in judge(params, RC, LINK)] == ["RCMAP_THROTTLE"]
 
 
 def test_without_the_spare_it_names_the_output_to_set() -> None:

@@ -205,7 +205,8 @@ def test_hold_and_disarm_do_not_stop_passthrough_outputs() -> None:
 
 
 def test_hold_zeroes_ardupilots_own_throttle_output() -> None:
-    rig = Rig(params={"SERVO3_FUNCTION": 70}).boot()  # stock Rover throttle on output 3
+    # stock Rover: throttle on output 3, from RC input 3
+    rig = Rig(params={"SERVO3_FUNCTION": 70, "RCMAP_THROTTLE": 3}).boot()
     rig.force_arm()
     rig.override(NOT_SET, NOT_SET, 1900)
     rig.run(0.1)
@@ -390,7 +391,8 @@ def test_streaming_overrides_keep_radio_failsafe_away() -> None:
 
 def test_throttle_below_fs_thr_value_is_radio_failsafe() -> None:
     rig = Rig().boot()
-    rig.ap.set_pilot_rc(3, 900)  # receiver's own failsafe value on throttle
+    assert rig.ap.params.get_int("RCMAP_THROTTLE") == 5  # the Helix setup: not overridden
+    rig.ap.set_pilot_rc(5, 900)  # receiver's own failsafe value on throttle
     rig.run(1.6)
     assert rig.ap.mode == modes.HOLD
 

@@ -762,11 +762,16 @@ DaemonRun = DaemonProc  # the one subprocess harness for the daemon (tests/suppo
 
 
 def start_helixd(
-    tmp_path: Path, vehicle: SitlVehicle, backend: str, mission: Path = SQUARE_MISSION
+    tmp_path: Path,
+    vehicle: SitlVehicle,
+    backend: str,
+    mission: Path = SQUARE_MISSION,
+    channel_offset: int = 0,
 ) -> DaemonRun:
     cfg_path = tmp_path / f"helixd-sitl-{backend}.yaml"
+    config = helixd_sitl_config(backend, vehicle.helixd_url, channel_offset)
     cfg_path.write_text(
-        yaml.safe_dump(helixd_sitl_config(backend, vehicle.helixd_url), sort_keys=False),
+        yaml.safe_dump(config, sort_keys=False),
         encoding="utf-8",
     )
     run_root = tmp_path / "runs"
@@ -785,8 +790,8 @@ def launch_helixd(tmp_path: Path, sitl: SitlVehicle) -> Iterator[Callable[..., D
     (the square unless another mission file is given)."""
     runs: list[DaemonRun] = []
 
-    def launch(backend: str, mission: Path = SQUARE_MISSION) -> DaemonRun:
-        run = start_helixd(tmp_path, sitl, backend, mission)
+    def launch(backend: str, mission: Path = SQUARE_MISSION, channel_offset: int = 0) -> DaemonRun:
+        run = start_helixd(tmp_path, sitl, backend, mission, channel_offset)
         runs.append(run)
         return run
 

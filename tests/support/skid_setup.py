@@ -49,12 +49,18 @@ def skid_vehicle_geometry(max_rpm: float = MAX_RPM) -> dict[str, float]:
     return {"scroll_radius_m": radius_m, "lx_m": k_m / 2.0, "ly_m": k_m / 2.0, "max_rpm": max_rpm}
 
 
-def skid_actuation(backend: str) -> dict[str, Any]:
-    """HelixdConfig ``actuation`` for the skid mapping."""
+def skid_actuation(backend: str, channel_offset: int = 0) -> dict[str, Any]:
+    """HelixdConfig ``actuation`` for the skid mapping (on RC channels shifted by
+    ``channel_offset``: 8 drives outputs whose functions are RCIN9..12)."""
     return {
         "backend": backend,
         "channels": [
-            {"channel": channel, "reversed": rev, "pwm_min_us": 1000, "pwm_max_us": 2000}
+            {
+                "channel": channel + channel_offset,
+                "reversed": rev,
+                "pwm_min_us": 1000,
+                "pwm_max_us": 2000,
+            }
             for channel, rev in SKID_CHANNELS
         ],
     }
@@ -65,7 +71,7 @@ def skid_actuation(backend: str) -> dict[str, Any]:
 ARC_BUDGET_M = 0.25
 
 
-def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
+def helixd_sitl_config(backend: str, url: str, channel_offset: int = 0) -> dict[str, Any]:
     """The helixd.yaml the suite flies with (HelixdConfig fields; everything else default)."""
     return {
         "vehicle": skid_vehicle_geometry(),
@@ -76,7 +82,7 @@ def helixd_sitl_config(backend: str, url: str) -> dict[str, Any]:
             # 5 Hz keeps FS_GCS_TIMEOUT (5 s, simulated) safe up to --speedup 10.
             "heartbeat_rate_hz": 5.0,
         },
-        "actuation": skid_actuation(backend),
+        "actuation": skid_actuation(backend, channel_offset),
         "startup": {
             # a normal arm, every PreArm check made: helix-skid.parm's SERVO16_FUNCTION 94
             # (Script1) passes ArduPilot's motor-output check; the daemon retries while the
