@@ -175,6 +175,7 @@ def resolve(
         start_xy_m=start,
         home_xy_m=home,
         global_frame=mission.frame is MissionFrameKind.GLOBAL,
+        shown_from_xy_m=first if mission.frame is MissionFrameKind.GLOBAL else (0.0, 0.0),
     )
     got = expand(mission.waypoints, places, latlons, ctx, waypoint_for, options)
     if not got.waypoints:
@@ -205,4 +206,14 @@ def resolve(
     return Resolved(plan, tuple(got.problems), tuple(notes))
 
 
-__all__ = ["PlanError", "Resolved", "Where", "resolve", "resolve_plan"]
+def places_from(frame: MissionFrameKind) -> str:
+    """What the places in a mission's texts (``check``'s table, the steps ``run`` logs) are
+    measured from: the same in both, whatever EKF origin the flight has."""
+    if frame is MissionFrameKind.GLOBAL:
+        return "x east / y north of waypoint 1"
+    if frame is MissionFrameKind.LOCAL_NED:
+        return "x east / y north of the EKF origin"
+    return "x forward / y left of the start"
+
+
+__all__ = ["PlanError", "Resolved", "Where", "places_from", "resolve", "resolve_plan"]

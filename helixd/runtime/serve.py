@@ -630,5 +630,11 @@ def flight_end_text(summary: RunSummary | None, numbering: Numbering, messages: 
     if summary is None or summary.rows == 0:
         why = [m for m in messages if not m.startswith("helixd: RESULT")]
         return why[0] if why else "not flown"
+    if numbering.items:  # a mission with commands: counted as flown, the item reached named
+        done = f"{summary.waypoints_reached}/{summary.waypoints_total} waypoints as flown"
+        reached = [a for a in summary.arrivals if not a.via and a.number is not None]
+        if reached:
+            done += f", last item {reached[-1].number}/{numbering.total}"
+        return done
     first = numbering.numbers[0] if numbering.numbers else 1
     return f"{first - 1 + summary.waypoints_reached}/{numbering.total} waypoints"
