@@ -68,11 +68,8 @@ def program_lines(
     text_w = max(WHAT_MIN, width - 14)  # an action's or a skipped item's line
     blank = f"{'':>5} {'':>4}  "
     lines = [
-        *_wrap(
-            f"flight  : {len(program.steps)} steps as ArduPilot Rover flies the items (jumps "
-            "expanded); speed in m/s, end = estimated time the step completes",
-            max(width, WHAT_MIN),
-        ),
+        f"flight  : {len(program.steps)} steps as ArduPilot Rover flies the items (jumps "
+        "expanded); speed in m/s, end = estimated time the step completes",
         f"{'step':>5} {'item':>4}  {'what':<{what_w}} {'speed':>5} {'end':>7}",
     ]
 
@@ -102,7 +99,7 @@ def program_lines(
     for a in program.final_actions:
         lines.extend(below(str(a.item), "+", f"{a.text} (at the end)"))
     if program.ending:
-        lines.extend(_wrap(f"  ends: {program.ending}", max(width, WHAT_MIN)))
+        lines.append(f"  ends: {program.ending}")
     return lines
 
 
