@@ -101,8 +101,7 @@ def check_lines(
     its texts wrapped to ``width`` columns."""
     plan, provisional = plan_for_check(planned, cfg, options)
     note = (
-        " (global: places from waypoint 1, as `run` gives them; it flies through the EKF "
-        "origin)"
+        " (global: places from waypoint 1, as `run` gives them; it flies through the EKF origin)"
         if provisional
         else ""
     )
