@@ -377,6 +377,7 @@ def _fly(
         show_plan=show_plan,
         inputs=flight.inputs,
         options=flight.options,
+        item_numbers=flight.item_numbers,
     )
     outcome = eventloop.run(run_mission(opts), cfg.link.event_loop)
     if outcome.run_dir is not None:

@@ -42,6 +42,7 @@ from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.plan import Numbering, Plan, mission_item_of, program_numbering
 from helixd.config import HelixdConfig, config_to_yaml
 from helixd.control.sequencer import SequencerEvent
+from helixd.files.models import as_items
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_WARNING
@@ -119,6 +120,8 @@ class RunOptions:
     # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
     inputs: RunInputs | None = None
     options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported (commands)
+    # a ground-station mission: refusals name its entries by mission item ("item 3")
+    item_numbers: bool = False
 
 
 @dataclass
@@ -220,6 +223,17 @@ def exit_rule(exc: BaseException, stage: Stage) -> ExitRule:
         if isinstance(exc, rule.exceptions) and rule.stage in (None, stage):
             return rule
     return EXIT_RULES[-1]
+
+
+def as_item_numbers(exc: Exception) -> Exception:
+    """A refusal of a ground-station mission with its entries named by mission item
+    (``item 3``) instead of the YAML list (``waypoint 3 (waypoints[2])``); anything else as
+    it is."""
+    if isinstance(exc, PreflightFailed):
+        return PreflightFailed([as_items(p) for p in exc.problems])
+    if isinstance(exc, PlanError):
+        return PlanError(as_items(str(exc)))
+    return exc
 
 
 def problems_of(exc: BaseException) -> list[str]:
@@ -603,6 +617,8 @@ class MissionRunner:
             stage = Stage.FLIGHT
             return await self.main_loop(ready)
         except Exception as exc:
+            if self.opts.item_numbers:  # a ground-station mission: its entries are items
+                exc = as_item_numbers(exc)
             ending, rule = ending_for(exc, stage, time.monotonic())
             self._report_failure(exc, rule)
             return ending
