@@ -343,7 +343,7 @@ def _ground_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
 def plan_for_check(
     mission: Mission, cfg: HelixdConfig, options: ExpandOptions = DEFAULT_OPTIONS
 ) -> tuple[Plan, bool]:
-    """Resolve without the EKF origin; a global mission is shown relative to waypoint 0.
+    """Resolve without the EKF origin; a global mission is shown relative to waypoint 1.
 
     Returns the plan and whether it is only provisional (global without origin)."""
     resolved, provisional = resolved_for_check(mission, cfg, options)
@@ -356,7 +356,11 @@ def resolved_for_check(
     """:func:`plan_for_check` with what the walk through the mission's commands found."""
     if mission.frame is MissionFrameKind.GLOBAL:
         lat, lon = mission.points()[0]
-        return resolve(mission, cfg.control, cfg.mission, (lat, lon), options=options), True
+        try:
+            return resolve(mission, cfg.control, cfg.mission, (lat, lon), options=options), True
+        except PlanError as exc:  # the origin here is waypoint 1: say so
+            said = "from waypoint 1 (check's stand-in for the EKF origin a run measures from)"
+            raise PlanError(str(exc).replace("from the origin", said, 1)) from None
     return resolve(mission, cfg.control, cfg.mission, None, options=options), False
 
 

@@ -30,6 +30,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode, Numbering
 from helixd.config import HelixdConfig
+from helixd.files.models import as_items
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
 from helixd.link.mission_transfer import MissionTransferError
@@ -358,6 +359,7 @@ class Service:
             except InputsRefused as exc:
                 problems.extend(exc.problems)
         if self.checked is None:
+            problems = [as_items(p) for p in problems]  # the autopilot's mission: its items
             for p in problems:
                 log.error("serve_mission_refused", problem=p)
             shown = [p.removeprefix(f"{source}: ") for p in problems]
