@@ -89,7 +89,14 @@ def program_lines(
             lines.extend(below("", "-", text))
         moves = step.first_waypoint is not None
         speed = f"{step.speed_mps:5.2f}" if moves else f"{'-':>5}"
-        parts = _wrap(step.text, what_w)
+        what, jump, rest = step.text.partition(" (after ")  # the jump note: kept whole
+        parts = _wrap(what, what_w)
+        if jump:
+            note = f"(after {rest}"
+            if len(parts[-1]) + 1 + len(note) <= what_w:
+                parts[-1] += f" {note}"
+            else:
+                parts += _wrap(note, what_w)
         lines.append(
             f"{k + 1:>5} {step.item:>4}  {parts[0]:<{what_w}} {speed} {end:>6.0f}s".rstrip()
         )
