@@ -212,8 +212,10 @@ class Numbering:
         """``first``: the number of this run's first operator waypoint; ``total`` (default:
         the last one's number) of the whole mission."""
         own = sum(not v for v in vias)
+        numbers = operator_numbers(vias, first)
+        last = max(numbers, default=0)  # a total is never below a number shown ("8/7")
         return Numbering(
-            operator_numbers(vias, first), tuple(vias), first - 1 + own if total is None else total
+            numbers, tuple(vias), max(first - 1 + own if total is None else total, last)
         )
 
     @property

@@ -369,7 +369,7 @@ class Service:
             return
         n = self.checked.waypoints
         resume = self.view().resumable
-        detail = f"mission checked, {n} waypoints" + (
+        detail = f"mission checked, {_count_text(self.checked.flight.mission, n)}" + (
             " (interrupted: a start continues it)" if resume else ""
         )
         log.info("serve_mission_checked", waypoints=n, fingerprint=fingerprint[:12])
@@ -398,7 +398,7 @@ class Service:
         n = _operator_waypoints(got.mission)
         self.checked = ReadyMission(fingerprint, got.flight, cfg, len(got.mission.waypoints), n)
         log.info("serve_mission_checked", waypoints=n, path=str(got.path))
-        self._set_state(ServeState.READY, f"{got.path.name} checked, {n} waypoints")
+        self._set_state(ServeState.READY, f"{got.path.name} checked, {_count_text(got.mission, n)}")
 
     # -- operators ----------------------------------------------------------------------------
 
@@ -576,6 +576,12 @@ class Service:
 
 def _operator_waypoints(msn: Mission) -> int:
     return sum(not w.via for w in msn.waypoints)
+
+
+def _count_text(msn: Mission, n: int) -> str:
+    """``6 waypoints``; a mission with commands: ``5 items``, as the ground station counts
+    them (its numbers in 'reached WP 3/5')."""
+    return f"{n} items" if msn.has_commands() else f"{n} waypoints"
 
 
 def _cause(fault_text: str | None) -> FaultCause | None:
