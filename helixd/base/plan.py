@@ -198,7 +198,8 @@ def operator_numbers(vias: Sequence[bool], first: int = 1) -> tuple[int, ...]:
 @dataclass(frozen=True, slots=True)
 class Numbering:
     """How the operator numbers a run's waypoints: 1-based over the whole mission (a resumed
-    run continues the count), via points not counted (see :func:`operator_numbers`)."""
+    run continues the count), via points not counted (see :func:`operator_numbers`); a mission
+    with commands by its mission items, with laps (see :func:`program_numbering`)."""
 
     numbers: tuple[int, ...]  # per plan index
     vias: tuple[bool, ...]  # per plan index
