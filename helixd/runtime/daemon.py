@@ -325,9 +325,9 @@ class MissionRunner:
         )  # what the ground station sees (helixd.runtime.gcs_feed)
         # the mission flown: opts.mission, its first leg re-planned from the rover in preflight
         self.mission = opts.mission
-        # the plan's via flags per waypoint (a program expands the mission: its waypoints
-        # are the plan's, jumps repeated)
-        self._plan: Plan | None = None  # as flown (set at preflight)
+        # the plan as flown (set at preflight, again at the flight's start): a program expands
+        # the mission (its waypoints are the plan's, jumps repeated) and is numbered by item
+        self._plan: Plan | None = None
         self.flight_loop: FlightLoop | None = None  # while flying
 
     def holding_forever(self) -> bool:
