@@ -141,19 +141,19 @@ BAD_MISSIONS = {
     ),
     "nan": (
         "name: n\nmode: roll\nwaypoints:\n  - {x: .nan, y: 1}\n",
-        ["waypoints.0.x", "finite"],
+        ["waypoint 1 (waypoints[0]): x", "finite"],
     ),
     "inf": (
         "name: n\nmode: roll\nwaypoints:\n  - {x: 1, y: .inf}\n",
-        ["waypoints.0.y", "finite"],
+        ["waypoint 1 (waypoints[0]): y", "finite"],
     ),
     "duplicate_consecutive": (
         "name: d\nmode: roll\nwaypoints:\n  - {x: 1, y: 1}\n  - {x: 1, y: 1}\n",
-        ["waypoints.1", "same point as waypoints.0"],
+        ["waypoint 2 (waypoints[1])", "same point as waypoint 1"],
     ),
     "too_far": (
         "name: f\nmode: omni\nwaypoints:\n  - {x: 900, y: 0}\n",
-        ["waypoints.0", "900.0 m from the origin", "max_range_m = 500.0"],
+        ["waypoint 1 (waypoints[0])", "900.0 m from the origin", "max_range_m = 500.0"],
     ),
     "unknown_mode": (
         "name: m\nmode: hover\nwaypoints:\n  - {x: 1, y: 0}\n",
@@ -165,7 +165,7 @@ BAD_MISSIONS = {
     ),
     "wrong_coordinates_for_frame": (
         "name: m\nmode: roll\nframe: local_ned\nwaypoints:\n  - {x: 1, y: 0}\n",
-        ["waypoints.0", "frame 'local_ned' needs exactly north and east"],
+        ["waypoint 1 (waypoints[0])", "frame 'local_ned' needs exactly north and east"],
     ),
     "missing_mode": (
         "name: m\nwaypoints:\n  - {x: 1, y: 0}\n",
@@ -173,11 +173,11 @@ BAD_MISSIONS = {
     ),
     "unknown_waypoint_key": (
         "name: m\nmode: roll\nwaypoints:\n  - {x: 1, y: 0, speed: 3}\n",
-        ["waypoints.0", "speed: unknown key", "hold_s"],
+        ["waypoint 1 (waypoints[0])", "speed: unknown key", "hold_s"],
     ),
     "bad_latitude": (
         "name: g\nmode: roll\nframe: global\nwaypoints:\n  - {lat: 95, lon: 10}\n",
-        ["waypoints.0.lat", "got 95", "allowed range -90.0 .. 90.0"],
+        ["waypoint 1 (waypoints[0]): lat", "got 95", "allowed range -90.0 .. 90.0"],
     ),
 }
 

@@ -94,6 +94,22 @@ class Program:
     notes: tuple[str, ...] = field(default=())
     # where the walk assumed the rover starts (None: not known, the estimate starts at wp 0)
     start_xy_m: tuple[float, float] | None = None
+    # the mission's items as the ground station numbers them (home 0 not counted; 0: unknown)
+    items_total: int = 0
+
+    def laps(self) -> tuple[str, ...]:
+        """Per step, ``"lap k of n"`` when its item is flown n > 1 times (a DO_JUMP repeats
+        it), else ``""``."""
+        times: dict[int, int] = {}
+        for s in self.steps:
+            times[s.item] = times.get(s.item, 0) + 1
+        seen: dict[int, int] = {}
+        out: list[str] = []
+        for s in self.steps:
+            seen[s.item] = seen.get(s.item, 0) + 1
+            n = times[s.item]
+            out.append(f"lap {seen[s.item]} of {n}" if n > 1 else "")
+        return tuple(out)
 
 
 @dataclass(frozen=True, slots=True)
@@ -182,19 +198,25 @@ def operator_numbers(vias: Sequence[bool], first: int = 1) -> tuple[int, ...]:
 @dataclass(frozen=True, slots=True)
 class Numbering:
     """How the operator numbers a run's waypoints: 1-based over the whole mission (a resumed
-    run continues the count), via points not counted (see :func:`operator_numbers`)."""
+    run continues the count), via points not counted (see :func:`operator_numbers`); a mission
+    with commands by its mission items, with laps (see :func:`program_numbering`)."""
 
     numbers: tuple[int, ...]  # per plan index
     vias: tuple[bool, ...]  # per plan index
-    total: int  # the operator's waypoints in the whole mission
+    total: int  # the operator's waypoints (a mission with commands: its items) in the mission
+    # per plan index, a mission with commands: "lap 2 of 3" where a DO_JUMP repeats the item
+    laps: tuple[str, ...] = ()
+    items: bool = False  # numbers are mission items (a mission with commands), not waypoints
 
     @staticmethod
     def of(vias: Sequence[bool], first: int = 1, total: int | None = None) -> Numbering:
         """``first``: the number of this run's first operator waypoint; ``total`` (default:
         the last one's number) of the whole mission."""
         own = sum(not v for v in vias)
+        numbers = operator_numbers(vias, first)
+        last = max(numbers, default=0)  # a total is never below a number shown ("8/7")
         return Numbering(
-            operator_numbers(vias, first), tuple(vias), first - 1 + own if total is None else total
+            numbers, tuple(vias), max(first - 1 + own if total is None else total, last)
         )
 
     @property
@@ -209,9 +231,48 @@ class Numbering:
     def via(self, index: int) -> bool:
         return bool(self.vias) and self.vias[min(max(index, 0), len(self.vias) - 1)]
 
+    def lap(self, index: int) -> str:
+        """``"lap 2 of 3"`` while flying an item a DO_JUMP repeats, else ``""``."""
+        return self.laps[min(max(index, 0), len(self.laps) - 1)] if self.laps else ""
+
     def label(self, index: int) -> str:
-        """``"3/5"``, or ``"via → 3/5"`` for a via point on the leg to waypoint 3."""
-        return waypoint_label(self.number(index), self.via(index), self.total)
+        """``"3/5"``, ``"via → 3/5"`` for a via point on the leg to waypoint 3, ``"3/5 (lap 2
+        of 3)"`` for item 3 of a mission with commands on the second of its three laps."""
+        return waypoint_label(self.number(index), self.via(index), self.total, self.lap(index))
+
+
+def program_numbering(plan: Plan) -> Numbering | None:
+    """The numbering of a mission with commands (None without): each plan waypoint gets the
+    mission item (sequence number as the ground station shows it, home 0, the first item 1)
+    of the navigation step that flies it, and its lap where a DO_JUMP repeats that item; the
+    total is the mission's item count, so no number shown is ever above it. A plan waypoint
+    no step flies (none should) gets the item of the next one that is flown."""
+    program = plan.program
+    if program is None:
+        return None
+    count = len(plan.waypoints)
+    items: list[int | None] = [None] * count
+    laps = [""] * count
+    for step, lap in zip(program.steps, program.laps(), strict=True):
+        first, last = step.first_waypoint, step.last_waypoint
+        if first is None or last is None:
+            continue
+        for i in range(max(first, 0), min(last, count - 1) + 1):
+            items[i] = step.item
+            laps[i] = lap
+    numbers = [0] * count
+    following = max((s.item for s in program.steps), default=1)
+    for i in range(count - 1, -1, -1):
+        got = items[i]
+        if got is None:
+            numbers[i] = following
+            laps[i] = laps[i + 1] if i + 1 < count else ""
+        else:
+            numbers[i] = following = got
+    total = max([program.items_total, *numbers, 1])
+    return Numbering(
+        tuple(numbers), tuple(w.via for w in plan.waypoints), total, tuple(laps), items=True
+    )
 
 
 def mission_item_of(plan: Plan, numbering: Numbering, index: int) -> int:
@@ -226,10 +287,13 @@ def mission_item_of(plan: Plan, numbering: Numbering, index: int) -> int:
     return numbering.number(index)
 
 
-def waypoint_label(number: int, via: bool, total: int | None = None) -> str:
+def waypoint_label(number: int, via: bool, total: int | None = None, lap: str = "") -> str:
     """``"3"`` (or ``"3/5"`` with ``total``) for the operator's waypoint 3; ``"via → 3"`` (or
-    ``"via → 3/5"``) for a via point on the leg to it."""
+    ``"via → 3/5"``) for a via point on the leg to it; ``lap`` (``"lap 2 of 3"``) is added
+    in brackets: ``"3/5 (lap 2 of 3)"``."""
     text = str(number) if total is None else f"{number}/{total}"
+    if lap:
+        text += f" ({lap})"
     return f"via → {text}" if via else text
 
 
@@ -245,5 +309,6 @@ __all__ = [
     "Program",
     "mission_item_of",
     "operator_numbers",
+    "program_numbering",
     "waypoint_label",
 ]

@@ -7,6 +7,7 @@ message per problem and a non-zero exit code — never a traceback.
 from __future__ import annotations
 
 import asyncio
+import shutil
 import sys
 from collections.abc import Mapping
 from dataclasses import replace
@@ -38,6 +39,7 @@ from helixd.cli.simulated import SimChoice, sim_world, simulator
 from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.mav.url import LinkError
+from helixd.mission.describe import DEFAULT_WIDTH
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.locate import SEARCH_DIRS, available_missions
 from helixd.recorder.logging_setup import configure_logging
@@ -192,8 +194,9 @@ def check(
     label = str(config or "(built-in defaults)")
     flight = got.flight
     route = flight.route
+    width = shutil.get_terminal_size((DEFAULT_WIDTH, 24)).columns  # COLUMNS, else the tty's
     lines = check_lines(
-        got.cfg, got.mission, got.path, label, flight.mission, route, flight.options
+        got.cfg, got.mission, got.path, label, flight.mission, route, flight.options, width
     )
     typer.echo("\n".join(lines))
     if route is not None and plot is not None:
@@ -374,6 +377,7 @@ def _fly(
         show_plan=show_plan,
         inputs=flight.inputs,
         options=flight.options,
+        item_numbers=flight.item_numbers,
     )
     outcome = eventloop.run(run_mission(opts), cfg.link.event_loop)
     if outcome.run_dir is not None:

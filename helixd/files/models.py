@@ -8,6 +8,7 @@ config and the recorder's summary build on it.
 from __future__ import annotations
 
 import math
+import re
 from functools import cache
 from pathlib import Path
 from typing import Any, TypeVar
@@ -216,6 +217,34 @@ def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) 
 _YAML11_BOOLS = frozenset({"yes", "no", "on", "off", "y", "n"})
 
 
+ENTRY_LIST = "waypoints"  # the mission's list of entries, numbered for people from 1
+_ENTRY_RE = re.compile(r"waypoint (\d+) \(waypoints\[\d+\]\)")
+
+
+def entry_label(index: int) -> str:
+    """How an error names the mission entry at 0-based ``index``: counted from 1 as a person
+    (and a ground station) counts it, the YAML list path beside it: ``waypoint 1
+    (waypoints[0])``. A ground-station file's errors say ``item 1`` instead
+    (:func:`as_items`)."""
+    return f"waypoint {index + 1} ({ENTRY_LIST}[{index}])"
+
+
+def as_items(text: str) -> str:
+    """An error about a ground-station file (QGroundControl ``.plan``, WPL 110
+    ``.waypoints``, the autopilot's mission): its entries named by their mission item, the
+    sequence number the ground station shows (home 0, the first item 1): ``item 1``."""
+    return _ENTRY_RE.sub(r"item \1", text)
+
+
+def _dotted(loc: tuple[int | str, ...]) -> str:
+    """A pydantic error path as the operator reads it: ``waypoint 1 (waypoints[0]): q`` for
+    ``waypoints.0.q``, the dotted path (``keep_out_polygons.0``) elsewhere."""
+    if len(loc) >= 2 and loc[0] == ENTRY_LIST and isinstance(loc[1], int):
+        rest = ".".join(str(p) for p in loc[2:])
+        return entry_label(loc[1]) + (f": {rest}" if rest else "")
+    return ".".join(str(p) for p in loc) if loc else "(top level)"
+
+
 def format_validation_error(
     path: Path | str, exc: ValidationError, model: type[BaseModel]
 ) -> list[str]:
@@ -223,7 +252,7 @@ def format_validation_error(
     lines: list[str] = []
     for err in exc.errors(include_url=False):
         loc = tuple(err["loc"])
-        dotted = ".".join(str(p) for p in loc) if loc else "(top level)"
+        dotted = _dotted(loc)
         etype = err["type"]
         if etype == "extra_forbidden":
             problem = "unknown key"

@@ -6,11 +6,16 @@ they start with, and when each step ends by the estimate. Pure: text out, nothin
 from __future__ import annotations
 
 import math
+import textwrap
 
 from helixd.base.angles import wrap_pi
 from helixd.base.plan import ActionKind, MotionMode, Plan
 
 MAX_STEP_LINES = 200  # steps listed (first and last ones) before the rest is counted
+DEFAULT_WIDTH = 88  # columns of the step table when the terminal's width is not known
+WHAT_MAX = 62  # the "what" column at most this wide …
+WHAT_MIN = 24  # … and at least this wide, however narrow the terminal
+FIXED_COLUMNS = 26  # step, item, speed and end, with the spaces between the columns
 
 
 def step_end_times_s(
@@ -41,17 +46,38 @@ def step_end_times_s(
     return out
 
 
-def program_lines(plan: Plan, yaw_rate_radps: float, start_xy_m: tuple[float, float]) -> list[str]:
-    """The flight as lines: ``step item command what speed end``, actions indented below."""
+def _wrap(text: str, width: int) -> list[str]:
+    """``text`` in lines of at most ``width`` characters, split between words, never cut
+    (a word longer than the line gets a line of its own)."""
+    return textwrap.wrap(text, width, break_long_words=False, break_on_hyphens=False) or [""]
+
+
+def program_lines(
+    plan: Plan,
+    yaw_rate_radps: float,
+    start_xy_m: tuple[float, float],
+    width: int = DEFAULT_WIDTH,
+) -> list[str]:
+    """The flight as lines: ``step item command what speed end``, actions indented below;
+    a text longer than its column wraps onto the next lines (``width``: the terminal's)."""
     program = plan.program
     if program is None:
         return []
     ends = step_end_times_s(plan, yaw_rate_radps, start_xy_m)
+    what_w = max(WHAT_MIN, min(WHAT_MAX, width - FIXED_COLUMNS))
+    text_w = max(WHAT_MIN, width - 14)  # an action's or a skipped item's line
+    blank = f"{'':>5} {'':>4}  "
     lines = [
         f"flight  : {len(program.steps)} steps as ArduPilot Rover flies the items (jumps "
         "expanded); speed in m/s, end = estimated time the step completes",
-        f"{'step':>5} {'item':>4}  {'what':<62} {'speed':>5} {'end':>7}",
+        f"{'step':>5} {'item':>4}  {'what':<{what_w}} {'speed':>5} {'end':>7}",
     ]
+
+    def below(item: str, mark: str, text: str) -> list[str]:
+        parts = _wrap(text, text_w)
+        head = f"{'':>5} {item:>4}  {mark} {parts[0]}"
+        return [head, *(f"{blank}  {p}" for p in parts[1:])]
+
     count = len(program.steps)
     head = count if count <= MAX_STEP_LINES else MAX_STEP_LINES // 2
     for k, (step, end) in enumerate(zip(program.steps, ends, strict=True)):
@@ -59,18 +85,29 @@ def program_lines(plan: Plan, yaw_rate_radps: float, start_xy_m: tuple[float, fl
             if k == head:
                 lines.append(f"  ... {count - MAX_STEP_LINES} steps not shown ...")
             continue
-        lines.extend(f"{'':>5} {'':>4}  - {text}" for text in step.skipped)
+        for text in step.skipped:
+            lines.extend(below("", "-", text))
         moves = step.first_waypoint is not None
         speed = f"{step.speed_mps:5.2f}" if moves else f"{'-':>5}"
-        lines.append(f"{k + 1:>5} {step.item:>4}  {step.text[:62]:<62} {speed} {end:>6.0f}s")
+        what, jump, rest = step.text.partition(" (after ")  # the jump note: kept whole
+        parts = _wrap(what, what_w)
+        if jump:
+            note = f"(after {rest}"
+            if len(parts[-1]) + 1 + len(note) <= what_w:
+                parts[-1] += f" {note}"
+            else:
+                parts += _wrap(note, what_w)
+        lines.append(
+            f"{k + 1:>5} {step.item:>4}  {parts[0]:<{what_w}} {speed} {end:>6.0f}s".rstrip()
+        )
+        lines.extend(f"{blank}{p}" for p in parts[1:])
         for a in step.actions:
-            mark = "~" if a.kind is ActionKind.NOTE else "+"
-            lines.append(f"{'':>5} {a.item:>4}  {mark} {a.text[:80]}")
+            lines.extend(below(str(a.item), "~" if a.kind is ActionKind.NOTE else "+", a.text))
     for a in program.final_actions:
-        lines.append(f"{'':>5} {a.item:>4}  + {a.text[:80]} (at the end)")
+        lines.extend(below(str(a.item), "+", f"{a.text} (at the end)"))
     if program.ending:
         lines.append(f"  ends: {program.ending}")
     return lines
 
 
-__all__ = ["program_lines", "step_end_times_s"]
+__all__ = ["DEFAULT_WIDTH", "program_lines", "step_end_times_s"]

@@ -103,6 +103,9 @@ class Context:
     start_xy_m: XY | None  # where the rover is when the mission starts (None: not known)
     home_xy_m: XY  # where NAV_RETURN_TO_LAUNCH goes until a DO_SET_HOME moves it
     global_frame: bool  # lat/lon mission: DO_SET_HOME with a place can be sent
+    # the point the steps' texts give places from (a lat/lon mission: waypoint 1, the same
+    # in `check`, which has no EKF origin, and in flight); the plan itself is not moved
+    shown_from_xy_m: XY = (0.0, 0.0)
 
 
 @dataclass
@@ -241,8 +244,8 @@ def _label(c: _Cmd) -> str:
     return f"item {c.index} {c.name}"
 
 
-def _fmt_xy(xy: XY) -> str:
-    return f"({xy[0]:.2f}, {xy[1]:.2f})"
+def _fmt_xy(xy: XY, shown_from: XY = (0.0, 0.0)) -> str:
+    return f"({xy[0] - shown_from[0]:.2f}, {xy[1] - shown_from[1]:.2f})"
 
 
 def _named(c: _Cmd) -> str:
@@ -411,8 +414,12 @@ class _Builder:
             return (p[0], p[1], p[2], p[3], lat, lon, z)
         return (p[0], p[1], p[2], p[3], p[4], p[5], z)
 
+    def fmt(self, xy: XY) -> str:
+        """A place in the steps' texts (from :attr:`Context.shown_from_xy_m`)."""
+        return _fmt_xy(xy, self.ctx.shown_from_xy_m)
+
     def where_here(self) -> str:
-        return "the start" if self.here is None else _fmt_xy(self.here)
+        return "the start" if self.here is None else self.fmt(self.here)
 
     def set_home(self, c: _Cmd) -> MissionAction:
         current = stored_whole(c.p(0)) == 1
@@ -433,7 +440,7 @@ class _Builder:
             )
         else:
             self.home = c.xy
-            text = f"{c.name}: home at {_fmt_xy(c.xy)}"
+            text = f"{c.name}: home at {self.fmt(c.xy)}"
         params = self.send_params(c)
         if current:
             params = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -507,7 +514,7 @@ class _Builder:
                     self.stop_here()
             else:
                 span = self.go(wp, c.xy, stop)
-                where = f"→ {_fmt_xy(c.xy)}"
+                where = f"→ {self.fmt(c.xy)}"
             if forever and not self.options.operator_continue:
                 self.problem(
                     c,
@@ -516,11 +523,11 @@ class _Builder:
                 )
         elif role is Role.RETURN:
             span = self.go(wp, self.home, True)
-            where = f"→ home {_fmt_xy(self.home)}"
+            where = f"→ home {self.fmt(self.home)}"
         elif role is Role.LOITER_TURNS:
             turns, radius, ccw = loiter_turns(wp)
             centre = c.xy if c.xy is not None else (self.here or self.home)
-            where = f"{turns:g} turns, radius {radius:g} m around {_fmt_xy(centre)}"
+            where = f"{turns:g} turns, radius {radius:g} m around {self.fmt(centre)}"
             if turns > 0.0:
                 pts = _circle(centre, radius, turns, ccw, self.here or centre)
                 begin = len(self.waypoints)
@@ -649,6 +656,7 @@ def expand(
         never_ends=never_ends,
         notes=tuple(b.notes),
         start_xy_m=ctx.start_xy_m,
+        items_total=len(cmds),
     )
     return Expansion(b.waypoints, program, b.problems, b.notes)
 

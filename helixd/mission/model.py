@@ -40,7 +40,7 @@ from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.base.polygon import polygon_problems
 from helixd.config import MissionLimits
-from helixd.files.models import InputModel, load_yaml_model
+from helixd.files.models import InputModel, entry_label, load_yaml_model
 from helixd.files.yamlio import clip
 from helixd.mav.constants import MAV_CMD_NAV_WAYPOINT
 from helixd.mission.commands import (
@@ -389,7 +389,7 @@ class Mission(InputModel):
                 continue  # a NAV_WAYPOINT that stays where it starts (e.g. a hold)
             if got != set(wanted):
                 raise ValueError(
-                    f"waypoints.{i}: frame '{self.frame.value}' needs exactly "
+                    f"{entry_label(i)}: frame '{self.frame.value}' needs exactly "
                     f"{wanted[0]} and {wanted[1]}, got {sorted(got) or 'no coordinates'}"
                 )
         if not self.places():
@@ -414,7 +414,7 @@ class Mission(InputModel):
                 gap = hypot(b0 - a0, b1 - a1)
             if gap < DUPLICATE_EPSILON_M:
                 raise ValueError(
-                    f"waypoints.{i}: same point as waypoints.{i - 1} "
+                    f"{entry_label(i)}: same point as waypoint {i} "
                     f"({b0}, {b1}); consecutive waypoints must differ by >= "
                     f"{DUPLICATE_EPSILON_M} m"
                 )
@@ -439,7 +439,7 @@ class Mission(InputModel):
                 rng = math.hypot(a, b)
                 if rng > limits.max_range_m:
                     raise ValueError(
-                        f"waypoints.{i}: ({a}, {b}) is {rng:.1f} m from the origin; "
+                        f"{entry_label(i)}: ({a}, {b}) is {rng:.1f} m from the origin; "
                         f"allowed at most mission.max_range_m = {limits.max_range_m} m"
                     )
         return self

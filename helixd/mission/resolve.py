@@ -19,6 +19,7 @@ from helixd.base.angles import wrap_pi
 from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan, PlanWaypoint
 from helixd.config import ControlConfig, MissionLimits
+from helixd.files.models import entry_label
 from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH
 from helixd.mission.commands import FLY_ROLES
 from helixd.mission.expand import DEFAULT_OPTIONS, Context, ExpandOptions, expand
@@ -123,7 +124,7 @@ def resolve(
         out: list[PlanWaypoint] = []
         for i, (wp, (a, b)) in enumerate(zip(mission.waypoints, mission.points(), strict=True)):
             xy = frame.xy(a, b)
-            _check_range(xy, limits, f"waypoints.{i}")
+            _check_range(xy, limits, entry_label(i))
             out.append(
                 PlanWaypoint(
                     x_m=xy[0],
@@ -145,7 +146,7 @@ def resolve(
             continue
         xy = frame.xy(*pos)
         if wp.spec.role in FLY_ROLES:
-            _check_range(xy, limits, f"waypoints.{i} (item {i + 1})")
+            _check_range(xy, limits, entry_label(i))
         places.append(xy)
         latlons.append(pos if mission.frame is MissionFrameKind.GLOBAL else None)
     first = frame.xy(*mission.points()[0])
@@ -175,6 +176,7 @@ def resolve(
         start_xy_m=start,
         home_xy_m=home,
         global_frame=mission.frame is MissionFrameKind.GLOBAL,
+        shown_from_xy_m=first if mission.frame is MissionFrameKind.GLOBAL else (0.0, 0.0),
     )
     got = expand(mission.waypoints, places, latlons, ctx, waypoint_for, options)
     if not got.waypoints:
@@ -205,4 +207,14 @@ def resolve(
     return Resolved(plan, tuple(got.problems), tuple(notes))
 
 
-__all__ = ["PlanError", "Resolved", "Where", "resolve", "resolve_plan"]
+def places_from(frame: MissionFrameKind) -> str:
+    """What the places in a mission's texts (``check``'s table, the steps ``run`` logs) are
+    measured from: the same in both, whatever EKF origin the flight has."""
+    if frame is MissionFrameKind.GLOBAL:
+        return "x east / y north of waypoint 1"
+    if frame is MissionFrameKind.LOCAL_NED:
+        return "x east / y north of the EKF origin"
+    return "x forward / y left of the start"
+
+
+__all__ = ["PlanError", "Resolved", "Where", "places_from", "resolve", "resolve_plan"]

@@ -33,6 +33,7 @@ from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan
 from helixd.base.polygon import leg_leaves_polygon, point_in_polygon, segments_intersect
 from helixd.config import HelixdConfig
+from helixd.files.models import entry_label
 from helixd.mission.commands import FLY_ROLES, SERVO_COMMANDS, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
@@ -83,7 +84,7 @@ def _radius_problems(
         dist = math.hypot(a - centre[0], b - centre[1])
         if dist > radius:
             offenders.append(
-                f"waypoints.{i}: {dist:.1f} m from {where}; allowed at most "
+                f"{entry_label(i)}: {dist:.1f} m from {where}; allowed at most "
                 f"safety.geofence_radius_m = {radius} m"
             )
     return _listed(offenders, "outside safety.geofence_radius_m")
@@ -105,15 +106,15 @@ def _polygon_problems(
             ": drive the rover inside it (a survey's: the area grown by mission survey --margin-m)"
         )
     offenders = [
-        f"waypoints.{i}: N {n:.1f} m, E {e:.1f} m is outside {name}"
+        f"{entry_label(i)}: N {n:.1f} m, E {e:.1f} m is outside {name}"
         for i, (n, e) in enumerate(ned)
         if not point_in_polygon(n, e, poly)
     ]
     problems.extend(_listed(offenders, f"outside {name}"))
     if offenders or problems:
         return problems
-    legs = [] if start is None else [((start.north_m, start.east_m), ned[0], "start → 0")]
-    legs.extend((ned[i - 1], ned[i], f"{i - 1} → {i}") for i in range(1, len(ned)))
+    legs = [] if start is None else [((start.north_m, start.east_m), ned[0], "start → 1")]
+    legs.extend((ned[i - 1], ned[i], f"{i} → {i + 1}") for i in range(1, len(ned)))
     crossing = [
         f"leg waypoints {leg} leaves {name} (both ends are inside)"
         for a, b, leg in legs
@@ -134,7 +135,7 @@ def _keep_out_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
     else:
         pts = mission.points()
     inside = [
-        f"waypoints.{i}: inside keep_out_polygons.{k} (a keep-out area)"
+        f"{entry_label(i)}: inside keep_out_polygons.{k} (a keep-out area)"
         for i, (n, e) in enumerate(pts)
         for k, area in enumerate(areas)
         if point_in_polygon(n, e, area)
@@ -142,7 +143,7 @@ def _keep_out_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
     if inside or cfg.planning.enabled:
         return _listed(inside, "inside keep-out areas")
     crossing = [
-        f"leg waypoints.{i - 1} → waypoints.{i} crosses keep_out_polygons.{k} "
+        f"leg {entry_label(i - 1)} → waypoint {i + 1} crosses keep_out_polygons.{k} "
         "(planning.enabled is false: nothing plans around it)"
         for i in range(1, len(pts))
         for k, area in enumerate(areas)
@@ -186,7 +187,7 @@ def _start_distance_problems(
     dist = math.hypot(first.x_m - at[1], first.y_m - at[0])
     if not dist <= limit:
         return [
-            f"waypoints.0: {dist:.1f} m from {where}; the first waypoint may be at most "
+            f"{entry_label(0)}: {dist:.1f} m from {where}; the first waypoint may be at most "
             f"mission.max_start_distance_m = {limit} m away ({why})"
         ]
     return []
@@ -217,7 +218,7 @@ def _home_range_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
         rng = math.hypot(*latlon_to_ne(*pos, *mission.home))
         if rng > limit:
             offenders.append(
-                f"waypoints.{i}: {rng:.1f} m from the mission's home (where the EKF origin "
+                f"{entry_label(i)}: {rng:.1f} m from the mission's home (where the EKF origin "
                 f"will be); allowed at most mission.max_range_m = {limit} m"
             )
     return _listed(offenders, "beyond mission.max_range_m from the mission's home")
@@ -342,7 +343,7 @@ def _ground_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
 def plan_for_check(
     mission: Mission, cfg: HelixdConfig, options: ExpandOptions = DEFAULT_OPTIONS
 ) -> tuple[Plan, bool]:
-    """Resolve without the EKF origin; a global mission is shown relative to waypoint 0.
+    """Resolve without the EKF origin; a global mission is shown relative to waypoint 1.
 
     Returns the plan and whether it is only provisional (global without origin)."""
     resolved, provisional = resolved_for_check(mission, cfg, options)
@@ -355,7 +356,11 @@ def resolved_for_check(
     """:func:`plan_for_check` with what the walk through the mission's commands found."""
     if mission.frame is MissionFrameKind.GLOBAL:
         lat, lon = mission.points()[0]
-        return resolve(mission, cfg.control, cfg.mission, (lat, lon), options=options), True
+        try:
+            return resolve(mission, cfg.control, cfg.mission, (lat, lon), options=options), True
+        except PlanError as exc:  # the origin here is waypoint 1: say so
+            said = "from waypoint 1 (check's stand-in for the EKF origin a run measures from)"
+            raise PlanError(str(exc).replace("from the origin", said, 1)) from None
     return resolve(mission, cfg.control, cfg.mission, None, options=options), False
 
 

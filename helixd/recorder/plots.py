@@ -38,7 +38,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 from matplotlib.transforms import Bbox
 
-from helixd.base.plan import MissionFrameKind, Numbering
+from helixd.base.plan import MissionFrameKind, Numbering, program_numbering
 from helixd.base.run_files import CONFIG_FILE, EVENTS_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
 from helixd.config import load_config
 from helixd.files.models import ConfigFileError
@@ -192,7 +192,8 @@ def waypoint_labels(
                 break
         else:
             groups.append(([i], (x, y)))
-    return [(",".join(names[i] for i in members), xy) for members, xy in groups]
+    # an item a DO_JUMP flies again is named once: "1", not "1,1,1"
+    return [(",".join(dict.fromkeys(names[i] for i in members)), xy) for members, xy in groups]
 
 
 def label_offsets_pt(points: Sequence[tuple[float, float]]) -> list[tuple[float, float]]:
@@ -388,8 +389,12 @@ def _load_plan(
         notes.append("planned path unavailable")
         return [], None, []
     vias = [w.via for w in plan.waypoints]
-    numbering = Numbering.of(vias) if inputs is None else inputs.numbering(vias)
-    labels = ["" if via else str(n) for n, via in zip(numbering.numbers, vias, strict=True)]
+    numbering = program_numbering(plan)  # a mission with commands: its items, as QGC shows
+    if numbering is None:
+        numbering = Numbering.of(vias) if inputs is None else inputs.numbering(vias)
+    labels = [
+        "" if via else str(n) for n, via in zip(numbering.numbers, numbering.vias, strict=True)
+    ]
     wps = [(w.x_m, w.y_m, w.tolerance_m) for w in plan.waypoints]
     if plan.leg_start_xy_m is not None:
         return wps, plan.leg_start_xy_m, labels
@@ -756,7 +761,8 @@ def _summary_text(data: RunData) -> str:
         f"mission   {s.mission_name} ({s.mode})",
         f"result    {'completed' if s.completed else 'NOT completed'}  exit {s.exit_code}",
         f"fault     {textwrap.shorten(s.fault or '-', FAULT_LABEL_MAX_CHARS)}",
-        f"waypoints {s.waypoints_reached}/{s.waypoints_total}",
+        f"waypoints {s.waypoints_reached}/{s.waypoints_total}"
+        + ("" if s.items_total is None else f" as flown (items 1–{s.items_total})"),
         f"flight    {_flight_time_text(s)}",
         f"path      {s.path_length_m:.1f} m",
         f"x-track   rms {num(s.cross_track_rms_m, 'm')}  max {num(s.cross_track_max_m, 'm')}",

@@ -31,9 +31,13 @@ class Arrival(StrictModel):
     number: int | None = Field(
         None,
         description="the operator's waypoint number (1-based over the whole mission, as the "
-        "ground station numbers mission items; a via point: the waypoint it leads to)",
+        "ground station numbers mission items; a via point: the waypoint it leads to); a "
+        "mission with commands: the mission item (home 0, the first item 1) being flown",
     )
     via: bool = Field(False, description="a via point the planner inserted")
+    lap: str | None = Field(
+        None, description='"lap 2 of 3" where a DO_JUMP repeats the item; None: flown once'
+    )
 
 
 class RunSummary(StrictModel):
@@ -42,8 +46,20 @@ class RunSummary(StrictModel):
     completed: bool = Field(description="every waypoint reached")
     fault: str | None = Field(description="cause that ended the run early, None if none")
     exit_code: int
-    waypoints_reached: int = Field(description="the operator's waypoints reached (no via points)")
-    waypoints_total: int = Field(description="the operator's waypoints in this run")
+    waypoints_reached: int = Field(
+        description="arrivals at the operator's waypoints (no via points); a mission with "
+        "commands counts them as flown: a waypoint a DO_JUMP repeats counts on each lap "
+        "(arrivals[].number and .lap name the item), so it can exceed items_total"
+    )
+    waypoints_total: int = Field(
+        description="the operator's waypoints in this run, counted like waypoints_reached "
+        "(never fewer than it)"
+    )
+    items_total: int | None = Field(
+        None,
+        description="a mission with commands: its items as the ground station numbers them "
+        "(home 0 not counted), the N of 'item 3/N'; None: a plain list of waypoints",
+    )
     via_points_reached: int = Field(0, description="via points (inserted by the planner) reached")
     via_points_total: int = Field(0, description="via points in this run")
     arrivals: tuple[Arrival, ...] = ()
@@ -216,13 +232,19 @@ class SummaryBuilder:
         *,
         number: int | None = None,
         via: bool = False,
+        lap: str = "",
     ) -> None:
         """A waypoint (plan index ``index``; the operator's ``number``) was reached (the first
         notice per index counts)."""
         self._joined = True
         if index not in self._arrivals:
             self._arrivals[index] = Arrival(
-                index=index, t_boot_s=t_boot_s, error_m=error_m, number=number, via=via
+                index=index,
+                t_boot_s=t_boot_s,
+                error_m=error_m,
+                number=number,
+                via=via,
+                lap=lap or None,
             )
 
     @property
@@ -246,6 +268,7 @@ class SummaryBuilder:
         waypoints_total: int | None = None,
         via_points_total: int | None = None,
         wall_duration_s: float | None = None,
+        items_total: int | None = None,
     ) -> RunSummary:
         """The summary so far; keyword arguments override the constructor's identity fields."""
         mono: float | None = (
@@ -276,7 +299,11 @@ class SummaryBuilder:
             fault=fault,
             exit_code=exit_code,
             waypoints_reached=self.waypoints_reached,
-            waypoints_total=self._total if waypoints_total is None else waypoints_total,
+            waypoints_total=max(
+                self._total if waypoints_total is None else waypoints_total,
+                self.waypoints_reached,
+            ),
+            items_total=items_total,
             via_points_reached=len(self._arrivals) - self.waypoints_reached,
             via_points_total=self._via_total if via_points_total is None else via_points_total,
             arrivals=tuple(sorted(self._arrivals.values(), key=lambda a: a.t_boot_s)),

@@ -39,9 +39,10 @@ from helixd import __version__
 from helixd.actuators.base import ActuatorError, ActuatorSink
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
-from helixd.base.plan import Numbering, Plan, mission_item_of
+from helixd.base.plan import Numbering, Plan, mission_item_of, program_numbering
 from helixd.config import HelixdConfig, config_to_yaml
 from helixd.control.sequencer import SequencerEvent
+from helixd.files.models import as_items
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_WARNING
@@ -49,7 +50,7 @@ from helixd.mav.url import LinkError
 from helixd.mission.commands import command_name
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
-from helixd.mission.resolve import PlanError
+from helixd.mission.resolve import PlanError, places_from
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs
 from helixd.mission.validate import apply_mission_limits
 from helixd.recorder.retention import check_free_space, prune_runs
@@ -120,6 +121,8 @@ class RunOptions:
     # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
     inputs: RunInputs | None = None
     options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported (commands)
+    # a ground-station mission: refusals name its entries by mission item ("item 3")
+    item_numbers: bool = False
 
 
 @dataclass
@@ -223,6 +226,17 @@ def exit_rule(exc: BaseException, stage: Stage) -> ExitRule:
     return EXIT_RULES[-1]
 
 
+def as_item_numbers(exc: Exception) -> Exception:
+    """A refusal of a ground-station mission with its entries named by mission item
+    (``item 3``) instead of the YAML list (``waypoint 3 (waypoints[2])``); anything else as
+    it is."""
+    if isinstance(exc, PreflightFailed):
+        return PreflightFailed([as_items(p) for p in exc.problems])
+    if isinstance(exc, PlanError):
+        return PlanError(as_items(str(exc)))
+    return exc
+
+
 def problems_of(exc: BaseException) -> list[str]:
     """The human lines an exception stands for (a failed preflight has several)."""
     return list(exc.problems) if isinstance(exc, PreflightFailed) else [str(exc)]
@@ -317,9 +331,9 @@ class MissionRunner:
         )  # what the ground station sees (helixd.runtime.gcs_feed)
         # the mission flown: opts.mission, its first leg re-planned from the rover in preflight
         self.mission = opts.mission
-        # the plan's via flags per waypoint (a program expands the mission: its waypoints
-        # are the plan's, jumps repeated)
-        self._plan_vias: tuple[bool, ...] | None = None
+        # the plan as flown (set at preflight, again at the flight's start): a program expands
+        # the mission (its waypoints are the plan's, jumps repeated) and is numbered by item
+        self._plan: Plan | None = None
         self.flight_loop: FlightLoop | None = None  # while flying
 
     def holding_forever(self) -> bool:
@@ -413,7 +427,7 @@ class MissionRunner:
         self.summary = SummaryBuilder(
             final_xy_m=(last.x_m, last.y_m), join_m=join_m, estimated_s=estimate.total_s
         )
-        self._plan_vias = tuple(w.via for w in plan.waypoints)
+        self._plan = plan
         if checked.origin is not None:
             self.summary.set_origin(*checked.origin)
         return checked
@@ -448,23 +462,34 @@ class MissionRunner:
     async def main_loop(self, ready: Ready) -> Ending:
         """Fly the plan; the loop returns its own ending (done, a watchdog, a signal)."""
         plan = ready.plan
+        self._plan = plan  # as flown: a mission with commands was placed again after arming
         numbering = self._numbering()
+        laps = plan.program.laps() if plan.program is not None else ()
+        if plan.program is not None:
+            log.info(
+                "mission_program",
+                items=numbering.total,  # numbered as the ground station shows them
+                steps=len(plan.program.steps),
+                places_from=places_from(plan.frame),  # as `check` gives them
+            )
         ap = ready.ap
         commands = MissionCommands(ap.action)
         if plan.program is not None:
             commands.start()
 
         def on_mission_event(ev: SequencerEvent) -> None:
+            lap = laps[ev.step] if 0 <= ev.step < len(laps) else ""
             log.info(
                 "mission_step",
                 kind=ev.kind,
-                item=ev.item,
+                item=ev.item,  # as the ground station numbers it (home 0, the first item 1)
+                lap=lap or None,  # "lap 2 of 3" where a DO_JUMP repeats the item
                 command=command_name(ev.command),
                 step=ev.step + 1,
                 text=ev.text,
             )
             if ev.kind == "hold_started":
-                self.gcs.phase(f"item {ev.item}: {ev.text}")
+                self.gcs.phase(f"item {ev.item}{f' ({lap})' if lap else ''}: {ev.text}")
 
         # flight.csv rows and the summary's figures are built in batches, after sends
         journal = StepJournal(plan, self._on_row, self.cfg.recorder.batch_interval_s)
@@ -506,7 +531,10 @@ class MissionRunner:
             if self.recorder is not None:
                 self.recorder.maybe_flush()
 
-        self.gcs.phase(f"fly {self.mission.name}: {numbering.operator_count} waypoints")
+        if numbering.items:
+            self.gcs.phase(f"fly {self.mission.name}: {numbering.total} items")
+        else:
+            self.gcs.phase(f"fly {self.mission.name}: {numbering.operator_count} waypoints")
         async with phase("fly", self.notifier, self.display) as fly:
             try:
                 self.flight_loop = FlightLoop(
@@ -625,6 +653,8 @@ class MissionRunner:
             stage = Stage.FLIGHT
             return await self.main_loop(ready)
         except Exception as exc:
+            if self.opts.item_numbers:  # a ground-station mission: its entries are items
+                exc = as_item_numbers(exc)
             ending, rule = ending_for(exc, stage, time.monotonic())
             self._report_failure(exc, rule)
             return ending
@@ -694,15 +724,17 @@ class MissionRunner:
     def _build_summary(
         self, fault: str | None, code: ExitCode, wall_duration_s: float | None
     ) -> RunSummary:
+        numbering = self._numbering()
         summary = self.summary.build(
             completed=code is ExitCode.OK,
             fault=fault,
             exit_code=int(code),
             mission_name=self.mission.name,
             mode=self.mission.mode.value,
-            waypoints_total=self._numbering().operator_count,
+            waypoints_total=numbering.operator_count,
             via_points_total=sum(w.via for w in self.mission.waypoints),
             wall_duration_s=wall_duration_s,
+            items_total=numbering.total if numbering.items else None,
         )
         if self.opts.inputs is not None and self.opts.inputs.resumed_from is not None:
             summary = summary.model_copy(update={"resumed_from": self.opts.inputs.resumed_from})
@@ -740,8 +772,11 @@ class MissionRunner:
     def _numbering(self) -> Numbering:
         """The operator's numbering of this run's waypoints: 1-based over the whole mission
         (a resumed run continues the count), the planner's via points not counted."""
-        if self._plan_vias is not None and self.mission.has_commands():
-            vias = list(self._plan_vias)
+        if self._plan is not None and self.mission.has_commands():
+            items = program_numbering(self._plan)  # a mission with commands: its items
+            if items is not None:
+                return items
+            vias = [w.via for w in self._plan.waypoints]
         else:
             vias = [w.via for w in self.mission.waypoints]
         inputs = self.opts.inputs
@@ -750,14 +785,16 @@ class MissionRunner:
     def _on_arrival(
         self, index: int, numbering: Numbering, t_boot_s: float, error_m: float
     ) -> None:
-        number, via = numbering.number(index), numbering.via(index)
+        number, via, lap = numbering.number(index), numbering.via(index), numbering.lap(index)
         if not via:
-            self.gcs.waypoint(number - 1, numbering.total)
-        self.summary.arrival(index, t_boot_s, error_m, number=number, via=via)
+            self.gcs.waypoint(number - 1, numbering.total, lap)
+        self.summary.arrival(index, t_boot_s, error_m, number=number, via=via, lap=lap)
         start = self.summary.start_t_boot_s
         log.info(
             "waypoint_reached",
-            waypoint=numbering.label(index),  # as the ground station numbers it: "3/5"
+            # as the ground station numbers it: "3/5"; a mission with commands: item 3 of 5,
+            # "3/5 (lap 2 of 3)" where a DO_JUMP repeats it
+            waypoint=numbering.label(index),
             index=index,  # 0-based plan index, via points included (what --resume counts)
             elapsed_autopilot_s=(
                 round(t_boot_s - start, 1) if start is not None and t_boot_s >= start else None

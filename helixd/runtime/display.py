@@ -68,6 +68,7 @@ class ProgressInfo:
     # it was told about (ProgressDisplay.autopilot_time), or it is shown as unknown
     autopilot_elapsed_s: float | None = None
     via: bool = False  # flying to a via point on the leg to waypoint i
+    lap: str = ""  # a mission with commands: "lap 2 of 3" where a DO_JUMP repeats item i
 
 
 class AutopilotElapsed:
@@ -139,11 +140,23 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
 
 
 def waypoints_text(summary: RunSummary) -> str:
-    """``3/3`` (the operator's waypoints), ``3/3 (+9/9 via points)`` with planned via points."""
+    """``3/3`` (the operator's waypoints), ``3/3 (+9/9 via points)`` with planned via points;
+    a mission with commands: ``10/10 as flown (mission items 1–5, DO_JUMP laps each
+    counted)``."""
     text = f"{summary.waypoints_reached}/{summary.waypoints_total}"
+    if summary.items_total is not None:
+        text += f" as flown ({items_text(summary)})"
     if summary.via_points_total:
         text += f" (+{summary.via_points_reached}/{summary.via_points_total} via points)"
     return text
+
+
+def items_text(summary: RunSummary) -> str:
+    """What the count of a mission with commands is made of: ``mission items 1–5, DO_JUMP
+    laps each counted`` (the laps only when a jump repeated an item)."""
+    laps = any(a.lap for a in summary.arrivals)
+    counted = ", DO_JUMP laps each counted" if laps else ""
+    return f"mission items 1–{summary.items_total}{counted}"
 
 
 def _arrivals_text(summary: RunSummary) -> str:
@@ -158,12 +171,13 @@ def _arrivals_text(summary: RunSummary) -> str:
     t0 = summary.start_t_boot_s
     clock = "" if t0 is None else " (autopilot clock)"
 
-    def one(number: int, t_boot_s: float, error_m: float) -> str:
+    def one(number: str, t_boot_s: float, error_m: float) -> str:
         when = "" if t0 is None or t_boot_s < t0 else f" +{t_boot_s - t0:.1f} s"
         return f"#{number}{when} ({error_m:.2f} m)"
 
-    def num(a: Arrival) -> int:
-        return a.index + 1 if a.number is None else a.number  # older summaries: index
+    def num(a: Arrival) -> str:
+        n = a.index + 1 if a.number is None else a.number  # older summaries: index
+        return f"{n} ({a.lap})" if a.lap else str(n)
 
     if len(arrivals) > ARRIVALS_LISTED_MAX:
         errors = [a.error_m for a in arrivals]
@@ -194,6 +208,8 @@ def result_line(summary: RunSummary) -> str:
     code = summary.exit_code
     word = RESULT_WORDS.get(code, "exit")
     done = f"{summary.waypoints_reached}/{summary.waypoints_total} waypoints"
+    if summary.items_total is not None:  # counted as flown; the numbers shown are items
+        done += f" as flown ({items_text(summary)})"
     if summary.via_points_total:  # the planner's via points are not the operator's waypoints
         done += f" (+{summary.via_points_reached}/{summary.via_points_total} via points)"
     wall = summary.duration_mono_s
@@ -246,7 +262,7 @@ def progress_fields(phase: str, info: ProgressInfo | None) -> dict[str, object]:
     return {
         "phase": info.phase or phase,
         "nav_state": info.nav_state or None,
-        "waypoint": waypoint_label(info.waypoint_index, info.via, info.waypoints_total),
+        "waypoint": waypoint_label(info.waypoint_index, info.via, info.waypoints_total, info.lap),
         "distance_to_go_m": _round(info.distance_to_go_m, 2),
         "speed_mps": _round(info.speed_mps, 2),
         "heading_error_deg": _round(info.heading_error_deg, 1),
@@ -265,7 +281,7 @@ def progress_line(phase: str, info: ProgressInfo | None) -> Text:
     if info is None:
         return text
     state = f" {info.nav_state}" if info.nav_state else ""
-    wp = waypoint_label(info.waypoint_index, info.via, info.waypoints_total)
+    wp = waypoint_label(info.waypoint_index, info.via, info.waypoints_total, info.lap)
     text.append(f" wp {wp}{state}")
     text.append(f"  {_fmt(info.distance_to_go_m, '.1f')} m to go")
     text.append(f"  {_fmt(info.speed_mps, '.2f')} m/s")

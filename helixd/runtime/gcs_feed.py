@@ -62,8 +62,8 @@ class GcsFeed:
     def phase(self, name: str) -> None:
         self._feed(PhaseChange(name))
 
-    def waypoint(self, index: int, total: int) -> None:
-        self._feed(WaypointReached(index, total))
+    def waypoint(self, index: int, total: int, lap: str = "") -> None:
+        self._feed(WaypointReached(index, total, lap))
 
     def fault(self, name: str, detail: str = "", stopped: bool = True) -> None:
         self._feed(ReportedFault(name, detail, stopped))

@@ -72,8 +72,9 @@ class PhaseChange:
 
 @dataclass(frozen=True, slots=True)
 class WaypointReached:
-    index: int  # 0-based
-    total: int
+    index: int  # 0-based (a mission with commands: its item, home 0, less one)
+    total: int  # the operator's waypoints (a mission with commands: its items)
+    lap: str = ""  # "lap 2 of 3" where a DO_JUMP repeats the item
 
 
 @dataclass(frozen=True, slots=True)
@@ -179,6 +180,8 @@ class GcsReporter:
             self._enqueue(_Queued(event.severity, f"{PREFIX}{event.text}", urgent))
         elif isinstance(event, WaypointReached):
             text = f"{PREFIX}reached WP {event.index + 1}/{event.total}"
+            if event.lap:
+                text += f" ({event.lap})"
             self._enqueue(_Queued(MAV_SEVERITY_INFO, text, False))
         else:
             severity = MAV_SEVERITY_CRITICAL if event.stopped else MAV_SEVERITY_WARNING

@@ -15,7 +15,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig, config_to_yaml, load_config
-from helixd.files.models import ConfigFileError
+from helixd.files.models import ConfigFileError, as_items
 from helixd.files.yamlio import clip_line, paused_gc
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import (
@@ -139,6 +139,8 @@ def load_inputs(
     if cfg is not None and msn is not None:
         checked = mission_vs_config(cfg, msn, str(path), problems, options, notes)
     if problems or cfg is None or msn is None or checked is None:
+        if sniff_format(path) is not MissionFormat.YAML:  # QGC's item numbers, not the YAML's
+            problems = [as_items(p) for p in problems]
         raise InputsRefused(problems, ExitCode.USAGE)
     # the mission's own fence/time limit (a survey's) replace the config's for this run
     cfg = apply_mission_limits(cfg, msn)

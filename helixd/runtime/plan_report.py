@@ -15,9 +15,10 @@ from pathlib import Path
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, waypoint_label
 from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate, delivered_fractions
-from helixd.mission.describe import program_lines
+from helixd.mission.describe import DEFAULT_WIDTH, program_lines
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
+from helixd.mission.resolve import places_from
 from helixd.mission.validate import pending_checks, plan_for_check
 from helixd.planning.route import RoutePlan
 from helixd.runtime.planned import route_lines, route_time_estimate
@@ -92,30 +93,34 @@ def check_lines(
     planned: Mission,
     route: RoutePlan | None,
     options: ExpandOptions = DEFAULT_OPTIONS,
+    width: int = DEFAULT_WIDTH,
 ) -> list[str]:
     """Everything ``check`` prints after the inputs passed (``planned``: the mission with the
     planner's via points, ``msn`` itself when nothing was planned). A mission with commands
-    shows its flight (each step, its actions and when it ends) instead of the waypoint table."""
+    shows its flight (each step, its actions and when it ends) instead of the waypoint table,
+    its texts wrapped to ``width`` columns."""
     plan, provisional = plan_for_check(planned, cfg, options)
     note = (
-        " (global: shown relative to waypoint 1; the EKF origin is used in flight)"
+        " (global: places from waypoint 1, as `run` gives them; it flies through the EKF origin)"
         if provisional
         else ""
     )
-    axes = (
-        "x forward / y left of start" if msn.frame is MissionFrameKind.START else "x east / y north"
-    )
     vias = len(plan.waypoints) - plan.operator_count
+    numbered = (
+        "mission items numbered as the ground station shows them (home 0, the first item 1)"
+        if plan.program is not None
+        else "waypoints numbered from 1"
+    )
     lines = [
         f"config  : {config_label}  OK",
         f"mission : {path}  OK",
         f"plan    : {plan.name}  mode={plan.mode.value}  frame={plan.frame.value}{note}",
-        f"axes    : {axes} (metres); waypoints numbered from 1"
+        f"axes    : {places_from(plan.frame)} (metres); {numbered}"
         + (f", {vias} via points inserted by the planner" if vias else ""),
     ]
     if plan.program is not None:
         start = plan.assumed_start_xy_m()
-        lines.extend(program_lines(plan, cfg.control.max_yaw_rate_radps, start))
+        lines.extend(program_lines(plan, cfg.control.max_yaw_rate_radps, start, width))
     else:
         lines.extend(waypoint_table(plan))
     estimate, start_note = route_time_estimate(cfg, planned, route, path)

@@ -218,6 +218,9 @@ class Flight:
     inputs: RunInputs
     route: RoutePlan | None = None
     options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported
+    # a ground-station mission (.plan, .waypoints, the autopilot's): errors name its entries
+    # by mission item ("item 3"), a YAML mission's by waypoint ("waypoint 3 (waypoints[2])")
+    item_numbers: bool = False
 
 
 def planned_flight(

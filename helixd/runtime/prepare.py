@@ -18,15 +18,16 @@ mission failing its checks, and the notes to show with it); notes are lines to s
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig
+from helixd.files.models import as_items
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
-from helixd.mission.formats import mission_to_yaml
+from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.model import Mission
 from helixd.mission.resume import (
@@ -134,7 +135,8 @@ def prepare_flight(
         notes: list[str] = []
         checked = mission_vs_config(source.cfg, msn, got.source, problems, source.options, notes)
         if problems or checked is None:
-            raise InputsRefused(problems, ExitCode.PREFLIGHT, tuple(notes))
+            items = [as_items(p) for p in problems]  # the autopilot's mission: its items
+            raise InputsRefused(items, ExitCode.PREFLIGHT, tuple(notes))
         cfg = apply_mission_limits(source.cfg, msn)
         path = Path(MISSION_NAME)
         text = mission_to_yaml(msn)  # the run directory records what was downloaded
@@ -156,6 +158,8 @@ def prepare_flight(
         flight = planned_flight(cfg, msn, text, path, occ, config_sha256(config), fence, options)
     except InputsRefused as exc:  # the notes about the mission still stand
         raise InputsRefused(exc.problems, exc.code, shown) from None
+    gcs = isinstance(source, AutopilotMission) or sniff_format(path) is not MissionFormat.YAML
+    flight = replace(flight, item_numbers=gcs)
     return Prepared(cfg, msn, path, flight, shown, fence, occ)
 
 

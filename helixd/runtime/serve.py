@@ -30,6 +30,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode, Numbering
 from helixd.config import HelixdConfig
+from helixd.files.models import as_items
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
 from helixd.link.mission_transfer import MissionTransferError
@@ -374,6 +375,7 @@ class Service:
             except InputsRefused as exc:
                 problems.extend(exc.problems)
         if self.checked is None:
+            problems = [as_items(p) for p in problems]  # the autopilot's mission: its items
             for p in problems:
                 log.error("serve_mission_refused", problem=p)
             shown = [p.removeprefix(f"{source}: ") for p in problems]
@@ -383,7 +385,7 @@ class Service:
             return
         n = self.checked.waypoints
         resume = self.view().resumable
-        detail = f"mission checked, {n} waypoints" + (
+        detail = f"mission checked, {_count_text(self.checked.flight.mission, n)}" + (
             " (interrupted: a start continues it)" if resume else ""
         )
         log.info("serve_mission_checked", waypoints=n, fingerprint=fingerprint[:12])
@@ -412,7 +414,7 @@ class Service:
         n = _operator_waypoints(got.mission)
         self.checked = ReadyMission(fingerprint, got.flight, cfg, len(got.mission.waypoints), n)
         log.info("serve_mission_checked", waypoints=n, path=str(got.path))
-        self._set_state(ServeState.READY, f"{got.path.name} checked, {n} waypoints")
+        self._set_state(ServeState.READY, f"{got.path.name} checked, {_count_text(got.mission, n)}")
 
     # -- operators ----------------------------------------------------------------------------
 
@@ -558,6 +560,7 @@ class Service:
             replan_from=flight.replan_from,
             inputs=flight.inputs,
             options=flight.options,
+            item_numbers=flight.item_numbers,
         )
         auto = request is Request.AUTO  # the autopilot runs its own item progress in AUTO
         # else the GCS highlights the item helixd flies as the autopilot's current
@@ -625,6 +628,12 @@ def _operator_waypoints(msn: Mission) -> int:
     return sum(not w.via for w in msn.waypoints)
 
 
+def _count_text(msn: Mission, n: int) -> str:
+    """``6 waypoints``; a mission with commands: ``5 items``, as the ground station counts
+    them (its numbers in 'reached WP 3/5')."""
+    return f"{n} items" if msn.has_commands() else f"{n} waypoints"
+
+
 def _cause(fault_text: str | None) -> FaultCause | None:
     """The fault cause a summary's ``fault`` ("cause: detail") starts with."""
     from_text = (fault_text or "").split(":", 1)[0]
@@ -680,5 +689,11 @@ def flight_end_text(summary: RunSummary | None, numbering: Numbering, messages: 
     if summary is None or summary.rows == 0:
         why = [m for m in messages if not m.startswith("helixd: RESULT")]
         return why[0] if why else "not flown"
+    if numbering.items:  # a mission with commands: counted as flown, the item reached named
+        done = f"{summary.waypoints_reached}/{summary.waypoints_total} waypoints as flown"
+        reached = [a for a in summary.arrivals if not a.via and a.number is not None]
+        if reached:
+            done += f", last item {reached[-1].number}/{numbering.total}"
+        return done
     first = numbering.numbers[0] if numbering.numbers else 1
     return f"{first - 1 + summary.waypoints_reached}/{numbering.total} waypoints"

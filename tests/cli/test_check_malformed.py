@@ -75,19 +75,19 @@ EXPECTED: dict[str, list[str]] = {
     "m_duplicate_in_flow.yaml": ["duplicate key 'x' twice on line 4"],
     "m_duplicate_mode.yaml": ["duplicate key 'mode' at lines 2 and 5"],
     "m_empty.yaml": ["name: missing required field", "mode: missing required field"],
-    "m_nan.yaml": ["waypoints.0.x", "finite"],
-    "m_no_coordinate.yaml": ["waypoints.0.y", "'no'", "not numbers"],
+    "m_nan.yaml": ["waypoint 1 (waypoints[0]): x", "finite"],
+    "m_no_coordinate.yaml": ["waypoint 1 (waypoints[0]): y", "'no'", "not numbers"],
     "m_nul_bytes.yaml": ["not valid YAML", "control characters"],
-    "m_off_heading.yaml": ["waypoints.0.heading_deg", "'off'"],
+    "m_off_heading.yaml": ["waypoint 1 (waypoints[0]): heading_deg", "'off'"],
     "m_outside_fence.yaml": [
-        "waypoints.1: 150.0 m from the start point",
+        "waypoint 2 (waypoints[1]): 150.0 m from the start point",
         "safety.geofence_radius_m = 100.0 m",
     ],
     "m_too_long.yaml": ["estimated time 4589 s", "safety.mission_time_limit_s = 1800 s"],
     "m_top_list.yaml": ["(top level)", "expected a mapping", "list"],
     "m_true_tolerance.yaml": ["tolerance_m", "true/false is not a number"],
     "m_waypoints_mapping.yaml": ["waypoints", "a list"],
-    "m_yes_coordinate.yaml": ["waypoints.0.x", "'yes'"],
+    "m_yes_coordinate.yaml": ["waypoint 1 (waypoints[0]): x", "'yes'"],
 }
 
 

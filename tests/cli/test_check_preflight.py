@@ -36,7 +36,7 @@ def test_run_refuses_in_preflight_before_arming(tmp_path: Path) -> None:
         log = d.log_text()
         snap = server.snapshot()
     assert code == ExitCode.PREFLIGHT, log
-    assert "waypoints.0: 120.0 m from the start point" in log, log
+    assert "waypoint 1 (waypoints[0]): 120.0 m from the start point" in log, log
     assert "safety.geofence_radius_m = 100.0 m" in log
     # the arm phase never started, and the autopilot is disarmed with no override active
     assert "phase=arm" not in log and "phase=preflight" in log, log

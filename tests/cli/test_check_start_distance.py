@@ -16,7 +16,7 @@ from helixd.cli.app import app
 
 HOME = (53.523250, -113.526110)
 NORTH_DEG_PER_M = 1 / 111_320.0  # close enough at this latitude for "~794 m"
-REASON = "waypoints.0: 794.0 m from the mission's home"
+REASON = "item 1: 794.0 m from the mission's home"
 
 
 def _far_waypoints(tmp_path: Path) -> Path:

@@ -55,7 +55,7 @@ def test_a_field_day(tmp_path: Path) -> None:
                 d.wait_line("event=serve_mission_refused", 30.0)
                 refusal = gcs.wait_text("helixd: refused", 20.0)
                 # the first of its whole lines names the waypoint; the log has the rest
-                assert refusal.startswith("helixd: refused: waypoints.1:"), refusal
+                assert refusal.startswith("helixd: refused: item 2:"), refusal
                 assert len(refusal) <= 50 and not refusal.endswith(" "), refusal
                 assert command(gcs, MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_DENIED
                 # the fixed mission: checked, then started by the switch

@@ -78,7 +78,7 @@ def test_a_waypoints_unknown_key_hint_names_the_place_keys_too() -> None:
 def test_navigation_without_coordinates_stays_where_it_is() -> None:
     m = mission({"x": 1, "y": 0}, {"command": "NAV_WAYPOINT", "hold_s": 10}, {"x": 1, "y": 0})
     assert m.points() == [(1.0, 0.0), (1.0, 0.0)]  # a hold between: the repeat is fine
-    with pytest.raises(ValidationError, match=r"same point as waypoints\.0"):
+    with pytest.raises(ValidationError, match=r"same point as waypoint 1 "):
         mission({"x": 1, "y": 0}, {"x": 1, "y": 0})
     with pytest.raises(ValidationError, match="no entry has a place to go"):
         mission({"command": "NAV_RETURN_TO_LAUNCH"})
@@ -126,4 +126,7 @@ def test_a_file_error_names_the_entry(tmp_path: Path) -> None:
     with pytest.raises(ConfigFileError) as err:
         load_mission(path)
     (line,) = err.value.problems
-    assert line.startswith(f"{path}: waypoints.1") and "channel: 99 is outside 1 .. 32" in line
+    assert (
+        line.startswith(f"{path}: waypoint 2 (waypoints[1])")
+        and "channel: 99 is outside 1 .. 32" in line
+    )

@@ -41,7 +41,7 @@ def test_start_frame_waypoint_outside_radius_is_refused_without_the_pose() -> No
     msn = mission("start", [(50.0, 0.0), (150.0, 0.0), (0.0, 0.0)])
     problems = mission_problems(msn, HelixdConfig())
     assert problems == [
-        "waypoints.1: 150.0 m from the start point; allowed at most "
+        "waypoint 2 (waypoints[1]): 150.0 m from the start point; allowed at most "
         "safety.geofence_radius_m = 100.0 m"
     ]
 
@@ -63,7 +63,9 @@ def test_local_ned_radius_needs_the_pose() -> None:
     start = NedPose(north_m=-30.0, east_m=0.0, yaw_ned_rad=0.0)
     problems = mission_problems(msn, HelixdConfig(), start_ned=start)
     assert len(problems) == 1
-    assert problems[0].startswith("waypoints.1: 120.0 m from the start point (N -30.0 m")
+    assert problems[0].startswith(
+        "waypoint 2 (waypoints[1]): 120.0 m from the start point (N -30.0 m"
+    )
 
 
 def test_global_mission_is_checked_with_the_origin() -> None:
@@ -74,7 +76,7 @@ def test_global_mission_is_checked_with_the_origin() -> None:
     assert mission_problems(msn, HelixdConfig()) == []  # no origin: only the time check
     start = NedPose(0.0, 0.0, 0.0)
     problems = mission_problems(msn, HelixdConfig(), start_ned=start, origin_latlon_deg=origin)
-    assert len(problems) == 1 and problems[0].startswith("waypoints.1: 15")
+    assert len(problems) == 1 and problems[0].startswith("waypoint 2 (waypoints[1]): 15")
 
 
 def test_many_offenders_are_summarised() -> None:
@@ -96,7 +98,7 @@ def test_local_ned_polygon_is_checked_without_the_pose() -> None:
     cfg = config(geofence_polygon_ne_m=SQUARE_NE, geofence_radius_m=None)
     msn = mission("local_ned", [(10.0, 10.0), (60.0, 0.0)])
     assert mission_problems(msn, cfg) == [
-        "waypoints.1: N 60.0 m, E 0.0 m is outside safety.geofence_polygon_ne_m"
+        "waypoint 2 (waypoints[1]): N 60.0 m, E 0.0 m is outside safety.geofence_polygon_ne_m"
     ]
 
 
@@ -105,7 +107,7 @@ def test_leg_across_a_notch_is_refused() -> None:
     msn = mission("local_ned", [(20.0, 5.0), (20.0, 25.0)])  # both arms inside, leg crosses
     problems = mission_problems(msn, cfg)
     assert problems == [
-        "leg waypoints 0 → 1 leaves safety.geofence_polygon_ne_m (both ends are inside)"
+        "leg waypoints 1 → 2 leaves safety.geofence_polygon_ne_m (both ends are inside)"
     ]
 
 
@@ -118,7 +120,9 @@ def test_start_frame_polygon_needs_the_pose_then_rotates_with_it() -> None:
     assert mission_problems(msn, cfg, start_ned=facing_north) == []
     from_the_edge = NedPose(north_m=30.0, east_m=0.0, yaw_ned_rad=0.0)  # 70 m north: outside
     problems = mission_problems(msn, cfg, start_ned=from_the_edge)
-    assert problems == ["waypoints.0: N 70.0 m, E 0.0 m is outside safety.geofence_polygon_ne_m"]
+    assert problems == [
+        "waypoint 1 (waypoints[0]): N 70.0 m, E 0.0 m is outside safety.geofence_polygon_ne_m"
+    ]
     facing_east = NedPose(north_m=30.0, east_m=0.0, yaw_ned_rad=math.pi / 2)  # 40 m east: inside
     assert mission_problems(msn, cfg, start_ned=facing_east) == []
 
@@ -143,7 +147,7 @@ def with_island(points: list[tuple[float, float]]) -> Mission:
 
 def test_waypoint_inside_a_keep_out_area_is_refused() -> None:
     problems = mission_problems(with_island([(0.0, 0.0), (15.0, 15.0)]), config())
-    assert problems == ["waypoints.1: inside keep_out_polygons.0 (a keep-out area)"]
+    assert problems == ["waypoint 2 (waypoints[1]): inside keep_out_polygons.0 (a keep-out area)"]
 
 
 def test_leg_through_a_keep_out_area_is_refused_only_when_nothing_plans_around_it() -> None:
@@ -151,8 +155,8 @@ def test_leg_through_a_keep_out_area_is_refused_only_when_nothing_plans_around_i
     assert mission_problems(msn, config()) == []  # planning routes it around
     off = HelixdConfig.model_validate({"planning": {"enabled": False}})
     assert mission_problems(msn, off) == [
-        "leg waypoints.0 → waypoints.1 crosses keep_out_polygons.0 (planning.enabled is "
-        "false: nothing plans around it)"
+        "leg waypoint 1 (waypoints[0]) → waypoint 2 crosses keep_out_polygons.0 "
+        "(planning.enabled is false: nothing plans around it)"
     ]
 
 

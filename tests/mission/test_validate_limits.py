@@ -49,7 +49,9 @@ def test_far_first_waypoint_is_refused_at_preflight() -> None:
     start = NedPose(0.0, 0.0, 0.0)
     problems = mission_problems(msn, cfg, start_ned=start, origin_latlon_deg=ORIGIN)
     assert len(problems) == 1
-    assert problems[0].startswith("waypoints.0: 130.0 m from the rover (N 0.0 m, E 0.0 m)")
+    assert problems[0].startswith(
+        "waypoint 1 (waypoints[0]): 130.0 m from the rover (N 0.0 m, E 0.0 m)"
+    )
     assert "mission.max_start_distance_m = 100.0 m" in problems[0]
     near = NedPose(100.0, 0.0, 0.0)
     assert mission_problems(msn, cfg, start_ned=near, origin_latlon_deg=ORIGIN) == []
@@ -113,7 +115,8 @@ def test_survey_is_still_fenced(frame: str) -> None:
         out, HelixdConfig(), start_ned=NedPose(0.0, 0.0, 0.0), origin_latlon_deg=ORIGIN
     )
     assert any(
-        p.startswith("waypoints.20:") and p.endswith("is outside the mission's geofence_polygon")
+        p.startswith("waypoint 21 (waypoints[20]):")
+        and p.endswith("is outside the mission's geofence_polygon")
         for p in problems
     )
 

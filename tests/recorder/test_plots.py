@@ -339,3 +339,10 @@ def load_mission_frame(run_dir: Path) -> MissionFrameKind:
     from helixd.mission.model import load_mission
 
     return load_mission(run_dir / "mission.yaml").frame
+
+
+def test_an_item_a_jump_flies_again_is_labelled_once() -> None:
+    # item numbers of a DO_JUMP mission: 1, 2, 1, 2, 5 (item 5 returns to item 1's place)
+    points = [(0.0, 0.0), (5.0, 0.0), (0.0, 0.0), (5.0, 0.0), (0.0, 0.0)]
+    got = waypoint_labels(points, labels=["1", "2", "1", "2", "5"])
+    assert got == [("1,5", (0.0, 0.0)), ("2", (5.0, 0.0))]

@@ -18,7 +18,7 @@ from pydantic import ValidationError
 
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.config import MissionLimits
-from helixd.files.models import ConfigFileError, format_validation_error
+from helixd.files.models import ConfigFileError, as_items, entry_label, format_validation_error
 from helixd.files.yamlio import YamlFileError, read_text_capped
 from helixd.mission.formats.items import (
     Converted,
@@ -378,8 +378,7 @@ def with_fence(
             "inclusion circles: none used as the keep-in fence (helixd keeps one)"
         )
     points = msn.points()
-    labels = [f"waypoints.{msn.waypoints.index(wp)} (item {msn.waypoints.index(wp) + 1})"
-              for wp in msn.places()]  # fmt: skip
+    labels = [as_items(entry_label(msn.waypoints.index(wp))) for wp in msn.places()]
     problems = keep_out_problems(fence, points, labels, legs=not route_keep_outs)
     if problems:
         raise FormatError([f"--fence {source}: {p}" for p in problems[:20]])
