@@ -58,6 +58,13 @@ class FaultCause(StrEnum):
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
     ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
     GPS_LOST = "gps_lost"  # fix below the minimum, too few satellites or GPS_RAW_INT stopped
+    # ArduPilot's own failsafe changed the mode (helixd.safety.autopilot_failsafe names it)
+    AUTOPILOT_BATTERY = "autopilot_battery"  # BATT_FS_LOW_ACT / BATT_FS_CRT_ACT
+    AUTOPILOT_FENCE = "autopilot_fence"  # FENCE_ACTION on a breach of the autopilot's fence
+    AUTOPILOT_RADIO = "autopilot_radio"  # FS_THR_ENABLE: "Radio Failsafe", FS_ACTION
+    AUTOPILOT_GCS = "autopilot_gcs"  # FS_GCS_ENABLE: "GCS Failsafe", FS_ACTION
+    AUTOPILOT_EKF = "autopilot_ekf"  # FS_EKF_ACTION: "EKF failsafe"
+    AUTOPILOT_FAILSAFE = "autopilot_failsafe"  # a failsafe (system_status CRITICAL), no text
 
 
 # Causes that mean "a human took over or asked to stop", not "something broke".
