@@ -712,8 +712,8 @@ class SafetyConfig(InputModel):
         2.0,
         gt=0.0,
         le=10.0,
-        description="a mode change is ArduPilot's failsafe when its text (\"Battery 1 is low …\", "
-        "\"Radio Failsafe\", …) arrived at most this long before the change was seen (s); "
+        description='a mode change is ArduPilot\'s failsafe when its text ("Battery 1 is low …", '
+        '"Radio Failsafe", …) arrived at most this long before the change was seen (s); '
         "ArduPilot sends it in the same loop as the mode change",
     )
     stop_on_rc_loss: bool = Field(
