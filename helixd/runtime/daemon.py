@@ -92,7 +92,7 @@ from helixd.runtime.setup import (
     until_stopped,
 )
 from helixd.runtime.timing import plan_time_estimate
-from helixd.safety.supervisor import fall_back
+from helixd.safety.supervisor import fall_back, late_failsafe
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
 
 log = structlog.get_logger(__name__)
@@ -573,7 +573,7 @@ class MissionRunner:
         try:
             ending = await self._startup_then_fly(held)
         finally:
-            await self.shutdown(held, ending)
+            ending = await self.shutdown(held, ending)
         summary = self._finish(ending, started)
         return RunOutcome(
             ending.code,
@@ -607,9 +607,11 @@ class MissionRunner:
 
     # -- shutdown -----------------------------------------------------------------------------
 
-    async def shutdown(self, held: Held, ending: Ending) -> None:
+    async def shutdown(self, held: Held, ending: Ending) -> Ending:
         """Always: stop the scrolls, release overrides, ask for HOLD (if we touched anything);
-        then close the sink and the link, each bounded like the fall-back."""
+        then close the sink and the link, each bounded like the fall-back. Returns the
+        ending, renamed when a takeover by mode change turns out, after the fall-back, to be
+        ArduPilot's failsafe (its text came after the mode change)."""
         self.notifier.stopping()
         ap = held.ap
         touched = held.sink is not None or held.armed_by_us
@@ -631,6 +633,7 @@ class MissionRunner:
                     abandon=lambda: self.stop.forced,
                 )
             report_fallback(self.gcs, secured)
+            ending = self._late_failsafe(ending, ap)
         if ending.code is ExitCode.OK:
             self.gcs.phase("mission complete")
         await self.gcs.close()
@@ -639,6 +642,25 @@ class MissionRunner:
         if ap is not None:
             await self._bounded_close("link", self.host.close(ap))
         self.notifier.close()
+        return ending
+
+    def _late_failsafe(self, ending: Ending, ap: Autopilot) -> Ending:
+        named = late_failsafe(
+            ending.fault,
+            ending.detected_s,
+            ap.state,
+            self.cfg.safety.autopilot_failsafe_window_s,
+        )
+        if named is None or ending.fault is None:
+            return ending
+        log.warning(
+            "fault_renamed",
+            cause=named.cause.value,
+            detail=named.detail,
+            was=ending.fault.cause.value,
+        )
+        self.gcs.fault(named.cause.value, named.detail)
+        return Ending(named, ExitCode.FAULT, ending.detected_s, ending.last_pose)
 
     async def _bounded_close(self, what: str, closing: Awaitable[None]) -> None:
         """Closing must neither hang the exit nor mask the outcome: the vehicle is already

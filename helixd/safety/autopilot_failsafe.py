@@ -72,12 +72,14 @@ def classify_mode_change(
     evidence: FailsafeEvidence,
     now_s: float,
     window_s: float,
+    until_s: float | None = None,
 ) -> Fault | None:
     """The autopilot failsafe that set ``mode`` (a :class:`Fault` naming it), or None when
     nothing the autopilot reported points at one: then a person changed the mode.
 
-    A failsafe's text counts when it arrived within ``window_s`` before ``now_s`` (or after:
-    the caller may ask again once more has arrived); the newest such text wins. Without a
+    A failsafe's text counts when it arrived within ``window_s`` before ``now_s``, or after
+    it up to ``until_s`` (asked again once more has arrived; None: no bound); the newest such
+    text wins. Without a
     text, a breached fence, a failed battery or a CRITICAL/EMERGENCY system status still
     names an autopilot failsafe.
     """
@@ -85,6 +87,8 @@ def classify_mode_change(
     for st in reversed(evidence.texts):
         if not st.rx_monotonic_s >= since_s:  # NaN is never recent
             break
+        if until_s is not None and st.rx_monotonic_s > until_s:
+            continue
         for pattern, cause, what in _TEXT_CAUSES:
             if pattern.fullmatch(st.text):
                 return Fault(cause, f'ArduPilot\'s {what} failsafe set {mode} ("{st.text}")')

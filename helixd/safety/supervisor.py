@@ -96,6 +96,31 @@ def failsafe_evidence(state: VehicleState) -> FailsafeEvidence:
     )
 
 
+def late_failsafe(
+    fault: Fault | None, detected_s: float | None, state: VehicleState, window_s: float
+) -> Fault | None:
+    """A takeover by mode change that ArduPilot's failsafe turns out to have made (pure).
+
+    ArduPilot queues its failsafe text in the loop that changes the mode, but on a busy link
+    the text can come after the HEARTBEAT that shows the new mode. The fall-back does not wait
+    for it; once it is done, the daemon asks again here with what arrived meanwhile (texts up
+    to ``window_s`` after the detection). The named fault, or None when it stays a takeover.
+    """
+    if fault is None or detected_s is None:
+        return None
+    mode = fault.changed_mode
+    if mode is None:
+        return None
+    return classify_mode_change(
+        mode,
+        fault.detail.split("helixd set ", 1)[-1].rstrip(")") or "MANUAL",
+        failsafe_evidence(state),
+        detected_s,
+        window_s,
+        until_s=detected_s + window_s,
+    )
+
+
 class Supervisor:
     """Owns the watchdogs of one flight: the flight loop asks it once per tick, before any
     command; the first fault it returns ends the flight (and :func:`fall_back` runs).

@@ -39,6 +39,7 @@ from helixd.base.polygon import point_in_polygon
 from helixd.config import SafetyConfig
 
 RC_CENTRE_US = 1500  # stick centre of a standard RC channel (µs)
+MODE_CHANGED_PREFIX = "mode changed to "  # a takeover by mode change: the detail's start
 
 
 class FaultCause(StrEnum):
@@ -75,6 +76,15 @@ OPERATOR_CAUSES = frozenset({FaultCause.PILOT_TAKEOVER, FaultCause.SIGNAL, Fault
 class Fault:
     cause: FaultCause
     detail: str
+
+    @property
+    def changed_mode(self) -> str | None:
+        """The mode a takeover by mode change saw (None for any other fault)."""
+        if self.cause is not FaultCause.PILOT_TAKEOVER:
+            return None
+        if not self.detail.startswith(MODE_CHANGED_PREFIX):
+            return None
+        return self.detail.removeprefix(MODE_CHANGED_PREFIX).split(" ", 1)[0] or None
 
 
 @dataclass(frozen=True, slots=True)
@@ -304,7 +314,7 @@ class SafetyMonitor:
         if t.on_mode_change and s.mode != s.expected_mode:
             return Fault(
                 FaultCause.PILOT_TAKEOVER,
-                f"mode changed to {s.mode} (helixd set {s.expected_mode})",
+                f"{MODE_CHANGED_PREFIX}{s.mode} (helixd set {s.expected_mode})",
             )
         rc = s.rc_inputs_us
         if t.switch_channel is not None and len(rc) >= t.switch_channel:

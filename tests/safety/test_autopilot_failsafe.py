@@ -22,7 +22,7 @@ from helixd.safety.autopilot_failsafe import (
     FailsafeEvidence,
     classify_mode_change,
 )
-from helixd.safety.supervisor import Motion, Supervisor, failsafe_evidence
+from helixd.safety.supervisor import Motion, Supervisor, failsafe_evidence, late_failsafe
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
 from tests.support.mavmsgs import AP, att, decoded, hb, lpn
 
@@ -212,3 +212,34 @@ def test_a_failsafe_ends_the_flight_even_without_mode_change_takeover() -> None:
     assert check(st, 1.12, cfg) is None  # a person's mode change: the config says go on
     st.apply(statustext(WARNING, "GCS Failsafe"), 1.15)
     assert check(st, 1.16, cfg).cause is FaultCause.AUTOPILOT_GCS
+
+
+def test_a_text_after_the_mode_change_renames_the_takeover_after_the_fall_back() -> None:
+    """The HEARTBEAT with HOLD came first, the text 80 ms later: detection said takeover
+    (the fall-back does not wait), asking again afterwards names the failsafe."""
+    st = flying()
+    st.apply(hb(HOLD, armed=True), 1.1)
+    takeover = check(st, 1.12)
+    assert takeover.cause is FaultCause.PILOT_TAKEOVER and takeover.changed_mode == "HOLD"
+    assert late_failsafe(takeover, 1.12, st, 2.0) is None  # nothing more arrived
+    st.apply(statustext(WARNING, "Radio Failsafe"), 1.2)
+    named = late_failsafe(takeover, 1.12, st, 2.0)
+    assert named is not None and named.cause is FaultCause.AUTOPILOT_RADIO
+    assert named.detail == 'ArduPilot\'s radio failsafe set HOLD ("Radio Failsafe")'
+
+
+def test_a_text_long_after_the_fall_back_does_not_rename() -> None:
+    st = flying()
+    st.apply(hb(HOLD, armed=True), 1.1)
+    takeover = check(st, 1.12)
+    st.apply(statustext(WARNING, "GCS Failsafe"), 1.12 + 2.5)  # the pilot's HOLD, then later
+    assert late_failsafe(takeover, 1.12, st, 2.0) is None
+
+
+def test_only_a_takeover_by_mode_change_is_renamed() -> None:
+    st = flying()
+    st.apply(statustext(WARNING, "GCS Failsafe"), 1.05)
+    switch = Fault(FaultCause.PILOT_TAKEOVER, "takeover switch RC7 at 1900 µs (>= 1700 µs)")
+    assert switch.changed_mode is None and late_failsafe(switch, 1.1, st, 2.0) is None
+    assert late_failsafe(Fault(FaultCause.STALL, "x"), 1.1, st, 2.0) is None
+    assert late_failsafe(None, 1.1, st, 2.0) is None
