@@ -39,7 +39,8 @@ _TEXT_CAUSES: tuple[tuple[re.Pattern[str], FaultCause, str], ...] = (
     (re.compile(r"Battery \d+ is (low|critical)\b.*"), FaultCause.AUTOPILOT_BATTERY, "battery"),
     (re.compile(r"Radio Failsafe"), FaultCause.AUTOPILOT_RADIO, "radio"),
     (re.compile(r"GCS Failsafe"), FaultCause.AUTOPILOT_GCS, "GCS"),
-    (re.compile(r"EKF failsafe|EKF variance"), FaultCause.AUTOPILOT_EKF, "EKF"),
+    # "EKF variance" comes first and also in MANUAL, where nothing changes mode: not a cause
+    (re.compile(r"EKF failsafe"), FaultCause.AUTOPILOT_EKF, "EKF"),
     (re.compile(r".*\bfences? breached"), FaultCause.AUTOPILOT_FENCE, "fence"),
 )
 
