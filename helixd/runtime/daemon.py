@@ -56,6 +56,7 @@ from helixd.recorder.retention import check_free_space, prune_runs
 from helixd.recorder.rows import FlightRow
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
+from helixd.runtime.autopilot_fence import autopilot_fence_check
 from helixd.runtime.display import ProgressDisplay, result_line
 from helixd.runtime.flight import (
     MANUAL_MODE,
@@ -388,6 +389,7 @@ class MissionRunner:
         )
         self.mission = checked.mission
         plan = checked.plan
+        await self._judge_autopilot_fence(ap, checked)
         last = plan.waypoints[-1]
         # a resume's approach to the interrupted leg is not the mission's cross-track error
         join_m = None if plan.leg_start_xy_m is None else self.cfg.control.stop_tolerance_m
@@ -405,6 +407,27 @@ class MissionRunner:
         if checked.origin is not None:
             self.summary.set_origin(*checked.origin)
         return checked
+
+    async def _judge_autopilot_fence(self, ap: Autopilot, checked: Checked) -> None:
+        """The route from the rover through every waypoint against the autopilot's own
+        fence (helixd.runtime.autopilot_fence): a route it would stop is refused (exit 3)."""
+        frame = mission_frame(checked.mission, checked.start_ned)
+        start = checked.start_ned
+        points = [(start.north_m, start.east_m)]
+        labels = ["the start"]
+        n = 0
+        for w in checked.plan.waypoints:
+            points.append(frame.to_ned(w.x_m, w.y_m))
+            if w.via:
+                labels.append(f"the via point → {n + 1}")
+            else:
+                n += 1
+                labels.append(f"waypoint {n}")
+        problems, warnings = await autopilot_fence_check(ap, checked.origin, points, labels)
+        for warning in warnings:
+            self._warn(warning)
+        if problems:
+            raise PreflightFailed(problems)
 
     def _gcs_on(self, ap: Autopilot) -> None:
         self.gcs.start(ap.send_message)
