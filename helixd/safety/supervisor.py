@@ -108,12 +108,11 @@ def late_failsafe(
     """
     if fault is None or detected_s is None:
         return None
-    mode = fault.changed_mode
-    if mode is None:
+    modes = fault.mode_change
+    if modes is None:
         return None
     return classify_mode_change(
-        mode,
-        fault.detail.split("helixd set ", 1)[-1].rstrip(")") or "MANUAL",
+        *modes,
         failsafe_evidence(state),
         detected_s,
         window_s,

@@ -40,6 +40,7 @@ from helixd.config import SafetyConfig
 
 RC_CENTRE_US = 1500  # stick centre of a standard RC channel (µs)
 MODE_CHANGED_PREFIX = "mode changed to "  # a takeover by mode change: the detail's start
+MODE_EXPECTED_PREFIX = "(helixd set "
 
 
 class FaultCause(StrEnum):
@@ -80,11 +81,19 @@ class Fault:
     @property
     def changed_mode(self) -> str | None:
         """The mode a takeover by mode change saw (None for any other fault)."""
+        modes = self.mode_change
+        return None if modes is None else modes[0]
+
+    @property
+    def mode_change(self) -> tuple[str, str] | None:
+        """(the mode seen, the mode helixd set) of a takeover by mode change, else None."""
         if self.cause is not FaultCause.PILOT_TAKEOVER:
             return None
         if not self.detail.startswith(MODE_CHANGED_PREFIX):
             return None
-        return self.detail.removeprefix(MODE_CHANGED_PREFIX).split(" ", 1)[0] or None
+        seen, _, rest = self.detail.removeprefix(MODE_CHANGED_PREFIX).partition(" ")
+        expected = rest.removeprefix(MODE_EXPECTED_PREFIX).removesuffix(")")
+        return (seen, expected) if seen and expected else None
 
 
 @dataclass(frozen=True, slots=True)
@@ -314,7 +323,7 @@ class SafetyMonitor:
         if t.on_mode_change and s.mode != s.expected_mode:
             return Fault(
                 FaultCause.PILOT_TAKEOVER,
-                f"{MODE_CHANGED_PREFIX}{s.mode} (helixd set {s.expected_mode})",
+                f"{MODE_CHANGED_PREFIX}{s.mode} {MODE_EXPECTED_PREFIX}{s.expected_mode})",
             )
         rc = s.rc_inputs_us
         if t.switch_channel is not None and len(rc) >= t.switch_channel:

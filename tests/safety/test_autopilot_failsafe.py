@@ -221,6 +221,7 @@ def test_a_text_after_the_mode_change_renames_the_takeover_after_the_fall_back()
     st.apply(hb(HOLD, armed=True), 1.1)
     takeover = check(st, 1.12)
     assert takeover.cause is FaultCause.PILOT_TAKEOVER and takeover.changed_mode == "HOLD"
+    assert takeover.mode_change == ("HOLD", "MANUAL")
     assert late_failsafe(takeover, 1.12, st, 2.0) is None  # nothing more arrived
     st.apply(statustext(WARNING, "Radio Failsafe"), 1.2)
     named = late_failsafe(takeover, 1.12, st, 2.0)
