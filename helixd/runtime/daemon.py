@@ -117,6 +117,9 @@ class RunOptions:
     show_plan: bool = (
         False  # upload the resolved plan for the GCS to draw (helixd.runtime.show_plan)
     )
+    # preflight reads the autopilot's own fence and judges the route (helixd serve reads it
+    # with the mission itself and downloads while idle: a second download would race it)
+    autopilot_fence: bool = True
     # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
     inputs: RunInputs | None = None
     options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported (commands)
@@ -389,7 +392,8 @@ class MissionRunner:
         )
         self.mission = checked.mission
         plan = checked.plan
-        await self._judge_autopilot_fence(ap, checked)
+        if self.opts.autopilot_fence:
+            await self._judge_autopilot_fence(ap, checked)
         last = plan.waypoints[-1]
         # a resume's approach to the interrupted leg is not the mission's cross-track error
         join_m = None if plan.leg_start_xy_m is None else self.cfg.control.stop_tolerance_m

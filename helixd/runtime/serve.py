@@ -515,6 +515,7 @@ class Service:
             replan_from=flight.replan_from,
             inputs=flight.inputs,
             options=flight.options,
+            autopilot_fence=False,
         )
         shows_item = self.opts.mission_file is None  # the GCS highlights the autopilot's item
         host = ServeHost(
