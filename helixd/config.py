@@ -708,6 +708,14 @@ class SafetyConfig(InputModel):
         "fall-back this stops the scrolls within 1 s of the stream stopping",
     )
     takeover: TakeoverConfig = Field(default_factory=TakeoverConfig)
+    autopilot_failsafe_window_s: float = Field(
+        2.0,
+        gt=0.0,
+        le=10.0,
+        description='a mode change is ArduPilot\'s failsafe when its text ("Battery 1 is low …", '
+        '"Radio Failsafe", …) arrived at most this long before the change was seen (s); '
+        "ArduPilot sends it in the same loop as the mode change",
+    )
     stop_on_rc_loss: bool = Field(
         True,
         description="stop when SYS_STATUS says the pilot's RC receiver is unhealthy (ArduPilot's "

@@ -185,6 +185,16 @@ class MissionClient:
                 log.info("mission_downloaded", mission_type="fence", items=len(f_items))
         return Downloaded(m.items, f_items)
 
+    async def download_fence(self) -> tuple[MissionItem, ...]:
+        """The autopilot's fence items only; raises
+        :class:`helixd.link.mission_transfer.MissionTransferError`."""
+        ids = _ids(self._host.cfg)
+        with AutopilotMissionLink(self._host, self._send) as link:
+            grace_s = self._host.cfg.statustext_grace_s
+            f = await transfer(link, MissionDownload(MAV_MISSION_TYPE_FENCE, **ids), grace_s)
+        log.info("mission_downloaded", mission_type="fence", items=len(f.items))
+        return f.items
+
     async def upload(
         self, mission: tuple[MissionItem, ...], fence: tuple[MissionItem, ...] | None
     ) -> None:

@@ -59,6 +59,13 @@ EKF_FORBIDDEN_FLAGS = {
 RC_CHANNEL_COUNT = 18
 SERVO_CHANNEL_COUNT = 16
 SENSOR_RC_RECEIVER = 0x10000  # MAV_SYS_STATUS_SENSOR_RC_RECEIVER
+# MAV_SYS_STATUS_GEOFENCE: ArduPilot (GCS_MAVLINK::update_sensor_status_flags, from
+# AC_Fence::sys_status_*) reports it present/enabled with an enabled fence, unhealthy while
+# breached
+SENSOR_GEOFENCE = 0x100000
+# MAV_SYS_STATUS_SENSOR_BATTERY: unhealthy once a battery failsafe has fired
+# (AP_BattMonitor::has_failsafed)
+SENSOR_BATTERY = 0x2000000
 GPS_FIX_TYPE_MAX = 8  # GPS_FIX_TYPE_PPP
 RSSI_UNKNOWN = 255
 LAT_MAX_DEG = 90.0
@@ -104,6 +111,7 @@ class Change:
     HOME = 16384  # HOME_POSITION: the autopilot has a home (it arms only then)
     GPS = 32768  # GPS_RAW_INT: fix type and satellites
     MISSION_CURRENT = 65536  # MISSION_CURRENT: the autopilot's current item / mission size
+    FENCE = 131072  # FENCE_STATUS: the autopilot's own fence breached or clear
 
 
 @dataclass(frozen=True, slots=True)
@@ -329,6 +337,11 @@ class VehicleState:
     # While helixd streams overrides ArduPilot's own RC failsafe cannot fire (overrides count
     # as valid RC input), so this bit is how helixd notices the pilot's radio is gone.
     rc_receiver_healthy: bool | None = None
+    # The autopilot's own fence and battery monitor (SYS_STATUS bits; FENCE_STATUS, which
+    # ArduPilot pushes at once on a breach): None when it reports no such sensor enabled.
+    fence_breached: bool | None = None
+    fence_breach_rx_s: float | None = None  # reception of the report that said breached
+    battery_failsafe: bool | None = None
     last_heartbeat_s: float | None = None
     heartbeat_count: int = 0
     link_lost: bool = False
@@ -587,11 +600,23 @@ class VehicleState:
         enabled = int(msg.onboard_control_sensors_enabled) & SENSOR_RC_RECEIVER
         healthy = int(msg.onboard_control_sensors_health) & SENSOR_RC_RECEIVER
         self.rc_receiver_healthy = bool(healthy) if (present and enabled) else None
+        self._fence_report(_sensor_fault(msg, SENSOR_GEOFENCE), rx_s)
+        self.battery_failsafe = _sensor_fault(msg, SENSOR_BATTERY)
         mv = int(msg.voltage_battery)
         self.battery_voltage_v = None if mv == UINT16_MAX else mv / 1000.0
         pct = int(msg.battery_remaining)
         self.battery_remaining_pct = pct if 0 <= pct <= 100 else None  # -1: not estimated
         return Change.SYS_STATUS
+
+    def _fence_report(self, breached: bool | None, rx_s: float) -> None:
+        if breached and not self.fence_breached:
+            self.fence_breach_rx_s = rx_s
+        self.fence_breached = breached
+
+    def _fence_status(self, msg: MavMsg, rx_s: float) -> int:
+        """FENCE_STATUS (AC_Fence::record_breach pushes it on a new breach)."""
+        self._fence_report(int(msg.breach_status) != 0, rx_s)
+        return Change.FENCE
 
     def _gps_raw(self, msg: MavMsg, rx_s: float) -> int:
         fix = int(msg.fix_type)
@@ -600,6 +625,16 @@ class VehicleState:
         self.gps_satellites = sats if 0 <= sats < 255 else None  # 255: unknown
         self.gps_rx_s = rx_s
         return Change.GPS
+
+
+def _sensor_fault(msg: MavMsg, bit: int) -> bool | None:
+    """SYS_STATUS: True when sensor ``bit`` is present and enabled but unhealthy; None when
+    it is not both present and enabled."""
+    present = int(msg.onboard_control_sensors_present) & bit
+    enabled = int(msg.onboard_control_sensors_enabled) & bit
+    if not (present and enabled):
+        return None
+    return not int(msg.onboard_control_sensors_health) & bit
 
 
 _HANDLERS: dict[str, Callable[[VehicleState, MavMsg, float], int]] = {
@@ -615,4 +650,5 @@ _HANDLERS: dict[str, Callable[[VehicleState, MavMsg, float], int]] = {
     "SYS_STATUS": VehicleState._sys_status,
     "GPS_RAW_INT": VehicleState._gps_raw,
     "MISSION_CURRENT": VehicleState._mission_current,
+    "FENCE_STATUS": VehicleState._fence_status,
 }

@@ -66,6 +66,7 @@ MAV_STATE_CALIBRATING = int(_mav.MAV_STATE_CALIBRATING)
 MAV_STATE_STANDBY = int(_mav.MAV_STATE_STANDBY)
 MAV_STATE_ACTIVE = int(_mav.MAV_STATE_ACTIVE)
 MAV_STATE_CRITICAL = int(_mav.MAV_STATE_CRITICAL)
+MAV_STATE_EMERGENCY = int(_mav.MAV_STATE_EMERGENCY)
 
 # ArduPilot Rover custom modes (Rover/mode.h), from the dialect's ROVER_MODE enum; names as
 # ArduPilot's Mode::name4/name() spell them (the dialect says INITIALIZING, Rover INITIALISING)

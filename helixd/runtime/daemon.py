@@ -57,6 +57,7 @@ from helixd.recorder.retention import check_free_space, prune_runs
 from helixd.recorder.rows import FlightRow
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
+from helixd.runtime.autopilot_fence import autopilot_fence_check
 from helixd.runtime.display import ProgressDisplay, result_line
 from helixd.runtime.flight import (
     MANUAL_MODE,
@@ -94,7 +95,7 @@ from helixd.runtime.setup import (
     until_stopped,
 )
 from helixd.runtime.timing import plan_time_estimate
-from helixd.safety.supervisor import fall_back
+from helixd.safety.supervisor import fall_back, late_failsafe
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
 
 log = structlog.get_logger(__name__)
@@ -118,6 +119,9 @@ class RunOptions:
     show_plan: bool = (
         False  # upload the resolved plan for the GCS to draw (helixd.runtime.show_plan)
     )
+    # preflight reads the autopilot's own fence and judges the route (helixd serve reads it
+    # with the mission itself and downloads while idle: a second download would race it)
+    autopilot_fence: bool = True
     # inputs.json (mission/config hashes, resume link); None: no record (not resumable)
     inputs: RunInputs | None = None
     options: ExpandOptions = DEFAULT_OPTIONS  # --strict / --skip-unsupported (commands)
@@ -414,6 +418,8 @@ class MissionRunner:
         )
         self.mission = checked.mission
         plan = checked.plan
+        if self.opts.autopilot_fence:
+            await self._judge_autopilot_fence(ap, checked)
         last = plan.waypoints[-1]
         # a resume's approach to the interrupted leg is not the mission's cross-track error
         join_m = None if plan.leg_start_xy_m is None else self.cfg.control.stop_tolerance_m
@@ -440,6 +446,27 @@ class MissionRunner:
             self.gcs.phase(f"continuing in {mode}")
         else:
             self.gcs.phase(f"released: mode {mode}, the pilot drives")
+
+    async def _judge_autopilot_fence(self, ap: Autopilot, checked: Checked) -> None:
+        """The route from the rover through every waypoint against the autopilot's own
+        fence (helixd.runtime.autopilot_fence): a route it would stop is refused (exit 3)."""
+        frame = mission_frame(checked.mission, checked.start_ned)
+        start = checked.start_ned
+        points = [(start.north_m, start.east_m)]
+        labels = ["the start"]
+        n = 0
+        for w in checked.plan.waypoints:
+            points.append(frame.to_ned(w.x_m, w.y_m))
+            if w.via:
+                labels.append(f"the via point → {n + 1}")
+            else:
+                n += 1
+                labels.append(f"waypoint {n}")
+        problems, warnings = await autopilot_fence_check(ap, checked.origin, points, labels)
+        for warning in warnings:
+            self._warn(warning)
+        if problems:
+            raise PreflightFailed(problems)
 
     def _gcs_on(self, ap: Autopilot) -> None:
         self.gcs.start(ap.send_message)
@@ -637,7 +664,7 @@ class MissionRunner:
         try:
             ending = await self._startup_then_fly(held)
         finally:
-            await self.shutdown(held, ending)
+            ending = await self.shutdown(held, ending)
         summary = self._finish(ending, started)
         return RunOutcome(
             ending.code,
@@ -673,9 +700,11 @@ class MissionRunner:
 
     # -- shutdown -----------------------------------------------------------------------------
 
-    async def shutdown(self, held: Held, ending: Ending) -> None:
+    async def shutdown(self, held: Held, ending: Ending) -> Ending:
         """Always: stop the scrolls, release overrides, ask for HOLD (if we touched anything);
-        then close the sink and the link, each bounded like the fall-back."""
+        then close the sink and the link, each bounded like the fall-back. Returns the
+        ending, renamed when a takeover by mode change turns out, after the fall-back, to be
+        ArduPilot's failsafe (its text came after the mode change)."""
         self.notifier.stopping()
         ap = held.ap
         touched = held.sink is not None or held.armed_by_us
@@ -701,6 +730,7 @@ class MissionRunner:
                     abandon=lambda: self.stop.forced,
                 )
             report_fallback(self.gcs, secured)
+            ending = self._late_failsafe(ending, ap)
         if ending.code is ExitCode.OK:
             self.gcs.phase("mission complete")
         await self.gcs.close()
@@ -709,6 +739,25 @@ class MissionRunner:
         if ap is not None:
             await self._bounded_close("link", self.host.close(ap))
         self.notifier.close()
+        return ending
+
+    def _late_failsafe(self, ending: Ending, ap: Autopilot) -> Ending:
+        named = late_failsafe(
+            ending.fault,
+            ending.detected_s,
+            ap.state,
+            self.cfg.safety.autopilot_failsafe_window_s,
+        )
+        if named is None or ending.fault is None:
+            return ending
+        log.warning(
+            "fault_renamed",
+            cause=named.cause.value,
+            detail=named.detail,
+            was=ending.fault.cause.value,
+        )
+        self.gcs.fault(named.cause.value, named.detail)
+        return Ending(named, ExitCode.FAULT, ending.detected_s, ending.last_pose)
 
     async def _bounded_close(self, what: str, closing: Awaitable[None]) -> None:
         """Closing must neither hang the exit nor mask the outcome: the vehicle is already

@@ -561,6 +561,7 @@ class Service:
             inputs=flight.inputs,
             options=flight.options,
             item_numbers=flight.item_numbers,
+            autopilot_fence=False,
         )
         auto = request is Request.AUTO  # the autopilot runs its own item progress in AUTO
         # else the GCS highlights the item helixd flies as the autopilot's current

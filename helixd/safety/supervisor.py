@@ -27,6 +27,7 @@ import structlog
 from helixd.base.frames import NedPose
 from helixd.config import SafetyConfig
 from helixd.link.vehicle import PoseSample, VehicleState
+from helixd.safety.autopilot_failsafe import FailsafeEvidence, classify_mode_change
 from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonitor
 
 log = structlog.get_logger(__name__)
@@ -87,21 +88,75 @@ def safety_inputs(
     )
 
 
+def failsafe_evidence(state: VehicleState) -> FailsafeEvidence:
+    """What the vehicle state says about ArduPilot's own failsafes (pure)."""
+    return FailsafeEvidence(
+        texts=state.statustexts,
+        system_status=state.system_status,
+        fence_breached=state.fence_breached,
+        battery_failsafe=state.battery_failsafe,
+    )
+
+
+def late_failsafe(
+    fault: Fault | None, detected_s: float | None, state: VehicleState, window_s: float
+) -> Fault | None:
+    """A takeover by mode change that ArduPilot's failsafe turns out to have made (pure).
+
+    ArduPilot queues its failsafe text in the loop that changes the mode, but on a busy link
+    the text can come after the HEARTBEAT that shows the new mode. The fall-back does not wait
+    for it; once it is done, the daemon asks again here with what arrived meanwhile (texts up
+    to ``window_s`` after the detection). The named fault, or None when it stays a takeover.
+    """
+    if fault is None or detected_s is None:
+        return None
+    modes = fault.mode_change
+    if modes is None:
+        return None
+    return classify_mode_change(
+        *modes,
+        failsafe_evidence(state),
+        detected_s,
+        window_s,
+        until_s=detected_s + window_s,
+    )
+
+
 class Supervisor:
     """Owns the watchdogs of one flight: the flight loop asks it once per tick, before any
-    command; the first fault it returns ends the flight (and :func:`fall_back` runs)."""
+    command; the first fault it returns ends the flight (and :func:`fall_back` runs).
+
+    A mode change is named here: ArduPilot's own failsafe (``autopilot_*``, a fault) when
+    what the autopilot reported around it says so
+    (:func:`helixd.safety.autopilot_failsafe.classify_mode_change`), else the watchdog's
+    ``pilot_takeover``. An autopilot failsafe ends the flight even with
+    ``safety.takeover.on_mode_change`` off."""
 
     def __init__(self, cfg: SafetyConfig, start_ned: NedPose, expected_mode: str) -> None:
         self.monitor = SafetyMonitor(cfg)
         self.start_ned = start_ned
         self.expected_mode = expected_mode
+        self.failsafe_window_s = cfg.autopilot_failsafe_window_s
 
     def check(
         self, now_s: float, state: VehicleState, pose: PoseSample | None, motion: Motion
     ) -> Fault | None:
-        return self.monitor.check(
+        fault = self.monitor.check(
             safety_inputs(now_s, state, pose, self.start_ned, self.expected_mode, motion)
         )
+        if state.mode != self.expected_mode and (
+            fault is None or fault.cause is FaultCause.PILOT_TAKEOVER
+        ):
+            named = classify_mode_change(
+                state.mode,
+                self.expected_mode,
+                failsafe_evidence(state),
+                now_s,
+                self.failsafe_window_s,
+            )
+            if named is not None:
+                return named
+        return fault
 
 
 class Stoppable(Protocol):

@@ -39,6 +39,8 @@ from helixd.base.polygon import point_in_polygon
 from helixd.config import SafetyConfig
 
 RC_CENTRE_US = 1500  # stick centre of a standard RC channel (µs)
+MODE_CHANGED_PREFIX = "mode changed to "  # a takeover by mode change: the detail's start
+MODE_EXPECTED_PREFIX = "(helixd set "
 
 
 class FaultCause(StrEnum):
@@ -64,6 +66,13 @@ class FaultCause(StrEnum):
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
     ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
     GPS_LOST = "gps_lost"  # fix below the minimum, too few satellites or GPS_RAW_INT stopped
+    # ArduPilot's own failsafe changed the mode (helixd.safety.autopilot_failsafe names it)
+    AUTOPILOT_BATTERY = "autopilot_battery"  # BATT_FS_LOW_ACT / BATT_FS_CRT_ACT
+    AUTOPILOT_FENCE = "autopilot_fence"  # FENCE_ACTION on a breach of the autopilot's fence
+    AUTOPILOT_RADIO = "autopilot_radio"  # FS_THR_ENABLE: "Radio Failsafe", FS_ACTION
+    AUTOPILOT_GCS = "autopilot_gcs"  # FS_GCS_ENABLE: "GCS Failsafe", FS_ACTION
+    AUTOPILOT_EKF = "autopilot_ekf"  # FS_EKF_ACTION: "EKF failsafe"
+    AUTOPILOT_FAILSAFE = "autopilot_failsafe"  # a failsafe (system_status CRITICAL), no text
 
 
 # Causes that mean "a human took over or asked to stop", not "something broke".
@@ -82,6 +91,23 @@ OPERATOR_CAUSES = frozenset(
 class Fault:
     cause: FaultCause
     detail: str
+
+    @property
+    def changed_mode(self) -> str | None:
+        """The mode a takeover by mode change saw (None for any other fault)."""
+        modes = self.mode_change
+        return None if modes is None else modes[0]
+
+    @property
+    def mode_change(self) -> tuple[str, str] | None:
+        """(the mode seen, the mode helixd set) of a takeover by mode change, else None."""
+        if self.cause is not FaultCause.PILOT_TAKEOVER:
+            return None
+        if not self.detail.startswith(MODE_CHANGED_PREFIX):
+            return None
+        seen, _, rest = self.detail.removeprefix(MODE_CHANGED_PREFIX).partition(" ")
+        expected = rest.removeprefix(MODE_EXPECTED_PREFIX).removesuffix(")")
+        return (seen, expected) if seen and expected else None
 
 
 @dataclass(frozen=True, slots=True)
@@ -311,7 +337,7 @@ class SafetyMonitor:
         if t.on_mode_change and s.mode != s.expected_mode:
             return Fault(
                 FaultCause.PILOT_TAKEOVER,
-                f"mode changed to {s.mode} (helixd set {s.expected_mode})",
+                f"{MODE_CHANGED_PREFIX}{s.mode} {MODE_EXPECTED_PREFIX}{s.expected_mode})",
             )
         rc = s.rc_inputs_us
         if t.switch_channel is not None and len(rc) >= t.switch_channel:

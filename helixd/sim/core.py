@@ -14,7 +14,7 @@ from typing import Protocol
 import numpy as np
 
 from helixd.mav.guard_script import SCR_ENABLE
-from helixd.sim import collisions, estimator, physics, skid, vehicle_reports
+from helixd.sim import collisions, estimator, messages, physics, skid, vehicle_reports
 from helixd.sim import stream_rates as st
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
 from helixd.sim.inbound import InboundHandler
@@ -238,6 +238,20 @@ class SimCore:
             self.est = estimator.gps_jump(self.est, float(str(kw["distance_m"])), bearing)
         elif spec.name == "pilot_takeover":
             self.set_rc(self.params.get_int("MODE_CH"), switch_pwm)
+        elif spec.name == "battery_low":
+            self.ap.battery_low(
+                now,
+                self.ekf_status(),
+                float(str(kw["voltage_v"])),
+                float(str(kw["used_mah"])),
+                bool(kw["critical"]),
+            )
+            self._collect()  # the text leaves before the HEARTBEAT with the new mode
+        elif spec.name == "fence_breach":
+            ap = self.ap
+            if ap.fence_breach(now, self.ekf_status()):
+                self.send(None, messages.fence_status(ap.fence_breach_count, ap.fence_breach_ms))
+            self._collect()
         else:
             self.faults.start(spec, now)
             if spec.name == "rc_loss" and kw.get("kind") == "failsafe_values":
@@ -426,6 +440,8 @@ class SimCore:
             relay_masks=ap.payload.relay_status(self.params),
             mission_current=self.mission.mission_current_fields(),
             gps_lost=self._gps_lost_for(cfg.gps_loss_report_s),
+            fence=ap.fence_breached if self.params.get_int("FENCE_ENABLE") else None,
+            battery_failsafe=ap.battery_failsafe_level > 0,
         )
 
     def _telemetry(self, now: float) -> None:

@@ -14,6 +14,13 @@
   (two of compass/velocity/position variance ≥ FS_EKF_THRESH, or no position) → "EKF
   variance"; only modes that need a position are switched to HOLD (FS_EKF_ACTION 1) with
   "EKF failsafe". MANUAL/ACRO/STEERING/HOLD are left alone.
+* AP_BattMonitor::check_failsafes (10 Hz, armed): when a battery's failsafe rises (low, then
+  critical) "Battery 1 is low 10.50V used 1234 mAh" (WARNING), then
+  Rover::handle_battery_failsafe in the same call: BATT_FS_LOW_ACT / BATT_FS_CRT_ACT.
+* Rover::fence_check (armed, enabled fence): no text; AC_Fence::record_breach has pushed
+  FENCE_STATUS, then FENCE_ACTION.
+  Both actions are Rover's FailsafeAction: 0 none, 1 RTL→HOLD, 2 HOLD, 3 SmartRTL→RTL→HOLD,
+  4 SmartRTL→HOLD, 5 disarm, 6 (fence) Loiter→HOLD.
 """
 
 from __future__ import annotations
@@ -28,6 +35,9 @@ EKF_CHECK_ITERATIONS_MAX = 10
 FS_OPTION_ACTIVE_IN_HOLD = 1 << 0
 
 MODE_HOLD = 4
+MODE_LOITER = 5
+FAILSAFE_ACTION_TERMINATE = 5
+FAILSAFE_ACTION_LOITER_HOLD = 6
 MODE_RTL = 11
 MODE_SMART_RTL = 12
 
@@ -55,6 +65,7 @@ class FailsafeDecision:
     triggered: str | None = None  # the type_str of the call that fired (ArduPilot's text)
     causes: tuple[str, ...] = ()  # what is actually failing: "radio", "gcs", "ekf"
     cleared: str | None = None
+    disarm: bool = False  # FailsafeAction::Terminate
 
     def merge(self, other: FailsafeDecision) -> None:
         self.texts.extend(other.texts)
@@ -64,6 +75,7 @@ class FailsafeDecision:
         self.triggered = other.triggered or self.triggered
         self.causes = other.causes or self.causes
         self.cleared = other.cleared or self.cleared
+        self.disarm = self.disarm or other.disarm
 
 
 def action_modes(fs_action: int) -> tuple[int, ...]:
@@ -74,6 +86,37 @@ def action_modes(fs_action: int) -> tuple[int, ...]:
         3: (MODE_SMART_RTL, MODE_RTL, MODE_HOLD),
         4: (MODE_SMART_RTL, MODE_HOLD),
     }.get(fs_action, ())
+
+
+def rover_action(action: int, decision: FailsafeDecision) -> FailsafeDecision:
+    """Rover's FailsafeAction on ``decision`` (battery and fence)."""
+    if action == FAILSAFE_ACTION_TERMINATE:
+        decision.disarm = True
+    elif action == FAILSAFE_ACTION_LOITER_HOLD:
+        decision.modes_to_try = (MODE_LOITER, MODE_HOLD)
+    else:
+        decision.modes_to_try = action_modes(action)
+    return decision
+
+
+def battery_failsafe(
+    voltage_v: float, used_mah: float, critical: bool, params: ParamStore
+) -> FailsafeDecision:
+    """Battery 1's failsafe fires (AP_BattMonitor::check_failsafes, then the action)."""
+    kind = "critical" if critical else "low"
+    text = f"Battery 1 is {kind} {voltage_v:.2f}V used {used_mah:.0f} mAh"
+    decision = FailsafeDecision(
+        texts=[(SEVERITY_WARNING, text)], triggered="Battery", causes=("battery",)
+    )
+    return rover_action(
+        params.get_int("BATT_FS_CRT_ACT" if critical else "BATT_FS_LOW_ACT"), decision
+    )
+
+
+def fence_breach(params: ParamStore) -> FailsafeDecision:
+    """A new breach of an enabled fence while armed (Rover::fence_check): no text."""
+    decision = FailsafeDecision(triggered="Fence", causes=("fence",))
+    return rover_action(params.get_int("FENCE_ACTION"), decision)
 
 
 class Failsafes:

@@ -16,6 +16,11 @@ FAULTS: dict[str, dict[str, object]] = {
     # gps_loss_report_s; the EKF dead-reckons and drops its position after gps_dead_reckon_s
     "gps_loss": {"duration_s": None},
     "pilot_takeover": {"mode": "HOLD"},  # pilot moves the RC mode switch
+    # ArduPilot's own failsafes (helixd.sim.failsafe): battery 1 at its low (or critical)
+    # limit — "Battery 1 is low …", then BATT_FS_LOW_ACT —, and the rover out of its enabled
+    # fence — FENCE_STATUS, then FENCE_ACTION
+    "battery_low": {"voltage_v": 10.5, "used_mah": 1234.0, "critical": False},
+    "fence_breach": {},
     # the pilot's radio is lost. kind no_pulses: the receiver stops (SIM_RC_FAIL 1);
     # failsafe_values: it sends its failsafe frame, throttle channel 3 at 950 µs (SIM_RC_FAIL 2)
     "rc_loss": {"duration_s": None, "kind": "no_pulses"},

@@ -59,6 +59,9 @@ SENSOR_RC_RECEIVER = 0x10000
 SENSOR_MOTOR_OUTPUTS = 0x8000
 SENSOR_AHRS = 0x200000
 SENSOR_PREARM_CHECK = 0x10000000
+SENSOR_GEOFENCE = 0x100000  # MAV_SYS_STATUS_GEOFENCE
+SENSOR_BATTERY = 0x2000000  # MAV_SYS_STATUS_SENSOR_BATTERY
+FENCE_BREACH_BOUNDARY = 3  # a circle or polygon fence (GCS_MAVLINK::send_fence_status)
 CAPABILITIES = 2 | 4 | 8 | 128 | 256 | 8192  # PARAM_FLOAT MISSION_INT COMMAND_INT ... MAVLINK2
 FIRMWARE_VERSION = (4 << 24) | (7 << 16)  # 4.7.0, FIRMWARE_VERSION_TYPE_DEV
 
@@ -79,8 +82,18 @@ def heartbeat(mode: int, armed: bool, system_status: int) -> Message:
     )
 
 
-def sys_status(rc_ok: bool, gps_ok: bool, ekf_ok: bool, prearm_ok: bool) -> Message:
-    present = (
+def sys_status(
+    rc_ok: bool,
+    gps_ok: bool,
+    ekf_ok: bool,
+    prearm_ok: bool,
+    fence: bool | None = None,
+    battery_failsafe: bool = False,
+) -> Message:
+    """GCS_MAVLINK::update_sensor_status_flags. ``fence``: None without an enabled fence
+    (the bit absent), else whether it is breached (AC_Fence::sys_status_failed); the battery
+    is unhealthy once its failsafe has fired (AP_BattMonitor::has_failsafed)."""
+    present = SENSOR_BATTERY | (
         SENSOR_GYRO
         | SENSOR_ACCEL
         | SENSOR_MAG
@@ -91,12 +104,26 @@ def sys_status(rc_ok: bool, gps_ok: bool, ekf_ok: bool, prearm_ok: bool) -> Mess
         | SENSOR_AHRS
         | SENSOR_PREARM_CHECK
     )
+    if fence is not None:
+        present |= SENSOR_GEOFENCE
     health = SENSOR_GYRO | SENSOR_ACCEL | SENSOR_MAG | SENSOR_BARO | SENSOR_MOTOR_OUTPUTS
     health |= (SENSOR_RC_RECEIVER if rc_ok else 0) | (SENSOR_GPS if gps_ok else 0)
     health |= (SENSOR_AHRS if ekf_ok else 0) | (SENSOR_PREARM_CHECK if prearm_ok else 0)
+    health |= (SENSOR_GEOFENCE if fence is False else 0) | (
+        0 if battery_failsafe else SENSOR_BATTERY
+    )
     return _m(
         mavlink.MAVLink_sys_status_message(
             present, present, health, 100, 24000, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0, 0
+        )
+    )
+
+
+def fence_status(breach_count: int, breach_time_ms: int) -> Message:
+    """FENCE_STATUS of a breached boundary fence (AC_Fence::record_breach pushes it)."""
+    return _m(
+        mavlink.MAVLink_fence_status_message(
+            1, breach_count, FENCE_BREACH_BOUNDARY, breach_time_ms & 0xFFFFFFFF
         )
     )
 

@@ -65,6 +65,11 @@ def _build_defaults() -> dict[str, SimParamSpec]:
         "FS_THR_VALUE": SimParamSpec(910, i16),
         "FS_EKF_ACTION": SimParamSpec(1, i8),  # 1 = Hold
         "FS_EKF_THRESH": SimParamSpec(0.8, f32),
+        # AP_BattMonitor_Params: no action by default; AC_Fence: off, action 1 (Rover: RTL)
+        "BATT_FS_LOW_ACT": SimParamSpec(0, i8),
+        "BATT_FS_CRT_ACT": SimParamSpec(0, i8),
+        "FENCE_ENABLE": SimParamSpec(0, i8),
+        "FENCE_ACTION": SimParamSpec(1, i8),
         "INITIAL_MODE": SimParamSpec(0, i8),
         "MODE_CH": SimParamSpec(8, i8),
         "SCR_ENABLE": SimParamSpec(0, i8),  # AP_Scripting: scripts start at boot when 1

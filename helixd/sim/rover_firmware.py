@@ -69,7 +69,13 @@ from helixd.mav.guard_script import (
 )
 from helixd.sim import modes
 from helixd.sim.estimator import SimEkfStatus
-from helixd.sim.failsafe import EkfHealth, FailsafeDecision, Failsafes
+from helixd.sim.failsafe import (
+    EkfHealth,
+    FailsafeDecision,
+    Failsafes,
+    battery_failsafe,
+    fence_breach,
+)
 from helixd.sim.guard_model import (
     HOLD_REFUSED_TEXT,
     UPDATE_PERIOD_MS,
@@ -197,6 +203,10 @@ class SimAutopilot:
         self.here_ne: tuple[float, float] | None = None  # the EKF's position, once it has one
         self._next_home_update_s = 0.0
         self.failsafes = Failsafes()
+        self.battery_failsafe_level = 0  # 0 none, 1 low, 2 critical (only ever rises)
+        self.fence_breached = False
+        self.fence_breach_count = 0
+        self.fence_breach_ms = 0
         self.mode_switch = modes.ModeSwitch()
         self.gcs_last_seen_s: float | None = None
         self.guard: RunningGuard | None = None
@@ -526,6 +536,32 @@ class SimAutopilot:
         for number in decision.modes_to_try:
             if self.set_mode(number, "failsafe", now_s, ekf):
                 break
+        if decision.disarm and self.armed:
+            self.armed = False
+            self.events.append(SimEvent("disarm", {"method": "failsafe"}))
+
+    def battery_low(
+        self, now_s: float, ekf: SimEkfStatus, voltage_v: float, used_mah: float, critical: bool
+    ) -> None:
+        """Battery 1 reached its low (or critical) limit for BATT_LOW_TIMER: its failsafe
+        fires once per level, and acts only while armed."""
+        level = 2 if critical else 1
+        if not self.armed or level <= self.battery_failsafe_level:
+            return
+        self.battery_failsafe_level = level
+        self._apply(battery_failsafe(voltage_v, used_mah, critical, self.params), now_s, ekf)
+
+    def fence_breach(self, now_s: float, ekf: SimEkfStatus) -> bool:
+        """The rover left an enabled fence: True when this is a new breach (the caller
+        pushes FENCE_STATUS first, as AC_Fence::record_breach), then FENCE_ACTION if armed."""
+        if not self.params.get_int("FENCE_ENABLE") or self.fence_breached:
+            return False
+        self.fence_breached = True
+        self.fence_breach_count += 1
+        self.fence_breach_ms = self.time_boot_ms(now_s)
+        if self.armed:
+            self._apply(fence_breach(self.params), now_s, ekf)
+        return True
 
     def _finish_boot(self, now_s: float) -> None:
         self._booted = True

@@ -47,6 +47,8 @@ class TelemetryView:
     # MISSION_CURRENT (seq, total, mission_state, mission_mode): MissionServer's
     mission_current: tuple[int, int, int, int] = (0, 0, MISSION_STATE_NO_MISSION, 0)
     gps_lost: bool = False  # the receiver reports no fix (fault gps_loss)
+    fence: bool | None = None  # None: no fence enabled; else whether it is breached
+    battery_failsafe: bool = False  # battery 1's failsafe has fired
 
     def system_status(self) -> int:
         """GCS_MAVLINK_Rover::vehicle_system_status."""
@@ -104,7 +106,9 @@ def build(
         return messages.heartbeat(v.mode, v.armed, v.system_status())
     if msg_id == st.MSG_SYS_STATUS:
         gps_ok = v.origin_set and not v.gps_lost
-        return messages.sys_status(v.rc_ok, gps_ok, v.ekf.position_ok, v.prearm_ok)
+        return messages.sys_status(
+            v.rc_ok, gps_ok, v.ekf.position_ok, v.prearm_ok, v.fence, v.battery_failsafe
+        )
     if msg_id == st.MSG_EKF_STATUS_REPORT:
         return messages.ekf_status_report(v.ekf)
     if msg_id == st.MSG_ATTITUDE:

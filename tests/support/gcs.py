@@ -73,6 +73,39 @@ def upload(
     raise AssertionError("mission upload: no MISSION_ACK")
 
 
+def fence_circle(seq: int, north_m: float, east_m: float, radius_m: float, inclusion: bool) -> Any:
+    """One fence circle item (MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION/EXCLUSION, param1 radius)."""
+    lat, lon = latlon(north_m, east_m)
+    cmd = (
+        mavlink.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION
+        if inclusion
+        else mavlink.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
+    )
+    return mavlink.MAVLink_mission_item_int_message(
+        1, 1, seq, mavlink.MAV_FRAME_GLOBAL, cmd, 0, 1, radius_m, 0.0, 0.0, 0.0,
+        round(lat * 1e7), round(lon * 1e7), 0.0, mavlink.MAV_MISSION_TYPE_FENCE,
+    )  # fmt: skip
+
+
+def upload_fence(gcs: MavClient, items: list[Any], timeout_s: float = 20.0) -> None:
+    """Upload fence items; AssertionError unless MISSION_ACK ACCEPTED."""
+    fence = mavlink.MAV_MISSION_TYPE_FENCE
+    gcs.mav.mission_count_send(1, 1, len(items), fence)
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        msg = gcs.conn.recv_match(
+            type=["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"], blocking=True,
+            timeout=0.5,
+        )  # fmt: skip
+        if msg is None or int(msg.target_system) != QGC_SYSID:
+            continue
+        if msg.get_type() == "MISSION_ACK":
+            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, f"fence refused: {msg}"
+            return
+        gcs.mav.send(items[int(msg.seq)])
+    raise AssertionError("fence upload: no MISSION_ACK")
+
+
 def command(gcs: MavClient, cmd: int, *params: float, timeout_s: float = 10.0) -> int:
     """COMMAND_LONG to helixd; the result of helixd's COMMAND_ACK for it."""
     p = [*params, *([0.0] * (7 - len(params)))]
