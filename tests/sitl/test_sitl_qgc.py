@@ -1,0 +1,181 @@
+"""The crew drives ``helixd serve`` with QGroundControl's buttons, on real ArduPilot Rover SITL
+(opt-in: ``HELIXD_SITL_BIN``).
+
+The ground station is QGroundControl-like (system 255 on SITL's SERIAL2, HEARTBEAT 1 Hz) and
+talks only to the autopilot (system 1, component 1), as QGroundControl's buttons do; helixd is
+on SERIAL0 with no start switch. Each step sends what QGroundControl's source sends and names
+the function it copies:
+
+* Plan view, Upload: the mission protocol, home + three waypoints → ``state=ready``;
+* Start Mission (``APMFirmwarePlugin::startMission`` on a disarmed rover): mode GUIDED, a
+  normal arm (no force: the Helix setup passes every PreArm check), MAV_CMD_MISSION_START →
+  ArduPilot switches to AUTO and helixd drives the autopilot's mission from its current item;
+* Pause (``APMFirmwarePlugin::pauseVehicle``: the Hold mode) → outputs at trim within 0.5 s,
+  still armed; Continue (the mode menu, Auto) → driving again within 1 s, the same flight;
+* set current waypoint (``Vehicle::setCurrentMissionSequence``: DO_SET_MISSION_CURRENT 3) →
+  helixd flies to item 3;
+* MANUAL from the mode menu → helixd releases its overrides at once (no HOLD, left armed);
+* Auto again → to the end: ArduPilot's own "Mission Complete" and helixd's completed flight.
+
+Every step's latency is printed (wall clock, SITL at speed-up 1: what the crew waits).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
+
+from tests.sitl.conftest import (
+    CONNECT_TIMEOUT_S,
+    NEUTRAL_US,
+    PORT_STRIDE,
+    SERIAL2_PORT,
+    SitlVehicle,
+    connect_tcp,
+    outputs_near,
+)
+from tests.sitl.test_sitl_serve import GroundStation, mono_of
+from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
+from tests.support.skid_setup import helixd_sitl_config
+
+pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
+
+MODE_MANUAL, MODE_HOLD, MODE_AUTO, MODE_GUIDED = 0, 4, 10, 15
+WAYPOINTS_NE_M = [(10.0, 0.0), (10.0, 8.0), (0.0, 8.0)]  # from home (m)
+CONFIG: dict[str, Any] = {
+    "mission": {"ground_station_mode": "roll"},
+    "startup": {"start_switch_channel": None},  # the crew uses the ground station only
+    "serve": {"mission_poll_s": 1.0, "tick_s": 0.05},
+    # the service has been up for minutes when a crew presses Start; here seconds
+    "link": {"own_id_watch_s": 0.5},
+}
+START_MAX_S = 1.0
+PAUSE_MAX_S = 0.5
+CONTINUE_MAX_S = 1.0
+STATE_WAIT_S = 120.0
+STEP_WAIT_S = 20.0
+MISSION_WAIT_S = 300.0
+
+
+def serve_proc(tmp_path: Path, vehicle: SitlVehicle) -> DaemonProc:
+    cfg = deep_merge(helixd_sitl_config("rc_override", vehicle.helixd_url), CONFIG)
+    cfg_path = tmp_path / "helixd-serve.yaml"
+    cfg_path.write_text(yaml.safe_dump(cfg, sort_keys=False), encoding="utf-8")
+    run_root = tmp_path / "runs"
+    return spawn_daemon(
+        ["serve", "--connect", vehicle.helixd_url, "--config", str(cfg_path), "--run-dir",
+         str(run_root)],
+        cwd=tmp_path,
+        run_root=run_root,
+    )  # fmt: skip
+
+
+def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_path: Path) -> None:
+    obs = sitl.obs
+    gcs = GroundStation(
+        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
+        "gcs",
+    )
+    figures: list[str] = []
+
+    def note(what: str, seconds: float) -> None:
+        figures.append(f"{what}: {seconds:.2f} s")
+        print(f"QGC on SITL: {what}: {seconds:.2f} s")
+
+    def after(t0: float, ok: Any, what: str) -> float:
+        """Wall seconds from t0 to the first SERVO_OUTPUT_RAW satisfying ``ok``."""
+
+        def found() -> float | None:
+            return next((s.wall_s for s in obs.servo if s.wall_s >= t0 and ok(s.pwm_us)), None)
+
+        obs.wait_until(lambda: found() is not None, STEP_WAIT_S, what, abort=d.ended)
+        at = found()
+        assert at is not None
+        return at - t0
+
+    def driven(pwm: tuple[int, int, int, int]) -> bool:
+        """Outputs 1 or 3 off trim: helixd commands the scrolls."""
+        return not outputs_near(pwm, NEUTRAL_US)
+
+    def set_mode(mode: int) -> float:
+        """Vehicle::setFlightMode → MAV_CMD_DO_SET_MODE to the autopilot; when it was sent."""
+        sent = time.monotonic()
+        assert gcs.set_mode(mode) == mavlink2.MAV_RESULT_ACCEPTED, mode
+        return sent
+
+    d = serve_proc(tmp_path, sitl)
+    try:
+        d.wait_line("no mission on the autopilot", STATE_WAIT_S)
+        gcs.upload(WAYPOINTS_NE_M, 30.0)  # Plan view: Upload
+        d.wait_line("event=serve_state state=ready", STATE_WAIT_S)
+        assert not obs.armed()
+
+        # Start Mission: APMFirmwarePlugin::startMission — Guided, arm, MISSION_START
+        set_mode(MODE_GUIDED)
+        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, STEP_WAIT_S, "GUIDED")
+        arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
+        assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
+        obs.wait_until(lambda: bool(obs.armed()), STEP_WAIT_S, "armed")
+        t_start = time.monotonic()
+        result = gcs.command_long(mavlink2.MAV_CMD_MISSION_START, (0.0, 0.0))
+        assert result == mavlink2.MAV_RESULT_ACCEPTED, result
+        start_s = after(t_start, driven, "scrolls driven after Start Mission")
+        note("Start Mission → scrolls driven", start_s)
+        assert obs.mode() == MODE_AUTO
+        sitl.wait_driving(d, 1.0, STATE_WAIT_S)
+
+        # Pause: APMFirmwarePlugin::pauseVehicle → Hold
+        t_pause = set_mode(MODE_HOLD)
+        pause_s = after(t_pause, lambda p: outputs_near(p, NEUTRAL_US), "trim after Pause")
+        note("Pause (HOLD) → outputs at trim", pause_s)
+        held_from = time.monotonic()
+        obs.wait_until(lambda: time.monotonic() >= held_from + 2.0, 5.0, "2 s held")  # watched
+        held = [s.pwm_us for s in obs.servo if s.wall_s >= held_from]
+        assert held and all(outputs_near(p, NEUTRAL_US) for p in held)
+        assert obs.armed() and obs.mode() == MODE_HOLD
+
+        # Continue: the mode menu's Auto
+        t_continue = set_mode(MODE_AUTO)
+        continue_s = after(t_continue, driven, "scrolls driven after Continue")
+        note("Continue (AUTO) → scrolls driven", continue_s)
+        assert d.log_text().count("event=auto_start") == 1  # the same flight went on
+
+        # set current waypoint: Vehicle::setCurrentMissionSequence → DO_SET_MISSION_CURRENT
+        mark = d.mark()
+        t_item = time.monotonic()
+        item = gcs.command_long(mavlink2.MAV_CMD_DO_SET_MISSION_CURRENT, (3.0,))
+        assert item == mavlink2.MAV_RESULT_ACCEPTED, item
+        line = d.wait_line("event=auto_start item=3", STEP_WAIT_S, after=mark)
+        note("set current waypoint 3 → new flight from item 3", mono_of(line) - t_item)
+
+        # MANUAL from the mode menu: helixd lets go
+        mark = d.mark()
+        t_manual = set_mode(MODE_MANUAL)
+        line = d.wait_line("event=rc_override_released", STEP_WAIT_S, after=mark)
+        note("MANUAL → overrides released", mono_of(line) - t_manual)
+        d.wait_line("event=serve_state state=paused", STATE_WAIT_S, after=mark)
+        assert obs.armed() and obs.mode() == MODE_MANUAL  # no HOLD asked, not disarmed
+
+        # Auto again, to the end
+        mark = d.mark()
+        set_mode(MODE_AUTO)
+        d.wait_line("event=serve_state state=completed", MISSION_WAIT_S, after=mark)
+    finally:
+        d.stop(30.0)
+        gcs.close()
+        (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    print("QGC on SITL: " + "; ".join(figures))
+    assert start_s <= START_MAX_S, figures
+    assert pause_s <= PAUSE_MAX_S, figures
+    assert continue_s <= CONTINUE_MAX_S, figures
+    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    assert [s["completed"] for s in summaries] == [False, False, True], summaries
+    assert summaries[0]["fault"].startswith("item_set"), summaries[0]
+    assert summaries[1]["fault"].startswith("released"), summaries[1]
