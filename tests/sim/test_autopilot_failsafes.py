@@ -9,7 +9,8 @@ from typing import Any
 from helixd.sim.faults import make_spec
 from tests.support.simcore import command, make_core, of_type, run
 
-ARM, FORCE = 400, 21196
+ARM = 400
+READY_S = 10.0  # booted, EKF origin and home set: every PreArm check passes
 SET_MESSAGE_INTERVAL = 511
 HEARTBEAT, SYS_STATUS = 0, 1
 GEOFENCE, BATTERY = 0x100000, 0x2000000
@@ -17,11 +18,11 @@ HOLD = 4
 
 
 def armed(**params: float) -> Any:
-    core = make_core(n_links=1, params={"ARMING_SKIPCHK": -1, **params})
-    run(core, 2.0)
+    core = make_core(n_links=1, params=params)
+    run(core, READY_S)
     for msg_id in (HEARTBEAT, SYS_STATUS):
         assert command(core, 0, SET_MESSAGE_INTERVAL, msg_id, 100_000) == 0
-    assert command(core, 0, ARM, 1, FORCE) == 0
+    assert command(core, 0, ARM, 1) == 0  # a normal arm, every PreArm check made
     run(core, 0.3)
     return core
 

@@ -28,7 +28,6 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-import yaml
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.sitl.conftest import (
@@ -40,9 +39,7 @@ from tests.sitl.conftest import (
     connect_tcp,
     outputs_near,
 )
-from tests.sitl.test_sitl_serve import GroundStation, mono_of
-from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
-from tests.support.skid_setup import helixd_sitl_config
+from tests.sitl.test_sitl_serve import GroundStation, mono_of, serve_proc
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -61,19 +58,6 @@ CONTINUE_MAX_S = 1.0
 STATE_WAIT_S = 120.0
 STEP_WAIT_S = 20.0
 MISSION_WAIT_S = 300.0
-
-
-def serve_proc(tmp_path: Path, vehicle: SitlVehicle) -> DaemonProc:
-    cfg = deep_merge(helixd_sitl_config("rc_override", vehicle.helixd_url), CONFIG)
-    cfg_path = tmp_path / "helixd-serve.yaml"
-    cfg_path.write_text(yaml.safe_dump(cfg, sort_keys=False), encoding="utf-8")
-    run_root = tmp_path / "runs"
-    return spawn_daemon(
-        ["serve", "--connect", vehicle.helixd_url, "--config", str(cfg_path), "--run-dir",
-         str(run_root)],
-        cwd=tmp_path,
-        run_root=run_root,
-    )  # fmt: skip
 
 
 def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_path: Path) -> None:
@@ -109,7 +93,7 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
         assert gcs.set_mode(mode) == mavlink2.MAV_RESULT_ACCEPTED, mode
         return sent
 
-    d = serve_proc(tmp_path, sitl)
+    d = serve_proc(tmp_path, sitl, CONFIG)
     try:
         d.wait_line("no mission on the autopilot", STATE_WAIT_S)
         gcs.upload(WAYPOINTS_NE_M, 30.0)  # Plan view: Upload

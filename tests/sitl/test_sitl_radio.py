@@ -24,29 +24,26 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.exitcodes import ExitCode
+from tests.sitl.test_sitl_gps import (  # the same bounds and checks as the GPS fault
+    DRIVING_TIMEOUT_S,
+    EXIT_S,
+    LINK_SLACK_S,
+    MODE_HOLD,
+    SETTLE_S,
+    STOP_WITHIN_S,
+    neutral,
+)
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun, SitlVehicle
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
-NEUTRAL_US = 1500
-TOLERANCE_US = 5
-MODE_HOLD = 4
-DRIVING_TIMEOUT_S = 240.0
 STATUS_STREAM_HZ = 5.0
-STOP_WITHIN_S = 1.0  # the requirement: scrolls stopped within 1 s of the loss
-LINK_SLACK_S = 0.3  # the observer's 20 Hz samples and SITL's scheduling
-SETTLE_S = 3.0  # watched after HOLD: the rover coasts to a stop
-EXIT_S = 30.0
 RCIN9 = 59  # SERVOn_FUNCTION: RC input 9 passed through
 CHANNEL_OFFSET = 8  # helixd's scroll channels 1-4 move to 9-12
 RECEIVER_FAILSAFE_US = 950  # what SITL's receiver sends on channel 3 in its failsafe
 FS_THR_VALUE_US = 960
-
-
-def neutral(pwm: tuple[int, int, int, int]) -> bool:
-    return abs(pwm[0] - NEUTRAL_US) <= TOLERANCE_US and abs(pwm[2] - NEUTRAL_US) <= TOLERANCE_US
 
 
 def test_radio_lost_stops_the_scrolls_within_1_s(

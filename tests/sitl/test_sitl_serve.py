@@ -273,8 +273,15 @@ class GroundStation(MavClient):
 # ---------------------------------------------------------------------------------------------
 
 
-def serve_proc(tmp_path: Path, vehicle: SitlVehicle) -> DaemonProc:
-    cfg = deep_merge(helixd_sitl_config("rc_override", vehicle.helixd_url), CONFIG)
+def serve_proc(
+    tmp_path: Path, vehicle: SitlVehicle, config: dict[str, Any] | None = None
+) -> DaemonProc:
+    """``helixd serve`` on SERIAL0 with the suite's setup and ``config`` (this module's
+    CONFIG unless given) merged over it."""
+    cfg = deep_merge(
+        helixd_sitl_config("rc_override", vehicle.helixd_url),
+        CONFIG if config is None else config,
+    )
     cfg_path = tmp_path / "helixd-serve.yaml"
     cfg_path.write_text(yaml.safe_dump(cfg, sort_keys=False), encoding="utf-8")
     run_root = tmp_path / "runs"
