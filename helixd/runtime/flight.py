@@ -62,7 +62,7 @@ from helixd.control.slip import (
 )
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample
-from helixd.runtime.mode_gate import Gate, crew_mode, gate_of, item_set_by_crew
+from helixd.runtime.mode_gate import Gate, crew_mode_of, gate_of, item_set_by_crew
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import Motion, Supervisor
 from helixd.safety.watchdogs import Fault, FaultCause
@@ -349,13 +349,7 @@ class FlightLoop:
         pause (this wake-up, a tick at most after the HEARTBEAT); a release ends the flight."""
         st = self.ap.state
         mc = st.mission_current
-        mode = crew_mode(
-            st.mode,
-            st.last_heartbeat_s,
-            None if mc is None else mc.mission_mode,
-            None if mc is None else mc.rx_monotonic_s,
-            st.mission_mode_reported,
-        )
+        mode = crew_mode_of(st)
         gate = gate_of(mode, self.driving_mode)
         self.supervisor.expected_mode = st.mode  # the takeover rule judges sticks and switch only
         if gate is not self._gate:

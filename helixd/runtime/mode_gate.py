@@ -30,6 +30,8 @@ from __future__ import annotations
 
 from enum import StrEnum
 
+from helixd.link.vehicle import VehicleState
+
 AUTO_MODE = "AUTO"
 # ArduPilot Rover's Mode::has_manual_input(): the pilot's sticks drive
 PILOT_MODES = frozenset({"MANUAL", "ACRO", "STEERING"})
@@ -84,12 +86,25 @@ def item_set_by_crew(previous_seq: int | None, seq: int) -> bool:
     return previous_seq is not None and seq not in (previous_seq, previous_seq + 1) and seq > 0
 
 
+def crew_mode_of(st: VehicleState) -> str:
+    """:func:`crew_mode` from what the vehicle state holds."""
+    mc = st.mission_current
+    return crew_mode(
+        st.mode,
+        st.last_heartbeat_s,
+        None if mc is None else mc.mission_mode,
+        None if mc is None else mc.rx_monotonic_s,
+        st.mission_mode_reported,
+    )
+
+
 __all__ = [
     "AUTO_MODE",
     "LEFT_AUTO",
     "PILOT_MODES",
     "Gate",
     "crew_mode",
+    "crew_mode_of",
     "gate_of",
     "item_set_by_crew",
 ]

@@ -58,7 +58,7 @@ from helixd.runtime.flight import MANUAL_MODE
 from helixd.runtime.gcs_feed import GcsFeed
 from helixd.runtime.host import ServeHost
 from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.mode_gate import AUTO_MODE, crew_mode
+from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import (
@@ -434,14 +434,7 @@ class Service:
         """The crew's start from the ground station: the autopilot armed in AUTO."""
         st = ap.state
         flying = self.flight_task is not None
-        mc = st.mission_current
-        mode = crew_mode(
-            st.mode,
-            st.last_heartbeat_s,
-            None if mc is None else mc.mission_mode,
-            None if mc is None else mc.rx_monotonic_s,
-            st.mission_mode_reported,
-        )
+        mode = crew_mode_of(st)
         if not self.auto_watch.update(st.armed, mode, flying):
             return
         answer = answer_auto(self.view())
