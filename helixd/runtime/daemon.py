@@ -39,38 +39,31 @@ from helixd import __version__
 from helixd.actuators.base import ActuatorError, ActuatorSink
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
-from helixd.base.plan import Numbering, Plan, mission_item_of, program_numbering
+from helixd.base.plan import Numbering, Plan, program_numbering
 from helixd.config import HelixdConfig, config_to_yaml
-from helixd.control.sequencer import SequencerEvent
 from helixd.files.models import as_items
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_WARNING
 from helixd.mav.url import LinkError
-from helixd.mission.commands import command_name
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
-from helixd.mission.resolve import PlanError, places_from
+from helixd.mission.resolve import PlanError
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs
 from helixd.mission.validate import apply_mission_limits
 from helixd.recorder.retention import check_free_space, prune_runs
-from helixd.recorder.rows import FlightRow
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
-from helixd.runtime.autopilot_fence import autopilot_fence_check
 from helixd.runtime.display import ProgressDisplay, result_line
 from helixd.runtime.flight import (
     MANUAL_MODE,
     FlightLoop,
     FlightResult,
-    PoseRejectedReport,
-    StepReport,
 )
-from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
 from helixd.runtime.gcs_feed import GcsFeed, report_fallback
 from helixd.runtime.host import FlightHost, OwnLink
+from helixd.runtime.in_flight import InFlight
 from helixd.runtime.mission_commands import MissionCommands
-from helixd.runtime.mode_gate import Gate
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Replanner
 from helixd.runtime.setup import (
@@ -84,6 +77,7 @@ from helixd.runtime.setup import (
     confirm_mode,
     feeding,
     fresh_pose,
+    judge_autopilot_fence,
     mission_frame,
     place_mission,
     preflight,
@@ -419,7 +413,7 @@ class MissionRunner:
         self.mission = checked.mission
         plan = checked.plan
         if self.opts.autopilot_fence:
-            await self._judge_autopilot_fence(ap, checked)
+            await judge_autopilot_fence(ap, checked, self._warn)
         last = plan.waypoints[-1]
         # a resume's approach to the interrupted leg is not the mission's cross-track error
         join_m = None if plan.leg_start_xy_m is None else self.cfg.control.stop_tolerance_m
@@ -437,36 +431,6 @@ class MissionRunner:
         if checked.origin is not None:
             self.summary.set_origin(*checked.origin)
         return checked
-
-    def _on_gate(self, gate: Gate, mode: str) -> None:
-        """The autopilot's mode changed what a flight of its AUTO may do: tell the GCS."""
-        if gate is Gate.HOLD:
-            self.gcs.phase(f"paused: mode {mode}, scrolls held at neutral until AUTO")
-        elif gate is Gate.DRIVE:
-            self.gcs.phase(f"continuing in {mode}")
-        else:
-            self.gcs.phase(f"released: mode {mode}, the pilot drives")
-
-    async def _judge_autopilot_fence(self, ap: Autopilot, checked: Checked) -> None:
-        """The route from the rover through every waypoint against the autopilot's own
-        fence (helixd.runtime.autopilot_fence): a route it would stop is refused (exit 3)."""
-        frame = mission_frame(checked.mission, checked.start_ned)
-        start = checked.start_ned
-        points = [(start.north_m, start.east_m)]
-        labels = ["the start"]
-        n = 0
-        for w in checked.plan.waypoints:
-            points.append(frame.to_ned(w.x_m, w.y_m))
-            if w.via:
-                labels.append(f"the via point → {n + 1}")
-            else:
-                n += 1
-                labels.append(f"waypoint {n}")
-        problems, warnings = await autopilot_fence_check(ap, checked.origin, points, labels)
-        for warning in warnings:
-            self._warn(warning)
-        if problems:
-            raise PreflightFailed(problems)
 
     def _gcs_on(self, ap: Autopilot) -> None:
         self.gcs.start(ap.send_message)
@@ -488,80 +452,23 @@ class MissionRunner:
 
     async def main_loop(self, ready: Ready) -> Ending:
         """Fly the plan; the loop returns its own ending (done, a watchdog, a signal)."""
-        plan = ready.plan
-        self._plan = plan  # as flown: a mission with commands was placed again after arming
-        numbering = self._numbering()
-        laps = plan.program.laps() if plan.program is not None else ()
-        if plan.program is not None:
-            log.info(
-                "mission_program",
-                items=numbering.total,  # numbered as the ground station shows them
-                steps=len(plan.program.steps),
-                places_from=places_from(plan.frame),  # as `check` gives them
-            )
+        self._plan = ready.plan  # as flown: a mission with commands was placed again after arming
         ap = ready.ap
         commands = MissionCommands(ap.action)
-        if plan.program is not None:
+        if ready.plan.program is not None:
             commands.start()
-
-        def on_mission_event(ev: SequencerEvent) -> None:
-            lap = laps[ev.step] if 0 <= ev.step < len(laps) else ""
-            log.info(
-                "mission_step",
-                kind=ev.kind,
-                item=ev.item,  # as the ground station numbers it (home 0, the first item 1)
-                lap=lap or None,  # "lap 2 of 3" where a DO_JUMP repeats the item
-                command=command_name(ev.command),
-                step=ev.step + 1,
-                text=ev.text,
-            )
-            if ev.kind == "hold_started":
-                self.gcs.phase(f"item {ev.item}{f' ({lap})' if lap else ''}: {ev.text}")
-
-        # flight.csv rows and the summary's figures are built in batches, after sends
-        journal = StepJournal(plan, self._on_row, self.cfg.recorder.batch_interval_s)
-
-        def on_step(report: StepReport) -> None:  # after the command left
-            nav = report.step.nav
-            self.gcs.progress(nav.cross_track_m, numbering.number(nav.target_index))
-            journal.add(report)
-            self.display.update(lambda: step_progress(report, numbering))  # if shown
-
-        def on_pose_rejected(report: PoseRejectedReport) -> None:
-            self.display.update(rejected_progress(report, numbering))
-
-        def on_arrival(index: int, t_boot_s: float, error_m: float) -> None:
-            journal.drain()  # the summary has every step before the arrival
-            self._on_arrival(index, numbering, t_boot_s, error_m)
-            if index + 1 < len(plan.waypoints):
-                self.host.on_item(mission_item_of(plan, numbering, index + 1))
-
-        self.host.on_item(mission_item_of(plan, numbering, 0))
-
-        radio_lost_told = False
-
-        def tell_radio_lost() -> None:
-            """With ``safety.stop_on_rc_loss`` off helixd drives on when the radio is lost
-            (as ArduPilot reports it): the ground station is told, once per loss."""
-            nonlocal radio_lost_told
-            lost = ap.state.rc_receiver_healthy is False
-            if lost and not radio_lost_told and not self.cfg.safety.stop_on_rc_loss:
-                log.warning("rc_lost_driving_on", reason="safety.stop_on_rc_loss is off")
-                self.gcs.say("radio lost: driving on, no safety pilot", MAV_SEVERITY_WARNING)
-            radio_lost_told = lost
-
-        def on_tick() -> None:
-            ap.feed()
-            tell_radio_lost()
-            self.notifier.watchdog()
-            journal.maybe_drain(time.monotonic())
-            if self.recorder is not None:
-                self.recorder.maybe_flush()
-
-        if numbering.items:
-            self.gcs.phase(f"fly {self.mission.name}: {numbering.total} items")
-        else:
-            self.gcs.phase(f"fly {self.mission.name}: {numbering.operator_count} waypoints")
+        feed = InFlight(
+            cfg=self.cfg,
+            plan=ready.plan,
+            numbering=self.numbering(),
+            ap=ap,
+            host=self.host,
+            gcs=self.gcs,
+            display=self.display,
+            summary=self.summary,
+            recorder=self.recorder,
+        )
+        feed.announce(self.mission.name)
         async with phase("fly", self.notifier, self.display) as fly:
             try:
                 self.flight_loop = FlightLoop(
@@ -572,19 +479,19 @@ class MissionRunner:
                     sink=ready.sink,
                     stop=self.stop,
                     start_ned=ready.start_ned,
-                    on_step=on_step,
-                    on_pose_rejected=on_pose_rejected,
-                    on_arrival=on_arrival,
-                    on_tick=on_tick,
+                    on_step=feed.on_step,
+                    on_pose_rejected=feed.on_pose_rejected,
+                    on_arrival=feed.on_arrival,
+                    on_tick=feed.on_tick,
                     on_action=commands.submit,
-                    on_mission_event=on_mission_event,
+                    on_mission_event=feed.on_mission_event,
                     driving_mode=self.host.driving_mode,
-                    on_gate=self._on_gate,
+                    on_gate=feed.on_gate,
                 )
                 result = await self.flight_loop.run()
             finally:
                 self.flight_loop = None
-                journal.drain()  # every step reaches flight.csv and the summary
+                feed.journal.drain()  # every step reaches flight.csv and the summary
                 # the payload commands already due still go out (bounded), before the stop
                 await commands.close(self.cfg.safety.fallback_deadline_s)
             if result.fault is not None:  # e.g. Ctrl-C: an operator stop, not "ok"
@@ -622,15 +529,7 @@ class MissionRunner:
             line = f"stopped by {by} while connecting to {self.opts.connect_url}; nothing recorded"
             return RunOutcome(ExitCode.OPERATOR_STOP, None, None, [line])
         try:
-            self.recorder = RunRecorder.create(
-                run_root=self.opts.run_root,
-                mission_name=self.mission.name,
-                config_yaml=config_to_yaml(self.cfg),
-                mission_yaml=self.opts.mission_yaml,
-                cfg=self.cfg.recorder,
-                now_utc=datetime.now(UTC),
-                inputs_json=None if self.opts.inputs is None else self.opts.inputs.to_json(),
-            )
+            self.recorder = open_recorder(self.opts, self.mission)
         except RecorderUnavailable as exc:
             if reached is not None:
                 await self._bounded_close("link", self.host.close(reached))
@@ -656,7 +555,7 @@ class MissionRunner:
                 RUN_RESUMED_EVENT,
                 resumed_from=resumed.path,
                 resumed_mission_sha256=resumed.mission_sha256,
-                first_waypoint=self._numbering().label(0),
+                first_waypoint=self.numbering().label(0),
             )
         started = time.monotonic()
         held = Held()
@@ -773,7 +672,7 @@ class MissionRunner:
     def _build_summary(
         self, fault: str | None, code: ExitCode, wall_duration_s: float | None
     ) -> RunSummary:
-        numbering = self._numbering()
+        numbering = self.numbering()
         summary = self.summary.build(
             completed=code is ExitCode.OK,
             fault=fault,
@@ -806,19 +705,9 @@ class MissionRunner:
         self.display.final(summary, run_dir, log_event=False)
         return summary
 
-    # -- loop callbacks (cheap: called at the control rate, after the command left) -------------
-
-    def _on_row(self, row: FlightRow) -> None:
-        self.summary.add(row)
-        self.display.autopilot_time(row.t_boot_s)
-        if self.recorder is not None:
-            self.recorder.record(row)
+    # -- numbering ----------------------------------------------------------------------------
 
     def numbering(self) -> Numbering:
-        """The operator's numbering of this run's waypoints (see :meth:`_numbering`)."""
-        return self._numbering()
-
-    def _numbering(self) -> Numbering:
         """The operator's numbering of this run's waypoints: 1-based over the whole mission
         (a resumed run continues the count), the planner's via points not counted."""
         if self._plan is not None and self.mission.has_commands():
@@ -830,27 +719,6 @@ class MissionRunner:
             vias = [w.via for w in self.mission.waypoints]
         inputs = self.opts.inputs
         return Numbering.of(vias) if inputs is None else inputs.numbering(vias)
-
-    def _on_arrival(
-        self, index: int, numbering: Numbering, t_boot_s: float, error_m: float
-    ) -> None:
-        number, via, lap = numbering.number(index), numbering.via(index), numbering.lap(index)
-        if not via:
-            self.gcs.waypoint(number - 1, numbering.total, lap)
-        self.summary.arrival(index, t_boot_s, error_m, number=number, via=via, lap=lap)
-        start = self.summary.start_t_boot_s
-        log.info(
-            "waypoint_reached",
-            # as the ground station numbers it: "3/5"; a mission with commands: item 3 of 5,
-            # "3/5 (lap 2 of 3)" where a DO_JUMP repeats it
-            waypoint=numbering.label(index),
-            index=index,  # 0-based plan index, via points included (what --resume counts)
-            elapsed_autopilot_s=(
-                round(t_boot_s - start, 1) if start is not None and t_boot_s >= start else None
-            ),
-            t_boot_s=round(t_boot_s, 2),
-            error_m=round(error_m, 3),
-        )
 
 
 def pose_text(ned: NedPose | None) -> str:
@@ -869,6 +737,19 @@ def _may_write(root: Path) -> bool:
     while not where.exists() and where.parent != where:
         where = where.parent
     return where.is_dir() and os.access(where, os.W_OK)
+
+
+def open_recorder(opts: RunOptions, mission: Mission) -> RunRecorder:
+    """The run directory for one run of ``mission`` (config, mission and inputs written)."""
+    return RunRecorder.create(
+        run_root=opts.run_root,
+        mission_name=mission.name,
+        config_yaml=config_to_yaml(opts.cfg),
+        mission_yaml=opts.mission_yaml,
+        cfg=opts.cfg.recorder,
+        now_utc=datetime.now(UTC),
+        inputs_json=None if opts.inputs is None else opts.inputs.to_json(),
+    )
 
 
 async def run_mission(opts: RunOptions, host: FlightHost | None = None) -> RunOutcome:

@@ -47,6 +47,7 @@ from helixd.mission.expand import ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Where, resolve
 from helixd.mission.resume import RunInputs, with_leg_start
+from helixd.runtime.autopilot_fence import autopilot_fence_check
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Replanner
 from helixd.runtime.show_plan import show_plan
@@ -669,3 +670,27 @@ __all__ = [
     "until_stopped",
     "wait_home",
 ]
+
+
+async def judge_autopilot_fence(
+    ap: Autopilot, checked: Checked, warn: Callable[[str | None], None]
+) -> None:
+    """The route from the rover through every waypoint against the autopilot's own fence
+    (:mod:`helixd.runtime.autopilot_fence`): a route it would stop is refused (exit 3)."""
+    frame = mission_frame(checked.mission, checked.start_ned)
+    start = checked.start_ned
+    points = [(start.north_m, start.east_m)]
+    labels = ["the start"]
+    n = 0
+    for w in checked.plan.waypoints:
+        points.append(frame.to_ned(w.x_m, w.y_m))
+        if w.via:
+            labels.append(f"the via point → {n + 1}")
+        else:
+            n += 1
+            labels.append(f"waypoint {n}")
+    problems, warnings = await autopilot_fence_check(ap, checked.origin, points, labels)
+    for warning in warnings:
+        warn(warning)
+    if problems:
+        raise PreflightFailed(problems)

@@ -1,0 +1,157 @@
+"""What a run does while its flight loop flies: the loop's callbacks, in one place.
+
+The flight loop (:class:`helixd.runtime.flight.FlightLoop`) knows nothing of the operator: it
+calls back after each command has left. :class:`InFlight` turns those calls into what the
+operator and the record see — the progress line, the ground station's texts (in its numbering),
+flight.csv rows and the summary's figures (batched by
+:class:`helixd.runtime.flight_report.StepJournal`), the host's current item, the watchdog's
+heartbeat — so the runner (:class:`helixd.runtime.daemon.MissionRunner`) only starts the loop
+and reads its result. Every callback is cheap: it runs at the control rate.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import structlog
+
+from helixd.base.plan import Numbering, Plan, mission_item_of
+from helixd.config import HelixdConfig
+from helixd.control.sequencer import SequencerEvent
+from helixd.link.connection import Autopilot
+from helixd.mav.constants import MAV_SEVERITY_WARNING
+from helixd.mission.commands import command_name
+from helixd.mission.resolve import places_from
+from helixd.recorder.rows import FlightRow
+from helixd.recorder.rundir import RunRecorder
+from helixd.recorder.summary import SummaryBuilder
+from helixd.runtime.display import ProgressDisplay
+from helixd.runtime.flight import PoseRejectedReport, StepReport
+from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
+from helixd.runtime.gcs_feed import GcsFeed
+from helixd.runtime.host import FlightHost
+from helixd.runtime.mode_gate import Gate
+
+log = structlog.get_logger(__name__)
+
+
+@dataclass
+class InFlight:
+    """The flight loop's callbacks for one flight of ``plan`` (numbered by ``numbering``)."""
+
+    cfg: HelixdConfig
+    plan: Plan
+    numbering: Numbering
+    ap: Autopilot
+    host: FlightHost
+    gcs: GcsFeed
+    display: ProgressDisplay
+    summary: SummaryBuilder
+    recorder: RunRecorder | None
+    journal: StepJournal = field(init=False)
+    laps: tuple[str, ...] = field(init=False)
+    radio_lost_told: bool = False
+
+    def __post_init__(self) -> None:
+        # flight.csv rows and the summary's figures are built in batches, after sends
+        self.journal = StepJournal(self.plan, self.on_row, self.cfg.recorder.batch_interval_s)
+        program = self.plan.program
+        self.laps = tuple(program.laps()) if program is not None else ()
+
+    def announce(self, mission_name: str) -> None:
+        """The flight starts: the log, the ground station and the host's current item."""
+        numbering, program = self.numbering, self.plan.program
+        if program is not None:
+            log.info(
+                "mission_program",
+                items=numbering.total,  # numbered as the ground station shows them
+                steps=len(program.steps),
+                places_from=places_from(self.plan.frame),  # as `check` gives them
+            )
+        self.host.on_item(mission_item_of(self.plan, numbering, 0))
+        if numbering.items:
+            self.gcs.phase(f"fly {mission_name}: {numbering.total} items")
+        else:
+            self.gcs.phase(f"fly {mission_name}: {numbering.operator_count} waypoints")
+
+    # -- the flight loop's callbacks ----------------------------------------------------------
+
+    def on_step(self, report: StepReport) -> None:  # after the command left
+        nav = report.step.nav
+        numbering = self.numbering
+        self.gcs.progress(nav.cross_track_m, numbering.number(nav.target_index))
+        self.journal.add(report)
+        self.display.update(lambda: step_progress(report, numbering))  # if shown
+
+    def on_pose_rejected(self, report: PoseRejectedReport) -> None:
+        self.display.update(rejected_progress(report, self.numbering))
+
+    def on_tick(self) -> None:
+        self.ap.feed()
+        self.tell_radio_lost()
+        self.host.notifier.watchdog()
+        self.journal.maybe_drain(time.monotonic())
+        if self.recorder is not None:
+            self.recorder.maybe_flush()
+
+    def on_mission_event(self, ev: SequencerEvent) -> None:
+        lap = self.laps[ev.step] if 0 <= ev.step < len(self.laps) else ""
+        log.info(
+            "mission_step",
+            kind=ev.kind,
+            item=ev.item,  # as the ground station numbers it (home 0, the first item 1)
+            lap=lap or None,  # "lap 2 of 3" where a DO_JUMP repeats the item
+            command=command_name(ev.command),
+            step=ev.step + 1,
+            text=ev.text,
+        )
+        if ev.kind == "hold_started":
+            self.gcs.phase(f"item {ev.item}{f' ({lap})' if lap else ''}: {ev.text}")
+
+    def on_gate(self, gate: Gate, mode: str) -> None:
+        """The autopilot's mode changed what a flight of its AUTO may do: tell the GCS."""
+        if gate is Gate.HOLD:
+            self.gcs.phase(f"paused: mode {mode}, scrolls held at neutral until AUTO")
+        elif gate is Gate.DRIVE:
+            self.gcs.phase(f"continuing in {mode}")
+        else:
+            self.gcs.phase(f"released: mode {mode}, the pilot drives")
+
+    def on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
+        self.journal.drain()  # the summary has every step before the arrival
+        numbering = self.numbering
+        number, via, lap = numbering.number(index), numbering.via(index), numbering.lap(index)
+        if not via:
+            self.gcs.waypoint(number - 1, numbering.total, lap)
+        self.summary.arrival(index, t_boot_s, error_m, number=number, via=via, lap=lap)
+        start = self.summary.start_t_boot_s
+        log.info(
+            "waypoint_reached",
+            # as the ground station numbers it: "3/5"; a mission with commands: item 3 of 5,
+            # "3/5 (lap 2 of 3)" where a DO_JUMP repeats it
+            waypoint=numbering.label(index),
+            index=index,  # 0-based plan index, via points included (what --resume counts)
+            elapsed_autopilot_s=(
+                round(t_boot_s - start, 1) if start is not None and t_boot_s >= start else None
+            ),
+            t_boot_s=round(t_boot_s, 2),
+            error_m=round(error_m, 3),
+        )
+        if index + 1 < len(self.plan.waypoints):
+            self.host.on_item(mission_item_of(self.plan, numbering, index + 1))
+
+    def on_row(self, row: FlightRow) -> None:
+        self.summary.add(row)
+        self.display.autopilot_time(row.t_boot_s)
+        if self.recorder is not None:
+            self.recorder.record(row)
+
+    def tell_radio_lost(self) -> None:
+        """With ``safety.stop_on_rc_loss`` off helixd drives on when the radio is lost (as
+        ArduPilot reports it): the ground station is told, once per loss."""
+        lost = self.ap.state.rc_receiver_healthy is False
+        if lost and not self.radio_lost_told and not self.cfg.safety.stop_on_rc_loss:
+            log.warning("rc_lost_driving_on", reason="safety.stop_on_rc_loss is off")
+            self.gcs.say("radio lost: driving on, no safety pilot", MAV_SEVERITY_WARNING)
+        self.radio_lost_told = lost
