@@ -19,6 +19,7 @@ Uses matplotlib's Agg backend through the object API (no pyplot state, safe in a
 from __future__ import annotations
 
 import math
+import re
 import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -49,7 +50,7 @@ from helixd.recorder.clocks import autopilot_axis_s
 from helixd.recorder.events import fault_time_mono_s, read_events
 from helixd.recorder.resume_dir import recorded_inputs
 from helixd.recorder.rows import read_flight_columns
-from helixd.recorder.summary import PATH_MIN_STEP_M, RunSummary
+from helixd.recorder.summary import PATH_MIN_STEP_M, Arrival, RunSummary
 
 log = structlog.get_logger(__name__)
 
@@ -71,6 +72,7 @@ OVERVIEW_FILE = "overview.png"
 FAULT_COLOR = "red"
 ARRIVAL_STYLE: dict[str, Any] = {"color": "0.45", "linestyle": ":", "linewidth": 1.0}
 LOST_SHADE: dict[str, Any] = {"color": "orange", "alpha": 0.15, "linewidth": 0}
+LAP_TEXT = re.compile(r"lap (?P<k>\d+) of (?P<n>\d+)")  # Program.laps()' words
 FAULT_LABEL_MAX_CHARS = 48  # long causes are cut in legends (the summary keeps them whole)
 # waypoint labels on time axes: at least this fraction of the axis width apart
 LABEL_MIN_GAP_PANEL = 0.06
@@ -105,7 +107,9 @@ class RunData:
     summary: RunSummary | None
     waypoints: list[tuple[float, float, float]]  # x_m, y_m, tolerance_m
     path_start: tuple[float, float] | None  # a resumed run: the interrupted leg's start
-    arrivals: list[tuple[str, float]]  # the operator's waypoint number, t_s (no via points)
+    # the operator's waypoint number (with its lap where a DO_JUMP repeats it), t_s; no via
+    # points
+    arrivals: list[tuple[str, float]]
     fault: str | None
     fault_t_s: float | None
     clamp_pct: float | None
@@ -307,8 +311,7 @@ def load_run(run_dir: Path) -> RunData:
         if arr.via:
             continue  # the planner's via points are not the operator's waypoints
         idx = int(np.nanargmin(np.abs(t_boot - arr.t_boot_s))) if np.isfinite(t_boot).any() else 0
-        number = arr.index + 1 if arr.number is None else arr.number
-        arrivals.append((str(number), float(t_s[idx])))
+        arrivals.append((arrival_mark(arr), float(t_s[idx])))
     fault = summary.fault if summary else None
     fault_t: float | None = None
     if fault is not None:
@@ -334,6 +337,17 @@ def load_run(run_dir: Path) -> RunData:
             _mission_frame(run_dir), summary.origin_latlon_deg if summary else None
         ),
     )
+
+
+def arrival_mark(arrival: Arrival) -> str:
+    """A time marker's waypoint: its number as the ground station shows it, with the lap
+    where a DO_JUMP flies the item again (``3 lap 2/3``), so each lap's arrival is told apart
+    as in the log and the ground station's texts."""
+    number = arrival.index + 1 if arrival.number is None else arrival.number
+    lap = LAP_TEXT.fullmatch(arrival.lap or "")
+    if lap is None:
+        return str(number) if not arrival.lap else f"{number} {arrival.lap}"
+    return f"{number} lap {lap['k']}/{lap['n']}"
 
 
 def _load_summary(path: Path) -> RunSummary | None:

@@ -24,6 +24,7 @@ from helixd.recorder.plots import (
     PANEL_SIZE_PX,
     PlotError,
     _panel_figure,
+    arrival_mark,
     autopilot_axis,
     distance_along_m,
     draw_cross_track_along,
@@ -32,6 +33,7 @@ from helixd.recorder.plots import (
     sparse_label_mask,
     waypoint_labels,
 )
+from helixd.recorder.summary import Arrival, RunSummary
 from tests.support.recorder_runs import SQUARE, synth_run
 
 pytestmark = pytest.mark.usefixtures("reset_logging")
@@ -346,3 +348,23 @@ def test_an_item_a_jump_flies_again_is_labelled_once() -> None:
     points = [(0.0, 0.0), (5.0, 0.0), (0.0, 0.0), (5.0, 0.0), (0.0, 0.0)]
     got = waypoint_labels(points, labels=["1", "2", "1", "2", "5"])
     assert got == [("1,5", (0.0, 0.0)), ("2", (5.0, 0.0))]
+
+
+def test_time_markers_of_a_jump_mission_say_the_lap(tmp_path: Path) -> None:
+    """Each lap's arrival at an item a DO_JUMP repeats is its own marker: 'WP1 lap 2/2', as the
+    log and the ground station say 'reached WP 1/3 (lap 2 of 2)'."""
+    run_dir, _ = synth_run(tmp_path)
+    path = run_dir / "summary.json"
+    summary = RunSummary.from_json(path.read_text(encoding="utf-8"))
+    laps = ["lap 1 of 2", "lap 1 of 2", "lap 2 of 2", "lap 2 of 2"]
+    arrivals = [
+        a.model_copy(update={"number": 1 + k % 2, "lap": lap})
+        for k, (a, lap) in enumerate(zip(summary.arrivals, laps, strict=False))
+    ]
+    path.write_text(summary.model_copy(update={"arrivals": tuple(arrivals)}).to_json(), "utf-8")
+    marks = [label for label, _ in load_run(run_dir).arrivals]
+    assert marks == ["1 lap 1/2", "2 lap 1/2", "1 lap 2/2", "2 lap 2/2"][: len(marks)]
+    assert len(marks) >= 3
+    plain = Arrival(index=4, t_boot_s=1.0, error_m=0.1)
+    assert arrival_mark(plain) == "5"
+    assert arrival_mark(plain.model_copy(update={"number": 3, "lap": "lap 7"})) == "3 lap 7"
