@@ -395,7 +395,10 @@ def _load_plan(
         cfg = load_config(run_dir / CONFIG_FILE)
         msn = load_mission(run_dir / MISSION_FILE, cfg.mission)
         origin = summary.origin_latlon_deg if summary else None
-        plan = resolve_plan(msn, cfg.control, cfg.mission, origin)
+        plan = resolve_plan(
+            msn, cfg.control, cfg.mission, origin,
+            time_limit_s=cfg.safety.mission_time_limit_s,
+        )  # fmt: skip
         if inputs is not None and inputs.leg_start is not None:
             plan = with_leg_start(plan, msn, inputs.leg_start, cfg.control, cfg.mission, origin)
     except (ConfigFileError, PlanError) as exc:

@@ -787,6 +787,9 @@ class MissionRunner:
         )
         if self.opts.inputs is not None and self.opts.inputs.resumed_from is not None:
             summary = summary.model_copy(update={"resumed_from": self.opts.inputs.resumed_from})
+        program = None if self._plan is None else self._plan.program
+        if program is not None and program.patrol_item:
+            summary = summary.model_copy(update={"patrol_item": program.patrol_item})
         return summary
 
     def _finish(self, ending: Ending, started: float) -> RunSummary:
