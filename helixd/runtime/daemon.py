@@ -95,7 +95,7 @@ from helixd.runtime.setup import (
     until_stopped,
 )
 from helixd.runtime.timing import plan_time_estimate
-from helixd.safety.supervisor import fall_back, late_failsafe
+from helixd.safety.supervisor import FallbackReport, fall_back, late_failsafe
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
 
 log = structlog.get_logger(__name__)
@@ -302,6 +302,16 @@ def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
     if ending.fault is not None and ending.fault.cause in (FaultCause.SIGNAL, FaultCause.PAUSED):
         return True
     return None
+
+
+def ending_after_fallback(ending: Ending, report: FallbackReport) -> Ending:
+    """A completed mission (exit 0) whose disarm failed is not exit 0: the exit-code table
+    says 0 means disarmed, and the rover is left armed (pure). Any other ending stands."""
+    if ending.code is not ExitCode.OK or report.disarmed:
+        return ending
+    why = "; ".join(e for e in report.errors if e.startswith("disarm")) or "disarm not confirmed"
+    fault = Fault(FaultCause.NOT_DISARMED, f"every waypoint reached, but {why}: still armed")
+    return Ending(fault, ExitCode.FAULT, ending.detected_s, ending.last_pose)
 
 
 @dataclass(frozen=True)
@@ -731,6 +741,7 @@ class MissionRunner:
                 )
             report_fallback(self.gcs, secured)
             ending = self._late_failsafe(ending, ap)
+            ending = ending_after_fallback(ending, secured)
         if ending.code is ExitCode.OK:
             self.gcs.phase("mission complete")
         await self.gcs.close()

@@ -62,6 +62,8 @@ class FaultCause(StrEnum):
     # helixd serve, a flight of AUTO: the crew set the autopilot's current item (not the next
     # one): the flight ends without asking HOLD and the next starts at that item
     ITEM_SET = "item_set"
+    # a completed mission's disarm failed: the vehicle is left armed, so it is no exit 0
+    NOT_DISARMED = "not_disarmed"
     EXCEPTION = "exception"  # unhandled error inside helixd
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
     ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
@@ -104,6 +106,7 @@ CAUSE_WORDS: dict[str, str] = {
     FaultCause.PAUSED: "paused",
     FaultCause.RELEASED: "released to the pilot",
     FaultCause.ITEM_SET: "new current item",
+    FaultCause.NOT_DISARMED: "mission done, still armed",
     FaultCause.EXCEPTION: "internal error",
     FaultCause.PREFLIGHT: "preflight refused",
     FaultCause.ACTUATOR: "scroll command refused",
