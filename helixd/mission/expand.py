@@ -513,7 +513,7 @@ class _Builder:
             forever = role is Role.LOITER_UNLIM
             stop = hold > 0.0 or role is not Role.WAYPOINT
             if c.xy is None:
-                where = f"stays where it is ({self.where_here()})"
+                where = f"stays where it is, at {self.where_here()}"
                 if stop:
                     self.stop_here()
             else:

@@ -155,6 +155,7 @@ def test_here_means_where_the_rover_is_when_the_item_starts() -> None:
     assert r.plan.program is not None
     step = r.plan.program.steps[1]
     assert step.first_waypoint is None and step.hold_s == 4.0
+    assert step.text == "NAV_WAYPOINT stays where it is, at (5.00, 0.00), hold 4 s"
 
 
 def test_nav_delay_stops_in_place() -> None:
