@@ -375,6 +375,15 @@ def axis_labels(
     return (f"x, east of {where} (m)", f"y, north of {where} (m)")
 
 
+def position_legend(labels: tuple[str, str]) -> tuple[str, str]:
+    """The position panel's x and y in the trajectory's words, short: ``x, east (m)`` for
+    ``x, east of the EKF origin … (m)``, ``x, forward (m)`` for a start mission."""
+    return (
+        labels[0].split(" of ", 1)[0] + " (m)" if " of " in labels[0] else labels[0],
+        labels[1].split(" of ", 1)[0] + " (m)" if " of " in labels[1] else labels[1],
+    )
+
+
 def _mission_frame(run_dir: Path) -> MissionFrameKind | None:
     try:
         return load_mission(run_dir / MISSION_FILE).frame
@@ -614,8 +623,9 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
 
 def draw_position(top: Axes, bottom: Axes, data: RunData, *, twin: bool = False) -> None:
     """(b) x, y (m) and yaw (deg) against time."""
-    top.plot(data.t_s, data.col("x_m"), label="x (m)", color="tab:blue")
-    top.plot(data.t_s, data.col("y_m"), label="y (m)", color="tab:orange")
+    x_label, y_label = position_legend(data.axis_labels)
+    top.plot(data.t_s, data.col("x_m"), label=x_label, color="tab:blue")
+    top.plot(data.t_s, data.col("y_m"), label=y_label, color="tab:orange")
     bottom.plot(data.t_s, _unwrap_deg(data.col("yaw_rad")), label="yaw (deg)", color="tab:purple")
     top.set_ylabel("position (m)")
     bottom.set_ylabel("yaw, CCW, unwrapped (deg)")

@@ -26,9 +26,11 @@ from helixd.recorder.plots import (
     _panel_figure,
     arrival_mark,
     autopilot_axis,
+    axis_labels,
     distance_along_m,
     draw_cross_track_along,
     load_run,
+    position_legend,
     render_run,
     sparse_label_mask,
     waypoint_labels,
@@ -321,8 +323,6 @@ def test_a_surveys_waypoint_labels_are_moved_clear_of_each_other() -> None:
 
 def test_the_trajectory_axes_say_what_x_and_y_are_in_the_missions_frame(tmp_path: Path) -> None:
     """Before: a global mission's plot said "x (m)"/"y (m)", no north/east, no origin."""
-    from helixd.recorder.plots import axis_labels
-
     assert axis_labels(MissionFrameKind.GLOBAL, (53.52325, -113.52632)) == (
         "x, east of the EKF origin 53.523250°, -113.526320° (m)",
         "y, north of the EKF origin 53.523250°, -113.526320° (m)",
@@ -368,3 +368,18 @@ def test_time_markers_of_a_jump_mission_say_the_lap(tmp_path: Path) -> None:
     plain = Arrival(index=4, t_boot_s=1.0, error_m=0.1)
     assert arrival_mark(plain) == "5"
     assert arrival_mark(plain.model_copy(update={"number": 3, "lap": "lap 7"})) == "3 lap 7"
+
+
+def test_the_position_panel_says_east_and_north_as_the_trajectory_does() -> None:
+    """A global mission's x and y over time read 'x, east (m)', 'y, north (m)', not a bare
+    'x (m)' beside a trajectory that says east and north of the EKF origin."""
+    origin = (53.52325, -113.52632)
+    assert position_legend(axis_labels(MissionFrameKind.GLOBAL, origin)) == (
+        "x, east (m)",
+        "y, north (m)",
+    )
+    assert position_legend(axis_labels(MissionFrameKind.START, None)) == (
+        "x, forward (m)",
+        "y, left (m)",
+    )
+    assert position_legend(axis_labels(None, None)) == ("x (m)", "y (m)")
