@@ -94,7 +94,7 @@ from helixd.runtime.setup import (
     start_sink,
     until_stopped,
 )
-from helixd.runtime.timing import plan_time_estimate
+from helixd.runtime.timing import patrol_times_s, plan_time_estimate
 from helixd.safety.supervisor import FallbackReport, fall_back, late_failsafe
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
 
@@ -434,7 +434,19 @@ class MissionRunner:
         # a resume's approach to the interrupted leg is not the mission's cross-track error
         join_m = None if plan.leg_start_xy_m is None else self.cfg.control.stop_tolerance_m
         estimate = plan_time_estimate(plan, self.cfg, checked.start_ned)  # as `check` says
-        log.info("flight_estimate", estimated_s=round(estimate.total_s, 1), pivots=estimate.pivots)
+        patrol = patrol_times_s(plan, estimate)
+        if patrol is None:
+            log.info(
+                "flight_estimate", estimated_s=round(estimate.total_s, 1), pivots=estimate.pivots
+            )
+        else:  # flown until stopped: the planned laps' total is no estimate of the flight
+            log.info(
+                "flight_estimate",
+                patrol_first_lap_s=round(patrol[0], 1),
+                patrol_lap_s=round(patrol[1], 1),
+                ends_by="stop or safety.mission_time_limit_s",
+                time_limit_s=self.mission.time_limit_s or self.cfg.safety.mission_time_limit_s,
+            )
         if self.recorder is not None and self.recorder.run_dir is not None:
             low_space = check_free_space(self.recorder.run_dir, estimate.total_s)
             if low_space is not None:
