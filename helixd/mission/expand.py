@@ -623,10 +623,15 @@ class _Patrol:
                 forever=True,
                 text=f"{last.text}; the patrol's planned laps end here: it holds until stopped",
             )
+        beyond = (
+            "more than that limit"
+            if len(b.steps) < PATROL_STEPS_MAX
+            else f"all a plan holds ({PATROL_STEPS_MAX} steps); then it holds where it is"
+        )
         return (
             f"item {self.item} DO_JUMP repeats forever: a patrol flown until it is stopped "
             f"(Ctrl-C, a mode change, the ground station) or its time limit "
-            f"({ctx.patrol_s:.0f} s) ends it; {laps} laps planned, more than that limit"
+            f"({ctx.patrol_s:.0f} s) ends it; {laps} laps planned, {beyond}"
         )
 
 

@@ -62,11 +62,19 @@ def estimate_line(
     )
     if patrol is not None:
         first_s, lap_s = patrol
-        laps = f"about {1 + (limit - first_s) / lap_s:.0f} laps" if lap_s > 0 else "its laps"
-        return (
+        head = (
             f"estimate: a patrol, flown until stopped: first lap done at {first_s:.0f} s"
-            f"{note}, then {lap_s:.0f} s a lap; limit {source} = {limit:.0f} s ends it after "
-            f"{laps} (fault mission_time, exit 4) unless it is stopped before"
+            f"{note}, then {lap_s:.0f} s a lap; "
+        )
+        if eta < limit:  # fewer laps planned than the limit would fly
+            return head + (
+                f"its planned laps end at {eta:.0f} s, then it holds where it is until stopped "
+                f"or limit {source} = {limit:.0f} s ends it (fault mission_time, exit 4)"
+            )
+        laps = f"about {1 + (limit - first_s) / lap_s:.0f} laps" if lap_s > 0 else "its laps"
+        return head + (
+            f"limit {source} = {limit:.0f} s ends it after {laps} (fault mission_time, exit 4) "
+            "unless it is stopped before"
         )
     parts = f"{estimate.driving_s:.0f} s driving"
     if estimate.pivots:

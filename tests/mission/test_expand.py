@@ -12,7 +12,7 @@ import pytest
 
 from helixd.base.plan import ActionKind, Plan
 from helixd.config import HelixdConfig
-from helixd.mission.expand import ExpandOptions
+from helixd.mission.expand import PATROL_STEPS_MAX, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Resolved, Where, resolve
 
@@ -89,6 +89,17 @@ def test_a_jump_forever_is_a_patrol_planned_beyond_the_time_limit() -> None:
     assert "(after DO_JUMP item 3, lap 2, forever)" in program.steps[2].text
     assert "flown until it is stopped" in program.ending and "60 s" in program.ending
     assert any("item 4 NAV_RETURN_TO_LAUNCH: never run" in n for n in r.notes)
+
+
+def test_a_patrol_too_long_to_unroll_holds_after_its_planned_laps_and_says_so() -> None:
+    r = flown(A, B, jump(1, -1), extra={"time_limit_s": 86_400})
+    program = r.plan.program
+    assert program is not None and len(program.steps) == PATROL_STEPS_MAX
+    assert program.steps[-1].forever
+    assert program.ending.endswith(
+        f"{PATROL_STEPS_MAX // 2} laps planned, all a plan holds ({PATROL_STEPS_MAX} steps); "
+        "then it holds where it is"
+    )
 
 
 def test_a_jump_to_a_missing_item_ends_the_mission_there() -> None:
