@@ -96,6 +96,10 @@ class Program:
     start_xy_m: tuple[float, float] | None = None
     # the mission's items as the ground station numbers them (home 0 not counted; 0: unknown)
     items_total: int = 0
+    # a patrol: the DO_JUMP item repeated forever (0: none); its laps are unrolled beyond the
+    # time limit and ``lap_starts`` holds the step index where lap 2, 3, … starts
+    patrol_item: int = 0
+    lap_starts: tuple[int, ...] = ()
 
     def laps(self) -> tuple[str, ...]:
         """Per step, ``"lap k of n"`` when its item is flown n > 1 times (a DO_JUMP repeats
@@ -108,8 +112,22 @@ class Program:
         for s in self.steps:
             seen[s.item] = seen.get(s.item, 0) + 1
             n = times[s.item]
-            out.append(f"lap {seen[s.item]} of {n}" if n > 1 else "")
+            if n <= 1:
+                out.append("")
+            elif self.patrol_item:  # a patrol's laps have no count: it is flown until stopped
+                out.append(f"lap {seen[s.item]}")
+            else:
+                out.append(f"lap {seen[s.item]} of {n}")
         return tuple(out)
+
+    def first_lap(self) -> tuple[int, int] | None:
+        """A patrol's first lap as step indices [start, end) (None: not a patrol)."""
+        if not self.patrol_item or not self.lap_starts:
+            return None
+        end = self.lap_starts[0]
+        item = self.steps[end].item
+        start = next(i for i, s in enumerate(self.steps) if s.item == item)
+        return start, end
 
 
 @dataclass(frozen=True, slots=True)

@@ -159,6 +159,12 @@ MapOpt = Annotated[
 ]
 
 
+PLOT_NEEDS_ROUTE = (
+    "--plot draws a route planned around obstacles (--map, keep-out areas, a fence's "
+    "exclusions) and this mission has none; `helixd plot RUN_DIR` draws a flown run"
+)
+
+
 @app.command()
 def version() -> None:
     """Print the helixd version."""
@@ -199,6 +205,8 @@ def check(
         got.cfg, got.mission, got.path, label, flight.mission, route, flight.options, width
     )
     typer.echo("\n".join(lines))
+    if route is None and plot is not None:  # said, not silently skipped
+        typer.echo(f"plot    : {plot} not written: {PLOT_NEEDS_ROUTE}")
     if route is not None and plot is not None:
         from helixd.recorder.plots import render_route  # start-up: matplotlib when plotting
 

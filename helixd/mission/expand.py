@@ -70,6 +70,7 @@ XY = tuple[float, float]
 MAX_JUMPS_PER_SEARCH = 64  # AP_Mission::get_next_cmd
 MAX_SCAN = 255  # AP_Mission::advance_current_nav_cmd
 MAX_STEPS = 100_000  # navigation steps after expansion (a mission this long is a mistake)
+PATROL_STEPS_MAX = 5_000  # a patrol (DO_JUMP forever) is unrolled to at most this many steps
 MAX_CHAIN = 1_000  # do items started with one step
 SAME_PLACE_M = 0.01  # a step to where the rover already is drives nowhere
 CIRCLE_SEGMENT_M = 2.0  # a circle is flown as a polygon with sides about this long …
@@ -106,6 +107,9 @@ class Context:
     # the point the steps' texts give places from (a lat/lon mission: waypoint 1, the same
     # in `check`, which has no EKF origin, and in flight); the plan itself is not moved
     shown_from_xy_m: XY = (0.0, 0.0)
+    # a DO_JUMP repeated forever is planned for at least this long (s): the time limit in
+    # force, which ends the patrol
+    patrol_s: float = 1800.0
 
 
 @dataclass
@@ -509,7 +513,7 @@ class _Builder:
             forever = role is Role.LOITER_UNLIM
             stop = hold > 0.0 or role is not Role.WAYPOINT
             if c.xy is None:
-                where = f"stays where it is ({self.where_here()})"
+                where = f"stays where it is, at {self.where_here()}"
                 if stop:
                     self.stop_here()
             else:
@@ -574,6 +578,63 @@ class _Builder:
         )
 
 
+class _Patrol:
+    """A DO_JUMP repeated forever (repeat −1): ArduPilot flies its loop until someone stops
+    it. The walk unrolls laps until they outlast the time limit in force
+    (:attr:`Context.patrol_s`, counted at cruise speed, which the flight never beats) and one
+    lap more; the last step then holds where it ends until the rover is stopped, so the
+    plan never "completes" a patrol."""
+
+    def __init__(self) -> None:
+        self.item = 0  # the DO_JUMP item
+        self.lap_starts: list[int] = []  # step index where lap 2, 3, … starts
+        self._counted = 0  # steps counted in the lower bound so far
+        self._lower_s = 0.0  # the flight of those steps takes at least this long (s)
+        self._at: XY | None = None  # where those steps end
+        self._at_laps: list[float] = []  # the lower bound when each lap from lap 2 starts
+
+    def planned(self, b: _Builder, ctx: Context) -> bool:
+        """Enough laps: the flight up to the lap before this one already outlasts the time
+        limit, so a whole lap lies beyond it."""
+        if self._at is None:
+            first = b.waypoints[0] if b.waypoints else None
+            self._at = ctx.start_xy_m or ((first.x_m, first.y_m) if first else (0.0, 0.0))
+        for step in b.steps[self._counted :]:
+            if step.first_waypoint is not None and step.last_waypoint is not None:
+                for w in b.waypoints[step.first_waypoint : step.last_waypoint + 1]:
+                    metres = math.dist(self._at, (w.x_m, w.y_m))
+                    self._lower_s += metres / max(step.speed_mps, SPEED_MIN_MPS)
+                    self._at = (w.x_m, w.y_m)
+            self._lower_s += step.hold_s
+        self._counted = len(b.steps)
+        self._at_laps.append(self._lower_s)
+        return len(self._at_laps) >= 2 and self._at_laps[-2] > ctx.patrol_s
+
+    def end(self, b: _Builder, ctx: Context) -> str:
+        if self.lap_starts and self.lap_starts[-1] >= len(b.steps):
+            self.lap_starts.pop()  # the lap that would start now is not flown
+        laps = len(self.lap_starts) + 1
+        if b.steps:
+            last = b.steps[-1]
+            if last.first_waypoint is not None:
+                b.stop_here()
+            b.steps[-1] = replace(
+                last,
+                forever=True,
+                text=f"{last.text}; the patrol's planned laps end here: it holds until stopped",
+            )
+        beyond = (
+            "more than that limit"
+            if len(b.steps) < PATROL_STEPS_MAX
+            else f"all a plan holds ({PATROL_STEPS_MAX} steps); then it holds where it is"
+        )
+        return (
+            f"item {self.item} DO_JUMP repeats forever: a patrol flown until it is stopped "
+            f"(Ctrl-C, a mode change, the ground station) or its time limit "
+            f"({ctx.patrol_s:.0f} s) ends it; {laps} laps planned, {beyond}"
+        )
+
+
 def expand(
     entries: Sequence[WaypointSpec],
     places: Sequence[XY | None],
@@ -598,19 +659,19 @@ def expand(
     ending = ""
     never_ends = False
     jumps_before: dict[int, int] = {}
+    patrol = _Patrol()
     while nav is not None:
-        forever = [i for i, n in walker.forever_taken.items() if n >= 1]
-        if forever:
-            ending = f"item {forever[0]} DO_JUMP repeats forever: its loop is shown once"
-            never_ends = True
-            b.problems.append(
-                f"item {forever[0]} DO_JUMP: repeats forever (repeat -1): the mission never "
-                "ends; give a repeat count"
-            )
-            nav = None
-            first_do = None
-            passed = []
-            break
+        if walker.forever_taken:
+            if not patrol.lap_starts:
+                patrol.item = next(iter(walker.forever_taken))
+            new_lap = sum(walker.forever_taken.values()) > len(patrol.lap_starts)
+            if new_lap:
+                patrol.lap_starts.append(len(b.steps))
+            if (new_lap and patrol.planned(b, ctx)) or len(b.steps) >= PATROL_STEPS_MAX:
+                ending = patrol.end(b, ctx)
+                never_ends = True
+                nav, first_do, passed = None, None, []
+                break
         visited.add(nav.index)
         visited.update(p.index for p in passed)
         chain, endless = walker.do_chain(first_do) if first_do is not None else ([], False)
@@ -654,6 +715,8 @@ def expand(
         final_actions=tuple(final),
         ending=ending,
         never_ends=never_ends,
+        patrol_item=patrol.item,
+        lap_starts=tuple(patrol.lap_starts),
         notes=tuple(b.notes),
         start_xy_m=ctx.start_xy_m,
         items_total=len(cmds),
@@ -667,7 +730,7 @@ def _via(walker: _Walker, before: dict[int, int], cmds: Sequence[_Cmd]) -> str:
         if runs > before.get(index, 0):
             c = cmds[index - 1]
             times = stored_whole(c.p(1))
-            count = "forever" if times == JUMP_FOREVER else f"{runs} of {times}"
+            count = f"lap {runs + 1}, forever" if times == JUMP_FOREVER else f"{runs} of {times}"
             return f"(after {command_name(c.wp.command)} item {index}, {count})"
     return ""
 

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from helixd.base.angles import wrap_pi
 from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan, PlanWaypoint
-from helixd.config import ControlConfig, MissionLimits
+from helixd.config import ControlConfig, MissionLimits, SafetyConfig
 from helixd.files.models import entry_label
 from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH
 from helixd.mission.commands import FLY_ROLES
@@ -26,6 +26,7 @@ from helixd.mission.expand import DEFAULT_OPTIONS, Context, ExpandOptions, expan
 from helixd.mission.model import Mission, WaypointSpec
 
 XY = tuple[float, float]
+DEFAULT_TIME_LIMIT_S: float = SafetyConfig.model_fields["mission_time_limit_s"].default
 
 
 class PlanError(ValueError):
@@ -99,13 +100,14 @@ def resolve_plan(
     origin_latlon_deg: tuple[float, float] | None = None,
     where: Where = NOWHERE,
     options: ExpandOptions = DEFAULT_OPTIONS,
+    time_limit_s: float = DEFAULT_TIME_LIMIT_S,
 ) -> Plan:
     """Convert the file's waypoints into the mission frame used by the control core.
 
     start frame: (x, y) as written.  local_ned/global: x = East, y = North (ENU), compass
     headings converted to CCW-from-East.
     """
-    return resolve(mission, control, limits, origin_latlon_deg, where, options).plan
+    return resolve(mission, control, limits, origin_latlon_deg, where, options, time_limit_s).plan
 
 
 def resolve(
@@ -115,8 +117,11 @@ def resolve(
     origin_latlon_deg: tuple[float, float] | None = None,
     where: Where = NOWHERE,
     options: ExpandOptions = DEFAULT_OPTIONS,
+    time_limit_s: float = DEFAULT_TIME_LIMIT_S,
 ) -> Resolved:
-    """:func:`resolve_plan`, with what the walk through a mission's commands found."""
+    """:func:`resolve_plan`, with what the walk through a mission's commands found.
+    ``time_limit_s``: the config's ``safety.mission_time_limit_s`` (the mission's own
+    ``time_limit_s`` replaces it): how long a patrol (a DO_JUMP repeated forever) is planned."""
     frame = _MissionToPlane(mission, origin_latlon_deg)
     default_tol = mission.tolerance_m or control.waypoint_tolerance_m
     speed = min(mission.speed_mps or control.max_speed_mps, control.max_speed_mps)
@@ -177,6 +182,7 @@ def resolve(
         home_xy_m=home,
         global_frame=mission.frame is MissionFrameKind.GLOBAL,
         shown_from_xy_m=first if mission.frame is MissionFrameKind.GLOBAL else (0.0, 0.0),
+        patrol_s=mission.time_limit_s or time_limit_s,
     )
     got = expand(mission.waypoints, places, latlons, ctx, waypoint_for, options)
     if not got.waypoints:

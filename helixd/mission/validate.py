@@ -30,7 +30,7 @@ import math
 from collections.abc import Sequence
 
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
-from helixd.base.plan import MissionFrameKind, Plan
+from helixd.base.plan import MissionFrameKind, Plan, program_numbering
 from helixd.base.polygon import leg_leaves_polygon, point_in_polygon, segments_intersect
 from helixd.config import HelixdConfig
 from helixd.files.models import entry_label
@@ -47,6 +47,20 @@ def _listed(offenders: list[str], what: str) -> list[str]:
     if len(offenders) > MAX_LISTED:
         out.append(f"… and {len(offenders) - MAX_LISTED} more waypoints {what}")
     return out
+
+
+def plan_point_labels(plan: Plan) -> list[str]:
+    """How an error names each plan waypoint: the mission entry it flies, counted from 1
+    (``waypoint 3 (waypoints[2])``, a ground-station file's ``item 3``; each lap of a DO_JUMP
+    the same, said once), ``via point to`` before a point the planner inserted — never
+    the plan's own 0-based index, which jumps, holds and via points move away from the
+    entries."""
+    numbering = program_numbering(plan)
+    numbers = plan.numbers() if numbering is None else numbering.numbers
+    return [
+        f"via point to {entry_label(n - 1)}" if w.via else entry_label(n - 1)
+        for w, n in zip(plan.waypoints, numbers, strict=True)
+    ]
 
 
 def _ned_points(
@@ -80,14 +94,19 @@ def _radius_problems(
     else:
         return []
     offenders = []
-    for i, (a, b) in enumerate(pts):
+    for label, (a, b) in zip(plan_point_labels(plan), pts, strict=True):
         dist = math.hypot(a - centre[0], b - centre[1])
         if dist > radius:
             offenders.append(
-                f"{entry_label(i)}: {dist:.1f} m from {where}; allowed at most "
+                f"{label}: {dist:.1f} m from {where}; allowed at most "
                 f"safety.geofence_radius_m = {radius} m"
             )
-    return _listed(offenders, "outside safety.geofence_radius_m")
+    return _listed(_once(offenders), "outside safety.geofence_radius_m")
+
+
+def _once(texts: list[str]) -> list[str]:
+    """Each text once, in order (a DO_JUMP flies the same item again: one line for it)."""
+    return list(dict.fromkeys(texts))
 
 
 def _polygon_problems(
@@ -95,6 +114,7 @@ def _polygon_problems(
     ned: list[tuple[float, float]] | None,
     start: NedPose | None,
     name: str = "safety.geofence_polygon_ne_m",
+    labels: Sequence[str] = (),
 ) -> list[str]:
     poly = cfg.safety.geofence_polygon_ne_m
     if len(poly) < 3 or ned is None:
@@ -105,22 +125,23 @@ def _polygon_problems(
             f"the start point (N {start.north_m:.1f} m, E {start.east_m:.1f} m) is outside {name}"
             ": drive the rover inside it (a survey's: the area grown by mission survey --margin-m)"
         )
+    names = list(labels) or [entry_label(i) for i in range(len(ned))]
     offenders = [
-        f"{entry_label(i)}: N {n:.1f} m, E {e:.1f} m is outside {name}"
-        for i, (n, e) in enumerate(ned)
+        f"{label}: N {n:.1f} m, E {e:.1f} m is outside {name}"
+        for label, (n, e) in zip(names, ned, strict=True)
         if not point_in_polygon(n, e, poly)
     ]
-    problems.extend(_listed(offenders, f"outside {name}"))
+    problems.extend(_listed(_once(offenders), f"outside {name}"))
     if offenders or problems:
         return problems
-    legs = [] if start is None else [((start.north_m, start.east_m), ned[0], "start → 1")]
-    legs.extend((ned[i - 1], ned[i], f"{i} → {i + 1}") for i in range(1, len(ned)))
+    legs = [] if start is None else [((start.north_m, start.east_m), ned[0], f"start → {names[0]}")]
+    legs.extend((ned[i - 1], ned[i], f"{names[i - 1]} → {names[i]}") for i in range(1, len(ned)))
     crossing = [
-        f"leg waypoints {leg} leaves {name} (both ends are inside)"
+        f"leg {leg} leaves {name} (both ends are inside)"
         for a, b, leg in legs
         if leg_leaves_polygon(a, b, poly)
     ]
-    return _listed(crossing, "whose legs leave the polygon")
+    return _listed(_once(crossing), "whose legs leave the polygon")
 
 
 def _keep_out_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
@@ -187,7 +208,8 @@ def _start_distance_problems(
     dist = math.hypot(first.x_m - at[1], first.y_m - at[0])
     if not dist <= limit:
         return [
-            f"{entry_label(0)}: {dist:.1f} m from {where}; the first waypoint may be at most "
+            f"{plan_point_labels(plan)[0]}: {dist:.1f} m from {where}; the first waypoint may "
+            "be at most "
             f"mission.max_start_distance_m = {limit} m away ({why})"
         ]
     return []
@@ -357,11 +379,17 @@ def resolved_for_check(
     if mission.frame is MissionFrameKind.GLOBAL:
         lat, lon = mission.points()[0]
         try:
-            return resolve(mission, cfg.control, cfg.mission, (lat, lon), options=options), True
+            return resolve(
+                mission, cfg.control, cfg.mission, (lat, lon), options=options,
+                time_limit_s=cfg.safety.mission_time_limit_s,
+            ), True  # fmt: skip
         except PlanError as exc:  # the origin here is waypoint 1: say so
             said = "from waypoint 1 (check's stand-in for the EKF origin a run measures from)"
             raise PlanError(str(exc).replace("from the origin", said, 1)) from None
-    return resolve(mission, cfg.control, cfg.mission, None, options=options), False
+    return resolve(
+        mission, cfg.control, cfg.mission, None, options=options,
+        time_limit_s=cfg.safety.mission_time_limit_s,
+    ), False  # fmt: skip
 
 
 def servo_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
@@ -418,11 +446,15 @@ def mission_problems(
             plan, provisional = checked_plan
         elif mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
             plan = resolve_plan(
-                mission, cfg.control, cfg.mission, origin_latlon_deg, where, options
-            )
+                mission, cfg.control, cfg.mission, origin_latlon_deg, where, options,
+                cfg.safety.mission_time_limit_s,
+            )  # fmt: skip
             provisional = False
         elif where is not NOWHERE:
-            plan = resolve_plan(mission, cfg.control, cfg.mission, None, where, options)
+            plan = resolve_plan(
+                mission, cfg.control, cfg.mission, None, where, options,
+                cfg.safety.mission_time_limit_s,
+            )  # fmt: skip
             provisional = False
         else:
             plan, provisional = plan_for_check(mission, cfg, options)
@@ -438,7 +470,7 @@ def mission_problems(
         if mission.geofence_polygon
         else "safety.geofence_polygon_ne_m"
     )
-    problems += _polygon_problems(cfg, ned, start_ned, fence_name)
+    problems += _polygon_problems(cfg, ned, start_ned, fence_name, plan_point_labels(plan))
     problems += _keep_out_problems(mission, cfg)
     problems += _ground_problems(mission, cfg)
     if provisional:  # before the EKF origin is known, the mission's home stands for it

@@ -19,6 +19,7 @@ Uses matplotlib's Agg backend through the object API (no pyplot state, safe in a
 from __future__ import annotations
 
 import math
+import re
 import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -49,7 +50,7 @@ from helixd.recorder.clocks import autopilot_axis_s
 from helixd.recorder.events import fault_time_mono_s, read_events
 from helixd.recorder.resume_dir import recorded_inputs
 from helixd.recorder.rows import read_flight_columns
-from helixd.recorder.summary import PATH_MIN_STEP_M, RunSummary
+from helixd.recorder.summary import PATH_MIN_STEP_M, Arrival, RunSummary
 
 log = structlog.get_logger(__name__)
 
@@ -71,6 +72,7 @@ OVERVIEW_FILE = "overview.png"
 FAULT_COLOR = "red"
 ARRIVAL_STYLE: dict[str, Any] = {"color": "0.45", "linestyle": ":", "linewidth": 1.0}
 LOST_SHADE: dict[str, Any] = {"color": "orange", "alpha": 0.15, "linewidth": 0}
+LAP_TEXT = re.compile(r"lap (?P<k>\d+) of (?P<n>\d+)")  # Program.laps()' words
 FAULT_LABEL_MAX_CHARS = 48  # long causes are cut in legends (the summary keeps them whole)
 # waypoint labels on time axes: at least this fraction of the axis width apart
 LABEL_MIN_GAP_PANEL = 0.06
@@ -105,7 +107,9 @@ class RunData:
     summary: RunSummary | None
     waypoints: list[tuple[float, float, float]]  # x_m, y_m, tolerance_m
     path_start: tuple[float, float] | None  # a resumed run: the interrupted leg's start
-    arrivals: list[tuple[str, float]]  # the operator's waypoint number, t_s (no via points)
+    # the operator's waypoint number (with its lap where a DO_JUMP repeats it), t_s; no via
+    # points
+    arrivals: list[tuple[str, float]]
     fault: str | None
     fault_t_s: float | None
     clamp_pct: float | None
@@ -307,8 +311,7 @@ def load_run(run_dir: Path) -> RunData:
         if arr.via:
             continue  # the planner's via points are not the operator's waypoints
         idx = int(np.nanargmin(np.abs(t_boot - arr.t_boot_s))) if np.isfinite(t_boot).any() else 0
-        number = arr.index + 1 if arr.number is None else arr.number
-        arrivals.append((str(number), float(t_s[idx])))
+        arrivals.append((arrival_mark(arr), float(t_s[idx])))
     fault = summary.fault if summary else None
     fault_t: float | None = None
     if fault is not None:
@@ -336,6 +339,17 @@ def load_run(run_dir: Path) -> RunData:
     )
 
 
+def arrival_mark(arrival: Arrival) -> str:
+    """A time marker's waypoint: its number as the ground station shows it, with the lap
+    where a DO_JUMP flies the item again (``3 lap 2/3``), so each lap's arrival is told apart
+    as in the log and the ground station's texts."""
+    number = arrival.index + 1 if arrival.number is None else arrival.number
+    lap = LAP_TEXT.fullmatch(arrival.lap or "")
+    if lap is None:
+        return str(number) if not arrival.lap else f"{number} {arrival.lap}"
+    return f"{number} lap {lap['k']}/{lap['n']}"
+
+
 def _load_summary(path: Path) -> RunSummary | None:
     try:
         return RunSummary.from_json(path.read_text(encoding="utf-8"))
@@ -361,6 +375,15 @@ def axis_labels(
     return (f"x, east of {where} (m)", f"y, north of {where} (m)")
 
 
+def position_legend(labels: tuple[str, str]) -> tuple[str, str]:
+    """The position panel's x and y in the trajectory's words, short: ``x, east (m)`` for
+    ``x, east of the EKF origin … (m)``, ``x, forward (m)`` for a start mission."""
+    return (
+        labels[0].split(" of ", 1)[0] + " (m)" if " of " in labels[0] else labels[0],
+        labels[1].split(" of ", 1)[0] + " (m)" if " of " in labels[1] else labels[1],
+    )
+
+
 def _mission_frame(run_dir: Path) -> MissionFrameKind | None:
     try:
         return load_mission(run_dir / MISSION_FILE).frame
@@ -381,7 +404,10 @@ def _load_plan(
         cfg = load_config(run_dir / CONFIG_FILE)
         msn = load_mission(run_dir / MISSION_FILE, cfg.mission)
         origin = summary.origin_latlon_deg if summary else None
-        plan = resolve_plan(msn, cfg.control, cfg.mission, origin)
+        plan = resolve_plan(
+            msn, cfg.control, cfg.mission, origin,
+            time_limit_s=cfg.safety.mission_time_limit_s,
+        )  # fmt: skip
         if inputs is not None and inputs.leg_start is not None:
             plan = with_leg_start(plan, msn, inputs.leg_start, cfg.control, cfg.mission, origin)
     except (ConfigFileError, PlanError) as exc:
@@ -597,8 +623,9 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
 
 def draw_position(top: Axes, bottom: Axes, data: RunData, *, twin: bool = False) -> None:
     """(b) x, y (m) and yaw (deg) against time."""
-    top.plot(data.t_s, data.col("x_m"), label="x (m)", color="tab:blue")
-    top.plot(data.t_s, data.col("y_m"), label="y (m)", color="tab:orange")
+    x_label, y_label = position_legend(data.axis_labels)
+    top.plot(data.t_s, data.col("x_m"), label=x_label, color="tab:blue")
+    top.plot(data.t_s, data.col("y_m"), label=y_label, color="tab:orange")
     bottom.plot(data.t_s, _unwrap_deg(data.col("yaw_rad")), label="yaw (deg)", color="tab:purple")
     top.set_ylabel("position (m)")
     bottom.set_ylabel("yaw, CCW, unwrapped (deg)")

@@ -60,6 +60,12 @@ class RunSummary(StrictModel):
         description="a mission with commands: its items as the ground station numbers them "
         "(home 0 not counted), the N of 'item 3/N'; None: a plain list of waypoints",
     )
+    patrol_item: int | None = Field(
+        None,
+        description="a patrol: the DO_JUMP item repeated forever (repeat -1), flown until "
+        "stopped; waypoints_total and estimated_s then count the laps planned beyond the time "
+        "limit, not an end. None: not a patrol",
+    )
     via_points_reached: int = Field(0, description="via points (inserted by the planner) reached")
     via_points_total: int = Field(0, description="via points in this run")
     arrivals: tuple[Arrival, ...] = ()

@@ -88,8 +88,8 @@ from helixd.runtime.setup import (
     start_sink,
     until_stopped,
 )
-from helixd.runtime.timing import plan_time_estimate
-from helixd.safety.supervisor import fall_back, late_failsafe
+from helixd.runtime.timing import patrol_times_s, plan_time_estimate
+from helixd.safety.supervisor import FallbackReport, fall_back, late_failsafe
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
 
 log = structlog.get_logger(__name__)
@@ -298,6 +298,16 @@ def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
     return None
 
 
+def ending_after_fallback(ending: Ending, report: FallbackReport) -> Ending:
+    """A completed mission (exit 0) whose disarm failed is not exit 0: the exit-code table
+    says 0 means disarmed, and the rover is left armed (pure). Any other ending stands."""
+    if ending.code is not ExitCode.OK or report.disarmed:
+        return ending
+    why = "; ".join(e for e in report.errors if e.startswith("disarm")) or "disarm not confirmed"
+    fault = Fault(FaultCause.NOT_DISARMED, f"every waypoint reached, but {why}: still armed")
+    return Ending(fault, ExitCode.FAULT, ending.detected_s, ending.last_pose)
+
+
 @dataclass(frozen=True)
 class Ready:
     """What startup hands to the main loop."""
@@ -418,7 +428,19 @@ class MissionRunner:
         # a resume's approach to the interrupted leg is not the mission's cross-track error
         join_m = None if plan.leg_start_xy_m is None else self.cfg.control.stop_tolerance_m
         estimate = plan_time_estimate(plan, self.cfg, checked.start_ned)  # as `check` says
-        log.info("flight_estimate", estimated_s=round(estimate.total_s, 1), pivots=estimate.pivots)
+        patrol = patrol_times_s(plan, estimate)
+        if patrol is None:
+            log.info(
+                "flight_estimate", estimated_s=round(estimate.total_s, 1), pivots=estimate.pivots
+            )
+        else:  # flown until stopped: the planned laps' total is no estimate of the flight
+            log.info(
+                "flight_estimate",
+                patrol_first_lap_s=round(patrol[0], 1),
+                patrol_lap_s=round(patrol[1], 1),
+                ends_by="stop or safety.mission_time_limit_s",
+                time_limit_s=self.mission.time_limit_s or self.cfg.safety.mission_time_limit_s,
+            )
         if self.recorder is not None and self.recorder.run_dir is not None:
             low_space = check_free_space(self.recorder.run_dir, estimate.total_s)
             if low_space is not None:
@@ -630,6 +652,7 @@ class MissionRunner:
                 )
             report_fallback(self.gcs, secured)
             ending = self._late_failsafe(ending, ap)
+            ending = ending_after_fallback(ending, secured)
         if ending.code is ExitCode.OK:
             self.gcs.phase("mission complete")
         await self.gcs.close()
@@ -686,6 +709,9 @@ class MissionRunner:
         )
         if self.opts.inputs is not None and self.opts.inputs.resumed_from is not None:
             summary = summary.model_copy(update={"resumed_from": self.opts.inputs.resumed_from})
+        program = None if self._plan is None else self._plan.program
+        if program is not None and program.patrol_item:
+            summary = summary.model_copy(update={"patrol_item": program.patrol_item})
         return summary
 
     def _finish(self, ending: Ending, started: float) -> RunSummary:

@@ -120,7 +120,9 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
     ]
     if summary.duration_clock == "autopilot":
         rows.append(("flight time (autopilot clock)", seconds(summary.duration_s)))
-        if summary.estimated_s is not None:
+        if summary.patrol_item is not None:
+            rows.append(("estimated at preflight", "a patrol: until stopped or the time limit"))
+        elif summary.estimated_s is not None:
             rows.append(("estimated at preflight", seconds(summary.estimated_s)))
     else:
         rows.append(("flight time (autopilot clock)", "- (autopilot rebooted)"))
@@ -144,6 +146,8 @@ def waypoints_text(summary: RunSummary) -> str:
     a mission with commands: ``10/10 as flown (mission items 1–5, DO_JUMP laps each
     counted)``."""
     text = f"{summary.waypoints_reached}/{summary.waypoints_total}"
+    if summary.patrol_item is not None:  # no total: it is flown until stopped
+        text = f"{summary.waypoints_reached}"
     if summary.items_total is not None:
         text += f" as flown ({items_text(summary)})"
     if summary.via_points_total:
@@ -156,6 +160,8 @@ def items_text(summary: RunSummary) -> str:
     laps each counted`` (the laps only when a jump repeated an item)."""
     laps = any(a.lap for a in summary.arrivals)
     counted = ", DO_JUMP laps each counted" if laps else ""
+    if summary.patrol_item is not None:
+        counted = f", a patrol: DO_JUMP item {summary.patrol_item} repeats until stopped{counted}"
     return f"mission items 1–{summary.items_total}{counted}"
 
 
@@ -207,11 +213,8 @@ def result_line(summary: RunSummary) -> str:
     """
     code = summary.exit_code
     word = RESULT_WORDS.get(code, "exit")
-    done = f"{summary.waypoints_reached}/{summary.waypoints_total} waypoints"
-    if summary.items_total is not None:  # counted as flown; the numbers shown are items
-        done += f" as flown ({items_text(summary)})"
-    if summary.via_points_total:  # the planner's via points are not the operator's waypoints
-        done += f" (+{summary.via_points_reached}/{summary.via_points_total} via points)"
+    count, _, rest = waypoints_text(summary).partition(" ")
+    done = f"{count} waypoints" + (f" {rest}" if rest else "")
     wall = summary.duration_mono_s
     if summary.rows == 0 or wall is None:
         times = "not flown"

@@ -42,6 +42,7 @@ from helixd.mav.constants import (
     MAV_SEVERITY_NOTICE,
     MAV_SEVERITY_WARNING,
 )
+from helixd.safety.watchdogs import OPERATOR_CAUSES, cause_words
 
 __all__ = [
     "CHUNK_CHARS",
@@ -52,6 +53,7 @@ __all__ = [
     "Said",
     "WaypointReached",
     "chunk_statustext",
+    "fault_text",
     "gcs_lines",
 ]
 
@@ -110,6 +112,14 @@ _ASCII_SPELLING = str.maketrans({"—": "-", "–": "-", "→": "->", "°": " de
 
 def _ascii(text: str) -> str:
     return "".join(c if " " <= c <= "~" else "?" for c in text.translate(_ASCII_SPELLING))
+
+
+def fault_text(cause: str, detail: str = "") -> str:
+    """A fault as the ground station shows it: "FAULT: GPS lost: …" in words
+    (:func:`helixd.safety.watchdogs.cause_words`), a person's stop "stopped: pilot took
+    over: …"; never the cause's identifier."""
+    head = "stopped" if cause in OPERATOR_CAUSES else "FAULT"
+    return f"{head}: {cause_words(cause)}" + (f": {detail}" if detail else "")
 
 
 def chunk_statustext(severity: int, text: str, text_id: int) -> list[Any]:
@@ -185,8 +195,7 @@ class GcsReporter:
             self._enqueue(_Queued(MAV_SEVERITY_INFO, text, False))
         else:
             severity = MAV_SEVERITY_CRITICAL if event.stopped else MAV_SEVERITY_WARNING
-            detail = f": {event.detail}" if event.detail else ""
-            self._enqueue(_Queued(severity, f"{PREFIX}FAULT {event.name}{detail}", True))
+            self._enqueue(_Queued(severity, PREFIX + fault_text(event.name, event.detail), True))
         return self._drain(now_s) if math.isfinite(now_s) else []
 
     def tick(self, now_s: float) -> list[Any]:

@@ -22,6 +22,7 @@ from helixd.mission.resolve import places_from
 from helixd.mission.validate import pending_checks, plan_for_check
 from helixd.planning.route import RoutePlan
 from helixd.runtime.planned import route_lines, route_time_estimate
+from helixd.runtime.timing import patrol_times_s
 
 MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
 
@@ -42,8 +43,16 @@ def waypoint_table(plan: Plan) -> list[str]:
     return rows
 
 
-def estimate_line(estimate: TimeEstimate, cfg: HelixdConfig, msn: Mission, note: str) -> str:
-    """The estimate, what it is made of, and its margin to the time limit in force."""
+def estimate_line(
+    estimate: TimeEstimate,
+    cfg: HelixdConfig,
+    msn: Mission,
+    note: str,
+    patrol: tuple[float, float] | None = None,
+) -> str:
+    """The estimate, what it is made of, and its margin to the time limit in force; a patrol
+    (``patrol``: its first lap's end and one lap, s) is flown until stopped, so its lap and
+    the limit that ends it."""
     eta = estimate.total_s
     limit = cfg.safety.mission_time_limit_s
     source = (
@@ -51,6 +60,22 @@ def estimate_line(estimate: TimeEstimate, cfg: HelixdConfig, msn: Mission, note:
         if msn.time_limit_s is not None
         else "safety.mission_time_limit_s"
     )
+    if patrol is not None:
+        first_s, lap_s = patrol
+        head = (
+            f"estimate: a patrol, flown until stopped: first lap done at {first_s:.0f} s"
+            f"{note}, then {lap_s:.0f} s a lap; "
+        )
+        if eta < limit:  # fewer laps planned than the limit would fly
+            return head + (
+                f"its planned laps end at {eta:.0f} s, then it holds where it is until stopped "
+                f"or limit {source} = {limit:.0f} s ends it (fault mission_time, exit 4)"
+            )
+        laps = f"about {1 + (limit - first_s) / lap_s:.0f} laps" if lap_s > 0 else "its laps"
+        return head + (
+            f"limit {source} = {limit:.0f} s ends it after {laps} (fault mission_time, exit 4) "
+            "unless it is stopped before"
+        )
     parts = f"{estimate.driving_s:.0f} s driving"
     if estimate.pivots:
         parts += f", {estimate.turning_s:.0f} s in {estimate.pivots} turns in place"
@@ -141,8 +166,12 @@ def check_lines(
         flown = sorted({s.speed_mps for s in steps if s.first_waypoint is not None})
         speeds = f"{', '.join(f'{v:.2f}' for v in flown) or f'{plan.speed_mps:.2f}'} m/s"
         speeds += f", {plan.waits_s():.0f} s of holds"
-    lines.append(f"path    : {estimate.path_length_m:.1f} m{start_note}{straight} at {speeds}")
-    lines.append(estimate_line(estimate, cfg, msn, start_note))
+    laps = " (the patrol's planned laps)" if plan.program and plan.program.patrol_item else ""
+    lines.append(
+        f"path    : {estimate.path_length_m:.1f} m{start_note}{straight}{laps} at {speeds}"
+    )
+    patrol = patrol_times_s(plan, estimate)
+    lines.append(estimate_line(estimate, cfg, msn, start_note, patrol))
     lines.append(ground_line(cfg, msn, plan.mode))
     own = [
         *(

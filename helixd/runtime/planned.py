@@ -37,7 +37,7 @@ from helixd.planning.route import (
     planning_wanted,
 )
 from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.timing import plan_time_estimate, time_problems
+from helixd.runtime.timing import limit_problems, plan_time_estimate
 
 Replanner = Callable[[tuple[float, float], tuple[float, float] | None], Mission]
 
@@ -81,7 +81,8 @@ def plan_loaded(
         raise InputsRefused([str(exc)]) from None
     if route is not None:  # the detours take time: the planned route must fit the limit
         estimate, note = route_time_estimate(cfg, planned, route, path)
-        late = time_problems(estimate, cfg.safety.mission_time_limit_s, note)
+        plan, _ = plan_for_check(planned, cfg)
+        late = limit_problems(plan, estimate, cfg.safety.mission_time_limit_s, note)
         if late:
             raise InputsRefused([f"{path}: planned route: {p}" for p in late])
     return planned, route

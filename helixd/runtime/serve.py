@@ -685,6 +685,8 @@ def flight_end_text(summary: RunSummary | None, numbering: Numbering, messages: 
         return why[0] if why else "not flown"
     if numbering.items:  # a mission with commands: counted as flown, the item reached named
         done = f"{summary.waypoints_reached}/{summary.waypoints_total} waypoints as flown"
+        if summary.patrol_item is not None:  # flown until stopped: no total
+            done = f"{summary.waypoints_reached} waypoints as flown (patrol)"
         reached = [a for a in summary.arrivals if not a.via and a.number is not None]
         if reached:
             done += f", last item {reached[-1].number}/{numbering.total}"

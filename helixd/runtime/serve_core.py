@@ -143,7 +143,8 @@ def answer_command(
         if p1 == 0:
             if view.state is not ServeState.FLYING:
                 return Answer(MAV_RESULT_DENIED, "pause: not flying")
-            return Answer(MAV_RESULT_ACCEPTED, "pausing: DO_PAUSE_CONTINUE 0", Request.PAUSE)
+            pausing = "pausing: pause from the ground station"  # words, not the command's name
+            return Answer(MAV_RESULT_ACCEPTED, pausing, Request.PAUSE)
         if p1 == 1:
             if view.state is ServeState.FLYING and view.holding:
                 return Answer(MAV_RESULT_ACCEPTED, "continuing after the hold", Request.RELEASE)

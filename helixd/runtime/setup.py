@@ -424,7 +424,10 @@ def resolve_flight(
             at = frame.to_mission(NedPose(home.north_m, home.east_m, 0.0))
             home_xy = (at.x_m, at.y_m)
         where = Where(start_xy_m=(here.x_m, here.y_m), home_xy_m=home_xy)
-    resolved = resolve(mission, cfg.control, cfg.mission, origin, where, options)
+    resolved = resolve(
+        mission, cfg.control, cfg.mission, origin, where, options,
+        cfg.safety.mission_time_limit_s,
+    )  # fmt: skip
     if resolved.problems:
         raise PreflightFailed(list(resolved.problems))
     program = resolved.plan.program

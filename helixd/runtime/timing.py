@@ -77,6 +77,52 @@ def time_problems(estimate: TimeEstimate, limit_s: float, note: str = "") -> lis
     ]
 
 
+def _done_s(plan: Plan, estimate: TimeEstimate, steps: int) -> float:
+    """When the program's first ``steps`` steps are done: the last waypoint they drive to
+    reached, and their holds waited (s)."""
+    program = plan.program
+    assert program is not None
+    done = program.steps[:steps]
+    last = [s.last_waypoint for s in done if s.last_waypoint is not None]
+    arrived = estimate.arrivals_s[last[-1]] if last and estimate.arrivals_s else 0.0
+    return arrived + sum(s.hold_s for s in done)
+
+
+def patrol_times_s(plan: Plan, estimate: TimeEstimate) -> tuple[float, float] | None:
+    """A patrol (a DO_JUMP repeated forever): when its first lap ends and how long one lap
+    takes (s, from the estimate); None: not a patrol."""
+    program = plan.program
+    lap = None if program is None else program.first_lap()
+    if lap is None:
+        return None
+    start, end = lap
+    first_end = _done_s(plan, estimate, end)
+    starts = program.lap_starts if program is not None else ()
+    if len(starts) >= 2:  # lap 2 whole: from the end of lap 1 to the end of lap 2
+        return first_end, _done_s(plan, estimate, starts[1]) - first_end
+    return first_end, first_end - _done_s(plan, estimate, start)
+
+
+def patrol_time_problems(first_lap_end_s: float, limit_s: float, note: str = "") -> list[str]:
+    """A patrol is ended by its time limit, so only its first lap has to fit in it."""
+    if math.isfinite(first_lap_end_s) and first_lap_end_s <= limit_s:
+        return []
+    return [
+        f"a patrol (DO_JUMP repeated forever) whose first lap ends at an estimated "
+        f"{first_lap_end_s:.0f} s{note}, beyond safety.mission_time_limit_s = {limit_s:.0f} s: "
+        "not one lap would be flown (shorten the loop or raise the limit)"
+    ]
+
+
+def limit_problems(plan: Plan, estimate: TimeEstimate, limit_s: float, note: str = "") -> list[str]:
+    """The time check of ``plan``: the whole flight within the limit; a patrol, flown until
+    stopped and ended by the limit, its first lap."""
+    patrol = patrol_times_s(plan, estimate)
+    if patrol is not None:
+        return patrol_time_problems(patrol[0], limit_s, note)
+    return time_problems(estimate, limit_s, note)
+
+
 def flight_problems(
     mission: Mission,
     cfg: HelixdConfig,
@@ -103,8 +149,9 @@ def flight_problems(
             plan = checked_plan[0]
         elif mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
             plan = resolve_plan(
-                mission, cfg.control, cfg.mission, origin_latlon_deg, where, options
-            )
+                mission, cfg.control, cfg.mission, origin_latlon_deg, where, options,
+                cfg.safety.mission_time_limit_s,
+            )  # fmt: skip
         else:
             plan = plan_for_check(mission, cfg)[0]
     except PlanError:
@@ -113,7 +160,15 @@ def flight_problems(
     limit_s = limited.safety.mission_time_limit_s
     ned = None if plan.frame is MissionFrameKind.START else start_ned
     note = "" if plan.frame is MissionFrameKind.START or ned is not None else " from waypoint 1"
-    return problems + time_problems(plan_time_estimate(plan, limited, ned), limit_s, note)
+    estimate = plan_time_estimate(plan, limited, ned)
+    return problems + limit_problems(plan, estimate, limit_s, note)
 
 
-__all__ = ["flight_problems", "plan_time_estimate", "time_problems"]
+__all__ = [
+    "flight_problems",
+    "limit_problems",
+    "patrol_time_problems",
+    "patrol_times_s",
+    "plan_time_estimate",
+    "time_problems",
+]

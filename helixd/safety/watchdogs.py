@@ -62,6 +62,8 @@ class FaultCause(StrEnum):
     # helixd serve, a flight of AUTO: the crew set the autopilot's current item (not the next
     # one): the flight ends without asking HOLD and the next starts at that item
     ITEM_SET = "item_set"
+    # a completed mission's disarm failed: the vehicle is left armed, so it is no exit 0
+    NOT_DISARMED = "not_disarmed"
     EXCEPTION = "exception"  # unhandled error inside helixd
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
     ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
@@ -85,6 +87,44 @@ OPERATOR_CAUSES = frozenset(
         FaultCause.ITEM_SET,
     }
 )
+
+
+# What each cause is called where a person reads it (a ground station's messages on a tablet):
+# words, not the identifiers the logs, the result line and summary.json keep.
+CAUSE_WORDS: dict[str, str] = {
+    FaultCause.LINK_LOST: "autopilot link lost",
+    FaultCause.POSE_STALE: "position lost",
+    FaultCause.POSE_INVALID: "bad position data",
+    FaultCause.EKF_UNHEALTHY: "EKF unhealthy",
+    FaultCause.PILOT_TAKEOVER: "pilot took over",
+    FaultCause.RC_LOST: "pilot's radio lost",
+    FaultCause.DISARMED: "disarmed",
+    FaultCause.GEOFENCE: "outside the geofence",
+    FaultCause.MISSION_TIME: "time limit reached",
+    FaultCause.STALL: "stuck, not moving",
+    FaultCause.SIGNAL: "stopped on the rover",
+    FaultCause.PAUSED: "paused",
+    FaultCause.RELEASED: "released to the pilot",
+    FaultCause.ITEM_SET: "new current item",
+    FaultCause.NOT_DISARMED: "mission done, still armed",
+    FaultCause.EXCEPTION: "internal error",
+    FaultCause.PREFLIGHT: "preflight refused",
+    FaultCause.ACTUATOR: "scroll command refused",
+    FaultCause.GPS_LOST: "GPS lost",
+    FaultCause.AUTOPILOT_BATTERY: "battery failsafe",
+    FaultCause.AUTOPILOT_FENCE: "fence failsafe",
+    FaultCause.AUTOPILOT_RADIO: "radio failsafe",
+    FaultCause.AUTOPILOT_GCS: "GCS failsafe",
+    FaultCause.AUTOPILOT_EKF: "EKF failsafe",
+    FaultCause.AUTOPILOT_FAILSAFE: "autopilot failsafe",
+    "fallback": "stop incomplete",  # the fall-back itself failed (HOLD refused, …)
+}
+
+
+def cause_words(cause: str) -> str:
+    """A cause as a person reads it (``pose_stale`` → "position lost"); a name without an
+    entry with its underscores as spaces."""
+    return CAUSE_WORDS.get(cause, cause.replace("_", " "))
 
 
 @dataclass(frozen=True, slots=True)

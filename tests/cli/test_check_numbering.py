@@ -104,3 +104,32 @@ def test_errors_count_entries_from_1(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert code == 2
     assert re.search(rf"{re.escape(str(far))}: item 3: 69\d\.\d m from", err), err
     assert "waypoints[" not in err and "waypoints." not in err
+
+
+def test_check_accepts_a_patrol_and_says_what_its_estimate_and_limit_mean(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Three waypoints and a DO_JUMP with repeat -1 (a patrol the crew stops from the ground
+    station) is flown as ArduPilot Rover flies it; check says one lap's time and that the time
+    limit ends it, instead of refusing it or summing laps planned beyond the limit."""
+    monkeypatch.setenv("COLUMNS", "120")
+    path = wpl(
+        tmp_path,
+        "patrol.waypoints",
+        [(16, 0, 0, 10.0, 0.0), (16, 0, 0, 10.0, 10.0), (16, 0, 0, 0.0, 10.0),
+         (177, 1, -1, NAN, NAN)],
+    )  # fmt: skip
+    code, out, err = run_main(["check", "--mission", str(path), "--mode", "roll"], capsys)
+    assert code == 0, err
+    (estimate,) = [line for line in out.splitlines() if line.startswith("estimate:")]
+    got = re.fullmatch(
+        r"estimate: a patrol, flown until stopped: first lap done at (\d+) s from waypoint 1, "
+        r"then (\d+) s a lap; limit safety\.mission_time_limit_s = 1800 s ends it after about "
+        r"(\d+) laps \(fault mission_time, exit 4\) unless it is stopped before",
+        estimate,
+    )
+    assert got is not None, estimate
+    first_s, lap_s, laps = (int(g) for g in got.groups())
+    assert 30 < first_s < lap_s < 120 and laps == round(1 + (1800 - first_s) / lap_s)
+    assert "(after DO_JUMP item 4, lap 2, forever)" in out
+    assert "ends: item 4 DO_JUMP repeats forever: a patrol flown until it is stopped" in out

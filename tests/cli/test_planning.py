@@ -47,6 +47,19 @@ def test_check_prints_the_planned_legs_and_draws_the_plan(
         assert img.size[0] > 500
 
 
+def test_check_says_why_it_draws_no_plot_without_a_planned_route(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before: `check --plot plan.png` on a mission with nothing to plan around exited 0 and
+    wrote nothing, without a word."""
+    png = tmp_path / "plan.png"
+    square = POND_MISSION.parent / "square.yaml"
+    code, out, err = run_main(["check", "--mission", str(square), "--plot", str(png)], capsys)
+    assert code == 0, err
+    assert f"plot    : {png} not written: --plot draws a route planned around obstacles" in out
+    assert not png.exists()
+
+
 def test_check_refuses_a_waypoint_in_an_obstacle_naming_it(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

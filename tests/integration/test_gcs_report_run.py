@@ -114,6 +114,6 @@ def test_gcs_sees_a_fault_as_critical(tmp_path: Path) -> None:
         code = d.wait_exit(30.0)
         log = d.log_text()
     assert code == ExitCode.FAULT, log[-3000:]
-    faults = [(sev, t) for sev, t, _ in w.texts if t.startswith("helixd: FAULT ekf_unhealthy")]
+    faults = [(sev, t) for sev, t, _ in w.texts if t.startswith("helixd: FAULT: EKF unhealthy")]
     assert faults and faults[0][0] == MAV_SEVERITY_CRITICAL, w.texts
     assert not any(t == "helixd: mission complete" for _, t, _ in w.texts)

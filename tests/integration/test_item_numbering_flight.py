@@ -65,3 +65,33 @@ def test_a_jump_mission_reports_item_numbers_and_laps(tmp_path: Path) -> None:
     assert [a["number"] for a in summary["arrivals"]] == [1, 2, 3] * 3 + [5]
     assert [a["lap"] for a in summary["arrivals"]][3:6] == ["lap 2 of 3"] * 3
     assert "10/10 waypoints as flown (mission items 1–5, DO_JUMP laps each counted)" in result
+
+
+def test_a_patrol_flies_laps_until_its_time_limit_ends_it(tmp_path: Path) -> None:
+    """DO_JUMP repeat -1 (a patrol the crew stops from the ground station) is flown as Rover
+    flies it: lap after lap, numbered without a count, until the time limit ends it; the
+    result gives no total of laps planned beyond the limit. Before: refused (exit 2)."""
+    path = tmp_path / "patrol.waypoints"
+    path.write_text(WPL.replace("177\t1\t2\t", "177\t1\t-1\t"))
+    cfg = {
+        "mission": {"ground_station_mode": "omni"},
+        "safety": {"geofence_radius_m": 200.0, "mission_time_limit_s": 120.0},
+    }
+    with sim_and_daemon(
+        tmp_path, path, cfg, speedup=10.0, terrain="mud", noise="low",
+        origin_lat_deg=HOME[0], origin_lon_deg=HOME[1],
+    ) as (_server, d):  # fmt: skip
+        code = d.wait_exit(120.0)
+        result = d.wait_line("helixd: RESULT", 5.0)
+        log = d.log_text()
+        run_dir = d.run_dir()
+    assert code == ExitCode.FAULT, log[-3000:]
+    assert result.startswith("helixd: RESULT fault mission_time: "), result
+    assert "a patrol: DO_JUMP item 4 repeats until stopped" in result, result
+    count = result.split(" waypoints as flown")[0].rsplit(" ", 1)[-1]
+    assert count.isdigit(), result  # "6 waypoints as flown", no "/96" of planned laps
+    events = [json.loads(ln) for ln in (run_dir / "events.jsonl").read_text().splitlines()]
+    reached = [e["waypoint"] for e in events if e["event"] == "waypoint_reached"]
+    assert reached[:4] == ["1/5 (lap 1)", "2/5 (lap 1)", "3/5 (lap 1)", "1/5 (lap 2)"], reached
+    summary = json.loads((run_dir / "summary.json").read_text())
+    assert summary["patrol_item"] == 4 and summary["completed"] is False

@@ -4,6 +4,7 @@ flown order and timing are worked out by hand from the C++."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Any
 
@@ -11,7 +12,7 @@ import pytest
 
 from helixd.base.plan import ActionKind, Plan
 from helixd.config import HelixdConfig
-from helixd.mission.expand import ExpandOptions
+from helixd.mission.expand import PATROL_STEPS_MAX, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Resolved, Where, resolve
 
@@ -66,11 +67,39 @@ def test_nested_jumps_reset_the_inner_counter_as_ardupilot_does() -> None:
     assert items(r) == [1, 2, 2, 4, 1, 2, 2, 4]
 
 
-def test_a_jump_forever_is_refused_and_shown_once() -> None:
-    r = flown(A, B, jump(1, -1))
-    assert items(r) == [1, 2]
-    assert any("repeats forever" in p and "item 3" in p for p in r.problems)
-    assert r.plan.program is not None and r.plan.program.never_ends
+def test_a_jump_forever_is_a_patrol_planned_beyond_the_time_limit() -> None:
+    """DO_JUMP repeat -1 is accepted as Rover flies it: laps until stopped. The walk unrolls
+    laps until a whole lap lies beyond the time limit in force; the last step holds, so the
+    plan never 'completes' the patrol; the laps are numbered without a count."""
+    r = flown(A, B, jump(1, -1), {"command": "NAV_RETURN_TO_LAUNCH"}, extra={"time_limit_s": 60})
+    program = r.plan.program
+    assert r.problems == () and program is not None
+    assert program.never_ends and program.patrol_item == 3
+    steps = items(r)
+    assert steps[:4] == [1, 2, 1, 2] and 4 not in steps  # the RTL after it is never reached
+    # a lap is 5 + 7.07 m, at least 20 s at 0.6 m/s: 60 s needs > 3 laps, and one more
+    laps = len(steps) // 2
+    pts = points(r.plan)
+    lower_s = sum(math.dist(p, q) for p, q in itertools.pairwise(pts)) / 0.6
+    assert lower_s > 60.0 and laps >= 4
+    assert program.lap_starts == tuple(range(2, len(steps), 2))
+    assert program.first_lap() == (0, 2)
+    assert program.steps[-1].forever and r.plan.waypoints[-1].stop
+    assert program.laps()[:4] == ("lap 1", "lap 1", "lap 2", "lap 2")
+    assert "(after DO_JUMP item 3, lap 2, forever)" in program.steps[2].text
+    assert "flown until it is stopped" in program.ending and "60 s" in program.ending
+    assert any("item 4 NAV_RETURN_TO_LAUNCH: never run" in n for n in r.notes)
+
+
+def test_a_patrol_too_long_to_unroll_holds_after_its_planned_laps_and_says_so() -> None:
+    r = flown(A, B, jump(1, -1), extra={"time_limit_s": 86_400})
+    program = r.plan.program
+    assert program is not None and len(program.steps) == PATROL_STEPS_MAX
+    assert program.steps[-1].forever
+    assert program.ending.endswith(
+        f"{PATROL_STEPS_MAX // 2} laps planned, all a plan holds ({PATROL_STEPS_MAX} steps); "
+        "then it holds where it is"
+    )
 
 
 def test_a_jump_to_a_missing_item_ends_the_mission_there() -> None:
@@ -137,6 +166,7 @@ def test_here_means_where_the_rover_is_when_the_item_starts() -> None:
     assert r.plan.program is not None
     step = r.plan.program.steps[1]
     assert step.first_waypoint is None and step.hold_s == 4.0
+    assert step.text == "NAV_WAYPOINT stays where it is, at (5.00, 0.00), hold 4 s"
 
 
 def test_nav_delay_stops_in_place() -> None:

@@ -107,7 +107,30 @@ def test_leg_across_a_notch_is_refused() -> None:
     msn = mission("local_ned", [(20.0, 5.0), (20.0, 25.0)])  # both arms inside, leg crosses
     problems = mission_problems(msn, cfg)
     assert problems == [
-        "leg waypoints 1 → 2 leaves safety.geofence_polygon_ne_m (both ends are inside)"
+        "leg waypoint 1 (waypoints[0]) → waypoint 2 (waypoints[1]) leaves "
+        "safety.geofence_polygon_ne_m (both ends are inside)"
+    ]
+
+
+def test_a_jump_missions_refusals_name_its_items_not_the_plans_indices() -> None:
+    """The plan of a mission with commands is its flight (jumps expanded, no point for the
+    start): a refusal names the entry a person wrote, once for all its laps — not plan index 0
+    as 'waypoint 1' when entry 2 is the one out of the fence."""
+    msn = Mission.model_validate(
+        {
+            "name": "t",
+            "mode": "omni",
+            "frame": "start",
+            "waypoints": [
+                {"x": 0.0, "y": 0.0},
+                {"x": 400.0, "y": 0.0},
+                {"command": "DO_JUMP", "item": 1, "repeat": 2},
+            ],
+        }
+    )
+    assert mission_problems(msn, HelixdConfig()) == [
+        "waypoint 2 (waypoints[1]): 400.0 m from the start point; allowed at most "
+        "safety.geofence_radius_m = 100.0 m"
     ]
 
 

@@ -24,14 +24,18 @@ from helixd.recorder.plots import (
     PANEL_SIZE_PX,
     PlotError,
     _panel_figure,
+    arrival_mark,
     autopilot_axis,
+    axis_labels,
     distance_along_m,
     draw_cross_track_along,
     load_run,
+    position_legend,
     render_run,
     sparse_label_mask,
     waypoint_labels,
 )
+from helixd.recorder.summary import Arrival, RunSummary
 from tests.support.recorder_runs import SQUARE, synth_run
 
 pytestmark = pytest.mark.usefixtures("reset_logging")
@@ -319,8 +323,6 @@ def test_a_surveys_waypoint_labels_are_moved_clear_of_each_other() -> None:
 
 def test_the_trajectory_axes_say_what_x_and_y_are_in_the_missions_frame(tmp_path: Path) -> None:
     """Before: a global mission's plot said "x (m)"/"y (m)", no north/east, no origin."""
-    from helixd.recorder.plots import axis_labels
-
     assert axis_labels(MissionFrameKind.GLOBAL, (53.52325, -113.52632)) == (
         "x, east of the EKF origin 53.523250°, -113.526320° (m)",
         "y, north of the EKF origin 53.523250°, -113.526320° (m)",
@@ -346,3 +348,38 @@ def test_an_item_a_jump_flies_again_is_labelled_once() -> None:
     points = [(0.0, 0.0), (5.0, 0.0), (0.0, 0.0), (5.0, 0.0), (0.0, 0.0)]
     got = waypoint_labels(points, labels=["1", "2", "1", "2", "5"])
     assert got == [("1,5", (0.0, 0.0)), ("2", (5.0, 0.0))]
+
+
+def test_time_markers_of_a_jump_mission_say_the_lap(tmp_path: Path) -> None:
+    """Each lap's arrival at an item a DO_JUMP repeats is its own marker: 'WP1 lap 2/2', as the
+    log and the ground station say 'reached WP 1/3 (lap 2 of 2)'."""
+    run_dir, _ = synth_run(tmp_path)
+    path = run_dir / "summary.json"
+    summary = RunSummary.from_json(path.read_text(encoding="utf-8"))
+    laps = ["lap 1 of 2", "lap 1 of 2", "lap 2 of 2", "lap 2 of 2"]
+    arrivals = [
+        a.model_copy(update={"number": 1 + k % 2, "lap": lap})
+        for k, (a, lap) in enumerate(zip(summary.arrivals, laps, strict=False))
+    ]
+    path.write_text(summary.model_copy(update={"arrivals": tuple(arrivals)}).to_json(), "utf-8")
+    marks = [label for label, _ in load_run(run_dir).arrivals]
+    assert marks == ["1 lap 1/2", "2 lap 1/2", "1 lap 2/2", "2 lap 2/2"][: len(marks)]
+    assert len(marks) >= 3
+    plain = Arrival(index=4, t_boot_s=1.0, error_m=0.1)
+    assert arrival_mark(plain) == "5"
+    assert arrival_mark(plain.model_copy(update={"number": 3, "lap": "lap 7"})) == "3 lap 7"
+
+
+def test_the_position_panel_says_east_and_north_as_the_trajectory_does() -> None:
+    """A global mission's x and y over time read 'x, east (m)', 'y, north (m)', not a bare
+    'x (m)' beside a trajectory that says east and north of the EKF origin."""
+    origin = (53.52325, -113.52632)
+    assert position_legend(axis_labels(MissionFrameKind.GLOBAL, origin)) == (
+        "x, east (m)",
+        "y, north (m)",
+    )
+    assert position_legend(axis_labels(MissionFrameKind.START, None)) == (
+        "x, forward (m)",
+        "y, left (m)",
+    )
+    assert position_legend(axis_labels(None, None)) == ("x (m)", "y (m)")

@@ -16,10 +16,12 @@ from helixd.runtime.daemon import (
     Ending,
     Stage,
     disarm_after,
+    ending_after_fallback,
     ending_for,
     exit_rule,
 )
 from helixd.runtime.setup import PreflightFailed, StartRefused, StopBeforeFlight
+from helixd.safety.supervisor import FallbackReport
 from helixd.safety.watchdogs import Fault, FaultCause
 
 
@@ -181,3 +183,18 @@ def test_a_stop_during_preflight_acts_at_once(monkeypatch: pytest.MonkeyPatch) -
         assert abandoned.is_set()
 
     asyncio.run(main())
+
+
+def test_a_completed_mission_left_armed_is_no_exit_0() -> None:
+    """Exit 0 means disarmed: a completed mission whose disarm the autopilot refused ends as a
+    fault naming it, so the operator is never told 'ok' about a rover still armed."""
+    done = Ending(None, ExitCode.OK)
+    refused = FallbackReport("completed", "", hold_acked=True, errors=["disarm: DENIED"])
+    got = ending_after_fallback(done, refused)
+    assert got.code is ExitCode.FAULT and got.fault is not None
+    assert got.fault.cause is FaultCause.NOT_DISARMED
+    assert got.fault.detail == "every waypoint reached, but disarm: DENIED: still armed"
+    ok = FallbackReport("completed", "", hold_acked=True, disarmed=True)
+    assert ending_after_fallback(done, ok) is done
+    takeover = Ending(Fault(FaultCause.PILOT_TAKEOVER, "HOLD"), ExitCode.OPERATOR_STOP)
+    assert ending_after_fallback(takeover, refused) is takeover  # left armed for the pilot

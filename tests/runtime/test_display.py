@@ -228,6 +228,20 @@ def test_result_line_for_every_exit_path(
     assert "\n" not in line
 
 
+def test_a_patrol_ended_by_its_time_limit_gives_no_total_of_its_planned_laps() -> None:
+    """A DO_JUMP repeated forever is flown until stopped: '6/96 waypoints' would count laps
+    planned beyond the time limit as if they were the mission; the line says a patrol."""
+    summary = _summary(ExitCode.FAULT, "mission_time: mission running 150 s", 9, 4)
+    summary = summary.model_copy(update={"items_total": 5, "patrol_item": 4})
+    line = result_line(summary)
+    assert line.startswith(
+        "helixd: RESULT fault mission_time: mission running 150 s — 4 waypoints as flown "
+        "(mission items 1–5, a patrol: DO_JUMP item 4 repeats until stopped), "
+    ), line
+    rows = dict(summary_rows(summary))
+    assert rows["estimated at preflight"] == "a patrol: until stopped or the time limit"
+
+
 def test_result_line_after_an_autopilot_reboot_and_a_long_cause() -> None:
     b = SummaryBuilder("square", "roll", 4)
     b.add(nan_row(t_mono_s=1.0, t_boot_s=90.0))

@@ -102,7 +102,7 @@ def test_fallback_outcome() -> None:
     feed.pump()
     assert texts(sent) == [
         "helixd: secured: scrolls neutral, HOLD",
-        "helixd: FAULT fallback: HOLD refused",
+        "helixd: FAULT: stop incomplete: HOLD refused",
     ]
     assert [int(m.severity) for m in sent] == [5, 2]  # NOTICE, CRITICAL
 

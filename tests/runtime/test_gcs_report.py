@@ -21,7 +21,9 @@ from helixd.runtime.gcs_report import (
     ReportedFault,
     WaypointReached,
     chunk_statustext,
+    fault_text,
 )
+from helixd.safety.watchdogs import FaultCause
 
 CFG = GcsReportConfig()
 
@@ -60,10 +62,25 @@ def test_severities() -> None:
     assert texts(out) == [
         (5, "helixd: run"),
         (6, "helixd: reached WP 3/10"),
-        (2, "helixd: FAULT pose_stale: no pose for 0.6 s"),
-        (4, "helixd: FAULT slip_high"),
+        (2, "helixd: FAULT: position lost: no pose for 0.6 s"),
+        (4, "helixd: FAULT: slip high"),
     ]
     assert all(int(m.id) == 0 for m in out)  # short texts: id 0
+
+
+def test_a_fault_reads_in_words_never_its_cause_identifier() -> None:
+    """A tablet shows "stopped: pilot took over", not ``pilot_takeover`` or ``pose_stale``."""
+    r = GcsReporter(CFG, 0.0)
+    out = r.feed(ReportedFault("pilot_takeover", "mode changed to HOLD (helixd set MANUAL)"), 0.0)
+    out += r.feed(ReportedFault("pose_stale", "pose is 0.61 s old (limit 0.5 s)"), 0.0)
+    assert [t for _, t in texts(out)] == [
+        "helixd: stopped: pilot took over: mode changed to",
+        "HOLD (helixd set MANUAL)",
+        "helixd: FAULT: position lost: pose is 0.61 s old",
+        "(limit 0.5 s)",
+    ]
+    for cause in [*FaultCause, "fallback"]:
+        assert "_" not in fault_text(cause), cause  # every identifier has its words
 
 
 def test_long_text_goes_out_as_whole_lines_split_between_words() -> None:
@@ -74,7 +91,7 @@ def test_long_text_goes_out_as_whole_lines_split_between_words() -> None:
     lines = [t for _, t in texts(out)]
     assert all(int(m.id) == 0 for m in out)  # each line stands alone
     assert all(0 < len(t) <= 50 for t in lines)
-    assert " ".join(lines) == "helixd: FAULT f: " + detail  # nothing lost, no word cut
+    assert " ".join(lines) == "helixd: FAULT: f: " + detail  # nothing lost, no word cut
 
 
 def test_text_of_150_chars_keeps_its_tail_and_sends_no_empty_line() -> None:
@@ -128,7 +145,7 @@ def test_rate_limit_with_burst_and_faults_first() -> None:
     out = r.feed(ReportedFault("stall"), 0.3)  # jumps the queue, still waits for a token
     assert out == [] and r.queued == 8
     out = r.tick(0.5)
-    assert texts(out) == [(2, "helixd: FAULT stall")]
+    assert texts(out) == [(2, "helixd: FAULT: stuck, not moving")]
     out = r.tick(1.0)
     assert texts(out) == [(6, "helixd: reached WP 4/10")]
     sent = 0
@@ -150,8 +167,8 @@ def test_queue_overflow_drops_non_faults_and_says_so() -> None:
     for k in range(1, 6):
         got += texts(r.tick(float(k)))
     assert got == [
-        (2, "helixd: FAULT one"),
-        (2, "helixd: FAULT two"),
+        (2, "helixd: FAULT: one"),
+        (2, "helixd: FAULT: two"),
         (6, "helixd: reached WP 3/9"),
         (5, "helixd: 2 messages dropped (rate limit)"),
     ]
@@ -263,5 +280,5 @@ def test_seen_by_a_second_ground_station_through_the_simulated_autopilot() -> No
                         names.add(str(m.name))
             assert (5, "helixd: run") in got
             faults = [t for sev, t in got if sev == 2]  # whole lines, split between words
-            assert " ".join(faults) == "helixd: FAULT pose_stale: " + long_fault.detail
+            assert " ".join(faults) == "helixd: FAULT: position lost: " + long_fault.detail
             assert names == {"xtrack_m", "wp_index"}

@@ -35,6 +35,7 @@ FLOWN = [
     "ap-Sprayer-sprayer-mission.txt",
     "qgc-ArduPilotSITL-ArduRover.plan",
     "qgc-MissionPlanner.waypoints",
+    "qgc-MissionPlanner.waypoints.txt",  # DO_JUMP repeat -1: a patrol, flown until stopped
     "qgc-OldFileFormat.mission",
     "qgc-SectionTest.plan",
     "qgc-simple_square.plan",
@@ -50,7 +51,6 @@ REFUSED = {
     "ap-EndMissionBehavior-end-mission.txt": "(item 1 (line 3) NAV_WAYPOINT: none drives",
     "ap-GCSFailsafe-test_arming.txt": "item 2 (line 4) NAV_LOITER_UNLIM",
     "ap-Offboard-rover-guided-mission.txt": "item 3 NAV_GUIDED_ENABLE: it hands navigation",
-    "qgc-MissionPlanner.waypoints.txt": "item 7 DO_JUMP: repeats forever",
 }
 
 

@@ -13,7 +13,7 @@ from helixd.mission.validate import apply_mission_limits, plan_for_check
 from helixd.planning.mapfile import load_map
 from helixd.runtime.plan_report import check_lines, estimate_line, waypoint_table
 from helixd.runtime.planned import plan_loaded
-from helixd.runtime.timing import plan_time_estimate
+from helixd.runtime.timing import patrol_times_s, plan_time_estimate
 from tests.support.paths import REPO_ROOT
 
 CFG = HelixdConfig()
@@ -122,3 +122,18 @@ def test_check_warns_that_a_fenced_mission_must_start_inside_its_fence(tmp_path:
         for line in check_lines(CFG, plain, path, "x", plain, None)
         if line.startswith("warning :")
     ]
+
+
+def test_a_patrol_whose_planned_laps_end_before_its_limit_says_it_then_holds() -> None:
+    """A plan holds at most so many steps: a short loop under a long limit runs out of planned
+    laps first, and the estimate says the rover then holds, not that the limit ends it."""
+    msn = load_mission(MISSIONS / "square.yaml")
+    jump = msn.waypoints[0].model_validate({"command": "DO_JUMP", "item": 1, "repeat": -1})
+    loop = [*msn.waypoints, jump]
+    msn = msn.model_copy(update={"waypoints": loop, "time_limit_s": 86_400.0})
+    plan, _ = plan_for_check(msn, CFG)
+    cfg = apply_mission_limits(CFG, msn)
+    estimate = plan_time_estimate(plan, cfg)
+    line = estimate_line(estimate, cfg, msn, "", patrol_times_s(plan, estimate))
+    assert line.startswith("estimate: a patrol, flown until stopped: first lap done at "), line
+    assert ", then it holds where it is until stopped or limit the mission's" in line, line

@@ -38,3 +38,13 @@ def test_a_flight_never_started_says_why() -> None:
     why = "preflight refused: EKF not healthy"
     assert flight_end_text(summary, numbering, [why, RESULT]) == why
     assert flight_end_text(None, numbering, [RESULT]) == "not flown"
+
+
+def test_a_patrol_ends_without_a_total_of_its_planned_laps() -> None:
+    numbering = Numbering((1, 2, 1, 2), (False,) * 4, 3, items=True)
+    values: dict[str, Any] = {
+        "rows": 10, "waypoints_reached": 3, "waypoints_total": 40, "patrol_item": 3,
+        "arrivals": (),
+    }  # fmt: skip
+    text = flight_end_text(RunSummary.model_construct(**values), numbering, [RESULT])
+    assert text == "3 waypoints as flown (patrol)"

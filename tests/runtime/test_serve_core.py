@@ -102,6 +102,7 @@ def test_pause_and_continue() -> None:
     flying = view(ServeState.FLYING)
     a = answer_command(flying, MAV_CMD_DO_PAUSE_CONTINUE, (0.0,), 255, GCS)
     assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.PAUSE)
+    assert a.text == "pausing: pause from the ground station"  # words, not DO_PAUSE_CONTINUE 0
     a = answer_command(view(), MAV_CMD_DO_PAUSE_CONTINUE, (0.0,), 255, GCS)
     assert a.result == MAV_RESULT_DENIED and "not flying" in a.text
     paused = view(ServeState.PAUSED, resumable=True)

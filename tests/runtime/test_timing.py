@@ -100,3 +100,32 @@ def test_flight_problems_include_mission_problems() -> None:
     msn = mission("start", [(150.0, 0.0)])  # beyond the default 100 m geofence radius
     geometry = mission_problems(msn, HelixdConfig())
     assert geometry and flight_problems(msn, HelixdConfig())[: len(geometry)] == geometry
+
+
+def patrol(loop_m: float, **extra: Any) -> Mission:
+    """Out and back along ``loop_m`` metres, a DO_JUMP to item 1 forever (a patrol)."""
+    return Mission.model_validate(
+        {
+            "name": "patrol",
+            "mode": "omni",
+            "frame": "start",
+            "waypoints": [
+                {"x": 0.0, "y": 0.0},
+                {"x": loop_m, "y": 0.0},
+                {"command": "DO_JUMP", "item": 1, "repeat": -1},
+            ],
+            **extra,
+        }
+    )
+
+
+def test_a_patrol_is_ended_by_its_time_limit_so_only_its_first_lap_must_fit() -> None:
+    """A DO_JUMP repeated forever flies until stopped: its laps planned beyond the limit are
+    not a refusal; a first lap that cannot end within the limit is."""
+    assert flight_problems(patrol(20.0), HelixdConfig()) == []
+    assert flight_problems(patrol(20.0, time_limit_s=600), HelixdConfig()) == []
+    (late,) = flight_problems(
+        patrol(400.0), config(mission_time_limit_s=300.0, geofence_radius_m=None)
+    )
+    assert late.startswith("a patrol (DO_JUMP repeated forever) whose first lap ends at")
+    assert "beyond safety.mission_time_limit_s = 300 s: not one lap would be flown" in late
