@@ -41,6 +41,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.plan import Numbering, Plan, program_numbering
 from helixd.config import HelixdConfig, config_to_yaml
+from helixd.control.estimate import TimeEstimate
 from helixd.files.models import as_items
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
@@ -298,6 +299,21 @@ def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
     return None
 
 
+def log_estimate(plan: Plan, estimate: TimeEstimate, time_limit_s: float) -> None:
+    """The flight's time estimate in the log; a patrol's by its laps."""
+    patrol = patrol_times_s(plan, estimate)
+    if patrol is None:
+        log.info("flight_estimate", estimated_s=round(estimate.total_s, 1), pivots=estimate.pivots)
+    else:  # flown until stopped: the planned laps' total is no estimate of the flight
+        log.info(
+            "flight_estimate",
+            patrol_first_lap_s=round(patrol[0], 1),
+            patrol_lap_s=round(patrol[1], 1),
+            ends_by="stop or safety.mission_time_limit_s",
+            time_limit_s=time_limit_s,
+        )
+
+
 def ending_after_fallback(ending: Ending, report: FallbackReport) -> Ending:
     """A completed mission (exit 0) whose disarm failed is not exit 0: the exit-code table
     says 0 means disarmed, and the rover is left armed (pure). Any other ending stands."""
@@ -428,19 +444,8 @@ class MissionRunner:
         # a resume's approach to the interrupted leg is not the mission's cross-track error
         join_m = None if plan.leg_start_xy_m is None else self.cfg.control.stop_tolerance_m
         estimate = plan_time_estimate(plan, self.cfg, checked.start_ned)  # as `check` says
-        patrol = patrol_times_s(plan, estimate)
-        if patrol is None:
-            log.info(
-                "flight_estimate", estimated_s=round(estimate.total_s, 1), pivots=estimate.pivots
-            )
-        else:  # flown until stopped: the planned laps' total is no estimate of the flight
-            log.info(
-                "flight_estimate",
-                patrol_first_lap_s=round(patrol[0], 1),
-                patrol_lap_s=round(patrol[1], 1),
-                ends_by="stop or safety.mission_time_limit_s",
-                time_limit_s=self.mission.time_limit_s or self.cfg.safety.mission_time_limit_s,
-            )
+        limit_s = self.mission.time_limit_s or self.cfg.safety.mission_time_limit_s
+        log_estimate(plan, estimate, limit_s)
         if self.recorder is not None and self.recorder.run_dir is not None:
             low_space = check_free_space(self.recorder.run_dir, estimate.total_s)
             if low_space is not None:
