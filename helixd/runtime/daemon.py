@@ -295,8 +295,9 @@ def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
     if ending.fault is not None and ending.fault.cause in (
         FaultCause.RELEASED,
         FaultCause.ITEM_SET,
+        FaultCause.HANDOVER,
     ):
-        return False  # the pilot drives it, or the next flight of AUTO does
+        return False  # the pilot drives it, or the next flight does
     if not armed_by_us:
         return None
     if ending.fault is not None and ending.fault.cause in (FaultCause.SIGNAL, FaultCause.PAUSED):
@@ -386,7 +387,7 @@ class MissionRunner:
                 self.gcs.phase("armed")
             elif not ap.state.armed:  # the crew armed it; a disarm since ends the start
                 raise PreflightFailed(
-                    [f"the autopilot is not armed (mode {ap.state.mode}): arm it in AUTO"]
+                    [f"the autopilot is not armed (mode {ap.state.mode}): arm it first"]
                 )
             now = await fresh_pose(ap, cfg, stop)
             start_ned = start_pose(checked, now, ap, cfg, self.opts.options)
@@ -441,10 +442,11 @@ class MissionRunner:
     def _on_gate(self, gate: Gate, mode: str) -> None:
         """The autopilot's mode changed what a flight of its AUTO may do: tell the GCS."""
         if gate is Gate.HOLD:
-            self.gcs.phase(f"paused: mode {mode}, scrolls held at neutral until AUTO")
+            back = self.host.driving_mode if self.host.goto is None else "a place to go"
+            self.gcs.phase(f"paused: mode {mode}, scrolls held at neutral until {back}")
         elif gate is Gate.DRIVE:
             self.gcs.phase(f"continuing in {mode}")
-        else:
+        elif gate is Gate.RELEASE:
             self.gcs.phase(f"released: mode {mode}, the pilot drives")
 
     async def _judge_autopilot_fence(self, ap: Autopilot, checked: Checked) -> None:
@@ -580,6 +582,7 @@ class MissionRunner:
                     on_mission_event=on_mission_event,
                     driving_mode=self.host.driving_mode,
                     on_gate=self._on_gate,
+                    goto=self.host.goto,
                 )
                 result = await self.flight_loop.run()
             finally:
@@ -712,7 +715,10 @@ class MissionRunner:
             self.gcs.phase(f"pausing: {ending.fault.detail}")  # an operator's, not a fault
         elif ending.fault is not None and ending.fault.cause is FaultCause.RELEASED:
             pass  # the flight loop told the GCS already (released: the pilot drives)
-        elif ending.fault is not None and ending.fault.cause is FaultCause.ITEM_SET:
+        elif ending.fault is not None and ending.fault.cause in (
+            FaultCause.ITEM_SET,
+            FaultCause.HANDOVER,
+        ):
             self.gcs.phase(ending.fault.detail)
         elif ending.fault is not None:
             self.gcs.fault(ending.fault.cause.value, ending.fault.detail)

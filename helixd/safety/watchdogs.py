@@ -62,6 +62,10 @@ class FaultCause(StrEnum):
     # helixd serve, a flight of AUTO: the crew set the autopilot's current item (not the next
     # one): the flight ends without asking HOLD and the next starts at that item
     ITEM_SET = "item_set"
+    # helixd serve, a flight the autopilot's mode drives: the crew gave the autopilot another
+    # place (Go to location) or a mode helixd drives in (AUTO, GUIDED, RTL, SMART_RTL): the
+    # flight ends without asking HOLD and the next drives there
+    HANDOVER = "handover"
     EXCEPTION = "exception"  # unhandled error inside helixd
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
     ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
@@ -83,6 +87,7 @@ OPERATOR_CAUSES = frozenset(
         FaultCause.PAUSED,
         FaultCause.RELEASED,
         FaultCause.ITEM_SET,
+        FaultCause.HANDOVER,
     }
 )
 
