@@ -1,0 +1,201 @@
+"""``helixd serve`` driving to the autopilot's own place: QGroundControl's *Go to location* (the
+autopilot in GUIDED) and its RTL button (the autopilot in RTL, to the rally point nearer than
+home), each held at its end, and MANUAL releasing.
+
+A scripted ground station (system 255, its own UDP link to the simulator) sends what
+QGroundControl's source sends for each button; the comment on each step names the QGC
+function it copies. helixd learns the place from the autopilot's POSITION_TARGET_GLOBAL_INT.
+Everything is judged on the simulator's truth; the latencies (wall time, what the crew waits)
+and the end-position errors are printed (run with ``-s``). The simulator runs at 5×.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import time
+from pathlib import Path
+from typing import Any
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.mav.constants import (
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_REPOSITION,
+    MAV_DO_REPOSITION_FLAGS_CHANGE_MODE,
+    MAV_FRAME_GLOBAL,
+    MAV_MODE_FLAG_SAFETY_ARMED,
+    MAV_RESULT_ACCEPTED,
+)
+from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.snapshot import SimSnapshot
+from tests.integration.test_serve_crew_modes import (
+    CONFIG,
+    driving,
+    heartbeat_shows,
+    overriding_neutral,
+    set_mode,
+)
+from tests.support.gcs import QGC_SYSID, SIM, latlon
+from tests.support.harness import (
+    MavClient,
+    guard_installed,
+    overrides_released,
+    record_until,
+    time_until,
+)
+from tests.support.serve import SPEEDUP, moving, serve_proc, sim_with_ground_station
+
+FIRST_NE = (10.0, 4.0)  # the first click (m north/east of the EKF origin; home is there)
+SECOND_NE = (2.0, 12.0)  # the second click, while driving to the first
+RALLY_NE = (-3.0, 17.0)  # 6 m from the second place; home is 12 m away: RTL goes here
+ARRIVAL_M = 1.5  # control.waypoint_tolerance_m (1 m) and the simulator's GPS noise
+START_LATENCY_MAX_S = 1.5  # click → scrolls driven (the GUIDED HEARTBEAT comes at 1 Hz)
+RELEASE_LATENCY_MAX_S = 0.5
+
+
+def go_to_location(gcs: MavClient, north_m: float, east_m: float) -> float:
+    """QGroundControl's APMFirmwarePlugin::guidedModeGotoLocation: COMMAND_INT
+    MAV_CMD_DO_REPOSITION to the autopilot, MAV_FRAME_GLOBAL, param1 -1 (default speed),
+    param2 MAV_DO_REPOSITION_FLAGS_CHANGE_MODE, param4 NaN, x/y the click (degE7), z the
+    vehicle's AMSL altitude; returns the monotonic time it was sent."""
+    lat, lon = latlon(north_m, east_m)
+    gcs.drain()
+    sent = time.monotonic()
+    gcs.mav.command_int_send(
+        1, 1, MAV_FRAME_GLOBAL, MAV_CMD_DO_REPOSITION, 0, 0,
+        -1.0, float(MAV_DO_REPOSITION_FLAGS_CHANGE_MODE), 0.0, math.nan,
+        round(lat * 1e7), round(lon * 1e7), SIM.origin_alt_m,
+    )  # fmt: skip
+    ack = gcs.expect("COMMAND_ACK", 10.0, lambda m: int(m.command) == MAV_CMD_DO_REPOSITION)
+    assert int(ack.result) == MAV_RESULT_ACCEPTED, ack
+    return sent
+
+
+def upload_rally(gcs: MavClient, north_m: float, east_m: float) -> None:
+    """QGC's Plan view, Rally Points, Upload: the mission protocol with
+    MAV_MISSION_TYPE_RALLY, one MAV_CMD_NAV_RALLY_POINT."""
+    lat, lon = latlon(north_m, east_m)
+    rally = mavlink.MAV_MISSION_TYPE_RALLY
+    item = mavlink.MAVLink_mission_item_int_message(
+        1, 1, 0, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_CMD_NAV_RALLY_POINT,
+        0, 1, 0.0, 0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0, rally,
+    )  # fmt: skip
+    gcs.mav.mission_count_send(1, 1, 1, rally)
+    deadline = time.monotonic() + 20.0
+    while time.monotonic() < deadline:
+        msg = gcs.conn.recv_match(
+            type=["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"], blocking=True,
+            timeout=0.5,
+        )  # fmt: skip
+        if msg is None or int(msg.target_system) != QGC_SYSID:
+            continue
+        if msg.get_type() == "MISSION_ACK":
+            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, msg
+            return
+        gcs.mav.send(item)
+    raise AssertionError("rally upload: no MISSION_ACK")
+
+
+def near(ne: tuple[float, float], within_m: float) -> Any:
+    def check(s: SimSnapshot) -> bool:
+        return math.hypot(s.north_m - ne[0], s.east_m - ne[1]) <= within_m
+
+    return check
+
+
+def error_m(s: SimSnapshot, ne: tuple[float, float]) -> float:
+    return math.hypot(s.north_m - ne[0], s.east_m - ne[1])
+
+
+def held_there(server: Any, ne: tuple[float, float], mode: str) -> float:
+    """Neutral with helixd's overrides kept for 2 s of simulated time, armed, in ``mode``, at
+    the place; the end-position error (m)."""
+    t0 = server.snapshot().sim_time_s
+    held = record_until(server, lambda s: s.sim_time_s >= t0 + 2.0, 30.0)
+    later = [s for _, s in held.samples if s.sim_time_s >= t0 + 0.3]
+    assert later and all(overriding_neutral(s) and s.armed and s.mode == mode for s in later)
+    errors = [error_m(s, ne) for s in later]
+    assert max(errors) <= ARRIVAL_M, errors
+    return errors[-1]
+
+
+def test_go_to_location_and_rtl_to_a_rally_point(tmp_path: Path) -> None:
+    with sim_with_ground_station(**guard_installed(SPEEDUP)) as (server, urls, gcs):
+        d = serve_proc(tmp_path, urls[0], CONFIG)
+        d.start_pump()
+        try:
+            d.wait_line("no mission on the autopilot", 60.0)  # no mission needed for these
+            upload_rally(gcs, *RALLY_NE)
+            # Arm (Vehicle::setArmedShowError: MAV_CMD_COMPONENT_ARM_DISARM) in MANUAL
+            assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+            heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+            assert not server.snapshot().overrides_active[0]
+
+            # Go to location: the first click
+            t_click = go_to_location(gcs, *FIRST_NE)
+            driven_s = time_until(server, driving, t_click, 20.0)
+            moving_s = time_until(server, moving, t_click, 20.0)
+            print(f"\nGo to location → scrolls driven: {driven_s:.3f} s, moving: {moving_s:.3f} s")
+            assert driven_s <= START_LATENCY_MAX_S, driven_s
+            assert server.snapshot().mode == "GUIDED"  # helixd set no mode
+            d.wait_line("event=goto_start mode=GUIDED", 5.0)
+
+            # a second click while driving: helixd goes to the new place
+            start = server.snapshot()
+            server.wait_for(lambda s: error_m(s, (start.north_m, start.east_m)) >= 3.0, 30.0)
+            mark = d.mark()
+            t_second = go_to_location(gcs, *SECOND_NE)
+
+            def new_flight() -> bool:
+                return any("event=serve_flight_start" in ln for ln in d.lines[mark:])
+
+            trace = record_until(server, lambda s: new_flight() and driving(s), 10.0)
+            t_handover = trace.first(lambda s: not driving(s), after_s=t_second)
+            redirect_s = trace.first(driving, after_s=t_handover) - t_second
+            print(
+                f"second click → old flight let go: {t_handover - t_second:.3f} s, "
+                f"new flight driving: {redirect_s:.3f} s"
+            )
+            assert redirect_s <= START_LATENCY_MAX_S, redirect_s
+            time_until(server, near(SECOND_NE, ARRIVAL_M), t_second, 90.0)
+            d.wait_line("event=goto_arrived", 30.0, after=mark)
+            end_s = held_there(server, SECOND_NE, "GUIDED")
+            print(f"Go to location: held {end_s:.2f} m from the second click")
+            snap = server.snapshot()
+            assert error_m(snap, FIRST_NE) > 5.0  # it never went on to the first place
+
+            # RTL (APMFirmwarePlugin::guidedModeRTL: _setFlightModeAndValidate(RTL)): the
+            # rally point is nearer than home, so ArduPilot's RTL goes there
+            mark = d.mark()
+            t_rtl = set_mode(gcs, "RTL")
+            rtl_s = time_until(server, driving, t_rtl, 10.0)
+            print(f"RTL → scrolls driven: {rtl_s:.3f} s")
+            assert rtl_s <= START_LATENCY_MAX_S, rtl_s
+            # the rally point may come before the HEARTBEAT naming RTL: the flight there can
+            # start labelled with the mode before (GUIDED); the place is RTL's all the same
+            d.wait_line("event=goto_start", 5.0, after=mark)
+            assert gcs.wait_text("Reached destination", 120.0) == "Reached destination"
+            d.wait_line("event=goto_arrived", 30.0, after=mark)
+            rally_s = held_there(server, RALLY_NE, "RTL")
+            print(f"RTL: held {rally_s:.2f} m from the rally point")
+
+            # MANUAL from the flight-mode menu: the pilot drives, helixd lets go at once
+            t_manual = set_mode(gcs, "MANUAL")
+            manual_s = time_until(server, overrides_released, t_manual, 5.0)
+            print(f"MANUAL → overrides released: {manual_s:.3f} s")
+            assert manual_s <= RELEASE_LATENCY_MAX_S, manual_s
+            heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["MANUAL"])
+            snap = server.snapshot()
+            assert snap.mode == "MANUAL" and snap.armed  # no HOLD asked, not disarmed
+            assert "event=fallback" not in d.log_text()
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    causes = [s["fault"].split(":", 1)[0] for s in summaries]
+    assert causes == ["handover", "handover", "released"], summaries
