@@ -346,8 +346,6 @@ def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -
     if code is ExitCode.OK:
         return ServeState.COMPLETED
     handed = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
-    if cause in (FaultCause.PAUSED, *handed) or (
-        paused and cause in (FaultCause.SIGNAL, None)
-    ):
+    if cause in (FaultCause.PAUSED, *handed) or (paused and cause in (FaultCause.SIGNAL, None)):
         return ServeState.PAUSED
     return ServeState.FAULTED
