@@ -40,9 +40,11 @@ from tests.integration.test_serve_crew_modes import (
 from tests.support.gcs import QGC_SYSID, SIM, latlon
 from tests.support.harness import (
     MavClient,
+    deep_merge,
     guard_installed,
     overrides_released,
     record_until,
+    secured,
     time_until,
 )
 from tests.support.serve import SPEEDUP, moving, serve_proc, sim_with_ground_station
@@ -199,3 +201,34 @@ def test_go_to_location_and_rtl_to_a_rally_point(tmp_path: Path) -> None:
     summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
     causes = [s["fault"].split(":", 1)[0] for s in summaries]
     assert causes == ["handover", "handover", "released"], summaries
+
+
+def test_a_fault_on_the_way_to_a_place_ends_in_the_fall_back(tmp_path: Path) -> None:
+    # the scrolls dig in on the way (stall watchdog shortened): the flight's own fall-back runs
+    # (neutral, every override released, HOLD), and the place is not driven to again by itself
+    config = deep_merge(CONFIG, {"safety": {"stall": {"duration_s": 1.0}}})
+    with sim_with_ground_station(**guard_installed(SPEEDUP)) as (server, urls, gcs):
+        d = serve_proc(tmp_path, urls[0], config)
+        d.start_pump()
+        try:
+            d.wait_line("no mission on the autopilot", 60.0)
+            assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+            heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+            t_click = go_to_location(gcs, *FIRST_NE)
+            time_until(server, moving, t_click, 20.0)
+            t_fault = time.monotonic()
+            server.inject("stall", duration_s=600.0)
+            secured_s = time_until(server, secured, t_fault, 20.0)
+            print(f"\nstall on the way → secured (HOLD, released, neutral): {secured_s:.3f} s")
+            d.wait_line("event=fallback cause=stall", 10.0)
+            d.wait_line("event=serve_state state=faulted", 10.0)
+            # the autopilot's place is still GUIDED's, but HOLD: nothing starts by itself
+            t0 = server.snapshot().sim_time_s
+            trace = record_until(server, lambda s: s.sim_time_s >= t0 + 3.0, 30.0)
+            assert all(secured(s) for _, s in trace.samples)
+            assert sum("event=goto_start" in ln for ln in d.lines) == 1
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
