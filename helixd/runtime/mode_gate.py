@@ -7,8 +7,9 @@ buttons talk to the autopilot, and the mode they leave it in is what helixd obey
 * AUTO (the flight's driving mode): helixd drives with its own guidance;
 * a mode in which the pilot drives (MANUAL, ACRO, STEERING: ArduPilot Rover's modes with
   manual input): the flight ends and every override is released at once, no HOLD asked;
-* any other mode (HOLD — QGroundControl's Pause for a rover —, LOITER, GUIDED, RTL, …): the
-  scrolls are held at neutral by helixd's overrides (with the scroll outputs on RC
+* GUIDED, RTL or SMART_RTL publishing a place to go: a handover (below);
+* any other mode (HOLD — QGroundControl's Pause for a rover —, LOITER, GUIDED with no place,
+  …): the scrolls are held at neutral by helixd's overrides (with the scroll outputs on RC
   passthrough, ArduPilot's own HOLD would pass the sticks through) until AUTO comes back, when
   the flight goes on from where it stopped.
 
