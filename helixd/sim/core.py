@@ -13,7 +13,7 @@ from typing import Protocol
 
 import numpy as np
 
-from helixd.base.frames import latlon_to_ne
+from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.mav.constants import (
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL,
@@ -30,7 +30,13 @@ from helixd.sim.inbound import InboundHandler
 from helixd.sim.messages import STATUSTEXT_LEN, Message, file_transfer_protocol, statustexts
 from helixd.sim.mission_server import MissionServer, Outcome
 from helixd.sim.mode_auto import ModeAuto
-from helixd.sim.mode_goto import ModeGoto, Place, reposition_refusal, rtl_destination
+from helixd.sim.mode_goto import (
+    ModeGoto,
+    Place,
+    SmartRtlPath,
+    reposition_refusal,
+    rtl_destination,
+)
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.param_store import ParamStore
 from helixd.sim.physics import MotorMap
@@ -121,7 +127,9 @@ class SimCore:
         )
         self.ap.mission_present = lambda: len(self.mission.stored()) > 1
         self.auto = ModeAuto()
-        self.goto = ModeGoto()  # GUIDED's and RTL's place (helixd.sim.mode_goto)
+        self.goto = ModeGoto()  # GUIDED's, RTL's and SmartRTL's place (helixd.sim.mode_goto)
+        self.srtl = SmartRtlPath()  # AP_SmartRTL's saved path
+        self.ap.smart_rtl_ready = lambda: self.srtl.active
         self._mode_before = self.ap.mode  # a mode entered or left: AUTO's, GUIDED's, RTL's
         self._params_view: tuple[int, Mapping[str, float]] = (-1, MappingProxyType({}))
         self.view = self._view(self.ekf_status(), self.now_s)
@@ -388,6 +396,7 @@ class SimCore:
             # AP_Arming_Rover::disarm: outside AUTO the mission is reset, so MISSION_CURRENT
             # reads 0 until something sets the current item again
             self.mission.reset_on_disarm()
+        self._smart_rtl_save(arming=self.ap.armed and not self._was_armed)
         self._was_armed = self.ap.armed
         self._mode_changed()
         self._mode_auto(now)
@@ -419,7 +428,26 @@ class SimCore:
             ]
             here = self.ap.here_ne or home_place.ne
             self.goto.go(rtl_destination(here, home_place, rally), here, rtl=True)
+        if mode == MODE_NUMBERS["SMART_RTL"]:
+            self.mission_outcome(self.goto.follow(self.srtl.points, self.ap.here_ne))
         self._mode_before = mode
+
+    def _smart_rtl_save(self, arming: bool) -> None:
+        """AP_SmartRTL: the path from the first position and from each arming
+        (``set_home``), a point every SRTL_ACCURACY outside SmartRTL (``save_position``)."""
+        here = self.ap.here_ne
+        if here is None:
+            return
+        restart = arming or not self.srtl.active
+        if not restart and (self.ap.mode == MODE_NUMBERS["SMART_RTL"] or not self.srtl.due(here)):
+            return
+        cfg = self.config
+        lat, lon = ne_to_latlon(*here, cfg.origin_lat_deg, cfg.origin_lon_deg)
+        place = Place(here, round(lat * 1e7), round(lon * 1e7), cfg.origin_alt_m)
+        if restart:
+            self.srtl.set_home(place)
+        else:
+            self.srtl.points.append(place)
 
     def _position_target(self) -> tuple[int, int, float] | None:
         """The mode's place to go (get_desired_location): AUTO's current waypoint, GUIDED's

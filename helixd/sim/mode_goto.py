@@ -1,5 +1,5 @@
-"""Rover's GUIDED (a place from MAV_CMD_DO_REPOSITION) and RTL as the simulator models them
-(pure: no sockets, no clocks).
+"""Rover's GUIDED (a place from MAV_CMD_DO_REPOSITION), RTL and SmartRTL as the simulator
+models them (pure: no sockets, no clocks).
 
 From ArduPilot Rover:
 
@@ -23,17 +23,22 @@ From ArduPilot Rover:
   in its WP submode), which ``GCS_MAVLINK::send_position_target_global_int`` streams as
   POSITION_TARGET_GLOBAL_INT in the EXTENDED_STATUS group.
 
-SmartRTL is not modelled: the simulator keeps no breadcrumbs, so entering it fails as
-ArduPilot's does with no saved path (``ModeSmartRTL::_enter``: ``smart_rtl.is_active()``),
-and a failsafe whose action is SmartRTL falls back to RTL, then HOLD
-(:mod:`helixd.sim.failsafe`).
+SmartRTL (``Rover/mode_smart_rtl.cpp``, ``AP_SmartRTL``): the path starts where the EKF
+first has a position and again at each arming (``set_home``), and a point is saved whenever
+the rover is SRTL_ACCURACY (2 m) from the last one, outside SmartRTL (``ModeSmartRTL::
+save_position``, ``add_point``). Entering SmartRTL needs the path (``_enter``: else refused,
+and a failsafe asking it falls back to RTL, then HOLD); it pops the newest point, publishes it,
+pops the next once that one is reached, and with none left says "Reached destination" and
+publishes nothing more (``StopAtHome``). Not modelled: the path's simplification and pruning
+(the simulator returns by every saved point), the wait for that cleanup (the first point is
+published at once), SRTL_POINTS and the 15 s timeouts.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from helixd.mav.constants import (
     MAV_DO_REPOSITION_FLAGS_CHANGE_MODE,
@@ -51,6 +56,7 @@ from helixd.sim.mission_server import Outcome
 from helixd.sim.mode_auto import passed_finish_line
 from helixd.sim.rover_firmware import SimStatusText
 
+SRTL_ACCURACY_M = 2.0  # SRTL_ACCURACY's default: points no closer than this
 LOCATION_ALT_MAX_M = 83_000.0  # LOCATION_ALT_MAX_M (AP_Common/Location.h)
 LAT_MAX_E7 = 90 * 10_000_000
 LON_MAX_E7 = 180 * 10_000_000
@@ -111,17 +117,52 @@ def rtl_destination(here_ne: NE, home: Place, rally: Sequence[Place]) -> Place:
 
 
 @dataclass(slots=True)
+class SmartRtlPath:
+    """AP_SmartRTL's saved path: the points back home, the newest last."""
+
+    points: list[Place] = field(default_factory=list)
+    active: bool = False
+
+    def set_home(self, here: Place) -> None:
+        """``set_home``: the path cleared, this point first."""
+        self.points, self.active = [here], True
+
+    def due(self, here_ne: NE) -> bool:
+        """``add_point``: far enough from the last point to be saved."""
+        return self.active and math.dist(self.points[-1].ne, here_ne) >= SRTL_ACCURACY_M
+
+
+@dataclass(slots=True)
 class ModeGoto:
-    """The place GUIDED or RTL drives to, and whether it was reached."""
+    """The place GUIDED, RTL or SmartRTL drives to, and whether it was reached."""
 
     place: Place | None = None  # None: GUIDED's Stop submode (nothing published)
     origin_ne: NE | None = None
     reached: bool = False
     rtl: bool = False  # RTL's place (says "Reached destination"), else GUIDED's
+    path: list[Place] | None = None  # SmartRTL: the saved points left (popped from the end)
 
     def stop(self) -> None:
         """GUIDED entered (Stop submode), or the mode left."""
         self.place, self.origin_ne, self.reached, self.rtl = None, None, False, False
+        self.path = None
+
+    def follow(self, path: list[Place], here_ne: NE | None) -> Outcome:
+        """SmartRTL entered: the newest saved point first (``pop_point``)."""
+        self.stop()
+        self.path = path
+        return self._next(here_ne)
+
+    def _next(self, here_ne: NE | None) -> Outcome:
+        out = Outcome()
+        path = self.path
+        assert path is not None
+        if path:
+            self.go(path.pop(), here_ne, rtl=False)
+            return out
+        out.say(SimStatusText(MAV_SEVERITY_INFO, REACHED_TEXT))
+        self.place, self.reached = None, True  # StopAtHome: nothing published
+        return out
 
     def go(self, place: Place, here_ne: NE | None, rtl: bool) -> None:
         """A new place (AR_WPNav::set_desired_location: the leg starts at the previous
@@ -145,6 +186,8 @@ class ModeGoto:
         if not (near or (origin is not None and passed_finish_line(origin, dest, here_ne))):
             return out
         self.reached = True
+        if self.path is not None:
+            return self._next(here_ne)
         if self.rtl:
             out.say(SimStatusText(MAV_SEVERITY_INFO, REACHED_TEXT))
         else:
@@ -152,4 +195,11 @@ class ModeGoto:
         return out
 
 
-__all__ = ["REACHED_TEXT", "ModeGoto", "Place", "reposition_refusal", "rtl_destination"]
+__all__ = [
+    "REACHED_TEXT",
+    "ModeGoto",
+    "Place",
+    "SmartRtlPath",
+    "reposition_refusal",
+    "rtl_destination",
+]

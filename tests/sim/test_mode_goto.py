@@ -12,6 +12,7 @@ import os
 from typing import Any
 
 os.environ.setdefault("MAVLINK20", "1")
+import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.frames import ne_to_latlon
@@ -28,7 +29,7 @@ from helixd.sim import modes
 from helixd.sim.core import SimCore
 from helixd.sim.mode_goto import Place, reposition_refusal, rtl_destination
 from tests.sim.test_mode_auto import GCS_SYSID, ready_core, teleport, texts
-from tests.support.simcore import command, incoming, of_type, run
+from tests.support.simcore import command, incoming, make_core, of_type, run
 
 _mav = mavlink.MAVLink(None)
 MAV_FRAME_LOCAL_NED = int(mavlink.MAV_FRAME_LOCAL_NED)  # no place on Earth
@@ -141,6 +142,29 @@ def test_guided_from_the_mode_menu_has_no_place_and_rtl_drives_to_the_rally_poin
 
 
 def test_smart_rtl_is_refused_without_a_saved_path() -> None:
-    core = ready_core()
-    assert set_mode(core, modes.SMART_RTL) != MAV_RESULT_ACCEPTED
+    core = make_core(ekf_origin_delay_s=60.0)
+    run(core, core.config.boot_duration_s + 1.0)
+    assert set_mode(core, modes.SMART_RTL) != MAV_RESULT_ACCEPTED  # no position: no path
     assert core.ap.mode == modes.MANUAL
+
+
+def test_smart_rtl_returns_by_the_saved_points_and_stops_publishing_at_home() -> None:
+    core = ready_core()
+    assert command(core, 0, MAV_CMD_COMPONENT_ARM_DISARM, 1, sysid=GCS_SYSID) == 0
+    run(core, 0.1)  # the arming restarts the path where the rover is
+    for n, e in ((1.0, 0.0), (3.0, 0.0), (6.0, 0.0), (6.0, 3.0), (6.0, 4.0)):
+        teleport(core, n, e)
+        run(core, 0.2)
+    assert [p.ne for p in core.srtl.points] == [
+        pytest.approx(p, abs=0.05) for p in ((0.0, 0.0), (3.0, 0.0), (6.0, 0.0), (6.0, 3.0))
+    ]
+    assert set_mode(core, modes.SMART_RTL) == MAV_RESULT_ACCEPTED
+    out = run(core, 1.0)  # (6, 3) is within WP_RADIUS: on to (6, 0)
+    assert targets(out)[-1] == latlon_e7(core, 6.0, 0.0)
+    teleport(core, 6.0, 0.5)
+    out = run(core, 1.0)
+    assert targets(out)[-1] == latlon_e7(core, 3.0, 0.0)
+    teleport(core, 0.5, 0.0)  # past (3, 0), within WP_RADIUS of the first point
+    out = run(core, 1.0)
+    assert texts(out).count("Reached destination") == 1
+    assert targets(run(core, 1.0)) == []  # StopAtHome: nothing published
