@@ -129,7 +129,9 @@ class SmartRtlPath:
 
     def due(self, here_ne: NE) -> bool:
         """``add_point``: far enough from the last point to be saved."""
-        return self.active and math.dist(self.points[-1].ne, here_ne) >= SRTL_ACCURACY_M
+        if not self.active:
+            return False
+        return not self.points or math.dist(self.points[-1].ne, here_ne) >= SRTL_ACCURACY_M
 
 
 @dataclass(slots=True)

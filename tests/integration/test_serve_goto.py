@@ -232,3 +232,56 @@ def test_a_fault_on_the_way_to_a_place_ends_in_the_fall_back(tmp_path: Path) -> 
         finally:
             d.kill()
             (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+
+
+SMART_RTL_END_M = 2.5  # ArduPilot pops its last point (home) within WP_RADIUS (2 m)
+
+
+def test_smart_rtl_follows_the_breadcrumbs_home(tmp_path: Path) -> None:
+    with sim_with_ground_station(**guard_installed(SPEEDUP)) as (server, urls, gcs):
+        d = serve_proc(tmp_path, urls[0], CONFIG)
+        d.start_pump()
+        try:
+            d.wait_line("no mission on the autopilot", 60.0)
+            # Arm: ArduPilot starts SmartRTL's path where the rover is (AP_SmartRTL::set_home)
+            assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+            heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+            home = server.snapshot()
+            home_ne = (home.north_m, home.east_m)
+            t_click = go_to_location(gcs, *FIRST_NE)
+            time_until(server, near(FIRST_NE, ARRIVAL_M), t_click, 90.0)
+            d.wait_line("event=goto_arrived", 30.0)
+            held_there(server, FIRST_NE, "GUIDED")
+
+            # SmartRTL (the flight-mode menu, or APMFirmwarePlugin::guidedModeRTL(smartRTL))
+            mark = d.mark()
+            t_srtl = set_mode(gcs, "SMART_RTL")
+            srtl_s = time_until(server, driving, t_srtl, 10.0)
+            assert gcs.wait_text("Reached destination", 120.0) == "Reached destination"
+            back_s = time.monotonic() - t_srtl
+            # no place any more (ArduPilot's StopAtHome): once the last one is stale
+            # (serve.target_stale_s) or reached, neutral, overrides kept, armed
+            stopped_s = time_until(server, overriding_neutral, t_srtl, 10.0) - back_s
+            t0 = server.snapshot().sim_time_s
+            held = record_until(server, lambda s: s.sim_time_s >= t0 + 2.0, 30.0)
+            later = [s for _, s in held.samples if s.sim_time_s >= t0 + 0.5]
+            assert later and all(overriding_neutral(s) and s.armed for s in later)
+            assert all(s.mode == "SMART_RTL" for s in later)
+            end_m = error_m(later[-1], home_ne)
+            legs = sum("event=serve_flight_start" in ln for ln in d.lines[mark:])
+            print(
+                f"\nSmartRTL → scrolls driven: {srtl_s:.3f} s, home (\"Reached destination\") "
+                f"after {back_s:.1f} s over {legs} legs, neutral {stopped_s:.2f} s later, held "
+                f"{end_m:.2f} m from home"
+            )
+            assert end_m <= SMART_RTL_END_M, end_m
+            assert legs >= 3  # breadcrumbs every SRTL_ACCURACY (2 m) on the ~11 m way out
+
+            t_manual = set_mode(gcs, "MANUAL")
+            time_until(server, overrides_released, t_manual, 5.0)
+            assert "event=fallback" not in d.log_text()
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")

@@ -168,3 +168,7 @@ def test_smart_rtl_returns_by_the_saved_points_and_stops_publishing_at_home() ->
     out = run(core, 1.0)
     assert texts(out).count("Reached destination") == 1
     assert targets(run(core, 1.0)) == []  # StopAtHome: nothing published
+    # the path is used up; out of SmartRTL the next point is saved where the rover is
+    assert set_mode(core, modes.MANUAL) == MAV_RESULT_ACCEPTED
+    run(core, 0.2)
+    assert [p.ne for p in core.srtl.points] == [pytest.approx((0.5, 0.0), abs=0.05)]
