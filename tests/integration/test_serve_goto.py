@@ -270,7 +270,7 @@ def test_smart_rtl_follows_the_breadcrumbs_home(tmp_path: Path) -> None:
             end_m = error_m(later[-1], home_ne)
             legs = sum("event=serve_flight_start" in ln for ln in d.lines[mark:])
             print(
-                f"\nSmartRTL → scrolls driven: {srtl_s:.3f} s, home (\"Reached destination\") "
+                f'\nSmartRTL → scrolls driven: {srtl_s:.3f} s, home ("Reached destination") '
                 f"after {back_s:.1f} s over {legs} legs, neutral {stopped_s:.2f} s later, held "
                 f"{end_m:.2f} m from home"
             )
