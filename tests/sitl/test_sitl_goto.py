@@ -13,7 +13,9 @@ POSITION_TARGET_GLOBAL_INT. Each step names the QGroundControl function it copie
   drives there; a second click on the way → helixd goes to the new place and holds there;
 * Return (``APMFirmwarePlugin::guidedModeRTL``: the RTL mode) → ArduPilot's RTL goes to the
   rally point (nearer than home) and helixd drives there; ArduPilot says "Reached destination";
-* MANUAL from the mode menu → helixd releases its overrides at once.
+* MANUAL from the mode menu → helixd releases its overrides at once;
+* SmartRTL → ArduPilot returns by its saved path, each point published in turn; helixd drives
+  to each, ArduPilot says "Reached destination" at home and helixd holds there.
 
 Latencies (wall clock, SITL at speed-up 1) and end-position errors (LOCAL_POSITION_NED against
 the place) are printed.
@@ -46,11 +48,12 @@ from tests.sitl.test_sitl_serve import HOME_LATLON, GroundStation, mono_of, serv
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
-MODE_MANUAL, MODE_GUIDED, MODE_RTL = 0, 15, 11
+MODE_MANUAL, MODE_GUIDED, MODE_RTL, MODE_SMART_RTL = 0, 15, 11, 12
 FIRST_NE = (10.0, 4.0)  # the first click, north/east of home (m)
 SECOND_NE = (2.0, 12.0)  # the second click, on the way to the first
 RALLY_NE = (-3.0, 17.0)  # 6 m from the second place, home 12 m: ArduPilot's RTL goes here
 ARRIVAL_M = 1.5  # control.waypoint_tolerance_m (1 m) and the EKF's noise
+SMART_RTL_END_M = 2.5  # ArduPilot pops its last point (home) within WP_RADIUS (2 m)
 CONFIG: dict[str, Any] = {
     "mission": {"ground_station_mode": "roll"},
     "startup": {"start_switch_channel": None},
@@ -88,6 +91,9 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
 
     def driven(pwm: tuple[int, int, int, int]) -> bool:
         return not outputs_near(pwm, NEUTRAL_US)
+
+    def at_trim(pwm: tuple[int, int, int, int]) -> bool:
+        return outputs_near(pwm, NEUTRAL_US)
 
     def error_m(ne: tuple[float, float]) -> float:
         p = obs.position()
@@ -136,8 +142,9 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
         assert result == [mavlink2.MAV_MISSION_ACCEPTED], result
 
     def held_at(ne: tuple[float, float], mode: int, what: str) -> None:
-        """Outputs at trim for 2 s, armed, in ``mode``, within ARRIVAL_M of the place."""
-        held_from = time.monotonic()
+        """Outputs at trim for 2 s, armed, in ``mode``, within ARRIVAL_M of the place (from
+        the first SERVO_OUTPUT_RAW at trim: the arrival's neutral is a report behind)."""
+        held_from = time.monotonic() + after(time.monotonic(), at_trim, "trim at the place")
         obs.wait_until(lambda: time.monotonic() >= held_from + 2.0, 5.0, "2 s held")
         held = [s.pwm_us for s in obs.servo if s.wall_s >= held_from]
         assert held and all(outputs_near(p, NEUTRAL_US) for p in held)
@@ -183,6 +190,32 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
         line = d.wait_line("event=rc_override_released", STEP_WAIT_S, after=mark)
         note("MANUAL → overrides released", mono_of(line) - t_manual)
         assert obs.armed() and obs.mode() == MODE_MANUAL  # no HOLD asked, not disarmed
+
+        # SmartRTL (guidedModeRTL(smartRTL), or the mode menu): back by ArduPilot's saved path
+        # (from the arming at home), each point a new flight, until ArduPilot's path is empty
+        mark = d.mark()
+        reached_before = obs.statustexts.count("Reached destination")
+        t_srtl = time.monotonic()
+        assert gcs.set_mode(MODE_SMART_RTL) == mavlink2.MAV_RESULT_ACCEPTED
+        note("SmartRTL → scrolls driven", after(t_srtl, driven, "driven after SmartRTL"))
+        obs.wait_until(
+            lambda: obs.statustexts.count("Reached destination") > reached_before,
+            LEG_WAIT_S,
+            "SmartRTL's Reached destination",
+        )
+        note("SmartRTL → Reached destination", time.monotonic() - t_srtl)
+        held_from = time.monotonic() + after(time.monotonic(), at_trim, "trim at home")
+        obs.wait_until(lambda: time.monotonic() >= held_from + 2.0, 5.0, "2 s held")
+        held = [s.pwm_us for s in obs.servo if s.wall_s >= held_from]
+        assert held and all(outputs_near(p, NEUTRAL_US) for p in held)
+        assert obs.armed() and obs.mode() == MODE_SMART_RTL
+        legs = sum("event=serve_flight_start" in ln for ln in d.lines[mark:])
+        note("SmartRTL: flights (points)", float(legs), "")
+        note("SmartRTL: end-position error from home", error_m((0.0, 0.0)), "m")
+        assert error_m((0.0, 0.0)) <= SMART_RTL_END_M, figures
+        mark = d.mark()
+        assert gcs.set_mode(MODE_MANUAL) == mavlink2.MAV_RESULT_ACCEPTED
+        d.wait_line("event=rc_override_released", STEP_WAIT_S, after=mark)
         assert "event=fallback" not in d.log_text()
     finally:
         d.stop(30.0)
