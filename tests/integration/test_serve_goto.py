@@ -23,6 +23,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_REPOSITION,
+    MAV_CMD_MISSION_START,
     MAV_DO_REPOSITION_FLAGS_CHANGE_MODE,
     MAV_FRAME_GLOBAL,
     MAV_MODE_FLAG_SAFETY_ARMED,
@@ -32,12 +33,13 @@ from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.integration.test_serve_crew_modes import (
     CONFIG,
+    MISSION,
     driving,
     heartbeat_shows,
     overriding_neutral,
     set_mode,
 )
-from tests.support.gcs import QGC_SYSID, SIM, latlon
+from tests.support.gcs import QGC_SYSID, SIM, latlon, upload
 from tests.support.harness import (
     MavClient,
     deep_merge,
@@ -285,3 +287,50 @@ def test_smart_rtl_follows_the_breadcrumbs_home(tmp_path: Path) -> None:
         finally:
             d.kill()
             (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+
+
+def test_go_to_location_during_a_mission_and_back_to_auto(tmp_path: Path) -> None:
+    with sim_with_ground_station(**guard_installed(SPEEDUP)) as (server, urls, gcs):
+        d = serve_proc(tmp_path, urls[0], CONFIG)
+        d.start_pump()
+        try:
+            d.wait_line("no mission on the autopilot", 60.0)
+            upload(gcs, MISSION)  # QGC's Plan view: Upload
+            d.wait_line("event=serve_state state=ready", 30.0)
+            # Start Mission: APMFirmwarePlugin::startMission (GUIDED, arm, MISSION_START)
+            set_mode(gcs, "GUIDED")
+            heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
+            assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+            heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+            assert gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+            d.wait_line("event=auto_start", 10.0)
+            server.wait_for(moving, 20.0)
+
+            # Go to location mid-mission: the AUTO flight hands over, helixd goes there
+            mark = d.mark()
+            t_click = go_to_location(gcs, *SECOND_NE)
+            d.wait_line("event=goto_start", 10.0, after=mark)
+            handover_s = time_until(server, near(SECOND_NE, ARRIVAL_M), t_click, 90.0)
+            d.wait_line("event=goto_arrived", 30.0, after=mark)
+            held_there(server, SECOND_NE, "GUIDED")
+            print(f"\nGo to location during the mission → there in {handover_s:.1f} s")
+
+            # Auto again (the mode menu, or Start Mission on a rover under way): the mission
+            # goes on from the autopilot's item, to the end
+            mark = d.mark()
+            t_auto = set_mode(gcs, "AUTO")
+            auto_s = time_until(server, driving, t_auto, 10.0)
+            print(f"AUTO after Go to location → scrolls driven: {auto_s:.3f} s")
+            d.wait_line("event=auto_start", 10.0, after=mark)
+            assert gcs.wait_text("Mission Complete", 120.0) == "Mission Complete"
+            d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    causes = [(s["fault"] or "").split(":", 1)[0] for s in summaries]
+    assert causes == ["handover", "handover", ""], summaries
+    assert summaries[-1]["completed"], summaries[-1]
