@@ -464,15 +464,16 @@ class Service:
         st = ap.state
         flying = self.flight_task is not None
         target = current_target_of(st, time.monotonic(), self.cfg.serve.target_stale_s)
-        place = self.goto_watch.update(st.armed, crew_mode_of(st), target, flying)
+        mode = crew_mode_of(st)  # one of GOTO_MODES whenever a place is pending
+        place = self.goto_watch.update(st.armed, mode, target, flying)
         if place is None or self.busy:
             return
         self.goto_watch.taken(place)
         motion = ground_station_mode(self.cfg, self.opts.mode)
-        answer = answer_goto(self.view(), st.mode, motion is not None)
+        answer = answer_goto(self.view(), mode, motion is not None)
         log.info(
             "goto_start",
-            mode=st.mode,
+            mode=mode,
             lat_deg=round(place.lat_deg, 7),
             lon_deg=round(place.lon_deg, 7),
             result=answer.result,
@@ -481,9 +482,7 @@ class Service:
         if answer.result != MAV_RESULT_ACCEPTED or motion is None:
             self.gcs.say(answer.text, MAV_SEVERITY_ERROR)
             return
-        source = AutopilotPlace(
-            place.lat_deg, place.lon_deg, st.mode, self.cfg, motion, fence=self._fence
-        )
+        source = AutopilotPlace(place.lat_deg, place.lon_deg, mode, self.cfg, motion, self._fence)
         self.busy = True  # until the flight is under way (or refused)
         self.flight_task = asyncio.create_task(self._fly_goto(ap, source, place), name="serve-goto")
 
