@@ -52,7 +52,7 @@ MODE_MANUAL, MODE_GUIDED, MODE_RTL, MODE_SMART_RTL = 0, 15, 11, 12
 FIRST_NE = (10.0, 4.0)  # the first click, north/east of home (m)
 SECOND_NE = (2.0, 12.0)  # the second click, on the way to the first
 RALLY_NE = (-3.0, 17.0)  # 6 m from the second place, home 12 m: ArduPilot's RTL goes here
-ARRIVAL_M = 1.5  # a loose bound: the last waypoint's rule is control.stop_tolerance_m (0.1 m)
+ARRIVAL_M = 0.5  # the last waypoint's rule (control.stop_tolerance_m, 0.1 m) and the noise
 SMART_RTL_END_M = 2.5  # ArduPilot pops its last point (home) within WP_RADIUS (2 m)
 CONFIG: dict[str, Any] = {
     "mission": {"ground_station_mode": "roll"},
