@@ -987,6 +987,21 @@ class ServeConfig(InputModel):
         description="where the service records which mission was interrupted where (a JSON "
         "file); None: serve-state.json under recorder.run_root",
     )
+    target_stale_s: float = Field(
+        1.5,
+        gt=0.0,
+        le=10.0,
+        description="the autopilot's place to go (POSITION_TARGET_GLOBAL_INT, asked at "
+        "link.telemetry_rate_hz) not renewed for this long is no place: in GUIDED, RTL and "
+        "SMART_RTL helixd then holds (s)",
+    )
+    same_place_m: float = Field(
+        0.5,
+        ge=0.0,
+        le=10.0,
+        description="a place the autopilot publishes that moved less than this is the same "
+        "place; farther, it is a new one, driven to on a new leg (m)",
+    )
     mission_file: Path | None = Field(
         None,
         description="for crews without a ground station: fly this mission file (as `helixd "
@@ -1058,6 +1073,12 @@ def config_consistency_problems(cfg: HelixdConfig) -> list[str]:
         problems.append(
             f"safety.gps_stale_s = {saf.gps_stale_s} s must be > 1 / link.telemetry_rate_hz = "
             f"{telemetry_period_s:.3f} s (GPS_RAW_INT comes at the telemetry rate)"
+        )
+    if cfg.serve.target_stale_s <= telemetry_period_s:
+        problems.append(
+            f"serve.target_stale_s = {cfg.serve.target_stale_s} s must be > 1 / "
+            f"link.telemetry_rate_hz = {telemetry_period_s:.3f} s (POSITION_TARGET_GLOBAL_INT "
+            "comes at the telemetry rate)"
         )
     sta = cfg.startup
     if sta.arm_retry_interval_s > sta.arm_timeout_s:

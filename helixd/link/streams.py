@@ -55,6 +55,9 @@ TELEMETRY_STREAMS = (
     # seconds after a GPS loss before it reports anything
     "GPS_RAW_INT",
 )
+# sent by ArduPilot only in a mode with a place to go (GCS_MAVLINK::
+# send_position_target_global_int): asked for like the rest, never counted as slow
+TARGET_STREAMS = ("POSITION_TARGET_GLOBAL_INT",)
 US_PER_S = 1_000_000
 US_PER_MS = 1000
 MS_DENY_FACTOR = 800  # cap_message_interval: denied when interval_ms * 800 < loop period (µs)
@@ -189,6 +192,9 @@ class StreamManager:
             now = time.monotonic()
             for name, rate in granted.items():
                 self.monitor.grant(name, rate, now)
+            for name in TARGET_STREAMS:
+                floor = min(cfg.pose_rate_min_hz, cfg.telemetry_rate_hz)
+                granted[name] = await self._negotiate(name, cfg.telemetry_rate_hz, floor)
             self.requested = True
             log.info("streams_granted", **{n.lower(): round(r, 2) for n, r in granted.items()})
             return granted

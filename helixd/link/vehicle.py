@@ -112,6 +112,7 @@ class Change:
     GPS = 32768  # GPS_RAW_INT: fix type and satellites
     MISSION_CURRENT = 65536  # MISSION_CURRENT: the autopilot's current item / mission size
     FENCE = 131072  # FENCE_STATUS: the autopilot's own fence breached or clear
+    TARGET = 262144  # POSITION_TARGET_GLOBAL_INT: where the autopilot's mode drives to
 
 
 @dataclass(frozen=True, slots=True)
@@ -124,6 +125,28 @@ class HomePosition:
     # (no origin yet: GCS_MAVLINK::send_home_position sends NaN)
     north_m: float | None
     east_m: float | None
+
+
+@dataclass(frozen=True, slots=True)
+class PositionTarget:
+    """POSITION_TARGET_GLOBAL_INT: the place the autopilot's mode drives to.
+
+    ArduPilot (GCS_MAVLINK::send_position_target_global_int) streams it in EXTENDED_STATUS in
+    every mode whose ``get_desired_location`` gives a place (Rover: AUTO, GUIDED's WP submode,
+    RTL, SmartRTL, LOITER, CIRCLE), in MAV_FRAME_GLOBAL; nothing in the other modes, so a
+    target not renewed is one the mode no longer has."""
+
+    lat_e7: int
+    lon_e7: int
+    rx_monotonic_s: float
+
+    @property
+    def lat_deg(self) -> float:
+        return self.lat_e7 * 1e-7
+
+    @property
+    def lon_deg(self) -> float:
+        return self.lon_e7 * 1e-7
 
 
 @dataclass(frozen=True, slots=True)
@@ -328,6 +351,11 @@ class VehicleState:
     # MISSION_CURRENT.mission_mode was seen 1: the autopilot fills it (older ones send 0)
     mission_mode_reported: bool = False
     mission_current_rejected_count: int = 0  # MISSION_CURRENT with seq/total beyond uint16
+    position_target: PositionTarget | None = None
+    # reception of the first HEARTBEAT naming the current mode: a POSITION_TARGET_GLOBAL_INT
+    # older than this may be the previous mode's place
+    mode_since_s: float | None = None
+    position_target_rejected_count: int = 0  # off the Earth, 0/0, or not a global frame
     battery_voltage_v: float | None = None
     battery_remaining_pct: int | None = None  # SYS_STATUS, 0..100; None: not reported
     gps_fix_type: int | None = None  # GPS_RAW_INT.fix_type (GPS_FIX_TYPE, 0..8)
@@ -436,6 +464,7 @@ class VehicleState:
             self.attitude_time_boot_ms = None
             self.home = None  # a new boot sets its own
             self.mission_current = None  # a new boot has no current item yet
+            self.position_target = None
             return Change.REBOOT
         return Change.NONE
 
@@ -457,6 +486,7 @@ class VehicleState:
         if custom_mode != self.custom_mode:
             self.custom_mode = custom_mode
             self.mode = mode_name(custom_mode)
+            self.mode_since_s = rx_s
             changed |= Change.MODE
         return changed
 
@@ -589,6 +619,17 @@ class VehicleState:
         self.mission_current = MissionCurrent(seq, total, state, rx_s, mode)
         return Change.MISSION_CURRENT
 
+    def _position_target(self, msg: MavMsg, rx_s: float) -> int:
+        """POSITION_TARGET_GLOBAL_INT, checked once here: a place on the Earth, not 0/0, with
+        latitude and longitude not ignored (type_mask bits 0 and 1)."""
+        lat_e7, lon_e7 = int(msg.lat_int), int(msg.lon_int)
+        on_earth = abs(lat_e7) <= LAT_MAX_DEG * 1e7 and abs(lon_e7) <= LON_MAX_DEG * 1e7
+        if not on_earth or (lat_e7 == 0 and lon_e7 == 0) or int(msg.type_mask) & 0b11:
+            self.position_target_rejected_count += 1
+            return Change.NONE
+        self.position_target = PositionTarget(lat_e7, lon_e7, rx_s)
+        return Change.TARGET
+
     def _statustext(self, msg: MavMsg, rx_s: float) -> int:
         self.statustexts.append(StatusText(int(msg.severity), _text(msg.text), rx_s))
         while len(self.statustexts) > self.statustext_history:
@@ -651,4 +692,5 @@ _HANDLERS: dict[str, Callable[[VehicleState, MavMsg, float], int]] = {
     "GPS_RAW_INT": VehicleState._gps_raw,
     "MISSION_CURRENT": VehicleState._mission_current,
     "FENCE_STATUS": VehicleState._fence_status,
+    "POSITION_TARGET_GLOBAL_INT": VehicleState._position_target,
 }

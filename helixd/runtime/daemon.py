@@ -290,8 +290,9 @@ def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
     if ending.fault is not None and ending.fault.cause in (
         FaultCause.RELEASED,
         FaultCause.ITEM_SET,
+        FaultCause.HANDOVER,
     ):
-        return False  # the pilot drives it, or the next flight of AUTO does
+        return False  # the pilot drives it, or the next flight does
     if not armed_by_us:
         return None
     if ending.fault is not None and ending.fault.cause in (FaultCause.SIGNAL, FaultCause.PAUSED):
@@ -406,7 +407,7 @@ class MissionRunner:
                 self.gcs.phase("armed")
             elif not ap.state.armed:  # the crew armed it; a disarm since ends the start
                 raise PreflightFailed(
-                    [f"the autopilot is not armed (mode {ap.state.mode}): arm it in AUTO"]
+                    [f"the autopilot is not armed (mode {ap.state.mode}): arm it first"]
                 )
             now = await fresh_pose(ap, cfg, stop)
             start_ned = start_pose(checked, now, ap, cfg, self.opts.options)
@@ -514,6 +515,7 @@ class MissionRunner:
                     on_mission_event=feed.on_mission_event,
                     driving_mode=self.host.driving_mode,
                     on_gate=feed.on_gate,
+                    goto=self.host.goto,
                 )
                 result = await self.flight_loop.run()
             finally:
@@ -638,7 +640,10 @@ class MissionRunner:
             self.gcs.phase(f"pausing: {ending.fault.detail}")  # an operator's, not a fault
         elif ending.fault is not None and ending.fault.cause is FaultCause.RELEASED:
             pass  # the flight loop told the GCS already (released: the pilot drives)
-        elif ending.fault is not None and ending.fault.cause is FaultCause.ITEM_SET:
+        elif ending.fault is not None and ending.fault.cause in (
+            FaultCause.ITEM_SET,
+            FaultCause.HANDOVER,
+        ):
             self.gcs.phase(ending.fault.detail)
         elif ending.fault is not None:
             self.gcs.fault(ending.fault.cause.value, ending.fault.detail)

@@ -61,8 +61,15 @@ from helixd.control.slip import (
     no_slip_body,
 )
 from helixd.link.connection import Autopilot
-from helixd.link.vehicle import PoseSample
-from helixd.runtime.mode_gate import Gate, crew_mode_of, gate_of, item_set_by_crew
+from helixd.link.vehicle import PoseSample, PositionTarget
+from helixd.runtime.mode_gate import (
+    Gate,
+    crew_mode_of,
+    current_target_of,
+    gate_of,
+    goto_gate,
+    item_set_by_crew,
+)
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import Motion, Supervisor
 from helixd.safety.watchdogs import Fault, FaultCause
@@ -163,6 +170,7 @@ class FlightLoop:
         on_mission_event: Callable[[SequencerEvent], None] | None = None,
         driving_mode: str = MANUAL_MODE,
         on_gate: Callable[[Gate, str], None] | None = None,
+        goto: PositionTarget | None = None,
     ) -> None:
         self.cfg = cfg
         self.plan = plan
@@ -187,6 +195,11 @@ class FlightLoop:
         self._gate = Gate.DRIVE
         self.on_gate = on_gate
         self._autopilot_item: int | None = None  # MISSION_CURRENT.seq last seen (gated)
+        # a flight to the autopilot's place (GUIDED, RTL, SMART_RTL): holds there once reached
+        self.goto = goto
+        self._arrived = False
+        self._target_stale_s = cfg.serve.target_stale_s
+        self._same_place_m = cfg.serve.same_place_m
         # The ceiling only thins out a pose flood, counted in autopilot time (pose
         # time_boot_ms), so a simulator speed-up does not lower the control rate the rover
         # sees (see ceiling_next_due).
@@ -299,7 +312,7 @@ class FlightLoop:
                 return None  # thinned out by the control-rate ceiling
             self._last_step_boot_s = t_boot_s
             self._step_due_boot_s = due_s
-            if self._gate is Gate.HOLD:  # paused by the mode: neutral, the navigator waits
+            if self._gate is Gate.HOLD or self._arrived:  # paused, or at the place: neutral
                 self._neutral()
                 step = self._held(sample, None)
                 self._last_out = step.nav
@@ -337,9 +350,19 @@ class FlightLoop:
             fault = Fault(FaultCause.ACTUATOR, str(exc))
             return FlightResult(fault, now, out, pose.ned if pose else None)
         done = out.done if self.sequencer is None else self.sequencer.done
+        if done and self.goto is not None:
+            self._arrive(out)
+            return None
         if done:
             return FlightResult(None, None, out, sample.ned)
         return None
+
+    def _arrive(self, out: NavOutput) -> None:
+        """At the autopilot's place: neutral, the overrides kept, until the crew gives another
+        place or mode (the flight never completes by itself)."""
+        self._arrived = True
+        self._neutral()
+        log.info("goto_arrived", distance_error_m=round(out.distance_error_m, 3))
 
     def _follow_mode(
         self, now: float, out: NavOutput | None, pose: PoseSample | None
@@ -350,7 +373,11 @@ class FlightLoop:
         st = self.ap.state
         mc = st.mission_current
         mode = crew_mode_of(st)
-        gate = gate_of(mode, self.driving_mode)
+        target = current_target_of(st, now, self._target_stale_s)
+        if self.goto is not None:
+            gate = goto_gate(mode, self.goto, target, self._same_place_m)
+        else:
+            gate = gate_of(mode, self.driving_mode, place_to_go=target is not None)
         self.supervisor.expected_mode = st.mode  # the takeover rule judges sticks and switch only
         if gate is not self._gate:
             self._gate = gate
@@ -361,6 +388,10 @@ class FlightLoop:
                 self.on_gate(gate, mode)
         if gate is Gate.RELEASE:
             fault = Fault(FaultCause.RELEASED, f"mode {mode}: the pilot drives")
+            return FlightResult(fault, now, out, pose.ned if pose else None)
+        if gate is Gate.HANDOVER:
+            where = "" if target is None else f" to {target.lat_deg:.7f} {target.lon_deg:.7f}"
+            fault = Fault(FaultCause.HANDOVER, f"mode {mode}{where}: the next flight drives")
             return FlightResult(fault, now, out, pose.ned if pose else None)
         # a mission with commands moves the autopilot's item by itself (DO_JUMP): not watched;
         # an item set while paused is taken when AUTO comes back (the overrides stay meanwhile)

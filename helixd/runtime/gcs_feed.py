@@ -161,7 +161,7 @@ def report_fallback(feed: GcsFeed, report: FallbackReport) -> None:
     release to the pilot asks no HOLD (``released``)."""
     if report.cause == FaultCause.RELEASED.value and not report.errors:
         feed.phase("released: overrides released, the pilot's radio drives")
-    elif report.cause == FaultCause.ITEM_SET.value and not report.errors:
+    elif report.cause in (FaultCause.ITEM_SET, FaultCause.HANDOVER) and not report.errors:
         pass  # the next flight starts at once
     elif report.errors or not report.hold_acked:
         detail = "; ".join(report.errors) or "HOLD not acknowledged"

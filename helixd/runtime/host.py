@@ -8,7 +8,8 @@ opens its own.
   request (the service owns the signals and pauses through it), its notifier, and where the
   item being flown goes (the GCS's current item). No start gate: the service started the
   flight on the operator's word. A flight the crew started in the autopilot's AUTO drives in
-  AUTO (:attr:`FlightHost.driving_mode`): the flight neither sets a mode nor arms.
+  AUTO (:attr:`FlightHost.driving_mode`): the flight neither sets a mode nor arms; so does
+  a flight to the autopilot's own place in GUIDED, RTL or SMART_RTL (:attr:`FlightHost.goto`).
 
 :class:`helixd.runtime.daemon.MissionRunner` asks its host and never looks at which one it is.
 """
@@ -24,6 +25,7 @@ from typing import Protocol
 
 from helixd.config import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.link.vehicle import PositionTarget
 from helixd.runtime.flight import MANUAL_MODE
 from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
 from helixd.runtime.setup import Held, attach, connect, reach
@@ -52,6 +54,12 @@ class FlightHost(Protocol):
         itself; any other mode is a takeover) or AUTO (a flight the crew started in the
         autopilot's AUTO: neither set nor armed by the flight, and the mode is the crew's
         command, :mod:`helixd.runtime.mode_gate`)."""
+        ...
+
+    @property
+    def goto(self) -> PositionTarget | None:
+        """The autopilot's place a flight in GUIDED, RTL or SMART_RTL drives to and holds at
+        (None: a mission flight)."""
         ...
 
     def signals(self) -> contextlib.AbstractContextManager[None]:
@@ -87,6 +95,7 @@ class OwnLink:
 
     start_gate = True
     driving_mode = MANUAL_MODE
+    goto: PositionTarget | None = None
 
     def __init__(self) -> None:
         self.stop = StopRequest()
@@ -136,6 +145,7 @@ class ServeHost:
     notifier: ServiceNotifier = field(default_factory=FlightInServiceNotifier)
     set_item: Callable[[int], None] | None = None  # None: nobody shows the current item
     driving_mode: str = MANUAL_MODE  # AUTO: a flight the crew started in the autopilot's AUTO
+    goto: PositionTarget | None = None  # GUIDED, RTL, SMART_RTL: the autopilot's place
 
     @property
     def start_gate(self) -> bool:

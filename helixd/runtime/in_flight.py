@@ -112,10 +112,11 @@ class InFlight:
     def on_gate(self, gate: Gate, mode: str) -> None:
         """The autopilot's mode changed what a flight of its AUTO may do: tell the GCS."""
         if gate is Gate.HOLD:
-            self.gcs.phase(f"paused: mode {mode}, scrolls held at neutral until AUTO")
+            back = self.host.driving_mode if self.host.goto is None else "a place to go"
+            self.gcs.phase(f"paused: mode {mode}, scrolls held at neutral until {back}")
         elif gate is Gate.DRIVE:
             self.gcs.phase(f"continuing in {mode}")
-        else:
+        elif gate is Gate.RELEASE:
             self.gcs.phase(f"released: mode {mode}, the pilot drives")
 
     def on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:

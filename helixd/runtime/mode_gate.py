@@ -7,8 +7,9 @@ buttons talk to the autopilot, and the mode they leave it in is what helixd obey
 * AUTO (the flight's driving mode): helixd drives with its own guidance;
 * a mode in which the pilot drives (MANUAL, ACRO, STEERING: ArduPilot Rover's modes with
   manual input): the flight ends and every override is released at once, no HOLD asked;
-* any other mode (HOLD — QGroundControl's Pause for a rover —, LOITER, GUIDED, RTL, …): the
-  scrolls are held at neutral by helixd's overrides (with the scroll outputs on RC
+* GUIDED, RTL or SMART_RTL publishing a place to go: a handover (below);
+* any other mode (HOLD — QGroundControl's Pause for a rover —, LOITER, GUIDED with no place,
+  …): the scrolls are held at neutral by helixd's overrides (with the scroll outputs on RC
   passthrough, ArduPilot's own HOLD would pass the sticks through) until AUTO comes back, when
   the flight goes on from where it stopped.
 
@@ -23,16 +24,28 @@ the autopilot) shows as MISSION_CURRENT moving anywhere but on to the next item
 (:func:`item_set_by_crew`): the flight ends and the next one starts at that item. Only for a
 plain list of waypoints: a mission with commands moves the item by itself (DO_JUMP).
 
+A flight to the autopilot's own place (:func:`goto_gate`) drives in GUIDED (the ground
+station's *Go to location*: MAV_CMD_DO_REPOSITION), RTL or SMART_RTL (:data:`GOTO_MODES`):
+helixd drives to the place the autopilot publishes in those modes (POSITION_TARGET_GLOBAL_INT,
+:func:`current_target`: received since the HEARTBEAT that named the mode, and renewed within
+``serve.target_stale_s``) and holds there. Another place, or AUTO, is a *handover*
+(:attr:`Gate.HANDOVER`): the flight ends without HOLD and ``helixd serve`` starts the next. A
+flight of AUTO hands over the same way to a mode of :data:`GOTO_MODES` with a place.
+
 A flight that sets MANUAL itself (``helixd run``) has no gate: a mode change is a takeover.
 """
 
 from __future__ import annotations
 
+import math
 from enum import StrEnum
 
-from helixd.link.vehicle import VehicleState
+from helixd.base.frames import latlon_to_ne
+from helixd.link.vehicle import PositionTarget, VehicleState
 
 AUTO_MODE = "AUTO"
+# Rover's modes whose place helixd drives to: GUIDED's WP submode, RTL, SmartRTL
+GOTO_MODES = frozenset({"GUIDED", "RTL", "SMART_RTL"})
 # ArduPilot Rover's Mode::has_manual_input(): the pilot's sticks drive
 PILOT_MODES = frozenset({"MANUAL", "ACRO", "STEERING"})
 
@@ -44,15 +57,68 @@ class Gate(StrEnum):
     DRIVE = "drive"  # helixd drives
     HOLD = "hold"  # neutral, overrides kept (a pause: the flight goes on in the driving mode)
     RELEASE = "release"  # overrides released, the flight ends: the pilot drives
+    # another place (or mode) helixd drives to: the flight ends without HOLD, the next starts
+    HANDOVER = "handover"
 
 
-def gate_of(mode: str, driving_mode: str) -> Gate:
-    """What the autopilot's ``mode`` lets a flight whose driving mode is ``driving_mode`` do."""
+def gate_of(mode: str, driving_mode: str, place_to_go: bool = False) -> Gate:
+    """What the autopilot's ``mode`` lets a flight whose driving mode is ``driving_mode`` do;
+    ``place_to_go``: a mode of :data:`GOTO_MODES` publishes a place (:func:`current_target`),
+    which the next flight drives to."""
     if mode == driving_mode:
         return Gate.DRIVE
     if mode in PILOT_MODES:
         return Gate.RELEASE
+    if mode in GOTO_MODES and place_to_go:
+        return Gate.HANDOVER
     return Gate.HOLD
+
+
+def goto_gate(
+    mode: str, flown: PositionTarget, target: PositionTarget | None, same_within_m: float
+) -> Gate:
+    """What the autopilot's ``mode`` and its current place ``target`` let a flight to the place
+    ``flown`` do: drive while a mode of :data:`GOTO_MODES` still publishes that place (within
+    ``same_within_m``), hand over to another place or to AUTO, release to the pilot, and hold
+    otherwise (HOLD, GUIDED with no place yet, a place not renewed)."""
+    if mode in PILOT_MODES:
+        return Gate.RELEASE
+    if mode == AUTO_MODE:
+        return Gate.HANDOVER
+    if mode not in GOTO_MODES or target is None:
+        return Gate.HOLD
+    return Gate.DRIVE if same_place(flown, target, same_within_m) else Gate.HANDOVER
+
+
+def same_place(a: PositionTarget, b: PositionTarget, within_m: float) -> bool:
+    """Whether two published places are the same (closer than ``within_m``)."""
+    north_m, east_m = latlon_to_ne(a.lat_deg, a.lon_deg, b.lat_deg, b.lon_deg)
+    return math.hypot(north_m, east_m) <= within_m
+
+
+def current_target(
+    mode: str,
+    target: PositionTarget | None,
+    mode_since_s: float | None,
+    now_s: float,
+    stale_s: float,
+) -> PositionTarget | None:
+    """The place the autopilot's ``mode`` drives to now: the latest POSITION_TARGET_GLOBAL_INT
+    in a mode of :data:`GOTO_MODES`, received after the HEARTBEAT that named the mode (an
+    older one may be the previous mode's) and within ``stale_s`` (ArduPilot stops sending it
+    when the mode has no place: GUIDED entered from the menu, SmartRTL at its end)."""
+    if target is None or mode not in GOTO_MODES:
+        return None
+    if mode_since_s is not None and target.rx_monotonic_s <= mode_since_s:
+        return None
+    if now_s - target.rx_monotonic_s > stale_s:
+        return None
+    return target
+
+
+def current_target_of(st: VehicleState, now_s: float, stale_s: float) -> PositionTarget | None:
+    """:func:`current_target` from what the vehicle state holds."""
+    return current_target(st.mode, st.position_target, st.mode_since_s, now_s, stale_s)
 
 
 def crew_mode(
@@ -100,11 +166,16 @@ def crew_mode_of(st: VehicleState) -> str:
 
 __all__ = [
     "AUTO_MODE",
+    "GOTO_MODES",
     "LEFT_AUTO",
     "PILOT_MODES",
     "Gate",
     "crew_mode",
     "crew_mode_of",
+    "current_target",
+    "current_target_of",
     "gate_of",
+    "goto_gate",
     "item_set_by_crew",
+    "same_place",
 ]

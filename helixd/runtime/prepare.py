@@ -21,11 +21,13 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from pydantic import ValidationError
+
 from helixd.base.exitcodes import ExitCode
-from helixd.base.plan import MotionMode, operator_numbers
+from helixd.base.plan import MissionFrameKind, MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig
-from helixd.files.models import as_items
+from helixd.files.models import as_items, format_validation_error
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
 from helixd.mission.formats.items import GcsMission
@@ -51,6 +53,7 @@ from helixd.runtime.planned import Flight, load_occupancy, planned_flight
 
 __all__ = [
     "AutopilotMission",
+    "AutopilotPlace",
     "FlightSource",
     "MissionFile",
     "Prepared",
@@ -87,7 +90,37 @@ class Resume:
     explicit_mission: Path | None = None  # --mission given with --resume: must be the same
 
 
-FlightSource = MissionFile | AutopilotMission | Resume
+@dataclass(frozen=True)
+class AutopilotPlace:
+    """The place the autopilot's GUIDED, RTL or SMART_RTL drives to (POSITION_TARGET_GLOBAL_INT):
+    a one-leg flight from where the rover is, checked as the autopilot's mission is (fence,
+    keep-outs, limits, the route planned around the map)."""
+
+    lat_deg: float
+    lon_deg: float
+    mode: str  # the autopilot's mode, the flight's name
+    cfg: HelixdConfig
+    motion: MotionMode  # mission.ground_station_mode (or serve --mode)
+    fence: GcsMission | None = None  # the autopilot's fence, for planning
+
+
+FlightSource = MissionFile | AutopilotMission | Resume | AutopilotPlace
+
+
+def place_mission(place: AutopilotPlace) -> AutopilotMission:
+    """The place as a mission of one global waypoint. Raises :class:`InputsRefused`."""
+    source = f"the autopilot's {place.mode} place"
+    data = {
+        "name": place.mode,
+        "mode": place.motion.value,
+        "frame": MissionFrameKind.GLOBAL.value,
+        "waypoints": [{"lat": place.lat_deg, "lon": place.lon_deg}],
+    }
+    try:
+        msn = Mission.model_validate(data, context={"limits": place.cfg.mission})
+    except ValidationError as exc:
+        raise InputsRefused(format_validation_error(source, exc, Mission)) from None
+    return AutopilotMission(FromAutopilot(msn, source, 1, 0, place.fence), place.cfg)
 
 
 @dataclass(frozen=True)
@@ -116,6 +149,8 @@ def prepare_flight(
     inputs record; an :class:`AutopilotMission` brings the config it was converted with);
     ``occupancy``: the map (already loaded, or its file); a resume flies the recorded mission
     as it was planned. Raises :class:`InputsRefused`."""
+    if isinstance(source, AutopilotPlace):
+        source = place_mission(source)
     if isinstance(source, Resume):
         resumed = resume_inputs(config, source.run_dir, source.explicit_mission)
         flight = Flight(resumed.mission, resumed.mission_yaml, None, resumed.inputs)

@@ -34,6 +34,7 @@ from helixd.files.models import as_items
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
 from helixd.link.mission_transfer import MissionTransferError
+from helixd.link.vehicle import PositionTarget
 from helixd.mav.constants import (
     MAV_RESULT_ACCEPTED,
     MAV_SEVERITY_ERROR,
@@ -43,6 +44,7 @@ from helixd.mav.constants import (
 )
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
+from helixd.mission.formats.items import GcsMission
 from helixd.mission.model import Mission
 from helixd.mission.resume import sha256_text
 from helixd.planning.mapfile import OccupancyMap
@@ -58,11 +60,12 @@ from helixd.runtime.flight import MANUAL_MODE
 from helixd.runtime.gcs_feed import GcsFeed
 from helixd.runtime.host import ServeHost
 from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of
+from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of, current_target_of
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import (
     AutopilotMission,
+    AutopilotPlace,
     MissionFile,
     Resume,
     from_autopilot_item,
@@ -71,12 +74,14 @@ from helixd.runtime.prepare import (
 from helixd.runtime.serve_core import (
     Answer,
     AutoWatch,
+    GotoWatch,
     Request,
     ServeState,
     ServeView,
     SwitchWatch,
     answer_auto,
     answer_command,
+    answer_goto,
     answer_switch,
     state_after_flight,
 )
@@ -138,6 +143,9 @@ class Service:
             else SwitchWatch(self.cfg.startup.start_switch_threshold_us)
         )
         self.auto_watch = AutoWatch()  # the crew's start: the autopilot armed in AUTO
+        # the autopilot's place in GUIDED, RTL, SMART_RTL: a flight there
+        self.goto_watch = GotoWatch(self.cfg.serve.same_place_m)
+        self._fence: GcsMission | None = None  # the autopilot's fence, as last downloaded
         self._autopilot_item = 0  # MISSION_CURRENT.seq: where the autopilot's AUTO runs from
         self.checked: ReadyMission | None = None
         self.fingerprint: str | None = None  # of the mission last downloaded
@@ -288,9 +296,11 @@ class Service:
                     await self._read_mission(ap)
                 self._watch_switch(ap)
                 self._watch_auto(ap)
+                self._watch_goto(ap)
             elif flying:
                 self._watch_switch(ap)
                 self._watch_auto(ap)
+                self._watch_goto(ap)
             if now >= self._next_state_s:
                 self._send_state()
             await self._pause(self.cfg.serve.tick_s)
@@ -356,6 +366,7 @@ class Service:
         else:
             try:
                 got = convert_download(mission, fence, source=source, cfg=cfg, mode=mode)
+                self._fence = got.fence  # a flight to the autopilot's place plans around it
                 for note in got.notes:
                     log.info("mission_note", note=note)
                 prepared = prepare_flight(
@@ -447,6 +458,34 @@ class Service:
             return
         self._act(answer, f"the autopilot's {AUTO_MODE}")
 
+    def _watch_goto(self, ap: Autopilot) -> None:
+        """The autopilot's place in GUIDED, RTL or SMART_RTL (the crew's Go to location, the
+        RTL button, a failsafe): a flight there."""
+        st = ap.state
+        flying = self.flight_task is not None
+        target = current_target_of(st, time.monotonic(), self.cfg.serve.target_stale_s)
+        mode = crew_mode_of(st)  # one of GOTO_MODES whenever a place is pending
+        place = self.goto_watch.update(st.armed, mode, target, flying)
+        if place is None or self.busy:
+            return
+        self.goto_watch.taken(place)
+        motion = ground_station_mode(self.cfg, self.opts.mode)
+        answer = answer_goto(self.view(), mode, motion is not None)
+        log.info(
+            "goto_start",
+            mode=mode,
+            lat_deg=round(place.lat_deg, 7),
+            lon_deg=round(place.lon_deg, 7),
+            result=answer.result,
+            text=answer.text,
+        )
+        if answer.result != MAV_RESULT_ACCEPTED or motion is None:
+            self.gcs.say(answer.text, MAV_SEVERITY_ERROR)
+            return
+        source = AutopilotPlace(place.lat_deg, place.lon_deg, mode, self.cfg, motion, self._fence)
+        self.busy = True  # until the flight is under way (or refused)
+        self.flight_task = asyncio.create_task(self._fly_goto(ap, source, place), name="serve-goto")
+
     def _on_command(self, msg: MavMsg, rx_s: float) -> None:
         """A COMMAND_LONG/INT addressed to helixd: answered at once (COMMAND_ACK)."""
         ap = self._ap
@@ -511,6 +550,57 @@ class Service:
             return resumed.flight, cfg, run_dir.parent
         return checked.flight, checked.cfg, self.opts.run_root
 
+    async def _fly_goto(self, ap: Autopilot, source: AutopilotPlace, place: PositionTarget) -> None:
+        try:
+            await self._fly_goto_once(ap, source, place)
+        finally:
+            self.busy = False
+            self.flight_task = None
+            self.flight_stop = None
+
+    async def _fly_goto_once(
+        self, ap: Autopilot, source: AutopilotPlace, place: PositionTarget
+    ) -> None:
+        """A flight of one leg to the autopilot's place, holding there: checked as a mission
+        is, flown by the same runner (its fall-back on every fault), in the autopilot's mode
+        (neither set nor armed by helixd)."""
+        mode = source.mode
+        try:
+            prepared = prepare_flight(source, self.opts.config_path, self.opts.occupancy)
+        except InputsRefused as exc:
+            text = "; ".join(exc.problems)
+            log.error("goto_refused", mode=mode, problem=text)
+            self.gcs.say(f"{mode}: helixd will not drive: {text}", MAV_SEVERITY_ERROR)
+            return
+        if self.stop.requested:
+            return
+        before = (self.state, self.detail)
+        self.flight_stop = StopRequest()
+        self.flights += 1
+        where = f"{place.lat_deg:.7f} {place.lon_deg:.7f}"
+        log.info("serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.flights)
+        self._set_state(ServeState.FLYING, f"{mode} to {where}")
+        self.busy = False
+        opts = _run_options(prepared.flight, prepared.cfg, self.opts.run_root, self.cfg)
+        host = ServeHost(ap, self.flight_stop, driving_mode=mode, goto=place)
+        runner = MissionRunner(opts, host)
+        self.runner = runner
+        try:
+            outcome = await runner.run()
+        finally:
+            self.runner = None
+        self.busy = True
+        summary = outcome.summary
+        cause = _cause(summary.fault if summary is not None else None)
+        handed = cause in (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
+        self.auto_watch.flight_ended(left_auto=handed)
+        log.info("serve_flight_end", request=Request.GOTO.value, exit_code=int(outcome.exit_code))
+        if handed or cause is FaultCause.PAUSED or self.flight_stop.paused:
+            self._set_state(*before)  # the mission's verdict stands
+            return
+        text = flight_end_text(summary, runner.numbering(), outcome.messages)
+        self._set_state(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
+
     async def _fly(self, ap: Autopilot, request: Request, who: str) -> None:
         try:
             await self._fly_once(ap, request, who)
@@ -543,19 +633,7 @@ class Service:
         log.info("serve_flight_start", request=request.value, by=who, flight=self.flights)
         self._set_state(ServeState.FLYING, f"{request.value} by {who}")
         self.busy = False
-        opts = RunOptions(
-            cfg=cfg,
-            mission=flight.mission,
-            mission_yaml=flight.mission_yaml,
-            connect_url=self.cfg.link.url,
-            run_root=run_root,
-            tty=False,
-            replan_from=flight.replan_from,
-            inputs=flight.inputs,
-            options=flight.options,
-            item_numbers=flight.item_numbers,
-            autopilot_fence=False,
-        )
+        opts = _run_options(flight, cfg, run_root, self.cfg)
         auto = request is Request.AUTO  # the autopilot runs its own item progress in AUTO
         # else the GCS highlights the item helixd flies as the autopilot's current
         shows_item = self.opts.mission_file is None and not auto
@@ -575,7 +653,8 @@ class Service:
         summary = outcome.summary
         cause = _cause(summary.fault if summary is not None else None)
         # released to the pilot, or moved to another item: AUTO again (or still) starts
-        self.auto_watch.flight_ended(left_auto=cause in (FaultCause.RELEASED, FaultCause.ITEM_SET))
+        handed = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
+        self.auto_watch.flight_ended(left_auto=cause in handed)
         state = state_after_flight(outcome.exit_code, cause, self.flight_stop.paused)
         if state is ServeState.COMPLETED:
             self._interrupted = None
@@ -616,6 +695,25 @@ class Service:
         if stop is not None:
             stop.trigger(why)
         await asyncio.gather(task, return_exceptions=True)
+
+
+def _run_options(
+    flight: Flight, cfg: HelixdConfig, run_root: Path, serve_cfg: HelixdConfig
+) -> RunOptions:
+    """A flight's options on the service's link (no terminal, no fence upload of its own)."""
+    return RunOptions(
+        cfg=cfg,
+        mission=flight.mission,
+        mission_yaml=flight.mission_yaml,
+        connect_url=serve_cfg.link.url,
+        run_root=run_root,
+        tty=False,
+        replan_from=flight.replan_from,
+        inputs=flight.inputs,
+        options=flight.options,
+        item_numbers=flight.item_numbers,
+        autopilot_fence=False,
+    )
 
 
 def _operator_waypoints(msn: Mission) -> int:

@@ -19,6 +19,11 @@ judged the same way:
   is the crew's command (:mod:`helixd.runtime.mode_gate`). Like the switch, an autopilot
   found armed in AUTO when the service comes up (or when a flight ends) is not a start: it
   must be seen out of it first.
+* the autopilot's place (:class:`GotoWatch`, :func:`answer_goto`): armed in GUIDED (the
+  crew's *Go to location*), RTL or SMART_RTL, the autopilot publishes where it drives to; a
+  flight of one leg from where the rover is drives there and holds (neutral, overrides kept),
+  and each new place is a new flight. Like AUTO, a place already published when the service
+  comes up is not a start, nor is the one a flight just ended at (the crew gives a new one).
 
 Each command gets one :class:`Answer`: ACCEPTED with an action, DENIED with why (also for a
 sender that is not one of ``serve.gcs_system_ids``), TEMPORARILY_REJECTED while a flight is
@@ -32,6 +37,7 @@ from dataclasses import dataclass
 from enum import IntEnum, StrEnum
 
 from helixd.base.exitcodes import ExitCode
+from helixd.link.vehicle import PositionTarget
 from helixd.mav.constants import (
     MAV_CMD_DO_PAUSE_CONTINUE,
     MAV_CMD_MISSION_START,
@@ -40,12 +46,13 @@ from helixd.mav.constants import (
     MAV_RESULT_TEMPORARILY_REJECTED,
     MAV_RESULT_UNSUPPORTED,
 )
-from helixd.runtime.mode_gate import AUTO_MODE
+from helixd.runtime.mode_gate import AUTO_MODE, GOTO_MODES, same_place
 from helixd.safety.watchdogs import FaultCause
 
 __all__ = [
     "Answer",
     "AutoWatch",
+    "GotoWatch",
     "Request",
     "ServeState",
     "ServeView",
@@ -53,6 +60,7 @@ __all__ = [
     "SwitchWatch",
     "answer_auto",
     "answer_command",
+    "answer_goto",
     "answer_switch",
     "state_after_flight",
 ]
@@ -79,6 +87,7 @@ class Request(StrEnum):
     RELEASE = "release"  # flying, held at a NAV_LOITER_UNLIM: go on with the mission
     PAUSE = "pause"
     AUTO = "auto"  # the autopilot armed in AUTO: from its current item, driving in AUTO
+    GOTO = "goto"  # the autopilot armed in GUIDED, RTL or SMART_RTL: to its place
 
 
 @dataclass(frozen=True, slots=True)
@@ -274,14 +283,70 @@ def answer_auto(view: ServeView) -> Answer | None:
     return Answer(MAV_RESULT_ACCEPTED, "AUTO: driving the mission", Request.AUTO)
 
 
+@dataclass(slots=True)
+class GotoWatch:
+    """The autopilot's place to go (GUIDED, RTL, SMART_RTL, armed) as a start: each place not
+    flown yet is pending (:meth:`update` returns it) until the service took it
+    (:meth:`taken`). Blind while a flight runs (the flight hands over to a new place itself).
+    The place published when the watch first looks, and the last place taken, are not starts
+    again until the autopilot is seen out of those modes (or disarmed): a flight ending in a
+    fault with the autopilot still there never restarts itself."""
+
+    same_within_m: float  # serve.same_place_m
+    _primed: bool = False
+    _blocked: PositionTarget | None = None
+
+    def update(
+        self, armed: bool, mode: str, target: PositionTarget | None, flying: bool
+    ) -> PositionTarget | None:
+        """The place pending now (None: none)."""
+        there = armed and mode in GOTO_MODES
+        if not self._primed:
+            self._primed = True
+            if there and target is not None:
+                self._blocked = target
+        if flying:
+            return None
+        if not there:
+            self._blocked = None
+            return None
+        if target is None:
+            return None
+        blocked = self._blocked
+        if blocked is not None and same_place(target, blocked, self.same_within_m):
+            return None
+        return target
+
+    def taken(self, target: PositionTarget) -> None:
+        self._blocked = target
+
+
+def answer_goto(view: ServeView, mode: str, motion_mode_set: bool) -> Answer:
+    """A pending place of the autopilot's ``mode``: ACCEPTED (a flight there), or DENIED with
+    why (the GCS is told)."""
+    if view.state is ServeState.CONNECTING:
+        return Answer(MAV_RESULT_DENIED, f"{mode}: helixd will not drive: no autopilot")
+    if not motion_mode_set:
+        return Answer(
+            MAV_RESULT_DENIED,
+            f"{mode}: helixd will not drive: no motion mode: set mission.ground_station_mode "
+            "in the config (or serve --mode)",
+        )
+    if view.switch_low:
+        return Answer(
+            MAV_RESULT_DENIED,
+            f"{mode}: helixd will not drive: the start switch is low (pause)",
+        )
+    return Answer(MAV_RESULT_ACCEPTED, f"{mode}: driving to the autopilot's place", Request.GOTO)
+
+
 def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -> ServeState:
     """Where a flight leaves the service: completed; paused (the flight ended on an operator's
     pause, ``paused``, even one that came while it was still starting); or faulted (a fault,
     a pilot's takeover, a refusal at its start)."""
     if code is ExitCode.OK:
         return ServeState.COMPLETED
-    if cause in (FaultCause.PAUSED, FaultCause.RELEASED, FaultCause.ITEM_SET) or (
-        paused and cause in (FaultCause.SIGNAL, None)
-    ):
+    handed = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
+    if cause in (FaultCause.PAUSED, *handed) or (paused and cause in (FaultCause.SIGNAL, None)):
         return ServeState.PAUSED
     return ServeState.FAULTED

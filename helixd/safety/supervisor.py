@@ -216,8 +216,13 @@ async def fall_back(
         except Exception as exc:  # the fall-back must go on to HOLD whatever happened
             report.errors.append(f"stopping the scrolls failed: {exc!r}")
         report.stopped_after_s = time.monotonic() - detected_s
-    # the pilot drives, or the crew moved the autopilot's AUTO to another item: no HOLD
-    released = fault is not None and fault.cause in (FaultCause.RELEASED, FaultCause.ITEM_SET)
+    # the pilot drives, or the crew moved the autopilot's AUTO to another item, or gave it
+    # another place or mode helixd drives in: no HOLD
+    released = fault is not None and fault.cause in (
+        FaultCause.RELEASED,
+        FaultCause.ITEM_SET,
+        FaultCause.HANDOVER,
+    )
     if autopilot is not None and not released:
         report.hold_requested_after_s = time.monotonic() - detected_s
         deadline = time.monotonic() + cfg.hold_retry_bound_s

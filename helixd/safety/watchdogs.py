@@ -64,6 +64,10 @@ class FaultCause(StrEnum):
     ITEM_SET = "item_set"
     # a completed mission's disarm failed: the vehicle is left armed, so it is no exit 0
     NOT_DISARMED = "not_disarmed"
+    # helixd serve, a flight the autopilot's mode drives: the crew gave the autopilot another
+    # place (Go to location) or a mode helixd drives in (AUTO, GUIDED, RTL, SMART_RTL): the
+    # flight ends without asking HOLD and the next drives there
+    HANDOVER = "handover"
     EXCEPTION = "exception"  # unhandled error inside helixd
     PREFLIGHT = "preflight"  # refused before the mission started (nothing driven)
     ACTUATOR = "actuator"  # the actuator backend refused a command mid-mission (servo)
@@ -85,6 +89,7 @@ OPERATOR_CAUSES = frozenset(
         FaultCause.PAUSED,
         FaultCause.RELEASED,
         FaultCause.ITEM_SET,
+        FaultCause.HANDOVER,
     }
 )
 
@@ -107,6 +112,7 @@ CAUSE_WORDS: dict[str, str] = {
     FaultCause.RELEASED: "released to the pilot",
     FaultCause.ITEM_SET: "new current item",
     FaultCause.NOT_DISARMED: "mission done, still armed",
+    FaultCause.HANDOVER: "driving to a new place",
     FaultCause.EXCEPTION: "internal error",
     FaultCause.PREFLIGHT: "preflight refused",
     FaultCause.ACTUATOR: "scroll command refused",

@@ -13,6 +13,15 @@ from typing import Protocol
 
 import numpy as np
 
+from helixd.base.frames import latlon_to_ne, ne_to_latlon
+from helixd.mav.constants import (
+    MAV_CMD_NAV_WAYPOINT,
+    MAV_FRAME_GLOBAL,
+    MAV_FRAME_GLOBAL_INT,
+    MAV_MISSION_TYPE_RALLY,
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_FAILED,
+)
 from helixd.mav.guard_script import SCR_ENABLE
 from helixd.sim import collisions, estimator, messages, physics, skid, vehicle_reports
 from helixd.sim import stream_rates as st
@@ -21,6 +30,13 @@ from helixd.sim.inbound import InboundHandler
 from helixd.sim.messages import STATUSTEXT_LEN, Message, file_transfer_protocol, statustexts
 from helixd.sim.mission_server import MissionServer, Outcome
 from helixd.sim.mode_auto import ModeAuto
+from helixd.sim.mode_goto import (
+    ModeGoto,
+    Place,
+    SmartRtlPath,
+    reposition_refusal,
+    rtl_destination,
+)
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.param_store import ParamStore
 from helixd.sim.physics import MotorMap
@@ -111,7 +127,10 @@ class SimCore:
         )
         self.ap.mission_present = lambda: len(self.mission.stored()) > 1
         self.auto = ModeAuto()
-        self._mode_before = self.ap.mode  # AUTO entered or left: ModeAuto's enter/exit
+        self.goto = ModeGoto()  # GUIDED's, RTL's and SmartRTL's place (helixd.sim.mode_goto)
+        self.srtl = SmartRtlPath()  # AP_SmartRTL's saved path
+        self.ap.smart_rtl_ready = lambda: self.srtl.active
+        self._mode_before = self.ap.mode  # a mode entered or left: AUTO's, GUIDED's, RTL's
         self._params_view: tuple[int, Mapping[str, float]] = (-1, MappingProxyType({}))
         self.view = self._view(self.ekf_status(), self.now_s)
 
@@ -170,6 +189,32 @@ class SimCore:
 
     def set_mission_current(self, link: int, param1: float, param2: float) -> tuple[int, Outcome]:
         return self.mission.do_set_mission_current(link, param1, param2)
+
+    def reposition(self, p: list[float], is_int: bool, frame: int) -> int:
+        """MAV_CMD_DO_REPOSITION (:mod:`helixd.sim.mode_goto`): GUIDED's new place, switching
+        to GUIDED when param2 asks; the MAV_RESULT."""
+        guided = MODE_NUMBERS["GUIDED"]
+        lat_e7, lon_e7 = (
+            (int(p[4]), int(p[5])) if is_int else (round(p[4] * 1e7), round(p[5] * 1e7))
+        )
+        refusal = reposition_refusal(self.ap.mode == guided, p[1], lat_e7, lon_e7, frame, p[6])
+        if refusal is not None:
+            return refusal
+        if self.ap.mode != guided:
+            if not self.ap.set_mode(guided, "gcs_command", self.now_s, self.ekf_status()):
+                return MAV_RESULT_FAILED
+            self._mode_changed()
+        if p[0] > 0.0 and self.ap.change_speed(1.0, p[0]) != MAV_RESULT_ACCEPTED:
+            return MAV_RESULT_FAILED
+        amsl = frame in (MAV_FRAME_GLOBAL, MAV_FRAME_GLOBAL_INT)
+        alt_m = p[6] if amsl else self.config.origin_alt_m + p[6]
+        self.goto.go(self._place(lat_e7, lon_e7, alt_m), self.ap.here_ne, rtl=False)
+        return MAV_RESULT_ACCEPTED
+
+    def _place(self, lat_e7: int, lon_e7: int, alt_amsl_m: float) -> Place:
+        cfg = self.config
+        ne = latlon_to_ne(lat_e7 / 1e7, lon_e7 / 1e7, cfg.origin_lat_deg, cfg.origin_lon_deg)
+        return Place(ne, lat_e7, lon_e7, alt_amsl_m)
 
     def ftp_request(self, link: int, payload: bytes, sysid: int, compid: int) -> None:
         """GCS_FTP: each reply goes back to the sender on the link the request came in on."""
@@ -351,23 +396,74 @@ class SimCore:
             # AP_Arming_Rover::disarm: outside AUTO the mission is reset, so MISSION_CURRENT
             # reads 0 until something sets the current item again
             self.mission.reset_on_disarm()
+        self._smart_rtl_save(arming=self.ap.armed and not self._was_armed)
         self._was_armed = self.ap.armed
+        self._mode_changed()
         self._mode_auto(now)
+        if self.goto.place is not None:
+            radius_m = self.params.get("WP_RADIUS")
+            self.mission_outcome(self.goto.update(self.ap.here_ne, radius_m))
         self.mission_outcome(self.mission.update(now))
         self._telemetry(now)
 
-    def _mode_auto(self, now: float) -> None:
-        """AUTO entered (ModeAuto::_enter), left (``_exit``: the mission stops) or running
-        (the mission verified against the EKF's position: :mod:`helixd.sim.mode_auto`)."""
+    def _mode_changed(self) -> None:
+        """A mode entered or left: AUTO's (ModeAuto::_enter; ``_exit`` stops the mission),
+        GUIDED's Stop submode, RTL's place (:mod:`helixd.sim.mode_goto`)."""
         auto = MODE_NUMBERS["AUTO"]
         mode = self.ap.mode
-        if mode != self._mode_before:
-            if self._mode_before == auto:
-                self.mission.stop()
-            if mode == auto:
-                self.auto.enter()
-            self._mode_before = mode
-        if mode != auto:
+        if mode == self._mode_before:
+            return
+        if self._mode_before == auto:
+            self.mission.stop()
+        if mode == auto:
+            self.auto.enter()
+        self.goto.stop()
+        home = self.ap.home
+        if mode == MODE_NUMBERS["RTL"] and home is not None:
+            alt_m = self.config.origin_alt_m
+            home_place = self._place(round(home.lat_deg * 1e7), round(home.lon_deg * 1e7), alt_m)
+            rally = [
+                self._place(item.x, item.y, alt_m + item.z)
+                for item in self.mission.stored(MAV_MISSION_TYPE_RALLY)
+            ]
+            here = self.ap.here_ne or home_place.ne
+            self.goto.go(rtl_destination(here, home_place, rally), here, rtl=True)
+        if mode == MODE_NUMBERS["SMART_RTL"]:
+            self.mission_outcome(self.goto.follow(self.srtl.points, self.ap.here_ne))
+        self._mode_before = mode
+
+    def _smart_rtl_save(self, arming: bool) -> None:
+        """AP_SmartRTL: the path from the first position and from each arming
+        (``set_home``), a point every SRTL_ACCURACY outside SmartRTL (``save_position``)."""
+        here = self.ap.here_ne
+        if here is None:
+            return
+        restart = arming or not self.srtl.active
+        if not restart and (self.ap.mode == MODE_NUMBERS["SMART_RTL"] or not self.srtl.due(here)):
+            return
+        cfg = self.config
+        lat, lon = ne_to_latlon(*here, cfg.origin_lat_deg, cfg.origin_lon_deg)
+        place = Place(here, round(lat * 1e7), round(lon * 1e7), cfg.origin_alt_m)
+        if restart:
+            self.srtl.set_home(place)
+        else:
+            self.srtl.points.append(place)
+
+    def _position_target(self) -> tuple[int, int, float] | None:
+        """The mode's place to go (get_desired_location): AUTO's current waypoint, GUIDED's
+        or RTL's place; None in the other modes."""
+        if self.ap.mode != MODE_NUMBERS["AUTO"]:
+            return self.goto.published()
+        current = self.mission.nav_item()
+        if current is None or current[1].command != MAV_CMD_NAV_WAYPOINT:
+            return None
+        item = current[1]
+        return (item.x, item.y, self.config.origin_alt_m + item.z)
+
+    def _mode_auto(self, now: float) -> None:
+        """AUTO running: the mission verified against the EKF's position
+        (:mod:`helixd.sim.mode_auto`)."""
+        if self.ap.mode != MODE_NUMBERS["AUTO"]:
             return
         cfg = self.config
         origin = (
@@ -442,6 +538,7 @@ class SimCore:
             gps_lost=self._gps_lost_for(cfg.gps_loss_report_s),
             fence=ap.fence_breached if self.params.get_int("FENCE_ENABLE") else None,
             battery_failsafe=ap.battery_failsafe_level > 0,
+            position_target=self._position_target(),
         )
 
     def _telemetry(self, now: float) -> None:

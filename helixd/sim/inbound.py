@@ -19,12 +19,14 @@ from collections.abc import Callable
 from typing import Any, Protocol
 
 from helixd.mav.constants import (
+    MAV_CMD_DO_REPOSITION,
     MAV_CMD_DO_SET_MISSION_CURRENT,
     MAV_CMD_GET_MESSAGE_INTERVAL,
     MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
     MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES,
     MAV_CMD_REQUEST_MESSAGE,
     MAV_CMD_SET_MESSAGE_INTERVAL,
+    MAV_FRAME_GLOBAL_RELATIVE_ALT,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
@@ -99,6 +101,10 @@ class InboundPort(Protocol):
 
     def set_mission_current(self, link: int, param1: float, param2: float) -> tuple[int, Outcome]:
         """MAV_CMD_DO_SET_MISSION_CURRENT: (MAV_RESULT, what to send after the ACK)."""
+        ...
+
+    def reposition(self, p: list[float], is_int: bool, frame: int) -> int:
+        """MAV_CMD_DO_REPOSITION: GUIDED's new place (helixd.sim.mode_goto); the MAV_RESULT."""
         ...
 
     def mission_outcome(self, out: Outcome) -> None:
@@ -179,16 +185,26 @@ class InboundHandler:
     def _command_int(self, link: int, msg: Message, src: int, comp: int) -> None:
         params = [_f(msg, f"param{n}") for n in range(1, 5)]
         params += [float(_i(msg, "x")), float(_i(msg, "y")), _f(msg, "z")]
-        self._command(link, _i(msg, "command"), params, src, comp, is_int=True)
+        frame = _i(msg, "frame")
+        self._command(link, _i(msg, "command"), params, src, comp, is_int=True, frame=frame)
 
     def _command(
-        self, link: int, command: int, p: list[float], src: int, comp: int, is_int: bool = False
+        self,
+        link: int,
+        command: int,
+        p: list[float],
+        src: int,
+        comp: int,
+        is_int: bool = False,
+        frame: int = MAV_FRAME_GLOBAL_RELATIVE_ALT,  # a COMMAND_LONG's location: relative alt
     ) -> None:
         core = self.core
         after_ack: Outcome | None = None
         result: int | None
         if command == MAV_CMD_DO_SET_MISSION_CURRENT:
             result, after_ack = core.set_mission_current(link, p[0], p[1])
+        elif command == MAV_CMD_DO_REPOSITION:
+            result = core.reposition(p, is_int, frame)
         else:
             result = self._link_command(link, command, p)
         if result is None:

@@ -259,6 +259,24 @@ def mission_current(seq: int, total: int, mission_state: int, mission_mode: int)
     return _m(mavlink.MAVLink_mission_current_message(seq, total, mission_state, mission_mode))
 
 
+# GCS_MAVLINK::send_position_target_global_int: x/y/z only (the velocity, acceleration, yaw
+# and yaw-rate ignore bits, and the top four bits)
+POSITION_TARGET_TYPE_MASK = 0xF000 | 0x0FF8
+
+
+def position_target_global_int(
+    time_boot_ms: int, lat_e7: int, lon_e7: int, alt_amsl_m: float
+) -> Message:
+    """The place the mode drives to, in MAV_FRAME_GLOBAL (altitude above mean sea level)."""
+    zeros = (0.0,) * 8  # velocity, acceleration, yaw, yaw rate: ignored (type_mask)
+    frame, mask = mavlink.MAV_FRAME_GLOBAL, POSITION_TARGET_TYPE_MASK
+    return _m(
+        mavlink.MAVLink_position_target_global_int_message(
+            time_boot_ms, frame, mask, lat_e7, lon_e7, alt_amsl_m, *zeros
+        )
+    )
+
+
 def mission_item_reached(seq: int) -> Message:
     return _m(mavlink.MAVLink_mission_item_reached_message(seq))
 

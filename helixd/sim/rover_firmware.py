@@ -176,6 +176,8 @@ class SimAutopilot:
         self.gcs_heartbeats_seen = 0
         # AP_Mission::present (more than home): the simulator's core answers it
         self.mission_present: Callable[[], bool] = lambda: False
+        # AP_SmartRTL::is_active (a saved path): the simulator's core answers it
+        self.smart_rtl_ready: Callable[[], bool] = lambda: False
         self._boot(now_s, silent_s=0.0)
 
     # -- lifecycle -------------------------------------------------------------------------
@@ -310,13 +312,14 @@ class SimAutopilot:
             self._say(SEVERITY_WARNING, "Flight mode change failed")
             return False
         # _enter() refusals: AUTO without a mission (ModeAuto::_enter), SmartRTL with no
-        # saved path (none in the simulator); RTL needs home
+        # saved path (ModeSmartRTL::_enter); RTL needs home
         if number == modes.AUTO and not self.mission_present():
             self._say(SEVERITY_NOTICE, NO_MISSION_TEXT)
             self._say(SEVERITY_WARNING, "Flight mode change failed")
             return False
         no_home = number == modes.RTL and not self.home_set(now_s)
-        if number == modes.SMART_RTL or no_home:
+        no_path = number == modes.SMART_RTL and not self.smart_rtl_ready()
+        if no_path or no_home:
             self._say(SEVERITY_WARNING, "Flight mode change failed")
             return False
         old = self.mode

@@ -49,6 +49,8 @@ class TelemetryView:
     gps_lost: bool = False  # the receiver reports no fix (fault gps_loss)
     fence: bool | None = None  # None: no fence enabled; else whether it is breached
     battery_failsafe: bool = False  # battery 1's failsafe has fired
+    # the mode's place to go (lat_e7, lon_e7, alt_amsl_m): get_desired_location; None: none
+    position_target: tuple[int, int, float] | None = None
 
     def system_status(self) -> int:
         """GCS_MAVLINK_Rover::vehicle_system_status."""
@@ -150,6 +152,10 @@ def build(
         return messages.gps_global_origin(
             v.origin_lat_deg, v.origin_lon_deg, v.origin_alt_m, t * 1000
         )
+    if msg_id == st.MSG_POSITION_TARGET_GLOBAL_INT:
+        if v.position_target is None:
+            return None  # send_position_target_global_int: only with a desired location
+        return messages.position_target_global_int(t, *v.position_target)
     if msg_id == st.MSG_HOME_POSITION:
         if v.home is None:
             return None  # GCS_MAVLINK::send_home_position: nothing while home is not set

@@ -435,3 +435,23 @@ def test_fuzz_mission_current_fields_are_checked_at_the_edge(
     else:
         assert changes == Change.NONE
         assert st_.mission_current == before and st_.mission_current_rejected_count == 1
+
+
+def target(lat_e7: int, lon_e7: int, type_mask: int = 0xFFF8) -> Any:
+    zeros = [0.0] * 8
+    msg = AP.position_target_global_int_encode(1000, 0, type_mask, lat_e7, lon_e7, 700.0, *zeros)
+    return decoded(msg, AP)
+
+
+def test_position_target_kept_when_a_place_and_mode_since_its_heartbeat() -> None:
+    st = VehicleState()
+    st.apply(hb(15), 1.0)
+    assert st.mode_since_s == 1.0
+    st.apply(hb(15), 2.0)
+    assert st.mode_since_s == 1.0  # the same mode: since the first HEARTBEAT naming it
+    assert st.apply(target(523_000_000, 130_000_000), 2.5) == Change.TARGET
+    assert st.position_target is not None and st.position_target.lat_deg == 52.3
+    assert st.position_target.rx_monotonic_s == 2.5
+    for bad in (target(0, 0), target(910_000_000, 1), target(1, 1, type_mask=0xFFFB)):
+        assert st.apply(bad, 3.0) == Change.NONE  # 0/0, off the Earth, lat/lon ignored
+    assert st.position_target_rejected_count == 3

@@ -19,9 +19,10 @@ from hypothesis import strategies as st
 from helixd.actuators.base import ServoCommandRefused
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.config import HelixdConfig
+from helixd.control.navigator import Navigator
 from helixd.link.command_client import CommandRejected
 from helixd.link.telemetry import ChangeWaiters, Telemetry
-from helixd.link.vehicle import Change, PoseSample, VehicleState
+from helixd.link.vehicle import Change, PoseSample, PositionTarget, VehicleState
 from helixd.mission.model import Mission
 from helixd.mission.resolve import resolve_plan
 from helixd.runtime.flight import FlightLoop, StepReport, ceiling_next_due
@@ -459,3 +460,74 @@ def test_a_flight_of_auto_ends_when_the_crew_sets_another_item() -> None:
     result = asyncio.run(main())
     assert result.fault is not None and result.fault.cause is FaultCause.ITEM_SET
     assert "item 1" in result.fault.detail
+
+
+GUIDED = 15
+HERE = PositionTarget(520_000_000, 130_000_000, 0.0)  # lat/lon of a place (degE7)
+
+
+class GotoAutopilot(FedAutopilot):
+    """Also publishes its place each period, as ArduPilot's GUIDED does (None: none)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.places: list[tuple[int, int] | None] = []
+        self.norths_m: list[float] = []  # the rover's position (north) per period, then 0
+
+    def tick(self) -> None:
+        self.t_ms += 20
+        self.rx(hb(self.modes.pop(0) if self.modes else 0, armed=True))
+        self.rx(decoded(AP.ekf_status_report_encode(EKF_OK, 0.1, 0.1, 0.1, 0.05, 0.0), AP))
+        self.rx(decoded(AP.gps_raw_int_encode(0, 3, 0, 0, 0, 100, 200, 0, 0, 12), AP))
+        self.rx(att(self.t_ms, 0.0))
+        self.rx(lpn(self.t_ms, self.norths_m.pop(0) if self.norths_m else 0.0, 0.0))
+        place = self.places.pop(0) if self.places else (HERE.lat_e7, HERE.lon_e7)
+        if place is not None:
+            zeros = [0.0] * 8
+            msg = AP.position_target_global_int_encode(self.t_ms, 0, 0xFFF8, *place, 0.0, *zeros)
+            self.rx(decoded(msg, AP))
+
+
+def goto_loop(ap: FedAutopilot, sink: Sink, trace: list[str], x_m: float) -> FlightLoop:
+    loop = make_loop(ap, sink, trace, driving_mode="GUIDED")
+    mission = Mission.model_validate(
+        {"name": "t", "mode": "roll", "frame": "start", "waypoints": [{"x": x_m, "y": 0}]}
+    )
+    loop.plan = resolve_plan(mission, loop.cfg.control, loop.cfg.mission, None)
+    loop.navigator = Navigator(loop.plan, loop.cfg.control)
+    loop.goto = HERE
+    return loop
+
+
+def test_a_flight_to_a_place_holds_there_and_never_completes() -> None:
+    trace: list[str] = []
+    ap = GotoAutopilot()
+    ap.modes = [GUIDED] * 60
+    # driven onto the place at 1 m/s, past its line within control.stop_tolerance_m; stays
+    ap.norths_m = [0.02 * i for i in range(27)] + [0.52] * 20
+    ap.tick()
+    sink = Sink(trace)
+    loop = goto_loop(ap, sink, trace, 0.5)
+    result = asyncio.run(fly(ap, loop, 45))
+    assert result.fault is not None and result.fault.cause is FaultCause.SIGNAL  # our stop
+    assert loop._arrived
+    neutral = [c == (0.0,) * 4 for c in sink.commands]
+    arrived_at = neutral.index(True, 1)
+    assert not all(neutral[:arrived_at]) and all(neutral[arrived_at:])
+    assert len(neutral) - arrived_at >= 10  # held there to the end, the flight still on
+
+
+def test_a_flight_to_a_place_hands_over_to_a_new_place_and_holds_without_one() -> None:
+    trace: list[str] = []
+    ap = GotoAutopilot()
+    ap.modes = [GUIDED] * 40
+    ap.places = [None] * 3 + [(HERE.lat_e7, HERE.lon_e7)] * 5 + [(HERE.lat_e7 + 900, HERE.lon_e7)]
+    ap.tick()
+    sink = Sink(trace)
+    loop = goto_loop(ap, sink, trace, 20.0)
+    gates: list[str] = []
+    loop.on_gate = lambda gate, mode: gates.append(gate.value)
+    result = asyncio.run(fly(ap, loop, 30))
+    assert result.fault is not None and result.fault.cause is FaultCause.HANDOVER
+    assert gates[-1] == "handover" and "GUIDED to 52.0000900" in result.fault.detail
+    assert any(c != (0.0,) * 4 for c in sink.commands)  # driven toward the place meanwhile

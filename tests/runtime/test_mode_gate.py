@@ -1,17 +1,23 @@
 """The autopilot's mode as the crew's command (pure): what each mode lets a flight of AUTO do,
-and the mode as the freshest report tells it (HEARTBEAT, or a later MISSION_CURRENT)."""
+and the mode as the freshest report tells it (HEARTBEAT, or a later MISSION_CURRENT); what the
+mode and its published place let a flight to the autopilot's place do."""
 
 from __future__ import annotations
 
 import pytest
 
+from helixd.base.frames import ne_to_latlon
+from helixd.link.vehicle import PositionTarget
 from helixd.runtime.mode_gate import (
     AUTO_MODE,
     LEFT_AUTO,
     Gate,
     crew_mode,
+    current_target,
     gate_of,
+    goto_gate,
     item_set_by_crew,
+    same_place,
 )
 
 
@@ -58,3 +64,55 @@ def test_the_crews_set_current_waypoint_is_any_move_but_on_to_the_next_item() ->
     assert item_set_by_crew(1, 3)
     assert item_set_by_crew(3, 1)
     assert not item_set_by_crew(3, 0)  # no current item (a reset), not a place to go
+
+
+def place(north_m: float, east_m: float, rx_s: float = 10.0) -> PositionTarget:
+    lat, lon = ne_to_latlon(north_m, east_m, 52.0, 13.0)
+    return PositionTarget(round(lat * 1e7), round(lon * 1e7), rx_s)
+
+
+def test_a_flight_of_auto_hands_over_to_a_mode_with_a_place_only() -> None:
+    assert gate_of("GUIDED", AUTO_MODE, place_to_go=True) is Gate.HANDOVER
+    assert gate_of("RTL", AUTO_MODE, place_to_go=True) is Gate.HANDOVER
+    assert gate_of("GUIDED", AUTO_MODE, place_to_go=False) is Gate.HOLD  # no place yet
+    assert gate_of("LOITER", AUTO_MODE, place_to_go=True) is Gate.HOLD  # not driven by helixd
+    assert gate_of("AUTO", AUTO_MODE, place_to_go=True) is Gate.DRIVE
+
+
+@pytest.mark.parametrize(
+    ("mode", "target", "gate"),
+    [
+        ("GUIDED", (0.2, 0.0), Gate.DRIVE),  # the same place (within 0.5 m)
+        ("RTL", (0.0, 0.0), Gate.DRIVE),  # the place came before the HEARTBEAT naming RTL
+        ("SMART_RTL", (0.0, 0.3), Gate.DRIVE),
+        ("GUIDED", (5.0, 0.0), Gate.HANDOVER),  # a new click
+        ("RTL", (0.0, 30.0), Gate.HANDOVER),  # RTL's place is elsewhere
+        ("AUTO", (0.0, 0.0), Gate.HANDOVER),  # the crew's Start Mission / Auto
+        ("GUIDED", None, Gate.HOLD),  # GUIDED from the menu, or the place not renewed
+        ("HOLD", None, Gate.HOLD),  # Pause
+        (LEFT_AUTO, None, Gate.HOLD),
+        ("MANUAL", (0.0, 0.0), Gate.RELEASE),
+        ("ACRO", None, Gate.RELEASE),
+    ],
+)
+def test_what_each_mode_and_place_let_a_flight_to_a_place_do(
+    mode: str, target: tuple[float, float] | None, gate: Gate
+) -> None:
+    current = None if target is None else place(*target)
+    assert goto_gate(mode, place(0.0, 0.0), current, 0.5) is gate
+
+
+def test_the_current_place_is_the_modes_own_and_renewed() -> None:
+    t = place(1.0, 2.0, rx_s=10.0)
+    assert current_target("GUIDED", t, 9.0, 10.5, 1.5) is t
+    assert current_target("SMART_RTL", t, None, 10.5, 1.5) is t
+    assert current_target("GUIDED", t, 10.0, 10.5, 1.5) is None  # before the mode's HEARTBEAT
+    assert current_target("GUIDED", t, 9.0, 11.6, 1.5) is None  # not renewed: no place
+    assert current_target("AUTO", t, 9.0, 10.5, 1.5) is None  # AUTO flies helixd's mission
+    assert current_target("GUIDED", None, 9.0, 10.5, 1.5) is None
+
+
+def test_same_place_within_the_distance() -> None:
+    assert same_place(place(0.0, 0.0), place(0.3, 0.3), 0.5)
+    assert not same_place(place(0.0, 0.0), place(0.4, 0.4), 0.5)
+    assert same_place(place(3.0, 4.0), place(3.0, 4.0), 0.0)

@@ -20,6 +20,7 @@ from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import (
     AutopilotMission,
+    AutopilotPlace,
     MissionFile,
     from_autopilot_item,
     prepare_flight,
@@ -104,3 +105,12 @@ def test_a_flight_from_the_autopilots_current_item() -> None:
     assert later.inputs.numbering([False]).label(0) == "3/3"
     with pytest.raises(InputsRefused, match="past the mission's last waypoint"):
         from_autopilot_item(flight, 4)
+
+
+def test_the_autopilots_place_is_a_checked_flight_of_one_leg() -> None:
+    cfg = HelixdConfig()
+    got = prepare_flight(AutopilotPlace(52.0, 13.0, "RTL", cfg, MotionMode.ROLL), None)
+    (wp,) = got.flight.mission.waypoints
+    assert (wp.lat, wp.lon) == (52.0, 13.0) and got.flight.mission.name == "RTL"
+    with pytest.raises(InputsRefused):  # checked as a mission: off the Earth is refused
+        prepare_flight(AutopilotPlace(95.0, 13.0, "GUIDED", cfg, MotionMode.ROLL), None)

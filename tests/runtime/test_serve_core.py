@@ -9,6 +9,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.frames import ne_to_latlon
+from helixd.link.vehicle import PositionTarget
 from helixd.mav.constants import (
     MAV_CMD_DO_PAUSE_CONTINUE,
     MAV_CMD_DO_SET_MODE,
@@ -20,6 +22,7 @@ from helixd.mav.constants import (
 )
 from helixd.runtime.serve_core import (
     AutoWatch,
+    GotoWatch,
     Request,
     ServeState,
     ServeView,
@@ -27,6 +30,7 @@ from helixd.runtime.serve_core import (
     SwitchWatch,
     answer_auto,
     answer_command,
+    answer_goto,
     answer_switch,
     state_after_flight,
 )
@@ -256,3 +260,40 @@ def test_a_pending_start_from_auto_is_answered_once_the_mission_is_judged() -> N
     assert a is not None and a.result == MAV_RESULT_DENIED and "switch" in a.text
     a = answer_auto(view(flies_file=True))  # not the autopilot's mission: AUTO means nothing
     assert a is not None and a.result == MAV_RESULT_DENIED and "mission_file" in a.text
+
+
+def place(north_m: float, east_m: float) -> PositionTarget:
+    lat, lon = ne_to_latlon(north_m, east_m, 52.0, 13.0)
+    return PositionTarget(round(lat * 1e7), round(lon * 1e7), 0.0)
+
+
+def test_each_new_place_of_the_autopilot_is_a_start_once() -> None:
+    w = GotoWatch(0.5)
+    a, b = place(10.0, 0.0), place(0.0, 12.0)
+    assert w.update(True, "GUIDED", a, flying=False) is None  # found there: not a start
+    assert w.update(True, "GUIDED", place(10.2, 0.0), flying=False) is None  # the same place
+    assert w.update(True, "GUIDED", b, flying=False) is b  # a new click
+    w.taken(b)
+    assert w.update(True, "GUIDED", b, flying=False) is None  # taken: the flight ended there
+    assert w.update(True, "GUIDED", a, flying=True) is None  # blind while flying
+    assert w.update(True, "RTL", a, flying=False) is a  # RTL's place, another one
+    w.taken(a)
+    assert w.update(True, "HOLD", None, flying=False) is None  # seen out: a fault's HOLD
+    assert w.update(True, "RTL", a, flying=False) is a  # RTL again: the crew's command
+    assert w.update(False, "GUIDED", b, flying=False) is None  # disarmed: nothing moves
+    assert w.update(True, "GUIDED", None, flying=False) is None  # GUIDED with no place
+    assert w.update(True, "AUTO", a, flying=False) is None  # AUTO flies helixd's mission
+
+
+def test_a_place_is_flown_only_with_a_motion_mode_and_the_switch_not_low() -> None:
+    a = answer_goto(view(ServeState.IDLE), "GUIDED", True)
+    assert a.result == MAV_RESULT_ACCEPTED and a.request is Request.GOTO  # no mission needed
+    assert answer_goto(view(ServeState.CONNECTING), "RTL", True).result == MAV_RESULT_DENIED
+    no_mode = answer_goto(view(), "GUIDED", False)
+    assert no_mode.result == MAV_RESULT_DENIED and "ground_station_mode" in no_mode.text
+    assert answer_goto(view(switch_low=True), "RTL", True).result == MAV_RESULT_DENIED
+
+
+def test_a_handover_leaves_the_service_paused_not_faulted() -> None:
+    state = state_after_flight(ExitCode.OPERATOR_STOP, FaultCause.HANDOVER, False)
+    assert state is ServeState.PAUSED

@@ -57,6 +57,8 @@ STREAM_NAMES = (
     "GPS_RAW_INT",
 )
 MSG_NAME_BY_ID = {int(getattr(mavlink, f"MAVLINK_MSG_ID_{n}")): n for n in STREAM_NAMES}
+# granted but never sent: ArduPilot sends it only in a mode with a place to go
+TARGET_MSG_ID = int(mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT)
 EKF_HEALTHY_FLAGS = 0x1 | 0x2 | 0x4 | 0x8 | 0x10 | 0x20
 HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)
 ROVER_PARAMS: dict[str, float] = {
@@ -567,6 +569,8 @@ class AutopilotPeer:
         if cmd == mavlink.MAV_CMD_SET_MESSAGE_INTERVAL:
             name = MSG_NAME_BY_ID.get(int(p[0]))
             interval = int(p[1])
+            if int(p[0]) == TARGET_MSG_ID and not 0 < interval < self.min_interval_us:
+                return ACCEPTED
             if name is None:
                 return UNSUPPORTED
             if 0 < interval < self.min_interval_us:
