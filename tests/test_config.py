@@ -71,7 +71,7 @@ BAD_CONFIGS = {
     ),
     "gps_stale_below_telemetry_period": (
         "link:\n  telemetry_rate_hz: 1.0\n",
-        ["safety.gps_stale_s = 0.7 s must be > 1 / link.telemetry_rate_hz = 1.000 s"],
+        ["safety.gps_stale_s = 0.6 s must be > 1 / link.telemetry_rate_hz + 0.2 s = 1.200 s"],
     ),
     "gps_fix_below_2d": (
         "safety:\n  gps_min_fix_type: 1\n",

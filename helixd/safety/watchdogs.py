@@ -21,9 +21,9 @@ ours; a dead or rebooting autopilot has no clock at all):
   the stream's silence is our reception of it (``gps_rx_s``, wall clock, ``gps_stale_s``), and
   so is a receiver that stopped sending (``gps_fix_rx_s``: when GPS_RAW_INT's ``time_usec``
   last changed; ArduPilot repeats the last fix, time frozen, for 4 s before it says "no GPS").
-  ArduPilot's receivers fix at 5-20 Hz (GPS_RATE_MS 50-200 ms of autopilot time), so the
-  time moves every 0.2 s at most, well inside ``gps_stale_s`` unless a simulator runs
-  slower than a third of real time.
+  ArduPilot's receivers fix at 5-20 Hz (GPS_RATE_MS 50-200 ms of autopilot time), so we see
+  the time move at least every GPS_RAW_INT period plus 0.2 s, inside ``gps_stale_s`` (the
+  config check) unless a simulator runs far slower than real time.
   The EKF dead-reckons for seconds after a GPS loss before it drops its position (observed
   on ArduPilot SITL: 7.3 s, 4.8 m), so this rule, not ``ekf_unhealthy``, stops the scrolls.
 - ``ekf_unhealthy``, ``disarmed``, ``pilot_takeover``, ``rc_lost``, ``geofence``: states, judged

@@ -333,7 +333,7 @@ def test_gps_lost(tmp_path: Path) -> None:
 def test_gps_stream_stopping_stops_the_scrolls_within_1_s(
     tmp_path: Path, fault: str, detail: str
 ) -> None:
-    # The silence is counted on helixd's own clock (safety.gps_stale_s, 0.7 s), so the
+    # The silence is counted on helixd's own clock (safety.gps_stale_s, 0.6 s), so the
     # simulator runs in real time: its clock is then the wall clock the rover would live on.
     with sim_and_daemon(tmp_path, "square", speedup=1.0) as (server, d):
         at_s = wait_moving(server).sim_time_s + 0.5

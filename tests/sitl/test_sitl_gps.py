@@ -10,7 +10,7 @@ Three ways, injected from a second link while the EKF goes on dead-reckoning for
   its driver gives up after 4 s; helixd judges the frozen fix time;
 * GPS_RAW_INT itself stops (``GPS1_TYPE 0``: ArduPilot sends none without a GPS type). The
   EKF may stop giving a position at once too (LOCAL_POSITION_NED stops): then helixd's pose
-  watchdog (0.5 s) fires before the GPS stream's (0.7 s), cause ``pose_stale``; both were
+  watchdog (0.5 s) fires before the GPS stream's (0.6 s), cause ``pose_stale``; both were
   seen on SITL.
 
 helixd must stop the scrolls within 1 s of the loss (cause ``gps_lost``, or ``pose_stale``
