@@ -1060,12 +1060,15 @@ def config_consistency_problems(cfg: HelixdConfig) -> list[str]:
             f"safety.pose_stale_s = {saf.pose_stale_s} s must be > 1 / link.pose_rate_min_hz = "
             f"{min_period_s:.3f} s (at the slowest accepted pose rate every pose would be stale)"
         )
-    gps_gap_s = 1.0 / cfg.link.telemetry_rate_hz + GPS_FIX_PERIOD_MAX_S
+    # the telemetry streams are stepped down no lower than this when the autopilot refuses
+    telemetry_floor_hz = min(cfg.link.telemetry_rate_hz, cfg.link.pose_rate_min_hz)
+    gps_gap_s = 1.0 / telemetry_floor_hz + GPS_FIX_PERIOD_MAX_S
     if saf.gps_stale_s <= gps_gap_s:
         problems.append(
-            f"safety.gps_stale_s = {saf.gps_stale_s} s must be > 1 / link.telemetry_rate_hz + "
-            f"{GPS_FIX_PERIOD_MAX_S} s = {gps_gap_s:.3f} s (GPS_RAW_INT comes at the telemetry "
-            "rate; a new fix in it at least every 0.2 s, ArduPilot's slowest GPS_RATE_MS)"
+            f"safety.gps_stale_s = {saf.gps_stale_s} s must be > 1 / min(link.telemetry_rate_hz, "
+            f"link.pose_rate_min_hz) + {GPS_FIX_PERIOD_MAX_S} s = {gps_gap_s:.3f} s (GPS_RAW_INT "
+            "comes at the telemetry rate, stepped down no lower than that; a new fix in it at "
+            "least every 0.2 s, ArduPilot's slowest GPS_RATE_MS)"
         )
     sta = cfg.startup
     if sta.arm_retry_interval_s > sta.arm_timeout_s:
