@@ -678,6 +678,11 @@ class TakeoverConfig(InputModel):
     )
 
 
+# ArduPilot's slowest GPS fix period (GPS_RATE_MS, 50..200 ms): GPS_RAW_INT's time_usec moves
+# at least this often while the receiver sends
+GPS_FIX_PERIOD_MAX_S = 0.2
+
+
 class SafetyConfig(InputModel):
     heartbeat_timeout_s: float = Field(
         2.0, gt=0.1, le=30.0, description="autopilot HEARTBEAT silence that is link loss (s)"
@@ -701,11 +706,13 @@ class SafetyConfig(InputModel):
         "uses a GPS, EK3_GPS_CHECK's 'numsats' test)",
     )
     gps_stale_s: float = Field(
-        0.7,
+        0.6,
         gt=0.05,
         le=10.0,
-        description="GPS_RAW_INT age that is a lost GPS (s); with the control tick and the "
-        "fall-back this stops the scrolls within 1 s of the stream stopping",
+        description="GPS_RAW_INT silence, or the same fix repeated (time_usec not moving: the "
+        "receiver stopped), this long is a lost GPS (s); more than one GPS_RAW_INT period "
+        "plus ArduPilot's slowest fix period (0.2 s). A frozen fix is seen up to one "
+        "GPS_RAW_INT period late, so at 5 Hz this stops the scrolls within 0.85 s",
     )
     takeover: TakeoverConfig = Field(default_factory=TakeoverConfig)
     autopilot_failsafe_window_s: float = Field(
@@ -1068,12 +1075,17 @@ def config_consistency_problems(cfg: HelixdConfig) -> list[str]:
             f"safety.pose_stale_s = {saf.pose_stale_s} s must be > 1 / link.pose_rate_min_hz = "
             f"{min_period_s:.3f} s (at the slowest accepted pose rate every pose would be stale)"
         )
-    telemetry_period_s = 1.0 / cfg.link.telemetry_rate_hz
-    if saf.gps_stale_s <= telemetry_period_s:
+    # the telemetry streams are stepped down no lower than this when the autopilot refuses
+    telemetry_floor_hz = min(cfg.link.telemetry_rate_hz, cfg.link.pose_rate_min_hz)
+    gps_gap_s = 1.0 / telemetry_floor_hz + GPS_FIX_PERIOD_MAX_S
+    if saf.gps_stale_s <= gps_gap_s:
         problems.append(
-            f"safety.gps_stale_s = {saf.gps_stale_s} s must be > 1 / link.telemetry_rate_hz = "
-            f"{telemetry_period_s:.3f} s (GPS_RAW_INT comes at the telemetry rate)"
+            f"safety.gps_stale_s = {saf.gps_stale_s} s must be > 1 / min(link.telemetry_rate_hz, "
+            f"link.pose_rate_min_hz) + {GPS_FIX_PERIOD_MAX_S} s = {gps_gap_s:.3f} s (GPS_RAW_INT "
+            "comes at the telemetry rate, stepped down no lower than that; a new fix in it at "
+            "least every 0.2 s, ArduPilot's slowest GPS_RATE_MS)"
         )
+    telemetry_period_s = 1.0 / cfg.link.telemetry_rate_hz
     if cfg.serve.target_stale_s <= telemetry_period_s:
         problems.append(
             f"serve.target_stale_s = {cfg.serve.target_stale_s} s must be > 1 / "

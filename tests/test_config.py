@@ -71,7 +71,14 @@ BAD_CONFIGS = {
     ),
     "gps_stale_below_telemetry_period": (
         "link:\n  telemetry_rate_hz: 1.0\n",
-        ["safety.gps_stale_s = 0.7 s must be > 1 / link.telemetry_rate_hz = 1.000 s"],
+        [
+            "safety.gps_stale_s = 0.6 s must be > 1 / min(link.telemetry_rate_hz, "
+            "link.pose_rate_min_hz) + 0.2 s = 1.200 s"
+        ],
+    ),
+    "gps_stale_below_the_stepped_down_telemetry_period": (
+        "link:\n  pose_rate_min_hz: 2.5\n",
+        ["safety.gps_stale_s = 0.6 s", "+ 0.2 s = 0.600 s"],
     ),
     "gps_fix_below_2d": (
         "safety:\n  gps_min_fix_type: 1\n",

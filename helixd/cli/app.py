@@ -46,7 +46,7 @@ from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.plan_report import check_lines
+from helixd.runtime.plan_report import check_lines, record_space_warning
 from helixd.runtime.planned import Flight, load_occupancy, route_lines
 from helixd.runtime.prepare import (
     AutopilotMission,
@@ -207,6 +207,9 @@ def check(
     typer.echo("\n".join(lines))
     if route is None and plot is not None:  # said, not silently skipped
         typer.echo(f"plot    : {plot} not written: {PLOT_NEEDS_ROUTE}")
+    low = record_space_warning(got.cfg, flight.mission, route, got.path)
+    if low is not None:
+        typer.echo(f"warning: {low}", err=True)
     if route is not None and plot is not None:
         from helixd.recorder.plots import render_route  # start-up: matplotlib when plotting
 

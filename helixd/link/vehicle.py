@@ -361,6 +361,11 @@ class VehicleState:
     gps_fix_type: int | None = None  # GPS_RAW_INT.fix_type (GPS_FIX_TYPE, 0..8)
     gps_satellites: int | None = None  # GPS_RAW_INT.satellites_visible; None: unknown (255)
     gps_rx_s: float | None = None  # reception of the latest GPS_RAW_INT (monotonic)
+    # GPS_RAW_INT.time_usec (ArduPilot: the autopilot's time of the receiver's latest fix) and
+    # our reception of the first message that carried it: a receiver that stops sending
+    # leaves ArduPilot repeating its last fix, time_usec frozen, for 4 s (GPS_TIMEOUT_MS)
+    gps_time_us: int | None = None
+    gps_fix_rx_s: float | None = None
     # SYS_STATUS RC-receiver bit: None when the autopilot reports no receiver at all.
     # While helixd streams overrides ArduPilot's own RC failsafe cannot fire (overrides count
     # as valid RC input), so this bit is how helixd notices the pilot's radio is gone.
@@ -665,6 +670,10 @@ class VehicleState:
         self.gps_fix_type = fix if 0 <= fix <= GPS_FIX_TYPE_MAX else None
         self.gps_satellites = sats if 0 <= sats < 255 else None  # 255: unknown
         self.gps_rx_s = rx_s
+        time_us = int(msg.time_usec)
+        if time_us != self.gps_time_us:
+            self.gps_time_us = time_us
+            self.gps_fix_rx_s = rx_s
         return Change.GPS
 
 

@@ -121,6 +121,9 @@ def prune_runs(
     return removed
 
 
+DiskUsage = Callable[[Path], tuple[int, int, int]]  # shutil.disk_usage: (total, used, free)
+
+
 def record_bytes_estimate(estimated_s: float | None) -> int:
     """One flight's record (flight.csv + link.tlog + events.jsonl) for a flight this long."""
     flight_s = UNKNOWN_FLIGHT_S if estimated_s is None or not estimated_s >= 0 else estimated_s
@@ -144,19 +147,35 @@ class SpaceCheck:
         )
 
 
-def check_free_space(
+def low_space(
     path: Path,
     estimated_s: float | None,
-    disk_usage: Callable[[Path], tuple[int, int, int]] = shutil.disk_usage,
-) -> str | None:
-    """A warning (also logged as ``disk_space_low``) when ``path``'s free space is below one
-    flight's record; None when enough, or when the free space cannot be read."""
+    disk_usage: DiskUsage | None = None,
+) -> SpaceCheck | None:
+    """``path``'s free space when it is below one flight's record (``path`` not made yet: the
+    nearest folder above it that exists, where it would be made); None when enough, or when
+    the free space cannot be read."""
+    usage = shutil.disk_usage if disk_usage is None else disk_usage
+    where = path
+    while not where.exists() and where.parent != where:
+        where = where.parent
     try:
-        free = int(disk_usage(path)[2])
+        free = int(usage(where)[2])
     except OSError:
         return None
     check = SpaceCheck(free, record_bytes_estimate(estimated_s))
-    if not check.low:
+    return check if check.low else None
+
+
+def check_free_space(
+    path: Path,
+    estimated_s: float | None,
+    disk_usage: DiskUsage | None = None,
+) -> str | None:
+    """A warning (also logged as ``disk_space_low``) when ``path``'s free space is below one
+    flight's record; None when enough, or when the free space cannot be read."""
+    check = low_space(path, estimated_s, disk_usage)
+    if check is None:
         return None
     log.warning(
         "disk_space_low",
@@ -170,10 +189,12 @@ def check_free_space(
 
 __all__ = [
     "RECORD_BYTES_PER_S",
+    "DiskUsage",
     "RunDir",
     "SpaceCheck",
     "check_free_space",
     "list_runs",
+    "low_space",
     "plan_prune",
     "prune_runs",
     "record_bytes_estimate",

@@ -21,6 +21,7 @@ from helixd.mission.model import Mission
 from helixd.mission.resolve import places_from
 from helixd.mission.validate import pending_checks, plan_for_check
 from helixd.planning.route import RoutePlan
+from helixd.recorder.retention import DiskUsage, low_space
 from helixd.runtime.planned import route_lines, route_time_estimate
 from helixd.runtime.timing import patrol_times_s
 
@@ -197,4 +198,26 @@ def check_lines(
     return lines
 
 
-__all__ = ["MAX_TABLE_ROWS", "check_lines", "estimate_line", "ground_line", "waypoint_table"]
+def record_space_warning(
+    cfg: HelixdConfig,
+    planned: Mission,
+    route: RoutePlan | None,
+    path: Path,
+    disk_usage: DiskUsage | None = None,
+) -> str | None:
+    """What ``run`` would warn in preflight when ``recorder.run_root`` has less free space than
+    this flight's record (by the same estimate ``check`` prints); None when enough."""
+    estimate, _ = route_time_estimate(cfg, planned, route, path)
+    root = cfg.recorder.run_root
+    check = low_space(root, estimate.total_s, disk_usage)
+    return None if check is None else f"{check.text(root)} (recorder.run_root)"
+
+
+__all__ = [
+    "MAX_TABLE_ROWS",
+    "check_lines",
+    "estimate_line",
+    "ground_line",
+    "record_space_warning",
+    "waypoint_table",
+]

@@ -353,7 +353,14 @@ async def preflight(
             "EKF not healthy: " + ("no EKF_STATUS_REPORT" if ekf is None else ekf.describe())
         )
     st = ap.state
-    gps = gps_fault(time.monotonic(), st.gps_rx_s, st.gps_fix_type, st.gps_satellites, cfg.safety)
+    gps = gps_fault(
+        time.monotonic(),
+        st.gps_rx_s,
+        st.gps_fix_type,
+        st.gps_satellites,
+        cfg.safety,
+        st.gps_fix_rx_s,
+    )
     if gps is not None:
         problems.append(
             f"GPS not good enough to drive on: {gps.detail} (safety.gps_min_fix_type, "

@@ -83,6 +83,7 @@ def safety_inputs(
         vehicle_time_s=pose.time_boot_ms / 1000.0 if pose else None,
         gps_monitored=True,
         gps_rx_s=state.gps_rx_s,
+        gps_fix_rx_s=state.gps_fix_rx_s,
         gps_fix_type=state.gps_fix_type,
         gps_satellites=state.gps_satellites,
     )

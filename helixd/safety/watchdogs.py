@@ -18,7 +18,12 @@ ours; a dead or rebooting autopilot has no clock at all):
 - ``mission_time``: the later of both clocks (computed by the flight loop as
   ``mission_elapsed_s``): the plan's estimate is autopilot time, and a reboot restarts that.
 - ``gps_lost``: the fix and satellites of the latest GPS_RAW_INT are states, judged at once;
-  the stream's silence is our reception of it (``gps_rx_s``, wall clock, ``gps_stale_s``).
+  the stream's silence is our reception of it (``gps_rx_s``, wall clock, ``gps_stale_s``), and
+  so is a receiver that stopped sending (``gps_fix_rx_s``: when GPS_RAW_INT's ``time_usec``
+  last changed; ArduPilot repeats the last fix, time frozen, for 4 s before it says "no GPS").
+  ArduPilot's receivers fix at 5-20 Hz (GPS_RATE_MS 50-200 ms of autopilot time), so we see
+  the time move at least every GPS_RAW_INT period plus 0.2 s, inside ``gps_stale_s`` (the
+  config check) unless a simulator runs far slower than real time.
   The EKF dead-reckons for seconds after a GPS loss before it drops its position (observed
   on ArduPilot SITL: 7.3 s, 4.8 m), so this rule, not ``ekf_unhealthy``, stops the scrolls.
 - ``ekf_unhealthy``, ``disarmed``, ``pilot_takeover``, ``rc_lost``, ``geofence``: states, judged
@@ -187,6 +192,8 @@ class SafetyInputs:
     # GPS_RAW_INT: judged only when gps_monitored (the supervisor always sets it)
     gps_monitored: bool = False
     gps_rx_s: float | None = None  # our reception of the latest GPS_RAW_INT
+    # our reception of the latest GPS_RAW_INT with a new time_usec (a new fix); None: gps_rx_s
+    gps_fix_rx_s: float | None = None
     gps_fix_type: int | None = None  # GPS_FIX_TYPE; None: never received or out of range
     gps_satellites: int | None = None  # None: unknown
 
@@ -245,17 +252,20 @@ def gps_fault(
     fix_type: int | None,
     satellites: int | None,
     cfg: SafetyConfig,
+    fix_rx_s: float | None = None,
 ) -> Fault | None:
-    """The GPS is not good enough to drive on: no GPS_RAW_INT for ``gps_stale_s``, a fix
-    below ``gps_min_fix_type`` or fewer than ``gps_min_satellites``. Shared by the watchdog
-    and preflight. Unknown (None) is never good enough."""
+    """The GPS is not good enough to drive on: no GPS_RAW_INT for ``gps_stale_s`` (the stream
+    stopped), a fix below ``gps_min_fix_type``, fewer than ``gps_min_satellites``, or no new
+    fix for ``gps_stale_s`` (``fix_rx_s``, when its ``time_usec`` last changed; None: as
+    ``rx_s``): the receiver stopped while ArduPilot repeats its last fix. Shared by the
+    watchdog and preflight. Unknown (None) is never good enough."""
     if rx_s is None:
         return Fault(FaultCause.GPS_LOST, "no GPS_RAW_INT received")
     age = now_s - rx_s
     if not age <= cfg.gps_stale_s:
         return Fault(
             FaultCause.GPS_LOST,
-            f"GPS_RAW_INT is {age:.2f} s old (limit {cfg.gps_stale_s} s)",
+            f"GPS_RAW_INT stopped: the latest is {age:.2f} s old (limit {cfg.gps_stale_s} s)",
         )
     want = cfg.gps_min_fix_type
     if fix_type is None or fix_type < want:
@@ -270,6 +280,13 @@ def gps_fault(
             FaultCause.GPS_LOST,
             f"GPS sees {'an unknown number of' if satellites is None else satellites} "
             f"satellites (minimum {cfg.gps_min_satellites})",
+        )
+    fix_age = now_s - (rx_s if fix_rx_s is None else fix_rx_s)
+    if not fix_age <= cfg.gps_stale_s:
+        return Fault(
+            FaultCause.GPS_LOST,
+            f"the GPS receiver stopped: GPS_RAW_INT repeats a fix {fix_age:.2f} s old "
+            f"(time_usec unchanged; limit {cfg.gps_stale_s} s)",
         )
     return None
 
@@ -318,6 +335,7 @@ class SafetyMonitor:
             s.mission_elapsed_s,
             s.vehicle_time_s,
             s.gps_rx_s,
+            s.gps_fix_rx_s,
         ):
             return Fault(FaultCause.EXCEPTION, "non-finite clock value in the safety inputs")
         if not _finite(s.commanded_speed_mps, s.commanded_yaw_rate_radps):
@@ -371,7 +389,9 @@ class SafetyMonitor:
     def _gps(self, s: SafetyInputs) -> Fault | None:
         if not s.gps_monitored:
             return None
-        return gps_fault(s.now_s, s.gps_rx_s, s.gps_fix_type, s.gps_satellites, self.cfg)
+        return gps_fault(
+            s.now_s, s.gps_rx_s, s.gps_fix_type, s.gps_satellites, self.cfg, s.gps_fix_rx_s
+        )
 
     def _armed(self, s: SafetyInputs) -> Fault | None:
         if not s.armed:

@@ -5,6 +5,7 @@ random generator is passed in. :mod:`helixd.sim.server` is the I/O shell around 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import deque
 from collections.abc import Mapping
@@ -95,6 +96,8 @@ class SimCore:
         self.links = [self._new_link() for _ in range(n_links)]
         self.faults = FaultClock()
         self._gps_lost_since_s: float | None = None  # fault gps_loss, simulated time
+        # fault gps_receiver_silent: (since, simulated time; the last fix then)
+        self._gps_stopped: tuple[float, vehicle_reports.GpsHeld] | None = None
         self.pending: list[tuple[float, FaultSpec]] = []
         self.outbox: list[tuple[int | None, Message]] = []
         self.flushed: list[tuple[int | None, Message]] = []  # resolved, sent even if now silent
@@ -305,6 +308,10 @@ class SimCore:
                 self.ap.set_receiver_ok(False)
             elif spec.name == "gps_loss":
                 self._gps_lost_since_s = now
+            elif spec.name == "gps_receiver_silent":
+                north_m, east_m = estimator.gps_fix(self.est, self.phys)
+                held = vehicle_reports.GpsHeld(self.ap.time_boot_ms(now), north_m, east_m)
+                self._gps_stopped = (now, held)
 
     def _switch_pwm(self, mode: str) -> int:
         number = MODE_NUMBERS.get(mode.upper())
@@ -326,6 +333,8 @@ class SimCore:
             self.ap.set_receiver_failsafe_values(False)
         elif name == "gps_loss":
             self._gps_lost_since_s = None
+        elif name == "gps_receiver_silent":
+            self._gps_stopped = None
 
     def set_rc(self, channel: int, pwm_us: int) -> None:
         if not 1 <= channel <= 16:
@@ -340,13 +349,29 @@ class SimCore:
             self.est,
             self.config.noise_profile(),
             self.ap.origin_set(self.now_s) and not self.ap.booting(self.now_s),
-            self.faults.on("ekf_unhealthy") or self._gps_lost_for(self.config.gps_dead_reckon_s),
+            self.faults.on("ekf_unhealthy")
+            or self._gps_lost_for(self.config.gps_dead_reckon_s)
+            or self._gps_stopped_for(self.config.gps_dead_reckon_s),
         )
 
     def _gps_lost_for(self, at_least_s: float) -> bool:
         """The gps_loss fault has lasted ``at_least_s`` (simulated seconds)."""
         since = self._gps_lost_since_s
         return since is not None and self.now_s - since >= at_least_s
+
+    def _gps_stopped_for(self, at_least_s: float) -> bool:
+        """The gps_receiver_silent fault has lasted ``at_least_s`` (simulated seconds)."""
+        stopped = self._gps_stopped
+        return stopped is not None and self.now_s - stopped[0] >= at_least_s
+
+    def _gps_held(self) -> vehicle_reports.GpsHeld | None:
+        """What GPS_RAW_INT repeats while the receiver is silent (None: it is not)."""
+        if self._gps_stopped is None:
+            return None
+        held = self._gps_stopped[1]
+        if self._gps_stopped_for(self.config.gps_receiver_timeout_s):
+            return dataclasses.replace(held, no_gps=True)
+        return held
 
     def handle(self, link: int, msg: Message) -> None:
         if self.link_up(link):
@@ -536,6 +561,7 @@ class SimCore:
             relay_masks=ap.payload.relay_status(self.params),
             mission_current=self.mission.mission_current_fields(),
             gps_lost=self._gps_lost_for(cfg.gps_loss_report_s),
+            gps_held=self._gps_held(),
             fence=ap.fence_breached if self.params.get_int("FENCE_ENABLE") else None,
             battery_failsafe=ap.battery_failsafe_level > 0,
             position_target=self._position_target(),
@@ -555,6 +581,8 @@ class SimCore:
             hidden |= vehicle_reports.POSE_MESSAGES
             if self.faults.args["stale_pose"].get("attitude"):
                 hidden.add(st.MSG_ATTITUDE)
+        if self.faults.on("gps_silent"):
+            hidden.add(st.MSG_GPS_RAW_INT)
         for i, link in enumerate(self.links):
             for msg_id in link.streams.due(now):
                 if msg_id in hidden or (view.booting and msg_id != st.MSG_HEARTBEAT):

@@ -15,6 +15,13 @@ FAULTS: dict[str, dict[str, object]] = {
     # the receiver stops (SIM_GPS1_ENABLE 0): GPS_RAW_INT says no fix, 0 satellites after
     # gps_loss_report_s; the EKF dead-reckons and drops its position after gps_dead_reckon_s
     "gps_loss": {"duration_s": None},
+    # GPS_RAW_INT stops while every other stream goes on (ArduPilot sends none while GPS1_TYPE
+    # is 0, or when a stream rate is turned off); the EKF is left alone
+    "gps_silent": {"duration_s": None},
+    # the receiver stops sending (a cut cable; ArduPilot SITL: SIM_GPS1_BYTELOS 100): GPS_RAW_INT
+    # repeats the last fix, time_usec frozen, for gps_receiver_timeout_s, then says no GPS,
+    # 0 satellites; the EKF dead-reckons as after a gps_loss
+    "gps_receiver_silent": {"duration_s": None},
     "pilot_takeover": {"mode": "HOLD"},  # pilot moves the RC mode switch
     # ArduPilot's own failsafes (helixd.sim.failsafe): battery 1 at its low (or critical)
     # limit — "Battery 1 is low …", then BATT_FS_LOW_ACT —, and the rover out of its enabled
@@ -42,7 +49,18 @@ HOSTILE_TELEMETRY_FAULTS = frozenset(
     {"nan_position", "nan_yaw", "inf_yaw", "absurd_position", "time_backwards"}
 )
 DURATION_FAULTS = (
-    frozenset({"link_drop", "stale_pose", "ekf_unhealthy", "rc_loss", "stall", "gps_loss"})
+    frozenset(
+        {
+            "link_drop",
+            "stale_pose",
+            "ekf_unhealthy",
+            "rc_loss",
+            "stall",
+            "gps_loss",
+            "gps_silent",
+            "gps_receiver_silent",
+        }
+    )
     | HOSTILE_TELEMETRY_FAULTS
 )
 

@@ -264,6 +264,13 @@ class SimConfig(InputModel):
         description="after a gps_loss, GPS_RAW_INT reports no fix (ArduPilot SITL, "
         "SIM_GPS1_ENABLE 0: 0.4 s) (s)",
     )
+    gps_receiver_timeout_s: float = Field(
+        4.0,
+        ge=0.0,
+        le=60.0,
+        description="after a gps_receiver_silent, GPS_RAW_INT repeats the last fix this long "
+        "before it says no GPS (ArduPilot's GPS driver timeout: 4 s) (s)",
+    )
     gps_dead_reckon_s: float = Field(
         7.3,
         ge=0.0,

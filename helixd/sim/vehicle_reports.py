@@ -19,6 +19,17 @@ POSE_MESSAGES = frozenset({st.MSG_LOCAL_POSITION_NED, st.MSG_GLOBAL_POSITION_INT
 
 
 @dataclass(frozen=True, slots=True)
+class GpsHeld:
+    """What GPS_RAW_INT says after the receiver stopped sending: ArduPilot repeats its last
+    fix (time and place frozen) until its driver times out, then no GPS (``no_gps``)."""
+
+    time_boot_ms: int  # the last fix's time
+    north_m: float
+    east_m: float
+    no_gps: bool = False
+
+
+@dataclass(frozen=True, slots=True)
 class TelemetryView:
     time_boot_ms: int
     mode: int
@@ -47,6 +58,7 @@ class TelemetryView:
     # MISSION_CURRENT (seq, total, mission_state, mission_mode): MissionServer's
     mission_current: tuple[int, int, int, int] = (0, 0, MISSION_STATE_NO_MISSION, 0)
     gps_lost: bool = False  # the receiver reports no fix (fault gps_loss)
+    gps_held: GpsHeld | None = None  # the receiver stopped (fault gps_receiver_silent)
     fence: bool | None = None  # None: no fence enabled; else whether it is breached
     battery_failsafe: bool = False  # battery 1's failsafe has fired
     # the mode's place to go (lat_e7, lon_e7, alt_amsl_m): get_desired_location; None: none
@@ -107,7 +119,7 @@ def build(
     if msg_id == st.MSG_HEARTBEAT:
         return messages.heartbeat(v.mode, v.armed, v.system_status())
     if msg_id == st.MSG_SYS_STATUS:
-        gps_ok = v.origin_set and not v.gps_lost
+        gps_ok = v.origin_set and not v.gps_lost and not (v.gps_held and v.gps_held.no_gps)
         return messages.sys_status(
             v.rc_ok, gps_ok, v.ekf.position_ok, v.prearm_ok, v.fence, v.battery_failsafe
         )
@@ -141,6 +153,16 @@ def build(
     if msg_id == st.MSG_GPS_RAW_INT:
         if v.gps_lost:
             return messages.gps_raw_int(t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, fix_type=1, satellites=0)
+        held = v.gps_held
+        if held is not None and held.no_gps:  # the driver timed out: state cleared
+            return messages.gps_raw_int(
+                held.time_boot_ms, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, fix_type=0, satellites=0
+            )
+        if held is not None:  # the last fix again, its time frozen
+            lat, lon = ne_to_latlon(held.north_m, held.east_m, v.origin_lat_deg, v.origin_lon_deg)
+            return messages.gps_raw_int(
+                held.time_boot_ms, lat, lon, v.origin_alt_m, 0.0, 0.0, v.gps_accuracy_m
+            )
         lat, lon = ne_to_latlon(v.gps_north_m, v.gps_east_m, v.origin_lat_deg, v.origin_lon_deg)
         course = math.atan2(v.truth.v_east_mps, v.truth.v_north_mps)
         return messages.gps_raw_int(

@@ -317,3 +317,36 @@ def test_gps_lost(tmp_path: Path) -> None:
     assert code == ExitCode.FAULT, log[-3000:]
     assert "event=fallback cause=gps_lost" in log
     assert summary(run_dir)["fault"].startswith("gps_lost")
+
+
+@pytest.mark.parametrize(
+    ("fault", "detail"),
+    [
+        # GPS_RAW_INT itself stops (ArduPilot: GPS1_TYPE 0, or its stream turned off) while
+        # the pose streams and the EKF go on
+        ("gps_silent", "GPS_RAW_INT stopped"),
+        # the receiver stops sending (a cut cable): ArduPilot repeats the last 3D fix, its
+        # time frozen, for 4 s before it says "no GPS"; the fix time not moving is the loss
+        ("gps_receiver_silent", "the GPS receiver stopped"),
+    ],
+)
+def test_gps_stream_stopping_stops_the_scrolls_within_1_s(
+    tmp_path: Path, fault: str, detail: str
+) -> None:
+    # The silence is counted on helixd's own clock (safety.gps_stale_s, 0.6 s), so the
+    # simulator runs in real time: its clock is then the wall clock the rover would live on.
+    with sim_and_daemon(tmp_path, "square", speedup=1.0) as (server, d):
+        at_s = wait_moving(server).sim_time_s + 0.5
+        server.schedule(fault, at_s, duration_s=600.0)
+        neutral = server.wait_for(lambda s: s.sim_time_s > at_s and scrolls_neutral(s), 10.0)
+        held = server.wait_for(secured, 10.0)
+        code = d.wait_exit(20.0)
+        log = d.log_text()
+        run_dir = d.run_dir()
+    to_neutral, to_hold = neutral.sim_time_s - at_s, held.sim_time_s - at_s
+    print(f"{fault}: scrolls neutral {to_neutral:.2f} s, HOLD {to_hold:.2f} s (vehicle time)")
+    assert to_neutral <= 1.0, log[-3000:]
+    assert code == ExitCode.FAULT, log[-3000:]
+    assert "event=fallback cause=gps_lost" in log
+    result = summary(run_dir)["fault"]
+    assert result.startswith("gps_lost") and detail in result, result

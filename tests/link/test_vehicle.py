@@ -139,6 +139,18 @@ def test_gps_fix_satellites_and_battery() -> None:
     assert (st.battery_voltage_v, st.battery_remaining_pct) == (None, None)
 
 
+def test_gps_fix_time_counts_from_the_message_that_moved_it() -> None:
+    """A receiver that stopped leaves ArduPilot repeating its last fix, time_usec frozen: the
+    fix's reception stays at the first message that carried that time."""
+    st = VehicleState()
+    st.apply(decoded(AP.gps_raw_int_encode(1_000_000, 3, 0, 0, 0, 100, 100, 0, 0, 12), AP), 1.0)
+    assert (st.gps_time_us, st.gps_rx_s, st.gps_fix_rx_s) == (1_000_000, 1.0, 1.0)
+    st.apply(decoded(AP.gps_raw_int_encode(1_000_000, 3, 0, 0, 0, 100, 100, 0, 0, 12), AP), 1.2)
+    assert (st.gps_rx_s, st.gps_fix_rx_s) == (1.2, 1.0)
+    st.apply(decoded(AP.gps_raw_int_encode(1_200_000, 3, 0, 0, 0, 100, 100, 0, 0, 12), AP), 1.4)
+    assert (st.gps_time_us, st.gps_rx_s, st.gps_fix_rx_s) == (1_200_000, 1.4, 1.4)
+
+
 @pytest.mark.parametrize("lat_e7, lon_e7", [(900_000_001, 0), (0, -1_800_000_001), (2**31 - 1, 0)])
 def test_origin_off_the_earth_is_rejected(lat_e7: int, lon_e7: int) -> None:
     st = VehicleState()

@@ -77,7 +77,9 @@ class FedAutopilot:
         self.t_ms += 20
         self.rx(hb(self.modes.pop(0) if self.modes else 0, armed=True))
         self.rx(decoded(AP.ekf_status_report_encode(EKF_OK, 0.1, 0.1, 0.1, 0.05, 0.0), AP))
-        self.rx(decoded(AP.gps_raw_int_encode(0, 3, 0, 0, 0, 100, 200, 0, 0, 12), AP))
+        self.rx(
+            decoded(AP.gps_raw_int_encode(self.t_ms * 1000, 3, 0, 0, 0, 100, 200, 0, 0, 12), AP)
+        )
         self.rx(att(self.t_ms, 0.0))
         self.rx(lpn(self.t_ms, 0.0, 0.0))
 

@@ -290,7 +290,7 @@ def test_gps_good_enough_passes_and_unmonitored_is_not_judged() -> None:
     monitor = SafetyMonitor(SafetyConfig())
     assert monitor.check(GPS_OK) is None
     assert monitor.check(dataclasses.replace(GPS_OK, gps_satellites=6)) is None  # inclusive
-    assert monitor.check(dataclasses.replace(GPS_OK, gps_rx_s=99.31)) is None  # within the limit
+    assert monitor.check(dataclasses.replace(GPS_OK, gps_rx_s=99.41)) is None  # within the limit
     assert monitor.check(dataclasses.replace(HEALTHY, gps_fix_type=0)) is None
 
 
@@ -303,7 +303,11 @@ def test_gps_good_enough_passes_and_unmonitored_is_not_judged() -> None:
         ({"gps_fix_type": None}, "unknown"),
         ({"gps_satellites": 5}, "5 satellites (minimum 6)"),
         ({"gps_satellites": None}, "unknown number of satellites"),
-        ({"gps_rx_s": 99.2}, "GPS_RAW_INT is 0.80 s old (limit 0.7 s)"),
+        ({"gps_rx_s": 99.2}, "GPS_RAW_INT stopped: the latest is 0.80 s old (limit 0.6 s)"),
+        (
+            {"gps_fix_rx_s": 99.2},
+            "the GPS receiver stopped: GPS_RAW_INT repeats a fix 0.80 s old",
+        ),
         ({"gps_rx_s": None}, "no GPS_RAW_INT received"),
     ],
 )
@@ -322,6 +326,15 @@ def test_gps_minimum_fix_is_configurable_for_precision_work() -> None:
     assert rtk.check(dataclasses.replace(GPS_OK, gps_fix_type=6)) is None
 
 
-def test_gps_non_finite_reception_clock_is_a_fault() -> None:
-    fault = SafetyMonitor(SafetyConfig()).check(dataclasses.replace(GPS_OK, gps_rx_s=math.nan))
+@pytest.mark.parametrize("field", ["gps_rx_s", "gps_fix_rx_s"])
+def test_gps_non_finite_reception_clock_is_a_fault(field: str) -> None:
+    fault = SafetyMonitor(SafetyConfig()).check(dataclasses.replace(GPS_OK, **{field: math.nan}))  # type: ignore[arg-type]
     assert fault is not None and fault.cause is FaultCause.EXCEPTION
+
+
+def test_gps_fix_time_within_the_limit_passes_and_a_lost_fix_is_named_first() -> None:
+    monitor = SafetyMonitor(SafetyConfig())
+    assert monitor.check(dataclasses.replace(GPS_OK, gps_fix_rx_s=99.41)) is None
+    # no fix and a frozen fix time: the fix is what the operator needs to hear
+    fault = monitor.check(dataclasses.replace(GPS_OK, gps_fix_rx_s=90.0, gps_fix_type=1))
+    assert fault is not None and "no fix (fix_type 1)" in fault.detail

@@ -163,6 +163,43 @@ def test_gps_loss_reports_no_fix_then_the_ekf_drops_its_position_after_dead_reck
     assert int(of_type(run(core, 0.5), "GPS_RAW_INT", 0)[-1].fix_type) == 3
 
 
+def test_gps_silent_stops_gps_raw_int_alone() -> None:
+    # as ArduPilot with GPS1_TYPE 0 (or the stream turned off): no GPS_RAW_INT at all, every
+    # other stream and the EKF go on
+    core = make_core()
+    run(core, 5.0)
+    assert command(core, 0, 511, 24, 200_000) == 0  # GPS_RAW_INT at 5 Hz
+    core.inject(make_spec("gps_silent", {}))
+    window = run(core, 2.0)
+    assert not of_type(window, "GPS_RAW_INT", 0)
+    assert of_type(window, "LOCAL_POSITION_NED", 0) and of_type(window, "ATTITUDE", 0)
+    assert core.ekf_status().position_ok
+    core.clear_fault("gps_silent")
+    assert of_type(run(core, 0.5), "GPS_RAW_INT", 0)
+
+
+def test_gps_receiver_silent_repeats_the_last_fix_then_says_no_gps() -> None:
+    # as ArduPilot when the receiver stops sending (SITL: SIM_GPS1_BYTELOS 100): GPS_RAW_INT
+    # goes on with the last fix, its time frozen, for the driver's 4 s timeout, then no GPS
+    core = make_core()
+    run(core, 5.0)
+    assert command(core, 0, 511, 24, 200_000) == 0
+    before = of_type(run(core, 0.5), "GPS_RAW_INT", 0)
+    assert len({int(m.time_usec) for m in before}) == len(before)  # a new fix each message
+    core.inject(make_spec("gps_receiver_silent", {}))
+    held = of_type(run(core, 3.9), "GPS_RAW_INT", 0)
+    assert len(held) >= 15 and len({int(m.time_usec) for m in held}) == 1
+    assert all(int(m.fix_type) == 3 and int(m.satellites_visible) == 12 for m in held)
+    gone = of_type(run(core, 0.3), "GPS_RAW_INT", 0)
+    assert gone and int(gone[-1].fix_type) == 0 and int(gone[-1].satellites_visible) == 0
+    assert int(gone[-1].time_usec) == int(held[0].time_usec)
+    assert core.ekf_status().position_ok  # dead-reckoning (7.3 s)
+    run(core, 3.2)
+    assert not core.ekf_status().position_ok
+    core.clear_fault("gps_receiver_silent")
+    assert int(of_type(run(core, 0.5), "GPS_RAW_INT", 0)[-1].fix_type) == 3
+
+
 def test_scheduled_fault_fires_at_its_sim_time() -> None:
     core = make_core()
     spec, at_s = parse_fault("stall@3.5:duration_s=2")

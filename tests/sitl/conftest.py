@@ -183,6 +183,7 @@ class MavClient:
     statustexts: list[str] = field(default_factory=list)
     mode_changes: list[tuple[float, int]] = field(default_factory=list)  # (monotonic s, mode)
     helixd_heartbeat_wall_s: float | None = None
+    gps_rx_wall_s: float | None = None  # time.monotonic() of the latest GPS_RAW_INT
     closed_reason: str | None = None
     _cond: threading.Condition = field(
         default_factory=lambda: threading.Condition(threading.RLock())
@@ -260,6 +261,8 @@ class MavClient:
                 self.positions.append(
                     PositionSample(int(msg.time_boot_ms) / 1e3, float(msg.x), float(msg.y))
                 )
+            elif kind == "GPS_RAW_INT":
+                self.gps_rx_wall_s = time.monotonic()
             elif kind == "ATTITUDE":
                 self.attitudes.append((int(msg.time_boot_ms) / 1e3, float(msg.yaw)))
             elif kind == "COMMAND_ACK":

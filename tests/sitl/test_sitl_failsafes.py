@@ -1,0 +1,156 @@
+"""ArduPilot Rover's own failsafes mid-mission on real SITL, named by helixd (opt-in:
+``HELIXD_SITL_BIN``).
+
+Injected as ArduPilot's autotest injects them, from the observer's link:
+
+* battery: ``BATT_FS_LOW_ACT 2`` (Rover: Hold), ``BATT_LOW_VOLT`` above what the simulated
+  battery then reads (``SIM_BATT_VOLTAGE``), ``BATT_LOW_TIMER 1`` (the firmware default is
+  10 s: the voltage must stay low that long). Rover says "Battery 1 is low …" and sets HOLD.
+* fence: a circle fence round home (``FENCE_TYPE 2``, ``FENCE_RADIUS``) with ``FENCE_ACTION
+  2`` (Rover: Hold), enabled (``FENCE_ENABLE 1``) once the rover is beyond its radius on the
+  square's first leg. Rover's fence check (10 Hz) sees the breach and sets HOLD.
+
+helixd sees a mode it did not set; what the autopilot reported around it names the cause
+(``autopilot_battery`` / ``autopilot_fence``, exit 4). helixd then releases its overrides:
+the scroll outputs (RC passthrough) go to trim. The battery's text can reach helixd after the
+HEARTBEAT that shows HOLD: the fall-back then starts as ``pilot_takeover`` and the run's
+result is renamed once the text is in (``fault_renamed``); the result's cause is checked.
+Printed: the time from injection to HOLD, from injection and from HOLD to neutral outputs, the
+distance driven after injection, and the cause helixd reported.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.base.exitcodes import ExitCode
+from tests.sitl.test_sitl_gps import (  # the same bounds and checks as the GPS fault
+    DRIVING_TIMEOUT_S,
+    EXIT_S,
+    LINK_SLACK_S,
+    MODE_HOLD,
+    SETTLE_S,
+    STOP_WITHIN_S,
+    neutral,
+)
+
+if TYPE_CHECKING:
+    from tests.sitl.conftest import DaemonRun, SitlVehicle
+
+pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
+
+STATUS_STREAM_HZ = 5.0  # SYS_STATUS (battery) and FENCE_STATUS to the observer
+ROVER_ACTION_HOLD = 2  # BATT_FS_LOW_ACT / FENCE_ACTION on Rover: 2 = Hold
+BATT_LOW_VOLT_V = 11.0
+SIM_BATT_LOW_V = 10.5  # below BATT_LOW_VOLT (SITL's battery reads 12.6 V)
+BATT_LOW_TIMER_S = 1.0
+FENCE_TYPE_CIRCLE = 2
+FENCE_RADIUS_M = 6.0  # the square's first leg is 10 m long, from home
+OUTSIDE_FENCE_M = FENCE_RADIUS_M + 1.0
+AUTOPILOT_ACTION_S = 5.0  # injection → ArduPilot's HOLD (the battery's 1 s timer included)
+
+
+@dataclass(frozen=True, slots=True)
+class Stopped:
+    hold_s: float  # injection → HOLD (ArduPilot's failsafe)
+    neutral_s: float  # injection → outputs 1 and 3 at trim (helixd's release)
+    after_m: float  # driven after injection (EKF)
+    cause: str  # the run's result (after a late failsafe text renamed the fall-back's)
+    detected: str  # the fall-back's cause at detection
+    code: int | None
+    log: str
+
+
+def stopped_after(sitl: SitlVehicle, daemon: DaemonRun, inject: Callable[[], None]) -> Stopped:
+    """Inject, then time ArduPilot's HOLD and helixd's neutral outputs, and read its cause."""
+    obs = sitl.obs
+    before = obs.position()
+    assert before is not None
+    inject()  # confirmed by its PARAM_VALUE echo
+    t0 = time.monotonic()
+    obs.wait_until(lambda: obs.mode() == MODE_HOLD, AUTOPILOT_ACTION_S + 10.0, "HOLD")
+    hold_s = next(t for t, m in obs.mode_changes if t >= t0 and m == MODE_HOLD) - t0
+    obs.wait_until(
+        lambda: any(s.wall_s >= t0 + hold_s and neutral(s.pwm_us) for s in obs.servo[-50:]),
+        STOP_WITHIN_S + LINK_SLACK_S + 5.0,
+        "outputs 1 and 3 at trim after HOLD",
+    )
+    neutral_s = (
+        next(s.wall_s for s in obs.servo if s.wall_s >= t0 + hold_s and neutral(s.pwm_us)) - t0
+    )
+    code = daemon.wait_exit(EXIT_S)
+    log = daemon.log_text()
+    time.sleep(SETTLE_S)  # the rover coasts; the distance is taken after it stopped
+    track = [p for p in obs.positions if p.t_boot_s >= before.t_boot_s]
+    last = track[-1] if track else before
+    after_m = math.hypot(last.north_m - before.north_m, last.east_m - before.east_m)
+    detected = next(
+        (w.split("=", 1)[1] for w in log.split() if w.startswith("cause=")), "none reported"
+    )
+    result = next((line for line in log.splitlines() if "event=result " in line), "")
+    cause = result.partition(' fault="')[2].partition(":")[0] or "none reported"
+    return Stopped(hold_s, neutral_s, after_m, cause, detected, code, log)
+
+
+def report(what: str, sitl: SitlVehicle, r: Stopped) -> None:
+    print(
+        f"{what}: HOLD {r.hold_s:.2f} s, neutral outputs {r.neutral_s:.2f} s after injection "
+        f"({r.neutral_s - r.hold_s:.2f} s after HOLD; wall, speedup {sitl.speedup}); "
+        f"{r.after_m:.2f} m driven after it (EKF); cause {r.cause} (at detection {r.detected})"
+    )
+
+
+def test_battery_failsafe_is_named(
+    sitl: SitlVehicle, launch_helixd: Callable[..., DaemonRun]
+) -> None:
+    obs = sitl.obs
+    obs.set_param("BATT_FS_LOW_ACT", float(ROVER_ACTION_HOLD))
+    obs.set_param("BATT_LOW_TIMER", BATT_LOW_TIMER_S)
+    obs.set_param("BATT_LOW_VOLT", BATT_LOW_VOLT_V)
+    obs.set_message_interval(int(mavlink.MAVLINK_MSG_ID_SYS_STATUS), STATUS_STREAM_HZ)
+    daemon = launch_helixd("rc_override")
+    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
+
+    r = stopped_after(sitl, daemon, lambda: obs.set_param("SIM_BATT_VOLTAGE", SIM_BATT_LOW_V))
+    texts = [t for t in obs.statustexts if "attery" in t]
+    report(
+        f"battery failsafe (SIM_BATT_VOLTAGE {SIM_BATT_LOW_V} < BATT_LOW_VOLT {BATT_LOW_VOLT_V}, "
+        f"BATT_LOW_TIMER {BATT_LOW_TIMER_S:g} s, BATT_FS_LOW_ACT Hold; {texts[-1:]})",
+        sitl,
+        r,
+    )
+    assert r.code == ExitCode.FAULT, r.log[-4000:]
+    assert r.cause == "autopilot_battery", r.log[-4000:]
+    assert r.neutral_s - r.hold_s <= STOP_WITHIN_S + LINK_SLACK_S
+
+
+def test_fence_failsafe_is_named(
+    sitl: SitlVehicle, launch_helixd: Callable[..., DaemonRun]
+) -> None:
+    obs = sitl.obs
+    obs.set_param("FENCE_TYPE", float(FENCE_TYPE_CIRCLE))
+    obs.set_param("FENCE_RADIUS", FENCE_RADIUS_M)
+    obs.set_param("FENCE_ACTION", float(ROVER_ACTION_HOLD))
+    obs.set_message_interval(int(mavlink.MAVLINK_MSG_ID_FENCE_STATUS), STATUS_STREAM_HZ)
+    daemon = launch_helixd("rc_override")
+    sitl.wait_driving(daemon, min_distance_m=OUTSIDE_FENCE_M, timeout_s=DRIVING_TIMEOUT_S)
+
+    r = stopped_after(sitl, daemon, lambda: obs.set_param("FENCE_ENABLE", 1.0))
+    fence = obs.latest.get("FENCE_STATUS")
+    breach = "none" if fence is None else f"breach_status {fence.breach_status}"
+    report(
+        f"fence failsafe (circle {FENCE_RADIUS_M:g} m round home enabled {OUTSIDE_FENCE_M:g} m "
+        f"out, FENCE_ACTION Hold; FENCE_STATUS {breach})",
+        sitl,
+        r,
+    )
+    assert r.code == ExitCode.FAULT, r.log[-4000:]
+    assert r.cause == "autopilot_fence", r.log[-4000:]
+    assert r.neutral_s - r.hold_s <= STOP_WITHIN_S + LINK_SLACK_S
