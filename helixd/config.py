@@ -989,6 +989,13 @@ class ServeConfig(InputModel):
         le=1.0,
         description="the service's idle tick: start switch read, heartbeat fed, timers (s)",
     )
+    switch_stale_s: float = Field(
+        1.5,
+        gt=0.0,
+        le=10.0,
+        description="the start switch is read only from a live radio: RC_CHANNELS older than "
+        "this, or ArduPilot's radio failsafe, is no reading and vetoes a start (s)",
+    )
     state_file: Path | None = Field(
         None,
         description="where the service records which mission was interrupted where (a JSON "
@@ -1084,6 +1091,12 @@ def config_consistency_problems(cfg: HelixdConfig) -> list[str]:
             f"link.pose_rate_min_hz) + {GPS_FIX_PERIOD_MAX_S} s = {gps_gap_s:.3f} s (GPS_RAW_INT "
             "comes at the telemetry rate, stepped down no lower than that; a new fix in it at "
             "least every 0.2 s, ArduPilot's slowest GPS_RATE_MS)"
+        )
+    if cfg.serve.switch_stale_s <= 1.0 / telemetry_floor_hz:
+        problems.append(
+            f"serve.switch_stale_s = {cfg.serve.switch_stale_s} s must be > 1 / "
+            f"min(link.telemetry_rate_hz, link.pose_rate_min_hz) = {1.0 / telemetry_floor_hz:.3f}"
+            " s (RC_CHANNELS comes at the telemetry rate, stepped down no lower than that)"
         )
     telemetry_period_s = 1.0 / cfg.link.telemetry_rate_hz
     if cfg.serve.target_stale_s <= telemetry_period_s:

@@ -80,6 +80,10 @@ BAD_CONFIGS = {
         "link:\n  pose_rate_min_hz: 2.5\n",
         ["safety.gps_stale_s = 0.6 s", "+ 0.2 s = 0.600 s"],
     ),
+    "switch_stale_below_the_rc_channels_period": (
+        "serve:\n  switch_stale_s: 0.15\n",
+        ["serve.switch_stale_s = 0.15 s must be > 1 / min(link.telemetry_rate_hz"],
+    ),
     "gps_fix_below_2d": (
         "safety:\n  gps_min_fix_type: 1\n",
         ["safety.gps_min_fix_type", "got 1", "allowed range 2 .. 6"],

@@ -83,6 +83,7 @@ from helixd.runtime.serve_core import (
     answer_command,
     answer_goto,
     answer_switch,
+    radio_live,
     state_after_flight,
 )
 from helixd.runtime.signals import StopRequest, install, uninstall
@@ -142,6 +143,7 @@ class Service:
             if self.cfg.startup.start_switch_channel is None
             else SwitchWatch(self.cfg.startup.start_switch_threshold_us)
         )
+        self._switch_live = False  # the start switch last read from a live radio
         self.auto_watch = AutoWatch()  # the crew's start: the autopilot armed in AUTO
         # the autopilot's place in GUIDED, RTL, SMART_RTL: a flight there
         self.goto_watch = GotoWatch(self.cfg.serve.same_place_m)
@@ -434,7 +436,18 @@ class Service:
             return
         ch = self.cfg.startup.start_switch_channel
         assert ch is not None
-        rc = ap.state.rc_inputs_us
+        st = ap.state
+        live = radio_live(
+            st.rc_receiver_healthy, st.rc_rx_s, time.monotonic(), self.cfg.serve.switch_stale_s
+        )
+        if not live:  # read only from a live radio: no edge, a veto on starting
+            if self._switch_live:
+                log.warning("start_switch_not_live", channel=ch, receiver=st.rc_receiver_healthy)
+            self._switch_live = False
+            self.switch.lost()
+            return
+        self._switch_live = True
+        rc = st.rc_inputs_us
         edge = self.switch.update(rc[ch - 1] if len(rc) >= ch else None)
         answer = answer_switch(self.view(), edge)
         if answer is not None:

@@ -62,6 +62,7 @@ __all__ = [
     "answer_command",
     "answer_goto",
     "answer_switch",
+    "radio_live",
     "state_after_flight",
 ]
 
@@ -215,8 +216,24 @@ class SwitchWatch:
 
     @property
     def low(self) -> bool:
-        """Low now (or never seen high): the pilot's veto on starting."""
+        """Low now (or never seen high, or the radio not live): the pilot's veto on starting."""
         return not self._high
+
+    def lost(self) -> None:
+        """The radio is not live (:func:`radio_live`): what the switch showed before says
+        nothing of now, and a switch high when the radio is back is no start until seen low."""
+        self._seen_low, self._high = False, None
+
+
+def radio_live(
+    receiver_healthy: bool | None, rc_rx_s: float | None, now_s: float, stale_s: float
+) -> bool:
+    """Whether the start switch is read from a live radio: ArduPilot's radio failsafe is off
+    (SYS_STATUS's receiver bit; None: not reported) and RC_CHANNELS arrived within
+    ``stale_s`` (``serve.switch_stale_s``)."""
+    if receiver_healthy is False or rc_rx_s is None:
+        return False
+    return 0.0 <= now_s - rc_rx_s <= stale_s
 
 
 def answer_switch(view: ServeView, edge: SwitchEdge) -> Answer | None:

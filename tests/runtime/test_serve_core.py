@@ -32,6 +32,7 @@ from helixd.runtime.serve_core import (
     answer_command,
     answer_goto,
     answer_switch,
+    radio_live,
     state_after_flight,
 )
 from helixd.safety.watchdogs import FaultCause
@@ -297,3 +298,23 @@ def test_a_place_is_flown_only_with_a_motion_mode_and_the_switch_not_low() -> No
 def test_a_handover_leaves_the_service_paused_not_faulted() -> None:
     state = state_after_flight(ExitCode.OPERATOR_STOP, FaultCause.HANDOVER, False)
     assert state is ServeState.PAUSED
+
+
+def test_the_start_switch_is_read_only_from_a_live_radio() -> None:
+    stale_s = 1.0
+    assert radio_live(True, 10.0, 10.5, stale_s)
+    assert radio_live(None, 10.0, 11.0, stale_s)  # the receiver bit not reported: RC_CHANNELS
+    assert not radio_live(False, 10.0, 10.1, stale_s)  # ArduPilot's radio failsafe
+    assert not radio_live(True, 10.0, 11.2, stale_s)  # RC_CHANNELS stopped
+    assert not radio_live(True, None, 0.0, stale_s)  # never heard
+    assert not radio_live(True, 12.0, 10.0, stale_s)  # a clock gone backwards is no reading
+
+
+def test_a_switch_high_after_the_radio_came_back_is_no_start_until_seen_low() -> None:
+    w = SwitchWatch(threshold_us=1700)
+    assert w.update(1100) is SwitchEdge.NONE
+    w.lost()  # the radio failsafe: the switch vetoes a start
+    assert w.low
+    assert w.update(1900) is SwitchEdge.NONE  # back, high: not the pilot's start
+    assert w.update(1100) is SwitchEdge.FALLING
+    assert w.update(1900) is SwitchEdge.RISING
