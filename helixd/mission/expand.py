@@ -20,6 +20,25 @@ a reading of the list:
   navigation item of *any* kind; a condition (CONDITION_DELAY, CONDITION_DISTANCE) holds the
   items after it. When the navigation command completes, whatever is left is dropped.
 
+A start at a later item (:attr:`ExpandOptions.first_item` k, ``helixd serve``'s AUTO from the
+autopilot's current item) is ArduPilot's ``AP_Mission::set_current_cmd(k)`` followed by
+``resume``:
+
+* ``set_current_cmd`` on a running mission calls ``advance_current_nav_cmd(k)``, and on a
+  stopped one runs the same search (``get_next_cmd`` from k, counting jumps) that ``resume``
+  then restarts: the walk starts at item k, a do item at k is started with the navigation
+  item after it, and the do items before k are not run (an earlier DO_CHANGE_SPEED, DO_SET_HOME,
+  DO_SET_SERVO has no effect). Items before k stay in the mission: a DO_JUMP after k may
+  still jump back to them.
+* the jump counters (``_jump_tracking``) start at zero: ``AP_Mission::reset`` (called by
+  ``AP_Arming_Rover::disarm`` outside AUTO, and by ``start``) and ``set_current_cmd`` on a
+  completed mission clear them (``init_jump_tracking``). Counters the autopilot still holds
+  from a flight interrupted while armed are not known to helixd.
+* the speed is the cruise speed: ``ModeAuto::_enter`` calls ``AR_WPNav::init``, which sets the
+  speed back to WP_SPEED, so a DO_CHANGE_SPEED flown before AUTO was left counts no more.
+* with ``MIS_RESTART`` 1, ``start_or_resume`` calls ``start`` instead: the mission restarts
+  from item 1 and the current item reports it, so k is the first item.
+
 Then ``Rover/mode_auto.cpp`` decides what each navigation item does: NAV_WAYPOINT drives to its
 place (lat/lon 0, 0: where the rover is when it starts, ``Location::sanitize``) and holds
 ``param1`` whole seconds (a hold makes it a stop); NAV_LOITER_TIME drives there, stops and
@@ -87,6 +106,9 @@ class ExpandOptions:
     # helixd serve: an operator can continue a NAV_LOITER_UNLIM (DO_PAUSE_CONTINUE 1), so it
     # holds there and the mission goes on after it; `helixd run` cannot, and refuses it
     operator_continue: bool = False
+    # the mission item the walk starts at (1: the first); ``helixd serve`` flies the
+    # autopilot's AUTO from its current item (MISSION_CURRENT), as ArduPilot runs it from there
+    first_item: int = 1
 
 
 DEFAULT_OPTIONS = ExpandOptions()
@@ -655,7 +677,8 @@ def expand(
     walker = _Walker(cmds)
     b = _Builder(ctx, options, waypoint_for)
     visited: set[int] = set()
-    nav, first_do, passed = walker.advance_nav(None, _starts)
+    first = min(max(options.first_item, 1), len(cmds))
+    nav, first_do, passed = walker.advance_nav(None if first <= 1 else first - 1, _starts)
     ending = ""
     never_ends = False
     jumps_before: dict[int, int] = {}
@@ -707,6 +730,9 @@ def expand(
         ending = ending or f"item {jump} jumps to a missing item"
     for c in cmds:
         if c.index not in visited and c.wp.command not in (MAV_CMD_DO_JUMP, MAV_CMD_DO_JUMP_TAG):
+            if c.index < first:
+                b.notes.append(f"{_label(c)}: before the start at item {first}: not run")
+                continue
             b.notes.append(
                 f"{_label(c)}: never run (ArduPilot's walk through the mission never starts it)"
             )
