@@ -32,13 +32,14 @@ from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.model import Mission
+from helixd.mission.resolve import PlanError
 from helixd.mission.resume import (
     WAYPOINT_REACHED_EVENT,
     ResumeRefused,
     resume_point,
     resumed_inputs,
 )
-from helixd.mission.validate import apply_mission_limits
+from helixd.mission.validate import apply_mission_limits, resolved_for_check
 from helixd.planning.mapfile import OccupancyMap
 from helixd.runtime.autopilot_mission import MISSION_NAME, FromAutopilot
 from helixd.runtime.inputs import (
@@ -198,11 +199,14 @@ def prepare_flight(
     return Prepared(cfg, msn, path, flight, shown, fence, occ)
 
 
-def from_autopilot_item(flight: Flight, seq: int) -> Flight:
+def from_autopilot_item(flight: Flight, seq: int, cfg: HelixdConfig) -> Flight:
     """The checked flight from the autopilot's current item ``seq`` (MISSION_CURRENT, where
-    its AUTO runs the mission from): the waypoints before it left out, the first leg starting
-    at the one before (line guidance re-enters that leg, as a resume does); the whole flight
-    for item 0 (none current) or the first. Raises :class:`InputsRefused`."""
+    its AUTO runs the mission from); the whole flight for item 0 (none current) or the first.
+    A mission of waypoints: the waypoints before it left out, the first leg starting at the one
+    before (line guidance re-enters that leg, as a resume does). A mission with commands: the
+    whole mission walked from item ``seq`` as ArduPilot runs it from there
+    (:attr:`ExpandOptions.first_item`, see :mod:`helixd.mission.expand`), checked again with
+    ``cfg``. Raises :class:`InputsRefused`."""
     msn = flight.mission
     numbers = operator_numbers([w.via for w in msn.waypoints])
     k = next((i for i, n in enumerate(numbers) if n >= seq), None)
@@ -212,6 +216,8 @@ def from_autopilot_item(flight: Flight, seq: int) -> Flight:
         )
     if k == 0:
         return flight
+    if msn.has_commands():
+        return _commands_from_item(flight, seq, k + 1, cfg)
     reached = [{"event": WAYPOINT_REACHED_EVENT, "index": k - 1}]
     try:
         point = resume_point(f"autopilot item {seq}", flight.inputs, msn, reached, False)
@@ -221,3 +227,18 @@ def from_autopilot_item(flight: Flight, seq: int) -> Flight:
         ) from None
     text = mission_to_yaml(point.mission)
     return Flight(point.mission, text, None, resumed_inputs(point, text), options=flight.options)
+
+
+def _commands_from_item(flight: Flight, seq: int, entry: int, cfg: HelixdConfig) -> Flight:
+    """A mission with commands from its entry ``entry`` (1-based; the autopilot's item
+    ``seq``): the same mission and record, its walk starting there; what that walk cannot fly
+    is refused as a whole mission's would be."""
+    options = replace(flight.options, first_item=entry)
+    try:
+        resolved, _ = resolved_for_check(flight.mission, cfg, options)
+    except PlanError as exc:
+        raise InputsRefused([f"cannot start at the autopilot's item {seq}: {exc}"]) from None
+    if resolved.problems:
+        said = [f"cannot start at the autopilot's item {seq}: {p}" for p in resolved.problems]
+        raise InputsRefused(said)
+    return replace(flight, options=options)

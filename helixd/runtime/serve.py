@@ -538,7 +538,7 @@ class Service:
         checked = self.checked
         assert checked is not None
         if request is Request.AUTO:
-            flight = from_autopilot_item(checked.flight, self._autopilot_item)
+            flight = from_autopilot_item(checked.flight, self._autopilot_item, checked.cfg)
             return flight, checked.cfg, self.opts.run_root
         interrupted = self._interrupted
         if request is Request.CONTINUE and interrupted is not None:
