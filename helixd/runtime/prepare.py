@@ -28,7 +28,7 @@ from helixd.base.plan import MissionFrameKind, MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig
 from helixd.files.models import as_items, format_validation_error
-from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions, jumps_when_current
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.model import Mission
@@ -53,6 +53,7 @@ from helixd.runtime.inputs import (
 from helixd.runtime.planned import Flight, load_occupancy, planned_flight
 
 __all__ = [
+    "AutoWalk",
     "AutopilotMission",
     "AutopilotPlace",
     "FlightSource",
@@ -199,14 +200,27 @@ def prepare_flight(
     return Prepared(cfg, msn, path, flight, shown, fence, occ)
 
 
-def from_autopilot_item(flight: Flight, seq: int, cfg: HelixdConfig) -> Flight:
+@dataclass(frozen=True)
+class AutoWalk:
+    """Where an AUTO flight of a mission with commands was let go while the autopilot stayed
+    armed: the walk it flew (its first item and jump counters) and the step it was on
+    (1-based). The autopilot keeps its jump counters until it is disarmed outside AUTO."""
+
+    options: ExpandOptions
+    step: int
+
+
+def from_autopilot_item(
+    flight: Flight, seq: int, cfg: HelixdConfig, held: AutoWalk | None = None
+) -> Flight:
     """The checked flight from the autopilot's current item ``seq`` (MISSION_CURRENT, where
     its AUTO runs the mission from); the whole flight for item 0 (none current) or the first.
     A mission of waypoints: the waypoints before it left out, the first leg starting at the one
     before (line guidance re-enters that leg, as a resume does). A mission with commands: the
     whole mission walked from item ``seq`` as ArduPilot runs it from there
-    (:attr:`ExpandOptions.first_item`, see :mod:`helixd.mission.expand`), checked again with
-    ``cfg``. Raises :class:`InputsRefused`."""
+    (:attr:`ExpandOptions.first_item`, see :mod:`helixd.mission.expand`), with the jump
+    counters the autopilot holds after ``held`` (none: zero), checked again with ``cfg``.
+    Raises :class:`InputsRefused`."""
     msn = flight.mission
     numbers = operator_numbers([w.via for w in msn.waypoints])
     k = next((i for i, n in enumerate(numbers) if n >= seq), None)
@@ -214,10 +228,17 @@ def from_autopilot_item(flight: Flight, seq: int, cfg: HelixdConfig) -> Flight:
         raise InputsRefused(
             [f"the autopilot's current item {seq} is past the mission's last waypoint"]
         )
-    if k == 0:
+    if seq <= 0:
         return flight
     if msn.has_commands():
-        return _commands_from_item(flight, seq, k + 1, cfg)
+        jumps: tuple[tuple[int, int], ...] = ()
+        if held is not None:
+            jumps = jumps_when_current(msn.waypoints, held.options, max(held.step, 1), k + 1)
+        if k == 0 and not jumps:
+            return flight
+        return _commands_from_item(flight, seq, k + 1, jumps, cfg)
+    if k == 0:
+        return flight
     reached = [{"event": WAYPOINT_REACHED_EVENT, "index": k - 1}]
     try:
         point = resume_point(f"autopilot item {seq}", flight.inputs, msn, reached, False)
@@ -229,11 +250,13 @@ def from_autopilot_item(flight: Flight, seq: int, cfg: HelixdConfig) -> Flight:
     return Flight(point.mission, text, None, resumed_inputs(point, text), options=flight.options)
 
 
-def _commands_from_item(flight: Flight, seq: int, entry: int, cfg: HelixdConfig) -> Flight:
+def _commands_from_item(
+    flight: Flight, seq: int, entry: int, jumps: tuple[tuple[int, int], ...], cfg: HelixdConfig
+) -> Flight:
     """A mission with commands from its entry ``entry`` (1-based; the autopilot's item
-    ``seq``): the same mission and record, its walk starting there; what that walk cannot fly
-    is refused as a whole mission's would be."""
-    options = replace(flight.options, first_item=entry)
+    ``seq``) with the jump counters ``jumps``: the same mission and record, its walk starting
+    there; what that walk cannot fly is refused as a whole mission's would be."""
+    options = replace(flight.options, first_item=entry, jumps_taken=jumps)
     try:
         resolved, _ = resolved_for_check(flight.mission, cfg, options)
     except PlanError as exc:

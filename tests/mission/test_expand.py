@@ -12,7 +12,7 @@ import pytest
 
 from helixd.base.plan import ActionKind, Plan
 from helixd.config import HelixdConfig
-from helixd.mission.expand import PATROL_STEPS_MAX, ExpandOptions
+from helixd.mission.expand import PATROL_STEPS_MAX, ExpandOptions, jumps_when_current
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Resolved, Where, resolve
 
@@ -384,3 +384,28 @@ def test_a_start_at_the_first_item_is_the_whole_mission() -> None:
     first = from_item(1, A, B, jump(1, 1), C)
     assert items(first) == items(whole) == [1, 2, 1, 2, 4]
     assert points(first.plan) == points(whole.plan)
+
+
+def test_the_jump_counters_the_autopilot_holds_carry_on_from_k() -> None:
+    """resume / set_current_cmd keep _jump_tracking: a start at item 3 on the loop's second
+    lap (the jump at item 4 taken once) flies the rest of the whole walk, not a full loop."""
+    entries = (A, B, C, jump(2, 2), {"x": 9, "y": 9})  # items 1..5
+    whole = items(flown(*entries))
+    assert whole == [1, 2, 3, 2, 3, 2, 3, 5]
+    m = mission(*entries)
+    taken = jumps_when_current(m.waypoints, ExpandOptions(), 5, 3)
+    assert taken == ((4, 1),)
+    later = flown(*entries, options=ExpandOptions(first_item=3, jumps_taken=taken))
+    assert items(later) == whole[4:] == [3, 2, 3, 5]
+
+
+def test_jumps_when_current_finds_the_autopilots_item_at_or_after_helixds_step() -> None:
+    m = mission(A, B, C, jump(2, 2), {"x": 9, "y": 9})
+    assert jumps_when_current(m.waypoints, ExpandOptions(), 1, 3) == ()  # first lap
+    assert jumps_when_current(m.waypoints, ExpandOptions(), 4, 3) == ((4, 1),)  # ahead of 4
+    assert jumps_when_current(m.waypoints, ExpandOptions(), 6, 3) == ((4, 2),)
+    assert jumps_when_current(m.waypoints, ExpandOptions(), 6, 5) == ()  # the jump finished
+    assert jumps_when_current(m.waypoints, ExpandOptions(), 8, 2) == ()  # never again
+    # from a walk that itself started later, with counters
+    later = ExpandOptions(first_item=3, jumps_taken=((4, 1),))
+    assert jumps_when_current(m.waypoints, later, 2, 2) == ((4, 2),)

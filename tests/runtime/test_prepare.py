@@ -23,6 +23,7 @@ from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import (
     AutopilotMission,
     AutopilotPlace,
+    AutoWalk,
     MissionFile,
     from_autopilot_item,
     prepare_flight,
@@ -142,6 +143,21 @@ def test_a_mission_with_commands_from_the_autopilots_current_item() -> None:
     assert plan.program is not None
     assert [s.item for s in plan.program.steps] == [3, 4, 1, 3, 4]
     assert [s.speed_mps for s in plan.program.steps] == [0.6, 0.6, 0.6, 0.3, 0.3]
+
+
+def test_the_jump_counters_of_a_flight_let_go_on_a_later_lap_carry_on() -> None:
+    """Let go on lap 2 (step 4, item 1 after the DO_JUMP): the autopilot keeps its counters
+    (AP_Mission::resume), so AUTO again flies the rest of lap 2 only, from item 3 or item 1."""
+    flight = commands_flight()  # flown 1, 3, 4, 1, 3, 4
+    first_lap = AutoWalk(ExpandOptions(), 1)
+    assert from_autopilot_item(flight, 1, CFG, first_lap) is flight
+    lap2 = AutoWalk(ExpandOptions(), 4)
+    for seq, expected in ((3, [3, 4]), (1, [1, 3, 4])):
+        later = from_autopilot_item(flight, seq, CFG, lap2)
+        assert later.options == ExpandOptions(first_item=seq, jumps_taken=((5, 1),))
+        plan = resolve(later.mission, CFG.control, CFG.mission, options=later.options).plan
+        assert plan.program is not None
+        assert [s.item for s in plan.program.steps] == expected
 
 
 def test_a_start_the_walk_from_there_cannot_fly_is_refused() -> None:
