@@ -20,6 +20,27 @@ a reading of the list:
   navigation item of *any* kind; a condition (CONDITION_DELAY, CONDITION_DISTANCE) holds the
   items after it. When the navigation command completes, whatever is left is dropped.
 
+A start at a later item (:attr:`ExpandOptions.first_item` k, ``helixd serve``'s AUTO from the
+autopilot's current item) is ArduPilot's ``AP_Mission::set_current_cmd(k)`` followed by
+``resume``:
+
+* ``set_current_cmd`` on a running mission calls ``advance_current_nav_cmd(k)``, and on a
+  stopped one runs the same search (``get_next_cmd`` from k, counting jumps) that ``resume``
+  then restarts: the walk starts at item k, a do item at k is started with the navigation
+  item after it, and the do items before k are not run (an earlier DO_CHANGE_SPEED, DO_SET_HOME,
+  DO_SET_SERVO has no effect). Items before k stay in the mission: a DO_JUMP after k may
+  still jump back to them.
+* the jump counters (``_jump_tracking``) are the ones the autopilot holds
+  (:attr:`ExpandOptions.jumps_taken`): ``resume`` and ``set_current_cmd`` keep them; only
+  ``AP_Mission::reset`` (called by ``start`` and by ``AP_Arming_Rover::disarm`` outside AUTO)
+  and ``set_current_cmd`` on item 0 or a completed mission clear them
+  (``init_jump_tracking``). After a flight interrupted while armed they are the counters of
+  the walk where the autopilot's AUTO had got to (:func:`jumps_when_current`); else zero.
+* the speed is the cruise speed: ``ModeAuto::_enter`` calls ``AR_WPNav::init``, which sets the
+  speed back to WP_SPEED, so a DO_CHANGE_SPEED flown before AUTO was left counts no more.
+* with ``MIS_RESTART`` 1, ``start_or_resume`` calls ``start`` instead: the mission restarts
+  from item 1 and the current item reports it, so k is the first item.
+
 Then ``Rover/mode_auto.cpp`` decides what each navigation item does: NAV_WAYPOINT drives to its
 place (lat/lon 0, 0: where the rover is when it starts, ``Location::sanitize``) and holds
 ``param1`` whole seconds (a hold makes it a stop); NAV_LOITER_TIME drives there, stops and
@@ -87,6 +108,13 @@ class ExpandOptions:
     # helixd serve: an operator can continue a NAV_LOITER_UNLIM (DO_PAUSE_CONTINUE 1), so it
     # holds there and the mission goes on after it; `helixd run` cannot, and refuses it
     operator_continue: bool = False
+    # the mission item the walk starts at (1: the first); ``helixd serve`` flies the
+    # autopilot's AUTO from its current item (MISSION_CURRENT), as ArduPilot runs it from there
+    first_item: int = 1
+    # the jump counters (DO_JUMP item, times taken) the autopilot holds at that start
+    # (AP_Mission's _jump_tracking, kept by resume and set_current_cmd): see
+    # :func:`jumps_when_current`
+    jumps_taken: tuple[tuple[int, int], ...] = ()
 
 
 DEFAULT_OPTIONS = ExpandOptions()
@@ -653,9 +681,11 @@ def expand(
         for i, (wp, xy, ll) in enumerate(zip(entries, places, latlons, strict=True))
     ]
     walker = _Walker(cmds)
+    walker.runs = dict(options.jumps_taken)
     b = _Builder(ctx, options, waypoint_for)
     visited: set[int] = set()
-    nav, first_do, passed = walker.advance_nav(None, _starts)
+    first = min(max(options.first_item, 1), len(cmds))
+    nav, first_do, passed = walker.advance_nav(None if first <= 1 else first - 1, _starts)
     ending = ""
     never_ends = False
     jumps_before: dict[int, int] = {}
@@ -707,6 +737,9 @@ def expand(
         ending = ending or f"item {jump} jumps to a missing item"
     for c in cmds:
         if c.index not in visited and c.wp.command not in (MAV_CMD_DO_JUMP, MAV_CMD_DO_JUMP_TAG):
+            if c.index < first:
+                b.notes.append(f"{_label(c)}: before the start at item {first}: not run")
+                continue
             b.notes.append(
                 f"{_label(c)}: never run (ArduPilot's walk through the mission never starts it)"
             )
@@ -724,6 +757,28 @@ def expand(
     return Expansion(b.waypoints, program, b.problems, b.notes)
 
 
+def jumps_when_current(
+    entries: Sequence[WaypointSpec], options: ExpandOptions, step: int, item: int
+) -> tuple[tuple[int, int], ...]:
+    """The jump counters AP_Mission holds when item ``item`` is its current navigation item,
+    for the first time at or after step ``step`` (1-based) of the walk ``options`` starts
+    (its ``first_item`` and ``jumps_taken``): where the autopilot's AUTO went on to while
+    helixd flew that step. Empty when the walk does not reach ``item`` within
+    ``MAX_SCAN`` steps after ``step``. The walk's order does not depend on the places."""
+    cmds = [_Cmd(i + 1, wp, None, None) for i, wp in enumerate(entries)]
+    walker = _Walker(cmds)
+    walker.runs = dict(options.jumps_taken)
+    first = min(max(options.first_item, 1), len(cmds))
+    nav, _, _ = walker.advance_nav(None if first <= 1 else first - 1, _starts)
+    n = 1
+    while nav is not None and n <= step + MAX_SCAN:
+        if n >= step and nav.index == item:
+            return tuple(sorted((i, r) for i, r in walker.runs.items() if r > 0))
+        nav, _, _ = walker.advance_nav(nav.index, _starts)
+        n += 1
+    return ()
+
+
 def _via(walker: _Walker, before: dict[int, int], cmds: Sequence[_Cmd]) -> str:
     """Which jump the walk took to reach this step, e.g. "(DO_JUMP item 5, 1 of 2)"."""
     for index, runs in walker.runs.items():
@@ -735,4 +790,12 @@ def _via(walker: _Walker, before: dict[int, int], cmds: Sequence[_Cmd]) -> str:
     return ""
 
 
-__all__ = ["DEFAULT_OPTIONS", "Context", "ExpandOptions", "Expansion", "expand", "loiter_turns"]
+__all__ = [
+    "DEFAULT_OPTIONS",
+    "Context",
+    "ExpandOptions",
+    "Expansion",
+    "expand",
+    "jumps_when_current",
+    "loiter_turns",
+]

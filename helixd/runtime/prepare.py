@@ -28,17 +28,18 @@ from helixd.base.plan import MissionFrameKind, MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig
 from helixd.files.models import as_items, format_validation_error
-from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions, jumps_when_current
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.model import Mission
+from helixd.mission.resolve import PlanError
 from helixd.mission.resume import (
     WAYPOINT_REACHED_EVENT,
     ResumeRefused,
     resume_point,
     resumed_inputs,
 )
-from helixd.mission.validate import apply_mission_limits
+from helixd.mission.validate import apply_mission_limits, resolved_for_check
 from helixd.planning.mapfile import OccupancyMap
 from helixd.runtime.autopilot_mission import MISSION_NAME, FromAutopilot
 from helixd.runtime.inputs import (
@@ -52,6 +53,7 @@ from helixd.runtime.inputs import (
 from helixd.runtime.planned import Flight, load_occupancy, planned_flight
 
 __all__ = [
+    "AutoWalk",
     "AutopilotMission",
     "AutopilotPlace",
     "FlightSource",
@@ -198,11 +200,27 @@ def prepare_flight(
     return Prepared(cfg, msn, path, flight, shown, fence, occ)
 
 
-def from_autopilot_item(flight: Flight, seq: int) -> Flight:
+@dataclass(frozen=True)
+class AutoWalk:
+    """Where an AUTO flight of a mission with commands was let go while the autopilot stayed
+    armed: the walk it flew (its first item and jump counters) and the step it was on
+    (1-based). The autopilot keeps its jump counters until it is disarmed outside AUTO."""
+
+    options: ExpandOptions
+    step: int
+
+
+def from_autopilot_item(
+    flight: Flight, seq: int, cfg: HelixdConfig, held: AutoWalk | None = None
+) -> Flight:
     """The checked flight from the autopilot's current item ``seq`` (MISSION_CURRENT, where
-    its AUTO runs the mission from): the waypoints before it left out, the first leg starting
-    at the one before (line guidance re-enters that leg, as a resume does); the whole flight
-    for item 0 (none current) or the first. Raises :class:`InputsRefused`."""
+    its AUTO runs the mission from); the whole flight for item 0 (none current) or the first.
+    A mission of waypoints: the waypoints before it left out, the first leg starting at the one
+    before (line guidance re-enters that leg, as a resume does). A mission with commands: the
+    whole mission walked from item ``seq`` as ArduPilot runs it from there
+    (:attr:`ExpandOptions.first_item`, see :mod:`helixd.mission.expand`), with the jump
+    counters the autopilot holds after ``held`` (none: zero), checked again with ``cfg``.
+    Raises :class:`InputsRefused`."""
     msn = flight.mission
     numbers = operator_numbers([w.via for w in msn.waypoints])
     k = next((i for i, n in enumerate(numbers) if n >= seq), None)
@@ -210,6 +228,15 @@ def from_autopilot_item(flight: Flight, seq: int) -> Flight:
         raise InputsRefused(
             [f"the autopilot's current item {seq} is past the mission's last waypoint"]
         )
+    if seq <= 0:
+        return flight
+    if msn.has_commands():
+        jumps: tuple[tuple[int, int], ...] = ()
+        if held is not None:
+            jumps = jumps_when_current(msn.waypoints, held.options, max(held.step, 1), k + 1)
+        if k == 0 and not jumps:
+            return flight
+        return _commands_from_item(flight, seq, k + 1, jumps, cfg)
     if k == 0:
         return flight
     reached = [{"event": WAYPOINT_REACHED_EVENT, "index": k - 1}]
@@ -221,3 +248,20 @@ def from_autopilot_item(flight: Flight, seq: int) -> Flight:
         ) from None
     text = mission_to_yaml(point.mission)
     return Flight(point.mission, text, None, resumed_inputs(point, text), options=flight.options)
+
+
+def _commands_from_item(
+    flight: Flight, seq: int, entry: int, jumps: tuple[tuple[int, int], ...], cfg: HelixdConfig
+) -> Flight:
+    """A mission with commands from its entry ``entry`` (1-based; the autopilot's item
+    ``seq``) with the jump counters ``jumps``: the same mission and record, its walk starting
+    there; what that walk cannot fly is refused as a whole mission's would be."""
+    options = replace(flight.options, first_item=entry, jumps_taken=jumps)
+    try:
+        resolved, _ = resolved_for_check(flight.mission, cfg, options)
+    except PlanError as exc:
+        raise InputsRefused([f"cannot start at the autopilot's item {seq}: {exc}"]) from None
+    if resolved.problems:
+        said = [f"cannot start at the autopilot's item {seq}: {p}" for p in resolved.problems]
+        raise InputsRefused(said)
+    return replace(flight, options=options)

@@ -29,6 +29,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode, Numbering
+from helixd.base.run_files import EVENTS_FILE
 from helixd.config import HelixdConfig
 from helixd.files.models import as_items
 from helixd.link.command_client import CommandError
@@ -48,6 +49,7 @@ from helixd.mission.formats.items import GcsMission
 from helixd.mission.model import Mission
 from helixd.mission.resume import sha256_text
 from helixd.planning.mapfile import OccupancyMap
+from helixd.recorder.events import read_events
 from helixd.recorder.summary import RunSummary
 from helixd.runtime.autopilot_mission import (
     MissionRefused,
@@ -66,6 +68,7 @@ from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import (
     AutopilotMission,
     AutopilotPlace,
+    AutoWalk,
     MissionFile,
     Resume,
     from_autopilot_item,
@@ -164,6 +167,9 @@ class Service:
         self._side_tasks: set[asyncio.Task[None]] = set()
         self._current_item: int | None = None  # the item last set as the autopilot's current
         self._interrupted = _read_state_file(opts.state_file)  # (fingerprint, run_dir) or None
+        # the last AUTO flight of a mission with commands let go with the autopilot armed:
+        # (fingerprint, its walk, its run directory); the autopilot keeps its jump counters
+        self._auto_walk: tuple[str, ExpandOptions, Path] | None = None
 
     # -- state --------------------------------------------------------------------------------
 
@@ -459,6 +465,8 @@ class Service:
         st = ap.state
         flying = self.flight_task is not None
         mode = crew_mode_of(st)
+        if not st.armed and mode != AUTO_MODE:
+            self._auto_walk = None  # AP_Arming_Rover::disarm resets the mission outside AUTO
         if not self.auto_watch.update(st.armed, mode, flying):
             return
         answer = answer_auto(self.view())
@@ -551,7 +559,8 @@ class Service:
         checked = self.checked
         assert checked is not None
         if request is Request.AUTO:
-            flight = from_autopilot_item(checked.flight, self._autopilot_item)
+            held = self._held_walk(checked.fingerprint)
+            flight = from_autopilot_item(checked.flight, self._autopilot_item, checked.cfg, held)
             return flight, checked.cfg, self.opts.run_root
         interrupted = self._interrupted
         if request is Request.CONTINUE and interrupted is not None:
@@ -562,6 +571,21 @@ class Service:
             cfg = resumed.cfg.model_copy(update={"link": self.cfg.link})
             return resumed.flight, cfg, run_dir.parent
         return checked.flight, checked.cfg, self.opts.run_root
+
+    def _held_walk(self, fingerprint: str) -> AutoWalk | None:
+        """Where the last AUTO flight of this mission was let go (its last step started, from
+        its event log), while the autopilot has stayed armed since."""
+        walk = self._auto_walk
+        if walk is None or walk[0] != fingerprint:
+            return None
+        _, options, run_dir = walk
+        step = 0
+        for ev in read_events(run_dir / EVENTS_FILE):
+            if ev.get("event") == "mission_step" and ev.get("kind") == "step_started":
+                got = ev.get("step")
+                step = got if isinstance(got, int) and not isinstance(got, bool) else step
+        log.info("auto_walk_held", first_item=options.first_item, step=step, run_dir=str(run_dir))
+        return AutoWalk(options, step)
 
     async def _fly_goto(self, ap: Autopilot, source: AutopilotPlace, place: PositionTarget) -> None:
         try:
@@ -668,6 +692,10 @@ class Service:
         # released to the pilot, or moved to another item: AUTO again (or still) starts
         handed = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
         self.auto_watch.flight_ended(left_auto=cause in handed)
+        let_go = auto and cause in handed and flight.mission.has_commands()
+        self._auto_walk = None
+        if let_go and outcome.run_dir is not None:
+            self._auto_walk = (fingerprint, flight.options, outcome.run_dir)
         state = state_after_flight(outcome.exit_code, cause, self.flight_stop.paused)
         if state is ServeState.COMPLETED:
             self._interrupted = None

@@ -12,7 +12,7 @@ import pytest
 
 from helixd.base.plan import ActionKind, Plan
 from helixd.config import HelixdConfig
-from helixd.mission.expand import PATROL_STEPS_MAX, ExpandOptions
+from helixd.mission.expand import PATROL_STEPS_MAX, ExpandOptions, jumps_when_current
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Resolved, Where, resolve
 
@@ -323,3 +323,89 @@ def test_every_speed_the_program_may_set_is_under_the_peak() -> None:
     assert r.plan.program is not None
     assert [s.speed_mps for s in r.plan.program.steps] == [0.4, 0.2, 0.25]
     assert r.plan.peak_speed_mps == 0.5
+
+
+# -- a start at a later item (serve's AUTO from the autopilot's current item) ------------------
+
+
+def from_item(k: int, *entries: dict[str, Any], where: Where | None = None) -> Resolved:
+    return flown(*entries, options=ExpandOptions(first_item=k), where=where)
+
+
+def test_a_start_at_item_k_walks_from_k_and_a_later_jump_still_goes_back() -> None:
+    """AP_Mission::set_current_cmd(k) then resume: the walk begins at item k; the DO_JUMP
+    after it still jumps back to item 1 (before k), with its counter from zero."""
+    r = from_item(2, A, B, C, jump(1, 1))  # items 1..4
+    assert items(r) == [2, 3, 1, 2, 3]
+    assert points(r.plan)[0] == (5, 5)  # the first leg goes from where the rover is to item 2
+    assert r.problems == ()
+    assert not any("not run" in n or "never run" in n for n in r.notes)  # item 1 is flown
+
+
+def test_a_start_inside_a_loop_counts_the_jump_from_zero() -> None:
+    """_jump_tracking is cleared by AP_Mission::reset (a disarm outside AUTO) and by
+    set_current_cmd on a completed mission: the loop runs its full repeat count from k."""
+    r = from_item(3, A, B, C, jump(2, 2), {"x": 9, "y": 9})  # jump at item 4 back to item 2
+    assert items(r) == [3, 2, 3, 2, 3, 5]
+
+
+def test_do_items_before_k_are_not_run_and_the_speed_is_the_cruise_speed() -> None:
+    """A DO_CHANGE_SPEED and a DO_SET_SERVO before k are not run (set_current_cmd starts the
+    walk at k; ModeAuto::_enter's AR_WPNav::init sets the speed back to WP_SPEED); one after
+    k is run with the leg after it."""
+    slow = {"command": "DO_CHANGE_SPEED", "speed_mps": 0.3}
+    servo = {"command": "DO_SET_SERVO", "channel": 9, "pwm_us": 1900}
+    slower = {"command": "DO_CHANGE_SPEED", "speed_mps": 0.2}
+    r = from_item(4, A, slow, servo, B, slower, C)  # items 1..6
+    program = r.plan.program
+    assert program is not None and r.problems == ()
+    assert items(r) == [4, 6]
+    assert [s.speed_mps for s in program.steps] == [0.6, 0.2]
+    assert program.steps[0].actions == ()
+    assert [a.item for a in program.steps[1].actions] == [5]
+    assert any("item 2 DO_CHANGE_SPEED: before the start at item 4: not run" in n for n in r.notes)
+    assert any("item 3 DO_SET_SERVO: before the start at item 4: not run" in n for n in r.notes)
+
+
+def test_a_start_at_a_do_item_starts_it_with_the_next_navigation_item() -> None:
+    """advance_current_nav_cmd(k) with k a do item: it is started with the navigation item
+    after it (set_current_cmd on a DO item)."""
+    slow = {"command": "DO_CHANGE_SPEED", "speed_mps": 0.3}
+    r = from_item(2, A, slow, B, C)
+    program = r.plan.program
+    assert program is not None
+    assert items(r) == [3, 4]
+    assert [a.item for a in program.steps[0].actions] == [2]
+    assert [s.speed_mps for s in program.steps] == [0.3, 0.3]
+
+
+def test_a_start_at_the_first_item_is_the_whole_mission() -> None:
+    whole = flown(A, B, jump(1, 1), C)
+    first = from_item(1, A, B, jump(1, 1), C)
+    assert items(first) == items(whole) == [1, 2, 1, 2, 4]
+    assert points(first.plan) == points(whole.plan)
+
+
+def test_the_jump_counters_the_autopilot_holds_carry_on_from_k() -> None:
+    """resume / set_current_cmd keep _jump_tracking: a start at item 3 on the loop's second
+    lap (the jump at item 4 taken once) flies the rest of the whole walk, not a full loop."""
+    entries = (A, B, C, jump(2, 2), {"x": 9, "y": 9})  # items 1..5
+    whole = items(flown(*entries))
+    assert whole == [1, 2, 3, 2, 3, 2, 3, 5]
+    m = mission(*entries)
+    taken = jumps_when_current(m.waypoints, ExpandOptions(), 5, 3)
+    assert taken == ((4, 1),)
+    later = flown(*entries, options=ExpandOptions(first_item=3, jumps_taken=taken))
+    assert items(later) == whole[4:] == [3, 2, 3, 5]
+
+
+def test_jumps_when_current_finds_the_autopilots_item_at_or_after_helixds_step() -> None:
+    m = mission(A, B, C, jump(2, 2), {"x": 9, "y": 9})
+    assert jumps_when_current(m.waypoints, ExpandOptions(), 1, 3) == ()  # first lap
+    assert jumps_when_current(m.waypoints, ExpandOptions(), 4, 3) == ((4, 1),)  # ahead of 4
+    assert jumps_when_current(m.waypoints, ExpandOptions(), 6, 3) == ((4, 2),)
+    assert jumps_when_current(m.waypoints, ExpandOptions(), 6, 5) == ()  # the jump finished
+    assert jumps_when_current(m.waypoints, ExpandOptions(), 8, 2) == ()  # never again
+    # from a walk that itself started later, with counters
+    later = ExpandOptions(first_item=3, jumps_taken=((4, 1),))
+    assert jumps_when_current(m.waypoints, later, 2, 2) == ((4, 2),)

@@ -11,9 +11,11 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
+from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml, read_gcs
 from helixd.mission.formats.wire import gcs_to_wire
 from helixd.mission.model import Mission
+from helixd.mission.resolve import resolve
 from helixd.mission.resume import fresh_inputs
 from helixd.runtime.autopilot_mission import convert_download
 from helixd.runtime.inputs import InputsRefused
@@ -21,12 +23,14 @@ from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import (
     AutopilotMission,
     AutopilotPlace,
+    AutoWalk,
     MissionFile,
     from_autopilot_item,
     prepare_flight,
 )
 from tests.support.paths import DATA_DIR
 
+CFG = HelixdConfig()
 HOME = (53.523250, -113.526110)
 DEG_PER_M = 1 / 111_320.0
 
@@ -95,16 +99,71 @@ def three_waypoints() -> Flight:
 
 def test_a_flight_from_the_autopilots_current_item() -> None:
     flight = three_waypoints()
-    assert from_autopilot_item(flight, 0) is flight  # no current item: from the start
-    assert from_autopilot_item(flight, 1) is flight
-    later = from_autopilot_item(flight, 3)
+    assert from_autopilot_item(flight, 0, CFG) is flight  # no current item: from the start
+    assert from_autopilot_item(flight, 1, CFG) is flight
+    later = from_autopilot_item(flight, 3, CFG)
     assert [(w.north, w.east) for w in later.mission.waypoints] == [(8, 0)]
     # the first leg re-enters the one from waypoint 2; numbered as the whole mission
     start = later.inputs.leg_start
     assert start is not None and (start.north, start.east) == (8, 10)
     assert later.inputs.numbering([False]).label(0) == "3/3"
     with pytest.raises(InputsRefused, match="past the mission's last waypoint"):
-        from_autopilot_item(flight, 4)
+        from_autopilot_item(flight, 4, CFG)
+
+
+def commands_flight(*extra: dict[str, object]) -> Flight:
+    msn = Mission.model_validate(
+        {
+            "name": "m",
+            "mode": "roll",
+            "frame": "local_ned",
+            "waypoints": [
+                {"north": 0, "east": 10},
+                {"command": "DO_CHANGE_SPEED", "speed_mps": 0.3},
+                {"north": 8, "east": 10},
+                {"north": 8, "east": 0},
+                {"command": "DO_JUMP", "item": 1, "repeat": 1},
+                *extra,
+            ],
+        }
+    )
+    text = mission_to_yaml(msn)
+    return Flight(msn, text, None, fresh_inputs(text, "c" * 64, msn))
+
+
+def test_a_mission_with_commands_from_the_autopilots_current_item() -> None:
+    """The whole mission, walked from the current item as ArduPilot runs it: the DO before it
+    not run, the DO_JUMP after it still jumping back to item 1."""
+    flight = commands_flight()
+    assert from_autopilot_item(flight, 1, CFG) is flight
+    later = from_autopilot_item(flight, 3, CFG)
+    assert later.mission is flight.mission and later.inputs == flight.inputs
+    assert later.options == ExpandOptions(first_item=3)
+    plan = resolve(later.mission, CFG.control, CFG.mission, options=later.options).plan
+    assert plan.program is not None
+    assert [s.item for s in plan.program.steps] == [3, 4, 1, 3, 4]
+    assert [s.speed_mps for s in plan.program.steps] == [0.6, 0.6, 0.6, 0.3, 0.3]
+
+
+def test_the_jump_counters_of_a_flight_let_go_on_a_later_lap_carry_on() -> None:
+    """Let go on lap 2 (step 4, item 1 after the DO_JUMP): the autopilot keeps its counters
+    (AP_Mission::resume), so AUTO again flies the rest of lap 2 only, from item 3 or item 1."""
+    flight = commands_flight()  # flown 1, 3, 4, 1, 3, 4
+    first_lap = AutoWalk(ExpandOptions(), 1)
+    assert from_autopilot_item(flight, 1, CFG, first_lap) is flight
+    lap2 = AutoWalk(ExpandOptions(), 4)
+    for seq, expected in ((3, [3, 4]), (1, [1, 3, 4])):
+        later = from_autopilot_item(flight, seq, CFG, lap2)
+        assert later.options == ExpandOptions(first_item=seq, jumps_taken=((5, 1),))
+        plan = resolve(later.mission, CFG.control, CFG.mission, options=later.options).plan
+        assert plan.program is not None
+        assert [s.item for s in plan.program.steps] == expected
+
+
+def test_a_start_the_walk_from_there_cannot_fly_is_refused() -> None:
+    flight = commands_flight({"command": "NAV_DELAY", "delay_s": -1})  # until a time of day
+    with pytest.raises(InputsRefused, match=r"cannot start at the autopilot's item 3: item 6"):
+        from_autopilot_item(flight, 3, CFG)
 
 
 def test_the_autopilots_place_is_a_checked_flight_of_one_leg() -> None:

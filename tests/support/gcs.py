@@ -55,6 +55,21 @@ def upload(
             for i, (n, e) in enumerate(points_ne_m)
         ),
     ]
+    upload_items(gcs, items, timeout_s)
+
+
+def do_item(seq: int, command: int, *params: float) -> Any:
+    """A do item (no place): ``params`` are param1.. in order."""
+    p = [*params, 0.0, 0.0, 0.0, 0.0][:4]
+    return mavlink.MAVLink_mission_item_int_message(
+        1, 1, seq, mavlink.MAV_FRAME_MISSION, command, 0, 1, *p, 0, 0, 0.0,
+        mavlink.MAV_MISSION_TYPE_MISSION,
+    )  # fmt: skip
+
+
+def upload_items(gcs: MavClient, items: list[Any], timeout_s: float = 20.0) -> None:
+    """Upload ``items`` (home first) by the mission protocol; AssertionError unless
+    MISSION_ACK ACCEPTED."""
     gcs.mav.mission_count_send(1, 1, len(items), mavlink.MAV_MISSION_TYPE_MISSION)
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:

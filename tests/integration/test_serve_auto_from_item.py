@@ -1,0 +1,142 @@
+"""``helixd serve``: a mission with commands started again in AUTO from the autopilot's current
+item after the crew took over in MANUAL, as ArduPilot runs it from there (AP_Mission::resume →
+set_current_cmd: the walk from that item, the DO items before it not run, a DO_JUMP after it
+still jumping back).
+
+The scripted ground station sends what QGroundControl sends (see test_serve_crew_modes.py);
+everything is judged on the simulator's truth, the service's log and the run directories.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import signal
+from pathlib import Path
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.mav.constants import MAV_CMD_MISSION_START, MAV_RESULT_ACCEPTED
+from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.server import SimServer
+from tests.integration.test_serve_crew_modes import CONFIG, driving, heartbeat_shows, set_mode
+from tests.support.daemon import DaemonProc
+from tests.support.gcs import do_item, upload_items, waypoint
+from tests.support.harness import MavClient, overrides_released, time_until
+from tests.support.serve import moving, serve_proc, sim_with_ground_station
+
+SPEED_MPS = 0.4  # DO_CHANGE_SPEED item 2
+# items 1..5: WP, DO_CHANGE_SPEED, WP, WP, DO_JUMP to item 2 once: flown 1, 3, 4, 3, 4
+ITEMS = [
+    waypoint(0, 0.0, 0.0),
+    waypoint(1, 10.0, 0.0),
+    do_item(2, mavlink.MAV_CMD_DO_CHANGE_SPEED, 1.0, SPEED_MPS, -1.0),
+    waypoint(3, 10.0, -8.0),
+    waypoint(4, 0.0, -8.0),
+    do_item(5, mavlink.MAV_CMD_DO_JUMP, 2.0, 1.0),
+]
+
+
+def start_mission(server: SimServer, gcs: MavClient, d: DaemonProc) -> None:
+    """Upload ITEMS and press Start Mission on a disarmed rover (APMFirmwarePlugin::
+    startMission): GUIDED, arm, MAV_CMD_MISSION_START to the autopilot."""
+    d.wait_line("no mission on the autopilot", 60.0)
+    upload_items(gcs, ITEMS)
+    d.wait_line("event=serve_state state=ready", 30.0)
+    set_mode(gcs, "GUIDED")
+    heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
+    assert gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+    heartbeat_shows(gcs, lambda m: m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+    assert gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+    d.wait_line("event=auto_start", 10.0)  # item 0 or 1: MISSION_CURRENT may lag the start
+    server.wait_for(moving, 20.0)
+
+
+def autopilot_item(gcs: MavClient, seq: int, timeout_s: float = 60.0) -> None:
+    gcs.expect("MISSION_CURRENT", timeout_s, lambda m: m.get_srcSystem() == 1 and m.seq == seq)
+
+
+def test_auto_again_after_manual_flies_a_commands_mission_from_the_current_item(
+    tmp_path: Path,
+) -> None:
+    with sim_with_ground_station() as (server, urls, gcs):
+        d = serve_proc(tmp_path, urls[0], CONFIG)
+        d.start_pump()
+        try:
+            start_mission(server, gcs, d)
+            # item 1 reached: the autopilot's current item is 3, on the first lap
+            autopilot_item(gcs, 3)
+            mark = d.mark()
+            t_manual = set_mode(gcs, "MANUAL")
+            time_until(server, overrides_released, t_manual, 5.0)
+            d.wait_line("event=serve_state state=paused", 30.0, after=mark)
+
+            # AUTO again: from item 3, not refused
+            mark = d.mark()
+            t_auto = set_mode(gcs, "AUTO")
+            d.wait_line("event=auto_start item=3", 10.0, after=mark)
+            time_until(server, driving, t_auto, 10.0)
+            assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
+            done = gcs.wait_text("helixd: completed", 60.0)
+            d.wait_line("event=serve_state state=completed", 10.0, after=mark)
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    log = d.log_text()
+    assert "cannot start" not in log
+    assert 'kind=step_started item=3 lap="lap 1 of 2" command=NAV_WAYPOINT step=1' in log
+    assert 'state=completed hx_state=7 detail="4/4 waypoints as flown, last item 4/5"' in log
+    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    assert [s["completed"] for s in summaries] == [False, True], summaries
+    assert summaries[0]["fault"].startswith("released: mode MANUAL"), summaries[0]
+    arrivals = summaries[1]["arrivals"]
+    assert [a["number"] for a in arrivals] == [3, 4, 3, 4]  # from item 3, the jump taken once
+    # lap 1 at the cruise speed (item 2 before the start is not run), lap 2 after the jump
+    # through item 2's DO_CHANGE_SPEED: the same 10 m leg (4 → 3 vs 3 → 4) takes longer
+    t = [a["t_boot_s"] for a in arrivals]
+    lap1_s, lap2_s = t[1] - t[0], t[2] - t[1]
+    print(f"\n{done}; 10 m legs: {lap1_s:.1f} s at cruise, {lap2_s:.1f} s at {SPEED_MPS} m/s")
+    assert lap2_s > 1.3 * lap1_s, (lap1_s, lap2_s)
+
+
+def test_auto_again_on_a_later_lap_keeps_the_autopilots_jump_counters(tmp_path: Path) -> None:
+    """Let go on the second lap (the DO_JUMP taken once): ArduPilot's resume keeps its jump
+    counters, so AUTO again flies the rest of that lap, item 3 then 4, not two more laps."""
+    with sim_with_ground_station() as (server, urls, gcs):
+        d = serve_proc(tmp_path, urls[0], CONFIG)
+        d.start_pump()
+        try:
+            start_mission(server, gcs, d)
+            autopilot_item(gcs, 3)
+            autopilot_item(gcs, 4, 120.0)
+            autopilot_item(gcs, 3, 120.0)  # after the jump: lap 2
+            mark = d.mark()
+            t_manual = set_mode(gcs, "MANUAL")
+            time_until(server, overrides_released, t_manual, 5.0)
+            d.wait_line("event=serve_state state=paused", 30.0, after=mark)
+
+            mark = d.mark()
+            t_auto = set_mode(gcs, "AUTO")
+            d.wait_line("event=auto_walk_held first_item=1", 10.0, after=mark)
+            d.wait_line("event=auto_start item=3", 10.0, after=mark)
+            time_until(server, driving, t_auto, 10.0)
+            assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
+            d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    log = d.log_text()
+    # helixd was let go on item 4 (step 3; or item 3 of lap 2, step 4, had it got there too)
+    # while the autopilot had gone on to item 3 of lap 2
+    assert re.search(r"event=auto_walk_held first_item=1 step=[34] ", log), log
+    started = 'kind=step_started item=3 lap=null command=NAV_WAYPOINT step=1 text="NAV_WAYPOINT'
+    assert started in log and "(after DO_JUMP item 5, 1 of 1)" in log
+    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    assert [s["completed"] for s in summaries] == [False, True], summaries
+    assert [a["number"] for a in summaries[1]["arrivals"]] == [3, 4]
