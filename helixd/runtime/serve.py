@@ -19,6 +19,7 @@ import asyncio
 import contextlib
 import json
 import time
+from collections.abc import Awaitable
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -31,7 +32,6 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode, Numbering
 from helixd.base.run_files import EVENTS_FILE
 from helixd.config import HelixdConfig
-from helixd.files.models import as_items
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
 from helixd.link.mission_transfer import MissionTransferError
@@ -46,18 +46,14 @@ from helixd.mav.constants import (
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats.items import GcsMission
-from helixd.mission.model import Mission
-from helixd.mission.resume import sha256_text
 from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.events import read_events
 from helixd.recorder.summary import RunSummary
 from helixd.runtime.autopilot_mission import (
-    MissionRefused,
-    convert_download,
     ground_station_mode,
     items_sha256,
 )
-from helixd.runtime.daemon import MissionRunner, RunOptions
+from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
 from helixd.runtime.flight import MANUAL_MODE
 from helixd.runtime.gcs_feed import GcsFeed
 from helixd.runtime.host import ServeHost
@@ -66,13 +62,18 @@ from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of, current_target_of
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import (
-    AutopilotMission,
     AutopilotPlace,
     AutoWalk,
-    MissionFile,
     Resume,
     from_autopilot_item,
     prepare_flight,
+)
+from helixd.runtime.serve_check import (
+    CheckInputs,
+    ReadyMission,
+    Verdict,
+    check_download,
+    check_file,
 )
 from helixd.runtime.serve_core import (
     Answer,
@@ -100,7 +101,6 @@ STATE_FILE_NAME = "serve-state.json"
 HX_STATE_NAME = b"hx_state"
 FLIGHT_PLAN_RECEIVED = "Flight plan received"  # ArduPilot, when an upload completes
 MISSION_RETRY_S = 2.0  # a failed read is tried again this soon (s), not a whole poll later
-MAX_REFUSAL_TEXTS = 4  # STATUSTEXT lines per refused mission (the log has them all)
 
 
 @dataclass
@@ -117,17 +117,6 @@ class ServeOptions:
     @property
     def state_file(self) -> Path:
         return self.cfg.serve.state_file or self.run_root / STATE_FILE_NAME
-
-
-@dataclass(frozen=True)
-class ReadyMission:
-    """The autopilot's mission, checked and ready to fly."""
-
-    fingerprint: str
-    flight: Flight
-    cfg: HelixdConfig  # with the mission's own limits
-    last_item: int  # the mission's last item number
-    waypoints: int
 
 
 class Service:
@@ -356,84 +345,48 @@ class Service:
         self.fingerprint = fingerprint
         self._check(got.mission, got.fence, fingerprint)
 
+    def _check_inputs(self) -> CheckInputs:
+        o = self.opts
+        return CheckInputs(self.cfg, o.config_path, o.mode, o.options, o.occupancy)
+
     def _check(self, mission: tuple[Any, ...], fence: tuple[Any, ...], fingerprint: str) -> None:
         """``helixd check``'s checks of the downloaded mission; the GCS is told the verdict."""
-        cfg = self.cfg
-        source = f"autopilot at {cfg.link.url}"
-        self.checked = None
-        problems: list[str] = []
-        mode = ground_station_mode(cfg, self.opts.mode)
-        if mode is None:
-            problems.append(
-                "the autopilot's mission carries no motion mode: set "
-                "mission.ground_station_mode in the config (or serve --mode)"
-            )
-        elif len(mission) <= 1:
-            self._set_state(ServeState.IDLE, "no mission on the autopilot: upload one")
-            return
-        else:
-            try:
-                got = convert_download(mission, fence, source=source, cfg=cfg, mode=mode)
-                self._fence = got.fence  # a flight to the autopilot's place plans around it
-                for note in got.notes:
-                    log.info("mission_note", note=note)
-                prepared = prepare_flight(
-                    AutopilotMission(got, cfg, self.opts.options),
-                    self.opts.config_path,
-                    self.opts.occupancy,
-                )
-                for note in prepared.notes:
-                    log.info("mission_note", note=note)
-                n = _operator_waypoints(got.mission)
-                last_item = len(mission) - 1
-                self.checked = ReadyMission(
-                    fingerprint, prepared.flight, prepared.cfg, last_item, n
-                )
-            except MissionRefused as exc:
-                problems.extend(exc.problems)
-            except InputsRefused as exc:
-                problems.extend(exc.problems)
-        if self.checked is None:
-            problems = [as_items(p) for p in problems]  # the autopilot's mission: its items
-            for p in problems:
-                log.error("serve_mission_refused", problem=p)
-            shown = [p.removeprefix(f"{source}: ") for p in problems]
-            self._set_state(ServeState.REFUSED, "; ".join(shown[:1]), MAV_SEVERITY_ERROR)
-            for p in shown[1:MAX_REFUSAL_TEXTS]:
-                self.gcs.say(f"refused: {p}", MAV_SEVERITY_ERROR)
-            return
-        n = self.checked.waypoints
-        resume = self.view().resumable
-        detail = f"mission checked, {_count_text(self.checked.flight.mission, n)}" + (
-            " (interrupted: a start continues it)" if resume else ""
-        )
-        log.info("serve_mission_checked", waypoints=n, fingerprint=fingerprint[:12])
-        self._set_state(ServeState.READY, detail, MAV_SEVERITY_INFO)
+        verdict = check_download(mission, fence, fingerprint, self._check_inputs())
+        if verdict.fence is not None:
+            self._fence = verdict.fence  # a flight to the autopilot's place plans around it
+        self._apply(verdict)
 
     def _check_file(self, path: Path) -> None:
         """The mission file (``serve.mission_file``, ``--mission``), checked as ``helixd run``
         checks it; the GCS is told the verdict when it changed."""
-        try:
-            got = prepare_flight(
-                MissionFile(path, self.opts.mode), self.opts.config_path, self.opts.occupancy
-            )
-        except InputsRefused as exc:
-            fingerprint = "refused:" + "; ".join(exc.problems)
-            if fingerprint != self.fingerprint:
-                self.fingerprint, self.checked = fingerprint, None
-                for p in exc.problems:
-                    log.error("serve_mission_refused", problem=p)
-                self._set_state(ServeState.REFUSED, exc.problems[0], MAV_SEVERITY_ERROR)
-            return
-        fingerprint = sha256_text(got.flight.mission_yaml)
-        if fingerprint == self.fingerprint and self.checked is not None:
+        fingerprint, verdict = check_file(path, self._check_inputs())
+        if fingerprint == self.fingerprint and (verdict.checked is None or self.checked):
             return
         self.fingerprint = fingerprint
-        cfg = got.cfg.model_copy(update={"link": self.cfg.link})
-        n = _operator_waypoints(got.mission)
-        self.checked = ReadyMission(fingerprint, got.flight, cfg, len(got.mission.waypoints), n)
-        log.info("serve_mission_checked", waypoints=n, path=str(got.path))
-        self._set_state(ServeState.READY, f"{got.path.name} checked, {_count_text(got.mission, n)}")
+        self._apply(verdict)
+
+    def _apply(self, verdict: Verdict) -> None:
+        """A mission's verdict: READY with the checked mission, REFUSED (every problem in the
+        log, the first few to the GCS) or IDLE."""
+        self.checked = verdict.checked
+        for p in verdict.problems:
+            log.error("serve_mission_refused", problem=p)
+        if verdict.state is ServeState.REFUSED:
+            self._set_state(ServeState.REFUSED, verdict.detail, MAV_SEVERITY_ERROR)
+            for text in verdict.more:
+                self.gcs.say(text, MAV_SEVERITY_ERROR)
+            return
+        if verdict.checked is None:
+            self._set_state(verdict.state, verdict.detail)
+            return
+        log.info(
+            "serve_mission_checked",
+            waypoints=verdict.checked.waypoints,
+            fingerprint=verdict.checked.fingerprint[:12],
+        )
+        resume = self.view().resumable
+        suffix = " (interrupted: a start continues it)" if resume else ""
+        self._set_state(ServeState.READY, verdict.detail + suffix, MAV_SEVERITY_INFO)
 
     # -- operators ----------------------------------------------------------------------------
 
@@ -505,7 +458,9 @@ class Service:
             return
         source = AutopilotPlace(place.lat_deg, place.lon_deg, mode, self.cfg, motion, self._fence)
         self.busy = True  # until the flight is under way (or refused)
-        self.flight_task = asyncio.create_task(self._fly_goto(ap, source, place), name="serve-goto")
+        self.flight_task = asyncio.create_task(
+            self._flying(self._fly_goto(ap, source, place)), name="serve-goto"
+        )
 
     def _on_command(self, msg: MavMsg, rx_s: float) -> None:
         """A COMMAND_LONG/INT addressed to helixd: answered at once (COMMAND_ACK)."""
@@ -549,7 +504,7 @@ class Service:
         if answer.request is not None and self._ap is not None:
             self.busy = True  # until the flight is under way (or refused)
             self.flight_task = asyncio.create_task(
-                self._fly(self._ap, answer.request, who), name="serve-flight"
+                self._flying(self._fly(self._ap, answer.request, who)), name="serve-flight"
             )
 
     # -- flights ------------------------------------------------------------------------------
@@ -559,7 +514,7 @@ class Service:
         checked = self.checked
         assert checked is not None
         if request is Request.AUTO:
-            held = self._held_walk(checked.fingerprint)
+            held = held_walk(self._auto_walk, checked.fingerprint)
             flight = from_autopilot_item(checked.flight, self._autopilot_item, checked.cfg, held)
             return flight, checked.cfg, self.opts.run_root
         interrupted = self._interrupted
@@ -572,32 +527,16 @@ class Service:
             return resumed.flight, cfg, run_dir.parent
         return checked.flight, checked.cfg, self.opts.run_root
 
-    def _held_walk(self, fingerprint: str) -> AutoWalk | None:
-        """Where the last AUTO flight of this mission was let go (its last step started, from
-        its event log), while the autopilot has stayed armed since."""
-        walk = self._auto_walk
-        if walk is None or walk[0] != fingerprint:
-            return None
-        _, options, run_dir = walk
-        step = 0
-        for ev in read_events(run_dir / EVENTS_FILE):
-            if ev.get("event") == "mission_step" and ev.get("kind") == "step_started":
-                got = ev.get("step")
-                step = got if isinstance(got, int) and not isinstance(got, bool) else step
-        log.info("auto_walk_held", first_item=options.first_item, step=step, run_dir=str(run_dir))
-        return AutoWalk(options, step)
-
-    async def _fly_goto(self, ap: Autopilot, source: AutopilotPlace, place: PositionTarget) -> None:
+    async def _flying(self, flight: Awaitable[None]) -> None:
+        """A flight task: whatever ends it, the service is free for the next."""
         try:
-            await self._fly_goto_once(ap, source, place)
+            await flight
         finally:
             self.busy = False
             self.flight_task = None
             self.flight_stop = None
 
-    async def _fly_goto_once(
-        self, ap: Autopilot, source: AutopilotPlace, place: PositionTarget
-    ) -> None:
+    async def _fly_goto(self, ap: Autopilot, source: AutopilotPlace, place: PositionTarget) -> None:
         """A flight of one leg to the autopilot's place, holding there: checked as a mission
         is, flown by the same runner (its fall-back on every fault), in the autopilot's mode
         (neither set nor armed by helixd)."""
@@ -612,41 +551,23 @@ class Service:
         if self.stop.requested:
             return
         before = (self.state, self.detail)
-        self.flight_stop = StopRequest()
-        self.flights += 1
+        stop = self.flight_stop = StopRequest()
         where = f"{place.lat_deg:.7f} {place.lon_deg:.7f}"
-        log.info("serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.flights)
-        self._set_state(ServeState.FLYING, f"{mode} to {where}")
-        self.busy = False
+        log.info("serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.flights + 1)
         opts = _run_options(prepared.flight, prepared.cfg, self.opts.run_root, self.cfg)
-        host = ServeHost(ap, self.flight_stop, driving_mode=mode, goto=place)
-        runner = MissionRunner(opts, host)
-        self.runner = runner
-        try:
-            outcome = await runner.run()
-        finally:
-            self.runner = None
-        self.busy = True
+        host = ServeHost(ap, stop, driving_mode=mode, goto=place)
+        runner, outcome, cause = await self._run_flight(opts, host, f"{mode} to {where}")
         summary = outcome.summary
-        cause = _cause(summary.fault if summary is not None else None)
         handed = cause in (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
         self.auto_watch.flight_ended(left_auto=handed)
         log.info("serve_flight_end", request=Request.GOTO.value, exit_code=int(outcome.exit_code))
-        if handed or cause is FaultCause.PAUSED or self.flight_stop.paused:
+        if handed or cause is FaultCause.PAUSED or stop.paused:
             self._set_state(*before)  # the mission's verdict stands
             return
         text = flight_end_text(summary, runner.numbering(), outcome.messages)
         self._set_state(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
 
     async def _fly(self, ap: Autopilot, request: Request, who: str) -> None:
-        try:
-            await self._fly_once(ap, request, who)
-        finally:
-            self.busy = False
-            self.flight_task = None
-            self.flight_stop = None
-
-    async def _fly_once(self, ap: Autopilot, request: Request, who: str) -> None:
         before = self.fingerprint
         await self._read_mission(ap)  # fly what the autopilot holds now
         if self.checked is None or self.fingerprint != before:
@@ -664,31 +585,21 @@ class Service:
             return
         if self.stop.requested:
             return
-        self.flight_stop = StopRequest()
+        stop = self.flight_stop = StopRequest()
         fingerprint = self.checked.fingerprint
-        self.flights += 1
-        log.info("serve_flight_start", request=request.value, by=who, flight=self.flights)
-        self._set_state(ServeState.FLYING, f"{request.value} by {who}")
-        self.busy = False
+        log.info("serve_flight_start", request=request.value, by=who, flight=self.flights + 1)
         opts = _run_options(flight, cfg, run_root, self.cfg)
         auto = request is Request.AUTO  # the autopilot runs its own item progress in AUTO
         # else the GCS highlights the item helixd flies as the autopilot's current
         shows_item = self.opts.mission_file is None and not auto
         host = ServeHost(
             ap,
-            self.flight_stop,
+            stop,
             set_item=self._set_current_item if shows_item else None,
             driving_mode=AUTO_MODE if auto else MANUAL_MODE,
         )
-        runner = MissionRunner(opts, host)
-        self.runner = runner
-        try:
-            outcome = await runner.run()
-        finally:
-            self.runner = None
-        self.busy = True
+        runner, outcome, cause = await self._run_flight(opts, host, f"{request.value} by {who}")
         summary = outcome.summary
-        cause = _cause(summary.fault if summary is not None else None)
         # released to the pilot, or moved to another item: AUTO again (or still) starts
         handed = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
         self.auto_watch.flight_ended(left_auto=cause in handed)
@@ -696,7 +607,7 @@ class Service:
         self._auto_walk = None
         if let_go and outcome.run_dir is not None:
             self._auto_walk = (fingerprint, flight.options, outcome.run_dir)
-        state = state_after_flight(outcome.exit_code, cause, self.flight_stop.paused)
+        state = state_after_flight(outcome.exit_code, cause, stop.paused)
         if state is ServeState.COMPLETED:
             self._interrupted = None
         elif outcome.run_dir is not None:
@@ -711,6 +622,24 @@ class Service:
         severity = MAV_SEVERITY_NOTICE if state is not ServeState.FAULTED else MAV_SEVERITY_ERROR
         log.info("serve_flight_end", state=state.name.lower(), exit_code=int(outcome.exit_code))
         self._set_state(state, text, severity)
+
+    async def _run_flight(
+        self, opts: RunOptions, host: ServeHost, what: str
+    ) -> tuple[MissionRunner, RunOutcome, FaultCause | None]:
+        """One flight on the service's link: FLYING while the runner runs; its runner (for
+        the operator's numbering), outcome and cause."""
+        self.flights += 1
+        self._set_state(ServeState.FLYING, what)
+        self.busy = False
+        runner = MissionRunner(opts, host)
+        self.runner = runner
+        try:
+            outcome = await runner.run()
+        finally:
+            self.runner = None
+        self.busy = True
+        summary = outcome.summary
+        return runner, outcome, _cause(summary.fault if summary is not None else None)
 
     def _set_current_item(self, seq: int) -> None:
         """The GCS highlights the item being flown (MAV_CMD_DO_SET_MISSION_CURRENT)."""
@@ -738,6 +667,21 @@ class Service:
         await asyncio.gather(task, return_exceptions=True)
 
 
+def held_walk(walk: tuple[str, ExpandOptions, Path] | None, fingerprint: str) -> AutoWalk | None:
+    """Where the last AUTO flight of this mission was let go (its last step started, from its
+    event log), while the autopilot has stayed armed since."""
+    if walk is None or walk[0] != fingerprint:
+        return None
+    _, options, run_dir = walk
+    step = 0
+    for ev in read_events(run_dir / EVENTS_FILE):
+        if ev.get("event") == "mission_step" and ev.get("kind") == "step_started":
+            got = ev.get("step")
+            step = got if isinstance(got, int) and not isinstance(got, bool) else step
+    log.info("auto_walk_held", first_item=options.first_item, step=step, run_dir=str(run_dir))
+    return AutoWalk(options, step)
+
+
 def _run_options(
     flight: Flight, cfg: HelixdConfig, run_root: Path, serve_cfg: HelixdConfig
 ) -> RunOptions:
@@ -755,16 +699,6 @@ def _run_options(
         item_numbers=flight.item_numbers,
         autopilot_fence=False,
     )
-
-
-def _operator_waypoints(msn: Mission) -> int:
-    return sum(not w.via for w in msn.waypoints)
-
-
-def _count_text(msn: Mission, n: int) -> str:
-    """``6 waypoints``; a mission with commands: ``5 items``, as the ground station counts
-    them (its numbers in 'reached WP 3/5')."""
-    return f"{n} items" if msn.has_commands() else f"{n} waypoints"
 
 
 def _cause(fault_text: str | None) -> FaultCause | None:
