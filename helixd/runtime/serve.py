@@ -553,7 +553,9 @@ class Service:
         before = (self.state, self.detail)
         stop = self.flight_stop = StopRequest()
         where = f"{place.lat_deg:.7f} {place.lon_deg:.7f}"
-        log.info("serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.flights + 1)
+        log.info(
+            "serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.flights + 1
+        )
         opts = _run_options(prepared.flight, prepared.cfg, self.opts.run_root, self.cfg)
         host = ServeHost(ap, stop, driving_mode=mode, goto=place)
         runner, outcome, cause = await self._run_flight(opts, host, f"{mode} to {where}")
