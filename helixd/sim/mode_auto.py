@@ -32,13 +32,8 @@ from dataclasses import dataclass
 
 from helixd.base.frames import latlon_to_ne
 from helixd.mav.constants import (
+    GLOBAL_FRAMES,
     MAV_CMD_NAV_WAYPOINT,
-    MAV_FRAME_GLOBAL,
-    MAV_FRAME_GLOBAL_INT,
-    MAV_FRAME_GLOBAL_RELATIVE_ALT,
-    MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-    MAV_FRAME_GLOBAL_TERRAIN_ALT,
-    MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
     MAV_SEVERITY_INFO,
     MAV_SEVERITY_NOTICE,
 )
@@ -46,16 +41,6 @@ from helixd.sim.messages import mission_item_reached
 from helixd.sim.mission_server import MissionServer, Outcome
 from helixd.sim.rover_firmware import SimStatusText
 
-GLOBAL_FRAMES = frozenset(
-    {
-        MAV_FRAME_GLOBAL,
-        MAV_FRAME_GLOBAL_INT,
-        MAV_FRAME_GLOBAL_RELATIVE_ALT,
-        MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-        MAV_FRAME_GLOBAL_TERRAIN_ALT,
-        MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
-    }
-)
 NO_MISSION_TEXT = "No Mission. Can't set AUTO."
 MISSION_COMPLETE_TEXT = "Mission Complete"
 LINE_MIN_SQ_M2 = 0.001  # Location::line_path_proportion: a shorter leg counts as passed

@@ -41,13 +41,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from helixd.mav.constants import (
+    GLOBAL_FRAMES,
     MAV_DO_REPOSITION_FLAGS_CHANGE_MODE,
-    MAV_FRAME_GLOBAL,
-    MAV_FRAME_GLOBAL_INT,
-    MAV_FRAME_GLOBAL_RELATIVE_ALT,
-    MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-    MAV_FRAME_GLOBAL_TERRAIN_ALT,
-    MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
     MAV_RESULT_DENIED,
     MAV_SEVERITY_INFO,
 )
@@ -62,16 +57,6 @@ LAT_MAX_E7 = 90 * 10_000_000
 LON_MAX_E7 = 180 * 10_000_000
 RALLY_LIMIT_M = 500.0  # RALLY_LIMIT_KM's Rover default, 0.5 km
 REACHED_TEXT = "Reached destination"  # ModeRTL::update, ModeSmartRTL::update
-LOCATION_FRAMES = frozenset(
-    {
-        MAV_FRAME_GLOBAL,
-        MAV_FRAME_GLOBAL_INT,
-        MAV_FRAME_GLOBAL_RELATIVE_ALT,
-        MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-        MAV_FRAME_GLOBAL_TERRAIN_ALT,
-        MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
-    }
-)
 
 NE = tuple[float, float]
 
@@ -88,7 +73,7 @@ def reposition_refusal(
         return MAV_RESULT_DENIED
     if lat_e7 == 0 and lon_e7 == 0:
         return MAV_RESULT_DENIED
-    if frame not in LOCATION_FRAMES or not abs(alt_m) <= LOCATION_ALT_MAX_M:  # NaN: refused
+    if frame not in GLOBAL_FRAMES or not abs(alt_m) <= LOCATION_ALT_MAX_M:  # NaN: refused
         return MAV_RESULT_DENIED
     return None
 

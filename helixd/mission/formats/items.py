@@ -23,6 +23,7 @@ from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.files.models import format_validation_error
 from helixd.mav.constants import (
+    GLOBAL_FRAMES,
     MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
     MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION,
     MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
@@ -35,9 +36,6 @@ from helixd.mav.mission_item import MissionItem
 from helixd.mission.commands import MAX_PARAMS, command_name, command_spec
 from helixd.mission.model import Mission, WaypointSpec
 
-# Frames whose x/y are a latitude/longitude (MAV_FRAME_GLOBAL, _RELATIVE_ALT, _INT,
-# _RELATIVE_ALT_INT, _TERRAIN_ALT, _TERRAIN_ALT_INT); the altitude means nothing to a rover.
-GLOBAL_FRAMES = frozenset({0, 3, 5, 6, 10, 11})
 # AP_Mission::mavlink_int_to_mission_cmd also reads a place in MAV_FRAME_MISSION (2) as
 # lat/lon (absolute altitude)
 PLACE_FRAMES = GLOBAL_FRAMES | {2}
