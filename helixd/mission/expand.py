@@ -779,6 +779,28 @@ def jumps_when_current(
     return ()
 
 
+def walk_at_step(
+    entries: Sequence[WaypointSpec], options: ExpandOptions, step: int
+) -> tuple[int, tuple[tuple[int, int], ...]] | None:
+    """Step ``step`` (1-based) of the walk ``options`` starts (its ``first_item`` and
+    ``jumps_taken``): its navigation item and the jump counters AP_Mission holds while that
+    item is current. A *set current waypoint* (``set_current_cmd``) and a resume keep those
+    counters, so a walk started at another item from there starts with them. None when the
+    walk ends before that step."""
+    cmds = [_Cmd(i + 1, wp, None, None) for i, wp in enumerate(entries)]
+    walker = _Walker(cmds)
+    walker.runs = dict(options.jumps_taken)
+    first = min(max(options.first_item, 1), len(cmds))
+    nav, _, _ = walker.advance_nav(None if first <= 1 else first - 1, _starts)
+    n = 1
+    while nav is not None and n < step:
+        nav, _, _ = walker.advance_nav(nav.index, _starts)
+        n += 1
+    if nav is None or step < 1:
+        return None
+    return nav.index, tuple(sorted((i, r) for i, r in walker.runs.items() if r > 0))
+
+
 def _via(walker: _Walker, before: dict[int, int], cmds: Sequence[_Cmd]) -> str:
     """Which jump the walk took to reach this step, e.g. "(DO_JUMP item 5, 1 of 2)"."""
     for index, runs in walker.runs.items():
@@ -798,4 +820,5 @@ __all__ = [
     "expand",
     "jumps_when_current",
     "loiter_turns",
+    "walk_at_step",
 ]

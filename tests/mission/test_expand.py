@@ -12,7 +12,12 @@ import pytest
 
 from helixd.base.plan import ActionKind, Plan
 from helixd.config import HelixdConfig
-from helixd.mission.expand import PATROL_STEPS_MAX, ExpandOptions, jumps_when_current
+from helixd.mission.expand import (
+    PATROL_STEPS_MAX,
+    ExpandOptions,
+    jumps_when_current,
+    walk_at_step,
+)
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Resolved, Where, resolve
 
@@ -409,3 +414,24 @@ def test_jumps_when_current_finds_the_autopilots_item_at_or_after_helixds_step()
     # from a walk that itself started later, with counters
     later = ExpandOptions(first_item=3, jumps_taken=((4, 1),))
     assert jumps_when_current(m.waypoints, later, 2, 2) == ((4, 2),)
+
+
+def test_walk_at_step_names_the_item_and_the_counters_held_there() -> None:
+    m = mission(A, B, C, jump(2, 2), {"x": 9, "y": 9})  # walk 1 2 3 2 3 2 3 5
+    walk = [walk_at_step(m.waypoints, ExpandOptions(), n) for n in range(1, 10)]
+    assert [w[0] if w else None for w in walk] == [1, 2, 3, 2, 3, 2, 3, 5, None]
+    assert walk[3] == (2, ((4, 1),))
+    assert walk[5] == (2, ((4, 2),))
+    assert walk[7] == (5, ())  # the jump finished: its counter reset
+    assert walk_at_step(m.waypoints, ExpandOptions(), 0) is None
+    # a set current item keeps the counters: item 2 set on the second lap (the jump taken
+    # once of twice) flies one lap more, not two
+    later = flown(
+        A,
+        B,
+        C,
+        jump(2, 2),
+        {"x": 9, "y": 9},
+        options=ExpandOptions(first_item=2, jumps_taken=walk[3][1]),
+    )
+    assert items(later) == [2, 3, 2, 3, 5]
