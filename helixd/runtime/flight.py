@@ -64,6 +64,7 @@ from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample, PositionTarget
 from helixd.runtime.mode_gate import (
     Gate,
+    autopilot_step,
     crew_mode_of,
     current_target_of,
     gate_of,
@@ -195,6 +196,10 @@ class FlightLoop:
         self._gate = Gate.DRIVE
         self.on_gate = on_gate
         self._autopilot_item: int | None = None  # MISSION_CURRENT.seq last seen (gated)
+        # a mission with commands: each step's item, and the step the autopilot's item is on
+        steps = () if plan.program is None else plan.program.steps
+        self._walk_items = tuple(st.item for st in steps)
+        self._autopilot_step: int | None = None
         # a flight to the autopilot's place (GUIDED, RTL, SMART_RTL): holds there once reached
         self.goto = goto
         self._arrived = False
@@ -393,14 +398,29 @@ class FlightLoop:
             where = "" if target is None else f" to {target.lat_deg:.7f} {target.lon_deg:.7f}"
             fault = Fault(FaultCause.HANDOVER, f"mode {mode}{where}: the next flight drives")
             return FlightResult(fault, now, out, pose.ned if pose else None)
-        # a mission with commands moves the autopilot's item by itself (DO_JUMP): not watched;
         # an item set while paused is taken when AUTO comes back (the overrides stay meanwhile)
-        if mc is not None and self.plan.program is None and gate is Gate.DRIVE:
-            previous, self._autopilot_item = self._autopilot_item, mc.seq
-            if item_set_by_crew(previous, mc.seq):
-                fault = Fault(FaultCause.ITEM_SET, f"item {mc.seq} set: flying there")
-                return FlightResult(fault, now, out, pose.ned if pose else None)
+        if mc is not None and gate is Gate.DRIVE and self._item_set(mc.seq):
+            fault = Fault(FaultCause.ITEM_SET, f"item {mc.seq} set: flying there")
+            return FlightResult(fault, now, out, pose.ned if pose else None)
         return None
+
+    def _item_set(self, seq: int) -> bool:
+        """Whether the autopilot's current item ``seq`` moved as only the crew's *set current
+        waypoint* moves it. A mission with commands: followed along the flight's walk
+        (:func:`autopilot_step`; its DO_JUMPs move the item back), and where the autopilot was
+        in it is logged (``autopilot_item_set``) for the next flight's jump counters."""
+        if self.plan.program is None:
+            previous, self._autopilot_item = self._autopilot_item, seq
+            return item_set_by_crew(previous, seq)
+        at = self._autopilot_step
+        step = autopilot_step(self._walk_items, at, seq)
+        if step is None:
+            log.info("autopilot_item_set", item=seq, autopilot_step=(at or 0) + 1)
+            return True
+        if step != at:
+            log.info("autopilot_step", item=seq, step=step + 1)
+        self._autopilot_step = step
+        return False
 
     @property
     def _holding(self) -> bool:

@@ -21,8 +21,10 @@ autopilot seen to fill the field (older ones send 0 in every mode).
 
 The crew's *set current waypoint* (MISSION_SET_CURRENT / MAV_CMD_DO_SET_MISSION_CURRENT to
 the autopilot) shows as MISSION_CURRENT moving anywhere but on to the next item
-(:func:`item_set_by_crew`): the flight ends and the next one starts at that item. Only for a
-plain list of waypoints: a mission with commands moves the item by itself (DO_JUMP).
+(:func:`item_set_by_crew`): the flight ends and the next one starts at that item. A mission
+with commands moves the item by itself (a DO_JUMP goes back): there the autopilot's item is
+followed along the flight's own walk (:func:`autopilot_step`), and only a move the walk does
+not make is the crew's.
 
 A flight to the autopilot's own place (:func:`goto_gate`) drives in GUIDED (the ground
 station's *Go to location*: MAV_CMD_DO_REPOSITION), RTL or SMART_RTL (:data:`GOTO_MODES`):
@@ -38,6 +40,7 @@ A flight that sets MANUAL itself (``helixd run``) has no gate: a mode change is 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from enum import StrEnum
 
 from helixd.base.frames import latlon_to_ne
@@ -152,6 +155,27 @@ def item_set_by_crew(previous_seq: int | None, seq: int) -> bool:
     return previous_seq is not None and seq not in (previous_seq, previous_seq + 1) and seq > 0
 
 
+# how many steps of the walk the autopilot's item may move on between two MISSION_CURRENT
+# messages: its own progress is one step per navigation item completed; two passes a short
+# step (a DO_JUMP's target reached within WP_RADIUS) seen only after the next began
+AUTOPILOT_STEPS_AHEAD = 2
+
+
+def autopilot_step(walk_items: Sequence[int], at: int | None, seq: int) -> int | None:
+    """Where the autopilot's AUTO is in a mission with commands, flown as the walk
+    ``walk_items`` (each step's navigation item, in flight order, jumps expanded): the step
+    (0-based) whose item is the autopilot's current item ``seq`` (MISSION_CURRENT), moving on
+    from step ``at`` (None: none seen yet, the flight's first). ArduPilot's own progress keeps
+    it on ``at`` or moves it up to :data:`AUTOPILOT_STEPS_AHEAD` steps on, back through a
+    DO_JUMP as the walk does. None: the item moved as only a crew's *set current waypoint*
+    moves it. Item 0 (none current) leaves it where it was (returned as ``at``, or step 0)."""
+    start = 0 if at is None else at
+    if seq <= 0:
+        return start
+    end = min(start + AUTOPILOT_STEPS_AHEAD + 1, len(walk_items))
+    return next((i for i in range(start, end) if walk_items[i] == seq), None)
+
+
 def crew_mode_of(st: VehicleState) -> str:
     """:func:`crew_mode` from what the vehicle state holds."""
     mc = st.mission_current
@@ -165,11 +189,13 @@ def crew_mode_of(st: VehicleState) -> str:
 
 
 __all__ = [
+    "AUTOPILOT_STEPS_AHEAD",
     "AUTO_MODE",
     "GOTO_MODES",
     "LEFT_AUTO",
     "PILOT_MODES",
     "Gate",
+    "autopilot_step",
     "crew_mode",
     "crew_mode_of",
     "current_target",

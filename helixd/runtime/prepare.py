@@ -28,7 +28,12 @@ from helixd.base.plan import MissionFrameKind, MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig
 from helixd.files.models import as_items, format_validation_error
-from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions, jumps_when_current
+from helixd.mission.expand import (
+    DEFAULT_OPTIONS,
+    ExpandOptions,
+    jumps_when_current,
+    walk_at_step,
+)
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.model import Mission
@@ -208,6 +213,9 @@ class AutoWalk:
 
     options: ExpandOptions
     step: int
+    # the crew set the autopilot's current item (a *set current waypoint*), ``step`` being the
+    # step the autopilot was on: AP_Mission's set_current_cmd keeps the counters held there
+    item_set: bool = False
 
 
 def from_autopilot_item(
@@ -232,7 +240,10 @@ def from_autopilot_item(
         return flight
     if msn.has_commands():
         jumps: tuple[tuple[int, int], ...] = ()
-        if held is not None:
+        if held is not None and held.item_set:
+            at = walk_at_step(msn.waypoints, held.options, max(held.step, 1))
+            jumps = () if at is None else at[1]
+        elif held is not None:
             jumps = jumps_when_current(msn.waypoints, held.options, max(held.step, 1), k + 1)
         if k == 0 and not jumps:
             return flight

@@ -671,17 +671,31 @@ class Service:
 
 def held_walk(walk: tuple[str, ExpandOptions, Path] | None, fingerprint: str) -> AutoWalk | None:
     """Where the last AUTO flight of this mission was let go (its last step started, from its
-    event log), while the autopilot has stayed armed since."""
+    event log), while the autopilot has stayed armed since; ended by the crew's *set current
+    waypoint*: the step the autopilot was on (``autopilot_item_set``)."""
     if walk is None or walk[0] != fingerprint:
         return None
     _, options, run_dir = walk
-    step = 0
+    step, item_set = 0, False
     for ev in read_events(run_dir / EVENTS_FILE):
-        if ev.get("event") == "mission_step" and ev.get("kind") == "step_started":
-            got = ev.get("step")
-            step = got if isinstance(got, int) and not isinstance(got, bool) else step
-    log.info("auto_walk_held", first_item=options.first_item, step=step, run_dir=str(run_dir))
-    return AutoWalk(options, step)
+        name = ev.get("event")
+        if name == "mission_step" and ev.get("kind") == "step_started":
+            step = _whole(ev.get("step"), step)
+        elif name == "autopilot_item_set":
+            step, item_set = _whole(ev.get("autopilot_step"), step), True
+    log.info(
+        "auto_walk_held",
+        first_item=options.first_item,
+        step=step,
+        item_set=item_set,
+        run_dir=str(run_dir),
+    )
+    return AutoWalk(options, step, item_set)
+
+
+def _whole(got: object, default: int) -> int:
+    """An event's whole-number field (a step), else ``default``."""
+    return got if isinstance(got, int) and not isinstance(got, bool) else default
 
 
 def _run_options(

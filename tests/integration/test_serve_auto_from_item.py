@@ -16,7 +16,11 @@ from pathlib import Path
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.mav.constants import MAV_CMD_MISSION_START, MAV_RESULT_ACCEPTED
+from helixd.mav.constants import (
+    MAV_CMD_DO_SET_MISSION_CURRENT,
+    MAV_CMD_MISSION_START,
+    MAV_RESULT_ACCEPTED,
+)
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.server import SimServer
 from tests.integration.test_serve_crew_modes import CONFIG, driving, heartbeat_shows, set_mode
@@ -140,3 +144,41 @@ def test_auto_again_on_a_later_lap_keeps_the_autopilots_jump_counters(tmp_path: 
     summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert [a["number"] for a in summaries[1]["arrivals"]] == [3, 4]
+
+
+def test_set_current_item_in_a_commands_mission_keeps_the_autopilots_jump_counters(
+    tmp_path: Path,
+) -> None:
+    """QGroundControl's set current waypoint (Vehicle::setCurrentMissionSequence:
+    DO_SET_MISSION_CURRENT to the autopilot) on lap 2, back to item 1: a move the walk does
+    not make, so helixd goes there; set_current_cmd keeps the DO_JUMP taken once of once, so
+    ArduPilot and helixd fly one lap from item 1 (1, 3, 4) and complete, not two."""
+    with sim_with_ground_station() as (server, urls, gcs):
+        d = serve_proc(tmp_path, urls[0], CONFIG)
+        d.start_pump()
+        try:
+            start_mission(server, gcs, d)
+            autopilot_item(gcs, 3)
+            autopilot_item(gcs, 4, 120.0)
+            autopilot_item(gcs, 3, 120.0)  # back through the DO_JUMP: the walk's own move
+            mark = d.mark()
+            assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
+            d.wait_line("event=autopilot_item_set item=1 autopilot_step=4", 10.0, after=mark)
+            d.wait_line("event=auto_walk_held first_item=1 step=4 item_set=true", 10.0, after=mark)
+            d.wait_line("event=auto_start item=1", 10.0, after=mark)
+            server.wait_for(moving, 10.0)
+            assert server.snapshot().mode == "AUTO"  # no HOLD asked between the flights
+            assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
+            d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    log = d.log_text()
+    assert log.count("event=autopilot_item_set") == 1  # the jump back was not taken for one
+    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    assert [s["completed"] for s in summaries] == [False, True], summaries
+    assert summaries[0]["fault"].startswith("item_set: item 1 set"), summaries[0]
+    assert [a["number"] for a in summaries[1]["arrivals"]] == [1, 3, 4]

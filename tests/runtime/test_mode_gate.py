@@ -10,8 +10,10 @@ from helixd.base.frames import ne_to_latlon
 from helixd.link.vehicle import PositionTarget
 from helixd.runtime.mode_gate import (
     AUTO_MODE,
+    AUTOPILOT_STEPS_AHEAD,
     LEFT_AUTO,
     Gate,
+    autopilot_step,
     crew_mode,
     current_target,
     gate_of,
@@ -116,3 +118,33 @@ def test_same_place_within_the_distance() -> None:
     assert same_place(place(0.0, 0.0), place(0.3, 0.3), 0.5)
     assert not same_place(place(0.0, 0.0), place(0.4, 0.4), 0.5)
     assert same_place(place(3.0, 4.0), place(3.0, 4.0), 0.0)
+
+
+# items 1..5: WP, DO_CHANGE_SPEED, WP, WP, DO_JUMP to 2 once: the walk flies 1, 3, 4, 3, 4
+WALK = (1, 3, 4, 3, 4)
+
+
+def test_the_autopilots_own_progress_follows_the_walk_back_through_its_jump() -> None:
+    assert autopilot_step(WALK, None, 1) == 0  # the flight's first report
+    assert autopilot_step(WALK, 0, 1) == 0
+    assert autopilot_step(WALK, 0, 3) == 1
+    assert autopilot_step(WALK, 1, 4) == 2
+    assert autopilot_step(WALK, 2, 3) == 3  # back through the DO_JUMP: the walk's own move
+    assert autopilot_step(WALK, 3, 4) == 4
+    assert autopilot_step(WALK, 0, 4) == 2  # a short step passed between two reports
+    assert AUTOPILOT_STEPS_AHEAD == 2
+
+
+def test_a_move_the_walk_does_not_make_is_the_crews() -> None:
+    assert autopilot_step(WALK, 3, 1) is None  # item 1 on the second lap: set by hand
+    assert autopilot_step(WALK, 1, 1) is None  # back to item 1: the walk never goes there
+    assert autopilot_step(WALK, 0, 9) is None  # not in the walk at all
+    assert autopilot_step(WALK, 4, 3) is None  # after the last step nothing comes back
+    assert autopilot_step(WALK, None, 4) == 2
+    assert autopilot_step(WALK, None, 3) == 1
+
+
+def test_no_current_item_leaves_the_autopilot_where_it_was() -> None:
+    assert autopilot_step(WALK, 3, 0) == 3
+    assert autopilot_step(WALK, None, 0) == 0
+    assert autopilot_step((), None, 5) is None

@@ -160,6 +160,24 @@ def test_the_jump_counters_of_a_flight_let_go_on_a_later_lap_carry_on() -> None:
         assert [s.item for s in plan.program.steps] == expected
 
 
+def test_a_set_current_item_keeps_the_counters_the_autopilot_held_where_it_was() -> None:
+    """The crew sets item 1 while the autopilot is on lap 2 (step 5, item 3 after the
+    DO_JUMP): set_current_cmd keeps the counters (the jump taken once of once), so the next
+    flight is one lap, 1 3 4, not two. The replay of a let-go flight would not find item 1
+    ahead of step 5 and count from zero."""
+    flight = commands_flight()  # flown 1, 3, 4, 1, 3, 4
+    set_on_lap2 = AutoWalk(ExpandOptions(), 5, item_set=True)
+    later = from_autopilot_item(flight, 1, CFG, set_on_lap2)
+    assert later.options == ExpandOptions(first_item=1, jumps_taken=((5, 1),))
+    plan = resolve(later.mission, CFG.control, CFG.mission, options=later.options).plan
+    assert plan.program is not None
+    assert [s.item for s in plan.program.steps] == [1, 3, 4]
+    replayed = from_autopilot_item(flight, 1, CFG, AutoWalk(ExpandOptions(), 5))
+    assert replayed is flight  # the let-go rule: item 1 not current again after step 5
+    set_on_lap1 = AutoWalk(ExpandOptions(), 2, item_set=True)  # item 3, nothing jumped yet
+    assert from_autopilot_item(flight, 1, CFG, set_on_lap1) is flight
+
+
 def test_a_start_the_walk_from_there_cannot_fly_is_refused() -> None:
     flight = commands_flight({"command": "NAV_DELAY", "delay_s": -1})  # until a time of day
     with pytest.raises(InputsRefused, match=r"cannot start at the autopilot's item 3: item 6"):
