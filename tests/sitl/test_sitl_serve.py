@@ -194,8 +194,20 @@ class GroundStation(MavClient):
 
     def upload(self, points_ne_m: list[tuple[float, float]], timeout_s: float) -> None:
         """Home + one NAV_WAYPOINT per point (north/east of home); MISSION_ACK ACCEPTED."""
+        self.upload_items([(n, e) for n, e in points_ne_m], timeout_s)
+
+    def upload_items(
+        self, entries: list[tuple[float, float] | tuple[int, tuple[float, ...]]], timeout_s: float
+    ) -> None:
+        """Home + the items: a NAV_WAYPOINT (north, east of home) or a DO command
+        (MAV_CMD, its params 1..4); MISSION_ACK ACCEPTED."""
         items = [self._waypoint(0, 0.0, 0.0)]
-        items += [self._waypoint(i + 1, n, e) for i, (n, e) in enumerate(points_ne_m)]
+        for seq, entry in enumerate(entries, start=1):
+            first, rest = entry
+            if isinstance(rest, tuple):
+                items.append(self._do_item(seq, int(first), rest))
+            else:
+                items.append(self._waypoint(seq, float(first), rest))
         with self._cond:
             self.mission_requests.clear()
             self.mission_acks.clear()
@@ -232,6 +244,13 @@ class GroundStation(MavClient):
             AUTOPILOT_SYSID, AUTOPILOT_COMPID, seq, mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
             mavlink2.MAV_CMD_NAV_WAYPOINT, 0, 1, 0.0, 0.0, 0.0, 0.0,
             round(lat * 1e7), round(lon * 1e7), 0.0, mavlink2.MAV_MISSION_TYPE_MISSION,
+        )  # fmt: skip
+
+    def _do_item(self, seq: int, command: int, params: tuple[float, ...]) -> Any:
+        p1, p2, p3, p4 = (*params, 0.0, 0.0, 0.0, 0.0)[:4]
+        return self.mav.mission_item_int_encode(
+            AUTOPILOT_SYSID, AUTOPILOT_COMPID, seq, mavlink2.MAV_FRAME_MISSION, command, 0, 1,
+            p1, p2, p3, p4, 0, 0, 0.0, mavlink2.MAV_MISSION_TYPE_MISSION,
         )  # fmt: skip
 
     # -- commands to helixd -------------------------------------------------------------------
