@@ -374,6 +374,12 @@ class MissionRunner:
             log.info("hold_released", by="operator")
         return released
 
+    def set_cruise(self, asked_mps: float) -> tuple[float, str] | None:
+        """The operator's change of speed (``helixd serve``): see :meth:`FlightLoop.set_cruise`;
+        None when not flying."""
+        loop = self.flight_loop
+        return None if loop is None else loop.set_cruise(asked_mps)
+
     # -- startup ------------------------------------------------------------------------------
 
     async def startup(self, held: Held) -> Ready:

@@ -62,6 +62,7 @@ from helixd.control.slip import (
 )
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample, PositionTarget
+from helixd.mission.commands import SPEED_MIN_MPS
 from helixd.runtime.mode_gate import (
     Gate,
     autopilot_step,
@@ -148,6 +149,18 @@ class FlightResult:
     detected_s: float | None  # monotonic time the fault was detected
     last_output: NavOutput | None
     last_pose: NedPose | None
+
+
+def bounded_cruise(asked_mps: float, lo_mps: float, peak_mps: float) -> tuple[float, str]:
+    """An operator's cruise speed within the flight's limits: at least ``lo_mps``
+    (control.min_speed_mps, and Rover's 0.05 m/s), at most ``peak_mps`` (the plan's peak
+    speed: its corner arcs and stopping distances are planned for it). Non-finite: the low
+    limit. The speed, and the limit that bounded it ("" when none)."""
+    if not math.isfinite(asked_mps) or asked_mps < lo_mps:
+        return min(lo_mps, peak_mps), "control.min_speed_mps"
+    if asked_mps > peak_mps:
+        return peak_mps, "the mission's top speed"
+    return asked_mps, ""
 
 
 class FlightLoop:
@@ -421,6 +434,16 @@ class FlightLoop:
             log.info("autopilot_step", item=seq, step=step + 1)
         self._autopilot_step = step
         return False
+
+    def set_cruise(self, asked_mps: float) -> tuple[float, str]:
+        """The operator's change of speed: the cruise from the next step on, bounded by
+        :func:`bounded_cruise` (the plan's corners and stops are planned for its peak speed);
+        a later DO_CHANGE_SPEED item of the mission sets it again. The speed applied and the
+        limit that bounded it ("" when none)."""
+        lo = max(self.cfg.control.min_speed_mps, SPEED_MIN_MPS)
+        speed_mps, limit = bounded_cruise(asked_mps, lo, self.plan.peak_speed_mps)
+        self.navigator.set_speed(speed_mps)
+        return speed_mps, limit
 
     @property
     def _holding(self) -> bool:

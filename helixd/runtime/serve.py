@@ -497,6 +497,9 @@ class Service:
             if self.runner is not None:
                 self.runner.release_hold()
             return
+        if answer.request is Request.SPEED:
+            self._change_speed(answer.speed_mps, who)
+            return
         if answer.request is Request.PAUSE:
             if self.flight_stop is not None:
                 self.flight_stop.pause(f"{answer.text.removeprefix('pausing: ')} ({who})")
@@ -506,6 +509,19 @@ class Service:
             self.flight_task = asyncio.create_task(
                 self._flying(self._fly(self._ap, answer.request, who)), name="serve-flight"
             )
+
+    def _change_speed(self, asked_mps: float | None, who: str) -> None:
+        """The crew's change of speed for the flight in progress, told as it was applied."""
+        runner = self.runner
+        if runner is None or asked_mps is None:
+            return
+        applied = runner.set_cruise(asked_mps)
+        if applied is None:
+            return
+        speed_mps, limit = applied
+        bounded = f" ({asked_mps:g} asked, bounded by {limit})" if limit else ""
+        log.info("crew_speed", by=who, asked_mps=asked_mps, speed_mps=round(speed_mps, 3))
+        self.gcs.say(f"speed {speed_mps:.2f} m/s{bounded}", MAV_SEVERITY_INFO)
 
     # -- flights ------------------------------------------------------------------------------
 

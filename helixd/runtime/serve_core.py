@@ -12,6 +12,10 @@ judged the same way:
   starts from item 1; param2 last item: 0 or the mission's last item) addressed to helixd;
 * ``MAV_CMD_DO_PAUSE_CONTINUE`` (param1 0 pause, 1 continue) addressed to helixd; 1 also
   ends a NAV_LOITER_UNLIM hold of the flight in progress.
+* ``MAV_CMD_DO_CHANGE_SPEED`` (param2 m/s) addressed to helixd (:func:`answer_speed`): the
+  cruise speed of the flight in progress from now on. One sent to the autopilot (the
+  ground station's fly view) cannot reach helixd: ArduPilot handles it itself, forwards it
+  nowhere and reports the new speed in no message.
 * the autopilot's own mode (:class:`AutoWatch`, :func:`answer_auto`): the crew's ground
   station (QGroundControl's Start Mission: GUIDED, arm, MAV_CMD_MISSION_START to the
   autopilot, which switches to AUTO) leaves the autopilot armed in AUTO: a flight of the
@@ -39,17 +43,21 @@ from enum import IntEnum, StrEnum
 from helixd.base.exitcodes import ExitCode
 from helixd.link.vehicle import PositionTarget
 from helixd.mav.constants import (
+    MAV_CMD_DO_CHANGE_SPEED,
     MAV_CMD_DO_PAUSE_CONTINUE,
     MAV_CMD_MISSION_START,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_DENIED,
+    MAV_RESULT_FAILED,
     MAV_RESULT_TEMPORARILY_REJECTED,
     MAV_RESULT_UNSUPPORTED,
 )
+from helixd.mission.commands import SPEED_MIN_MPS
 from helixd.runtime.mode_gate import AUTO_MODE, GOTO_MODES, same_place
 from helixd.safety.watchdogs import FaultCause
 
 __all__ = [
+    "GROUND_SPEED_TYPES",
     "Answer",
     "AutoWatch",
     "GotoWatch",
@@ -61,6 +69,7 @@ __all__ = [
     "answer_auto",
     "answer_command",
     "answer_goto",
+    "answer_speed",
     "answer_switch",
     "radio_live",
     "state_after_flight",
@@ -89,6 +98,7 @@ class Request(StrEnum):
     PAUSE = "pause"
     AUTO = "auto"  # the autopilot armed in AUTO: from its current item, driving in AUTO
     GOTO = "goto"  # the autopilot armed in GUIDED, RTL or SMART_RTL: to its place
+    SPEED = "speed"  # the flight in progress cruises at Answer.speed_mps from now on
 
 
 @dataclass(frozen=True, slots=True)
@@ -110,6 +120,7 @@ class Answer:
     result: int  # MAV_RESULT
     text: str  # what the GCS is told (empty: nothing to say)
     request: Request | None = None  # what to do (ACCEPTED only)
+    speed_mps: float | None = None  # Request.SPEED: the speed asked (m/s)
 
 
 def _finite_int(value: float) -> int | None:
@@ -137,7 +148,7 @@ def answer_command(
     gcs_ids: frozenset[int],
 ) -> Answer:
     """The service's answer to one command addressed to it."""
-    if command not in (MAV_CMD_MISSION_START, MAV_CMD_DO_PAUSE_CONTINUE):
+    if command not in (MAV_CMD_MISSION_START, MAV_CMD_DO_PAUSE_CONTINUE, MAV_CMD_DO_CHANGE_SPEED):
         return Answer(MAV_RESULT_UNSUPPORTED, "")
     if sender_sysid not in gcs_ids:
         ids = ", ".join(str(i) for i in sorted(gcs_ids))
@@ -146,6 +157,8 @@ def answer_command(
             f"system {sender_sysid} is not a ground station of this rover "
             f"(serve.gcs_system_ids: {ids})",
         )
+    if command == MAV_CMD_DO_CHANGE_SPEED:
+        return answer_speed(view, params)
     if view.busy:
         return Answer(MAV_RESULT_TEMPORARILY_REJECTED, "busy: a flight is starting or stopping")
     p1 = _finite_int(params[0]) if params else None
@@ -173,6 +186,33 @@ def answer_command(
             "the whole mission",
         )
     return _start(view, Request.START if p1 == 1 else Request.CONTINUE)
+
+
+# DO_CHANGE_SPEED's param1 (SPEED_TYPE) Rover takes: airspeed (as ground speed) and ground
+# speed; climb and descent speeds are DENIED (GCS_MAVLINK_Rover::handle_command_int_packet)
+GROUND_SPEED_TYPES = (0, 1)
+
+
+def answer_speed(view: ServeView, params: tuple[float, ...]) -> Answer:
+    """``MAV_CMD_DO_CHANGE_SPEED`` addressed to helixd, judged as Rover judges one: a climb or
+    descent speed type DENIED, a speed below 0.05 m/s (−1: "no change") FAILED. Accepted only
+    while a flight is flying: its cruise speed from now on (the flight bounds it to its
+    limits; a later DO_CHANGE_SPEED item of the mission sets it again; the next flight starts
+    at the mission's speed, as ArduPilot's AUTO does)."""
+    kind = _finite_int(params[0]) if params else None
+    if kind not in GROUND_SPEED_TYPES:
+        return Answer(
+            MAV_RESULT_DENIED,
+            "DO_CHANGE_SPEED param1 (speed type) must be 0 or 1: a rover has a ground speed",
+        )
+    asked = float(params[1]) if len(params) > 1 else math.nan
+    if not (math.isfinite(asked) and asked >= SPEED_MIN_MPS):
+        return Answer(
+            MAV_RESULT_FAILED, f"change speed {asked:g} m/s: no change (below {SPEED_MIN_MPS})"
+        )
+    if view.state is not ServeState.FLYING:
+        return Answer(MAV_RESULT_DENIED, "change speed: not flying")
+    return Answer(MAV_RESULT_ACCEPTED, "", Request.SPEED, speed_mps=asked)
 
 
 def _start(view: ServeView, request: Request) -> Answer:

@@ -25,7 +25,7 @@ from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.vehicle import Change, PoseSample, PositionTarget, VehicleState
 from helixd.mission.model import Mission
 from helixd.mission.resolve import resolve_plan
-from helixd.runtime.flight import FlightLoop, StepReport, ceiling_next_due
+from helixd.runtime.flight import FlightLoop, StepReport, bounded_cruise, ceiling_next_due
 from helixd.runtime.flight_report import StepJournal, flight_row
 from helixd.runtime.signals import StopRequest
 from helixd.safety.watchdogs import FaultCause
@@ -533,3 +533,12 @@ def test_a_flight_to_a_place_hands_over_to_a_new_place_and_holds_without_one() -
     assert result.fault is not None and result.fault.cause is FaultCause.HANDOVER
     assert gates[-1] == "handover" and "GUIDED to 52.0000900" in result.fault.detail
     assert any(c != (0.0,) * 4 for c in sink.commands)  # driven toward the place meanwhile
+
+
+def test_an_operators_cruise_is_bounded_by_the_flights_limits() -> None:
+    assert bounded_cruise(0.3, 0.1, 0.6) == (0.3, "")
+    assert bounded_cruise(2.0, 0.1, 0.6) == (0.6, "the mission's top speed")
+    assert bounded_cruise(0.05, 0.1, 0.6) == (0.1, "control.min_speed_mps")
+    assert bounded_cruise(math.nan, 0.1, 0.6) == (0.1, "control.min_speed_mps")
+    assert bounded_cruise(math.inf, 0.1, 0.6) == (0.1, "control.min_speed_mps")
+    assert bounded_cruise(0.3, 0.4, 0.2) == (0.2, "control.min_speed_mps")  # never above peak

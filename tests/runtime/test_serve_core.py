@@ -12,11 +12,13 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import ne_to_latlon
 from helixd.link.vehicle import PositionTarget
 from helixd.mav.constants import (
+    MAV_CMD_DO_CHANGE_SPEED,
     MAV_CMD_DO_PAUSE_CONTINUE,
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_MISSION_START,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_DENIED,
+    MAV_RESULT_FAILED,
     MAV_RESULT_TEMPORARILY_REJECTED,
     MAV_RESULT_UNSUPPORTED,
 )
@@ -318,3 +320,36 @@ def test_a_switch_high_after_the_radio_came_back_is_no_start_until_seen_low() ->
     assert w.update(1900) is SwitchEdge.NONE  # back, high: not the pilot's start
     assert w.update(1100) is SwitchEdge.FALLING
     assert w.update(1900) is SwitchEdge.RISING
+
+
+def test_a_change_of_speed_to_helixd_is_judged_as_rover_judges_one() -> None:
+    flying = view(ServeState.FLYING)
+    a = answer_command(flying, MAV_CMD_DO_CHANGE_SPEED, (1.0, 0.3, -1.0), 255, GCS)
+    assert (a.result, a.request, a.speed_mps) == (MAV_RESULT_ACCEPTED, Request.SPEED, 0.3)
+    a = answer_command(flying, MAV_CMD_DO_CHANGE_SPEED, (0.0, 0.4), 255, GCS)  # "airspeed"
+    assert (a.result, a.speed_mps) == (MAV_RESULT_ACCEPTED, 0.4)
+    for kind in (2.0, 3.0, 1.5, math.nan):  # climb, descent, not a type
+        a = answer_command(flying, MAV_CMD_DO_CHANGE_SPEED, (kind, 0.3), 255, GCS)
+        assert a.result == MAV_RESULT_DENIED and "speed type" in a.text, kind
+    for speed in (-1.0, 0.0, 0.04, math.nan, math.inf):  # -1: no change
+        a = answer_command(flying, MAV_CMD_DO_CHANGE_SPEED, (1.0, speed), 255, GCS)
+        assert a.result == MAV_RESULT_FAILED and a.request is None, speed
+    a = answer_command(view(ServeState.READY), MAV_CMD_DO_CHANGE_SPEED, (1.0, 0.3), 255, GCS)
+    assert (a.result, a.text) == (MAV_RESULT_DENIED, "change speed: not flying")
+    a = answer_command(flying, MAV_CMD_DO_CHANGE_SPEED, (1.0, 0.3), 250, GCS)
+    assert a.result == MAV_RESULT_DENIED and "serve.gcs_system_ids" in a.text
+    a = answer_command(flying, MAV_CMD_DO_CHANGE_SPEED, (), 255, GCS)
+    assert a.result == MAV_RESULT_DENIED
+
+
+@given(
+    st.sampled_from(list(ServeState)),
+    st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=0, max_size=7),
+)
+def test_a_change_of_speed_is_total_and_asks_only_a_finite_speed(
+    state: ServeState, params: list[float]
+) -> None:
+    a = answer_command(view(state), MAV_CMD_DO_CHANGE_SPEED, tuple(params), 255, GCS)
+    if a.request is Request.SPEED:
+        assert state is ServeState.FLYING
+        assert a.speed_mps is not None and math.isfinite(a.speed_mps) and a.speed_mps >= 0.05
