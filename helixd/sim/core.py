@@ -19,6 +19,9 @@ from helixd.mav.constants import (
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL,
     MAV_FRAME_GLOBAL_INT,
+    MAV_MISSION_ACCEPTED,
+    MAV_MISSION_ERROR,
+    MAV_MISSION_TYPE_MISSION,
     MAV_MISSION_TYPE_RALLY,
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_FAILED,
@@ -29,7 +32,14 @@ from helixd.sim import stream_rates as st
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
 from helixd.sim.inbound import InboundHandler
 from helixd.sim.messages import STATUSTEXT_LEN, Message, file_transfer_protocol, statustexts
-from helixd.sim.mission_server import MissionServer, Outcome
+from helixd.sim.mission_server import (
+    ALTITUDE_ONLY,
+    GuidedRequest,
+    MissionServer,
+    Outcome,
+    guided_request,
+    mission_ack,
+)
 from helixd.sim.mode_auto import ModeAuto
 from helixd.sim.mode_goto import (
     ModeGoto,
@@ -188,7 +198,28 @@ class SimCore:
         self.inject(make_spec("reboot", {}))
 
     def mission_message(self, link: int, msg: Message) -> None:
-        self.mission_outcome(self.mission.handle(link, msg, self.now_s))
+        guided = guided_request(msg)
+        if guided is None:
+            self.mission_outcome(self.mission.handle(link, msg, self.now_s))
+            return
+        who = (int(msg.get_srcSystem()), int(msg.get_srcComponent()))
+        self.send(link, mission_ack(who, self.guided_item(guided), MAV_MISSION_TYPE_MISSION))
+
+    def guided_item(self, req: GuidedRequest) -> int:
+        """A guided place as a MISSION_ITEM (``handle_guided_request``: taken only in GUIDED,
+        ``ModeGuided::set_desired_location``) or an altitude change (nothing on a rover); the
+        MAV_MISSION_RESULT."""
+        if req.result != MAV_MISSION_ACCEPTED or req.item is None:
+            return req.result
+        if req.current == ALTITUDE_ONLY:
+            return MAV_MISSION_ACCEPTED
+        if self.ap.mode != MODE_NUMBERS["GUIDED"]:
+            return MAV_MISSION_ERROR
+        item = req.item
+        amsl = item.frame in (MAV_FRAME_GLOBAL, MAV_FRAME_GLOBAL_INT)
+        alt_m = item.z if amsl else self.config.origin_alt_m + item.z
+        self.goto.go(self._place(item.x, item.y, alt_m), self.ap.here_ne, rtl=False)
+        return MAV_MISSION_ACCEPTED
 
     def set_mission_current(self, link: int, param1: float, param2: float) -> tuple[int, Outcome]:
         return self.mission.do_set_mission_current(link, param1, param2)

@@ -406,6 +406,33 @@ def item_from_float(msg: Any) -> StoredItem | None:
     return _stored(msg, round(x), round(y))
 
 
+GUIDED_PLACE, ALTITUDE_ONLY = 2, 3  # MISSION_ITEM.current flags outside the mission protocol
+
+
+@dataclass(frozen=True, slots=True)
+class GuidedRequest:
+    """A MISSION_ITEM(_INT) that is not part of an upload (``GCS_MAVLINK::
+    handle_mission_item``): ``current`` 2 is a place for GUIDED (QGroundControl's older *Go
+    to location*, ``MissionManager::writeArduPilotGuidedMissionItem``), 3 an altitude change;
+    ``result`` AP_Mission::mavlink_int_to_mission_cmd's verdict on the item."""
+
+    current: int
+    item: StoredItem | None
+    result: int
+
+
+def guided_request(msg: Any) -> GuidedRequest | None:
+    """The guided request ``msg`` carries, or None (an item of the mission protocol)."""
+    if msg.get_type() not in ("MISSION_ITEM", "MISSION_ITEM_INT"):
+        return None
+    current = int(msg.current)
+    if int(getattr(msg, "mission_type", 0)) != 0 or current not in (GUIDED_PLACE, ALTITUDE_ONLY):
+        return None
+    item = item_from_int(msg) if msg.get_type() == "MISSION_ITEM_INT" else item_from_float(msg)
+    result = MAV_MISSION_ERROR if item is None else validate_mission_item(item)
+    return GuidedRequest(current, item, result)
+
+
 class ItemProtocol:
     """MissionItemProtocol for one mission type: stored items and at most one upload."""
 

@@ -11,7 +11,10 @@ From ArduPilot Rover:
   ``location_from_command_t`` cannot read; FAILED when the switch to GUIDED fails; else the
   place is set (``ModeGuided::set_desired_location``, the WP submode) and ACCEPTED. A
   COMMAND_LONG carries it as degrees (``command_long_stores_location``: converted to
-  COMMAND_INT);
+  COMMAND_INT). A MISSION_ITEM(_INT) with ``current`` 2 outside an upload is the older way
+  (``GCS_MAVLINK::handle_mission_item`` → ``handle_guided_request``): taken only in GUIDED
+  (MISSION_ACK ACCEPTED, else ERROR); ``current`` 3 (an altitude change) is ACCEPTED and
+  changes nothing on a rover (:func:`helixd.sim.mission_server.guided_request`);
 * RTL's place is the nearest rally point, if it is closer than home, else home
   (``ModeRTL::_enter``, ``AP_Rally::calc_best_rally_or_home_location`` with Rover's defaults
   RALLY_LIMIT_KM 0.5 and RALLY_INCL_HOME 1: rally points all beyond the limit give home);

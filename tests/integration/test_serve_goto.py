@@ -77,6 +77,24 @@ def go_to_location(gcs: MavClient, north_m: float, east_m: float) -> float:
     return sent
 
 
+def go_to_location_older(gcs: MavClient, north_m: float, east_m: float) -> float:
+    """QGroundControl's older *Go to location* (APMFirmwarePlugin::guidedModeGotoLocation →
+    MissionManager::writeArduPilotGuidedMissionItem, after setting GUIDED): a MISSION_ITEM
+    (float degrees) to the autopilot's default component, seq 0, MAV_CMD_NAV_WAYPOINT,
+    MAV_FRAME_GLOBAL_RELATIVE_ALT, current 2 (a guided-mode place), autocontinue 1, z the
+    vehicle's relative altitude; MISSION_ACK ACCEPTED. Returns when it was sent."""
+    lat, lon = latlon(north_m, east_m)
+    gcs.drain()
+    sent = time.monotonic()
+    gcs.mav.mission_item_send(
+        1, 1, 0, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_CMD_NAV_WAYPOINT, 2, 1,
+        0.0, 0.0, 0.0, 0.0, lat, lon, 0.0, mavlink.MAV_MISSION_TYPE_MISSION,
+    )  # fmt: skip
+    ack = gcs.expect("MISSION_ACK", 10.0, lambda m: int(m.target_system) == QGC_SYSID)
+    assert int(ack.type) == mavlink.MAV_MISSION_ACCEPTED, ack
+    return sent
+
+
 def upload_rally(gcs: MavClient, north_m: float, east_m: float) -> None:
     """QGC's Plan view, Rally Points, Upload: the mission protocol with
     MAV_MISSION_TYPE_RALLY, one MAV_CMD_NAV_RALLY_POINT."""
@@ -334,3 +352,43 @@ def test_go_to_location_during_a_mission_and_back_to_auto(tmp_path: Path) -> Non
     causes = [(s["fault"] or "").split(":", 1)[0] for s in summaries]
     assert causes == ["handover", "handover", ""], summaries
     assert summaries[-1]["completed"], summaries[-1]
+
+
+def test_go_to_location_the_older_way_a_guided_mission_item(tmp_path: Path) -> None:
+    """The same click as QGroundControl's older path sends it: GUIDED, then a MISSION_ITEM
+    with current 2. ArduPilot takes it as GUIDED's place (refused outside GUIDED) and
+    publishes it; helixd drives there and holds, as for DO_REPOSITION."""
+    with sim_with_ground_station(**guard_installed(SPEEDUP)) as (server, urls, gcs):
+        d = serve_proc(tmp_path, urls[0], CONFIG)
+        d.start_pump()
+        try:
+            d.wait_line("no mission on the autopilot", 60.0)
+            assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+            heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+            # outside GUIDED the item is refused (handle_guided_request): nothing moves
+            lat, lon = latlon(*FIRST_NE)
+            gcs.mav.mission_item_send(
+                1, 1, 0, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_CMD_NAV_WAYPOINT,
+                2, 1, 0.0, 0.0, 0.0, 0.0, lat, lon, 0.0, mavlink.MAV_MISSION_TYPE_MISSION,
+            )  # fmt: skip
+            ack = gcs.expect("MISSION_ACK", 10.0, lambda m: int(m.target_system) == QGC_SYSID)
+            assert int(ack.type) == mavlink.MAV_MISSION_ERROR, ack
+            # setGuidedMode (Vehicle::setFlightMode → MAV_CMD_DO_SET_MODE), then the item
+            set_mode(gcs, "GUIDED")
+            heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
+            assert not moving(server.snapshot())
+            t_click = go_to_location_older(gcs, *FIRST_NE)
+            click_s = time_until(server, driving, t_click, 10.0)
+            time_until(server, near(FIRST_NE, ARRIVAL_M), t_click, 90.0)
+            d.wait_line("event=goto_arrived", 30.0)
+            end_m = held_there(server, FIRST_NE, "GUIDED")
+            print(f"\nGo to location (MISSION_ITEM current 2) → driven {click_s:.3f} s; "
+                  f"held {end_m:.3f} m from the click")  # fmt: skip
+            assert click_s <= START_LATENCY_MAX_S, click_s
+            t_manual = set_mode(gcs, "MANUAL")
+            time_until(server, overrides_released, t_manual, 5.0)
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")

@@ -172,3 +172,30 @@ def test_smart_rtl_returns_by_the_saved_points_and_stops_publishing_at_home() ->
     assert set_mode(core, modes.MANUAL) == MAV_RESULT_ACCEPTED
     run(core, 0.2)
     assert [p.ne for p in core.srtl.points] == [pytest.approx((0.5, 0.0), abs=0.05)]
+
+
+def guided_item(core: SimCore, north_m: float, east_m: float, current: int = 2) -> int:
+    """QGroundControl's MissionManager::writeArduPilotGuidedMissionItem: a MISSION_ITEM
+    (float degrees), seq 0, NAV_WAYPOINT, GLOBAL_RELATIVE_ALT, current 2; the MISSION_ACK."""
+    lat, lon = (v / 1e7 for v in latlon_e7(core, north_m, east_m))
+    msg = _mav.mission_item_encode(
+        1, 1, 0, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_CMD_NAV_WAYPOINT, current,
+        1, 0.0, 0.0, 0.0, 0.0, lat, lon, 0.0, mavlink.MAV_MISSION_TYPE_MISSION,
+    )  # fmt: skip
+    core.handle(0, incoming(msg, GCS_SYSID))
+    acks = of_type(core.drain_outbox(), "MISSION_ACK", 0)
+    return int(acks[-1].type)
+
+
+def test_a_guided_mission_item_is_guideds_place_only_in_guided() -> None:
+    core = ready_core()
+    assert guided_item(core, 10.0, 5.0) == mavlink.MAV_MISSION_ERROR  # MANUAL
+    assert targets(run(core, 1.0)) == []
+    assert set_mode(core, modes.GUIDED) == MAV_RESULT_ACCEPTED
+    run(core, 0.5)  # GUIDED entered (its Stop submode), as the crew's click comes later
+    assert guided_item(core, 10.0, 5.0) == mavlink.MAV_MISSION_ACCEPTED
+    (place,) = set(targets(run(core, 1.0)))
+    # MISSION_ITEM carries degrees as float32: about 4e-6° (0.4 m) at 53° N
+    assert all(abs(a - b) <= 50 for a, b in zip(place, latlon_e7(core, 10.0, 5.0), strict=True))
+    assert guided_item(core, -4.0, 6.0, current=3) == mavlink.MAV_MISSION_ACCEPTED  # altitude
+    assert set(targets(run(core, 2.0))) == {place}  # the place stays
