@@ -213,9 +213,10 @@ class AutoWalk:
 
     options: ExpandOptions
     step: int
-    # the crew set the autopilot's current item (a *set current waypoint*), ``step`` being the
-    # step the autopilot was on: AP_Mission's set_current_cmd keeps the counters held there
-    item_set: bool = False
+    # ``step`` is the step the autopilot's own item was on (followed along the walk), not
+    # helixd's: the counters are the ones held there, which AP_Mission's resume and
+    # set_current_cmd (the crew's *set current waypoint*) keep
+    exact: bool = False
 
 
 def from_autopilot_item(
@@ -240,7 +241,7 @@ def from_autopilot_item(
         return flight
     if msn.has_commands():
         jumps: tuple[tuple[int, int], ...] = ()
-        if held is not None and held.item_set:
+        if held is not None and held.exact:
             at = walk_at_step(msn.waypoints, held.options, max(held.step, 1))
             jumps = () if at is None else at[1]
         elif held is not None:

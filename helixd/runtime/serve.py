@@ -686,27 +686,30 @@ class Service:
 
 
 def held_walk(walk: tuple[str, ExpandOptions, Path] | None, fingerprint: str) -> AutoWalk | None:
-    """Where the last AUTO flight of this mission was let go (its last step started, from its
-    event log), while the autopilot has stayed armed since; ended by the crew's *set current
-    waypoint*: the step the autopilot was on (``autopilot_item_set``)."""
+    """Where the last AUTO flight of this mission was let go, while the autopilot has stayed
+    armed since, from its event log: the step the autopilot's own item was on (followed along
+    the walk: ``autopilot_step``, ``autopilot_item_set``), else the last step helixd started."""
     if walk is None or walk[0] != fingerprint:
         return None
     _, options, run_dir = walk
-    step, item_set = 0, False
+    step, autopilot = 0, 0
     for ev in read_events(run_dir / EVENTS_FILE):
         name = ev.get("event")
         if name == "mission_step" and ev.get("kind") == "step_started":
             step = _whole(ev.get("step"), step)
+        elif name == "autopilot_step":
+            autopilot = _whole(ev.get("step"), autopilot)
         elif name == "autopilot_item_set":
-            step, item_set = _whole(ev.get("autopilot_step"), step), True
+            autopilot = _whole(ev.get("autopilot_step"), autopilot)
+    exact = autopilot > 0
     log.info(
         "auto_walk_held",
         first_item=options.first_item,
-        step=step,
-        item_set=item_set,
+        step=autopilot if exact else step,
+        exact=exact,
         run_dir=str(run_dir),
     )
-    return AutoWalk(options, step, item_set)
+    return AutoWalk(options, autopilot if exact else step, exact)
 
 
 def _whole(got: object, default: int) -> int:

@@ -164,7 +164,7 @@ def test_set_current_item_in_a_commands_mission_keeps_the_autopilots_jump_counte
             mark = d.mark()
             assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
             d.wait_line("event=autopilot_item_set item=1 autopilot_step=4", 10.0, after=mark)
-            d.wait_line("event=auto_walk_held first_item=1 step=4 item_set=true", 10.0, after=mark)
+            d.wait_line("event=auto_walk_held first_item=1 step=4 exact=true", 10.0, after=mark)
             d.wait_line("event=auto_start item=1", 10.0, after=mark)
             server.wait_for(moving, 10.0)
             assert server.snapshot().mode == "AUTO"  # no HOLD asked between the flights
@@ -181,4 +181,39 @@ def test_set_current_item_in_a_commands_mission_keeps_the_autopilots_jump_counte
     summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert summaries[0]["fault"].startswith("item_set: item 1 set"), summaries[0]
+    assert [a["number"] for a in summaries[1]["arrivals"]] == [1, 3, 4]
+
+
+def test_an_item_set_while_the_pilot_drives_keeps_the_counters_too(tmp_path: Path) -> None:
+    """MANUAL on lap 2, then the crew sets item 1 (the mission stopped: set_current_cmd keeps
+    the counters) and selects AUTO: the walk from item 1 with the jump taken once of once,
+    counted where the autopilot's own item was when helixd let go: one lap, 1 3 4."""
+    with sim_with_ground_station() as (server, urls, gcs):
+        d = serve_proc(tmp_path, urls[0], CONFIG)
+        d.start_pump()
+        try:
+            start_mission(server, gcs, d)
+            autopilot_item(gcs, 3)
+            autopilot_item(gcs, 4, 120.0)
+            autopilot_item(gcs, 3, 120.0)  # lap 2
+            mark = d.mark()
+            t_manual = set_mode(gcs, "MANUAL")
+            time_until(server, overrides_released, t_manual, 5.0)
+            d.wait_line("event=serve_state state=paused", 30.0, after=mark)
+            assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
+            autopilot_item(gcs, 1, 10.0)
+            mark = d.mark()
+            set_mode(gcs, "AUTO")
+            d.wait_line("event=auto_walk_held first_item=1 step=4 exact=true", 10.0, after=mark)
+            d.wait_line("event=auto_start item=1", 10.0, after=mark)
+            assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
+            d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    assert [s["completed"] for s in summaries] == [False, True], summaries
     assert [a["number"] for a in summaries[1]["arrivals"]] == [1, 3, 4]

@@ -166,7 +166,7 @@ def test_a_set_current_item_keeps_the_counters_the_autopilot_held_where_it_was()
     flight is one lap, 1 3 4, not two. The replay of a let-go flight would not find item 1
     ahead of step 5 and count from zero."""
     flight = commands_flight()  # flown 1, 3, 4, 1, 3, 4
-    set_on_lap2 = AutoWalk(ExpandOptions(), 5, item_set=True)
+    set_on_lap2 = AutoWalk(ExpandOptions(), 5, exact=True)
     later = from_autopilot_item(flight, 1, CFG, set_on_lap2)
     assert later.options == ExpandOptions(first_item=1, jumps_taken=((5, 1),))
     plan = resolve(later.mission, CFG.control, CFG.mission, options=later.options).plan
@@ -174,7 +174,7 @@ def test_a_set_current_item_keeps_the_counters_the_autopilot_held_where_it_was()
     assert [s.item for s in plan.program.steps] == [1, 3, 4]
     replayed = from_autopilot_item(flight, 1, CFG, AutoWalk(ExpandOptions(), 5))
     assert replayed is flight  # the let-go rule: item 1 not current again after step 5
-    set_on_lap1 = AutoWalk(ExpandOptions(), 2, item_set=True)  # item 3, nothing jumped yet
+    set_on_lap1 = AutoWalk(ExpandOptions(), 2, exact=True)  # item 3, nothing jumped yet
     assert from_autopilot_item(flight, 1, CFG, set_on_lap1) is flight
 
 

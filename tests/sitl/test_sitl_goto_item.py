@@ -7,8 +7,8 @@ handle_mission_item`` → ``handle_guided_request``), MISSION_ACK ACCEPTED, and 
 
 The place is where ArduPilot's conversion of the float32 degrees puts it
 (``convert_MISSION_ITEM_to_MISSION_ITEM_INT``, float arithmetic: here a few centimetres from
-the click, up to about 0.7 m elsewhere); the end-position error is measured against the place ArduPilot publishes,
-as helixd logs it (``goto_start``).
+the click, up to about 0.7 m elsewhere); the end-position error is measured against the
+place ArduPilot publishes, as helixd logs it (``goto_start``).
 """
 
 from __future__ import annotations

@@ -98,7 +98,7 @@ def test_set_current_waypoint_in_a_commands_mission(sitl: SitlVehicle, tmp_path:
     assert item_s <= ITEM_MAX_S, item_s
     log = d.log_text()
     assert log.count("event=autopilot_item_set") == 1, log
-    assert "event=auto_walk_held first_item=1 step=4 item_set=true" in log
+    assert "event=auto_walk_held first_item=1 step=4 exact=true" in log
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
     summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
     assert [s["completed"] for s in summaries] == [False, True], summaries
