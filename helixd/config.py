@@ -448,6 +448,13 @@ class LinkConfig(InputModel):
     heartbeat_type: Literal["gcs", "onboard_controller"] = Field(
         "gcs", description="MAV_TYPE of our HEARTBEAT (ArduPilot's GCS failsafe keys on sysid)"
     )
+    vehicle_component: bool = Field(
+        True,
+        description="also a component (source_component) of the autopilot's system "
+        "(target_system): a second HEARTBEAT (MAV_TYPE_ONBOARD_CONTROLLER) from those ids makes "
+        "ArduPilot route the commands a ground station addresses to that component of the "
+        "vehicle (QGroundControl's MAVLink Actions) to helixd, answered from those ids",
+    )
     pose_rate_min_hz: float = Field(
         5.0, ge=0.5, le=100.0, description="stop stepping the pose rate down below this (Hz)"
     )

@@ -211,7 +211,9 @@ class MavlinkConnection:
         self.stats = LinkStats()
         self.own_id_senders = OwnIdSenders()
         self.first_tx_s: float | None = None  # monotonic time of our first message sent
-        self.mav = self._new_codec()
+        self.mav = self._new_codec(cfg.source_system)
+        # link.vehicle_component: our component of the autopilot's system (see send_as_vehicle)
+        self.vehicle_mav = self._new_codec(cfg.target_system)
         self._decoder = FrameDecoder(self.mav, signing=signing_key is not None)
         self._rxbuf = bytearray()  # stream transports: the incomplete frame at the end
         self.transport = make_transport(url, cfg, self._on_data, self._transport_lost)
@@ -219,10 +221,8 @@ class MavlinkConnection:
         self._reopen_task: asyncio.Task[None] | None = None
         self.tlog: LinkTlog | None = None  # every frame sent/read (helixd.link.tlog.attach_tlog)
 
-    def _new_codec(self) -> Any:
-        mav = mavlink.MAVLink(
-            None, srcSystem=self.cfg.source_system, srcComponent=self.cfg.source_component
-        )
+    def _new_codec(self, system: int) -> Any:
+        mav = mavlink.MAVLink(None, srcSystem=system, srcComponent=self.cfg.source_component)
         mav.robust_parsing = True
         if self._key is not None:
             enable_signing(mav, self._key)
@@ -242,6 +242,19 @@ class MavlinkConnection:
         if self.never_send and int(msg.get_msgId()) in self.never_send:
             raise NeverSent(f"this link never sends {msg.get_type()}")
         mav = self.mav
+        buf = msg.pack(mav)
+        mav.seq = (mav.seq + 1) % 256
+        return self._write(bytes(buf))
+
+    def send_as_vehicle(self, msg: MavMsg) -> bool:
+        """Send ``msg`` from our component of the autopilot's system (``link.vehicle_component``:
+        its HEARTBEAT, the answers to commands addressed there); its own sequence, signed when
+        the link is. False when the transport dropped it or the identity is off."""
+        if not self.cfg.vehicle_component:
+            return False
+        if self.never_send and int(msg.get_msgId()) in self.never_send:
+            raise NeverSent(f"this link never sends {msg.get_type()}")
+        mav = self.vehicle_mav
         buf = msg.pack(mav)
         mav.seq = (mav.seq + 1) % 256
         return self._write(bytes(buf))
@@ -349,11 +362,19 @@ class MavlinkConnection:
 
     def _addressed_to_us(self, msgid: int, msg: MavMsg) -> bool:
         """A command from another system (a ground station, routed by the autopilot) whose
-        target is our system and component (or every component)."""
+        target is our system and component (or every component), or our component of the
+        autopilot's system (``link.vehicle_component``; not every component of it: those are
+        the autopilot's commands)."""
         if self._on_addressed is None or msgid not in ADDRESSED_MESSAGE_IDS:
             return False
-        ours = int(msg.target_system) == self.cfg.source_system
-        return ours and int(msg.target_component) in (0, self.cfg.source_component)
+        system, component = int(msg.target_system), int(msg.target_component)
+        if system == self.cfg.source_system:
+            return component in (0, self.cfg.source_component)
+        return (
+            self.cfg.vehicle_component
+            and system == self.cfg.target_system
+            and component == self.cfg.source_component
+        )
 
     def _dispatch_addressed(self, msg: MavMsg, rx_s: float) -> None:
         assert self._on_addressed is not None
@@ -396,7 +417,8 @@ class MavlinkConnection:
                 if attempts == 1 or attempts % REOPEN_LOG_EVERY == 0:
                     log.info("link_reopen_failed", attempt=attempts, error=str(exc))
                 continue
-            self.mav = self._new_codec()
+            self.mav = self._new_codec(self.cfg.source_system)
+            self.vehicle_mav = self._new_codec(self.cfg.target_system)
             self._decoder = FrameDecoder(self.mav, signing=self._key is not None)
             self._rxbuf.clear()  # drop half a frame from the old stream
             self.stats.reopen_count += 1

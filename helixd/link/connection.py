@@ -477,6 +477,12 @@ class Autopilot:
         sent: bool = self._conn.send(msg)
         return sent
 
+    def send_as_vehicle(self, msg: MavMsg) -> bool:
+        """Send one message from our component of the autopilot's system
+        (``link.vehicle_component``): the answer to a command addressed there."""
+        sent: bool = self._conn.send_as_vehicle(msg)
+        return sent
+
     @property
     def tlog(self) -> LinkTlog | None:
         """The link log being recorded, if any."""

@@ -66,6 +66,18 @@ class HeartbeatSender:
         )
         if self._conn.send(msg):
             self.sent += 1
+        if self._cfg.vehicle_component:
+            # our component of the vehicle: ArduPilot learns the route (MAVLink_routing::
+            # learn_route) and forwards what a ground station addresses to it
+            self._conn.send_as_vehicle(
+                self._conn.vehicle_mav.heartbeat_encode(
+                    int(mavlink.MAV_TYPE_ONBOARD_CONTROLLER),
+                    int(mavlink.MAV_AUTOPILOT_INVALID),
+                    0,
+                    0,
+                    int(mavlink.MAV_STATE_ACTIVE),
+                )
+            )
 
     async def _run(self) -> None:
         period_s = 1.0 / self._cfg.heartbeat_rate_hz

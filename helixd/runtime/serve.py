@@ -484,8 +484,14 @@ class Service:
         ack = _mav.command_ack_encode(
             command, answer.result, 0, 0, sender, int(msg.get_srcComponent())
         )
+        # answered from the ids it was addressed to: ours, or our component of the vehicle
+        # (QGroundControl matches the COMMAND_ACK to the component it sent the command to)
+        as_vehicle = int(msg.target_system) != self.cfg.link.source_system
         with contextlib.suppress(LinkError, OSError):
-            ap.send_message(ack)
+            if as_vehicle:
+                ap.send_as_vehicle(ack)
+            else:
+                ap.send_message(ack)
         self._act(answer, f"system {sender}")
 
     def _act(self, answer: Answer, who: str) -> None:

@@ -4,12 +4,17 @@ cruise of the flight in progress, within its limits; judged on the simulator's t
 
 One sent to the autopilot (QGroundControl's fly view) cannot reach helixd: ArduPilot keeps it
 in its own navigator, forwards it nowhere and reports it in no message (docs/ardupilot.md).
+QGroundControl's MAVLink Actions (config/qgc/helixd-actions.json) address a component of the
+vehicle: helixd's component 191 of system 1, which the autopilot routes to helixd because
+helixd beats as that component too (``link.vehicle_component``).
 """
 
 from __future__ import annotations
 
+import json
 import signal
 from pathlib import Path
+from typing import Any
 
 from helixd.config import ControlConfig
 from helixd.mav.constants import (
@@ -21,12 +26,34 @@ from helixd.mav.constants import (
 )
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.gcs import command, upload
+from tests.support.harness import MavClient
 from tests.support.serve import moving, serve_proc, sim_with_ground_station
 
-LONG_LEG = [(40.0, 0.0)]  # one straight leg, long enough to see both speeds settle (m)
+LONG_LEG = [(60.0, 0.0)]  # one straight leg, long enough to see both speeds settle (m)
 SLOW_MPS = 0.2
 MISSION_MPS = float(ControlConfig.model_fields["max_speed_mps"].default)  # the plan's cruise
 CONFIG = {"startup": {"start_switch_channel": None}}
+ACTIONS = Path(__file__).resolve().parents[2] / "config" / "qgc" / "helixd-actions.json"
+
+
+def mavlink_action(gcs: MavClient, action: dict[str, Any]) -> int:
+    """QGroundControl's MavlinkAction::sendTo → Vehicle::sendMavCommand(compId, …): a
+    COMMAND_LONG to the vehicle's system (1) and the action's component; the result of the
+    COMMAND_ACK from that component (QGC matches the ACK by the component it addressed)."""
+    comp = int(action.get("compId", 1))
+    params = [float(action.get(f"param{i}", 0.0)) for i in range(1, 8)]
+    command = int(action["mavCmd"])
+    gcs.drain()
+    gcs.heartbeat()
+    gcs.mav.command_long_send(1, comp, command, 0, *params)
+    ack = gcs.expect(
+        "COMMAND_ACK",
+        10.0,
+        lambda m: (
+            int(m.command) == command and (m.get_srcSystem(), m.get_srcComponent()) == (1, comp)
+        ),
+    )
+    return int(ack.result)
 
 
 def test_a_change_of_speed_to_helixd_changes_the_flights_cruise(tmp_path: Path) -> None:
@@ -59,6 +86,12 @@ def test_a_change_of_speed_to_helixd_changes_the_flights_cruise(tmp_path: Path) 
             # (a text longer than a STATUSTEXT goes out as lines split between words)
             said = gcs.wait_text(f"helixd: speed {MISSION_MPS:.2f} m/s (9 asked", 20.0)
             assert said.endswith("bounded by the"), said
+            assert settled_at(MISSION_MPS)
+            # QGroundControl's MAVLink Actions, as the crew's file defines them
+            slow, back = json.loads(ACTIONS.read_text(encoding="utf-8"))["actions"]
+            assert mavlink_action(gcs, slow) == MAV_RESULT_ACCEPTED
+            assert settled_at(float(slow["param2"]))
+            assert mavlink_action(gcs, back) == MAV_RESULT_ACCEPTED
             assert settled_at(MISSION_MPS)
             d.wait_line("event=serve_state state=completed", 120.0)
             d.signal(signal.SIGTERM)
