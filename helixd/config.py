@@ -747,7 +747,11 @@ class SafetyConfig(InputModel):
         ">= 3 finite vertices, not self-intersecting, area >= 1 m²",
     )
     mission_time_limit_s: float = Field(
-        1800.0, gt=0.0, le=86_400.0, description="mission aborted after this long (s)"
+        1800.0,
+        gt=0.0,
+        le=86_400.0,
+        description="mission aborted after driving this long (s); time held for the crew "
+        "(paused in HOLD, at the autopilot's place, at a NAV_LOITER_UNLIM) is not counted",
     )
     stall: StallConfig = Field(default_factory=StallConfig)
     fallback_deadline_s: float = Field(

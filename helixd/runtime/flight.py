@@ -73,6 +73,7 @@ from helixd.runtime.mode_gate import (
     item_set_by_crew,
 )
 from helixd.runtime.signals import StopRequest
+from helixd.safety.mission_clock import MissionClock, MissionTime
 from helixd.safety.supervisor import Motion, Supervisor
 from helixd.safety.watchdogs import Fault, FaultCause
 
@@ -232,6 +233,7 @@ class FlightLoop:
         self._prev_yaw: tuple[float, float] | None = None  # (t_boot_s, yaw_ned_rad)
         self._invalid_burst_s: float | None = None  # the rejected-pose burst already handled
         self._t_boot_start_s: float | None = None  # autopilot clock at the first pose flown on
+        self._mission_clock = MissionClock()  # the time limit's: driving time only
         self.slip = SlipEstimator(cfg.control.slip)
         # no-slip body velocity sent at the last step, and that step's autopilot clock (s)
         self._sent: tuple[float, BodyVelocity] | None = None
@@ -590,21 +592,33 @@ class FlightLoop:
                 self._meas_yaw_rate_radps = -wrap_pi(yaw - self._prev_yaw[1]) / dt
         self._prev_yaw = (t, yaw)
 
-    def _mission_elapsed_s(self, wall_s: float, pose: PoseSample | None) -> float:
-        """Mission time for the time limit: the later of the wall and the autopilot clock.
+    @property
+    def _paused(self) -> bool:
+        """Held for the crew, which the time limit does not count: paused in HOLD, at the
+        autopilot's place once reached, at a NAV_LOITER_UNLIM until the operator continues
+        (a NAV_LOITER_TIME or NAV_DELAY is the plan's own and counts)."""
+        seq = self.sequencer
+        return self._gate is Gate.HOLD or self._arrived or (seq is not None and seq.holding_forever)
+
+    def _mission_time(self, wall_s: float, pose: PoseSample | None) -> MissionTime:
+        """Mission time for the time limit (:class:`helixd.safety.mission_clock.MissionClock`):
+        the later of the wall and the autopilot clock, the time held for the crew left out.
 
         ``mission_time_limit_s`` is checked against the plan's estimate, which is autopilot time
         (the two clocks agree on a rover; a simulator speed-up makes the autopilot's faster).
         After an autopilot reboot its clock restarts, and the wall clock still counts.
         """
-        if pose is None or self._t_boot_start_s is None:
-            return wall_s
-        return max(wall_s, pose.time_boot_ms / 1000.0 - self._t_boot_start_s)
+        vehicle_s = None
+        if pose is not None and self._t_boot_start_s is not None:
+            vehicle_s = pose.time_boot_ms / 1000.0 - self._t_boot_start_s
+        return self._mission_clock.update(wall_s, vehicle_s, self._paused)
 
     def _motion(self, now: float, t_start: float, pose: PoseSample | None) -> Motion:
+        mission = self._mission_time(now - t_start, pose)
         return Motion(
             commanded_speed_mps=self._cmd_speed_mps,
             commanded_yaw_rate_radps=self._cmd_yaw_rate_radps,
             measured_yaw_rate_radps=self._meas_yaw_rate_radps,
-            mission_elapsed_s=self._mission_elapsed_s(now - t_start, pose),
+            mission_elapsed_s=mission.driving_s,
+            mission_paused_s=mission.paused_s,
         )

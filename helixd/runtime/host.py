@@ -4,7 +4,8 @@ opens its own.
 * ``helixd run`` is its own host (:class:`OwnLink`): it connects the link and closes it, owns
   SIGINT/SIGTERM, and waits for the pilot's start switch before arming;
 * ``helixd serve`` lends each flight what it holds (:class:`ServeHost`): its link (connected,
-  heartbeating, streams negotiated; the flight neither connects nor closes it), its stop
+  heartbeating, streams negotiated; the flight neither connects nor closes it, but records
+  its traffic from its start to its end in its own run directory's ``link.tlog``), its stop
   request (the service owns the signals and pauses through it), its notifier, and where the
   item being flown goes (the GCS's current item). No start gate: the service started the
   flight on the operator's word. A flight the crew started in the autopilot's AUTO drives in
@@ -25,10 +26,18 @@ from typing import Protocol
 
 from helixd.config import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.link.tlog import LinkTlog
 from helixd.link.vehicle import PositionTarget
 from helixd.runtime.flight import MANUAL_MODE
 from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
-from helixd.runtime.setup import Held, attach, connect, reach
+from helixd.runtime.setup import (
+    Held,
+    attach,
+    close_flight_tlog,
+    connect,
+    open_flight_tlog,
+    reach,
+)
 from helixd.runtime.signals import StopRequest, install, uninstall
 
 __all__ = ["FlightHost", "OwnLink", "ServeHost"]
@@ -135,10 +144,10 @@ class OwnLink:
         """Nobody to tell: ``helixd run`` sets no current item."""
 
 
-@dataclass(frozen=True)
+@dataclass
 class ServeHost:
     """``helixd serve``'s link, stop request, notifier and current-item setter, lent to one
-    flight."""
+    flight; the flight's tlog of the link while it is lent."""
 
     link: Autopilot
     stop: StopRequest
@@ -146,6 +155,7 @@ class ServeHost:
     set_item: Callable[[int], None] | None = None  # None: nobody shows the current item
     driving_mode: str = MANUAL_MODE  # AUTO: a flight the crew started in the autopilot's AUTO
     goto: PositionTarget | None = None  # GUIDED, RTL, SMART_RTL: the autopilot's place
+    _tlog: LinkTlog | None = field(default=None, init=False, repr=False)
 
     @property
     def start_gate(self) -> bool:
@@ -165,10 +175,16 @@ class ServeHost:
         on_link: Callable[[Autopilot], None],
         run_dir: Path | None,
     ) -> Autopilot:
+        """The service's link, recorded in the flight's run directory from now on (``attach``
+        holds it at once, so the run's shutdown gives it back through :meth:`close`)."""
+        self._tlog = open_flight_tlog(self.link, cfg, run_dir)
         return await attach(self.link, cfg, held, self.stop, on_link)
 
     async def close(self, ap: Autopilot) -> None:
-        """The service's link stays up."""
+        """The service's link stays up; the flight's tlog ends here."""
+        tlog, self._tlog = self._tlog, None
+        if tlog is not None:
+            close_flight_tlog(ap, tlog)
 
     def on_item(self, seq: int) -> None:
         if self.set_item is not None:

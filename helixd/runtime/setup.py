@@ -34,7 +34,7 @@ from helixd.config import ActuationBackend, HelixdConfig
 from helixd.link.command_client import CommandError, CommandRejected
 from helixd.link.connection import Autopilot
 from helixd.link.preflight import check_obedience
-from helixd.link.tlog import attach_tlog
+from helixd.link.tlog import LinkTlog, attach_tlog
 from helixd.link.vehicle import Change, HomePosition, TelemetryBounds
 from helixd.mav.constants import (
     MAV_CMD_NAV_RETURN_TO_LAUNCH,
@@ -208,6 +208,24 @@ async def connect(
         await start_sink(cfg, ap, held)
     await ap.request_streams()  # logs ``streams_granted`` itself
     return ap
+
+
+def open_flight_tlog(ap: Autopilot, cfg: HelixdConfig, run_dir: Path | None) -> LinkTlog | None:
+    """``helixd serve``'s flight: record the service's link in the flight's ``run_dir`` from now
+    until :func:`close_flight_tlog` (None: no run directory, or ``link.tlog_enabled`` off).
+    The service's link lives all day; each flight takes its traffic into its own tlog."""
+    if run_dir is None or not cfg.link.tlog_enabled:
+        return None
+    return attach_tlog(ap, run_dir / TLOG_FILE, cfg.link.tlog_max_bytes)
+
+
+def close_flight_tlog(ap: Autopilot, tlog: LinkTlog) -> None:
+    """The flight is over: its tlog no longer records the link (unless another took its place)
+    and is flushed and closed; the link stays up."""
+    if ap.tlog is tlog:
+        ap.attach_tlog(None)
+    tlog.close()
+    log.info("tlog_closed", path=str(tlog.writer.path), bytes=tlog.writer.written_bytes)
 
 
 async def attach(

@@ -42,7 +42,8 @@ class Motion:
     commanded_speed_mps: float
     commanded_yaw_rate_radps: float
     measured_yaw_rate_radps: float
-    mission_elapsed_s: float
+    mission_elapsed_s: float  # driving time (helixd.safety.mission_clock)
+    mission_paused_s: float = 0.0  # held for the crew: not counted
 
 
 def safety_inputs(
@@ -73,6 +74,7 @@ def safety_inputs(
         start_north_m=start_ned.north_m,
         start_east_m=start_ned.east_m,
         mission_elapsed_s=motion.mission_elapsed_s,
+        mission_paused_s=motion.mission_paused_s,
         commanded_speed_mps=motion.commanded_speed_mps,
         measured_speed_mps=math.hypot(pose.vn_mps, pose.ve_mps) if pose else 0.0,
         commanded_yaw_rate_radps=motion.commanded_yaw_rate_radps,

@@ -17,6 +17,8 @@ ours; a dead or rebooting autopilot has no clock at all):
   between the two restarts the timer rather than mixing them.
 - ``mission_time``: the later of both clocks (computed by the flight loop as
   ``mission_elapsed_s``): the plan's estimate is autopilot time, and a reboot restarts that.
+  Driving time only: the time held for the crew (paused in HOLD, at the autopilot's place,
+  at a NAV_LOITER_UNLIM) is left out (``mission_paused_s``, :mod:`helixd.safety.mission_clock`).
 - ``gps_lost``: the fix and satellites of the latest GPS_RAW_INT are states, judged at once;
   the stream's silence is our reception of it (``gps_rx_s``, wall clock, ``gps_stale_s``), and
   so is a receiver that stopped sending (``gps_fix_rx_s``: when GPS_RAW_INT's ``time_usec``
@@ -178,7 +180,7 @@ class SafetyInputs:
     east_m: float | None
     start_north_m: float
     start_east_m: float
-    mission_elapsed_s: float
+    mission_elapsed_s: float  # driving time: the time held for the crew is left out
     commanded_speed_mps: float
     measured_speed_mps: float
     commanded_yaw_rate_radps: float = 0.0
@@ -196,6 +198,7 @@ class SafetyInputs:
     gps_fix_rx_s: float | None = None
     gps_fix_type: int | None = None  # GPS_FIX_TYPE; None: never received or out of range
     gps_satellites: int | None = None  # None: unknown
+    mission_paused_s: float = 0.0  # held for the crew, not in mission_elapsed_s (for the text)
 
 
 def _finite(*values: float | None) -> bool:
@@ -456,9 +459,12 @@ class SafetyMonitor:
     def _time(self, s: SafetyInputs) -> Fault | None:
         limit = self.cfg.mission_time_limit_s
         if not s.mission_elapsed_s <= limit:
+            paused = (
+                f"; {s.mission_paused_s:.0f} s paused not counted" if s.mission_paused_s else ""
+            )
             return Fault(
                 FaultCause.MISSION_TIME,
-                f"mission running {s.mission_elapsed_s:.0f} s (limit {limit:.0f} s)",
+                f"driving {s.mission_elapsed_s:.0f} s (limit {limit:.0f} s{paused})",
             )
         return None
 

@@ -23,6 +23,7 @@ from helixd.control.navigator import Navigator
 from helixd.link.command_client import CommandRejected
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.vehicle import Change, PoseSample, PositionTarget, VehicleState
+from helixd.mission.expand import ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import resolve_plan
 from helixd.runtime.flight import FlightLoop, StepReport, bounded_cruise, ceiling_next_due
@@ -116,9 +117,13 @@ class Sink:
 
 
 def make_loop(
-    ap: FedAutopilot, sink: Sink, trace: list[str], driving_mode: str = "MANUAL"
+    ap: FedAutopilot,
+    sink: Sink,
+    trace: list[str],
+    driving_mode: str = "MANUAL",
+    cfg: HelixdConfig | None = None,
 ) -> FlightLoop:
-    cfg = HelixdConfig()
+    cfg = cfg or HelixdConfig()
     mission = Mission.model_validate(
         {"name": "t", "mode": "roll", "frame": "start", "waypoints": [{"x": 20, "y": 0}]}
     )
@@ -490,8 +495,10 @@ class GotoAutopilot(FedAutopilot):
             self.rx(decoded(msg, AP))
 
 
-def goto_loop(ap: FedAutopilot, sink: Sink, trace: list[str], x_m: float) -> FlightLoop:
-    loop = make_loop(ap, sink, trace, driving_mode="GUIDED")
+def goto_loop(
+    ap: FedAutopilot, sink: Sink, trace: list[str], x_m: float, cfg: HelixdConfig | None = None
+) -> FlightLoop:
+    loop = make_loop(ap, sink, trace, driving_mode="GUIDED", cfg=cfg)
     mission = Mission.model_validate(
         {"name": "t", "mode": "roll", "frame": "start", "waypoints": [{"x": x_m, "y": 0}]}
     )
@@ -542,3 +549,111 @@ def test_an_operators_cruise_is_bounded_by_the_flights_limits() -> None:
     assert bounded_cruise(math.nan, 0.1, 0.6) == (0.1, "control.min_speed_mps")
     assert bounded_cruise(math.inf, 0.1, 0.6) == (0.1, "control.min_speed_mps")
     assert bounded_cruise(0.3, 0.4, 0.2) == (0.2, "control.min_speed_mps")  # never above peak
+
+
+# -- the mission time limit counts driving time only --------------------------------------------
+
+# 0.3 s of autopilot time: 15 pose periods of 20 ms (the wall clock of these fed flights runs
+# far faster, so the autopilot clock is the one counted)
+SHORT_LIMIT = HelixdConfig.model_validate({"safety": {"mission_time_limit_s": 0.3}})
+
+
+def test_a_flight_paused_in_hold_longer_than_the_limit_goes_on_without_a_time_fault() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    # 0.1 s driven, 0.8 s paused in HOLD, 0.1 s driven: 0.2 s of driving against 0.3 s
+    ap.modes = [AUTO] * 5 + [HOLD] * 40 + [AUTO] * 5 + [MANUAL]
+    ap.tick()
+    sink = Sink(trace)
+    loop = make_loop(ap, sink, trace, driving_mode="AUTO", cfg=SHORT_LIMIT)
+    result = asyncio.run(fly(ap, loop, 60))
+    assert result.fault is not None and result.fault.cause is FaultCause.RELEASED, result.fault
+    # driven again after the pause, within the limit
+    neutral = (0.0, 0.0, 0.0, 0.0)
+    driven = [c != neutral for c in sink.commands]
+    first_hold = driven.index(False, 1)
+    assert any(driven[driven.index(True, first_hold) :])
+
+
+def test_driving_past_the_limit_after_a_pause_is_a_time_fault_naming_the_pause() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.modes = [AUTO] * 5 + [HOLD] * 40 + [AUTO] * 40
+    ap.tick()
+    loop = make_loop(ap, Sink(trace), trace, driving_mode="AUTO", cfg=SHORT_LIMIT)
+    result = asyncio.run(fly(ap, loop, 80))
+    assert result.fault is not None and result.fault.cause is FaultCause.MISSION_TIME
+    assert "(limit 0 s;" in result.fault.detail and "s paused not counted" in result.fault.detail
+
+
+def test_a_flight_driving_past_the_limit_is_a_time_fault() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.modes = [AUTO] * 30
+    ap.tick()
+    loop = make_loop(ap, Sink(trace), trace, driving_mode="AUTO", cfg=SHORT_LIMIT)
+    result = asyncio.run(fly(ap, loop, 30))
+    assert result.fault is not None and result.fault.cause is FaultCause.MISSION_TIME
+    assert result.fault.detail.startswith("driving 0 s (limit 0 s)"), result.fault.detail
+
+
+def test_a_flight_held_at_its_place_longer_than_the_limit_does_not_fault() -> None:
+    trace: list[str] = []
+    ap = GotoAutopilot()
+    ap.modes = [GUIDED] * 100
+    # on the place after 0.54 s (27 periods), then held there 1.1 s: 0.7 s limit
+    ap.norths_m = [0.02 * i for i in range(27)] + [0.52] * 80
+    ap.tick()
+    cfg = HelixdConfig.model_validate({"safety": {"mission_time_limit_s": 0.7}})
+    loop = goto_loop(ap, Sink(trace), trace, 0.5, cfg)
+    result = asyncio.run(fly(ap, loop, 90))
+    assert loop._arrived
+    assert result.fault is not None and result.fault.cause is FaultCause.SIGNAL, result.fault
+
+
+def program_loop(
+    ap: FedAutopilot, trace: list[str], items: list[dict[str, Any]], limit_s: float
+) -> FlightLoop:
+    """A flight of a mission with commands, its time limit ``limit_s``."""
+    cfg = HelixdConfig.model_validate({"safety": {"mission_time_limit_s": limit_s}})
+    mission = Mission.model_validate(
+        {"name": "t", "mode": "roll", "frame": "start", "waypoints": items}
+    )
+    options = ExpandOptions(operator_continue=True)
+    plan = resolve_plan(mission, cfg.control, cfg.mission, None, options=options)
+    start = NedPose(0.0, 0.0, 0.0)
+    return FlightLoop(
+        cfg=cfg,
+        plan=plan,
+        frame=MissionFrame.start_at(start),
+        autopilot=ap,  # type: ignore[arg-type]
+        sink=Sink(trace),
+        stop=StopRequest(),
+        start_ned=start,
+        on_step=lambda r: None,
+        on_pose_rejected=lambda r: None,
+        on_arrival=lambda i, t, e: None,
+        on_tick=lambda: None,
+    )
+
+
+def test_a_hold_at_a_loiter_unlim_waiting_for_the_operator_is_not_counted() -> None:
+    trace: list[str] = []
+    ap = GotoAutopilot()
+    ap.norths_m = [0.02 * i for i in range(27)] + [0.52] * 80
+    ap.tick()
+    loop = program_loop(ap, trace, [{"command": "NAV_LOITER_UNLIM", "x": 0.5, "y": 0}], 0.7)
+    result = asyncio.run(fly(ap, loop, 90))
+    assert loop.sequencer is not None and loop.sequencer.holding_forever
+    assert result.fault is not None and result.fault.cause is FaultCause.SIGNAL, result.fault
+
+
+def test_a_nav_delay_is_the_plans_own_wait_and_counts() -> None:
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.tick()
+    items = [{"command": "NAV_DELAY", "delay_s": 1.0}, {"x": 20, "y": 0}]
+    loop = program_loop(ap, trace, items, 0.3)
+    result = asyncio.run(fly(ap, loop, 40))
+    assert result.fault is not None and result.fault.cause is FaultCause.MISSION_TIME
+    assert "paused" not in result.fault.detail

@@ -49,7 +49,12 @@ def test_healthy_snapshot_passes() -> None:
         ({"mode": "HOLD"}, FaultCause.PILOT_TAKEOVER, "mode changed to HOLD"),
         ({"armed": False}, FaultCause.DISARMED, "disarmed"),
         ({"north_m": 80.0, "east_m": 80.0}, FaultCause.GEOFENCE, "113.1 m from the start"),
-        ({"mission_elapsed_s": 1801.0}, FaultCause.MISSION_TIME, "limit 1800 s"),
+        ({"mission_elapsed_s": 1801.0}, FaultCause.MISSION_TIME, "driving 1801 s (limit 1800 s)"),
+        (
+            {"mission_elapsed_s": 1801.0, "mission_paused_s": 600.0},
+            FaultCause.MISSION_TIME,
+            "driving 1801 s (limit 1800 s; 600 s paused not counted)",
+        ),
     ],
 )
 def test_each_watchdog_fires(change: dict[str, object], cause: FaultCause, needle: str) -> None:
@@ -57,6 +62,11 @@ def test_each_watchdog_fires(change: dict[str, object], cause: FaultCause, needl
     assert fault is not None
     assert fault.cause is cause
     assert needle in fault.detail
+
+
+def test_time_paused_is_not_held_against_the_limit() -> None:
+    held = dataclasses.replace(HEALTHY, mission_elapsed_s=1700.0, mission_paused_s=5000.0)
+    assert SafetyMonitor(SafetyConfig()).check(held) is None
 
 
 def test_boundaries_are_inclusive_of_healthy() -> None:
