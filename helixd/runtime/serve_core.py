@@ -9,7 +9,9 @@ judged the same way:
   continue), high → low mid-flight asks to pause. A switch found high when the service comes
   up is *not* a start: it must be seen low first, so a reboot never drives off on its own;
 * ``MAV_CMD_MISSION_START`` (param1 first item: 0 continues where the last flight stopped, 1
-  starts from item 1; param2 last item: 0 or the mission's last item) addressed to helixd;
+  starts from item 1, k > 1 starts from item k with the jump counters at zero, as
+  ``AP_Mission::start`` and a *set current item* k do; param2 last item: 0, -1 or the
+  mission's last item: helixd flies to the end) addressed to helixd;
 * ``MAV_CMD_DO_PAUSE_CONTINUE`` (param1 0 pause, 1 continue) addressed to helixd; 1 also
   ends a NAV_LOITER_UNLIM hold of the flight in progress.
 * the autopilot's own mode (:class:`AutoWatch`, :func:`answer_auto`): the crew's ground
@@ -84,6 +86,7 @@ class Request(StrEnum):
     """What an operator's command or switch asks the service to do."""
 
     START = "start"  # from item 1
+    FROM_ITEM = "from_item"  # from the item :attr:`Answer.item` (MISSION_START param1 > 1)
     CONTINUE = "continue"  # from the first waypoint not reached (or item 1 if none)
     RELEASE = "release"  # flying, held at a NAV_LOITER_UNLIM: go on with the mission
     PAUSE = "pause"
@@ -110,6 +113,7 @@ class Answer:
     result: int  # MAV_RESULT
     text: str  # what the GCS is told (empty: nothing to say)
     request: Request | None = None  # what to do (ACCEPTED only)
+    item: int = 0  # FROM_ITEM: the mission item to start from
 
 
 def _finite_int(value: float) -> int | None:
@@ -161,21 +165,30 @@ def answer_command(
             return _start(view, Request.CONTINUE)
         return Answer(MAV_RESULT_DENIED, "DO_PAUSE_CONTINUE param1 must be 0 (pause) or 1")
     p2 = _finite_int(params[1]) if len(params) > 1 else None
-    if p1 not in (0, 1):
+    if p1 is None or p1 < 0:
         return Answer(
             MAV_RESULT_DENIED,
-            "MISSION_START param1 (first item) must be 0 (continue) or 1 (from the start)",
+            "MISSION_START param1 (first item) must be 0 (continue), 1 (from the start) or "
+            "an item of the mission",
         )
-    if p2 is None or (p2 != 0 and p2 != view.last_item):
+    if p1 > 1 and view.last_item >= 1 and p1 > view.last_item:
         return Answer(
             MAV_RESULT_DENIED,
-            f"MISSION_START param2 (last item) must be 0 or {view.last_item}: helixd flies "
-            "the whole mission",
+            f"MISSION_START param1 (first item) {p1} is not in the mission: 0 (continue) or "
+            f"an item 1..{view.last_item}",
         )
+    if p2 is None or p2 not in (0, -1, view.last_item):
+        return Answer(
+            MAV_RESULT_DENIED,
+            f"MISSION_START param2 (last item) must be 0, -1 or {view.last_item}: helixd "
+            "flies to the end of the mission",
+        )
+    if p1 > 1:
+        return _start(view, Request.FROM_ITEM, p1)
     return _start(view, Request.START if p1 == 1 else Request.CONTINUE)
 
 
-def _start(view: ServeView, request: Request) -> Answer:
+def _start(view: ServeView, request: Request, item: int = 0) -> Answer:
     if view.state is ServeState.FLYING:
         return Answer(MAV_RESULT_TEMPORARILY_REJECTED, "busy: flying")
     why = _startable(view)
@@ -183,6 +196,8 @@ def _start(view: ServeView, request: Request) -> Answer:
         return Answer(MAV_RESULT_DENIED, f"cannot start: {why}")
     if request is Request.CONTINUE and not view.resumable:
         request = Request.START  # nothing interrupted: from the start
+    if request is Request.FROM_ITEM:
+        return Answer(MAV_RESULT_ACCEPTED, f"starting from item {item}", request, item)
     text = "continuing" if request is Request.CONTINUE else "starting from item 1"
     return Answer(MAV_RESULT_ACCEPTED, text, request)
 
