@@ -214,7 +214,8 @@ def resume_point(
     if mission.has_commands():
         raise ResumeRefused(
             "the mission has commands (holds, jumps, returns, payload commands): where it "
-            "stopped in them cannot be resumed yet; fly it again from the start"
+            "stopped in them cannot be resumed by `run --resume`; fly it again from the start "
+            "(`helixd serve` continues it from its step)"
         )
     if mission.frame is MissionFrameKind.START or inputs.frame is MissionFrameKind.START:
         raise ResumeRefused(

@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 
 from helixd.base.run_files import INPUTS_FILE
 from helixd.config import HelixdConfig, config_to_yaml
-from helixd.mission.formats import mission_to_yaml
 from helixd.mission.expand import ExpandOptions
+from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission
 from helixd.mission.resolve import resolve_plan
 from helixd.mission.resume import (
