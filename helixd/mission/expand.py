@@ -41,6 +41,17 @@ autopilot's current item) is ArduPilot's ``AP_Mission::set_current_cmd(k)`` foll
 * with ``MIS_RESTART`` 1, ``start_or_resume`` calls ``start`` instead: the mission restarts
   from item 1 and the current item reports it, so k is the first item.
 
+A continue of a flight helixd stopped itself (``helixd serve``: the start switch, or
+DO_PAUSE_CONTINUE / MISSION_START to helixd; :func:`helixd.runtime.prepare.continue_commands`)
+flies again the navigation step it stopped at, with what started with it:
+:func:`restart_at_step` starts the walk at that step's first do item (or its navigation item)
+with the jump counters held there (a jump between that do item and the navigation item is not
+counted yet, so the new walk takes it again), and :func:`carried_at_step` gives the cruise
+speed and direction the steps before it had set (:attr:`ExpandOptions.speed_mps`,
+:attr:`ExpandOptions.reverse`), set again as its first step starts — where ArduPilot's own
+AUTO re-entry would go back to WP_SPEED. A wait interrupted mid-way (a hold, NAV_LOITER_TIME,
+NAV_DELAY, CONDITION_DELAY) is waited whole again.
+
 Then ``Rover/mode_auto.cpp`` decides what each navigation item does: NAV_WAYPOINT drives to its
 place (lat/lon 0, 0: where the rover is when it starts, ``Location::sanitize``) and holds
 ``param1`` whole seconds (a hold makes it a stop); NAV_LOITER_TIME drives there, stops and

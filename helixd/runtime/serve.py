@@ -596,8 +596,9 @@ class Service:
             flight, cfg, run_root = self._flight_for(request, item)
         except InputsRefused as exc:
             text = "; ".join(exc.problems)
-            log.error("serve_continue_refused", problem=text)
-            self.gcs.say(f"cannot continue: {text}", MAV_SEVERITY_ERROR)
+            log.error("serve_continue_refused", request=request.value, problem=text)
+            said = "cannot continue" if request is Request.CONTINUE else "start refused"
+            self.gcs.say(f"{said}: {text}", MAV_SEVERITY_ERROR)
             return
         if self.switch is not None and self.switch.low:
             self.gcs.say("start refused: the start switch is low", MAV_SEVERITY_WARNING)

@@ -13,7 +13,9 @@ judged the same way:
   ``AP_Mission::start`` and a *set current item* k do; param2 last item: 0, -1 or the
   mission's last item: helixd flies to the end) addressed to helixd;
 * ``MAV_CMD_DO_PAUSE_CONTINUE`` (param1 0 pause, 1 continue) addressed to helixd; 1 also
-  ends a NAV_LOITER_UNLIM hold of the flight in progress.
+  ends a NAV_LOITER_UNLIM hold of the flight in progress. A continue goes on from the first
+  waypoint not reached, or a mission with commands from the step it stopped at
+  (:func:`helixd.runtime.prepare.continue_commands`).
 * the autopilot's own mode (:class:`AutoWatch`, :func:`answer_auto`): the crew's ground
   station (QGroundControl's Start Mission: GUIDED, arm, MAV_CMD_MISSION_START to the
   autopilot, which switches to AUTO) leaves the autopilot armed in AUTO: a flight of the

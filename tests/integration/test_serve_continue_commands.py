@@ -25,7 +25,7 @@ from helixd.mav.constants import (
 )
 from tests.integration.test_serve_auto_from_item import ITEMS, SPEED_MPS
 from tests.support.daemon import DaemonProc
-from tests.support.gcs import command, upload_items
+from tests.support.gcs import command, upload, upload_items
 from tests.support.harness import MavClient, secured
 from tests.support.serve import moving, serve_proc, sim_with_ground_station
 
@@ -144,3 +144,32 @@ def test_mission_start_to_helixd_from_item_three(tmp_path: Path) -> None:
     assert summary["completed"] is True
     assert [a["number"] for a in summary["arrivals"]] == [3, 4, 3, 4]
     assert json.loads((run / "inputs.json").read_text())["walk"]["first_item"] == 3
+
+
+def test_mission_start_to_helixd_from_item_three_of_a_plain_waypoint_mission(
+    tmp_path: Path,
+) -> None:
+    """A mission of waypoints only from item 3: waypoints 1 and 2 are left out, the first leg
+    re-enters the leg from waypoint 2 to 3; the reached waypoints keep the mission's numbers."""
+    with sim_with_ground_station() as (server, urls, gcs):
+        d = serve_proc(tmp_path, urls[0], NO_SWITCH)
+        d.start_pump()
+        try:
+            d.wait_line("no mission on the autopilot", 60.0)
+            upload(gcs, [(6.0, 0.0), (6.0, -6.0), (0.0, -6.0), (0.0, -10.0)])
+            d.wait_line("event=serve_state state=ready", 30.0)
+            mark = d.mark()
+            assert command(gcs, MAV_CMD_MISSION_START, 3, 4) == MAV_RESULT_ACCEPTED
+            d.wait_line("event=serve_flight_start request=from_item", 10.0, after=mark)
+            server.wait_for(moving, 30.0)
+            d.wait_line("event=serve_state state=completed", 120.0, after=mark)
+            d.signal(signal.SIGTERM)
+            assert d.wait_exit(30.0) == 0
+        finally:
+            d.kill()
+            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    (run,) = run_dirs(tmp_path)
+    summary = json.loads((run / "summary.json").read_text())
+    assert summary["completed"] is True
+    assert [a["number"] for a in summary["arrivals"]] == [3, 4]
+    assert 'detail="4/4 waypoints"' in d.log_text()
