@@ -301,8 +301,9 @@ def continue_commands(flight: Flight, run_dir: Path, cfg: HelixdConfig) -> Fligh
       DO_SET_REVERSE of an earlier step) carry on, set again as the continue starts
       (:attr:`ExpandOptions.speed_mps`, :attr:`ExpandOptions.reverse`); ArduPilot's own AUTO
       re-entry would drop back to WP_SPEED, helixd does not;
-    * a leg is flown from wherever the rover stands to the step's waypoint; a hold, a
-      NAV_LOITER_TIME or a NAV_DELAY interrupted mid-wait waits its whole time again, a
+    * its first leg runs straight from where the rover stands to the step's waypoint (not
+      back onto the interrupted leg's line, as a continue of plain waypoints does); a hold,
+      a NAV_LOITER_TIME or a NAV_DELAY interrupted mid-wait waits its whole time again, a
       CONDITION_DELAY its whole delay; a NAV_LOITER_TURNS flies all its turns again.
 
     A flight paused before its first step started flies its own walk again. The walk is
