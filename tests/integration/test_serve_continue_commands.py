@@ -48,14 +48,18 @@ def run_dirs(tmp_path: Path) -> list[Path]:
     return sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
 
 
+@pytest.mark.parametrize("restart", [False, True], ids=["same-service", "service-restarted"])
 def test_a_commands_mission_paused_on_its_second_lap_continues_the_rest_of_the_walk(
-    tmp_path: Path,
+    tmp_path: Path, restart: bool
 ) -> None:
-    """Paused on the second lap (item 3 after the DO_JUMP, step 4 of 5), the service is
-    restarted, then continued: the flight goes on with that lap (item 2's DO_CHANGE_SPEED
-    again, items 3 and 4), not with the jump from zero (two laps more) nor from item 1."""
+    """Paused on the second lap (item 3 after the DO_JUMP, step 4 of 5), then continued (by
+    the same service, or by one restarted in between, which reads the interrupted flight
+    back from serve-state.json and its run directory): the flight goes on with that lap
+    (item 2's DO_CHANGE_SPEED again, items 3 and 4), not with the jump from zero (two laps
+    more) nor from item 1."""
     with sim_with_ground_station() as (server, urls, gcs):
         d = serve_proc(tmp_path, urls[0], NO_SWITCH)
+        procs = [d]
         d.start_pump()
         try:
             ready(d, gcs)
@@ -66,26 +70,27 @@ def test_a_commands_mission_paused_on_its_second_lap_continues_the_rest_of_the_w
             assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 0) == MAV_RESULT_ACCEPTED
             d.wait_line("event=serve_state state=paused", 30.0, after=mark)
             server.wait_for(secured, 10.0)
+            if restart:
+                d.signal(signal.SIGTERM)
+                assert d.wait_exit(30.0) == 0
+                d = serve_proc(tmp_path, urls[0], NO_SWITCH)
+                procs.append(d)
+                d.start_pump()
+                d.wait_line("interrupted: a start continues it", 60.0)
+            assert not server.snapshot().armed
+            mark = d.mark()
+            assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 1) == MAV_RESULT_ACCEPTED
+            walk = d.wait_line("event=serve_continue_walk", 30.0, after=mark)
+            d.wait_line("event=run_resumed", 30.0, after=mark)
+            d.wait_line("event=serve_state state=completed", 180.0, after=mark)
             d.signal(signal.SIGTERM)
             assert d.wait_exit(30.0) == 0
         finally:
-            d.kill()
-            (tmp_path / "serve-1.log").write_text(d.log_text(), encoding="utf-8")
-        again = serve_proc(tmp_path, urls[0], NO_SWITCH)
-        again.start_pump()
-        try:
-            again.wait_line("interrupted: a start continues it", 60.0)
-            assert not server.snapshot().armed
-            assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 1) == MAV_RESULT_ACCEPTED
-            walk = again.wait_line("event=serve_continue_walk", 30.0)
-            again.wait_line("event=run_resumed", 30.0)
-            again.wait_line("event=serve_state state=completed", 180.0)
-            again.signal(signal.SIGTERM)
-            assert again.wait_exit(30.0) == 0
-        finally:
-            again.kill()
-            (tmp_path / "serve-2.log").write_text(again.log_text(), encoding="utf-8")
-    first_log, second_log = d.log_text(), again.log_text()
+            for n, proc in enumerate(procs, 1):
+                proc.kill()
+                (tmp_path / f"serve-{n}.log").write_text(proc.log_text(), encoding="utf-8")
+    first_log = "\n".join(procs[0].lines if restart else d.lines[:mark])
+    second_log = "\n".join(d.lines[mark:])
     assert "cannot continue" not in second_log
     # the walk restarts at item 2 (the DO_CHANGE_SPEED started with item 3), the jump taken
     # once, at the speed in effect before that step (item 2's, from lap 1)
