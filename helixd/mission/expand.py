@@ -41,6 +41,17 @@ autopilot's current item) is ArduPilot's ``AP_Mission::set_current_cmd(k)`` foll
 * with ``MIS_RESTART`` 1, ``start_or_resume`` calls ``start`` instead: the mission restarts
   from item 1 and the current item reports it, so k is the first item.
 
+A continue of a flight helixd stopped itself (``helixd serve``: the start switch, or
+DO_PAUSE_CONTINUE / MISSION_START to helixd; :func:`helixd.runtime.prepare.continue_commands`)
+flies again the navigation step it stopped at, with what started with it:
+:func:`restart_at_step` starts the walk at that step's first do item (or its navigation item)
+with the jump counters held there (a jump between that do item and the navigation item is not
+counted yet, so the new walk takes it again), and :func:`carried_at_step` gives the cruise
+speed and direction the steps before it had set (:attr:`ExpandOptions.speed_mps`,
+:attr:`ExpandOptions.reverse`), set again as its first step starts — where ArduPilot's own
+AUTO re-entry would go back to WP_SPEED. A wait interrupted mid-way (a hold, NAV_LOITER_TIME,
+NAV_DELAY, CONDITION_DELAY) is waited whole again.
+
 Then ``Rover/mode_auto.cpp`` decides what each navigation item does: NAV_WAYPOINT drives to its
 place (lat/lon 0, 0: where the rover is when it starts, ``Location::sanitize``) and holds
 ``param1`` whole seconds (a hold makes it a stop); NAV_LOITER_TIME drives there, stops and
@@ -70,9 +81,11 @@ from helixd.base.plan import (
     Program,
 )
 from helixd.mav.constants import (
+    MAV_CMD_DO_CHANGE_SPEED,
     MAV_CMD_DO_JUMP,
     MAV_CMD_DO_JUMP_TAG,
     MAV_CMD_DO_SET_HOME,
+    MAV_CMD_DO_SET_REVERSE,
     MAV_CMD_JUMP_TAG,
 )
 from helixd.mission.commands import (
@@ -115,6 +128,11 @@ class ExpandOptions:
     # (AP_Mission's _jump_tracking, kept by resume and set_current_cmd): see
     # :func:`jumps_when_current`
     jumps_taken: tuple[tuple[int, int], ...] = ()
+    # the cruise speed (m/s) and direction the walk starts with (None, False: the configured
+    # cruise speed, forwards): a continue carries on what was in effect where the flight was
+    # paused (:func:`carried_at_step`); the first step starts by setting them again
+    speed_mps: float | None = None
+    reverse: bool = False
 
 
 DEFAULT_OPTIONS = ExpandOptions()
@@ -178,6 +196,9 @@ class _Walker:
         self.cmds = cmds
         self.total = len(cmds) + 1
         self.runs: dict[int, int] = {}
+        # the jump counters when the last advance_nav met its first do item (before the jumps
+        # between that item and the navigation item were counted)
+        self.runs_at_first_do: dict[int, int] = {}
         self.forever_taken: dict[int, int] = {}  # forever jumps: index → times taken
         self.bad_jumps: set[tuple[int, int]] = set()  # (jump item, target)
 
@@ -245,6 +266,7 @@ class _Walker:
                 passed.append(c)
             elif first_do is None:
                 first_do = c
+                self.runs_at_first_do = dict(self.runs)
             index = c.index + 1
         return None, first_do, passed
 
@@ -351,7 +373,26 @@ class _Builder:
         self.noted: set[tuple[int, str]] = set()
         self.here: XY | None = ctx.start_xy_m  # None: not known yet (check, ENU mission)
         self.home: XY = ctx.home_xy_m
-        self.speed = ctx.speed_mps
+        self.speed = ctx.speed_mps if options.speed_mps is None else options.speed_mps
+        self.carried = self.carried_actions()  # started with the first step
+
+    def carried_actions(self) -> list[MissionAction]:
+        """The speed and direction a walk starts with (:attr:`ExpandOptions.speed_mps`,
+        :attr:`ExpandOptions.reverse`), set again as its first step starts."""
+        out: list[MissionAction] = []
+        item = max(self.options.first_item, 1)
+        speed = self.options.speed_mps
+        if speed is not None:
+            text = f"cruise {speed:.2f} m/s, carried on from where the flight stopped"
+            out.append(
+                MissionAction(item, MAV_CMD_DO_CHANGE_SPEED, ActionKind.SPEED, speed, text=text)
+            )
+        if self.options.reverse and self.ctx.mode is not MotionMode.OMNI:
+            text = "reverse, carried on from where the flight stopped"
+            out.append(
+                MissionAction(item, MAV_CMD_DO_SET_REVERSE, ActionKind.REVERSE, 1.0, text=text)
+            )
+        return out
 
     def problem(self, c: _Cmd, text: str) -> None:
         line = f"{_label(c)}: {text}"
@@ -522,7 +563,8 @@ class _Builder:
         via: str,
         endless_chain: bool,
     ) -> NavStep:
-        actions = self.actions(chain)
+        actions = [*self.carried, *self.actions(chain)]
+        self.carried = []
         if endless_chain:
             first = chain[0]
             self.problem(
@@ -801,6 +843,54 @@ def walk_at_step(
     return nav.index, tuple(sorted((i, r) for i, r in walker.runs.items() if r > 0))
 
 
+def restart_at_step(
+    entries: Sequence[WaypointSpec], options: ExpandOptions, step: int
+) -> tuple[int, tuple[tuple[int, int], ...]] | None:
+    """Where a walk starting again at step ``step`` (1-based) of the walk ``options`` starts
+    (its ``first_item`` and ``jumps_taken``), so that it flies that step again as it was
+    flown, do items included: the first do item started with that step (AP_Mission's
+    ``set_current_cmd`` on a do item starts it and the navigation item after it) or, without
+    one, its navigation item; and the jump counters held there (the jumps taken between
+    that do item and the navigation item are not counted yet: the new walk takes them again).
+    None when the walk ends before that step."""
+    if step < 1:
+        return None
+    cmds = [_Cmd(i + 1, wp, None, None) for i, wp in enumerate(entries)]
+    walker = _Walker(cmds)
+    walker.runs = dict(options.jumps_taken)
+    first = min(max(options.first_item, 1), len(cmds))
+    after: int | None = None if first <= 1 else first - 1
+    n = 1
+    while True:
+        walker.runs_at_first_do = {}
+        nav, first_do, _ = walker.advance_nav(after, _starts)
+        if nav is None:
+            return None
+        if n == step:
+            runs = walker.runs if first_do is None else walker.runs_at_first_do
+            item = nav.index if first_do is None else first_do.index
+            return item, tuple(sorted((i, r) for i, r in runs.items() if r > 0))
+        after = nav.index
+        n += 1
+
+
+def carried_at_step(
+    program: Program, step: int, options: ExpandOptions
+) -> tuple[float | None, bool]:
+    """The cruise speed (m/s) and direction (reverse) in effect as step ``step`` (1-based) of
+    ``program`` (walked with ``options``) starts, before its own do items: what the steps
+    before it set, else what the walk started with. Speed None: none set (the configured
+    cruise speed). A step past the program's end counts every step."""
+    speed, reverse = options.speed_mps, options.reverse
+    for s in program.steps[: max(step - 1, 0)]:
+        for a in s.actions:
+            if a.kind is ActionKind.SPEED:
+                speed = s.speed_mps
+            elif a.kind is ActionKind.REVERSE:
+                reverse = a.value == 1.0
+    return speed, reverse
+
+
 def _via(walker: _Walker, before: dict[int, int], cmds: Sequence[_Cmd]) -> str:
     """Which jump the walk took to reach this step, e.g. "(DO_JUMP item 5, 1 of 2)"."""
     for index, runs in walker.runs.items():
@@ -817,8 +907,10 @@ __all__ = [
     "Context",
     "ExpandOptions",
     "Expansion",
+    "carried_at_step",
     "expand",
     "jumps_when_current",
     "loiter_turns",
+    "restart_at_step",
     "walk_at_step",
 ]

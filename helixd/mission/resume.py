@@ -29,12 +29,15 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from helixd.base.plan import MissionFrameKind, Numbering, Plan
 from helixd.base.run_files import INPUTS_FILE
 from helixd.config import ControlConfig, MissionLimits
+from helixd.mission.expand import ExpandOptions
 from helixd.mission.model import Mission, WaypointSpec
 from helixd.mission.resolve import resolve_plan
 
 INPUTS_FORMAT = 1
 WAYPOINT_REACHED_EVENT = "waypoint_reached"
 RUN_RESUMED_EVENT = "run_resumed"
+MISSION_STEP_EVENT = "mission_step"  # a flight of a mission with commands: kind, step, item
+STEP_STARTED = "step_started"
 
 
 class ResumeRefused(ValueError):
@@ -58,6 +61,21 @@ class ResumedFrom(_Strict):
     first_waypoint: int = Field(
         ge=0, description="whole-mission index (0-based) of the first waypoint flown now"
     )
+
+
+class WalkStart(_Strict):
+    """Where a flight of a mission with commands started its walk through the mission, when
+    not simply at item 1 (``helixd serve``: AUTO from the autopilot's item, MISSION_START
+    from an item, a continue): what a later continue of it walks from."""
+
+    first_item: int = Field(ge=1, description="the mission item the walk started at")
+    jumps_taken: tuple[tuple[int, int], ...] = Field(
+        (), description="the jump counters it started with: (DO_JUMP item, times taken)"
+    )
+    speed_mps: float | None = Field(
+        None, gt=0, description="the cruise speed it started with (None: the configured one)"
+    )
+    reverse: bool = Field(False, description="it started driving backwards")
 
 
 class RunInputs(_Strict):
@@ -88,6 +106,9 @@ class RunInputs(_Strict):
         "via points were told apart: every waypoint counts)",
     )
     resumed_from: ResumedFrom | None = None
+    walk: WalkStart | None = Field(
+        None, description="a mission with commands walked from a later item (None: item 1)"
+    )
 
     def numbering(self, vias: Sequence[bool]) -> Numbering:
         """The operator's numbering of this run's plan (``vias``: its via flags)."""
@@ -193,7 +214,8 @@ def resume_point(
     if mission.has_commands():
         raise ResumeRefused(
             "the mission has commands (holds, jumps, returns, payload commands): where it "
-            "stopped in them cannot be resumed yet; fly it again from the start"
+            "stopped in them cannot be resumed by `run --resume`; fly it again from the start "
+            "(`helixd serve` continues it from its step)"
         )
     if mission.frame is MissionFrameKind.START or inputs.frame is MissionFrameKind.START:
         raise ResumeRefused(
@@ -259,18 +281,87 @@ def with_leg_start(
     return replace(plan, leg_start_xy_m=(wp.x_m, wp.y_m))
 
 
+def last_step_started(events: list[dict[str, Any]]) -> int:
+    """The last navigation step (1-based) a flight of a mission with commands started, from
+    its ``mission_step`` ``step_started`` events (0: none; garbled fields are ignored)."""
+    step = 0
+    for ev in events:
+        if not isinstance(ev, dict) or ev.get("event") != MISSION_STEP_EVENT:
+            continue
+        got = ev.get("step")
+        if ev.get("kind") == STEP_STARTED and isinstance(got, int) and not isinstance(got, bool):
+            step = got
+    return step
+
+
+def with_walk(inputs: RunInputs, options: ExpandOptions) -> RunInputs:
+    """``inputs`` with the walk ``options`` start (none when it starts at item 1 with nothing
+    carried), so a continue of the flight can walk on from where it stopped."""
+    walk = None
+    if (
+        options.first_item > 1
+        or options.jumps_taken
+        or options.speed_mps is not None
+        or options.reverse
+    ):
+        walk = WalkStart(
+            first_item=max(options.first_item, 1),
+            jumps_taken=options.jumps_taken,
+            speed_mps=options.speed_mps,
+            reverse=options.reverse,
+        )
+    return inputs.model_copy(update={"walk": walk})
+
+
+def walked_options(base: ExpandOptions, walk: WalkStart | None) -> ExpandOptions:
+    """``base`` (the operator's choices) with the walk a run recorded."""
+    if walk is None:
+        return replace(base, first_item=1, jumps_taken=(), speed_mps=None, reverse=False)
+    return replace(
+        base,
+        first_item=walk.first_item,
+        jumps_taken=tuple(walk.jumps_taken),
+        speed_mps=walk.speed_mps,
+        reverse=walk.reverse,
+    )
+
+
+def continued_inputs(run_path: str, inputs: RunInputs, first_item: int) -> RunInputs:
+    """The inputs record of a continue of the run ``run_path`` (its record ``inputs``) of a
+    mission with commands: the same whole mission, walked from ``first_item`` (its walk is
+    recorded when the flight starts)."""
+    return inputs.model_copy(
+        update={
+            "walk": None,
+            "resumed_from": ResumedFrom(
+                path=run_path,
+                mission_sha256=inputs.mission_sha256,
+                config_sha256=inputs.config_sha256,
+                first_waypoint=max(first_item - 1, 0),
+            ),
+        }
+    )
+
+
 __all__ = [
+    "MISSION_STEP_EVENT",
     "RUN_RESUMED_EVENT",
+    "STEP_STARTED",
     "ResumePoint",
     "ResumeRefused",
     "ResumedFrom",
     "RunInputs",
+    "WalkStart",
     "check_inputs",
+    "continued_inputs",
     "first_not_reached",
     "fresh_inputs",
+    "last_step_started",
     "parse_inputs",
     "resume_point",
     "resumed_inputs",
     "sha256_text",
+    "walked_options",
     "with_leg_start",
+    "with_walk",
 ]

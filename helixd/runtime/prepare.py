@@ -31,7 +31,9 @@ from helixd.files.models import as_items, format_validation_error
 from helixd.mission.expand import (
     DEFAULT_OPTIONS,
     ExpandOptions,
+    carried_at_step,
     jumps_when_current,
+    restart_at_step,
     walk_at_step,
 )
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
@@ -41,11 +43,18 @@ from helixd.mission.resolve import PlanError
 from helixd.mission.resume import (
     WAYPOINT_REACHED_EVENT,
     ResumeRefused,
+    check_inputs,
+    continued_inputs,
+    last_step_started,
+    parse_inputs,
     resume_point,
     resumed_inputs,
+    sha256_text,
+    walked_options,
 )
 from helixd.mission.validate import apply_mission_limits, resolved_for_check
 from helixd.planning.mapfile import OccupancyMap
+from helixd.recorder.resume_dir import read_run_dir
 from helixd.runtime.autopilot_mission import MISSION_NAME, FromAutopilot
 from helixd.runtime.inputs import (
     InputsRefused,
@@ -65,6 +74,7 @@ __all__ = [
     "MissionFile",
     "Prepared",
     "Resume",
+    "continue_commands",
     "from_autopilot_item",
     "prepare_flight",
 ]
@@ -277,3 +287,68 @@ def _commands_from_item(
         said = [f"cannot start at the autopilot's item {seq}: {p}" for p in resolved.problems]
         raise InputsRefused(said)
     return replace(flight, options=options)
+
+
+def continue_commands(flight: Flight, run_dir: Path, cfg: HelixdConfig) -> Flight:
+    """The continue of an interrupted flight of ``flight``'s mission with commands, recorded in
+    ``run_dir`` (``helixd serve``: the start switch, DO_PAUSE_CONTINUE 1 or MISSION_START 0 to
+    helixd after a pause or a fault). ``flight`` is the checked mission, which must be the one
+    that run flew (same mission.yaml) with the same config.
+
+    What a field engineer gets: the flight goes on with the navigation step it stopped at
+    (the last ``step_started`` in its events.jsonl), at its place in ArduPilot's walk through
+    the mission, with the jump counters held there (a DO_JUMP half done is not run from zero;
+    :func:`helixd.mission.expand.restart_at_step` on the interrupted flight's own walk, from
+    its recorded :class:`helixd.mission.resume.WalkStart`). That step is flown again whole:
+
+    * the do items started with it (a DO_CHANGE_SPEED, DO_SET_SERVO, DO_SET_HOME just before
+      its navigation item) start again: the walk starts at the first of them, as
+      AP_Mission's ``set_current_cmd`` on a do item starts it and the navigation item after
+      it; a payload command of that step is therefore sent a second time;
+    * the cruise speed and direction in effect when the step started (a DO_CHANGE_SPEED or
+      DO_SET_REVERSE of an earlier step) carry on, set again as the continue starts
+      (:attr:`ExpandOptions.speed_mps`, :attr:`ExpandOptions.reverse`); ArduPilot's own AUTO
+      re-entry would drop back to WP_SPEED, helixd does not;
+    * its first leg runs straight from where the rover stands to the step's waypoint (not
+      back onto the interrupted leg's line, as a continue of plain waypoints does); a hold,
+      a NAV_LOITER_TIME or a NAV_DELAY interrupted mid-wait waits its whole time again, a
+      CONDITION_DELAY its whole delay; a NAV_LOITER_TURNS flies all its turns again.
+
+    A flight paused before its first step started flies its own walk again. The walk is
+    checked again with ``cfg``. Raises :class:`InputsRefused`."""
+    said = f"continue {run_dir}"
+    try:
+        contents = read_run_dir(run_dir)
+        recorded = parse_inputs(contents.inputs_text)
+        check_inputs(recorded, contents.mission_yaml, flight.inputs.config_sha256)
+    except ResumeRefused as exc:
+        raise InputsRefused([f"{said}: {exc}"]) from None
+    if sha256_text(contents.mission_yaml) != sha256_text(flight.mission_yaml):
+        raise InputsRefused([f"{said}: the interrupted flight flew another mission"])
+    if contents.completed:
+        raise InputsRefused([f"{said}: the run completed already: nothing to continue"])
+    flown = walked_options(flight.options, recorded.walk)
+    step = last_step_started(contents.events)
+    options = flown
+    if step >= 1:
+        at = restart_at_step(flight.mission.waypoints, flown, step)
+        if at is None:
+            raise InputsRefused([f"{said}: its step {step} is past the mission's end"])
+        try:
+            resolved, _ = resolved_for_check(flight.mission, cfg, flown)
+        except PlanError as exc:
+            raise InputsRefused([f"{said}: {exc}"]) from None
+        program = resolved.plan.program
+        speed, reverse = (None, False) if program is None else carried_at_step(program, step, flown)
+        first_item, jumps = at
+        options = replace(
+            flown, first_item=first_item, jumps_taken=jumps, speed_mps=speed, reverse=reverse
+        )
+    try:
+        resolved, _ = resolved_for_check(flight.mission, cfg, options)
+    except PlanError as exc:
+        raise InputsRefused([f"{said}: {exc}"]) from None
+    if resolved.problems:
+        raise InputsRefused([f"{said}: {p}" for p in resolved.problems])
+    inputs = continued_inputs(str(run_dir.resolve()), recorded, options.first_item)
+    return replace(flight, options=options, inputs=inputs)

@@ -46,6 +46,7 @@ from helixd.mav.constants import (
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats.items import GcsMission
+from helixd.mission.resume import with_walk
 from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.events import read_events
 from helixd.recorder.summary import RunSummary
@@ -65,6 +66,7 @@ from helixd.runtime.prepare import (
     AutopilotPlace,
     AutoWalk,
     Resume,
+    continue_commands,
     from_autopilot_item,
     prepare_flight,
 )
@@ -512,9 +514,8 @@ class Service:
             return
         if answer.request is not None and self._ap is not None:
             self.busy = True  # until the flight is under way (or refused)
-            self.flight_task = asyncio.create_task(
-                self._flying(self._fly(self._ap, answer.request, who)), name="serve-flight"
-            )
+            fly = self._fly(self._ap, answer.request, who, answer.item)
+            self.flight_task = asyncio.create_task(self._flying(fly), name="serve-flight")
 
     def _change_speed(self, asked_mps: float | None, who: str) -> None:
         """The crew's change of speed for the flight in progress, told as it was applied."""
@@ -531,17 +532,33 @@ class Service:
 
     # -- flights ------------------------------------------------------------------------------
 
-    def _flight_for(self, request: Request) -> tuple[Flight, HelixdConfig, Path]:
-        """What to fly: the checked mission from item 1, or the interrupted run's remainder."""
+    def _flight_for(self, request: Request, item: int = 0) -> tuple[Flight, HelixdConfig, Path]:
+        """What to fly: the checked mission from item 1 (or ``item``, FROM_ITEM), or the
+        interrupted run's remainder."""
         checked = self.checked
         assert checked is not None
         if request is Request.AUTO:
             held = held_walk(self._auto_walk, checked.fingerprint)
             flight = from_autopilot_item(checked.flight, self._autopilot_item, checked.cfg, held)
             return flight, checked.cfg, self.opts.run_root
+        if request is Request.FROM_ITEM:  # jump counters zero, as AP_Mission::start
+            flight = from_autopilot_item(checked.flight, item, checked.cfg)
+            return flight, checked.cfg, self.opts.run_root
         interrupted = self._interrupted
         if request is Request.CONTINUE and interrupted is not None:
             run_dir = interrupted[1]
+            if checked.flight.mission.has_commands():  # the walk goes on from its step
+                flight = continue_commands(checked.flight, run_dir, checked.cfg)
+                o = flight.options
+                log.info(
+                    "serve_continue_walk",
+                    run_dir=str(run_dir),
+                    first_item=o.first_item,
+                    jumps_taken=o.jumps_taken,
+                    speed_mps=o.speed_mps,
+                    reverse=o.reverse,
+                )
+                return flight, checked.cfg, run_dir.parent
             resumed = prepare_flight(Resume(run_dir), self.opts.config_path)
             for note in resumed.notes:
                 log.info("serve_resume", note=note)
@@ -591,18 +608,19 @@ class Service:
         text = flight_end_text(summary, runner.numbering(), outcome.messages)
         self._set_state(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
 
-    async def _fly(self, ap: Autopilot, request: Request, who: str) -> None:
+    async def _fly(self, ap: Autopilot, request: Request, who: str, item: int = 0) -> None:
         before = self.fingerprint
         await self._read_mission(ap)  # fly what the autopilot holds now
         if self.checked is None or self.fingerprint != before:
             self.gcs.say("start refused: the mission changed; checked it again", MAV_SEVERITY_ERROR)
             return
         try:
-            flight, cfg, run_root = self._flight_for(request)
+            flight, cfg, run_root = self._flight_for(request, item)
         except InputsRefused as exc:
             text = "; ".join(exc.problems)
-            log.error("serve_continue_refused", problem=text)
-            self.gcs.say(f"cannot continue: {text}", MAV_SEVERITY_ERROR)
+            log.error("serve_continue_refused", request=request.value, problem=text)
+            said = "cannot continue" if request is Request.CONTINUE else "start refused"
+            self.gcs.say(f"{said}: {text}", MAV_SEVERITY_ERROR)
             return
         if self.switch is not None and self.switch.low:
             self.gcs.say("start refused: the start switch is low", MAV_SEVERITY_WARNING)
@@ -735,7 +753,7 @@ def _run_options(
         run_root=run_root,
         tty=False,
         replan_from=flight.replan_from,
-        inputs=flight.inputs,
+        inputs=with_walk(flight.inputs, flight.options),  # where a continue walks on from
         options=flight.options,
         item_numbers=flight.item_numbers,
         autopilot_fence=False,

@@ -9,9 +9,13 @@ judged the same way:
   continue), high → low mid-flight asks to pause. A switch found high when the service comes
   up is *not* a start: it must be seen low first, so a reboot never drives off on its own;
 * ``MAV_CMD_MISSION_START`` (param1 first item: 0 continues where the last flight stopped, 1
-  starts from item 1; param2 last item: 0 or the mission's last item) addressed to helixd;
+  starts from item 1, k > 1 starts from item k with the jump counters at zero, as
+  ``AP_Mission::start`` and a *set current item* k do; param2 last item: 0, -1 or the
+  mission's last item: helixd flies to the end) addressed to helixd;
 * ``MAV_CMD_DO_PAUSE_CONTINUE`` (param1 0 pause, 1 continue) addressed to helixd; 1 also
-  ends a NAV_LOITER_UNLIM hold of the flight in progress.
+  ends a NAV_LOITER_UNLIM hold of the flight in progress. A continue goes on from the first
+  waypoint not reached, or a mission with commands from the step it stopped at
+  (:func:`helixd.runtime.prepare.continue_commands`).
 * ``MAV_CMD_DO_CHANGE_SPEED`` (param2 m/s) addressed to helixd (:func:`answer_speed`): the
   cruise speed of the flight in progress from now on. One sent to the autopilot (the
   ground station's fly view) cannot reach helixd: ArduPilot handles it itself, forwards it
@@ -93,6 +97,7 @@ class Request(StrEnum):
     """What an operator's command or switch asks the service to do."""
 
     START = "start"  # from item 1
+    FROM_ITEM = "from_item"  # from the item :attr:`Answer.item` (MISSION_START param1 > 1)
     CONTINUE = "continue"  # from the first waypoint not reached (or item 1 if none)
     RELEASE = "release"  # flying, held at a NAV_LOITER_UNLIM: go on with the mission
     PAUSE = "pause"
@@ -121,6 +126,7 @@ class Answer:
     text: str  # what the GCS is told (empty: nothing to say)
     request: Request | None = None  # what to do (ACCEPTED only)
     speed_mps: float | None = None  # Request.SPEED: the speed asked (m/s)
+    item: int = 0  # FROM_ITEM: the mission item to start from
 
 
 def _finite_int(value: float) -> int | None:
@@ -174,17 +180,26 @@ def answer_command(
             return _start(view, Request.CONTINUE)
         return Answer(MAV_RESULT_DENIED, "DO_PAUSE_CONTINUE param1 must be 0 (pause) or 1")
     p2 = _finite_int(params[1]) if len(params) > 1 else None
-    if p1 not in (0, 1):
+    if p1 is None or p1 < 0:
         return Answer(
             MAV_RESULT_DENIED,
-            "MISSION_START param1 (first item) must be 0 (continue) or 1 (from the start)",
+            "MISSION_START param1 (first item) must be 0 (continue), 1 (from the start) or "
+            "an item of the mission",
         )
-    if p2 is None or (p2 != 0 and p2 != view.last_item):
+    if p1 > 1 and view.last_item >= 1 and p1 > view.last_item:
         return Answer(
             MAV_RESULT_DENIED,
-            f"MISSION_START param2 (last item) must be 0 or {view.last_item}: helixd flies "
-            "the whole mission",
+            f"MISSION_START param1 (first item) {p1} is not in the mission: 0 (continue) or "
+            f"an item 1..{view.last_item}",
         )
+    if p2 is None or p2 not in (0, -1, view.last_item):
+        return Answer(
+            MAV_RESULT_DENIED,
+            f"MISSION_START param2 (last item) must be 0, -1 or {view.last_item}: helixd "
+            "flies to the end of the mission",
+        )
+    if p1 > 1:
+        return _start(view, Request.FROM_ITEM, p1)
     return _start(view, Request.START if p1 == 1 else Request.CONTINUE)
 
 
@@ -215,7 +230,7 @@ def answer_speed(view: ServeView, params: tuple[float, ...]) -> Answer:
     return Answer(MAV_RESULT_ACCEPTED, "", Request.SPEED, speed_mps=asked)
 
 
-def _start(view: ServeView, request: Request) -> Answer:
+def _start(view: ServeView, request: Request, item: int = 0) -> Answer:
     if view.state is ServeState.FLYING:
         return Answer(MAV_RESULT_TEMPORARILY_REJECTED, "busy: flying")
     why = _startable(view)
@@ -223,6 +238,8 @@ def _start(view: ServeView, request: Request) -> Answer:
         return Answer(MAV_RESULT_DENIED, f"cannot start: {why}")
     if request is Request.CONTINUE and not view.resumable:
         request = Request.START  # nothing interrupted: from the start
+    if request is Request.FROM_ITEM:
+        return Answer(MAV_RESULT_ACCEPTED, f"starting from item {item}", request, item=item)
     text = "continuing" if request is Request.CONTINUE else "starting from item 1"
     return Answer(MAV_RESULT_ACCEPTED, text, request)
 

@@ -15,7 +15,9 @@ from helixd.config import HelixdConfig
 from helixd.mission.expand import (
     PATROL_STEPS_MAX,
     ExpandOptions,
+    carried_at_step,
     jumps_when_current,
+    restart_at_step,
     walk_at_step,
 )
 from helixd.mission.model import Mission
@@ -435,3 +437,93 @@ def test_walk_at_step_names_the_item_and_the_counters_held_there() -> None:
         options=ExpandOptions(first_item=2, jumps_taken=walk[3][1]),
     )
     assert items(later) == [2, 3, 2, 3, 5]
+
+
+SLOW = {"command": "DO_CHANGE_SPEED", "speed_mps": 0.3}
+BACK = {"command": "DO_SET_REVERSE", "reverse": 1}
+D = {"x": 9, "y": 9}
+# do items before a jump before the navigation item: the jump is counted after the do item
+SPEED_JUMP = (A, SLOW, {"command": "DO_JUMP", "item": 5, "repeat": 1}, B, C, jump(1, 1))
+
+
+@pytest.mark.parametrize(
+    "entries",
+    [
+        (A, SLOW, B, C, jump(2, 1), D),
+        (A, B, jump(2, 1), C, jump(1, 1)),  # nested: the inner counter reset by the outer
+        SPEED_JUMP,
+        (A, BACK, B, SLOW, C, jump(2, 2), D),
+    ],
+)
+def test_a_walk_restarted_at_any_step_flies_the_rest_of_the_walk(
+    entries: tuple[dict[str, Any], ...],
+) -> None:
+    """Started again at step n (at its first do item, with the counters held there), the walk
+    flies exactly steps n.. of the whole walk, with the same do items started."""
+    m = mission(*entries)
+    whole = flown(*entries).plan.program
+    assert whole is not None
+    for n in range(1, len(whole.steps) + 1):
+        at = restart_at_step(m.waypoints, ExpandOptions(), n)
+        assert at is not None
+        rest = flown(*entries, options=ExpandOptions(first_item=at[0], jumps_taken=at[1]))
+        program = rest.plan.program
+        assert program is not None and rest.problems == ()
+        assert [s.item for s in program.steps] == [s.item for s in whole.steps[n - 1 :]]
+        got = [[(a.item, a.kind) for a in s.actions] for s in program.steps]
+        assert got == [[(a.item, a.kind) for a in s.actions] for s in whole.steps[n - 1 :]]
+    assert restart_at_step(m.waypoints, ExpandOptions(), len(whole.steps) + 1) is None
+    assert restart_at_step(m.waypoints, ExpandOptions(), 0) is None
+
+
+def test_a_restart_starts_at_the_steps_first_do_item_with_the_counters_held_there() -> None:
+    m = mission(A, SLOW, B, C, jump(2, 1), D)  # walk 1 3 4 3 4 6; item 2 starts with item 3
+    assert [restart_at_step(m.waypoints, ExpandOptions(), n) for n in range(1, 7)] == [
+        (1, ()),
+        (2, ()),
+        (4, ()),
+        (2, ((5, 1),)),  # second lap: the jump taken once (walk_at_step says the same)
+        (4, ((5, 1),)),
+        (6, ()),
+    ]
+    assert walk_at_step(m.waypoints, ExpandOptions(), 4) == (3, ((5, 1),))
+    # a jump between the do item and its navigation item is not counted yet: the restarted
+    # walk takes it again (with the counters at the navigation item it would not jump)
+    m = mission(*SPEED_JUMP)  # walk 1 5 1 4 5
+    assert walk_at_step(m.waypoints, ExpandOptions(), 2) == (5, ((3, 1),))
+    assert restart_at_step(m.waypoints, ExpandOptions(), 2) == (2, ())
+    # a walk that itself started later: its steps count from its start, its counters too
+    later = ExpandOptions(first_item=2, jumps_taken=((5, 1),))
+    m = mission(A, SLOW, B, C, jump(2, 1), D)  # walk from item 2: 3 4 6
+    assert restart_at_step(m.waypoints, later, 2) == (4, ((5, 1),))
+    assert restart_at_step(m.waypoints, later, 3) == (6, ())
+
+
+def test_the_speed_and_direction_carried_are_those_before_the_steps_own_items() -> None:
+    r = flown(A, BACK, B, SLOW, C, D)  # steps: 1, 3 (reverse), 5 (0.3 m/s), 6
+    program = r.plan.program
+    assert program is not None
+    opts = ExpandOptions()
+    carried = [carried_at_step(program, n, opts) for n in range(1, 6)]
+    assert carried == [(None, False), (None, False), (None, True), (0.3, True), (0.3, True)]
+    # a walk that started with a speed and direction carries them until changed
+    started = ExpandOptions(speed_mps=0.5, reverse=True)
+    assert carried_at_step(program, 1, started) == (0.5, True)
+    assert carried_at_step(program, 4, started) == (0.3, True)
+
+
+def test_a_walk_starts_by_setting_the_speed_and_direction_it_carries() -> None:
+    r = flown(A, B, SLOW, C, options=ExpandOptions(speed_mps=0.4, reverse=True))
+    program = r.plan.program
+    assert program is not None and r.problems == ()
+    first, second, third = program.steps
+    assert [(a.kind, a.value) for a in first.actions] == [
+        (ActionKind.SPEED, 0.4),
+        (ActionKind.REVERSE, 1.0),
+    ]
+    assert "carried on" in first.actions[0].text
+    assert (first.speed_mps, second.speed_mps, second.actions) == (0.4, 0.4, ())
+    assert third.speed_mps == 0.3  # the mission's own DO_CHANGE_SPEED still counts
+    plain = flown(A, B, SLOW, C).plan.program
+    assert plain is not None and plain.steps[0].actions == ()
+    assert plain.steps[0].speed_mps == 0.6  # the configured cruise speed

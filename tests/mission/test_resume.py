@@ -15,19 +15,25 @@ from hypothesis import strategies as st
 
 from helixd.base.run_files import INPUTS_FILE
 from helixd.config import HelixdConfig, config_to_yaml
+from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission
 from helixd.mission.resolve import resolve_plan
 from helixd.mission.resume import (
     ResumeRefused,
+    WalkStart,
     check_inputs,
+    continued_inputs,
     first_not_reached,
     fresh_inputs,
+    last_step_started,
     parse_inputs,
     resume_point,
     resumed_inputs,
     sha256_text,
+    walked_options,
     with_leg_start,
+    with_walk,
 )
 from helixd.recorder.resume_dir import read_run_dir
 
@@ -103,6 +109,56 @@ def test_inputs_round_trip() -> None:
     assert parse_inputs(inputs.to_json()) == inputs
     assert inputs.mission_sha256 == inputs.root_mission_sha256 == sha256_text(text)
     check_inputs(inputs, text, CONFIG_SHA, sha256_text(text))
+
+
+def test_a_walk_from_a_later_item_is_recorded_and_read_back() -> None:
+    """A flight of a mission with commands that walked from item 4 with a jump taken, at
+    0.4 m/s backwards: inputs.json keeps it (a continue after a service restart reads it)."""
+    _, inputs = _inputs_for(_mission())
+    base = ExpandOptions(operator_continue=True, skip_unsupported=True)
+    flown = ExpandOptions(
+        operator_continue=True, first_item=4, jumps_taken=((6, 1),), speed_mps=0.4, reverse=True
+    )
+    recorded = with_walk(inputs, flown)
+    assert recorded.walk == WalkStart(
+        first_item=4, jumps_taken=((6, 1),), speed_mps=0.4, reverse=True
+    )
+    back = parse_inputs(recorded.to_json())
+    assert back == recorded
+    got = walked_options(base, back.walk)
+    assert got == ExpandOptions(
+        operator_continue=True,
+        skip_unsupported=True,  # the operator's choices stay the base's
+        first_item=4,
+        jumps_taken=((6, 1),),
+        speed_mps=0.4,
+        reverse=True,
+    )
+    # a walk from item 1 with nothing carried records nothing: inputs.json as before
+    plain = with_walk(inputs, base)
+    assert plain.walk is None and "walk" not in plain.to_json()
+    assert walked_options(got, None) == base
+
+
+def test_a_continue_records_the_run_it_continues() -> None:
+    _, inputs = _inputs_for(_mission())
+    recorded = with_walk(inputs, ExpandOptions(first_item=3))
+    new = continued_inputs("/runs/a", recorded, 5)
+    assert new.walk is None  # the new flight records its own walk when it starts
+    assert new.mission_sha256 == inputs.mission_sha256
+    assert new.resumed_from is not None and new.resumed_from.path == "/runs/a"
+    assert new.resumed_from.first_waypoint == 4
+
+
+def test_the_last_step_started_is_read_from_the_events() -> None:
+    def started(step: Any, kind: str = "step_started") -> dict[str, Any]:
+        return {"event": "mission_step", "kind": kind, "step": step, "item": 3}
+
+    assert last_step_started([{"event": "run_started"}]) == 0
+    events = [started(1), started(1, "step_completed"), started(2), started(3, "hold_started")]
+    assert last_step_started(events) == 2
+    garbled = [started(4), started("5"), started(True), started(None), "junk"]
+    assert last_step_started(garbled) == 4  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize(

@@ -4,6 +4,7 @@ EKF origin as a file's home row does)."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -16,7 +17,7 @@ from helixd.mission.formats import mission_to_yaml, read_gcs
 from helixd.mission.formats.wire import gcs_to_wire
 from helixd.mission.model import Mission
 from helixd.mission.resolve import resolve
-from helixd.mission.resume import fresh_inputs
+from helixd.mission.resume import fresh_inputs, with_walk
 from helixd.runtime.autopilot_mission import convert_download
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import Flight
@@ -25,6 +26,7 @@ from helixd.runtime.prepare import (
     AutopilotPlace,
     AutoWalk,
     MissionFile,
+    continue_commands,
     from_autopilot_item,
     prepare_flight,
 )
@@ -191,3 +193,67 @@ def test_the_autopilots_place_is_a_checked_flight_of_one_leg() -> None:
     assert (wp.lat, wp.lon) == (52.0, 13.0) and got.flight.mission.name == "RTL"
     with pytest.raises(InputsRefused):  # checked as a mission: off the Earth is refused
         prepare_flight(AutopilotPlace(95.0, 13.0, "GUIDED", cfg, MotionMode.ROLL), None)
+
+
+def interrupted(
+    tmp_path: Path, flight: Flight, steps: int, walk: ExpandOptions, completed: bool = False
+) -> Path:
+    """A run directory of ``flight`` walked with ``walk``, stopped after starting ``steps``."""
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "mission.yaml").write_text(flight.mission_yaml, encoding="utf-8")
+    (run / "inputs.json").write_text(with_walk(flight.inputs, walk).to_json(), encoding="utf-8")
+    events = [{"event": "run_started"}]
+    for n in range(1, steps + 1):
+        if n > 1:
+            done = n - 1
+            events.append({"event": "mission_step", "kind": "step_completed", "step": done})
+        events.append({"event": "mission_step", "kind": "step_started", "step": n, "item": 0})
+    (run / "events.jsonl").write_text("".join(json.dumps(e) + "\n" for e in events))
+    if completed:
+        (run / "summary.json").write_text(json.dumps({"completed": True}))
+    return run
+
+
+def items_of(flight: Flight) -> list[int]:
+    plan = resolve(flight.mission, CFG.control, CFG.mission, options=flight.options).plan
+    assert plan.program is not None
+    return [s.item for s in plan.program.steps]
+
+
+def test_a_commands_flight_continues_with_the_step_it_stopped_at(tmp_path: Path) -> None:
+    """Stopped on lap 2 (step 4, item 1 after the DO_JUMP; walk 1 3 4 1 3 4): the continue
+    flies 1 3 4, the jump counted once, at item 2's 0.3 m/s set on lap 1."""
+    flight = commands_flight()
+    run = interrupted(tmp_path, flight, 4, ExpandOptions())
+    again = continue_commands(flight, run, CFG)
+    assert again.mission is flight.mission
+    assert again.options == ExpandOptions(first_item=1, jumps_taken=((5, 1),), speed_mps=0.3)
+    assert items_of(again) == [1, 3, 4]
+    assert again.inputs.resumed_from is not None
+    assert again.inputs.resumed_from.path == str(run.resolve())
+
+
+def test_a_flight_that_itself_started_later_continues_its_own_walk(tmp_path: Path) -> None:
+    """A flight from item 3 (its inputs.json keeps it, so a restarted service knows), stopped
+    on its step 4 (item 3 of lap 2): item 2's DO_CHANGE_SPEED, started with that step, starts
+    again with it; no speed carried (item 2 had not run before that step)."""
+    flight = commands_flight()
+    run = interrupted(tmp_path, flight, 4, ExpandOptions(first_item=3))  # walk 3 4 1 3 4
+    again = continue_commands(flight, run, CFG)
+    assert again.options == ExpandOptions(first_item=2, jumps_taken=((5, 1),))
+    assert items_of(again) == [3, 4]
+    # stopped before its first step started: its own walk again
+    (tmp_path / "run").rename(tmp_path / "old")
+    run = interrupted(tmp_path, flight, 0, ExpandOptions(first_item=3))
+    assert continue_commands(flight, run, CFG).options == ExpandOptions(first_item=3)
+
+
+def test_a_continue_of_another_mission_or_a_completed_run_is_refused(tmp_path: Path) -> None:
+    flight = commands_flight()
+    run = interrupted(tmp_path, flight, 2, ExpandOptions(), completed=True)
+    with pytest.raises(InputsRefused, match="completed already"):
+        continue_commands(flight, run, CFG)
+    other = commands_flight({"north": 1, "east": 1})
+    with pytest.raises(InputsRefused, match="another mission"):
+        continue_commands(other, run, CFG)

@@ -84,10 +84,13 @@ def test_mission_start_refused_with_the_reason(
 @pytest.mark.parametrize(
     ("params", "why"),
     [
-        ((2.0, 0.0), "param1"),
+        ((5.0, 0.0), "param1 (first item) 5 is not in the mission: 0 (continue) or an item 1..4"),
+        ((-1.0, 0.0), "param1"),
         ((math.nan, 0.0), "param1"),
         ((0.5, 0.0), "param1"),
         ((0.0, 3.0), "param2"),
+        ((2.0, 3.0), "param2"),
+        ((0.0, -2.0), "param2"),
         ((0.0, math.inf), "param2"),
     ],
 )
@@ -95,7 +98,22 @@ def test_mission_start_params_outside_what_helixd_flies_are_denied(
     params: tuple[float, float], why: str
 ) -> None:
     a = answer_command(view(), MAV_CMD_MISSION_START, params, 255, GCS)
-    assert a.result == MAV_RESULT_DENIED and why in a.text
+    assert a.result == MAV_RESULT_DENIED and why in a.text and a.request is None
+
+
+@pytest.mark.parametrize("last", [0.0, -1.0, 4.0])
+@pytest.mark.parametrize("first", [2, 3, 4])
+def test_mission_start_from_a_later_item_to_the_end(first: int, last: float) -> None:
+    a = answer_command(view(resumable=True), MAV_CMD_MISSION_START, (float(first), last), 255, GCS)
+    assert (a.result, a.request, a.item) == (MAV_RESULT_ACCEPTED, Request.FROM_ITEM, first)
+    assert a.text == f"starting from item {first}"
+
+
+def test_mission_start_from_a_later_item_is_refused_as_any_start() -> None:
+    a = answer_command(view(ServeState.FLYING), MAV_CMD_MISSION_START, (3.0, 0.0), 255, GCS)
+    assert (a.result, a.request) == (MAV_RESULT_TEMPORARILY_REJECTED, None)
+    a = answer_command(view(switch_low=True), MAV_CMD_MISSION_START, (3.0, 0.0), 255, GCS)
+    assert (a.result, a.request) == (MAV_RESULT_DENIED, None)
 
 
 def test_commands_from_other_systems_are_denied_and_others_unsupported() -> None:
