@@ -133,6 +133,8 @@ class GroundStation(MavClient):
     helixd_texts: list[str] = field(default_factory=list)
     mission_requests: list[int] = field(default_factory=list)
     mission_acks: list[int] = field(default_factory=list)
+    # every COMMAND_ACK from a component of the vehicle's system: (compid, command, result)
+    acks_from: list[tuple[int, int, int]] = field(default_factory=list)
     mission_current: list[tuple[float, int]] = field(default_factory=list)  # (wall s, seq)
     _hb_stop: threading.Event = field(default_factory=threading.Event)
 
@@ -184,6 +186,7 @@ class GroundStation(MavClient):
                     self.mission_acks.append(int(msg.type))
                 elif kind == "COMMAND_ACK" and target == GCS_SYSID:
                     self.acks.append((int(msg.command), int(msg.result)))
+                    self.acks_from.append((src[1], int(msg.command), int(msg.result)))
                 elif kind == "MISSION_CURRENT":
                     seq = int(msg.seq)
                     if not self.mission_current or self.mission_current[-1][1] != seq:
