@@ -46,7 +46,7 @@ from helixd.mav.constants import (
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats.items import GcsMission
-from helixd.mission.resume import with_walk
+from helixd.mission.resume import last_step_started, with_walk
 from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.events import read_events
 from helixd.recorder.summary import RunSummary
@@ -716,12 +716,11 @@ def held_walk(walk: tuple[str, ExpandOptions, Path] | None, fingerprint: str) ->
     if walk is None or walk[0] != fingerprint:
         return None
     _, options, run_dir = walk
-    step, autopilot = 0, 0
-    for ev in read_events(run_dir / EVENTS_FILE):
+    events = read_events(run_dir / EVENTS_FILE)
+    step, autopilot = last_step_started(events), 0
+    for ev in events:
         name = ev.get("event")
-        if name == "mission_step" and ev.get("kind") == "step_started":
-            step = _whole(ev.get("step"), step)
-        elif name == "autopilot_step":
+        if name == "autopilot_step":
             autopilot = _whole(ev.get("step"), autopilot)
         elif name == "autopilot_item_set":
             autopilot = _whole(ev.get("autopilot_step"), autopilot)
