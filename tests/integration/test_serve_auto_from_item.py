@@ -13,6 +13,7 @@ import json
 import re
 import signal
 from pathlib import Path
+from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -56,6 +57,15 @@ def start_mission(server: SimServer, gcs: MavClient, d: DaemonProc) -> None:
     server.wait_for(moving, 20.0)
 
 
+def mission_flights(runs: list[Path]) -> list[dict[str, Any]]:
+    """The summaries of the mission's flights. Start Mission's switch from GUIDED to AUTO
+    can publish AUTO's first place before the HEARTBEAT names AUTO: helixd may then start a
+    flight to it labelled GUIDED and hand it over to AUTO at once (a README limit); that
+    flight, which drove nothing of the mission, is left out."""
+    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    return [s for s in summaries if not str(s.get("fault") or "").startswith("handover")]
+
+
 def autopilot_item(gcs: MavClient, seq: int, timeout_s: float = 60.0) -> None:
     gcs.expect("MISSION_CURRENT", timeout_s, lambda m: m.get_srcSystem() == 1 and m.seq == seq)
 
@@ -93,7 +103,7 @@ def test_auto_again_after_manual_flies_a_commands_mission_from_the_current_item(
     assert 'kind=step_started item=3 lap="lap 1 of 2" command=NAV_WAYPOINT step=1' in log
     assert 'state=completed hx_state=7 detail="4/4 waypoints as flown, last item 4/5"' in log
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
-    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    summaries = mission_flights(runs)
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert summaries[0]["fault"].startswith("released: mode MANUAL"), summaries[0]
     arrivals = summaries[1]["arrivals"]
@@ -141,7 +151,7 @@ def test_auto_again_on_a_later_lap_keeps_the_autopilots_jump_counters(tmp_path: 
     started = 'kind=step_started item=3 lap=null command=NAV_WAYPOINT step=1 text="NAV_WAYPOINT'
     assert started in log and "(after DO_JUMP item 5, 1 of 1)" in log
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
-    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    summaries = mission_flights(runs)
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert [a["number"] for a in summaries[1]["arrivals"]] == [3, 4]
 
@@ -178,7 +188,7 @@ def test_set_current_item_in_a_commands_mission_keeps_the_autopilots_jump_counte
     log = d.log_text()
     assert log.count("event=autopilot_item_set") == 1  # the jump back was not taken for one
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
-    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    summaries = mission_flights(runs)
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert summaries[0]["fault"].startswith("item_set: item 1 set"), summaries[0]
     assert [a["number"] for a in summaries[1]["arrivals"]] == [1, 3, 4]
@@ -214,6 +224,6 @@ def test_an_item_set_while_the_pilot_drives_keeps_the_counters_too(tmp_path: Pat
             d.kill()
             (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
-    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    summaries = mission_flights(runs)
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert [a["number"] for a in summaries[1]["arrivals"]] == [1, 3, 4]
