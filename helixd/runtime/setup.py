@@ -30,12 +30,13 @@ from helixd.actuators.factory import make_sink
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan
 from helixd.base.run_files import TLOG_FILE
-from helixd.config import ActuationBackend, HelixdConfig
+from helixd.config import ActuationBackend, HelixdConfig, SafetyConfig
 from helixd.link.command_client import CommandError, CommandRejected
 from helixd.link.connection import Autopilot
 from helixd.link.preflight import check_obedience
+from helixd.link.telemetry import Telemetry
 from helixd.link.tlog import LinkTlog, attach_tlog
-from helixd.link.vehicle import Change, HomePosition, TelemetryBounds
+from helixd.link.vehicle import Change, HomePosition, TelemetryBounds, VehicleState
 from helixd.mav.constants import (
     MAV_CMD_NAV_RETURN_TO_LAUNCH,
     MAV_CMD_REQUEST_MESSAGE,
@@ -293,6 +294,21 @@ async def fresh_pose(ap: Autopilot, cfg: HelixdConfig, stop: StopRequest) -> Ned
     return None if sample is None or ap.state.pose_invalid else sample.ned
 
 
+def gps_now(st: VehicleState, safety: SafetyConfig) -> Fault | None:
+    """The GPS as the watchdog would judge it now (None: good enough to drive on)."""
+    return gps_fault(
+        time.monotonic(), st.gps_rx_s, st.gps_fix_type, st.gps_satellites, safety, st.gps_fix_rx_s
+    )
+
+
+async def gps_verdict(st: VehicleState, telemetry: Telemetry, safety: SafetyConfig) -> Fault | None:
+    """The GPS judged once it has had the chance to report: the pose can be fresh before the
+    first GPS_RAW_INT with the same fix arrives (a slower stream), so a GPS not yet good is
+    waited for up to ``safety.gps_stale_s``, the grace the watchdog gives it in flight."""
+    await telemetry.wait_for(lambda s: gps_now(s, safety) is None, Change.GPS, safety.gps_stale_s)
+    return gps_now(st, safety)
+
+
 async def servo_output_problems(ap: Autopilot, cfg: HelixdConfig, mission: Mission) -> list[str]:
     """The mission's servo commands against the outputs' SERVOn_FUNCTION: ArduPilot
     refuses one on an output with another function ("Channel N is already in use"), and
@@ -370,15 +386,7 @@ async def preflight(
         problems.append(
             "EKF not healthy: " + ("no EKF_STATUS_REPORT" if ekf is None else ekf.describe())
         )
-    st = ap.state
-    gps = gps_fault(
-        time.monotonic(),
-        st.gps_rx_s,
-        st.gps_fix_type,
-        st.gps_satellites,
-        cfg.safety,
-        st.gps_fix_rx_s,
-    )
+    gps = await gps_verdict(ap.state, ap.telemetry, cfg.safety)
     if gps is not None:
         problems.append(
             f"GPS not good enough to drive on: {gps.detail} (safety.gps_min_fix_type, "

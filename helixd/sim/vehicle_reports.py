@@ -141,6 +141,10 @@ def build(
         return messages.relay_status(t, *v.relay_masks)
     if msg_id == st.MSG_MISSION_CURRENT:
         return messages.mission_current(*v.mission_current)
+    if msg_id == st.MSG_GPS_RAW_INT and not v.origin_set:
+        # before the first fix ArduPilot still sends it (AP_GPS::send_mavlink_gps_raw): no fix
+        # yet, no fix time, no satellites
+        return messages.gps_raw_int(0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, fix_type=1, satellites=0)
     if not v.origin_set:
         return None
     if msg_id == st.MSG_LOCAL_POSITION_NED:

@@ -141,6 +141,20 @@ def test_ekf_unhealthy_reports_variances_over_threshold() -> None:
     assert all(int(m.flags) & 16 == 0 for m in reports)  # no absolute horizontal position
 
 
+def test_gps_raw_int_says_no_fix_before_the_first_fix_then_the_fix() -> None:
+    # as ArduPilot (AP_GPS::send_mavlink_gps_raw sends whenever a GPS is configured): before
+    # the fix (the EKF origin, here 1 s boot + 3 s) the report says no fix, no satellites, no
+    # fix time
+    core = make_core(ekf_origin_delay_s=3.0)
+    run(core, 1.2)
+    assert command(core, 0, 511, 24, 200_000) == 0  # GPS_RAW_INT at 5 Hz
+    before = of_type(run(core, 2.6), "GPS_RAW_INT", 0)
+    assert before and all(int(m.fix_type) == 1 for m in before)
+    assert all(int(m.satellites_visible) == 0 and int(m.time_usec) == 0 for m in before)
+    after = of_type(run(core, 1.0), "GPS_RAW_INT", 0)
+    assert after and int(after[-1].fix_type) == 3 and int(after[-1].time_usec) > 0
+
+
 def test_gps_loss_reports_no_fix_then_the_ekf_drops_its_position_after_dead_reckoning() -> None:
     # as ArduPilot SITL with SIM_GPS1_ENABLE 0: GPS_RAW_INT no fix, 0 satellites 0.4 s after
     # the loss; the EKF keeps a healthy horizontal position for 7.3 s on dead reckoning
