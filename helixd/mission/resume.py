@@ -281,6 +281,12 @@ def with_leg_start(
     return replace(plan, leg_start_xy_m=(wp.x_m, wp.y_m))
 
 
+def event_whole(got: object, default: int) -> int:
+    """An event's whole-number field (a step, an item) as recorded, else ``default`` (a
+    garbled or missing field; a bool is no number here)."""
+    return got if isinstance(got, int) and not isinstance(got, bool) else default
+
+
 def last_step_started(events: list[dict[str, Any]]) -> int:
     """The last navigation step (1-based) a flight of a mission with commands started, from
     its ``mission_step`` ``step_started`` events (0: none; garbled fields are ignored)."""
@@ -288,9 +294,8 @@ def last_step_started(events: list[dict[str, Any]]) -> int:
     for ev in events:
         if not isinstance(ev, dict) or ev.get("event") != MISSION_STEP_EVENT:
             continue
-        got = ev.get("step")
-        if ev.get("kind") == STEP_STARTED and isinstance(got, int) and not isinstance(got, bool):
-            step = got
+        if ev.get("kind") == STEP_STARTED:
+            step = event_whole(ev.get("step"), step)
     return step
 
 
@@ -354,6 +359,7 @@ __all__ = [
     "WalkStart",
     "check_inputs",
     "continued_inputs",
+    "event_whole",
     "first_not_reached",
     "fresh_inputs",
     "last_step_started",

@@ -46,7 +46,7 @@ from helixd.mav.constants import (
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats.items import GcsMission
-from helixd.mission.resume import last_step_started, with_walk
+from helixd.mission.resume import event_whole, last_step_started, with_walk
 from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.events import read_events
 from helixd.recorder.summary import RunSummary
@@ -721,9 +721,9 @@ def held_walk(walk: tuple[str, ExpandOptions, Path] | None, fingerprint: str) ->
     for ev in events:
         name = ev.get("event")
         if name == "autopilot_step":
-            autopilot = _whole(ev.get("step"), autopilot)
+            autopilot = event_whole(ev.get("step"), autopilot)
         elif name == "autopilot_item_set":
-            autopilot = _whole(ev.get("autopilot_step"), autopilot)
+            autopilot = event_whole(ev.get("autopilot_step"), autopilot)
     exact = autopilot > 0
     log.info(
         "auto_walk_held",
@@ -733,11 +733,6 @@ def held_walk(walk: tuple[str, ExpandOptions, Path] | None, fingerprint: str) ->
         run_dir=str(run_dir),
     )
     return AutoWalk(options, autopilot if exact else step, exact)
-
-
-def _whole(got: object, default: int) -> int:
-    """An event's whole-number field (a step), else ``default``."""
-    return got if isinstance(got, int) and not isinstance(got, bool) else default
 
 
 def _run_options(
