@@ -17,7 +17,8 @@ from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import load_occupancy
-from helixd.runtime.serve import ServeOptions, serve
+from helixd.runtime.serve import serve
+from helixd.runtime.serve_options import ServeOptions
 from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
 __all__ = ["register"]

@@ -1,0 +1,445 @@
+"""The flights of ``helixd serve``, one at a time, each a
+:class:`helixd.runtime.daemon.MissionRunner` on the service's link: what a start flies (the
+checked mission, from the autopilot's item, or the interrupted run's remainder), the flight
+run as a task, and its end told to the crew and recorded for a continue (the state file)."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from collections.abc import Awaitable, Callable
+from datetime import UTC, datetime
+from functools import partial
+from pathlib import Path
+
+import structlog
+
+from helixd.base.plan import Numbering
+from helixd.base.run_files import EVENTS_FILE
+from helixd.config import HelixdConfig
+from helixd.link.command_client import CommandError
+from helixd.link.connection import Autopilot
+from helixd.link.vehicle import PositionTarget
+from helixd.mav.constants import (
+    MAV_SEVERITY_ERROR,
+    MAV_SEVERITY_INFO,
+    MAV_SEVERITY_NOTICE,
+    MAV_SEVERITY_WARNING,
+)
+from helixd.mission.expand import ExpandOptions
+from helixd.mission.resume import event_whole, last_step_started, with_walk
+from helixd.recorder.events import read_events
+from helixd.recorder.summary import RunSummary
+from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
+from helixd.runtime.flight import MANUAL_MODE
+from helixd.runtime.host import ServeHost
+from helixd.runtime.inputs import InputsRefused
+from helixd.runtime.mode_gate import AUTO_MODE
+from helixd.runtime.planned import Flight
+from helixd.runtime.prepare import (
+    AutopilotPlace,
+    AutoWalk,
+    Resume,
+    continue_commands,
+    from_autopilot_item,
+    prepare_flight,
+)
+from helixd.runtime.serve_check import ReadyMission
+from helixd.runtime.serve_core import (
+    AutoWatch,
+    Request,
+    ServeState,
+    SwitchWatch,
+    state_after_flight,
+)
+from helixd.runtime.serve_mission import MissionWatch
+from helixd.runtime.serve_options import ServeOptions
+from helixd.runtime.serve_status import ServeStatus
+from helixd.runtime.signals import StopRequest
+from helixd.safety.watchdogs import FaultCause
+
+log = structlog.get_logger(__name__)
+
+# a flight that ends so is the crew's doing (MANUAL, another item, a new place or mode): the
+# mission's verdict stands, and AUTO again (or still) starts the next
+HANDED = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
+
+
+class Flights:
+    """The service's flight in progress (at most one), and what the last ones left: the
+    interrupted run a continue goes on from, and the walk of an AUTO flight let go."""
+
+    def __init__(
+        self,
+        opts: ServeOptions,
+        mission: MissionWatch,
+        status: ServeStatus,
+        auto_watch: AutoWatch,
+        switch: SwitchWatch | None,
+        read_mission: Callable[[Autopilot], Awaitable[None]],
+        service_stop: StopRequest,
+    ) -> None:
+        self.opts = opts
+        self.cfg = opts.cfg
+        self.mission = mission
+        self.status = status
+        self.auto_watch = auto_watch
+        self.switch = switch  # the radio's start switch, when there is one: low refuses
+        self._read_mission = read_mission
+        self._service_stop = service_stop
+        self.busy = False  # a start taken, its flight not yet under way
+        self.task: asyncio.Task[None] | None = None
+        self.stop: StopRequest | None = None
+        self.runner: MissionRunner | None = None  # while a flight runs
+        self.count = 0
+        self._current_item: int | None = None  # the item last set as the autopilot's current
+        self._side_tasks: set[asyncio.Task[None]] = set()
+        self.interrupted = read_state_file(opts.state_file)  # (fingerprint, run_dir) or None
+        # the last AUTO flight of a mission with commands let go with the autopilot armed:
+        # (fingerprint, its walk, its run directory); the autopilot keeps its jump counters
+        self.auto_walk: tuple[str, ExpandOptions, Path] | None = None
+
+    @property
+    def flying(self) -> bool:
+        return self.task is not None
+
+    def resumable(self, checked: ReadyMission | None) -> bool:
+        """A start continues the interrupted run: it was of the mission checked now."""
+        return (
+            self.interrupted is not None
+            and checked is not None
+            and self.interrupted[0] == checked.fingerprint
+        )
+
+    def holding(self) -> bool:
+        return self.runner is not None and self.runner.holding_forever()
+
+    # -- the crew's commands to the flight in progress ----------------------------------------
+
+    def start(self, ap: Autopilot, request: Request, who: str, item: int = 0) -> None:
+        self.busy = True  # until the flight is under way (or refused)
+        fly = self._fly(ap, request, who, item)
+        self.task = asyncio.create_task(self._flying(fly), name="serve-flight")
+
+    def start_goto(self, ap: Autopilot, source: AutopilotPlace, place: PositionTarget) -> None:
+        self.busy = True  # until the flight is under way (or refused)
+        fly = self._fly_goto(ap, source, place)
+        self.task = asyncio.create_task(self._flying(fly), name="serve-goto")
+
+    def pause(self, why: str) -> None:
+        if self.stop is not None:
+            self.stop.pause(why)
+
+    def release_hold(self) -> None:
+        if self.runner is not None:
+            self.runner.release_hold()
+
+    def change_speed(self, asked_mps: float | None, who: str) -> None:
+        """The crew's change of speed for the flight in progress, told as it was applied."""
+        runner = self.runner
+        if runner is None or asked_mps is None:
+            return
+        applied = runner.set_cruise(asked_mps)
+        if applied is None:
+            return
+        speed_mps, limit = applied
+        bounded = f" ({asked_mps:g} asked, bounded by {limit})" if limit else ""
+        log.info("crew_speed", by=who, asked_mps=asked_mps, speed_mps=round(speed_mps, 3))
+        self.status.gcs.say(f"speed {speed_mps:.2f} m/s{bounded}", MAV_SEVERITY_INFO)
+
+    async def close(self, why: str) -> None:
+        """The flight in progress stopped through its own fall-back; side tasks ended."""
+        task, stop = self.task, self.stop
+        if task is not None:
+            if stop is not None:
+                stop.trigger(why)
+            await asyncio.gather(task, return_exceptions=True)
+        for side in list(self._side_tasks):
+            side.cancel()
+        await asyncio.gather(*self._side_tasks, return_exceptions=True)
+
+    # -- flights ------------------------------------------------------------------------------
+
+    def _flight_for(self, request: Request, item: int = 0) -> tuple[Flight, HelixdConfig, Path]:
+        """What to fly: the checked mission from item 1 (or ``item``, FROM_ITEM), or the
+        interrupted run's remainder."""
+        checked = self.mission.checked
+        assert checked is not None
+        if request is Request.AUTO:
+            held = held_walk(self.auto_walk, checked.fingerprint)
+            item_now = self.mission.autopilot_item
+            flight = from_autopilot_item(checked.flight, item_now, checked.cfg, held)
+            return flight, checked.cfg, self.opts.run_root
+        if request is Request.FROM_ITEM:  # jump counters zero, as AP_Mission::start
+            flight = from_autopilot_item(checked.flight, item, checked.cfg)
+            return flight, checked.cfg, self.opts.run_root
+        interrupted = self.interrupted
+        if request is Request.CONTINUE and interrupted is not None:
+            run_dir = interrupted[1]
+            if checked.flight.mission.has_commands():  # the walk goes on from its step
+                flight = continue_commands(checked.flight, run_dir, checked.cfg)
+                o = flight.options
+                log.info(
+                    "serve_continue_walk",
+                    run_dir=str(run_dir),
+                    first_item=o.first_item,
+                    jumps_taken=o.jumps_taken,
+                    speed_mps=o.speed_mps,
+                    reverse=o.reverse,
+                )
+                return flight, checked.cfg, run_dir.parent
+            resumed = prepare_flight(Resume(run_dir), self.opts.config_path)
+            for note in resumed.notes:
+                log.info("serve_resume", note=note)
+            cfg = resumed.cfg.model_copy(update={"link": self.cfg.link})
+            return resumed.flight, cfg, run_dir.parent
+        return checked.flight, checked.cfg, self.opts.run_root
+
+    async def _flying(self, flight: Awaitable[None]) -> None:
+        """A flight task: whatever ends it, the service is free for the next."""
+        try:
+            await flight
+        finally:
+            self.busy = False
+            self.task = None
+            self.stop = None
+
+    async def _fly_goto(self, ap: Autopilot, source: AutopilotPlace, place: PositionTarget) -> None:
+        """A flight of one leg to the autopilot's place, holding there: checked as a mission
+        is, flown by the same runner (its fall-back on every fault), in the autopilot's mode
+        (neither set nor armed by helixd)."""
+        mode = source.mode
+        try:
+            prepared = prepare_flight(source, self.opts.config_path, self.opts.occupancy)
+        except InputsRefused as exc:
+            text = "; ".join(exc.problems)
+            log.error("goto_refused", mode=mode, problem=text)
+            self.status.gcs.say(f"{mode}: helixd will not drive: {text}", MAV_SEVERITY_ERROR)
+            return
+        if self._service_stop.requested:
+            return
+        before = (self.status.state, self.status.detail)
+        stop = self.stop = StopRequest()
+        where = f"{place.lat_deg:.7f} {place.lon_deg:.7f}"
+        log.info("serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.count + 1)
+        opts = run_options(prepared.flight, prepared.cfg, self.opts.run_root, self.cfg)
+        host = ServeHost(ap, stop, driving_mode=mode, goto=place)
+        runner, outcome, cause = await self._run_flight(opts, host, f"{mode} to {where}")
+        summary = outcome.summary
+        handed = cause in HANDED
+        self.auto_watch.flight_ended(left_auto=handed)
+        log.info("serve_flight_end", request=Request.GOTO.value, exit_code=int(outcome.exit_code))
+        if handed or cause is FaultCause.PAUSED or stop.paused:
+            self.status.set(*before)  # the mission's verdict stands
+            return
+        text = flight_end_text(summary, runner.numbering(), outcome.messages)
+        self.status.set(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
+
+    async def _fly(self, ap: Autopilot, request: Request, who: str, item: int = 0) -> None:
+        gcs = self.status.gcs
+        before = self.mission.fingerprint
+        await self._read_mission(ap)  # fly what the autopilot holds now
+        checked = self.mission.checked
+        if checked is None or self.mission.fingerprint != before:
+            gcs.say("start refused: the mission changed; checked it again", MAV_SEVERITY_ERROR)
+            return
+        try:
+            flight, cfg, run_root = self._flight_for(request, item)
+        except InputsRefused as exc:
+            text = "; ".join(exc.problems)
+            log.error("serve_continue_refused", request=request.value, problem=text)
+            said = "cannot continue" if request is Request.CONTINUE else "start refused"
+            gcs.say(f"{said}: {text}", MAV_SEVERITY_ERROR)
+            return
+        if self.switch is not None and self.switch.low:
+            gcs.say("start refused: the start switch is low", MAV_SEVERITY_WARNING)
+            return
+        if self._service_stop.requested:
+            return
+        stop = self.stop = StopRequest()
+        fingerprint = checked.fingerprint
+        log.info("serve_flight_start", request=request.value, by=who, flight=self.count + 1)
+        opts = run_options(flight, cfg, run_root, self.cfg)
+        auto = request is Request.AUTO  # the autopilot runs its own item progress in AUTO
+        # else the GCS highlights the item helixd flies as the autopilot's current
+        shows_item = self.opts.mission_file is None and not auto
+        host = ServeHost(
+            ap,
+            stop,
+            set_item=partial(self._set_current_item, ap) if shows_item else None,
+            driving_mode=AUTO_MODE if auto else MANUAL_MODE,
+        )
+        runner, outcome, cause = await self._run_flight(opts, host, f"{request.value} by {who}")
+        # released to the pilot, or moved to another item: AUTO again (or still) starts
+        self.auto_watch.flight_ended(left_auto=cause in HANDED)
+        let_go = auto and cause in HANDED and flight.mission.has_commands()
+        self.auto_walk = None
+        if let_go and outcome.run_dir is not None:
+            self.auto_walk = (fingerprint, flight.options, outcome.run_dir)
+        state = state_after_flight(outcome.exit_code, cause, stop.paused)
+        if state is ServeState.COMPLETED:
+            self.interrupted = None
+        elif outcome.run_dir is not None:
+            self.interrupted = (fingerprint, outcome.run_dir)
+        write_state_file(self.opts.state_file, self.interrupted, state)
+        if state is not ServeState.COMPLETED and self._current_item is not None:
+            # ArduPilot resets its mission when disarmed outside AUTO (AP_Arming_Rover::
+            # disarm): show the interrupted item again, where a continue goes on
+            self._set_current_item(ap, self._current_item)
+        self._current_item = None
+        text = flight_end_text(outcome.summary, runner.numbering(), outcome.messages)
+        severity = MAV_SEVERITY_NOTICE if state is not ServeState.FAULTED else MAV_SEVERITY_ERROR
+        log.info("serve_flight_end", state=state.name.lower(), exit_code=int(outcome.exit_code))
+        self.status.set(state, text, severity)
+
+    async def _run_flight(
+        self, opts: RunOptions, host: ServeHost, what: str
+    ) -> tuple[MissionRunner, RunOutcome, FaultCause | None]:
+        """One flight on the service's link: FLYING while the runner runs; its runner (for
+        the operator's numbering), outcome and cause."""
+        self.count += 1
+        self.status.set(ServeState.FLYING, what)
+        self.busy = False
+        runner = MissionRunner(opts, host)
+        self.runner = runner
+        try:
+            outcome = await runner.run()
+        finally:
+            self.runner = None
+        self.busy = True
+        summary = outcome.summary
+        return runner, outcome, cause_of(summary.fault if summary is not None else None)
+
+    def _set_current_item(self, ap: Autopilot, seq: int) -> None:
+        """The GCS highlights the item being flown (MAV_CMD_DO_SET_MISSION_CURRENT)."""
+        self._current_item = seq
+
+        async def send() -> None:
+            try:
+                await ap.action.set_mission_current(seq)
+            except CommandError as exc:
+                log.warning("mission_current_refused", seq=seq, error=str(exc))
+
+        task = asyncio.create_task(send(), name="mission-current")
+        self._side_tasks.add(task)
+        task.add_done_callback(self._side_tasks.discard)
+
+
+def held_walk(walk: tuple[str, ExpandOptions, Path] | None, fingerprint: str) -> AutoWalk | None:
+    """Where the last AUTO flight of this mission was let go, while the autopilot has stayed
+    armed since, from its event log: the step the autopilot's own item was on (followed along
+    the walk: ``autopilot_step``, ``autopilot_item_set``), else the last step helixd started."""
+    if walk is None or walk[0] != fingerprint:
+        return None
+    _, options, run_dir = walk
+    events = read_events(run_dir / EVENTS_FILE)
+    step, autopilot = last_step_started(events), 0
+    for ev in events:
+        name = ev.get("event")
+        if name == "autopilot_step":
+            autopilot = event_whole(ev.get("step"), autopilot)
+        elif name == "autopilot_item_set":
+            autopilot = event_whole(ev.get("autopilot_step"), autopilot)
+    exact = autopilot > 0
+    log.info(
+        "auto_walk_held",
+        first_item=options.first_item,
+        step=autopilot if exact else step,
+        exact=exact,
+        run_dir=str(run_dir),
+    )
+    return AutoWalk(options, autopilot if exact else step, exact)
+
+
+def run_options(
+    flight: Flight, cfg: HelixdConfig, run_root: Path, serve_cfg: HelixdConfig
+) -> RunOptions:
+    """A flight's options on the service's link (no terminal, no fence upload of its own)."""
+    return RunOptions(
+        cfg=cfg,
+        mission=flight.mission,
+        mission_yaml=flight.mission_yaml,
+        connect_url=serve_cfg.link.url,
+        run_root=run_root,
+        tty=False,
+        replan_from=flight.replan_from,
+        inputs=with_walk(flight.inputs, flight.options),  # where a continue walks on from
+        options=flight.options,
+        item_numbers=flight.item_numbers,
+        autopilot_fence=False,
+    )
+
+
+def cause_of(fault_text: str | None) -> FaultCause | None:
+    """The fault cause a summary's ``fault`` ("cause: detail") starts with."""
+    from_text = (fault_text or "").split(":", 1)[0]
+    return next((c for c in FaultCause if c.value == from_text), None)
+
+
+def flight_end_text(summary: RunSummary | None, numbering: Numbering, messages: list[str]) -> str:
+    """What the ground station reads after the state word when a flight ends: the waypoints
+    reached in its own numbering (of the whole mission, as 'reached WP 3/3' counted them),
+    and why a flight never started. No exit code, no result line: the fault itself went out
+    when it happened."""
+    if summary is None or summary.rows == 0:
+        why = [m for m in messages if not m.startswith("helixd: RESULT")]
+        return why[0] if why else "not flown"
+    if numbering.items:  # a mission with commands: counted as flown, the item reached named
+        done = f"{summary.waypoints_reached}/{summary.waypoints_total} waypoints as flown"
+        if summary.patrol_item is not None:  # flown until stopped: no total
+            done = f"{summary.waypoints_reached} waypoints as flown (patrol)"
+        reached = [a for a in summary.arrivals if not a.via and a.number is not None]
+        if reached:
+            done += f", last item {reached[-1].number}/{numbering.total}"
+        return done
+    first = numbering.numbers[0] if numbering.numbers else 1
+    return f"{first - 1 + summary.waypoints_reached}/{numbering.total} waypoints"
+
+
+# -- the state file (which mission was interrupted where) ------------------------------------
+
+
+def read_state_file(path: Path) -> tuple[str, Path] | None:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return None
+    except (OSError, ValueError) as exc:
+        log.warning("serve_state_file_unreadable", path=str(path), error=str(exc))
+        return None
+    fingerprint, run_dir = data.get("mission_sha256"), data.get("run_dir")
+    if not isinstance(fingerprint, str) or not isinstance(run_dir, str):
+        return None
+    if not Path(run_dir).is_dir():
+        log.warning("serve_state_run_dir_gone", path=str(path), run_dir=run_dir)
+        return None
+    log.info("serve_state_loaded", run_dir=run_dir, mission_sha256=fingerprint[:12])
+    return fingerprint, Path(run_dir)
+
+
+def write_state_file(path: Path, interrupted: tuple[str, Path] | None, state: ServeState) -> None:
+    record = {
+        "state": state.name.lower(),
+        "mission_sha256": None if interrupted is None else interrupted[0],
+        "run_dir": None if interrupted is None else str(interrupted[1].resolve()),
+        "updated_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+    }
+    tmp = path.with_suffix(".tmp")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp.write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
+        tmp.replace(path)  # atomic: a reboot mid-write leaves the old record
+    except OSError as exc:
+        log.error("serve_state_file_unwritable", path=str(path), error=str(exc))
+
+
+__all__ = [
+    "HANDED",
+    "Flights",
+    "cause_of",
+    "flight_end_text",
+    "held_walk",
+    "read_state_file",
+    "run_options",
+    "write_state_file",
+]

@@ -1,0 +1,64 @@
+"""The service's state word, as the crew sees it in three places at once: systemd's status
+line, a STATUSTEXT to the ground station, and NAMED_VALUE_INT ``hx_state`` (its number,
+sent again at ``serve.state_rate_hz`` so a ground station that connects later sees it)."""
+
+from __future__ import annotations
+
+import contextlib
+import time
+
+import structlog
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.config import HelixdConfig
+from helixd.link.connection import Autopilot
+from helixd.mav.constants import MAV_SEVERITY_NOTICE
+from helixd.mav.url import LinkError
+from helixd.runtime.gcs_feed import GcsFeed
+from helixd.runtime.notify import ServiceNotifier
+from helixd.runtime.serve_core import ServeState
+
+log = structlog.get_logger(__name__)
+_mav = mavlink.MAVLink(None)  # encoder only: Autopilot.send_message packs with our ids
+
+HX_STATE_NAME = b"hx_state"
+
+
+class ServeStatus:
+    """The state and its text (the refusal, the fault, …), told wherever the crew looks."""
+
+    def __init__(self, cfg: HelixdConfig, notifier: ServiceNotifier, gcs: GcsFeed) -> None:
+        self.cfg = cfg
+        self.notifier = notifier
+        self.gcs = gcs
+        self.state = ServeState.CONNECTING
+        self.detail = ""
+        self.ap: Autopilot | None = None  # the link hx_state goes out on, while there is one
+        self.next_send_s = 0.0
+
+    def set(self, state: ServeState, detail: str = "", severity: int | None = None) -> None:
+        """A new state (or text): logged, systemd's status, the GCS told, hx_state sent."""
+        if state is self.state and detail == self.detail:
+            return
+        self.state, self.detail = state, detail
+        text = state.name.lower() + (f": {detail}" if detail else "")
+        log.info("serve_state", state=state.name.lower(), hx_state=int(state), detail=detail)
+        self.notifier.status(text)
+        self.gcs.say(text, severity or MAV_SEVERITY_NOTICE)
+        self.send()
+
+    def send(self) -> None:
+        """NAMED_VALUE_INT hx_state now (and not again before the next period)."""
+        ap = self.ap
+        if ap is None:
+            return
+        boot_ms = int(time.monotonic() * 1000) & 0xFFFFFFFF
+        with contextlib.suppress(LinkError, OSError):
+            ap.send_message(_mav.named_value_int_encode(boot_ms, HX_STATE_NAME, int(self.state)))
+        self.next_send_s = time.monotonic() + 1.0 / self.cfg.serve.state_rate_hz
+
+    def due(self, now_s: float) -> bool:
+        return now_s >= self.next_send_s
+
+
+__all__ = ["HX_STATE_NAME", "ServeStatus"]
