@@ -11,6 +11,11 @@
 * REQUEST_DATA_STREAM sets every message of the stream (or all streams) to the requested
   rate — silently capped, not refused — and so resets earlier SET_MESSAGE_INTERVAL grants.
 Intervals are per link: a grant on one link does not speed up another.
+* Messages of one interval go out together, as ArduPilot's deferred-message buckets send them
+  (GCS_MAVLINK::update_send): a message given an interval that others already have joins
+  their bucket's phase, and a bucket is sent in ``ap_message`` order (``AP_MESSAGE_ORDER``) —
+  so MISSION_CURRENT (a mode's ``mission_mode``) leaves just before the mode's
+  POSITION_TARGET_GLOBAL_INT when both stream at one rate.
 """
 
 from __future__ import annotations
@@ -38,6 +43,28 @@ MSG_AUTOPILOT_VERSION = 148
 MSG_EKF_STATUS_REPORT = 193
 MSG_HOME_POSITION = 242
 MSG_RELAY_STATUS = 376
+
+# ap_message (GCS_MAVLink/ap_message.h) of each message this simulator streams: the order in
+# which one deferred-message bucket sends them
+AP_MESSAGE_ORDER: dict[int, int] = {
+    MSG_HEARTBEAT: 0,
+    MSG_ATTITUDE: 3,
+    MSG_GLOBAL_POSITION_INT: 5,  # MSG_LOCATION
+    MSG_VFR_HUD: 6,
+    MSG_SYS_STATUS: 7,
+    MSG_MISSION_CURRENT: 11,  # MSG_CURRENT_WAYPOINT
+    MSG_SERVO_OUTPUT_RAW: 12,
+    MSG_RC_CHANNELS: 13,
+    MSG_GPS_RAW_INT: 22,  # MSG_GPS_RAW
+    MSG_SYSTEM_TIME: 26,
+    MSG_EKF_STATUS_REPORT: 55,
+    MSG_LOCAL_POSITION_NED: 56,  # MSG_LOCAL_POSITION
+    MSG_POSITION_TARGET_GLOBAL_INT: 62,
+    MSG_GPS_GLOBAL_ORIGIN: 69,  # MSG_ORIGIN
+    MSG_HOME_POSITION: 70,  # MSG_HOME
+    MSG_AUTOPILOT_VERSION: 73,
+    MSG_RELAY_STATUS: 95,
+}
 
 # MAV_DATA_STREAM ids → the messages ArduPilot puts in them (the ones this simulator sends)
 STREAM_ALL = 0
@@ -133,7 +160,12 @@ class StreamSchedule:
         self.interval_ms[msg_id] = interval_ms
         self._next_due_s.pop(msg_id, None)
         if interval_ms > 0:
-            self._next_due_s[msg_id] = now_s + interval_ms / 1000.0
+            bucket = [
+                due_s
+                for m, due_s in self._next_due_s.items()
+                if self.interval_ms.get(m) == interval_ms
+            ]
+            self._next_due_s[msg_id] = bucket[0] if bucket else now_s + interval_ms / 1000.0
 
     def request_data_stream(self, stream_id: int, rate_hz: int, start: bool, now_s: float) -> None:
         interval = rate_to_interval_ms(float(rate_hz)) if start else 0
@@ -161,4 +193,4 @@ class StreamSchedule:
                 if next_due <= now_s:  # fell more than one interval behind: no bursts
                     next_due = now_s + interval_s
                 self._next_due_s[msg_id] = next_due
-        return out
+        return sorted(out, key=lambda m: AP_MESSAGE_ORDER.get(m, len(AP_MESSAGE_ORDER) + m))

@@ -71,3 +71,22 @@ def test_request_data_stream_resets_granted_intervals_and_caps_silently() -> Non
     schedule.request_data_stream(10, 5, False, 0.0)  # stop EXTRA1
     assert schedule.interval_ms[st.MSG_ATTITUDE] == 0
     assert count_sent(schedule, st.MSG_ATTITUDE, 5.0, 50) == 0
+
+
+def test_messages_of_one_interval_go_out_together_in_ap_message_order() -> None:
+    """As ArduPilot's deferred-message buckets: POSITION_TARGET_GLOBAL_INT given 200 ms after
+    MISSION_CURRENT got it joins its phase, and MISSION_CURRENT (ap_message 11) leaves first
+    (62): a mode's mission_mode is read before the mode's place."""
+    loop_hz = 50
+    schedule = st.StreamSchedule(default_rate_hz=1.0, loop_rate_hz=loop_hz)
+    schedule.set_interval(st.MSG_POSITION_TARGET_GLOBAL_INT, 0, 0.0)
+    schedule.set_interval(st.MSG_MISSION_CURRENT, 200, 0.0)
+    schedule.set_interval(st.MSG_POSITION_TARGET_GLOBAL_INT, 200, 0.06)
+    pair = (st.MSG_MISSION_CURRENT, st.MSG_POSITION_TARGET_GLOBAL_INT)
+    ticks = []
+    for n in range(1, 2 * loop_hz + 1):
+        due = [m for m in schedule.due(n / loop_hz) if m in pair]
+        if due:
+            ticks.append(due)
+    assert len(ticks) in (9, 10, 11)  # 5 Hz over 2 s, always both at once
+    assert all(due == list(pair) for due in ticks)
