@@ -314,7 +314,8 @@ class SimCore:
             self._origin_sent = False
         elif spec.name == "gps_jump":
             bearing = math.radians(float(str(kw["bearing_deg"])))
-            self.est = estimator.gps_jump(self.est, float(str(kw["distance_m"])), bearing)
+            distance_m, variance = float(str(kw["distance_m"])), float(str(kw["variance"]))
+            self.est = estimator.gps_jump(self.est, distance_m, bearing, variance)
         elif spec.name == "pilot_takeover":
             self.set_rc(self.params.get_int("MODE_CH"), switch_pwm)
         elif spec.name == "battery_low":

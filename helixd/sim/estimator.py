@@ -122,11 +122,18 @@ def step(
     )
 
 
-def gps_jump(state: EstimatorState, distance_m: float, bearing_rad: float) -> EstimatorState:
+def gps_jump(
+    state: EstimatorState,
+    distance_m: float,
+    bearing_rad: float,
+    variance: float = JUMP_VARIANCE,
+) -> EstimatorState:
     """Every later fix is off by ``distance_m`` towards ``bearing_rad`` (clockwise from N).
 
     The EKF output follows within its smoothing time (ArduPilot's EKF3 resets its position to
-    a persistently jumped GPS after its glitch timeout; modelled as an immediate step).
+    a persistently jumped GPS after its glitch timeout; modelled as an immediate step), its
+    horizontal position variance raised by ``variance`` (decaying over
+    ``JUMP_VARIANCE_DECAY_S``; 0: a jump the EKF took without complaint).
     """
     jn = state.jump_n_m + distance_m * math.cos(bearing_rad)
     je = state.jump_e_m + distance_m * math.sin(bearing_rad)
@@ -136,7 +143,7 @@ def gps_jump(state: EstimatorState, distance_m: float, bearing_rad: float) -> Es
         jump_e_m=je,
         err_n_m=state.err_n_m + distance_m * math.cos(bearing_rad),
         err_e_m=state.err_e_m + distance_m * math.sin(bearing_rad),
-        pos_variance_boost=JUMP_VARIANCE,
+        pos_variance_boost=variance,
     )
 
 

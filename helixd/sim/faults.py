@@ -11,7 +11,9 @@ FAULTS: dict[str, dict[str, object]] = {
     "stale_pose": {"duration_s": None, "attitude": False},  # pose streams stop
     "ekf_unhealthy": {"duration_s": None},
     "reboot": {"silent_s": None},  # time_boot_ms restarts, boots through INITIALISING
-    "gps_jump": {"distance_m": 10.0, "bearing_deg": 90.0},
+    # every later fix off by distance_m; the EKF's horizontal variance rises by variance (its
+    # glitch; 0: a jump the EKF took without complaint, e.g. after its reset to the new fix)
+    "gps_jump": {"distance_m": 10.0, "bearing_deg": 90.0, "variance": 1.0},
     # the receiver stops (SIM_GPS1_ENABLE 0): GPS_RAW_INT says no fix, 0 satellites after
     # gps_loss_report_s; the EKF dead-reckons and drops its position after gps_dead_reckon_s
     "gps_loss": {"duration_s": None},
@@ -116,6 +118,9 @@ def make_spec(name: str, kwargs: Mapping[str, object]) -> FaultSpec:
     sign = merged.get("sign")
     if sign is not None and float(str(sign)) == 0.0:
         raise FaultError(f"{name}: sign must be +1 or -1")
+    variance = merged.get("variance")
+    if variance is not None and not 0.0 <= float(str(variance)) < float("inf"):
+        raise FaultError(f"{name}: variance must be finite and >= 0")
     return FaultSpec(name, merged)
 
 

@@ -117,6 +117,20 @@ def test_gps_jump_moves_the_estimate_not_the_rover() -> None:
     run(core, 1.0)
     assert core.phys.east_m == pytest.approx(0.0, abs=1e-9)
     assert core.view.estimate.east_m == pytest.approx(10.0, abs=0.01)
+    assert core.ekf_status().pos_horiz_variance > 0.8  # the EKF's glitch: above helixd's limit
+
+
+def test_a_gps_jump_the_ekf_took_leaves_its_variance_low() -> None:
+    core = make_core()
+    run(core, 2.0)
+    before = core.ekf_status().pos_horiz_variance
+    core.inject(make_spec("gps_jump", {"distance_m": 30.0, "bearing_deg": 180.0, "variance": 0.0}))
+    run(core, 0.2)
+    assert core.view.estimate.north_m == pytest.approx(-30.0, abs=0.01)
+    assert core.ekf_status().pos_horiz_variance == pytest.approx(before)
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(FaultError, match="variance"):
+            make_spec("gps_jump", {"variance": bad})
 
 
 def test_pilot_takeover_needs_a_switch_position_for_the_mode() -> None:
