@@ -171,6 +171,9 @@ def test_set_current_item_in_a_commands_mission_keeps_the_autopilots_jump_counte
             autopilot_item(gcs, 3)
             autopilot_item(gcs, 4, 120.0)
             autopilot_item(gcs, 3, 120.0)  # back through the DO_JUMP: the walk's own move
+            # the crew clicks once helixd has seen it too (each link has its own 5 Hz
+            # MISSION_CURRENT: a click within 0.2 s of the jump would beat helixd's report)
+            d.wait_line("event=autopilot_step item=3 step=4", 10.0)
             mark = d.mark()
             assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
             d.wait_line("event=autopilot_item_set item=1 autopilot_step=4", 10.0, after=mark)
@@ -206,6 +209,7 @@ def test_an_item_set_while_the_pilot_drives_keeps_the_counters_too(tmp_path: Pat
             autopilot_item(gcs, 3)
             autopilot_item(gcs, 4, 120.0)
             autopilot_item(gcs, 3, 120.0)  # lap 2
+            d.wait_line("event=autopilot_step item=3 step=4", 10.0)  # seen by helixd too
             mark = d.mark()
             t_manual = set_mode(gcs, "MANUAL")
             time_until(server, overrides_released, t_manual, 5.0)

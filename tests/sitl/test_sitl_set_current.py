@@ -79,6 +79,9 @@ def test_set_current_waypoint_in_a_commands_mission(sitl: SitlVehicle, tmp_path:
 
         obs.wait_until(on_lap_2, LAP_WAIT_S, "the autopilot on lap 2", abort=d.ended)
         assert obs.mode() == MODE_AUTO
+        # helixd has seen lap 2 too (its own MISSION_CURRENT stream: a click within one period
+        # of the jump would beat its report, and the counters it holds would be lap 1's)
+        d.wait_line("event=autopilot_step item=3 step=4", STEP_WAIT_S)
         assert "event=autopilot_item_set" not in d.log_text()  # the jump back is the walk's
 
         # set current waypoint 1: Vehicle::setCurrentMissionSequence → DO_SET_MISSION_CURRENT
