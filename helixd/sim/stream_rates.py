@@ -160,12 +160,8 @@ class StreamSchedule:
         self.interval_ms[msg_id] = interval_ms
         self._next_due_s.pop(msg_id, None)
         if interval_ms > 0:
-            bucket = [
-                due_s
-                for m, due_s in self._next_due_s.items()
-                if self.interval_ms.get(m) == interval_ms
-            ]
-            self._next_due_s[msg_id] = bucket[0] if bucket else now_s + interval_ms / 1000.0
+            bucket = (t for m, t in self._next_due_s.items() if self.interval_ms[m] == interval_ms)
+            self._next_due_s[msg_id] = next(bucket, now_s + interval_ms / 1000.0)
 
     def request_data_stream(self, stream_id: int, rate_hz: int, start: bool, now_s: float) -> None:
         interval = rate_to_interval_ms(float(rate_hz)) if start else 0

@@ -16,7 +16,7 @@ from helixd.link.vehicle import HomePosition
 from helixd.mission.expand import DEFAULT_OPTIONS
 from helixd.mission.model import Mission
 from helixd.runtime.setup import PreflightFailed, gps_verdict, mission_frame, resolve_flight
-from tests.link.test_telemetry import Feed, still_pending
+from tests.support.feed import Feed, still_pending
 from tests.support.mavmsgs import AP, decoded
 
 CFG = HelixdConfig()
