@@ -23,6 +23,7 @@ from helixd.base.plan import MotionMode
 from helixd.cli import autopilot_check as cli_autopilot_check
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
+from helixd.cli import plant as cli_plant
 from helixd.cli import runs as recorder_command
 from helixd.cli import serve_command as cli_serve
 from helixd.cli.autopilot import fetch_autopilot_mission, wants_autopilot
@@ -470,6 +471,7 @@ cli_mission.register(app)
 cli_guard.register(app)
 cli_autopilot_check.register()
 cli_serve.register(app)
+cli_plant.register(app)
 
 
 def main(argv: list[str] | None = None) -> None:
