@@ -106,6 +106,7 @@ EKF_POS_HORIZ_ABS = 16
 GPS_FIX_3D = 3
 
 NEUTRAL_US = 1500
+HELIX_THROTTLE_CHANNEL = 5  # config/ardupilot/helix.parm RCMAP_THROTTLE
 OUTPUT_TOLERANCE_US = 5  # SERVO_OUTPUT_RAW vs an expected PWM
 DRIVING_DEFLECTION_US = 30  # |output − 1500| that counts as "the scrolls are driving"
 
@@ -804,6 +805,11 @@ def start_sitl(
                 f"helixd-guard not running in SITL (HXG_VERSION {running}); "
                 f"STATUSTEXT {obs.statustexts[-8:]}; log tail:\n{vehicle.log_tail()}"
             )
+        if plant is not None:
+            # helix.parm's throttle is RC5 (RCMAP_THROTTLE, a channel helixd does not drive):
+            # AP_Arming wants it at RC5_TRIM to arm; SITL's radio rests it at 1000 µs, the crew
+            # centres it
+            vehicle.pilot_rc({HELIX_THROTTLE_CHANNEL: NEUTRAL_US})
         start = obs.position()
         assert start is not None
         vehicle.start_ne_m = (start.north_m, start.east_m)
