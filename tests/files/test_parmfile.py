@@ -13,7 +13,8 @@ from helixd.files.parmfile import MAX_FILE_BYTES, ParmFileError, load_parm, pars
 
 
 def test_names_and_values_in_file_order_with_comments_and_commas() -> None:
-    text = "# a comment\nSERVO1_FUNCTION 51\n\nFS_THR_VALUE,960  # trailing\nRC_OVERRIDE_TIME\t3.5\n"
+    text = "# a comment\nSERVO1_FUNCTION 51\n\nFS_THR_VALUE,960  # trailing\n"
+    text += "RC_OVERRIDE_TIME\t3.5\n"
     got = parse_parm(text, "x.parm")
     assert list(got.items()) == [
         ("SERVO1_FUNCTION", 51.0),
