@@ -21,6 +21,7 @@ from helixd import __version__
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
 from helixd.cli import autopilot_check as cli_autopilot_check
+from helixd.cli import autopilot_setup as cli_autopilot_setup
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
 from helixd.cli import plant as cli_plant
@@ -470,6 +471,7 @@ recorder_command.register(app)
 cli_mission.register(app)
 cli_guard.register(app)
 cli_autopilot_check.register()
+cli_autopilot_setup.register()
 cli_serve.register(app)
 cli_plant.register(app)
 
