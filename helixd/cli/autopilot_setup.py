@@ -3,8 +3,9 @@ config/ardupilot/helix.parm): show what would change, ask, set, say whether a re
 needed, then run ``helixd autopilot check``.
 
 Refused while the autopilot is armed. Exit codes: 0 set (or nothing to change) and the check
-passes; 5 the operator said no (nothing set); 2 bad command line, config or parameter file; 3 the check
-still finds something to change, or the autopilot refused a value; 6 no link or no answers.
+passes; 2 bad command line, config or parameter file; 3 the check still finds something to
+change, or the autopilot refused a value; 5 the operator said no (nothing set); 6 no link or no
+answers.
 """
 
 from __future__ import annotations
