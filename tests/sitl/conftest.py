@@ -820,7 +820,9 @@ def start_sitl(
     return vehicle
 
 
-def _sitl(tmp_path: Path, guard: bool, terrain: str | None = None) -> Iterator[SitlVehicle]:
+def start_test_sitl(
+    tmp_path: Path, guard: bool, terrain: str | None = None
+) -> Iterator[SitlVehicle]:
     binary = Path(os.environ[SITL_BIN_ENV]).resolve()
     workdir = tmp_path / "sitl"
     workdir.mkdir()
@@ -834,7 +836,7 @@ def _sitl(tmp_path: Path, guard: bool, terrain: str | None = None) -> Iterator[S
 @pytest.fixture
 def sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
     """ardurover with helixd-guard running (the field setup)."""
-    yield from _sitl(tmp_path, guard=True)
+    yield from start_test_sitl(tmp_path, guard=True)
 
 
 @pytest.fixture
@@ -843,13 +845,13 @@ def helix_sitl(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[SitlV
     test names by indirect parametrisation (default hard), booted from config/ardupilot/
     helix.parm + tests/sitl/helix-json.parm, helixd-guard running."""
     terrain = str(getattr(request, "param", "hard"))
-    yield from _sitl(tmp_path, guard=True, terrain=terrain)
+    yield from start_test_sitl(tmp_path, guard=True, terrain=terrain)
 
 
 @pytest.fixture
 def bare_sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
     """ardurover with scripting on but no script in its scripts/ (before an install)."""
-    yield from _sitl(tmp_path, guard=False)
+    yield from start_test_sitl(tmp_path, guard=False)
 
 
 # ---------------------------------------------------------------------------------------------
