@@ -57,8 +57,8 @@ KILL_WAIT_S = 10.0
 # The truth gap a flight may show (SITL − built-in simulator, both on the true pose):
 # real ArduPilot adds its EKF's estimate (SITL's GPS and compass), the output pipeline's delay
 # and its scheduler; measured gaps are in docs/measurements.md.
-RMS_GAP_M = 0.10
-TIME_RATIO = (0.85, 1.20)
+RMS_GAP_M = 0.05
+TIME_RATIO = (0.90, 1.10)
 
 # (mission, mode, terrain): each mode on hard ground, SCROLL and OMNI in mud too
 FLIGHTS = [
