@@ -121,8 +121,9 @@ ModeOpt = Annotated[
     MotionMode | None,
     typer.Option(
         "--mode",
-        help="motion mode for a .plan/.waypoints mission (default: "
-        "mission.ground_station_mode); overrides a YAML mission's mode",
+        help="motion mode of a .plan/.waypoints mission (default: "
+        "mission.ground_station_mode); given with a YAML mission it wins over the file's "
+        "mode: and a warning says so",
     ),
 ]
 SkipOpt = Annotated[
