@@ -430,7 +430,7 @@ def echo_notes(notes: tuple[str, ...]) -> None:
 def echo_flight(flight: Flight) -> None:
     """The planned legs, when the flight was planned around obstacles."""
     if flight.route is not None:
-        typer.echo("\n".join(route_lines(flight.route)))
+        typer.echo("\n".join(route_lines(flight.route, flight.mission)))
 
 
 @app.command()

@@ -210,7 +210,7 @@ def check_lines(
     if later:
         lines.append(f"preflight: run checks with the start pose: {', '.join(later)}")
     if route is not None:
-        lines.extend(route_lines(route))
+        lines.extend(route_lines(route, planned))
     return lines
 
 
