@@ -55,7 +55,7 @@ from helixd.runtime.prepare import (
     Resume,
     prepare_flight,
 )
-from helixd.runtime.status import read_status
+from helixd.runtime.status import HeldLog, log_lines, read_status
 from helixd.sim import command as sim_command
 from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
@@ -450,19 +450,33 @@ def status(
     """Print mode, armed, pose, EKF health, RC inputs and servo outputs (read-only)."""
     cfg = config_or_exit(config)
     url = check_connect(connect, cfg)
-    configure_logging(tty=sys.stderr.isatty(), level="warning")
+    held = HeldLog()  # its warnings come after the report, as its own lines, not among them
+    configure_logging(tty=False, level="warning", stream=held)
     link = cfg.link.model_copy(update={"url": url})
     try:
         code = asyncio.run(
             read_status(
-                link, cfg.safety, cfg.startup.connect_timeout_s, watch, interval_s, typer.echo
+                link,
+                cfg.safety,
+                cfg.startup.connect_timeout_s,
+                watch,
+                interval_s,
+                typer.echo,
+                held,
             )
         )
     except LinkError as exc:
+        _echo_held(held)
         raise fail([str(exc)], ExitCode.LINK) from None
     except KeyboardInterrupt:
         code = 0
+    _echo_held(held)
     raise typer.Exit(code)
+
+
+def _echo_held(held: HeldLog) -> None:
+    for line in log_lines(held.drain()):
+        typer.echo(line, err=True)
 
 
 sim_command.register(app)
