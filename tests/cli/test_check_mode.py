@@ -1,5 +1,5 @@
 """``check --mode`` with a YAML mission says that the flag wins over the file's mode, and a
-SCROLL mission that turns in place is warned about sand (issue 44, item 12)."""
+SCROLL mission that turns in place is warned about sand."""
 
 from __future__ import annotations
 

@@ -140,7 +140,7 @@ def test_planned_legs_name_the_items_the_step_table_names(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     """pond.plan: item 3 is a DO_SET_CAM_TRIGG_DIST, so its third place is item 4. The legs
-    the planner prints are named by item, as the step table above them (issue 44, item 12)."""
+    the planner prints are named by item, as the step table above them."""
     plan = str(REPO_ROOT / "config" / "missions" / "pond.plan")
     code, out, err = run_main(
         [

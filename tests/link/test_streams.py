@@ -141,7 +141,7 @@ async def _rerequest_events(
 
 
 async def test_an_autopilot_that_boots_gives_one_info_not_a_warning_per_stream() -> None:
-    """Issue 44: `serve` logged 16 `stream_slow observed_hz=0.0` while the autopilot booted."""
+    """Before: `serve` logged 16 `stream_slow observed_hz=0.0` while the autopilot booted."""
     silent = [("LOCAL_POSITION_NED", 0.0), ("ATTITUDE", 0.0), ("SYS_STATUS", 0.0)]
     events = await _rerequest_events(silent, booting=True)
     assert [(e["event"], e["log_level"]) for e in events] == [("streams_silent", "info")]

@@ -250,7 +250,7 @@ def test_result_line_after_an_autopilot_reboot_and_a_long_cause() -> None:
     line = result_line(b.build(False, cause, int(ExitCode.FAULT)))
     assert "2.0 s wall (autopilot clock reset: rebooted)" in line
     assert "autopilot time" not in line
-    # the whole cause, on the one line (issue 44: a long RESULT line was cut)
+    # the whole cause, on the one line (it used to be cut at 160 characters)
     assert "\n" not in line and "…" not in line and line.endswith("exit 4")
     assert "reboot: " + "x" * 500 + " and the end of it — " in line
 
