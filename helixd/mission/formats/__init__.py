@@ -225,6 +225,7 @@ def load_mission_file(
             mode=mode,
             source=str(path),
             route_keep_outs=route_keep_outs,
+            here_completes=True,  # a file whose only item is "here": done at once, as Rover
         )
     except FormatError as exc:
         raise ConfigFileError(path, exc.problems) from None
