@@ -538,3 +538,52 @@ def test_install_rejects_unknown_options() -> None:
     result = run_install("--frobnicate")
     assert result.returncode == 2
     assert "unknown option: --frobnicate" in result.stderr
+
+
+def _installed_url(root: Path) -> str:
+    cfg = load_config(root / "etc/helixd/helixd.yaml")  # still a valid config
+    return cfg.link.url
+
+
+def test_install_finds_the_autopilots_serial_device(tmp_path: Path) -> None:
+    """Before: installed, helixd listened on udpin:0.0.0.0:14550. install.sh now takes the
+    one autopilot in /dev/serial/by-id/ (its MAVLink interface, -if00, not SLCAN's -if02)."""
+    root = tmp_path / "rootfs"
+    by_id = root / "dev/serial/by-id"
+    by_id.mkdir(parents=True)
+    name = "usb-ArduPilot_Pixhawk6X_36004E000F51323138363132"
+    for interface in ("if00", "if02"):
+        (by_id / f"{name}-{interface}").touch()
+    (by_id / "usb-FTDI_FT232R_USB_UART_A50285BI-if00-port0").touch()  # not an autopilot
+    result = subprocess.run(
+        ["bash", str(INSTALL), "--root", str(root), "--no-venv"],
+        capture_output=True,
+        text=True,
+        timeout=TOOL_TIMEOUT_S,
+        check=False,
+        stdin=subprocess.DEVNULL,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert _installed_url(root) == f"/dev/serial/by-id/{name}-if00"
+    last = result.stdout.splitlines()[-3:]
+    assert last[0].endswith(f"link.url = /dev/serial/by-id/{name}-if00 (/etc/helixd/helixd.yaml)")
+    assert "systemctl enable --now helixd" in last[1] and "helixd.service" in last[1]
+    assert "helixd@<mission>" in last[2]
+    again = run_install("--root", str(root), "--no-venv")
+    assert "unchanged /etc/helixd/helixd.yaml" in again.stdout
+
+
+def test_install_link_option_sets_the_url(tmp_path: Path) -> None:
+    root = tmp_path / "rootfs"
+    result = run_install("--root", str(root), "--no-venv", "--link", "/dev/serial0:921600")
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert _installed_url(root) == "/dev/serial0:921600"
+
+
+def test_install_without_a_device_says_the_link_stays_udp(tmp_path: Path) -> None:
+    root = tmp_path / "rootfs"
+    result = run_install("--root", str(root), "--no-venv")
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert _installed_url(root) == "udpin:0.0.0.0:14550"
+    assert "warning: link.url stays udpin:0.0.0.0:14550" in result.stdout
+    assert "--link URL" in result.stdout

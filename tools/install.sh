@@ -9,17 +9,23 @@
 #   1. system user+group `helixd` (member of dialout)   systemd-sysusers, else useradd
 #   2. /opt/helixd/venv with helixd pip-installed from this checkout
 #   3. /etc/helixd/helixd.yaml and /etc/helixd/missions/*.yaml from config/ — an existing,
-#      edited file is never overwritten: the new version is written next to it as *.new
+#      edited file is never overwritten: the new version is written next to it as *.new.
+#      Its link.url is the autopilot's serial device: --link URL, else the one device in
+#      /dev/serial/by-id/ named like an autopilot (ArduPilot, Pixhawk, Cube…), else asked
+#      for on a terminal; with none, the config's udpin:0.0.0.0:14550 stays and it says so
 #   4. /var/lib/helixd/runs (flight records)             systemd-tmpfiles, else install -d
 #   5. /etc/systemd/system/helixd@.service and helixd.service, then `systemctl daemon-reload`
-# Then: systemctl start helixd@square   (flies /etc/helixd/missions/square.yaml once)
-#   or: systemctl enable --now helixd    (helixd serve: all day, started from the radio/GCS)
+# Then: systemctl enable --now helixd    (helixd serve: all day, started from the radio/GCS)
+#   or: systemctl start helixd@square   (flies /etc/helixd/missions/square.yaml once)
 set -euo pipefail
 
 usage() {
     cat <<'EOF'
-usage: install.sh [--dry-run] [--root DIR] [--no-venv] [-h|--help]
+usage: install.sh [--dry-run] [--root DIR] [--no-venv] [--link URL] [-h|--help]
   --dry-run       print the actions, change nothing
+  --link URL      the autopilot's link for /etc/helixd/helixd.yaml's link.url, e.g.
+                  /dev/serial/by-id/usb-ArduPilot_…-if00 or /dev/serial0:921600 (default:
+                  the one autopilot found in /dev/serial/by-id/, else asked on a terminal)
   --root DIR      install below DIR instead of / (alias --prefix; default $DESTDIR or /);
                   users are created in DIR/etc/passwd (systemd-sysusers --root), never on the
                   host, and systemctl is not called
@@ -33,6 +39,11 @@ ROOT="${DESTDIR:-/}"
 DRY_RUN=0
 WITH_VENV=1
 PYTHON="${PYTHON:-python3}"
+LINK_URL=""
+DEFAULT_LINK_URL="udpin:0.0.0.0:14550"  # config/helixd.yaml's link.url
+# /dev/serial/by-id/ names of autopilot boards (ArduPilot's USB names its board; older
+# bootloaders say PX4/Pixhawk; CubePilot, Holybro, mRo, CUAV boards)
+AUTOPILOT_NAMES='ardupilot|pixhawk|px4|cubepilot|cube|holybro|mro|cuav|fmu'
 
 while [[ $# -gt 0 ]]; do
     case "$1" in
@@ -44,6 +55,12 @@ while [[ $# -gt 0 ]]; do
             ;;
         --root=* | --prefix=*) ROOT="${1#*=}" ;;
         --no-venv) WITH_VENV=0 ;;
+        --link)
+            [[ $# -ge 2 ]] || { echo "install.sh: --link needs a URL" >&2; exit 2; }
+            LINK_URL="$2"
+            shift
+            ;;
+        --link=*) LINK_URL="${1#*=}" ;;
         -h | --help) usage; exit 0 ;;
         *) echo "install.sh: unknown option: $1" >&2; usage >&2; exit 2 ;;
     esac
@@ -228,10 +245,66 @@ step_venv() {
     trap - EXIT
 }
 
+# The autopilot's serial devices in the target root's /dev/serial/by-id/ (MAVLink is on a
+# board's first interface, -if00; its second, SLCAN, is left out).
+autopilot_devices() {
+    local dir="$ROOT/dev/serial/by-id" dev name
+    [[ -d "$dir" ]] || return 0
+    for dev in "$dir"/*; do
+        [[ -e "$dev" || -L "$dev" ]] || continue
+        name="$(basename "$dev")"
+        if printf '%s\n' "$name" | grep -Eiq "$AUTOPILOT_NAMES" \
+            && ! printf '%s\n' "$name" | grep -Eq -- '-if0[1-9]$'; then
+            printf '%s\n' "/dev/serial/by-id/$name"
+        fi
+    done
+}
+
+# LINK_URL: given, found, or asked for; "" keeps the config's default.
+choose_link() {
+    [[ -z "$LINK_URL" ]] || { say "link.url: $LINK_URL (--link)"; return; }
+    local found=()
+    mapfile -t found < <(autopilot_devices)
+    if [[ "${#found[@]}" -eq 1 ]]; then
+        LINK_URL="${found[0]}"
+        say "link.url: $LINK_URL (the autopilot found in /dev/serial/by-id/)"
+        return
+    fi
+    if [[ "${#found[@]}" -gt 1 ]]; then
+        say "several autopilot-like devices in /dev/serial/by-id/: ${found[*]}"
+    fi
+    if [[ "$DRY_RUN" -eq 0 && -t 0 ]]; then
+        local prompt="install.sh: the autopilot's serial device (e.g. /dev/ttyACM0,"
+        prompt+=" /dev/serial0:921600; empty keeps $DEFAULT_LINK_URL): "
+        read -r -p "$prompt" LINK_URL || LINK_URL=""
+    fi
+    if [[ -z "$LINK_URL" ]]; then
+        say "warning: link.url stays $DEFAULT_LINK_URL (listens for UDP, not the autopilot's" \
+            "serial port): set link.url in $ETC_DIR/helixd.yaml, or run again with --link URL"
+    fi
+}
+
 step_config() {
     run install -d -m 0750 "$ROOT$ETC_DIR" "$ROOT$ETC_DIR/missions"
     chown_root_service_group "$ROOT$ETC_DIR" "$ROOT$ETC_DIR/missions"
-    install_config_file "$REPO_DIR/config/helixd.yaml" "$ETC_DIR/helixd.yaml"
+    choose_link
+    local config="$REPO_DIR/config/helixd.yaml"
+    if [[ -n "$LINK_URL" ]]; then
+        case "$LINK_URL" in
+            */* | udp* | tcp*) ;;
+            *) echo "install.sh: --link $LINK_URL: not a device path or udp/tcp URL" >&2; exit 2 ;;
+        esac
+        RENDERED_CONFIG="$(mktemp)"
+        # shellcheck disable=SC2064  # expand now
+        trap "rm -f '$RENDERED_CONFIG'" EXIT
+        awk -v url="$LINK_URL" -v old="$DEFAULT_LINK_URL" '
+            /^link:/ { in_link = 1 }
+            /^[^ #]/ && !/^link:/ { in_link = 0 }
+            in_link && $1 == "url:" && $2 == old { sub(old, url) }
+            { print }' "$config" >"$RENDERED_CONFIG"
+        config="$RENDERED_CONFIG"
+    fi
+    install_config_file "$config" "$ETC_DIR/helixd.yaml"
     local mission
     for mission in "$REPO_DIR"/config/missions/*.yaml; do
         [[ -e "$mission" ]] || continue
@@ -295,7 +368,13 @@ main() {
     step_config
     step_state_dirs
     step_unit
-    say "done. Start a mission with: systemctl start helixd@<mission>" \
+    local url
+    url="$(awk '/^link:/ { l = 1; next } /^[^ #]/ { l = 0 } l && $1 == "url:" { print $2; exit }' \
+        "$ROOT$ETC_DIR/helixd.yaml" 2>/dev/null || true)"
+    say "done. helixd talks to the autopilot on link.url = ${url:-${LINK_URL:-$DEFAULT_LINK_URL}} ($ETC_DIR/helixd.yaml)"
+    say "all day, started from the ground station or the radio: systemctl enable --now helixd" \
+        "(helixd.service: helixd serve)"
+    say "or one mission file once: systemctl start helixd@<mission>" \
         "(mission files in $ETC_DIR/missions)"
 }
 

@@ -57,7 +57,7 @@ from helixd.runtime.prepare import (
     Resume,
     prepare_flight,
 )
-from helixd.runtime.status import read_status
+from helixd.runtime.status import HeldLog, log_lines, read_status
 from helixd.sim import command as sim_command
 from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
@@ -123,8 +123,9 @@ ModeOpt = Annotated[
     MotionMode | None,
     typer.Option(
         "--mode",
-        help="motion mode for a .plan/.waypoints mission (default: "
-        "mission.ground_station_mode); overrides a YAML mission's mode",
+        help="motion mode of a .plan/.waypoints mission (default: "
+        "mission.ground_station_mode); given with a YAML mission it wins over the file's "
+        "mode: and a warning says so",
     ),
 ]
 SkipOpt = Annotated[
@@ -431,7 +432,7 @@ def echo_notes(notes: tuple[str, ...]) -> None:
 def echo_flight(flight: Flight) -> None:
     """The planned legs, when the flight was planned around obstacles."""
     if flight.route is not None:
-        typer.echo("\n".join(route_lines(flight.route)))
+        typer.echo("\n".join(route_lines(flight.route, flight.mission)))
 
 
 @app.command()
@@ -451,19 +452,33 @@ def status(
     """Print mode, armed, pose, EKF health, RC inputs and servo outputs (read-only)."""
     cfg = config_or_exit(config)
     url = check_connect(connect, cfg)
-    configure_logging(tty=sys.stderr.isatty(), level="warning")
+    held = HeldLog()  # its warnings come after the report, as its own lines, not among them
+    configure_logging(tty=False, level="warning", stream=held)
     link = cfg.link.model_copy(update={"url": url})
     try:
         code = asyncio.run(
             read_status(
-                link, cfg.safety, cfg.startup.connect_timeout_s, watch, interval_s, typer.echo
+                link,
+                cfg.safety,
+                cfg.startup.connect_timeout_s,
+                watch,
+                interval_s,
+                typer.echo,
+                held,
             )
         )
     except LinkError as exc:
+        _echo_held(held)
         raise fail([str(exc)], ExitCode.LINK) from None
     except KeyboardInterrupt:
         code = 0
+    _echo_held(held)
     raise typer.Exit(code)
+
+
+def _echo_held(held: HeldLog) -> None:
+    for line in log_lines(held.drain()):
+        typer.echo(line, err=True)
 
 
 sim_command.register(app)

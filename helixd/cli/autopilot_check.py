@@ -9,6 +9,7 @@ good (warnings allowed); 2 bad command line or config; 3 something to change (PR
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 from collections.abc import Iterator
 from typing import Annotated
@@ -21,7 +22,10 @@ from helixd.cli.guard import ConfigOpt, ConnectOpt, autopilot_app
 from helixd.cli.simulated import embedded_guard
 from helixd.config import HelixdConfig
 from helixd.link.autopilot_setup import SetupLine, failed, judge_setup, read_setup
+from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
+from helixd.link.vehicle import Change
+from helixd.mav.constants import MAV_CMD_REQUEST_MESSAGE, MAVLINK_MSG_ID_RC_CHANNELS
 from helixd.sim.server import start_embedded
 from helixd.sim.sim_config import SimConfig
 
@@ -60,6 +64,17 @@ def report(url: str, lines: list[SetupLine]) -> list[str]:
     return out
 
 
+async def rc_inputs(ap: Autopilot, timeout_s: float) -> tuple[int, ...]:
+    """The pilot's RC inputs (RC_CHANNELS, µs), asked for once (an observer asks for no
+    streams); empty when none came within ``timeout_s`` (no receiver: ArduPilot then does not
+    check the throttle channel at arming either)."""
+    if ap.state.rc_rx_s is None:
+        with contextlib.suppress(CommandError):
+            await ap.action.command_long(MAV_CMD_REQUEST_MESSAGE, (MAVLINK_MSG_ID_RC_CHANNELS,))
+        await ap.telemetry.wait_for(lambda st: st.rc_rx_s is not None, Change.RC, timeout_s)
+    return ap.state.rc_inputs_us
+
+
 def check_command(
     connect: ConnectOpt = None, config: ConfigOpt = None, sim: SimOpt = False
 ) -> None:
@@ -71,8 +86,10 @@ def check_command(
     cfg, link = link_inputs(config, connect)
 
     async def body(ap: Autopilot) -> list[SetupLine]:
-        params = await read_setup(ap, cfg.actuation)
-        return judge_setup(params, cfg.actuation, cfg.link, cfg.safety.servo_guard)
+        params, rc_inputs_us = await asyncio.gather(
+            read_setup(ap, cfg.actuation), rc_inputs(ap, cfg.link.command_timeout_s)
+        )
+        return judge_setup(params, cfg.actuation, cfg.link, cfg.safety.servo_guard, rc_inputs_us)
 
     with _target(cfg, link.url, sim) as url:
         target = link.model_copy(update={"url": url})

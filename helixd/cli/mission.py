@@ -72,7 +72,11 @@ mission_app = typer.Typer(
 
 ModeOpt = Annotated[
     MotionMode | None,
-    typer.Option("--mode", help="motion mode (needed when reading .plan/.waypoints)"),
+    typer.Option(
+        "--mode",
+        help="motion mode of a .plan/.waypoints mission (default: mission.ground_station_mode);"
+        " given with a YAML mission it wins over the file's mode: and a warning says so",
+    ),
 ]
 OriginOpt = Annotated[
     str | None,

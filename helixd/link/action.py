@@ -18,7 +18,14 @@ from helixd.link.codec import MavlinkConnection
 from helixd.link.command_client import CommandClient, CommandError, CommandRejected
 from helixd.link.telemetry import ChangeWaiters
 from helixd.link.vehicle import Change, HomePosition, VehicleState, mode_number
-from helixd.mav.arming import FORCE_ARM_MAGIC, K_SCRIPTING1, NO_OUTPUTS_TEXT
+from helixd.mav.arming import (
+    FORCE_ARM_MAGIC,
+    K_SCRIPTING1,
+    NO_OUTPUTS_TEXT,
+    not_neutral_channel,
+    rc_reading,
+    throttle_must_read,
+)
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MISSION_CURRENT,
@@ -96,7 +103,12 @@ class Action:
         except CommandRejected as exc:
             text = await self._arm_text(since) or exc.statustext
             hint = "" if forced else "startup.force_arm forces it"
-            if text and NO_OUTPUTS_TEXT[:STATUSTEXT_FIRST_PIECE] in text:  # 1st chunk
+            if (channel := not_neutral_channel(text)) is not None:
+                # the pilot's stick or switch, not a check to skip: what the channel must read
+                # (runtime.setup adds RCn_TRIM and RCn_DZ's values)
+                reading = rc_reading(self._state.rc_inputs_us, channel)
+                hint = throttle_must_read(channel, None, None, reading)
+            elif text and NO_OUTPUTS_TEXT[:STATUSTEXT_FIRST_PIECE] in text:  # 1st chunk
                 hint = (
                     f"a Helix needs one spare output with SERVOn_FUNCTION = {K_SCRIPTING1} "
                     "(Script1) to arm normally: `helixd autopilot check` names it"

@@ -9,6 +9,10 @@ A normal arm (no force, every PreArm check made) needs, besides GPS/EKF/battery/
   ``SERVOn_FUNCTION = 94`` (Script1). No script drives it.
 * **no checks skipped**: ``ARMING_SKIPCHK = 0`` (current firmware; -1 skips all of them,
   the motor-output check too) or ``ARMING_CHECK = 1`` (older firmware; 0 skips all).
+* **the throttle channel at its trim** (``AP_Arming::rc_arm_checks``, made at every arm
+  once a receiver sends): ``RCMAP_THROTTLE``'s channel n must read ``RCn_TRIM ± RCn_DZ``,
+  or "Arm: Throttle (RCn) is not neutral". The line says what it must read and what it reads
+  (RC_CHANNELS), and to move the stick or switch there — never to force the arm.
 * what preflight checks before every run (:func:`helixd.link.preflight.judge`): the scroll
   outputs as the backend needs them (RC passthrough RCINn for ``rc_override``, function 0 for
   ``servo``), helixd's system id as the GCS id, RC_OVERRIDE_TIME, FS_GCS_ENABLE, the guard.
@@ -20,7 +24,7 @@ A normal arm (no force, every PreArm check made) needs, besides GPS/EKF/battery/
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -45,7 +49,10 @@ from helixd.mav.arming import (
     PREARM_PREFIX,
     SAIL_FUNCTIONS,
     motor_prearm_failure,
+    rc_reading,
     servo_functions,
+    throttle_must_read,
+    throttle_neutral,
 )
 from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS
 
@@ -174,6 +181,33 @@ def judge_skipped_checks(params: Mapping[str, float | None]) -> SetupLine:
     )
 
 
+def judge_throttle(
+    params: Mapping[str, float | None], rc_inputs_us: Sequence[int] = ()
+) -> SetupLine | None:
+    """Will AP_Arming::rc_arm_checks find the throttle channel neutral? (pure) None when
+    RCMAP_THROTTLE could not be read."""
+    topic = "arming (throttle)"
+    mapped = params.get("RCMAP_THROTTLE")
+    if mapped is None:
+        return None
+    n = round(mapped)
+    trim, dz = params.get(f"RC{n}_TRIM"), params.get(f"RC{n}_DZ")
+    reading = rc_reading(rc_inputs_us, n)
+    need = throttle_must_read(n, trim, dz, reading)
+    if reading is None:
+        return SetupLine(
+            "ok", topic, f"{need} (no RC input seen: ArduPilot checks it once a receiver sends)"
+        )
+    if trim is not None and throttle_neutral(reading, round(trim), round(dz or 0)):
+        return SetupLine("ok", topic, need)
+    return SetupLine(
+        "error",
+        topic,
+        f"a normal arm is refused: 'Arm: Throttle (RC{n}) is not neutral'; {need}",
+        f"RC{n}_TRIM",
+    )
+
+
 def _topic(problem: PreflightProblem) -> str:
     param = problem.param or ""
     if param.startswith(("MAV_GCS_SYSID", LEGACY_GCS_SYSID)):
@@ -204,9 +238,13 @@ def judge_setup(
     actuation: ActuationConfig,
     link: LinkConfig,
     servo_guard: ServoGuardPolicy = "required",
+    rc_inputs_us: Sequence[int] = (),
 ) -> list[SetupLine]:
-    """One line per topic: ok, or each problem with what to change (pure)."""
+    """One line per topic: ok, or each problem with what to change (pure). ``rc_inputs_us``:
+    the last RC_CHANNELS (µs, channel 1 first), empty when none came."""
     lines = [judge_skipped_checks(params), judge_motor_outputs(params, actuation)]
+    if (throttle := judge_throttle(params, rc_inputs_us)) is not None:
+        lines.append(throttle)
     problems = judge(params, actuation, link, servo_guard)
     by_topic: dict[str, list[PreflightProblem]] = {}
     for p in problems:
@@ -290,6 +328,9 @@ async def read_setup(ap: ParamReader, actuation: ActuationConfig) -> dict[str, f
         more += [f"SERVO{n}_FUNCTION" for n in range(OUTPUTS_ALWAYS_READ + 2, OUTPUTS_MAX + 1)]
     if params.get(HXG_VERSION) is not None:
         more += [n for n in PARAM_DEFAULTS if n != HXG_VERSION]
+    mapped = params.get("RCMAP_THROTTLE")
+    if mapped is not None:  # what the throttle channel must read to arm
+        more += [f"RC{round(mapped)}_TRIM", f"RC{round(mapped)}_DZ"]
     got = await asyncio.gather(*(ap.param.get(n) for n in more))
     params.update(zip(more, got, strict=True))
     return params

@@ -64,6 +64,7 @@ from helixd.link.vehicle import Change, VehicleState
 from helixd.mav.constants import (
     GCS_CONTACT_MESSAGE_IDS,
     MAV_CMD_REQUEST_MESSAGE,
+    MAV_STATE_BOOT,
     MAVLINK_MSG_ID_HEARTBEAT,
 )
 from helixd.mav.url import LinkTimeout, LinkUrl, parse_link_url
@@ -384,8 +385,9 @@ class Autopilot:
             if self._monitoring and (rerequest is None or rerequest.done()):
                 slow = self._streams.due(now, not st.link_lost)
                 if slow:
+                    booting = st.mode == "INITIALISING" or st.system_status == MAV_STATE_BOOT
                     rerequest = self._spawn(
-                        self._streams.rerequest_and_restart(slow), "stream_rerequest"
+                        self._streams.rerequest_and_restart(slow, booting), "stream_rerequest"
                     )
 
     def _rerequest_streams(self) -> None:

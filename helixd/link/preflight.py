@@ -275,7 +275,9 @@ def judge_radio(
                 f"RCMAP_THROTTLE = {n} is a channel helixd overrides: while it drives, "
                 f"ArduPilot cannot see a lost radio and nobody could take over; set "
                 f"RCMAP_THROTTLE to {instead}, reboot the autopilot, and program the "
-                f"receiver's failsafe to send that channel below {below}",
+                f"receiver's failsafe to send that channel below {below}; to arm, that "
+                f"channel must then read its trim (RCn_TRIM ± RCn_DZ: a switch there in its "
+                f"middle position, `helixd autopilot check` says what it reads)",
                 "RCMAP_THROTTLE",
             )
         ]

@@ -157,6 +157,12 @@ class RateMonitor:
         return slow
 
 
+def silent_streams(slow: Sequence[tuple[str, float]], granted_hz: dict[str, float]) -> bool:
+    """Was every granted stream silent (nothing at all arrived in the window)? (pure)"""
+    granted = {name for name, rate in granted_hz.items() if rate > 0}
+    return bool(granted) and {n for n, hz in slow if hz == 0.0} >= granted
+
+
 class StreamManager:
     """Negotiates the message intervals and re-requests slow streams."""
 
@@ -259,16 +265,30 @@ class StreamManager:
         log.error("stream_rate_not_granted", stream=name, floor_hz=floor_hz)
         return 0.0
 
-    async def rerequest(self, slow: Sequence[tuple[str, float]]) -> None:
-        """Ask again, at the granted interval, for streams observed too slow."""
+    async def rerequest(self, slow: Sequence[tuple[str, float]], booting: bool = False) -> None:
+        """Ask again, at the granted interval, for streams observed too slow. When every
+        granted stream was silent (an autopilot booting, or one that forgot the intervals), one
+        ``streams_silent`` event names them all instead of a ``stream_slow`` per stream; while
+        the autopilot says it boots (``booting``) that event is info, not a warning."""
+        silent = silent_streams(slow, self.monitor.granted_hz)
+        if silent:
+            names = [name for name, _ in slow]
+            (log.info if booting else log.warning)(
+                "streams_silent",
+                streams=names,
+                booting=booting,
+                window_s=self.monitor.window_s,
+                why="the autopilot sent none of them; asked again",
+            )
         for name, observed in slow:
             granted = self.monitor.granted_hz.get(name, 0.0)
-            log.warning(
-                "stream_slow",
-                stream=name,
-                observed_hz=round(observed, 2),
-                granted_hz=round(granted, 2),
-            )
+            if not silent:
+                log.warning(
+                    "stream_slow",
+                    stream=name,
+                    observed_hz=round(observed, 2),
+                    granted_hz=round(granted, 2),
+                )
             try:
                 await self._command(
                     MAV_CMD_SET_MESSAGE_INTERVAL,
@@ -286,7 +306,9 @@ class StreamManager:
             return None
         return self.monitor.check(now_s) or None
 
-    async def rerequest_and_restart(self, slow: list[tuple[str, float]]) -> None:
+    async def rerequest_and_restart(
+        self, slow: list[tuple[str, float]], booting: bool = False
+    ) -> None:
         """Re-request ``slow`` and start a new observation window."""
-        await self.rerequest(slow)
+        await self.rerequest(slow, booting)
         self.monitor.restart(time.monotonic())

@@ -29,7 +29,8 @@ motor controllers are not ArduPilot's motors.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import re
+from collections.abc import Mapping, Sequence
 
 K_STEERING = 26
 K_MOTOR1 = 33
@@ -87,3 +88,55 @@ def servo_functions(params: Mapping[str, float | None]) -> dict[int, int]:
         if number.isdigit():
             out[int(number)] = round(value)
     return out
+
+
+# AP_Arming::rc_arm_checks (made on every arm that is not forced, once a receiver has sent in
+# the last second): "Arm: Throttle (RCn) is not neutral" unless the throttle channel's control
+# input is 0. Rover's throttle (RCMAP_THROTTLE) is an angle channel (Rover/radio.cpp
+# set_angle(100)), so its input is 0 when RCn reads within RCn_TRIM ± RCn_DZ
+# (RC_Channel::pwm_to_angle_dz_trim; Rover's default dead zone there is 30 µs).
+ARM_PREFIX = "Arm: "
+THROTTLE_NOT_NEUTRAL = re.compile(r"Throttle \(RC(\d+)\) is not neutral")
+
+
+def not_neutral_channel(text: str | None) -> int | None:
+    """The RC channel of an "Arm: Throttle (RCn) is not neutral" refusal, else None."""
+    found = THROTTLE_NOT_NEUTRAL.search(text or "")
+    return None if found is None else int(found.group(1))
+
+
+def throttle_neutral(reading_us: int, trim_us: int, dz_us: int) -> bool:
+    """Does the throttle channel's reading let ArduPilot arm (within RCn_TRIM ± RCn_DZ)?"""
+    return abs(reading_us - trim_us) <= dz_us
+
+
+def rc_reading(rc_inputs_us: Sequence[int], channel: int) -> int | None:
+    """RCn's last RC_CHANNELS value (µs), None when not reported (0 or missing)."""
+    if not 1 <= channel <= len(rc_inputs_us):
+        return None
+    value = int(rc_inputs_us[channel - 1])
+    return value if value > 0 else None
+
+
+def throttle_must_read(
+    channel: int, trim_us: float | None, dz_us: float | None, reading_us: int | None
+) -> str:
+    """What the throttle channel must read to arm, and what it reads (pure)."""
+    n = channel
+    if trim_us is None:
+        need = f"RC{n} (RCMAP_THROTTLE) must read its trim RC{n}_TRIM ± RC{n}_DZ to arm"
+    else:
+        trim, dz = round(trim_us), round(dz_us or 0)
+        need = (
+            f"RC{n} (RCMAP_THROTTLE) must read its trim RC{n}_TRIM = {trim} µs ± RC{n}_DZ = "
+            f"{dz} µs ({trim - dz}–{trim + dz} µs) to arm"
+        )
+    if reading_us is None:
+        return f"{need}: put the stick or switch on RC{n} where it reads that (centred)"
+    if trim_us is not None and throttle_neutral(reading_us, round(trim_us), round(dz_us or 0)):
+        return f"{need}; it reads {reading_us} µs"
+    return (
+        f"{need}; it reads {reading_us} µs — put the stick or switch on RC{n} where it reads "
+        f"its trim (a 3-position switch in its middle position), or set RC{n}_TRIM to the "
+        f"value RC{n} rests at"
+    )

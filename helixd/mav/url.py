@@ -146,3 +146,26 @@ def parse_link_url(url: str, default_baud: int) -> LinkUrl:
         allowed = ", ".join(str(b) for b in STANDARD_BAUDS)
         raise _bad(url, f"baud {baud} is not a standard serial rate ({allowed})")
     return LinkUrl("serial", text, device=device, baud=baud)
+
+
+def heartbeat_wait_text(url: str, default_baud: int) -> str:
+    """What a wait for the autopilot's first HEARTBEAT says (pure): the link it listens on
+    (``link.url``) and what to check there."""
+    try:
+        link = parse_link_url(url, default_baud)
+    except LinkError:
+        return f"waiting for the autopilot's HEARTBEAT on {url} (link.url)"
+    head = f"waiting for the autopilot's HEARTBEAT on {url} (link.url, {link.describe()})"
+    if link.kind == "serial":
+        return (
+            f"{head}: check the autopilot is powered and cabled to {link.device}, its port's "
+            f"SERIALn_PROTOCOL = 2 (MAVLink2) and SERIALn_BAUD = {link.baud} (a USB port ignores "
+            "the baud)"
+        )
+    if link.kind == "udpin":
+        return (
+            f"{head}: it only listens — something must send MAVLink to UDP port {link.port} "
+            "(a router, a telemetry bridge, SITL); an autopilot on a serial cable needs "
+            "link.url = its device (/dev/serial/by-id/…) in the config"
+        )
+    return f"{head}: check that {link.host}:{link.port} is the autopilot or its router, and is up"

@@ -201,8 +201,8 @@ def _start_distance_problems(
         why = "wrong mission, wrong place, or an EKF origin that moved?"
     elif home is not None:
         at = home
-        where = "the mission's home (where the rover should start)"
-        why = "wrong mission or wrong place?"
+        where = "the file's home"
+        why = "if the rover starts there"
     else:
         return []
     dist = math.hypot(first.x_m - at[1], first.y_m - at[0])
@@ -475,10 +475,28 @@ def mission_problems(
     problems += _ground_problems(mission, cfg)
     if provisional:  # before the EKF origin is known, the mission's home stands for it
         problems += _home_range_problems(mission, cfg)
-        problems += _start_distance_problems(plan, cfg, None, _home_ne(mission))
+        # the start distance from the file's home is only a warning (start_warnings): that
+        # home is where the planner stood; preflight judges the rover's real position
     else:
         problems += _start_distance_problems(plan, cfg, start_ned, None)
     return problems
+
+
+def start_warnings(mission: Mission, cfg: HelixdConfig, plan: Plan) -> list[str]:
+    """Before the rover's position is known: a global mission's first waypoint farther than
+    ``mission.max_start_distance_m`` from the home its file carries (a .waypoints home row, a
+    .plan's planned home). That home is where the planner stood — QGroundControl puts it where
+    the map was, ArduPilot's own example missions far from their first item — not where the
+    rover will start, so ``check`` warns; preflight refuses from the rover's real position."""
+    home = _home_ne(mission)
+    if home is None:
+        return []
+    found = _start_distance_problems(plan, cfg, None, home)
+    return [
+        f"{text} — the file's home is where it was planned, not the rover: preflight "
+        "checks the distance from the rover's real position"
+        for text in found
+    ]
 
 
 def pending_checks(mission: Mission, cfg: HelixdConfig) -> list[str]:

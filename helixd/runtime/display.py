@@ -39,7 +39,6 @@ REFRESH_HZ = 4.0  # live line redraws per second, at most
 EVENT_INTERVAL_S = 2.0  # progress events when not on a terminal
 ARRIVALS_LISTED_MAX = 6  # the result table lists each arrival up to this many
 RESULT_PREFIX = "helixd: RESULT"
-RESULT_CAUSE_MAX_CHARS = 160  # a long cause (several preflight problems) is cut in the line
 # the word after RESULT, per exit code: one greppable token
 RESULT_WORDS: dict[int, str] = {
     ExitCode.OK: "ok",
@@ -196,12 +195,11 @@ def _arrivals_text(summary: RunSummary) -> str:
 
 
 def _cause_text(fault: str | None) -> str:
+    """The cause, whole (several preflight problems included), joined onto one line: the
+    crew greps the journal for this line and reads nothing else."""
     if not fault:
         return ""
-    one_line = " ".join(fault.split())
-    if len(one_line) > RESULT_CAUSE_MAX_CHARS:
-        one_line = one_line[: RESULT_CAUSE_MAX_CHARS - 1] + "…"
-    return " " + one_line
+    return " " + " ".join(fault.split())
 
 
 def result_line(summary: RunSummary) -> str:

@@ -43,6 +43,7 @@ from helixd.mission.validate import (
     apply_mission_limits,
     resolved_for_check,
     servo_problems,
+    start_warnings,
 )
 from helixd.recorder.resume_dir import read_run_dir
 from helixd.runtime.timing import flight_problems
@@ -170,6 +171,8 @@ def mission_vs_config(
         notes.extend(f"note: {n}" for n in resolved.notes)
     refused = flight_problems(msn, cfg, checked_plan=checked, options=options)
     problems.extend(f"{label}: {p}" for p in refused)
+    if notes is not None and provisional:
+        notes.extend(f"warning: {label}: {w}" for w in start_warnings(msn, cfg, resolved.plan))
     return checked
 
 

@@ -111,6 +111,19 @@ def ground_line(cfg: HelixdConfig, msn: Mission, mode: MotionMode) -> str:
     )
 
 
+def dig_in_warning(mode: MotionMode, pivots: int) -> str | None:
+    """SCROLL turns in place at its corners; in dry sand that digs the scrolls in (thesis Field
+    Test 1). ``check`` cannot see the ground, so it says so whenever a SCROLL mission pivots."""
+    if mode is not MotionMode.SCROLL or pivots == 0:
+        return None
+    return (
+        f"warning : scroll turns in place {pivots}× (its corners and headings): on sand, "
+        "turning in place in scroll digs the scrolls in and the rover cannot turn (Field Test "
+        "1; the run stops with fault stall, exit 4) — on sand, give its legs shallow corners "
+        "or fly it in roll"
+    )
+
+
 def check_lines(
     cfg: HelixdConfig,
     msn: Mission,
@@ -174,6 +187,9 @@ def check_lines(
     patrol = patrol_times_s(plan, estimate)
     lines.append(estimate_line(estimate, cfg, msn, start_note, patrol))
     lines.append(ground_line(cfg, msn, plan.mode))
+    dig = dig_in_warning(plan.mode, estimate.pivots)
+    if dig is not None:
+        lines.append(dig)
     own = [
         *(
             [f"geofence polygon ({len(msn.geofence_polygon)} vertices)"]
@@ -194,7 +210,7 @@ def check_lines(
     if later:
         lines.append(f"preflight: run checks with the start pose: {', '.join(later)}")
     if route is not None:
-        lines.extend(route_lines(route))
+        lines.extend(route_lines(route, planned))
     return lines
 
 
@@ -216,6 +232,7 @@ def record_space_warning(
 __all__ = [
     "MAX_TABLE_ROWS",
     "check_lines",
+    "dig_in_warning",
     "estimate_line",
     "ground_line",
     "record_space_warning",

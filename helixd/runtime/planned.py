@@ -185,9 +185,30 @@ def first_leg_replanner(
     return replan_from
 
 
-def route_lines(route: RoutePlan) -> list[str]:
-    """The planned legs, one line each, with their intermediate points (waypoints numbered
-    from 1, as the ground station numbers mission items)."""
+def place_labels(mission: Mission) -> list[str]:
+    """How the operator's places (:meth:`Mission.places`, the planner's via points left out)
+    are named: by mission item, as the ground station and ``check``'s step table number them
+    ("item 4"), in a mission with commands; "wp 3" in one of plain waypoints (the same
+    number there)."""
+    word = "item" if mission.has_commands() else "wp"
+    number: dict[int, int] = {}
+    n = 0
+    for wp in mission.waypoints:
+        if not wp.via:
+            n += 1
+            number[id(wp)] = n
+    return [f"{word} {number[id(wp)]}" for wp in mission.places() if not wp.via]
+
+
+def route_lines(route: RoutePlan, mission: Mission | None = None) -> list[str]:
+    """The planned legs, one line each, with their intermediate points; places named as
+    :func:`place_labels` names them (``mission``: the flown mission; without it "wp N" by
+    place, from 1)."""
+    labels = place_labels(mission) if mission is not None else []
+
+    def label(index: int) -> str:
+        return labels[index] if index < len(labels) else f"wp {index + 1}"
+
     fr = route.grid.frame
     lines = [
         f"planned : clearance {route.grid.clearance_m:.2f} m (rover half-width + "
@@ -195,11 +216,11 @@ def route_lines(route: RoutePlan) -> list[str]:
         f"{route.seconds * 1000:.0f} ms"
     ]
     for leg in route.legs:
-        a = "start" if leg.from_index < 0 else f"wp {leg.from_index + 1}"
+        a = "start" if leg.from_index < 0 else label(leg.from_index)
         via = leg.points_ne_m[1:-1]
         straight = math.dist(leg.points_ne_m[0], leg.points_ne_m[-1])
         how = "straight" if not via else f"{len(via)} intermediate, straight {straight:.1f} m"
-        lines.append(f"  leg {a} → wp {leg.to_index + 1}: {leg.length_m:.1f} m ({how})")
+        lines.append(f"  leg {a} → {label(leg.to_index)}: {leg.length_m:.1f} m ({how})")
         lines.extend(f"      via north {n:9.2f}  east {e:9.2f}" for n, e in via)
     total = sum(leg.length_m for leg in route.legs)
     start = "planning.start_ne_m" if route.origin_latlon_deg is None else "waypoint 1"

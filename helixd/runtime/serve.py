@@ -35,7 +35,7 @@ from helixd.mav.constants import (
     MAV_SEVERITY_INFO,
     MAV_SEVERITY_WARNING,
 )
-from helixd.mav.url import LinkError
+from helixd.mav.url import LinkError, heartbeat_wait_text
 from helixd.runtime.autopilot_mission import ground_station_mode
 from helixd.runtime.gcs_feed import GcsFeed
 from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of, current_target_of
@@ -191,7 +191,8 @@ class Service:
             up = ap.state.last_heartbeat_s is not None and not ap.state.link_lost
             flying = self.flights.flying
             if not up and not flying:
-                self.status.set(ServeState.CONNECTING, "waiting for the autopilot's HEARTBEAT")
+                link = self.cfg.link
+                self.status.set(ServeState.CONNECTING, heartbeat_wait_text(link.url, link.baud))
                 streams = False
             elif up and not flying:
                 if not streams:

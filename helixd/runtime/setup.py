@@ -37,6 +37,7 @@ from helixd.link.preflight import check_obedience
 from helixd.link.telemetry import Telemetry
 from helixd.link.tlog import LinkTlog, attach_tlog
 from helixd.link.vehicle import Change, HomePosition, TelemetryBounds, VehicleState
+from helixd.mav.arming import not_neutral_channel, rc_reading, throttle_must_read
 from helixd.mav.constants import (
     MAV_CMD_NAV_RETURN_TO_LAUNCH,
     MAV_CMD_REQUEST_MESSAGE,
@@ -602,6 +603,20 @@ async def wait_home(
     return None
 
 
+async def explain_arm_refusal(ap: Autopilot, exc: CommandRejected) -> CommandRejected:
+    """An "Arm: Throttle (RCn) is not neutral" refusal names what RCn must read (its
+    RCn_TRIM ± RCn_DZ, read now) and what it reads; any other refusal as it came."""
+    channel = not_neutral_channel(exc.statustext)
+    if channel is None:
+        return exc
+    trim, dz = await asyncio.gather(
+        ap.param.get(f"RC{channel}_TRIM"), ap.param.get(f"RC{channel}_DZ")
+    )
+    reading = rc_reading(ap.state.rc_inputs_us, channel)
+    hint = throttle_must_read(channel, trim, dz, reading)
+    return CommandRejected(exc.command_name, exc.result, exc.statustext, hint)
+
+
 async def arm(
     ap: Autopilot, cfg: HelixdConfig, held: Held, on_status: Callable[[str], None]
 ) -> str | None:
@@ -618,9 +633,10 @@ async def arm(
             held.armed_by_us = True
             await confirm_armed(ap, cfg)
             return warning
-        except CommandRejected as exc:
+        except CommandRejected as refused:
+            exc = await explain_arm_refusal(ap, refused)
             if time.monotonic() + startup.arm_retry_interval_s > deadline:
-                raise
+                raise exc from None
             log.warning(
                 "arm_refused_retrying", reason=str(exc), retry_in_s=startup.arm_retry_interval_s
             )

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import io
 import math
 import time
 from collections.abc import Mapping
@@ -28,6 +29,28 @@ from helixd.mav.guard_script import (
     GuardParams,
 )
 from helixd.safety.watchdogs import GPS_FIX_NAMES
+
+
+class HeldLog(io.StringIO):
+    """Where ``status`` sends its log lines (the text stream given to
+    :func:`helixd.recorder.logging_setup.configure_logging`): held, then printed with the
+    report as its own ``log`` lines (:func:`log_lines`) instead of landing between them."""
+
+    def drain(self) -> list[str]:
+        """The whole lines written so far (then forgotten; a partial line is kept)."""
+        done, sep, rest = self.getvalue().rpartition("\n")
+        if not sep:
+            return []
+        self.seek(0)
+        self.truncate()
+        self.write(rest)
+        return [line for line in done.split("\n") if line.strip()]
+
+
+def log_lines(lines: list[str]) -> list[str]:
+    """The held log lines as report lines (pure)."""
+    return [f"log       : {line.strip()}" for line in lines]
+
 
 FIRST_REPORT_S = 2.0  # wait this long for the first pose, then for the slower streams (s)
 GUARD_PARAMS = (SCR_ENABLE, HXG_VERSION, HXG_ENABLE, *HXG_CHANS)
@@ -146,9 +169,16 @@ async def read_status(
     watch: bool,
     interval_s: float,
     emit: object,
+    held: HeldLog | None = None,
 ) -> int:
-    """Connect, wait for a heartbeat and the streams, print. Returns a process exit code."""
+    """Connect, wait for a heartbeat and the streams, print. Returns a process exit code.
+    ``held``: the log lines of this read, printed after each report as ``log`` lines."""
     assert callable(emit)
+
+    def held_lines() -> None:
+        for line in log_lines([] if held is None else held.drain()):
+            emit(line)
+
     emit(
         f"status    : waiting up to {connect_timeout_s:g} s "
         f"(startup.connect_timeout_s) for the autopilot's HEARTBEAT on {link.url} …"
@@ -168,6 +198,7 @@ async def read_status(
         while True:
             for line in format_status(ap.state, time.monotonic()):
                 emit(line)
+            held_lines()
             if not watch:
                 return 0
             emit("")

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.mav.arming import (
+    ARM_PREFIX,
     FORCE_ARM_MAGIC,
     PREARM_PREFIX,
     motor_prearm_failure,
@@ -366,6 +367,18 @@ class SimAutopilot:
             return "Radio failsafe on"
         return None
 
+    def arm_check_failure(self) -> str | None:
+        """AP_Arming::rc_arm_checks' throttle check, made after the PreArm checks pass: with a
+        receiver sending, RCMAP_THROTTLE's channel must read RCn_TRIM ± RCn_DZ."""
+        if self.params.get_int("ARMING_SKIPCHK") == -1:
+            return None
+        if not (self.rc.has_had_receiver and self.rc.receiver_ok) or self.failsafes.radio_on():
+            return None
+        t_ch = self.params.get_int("RCMAP_THROTTLE")
+        if _rc_norm(self.rc.radio_in_us[t_ch - 1], t_ch, self.params) != 0.0:
+            return f"Throttle (RC{t_ch}) is not neutral"
+        return None
+
     def arm_disarm(self, param1: float, param2: float, now_s: float, ekf: SimEkfStatus) -> int:
         if param1 == 0.0:
             if self.armed:
@@ -384,6 +397,10 @@ class SimAutopilot:
             for reason in reasons:
                 self._say(SEVERITY_CRITICAL, f"{PREARM_PREFIX}{reason}")
             if reasons:
+                return MAV_RESULT_FAILED
+            refusal = self.arm_check_failure()
+            if refusal is not None:
+                self._say(SEVERITY_CRITICAL, f"{ARM_PREFIX}{refusal}")
                 return MAV_RESULT_FAILED
         self.armed = True
         self.events.append(SimEvent("arm", {"forced": forced}))

@@ -66,3 +66,23 @@ def test_sim_and_connect_exclude_each_other(capsys: pytest.CaptureFixture[str]) 
     code, _, err = run_main(["autopilot", "check", "--sim", "--connect", "udpin:0.0.0.0:1"], capsys)
     assert code == int(ExitCode.USAGE)
     assert "--sim and --connect exclude each other" in err
+
+
+def test_a_throttle_switch_resting_high_is_named_with_what_it_must_read(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """RCMAP_THROTTLE = 5 as the check asks, the radio's switch on RC5 resting high: the
+    check says the arm would be refused and what RC5 must read — not force."""
+    rc = (1500,) * 4 + (1900,) + (1500,) * 11
+    with running_sim(pilot_rc_us=rc, params={"RC5_DZ": 30}) as (server, url):
+        server.wait_for(lambda s: not s.booting, 30.0)  # RC inputs read 0 while it boots
+        code, out, err = run_main(
+            ["autopilot", "check", "--connect", url, "--config", config(tmp_path)], capsys
+        )
+    assert code == int(ExitCode.PREFLIGHT), out + err
+    assert (
+        "error   arming (throttle): a normal arm is refused: 'Arm: Throttle (RC5) is not "
+        "neutral'; RC5 (RCMAP_THROTTLE) must read its trim RC5_TRIM = 1500 µs ± RC5_DZ = 30 µs "
+        "(1470–1530 µs) to arm; it reads 1900 µs"
+    ) in out
+    assert "force" not in out

@@ -19,6 +19,7 @@ from helixd.config import HelixdConfig
 from helixd.mission.formats import load_mission_file
 from helixd.mission.resolve import Where, resolve
 from tests.support.cli import run_main
+from tests.support.paths import REPO_ROOT
 
 CFG = HelixdConfig()
 HOME = (53.523250, -113.526110)
@@ -133,3 +134,33 @@ def test_check_accepts_a_patrol_and_says_what_its_estimate_and_limit_mean(
     assert 30 < first_s < lap_s < 120 and laps == round(1 + (1800 - first_s) / lap_s)
     assert "(after DO_JUMP item 4, lap 2, forever)" in out
     assert "ends: item 4 DO_JUMP repeats forever: a patrol flown until it is stopped" in out
+
+
+def test_planned_legs_name_the_items_the_step_table_names(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """pond.plan: item 3 is a DO_SET_CAM_TRIGG_DIST, so its third place is item 4. The legs
+    the planner prints are named by item, as the step table above them."""
+    plan = str(REPO_ROOT / "config" / "missions" / "pond.plan")
+    code, out, err = run_main(
+        [
+            "check",
+            "--config",
+            str(REPO_ROOT / "config" / "helixd.yaml"),
+            "--mission",
+            plan,
+            "--mode",
+            "scroll",
+        ],
+        capsys,
+    )
+    assert code == 0, out + err
+    legs = [line.strip() for line in out.splitlines() if line.strip().startswith("leg ")]
+    assert [leg.split(":")[0] for leg in legs] == [
+        "leg start → item 1",
+        "leg item 1 → item 2",
+        "leg item 2 → item 4",
+        "leg item 4 → item 5",
+        "leg item 5 → item 6",
+    ]
+    assert "    3    4  NAV_WAYPOINT" in out  # the step table's third step: item 4

@@ -59,7 +59,7 @@ def judged(params: Mapping[str, float | None], act: ActuationConfig = RC) -> lis
 @pytest.mark.parametrize(("params", "act"), [(HELIX_RC, RC), (HELIX_SERVO, SERVO)])
 def test_the_helix_setup_is_all_ok(params: dict[str, float], act: ActuationConfig) -> None:
     lines = judged(params, act)
-    assert [line.status for line in lines] == ["ok"] * 7, [str(x) for x in lines]
+    assert [line.status for line in lines] == ["ok"] * 8, [str(x) for x in lines]
     assert not failed(lines)
     by = topics(lines)
     assert "SERVO16_FUNCTION = 94 (Script1)" in by["arming (motor outputs)"][0].message
@@ -164,3 +164,44 @@ async def test_read_setup_against_the_peer() -> None:
         assert params["SERVO17_FUNCTION"] is None and "SERVO18_FUNCTION" not in params
         lines = judge_setup(params, RC, LINK)
         assert topics(lines)["arming (motor outputs)"][0].status == "ok"
+
+
+THROTTLE_AT_TRIM = {**HELIX_RC, "RC5_TRIM": 1500.0, "RC5_DZ": 30.0}
+
+
+def rc_with(channel: int, pwm_us: int) -> tuple[int, ...]:
+    return tuple(pwm_us if n == channel else 1500 for n in range(1, 17))
+
+
+def test_a_throttle_channel_off_its_trim_is_named_with_what_it_must_read() -> None:
+    """The crew's radio: RCMAP_THROTTLE = 5, its switch resting high. ArduPilot refuses the
+    arm ("Arm: Throttle (RC5) is not neutral"); the check says what RC5 must read."""
+    lines = judge_setup(THROTTLE_AT_TRIM, RC, LINK, rc_inputs_us=rc_with(5, 1900))
+    line = topics(lines)["arming (throttle)"][0]
+    assert line.status == "error" and failed(lines)
+    assert line.message == (
+        "a normal arm is refused: 'Arm: Throttle (RC5) is not neutral'; RC5 (RCMAP_THROTTLE) "
+        "must read its trim RC5_TRIM = 1500 µs ± RC5_DZ = 30 µs (1470–1530 µs) to arm; it "
+        "reads 1900 µs — put the stick or switch on RC5 where it reads its trim (a 3-position "
+        "switch in its middle position), or set RC5_TRIM to the value RC5 rests at"
+    )
+    assert "force" not in line.message
+
+
+@pytest.mark.parametrize(("pwm_us", "status"), [(1530, "ok"), (1470, "ok"), (1531, "error")])
+def test_the_throttle_channel_is_neutral_within_its_dead_zone(pwm_us: int, status: str) -> None:
+    line = topics(judge_setup(THROTTLE_AT_TRIM, RC, LINK, rc_inputs_us=rc_with(5, pwm_us)))
+    assert line["arming (throttle)"][0].status == status
+
+
+def test_without_rc_input_the_throttle_line_still_says_what_to_read() -> None:
+    line = topics(judge_setup(THROTTLE_AT_TRIM, RC, LINK))["arming (throttle)"][0]
+    assert line.status == "ok"
+    assert line.message.startswith("RC5 (RCMAP_THROTTLE) must read its trim RC5_TRIM = 1500 µs")
+    assert "no RC input seen" in line.message
+
+
+def test_moving_the_throttle_channel_says_what_it_must_then_read_to_arm() -> None:
+    line = topics(judged({**HELIX_RC, "RCMAP_THROTTLE": 3.0}))["pilot's radio"][0]
+    assert "to arm, that channel must then read its trim (RCn_TRIM ± RCn_DZ" in line.message
+    assert "force" not in line.message

@@ -5,10 +5,13 @@ from __future__ import annotations
 
 import time
 
+import structlog.testing
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.config import LinkConfig
 from helixd.link.streams import (
     TELEMETRY_STREAMS,
+    StreamManager,
     candidate_intervals,
     fastest_granted_interval_us,
     first_interval_us,
@@ -121,3 +124,35 @@ async def test_one_housekeeping_task_watches_the_link_and_the_streams() -> None:
     async with linked(stream_check_window_s=0.5) as (ap, _peer):
         await ap.request_streams()
         assert sorted(t.get_name() for t in ap._tasks) == ["link_housekeeping"]
+
+
+async def _rerequest_events(
+    slow: list[tuple[str, float]], booting: bool
+) -> list[dict[str, object]]:
+    async def command(*_: object, **__: object) -> int:
+        return int(mavlink.MAV_RESULT_ACCEPTED)
+
+    streams = StreamManager(command, LinkConfig())
+    for name in ("LOCAL_POSITION_NED", "ATTITUDE", "SYS_STATUS"):
+        streams.monitor.grant(name, 10.0, 0.0)
+    with structlog.testing.capture_logs() as events:
+        await streams.rerequest(slow, booting)
+    return events
+
+
+async def test_an_autopilot_that_boots_gives_one_info_not_a_warning_per_stream() -> None:
+    """Before: `serve` logged 16 `stream_slow observed_hz=0.0` while the autopilot booted."""
+    silent = [("LOCAL_POSITION_NED", 0.0), ("ATTITUDE", 0.0), ("SYS_STATUS", 0.0)]
+    events = await _rerequest_events(silent, booting=True)
+    assert [(e["event"], e["log_level"]) for e in events] == [("streams_silent", "info")]
+    assert events[0]["streams"] == ["LOCAL_POSITION_NED", "ATTITUDE", "SYS_STATUS"]
+    after_boot = await _rerequest_events(silent, booting=False)
+    assert [(e["event"], e["log_level"]) for e in after_boot] == [("streams_silent", "warning")]
+
+
+async def test_one_slow_stream_among_flowing_ones_is_still_named() -> None:
+    events = await _rerequest_events([("ATTITUDE", 0.0), ("SYS_STATUS", 3.0)], booting=True)
+    assert [(e["event"], e["stream"]) for e in events] == [
+        ("stream_slow", "ATTITUDE"),
+        ("stream_slow", "SYS_STATUS"),
+    ]

@@ -6,7 +6,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from helixd.mav.url import ALLOWED_FORMS, STANDARD_BAUDS, LinkError, parse_link_url
+from helixd.mav.url import (
+    ALLOWED_FORMS,
+    STANDARD_BAUDS,
+    LinkError,
+    heartbeat_wait_text,
+    parse_link_url,
+)
 
 
 @pytest.mark.parametrize(
@@ -131,3 +137,26 @@ def test_any_text_parses_or_raises_link_error(text: str) -> None:
         assert parsed.baud in STANDARD_BAUDS
     else:
         assert 0 <= parsed.port <= 65535
+
+
+def test_the_heartbeat_wait_names_a_serial_link_and_what_to_check() -> None:
+    text = heartbeat_wait_text("/dev/serial0:921600", 115200)
+    assert text.startswith(
+        "waiting for the autopilot's HEARTBEAT on /dev/serial0:921600 (link.url, serial "
+        "/dev/serial0 at 921600 baud): check the autopilot is powered and cabled to /dev/serial0"
+    )
+    assert "SERIALn_PROTOCOL = 2" in text and "SERIALn_BAUD = 921600" in text
+
+
+def test_the_heartbeat_wait_on_the_installed_udpin_default_says_it_only_listens() -> None:
+    """Before: installed, helixd listened on udpin:0.0.0.0:14550 and said only "waiting for
+    the autopilot's HEARTBEAT"; the crew's autopilot was on a serial cable."""
+    text = heartbeat_wait_text("udpin:0.0.0.0:14550", 115200)
+    assert "on udpin:0.0.0.0:14550 (link.url" in text
+    assert "it only listens" in text and "link.url = its device" in text
+
+
+def test_the_heartbeat_wait_on_tcp_names_host_and_port() -> None:
+    assert heartbeat_wait_text("tcp:10.0.0.2:5760", 115200).endswith(
+        "check that 10.0.0.2:5760 is the autopilot or its router, and is up"
+    )

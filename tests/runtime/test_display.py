@@ -246,10 +246,13 @@ def test_result_line_after_an_autopilot_reboot_and_a_long_cause() -> None:
     b = SummaryBuilder("square", "roll", 4)
     b.add(nan_row(t_mono_s=1.0, t_boot_s=90.0))
     b.add(nan_row(t_mono_s=3.0, t_boot_s=1.0))  # clock stepped back
-    line = result_line(b.build(False, "reboot: " + "x" * 500, int(ExitCode.FAULT)))
+    cause = "reboot: " + "x" * 500 + "\n  and the end of it"
+    line = result_line(b.build(False, cause, int(ExitCode.FAULT)))
     assert "2.0 s wall (autopilot clock reset: rebooted)" in line
     assert "autopilot time" not in line
-    assert len(line) < 260 and "…" in line and line.endswith("exit 4")
+    # the whole cause, on the one line (it used to be cut at 160 characters)
+    assert "\n" not in line and "…" not in line and line.endswith("exit 4")
+    assert "reboot: " + "x" * 500 + " and the end of it — " in line
 
 
 def test_result_table_labels_every_time_with_its_clock() -> None:

@@ -29,6 +29,7 @@ FLOWN = [
     "ap-DriveMission-balancebot1.txt",
     "ap-DriveMission-rover1.txt",
     "ap-DriveRTL-rtl.txt",
+    "ap-EndMissionBehavior-end-mission.txt",  # its only item is "here": done at once
     "ap-GripperMission-rover-gripper-mission.txt",
     "ap-PolyFenceObjectAvoidanceAuto-rover-path-planning-mission.txt",
     "ap-PolyFenceObjectAvoidanceBendyRulerEasierAuto-rover-path-bendyruler-mission-easier.txt",
@@ -48,7 +49,6 @@ REFUSED = {
         "a fence file (QGC WPL 110"
     ),
     "ap-Rally-rover-test-rally.txt": "rally points (RALLY lines)",
-    "ap-EndMissionBehavior-end-mission.txt": "(item 1 (line 3) NAV_WAYPOINT: none drives",
     "ap-GCSFailsafe-test_arming.txt": "item 2 (line 4) NAV_LOITER_UNLIM",
     "ap-Offboard-rover-guided-mission.txt": "item 3 NAV_GUIDED_ENABLE: it hands navigation",
 }

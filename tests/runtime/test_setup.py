@@ -12,12 +12,20 @@ import pytest
 from helixd.base.frames import NedPose
 from helixd.base.plan import MissionFrameKind
 from helixd.config import HelixdConfig
-from helixd.link.vehicle import HomePosition
+from helixd.link.command_client import CommandRejected
+from helixd.link.vehicle import Change, HomePosition
 from helixd.mission.expand import DEFAULT_OPTIONS
 from helixd.mission.model import Mission
-from helixd.runtime.setup import PreflightFailed, gps_verdict, mission_frame, resolve_flight
+from helixd.runtime.setup import (
+    PreflightFailed,
+    explain_arm_refusal,
+    gps_verdict,
+    mission_frame,
+    resolve_flight,
+)
 from tests.support.feed import Feed, still_pending
 from tests.support.mavmsgs import AP, decoded
+from tests.support.peer import linked
 
 CFG = HelixdConfig()
 RETURNS = Mission.model_validate(
@@ -112,3 +120,25 @@ def test_a_gps_that_never_reported_is_refused_by_name() -> None:
         assert fault is not None and fault.detail == "no GPS_RAW_INT received"
 
     asyncio.run(main())
+
+
+async def test_a_throttle_not_neutral_refusal_says_what_the_channel_must_read() -> None:
+    """The crew's arm after `autopilot check`: RC5 (RCMAP_THROTTLE) rests high. The refusal
+    says what RC5 must read and what it reads, and points nowhere near startup.force_arm."""
+    async with linked(command_timeout_s=0.2, command_retries=1) as (ap, peer):
+        peer.prearm_text = "Arm: Throttle (RC5) is not neutral"
+        peer.rc_in[4] = 1900
+        peer.params.update({"RC5_TRIM": 1500.0, "RC5_DZ": 30.0})
+        assert await ap.telemetry.wait_for(
+            lambda st: st.rc_inputs_us[4:5] == (1900,), Change.RC, 5.0
+        )
+        with pytest.raises(CommandRejected) as raised:
+            await ap.action.arm(force=False)
+        assert "force" not in str(raised.value)
+        explained = str(await explain_arm_refusal(ap, raised.value))
+    assert (
+        "RC5 (RCMAP_THROTTLE) must read its trim RC5_TRIM = 1500 µs ± RC5_DZ = 30 µs "
+        "(1470–1530 µs) to arm; it reads 1900 µs — put the stick or switch on RC5"
+    ) in explained
+    assert "'Arm: Throttle (RC5) is not neutral'" in explained
+    assert "force" not in explained

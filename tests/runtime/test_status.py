@@ -7,7 +7,7 @@ import pytest
 from helixd.base.frames import NedPose
 from helixd.link.vehicle import PoseSample, VehicleState
 from helixd.mav.guard_script import VERSION
-from helixd.runtime.status import format_status, guard_text
+from helixd.runtime.status import HeldLog, format_status, guard_text, log_lines
 from tests.support.cli import run_main
 from tests.support.harness import running_sim
 
@@ -59,3 +59,29 @@ def test_status_shows_the_guard_of_a_simulated_autopilot(
         f"guard     : helixd-guard v{VERSION} runs, enabled (HXG_ENABLE = 1), holds outputs "
         "1, 2, 3, 4"
     ]
+
+
+def test_held_log_gives_whole_lines_only() -> None:
+    held = HeldLog()
+    held.write("a=1 event=one\nb=2 ev")
+    assert held.drain() == ["a=1 event=one"]
+    held.write("ent=two\n")
+    assert log_lines(held.drain()) == ["log       : b=2 event=two"]
+    assert held.drain() == []
+
+
+def test_status_log_lines_come_after_the_report_not_among_it(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Before: a warning while reading (here SCHED_LOOP_RATE out of range) was printed on
+    stderr between the report's lines. Now the report is whole, then its `log` lines."""
+    with running_sim(params={"SCHED_LOOP_RATE": 5000}) as (_, url):
+        code, out, err = run_main(["status", "--connect", url], capsys)
+    assert code == 0, err
+    lines = out.splitlines()
+    logged = [n for n, line in enumerate(lines) if line.startswith("log       : ")]
+    assert logged, out
+    assert any("stream_loop_rate_invalid" in lines[n] for n in logged)
+    assert lines[logged[0] - 1].startswith("servo µs  :")  # the report's last line
+    assert logged == list(range(logged[0], len(lines)))  # nothing of the report after them
+    assert "stream_loop_rate_invalid" not in err

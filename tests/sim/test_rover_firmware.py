@@ -722,3 +722,16 @@ def test_disarm_after_takeover_release_rearms_the_watch() -> None:
     rig.run(0.1)
     assert rig.ap.mode == modes.HOLD
     assert rig.texts().count(g.NEVER_SEEN_TEXT) == 2
+
+
+def test_a_throttle_channel_off_its_trim_refuses_the_arm_as_ardupilot() -> None:
+    """AP_Arming::rc_arm_checks: after the PreArm checks, RCMAP_THROTTLE's channel (5 in the
+    Helix setup) must read RC5_TRIM ± RC5_DZ; a switch resting high refuses the arm."""
+    rig = Rig(prearm_delay_s=0.0).boot()
+    rig.ap.set_pilot_rc(5, 1900)
+    rig.run(0.1)
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_FAILED
+    assert rig.texts()[-1] == "Arm: Throttle (RC5) is not neutral"
+    rig.ap.set_pilot_rc(5, 1500)
+    rig.run(0.1)
+    assert rig.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED

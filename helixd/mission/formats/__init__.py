@@ -176,7 +176,8 @@ def load_mission_file(
     """Any supported file → a validated mission. Raises :class:`ConfigFileError` (one line per
     problem, each naming the file) like :func:`load_mission`.
 
-    ``mode`` (the ``--mode`` flag) overrides any file's mode; ``default_mode`` (the config's
+    ``mode`` (the ``--mode`` flag) overrides any file's mode (a YAML mission's own ``mode:``
+    too, with a note saying so); ``default_mode`` (the config's
     ``mission.ground_station_mode``) is used for ground-station files only, which carry none.
     ``route_keep_outs``: legs through a .plan's exclusion zones are planned around
     (helixd.planning), not refused (see :func:`items_to_mission`)."""
@@ -201,7 +202,11 @@ def load_mission_file(
     if fmt is MissionFormat.YAML:
         msn = load_mission(path, limits)
         if mode is not None and mode is not msn.mode:
-            msn = msn.model_copy(update={"mode": mode})
+            note = (
+                f"{path}: --mode {mode.value} wins over the mission's own mode: "
+                f"{msn.mode.value}; it is flown in {mode.value}"
+            )
+            return LoadedMission(msn.model_copy(update={"mode": mode}), fmt, (note,))
         return LoadedMission(msn, fmt)
     mode = mode or default_mode
     if mode is None:
@@ -220,6 +225,7 @@ def load_mission_file(
             mode=mode,
             source=str(path),
             route_keep_outs=route_keep_outs,
+            here_completes=True,  # a file whose only item is "here": done at once, as Rover
         )
     except FormatError as exc:
         raise ConfigFileError(path, exc.problems) from None

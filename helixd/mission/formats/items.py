@@ -218,6 +218,33 @@ def item_entry(it: MissionItem) -> tuple[dict[str, object] | None, list[str]]:
     return entry, []
 
 
+HERE_NOTE = (
+    "item 1: NAV_WAYPOINT at latitude/longitude 0, 0, the mission's only item: 'here' to "
+    "ArduPilot Rover, which reaches it at once and completes the mission; helixd flies it as a "
+    "waypoint where the rover starts (frame start, x 0, y 0), done at once"
+)
+
+
+def _here_only(
+    gcs: GcsMission, entries: list[dict[str, object]], name: str, mode: MotionMode
+) -> Mission | None:
+    """A file whose only item is a NAV_WAYPOINT at 0, 0 without a hold ("here",
+    Location::sanitize):
+    the start-frame mission of one waypoint at the rover (completed at once, as Rover
+    completes it); None for anything else (a fence, a hold, more items)."""
+    if len(entries) != 1 or gcs.polygons or gcs.circles or gcs.time_limit_s is not None:
+        return None
+    (entry,) = entries
+    params = entry.get("params")
+    hold_s = params[0] if isinstance(params, list) and params else 0.0
+    if entry.get("command") != MAV_CMD_NAV_WAYPOINT or "lat" in entry or hold_s != 0.0:
+        return None  # a place, or a hold there: not "done at once"
+    return Mission.model_validate(
+        {"name": name, "mode": mode.value, "frame": "start",
+         "waypoints": [{"x": 0.0, "y": 0.0}]}
+    )  # fmt: skip
+
+
 def items_to_mission(
     gcs: GcsMission,
     *,
@@ -225,6 +252,7 @@ def items_to_mission(
     mode: MotionMode,
     source: str = "",
     route_keep_outs: bool = False,
+    here_completes: bool = False,
 ) -> Converted:
     """Every item of the file, in order, becomes an entry of a ``global`` mission (commands
     included, nothing dropped: what ArduPilot Rover skips or helixd cannot fly is decided by
@@ -268,6 +296,9 @@ def items_to_mission(
         entries.append(entry)
     if points:
         problems.extend(keep_out_problems(gcs, points, labels, legs=not route_keep_outs))
+    at_once = _here_only(gcs, entries, name, mode) if here_completes and not problems else None
+    if at_once is not None:
+        return Converted(at_once, (*gcs.notes, *(prefix + n for n in notes), prefix + HERE_NOTE))
     if not points and not problems:
         navs = [
             f"{_label(it)} {command_name(it.command)}"
