@@ -75,6 +75,14 @@ async def rc_inputs(ap: Autopilot, timeout_s: float) -> tuple[int, ...]:
     return ap.state.rc_inputs_us
 
 
+async def setup_lines(ap: Autopilot, cfg: HelixdConfig) -> list[SetupLine]:
+    """The check's lines: the parameters read and the pilot's RC inputs, judged."""
+    params, rc_inputs_us = await asyncio.gather(
+        read_setup(ap, cfg.actuation), rc_inputs(ap, cfg.link.command_timeout_s)
+    )
+    return judge_setup(params, cfg.actuation, cfg.link, cfg.safety.servo_guard, rc_inputs_us)
+
+
 def check_command(
     connect: ConnectOpt = None, config: ConfigOpt = None, sim: SimOpt = False
 ) -> None:
@@ -86,10 +94,7 @@ def check_command(
     cfg, link = link_inputs(config, connect)
 
     async def body(ap: Autopilot) -> list[SetupLine]:
-        params, rc_inputs_us = await asyncio.gather(
-            read_setup(ap, cfg.actuation), rc_inputs(ap, cfg.link.command_timeout_s)
-        )
-        return judge_setup(params, cfg.actuation, cfg.link, cfg.safety.servo_guard, rc_inputs_us)
+        return await setup_lines(ap, cfg)
 
     with _target(cfg, link.url, sim) as url:
         target = link.model_copy(update={"url": url})

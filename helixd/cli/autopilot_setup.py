@@ -18,11 +18,11 @@ from typing import Annotated
 import typer
 
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.autopilot_check import report
+from helixd.cli.autopilot_check import report, setup_lines
 from helixd.cli.common import fail, link_inputs, run_on_link
 from helixd.cli.guard import ConfigOpt, ConnectOpt, autopilot_app
 from helixd.files.parmfile import ParmFileError, load_parm
-from helixd.link.autopilot_setup import SetupLine, failed, judge_setup, read_setup
+from helixd.link.autopilot_setup import SetupLine, failed
 from helixd.link.connection import Autopilot
 from helixd.link.param_plan import ParamChange, plan_changes, reboot_needed, same_value
 
@@ -97,8 +97,7 @@ def setup_command(
     async def apply(ap: Autopilot) -> tuple[list[str], list[SetupLine]]:
         _refuse_armed(ap)
         refused = await _set_all(ap, changes)
-        params = await read_setup(ap, cfg.actuation)
-        return refused, judge_setup(params, cfg.actuation, cfg.link, cfg.safety.servo_guard)
+        return refused, await setup_lines(ap, cfg)
 
     try:
         refused, lines = run_on_link(cfg, link, apply)

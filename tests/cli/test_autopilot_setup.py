@@ -60,6 +60,7 @@ def test_shows_sets_names_the_reboot_and_checks(
         assert "set 15 of 15" in out
         assert "reboot the autopilot: RCMAP_THROTTLE, SCR_ENABLE take effect at boot" in out
         assert "a normal arm is possible (no force)" in out
+        assert "ok      arming (throttle):" in out  # the check's every line, RC5 read too
         # a second run finds nothing to change
         code, out, err = run_main(setup(url, tmp_path, "--file", HELIX_PARM, "--yes"), capsys)
         assert code == 0, out + err
