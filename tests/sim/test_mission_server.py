@@ -26,17 +26,13 @@ from helixd.mav.constants import (
 from helixd.sim import mission_server as sm
 from helixd.sim.faults import make_spec
 from helixd.sim.mission_server import MissionServer, Outcome
+from tests.support.mavmsgs import stamp
 from tests.support.simcore import incoming, make_core, of_type, run
 
 GCS = (255, 190)
 OTHER = (254, 190)
 HOME = (53.52325, -113.52, 668.0)
 _mav = mavlink.MAVLink(None)
-
-
-def stamp(msg: Any, who: tuple[int, int] = GCS, v1: bool = False) -> Any:
-    mav = mavlink.MAVLink(None, srcSystem=who[0], srcComponent=who[1])
-    return mav.decode(bytearray(msg.pack(mav, force_mavlink1=v1)))
 
 
 def count(n: int, mission_type: int = 0) -> Any:
