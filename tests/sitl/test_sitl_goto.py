@@ -36,15 +36,12 @@ from helixd.base.frames import ne_to_latlon
 from tests.sitl.conftest import (
     AUTOPILOT_COMPID,
     AUTOPILOT_SYSID,
-    CONNECT_TIMEOUT_S,
     NEUTRAL_US,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SitlVehicle,
-    connect_tcp,
     outputs_near,
 )
-from tests.sitl.test_sitl_serve import HOME_LATLON, GroundStation, mono_of, serve_proc
+from tests.sitl.test_sitl_serve import HOME_LATLON, mono_of, serve_proc
+from tests.support.sitl_steps import ServoSteps, at_trim, crew_station, driven
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -68,32 +65,9 @@ LEG_WAIT_S = 120.0
 
 def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
-    figures: list[str] = []
-
-    def note(what: str, value: float, unit: str = "s") -> None:
-        figures.append(f"{what}: {value:.2f} {unit}")
-        print(f"goto on SITL: {what}: {value:.2f} {unit}")
-
-    def after(t0: float, ok: Any, what: str) -> float:
-        """Wall seconds from t0 to the first SERVO_OUTPUT_RAW satisfying ``ok``."""
-
-        def found() -> float | None:
-            return next((s.wall_s for s in obs.servo if s.wall_s >= t0 and ok(s.pwm_us)), None)
-
-        obs.wait_until(lambda: found() is not None, STEP_WAIT_S, what, abort=d.ended)
-        at = found()
-        assert at is not None
-        return at - t0
-
-    def driven(pwm: tuple[int, int, int, int]) -> bool:
-        return not outputs_near(pwm, NEUTRAL_US)
-
-    def at_trim(pwm: tuple[int, int, int, int]) -> bool:
-        return outputs_near(pwm, NEUTRAL_US)
+    gcs = crew_station(sitl)
+    steps = ServoSteps(sitl, "goto on SITL", STEP_WAIT_S, lambda: d.ended())
+    note, after, figures = steps.note, steps.after, steps.figures
 
     def error_m(ne: tuple[float, float]) -> float:
         p = obs.position()

@@ -26,16 +26,13 @@ from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from tests.sitl.conftest import (
     AUTOPILOT_COMPID,
     AUTOPILOT_SYSID,
-    CONNECT_TIMEOUT_S,
     NEUTRAL_US,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SitlVehicle,
-    connect_tcp,
     outputs_near,
 )
 from tests.sitl.test_sitl_goto import ARRIVAL_M, CONFIG, FIRST_NE, MODE_GUIDED, START_MAX_S
-from tests.sitl.test_sitl_serve import HOME_LATLON, GroundStation, serve_proc
+from tests.sitl.test_sitl_serve import HOME_LATLON, serve_proc
+from tests.support.sitl_steps import crew_station
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
@@ -46,10 +43,7 @@ LEG_WAIT_S = 120.0
 
 def test_go_to_location_as_a_guided_mission_item(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
+    gcs = crew_station(sitl)
     lat, lon = ne_to_latlon(*FIRST_NE, *HOME_LATLON)
     lat32, lon32 = float(np.float32(lat)), float(np.float32(lon))  # what MISSION_ITEM carries
 

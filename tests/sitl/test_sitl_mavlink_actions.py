@@ -28,14 +28,11 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.sitl.conftest import (
     AUTOPILOT_SYSID,
-    CONNECT_TIMEOUT_S,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SitlVehicle,
-    connect_tcp,
 )
 from tests.sitl.test_sitl_qgc import CONFIG, MODE_GUIDED, MODE_MANUAL
-from tests.sitl.test_sitl_serve import GroundStation, serve_proc
+from tests.sitl.test_sitl_serve import serve_proc
+from tests.support.sitl_steps import crew_station
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
@@ -50,10 +47,7 @@ SETTLE_WAIT_S = 30.0
 
 def test_mavlink_actions_change_helixds_speed(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
+    gcs = crew_station(sitl)
     actions = json.loads(ACTIONS.read_text(encoding="utf-8"))
     assert (actions["fileType"], actions["version"]) == ("MavlinkActions", 1)
     slow, back = actions["actions"]

@@ -31,15 +31,12 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.sitl.conftest import (
-    CONNECT_TIMEOUT_S,
     NEUTRAL_US,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SitlVehicle,
-    connect_tcp,
     outputs_near,
 )
-from tests.sitl.test_sitl_serve import GroundStation, mono_of, serve_proc
+from tests.sitl.test_sitl_serve import mono_of, serve_proc
+from tests.support.sitl_steps import ServoSteps, crew_station, driven
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -62,30 +59,9 @@ MISSION_WAIT_S = 300.0
 
 def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
-    figures: list[str] = []
-
-    def note(what: str, seconds: float) -> None:
-        figures.append(f"{what}: {seconds:.2f} s")
-        print(f"QGC on SITL: {what}: {seconds:.2f} s")
-
-    def after(t0: float, ok: Any, what: str) -> float:
-        """Wall seconds from t0 to the first SERVO_OUTPUT_RAW satisfying ``ok``."""
-
-        def found() -> float | None:
-            return next((s.wall_s for s in obs.servo if s.wall_s >= t0 and ok(s.pwm_us)), None)
-
-        obs.wait_until(lambda: found() is not None, STEP_WAIT_S, what, abort=d.ended)
-        at = found()
-        assert at is not None
-        return at - t0
-
-    def driven(pwm: tuple[int, int, int, int]) -> bool:
-        """Outputs 1 or 3 off trim: helixd commands the scrolls."""
-        return not outputs_near(pwm, NEUTRAL_US)
+    gcs = crew_station(sitl)
+    steps = ServoSteps(sitl, "QGC on SITL", STEP_WAIT_S, lambda: d.ended())
+    note, after, figures = steps.note, steps.after, steps.figures
 
     def set_mode(mode: int) -> float:
         """Vehicle::setFlightMode → MAV_CMD_DO_SET_MODE to the autopilot; when it was sent."""

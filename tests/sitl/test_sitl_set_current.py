@@ -21,14 +21,11 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.sitl.conftest import (
-    CONNECT_TIMEOUT_S,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SitlVehicle,
-    connect_tcp,
 )
 from tests.sitl.test_sitl_qgc import CONFIG, MODE_AUTO, MODE_GUIDED
-from tests.sitl.test_sitl_serve import GroundStation, mono_of, serve_proc
+from tests.sitl.test_sitl_serve import mono_of, serve_proc
+from tests.support.sitl_steps import crew_station
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -49,10 +46,7 @@ ITEM_MAX_S = 1.0  # the crew's command to the next flight's start
 
 def test_set_current_waypoint_in_a_commands_mission(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
+    gcs = crew_station(sitl)
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
         d.wait_line("no mission on the autopilot", STATE_WAIT_S)

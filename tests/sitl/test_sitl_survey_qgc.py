@@ -31,23 +31,20 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.recorder.track import TrackMetrics
 from tests.sitl.conftest import (
-    CONNECT_TIMEOUT_S,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SITL_BIN_ENV,
     SitlVehicle,
-    connect_tcp,
     pick_instance,
     sitl_speedup,
     start_sitl,
 )
 from tests.sitl.test_sitl_qgc import CONFIG as QGC_CONFIG
-from tests.sitl.test_sitl_serve import HOME_LATLON, GroundStation, serve_proc
+from tests.sitl.test_sitl_serve import HOME_LATLON, serve_proc
 from tests.sitl.test_sitl_survey import MISSION_SIM_S, fly_helixd, row, track_of
 from tests.support.skid_setup import SURVEY_XY_M, metrics_in_frame
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun
+from tests.support.sitl_steps import crew_station
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(3000)]
 
@@ -78,10 +75,7 @@ def fly_from_qgc(sitl: SitlVehicle, workdir: Path) -> TrackMetrics | None:
     points = [frame.to_ned(x, y) for x, y in SURVEY_XY_M]
     from_home = [(n - home_n, e - home_e) for n, e in points]
 
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
+    gcs = crew_station(sitl)
     d = serve_proc(workdir, sitl, QGC_CONFIG)
     try:
         d.wait_line("no mission on the autopilot", STATE_WAIT_S)

@@ -1,0 +1,69 @@
+"""The crew's steps on real ArduPilot SITL timed from the autopilot's servo outputs: the
+QGroundControl-like ground station on SERIAL2, the figures a SITL test prints, and the wall
+seconds from a click to the first SERVO_OUTPUT_RAW that shows its effect (one place for the
+SITL goto, QGroundControl and guided-item tests)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from tests.sitl.conftest import (
+    CONNECT_TIMEOUT_S,
+    NEUTRAL_US,
+    PORT_STRIDE,
+    SERIAL2_PORT,
+    SitlVehicle,
+    connect_tcp,
+    outputs_near,
+)
+from tests.sitl.test_sitl_serve import GroundStation
+
+Pwm = tuple[int, int, int, int]
+
+
+def crew_station(sitl: SitlVehicle) -> GroundStation:
+    """The QGroundControl-like ground station on this vehicle's SERIAL2 (system 255)."""
+    return GroundStation(
+        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
+        "gcs",
+    )
+
+
+def driven(pwm: Pwm) -> bool:
+    """Outputs 1 or 3 off trim: helixd commands the scrolls."""
+    return not outputs_near(pwm, NEUTRAL_US)
+
+
+def at_trim(pwm: Pwm) -> bool:
+    return outputs_near(pwm, NEUTRAL_US)
+
+
+class ServoSteps:
+    """Figures noted (and printed as they come, prefixed ``label``) and the time from a step
+    to its effect on the servo outputs; ``abort`` says why waiting is no use (the daemon
+    ended), as :meth:`DaemonProc.ended`."""
+
+    def __init__(
+        self, sitl: SitlVehicle, label: str, wait_s: float, abort: Callable[[], str | None]
+    ) -> None:
+        self.obs = sitl.obs
+        self.label = label
+        self.wait_s = wait_s
+        self.abort = abort
+        self.figures: list[str] = []
+
+    def note(self, what: str, value: float, unit: str = "s") -> None:
+        self.figures.append(f"{what}: {value:.2f} {unit}")
+        print(f"{self.label}: {what}: {value:.2f} {unit}")
+
+    def after(self, t0: float, ok: Callable[[Pwm], bool], what: str) -> float:
+        """Wall seconds from t0 to the first SERVO_OUTPUT_RAW satisfying ``ok``."""
+        obs = self.obs
+
+        def found() -> float | None:
+            return next((s.wall_s for s in obs.servo if s.wall_s >= t0 and ok(s.pwm_us)), None)
+
+        obs.wait_until(lambda: found() is not None, self.wait_s, what, abort=self.abort)
+        at = found()
+        assert at is not None
+        return at - t0
