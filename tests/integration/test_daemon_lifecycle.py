@@ -14,10 +14,8 @@ import pytest
 import helixd.runtime.flight
 from helixd.base.exitcodes import ExitCode
 from helixd.config import HelixdConfig
-from helixd.mission.model import load_mission
-from helixd.runtime.daemon import RunOptions, run_mission
+from helixd.runtime.daemon import run_mission
 from tests.support.harness import (
-    MISSIONS,
     SPEEDUP,
     overrides_released,
     running_sim,
@@ -27,6 +25,7 @@ from tests.support.harness import (
     time_until,
     wait_moving,
 )
+from tests.support.run_options import sim_run_config, square_run
 
 pytestmark = pytest.mark.integration
 
@@ -47,20 +46,7 @@ async def test_unhandled_exception_falls_back_to_hold(
 
     monkeypatch.setattr(helixd.runtime.flight, "scroll_fractions", exploding)
     with running_sim(speedup=SPEEDUP) as (server, url):
-        cfg = HelixdConfig.model_validate(
-            {"link": {"url": url}, "startup": {"arm_retry_interval_s": 0.5}}
-        )
-        mission_path = MISSIONS / "square.yaml"
-        outcome = await run_mission(
-            RunOptions(
-                cfg=cfg,
-                mission=load_mission(mission_path),
-                mission_yaml=mission_path.read_text(),
-                connect_url=url,
-                run_root=tmp_path / "runs",
-                tty=False,
-            )
-        )
+        outcome = await run_mission(square_run(sim_run_config(url), url, tmp_path / "runs"))
         snap = server.wait_for(secured, 5.0)
     assert calls["n"] == 100
     assert outcome.exit_code is ExitCode.INTERNAL_ERROR
@@ -187,17 +173,7 @@ async def test_no_autopilot_ends_with_a_link_failed_result(tmp_path: Path) -> No
         port = probe.getsockname()[1]  # a UDP port nobody listens on once this closes
     url = f"udpout:127.0.0.1:{port}"
     cfg = HelixdConfig.model_validate({"link": {"url": url}, "startup": {"connect_timeout_s": 1.0}})
-    mission_path = MISSIONS / "square.yaml"
-    outcome = await run_mission(
-        RunOptions(
-            cfg=cfg,
-            mission=load_mission(mission_path),
-            mission_yaml=mission_path.read_text(),
-            connect_url=url,
-            run_root=tmp_path / "runs",
-            tty=False,
-        )
-    )
+    outcome = await run_mission(square_run(cfg, url, tmp_path / "runs"))
     assert outcome.exit_code is ExitCode.LINK
     assert outcome.run_dir is None and not (tmp_path / "runs").exists()
     assert outcome.messages == [
@@ -214,17 +190,7 @@ async def test_unwritable_recorder_refusal_ends_with_a_result(tmp_path: Path) ->
     cfg = HelixdConfig.model_validate(
         {"link": {"url": "udpout:127.0.0.1:9"}, "recorder": {"on_write_error": "refuse"}}
     )
-    mission_path = MISSIONS / "square.yaml"
-    outcome = await run_mission(
-        RunOptions(
-            cfg=cfg,
-            mission=load_mission(mission_path),
-            mission_yaml=mission_path.read_text(),
-            connect_url="udpout:127.0.0.1:9",
-            run_root=blocker / "runs",
-            tty=False,
-        )
-    )
+    outcome = await run_mission(square_run(cfg, "udpout:127.0.0.1:9", blocker / "runs"))
     assert outcome.exit_code is ExitCode.PREFLIGHT
     last = outcome.messages[-1]
     assert last.startswith("helixd: RESULT refused recorder: flight recorder cannot write")
