@@ -41,7 +41,15 @@ from tests.sitl.conftest import (
     outputs_near,
 )
 from tests.sitl.test_sitl_serve import HOME_LATLON, mono_of, serve_proc
-from tests.support.sitl_steps import ServoSteps, at_trim, crew_station, driven
+from tests.support.sitl_steps import (
+    LEG_WAIT_S,
+    STATE_WAIT_S,
+    STEP_WAIT_S,
+    ServoSteps,
+    at_trim,
+    crew_station,
+    driven,
+)
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -58,9 +66,6 @@ CONFIG: dict[str, Any] = {
     "link": {"own_id_watch_s": 0.5},
 }
 START_MAX_S = 1.5  # click → scrolls driven (ArduPilot's HEARTBEAT naming GUIDED is 1 Hz)
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
-LEG_WAIT_S = 120.0
 
 
 def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Path) -> None:

@@ -32,13 +32,10 @@ from tests.sitl.conftest import (
 )
 from tests.sitl.test_sitl_goto import ARRIVAL_M, CONFIG, FIRST_NE, MODE_GUIDED, START_MAX_S
 from tests.sitl.test_sitl_serve import HOME_LATLON, serve_proc
-from tests.support.sitl_steps import crew_station
+from tests.support.sitl_steps import LEG_WAIT_S, STATE_WAIT_S, STEP_WAIT_S, crew_station
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
-LEG_WAIT_S = 120.0
 
 
 def test_go_to_location_as_a_guided_mission_item(sitl: SitlVehicle, tmp_path: Path) -> None:

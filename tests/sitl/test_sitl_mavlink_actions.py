@@ -32,7 +32,7 @@ from tests.sitl.conftest import (
 )
 from tests.sitl.test_sitl_qgc import CONFIG, MODE_GUIDED, MODE_MANUAL
 from tests.sitl.test_sitl_serve import serve_proc
-from tests.support.sitl_steps import crew_station
+from tests.support.sitl_steps import STATE_WAIT_S, STEP_WAIT_S, crew_station
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
@@ -40,8 +40,6 @@ ACTIONS = Path(__file__).resolve().parents[2] / "config" / "qgc" / "helixd-actio
 LONG_LEG_NE_M = [(80.0, 0.0)]  # one straight leg, long enough for three speeds to settle
 MISSION_MPS = 0.6  # the plan's cruise (control.max_speed_mps)
 SETTLED_MPS = 0.05  # within this of the asked speed over a 2 s window
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
 SETTLE_WAIT_S = 30.0
 
 

@@ -36,7 +36,7 @@ from tests.sitl.conftest import (
     outputs_near,
 )
 from tests.sitl.test_sitl_serve import mono_of, serve_proc
-from tests.support.sitl_steps import ServoSteps, crew_station, driven
+from tests.support.sitl_steps import STATE_WAIT_S, STEP_WAIT_S, ServoSteps, crew_station, driven
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -52,8 +52,6 @@ CONFIG: dict[str, Any] = {
 START_MAX_S = 1.0
 PAUSE_MAX_S = 0.5
 CONTINUE_MAX_S = 1.0
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
 MISSION_WAIT_S = 300.0
 
 

@@ -25,7 +25,7 @@ from tests.sitl.conftest import (
 )
 from tests.sitl.test_sitl_qgc import CONFIG, MODE_AUTO, MODE_GUIDED
 from tests.sitl.test_sitl_serve import mono_of, serve_proc
-from tests.support.sitl_steps import crew_station
+from tests.support.sitl_steps import STATE_WAIT_S, STEP_WAIT_S, crew_station
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -37,8 +37,6 @@ ITEMS: list[tuple[float, float] | tuple[int, tuple[float, ...]]] = [
     (0.0, 6.0),  # 4
     (mavlink2.MAV_CMD_DO_JUMP, (2.0, 1.0)),  # 5: back to item 2, once
 ]
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
 LAP_WAIT_S = 180.0
 MISSION_WAIT_S = 300.0
 ITEM_MAX_S = 1.0  # the crew's command to the next flight's start

@@ -30,29 +30,21 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.recorder.track import TrackMetrics
-from tests.sitl.conftest import (
-    SITL_BIN_ENV,
-    SitlVehicle,
-    pick_instance,
-    sitl_speedup,
-    start_sitl,
-)
+from tests.sitl.conftest import SITL_BIN_ENV, SitlVehicle, pick_instance, sitl_speedup, start_sitl
 from tests.sitl.test_sitl_qgc import CONFIG as QGC_CONFIG
 from tests.sitl.test_sitl_serve import HOME_LATLON, serve_proc
 from tests.sitl.test_sitl_survey import MISSION_SIM_S, fly_helixd, row, track_of
+from tests.support.sitl_steps import STATE_WAIT_S, STEP_WAIT_S, crew_station
 from tests.support.skid_setup import SURVEY_XY_M, metrics_in_frame
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun
-from tests.support.sitl_steps import crew_station
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(3000)]
 
 MODE_GUIDED, MODE_AUTO = 15, 10
 MAV_CMD_REQUEST_MESSAGE = 512
 MSG_GPS_GLOBAL_ORIGIN = 49
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
 # "no less precise": within what two flights of the same code differ by on this SITL
 RMS_MARGIN_M = 0.02
 MAX_MARGIN_M = 0.05

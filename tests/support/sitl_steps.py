@@ -19,6 +19,10 @@ from tests.sitl.conftest import (
 from tests.sitl.test_sitl_serve import GroundStation
 
 Pwm = tuple[int, int, int, int]
+# wall-clock bounds of the crew's steps at SITL speed-up 1
+STATE_WAIT_S = 120.0  # helixd serve reaching a state (connected, no mission, ready)
+STEP_WAIT_S = 20.0  # one step's effect: an ACK, a mode, the first driven output
+LEG_WAIT_S = 120.0  # a flight to a place
 
 
 def crew_station(sitl: SitlVehicle) -> GroundStation:
