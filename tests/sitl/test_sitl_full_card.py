@@ -29,7 +29,7 @@ from helixd.recorder.rundir import RESERVE_FILE
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun, SitlVehicle
-from tests.support.sitl_steps import crew_station
+from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
@@ -56,7 +56,7 @@ def small_card(path: Path) -> Iterator[Path]:
 def test_a_full_card_mid_flight_is_told_once_and_the_flight_completes(
     sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], tmp_path: Path
 ) -> None:
-    gcs = crew_station(sitl)
+    gcs = crew.ground_station(sitl)
     with small_card(tmp_path / "runs"), contextlib.closing(gcs):  # launch_helixd's run root
         started = time.monotonic()
         daemon = launch_helixd("rc_override")

@@ -30,9 +30,9 @@ from tests.sitl.conftest import (
     AUTOPILOT_SYSID,
     SitlVehicle,
 )
-from tests.sitl.test_sitl_qgc import CONFIG, MODE_GUIDED, MODE_MANUAL
+from tests.sitl.test_sitl_qgc import CONFIG, MODE_MANUAL
 from tests.sitl.test_sitl_serve import serve_proc
-from tests.support.sitl_steps import STATE_WAIT_S, STEP_WAIT_S, crew_station
+from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
@@ -45,7 +45,7 @@ SETTLE_WAIT_S = 30.0
 
 def test_mavlink_actions_change_helixds_speed(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = crew_station(sitl)
+    gcs = crew.ground_station(sitl)
     actions = json.loads(ACTIONS.read_text(encoding="utf-8"))
     assert (actions["fileType"], actions["version"]) == ("MavlinkActions", 1)
     slow, back = actions["actions"]
@@ -63,7 +63,7 @@ def test_mavlink_actions_change_helixds_speed(sitl: SitlVehicle, tmp_path: Path)
                 (r for c, cmd, r in gcs.acks_from[seen:] if (c, cmd) == (comp, command)), None
             )
 
-        result = gcs.wait_value(ack, STEP_WAIT_S, f"COMMAND_ACK from component {comp}")
+        result = gcs.wait_value(ack, crew.STEP_WAIT_S, f"COMMAND_ACK from component {comp}")
         return int(result)
 
     def action(a: dict[str, Any]) -> int:
@@ -93,15 +93,10 @@ def test_mavlink_actions_change_helixds_speed(sitl: SitlVehicle, tmp_path: Path)
     figures: list[str] = []
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", STATE_WAIT_S)
+        d.wait_line("no mission on the autopilot", crew.STATE_WAIT_S)
         gcs.upload(LONG_LEG_NE_M, 30.0)
-        d.wait_line("event=serve_state state=ready", STATE_WAIT_S)
-        assert gcs.set_mode(MODE_GUIDED) == mavlink2.MAV_RESULT_ACCEPTED
-        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, STEP_WAIT_S, "GUIDED")
-        arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
-        assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
-        obs.wait_until(lambda: bool(obs.armed()), STEP_WAIT_S, "armed")
-        result = gcs.command_long(mavlink2.MAV_CMD_MISSION_START, (0.0, 0.0))
+        d.wait_line("event=serve_state state=ready", crew.STATE_WAIT_S)
+        result = crew.start_mission(sitl, gcs)
         assert result == mavlink2.MAV_RESULT_ACCEPTED, result
         figures.append(f"cruise reached in {settles_at(MISSION_MPS, 'the cruise'):.1f} s")
 
@@ -121,11 +116,9 @@ def test_mavlink_actions_change_helixds_speed(sitl: SitlVehicle, tmp_path: Path)
         figures.append(f"back to 0.6 in {settles_at(MISSION_MPS, 'mission speed'):.1f} s")
         mark = d.mark()
         assert gcs.set_mode(MODE_MANUAL) == mavlink2.MAV_RESULT_ACCEPTED
-        d.wait_line("event=rc_override_released", STEP_WAIT_S, after=mark)
+        d.wait_line("event=rc_override_released", crew.STEP_WAIT_S, after=mark)
     finally:
-        d.stop(30.0)
-        gcs.close()
-        (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        crew.close_serve(d, gcs, tmp_path)
     print("MAVLink Actions on SITL: " + "; ".join(figures))
     log = d.log_text()
     assert log.count("event=crew_speed") == 2, log

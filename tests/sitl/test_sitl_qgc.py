@@ -36,7 +36,7 @@ from tests.sitl.conftest import (
     outputs_near,
 )
 from tests.sitl.test_sitl_serve import mono_of, serve_proc
-from tests.support.sitl_steps import STATE_WAIT_S, STEP_WAIT_S, ServoSteps, crew_station, driven
+from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -57,8 +57,8 @@ MISSION_WAIT_S = 300.0
 
 def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = crew_station(sitl)
-    steps = ServoSteps(sitl, "QGC on SITL", STEP_WAIT_S, lambda: d.ended())
+    gcs = crew.ground_station(sitl)
+    steps = crew.ServoSteps(sitl, "QGC on SITL", crew.STEP_WAIT_S, lambda: d.ended())
     note, after, figures = steps.note, steps.after, steps.figures
 
     def set_mode(mode: int) -> float:
@@ -69,24 +69,24 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
 
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", STATE_WAIT_S)
+        d.wait_line("no mission on the autopilot", crew.STATE_WAIT_S)
         gcs.upload(WAYPOINTS_NE_M, 30.0)  # Plan view: Upload
-        d.wait_line("event=serve_state state=ready", STATE_WAIT_S)
+        d.wait_line("event=serve_state state=ready", crew.STATE_WAIT_S)
         assert not obs.armed()
 
         # Start Mission: APMFirmwarePlugin::startMission — Guided, arm, MISSION_START
         set_mode(MODE_GUIDED)
-        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, STEP_WAIT_S, "GUIDED")
+        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, crew.STEP_WAIT_S, "GUIDED")
         arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
         assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
-        obs.wait_until(lambda: bool(obs.armed()), STEP_WAIT_S, "armed")
+        obs.wait_until(lambda: bool(obs.armed()), crew.STEP_WAIT_S, "armed")
         t_start = time.monotonic()
         result = gcs.command_long(mavlink2.MAV_CMD_MISSION_START, (0.0, 0.0))
         assert result == mavlink2.MAV_RESULT_ACCEPTED, result
-        start_s = after(t_start, driven, "scrolls driven after Start Mission")
+        start_s = after(t_start, crew.driven, "scrolls driven after Start Mission")
         note("Start Mission → scrolls driven", start_s)
         assert obs.mode() == MODE_AUTO
-        sitl.wait_driving(d, 1.0, STATE_WAIT_S)
+        sitl.wait_driving(d, 1.0, crew.STATE_WAIT_S)
 
         # Pause: APMFirmwarePlugin::pauseVehicle → Hold
         t_pause = set_mode(MODE_HOLD)
@@ -100,7 +100,7 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
 
         # Continue: the mode menu's Auto
         t_continue = set_mode(MODE_AUTO)
-        continue_s = after(t_continue, driven, "scrolls driven after Continue")
+        continue_s = after(t_continue, crew.driven, "scrolls driven after Continue")
         note("Continue (AUTO) → scrolls driven", continue_s)
         assert d.log_text().count("event=auto_start") == 1  # the same flight went on
 
@@ -109,15 +109,15 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
         t_item = time.monotonic()
         item = gcs.command_long(mavlink2.MAV_CMD_DO_SET_MISSION_CURRENT, (3.0,))
         assert item == mavlink2.MAV_RESULT_ACCEPTED, item
-        line = d.wait_line("event=auto_start item=3", STEP_WAIT_S, after=mark)
+        line = d.wait_line("event=auto_start item=3", crew.STEP_WAIT_S, after=mark)
         note("set current waypoint 3 → new flight from item 3", mono_of(line) - t_item)
 
         # MANUAL from the mode menu: helixd lets go
         mark = d.mark()
         t_manual = set_mode(MODE_MANUAL)
-        line = d.wait_line("event=rc_override_released", STEP_WAIT_S, after=mark)
+        line = d.wait_line("event=rc_override_released", crew.STEP_WAIT_S, after=mark)
         note("MANUAL → overrides released", mono_of(line) - t_manual)
-        d.wait_line("event=serve_state state=paused", STATE_WAIT_S, after=mark)
+        d.wait_line("event=serve_state state=paused", crew.STATE_WAIT_S, after=mark)
         assert obs.armed() and obs.mode() == MODE_MANUAL  # no HOLD asked, not disarmed
 
         # Auto again, to the end
@@ -125,9 +125,7 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
         set_mode(MODE_AUTO)
         d.wait_line("event=serve_state state=completed", MISSION_WAIT_S, after=mark)
     finally:
-        d.stop(30.0)
-        gcs.close()
-        (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        crew.close_serve(d, gcs, tmp_path)
     print("QGC on SITL: " + "; ".join(figures))
     assert start_s <= START_MAX_S, figures
     assert pause_s <= PAUSE_MAX_S, figures

@@ -6,6 +6,9 @@ SITL goto, QGroundControl and guided-item tests)."""
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.sitl.conftest import (
     CONNECT_TIMEOUT_S,
@@ -17,15 +20,17 @@ from tests.sitl.conftest import (
     outputs_near,
 )
 from tests.sitl.test_sitl_serve import GroundStation
+from tests.support.daemon import DaemonProc
 
 Pwm = tuple[int, int, int, int]
 # wall-clock bounds of the crew's steps at SITL speed-up 1
 STATE_WAIT_S = 120.0  # helixd serve reaching a state (connected, no mission, ready)
 STEP_WAIT_S = 20.0  # one step's effect: an ACK, a mode, the first driven output
 LEG_WAIT_S = 120.0  # a flight to a place
+_MODE_GUIDED = 15
 
 
-def crew_station(sitl: SitlVehicle) -> GroundStation:
+def ground_station(sitl: SitlVehicle) -> GroundStation:
     """The QGroundControl-like ground station on this vehicle's SERIAL2 (system 255)."""
     return GroundStation(
         connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
@@ -71,3 +76,24 @@ class ServoSteps:
         at = found()
         assert at is not None
         return at - t0
+
+
+def start_mission(sitl: SitlVehicle, gcs: GroundStation, wait_armed: bool = True) -> int:
+    """QGroundControl's Start Mission on a disarmed rover (``APMFirmwarePlugin::startMission``):
+    mode GUIDED, a normal arm (no force: the Helix setup passes every PreArm check; with
+    ``wait_armed`` until the HEARTBEAT says armed), then MAV_CMD_MISSION_START; its result."""
+    obs = sitl.obs
+    assert gcs.set_mode(_MODE_GUIDED) == mavlink2.MAV_RESULT_ACCEPTED
+    obs.wait_until(lambda: obs.mode() == _MODE_GUIDED, STEP_WAIT_S, "GUIDED")
+    arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
+    assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
+    if wait_armed:
+        obs.wait_until(lambda: bool(obs.armed()), STEP_WAIT_S, "armed")
+    return int(gcs.command_long(mavlink2.MAV_CMD_MISSION_START, (0.0, 0.0)))
+
+
+def close_serve(d: DaemonProc, gcs: GroundStation, log_dir: Path) -> None:
+    """Stop ``helixd serve``, close the ground station, keep serve.log in ``log_dir``."""
+    d.stop(30.0)
+    gcs.close()
+    (log_dir / "serve.log").write_text(d.log_text(), encoding="utf-8")
