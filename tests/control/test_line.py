@@ -115,6 +115,12 @@ def start_pose(mode: MotionMode, course_rad: float = 0.0) -> Pose2D:
 # -- convergence on the line ------------------------------------------------------------------
 
 
+def straight_leg(name: str, mode: MotionMode, length_m: float) -> Plan:
+    """Waypoint 0 on the start pose, then one leg along x to ``length_m`` (at cruise)."""
+    wps = (PlanWaypoint(0.0, 0.0, 0.5), PlanWaypoint(length_m, 0.0, 0.5))
+    return Plan(name, mode, MissionFrameKind.START, wps, LINE.max_speed_mps)
+
+
 @pytest.mark.parametrize("heading_rel_rad", [0.0, math.pi / 2, -math.pi / 2, math.pi, 0.6])
 @pytest.mark.parametrize("side_m", [2.0, -2.0])
 @pytest.mark.parametrize("mode", list(MotionMode))
@@ -123,13 +129,7 @@ def test_from_2_m_beside_the_line_within_0_10_m_after_5_m_and_stays(
 ) -> None:
     # Leg (0, 0) → (20, 0): waypoint 0 sits on the start pose (reached on the first step),
     # then the rover is put 2 m beside the second leg, pointing anywhere.
-    plan = Plan(
-        "beside",
-        mode,
-        MissionFrameKind.START,
-        (PlanWaypoint(0.0, 0.0, 0.5), PlanWaypoint(20.0, 0.0, 0.5)),
-        LINE.max_speed_mps,
-    )
+    plan = straight_leg("beside", mode, 20.0)
     nav = Navigator(plan, LINE)
     first = nav.step(start_pose(mode), 0.0)
     assert first.reached_index == 0
@@ -156,13 +156,7 @@ def test_convergence_is_monotonic_no_crossing_of_the_line(mode: MotionMode) -> N
     # de/ds = −e/√(e² + L²) on the ideal plant: the rover approaches from its side and does
     # not overshoot by more than the yaw loop's lag (v/kp ≈ 0.075 m at cruise; here 0.05 m
     # is asserted since the approach is made at a shallow angle).
-    plan = Plan(
-        "side",
-        mode,
-        MissionFrameKind.START,
-        (PlanWaypoint(0.0, 0.0, 0.5), PlanWaypoint(30.0, 0.0, 0.5)),
-        LINE.max_speed_mps,
-    )
+    plan = straight_leg("side", mode, 30.0)
     nav = Navigator(plan, LINE)
     nav.step(start_pose(mode), 0.0)
     flight = fly(plan, Pose2D(0.0, 2.0, -AXIS_RAD[mode]), nav=nav)
