@@ -39,7 +39,7 @@ from tests.integration.test_serve_crew_modes import (
     overriding_neutral,
     set_mode,
 )
-from tests.support.gcs import QGC_SYSID, SIM, latlon, upload
+from tests.support.gcs import QGC_SYSID, SIM, latlon, upload, upload_typed
 from tests.support.harness import (
     MavClient,
     deep_merge,
@@ -104,20 +104,7 @@ def upload_rally(gcs: MavClient, north_m: float, east_m: float) -> None:
         1, 1, 0, mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT, mavlink.MAV_CMD_NAV_RALLY_POINT,
         0, 1, 0.0, 0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), 0.0, rally,
     )  # fmt: skip
-    gcs.mav.mission_count_send(1, 1, 1, rally)
-    deadline = time.monotonic() + 20.0
-    while time.monotonic() < deadline:
-        msg = gcs.conn.recv_match(
-            type=["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"], blocking=True,
-            timeout=0.5,
-        )  # fmt: skip
-        if msg is None or int(msg.target_system) != QGC_SYSID:
-            continue
-        if msg.get_type() == "MISSION_ACK":
-            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, msg
-            return
-        gcs.mav.send(item)
-    raise AssertionError("rally upload: no MISSION_ACK")
+    upload_typed(gcs, [item], rally, "rally")
 
 
 def near(ne: tuple[float, float], within_m: float) -> Any:
