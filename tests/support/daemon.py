@@ -113,6 +113,11 @@ class DaemonProc:
     def signal(self, sig: signal.Signals) -> None:
         self.proc.send_signal(sig)
 
+    def terminate_ok(self, timeout_s: float = 30.0) -> None:
+        """SIGTERM, as systemd stops a service: the daemon exits 0 within ``timeout_s``."""
+        self.proc.send_signal(signal.SIGTERM)
+        assert self.wait_exit(timeout_s) == 0
+
     def kill(self, timeout_s: float = 10.0) -> None:
         """SIGKILL if still running (test clean-up), then wait for it and its log."""
         if self.proc.poll() is None:
