@@ -1,6 +1,11 @@
-"""Running ``helixd``'s command line in-process, as its tests do."""
+"""Running ``helixd``'s command line in-process, as its tests do, or as its own process."""
 
 from __future__ import annotations
+
+import subprocess
+import sys
+from collections.abc import Mapping
+from pathlib import Path
 
 import pytest
 
@@ -20,3 +25,18 @@ def run_main(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, 
     code = main_exit(argv)
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def helixd_process(
+    argv: list[str], cwd: Path, timeout_s: float = 60.0, env: Mapping[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    """``python -m helixd ARGV`` as its own process in ``cwd``, its output captured as text."""
+    return subprocess.run(
+        [sys.executable, "-m", "helixd", *argv],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=timeout_s,
+        check=False,
+    )
