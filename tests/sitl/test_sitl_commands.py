@@ -61,8 +61,6 @@ def mission_yaml() -> dict[str, object]:
     }
 
 
-
-
 def leg_speeds(
     track: list[PositionSample], a: tuple[float, float], b: tuple[float, float]
 ) -> list[float]:

@@ -91,12 +91,17 @@ def stopped_after(sitl: SitlVehicle, daemon: DaemonRun, inject: Callable[[], Non
     return Stopped(hold_s, neutral_s, after_m, cause, detected, code, log)
 
 
-def report(what: str, sitl: SitlVehicle, r: Stopped) -> None:
+def stopped_by(what: str, sitl: SitlVehicle, r: Stopped, cause: str) -> None:
+    """Print the figures of ``what``; helixd ended in a fault named ``cause`` and its outputs
+    were neutral within the GPS test's bound of the autopilot's HOLD."""
     print(
         f"{what}: HOLD {r.hold_s:.2f} s, neutral outputs {r.neutral_s:.2f} s after injection "
         f"({r.neutral_s - r.hold_s:.2f} s after HOLD; wall, speedup {sitl.speedup}); "
         f"{r.after_m:.2f} m driven after it (EKF); cause {r.cause} (at detection {r.detected})"
     )
+    assert r.code == ExitCode.FAULT, r.log[-4000:]
+    assert r.cause == cause, r.log[-4000:]
+    assert r.neutral_s - r.hold_s <= gps.STOP_WITHIN_S + gps.LINK_SLACK_S
 
 
 def test_battery_failsafe_is_named(
@@ -112,15 +117,11 @@ def test_battery_failsafe_is_named(
 
     r = stopped_after(sitl, daemon, lambda: obs.set_param("SIM_BATT_VOLTAGE", SIM_BATT_LOW_V))
     texts = [t for t in obs.statustexts if "attery" in t]
-    report(
+    what = (
         f"battery failsafe (SIM_BATT_VOLTAGE {SIM_BATT_LOW_V} < BATT_LOW_VOLT {BATT_LOW_VOLT_V}, "
-        f"BATT_LOW_TIMER {BATT_LOW_TIMER_S:g} s, BATT_FS_LOW_ACT Hold; {texts[-1:]})",
-        sitl,
-        r,
+        f"BATT_LOW_TIMER {BATT_LOW_TIMER_S:g} s, BATT_FS_LOW_ACT Hold; {texts[-1:]})"
     )
-    assert r.code == ExitCode.FAULT, r.log[-4000:]
-    assert r.cause == "autopilot_battery", r.log[-4000:]
-    assert r.neutral_s - r.hold_s <= gps.STOP_WITHIN_S + gps.LINK_SLACK_S
+    stopped_by(what, sitl, r, "autopilot_battery")
 
 
 def test_fence_failsafe_is_named(
@@ -137,12 +138,8 @@ def test_fence_failsafe_is_named(
     r = stopped_after(sitl, daemon, lambda: obs.set_param("FENCE_ENABLE", 1.0))
     fence = obs.latest.get("FENCE_STATUS")
     breach = "none" if fence is None else f"breach_status {fence.breach_status}"
-    report(
+    what = (
         f"fence failsafe (circle {FENCE_RADIUS_M:g} m round home enabled {OUTSIDE_FENCE_M:g} m "
-        f"out, FENCE_ACTION Hold; FENCE_STATUS {breach})",
-        sitl,
-        r,
+        f"out, FENCE_ACTION Hold; FENCE_STATUS {breach})"
     )
-    assert r.code == ExitCode.FAULT, r.log[-4000:]
-    assert r.cause == "autopilot_fence", r.log[-4000:]
-    assert r.neutral_s - r.hold_s <= gps.STOP_WITHIN_S + gps.LINK_SLACK_S
+    stopped_by(what, sitl, r, "autopilot_fence")

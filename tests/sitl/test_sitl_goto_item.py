@@ -37,7 +37,6 @@ from tests.support import sitl_steps as crew
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
 
-
 def test_go_to_location_as_a_guided_mission_item(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
     gcs = crew.ground_station(sitl)

@@ -93,9 +93,7 @@ def test_mavlink_actions_change_helixds_speed(sitl: SitlVehicle, tmp_path: Path)
     figures: list[str] = []
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", crew.STATE_WAIT_S)
-        gcs.upload(LONG_LEG_NE_M, 30.0)
-        d.wait_line("event=serve_state state=ready", crew.STATE_WAIT_S)
+        crew.upload_when_asked(d, lambda: gcs.upload(LONG_LEG_NE_M, 30.0))  # Plan view: Upload
         result = crew.start_mission(sitl, gcs)
         assert result == mavlink2.MAV_RESULT_ACCEPTED, result
         figures.append(f"cruise reached in {settles_at(MISSION_MPS, 'the cruise'):.1f} s")

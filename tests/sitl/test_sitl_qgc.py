@@ -69,9 +69,7 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
 
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", crew.STATE_WAIT_S)
-        gcs.upload(WAYPOINTS_NE_M, 30.0)  # Plan view: Upload
-        d.wait_line("event=serve_state state=ready", crew.STATE_WAIT_S)
+        crew.upload_when_asked(d, lambda: gcs.upload(WAYPOINTS_NE_M, 30.0))  # Plan view: Upload
         assert not obs.armed()
 
         # Start Mission: APMFirmwarePlugin::startMission — Guided, arm, MISSION_START

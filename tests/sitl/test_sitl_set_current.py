@@ -47,9 +47,7 @@ def test_set_current_waypoint_in_a_commands_mission(sitl: SitlVehicle, tmp_path:
     gcs = crew.ground_station(sitl)
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", crew.STATE_WAIT_S)
-        gcs.upload_items(ITEMS, 30.0)  # Plan view: Upload
-        d.wait_line("event=serve_state state=ready", crew.STATE_WAIT_S)
+        crew.upload_when_asked(d, lambda: gcs.upload_items(ITEMS, 30.0))  # Plan view: Upload
 
         # Start Mission: APMFirmwarePlugin::startMission — Guided, arm, MISSION_START
         result = crew.start_mission(sitl, gcs)

@@ -266,14 +266,22 @@ def test_roll_square_completes(
     assert shape.left_turn_sin > 0.3  # ≈ sin 45° for the far corner of a left-hand square
 
 
+def driving_square(
+    sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
+) -> DaemonRun:
+    """helixd flying the square with ``backend``, 2 m driven."""
+    prepare(sitl, backend)
+    daemon = launch_helixd(backend)
+    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
+    return daemon
+
+
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_pilot_takeover_by_mode_switch(
     sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
 ) -> None:
-    prepare(sitl, backend)
-    daemon = launch_helixd(backend)
+    daemon = driving_square(sitl, launch_helixd, backend)
     obs = sitl.obs
-    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
     assert deflected(obs.servo_pwm())
 
     # The pilot flips to HOLD (from the second GCS link). HOLD alone does not stop an
@@ -364,10 +372,8 @@ def test_pilot_takeover_by_mode_switch(
 def test_kill_9_mid_mission_reports_outputs(
     sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
 ) -> None:
-    prepare(sitl, backend)
-    daemon = launch_helixd(backend)
+    daemon = driving_square(sitl, launch_helixd, backend)
     obs = sitl.obs
-    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
     last = obs.last_servo()
     assert last is not None
     killed_wall = time.monotonic()

@@ -70,9 +70,7 @@ def fly_from_qgc(sitl: SitlVehicle, workdir: Path) -> TrackMetrics | None:
     gcs = crew.ground_station(sitl)
     d = serve_proc(workdir, sitl, QGC_CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", crew.STATE_WAIT_S)
-        gcs.upload(from_home, 30.0)  # Plan view: Upload
-        d.wait_line("event=serve_state state=ready", crew.STATE_WAIT_S)
+        crew.upload_when_asked(d, lambda: gcs.upload(from_home, 30.0))  # Plan view: Upload
         # Start Mission: APMFirmwarePlugin::startMission — Guided, arm, MISSION_START
         started = crew.start_mission(sitl, gcs, wait_armed=False)
         assert started == mavlink2.MAV_RESULT_ACCEPTED, started

@@ -97,3 +97,11 @@ def close_serve(d: DaemonProc, gcs: GroundStation, log_dir: Path) -> None:
     d.stop(30.0)
     gcs.close()
     (log_dir / "serve.log").write_text(d.log_text(), encoding="utf-8")
+
+
+def upload_when_asked(d: DaemonProc, upload: Callable[[], None]) -> None:
+    """Once ``helixd serve`` finds no mission on the autopilot: QGroundControl's Plan view
+    Upload (``upload``), until helixd is ready to fly it."""
+    d.wait_line("no mission on the autopilot", STATE_WAIT_S)
+    upload()
+    d.wait_line("event=serve_state state=ready", STATE_WAIT_S)
