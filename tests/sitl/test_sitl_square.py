@@ -40,7 +40,7 @@ from helixd.recorder.track import TrackPoint
 from tests.support.skid_setup import first_step_t_s, square_metrics
 
 if TYPE_CHECKING:
-    from tests.sitl.conftest import DaemonRun, ServoSample, SitlVehicle
+    from tests.sitl.conftest import DaemonRun, MavClient, ServoSample, SitlVehicle
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -268,20 +268,19 @@ def test_roll_square_completes(
 
 def driving_square(
     sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
-) -> DaemonRun:
-    """helixd flying the square with ``backend``, 2 m driven."""
+) -> tuple[DaemonRun, MavClient]:
+    """helixd flying the square with ``backend``, 2 m driven; (helixd, the observer)."""
     prepare(sitl, backend)
     daemon = launch_helixd(backend)
     sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
-    return daemon
+    return daemon, sitl.obs
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_pilot_takeover_by_mode_switch(
     sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
 ) -> None:
-    daemon = driving_square(sitl, launch_helixd, backend)
-    obs = sitl.obs
+    daemon, obs = driving_square(sitl, launch_helixd, backend)
     assert deflected(obs.servo_pwm())
 
     # The pilot flips to HOLD (from the second GCS link). HOLD alone does not stop an
@@ -372,8 +371,7 @@ def test_pilot_takeover_by_mode_switch(
 def test_kill_9_mid_mission_reports_outputs(
     sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
 ) -> None:
-    daemon = driving_square(sitl, launch_helixd, backend)
-    obs = sitl.obs
+    daemon, obs = driving_square(sitl, launch_helixd, backend)
     last = obs.last_servo()
     assert last is not None
     killed_wall = time.monotonic()

@@ -31,12 +31,7 @@ def helixd_process(
     argv: list[str], cwd: Path, timeout_s: float = 60.0, env: Mapping[str, str] | None = None
 ) -> subprocess.CompletedProcess[str]:
     """``python -m helixd ARGV`` as its own process in ``cwd``, its output captured as text."""
+    command = [sys.executable, "-m", "helixd", *argv]
     return subprocess.run(
-        [sys.executable, "-m", "helixd", *argv],
-        cwd=cwd,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=timeout_s,
-        check=False,
+        command, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout_s, check=False
     )
