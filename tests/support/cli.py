@@ -35,3 +35,10 @@ def helixd_process(
     return subprocess.run(
         command, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout_s, check=False
     )
+
+
+def config_file(tmp_path: Path, text: str) -> str:
+    """``text`` as ``tmp_path``/helixd.yaml; its path, for ``--config``."""
+    path = tmp_path / "helixd.yaml"
+    path.write_text(text, encoding="utf-8")
+    return str(path)
