@@ -355,44 +355,25 @@ _u16 = hs.integers(0, 65535)
 _i32 = hs.integers(-(2**31), 2**31 - 1)
 _f = hs.floats(width=32)
 _type = hs.sampled_from([0, 1, 2, 3, 255])
+
+
+def _item_head(commands: list[int]) -> tuple[Any, ...]:
+    """target system, component, seq, frame, one of ``commands``, current, autocontinue."""
+    return (_u8, _u8, hs.integers(0, 12), _u8, hs.sampled_from(commands), _u8, _u8)
+
+
 _messages = hs.one_of(
     hs.builds(_mav.mission_count_encode, _u8, _u8, hs.integers(0, 12), _type),
     hs.builds(
         _mav.mission_item_int_encode,
-        _u8,
-        _u8,
-        hs.integers(0, 12),
-        _u8,
-        hs.sampled_from([16, 22, 177, 5001, 5003, 5100, 65535]),
-        _u8,
-        _u8,
-        _f,
-        _f,
-        _f,
-        _f,
+        *_item_head([16, 22, 177, 5001, 5003, 5100, 65535]),
+        *[_f] * 4,
         _i32,
         _i32,
         _f,
         _type,
     ),
-    hs.builds(
-        _mav.mission_item_encode,
-        _u8,
-        _u8,
-        hs.integers(0, 12),
-        _u8,
-        hs.sampled_from([16, 177, 5001, 5100]),
-        _u8,
-        _u8,
-        _f,
-        _f,
-        _f,
-        _f,
-        _f,
-        _f,
-        _f,
-        _type,
-    ),
+    hs.builds(_mav.mission_item_encode, *_item_head([16, 177, 5001, 5100]), *[_f] * 7, _type),
     hs.builds(_mav.mission_request_int_encode, _u8, _u8, _u16, _type),
     hs.builds(_mav.mission_request_encode, _u8, _u8, _u16, _type),
     hs.builds(_mav.mission_request_list_encode, _u8, _u8, _type),
