@@ -141,14 +141,21 @@ def stops_and_restarts_safely(
         assert would_restart(unit, ending) is expected, ending
 
 
+def notify_service_running(unit: Unit, args: str) -> None:
+    """A Type=notify service (helixd's main process only may notify) running the installed
+    helixd with ``args``."""
+    assert one(unit, "Service", "Type") == "notify"
+    assert one(unit, "Service", "NotifyAccess") == "main"
+    assert one(unit, "Service", "ExecStart") == f"{INSTALLED_EXEC} {args}"
+
+
 def check_unit_structure(unit: Unit) -> None:
     """Every requirement of the brief, asserted on the parsed unit."""
     svc = unit["Service"]
-    assert one(unit, "Service", "Type") == "notify"
-    assert one(unit, "Service", "NotifyAccess") == "main"
-    assert one(unit, "Service", "ExecStart") == (
-        f"{INSTALLED_EXEC} run --mission /etc/helixd/missions/%i.yaml "
-        "--config /etc/helixd/helixd.yaml --run-dir /var/lib/helixd/runs"
+    notify_service_running(
+        unit,
+        "run --mission /etc/helixd/missions/%i.yaml "
+        "--config /etc/helixd/helixd.yaml --run-dir /var/lib/helixd/runs",
     )
     environment = " ".join(svc["Environment"]).split()
     assert "PYTHONUNBUFFERED=1" in environment
@@ -333,10 +340,8 @@ SERVE_EXPECTED_RESTART: dict[Ending, bool] = {
 
 def check_serve_unit(unit: Unit) -> None:
     svc = unit["Service"]
-    assert one(unit, "Service", "Type") == "notify"
-    assert one(unit, "Service", "NotifyAccess") == "main"
-    assert one(unit, "Service", "ExecStart") == (
-        f"{INSTALLED_EXEC} serve --config /etc/helixd/helixd.yaml --run-dir /var/lib/helixd/runs"
+    notify_service_running(
+        unit, "serve --config /etc/helixd/helixd.yaml --run-dir /var/lib/helixd/runs"
     )
     cfg = load_config(REPO / "config" / "helixd.yaml")
     # the liveness task pings every serve.tick_s: several pings per watchdog period
