@@ -1230,6 +1230,22 @@ def main(
         "control_loop", results_section(per_rate, seconds), results_dir or RESULTS_DIR
     )
     typer.echo(f"written to {path} and latest.md")
+    unmeasured = measured_nothing(per_rate)
+    if unmeasured:
+        typer.echo("MEASURED NOTHING: " + "; ".join(unmeasured), err=True)
+        raise typer.Exit(1)
+
+
+def measured_nothing(per_rate: dict[str, dict[str, Any]]) -> list[str]:
+    """Why a rate's figures measure nothing (no control step in the window, or the flight
+    loop ended inside it): one line per such rate."""
+    out: list[str] = []
+    for rate, fig in per_rate.items():
+        if not fig.get("control_steps"):
+            out.append(f"{rate} Hz: no control step in the window")
+        elif fig.get("loop_ended_early"):
+            out.append(f"{rate} Hz: the flight loop ended inside the window ({fig.get('fault')})")
+    return out
 
 
 if __name__ == "__main__":
