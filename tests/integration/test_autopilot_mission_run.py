@@ -39,8 +39,6 @@ def write_config(tmp_path: Path, url: str) -> Path:
     return path
 
 
-
-
 def upload(plan: Path, url: str, cfg: Path, cwd: Path) -> None:
     res = helixd(["mission", "upload", str(plan), "--connect", url, "--config", str(cfg)], cwd)
     assert res.returncode == 0, res.stderr
