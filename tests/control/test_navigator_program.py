@@ -36,6 +36,7 @@ def run(nav: Navigator, plant: IdealPlant, seconds: float) -> list[tuple[float, 
             break
     return out
 
+
 def until_first_reached(nav: Navigator) -> tuple[IdealPlant, Any]:
     """ROLL from the origin on an ideal plant until the first waypoint is reached (at most
     5000 steps): the plant and the step's output."""
@@ -46,7 +47,6 @@ def until_first_reached(nav: Navigator) -> tuple[IdealPlant, Any]:
             break
         plant.step(o.command, DT)
     return plant, o
-
 
 
 def test_a_flagged_stop_is_stopped_at_like_the_final_waypoint() -> None:

@@ -53,6 +53,7 @@ def fly(display: ProgressDisplay, clock: FakeClock, seconds: float, **kw: object
         display.update(info(i, **kw))
         clock.advance(1.0 / LOOP_HZ)
 
+
 def logged_flight() -> tuple[FakeClock, io.StringIO, ProgressDisplay]:
     """A display without a terminal in the fly phase, the log going to ``out`` (logfmt), on a
     fake clock: (clock, out, display)."""
@@ -62,7 +63,6 @@ def logged_flight() -> tuple[FakeClock, io.StringIO, ProgressDisplay]:
     display = ProgressDisplay(tty=False, clock=clock)
     display.phase("fly")
     return clock, out, display
-
 
 
 def test_not_a_terminal_emits_throttled_progress_events_without_escape_codes() -> None:

@@ -117,9 +117,7 @@ class Sink:
     async def close(self) -> None: ...
 
 
-def quiet_loop(
-    cfg: HelixdConfig, plan: Plan, ap: Any, sink: Any, **callbacks: Any
-) -> FlightLoop:
+def quiet_loop(cfg: HelixdConfig, plan: Plan, ap: Any, sink: Any, **callbacks: Any) -> FlightLoop:
     """A flight loop of ``plan`` from the origin, every callback a no-op unless given."""
     start = NedPose(0.0, 0.0, 0.0)
     quiet: dict[str, Any] = {

@@ -138,6 +138,7 @@ def test_watchdog_is_rate_limited_to_half_the_interval(
     assert recv(sock) == b"WATCHDOG=1"
     notifier.close()
 
+
 def notifier_on(
     path_socket: tuple[socket.socket, str], monkeypatch: pytest.MonkeyPatch
 ) -> tuple[socket.socket, str, ServiceNotifier]:
@@ -145,7 +146,6 @@ def notifier_on(
     sock, address = path_socket
     monkeypatch.setenv("NOTIFY_SOCKET", address)
     return sock, address, ServiceNotifier()
-
 
 
 def test_no_watchdog_pings_without_watchdog_usec(

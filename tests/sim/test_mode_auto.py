@@ -110,6 +110,7 @@ def test_auto_runs_the_mission_on_the_position_and_completes_in_auto() -> None:
     assert core.ap.mode == modes.AUTO  # MIS_DONE_BEHAVE 0: AUTO's stop submode, not HOLD
     assert of_type(out, "MISSION_CURRENT", 0)[-1].mission_state == MISSION_STATE_COMPLETE
 
+
 def auto_started() -> SimCore:
     """A ready core with WAYPOINTS_NE uploaded, armed and MISSION_START accepted, 0.3 s on."""
     core = ready_core()
@@ -118,7 +119,6 @@ def auto_started() -> SimCore:
     assert command(core, 0, MAV_CMD_MISSION_START, 0, 0, sysid=GCS_SYSID) == 0
     run(core, 0.3)
     return core
-
 
 
 def test_leaving_auto_stops_the_mission_and_auto_again_resumes_the_item() -> None:

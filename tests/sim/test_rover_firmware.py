@@ -614,6 +614,7 @@ def test_do_set_servo_while_the_guard_holds_is_accepted_but_ignored() -> None:
     rig.run(0.04, heartbeat_until(1e9))
     assert rig.outputs[0] == 1700
 
+
 def passthrough_overridden() -> Rig:
     """A guarded autopilot whose output 2 follows RC input 1, armed, helixd's heartbeat
     flowing, RC input 1 overridden to 1700 µs: both outputs at 1700."""
@@ -624,7 +625,6 @@ def passthrough_overridden() -> Rig:
     rig.run(0.1)
     assert rig.outputs[:2] == [1700, 1700]
     return rig
-
 
 
 def test_guard_holds_rc_passthrough_by_overriding_its_input() -> None:
