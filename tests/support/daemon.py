@@ -92,6 +92,12 @@ class DaemonProc:
         self.join_pump()
         return code
 
+    def outcome(self, timeout_s: float) -> tuple[int, str, Path]:
+        """Once it exited within ``timeout_s``: (exit code, its plain ``helixd: RESULT`` line,
+        its log)."""
+        code = self.wait_exit(timeout_s)
+        return code, self.wait_line("helixd: RESULT", 5.0), self.log_text()
+
     def ended(self) -> str | None:
         """None while running; else why it is no use waiting for it any more."""
         code = self.proc.poll()
