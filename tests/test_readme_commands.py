@@ -14,11 +14,11 @@ import os
 import re
 import shlex
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
+from tests.support.cli import helixd_process
 from tests.support.paths import REPO_ROOT
 
 SH_BLOCK = re.compile(r"^\s*```sh\n(.*?)^\s*```", re.MULTILINE | re.DOTALL)
@@ -78,15 +78,7 @@ def _runnable(argv: list[str]) -> bool:
 def _helixd(argv: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "PYTHONPATH": str(REPO_ROOT), "COLUMNS": "200", "NO_COLOR": "1"}
     env.pop("HELIXD_CONFIG", None)
-    return subprocess.run(
-        [sys.executable, "-m", "helixd", *argv],
-        cwd=cwd,
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
+    return helixd_process(argv, cwd, 300, env)
 
 
 def test_readme_has_commands() -> None:

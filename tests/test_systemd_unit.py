@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.config import load_config
+from helixd.config import HelixdConfig, load_config
 from tests.support.paths import REPO_ROOT
 
 REPO = REPO_ROOT
@@ -129,14 +129,33 @@ def would_restart(unit: Unit, ending: Ending) -> bool:
     raise AssertionError(f"unknown Restart={restart}")
 
 
+def stops_and_restarts_safely(
+    unit: Unit, cfg: HelixdConfig, expected_restart: dict[Ending, bool]
+) -> None:
+    """SIGKILL must not cut the bounded fall-back (neutral+release+HOLD, HOLD retries) short;
+    the unit restarts after each ending as ``expected_restart`` says."""
+    fallback_s = cfg.safety.fallback_deadline_s + cfg.safety.hold_retry_bound_s
+    assert seconds(one(unit, "Service", "TimeoutStopSec")) >= 2.0 * fallback_s
+    assert one(unit, "Service", "KillSignal") in {"SIGINT", "SIGTERM"}
+    for ending, expected in expected_restart.items():
+        assert would_restart(unit, ending) is expected, ending
+
+
+def notify_service_running(unit: Unit, args: str) -> None:
+    """A Type=notify service (helixd's main process only may notify) running the installed
+    helixd with ``args``."""
+    assert one(unit, "Service", "Type") == "notify"
+    assert one(unit, "Service", "NotifyAccess") == "main"
+    assert one(unit, "Service", "ExecStart") == f"{INSTALLED_EXEC} {args}"
+
+
 def check_unit_structure(unit: Unit) -> None:
     """Every requirement of the brief, asserted on the parsed unit."""
     svc = unit["Service"]
-    assert one(unit, "Service", "Type") == "notify"
-    assert one(unit, "Service", "NotifyAccess") == "main"
-    assert one(unit, "Service", "ExecStart") == (
-        f"{INSTALLED_EXEC} run --mission /etc/helixd/missions/%i.yaml "
-        "--config /etc/helixd/helixd.yaml --run-dir /var/lib/helixd/runs"
+    notify_service_running(
+        unit,
+        "run --mission /etc/helixd/missions/%i.yaml "
+        "--config /etc/helixd/helixd.yaml --run-dir /var/lib/helixd/runs",
     )
     environment = " ".join(svc["Environment"]).split()
     assert "PYTHONUNBUFFERED=1" in environment
@@ -147,14 +166,8 @@ def check_unit_structure(unit: Unit) -> None:
     assert 1.0 <= watchdog_s <= 30.0
     # time to READY covers waiting for the autopilot's first heartbeat, then preflight
     assert seconds(one(unit, "Service", "TimeoutStartSec")) >= 2 * cfg.startup.connect_timeout_s
-    # SIGKILL must not cut the bounded fall-back (neutral+release+HOLD, HOLD retries) short
-    fallback_s = cfg.safety.fallback_deadline_s + cfg.safety.hold_retry_bound_s
-    assert seconds(one(unit, "Service", "TimeoutStopSec")) >= 2.0 * fallback_s
-    assert one(unit, "Service", "KillSignal") in {"SIGINT", "SIGTERM"}
-
     # Restart only what is safe: never after a fault, an operator stop or a refusal.
-    for ending, expected in EXPECTED_RESTART.items():
-        assert would_restart(unit, ending) is expected, ending
+    stops_and_restarts_safely(unit, cfg, EXPECTED_RESTART)
     prevented = set(one(unit, "Service", "RestartPreventExitStatus").split())
     must_not_restart = {ExitCode.USAGE, ExitCode.PREFLIGHT, ExitCode.FAULT}
     must_not_restart |= {ExitCode.OPERATOR_STOP, ExitCode.INTERNAL_ERROR}
@@ -327,19 +340,13 @@ SERVE_EXPECTED_RESTART: dict[Ending, bool] = {
 
 def check_serve_unit(unit: Unit) -> None:
     svc = unit["Service"]
-    assert one(unit, "Service", "Type") == "notify"
-    assert one(unit, "Service", "NotifyAccess") == "main"
-    assert one(unit, "Service", "ExecStart") == (
-        f"{INSTALLED_EXEC} serve --config /etc/helixd/helixd.yaml --run-dir /var/lib/helixd/runs"
+    notify_service_running(
+        unit, "serve --config /etc/helixd/helixd.yaml --run-dir /var/lib/helixd/runs"
     )
     cfg = load_config(REPO / "config" / "helixd.yaml")
     # the liveness task pings every serve.tick_s: several pings per watchdog period
     assert seconds(one(unit, "Service", "WatchdogSec")) >= 10 * cfg.serve.tick_s
-    fallback_s = cfg.safety.fallback_deadline_s + cfg.safety.hold_retry_bound_s
-    assert seconds(one(unit, "Service", "TimeoutStopSec")) >= 2.0 * fallback_s
-    assert one(unit, "Service", "KillSignal") in {"SIGINT", "SIGTERM"}
-    for ending, expected in SERVE_EXPECTED_RESTART.items():
-        assert would_restart(unit, ending) is expected, ending
+    stops_and_restarts_safely(unit, cfg, SERVE_EXPECTED_RESTART)
     assert "StartLimitBurst" not in svc
     assert 1 <= int(one(unit, "Unit", "StartLimitBurst")) <= 10
     # the same identity and hardening as the one-shot unit

@@ -9,9 +9,10 @@ Real parts on both sides of a loopback UDP link:
 
 * the *autopilot* is a separate process (so it shares no GIL with the daemon) speaking MAVLink
   2 with pymavlink's codec: HEARTBEAT 1 Hz (MANUAL, armed once asked), ATTITUDE +
-  LOCAL_POSITION_NED at ``--rate-hz``, EKF_STATUS_REPORT, SYS_STATUS, RC_CHANNELS and
-  SERVO_OUTPUT_RAW at 5 Hz; it ACCEPTs every COMMAND_LONG (SET_MESSAGE_INTERVAL included, as
-  an ArduPilot whose SCHED_LOOP_RATE grants 20 ms would), answers PARAM_REQUEST_READ from a
+  LOCAL_POSITION_NED at ``--rate-hz``, EKF_STATUS_REPORT, SYS_STATUS, RC_CHANNELS,
+  SERVO_OUTPUT_RAW and GPS_RAW_INT (a 3D fix, its time moving: the daemon's GPS checks) at
+  5 Hz; it ACCEPTs every COMMAND_LONG (SET_MESSAGE_INTERVAL included, as an ArduPilot whose
+  SCHED_LOOP_RATE grants 20 ms would), answers PARAM_REQUEST_READ from a
   correctly set-up Helix parameter table, and integrates the RC overrides it receives through
   the no-slip kinematics (eq. 1) so the pose moves and the mission progresses;
 * the *daemon* side, in this process, is what ``helixd run`` flies with:
@@ -90,6 +91,12 @@ ASYNCIO_PREFIX = "asyncio_"  # figures of the same echo loop written as an async
 MAX_RATE_HZ = 200.0
 POSE_RATE_REQUEST_MAX_HZ = 100.0  # link.pose_rate_hz's bound; the fake autopilot sends anyway
 MANUAL = 0
+# GPS_RAW_INT: what the daemon's GPS checks want (safety.gps_min_fix_type, gps_min_satellites)
+GPS_FIX_TYPE_3D = 3
+GPS_SATELLITES = 12
+GPS_EPH_CM = 80  # HDOP x 100
+GPS_ORIGIN_DEG = (52.0, 5.0)
+EARTH_RADIUS_M = 6_378_137.0
 # A Helix set up as the README says: helixd is the GCS, overrides drive RCIN1..4 passthrough.
 AUTOPILOT_PARAMS: dict[str, float] = {
     "MAV_GCS_SYSID": float(LinkConfig().source_system),
@@ -357,6 +364,30 @@ class FakeAutopilot:
         rc = self.pwm_us[:4] + [1500] * 14
         self._pack(self.mav.rc_channels_encode(t_ms, 16, *rc, 255))
         self._pack(self.mav.servo_output_raw_encode(int(t_ms * 1000) & 0xFFFFFFFF, 0, *self.pwm_us))
+        self._pack(self.gps_raw_int(t_ms))
+
+    def gps_raw_int(self, t_ms: int) -> Any:
+        """A 3D fix with 12 satellites, as ArduPilot streams GPS_RAW_INT (AP_GPS::
+        send_mavlink_gps_raw; helixd/sim/messages.py): ``time_usec`` is the fix's time, so it
+        moves with every report (a frozen one is a receiver that stopped: gps_lost); position
+        as latitude/longitude near an arbitrary origin, speed and course from the plant."""
+        lat_deg = GPS_ORIGIN_DEG[0] + math.degrees(self.north_m / EARTH_RADIUS_M)
+        lon_deg = GPS_ORIGIN_DEG[1] + math.degrees(
+            self.east_m / (EARTH_RADIUS_M * math.cos(math.radians(GPS_ORIGIN_DEG[0])))
+        )
+        course_cdeg = round(math.degrees(math.atan2(self.ve_mps, self.vn_mps)) * 100.0) % 36000
+        return self.mav.gps_raw_int_encode(
+            t_ms * 1000,
+            GPS_FIX_TYPE_3D,
+            round(lat_deg * 1e7),
+            round(lon_deg * 1e7),
+            0,
+            GPS_EPH_CM,
+            2 * GPS_EPH_CM,
+            round(math.hypot(self.vn_mps, self.ve_mps) * 100.0),
+            course_cdeg,
+            GPS_SATELLITES,
+        )
 
 
 def autopilot_main(port: int, rate_hz: float, ctrl: Connection) -> None:
@@ -1199,6 +1230,22 @@ def main(
         "control_loop", results_section(per_rate, seconds), results_dir or RESULTS_DIR
     )
     typer.echo(f"written to {path} and latest.md")
+    unmeasured = measured_nothing(per_rate)
+    if unmeasured:
+        typer.echo("MEASURED NOTHING: " + "; ".join(unmeasured), err=True)
+        raise typer.Exit(1)
+
+
+def measured_nothing(per_rate: dict[str, dict[str, Any]]) -> list[str]:
+    """Why a rate's figures measure nothing (no control step in the window, or the flight
+    loop ended inside it): one line per such rate."""
+    out: list[str] = []
+    for rate, fig in per_rate.items():
+        if not fig.get("control_steps"):
+            out.append(f"{rate} Hz: no control step in the window")
+        elif fig.get("loop_ended_early"):
+            out.append(f"{rate} Hz: the flight loop ended inside the window ({fig.get('fault')})")
+    return out
 
 
 if __name__ == "__main__":

@@ -8,16 +8,14 @@ from pathlib import Path
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from tests.support.cli import run_main
+from tests.support.cli import config_file, run_main
 from tests.support.harness import running_sim
 
 FAST = "startup:\n  connect_timeout_s: 5.0\nlink:\n  command_timeout_s: 0.3\n"
 
 
 def config(tmp_path: Path) -> str:
-    path = tmp_path / "helixd.yaml"
-    path.write_text(FAST, encoding="utf-8")
-    return str(path)
+    return config_file(tmp_path, FAST)
 
 
 def test_the_simulators_helix_setup_passes(

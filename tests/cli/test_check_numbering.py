@@ -85,20 +85,17 @@ def test_check_and_run_give_a_place_from_waypoint_1(
 
 def test_errors_count_entries_from_1(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     yaml_path = tmp_path / "q.yaml"
-    yaml_path.write_text(
-        "name: q\nmode: roll\nframe: local_ned\nwaypoints:\n"
-        "  - {north: 1, east: 0, q: 3}\n  - {north: 794, east: 0}\n"
-    )
-    code, _, err = run_main(["check", "--mission", str(yaml_path)], capsys)
-    assert code == 2
-    assert f"{yaml_path}: waypoint 1 (waypoints[0]): q: unknown key" in err, err
-    yaml_path.write_text(
-        "name: far\nmode: roll\nframe: local_ned\nwaypoints:\n"
-        "  - {north: 1, east: 0}\n  - {north: 794, east: 0}\n"
-    )
-    code, _, err = run_main(["check", "--mission", str(yaml_path)], capsys)
-    assert code == 2
-    assert f"{yaml_path}: waypoint 2 (waypoints[1]): (794.0, 0.0) is 794.0 m from" in err, err
+    for name, first, said in [
+        ("q", "{north: 1, east: 0, q: 3}", "waypoint 1 (waypoints[0]): q: unknown key"),
+        ("far", "{north: 1, east: 0}", "waypoint 2 (waypoints[1]): (794.0, 0.0) is 794.0 m from"),
+    ]:
+        yaml_path.write_text(
+            f"name: {name}\nmode: roll\nframe: local_ned\nwaypoints:\n"
+            f"  - {first}\n  - {{north: 794, east: 0}}\n"
+        )
+        code, _, err = run_main(["check", "--mission", str(yaml_path)], capsys)
+        assert code == 2
+        assert f"{yaml_path}: {said}" in err, err
     # a ground-station file: its item, the sequence number QGroundControl shows
     far = wpl(tmp_path, "far.waypoints", [(16, 0, 0, 5, 0), (16, 0, 0, 5, 10), (16, 0, 0, 700, 0)])
     code, _, err = run_main(["check", "--mission", str(far), "--mode", "roll"], capsys)

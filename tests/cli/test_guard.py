@@ -11,16 +11,14 @@ from helixd.base.exitcodes import ExitCode
 from helixd.mav.arming import FORCE_ARM_MAGIC
 from helixd.mav.constants import MAV_CMD_COMPONENT_ARM_DISARM
 from helixd.mav.guard_script import VERSION, script_bytes
-from tests.support.cli import run_main
+from tests.support.cli import config_file, run_main
 from tests.support.harness import client, running_sim, running_sim_links
 
 FAST_CONNECT = "startup:\n  connect_timeout_s: 5.0\n"
 
 
 def config(tmp_path: Path) -> str:
-    path = tmp_path / "helixd.yaml"
-    path.write_text(FAST_CONNECT, encoding="utf-8")
-    return str(path)
+    return config_file(tmp_path, FAST_CONNECT)
 
 
 def test_install_then_reboot_runs_the_guard(

@@ -115,6 +115,12 @@ def start_pose(mode: MotionMode, course_rad: float = 0.0) -> Pose2D:
 # -- convergence on the line ------------------------------------------------------------------
 
 
+def straight_leg(name: str, mode: MotionMode, length_m: float) -> Plan:
+    """Waypoint 0 on the start pose, then one leg along x to ``length_m`` (at cruise)."""
+    wps = (PlanWaypoint(0.0, 0.0, 0.5), PlanWaypoint(length_m, 0.0, 0.5))
+    return Plan(name, mode, MissionFrameKind.START, wps, LINE.max_speed_mps)
+
+
 @pytest.mark.parametrize("heading_rel_rad", [0.0, math.pi / 2, -math.pi / 2, math.pi, 0.6])
 @pytest.mark.parametrize("side_m", [2.0, -2.0])
 @pytest.mark.parametrize("mode", list(MotionMode))
@@ -123,13 +129,7 @@ def test_from_2_m_beside_the_line_within_0_10_m_after_5_m_and_stays(
 ) -> None:
     # Leg (0, 0) → (20, 0): waypoint 0 sits on the start pose (reached on the first step),
     # then the rover is put 2 m beside the second leg, pointing anywhere.
-    plan = Plan(
-        "beside",
-        mode,
-        MissionFrameKind.START,
-        (PlanWaypoint(0.0, 0.0, 0.5), PlanWaypoint(20.0, 0.0, 0.5)),
-        LINE.max_speed_mps,
-    )
+    plan = straight_leg("beside", mode, 20.0)
     nav = Navigator(plan, LINE)
     first = nav.step(start_pose(mode), 0.0)
     assert first.reached_index == 0
@@ -156,13 +156,7 @@ def test_convergence_is_monotonic_no_crossing_of_the_line(mode: MotionMode) -> N
     # de/ds = −e/√(e² + L²) on the ideal plant: the rover approaches from its side and does
     # not overshoot by more than the yaw loop's lag (v/kp ≈ 0.075 m at cruise; here 0.05 m
     # is asserted since the approach is made at a shallow angle).
-    plan = Plan(
-        "side",
-        mode,
-        MissionFrameKind.START,
-        (PlanWaypoint(0.0, 0.0, 0.5), PlanWaypoint(30.0, 0.0, 0.5)),
-        LINE.max_speed_mps,
-    )
+    plan = straight_leg("side", mode, 30.0)
     nav = Navigator(plan, LINE)
     nav.step(start_pose(mode), 0.0)
     flight = fly(plan, Pose2D(0.0, 2.0, -AXIS_RAD[mode]), nav=nav)
@@ -407,6 +401,34 @@ def test_speed_profile_looks_only_as_far_as_it_can_matter(monkeypatch: pytest.Mo
     assert per_step <= 4.0 < len(calls) / len(unbounded.commands)
 
 
+def fly_lagged(
+    nav: Navigator,
+    start: Pose2D,
+    tau_s: float,
+    until_s: float,
+    track: list[Pose2D] | None = None,
+) -> tuple[Any, float]:
+    """Fly ``nav`` in OMNI on an ideal plant whose velocity follows the command through a
+    first-order lag ``tau_s`` (the simulator's scroll motors) until done or ``until_s``;
+    ``track`` collects the pose after each plant step. The last output and the plant's time."""
+    plant = IdealPlant(start, MotionMode.OMNI)
+    applied = BodyVelocity.zero()
+    while plant.t_s < until_s:
+        out = nav.step(plant.pose, plant.t_s)
+        if out.done:
+            break
+        k = DT_S / tau_s
+        applied = BodyVelocity(
+            applied.vx_mps + k * (out.command.vx_mps - applied.vx_mps),
+            applied.vy_mps + k * (out.command.vy_mps - applied.vy_mps),
+            0.0,
+        )
+        plant.step(applied, DT_S)
+        if track is not None:
+            track.append(plant.pose)
+    return out, plant.t_s
+
+
 def test_omni_arc_course_lead_cancels_the_scroll_lag() -> None:
     # A plant whose velocity follows the command through a first-order lag τ = 0.3 s (the
     # simulator's scroll motors): flown without the lead the rover drifts out of each arc by
@@ -419,23 +441,10 @@ def test_omni_arc_course_lead_cancels_the_scroll_lag() -> None:
     for lag_s in (0.0, tau_s):
         slip = LINE.slip.model_copy(update={"command_lag_s": lag_s})
         nav = Navigator(plan, LINE.model_copy(update={"slip": slip}))
-        plant = IdealPlant(start, MotionMode.OMNI)
-        applied = BodyVelocity.zero()
-        errors = []
-        while plant.t_s < 120.0:
-            out = nav.step(plant.pose, plant.t_s)
-            if out.done:
-                break
-            k = DT_S / tau_s
-            applied = BodyVelocity(
-                applied.vx_mps + k * (out.command.vx_mps - applied.vx_mps),
-                applied.vy_mps + k * (out.command.vy_mps - applied.vy_mps),
-                0.0,
-            )
-            plant.step(applied, DT_S)
-            errors.append(distance_to_polyline_m(plant.pose, path))
+        poses: list[Pose2D] = []
+        out, _ = fly_lagged(nav, start, tau_s, 120.0, poses)
         assert out.done
-        worst[lag_s] = max(errors)
+        worst[lag_s] = max(distance_to_polyline_m(pose, path) for pose in poses)
     assert worst[tau_s] <= 0.5 * worst[0.0], worst
     assert worst[tau_s] <= 0.07, worst  # measured 0.055 m
 
@@ -471,21 +480,8 @@ def test_sharp_omni_corners_are_stops_not_orbits() -> None:
             assert arc.speed_mps <= control.max_yaw_rate_radps * arc.radius_m + 1e-9
     # 172°, 164° and 153° corners are stops; the 141° one keeps an arc (R 0.12 m, 0.12 m/s)
     assert corners.stops[:3] == [True, True, True] and corners.arcs[3] is not None
-    nav = Navigator(plan, control)
-    plant = IdealPlant(start, MotionMode.OMNI)
-    applied = BodyVelocity.zero()
-    while plant.t_s < 300.0:
-        out = nav.step(plant.pose, plant.t_s)
-        if out.done:
-            break
-        k = DT_S / tau_s
-        applied = BodyVelocity(
-            applied.vx_mps + k * (out.command.vx_mps - applied.vx_mps),
-            applied.vy_mps + k * (out.command.vy_mps - applied.vy_mps),
-            0.0,
-        )
-        plant.step(applied, DT_S)
-    assert out.done, (plant.t_s, out.target_index)  # measured: done in 125 s
+    out, t_s = fly_lagged(Navigator(plan, control), start, tau_s, 300.0)
+    assert out.done, (t_s, out.target_index)  # measured: done in 125 s
 
 
 def test_waypoint_with_a_heading_is_a_stop_even_where_an_arc_would_fit() -> None:

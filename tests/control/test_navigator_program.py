@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from typing import Any
 
 import pytest
 
@@ -36,25 +37,27 @@ def run(nav: Navigator, plant: IdealPlant, seconds: float) -> list[tuple[float, 
     return out
 
 
-def test_a_flagged_stop_is_stopped_at_like_the_final_waypoint() -> None:
-    wps = [PlanWaypoint(10.0, 0.0, 1.0, stop=True), PlanWaypoint(20.0, 0.0, 1.0)]
-    nav = Navigator(plan(wps), CFG)
+def until_first_reached(nav: Navigator) -> tuple[IdealPlant, Any]:
+    """ROLL from the origin on an ideal plant until the first waypoint is reached (at most
+    5000 steps): the plant and the step's output."""
     plant = IdealPlant(Pose2D(0.0, 0.0, 0.0), MotionMode.ROLL)
     for _ in range(5000):
         o = nav.step(plant.pose, plant.t_s)
         if o.reached_index == 0:
             break
         plant.step(o.command, DT)
+    return plant, o
+
+
+def test_a_flagged_stop_is_stopped_at_like_the_final_waypoint() -> None:
+    wps = [PlanWaypoint(10.0, 0.0, 1.0, stop=True), PlanWaypoint(20.0, 0.0, 1.0)]
+    nav = Navigator(plan(wps), CFG)
+    plant, o = until_first_reached(nav)
     assert abs(plant.pose.x_m - 10.0) < CFG.stop_tolerance_m + 0.02
     assert o.distance_error_m < CFG.stop_tolerance_m + 0.02
     # the flown-through twin is reached a tolerance early, at speed
     through = Navigator(plan([PlanWaypoint(10.0, 0.0, 1.0), wps[1]]), CFG)
-    plant = IdealPlant(Pose2D(0.0, 0.0, 0.0), MotionMode.ROLL)
-    for _ in range(5000):
-        o = through.step(plant.pose, plant.t_s)
-        if o.reached_index == 0:
-            break
-        plant.step(o.command, DT)
+    plant, _ = until_first_reached(through)
     assert plant.pose.x_m < 9.2
 
 

@@ -3,6 +3,7 @@ when there is nothing to learn from, and never turns a NaN into a command."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import random
 
@@ -21,7 +22,8 @@ from helixd.control.slip import (
     no_slip_body,
     same_direction,
 )
-from helixd.safety.watchdogs import FaultCause, SafetyInputs, SafetyMonitor
+from helixd.safety.watchdogs import FaultCause, SafetyMonitor
+from tests.support.safety_inputs import HEALTHY
 
 ROLL = MotionMode.ROLL
 DT_S = 0.025  # 40 Hz poses
@@ -179,20 +181,13 @@ def test_stall_watchdog_still_fires_with_the_feed_forward_on() -> None:
         sent = est.compensate(ROLL, nav)
         est.update(ROLL, sent, BodyVelocity.zero(), DT_S)
         fault = mon.check(
-            SafetyInputs(
+            dataclasses.replace(
+                HEALTHY,  # fresh, healthy, at the start point, not moving
                 now_s=t_s,
                 last_heartbeat_s=t_s,
                 pose_rx_s=t_s,
-                ekf_healthy=True,
-                ekf_detail="",
-                mode="MANUAL",
-                expected_mode="MANUAL",
-                armed=True,
-                rc_inputs_us=(1500,) * 8,
                 north_m=0.0,
                 east_m=0.0,
-                start_north_m=0.0,
-                start_east_m=0.0,
                 mission_elapsed_s=t_s,
                 commanded_speed_mps=math.hypot(sent.vx_mps, sent.vy_mps),
                 measured_speed_mps=0.0,

@@ -9,6 +9,7 @@ never a saturated command. These are the functions whose NaN behaviour sent 1734
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -278,18 +279,29 @@ def make_plan(mode: MotionMode) -> Plan:
     return Plan("totality", mode, MissionFrameKind.START, waypoints, speed_mps=0.6)
 
 
+def assert_bad_step_keeps(
+    nav: Navigator, warm_steps: int, values: list[float], state: Callable[[], object]
+) -> None:
+    """After ``warm_steps`` good steps, a step on the non-finite pose/time ``values`` raises
+    and leaves ``state()`` as it was."""
+    for i in range(warm_steps):
+        nav.step(Pose2D(0.1 * i, 0.0, 0.0), 0.05 * i)
+    before = state()
+    with pytest.raises(NonFiniteError):
+        nav.step(Pose2D(values[0], values[1], values[2]), values[3])
+    assert state() == before
+
+
 @settings(max_examples=300)
 @given(with_one_bad(4), MODES, st.integers(0, 5))
 def test_navigator_step_raises_and_keeps_state(
     values: list[float], mode: MotionMode, warm_steps: int
 ) -> None:
     nav = Navigator(make_plan(mode), CONTROL)
-    for i in range(warm_steps):
-        nav.step(Pose2D(0.1 * i, 0.0, 0.0), 0.05 * i)
-    before = (nav.state, nav.target_index, nav.waypoints_reached, nav._last_t_s)
-    with pytest.raises(NonFiniteError):
-        nav.step(Pose2D(values[0], values[1], values[2]), values[3])
-    assert (nav.state, nav.target_index, nav.waypoints_reached, nav._last_t_s) == before
+    assert_bad_step_keeps(
+        nav, warm_steps, values, lambda: (nav.state, nav.target_index, nav.waypoints_reached,
+                                          nav._last_t_s)
+    )  # fmt: skip
 
 
 @settings(max_examples=200)
@@ -395,12 +407,10 @@ def test_line_navigator_step_raises_and_keeps_its_limiter_state(
     values: list[float], mode: MotionMode, warm_steps: int
 ) -> None:
     nav = Navigator(make_plan(mode), ControlConfig(guidance="line"))
-    for i in range(warm_steps):
-        nav.step(Pose2D(0.1 * i, 0.0, 0.0), 0.05 * i)
-    before = (nav.state, nav.target_index, nav._last_t_s, nav._prev_command)
-    with pytest.raises(NonFiniteError):
-        nav.step(Pose2D(values[0], values[1], values[2]), values[3])
-    assert (nav.state, nav.target_index, nav._last_t_s, nav._prev_command) == before
+    assert_bad_step_keeps(
+        nav, warm_steps, values, lambda: (nav.state, nav.target_index, nav._last_t_s,
+                                          nav._prev_command)
+    )  # fmt: skip
 
 
 @settings(max_examples=200)

@@ -7,8 +7,6 @@ from __future__ import annotations
 import copy
 import json
 import math
-import subprocess
-import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -22,6 +20,7 @@ from helixd.base.frames import latlon_to_ne
 from helixd.sim.server import SimServer
 from helixd.sim.sim_config import SimConfig
 from helixd.sim.snapshot import SimSnapshot
+from tests.support.cli import helixd_process as helixd
 from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
 from tests.support.harness import BASE_CONFIG, MISSIONS, SPEEDUP, running_sim, secured
 from tests.support.paths import DATA_DIR
@@ -38,17 +37,6 @@ def write_config(tmp_path: Path, url: str) -> Path:
     path = tmp_path / "helixd.yaml"
     path.write_text(yaml.safe_dump(deep_merge(BASE_CONFIG, {"link": {"url": url}})), "utf-8")
     return path
-
-
-def helixd(args: list[str], cwd: Path, timeout_s: float = 60.0) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "helixd", *args],
-        capture_output=True,
-        text=True,
-        timeout=timeout_s,
-        check=False,
-        cwd=cwd,
-    )
 
 
 def upload(plan: Path, url: str, cfg: Path, cwd: Path) -> None:

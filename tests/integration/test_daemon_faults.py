@@ -301,25 +301,33 @@ def test_kill9_helixd_guard_stops_the_scrolls_and_holds(tmp_path: Path, backend:
     assert later.armed and later.guard_guarding
 
 
-def test_gps_lost(tmp_path: Path) -> None:
-    # The receiver stops mid-leg: GPS_RAW_INT says no fix 0.4 s later while the EKF goes on
-    # dead-reckoning for 7.3 s (as ArduPilot SITL does); the GPS watchdog, not the EKF, stops
-    # the scrolls within 1 s of the loss, counted on the simulator's (the vehicle's) clock, so
-    # the simulator runs at only 2× (the daemon's wall-clock latencies count double).
-    with sim_and_daemon(tmp_path, "square", speedup=2.0) as (server, d):
+def gps_fault_flight(tmp_path: Path, fault: str, speedup: float) -> str:
+    """Fly the square, inject the simulator's ``fault`` mid-leg: the scrolls neutral within
+    1 s of it (vehicle time), exit 4 by the GPS watchdog; the summary's fault."""
+    with sim_and_daemon(tmp_path, "square", speedup=speedup) as (server, d):
         at_s = wait_moving(server).sim_time_s + 0.5
-        server.schedule("gps_loss", at_s, duration_s=600.0)
+        server.schedule(fault, at_s, duration_s=600.0)
         neutral = server.wait_for(lambda s: s.sim_time_s > at_s and scrolls_neutral(s), 10.0)
         held = server.wait_for(secured, 10.0)
         code = d.wait_exit(20.0)
         log = d.log_text()
         run_dir = d.run_dir()
     to_neutral, to_hold = neutral.sim_time_s - at_s, held.sim_time_s - at_s
-    print(f"gps_loss: scrolls neutral {to_neutral:.2f} s, HOLD {to_hold:.2f} s (vehicle time)")
+    print(f"{fault}: scrolls neutral {to_neutral:.2f} s, HOLD {to_hold:.2f} s (vehicle time)")
     assert to_neutral <= 1.0, log[-3000:]
     assert code == ExitCode.FAULT, log[-3000:]
     assert "event=fallback cause=gps_lost" in log
-    assert summary(run_dir)["fault"].startswith("gps_lost")
+    result: str = summary(run_dir)["fault"]
+    return result
+
+
+def test_gps_lost(tmp_path: Path) -> None:
+    # The receiver stops mid-leg: GPS_RAW_INT says no fix 0.4 s later while the EKF goes on
+    # dead-reckoning for 7.3 s (as ArduPilot SITL does); the GPS watchdog, not the EKF, stops
+    # the scrolls within 1 s of the loss, counted on the simulator's (the vehicle's) clock, so
+    # the simulator runs at only 2× (the daemon's wall-clock latencies count double).
+    result = gps_fault_flight(tmp_path, "gps_loss", 2.0)
+    assert result.startswith("gps_lost"), result
 
 
 @pytest.mark.parametrize(
@@ -338,18 +346,5 @@ def test_gps_stream_stopping_stops_the_scrolls_within_1_s(
 ) -> None:
     # The silence is counted on helixd's own clock (safety.gps_stale_s, 0.6 s), so the
     # simulator runs in real time: its clock is then the wall clock the rover would live on.
-    with sim_and_daemon(tmp_path, "square", speedup=1.0) as (server, d):
-        at_s = wait_moving(server).sim_time_s + 0.5
-        server.schedule(fault, at_s, duration_s=600.0)
-        neutral = server.wait_for(lambda s: s.sim_time_s > at_s and scrolls_neutral(s), 10.0)
-        held = server.wait_for(secured, 10.0)
-        code = d.wait_exit(20.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
-    to_neutral, to_hold = neutral.sim_time_s - at_s, held.sim_time_s - at_s
-    print(f"{fault}: scrolls neutral {to_neutral:.2f} s, HOLD {to_hold:.2f} s (vehicle time)")
-    assert to_neutral <= 1.0, log[-3000:]
-    assert code == ExitCode.FAULT, log[-3000:]
-    assert "event=fallback cause=gps_lost" in log
-    result = summary(run_dir)["fault"]
+    result = gps_fault_flight(tmp_path, fault, 1.0)
     assert result.startswith("gps_lost") and detail in result, result

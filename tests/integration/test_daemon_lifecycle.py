@@ -14,19 +14,9 @@ import pytest
 import helixd.runtime.flight
 from helixd.base.exitcodes import ExitCode
 from helixd.config import HelixdConfig
-from helixd.mission.model import load_mission
-from helixd.runtime.daemon import RunOptions, run_mission
-from tests.support.harness import (
-    MISSIONS,
-    SPEEDUP,
-    overrides_released,
-    running_sim,
-    scrolls_neutral,
-    secured,
-    sim_and_daemon,
-    time_until,
-    wait_moving,
-)
+from helixd.runtime.daemon import run_mission
+from tests.support import harness
+from tests.support.run_options import sim_run_config, square_run
 
 pytestmark = pytest.mark.integration
 
@@ -46,28 +36,17 @@ async def test_unhandled_exception_falls_back_to_hold(
         return real(*args, **kwargs)
 
     monkeypatch.setattr(helixd.runtime.flight, "scroll_fractions", exploding)
-    with running_sim(speedup=SPEEDUP) as (server, url):
-        cfg = HelixdConfig.model_validate(
-            {"link": {"url": url}, "startup": {"arm_retry_interval_s": 0.5}}
-        )
-        mission_path = MISSIONS / "square.yaml"
-        outcome = await run_mission(
-            RunOptions(
-                cfg=cfg,
-                mission=load_mission(mission_path),
-                mission_yaml=mission_path.read_text(),
-                connect_url=url,
-                run_root=tmp_path / "runs",
-                tty=False,
-            )
-        )
-        snap = server.wait_for(secured, 5.0)
+    with harness.running_sim(speedup=harness.SPEEDUP) as (server, url):
+        outcome = await run_mission(square_run(sim_run_config(url), url, tmp_path / "runs"))
+        snap = server.wait_for(harness.secured, 5.0)
     assert calls["n"] == 100
     assert outcome.exit_code is ExitCode.INTERNAL_ERROR
     assert outcome.summary is not None
     assert outcome.summary.fault is not None and outcome.summary.fault.startswith("exception")
     assert "ZeroDivisionError" in outcome.summary.fault
-    assert snap.mode == "HOLD" and overrides_released(snap) and scrolls_neutral(snap)
+    assert (
+        snap.mode == "HOLD" and harness.overrides_released(snap) and harness.scrolls_neutral(snap)
+    )
     # the plain result line is the outcome's last message (the CLI prints it last)
     last = outcome.messages[-1]
     assert last.startswith("helixd: RESULT internal-error exception: ZeroDivisionError")
@@ -78,9 +57,9 @@ def test_second_sigint_forces_exit_after_fallback_sent(tmp_path: Path) -> None:
     """First SIGINT starts the fall-back; the HOLD acknowledgement never comes (the link is
     cut); a second SIGINT makes the daemon exit without waiting out hold_retry_bound_s."""
     cfg = {"safety": {"hold_retry_bound_s": 30.0}}
-    with sim_and_daemon(tmp_path, "square", cfg) as (server, d):
-        wait_moving(server)
-        server.inject("link_drop", duration_s=120.0 * SPEEDUP)
+    with harness.sim_and_daemon(tmp_path, "square", cfg) as (server, d):
+        harness.wait_moving(server)
+        server.inject("link_drop", duration_s=120.0 * harness.SPEEDUP)
         d.signal(signal.SIGINT)
         d.wait_line("event=rc_override_released", 5.0)
         t0 = time.monotonic()
@@ -99,12 +78,12 @@ def test_wedged_daemon_stops_heartbeats_and_gcs_failsafe_takes_over(tmp_path: Pa
     GCS failsafe (FS_GCS_ENABLE) switches to HOLD and the overrides expire by themselves."""
     cfg = {"link": {"heartbeat_rate_hz": 5.0}}  # FS_GCS_TIMEOUT runs on simulated time
     params = {"FS_GCS_ENABLE": 1, "FS_GCS_TIMEOUT": 5}
-    with sim_and_daemon(tmp_path, "square", cfg, params=params) as (server, d):
-        wait_moving(server)
+    with harness.sim_and_daemon(tmp_path, "square", cfg, params=params) as (server, d):
+        harness.wait_moving(server)
         t0 = time.monotonic()
         d.signal(signal.SIGSTOP)
         try:
-            elapsed = time_until(server, secured, t0, 10.0)
+            elapsed = harness.time_until(server, harness.secured, t0, 10.0)
             snap = server.snapshot()
         finally:
             d.signal(signal.SIGCONT)
@@ -112,7 +91,9 @@ def test_wedged_daemon_stops_heartbeats_and_gcs_failsafe_takes_over(tmp_path: Pa
         d.wait_exit(20.0)
     print(f"SIGSTOP: autopilot in HOLD with outputs released after {elapsed:.2f} s")
     assert snap.failsafe_gcs
-    assert elapsed <= 5.0 / SPEEDUP + 1.5  # FS_GCS_TIMEOUT (wall) + heartbeat period + slack
+    assert (
+        elapsed <= 5.0 / harness.SPEEDUP + 1.5
+    )  # FS_GCS_TIMEOUT (wall) + heartbeat period + slack
 
 
 def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
@@ -129,7 +110,7 @@ def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
         from tests.support import harness
 
         harness.KEEP_NOTIFY_SOCKET = True
-        with sim_and_daemon(tmp_path, "hexagon", terrain="mud") as (_server, d):
+        with harness.sim_and_daemon(tmp_path, "hexagon", terrain="mud") as (_server, d):
             # until the control loop pings the watchdog while flying, then stop the service
             while not any("STATUS=phase: fly" in m for m in got) or "WATCHDOG=1" not in got[-1]:
                 got.append(sock.recv(4096).decode())
@@ -152,13 +133,13 @@ def test_start_gate_waits_for_the_pilots_switch(tmp_path: Path) -> None:
     """Nobody types on a rover in a pond: with a start switch configured, helixd connects and
     passes preflight, then waits — nothing armed, no override — until the pilot flips it."""
     cfg = {"startup": {"start_switch_channel": 7, "start_switch_threshold_us": 1700}}
-    with sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud") as (server, d):
+    with harness.sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud") as (server, d):
         d.wait_line("event=waiting_for_start_switch", 60.0)
         waiting = server.snapshot()
         assert not waiting.armed and not any(waiting.overrides_active)
         server.set_rc(7, 1900)
         d.wait_line("event=start_switch_on", 10.0)
-        wait_moving(server)
+        harness.wait_moving(server)
         d.signal(signal.SIGINT)
         assert d.wait_exit(20.0) == ExitCode.OPERATOR_STOP
         result = d.wait_line("helixd: RESULT", 5.0)
@@ -168,7 +149,7 @@ def test_start_gate_waits_for_the_pilots_switch(tmp_path: Path) -> None:
 
 def test_start_switch_on_the_mode_channel_is_refused(tmp_path: Path) -> None:
     cfg = {"startup": {"start_switch_channel": 8}}  # MODE_CH = 8 on the autopilot
-    with sim_and_daemon(tmp_path, "hexagon", cfg) as (server, d):
+    with harness.sim_and_daemon(tmp_path, "hexagon", cfg) as (server, d):
         code = d.wait_exit(60.0)
         result = d.wait_line("helixd: RESULT", 5.0)
         log = d.log_text()
@@ -187,17 +168,7 @@ async def test_no_autopilot_ends_with_a_link_failed_result(tmp_path: Path) -> No
         port = probe.getsockname()[1]  # a UDP port nobody listens on once this closes
     url = f"udpout:127.0.0.1:{port}"
     cfg = HelixdConfig.model_validate({"link": {"url": url}, "startup": {"connect_timeout_s": 1.0}})
-    mission_path = MISSIONS / "square.yaml"
-    outcome = await run_mission(
-        RunOptions(
-            cfg=cfg,
-            mission=load_mission(mission_path),
-            mission_yaml=mission_path.read_text(),
-            connect_url=url,
-            run_root=tmp_path / "runs",
-            tty=False,
-        )
-    )
+    outcome = await run_mission(square_run(cfg, url, tmp_path / "runs"))
     assert outcome.exit_code is ExitCode.LINK
     assert outcome.run_dir is None and not (tmp_path / "runs").exists()
     assert outcome.messages == [
@@ -214,17 +185,7 @@ async def test_unwritable_recorder_refusal_ends_with_a_result(tmp_path: Path) ->
     cfg = HelixdConfig.model_validate(
         {"link": {"url": "udpout:127.0.0.1:9"}, "recorder": {"on_write_error": "refuse"}}
     )
-    mission_path = MISSIONS / "square.yaml"
-    outcome = await run_mission(
-        RunOptions(
-            cfg=cfg,
-            mission=load_mission(mission_path),
-            mission_yaml=mission_path.read_text(),
-            connect_url="udpout:127.0.0.1:9",
-            run_root=blocker / "runs",
-            tty=False,
-        )
-    )
+    outcome = await run_mission(square_run(cfg, "udpout:127.0.0.1:9", blocker / "runs"))
     assert outcome.exit_code is ExitCode.PREFLIGHT
     last = outcome.messages[-1]
     assert last.startswith("helixd: RESULT refused recorder: flight recorder cannot write")
@@ -234,10 +195,10 @@ async def test_unwritable_recorder_refusal_ends_with_a_result(tmp_path: Path) ->
 def test_fault_ends_with_a_plain_fault_result_line(tmp_path: Path) -> None:
     """A watchdog fault (stale pose) ends with scrolls stopped — and the operator reads it in
     one line: ``helixd: RESULT fault pose_stale: … exit 4``."""
-    with sim_and_daemon(tmp_path, "square") as (server, d):
-        wait_moving(server)
-        server.inject("stale_pose", duration_s=30.0 * SPEEDUP)
-        server.wait_for(secured, 10.0)
+    with harness.sim_and_daemon(tmp_path, "square") as (server, d):
+        harness.wait_moving(server)
+        server.inject("stale_pose", duration_s=30.0 * harness.SPEEDUP)
+        server.wait_for(harness.secured, 10.0)
         assert d.wait_exit(20.0) == ExitCode.FAULT
         result = d.wait_line("helixd: RESULT", 5.0)
     assert result.startswith("helixd: RESULT fault pose_stale: ")

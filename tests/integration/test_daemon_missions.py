@@ -19,17 +19,7 @@ from helixd.mission.validate import apply_mission_limits, plan_for_check
 from helixd.recorder.export import load_run_export
 from helixd.runtime.timing import plan_time_estimate
 from helixd.sim.sim_config import SimConfig, Terrain
-from tests.support.harness import (
-    NEUTRAL_US,
-    SPEEDUP,
-    guard_installed,
-    overrides_released,
-    scrolls_neutral,
-    secured,
-    sim_and_daemon,
-    time_until,
-    wait_moving,
-)
+from tests.support import harness
 from tests.support.paths import REPO_ROOT
 
 pytestmark = pytest.mark.integration
@@ -73,10 +63,8 @@ def test_mission_completes_in_its_mode(
     tmp_path: Path, mission: str, mode: str, terrain: str, waypoints: int
 ) -> None:
     path = declared_for(tmp_path, mission, terrain)
-    with sim_and_daemon(tmp_path, path, terrain=terrain, noise="low") as (server, d):
-        code = d.wait_exit(240.0)
-        result = d.wait_line("helixd: RESULT", 5.0)
-        log = d.log_text()
+    with harness.sim_and_daemon(tmp_path, path, terrain=terrain, noise="low") as (server, d):
+        code, result, log = d.outcome(240.0)
         run_dir = d.run_dir()
         snap = server.snapshot()
     assert code == ExitCode.OK, log[-3000:]
@@ -86,7 +74,7 @@ def test_mission_completes_in_its_mode(
         f"helixd: RESULT ok — {waypoints}/{waypoints} waypoints, {s['duration_s']:.1f} s "
         f"autopilot time ({s['duration_mono_s']:.1f} s wall), exit 0"
     )
-    assert s["duration_s"] == pytest.approx(SPEEDUP * s["duration_mono_s"], rel=0.1)
+    assert s["duration_s"] == pytest.approx(harness.SPEEDUP * s["duration_mono_s"], rel=0.1)
     print(
         f"{mission}/{mode}/{terrain}: {s['duration_s']:.1f} s, cross-track rms "
         f"{s['cross_track_rms_m']:.3f} m max {s['cross_track_max_m']:.3f} m, "
@@ -120,7 +108,7 @@ def test_mission_completes_in_its_mode(
     assert len(exported.flown) > 10 and len(exported.planned) == waypoints
     assert exported.numbers == tuple(range(1, waypoints + 1))
     # a completed mission leaves the vehicle stopped, released, in HOLD and disarmed
-    assert secured(snap) and not snap.armed
+    assert harness.secured(snap) and not snap.armed
     flight = (run_dir / "flight.csv").read_text().splitlines()
     assert len(flight) > 100 and flight[0].startswith("#")
 
@@ -128,21 +116,21 @@ def test_mission_completes_in_its_mode(
 def test_kill9_with_rc_override_returns_outputs_to_the_pilot(tmp_path: Path) -> None:
     """kill -9: nothing can run in the daemon; ArduPilot's RC_OVERRIDE_TIME hands the outputs
     back to the pilot's radio (here: sticks centred at 1500 µs)."""
-    with sim_and_daemon(tmp_path, "square") as (server, d):
-        wait_moving(server)
+    with harness.sim_and_daemon(tmp_path, "square") as (server, d):
+        harness.wait_moving(server)
         moving = server.snapshot()
-        assert not scrolls_neutral(moving)
+        assert not harness.scrolls_neutral(moving)
         t0 = time.monotonic()
         d.signal(signal.SIGKILL)
         assert d.wait_exit(10.0) == -signal.SIGKILL
-        released = time_until(
-            server, lambda s: overrides_released(s) and scrolls_neutral(s), t0, 10.0
+        released = harness.time_until(
+            server, lambda s: harness.overrides_released(s) and harness.scrolls_neutral(s), t0, 10.0
         )
         snap = server.snapshot()
-    override_time_wall_s = 3.0 / SPEEDUP
+    override_time_wall_s = 3.0 / harness.SPEEDUP
     print(f"kill -9 (rc_override): outputs back to the pilot after {released:.3f} s wall")
     assert released == pytest.approx(override_time_wall_s, abs=0.35)
-    assert snap.scroll_pwm_us == (NEUTRAL_US,) * 4
+    assert snap.scroll_pwm_us == (harness.NEUTRAL_US,) * 4
     assert snap.mode == "MANUAL"  # nobody asked for HOLD: the daemon was dead
 
 
@@ -171,8 +159,8 @@ def test_kill9_with_servo_backend_leaves_outputs_latched_without_the_guard(tmp_p
         "SERVO8_FUNCTION": 0,
     }
     sim = {"scroll_output_channels": (5, 6, 7, 8), "params": params}
-    with sim_and_daemon(tmp_path, "square", cfg, **sim) as (server, d):
-        wait_moving(server)
+    with harness.sim_and_daemon(tmp_path, "square", cfg, **sim) as (server, d):
+        harness.wait_moving(server)
         d.signal(signal.SIGKILL)
         assert d.wait_exit(10.0) == -signal.SIGKILL
         killed = server.snapshot()
@@ -183,7 +171,7 @@ def test_kill9_with_servo_backend_leaves_outputs_latched_without_the_guard(tmp_p
         f"kill -9 (servo): outputs {killed.scroll_pwm_us} at the kill, "
         f"{later.scroll_pwm_us} 10 s (sim) later"
     )
-    assert not scrolls_neutral(killed)
+    assert not harness.scrolls_neutral(killed)
     assert later.scroll_pwm_us == killed.scroll_pwm_us  # still latched
     assert later.speed_mps > 0.1  # and the rover still moving
 
@@ -199,10 +187,10 @@ def test_servo_backend_flies_and_ends_neutral(tmp_path: Path) -> None:
     sim = {
         "scroll_output_channels": (5, 6, 7, 8),
         "params": params,
-        **guard_installed(SPEEDUP, (5, 6, 7, 8)),
+        **harness.guard_installed(harness.SPEEDUP, (5, 6, 7, 8)),
     }
-    with sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud", **sim) as (server, d):
-        wait_moving(server)
+    with harness.sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud", **sim) as (server, d):
+        harness.wait_moving(server)
         stopped = time.monotonic()
         d.signal(signal.SIGINT)
         code = d.wait_exit(20.0)
@@ -216,5 +204,5 @@ def test_servo_backend_flies_and_ends_neutral(tmp_path: Path) -> None:
     # no preflight warning about the guard: it runs, v1, guarding 5..8
     assert not [ln for ln in log.splitlines() if "preflight_warning" in ln and "guard" in ln]
     assert snap.mode == "HOLD"
-    assert scrolls_neutral(snap)  # neutral was sent and acknowledged before exit
+    assert harness.scrolls_neutral(snap)  # neutral was sent and acknowledged before exit
     assert math.isclose(snap.speed_mps, 0.0, abs_tol=0.05) or snap.speed_mps < 0.3

@@ -26,18 +26,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from tests.support.harness import (
-    SPEEDUP,
-    Trace,
-    daemon,
-    record_until,
-    running_sim,
-    scrolls_neutral,
-    secured,
-    sim_and_daemon,
-    time_until,
-    wait_moving,
-)
+from tests.support import harness
 
 pytestmark = pytest.mark.integration
 
@@ -54,11 +43,11 @@ def summary(run_dir: Path) -> dict[str, Any]:
     return data
 
 
-def check(trace: Trace, t_bad: float, drive_allowance_s: float, what: str) -> None:
+def check(trace: harness.Trace, t_bad: float, drive_allowance_s: float, what: str) -> None:
     driven = trace.driven_after(t_bad + drive_allowance_s)
     late = trace.driven_after(t_bad)
     last_driven = max((t for t, _ in late), default=t_bad) - t_bad
-    secured_s = trace.first(secured, t_bad) - t_bad
+    secured_s = trace.first(harness.secured, t_bad) - t_bad
     turned = trace.yaw_change_deg(t_bad)
     print(
         f"{what}: last non-neutral output {last_driven:.3f} s after the first bad frame, "
@@ -78,13 +67,13 @@ def check_outcome(code: int, log: str, run_dir: Path) -> None:
 
 
 def mid_mission(
-    tmp_path: Path, fault: str, speedup: float = SPEEDUP, **kwargs: Any
-) -> tuple[Trace, float, str]:
-    with sim_and_daemon(tmp_path, "square", speedup=speedup) as (server, d):
-        wait_moving(server)
+    tmp_path: Path, fault: str, speedup: float = harness.SPEEDUP, **kwargs: Any
+) -> tuple[harness.Trace, float, str]:
+    with harness.sim_and_daemon(tmp_path, "square", speedup=speedup) as (server, d):
+        harness.wait_moving(server)
         t_bad = time.monotonic()
         server.inject(fault, duration_s=3.0 * speedup, **kwargs)
-        trace = record_until(server, secured, STALE_S + FALLBACK_S + 10.0)
+        trace = harness.record_until(server, harness.secured, STALE_S + FALLBACK_S + 10.0)
         code = d.wait_exit(20.0)
         log = d.log_text()
         run_dir = d.run_dir()
@@ -135,11 +124,11 @@ def test_nan_position_from_arming(tmp_path: Path) -> None:
     """NaN poses from the moment of arming: no start pose may be taken from them, nothing
     may be driven at all; the daemon falls back as soon as the pose has been invalid for the
     stale limit."""
-    with running_sim(speedup=SPEEDUP) as (server, url):
+    with harness.running_sim(speedup=harness.SPEEDUP) as (server, url):
         # no duration: a fault's duration runs from its injection, not from arming
         server.inject("nan_position", armed_only=True)
-        with daemon(tmp_path, url, "square") as d:
-            trace = record_until(server, secured, 60.0)  # the sim boots into MANUAL
+        with harness.daemon(tmp_path, url, "square") as d:
+            trace = harness.record_until(server, harness.secured, 60.0)  # the sim boots into MANUAL
             assert "nan_position" in trace.samples[-1][1].faults_active
             code = d.wait_exit(20.0)
             log = d.log_text()
@@ -154,13 +143,13 @@ def test_nan_position_from_arming(tmp_path: Path) -> None:
 def test_short_glitch_is_ridden_out_in_neutral(tmp_path: Path) -> None:
     """Invalid pose telemetry for less than the stale limit is not a fault: the scrolls go
     neutral within one control step, and the mission goes on once valid poses return."""
-    with sim_and_daemon(tmp_path, "square") as (server, d):
-        wait_moving(server)
+    with harness.sim_and_daemon(tmp_path, "square") as (server, d):
+        harness.wait_moving(server)
         t_bad = time.monotonic()
-        server.inject("nan_yaw", duration_s=0.15 * SPEEDUP)  # 0.15 s wall
-        neutral_s = time_until(server, scrolls_neutral, t_bad, 2.0)
+        server.inject("nan_yaw", duration_s=0.15 * harness.SPEEDUP)  # 0.15 s wall
+        neutral_s = harness.time_until(server, harness.scrolls_neutral, t_bad, 2.0)
         server.wait_for(lambda s: "nan_yaw" not in s.faults_active, 5.0)
-        resumed = server.wait_for(lambda s: not scrolls_neutral(s) and s.armed, 5.0)
+        resumed = server.wait_for(lambda s: not harness.scrolls_neutral(s) and s.armed, 5.0)
         d.signal(signal.SIGINT)
         code = d.wait_exit(20.0)
         log = d.log_text()
@@ -175,13 +164,13 @@ def test_short_glitch_is_ridden_out_in_neutral(tmp_path: Path) -> None:
 def test_invalid_pose_at_preflight_refuses_to_start(tmp_path: Path) -> None:
     """Pose telemetry rejected before arming: no start pose, preflight refuses (exit 3),
     nothing is armed or driven."""
-    with running_sim(speedup=SPEEDUP) as (server, url):
+    with harness.running_sim(speedup=harness.SPEEDUP) as (server, url):
         server.inject("nan_yaw")
-        with daemon(tmp_path, url, "square") as d:
+        with harness.daemon(tmp_path, url, "square") as d:
             code = d.wait_exit(60.0)
             log = d.log_text()
         snap = server.snapshot()
     assert code == ExitCode.PREFLIGHT, log[-3000:]
     assert "pose telemetry rejected" in log and "ATTITUDE yaw is nan" in log
-    assert not snap.armed and scrolls_neutral(snap)
+    assert not snap.armed and harness.scrolls_neutral(snap)
     assert "phase=arm" not in log

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import re
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -32,19 +33,22 @@ WPL = f"""QGC WPL 110
 LAPS = ("lap 1 of 3", "lap 2 of 3", "lap 3 of 3")
 REACHED = [f"{item}/5 ({lap})" for lap in LAPS for item in (1, 2, 3)] + ["5/5"]
 RATIO = re.compile(r"(\d+)/(\d+)")
+# the simulator at 10x on mud with 'low' noise, its EKF origin at HOME
+ON_MUD_AT_HOME: dict[str, Any] = {
+    "speedup": 10.0,
+    "terrain": "mud",
+    "noise": "low",
+    "origin_lat_deg": HOME[0],
+    "origin_lon_deg": HOME[1],
+}
 
 
 def test_a_jump_mission_reports_item_numbers_and_laps(tmp_path: Path) -> None:
     path = tmp_path / "laps.waypoints"
     path.write_text(WPL)
     cfg = {"mission": {"ground_station_mode": "omni"}, "safety": {"geofence_radius_m": 200.0}}
-    with sim_and_daemon(
-        tmp_path, path, cfg, speedup=10.0, terrain="mud", noise="low",
-        origin_lat_deg=HOME[0], origin_lon_deg=HOME[1],
-    ) as (server, d):  # fmt: skip
-        code = d.wait_exit(240.0)
-        result = d.wait_line("helixd: RESULT", 5.0)
-        log = d.log_text()
+    with sim_and_daemon(tmp_path, path, cfg, **ON_MUD_AT_HOME) as (server, d):
+        code, result, log = d.outcome(240.0)
         run_dir = d.run_dir()
         snap = server.snapshot()
     assert code == ExitCode.OK, log[-3000:]
@@ -77,13 +81,8 @@ def test_a_patrol_flies_laps_until_its_time_limit_ends_it(tmp_path: Path) -> Non
         "mission": {"ground_station_mode": "omni"},
         "safety": {"geofence_radius_m": 200.0, "mission_time_limit_s": 120.0},
     }
-    with sim_and_daemon(
-        tmp_path, path, cfg, speedup=10.0, terrain="mud", noise="low",
-        origin_lat_deg=HOME[0], origin_lon_deg=HOME[1],
-    ) as (_server, d):  # fmt: skip
-        code = d.wait_exit(120.0)
-        result = d.wait_line("helixd: RESULT", 5.0)
-        log = d.log_text()
+    with sim_and_daemon(tmp_path, path, cfg, **ON_MUD_AT_HOME) as (_server, d):
+        code, result, log = d.outcome(120.0)
         run_dir = d.run_dir()
     assert code == ExitCode.FAULT, log[-3000:]
     assert result.startswith("helixd: RESULT fault mission_time: "), result

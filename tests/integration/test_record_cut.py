@@ -13,16 +13,15 @@ import pytest
 
 import helixd.runtime.daemon
 from helixd.base.exitcodes import ExitCode
-from helixd.config import HelixdConfig
 from helixd.mav.constants import MAV_SEVERITY_WARNING
-from helixd.mission.model import load_mission
 from helixd.recorder import logging_setup
 from helixd.recorder.retention import check_free_space
 from helixd.recorder.rundir import RESERVE_FILE, RunRecorder
-from helixd.runtime.daemon import RunOptions, run_mission
+from helixd.runtime.daemon import run_mission
 from helixd.runtime.gcs_feed import GcsFeed
 from tests.support.full_disk import FullAfter
-from tests.support.harness import MISSIONS, SPEEDUP, running_sim
+from tests.support.harness import SPEEDUP, running_sim
+from tests.support.run_options import sim_run_config, square_run
 
 pytestmark = [pytest.mark.integration, pytest.mark.usefixtures("reset_logging")]
 
@@ -55,20 +54,7 @@ async def test_card_full_mid_flight(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     monkeypatch.setattr(RunRecorder, "create", create)
     monkeypatch.setattr(GcsFeed, "say", say)
     with running_sim(speedup=SPEEDUP) as (_, url):
-        cfg = HelixdConfig.model_validate(
-            {"link": {"url": url}, "startup": {"arm_retry_interval_s": 0.5}}
-        )
-        mission_path = MISSIONS / "square.yaml"
-        outcome = await run_mission(
-            RunOptions(
-                cfg=cfg,
-                mission=load_mission(mission_path),
-                mission_yaml=mission_path.read_text(),
-                connect_url=url,
-                run_root=tmp_path / "runs",
-                tty=False,
-            )
-        )
+        outcome = await run_mission(square_run(sim_run_config(url), url, tmp_path / "runs"))
     assert outcome.exit_code is ExitCode.OK, outcome.messages
     assert outcome.run_dir is not None
     summary = json.loads((outcome.run_dir / "summary.json").read_text())

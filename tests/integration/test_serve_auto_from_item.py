@@ -9,9 +9,7 @@ everything is judged on the simulator's truth, the service's log and the run dir
 
 from __future__ import annotations
 
-import json
 import re
-import signal
 from pathlib import Path
 from typing import Any
 
@@ -19,16 +17,21 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.mav.constants import (
     MAV_CMD_DO_SET_MISSION_CURRENT,
-    MAV_CMD_MISSION_START,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.server import SimServer
-from tests.integration.test_serve_crew_modes import CONFIG, driving, heartbeat_shows, set_mode
+from tests.integration.test_serve_crew_modes import CONFIG, driving
 from tests.support.daemon import DaemonProc
 from tests.support.gcs import do_item, upload_items, waypoint
-from tests.support.harness import MavClient, overrides_released, time_until
-from tests.support.serve import moving, serve_proc, sim_with_ground_station
+from tests.support.harness import MavClient, time_until
+from tests.support.serve import (
+    flight_summaries,
+    let_go_in_manual,
+    moving,
+    serving_crew,
+    set_mode,
+    upload_and_start,
+)
 
 SPEED_MPS = 0.4  # DO_CHANGE_SPEED item 2
 # items 1..5: WP, DO_CHANGE_SPEED, WP, WP, DO_JUMP to item 2 once: flown 1, 3, 4, 3, 4
@@ -43,26 +46,15 @@ ITEMS = [
 
 
 def start_mission(server: SimServer, gcs: MavClient, d: DaemonProc) -> None:
-    """Upload ITEMS and press Start Mission on a disarmed rover (APMFirmwarePlugin::
-    startMission): GUIDED, arm, MAV_CMD_MISSION_START to the autopilot."""
-    d.wait_line("no mission on the autopilot", 60.0)
-    upload_items(gcs, ITEMS)
-    d.wait_line("event=serve_state state=ready", 30.0)
-    set_mode(gcs, "GUIDED")
-    heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
-    assert gcs.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-    heartbeat_shows(gcs, lambda m: m.base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
-    assert gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
-    d.wait_line("event=auto_start", 10.0)  # item 0 or 1: MISSION_CURRENT may lag the start
-    server.wait_for(moving, 20.0)
+    """Upload ITEMS and press Start Mission on a disarmed rover."""
+    upload_and_start(server, gcs, d, lambda: upload_items(gcs, ITEMS))
 
 
-def mission_flights(runs: list[Path]) -> list[dict[str, Any]]:
+def mission_flights(summaries: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """The summaries of the mission's flights. Start Mission's switch from GUIDED to AUTO
     can publish AUTO's first place before the HEARTBEAT names AUTO: helixd may then start a
     flight to it labelled GUIDED and hand it over to AUTO at once (a README limit); that
     flight, which drove nothing of the mission, is left out."""
-    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
     return [s for s in summaries if not str(s.get("fault") or "").startswith("handover")]
 
 
@@ -73,37 +65,26 @@ def autopilot_item(gcs: MavClient, seq: int, timeout_s: float = 60.0) -> None:
 def test_auto_again_after_manual_flies_a_commands_mission_from_the_current_item(
     tmp_path: Path,
 ) -> None:
-    with sim_with_ground_station() as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], CONFIG)
-        d.start_pump()
-        try:
-            start_mission(server, gcs, d)
-            # item 1 reached: the autopilot's current item is 3, on the first lap
-            autopilot_item(gcs, 3)
-            mark = d.mark()
-            t_manual = set_mode(gcs, "MANUAL")
-            time_until(server, overrides_released, t_manual, 5.0)
-            d.wait_line("event=serve_state state=paused", 30.0, after=mark)
+    with serving_crew(tmp_path, CONFIG) as (server, gcs, d):
+        start_mission(server, gcs, d)
+        # item 1 reached: the autopilot's current item is 3, on the first lap
+        autopilot_item(gcs, 3)
+        let_go_in_manual(server, gcs, d)
 
-            # AUTO again: from item 3, not refused
-            mark = d.mark()
-            t_auto = set_mode(gcs, "AUTO")
-            d.wait_line("event=auto_start item=3", 10.0, after=mark)
-            time_until(server, driving, t_auto, 10.0)
-            assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
-            done = gcs.wait_text("helixd: completed", 60.0)
-            d.wait_line("event=serve_state state=completed", 10.0, after=mark)
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            d.kill()
-            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        # AUTO again: from item 3, not refused
+        mark = d.mark()
+        t_auto = set_mode(gcs, "AUTO")
+        d.wait_line("event=auto_start item=3", 10.0, after=mark)
+        time_until(server, driving, t_auto, 10.0)
+        assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
+        done = gcs.wait_text("helixd: completed", 60.0)
+        d.wait_line("event=serve_state state=completed", 10.0, after=mark)
+        d.terminate_ok()
     log = d.log_text()
     assert "cannot start" not in log
     assert 'kind=step_started item=3 lap="lap 1 of 2" command=NAV_WAYPOINT step=1' in log
     assert 'state=completed hx_state=7 detail="4/4 waypoints as flown, last item 4/5"' in log
-    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
-    summaries = mission_flights(runs)
+    summaries = mission_flights(flight_summaries(tmp_path))
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert summaries[0]["fault"].startswith("released: mode MANUAL"), summaries[0]
     arrivals = summaries[1]["arrivals"]
@@ -119,39 +100,28 @@ def test_auto_again_after_manual_flies_a_commands_mission_from_the_current_item(
 def test_auto_again_on_a_later_lap_keeps_the_autopilots_jump_counters(tmp_path: Path) -> None:
     """Let go on the second lap (the DO_JUMP taken once): ArduPilot's resume keeps its jump
     counters, so AUTO again flies the rest of that lap, item 3 then 4, not two more laps."""
-    with sim_with_ground_station() as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], CONFIG)
-        d.start_pump()
-        try:
-            start_mission(server, gcs, d)
-            autopilot_item(gcs, 3)
-            autopilot_item(gcs, 4, 120.0)
-            autopilot_item(gcs, 3, 120.0)  # after the jump: lap 2
-            mark = d.mark()
-            t_manual = set_mode(gcs, "MANUAL")
-            time_until(server, overrides_released, t_manual, 5.0)
-            d.wait_line("event=serve_state state=paused", 30.0, after=mark)
+    with serving_crew(tmp_path, CONFIG) as (server, gcs, d):
+        start_mission(server, gcs, d)
+        autopilot_item(gcs, 3)
+        autopilot_item(gcs, 4, 120.0)
+        autopilot_item(gcs, 3, 120.0)  # after the jump: lap 2
+        let_go_in_manual(server, gcs, d)
 
-            mark = d.mark()
-            t_auto = set_mode(gcs, "AUTO")
-            d.wait_line("event=auto_walk_held first_item=1", 10.0, after=mark)
-            d.wait_line("event=auto_start item=3", 10.0, after=mark)
-            time_until(server, driving, t_auto, 10.0)
-            assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
-            d.wait_line("event=serve_state state=completed", 60.0, after=mark)
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            d.kill()
-            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        mark = d.mark()
+        t_auto = set_mode(gcs, "AUTO")
+        d.wait_line("event=auto_walk_held first_item=1", 10.0, after=mark)
+        d.wait_line("event=auto_start item=3", 10.0, after=mark)
+        time_until(server, driving, t_auto, 10.0)
+        assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
+        d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+        d.terminate_ok()
     log = d.log_text()
     # helixd was let go on item 4 (step 3; or item 3 of lap 2, step 4, had it got there too)
     # while the autopilot had gone on to item 3 of lap 2
     assert re.search(r"event=auto_walk_held first_item=1 step=[34] ", log), log
     started = 'kind=step_started item=3 lap=null command=NAV_WAYPOINT step=1 text="NAV_WAYPOINT'
     assert started in log and "(after DO_JUMP item 5, 1 of 1)" in log
-    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
-    summaries = mission_flights(runs)
+    summaries = mission_flights(flight_summaries(tmp_path))
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert [a["number"] for a in summaries[1]["arrivals"]] == [3, 4]
 
@@ -163,35 +133,27 @@ def test_set_current_item_in_a_commands_mission_keeps_the_autopilots_jump_counte
     DO_SET_MISSION_CURRENT to the autopilot) on lap 2, back to item 1: a move the walk does
     not make, so helixd goes there; set_current_cmd keeps the DO_JUMP taken once of once, so
     ArduPilot and helixd fly one lap from item 1 (1, 3, 4) and complete, not two."""
-    with sim_with_ground_station() as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], CONFIG)
-        d.start_pump()
-        try:
-            start_mission(server, gcs, d)
-            autopilot_item(gcs, 3)
-            autopilot_item(gcs, 4, 120.0)
-            autopilot_item(gcs, 3, 120.0)  # back through the DO_JUMP: the walk's own move
-            # the crew clicks once helixd has seen it too (each link has its own 5 Hz
-            # MISSION_CURRENT: a click within 0.2 s of the jump would beat helixd's report)
-            d.wait_line("event=autopilot_step item=3 step=4", 10.0)
-            mark = d.mark()
-            assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
-            d.wait_line("event=autopilot_item_set item=1 autopilot_step=4", 10.0, after=mark)
-            d.wait_line("event=auto_walk_held first_item=1 step=4 exact=true", 10.0, after=mark)
-            d.wait_line("event=auto_start item=1", 10.0, after=mark)
-            server.wait_for(moving, 10.0)
-            assert server.snapshot().mode == "AUTO"  # no HOLD asked between the flights
-            assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
-            d.wait_line("event=serve_state state=completed", 60.0, after=mark)
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            d.kill()
-            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    with serving_crew(tmp_path, CONFIG) as (server, gcs, d):
+        start_mission(server, gcs, d)
+        autopilot_item(gcs, 3)
+        autopilot_item(gcs, 4, 120.0)
+        autopilot_item(gcs, 3, 120.0)  # back through the DO_JUMP: the walk's own move
+        # the crew clicks once helixd has seen it too (each link has its own 5 Hz
+        # MISSION_CURRENT: a click within 0.2 s of the jump would beat helixd's report)
+        d.wait_line("event=autopilot_step item=3 step=4", 10.0)
+        mark = d.mark()
+        assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
+        d.wait_line("event=autopilot_item_set item=1 autopilot_step=4", 10.0, after=mark)
+        d.wait_line("event=auto_walk_held first_item=1 step=4 exact=true", 10.0, after=mark)
+        d.wait_line("event=auto_start item=1", 10.0, after=mark)
+        server.wait_for(moving, 10.0)
+        assert server.snapshot().mode == "AUTO"  # no HOLD asked between the flights
+        assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
+        d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+        d.terminate_ok()
     log = d.log_text()
     assert log.count("event=autopilot_item_set") == 1  # the jump back was not taken for one
-    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
-    summaries = mission_flights(runs)
+    summaries = mission_flights(flight_summaries(tmp_path))
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert summaries[0]["fault"].startswith("item_set: item 1 set"), summaries[0]
     assert [a["number"] for a in summaries[1]["arrivals"]] == [1, 3, 4]
@@ -201,33 +163,22 @@ def test_an_item_set_while_the_pilot_drives_keeps_the_counters_too(tmp_path: Pat
     """MANUAL on lap 2, then the crew sets item 1 (the mission stopped: set_current_cmd keeps
     the counters) and selects AUTO: the walk from item 1 with the jump taken once of once,
     counted where the autopilot's own item was when helixd let go: one lap, 1 3 4."""
-    with sim_with_ground_station() as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], CONFIG)
-        d.start_pump()
-        try:
-            start_mission(server, gcs, d)
-            autopilot_item(gcs, 3)
-            autopilot_item(gcs, 4, 120.0)
-            autopilot_item(gcs, 3, 120.0)  # lap 2
-            d.wait_line("event=autopilot_step item=3 step=4", 10.0)  # seen by helixd too
-            mark = d.mark()
-            t_manual = set_mode(gcs, "MANUAL")
-            time_until(server, overrides_released, t_manual, 5.0)
-            d.wait_line("event=serve_state state=paused", 30.0, after=mark)
-            assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
-            autopilot_item(gcs, 1, 10.0)
-            mark = d.mark()
-            set_mode(gcs, "AUTO")
-            d.wait_line("event=auto_walk_held first_item=1 step=4 exact=true", 10.0, after=mark)
-            d.wait_line("event=auto_start item=1", 10.0, after=mark)
-            assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
-            d.wait_line("event=serve_state state=completed", 60.0, after=mark)
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            d.kill()
-            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
-    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
-    summaries = mission_flights(runs)
+    with serving_crew(tmp_path, CONFIG) as (server, gcs, d):
+        start_mission(server, gcs, d)
+        autopilot_item(gcs, 3)
+        autopilot_item(gcs, 4, 120.0)
+        autopilot_item(gcs, 3, 120.0)  # lap 2
+        d.wait_line("event=autopilot_step item=3 step=4", 10.0)  # seen by helixd too
+        let_go_in_manual(server, gcs, d)
+        assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
+        autopilot_item(gcs, 1, 10.0)
+        mark = d.mark()
+        set_mode(gcs, "AUTO")
+        d.wait_line("event=auto_walk_held first_item=1 step=4 exact=true", 10.0, after=mark)
+        d.wait_line("event=auto_start item=1", 10.0, after=mark)
+        assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
+        d.wait_line("event=serve_state state=completed", 60.0, after=mark)
+        d.terminate_ok()
+    summaries = mission_flights(flight_summaries(tmp_path))
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert [a["number"] for a in summaries[1]["arrivals"]] == [1, 3, 4]

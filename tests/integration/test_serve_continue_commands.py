@@ -27,7 +27,7 @@ from tests.integration.test_serve_auto_from_item import ITEMS, SPEED_MPS
 from tests.support.daemon import DaemonProc
 from tests.support.gcs import command, upload, upload_items
 from tests.support.harness import MavClient, secured
-from tests.support.serve import moving, serve_proc, sim_with_ground_station
+from tests.support.serve import moving, serve_proc, serving_crew, sim_with_ground_station
 
 NO_SWITCH: dict[str, Any] = {"startup": {"start_switch_channel": None}}
 
@@ -122,26 +122,19 @@ def test_mission_start_to_helixd_from_item_three(tmp_path: Path) -> None:
     """MISSION_START param1 3: the walk from item 3 with the jump counters at zero (as
     AP_Mission::start, then set_current_cmd(3)): 3, 4, then the jump through item 2 to 3, 4.
     An item outside the mission is DENIED, with the range told."""
-    with sim_with_ground_station() as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], NO_SWITCH)
-        d.start_pump()
-        try:
-            ready(d, gcs)
-            assert command(gcs, MAV_CMD_MISSION_START, 9, 0) == MAV_RESULT_DENIED
-            # one STATUSTEXT holds 50 characters: the text comes in two
-            gcs.wait_text("helixd: MISSION_START param1 (first item) 9 is not", 10.0)
-            gcs.wait_text("in the mission: 0 (continue) or an item 1..5", 10.0)
-            assert not server.snapshot().armed
-            mark = d.mark()
-            assert command(gcs, MAV_CMD_MISSION_START, 3, -1) == MAV_RESULT_ACCEPTED
-            d.wait_line("event=serve_flight_start request=from_item", 10.0, after=mark)
-            server.wait_for(moving, 30.0)
-            d.wait_line("event=serve_state state=completed", 180.0, after=mark)
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            d.kill()
-            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    with serving_crew(tmp_path, NO_SWITCH) as (server, gcs, d):
+        ready(d, gcs)
+        assert command(gcs, MAV_CMD_MISSION_START, 9, 0) == MAV_RESULT_DENIED
+        # one STATUSTEXT holds 50 characters: the text comes in two
+        gcs.wait_text("helixd: MISSION_START param1 (first item) 9 is not", 10.0)
+        gcs.wait_text("in the mission: 0 (continue) or an item 1..5", 10.0)
+        assert not server.snapshot().armed
+        mark = d.mark()
+        assert command(gcs, MAV_CMD_MISSION_START, 3, -1) == MAV_RESULT_ACCEPTED
+        d.wait_line("event=serve_flight_start request=from_item", 10.0, after=mark)
+        server.wait_for(moving, 30.0)
+        d.wait_line("event=serve_state state=completed", 180.0, after=mark)
+        d.terminate_ok()
     steps = step_lines(d.log_text())
     assert [(s, i) for s, i, _ in steps] == [(1, 3), (2, 4), (3, 3), (4, 4)], steps
     (run,) = run_dirs(tmp_path)
@@ -156,23 +149,16 @@ def test_mission_start_to_helixd_from_item_three_of_a_plain_waypoint_mission(
 ) -> None:
     """A mission of waypoints only from item 3: waypoints 1 and 2 are left out, the first leg
     re-enters the leg from waypoint 2 to 3; the reached waypoints keep the mission's numbers."""
-    with sim_with_ground_station() as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], NO_SWITCH)
-        d.start_pump()
-        try:
-            d.wait_line("no mission on the autopilot", 60.0)
-            upload(gcs, [(6.0, 0.0), (6.0, -6.0), (0.0, -6.0), (0.0, -10.0)])
-            d.wait_line("event=serve_state state=ready", 30.0)
-            mark = d.mark()
-            assert command(gcs, MAV_CMD_MISSION_START, 3, 4) == MAV_RESULT_ACCEPTED
-            d.wait_line("event=serve_flight_start request=from_item", 10.0, after=mark)
-            server.wait_for(moving, 30.0)
-            d.wait_line("event=serve_state state=completed", 120.0, after=mark)
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            d.kill()
-            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+    with serving_crew(tmp_path, NO_SWITCH) as (server, gcs, d):
+        d.wait_line("no mission on the autopilot", 60.0)
+        upload(gcs, [(6.0, 0.0), (6.0, -6.0), (0.0, -6.0), (0.0, -10.0)])
+        d.wait_line("event=serve_state state=ready", 30.0)
+        mark = d.mark()
+        assert command(gcs, MAV_CMD_MISSION_START, 3, 4) == MAV_RESULT_ACCEPTED
+        d.wait_line("event=serve_flight_start request=from_item", 10.0, after=mark)
+        server.wait_for(moving, 30.0)
+        d.wait_line("event=serve_state state=completed", 120.0, after=mark)
+        d.terminate_ok()
     (run,) = run_dirs(tmp_path)
     summary = json.loads((run / "summary.json").read_text())
     assert summary["completed"] is True

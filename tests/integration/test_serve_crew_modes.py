@@ -10,8 +10,6 @@ latencies are wall time, what the crew waits.
 
 from __future__ import annotations
 
-import json
-import signal
 import time
 from pathlib import Path
 from typing import Any
@@ -19,9 +17,7 @@ from typing import Any
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MISSION_CURRENT,
-    MAV_CMD_DO_SET_MODE,
     MAV_CMD_MISSION_START,
-    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_RESULT_ACCEPTED,
 )
@@ -29,14 +25,20 @@ from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.gcs import upload
 from tests.support.harness import (
-    MavClient,
     guard_installed,
     overrides_released,
     record_until,
     scrolls_neutral,
     time_until,
 )
-from tests.support.serve import SPEEDUP, moving, serve_proc, sim_with_ground_station
+from tests.support.serve import (
+    SPEEDUP,
+    flight_summaries,
+    heartbeat_shows,
+    moving,
+    serving_crew,
+    set_mode,
+)
 
 # No start switch: the crew uses the ground station. In the field the service has been up for
 # minutes when the crew presses Start; here seconds: the preflight's listening window for
@@ -53,22 +55,6 @@ CONTINUE_LATENCY_MAX_S = 1.0
 ITEM_LATENCY_MAX_S = 1.0
 
 
-def set_mode(gcs: MavClient, name: str) -> float:
-    """QGroundControl's Vehicle::setFlightMode for ArduPilot: MAV_CMD_DO_SET_MODE to the
-    autopilot with the custom mode; returns the monotonic time it was sent."""
-    sent = time.monotonic()
-    number = MODE_NUMBERS[name]
-    result = gcs.command(MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
-    assert result == MAV_RESULT_ACCEPTED, (name, result)
-    return sent
-
-
-def heartbeat_shows(gcs: MavClient, condition: Any) -> None:
-    """What QGroundControl's _setFlightModeAndValidate / _armVehicleAndValidate wait for: the
-    autopilot's HEARTBEAT on the ground station's own link showing the change."""
-    gcs.expect("HEARTBEAT", 10.0, lambda m: m.get_srcSystem() == 1 and condition(m))
-
-
 def driving(s: SimSnapshot) -> bool:
     return s.armed and not scrolls_neutral(s)
 
@@ -80,88 +66,80 @@ def overriding_neutral(s: SimSnapshot) -> bool:
 
 def test_the_crew_drives_helixd_with_qgroundcontrols_buttons(tmp_path: Path) -> None:
     # as in the field: helixd-guard installed (README), so the preflight finds every parameter
-    with sim_with_ground_station(**guard_installed(SPEEDUP)) as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], CONFIG)
-        d.start_pump()
-        try:
-            d.wait_line("no mission on the autopilot", 60.0)
-            upload(gcs, MISSION)  # QGC's Plan view: Upload (the mission protocol)
-            d.wait_line("event=serve_state state=ready", 30.0)
+    with serving_crew(tmp_path, CONFIG, **guard_installed(SPEEDUP)) as (server, gcs, d):
+        d.wait_line("no mission on the autopilot", 60.0)
+        upload(gcs, MISSION)  # QGC's Plan view: Upload (the mission protocol)
+        d.wait_line("event=serve_state state=ready", 30.0)
 
-            # Start Mission: APMFirmwarePlugin::startMission on a disarmed rover —
-            # _setFlightModeAndValidate(Guided), _armVehicleAndValidate, then
-            # sendMavCommand(defaultComponentId, MAV_CMD_MISSION_START) with params 0
-            set_mode(gcs, "GUIDED")
-            heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
-            assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-            heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
-            assert not server.snapshot().overrides_active[0]  # nothing moves before the start
-            t_start = time.monotonic()
-            assert gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
-            driven_s = time_until(server, driving, t_start, 20.0)
-            start_s = time_until(server, moving, t_start, 20.0)
-            print(f"\nStart Mission → scrolls driven: {driven_s:.3f} s, moving: {start_s:.3f} s")
-            assert start_s <= START_LATENCY_MAX_S, start_s
-            snap = server.snapshot()
-            assert snap.mode == "AUTO" and snap.armed  # helixd neither set MANUAL nor re-armed
-            d.wait_line("event=auto_start", 5.0)
+        # Start Mission: APMFirmwarePlugin::startMission on a disarmed rover —
+        # _setFlightModeAndValidate(Guided), _armVehicleAndValidate, then
+        # sendMavCommand(defaultComponentId, MAV_CMD_MISSION_START) with params 0
+        set_mode(gcs, "GUIDED")
+        heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
+        assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+        heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+        assert not server.snapshot().overrides_active[0]  # nothing moves before the start
+        t_start = time.monotonic()
+        assert gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+        driven_s = time_until(server, driving, t_start, 20.0)
+        start_s = time_until(server, moving, t_start, 20.0)
+        print(f"\nStart Mission → scrolls driven: {driven_s:.3f} s, moving: {start_s:.3f} s")
+        assert start_s <= START_LATENCY_MAX_S, start_s
+        snap = server.snapshot()
+        assert snap.mode == "AUTO" and snap.armed  # helixd neither set MANUAL nor re-armed
+        d.wait_line("event=auto_start", 5.0)
 
-            # Pause: APMFirmwarePlugin::pauseVehicle sets the pause flight mode (Rover: Hold)
-            t_pause = set_mode(gcs, "HOLD")
-            pause_s = time_until(server, scrolls_neutral, t_pause, 5.0)
-            print(f"Pause (HOLD) → scrolls neutral: {pause_s:.3f} s")
-            assert pause_s <= PAUSE_LATENCY_MAX_S, pause_s
-            # held at neutral by helixd's overrides for 2 s of simulated time, still armed
-            t_hold = server.snapshot().sim_time_s
-            held = record_until(server, lambda s: s.sim_time_s >= t_hold + 2.0, 30.0)
-            later = [s for _, s in held.samples if s.sim_time_s >= t_hold + 0.3]
-            assert later and all(overriding_neutral(s) and s.armed for s in later)
-            assert all(s.mode == "HOLD" for s in later)
+        # Pause: APMFirmwarePlugin::pauseVehicle sets the pause flight mode (Rover: Hold)
+        t_pause = set_mode(gcs, "HOLD")
+        pause_s = time_until(server, scrolls_neutral, t_pause, 5.0)
+        print(f"Pause (HOLD) → scrolls neutral: {pause_s:.3f} s")
+        assert pause_s <= PAUSE_LATENCY_MAX_S, pause_s
+        # held at neutral by helixd's overrides for 2 s of simulated time, still armed
+        t_hold = server.snapshot().sim_time_s
+        held = record_until(server, lambda s: s.sim_time_s >= t_hold + 2.0, 30.0)
+        later = [s for _, s in held.samples if s.sim_time_s >= t_hold + 0.3]
+        assert later and all(overriding_neutral(s) and s.armed for s in later)
+        assert all(s.mode == "HOLD" for s in later)
 
-            # Continue: Auto again (startMission on a rover already under way, or the
-            # flight-mode menu: _setFlightModeAndValidate(Auto))
-            t_continue = set_mode(gcs, "AUTO")
-            continue_s = time_until(server, driving, t_continue, 10.0)
-            print(f"Continue (AUTO) → scrolls driven: {continue_s:.3f} s")
-            assert continue_s <= CONTINUE_LATENCY_MAX_S, continue_s
-            server.wait_for(moving, 10.0)
-            assert sum("event=auto_start" in ln for ln in d.lines) == 1  # the same flight
+        # Continue: Auto again (startMission on a rover already under way, or the
+        # flight-mode menu: _setFlightModeAndValidate(Auto))
+        t_continue = set_mode(gcs, "AUTO")
+        continue_s = time_until(server, driving, t_continue, 10.0)
+        print(f"Continue (AUTO) → scrolls driven: {continue_s:.3f} s")
+        assert continue_s <= CONTINUE_LATENCY_MAX_S, continue_s
+        server.wait_for(moving, 10.0)
+        assert sum("event=auto_start" in ln for ln in d.lines) == 1  # the same flight
 
-            # Set current waypoint (Vehicle::setCurrentMissionSequence: DO_SET_MISSION_CURRENT
-            # to the autopilot) from item 1 to item 3: helixd goes there
-            mark = d.mark()
-            t_item = time.monotonic()
-            assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 3) == MAV_RESULT_ACCEPTED
-            d.wait_line("event=auto_start item=3", 10.0, after=mark)
-            item_s = time_until(server, driving, t_item, 10.0)
-            print(f"Set current waypoint 3 → new flight driving: {item_s:.3f} s")
-            assert item_s <= ITEM_LATENCY_MAX_S, item_s
-            assert server.snapshot().mode == "AUTO"  # no HOLD asked between the flights
+        # Set current waypoint (Vehicle::setCurrentMissionSequence: DO_SET_MISSION_CURRENT
+        # to the autopilot) from item 1 to item 3: helixd goes there
+        mark = d.mark()
+        t_item = time.monotonic()
+        assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 3) == MAV_RESULT_ACCEPTED
+        d.wait_line("event=auto_start item=3", 10.0, after=mark)
+        item_s = time_until(server, driving, t_item, 10.0)
+        print(f"Set current waypoint 3 → new flight driving: {item_s:.3f} s")
+        assert item_s <= ITEM_LATENCY_MAX_S, item_s
+        assert server.snapshot().mode == "AUTO"  # no HOLD asked between the flights
 
-            # MANUAL from the flight-mode menu: the pilot drives, helixd lets go at once
-            t_manual = set_mode(gcs, "MANUAL")
-            manual_s = time_until(server, overrides_released, t_manual, 5.0)
-            print(f"MANUAL → overrides released: {manual_s:.3f} s")
-            d.wait_line("event=serve_state state=paused", 30.0)
-            snap = server.snapshot()
-            assert snap.mode == "MANUAL" and snap.armed  # no HOLD asked, not disarmed
-            assert "event=fallback" not in d.log_text()
+        # MANUAL from the flight-mode menu: the pilot drives, helixd lets go at once
+        t_manual = set_mode(gcs, "MANUAL")
+        manual_s = time_until(server, overrides_released, t_manual, 5.0)
+        print(f"MANUAL → overrides released: {manual_s:.3f} s")
+        d.wait_line("event=serve_state state=paused", 30.0)
+        snap = server.snapshot()
+        assert snap.mode == "MANUAL" and snap.armed  # no HOLD asked, not disarmed
+        assert "event=fallback" not in d.log_text()
 
-            # AUTO again: a new flight from the item the autopilot is on, to the end
-            mark = d.mark()
-            set_mode(gcs, "AUTO")
-            server.wait_for(moving, 20.0)
-            # read on: a ground station's socket left unread overflows and drops the newest
-            assert gcs.wait_text("Mission Complete", 120.0) == "Mission Complete"  # ArduPilot's
-            assert gcs.wait_text("helixd: completed", 60.0).endswith("3/3 waypoints")
-            d.wait_line("event=serve_state state=completed", 10.0, after=mark)
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            d.kill()
-            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
-    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
-    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+        # AUTO again: a new flight from the item the autopilot is on, to the end
+        mark = d.mark()
+        set_mode(gcs, "AUTO")
+        server.wait_for(moving, 20.0)
+        # read on: a ground station's socket left unread overflows and drops the newest
+        assert gcs.wait_text("Mission Complete", 120.0) == "Mission Complete"  # ArduPilot's
+        assert gcs.wait_text("helixd: completed", 60.0).endswith("3/3 waypoints")
+        d.wait_line("event=serve_state state=completed", 10.0, after=mark)
+        d.terminate_ok()
+    summaries = flight_summaries(tmp_path)
     assert [s["completed"] for s in summaries] == [False, False, True], summaries
     assert summaries[0]["fault"].startswith("item_set: item 3 set"), summaries[0]
     assert summaries[1]["fault"].startswith("released: mode MANUAL"), summaries[1]

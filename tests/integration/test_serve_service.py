@@ -103,12 +103,11 @@ def test_a_restarted_service_remembers_the_interrupted_mission_and_waits(tmp_pat
 
 def test_a_loiter_without_end_holds_until_the_ground_station_continues(tmp_path: Path) -> None:
     with sim_with_ground_station() as (server, urls, gcs):
-        helixd_url = urls[0]
-        d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
+        d = serve_proc(tmp_path, urls[0], NO_SWITCH)
         d.start_pump()
         try:
-            d.wait_line("no mission on the autopilot", 60.0)
             loiter = {2: MAV_CMD_NAV_LOITER_UNLIM}
+            d.wait_line("no mission on the autopilot", 60.0)
             upload(gcs, [(4.0, 0.0), (4.0, -4.0), (0.0, 0.0)], commands=loiter)
             d.wait_line("event=serve_state state=ready", 30.0)
             assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED

@@ -12,7 +12,6 @@ helixd beats as that component too (``link.vehicle_component``).
 from __future__ import annotations
 
 import json
-import signal
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +26,7 @@ from helixd.mav.constants import (
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.gcs import command, upload
 from tests.support.harness import MavClient
-from tests.support.serve import moving, serve_proc, sim_with_ground_station
+from tests.support.serve import moving, serving_crew
 
 LONG_LEG = [(60.0, 0.0)]  # one straight leg, long enough to see both speeds settle (m)
 SLOW_MPS = 0.2
@@ -57,47 +56,40 @@ def mavlink_action(gcs: MavClient, action: dict[str, Any]) -> int:
 
 
 def test_a_change_of_speed_to_helixd_changes_the_flights_cruise(tmp_path: Path) -> None:
-    with sim_with_ground_station() as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], CONFIG)
-        d.start_pump()
-        try:
-            d.wait_line("no mission on the autopilot", 60.0)
-            upload(gcs, LONG_LEG)
-            d.wait_line("event=serve_state state=ready", 30.0)
-            # not flying: nothing to change (each flight starts at the mission's speed)
-            assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, SLOW_MPS) == MAV_RESULT_DENIED
-            assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
-            server.wait_for(lambda s: moving(s) and s.speed_mps > 0.4, 60.0)
+    with serving_crew(tmp_path, CONFIG) as (server, gcs, d):
+        d.wait_line("no mission on the autopilot", 60.0)
+        upload(gcs, LONG_LEG)
+        d.wait_line("event=serve_state state=ready", 30.0)
+        # not flying: nothing to change (each flight starts at the mission's speed)
+        assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, SLOW_MPS) == MAV_RESULT_DENIED
+        assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+        server.wait_for(lambda s: moving(s) and s.speed_mps > 0.4, 60.0)
 
-            def settled_at(target_mps: float) -> bool:
-                return server.wait_for(
-                    lambda s: s.armed and abs(s.speed_mps - target_mps) < 0.05, 30.0
-                ).armed
+        def settled_at(target_mps: float) -> bool:
+            return server.wait_for(
+                lambda s: s.armed and abs(s.speed_mps - target_mps) < 0.05, 30.0
+            ).armed
 
-            assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, SLOW_MPS, -1) == MAV_RESULT_ACCEPTED
-            assert gcs.wait_text("helixd: speed 0.20 m/s", 20.0) == "helixd: speed 0.20 m/s"
-            assert settled_at(SLOW_MPS)
-            # -1 is Rover's "no change": FAILED, and the speed stays
-            assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, -1) == MAV_RESULT_FAILED
-            slow: SimSnapshot = server.snapshot()
-            assert abs(slow.speed_mps - SLOW_MPS) < 0.05, slow.speed_mps
-            # faster than the mission: bounded by its speed (its stops are planned for it)
-            assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, 9.0) == MAV_RESULT_ACCEPTED
-            # (a text longer than a STATUSTEXT goes out as lines split between words)
-            said = gcs.wait_text(f"helixd: speed {MISSION_MPS:.2f} m/s (9 asked", 20.0)
-            assert said.endswith("bounded by the"), said
-            assert settled_at(MISSION_MPS)
-            # QGroundControl's MAVLink Actions, as the crew's file defines them
-            slow, back = json.loads(ACTIONS.read_text(encoding="utf-8"))["actions"]
-            assert mavlink_action(gcs, slow) == MAV_RESULT_ACCEPTED
-            assert settled_at(float(slow["param2"]))
-            assert mavlink_action(gcs, back) == MAV_RESULT_ACCEPTED
-            assert settled_at(MISSION_MPS)
-            d.wait_line("event=serve_state state=completed", 120.0)
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            d.kill()
-            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, SLOW_MPS, -1) == MAV_RESULT_ACCEPTED
+        assert gcs.wait_text("helixd: speed 0.20 m/s", 20.0) == "helixd: speed 0.20 m/s"
+        assert settled_at(SLOW_MPS)
+        # -1 is Rover's "no change": FAILED, and the speed stays
+        assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, -1) == MAV_RESULT_FAILED
+        slow: SimSnapshot = server.snapshot()
+        assert abs(slow.speed_mps - SLOW_MPS) < 0.05, slow.speed_mps
+        # faster than the mission: bounded by its speed (its stops are planned for it)
+        assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, 9.0) == MAV_RESULT_ACCEPTED
+        # (a text longer than a STATUSTEXT goes out as lines split between words)
+        said = gcs.wait_text(f"helixd: speed {MISSION_MPS:.2f} m/s (9 asked", 20.0)
+        assert said.endswith("bounded by the"), said
+        assert settled_at(MISSION_MPS)
+        # QGroundControl's MAVLink Actions, as the crew's file defines them
+        slow, back = json.loads(ACTIONS.read_text(encoding="utf-8"))["actions"]
+        assert mavlink_action(gcs, slow) == MAV_RESULT_ACCEPTED
+        assert settled_at(float(slow["param2"]))
+        assert mavlink_action(gcs, back) == MAV_RESULT_ACCEPTED
+        assert settled_at(MISSION_MPS)
+        d.wait_line("event=serve_state state=completed", 120.0)
+        d.terminate_ok()
     log = d.log_text()
     assert 'event=crew_speed by="system 255" asked_mps=0.2 speed_mps=0.2' in log, log

@@ -12,26 +12,17 @@ holds a non-empty ``link.tlog`` that pymavlink reads, with that flight's traffic
 
 from __future__ import annotations
 
-import json
-import signal
 from pathlib import Path
 from typing import Any
 
 from helixd.base.run_files import TLOG_FILE
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
-    MAV_CMD_MISSION_START,
     MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_RESULT_ACCEPTED,
 )
 from helixd.sim.modes import MODE_NUMBERS
-from tests.integration.test_serve_crew_modes import (
-    CONFIG,
-    driving,
-    heartbeat_shows,
-    overriding_neutral,
-    set_mode,
-)
+from tests.integration.test_serve_crew_modes import CONFIG, driving, overriding_neutral
 from tests.integration.test_serve_goto import ARRIVAL_M, go_to_location, near
 from tests.support.gcs import upload
 from tests.support.harness import (
@@ -42,7 +33,14 @@ from tests.support.harness import (
     time_until,
 )
 from tests.support.mavmsgs import read_tlog
-from tests.support.serve import SPEEDUP, moving, serve_proc, sim_with_ground_station
+from tests.support.serve import (
+    SPEEDUP,
+    flight_summaries,
+    heartbeat_shows,
+    serving_crew,
+    set_mode,
+    upload_and_start,
+)
 
 LIMIT_S = 30.0  # the mission below is estimated at about 16 s
 HELD_S = LIMIT_S + 10.0  # simulated time held for the crew, each flight: over the limit
@@ -62,56 +60,39 @@ def held_for_the_crew(server: Any, mode: str) -> None:
 def test_time_held_for_the_crew_is_not_counted_and_each_flight_has_its_tlog(
     tmp_path: Path,
 ) -> None:
-    with sim_with_ground_station(**guard_installed(SPEEDUP)) as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], TIME_LIMITED)
-        d.start_pump()
-        try:
-            d.wait_line("no mission on the autopilot", 60.0)
-            upload(gcs, MISSION)
-            d.wait_line("event=serve_state state=ready", 30.0)
+    with serving_crew(tmp_path, TIME_LIMITED, **guard_installed(SPEEDUP)) as (server, gcs, d):
+        # QGC's Plan view: Upload; Start Mission (APMFirmwarePlugin::startMission)
+        upload_and_start(server, gcs, d, lambda: upload(gcs, MISSION))
 
-            # Start Mission (APMFirmwarePlugin::startMission: GUIDED, arm, MISSION_START)
-            set_mode(gcs, "GUIDED")
-            heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
-            assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-            heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
-            assert gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
-            d.wait_line("event=auto_start", 10.0)
-            server.wait_for(moving, 20.0)
+        # Pause (HOLD) for longer than the whole limit, then Continue (AUTO)
+        t_pause = set_mode(gcs, "HOLD")
+        time_until(server, overriding_neutral, t_pause, 5.0)
+        held_for_the_crew(server, "HOLD")
+        t_continue = set_mode(gcs, "AUTO")
+        time_until(server, driving, t_continue, 10.0)
+        assert gcs.wait_text("Mission Complete", 120.0) == "Mission Complete"
+        d.wait_line("event=serve_state state=completed", 60.0)
 
-            # Pause (HOLD) for longer than the whole limit, then Continue (AUTO)
-            t_pause = set_mode(gcs, "HOLD")
-            time_until(server, overriding_neutral, t_pause, 5.0)
-            held_for_the_crew(server, "HOLD")
-            t_continue = set_mode(gcs, "AUTO")
-            time_until(server, driving, t_continue, 10.0)
-            assert gcs.wait_text("Mission Complete", 120.0) == "Mission Complete"
-            d.wait_line("event=serve_state state=completed", 60.0)
-
-            # Go to location, held there for longer than the limit, then MANUAL lets go
-            server.wait_for(lambda s: not s.armed, 30.0)  # a completed mission ends disarmed
-            set_mode(gcs, "MANUAL")
-            heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["MANUAL"])
-            assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-            heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
-            mark = d.mark()
-            t_click = go_to_location(gcs, *PLACE_NE)
-            time_until(server, near(PLACE_NE, ARRIVAL_M), t_click, 90.0)
-            d.wait_line("event=goto_arrived", 30.0, after=mark)
-            held_for_the_crew(server, "GUIDED")
-            t_manual = set_mode(gcs, "MANUAL")
-            time_until(server, overrides_released, t_manual, 5.0)
-            d.wait_line("event=serve_flight_end", 10.0, after=mark)
-            assert "cause=mission_time" not in d.log_text()
-            assert "event=fallback" not in d.log_text()
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            d.kill()
-            (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        # Go to location, held there for longer than the limit, then MANUAL lets go
+        server.wait_for(lambda s: not s.armed, 30.0)  # a completed mission ends disarmed
+        set_mode(gcs, "MANUAL")
+        heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["MANUAL"])
+        assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+        heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+        mark = d.mark()
+        t_click = go_to_location(gcs, *PLACE_NE)
+        time_until(server, near(PLACE_NE, ARRIVAL_M), t_click, 90.0)
+        d.wait_line("event=goto_arrived", 30.0, after=mark)
+        held_for_the_crew(server, "GUIDED")
+        t_manual = set_mode(gcs, "MANUAL")
+        time_until(server, overrides_released, t_manual, 5.0)
+        d.wait_line("event=serve_flight_end", 10.0, after=mark)
+        assert "cause=mission_time" not in d.log_text()
+        assert "event=fallback" not in d.log_text()
+        d.terminate_ok()
 
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
-    summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
+    summaries = flight_summaries(tmp_path)
     assert summaries[0]["completed"], summaries[0]
     assert summaries[1]["fault"].startswith("released: mode MANUAL"), summaries[1]
     # each flight lasted longer than the limit on the autopilot's clock, which it counts

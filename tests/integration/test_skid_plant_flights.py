@@ -102,8 +102,13 @@ class TruthRecorder:
         return list(self.points)
 
 
-def test_roll_square_on_the_sitl_skid_plant(tmp_path: Path) -> None:
-    with sim_and_daemon(tmp_path, "square", SKID_CONFIG, plant="sitl_skid", noise="low") as (
+def completed_skid_flight(
+    tmp_path: Path, mission: str, waypoints: int
+) -> tuple[TruthRecorder, list[TrackPoint], Path, dict[str, Any]]:
+    """Fly the shipped ``mission`` on the sitl_skid plant ('low' noise) to its end: exit 0,
+    secured, every one of its ``waypoints`` reached. (The true pose's recorder, the true
+    track, the run directory, summary.json.)"""
+    with sim_and_daemon(tmp_path, mission, SKID_CONFIG, plant="sitl_skid", noise="low") as (
         server,
         d,
     ):
@@ -116,7 +121,12 @@ def test_roll_square_on_the_sitl_skid_plant(tmp_path: Path) -> None:
     assert code == ExitCode.OK, log[-3000:]
     summary: dict[str, Any] = json.loads((run_dir / "summary.json").read_text())
     assert summary["completed"] is True
-    assert summary["waypoints_reached"] == summary["waypoints_total"] == 4
+    assert summary["waypoints_reached"] == summary["waypoints_total"] == waypoints
+    return recorder, track, run_dir, summary
+
+
+def test_roll_square_on_the_sitl_skid_plant(tmp_path: Path) -> None:
+    recorder, track, _, summary = completed_skid_flight(tmp_path, "square", 4)
 
     # the SITL suite's observer computation, on the simulator's true pose
     metrics = square_metrics(track, recorder.yaw_at)
@@ -146,20 +156,7 @@ def test_survey_block_on_the_sitl_skid_plant_beats_auto(tmp_path: Path) -> None:
     """Six 30 m transects joined by 3 m crossovers: the corners flown as arcs, the block no
     slower than ArduPilot's AUTO on real SITL and its largest cross-track at most half of
     AUTO's."""
-    with sim_and_daemon(tmp_path, "survey", SKID_CONFIG, plant="sitl_skid", noise="low") as (
-        server,
-        d,
-    ):
-        recorder = TruthRecorder(server)
-        code = d.wait_exit(MISSION_WALL_S)
-        server.wait_for(secured, 5.0)
-        track = recorder.stop()
-        log = d.log_text()
-        run_dir = d.run_dir()
-    assert code == ExitCode.OK, log[-3000:]
-    summary: dict[str, Any] = json.loads((run_dir / "summary.json").read_text())
-    assert summary["completed"] is True
-    assert summary["waypoints_reached"] == summary["waypoints_total"] == 11
+    recorder, track, run_dir, summary = completed_skid_flight(tmp_path, "survey", 11)
     # The plan where helixd laid it (its start frame, from its estimated pose) and the true
     # path against it: the 'low' noise estimator's start heading is off by up to ~0.5°, which
     # alone puts the far end of a 30 m transect 0.26 m from a plan anchored at the true yaw.

@@ -16,16 +16,12 @@ from helixd.link.ftp_link import AutopilotFtpLink
 from helixd.link.ftp_transfer import DirectoryProbe, FtpUpload
 from helixd.mav.ftp_wire import FtpOp, FtpPayload, crc32_ardupilot, to_message
 from tests.support.harness import running_sim
+from tests.support.mavmsgs import stamp
 from tests.support.peer import safety_config
 
 CFG = LinkConfig()
 GCS = (CFG.source_system, CFG.source_component)
 VEHICLE = (CFG.target_system, CFG.target_component)
-
-
-def stamp(msg: Any, who: tuple[int, int]) -> Any:
-    mav = mavlink.MAVLink(None, srcSystem=who[0], srcComponent=who[1])
-    return mav.decode(bytearray(msg.pack(mav)))
 
 
 async def test_upload_and_probe_over_a_real_autopilot_link() -> None:

@@ -21,17 +21,13 @@ from helixd.link.mission_transfer import MissionTransferError
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import MissionItem
 from helixd.sim.mission_server import MissionServer
+from tests.support.mavmsgs import stamp
 
 CFG = LinkConfig(mission_item_timeout_s=0.2, mission_retries=2)
 GCS = (CFG.source_system, CFG.source_component)
 VEHICLE = (1, 1)
 
 Listener = Callable[[Any, float], None]
-
-
-def stamp(msg: Any, who: tuple[int, int]) -> Any:
-    mav = mavlink.MAVLink(None, srcSystem=who[0], srcComponent=who[1])
-    return mav.decode(bytearray(msg.pack(mav)))
 
 
 class Host:

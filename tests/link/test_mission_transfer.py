@@ -26,16 +26,12 @@ from helixd.link.mission_transfer import MissionDownload, MissionTransferError, 
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import MissionItem, wire_xy
 from helixd.sim.mission_server import MissionServer
+from tests.support.mavmsgs import stamp
 
 GCS = (255, 190)
 VEHICLE = (1, 1)
 HOME = (53.52325, -113.52, 668.0)
 CFG = LinkConfig()
-
-
-def stamp(msg: Any, who: tuple[int, int]) -> Any:
-    mav = mavlink.MAVLink(None, srcSystem=who[0], srcComponent=who[1])
-    return mav.decode(bytearray(msg.pack(mav)))
 
 
 def items(n: int, mission_type: int = 0, command: int = 16) -> list[MissionItem]:

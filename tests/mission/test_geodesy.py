@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import pytest
 from hypothesis import given
@@ -81,20 +82,27 @@ def test_geodesic_known_pair_degree_of_latitude_at_the_equator() -> None:
 coord = st.floats(-2000, 2000, allow_nan=False)
 
 
+def assert_round_trip(
+    to_latlon: Callable[..., tuple[float, float]],
+    to_ne: Callable[..., tuple[float, float]],
+    origin: tuple[float, float],
+    ne: tuple[float, float],
+) -> None:
+    """``ne`` (m from ``origin``) to latitude/longitude and back within a micrometre."""
+    lat, lon = to_latlon(*ne, *origin)
+    n2, e2 = to_ne(lat, lon, *origin)
+    assert n2 == pytest.approx(ne[0], abs=1e-6)
+    assert e2 == pytest.approx(ne[1], abs=1e-6)
+
+
 @given(st.floats(-80, 80), st.floats(-180, 180), coord, coord)
 def test_ekf_map_round_trip(lat0: float, lon0: float, n: float, e: float) -> None:
-    lat, lon = ne_to_latlon(n, e, lat0, lon0)
-    n2, e2 = latlon_to_ne(lat, lon, lat0, lon0)
-    assert n2 == pytest.approx(n, abs=1e-6)
-    assert e2 == pytest.approx(e, abs=1e-6)
+    assert_round_trip(ne_to_latlon, latlon_to_ne, (lat0, lon0), (n, e))
 
 
 @given(st.floats(-80, 80), st.floats(-180, 180), coord, coord)
 def test_geodesic_round_trip(lat0: float, lon0: float, n: float, e: float) -> None:
-    lat, lon = geodesic_latlon(n, e, lat0, lon0)
-    n2, e2 = geodesic_ne_m(lat, lon, lat0, lon0)
-    assert n2 == pytest.approx(n, abs=1e-6)
-    assert e2 == pytest.approx(e, abs=1e-6)
+    assert_round_trip(geodesic_latlon, geodesic_ne_m, (lat0, lon0), (n, e))
 
 
 def test_across_the_antimeridian() -> None:

@@ -16,18 +16,7 @@ from helixd.base.polygon import leg_leaves_polygon, polygon_problems, segments_i
 from helixd.config import HelixdConfig
 from helixd.mission.model import Mission
 from helixd.mission.validate import mission_problems, pending_checks
-
-
-def mission(frame: str, points: list[tuple[float, float]], mode: str = "omni") -> Mission:
-    keys = {"start": ("x", "y"), "local_ned": ("north", "east"), "global": ("lat", "lon")}[frame]
-    return Mission.model_validate(
-        {
-            "name": "t",
-            "mode": mode,
-            "frame": frame,
-            "waypoints": [{keys[0]: a, keys[1]: b} for a, b in points],
-        }
-    )
+from tests.support.missions import mission_of, points_mission
 
 
 def config(**safety: Any) -> HelixdConfig:
@@ -38,7 +27,7 @@ def config(**safety: Any) -> HelixdConfig:
 
 
 def test_start_frame_waypoint_outside_radius_is_refused_without_the_pose() -> None:
-    msn = mission("start", [(50.0, 0.0), (150.0, 0.0), (0.0, 0.0)])
+    msn = points_mission("start", [(50.0, 0.0), (150.0, 0.0), (0.0, 0.0)])
     problems = mission_problems(msn, HelixdConfig())
     assert problems == [
         "waypoint 2 (waypoints[1]): 150.0 m from the start point; allowed at most "
@@ -47,17 +36,17 @@ def test_start_frame_waypoint_outside_radius_is_refused_without_the_pose() -> No
 
 
 def test_start_frame_inside_radius_passes() -> None:
-    msn = mission("start", [(60.0, 0.0), (60.0, 60.0), (0.0, 0.0)])  # 84.9 m corner
+    msn = points_mission("start", [(60.0, 0.0), (60.0, 60.0), (0.0, 0.0)])  # 84.9 m corner
     assert mission_problems(msn, HelixdConfig()) == []
 
 
 def test_radius_off_disables_the_check() -> None:
-    msn = mission("start", [(150.0, 0.0)])
+    msn = points_mission("start", [(150.0, 0.0)])
     assert mission_problems(msn, config(geofence_radius_m=None)) == []
 
 
 def test_local_ned_radius_needs_the_pose() -> None:
-    msn = mission("local_ned", [(0.0, 0.0), (90.0, 0.0)])
+    msn = points_mission("local_ned", [(0.0, 0.0), (90.0, 0.0)])
     assert mission_problems(msn, HelixdConfig()) == []
     assert "geofence radius around the start point" in pending_checks(msn, HelixdConfig())
     start = NedPose(north_m=-30.0, east_m=0.0, yaw_ned_rad=0.0)
@@ -72,7 +61,7 @@ def test_global_mission_is_checked_with_the_origin() -> None:
     origin = (53.5, -113.5)
     north_deg_per_m = 1.0 / 111_320.0
     far = (origin[0] + 150 * north_deg_per_m, origin[1])
-    msn = mission("global", [(origin[0] + 10 * north_deg_per_m, origin[1]), far])
+    msn = points_mission("global", [(origin[0] + 10 * north_deg_per_m, origin[1]), far])
     assert mission_problems(msn, HelixdConfig()) == []  # no origin: only the time check
     start = NedPose(0.0, 0.0, 0.0)
     problems = mission_problems(msn, HelixdConfig(), start_ned=start, origin_latlon_deg=origin)
@@ -80,7 +69,7 @@ def test_global_mission_is_checked_with_the_origin() -> None:
 
 
 def test_many_offenders_are_summarised() -> None:
-    msn = mission("start", [(200.0 + i, 0.0) for i in range(20)])
+    msn = points_mission("start", [(200.0 + i, 0.0) for i in range(20)])
     problems = mission_problems(msn, HelixdConfig())
     assert len(problems) == 6
     assert problems[-1] == "… and 15 more waypoints outside safety.geofence_radius_m"
@@ -96,7 +85,7 @@ U_NE = [[0.0, 0.0], [0.0, 30.0], [30.0, 30.0], [30.0, 20.0], [10.0, 20.0], [10.0
 
 def test_local_ned_polygon_is_checked_without_the_pose() -> None:
     cfg = config(geofence_polygon_ne_m=SQUARE_NE, geofence_radius_m=None)
-    msn = mission("local_ned", [(10.0, 10.0), (60.0, 0.0)])
+    msn = points_mission("local_ned", [(10.0, 10.0), (60.0, 0.0)])
     assert mission_problems(msn, cfg) == [
         "waypoint 2 (waypoints[1]): N 60.0 m, E 0.0 m is outside safety.geofence_polygon_ne_m"
     ]
@@ -104,7 +93,7 @@ def test_local_ned_polygon_is_checked_without_the_pose() -> None:
 
 def test_leg_across_a_notch_is_refused() -> None:
     cfg = config(geofence_polygon_ne_m=U_NE, geofence_radius_m=None)
-    msn = mission("local_ned", [(20.0, 5.0), (20.0, 25.0)])  # both arms inside, leg crosses
+    msn = points_mission("local_ned", [(20.0, 5.0), (20.0, 25.0)])  # both arms inside, leg crosses
     problems = mission_problems(msn, cfg)
     assert problems == [
         "leg waypoint 1 (waypoints[0]) → waypoint 2 (waypoints[1]) leaves "
@@ -116,18 +105,8 @@ def test_a_jump_missions_refusals_name_its_items_not_the_plans_indices() -> None
     """The plan of a mission with commands is its flight (jumps expanded, no point for the
     start): a refusal names the entry a person wrote, once for all its laps — not plan index 0
     as 'waypoint 1' when entry 2 is the one out of the fence."""
-    msn = Mission.model_validate(
-        {
-            "name": "t",
-            "mode": "omni",
-            "frame": "start",
-            "waypoints": [
-                {"x": 0.0, "y": 0.0},
-                {"x": 400.0, "y": 0.0},
-                {"command": "DO_JUMP", "item": 1, "repeat": 2},
-            ],
-        }
-    )
+    jump = {"command": "DO_JUMP", "item": 1, "repeat": 2}
+    msn = mission_of("start", [{"x": 0.0, "y": 0.0}, {"x": 400.0, "y": 0.0}, jump], "omni")
     assert mission_problems(msn, HelixdConfig()) == [
         "waypoint 2 (waypoints[1]): 400.0 m from the start point; allowed at most "
         "safety.geofence_radius_m = 100.0 m"
@@ -136,7 +115,7 @@ def test_a_jump_missions_refusals_name_its_items_not_the_plans_indices() -> None
 
 def test_start_frame_polygon_needs_the_pose_then_rotates_with_it() -> None:
     cfg = config(geofence_polygon_ne_m=SQUARE_NE, geofence_radius_m=None)
-    msn = mission("start", [(40.0, 0.0)])  # 40 m ahead of the start pose
+    msn = points_mission("start", [(40.0, 0.0)])  # 40 m ahead of the start pose
     assert mission_problems(msn, cfg) == []
     assert "keep-in polygon" in pending_checks(msn, cfg)
     facing_north = NedPose(north_m=0.0, east_m=0.0, yaw_ned_rad=0.0)
@@ -152,7 +131,7 @@ def test_start_frame_polygon_needs_the_pose_then_rotates_with_it() -> None:
 
 def test_start_outside_polygon_is_refused() -> None:
     cfg = config(geofence_polygon_ne_m=SQUARE_NE, geofence_radius_m=None)
-    msn = mission("local_ned", [(10.0, 10.0)])
+    msn = points_mission("local_ned", [(10.0, 10.0)])
     start = NedPose(north_m=80.0, east_m=0.0, yaw_ned_rad=0.0)
     problems = mission_problems(msn, cfg, start_ned=start)
     assert problems[0].startswith("the start point (N 80.0 m, E 0.0 m) is outside")
@@ -164,7 +143,7 @@ ISLAND_NE = ((10.0, 10.0), (10.0, 20.0), (20.0, 20.0), (20.0, 10.0))
 
 
 def with_island(points: list[tuple[float, float]]) -> Mission:
-    msn = mission("local_ned", points)
+    msn = points_mission("local_ned", points)
     return msn.model_copy(update={"keep_out_polygons": (ISLAND_NE,)})
 
 
@@ -322,7 +301,7 @@ def test_mission_problems_is_total(
     polygon: list[list[float]],
 ) -> None:
     try:
-        msn = mission(frame, points, mode=mode)
+        msn = points_mission(frame, points, mode=mode)
     except ValidationError:
         return  # e.g. consecutive duplicates or beyond max_range_m: refused at load already
     cfg = config(

@@ -54,12 +54,19 @@ def fly(display: ProgressDisplay, clock: FakeClock, seconds: float, **kw: object
         clock.advance(1.0 / LOOP_HZ)
 
 
-def test_not_a_terminal_emits_throttled_progress_events_without_escape_codes() -> None:
+def logged_flight() -> tuple[FakeClock, io.StringIO, ProgressDisplay]:
+    """A display without a terminal in the fly phase, the log going to ``out`` (logfmt), on a
+    fake clock: (clock, out, display)."""
     clock = FakeClock()
     out = io.StringIO()
     logging_setup.configure_logging(tty=False, stream=out, clock=clock)
     display = ProgressDisplay(tty=False, clock=clock)
     display.phase("fly")
+    return clock, out, display
+
+
+def test_not_a_terminal_emits_throttled_progress_events_without_escape_codes() -> None:
+    clock, out, display = logged_flight()
     fly(display, clock, 10.0)
     display.update(info(0, link_ok=False, pose_fresh=False))  # within 2 s: throttled
     summary = SummaryBuilder("square", "roll", 4).build(True, None, 0)
@@ -136,11 +143,7 @@ def test_live_line_fits_80_columns_in_the_usual_case() -> None:
 
 
 def test_progress_names_both_clocks_from_the_rows_it_was_told_about() -> None:
-    clock = FakeClock()
-    out = io.StringIO()
-    logging_setup.configure_logging(tty=False, stream=out, clock=clock)
-    display = ProgressDisplay(tty=False, clock=clock)
-    display.phase("fly")
+    clock, out, display = logged_flight()
     for i in range(5 * LOOP_HZ):  # 5 s wall, the autopilot clock 4x faster (sim speed-up)
         display.autopilot_time(100.0 + 4.0 * i / LOOP_HZ)
         display.update(info(i))

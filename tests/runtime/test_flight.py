@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 
 from helixd.actuators.base import ServoCommandRefused
 from helixd.base.frames import MissionFrame, NedPose
+from helixd.base.plan import Plan
 from helixd.config import HelixdConfig
 from helixd.control.navigator import Navigator
 from helixd.link.command_client import CommandRejected
@@ -116,6 +117,27 @@ class Sink:
     async def close(self) -> None: ...
 
 
+def quiet_loop(cfg: HelixdConfig, plan: Plan, ap: Any, sink: Any, **callbacks: Any) -> FlightLoop:
+    """A flight loop of ``plan`` from the origin, every callback a no-op unless given."""
+    start = NedPose(0.0, 0.0, 0.0)
+    quiet: dict[str, Any] = {
+        "on_step": lambda r: None,
+        "on_pose_rejected": lambda r: None,
+        "on_arrival": lambda i, t, e: None,
+        "on_tick": lambda: None,
+    }
+    return FlightLoop(
+        cfg=cfg,
+        plan=plan,
+        frame=MissionFrame.start_at(start),
+        autopilot=ap,
+        sink=sink,
+        stop=StopRequest(),
+        start_ned=start,
+        **{**quiet, **callbacks},
+    )
+
+
 def make_loop(
     ap: FedAutopilot,
     sink: Sink,
@@ -128,26 +150,12 @@ def make_loop(
         {"name": "t", "mode": "roll", "frame": "start", "waypoints": [{"x": 20, "y": 0}]}
     )
     plan = resolve_plan(mission, cfg.control, cfg.mission, None)
-    start = NedPose(0.0, 0.0, 0.0)
 
     def on_step(report: StepReport) -> None:
         trace.append("report")
         assert report.step.fractions == sink.commands[-1]  # what was sent, reported after
 
-    return FlightLoop(
-        cfg=cfg,
-        plan=plan,
-        frame=MissionFrame.start_at(start),
-        autopilot=ap,  # type: ignore[arg-type]
-        sink=sink,
-        stop=StopRequest(),
-        start_ned=start,
-        on_step=on_step,
-        on_pose_rejected=lambda r: None,
-        on_arrival=lambda i, t, e: None,
-        on_tick=lambda: None,
-        driving_mode=driving_mode,
-    )
+    return quiet_loop(cfg, plan, ap, sink, on_step=on_step, driving_mode=driving_mode)
 
 
 async def fly(ap: FedAutopilot, loop: FlightLoop, periods: int) -> Any:
@@ -325,21 +333,14 @@ def test_a_hold_sends_neutral_then_the_leg_and_queues_the_commands_due() -> None
         }
     )
     plan = resolve_plan(mission, cfg.control, cfg.mission, None)
-    start = NedPose(0.0, 0.0, 0.0)
     actions: list[Any] = []
     events: list[Any] = []
-    loop = FlightLoop(
-        cfg=cfg,
-        plan=plan,
-        frame=MissionFrame.start_at(start),
-        autopilot=ap,  # type: ignore[arg-type]
-        sink=sink,
-        stop=StopRequest(),
-        start_ned=start,
+    loop = quiet_loop(
+        cfg,
+        plan,
+        ap,
+        sink,
         on_step=lambda r: trace.append("report"),
-        on_pose_rejected=lambda r: None,
-        on_arrival=lambda i, t, e: None,
-        on_tick=lambda: None,
         on_action=actions.append,
         on_mission_event=events.append,
     )
@@ -621,20 +622,7 @@ def program_loop(
     )
     options = ExpandOptions(operator_continue=True)
     plan = resolve_plan(mission, cfg.control, cfg.mission, None, options=options)
-    start = NedPose(0.0, 0.0, 0.0)
-    return FlightLoop(
-        cfg=cfg,
-        plan=plan,
-        frame=MissionFrame.start_at(start),
-        autopilot=ap,  # type: ignore[arg-type]
-        sink=Sink(trace),
-        stop=StopRequest(),
-        start_ned=start,
-        on_step=lambda r: None,
-        on_pose_rejected=lambda r: None,
-        on_arrival=lambda i, t, e: None,
-        on_tick=lambda: None,
-    )
+    return quiet_loop(cfg, plan, ap, Sink(trace))
 
 
 def test_a_hold_at_a_loiter_unlim_waiting_for_the_operator_is_not_counted() -> None:

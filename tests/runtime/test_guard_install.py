@@ -11,7 +11,6 @@ from typing import Any
 import pytest
 
 os.environ.setdefault("MAVLINK20", "1")
-from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
 from helixd.link.ftp_link import FtpClient
@@ -20,16 +19,11 @@ from helixd.mav.ftp_wire import FtpOp, FtpPayload, from_message, to_message
 from helixd.mav.guard_script import script_bytes
 from helixd.runtime.guard_install import GuardInstallRefused, find_scripts_dir, install_guard
 from helixd.sim.ftp_server import FtpServer
+from tests.support.mavmsgs import stamp
 
 CFG = LinkConfig()
 GCS = (CFG.source_system, CFG.source_component)
 VEHICLE = (CFG.target_system, CFG.target_component)
-
-
-def stamp(msg: Any, who: tuple[int, int]) -> Any:
-    """``msg`` as received from ``who`` (packed and decoded: real sender ids)."""
-    mav = mavlink.MAVLink(None, srcSystem=who[0], srcComponent=who[1])
-    return mav.decode(bytearray(msg.pack(mav)))
 
 
 class Params:

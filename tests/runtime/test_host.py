@@ -49,14 +49,21 @@ def received_overrides(peer: socket.socket, count: int) -> list[int]:
     return got
 
 
+async def autopilot_with_peer(cfg: HelixdConfig) -> tuple[Autopilot, socket.socket]:
+    """helixd's link and the autopilot's end of it (a UDP socket that sent one HEARTBEAT)."""
+    ap = await Autopilot.connect(cfg.link, cfg.safety)
+    addr = ap.local_address
+    assert addr is not None
+    peer = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    peer.sendto(heartbeat(), addr)
+    return ap, peer
+
+
 def test_each_serve_flight_records_the_link_in_its_own_tlog(tmp_path: Path) -> None:
     async def main() -> None:
-        ap = await Autopilot.connect(CFG.link, CFG.safety)
-        addr = ap.local_address
-        assert addr is not None
+        ap, peer = await autopilot_with_peer(CFG)
         try:
-            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as peer:
-                peer.sendto(heartbeat(), addr)
+            with peer:
                 await ap.wait_heartbeat(5.0)
                 override_us(ap, 1100)  # the service before any flight
                 for flight in (1, 2):
@@ -84,12 +91,9 @@ def test_no_tlog_when_it_is_off(tmp_path: Path) -> None:
     cfg = CFG.model_copy(update={"link": CFG.link.model_copy(update={"tlog_enabled": False})})
 
     async def main() -> None:
-        ap = await Autopilot.connect(cfg.link, cfg.safety)
-        addr = ap.local_address
-        assert addr is not None
+        ap, peer = await autopilot_with_peer(cfg)
         try:
-            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as peer:
-                peer.sendto(heartbeat(), addr)
+            with peer:
                 host = ServeHost(ap, StopRequest())
                 await host.open(cfg, Held(), lambda _: None, tmp_path)
                 assert ap.tlog is None

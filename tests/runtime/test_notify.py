@@ -139,12 +139,19 @@ def test_watchdog_is_rate_limited_to_half_the_interval(
     notifier.close()
 
 
+def notifier_on(
+    path_socket: tuple[socket.socket, str], monkeypatch: pytest.MonkeyPatch
+) -> tuple[socket.socket, str, ServiceNotifier]:
+    """A notifier whose NOTIFY_SOCKET is the test's socket: (socket, its address, notifier)."""
+    sock, address = path_socket
+    monkeypatch.setenv("NOTIFY_SOCKET", address)
+    return sock, address, ServiceNotifier()
+
+
 def test_no_watchdog_pings_without_watchdog_usec(
     path_socket: tuple[socket.socket, str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    sock, address = path_socket
-    monkeypatch.setenv("NOTIFY_SOCKET", address)
-    notifier = ServiceNotifier()
+    sock, address, notifier = notifier_on(path_socket, monkeypatch)
     assert notifier.enabled
     assert notifier.watchdog_interval_s is None
     assert not notifier.watchdog()
@@ -155,9 +162,7 @@ def test_no_watchdog_pings_without_watchdog_usec(
 def test_status_is_single_line_ascii_and_deduplicated(
     path_socket: tuple[socket.socket, str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    sock, address = path_socket
-    monkeypatch.setenv("NOTIFY_SOCKET", address)
-    notifier = ServiceNotifier()
+    sock, address, notifier = notifier_on(path_socket, monkeypatch)
     # a newline must not inject a second assignment; non-ASCII must stay valid UTF-8
     assert notifier.status("heading 90° →\nREADY=1")
     data = recv(sock)
@@ -203,9 +208,7 @@ def test_full_socket_queue_does_not_block_the_caller(
     path_socket: tuple[socket.socket, str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Nobody reads the socket (a stalled PID 1): sends fail fast instead of blocking."""
-    sock, address = path_socket
-    monkeypatch.setenv("NOTIFY_SOCKET", address)
-    notifier = ServiceNotifier()
+    sock, _, notifier = notifier_on(path_socket, monkeypatch)
     with capture_logs() as logs:
         results = [notifier.status(f"step {i}") for i in range(2000)]
     assert results[0] is True

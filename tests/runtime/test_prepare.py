@@ -15,7 +15,6 @@ from helixd.config import HelixdConfig
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml, read_gcs
 from helixd.mission.formats.wire import gcs_to_wire
-from helixd.mission.model import Mission
 from helixd.mission.resolve import resolve
 from helixd.mission.resume import fresh_inputs, with_walk
 from helixd.runtime.autopilot_mission import convert_download
@@ -30,6 +29,7 @@ from helixd.runtime.prepare import (
     from_autopilot_item,
     prepare_flight,
 )
+from tests.support.missions import mission_of, points_mission
 from tests.support.paths import DATA_DIR
 
 CFG = HelixdConfig()
@@ -83,18 +83,7 @@ def test_the_shipped_ground_station_files_are_flights() -> None:
 
 
 def three_waypoints() -> Flight:
-    msn = Mission.model_validate(
-        {
-            "name": "m",
-            "mode": "roll",
-            "frame": "local_ned",
-            "waypoints": [
-                {"north": 0, "east": 10},
-                {"north": 8, "east": 10},
-                {"north": 8, "east": 0},
-            ],
-        }
-    )
+    msn = points_mission("local_ned", [(0, 10), (8, 10), (8, 0)], "roll", name="m")
     text = mission_to_yaml(msn)
     return Flight(msn, text, None, fresh_inputs(text, "c" * 64, msn))
 
@@ -114,21 +103,10 @@ def test_a_flight_from_the_autopilots_current_item() -> None:
 
 
 def commands_flight(*extra: dict[str, object]) -> Flight:
-    msn = Mission.model_validate(
-        {
-            "name": "m",
-            "mode": "roll",
-            "frame": "local_ned",
-            "waypoints": [
-                {"north": 0, "east": 10},
-                {"command": "DO_CHANGE_SPEED", "speed_mps": 0.3},
-                {"north": 8, "east": 10},
-                {"north": 8, "east": 0},
-                {"command": "DO_JUMP", "item": 1, "repeat": 1},
-                *extra,
-            ],
-        }
-    )
+    speed = {"command": "DO_CHANGE_SPEED", "speed_mps": 0.3}
+    jump = {"command": "DO_JUMP", "item": 1, "repeat": 1}
+    wps = [{"north": 0, "east": 10}, speed, {"north": 8, "east": 10}, {"north": 8, "east": 0}]
+    msn = mission_of("local_ned", [*wps, jump, *extra], name="m")
     text = mission_to_yaml(msn)
     return Flight(msn, text, None, fresh_inputs(text, "c" * 64, msn))
 

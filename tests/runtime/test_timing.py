@@ -9,21 +9,7 @@ from helixd.config import HelixdConfig
 from helixd.mission.model import Mission
 from helixd.mission.validate import mission_problems
 from helixd.runtime.timing import flight_problems
-
-
-def mission(
-    frame: str, points: list[tuple[float, float]], mode: str = "omni", **extra: Any
-) -> Mission:
-    keys = {"start": ("x", "y"), "local_ned": ("north", "east"), "global": ("lat", "lon")}[frame]
-    return Mission.model_validate(
-        {
-            "name": "t",
-            "mode": mode,
-            "frame": frame,
-            "waypoints": [{keys[0]: a, keys[1]: b} for a, b in points],
-            **extra,
-        }
-    )
+from tests.support.missions import points_mission
 
 
 def config(control: dict[str, Any] | None = None, **safety: Any) -> HelixdConfig:
@@ -33,7 +19,7 @@ def config(control: dict[str, Any] | None = None, **safety: Any) -> HelixdConfig
 def test_estimate_over_the_limit_is_refused() -> None:
     # 30 × 90 m at 0.6 m/s is 4 500 s of cruise; every leg starts from rest and brakes to a
     # stop (180° reversals): 4 589 s
-    msn = mission("start", [(90.0, 0.0), (0.0, 0.0)] * 15)
+    msn = points_mission("start", [(90.0, 0.0), (0.0, 0.0)] * 15)
     assert flight_problems(msn, HelixdConfig()) == [
         "estimated time 4589 s (2700.0 m with acceleration, braking and 0 turns in place) "
         "exceeds safety.mission_time_limit_s = 1800 s; the run would be aborted (split the "
@@ -46,7 +32,7 @@ def test_acceleration_braking_and_pivots_count() -> None:
     """The 10 m ROLL square: 40 m at 0.6 m/s is 67 s; with the acceleration, the braking into
     each corner and three pivots (no corner arcs) the navigator takes 83 s (the simulator
     flies it in 83.1 s); with the default corner arcs 71 s and no pivot (flown: 71.8 s)."""
-    msn = mission("start", [(10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0)], mode="roll")
+    msn = points_mission("start", [(10.0, 0.0), (10.0, 10.0), (0.0, 10.0), (0.0, 0.0)], mode="roll")
     pivots = {"control": {"corner_error_m": 0.0}}
     assert flight_problems(msn, config(mission_time_limit_s=84.0, **pivots)) == []
     problems = flight_problems(msn, config(mission_time_limit_s=80.0, **pivots))
@@ -59,7 +45,7 @@ def test_acceleration_braking_and_pivots_count() -> None:
 
 
 def test_local_ned_time_without_pose_is_a_lower_bound() -> None:
-    msn = mission("local_ned", [(0.0, 0.0), (60.0, 0.0)])
+    msn = points_mission("local_ned", [(0.0, 0.0), (60.0, 0.0)])
     assert flight_problems(msn, config(mission_time_limit_s=104.0)) == []
     problems = flight_problems(msn, config(mission_time_limit_s=100.0))
     assert problems[0].startswith("estimated time from waypoint 1 103 s")
@@ -72,7 +58,7 @@ def test_local_ned_time_without_pose_is_a_lower_bound() -> None:
 
 def test_start_heading_counts_in_roll_mode() -> None:
     """Facing away from the first leg, the rover pivots first (line guidance)."""
-    msn = mission("local_ned", [(20.0, 0.0)], mode="roll")
+    msn = points_mission("local_ned", [(20.0, 0.0)], mode="roll")
     cfg = config(geofence_radius_m=None, mission_time_limit_s=1000.0)
     facing = flight_problems(
         msn, cfg.model_copy(update={"safety": cfg.safety.model_copy(update={
@@ -89,7 +75,7 @@ def test_start_heading_counts_in_roll_mode() -> None:
 
 
 def test_the_missions_own_time_limit_replaces_the_configs() -> None:
-    msn = mission("local_ned", [(0.0, 0.0), (400.0, 0.0)] * 2, time_limit_s=2200.0)
+    msn = points_mission("local_ned", [(0.0, 0.0), (400.0, 0.0)] * 2, time_limit_s=2200.0)
     plain = msn.model_copy(update={"time_limit_s": None})
     cfg = config(geofence_radius_m=None)
     assert any("mission_time_limit_s = 1800 s" in p for p in flight_problems(plain, cfg))
@@ -97,7 +83,7 @@ def test_the_missions_own_time_limit_replaces_the_configs() -> None:
 
 
 def test_flight_problems_include_mission_problems() -> None:
-    msn = mission("start", [(150.0, 0.0)])  # beyond the default 100 m geofence radius
+    msn = points_mission("start", [(150.0, 0.0)])  # beyond the default 100 m geofence radius
     geometry = mission_problems(msn, HelixdConfig())
     assert geometry and flight_problems(msn, HelixdConfig())[: len(geometry)] == geometry
 

@@ -10,25 +10,7 @@ import pytest
 from helixd.base.polygon import point_in_polygon
 from helixd.config import SafetyConfig, StallConfig, TakeoverConfig
 from helixd.safety.watchdogs import FaultCause, SafetyInputs, SafetyMonitor
-
-HEALTHY = SafetyInputs(
-    now_s=100.0,
-    last_heartbeat_s=99.5,
-    pose_rx_s=99.98,
-    ekf_healthy=True,
-    ekf_detail="",
-    mode="MANUAL",
-    expected_mode="MANUAL",
-    armed=True,
-    rc_inputs_us=(1500,) * 8,
-    north_m=5.0,
-    east_m=5.0,
-    start_north_m=0.0,
-    start_east_m=0.0,
-    mission_elapsed_s=60.0,
-    commanded_speed_mps=0.5,
-    measured_speed_mps=0.45,
-)
+from tests.support.safety_inputs import HEALTHY
 
 
 def test_healthy_snapshot_passes() -> None:

@@ -32,6 +32,7 @@ from helixd.mav.constants import (
 )
 from helixd.sim import stream_rates as st
 from helixd.sim.mission_server import MissionServer, Outcome
+from tests.support.mavmsgs import stamp
 from tests.support.simcore import incoming, make_core, of_type, run
 
 GCS = (255, 190)
@@ -40,11 +41,6 @@ WP, SERVO, SPEED = MAV_CMD_NAV_WAYPOINT, MAV_CMD_DO_SET_SERVO, MAV_CMD_DO_CHANGE
 NAV_COMMANDS = (MAV_CMD_NAV_WAYPOINT, MAV_CMD_NAV_LOITER_TIME, MAV_CMD_NAV_RETURN_TO_LAUNCH)
 DO_COMMANDS = (MAV_CMD_DO_SET_SERVO, MAV_CMD_DO_CHANGE_SPEED)
 _mav = mavlink.MAVLink(None)
-
-
-def stamp(msg: Any) -> Any:
-    mav = mavlink.MAVLink(None, srcSystem=GCS[0], srcComponent=GCS[1])
-    return mav.decode(bytearray(msg.pack(mav)))
 
 
 def item_msg(seq: int, command: int, p1: float = 0.0, p2: float = 0.0) -> Any:

@@ -26,17 +26,13 @@ from helixd.mav.constants import (
 from helixd.sim import mission_server as sm
 from helixd.sim.faults import make_spec
 from helixd.sim.mission_server import MissionServer, Outcome
+from tests.support.mavmsgs import stamp
 from tests.support.simcore import incoming, make_core, of_type, run
 
 GCS = (255, 190)
 OTHER = (254, 190)
 HOME = (53.52325, -113.52, 668.0)
 _mav = mavlink.MAVLink(None)
-
-
-def stamp(msg: Any, who: tuple[int, int] = GCS, v1: bool = False) -> Any:
-    mav = mavlink.MAVLink(None, srcSystem=who[0], srcComponent=who[1])
-    return mav.decode(bytearray(msg.pack(mav, force_mavlink1=v1)))
 
 
 def count(n: int, mission_type: int = 0) -> Any:
@@ -359,44 +355,25 @@ _u16 = hs.integers(0, 65535)
 _i32 = hs.integers(-(2**31), 2**31 - 1)
 _f = hs.floats(width=32)
 _type = hs.sampled_from([0, 1, 2, 3, 255])
+
+
+def _item_head(commands: list[int]) -> tuple[Any, ...]:
+    """target system, component, seq, frame, one of ``commands``, current, autocontinue."""
+    return (_u8, _u8, hs.integers(0, 12), _u8, hs.sampled_from(commands), _u8, _u8)
+
+
 _messages = hs.one_of(
     hs.builds(_mav.mission_count_encode, _u8, _u8, hs.integers(0, 12), _type),
     hs.builds(
         _mav.mission_item_int_encode,
-        _u8,
-        _u8,
-        hs.integers(0, 12),
-        _u8,
-        hs.sampled_from([16, 22, 177, 5001, 5003, 5100, 65535]),
-        _u8,
-        _u8,
-        _f,
-        _f,
-        _f,
-        _f,
+        *_item_head([16, 22, 177, 5001, 5003, 5100, 65535]),
+        *[_f] * 4,
         _i32,
         _i32,
         _f,
         _type,
     ),
-    hs.builds(
-        _mav.mission_item_encode,
-        _u8,
-        _u8,
-        hs.integers(0, 12),
-        _u8,
-        hs.sampled_from([16, 177, 5001, 5100]),
-        _u8,
-        _u8,
-        _f,
-        _f,
-        _f,
-        _f,
-        _f,
-        _f,
-        _f,
-        _type,
-    ),
+    hs.builds(_mav.mission_item_encode, *_item_head([16, 177, 5001, 5100]), *[_f] * 7, _type),
     hs.builds(_mav.mission_request_int_encode, _u8, _u8, _u16, _type),
     hs.builds(_mav.mission_request_encode, _u8, _u8, _u16, _type),
     hs.builds(_mav.mission_request_list_encode, _u8, _u8, _type),

@@ -111,12 +111,18 @@ def test_auto_runs_the_mission_on_the_position_and_completes_in_auto() -> None:
     assert of_type(out, "MISSION_CURRENT", 0)[-1].mission_state == MISSION_STATE_COMPLETE
 
 
-def test_leaving_auto_stops_the_mission_and_auto_again_resumes_the_item() -> None:
+def auto_started() -> SimCore:
+    """A ready core with WAYPOINTS_NE uploaded, armed and MISSION_START accepted, 0.3 s on."""
     core = ready_core()
     upload(core, WAYPOINTS_NE)
     assert command(core, 0, MAV_CMD_COMPONENT_ARM_DISARM, 1, sysid=GCS_SYSID) == 0
     assert command(core, 0, MAV_CMD_MISSION_START, 0, 0, sysid=GCS_SYSID) == 0
     run(core, 0.3)
+    return core
+
+
+def test_leaving_auto_stops_the_mission_and_auto_again_resumes_the_item() -> None:
+    core = auto_started()
     teleport(core, 10.0, 0.0)
     run(core, 0.3)
     assert core.mission.current_seq == 2
@@ -138,11 +144,7 @@ def test_finish_line() -> None:
 
 
 def test_set_current_in_auto_starts_that_item_at_once() -> None:
-    core = ready_core()
-    upload(core, WAYPOINTS_NE)
-    assert command(core, 0, MAV_CMD_COMPONENT_ARM_DISARM, 1, sysid=GCS_SYSID) == 0
-    assert command(core, 0, MAV_CMD_MISSION_START, 0, 0, sysid=GCS_SYSID) == 0
-    run(core, 0.3)
+    core = auto_started()
     assert core.mission.current_seq == 1
     # the crew's "set current waypoint" (MISSION_SET_CURRENT) while the mission runs
     core.handle(0, incoming(_mav.mission_set_current_encode(1, 1, 3), GCS_SYSID))

@@ -615,15 +615,22 @@ def test_do_set_servo_while_the_guard_holds_is_accepted_but_ignored() -> None:
     assert rig.outputs[0] == 1700
 
 
-def test_guard_holds_rc_passthrough_by_overriding_its_input() -> None:
-    """RCIN passthrough copies the input after the servo override: the guard overrides RC
-    input n at trim, outliving RC_OVERRIDE_TIME while helixd stays silent."""
+def passthrough_overridden() -> Rig:
+    """A guarded autopilot whose output 2 follows RC input 1, armed, helixd's heartbeat
+    flowing, RC input 1 overridden to 1700 µs: both outputs at 1700."""
     rig = guarded(params={"SERVO2_FUNCTION": 51})  # output 2 follows RC input 1
     rig.run(0.2, heartbeat_until(1e9))
     rig.force_arm()
     rig.override(1700, 1800)
     rig.run(0.1)
     assert rig.outputs[:2] == [1700, 1700]
+    return rig
+
+
+def test_guard_holds_rc_passthrough_by_overriding_its_input() -> None:
+    """RCIN passthrough copies the input after the servo override: the guard overrides RC
+    input n at trim, outliving RC_OVERRIDE_TIME while helixd stays silent."""
+    rig = passthrough_overridden()
     rig.ap.set_pilot_rc(1, 1650)  # the pilot's stick is no override
     rig.run(8.0)  # helixd dead: guard on after 0.5 s, RC_OVERRIDE_TIME (3 s) long past
     assert rig.outputs[:4] == [1500, 1500, 1500, 1500]
@@ -649,12 +656,7 @@ def test_pilot_mode_switch_out_of_hold_releases_passthrough_to_the_radio() -> No
     """After a guard episode (helixd silent, trim + HOLD) the pilot flips the mode switch to
     MANUAL: the guard lets go at once — its RC override cleared, so the radio drives the
     passthrough output now, not RC_OVERRIDE_TIME later — and stays off while helixd is silent."""
-    rig = guarded(params={"SERVO2_FUNCTION": 51})  # output 2 follows RC input 1
-    rig.run(0.2, heartbeat_until(1e9))
-    rig.force_arm()
-    rig.override(1700, 1800)
-    rig.run(0.1)
-    assert rig.outputs[:2] == [1700, 1700]
+    rig = passthrough_overridden()
     rig.ap.set_pilot_rc(1, 1650)
     rig.run(2.0)  # helixd dead: guard on after 0.5 s
     assert rig.outputs[:4] == [1500] * 4 and rig.ap.mode == modes.HOLD

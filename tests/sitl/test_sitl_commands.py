@@ -25,6 +25,7 @@ import yaml
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import ne_to_latlon
+from tests.support.cli import helixd_process as helixd
 from tests.support.skid_setup import helixd_sitl_config
 
 if TYPE_CHECKING:
@@ -58,17 +59,6 @@ def mission_yaml() -> dict[str, object]:
             {"command": "NAV_RETURN_TO_LAUNCH"},
         ],
     }
-
-
-def helixd(args: list[str], cwd: Path, timeout_s: float) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "helixd", *args],
-        cwd=cwd,
-        capture_output=True,
-        text=True,
-        timeout=timeout_s,
-        check=False,
-    )
 
 
 def leg_speeds(

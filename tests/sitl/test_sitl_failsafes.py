@@ -31,15 +31,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.exitcodes import ExitCode
-from tests.sitl.test_sitl_gps import (  # the same bounds and checks as the GPS fault
-    DRIVING_TIMEOUT_S,
-    EXIT_S,
-    LINK_SLACK_S,
-    MODE_HOLD,
-    SETTLE_S,
-    STOP_WITHIN_S,
-    neutral,
-)
+from tests.sitl import test_sitl_gps as gps  # the same bounds and checks as the GPS fault
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun, SitlVehicle
@@ -75,19 +67,19 @@ def stopped_after(sitl: SitlVehicle, daemon: DaemonRun, inject: Callable[[], Non
     assert before is not None
     inject()  # confirmed by its PARAM_VALUE echo
     t0 = time.monotonic()
-    obs.wait_until(lambda: obs.mode() == MODE_HOLD, AUTOPILOT_ACTION_S + 10.0, "HOLD")
-    hold_s = next(t for t, m in obs.mode_changes if t >= t0 and m == MODE_HOLD) - t0
+    obs.wait_until(lambda: obs.mode() == gps.MODE_HOLD, AUTOPILOT_ACTION_S + 10.0, "HOLD")
+    hold_s = next(t for t, m in obs.mode_changes if t >= t0 and m == gps.MODE_HOLD) - t0
     obs.wait_until(
-        lambda: any(s.wall_s >= t0 + hold_s and neutral(s.pwm_us) for s in obs.servo[-50:]),
-        STOP_WITHIN_S + LINK_SLACK_S + 5.0,
+        lambda: any(s.wall_s >= t0 + hold_s and gps.neutral(s.pwm_us) for s in obs.servo[-50:]),
+        gps.STOP_WITHIN_S + gps.LINK_SLACK_S + 5.0,
         "outputs 1 and 3 at trim after HOLD",
     )
     neutral_s = (
-        next(s.wall_s for s in obs.servo if s.wall_s >= t0 + hold_s and neutral(s.pwm_us)) - t0
+        next(s.wall_s for s in obs.servo if s.wall_s >= t0 + hold_s and gps.neutral(s.pwm_us)) - t0
     )
-    code = daemon.wait_exit(EXIT_S)
+    code = daemon.wait_exit(gps.EXIT_S)
     log = daemon.log_text()
-    time.sleep(SETTLE_S)  # the rover coasts; the distance is taken after it stopped
+    time.sleep(gps.SETTLE_S)  # the rover coasts; the distance is taken after it stopped
     track = [p for p in obs.positions if p.t_boot_s >= before.t_boot_s]
     last = track[-1] if track else before
     after_m = math.hypot(last.north_m - before.north_m, last.east_m - before.east_m)
@@ -99,12 +91,17 @@ def stopped_after(sitl: SitlVehicle, daemon: DaemonRun, inject: Callable[[], Non
     return Stopped(hold_s, neutral_s, after_m, cause, detected, code, log)
 
 
-def report(what: str, sitl: SitlVehicle, r: Stopped) -> None:
+def stopped_by(what: str, sitl: SitlVehicle, r: Stopped, cause: str) -> None:
+    """Print the figures of ``what``; helixd ended in a fault named ``cause`` and its outputs
+    were neutral within the GPS test's bound of the autopilot's HOLD."""
     print(
         f"{what}: HOLD {r.hold_s:.2f} s, neutral outputs {r.neutral_s:.2f} s after injection "
         f"({r.neutral_s - r.hold_s:.2f} s after HOLD; wall, speedup {sitl.speedup}); "
         f"{r.after_m:.2f} m driven after it (EKF); cause {r.cause} (at detection {r.detected})"
     )
+    assert r.code == ExitCode.FAULT, r.log[-4000:]
+    assert r.cause == cause, r.log[-4000:]
+    assert r.neutral_s - r.hold_s <= gps.STOP_WITHIN_S + gps.LINK_SLACK_S
 
 
 def test_battery_failsafe_is_named(
@@ -116,19 +113,15 @@ def test_battery_failsafe_is_named(
     obs.set_param("BATT_LOW_VOLT", BATT_LOW_VOLT_V)
     obs.set_message_interval(int(mavlink.MAVLINK_MSG_ID_SYS_STATUS), STATUS_STREAM_HZ)
     daemon = launch_helixd("rc_override")
-    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
+    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=gps.DRIVING_TIMEOUT_S)
 
     r = stopped_after(sitl, daemon, lambda: obs.set_param("SIM_BATT_VOLTAGE", SIM_BATT_LOW_V))
     texts = [t for t in obs.statustexts if "attery" in t]
-    report(
+    what = (
         f"battery failsafe (SIM_BATT_VOLTAGE {SIM_BATT_LOW_V} < BATT_LOW_VOLT {BATT_LOW_VOLT_V}, "
-        f"BATT_LOW_TIMER {BATT_LOW_TIMER_S:g} s, BATT_FS_LOW_ACT Hold; {texts[-1:]})",
-        sitl,
-        r,
+        f"BATT_LOW_TIMER {BATT_LOW_TIMER_S:g} s, BATT_FS_LOW_ACT Hold; {texts[-1:]})"
     )
-    assert r.code == ExitCode.FAULT, r.log[-4000:]
-    assert r.cause == "autopilot_battery", r.log[-4000:]
-    assert r.neutral_s - r.hold_s <= STOP_WITHIN_S + LINK_SLACK_S
+    stopped_by(what, sitl, r, "autopilot_battery")
 
 
 def test_fence_failsafe_is_named(
@@ -140,17 +133,13 @@ def test_fence_failsafe_is_named(
     obs.set_param("FENCE_ACTION", float(ROVER_ACTION_HOLD))
     obs.set_message_interval(int(mavlink.MAVLINK_MSG_ID_FENCE_STATUS), STATUS_STREAM_HZ)
     daemon = launch_helixd("rc_override")
-    sitl.wait_driving(daemon, min_distance_m=OUTSIDE_FENCE_M, timeout_s=DRIVING_TIMEOUT_S)
+    sitl.wait_driving(daemon, min_distance_m=OUTSIDE_FENCE_M, timeout_s=gps.DRIVING_TIMEOUT_S)
 
     r = stopped_after(sitl, daemon, lambda: obs.set_param("FENCE_ENABLE", 1.0))
     fence = obs.latest.get("FENCE_STATUS")
     breach = "none" if fence is None else f"breach_status {fence.breach_status}"
-    report(
+    what = (
         f"fence failsafe (circle {FENCE_RADIUS_M:g} m round home enabled {OUTSIDE_FENCE_M:g} m "
-        f"out, FENCE_ACTION Hold; FENCE_STATUS {breach})",
-        sitl,
-        r,
+        f"out, FENCE_ACTION Hold; FENCE_STATUS {breach})"
     )
-    assert r.code == ExitCode.FAULT, r.log[-4000:]
-    assert r.cause == "autopilot_fence", r.log[-4000:]
-    assert r.neutral_s - r.hold_s <= STOP_WITHIN_S + LINK_SLACK_S
+    stopped_by(what, sitl, r, "autopilot_fence")

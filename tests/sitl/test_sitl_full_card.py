@@ -26,11 +26,10 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.recorder.rundir import RESERVE_FILE
-from tests.sitl.conftest import CONNECT_TIMEOUT_S, PORT_STRIDE, SERIAL2_PORT, connect_tcp
-from tests.sitl.test_sitl_serve import GroundStation
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun, SitlVehicle
+from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
@@ -57,10 +56,7 @@ def small_card(path: Path) -> Iterator[Path]:
 def test_a_full_card_mid_flight_is_told_once_and_the_flight_completes(
     sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], tmp_path: Path
 ) -> None:
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
+    gcs = crew.ground_station(sitl)
     with small_card(tmp_path / "runs"), contextlib.closing(gcs):  # launch_helixd's run root
         started = time.monotonic()
         daemon = launch_helixd("rc_override")

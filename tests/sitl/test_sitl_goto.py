@@ -36,15 +36,12 @@ from helixd.base.frames import ne_to_latlon
 from tests.sitl.conftest import (
     AUTOPILOT_COMPID,
     AUTOPILOT_SYSID,
-    CONNECT_TIMEOUT_S,
     NEUTRAL_US,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SitlVehicle,
-    connect_tcp,
     outputs_near,
 )
-from tests.sitl.test_sitl_serve import HOME_LATLON, GroundStation, mono_of, serve_proc
+from tests.sitl.test_sitl_serve import HOME_LATLON, mono_of, serve_proc
+from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -61,39 +58,13 @@ CONFIG: dict[str, Any] = {
     "link": {"own_id_watch_s": 0.5},
 }
 START_MAX_S = 1.5  # click → scrolls driven (ArduPilot's HEARTBEAT naming GUIDED is 1 Hz)
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
-LEG_WAIT_S = 120.0
 
 
 def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
-    figures: list[str] = []
-
-    def note(what: str, value: float, unit: str = "s") -> None:
-        figures.append(f"{what}: {value:.2f} {unit}")
-        print(f"goto on SITL: {what}: {value:.2f} {unit}")
-
-    def after(t0: float, ok: Any, what: str) -> float:
-        """Wall seconds from t0 to the first SERVO_OUTPUT_RAW satisfying ``ok``."""
-
-        def found() -> float | None:
-            return next((s.wall_s for s in obs.servo if s.wall_s >= t0 and ok(s.pwm_us)), None)
-
-        obs.wait_until(lambda: found() is not None, STEP_WAIT_S, what, abort=d.ended)
-        at = found()
-        assert at is not None
-        return at - t0
-
-    def driven(pwm: tuple[int, int, int, int]) -> bool:
-        return not outputs_near(pwm, NEUTRAL_US)
-
-    def at_trim(pwm: tuple[int, int, int, int]) -> bool:
-        return outputs_near(pwm, NEUTRAL_US)
+    gcs = crew.ground_station(sitl)
+    steps = crew.ServoSteps(sitl, "goto on SITL", crew.STEP_WAIT_S, lambda: d.ended())
+    note, after, figures = steps.note, steps.after, steps.figures
 
     def error_m(ne: tuple[float, float]) -> float:
         p = obs.position()
@@ -120,7 +91,7 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
                 (r for c, r in gcs.acks[seen:] if c == mavlink2.MAV_CMD_DO_REPOSITION), None
             )
 
-        result = gcs.wait_value(ack, STEP_WAIT_S, "DO_REPOSITION's COMMAND_ACK")
+        result = gcs.wait_value(ack, crew.STEP_WAIT_S, "DO_REPOSITION's COMMAND_ACK")
         assert result == mavlink2.MAV_RESULT_ACCEPTED, result
         return sent
 
@@ -131,20 +102,20 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
             gcs.mission_requests.clear()
             gcs.mission_acks.clear()
         gcs.send(gcs.mav.mission_count_encode(AUTOPILOT_SYSID, AUTOPILOT_COMPID, 1, rally))
-        gcs.wait_value(lambda: gcs.mission_requests[:1] or None, STEP_WAIT_S, "rally request")
+        gcs.wait_value(lambda: gcs.mission_requests[:1] or None, crew.STEP_WAIT_S, "rally request")
         item = gcs.mav.mission_item_int_encode(
             AUTOPILOT_SYSID, AUTOPILOT_COMPID, 0, mavlink2.MAV_FRAME_GLOBAL_RELATIVE_ALT,
             mavlink2.MAV_CMD_NAV_RALLY_POINT, 0, 1, 0.0, 0.0, 0.0, 0.0,
             round(lat * 1e7), round(lon * 1e7), 0.0, rally,
         )  # fmt: skip
         gcs.send(item)
-        result = gcs.wait_value(lambda: gcs.mission_acks[:1] or None, STEP_WAIT_S, "rally ack")
+        result = gcs.wait_value(lambda: gcs.mission_acks[:1] or None, crew.STEP_WAIT_S, "rally ack")
         assert result == [mavlink2.MAV_MISSION_ACCEPTED], result
 
     def held_at(ne: tuple[float, float], mode: int, what: str) -> None:
         """Outputs at trim for 2 s, armed, in ``mode``, within ARRIVAL_M of the place (from
         the first SERVO_OUTPUT_RAW at trim: the arrival's neutral is a report behind)."""
-        held_from = time.monotonic() + after(time.monotonic(), at_trim, "trim at the place")
+        held_from = time.monotonic() + after(time.monotonic(), crew.at_trim, "trim at the place")
         obs.wait_until(lambda: time.monotonic() >= held_from + 2.0, 5.0, "2 s held")
         held = [s.pwm_us for s in obs.servo if s.wall_s >= held_from]
         assert held and all(outputs_near(p, NEUTRAL_US) for p in held)
@@ -154,32 +125,36 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
 
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", STATE_WAIT_S)
+        d.wait_line("no mission on the autopilot", crew.STATE_WAIT_S)
         upload_rally(*RALLY_NE)  # Plan view, Rally Points, Upload
         arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
         assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
-        obs.wait_until(lambda: bool(obs.armed()), STEP_WAIT_S, "armed")
+        obs.wait_until(lambda: bool(obs.armed()), crew.STEP_WAIT_S, "armed")
 
         # Go to location, then a second click on the way
         t_click = go_to_location(*FIRST_NE)
-        note("Go to location → scrolls driven", after(t_click, driven, "driven after the click"))
+        note(
+            "Go to location → scrolls driven", after(t_click, crew.driven, "driven after the click")
+        )
         assert obs.mode() == MODE_GUIDED
-        sitl.wait_driving(d, 3.0, STATE_WAIT_S)
+        sitl.wait_driving(d, 3.0, crew.STATE_WAIT_S)
         mark = d.mark()
         t_second = go_to_location(*SECOND_NE)
-        line = d.wait_line("event=serve_flight_start", STEP_WAIT_S, after=mark)
+        line = d.wait_line("event=serve_flight_start", crew.STEP_WAIT_S, after=mark)
         note("second click → new flight", mono_of(line) - t_second)
-        d.wait_line("event=goto_arrived", LEG_WAIT_S, after=mark)
+        d.wait_line("event=goto_arrived", crew.LEG_WAIT_S, after=mark)
         held_at(SECOND_NE, MODE_GUIDED, "Go to location")
 
         # Return: ArduPilot's RTL to the rally point
         mark = d.mark()
         t_rtl = time.monotonic()
         assert gcs.set_mode(MODE_RTL) == mavlink2.MAV_RESULT_ACCEPTED
-        note("RTL → scrolls driven", after(t_rtl, driven, "driven after RTL"))
-        d.wait_line("event=goto_arrived", LEG_WAIT_S, after=mark)
+        note("RTL → scrolls driven", after(t_rtl, crew.driven, "driven after RTL"))
+        d.wait_line("event=goto_arrived", crew.LEG_WAIT_S, after=mark)
         obs.wait_until(
-            lambda: "Reached destination" in obs.statustexts, STEP_WAIT_S, "Reached destination"
+            lambda: "Reached destination" in obs.statustexts,
+            crew.STEP_WAIT_S,
+            "Reached destination",
         )
         held_at(RALLY_NE, MODE_RTL, "RTL to the rally point")
 
@@ -187,7 +162,7 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
         mark = d.mark()
         t_manual = time.monotonic()
         assert gcs.set_mode(MODE_MANUAL) == mavlink2.MAV_RESULT_ACCEPTED
-        line = d.wait_line("event=rc_override_released", STEP_WAIT_S, after=mark)
+        line = d.wait_line("event=rc_override_released", crew.STEP_WAIT_S, after=mark)
         note("MANUAL → overrides released", mono_of(line) - t_manual)
         assert obs.armed() and obs.mode() == MODE_MANUAL  # no HOLD asked, not disarmed
 
@@ -197,14 +172,14 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
         reached_before = obs.statustexts.count("Reached destination")
         t_srtl = time.monotonic()
         assert gcs.set_mode(MODE_SMART_RTL) == mavlink2.MAV_RESULT_ACCEPTED
-        note("SmartRTL → scrolls driven", after(t_srtl, driven, "driven after SmartRTL"))
+        note("SmartRTL → scrolls driven", after(t_srtl, crew.driven, "driven after SmartRTL"))
         obs.wait_until(
             lambda: obs.statustexts.count("Reached destination") > reached_before,
-            LEG_WAIT_S,
+            crew.LEG_WAIT_S,
             "SmartRTL's Reached destination",
         )
         note("SmartRTL → Reached destination", time.monotonic() - t_srtl)
-        held_from = time.monotonic() + after(time.monotonic(), at_trim, "trim at home")
+        held_from = time.monotonic() + after(time.monotonic(), crew.at_trim, "trim at home")
         obs.wait_until(lambda: time.monotonic() >= held_from + 2.0, 5.0, "2 s held")
         held = [s.pwm_us for s in obs.servo if s.wall_s >= held_from]
         assert held and all(outputs_near(p, NEUTRAL_US) for p in held)
@@ -215,12 +190,10 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
         assert error_m((0.0, 0.0)) <= SMART_RTL_END_M, figures
         mark = d.mark()
         assert gcs.set_mode(MODE_MANUAL) == mavlink2.MAV_RESULT_ACCEPTED
-        d.wait_line("event=rc_override_released", STEP_WAIT_S, after=mark)
+        d.wait_line("event=rc_override_released", crew.STEP_WAIT_S, after=mark)
         assert "event=fallback" not in d.log_text()
     finally:
-        d.stop(30.0)
-        gcs.close()
-        (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        crew.close_serve(d, gcs, tmp_path)
     print("goto on SITL: " + "; ".join(figures))
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
     summaries = [json.loads((r / "summary.json").read_text()) for r in runs]

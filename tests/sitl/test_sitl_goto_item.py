@@ -26,30 +26,20 @@ from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from tests.sitl.conftest import (
     AUTOPILOT_COMPID,
     AUTOPILOT_SYSID,
-    CONNECT_TIMEOUT_S,
     NEUTRAL_US,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SitlVehicle,
-    connect_tcp,
     outputs_near,
 )
 from tests.sitl.test_sitl_goto import ARRIVAL_M, CONFIG, FIRST_NE, MODE_GUIDED, START_MAX_S
-from tests.sitl.test_sitl_serve import HOME_LATLON, GroundStation, serve_proc
+from tests.sitl.test_sitl_serve import HOME_LATLON, serve_proc
+from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
-
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
-LEG_WAIT_S = 120.0
 
 
 def test_go_to_location_as_a_guided_mission_item(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
+    gcs = crew.ground_station(sitl)
     lat, lon = ne_to_latlon(*FIRST_NE, *HOME_LATLON)
     lat32, lon32 = float(np.float32(lat)), float(np.float32(lon))  # what MISSION_ITEM carries
 
@@ -64,7 +54,7 @@ def test_go_to_location_as_a_guided_mission_item(sitl: SitlVehicle, tmp_path: Pa
             mavlink2.MAV_MISSION_TYPE_MISSION,
         )  # fmt: skip
         gcs.send(item)
-        acks = gcs.wait_value(lambda: gcs.mission_acks[:1] or None, STEP_WAIT_S, "MISSION_ACK")
+        acks = gcs.wait_value(lambda: gcs.mission_acks[:1] or None, crew.STEP_WAIT_S, "MISSION_ACK")
         return int(acks[0])
 
     def first_servo(t0: float, driven: bool) -> float:
@@ -78,31 +68,31 @@ def test_go_to_location_as_a_guided_mission_item(sitl: SitlVehicle, tmp_path: Pa
                 None,
             )
 
-        obs.wait_until(lambda: found() is not None, LEG_WAIT_S, "outputs", abort=d.ended)
+        obs.wait_until(lambda: found() is not None, crew.LEG_WAIT_S, "outputs", abort=d.ended)
         at = found()
         assert at is not None
         return at - t0
 
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", STATE_WAIT_S)
+        d.wait_line("no mission on the autopilot", crew.STATE_WAIT_S)
         arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
         assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
-        obs.wait_until(lambda: bool(obs.armed()), STEP_WAIT_S, "armed")
+        obs.wait_until(lambda: bool(obs.armed()), crew.STEP_WAIT_S, "armed")
         # outside GUIDED ArduPilot refuses the item (handle_guided_request)
         assert guided_item() == mavlink2.MAV_MISSION_ERROR
         # setGuidedMode, then the item
         assert gcs.set_mode(MODE_GUIDED) == mavlink2.MAV_RESULT_ACCEPTED
-        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, STEP_WAIT_S, "GUIDED")
+        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, crew.STEP_WAIT_S, "GUIDED")
         t_click = time.monotonic()
         assert guided_item() == mavlink2.MAV_MISSION_ACCEPTED
         click_s = first_servo(t_click, driven=True)
-        start = d.wait_line("event=goto_start", STEP_WAIT_S)
+        start = d.wait_line("event=goto_start", crew.STEP_WAIT_S)
         found = re.search(r"lat_deg=(\S+) lon_deg=(\S+)", start)
         assert found is not None, start
         place_ne = latlon_to_ne(float(found[1]), float(found[2]), *HOME_LATLON)
         click_m = math.dist(place_ne, FIRST_NE)
-        d.wait_line("event=goto_arrived", LEG_WAIT_S)
+        d.wait_line("event=goto_arrived", crew.LEG_WAIT_S)
         held_from = time.monotonic() + first_servo(time.monotonic(), driven=False)
         obs.wait_until(lambda: time.monotonic() >= held_from + 2.0, 5.0, "2 s held")
         held = [s.pwm_us for s in obs.servo if s.wall_s >= held_from]
@@ -113,11 +103,9 @@ def test_go_to_location_as_a_guided_mission_item(sitl: SitlVehicle, tmp_path: Pa
         end_m = math.hypot(p.north_m - place_ne[0], p.east_m - place_ne[1])
         mark = d.mark()
         assert gcs.set_mode(0) == mavlink2.MAV_RESULT_ACCEPTED  # MANUAL: helixd lets go
-        d.wait_line("event=rc_override_released", STEP_WAIT_S, after=mark)
+        d.wait_line("event=rc_override_released", crew.STEP_WAIT_S, after=mark)
     finally:
-        d.stop(30.0)
-        gcs.close()
-        (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        crew.close_serve(d, gcs, tmp_path)
     print(
         f"goto on SITL: Go to location (MISSION_ITEM current 2) → scrolls driven {click_s:.2f} s;"
         f" held {end_m:.2f} m from the place ArduPilot took ({click_m:.2f} m from the click)"

@@ -28,14 +28,11 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.sitl.conftest import (
     AUTOPILOT_SYSID,
-    CONNECT_TIMEOUT_S,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SitlVehicle,
-    connect_tcp,
 )
-from tests.sitl.test_sitl_qgc import CONFIG, MODE_GUIDED, MODE_MANUAL
-from tests.sitl.test_sitl_serve import GroundStation, serve_proc
+from tests.sitl.test_sitl_qgc import CONFIG, MODE_MANUAL
+from tests.sitl.test_sitl_serve import serve_proc
+from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(900)]
 
@@ -43,17 +40,12 @@ ACTIONS = Path(__file__).resolve().parents[2] / "config" / "qgc" / "helixd-actio
 LONG_LEG_NE_M = [(80.0, 0.0)]  # one straight leg, long enough for three speeds to settle
 MISSION_MPS = 0.6  # the plan's cruise (control.max_speed_mps)
 SETTLED_MPS = 0.05  # within this of the asked speed over a 2 s window
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
 SETTLE_WAIT_S = 30.0
 
 
 def test_mavlink_actions_change_helixds_speed(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
+    gcs = crew.ground_station(sitl)
     actions = json.loads(ACTIONS.read_text(encoding="utf-8"))
     assert (actions["fileType"], actions["version"]) == ("MavlinkActions", 1)
     slow, back = actions["actions"]
@@ -71,7 +63,7 @@ def test_mavlink_actions_change_helixds_speed(sitl: SitlVehicle, tmp_path: Path)
                 (r for c, cmd, r in gcs.acks_from[seen:] if (c, cmd) == (comp, command)), None
             )
 
-        result = gcs.wait_value(ack, STEP_WAIT_S, f"COMMAND_ACK from component {comp}")
+        result = gcs.wait_value(ack, crew.STEP_WAIT_S, f"COMMAND_ACK from component {comp}")
         return int(result)
 
     def action(a: dict[str, Any]) -> int:
@@ -101,15 +93,8 @@ def test_mavlink_actions_change_helixds_speed(sitl: SitlVehicle, tmp_path: Path)
     figures: list[str] = []
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", STATE_WAIT_S)
-        gcs.upload(LONG_LEG_NE_M, 30.0)
-        d.wait_line("event=serve_state state=ready", STATE_WAIT_S)
-        assert gcs.set_mode(MODE_GUIDED) == mavlink2.MAV_RESULT_ACCEPTED
-        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, STEP_WAIT_S, "GUIDED")
-        arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
-        assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
-        obs.wait_until(lambda: bool(obs.armed()), STEP_WAIT_S, "armed")
-        result = gcs.command_long(mavlink2.MAV_CMD_MISSION_START, (0.0, 0.0))
+        crew.upload_when_asked(d, lambda: gcs.upload(LONG_LEG_NE_M, 30.0))  # Plan view: Upload
+        result = crew.start_mission(sitl, gcs)
         assert result == mavlink2.MAV_RESULT_ACCEPTED, result
         figures.append(f"cruise reached in {settles_at(MISSION_MPS, 'the cruise'):.1f} s")
 
@@ -129,11 +114,9 @@ def test_mavlink_actions_change_helixds_speed(sitl: SitlVehicle, tmp_path: Path)
         figures.append(f"back to 0.6 in {settles_at(MISSION_MPS, 'mission speed'):.1f} s")
         mark = d.mark()
         assert gcs.set_mode(MODE_MANUAL) == mavlink2.MAV_RESULT_ACCEPTED
-        d.wait_line("event=rc_override_released", STEP_WAIT_S, after=mark)
+        d.wait_line("event=rc_override_released", crew.STEP_WAIT_S, after=mark)
     finally:
-        d.stop(30.0)
-        gcs.close()
-        (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        crew.close_serve(d, gcs, tmp_path)
     print("MAVLink Actions on SITL: " + "; ".join(figures))
     log = d.log_text()
     assert log.count("event=crew_speed") == 2, log

@@ -31,15 +31,12 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.sitl.conftest import (
-    CONNECT_TIMEOUT_S,
     NEUTRAL_US,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SitlVehicle,
-    connect_tcp,
     outputs_near,
 )
-from tests.sitl.test_sitl_serve import GroundStation, mono_of, serve_proc
+from tests.sitl.test_sitl_serve import mono_of, serve_proc
+from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -55,37 +52,14 @@ CONFIG: dict[str, Any] = {
 START_MAX_S = 1.0
 PAUSE_MAX_S = 0.5
 CONTINUE_MAX_S = 1.0
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
 MISSION_WAIT_S = 300.0
 
 
 def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
-    figures: list[str] = []
-
-    def note(what: str, seconds: float) -> None:
-        figures.append(f"{what}: {seconds:.2f} s")
-        print(f"QGC on SITL: {what}: {seconds:.2f} s")
-
-    def after(t0: float, ok: Any, what: str) -> float:
-        """Wall seconds from t0 to the first SERVO_OUTPUT_RAW satisfying ``ok``."""
-
-        def found() -> float | None:
-            return next((s.wall_s for s in obs.servo if s.wall_s >= t0 and ok(s.pwm_us)), None)
-
-        obs.wait_until(lambda: found() is not None, STEP_WAIT_S, what, abort=d.ended)
-        at = found()
-        assert at is not None
-        return at - t0
-
-    def driven(pwm: tuple[int, int, int, int]) -> bool:
-        """Outputs 1 or 3 off trim: helixd commands the scrolls."""
-        return not outputs_near(pwm, NEUTRAL_US)
+    gcs = crew.ground_station(sitl)
+    steps = crew.ServoSteps(sitl, "QGC on SITL", crew.STEP_WAIT_S, lambda: d.ended())
+    note, after, figures = steps.note, steps.after, steps.figures
 
     def set_mode(mode: int) -> float:
         """Vehicle::setFlightMode → MAV_CMD_DO_SET_MODE to the autopilot; when it was sent."""
@@ -95,24 +69,22 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
 
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", STATE_WAIT_S)
-        gcs.upload(WAYPOINTS_NE_M, 30.0)  # Plan view: Upload
-        d.wait_line("event=serve_state state=ready", STATE_WAIT_S)
+        crew.upload_when_asked(d, lambda: gcs.upload(WAYPOINTS_NE_M, 30.0))  # Plan view: Upload
         assert not obs.armed()
 
         # Start Mission: APMFirmwarePlugin::startMission — Guided, arm, MISSION_START
         set_mode(MODE_GUIDED)
-        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, STEP_WAIT_S, "GUIDED")
+        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, crew.STEP_WAIT_S, "GUIDED")
         arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
         assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
-        obs.wait_until(lambda: bool(obs.armed()), STEP_WAIT_S, "armed")
+        obs.wait_until(lambda: bool(obs.armed()), crew.STEP_WAIT_S, "armed")
         t_start = time.monotonic()
         result = gcs.command_long(mavlink2.MAV_CMD_MISSION_START, (0.0, 0.0))
         assert result == mavlink2.MAV_RESULT_ACCEPTED, result
-        start_s = after(t_start, driven, "scrolls driven after Start Mission")
+        start_s = after(t_start, crew.driven, "scrolls driven after Start Mission")
         note("Start Mission → scrolls driven", start_s)
         assert obs.mode() == MODE_AUTO
-        sitl.wait_driving(d, 1.0, STATE_WAIT_S)
+        sitl.wait_driving(d, 1.0, crew.STATE_WAIT_S)
 
         # Pause: APMFirmwarePlugin::pauseVehicle → Hold
         t_pause = set_mode(MODE_HOLD)
@@ -126,7 +98,7 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
 
         # Continue: the mode menu's Auto
         t_continue = set_mode(MODE_AUTO)
-        continue_s = after(t_continue, driven, "scrolls driven after Continue")
+        continue_s = after(t_continue, crew.driven, "scrolls driven after Continue")
         note("Continue (AUTO) → scrolls driven", continue_s)
         assert d.log_text().count("event=auto_start") == 1  # the same flight went on
 
@@ -135,15 +107,15 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
         t_item = time.monotonic()
         item = gcs.command_long(mavlink2.MAV_CMD_DO_SET_MISSION_CURRENT, (3.0,))
         assert item == mavlink2.MAV_RESULT_ACCEPTED, item
-        line = d.wait_line("event=auto_start item=3", STEP_WAIT_S, after=mark)
+        line = d.wait_line("event=auto_start item=3", crew.STEP_WAIT_S, after=mark)
         note("set current waypoint 3 → new flight from item 3", mono_of(line) - t_item)
 
         # MANUAL from the mode menu: helixd lets go
         mark = d.mark()
         t_manual = set_mode(MODE_MANUAL)
-        line = d.wait_line("event=rc_override_released", STEP_WAIT_S, after=mark)
+        line = d.wait_line("event=rc_override_released", crew.STEP_WAIT_S, after=mark)
         note("MANUAL → overrides released", mono_of(line) - t_manual)
-        d.wait_line("event=serve_state state=paused", STATE_WAIT_S, after=mark)
+        d.wait_line("event=serve_state state=paused", crew.STATE_WAIT_S, after=mark)
         assert obs.armed() and obs.mode() == MODE_MANUAL  # no HOLD asked, not disarmed
 
         # Auto again, to the end
@@ -151,9 +123,7 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
         set_mode(MODE_AUTO)
         d.wait_line("event=serve_state state=completed", MISSION_WAIT_S, after=mark)
     finally:
-        d.stop(30.0)
-        gcs.close()
-        (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        crew.close_serve(d, gcs, tmp_path)
     print("QGC on SITL: " + "; ".join(figures))
     assert start_s <= START_MAX_S, figures
     assert pause_s <= PAUSE_MAX_S, figures

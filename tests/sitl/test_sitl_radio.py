@@ -24,15 +24,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.exitcodes import ExitCode
-from tests.sitl.test_sitl_gps import (  # the same bounds and checks as the GPS fault
-    DRIVING_TIMEOUT_S,
-    EXIT_S,
-    LINK_SLACK_S,
-    MODE_HOLD,
-    SETTLE_S,
-    STOP_WITHIN_S,
-    neutral,
-)
+from tests.sitl import test_sitl_gps as gps  # the same bounds and checks as the GPS fault
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun, SitlVehicle
@@ -58,7 +50,7 @@ def test_radio_lost_stops_the_scrolls_within_1_s(
     obs.set_param("FS_THR_VALUE", float(FS_THR_VALUE_US))
     obs.set_message_interval(int(mavlink.MAVLINK_MSG_ID_SYS_STATUS), STATUS_STREAM_HZ)
     daemon = launch_helixd("rc_override", channel_offset=CHANNEL_OFFSET)
-    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
+    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=gps.DRIVING_TIMEOUT_S)
     before = obs.position()
     assert before is not None
 
@@ -66,16 +58,16 @@ def test_radio_lost_stops_the_scrolls_within_1_s(
     t0 = time.monotonic()
     t0_boot = before.t_boot_s
     obs.wait_until(
-        lambda: any(s.wall_s >= t0 and neutral(s.pwm_us) for s in obs.servo[-50:]),
-        STOP_WITHIN_S + LINK_SLACK_S + 5.0,
+        lambda: any(s.wall_s >= t0 and gps.neutral(s.pwm_us) for s in obs.servo[-50:]),
+        gps.STOP_WITHIN_S + gps.LINK_SLACK_S + 5.0,
         "outputs 1 and 3 at trim after the radio loss",
     )
-    neutral_s = next(s.wall_s for s in obs.servo if s.wall_s >= t0 and neutral(s.pwm_us)) - t0
-    obs.wait_until(lambda: obs.mode() == MODE_HOLD, 10.0, "HOLD after the radio loss")
-    hold_s = next(t for t, m in obs.mode_changes if t >= t0 and m == MODE_HOLD) - t0
-    code = daemon.wait_exit(EXIT_S)
+    neutral_s = next(s.wall_s for s in obs.servo if s.wall_s >= t0 and gps.neutral(s.pwm_us)) - t0
+    obs.wait_until(lambda: obs.mode() == gps.MODE_HOLD, 10.0, "HOLD after the radio loss")
+    hold_s = next(t for t, m in obs.mode_changes if t >= t0 and m == gps.MODE_HOLD) - t0
+    code = daemon.wait_exit(gps.EXIT_S)
     log = daemon.log_text()
-    time.sleep(SETTLE_S)  # the rover coasts; the distance is taken after it stopped
+    time.sleep(gps.SETTLE_S)  # the rover coasts; the distance is taken after it stopped
     track = [p for p in obs.positions if p.t_boot_s >= t0_boot]
     last = track[-1] if track else before
     after_m = math.hypot(last.north_m - before.north_m, last.east_m - before.east_m)
@@ -90,4 +82,4 @@ def test_radio_lost_stops_the_scrolls_within_1_s(
     )
     assert code == ExitCode.FAULT, log[-4000:]
     assert "event=fallback cause=rc_lost" in log, log[-4000:]
-    assert neutral_s <= STOP_WITHIN_S + LINK_SLACK_S
+    assert neutral_s <= gps.STOP_WITHIN_S + gps.LINK_SLACK_S

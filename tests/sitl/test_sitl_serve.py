@@ -143,6 +143,14 @@ class GroundStation(MavClient):
     mission_current: list[tuple[float, int]] = field(default_factory=list)  # (wall s, seq)
     _hb_stop: threading.Event = field(default_factory=threading.Event)
 
+    def wait_helixd_says(self, state: str, timeout_s: float) -> None:
+        """Until helixd's STATUSTEXT ``helixd: <state>…`` reaches the ground station."""
+        self.wait_until(
+            lambda: any(t.startswith(f"helixd: {state}") for t in self.helixd_texts),
+            timeout_s,
+            f"STATUSTEXT 'helixd: {state}' at the ground station",
+        )
+
     def __post_init__(self) -> None:
         super().__post_init__()
         self.mav = mavlink2.MAVLink(None, srcSystem=GCS_SYSID, srcComponent=GCS_COMPID)
@@ -422,11 +430,7 @@ def test_serve_start_pause_continue(serve_sitl: SitlVehicle, tmp_path: Path) -> 
         clock.add("mission upload (mission protocol, 4 items)", t_uploaded - t_upload)
         ready = d.wait_line("event=serve_state state=ready", STATE_WAIT_S, after=mark)
         clock.add("upload acknowledged → state=ready", mono_of(ready) - t_uploaded)
-        gcs.wait_until(
-            lambda: any(t.startswith("helixd: ready") for t in gcs.helixd_texts),
-            STATE_WAIT_S,
-            "STATUSTEXT 'helixd: ready' at the ground station",
-        )
+        gcs.wait_helixd_says("ready", STATE_WAIT_S)
         assert f"{len(WAYPOINTS_NE_M)} waypoints" in ready, ready
         assert not obs.armed(), "helixd armed on its own after the upload"
 
@@ -505,11 +509,7 @@ def test_serve_start_pause_continue(serve_sitl: SitlVehicle, tmp_path: Path) -> 
         clock.add("DO_PAUSE_CONTINUE 0 → HOLD", hold_s2)
         paused2 = d.wait_line("event=serve_state state=paused", STATE_WAIT_S, after=mark)
         clock.add("DO_PAUSE_CONTINUE 0 → state=paused", mono_of(paused2) - t_pause)
-        gcs.wait_until(
-            lambda: any(t.startswith("helixd: paused") for t in gcs.helixd_texts),
-            STATE_WAIT_S,
-            "STATUSTEXT 'helixd: paused' at the ground station",
-        )
+        gcs.wait_helixd_says("paused", STATE_WAIT_S)
         pause_pos = obs.position()
         assert pause_pos is not None
 

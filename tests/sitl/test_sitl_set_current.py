@@ -21,14 +21,11 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from tests.sitl.conftest import (
-    CONNECT_TIMEOUT_S,
-    PORT_STRIDE,
-    SERIAL2_PORT,
     SitlVehicle,
-    connect_tcp,
 )
-from tests.sitl.test_sitl_qgc import CONFIG, MODE_AUTO, MODE_GUIDED
-from tests.sitl.test_sitl_serve import GroundStation, mono_of, serve_proc
+from tests.sitl.test_sitl_qgc import CONFIG, MODE_AUTO
+from tests.sitl.test_sitl_serve import mono_of, serve_proc
+from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -40,8 +37,6 @@ ITEMS: list[tuple[float, float] | tuple[int, tuple[float, ...]]] = [
     (0.0, 6.0),  # 4
     (mavlink2.MAV_CMD_DO_JUMP, (2.0, 1.0)),  # 5: back to item 2, once
 ]
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
 LAP_WAIT_S = 180.0
 MISSION_WAIT_S = 300.0
 ITEM_MAX_S = 1.0  # the crew's command to the next flight's start
@@ -49,25 +44,15 @@ ITEM_MAX_S = 1.0  # the crew's command to the next flight's start
 
 def test_set_current_waypoint_in_a_commands_mission(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
+    gcs = crew.ground_station(sitl)
     d = serve_proc(tmp_path, sitl, CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", STATE_WAIT_S)
-        gcs.upload_items(ITEMS, 30.0)  # Plan view: Upload
-        d.wait_line("event=serve_state state=ready", STATE_WAIT_S)
+        crew.upload_when_asked(d, lambda: gcs.upload_items(ITEMS, 30.0))  # Plan view: Upload
 
         # Start Mission: APMFirmwarePlugin::startMission — Guided, arm, MISSION_START
-        assert gcs.set_mode(MODE_GUIDED) == mavlink2.MAV_RESULT_ACCEPTED
-        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, STEP_WAIT_S, "GUIDED")
-        arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
-        assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
-        obs.wait_until(lambda: bool(obs.armed()), STEP_WAIT_S, "armed")
-        result = gcs.command_long(mavlink2.MAV_CMD_MISSION_START, (0.0, 0.0))
+        result = crew.start_mission(sitl, gcs)
         assert result == mavlink2.MAV_RESULT_ACCEPTED, result
-        d.wait_line("event=auto_start", STEP_WAIT_S)
+        d.wait_line("event=auto_start", crew.STEP_WAIT_S)
 
         # the autopilot's own walk: 1, 3, 4, then back to 3 through the jump (lap 2)
         def items_seen() -> list[int]:
@@ -81,7 +66,7 @@ def test_set_current_waypoint_in_a_commands_mission(sitl: SitlVehicle, tmp_path:
         assert obs.mode() == MODE_AUTO
         # helixd has seen lap 2 too (its own MISSION_CURRENT stream: a click within one period
         # of the jump would beat its report, and the counters it holds would be lap 1's)
-        d.wait_line("event=autopilot_step item=3 step=4", STEP_WAIT_S)
+        d.wait_line("event=autopilot_step item=3 step=4", crew.STEP_WAIT_S)
         assert "event=autopilot_item_set" not in d.log_text()  # the jump back is the walk's
 
         # set current waypoint 1: Vehicle::setCurrentMissionSequence → DO_SET_MISSION_CURRENT
@@ -89,15 +74,13 @@ def test_set_current_waypoint_in_a_commands_mission(sitl: SitlVehicle, tmp_path:
         t_item = time.monotonic()
         item = gcs.command_long(mavlink2.MAV_CMD_DO_SET_MISSION_CURRENT, (1.0,))
         assert item == mavlink2.MAV_RESULT_ACCEPTED, item
-        d.wait_line("event=autopilot_item_set item=1", STEP_WAIT_S, after=mark)
-        line = d.wait_line("event=serve_flight_start request=auto", STEP_WAIT_S, after=mark)
+        d.wait_line("event=autopilot_item_set item=1", crew.STEP_WAIT_S, after=mark)
+        line = d.wait_line("event=serve_flight_start request=auto", crew.STEP_WAIT_S, after=mark)
         item_s = mono_of(line) - t_item
         print(f"set current waypoint 1 on lap 2 → new flight from item 1: {item_s:.2f} s")
         d.wait_line("event=serve_state state=completed", MISSION_WAIT_S, after=mark)
     finally:
-        d.stop(30.0)
-        gcs.close()
-        (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        crew.close_serve(d, gcs, tmp_path)
     assert item_s <= ITEM_MAX_S, item_s
     log = d.log_text()
     assert log.count("event=autopilot_item_set") == 1, log

@@ -40,7 +40,7 @@ from helixd.recorder.track import TrackPoint
 from tests.support.skid_setup import first_step_t_s, square_metrics
 
 if TYPE_CHECKING:
-    from tests.sitl.conftest import DaemonRun, ServoSample, SitlVehicle
+    from tests.sitl.conftest import DaemonRun, MavClient, ServoSample, SitlVehicle
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
@@ -266,14 +266,21 @@ def test_roll_square_completes(
     assert shape.left_turn_sin > 0.3  # ≈ sin 45° for the far corner of a left-hand square
 
 
+def driving_square(
+    sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
+) -> tuple[DaemonRun, MavClient]:
+    """helixd flying the square with ``backend``, 2 m driven; (helixd, the observer)."""
+    prepare(sitl, backend)
+    daemon = launch_helixd(backend)
+    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
+    return daemon, sitl.obs
+
+
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_pilot_takeover_by_mode_switch(
     sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
 ) -> None:
-    prepare(sitl, backend)
-    daemon = launch_helixd(backend)
-    obs = sitl.obs
-    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
+    daemon, obs = driving_square(sitl, launch_helixd, backend)
     assert deflected(obs.servo_pwm())
 
     # The pilot flips to HOLD (from the second GCS link). HOLD alone does not stop an
@@ -364,10 +371,7 @@ def test_pilot_takeover_by_mode_switch(
 def test_kill_9_mid_mission_reports_outputs(
     sitl: SitlVehicle, launch_helixd: Callable[[str], DaemonRun], backend: str
 ) -> None:
-    prepare(sitl, backend)
-    daemon = launch_helixd(backend)
-    obs = sitl.obs
-    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=DRIVING_TIMEOUT_S)
+    daemon, obs = driving_square(sitl, launch_helixd, backend)
     last = obs.last_servo()
     assert last is not None
     killed_wall = time.monotonic()

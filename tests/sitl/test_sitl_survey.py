@@ -31,13 +31,7 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
 from helixd.recorder.track import TrackMetrics, TrackPoint
-from tests.sitl.conftest import (
-    SITL_BIN_ENV,
-    SitlVehicle,
-    pick_instance,
-    sitl_speedup,
-    start_sitl,
-)
+from tests.sitl.conftest import SITL_BIN_ENV, SitlVehicle, pick_instance, sitl_speedup, start_sitl
 from tests.support.paths import REPO_ROOT
 from tests.support.skid_setup import SURVEY_XY_M, first_step_t_s, survey_metrics
 

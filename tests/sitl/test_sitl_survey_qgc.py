@@ -30,20 +30,11 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.recorder.track import TrackMetrics
-from tests.sitl.conftest import (
-    CONNECT_TIMEOUT_S,
-    PORT_STRIDE,
-    SERIAL2_PORT,
-    SITL_BIN_ENV,
-    SitlVehicle,
-    connect_tcp,
-    pick_instance,
-    sitl_speedup,
-    start_sitl,
-)
+from tests.sitl.conftest import SITL_BIN_ENV, SitlVehicle, pick_instance, sitl_speedup, start_sitl
 from tests.sitl.test_sitl_qgc import CONFIG as QGC_CONFIG
-from tests.sitl.test_sitl_serve import HOME_LATLON, GroundStation, serve_proc
+from tests.sitl.test_sitl_serve import HOME_LATLON, serve_proc
 from tests.sitl.test_sitl_survey import MISSION_SIM_S, fly_helixd, row, track_of
+from tests.support import sitl_steps as crew
 from tests.support.skid_setup import SURVEY_XY_M, metrics_in_frame
 
 if TYPE_CHECKING:
@@ -54,8 +45,6 @@ pytestmark = [pytest.mark.sitl, pytest.mark.timeout(3000)]
 MODE_GUIDED, MODE_AUTO = 15, 10
 MAV_CMD_REQUEST_MESSAGE = 512
 MSG_GPS_GLOBAL_ORIGIN = 49
-STATE_WAIT_S = 120.0
-STEP_WAIT_S = 20.0
 # "no less precise": within what two flights of the same code differ by on this SITL
 RMS_MARGIN_M = 0.02
 MAX_MARGIN_M = 0.05
@@ -78,29 +67,18 @@ def fly_from_qgc(sitl: SitlVehicle, workdir: Path) -> TrackMetrics | None:
     points = [frame.to_ned(x, y) for x, y in SURVEY_XY_M]
     from_home = [(n - home_n, e - home_e) for n, e in points]
 
-    gcs = GroundStation(
-        connect_tcp(SERIAL2_PORT + PORT_STRIDE * sitl.instance, CONNECT_TIMEOUT_S, sitl.dead),
-        "gcs",
-    )
+    gcs = crew.ground_station(sitl)
     d = serve_proc(workdir, sitl, QGC_CONFIG)
     try:
-        d.wait_line("no mission on the autopilot", STATE_WAIT_S)
-        gcs.upload(from_home, 30.0)  # Plan view: Upload
-        d.wait_line("event=serve_state state=ready", STATE_WAIT_S)
+        crew.upload_when_asked(d, lambda: gcs.upload(from_home, 30.0))  # Plan view: Upload
         # Start Mission: APMFirmwarePlugin::startMission — Guided, arm, MISSION_START
-        assert gcs.set_mode(MODE_GUIDED) == mavlink2.MAV_RESULT_ACCEPTED
-        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, STEP_WAIT_S, "GUIDED")
-        arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
-        assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
-        started = gcs.command_long(mavlink2.MAV_CMD_MISSION_START, (0.0, 0.0))
+        started = crew.start_mission(sitl, gcs, wait_armed=False)
         assert started == mavlink2.MAV_RESULT_ACCEPTED, started
-        obs.wait_until(lambda: obs.mode() == MODE_AUTO, STEP_WAIT_S, "AUTO")
-        wait_s = STATE_WAIT_S + MISSION_SIM_S / sitl.speedup
+        obs.wait_until(lambda: obs.mode() == MODE_AUTO, crew.STEP_WAIT_S, "AUTO")
+        wait_s = crew.STATE_WAIT_S + MISSION_SIM_S / sitl.speedup
         d.wait_line("event=serve_state state=completed", wait_s)
     finally:
-        d.stop(30.0)
-        gcs.close()
-        (workdir / "serve.log").write_text(d.log_text(), encoding="utf-8")
+        crew.close_serve(d, gcs, workdir)
     runs = sorted(p for p in (workdir / "runs").iterdir() if p.is_dir())
     summaries = [json.loads((r / "summary.json").read_text()) for r in runs]
     assert [s["completed"] for s in summaries] == [True], summaries

@@ -1,6 +1,11 @@
-"""Running ``helixd``'s command line in-process, as its tests do."""
+"""Running ``helixd``'s command line in-process, as its tests do, or as its own process."""
 
 from __future__ import annotations
+
+import subprocess
+import sys
+from collections.abc import Mapping
+from pathlib import Path
 
 import pytest
 
@@ -20,3 +25,20 @@ def run_main(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, 
     code = main_exit(argv)
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def helixd_process(
+    argv: list[str], cwd: Path, timeout_s: float = 60.0, env: Mapping[str, str] | None = None
+) -> subprocess.CompletedProcess[str]:
+    """``python -m helixd ARGV`` as its own process in ``cwd``, its output captured as text."""
+    command = [sys.executable, "-m", "helixd", *argv]
+    return subprocess.run(
+        command, cwd=cwd, env=env, capture_output=True, text=True, timeout=timeout_s, check=False
+    )
+
+
+def config_file(tmp_path: Path, text: str) -> str:
+    """``text`` as ``tmp_path``/helixd.yaml; its path, for ``--config``."""
+    path = tmp_path / "helixd.yaml"
+    path.write_text(text, encoding="utf-8")
+    return str(path)

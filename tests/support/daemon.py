@@ -92,6 +92,12 @@ class DaemonProc:
         self.join_pump()
         return code
 
+    def outcome(self, timeout_s: float) -> tuple[int, str, Path]:
+        """Once it exited within ``timeout_s``: (exit code, its plain ``helixd: RESULT`` line,
+        its log)."""
+        code = self.wait_exit(timeout_s)
+        return code, self.wait_line("helixd: RESULT", 5.0), self.log_text()
+
     def ended(self) -> str | None:
         """None while running; else why it is no use waiting for it any more."""
         code = self.proc.poll()
@@ -112,6 +118,11 @@ class DaemonProc:
 
     def signal(self, sig: signal.Signals) -> None:
         self.proc.send_signal(sig)
+
+    def terminate_ok(self, timeout_s: float = 30.0) -> None:
+        """SIGTERM, as systemd stops a service: the daemon exits 0 within ``timeout_s``."""
+        self.proc.send_signal(signal.SIGTERM)
+        assert self.wait_exit(timeout_s) == 0
 
     def kill(self, timeout_s: float = 10.0) -> None:
         """SIGKILL if still running (test clean-up), then wait for it and its log."""

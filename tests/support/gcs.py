@@ -67,10 +67,12 @@ def do_item(seq: int, command: int, *params: float) -> Any:
     )  # fmt: skip
 
 
-def upload_items(gcs: MavClient, items: list[Any], timeout_s: float = 20.0) -> None:
-    """Upload ``items`` (home first) by the mission protocol; AssertionError unless
-    MISSION_ACK ACCEPTED."""
-    gcs.mav.mission_count_send(1, 1, len(items), mavlink.MAV_MISSION_TYPE_MISSION)
+def upload_typed(
+    gcs: MavClient, items: list[Any], mission_type: int, what: str, timeout_s: float = 20.0
+) -> None:
+    """Upload ``items`` of ``mission_type`` by the mission protocol, each sent with the
+    requested seq; AssertionError unless MISSION_ACK ACCEPTED (``what`` names the list)."""
+    gcs.mav.mission_count_send(1, 1, len(items), mission_type)
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         msg = gcs.conn.recv_match(
@@ -80,12 +82,18 @@ def upload_items(gcs: MavClient, items: list[Any], timeout_s: float = 20.0) -> N
         if msg is None or int(msg.target_system) != QGC_SYSID:
             continue
         if msg.get_type() == "MISSION_ACK":
-            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, f"upload refused: {msg}"
+            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, f"{what} refused: {msg}"
             return
         item = items[int(msg.seq)]
         item.seq = int(msg.seq)
         gcs.mav.send(item)
-    raise AssertionError("mission upload: no MISSION_ACK")
+    raise AssertionError(f"{what} upload: no MISSION_ACK")
+
+
+def upload_items(gcs: MavClient, items: list[Any], timeout_s: float = 20.0) -> None:
+    """Upload ``items`` (home first) by the mission protocol; AssertionError unless
+    MISSION_ACK ACCEPTED."""
+    upload_typed(gcs, items, mavlink.MAV_MISSION_TYPE_MISSION, "mission", timeout_s)
 
 
 def fence_circle(seq: int, north_m: float, east_m: float, radius_m: float, inclusion: bool) -> Any:
@@ -104,21 +112,7 @@ def fence_circle(seq: int, north_m: float, east_m: float, radius_m: float, inclu
 
 def upload_fence(gcs: MavClient, items: list[Any], timeout_s: float = 20.0) -> None:
     """Upload fence items; AssertionError unless MISSION_ACK ACCEPTED."""
-    fence = mavlink.MAV_MISSION_TYPE_FENCE
-    gcs.mav.mission_count_send(1, 1, len(items), fence)
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        msg = gcs.conn.recv_match(
-            type=["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"], blocking=True,
-            timeout=0.5,
-        )  # fmt: skip
-        if msg is None or int(msg.target_system) != QGC_SYSID:
-            continue
-        if msg.get_type() == "MISSION_ACK":
-            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, f"fence refused: {msg}"
-            return
-        gcs.mav.send(items[int(msg.seq)])
-    raise AssertionError("fence upload: no MISSION_ACK")
+    upload_typed(gcs, items, mavlink.MAV_MISSION_TYPE_FENCE, "fence", timeout_s)
 
 
 def command(gcs: MavClient, cmd: int, *params: float, timeout_s: float = 10.0) -> int:

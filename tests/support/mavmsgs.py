@@ -23,6 +23,15 @@ def decoded(msg: Any, c: Any) -> Any:
 
 
 AP = codec()
+# the ids a GCS such as Mission Planner sends with (MAV_GCS_SYSID's default 255)
+GCS_IDS = (255, 190)
+
+
+def stamp(msg: Any, who: tuple[int, int] = GCS_IDS, v1: bool = False) -> Any:
+    """``msg`` as received from ``who`` (packed and decoded: real sender ids; ``v1``: as a
+    MAVLink 1 frame)."""
+    mav = mavlink.MAVLink(None, srcSystem=who[0], srcComponent=who[1])
+    return mav.decode(bytearray(msg.pack(mav, force_mavlink1=v1)))
 
 
 def hb(custom_mode: int, armed: bool = False, c: Any = AP) -> Any:

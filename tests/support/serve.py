@@ -3,18 +3,36 @@ simulator with a QGC-like ground station on a second link (tests.support.gcs).""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import json
+import time
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from helixd.mav.constants import (
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_MISSION_START,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_MODE_FLAG_SAFETY_ARMED,
+    MAV_RESULT_ACCEPTED,
+)
+from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.server import SimServer
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import DaemonProc, spawn_daemon
 from tests.support.gcs import QGC_SYSID
-from tests.support.harness import BASE_CONFIG, MavClient, deep_merge, running_sim_links
+from tests.support.harness import (
+    BASE_CONFIG,
+    MavClient,
+    deep_merge,
+    overrides_released,
+    running_sim_links,
+    time_until,
+)
 
 SWITCH_CH = 7
 LOW_US, HIGH_US = 1100, 1900
@@ -57,3 +75,78 @@ def sim_with_ground_station(
 def moving(s: SimSnapshot) -> bool:
     """Armed and driving (from the simulator's side)."""
     return s.armed and s.speed_mps > MOVING_MPS
+
+
+@contextmanager
+def serving(tmp_path: Path, url: str, extra: dict[str, Any] | None = None) -> Iterator[DaemonProc]:
+    """``helixd serve`` (:func:`serve_proc`, its output pumped) for the ``with`` block; then
+    killed if still up and its log kept in ``tmp_path``/serve.log."""
+    d = serve_proc(tmp_path, url, extra)
+    d.start_pump()
+    try:
+        yield d
+    finally:
+        d.kill()
+        (tmp_path / "serve.log").write_text(d.log_text(), encoding="utf-8")
+
+
+def flight_summaries(tmp_path: Path) -> list[dict[str, Any]]:
+    """summary.json of each flight ``helixd serve`` recorded under ``tmp_path``/runs, in order."""
+    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    return [json.loads((r / "summary.json").read_text()) for r in runs]
+
+
+def set_mode(gcs: MavClient, name: str) -> float:
+    """QGroundControl's Vehicle::setFlightMode for ArduPilot: MAV_CMD_DO_SET_MODE to the
+    autopilot with the custom mode; returns the monotonic time it was sent."""
+    sent = time.monotonic()
+    number = MODE_NUMBERS[name]
+    result = gcs.command(MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
+    assert result == MAV_RESULT_ACCEPTED, (name, result)
+    return sent
+
+
+def heartbeat_shows(gcs: MavClient, condition: Any) -> None:
+    """What QGroundControl's _setFlightModeAndValidate / _armVehicleAndValidate wait for: the
+    autopilot's HEARTBEAT on the ground station's own link showing the change."""
+    gcs.expect("HEARTBEAT", 10.0, lambda m: m.get_srcSystem() == 1 and condition(m))
+
+
+def upload_and_start(
+    server: SimServer, gcs: MavClient, d: DaemonProc, upload_mission: Callable[[], None]
+) -> None:
+    """QGroundControl's Plan view Upload (``upload_mission``) once ``helixd serve`` finds no
+    mission, then Start Mission on the disarmed rover once it is ready
+    (APMFirmwarePlugin::startMission: GUIDED, arm, MAV_CMD_MISSION_START to the autopilot):
+    until helixd starts driving in AUTO."""
+    d.wait_line("no mission on the autopilot", 60.0)
+    upload_mission()
+    d.wait_line("event=serve_state state=ready", 30.0)
+    set_mode(gcs, "GUIDED")
+    heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
+    assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+    heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+    assert gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+    d.wait_line("event=auto_start", 10.0)  # item 0 or 1: MISSION_CURRENT may lag the start
+    server.wait_for(moving, 20.0)
+
+
+def let_go_in_manual(server: SimServer, gcs: MavClient, d: DaemonProc) -> None:
+    """The crew picks MANUAL: helixd releases its overrides within 5 s and pauses."""
+    mark = d.mark()
+    t_manual = set_mode(gcs, "MANUAL")
+    time_until(server, overrides_released, t_manual, 5.0)
+    d.wait_line("event=serve_state state=paused", 30.0, after=mark)
+
+
+@contextmanager
+def serving_crew(
+    tmp_path: Path, extra: dict[str, Any] | None = None, **sim: Any
+) -> Iterator[tuple[SimServer, MavClient, DaemonProc]]:
+    """:func:`sim_with_ground_station` (``sim``: its arguments) with :func:`serving` on its
+    first link; yields (server, gcs, d)."""
+    with (
+        sim_with_ground_station(**sim) as (server, urls, gcs),
+        serving(tmp_path, urls[0], extra) as d,
+    ):
+        yield server, gcs, d

@@ -474,3 +474,14 @@ def test_floor_echo_answers_each_pose_with_one_override() -> None:
     assert [m.get_type() for m in msgs] == ["RC_CHANNELS_OVERRIDE"]
     assert (msgs[0].chan1_raw, msgs[0].chan5_raw) == (1500, 65535)
     assert msgs[0].get_srcSystem() == 247  # helixd's own system id, as the daemon sends
+
+
+def test_a_control_loop_run_that_measured_nothing_is_named() -> None:
+    good = {"control_steps": 500, "loop_ended_early": False, "fault": None}
+    assert loop.measured_nothing({"50": good}) == []
+    ended = {**good, "loop_ended_early": True, "fault": "gps_lost: no GPS_RAW_INT received"}
+    none = {**good, "control_steps": 0}
+    assert loop.measured_nothing({"50": ended, "200": none, "100": good}) == [
+        "50 Hz: the flight loop ended inside the window (gps_lost: no GPS_RAW_INT received)",
+        "200 Hz: no control step in the window",
+    ]
