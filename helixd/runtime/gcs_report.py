@@ -55,6 +55,7 @@ __all__ = [
     "chunk_statustext",
     "fault_text",
     "gcs_lines",
+    "prefixed_lines",
 ]
 
 CHUNK_CHARS = 50  # MAVLINK_MSG_STATUSTEXT_FIELD_TEXT_LEN
@@ -256,8 +257,21 @@ class GcsReporter:
         return out
 
     def _statustext(self, severity: int, text: str) -> list[Any]:
-        lines = gcs_lines(_ascii(text), self.config.max_text_chars)
+        lines = prefixed_lines(_ascii(text), self.config.max_text_chars)
         return [_mav.statustext_encode(severity, line.encode("ascii"), 0, 0) for line in lines]
+
+
+def prefixed_lines(text: str, max_chars: int, width: int = CHUNK_CHARS) -> list[str]:
+    """:func:`gcs_lines` of a text that starts with ``helixd: ``, the prefix on every line: a
+    ground station's message pane shows each as a line of its own, and a continuation without
+    it reads as another sender's (or the autopilot's) text. The text's own characters stay
+    within ``max_chars``; the prefixes repeated on continuation lines do not count."""
+    if not text.startswith(PREFIX):
+        return gcs_lines(text, max_chars, width)
+    body_width = width - len(PREFIX)
+    most = max(1, math.ceil(max_chars / body_width))
+    lines = gcs_lines(text[len(PREFIX) :], most * body_width, body_width)
+    return [PREFIX + line for line in lines]
 
 
 def gcs_lines(text: str, max_chars: int, width: int = CHUNK_CHARS) -> list[str]:

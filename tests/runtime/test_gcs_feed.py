@@ -79,9 +79,9 @@ def test_transport_drops_are_counted_not_fatal() -> None:
 def test_outbox_is_bounded() -> None:
     feed = GcsFeed(GcsReportConfig(burst=50, max_text_chars=500), Clock())
     for _ in range(8):
-        feed.fault("x", "y" * 490)  # 10 lines each (the word cut in 50s, none empty)
+        feed.fault("x", "y" * 490)  # 12 lines each (cut in 42s after "helixd: ")
     assert len(feed._outbox) == OUTBOX_MAX
-    assert feed.dropped == 8 * 10 - OUTBOX_MAX
+    assert feed.dropped == 8 * 12 - OUTBOX_MAX
 
 
 def test_disabled_sends_nothing() -> None:

@@ -39,6 +39,13 @@ def wire(msgs: list[Any]) -> list[Any]:
     return out
 
 
+def joined(lines: list[str]) -> str:
+    """The text of lines that each start with ``helixd: `` (every line of a long text does:
+    a ground station shows each as a line of its own), the prefix said once."""
+    assert lines and all(line.startswith("helixd: ") for line in lines), lines
+    return "helixd: " + " ".join(line.removeprefix("helixd: ") for line in lines)
+
+
 def texts(msgs: list[Any]) -> list[tuple[int, str]]:
     asm = StatusTextAssembler(timeout_s=5.0)
     got: list[tuple[int, str]] = []
@@ -75,9 +82,9 @@ def test_a_fault_reads_in_words_never_its_cause_identifier() -> None:
     out += r.feed(ReportedFault("pose_stale", "pose is 0.61 s old (limit 0.5 s)"), 0.0)
     assert [t for _, t in texts(out)] == [
         "helixd: stopped: pilot took over: mode changed to",
-        "HOLD (helixd set MANUAL)",
+        "helixd: HOLD (helixd set MANUAL)",
         "helixd: FAULT: position lost: pose is 0.61 s old",
-        "(limit 0.5 s)",
+        "helixd: (limit 0.5 s)",
     ]
     for cause in [*FaultCause, "fallback"]:
         assert "_" not in fault_text(cause), cause  # every identifier has its words
@@ -91,15 +98,15 @@ def test_long_text_goes_out_as_whole_lines_split_between_words() -> None:
     lines = [t for _, t in texts(out)]
     assert all(int(m.id) == 0 for m in out)  # each line stands alone
     assert all(0 < len(t) <= 50 for t in lines)
-    assert " ".join(lines) == "helixd: FAULT: f: " + detail  # nothing lost, no word cut
+    assert joined(lines) == "helixd: FAULT: f: " + detail  # nothing lost, no word cut
 
 
 def test_text_of_150_chars_keeps_its_tail_and_sends_no_empty_line() -> None:
     r = GcsReporter(CFG, 0.0)
     words = " ".join(["abcd"] * 28)  # 8 + 139 = 147 characters
     lines = [t for _, t in texts(r.feed(PhaseChange(words), 0.0))]
-    assert " ".join(lines) == "helixd: " + words
-    assert all(lines) and len(lines) == 3
+    assert joined(lines) == "helixd: " + words
+    assert all(len(t) <= 50 for t in lines) and len(lines) == 4  # 42 characters after the prefix
 
 
 def test_multiple_of_fifty_ends_with_empty_chunk() -> None:
@@ -112,8 +119,9 @@ def test_non_ascii_and_overlong_marked() -> None:
     cfg = GcsReportConfig(max_text_chars=60)
     r = GcsReporter(cfg, 0.0)
     out = r.feed(PhaseChange("pond ✓ " + "y" * 200), 0.0)
-    ((_, text),) = texts(out)
-    assert text == "helixd: pond ?..."  # the overlong word goes; the cut is marked
+    lines = [t for _, t in texts(out)]
+    # the overlong word is cut to the lines the 60 characters allow, the cut marked
+    assert lines == ["helixd: pond ?", "helixd: " + "y" * 39 + "..."]
 
 
 def test_helixds_own_non_ascii_is_spelt_in_ascii() -> None:
@@ -280,5 +288,5 @@ def test_seen_by_a_second_ground_station_through_the_simulated_autopilot() -> No
                         names.add(str(m.name))
             assert (5, "helixd: run") in got
             faults = [t for sev, t in got if sev == 2]  # whole lines, split between words
-            assert " ".join(faults) == "helixd: FAULT: position lost: " + long_fault.detail
+            assert joined(faults) == "helixd: FAULT: position lost: " + long_fault.detail
             assert names == {"xtrack_m", "wp_index"}
