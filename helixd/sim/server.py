@@ -291,6 +291,7 @@ class SimServer:
                 speedup=self.config.speedup,
                 plant=self.config.plant.value,
                 terrain=self.config.terrain.value,
+                media=None if self.config.media is None else self.config.media.source,
                 noise=self.config.noise.value,
             )
             self._ready.set()
