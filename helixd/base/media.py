@@ -13,11 +13,15 @@ Lookup rules:
 * where areas overlap, the **last** area in the file wins (draw the pond, then the island);
 * outside every area the map's ``default_medium`` applies, else the caller's ``fallback``.
 
+:func:`media_along` cuts a straight leg into runs of one medium each (for splitting a plan
+where the medium changes).
+
 The file reader is :mod:`helixd.files.media`.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -164,6 +168,88 @@ class MediaMapNe:
         return self.default_medium if area is None else area.medium
 
 
+@dataclass(frozen=True, slots=True)
+class MediaRun:
+    """A stretch of a straight leg in one medium: from ``start_ne`` to ``end_ne`` (north_m,
+    east_m), the fractions of the leg where it starts and ends."""
+
+    medium: Medium
+    start_fraction: float
+    end_fraction: float
+    start_ne: Point
+    end_ne: Point
+
+    @property
+    def length_m(self) -> float:
+        return math.hypot(self.end_ne[0] - self.start_ne[0], self.end_ne[1] - self.start_ne[1])
+
+
+MIN_RUN_FRACTION = 1e-9  # shorter stretches between two crossings are rounding, not a medium
+MIN_LEG_M = 1e-9  # a shorter leg is a point
+
+
+def _leg_crossings(a: Point, b: Point, ring: Ring) -> list[float]:
+    """Fractions t ∈ [0, 1] of the leg a→b where it meets an edge of ``ring``."""
+    rn, re = b[0] - a[0], b[1] - a[1]
+    out: list[float] = []
+    n = len(ring)
+    for i in range(n):
+        q, q2 = ring[i], ring[(i + 1) % n]
+        sn, se = q2[0] - q[0], q2[1] - q[1]
+        denom = rn * se - re * sn
+        dn, de = q[0] - a[0], q[1] - a[1]
+        if denom == 0.0:  # parallel: where a collinear edge's ends lie on the leg
+            for end in (q, q2):
+                if on_segment(a, b, end):
+                    length2 = rn * rn + re * re
+                    out.append(((end[0] - a[0]) * rn + (end[1] - a[1]) * re) / length2)
+            continue
+        t = (dn * se - de * sn) / denom
+        u = (dn * re - de * rn) / denom
+        if 0.0 <= t <= 1.0 and 0.0 <= u <= 1.0:
+            out.append(t)
+    return out
+
+
+def media_along(media: MediaMapNe, start_ne: Point, end_ne: Point) -> tuple[MediaRun, ...]:
+    """The media a straight leg from ``start_ne`` to ``end_ne`` crosses, in order: runs that
+    cover the leg end to end (each starts where the one before ends), neighbours in different
+    media (where a plan splits a leg). A leg shorter than 1 nm is one run."""
+    (n0, e0), (n1, e1) = start_ne, end_ne
+    if math.hypot(n1 - n0, e1 - e0) < MIN_LEG_M:
+        return (MediaRun(media.medium_at(n0, e0), 0.0, 1.0, start_ne, end_ne),)
+    lo_n, hi_n, lo_e, hi_e = min(n0, n1), max(n0, n1), min(e0, e1), max(e0, e1)
+    cuts: set[float] = set()
+    for area in media.areas:
+        bn0, bn1, be0, be1 = area.bbox_ne
+        if bn0 > hi_n or bn1 < lo_n or be0 > hi_e or be1 < lo_e:
+            continue
+        for ring in (area.outer_ne, *area.holes_ne):
+            cuts.update(t for t in _leg_crossings(start_ne, end_ne, ring) if 0.0 < t < 1.0)
+    ts = [0.0]
+    for t in sorted(cuts):
+        if t - ts[-1] >= MIN_RUN_FRACTION and 1.0 - t >= MIN_RUN_FRACTION:
+            ts.append(t)
+    ts.append(1.0)
+
+    def at(t: float) -> Point:
+        if t == 0.0:
+            return start_ne
+        if t == 1.0:
+            return end_ne
+        return (n0 + (n1 - n0) * t, e0 + (e1 - e0) * t)
+
+    runs: list[MediaRun] = []
+    for t0, t1 in itertools.pairwise(ts):
+        medium = media.medium_at(*at((t0 + t1) / 2.0))
+        if runs and runs[-1].medium is medium:
+            last = runs.pop()
+            runs.append(MediaRun(medium, last.start_fraction, t1, last.start_ne, at(t1)))
+        else:
+            runs.append(MediaRun(medium, t0, t1, at(t0), at(t1)))
+    return tuple(runs)
+
+
 def on_segment(a: Point, b: Point, p: Point) -> bool:
     """True if ``p`` lies on the closed segment ab (exactly, within rounding of 1e-9 m)."""
     cross = (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
@@ -194,8 +280,10 @@ __all__ = [
     "MediaFrame",
     "MediaMap",
     "MediaMapNe",
+    "MediaRun",
     "Medium",
     "in_or_on_ring",
+    "media_along",
     "on_ring",
     "on_segment",
 ]

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import itertools
+
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from helixd.base.frames import ne_to_latlon
-from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
+from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium, media_along, on_ring
+from helixd.base.polygon import point_in_polygon
 
 SQUARE = ((0.0, 0.0), (0.0, 10.0), (10.0, 10.0), (10.0, 0.0))  # (north_m, east_m)
 HOLE = ((4.0, 4.0), (4.0, 6.0), (6.0, 6.0), (6.0, 4.0))
@@ -73,3 +78,76 @@ def test_a_global_map_is_placed_in_the_ekf_frame_around_the_origin() -> None:
     assert ne.areas[0].outer_ne[2] == pytest.approx((10.0, 10.0), abs=1e-6)
     assert ne.medium_at(9.99, 9.99) is Medium.WATER
     assert ne.medium_at(10.01, 5.0) is Medium.HARD
+
+
+def test_a_leg_is_cut_where_the_medium_changes() -> None:
+    island = ((4.0, 4.0), (4.0, 6.0), (6.0, 6.0), (6.0, 4.0))
+    ne = local(MediaArea(Medium.WATER, SQUARE), MediaArea(Medium.MUD, island)).to_ne()
+    runs = media_along(ne, (5.0, -5.0), (5.0, 15.0))  # west to east across the pond
+    assert [r.medium for r in runs] == [
+        Medium.HARD,
+        Medium.WATER,
+        Medium.MUD,
+        Medium.WATER,
+        Medium.HARD,
+    ]
+    assert [r.start_ne[1] for r in runs] == pytest.approx([-5.0, 0.0, 4.0, 6.0, 10.0])
+    assert runs[0].start_ne == (5.0, -5.0) and runs[-1].end_ne == (5.0, 15.0)
+    assert runs[0].start_fraction == 0.0 and runs[-1].end_fraction == 1.0
+    assert sum(r.length_m for r in runs) == pytest.approx(20.0)
+    for before, after in itertools.pairwise(runs):
+        assert before.end_fraction == after.start_fraction
+
+
+def test_legs_inside_one_medium_along_an_edge_and_of_no_length() -> None:
+    ne = local(MediaArea(Medium.WATER, SQUARE)).to_ne()
+    (inside,) = media_along(ne, (1.0, 1.0), (9.0, 9.0))
+    assert inside.medium is Medium.WATER and inside.length_m == pytest.approx(8 * 2**0.5)
+    (edge,) = media_along(ne, (0.0, 2.0), (0.0, 8.0))  # along the south edge: in the area
+    assert edge.medium is Medium.WATER
+    along = media_along(ne, (0.0, -2.0), (0.0, 12.0))
+    assert [(r.medium, r.start_ne[1]) for r in along] == [
+        (Medium.HARD, -2.0),
+        (Medium.WATER, 0.0),
+        (Medium.HARD, pytest.approx(10.0)),
+    ]
+    (point,) = media_along(ne, (5.0, 5.0), (5.0, 5.0))
+    assert point.medium is Medium.WATER and point.length_m == 0.0
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.tuples(st.floats(-20, 20), st.floats(-20, 20)),
+    st.tuples(st.floats(-20, 20), st.floats(-20, 20)),
+)
+def test_runs_agree_with_the_point_lookup(a: tuple[float, float], b: tuple[float, float]) -> None:
+    island = ((3.0, 3.0), (3.0, 7.0), (7.0, 7.0), (7.0, 3.0))
+    ne = local(MediaArea(Medium.WATER, SQUARE, (HOLE,)), MediaArea(Medium.MUD, island)).to_ne()
+    runs = media_along(ne, a, b)
+    assert runs[0].start_fraction == 0.0 and runs[-1].end_fraction == 1.0
+    rings = [ring for area in ne.areas for ring in (area.outer_ne, *area.holes_ne)]
+    for r in runs:
+        mid = ((r.start_ne[0] + r.end_ne[0]) / 2, (r.start_ne[1] + r.end_ne[1]) / 2)
+        # the middle of a run is in its medium, unless the leg only touches a corner there
+        assert ne.medium_at(*mid) is r.medium or any(on_ring(*mid, ring) for ring in rings)
+    for before, after in itertools.pairwise(runs):
+        assert before.medium is not after.medium
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(-5, 15), st.floats(-5, 15))
+def test_lookup_matches_even_odd_away_from_edges(north_m: float, east_m: float) -> None:
+    island = ((3.0, 3.0), (3.0, 7.0), (7.0, 7.0), (7.0, 3.0))
+    ne = local(MediaArea(Medium.WATER, SQUARE), MediaArea(Medium.MUD, island)).to_ne()
+    if min(abs(north_m - v) for v in (0, 3, 7, 10)) < 1e-6:
+        return
+    if min(abs(east_m - v) for v in (0, 3, 7, 10)) < 1e-6:
+        return
+    expected = (
+        Medium.MUD
+        if point_in_polygon(north_m, east_m, island)
+        else Medium.WATER
+        if point_in_polygon(north_m, east_m, SQUARE)
+        else Medium.HARD
+    )
+    assert ne.medium_at(north_m, east_m) is expected
