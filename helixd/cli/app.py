@@ -249,7 +249,7 @@ SimMediaOpt = Annotated[
     Path | None,
     typer.Option(
         "--sim-media",
-        help="media map (GeoJSON: hard, grass, sand, mud, water areas) for the simulator's "
+        help="media map (GeoJSON or KML: hard, grass, sand, mud, water areas) for the simulator's "
         "world, each scroll in the medium under it; --sim-terrain outside (with --sim)",
     ),
 ]

@@ -18,6 +18,9 @@ The format (RFC 7946 GeoJSON plus two optional top-level members)::
   same order as lon, lat;
 * where polygons overlap, the later feature wins (:mod:`helixd.base.media`).
 
+KML (``.kml``, lon,lat as Google Earth writes it) is read into the same checks: each
+``<Placemark>`` is a feature, its medium in ``<ExtendedData>`` (:func:`media_map_from_kml`).
+
 Hostile input: size-capped, parsed by :func:`helixd.files.jsonio.load_json_text`, bounded
 counts, finite coordinates on the Earth (or within :data:`MAX_LOCAL_M`), every polygon at least
 :data:`helixd.base.polygon.MIN_POLYGON_AREA_M2` and within :data:`MAX_EXTENT_M` of the map's
@@ -28,6 +31,7 @@ first vertex. Every problem is one line naming the file and the feature
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
@@ -259,17 +263,102 @@ def media_map_from_text(text: str, src: str) -> MediaMap:
     return media_map_from_obj(raw, src)
 
 
-def read_media_map(path: Path | str) -> MediaMap:
-    """Read a media map file (``.geojson`` or ``.json``)."""
-    p = Path(path)
-    if p.suffix.lower() not in (".geojson", ".json"):
-        raise MediaMapError(
-            [f"{p}: unknown media map file type {p.suffix or '(none)'!r}; allowed: .geojson, .json"]
+def _local(tag: str) -> str:
+    return tag.rsplit("}", 1)[-1]
+
+
+def _kml_ring(text: str | None) -> list[Any]:
+    """``lon,lat[,alt]`` tuples → GeoJSON positions; a token that is not one is kept as its
+    text, for the GeoJSON checks to name."""
+    out: list[Any] = []
+    for token in (text or "").split()[: MAX_RING_VERTICES + 2]:
+        parts = token.split(",")
+        try:
+            if len(parts) not in (2, 3) or any(len(p) > 40 for p in parts):
+                raise ValueError
+            out.append([float(p) for p in parts[:2]])
+        except ValueError:
+            out.append(clip(token, 60))
+    return out
+
+
+def _kml_medium(placemark: ET.Element) -> Any:
+    for el in placemark.iter():
+        if _local(el.tag) == "Data" and el.get("name") == "medium":
+            value = next((c.text for c in el if _local(c.tag) == "value"), None)
+            return (value or "").strip()
+        if _local(el.tag) == "SimpleData" and el.get("name") == "medium":
+            return (el.text or "").strip()
+    return None
+
+
+def _kml_polygon(polygon: ET.Element) -> list[Any]:
+    outer: list[Any] = []
+    holes: list[Any] = []
+    for child in polygon:
+        name = _local(child.tag)
+        if name not in ("outerBoundaryIs", "innerBoundaryIs"):
+            continue
+        coords = next((el.text for el in child.iter() if _local(el.tag) == "coordinates"), None)
+        (outer if name == "outerBoundaryIs" else holes).append(_kml_ring(coords))
+    return outer[:1] + holes if len(outer) == 1 else []
+
+
+def media_map_from_kml(text: str, src: str) -> MediaMap:
+    """KML text → :class:`MediaMap` (pure; global frame). Each ``<Placemark>`` is a feature:
+    its ``<Polygon>`` elements (also inside ``<MultiGeometry>``) and its medium in
+    ``<ExtendedData>`` (``<Data name="medium"><value>water</value></Data>`` or a
+    ``<SimpleData name="medium">``). DOCTYPE and entity declarations are refused before
+    parsing (no entity expansion can happen). Problems name ``Placemark N`` (from 0)."""
+    head = text[:4096].upper()
+    if "<!DOCTYPE" in head or "<!ENTITY" in text.upper():
+        raise MediaMapError([f"{src}: DOCTYPE/ENTITY declarations are not allowed in a KML file"])
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise MediaMapError([f"{src}: not valid XML: {exc}"]) from None
+    features: list[Any] = []
+    for placemark in (el for el in root.iter() if _local(el.tag) == "Placemark"):
+        if len(features) > MAX_FEATURES:
+            break
+        polygons = [_kml_polygon(el) for el in placemark.iter() if _local(el.tag) == "Polygon"]
+        features.append(
+            {
+                "type": "Feature",
+                "properties": {"medium": _kml_medium(placemark)},
+                "geometry": {"type": "MultiPolygon", "coordinates": polygons},
+            }
         )
     try:
-        text = read_text_capped(p, MAX_MEDIA_FILE_BYTES)
+        return media_map_from_obj({"type": "FeatureCollection", "features": features}, src)
+    except MediaMapError as exc:
+        raise MediaMapError(
+            [
+                p.replace(f"{src}: features.", f"{src}: Placemark ", 1)
+                .replace(".geometry.coordinates", " Polygon", 1)
+                .replace(".properties.medium", " ExtendedData medium", 1)
+                for p in exc.problems
+            ]
+        ) from None
+
+
+def read_media_map(path: Path | str) -> MediaMap:
+    """Read a media map file (``.geojson``/``.json``, or ``.kml``)."""
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if suffix not in (".geojson", ".json", ".kml"):
+        raise MediaMapError(
+            [
+                f"{p}: unknown media map file type {p.suffix or '(none)'!r}; allowed: .geojson, "
+                ".json, .kml"
+            ]
+        )
+    try:
+        text = read_text_capped(p, MAX_MEDIA_FILE_BYTES).removeprefix("\ufeff")
     except YamlFileError as exc:
         raise MediaMapError([exc.message.replace("YAML file", "media map")]) from None
+    if suffix == ".kml":
+        return media_map_from_kml(text, str(p))
     return media_map_from_text(text, str(p))
 
 
@@ -277,6 +366,7 @@ __all__ = [
     "MAX_FEATURES",
     "MAX_RING_VERTICES",
     "MediaMapError",
+    "media_map_from_kml",
     "media_map_from_obj",
     "media_map_from_text",
     "read_media_map",

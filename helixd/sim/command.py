@@ -144,7 +144,7 @@ def register(app: typer.Typer) -> None:
             Path | None,
             typer.Option(
                 "--media",
-                help="media map (GeoJSON: hard, grass, sand, mud, water areas): the world's "
+                help="media map (GeoJSON or KML: hard, grass, sand, mud, water areas): the world's "
                 "media by place, each scroll in the medium under it; --terrain outside",
             ),
         ] = None,

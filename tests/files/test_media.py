@@ -14,6 +14,7 @@ from helixd.base.media import MediaFrame, Medium
 from helixd.files.media import (
     MAX_FEATURES,
     MediaMapError,
+    media_map_from_kml,
     media_map_from_obj,
     media_map_from_text,
     read_media_map,
@@ -201,7 +202,7 @@ def test_text_and_file_refusals(tmp_path: Path) -> None:
         with pytest.raises(MediaMapError) as exc:
             media_map_from_text(text, SRC)
         assert exc.value.message.startswith(SRC) and expected in exc.value.message
-    for name, expected in [("a.kml", "unknown media map file type"), ("b.geojson", "not found")]:
+    for name, expected in [("a.shp", "unknown media map file type"), ("b.geojson", "not found")]:
         with pytest.raises(MediaMapError) as exc:
             read_media_map(tmp_path / name)
         assert expected in exc.value.message
@@ -270,3 +271,75 @@ def test_fuzz_text_never_crashes(text: str) -> None:
         media_map_from_text(text, SRC)
     except MediaMapError as exc:
         assert all(p.startswith(f"{SRC}") and "\n" not in p for p in exc.problems)
+
+
+def kml(*placemarks: str) -> str:
+    body = "".join(placemarks)
+    return f'<?xml version="1.0"?><kml xmlns="http://www.opengis.net/kml/2.2"><Document>{body}</Document></kml>'
+
+
+def placemark(medium_xml: str, *polygons: str) -> str:
+    return f"<Placemark><name>x</name>{medium_xml}<MultiGeometry>{''.join(polygons)}</MultiGeometry></Placemark>"  # noqa: E501
+
+
+def polygon(*rings: str) -> str:
+    outer, *holes = rings
+    inner = "".join(
+        f"<innerBoundaryIs><LinearRing><coordinates>{h}</coordinates></LinearRing></innerBoundaryIs>"
+        for h in holes
+    )
+    return f"<Polygon><outerBoundaryIs><LinearRing><coordinates>{outer}</coordinates></LinearRing></outerBoundaryIs>{inner}</Polygon>"  # noqa: E501
+
+
+RING = " ".join(f"{lon},{lat},0" for lon, lat in SQUARE_LONLAT)
+HOLE = "-113.5262,53.52335 -113.52615,53.52335 -113.52615,53.5234 -113.5262,53.52335"
+DATA = '<ExtendedData><Data name="medium"><value>water</value></Data></ExtendedData>'
+SIMPLE = '<ExtendedData><SchemaData schemaUrl="#s"><SimpleData name="medium">mud</SimpleData></SchemaData></ExtendedData>'  # noqa: E501
+
+
+def test_a_kml_map_reads_placemarks_with_their_medium(tmp_path: Path) -> None:
+    path = tmp_path / "pond.kml"
+    path.write_text(
+        kml(placemark(DATA, polygon(RING, HOLE), polygon(RING)), placemark(SIMPLE, polygon(RING))),
+        "utf-8",
+    )
+    m = read_media_map(path)
+    assert m.frame is MediaFrame.GLOBAL
+    assert [(a.medium, a.feature_index, len(a.holes)) for a in m.areas] == [
+        (Medium.WATER, 0, 1),
+        (Medium.WATER, 0, 0),
+        (Medium.MUD, 1, 0),
+    ]
+    assert m.areas[0].outer[0] == (53.5233, -113.5263)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ('<!DOCTYPE kml [<!ENTITY a "b">]><kml/>', "DOCTYPE/ENTITY declarations"),
+        ("<kml><Placemark>", "not valid XML"),
+        (kml(), "no features and no default_medium"),
+        (kml(placemark("", polygon(RING))), "Placemark 0 ExtendedData medium: None"),
+        (kml(placemark(DATA.replace("water", "lava"), polygon(RING))), "medium: 'lava'"),
+        (kml(placemark(DATA)), "Placemark 0 Polygon: expected a non-empty list"),
+        (
+            kml(placemark(DATA, polygon(RING)), placemark(DATA, polygon("1,2 x,y 3,4 1,2"))),
+            "Placemark 1 Polygon.0.0.1: expected a position",
+        ),
+        (kml(placemark(DATA, polygon(RING.rsplit(" ", 1)[0]))), "the ring is not closed"),
+    ],
+)
+def test_kml_refusals_name_the_placemark(text: str, expected: str) -> None:
+    with pytest.raises(MediaMapError) as exc:
+        media_map_from_kml(text, SRC)
+    assert all(p.startswith(f"{SRC}: ") for p in exc.value.problems)
+    assert any(expected in p for p in exc.value.problems), exc.value.problems
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.text(alphabet='<>/=" ,.-0123456789abcdefkmlPolygonPlacemarkcoordinates', max_size=300))
+def test_fuzz_kml_text_never_crashes(text: str) -> None:
+    try:
+        media_map_from_kml(text, SRC)
+    except MediaMapError as exc:
+        assert all(p.startswith(SRC) and "\n" not in p for p in exc.problems)
