@@ -108,15 +108,79 @@ class MediaMap:
         )
 
 
+MAX_EAST_BINS = 512  # per ring: a lookup tests the edges of one east bin only
+EDGES_PER_BIN = 4
+MAX_BIN_ENTRIES_PER_EDGE = 8  # long edges in many bins: fewer bins (a hostile ring stays small)
+
+
+class RingIndex:
+    """A ring's edges bucketed by east: the even-odd test and the on-edge test for a point need
+    only the edges whose east span holds the point's east, all in the point's bin. A lookup on
+    a 10 000-vertex shoreline costs tens of edges, not 10 000."""
+
+    __slots__ = ("_bins", "_east_max", "_east_min", "_k", "_width", "ring")
+
+    def __init__(self, ring: Ring) -> None:
+        self.ring = ring
+        n = len(ring)
+        easts = [p[1] for p in ring]
+        self._east_min, self._east_max = min(easts), max(easts)
+        span = self._east_max - self._east_min
+        k = max(1, min(MAX_EAST_BINS, n // EDGES_PER_BIN))
+        while True:
+            self._k, self._width = k, (span / k if span > 0.0 else 1.0)
+            bins: list[list[int]] = [[] for _ in range(k)]
+            total = 0
+            for i in range(n):
+                a, b = easts[i], easts[(i + 1) % n]
+                lo, hi = self._bin(min(a, b)), self._bin(max(a, b))
+                for j in range(lo, hi + 1):
+                    bins[j].append(i)
+                total += hi - lo + 1
+            if k == 1 or total <= MAX_BIN_ENTRIES_PER_EDGE * n:
+                break
+            k //= 2
+        self._bins = tuple(tuple(b) for b in bins)
+
+    def _bin(self, east_m: float) -> int:
+        j = int((east_m - self._east_min) / self._width)
+        return min(max(j, 0), self._k - 1)
+
+    def locate(self, north_m: float, east_m: float) -> tuple[bool, bool]:
+        """(inside by the even-odd rule, on an edge) — as :func:`helixd.base.polygon.
+        point_in_polygon` and :func:`on_ring` over the whole ring."""
+        if not (self._east_min - 1e-9 <= east_m <= self._east_max + 1e-9):
+            return False, False
+        ring, n = self.ring, len(self.ring)
+        inside = on = False
+        p = (north_m, east_m)
+        for i in self._bins[self._bin(east_m)]:
+            (n1, e1), (n2, e2) = ring[i], ring[(i + 1) % n]
+            if (e1 > east_m) != (e2 > east_m):
+                n_cross = n1 + (east_m - e1) * (n2 - n1) / (e2 - e1)
+                if north_m < n_cross:
+                    inside = not inside
+            if not on and on_segment(ring[i], ring[(i + 1) % n], p):
+                on = True
+        return inside, on
+
+
 @dataclass(frozen=True, slots=True)
 class MediaAreaNe:
-    """A media area in north/east metres, with its bounding box for a cheap first test."""
+    """A media area in north/east metres, with its bounding box for a cheap first test and
+    its rings indexed by east (:class:`RingIndex`)."""
 
     medium: Medium
     outer_ne: Ring
     holes_ne: tuple[Ring, ...]
     feature_index: int
     bbox_ne: tuple[float, float, float, float]  # north_min, north_max, east_min, east_max
+    _outer: RingIndex = field(init=False, repr=False, compare=False)
+    _holes: tuple[RingIndex, ...] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_outer", RingIndex(self.outer_ne))
+        object.__setattr__(self, "_holes", tuple(RingIndex(h) for h in self.holes_ne))
 
     @classmethod
     def build(
@@ -132,12 +196,14 @@ class MediaAreaNe:
         n0, n1, e0, e1 = self.bbox_ne
         if not (n0 <= north_m <= n1 and e0 <= east_m <= e1):
             return False
-        if not in_or_on_ring(north_m, east_m, self.outer_ne):
+        inside, on = self._outer.locate(north_m, east_m)
+        if not (inside or on):
             return False
-        return not any(
-            in_or_on_ring(north_m, east_m, hole) and not on_ring(north_m, east_m, hole)
-            for hole in self.holes_ne
-        )
+        for hole in self._holes:
+            in_hole, on_hole = hole.locate(north_m, east_m)
+            if in_hole and not on_hole:
+                return False
+        return True
 
 
 @dataclass(frozen=True, slots=True)
@@ -282,6 +348,7 @@ __all__ = [
     "MediaMapNe",
     "MediaRun",
     "Medium",
+    "RingIndex",
     "in_or_on_ring",
     "media_along",
     "on_ring",

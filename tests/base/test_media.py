@@ -3,13 +3,22 @@
 from __future__ import annotations
 
 import itertools
+import math
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from helixd.base.frames import ne_to_latlon
-from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium, media_along, on_ring
+from helixd.base.media import (
+    MediaArea,
+    MediaFrame,
+    MediaMap,
+    Medium,
+    RingIndex,
+    media_along,
+    on_ring,
+)
 from helixd.base.polygon import point_in_polygon
 
 SQUARE = ((0.0, 0.0), (0.0, 10.0), (10.0, 10.0), (10.0, 0.0))  # (north_m, east_m)
@@ -151,3 +160,44 @@ def test_lookup_matches_even_odd_away_from_edges(north_m: float, east_m: float) 
         else Medium.HARD
     )
     assert ne.medium_at(north_m, east_m) is expected
+
+
+def star(points: int, seed: float) -> tuple[tuple[float, float], ...]:
+    """A spiky, concave ring of 2·points vertices (radius 10 m and 3..9 m alternating)."""
+    out = []
+    for i in range(2 * points):
+        r = 10.0 if i % 2 == 0 else 3.0 + 6.0 * abs(math.sin(seed * (i + 1)))
+        a = math.pi * i / points + seed
+        out.append((r * math.cos(a), r * math.sin(a)))
+    return tuple(out)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.integers(3, 400),
+    st.floats(0.01, 3.0),
+    st.floats(-12, 12),
+    st.floats(-12, 12),
+)
+def test_the_east_index_answers_as_the_whole_ring(
+    points: int, seed: float, north_m: float, east_m: float
+) -> None:
+    ring = star(points, seed)
+    index = RingIndex(ring)
+    assert index.locate(north_m, east_m) == (
+        point_in_polygon(north_m, east_m, ring),
+        on_ring(north_m, east_m, ring),
+    )
+    for vertex in ring[:: max(1, len(ring) // 7)]:  # vertices are on the ring
+        assert index.locate(*vertex)[1]
+
+
+def test_a_ring_of_long_edges_answers_as_the_whole_ring() -> None:
+    """Every edge of a zigzag spans the whole east range: the index falls back to few bins
+    (hostile rings stay small) and still answers right."""
+    zigzag = tuple((i * 0.5, 0.0 if i % 2 == 0 else 100.0) for i in range(400))
+    index = RingIndex(zigzag)
+    for n in (0.1, 33.3, 99.9, 150.0):
+        for e in (0.0, 0.2, 50.0, 99.99, 100.0, 101.0):
+            expected = (point_in_polygon(n, e, zigzag), on_ring(n, e, zigzag))
+            assert index.locate(n, e) == expected
