@@ -37,7 +37,7 @@ from helixd.cli.common import (
     fail,
     refused,
 )
-from helixd.cli.simulated import SimChoice, sim_world, simulator
+from helixd.cli.simulated import SimChoice, read_sim_media, sim_world, simulator
 from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.mav.url import LinkError
@@ -246,6 +246,14 @@ PlantOpt = Annotated[
     ),
 ]
 NoiseOpt = Annotated[NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")]
+SimMediaOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--sim-media",
+        help="media map (GeoJSON or KML: hard, grass, sand, mud, water areas) for the simulator's "
+        "world, each scroll in the medium under it; --sim-terrain outside (with --sim)",
+    ),
+]
 RunDirOpt = Annotated[
     Path | None,
     typer.Option(
@@ -293,6 +301,7 @@ def run(
     fence: FenceOpt = None,
     show_plan: ShowPlanOpt = False,
     resume: ResumeOpt = None,
+    sim_media: SimMediaOpt = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
@@ -301,6 +310,10 @@ def run(
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
     choice = SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise) if sim else None
+    if sim_media is not None:
+        if choice is None:
+            raise fail(["--sim-media needs --sim"], ExitCode.USAGE)
+        choice = replace(choice, media=read_sim_media(sim_media))
     options = ExpandOptions(strict, skip_unsupported)
     if wants_autopilot(mission) and resume is None:
         _run_autopilot_mission(

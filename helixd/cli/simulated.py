@@ -15,10 +15,15 @@ import contextlib
 import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 import structlog
 
+from helixd.base.exitcodes import ExitCode
+from helixd.base.media import MediaMap
+from helixd.cli.common import fail
 from helixd.config import HelixdConfig, KeepOutCircleConfig
+from helixd.files.media import MediaMapError, read_media_map
 from helixd.mav.guard_script import (
     HXG_CHANS,
     HXG_TIMEOUT,
@@ -47,6 +52,16 @@ class SimChoice:
     start_ned: tuple[float, float, float] | None = None
     # more simulator links (``serve --sim-gcs``: a ground station beside helixd)
     extra_links: tuple[str, ...] = ()
+    # the world's media by place (``run --sim-media``); None: ``terrain`` everywhere
+    media: MediaMap | None = None
+
+
+def read_sim_media(path: Path) -> MediaMap:
+    """``--sim-media FILE`` read, or a usage error with one line per problem."""
+    try:
+        return read_media_map(path)
+    except MediaMapError as exc:
+        raise fail([f"--sim-media: {line}" for line in exc.problems], ExitCode.USAGE) from None
 
 
 def sim_world(
@@ -116,6 +131,7 @@ def simulator(
         **start,
         guard_installed=True,
         guard_params=embedded_guard(cfg, choice.speedup),
+        media=choice.media,
     )
     server, sim_url = start_embedded(sim_cfg, choice.extra_links)
     try:

@@ -14,6 +14,7 @@ import typer
 from pydantic import ValidationError
 
 from helixd.base.exitcodes import ExitCode
+from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, format_validation_error, load_yaml_model
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
 from helixd.sim.server import SimServer
@@ -40,6 +41,8 @@ def run_sim(
     """Run in the foreground until ``duration_s`` simulated seconds or Ctrl-C."""
     try:
         server = SimServer(links, config)
+    except MediaMapError as exc:  # the config's media_file
+        raise _fail("\nerror: ".join(exc.problems), ExitCode.USAGE) from None
     except ValueError as exc:
         raise _fail(f"--listen: {exc}", ExitCode.USAGE) from None
     try:
@@ -137,6 +140,14 @@ def register(app: typer.Typer) -> None:
         config: Annotated[
             Path | None, typer.Option("--config", "-c", help="simulator YAML (SimConfig keys)")
         ] = None,
+        media: Annotated[
+            Path | None,
+            typer.Option(
+                "--media",
+                help="media map (GeoJSON or KML: hard, grass, sand, mud, water areas): the world's "
+                "media by place, each scroll in the medium under it; --terrain outside",
+            ),
+        ] = None,
         state_dir: Annotated[
             Path | None,
             typer.Option(
@@ -169,6 +180,14 @@ def register(app: typer.Typer) -> None:
             updates["seed"] = seed
         if state_dir is not None:
             updates["workdir"] = state_dir
+        if media is not None:
+            try:
+                updates["media"] = read_media_map(media)
+            except MediaMapError as exc:
+                raise _fail(
+                    "\nerror: ".join(f"--media: {p}" for p in exc.problems), ExitCode.USAGE
+                ) from None
+            updates["media_file"] = None  # --media replaces the config's
         try:
             cfg = SimConfig.model_validate({**base.model_dump(), **updates})
         except ValidationError as exc:

@@ -15,6 +15,7 @@ from typing import Protocol
 import numpy as np
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
+from helixd.base.media import MediaMapNe, Medium
 from helixd.mav.constants import (
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL,
@@ -58,7 +59,7 @@ from helixd.sim.rover_firmware import (
     SimStatusText,
     no_scripts,
 )
-from helixd.sim.sim_config import Plant, SimConfig
+from helixd.sim.sim_config import Plant, SimConfig, TerrainTraction
 from helixd.sim.state import PhysicsState
 
 PARAMS_PER_LOOP = 2  # PARAM_REQUEST_LIST streaming pace (ArduPilot rate-limits it too)
@@ -126,6 +127,10 @@ class SimCore:
             config.motor_deadband_us,
         )
         self.outputs_us: list[int] = [0] * 16
+        # the world's media by place (helix plant): the map placed around the EKF origin, and
+        # the medium under each of scrolls 1..4 after the last step (None: no map)
+        self.media_ne = media_ne(config)
+        self.scroll_media: tuple[Medium, ...] | None = None
         self.now_s = 0.0
         self._epoch_s = 0.0
         self._n = 0
@@ -551,15 +556,27 @@ class SimCore:
         fractions = physics.scroll_fractions_from_pwm(
             outputs, cfg.scroll_output_channels, cfg.scroll_reversed, self.motor
         )
+        traction = cfg.traction() if self.media_ne is None else self._scroll_tractions()
         return physics.step(
             self.phys,
             dt,
             fractions,
             cfg.vehicle,
-            cfg.traction(),
+            traction,
             cfg.motor_time_constant_s,
             stalled=stalled,
         )
+
+    def _scroll_tractions(self) -> tuple[TerrainTraction, ...]:
+        """The traction under each scroll where it is now; a change is a ``media`` event."""
+        assert self.media_ne is not None
+        ph, cfg = self.phys, self.config
+        where = physics.scroll_positions_ne(ph.north_m, ph.east_m, ph.yaw_ned_rad, cfg.vehicle)
+        media = tuple(self.media_ne.medium_at(n, e) for n, e in where)
+        if media != self.scroll_media:
+            self.scroll_media = media
+            self.events.append(SimEvent("media", {"scrolls": [m.value for m in media]}))
+        return tuple(cfg.terrains.get(m) for m in media)
 
     def _view(self, ekf: estimator.SimEkfStatus, now: float) -> vehicle_reports.TelemetryView:
         ap, cfg = self.ap, self.config
@@ -626,3 +643,16 @@ class SimCore:
                 if not link.param_queue:
                     break
                 self.send(i, self.inbound.param_value_at(link.param_queue.popleft()))
+
+
+def media_ne(config: SimConfig) -> MediaMapNe | None:
+    """``config``'s media map placed around its EKF origin, the configured ``terrain`` outside
+    every area unless the map names a default; None without a map (or for the sitl_skid plant,
+    which has no terrain). The shell reads ``media_file`` (:func:`helixd.sim.server.with_media`)."""
+    if config.media_file is not None and config.media is None:
+        raise ValueError("media_file is read by the simulator's shell (sim.server.with_media)")
+    if config.media is None or config.plant is not Plant.HELIX:
+        return None
+    return config.media.to_ne(
+        (config.origin_lat_deg, config.origin_lon_deg), fallback=Medium(config.terrain.value)
+    )

@@ -38,6 +38,7 @@ import structlog
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.files.media import read_media_map
 from helixd.mav.guard_script import POSIX_SCRIPTS_DIR, SCRIPT_NAME, script_bytes
 from helixd.sim.core import SimCore
 from helixd.sim.faults import make_spec
@@ -192,6 +193,7 @@ class SimServer:
         if not links:
             raise ValueError("at least one link is needed")
         self.link_specs = [LinkSpec.parse(url) for url in links]
+        config = with_media(config)
         self.config = config
         self._quiet_kinds = ECHOED_BY_HELIXD_KINDS if embedded else frozenset()
         self._embedded = embedded
@@ -289,6 +291,7 @@ class SimServer:
                 speedup=self.config.speedup,
                 plant=self.config.plant.value,
                 terrain=self.config.terrain.value,
+                media=None if self.config.media is None else self.config.media.source,
                 noise=self.config.noise.value,
             )
             self._ready.set()
@@ -445,6 +448,16 @@ class SimServer:
                     raise TimeoutError(f"simulator stopped; last: {self._snapshot.describe()}")
                 self._cond.wait(min(remaining, 0.2))
             return self._snapshot
+
+
+def with_media(config: SimConfig) -> SimConfig:
+    """``config`` with its ``media_file`` read into ``media`` (the shell's I/O). Raises
+    :class:`helixd.files.media.MediaMapError` (one line per problem)."""
+    if config.media_file is None:
+        return config
+    return config.model_copy(
+        update={"media": read_media_map(config.media_file), "media_file": None}
+    )
 
 
 def prepare_workdir(config: SimConfig) -> Path:

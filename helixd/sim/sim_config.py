@@ -11,8 +11,9 @@ import math
 from enum import StrEnum
 from pathlib import Path
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, InstanceOf, field_validator, model_validator
 
+from helixd.base.media import MediaMap, Medium
 from helixd.config import LinkConfig, VehicleConfig
 from helixd.files.models import InputModel
 from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS
@@ -34,6 +35,7 @@ class Terrain(StrEnum):
     GRASS = "grass"
     SAND = "sand"
     MUD = "mud"
+    WATER = "water"  # the Helix floats: see TerrainTable.water
 
 
 class Plant(StrEnum):
@@ -100,9 +102,21 @@ class TerrainTable(InputModel):
             pit_escape_per_m=0.5,
         )
     )
+    # afloat: no ground to roll on (a floating screw's roll barely moves it), the screws'
+    # threads propel along the scroll axis like a screw propeller, differential scroll speed
+    # turns it; nothing to dig. Estimates: the thesis measured nothing in water.
+    water: TerrainTraction = Field(
+        default_factory=lambda: TerrainTraction(
+            roll_efficiency=0.05,
+            scroll_efficiency=0.6,
+            yaw_efficiency=0.4,
+            dig_rate_per_m=0.0,
+            pit_escape_per_m=1.0,
+        )
+    )
 
-    def get(self, terrain: Terrain) -> TerrainTraction:
-        traction: TerrainTraction = getattr(self, terrain.value)
+    def get(self, terrain: Terrain | Medium) -> TerrainTraction:
+        traction: TerrainTraction = getattr(self, Terrain(terrain.value).value)
         return traction
 
 
@@ -228,7 +242,22 @@ class SimConfig(InputModel):
         Plant.HELIX, description="vehicle model: helix (scrolls) or sitl_skid (SITL rover-skid)"
     )
     skid: SkidModel = Field(default_factory=SkidModel, description="the sitl_skid plant")
-    terrain: Terrain = Field(Terrain.HARD, description="ground under the rover (helix plant)")
+    terrain: Terrain = Field(
+        Terrain.HARD,
+        description="ground under the rover (helix plant); with a media map, the medium "
+        "outside every area unless the map names its default_medium",
+    )
+    media_file: Path | None = Field(
+        None,
+        description="media map (GeoJSON, helixd.files.media): the world's media by place, "
+        "each scroll in the medium under it (helix plant); read when the simulator starts",
+    )
+    media: InstanceOf[MediaMap] | None = Field(
+        None,
+        exclude=True,
+        description="a media map already read (helixd sim --media, run --sim-media); "
+        "not with media_file",
+    )
     terrains: TerrainTable = Field(default_factory=TerrainTable)
     noise: NoiseLevel = Field(NoiseLevel.THESIS, description="pose noise preset")
     noise_profiles: NoiseProfiles = Field(default_factory=NoiseProfiles)
@@ -361,6 +390,8 @@ class SimConfig(InputModel):
         for pwm in self.pilot_rc_us:
             if not 800 <= pwm <= 2200:
                 raise ValueError(f"pilot_rc_us values must be 800..2200, got {pwm}")
+        if self.media is not None and self.media_file is not None:
+            raise ValueError("give media_file or media, not both")
         unknown = sorted(set(self.params) - set(DEFAULT_PARAMS))
         if unknown:
             raise ValueError(f"unknown parameter names in params: {', '.join(unknown)}")

@@ -1,0 +1,46 @@
+"""``run --sim --sim-media FILE`` and ``sim --media FILE``: the map reaches the simulator; a
+bad map is a usage error naming the option, the file and the feature."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from helixd.base.media import Medium
+from helixd.cli.app import main
+from tests.support.cli import run_main
+from tests.support.paths import REPO_ROOT
+from tests.support.simcore import EmbeddedStart, capture_embedded_start
+
+POND = REPO_ROOT / "config/maps/pond-media.geojson"
+BAD = '{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {"medium": "lava"}, "geometry": null}]}'  # noqa: E501
+
+
+def test_run_sim_media_reaches_the_embedded_simulator(monkeypatch: pytest.MonkeyPatch) -> None:
+    seen = capture_embedded_start(monkeypatch)
+    with pytest.raises(EmbeddedStart):
+        main(["run", "--sim", "--sim-media", str(POND), "--mission", "square"])
+    (sim,) = seen
+    assert sim.media is not None and sim.media.source == str(POND)
+    assert sim.media.areas[1].medium is Medium.WATER
+
+
+def test_run_sim_media_refusals(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.geojson"
+    bad.write_text(BAD, encoding="utf-8")
+    code, _, err = run_main(
+        ["run", "--sim", "--sim-media", str(bad), "--mission", "square"], capsys
+    )
+    assert code == 2
+    assert f"error: --sim-media: {bad}: features.0.properties.medium: 'lava'" in err
+    code, _, err = run_main(["run", "--sim-media", str(POND), "--mission", "square"], capsys)
+    assert code == 2 and "error: --sim-media needs --sim" in err
+
+
+def test_sim_media_refusal(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.geojson"
+    bad.write_text(BAD, encoding="utf-8")
+    code, _, err = run_main(["sim", "--media", str(bad), "--duration", "1"], capsys)
+    assert code == 2
+    assert f"error: --media: {bad}: features.0.properties.medium: 'lava'" in err
