@@ -10,6 +10,7 @@ four scrolls (helixd.sim.json_physics). Start it first, then SITL::
 
 from __future__ import annotations
 
+import math
 import signal
 import threading
 from pathlib import Path
@@ -19,9 +20,25 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import fail
+from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, load_yaml_model
 from helixd.sim.json_server import open_socket, serve_plant
 from helixd.sim.sim_config import SimConfig, Terrain
+
+
+def parse_home(text: str) -> tuple[float, float]:
+    """SITL's ``--home LAT,LON[,ALT,YAW]`` → (lat, lon) in degrees; ValueError naming why."""
+    parts = text.split(",")
+    if len(parts) not in (2, 4):
+        raise ValueError(f"--home {text!r}: expected LAT,LON or LAT,LON,ALT,YAW (SITL's)")
+    try:
+        lat, lon = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise ValueError(f"--home {text!r}: LAT and LON must be numbers") from None
+    if not (math.isfinite(lat) and math.isfinite(lon) and -90 <= lat <= 90 and -180 <= lon <= 180):
+        raise ValueError(f"--home {text!r}: LAT in -90..90 and LON in -180..180")
+    return lat, lon
+
 
 SITL_JSON_PORT = 9002  # SIM_JSON's default; ArduPilot adds 10 per -I instance
 PORT_STRIDE = 10
@@ -61,6 +78,18 @@ def register(app: typer.Typer) -> None:
                 "scroll_reversed, motor_*; the autopilot's own keys do not apply)",
             ),
         ] = None,
+        media: Annotated[
+            Path | None,
+            typer.Option(
+                "--media",
+                help="media map (GeoJSON/KML: hard, grass, sand, mud, water by place): each "
+                "scroll meets the medium under it; a lat/lon map needs --home",
+            ),
+        ] = None,
+        home: Annotated[
+            str | None,
+            typer.Option("--home", help="SITL's --home LAT,LON[,ALT,YAW]: where a lat/lon map is"),
+        ] = None,
         truth_csv: Annotated[
             Path | None,
             typer.Option("--truth-csv", help="write the true pose here, 10 rows per simulated s"),
@@ -73,6 +102,20 @@ def register(app: typer.Typer) -> None:
             raise fail(exc.problems) from None
         if terrain is not None:
             cfg = cfg.model_copy(update={"terrain": terrain})
+        if home is not None:
+            try:
+                lat, lon = parse_home(home)
+            except ValueError as exc:
+                raise fail([str(exc)]) from None
+            cfg = cfg.model_copy(update={"origin_lat_deg": lat, "origin_lon_deg": lon})
+        if media is not None:
+            try:
+                media_map = read_media_map(media)
+            except MediaMapError as exc:
+                raise fail(exc.problems) from None
+            if media_map.needs_origin and home is None:
+                raise fail([f"--media {media}: a lat/lon map needs --home LAT,LON (SITL's --home)"])
+            cfg = cfg.model_copy(update={"media": media_map})
         udp_port = port if port is not None else SITL_JSON_PORT + PORT_STRIDE * instance
         try:
             sock = open_socket(host, udp_port)
@@ -86,7 +129,8 @@ def register(app: typer.Typer) -> None:
 
         previous = signal.signal(signal.SIGTERM, on_signal)
         typer.echo(
-            f"helixd plant: Helix physics on udp {host}:{udp_port}, terrain {cfg.terrain.value}; "
+            f"helixd plant: Helix physics on udp {host}:{udp_port}, terrain {cfg.terrain.value}"
+            f"{f', media {media}' if media is not None else ''}; "
             f"start ardurover --model JSON (-I {instance})"
         )
         try:

@@ -31,8 +31,9 @@ import struct
 from dataclasses import dataclass
 
 from helixd.sim import physics
+from helixd.sim.core import media_ne
 from helixd.sim.physics import MotorMap
-from helixd.sim.sim_config import SimConfig
+from helixd.sim.sim_config import SimConfig, TerrainTraction
 from helixd.sim.state import PhysicsState
 
 GRAVITY_MSS = 9.80665
@@ -123,6 +124,9 @@ class JsonPlant:
 
     ``step(frame)`` advances the plant by one SITL frame and returns the report to send back.
     A frame count lower than the last one is SITL restarting: the plant starts over at rest.
+    With a media map in ``cfg`` (``media``, placed around ``origin_lat_deg``/``origin_lon_deg``,
+    which must be SITL's ``--home``), each scroll meets the medium under it, as in ``helixd
+    sim``; ``scroll_media`` says which.
     """
 
     def __init__(self, cfg: SimConfig) -> None:
@@ -131,6 +135,8 @@ class JsonPlant:
             cfg.motor_pwm_min_us, cfg.motor_pwm_trim_us, cfg.motor_pwm_max_us, cfg.motor_deadband_us
         )
         self._traction = cfg.traction()
+        self._media = media_ne(cfg)
+        self.scroll_media: tuple[str, ...] | None = None
         self._initial = PhysicsState(
             north_m=cfg.initial_north_m,
             east_m=cfg.initial_east_m,
@@ -167,12 +173,22 @@ class JsonPlant:
             dt,
             self._fractions,
             self._cfg.vehicle,
-            self._traction,
+            self._tractions(),
             self._cfg.motor_time_constant_s,
         )
         self.time_s += dt
         self.frames += 1
         return self._report(dt)
+
+    def _tractions(self) -> TerrainTraction | tuple[TerrainTraction, ...]:
+        """The ground under the whole rover, or under each scroll where a map says."""
+        if self._media is None:
+            return self._traction
+        s = self.state
+        where = physics.scroll_positions_ne(s.north_m, s.east_m, s.yaw_ned_rad, self._cfg.vehicle)
+        media = tuple(self._media.medium_at(n, e) for n, e in where)
+        self.scroll_media = tuple(m.value for m in media)
+        return tuple(self._cfg.terrains.get(m) for m in media)
 
     def _report(self, dt: float) -> FdmReport:
         s = self.state

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
 from helixd.sim import physics
 from helixd.sim.json_physics import (
     GRAVITY_MSS,
@@ -212,3 +213,19 @@ def test_served_on_udp_answering_each_frame_and_writing_the_truth(tmp_path) -> N
     assert rows[0].startswith("t_s,north_m,east_m,yaw_ned_rad")
     assert 10 <= len(rows) - 1 <= 11  # ten rows per simulated second
     assert float(rows[-1].split(",")[1]) > 0.05
+
+
+def test_with_a_media_map_each_scroll_meets_the_medium_under_it() -> None:
+    # water all round the start: rolling gives next to nothing, scrolling propels
+    pond = MediaMap(
+        MediaFrame.LOCAL_NED,
+        (MediaArea(Medium.WATER, ((-50.0, -50.0), (-50.0, 50.0), (50.0, 50.0), (50.0, -50.0))),),
+    )
+    cfg = SimConfig(media=pond)
+    roll = drive(JsonPlant(cfg), (1800, 1800, 1200, 1200), 3.0)
+    plant = JsonPlant(cfg)
+    scroll = drive(plant, (1800, 1200, 1200, 1800), 3.0)
+    on_land = drive(JsonPlant(SimConfig()), (1800, 1800, 1200, 1200), 3.0)
+    assert plant.scroll_media == ("water",) * 4
+    assert roll.position_ned_m[0] < 0.1 * on_land.position_ned_m[0]
+    assert abs(scroll.position_ned_m[1]) > 3 * roll.position_ned_m[0]

@@ -93,6 +93,9 @@ INSTANCES_PER_WORKER = 5  # -I values rotate so a just-killed SITL's ports are n
 RC_INPUT_CHANNELS = 16
 
 HOME = "-35.363261,149.165230,584,0"  # CMAC (SITL's default field), facing north
+# the built-in simulator's default origin (the thesis's field), where the example pond's media
+# map (config/maps/pond-media.geojson) lies
+POND_HOME = "53.52325,-113.52632,668,0"
 
 AUTOPILOT_SYSID = 1
 AUTOPILOT_COMPID = 1
@@ -677,13 +680,17 @@ class HelixPlantProc:
         return "\n".join(text.splitlines()[-lines:])
 
 
-def start_plant(workdir: Path, instance: int, terrain: str) -> HelixPlantProc:
+def start_plant(
+    workdir: Path, instance: int, terrain: str, media: Path | None = None, home: str = HOME
+) -> HelixPlantProc:
     """``helixd plant -I instance --terrain terrain``, its UDP port bound before it returns
     (it says so on its first line; SITL then finds it answering from its first frame)."""
     cmd = [
         sys.executable, "-m", "helixd", "plant", "-I", str(instance),
-        "--terrain", terrain, "--truth-csv", str(workdir / "truth.csv"),
+        "--terrain", terrain, "--truth-csv", str(workdir / "truth.csv"), f"--home={home}",
     ]  # fmt: skip
+    if media is not None:
+        cmd += ["--media", str(media)]
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(
         cmd,
@@ -750,6 +757,8 @@ def start_sitl(
     speedup: float,
     guard: bool = True,
     terrain: str | None = None,
+    media: Path | None = None,
+    home: str = HOME,
 ) -> SitlVehicle:
     """ardurover in ``workdir``; with ``guard`` helixd-guard.lua is in its scripts/ first and
     this waits until the script has loaded (its HXG_VERSION parameter exists). Without
@@ -758,7 +767,7 @@ def start_sitl(
     log_path = workdir / "sitl.log"
     if guard:
         install_guard_file(workdir)
-    plant = start_plant(workdir, instance, terrain) if terrain is not None else None
+    plant = start_plant(workdir, instance, terrain, media, home) if terrain is not None else None
     model, defaults = ("rover-skid", str(PARM_FILE))
     if plant is not None:
         model, defaults = ("JSON", ",".join(str(p) for p in HELIX_PARM_FILES))
@@ -772,7 +781,7 @@ def start_sitl(
         str(instance),
         "--speedup",
         f"{speedup:g}",
-        f"--home={HOME}",  # one argv: the value starts with '-'
+        f"--home={home}",  # one argv: the value starts with '-'
         "--wipe",
     ]
     with log_path.open("wb") as log_file:
@@ -821,12 +830,18 @@ def start_sitl(
 
 
 def start_test_sitl(
-    tmp_path: Path, guard: bool, terrain: str | None = None
+    tmp_path: Path,
+    guard: bool,
+    terrain: str | None = None,
+    media: Path | None = None,
+    home: str = HOME,
 ) -> Iterator[SitlVehicle]:
     binary = Path(os.environ[SITL_BIN_ENV]).resolve()
     workdir = tmp_path / "sitl"
     workdir.mkdir()
-    vehicle = start_sitl(binary, workdir, pick_instance(), sitl_speedup(), guard, terrain)
+    vehicle = start_sitl(
+        binary, workdir, pick_instance(), sitl_speedup(), guard, terrain, media, home
+    )
     try:
         yield vehicle
     finally:

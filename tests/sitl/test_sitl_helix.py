@@ -31,8 +31,10 @@ from helixd.base.exitcodes import ExitCode
 from helixd.mav.guard_script import PARAM_DEFAULTS
 from tests.sitl.conftest import (
     DAEMON_STOP_TIMEOUT_S,
+    POND_HOME,
     DaemonRun,
     SitlVehicle,
+    start_test_sitl,
 )
 from tests.support.daemon import spawn_daemon
 from tests.support.helix_sitl import (
@@ -43,6 +45,8 @@ from tests.support.helix_sitl import (
     helix_sitl_config,
     truth_track,
 )
+
+POND_MEDIA = MISSIONS.parent / "maps" / "pond-media.geojson"
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1500)]
 
@@ -198,3 +202,64 @@ def test_kill_9_while_scrolling_all_four_outputs_to_trim(
         "a second more of outputs",
     )
     assert all(all_at(s.pwm_us, NEUTRAL_US) for s in obs.servo_since(trimmed.t_boot_s))
+
+
+@pytest.fixture
+def pond_sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
+    """The Helix plant at the example pond: the media map config/maps/pond-media.geojson (a
+    hard bank, a mud margin, the water), SITL's home where the map lies."""
+    yield from start_test_sitl(
+        tmp_path, guard=True, terrain="hard", media=POND_MEDIA, home=POND_HOME
+    )
+
+
+@pytest.mark.parametrize("mode", ["scroll", "roll"])
+def test_pond_crossing_scrolls_through_the_water_and_roll_cannot(
+    pond_sitl: SitlVehicle, helixd_runs: list[DaemonRun], tmp_path: Path, mode: str
+) -> None:
+    """config/missions/pond-crossing.yaml from the bank, across the water and back to the bank:
+    in SCROLL it completes on real ArduPilot as on the built-in simulator with the same map; in
+    ROLL the scrolls roll in the water for next to nothing and helixd stops it (a fault, the
+    outputs at trim, HOLD) — why a pond survey needs the mode that works there."""
+    sitl = pond_sitl
+    assert sitl.plant is not None
+    mission = MISSIONS / "pond-crossing.yaml"
+    daemon = launch(tmp_path, sitl, mission, mode)
+    helixd_runs.append(daemon)
+    code = daemon.wait_exit(MISSION_WALL_S)
+    summary = json.loads((daemon.run_dir() / "summary.json").read_text(encoding="utf-8"))
+    obs = sitl.obs
+    media = sitl.plant.log_tail(200)
+    print(
+        f"pond crossing, {mode}, SITL: exit {code}, completed {summary['completed']}, "
+        f"{summary['waypoints_reached']}/{summary['waypoints_total']} waypoints, "
+        f"{summary['duration_s']} s, final error {summary['final_error_m']} m, "
+        f"result {summary['fault'] or 'ok'}"
+    )
+    if mode == "scroll":
+        assert code == ExitCode.OK, daemon.log_text()[-4000:]
+        assert summary["completed"] is True
+        twin = fly_on_builtin_sim(
+            tmp_path / "sim",
+            mission,
+            mode,
+            "hard",
+            helix_sitl_config("unused"),
+            media=POND_MEDIA,
+        )
+        assert twin.exit_code == ExitCode.OK
+        ratio = summary["duration_s"] / twin.summary["duration_s"]
+        print(
+            f"pond crossing, scroll, helixd sim: {twin.summary['duration_s']} s, final error "
+            f"{twin.summary['final_error_m']} m; time ×{ratio:.2f}"
+        )
+        assert TIME_RATIO[0] <= ratio <= TIME_RATIO[1]
+    else:
+        assert code == ExitCode.FAULT, daemon.log_text()[-4000:]
+        assert summary["completed"] is False
+        obs.wait_until(
+            lambda: all_at(obs.servo_pwm(), NEUTRAL_US) and obs.mode() == MODE_HOLD,
+            15.0,
+            "outputs 1-4 at trim and HOLD after the fault",
+        )
+    assert "plant_progress" in media  # the plant ran the whole flight

@@ -87,9 +87,15 @@ class SimTwin:
 
 
 def fly_on_builtin_sim(
-    work: Path, mission: Path, mode: str, terrain: str, config: dict[str, Any]
+    work: Path,
+    mission: Path,
+    mode: str,
+    terrain: str,
+    config: dict[str, Any],
+    media: Path | None = None,
 ) -> SimTwin:
-    """The same flight by ``helixd run --sim`` (exact pose, ``terrain``), measured alike."""
+    """The same flight by ``helixd run --sim`` (exact pose, ``terrain``, the ``media`` map),
+    measured alike (metrics only for a ``start``-frame mission: None otherwise)."""
     work.mkdir(parents=True, exist_ok=True)
     cfg = {k: v for k, v in config.items() if k != "link"}
     cfg_path = work / "helixd-sim.yaml"
@@ -101,6 +107,8 @@ def fly_on_builtin_sim(
         "--mission", str(mission), "--config", str(cfg_path), "--run-dir", str(run_root),
         "--log-level", "warning",
     ]  # fmt: skip
+    if media is not None:
+        cmd += ["--sim-media", str(media)]
     done = subprocess.run(
         cmd, cwd=work, capture_output=True, text=True, timeout=SIM_FLIGHT_TIMEOUT_S, check=False
     )
