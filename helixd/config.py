@@ -959,7 +959,7 @@ class GcsReportConfig(InputModel):
 
 
 # ---------------------------------------------------------------------------------------------
-# helixd serve: the all-day service (helixd.runtime.serve)
+# helixd serve: the all-day service (helixd.serve.service)
 
 
 class ServeConfig(InputModel):

@@ -46,7 +46,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("planning",),
     ("link",),  # transport, codec, plugins, vehicle state
     ("recorder", "actuators", "safety"),
-    ("runtime",),  # daemon phases, flight loop, GCS feed, notify, signals, status
+    ("runtime",),  # daemon phases, flight loop, GCS feed, notify, signals
+    ("serve", "commands"),  # the all-day service; the one-shot commands' back ends
     ("cli",),  # typer app: parse, call, print
 )
 SIM_MAY_IMPORT = frozenset({"base", "files", "mav", "config", "sim"})

@@ -36,6 +36,7 @@ from helixd.cli.common import (
     refused,
 )
 from helixd.cli.simulated import SimChoice, sim_world, simulator
+from helixd.commands.status import read_status
 from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.mav.url import LinkError
@@ -55,7 +56,6 @@ from helixd.runtime.prepare import (
     Resume,
     prepare_flight,
 )
-from helixd.runtime.status import read_status
 from helixd.sim import command as sim_command
 from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 

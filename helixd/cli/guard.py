@@ -1,5 +1,5 @@
 """``helixd autopilot install-guard``: put the dead-man switch (helixd-guard.lua) onto the
-autopilot over MAVLink FTP (:mod:`helixd.runtime.guard_install`).
+autopilot over MAVLink FTP (:mod:`helixd.commands.guard_install`).
 
 Registered on the main app by :func:`register` (one line in :mod:`helixd.cli.app`).
 Exit codes: 0 installed (and, with ``--reboot``, the reboot accepted); 2 bad command line or
@@ -20,12 +20,12 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import config_option, fail, link_inputs, run_on_link
+from helixd.commands.guard_install import GuardInstalled, GuardInstallRefused, install_guard
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
 from helixd.mav.ftp_wire import FtpPayloadError, encode_path
 from helixd.mav.guard_script import BOARD_SCRIPTS_DIR, POSIX_SCRIPTS_DIR, SCRIPT_NAME
-from helixd.runtime.guard_install import GuardInstalled, GuardInstallRefused, install_guard
 
 autopilot_app = typer.Typer(
     name="autopilot",

@@ -22,6 +22,8 @@ from helixd.cli.common import (
     link_inputs,
     run_on_link,
 )
+from helixd.commands.placement import place_on_autopilot
+from helixd.commands.survey_mission import SurveyRefused, survey_lines, survey_mission
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import Autopilot
@@ -50,8 +52,6 @@ from helixd.mission.formats.wire import WireMission, gcs_to_wire, wire_to_gcs
 from helixd.mission.formats.wpl import wpl_to_text
 from helixd.mission.placed import PlacementError, parse_latlon, placed_with
 from helixd.recorder import export
-from helixd.runtime.placement import place_on_autopilot
-from helixd.runtime.survey_mission import SurveyRefused, survey_lines, survey_mission
 
 T = TypeVar("T")
 

@@ -1,4 +1,4 @@
-"""``helixd serve``: the all-day service (:mod:`helixd.runtime.serve`) on the command line."""
+"""``helixd serve``: the all-day service (:mod:`helixd.serve.service`) on the command line."""
 
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import load_occupancy
-from helixd.runtime.serve import serve
-from helixd.runtime.serve_options import ServeOptions
+from helixd.serve.options import ServeOptions
+from helixd.serve.service import serve
 from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
 __all__ = ["register"]

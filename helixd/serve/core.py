@@ -1,6 +1,6 @@
 """``helixd serve``'s decisions, pure: what the service is doing, and what it answers.
 
-No socket, clock or log here (:mod:`helixd.runtime.serve` is the shell). The service is in
+No socket, clock or log here (:mod:`helixd.serve.service` is the shell). The service is in
 one :class:`ServeState` at a time, told to the ground station as NAMED_VALUE_INT ``hx_state``
 (the enum's value) and a STATUSTEXT on every change. Requests come from three places and are
 judged the same way:
