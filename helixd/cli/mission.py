@@ -148,6 +148,46 @@ def convert(
     typer.echo(f"{src} ({loaded.format.value}) → {dst} ({fmt.value}): {n} items")
 
 
+SpacingOpt = Annotated[
+    float, typer.Option("--spacing-m", min=0.5, max=100.0, help="transect spacing (m)")
+]
+AngleOpt = Annotated[
+    float,
+    typer.Option("--angle-deg", min=-360.0, max=360.0, help="transect direction, compass degrees"),
+]
+MarginOpt = Annotated[
+    float,
+    typer.Option(
+        "--margin-m",
+        min=0.0,
+        max=100.0,
+        help="geofence = the polygon grown by this (m); the rover must start inside it "
+        "(run refuses a start outside the fence), so grow this to start farther out",
+    ),
+]
+InsetOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--inset-m",
+        min=0.0,
+        max=100.0,
+        help="keep the rover this far inside the edges (shoreline) and holes (m; default: "
+        "the rover's half-width from the vehicle config; off holes at least the planner's "
+        "clearance)",
+    ),
+]
+TimeFactorOpt = Annotated[
+    float,
+    typer.Option(
+        "--time-factor",
+        min=1.0,
+        max=5.0,
+        help="mission time limit = this x (estimated time + the longest approach "
+        "preflight allows) (slip, pauses)",
+    ),
+]
+
+
 @mission_app.command("survey")
 def survey(
     polygon: Annotated[
@@ -155,46 +195,11 @@ def survey(
     ],
     out: Annotated[Path, typer.Option("-o", "--out", help="mission to write (.yaml/.plan/...)")],
     mode: Annotated[MotionMode, typer.Option("--mode", help="motion mode of the mission")],
-    spacing_m: Annotated[
-        float, typer.Option("--spacing-m", min=0.5, max=100.0, help="transect spacing (m)")
-    ] = 10.0,
-    angle_deg: Annotated[
-        float,
-        typer.Option(
-            "--angle-deg", min=-360.0, max=360.0, help="transect direction, compass degrees"
-        ),
-    ] = 0.0,
-    margin_m: Annotated[
-        float,
-        typer.Option(
-            "--margin-m",
-            min=0.0,
-            max=100.0,
-            help="geofence = the polygon grown by this (m); the rover must start inside it "
-            "(run refuses a start outside the fence), so grow this to start farther out",
-        ),
-    ] = 2.0,
-    inset_m: Annotated[
-        float | None,
-        typer.Option(
-            "--inset-m",
-            min=0.0,
-            max=100.0,
-            help="keep the rover this far inside the edges (shoreline) and holes (m; default: "
-            "the rover's half-width from the vehicle config; off holes at least the planner's "
-            "clearance)",
-        ),
-    ] = None,
-    time_factor: Annotated[
-        float,
-        typer.Option(
-            "--time-factor",
-            min=1.0,
-            max=5.0,
-            help="mission time limit = this x (estimated time + the longest approach "
-            "preflight allows) (slip, pauses)",
-        ),
-    ] = 1.5,
+    spacing_m: SpacingOpt = 10.0,
+    angle_deg: AngleOpt = 0.0,
+    margin_m: MarginOpt = 2.0,
+    inset_m: InsetOpt = None,
+    time_factor: TimeFactorOpt = 1.5,
     config: ConfigOpt = None,
 ) -> None:
     """Boustrophedon survey of a polygon (holes cut out and kept out), with its own geofence

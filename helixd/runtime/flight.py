@@ -318,20 +318,9 @@ class FlightLoop:
         try:
             if self._pose_rejected(now, t_start, out):
                 return None  # neutral until a valid pose (or the pose_invalid watchdog)
-            if sample is None:
-                return None
-            t_boot_s = sample.time_boot_ms / 1000.0
-            due_s = ceiling_next_due(
-                t_boot_s,
-                self._last_step_boot_s,
-                self._step_due_boot_s,
-                self._step_period_s,
-                self._step_early_s,
-            )
-            if due_s is None:
-                return None  # thinned out by the control-rate ceiling
-            self._last_step_boot_s = t_boot_s
-            self._step_due_boot_s = due_s
+            t_boot_s = None if sample is None else self._step_due(sample)
+            if sample is None or t_boot_s is None:
+                return None  # no fresh pose, or thinned out by the control-rate ceiling
             if self._gate is Gate.HOLD or self._arrived:  # paused, or at the place: neutral
                 self._neutral()
                 step = self._held(sample, None)
@@ -376,6 +365,23 @@ class FlightLoop:
         if done:
             return FlightResult(None, None, out, sample.ned)
         return None
+
+    def _step_due(self, sample: PoseSample) -> float | None:
+        """The pose's boot time when a step is due on it (and the step counted as taken),
+        None when the control-rate ceiling thins it out."""
+        t_boot_s = sample.time_boot_ms / 1000.0
+        due_s = ceiling_next_due(
+            t_boot_s,
+            self._last_step_boot_s,
+            self._step_due_boot_s,
+            self._step_period_s,
+            self._step_early_s,
+        )
+        if due_s is None:
+            return None
+        self._last_step_boot_s = t_boot_s
+        self._step_due_boot_s = due_s
+        return t_boot_s
 
     def _arrive(self, out: NavOutput) -> None:
         """At the autopilot's place: neutral, the overrides kept, until the crew gives another
