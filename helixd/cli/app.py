@@ -1,4 +1,5 @@
-"""Command-line interface: ``helixd run | check | sim | status | plot | replay | version``.
+"""Command-line interface: ``helixd run | check | serve | status | sim | plot | replay | export
+| mission | autopilot | version``.
 
 Errors the operator can fix (bad file, bad URL, refused preflight) are printed as one clear
 message per problem and a non-zero exit code — never a traceback.
