@@ -62,7 +62,7 @@ from helixd.control.slip import (
 )
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample, PositionTarget
-from helixd.mission.commands import SPEED_MIN_MPS
+from helixd.mission.commands import bound_speed, speed_floor_mps
 from helixd.runtime.mode_gate import (
     Gate,
     autopilot_step,
@@ -157,11 +157,9 @@ def bounded_cruise(asked_mps: float, lo_mps: float, peak_mps: float) -> tuple[fl
     (control.min_speed_mps, and Rover's 0.05 m/s), at most ``peak_mps`` (the plan's peak
     speed: its corner arcs and stopping distances are planned for it). Non-finite: the low
     limit. The speed, and the limit that bounded it ("" when none)."""
-    if not math.isfinite(asked_mps) or asked_mps < lo_mps:
-        return min(lo_mps, peak_mps), "control.min_speed_mps"
-    if asked_mps > peak_mps:
-        return peak_mps, "the mission's top speed"
-    return asked_mps, ""
+    speed_mps, side = bound_speed(asked_mps, lo_mps, peak_mps)
+    limits = {"low": "control.min_speed_mps", "high": "the mission's top speed"}
+    return speed_mps, limits.get(side, "")
 
 
 class FlightLoop:
@@ -448,7 +446,7 @@ class FlightLoop:
         :func:`bounded_cruise` (the plan's corners and stops are planned for its peak speed);
         a later DO_CHANGE_SPEED item of the mission sets it again. The speed applied and the
         limit that bounded it ("" when none)."""
-        lo = max(self.cfg.control.min_speed_mps, SPEED_MIN_MPS)
+        lo = speed_floor_mps(self.cfg.control.min_speed_mps)
         speed_mps, limit = bounded_cruise(asked_mps, lo, self.plan.peak_speed_mps)
         self.navigator.set_speed(speed_mps)
         return speed_mps, limit
