@@ -253,7 +253,7 @@ def test_navigator_loads_neither_pydantic_yaml_asyncio_nor_socket() -> None:
 
 
 def test_simulator_loads_nothing_of_the_controller_link_or_daemon() -> None:
-    loaded = loaded_after_import("helixd.sim", "helixd.sim.command")
+    loaded = loaded_after_import("helixd.sim", "helixd.sim.server")
     assert "helixd.sim.server" in loaded  # the import really reached the simulator
     forbidden = (
         "helixd.control",

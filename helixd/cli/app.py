@@ -24,8 +24,9 @@ from helixd.base.plan import MotionMode
 from helixd.cli import autopilot_check as cli_autopilot_check
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
-from helixd.cli import runs as recorder_command
+from helixd.cli import runs as cli_runs
 from helixd.cli import serve_command as cli_serve
+from helixd.cli import sim_command as cli_sim
 from helixd.cli.autopilot import fetch_autopilot_mission, wants_autopilot
 from helixd.cli.common import (
     CONTEXT_SETTINGS,
@@ -57,7 +58,6 @@ from helixd.runtime.prepare import (
     Resume,
     prepare_flight,
 )
-from helixd.sim import command as sim_command
 from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
 app = typer.Typer(
@@ -465,12 +465,33 @@ def status(
     raise typer.Exit(code)
 
 
-sim_command.register(app)
-recorder_command.register(app)
-cli_mission.register(app)
-cli_guard.register(app)
-cli_autopilot_check.register()
+# Every command module's register(app) adds its commands to the Typer it is given; the
+# groups are made here. Commands are listed in --help in this order, groups after them.
+cli_sim.register(app)
+cli_runs.register(app)
 cli_serve.register(app)
+mission_app = typer.Typer(
+    name="mission",
+    help="Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "
+    "generate surveys.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+    rich_markup_mode=None,
+    cls=WholeHelpGroup,
+)
+cli_mission.register(mission_app)
+app.add_typer(mission_app, name="mission")
+autopilot_app = typer.Typer(
+    name="autopilot",
+    help="Set the autopilot up for helixd.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+cli_guard.register(autopilot_app)
+cli_autopilot_check.register(autopilot_app)
+app.add_typer(autopilot_app, name="autopilot")
 
 
 def main(argv: list[str] | None = None) -> None:

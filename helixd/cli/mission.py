@@ -1,7 +1,7 @@
-"""``helixd mission convert|survey|download|upload`` and ``helixd export``: ground-station
-files, surveys, and the autopilot's stored mission over the MAVLink mission protocol.
+"""``helixd mission convert|survey|download|upload``: ground-station files, surveys, and the
+autopilot's stored mission over the MAVLink mission protocol.
 
-Registered on the main app by :func:`register` (one line in :mod:`helixd.cli.app`).
+Registered on the ``mission`` group by :func:`register` (in :mod:`helixd.cli.app`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,6 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.cli.common import (
-    WholeHelpGroup,
     config_option,
     config_or_exit,
     fail,
@@ -51,23 +50,10 @@ from helixd.mission.formats.qgc_plan import plan_to_text
 from helixd.mission.formats.wire import WireMission, gcs_to_wire, wire_to_gcs
 from helixd.mission.formats.wpl import wpl_to_text
 from helixd.mission.placed import PlacementError, parse_latlon, placed_with
-from helixd.recorder import export
 
 T = TypeVar("T")
 
 ConfigOpt = Annotated[Path | None, config_option()]
-
-
-mission_app = typer.Typer(
-    name="mission",
-    help="Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "
-    "generate surveys.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-    rich_markup_mode=None,
-    cls=WholeHelpGroup,
-)
 
 
 ModeOpt = Annotated[
@@ -103,7 +89,6 @@ def _origin(text: str | None) -> tuple[float, float] | None:
         raise fail([f"--origin {exc}"]) from None
 
 
-@mission_app.command("convert")
 def convert(
     src: Annotated[Path, typer.Argument(help="mission file: .yaml, .plan or .waypoints")],
     dst: Annotated[Path, typer.Argument(help="output; its suffix names the format")],
@@ -188,7 +173,6 @@ TimeFactorOpt = Annotated[
 ]
 
 
-@mission_app.command("survey")
 def survey(
     polygon: Annotated[
         Path, typer.Argument(help="area: .plan (Survey or geofence polygon), .geojson or .kml")
@@ -279,7 +263,6 @@ def describe_gcs(gcs: GcsMission) -> list[str]:
     return lines
 
 
-@mission_app.command("download")
 def download(
     out: Annotated[
         Path | None,
@@ -350,7 +333,6 @@ def download(
     )
 
 
-@mission_app.command("upload")
 def upload(
     src: Annotated[Path, typer.Argument(help="mission file: .plan, .waypoints or .yaml")],
     connect: ConnectOpt = None,
@@ -415,5 +397,8 @@ MIN_COVERAGE = 0.95  # below this, the operator is told (the survey is still wri
 
 
 def register(app: typer.Typer) -> None:
-    app.add_typer(mission_app, name="mission")
-    export.register(app)
+    """Add ``convert``, ``survey``, ``download`` and ``upload`` to ``app`` (the mission group)."""
+    app.command("convert")(convert)
+    app.command("survey")(survey)
+    app.command("download")(download)
+    app.command("upload")(upload)
