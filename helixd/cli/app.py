@@ -32,6 +32,8 @@ from helixd.cli.common import (
     CONTEXT_SETTINGS,
     WholeHelpGroup,
     check_connect,
+    command_group,
+    config_link_map,
     config_option,
     config_or_exit,
     fail,
@@ -50,7 +52,7 @@ from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.plan_report import check_lines, record_space_warning
-from helixd.runtime.planned import Flight, load_occupancy, route_lines
+from helixd.runtime.planned import Flight, route_lines
 from helixd.runtime.prepare import (
     AutopilotMission,
     FlightSource,
@@ -60,12 +62,9 @@ from helixd.runtime.prepare import (
 )
 from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
-app = typer.Typer(
-    name="helixd",
-    help="Fly the Helix-25 screw-propelled rover through waypoint missions over MAVLink.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
+app = command_group(
+    "helixd",
+    "Fly the Helix-25 screw-propelled rover through waypoint missions over MAVLink.",
     # plain help (click's): wrapped at any width, never cut with "…", flags without "<bool>"
     rich_markup_mode=None,
     context_settings=CONTEXT_SETTINGS,
@@ -347,12 +346,7 @@ def _run_autopilot_mission(
     """``run --mission autopilot``: download and convert the autopilot's mission (its stored
     fence with it), then check and fly it as any other (see :mod:`helixd.cli.autopilot`).
     Refusals of the mission exit 3."""
-    cfg = config_or_exit(config)
-    url = check_connect(connect, cfg)
-    try:
-        occupancy = load_occupancy(cfg, map_path)
-    except InputsRefused as exc:
-        raise refused(exc) from None
+    cfg, url, occupancy = config_link_map(config, connect, map_path)
     with simulator(sim_choice, lambda: sim_world(cfg, occupancy), url, cfg) as url:
         got = fetch_autopilot_mission(cfg, url, mode, fence)
         try:
@@ -470,25 +464,16 @@ def status(
 cli_sim.register(app)
 cli_runs.register(app)
 cli_serve.register(app)
-mission_app = typer.Typer(
-    name="mission",
-    help="Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "
+mission_app = command_group(
+    "mission",
+    "Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "
     "generate surveys.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
     rich_markup_mode=None,
     cls=WholeHelpGroup,
 )
 cli_mission.register(mission_app)
 app.add_typer(mission_app, name="mission")
-autopilot_app = typer.Typer(
-    name="autopilot",
-    help="Set the autopilot up for helixd.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-)
+autopilot_app = command_group("autopilot", "Set the autopilot up for helixd.")
 cli_guard.register(autopilot_app)
 cli_autopilot_check.register(autopilot_app)
 app.add_typer(autopilot_app, name="autopilot")
