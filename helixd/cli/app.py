@@ -1,5 +1,5 @@
-"""Command-line interface: ``helixd run | check | serve | status | sim | plot | replay | export
-| mission | autopilot | version``.
+"""Command-line interface: ``helixd run | check | serve | status | sim | plant | plot | replay
+| export | mission | autopilot | version``.
 
 Errors the operator can fix (bad file, bad URL, refused preflight) are printed as one clear
 message per problem and a non-zero exit code — never a traceback.
@@ -22,8 +22,10 @@ from helixd import __version__
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
 from helixd.cli import autopilot_check as cli_autopilot_check
+from helixd.cli import autopilot_setup as cli_autopilot_setup
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
+from helixd.cli import plant as cli_plant
 from helixd.cli import runs as cli_runs
 from helixd.cli import serve_command as cli_serve
 from helixd.cli import sim_command as cli_sim
@@ -464,6 +466,7 @@ def status(
 cli_sim.register(app)
 cli_runs.register(app)
 cli_serve.register(app)
+cli_plant.register(app)
 mission_app = command_group(
     "mission",
     "Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "
@@ -476,6 +479,7 @@ app.add_typer(mission_app, name="mission")
 autopilot_app = command_group("autopilot", "Set the autopilot up for helixd.")
 cli_guard.register(autopilot_app)
 cli_autopilot_check.register(autopilot_app)
+cli_autopilot_setup.register(autopilot_app)
 app.add_typer(autopilot_app, name="autopilot")
 
 

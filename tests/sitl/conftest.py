@@ -43,6 +43,7 @@ import signal
 import socket
 import struct
 import subprocess
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -69,6 +70,11 @@ T = TypeVar("T")
 
 ROOT = REPO_ROOT
 PARM_FILE = Path(__file__).resolve().parent / "helix-skid.parm"
+# A real Helix's parameters, then what SITL itself needs (the Helix plant, --model JSON)
+HELIX_PARM_FILES = (
+    ROOT / "config" / "ardupilot" / "helix.parm",
+    Path(__file__).resolve().parent / "helix-json.parm",
+)
 SQUARE_MISSION = ROOT / "config" / "missions" / "square.yaml"
 
 SITL_BIN_ENV = "HELIXD_SITL_BIN"
@@ -100,6 +106,7 @@ EKF_POS_HORIZ_ABS = 16
 GPS_FIX_3D = 3
 
 NEUTRAL_US = 1500
+HELIX_THROTTLE_CHANNEL = 5  # config/ardupilot/helix.parm RCMAP_THROTTLE
 OUTPUT_TOLERANCE_US = 5  # SERVO_OUTPUT_RAW vs an expected PWM
 DRIVING_DEFLECTION_US = 30  # |output − 1500| that counts as "the scrolls are driving"
 
@@ -537,6 +544,7 @@ class SitlVehicle:
     observer: MavClient | None = None
     start_ne_m: tuple[float, float] = (0.0, 0.0)
     start_t_boot_s: float = 0.0
+    plant: HelixPlantProc | None = None  # the Helix physics (--model JSON), None: rover-skid
 
     @property
     def helixd_port(self) -> int:
@@ -622,13 +630,75 @@ class SitlVehicle:
     def stop(self) -> None:
         if self.observer is not None:
             self.observer.close()
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(timeout=SITL_STOP_TIMEOUT_S)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(timeout=SITL_STOP_TIMEOUT_S)
+        stop_process(self.proc)
+        if self.plant is not None:
+            self.plant.stop()
+
+
+def stop_process(proc: subprocess.Popen[bytes]) -> None:
+    """SIGTERM, then kill if it has not ended within SITL_STOP_TIMEOUT_S."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=SITL_STOP_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait(timeout=SITL_STOP_TIMEOUT_S)
+
+
+@dataclass
+class HelixPlantProc:
+    """``helixd plant`` serving SITL's JSON physics port for one instance; a thread copies
+    its output into ``log_path`` and sets ``listening`` at its first line."""
+
+    proc: subprocess.Popen[bytes]
+    terrain: str
+    truth_csv: Path
+    log_path: Path
+    listening: threading.Event = field(default_factory=threading.Event)
+
+    def copy_output(self) -> None:
+        assert self.proc.stdout is not None
+        with self.log_path.open("wb") as log_file:
+            for line in self.proc.stdout:
+                log_file.write(line)
+                log_file.flush()
+                if b"Helix physics on udp" in line:
+                    self.listening.set()
+
+    def stop(self) -> None:
+        stop_process(self.proc)
+
+    def log_tail(self, lines: int = 15) -> str:
+        try:
+            text = self.log_path.read_text(encoding="utf-8", errors="replace")
+        except OSError as exc:
+            return f"(no plant log: {exc})"
+        return "\n".join(text.splitlines()[-lines:])
+
+
+def start_plant(workdir: Path, instance: int, terrain: str) -> HelixPlantProc:
+    """``helixd plant -I instance --terrain terrain``, its UDP port bound before it returns
+    (it says so on its first line; SITL then finds it answering from its first frame)."""
+    cmd = [
+        sys.executable, "-m", "helixd", "plant", "-I", str(instance),
+        "--terrain", terrain, "--truth-csv", str(workdir / "truth.csv"),
+    ]  # fmt: skip
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen(
+        cmd,
+        cwd=workdir,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        env=env,
+    )
+    plant = HelixPlantProc(proc, terrain, workdir / "truth.csv", workdir / "plant.log")
+    threading.Thread(target=plant.copy_output, name="plant-log", daemon=True).start()
+    if not plant.listening.wait(BOOT_TIMEOUT_S):
+        plant.stop()
+        raise AssertionError(f"helixd plant did not start; log:\n{plant.log_tail()}")
+    return plant
 
 
 def outputs_near(pwm: tuple[int, int, int, int] | None, target_us: int) -> bool:
@@ -674,19 +744,30 @@ def install_guard_file(workdir: Path) -> Path:
 
 
 def start_sitl(
-    binary: Path, workdir: Path, instance: int, speedup: float, guard: bool = True
+    binary: Path,
+    workdir: Path,
+    instance: int,
+    speedup: float,
+    guard: bool = True,
+    terrain: str | None = None,
 ) -> SitlVehicle:
     """ardurover in ``workdir``; with ``guard`` helixd-guard.lua is in its scripts/ first and
-    this waits until the script has loaded (its HXG_VERSION parameter exists)."""
+    this waits until the script has loaded (its HXG_VERSION parameter exists). Without
+    ``terrain`` the model is rover-skid; with it, the Helix plant on that ground (``helixd
+    plant``, SITL's ``--model JSON``) and the Helix's own parameter files."""
     log_path = workdir / "sitl.log"
     if guard:
         install_guard_file(workdir)
+    plant = start_plant(workdir, instance, terrain) if terrain is not None else None
+    model, defaults = ("rover-skid", str(PARM_FILE))
+    if plant is not None:
+        model, defaults = ("JSON", ",".join(str(p) for p in HELIX_PARM_FILES))
     cmd = [
         str(binary),
         "--model",
-        "rover-skid",
+        model,
         "--defaults",
-        str(PARM_FILE),
+        defaults,
         "-I",
         str(instance),
         "--speedup",
@@ -698,7 +779,7 @@ def start_sitl(
         proc = subprocess.Popen(
             cmd, cwd=workdir, stdin=subprocess.DEVNULL, stdout=log_file, stderr=subprocess.STDOUT
         )
-    vehicle = SitlVehicle(proc, instance, speedup, workdir, log_path)
+    vehicle = SitlVehicle(proc, instance, speedup, workdir, log_path, plant=plant)
     print(f"SITL: {' '.join(cmd)}  (cwd {workdir})")
     try:
         wait_first_heartbeat(vehicle.helixd_port, BOOT_TIMEOUT_S, vehicle.dead)
@@ -724,6 +805,11 @@ def start_sitl(
                 f"helixd-guard not running in SITL (HXG_VERSION {running}); "
                 f"STATUSTEXT {obs.statustexts[-8:]}; log tail:\n{vehicle.log_tail()}"
             )
+        if plant is not None:
+            # helix.parm's throttle is RC5 (RCMAP_THROTTLE, a channel helixd does not drive):
+            # AP_Arming wants it at RC5_TRIM to arm; SITL's radio rests it at 1000 µs, the crew
+            # centres it
+            vehicle.pilot_rc({HELIX_THROTTLE_CHANNEL: NEUTRAL_US})
         start = obs.position()
         assert start is not None
         vehicle.start_ne_m = (start.north_m, start.east_m)
@@ -734,11 +820,13 @@ def start_sitl(
     return vehicle
 
 
-def _sitl(tmp_path: Path, guard: bool) -> Iterator[SitlVehicle]:
+def start_test_sitl(
+    tmp_path: Path, guard: bool, terrain: str | None = None
+) -> Iterator[SitlVehicle]:
     binary = Path(os.environ[SITL_BIN_ENV]).resolve()
     workdir = tmp_path / "sitl"
     workdir.mkdir()
-    vehicle = start_sitl(binary, workdir, pick_instance(), sitl_speedup(), guard)
+    vehicle = start_sitl(binary, workdir, pick_instance(), sitl_speedup(), guard, terrain)
     try:
         yield vehicle
     finally:
@@ -748,13 +836,22 @@ def _sitl(tmp_path: Path, guard: bool) -> Iterator[SitlVehicle]:
 @pytest.fixture
 def sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
     """ardurover with helixd-guard running (the field setup)."""
-    yield from _sitl(tmp_path, guard=True)
+    yield from start_test_sitl(tmp_path, guard=True)
+
+
+@pytest.fixture
+def helix_sitl(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[SitlVehicle]:
+    """ardurover ``--model JSON`` with the Helix plant (``helixd plant``) on the ground the
+    test names by indirect parametrisation (default hard), booted from config/ardupilot/
+    helix.parm + tests/sitl/helix-json.parm, helixd-guard running."""
+    terrain = str(getattr(request, "param", "hard"))
+    yield from start_test_sitl(tmp_path, guard=True, terrain=terrain)
 
 
 @pytest.fixture
 def bare_sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
     """ardurover with scripting on but no script in its scripts/ (before an install)."""
-    yield from _sitl(tmp_path, guard=False)
+    yield from start_test_sitl(tmp_path, guard=False)
 
 
 # ---------------------------------------------------------------------------------------------

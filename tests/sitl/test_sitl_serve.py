@@ -34,6 +34,7 @@ import math
 import re
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
@@ -66,8 +67,10 @@ from tests.sitl.conftest import (
     SitlVehicle,
     connect_tcp,
     outputs_near,
+    start_test_sitl,
 )
 from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
+from tests.support.helix_sitl import helix_sitl_config
 from tests.support.skid_setup import HELIXD_SYSID, helixd_sitl_config
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1500)]
@@ -87,6 +90,8 @@ PAUSE_LEG1_AT_M = 3.0  # distance from the start on leg 1 where the switch goes 
 PAUSE_LEG2_AT_M = 3.0  # metres east of waypoint 1 on leg 2 where the GCS pauses
 ARRIVAL_TOLERANCE_M = 1.0
 
+# on the Helix plant the ground station's missions fly in SCROLL (over CONFIG's ROLL)
+HELIX_MODE: dict[str, Any] = {"mission": {"ground_station_mode": "scroll"}}
 CONFIG: dict[str, Any] = {
     "mission": {"ground_station_mode": "roll"},
     "startup": {"start_switch_channel": SWITCH_CH},
@@ -300,10 +305,16 @@ def serve_proc(
 ) -> DaemonProc:
     """``helixd serve`` on SERIAL0 with the suite's setup and ``config`` (this module's
     CONFIG unless given) merged over it."""
-    cfg = deep_merge(
-        helixd_sitl_config("rc_override", vehicle.helixd_url),
-        CONFIG if config is None else config,
-    )
+    if vehicle.plant is None:  # rover-skid: the suite's skid mapping
+        cfg = deep_merge(
+            helixd_sitl_config("rc_override", vehicle.helixd_url),
+            CONFIG if config is None else config,
+        )
+    else:  # the Helix plant: helixd's defaults
+        cfg = deep_merge(
+            helix_sitl_config(vehicle.helixd_url), CONFIG if config is None else config
+        )
+        cfg = deep_merge(cfg, HELIX_MODE)
     cfg_path = tmp_path / "helixd-serve.yaml"
     cfg_path.write_text(yaml.safe_dump(cfg, sort_keys=False), encoding="utf-8")
     run_root = tmp_path / "runs"
@@ -326,7 +337,14 @@ class Clock:
         print(f"serve SITL: {what}: {seconds:.2f} s")
 
 
-def test_serve_start_pause_continue(sitl: SitlVehicle, tmp_path: Path) -> None:
+@pytest.fixture(params=[None, "hard"], ids=["rover-skid", "helix"])
+def serve_sitl(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[SitlVehicle]:
+    """The suite's rover-skid SITL, and the Helix plant on hard ground (``--model JSON``)."""
+    yield from start_test_sitl(tmp_path, guard=True, terrain=request.param)
+
+
+def test_serve_start_pause_continue(serve_sitl: SitlVehicle, tmp_path: Path) -> None:
+    sitl = serve_sitl
     obs = sitl.obs
     obs.set_message_interval(mavlink2.MAVLINK_MSG_ID_RC_CHANNELS, STREAM_RATE_HZ)
     home_ne = sitl.start_ne_m
