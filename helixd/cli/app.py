@@ -49,6 +49,7 @@ from helixd.mav.url import LinkError
 from helixd.mission.describe import DEFAULT_WIDTH
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.locate import SEARCH_DIRS, available_missions
+from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
@@ -59,6 +60,7 @@ from helixd.runtime.prepare import (
     AutopilotMission,
     FlightSource,
     MissionFile,
+    Prepared,
     Resume,
     prepare_flight,
 )
@@ -193,12 +195,7 @@ def check(
         listed = ", ".join(known) if known else "none in " + ", ".join(map(str, SEARCH_DIRS))
         raise fail([f"check needs --mission FILE; available: {listed}"], ExitCode.USAGE)
     source = MissionFile(mission, mode, fence, ExpandOptions(strict, skip_unsupported))
-    try:
-        got = prepare_flight(source, config, map_path)
-    except InputsRefused as exc:
-        echo_notes(exc.notes)
-        raise refused(exc) from None
-    echo_notes(got.notes)
+    got = prepared_or_exit(source, config, map_path)
     label = str(config or "(built-in defaults)")
     flight = got.flight
     route = flight.route
@@ -317,13 +314,8 @@ def run(
         }
         source = _resume_source(ctx, mission, resume, not_allowed)
         run_dir = run_dir or resume.resolve().parent  # beside the interrupted run
-    try:
-        # planned around obstacles; refusals before a simulator starts
-        got = prepare_flight(source, config, map_path)
-    except InputsRefused as exc:
-        echo_notes(exc.notes)
-        raise refused(exc) from None
-    echo_notes(got.notes)
+    # planned around obstacles; refusals before a simulator starts
+    got = prepared_or_exit(source, config, map_path)
     cfg = got.cfg
     url = check_connect(connect, cfg)
     echo_flight(got.flight)
@@ -351,12 +343,7 @@ def _run_autopilot_mission(
     cfg, url, occupancy = config_link_map(config, connect, map_path)
     with simulator(sim_choice, lambda: sim_world(cfg, occupancy), url, cfg) as url:
         got = fetch_autopilot_mission(cfg, url, mode, fence)
-        try:
-            prepared = prepare_flight(AutopilotMission(got, cfg, options), config, occupancy)
-        except InputsRefused as exc:
-            echo_notes(exc.notes)
-            raise refused(exc) from None
-        echo_notes(prepared.notes)
+        prepared = prepared_or_exit(AutopilotMission(got, cfg, options), config, occupancy)
         echo_flight(prepared.flight)
         _fly(prepared.cfg, prepared.flight, url, run_dir, log_level, show_plan)
 
@@ -415,6 +402,20 @@ def _explicit_mission(ctx: typer.Context, mission: Path) -> Path | None:
     if source is None or source.name == "DEFAULT":
         return None
     return mission
+
+
+def prepared_or_exit(
+    source: FlightSource, config: Path | None, occupancy: OccupancyMap | Path | None
+) -> Prepared:
+    """:func:`prepare_flight`, its notes on stderr; refused: the notes, the ``error:`` lines
+    and the exit."""
+    try:
+        got = prepare_flight(source, config, occupancy)
+    except InputsRefused as exc:
+        echo_notes(exc.notes)
+        raise refused(exc) from None
+    echo_notes(got.notes)
+    return got
 
 
 def echo_notes(notes: tuple[str, ...]) -> None:
