@@ -689,6 +689,8 @@ class TakeoverConfig(InputModel):
 # at least this often while the receiver sends
 GPS_FIX_PERIOD_MAX_S = 0.2
 
+GEOFENCE_RADIUS_MAX_M = 10_000.0  # the largest geofence radius, the config's or a mission's
+
 
 class SafetyConfig(InputModel):
     heartbeat_timeout_s: float = Field(
@@ -736,7 +738,10 @@ class SafetyConfig(InputModel):
         "own RC failsafe cannot fire while overrides are streamed)",
     )
     geofence_radius_m: float | None = Field(
-        100.0, gt=0.0, le=10_000.0, description="max distance from the start point (m); None = off"
+        100.0,
+        gt=0.0,
+        le=GEOFENCE_RADIUS_MAX_M,
+        description="max distance from the start point (m); None = off",
     )
     geofence_polygon_ne_m: Annotated[
         tuple[tuple[float, float], ...], AfterValidator(_sane_polygon)
@@ -959,7 +964,7 @@ class GcsReportConfig(InputModel):
 
 
 # ---------------------------------------------------------------------------------------------
-# helixd serve: the all-day service (helixd.runtime.serve)
+# helixd serve: the all-day service (helixd.serve.service)
 
 
 class ServeConfig(InputModel):

@@ -46,7 +46,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("planning",),
     ("link",),  # transport, codec, plugins, vehicle state
     ("recorder", "actuators", "safety"),
-    ("runtime",),  # daemon phases, flight loop, GCS feed, notify, signals, status
+    ("runtime",),  # daemon phases, flight loop, GCS feed, notify, signals
+    ("serve", "commands"),  # the all-day service; the one-shot commands' back ends
     ("cli",),  # typer app: parse, call, print
 )
 SIM_MAY_IMPORT = frozenset({"base", "files", "mav", "config", "sim"})
@@ -252,7 +253,7 @@ def test_navigator_loads_neither_pydantic_yaml_asyncio_nor_socket() -> None:
 
 
 def test_simulator_loads_nothing_of_the_controller_link_or_daemon() -> None:
-    loaded = loaded_after_import("helixd.sim", "helixd.sim.command")
+    loaded = loaded_after_import("helixd.sim", "helixd.sim.server")
     assert "helixd.sim.server" in loaded  # the import really reached the simulator
     forbidden = (
         "helixd.control",

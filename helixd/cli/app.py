@@ -1,4 +1,5 @@
-"""Command-line interface: ``helixd run | check | sim | status | plot | replay | version``.
+"""Command-line interface: ``helixd run | check | serve | status | sim | plant | plot | replay
+| export | mission | autopilot | version``.
 
 Errors the operator can fix (bad file, bad URL, refused preflight) are printed as one clear
 message per problem and a non-zero exit code — never a traceback.
@@ -25,48 +26,49 @@ from helixd.cli import autopilot_setup as cli_autopilot_setup
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
 from helixd.cli import plant as cli_plant
-from helixd.cli import runs as recorder_command
+from helixd.cli import runs as cli_runs
 from helixd.cli import serve_command as cli_serve
+from helixd.cli import sim_command as cli_sim
 from helixd.cli.autopilot import fetch_autopilot_mission, wants_autopilot
 from helixd.cli.common import (
     CONTEXT_SETTINGS,
     WholeHelpGroup,
     check_connect,
+    command_group,
+    config_link_map,
     config_option,
     config_or_exit,
     fail,
     refused,
 )
 from helixd.cli.simulated import SimChoice, read_sim_media, sim_world, simulator
+from helixd.commands.status import HeldLog, log_lines, read_status
 from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.mav.url import LinkError
 from helixd.mission.describe import DEFAULT_WIDTH
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.locate import SEARCH_DIRS, available_missions
+from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.plan_report import check_lines, record_space_warning
-from helixd.runtime.planned import Flight, load_occupancy, route_lines
+from helixd.runtime.planned import Flight, route_lines
 from helixd.runtime.prepare import (
     AutopilotMission,
     FlightSource,
     MissionFile,
+    Prepared,
     Resume,
     prepare_flight,
 )
-from helixd.runtime.status import HeldLog, log_lines, read_status
-from helixd.sim import command as sim_command
 from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
-app = typer.Typer(
-    name="helixd",
-    help="Fly the Helix-25 screw-propelled rover through waypoint missions over MAVLink.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
+app = command_group(
+    "helixd",
+    "Fly the Helix-25 screw-propelled rover through waypoint missions over MAVLink.",
     # plain help (click's): wrapped at any width, never cut with "…", flags without "<bool>"
     rich_markup_mode=None,
     context_settings=CONTEXT_SETTINGS,
@@ -194,12 +196,7 @@ def check(
         listed = ", ".join(known) if known else "none in " + ", ".join(map(str, SEARCH_DIRS))
         raise fail([f"check needs --mission FILE; available: {listed}"], ExitCode.USAGE)
     source = MissionFile(mission, mode, fence, ExpandOptions(strict, skip_unsupported))
-    try:
-        got = prepare_flight(source, config, map_path)
-    except InputsRefused as exc:
-        echo_notes(exc.notes)
-        raise refused(exc) from None
-    echo_notes(got.notes)
+    got = prepared_or_exit(source, config, map_path)
     label = str(config or "(built-in defaults)")
     flight = got.flight
     route = flight.route
@@ -331,13 +328,8 @@ def run(
         }
         source = _resume_source(ctx, mission, resume, not_allowed)
         run_dir = run_dir or resume.resolve().parent  # beside the interrupted run
-    try:
-        # planned around obstacles; refusals before a simulator starts
-        got = prepare_flight(source, config, map_path)
-    except InputsRefused as exc:
-        echo_notes(exc.notes)
-        raise refused(exc) from None
-    echo_notes(got.notes)
+    # planned around obstacles; refusals before a simulator starts
+    got = prepared_or_exit(source, config, map_path)
     cfg = got.cfg
     url = check_connect(connect, cfg)
     echo_flight(got.flight)
@@ -362,20 +354,10 @@ def _run_autopilot_mission(
     """``run --mission autopilot``: download and convert the autopilot's mission (its stored
     fence with it), then check and fly it as any other (see :mod:`helixd.cli.autopilot`).
     Refusals of the mission exit 3."""
-    cfg = config_or_exit(config)
-    url = check_connect(connect, cfg)
-    try:
-        occupancy = load_occupancy(cfg, map_path)
-    except InputsRefused as exc:
-        raise refused(exc) from None
+    cfg, url, occupancy = config_link_map(config, connect, map_path)
     with simulator(sim_choice, lambda: sim_world(cfg, occupancy), url, cfg) as url:
         got = fetch_autopilot_mission(cfg, url, mode, fence)
-        try:
-            prepared = prepare_flight(AutopilotMission(got, cfg, options), config, occupancy)
-        except InputsRefused as exc:
-            echo_notes(exc.notes)
-            raise refused(exc) from None
-        echo_notes(prepared.notes)
+        prepared = prepared_or_exit(AutopilotMission(got, cfg, options), config, occupancy)
         echo_flight(prepared.flight)
         _fly(prepared.cfg, prepared.flight, url, run_dir, log_level, show_plan)
 
@@ -436,6 +418,20 @@ def _explicit_mission(ctx: typer.Context, mission: Path) -> Path | None:
     return mission
 
 
+def prepared_or_exit(
+    source: FlightSource, config: Path | None, occupancy: OccupancyMap | Path | None
+) -> Prepared:
+    """:func:`prepare_flight`, its notes on stderr; refused: the notes, the ``error:`` lines
+    and the exit."""
+    try:
+        got = prepare_flight(source, config, occupancy)
+    except InputsRefused as exc:
+        echo_notes(exc.notes)
+        raise refused(exc) from None
+    echo_notes(got.notes)
+    return got
+
+
 def echo_notes(notes: tuple[str, ...]) -> None:
     """Warnings and notes about the inputs, on stderr."""
     for line in notes:
@@ -494,14 +490,26 @@ def _echo_held(held: HeldLog) -> None:
         typer.echo(line, err=True)
 
 
-sim_command.register(app)
-recorder_command.register(app)
-cli_mission.register(app)
-cli_guard.register(app)
-cli_autopilot_check.register()
-cli_autopilot_setup.register()
+# Every command module's register(app) adds its commands to the Typer it is given; the
+# groups are made here. Commands are listed in --help in this order, groups after them.
+cli_sim.register(app)
+cli_runs.register(app)
 cli_serve.register(app)
 cli_plant.register(app)
+mission_app = command_group(
+    "mission",
+    "Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "
+    "generate surveys.",
+    rich_markup_mode=None,
+    cls=WholeHelpGroup,
+)
+cli_mission.register(mission_app)
+app.add_typer(mission_app, name="mission")
+autopilot_app = command_group("autopilot", "Set the autopilot up for helixd.")
+cli_guard.register(autopilot_app)
+cli_autopilot_check.register(autopilot_app)
+cli_autopilot_setup.register(autopilot_app)
+app.add_typer(autopilot_app, name="autopilot")
 
 
 def main(argv: list[str] | None = None) -> None:

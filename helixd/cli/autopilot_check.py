@@ -1,7 +1,7 @@
 """``helixd autopilot check``: is the autopilot set up so that the Helix arms honestly — a
 normal arm, every PreArm check made — and obeys helixd? (:mod:`helixd.link.autopilot_setup`)
 
-Registered on the ``autopilot`` group by :func:`register` (one line in :mod:`helixd.cli.app`).
+Registered on the ``autopilot`` group by :func:`register` (in :mod:`helixd.cli.app`).
 Prints one line per topic (``ok`` / ``warning`` / ``error``, what to set). Exit codes: 0 all
 good (warnings allowed); 2 bad command line or config; 3 something to change (PREFLIGHT);
 6 no link or no answers.
@@ -18,7 +18,7 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import fail, link_inputs, run_on_link
-from helixd.cli.guard import ConfigOpt, ConnectOpt, autopilot_app
+from helixd.cli.guard import ConfigOpt, ConnectOpt
 from helixd.cli.simulated import embedded_guard
 from helixd.config import HelixdConfig
 from helixd.link.autopilot_setup import SetupLine, failed, judge_setup, read_setup
@@ -105,5 +105,5 @@ def check_command(
         raise typer.Exit(int(ExitCode.PREFLIGHT))
 
 
-def register(app: typer.Typer = autopilot_app) -> None:
+def register(app: typer.Typer) -> None:
     app.command("check")(check_command)

@@ -20,7 +20,7 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.autopilot_check import report, setup_lines
 from helixd.cli.common import fail, link_inputs, run_on_link
-from helixd.cli.guard import ConfigOpt, ConnectOpt, autopilot_app
+from helixd.cli.guard import ConfigOpt, ConnectOpt
 from helixd.files.parmfile import ParmFileError, load_parm
 from helixd.link.autopilot_setup import SetupLine, failed
 from helixd.link.connection import Autopilot
@@ -133,5 +133,5 @@ def _tell_reboot(changes: list[ParamChange], refused: list[str]) -> None:
         typer.echo("no reboot needed")
 
 
-def register(app: typer.Typer = autopilot_app) -> None:
+def register(app: typer.Typer) -> None:
     app.command("setup")(setup_command)

@@ -27,8 +27,10 @@ from helixd.link.connection import Autopilot
 from helixd.link.ftp_transfer import FtpTransferError
 from helixd.link.mission_transfer import MissionTransferError
 from helixd.mav.url import LinkError, parse_link_url
+from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime.inputs import InputsRefused
+from helixd.runtime.planned import load_occupancy
 
 T = TypeVar("T")
 
@@ -108,6 +110,33 @@ def config_or_exit(config: Path | None) -> HelixdConfig:
 def refused(exc: InputsRefused) -> typer.Exit:
     """An :class:`InputsRefused` as ``error:`` lines and its exit code."""
     return fail(exc.problems, exc.code)
+
+
+def config_link_map(
+    config: Path | None, connect: str | None, map_path: Path | None
+) -> tuple[HelixdConfig, str, OccupancyMap | None]:
+    """What a command on the link reads first, each refusal exiting as it says: the config
+    (:func:`config_or_exit`), the link URL (:func:`check_connect`) and the ``--map``."""
+    cfg = config_or_exit(config)
+    url = check_connect(connect, cfg)
+    try:
+        occupancy = load_occupancy(cfg, map_path)
+    except InputsRefused as exc:
+        raise refused(exc) from None
+    return cfg, url, occupancy
+
+
+def command_group(name: str, help_text: str, **settings: Any) -> typer.Typer:
+    """A Typer app or group as all of helixd's: its help when given no arguments, no shell
+    completion, no pretty tracebacks; ``settings`` as Typer takes them."""
+    return typer.Typer(
+        name=name,
+        help=help_text,
+        no_args_is_help=True,
+        add_completion=False,
+        pretty_exceptions_enable=False,
+        **settings,
+    )
 
 
 def check_connect(connect: str | None, cfg: HelixdConfig) -> str:

@@ -1,7 +1,7 @@
 """``helixd autopilot install-guard``: put the dead-man switch (helixd-guard.lua) onto the
-autopilot over MAVLink FTP (:mod:`helixd.runtime.guard_install`).
+autopilot over MAVLink FTP (:mod:`helixd.commands.guard_install`).
 
-Registered on the main app by :func:`register` (one line in :mod:`helixd.cli.app`).
+Registered on the ``autopilot`` group by :func:`register` (in :mod:`helixd.cli.app`).
 Exit codes: 0 installed (and, with ``--reboot``, the reboot accepted); 2 bad command line or
 config; 3 the autopilot would not take it (no Lua scripting, an FTP refusal, a CRC mismatch;
 ``--reboot`` while armed, or the reboot refused); 6 no link or no answers.
@@ -20,20 +20,12 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import config_option, fail, link_inputs, run_on_link
+from helixd.commands.guard_install import GuardInstalled, GuardInstallRefused, install_guard
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
 from helixd.mav.ftp_wire import FtpPayloadError, encode_path
 from helixd.mav.guard_script import BOARD_SCRIPTS_DIR, POSIX_SCRIPTS_DIR, SCRIPT_NAME
-from helixd.runtime.guard_install import GuardInstalled, GuardInstallRefused, install_guard
-
-autopilot_app = typer.Typer(
-    name="autopilot",
-    help="Set the autopilot up for helixd.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-)
 
 ConnectOpt = Annotated[
     str | None, typer.Option("--connect", help="autopilot link (default: link.url)")
@@ -99,7 +91,6 @@ def report(url: str, got: GuardInstalled, rebooted: bool = False) -> list[str]:
     return lines
 
 
-@autopilot_app.command("install-guard")
 def install_guard_command(
     connect: ConnectOpt = None,
     config: ConfigOpt = None,
@@ -146,4 +137,5 @@ def install_guard_command(
 
 
 def register(app: typer.Typer) -> None:
-    app.add_typer(autopilot_app, name="autopilot")
+    """Add ``install-guard`` to ``app`` (the autopilot group)."""
+    app.command("install-guard")(install_guard_command)

@@ -1,7 +1,7 @@
-"""``helixd mission convert|survey|download|upload`` and ``helixd export``: ground-station
-files, surveys, and the autopilot's stored mission over the MAVLink mission protocol.
+"""``helixd mission convert|survey|download|upload``: ground-station files, surveys, and the
+autopilot's stored mission over the MAVLink mission protocol.
 
-Registered on the main app by :func:`register` (one line in :mod:`helixd.cli.app`).
+Registered on the ``mission`` group by :func:`register` (in :mod:`helixd.cli.app`).
 """
 
 from __future__ import annotations
@@ -15,13 +15,14 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.cli.common import (
-    WholeHelpGroup,
     config_option,
     config_or_exit,
     fail,
     link_inputs,
     run_on_link,
 )
+from helixd.commands.placement import place_on_autopilot
+from helixd.commands.survey_mission import SurveyRefused, survey_lines, survey_mission
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import Autopilot
@@ -49,25 +50,10 @@ from helixd.mission.formats.qgc_plan import plan_to_text
 from helixd.mission.formats.wire import WireMission, gcs_to_wire, wire_to_gcs
 from helixd.mission.formats.wpl import wpl_to_text
 from helixd.mission.placed import PlacementError, parse_latlon, placed_with
-from helixd.recorder import export
-from helixd.runtime.placement import place_on_autopilot
-from helixd.runtime.survey_mission import SurveyRefused, survey_lines, survey_mission
 
 T = TypeVar("T")
 
 ConfigOpt = Annotated[Path | None, config_option()]
-
-
-mission_app = typer.Typer(
-    name="mission",
-    help="Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "
-    "generate surveys.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-    rich_markup_mode=None,
-    cls=WholeHelpGroup,
-)
 
 
 ModeOpt = Annotated[
@@ -107,7 +93,6 @@ def _origin(text: str | None) -> tuple[float, float] | None:
         raise fail([f"--origin {exc}"]) from None
 
 
-@mission_app.command("convert")
 def convert(
     src: Annotated[Path, typer.Argument(help="mission file: .yaml, .plan or .waypoints")],
     dst: Annotated[Path, typer.Argument(help="output; its suffix names the format")],
@@ -152,53 +137,57 @@ def convert(
     typer.echo(f"{src} ({loaded.format.value}) → {dst} ({fmt.value}): {n} items")
 
 
-@mission_app.command("survey")
+SpacingOpt = Annotated[
+    float, typer.Option("--spacing-m", min=0.5, max=100.0, help="transect spacing (m)")
+]
+AngleOpt = Annotated[
+    float,
+    typer.Option("--angle-deg", min=-360.0, max=360.0, help="transect direction, compass degrees"),
+]
+MarginOpt = Annotated[
+    float,
+    typer.Option(
+        "--margin-m",
+        min=0.0,
+        max=100.0,
+        help="geofence = the polygon grown by this (m); the rover must start inside it "
+        "(run refuses a start outside the fence), so grow this to start farther out",
+    ),
+]
+InsetOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--inset-m",
+        min=0.0,
+        max=100.0,
+        help="keep the rover this far inside the edges (shoreline) and holes (m; default: "
+        "the rover's half-width from the vehicle config; off holes at least the planner's "
+        "clearance)",
+    ),
+]
+TimeFactorOpt = Annotated[
+    float,
+    typer.Option(
+        "--time-factor",
+        min=1.0,
+        max=5.0,
+        help="mission time limit = this x (estimated time + the longest approach "
+        "preflight allows) (slip, pauses)",
+    ),
+]
+
+
 def survey(
     polygon: Annotated[
         Path, typer.Argument(help="area: .plan (Survey or geofence polygon), .geojson or .kml")
     ],
     out: Annotated[Path, typer.Option("-o", "--out", help="mission to write (.yaml/.plan/...)")],
     mode: Annotated[MotionMode, typer.Option("--mode", help="motion mode of the mission")],
-    spacing_m: Annotated[
-        float, typer.Option("--spacing-m", min=0.5, max=100.0, help="transect spacing (m)")
-    ] = 10.0,
-    angle_deg: Annotated[
-        float,
-        typer.Option(
-            "--angle-deg", min=-360.0, max=360.0, help="transect direction, compass degrees"
-        ),
-    ] = 0.0,
-    margin_m: Annotated[
-        float,
-        typer.Option(
-            "--margin-m",
-            min=0.0,
-            max=100.0,
-            help="geofence = the polygon grown by this (m); the rover must start inside it "
-            "(run refuses a start outside the fence), so grow this to start farther out",
-        ),
-    ] = 2.0,
-    inset_m: Annotated[
-        float | None,
-        typer.Option(
-            "--inset-m",
-            min=0.0,
-            max=100.0,
-            help="keep the rover this far inside the edges (shoreline) and holes (m; default: "
-            "the rover's half-width from the vehicle config; off holes at least the planner's "
-            "clearance)",
-        ),
-    ] = None,
-    time_factor: Annotated[
-        float,
-        typer.Option(
-            "--time-factor",
-            min=1.0,
-            max=5.0,
-            help="mission time limit = this x (estimated time + the longest approach "
-            "preflight allows) (slip, pauses)",
-        ),
-    ] = 1.5,
+    spacing_m: SpacingOpt = 10.0,
+    angle_deg: AngleOpt = 0.0,
+    margin_m: MarginOpt = 2.0,
+    inset_m: InsetOpt = None,
+    time_factor: TimeFactorOpt = 1.5,
     config: ConfigOpt = None,
 ) -> None:
     """Boustrophedon survey of a polygon (holes cut out and kept out), with its own geofence
@@ -278,7 +267,6 @@ def describe_gcs(gcs: GcsMission) -> list[str]:
     return lines
 
 
-@mission_app.command("download")
 def download(
     out: Annotated[
         Path | None,
@@ -349,7 +337,6 @@ def download(
     )
 
 
-@mission_app.command("upload")
 def upload(
     src: Annotated[Path, typer.Argument(help="mission file: .plan, .waypoints or .yaml")],
     connect: ConnectOpt = None,
@@ -414,5 +401,8 @@ MIN_COVERAGE = 0.95  # below this, the operator is told (the survey is still wri
 
 
 def register(app: typer.Typer) -> None:
-    app.add_typer(mission_app, name="mission")
-    export.register(app)
+    """Add ``convert``, ``survey``, ``download`` and ``upload`` to ``app`` (the mission group)."""
+    app.command("convert")(convert)
+    app.command("survey")(survey)
+    app.command("download")(download)
+    app.command("upload")(upload)

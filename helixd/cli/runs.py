@@ -1,4 +1,5 @@
-"""CLI commands contributed by helixd.recorder: ``helixd plot`` and ``helixd replay``."""
+"""The commands that read a run directory: ``helixd plot``, ``helixd replay`` and
+``helixd export``."""
 
 from __future__ import annotations
 
@@ -13,8 +14,16 @@ from rich.table import Table
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.run_files import EVENTS_FILE, FLIGHT_FILE, SUMMARY_FILE
+from helixd.files.yamlio import clip_line
 from helixd.recorder.clocks import ClockMap
 from helixd.recorder.events import read_events, timeline
+from helixd.recorder.export import (
+    DEFAULT_MIN_STEP_M,
+    ExportError,
+    load_run_export,
+    to_geojson,
+    to_kml,
+)
 from helixd.recorder.logging_setup import configure_logging
 from helixd.recorder.rows import Value, read_flight_csv
 from helixd.recorder.summary import RunSummary
@@ -126,41 +135,82 @@ def print_replay(
     typer.echo("\n".join(lines), file=stream)
 
 
+def plot_command(
+    run_dir: RunDirArg,
+    out: Annotated[
+        Path | None,
+        typer.Option("--out", "-o", help="output directory (default: RUN_DIR/plots)"),
+    ] = None,
+) -> None:
+    """Render the thesis-style plots (a)–(f) and an overview of a recorded run as PNGs."""
+    configure_logging(tty=sys.stderr.isatty(), level="warning")
+    _check_run_dir(run_dir)
+    from helixd.recorder.plots import PlotError, render_run  # matplotlib only when plotting
+
+    try:
+        paths = render_run(run_dir, out)
+    except PlotError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(int(ExitCode.USAGE)) from None
+    except OSError as exc:
+        typer.echo(f"error: cannot write plots: {exc}", err=True)
+        raise typer.Exit(int(ExitCode.USAGE)) from None
+    for path in paths:
+        typer.echo(str(path))
+
+
+def replay_command(
+    run_dir: RunDirArg,
+    all_events: Annotated[
+        bool, typer.Option("--all", help="also list periodic progress events")
+    ] = False,
+) -> None:
+    """Print a recorded run's summary and its event timeline."""
+    configure_logging(tty=sys.stderr.isatty(), level="warning")
+    _check_run_dir(run_dir)
+    print_replay(run_dir, tty=sys.stdout.isatty(), include_periodic=all_events)
+
+
+def export_command(
+    run_dir: Annotated[Path, typer.Argument(help="run directory (runs/<stamp>-<mission>/)")],
+    geojson: Annotated[bool, typer.Option("--geojson", help="write GeoJSON")] = False,
+    kml: Annotated[bool, typer.Option("--kml", help="write KML")] = False,
+    out: Annotated[
+        Path | None,
+        typer.Option("-o", "--out", help="output file (default: RUN_DIR/track.geojson|kml)"),
+    ] = None,
+    min_step_m: Annotated[
+        float,
+        typer.Option("--min-step-m", min=0.0, max=100.0, help="flown-track point spacing (m)"),
+    ] = DEFAULT_MIN_STEP_M,
+) -> None:
+    """Export the planned path and the flown track in lat/lon (GeoJSON or KML)."""
+    if geojson == kml:
+        typer.echo("error: give exactly one of --geojson or --kml", err=True)
+        raise typer.Exit(int(ExitCode.USAGE))
+    if not run_dir.is_dir():
+        typer.echo(f"error: {run_dir}: not a directory", err=True)
+        raise typer.Exit(int(ExitCode.USAGE))
+    try:
+        data = load_run_export(run_dir, min_step_m)
+    except ExportError as exc:
+        typer.echo(f"error: {clip_line(str(exc))}", err=True)
+        raise typer.Exit(int(ExitCode.USAGE)) from None
+    target = out or run_dir / ("track.geojson" if geojson else "track.kml")
+    text = to_geojson(data) if geojson else to_kml(data)
+    try:
+        target.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        typer.echo(f"error: {target}: cannot write: {exc.strerror or exc}", err=True)
+        raise typer.Exit(int(ExitCode.USAGE)) from None
+    typer.echo(
+        f"{target}: planned {len(data.planned)} waypoints, flown track {len(data.flown)} "
+        f"points (EKF origin {data.origin[0]:.7f}, {data.origin[1]:.7f})"
+    )
+
+
 def register(app: typer.Typer) -> None:
-    """Add ``plot`` and ``replay`` to the main CLI."""
-
-    @app.command("plot")
-    def plot(
-        run_dir: RunDirArg,
-        out: Annotated[
-            Path | None,
-            typer.Option("--out", "-o", help="output directory (default: RUN_DIR/plots)"),
-        ] = None,
-    ) -> None:
-        """Render the thesis-style plots (a)–(f) and an overview of a recorded run as PNGs."""
-        configure_logging(tty=sys.stderr.isatty(), level="warning")
-        _check_run_dir(run_dir)
-        from helixd.recorder.plots import PlotError, render_run  # matplotlib only when plotting
-
-        try:
-            paths = render_run(run_dir, out)
-        except PlotError as exc:
-            typer.echo(f"error: {exc}", err=True)
-            raise typer.Exit(int(ExitCode.USAGE)) from None
-        except OSError as exc:
-            typer.echo(f"error: cannot write plots: {exc}", err=True)
-            raise typer.Exit(int(ExitCode.USAGE)) from None
-        for path in paths:
-            typer.echo(str(path))
-
-    @app.command("replay")
-    def replay(
-        run_dir: RunDirArg,
-        all_events: Annotated[
-            bool, typer.Option("--all", help="also list periodic progress events")
-        ] = False,
-    ) -> None:
-        """Print a recorded run's summary and its event timeline."""
-        configure_logging(tty=sys.stderr.isatty(), level="warning")
-        _check_run_dir(run_dir)
-        print_replay(run_dir, tty=sys.stdout.isatty(), include_periodic=all_events)
+    """Add ``plot``, ``replay`` and ``export`` to ``app``."""
+    app.command("plot")(plot_command)
+    app.command("replay")(replay_command)
+    app.command("export")(export_command)

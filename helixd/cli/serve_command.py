@@ -1,4 +1,4 @@
-"""``helixd serve``: the all-day service (:mod:`helixd.runtime.serve`) on the command line."""
+"""``helixd serve``: the all-day service (:mod:`helixd.serve.service`) on the command line."""
 
 from __future__ import annotations
 
@@ -10,15 +10,13 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.cli.common import check_connect, config_option, config_or_exit, fail, refused
+from helixd.cli.common import config_link_map, config_option, fail
 from helixd.cli.simulated import SimChoice, sim_world, simulator
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.planned import load_occupancy
-from helixd.runtime.serve import serve
-from helixd.runtime.serve_options import ServeOptions
+from helixd.serve.options import ServeOptions
+from helixd.serve.service import serve
 from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
 
 __all__ = ["register"]
@@ -85,12 +83,7 @@ def serve_command(
     MISSION_START), pause and continue on the switch or DO_PAUSE_CONTINUE; never moves on its
     own. Stops on SIGINT/SIGTERM (a flight in progress falls back to HOLD first)."""
     choice = _sim_choice(sim, connect, sim_speedup, sim_terrain, sim_gcs)
-    cfg = config_or_exit(config)
-    url = check_connect(connect, cfg)
-    try:
-        occupancy = load_occupancy(cfg, map_path)
-    except InputsRefused as exc:
-        raise refused(exc) from None
+    cfg, url, occupancy = config_link_map(config, connect, map_path)
     configure_logging(tty=sys.stderr.isatty(), level=log_level)
     with simulator(choice, lambda: sim_world(cfg, occupancy), url, cfg) as link_url:
         served = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": link_url})})

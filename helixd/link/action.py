@@ -30,7 +30,6 @@ from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MISSION_CURRENT,
     MAV_CMD_DO_SET_MODE,
-    MAV_CMD_DO_SET_SERVO,
     MAV_CMD_REQUEST_MESSAGE,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     MAV_RESULT_ACCEPTED,
@@ -160,10 +159,6 @@ class Action:
             MAV_CMD_DO_SET_MODE, (MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number), timeout_s, retries
         )
         log.info("mode_set", mode=name.upper(), custom_mode=number)
-
-    async def set_servo(self, channel: int, pwm_us: int) -> None:
-        """MAV_CMD_DO_SET_SERVO (a latched output: see :mod:`helixd.actuators.servo`)."""
-        await self.command_long(MAV_CMD_DO_SET_SERVO, (channel, pwm_us))
 
     async def set_mission_current(self, seq: int) -> None:
         """MAV_CMD_DO_SET_MISSION_CURRENT (param1 ``seq``, param2 0: no reset): make ``seq``

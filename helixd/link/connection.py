@@ -458,10 +458,6 @@ class Autopilot:
     def stop_heartbeat(self) -> None:
         self._heartbeat.stop()
 
-    @property
-    def heartbeats_sent(self) -> int:
-        return self._heartbeat.sent
-
     # -- streams and pose ---------------------------------------------------------------------
 
     async def request_streams(self) -> dict[str, float]:

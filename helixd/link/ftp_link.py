@@ -13,12 +13,12 @@ to ``link.target_system`` / ``link.target_component`` with target_network 0.
 
 from __future__ import annotations
 
-import asyncio
 from collections.abc import Callable
 from typing import Any, Protocol, TypeVar
 
 from helixd.config import LinkConfig
 from helixd.link.ftp_transfer import FtpExchange, run_ftp
+from helixd.link.inbox import Inbox
 from helixd.mav.ftp_wire import FtpPayload, FtpPayloadError, from_message, to_message
 
 __all__ = ["AutopilotFtpLink", "FtpClient", "FtpHost"]
@@ -49,8 +49,7 @@ class AutopilotFtpLink:
         cfg = host.cfg
         self._ours = (cfg.source_system, cfg.source_component)
         self._theirs = (cfg.target_system, cfg.target_component)
-        self._queue: asyncio.Queue[bytes] = asyncio.Queue(QUEUE_MAX)
-        self.dropped = 0  # replies dropped because the queue was full
+        self._inbox: Inbox[bytes] = Inbox(QUEUE_MAX)
         self.ignored = 0  # FILE_TRANSFER_PROTOCOL not for us (or unreadable)
         self.send_failed = 0  # requests the transport dropped (the exchange sends again)
 
@@ -70,10 +69,7 @@ class AutopilotFtpLink:
         except FtpPayloadError:
             self.ignored += 1
             return
-        if self._queue.full():
-            self._queue.get_nowait()
-            self.dropped += 1
-        self._queue.put_nowait(payload)
+        self._inbox.put(payload)
 
     def __enter__(self) -> AutopilotFtpLink:
         self._host.add_message_listener(self._put)
@@ -88,15 +84,7 @@ class AutopilotFtpLink:
             self.send_failed += 1
 
     async def recv(self, timeout_s: float) -> bytes | None:
-        if not self._queue.empty():
-            return self._queue.get_nowait()
-        if timeout_s <= 0:
-            return None
-        try:
-            async with asyncio.timeout(timeout_s):
-                return await self._queue.get()
-        except TimeoutError:
-            return None
+        return await self._inbox.get(timeout_s)
 
 
 class FtpClient:

@@ -18,6 +18,7 @@ from typing import Any, Protocol
 import structlog
 
 from helixd.config import LinkConfig
+from helixd.link.inbox import Inbox
 from helixd.link.mission_transfer import (
     MissionDownload,
     MissionTransferError,
@@ -68,8 +69,7 @@ class AutopilotMissionLink:
     def __init__(self, host: MissionHost, send: Callable[[MavMsg], bool]) -> None:
         self._host = host
         self._send = send
-        self._queue: asyncio.Queue[MavMsg] = asyncio.Queue(QUEUE_MAX)
-        self.dropped = 0
+        self._inbox: Inbox[MavMsg] = Inbox(QUEUE_MAX)
         self.texts: list[str] = []  # the vehicle's warnings (and worse) during the transfer
         self._text_seen = asyncio.Event()
 
@@ -80,10 +80,7 @@ class AutopilotMissionLink:
             return
         if kind not in MISSION_MESSAGES:
             return
-        if self._queue.full():
-            self._queue.get_nowait()
-            self.dropped += 1
-        self._queue.put_nowait(msg)
+        self._inbox.put(msg)
 
     def _note_text(self, msg: MavMsg) -> None:
         try:
@@ -120,15 +117,7 @@ class AutopilotMissionLink:
         self._send(msg)
 
     async def recv(self, timeout_s: float) -> MavMsg | None:
-        if not self._queue.empty():
-            return self._queue.get_nowait()
-        if timeout_s <= 0:
-            return None
-        try:
-            async with asyncio.timeout(timeout_s):
-                return await self._queue.get()
-        except TimeoutError:
-            return None
+        return await self._inbox.get(timeout_s)
 
 
 @dataclass(frozen=True, slots=True)

@@ -104,6 +104,28 @@ CIRCLE_RADIUS_MIN_M = 0.1  # Rover/mode_circle.cpp AR_CIRCLE_RADIUS_MIN
 JUMP_FOREVER = -1  # AP_MISSION_JUMP_REPEAT_FOREVER
 
 
+def speed_refused(asked_mps: float) -> bool:
+    """A change of speed Rover refuses (not finite, or under :data:`SPEED_MIN_MPS`): nothing
+    changes."""
+    return not (math.isfinite(asked_mps) and asked_mps >= SPEED_MIN_MPS)
+
+
+def speed_floor_mps(min_speed_mps: float) -> float:
+    """The lowest speed a change of speed sets: control.min_speed_mps, and Rover's 0.05 m/s."""
+    return max(min_speed_mps, SPEED_MIN_MPS)
+
+
+def bound_speed(asked_mps: float, lo_mps: float, hi_mps: float) -> tuple[float, str]:
+    """A change of speed within ``[lo_mps, hi_mps]``: the speed, and which bound set it
+    (``"low"``, ``"high"``, or ``""`` when none). Non-finite: the low bound (itself at most
+    ``hi_mps``)."""
+    if not math.isfinite(asked_mps) or asked_mps < lo_mps:
+        return min(lo_mps, hi_mps), "low"
+    if asked_mps > hi_mps:
+        return hi_mps, "high"
+    return asked_mps, ""
+
+
 class Role(StrEnum):
     """What ArduPilot Rover's AUTO does with a command, and so what helixd does."""
 

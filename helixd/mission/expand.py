@@ -94,7 +94,10 @@ from helixd.mission.commands import (
     SKIP_ROLES,
     SPEED_MIN_MPS,
     Role,
+    bound_speed,
     command_name,
+    speed_floor_mps,
+    speed_refused,
     stored_whole,
 )
 from helixd.mission.model import WaypointSpec
@@ -524,14 +527,14 @@ class _Builder:
     def change_speed(self, c: _Cmd) -> MissionAction:
         asked = c.p(1)
         item, command = c.index, c.wp.command
-        if not (math.isfinite(asked) and asked >= SPEED_MIN_MPS):
+        if speed_refused(asked):
             text = f"{c.name} {asked:g} m/s: no change (below {SPEED_MIN_MPS} m/s, as Rover)"
             return MissionAction(item, command, ActionKind.NOTE, text=text)
-        lo = max(self.ctx.min_speed_mps, SPEED_MIN_MPS)
-        bounded = min(max(asked, lo), self.ctx.max_speed_mps)
+        lo = speed_floor_mps(self.ctx.min_speed_mps)
+        bounded, side = bound_speed(asked, lo, self.ctx.max_speed_mps)
         text = f"{c.name} → {bounded:.2f} m/s"
-        if bounded != asked:
-            limit = "control.max_speed_mps" if asked > bounded else "control.min_speed_mps"
+        if side:
+            limit = "control.max_speed_mps" if side == "high" else "control.min_speed_mps"
             self.note(c, f"{asked:g} m/s bounded to {bounded:.2f} m/s by {limit}")
             text += f" ({asked:g} asked, bounded by {limit})"
         self.speed = bounded

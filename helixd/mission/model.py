@@ -39,7 +39,7 @@ from pydantic import Field, ValidationInfo, model_validator
 from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.base.polygon import polygon_problems
-from helixd.config import MissionLimits
+from helixd.config import GEOFENCE_RADIUS_MAX_M, MissionLimits
 from helixd.files.models import InputModel, entry_label, load_yaml_model
 from helixd.files.yamlio import clip
 from helixd.mav.constants import MAV_CMD_NAV_WAYPOINT
@@ -326,7 +326,7 @@ class Mission(InputModel):
     geofence_radius_m: float | None = Field(
         None,
         gt=0.0,
-        le=10_000.0,
+        le=GEOFENCE_RADIUS_MAX_M,
         description="with geofence_polygon: also a radius around the start point (None = the "
         "polygon alone); without: replaces safety.geofence_radius_m (None = the config's)",
     )

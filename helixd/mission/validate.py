@@ -32,7 +32,7 @@ from collections.abc import Sequence
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan, program_numbering
 from helixd.base.polygon import leg_leaves_polygon, point_in_polygon, segments_intersect
-from helixd.config import HelixdConfig
+from helixd.config import GEOFENCE_RADIUS_MAX_M, HelixdConfig
 from helixd.files.models import entry_label
 from helixd.mission.commands import FLY_ROLES, SERVO_COMMANDS, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
@@ -247,7 +247,6 @@ def _home_range_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
 
 
 GEOFENCE_FALLBACK_SLACK = 1.005  # 0.5 %: the EKF map seen from another origin differs less
-GEOFENCE_RADIUS_MAX_M = 10_000.0  # safety.geofence_radius_m's upper bound
 
 
 def mission_fence_ne(

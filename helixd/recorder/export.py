@@ -17,14 +17,12 @@ import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Any
 from xml.sax.saxutils import escape
 
 import numpy as np
 import numpy.typing as npt
-import typer
 
-from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
 from helixd.base.plan import MissionFrameKind, Numbering, operator_numbers
 from helixd.base.run_files import (
@@ -35,7 +33,6 @@ from helixd.base.run_files import (
 )
 from helixd.config import HelixdConfig, load_config
 from helixd.files.models import ConfigFileError
-from helixd.files.yamlio import clip_line
 from helixd.mission.model import Mission, load_mission
 from helixd.recorder.resume_dir import run_numbering
 from helixd.recorder.rows import read_flight_columns
@@ -283,43 +280,3 @@ def load_run_export(run_dir: Path, min_step_m: float = DEFAULT_MIN_STEP_M) -> Ex
     cols = read_flight_columns(flight) if flight.exists() else {}
     numbering = run_numbering(run_dir, [w.via for w in mission.waypoints])
     return build_export(mission, origin, cols, min_step_m, numbering)
-
-
-def register(app: typer.Typer) -> None:
-    @app.command("export")
-    def export(
-        run_dir: Annotated[Path, typer.Argument(help="run directory (runs/<stamp>-<mission>/)")],
-        geojson: Annotated[bool, typer.Option("--geojson", help="write GeoJSON")] = False,
-        kml: Annotated[bool, typer.Option("--kml", help="write KML")] = False,
-        out: Annotated[
-            Path | None,
-            typer.Option("-o", "--out", help="output file (default: RUN_DIR/track.geojson|kml)"),
-        ] = None,
-        min_step_m: Annotated[
-            float,
-            typer.Option("--min-step-m", min=0.0, max=100.0, help="flown-track point spacing (m)"),
-        ] = DEFAULT_MIN_STEP_M,
-    ) -> None:
-        """Export the planned path and the flown track in lat/lon (GeoJSON or KML)."""
-        if geojson == kml:
-            typer.echo("error: give exactly one of --geojson or --kml", err=True)
-            raise typer.Exit(int(ExitCode.USAGE))
-        if not run_dir.is_dir():
-            typer.echo(f"error: {run_dir}: not a directory", err=True)
-            raise typer.Exit(int(ExitCode.USAGE))
-        try:
-            data = load_run_export(run_dir, min_step_m)
-        except ExportError as exc:
-            typer.echo(f"error: {clip_line(str(exc))}", err=True)
-            raise typer.Exit(int(ExitCode.USAGE)) from None
-        target = out or run_dir / ("track.geojson" if geojson else "track.kml")
-        text = to_geojson(data) if geojson else to_kml(data)
-        try:
-            target.write_text(text, encoding="utf-8")
-        except OSError as exc:
-            typer.echo(f"error: {target}: cannot write: {exc.strerror or exc}", err=True)
-            raise typer.Exit(int(ExitCode.USAGE)) from None
-        typer.echo(
-            f"{target}: planned {len(data.planned)} waypoints, flown track {len(data.flown)} "
-            f"points (EKF origin {data.origin[0]:.7f}, {data.origin[1]:.7f})"
-        )

@@ -1,7 +1,7 @@
 """The autopilot's mission as helixd flies it: downloaded items → a validated mission.
 
 Shared by ``helixd run --mission autopilot`` (:mod:`helixd.cli.autopilot`, which prints the
-notes and turns a refusal into exit 3) and ``helixd serve`` (:mod:`helixd.runtime.serve`,
+notes and turns a refusal into exit 3) and ``helixd serve`` (:mod:`helixd.serve.service`,
 which tells the ground station). Pure: no link, no printing.
 """
 

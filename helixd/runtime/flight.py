@@ -62,7 +62,7 @@ from helixd.control.slip import (
 )
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample, PositionTarget
-from helixd.mission.commands import SPEED_MIN_MPS
+from helixd.mission.commands import bound_speed, speed_floor_mps
 from helixd.runtime.mode_gate import (
     Gate,
     autopilot_step,
@@ -157,11 +157,9 @@ def bounded_cruise(asked_mps: float, lo_mps: float, peak_mps: float) -> tuple[fl
     (control.min_speed_mps, and Rover's 0.05 m/s), at most ``peak_mps`` (the plan's peak
     speed: its corner arcs and stopping distances are planned for it). Non-finite: the low
     limit. The speed, and the limit that bounded it ("" when none)."""
-    if not math.isfinite(asked_mps) or asked_mps < lo_mps:
-        return min(lo_mps, peak_mps), "control.min_speed_mps"
-    if asked_mps > peak_mps:
-        return peak_mps, "the mission's top speed"
-    return asked_mps, ""
+    speed_mps, side = bound_speed(asked_mps, lo_mps, peak_mps)
+    limits = {"low": "control.min_speed_mps", "high": "the mission's top speed"}
+    return speed_mps, limits.get(side, "")
 
 
 class FlightLoop:
@@ -318,20 +316,9 @@ class FlightLoop:
         try:
             if self._pose_rejected(now, t_start, out):
                 return None  # neutral until a valid pose (or the pose_invalid watchdog)
-            if sample is None:
-                return None
-            t_boot_s = sample.time_boot_ms / 1000.0
-            due_s = ceiling_next_due(
-                t_boot_s,
-                self._last_step_boot_s,
-                self._step_due_boot_s,
-                self._step_period_s,
-                self._step_early_s,
-            )
-            if due_s is None:
-                return None  # thinned out by the control-rate ceiling
-            self._last_step_boot_s = t_boot_s
-            self._step_due_boot_s = due_s
+            t_boot_s = None if sample is None else self._step_due(sample)
+            if sample is None or t_boot_s is None:
+                return None  # no fresh pose, or thinned out by the control-rate ceiling
             if self._gate is Gate.HOLD or self._arrived:  # paused, or at the place: neutral
                 self._neutral()
                 step = self._held(sample, None)
@@ -376,6 +363,23 @@ class FlightLoop:
         if done:
             return FlightResult(None, None, out, sample.ned)
         return None
+
+    def _step_due(self, sample: PoseSample) -> float | None:
+        """The pose's boot time when a step is due on it (and the step counted as taken),
+        None when the control-rate ceiling thins it out."""
+        t_boot_s = sample.time_boot_ms / 1000.0
+        due_s = ceiling_next_due(
+            t_boot_s,
+            self._last_step_boot_s,
+            self._step_due_boot_s,
+            self._step_period_s,
+            self._step_early_s,
+        )
+        if due_s is None:
+            return None
+        self._last_step_boot_s = t_boot_s
+        self._step_due_boot_s = due_s
+        return t_boot_s
 
     def _arrive(self, out: NavOutput) -> None:
         """At the autopilot's place: neutral, the overrides kept, until the crew gives another
@@ -442,7 +446,7 @@ class FlightLoop:
         :func:`bounded_cruise` (the plan's corners and stops are planned for its peak speed);
         a later DO_CHANGE_SPEED item of the mission sets it again. The speed applied and the
         limit that bounded it ("" when none)."""
-        lo = max(self.cfg.control.min_speed_mps, SPEED_MIN_MPS)
+        lo = speed_floor_mps(self.cfg.control.min_speed_mps)
         speed_mps, limit = bounded_cruise(asked_mps, lo, self.plan.peak_speed_mps)
         self.navigator.set_speed(speed_mps)
         return speed_mps, limit

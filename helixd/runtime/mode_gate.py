@@ -1,7 +1,7 @@
 """What the autopilot's mode lets a flight do, when the crew's command is the mode (pure).
 
 ``helixd serve`` flies a mission the crew started from the ground station in the autopilot's
-AUTO (:mod:`helixd.runtime.serve_core`): QGroundControl's Start Mission, Pause and mode
+AUTO (:mod:`helixd.serve.core`): QGroundControl's Start Mission, Pause and mode
 buttons talk to the autopilot, and the mode they leave it in is what helixd obeys:
 
 * AUTO (the flight's driving mode): helixd drives with its own guidance;

@@ -124,6 +124,46 @@ def dig_in_warning(mode: MotionMode, pivots: int) -> str | None:
     )
 
 
+def _straight_note(cfg: HelixdConfig, msn: Mission) -> str:
+    """A planned route's detours, against the straight legs from the same start."""
+    original, _ = plan_for_check(msn, cfg)
+    first = original.waypoints[0]
+    start_xy = (first.x_m, first.y_m)
+    if msn.frame is MissionFrameKind.LOCAL_NED:
+        start_xy = (cfg.planning.start_ne_m[1], cfg.planning.start_ne_m[0])
+    return f", planned around obstacles (straight legs {original.path_length_m(start_xy):.1f} m)"
+
+
+def _speeds(plan: Plan) -> str:
+    """The speeds flown: the plan's, or each step's of a program (and its holds)."""
+    if plan.program is None:
+        return f"{plan.speed_mps:.2f} m/s"
+    steps = plan.program.steps
+    flown = sorted({s.speed_mps for s in steps if s.first_waypoint is not None})
+    speeds = f"{', '.join(f'{v:.2f}' for v in flown) or f'{plan.speed_mps:.2f}'} m/s"
+    return speeds + f", {plan.waits_s():.0f} s of holds"
+
+
+def _own_limit_lines(msn: Mission) -> list[str]:
+    """The limits the mission brings itself, and the start its geofence polygon asks for."""
+    own = [
+        *(
+            [f"geofence polygon ({len(msn.geofence_polygon)} vertices)"]
+            if msn.geofence_polygon
+            else []
+        ),
+        *([f"geofence radius {msn.geofence_radius_m} m"] if msn.geofence_radius_m else []),
+        *([f"time limit {msn.time_limit_s:.0f} s"] if msn.time_limit_s is not None else []),
+    ]
+    lines = [f"limits  : the mission's own {', '.join(own)} replace the config's"] if own else []
+    if msn.geofence_polygon:
+        lines.append(
+            "warning : the rover must start inside the mission's geofence_polygon: run refuses "
+            "a start outside it (a survey's fence is its area grown by --margin-m)"
+        )
+    return lines
+
+
 def check_lines(
     cfg: HelixdConfig,
     msn: Mission,
@@ -163,26 +203,10 @@ def check_lines(
     else:
         lines.extend(waypoint_table(plan))
     estimate, start_note = route_time_estimate(cfg, planned, route, path)
-    straight = ""
-    if route is not None:  # the detours, against the straight legs from the same start
-        original, _ = plan_for_check(msn, cfg)
-        first = original.waypoints[0]
-        start_xy = (first.x_m, first.y_m)
-        if msn.frame is MissionFrameKind.LOCAL_NED:
-            start_xy = (cfg.planning.start_ne_m[1], cfg.planning.start_ne_m[0])
-        straight = (
-            f", planned around obstacles (straight legs {original.path_length_m(start_xy):.1f} m)"
-        )
-    if plan.program is None:
-        speeds = f"{plan.speed_mps:.2f} m/s"
-    else:
-        steps = plan.program.steps
-        flown = sorted({s.speed_mps for s in steps if s.first_waypoint is not None})
-        speeds = f"{', '.join(f'{v:.2f}' for v in flown) or f'{plan.speed_mps:.2f}'} m/s"
-        speeds += f", {plan.waits_s():.0f} s of holds"
+    straight = _straight_note(cfg, msn) if route is not None else ""
     laps = " (the patrol's planned laps)" if plan.program and plan.program.patrol_item else ""
     lines.append(
-        f"path    : {estimate.path_length_m:.1f} m{start_note}{straight}{laps} at {speeds}"
+        f"path    : {estimate.path_length_m:.1f} m{start_note}{straight}{laps} at {_speeds(plan)}"
     )
     patrol = patrol_times_s(plan, estimate)
     lines.append(estimate_line(estimate, cfg, msn, start_note, patrol))
@@ -190,22 +214,7 @@ def check_lines(
     dig = dig_in_warning(plan.mode, estimate.pivots)
     if dig is not None:
         lines.append(dig)
-    own = [
-        *(
-            [f"geofence polygon ({len(msn.geofence_polygon)} vertices)"]
-            if msn.geofence_polygon
-            else []
-        ),
-        *([f"geofence radius {msn.geofence_radius_m} m"] if msn.geofence_radius_m else []),
-        *([f"time limit {msn.time_limit_s:.0f} s"] if msn.time_limit_s is not None else []),
-    ]
-    if own:
-        lines.append(f"limits  : the mission's own {', '.join(own)} replace the config's")
-    if msn.geofence_polygon:
-        lines.append(
-            "warning : the rover must start inside the mission's geofence_polygon: run refuses "
-            "a start outside it (a survey's fence is its area grown by --margin-m)"
-        )
+    lines.extend(_own_limit_lines(msn))
     later = pending_checks(msn, cfg)
     if later:
         lines.append(f"preflight: run checks with the start pose: {', '.join(later)}")

@@ -11,10 +11,10 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
+from helixd.commands.survey_mission import survey_mission
 from helixd.config import HelixdConfig
 from helixd.mission.formats import write_mission_file
 from helixd.mission.formats.areas import read_area
-from helixd.runtime.survey_mission import survey_mission
 from tests.support.harness import sim_and_daemon
 from tests.support.paths import DATA_DIR
 

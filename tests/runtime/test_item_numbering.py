@@ -22,7 +22,7 @@ from helixd.mission.resolve import Where, resolve
 from helixd.recorder.summary import SummaryBuilder
 from helixd.runtime.display import ProgressInfo, progress_fields, progress_line, result_line
 from helixd.runtime.gcs_report import GcsReporter, WaypointReached
-from helixd.runtime.serve_flights import flight_end_text
+from helixd.serve.flights import flight_end_text
 
 CFG = HelixdConfig()
 HOME = (53.523250, -113.526110)

@@ -177,7 +177,7 @@ def test_run_sim_map_hands_the_world_to_the_embedded_simulator(
 
 def test_the_simulator_loads_nothing_of_planning() -> None:
     code = (
-        "import sys, helixd.sim, helixd.sim.collisions, helixd.sim.command;"
+        "import sys, helixd.sim, helixd.sim.collisions, helixd.sim.server;"
         "bad = sorted(m for m in sys.modules if m.startswith(('helixd.planning', "
         "'helixd.control')));"
         "print(bad); assert not bad"

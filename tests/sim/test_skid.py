@@ -228,7 +228,7 @@ def test_core_helix_plant_unchanged_by_the_option() -> None:
 def test_sim_command_plant_option(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    import helixd.sim.command as command
+    import helixd.cli.sim_command as command
 
     seen: list[SimConfig] = []
     monkeypatch.setattr(command, "run_sim", lambda links, cfg, faults, dur: seen.append(cfg))

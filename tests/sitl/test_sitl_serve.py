@@ -14,7 +14,7 @@ radio). The sequence, one mission of three waypoints (8 m legs, left-hand turns)
   flying TEMPORARILY_REJECTED;
 * switch low on leg 1 → ``state=paused``; outputs 1/3 at trim and HOLD (latencies printed);
   the ground station's DO_PAUSE_CONTINUE 1 is DENIED while the switch is low (the pilot's
-  veto, serve_core); switch high → ``event=run_resumed``, the rover drives on;
+  veto, serve.core); switch high → ``event=run_resumed``, the rover drives on;
 * DO_PAUSE_CONTINUE 0 from the ground station on leg 2 → ACCEPTED, ``state=paused``, trim and
   HOLD; DO_PAUSE_CONTINUE 1 → ACCEPTED, ``event=run_resumed``, ``state=completed``;
 * the autopilot's MISSION_CURRENT, as the ground station receives it, goes 1 → 2 → 3 with the

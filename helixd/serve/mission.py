@@ -15,14 +15,14 @@ from helixd.link.mission_transfer import MissionTransferError
 from helixd.mav.url import LinkError
 from helixd.mission.formats.items import GcsMission
 from helixd.runtime.autopilot_mission import items_sha256
-from helixd.runtime.serve_check import (
+from helixd.serve.check import (
     CheckInputs,
     ReadyMission,
     Verdict,
     check_download,
     check_file,
 )
-from helixd.runtime.serve_options import ServeOptions
+from helixd.serve.options import ServeOptions
 
 log = structlog.get_logger(__name__)
 

@@ -16,7 +16,7 @@ from helixd.mav.constants import MAV_SEVERITY_NOTICE
 from helixd.mav.url import LinkError
 from helixd.runtime.gcs_feed import GcsFeed
 from helixd.runtime.notify import ServiceNotifier
-from helixd.runtime.serve_core import ServeState
+from helixd.serve.core import ServeState
 
 log = structlog.get_logger(__name__)
 _mav = mavlink.MAVLink(None)  # encoder only: Autopilot.send_message packs with our ids

@@ -44,19 +44,19 @@ from helixd.runtime.prepare import (
     from_autopilot_item,
     prepare_flight,
 )
-from helixd.runtime.serve_check import ReadyMission
-from helixd.runtime.serve_core import (
+from helixd.runtime.signals import StopRequest
+from helixd.safety.watchdogs import FaultCause
+from helixd.serve.check import ReadyMission
+from helixd.serve.core import (
     AutoWatch,
     Request,
     ServeState,
     SwitchWatch,
     state_after_flight,
 )
-from helixd.runtime.serve_mission import MissionWatch
-from helixd.runtime.serve_options import ServeOptions
-from helixd.runtime.serve_status import ServeStatus
-from helixd.runtime.signals import StopRequest
-from helixd.safety.watchdogs import FaultCause
+from helixd.serve.mission import MissionWatch
+from helixd.serve.options import ServeOptions
+from helixd.serve.status import ServeStatus
 
 log = structlog.get_logger(__name__)
 

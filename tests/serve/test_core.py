@@ -1,4 +1,4 @@
-"""helixd serve's decisions, with numbers alone (helixd.runtime.serve_core)."""
+"""helixd serve's decisions, with numbers alone (helixd.serve.core)."""
 
 from __future__ import annotations
 
@@ -22,7 +22,8 @@ from helixd.mav.constants import (
     MAV_RESULT_TEMPORARILY_REJECTED,
     MAV_RESULT_UNSUPPORTED,
 )
-from helixd.runtime.serve_core import (
+from helixd.safety.watchdogs import FaultCause
+from helixd.serve.core import (
     AutoWatch,
     GotoWatch,
     Request,
@@ -37,7 +38,6 @@ from helixd.runtime.serve_core import (
     radio_live,
     state_after_flight,
 )
-from helixd.safety.watchdogs import FaultCause
 
 GCS = frozenset({255})
 

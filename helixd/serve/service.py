@@ -5,10 +5,10 @@ autopilot) → the main loop (connect with backoff; on a link: heartbeats, the s
 autopilot's mission watched and checked, commands answered; flights run as tasks) → shutdown
 (a flight in progress is stopped through its own fall-back; the link closed).
 
-Decisions are :mod:`helixd.runtime.serve_core`'s (pure); this module is the shell around
-them, with its parts: the state told to the crew (:mod:`~helixd.runtime.serve_status`), the
-mission watched (:mod:`~helixd.runtime.serve_mission`) and the flights
-(:mod:`~helixd.runtime.serve_flights`). Each flight is a
+Decisions are :mod:`helixd.serve.core`'s (pure); this module is the shell around
+them, with its parts: the state told to the crew (:mod:`~helixd.serve.status`), the
+mission watched (:mod:`~helixd.serve.mission`) and the flights
+(:mod:`~helixd.serve.flights`). Each flight is a
 :class:`helixd.runtime.daemon.MissionRunner` on the service's link, so every invariant of
 ``helixd run`` holds per flight: stop, release, HOLD on every ending; a run directory per
 flight; nothing carried from one flight into the next but the resume record. The service
@@ -41,8 +41,9 @@ from helixd.runtime.gcs_feed import GcsFeed
 from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of, current_target_of
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.prepare import AutopilotPlace
-from helixd.runtime.serve_check import Verdict
-from helixd.runtime.serve_core import (
+from helixd.runtime.signals import StopRequest, install, uninstall
+from helixd.serve.check import Verdict
+from helixd.serve.core import (
     Answer,
     AutoWatch,
     GotoWatch,
@@ -56,11 +57,10 @@ from helixd.runtime.serve_core import (
     answer_switch,
     radio_live,
 )
-from helixd.runtime.serve_flights import Flights
-from helixd.runtime.serve_mission import MissionWatch
-from helixd.runtime.serve_options import ServeOptions
-from helixd.runtime.serve_status import ServeStatus
-from helixd.runtime.signals import StopRequest, install, uninstall
+from helixd.serve.flights import Flights
+from helixd.serve.mission import MissionWatch
+from helixd.serve.options import ServeOptions
+from helixd.serve.status import ServeStatus
 
 log = structlog.get_logger(__name__)
 _mav = mavlink.MAVLink(None)  # encoder only: Autopilot.send_message packs with our ids

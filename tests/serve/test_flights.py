@@ -1,4 +1,4 @@
-"""helixd.runtime.serve: what the ground station reads when a flight ends."""
+"""helixd.serve.service: what the ground station reads when a flight ends."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from helixd.base.run_files import EVENTS_FILE
 from helixd.mission.expand import ExpandOptions
 from helixd.recorder.summary import RunSummary
 from helixd.runtime.prepare import AutoWalk
-from helixd.runtime.serve_flights import flight_end_text, held_walk
+from helixd.serve.flights import flight_end_text, held_walk
 
 
 def summary_of(rows: int, reached: int) -> RunSummary:

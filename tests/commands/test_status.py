@@ -1,13 +1,13 @@
-"""helixd.runtime.status: the lines `helixd status` prints (pure)."""
+"""helixd.commands.status: the lines `helixd status` prints (pure)."""
 
 from __future__ import annotations
 
 import pytest
 
 from helixd.base.frames import NedPose
+from helixd.commands.status import HeldLog, format_status, guard_text, log_lines
 from helixd.link.vehicle import PoseSample, VehicleState
 from helixd.mav.guard_script import VERSION
-from helixd.runtime.status import HeldLog, format_status, guard_text, log_lines
 from tests.support.cli import run_main
 from tests.support.harness import running_sim
 

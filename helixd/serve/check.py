@@ -3,7 +3,7 @@
 (:func:`helixd.runtime.prepare.prepare_flight`).
 
 Each function returns a :class:`Verdict` — the checked mission, or the state and the texts
-the service tells the ground station; the service (:mod:`helixd.runtime.serve`) applies and
+the service tells the ground station; the service (:mod:`helixd.serve.service`) applies and
 logs it. Nothing here touches the link.
 """
 
@@ -27,7 +27,7 @@ from helixd.runtime.autopilot_mission import MissionRefused, convert_download, g
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import AutopilotMission, MissionFile, prepare_flight
-from helixd.runtime.serve_core import ServeState
+from helixd.serve.core import ServeState
 
 log = structlog.get_logger(__name__)
 

@@ -1,4 +1,4 @@
-"""helixd.runtime.survey_mission: what a survey becomes as a mission — the rover's body inside the
+"""helixd.commands.survey_mission: what a survey becomes as a mission — the rover's body inside the
 area by default, the holes carried as keep-out areas, the time limit on the real estimate."""
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from shapely.geometry import LineString, Point, Polygon
 
 from helixd.base.frames import NedPose, latlon_to_ne
 from helixd.base.plan import MotionMode
+from helixd.commands.survey_mission import approach_estimate, default_insets, survey_mission
 from helixd.config import HelixdConfig
 from helixd.control.estimate import estimate_time
 from helixd.mission.formats.areas import read_area
@@ -18,7 +19,6 @@ from helixd.mission.resolve import resolve_plan
 from helixd.mission.validate import apply_mission_limits, mission_problems
 from helixd.planning.obstacles import clearance_m, rover_half_width_m
 from helixd.runtime.planned import plan_loaded
-from helixd.runtime.survey_mission import approach_estimate, default_insets, survey_mission
 from tests.support.paths import DATA_DIR
 
 CFG = HelixdConfig()

@@ -1,6 +1,6 @@
 """``helixd serve``'s decisions, pure: what the service is doing, and what it answers.
 
-No socket, clock or log here (:mod:`helixd.runtime.serve` is the shell). The service is in
+No socket, clock or log here (:mod:`helixd.serve.service` is the shell). The service is in
 one :class:`ServeState` at a time, told to the ground station as NAMED_VALUE_INT ``hx_state``
 (the enum's value) and a STATUSTEXT on every change. Requests come from three places and are
 judged the same way:
@@ -56,7 +56,7 @@ from helixd.mav.constants import (
     MAV_RESULT_TEMPORARILY_REJECTED,
     MAV_RESULT_UNSUPPORTED,
 )
-from helixd.mission.commands import SPEED_MIN_MPS
+from helixd.mission.commands import SPEED_MIN_MPS, speed_refused
 from helixd.runtime.mode_gate import AUTO_MODE, GOTO_MODES, same_place
 from helixd.safety.watchdogs import FaultCause
 
@@ -221,7 +221,7 @@ def answer_speed(view: ServeView, params: tuple[float, ...]) -> Answer:
             "DO_CHANGE_SPEED param1 (speed type) must be 0 or 1: a rover has a ground speed",
         )
     asked = float(params[1]) if len(params) > 1 else math.nan
-    if not (math.isfinite(asked) and asked >= SPEED_MIN_MPS):
+    if speed_refused(asked):
         return Answer(
             MAV_RESULT_FAILED, f"change speed {asked:g} m/s: no change (below {SPEED_MIN_MPS})"
         )
