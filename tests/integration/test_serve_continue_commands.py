@@ -125,9 +125,12 @@ def test_mission_start_to_helixd_from_item_three(tmp_path: Path) -> None:
     with serving_crew(tmp_path, NO_SWITCH) as (server, gcs, d):
         ready(d, gcs)
         assert command(gcs, MAV_CMD_MISSION_START, 9, 0) == MAV_RESULT_DENIED
-        # one STATUSTEXT holds 50 characters: the text comes in two
-        gcs.wait_text("helixd: MISSION_START param1 (first item) 9 is not", 10.0)
-        gcs.wait_text("in the mission: 0 (continue) or an item 1..5", 10.0)
+        # one STATUSTEXT holds 50 characters: the text comes in lines, each "helixd: "
+        gcs.wait_said(
+            "MISSION_START param1 (first item) 9 is not in the mission: 0 (continue) or an "
+            "item 1..5",
+            10.0,
+        )
         assert not server.snapshot().armed
         mark = d.mark()
         assert command(gcs, MAV_CMD_MISSION_START, 3, -1) == MAV_RESULT_ACCEPTED

@@ -152,6 +152,20 @@ class MavClient:
                 raise AssertionError(f"no STATUSTEXT {prefix!r}; saw {self.texts}")
             self.recv("STATUSTEXT", 0.1)
 
+    def wait_said(self, sentence: str, timeout_s: float) -> None:
+        """Until helixd's texts, its lines joined as a ground station's pane reads them (each
+        line starts with ``helixd: ``), contain ``sentence``."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            said = " ".join(
+                t.removeprefix("helixd: ") for t in self.texts if t.startswith("helixd: ")
+            )
+            if sentence in said:
+                return
+            if time.monotonic() > deadline:
+                raise AssertionError(f"helixd never said {sentence!r}; saw {self.texts}")
+            self.recv("STATUSTEXT", 0.1)
+
     def expect(
         self, kind: str, timeout_s: float, condition: Callable[[Any], bool] | None = None
     ) -> Any:
