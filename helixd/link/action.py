@@ -7,12 +7,12 @@ the rover.
 from __future__ import annotations
 
 import asyncio
-import time
 from collections.abc import Collection, Sequence
 
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.config import LinkConfig
 from helixd.link.codec import MavlinkConnection
 from helixd.link.command_client import CommandClient, CommandError, CommandRejected
@@ -94,7 +94,7 @@ class Action:
         log.info("armed", force=False)
 
     async def _arm_once(self, forced: bool) -> None:
-        since = time.monotonic()
+        since = now_s()
         try:
             await self.command_long(
                 MAV_CMD_COMPONENT_ARM_DISARM, (1, FORCE_ARM_MAGIC if forced else 0)
@@ -119,23 +119,23 @@ class Action:
         ``since_s``. ArduPilot queues such texts (GCS::send_text) and sends them after the
         COMMAND_ACK, so one may trail the ack by a scheduler tick: waits at most
         ``link.statustext_grace_s``."""
-        deadline = time.monotonic() + self._cfg.statustext_grace_s
+        deadline = now_s() + self._cfg.statustext_grace_s
         while True:
             text = self._state.latest_statustext(prefix, since_s)
             if text:
                 return text
-            if not await self._waiters.wait(Change.STATUSTEXT, deadline - time.monotonic()):
+            if not await self._waiters.wait(Change.STATUSTEXT, deadline - now_s()):
                 return None
 
     async def _arm_text(self, since_s: float) -> str | None:
         """The 'PreArm: …' STATUSTEXT explaining a refusal (it may trail the ack a little)."""
-        deadline = time.monotonic() + self._cfg.statustext_grace_s
+        deadline = now_s() + self._cfg.statustext_grace_s
         while True:
             for prefix in ARM_TEXT_PREFIXES:
                 text = self._state.latest_statustext(prefix, since_s)
                 if text:
                     return text
-            if not await self._waiters.wait(Change.STATUSTEXT, deadline - time.monotonic()):
+            if not await self._waiters.wait(Change.STATUSTEXT, deadline - now_s()):
                 return None
 
     async def disarm(
@@ -177,7 +177,7 @@ class Action:
 
     async def request_gps_origin(self, timeout_s: float) -> tuple[float, float] | None:
         """(lat_deg, lon_deg) of the EKF origin via MAV_CMD_REQUEST_MESSAGE; None if none."""
-        since = time.monotonic()
+        since = now_s()
         msg_id = int(mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN)
         try:
             async with asyncio.timeout(timeout_s):
@@ -193,7 +193,7 @@ class Action:
     async def request_home(self, timeout_s: float) -> HomePosition | None:
         """The autopilot's home (HOME_POSITION) via MAV_CMD_REQUEST_MESSAGE, fresher than the
         request; None if it sent none in time (ArduPilot refuses while home is not set)."""
-        since = time.monotonic()
+        since = now_s()
         try:
             async with asyncio.timeout(timeout_s):
                 await self.command_long(MAV_CMD_REQUEST_MESSAGE, (MAVLINK_MSG_ID_HOME_POSITION,))
