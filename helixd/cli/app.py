@@ -404,6 +404,32 @@ def _run_autopilot_mission(
         _fly(prepared.cfg, prepared.flight, url, run_dir, log_level, show_plan)
 
 
+def flight_options(
+    cfg: HelixdConfig,
+    flight: Flight,
+    url: str,
+    run_dir: Path | None,
+    log_level: str,
+    show_plan: bool,
+    tty: bool,
+) -> RunOptions:
+    """What the daemon flies for ``helixd run``: the prepared ``flight`` over ``url``."""
+    return RunOptions(
+        cfg=cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})}),
+        mission=flight.mission,
+        mission_yaml=flight.mission_yaml,
+        connect_url=url,
+        run_root=run_dir or cfg.recorder.run_root,
+        tty=tty,
+        plain_progress=not tty and log_level not in ("debug", "info"),
+        replan_from=flight.replan_from,
+        show_plan=show_plan,
+        inputs=flight.inputs,
+        options=flight.options,
+        item_numbers=flight.item_numbers,
+    )
+
+
 def _fly(
     cfg: HelixdConfig,
     flight: Flight,
@@ -419,20 +445,7 @@ def _fly(
     configure_logging(tty=tty, level=log_level)
 
     def options(url: str) -> RunOptions:
-        return RunOptions(
-            cfg=cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})}),
-            mission=flight.mission,
-            mission_yaml=flight.mission_yaml,
-            connect_url=url,
-            run_root=run_dir or cfg.recorder.run_root,
-            tty=tty,
-            plain_progress=not tty and log_level not in ("debug", "info"),
-            replan_from=flight.replan_from,
-            show_plan=show_plan,
-            inputs=flight.inputs,
-            options=flight.options,
-            item_numbers=flight.item_numbers,
-        )
+        return flight_options(cfg, flight, url, run_dir, log_level, show_plan, tty)
 
     if beside is None:
         outcome = eventloop.run(run_mission(options(url)), cfg.link.event_loop)
