@@ -135,9 +135,12 @@ def _own_clock_reads(path: Path) -> list[int]:
             and (node.value.id, node.attr) in CLOCK_CALLS
         ):
             lines.append(node.lineno)  # also passed along as a clock, e.g. clock=time.monotonic
-        if isinstance(node, ast.ImportFrom) and node.module == "time":
-            if any(("time", a.name) in CLOCK_CALLS for a in node.names):
-                lines.append(node.lineno)
+        if (
+            isinstance(node, ast.ImportFrom)
+            and node.module == "time"
+            and any(("time", a.name) in CLOCK_CALLS for a in node.names)
+        ):
+            lines.append(node.lineno)
     return sorted(set(lines))
 
 
