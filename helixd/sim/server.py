@@ -226,6 +226,8 @@ class SimServer:
         self._startup_error: BaseException | None = None
         self._cond = threading.Condition()
         self._snapshot = take_snapshot(self._core)
+        # called on the simulator's loop with each snapshot it publishes (a recorder's trace)
+        self.snapshot_listeners: list[Callable[[SimSnapshot], None]] = []
         self.local_ports: list[int] = []
 
     # -- lifecycle -------------------------------------------------------------------------
@@ -410,6 +412,8 @@ class SimServer:
         with self._cond:
             self._snapshot = snap
             self._cond.notify_all()
+        for listener in self.snapshot_listeners:
+            listener(snap)
         if not self._own_workdir and core.params.version != self._stored_version:
             self._stored_version = core.params.version
             write_storage(self.workdir, storage_values(core.params, self._param_defaults))

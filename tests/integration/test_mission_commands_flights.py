@@ -20,16 +20,13 @@ from tests.support.harness import (
     NEUTRAL_TOLERANCE_US,
     NEUTRAL_US,
     Trace,
-    record_until,
     secured,
-    sim_and_daemon,
 )
 from tests.support.paths import DATA_DIR
 from tests.support.simulated import simulated_flight
 
 pytestmark = pytest.mark.integration
 
-SPEEDUP = 5.0
 RUN_DOWN_S = 1.0  # the motors' lag (and the last override in flight) after neutral
 SERVO = 9  # a servo output that drives no scroll (SERVO9_FUNCTION 0)
 
@@ -118,17 +115,16 @@ def neutral_intervals(outputs: list[HistoryEntry]) -> list[tuple[float, float]]:
 def test_speed_changes_hold_jump_servo_and_return_home(tmp_path: Path) -> None:
     path = tmp_path / "commands.yaml"
     path.write_text(yaml.safe_dump(MISSION))
-    with sim_and_daemon(
-        tmp_path, path, speedup=SPEEDUP, terrain="hard", noise="none", initial_yaw_ned_rad=0.0
-    ) as (server, d):
-        server.wait_for(lambda s: s.armed, 60.0)
-        trace = record_until(server, lambda s: not s.armed, 240.0)
-        code = d.wait_exit(30.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
-        servo_sets = server.history.entries("servo_set")
-        outputs = server.history.entries("output")
-        snap = server.snapshot()
+    flown = simulated_flight(tmp_path, path, terrain="hard", noise="none", initial_yaw_ned_rad=0.0)
+    code, log, run_dir, snap, trace = (
+        flown.code,
+        flown.log,
+        flown.run_dir(),
+        flown.snapshot,
+        flown.trace,
+    )
+    servo_sets = flown.server.history.entries("servo_set")
+    outputs = flown.server.history.entries("output")
     assert code == ExitCode.OK, log[-3000:]
     assert secured(snap)
 

@@ -19,7 +19,7 @@ from typing import Any
 import structlog
 import yaml
 
-from helixd.base.clock import SimulatedClockLoop
+from helixd.base.clock import SimulatedClockLoop, now_s
 from helixd.cli.app import flight_options
 from helixd.recorder import logging_setup
 from helixd.runtime.daemon import RunOutcome, run_mission
@@ -27,7 +27,7 @@ from helixd.runtime.prepare import MissionFile, prepare_flight
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import deep_merge
-from tests.support.harness import BASE_CONFIG, MISSIONS, sim_config
+from tests.support.harness import BASE_CONFIG, MISSIONS, Trace, sim_config
 
 FLIGHT_LIMIT_S = 1800.0  # simulated seconds: a flight still running then has hung
 
@@ -42,6 +42,7 @@ class SimulatedFlight:
     run_root: Path
     server: SimServer  # stopped: its snapshot and history stay readable
     outcome: RunOutcome
+    trace: Trace  # every snapshot the simulator published: (simulated s, snapshot)
 
     def run_dir(self) -> Path:
         dirs = sorted(p for p in self.run_root.iterdir() if p.is_dir())
@@ -70,6 +71,8 @@ def simulated_flight(
     server = SimServer([EMBEDDED_LINK], sim_config(**{**sim_overrides, "speedup": 1.0}))
     run_root = tmp_path / "runs"
     console = io.StringIO()
+    samples: list[tuple[float, SimSnapshot]] = []
+    server.snapshot_listeners.append(lambda snap: samples.append((now_s(), snap)))
 
     async def fly() -> RunOutcome:
         async with server.running_here():
@@ -92,4 +95,5 @@ def simulated_flight(
         run_root=run_root,
         server=server,
         outcome=outcome,
+        trace=Trace(samples),
     )
