@@ -3,18 +3,23 @@
 :class:`helixd.base.clock.SimulatedClockLoop` and talk MAVLink over real UDP sockets. A flight
 takes the CPU time it needs instead of the minutes it lasts, and is the same every time.
 
-For flights a test checks once they ended (exit code, the RESULT line, the log, the run
-directory, what the simulator saw). Flights a test steers while they run (signals, faults,
-a ground station) use :mod:`tests.support.harness` on the wall clock.
+A test checks a flight once it ended (exit code, the RESULT line, the log, the run directory,
+what the simulator saw), and may steer it while it runs with ``during``: a coroutine given a
+:class:`Steer` (wait for what the simulator shows or the daemon logs, in simulated time; send
+the process a signal; inject a fault; move a stick). Flights that need the wall clock (kill -9
+and helixd-guard, a second process) use :mod:`tests.support.harness`.
 """
 
 from __future__ import annotations
 
 import asyncio
 import io
+import os
+import signal
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any, cast
 
 import structlog
 import yaml
@@ -30,6 +35,106 @@ from tests.support.daemon import deep_merge
 from tests.support.harness import BASE_CONFIG, MISSIONS, Trace, sim_config
 
 FLIGHT_LIMIT_S = 1800.0  # simulated seconds: a flight still running then has hung
+STEER_AFTER_S = 60.0  # simulated seconds the steering may go on after the flight ended
+
+
+class Console(io.TextIOBase):
+    """The daemon's console (structlog's stream), kept as lines; waiters woken per line."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+        self._partial = ""
+        self.changed: asyncio.Event | None = None
+
+    def write(self, text: str) -> int:
+        parts = (self._partial + text).split("\n")
+        self._partial = parts.pop()
+        if parts:
+            self.lines.extend(parts)
+            if self.changed is not None:
+                self.changed.set()
+        return len(text)
+
+    def text(self) -> str:
+        return "\n".join([*self.lines, self._partial] if self._partial else self.lines)
+
+
+class Steer:
+    """A test's hands on a flight in progress, on the simulated clock."""
+
+    def __init__(self, server: SimServer, console: Console) -> None:
+        self.server = server
+        self.console = console
+        self._snapshot_changed = asyncio.Event()
+        console.changed = asyncio.Event()
+        server.snapshot_listeners.append(lambda _: self._snapshot_changed.set())
+
+    @staticmethod
+    def now_s() -> float:
+        return now_s()
+
+    def snapshot(self) -> SimSnapshot:
+        return self.server.snapshot()
+
+    async def until(
+        self, predicate: Callable[[SimSnapshot], bool], timeout_s: float
+    ) -> SimSnapshot:
+        """The first snapshot for which ``predicate`` holds, within ``timeout_s`` simulated."""
+        deadline = now_s() + timeout_s
+        while not predicate(snap := self.server.snapshot()):
+            remaining = deadline - now_s()
+            if remaining <= 0:
+                name = getattr(predicate, "__name__", "condition")
+                raise AssertionError(f"{name} not met within {timeout_s} s; {snap.describe()}")
+            self._snapshot_changed.clear()
+            try:
+                await asyncio.wait_for(self._snapshot_changed.wait(), remaining)
+            except TimeoutError:
+                continue
+        return snap
+
+    def mark(self) -> int:
+        """How many lines were logged so far (for ``line(after=...)``)."""
+        return len(self.console.lines)
+
+    async def line(self, needle: str, timeout_s: float, after: int = 0) -> str:
+        """The first log line from number ``after`` on containing ``needle``."""
+        changed = self.console.changed
+        assert changed is not None
+        deadline = now_s() + timeout_s
+        seen = after
+        while True:
+            for text in self.console.lines[seen:]:
+                if needle in text:
+                    return text
+            seen = len(self.console.lines)
+            remaining = deadline - now_s()
+            if remaining <= 0:
+                tail = "\n".join(self.console.lines[-40:])
+                raise AssertionError(f"no log line with {needle!r} in {timeout_s} s:\n{tail}")
+            changed.clear()
+            try:
+                await asyncio.wait_for(changed.wait(), remaining)
+            except TimeoutError:
+                continue
+
+    @staticmethod
+    def signal(sig: signal.Signals) -> None:
+        """Send this process ``sig``: the daemon's handler on the loop takes it, as a
+        ``kill -INT`` of the helixd process would be."""
+        os.kill(os.getpid(), sig)
+
+    def inject(self, fault: str, **kwargs: object) -> None:
+        self.server.inject(fault, **kwargs)
+
+    def schedule(self, fault: str, at_sim_s: float, **kwargs: object) -> None:
+        self.server.schedule(fault, at_sim_s, **kwargs)
+
+    def set_rc(self, channel: int, pwm_us: int) -> None:
+        self.server.set_rc(channel, pwm_us)
+
+
+Steering = Callable[[Steer], Awaitable[Any]]
 
 
 @dataclass(frozen=True)
@@ -43,6 +148,7 @@ class SimulatedFlight:
     server: SimServer  # stopped: its snapshot and history stay readable
     outcome: RunOutcome
     trace: Trace  # every snapshot the simulator published: (simulated s, snapshot)
+    steered: Any  # what ``during`` returned
 
     def run_dir(self) -> Path:
         dirs = sorted(p for p in self.run_root.iterdir() if p.is_dir())
@@ -54,46 +160,66 @@ class SimulatedFlight:
         return self.server.snapshot()
 
 
+async def _fly_and_steer(
+    flight: Awaitable[RunOutcome], steering: Awaitable[Any] | None
+) -> tuple[RunOutcome, Any]:
+    """The flight to its end and the steering beside it; a failed steering ends the flight
+    (cancelled: the daemon's own shutdown runs) and is raised."""
+    flying = asyncio.ensure_future(asyncio.wait_for(flight, FLIGHT_LIMIT_S))
+    if steering is None:
+        return await flying, None
+    steer_task = asyncio.ensure_future(steering)
+    await asyncio.wait({flying, steer_task}, return_when=asyncio.FIRST_COMPLETED)
+    if steer_task.done() and steer_task.exception() is not None:
+        flying.cancel()
+        await asyncio.gather(flying, return_exceptions=True)
+        raise steer_task.exception()  # type: ignore[misc]
+    outcome = await flying
+    return outcome, await asyncio.wait_for(steer_task, STEER_AFTER_S)
+
+
 def simulated_flight(
     tmp_path: Path,
     mission: str | Path = "square",
     config: dict[str, Any] | None = None,
+    during: Steering | None = None,
     **sim_overrides: Any,
 ) -> SimulatedFlight:
     """``helixd run --mission MISSION`` with the test config merged over
     :data:`~tests.support.harness.BASE_CONFIG`, against the simulator made of
     ``sim_overrides`` (as :func:`~tests.support.harness.sim_and_daemon` takes them; the
-    speed-up is 1: there is no wall clock to outrun)."""
+    speed-up is 1: there is no wall clock to outrun), steered by ``during`` if given."""
     cfg_path = tmp_path / "helixd.yaml"
     cfg_path.write_text(yaml.safe_dump(deep_merge(BASE_CONFIG, config or {})), encoding="utf-8")
     mission_path = mission if isinstance(mission, Path) else MISSIONS / f"{mission}.yaml"
     got = prepare_flight(MissionFile(mission_path), cfg_path, None)
     server = SimServer([EMBEDDED_LINK], sim_config(**{**sim_overrides, "speedup": 1.0}))
     run_root = tmp_path / "runs"
-    console = io.StringIO()
+    console = Console()
     samples: list[tuple[float, SimSnapshot]] = []
     server.snapshot_listeners.append(lambda snap: samples.append((now_s(), snap)))
 
-    async def fly() -> RunOutcome:
+    async def fly() -> tuple[RunOutcome, Any]:
         async with server.running_here():
             url = embedded_url(server)
             opts = flight_options(got.cfg, got.flight, url, run_root, "info", False, tty=False)
-            return await asyncio.wait_for(run_mission(opts), FLIGHT_LIMIT_S)
+            steering = None if during is None else during(Steer(server, console))
+            return await _fly_and_steer(run_mission(opts), steering)
 
-    logging_setup.configure_logging(tty=False, level="info", stream=console)
+    logging_setup.configure_logging(tty=False, level="info", stream=cast(IO[str], console))
     try:
         with asyncio.Runner(loop_factory=SimulatedClockLoop) as runner:
-            outcome = runner.run(fly())
+            outcome, steered = runner.run(fly())
     finally:
         logging_setup.detach_events_file()
         structlog.reset_defaults()
-    lines = [*console.getvalue().splitlines(), *outcome.messages]
     return SimulatedFlight(
         code=int(outcome.exit_code),
         result=outcome.messages[-1] if outcome.messages else "",
-        log="\n".join(lines),
+        log="\n".join([console.text(), *outcome.messages]),
         run_root=run_root,
         server=server,
         outcome=outcome,
         trace=Trace(samples),
+        steered=steered,
     )
