@@ -25,14 +25,9 @@ from tests.support.harness import (
     sim_and_daemon,
     wait_moving,
 )
-from tests.support.simulated import Steer, simulated_flight
+from tests.support.simulated import Steer, moving, simulated_flight
 
 pytestmark = pytest.mark.integration
-
-
-def moving(s: SimSnapshot) -> bool:
-    """Armed and driving its mission (as harness.wait_moving waits for)."""
-    return s.armed and s.speed_mps > 0.1
 
 
 FALLBACK_S = 0.5  # stopped, released and HOLD within 0.5 s of detection

@@ -38,6 +38,11 @@ FLIGHT_LIMIT_S = 1800.0  # simulated seconds: a flight still running then has hu
 STEER_AFTER_S = 60.0  # simulated seconds the steering may go on after the flight ended
 
 
+def moving(s: SimSnapshot) -> bool:
+    """Armed and driving its mission (scrolls commanded, the rover moving)."""
+    return s.armed and s.speed_mps > 0.1
+
+
 class Console(io.TextIOBase):
     """The daemon's console (structlog's stream), kept as lines; waiters woken per line."""
 
@@ -65,6 +70,7 @@ class Steer:
     def __init__(self, server: SimServer, console: Console) -> None:
         self.server = server
         self.console = console
+        self.flight: asyncio.Future[Any] | None = None  # the daemon's run, once started
         self._snapshot_changed = asyncio.Event()
         console.changed = asyncio.Event()
         server.snapshot_listeners.append(lambda _: self._snapshot_changed.set())
@@ -92,6 +98,12 @@ class Steer:
             except TimeoutError:
                 continue
         return snap
+
+    async def exited(self, timeout_s: float) -> float:
+        """Until the daemon's run ended (within ``timeout_s`` simulated); the time it did."""
+        assert self.flight is not None
+        await asyncio.wait_for(asyncio.shield(self.flight), timeout_s)
+        return now_s()
 
     def mark(self) -> int:
         """How many lines were logged so far (for ``line(after=...)``)."""
@@ -161,14 +173,15 @@ class SimulatedFlight:
 
 
 async def _fly_and_steer(
-    flight: Awaitable[RunOutcome], steering: Awaitable[Any] | None
+    flight: Awaitable[RunOutcome], steer: Steer, during: Steering | None
 ) -> tuple[RunOutcome, Any]:
     """The flight to its end and the steering beside it; a failed steering ends the flight
     (cancelled: the daemon's own shutdown runs) and is raised."""
     flying = asyncio.ensure_future(asyncio.wait_for(flight, FLIGHT_LIMIT_S))
-    if steering is None:
+    steer.flight = flying
+    if during is None:
         return await flying, None
-    steer_task = asyncio.ensure_future(steering)
+    steer_task = asyncio.ensure_future(during(steer))
     await asyncio.wait({flying, steer_task}, return_when=asyncio.FIRST_COMPLETED)
     if steer_task.done() and steer_task.exception() is not None:
         flying.cancel()
@@ -203,8 +216,7 @@ def simulated_flight(
         async with server.running_here():
             url = embedded_url(server)
             opts = flight_options(got.cfg, got.flight, url, run_root, "info", False, tty=False)
-            steering = None if during is None else during(Steer(server, console))
-            return await _fly_and_steer(run_mission(opts), steering)
+            return await _fly_and_steer(run_mission(opts), Steer(server, console), during)
 
     logging_setup.configure_logging(tty=False, level="info", stream=cast(IO[str], console))
     try:
