@@ -33,6 +33,7 @@ from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import deep_merge
 from tests.support.harness import BASE_CONFIG, MISSIONS, Trace, sim_config
+from tests.support.loop_mav import LoopMav
 
 FLIGHT_LIMIT_S = 1800.0  # simulated seconds: a flight still running then has hung
 STEER_AFTER_S = 60.0  # simulated seconds the steering may go on after the flight ended
@@ -71,6 +72,7 @@ class Steer:
         self.server = server
         self.console = console
         self.flight: asyncio.Future[Any] | None = None  # the daemon's run, once started
+        self.clients: list[LoopMav] = []
         self._snapshot_changed = asyncio.Event()
         console.changed = asyncio.Event()
         server.snapshot_listeners.append(lambda _: self._snapshot_changed.set())
@@ -98,6 +100,9 @@ class Steer:
             except TimeoutError:
                 continue
         return snap
+
+    def flight_done(self) -> bool:
+        return self.flight is not None and self.flight.done()
 
     async def exited(self, timeout_s: float) -> float:
         """Until the daemon's run ended (within ``timeout_s`` simulated); the time it did."""
@@ -129,6 +134,17 @@ class Steer:
                 await asyncio.wait_for(changed.wait(), remaining)
             except TimeoutError:
                 continue
+
+    def ground_station(self, link: int, sysid: int, compid: int = 190) -> LoopMav:
+        """A MAVLink client on the simulator's ``link`` (1: the first beyond helixd's), closed
+        when the flight ends."""
+        client = LoopMav(self.server.local_ports[link], sysid, compid)
+        self.clients.append(client)
+        return client
+
+    def close(self) -> None:
+        for client in self.clients:
+            client.close()
 
     @staticmethod
     def signal(sig: signal.Signals) -> None:
@@ -182,13 +198,16 @@ async def _fly_and_steer(
     if during is None:
         return await flying, None
     steer_task = asyncio.ensure_future(during(steer))
-    await asyncio.wait({flying, steer_task}, return_when=asyncio.FIRST_COMPLETED)
-    if steer_task.done() and steer_task.exception() is not None:
-        flying.cancel()
-        await asyncio.gather(flying, return_exceptions=True)
-        raise steer_task.exception()  # type: ignore[misc]
-    outcome = await flying
-    return outcome, await asyncio.wait_for(steer_task, STEER_AFTER_S)
+    try:
+        await asyncio.wait({flying, steer_task}, return_when=asyncio.FIRST_COMPLETED)
+        if steer_task.done() and steer_task.exception() is not None:
+            flying.cancel()
+            await asyncio.gather(flying, return_exceptions=True)
+            raise steer_task.exception()  # type: ignore[misc]
+        outcome = await flying
+        return outcome, await asyncio.wait_for(steer_task, STEER_AFTER_S)
+    finally:
+        steer.close()
 
 
 def simulated_flight(
@@ -196,17 +215,19 @@ def simulated_flight(
     mission: str | Path = "square",
     config: dict[str, Any] | None = None,
     during: Steering | None = None,
+    links: int = 1,
     **sim_overrides: Any,
 ) -> SimulatedFlight:
     """``helixd run --mission MISSION`` with the test config merged over
     :data:`~tests.support.harness.BASE_CONFIG`, against the simulator made of
     ``sim_overrides`` (as :func:`~tests.support.harness.sim_and_daemon` takes them; the
-    speed-up is 1: there is no wall clock to outrun), steered by ``during`` if given."""
+    speed-up is 1: there is no wall clock to outrun), steered by ``during`` if given;
+    ``links``: the simulator's links, helixd's first (the others for ground stations)."""
     cfg_path = tmp_path / "helixd.yaml"
     cfg_path.write_text(yaml.safe_dump(deep_merge(BASE_CONFIG, config or {})), encoding="utf-8")
     mission_path = mission if isinstance(mission, Path) else MISSIONS / f"{mission}.yaml"
     got = prepare_flight(MissionFile(mission_path), cfg_path, None)
-    server = SimServer([EMBEDDED_LINK], sim_config(**{**sim_overrides, "speedup": 1.0}))
+    server = SimServer([EMBEDDED_LINK] * links, sim_config(**{**sim_overrides, "speedup": 1.0}))
     run_root = tmp_path / "runs"
     console = Console()
     samples: list[tuple[float, SimSnapshot]] = []
