@@ -85,10 +85,19 @@ class LoopMav:
         """Next message of ``kind`` satisfying ``condition`` within ``timeout_s`` (simulated);
         the messages before it are consumed."""
         deadline = now_s() + timeout_s
+        while (remaining := deadline - now_s()) > 0:
+            msg = await self.recv_any((kind,), remaining)
+            if msg is not None and (condition is None or condition(msg)):
+                return msg
+        return None
+
+    async def recv_any(self, kinds: tuple[str, ...], timeout_s: float) -> Any | None:
+        """Next message of any of ``kinds`` within ``timeout_s`` (simulated)."""
+        deadline = now_s() + timeout_s
         while True:
             while self.inbox:
                 msg = self.inbox.pop(0)
-                if msg.get_type() == kind and (condition is None or condition(msg)):
+                if msg.get_type() in kinds:
                     return msg
             remaining = deadline - now_s()
             if remaining <= 0:

@@ -16,7 +16,7 @@ import asyncio
 import io
 import os
 import signal
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any, cast
@@ -25,15 +25,20 @@ import structlog
 import yaml
 
 from helixd.base.clock import SimulatedClockLoop, now_s
+from helixd.base.exitcodes import ExitCode
 from helixd.cli.app import flight_options
+from helixd.config import load_config
 from helixd.recorder import logging_setup
 from helixd.runtime.daemon import RunOutcome, run_mission
 from helixd.runtime.prepare import MissionFile, prepare_flight
+from helixd.serve.options import ServeOptions
+from helixd.serve.service import serve
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import deep_merge
 from tests.support.harness import BASE_CONFIG, MISSIONS, Trace, sim_config
 from tests.support.loop_mav import LoopMav
+from tests.support.serve import CONFIG as SERVE_CONFIG
 
 FLIGHT_LIMIT_S = 1800.0  # simulated seconds: a flight still running then has hung
 STEER_AFTER_S = 60.0  # simulated seconds the steering may go on after the flight ended
@@ -210,6 +215,49 @@ async def _fly_and_steer(
         steer.close()
 
 
+def _on_simulated_clock(
+    server: SimServer,
+    daemon: Callable[[str], Awaitable[Any]],
+    during: Sequence[Steering | None],
+    trace: bool = True,
+) -> tuple[list[tuple[Any, Any]], Console, list[tuple[float, SimSnapshot]]]:
+    """``daemon(url)`` beside ``server`` on one simulated clock, once per entry of ``during``
+    (one after the other, the simulator running on: a restarted service), each steered by its
+    entry: ([(what the daemon returned, what its steering returned)], the console, every
+    snapshot published, if ``trace``)."""
+    console = Console()
+    samples: list[tuple[float, SimSnapshot]] = []
+    if trace:
+        server.snapshot_listeners.append(lambda snap: samples.append((now_s(), snap)))
+
+    async def fly() -> list[tuple[Any, Any]]:
+        async with server.running_here():
+            url = embedded_url(server)
+            return [
+                await _fly_and_steer(daemon(url), Steer(server, console), steering)
+                for steering in during
+            ]
+
+    logging_setup.configure_logging(tty=False, level="info", stream=cast(IO[str], console))
+    try:
+        with asyncio.Runner(loop_factory=SimulatedClockLoop) as runner:
+            results = runner.run(fly())
+    finally:
+        logging_setup.detach_events_file()
+        structlog.reset_defaults()
+    return results, console, samples
+
+
+def write_config(tmp_path: Path, *layers: dict[str, Any] | None) -> Path:
+    """``tmp_path``/helixd.yaml: the test settings, each layer merged over the one before."""
+    merged: dict[str, Any] = {}
+    for layer in layers:
+        merged = deep_merge(merged, layer or {})
+    path = tmp_path / "helixd.yaml"
+    path.write_text(yaml.safe_dump(merged), encoding="utf-8")
+    return path
+
+
 def simulated_flight(
     tmp_path: Path,
     mission: str | Path = "square",
@@ -223,29 +271,18 @@ def simulated_flight(
     ``sim_overrides`` (as :func:`~tests.support.harness.sim_and_daemon` takes them; the
     speed-up is 1: there is no wall clock to outrun), steered by ``during`` if given;
     ``links``: the simulator's links, helixd's first (the others for ground stations)."""
-    cfg_path = tmp_path / "helixd.yaml"
-    cfg_path.write_text(yaml.safe_dump(deep_merge(BASE_CONFIG, config or {})), encoding="utf-8")
+    cfg_path = write_config(tmp_path, BASE_CONFIG, config)
     mission_path = mission if isinstance(mission, Path) else MISSIONS / f"{mission}.yaml"
     got = prepare_flight(MissionFile(mission_path), cfg_path, None)
     server = SimServer([EMBEDDED_LINK] * links, sim_config(**{**sim_overrides, "speedup": 1.0}))
     run_root = tmp_path / "runs"
-    console = Console()
-    samples: list[tuple[float, SimSnapshot]] = []
-    server.snapshot_listeners.append(lambda snap: samples.append((now_s(), snap)))
 
-    async def fly() -> tuple[RunOutcome, Any]:
-        async with server.running_here():
-            url = embedded_url(server)
-            opts = flight_options(got.cfg, got.flight, url, run_root, "info", False, tty=False)
-            return await _fly_and_steer(run_mission(opts), Steer(server, console), during)
+    def daemon(url: str) -> Awaitable[RunOutcome]:
+        return run_mission(
+            flight_options(got.cfg, got.flight, url, run_root, "info", False, tty=False)
+        )
 
-    logging_setup.configure_logging(tty=False, level="info", stream=cast(IO[str], console))
-    try:
-        with asyncio.Runner(loop_factory=SimulatedClockLoop) as runner:
-            outcome, steered = runner.run(fly())
-    finally:
-        logging_setup.detach_events_file()
-        structlog.reset_defaults()
+    [(outcome, steered)], console, samples = _on_simulated_clock(server, daemon, [during])
     return SimulatedFlight(
         code=int(outcome.exit_code),
         result=outcome.messages[-1] if outcome.messages else "",
@@ -256,3 +293,53 @@ def simulated_flight(
         trace=Trace(samples),
         steered=steered,
     )
+
+
+@dataclass(frozen=True)
+class SimulatedService:
+    """How ``helixd serve`` on the simulated clock ended (each start of it: ``codes``,
+    ``steered``), and what the simulator saw."""
+
+    codes: list[int]
+    log: str
+    run_root: Path
+    server: SimServer
+    steered: list[Any]
+
+    @property
+    def code(self) -> int:
+        return self.codes[-1]
+
+
+def simulated_serve(
+    tmp_path: Path,
+    during: Steering | Sequence[Steering],
+    config: dict[str, Any] | None = None,
+    links: int = 2,
+    **sim_overrides: Any,
+) -> SimulatedService:
+    """``helixd serve`` with ``config`` merged over the serve tests' settings
+    (:data:`tests.support.serve.CONFIG` over BASE_CONFIG), beside the simulator (``links``:
+    helixd's first, a ground station's next), steered by ``during`` — which ends the service
+    (SIGTERM) when it is done; a list: the service started again for each, the simulator
+    running on."""
+    cfg_path = write_config(tmp_path, BASE_CONFIG, SERVE_CONFIG, config)
+    cfg = load_config(cfg_path)
+    server = SimServer([EMBEDDED_LINK] * links, sim_config(**{**sim_overrides, "speedup": 1.0}))
+    run_root = tmp_path / "runs"
+
+    def daemon(url: str) -> Awaitable[ExitCode]:
+        served = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})
+        opts = ServeOptions(
+            cfg=served,
+            config_path=cfg_path,
+            run_root=run_root,
+            mission_file=cfg.serve.mission_file,
+        )
+        return serve(opts)
+
+    steerings = list(during) if isinstance(during, Sequence) else [during]
+    results, console, _ = _on_simulated_clock(server, daemon, steerings, trace=False)
+    (tmp_path / "serve.log").write_text(console.text(), encoding="utf-8")
+    codes = [int(code) for code, _ in results]
+    return SimulatedService(codes, console.text(), run_root, server, [s for _, s in results])
