@@ -30,7 +30,7 @@ from helixd.cli.app import flight_options
 from helixd.config import load_config
 from helixd.recorder import logging_setup
 from helixd.runtime.daemon import RunOutcome, run_mission
-from helixd.runtime.prepare import MissionFile, prepare_flight
+from helixd.runtime.prepare import FlightSource, MissionFile, prepare_flight
 from helixd.serve.options import ServeOptions
 from helixd.serve.service import serve
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url
@@ -215,16 +215,16 @@ async def _fly_and_steer(
         steer.close()
 
 
+Daemon = Callable[[str], Awaitable[Any]]
+
+
 def _on_simulated_clock(
-    server: SimServer,
-    daemon: Callable[[str], Awaitable[Any]],
-    during: Sequence[Steering | None],
-    trace: bool = True,
+    server: SimServer, runs: Sequence[tuple[Daemon, Steering | None]], trace: bool = True
 ) -> tuple[list[tuple[Any, Any]], Console, list[tuple[float, SimSnapshot]]]:
-    """``daemon(url)`` beside ``server`` on one simulated clock, once per entry of ``during``
-    (one after the other, the simulator running on: a restarted service), each steered by its
-    entry: ([(what the daemon returned, what its steering returned)], the console, every
-    snapshot published, if ``trace``)."""
+    """Each of ``runs`` — ``daemon(url)`` steered by its steering — beside ``server`` on one
+    simulated clock, one after the other, the simulator running on (a restarted service, a
+    resumed run): ([(what the daemon returned, what its steering returned)], the console,
+    every snapshot published, if ``trace``)."""
     console = Console()
     samples: list[tuple[float, SimSnapshot]] = []
     if trace:
@@ -235,7 +235,7 @@ def _on_simulated_clock(
             url = embedded_url(server)
             return [
                 await _fly_and_steer(daemon(url), Steer(server, console), steering)
-                for steering in during
+                for daemon, steering in runs
             ]
 
     logging_setup.configure_logging(tty=False, level="info", stream=cast(IO[str], console))
@@ -258,41 +258,75 @@ def write_config(tmp_path: Path, *layers: dict[str, Any] | None) -> Path:
     return path
 
 
+Source = str | Path | FlightSource | Callable[[], FlightSource]
+
+
+def _flight_source(mission: Source) -> FlightSource:
+    if callable(mission):
+        return mission()
+    if isinstance(mission, str):
+        return MissionFile(MISSIONS / f"{mission}.yaml")
+    return MissionFile(mission) if isinstance(mission, Path) else mission
+
+
+def simulated_flights(
+    tmp_path: Path,
+    legs: Sequence[tuple[Source, Steering | None]],
+    config: dict[str, Any] | None = None,
+    links: int = 1,
+    **sim_overrides: Any,
+) -> list[SimulatedFlight]:
+    """``helixd run`` once per leg — (its mission: a shipped mission's name, a file, a
+    :class:`~helixd.runtime.prepare.FlightSource` or a function giving one when the leg
+    starts, e.g. ``--resume`` of the leg before; its steering) — one after the other against
+    one simulator (``links``: helixd's first; ``sim_overrides`` as
+    :func:`~tests.support.harness.sim_and_daemon` takes them, the speed-up 1: there is no
+    wall clock to outrun), with the test config merged over
+    :data:`~tests.support.harness.BASE_CONFIG`. Each leg records under ``tmp_path``/runs."""
+    cfg_path = write_config(tmp_path, BASE_CONFIG, config)
+    server = SimServer([EMBEDDED_LINK] * links, sim_config(**{**sim_overrides, "speedup": 1.0}))
+    run_root = tmp_path / "runs"
+
+    notes: list[tuple[str, ...]] = []  # what the CLI prints about each leg's inputs
+
+    def daemon_of(mission: Source) -> Daemon:
+        def daemon(url: str) -> Awaitable[RunOutcome]:
+            got = prepare_flight(_flight_source(mission), cfg_path, None)
+            notes.append(got.notes)
+            opts = flight_options(got.cfg, got.flight, url, run_root, "info", False, tty=False)
+            return run_mission(opts)
+
+        return daemon
+
+    runs = [(daemon_of(mission), steering) for mission, steering in legs]
+    results, console, samples = _on_simulated_clock(server, runs)
+    return [
+        SimulatedFlight(
+            code=int(outcome.exit_code),
+            result=outcome.messages[-1] if outcome.messages else "",
+            log="\n".join([*leg_notes, console.text(), *outcome.messages]),
+            run_root=run_root,
+            server=server,
+            outcome=outcome,
+            trace=Trace(samples),
+            steered=steered,
+        )
+        for (outcome, steered), leg_notes in zip(results, notes, strict=True)
+    ]
+
+
 def simulated_flight(
     tmp_path: Path,
-    mission: str | Path = "square",
+    mission: Source = "square",
     config: dict[str, Any] | None = None,
     during: Steering | None = None,
     links: int = 1,
     **sim_overrides: Any,
 ) -> SimulatedFlight:
-    """``helixd run --mission MISSION`` with the test config merged over
-    :data:`~tests.support.harness.BASE_CONFIG`, against the simulator made of
-    ``sim_overrides`` (as :func:`~tests.support.harness.sim_and_daemon` takes them; the
-    speed-up is 1: there is no wall clock to outrun), steered by ``during`` if given;
-    ``links``: the simulator's links, helixd's first (the others for ground stations)."""
-    cfg_path = write_config(tmp_path, BASE_CONFIG, config)
-    mission_path = mission if isinstance(mission, Path) else MISSIONS / f"{mission}.yaml"
-    got = prepare_flight(MissionFile(mission_path), cfg_path, None)
-    server = SimServer([EMBEDDED_LINK] * links, sim_config(**{**sim_overrides, "speedup": 1.0}))
-    run_root = tmp_path / "runs"
-
-    def daemon(url: str) -> Awaitable[RunOutcome]:
-        return run_mission(
-            flight_options(got.cfg, got.flight, url, run_root, "info", False, tty=False)
-        )
-
-    [(outcome, steered)], console, samples = _on_simulated_clock(server, daemon, [during])
-    return SimulatedFlight(
-        code=int(outcome.exit_code),
-        result=outcome.messages[-1] if outcome.messages else "",
-        log="\n".join([console.text(), *outcome.messages]),
-        run_root=run_root,
-        server=server,
-        outcome=outcome,
-        trace=Trace(samples),
-        steered=steered,
-    )
+    """``helixd run --mission MISSION`` on the simulated clock, steered by ``during`` if
+    given (:func:`simulated_flights` with one leg)."""
+    (flown,) = simulated_flights(tmp_path, [(mission, during)], config, links, **sim_overrides)
+    return flown
 
 
 @dataclass(frozen=True)
@@ -339,7 +373,8 @@ def simulated_serve(
         return serve(opts)
 
     steerings = list(during) if isinstance(during, Sequence) else [during]
-    results, console, _ = _on_simulated_clock(server, daemon, steerings, trace=False)
+    runs = [(daemon, steering) for steering in steerings]
+    results, console, _ = _on_simulated_clock(server, runs, trace=False)
     (tmp_path / "serve.log").write_text(console.text(), encoding="utf-8")
     codes = [int(code) for code, _ in results]
     return SimulatedService(codes, console.text(), run_root, server, [s for _, s in results])
