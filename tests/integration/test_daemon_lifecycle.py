@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import os
+import asyncio
 import signal
 import socket
 import time
@@ -98,33 +98,39 @@ def test_wedged_daemon_stops_heartbeats_and_gcs_failsafe_takes_over(tmp_path: Pa
     )  # FS_GCS_TIMEOUT (wall) + heartbeat period + slack
 
 
-def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
+def test_systemd_ready_and_watchdog_notifications(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """The daemon talks sd_notify to a NOTIFY_SOCKET the test creates: READY=1 after
     preflight, WATCHDOG=1 from the control loop, STOPPING=1 at the end."""
     sock_path = tmp_path / "notify.sock"
     sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
     sock.bind(str(sock_path))
-    sock.settimeout(60.0)
-    os.environ["NOTIFY_SOCKET"] = str(sock_path)
-    os.environ["WATCHDOG_USEC"] = "1000000"
-    got: list[str] = []
-    try:
-        from tests.support import harness
+    sock.setblocking(False)
+    monkeypatch.setenv("NOTIFY_SOCKET", str(sock_path))
+    monkeypatch.setenv("WATCHDOG_USEC", "1000000")
 
-        harness.KEEP_NOTIFY_SOCKET = True
-        with harness.sim_and_daemon(tmp_path, "hexagon", terrain="mud") as (_server, d):
-            # until the control loop pings the watchdog while flying, then stop the service
-            while not any("STATUS=phase: fly" in m for m in got) or "WATCHDOG=1" not in got[-1]:
-                got.append(sock.recv(4096).decode())
-            d.signal(signal.SIGTERM)  # what `systemctl stop` sends (KillSignal)
-            while not any("STOPPING=1" in m for m in got):
-                got.append(sock.recv(4096).decode())
-            assert d.wait_exit(30.0) == ExitCode.OPERATOR_STOP
+    async def systemd(st: Steer) -> list[str]:
+        loop = asyncio.get_running_loop()
+        got: list[str] = []
+
+        async def receive() -> None:
+            got.append((await asyncio.wait_for(loop.sock_recv(sock, 4096), 60.0)).decode())
+
+        # until the control loop pings the watchdog while flying, then stop the service
+        while not any("STATUS=phase: fly" in m for m in got) or "WATCHDOG=1" not in got[-1]:
+            await receive()
+        st.signal(signal.SIGTERM)  # what `systemctl stop` sends (KillSignal)
+        while not any("STOPPING=1" in m for m in got):
+            await receive()
+        return got
+
+    try:
+        flown = simulated_flight(tmp_path, "hexagon", during=systemd, terrain="mud")
     finally:
-        harness.KEEP_NOTIFY_SOCKET = False
-        for key in ("NOTIFY_SOCKET", "WATCHDOG_USEC"):
-            os.environ.pop(key, None)
         sock.close()
+    assert flown.code == ExitCode.OPERATOR_STOP, flown.log[-3000:]
+    got = flown.steered
     ready = next(i for i, m in enumerate(got) if "READY=1" in m)
     watchdogs = [i for i, m in enumerate(got) if "WATCHDOG=1" in m]
     assert watchdogs and watchdogs[-1] > ready

@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import math
 import signal
-import time
 from pathlib import Path
 from typing import Any
 
@@ -23,11 +22,8 @@ from helixd.recorder.track import TrackPoint
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.harness import (
     secured,
-    sim_and_daemon,
-    time_until,
-    wait_moving,
 )
-from tests.support.simulated import simulated_flight
+from tests.support.simulated import Steer, moving, simulated_flight
 from tests.support.skid_setup import (
     ARC_BUDGET_M,
     SURVEY_XY_M,
@@ -59,7 +55,7 @@ LINE_CORNER_BOUND_M = ARC_BUDGET_M * math.cos(math.pi / 4) + 0.05
 # (tests/sitl/test_sitl_survey.py, 2026-11-23): the figures to beat.
 AUTO_SURVEY_S = 333.0
 AUTO_SURVEY_MAX_M = 0.588
-FALLBACK_BOUND_S = 0.5 + 0.1 + 0.25  # fall-back bound + signal detection + loaded-box slack
+FALLBACK_BOUND_S = 0.5 + 0.1  # fall-back bound + signal detection (simulated time, exact)
 STOPPED_MPS = 0.02
 FINAL_TOLERANCE_M = 2.0  # the SITL suite's bound on the return to the start
 
@@ -153,18 +149,21 @@ def test_survey_block_on_the_sitl_skid_plant_beats_auto(tmp_path: Path) -> None:
 
 def test_sigint_on_the_skid_plant_stops_the_rover(tmp_path: Path) -> None:
     """The fall-back, seen from the plant: outputs 1/3 at trim stop SITL's skid rover."""
-    with sim_and_daemon(tmp_path, "square", SKID_CONFIG, plant="sitl_skid", noise="low") as (
-        server,
-        d,
-    ):
-        moving = wait_moving(server)
-        t0 = time.monotonic()
-        d.signal(signal.SIGINT)
-        elapsed = time_until(server, secured, t0, timeout_s=10.0)
-        stopped = server.wait_for(lambda s: s.speed_mps < STOPPED_MPS, 5.0)
-        code = d.wait_exit(20.0)
+
+    async def ctrl_c(st: Steer) -> tuple[SimSnapshot, float, SimSnapshot]:
+        driving = await st.until(moving, 40.0)
+        t0 = st.now_s()
+        st.signal(signal.SIGINT)
+        await st.until(secured, 10.0)
+        elapsed = st.now_s() - t0
+        return driving, elapsed, await st.until(lambda s: s.speed_mps < STOPPED_MPS, 5.0)
+
+    flown = simulated_flight(
+        tmp_path, "square", SKID_CONFIG, ctrl_c, plant="sitl_skid", noise="low", seed=1
+    )
+    driving, elapsed, stopped = flown.steered
     print(f"skid plant: secured {elapsed:.3f} s after SIGINT; stopped at {stopped.speed_mps} m/s")
-    assert code == ExitCode.OPERATOR_STOP
-    assert moving.speed_mps > 0.1
+    assert flown.code == ExitCode.OPERATOR_STOP, flown.log[-3000:]
+    assert driving.speed_mps > 0.1
     assert elapsed <= FALLBACK_BOUND_S
     assert secured(stopped)
