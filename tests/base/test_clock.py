@@ -13,6 +13,7 @@ import pytest
 
 from helixd.base.clock import SIMULATED_START_S, SimulatedClockLoop, now_s
 from tests.support.paths import REPO_ROOT
+from tests.support.simclock import run_simulated
 
 # modules allowed to read the process's clocks directly, and why
 OWN_CLOCK_READERS = {
@@ -22,11 +23,6 @@ OWN_CLOCK_READERS = {
     "helixd/planning/route.py": "perf_counter: how long the planner computed, a measurement",
 }
 CLOCK_CALLS = {("time", "monotonic"), ("time", "perf_counter"), ("time", "monotonic_ns")}
-
-
-def run_simulated(coro_fn):  # type: ignore[no-untyped-def]
-    with asyncio.Runner(loop_factory=SimulatedClockLoop) as runner:
-        return runner.run(coro_fn())
 
 
 def test_a_long_sleep_takes_no_wall_time_and_exactly_its_simulated_time() -> None:
