@@ -1,24 +1,23 @@
 """Every ``helixd`` command in README.md's ``sh`` blocks runs as written on a fresh clone.
 
-Offline commands (``check``, ``mission convert|survey``, ``--version``, ``-h``) are run from a
-scratch directory that sees the checkout's ``config/`` and ``tests/`` (so what they write lands
+Offline commands (``check``, ``mission convert|survey``, ``--version``, ``-h``) are run (the
+command line in this process) from a scratch directory that sees the checkout's ``config/`` and ``tests/`` (so what they write lands
 there), and must exit 0. Commands that need an autopilot or fly are checked to parse: their
-sub-command has ``--help`` and names every option used. Every file a command names exists in
+sub-command has ``--help`` (asked of the command line in this process) and names every option
+used. Every file a command names exists in
 the checkout, unless it is an output or a placeholder (``<run>``, ``URL``, ``DIR``, ``runs/``).
 """
 
 from __future__ import annotations
 
 import itertools
-import os
 import re
 import shlex
-import subprocess
 from pathlib import Path
 
 import pytest
 
-from tests.support.cli import helixd_process
+from tests.support.cli import run_main
 from tests.support.paths import REPO_ROOT
 
 SH_BLOCK = re.compile(r"^\s*```sh\n(.*?)^\s*```", re.MULTILINE | re.DOTALL)
@@ -75,12 +74,6 @@ def _runnable(argv: list[str]) -> bool:
     return sub in RUNNABLE and len(argv) > len(sub) and "--connect" not in argv
 
 
-def _helixd(argv: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
-    env = {**os.environ, "PYTHONPATH": str(REPO_ROOT), "COLUMNS": "200", "NO_COLOR": "1"}
-    env.pop("HELIXD_CONFIG", None)
-    return helixd_process(argv, cwd, 300, env)
-
-
 def test_readme_has_commands() -> None:
     assert len(COMMANDS) >= 20, COMMANDS
 
@@ -117,22 +110,36 @@ def test_files_it_names_exist(command: str) -> None:
 
 
 @pytest.mark.parametrize("command", [c for c in COMMANDS if _runnable(_argv(c))])
-def test_offline_command_runs(command: str, tmp_path: Path) -> None:
+def test_offline_command_runs(
+    command: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The real command line, in this process, from a scratch directory."""
     for name in ("config", "tests"):
         (tmp_path / name).symlink_to(REPO_ROOT / name)
-    done = _helixd(_argv(command), tmp_path)
-    assert done.returncode == 0, f"{command}\n{done.stdout[-3000:]}\n{done.stderr[-3000:]}"
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("COLUMNS", "200")
+    monkeypatch.setenv("NO_COLOR", "1")
+    code, out, err = run_main(_argv(command), capsys)
+    assert code == 0, f"{command}\n{out[-3000:]}\n{err[-3000:]}"
 
 
 @pytest.mark.parametrize("command", [c for c in COMMANDS if not _runnable(_argv(c))])
-def test_online_command_parses(command: str, tmp_path: Path) -> None:
+def test_online_command_parses(
+    command: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The real command line, in this process (its ``--help`` needs no autopilot)."""
+    monkeypatch.setenv("COLUMNS", "200")
+    monkeypatch.setenv("NO_COLOR", "1")
     argv = _argv(command)
     sub = list(_sub(argv))
-    done = _helixd([*sub, "--help"], tmp_path)
-    assert done.returncode == 0, f"{command}: {' '.join(sub)} --help\n{done.stderr[-2000:]}"
+    code, out, err = run_main([*sub, "--help"], capsys)
+    assert code == 0, f"{command}: {' '.join(sub)} --help\n{err[-2000:]}"
     options = {a.split("=")[0] for a in argv if a.startswith("-") and a not in ("-h", "--help")}
     unknown = sorted(
-        o for o in options if not re.search(rf"(?<![\w-]){re.escape(o)}(?![\w-])", done.stdout)
+        o for o in options if not re.search(rf"(?<![\w-]){re.escape(o)}(?![\w-])", out)
     )
     assert not unknown, f"{command}: not in `helixd {' '.join(sub)} --help`: {unknown}"
 
