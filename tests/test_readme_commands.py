@@ -1,11 +1,11 @@
 """Every ``helixd`` command in README.md's ``sh`` blocks runs as written on a fresh clone.
 
-Offline commands (``check``, ``mission convert|survey``, ``--version``, ``-h``) are run (the
-command line in this process) from a scratch directory that sees the checkout's ``config/`` and ``tests/`` (so what they write lands
-there), and must exit 0. Commands that need an autopilot or fly are checked to parse: their
-sub-command has ``--help`` (asked of the command line in this process) and names every option
-used. Every file a command names exists in
-the checkout, unless it is an output or a placeholder (``<run>``, ``URL``, ``DIR``, ``runs/``).
+The command line runs in this process. Offline commands (``check``, ``mission
+convert|survey``, ``--version``, ``-h``) are run from a scratch directory that sees the
+checkout's ``config/`` and ``tests/`` (so what they write lands there), and must exit 0.
+Commands that need an autopilot or fly are checked to parse: their sub-command has ``--help``
+and names every option used. Every file a command names exists in the checkout, unless it is
+an output or a placeholder (``<run>``, ``URL``, ``DIR``, ``runs/``).
 """
 
 from __future__ import annotations
