@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.app import app
-from tests.support.harness import sim_and_daemon
+from tests.support.simulated import simulated_flight
 
 MISSION = "name: far\nmode: omni\nframe: local_ned\nwaypoints:\n  - {north: 60, east: 0}\n"
 
@@ -31,10 +31,8 @@ def test_run_refuses_in_preflight_before_arming(tmp_path: Path) -> None:
     path = tmp_path / "far.yaml"
     path.write_text(MISSION, encoding="utf-8")
     # The rover starts 60 m south of the EKF origin: the waypoint is 120 m away (fence 100 m).
-    with sim_and_daemon(tmp_path, path, None, initial_north_m=-60.0) as (server, d):
-        code = d.wait_exit(90.0)
-        log = d.log_text()
-        snap = server.snapshot()
+    flown = simulated_flight(tmp_path, path, initial_north_m=-60.0)
+    code, log, snap = flown.code, flown.log, flown.snapshot
     assert code == ExitCode.PREFLIGHT, log
     assert "waypoint 1 (waypoints[0]): 120.0 m from the start point" in log, log
     assert "safety.geofence_radius_m = 100.0 m" in log
