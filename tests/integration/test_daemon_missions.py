@@ -21,7 +21,7 @@ from helixd.runtime.timing import plan_time_estimate
 from helixd.sim.sim_config import SimConfig, Terrain
 from tests.support import harness
 from tests.support.paths import REPO_ROOT
-from tests.support.simulated import simulated_flight
+from tests.support.simulated import Steer, moving, simulated_flight
 
 pytestmark = pytest.mark.integration
 CFG = HelixdConfig()
@@ -193,15 +193,22 @@ def test_servo_backend_flies_and_ends_neutral(tmp_path: Path) -> None:
     sim = {
         "scroll_output_channels": (5, 6, 7, 8),
         "params": params,
-        **harness.guard_installed(harness.SPEEDUP, (5, 6, 7, 8)),
+        **harness.guard_installed(1.0, (5, 6, 7, 8)),
     }
-    with harness.sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud", **sim) as (server, d):
-        harness.wait_moving(server)
-        stopped = time.monotonic()
-        d.signal(signal.SIGINT)
-        code = d.wait_exit(20.0)
-        snap = server.snapshot()
-        log = d.log_text()
+
+    async def ctrl_c(st: Steer) -> float:
+        await st.until(moving, 40.0)
+        st.signal(signal.SIGINT)
+        return st.now_s()
+
+    flown = simulated_flight(tmp_path, "hexagon", cfg, ctrl_c, terrain="mud", **sim)
+    code, snap, log, stopped, server = (
+        flown.code,
+        flown.snapshot,
+        flown.log,
+        flown.steered,
+        flown.server,
+    )
     assert code == ExitCode.OPERATOR_STOP, log[-3000:]
     assert snap.guard_version == 1
     # helixd's HEARTBEATs kept the guard quiet while it flew (once helixd stops its HEARTBEAT

@@ -42,6 +42,8 @@ from tests.support.serve import CONFIG as SERVE_CONFIG
 
 FLIGHT_LIMIT_S = 1800.0  # simulated seconds: a flight still running then has hung
 STEER_AFTER_S = 60.0  # simulated seconds the steering may go on after the flight ended
+# the autopilot lives on after helixd exits: what the test reads of it is this much later
+AUTOPILOT_AFTER_S = 1.0
 
 
 def moving(s: SimSnapshot) -> bool:
@@ -233,10 +235,12 @@ def _on_simulated_clock(
     async def fly() -> list[tuple[Any, Any]]:
         async with server.running_here():
             url = embedded_url(server)
-            return [
+            results = [
                 await _fly_and_steer(daemon(url), Steer(server, console), steering)
                 for daemon, steering in runs
             ]
+            await asyncio.sleep(AUTOPILOT_AFTER_S)
+            return results
 
     logging_setup.configure_logging(tty=False, level="info", stream=cast(IO[str], console))
     try:
