@@ -14,8 +14,9 @@ follows its run's clock:
   give the same flight.
 
 No module reads ``time.monotonic()`` for timing on its own (``tests/base/test_clock.py``
-guards it); wall-clock dates (run directory names, MAVLink signing timestamps) are calendar
-time, not timing, and stay on ``time.time()``/``datetime``.
+guards it). Calendar time that stamps a record of the flight (a .tlog) reads :func:`unix_s`;
+dates that only name things (run directories) and MAVLink signing timestamps, which the
+protocol ties to the calendar, stay on ``time.time()``/``datetime``.
 """
 
 from __future__ import annotations
@@ -28,6 +29,14 @@ from typing import Any
 # where a simulated clock starts (s): like a monotonic clock, not at zero, so a "never"
 # timestamp of 0.0 stays far in the past
 SIMULATED_START_S = 1000.0
+
+
+def unix_s() -> float:
+    """Calendar seconds (Unix time) on the run's clock: the wall's in production; on a
+    simulated clock the wall's when the loop was made plus the simulated time since, so a
+    record stamped with it (a .tlog) replays at the pace it was flown."""
+    loop = asyncio._get_running_loop()
+    return loop.unix_s() if isinstance(loop, SimulatedClockLoop) else time.time()
 
 
 def now_s() -> float:
@@ -65,10 +74,14 @@ class SimulatedClockLoop(asyncio.SelectorEventLoop):
     def __init__(self, start_s: float = SIMULATED_START_S) -> None:
         self._jumping = _JumpingSelector()
         self._jumping.now_s = start_s
+        self._epoch_unix_s = time.time() - start_s
         super().__init__(self._jumping)
 
     def time(self) -> float:
         return self._jumping.now_s
+
+    def unix_s(self) -> float:
+        return self._epoch_unix_s + self._jumping.now_s
 
     @property
     def jumps(self) -> int:
@@ -84,4 +97,4 @@ class SimulatedClockLoop(asyncio.SelectorEventLoop):
         )
 
 
-__all__ = ["SIMULATED_START_S", "SimulatedClockLoop", "now_s"]
+__all__ = ["SIMULATED_START_S", "SimulatedClockLoop", "now_s", "unix_s"]

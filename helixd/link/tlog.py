@@ -25,12 +25,13 @@ import asyncio
 import contextlib
 import math
 import struct
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO
 
 import structlog
+
+from helixd.base.clock import unix_s
 
 __all__ = [
     "FLUSH_INTERVAL_S",
@@ -154,7 +155,7 @@ class LinkTlog:
         self,
         writer: TlogWriter,
         flush_interval_s: float = FLUSH_INTERVAL_S,
-        clock: Callable[[], float] = time.time,
+        clock: Callable[[], float] = unix_s,
     ) -> None:
         if not (math.isfinite(flush_interval_s) and 0.0 < flush_interval_s <= 0.5):
             raise ValueError("flush_interval_s must be in (0, 0.5]")

@@ -4,6 +4,7 @@ matters: what the autopilot stored, what it saw."""
 
 from __future__ import annotations
 
+import asyncio
 import itertools
 import math
 import os
@@ -31,11 +32,10 @@ from tests.support.harness import (
     client,
     free_udp_port,
     running_sim,
-    sim_and_daemon,
-    wait_moving,
 )
 from tests.support.mavmsgs import read_tlog
 from tests.support.paths import DATA_DIR, REPO_ROOT
+from tests.support.simulated import Steer, moving, simulated_flight
 
 pytestmark = pytest.mark.integration
 
@@ -211,22 +211,30 @@ def test_no_autopilot_exits_as_a_link_error(tmp_path: Path) -> None:
     assert res.stderr.count("error:") == 1 and "no HEARTBEAT" in res.stderr
 
 
+def list_dirs(root: Path) -> list[Path]:
+    return sorted(p for p in root.iterdir() if p.is_dir())
+
+
 def tlog_has_override(path: Path) -> bool:
     return path.exists() and any(m.get_type() == "RC_CHANNELS_OVERRIDE" for m in read_tlog(path))
 
 
 def test_daemon_writes_the_link_tlog(tmp_path: Path) -> None:
-    with sim_and_daemon(tmp_path, "square", terrain="hard", noise="low") as (server, d):
-        wait_moving(server)
-        tlog = d.run_dir() / "link.tlog"
+
+    async def in_flight(st: Steer) -> Path:
+        await st.until(moving, 40.0)
+        (run_dir,) = list_dirs(tmp_path / "runs")
+        tlog = run_dir / "link.tlog"
         # flushed while flying (not only at close): the overrides driving the rover are on disk
-        # re-read the file on each new simulator snapshot (an event), within 2 s of wall time
-        deadline, snap = time.monotonic() + 2.0, None
+        # within 2 s (the file re-read at each control period)
+        deadline = st.now_s() + 2.0
         while not tlog_has_override(tlog):
-            assert time.monotonic() < deadline, "no RC_CHANNELS_OVERRIDE in the .tlog in flight"
-            snap = server.next_snapshot(snap, 2.0)
-        code = d.wait_exit(240.0)
-        log = d.log_text()
+            assert st.now_s() < deadline, "no RC_CHANNELS_OVERRIDE in the .tlog in flight"
+            await asyncio.sleep(0.02)
+        return tlog
+
+    flown = simulated_flight(tmp_path, "square", during=in_flight, terrain="hard", noise="low")
+    code, log, tlog = flown.code, flown.log, flown.steered
     assert code == ExitCode.OK, log[-3000:]
     msgs = read_tlog(tlog)
     kinds = {(m.get_type(), m.get_srcSystem()) for m in msgs}
@@ -235,5 +243,7 @@ def test_daemon_writes_the_link_tlog(tmp_path: Path) -> None:
     assert ("RC_CHANNELS_OVERRIDE", HELIXD_SYSID) in kinds
     assert ("LOCAL_POSITION_NED", 1) in kinds
     stamps = [m._timestamp for m in msgs]
-    assert all(abs(t - time.time()) < 600 for t in stamps)  # wall-clock stamps of this run
+    # calendar stamps of this run, at the pace it was flown (simulated: 72 s of flight)
+    assert all(abs(t - time.time()) < 600 for t in stamps)
+    assert stamps[-1] - stamps[0] > 60.0
     assert sum(b < a - 0.05 for a, b in itertools.pairwise(stamps)) == 0
