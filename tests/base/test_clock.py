@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from helixd.base.clock import SIMULATED_START_S, SimulatedClockLoop, now_s
+from helixd.base.clock import SIMULATED_START_S, SimulatedClockLoop, now_s, unix_s
 from tests.support.paths import REPO_ROOT
 from tests.support.simclock import run_simulated
 
@@ -149,3 +149,18 @@ def test_no_module_reads_the_monotonic_clock_on_its_own() -> None:
             continue
         offenders += [f"{rel}:{n}" for n in _own_clock_reads(path)]
     assert offenders == []
+
+
+def test_calendar_time_follows_the_simulated_clock() -> None:
+    """A record stamped in calendar time replays at the pace it was flown."""
+
+    async def main() -> tuple[float, float]:
+        first = unix_s()
+        await asyncio.sleep(600.0)
+        return first, unix_s()
+
+    wall = time.time()
+    first, later = run_simulated(main)
+    assert abs(first - wall) < 5.0  # starts at the wall's date
+    assert later - first == pytest.approx(600.0, abs=1e-6)
+    assert abs(unix_s() - time.time()) < 1e-3  # outside a simulated loop: the wall
