@@ -402,12 +402,12 @@ class MissionRunner:
             if self.host.start_gate:
                 async with phase("start_gate", self.notifier, self.display):
                     await start_gate(ap, cfg, stop, self.notifier)
-            if self.host.driving_mode == MANUAL_MODE:
+            if self.host.driving.mode == MANUAL_MODE:
                 async with phase("set_manual", self.notifier, self.display):
                     await until_stopped(stop, ap.action.set_mode(MANUAL_MODE))
                     await confirm_mode(ap, cfg, MANUAL_MODE)
             sink = held.sink if held.sink is not None else await start_sink(cfg, ap, held)
-            if self.host.driving_mode == MANUAL_MODE:
+            if self.host.driving.mode == MANUAL_MODE:
                 async with phase("arm", self.notifier, self.display):
                     self._warn(await until_stopped(stop, arm(ap, cfg, held, self.display.phase)))
                 self.gcs.phase("armed")
@@ -513,15 +513,8 @@ class MissionRunner:
                     sink=ready.sink,
                     stop=self.stop,
                     start_ned=ready.start_ned,
-                    on_step=feed.on_step,
-                    on_pose_rejected=feed.on_pose_rejected,
-                    on_arrival=feed.on_arrival,
-                    on_tick=feed.on_tick,
-                    on_action=commands.submit,
-                    on_mission_event=feed.on_mission_event,
-                    driving_mode=self.host.driving_mode,
-                    on_gate=feed.on_gate,
-                    goto=self.host.goto,
+                    hooks=feed.hooks(on_action=commands.submit),
+                    driving=self.host.driving,
                 )
                 result = await self.flight_loop.run()
             finally:
