@@ -312,17 +312,10 @@ def items_to_mission(
         )
     if problems:
         raise FormatError([prefix + p for p in problems[:20]] + _more(problems, 20, prefix))
-    fence: tuple[tuple[float, float], ...] = ()
-    inclusions = [p for p in gcs.polygons if p.inclusion]
-    circles = [c for c in gcs.circles if c.inclusion]
-    if len(inclusions) == 1 and not circles:
-        fence = inclusions[0].vertices_latlon_deg
-    elif len(circles) == 1 and not inclusions:
-        fence = circle_polygon(circles[0])
-    elif inclusions or circles:
+    fence, why_none = keep_in_of(gcs)
+    if why_none:
         notes.append(
-            f"{len(inclusions)} inclusion polygons and {len(circles)} inclusion circles: none "
-            "used as the mission fence (helixd keeps one keep-in polygon)"
+            f"{why_none}: none used as the mission fence (helixd keeps one keep-in polygon)"
         )
     data: dict[str, object] = {
         "name": name,
@@ -351,6 +344,20 @@ def items_to_mission(
 
 
 CIRCLE_FENCE_VERTICES = 64
+
+
+def keep_in_of(gcs: GcsMission) -> tuple[tuple[tuple[float, float], ...], str]:
+    """The one keep-in polygon of a fence: its one inclusion polygon, or its one inclusion
+    circle as a polygon; none (and why, "" when it has no inclusion at all) otherwise."""
+    inclusions = [p for p in gcs.polygons if p.inclusion]
+    circles = [c for c in gcs.circles if c.inclusion]
+    if len(inclusions) == 1 and not circles:
+        return inclusions[0].vertices_latlon_deg, ""
+    if len(circles) == 1 and not inclusions:
+        return circle_polygon(circles[0]), ""
+    if inclusions or circles:
+        return (), f"{len(inclusions)} inclusion polygons and {len(circles)} inclusion circles"
+    return (), ""
 
 
 def circle_polygon(circle: FenceCircle) -> tuple[tuple[float, float], ...]:
@@ -414,8 +421,9 @@ def _same_point(a: tuple[float, float], b: tuple[float, float]) -> bool:
     return math.hypot(n, e) < 0.01
 
 
-def waypoint_item(seq: int, lat_deg: float, lon_deg: float) -> MissionItem:
-    """A plain NAV_WAYPOINT at lat/lon, altitude relative to home, no yaw (param4 NaN)."""
+def waypoint_item(seq: int, lat_deg: float, lon_deg: float, where: str = "") -> MissionItem:
+    """A plain NAV_WAYPOINT at lat/lon, altitude relative to home, no yaw (param4 NaN);
+    ``where`` names where it came from, for messages."""
     return MissionItem(
         seq=seq,
         frame=MAV_FRAME_GLOBAL_RELATIVE_ALT,
@@ -423,6 +431,7 @@ def waypoint_item(seq: int, lat_deg: float, lon_deg: float) -> MissionItem:
         param4=math.nan,
         x=lat_deg,
         y=lon_deg,
+        where=where,
     )
 
 
