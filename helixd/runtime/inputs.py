@@ -14,6 +14,7 @@ from typing import NamedTuple
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan
+from helixd.base.problems import Problems
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig, config_to_yaml, load_config
 from helixd.files.models import ConfigFileError, as_items
@@ -49,17 +50,16 @@ from helixd.recorder.resume_dir import read_run_dir
 from helixd.runtime.timing import judge_flight
 
 
-class InputsRefused(Exception):
+class InputsRefused(Problems):
     """The inputs cannot be flown; ``problems`` holds one line each, ``code`` the exit code,
     ``notes`` what the operator should read with them (skipped items, …)."""
 
     def __init__(
         self, problems: list[str], code: ExitCode = ExitCode.USAGE, notes: tuple[str, ...] = ()
     ) -> None:
-        self.problems = problems
+        super().__init__(problems)
         self.code = code
         self.notes = notes
-        super().__init__("\n".join(problems))
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ from helixd.actuators.base import ActuatorSink
 from helixd.actuators.factory import make_sink
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan
+from helixd.base.problems import Problems
 from helixd.base.run_files import TLOG_FILE
 from helixd.config import ActuationBackend, HelixdConfig, SafetyConfig
 from helixd.link.command_client import CommandError, CommandRejected
@@ -63,10 +64,8 @@ T = TypeVar("T")
 
 # AP_ServoRelayEvents::do_set_servo: the output functions a servo command may move (none,
 # manual, sprayer pump/spinner, gripper, RCIN1..16 passthrough, RCIN1..16 mapped)
-class PreflightFailed(Exception):
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("; ".join(problems))
+class PreflightFailed(Problems):
+    joiner = "; "
 
 
 class StopBeforeFlight(Exception):

@@ -21,6 +21,7 @@ from pydantic import ValidationError
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.base.plan import MissionFrameKind, MotionMode
+from helixd.base.problems import Problems
 from helixd.files.models import format_validation_error
 from helixd.mav.constants import (
     GLOBAL_FRAMES,
@@ -42,12 +43,8 @@ PLACE_FRAMES = GLOBAL_FRAMES | {2}
 MAX_ITEMS = 100_000  # as many as a helixd YAML mission may hold in practice
 
 
-class FormatError(ValueError):
+class FormatError(Problems, ValueError):
     """A ground-station file or item list cannot become a mission; one line per problem."""
-
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("\n".join(problems))
 
 
 @dataclass(frozen=True, slots=True)
