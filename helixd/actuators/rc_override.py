@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import asyncio
 import math
-import time
 from collections.abc import Sequence
 from typing import Protocol
 
@@ -36,6 +35,7 @@ from helixd.actuators.mapping import (
     override_slots,
     release_frame,
 )
+from helixd.base.clock import now_s
 from helixd.config import ActuationConfig, VehicleConfig
 
 log = structlog.get_logger(__name__)
@@ -92,7 +92,7 @@ class RcOverrideSink(ChannelSink):
 
     def _send(self, frame: tuple[int, ...]) -> None:
         self._ap.send_rc_override(frame)
-        self._last_send_s = time.monotonic()
+        self._last_send_s = now_s()
         self.frames_sent += 1
         if self._timer is None and self._started and self._loop is not None:
             self._timer = self._loop.call_later(self._repeat_s, self._refresh)
@@ -103,7 +103,7 @@ class RcOverrideSink(ChannelSink):
         self._timer = None
         if not self._started or self._frame is None or self._loop is None:
             return
-        wait_s = self._last_send_s + self._repeat_s - time.monotonic()
+        wait_s = self._last_send_s + self._repeat_s - now_s()
         if wait_s > 0:
             self._timer = self._loop.call_later(wait_s, self._refresh)
         else:

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import time
 from collections.abc import Sequence
 from typing import Protocol
 
@@ -38,6 +37,7 @@ import structlog
 
 from helixd.actuators.base import ServoCommandRefused, checked_fractions
 from helixd.actuators.mapping import ChannelSink, fraction_to_pwm
+from helixd.base.clock import now_s
 from helixd.config import ActuationConfig, VehicleConfig
 from helixd.link.command_client import CommandRejected, CommandTimeout
 from helixd.mav.constants import MAV_CMD_DO_SET_SERVO
@@ -94,7 +94,7 @@ class ServoSink(ChannelSink):
             return
         self.fault = None
         for i in range(len(self._channels)):
-            since_s = time.monotonic()
+            since_s = now_s()
             try:
                 await self._set_one(i, self._neutral[i])
             except ServoCommandRefused as exc:
@@ -132,7 +132,7 @@ class ServoSink(ChannelSink):
         pwm[i] = pwm_us
         self.last_pwm_us = _four(pwm)
         self._acked[i] = None  # unknown until acknowledged
-        self._sent_s[i] = time.monotonic()
+        self._sent_s[i] = now_s()
         try:
             await self._ap.command_long(MAV_CMD_DO_SET_SERVO, (channel, pwm_us))
         except CommandRejected as exc:
@@ -149,7 +149,7 @@ class ServoSink(ChannelSink):
     async def _wait_for_work(self) -> None:
         """Until a new command arrives or the oldest send is due for its refresh."""
         next_refresh_s = min(self._sent_s) + self._cfg.servo_refresh_s
-        wait_s = next_refresh_s - time.monotonic()
+        wait_s = next_refresh_s - now_s()
         if wait_s > 0:
             with contextlib.suppress(TimeoutError):
                 async with asyncio.timeout(wait_s):
@@ -160,7 +160,7 @@ class ServoSink(ChannelSink):
         while True:
             await self._wait_for_work()
             for i in range(len(self._channels)):
-                if not self._due(i, time.monotonic()):
+                if not self._due(i, now_s()):
                     continue
                 want = self._desired[i]
                 try:

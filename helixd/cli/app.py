@@ -12,6 +12,7 @@ import shutil
 import sys
 from collections.abc import Mapping
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 from typing import Annotated
 
@@ -41,7 +42,14 @@ from helixd.cli.common import (
     fail,
     refused,
 )
-from helixd.cli.simulated import SimChoice, read_sim_media, sim_world, simulator
+from helixd.cli.simulated import (
+    SimChoice,
+    beside_simulator,
+    read_sim_media,
+    sim_world,
+    simulator,
+    simulator_config,
+)
 from helixd.commands.status import HeldLog, log_lines, read_status
 from helixd.config import HelixdConfig
 from helixd.files.yamlio import clip_line
@@ -64,7 +72,15 @@ from helixd.runtime.prepare import (
     Resume,
     prepare_flight,
 )
-from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
+from helixd.sim.sim_config import (
+    SPEEDUP_MAX,
+    SPEEDUP_MIN,
+    NoiseLevel,
+    Plant,
+    SimClock,
+    SimConfig,
+    Terrain,
+)
 
 app = command_group(
     "helixd",
@@ -243,6 +259,17 @@ PlantOpt = Annotated[
     ),
 ]
 NoiseOpt = Annotated[NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")]
+SimClockOpt = Annotated[
+    SimClock,
+    typer.Option(
+        help="wall: the simulator runs on the wall clock, sped up by --sim-speedup; simulated: "
+        "the simulator and helixd share one simulated clock that skips every wait (a flight "
+        "takes the CPU time it needs; with --sim-seed the same flight every time) (with --sim)"
+    ),
+]
+SimSeedOpt = Annotated[
+    int | None, typer.Option(min=0, help="the simulator's noise seed (with --sim; default: new)")
+]
 SimMediaOpt = Annotated[
     Path | None,
     typer.Option(
@@ -299,6 +326,8 @@ def run(
     show_plan: ShowPlanOpt = False,
     resume: ResumeOpt = None,
     sim_media: SimMediaOpt = None,
+    sim_clock: SimClockOpt = SimClock.WALL,
+    sim_seed: SimSeedOpt = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
@@ -306,13 +335,22 @@ def run(
     --resume RUN_DIR continues a recorded run from its first waypoint not reached."""
     if sim and connect is not None:
         raise fail(["--sim and --connect exclude each other"], ExitCode.USAGE)
-    choice = SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise) if sim else None
+    choice = (
+        SimChoice(sim_speedup, sim_terrain, sim_plant, sim_noise, clock=sim_clock, seed=sim_seed)
+        if sim
+        else None
+    )
     if sim_media is not None:
         if choice is None:
             raise fail(["--sim-media needs --sim"], ExitCode.USAGE)
         choice = replace(choice, media=read_sim_media(sim_media))
     options = ExpandOptions(strict, skip_unsupported)
     if wants_autopilot(mission) and resume is None:
+        if choice is not None and choice.clock is SimClock.SIMULATED:
+            raise fail(
+                ["--sim-clock simulated flies mission files; --mission autopilot needs the wall"],
+                ExitCode.USAGE,
+            )
         _run_autopilot_mission(
             config, connect, choice, run_dir, log_level, map_path, mode, options, show_plan, fence
         )
@@ -335,7 +373,11 @@ def run(
     echo_flight(got.flight)
     if choice is not None:  # --resume: the rover is where the run left it
         choice = replace(choice, start_ned=got.last_pose_ned)
-    with simulator(choice, lambda: sim_world(cfg, got.occupancy, got.fence), url, cfg) as url:
+    world = partial(sim_world, cfg, got.occupancy, got.fence)
+    if choice is not None and choice.clock is SimClock.SIMULATED:
+        sim_cfg = simulator_config(choice, world, cfg)
+        _fly(cfg, got.flight, url, run_dir, log_level, show_plan, beside=sim_cfg)
+    with simulator(choice, world, url, cfg) as url:
         _fly(cfg, got.flight, url, run_dir, log_level, show_plan)
 
 
@@ -362,20 +404,18 @@ def _run_autopilot_mission(
         _fly(prepared.cfg, prepared.flight, url, run_dir, log_level, show_plan)
 
 
-def _fly(
+def flight_options(
     cfg: HelixdConfig,
     flight: Flight,
     url: str,
     run_dir: Path | None,
     log_level: str,
     show_plan: bool,
-) -> None:
-    """Run the daemon; exits with its code."""
-    tty = sys.stderr.isatty()
-    configure_logging(tty=tty, level=log_level)
-    cfg = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})
-    opts = RunOptions(
-        cfg=cfg,
+    tty: bool,
+) -> RunOptions:
+    """What the daemon flies for ``helixd run``: the prepared ``flight`` over ``url``."""
+    return RunOptions(
+        cfg=cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})}),
         mission=flight.mission,
         mission_yaml=flight.mission_yaml,
         connect_url=url,
@@ -388,7 +428,30 @@ def _fly(
         options=flight.options,
         item_numbers=flight.item_numbers,
     )
-    outcome = eventloop.run(run_mission(opts), cfg.link.event_loop)
+
+
+def _fly(
+    cfg: HelixdConfig,
+    flight: Flight,
+    url: str,
+    run_dir: Path | None,
+    log_level: str,
+    show_plan: bool,
+    beside: SimConfig | None = None,
+) -> None:
+    """Run the daemon; exits with its code. ``beside``: the embedded simulator to run in the
+    daemon's own loop, on one simulated clock (``url`` is then the simulator's)."""
+    tty = sys.stderr.isatty()
+    configure_logging(tty=tty, level=log_level)
+
+    def options(url: str) -> RunOptions:
+        return flight_options(cfg, flight, url, run_dir, log_level, show_plan, tty)
+
+    if beside is None:
+        outcome = eventloop.run(run_mission(options(url)), cfg.link.event_loop)
+    else:
+        flown = beside_simulator(beside, (), lambda url: run_mission(options(url)))
+        outcome = eventloop.run(flown, simulated=True)
     if outcome.run_dir is not None:
         typer.echo(f"run directory: {outcome.run_dir}", err=True)
     for line in outcome.messages:  # the last one is the plain "helixd: RESULT" line

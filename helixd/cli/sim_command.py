@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 import signal
 import threading
-import time
 from pathlib import Path
 from typing import Annotated
 
@@ -13,6 +12,7 @@ import structlog
 import typer
 from pydantic import ValidationError
 
+from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import fail
 from helixd.files.media import MediaMapError, read_media_map
@@ -56,12 +56,12 @@ def run_sim(
     try:
         for spec, at_s in faults:
             server.schedule(spec.name, at_s, **dict(spec.kwargs))
-        next_status = time.monotonic() + STATUS_EVERY_S
+        next_status = now_s() + STATUS_EVERY_S
         while not stop.is_set():
             snap = server.snapshot()
             if duration_s is not None and snap.sim_time_s >= duration_s:
                 break
-            if time.monotonic() >= next_status:
+            if now_s() >= next_status:
                 next_status += STATUS_EVERY_S
                 log.info(
                     "sim_status",

@@ -13,9 +13,10 @@ from __future__ import annotations
 
 import contextlib
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Awaitable, Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeVar
 
 import structlog
 
@@ -37,8 +38,10 @@ from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import rover_half_width_m
 from helixd.recorder.logging_setup import configure_logging
 from helixd.sim.collisions import ObstacleRaster, SimObstacles
-from helixd.sim.server import start_embedded
-from helixd.sim.sim_config import NoiseLevel, Plant, SimConfig, Terrain
+from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url, start_embedded
+from helixd.sim.sim_config import NoiseLevel, Plant, SimClock, SimConfig, Terrain
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -54,6 +57,9 @@ class SimChoice:
     extra_links: tuple[str, ...] = ()
     # the world's media by place (``run --sim-media``); None: ``terrain`` everywhere
     media: MediaMap | None = None
+    # the wall clock (sped up by ``speedup``) or one simulated clock (``run --sim-clock``)
+    clock: SimClock = SimClock.WALL
+    seed: int | None = None  # the noise generator's seed; None: a new one each run
 
 
 def read_sim_media(path: Path) -> MediaMap:
@@ -107,34 +113,59 @@ def embedded_guard(cfg: HelixdConfig, speedup: float) -> dict[str, float]:
     return {HXG_TIMEOUT: timeout_s, **dict(zip(HXG_CHANS, map(float, chans), strict=True))}
 
 
-@contextlib.contextmanager
-def simulator(
-    choice: SimChoice | None, world: Callable[[], SimObstacles], url: str, cfg: HelixdConfig
-) -> Iterator[str]:
-    """The link URL to fly on: ``url``, or (``--sim``) an embedded simulator's, started with
-    ``world``'s obstacles and helixd-guard installed, and stopped on the way out."""
-    if choice is None:
-        yield url
-        return
-    if not structlog.is_configured():  # the run's console format from the first line on
-        configure_logging(tty=sys.stderr.isatty())
+def simulator_config(
+    choice: SimChoice, world: Callable[[], SimObstacles], cfg: HelixdConfig
+) -> SimConfig:
+    """The embedded simulator ``choice`` asks for, with ``world``'s obstacles and helixd-guard
+    installed. On the simulated clock both sides keep one time, so nothing is stretched."""
+    speedup = 1.0 if choice.clock is SimClock.SIMULATED else choice.speedup
     start = {}
     if choice.start_ned is not None:
         north, east, yaw = choice.start_ned
         start = {"initial_north_m": north, "initial_east_m": east, "initial_yaw_ned_rad": yaw}
-    sim_cfg = SimConfig(
-        speedup=choice.speedup,
+    return SimConfig(
+        speedup=speedup,
         terrain=choice.terrain,
         noise=choice.noise,
+        seed=choice.seed,
         plant=choice.plant,
         obstacles=world(),
         **start,
         guard_installed=True,
-        guard_params=embedded_guard(cfg, choice.speedup),
+        guard_params=embedded_guard(cfg, speedup),
         media=choice.media,
     )
-    server, sim_url = start_embedded(sim_cfg, choice.extra_links)
+
+
+def _console_logging() -> None:
+    if not structlog.is_configured():  # the run's console format from the first line on
+        configure_logging(tty=sys.stderr.isatty())
+
+
+@contextlib.contextmanager
+def simulator(
+    choice: SimChoice | None, world: Callable[[], SimObstacles], url: str, cfg: HelixdConfig
+) -> Iterator[str]:
+    """The link URL to fly on: ``url``, or (``--sim``) an embedded simulator's on its own
+    thread, started with ``world``'s obstacles and helixd-guard installed, and stopped on the
+    way out."""
+    if choice is None:
+        yield url
+        return
+    _console_logging()
+    server, sim_url = start_embedded(simulator_config(choice, world, cfg), choice.extra_links)
     try:
         yield sim_url
     finally:
         server.stop()
+
+
+async def beside_simulator(
+    config: SimConfig, extra_links: tuple[str, ...], fly: Callable[[str], Awaitable[T]]
+) -> T:
+    """``fly(url)`` with the embedded simulator running in the same event loop (the simulated
+    clock: :class:`helixd.base.clock.SimulatedClockLoop`)."""
+    _console_logging()
+    server = SimServer([EMBEDDED_LINK, *extra_links], config, embedded=True)
+    async with server.running_here():
+        return await fly(embedded_url(server))

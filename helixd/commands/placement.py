@@ -5,8 +5,8 @@ its EKF origin (GPS_GLOBAL_ORIGIN) and, for a ``start`` mission, the rover's pos
 from __future__ import annotations
 
 import contextlib
-import time
 
+from helixd.base.clock import now_s
 from helixd.base.plan import MissionFrameKind
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
@@ -32,7 +32,7 @@ async def place_on_autopilot(ap: Autopilot, mission: Mission, timeout_s: float) 
         )
     start = None
     if mission.frame is MissionFrameKind.START:
-        asked_s = time.monotonic()  # a pose read after this answers (it may beat the wait)
+        asked_s = now_s()  # a pose read after this answers (it may beat the wait)
         for msg_id in (MAVLINK_MSG_ID_ATTITUDE, MAVLINK_MSG_ID_LOCAL_POSITION_NED):
             with contextlib.suppress(CommandError):  # streamed anyway on most links
                 await ap.action.command_long(MAV_CMD_REQUEST_MESSAGE, (msg_id,))

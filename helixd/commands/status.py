@@ -11,9 +11,9 @@ import asyncio
 import contextlib
 import io
 import math
-import time
 from collections.abc import Mapping
 
+from helixd.base.clock import now_s
 from helixd.base.frames import ne_to_latlon
 from helixd.config import LinkConfig, SafetyConfig
 from helixd.link.command_client import CommandError
@@ -196,7 +196,7 @@ async def read_status(
         emit(observer_line(link))
         emit(f"guard     : {await read_guard(ap)}")
         while True:
-            for line in format_status(ap.state, time.monotonic()):
+            for line in format_status(ap.state, now_s()):
                 emit(line)
             held_lines()
             if not watch:

@@ -7,12 +7,12 @@ the rover.
 from __future__ import annotations
 
 import asyncio
-import time
 from collections.abc import Callable, Sequence
 
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.config import LinkConfig
 from helixd.link.codec import MavlinkConnection
 from helixd.link.command_client import CommandClient, CommandError, CommandRejected
@@ -84,7 +84,7 @@ class Action:
         log.info("armed", force=False)
 
     async def _arm_once(self, forced: bool) -> None:
-        since = time.monotonic()
+        since = now_s()
         try:
             await self.command_long(
                 MAV_CMD_COMPONENT_ARM_DISARM, (1, FORCE_ARM_MAGIC if forced else 0)
@@ -109,23 +109,23 @@ class Action:
         ``since_s``. ArduPilot queues such texts (GCS::send_text) and sends them after the
         COMMAND_ACK, so one may trail the ack by a scheduler tick: waits at most
         ``link.statustext_grace_s``."""
-        deadline = time.monotonic() + self._cfg.statustext_grace_s
+        deadline = now_s() + self._cfg.statustext_grace_s
         while True:
             text = self._state.latest_statustext(prefix, since_s)
             if text:
                 return text
-            if not await self._waiters.wait(Change.STATUSTEXT, deadline - time.monotonic()):
+            if not await self._waiters.wait(Change.STATUSTEXT, deadline - now_s()):
                 return None
 
     async def _arm_text(self, since_s: float) -> str | None:
         """The 'PreArm: …' STATUSTEXT explaining a refusal (it may trail the ack a little)."""
-        deadline = time.monotonic() + self._cfg.statustext_grace_s
+        deadline = now_s() + self._cfg.statustext_grace_s
         while True:
             for prefix in ARM_TEXT_PREFIXES:
                 text = self._state.latest_statustext(prefix, since_s)
                 if text:
                     return text
-            if not await self._waiters.wait(Change.STATUSTEXT, deadline - time.monotonic()):
+            if not await self._waiters.wait(Change.STATUSTEXT, deadline - now_s()):
                 return None
 
     async def disarm(
@@ -197,7 +197,7 @@ class Action:
         """Ask for message ``msg_id`` (MAV_CMD_REQUEST_MESSAGE) and wait for one received after
         the request (``change`` of the vehicle state; ``rx_of``: when the last arrived): when
         it arrived, None if none came in time (logged ``{what}_unavailable``)."""
-        since = time.monotonic()
+        since = now_s()
         try:
             async with asyncio.timeout(timeout_s):
                 await self.command_long(MAV_CMD_REQUEST_MESSAGE, (msg_id,))

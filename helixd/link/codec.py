@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import asyncio
 import struct
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -31,6 +30,7 @@ from typing import Any
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.config import LinkConfig
 from helixd.link.framing import FrameKind, scan_frames, whole_frame_msgid, x25_crc
 from helixd.link.ownid import OwnIdSenders
@@ -286,7 +286,7 @@ class MavlinkConnection:
             if self.tlog is not None:
                 self.tlog.record(buf)
             if self.first_tx_s is None:
-                self.first_tx_s = time.monotonic()
+                self.first_tx_s = now_s()
             self.stats.tx_messages += 1
         else:
             self.stats.tx_dropped += 1

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import asyncio
 import math
-import time
 from collections import defaultdict, deque
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
@@ -34,6 +33,7 @@ from typing import Any, TypeVar
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.config import LinkConfig
 from helixd.link.vehicle import VehicleState
 from helixd.mav.constants import MAV_RESULT_ACCEPTED, MAV_RESULT_IN_PROGRESS
@@ -221,11 +221,11 @@ class CommandClient:
         loop = asyncio.get_running_loop()
         async with self._q.locks[command]:
             settle_s = self._q.answered_s.get(command, -math.inf) + self._cfg.command_settle_s
-            if settle_s > time.monotonic():
-                await asyncio.sleep(settle_s - time.monotonic())
+            if settle_s > now_s():
+                await asyncio.sleep(settle_s - now_s())
             pending = _PendingCommand(command, loop.create_future())
             queue = self._q.sends[command]
-            started_s = time.monotonic()
+            started_s = now_s()
             result: int | None = None
             try:
                 result = await self._attempts(pending, queue, p, timeout, tries)
@@ -259,7 +259,7 @@ class CommandClient:
     ) -> int | None:
         cfg = self._cfg
         for attempt in range(tries):
-            now = time.monotonic()
+            now = now_s()
             msg = self._mav().command_long_encode(
                 cfg.target_system, cfg.target_component, pending.command, attempt, *params
             )
@@ -267,12 +267,12 @@ class CommandClient:
             self._send(msg)
             deadline = now + timeout_s
             while True:
-                remaining = deadline - time.monotonic()
+                remaining = deadline - now_s()
                 if remaining > 0 and await answered(pending.future, remaining):
                     return pending.future.result()
                 if pending.last_progress_s is not None:
                     progress_deadline = pending.last_progress_s + timeout_s
-                    if progress_deadline > time.monotonic():
+                    if progress_deadline > now_s():
                         deadline = progress_deadline
                         continue
                 break

@@ -30,13 +30,13 @@ requested again once HEARTBEATs return.
 from __future__ import annotations
 
 import asyncio
-import time
 from collections.abc import Callable, Coroutine
 from typing import Any
 
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.config import LinkConfig
 from helixd.link.action import Action
 from helixd.link.codec import (
@@ -242,7 +242,7 @@ class Autopilot:
         after it received something from us.
         """
         first = self._conn.first_tx_s
-        return 0.0 if first is None else time.monotonic() - first
+        return 0.0 if first is None else now_s() - first
 
     @property
     def ack_stats(self) -> AckStats:
@@ -371,7 +371,7 @@ class Autopilot:
         while True:
             await asyncio.sleep(period_s)
             st = self.state
-            now = time.monotonic()
+            now = now_s()
             changes = self._expired_texts(now)  # a text whose end never came
             if changes:
                 self._on_changes(changes)
@@ -409,10 +409,10 @@ class Autopilot:
     async def wait_heartbeat(self, timeout_s: float) -> None:
         """Return once the autopilot's HEARTBEAT arrives; LinkTimeout with hints otherwise."""
         st = self.state
-        deadline = time.monotonic() + timeout_s
+        deadline = now_s() + timeout_s
         announce = self.url.kind == "udpout" and not self._heartbeat.running
         while st.last_heartbeat_s is None or st.link_lost:
-            remaining = deadline - time.monotonic()
+            remaining = deadline - now_s()
             if remaining <= 0:
                 raise LinkTimeout(
                     no_heartbeat_text(self.cfg, self.url, self._conn.stats, st, timeout_s)

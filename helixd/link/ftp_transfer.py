@@ -47,11 +47,11 @@ from __future__ import annotations
 
 import math
 import struct
-import time
 from collections.abc import Callable
 from enum import Enum
 from typing import Protocol, TypeVar
 
+from helixd.base.clock import now_s
 from helixd.link.inbox import drive
 from helixd.mav.ftp_wire import (
     MAX_DATA_LEN,
@@ -425,7 +425,7 @@ class FtpLink(Protocol):
 E = TypeVar("E", bound=FtpExchange)
 
 
-async def run_ftp(exchange: E, link: FtpLink, clock: Callable[[], float] = time.monotonic) -> E:
+async def run_ftp(exchange: E, link: FtpLink, clock: Callable[[], float] = now_s) -> E:
     """Drive ``exchange`` over ``link`` until it ends; raises its error if it failed."""
     await drive(exchange, link.send, link.recv, exchange.on_reply, clock)
     return exchange

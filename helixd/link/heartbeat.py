@@ -4,11 +4,11 @@ ArduPilot's GCS failsafe notices)."""
 from __future__ import annotations
 
 import asyncio
-import time
 
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.config import LinkConfig
 from helixd.link.codec import MavlinkConnection
 
@@ -47,7 +47,7 @@ class HeartbeatSender:
         return self._task is not None and not self._task.done()
 
     def feed(self) -> None:
-        self.last_feed_s = time.monotonic()
+        self.last_feed_s = now_s()
 
     def start(self) -> None:
         self.feed()
@@ -83,7 +83,7 @@ class HeartbeatSender:
         period_s = 1.0 / self._cfg.heartbeat_rate_hz
         withheld = False
         while True:
-            now = time.monotonic()
+            now = now_s()
             if heartbeat_due(self.last_feed_s, now, self._cfg.heartbeat_liveness_s):
                 self.send_now()
                 if withheld:

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 import os
-import time
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
@@ -43,6 +42,7 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.mav.constants import (
     MAV_MISSION_ACCEPTED,
     MAV_MISSION_INVALID_SEQUENCE,
@@ -326,7 +326,7 @@ class MissionLink(Protocol):
 async def run_transfer(
     transfer: MissionUpload | MissionDownload,
     link: MissionLink,
-    clock: Callable[[], float] = time.monotonic,
+    clock: Callable[[], float] = now_s,
 ) -> MissionUpload | MissionDownload:
     """Drive ``transfer`` over ``link`` until it ends; raises its error if it failed."""
     await drive(transfer, link.send, link.recv, transfer.on_message, clock)

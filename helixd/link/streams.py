@@ -21,13 +21,13 @@ from __future__ import annotations
 
 import asyncio
 import math
-import time
 from collections.abc import Awaitable, Callable, Sequence
 from dataclasses import dataclass, field
 
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.config import LinkConfig
 from helixd.link.command_client import (
     ALL_RESULTS,
@@ -195,7 +195,7 @@ class StreamManager:
             for name in TELEMETRY_STREAMS:
                 floor = min(cfg.pose_rate_min_hz, cfg.telemetry_rate_hz)
                 granted[name] = await self._negotiate(name, cfg.telemetry_rate_hz, floor)
-            now = time.monotonic()
+            now = now_s()
             for name, rate in granted.items():
                 self.monitor.grant(name, rate, now)
             for name in TARGET_STREAMS:
@@ -311,4 +311,4 @@ class StreamManager:
     ) -> None:
         """Re-request ``slow`` and start a new observation window."""
         await self.rerequest(slow, booting)
-        self.monitor.restart(time.monotonic())
+        self.monitor.restart(now_s())

@@ -18,10 +18,10 @@ from __future__ import annotations
 
 import asyncio
 import math
-import time
 from collections.abc import AsyncGenerator, Callable
 from typing import Any
 
+from helixd.base.clock import now_s
 from helixd.link.vehicle import Change, PoseSample, VehicleState
 
 MavMsg = Any
@@ -112,8 +112,8 @@ class Telemetry:
         pose = self._state.pose
         if pose is not None and after_rx_s is not None and pose.rx_monotonic_s > after_rx_s:
             return pose
-        deadline = time.monotonic() + timeout_s
-        while await self._waiters.wait(Change.POSE, deadline - time.monotonic()):
+        deadline = now_s() + timeout_s
+        while await self._waiters.wait(Change.POSE, deadline - now_s()):
             pose = self._state.pose
             if pose is not None and (after_rx_s is None or pose.rx_monotonic_s > after_rx_s):
                 return pose
@@ -125,9 +125,9 @@ class Telemetry:
         """True as soon as ``holds(state)`` is true, re-checked whenever one of the
         ``changes`` (:class:`helixd.link.vehicle.Change` bits) is applied; False when it is
         still false after ``timeout_s``."""
-        deadline = time.monotonic() + timeout_s
+        deadline = now_s() + timeout_s
         while not holds(self._state):
-            remaining = deadline - time.monotonic()
+            remaining = deadline - now_s()
             if remaining <= 0:
                 return False
             await self._waiters.wait(changes, remaining)
@@ -135,7 +135,7 @@ class Telemetry:
 
     async def pose(self) -> AsyncGenerator[PoseSample, None]:
         """Every new valid pose read after the stream started, as it arrives (none twice)."""
-        last = time.monotonic()
+        last = now_s()
         while True:
             sample = await self.next_pose(last, math.inf)
             if sample is not None:
@@ -145,7 +145,7 @@ class Telemetry:
     async def pose_or_tick(self, tick_s: float) -> AsyncGenerator[PoseSample | None, None]:
         """Every new valid pose read after the stream started, or None whenever ``tick_s``
         passes without one."""
-        last = time.monotonic()
+        last = now_s()
         while True:
             sample = await self.next_pose(last, tick_s)
             if sample is not None:

@@ -11,15 +11,16 @@ with ``loop.add_writer``.
 from __future__ import annotations
 
 import asyncio
+import ipaddress
 import os
 import socket
 import termios
-import time
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 
 import structlog
 
+from helixd.base.clock import now_s
 from helixd.config import LinkConfig
 from helixd.mav.url import LinkError, LinkUrl
 
@@ -92,10 +93,7 @@ class UdpTransport(Transport):
                 sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
                 sock.bind((url.host, url.port))
             else:
-                infos = await loop.getaddrinfo(
-                    url.host, url.port, family=socket.AF_INET, type=socket.SOCK_DGRAM
-                )
-                self._remote = (str(infos[0][4][0]), int(infos[0][4][1]))
+                self._remote = await _resolved(loop, url.host, url.port)
             sock.setblocking(False)
         except OSError as exc:
             sock.close()
@@ -128,7 +126,7 @@ class UdpTransport(Transport):
             except OSError as exc:
                 log.warning("udp_read_error", error=str(exc))
                 return
-            self._on_data(data, addr, time.monotonic())  # AF_INET: (host str, port int)
+            self._on_data(data, addr, now_s())  # AF_INET: (host str, port int)
 
     def write(self, data: bytes) -> bool:
         if self._sock is None or self._remote is None:
@@ -198,7 +196,7 @@ class FdStreamTransport(Transport):
             if not data:
                 self._fail("closed by the other end")
                 return
-            self._on_data(data, None, time.monotonic())
+            self._on_data(data, None, now_s())
 
     def write(self, data: bytes) -> bool:
         fd = self._fd
@@ -334,3 +332,14 @@ def make_transport(url: LinkUrl, cfg: LinkConfig, on_data: OnData, on_lost: OnLo
     if url.kind == "tcp":
         return TcpTransport(url, cfg, on_data, on_lost)
     return SerialTransport(url, cfg, on_data, on_lost)
+
+
+async def _resolved(loop: asyncio.AbstractEventLoop, host: str, port: int) -> tuple[str, int]:
+    """(IPv4 address, port) of ``host``: an address as it is, a name through the resolver
+    (off the loop: a name lookup may take seconds)."""
+    try:
+        ipaddress.IPv4Address(host)
+    except ValueError:
+        infos = await loop.getaddrinfo(host, port, family=socket.AF_INET, type=socket.SOCK_DGRAM)
+        return str(infos[0][4][0]), int(infos[0][4][1])
+    return host, port

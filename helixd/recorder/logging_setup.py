@@ -18,13 +18,14 @@ import json
 import logging
 import sys
 import threading
-import time
 from collections.abc import Callable, MutableMapping
 from pathlib import Path
 from typing import IO, Any
 
 import structlog
 from structlog.typing import EventDict, Processor, WrappedLogger
+
+from helixd.base.clock import now_s
 
 LEVELS = {
     "debug": logging.DEBUG,
@@ -299,7 +300,7 @@ def configure_logging(
     level: str = "info",
     json_file: IO[str] | None = None,
     stream: IO[str] | None = None,
-    clock: Callable[[], float] = time.monotonic,
+    clock: Callable[[], float] = now_s,
 ) -> None:
     """Configure structlog for the whole process (safe to call again, e.g. in tests).
 

@@ -28,7 +28,6 @@ import os
 import re
 import shutil
 import threading
-import time
 from collections.abc import Callable
 from datetime import UTC, datetime
 from pathlib import Path
@@ -36,6 +35,7 @@ from typing import IO
 
 import structlog
 
+from helixd.base.clock import now_s
 from helixd.base.run_files import (
     CONFIG_FILE,
     EVENTS_FILE,
@@ -178,7 +178,7 @@ class RunRecorder:
         now_utc: datetime,
         *,
         run_dir: Path | None = None,
-        clock: Callable[[], float] = time.monotonic,
+        clock: Callable[[], float] = now_s,
         opener: Opener = default_opener,
         inputs_json: str | None = None,
     ) -> RunRecorder:

@@ -26,7 +26,6 @@ import asyncio
 import contextlib
 import math
 import os
-import time
 from collections.abc import AsyncIterator, Awaitable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
@@ -37,6 +36,7 @@ import structlog
 
 from helixd import __version__
 from helixd.actuators.base import ActuatorError, ActuatorSink
+from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.plan import Numbering, Plan, program_numbering
@@ -153,7 +153,7 @@ async def phase(
     ``phase_end`` says ``ok=false`` when the phase raised or marked its :class:`PhaseEnd`
     failed (with the cause).
     """
-    t0 = time.monotonic()
+    t0 = now_s()
     log.info("phase_start", phase=name)
     notifier.status(f"phase: {name}")
     display.phase(name)
@@ -161,12 +161,10 @@ async def phase(
     try:
         yield end
     except BaseException:
-        log.info("phase_end", phase=name, ok=False, duration_wall_s=round(time.monotonic() - t0, 3))
+        log.info("phase_end", phase=name, ok=False, duration_wall_s=round(now_s() - t0, 3))
         raise
     cause = {} if end.cause is None else {"cause": end.cause}
-    log.info(
-        "phase_end", phase=name, ok=end.ok, **cause, duration_wall_s=round(time.monotonic() - t0, 3)
-    )
+    log.info("phase_end", phase=name, ok=end.ok, **cause, duration_wall_s=round(now_s() - t0, 3))
 
 
 class Stage(StrEnum):
@@ -582,7 +580,7 @@ class MissionRunner:
                 resumed_mission_sha256=resumed.mission_sha256,
                 first_waypoint=self.numbering().label(0),
             )
-        started = time.monotonic()
+        started = now_s()
         held = Held()
         ending = Ending(None, ExitCode.INTERNAL_ERROR)  # if cancelled before an ending is known
         try:
@@ -606,7 +604,7 @@ class MissionRunner:
         except Exception as exc:
             if self.opts.item_numbers:  # a ground-station mission: its entries are items
                 exc = as_item_numbers(exc)
-            ending, rule = ending_for(exc, stage, time.monotonic())
+            ending, rule = ending_for(exc, stage, now_s())
             self._report_failure(exc, rule)
             return ending
 
@@ -651,7 +649,7 @@ class MissionRunner:
                     sink=held.sink,
                     autopilot=ap.action,
                     cfg=self.cfg.safety,
-                    detected_s=ending.detected_s or time.monotonic(),
+                    detected_s=ending.detected_s or now_s(),
                     pose_text=pose_text(pose),
                     disarm=disarm_after(held.armed_by_us, ending),
                     abandon=lambda: self.stop.forced,
@@ -725,7 +723,7 @@ class MissionRunner:
         summary = self._build_summary(
             None if fault is None else f"{fault.cause.value}: {fault.detail}",
             ending.code,
-            time.monotonic() - started,
+            now_s() - started,
         )
         if self.recorder is not None:  # the RESULT line says from when the record is missing
             summary = self.recorder.annotate(summary)

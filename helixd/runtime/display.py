@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +28,7 @@ from rich.live import Live
 from rich.table import Table
 from rich.text import Text
 
+from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import waypoint_label
 from helixd.recorder.summary import Arrival, RunSummary
@@ -317,7 +317,7 @@ class ProgressDisplay:
         *,
         plain_lines: bool = False,
         console: Console | None = None,
-        clock: Callable[[], float] = time.monotonic,
+        clock: Callable[[], float] = now_s,
         refresh_hz: float = REFRESH_HZ,
         event_interval_s: float = EVENT_INTERVAL_S,
     ) -> None:

@@ -20,6 +20,8 @@ from typing import Any, Literal, TypeVar
 
 import structlog
 
+from helixd.base.clock import SimulatedClockLoop
+
 log = structlog.get_logger(__name__)
 T = TypeVar("T")
 EventLoopChoice = Literal["asyncio", "uvloop"]
@@ -39,10 +41,16 @@ def loop_factory(choice: EventLoopChoice) -> tuple[Callable[[], asyncio.Abstract
     return asyncio.new_event_loop, "asyncio"
 
 
-def run(coro: Coroutine[Any, Any, T], choice: EventLoopChoice = "asyncio") -> T:
-    """``asyncio.run(coro)`` on the loop ``choice`` selects."""
+def run(
+    coro: Coroutine[Any, Any, T], choice: EventLoopChoice = "asyncio", simulated: bool = False
+) -> T:
+    """``asyncio.run(coro)`` on the loop ``choice`` selects, or (``simulated``) on a
+    :class:`helixd.base.clock.SimulatedClockLoop` whatever ``choice`` says."""
     factory, name = loop_factory(choice)
-    if name != choice:
+    if simulated:
+        factory, name = SimulatedClockLoop, "simulated clock"
+        log.info("event_loop", loop=name)
+    elif name != choice:
         log.warning("event_loop_fallback", wanted=choice, loop=name, reason="uvloop not installed")
     else:
         log.info("event_loop", loop=name)

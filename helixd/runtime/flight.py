@@ -39,13 +39,13 @@ from __future__ import annotations
 
 import asyncio
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import structlog
 
 from helixd.actuators.base import ActuatorError, ActuatorSink
+from helixd.base.clock import now_s
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.base.plan import ActionKind, MissionAction, MotionMode, Plan
@@ -238,13 +238,13 @@ class FlightLoop:
         wake-up it runs the watchdogs with no pose, so a silent link is still caught. What a
         wake-up raises (a bug) is raised here, as the flight's own exception.
         """
-        self._t_start_s = self._last_wake_s = time.monotonic()
+        self._t_start_s = self._last_wake_s = now_s()
         result: asyncio.Future[FlightResult] = asyncio.get_running_loop().create_future()
         self._result = result
         unsubscribe = self.ap.telemetry.on_pose(self._on_pose)
         try:
             while not result.done():
-                wait_s = self._last_wake_s + self._tick_s - time.monotonic()
+                wait_s = self._last_wake_s + self._tick_s - now_s()
                 if wait_s > 0:
                     await asyncio.wait((result,), timeout=wait_s)
                 else:
@@ -264,7 +264,7 @@ class FlightLoop:
         :meth:`run`, never into the reader that called it."""
         result = self._result
         assert result is not None
-        now = time.monotonic()
+        now = now_s()
         self._last_wake_s = now
         try:
             ended = self._iteration(sample, now)

@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import time
 from collections.abc import Callable
 from typing import Any
 
 import structlog
 
+from helixd.base.clock import now_s
 from helixd.config import GcsReportConfig
 from helixd.runtime.gcs_report import (
     GcsReporter,
@@ -45,7 +45,7 @@ OUTBOX_MAX = 64  # messages the reporter returned that the task has not sent yet
 
 
 class GcsFeed:
-    def __init__(self, cfg: GcsReportConfig, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, cfg: GcsReportConfig, clock: Callable[[], float] = now_s) -> None:
         self.cfg = cfg
         self._clock = clock
         self._reporter = GcsReporter(cfg, clock())

@@ -11,12 +11,12 @@ and reads its result. Every callback is cheap: it runs at the control rate.
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import structlog
 
+from helixd.base.clock import now_s
 from helixd.base.plan import MissionAction, Numbering, Plan, mission_item_of
 from helixd.config import HelixdConfig
 from helixd.control.sequencer import SequencerEvent
@@ -105,7 +105,7 @@ class InFlight:
         self.ap.feed()
         self.tell_radio_lost()
         self.host.notifier.watchdog()
-        self.journal.maybe_drain(time.monotonic())
+        self.journal.maybe_drain(now_s())
         if self.recorder is not None:
             self.recorder.maybe_flush()
 

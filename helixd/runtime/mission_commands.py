@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
 import structlog
 
+from helixd.base.clock import now_s
 from helixd.base.plan import MissionAction
 from helixd.link.command_client import CommandError, CommandRejected, result_name
 from helixd.mission.commands import command_name
@@ -66,7 +66,7 @@ class MissionCommands:
 
     def submit(self, action: MissionAction) -> None:
         """Queue ``action`` (never blocks; the task sends it after those before it)."""
-        self._queue.put_nowait((action, time.monotonic()))
+        self._queue.put_nowait((action, now_s()))
 
     @property
     def pending(self) -> int:
@@ -102,7 +102,7 @@ class MissionCommands:
             accepted, text = False, str(exc)
         except CommandError as exc:
             accepted, text = False, str(exc)
-        outcome = CommandOutcome(action, accepted, text, queued_s, time.monotonic())
+        outcome = CommandOutcome(action, accepted, text, queued_s, now_s())
         self.outcomes.append(outcome)
         fields = {
             "item": action.item,

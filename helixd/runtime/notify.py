@@ -17,11 +17,12 @@ Abstract sockets (``NOTIFY_SOCKET=@name``) are handled by ``sdnotify`` itself.
 from __future__ import annotations
 
 import os
-import time
 from collections.abc import Callable, Mapping
 
 import sdnotify
 import structlog
+
+from helixd.base.clock import now_s
 
 log = structlog.get_logger(__name__)
 
@@ -76,7 +77,7 @@ class ServiceNotifier:
     def __init__(
         self,
         *,
-        clock: Callable[[], float] = time.monotonic,
+        clock: Callable[[], float] = now_s,
         ping_fraction: float = WATCHDOG_PING_FRACTION,
     ) -> None:
         self._socket_address = os.environ.get("NOTIFY_SOCKET", "")

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import time
 from collections.abc import AsyncIterator, Awaitable, Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -27,6 +26,7 @@ import structlog
 
 from helixd.actuators.base import ActuatorSink
 from helixd.actuators.factory import make_sink
+from helixd.base.clock import now_s
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan
 from helixd.base.problems import Problems
@@ -256,7 +256,7 @@ def pose_invalid_too_long(ap: Autopilot, cfg: HelixdConfig) -> Fault | None:
     """Pose telemetry rejected for longer than the stale limit (as the watchdog)."""
     st = ap.state
     return pose_invalid_fault(
-        time.monotonic(),
+        now_s(),
         None if st.pose is None else st.pose.rx_monotonic_s,
         st.pose_invalid_since_s,
         st.pose_invalid_reason,
@@ -275,8 +275,8 @@ async def fresh_pose(ap: Autopilot, cfg: HelixdConfig, stop: StopRequest) -> Ned
     """
     safety = cfg.safety
     ap.state.bounds = TelemetryBounds.from_safety(safety)
-    deadline = time.monotonic() + cfg.startup.connect_timeout_s
-    while time.monotonic() < deadline:
+    deadline = now_s() + cfg.startup.connect_timeout_s
+    while now_s() < deadline:
         ap.feed()
         poll_s = min(0.2, safety.pose_stale_s / 4)  # notice invalid poses early
         sample = await until_stopped(
@@ -288,7 +288,7 @@ async def fresh_pose(ap: Autopilot, cfg: HelixdConfig, stop: StopRequest) -> Ned
         fresh = (
             sample is not None
             and not ap.state.pose_invalid
-            and time.monotonic() - sample.rx_monotonic_s <= safety.pose_stale_s
+            and now_s() - sample.rx_monotonic_s <= safety.pose_stale_s
         )
         if sample is not None and fresh and ekf is not None and ekf.healthy:
             return sample.ned
@@ -299,7 +299,7 @@ async def fresh_pose(ap: Autopilot, cfg: HelixdConfig, stop: StopRequest) -> Ned
 def gps_now(st: VehicleState, safety: SafetyConfig) -> Fault | None:
     """The GPS as the watchdog would judge it now (None: good enough to drive on)."""
     return gps_fault(
-        time.monotonic(), st.gps_rx_s, st.gps_fix_type, st.gps_satellites, safety, st.gps_fix_rx_s
+        now_s(), st.gps_rx_s, st.gps_fix_type, st.gps_satellites, safety, st.gps_fix_rx_s
     )
 
 
@@ -539,8 +539,8 @@ async def start_gate(
     threshold = cfg.startup.start_switch_threshold_us
     log.info("waiting_for_start_switch", channel=ch, threshold_us=threshold)
     notifier.status(f"waiting for the pilot: RC{ch} >= {threshold} us")
-    deadline = time.monotonic() + cfg.startup.start_gate_timeout_s
-    while time.monotonic() < deadline:
+    deadline = now_s() + cfg.startup.start_gate_timeout_s
+    while now_s() < deadline:
         ap.feed()
         notifier.watchdog()
         rc = ap.state.rc_inputs_us
@@ -566,10 +566,10 @@ async def wait_home(
     the run is refused (exit 3, nothing armed), or with ``startup.force_arm`` armed anyway.
     """
     startup = cfg.startup
-    deadline = time.monotonic() + startup.home_timeout_s
+    deadline = now_s() + startup.home_timeout_s
     waiting = False
     while ap.state.home is None:
-        remaining = deadline - time.monotonic()
+        remaining = deadline - now_s()
         if remaining <= 0.0:
             text = (
                 f"the autopilot reported no home (HOME_POSITION) within "
@@ -627,7 +627,7 @@ async def arm(
         return None
     warning = await wait_home(ap, cfg, on_status)
     startup = cfg.startup
-    deadline = time.monotonic() + startup.arm_timeout_s
+    deadline = now_s() + startup.arm_timeout_s
     while True:
         try:
             await ap.action.arm(force=startup.force_arm)
@@ -636,7 +636,7 @@ async def arm(
             return warning
         except CommandRejected as refused:
             exc = await explain_arm_refusal(ap, refused)
-            if time.monotonic() + startup.arm_retry_interval_s > deadline:
+            if now_s() + startup.arm_retry_interval_s > deadline:
                 raise exc from None
             log.warning(
                 "arm_refused_retrying", reason=str(exc), retry_in_s=startup.arm_retry_interval_s
@@ -649,9 +649,9 @@ async def confirm_mode(ap: Autopilot, cfg: HelixdConfig, mode: str) -> None:
     """The ACK says 'accepted'; the HEARTBEAT's mode says it happened. Without this wait
     a vehicle still armed in HOLD (left by a faulted run) would show its last HOLD
     heartbeat to the flight loop, which reads it as a pilot takeover."""
-    deadline = time.monotonic() + cfg.safety.heartbeat_timeout_s * 2
+    deadline = now_s() + cfg.safety.heartbeat_timeout_s * 2
     while ap.state.mode != mode:
-        if time.monotonic() > deadline:
+        if now_s() > deadline:
             raise PreflightFailed(
                 [f"mode {mode} was accepted but HEARTBEAT still shows {ap.state.mode}"]
             )
@@ -660,9 +660,9 @@ async def confirm_mode(ap: Autopilot, cfg: HelixdConfig, mode: str) -> None:
 
 async def confirm_armed(ap: Autopilot, cfg: HelixdConfig) -> None:
     """The ACK says 'accepted'; the HEARTBEAT's armed flag says it happened."""
-    deadline = time.monotonic() + cfg.safety.heartbeat_timeout_s * 2
+    deadline = now_s() + cfg.safety.heartbeat_timeout_s * 2
     while not ap.state.armed:
-        if time.monotonic() > deadline:
+        if now_s() > deadline:
             raise PreflightFailed(["arming was accepted but HEARTBEAT never showed armed"])
         await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)
 
@@ -680,7 +680,7 @@ def start_pose(
     (:class:`StartRefused`)."""
     invalid = pose_invalid_too_long(ap, cfg)
     if now is None and invalid is not None:
-        raise StartRefused(invalid, time.monotonic())
+        raise StartRefused(invalid, now_s())
     if now is not None and now != checked.start_ned:
         # The rover may have been moved while the start gate waited: check again from here.
         moved = judge_flight(
@@ -692,7 +692,7 @@ def start_pose(
         )
         if moved.problems:
             why = "from the pose at arming: " + "; ".join(moved.problems)
-            raise StartRefused(Fault(FaultCause.PREFLIGHT, why), time.monotonic())
+            raise StartRefused(Fault(FaultCause.PREFLIGHT, why), now_s())
         return replace(checked, start_ned=now, cfg=moved.cfg)
     return checked
 

@@ -17,13 +17,13 @@ from __future__ import annotations
 
 import asyncio
 import math
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
 import structlog
 
+from helixd.base.clock import now_s
 from helixd.base.frames import NedPose
 from helixd.config import SafetyConfig
 from helixd.link.vehicle import PoseSample, VehicleState
@@ -218,7 +218,7 @@ async def fall_back(
             )
         except Exception as exc:  # the fall-back must go on to HOLD whatever happened
             report.errors.append(f"stopping the scrolls failed: {exc!r}")
-        report.stopped_after_s = time.monotonic() - detected_s
+        report.stopped_after_s = now_s() - detected_s
     # the pilot drives, or the crew moved the autopilot's AUTO to another item, or gave it
     # another place or mode helixd drives in: no HOLD
     released = fault is not None and fault.cause in (
@@ -227,12 +227,12 @@ async def fall_back(
         FaultCause.HANDOVER,
     )
     if autopilot is not None and not released:
-        report.hold_requested_after_s = time.monotonic() - detected_s
-        deadline = time.monotonic() + cfg.hold_retry_bound_s
-        while time.monotonic() < deadline:
+        report.hold_requested_after_s = now_s() - detected_s
+        deadline = now_s() + cfg.hold_retry_bound_s
+        while now_s() < deadline:
             try:
                 # short tries, re-sent here until the bound: one ACK lost must not cost seconds
-                remaining = max(0.05, deadline - time.monotonic())
+                remaining = max(0.05, deadline - now_s())
                 await autopilot.set_mode(HOLD_MODE, timeout_s=min(0.3, remaining), retries=0)
                 report.hold_acked = True
                 break

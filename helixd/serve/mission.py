@@ -4,12 +4,12 @@ given), with the autopilot's current item and fence kept for the flights."""
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import Any
 
 import structlog
 
+from helixd.base.clock import now_s
 from helixd.link.connection import Autopilot, MavMsg
 from helixd.link.mission_transfer import MissionTransferError
 from helixd.mav.url import LinkError
@@ -68,14 +68,14 @@ class MissionWatch:
         ``recheck`` asks for it again, else None (nothing new, or the read failed)."""
         self.due = False
         poll_s = self.opts.cfg.serve.mission_poll_s
-        self._next_poll_s = time.monotonic() + poll_s
+        self._next_poll_s = now_s() + poll_s
         if self.opts.mission_file is not None:
             return self._read_file(self.opts.mission_file)
         try:
             got = await ap.mission.download()
         except (MissionTransferError, LinkError) as exc:  # e.g. a GCS uploading right now
             log.info("serve_mission_read_failed", error=str(exc))
-            self._next_poll_s = time.monotonic() + min(poll_s, MISSION_RETRY_S)
+            self._next_poll_s = now_s() + min(poll_s, MISSION_RETRY_S)
             return None
         fingerprint = items_sha256(got.mission, got.fence)
         if fingerprint == self.fingerprint and not recheck:

@@ -21,11 +21,11 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import time
 
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
@@ -187,7 +187,7 @@ class Service:
     async def _serve(self, ap: Autopilot) -> None:
         streams = False
         while not self.stop.requested:
-            now = time.monotonic()
+            now = now_s()
             up = ap.state.last_heartbeat_s is not None and not ap.state.link_lost
             flying = self.flights.flying
             if not up and not flying:
@@ -257,7 +257,7 @@ class Service:
         assert ch is not None
         st = ap.state
         live = radio_live(
-            st.rc_receiver_healthy, st.rc_rx_s, time.monotonic(), self.cfg.serve.switch_stale_s
+            st.rc_receiver_healthy, st.rc_rx_s, now_s(), self.cfg.serve.switch_stale_s
         )
         if not live:  # read only from a live radio: no edge, a veto on starting
             if self._switch_live:
@@ -296,7 +296,7 @@ class Service:
         """The autopilot's place in GUIDED, RTL or SMART_RTL (the crew's Go to location, the
         RTL button, a failsafe): a flight there."""
         st = ap.state
-        target = current_target_of(st, time.monotonic(), self.cfg.serve.target_stale_s)
+        target = current_target_of(st, now_s(), self.cfg.serve.target_stale_s)
         mode = crew_mode_of(st)  # one of GOTO_MODES whenever a place is pending
         place = self.goto_watch.update(st.armed, mode, target, self.flights.flying)
         if place is None or self.flights.busy:

@@ -5,11 +5,11 @@ sent again at ``serve.state_rate_hz`` so a ground station that connects later se
 from __future__ import annotations
 
 import contextlib
-import time
 
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.config import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_NOTICE
@@ -52,10 +52,10 @@ class ServeStatus:
         ap = self.ap
         if ap is None:
             return
-        boot_ms = int(time.monotonic() * 1000) & 0xFFFFFFFF
+        boot_ms = int(now_s() * 1000) & 0xFFFFFFFF
         with contextlib.suppress(LinkError, OSError):
             ap.send_message(_mav.named_value_int_encode(boot_ms, HX_STATE_NAME, int(self.state)))
-        self.next_send_s = time.monotonic() + 1.0 / self.cfg.serve.state_rate_hz
+        self.next_send_s = now_s() + 1.0 / self.cfg.serve.state_rate_hz
 
     def due(self, now_s: float) -> bool:
         return now_s >= self.next_send_s

@@ -22,12 +22,13 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import contextlib
 import os
 import shutil
 import tempfile
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import AsyncIterator, Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
@@ -38,6 +39,7 @@ import structlog
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from helixd.files.media import read_media_map
 from helixd.mav.guard_script import POSIX_SCRIPTS_DIR, SCRIPT_NAME, script_bytes
 from helixd.sim.core import SimCore
@@ -148,7 +150,7 @@ class _Link(asyncio.DatagramProtocol, asyncio.Protocol):
     def error_received(self, exc: Exception) -> None:
         # e.g. ICMP port unreachable on a udpout link nobody listens to yet: say so, rarely
         self.errors += 1
-        now = time.monotonic()
+        now = now_s()
         if now - self.last_error_log_s >= ERROR_LOG_INTERVAL_S:
             self.last_error_log_s = now
             log.warning("sim_link_error", link=self.index, error=str(exc), count=self.errors)
@@ -224,6 +226,8 @@ class SimServer:
         self._startup_error: BaseException | None = None
         self._cond = threading.Condition()
         self._snapshot = take_snapshot(self._core)
+        # called on the simulator's loop with each snapshot it publishes (a recorder's trace)
+        self.snapshot_listeners: list[Callable[[SimSnapshot], None]] = []
         self.local_ports: list[int] = []
 
     # -- lifecycle -------------------------------------------------------------------------
@@ -249,6 +253,9 @@ class SimServer:
             if self._thread.is_alive():
                 log.error("sim_stop_timeout")
                 return  # the thread may still use the FTP server and the directory
+        self._release()
+
+    def _release(self) -> None:
         self._ftp.close()
         if self._own_workdir:
             shutil.rmtree(self.workdir, ignore_errors=True)
@@ -277,30 +284,64 @@ class SimServer:
                 self._cond.notify_all()
 
     async def _main(self) -> None:
-        loop = asyncio.get_running_loop()
         try:
-            for i, spec in enumerate(self.link_specs):
-                self._links.append(await self._open(loop, i, spec))
-            self.local_ports = [link.local_port for link in self._links]
-            (log.debug if self._embedded else log.info)(
-                "sim_started",
-                links=[
-                    f"{s.kind}:{s.host}:{p}"
-                    for s, p in zip(self.link_specs, self.local_ports, strict=True)
-                ],
-                speedup=self.config.speedup,
-                plant=self.config.plant.value,
-                terrain=self.config.terrain.value,
-                media=None if self.config.media is None else self.config.media.source,
-                noise=self.config.noise.value,
-            )
+            await self._open_links()
             self._ready.set()
             await self._run()
         finally:
-            for link in self._links:
-                link.close()
-            emit = log.debug if self._embedded else log.info
-            emit("sim_stopped", sim_time_s=round(self._core.now_s, 3))
+            self._close_links()
+
+    @contextlib.asynccontextmanager
+    async def running_here(self) -> AsyncIterator[SimServer]:
+        """Run in the caller's event loop instead of a thread of its own: on a
+        :class:`helixd.base.clock.SimulatedClockLoop` the simulator and the daemon then share
+        one simulated clock. Links are bound on entry; on exit the simulator stops."""
+        if self._thread is not None or self._loop is not None:
+            raise RuntimeError("SimServer already started")
+        self._loop = asyncio.get_running_loop()
+        try:
+            await self._open_links()
+        except BaseException:
+            self._close_links()
+            self._release()
+            raise
+        self._ready.set()
+        task = asyncio.create_task(self._run(), name="helixd-sim")
+        try:
+            yield self
+        finally:
+            self._stopping.set()
+            try:
+                await task
+            finally:
+                self._close_links()
+                self._release()
+                with self._cond:
+                    self._cond.notify_all()
+
+    async def _open_links(self) -> None:
+        loop = asyncio.get_running_loop()
+        for i, spec in enumerate(self.link_specs):
+            self._links.append(await self._open(loop, i, spec))
+        self.local_ports = [link.local_port for link in self._links]
+        (log.debug if self._embedded else log.info)(
+            "sim_started",
+            links=[
+                f"{s.kind}:{s.host}:{p}"
+                for s, p in zip(self.link_specs, self.local_ports, strict=True)
+            ],
+            speedup=self.config.speedup,
+            plant=self.config.plant.value,
+            terrain=self.config.terrain.value,
+            media=None if self.config.media is None else self.config.media.source,
+            noise=self.config.noise.value,
+        )
+
+    def _close_links(self) -> None:
+        for link in self._links:
+            link.close()
+        emit = log.debug if self._embedded else log.info
+        emit("sim_stopped", sim_time_s=round(self._core.now_s, 3))
 
     async def _open(self, loop: asyncio.AbstractEventLoop, i: int, spec: LinkSpec) -> _Link:
         link = _Link(i, spec, self._on_bytes, self._embedded)
@@ -324,18 +365,18 @@ class SimServer:
     async def _run(self) -> None:
         core = self._core
         speedup = self.config.speedup
-        start_wall, start_sim = time.monotonic(), core.now_s
+        start_wall, start_sim = now_s(), core.now_s
         while not self._stopping.is_set():
-            target_sim = start_sim + (time.monotonic() - start_wall) * speedup
+            target_sim = start_sim + (now_s() - start_wall) * speedup
             loops = 0
             while core.now_s + core.dt_s() <= target_sim + 1e-9 and loops < MAX_LOOPS_PER_WAKEUP:
                 core.tick()
                 self._after()
                 loops += 1
             if loops == MAX_LOOPS_PER_WAKEUP:  # cannot keep up: slow simulated time down
-                start_wall, start_sim = time.monotonic(), core.now_s
+                start_wall, start_sim = now_s(), core.now_s
             next_wall = start_wall + (core.now_s + core.dt_s() - start_sim) / speedup
-            await asyncio.sleep(max(MIN_SLEEP_S, min(0.05, next_wall - time.monotonic())))
+            await asyncio.sleep(max(MIN_SLEEP_S, min(0.05, next_wall - now_s())))
 
     def _on_bytes(self, index: int, data: bytes) -> None:
         link = self._links[index] if index < len(self._links) else None
@@ -361,7 +402,7 @@ class SimServer:
         """Publish history and snapshot first, then put messages on the wire, so a client
         that saw a message can always find its cause in the history/snapshot."""
         core = self._core
-        wall = time.monotonic()
+        wall = now_s()
         for ev in core.drain_events():
             self.history.append(HistoryEntry(wall, core.now_s, ev.kind, dict(ev.details)))
             if ev.kind in LOGGED_KINDS:
@@ -371,6 +412,8 @@ class SimServer:
         with self._cond:
             self._snapshot = snap
             self._cond.notify_all()
+        for listener in self.snapshot_listeners:
+            listener(snap)
         if not self._own_workdir and core.params.version != self._stored_version:
             self._stored_version = core.params.version
             write_storage(self.workdir, storage_values(core.params, self._param_defaults))
@@ -383,6 +426,10 @@ class SimServer:
 
     def _call(self, fn: Callable[[], Any]) -> Any:
         loop = self._loop
+        if loop is not None and self._thread is None and not self._stopping.is_set():
+            result = fn()  # running here (running_here): the caller is on the loop's thread
+            self._after()
+            return result
         if loop is None or self._thread is None or not self._thread.is_alive():
             raise RuntimeError("simulator is not running")
         future: concurrent.futures.Future[Any] = concurrent.futures.Future()
@@ -487,12 +534,20 @@ def read_scripts(workdir: Path) -> dict[str, bytes]:
     return found
 
 
+EMBEDDED_LINK = "udpin:127.0.0.1:0"  # an embedded simulator's own link: a free local UDP port
+
+
+def embedded_url(server: SimServer) -> str:
+    """The URL helixd opens to reach an embedded simulator's own link (once it is bound)."""
+    return f"udpout:127.0.0.1:{server.local_ports[0]}"
+
+
 def start_embedded(config: SimConfig, extra_links: tuple[str, ...] = ()) -> tuple[SimServer, str]:
     """Run the simulator in-process on a free 127.0.0.1 UDP port (and ``extra_links``, e.g. a
     ground station's ``udpout:127.0.0.1:14550``, routed as ArduPilot routes its ports).
 
     Returns the server and the URL helixd should open (``udpout:127.0.0.1:PORT``).
     """
-    server = SimServer(["udpin:127.0.0.1:0", *extra_links], config, embedded=True)
+    server = SimServer([EMBEDDED_LINK, *extra_links], config, embedded=True)
     server.start()
-    return server, f"udpout:127.0.0.1:{server.local_ports[0]}"
+    return server, embedded_url(server)

@@ -44,6 +44,13 @@ class Plant(StrEnum):
     SITL_SKID = "sitl_skid"  # ArduPilot SITL's rover-skid model (skid.py)
 
 
+class SimClock(StrEnum):
+    """What the built-in simulator and a daemon beside it (``run --sim``) time themselves by."""
+
+    WALL = "wall"  # the wall clock, sped up by ``speedup``: what a crew watches
+    SIMULATED = "simulated"  # one simulated clock shared in one loop: as fast as the CPU goes
+
+
 class NoiseLevel(StrEnum):
     NONE = "none"  # exact pose: for tests that compare numbers
     LOW = "low"  # RTK-like

@@ -15,9 +15,11 @@ from helixd.actuators.dry_run import DryRunSink
 from helixd.actuators.factory import make_sink
 from helixd.actuators.rc_override import RcOverrideSink
 from helixd.actuators.servo import ServoSink
+from helixd.base.clock import now_s
 from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, VehicleConfig
 from helixd.link.command_client import CommandError
 from tests.support.peer import HELIXD_SYSID, AutopilotPeer, OverrideRecord, linked, stays, until
+from tests.support.simclock import run_simulated
 
 SET_SERVO = mavlink.MAV_CMD_DO_SET_SERVO
 LEAVE_LOW, LEAVE_HIGH = 65535, 0  # "leave unchanged" on 1–8 / 9–18
@@ -87,21 +89,25 @@ async def test_rc_override_repeats_values_and_releases() -> None:
 
 
 class RecordingSender:
-    """An OverrideSender that keeps (monotonic time, frame) of every send."""
+    """An OverrideSender that keeps (the run's clock, frame) of every send."""
 
     def __init__(self) -> None:
         self.sent: list[tuple[float, tuple[int, ...]]] = []
         self.changed = asyncio.Event()
 
     def send_rc_override(self, channels_us: Sequence[int]) -> None:
-        self.sent.append((time.monotonic(), tuple(channels_us)))
+        self.sent.append((now_s(), tuple(channels_us)))
         self.changed.set()
 
 
-async def test_rc_override_repeats_only_in_the_gaps_between_commands() -> None:
+def test_rc_override_repeats_only_in_the_gaps_between_commands() -> None:
     """Commands every 10 ms with a 10 Hz repeat: nothing but the commands is sent; once they
     stop, the latest frame is repeated one repeat period after the last command, then at the
-    repeat rate."""
+    repeat rate (on the simulated clock: exactly)."""
+    run_simulated(_repeats_only_in_the_gaps)
+
+
+async def _repeats_only_in_the_gaps() -> None:
     cfg = actuation(ActuationBackend.RC_OVERRIDE, repeat_rate_hz=10.0)
     sender = RecordingSender()
     sink = RcOverrideSink(cfg, VehicleConfig(), sender)
@@ -126,8 +132,8 @@ async def test_rc_override_repeats_only_in_the_gaps_between_commands() -> None:
         await asyncio.wait_for(sender.changed.wait(), 2.0)
     (t_r1, f1), (t_r2, f2) = sender.sent[-2:]
     assert f1 == f2 == last_frame  # the latest frame, repeated
-    assert 0.1 <= t_r1 - t_last < 0.3  # one repeat period after the last command
-    assert 0.1 <= t_r2 - t_r1 < 0.3  # then at the repeat rate
+    assert t_r1 - t_last == pytest.approx(0.1)  # one repeat period after the last command
+    assert t_r2 - t_r1 == pytest.approx(0.1)  # then at the repeat rate
     await sink.stop()
 
 

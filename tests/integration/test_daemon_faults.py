@@ -15,20 +15,20 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.sim.server import SimServer
-from helixd.sim.snapshot import HistoryEntry
+from helixd.sim.snapshot import HistoryEntry, SimSnapshot
 from tests.support.harness import (
     NEUTRAL_US,
-    SPEEDUP,
     overrides_released,
     record_until,
     scrolls_neutral,
     secured,
     sim_and_daemon,
-    time_until,
     wait_moving,
 )
+from tests.support.simulated import Steer, moving, simulated_flight
 
 pytestmark = pytest.mark.integration
+
 
 FALLBACK_S = 0.5  # stopped, released and HOLD within 0.5 s of detection
 # A loaded 2-core CI box adds scheduling latency to both processes; measured values are
@@ -50,28 +50,32 @@ def check_fallback(
     config: dict[str, Any] | None = None,
     **kwargs: Any,
 ) -> float:
-    with sim_and_daemon(tmp_path, "square", config) as (server, d):
-        wait_moving(server)
-        t0 = time.monotonic()
+    """Fly the square on the simulated clock, ``inject`` once it moves: secured within the
+    detection budget and the fall-back bound, counted exactly in simulated seconds."""
+
+    async def fault(st: Steer) -> float:
+        await st.until(moving, 40.0)
+        t0 = st.now_s()
         if inject.startswith("signal:"):
-            d.signal(signal.Signals[inject.split(":", 1)[1]])
+            st.signal(signal.Signals[inject.split(":", 1)[1]])
         elif inject.startswith("rc:"):
             channel, pwm = (int(v) for v in inject.split(":")[1:])
-            server.set_rc(channel, pwm)
+            st.set_rc(channel, pwm)
         else:
-            server.inject(inject, **kwargs)
-        elapsed = time_until(server, secured, t0, timeout_s=detection_s + 10.0)
-        code = d.wait_exit(20.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
+            st.inject(inject, **kwargs)
+        await st.until(secured, detection_s + 10.0)
+        return st.now_s() - t0
+
+    flown = simulated_flight(tmp_path, "square", config, during=fault)
+    elapsed, log = flown.steered, flown.log
     print(f"{inject}: secured {elapsed:.3f} s after injection (detection budget {detection_s} s)")
-    assert code == exit_code, log[-3000:]
-    assert elapsed <= detection_s + FALLBACK_S + SCHEDULING_SLACK_S
+    assert flown.code == exit_code, log[-3000:]
+    assert elapsed <= detection_s + FALLBACK_S
     assert "event=fallback" in log and f"cause={cause}" in log
-    s = summary(run_dir)
+    s = summary(flown.run_dir())
     assert s["completed"] is False
     assert s["fault"].startswith(cause)
-    return elapsed
+    return float(elapsed)
 
 
 def test_sigint_mid_mission(tmp_path: Path) -> None:
@@ -82,13 +86,14 @@ def test_ctrl_c_is_an_operator_stop_and_disarms_what_it_armed(tmp_path: Path) ->
     """Regression: after Ctrl-C the log said `phase=fly ok=true` and the rover was left armed
     in HOLD. The fly phase ends not ok (cause signal), the run is an operator stop (exit 5,
     not completed), and the autopilot — not the daemon's word — shows HOLD and disarmed."""
-    with sim_and_daemon(tmp_path, "square") as (server, d):
-        wait_moving(server)
-        d.signal(signal.SIGINT)
-        code = d.wait_exit(20.0)
-        after = server.wait_for(lambda s: secured(s) and not s.armed, 10.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
+
+    async def ctrl_c(st: Steer) -> SimSnapshot:
+        await st.until(moving, 40.0)
+        st.signal(signal.SIGINT)
+        return await st.until(lambda s: secured(s) and not s.armed, 10.0)
+
+    flown = simulated_flight(tmp_path, "square", during=ctrl_c)
+    code, after, log, run_dir = flown.code, flown.steered, flown.log, flown.run_dir()
     assert code == ExitCode.OPERATOR_STOP, log[-3000:]
     assert after.mode == "HOLD" and not after.armed
     assert "event=phase_end phase=fly ok=false cause=signal" in log
@@ -121,38 +126,36 @@ def test_pilot_takeover_by_stick_deflection(tmp_path: Path) -> None:
 
 
 def test_autopilot_link_lost(tmp_path: Path) -> None:
-    # Both directions drop for 3 s (wall): the daemon detects it as a stale pose (0.5 s)
-    # before the HEARTBEAT timeout (2 s); its neutral/release cannot get through, so the
-    # autopilot's RC_OVERRIDE_TIME hands the outputs back to the pilot; the HOLD request,
-    # re-sent until acknowledged, lands when the link returns.
-    with sim_and_daemon(tmp_path, "square") as (server, d):
-        wait_moving(server)
-        t0 = time.monotonic()
-        server.inject("link_drop", duration_s=3.0 * SPEEDUP)
-        override_time_s = 3.0 / SPEEDUP  # RC_OVERRIDE_TIME in wall seconds
-        released = time_until(
-            server, lambda s: overrides_released(s) and scrolls_neutral(s), t0, 5.0
-        )
-        held = time_until(server, secured, t0, 10.0)
-        code = d.wait_exit(20.0)
-        log = d.log_text()
+    # Both directions drop for 3 s: the daemon detects it as a stale pose (0.5 s) before the
+    # HEARTBEAT timeout (2 s); its neutral/release cannot get through, so the autopilot's
+    # RC_OVERRIDE_TIME (3 s) hands the outputs back to the pilot; the HOLD request, re-sent
+    # until acknowledged, lands when the link returns.
+    override_time_s = 3.0
+
+    async def cut(st: Steer) -> tuple[float, float]:
+        await st.until(moving, 40.0)
+        t0 = st.now_s()
+        st.inject("link_drop", duration_s=3.0)
+        await st.until(lambda s: overrides_released(s) and scrolls_neutral(s), 5.0)
+        released = st.now_s() - t0
+        await st.until(secured, 10.0)
+        return released, st.now_s() - t0
+
+    flown = simulated_flight(tmp_path, "square", during=cut)
+    (released, held), code, log = flown.steered, flown.code, flown.log
     print(f"link_drop: outputs back to the pilot after {released:.3f} s, HOLD after {held:.3f} s")
-    assert released <= override_time_s + FALLBACK_S + SCHEDULING_SLACK_S
-    assert held <= 3.0 + FALLBACK_S + SCHEDULING_SLACK_S  # as soon as the link is back
+    assert released <= override_time_s + FALLBACK_S
+    assert held <= 3.0 + FALLBACK_S  # as soon as the link is back
     assert code == ExitCode.FAULT
     assert "cause=pose_stale" in log or "cause=link_lost" in log
 
 
 def test_pose_stale(tmp_path: Path) -> None:
-    check_fallback(
-        tmp_path, "stale_pose", 0.5, ExitCode.FAULT, "pose_stale", duration_s=30.0 * SPEEDUP
-    )
+    check_fallback(tmp_path, "stale_pose", 0.5, ExitCode.FAULT, "pose_stale", duration_s=30.0)
 
 
 def test_ekf_unhealthy(tmp_path: Path) -> None:
-    check_fallback(
-        tmp_path, "ekf_unhealthy", 0.3, ExitCode.FAULT, "ekf_unhealthy", duration_s=30.0 * SPEEDUP
-    )
+    check_fallback(tmp_path, "ekf_unhealthy", 0.3, ExitCode.FAULT, "ekf_unhealthy", duration_s=30.0)
 
 
 def test_geofence(tmp_path: Path) -> None:
@@ -177,20 +180,20 @@ def test_mission_time_limit(tmp_path: Path) -> None:
     # The square's estimate is 83.4 s (check refuses a smaller limit). The scrolls dig in (the
     # stall watchdog is set out of the way), so the limit, on the autopilot clock, fires first.
     cfg = {"safety": {"mission_time_limit_s": 84.0, "stall": {"duration_s": 120.0}}}
-    with sim_and_daemon(tmp_path, "square", cfg) as (server, d):
-        wait_moving(server)
-        server.inject("stall", duration_s=600.0)
-        server.wait_for(secured, 84.0 / SPEEDUP + 10.0)
-        code = d.wait_exit(20.0)
-        log = d.log_text()
+
+    async def dig_in(st: Steer) -> None:
+        await st.until(moving, 40.0)
+        st.inject("stall", duration_s=600.0)
+        await st.until(secured, 84.0 + 10.0)
+
+    flown = simulated_flight(tmp_path, "square", cfg, during=dig_in)
+    code, log = flown.code, flown.log
     assert code == ExitCode.FAULT and "cause=mission_time" in log, log[-3000:]
 
 
 def test_stall_dig_in(tmp_path: Path) -> None:
     cfg = {"safety": {"stall": {"duration_s": 1.0}}}
-    check_fallback(
-        tmp_path, "stall", 1.0 + 0.3, ExitCode.FAULT, "stall", cfg, duration_s=60.0 * SPEEDUP
-    )
+    check_fallback(tmp_path, "stall", 1.0 + 0.3, ExitCode.FAULT, "stall", cfg, duration_s=60.0)
 
 
 def test_rc_signal_loss(tmp_path: Path) -> None:
@@ -207,24 +210,26 @@ def test_rc_signal_loss_with_stop_on_rc_loss_off_drives_on_and_says_so(tmp_path:
     """``safety.stop_on_rc_loss: false`` and ArduPilot's failsafe action none (FS_ACTION 0):
     the mission goes on without a safety pilot and the ground station is told once."""
     cfg = {"safety": {"stop_on_rc_loss": False}}
-    with sim_and_daemon(tmp_path, "square", cfg, params={"FS_ACTION": 0}) as (server, d):
-        wait_moving(server)
-        server.inject("rc_loss", kind="failsafe_values")
-        code = d.wait_exit(60.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
+
+    async def radio_lost(st: Steer) -> None:
+        await st.until(moving, 40.0)
+        st.inject("rc_loss", kind="failsafe_values")
+
+    flown = simulated_flight(tmp_path, "square", cfg, radio_lost, params={"FS_ACTION": 0})
+    code, log, run_dir = flown.code, flown.log, flown.run_dir()
     assert code == ExitCode.OK, log[-3000:]
     assert log.count("event=rc_lost_driving_on") == 1, log[-3000:]
     assert summary(run_dir)["completed"] is True
 
 
 def test_autopilot_reboot(tmp_path: Path) -> None:
-    with sim_and_daemon(tmp_path, "square") as (server, d):
-        wait_moving(server)
-        server.inject("reboot")
-        code = d.wait_exit(30.0)
-        log = d.log_text()
-        snap = server.snapshot()
+
+    async def reboot(st: Steer) -> None:
+        await st.until(moving, 40.0)
+        st.inject("reboot")
+
+    flown = simulated_flight(tmp_path, "square", during=reboot)
+    code, log, snap = flown.code, flown.log, flown.snapshot
     # After a reboot nothing of ours may be left: no override, no arming.
     assert code == ExitCode.FAULT, log[-3000:]
     assert not snap.armed
@@ -301,32 +306,33 @@ def test_kill9_helixd_guard_stops_the_scrolls_and_holds(tmp_path: Path, backend:
     assert later.armed and later.guard_guarding
 
 
-def gps_fault_flight(tmp_path: Path, fault: str, speedup: float) -> str:
+def gps_fault_flight(tmp_path: Path, fault: str) -> str:
     """Fly the square, inject the simulator's ``fault`` mid-leg: the scrolls neutral within
-    1 s of it (vehicle time), exit 4 by the GPS watchdog; the summary's fault."""
-    with sim_and_daemon(tmp_path, "square", speedup=speedup) as (server, d):
-        at_s = wait_moving(server).sim_time_s + 0.5
-        server.schedule(fault, at_s, duration_s=600.0)
-        neutral = server.wait_for(lambda s: s.sim_time_s > at_s and scrolls_neutral(s), 10.0)
-        held = server.wait_for(secured, 10.0)
-        code = d.wait_exit(20.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
-    to_neutral, to_hold = neutral.sim_time_s - at_s, held.sim_time_s - at_s
+    1 s of it (simulated time, the daemon's and the vehicle's alike), exit 4 by the GPS
+    watchdog; the summary's fault."""
+
+    async def gps_fault(st: Steer) -> tuple[float, float]:
+        at_s = (await st.until(moving, 40.0)).sim_time_s + 0.5
+        st.schedule(fault, at_s, duration_s=600.0)
+        neutral = await st.until(lambda s: s.sim_time_s > at_s and scrolls_neutral(s), 10.0)
+        held = await st.until(secured, 10.0)
+        return neutral.sim_time_s - at_s, held.sim_time_s - at_s
+
+    flown = simulated_flight(tmp_path, "square", during=gps_fault)
+    (to_neutral, to_hold), log = flown.steered, flown.log
     print(f"{fault}: scrolls neutral {to_neutral:.2f} s, HOLD {to_hold:.2f} s (vehicle time)")
     assert to_neutral <= 1.0, log[-3000:]
-    assert code == ExitCode.FAULT, log[-3000:]
+    assert flown.code == ExitCode.FAULT, log[-3000:]
     assert "event=fallback cause=gps_lost" in log
-    result: str = summary(run_dir)["fault"]
+    result: str = summary(flown.run_dir())["fault"]
     return result
 
 
 def test_gps_lost(tmp_path: Path) -> None:
     # The receiver stops mid-leg: GPS_RAW_INT says no fix 0.4 s later while the EKF goes on
     # dead-reckoning for 7.3 s (as ArduPilot SITL does); the GPS watchdog, not the EKF, stops
-    # the scrolls within 1 s of the loss, counted on the simulator's (the vehicle's) clock, so
-    # the simulator runs at only 2× (the daemon's wall-clock latencies count double).
-    result = gps_fault_flight(tmp_path, "gps_loss", 2.0)
+    # the scrolls within 1 s of the loss, counted on the one simulated clock.
+    result = gps_fault_flight(tmp_path, "gps_loss")
     assert result.startswith("gps_lost"), result
 
 
@@ -344,7 +350,7 @@ def test_gps_lost(tmp_path: Path) -> None:
 def test_gps_stream_stopping_stops_the_scrolls_within_1_s(
     tmp_path: Path, fault: str, detail: str
 ) -> None:
-    # The silence is counted on helixd's own clock (safety.gps_stale_s, 0.6 s), so the
-    # simulator runs in real time: its clock is then the wall clock the rover would live on.
-    result = gps_fault_flight(tmp_path, fault, 1.0)
+    # The silence is counted on helixd's own clock (safety.gps_stale_s, 0.6 s), the simulated
+    # clock the simulator shares.
+    result = gps_fault_flight(tmp_path, fault)
     assert result.startswith("gps_lost") and detail in result, result

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import os
+import asyncio
 import signal
 import socket
 import time
@@ -16,12 +16,13 @@ from helixd.base.exitcodes import ExitCode
 from helixd.config import HelixdConfig
 from helixd.runtime.daemon import run_mission
 from tests.support import harness
-from tests.support.run_options import sim_run_config, square_run
+from tests.support.run_options import square_run
+from tests.support.simulated import Steer, moving, simulated_flight
 
 pytestmark = pytest.mark.integration
 
 
-async def test_unhandled_exception_falls_back_to_hold(
+def test_unhandled_exception_falls_back_to_hold(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """A bug inside the control step (here: the kinematics raising on the 100th step) must
@@ -36,9 +37,8 @@ async def test_unhandled_exception_falls_back_to_hold(
         return real(*args, **kwargs)
 
     monkeypatch.setattr(helixd.runtime.flight, "scroll_fractions", exploding)
-    with harness.running_sim(speedup=harness.SPEEDUP) as (server, url):
-        outcome = await run_mission(square_run(sim_run_config(url), url, tmp_path / "runs"))
-        snap = server.wait_for(harness.secured, 5.0)
+    flown = simulated_flight(tmp_path, "square")
+    outcome, snap = flown.outcome, flown.snapshot
     assert calls["n"] == 100
     assert outcome.exit_code is ExitCode.INTERNAL_ERROR
     assert outcome.summary is not None
@@ -57,16 +57,18 @@ def test_second_sigint_forces_exit_after_fallback_sent(tmp_path: Path) -> None:
     """First SIGINT starts the fall-back; the HOLD acknowledgement never comes (the link is
     cut); a second SIGINT makes the daemon exit without waiting out hold_retry_bound_s."""
     cfg = {"safety": {"hold_retry_bound_s": 30.0}}
-    with harness.sim_and_daemon(tmp_path, "square", cfg) as (server, d):
-        harness.wait_moving(server)
-        server.inject("link_drop", duration_s=120.0 * harness.SPEEDUP)
-        d.signal(signal.SIGINT)
-        d.wait_line("event=rc_override_released", 5.0)
-        t0 = time.monotonic()
-        d.signal(signal.SIGINT)
-        code = d.wait_exit(10.0)
-        forced_exit_s = time.monotonic() - t0
-        result = d.wait_line("helixd: RESULT", 5.0)
+
+    async def twice(st: Steer) -> float:
+        await st.until(moving, 40.0)
+        st.inject("link_drop", duration_s=120.0)
+        st.signal(signal.SIGINT)
+        await st.line("event=rc_override_released", 5.0)
+        t0 = st.now_s()
+        st.signal(signal.SIGINT)
+        return await st.exited(10.0) - t0
+
+    flown = simulated_flight(tmp_path, "square", cfg, during=twice)
+    code, forced_exit_s, result = flown.code, flown.steered, flown.result
     print(f"second SIGINT: exited {forced_exit_s:.2f} s later")
     assert code == ExitCode.OPERATOR_STOP
     assert result.startswith("helixd: RESULT stopped signal: SIGINT") and result.endswith("exit 5")
@@ -96,33 +98,39 @@ def test_wedged_daemon_stops_heartbeats_and_gcs_failsafe_takes_over(tmp_path: Pa
     )  # FS_GCS_TIMEOUT (wall) + heartbeat period + slack
 
 
-def test_systemd_ready_and_watchdog_notifications(tmp_path: Path) -> None:
+def test_systemd_ready_and_watchdog_notifications(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """The daemon talks sd_notify to a NOTIFY_SOCKET the test creates: READY=1 after
     preflight, WATCHDOG=1 from the control loop, STOPPING=1 at the end."""
     sock_path = tmp_path / "notify.sock"
     sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
     sock.bind(str(sock_path))
-    sock.settimeout(60.0)
-    os.environ["NOTIFY_SOCKET"] = str(sock_path)
-    os.environ["WATCHDOG_USEC"] = "1000000"
-    got: list[str] = []
-    try:
-        from tests.support import harness
+    sock.setblocking(False)
+    monkeypatch.setenv("NOTIFY_SOCKET", str(sock_path))
+    monkeypatch.setenv("WATCHDOG_USEC", "1000000")
 
-        harness.KEEP_NOTIFY_SOCKET = True
-        with harness.sim_and_daemon(tmp_path, "hexagon", terrain="mud") as (_server, d):
-            # until the control loop pings the watchdog while flying, then stop the service
-            while not any("STATUS=phase: fly" in m for m in got) or "WATCHDOG=1" not in got[-1]:
-                got.append(sock.recv(4096).decode())
-            d.signal(signal.SIGTERM)  # what `systemctl stop` sends (KillSignal)
-            while not any("STOPPING=1" in m for m in got):
-                got.append(sock.recv(4096).decode())
-            assert d.wait_exit(30.0) == ExitCode.OPERATOR_STOP
+    async def systemd(st: Steer) -> list[str]:
+        loop = asyncio.get_running_loop()
+        got: list[str] = []
+
+        async def receive() -> None:
+            got.append((await asyncio.wait_for(loop.sock_recv(sock, 4096), 60.0)).decode())
+
+        # until the control loop pings the watchdog while flying, then stop the service
+        while not any("STATUS=phase: fly" in m for m in got) or "WATCHDOG=1" not in got[-1]:
+            await receive()
+        st.signal(signal.SIGTERM)  # what `systemctl stop` sends (KillSignal)
+        while not any("STOPPING=1" in m for m in got):
+            await receive()
+        return got
+
+    try:
+        flown = simulated_flight(tmp_path, "hexagon", during=systemd, terrain="mud")
     finally:
-        harness.KEEP_NOTIFY_SOCKET = False
-        for key in ("NOTIFY_SOCKET", "WATCHDOG_USEC"):
-            os.environ.pop(key, None)
         sock.close()
+    assert flown.code == ExitCode.OPERATOR_STOP, flown.log[-3000:]
+    got = flown.steered
     ready = next(i for i, m in enumerate(got) if "READY=1" in m)
     watchdogs = [i for i, m in enumerate(got) if "WATCHDOG=1" in m]
     assert watchdogs and watchdogs[-1] > ready
@@ -133,27 +141,28 @@ def test_start_gate_waits_for_the_pilots_switch(tmp_path: Path) -> None:
     """Nobody types on a rover in a pond: with a start switch configured, helixd connects and
     passes preflight, then waits — nothing armed, no override — until the pilot flips it."""
     cfg = {"startup": {"start_switch_channel": 7, "start_switch_threshold_us": 1700}}
-    with harness.sim_and_daemon(tmp_path, "hexagon", cfg, terrain="mud") as (server, d):
-        d.wait_line("event=waiting_for_start_switch", 60.0)
-        waiting = server.snapshot()
+
+    async def gate(st: Steer) -> None:
+        await st.line("event=waiting_for_start_switch", 60.0)
+        waiting = st.snapshot()
         assert not waiting.armed and not any(waiting.overrides_active)
-        server.set_rc(7, 1900)
-        d.wait_line("event=start_switch_on", 10.0)
-        harness.wait_moving(server)
-        d.signal(signal.SIGINT)
-        assert d.wait_exit(20.0) == ExitCode.OPERATOR_STOP
-        result = d.wait_line("helixd: RESULT", 5.0)
+        st.set_rc(7, 1900)
+        await st.line("event=start_switch_on", 10.0)
+        await st.until(moving, 40.0)
+        st.signal(signal.SIGINT)
+
+    flown = simulated_flight(tmp_path, "hexagon", cfg, during=gate, terrain="mud")
+    assert flown.code == ExitCode.OPERATOR_STOP, flown.log[-3000:]
+    result = flown.result
     assert result.startswith("helixd: RESULT stopped signal: SIGINT received — 0/6 waypoints")
     assert "autopilot time" in result and result.endswith("exit 5")
 
 
 def test_start_switch_on_the_mode_channel_is_refused(tmp_path: Path) -> None:
     cfg = {"startup": {"start_switch_channel": 8}}  # MODE_CH = 8 on the autopilot
-    with harness.sim_and_daemon(tmp_path, "hexagon", cfg) as (server, d):
-        code = d.wait_exit(60.0)
-        result = d.wait_line("helixd: RESULT", 5.0)
-        log = d.log_text()
-        assert not server.snapshot().armed
+    flown = simulated_flight(tmp_path, "hexagon", cfg)
+    code, result, log = flown.code, flown.result, flown.log
+    assert not flown.snapshot.armed
     assert code == ExitCode.PREFLIGHT
     assert "flight-mode channel (MODE_CH = 8)" in log
     assert result.startswith("helixd: RESULT refused preflight: startup.start_switch_channel = 8")
@@ -195,12 +204,15 @@ async def test_unwritable_recorder_refusal_ends_with_a_result(tmp_path: Path) ->
 def test_fault_ends_with_a_plain_fault_result_line(tmp_path: Path) -> None:
     """A watchdog fault (stale pose) ends with scrolls stopped — and the operator reads it in
     one line: ``helixd: RESULT fault pose_stale: … exit 4``."""
-    with harness.sim_and_daemon(tmp_path, "square") as (server, d):
-        harness.wait_moving(server)
-        server.inject("stale_pose", duration_s=30.0 * harness.SPEEDUP)
-        server.wait_for(harness.secured, 10.0)
-        assert d.wait_exit(20.0) == ExitCode.FAULT
-        result = d.wait_line("helixd: RESULT", 5.0)
+
+    async def stale(st: Steer) -> None:
+        await st.until(moving, 40.0)
+        st.inject("stale_pose", duration_s=30.0)
+        await st.until(harness.secured, 10.0)
+
+    flown = simulated_flight(tmp_path, "square", during=stale)
+    assert flown.code == ExitCode.FAULT, flown.log[-3000:]
+    result = flown.result
     assert result.startswith("helixd: RESULT fault pose_stale: ")
     assert "/4 waypoints, " in result and " s autopilot time (" in result
     assert result.endswith(" s wall), exit 4")

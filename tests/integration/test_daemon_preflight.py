@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-import threading
+import asyncio
+import signal
 from pathlib import Path
 from typing import Any
 
@@ -14,13 +15,8 @@ from tests.support.harness import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_HOME,
     MAV_RESULT_ACCEPTED,
-    SPEEDUP,
-    client,
-    daemon,
-    running_sim_links,
-    sim_and_daemon,
-    wait_moving,
 )
+from tests.support.simulated import Steer, moving, simulated_flight
 
 pytestmark = pytest.mark.integration
 
@@ -64,11 +60,9 @@ SERVO_CFG = {
 def test_preflight_refusal(
     tmp_path: Path, params: dict[str, float], config: dict[str, Any] | None, needles: list[str]
 ) -> None:
-    with sim_and_daemon(tmp_path, "square", config, params=params) as (server, d):
-        code = d.wait_exit(60.0)
-        log = d.log_text()
-        arms = server.history.entries("arm")
-        snap = server.snapshot()
+    flown = simulated_flight(tmp_path, "square", config, params=params)
+    code, log, snap = flown.code, flown.log, flown.snapshot
+    arms = flown.server.history.entries("arm")
     assert code == ExitCode.PREFLIGHT, log[-3000:]
     refusal = [line for line in log.splitlines() if line.startswith("preflight:")]
     assert refusal, log[-3000:]
@@ -82,27 +76,16 @@ def test_preflight_refusal(
 def test_ground_station_on_helixd_s_system_id_is_refused(tmp_path: Path) -> None:
     """A GCS left on helixd's id, on another link of the autopilot: ArduPilot forwards its
     HEARTBEATs to helixd's link; preflight refuses (exit 3) and nothing is armed."""
-    links = ["udpin:127.0.0.1:0", "udpin:127.0.0.1:0"]
-    with running_sim_links(links, speedup=SPEEDUP) as server:
-        helixd_port, gcs_port = server.local_ports
-        with client(f"udpout:127.0.0.1:{gcs_port}", sysid=GCS_SYSID) as gcs:
-            stop = threading.Event()
 
-            def ground_station() -> None:  # a GCS heartbeats at 1 Hz; faster here
-                while not stop.wait(0.2):
-                    gcs.heartbeat()
+    async def ground_station(st: Steer) -> None:  # a GCS heartbeats at 1 Hz; faster here
+        gcs = st.ground_station(1, GCS_SYSID)
+        while not st.flight_done():
+            gcs.heartbeat()
+            await asyncio.sleep(0.2)
 
-            pinger = threading.Thread(target=ground_station, name="gcs-on-our-id", daemon=True)
-            pinger.start()
-            try:
-                with daemon(tmp_path, f"udpout:127.0.0.1:{helixd_port}", "square") as d:
-                    code = d.wait_exit(60.0)
-                    log = d.log_text()
-            finally:
-                stop.set()
-                pinger.join(timeout=2.0)
-        arms = server.history.entries("arm")
-        snap = server.snapshot()
+    flown = simulated_flight(tmp_path, "square", during=ground_station, links=2)
+    code, log, snap = flown.code, flown.log, flown.snapshot
+    arms = flown.server.history.entries("arm")
     assert code == ExitCode.PREFLIGHT, log[-3000:]
     refusal = "\n".join(line for line in log.splitlines() if line.startswith("preflight:"))
     assert f"another sender uses helixd's system id {GCS_SYSID}" in refusal, log[-3000:]
@@ -116,25 +99,25 @@ def test_arming_waits_for_the_autopilot_s_home_instead_of_being_refused(tmp_path
     Here the autopilot has an EKF origin and a pose but no home until a ground station (on
     another link, its own id) sets it with MAV_CMD_DO_SET_HOME once helixd says it waits:
     helixd arms after HOME_POSITION, once, unforced — the autopilot saw no refused arming."""
-    links = ["udpin:127.0.0.1:0", "udpin:127.0.0.1:0"]
-    with running_sim_links(links, speedup=SPEEDUP, home_delay_s=None) as server:
-        helixd_port, gcs_port = server.local_ports
-        with daemon(tmp_path, f"udpout:127.0.0.1:{helixd_port}", "square") as d:
-            d.wait_line("event=waiting_for_home", 60.0)
-            assert server.history.entries("arm") == []
-            with client(f"udpout:127.0.0.1:{gcs_port}", sysid=255) as gcs:
-                assert gcs.command(MAV_CMD_DO_SET_HOME, 1) == MAV_RESULT_ACCEPTED
-            wait_moving(server)
-            d.stop(20.0)
-            log = d.log_text()
-        homes = server.history.entries("home")
-        arms = server.history.entries("arm")
-        refused = [
-            e
-            for e in server.history.entries("command")
-            if e.details["command"] == MAV_CMD_COMPONENT_ARM_DISARM
-            and e.details["result"] != MAV_RESULT_ACCEPTED
-        ]
+
+    async def set_home(st: Steer) -> None:
+        await st.line("event=waiting_for_home", 60.0)
+        assert st.server.history.entries("arm") == []
+        gcs = st.ground_station(1, 255)
+        assert await gcs.command(MAV_CMD_DO_SET_HOME, 1) == MAV_RESULT_ACCEPTED
+        await st.until(moving, 40.0)
+        st.signal(signal.SIGINT)
+
+    flown = simulated_flight(tmp_path, "square", during=set_home, links=2, home_delay_s=None)
+    log, history = flown.log, flown.server.history
+    homes = history.entries("home")
+    arms = history.entries("arm")
+    refused = [
+        e
+        for e in history.entries("command")
+        if e.details["command"] == MAV_CMD_COMPONENT_ARM_DISARM
+        and e.details["result"] != MAV_RESULT_ACCEPTED
+    ]
     assert len(homes) == 1 and len(arms) == 1, log[-3000:]
     assert arms[0].sim_time_s >= homes[0].sim_time_s
     assert arms[0].details["forced"] is False
@@ -145,10 +128,8 @@ def test_arming_waits_for_the_autopilot_s_home_instead_of_being_refused(tmp_path
 
 def test_no_home_within_the_timeout_is_a_preflight_refusal(tmp_path: Path) -> None:
     config = {"startup": {"home_timeout_s": 1.0}}
-    with sim_and_daemon(tmp_path, "square", config, home_delay_s=None) as (server, d):
-        code = d.wait_exit(60.0)
-        log = d.log_text()
-        arms = server.history.entries("arm")
+    flown = simulated_flight(tmp_path, "square", config, home_delay_s=None)
+    code, log, arms = flown.code, flown.log, flown.server.history.entries("arm")
     assert code == ExitCode.PREFLIGHT, log[-3000:]
     assert "preflight: the autopilot reported no home (HOME_POSITION)" in log
     assert "startup.home_timeout_s = 1 s" in log
@@ -183,13 +164,8 @@ FUNCTION_0 = {f"SERVO{n}_FUNCTION": 0 for n in range(1, 5)}
 def test_servo_backend_refuses_without_the_guard(
     tmp_path: Path, sim: dict[str, Any], needles: list[str]
 ) -> None:
-    with sim_and_daemon(tmp_path, "square", SERVO_ON_1_TO_4, params=FUNCTION_0, **sim) as (
-        server,
-        d,
-    ):
-        code = d.wait_exit(60.0)
-        log = d.log_text()
-        arms = server.history.entries("arm")
+    flown = simulated_flight(tmp_path, "square", SERVO_ON_1_TO_4, params=FUNCTION_0, **sim)
+    code, log, arms = flown.code, flown.log, flown.server.history.entries("arm")
     assert code == ExitCode.PREFLIGHT, log[-3000:]
     refusal = "\n".join(line for line in log.splitlines() if line.startswith("preflight:"))
     for needle in needles:
@@ -200,11 +176,12 @@ def test_servo_backend_refuses_without_the_guard(
 def test_no_gps_fix_is_refused(tmp_path: Path) -> None:
     """The receiver has no fix when helixd starts: preflight refuses (exit 3), names the fix
     and the setting, and nothing is armed."""
-    with sim_and_daemon(tmp_path, "square") as (server, d):
-        server.inject("gps_loss")
-        code = d.wait_exit(60.0)
-        log = d.log_text()
-        arms = server.history.entries("arm")
+
+    async def no_fix(st: Steer) -> None:
+        st.inject("gps_loss")
+
+    flown = simulated_flight(tmp_path, "square", during=no_fix)
+    code, log, arms = flown.code, flown.log, flown.server.history.entries("arm")
     assert code == ExitCode.PREFLIGHT, log[-3000:]
     refusal = "\n".join(line for line in log.splitlines() if line.startswith("preflight:"))
     assert "GPS not good enough to drive on: GPS fix no fix (fix_type 1)" in refusal, log[-3000:]

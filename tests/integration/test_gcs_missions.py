@@ -13,8 +13,9 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import latlon_to_ne
 from helixd.sim.sim_config import SimConfig
-from tests.support.harness import secured, sim_and_daemon
+from tests.support.harness import secured
 from tests.support.paths import DATA_DIR
+from tests.support.simulated import simulated_flight
 
 pytestmark = pytest.mark.integration
 
@@ -24,11 +25,8 @@ SIM_ORIGIN = (SimConfig().origin_lat_deg, SimConfig().origin_lon_deg)  # the sim
 
 def test_plan_file_flies_and_exports(tmp_path: Path) -> None:
     cfg = {"mission": {"ground_station_mode": "roll"}}
-    with sim_and_daemon(tmp_path, PLAN, config=cfg, terrain="hard", noise="low") as (server, d):
-        code = d.wait_exit(240.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
-        snap = server.snapshot()
+    flown = simulated_flight(tmp_path, PLAN, config=cfg, terrain="hard", noise="low", seed=4)
+    code, log, run_dir, snap = flown.code, flown.log, flown.run_dir(), flown.snapshot
     assert code == ExitCode.OK, log[-3000:]
     s = json.loads((run_dir / "summary.json").read_text())
     assert s["completed"] is True and s["fault"] is None

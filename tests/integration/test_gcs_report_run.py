@@ -4,10 +4,9 @@ wp_index — forwarded by the simulator from the companion's link as ArduPilot's
 
 from __future__ import annotations
 
-import contextlib
+import asyncio
 import math
-import time
-from collections.abc import Callable, Iterator
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any
 
@@ -15,15 +14,8 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.sim.sim_config import HELIXD_SYSID
-from tests.support.daemon import DaemonProc
-from tests.support.harness import (
-    SPEEDUP,
-    MavClient,
-    daemon,
-    free_udp_port,
-    running_sim_links,
-    wait_moving,
-)
+from tests.support.loop_mav import LoopMav
+from tests.support.simulated import SimulatedFlight, Steer, moving, simulated_flight
 
 pytestmark = pytest.mark.integration
 
@@ -32,60 +24,52 @@ GCS_WATCHER_SYSID = 250  # a ground station that is not helixd
 
 
 class Watcher:
-    """A plain pymavlink GCS on the simulator's second link, keeping what helixd sent."""
+    """What a plain GCS on the simulator's second link kept of what helixd sent."""
 
-    def __init__(self, port: int) -> None:
-        self.client = MavClient(f"udpin:127.0.0.1:{port}", sysid=GCS_WATCHER_SYSID)
+    def __init__(self, messages: list[Any]) -> None:
         self.texts: list[tuple[int, str, int]] = []  # severity, text, sender sysid
         self.values: dict[str, list[float]] = {}
-        self._last_hb_s = 0.0
-
-    def pump_until(self, done: Callable[[], bool], timeout_s: float) -> None:
-        deadline = time.monotonic() + timeout_s
-        conn = self.client.conn
-        while not done():
-            if time.monotonic() > deadline:
-                raise AssertionError(f"timed out; texts {self.texts}")
-            if time.monotonic() - self._last_hb_s > 0.5:
-                self.client.heartbeat()  # the simulator learns a route to this link from it
-                self._last_hb_s = time.monotonic()
-            msg = conn.recv_match(blocking=True, timeout=0.1)
-            if msg is None:
-                continue
-            self._note(msg)
-
-    def _note(self, msg: Any) -> None:
-        kind = msg.get_type()
-        if kind == "STATUSTEXT" and str(msg.text).startswith("helixd"):
-            self.texts.append((int(msg.severity), str(msg.text), msg.get_srcSystem()))
-        elif kind == "NAMED_VALUE_FLOAT":
-            self.values.setdefault(str(msg.name), []).append(float(msg.value))
+        for msg in messages:
+            kind = msg.get_type()
+            if kind == "STATUSTEXT":
+                self.texts.append((int(msg.severity), str(msg.text), msg.get_srcSystem()))
+            elif kind == "NAMED_VALUE_FLOAT":
+                self.values.setdefault(str(msg.name), []).append(float(msg.value))
 
     def has(self, prefix: str) -> bool:
         return any(t.startswith(prefix) for _, t, _ in self.texts)
 
 
-@contextlib.contextmanager
-def watched_square(tmp_path: Path) -> Iterator[tuple[Any, Watcher, DaemonProc]]:
+async def heartbeating(st: Steer, gcs: LoopMav) -> None:
+    """The ground station heartbeats (the simulator learns a route to its link from it)."""
+    while not st.flight_done():
+        gcs.heartbeat()
+        await asyncio.sleep(0.5)
+
+
+def watched_square(
+    tmp_path: Path, fault: Callable[[Steer], Awaitable[None]] | None = None
+) -> tuple[SimulatedFlight, Watcher]:
     """The simulator (mud) with a plain GCS watching its second link, and the daemon flying
-    the square over its first: (simulator, watcher, daemon)."""
-    port = free_udp_port()
-    links = ["udpin:127.0.0.1:0", f"udpout:127.0.0.1:{port}"]
-    with running_sim_links(links, speedup=SPEEDUP, terrain="mud") as srv:
-        url = f"udpout:127.0.0.1:{srv.local_ports[0]}"
-        w = Watcher(port)
-        try:
-            with daemon(tmp_path, url, "square") as d:
-                yield srv, w, d
-        finally:
-            w.client.close()
+    the square over its first (``fault``: what the test does once the rover moves)."""
+
+    async def watch(st: Steer) -> list[Any]:
+        gcs = st.ground_station(1, GCS_WATCHER_SYSID)
+        beat = asyncio.ensure_future(heartbeating(st, gcs))
+        if fault is not None:
+            await st.until(moving, 60.0)
+            await fault(st)
+        await st.exited(300.0)
+        await beat
+        return list(gcs.inbox)
+
+    flown = simulated_flight(tmp_path, "square", during=watch, links=2, terrain="mud")
+    return flown, Watcher(flown.steered)
 
 
 def test_gcs_sees_phases_waypoints_and_progress(tmp_path: Path) -> None:
-    with watched_square(tmp_path) as (_, w, d):
-        w.pump_until(lambda: w.has("helixd: mission complete"), 180.0)
-        code = d.wait_exit(30.0)
-        log = d.log_text()
+    flown, w = watched_square(tmp_path)
+    code, log = flown.code, flown.log
     assert code == ExitCode.OK, log[-3000:]
     texts = [t for _, t, _ in w.texts]
     for expected in (
@@ -98,7 +82,9 @@ def test_gcs_sees_phases_waypoints_and_progress(tmp_path: Path) -> None:
     ):
         assert expected in texts, texts
     assert texts.index("helixd: reached WP 1/4") < texts.index("helixd: reached WP 4/4")
-    assert {sysid for _, _, sysid in w.texts} == {HELIXD_SYSID}  # forwarded as helixd sent it
+    # forwarded as helixd sent it (the autopilot's own texts, e.g. arming, come from system 1)
+    ours = {sysid for _, t, sysid in w.texts if t.startswith("helixd: ")}
+    assert ours == {HELIXD_SYSID}, w.texts
     xtrack = w.values.get("xtrack_m", [])
     wp_index = w.values.get("wp_index", [])
     assert xtrack and all(math.isfinite(x) and abs(x) < 10.0 for x in xtrack)
@@ -106,13 +92,13 @@ def test_gcs_sees_phases_waypoints_and_progress(tmp_path: Path) -> None:
 
 
 def test_gcs_sees_a_fault_as_critical(tmp_path: Path) -> None:
-    with watched_square(tmp_path) as (srv, w, d):
-        w.pump_until(lambda: w.has("helixd: fly"), 120.0)
-        wait_moving(srv)
-        srv.inject("ekf_unhealthy", duration_s=30.0 * SPEEDUP)
-        w.pump_until(lambda: w.has("helixd: secured"), 30.0)
-        code = d.wait_exit(30.0)
-        log = d.log_text()
+
+    async def ekf(st: Steer) -> None:
+        st.inject("ekf_unhealthy", duration_s=30.0)
+
+    flown, w = watched_square(tmp_path, ekf)
+    code, log = flown.code, flown.log
+    assert w.has("helixd: fly") and w.has("helixd: secured"), w.texts
     assert code == ExitCode.FAULT, log[-3000:]
     faults = [(sev, t) for sev, t, _ in w.texts if t.startswith("helixd: FAULT: EKF unhealthy")]
     assert faults and faults[0][0] == MAV_SEVERITY_CRITICAL, w.texts

@@ -15,7 +15,8 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from tests.support.harness import secured, sim_and_daemon
+from tests.support.harness import secured
+from tests.support.simulated import simulated_flight
 
 pytestmark = pytest.mark.integration
 
@@ -47,10 +48,14 @@ def test_a_jump_mission_reports_item_numbers_and_laps(tmp_path: Path) -> None:
     path = tmp_path / "laps.waypoints"
     path.write_text(WPL)
     cfg = {"mission": {"ground_station_mode": "omni"}, "safety": {"geofence_radius_m": 200.0}}
-    with sim_and_daemon(tmp_path, path, cfg, **ON_MUD_AT_HOME) as (server, d):
-        code, result, log = d.outcome(240.0)
-        run_dir = d.run_dir()
-        snap = server.snapshot()
+    flown = simulated_flight(tmp_path, path, cfg, **ON_MUD_AT_HOME)
+    code, result, log, run_dir, snap = (
+        flown.code,
+        flown.result,
+        flown.log,
+        flown.run_dir(),
+        flown.snapshot,
+    )
     assert code == ExitCode.OK, log[-3000:]
     assert secured(snap)
 
@@ -81,9 +86,8 @@ def test_a_patrol_flies_laps_until_its_time_limit_ends_it(tmp_path: Path) -> Non
         "mission": {"ground_station_mode": "omni"},
         "safety": {"geofence_radius_m": 200.0, "mission_time_limit_s": 120.0},
     }
-    with sim_and_daemon(tmp_path, path, cfg, **ON_MUD_AT_HOME) as (_server, d):
-        code, result, log = d.outcome(120.0)
-        run_dir = d.run_dir()
+    flown = simulated_flight(tmp_path, path, cfg, **ON_MUD_AT_HOME)
+    code, result, log, run_dir = flown.code, flown.result, flown.log, flown.run_dir()
     assert code == ExitCode.FAULT, log[-3000:]
     assert result.startswith("helixd: RESULT fault mission_time: "), result
     assert "a patrol: DO_JUMP item 4 repeats until stopped" in result, result

@@ -1,16 +1,16 @@
 """``helixd run --sim --map``: the embedded simulator knows the map's walls.
 
-Run as the operator types it (the CLI's ``main`` in this process, so the test can hold the
-embedded simulator the CLI starts and read its history). With planning the straight leg that
-crosses the wall is flown around it without a contact; with planning disabled the rover runs
-into the wall, the simulator stops it there, and helixd's stall watchdog secures it (scrolls
-neutral, overrides released, HOLD) — proven from the simulator's side.
+Run as the operator types it, on the simulated clock (the CLI's ``main`` in this process, so
+the test can hold the embedded simulator the CLI starts and read its history). With planning
+the straight leg that crosses the wall is flown around it without a contact; with planning
+disabled the rover runs into the wall, the simulator stops it there, and helixd's stall
+watchdog secures it (scrolls neutral, overrides released, HOLD) — proven from the simulator's
+side.
 """
 
 from __future__ import annotations
 
 import math
-import threading
 from pathlib import Path
 from typing import Any
 
@@ -21,10 +21,12 @@ from PIL import Image
 
 import helixd.cli.simulated
 from helixd.base.exitcodes import ExitCode
+from helixd.cli.app import main
 from helixd.sim.collisions import SimObstacles, distance_m
 from helixd.sim.server import SimServer
 from helixd.sim.sim_config import SimConfig
-from tests.support.harness import BASE_CONFIG, SPEEDUP, Trace, record_until, secured
+from helixd.sim.snapshot import SimSnapshot
+from tests.support.harness import BASE_CONFIG, Trace, secured
 
 pytestmark = pytest.mark.integration
 
@@ -50,8 +52,9 @@ def _fly(
     until_disarmed: bool,
     mission_args: list[str] | None = None,
 ) -> tuple[int, Trace, SimServer]:
-    """``helixd run --sim`` with ``mission_args`` (default: a local_ned mission across the
-    map's wall, with ``--map``); the trace until secured (and disarmed, if asked)."""
+    """``helixd run --sim --sim-clock simulated`` with ``mission_args`` (default: a local_ned
+    mission across the map's wall, with ``--map``); the simulator's whole trace, which ends
+    secured (and disarmed, if asked)."""
     if mission_args is None:
         mission = tmp_path / "across.yaml"
         mission.write_text(
@@ -61,62 +64,28 @@ def _fly(
         mission_args = ["--mission", str(mission), "--map", str(_write_map(tmp_path))]
     cfg_path = tmp_path / "helixd.yaml"
     cfg_path.write_text(yaml.safe_dump({**BASE_CONFIG, "planning": planning}), encoding="utf-8")
-    real_start = helixd.cli.simulated.start_embedded
-    started = threading.Event()
     servers: list[SimServer] = []
-    traces: list[Trace] = []
-    errors: list[BaseException] = []
+    samples: list[tuple[float, SimSnapshot]] = []
 
-    recorded = threading.Event()
+    class Recorded(SimServer):  # the CLI's own simulator, its every snapshot kept
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            servers.append(self)
+            self.snapshot_listeners.append(lambda snap: samples.append((snap.sim_time_s, snap)))
 
-    def start(cfg: SimConfig, extra_links: tuple[str, ...] = ()) -> tuple[SimServer, str]:
-        server, url = real_start(cfg, extra_links)
-        real_stop = server.stop
-
-        def stop() -> None:  # the CLI stops the simulator when the run ends: record it first
-            recorded.wait(30.0)
-            real_stop()
-
-        server.stop = stop  # type: ignore[method-assign]
-        servers.append(server)
-        started.set()
-        return server, url
-
-    def recorder() -> None:
-        if not started.wait(60.0):
-            errors.append(AssertionError("the CLI never started the embedded simulator"))
-            return
-        try:
-            traces.append(
-                record_until(
-                    servers[0],
-                    lambda s: secured(s) and not (until_disarmed and s.armed),
-                    150.0,
-                )
-            )
-        except BaseException as exc:  # re-raised in the test's thread
-            errors.append(exc)
-        finally:
-            recorded.set()
-
-    monkeypatch.setattr(helixd.cli.simulated, "start_embedded", start)
-    from helixd.cli.app import main
-
-    thread = threading.Thread(target=recorder, daemon=True)
-    thread.start()
+    monkeypatch.setattr(helixd.cli.simulated, "SimServer", Recorded)
     with pytest.raises(SystemExit) as exited:
         main(
             [
-                "run", "--sim", "--sim-speedup", str(SPEEDUP), "--sim-noise", "low",
+                "run", "--sim", "--sim-clock", "simulated", "--sim-noise", "low", "--sim-seed", "4",
                 *mission_args,
                 "--config", str(cfg_path), "--run-dir", str(tmp_path / "runs"),
             ]
         )  # fmt: skip
-    thread.join(30.0)
-    if errors:
-        raise errors[0]
-    assert traces and servers
-    return int(exited.value.code or 0), traces[0], servers[0]
+    assert servers and samples
+    end = samples[-1][1]
+    assert secured(end) and not (until_disarmed and end.armed), end.describe()
+    return int(exited.value.code or 0), Trace(samples), servers[0]
 
 
 def test_run_sim_map_flies_around_the_wall_without_contact(

@@ -20,15 +20,13 @@ from tests.support.harness import (
     NEUTRAL_TOLERANCE_US,
     NEUTRAL_US,
     Trace,
-    record_until,
     secured,
-    sim_and_daemon,
 )
 from tests.support.paths import DATA_DIR
+from tests.support.simulated import simulated_flight
 
 pytestmark = pytest.mark.integration
 
-SPEEDUP = 5.0
 RUN_DOWN_S = 1.0  # the motors' lag (and the last override in flight) after neutral
 SERVO = 9  # a servo output that drives no scroll (SERVO9_FUNCTION 0)
 
@@ -117,17 +115,16 @@ def neutral_intervals(outputs: list[HistoryEntry]) -> list[tuple[float, float]]:
 def test_speed_changes_hold_jump_servo_and_return_home(tmp_path: Path) -> None:
     path = tmp_path / "commands.yaml"
     path.write_text(yaml.safe_dump(MISSION))
-    with sim_and_daemon(
-        tmp_path, path, speedup=SPEEDUP, terrain="hard", noise="none", initial_yaw_ned_rad=0.0
-    ) as (server, d):
-        server.wait_for(lambda s: s.armed, 60.0)
-        trace = record_until(server, lambda s: not s.armed, 240.0)
-        code = d.wait_exit(30.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
-        servo_sets = server.history.entries("servo_set")
-        outputs = server.history.entries("output")
-        snap = server.snapshot()
+    flown = simulated_flight(tmp_path, path, terrain="hard", noise="none", initial_yaw_ned_rad=0.0)
+    code, log, run_dir, snap, trace = (
+        flown.code,
+        flown.log,
+        flown.run_dir(),
+        flown.snapshot,
+        flown.trace,
+    )
+    servo_sets = flown.server.history.entries("servo_set")
+    outputs = flown.server.history.entries("output")
     assert code == ExitCode.OK, log[-3000:]
     assert secured(snap)
 
@@ -205,19 +202,17 @@ def test_ardupilots_own_rtl_mission_flies_and_returns_home(tmp_path: Path) -> No
         "safety": {"geofence_radius_m": 200.0},
     }
     mission = DATA_DIR / "gcs" / "ap-DriveRTL-rtl.txt"
-    with sim_and_daemon(
+    flown = simulated_flight(
         tmp_path,
         mission,
         cfg,
-        speedup=10.0,
         terrain="hard",
         noise="low",
+        seed=2,
         origin_lat_deg=SIM_HOME_RTL[0],
         origin_lon_deg=SIM_HOME_RTL[1],
-    ) as (server, d):
-        code = d.wait_exit(240.0)
-        log = d.log_text()
-        snap = server.snapshot()
+    )
+    code, log, snap = flown.code, flown.log, flown.snapshot
     assert code == ExitCode.OK, log[-3000:]
     assert snap.home_ne_m is not None
     end = math.hypot(snap.north_m - snap.home_ne_m[0], snap.east_m - snap.home_ne_m[1])
@@ -236,21 +231,18 @@ def test_ardupilots_camera_mission_triggers_the_camera_by_distance(tmp_path: Pat
         "safety": {"geofence_radius_m": 300.0},
     }
     mission = DATA_DIR / "gcs" / "ap-CameraMission-rover-camera-mission.txt"
-    with sim_and_daemon(
+    flown = simulated_flight(
         tmp_path,
         mission,
         cfg,
-        speedup=10.0,
         terrain="hard",
         noise="low",
+        seed=2,
         origin_lat_deg=SIM_HOME_CAMERA[0],
         origin_lon_deg=SIM_HOME_CAMERA[1],
         params={"CAM1_TYPE": 1},
-    ) as (server, d):
-        code = d.wait_exit(300.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
-        snap = server.snapshot()
+    )
+    code, log, run_dir, snap = flown.code, flown.log, flown.run_dir(), flown.snapshot
     assert code == ExitCode.OK, log[-3000:]
     events = [json.loads(ln) for ln in (run_dir / "events.jsonl").read_text().splitlines()]
     sent = [(e["item"], e["params"][0]) for e in events if e["event"] == "mission_command"]
@@ -276,11 +268,9 @@ def test_a_servo_command_on_a_scroll_passthrough_is_refused_before_arming(tmp_pa
         ],
     }
     path.write_text(yaml.safe_dump(mission))
-    with sim_and_daemon(tmp_path, path, params={"SERVO5_FUNCTION": 51}) as (server, d):
-        code = d.wait_exit(60.0)
-        log = d.log_text()
-        snap = server.snapshot()
-        servo_sets = server.history.entries("servo_set")
+    flown = simulated_flight(tmp_path, path, params={"SERVO5_FUNCTION": 51})
+    code, log, snap = flown.code, flown.log, flown.snapshot
+    servo_sets = flown.server.history.entries("servo_set")
     assert code == ExitCode.PREFLIGHT, log[-3000:]
     assert "item 2 DO_SET_SERVO: output 5 passes RC1 through (SERVO5_FUNCTION = 51)" in log
     assert not snap.armed and servo_sets == []

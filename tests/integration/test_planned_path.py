@@ -16,7 +16,8 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.sim.collisions import SimObstacles, distance_m
-from tests.support.harness import record_until, secured, sim_and_daemon
+from tests.support.harness import secured
+from tests.support.simulated import simulated_flight
 
 pytestmark = pytest.mark.integration
 
@@ -38,17 +39,13 @@ def _fly(
     tmp_path: Path, planning: dict[str, Any], until_disarmed: bool
 ) -> tuple[int, str, Any, list[Any], Any]:
     cfg = {"planning": planning}
-    with sim_and_daemon(
-        tmp_path, _mission(tmp_path), cfg, noise="low", obstacles=SIM_OBSTACLES
-    ) as (server, d):
-        trace = record_until(
-            server, lambda s: secured(s) and not (until_disarmed and s.armed), 100.0
-        )
-        code = d.wait_exit(30.0)
-        log = d.log_text()
-        contacts = server.history.entries("contact")
-        run_dir = d.run_dir()
-    return code, log, trace, contacts, run_dir
+    flown = simulated_flight(
+        tmp_path, _mission(tmp_path), cfg, noise="low", seed=8, obstacles=SIM_OBSTACLES
+    )
+    end = flown.trace.samples[-1][1]
+    assert secured(end) and not (until_disarmed and end.armed), end.describe()
+    contacts = flown.server.history.entries("contact")
+    return flown.code, flown.log, flown.trace, contacts, flown.run_dir()
 
 
 def test_planned_path_goes_around_the_box_without_touching_it(tmp_path: Path) -> None:

@@ -4,7 +4,6 @@ written and says from when the record is missing."""
 
 from __future__ import annotations
 
-import io
 import json
 from pathlib import Path
 from typing import Any
@@ -14,21 +13,18 @@ import pytest
 import helixd.runtime.daemon
 from helixd.base.exitcodes import ExitCode
 from helixd.mav.constants import MAV_SEVERITY_WARNING
-from helixd.recorder import logging_setup
 from helixd.recorder.retention import check_free_space
 from helixd.recorder.rundir import RESERVE_FILE, RunRecorder
-from helixd.runtime.daemon import run_mission
 from helixd.runtime.gcs_feed import GcsFeed
 from tests.support.full_disk import FullAfter
-from tests.support.harness import SPEEDUP, running_sim
-from tests.support.run_options import sim_run_config, square_run
+from tests.support.simulated import simulated_flight
 
 pytestmark = [pytest.mark.integration, pytest.mark.usefixtures("reset_logging")]
 
 CARD_BYTES = 60_000  # flight.csv fills the card after ~180 rows (~4 s of flight)
 
 
-async def test_card_full_mid_flight(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+def test_card_full_mid_flight(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     real_create = RunRecorder.create
 
     def create(*args: Any, **kwargs: Any) -> RunRecorder:
@@ -41,9 +37,6 @@ async def test_card_full_mid_flight(tmp_path: Path, monkeypatch: pytest.MonkeyPa
         said.append((text, severity))
         real_say(self, text, severity)
 
-    console = io.StringIO()
-    logging_setup.configure_logging(tty=False, stream=console)  # events.jsonl as the CLI has it
-
     def low_space(path: Path, estimated_s: float | None) -> str | None:
         def disk_usage(_: Path) -> tuple[int, int, int]:
             return (10**9, 10**9 - 1_000_000, 1_000_000)  # 1 MB free: below one flight
@@ -53,8 +46,8 @@ async def test_card_full_mid_flight(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     monkeypatch.setattr(helixd.runtime.daemon, "check_free_space", low_space)
     monkeypatch.setattr(RunRecorder, "create", create)
     monkeypatch.setattr(GcsFeed, "say", say)
-    with running_sim(speedup=SPEEDUP) as (_, url):
-        outcome = await run_mission(square_run(sim_run_config(url), url, tmp_path / "runs"))
+    flown = simulated_flight(tmp_path, "square")  # events.jsonl as the CLI has it
+    outcome = flown.outcome
     assert outcome.exit_code is ExitCode.OK, outcome.messages
     assert outcome.run_dir is not None
     summary = json.loads((outcome.run_dir / "summary.json").read_text())
@@ -65,7 +58,7 @@ async def test_card_full_mid_flight(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     events = [json.loads(ln) for ln in (outcome.run_dir / "events.jsonl").read_text().splitlines()]
     cuts = [e for e in events if e["event"] == "record_cut"]
     assert len(cuts) == 1 and cuts[0]["level"] == "warning" and cuts[0]["file"] == "flight.csv"
-    lines = console.getvalue().splitlines()
+    lines = flown.log.splitlines()
     # preflight warned of the low space (console and GCS); the cut is the one warning after
     assert sum("event=disk_space_low " in ln for ln in lines) == 1
     assert any(m.startswith("warning: low disk space") for m in outcome.messages)

@@ -1,7 +1,10 @@
 """``helixd serve`` as a service: it reconnects, survives its own restart with the interrupted
 mission remembered, and stays flat in memory and file descriptors over many flights.
 
-Real UDP against the in-process simulator; the daemon is a subprocess (tests.support.daemon)."""
+Real UDP against the in-process simulator, on the simulated clock (tests.support.simulated);
+three tests run the daemon as a subprocess on the wall clock (tests.support.daemon): the
+reconnect (the autopilot comes and goes), the mission file, and the twenty flights, which
+measure the daemon's own process (memory and descriptors)."""
 
 from __future__ import annotations
 
@@ -19,15 +22,16 @@ from helixd.mav.constants import (
     MAV_CMD_NAV_LOITER_UNLIM,
     MAV_RESULT_ACCEPTED,
 )
-from tests.support.gcs import command, upload
-from tests.support.harness import (
-    free_udp_port,
-    running_sim_links,
-    secured,
-)
-from tests.support.serve import moving, serve_proc, sim_with_ground_station
+from helixd.sim.snapshot import SimSnapshot
+from tests.support import gcs as wall
+from tests.support.gcs import QGC_SYSID
+from tests.support.harness import free_udp_port, running_sim_links, secured
+from tests.support.loop_gcs import command, upload
+from tests.support.serve import serve_proc, sim_with_ground_station
+from tests.support.simulated import Steer, moving, simulated_serve
 
 NO_SWITCH: dict[str, Any] = {"startup": {"start_switch_channel": None}}
+LOITER = MAV_CMD_NAV_LOITER_UNLIM
 
 
 def rss_kib(pid: int) -> int:
@@ -63,36 +67,35 @@ def test_reconnects_when_the_autopilot_comes_goes_and_comes_back(tmp_path: Path)
 
 
 def test_a_restarted_service_remembers_the_interrupted_mission_and_waits(tmp_path: Path) -> None:
-    with sim_with_ground_station() as (server, urls, gcs):
-        helixd_url = urls[0]
-        d = serve_proc(tmp_path, helixd_url, NO_SWITCH)
-        d.start_pump()
-        try:
-            d.wait_line("no mission on the autopilot", 60.0)
-            upload(gcs, [(12.0, 0.0), (12.0, -4.0)])
-            d.wait_line("event=serve_state state=ready", 30.0)
-            assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
-            server.wait_for(moving, 40.0)
-            assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 0) == MAV_RESULT_ACCEPTED
-            d.wait_line("event=serve_state state=paused", 30.0)
-            server.wait_for(secured, 10.0)
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            d.kill()
-        record = json.loads((tmp_path / "runs" / "serve-state.json").read_text())
-        assert record["state"] == "paused" and Path(record["run_dir"]).is_dir()
-        again = serve_proc(tmp_path, helixd_url, NO_SWITCH)
-        again.start_pump()
-        try:
-            again.wait_line("event=serve_state_loaded", 30.0)
-            again.wait_line("interrupted: a start continues it", 60.0)
-            assert not server.snapshot().armed  # remembered, and still waiting
-            assert command(gcs, MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
-            again.wait_line("event=run_resumed", 30.0)
-            again.wait_line("event=serve_state state=completed", 90.0)
-        finally:
-            again.stop(20.0)
+    async def interrupted(st: Steer) -> None:
+        gcs = st.ground_station(1, QGC_SYSID)
+        await st.line("no mission on the autopilot", 60.0)
+        await upload(gcs, [(12.0, 0.0), (12.0, -4.0)])
+        await st.line("event=serve_state state=ready", 30.0)
+        assert await command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+        await st.until(moving, 40.0)
+        assert await command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 0) == MAV_RESULT_ACCEPTED
+        await st.line("event=serve_state state=paused", 30.0)
+        await st.until(secured, 10.0)
+        st.signal(signal.SIGTERM)
+
+    records: list[dict[str, Any]] = []
+
+    async def continued(st: Steer) -> None:
+        records.append(json.loads((tmp_path / "runs" / "serve-state.json").read_text()))
+        gcs = st.ground_station(1, QGC_SYSID)
+        await st.line("event=serve_state_loaded", 30.0)
+        await st.line("interrupted: a start continues it", 60.0)
+        assert not st.snapshot().armed  # remembered, and still waiting
+        assert await command(gcs, MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+        await st.line("event=run_resumed", 30.0)
+        await st.line("event=serve_state state=completed", 90.0)
+        st.signal(signal.SIGTERM)
+
+    served = simulated_serve(tmp_path, [interrupted, continued], NO_SWITCH)
+    assert served.codes == [0, 0], served.log[-3000:]
+    (record,) = records
+    assert record["state"] == "paused" and Path(record["run_dir"]).is_dir()
     summaries = [
         json.loads((r / "summary.json").read_text())
         for r in sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
@@ -102,23 +105,22 @@ def test_a_restarted_service_remembers_the_interrupted_mission_and_waits(tmp_pat
 
 
 def test_a_loiter_without_end_holds_until_the_ground_station_continues(tmp_path: Path) -> None:
-    with sim_with_ground_station() as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], NO_SWITCH)
-        d.start_pump()
-        try:
-            loiter = {2: MAV_CMD_NAV_LOITER_UNLIM}
-            d.wait_line("no mission on the autopilot", 60.0)
-            upload(gcs, [(4.0, 0.0), (4.0, -4.0), (0.0, 0.0)], commands=loiter)
-            d.wait_line("event=serve_state state=ready", 30.0)
-            assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
-            d.wait_line("kind=hold_started", 60.0)
-            held = server.wait_for(lambda s: s.armed and s.speed_mps < 0.02, 10.0)
-            mark = d.mark()
-            assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 1) == MAV_RESULT_ACCEPTED
-            d.wait_line("event=hold_released", 10.0, after=mark)
-            d.wait_line("event=serve_state state=completed", 60.0, after=mark)
-        finally:
-            d.stop(20.0)
+    async def loiter(st: Steer) -> SimSnapshot:
+        gcs = st.ground_station(1, QGC_SYSID)
+        await st.line("no mission on the autopilot", 60.0)
+        await upload(gcs, [(4.0, 0.0), (4.0, -4.0), (0.0, 0.0)], commands={2: LOITER})
+        await st.line("event=serve_state state=ready", 30.0)
+        assert await command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+        await st.line("kind=hold_started", 60.0)
+        held = await st.until(lambda s: s.armed and s.speed_mps < 0.02, 10.0)
+        mark = st.mark()
+        assert await command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 1) == MAV_RESULT_ACCEPTED
+        await st.line("event=hold_released", 10.0, after=mark)
+        await st.line("event=serve_state state=completed", 60.0, after=mark)
+        st.signal(signal.SIGTERM)
+        return held
+
+    (held,) = simulated_serve(tmp_path, loiter, NO_SWITCH).steered
     assert (held.north_m, held.east_m) == pytest.approx((4.0, -4.0), abs=0.5)
     (run,) = [p for p in (tmp_path / "runs").iterdir() if p.is_dir()]
     assert json.loads((run / "summary.json").read_text())["completed"] is True
@@ -159,11 +161,11 @@ def test_twenty_flights_keep_memory_and_descriptors_flat(tmp_path: Path) -> None
         samples: list[tuple[int, int]] = []
         try:
             d.wait_line("no mission on the autopilot", 60.0)
-            upload(gcs, [(3.0, 0.0), (0.0, 0.0)])  # out and back: every flight the same
+            wall.upload(gcs, [(3.0, 0.0), (0.0, 0.0)])  # out and back: every flight the same
             d.wait_line("event=serve_state state=ready", 30.0)
             for _ in range(flights):
                 mark = d.mark()
-                assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+                assert wall.command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
                 d.wait_line("event=serve_state state=completed", 60.0, after=mark)
                 server.wait_for(secured, 10.0)
                 samples.append((rss_kib(pid), open_fds(pid)))

@@ -9,12 +9,9 @@ SERIAL1 against the planned polygon): helixd cross-track RMS 0.449 m, max 0.843 
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 import signal
-import threading
-import time
 from pathlib import Path
 from typing import Any
 
@@ -22,14 +19,11 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.recorder.track import TrackPoint
-from helixd.sim.server import SimServer
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.harness import (
     secured,
-    sim_and_daemon,
-    time_until,
-    wait_moving,
 )
+from tests.support.simulated import Steer, moving, simulated_flight
 from tests.support.skid_setup import (
     ARC_BUDGET_M,
     SURVEY_XY_M,
@@ -61,45 +55,27 @@ LINE_CORNER_BOUND_M = ARC_BUDGET_M * math.cos(math.pi / 4) + 0.05
 # (tests/sitl/test_sitl_survey.py, 2026-11-23): the figures to beat.
 AUTO_SURVEY_S = 333.0
 AUTO_SURVEY_MAX_M = 0.588
-FALLBACK_BOUND_S = 0.5 + 0.1 + 0.25  # fall-back bound + signal detection + loaded-box slack
+FALLBACK_BOUND_S = 0.5 + 0.1  # fall-back bound + signal detection (simulated time, exact)
 STOPPED_MPS = 0.02
 FINAL_TOLERANCE_M = 2.0  # the SITL suite's bound on the return to the start
 
 
-def _newer(t_s: float, snap: SimSnapshot) -> bool:
-    return snap.sim_time_s > t_s
-
-
 class TruthRecorder:
-    """Every simulator step's true position, woken by each new snapshot (no polling sleep)."""
+    """The simulator's true pose at each of its steps, from a flight's trace."""
 
-    def __init__(self, server: SimServer) -> None:
-        self.server = server
+    def __init__(self, samples: list[tuple[float, SimSnapshot]]) -> None:
         self.points: list[TrackPoint] = []
         self.yaws: list[tuple[float, float]] = []  # (sim s, true yaw NED rad)
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="truth", daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
         last_t = -math.inf
-        while not self._stop.is_set():
-            try:
-                snap = self.server.wait_for(functools.partial(_newer, last_t), 0.5)
-            except TimeoutError:
-                continue
-            last_t = snap.sim_time_s
-            self.yaws.append((snap.sim_time_s, snap.yaw_ned_rad))
-            self.points.append(TrackPoint(snap.sim_time_s, snap.north_m, snap.east_m))
+        for _, snap in samples:
+            if snap.sim_time_s > last_t:
+                last_t = snap.sim_time_s
+                self.yaws.append((snap.sim_time_s, snap.yaw_ned_rad))
+                self.points.append(TrackPoint(snap.sim_time_s, snap.north_m, snap.east_m))
 
     def yaw_at(self, t_s: float) -> float | None:
         before = [yaw for t, yaw in self.yaws if t <= t_s]
         return before[-1] if before else None
-
-    def stop(self) -> list[TrackPoint]:
-        self._stop.set()
-        self._thread.join(timeout=5.0)
-        return list(self.points)
 
 
 def completed_skid_flight(
@@ -108,21 +84,15 @@ def completed_skid_flight(
     """Fly the shipped ``mission`` on the sitl_skid plant ('low' noise) to its end: exit 0,
     secured, every one of its ``waypoints`` reached. (The true pose's recorder, the true
     track, the run directory, summary.json.)"""
-    with sim_and_daemon(tmp_path, mission, SKID_CONFIG, plant="sitl_skid", noise="low") as (
-        server,
-        d,
-    ):
-        recorder = TruthRecorder(server)
-        code = d.wait_exit(MISSION_WALL_S)
-        server.wait_for(secured, 5.0)
-        track = recorder.stop()
-        log = d.log_text()
-        run_dir = d.run_dir()
-    assert code == ExitCode.OK, log[-3000:]
+    flown = simulated_flight(tmp_path, mission, SKID_CONFIG, plant="sitl_skid", noise="low", seed=1)
+    assert flown.code == ExitCode.OK, flown.log[-3000:]
+    assert secured(flown.snapshot)
+    recorder = TruthRecorder(flown.trace.samples)
+    run_dir = flown.run_dir()
     summary: dict[str, Any] = json.loads((run_dir / "summary.json").read_text())
     assert summary["completed"] is True
     assert summary["waypoints_reached"] == summary["waypoints_total"] == waypoints
-    return recorder, track, run_dir, summary
+    return recorder, list(recorder.points), run_dir, summary
 
 
 def test_roll_square_on_the_sitl_skid_plant(tmp_path: Path) -> None:
@@ -179,18 +149,21 @@ def test_survey_block_on_the_sitl_skid_plant_beats_auto(tmp_path: Path) -> None:
 
 def test_sigint_on_the_skid_plant_stops_the_rover(tmp_path: Path) -> None:
     """The fall-back, seen from the plant: outputs 1/3 at trim stop SITL's skid rover."""
-    with sim_and_daemon(tmp_path, "square", SKID_CONFIG, plant="sitl_skid", noise="low") as (
-        server,
-        d,
-    ):
-        moving = wait_moving(server)
-        t0 = time.monotonic()
-        d.signal(signal.SIGINT)
-        elapsed = time_until(server, secured, t0, timeout_s=10.0)
-        stopped = server.wait_for(lambda s: s.speed_mps < STOPPED_MPS, 5.0)
-        code = d.wait_exit(20.0)
+
+    async def ctrl_c(st: Steer) -> tuple[SimSnapshot, float, SimSnapshot]:
+        driving = await st.until(moving, 40.0)
+        t0 = st.now_s()
+        st.signal(signal.SIGINT)
+        await st.until(secured, 10.0)
+        elapsed = st.now_s() - t0
+        return driving, elapsed, await st.until(lambda s: s.speed_mps < STOPPED_MPS, 5.0)
+
+    flown = simulated_flight(
+        tmp_path, "square", SKID_CONFIG, ctrl_c, plant="sitl_skid", noise="low", seed=1
+    )
+    driving, elapsed, stopped = flown.steered
     print(f"skid plant: secured {elapsed:.3f} s after SIGINT; stopped at {stopped.speed_mps} m/s")
-    assert code == ExitCode.OPERATOR_STOP
-    assert moving.speed_mps > 0.1
+    assert flown.code == ExitCode.OPERATOR_STOP, flown.log[-3000:]
+    assert driving.speed_mps > 0.1
     assert elapsed <= FALLBACK_BOUND_S
     assert secured(stopped)

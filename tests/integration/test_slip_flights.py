@@ -11,7 +11,7 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.recorder.rows import read_flight_columns
 from helixd.sim.sim_config import TerrainTable
-from tests.support.harness import sim_and_daemon
+from tests.support.simulated import simulated_flight
 
 pytestmark = pytest.mark.integration
 
@@ -21,12 +21,9 @@ GRASS = TerrainTable().grass  # the simulator's traction: roll 0.9, yaw 0.75
 def fly_square_on_grass(tmp_path: Path, enabled: bool) -> dict[str, np.ndarray]:
     tmp_path.mkdir()
     cfg = {"control": {"slip": {"enabled": enabled}}}
-    with sim_and_daemon(tmp_path, "square", cfg, terrain="grass", noise="low") as (_, d):
-        code = d.wait_exit(120.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
-    assert code == ExitCode.OK, log[-3000:]
-    return read_flight_columns(run_dir / "flight.csv")
+    flown = simulated_flight(tmp_path, "square", cfg, terrain="grass", noise="low", seed=3)
+    assert flown.code == ExitCode.OK, flown.log[-3000:]
+    return read_flight_columns(flown.run_dir() / "flight.csv")
 
 
 def delivered_ratio(c: dict[str, np.ndarray]) -> float:

@@ -15,12 +15,10 @@ from helixd.commands.survey_mission import survey_mission
 from helixd.config import HelixdConfig
 from helixd.mission.formats import write_mission_file
 from helixd.mission.formats.areas import read_area
-from tests.support.harness import sim_and_daemon
 from tests.support.paths import DATA_DIR
+from tests.support.simulated import simulated_flight
 
 pytestmark = pytest.mark.integration
-
-SPEEDUP = 16.0  # 340 s of autopilot time in about 21 s
 
 
 def test_a_survey_flies_in_its_estimated_time(tmp_path: Path) -> None:
@@ -37,10 +35,8 @@ def test_a_survey_flies_in_its_estimated_time(tmp_path: Path) -> None:
     )
     mission = tmp_path / "survey.yaml"
     write_mission_file(got.mission, mission)
-    with sim_and_daemon(tmp_path, mission, speedup=SPEEDUP) as (_, d):
-        code = d.wait_exit(120.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
+    flown = simulated_flight(tmp_path, mission, seed=5)
+    code, log, run_dir = flown.code, flown.log, flown.run_dir()
     assert code == ExitCode.OK, log[-3000:]
     s = json.loads((run_dir / "summary.json").read_text())
     print(f"survey: estimated {s['estimated_s']:.1f} s at preflight, flown {s['duration_s']:.1f} s")

@@ -1,0 +1,87 @@
+"""The one clock helixd times itself by: the running event loop's.
+
+Everything the daemon times (watchdogs, timeouts, the control period, heartbeats, stream
+intervals, retries, progress, the recorder's ``t_mono_s``) reads :func:`now_s` and waits
+with ``asyncio.sleep``/``asyncio.wait_for``; both follow the loop the program was started on,
+chosen once at the top (``helixd.runtime.eventloop.run``), as trio's ``current_time()``
+follows its run's clock:
+
+* in production the standard loop (or uvloop), whose time is the monotonic clock;
+* ``helixd run --sim --sim-clock simulated`` and the tests flying on it, a
+  :class:`SimulatedClockLoop`: the simulator and the daemon share one loop, and its time jumps
+  to the next timer whenever every task is waiting and no byte is ready on any socket. A
+  flight then takes the CPU time it needs, not the minutes it lasts, and the same inputs
+  give the same flight.
+
+No module reads ``time.monotonic()`` for timing on its own (``tests/base/test_clock.py``
+guards it); wall-clock dates (run directory names, MAVLink signing timestamps) are calendar
+time, not timing, and stay on ``time.time()``/``datetime``.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import selectors
+import time
+from typing import Any
+
+# where a simulated clock starts (s): like a monotonic clock, not at zero, so a "never"
+# timestamp of 0.0 stays far in the past
+SIMULATED_START_S = 1000.0
+
+
+def now_s() -> float:
+    """Seconds on the run's monotonic clock: the running loop's time; outside a loop (a
+    thread, a synchronous command) the monotonic clock, which is the standard loop's time."""
+    loop = asyncio._get_running_loop()
+    return time.monotonic() if loop is None else loop.time()
+
+
+class _JumpingSelector(selectors.DefaultSelector):
+    """The loop's selector: a poll first; when nothing is ready and the loop would wait for
+    its next timer, the simulated clock jumps to that timer instead of the wall waiting."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.now_s = SIMULATED_START_S
+        self.jumps = 0
+
+    def select(self, timeout: float | None = None) -> list[tuple[selectors.SelectorKey, int]]:
+        ready = super().select(0)
+        if ready or (timeout is not None and timeout <= 0):
+            return ready
+        if timeout is None:  # no timer at all: only another thread can wake the loop
+            return super().select(None)
+        self.now_s += timeout
+        self.jumps += 1
+        return []
+
+
+class SimulatedClockLoop(asyncio.SelectorEventLoop):
+    """An asyncio loop on simulated time (see the module docstring). Its sockets are real;
+    only waiting is skipped. Every task that times itself must run on this loop: a thread
+    that sleeps on the wall clock does not hold simulated time back."""
+
+    def __init__(self, start_s: float = SIMULATED_START_S) -> None:
+        self._jumping = _JumpingSelector()
+        self._jumping.now_s = start_s
+        super().__init__(self._jumping)
+
+    def time(self) -> float:
+        return self._jumping.now_s
+
+    @property
+    def jumps(self) -> int:
+        """How many times the clock jumped ahead (each a wait the wall did not make)."""
+        return self._jumping.jumps
+
+    def run_in_executor(  # type: ignore[override]
+        self, executor: Any, func: Any, *args: Any
+    ) -> asyncio.Future[Any]:
+        raise RuntimeError(
+            "a thread's work has no simulated duration: nothing on a simulated clock may use "
+            "an executor (give hosts as IP addresses)"
+        )
+
+
+__all__ = ["SIMULATED_START_S", "SimulatedClockLoop", "now_s"]

@@ -1,0 +1,136 @@
+"""A QGroundControl-like ground station for flights on the simulated clock: what
+:mod:`tests.support.gcs` and the helpers of :mod:`tests.support.serve` do with a blocking
+client, done with a :class:`~tests.support.loop_mav.LoopMav` in the loop (mission upload by
+the mission protocol, commands to helixd and to the autopilot, the message pane)."""
+
+from __future__ import annotations
+
+from collections.abc import Awaitable, Callable
+from typing import Any
+
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from helixd.base.clock import now_s
+from helixd.mav.constants import (
+    MAV_CMD_COMPONENT_ARM_DISARM,
+    MAV_CMD_DO_SET_MODE,
+    MAV_CMD_MISSION_START,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_MODE_FLAG_SAFETY_ARMED,
+    MAV_RESULT_ACCEPTED,
+)
+from helixd.sim.modes import MODE_NUMBERS
+from tests.support.gcs import HELIXD, QGC_SYSID, waypoint
+from tests.support.harness import overrides_released
+from tests.support.loop_mav import LoopMav
+from tests.support.simulated import Steer, moving
+
+UploadStep = Callable[[], Awaitable[None]]
+
+
+async def upload_typed(
+    gcs: LoopMav, items: list[Any], mission_type: int, what: str, timeout_s: float = 20.0
+) -> None:
+    """Upload ``items`` of ``mission_type`` by the mission protocol, each sent with the
+    requested seq; AssertionError unless MISSION_ACK ACCEPTED (``what`` names the list)."""
+    gcs.drain()
+    gcs.mav.mission_count_send(1, 1, len(items), mission_type)
+    deadline = now_s() + timeout_s
+    kinds = ("MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK")
+    while (remaining := deadline - now_s()) > 0:
+        msg = await gcs.recv_any(kinds, remaining)
+        if msg is None or int(msg.target_system) != QGC_SYSID:
+            continue
+        if msg.get_type() == "MISSION_ACK":
+            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, f"{what} refused: {msg}"
+            return
+        item = items[int(msg.seq)]
+        item.seq = int(msg.seq)
+        gcs.mav.send(item)
+    raise AssertionError(f"{what} upload: no MISSION_ACK")
+
+
+async def upload_items(gcs: LoopMav, items: list[Any], timeout_s: float = 20.0) -> None:
+    await upload_typed(gcs, items, mavlink.MAV_MISSION_TYPE_MISSION, "mission", timeout_s)
+
+
+async def upload(
+    gcs: LoopMav,
+    points_ne_m: list[tuple[float, float]],
+    timeout_s: float = 20.0,
+    commands: dict[int, int] | None = None,
+) -> None:
+    """Upload home + one NAV_WAYPOINT per point (``commands``: item number → another
+    navigation command at that point)."""
+    cmds = commands or {}
+    items = [
+        waypoint(0, 0.0, 0.0),
+        *(
+            waypoint(i + 1, n, e, cmds.get(i + 1, mavlink.MAV_CMD_NAV_WAYPOINT))
+            for i, (n, e) in enumerate(points_ne_m)
+        ),
+    ]
+    await upload_items(gcs, items, timeout_s)
+
+
+async def upload_fence(gcs: LoopMav, items: list[Any], timeout_s: float = 20.0) -> None:
+    await upload_typed(gcs, items, mavlink.MAV_MISSION_TYPE_FENCE, "fence", timeout_s)
+
+
+async def command(gcs: LoopMav, cmd: int, *params: float, timeout_s: float = 10.0) -> int:
+    """COMMAND_LONG to helixd; the result of helixd's COMMAND_ACK for it."""
+    gcs.heartbeat()  # a GCS heartbeats all the time: the autopilot knows its route
+    return await gcs.command(cmd, *params, target=HELIXD, timeout_s=timeout_s)
+
+
+async def set_mode(gcs: LoopMav, name: str) -> float:
+    """QGroundControl's Vehicle::setFlightMode for ArduPilot: MAV_CMD_DO_SET_MODE to the
+    autopilot with the custom mode; returns the (simulated) time it was sent."""
+    sent = now_s()
+    number = MODE_NUMBERS[name]
+    result = await gcs.command(MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
+    assert result == MAV_RESULT_ACCEPTED, (name, result)
+    return sent
+
+
+async def heartbeat_shows(gcs: LoopMav, condition: Callable[[Any], bool]) -> None:
+    """The autopilot's HEARTBEAT on the ground station's own link showing the change."""
+    await gcs.expect("HEARTBEAT", 10.0, lambda m: m.get_srcSystem() == 1 and condition(m))
+
+
+async def upload_and_start(st: Steer, gcs: LoopMav, upload_mission: UploadStep) -> None:
+    """QGroundControl's Plan view Upload once ``helixd serve`` finds no mission, then Start
+    Mission on the disarmed rover once it is ready (GUIDED, arm, MAV_CMD_MISSION_START to the
+    autopilot): until helixd starts driving in AUTO."""
+    await st.line("no mission on the autopilot", 60.0)
+    await upload_mission()
+    await st.line("event=serve_state state=ready", 30.0)
+    await set_mode(gcs, "GUIDED")
+    await heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
+    assert await gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+    await heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+    assert await gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+    await st.line("event=auto_start", 10.0)  # item 0 or 1: MISSION_CURRENT may lag the start
+    await st.until(moving, 20.0)
+
+
+async def let_go_in_manual(st: Steer, gcs: LoopMav) -> None:
+    """The crew picks MANUAL: helixd releases its overrides within 5 s and pauses."""
+    mark = st.mark()
+    await set_mode(gcs, "MANUAL")
+    await st.until(overrides_released, 5.0)
+    await st.line("event=serve_state state=paused", 30.0, after=mark)
+
+
+async def said(gcs: LoopMav, sentence: str, timeout_s: float) -> None:
+    """Until helixd's texts, its lines joined as a ground station's pane reads them (each line
+    starts with ``helixd: ``), contain ``sentence``."""
+    deadline = now_s() + timeout_s
+    while True:
+        joined = " ".join(t.removeprefix("helixd: ") for t in gcs.texts if t.startswith("helixd: "))
+        if sentence in joined:
+            return
+        remaining = deadline - now_s()
+        if remaining <= 0:
+            raise AssertionError(f"helixd never said {sentence!r}; saw {gcs.texts}")
+        await gcs.recv("STATUSTEXT", remaining)

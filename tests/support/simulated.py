@@ -1,0 +1,380 @@
+"""Flights on the simulated clock, in this process: the simulator and the daemon's real code
+(``helixd run``'s preparation and :func:`helixd.runtime.daemon.run_mission`) share one
+:class:`helixd.base.clock.SimulatedClockLoop` and talk MAVLink over real UDP sockets. A flight
+takes the CPU time it needs instead of the minutes it lasts, and is the same every time.
+
+A test checks a flight once it ended (exit code, the RESULT line, the log, the run directory,
+what the simulator saw), and may steer it while it runs with ``during``: a coroutine given a
+:class:`Steer` (wait for what the simulator shows or the daemon logs, in simulated time; send
+the process a signal; inject a fault; move a stick). Flights that need the wall clock (kill -9
+and helixd-guard, a second process) use :mod:`tests.support.harness`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import io
+import os
+import signal
+from collections.abc import Awaitable, Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any, cast
+
+import structlog
+import yaml
+
+from helixd.base.clock import SimulatedClockLoop, now_s
+from helixd.base.exitcodes import ExitCode
+from helixd.cli.app import flight_options
+from helixd.config import load_config
+from helixd.recorder import logging_setup
+from helixd.runtime.daemon import RunOutcome, run_mission
+from helixd.runtime.prepare import FlightSource, MissionFile, prepare_flight
+from helixd.serve.options import ServeOptions
+from helixd.serve.service import serve
+from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url
+from helixd.sim.snapshot import SimSnapshot
+from tests.support.daemon import deep_merge
+from tests.support.harness import BASE_CONFIG, MISSIONS, Trace, sim_config
+from tests.support.loop_mav import LoopMav
+from tests.support.serve import CONFIG as SERVE_CONFIG
+
+FLIGHT_LIMIT_S = 1800.0  # simulated seconds: a flight still running then has hung
+STEER_AFTER_S = 60.0  # simulated seconds the steering may go on after the flight ended
+
+
+def moving(s: SimSnapshot) -> bool:
+    """Armed and driving its mission (scrolls commanded, the rover moving)."""
+    return s.armed and s.speed_mps > 0.1
+
+
+class Console(io.TextIOBase):
+    """The daemon's console (structlog's stream), kept as lines; waiters woken per line."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+        self._partial = ""
+        self.changed: asyncio.Event | None = None
+
+    def write(self, text: str) -> int:
+        parts = (self._partial + text).split("\n")
+        self._partial = parts.pop()
+        if parts:
+            self.lines.extend(parts)
+            if self.changed is not None:
+                self.changed.set()
+        return len(text)
+
+    def text(self) -> str:
+        return "\n".join([*self.lines, self._partial] if self._partial else self.lines)
+
+
+class Steer:
+    """A test's hands on a flight in progress, on the simulated clock."""
+
+    def __init__(self, server: SimServer, console: Console) -> None:
+        self.server = server
+        self.console = console
+        self.flight: asyncio.Future[Any] | None = None  # the daemon's run, once started
+        self.clients: list[LoopMav] = []
+        self._snapshot_changed = asyncio.Event()
+        console.changed = asyncio.Event()
+        server.snapshot_listeners.append(lambda _: self._snapshot_changed.set())
+
+    @staticmethod
+    def now_s() -> float:
+        return now_s()
+
+    def snapshot(self) -> SimSnapshot:
+        return self.server.snapshot()
+
+    async def until(
+        self, predicate: Callable[[SimSnapshot], bool], timeout_s: float
+    ) -> SimSnapshot:
+        """The first snapshot for which ``predicate`` holds, within ``timeout_s`` simulated."""
+        deadline = now_s() + timeout_s
+        while not predicate(snap := self.server.snapshot()):
+            remaining = deadline - now_s()
+            if remaining <= 0:
+                name = getattr(predicate, "__name__", "condition")
+                raise AssertionError(f"{name} not met within {timeout_s} s; {snap.describe()}")
+            self._snapshot_changed.clear()
+            try:
+                await asyncio.wait_for(self._snapshot_changed.wait(), remaining)
+            except TimeoutError:
+                continue
+        return snap
+
+    def flight_done(self) -> bool:
+        return self.flight is not None and self.flight.done()
+
+    async def exited(self, timeout_s: float) -> float:
+        """Until the daemon's run ended (within ``timeout_s`` simulated); the time it did."""
+        assert self.flight is not None
+        await asyncio.wait_for(asyncio.shield(self.flight), timeout_s)
+        return now_s()
+
+    def mark(self) -> int:
+        """How many lines were logged so far (for ``line(after=...)``)."""
+        return len(self.console.lines)
+
+    async def line(self, needle: str, timeout_s: float, after: int = 0) -> str:
+        """The first log line from number ``after`` on containing ``needle``."""
+        changed = self.console.changed
+        assert changed is not None
+        deadline = now_s() + timeout_s
+        seen = after
+        while True:
+            for text in self.console.lines[seen:]:
+                if needle in text:
+                    return text
+            seen = len(self.console.lines)
+            remaining = deadline - now_s()
+            if remaining <= 0:
+                tail = "\n".join(self.console.lines[-40:])
+                raise AssertionError(f"no log line with {needle!r} in {timeout_s} s:\n{tail}")
+            changed.clear()
+            try:
+                await asyncio.wait_for(changed.wait(), remaining)
+            except TimeoutError:
+                continue
+
+    def ground_station(self, link: int, sysid: int, compid: int = 190) -> LoopMav:
+        """A MAVLink client on the simulator's ``link`` (1: the first beyond helixd's), closed
+        when the flight ends."""
+        client = LoopMav(self.server.local_ports[link], sysid, compid)
+        self.clients.append(client)
+        return client
+
+    def close(self) -> None:
+        for client in self.clients:
+            client.close()
+
+    @staticmethod
+    def signal(sig: signal.Signals) -> None:
+        """Send this process ``sig``: the daemon's handler on the loop takes it, as a
+        ``kill -INT`` of the helixd process would be."""
+        os.kill(os.getpid(), sig)
+
+    def inject(self, fault: str, **kwargs: object) -> None:
+        self.server.inject(fault, **kwargs)
+
+    def schedule(self, fault: str, at_sim_s: float, **kwargs: object) -> None:
+        self.server.schedule(fault, at_sim_s, **kwargs)
+
+    def set_rc(self, channel: int, pwm_us: int) -> None:
+        self.server.set_rc(channel, pwm_us)
+
+
+Steering = Callable[[Steer], Awaitable[Any]]
+
+
+@dataclass(frozen=True)
+class SimulatedFlight:
+    """How a flight on the simulated clock ended, and what the simulator saw."""
+
+    code: int
+    result: str  # the plain ``helixd: RESULT`` line
+    log: str  # every log line, then the lines the CLI prints at the end
+    run_root: Path
+    server: SimServer  # stopped: its snapshot and history stay readable
+    outcome: RunOutcome
+    trace: Trace  # every snapshot the simulator published: (simulated s, snapshot)
+    steered: Any  # what ``during`` returned
+
+    def run_dir(self) -> Path:
+        dirs = sorted(p for p in self.run_root.iterdir() if p.is_dir())
+        assert dirs, f"no run directory under {self.run_root}"
+        return dirs[-1]
+
+    @property
+    def snapshot(self) -> SimSnapshot:
+        return self.server.snapshot()
+
+
+async def _fly_and_steer(
+    flight: Awaitable[RunOutcome], steer: Steer, during: Steering | None
+) -> tuple[RunOutcome, Any]:
+    """The flight to its end and the steering beside it; a failed steering ends the flight
+    (cancelled: the daemon's own shutdown runs) and is raised."""
+    flying = asyncio.ensure_future(asyncio.wait_for(flight, FLIGHT_LIMIT_S))
+    steer.flight = flying
+    if during is None:
+        return await flying, None
+    steer_task = asyncio.ensure_future(during(steer))
+    try:
+        await asyncio.wait({flying, steer_task}, return_when=asyncio.FIRST_COMPLETED)
+        if steer_task.done() and steer_task.exception() is not None:
+            flying.cancel()
+            await asyncio.gather(flying, return_exceptions=True)
+            raise steer_task.exception()  # type: ignore[misc]
+        outcome = await flying
+        return outcome, await asyncio.wait_for(steer_task, STEER_AFTER_S)
+    finally:
+        steer.close()
+
+
+Daemon = Callable[[str], Awaitable[Any]]
+
+
+def _on_simulated_clock(
+    server: SimServer, runs: Sequence[tuple[Daemon, Steering | None]], trace: bool = True
+) -> tuple[list[tuple[Any, Any]], Console, list[tuple[float, SimSnapshot]]]:
+    """Each of ``runs`` — ``daemon(url)`` steered by its steering — beside ``server`` on one
+    simulated clock, one after the other, the simulator running on (a restarted service, a
+    resumed run): ([(what the daemon returned, what its steering returned)], the console,
+    every snapshot published, if ``trace``)."""
+    console = Console()
+    samples: list[tuple[float, SimSnapshot]] = []
+    if trace:
+        server.snapshot_listeners.append(lambda snap: samples.append((now_s(), snap)))
+
+    async def fly() -> list[tuple[Any, Any]]:
+        async with server.running_here():
+            url = embedded_url(server)
+            return [
+                await _fly_and_steer(daemon(url), Steer(server, console), steering)
+                for daemon, steering in runs
+            ]
+
+    logging_setup.configure_logging(tty=False, level="info", stream=cast(IO[str], console))
+    try:
+        with asyncio.Runner(loop_factory=SimulatedClockLoop) as runner:
+            results = runner.run(fly())
+    finally:
+        logging_setup.detach_events_file()
+        structlog.reset_defaults()
+    return results, console, samples
+
+
+def write_config(tmp_path: Path, *layers: dict[str, Any] | None) -> Path:
+    """``tmp_path``/helixd.yaml: the test settings, each layer merged over the one before."""
+    merged: dict[str, Any] = {}
+    for layer in layers:
+        merged = deep_merge(merged, layer or {})
+    path = tmp_path / "helixd.yaml"
+    path.write_text(yaml.safe_dump(merged), encoding="utf-8")
+    return path
+
+
+Source = str | Path | FlightSource | Callable[[], FlightSource]
+
+
+def _flight_source(mission: Source) -> FlightSource:
+    if callable(mission):
+        return mission()
+    if isinstance(mission, str):
+        return MissionFile(MISSIONS / f"{mission}.yaml")
+    return MissionFile(mission) if isinstance(mission, Path) else mission
+
+
+def simulated_flights(
+    tmp_path: Path,
+    legs: Sequence[tuple[Source, Steering | None]],
+    config: dict[str, Any] | None = None,
+    links: int = 1,
+    **sim_overrides: Any,
+) -> list[SimulatedFlight]:
+    """``helixd run`` once per leg — (its mission: a shipped mission's name, a file, a
+    :class:`~helixd.runtime.prepare.FlightSource` or a function giving one when the leg
+    starts, e.g. ``--resume`` of the leg before; its steering) — one after the other against
+    one simulator (``links``: helixd's first; ``sim_overrides`` as
+    :func:`~tests.support.harness.sim_and_daemon` takes them, the speed-up 1: there is no
+    wall clock to outrun), with the test config merged over
+    :data:`~tests.support.harness.BASE_CONFIG`. Each leg records under ``tmp_path``/runs."""
+    cfg_path = write_config(tmp_path, BASE_CONFIG, config)
+    server = SimServer([EMBEDDED_LINK] * links, sim_config(**{**sim_overrides, "speedup": 1.0}))
+    run_root = tmp_path / "runs"
+
+    notes: list[tuple[str, ...]] = []  # what the CLI prints about each leg's inputs
+
+    def daemon_of(mission: Source) -> Daemon:
+        def daemon(url: str) -> Awaitable[RunOutcome]:
+            got = prepare_flight(_flight_source(mission), cfg_path, None)
+            notes.append(got.notes)
+            opts = flight_options(got.cfg, got.flight, url, run_root, "info", False, tty=False)
+            return run_mission(opts)
+
+        return daemon
+
+    runs = [(daemon_of(mission), steering) for mission, steering in legs]
+    results, console, samples = _on_simulated_clock(server, runs)
+    return [
+        SimulatedFlight(
+            code=int(outcome.exit_code),
+            result=outcome.messages[-1] if outcome.messages else "",
+            log="\n".join([*leg_notes, console.text(), *outcome.messages]),
+            run_root=run_root,
+            server=server,
+            outcome=outcome,
+            trace=Trace(samples),
+            steered=steered,
+        )
+        for (outcome, steered), leg_notes in zip(results, notes, strict=True)
+    ]
+
+
+def simulated_flight(
+    tmp_path: Path,
+    mission: Source = "square",
+    config: dict[str, Any] | None = None,
+    during: Steering | None = None,
+    links: int = 1,
+    **sim_overrides: Any,
+) -> SimulatedFlight:
+    """``helixd run --mission MISSION`` on the simulated clock, steered by ``during`` if
+    given (:func:`simulated_flights` with one leg)."""
+    (flown,) = simulated_flights(tmp_path, [(mission, during)], config, links, **sim_overrides)
+    return flown
+
+
+@dataclass(frozen=True)
+class SimulatedService:
+    """How ``helixd serve`` on the simulated clock ended (each start of it: ``codes``,
+    ``steered``), and what the simulator saw."""
+
+    codes: list[int]
+    log: str
+    run_root: Path
+    server: SimServer
+    steered: list[Any]
+
+    @property
+    def code(self) -> int:
+        return self.codes[-1]
+
+
+def simulated_serve(
+    tmp_path: Path,
+    during: Steering | Sequence[Steering],
+    config: dict[str, Any] | None = None,
+    links: int = 2,
+    **sim_overrides: Any,
+) -> SimulatedService:
+    """``helixd serve`` with ``config`` merged over the serve tests' settings
+    (:data:`tests.support.serve.CONFIG` over BASE_CONFIG), beside the simulator (``links``:
+    helixd's first, a ground station's next), steered by ``during`` — which ends the service
+    (SIGTERM) when it is done; a list: the service started again for each, the simulator
+    running on."""
+    cfg_path = write_config(tmp_path, BASE_CONFIG, SERVE_CONFIG, config)
+    cfg = load_config(cfg_path)
+    server = SimServer([EMBEDDED_LINK] * links, sim_config(**{**sim_overrides, "speedup": 1.0}))
+    run_root = tmp_path / "runs"
+
+    def daemon(url: str) -> Awaitable[ExitCode]:
+        served = cfg.model_copy(update={"link": cfg.link.model_copy(update={"url": url})})
+        opts = ServeOptions(
+            cfg=served,
+            config_path=cfg_path,
+            run_root=run_root,
+            mission_file=cfg.serve.mission_file,
+        )
+        return serve(opts)
+
+    steerings = list(during) if isinstance(during, Sequence) else [during]
+    runs = [(daemon, steering) for steering in steerings]
+    results, console, _ = _on_simulated_clock(server, runs, trace=False)
+    (tmp_path / "serve.log").write_text(console.text(), encoding="utf-8")
+    codes = [int(code) for code, _ in results]
+    return SimulatedService(codes, console.text(), run_root, server, [s for _, s in results])
