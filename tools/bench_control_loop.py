@@ -556,7 +556,13 @@ async def run_daemon_side(
     from helixd.recorder.rundir import RunRecorder
     from helixd.recorder.summary import SummaryBuilder
     from helixd.runtime.display import ProgressDisplay
-    from helixd.runtime.flight import MANUAL_MODE, FlightLoop, PoseRejectedReport, StepReport
+    from helixd.runtime.flight import (
+        MANUAL_MODE,
+        FlightHooks,
+        FlightLoop,
+        PoseRejectedReport,
+        StepReport,
+    )
     from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
     from helixd.runtime.signals import StopRequest
 
@@ -648,10 +654,7 @@ async def run_daemon_side(
             sink=sink,
             stop=stop,
             start_ned=start_ned,
-            on_step=on_step,
-            on_pose_rejected=on_pose_rejected,
-            on_arrival=on_arrival,
-            on_tick=on_tick,
+            hooks=FlightHooks(on_step, on_pose_rejected, on_arrival, on_tick),
         )
         task = asyncio.create_task(flight.run(), name="flight")
         await asyncio.wait({task}, timeout=warmup_s)  # warm-up: a timed wait, not a sync

@@ -20,11 +20,25 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 
-from helixd.config import ChannelConfig
+from helixd.config import ActuationConfig, ChannelConfig, VehicleConfig
 from helixd.mav.constants import UINT16_MAX
 
 RC_OVERRIDE_CHANNELS = 18
 FIRST_EXTENDED_CHANNEL = 9  # channels 9..18 use the second set of semantics
+
+
+class ChannelSink:
+    """What the RC-override and the DO_SET_SERVO sinks share: the four scroll channels
+    (``actuation.channels``), their neutral PWM, the output clamp, and the PWM last commanded
+    (neutral until the first command)."""
+
+    def __init__(self, actuation: ActuationConfig, vehicle: VehicleConfig) -> None:
+        self._cfg = actuation
+        self._clamp = vehicle.output_clamp
+        self._channels = tuple(actuation.channels)
+        n = [neutral_pwm(c) for c in self._channels]
+        self._neutral: tuple[int, int, int, int] = (n[0], n[1], n[2], n[3])
+        self.last_pwm_us: tuple[int, int, int, int] = self._neutral
 
 
 def neutral_pwm(ch: ChannelConfig) -> int:

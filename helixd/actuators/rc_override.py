@@ -29,9 +29,9 @@ import structlog
 
 from helixd.actuators.base import checked_fractions
 from helixd.actuators.mapping import (
+    ChannelSink,
     fraction_to_pwm,
     frame_at,
-    neutral_pwm,
     override_slots,
     release_frame,
 )
@@ -45,18 +45,13 @@ class OverrideSender(Protocol):
     def send_rc_override(self, channels_us: Sequence[int]) -> None: ...
 
 
-class RcOverrideSink:
+class RcOverrideSink(ChannelSink):
     def __init__(
         self, actuation: ActuationConfig, vehicle: VehicleConfig, ap: OverrideSender
     ) -> None:
-        self._cfg = actuation
-        self._clamp = vehicle.output_clamp
+        super().__init__(actuation, vehicle)
         self._ap = ap
-        self._channels = tuple(actuation.channels)
         self._slots = override_slots(c.channel for c in self._channels)  # checked once
-        neutral = tuple(neutral_pwm(c) for c in self._channels)
-        self._neutral: tuple[int, int, int, int] = (neutral[0], neutral[1], neutral[2], neutral[3])
-        self.last_pwm_us: tuple[int, int, int, int] = self._neutral
         self.held_channels: frozenset[int] = frozenset()
         self.frames_sent = 0
         self._frame: tuple[int, ...] | None = None

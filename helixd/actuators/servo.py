@@ -36,7 +36,7 @@ from typing import Protocol
 import structlog
 
 from helixd.actuators.base import ServoCommandRefused, checked_fractions
-from helixd.actuators.mapping import fraction_to_pwm, neutral_pwm
+from helixd.actuators.mapping import ChannelSink, fraction_to_pwm
 from helixd.base.clock import now_s
 from helixd.config import ActuationConfig, VehicleConfig
 from helixd.link.command_client import CommandRejected, CommandTimeout
@@ -63,19 +63,15 @@ def _four(values: Sequence[int]) -> tuple[int, int, int, int]:
     return (values[0], values[1], values[2], values[3])
 
 
-class ServoSink:
+class ServoSink(ChannelSink):
     def __init__(
         self, actuation: ActuationConfig, vehicle: VehicleConfig, ap: ServoCommandSender
     ) -> None:
-        self._cfg = actuation
-        self._clamp = vehicle.output_clamp
+        super().__init__(actuation, vehicle)
         self._ap = ap
-        self._channels = tuple(actuation.channels)
-        self._neutral = _four([neutral_pwm(c) for c in self._channels])
         self._desired: list[int] = list(self._neutral)
         self._acked: list[int | None] = [None] * len(self._channels)
         self._sent_s: list[float] = [-float("inf")] * len(self._channels)  # monotonic
-        self.last_pwm_us: tuple[int, int, int, int] = self._neutral
         self.fault: ServoCommandRefused | None = None
         self._wake = asyncio.Event()
         self._task: asyncio.Task[None] | None = None

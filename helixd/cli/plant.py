@@ -11,7 +11,6 @@ then SITL::
 
 from __future__ import annotations
 
-import math
 import signal
 import socket
 import threading
@@ -24,6 +23,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import fail
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, load_yaml_model
+from helixd.mission.placed import parse_latlon
 from helixd.sim.json_server import PlantStats, open_socket, serve_plant
 from helixd.sim.sim_config import SimConfig, Terrain
 
@@ -37,12 +37,9 @@ def parse_home(text: str) -> tuple[float, float]:
     if len(parts) not in (2, 4):
         raise ValueError(f"--home {text!r}: expected LAT,LON or LAT,LON,ALT,YAW (SITL's)")
     try:
-        lat, lon = float(parts[0]), float(parts[1])
-    except ValueError:
-        raise ValueError(f"--home {text!r}: LAT and LON must be numbers") from None
-    if not (math.isfinite(lat) and math.isfinite(lon) and -90 <= lat <= 90 and -180 <= lon <= 180):
-        raise ValueError(f"--home {text!r}: LAT in -90..90 and LON in -180..180")
-    return lat, lon
+        return parse_latlon(",".join(parts[:2]))
+    except ValueError as exc:  # the reason, for the whole --home value
+        raise ValueError(f"--home {text!r}: {str(exc).split(': ', 1)[-1]}") from None
 
 
 def plant_config(

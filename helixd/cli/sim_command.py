@@ -110,45 +110,70 @@ def _sim_config(config: Path | None, updates: dict[str, object]) -> SimConfig:
         raise typer.Exit(int(ExitCode.USAGE)) from None
 
 
+ListenOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--listen",
+        "-l",
+        help="MAVLink link: udpin:HOST:PORT, udpout:HOST:PORT or tcpin:HOST:PORT "
+        "(repeatable; default tcpin:127.0.0.1:5760 and udpout:127.0.0.1:14550)",
+    ),
+]
+PlantOpt = Annotated[
+    Plant | None,
+    typer.Option(
+        "--plant",
+        help="vehicle model: helix (scrolls) or sitl_skid (ArduPilot SITL rover-skid: "
+        "outputs 1/3 = left/right motor)",
+    ),
+]
+SpeedupOpt = Annotated[
+    float | None,
+    typer.Option(
+        "--speedup",
+        min=SPEEDUP_MIN,
+        max=SPEEDUP_MAX,
+        help="simulated seconds per wall second (as run --sim-speedup)",
+    ),
+]
+FaultOpt = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--fault",
+        help="NAME@SECONDS[:key=value,...] in simulated time (repeatable), e.g. "
+        "rc_loss@30:duration_s=5",
+    ),
+]
+MediaOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--media",
+        help="media map (GeoJSON or KML: hard, grass, sand, mud, water areas): the world's "
+        "media by place, each scroll in the medium under it; --terrain outside",
+    ),
+]
+StateDirOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--state-dir",
+        file_okay=False,
+        help="the autopilot's working directory, kept across restarts as SITL's: "
+        "scripts/ (an installed helixd-guard) and the parameters set (SCR_ENABLE, "
+        "HXG_*); default: a fresh temporary directory each start, so a restarted "
+        "simulator forgets an installed guard",
+    ),
+]
+
+
 def sim_command(
-    listen: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--listen",
-            "-l",
-            help="MAVLink link: udpin:HOST:PORT, udpout:HOST:PORT or tcpin:HOST:PORT "
-            "(repeatable; default tcpin:127.0.0.1:5760 and udpout:127.0.0.1:14550)",
-        ),
-    ] = None,
-    plant: Annotated[
-        Plant | None,
-        typer.Option(
-            "--plant",
-            help="vehicle model: helix (scrolls) or sitl_skid (ArduPilot SITL rover-skid: "
-            "outputs 1/3 = left/right motor)",
-        ),
-    ] = None,
+    listen: ListenOpt = None,
+    plant: PlantOpt = None,
     terrain: Annotated[
         Terrain | None, typer.Option("--terrain", help="ground under the rover")
     ] = None,
     noise: Annotated[NoiseLevel | None, typer.Option("--noise", help="pose noise preset")] = None,
-    speedup: Annotated[
-        float | None,
-        typer.Option(
-            "--speedup",
-            min=SPEEDUP_MIN,
-            max=SPEEDUP_MAX,
-            help="simulated seconds per wall second (as run --sim-speedup)",
-        ),
-    ] = None,
-    fault: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--fault",
-            help="NAME@SECONDS[:key=value,...] in simulated time (repeatable), e.g. "
-            "rc_loss@30:duration_s=5",
-        ),
-    ] = None,
+    speedup: SpeedupOpt = None,
+    fault: FaultOpt = None,
     duration: Annotated[
         float | None, typer.Option("--duration", help="stop after this many simulated s")
     ] = None,
@@ -156,25 +181,8 @@ def sim_command(
     config: Annotated[
         Path | None, typer.Option("--config", "-c", help="simulator YAML (SimConfig keys)")
     ] = None,
-    media: Annotated[
-        Path | None,
-        typer.Option(
-            "--media",
-            help="media map (GeoJSON or KML: hard, grass, sand, mud, water areas): the world's "
-            "media by place, each scroll in the medium under it; --terrain outside",
-        ),
-    ] = None,
-    state_dir: Annotated[
-        Path | None,
-        typer.Option(
-            "--state-dir",
-            file_okay=False,
-            help="the autopilot's working directory, kept across restarts as SITL's: "
-            "scripts/ (an installed helixd-guard) and the parameters set (SCR_ENABLE, "
-            "HXG_*); default: a fresh temporary directory each start, so a restarted "
-            "simulator forgets an installed guard",
-        ),
-    ] = None,
+    media: MediaOpt = None,
+    state_dir: StateDirOpt = None,
 ) -> None:
     """Run the built-in ArduPilot Rover simulator (QGroundControl/MAVProxy can connect)."""
     given = (

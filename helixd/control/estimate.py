@@ -255,13 +255,7 @@ class _Line:
         self.floor = max(control.min_speed_mps, SPEED_FLOOR_MPS)
         self.brake = control.braking_accel_mps2
         wps = plan.waypoints
-        corners = line.plan_corners(
-            path.points,
-            [w.tolerance_m for w in wps],
-            [w.final_yaw_rad is not None or w.stop for w in wps],
-            plan.peak_speed_mps,
-            control,
-        )
+        corners = line.waypoint_corners(path.points, wps, plan.peak_speed_mps, control)
         self.speeds, self.stops, self.arcs = corners.speeds_mps, corners.stops, corners.arcs
         n = len(wps)
         tangent = [0.0 if a is None else a.tangent_m for a in self.arcs]

@@ -28,10 +28,12 @@ Total: non-finite geometry raises :class:`NonFiniteError`; speed/rate helpers re
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from helixd.base.angles import shortest_angular_distance, wrap_pi
 from helixd.base.geometry import Pose2D, require_finite
+from helixd.base.plan import PlanWaypoint
 from helixd.control.params import NavigatorParams
 
 MIN_LEG_M = 1e-6  # shorter legs have no direction: they are flown as a point
@@ -325,6 +327,19 @@ class CornerPlan:
     speeds_mps: list[float]
     stops: list[bool]
     early_m: list[float]
+
+
+def waypoint_corners(
+    points_xy_m: list[tuple[float, float]],
+    waypoints: Sequence[PlanWaypoint],
+    peak_speed_mps: float,
+    control: NavigatorParams,
+) -> CornerPlan:
+    """:func:`plan_corners` of a plan's ``waypoints`` (``points_xy_m``: the start, then
+    theirs): each one's tolerance, a stop where a final heading or a hold follows."""
+    tolerances_m = [w.tolerance_m for w in waypoints]
+    stop_at = [w.final_yaw_rad is not None or w.stop for w in waypoints]
+    return plan_corners(points_xy_m, tolerances_m, stop_at, peak_speed_mps, control)
 
 
 def plan_corners(

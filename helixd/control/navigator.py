@@ -320,13 +320,7 @@ class Navigator:
         wps = self.plan.waypoints
         cfg = self.control
         self._points_xy_m = [self._leg_start(pose)] + [(w.x_m, w.y_m) for w in wps]
-        corners = line.plan_corners(
-            self._points_xy_m,
-            [w.tolerance_m for w in wps],
-            [w.final_yaw_rad is not None or w.stop for w in wps],
-            self._peak_speed_mps,
-            cfg,
-        )
+        corners = line.waypoint_corners(self._points_xy_m, wps, self._peak_speed_mps, cfg)
         self._arcs = corners.arcs
         self._pass_speed_mps, self._stops = corners.speeds_mps, corners.stops
         self._early_m = corners.early_m

@@ -39,6 +39,7 @@ from helixd.base.frames import latlon_to_ne
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium, Ring
 from helixd.base.polygon import MIN_POLYGON_AREA_M2, signed_area_m2
 from helixd.files.jsonio import JsonTextError, load_json_text
+from helixd.files.kml import KmlRefused, kml_root, local_name
 from helixd.files.yamlio import YamlFileError, clip, clip_line, read_text_capped
 
 MAX_MEDIA_FILE_BYTES = 8 * 1024 * 1024
@@ -263,10 +264,6 @@ def media_map_from_text(text: str, src: str) -> MediaMap:
     return media_map_from_obj(raw, src)
 
 
-def _local(tag: str) -> str:
-    return tag.rsplit("}", 1)[-1]
-
-
 def _kml_ring(text: str | None) -> list[Any]:
     """``lon,lat[,alt]`` tuples → GeoJSON positions; a token that is not one is kept as its
     text, for the GeoJSON checks to name."""
@@ -284,10 +281,10 @@ def _kml_ring(text: str | None) -> list[Any]:
 
 def _kml_medium(placemark: ET.Element) -> Any:
     for el in placemark.iter():
-        if _local(el.tag) == "Data" and el.get("name") == "medium":
-            value = next((c.text for c in el if _local(c.tag) == "value"), None)
+        if local_name(el.tag) == "Data" and el.get("name") == "medium":
+            value = next((c.text for c in el if local_name(c.tag) == "value"), None)
             return (value or "").strip()
-        if _local(el.tag) == "SimpleData" and el.get("name") == "medium":
+        if local_name(el.tag) == "SimpleData" and el.get("name") == "medium":
             return (el.text or "").strip()
     return None
 
@@ -296,10 +293,10 @@ def _kml_polygon(polygon: ET.Element) -> list[Any]:
     outer: list[Any] = []
     holes: list[Any] = []
     for child in polygon:
-        name = _local(child.tag)
+        name = local_name(child.tag)
         if name not in ("outerBoundaryIs", "innerBoundaryIs"):
             continue
-        coords = next((el.text for el in child.iter() if _local(el.tag) == "coordinates"), None)
+        coords = next((el.text for el in child.iter() if local_name(el.tag) == "coordinates"), None)
         (outer if name == "outerBoundaryIs" else holes).append(_kml_ring(coords))
     return outer[:1] + holes if len(outer) == 1 else []
 
@@ -310,18 +307,15 @@ def media_map_from_kml(text: str, src: str) -> MediaMap:
     ``<ExtendedData>`` (``<Data name="medium"><value>water</value></Data>`` or a
     ``<SimpleData name="medium">``). DOCTYPE and entity declarations are refused before
     parsing (no entity expansion can happen). Problems name ``Placemark N`` (from 0)."""
-    head = text[:4096].upper()
-    if "<!DOCTYPE" in head or "<!ENTITY" in text.upper():
-        raise MediaMapError([f"{src}: DOCTYPE/ENTITY declarations are not allowed in a KML file"])
     try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise MediaMapError([f"{src}: not valid XML: {exc}"]) from None
+        root = kml_root(text, src)
+    except KmlRefused as exc:
+        raise MediaMapError([str(exc)]) from None
     features: list[Any] = []
-    for placemark in (el for el in root.iter() if _local(el.tag) == "Placemark"):
+    for placemark in (el for el in root.iter() if local_name(el.tag) == "Placemark"):
         if len(features) > MAX_FEATURES:
             break
-        polygons = [_kml_polygon(el) for el in placemark.iter() if _local(el.tag) == "Polygon"]
+        polygons = [_kml_polygon(el) for el in placemark.iter() if local_name(el.tag) == "Polygon"]
         features.append(
             {
                 "type": "Feature",

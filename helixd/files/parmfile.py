@@ -15,18 +15,17 @@ from collections.abc import Mapping
 from pathlib import Path
 from types import MappingProxyType
 
+from helixd.base.problems import Problems
 from helixd.files.yamlio import clip
 
 MAX_FILE_BYTES = 1_000_000  # a full Rover parameter dump is about 30 kB
 PARAM_NAME = re.compile(r"[A-Z][A-Z0-9_]{0,15}")  # AP_MAX_NAME_SIZE 16
 
 
-class ParmFileError(ValueError):
+class ParmFileError(Problems, ValueError):
     """The file cannot be used; ``problems`` holds one line per problem."""
 
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("; ".join(problems))
+    joiner = "; "
 
 
 def parse_parm(text: str, source: str) -> Mapping[str, float]:

@@ -7,7 +7,7 @@ the rover.
 from __future__ import annotations
 
 import asyncio
-from collections.abc import Collection, Sequence
+from collections.abc import Callable, Sequence
 
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -32,7 +32,6 @@ from helixd.mav.constants import (
     MAV_CMD_DO_SET_MODE,
     MAV_CMD_REQUEST_MESSAGE,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-    MAV_RESULT_ACCEPTED,
     MAVLINK_MSG_ID_HOME_POSITION,
     UINT16_MAX,
 )
@@ -57,20 +56,11 @@ class Action:
     ) -> None:
         self._cfg = cfg
         self._state = state
-        self._commands = commands
         self._waiters = waiters
         self._conn = conn
-
-    async def command_long(
-        self,
-        command: int,
-        params: Sequence[float],
-        timeout_s: float | None = None,
-        retries: int | None = None,
-        ok_results: Collection[int] = (MAV_RESULT_ACCEPTED,),
-    ) -> int:
-        """MAV_RESULT (one of ``ok_results``); CommandRejected / CommandTimeout otherwise."""
-        return await self._commands.exchange(command, params, timeout_s, retries, ok_results)
+        # COMMAND_LONG with its retries: the MAV_RESULT (one of ``ok_results``), else
+        # CommandRejected / CommandTimeout (:meth:`CommandClient.exchange`)
+        self.command_long = commands.exchange
 
     async def arm(self, force: bool = False) -> None:
         """Arm with every PreArm check. ``force`` (``startup.force_arm``) is the explicit
@@ -177,32 +167,45 @@ class Action:
 
     async def request_gps_origin(self, timeout_s: float) -> tuple[float, float] | None:
         """(lat_deg, lon_deg) of the EKF origin via MAV_CMD_REQUEST_MESSAGE; None if none."""
-        since = now_s()
         msg_id = int(mavlink.MAVLINK_MSG_ID_GPS_GLOBAL_ORIGIN)
-        try:
-            async with asyncio.timeout(timeout_s):
-                await self.command_long(MAV_CMD_REQUEST_MESSAGE, (msg_id,))
-                st = self._state
-                while st.gps_origin_rx_s is None or st.gps_origin_rx_s < since:
-                    await self._waiters.wait(Change.GPS_ORIGIN, timeout_s)
-                return st.gps_origin
-        except (TimeoutError, CommandError) as exc:
-            log.warning("gps_origin_unavailable", error=str(exc) or "timeout")
-            return None
+
+        def rx_s(st: VehicleState) -> float | None:
+            return st.gps_origin_rx_s
+
+        got = await self._requested(msg_id, Change.GPS_ORIGIN, rx_s, timeout_s, "gps_origin")
+        return None if got is None else self._state.gps_origin
 
     async def request_home(self, timeout_s: float) -> HomePosition | None:
         """The autopilot's home (HOME_POSITION) via MAV_CMD_REQUEST_MESSAGE, fresher than the
         request; None if it sent none in time (ArduPilot refuses while home is not set)."""
+
+        def rx_s(st: VehicleState) -> float | None:
+            return st.home_rx_s
+
+        msg_id = MAVLINK_MSG_ID_HOME_POSITION
+        got = await self._requested(msg_id, Change.HOME, rx_s, timeout_s, "home_position")
+        return None if got is None else self._state.home
+
+    async def _requested(
+        self,
+        msg_id: int,
+        change: int,
+        rx_of: Callable[[VehicleState], float | None],
+        timeout_s: float,
+        what: str,
+    ) -> float | None:
+        """Ask for message ``msg_id`` (MAV_CMD_REQUEST_MESSAGE) and wait for one received after
+        the request (``change`` of the vehicle state; ``rx_of``: when the last arrived): when
+        it arrived, None if none came in time (logged ``{what}_unavailable``)."""
         since = now_s()
         try:
             async with asyncio.timeout(timeout_s):
-                await self.command_long(MAV_CMD_REQUEST_MESSAGE, (MAVLINK_MSG_ID_HOME_POSITION,))
-                st = self._state
-                while st.home_rx_s is None or st.home_rx_s < since:
-                    await self._waiters.wait(Change.HOME, timeout_s)
-                return st.home
+                await self.command_long(MAV_CMD_REQUEST_MESSAGE, (msg_id,))
+                while (rx_s := rx_of(self._state)) is None or rx_s < since:
+                    await self._waiters.wait(change, timeout_s)
+                return rx_s
         except (TimeoutError, CommandError) as exc:
-            log.warning("home_position_unavailable", error=str(exc) or "timeout")
+            log.warning(f"{what}_unavailable", error=str(exc) or "timeout")
             return None
 
     def send_rc_override(self, channels_us: Sequence[int]) -> None:

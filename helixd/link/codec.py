@@ -239,12 +239,7 @@ class MavlinkConnection:
         )
 
     def send(self, msg: MavMsg) -> bool:
-        if self.never_send and int(msg.get_msgId()) in self.never_send:
-            raise NeverSent(f"this link never sends {msg.get_type()}")
-        mav = self.mav
-        buf = msg.pack(mav)
-        mav.seq = (mav.seq + 1) % 256
-        return self._write(bytes(buf))
+        return self._send_from(self.mav, msg)
 
     def send_as_vehicle(self, msg: MavMsg) -> bool:
         """Send ``msg`` from our component of the autopilot's system (``link.vehicle_component``:
@@ -252,9 +247,12 @@ class MavlinkConnection:
         the link is. False when the transport dropped it or the identity is off."""
         if not self.cfg.vehicle_component:
             return False
+        return self._send_from(self.vehicle_mav, msg)
+
+    def _send_from(self, mav: Any, msg: MavMsg) -> bool:
+        """Pack ``msg`` with the identity and sequence of ``mav`` and send it."""
         if self.never_send and int(msg.get_msgId()) in self.never_send:
             raise NeverSent(f"this link never sends {msg.get_type()}")
-        mav = self.vehicle_mav
         buf = msg.pack(mav)
         mav.seq = (mav.seq + 1) % 256
         return self._write(bytes(buf))

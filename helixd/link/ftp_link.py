@@ -13,12 +13,11 @@ to ``link.target_system`` / ``link.target_component`` with target_network 0.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any, Protocol, TypeVar
 
 from helixd.config import LinkConfig
 from helixd.link.ftp_transfer import FtpExchange, run_ftp
-from helixd.link.inbox import Inbox
+from helixd.link.inbox import Inbox, ListenerHost, Listening
 from helixd.mav.ftp_wire import FtpPayload, FtpPayloadError, from_message, to_message
 
 __all__ = ["AutopilotFtpLink", "FtpClient", "FtpHost"]
@@ -28,24 +27,22 @@ QUEUE_MAX = 64  # one request is outstanding; a burst or duplicates are all that
 E = TypeVar("E", bound=FtpExchange)
 
 
-class FtpHost(Protocol):
+class FtpHost(ListenerHost, Protocol):
     """What the adapter needs of the Autopilot facade."""
 
     cfg: LinkConfig
 
-    def add_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None: ...
-
-    def remove_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None: ...
-
     def send_message(self, msg: MavMsg) -> bool: ...
 
 
-class AutopilotFtpLink:
+class AutopilotFtpLink(Listening):
     """``send(payload)`` / ``async recv(timeout_s)`` over the Autopilot; use as a context
     manager so the listener is removed after the exchange."""
 
+    _host: FtpHost
+
     def __init__(self, host: FtpHost) -> None:
-        self._host = host
+        super().__init__(host)
         cfg = host.cfg
         self._ours = (cfg.source_system, cfg.source_component)
         self._theirs = (cfg.target_system, cfg.target_component)
@@ -70,13 +67,6 @@ class AutopilotFtpLink:
             self.ignored += 1
             return
         self._inbox.put(payload)
-
-    def __enter__(self) -> AutopilotFtpLink:
-        self._host.add_message_listener(self._put)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self._host.remove_message_listener(self._put)
 
     def send(self, payload: bytes) -> None:
         msg = to_message(FtpPayload.unpack(payload), *self._theirs)

@@ -52,6 +52,7 @@ from enum import Enum
 from typing import Protocol, TypeVar
 
 from helixd.base.clock import now_s
+from helixd.link.inbox import drive
 from helixd.mav.ftp_wire import (
     MAX_DATA_LEN,
     FtpErr,
@@ -390,17 +391,7 @@ class DirectoryProbe(FtpExchange):
     without error."""
 
     what = "listing"
-
-    def __init__(
-        self,
-        path: str,
-        *,
-        reply_timeout_s: float = DEFAULT_REPLY_TIMEOUT_S,
-        retries: int = DEFAULT_RETRIES,
-        session: int = 1,
-    ) -> None:
-        super().__init__(path, reply_timeout_s=reply_timeout_s, retries=retries, session=session)
-        self.exists: bool | None = None
+    exists: bool | None = None  # the answer, once done without error
 
     def _first(self, now_s: float) -> list[bytes]:
         self._started = True
@@ -436,16 +427,5 @@ E = TypeVar("E", bound=FtpExchange)
 
 async def run_ftp(exchange: E, link: FtpLink, clock: Callable[[], float] = now_s) -> E:
     """Drive ``exchange`` over ``link`` until it ends; raises its error if it failed."""
-    for first in exchange.start(clock()):
-        link.send(first)
-    while not exchange.done:
-        wait_s = max(0.0, exchange.deadline_s - clock())
-        payload = await link.recv(wait_s)
-        t = clock()
-        out = exchange.on_reply(payload, t) if payload is not None else []
-        out += exchange.on_time(t)
-        for request in out:
-            link.send(request)
-    if exchange.error is not None:
-        raise exchange.error
+    await drive(exchange, link.send, link.recv, exchange.on_reply, clock)
     return exchange

@@ -18,7 +18,7 @@ from typing import Any, Protocol
 import structlog
 
 from helixd.config import LinkConfig
-from helixd.link.inbox import Inbox
+from helixd.link.inbox import Inbox, ListenerHost, Listening
 from helixd.link.mission_transfer import (
     MissionDownload,
     MissionTransferError,
@@ -52,22 +52,18 @@ TEXTS_KEPT = 16
 TEXT_MAX_CHARS = 200
 
 
-class MissionHost(Protocol):
+class MissionHost(ListenerHost, Protocol):
     """What the adapter needs of the Autopilot facade."""
 
     cfg: LinkConfig
 
-    def add_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None: ...
 
-    def remove_message_listener(self, callback: Callable[[MavMsg, float], None]) -> None: ...
-
-
-class AutopilotMissionLink:
+class AutopilotMissionLink(Listening):
     """``send`` / ``async recv(timeout_s)`` over the Autopilot; use as a context manager so
     the listener is removed after the transfer."""
 
     def __init__(self, host: MissionHost, send: Callable[[MavMsg], bool]) -> None:
-        self._host = host
+        super().__init__(host)
         self._send = send
         self._inbox: Inbox[MavMsg] = Inbox(QUEUE_MAX)
         self.texts: list[str] = []  # the vehicle's warnings (and worse) during the transfer
@@ -105,13 +101,6 @@ class AutopilotMissionLink:
             except TimeoutError:
                 return None
         return self.texts[since] if len(self.texts) > since else None
-
-    def __enter__(self) -> AutopilotMissionLink:
-        self._host.add_message_listener(self._put)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self._host.remove_message_listener(self._put)
 
     def send(self, msg: MavMsg) -> None:
         self._send(msg)
@@ -162,27 +151,28 @@ class MissionClient:
     async def download(self, fence: bool = True) -> Downloaded:
         """The autopilot's mission (seq 0 = home) and, if ``fence``, its fence; raises
         :class:`helixd.link.mission_transfer.MissionTransferError`."""
-        ids = _ids(self._host.cfg)
         with AutopilotMissionLink(self._host, self._send) as link:
-            grace_s = self._host.cfg.statustext_grace_s
-            m = await transfer(link, MissionDownload(MAV_MISSION_TYPE_MISSION, **ids), grace_s)
-            log.info("mission_downloaded", mission_type="mission", items=len(m.items))
-            f_items: tuple[MissionItem, ...] = ()
-            if fence:
-                f = await transfer(link, MissionDownload(MAV_MISSION_TYPE_FENCE, **ids), grace_s)
-                f_items = f.items
-                log.info("mission_downloaded", mission_type="fence", items=len(f_items))
-        return Downloaded(m.items, f_items)
+            m_items = await self._download(link, MAV_MISSION_TYPE_MISSION)
+            f_items = await self._download(link, MAV_MISSION_TYPE_FENCE) if fence else ()
+        return Downloaded(m_items, f_items)
 
     async def download_fence(self) -> tuple[MissionItem, ...]:
         """The autopilot's fence items only; raises
         :class:`helixd.link.mission_transfer.MissionTransferError`."""
-        ids = _ids(self._host.cfg)
         with AutopilotMissionLink(self._host, self._send) as link:
-            grace_s = self._host.cfg.statustext_grace_s
-            f = await transfer(link, MissionDownload(MAV_MISSION_TYPE_FENCE, **ids), grace_s)
-        log.info("mission_downloaded", mission_type="fence", items=len(f.items))
-        return f.items
+            return await self._download(link, MAV_MISSION_TYPE_FENCE)
+
+    async def _download(
+        self, link: AutopilotMissionLink, mission_type: int
+    ) -> tuple[MissionItem, ...]:
+        """The autopilot's items of ``mission_type`` over ``link``."""
+        cfg = self._host.cfg
+        got = await transfer(
+            link, MissionDownload(mission_type, **_ids(cfg)), cfg.statustext_grace_s
+        )
+        kind = TYPE_NAMES.get(mission_type, "mission")
+        log.info("mission_downloaded", mission_type=kind, items=len(got.items))
+        return got.items
 
     async def upload(
         self, mission: tuple[MissionItem, ...], fence: tuple[MissionItem, ...] | None

@@ -36,6 +36,8 @@ import os
 from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
+from helixd.link.inbox import drive
+
 os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -114,6 +116,10 @@ class Transfer:
         self.resends = 0  # total re-sends on timeout (for tests and logs)
         self._tries = 0
         self._last: list[Any] = []
+        self._fresh()
+
+    def _fresh(self) -> None:
+        """A subclass's own state, set up at the end of ``__init__``."""
 
     def _ours(self, msg: Any) -> bool:
         if self.done:
@@ -247,19 +253,8 @@ class MissionUpload(Transfer):
 class MissionDownload(Transfer):
     """Read the vehicle's items of ``mission_type``; ``items`` holds them when ``done``."""
 
-    def __init__(
-        self,
-        mission_type: int,
-        target_system: int,
-        target_component: int,
-        item_timeout_s: float,
-        retries: int,
-        own_ids: tuple[int, int] | None = None,
-    ) -> None:
-        super().__init__(
-            mission_type, target_system, target_component, item_timeout_s, retries, own_ids
-        )
-        self.count: int | None = None
+    def _fresh(self) -> None:
+        self.count: int | None = None  # the vehicle's MISSION_COUNT, once heard
         self.received: list[MissionItem] = []
 
     @property
@@ -334,17 +329,5 @@ async def run_transfer(
     clock: Callable[[], float] = now_s,
 ) -> MissionUpload | MissionDownload:
     """Drive ``transfer`` over ``link`` until it ends; raises its error if it failed."""
-    now = clock
-    for msg in transfer.start(now()):
-        link.send(msg)
-    while not transfer.done:
-        wait_s = max(0.0, transfer.deadline_s - now())
-        msg = await link.recv(wait_s)
-        t = now()
-        out = transfer.on_message(msg, t) if msg is not None else []
-        out += transfer.on_time(t)
-        for reply in out:
-            link.send(reply)
-    if transfer.error is not None:
-        raise transfer.error
+    await drive(transfer, link.send, link.recv, transfer.on_message, clock)
     return transfer

@@ -69,7 +69,7 @@ sent), the payload commands are sent to the autopilot at their place.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 
 from helixd.base.plan import (
@@ -810,17 +810,11 @@ def jumps_when_current(
     (its ``first_item`` and ``jumps_taken``): where the autopilot's AUTO went on to while
     helixd flew that step. Empty when the walk does not reach ``item`` within
     ``MAX_SCAN`` steps after ``step``. The walk's order does not depend on the places."""
-    cmds = [_Cmd(i + 1, wp, None, None) for i, wp in enumerate(entries)]
-    walker = _Walker(cmds)
-    walker.runs = dict(options.jumps_taken)
-    first = min(max(options.first_item, 1), len(cmds))
-    nav, _, _ = walker.advance_nav(None if first <= 1 else first - 1, _starts)
-    n = 1
-    while nav is not None and n <= step + MAX_SCAN:
-        if n >= step and nav.index == item:
-            return tuple(sorted((i, r) for i, r in walker.runs.items() if r > 0))
-        nav, _, _ = walker.advance_nav(nav.index, _starts)
-        n += 1
+    for n, nav_index, walker in _walk(entries, options):
+        if n > step + MAX_SCAN:
+            break
+        if n >= step and nav_index == item:
+            return _counters(walker)
     return ()
 
 
@@ -832,18 +826,34 @@ def walk_at_step(
     item is current. A *set current waypoint* (``set_current_cmd``) and a resume keep those
     counters, so a walk started at another item from there starts with them. None when the
     walk ends before that step."""
+    if step < 1:
+        return None
+    for n, nav_index, walker in _walk(entries, options):
+        if n == step:
+            return nav_index, _counters(walker)
+    return None
+
+
+def _walk(
+    entries: Sequence[WaypointSpec], options: ExpandOptions
+) -> Iterator[tuple[int, int, _Walker]]:
+    """The walk ``options`` starts (its ``first_item`` and ``jumps_taken``), step by step:
+    (step, 1-based; its navigation item; the walker, its jump counters as they are then)."""
     cmds = [_Cmd(i + 1, wp, None, None) for i, wp in enumerate(entries)]
     walker = _Walker(cmds)
     walker.runs = dict(options.jumps_taken)
     first = min(max(options.first_item, 1), len(cmds))
     nav, _, _ = walker.advance_nav(None if first <= 1 else first - 1, _starts)
     n = 1
-    while nav is not None and n < step:
+    while nav is not None:
+        yield n, nav.index, walker
         nav, _, _ = walker.advance_nav(nav.index, _starts)
         n += 1
-    if nav is None or step < 1:
-        return None
-    return nav.index, tuple(sorted((i, r) for i, r in walker.runs.items() if r > 0))
+
+
+def _counters(walker: _Walker) -> tuple[tuple[int, int], ...]:
+    """The jump counters AP_Mission holds (the DO_JUMPs taken at least once)."""
+    return tuple(sorted((i, r) for i, r in walker.runs.items() if r > 0))
 
 
 def restart_at_step(

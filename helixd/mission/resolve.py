@@ -13,7 +13,9 @@ mission's home; ``run``: the rover's pose and the autopilot's HOME_POSITION).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import ParamSpec
 
 from helixd.base.angles import wrap_pi
 from helixd.base.frames import latlon_to_ne
@@ -24,6 +26,8 @@ from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH
 from helixd.mission.commands import FLY_ROLES
 from helixd.mission.expand import DEFAULT_OPTIONS, Context, ExpandOptions, expand
 from helixd.mission.model import Mission, WaypointSpec
+
+P = ParamSpec("P")
 
 XY = tuple[float, float]
 DEFAULT_TIME_LIMIT_S: float = SafetyConfig.model_fields["mission_time_limit_s"].default
@@ -93,23 +97,6 @@ def _check_range(xy: XY, limits: MissionLimits, what: str) -> None:
         )
 
 
-def resolve_plan(
-    mission: Mission,
-    control: ControlConfig,
-    limits: MissionLimits,
-    origin_latlon_deg: tuple[float, float] | None = None,
-    where: Where = NOWHERE,
-    options: ExpandOptions = DEFAULT_OPTIONS,
-    time_limit_s: float = DEFAULT_TIME_LIMIT_S,
-) -> Plan:
-    """Convert the file's waypoints into the mission frame used by the control core.
-
-    start frame: (x, y) as written.  local_ned/global: x = East, y = North (ENU), compass
-    headings converted to CCW-from-East.
-    """
-    return resolve(mission, control, limits, origin_latlon_deg, where, options, time_limit_s).plan
-
-
 def resolve(
     mission: Mission,
     control: ControlConfig,
@@ -119,9 +106,13 @@ def resolve(
     options: ExpandOptions = DEFAULT_OPTIONS,
     time_limit_s: float = DEFAULT_TIME_LIMIT_S,
 ) -> Resolved:
-    """:func:`resolve_plan`, with what the walk through a mission's commands found.
-    ``time_limit_s``: the config's ``safety.mission_time_limit_s`` (the mission's own
-    ``time_limit_s`` replaces it): how long a patrol (a DO_JUMP repeated forever) is planned."""
+    """Convert the file's waypoints into the mission frame used by the control core, with
+    what the walk through a mission's commands found (:func:`resolve_plan`: the plan alone).
+
+    start frame: (x, y) as written.  local_ned/global: x = East, y = North (ENU), compass
+    headings converted to CCW-from-East. ``time_limit_s``: the config's
+    ``safety.mission_time_limit_s`` (the mission's own ``time_limit_s`` replaces it): how
+    long a patrol (a DO_JUMP repeated forever) is planned."""
     frame = _MissionToPlane(mission, origin_latlon_deg)
     default_tol = mission.tolerance_m or control.waypoint_tolerance_m
     speed = min(mission.speed_mps or control.max_speed_mps, control.max_speed_mps)
@@ -211,6 +202,17 @@ def resolve(
             "home (HOME_POSITION, where it was armed)"
         )
     return Resolved(plan, tuple(got.problems), tuple(notes))
+
+
+def _plan_only(resolved: Callable[P, Resolved]) -> Callable[P, Plan]:
+    def plan(*args: P.args, **kwargs: P.kwargs) -> Plan:
+        return resolved(*args, **kwargs).plan
+
+    plan.__doc__ = ":func:`resolve`'s plan alone (same arguments)."
+    return plan
+
+
+resolve_plan = _plan_only(resolve)
 
 
 def places_from(frame: MissionFrameKind) -> str:

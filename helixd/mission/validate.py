@@ -28,6 +28,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import cached_property
+from typing import TypedDict, Unpack
 
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan, program_numbering
@@ -426,42 +429,85 @@ def servo_problems(mission: Mission, cfg: HelixdConfig) -> list[str]:
     return out
 
 
-def mission_problems(
-    mission: Mission,
-    cfg: HelixdConfig,
-    *,
-    start_ned: NedPose | None = None,
-    origin_latlon_deg: tuple[float, float] | None = None,
-    checked_plan: tuple[Plan, bool] | None = None,
-    options: ExpandOptions = DEFAULT_OPTIONS,
-    where: Where = NOWHERE,
-) -> list[str]:
-    """Everything that would make ``helixd run`` refuse or abort this mission with this
-    config; one line per problem naming the field or waypoint and the allowed range.
+class Placing(TypedDict, total=False):
+    """Where a mission is judged from (:func:`judge_mission`); each may be left out."""
 
-    ``checked_plan``: the result of :func:`plan_for_check` if the caller already has it."""
+    start_ned: NedPose | None  # the rover's pose (None: not known yet)
+    origin_latlon_deg: tuple[float, float] | None  # the EKF origin (None: not known yet)
+    checked_plan: tuple[Plan, bool] | None  # :func:`plan_for_check`'s, if the caller has it
+    options: ExpandOptions  # the walk through a mission's commands
+    where: Where  # where the mission's places are (home, place; NOWHERE: not known)
+
+
+@dataclass(frozen=True)
+class Judged:
+    """What :func:`judge_mission` found: the problems (one line each), and the config in force
+    for the mission as far as it is placed (:attr:`cfg`)."""
+
+    problems: list[str]
+    mission: Mission
+    given: HelixdConfig  # the config as loaded
+    start_ned: NedPose | None = None
+    origin_latlon_deg: tuple[float, float] | None = None
+
+    @cached_property
+    def cfg(self) -> HelixdConfig:
+        """The config with the mission's own fence, time limit and ground in force, placed
+        from the start pose and the EKF origin where they are known: the one place
+        :func:`apply_mission_limits` is applied."""
+        return apply_mission_limits(
+            self.given,
+            self.mission,
+            origin_latlon_deg=self.origin_latlon_deg,
+            start_ned=self.start_ned,
+        )
+
+
+def judge_mission(mission: Mission, cfg: HelixdConfig, **placing: Unpack[Placing]) -> Judged:
+    """Everything that would make ``helixd run`` refuse or abort this mission with this
+    config, and the config in force for it (:attr:`Judged.cfg`). One line per problem naming
+    the field or waypoint and the allowed range."""
+    start_ned = placing.get("start_ned")
+    judged = Judged([], mission, cfg, start_ned, placing.get("origin_latlon_deg"))
     try:
-        if checked_plan is not None and origin_latlon_deg is None:
-            plan, provisional = checked_plan
-        elif mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
-            plan = resolve_plan(
-                mission, cfg.control, cfg.mission, origin_latlon_deg, where, options,
-                cfg.safety.mission_time_limit_s,
-            )  # fmt: skip
-            provisional = False
-        elif where is not NOWHERE:
-            plan = resolve_plan(
-                mission, cfg.control, cfg.mission, None, where, options,
-                cfg.safety.mission_time_limit_s,
-            )  # fmt: skip
-            provisional = False
-        else:
-            plan, provisional = plan_for_check(mission, cfg, options)
+        plan, provisional = _plan_to_judge(mission, cfg, placing)
     except PlanError as exc:
-        return [str(exc)]
-    cfg = apply_mission_limits(
-        cfg, mission, origin_latlon_deg=origin_latlon_deg, start_ned=start_ned
-    )
+        judged.problems.append(str(exc))
+        return judged
+    judged.problems.extend(_placed_problems(mission, judged.cfg, plan, provisional, start_ned))
+    return judged
+
+
+def _plan_to_judge(mission: Mission, cfg: HelixdConfig, placing: Placing) -> tuple[Plan, bool]:
+    """The plan :func:`judge_mission` judges, and whether it is only provisional."""
+    origin_latlon_deg = placing.get("origin_latlon_deg")
+    checked_plan = placing.get("checked_plan")
+    options = placing.get("options", DEFAULT_OPTIONS)
+    where = placing.get("where", NOWHERE)
+    if checked_plan is not None and origin_latlon_deg is None:
+        return checked_plan
+    if mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
+        return resolve_plan(
+            mission, cfg.control, cfg.mission, origin_latlon_deg, where, options,
+            cfg.safety.mission_time_limit_s,
+        ), False  # fmt: skip
+    if where is not NOWHERE:
+        return resolve_plan(
+            mission, cfg.control, cfg.mission, None, where, options,
+            cfg.safety.mission_time_limit_s,
+        ), False  # fmt: skip
+    return plan_for_check(mission, cfg, options)
+
+
+def mission_problems(mission: Mission, cfg: HelixdConfig, **placing: Unpack[Placing]) -> list[str]:
+    """:func:`judge_mission`'s problems."""
+    return judge_mission(mission, cfg, **placing).problems
+
+
+def _placed_problems(
+    mission: Mission, cfg: HelixdConfig, plan: Plan, provisional: bool, start_ned: NedPose | None
+) -> list[str]:
+    """The checks of :func:`judge_mission` on the plan, with the mission's limits in ``cfg``."""
     ned = None if provisional else _ned_points(plan, start_ned, have_origin=True)
     problems = _radius_problems(plan, cfg, ned, start_ned)
     fence_name = (

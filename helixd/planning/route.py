@@ -19,6 +19,7 @@ import yaml
 
 from helixd.base.frames import ne_to_latlon
 from helixd.base.plan import MissionFrameKind
+from helixd.base.problems import Problems
 from helixd.config import HelixdConfig
 from helixd.mav.constants import MAV_CMD_DO_JUMP
 from helixd.mission.commands import stored_whole
@@ -35,12 +36,8 @@ from helixd.planning.obstacles import (
 from helixd.planning.search import grid_path, shortcut, turning_cells
 
 
-class PlanningError(ValueError):
+class PlanningError(Problems, ValueError):
     """The mission cannot be planned; ``problems`` holds one line each."""
-
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("\n".join(problems))
 
 
 @dataclass(frozen=True)

@@ -319,12 +319,7 @@ class RunRecorder:
 
     def _flush(self, now: float) -> None:
         self._last_flush_s = now
-        if self._csv is None:
-            return
-        try:
-            self._csv.flush()
-        except OSError as exc:
-            self._degrade(exc, self._csv_path, stage="flush")
+        if not self._flushed():
             return
         if self._syncer is not None:
             if self._syncer.error is not None:
@@ -371,13 +366,20 @@ class RunRecorder:
         )
         logging_setup.detach_events_file()
 
-    def _close_csv(self) -> None:
+    def _flushed(self) -> bool:
+        """flight.csv's buffer handed to the OS; False when there is no open flight.csv or the
+        flush failed (the recorder degraded)."""
         if self._csv is None:
-            return
+            return False
         try:
             self._csv.flush()
         except OSError as exc:
             self._degrade(exc, self._csv_path, stage="flush")
+            return False
+        return True
+
+    def _close_csv(self) -> None:
+        if not self._flushed():
             return
         syncer, self._syncer = self._syncer, None
         if syncer is not None and syncer.stop() and syncer.error is not None:
@@ -385,7 +387,8 @@ class RunRecorder:
             return
         csv, self._csv = self._csv, None
         try:
-            csv.close()
+            if csv is not None:
+                csv.close()
         except OSError as exc:
             self._degrade(exc, self._csv_path, stage="close")
 

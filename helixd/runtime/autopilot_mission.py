@@ -14,6 +14,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from helixd.base.plan import MotionMode
+from helixd.base.problems import Problems
 from helixd.config import HelixdConfig
 from helixd.files.models import format_validation_error
 from helixd.mav.mission_item import MissionItem
@@ -34,12 +35,10 @@ __all__ = [
 MISSION_NAME = "autopilot"
 
 
-class MissionRefused(Exception):
+class MissionRefused(Problems):
     """The autopilot's mission cannot be flown; one human line per problem."""
 
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("; ".join(problems))
+    joiner = "; "
 
 
 @dataclass(frozen=True)

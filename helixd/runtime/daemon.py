@@ -51,7 +51,6 @@ from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs
-from helixd.mission.validate import apply_mission_limits
 from helixd.recorder.retention import check_free_space, prune_runs
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
@@ -400,12 +399,12 @@ class MissionRunner:
             if self.host.start_gate:
                 async with phase("start_gate", self.notifier, self.display):
                     await start_gate(ap, cfg, stop, self.notifier)
-            if self.host.driving_mode == MANUAL_MODE:
+            if self.host.driving.mode == MANUAL_MODE:
                 async with phase("set_manual", self.notifier, self.display):
                     await until_stopped(stop, ap.action.set_mode(MANUAL_MODE))
                     await confirm_mode(ap, cfg, MANUAL_MODE)
             sink = held.sink if held.sink is not None else await start_sink(cfg, ap, held)
-            if self.host.driving_mode == MANUAL_MODE:
+            if self.host.driving.mode == MANUAL_MODE:
                 async with phase("arm", self.notifier, self.display):
                     self._warn(await until_stopped(stop, arm(ap, cfg, held, self.display.phase)))
                 self.gcs.phase("armed")
@@ -414,19 +413,17 @@ class MissionRunner:
                     [f"the autopilot is not armed (mode {ap.state.mode}): arm it first"]
                 )
             now = await fresh_pose(ap, cfg, stop)
-            start_ned = start_pose(checked, now, ap, cfg, self.opts.options)
-        plan = checked.plan
+            # checked again from where it starts: the mission's own geofence placed exactly
+            # (origin and start known), its time limit and ground in force
+            placed = start_pose(checked, now, ap, cfg, self.opts.options)
+        start_ned, plan = placed.start_ned, checked.plan
         if self.mission.has_commands():
             # from where the rover is now, to the home the autopilot set when it armed
             home = await autopilot_home(ap, cfg, self.mission, checked.origin, stop)
             args = (self.mission, cfg, checked.origin, start_ned, home or checked.home)
             plan, _ = resolve_flight(*args, self.opts.options)
-        # the mission's own geofence/time limit, now placed exactly (origin and start known)
-        limited = apply_mission_limits(
-            cfg, self.mission, origin_latlon_deg=checked.origin, start_ned=start_ned
-        )
         frame = mission_frame(self.mission, start_ned)
-        return Ready(ap, sink, plan, frame, start_ned, limited)
+        return Ready(ap, sink, plan, frame, start_ned, placed.cfg)
 
     async def _preflight(self, ap: Autopilot) -> Checked:
         """The vehicle, then the mission placed from its pose; the summary's estimate."""
@@ -511,15 +508,8 @@ class MissionRunner:
                     sink=ready.sink,
                     stop=self.stop,
                     start_ned=ready.start_ned,
-                    on_step=feed.on_step,
-                    on_pose_rejected=feed.on_pose_rejected,
-                    on_arrival=feed.on_arrival,
-                    on_tick=feed.on_tick,
-                    on_action=commands.submit,
-                    on_mission_event=feed.on_mission_event,
-                    driving_mode=self.host.driving_mode,
-                    on_gate=feed.on_gate,
-                    goto=self.host.goto,
+                    hooks=feed.hooks(on_action=commands.submit),
+                    driving=self.host.driving,
                 )
                 result = await self.flight_loop.run()
             finally:

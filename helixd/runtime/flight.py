@@ -45,7 +45,6 @@ from dataclasses import dataclass, replace
 import structlog
 
 from helixd.actuators.base import ActuatorError, ActuatorSink
-from helixd.base.angles import wrap_pi
 from helixd.base.clock import now_s
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
@@ -63,8 +62,10 @@ from helixd.control.slip import (
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample, PositionTarget
 from helixd.mission.commands import bound_speed, speed_floor_mps
+from helixd.runtime.loop_state import CrewState, StepCeiling, YawRateMeter
 from helixd.runtime.mode_gate import (
     Gate,
+    PlaceRule,
     autopilot_step,
     crew_mode_of,
     current_target_of,
@@ -81,32 +82,6 @@ log = structlog.get_logger(__name__)
 
 MANUAL_MODE = "MANUAL"
 NEUTRAL_FRACTIONS = (0.0, 0.0, 0.0, 0.0)
-CEILING_JITTER_FRACTION = 0.25  # of the ceiling's period: early arrivals still stepped
-
-
-def ceiling_next_due(
-    t_s: float, last_s: float, due_s: float, period_s: float, early_s: float
-) -> float | None:
-    """The control-rate ceiling (pure): whether the pose of autopilot time ``t_s`` is stepped
-    on — then the time the next step is due, else None (thinned out).
-
-    Steps keep to a schedule one ``period_s`` apart. A pose is stepped on from ``early_s``
-    before its step is due (sample jitter: a pose at exactly the ceiling rate that comes a
-    little early is not dropped), and the next step is then due one period after this one
-    was due — not one period after the pose, so a late pose does not make the next, on-time
-    one look early and get dropped. A flood faster than the ceiling is thinned to the
-    ceiling's rate. A pose a whole period or more after its step was due (the first pose, a
-    gap in the stream) restarts the schedule from itself; so does a clock that ran backwards
-    (``t_s`` before the last pose stepped on, ``last_s``: an autopilot reboot), stepped on
-    at once.
-    """
-    if t_s < last_s:
-        return t_s + period_s
-    if t_s < due_s - early_s:
-        return None
-    if t_s < due_s + period_s:
-        return due_s + period_s
-    return t_s + period_s
 
 
 @dataclass(frozen=True, slots=True)
@@ -162,6 +137,46 @@ def bounded_cruise(asked_mps: float, lo_mps: float, peak_mps: float) -> tuple[fl
     return speed_mps, limits.get(side, "")
 
 
+@dataclass(frozen=True, slots=True)
+class FlightHooks:
+    """Who hears of the flight (a run's :class:`helixd.runtime.in_flight.InFlight`). Each is
+    called on the loop, after the command left, and must be cheap: it runs at the control
+    rate."""
+
+    on_step: Callable[[StepReport], None]  # every step: the recorder and the display
+    on_pose_rejected: Callable[[PoseRejectedReport], None]  # a tick neutral, pose rejected
+    on_arrival: Callable[[int, float, float], None]  # (plan index, t_boot_s, error_m)
+    on_tick: Callable[[], None]  # after every wake-up: batches, flushes, watchdog feeds
+    on_action: Callable[[MissionAction], None] | None = None  # a payload command due
+    on_mission_event: Callable[[SequencerEvent], None] | None = None  # the sequencer's
+    on_gate: Callable[[Gate, str], None] | None = None  # the autopilot's mode: (gate, mode)
+
+
+@dataclass(frozen=True, slots=True)
+class Driving:
+    """The autopilot's mode a flight drives in, lent by its host
+    (:attr:`helixd.runtime.host.FlightHost.driving`). MANUAL: set (and armed) by the flight
+    itself, any other mode is a takeover. Any other: the flight follows the autopilot's mode
+    (:mod:`helixd.runtime.mode_gate`) and needs ``places``, how it tells the autopilot's
+    place; ``goto``: the autopilot's place (GUIDED, RTL, SMART_RTL) it drives to and holds
+    at (None: a mission flight)."""
+
+    mode: str = MANUAL_MODE
+    goto: PositionTarget | None = None
+    places: PlaceRule | None = None
+
+    def __post_init__(self) -> None:
+        if self.follows_mode and self.places is None:
+            raise ValueError(f"a flight driving in {self.mode} needs its PlaceRule")
+
+    @property
+    def follows_mode(self) -> bool:
+        return self.mode != MANUAL_MODE
+
+
+DRIVE_MANUAL = Driving()  # helixd run's, and serve's flights on its own id or switch
+
+
 class FlightLoop:
     """One mission's control loop. Construct, then ``await run()``."""
 
@@ -175,75 +190,44 @@ class FlightLoop:
         sink: ActuatorSink,
         stop: StopRequest,
         start_ned: NedPose,
-        on_step: Callable[[StepReport], None],
-        on_pose_rejected: Callable[[PoseRejectedReport], None],
-        on_arrival: Callable[[int, float, float], None],
-        on_tick: Callable[[], None],
-        on_action: Callable[[MissionAction], None] | None = None,
-        on_mission_event: Callable[[SequencerEvent], None] | None = None,
-        driving_mode: str = MANUAL_MODE,
-        on_gate: Callable[[Gate, str], None] | None = None,
-        goto: PositionTarget | None = None,
+        hooks: FlightHooks,
+        driving: Driving = DRIVE_MANUAL,
     ) -> None:
-        self.cfg = cfg
-        self.plan = plan
-        self.frame = frame
-        self.ap = autopilot
-        self.sink = sink
-        self.stop = stop
-        self.start_ned = start_ned
-        self.on_step = on_step
-        self.on_pose_rejected = on_pose_rejected
-        self.on_arrival = on_arrival
-        self.on_tick = on_tick
+        # what it flies, on what, and who hears of it
+        self.cfg, self.plan, self.frame = cfg, plan, frame
+        self.ap, self.sink, self.stop = autopilot, sink, stop
+        self.hooks, self.driving = hooks, driving
+        # the pure parts it steps: the supervisor owns the watchdogs; a flight that follows
+        # the autopilot's mode takes a mode change for the crew's command, not a takeover
         self.navigator = Navigator(plan, cfg.control)
         self.sequencer = Sequencer(plan.program) if plan.program is not None else None
-        self.on_action = on_action
-        self.on_mission_event = on_mission_event
-        self.supervisor = Supervisor(cfg.safety, start_ned, driving_mode)  # owns the watchdogs
-        # a flight of the autopilot's AUTO follows the mode (helixd.runtime.mode_gate); one
-        # that set MANUAL itself takes a mode change for a takeover (the supervisor's rule)
-        self.driving_mode = driving_mode
-        self._gated = driving_mode != MANUAL_MODE
-        self._gate = Gate.DRIVE
-        self.on_gate = on_gate
-        self._autopilot_item: int | None = None  # MISSION_CURRENT.seq last seen (gated)
-        # a mission with commands: each step's item, and the step the autopilot's item is on
+        self.supervisor = Supervisor(cfg.safety, start_ned, driving.mode)
+        self.slip = SlipEstimator(cfg.control.slip)
+        self._slip_enabled = cfg.control.slip.enabled
+        self._seq_holding = False
         steps = () if plan.program is None else plan.program.steps
-        self._walk_items = tuple(st.item for st in steps)
-        self._autopilot_step: int | None = None
-        # a flight to the autopilot's place (GUIDED, RTL, SMART_RTL): holds there once reached
-        self.goto = goto
-        self._arrived = False
-        self._target_stale_s = cfg.serve.target_stale_s
-        self._same_place_m = cfg.serve.same_place_m
-        # The ceiling only thins out a pose flood, counted in autopilot time (pose
-        # time_boot_ms), so a simulator speed-up does not lower the control rate the rover
-        # sees (see ceiling_next_due).
-        self._step_period_s = 1.0 / cfg.control.control_rate_max_hz
-        self._step_early_s = CEILING_JITTER_FRACTION * self._step_period_s
-        self._step_due_boot_s = -math.inf  # autopilot time the next step is due
-        # tick at least this often without poses, so watchdogs always run (s)
+        self._crew = CrewState(walk_items=tuple(st.item for st in steps))
+        # when it steps: on a pose the ceiling lets through; a tick at least this often
+        # without poses, so the watchdogs always run (s)
+        self._ceiling = StepCeiling(1.0 / cfg.control.control_rate_max_hz)
         self._tick_s = min(0.05, cfg.safety.pose_stale_s / 4)
+        self._pose_stale_s = cfg.safety.pose_stale_s
+        # what was sent (for the stall watchdog), and its no-slip body velocity with that
+        # step's autopilot clock (s, for the slip fit); what was measured
         self._cmd_speed_mps = 0.0
         self._cmd_yaw_rate_radps = 0.0
-        self._meas_yaw_rate_radps = 0.0
-        self._prev_yaw: tuple[float, float] | None = None  # (t_boot_s, yaw_ned_rad)
-        self._invalid_burst_s: float | None = None  # the rejected-pose burst already handled
-        self._t_boot_start_s: float | None = None  # autopilot clock at the first pose flown on
-        self._mission_clock = MissionClock()  # the time limit's: driving time only
-        self.slip = SlipEstimator(cfg.control.slip)
-        # no-slip body velocity sent at the last step, and that step's autopilot clock (s)
         self._sent: tuple[float, BodyVelocity] | None = None
-        self._slip_enabled = cfg.control.slip.enabled
-        self._pose_stale_s = cfg.safety.pose_stale_s
-        self._seq_holding = False
-        self._t_start_s = 0.0  # monotonic start of run()
-        self._last_step_boot_s = -math.inf  # autopilot clock of the last pose stepped on
+        self._yaw_rate = YawRateMeter()
         self._last_out: NavOutput | None = None  # the navigator's latest output
         self._pose: PoseSample | None = None  # the latest pose
+        self._invalid_burst_s: float | None = None  # the rejected-pose burst already handled
+        # its clocks: the time limit's (driving time only), the autopilot's at the first
+        # pose flown on, the monotonic start of run() and of the last wake-up
+        self._mission_clock = MissionClock()
+        self._t_boot_start_s: float | None = None
+        self._t_start_s = 0.0
+        self._last_wake_s = 0.0
         self._result: asyncio.Future[FlightResult] | None = None  # while run() runs
-        self._last_wake_s = 0.0  # monotonic time of the last wake-up (pose or tick)
 
     async def run(self) -> FlightResult:
         """Fly until the mission is done or a fault (or stop) ends it.
@@ -286,7 +270,7 @@ class FlightLoop:
             ended = self._iteration(sample, now)
             # after the command left: batches, flushes and watchdog feeds never delay a
             # step (run before it, a 0.25 s row batch sat in front of every 12th pose)
-            self.on_tick()
+            self.hooks.on_tick()
         except Exception as exc:
             result.set_exception(exc)
             return
@@ -301,11 +285,11 @@ class FlightLoop:
             self._pose = sample
             if self._t_boot_start_s is None:
                 self._t_boot_start_s = sample.time_boot_ms / 1000.0
-            self._measure_yaw_rate(sample)
+            self._yaw_rate.update(sample.time_boot_ms / 1000.0, sample.ned.yaw_ned_rad)
         pose = self._pose
         if self.stop.requested:
             return FlightResult(self.stop.fault(), now, out, pose.ned if pose else None)
-        if self._gated:
+        if self.driving.follows_mode:
             released = self._follow_mode(now, out, pose)
             if released is not None:
                 return released
@@ -319,7 +303,8 @@ class FlightLoop:
             t_boot_s = None if sample is None else self._step_due(sample)
             if sample is None or t_boot_s is None:
                 return None  # no fresh pose, or thinned out by the control-rate ceiling
-            if self._gate is Gate.HOLD or self._arrived:  # paused, or at the place: neutral
+            crew = self._crew
+            if crew.gate is Gate.HOLD or crew.arrived:  # paused, or at the place: neutral
                 self._neutral()
                 step = self._held(sample, None)
                 self._last_out = step.nav
@@ -357,7 +342,7 @@ class FlightLoop:
             fault = Fault(FaultCause.ACTUATOR, str(exc))
             return FlightResult(fault, now, out, pose.ned if pose else None)
         done = out.done if self.sequencer is None else self.sequencer.done
-        if done and self.goto is not None:
+        if done and self.driving.goto is not None:
             self._arrive(out)
             return None
         if done:
@@ -368,23 +353,12 @@ class FlightLoop:
         """The pose's boot time when a step is due on it (and the step counted as taken),
         None when the control-rate ceiling thins it out."""
         t_boot_s = sample.time_boot_ms / 1000.0
-        due_s = ceiling_next_due(
-            t_boot_s,
-            self._last_step_boot_s,
-            self._step_due_boot_s,
-            self._step_period_s,
-            self._step_early_s,
-        )
-        if due_s is None:
-            return None
-        self._last_step_boot_s = t_boot_s
-        self._step_due_boot_s = due_s
-        return t_boot_s
+        return t_boot_s if self._ceiling.take(t_boot_s) else None
 
     def _arrive(self, out: NavOutput) -> None:
         """At the autopilot's place: neutral, the overrides kept, until the crew gives another
         place or mode (the flight never completes by itself)."""
-        self._arrived = True
+        self._crew.arrived = True
         self._neutral()
         log.info("goto_arrived", distance_error_m=round(out.distance_error_m, 3))
 
@@ -397,19 +371,21 @@ class FlightLoop:
         st = self.ap.state
         mc = st.mission_current
         mode = crew_mode_of(st)
-        target = current_target_of(st, now, self._target_stale_s)
-        if self.goto is not None:
-            gate = goto_gate(mode, self.goto, target, self._same_place_m)
+        driving, crew = self.driving, self._crew
+        assert driving.places is not None  # Driving checks it
+        target = current_target_of(st, now, driving.places.stale_s)
+        if driving.goto is not None:
+            gate = goto_gate(mode, driving.goto, target, driving.places.same_m)
         else:
-            gate = gate_of(mode, self.driving_mode, place_to_go=target is not None)
+            gate = gate_of(mode, driving.mode, place_to_go=target is not None)
         self.supervisor.expected_mode = st.mode  # the takeover rule judges sticks and switch only
-        if gate is not self._gate:
-            self._gate = gate
+        if gate is not crew.gate:
+            crew.gate = gate
             log.info("mode_gate", gate=gate.value, mode=mode)
             if gate is Gate.HOLD:
                 self._neutral()
-            if self.on_gate is not None:
-                self.on_gate(gate, mode)
+            if self.hooks.on_gate is not None:
+                self.hooks.on_gate(gate, mode)
         if gate is Gate.RELEASE:
             fault = Fault(FaultCause.RELEASED, f"mode {mode}: the pilot drives")
             return FlightResult(fault, now, out, pose.ned if pose else None)
@@ -428,17 +404,18 @@ class FlightLoop:
         waypoint* moves it. A mission with commands: followed along the flight's walk
         (:func:`autopilot_step`; its DO_JUMPs move the item back), and where the autopilot was
         in it is logged (``autopilot_item_set``) for the next flight's jump counters."""
+        crew = self._crew
         if self.plan.program is None:
-            previous, self._autopilot_item = self._autopilot_item, seq
+            previous, crew.item = crew.item, seq
             return item_set_by_crew(previous, seq)
-        at = self._autopilot_step
-        step = autopilot_step(self._walk_items, at, seq)
+        at = crew.step
+        step = autopilot_step(crew.walk_items, at, seq)
         if step is None:
             log.info("autopilot_item_set", item=seq, autopilot_step=(at or 0) + 1)
             return True
         if step != at:
             log.info("autopilot_step", item=seq, step=step + 1)
-        self._autopilot_step = step
+        crew.step = step
         return False
 
     def set_cruise(self, asked_mps: float) -> tuple[float, str]:
@@ -467,13 +444,13 @@ class FlightLoop:
                 self.navigator.set_reverse(a.value == 1.0)
                 log.info("mission_reverse", item=a.item, reverse=a.value == 1.0)
             elif a.kind is ActionKind.SEND:
-                if self.on_action is not None:
-                    self.on_action(a)
+                if self.hooks.on_action is not None:
+                    self.hooks.on_action(a)
             elif a.kind is ActionKind.NOTE:
                 log.info("mission_item_note", item=a.item, text=a.text)
-        if self.on_mission_event is not None:
+        if self.hooks.on_mission_event is not None:
             for ev in seq_out.events:
-                self.on_mission_event(ev)
+                self.hooks.on_mission_event(ev)
 
     def _held(self, sample: PoseSample, last: NavOutput | None) -> StepOutput:
         """A step spent holding: neutral out, the navigator not stepped (its last output, with
@@ -512,7 +489,7 @@ class FlightLoop:
                 kinds=dict(st.pose_rejected_kinds),
                 action="scrolls neutral; fall-back if no valid pose within pose_stale_s",
             )
-        self.on_pose_rejected(
+        self.hooks.on_pose_rejected(
             PoseRejectedReport(
                 last_target_index=last.target_index if last else 0,
                 elapsed_s=now - t_start,
@@ -558,9 +535,10 @@ class FlightLoop:
         """After the send: arrivals, then the step's report for the recorder and display."""
         out = step.nav
         if out.reached_index is not None:
-            self.on_arrival(out.reached_index, sample.time_boot_ms / 1000.0, out.distance_error_m)
+            t_boot_s = sample.time_boot_ms / 1000.0
+            self.hooks.on_arrival(out.reached_index, t_boot_s, out.distance_error_m)
         state = self.ap.state
-        self.on_step(
+        self.hooks.on_step(
             StepReport(
                 sample=sample,
                 step=step,
@@ -581,20 +559,9 @@ class FlightLoop:
             return self.slip.estimate(self.plan.mode)
         t_sent_s, sent = self._sent
         measured = measured_body_velocity(
-            sample.vn_mps, sample.ve_mps, sample.ned.yaw_ned_rad, self._meas_yaw_rate_radps
+            sample.vn_mps, sample.ve_mps, sample.ned.yaw_ned_rad, self._yaw_rate.radps
         )
         return self.slip.update(self.plan.mode, sent, measured, t_boot_s - t_sent_s)
-
-    def _measure_yaw_rate(self, sample: PoseSample) -> None:
-        t = sample.time_boot_ms / 1000.0
-        yaw = sample.ned.yaw_ned_rad
-        if not math.isfinite(yaw):
-            return  # never stored by the vehicle state; belt and braces
-        if self._prev_yaw is not None:
-            dt = t - self._prev_yaw[0]
-            if dt > 0:
-                self._meas_yaw_rate_radps = -wrap_pi(yaw - self._prev_yaw[1]) / dt
-        self._prev_yaw = (t, yaw)
 
     @property
     def _paused(self) -> bool:
@@ -602,7 +569,8 @@ class FlightLoop:
         autopilot's place once reached, at a NAV_LOITER_UNLIM until the operator continues
         (a NAV_LOITER_TIME or NAV_DELAY is the plan's own and counts)."""
         seq = self.sequencer
-        return self._gate is Gate.HOLD or self._arrived or (seq is not None and seq.holding_forever)
+        crew = self._crew
+        return crew.gate is Gate.HOLD or crew.arrived or (seq is not None and seq.holding_forever)
 
     def _mission_time(self, wall_s: float, pose: PoseSample | None) -> MissionTime:
         """Mission time for the time limit (:class:`helixd.safety.mission_clock.MissionClock`):
@@ -622,7 +590,7 @@ class FlightLoop:
         return Motion(
             commanded_speed_mps=self._cmd_speed_mps,
             commanded_yaw_rate_radps=self._cmd_yaw_rate_radps,
-            measured_yaw_rate_radps=self._meas_yaw_rate_radps,
+            measured_yaw_rate_radps=self._yaw_rate.radps,
             mission_elapsed_s=mission.driving_s,
             mission_paused_s=mission.paused_s,
         )

@@ -80,40 +80,43 @@ def flight_row(report: StepReport, plan: Plan) -> FlightRow:
 def step_progress(report: StepReport, numbering: Numbering) -> ProgressInfo:
     """The progress line of one step (the operator's numbering: 1-based over the whole
     mission, via points shown as the leg to a waypoint)."""
-    out = report.step.nav
-    sample = report.sample
-    return ProgressInfo(
-        waypoint_index=numbering.number(out.target_index),
-        waypoints_total=numbering.total,
-        via=numbering.via(out.target_index),
-        lap=numbering.lap(out.target_index),
-        distance_to_go_m=out.distance_error_m,
-        speed_mps=math.hypot(sample.vn_mps, sample.ve_mps),
-        heading_error_deg=math.degrees(out.heading_error_rad),
-        link_ok=report.link_ok,
-        pose_fresh=report.pose_fresh,
-        elapsed_s=report.elapsed_s,
-        phase="fly",
-        nav_state=out.state.value,
-    )
+    out, sample = report.step.nav, report.sample
+    speed_mps = math.hypot(sample.vn_mps, sample.ve_mps)
+    heading_deg = math.degrees(out.heading_error_rad)
+    moving = (out.distance_error_m, speed_mps, heading_deg, report.pose_fresh)
+    return _progress(numbering, out.target_index, moving, report, out.state.value)
 
 
 def rejected_progress(report: PoseRejectedReport, numbering: Numbering) -> ProgressInfo:
     """The progress line while the pose telemetry is rejected: no distance, speed or heading
     (shown as "-"), the pose not fresh."""
+    unknown = (math.nan, math.nan, math.nan, False)
+    return _progress(numbering, report.last_target_index, unknown, report, "pose_invalid")
+
+
+def _progress(
+    numbering: Numbering,
+    index: int,
+    moving: tuple[float, float, float, bool],
+    report: StepReport | PoseRejectedReport,
+    nav_state: str,
+) -> ProgressInfo:
+    """The progress line toward plan waypoint ``index``; ``moving``: the distance to go, the
+    speed, the heading error (°) and whether the pose is fresh."""
+    distance_m, speed_mps, heading_deg, pose_fresh = moving
     return ProgressInfo(
-        waypoint_index=numbering.number(report.last_target_index),
+        waypoint_index=numbering.number(index),
         waypoints_total=numbering.total,
-        via=numbering.via(report.last_target_index),
-        lap=numbering.lap(report.last_target_index),
-        distance_to_go_m=math.nan,
-        speed_mps=math.nan,
-        heading_error_deg=math.nan,
+        via=numbering.via(index),
+        lap=numbering.lap(index),
+        distance_to_go_m=distance_m,
+        speed_mps=speed_mps,
+        heading_error_deg=heading_deg,
         link_ok=report.link_ok,
-        pose_fresh=False,
+        pose_fresh=pose_fresh,
         elapsed_s=report.elapsed_s,
         phase="fly",
-        nav_state="pose_invalid",
+        nav_state=nav_state,
     )
 
 

@@ -9,8 +9,9 @@ opens its own.
   request (the service owns the signals and pauses through it), its notifier, and where the
   item being flown goes (the GCS's current item). No start gate: the service started the
   flight on the operator's word. A flight the crew started in the autopilot's AUTO drives in
-  AUTO (:attr:`FlightHost.driving_mode`): the flight neither sets a mode nor arms; so does
-  a flight to the autopilot's own place in GUIDED, RTL or SMART_RTL (:attr:`FlightHost.goto`).
+  AUTO (:attr:`FlightHost.driving`): the flight neither sets a mode nor arms; so does a
+  flight to the autopilot's own place in GUIDED, RTL or SMART_RTL (``driving.goto``). The
+  service hands in how such a flight tells the autopilot's place (``driving.places``).
 
 :class:`helixd.runtime.daemon.MissionRunner` asks its host and never looks at which one it is.
 """
@@ -27,8 +28,7 @@ from typing import Protocol
 from helixd.config import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.link.tlog import LinkTlog
-from helixd.link.vehicle import PositionTarget
-from helixd.runtime.flight import MANUAL_MODE
+from helixd.runtime.flight import DRIVE_MANUAL, Driving
 from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
 from helixd.runtime.setup import (
     Held,
@@ -58,17 +58,12 @@ class FlightHost(Protocol):
         ...
 
     @property
-    def driving_mode(self) -> str:
+    def driving(self) -> Driving:
         """The autopilot's mode the flight drives in: MANUAL (set, then armed, by the flight
-        itself; any other mode is a takeover) or AUTO (a flight the crew started in the
+        itself; any other mode is a takeover), AUTO (a flight the crew started in the
         autopilot's AUTO: neither set nor armed by the flight, and the mode is the crew's
-        command, :mod:`helixd.runtime.mode_gate`)."""
-        ...
-
-    @property
-    def goto(self) -> PositionTarget | None:
-        """The autopilot's place a flight in GUIDED, RTL or SMART_RTL drives to and holds at
-        (None: a mission flight)."""
+        command, :mod:`helixd.runtime.mode_gate`) or GUIDED, RTL, SMART_RTL with the
+        autopilot's place to drive to and hold at."""
         ...
 
     def signals(self) -> contextlib.AbstractContextManager[None]:
@@ -103,8 +98,7 @@ class OwnLink:
     """``helixd run``: its own link, signals and start gate."""
 
     start_gate = True
-    driving_mode = MANUAL_MODE
-    goto: PositionTarget | None = None
+    driving = DRIVE_MANUAL
 
     def __init__(self) -> None:
         self.stop = StopRequest()
@@ -153,8 +147,9 @@ class ServeHost:
     stop: StopRequest
     notifier: ServiceNotifier = field(default_factory=FlightInServiceNotifier)
     set_item: Callable[[int], None] | None = None  # None: nobody shows the current item
-    driving_mode: str = MANUAL_MODE  # AUTO: a flight the crew started in the autopilot's AUTO
-    goto: PositionTarget | None = None  # GUIDED, RTL, SMART_RTL: the autopilot's place
+    # AUTO: a flight the crew started in the autopilot's AUTO; GUIDED, RTL, SMART_RTL: to
+    # the autopilot's place
+    driving: Driving = DRIVE_MANUAL
     _tlog: LinkTlog | None = field(default=None, init=False, repr=False)
 
     @property

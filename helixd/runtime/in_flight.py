@@ -11,12 +11,13 @@ and reads its result. Every callback is cheap: it runs at the control rate.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import structlog
 
 from helixd.base.clock import now_s
-from helixd.base.plan import Numbering, Plan, mission_item_of
+from helixd.base.plan import MissionAction, Numbering, Plan, mission_item_of
 from helixd.config import HelixdConfig
 from helixd.control.sequencer import SequencerEvent
 from helixd.link.connection import Autopilot
@@ -27,7 +28,7 @@ from helixd.recorder.rows import FlightRow
 from helixd.recorder.rundir import RunRecorder
 from helixd.recorder.summary import SummaryBuilder
 from helixd.runtime.display import ProgressDisplay
-from helixd.runtime.flight import PoseRejectedReport, StepReport
+from helixd.runtime.flight import FlightHooks, PoseRejectedReport, StepReport
 from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
 from helixd.runtime.gcs_feed import GcsFeed
 from helixd.runtime.host import FlightHost
@@ -75,6 +76,19 @@ class InFlight:
         else:
             self.gcs.phase(f"fly {mission_name}: {numbering.operator_count} waypoints")
 
+    def hooks(self, on_action: Callable[[MissionAction], None] | None = None) -> FlightHooks:
+        """The flight loop's callbacks; ``on_action``: where the mission's payload commands
+        go (:class:`helixd.runtime.mission_commands.MissionCommands`)."""
+        return FlightHooks(
+            self.on_step,
+            self.on_pose_rejected,
+            self.on_arrival,
+            self.on_tick,
+            on_action,
+            self.on_mission_event,
+            self.on_gate,
+        )
+
     # -- the flight loop's callbacks ----------------------------------------------------------
 
     def on_step(self, report: StepReport) -> None:  # after the command left
@@ -112,7 +126,8 @@ class InFlight:
     def on_gate(self, gate: Gate, mode: str) -> None:
         """The autopilot's mode changed what a flight of its AUTO may do: tell the GCS."""
         if gate is Gate.HOLD:
-            back = self.host.driving_mode if self.host.goto is None else "a place to go"
+            driving = self.host.driving
+            back = driving.mode if driving.goto is None else "a place to go"
             self.gcs.phase(f"paused: mode {mode}, scrolls held at neutral until {back}")
         elif gate is Gate.DRIVE:
             self.gcs.phase(f"continuing in {mode}")

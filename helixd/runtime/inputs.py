@@ -10,9 +10,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan
+from helixd.base.problems import Problems
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig, config_to_yaml, load_config
 from helixd.files.models import ConfigFileError, as_items
@@ -40,26 +42,24 @@ from helixd.mission.resume import (
     sha256_text,
 )
 from helixd.mission.validate import (
-    apply_mission_limits,
     resolved_for_check,
     servo_problems,
     start_warnings,
 )
 from helixd.recorder.resume_dir import read_run_dir
-from helixd.runtime.timing import flight_problems
+from helixd.runtime.timing import judge_flight
 
 
-class InputsRefused(Exception):
+class InputsRefused(Problems):
     """The inputs cannot be flown; ``problems`` holds one line each, ``code`` the exit code,
     ``notes`` what the operator should read with them (skipped items, …)."""
 
     def __init__(
         self, problems: list[str], code: ExitCode = ExitCode.USAGE, notes: tuple[str, ...] = ()
     ) -> None:
-        self.problems = problems
+        super().__init__(problems)
         self.code = code
         self.notes = notes
-        super().__init__("\n".join(problems))
 
 
 @dataclass(frozen=True)
@@ -136,7 +136,7 @@ def load_inputs(
         problems.extend(exc.problems)
     except FormatError as exc:  # the --fence file
         problems.extend(exc.problems)
-    checked: tuple[Plan, bool] | None = None
+    checked: MissionChecked | None = None
     if cfg is not None and msn is not None:
         checked = mission_vs_config(cfg, msn, str(path), problems, options, notes)
     if problems or cfg is None or msn is None or checked is None:
@@ -144,8 +144,16 @@ def load_inputs(
             problems = [as_items(p) for p in problems]
         raise InputsRefused(problems, ExitCode.USAGE)
     # the mission's own fence/time limit (a survey's) replace the config's for this run
-    cfg = apply_mission_limits(cfg, msn)
-    return LoadedInputs(cfg, msn, path, checked[0], checked[1], tuple(notes), fence_gcs, options)
+    plan, provisional, cfg = checked
+    return LoadedInputs(cfg, msn, path, plan, provisional, tuple(notes), fence_gcs, options)
+
+
+class MissionChecked(NamedTuple):
+    """:func:`mission_vs_config`'s plan, whether it is provisional, and the config in force."""
+
+    plan: Plan
+    provisional: bool  # a global plan shown relative to waypoint 0 (EKF origin not known)
+    cfg: HelixdConfig  # with the mission's own limits applied
 
 
 def mission_vs_config(
@@ -155,10 +163,11 @@ def mission_vs_config(
     problems: list[str],
     options: ExpandOptions = DEFAULT_OPTIONS,
     notes: list[str] | None = None,
-) -> tuple[Plan, bool] | None:
-    """The plan as :func:`plan_for_check` resolves it, and the mission-vs-config checks
-    (what can be checked without the vehicle); problems are appended, prefixed by ``label``,
-    and what the walk through the mission's commands noted (skipped items, …) to ``notes``."""
+) -> MissionChecked | None:
+    """The plan as :func:`plan_for_check` resolves it and the config in force for the mission
+    (its own limits applied), after the mission-vs-config checks (what can be checked without
+    the vehicle); problems are appended, prefixed by ``label``, and what the walk through the
+    mission's commands noted (skipped items, …) to ``notes``."""
     try:
         with paused_gc():  # large acyclic plan: see yamlio.paused_gc
             resolved, provisional = resolved_for_check(msn, cfg, options)
@@ -169,11 +178,11 @@ def mission_vs_config(
     problems.extend(f"{label}: {p}" for p in (*resolved.problems, *servo_problems(msn, cfg)))
     if notes is not None:
         notes.extend(f"note: {n}" for n in resolved.notes)
-    refused = flight_problems(msn, cfg, checked_plan=checked, options=options)
-    problems.extend(f"{label}: {p}" for p in refused)
+    judged = judge_flight(msn, cfg, checked_plan=checked, options=options)
+    problems.extend(f"{label}: {p}" for p in judged.problems)
     if notes is not None and provisional:
         notes.extend(f"warning: {label}: {w}" for w in start_warnings(msn, cfg, resolved.plan))
-    return checked
+    return MissionChecked(resolved.plan, provisional, judged.cfg)
 
 
 def recorded_mission_yaml(mission_path: Path, msn: Mission, mode: MotionMode | None) -> str:

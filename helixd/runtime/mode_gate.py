@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from enum import StrEnum
 
 from helixd.base.frames import latlon_to_ne
@@ -54,6 +55,16 @@ PILOT_MODES = frozenset({"MANUAL", "ACRO", "STEERING"})
 
 
 LEFT_AUTO = "not AUTO"  # MISSION_CURRENT says AUTO was left; the next HEARTBEAT says for what
+
+
+@dataclass(frozen=True, slots=True)
+class PlaceRule:
+    """How a flight that follows the autopilot's mode tells the autopilot's place: the bounds
+    ``helixd serve`` hands in (``serve.target_stale_s``, ``serve.same_place_m``; the flight
+    loop reads no serve section)."""
+
+    stale_s: float  # a place not renewed for this long is no place (:func:`current_target`)
+    same_m: float  # a place that moved less than this is the same place (:func:`same_place`)
 
 
 class Gate(StrEnum):
@@ -195,6 +206,7 @@ __all__ = [
     "LEFT_AUTO",
     "PILOT_MODES",
     "Gate",
+    "PlaceRule",
     "autopilot_step",
     "crew_mode",
     "crew_mode_of",

@@ -52,7 +52,7 @@ from helixd.mission.resume import (
     sha256_text,
     walked_options,
 )
-from helixd.mission.validate import apply_mission_limits, resolved_for_check
+from helixd.mission.validate import resolved_for_check
 from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.resume_dir import read_run_dir
 from helixd.runtime.autopilot_mission import MISSION_NAME, FromAutopilot
@@ -189,7 +189,7 @@ def prepare_flight(
         if problems or checked is None:
             items = [as_items(p) for p in problems]  # the autopilot's mission: its items
             raise InputsRefused(items, ExitCode.PREFLIGHT, tuple(notes))
-        cfg = apply_mission_limits(source.cfg, msn)
+        cfg = checked.cfg  # its own limits in force
         path = Path(MISSION_NAME)
         text = mission_to_yaml(msn)  # the run directory records what was downloaded
         fence, options, shown = got.fence, source.options, tuple(notes)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 from collections.abc import AsyncIterator, Awaitable, Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TypeVar
 
@@ -29,6 +29,7 @@ from helixd.actuators.factory import make_sink
 from helixd.base.clock import now_s
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan
+from helixd.base.problems import Problems
 from helixd.base.run_files import TLOG_FILE
 from helixd.config import ActuationBackend, HelixdConfig, SafetyConfig
 from helixd.link.command_client import CommandError, CommandRejected
@@ -54,7 +55,7 @@ from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Replanner
 from helixd.runtime.show_plan import show_plan
 from helixd.runtime.signals import StopRequest
-from helixd.runtime.timing import flight_problems
+from helixd.runtime.timing import judge_flight
 from helixd.safety.watchdogs import Fault, FaultCause, gps_fault, pose_invalid_fault
 
 log = structlog.get_logger(__name__)
@@ -63,10 +64,8 @@ T = TypeVar("T")
 
 # AP_ServoRelayEvents::do_set_servo: the output functions a servo command may move (none,
 # manual, sprayer pump/spinner, gripper, RCIN1..16 passthrough, RCIN1..16 mapped)
-class PreflightFailed(Exception):
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("; ".join(problems))
+class PreflightFailed(Problems):
+    joiner = "; "
 
 
 class StopBeforeFlight(Exception):
@@ -109,13 +108,15 @@ class Vehicle:
 @dataclass(frozen=True)
 class Checked:
     """What preflight found: the start pose, the EKF origin, the mission as flown (its first
-    leg re-planned from the rover when it was planned around obstacles), its plan, and the
-    autopilot's home (missions with commands)."""
+    leg re-planned from the rover when it was planned around obstacles), its plan, the config
+    in force for it from that pose (the mission's own fence placed exactly, its time limit and
+    ground) and the autopilot's home (missions with commands)."""
 
     start_ned: NedPose
     origin: tuple[float, float] | None
     plan: Plan
     mission: Mission
+    cfg: HelixdConfig
     home: HomePosition | None = None
 
 
@@ -506,12 +507,12 @@ async def place_mission(
     plan, where = resolve_flight(mission, cfg, origin, pose, home, options)
     if inputs is not None:  # a resume re-enters the interrupted leg
         plan = with_leg_start(plan, mission, inputs.leg_start, cfg.control, cfg.mission, origin)
-    refused = flight_problems(
+    judged = judge_flight(
         mission, cfg, start_ned=pose, origin_latlon_deg=origin, options=options, where=where
     )
-    if refused:
-        raise PreflightFailed(refused)
-    return Checked(pose, origin, plan, mission, home)
+    if judged.problems:
+        raise PreflightFailed(judged.problems)
+    return Checked(pose, origin, plan, mission, judged.cfg, home)
 
 
 async def show_checked_plan(
@@ -672,26 +673,28 @@ def start_pose(
     ap: Autopilot,
     cfg: HelixdConfig,
     options: ExpandOptions,
-) -> NedPose:
-    """The mission frame starts where the rover is now, after the pilot's start switch;
-    never from an invalid pose: armed with pose telemetry rejected is a fault
+) -> Checked:
+    """The mission frame starts where the rover is now, after the pilot's start switch: the
+    flight checked again from there (its start pose and the config in force from it); never
+    from an invalid pose: armed with pose telemetry rejected is a fault
     (:class:`StartRefused`)."""
     invalid = pose_invalid_too_long(ap, cfg)
     if now is None and invalid is not None:
         raise StartRefused(invalid, now_s())
     if now is not None and now != checked.start_ned:
         # The rover may have been moved while the start gate waited: check again from here.
-        moved = flight_problems(
+        moved = judge_flight(
             checked.mission,
             cfg,
             start_ned=now,
             origin_latlon_deg=checked.origin,
             options=options,
         )
-        if moved:
-            fault = Fault(FaultCause.PREFLIGHT, "from the pose at arming: " + "; ".join(moved))
-            raise StartRefused(fault, now_s())
-    return now or checked.start_ned
+        if moved.problems:
+            why = "from the pose at arming: " + "; ".join(moved.problems)
+            raise StartRefused(Fault(FaultCause.PREFLIGHT, why), now_s())
+        return replace(checked, start_ned=now, cfg=moved.cfg)
+    return checked
 
 
 __all__ = [

@@ -18,15 +18,16 @@ plan costs a second and a half per estimate on this machine.
 from __future__ import annotations
 
 import math
+from typing import Unpack
 
 from helixd.base.frames import NedPose
 from helixd.base.plan import MissionFrameKind, Plan
 from helixd.config import ControlConfig, HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
-from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.expand import DEFAULT_OPTIONS
 from helixd.mission.model import Mission
-from helixd.mission.resolve import NOWHERE, PlanError, Where, resolve_plan
-from helixd.mission.validate import apply_mission_limits, mission_problems, plan_for_check
+from helixd.mission.resolve import NOWHERE, PlanError, resolve_plan
+from helixd.mission.validate import Judged, Placing, judge_mission, plan_for_check
 
 _EstimateKey = tuple[Plan, ControlConfig, tuple[float, float] | None, float | None]
 _last_estimate: list[tuple[_EstimateKey, TimeEstimate]] = []  # at most one entry
@@ -123,49 +124,43 @@ def limit_problems(plan: Plan, estimate: TimeEstimate, limit_s: float, note: str
     return time_problems(estimate, limit_s, note)
 
 
-def flight_problems(
-    mission: Mission,
-    cfg: HelixdConfig,
-    *,
-    start_ned: NedPose | None = None,
-    origin_latlon_deg: tuple[float, float] | None = None,
-    checked_plan: tuple[Plan, bool] | None = None,
-    options: ExpandOptions = DEFAULT_OPTIONS,
-    where: Where = NOWHERE,
-) -> list[str]:
-    """:func:`helixd.mission.validate.mission_problems` and the estimated time against the
+def judge_flight(mission: Mission, cfg: HelixdConfig, **placing: Unpack[Placing]) -> Judged:
+    """:func:`helixd.mission.validate.judge_mission`, and the estimated time against the
     time limit in force (the mission's own, else the config's)."""
-    problems = mission_problems(
-        mission,
-        cfg,
-        start_ned=start_ned,
-        origin_latlon_deg=origin_latlon_deg,
-        checked_plan=checked_plan,
-        options=options,
-        where=where,
-    )
+    judged = judge_mission(mission, cfg, **placing)
+    start_ned = placing.get("start_ned")
+    origin_latlon_deg = placing.get("origin_latlon_deg")
+    checked_plan = placing.get("checked_plan")
     try:
         if checked_plan is not None and origin_latlon_deg is None:
             plan = checked_plan[0]
         elif mission.frame is MissionFrameKind.GLOBAL and origin_latlon_deg is not None:
             plan = resolve_plan(
-                mission, cfg.control, cfg.mission, origin_latlon_deg, where, options,
+                mission, cfg.control, cfg.mission, origin_latlon_deg,
+                placing.get("where", NOWHERE), placing.get("options", DEFAULT_OPTIONS),
                 cfg.safety.mission_time_limit_s,
             )  # fmt: skip
         else:
             plan = plan_for_check(mission, cfg)[0]
     except PlanError:
-        return problems  # mission_problems said so
-    limited = apply_mission_limits(cfg, mission)  # its time limit and its ground
+        return judged  # judge_mission said so
+    limited = judged.cfg  # its time limit, and its ground
     limit_s = limited.safety.mission_time_limit_s
     ned = None if plan.frame is MissionFrameKind.START else start_ned
     note = "" if plan.frame is MissionFrameKind.START or ned is not None else " from waypoint 1"
     estimate = plan_time_estimate(plan, limited, ned)
-    return problems + limit_problems(plan, estimate, limit_s, note)
+    judged.problems.extend(limit_problems(plan, estimate, limit_s, note))
+    return judged
+
+
+def flight_problems(mission: Mission, cfg: HelixdConfig, **placing: Unpack[Placing]) -> list[str]:
+    """:func:`judge_flight`'s problems."""
+    return judge_flight(mission, cfg, **placing).problems
 
 
 __all__ = [
     "flight_problems",
+    "judge_flight",
     "limit_problems",
     "patrol_time_problems",
     "patrol_times_s",

@@ -209,6 +209,20 @@ def _finite(*values: float | None) -> bool:
     return True
 
 
+def age_fault(
+    cause: FaultCause, now_s: float, rx_s: float | None, limit_s: float, never: str, old: str
+) -> Fault | None:
+    """A fault of ``cause`` when nothing was received (``never``) or the last is older than
+    ``limit_s`` (``old``, formatted with its ``age`` and the ``limit``); None otherwise (a
+    NaN age is old)."""
+    if rx_s is None:
+        return Fault(cause, never)
+    age = now_s - rx_s
+    if not age <= limit_s:
+        return Fault(cause, old.format(age=age, limit=limit_s))
+    return None
+
+
 def pose_invalid_fault(
     now_s: float,
     pose_rx_s: float | None,
@@ -354,15 +368,14 @@ class SafetyMonitor:
         return None
 
     def _link(self, s: SafetyInputs) -> Fault | None:
-        if s.last_heartbeat_s is None:
-            return Fault(FaultCause.LINK_LOST, "no HEARTBEAT received from the autopilot")
-        age = s.now_s - s.last_heartbeat_s
-        if not age <= self.cfg.heartbeat_timeout_s:
-            return Fault(
-                FaultCause.LINK_LOST,
-                f"no autopilot HEARTBEAT for {age:.2f} s (limit {self.cfg.heartbeat_timeout_s} s)",
-            )
-        return None
+        return age_fault(
+            FaultCause.LINK_LOST,
+            s.now_s,
+            s.last_heartbeat_s,
+            self.cfg.heartbeat_timeout_s,
+            "no HEARTBEAT received from the autopilot",
+            "no autopilot HEARTBEAT for {age:.2f} s (limit {limit} s)",
+        )
 
     def _pose_invalid(self, s: SafetyInputs) -> Fault | None:
         return pose_invalid_fault(
@@ -374,15 +387,14 @@ class SafetyMonitor:
         )
 
     def _pose(self, s: SafetyInputs) -> Fault | None:
-        if s.pose_rx_s is None:
-            return Fault(FaultCause.POSE_STALE, "no pose received")
-        age = s.now_s - s.pose_rx_s
-        if not age <= self.cfg.pose_stale_s:
-            return Fault(
-                FaultCause.POSE_STALE,
-                f"pose is {age:.2f} s old (limit {self.cfg.pose_stale_s} s)",
-            )
-        return None
+        return age_fault(
+            FaultCause.POSE_STALE,
+            s.now_s,
+            s.pose_rx_s,
+            self.cfg.pose_stale_s,
+            "no pose received",
+            "pose is {age:.2f} s old (limit {limit} s)",
+        )
 
     def _ekf(self, s: SafetyInputs) -> Fault | None:
         if s.ekf_healthy is False:

@@ -31,10 +31,10 @@ from helixd.mission.resume import event_whole, last_step_started, with_walk
 from helixd.recorder.events import read_events
 from helixd.recorder.summary import RunSummary
 from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
-from helixd.runtime.flight import MANUAL_MODE
+from helixd.runtime.flight import DRIVE_MANUAL, Driving
 from helixd.runtime.host import ServeHost
 from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.mode_gate import AUTO_MODE
+from helixd.runtime.mode_gate import AUTO_MODE, PlaceRule
 from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import (
     AutopilotPlace,
@@ -223,7 +223,7 @@ class Flights:
         where = f"{place.lat_deg:.7f} {place.lon_deg:.7f}"
         log.info("serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.count + 1)
         opts = run_options(prepared.flight, prepared.cfg, self.opts.run_root, self.cfg)
-        host = ServeHost(ap, stop, driving_mode=mode, goto=place)
+        host = ServeHost(ap, stop, driving=Driving(mode, place, place_rule(prepared.cfg)))
         runner, outcome, cause = await self._run_flight(opts, host, f"{mode} to {where}")
         summary = outcome.summary
         handed = cause in HANDED
@@ -267,7 +267,7 @@ class Flights:
             ap,
             stop,
             set_item=partial(self._set_current_item, ap) if shows_item else None,
-            driving_mode=AUTO_MODE if auto else MANUAL_MODE,
+            driving=Driving(AUTO_MODE, places=place_rule(cfg)) if auto else DRIVE_MANUAL,
         )
         runner, outcome, cause = await self._run_flight(opts, host, f"{request.value} by {who}")
         # released to the pilot, or moved to another item: AUTO again (or still) starts
@@ -368,6 +368,12 @@ def run_options(
         item_numbers=flight.item_numbers,
         autopilot_fence=False,
     )
+
+
+def place_rule(cfg: HelixdConfig) -> PlaceRule:
+    """How a flight that follows the autopilot's mode tells the autopilot's place: the flight's
+    own ``serve.target_stale_s`` and ``serve.same_place_m``."""
+    return PlaceRule(cfg.serve.target_stale_s, cfg.serve.same_place_m)
 
 
 def cause_of(fault_text: str | None) -> FaultCause | None:

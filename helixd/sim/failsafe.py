@@ -27,6 +27,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from helixd.mav.constants import MAV_SEVERITY_CRITICAL as SEVERITY_CRITICAL
+from helixd.mav.constants import MAV_SEVERITY_INFO as SEVERITY_INFO
+from helixd.mav.constants import MAV_SEVERITY_WARNING as SEVERITY_WARNING
+from helixd.sim.modes import HOLD as MODE_HOLD
+from helixd.sim.modes import LOITER as MODE_LOITER
+from helixd.sim.modes import RTL as MODE_RTL
+from helixd.sim.modes import SMART_RTL as MODE_SMART_RTL
 from helixd.sim.param_store import ParamStore
 
 FAILSAFE_EVENT_THROTTLE = 1 << 0
@@ -34,16 +41,8 @@ FAILSAFE_EVENT_GCS = 1 << 1
 EKF_CHECK_ITERATIONS_MAX = 10
 FS_OPTION_ACTIVE_IN_HOLD = 1 << 0
 
-MODE_HOLD = 4
-MODE_LOITER = 5
 FAILSAFE_ACTION_TERMINATE = 5
 FAILSAFE_ACTION_LOITER_HOLD = 6
-MODE_RTL = 11
-MODE_SMART_RTL = 12
-
-SEVERITY_CRITICAL = 2
-SEVERITY_WARNING = 4
-SEVERITY_INFO = 6
 
 
 @dataclass(frozen=True, slots=True)

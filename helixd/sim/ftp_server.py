@@ -369,6 +369,19 @@ class FtpServer:
 
     # --- paths ----------------------------------------------------------------------------
 
+    def _named(self, request: _Transaction, reply: _Transaction, use: str = "read") -> Path | None:
+        """The host path of the name the request carries, to ``use`` ("read", "write" or
+        "remove"); None with the NAK in ``reply`` (a name too long; a write or a remove in
+        the read-only part: EROFS). Raises _FtpRefused."""
+        if not _check_name_len(request):
+            _error(reply, FtpErr.InvalidDataSize)
+            return None
+        path, read_only = self._path(_c_name(request.data), removing=use == "remove")
+        if use != "read" and read_only:
+            _error(reply, FtpErr.FailErrno, _errno.EROFS)
+            return None
+        return path
+
     def _path(self, name: bytes, *, removing: bool = False) -> tuple[Path, bool]:
         """(host path, read-only) of a remote name; raises _FtpRefused."""
         parts = [p for p in os.fsdecode(name).split("/") if p not in ("", ".")]
@@ -438,10 +451,9 @@ class FtpServer:
         if session.fd != -1:
             _error(reply, FtpErr.Fail)
             return
-        if not _check_name_len(request):
-            _error(reply, FtpErr.InvalidDataSize)
+        path = self._named(request, reply)
+        if path is None:
             return
-        path, _ = self._path(_c_name(request.data))
         try:
             file_size = os.stat(path).st_size
             session.fd = os.open(path, os.O_RDONLY)
@@ -452,6 +464,19 @@ class FtpServer:
         reply.opcode = FtpOp.Ack
         reply.size = 4
         reply.data[0:4] = struct.pack("<I", file_size & _U32)
+
+    def _at_offset(
+        self, session: _Session, request: _Transaction, reply: _Transaction, mode: _Mode
+    ) -> bool:
+        """The session's file, opened for ``mode``, at the request's offset; else the NAK in
+        ``reply`` (no file open: FileNotFound; opened for the other mode: Fail)."""
+        if session.fd == -1:
+            _error(reply, FtpErr.FileNotFound)
+            return False
+        if session.mode != mode:
+            _error(reply, FtpErr.Fail)
+            return False
+        return self._seek(session, request, reply)
 
     def _seek(self, session: _Session, request: _Transaction, reply: _Transaction) -> bool:
         """lseek to the request's offset; AP_Filesystem's lseek takes an int32."""
@@ -464,13 +489,7 @@ class FtpServer:
         return True
 
     def _read(self, session: _Session, request: _Transaction, reply: _Transaction) -> None:
-        if session.fd == -1:
-            _error(reply, FtpErr.FileNotFound)
-            return
-        if session.mode != _Mode.READ:
-            _error(reply, FtpErr.Fail)
-            return
-        if not self._seek(session, request, reply):
+        if not self._at_offset(session, request, reply, _Mode.READ):
             return
         try:
             chunk = os.read(session.fd, min(MAX_DATA_LEN, request.size))
@@ -489,12 +508,8 @@ class FtpServer:
         if session.fd != -1:
             _error(reply, FtpErr.Fail)
             return
-        if not _check_name_len(request):
-            _error(reply, FtpErr.InvalidDataSize)
-            return
-        path, read_only = self._path(_c_name(request.data))
-        if read_only:
-            _error(reply, FtpErr.FailErrno, _errno.EROFS)
+        path = self._named(request, reply, "write")
+        if path is None:
             return
         flags = os.O_WRONLY | os.O_CREAT
         if request.opcode == FtpOp.CreateFile:
@@ -508,13 +523,7 @@ class FtpServer:
         reply.opcode = FtpOp.Ack
 
     def _write(self, session: _Session, request: _Transaction, reply: _Transaction) -> None:
-        if session.fd == -1:
-            _error(reply, FtpErr.FileNotFound)
-            return
-        if session.mode != _Mode.WRITE:
-            _error(reply, FtpErr.Fail)
-            return
-        if not self._seek(session, request, reply):
+        if not self._at_offset(session, request, reply, _Mode.WRITE):
             return
         if request.offset + request.size > self.max_file_bytes:
             _error(reply, FtpErr.FailErrno, _errno.ENOSPC)
@@ -528,12 +537,8 @@ class FtpServer:
         reply.offset = request.offset
 
     def _mkdir(self, request: _Transaction, reply: _Transaction) -> None:
-        if not _check_name_len(request):
-            _error(reply, FtpErr.InvalidDataSize)
-            return
-        path, read_only = self._path(_c_name(request.data))
-        if read_only:
-            _error(reply, FtpErr.FailErrno, _errno.EROFS)
+        path = self._named(request, reply, "write")
+        if path is None:
             return
         try:
             os.mkdir(path, 0o775)
@@ -543,12 +548,8 @@ class FtpServer:
         reply.opcode = FtpOp.Ack
 
     def _remove(self, request: _Transaction, reply: _Transaction) -> None:
-        if not _check_name_len(request):
-            _error(reply, FtpErr.InvalidDataSize)
-            return
-        path, read_only = self._path(_c_name(request.data), removing=True)
-        if read_only:
-            _error(reply, FtpErr.FailErrno, _errno.EROFS)
+        path = self._named(request, reply, "remove")
+        if path is None:
             return
         try:  # AP_Filesystem_Posix::unlink: rmdir, then unlink
             os.rmdir(path)
@@ -561,10 +562,9 @@ class FtpServer:
         reply.opcode = FtpOp.Ack
 
     def _crc32(self, request: _Transaction, reply: _Transaction) -> None:
-        if not _check_name_len(request):
-            _error(reply, FtpErr.InvalidDataSize)
+        path = self._named(request, reply)
+        if path is None:
             return
-        path, _ = self._path(_c_name(request.data))
         checksum = 0
         try:
             fd = os.open(path, os.O_RDONLY)
@@ -588,13 +588,7 @@ class FtpServer:
         self, session: _Session, request: _Transaction, reply: _Transaction, out: list[bytes]
     ) -> bool:
         max_read = MAX_DATA_LEN if request.size == 0 else request.size
-        if session.fd == -1:
-            _error(reply, FtpErr.FileNotFound)
-            return False
-        if session.mode != _Mode.READ:
-            _error(reply, FtpErr.Fail)
-            return False
-        if not self._seek(session, request, reply):
+        if not self._at_offset(session, request, reply, _Mode.READ):
             return False
         reply.offset = request.offset
         for i in range(BURST_TRANSFER_SIZE):

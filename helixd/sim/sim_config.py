@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from enum import StrEnum
 from pathlib import Path
+from typing import Any
 
 from pydantic import Field, InstanceOf, field_validator, model_validator
 
@@ -72,55 +73,31 @@ class TerrainTraction(InputModel):
     )
 
 
+def _traction(roll: float, scroll: float, yaw: float, dig: float, escape: float) -> Any:
+    """A terrain's default :class:`TerrainTraction`: roll, scroll and yaw efficiency, dig rate
+    and pit escape, in that order."""
+    return Field(
+        default_factory=lambda: TerrainTraction(
+            roll_efficiency=roll,
+            scroll_efficiency=scroll,
+            yaw_efficiency=yaw,
+            dig_rate_per_m=dig,
+            pit_escape_per_m=escape,
+        )
+    )
+
+
 class TerrainTable(InputModel):
-    hard: TerrainTraction = Field(
-        default_factory=lambda: TerrainTraction(
-            roll_efficiency=0.95,
-            scroll_efficiency=0.45,
-            yaw_efficiency=0.85,
-            dig_rate_per_m=0.0,
-            pit_escape_per_m=1.0,
-        )
-    )
-    grass: TerrainTraction = Field(
-        default_factory=lambda: TerrainTraction(
-            roll_efficiency=0.9,
-            scroll_efficiency=0.6,
-            yaw_efficiency=0.75,
-            dig_rate_per_m=0.0,
-            pit_escape_per_m=1.0,
-        )
-    )
-    sand: TerrainTraction = Field(
-        default_factory=lambda: TerrainTraction(
-            roll_efficiency=0.6,
-            scroll_efficiency=0.75,
-            yaw_efficiency=0.12,
-            dig_rate_per_m=0.12,
-            pit_escape_per_m=0.2,
-        )
-    )
-    mud: TerrainTraction = Field(
-        default_factory=lambda: TerrainTraction(
-            roll_efficiency=0.3,
-            scroll_efficiency=0.85,
-            yaw_efficiency=0.55,
-            dig_rate_per_m=0.02,
-            pit_escape_per_m=0.5,
-        )
-    )
+    """Each terrain's traction (estimates: see docs/physics.md)."""
+
+    hard: TerrainTraction = _traction(0.95, 0.45, 0.85, 0.0, 1.0)
+    grass: TerrainTraction = _traction(0.9, 0.6, 0.75, 0.0, 1.0)
+    sand: TerrainTraction = _traction(0.6, 0.75, 0.12, 0.12, 0.2)
+    mud: TerrainTraction = _traction(0.3, 0.85, 0.55, 0.02, 0.5)
     # afloat: no ground to roll on (a floating screw's roll barely moves it), the screws'
     # threads propel along the scroll axis like a screw propeller, differential scroll speed
     # turns it; nothing to dig. Estimates: the thesis measured nothing in water.
-    water: TerrainTraction = Field(
-        default_factory=lambda: TerrainTraction(
-            roll_efficiency=0.05,
-            scroll_efficiency=0.6,
-            yaw_efficiency=0.4,
-            dig_rate_per_m=0.0,
-            pit_escape_per_m=1.0,
-        )
-    )
+    water: TerrainTraction = _traction(0.05, 0.6, 0.4, 0.0, 1.0)
 
     def get(self, terrain: Terrain | Medium) -> TerrainTraction:
         traction: TerrainTraction = getattr(self, Terrain(terrain.value).value)

@@ -27,8 +27,17 @@ from helixd.link.vehicle import Change, PoseSample, PositionTarget, VehicleState
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import resolve_plan
-from helixd.runtime.flight import FlightLoop, StepReport, bounded_cruise, ceiling_next_due
+from helixd.runtime.flight import (
+    DRIVE_MANUAL,
+    Driving,
+    FlightHooks,
+    FlightLoop,
+    StepReport,
+    bounded_cruise,
+)
 from helixd.runtime.flight_report import StepJournal, flight_row
+from helixd.runtime.loop_state import ceiling_next_due
+from helixd.runtime.mode_gate import PlaceRule
 from helixd.runtime.signals import StopRequest
 from helixd.safety.watchdogs import FaultCause
 from tests.support.mavmsgs import AP, att, decoded, hb, lpn
@@ -117,7 +126,14 @@ class Sink:
     async def close(self) -> None: ...
 
 
-def quiet_loop(cfg: HelixdConfig, plan: Plan, ap: Any, sink: Any, **callbacks: Any) -> FlightLoop:
+def quiet_loop(
+    cfg: HelixdConfig,
+    plan: Plan,
+    ap: Any,
+    sink: Any,
+    driving: Driving = DRIVE_MANUAL,
+    **callbacks: Any,
+) -> FlightLoop:
     """A flight loop of ``plan`` from the origin, every callback a no-op unless given."""
     start = NedPose(0.0, 0.0, 0.0)
     quiet: dict[str, Any] = {
@@ -134,7 +150,8 @@ def quiet_loop(cfg: HelixdConfig, plan: Plan, ap: Any, sink: Any, **callbacks: A
         sink=sink,
         stop=StopRequest(),
         start_ned=start,
-        **{**quiet, **callbacks},
+        hooks=FlightHooks(**{**quiet, **callbacks}),
+        driving=driving,
     )
 
 
@@ -144,8 +161,13 @@ def make_loop(
     trace: list[str],
     driving_mode: str = "MANUAL",
     cfg: HelixdConfig | None = None,
+    goto: PositionTarget | None = None,
 ) -> FlightLoop:
     cfg = cfg or HelixdConfig()
+    driving = DRIVE_MANUAL
+    if driving_mode != "MANUAL":  # as helixd serve hands it in
+        places = PlaceRule(cfg.serve.target_stale_s, cfg.serve.same_place_m)
+        driving = Driving(driving_mode, goto, places)
     mission = Mission.model_validate(
         {"name": "t", "mode": "roll", "frame": "start", "waypoints": [{"x": 20, "y": 0}]}
     )
@@ -155,7 +177,7 @@ def make_loop(
         trace.append("report")
         assert report.step.fractions == sink.commands[-1]  # what was sent, reported after
 
-    return quiet_loop(cfg, plan, ap, sink, on_step=on_step, driving_mode=driving_mode)
+    return quiet_loop(cfg, plan, ap, sink, driving, on_step=on_step)
 
 
 async def fly(ap: FedAutopilot, loop: FlightLoop, periods: int) -> Any:
@@ -265,13 +287,13 @@ def one_report() -> tuple[StepReport, Any]:
     ap.tick()
     reports: list[StepReport] = []
     loop = make_loop(ap, Sink(trace), trace)
-    inner = loop.on_step
+    inner = loop.hooks.on_step
 
     def on_step(r: StepReport) -> None:
         inner(r)
         reports.append(r)
 
-    loop.on_step = on_step
+    loop.hooks = replace(loop.hooks, on_step=on_step)
     asyncio.run(fly(ap, loop, 3))
     return reports[0], loop.plan
 
@@ -424,7 +446,9 @@ def test_a_flight_of_auto_pauses_in_hold_goes_on_in_auto_and_lets_go_in_manual()
     sink = Sink(trace)
     loop = make_loop(ap, sink, trace, driving_mode="AUTO")
     gates: list[str] = []
-    loop.on_gate = lambda gate, mode: gates.append(f"{gate.value} {mode}")
+    loop.hooks = replace(
+        loop.hooks, on_gate=lambda gate, mode: gates.append(f"{gate.value} {mode}")
+    )
     result = asyncio.run(fly(ap, loop, 30))
     # MANUAL: the flight ends as a release to the pilot (no takeover fault, no HOLD asked)
     assert result.fault is not None and result.fault.cause is FaultCause.RELEASED
@@ -437,6 +461,29 @@ def test_a_flight_of_auto_pauses_in_hold_goes_on_in_auto_and_lets_go_in_manual()
     assert any(driven[:first_hold]) and again - first_hold >= 6
     assert all(not d for d in driven[first_hold:again])
     assert any(driven[again:])
+
+
+def test_the_loop_reads_no_serve_section_its_host_hands_in_the_place_rule() -> None:
+    """A flight of AUTO flies with the config's serve section gone: the place rule comes from
+    its host (helixd serve), not from ``cfg.serve``."""
+    trace: list[str] = []
+    ap = FedAutopilot()
+    ap.modes = [AUTO] * 8 + [MANUAL]
+    ap.tick()
+    plan = make_loop(ap, Sink(trace), trace).plan
+    no_serve = HelixdConfig().model_copy(update={"serve": None})
+    driving = Driving("AUTO", places=PlaceRule(1.5, 0.5))
+    loop = quiet_loop(no_serve, plan, ap, Sink(trace), driving)
+    result = asyncio.run(fly(ap, loop, 12))
+    assert result.fault is not None and result.fault.cause is FaultCause.RELEASED
+
+
+def test_a_flight_that_follows_the_mode_needs_its_place_rule() -> None:
+    with pytest.raises(ValueError, match="needs its PlaceRule"):
+        Driving("AUTO")
+    assert (
+        not DRIVE_MANUAL.follows_mode and Driving("AUTO", places=PlaceRule(1.5, 0.5)).follows_mode
+    )
 
 
 def test_a_flight_that_set_manual_takes_a_mode_change_for_a_takeover() -> None:
@@ -499,13 +546,12 @@ class GotoAutopilot(FedAutopilot):
 def goto_loop(
     ap: FedAutopilot, sink: Sink, trace: list[str], x_m: float, cfg: HelixdConfig | None = None
 ) -> FlightLoop:
-    loop = make_loop(ap, sink, trace, driving_mode="GUIDED", cfg=cfg)
+    loop = make_loop(ap, sink, trace, driving_mode="GUIDED", cfg=cfg, goto=HERE)
     mission = Mission.model_validate(
         {"name": "t", "mode": "roll", "frame": "start", "waypoints": [{"x": x_m, "y": 0}]}
     )
     loop.plan = resolve_plan(mission, loop.cfg.control, loop.cfg.mission, None)
     loop.navigator = Navigator(loop.plan, loop.cfg.control)
-    loop.goto = HERE
     return loop
 
 
@@ -520,7 +566,7 @@ def test_a_flight_to_a_place_holds_there_and_never_completes() -> None:
     loop = goto_loop(ap, sink, trace, 0.5)
     result = asyncio.run(fly(ap, loop, 45))
     assert result.fault is not None and result.fault.cause is FaultCause.SIGNAL  # our stop
-    assert loop._arrived
+    assert loop._crew.arrived
     neutral = [c == (0.0,) * 4 for c in sink.commands]
     arrived_at = neutral.index(True, 1)
     assert not all(neutral[:arrived_at]) and all(neutral[arrived_at:])
@@ -536,7 +582,7 @@ def test_a_flight_to_a_place_hands_over_to_a_new_place_and_holds_without_one() -
     sink = Sink(trace)
     loop = goto_loop(ap, sink, trace, 20.0)
     gates: list[str] = []
-    loop.on_gate = lambda gate, mode: gates.append(gate.value)
+    loop.hooks = replace(loop.hooks, on_gate=lambda gate, mode: gates.append(gate.value))
     result = asyncio.run(fly(ap, loop, 30))
     assert result.fault is not None and result.fault.cause is FaultCause.HANDOVER
     assert gates[-1] == "handover" and "GUIDED to 52.0000900" in result.fault.detail
@@ -608,7 +654,7 @@ def test_a_flight_held_at_its_place_longer_than_the_limit_does_not_fault() -> No
     cfg = HelixdConfig.model_validate({"safety": {"mission_time_limit_s": 0.7}})
     loop = goto_loop(ap, Sink(trace), trace, 0.5, cfg)
     result = asyncio.run(fly(ap, loop, 90))
-    assert loop._arrived
+    assert loop._crew.arrived
     assert result.fault is not None and result.fault.cause is FaultCause.SIGNAL, result.fault
 
 

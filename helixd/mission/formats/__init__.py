@@ -27,9 +27,9 @@ from helixd.mission.formats.items import (
     FormatError,
     GcsMission,
     check_latlon,
-    circle_polygon,
     fence_ne,
     items_to_mission,
+    keep_in_of,
     keep_out_problems,
     mission_name,
     mission_to_items,
@@ -371,17 +371,10 @@ def with_fence(
             ]
         )
     notes = list(loaded.notes)
-    inclusions = [p for p in fence.polygons if p.inclusion]
-    circles = [c for c in fence.circles if c.inclusion]
-    keep_in: tuple[tuple[float, float], ...] = ()
-    if len(inclusions) == 1 and not circles:
-        keep_in = inclusions[0].vertices_latlon_deg
-    elif len(circles) == 1 and not inclusions:
-        keep_in = circle_polygon(circles[0])
-    elif inclusions or circles:
+    keep_in, why_none = keep_in_of(fence)
+    if why_none:
         notes.append(
-            f"--fence {source}: {len(inclusions)} inclusion polygons and {len(circles)} "
-            "inclusion circles: none used as the keep-in fence (helixd keeps one)"
+            f"--fence {source}: {why_none}: none used as the keep-in fence (helixd keeps one)"
         )
     points = msn.points()
     labels = [as_items(entry_label(msn.waypoints.index(wp))) for wp in msn.places()]

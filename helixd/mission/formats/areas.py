@@ -6,11 +6,11 @@ on the Earth, bounded vertex counts; a problem names the file and the element.
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from helixd.files.kml import KmlRefused, kml_root, local_name
 from helixd.files.yamlio import YamlFileError, clip, read_text_capped
 from helixd.mission.formats.items import FormatError, check_latlon
 from helixd.mission.formats.qgc_plan import load_plan_json, parse_plan_text
@@ -143,10 +143,6 @@ def area_from_geojson(text: str, src: str) -> SurveyArea:
     )
 
 
-def _local(tag: str) -> str:
-    return tag.rsplit("}", 1)[-1]
-
-
 def _kml_coords(text: str | None, where: str) -> Ring:
     tokens = (text or "").split()
     if len(tokens) > MAX_VERTICES + 1:
@@ -169,23 +165,20 @@ def _kml_coords(text: str | None, where: str) -> Ring:
 def area_from_kml(text: str, src: str) -> SurveyArea:
     """Exactly one ``<Polygon>``: outerBoundaryIs and innerBoundaryIs LinearRings. DOCTYPE and
     entity declarations are refused before parsing (no entity expansion can happen)."""
-    head = text[:4096].upper()
-    if "<!DOCTYPE" in head or "<!ENTITY" in text.upper():
-        raise FormatError([f"{src}: DOCTYPE/ENTITY declarations are not allowed in a KML file"])
     try:
-        root = ET.fromstring(text)
-    except ET.ParseError as exc:
-        raise FormatError([f"{src}: not valid XML: {exc}"]) from None
-    polys = [el for el in root.iter() if _local(el.tag) == "Polygon"]
+        root = kml_root(text, src)
+    except KmlRefused as exc:
+        raise FormatError([str(exc)]) from None
+    polys = [el for el in root.iter() if local_name(el.tag) == "Polygon"]
     if len(polys) != 1:
         raise FormatError([f"{src}: {len(polys)} <Polygon> elements; a survey area is exactly one"])
     outer: Ring | None = None
     holes: list[Ring] = []
     for child in polys[0]:
-        name = _local(child.tag)
+        name = local_name(child.tag)
         if name not in ("outerBoundaryIs", "innerBoundaryIs"):
             continue
-        coords = [el for el in child.iter() if _local(el.tag) == "coordinates"]
+        coords = [el for el in child.iter() if local_name(el.tag) == "coordinates"]
         if len(coords) != 1:
             raise FormatError([f"{src}: {name} needs one LinearRing with <coordinates>"])
         if name == "outerBoundaryIs":

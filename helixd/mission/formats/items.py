@@ -21,6 +21,7 @@ from pydantic import ValidationError
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.base.plan import MissionFrameKind, MotionMode
+from helixd.base.problems import Problems
 from helixd.files.models import format_validation_error
 from helixd.mav.constants import (
     GLOBAL_FRAMES,
@@ -42,12 +43,8 @@ PLACE_FRAMES = GLOBAL_FRAMES | {2}
 MAX_ITEMS = 100_000  # as many as a helixd YAML mission may hold in practice
 
 
-class FormatError(ValueError):
+class FormatError(Problems, ValueError):
     """A ground-station file or item list cannot become a mission; one line per problem."""
-
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("\n".join(problems))
 
 
 @dataclass(frozen=True, slots=True)
@@ -312,17 +309,10 @@ def items_to_mission(
         )
     if problems:
         raise FormatError([prefix + p for p in problems[:20]] + _more(problems, 20, prefix))
-    fence: tuple[tuple[float, float], ...] = ()
-    inclusions = [p for p in gcs.polygons if p.inclusion]
-    circles = [c for c in gcs.circles if c.inclusion]
-    if len(inclusions) == 1 and not circles:
-        fence = inclusions[0].vertices_latlon_deg
-    elif len(circles) == 1 and not inclusions:
-        fence = circle_polygon(circles[0])
-    elif inclusions or circles:
+    fence, why_none = keep_in_of(gcs)
+    if why_none:
         notes.append(
-            f"{len(inclusions)} inclusion polygons and {len(circles)} inclusion circles: none "
-            "used as the mission fence (helixd keeps one keep-in polygon)"
+            f"{why_none}: none used as the mission fence (helixd keeps one keep-in polygon)"
         )
     data: dict[str, object] = {
         "name": name,
@@ -351,6 +341,20 @@ def items_to_mission(
 
 
 CIRCLE_FENCE_VERTICES = 64
+
+
+def keep_in_of(gcs: GcsMission) -> tuple[tuple[tuple[float, float], ...], str]:
+    """The one keep-in polygon of a fence: its one inclusion polygon, or its one inclusion
+    circle as a polygon; none (and why, "" when it has no inclusion at all) otherwise."""
+    inclusions = [p for p in gcs.polygons if p.inclusion]
+    circles = [c for c in gcs.circles if c.inclusion]
+    if len(inclusions) == 1 and not circles:
+        return inclusions[0].vertices_latlon_deg, ""
+    if len(circles) == 1 and not inclusions:
+        return circle_polygon(circles[0]), ""
+    if inclusions or circles:
+        return (), f"{len(inclusions)} inclusion polygons and {len(circles)} inclusion circles"
+    return (), ""
 
 
 def circle_polygon(circle: FenceCircle) -> tuple[tuple[float, float], ...]:
@@ -414,8 +418,9 @@ def _same_point(a: tuple[float, float], b: tuple[float, float]) -> bool:
     return math.hypot(n, e) < 0.01
 
 
-def waypoint_item(seq: int, lat_deg: float, lon_deg: float) -> MissionItem:
-    """A plain NAV_WAYPOINT at lat/lon, altitude relative to home, no yaw (param4 NaN)."""
+def waypoint_item(seq: int, lat_deg: float, lon_deg: float, where: str = "") -> MissionItem:
+    """A plain NAV_WAYPOINT at lat/lon, altitude relative to home, no yaw (param4 NaN);
+    ``where`` names where it came from, for messages."""
     return MissionItem(
         seq=seq,
         frame=MAV_FRAME_GLOBAL_RELATIVE_ALT,
@@ -423,6 +428,7 @@ def waypoint_item(seq: int, lat_deg: float, lon_deg: float) -> MissionItem:
         param4=math.nan,
         x=lat_deg,
         y=lon_deg,
+        where=where,
     )
 
 

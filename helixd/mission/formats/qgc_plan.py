@@ -31,7 +31,6 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from helixd.files.jsonio import JsonTextError, load_json_text
 from helixd.files.models import format_validation_error
 from helixd.files.yamlio import clip
-from helixd.mav.constants import MAV_CMD_NAV_WAYPOINT, MAV_FRAME_GLOBAL_RELATIVE_ALT
 from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats.items import (
     MAX_ITEMS,
@@ -40,6 +39,7 @@ from helixd.mission.formats.items import (
     FormatError,
     GcsMission,
     check_latlon,
+    waypoint_item,
 )
 
 MAX_DEPTH = 24  # a .plan nests 6 deep (plan → mission → items → complex → transect → items)
@@ -208,18 +208,6 @@ def _item(sj: SimpleItemJson, seq: int, where: str) -> MissionItem:
     )
 
 
-def _transect_point(seq: int, lat: float, lon: float, where: str) -> MissionItem:
-    return MissionItem(
-        seq=seq,
-        frame=MAV_FRAME_GLOBAL_RELATIVE_ALT,
-        command=MAV_CMD_NAV_WAYPOINT,
-        param4=math.nan,
-        x=lat,
-        y=lon,
-        where=where,
-    )
-
-
 def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
     items: list[MissionItem] = []
     surveys: list[tuple[tuple[float, float], ...]] = []
@@ -248,7 +236,7 @@ def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
         elif transect is not None and transect.VisualTransectPoints:
             for k, (lat, lon) in enumerate(transect.VisualTransectPoints):
                 label = f"{where} {kind} VisualTransectPoints.{k}"
-                items.append(_transect_point(seq, lat, lon, label))
+                items.append(waypoint_item(seq, lat, lon, label))
                 seq += 1
             notes.append(
                 f"{src}: {where}: ComplexItem {clip(kind, 40)}: flown through its "
