@@ -482,7 +482,7 @@ class FlightLoop:
         nav = self.navigator.standing(mpose)
         if last is not None and last.reached_index is not None:
             nav = replace(last, command=BodyVelocity.zero())  # the arrival row itself
-        slip = self.slip.estimate(self.plan.mode)
+        slip = self.slip.estimate(self.navigator.mode)
         return StepOutput(NEUTRAL_FRACTIONS, nav, BodyVelocity.zero(), mpose, slip)
 
     def _neutral(self) -> None:
@@ -528,15 +528,15 @@ class FlightLoop:
         """
         mpose = self.frame.to_mission(sample.ned)
         slip = self._learn_slip(sample, t_boot_s)
-        if self._slip_enabled and self.plan.mode is not MotionMode.OMNI:
-            delivered_x, delivered_y = self.slip.delivered(self.plan.mode)
-            scroll = self.plan.mode is MotionMode.SCROLL
+        if self._slip_enabled and self.navigator.mode is not MotionMode.OMNI:
+            delivered_x, delivered_y = self.slip.delivered(self.navigator.mode)
+            scroll = self.navigator.mode is MotionMode.SCROLL
             self.navigator.set_delivered_fraction(delivered_y if scroll else delivered_x)
         out = self.navigator.step(mpose, t_boot_s)
         command = out.command
         if self._slip_enabled:
-            command = self.slip.compensate(self.plan.mode, out.command)
-        fractions = scroll_fractions(command, self.cfg.vehicle, self.plan.mode)
+            command = self.slip.compensate(self.navigator.mode, out.command)
+        fractions = scroll_fractions(command, self.cfg.vehicle, self.navigator.mode)
         if (
             not out.command.is_finite()
             or not command.is_finite()
@@ -552,7 +552,7 @@ class FlightLoop:
         # included): amplifying the command can only make a stall show sooner, never hide it.
         self._cmd_speed_mps = math.hypot(command.vx_mps, command.vy_mps)
         self._cmd_yaw_rate_radps = command.wz_radps
-        self._sent = (t_boot_s, no_slip_body(command, self.cfg.vehicle, self.plan.mode))
+        self._sent = (t_boot_s, no_slip_body(command, self.cfg.vehicle, self.navigator.mode))
 
     def _report(self, sample: PoseSample, step: StepOutput, now: float, t_start: float) -> None:
         """After the send: arrivals, then the step's report for the recorder and display."""
@@ -578,12 +578,12 @@ class FlightLoop:
         """Step the slip fit with what was sent at the last step and the motion measured now
         (LOCAL_POSITION_NED velocity rotated into the body frame, the yaw derivative)."""
         if self._sent is None:
-            return self.slip.estimate(self.plan.mode)
+            return self.slip.estimate(self.navigator.mode)
         t_sent_s, sent = self._sent
         measured = measured_body_velocity(
             sample.vn_mps, sample.ve_mps, sample.ned.yaw_ned_rad, self._meas_yaw_rate_radps
         )
-        return self.slip.update(self.plan.mode, sent, measured, t_boot_s - t_sent_s)
+        return self.slip.update(self.navigator.mode, sent, measured, t_boot_s - t_sent_s)
 
     def _measure_yaw_rate(self, sample: PoseSample) -> None:
         t = sample.time_boot_ms / 1000.0
