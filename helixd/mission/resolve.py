@@ -137,6 +137,7 @@ def resolve(
                     tolerance_m=wp.tolerance_m or default_tol,
                     final_yaw_rad=frame.yaw(wp.heading_deg),
                     via=wp.via,
+                    mode=wp.mode,
                 )
             )
         plan = Plan(mission.name, mission.mode, mission.frame, tuple(out), speed)
@@ -170,6 +171,7 @@ def resolve(
             tolerance_m=wp.tolerance_m or default_tol,
             final_yaw_rad=frame.yaw(wp.heading_deg),
             stop=stop,
+            mode=wp.mode,
         )
 
     ctx = Context(
