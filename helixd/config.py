@@ -403,12 +403,12 @@ class MediaConfig(InputModel):
         "this far on the firm side of it (the ROLL medium's), so all four scrolls bear on "
         "ground while it turns (m; the Helix-25 is about 1 m long)",
     )
-    transition_s: float = Field(
-        2.0,
-        ge=0.0,
-        le=60.0,
-        description="time the estimate adds per change of mode beyond the stop and the 90° "
-        "turn in place (s)",
+    min_stretch_m: float = Field(
+        5.0,
+        ge=0.5,
+        le=100.0,
+        description="a stretch shorter than this is flown in its neighbours' mode (never "
+        "ROLL): two stops and turns in place cost more than rolling a few metres saves (m)",
     )
     detect: bool = Field(
         True,

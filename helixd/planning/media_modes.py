@@ -6,9 +6,10 @@ on its ground. Pure: a plan, a media map and a policy in; a plan with a mode per
 * **Stretches**: the path (start → waypoint 1 → …) is cut where the medium changes
   (:func:`helixd.base.media.media_along`), each piece gets its medium's mode, neighbours in one
   mode are one stretch. A leg whose waypoint pins a mode (a YAML waypoint's ``mode:``) is one
-  piece in that mode whatever it crosses. A stretch shorter than ``2 × margin`` (at least
-  :data:`MIN_STRETCH_M`) is not worth two turns: it joins its neighbour, and the pair keeps the
-  mode that moves in both (SCROLL or OMNI, never ROLL: rolling is what fails in water and mud).
+  piece in that mode whatever it crosses. A stretch shorter than the policy's
+  ``min_stretch_m`` (and than ``2 × margin``) is not worth two turns: it joins its
+  neighbour, and the pair keeps the mode that moves in both (SCROLL or OMNI, never ROLL:
+  rolling is what fails in water and mud).
 * **Transitions**: where the mode changes between ROLL and SCROLL the driving axis turns by
   90°, which the rover does in place, stopped. It stops on the firm side — ``margin`` before the
   boundary when it leaves ROLL, ``margin`` past it when it takes ROLL back — so it turns with
@@ -21,6 +22,7 @@ inserted via points.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
@@ -41,6 +43,7 @@ class ModePolicy:
 
     modes: Mapping[Medium, MotionMode]
     margin_m: float = 1.0
+    min_stretch_m: float = 5.0  # shorter stretches join a neighbour (at least 2 × margin)
 
     def mode_for(self, medium: Medium) -> MotionMode:
         return self.modes.get(medium, MotionMode.SCROLL)
@@ -174,9 +177,7 @@ def _absorb_short(stretches: list[_Piece], min_m: float) -> list[_Piece]:
     """Join every stretch shorter than ``min_m`` (not pinned) to a neighbour, shortest first."""
     out = list(stretches)
     while len(out) > 1:
-        short = [
-            i for i, s in enumerate(out) if not s.pinned and s.end_m - s.start_m < min_m
-        ]
+        short = [i for i, s in enumerate(out) if not s.pinned and s.end_m - s.start_m < min_m]
         if not short:
             break
         i = min(short, key=lambda k: out[k].end_m - out[k].start_m)
@@ -232,10 +233,11 @@ def follow_media(
     if not pieces:  # every leg has no length: the plan's mode where the rover stands
         medium = media.medium_at(*to_ne(*start_xy_m))
         pieces = [_Piece(0.0, 0.0, wps[0].mode or policy.mode_for(medium), [(medium, 0.0)], False)]
-    stretches = _absorb_short(_join(pieces), max(MIN_STRETCH_M, 2.0 * policy.margin_m))
+    shortest_m = max(MIN_STRETCH_M, policy.min_stretch_m, 2.0 * policy.margin_m)
+    stretches = _absorb_short(_join(pieces), shortest_m)
     # each change of mode, moved to the firm side and snapped onto a close waypoint
     changes: list[float] = []
-    for left, right in zip(stretches, stretches[1:], strict=False):
+    for left, right in itertools.pairwise(stretches):
         s = _transition_m(left, right, policy.margin_m)
         near = min(range(len(at)), key=lambda k: abs(at[k] - s))
         changes.append(at[near] if abs(at[near] - s) <= SNAP_M else s)
@@ -260,7 +262,9 @@ def follow_media(
         for c in cuts:
             x, y = _point_at(points, at, c)
             new.append(
-                PlanWaypoint(x, y, wp.tolerance_m, via=True, stop=True, mode=mode_at((prev + c) / 2))
+                PlanWaypoint(
+                    x, y, wp.tolerance_m, via=True, stop=True, mode=mode_at((prev + c) / 2)
+                )
             )
             prev = c
         new.append(replace(wp, mode=mode_at((prev + hi) / 2) if hi > prev else mode_at(prev)))

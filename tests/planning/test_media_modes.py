@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import math
 
-from helixd.base.media import MediaArea, MediaFrame, MediaMap, MediaMapNe, Medium
-from helixd.base.plan import MotionMode, Plan, PlanWaypoint
 from helixd.base.frames import MissionFrame
+from helixd.base.media import MediaArea, MediaFrame, MediaMap, MediaMapNe, Medium
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.planning.media_modes import DEFAULT_MODES, ModePolicy, follow_media
-from helixd.base.plan import MissionFrameKind
 
 ENU = MissionFrame.enu().to_ned
 POLICY = ModePolicy(DEFAULT_MODES, margin_m=1.0)
