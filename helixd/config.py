@@ -428,6 +428,13 @@ class MediaConfig(InputModel):
         description="in ROLL, delivered below this fraction of the commanded speed over the "
         "window: the ground is softer than the map says (hard 0.95, grass 0.9, mud 0.3)",
     )
+    detect_scroll_fraction: float = Field(
+        0.55,
+        gt=0.0,
+        lt=1.0,
+        description="scrolling because of the check, delivered below this fraction over the "
+        "window: firm ground again, back to the planned mode (hard 0.45, mud 0.85)",
+    )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -121,6 +121,7 @@ class Navigator:
         self._peak_speed_mps = plan.peak_speed_mps
         self._cruise_mps = plan.speed_mps
         self._reverse = False
+        self._mode_override: MotionMode | None = None  # override_mode
         # the fraction of the commanded speed the ground delivers (set_delivered_fraction)
         self._delivered_fraction = 1.0
         self._distance_pid = PID(control.distance_pid, output_limit=self._peak_speed_mps)
@@ -173,7 +174,15 @@ class Navigator:
     def mode(self) -> MotionMode:
         """The motion mode of the leg being flown (the plan's one mode, or the current
         stretch's where the plan has a mode per waypoint: it changes at a stop)."""
+        if self._mode_override is not None:
+            return self._mode_override
         return self.plan.mode_at(self.target_index)
+
+    def override_mode(self, mode: MotionMode | None) -> None:
+        """Fly ``mode`` instead of the plan's from the next step until the current target is
+        reached (None: the plan's again). The ground is not what the map says
+        (:mod:`helixd.control.ground_check`): a change of axis starts with a turn in place."""
+        self._mode_override = mode
 
     @property
     def cruise_speed_mps(self) -> float:
@@ -628,6 +637,7 @@ class Navigator:
         goal = self._goal()
         self._leg_start_xy_m = (goal.x_m, goal.y_m)
         self._target_index += 1
+        self._mode_override = None
         self._final_heading_pending = False
         self._reset_pids()
 

@@ -522,6 +522,7 @@ class MissionRunner:
                     driving_mode=self.host.driving_mode,
                     on_gate=feed.on_gate,
                     goto=self.host.goto,
+                    on_ground=feed.on_ground,
                 )
                 result = await self.flight_loop.run()
             finally:

@@ -63,6 +63,7 @@ from helixd.control.slip import (
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample, PositionTarget
 from helixd.mission.commands import bound_speed, speed_floor_mps
+from helixd.runtime.ground_watch import GroundChange, GroundWatch
 from helixd.runtime.mode_gate import (
     Gate,
     autopilot_step,
@@ -118,6 +119,7 @@ class StepOutput:
     command: BodyVelocity  # the body velocity sent (slip feed-forward included)
     mpose: Pose2D  # the pose in the mission frame
     slip: SlipEstimate  # the slip fit after this step's measurement
+    motion_mode: str = ""  # the motion mode flown (roll, scroll, omni)
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,6 +186,7 @@ class FlightLoop:
         driving_mode: str = MANUAL_MODE,
         on_gate: Callable[[Gate, str], None] | None = None,
         goto: PositionTarget | None = None,
+        on_ground: Callable[[GroundChange], None] | None = None,
     ) -> None:
         self.cfg = cfg
         self.plan = plan
@@ -197,6 +200,9 @@ class FlightLoop:
         self.on_arrival = on_arrival
         self.on_tick = on_tick
         self.navigator = Navigator(plan, cfg.control)
+        # the mode follows the medium: where the ground is not what the map says, it changes
+        follows = any(w.mode is not None for w in plan.waypoints)
+        self.ground = GroundWatch(cfg.media, self.navigator, follows, on_ground)
         self.sequencer = Sequencer(plan.program) if plan.program is not None else None
         self.on_action = on_action
         self.on_mission_event = on_mission_event
@@ -483,7 +489,8 @@ class FlightLoop:
         if last is not None and last.reached_index is not None:
             nav = replace(last, command=BodyVelocity.zero())  # the arrival row itself
         slip = self.slip.estimate(self.navigator.mode)
-        return StepOutput(NEUTRAL_FRACTIONS, nav, BodyVelocity.zero(), mpose, slip)
+        motion = self.navigator.mode.value
+        return StepOutput(NEUTRAL_FRACTIONS, nav, BodyVelocity.zero(), mpose, slip, motion)
 
     def _neutral(self) -> None:
         self.sink.command(NEUTRAL_FRACTIONS)
@@ -543,7 +550,7 @@ class FlightLoop:
             or not math.isfinite(fractions[0] + fractions[1] + fractions[2] + fractions[3])
         ):
             raise NonFiniteError(f"command {out.command} / fractions {list(fractions)}")
-        return StepOutput(fractions, out, command, mpose, slip)
+        return StepOutput(fractions, out, command, mpose, slip, self.navigator.mode.value)
 
     def _sent_step(self, step: StepOutput, t_boot_s: float) -> None:
         """Bookkeeping of what was sent, for the stall watchdog and the slip fit."""
@@ -583,6 +590,8 @@ class FlightLoop:
         measured = measured_body_velocity(
             sample.vn_mps, sample.ve_mps, sample.ned.yaw_ned_rad, self._meas_yaw_rate_radps
         )
+        ned = sample.ned
+        self.ground.feed(sent, measured, t_boot_s - t_sent_s, ned.north_m, ned.east_m)
         return self.slip.update(self.navigator.mode, sent, measured, t_boot_s - t_sent_s)
 
     def _measure_yaw_rate(self, sample: PoseSample) -> None:

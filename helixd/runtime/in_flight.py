@@ -30,6 +30,7 @@ from helixd.runtime.display import ProgressDisplay
 from helixd.runtime.flight import PoseRejectedReport, StepReport
 from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
 from helixd.runtime.gcs_feed import GcsFeed
+from helixd.runtime.ground_watch import GroundChange
 from helixd.runtime.host import FlightHost
 from helixd.runtime.mode_gate import Gate
 
@@ -108,6 +109,21 @@ class InFlight:
         )
         if ev.kind == "hold_started":
             self.gcs.phase(f"item {ev.item}{f' ({lap})' if lap else ''}: {ev.text}")
+
+    def on_ground(self, change: GroundChange) -> None:
+        """The ground is not what the media map says: the mode changed; the event, the GCS."""
+        v = change.verdict
+        log.warning(
+            "ground_changed",
+            soft=v.soft,
+            mode=v.mode.value,
+            planned=change.planned.value,
+            delivered_fraction=round(v.fraction, 3),
+            waypoint=self.numbering.label(change.target_index),
+            north_m=round(change.north_m, 2),
+            east_m=round(change.east_m, 2),
+        )
+        self.gcs.say(change.text(), MAV_SEVERITY_WARNING)
 
     def on_gate(self, gate: Gate, mode: str) -> None:
         """The autopilot's mode changed what a flight of its AUTO may do: tell the GCS."""
