@@ -41,6 +41,7 @@ Results: a table on stdout and ``bench/results/latest.{json,md}`` (section ``amp
 from __future__ import annotations
 
 import concurrent.futures
+import itertools
 import json
 import math
 import os
@@ -64,8 +65,6 @@ if str(ROOT) not in sys.path:  # measure the checkout this tool lives in
     sys.path.insert(0, str(ROOT))
 if str(ROOT / "tools") not in sys.path:
     sys.path.insert(0, str(ROOT / "tools"))
-
-import itertools
 
 from bench_results import RESULTS_DIR, write_section  # noqa: E402
 from navmetrics import polyline_distance_m  # noqa: E402
