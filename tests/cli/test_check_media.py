@@ -110,3 +110,44 @@ def test_the_shipped_pond_survey_rolls_the_banks_and_scrolls_the_water(
     assert modes == ["roll", "scroll", "roll", "scroll", "roll", "scroll", "roll"], out
     assert all("water" in ln for ln, m in zip(stretches, modes, strict=True) if m == "scroll")
     assert "6 changes of mode" in out
+
+
+def gcs_crossing(tmp_path: Path, code: float) -> tuple[Path, Path]:
+    """A .waypoints mission (60 m north) whose second waypoint's param4 ("Yaw") is ``code``,
+    and a config with the water map in media.media_map."""
+    crossing(tmp_path)  # writes water.geojson
+    lat2 = 53.5 + 60.0 / 111_195.0
+    rows = [
+        "QGC WPL 110",
+        "0\t1\t0\t16\t0\t0\t0\t0\t53.5\t-113.5\t0\t1",
+        "1\t0\t3\t16\t0\t0\t0\t0\t53.5\t-113.5\t0\t1",
+        f"2\t0\t3\t16\t0\t0\t0\t{code}\t{lat2:.8f}\t-113.5\t0\t1",
+    ]
+    mission = tmp_path / "crossing.waypoints"
+    mission.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    config = tmp_path / "helixd.yaml"
+    media = str(tmp_path / "water.geojson")
+    config.write_text(
+        json.dumps({"mission": {"ground_station_mode": "scroll"}, "media": {"media_map": media}}),
+        encoding="utf-8",
+    )
+    return mission, config
+
+
+def test_a_ground_station_mission_follows_the_configs_media_map(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mission, config = gcs_crossing(tmp_path, 0.0)
+    code, out, err = run_main(["check", "--config", str(config), "--mission", str(mission)], capsys)
+    assert code == 0, out + err
+    assert out.count("change  : ") == 2, out
+
+
+def test_a_ground_station_pins_a_legs_mode_by_the_yaw_code(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mission, config = gcs_crossing(tmp_path, -2.0)  # -2: scroll the whole leg
+    code, out, err = run_main(["check", "--config", str(config), "--mission", str(mission)], capsys)
+    assert code == 0, out + err
+    assert "change  : " not in out
+    assert "(the waypoint's own mode)" in out
