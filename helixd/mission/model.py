@@ -260,11 +260,13 @@ class WaypointSpec(InputModel):
             raise ValueError(
                 f"{sorted(self.given())}: {spec.name} has no place (give its x/y as params)"
             )
-        placed_only = self.heading_deg is not None or self.tolerance_m is not None
-        if (placed_only or self.mode is not None) and spec.role not in FLY_ROLES:
-            raise ValueError(
-                f"heading_deg/tolerance_m/mode: only for a place to go, not {spec.name}"
-            )
+        if spec.role not in FLY_ROLES:
+            if self.heading_deg is not None or self.tolerance_m is not None:
+                raise ValueError(
+                    f"heading_deg/tolerance_m: only for a place to go, not {spec.name}"
+                )
+            if self.mode is not None:
+                raise ValueError(f"mode: only for a place to go, not {spec.name}")
         return self
 
     def given(self) -> set[str]:
