@@ -88,8 +88,6 @@ def check_media_plan(cfg: HelixdConfig, msn: Mission, plan: Plan, media: MediaMa
         origin: tuple[float, float] | None = msn.points()[0]
     elif media.frame is MediaFrame.LOCAL_NED:
         origin = None
-    elif msn.home is not None:
-        origin = msn.home  # a local_ned mission's home stands for the EKF origin
     else:
         return MediaCheck(None, "a lat/lon map under a local_ned mission needs the EKF origin")
     start = plan.assumed_start_xy_m()
