@@ -45,6 +45,9 @@ class PlanWaypoint:
     # the motion mode of the leg to this waypoint (None: the plan's mode); where the next
     # leg's mode differs the waypoint is a stop and the rover turns in place there
     mode: MotionMode | None = None
+    # a stop inserted where the mode changes (helixd.planning.media_modes): not one of the
+    # mission's waypoints, so not counted where the mission's are (a resume's index)
+    media_stop: bool = False
 
 
 class ActionKind(StrEnum):

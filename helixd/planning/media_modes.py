@@ -261,11 +261,9 @@ def follow_media(
         prev = lo
         for c in cuts:
             x, y = _point_at(points, at, c)
-            new.append(
-                PlanWaypoint(
-                    x, y, wp.tolerance_m, via=True, stop=True, mode=mode_at((prev + c) / 2)
-                )
-            )
+            mode = mode_at((prev + c) / 2)
+            stop = PlanWaypoint(x, y, wp.tolerance_m, via=True, stop=True, mode=mode)
+            new.append(replace(stop, media_stop=True))
             prev = c
         new.append(replace(wp, mode=mode_at((prev + hi) / 2) if hi > prev else mode_at(prev)))
         new_index.append(len(new) - 1)

@@ -52,6 +52,7 @@ class InFlight:
     recorder: RunRecorder | None
     journal: StepJournal = field(init=False)
     laps: tuple[str, ...] = field(init=False)
+    inserted_before: tuple[int, ...] = field(init=False)
     radio_lost_told: bool = False
 
     def __post_init__(self) -> None:
@@ -59,6 +60,12 @@ class InFlight:
         self.journal = StepJournal(self.plan, self.on_row, self.cfg.recorder.batch_interval_s)
         program = self.plan.program
         self.laps = tuple(program.laps()) if program is not None else ()
+        # per plan index, the media map's stops before it (not the mission's waypoints)
+        inserted, count = [], 0
+        for w in self.plan.waypoints:
+            inserted.append(count)
+            count += w.media_stop
+        self.inserted_before = tuple(inserted)
 
     def announce(self, mission_name: str) -> None:
         """The flight starts: the log, the ground station and the host's current item."""
@@ -135,6 +142,13 @@ class InFlight:
         elif gate is Gate.RELEASE:
             self.gcs.phase(f"released: mode {mode}, the pilot drives")
 
+    def mission_index(self, index: int) -> int | None:
+        """The mission's index of plan waypoint ``index`` (None: a stop of the media map)."""
+        wps = self.plan.waypoints
+        if not 0 <= index < len(wps):
+            return index
+        return None if wps[index].media_stop else index - self.inserted_before[index]
+
     def on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
         self.journal.drain()  # the summary has every step before the arrival
         numbering = self.numbering
@@ -148,7 +162,9 @@ class InFlight:
             # as the ground station numbers it: "3/5"; a mission with commands: item 3 of 5,
             # "3/5 (lap 2 of 3)" where a DO_JUMP repeats it
             waypoint=numbering.label(index),
-            index=index,  # 0-based plan index, via points included (what --resume counts)
+            # 0-based index in the mission, the planner's via points included, the media
+            # map's stops not (what --resume counts; None at such a stop)
+            index=self.mission_index(index),
             elapsed_autopilot_s=(
                 round(t_boot_s - start, 1) if start is not None and t_boot_s >= start else None
             ),

@@ -66,6 +66,12 @@ def test_a_crossing_rolls_the_banks_and_scrolls_the_water(tmp_path: Path) -> Non
     assert float(np.min(c["north_m"][scrolled])) == pytest.approx(9.0, abs=0.6)
     assert float(np.max(c["north_m"][scrolled])) == pytest.approx(31.0, abs=0.6)
     assert "ground_changed" not in log  # the map was right
+    reached = [
+        json.loads(line).get("index")
+        for line in (run_dir / "events.jsonl").read_text(encoding="utf-8").splitlines()
+        if '"waypoint_reached"' in line
+    ]
+    assert reached == [None, None, 0]  # the map's two stops are not the mission's (--resume)
 
 
 def test_mud_the_map_does_not_show_is_noticed_and_scrolled(tmp_path: Path) -> None:

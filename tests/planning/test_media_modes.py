@@ -38,6 +38,7 @@ def test_a_crossing_rolls_to_the_bank_turns_there_and_scrolls_across() -> None:
         (51.0, MotionMode.SCROLL, True, True),  # a metre onto the far bank
         (60.0, MotionMode.ROLL, False, False),
     ]
+    assert [w.media_stop for w in wps] == [True, True, False]
     assert [(t.before, t.after, t.medium) for t in got.transitions] == [
         (MotionMode.ROLL, MotionMode.SCROLL, Medium.HARD),
         (MotionMode.SCROLL, MotionMode.ROLL, Medium.HARD),
