@@ -32,7 +32,7 @@ time and with less energy; fixed ROLL's outcome is reported; the patch detected 
 
 Usage::
 
-    .venv/bin/python tools/bench_amphibious.py                      # 9 runs, 2 workers
+    .venv/bin/python tools/bench_amphibious.py                      # 9 runs, one at a time
     .venv/bin/python tools/bench_amphibious.py --only crossing --policy media --speedup 20
 
 Results: a table on stdout and ``bench/results/latest.{json,md}`` (section ``amphibious``).
@@ -448,10 +448,10 @@ def table(results: Sequence[RunResult]) -> str:
 
 
 def main(
-    speedup: float = typer.Option(10.0, min=0.5, max=20.0, help="simulator speed-up"),
+    speedup: float = typer.Option(6.0, min=0.5, max=20.0, help="simulator speed-up"),
     only: list[str] = typer.Option([], help="courses to fly (default: all)"),  # noqa: B008
     policy: list[str] = typer.Option([], help="policies (default: roll, scroll, media)"),  # noqa: B008
-    jobs: int = typer.Option(2, min=1, max=8, help="runs at once"),
+    jobs: int = typer.Option(1, min=1, max=8, help="runs at once"),
     timeout_s: float = typer.Option(600.0, min=10.0, help="wall-time limit of one run (s)"),
     results_dir: Path = typer.Option(RESULTS_DIR, help="where latest.json/md go"),  # noqa: B008
 ) -> None:
