@@ -369,6 +369,75 @@ class MissionLimits(InputModel):
 
 
 # ---------------------------------------------------------------------------------------------
+# Media: the mode follows the medium
+
+ModeName = Literal["roll", "scroll", "omni"]
+
+
+class MediaModesConfig(InputModel):
+    """The motion mode each medium is flown in (docs/physics.md, the traction table): ROLL
+    where rolling delivers most (hard 0.95, grass 0.9 of v_x), SCROLL where rolling delivers
+    little and scrolling more (sand 0.6 vs 0.75, mud 0.3 vs 0.85, water 0.05 vs 0.6)."""
+
+    hard: ModeName = Field("roll", description="mode on hard ground (roll 0.95, scroll 0.45)")
+    grass: ModeName = Field("roll", description="mode on grass (roll 0.9, scroll 0.6)")
+    sand: ModeName = Field("scroll", description="mode in sand (roll 0.6, scroll 0.75)")
+    mud: ModeName = Field("scroll", description="mode in mud (roll 0.3, scroll 0.85)")
+    water: ModeName = Field("scroll", description="mode in water (roll 0.05, scroll 0.6)")
+
+
+class MediaConfig(InputModel):
+    """A media map and the mode that follows the medium (helixd.planning.media_modes)."""
+
+    media_map: Path | None = Field(
+        None,
+        description="media map (GeoJSON/KML, helixd.files.media) of where the rover goes; a "
+        "mission's own media_map replaces it. None: the mission's one mode everywhere",
+    )
+    modes: MediaModesConfig = Field(default_factory=MediaModesConfig)
+    transition_margin_m: float = Field(
+        1.0,
+        ge=0.0,
+        le=10.0,
+        description="where the mode changes at a boundary, the rover stops and turns in place "
+        "this far on the firm side of it (the ROLL medium's), so all four scrolls bear on "
+        "ground while it turns (m; the Helix-25 is about 1 m long)",
+    )
+    min_stretch_m: float = Field(
+        5.0,
+        ge=0.5,
+        le=100.0,
+        description="a stretch shorter than this is flown in its neighbours' mode (never "
+        "ROLL): two stops and turns in place cost more than rolling a few metres saves (m)",
+    )
+    detect: bool = Field(
+        True,
+        description="notice ground the map does not show from the slip estimate and switch "
+        "to the mode that works there (helixd.control.ground_check)",
+    )
+    detect_window_m: float = Field(
+        1.5,
+        gt=0.0,
+        le=2.0,
+        description="distance commanded over which the delivered fraction is judged (m)",
+    )
+    detect_roll_fraction: float = Field(
+        0.6,
+        gt=0.0,
+        lt=1.0,
+        description="in ROLL, delivered below this fraction of the commanded speed over the "
+        "window: the ground is softer than the map says (hard 0.95, grass 0.9, mud 0.3)",
+    )
+    detect_scroll_fraction: float = Field(
+        0.55,
+        gt=0.0,
+        lt=1.0,
+        description="scrolling because of the check, delivered below this fraction over the "
+        "window: firm ground again, back to the planned mode (hard 0.45, mud 0.85)",
+    )
+
+
+# ---------------------------------------------------------------------------------------------
 # Link
 
 
@@ -1065,6 +1134,7 @@ class HelixdConfig(InputModel):
     planning: PlanningConfig = Field(default_factory=PlanningConfig)
     gcs_report: GcsReportConfig = Field(default_factory=GcsReportConfig)
     serve: ServeConfig = Field(default_factory=ServeConfig)
+    media: MediaConfig = Field(default_factory=MediaConfig)
 
     @model_validator(mode="after")
     def _consistent(self) -> HelixdConfig:

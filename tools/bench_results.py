@@ -17,7 +17,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS_DIR = ROOT / "bench" / "results"
-SECTIONS = ("navigation", "control_loop", "planning")
+SECTIONS = ("navigation", "control_loop", "planning", "amphibious")
 
 
 def merge_section(existing: object, key: str, section: Mapping[str, Any]) -> dict[str, Any]:
@@ -318,6 +318,37 @@ def planning_markdown(plan: Mapping[str, Any]) -> list[str]:
     return lines
 
 
+def amphibious_markdown(amph: Mapping[str, Any]) -> list[str]:
+    """The amphibious courses: one row per course and policy, then the verdicts."""
+    lines = ["## Amphibious missions (tools/bench_amphibious.py)", ""]
+    rows: list[list[str]] = []
+    for course, cell in amph.items():
+        if not isinstance(cell, Mapping):
+            continue
+        for policy, fig in cell.items():
+            if not isinstance(fig, Mapping):
+                continue
+            rms = fig.get("rms_m") or {}
+            rows.append(
+                [
+                    course,
+                    policy,
+                    fmt(fig.get("completed")),
+                    fmt(fig.get("time_s"), ".1f"),
+                    fmt(fig.get("energy_j"), ".0f"),
+                    ", ".join(f"{m} {fmt(v)}" for m, v in rms.items()) or "-",
+                    fmt(fig.get("detect_distance_m")),
+                    fmt(fig.get("fault")),
+                ]
+            )
+    headers = ["course", "policy", "completed", "time_s", "energy_j", "rms_m", "detect_m"]
+    lines += md_table([*headers, "fault"], rows)
+    verdict_lines = amph.get("verdicts")
+    if isinstance(verdict_lines, list):
+        lines += ["", *(f"- {v}" for v in verdict_lines)]
+    return lines
+
+
 def render_markdown(results: Mapping[str, Any]) -> str:
     """The whole results file as Markdown (sections in a fixed order, missing ones skipped)."""
     lines = ["# helixd benchmark results", "", "Written by `make bench` (tools/bench_*.py)."]
@@ -330,6 +361,9 @@ def render_markdown(results: Mapping[str, Any]) -> str:
     plan = results.get("planning")
     if isinstance(plan, Mapping):
         lines += ["", *planning_markdown(plan)]
+    amphibious = results.get("amphibious")
+    if isinstance(amphibious, Mapping):
+        lines += ["", *amphibious_markdown(amphibious)]
     return "\n".join(lines) + "\n"
 
 

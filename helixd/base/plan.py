@@ -42,6 +42,12 @@ class PlanWaypoint:
     via: bool = False  # inserted by the planner on the way to the next waypoint
     # stopped at precisely (a hold, a delay or a return follows), like the final waypoint
     stop: bool = False
+    # the motion mode of the leg to this waypoint (None: the plan's mode); where the next
+    # leg's mode differs the waypoint is a stop and the rover turns in place there
+    mode: MotionMode | None = None
+    # a stop inserted where the mode changes (helixd.planning.media_modes): not one of the
+    # mission's waypoints, so not counted where the mission's are (a resume's index)
+    media_stop: bool = False
 
 
 class ActionKind(StrEnum):
@@ -142,6 +148,18 @@ class Plan:
     # guidance re-enters the interrupted leg instead of cutting across to the waypoint.
     leg_start_xy_m: tuple[float, float] | None = None
     program: Program | None = None  # None: a plain list of waypoints, nothing between them
+
+    def mode_at(self, index: int) -> MotionMode:
+        """The motion mode of the leg to plan waypoint ``index`` (clamped to the plan)."""
+        if not self.waypoints:
+            return self.mode
+        own = self.waypoints[min(max(index, 0), len(self.waypoints) - 1)].mode
+        return self.mode if own is None else own
+
+    @property
+    def single_mode(self) -> bool:
+        """True when every leg is flown in the plan's one mode."""
+        return all(w.mode is None or w.mode is self.mode for w in self.waypoints)
 
     @property
     def peak_speed_mps(self) -> float:

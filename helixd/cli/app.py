@@ -218,8 +218,9 @@ def check(
     route = flight.route
     width = shutil.get_terminal_size((DEFAULT_WIDTH, 24)).columns  # COLUMNS, else the tty's
     lines = check_lines(
-        got.cfg, got.mission, got.path, label, flight.mission, route, flight.options, width
-    )
+        got.cfg, got.mission, got.path, label, flight.mission, route, flight.options, width,
+        got.media,
+    )  # fmt: skip
     typer.echo("\n".join(lines))
     if route is None and plot is not None:  # said, not silently skipped
         typer.echo(f"plot    : {plot} not written: {PLOT_NEEDS_ROUTE}")

@@ -92,8 +92,8 @@ def estimate_time(
     else:
         require_finite("start yaw", start_yaw_rad)
         yaw0 = start_yaw_rad
-    path = _Path([begin, *pts], [w.final_yaw_rad for w in wps], yaw0, plan.mode)
-    ground = _Ground(control.slip, plan.mode)
+    path = _Path([begin, *pts], [w.final_yaw_rad for w in wps], yaw0, plan.mode_at(0))
+    ground = _Ground(control.slip, plan.mode_at(0))
     if control.guidance == "thesis":
         got = _Thesis(plan, control, path, ground).run()
     else:
@@ -151,6 +151,11 @@ class _Ground:
             theta = course_rad - heading_rad
             return 1.0 / math.hypot(math.cos(theta) / self.roll, math.sin(theta) / self.scroll)
         return along_fraction(course_rad - heading_rad, self.roll, self.scroll, self.skew_share)
+
+
+def _ground_for(first: _Ground, mode: MotionMode, slip: SlipParams) -> _Ground:
+    """The declared ground as a leg in ``mode`` meets it (the first leg's, when the same)."""
+    return first if mode is first.mode else _Ground(slip, mode)
 
 
 # -- the path ----------------------------------------------------------------------------------
@@ -294,7 +299,7 @@ class _Line:
             self.stop_s[j] = self.at[j + 1] if last else self.stop_s[j + 1]
 
     def run(self) -> TimeEstimate:
-        path, control, mode, ground = self.path, self.control, self.plan.mode, self.ground
+        path, control = self.path, self.control
         enter = max(control.pivot_angle_rad, control.heading_threshold_rad)
         driving = turning = 0.0
         pivots = 0
@@ -303,16 +308,20 @@ class _Line:
         v = 0.0
         s = 0.0
         for j in range(len(self.plan.waypoints)):
+            # each leg in its own mode (the mode follows the medium): its axis and its ground
+            mode = self.plan.mode_at(j)
+            ground = _ground_for(self.ground, mode, control.slip)
+            axis_rad = guidance.driving_axis_rad(mode)
             course = path.courses[j]
             rounded = j > 0 and self.arcs[j - 1] is not None  # the arc turned the rover
             if path.lengths[j] >= line.MIN_LEG_M and mode is not MotionMode.OMNI:
-                e = abs(shortest_angular_distance(heading, course - path.axis_rad))
+                e = abs(shortest_angular_distance(heading, course - axis_rad))
                 if e > enter and not rounded:  # ALIGN: the translation decays while it pivots
                     dt = _turn_time_s(e, control.heading_threshold_rad, control, True)
                     turning += dt / ground.turn
                     pivots += 1
                     v = 0.0
-                heading = course - path.axis_rad
+                heading = course - axis_rad
             elif j > 0 and self.stops[j - 1]:  # OMNI leaving a stop: keep what points ahead
                 v *= max(0.0, math.cos(course - path.courses[j - 1]))
             s, v, dt = self._drive(j, s, v)
@@ -477,7 +486,7 @@ class _Thesis:
         self.plan, self.control, self.path, self.ground = plan, control, path, ground
 
     def run(self) -> TimeEstimate:
-        plan, control, path, ground = self.plan, self.control, self.path, self.ground
+        plan, control, path = self.plan, self.control, self.path
         wps = plan.waypoints
         run_out = guidance.run_out_m(
             path.points,
@@ -491,24 +500,27 @@ class _Thesis:
         pivots = 0
         arrivals: list[float] = []
         for j, wp in enumerate(wps):
+            mode = plan.mode_at(j)  # each leg in its own mode
+            ground = _ground_for(self.ground, mode, control.slip)
+            axis_rad = guidance.driving_axis_rad(mode)
             goal = (wp.x_m, wp.y_m)
             distance = math.dist(here, goal)
             if distance >= wp.tolerance_m:
                 course = math.atan2(goal[1] - here[1], goal[0] - here[0])
-                if plan.mode is not MotionMode.OMNI:
-                    e = abs(shortest_angular_distance(heading, course - path.axis_rad))
+                if mode is not MotionMode.OMNI:
+                    e = abs(shortest_angular_distance(heading, course - axis_rad))
                     if e > control.heading_threshold_rad:
                         dt = _turn_time_s(e, control.heading_threshold_rad, control, False)
                         turning += dt / ground.turn
                         pivots += 1
-                    heading = course - path.axis_rad
+                    heading = course - axis_rad
                 leg_s = self._leg_s(distance, wp.tolerance_m, run_out[j], cruise[j])
                 driving += leg_s / ground.move(course, heading)
                 k = (distance - wp.tolerance_m) / distance
                 here = (here[0] + (goal[0] - here[0]) * k, here[1] + (goal[1] - here[1]) * k)
             arrivals.append(driving + turning)
             final = path.final_yaw_rad[j]
-            if final is not None and plan.mode is not MotionMode.OMNI:
+            if final is not None and mode is not MotionMode.OMNI:
                 e = abs(shortest_angular_distance(heading, final))
                 if e > control.final_heading_tolerance_rad:
                     dt = _turn_time_s(e, control.final_heading_tolerance_rad, control, False)

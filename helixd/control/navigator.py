@@ -53,6 +53,11 @@ brakes with the acceleration limits); :meth:`Navigator.set_reverse` drives the m
 backwards (DO_SET_REVERSE; OMNI has no axis and ignores it). Without a program all three stay
 at the plan's values and nothing changes.
 
+A plan with a mode per waypoint (:attr:`PlanWaypoint.mode`, the mode follows the medium:
+:mod:`helixd.planning.media_modes`) flies each leg in its own mode (:attr:`Navigator.mode`);
+where the mode changes the waypoint is a stop, and the next leg's driving axis, 90° from the
+last, starts with a turn in place (ALIGN).
+
 Stepped with (pose, t_s); derives dt from successive t_s. Never touches a clock or a socket,
 and never decides to stop the vehicle: the supervisor owns that.
 
@@ -116,6 +121,7 @@ class Navigator:
         self._peak_speed_mps = plan.peak_speed_mps
         self._cruise_mps = plan.speed_mps
         self._reverse = False
+        self._mode_override: MotionMode | None = None  # override_mode
         # the fraction of the commanded speed the ground delivers (set_delivered_fraction)
         self._delivered_fraction = 1.0
         self._distance_pid = PID(control.distance_pid, output_limit=self._peak_speed_mps)
@@ -165,6 +171,20 @@ class Navigator:
         return self._state is NavState.DONE
 
     @property
+    def mode(self) -> MotionMode:
+        """The motion mode of the leg being flown (the plan's one mode, or the current
+        stretch's where the plan has a mode per waypoint: it changes at a stop)."""
+        if self._mode_override is not None:
+            return self._mode_override
+        return self.plan.mode_at(self.target_index)
+
+    def override_mode(self, mode: MotionMode | None) -> None:
+        """Fly ``mode`` instead of the plan's from the next step until the current target is
+        reached (None: the plan's again). The ground is not what the map says
+        (:mod:`helixd.control.ground_check`): a change of axis starts with a turn in place."""
+        self._mode_override = mode
+
+    @property
     def cruise_speed_mps(self) -> float:
         return self._cruise_mps
 
@@ -182,7 +202,7 @@ class Navigator:
 
     def set_reverse(self, reverse: bool) -> None:
         """Drive the mode's axis backwards (ROLL −x, SCROLL −y) from the next step on."""
-        self._reverse = reverse and self.plan.mode is not MotionMode.OMNI
+        self._reverse = reverse and self.mode is not MotionMode.OMNI
 
     def set_delivered_fraction(self, fraction: float) -> None:
         """The fraction of the commanded speed the ground delivers (after the slip
@@ -240,7 +260,7 @@ class Navigator:
                 self._waypoints_reached += 1
                 self._reset_pids()
                 self._final_heading_pending = (
-                    goal.final_yaw_rad is not None and self.plan.mode is not MotionMode.OMNI
+                    goal.final_yaw_rad is not None and self.mode is not MotionMode.OMNI
                 )
         if self._final_heading_pending:
             waypoint_finished = self._final_heading_done(pose)
@@ -278,7 +298,7 @@ class Navigator:
 
     def _go_to_goal(self, pose: Pose2D, dt_s: float) -> NavOutput:
         goal = self._goal()
-        mode = self.plan.mode
+        mode = self.mode
         errors = guidance.compute_errors(pose, goal, mode, self._reverse)
         e_d, e_psi = errors.distance_error_m, errors.heading_error_rad
 
@@ -385,7 +405,7 @@ class Navigator:
 
     def _follow_line(self, pose: Pose2D, dt_s: float) -> NavOutput:
         goal = self._goal()
-        mode = self.plan.mode
+        mode = self.mode
         cfg = self.control
         e_d = _distance_m(pose, goal)
         leg = self._leg(pose, goal)
@@ -580,7 +600,7 @@ class Navigator:
 
     def _arrival(self, pose: Pose2D, goal: PlanWaypoint) -> NavOutput:
         """The errors at the moment ``goal`` (the current target) is reached."""
-        errors = guidance.compute_errors(pose, goal, self.plan.mode, self._reverse)
+        errors = guidance.compute_errors(pose, goal, self.mode, self._reverse)
         return NavOutput(
             command=BodyVelocity.zero(),
             state=NavState.REACHED,
@@ -611,6 +631,7 @@ class Navigator:
         goal = self._goal()
         self._leg_start_xy_m = (goal.x_m, goal.y_m)
         self._target_index += 1
+        self._mode_override = None
         self._final_heading_pending = False
         self._reset_pids()
 
@@ -652,7 +673,7 @@ class Navigator:
         if not command.is_finite():  # unreachable with finite inputs; never output it
             raise NonFiniteError(f"navigator produced a non-finite command {command}")
         return NavOutput(
-            command=constrain(command, self.plan.mode),
+            command=constrain(command, self.mode),
             state=self._state,
             target_index=self.target_index,
             waypoints_reached=self._waypoints_reached,

@@ -37,6 +37,7 @@ from typing import Any, Literal
 from pydantic import Field, ValidationInfo, model_validator
 
 from helixd.base.frames import latlon_to_ne
+from helixd.base.media import Medium
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.base.polygon import polygon_problems
 from helixd.config import GEOFENCE_RADIUS_MAX_M, MissionLimits
@@ -66,13 +67,13 @@ _COORDS = {
 
 _NOT_PARAMS = frozenset(
     {"command", "params", "x", "y", "north", "east", "lat", "lon", "z", "frame", "autocontinue",
-     "heading_deg", "tolerance_m", "via"}
+     "heading_deg", "tolerance_m", "via", "mode"}
 )  # fmt: skip
 
 
 # every entry's own keys, in the order an operator reads them (the place: one pair of them)
 ENTRY_KEYS = (
-    "x", "y", "north", "east", "lat", "lon", "z", "heading_deg", "tolerance_m", "via",
+    "x", "y", "north", "east", "lat", "lon", "z", "heading_deg", "tolerance_m", "via", "mode",
     "command", "params", "frame", "autocontinue",
 )  # fmt: skip
 
@@ -174,6 +175,8 @@ def entry_yaml(wp: WaypointSpec) -> dict[str, Any]:
         out["autocontinue"] = False
     if wp.via:
         out["via"] = True
+    if wp.mode is not None:
+        out["mode"] = wp.mode.value
     return out
 
 
@@ -202,6 +205,11 @@ class WaypointSpec(InputModel):
         False,
         description="an intermediate point the planner inserted on the way to the next "
         "waypoint, not one of the operator's waypoints (not numbered or counted as one)",
+    )
+    mode: MotionMode | None = Field(
+        None,
+        description="the motion mode of the leg to this place, whatever the media map says "
+        "(None: the medium's mode with a media map, else the mission's mode)",
     )
     params: tuple[float | None, ...] | None = Field(
         None,
@@ -252,10 +260,13 @@ class WaypointSpec(InputModel):
             raise ValueError(
                 f"{sorted(self.given())}: {spec.name} has no place (give its x/y as params)"
             )
-        if (self.heading_deg is not None or self.tolerance_m is not None) and (
-            spec.role not in FLY_ROLES
-        ):
-            raise ValueError(f"heading_deg/tolerance_m: only for a place to go, not {spec.name}")
+        if spec.role not in FLY_ROLES:
+            if self.heading_deg is not None or self.tolerance_m is not None:
+                raise ValueError(
+                    f"heading_deg/tolerance_m: only for a place to go, not {spec.name}"
+                )
+            if self.mode is not None:
+                raise ValueError(f"mode: only for a place to go, not {spec.name}")
         return self
 
     def given(self) -> set[str]:
@@ -349,6 +360,16 @@ class Mission(InputModel):
         description="areas the rover must not enter (islands, exclusion zones), each a polygon "
         "in the mission's own coordinates (north/east or lat/lon pairs; not in the start "
         "frame): legs are planned around them, a waypoint inside one is refused",
+    )
+    media_map: Path | None = Field(
+        None,
+        description="media map (GeoJSON/KML) of where it goes, relative to the mission file; "
+        "replaces media.media_map of the config: each stretch is flown in its medium's mode",
+    )
+    media_modes: dict[Medium, MotionMode] | None = Field(
+        None,
+        description="the mode per medium for this mission (hard, grass, sand, mud, water); "
+        "replaces those entries of media.modes",
     )
     home: tuple[float, float] | None = Field(
         None,

@@ -19,10 +19,10 @@ from typing import ParamSpec
 
 from helixd.base.angles import wrap_pi
 from helixd.base.frames import latlon_to_ne
-from helixd.base.plan import MissionFrameKind, Plan, PlanWaypoint
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.config import ControlConfig, MissionLimits, SafetyConfig
 from helixd.files.models import entry_label
-from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH
+from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH, MAV_CMD_NAV_WAYPOINT
 from helixd.mission.commands import FLY_ROLES
 from helixd.mission.expand import DEFAULT_OPTIONS, Context, ExpandOptions, expand
 from helixd.mission.model import Mission, WaypointSpec
@@ -31,6 +31,26 @@ P = ParamSpec("P")
 
 XY = tuple[float, float]
 DEFAULT_TIME_LIMIT_S: float = SafetyConfig.model_fields["mission_time_limit_s"].default
+
+
+# A ground station's way to pin a leg's mode without new software: NAV_WAYPOINT's param4
+# ("Yaw" in QGroundControl's and Mission Planner's editors; ArduPilot Rover ignores it) set to
+# one of these codes flies the leg to that waypoint in that mode, whatever the media map says.
+GCS_MODE_CODES: dict[float, MotionMode] = {
+    -1.0: MotionMode.ROLL,
+    -2.0: MotionMode.SCROLL,
+    -3.0: MotionMode.OMNI,
+}
+
+
+def leg_mode(wp: WaypointSpec) -> MotionMode | None:
+    """The mode a waypoint pins on its leg: its own ``mode`` (YAML), else a ground station's
+    mode code in NAV_WAYPOINT's param4 (:data:`GCS_MODE_CODES`), else None (the medium's)."""
+    if wp.mode is not None:
+        return wp.mode
+    if wp.command != MAV_CMD_NAV_WAYPOINT or wp.params is None:
+        return None
+    return GCS_MODE_CODES.get(wp.param(3))
 
 
 class PlanError(ValueError):
@@ -128,6 +148,7 @@ def resolve(
                     tolerance_m=wp.tolerance_m or default_tol,
                     final_yaw_rad=frame.yaw(wp.heading_deg),
                     via=wp.via,
+                    mode=leg_mode(wp),
                 )
             )
         plan = Plan(mission.name, mission.mode, mission.frame, tuple(out), speed)
@@ -161,6 +182,7 @@ def resolve(
             tolerance_m=wp.tolerance_m or default_tol,
             final_yaw_rad=frame.yaw(wp.heading_deg),
             stop=stop,
+            mode=leg_mode(wp),
         )
 
     ctx = Context(

@@ -575,6 +575,31 @@ def _wall_axis(ax: Axes, data: RunData) -> None:
 # Panels: each draws on axes it is given (a panel figure or a cell of the overview)
 
 
+MODE_COLORS = {"roll": "tab:blue", "scroll": "tab:orange", "omni": "tab:purple"}
+
+
+def _draw_driven(ax: Axes, data: RunData, x: Array, y: Array) -> None:
+    """The driven path; where the motion mode changed on the way (a media map, the ground
+    check), each stretch in its mode's colour."""
+    modes = data.cols.get("motion_mode")
+    known = set() if modes is None else {str(m) for m in modes} & set(MODE_COLORS)
+    if modes is None or len(known) < 2:
+        ax.plot(x, y, "-", color="tab:blue", linewidth=1.5, label="driven")
+        return
+    labelled: set[str] = set()
+    start = 0
+    for k in range(1, len(modes) + 1):
+        if k < len(modes) and modes[k] == modes[start]:
+            continue
+        mode = str(modes[start])
+        end = min(k + 1, len(modes))  # joined to the next stretch's first point
+        label = None if mode in labelled else f"driven in {mode}"
+        labelled.add(mode)
+        color = MODE_COLORS.get(mode, "tab:gray")
+        ax.plot(x[start:end], y[start:end], "-", color=color, linewidth=1.5, label=label)
+        start = k
+
+
 def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
     """(a) driven path vs planned path, mission frame, equal axes."""
     x, y = data.col("x_m"), data.col("y_m")
@@ -606,7 +631,7 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
     at = {xy: off for xy, off in zip(points, offsets, strict=True)}
     for text, xy in waypoint_labels(points, labels=labels):
         _label_waypoint(ax, text, xy, at[xy], fontsize=9, color="darkgreen", weight="bold")
-    ax.plot(x, y, "-", color="tab:blue", linewidth=1.5, label="driven")
+    _draw_driven(ax, data, x, y)
     ok = np.isfinite(x) & np.isfinite(y)
     if ok.any():
         ax.plot(x[ok][0], y[ok][0], "s", color="black", markersize=7, label="start")

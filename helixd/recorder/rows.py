@@ -33,7 +33,8 @@ CSV_COMMENT = (
     "axis. scroll1..4: signed fraction of max RPM (scroll ids as thesis Fig. 2). pwm1..4_us: "
     "PWM sent (0 = none); scroll and PWM include the slip feed-forward, vx/vy/wz_cmd do not. "
     "slip_vx_frac/slip_vy_frac/slip_w_frac: estimated fraction of the commanded body velocity "
-    "(roll axis, scroll axis, yaw rate) the ground delivers (1 = no slip). "
+    "(roll axis, scroll axis, yaw rate) the ground delivers (1 = no slip). mode: the "
+    "autopilot's mode; motion_mode: the rover's motion mode flown (roll, scroll, omni). "
     "Booleans 1/0; nan = not available."
 )
 
@@ -94,6 +95,8 @@ class FlightRow:
     slip_vx_frac: float = field(default=math.nan, metadata={"fmt": _GAIN})
     slip_vy_frac: float = field(default=math.nan, metadata={"fmt": _GAIN})
     slip_w_frac: float = field(default=math.nan, metadata={"fmt": _GAIN})
+    # the motion mode flown (roll, scroll, omni): it follows the medium on a media map
+    motion_mode: str = field(default="", metadata={"fmt": "%s"})
 
     @staticmethod
     def columns() -> tuple[str, ...]:

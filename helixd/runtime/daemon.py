@@ -745,6 +745,8 @@ class MissionRunner:
             if items is not None:
                 return items
             vias = [w.via for w in self._plan.waypoints]
+        elif self._plan is not None and len(self._plan.waypoints) > len(self.mission.waypoints):
+            vias = [w.via for w in self._plan.waypoints]  # with the media map's via stops
         else:
             vias = [w.via for w in self.mission.waypoints]
         inputs = self.opts.inputs

@@ -62,6 +62,7 @@ from helixd.control.slip import (
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PoseSample, PositionTarget
 from helixd.mission.commands import bound_speed, speed_floor_mps
+from helixd.runtime.ground_watch import GroundChange, GroundWatch
 from helixd.runtime.loop_state import CrewState, StepCeiling, YawRateMeter
 from helixd.runtime.mode_gate import (
     Gate,
@@ -93,6 +94,7 @@ class StepOutput:
     command: BodyVelocity  # the body velocity sent (slip feed-forward included)
     mpose: Pose2D  # the pose in the mission frame
     slip: SlipEstimate  # the slip fit after this step's measurement
+    motion_mode: str = ""  # the motion mode flown (roll, scroll, omni)
 
 
 @dataclass(frozen=True, slots=True)
@@ -150,6 +152,7 @@ class FlightHooks:
     on_action: Callable[[MissionAction], None] | None = None  # a payload command due
     on_mission_event: Callable[[SequencerEvent], None] | None = None  # the sequencer's
     on_gate: Callable[[Gate, str], None] | None = None  # the autopilot's mode: (gate, mode)
+    on_ground: Callable[[GroundChange], None] | None = None  # the ground is not the map's
 
 
 @dataclass(frozen=True, slots=True)
@@ -200,6 +203,9 @@ class FlightLoop:
         # the pure parts it steps: the supervisor owns the watchdogs; a flight that follows
         # the autopilot's mode takes a mode change for the crew's command, not a takeover
         self.navigator = Navigator(plan, cfg.control)
+        # the mode follows the medium: where the ground is not what the map says, it changes
+        follows = any(w.mode is not None for w in plan.waypoints)
+        self.ground = GroundWatch(cfg.media, self.navigator, follows, hooks.on_ground)
         self.sequencer = Sequencer(plan.program) if plan.program is not None else None
         self.supervisor = Supervisor(cfg.safety, start_ned, driving.mode)
         self.slip = SlipEstimator(cfg.control.slip)
@@ -459,8 +465,9 @@ class FlightLoop:
         nav = self.navigator.standing(mpose)
         if last is not None and last.reached_index is not None:
             nav = replace(last, command=BodyVelocity.zero())  # the arrival row itself
-        slip = self.slip.estimate(self.plan.mode)
-        return StepOutput(NEUTRAL_FRACTIONS, nav, BodyVelocity.zero(), mpose, slip)
+        slip = self.slip.estimate(self.navigator.mode)
+        motion = self.navigator.mode.value
+        return StepOutput(NEUTRAL_FRACTIONS, nav, BodyVelocity.zero(), mpose, slip, motion)
 
     def _neutral(self) -> None:
         self.sink.command(NEUTRAL_FRACTIONS)
@@ -505,22 +512,22 @@ class FlightLoop:
         """
         mpose = self.frame.to_mission(sample.ned)
         slip = self._learn_slip(sample, t_boot_s)
-        if self._slip_enabled and self.plan.mode is not MotionMode.OMNI:
-            delivered_x, delivered_y = self.slip.delivered(self.plan.mode)
-            scroll = self.plan.mode is MotionMode.SCROLL
+        if self._slip_enabled and self.navigator.mode is not MotionMode.OMNI:
+            delivered_x, delivered_y = self.slip.delivered(self.navigator.mode)
+            scroll = self.navigator.mode is MotionMode.SCROLL
             self.navigator.set_delivered_fraction(delivered_y if scroll else delivered_x)
         out = self.navigator.step(mpose, t_boot_s)
         command = out.command
         if self._slip_enabled:
-            command = self.slip.compensate(self.plan.mode, out.command)
-        fractions = scroll_fractions(command, self.cfg.vehicle, self.plan.mode)
+            command = self.slip.compensate(self.navigator.mode, out.command)
+        fractions = scroll_fractions(command, self.cfg.vehicle, self.navigator.mode)
         if (
             not out.command.is_finite()
             or not command.is_finite()
             or not math.isfinite(fractions[0] + fractions[1] + fractions[2] + fractions[3])
         ):
             raise NonFiniteError(f"command {out.command} / fractions {list(fractions)}")
-        return StepOutput(fractions, out, command, mpose, slip)
+        return StepOutput(fractions, out, command, mpose, slip, self.navigator.mode.value)
 
     def _sent_step(self, step: StepOutput, t_boot_s: float) -> None:
         """Bookkeeping of what was sent, for the stall watchdog and the slip fit."""
@@ -529,7 +536,7 @@ class FlightLoop:
         # included): amplifying the command can only make a stall show sooner, never hide it.
         self._cmd_speed_mps = math.hypot(command.vx_mps, command.vy_mps)
         self._cmd_yaw_rate_radps = command.wz_radps
-        self._sent = (t_boot_s, no_slip_body(command, self.cfg.vehicle, self.plan.mode))
+        self._sent = (t_boot_s, no_slip_body(command, self.cfg.vehicle, self.navigator.mode))
 
     def _report(self, sample: PoseSample, step: StepOutput, now: float, t_start: float) -> None:
         """After the send: arrivals, then the step's report for the recorder and display."""
@@ -556,12 +563,14 @@ class FlightLoop:
         """Step the slip fit with what was sent at the last step and the motion measured now
         (LOCAL_POSITION_NED velocity rotated into the body frame, the yaw derivative)."""
         if self._sent is None:
-            return self.slip.estimate(self.plan.mode)
+            return self.slip.estimate(self.navigator.mode)
         t_sent_s, sent = self._sent
         measured = measured_body_velocity(
             sample.vn_mps, sample.ve_mps, sample.ned.yaw_ned_rad, self._yaw_rate.radps
         )
-        return self.slip.update(self.plan.mode, sent, measured, t_boot_s - t_sent_s)
+        ned = sample.ned
+        self.ground.feed(sent, measured, t_boot_s - t_sent_s, ned.north_m, ned.east_m)
+        return self.slip.update(self.navigator.mode, sent, measured, t_boot_s - t_sent_s)
 
     @property
     def _paused(self) -> bool:

@@ -74,6 +74,7 @@ def flight_row(report: StepReport, plan: Plan) -> FlightRow:
         slip_vx_frac=slip.vx_frac,
         slip_vy_frac=slip.vy_frac,
         slip_w_frac=slip.w_frac,
+        motion_mode=step.motion_mode,
     )
 
 

@@ -31,6 +31,7 @@ from helixd.runtime.display import ProgressDisplay
 from helixd.runtime.flight import FlightHooks, PoseRejectedReport, StepReport
 from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
 from helixd.runtime.gcs_feed import GcsFeed
+from helixd.runtime.ground_watch import GroundChange
 from helixd.runtime.host import FlightHost
 from helixd.runtime.mode_gate import Gate
 
@@ -52,6 +53,7 @@ class InFlight:
     recorder: RunRecorder | None
     journal: StepJournal = field(init=False)
     laps: tuple[str, ...] = field(init=False)
+    inserted_before: tuple[int, ...] = field(init=False)
     radio_lost_told: bool = False
 
     def __post_init__(self) -> None:
@@ -59,6 +61,12 @@ class InFlight:
         self.journal = StepJournal(self.plan, self.on_row, self.cfg.recorder.batch_interval_s)
         program = self.plan.program
         self.laps = tuple(program.laps()) if program is not None else ()
+        # per plan index, the media map's stops before it (not the mission's waypoints)
+        inserted, count = [], 0
+        for w in self.plan.waypoints:
+            inserted.append(count)
+            count += w.media_stop
+        self.inserted_before = tuple(inserted)
 
     def announce(self, mission_name: str) -> None:
         """The flight starts: the log, the ground station and the host's current item."""
@@ -87,6 +95,7 @@ class InFlight:
             on_action,
             self.on_mission_event,
             self.on_gate,
+            self.on_ground,
         )
 
     # -- the flight loop's callbacks ----------------------------------------------------------
@@ -123,6 +132,21 @@ class InFlight:
         if ev.kind == "hold_started":
             self.gcs.phase(f"item {ev.item}{f' ({lap})' if lap else ''}: {ev.text}")
 
+    def on_ground(self, change: GroundChange) -> None:
+        """The ground is not what the media map says: the mode changed; the event, the GCS."""
+        v = change.verdict
+        log.warning(
+            "ground_changed",
+            soft=v.soft,
+            mode=v.mode.value,
+            planned=change.planned.value,
+            delivered_fraction=round(v.fraction, 3),
+            waypoint=self.numbering.label(change.target_index),
+            north_m=round(change.north_m, 2),
+            east_m=round(change.east_m, 2),
+        )
+        self.gcs.say(change.text(), MAV_SEVERITY_WARNING)
+
     def on_gate(self, gate: Gate, mode: str) -> None:
         """The autopilot's mode changed what a flight of its AUTO may do: tell the GCS."""
         if gate is Gate.HOLD:
@@ -133,6 +157,13 @@ class InFlight:
             self.gcs.phase(f"continuing in {mode}")
         elif gate is Gate.RELEASE:
             self.gcs.phase(f"released: mode {mode}, the pilot drives")
+
+    def mission_index(self, index: int) -> int | None:
+        """The mission's index of plan waypoint ``index`` (None: a stop of the media map)."""
+        wps = self.plan.waypoints
+        if not 0 <= index < len(wps):
+            return index
+        return None if wps[index].media_stop else index - self.inserted_before[index]
 
     def on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
         self.journal.drain()  # the summary has every step before the arrival
@@ -147,7 +178,9 @@ class InFlight:
             # as the ground station numbers it: "3/5"; a mission with commands: item 3 of 5,
             # "3/5 (lap 2 of 3)" where a DO_JUMP repeats it
             waypoint=numbering.label(index),
-            index=index,  # 0-based plan index, via points included (what --resume counts)
+            # 0-based index in the mission, the planner's via points included, the media
+            # map's stops not (what --resume counts; None at such a stop)
+            index=self.mission_index(index),
             elapsed_autopilot_s=(
                 round(t_boot_s - start, 1) if start is not None and t_boot_s >= start else None
             ),

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from helixd.base.media import MediaMap
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, waypoint_label
 from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate, delivered_fractions
@@ -22,15 +23,24 @@ from helixd.mission.resolve import places_from
 from helixd.mission.validate import pending_checks, plan_for_check
 from helixd.planning.route import RoutePlan
 from helixd.recorder.retention import DiskUsage, low_space
+from helixd.runtime.media_plan import (
+    MediaCheck,
+    check_media_plan,
+    media_path,
+    modes_text,
+    stretch_lines,
+)
 from helixd.runtime.planned import route_lines, route_time_estimate
-from helixd.runtime.timing import patrol_times_s
+from helixd.runtime.timing import patrol_times_s, plan_time_estimate
 
 MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
 
 
 def waypoint_table(plan: Plan) -> list[str]:
     """One row per waypoint: the operator's numbered 1…N, via points as ``via → N``."""
+    modes = not plan.single_mode  # the mode follows the medium: each leg's mode
     rows = [f"{'#':>7} {'x_m':>9} {'y_m':>9} {'tol_m':>6} {'heading_deg':>11}"]
+    rows[0] += "  mode" if modes else ""
     count = len(plan.waypoints)
     head = count if count <= MAX_TABLE_ROWS else MAX_TABLE_ROWS // 2
     for i, (wp, number) in enumerate(zip(plan.waypoints, plan.numbers(), strict=True)):
@@ -40,7 +50,10 @@ def waypoint_table(plan: Plan) -> list[str]:
             continue
         hdg = "-" if wp.final_yaw_rad is None else f"{math.degrees(wp.final_yaw_rad):.1f}"
         label = waypoint_label(number, wp.via)
-        rows.append(f"{label:>7} {wp.x_m:>9.2f} {wp.y_m:>9.2f} {wp.tolerance_m:>6.2f} {hdg:>11}")
+        row = f"{label:>7} {wp.x_m:>9.2f} {wp.y_m:>9.2f} {wp.tolerance_m:>6.2f} {hdg:>11}"
+        if modes:
+            row += f"  {plan.mode_at(i).value}{' (stop)' if wp.stop else ''}"
+        rows.append(row)
     return rows
 
 
@@ -173,12 +186,16 @@ def check_lines(
     route: RoutePlan | None,
     options: ExpandOptions = DEFAULT_OPTIONS,
     width: int = DEFAULT_WIDTH,
+    media: MediaMap | None = None,
 ) -> list[str]:
     """Everything ``check`` prints after the inputs passed (``planned``: the mission with the
     planner's via points, ``msn`` itself when nothing was planned). A mission with commands
     shows its flight (each step, its actions and when it ends) instead of the waypoint table,
     its texts wrapped to ``width`` columns."""
     plan, provisional = plan_for_check(planned, cfg, options)
+    followed = check_media_plan(cfg, msn, plan, media) if media is not None else None
+    if followed is not None and followed.media is not None:
+        plan = followed.media.plan
     note = (
         " (global: places from waypoint 1, as `run` gives them; it flies through the EKF origin)"
         if provisional
@@ -193,7 +210,7 @@ def check_lines(
     lines = [
         f"config  : {config_label}  OK",
         f"mission : {path}  OK",
-        f"plan    : {plan.name}  mode={plan.mode.value}  frame={plan.frame.value}{note}",
+        f"plan    : {plan.name}  mode={modes_text(plan)}  frame={plan.frame.value}{note}",
         f"axes    : {places_from(plan.frame)} (metres); {numbered}"
         + (f", {vias} via points inserted by the planner" if vias else ""),
     ]
@@ -203,6 +220,10 @@ def check_lines(
     else:
         lines.extend(waypoint_table(plan))
     estimate, start_note = route_time_estimate(cfg, planned, route, path)
+    if followed is not None:
+        lines.extend(_media_lines(cfg, plan, followed, str(media_path(cfg, msn))))
+        if followed.media is not None:  # the stretches' modes and the turns between them
+            estimate = plan_time_estimate(plan, cfg, start_xy_m=plan.assumed_start_xy_m())
     straight = _straight_note(cfg, msn) if route is not None else ""
     laps = " (the patrol's planned laps)" if plan.program and plan.program.patrol_item else ""
     lines.append(
@@ -220,6 +241,22 @@ def check_lines(
         lines.append(f"preflight: run checks with the start pose: {', '.join(later)}")
     if route is not None:
         lines.extend(route_lines(route, planned))
+    return lines
+
+
+def _media_lines(cfg: HelixdConfig, plan: Plan, followed: MediaCheck, source: str) -> list[str]:
+    """The media map, each stretch and each change of mode (or why not before preflight)."""
+    lines = [f"media   : {source}  OK"]
+    if followed.media is None:
+        return [*lines, f"media   : stretches at preflight ({followed.why})"]
+    got = followed.media
+    lines.extend(stretch_lines(got))
+    turns = sum(t.turn_rad > 0.0 for t in got.transitions)
+    lines.append(
+        f"modes   : {len(got.stretches)} stretches, {len(got.transitions)} changes of mode "
+        f"({turns} turns in place on the firm side, {cfg.media.transition_margin_m:g} m from "
+        "the boundary); the estimate counts them"
+    )
     return lines
 
 

@@ -24,6 +24,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.media import MediaMap
 from helixd.base.plan import MissionFrameKind, MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
 from helixd.config import HelixdConfig
@@ -64,6 +65,7 @@ from helixd.runtime.inputs import (
     recorded_mission_yaml,
     resume_inputs,
 )
+from helixd.runtime.media_plan import MediaRefused, read_media, with_absolute_media
 from helixd.runtime.planned import Flight, load_occupancy, planned_flight
 
 __all__ = [
@@ -155,6 +157,7 @@ class Prepared:
     fence: GcsMission | None = None
     occupancy: OccupancyMap | None = None
     last_pose_ned: tuple[float, float, float] | None = None
+    media: MediaMap | None = None  # the media map the mode follows (None: one mode)
 
 
 def prepare_flight(
@@ -202,9 +205,14 @@ def prepare_flight(
             fence=source.fence,
             strict=source.options.strict,
         )
-        cfg, msn, path = loaded.cfg, loaded.mission, loaded.path
+        cfg, path = loaded.cfg, loaded.path
+        msn = with_absolute_media(loaded.mission, path)
         text = recorded_mission_yaml(path, msn, source.mode)
         fence, options, shown = loaded.fence, source.options, loaded.notes
+    try:
+        media = read_media(cfg, msn)
+    except MediaRefused as exc:
+        raise InputsRefused(exc.problems, ExitCode.USAGE, shown) from None
     try:
         occ = load_occupancy(cfg, occupancy) if isinstance(occupancy, Path) else occupancy
         flight = planned_flight(cfg, msn, text, path, occ, config_sha256(config), fence, options)
@@ -212,7 +220,7 @@ def prepare_flight(
         raise InputsRefused(exc.problems, exc.code, shown) from None
     gcs = isinstance(source, AutopilotMission) or sniff_format(path) is not MissionFormat.YAML
     flight = replace(flight, item_numbers=gcs)
-    return Prepared(cfg, msn, path, flight, shown, fence, occ)
+    return Prepared(cfg, msn, path, flight, shown, fence, occ, media=media)
 
 
 @dataclass(frozen=True)

@@ -51,6 +51,7 @@ from helixd.mission.model import Mission
 from helixd.mission.resolve import Where, resolve
 from helixd.mission.resume import RunInputs, with_leg_start
 from helixd.runtime.autopilot_fence import autopilot_fence_check
+from helixd.runtime.media_plan import MediaRefused, placed_media_plan
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Replanner
 from helixd.runtime.show_plan import show_plan
@@ -478,7 +479,27 @@ def resolve_flight(
         )
     for note in resolved.notes:
         log.info("mission_note", note=note)
-    return resolved.plan, where
+    return follow_medium(resolved.plan, mission, cfg, origin, start), where
+
+
+def follow_medium(
+    plan: Plan, mission: Mission, cfg: HelixdConfig, origin: tuple[float, float] | None,
+    start: NedPose,
+) -> Plan:  # fmt: skip
+    """``plan`` with each stretch in its medium's mode when the flight has a media map."""
+    try:
+        got = placed_media_plan(cfg, mission, plan, origin, start)
+    except MediaRefused as exc:
+        raise PreflightFailed(exc.problems) from None
+    if got is None:
+        return plan
+    for t in got.transitions:
+        log.info(
+            "media_transition", waypoint=t.index, before=t.before.value, after=t.after.value,
+            x_m=round(t.xy_m[0], 2), y_m=round(t.xy_m[1], 2), medium=t.medium.value,
+        )  # fmt: skip
+    log.info("media_plan", stretches=len(got.stretches), transitions=len(got.transitions))
+    return got.plan
 
 
 async def place_mission(

@@ -345,3 +345,29 @@ def test_the_delivered_fraction_is_total() -> None:
     assert delivered_fraction(0.1, slip) == pytest.approx(0.1)  # a stall: not amplified
     assert delivered_fraction(0.45, slip) == pytest.approx(0.9)
     assert delivered_fraction(1.0, slip) == 1.0
+
+
+def test_a_plan_whose_mode_follows_the_medium_counts_its_turns() -> None:
+    # bank, 40 m of water, bank: roll, stop and turn, scroll, stop and turn, roll
+    wps = (
+        PlanWaypoint(0.0, 9.0, 1.0, via=True, stop=True, mode=MotionMode.ROLL),
+        PlanWaypoint(0.0, 51.0, 1.0, via=True, stop=True, mode=MotionMode.SCROLL),
+        PlanWaypoint(0.0, 60.0, 1.0, mode=MotionMode.ROLL),
+    )
+    plan = Plan("crossing", MotionMode.ROLL, MissionFrameKind.LOCAL_NED, wps, 0.6)
+    start = Pose2D(0.0, 0.0, math.pi / 2)  # rolling north
+    got = estimate_time(plan, LINE, (0.0, 0.0), start.yaw_rad)
+    assert got.pivots == 2  # the two changes of mode, each a 90° turn in place
+    plain = tuple(replace(w, mode=None, stop=False) for w in wps)
+    one_mode = estimate_time(replace(plan, waypoints=plain), LINE, (0.0, 0.0), start.yaw_rad)
+    assert one_mode.pivots == 0 and got.total_s > one_mode.total_s
+    nav = Navigator(plan, LINE)
+    plant = IdealPlant(start, nav.mode, VehicleConfig())
+    for _ in range(100_000):
+        plant.mode = nav.mode  # the plant drives in the mode the navigator flies
+        out = nav.step(plant.pose, plant.t_s)
+        if out.done:
+            break
+        plant.step(out.command, DT_S)
+    assert nav.done
+    assert plant.t_s == pytest.approx(got.total_s, rel=LINE_REL)

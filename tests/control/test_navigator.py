@@ -10,7 +10,7 @@ from helixd.base.geometry import Pose2D
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.config import ControlConfig
 from helixd.control.navigator import Navigator, NavOutput, NavState
-from tests.support.ideal_plant import IdealPlant
+from tests.support.ideal_plant import IdealPlant, integrate
 
 DT = 1.0 / 40.0
 CONTROL = ControlConfig(guidance="thesis")  # the thesis law, as before; line: test_line_guidance.py
@@ -327,3 +327,27 @@ def test_line_arc_yaw_feed_forward_counts_the_delivered_speed() -> None:
     assert 0.0 < slow[first] < full[first]  # the same history until the arc's feed-forward
     for nonsense in (0.0, -1.0, 1.5, math.nan, math.inf):
         assert yaw_rates(nonsense) == full
+
+
+def test_a_plan_with_a_mode_per_waypoint_flies_each_leg_in_its_mode() -> None:
+    # roll 10 m north, stop, turn in place, scroll 10 m on (the mode follows the medium)
+    wps = (
+        PlanWaypoint(0.0, 10.0, 0.5, stop=True, via=True, mode=MotionMode.ROLL),
+        PlanWaypoint(0.0, 20.0, 0.5, mode=MotionMode.SCROLL),
+    )
+    nav = Navigator(Plan("m", MotionMode.ROLL, MissionFrameKind.START, wps, 0.5), ControlConfig())
+    end, t_s = Pose2D(0.0, 0.0, math.pi / 2), 0.0
+    outputs: list[NavOutput] = []
+    while t_s < 120.0 and not nav.done:  # an ideal plant that moves as commanded, any mode
+        outputs.append(nav.step(end, t_s))
+        end, t_s = integrate(end, outputs[-1].command, DT), t_s + DT
+    assert nav.done and math.hypot(end.x_m, end.y_m - 20.0) < 0.5
+    first = [o for o in outputs if o.target_index == 0 and o.state is NavState.TRACK]
+    second = [o for o in outputs if o.target_index == 1 and o.state is NavState.TRACK]
+    assert first and all(o.command.vy_mps == 0.0 for o in first)  # ROLL: along +x only
+    assert second and all(o.command.vx_mps == 0.0 for o in second)  # SCROLL: along +y only
+    assert any(o.command.vy_mps > 0.1 for o in second)
+    # between them a turn in place: aligned, not driven
+    turn = [o for o in outputs if o.target_index == 1 and o.state is NavState.ALIGN]
+    assert turn and all(o.command.vx_mps == 0.0 and o.command.vy_mps == 0.0 for o in turn)
+    assert abs(end.yaw_rad) < 0.3  # SCROLL's +y points north: the body faces east

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import struct
 from pathlib import Path
 
 import matplotlib.image as mpimg
+import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 import typer
@@ -23,6 +25,7 @@ from helixd.recorder.plots import (
     PANEL_FILES,
     PANEL_SIZE_PX,
     PlotError,
+    _draw_driven,
     _panel_figure,
     arrival_mark,
     autopilot_axis,
@@ -383,3 +386,22 @@ def test_the_position_panel_says_east_and_north_as_the_trajectory_does() -> None
         "y, left (m)",
     )
     assert position_legend(axis_labels(None, None)) == ("x (m)", "y (m)")
+
+
+def test_the_driven_path_is_coloured_by_motion_mode_where_it_changed(tmp_path: Path) -> None:
+    run_dir, _ = synth_run(tmp_path)
+    data = load_run(run_dir)
+    n = len(data.col("x_m"))
+    modes = np.array(["roll"] * (n // 3) + ["scroll"] * (n // 3), dtype=object)
+    modes = np.concatenate([modes, np.array(["roll"] * (n - len(modes)), dtype=object)])
+    changed = dataclasses.replace(data, cols={**data.cols, "motion_mode": modes})
+    fig, ax = plt.subplots()
+    _draw_driven(ax, changed, changed.col("x_m"), changed.col("y_m"))
+    labels = [line.get_label() for line in ax.get_lines()]
+    assert len(ax.get_lines()) == 3  # roll, scroll, roll
+    assert labels.count("driven in roll") == 1 and labels.count("driven in scroll") == 1
+    fig2, ax2 = plt.subplots()  # one mode (or none recorded): one line, as before
+    _draw_driven(ax2, data, data.col("x_m"), data.col("y_m"))
+    assert [line.get_label() for line in ax2.get_lines()] == ["driven"]
+    plt.close(fig)
+    plt.close(fig2)

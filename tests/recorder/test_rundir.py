@@ -204,13 +204,28 @@ def test_slip_columns_round_trip(tmp_path: Path, clock: FakeClock, logs: LogCapt
     rec.record(make_row(clock() + 0.02))  # a writer that knows nothing of slip: nan
     rec.close()
     assert rec.run_dir is not None
-    assert COLUMNS[-3:] == ("slip_vx_frac", "slip_vy_frac", "slip_w_frac")
+    slip = ("slip_vx_frac", "slip_vy_frac", "slip_w_frac")
+    assert COLUMNS[-4:-1] == slip
     assert "slip_vx_frac" in CSV_COMMENT and "v2" in CSV_COMMENT
     rows = read_flight_csv(rec.run_dir / "flight.csv")
     assert rows[0]["slip_vx_frac"] == pytest.approx(0.61234)
     assert rows[0]["slip_vy_frac"] == pytest.approx(0.5)
     assert rows[0]["slip_w_frac"] == pytest.approx(0.75)
-    assert all(math.isnan(float(rows[1][c])) for c in COLUMNS[-3:])
+    assert all(math.isnan(float(rows[1][c])) for c in slip)
+
+
+def test_the_motion_mode_column_round_trips(
+    tmp_path: Path, clock: FakeClock, logs: LogCapture
+) -> None:
+    rec = create(tmp_path, clock)
+    rec.record(make_row(clock(), motion_mode="roll"))
+    rec.record(make_row(clock() + 0.02, motion_mode="scroll"))
+    rec.record(make_row(clock() + 0.04))  # a writer that knows nothing of it: empty
+    rec.close()
+    assert rec.run_dir is not None
+    assert COLUMNS[-1] == "motion_mode" and "motion_mode" in CSV_COMMENT
+    rows = read_flight_csv(rec.run_dir / "flight.csv")
+    assert [r["motion_mode"] for r in rows] == ["roll", "scroll", ""]
 
 
 def test_summary_carries_the_last_slip_estimate() -> None:

@@ -106,3 +106,20 @@ def test_planning_bench_plans_every_map(tmp_path: Path) -> None:
         assert case["legs"] >= 1 and case["grid_path_cells"] > 0, name
         assert finite(case["path_m"], f"{name} path", out) >= case["straight_m"] > 0.0
     assert plan["target_met"] is (code == 0)
+
+
+def test_amphibious_bench_flies_the_crossing_by_the_medium(tmp_path: Path) -> None:
+    code, out, data = run_tool(
+        "bench_amphibious", tmp_path, "--only", "crossing", "--policy", "media",
+        "--speedup", "20", "--jobs", "1", "--timeout-s", "50",
+    )  # fmt: skip
+    assert code == 0, out
+    assert set(data) == {"amphibious"}, out
+    fig = data["amphibious"]["crossing"]["media"]
+    assert fig["samples"] > 100, out  # the simulator's truth was sampled
+    assert fig["completed"] is True, out  # bank → water → bank, each stretch in its mode
+    assert finite(fig["time_s"], "time", out) > 60.0  # 60 m at most 0.6 m/s
+    assert finite(fig["energy_j"], "energy", out) > 0.0
+    assert {"hard", "water"} <= set(fig["rms_m"]), out
+    for medium, rms in fig["rms_m"].items():
+        assert 0.0 <= finite(rms, f"rms {medium}", out) < 1.0, out

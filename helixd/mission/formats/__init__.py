@@ -270,6 +270,10 @@ def lost_in(mission: Mission, fmt: MissionFormat, *, had_mode: bool = True) -> l
         lost += ["time_limit_s"] if mission.time_limit_s is not None else []
     if any(w.heading_deg is not None or w.tolerance_m is not None for w in mission.waypoints):
         lost.append("per-waypoint heading_deg/tolerance_m")
+    if any(w.mode is not None for w in mission.waypoints):
+        lost.append("per-waypoint mode")
+    lost += ["media_map"] if mission.media_map is not None else []
+    lost += ["media_modes"] if mission.media_modes is not None else []
     if fmt is MissionFormat.WAYPOINTS:
         lost += ["geofence_polygon"] if mission.geofence_polygon else []
         lost += ["keep_out_polygons"] if mission.keep_out_polygons else []

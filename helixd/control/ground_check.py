@@ -1,0 +1,102 @@
+"""When the map is wrong: notice from commanded against measured motion that the ground under
+the rover is not what the media map says, and name the mode that works there. Pure.
+
+The rover rolls (ROLL) where the map says firm ground. Rolling in mud delivers about 0.3 of
+the command and on hard ground 0.95 (docs/physics.md, the traction table), whatever the slip
+feed-forward multiplies the command by: the check compares the motion measured along the
+driving axis with the no-slip motion actually sent, over the last ``window_m`` metres of
+commanded travel (commanded, so a rover that barely moves still fills the window quickly).
+When the delivered fraction over a full window falls below ``roll_fraction`` the ground is
+soft: :meth:`GroundCheck.update` answers SCROLL, once.
+
+Back on firm ground, scrolling delivers less than in mud (hard 0.45, mud 0.85): while the
+rover scrolls because of the check, a full window below ``scroll_fraction`` answers ROLL (the
+planned mode) again. Only samples while the rover drives along its axis count (a turn in
+place, a stop or an OMNI stretch do not), and a change of mode starts a new window.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+from helixd.base.geometry import BodyVelocity
+from helixd.base.plan import MotionMode
+
+MIN_AXIS_SPEED_MPS = 0.05  # slower commands are a start or a stop, not a judgement of ground
+
+
+@dataclass(frozen=True, slots=True)
+class GroundCheckParams:
+    window_m: float = 1.5  # commanded travel judged at once (m)
+    roll_fraction: float = 0.6  # ROLL delivering less than this: softer than mapped
+    scroll_fraction: float = 0.55  # SCROLL (switched by the check) delivering less: firm again
+
+
+@dataclass(frozen=True, slots=True)
+class GroundVerdict:
+    """The check's answer: fly ``mode`` from now on (``soft``: the ground is softer than the
+    map says; else firm again); ``fraction``: delivered over the window that decided."""
+
+    mode: MotionMode
+    soft: bool
+    fraction: float
+
+
+class GroundCheck:
+    """Feeds on (mode, the no-slip command sent, the body velocity measured, dt)."""
+
+    def __init__(self, params: GroundCheckParams) -> None:
+        self.params = params
+        self._window: deque[tuple[float, float]] = deque()  # (commanded m, delivered m)
+        self._commanded_m = 0.0
+        self._delivered_m = 0.0
+        self._mode: MotionMode | None = None
+        self.switched = False  # the rover scrolls because of the check
+
+    def reset(self) -> None:
+        """A new leg, or the planned mode changed: start afresh."""
+        self._window.clear()
+        self._commanded_m = self._delivered_m = 0.0
+        self._mode = None
+        self.switched = False
+
+    def update(
+        self, mode: MotionMode, sent: BodyVelocity, measured: BodyVelocity, dt_s: float
+    ) -> GroundVerdict | None:
+        """One control step; a verdict when the mode should change (else None)."""
+        if mode is MotionMode.OMNI or not (math.isfinite(dt_s) and 0.0 < dt_s < 1.0):
+            return None
+        if mode is not self._mode:
+            self._window.clear()
+            self._commanded_m = self._delivered_m = 0.0
+            self._mode = mode
+        scroll = mode is MotionMode.SCROLL
+        cmd = sent.vy_mps if scroll else sent.vx_mps
+        got = measured.vy_mps if scroll else measured.vx_mps
+        if not (math.isfinite(cmd) and math.isfinite(got)) or abs(cmd) < MIN_AXIS_SPEED_MPS:
+            return None
+        commanded_m = abs(cmd) * dt_s
+        delivered_m = max(0.0, got * math.copysign(1.0, cmd)) * dt_s
+        self._window.append((commanded_m, delivered_m))
+        self._commanded_m += commanded_m
+        self._delivered_m += delivered_m
+        window_m = self.params.window_m
+        while self._window and self._commanded_m - self._window[0][0] >= window_m:
+            c, d = self._window.popleft()
+            self._commanded_m -= c
+            self._delivered_m -= d
+        if self._commanded_m < window_m * 0.999:
+            return None
+        fraction = self._delivered_m / self._commanded_m
+        if not scroll and not self.switched and fraction < self.params.roll_fraction:
+            self.switched = True
+            return GroundVerdict(MotionMode.SCROLL, True, fraction)
+        if scroll and self.switched and fraction < self.params.scroll_fraction:
+            self.switched = False
+            return GroundVerdict(MotionMode.ROLL, False, fraction)
+        return None
+
+
+__all__ = ["MIN_AXIS_SPEED_MPS", "GroundCheck", "GroundCheckParams", "GroundVerdict"]

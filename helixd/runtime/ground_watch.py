@@ -1,0 +1,85 @@
+"""The flight loop's watch on the ground (the shell around :mod:`helixd.control.ground_check`):
+each control step's sent and measured motion in, the navigator's mode overridden where the
+ground is not what the map says, and the change handed to ``on_ground`` (the run logs it as
+an event and tells the ground station in words)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from helixd.base.geometry import BodyVelocity
+from helixd.base.plan import MotionMode
+from helixd.config import MediaConfig
+from helixd.control.ground_check import GroundCheck, GroundCheckParams, GroundVerdict
+from helixd.control.navigator import Navigator
+
+
+@dataclass(frozen=True, slots=True)
+class GroundChange:
+    """The mode changed because of the ground: ``verdict`` at plan waypoint ``target_index``
+    (the leg being flown), the rover at ``north_m``/``east_m``, ``planned`` the map's mode."""
+
+    verdict: GroundVerdict
+    planned: MotionMode
+    target_index: int
+    north_m: float
+    east_m: float
+
+    def text(self) -> str:
+        """What the ground station reads."""
+        pct = round(100.0 * self.verdict.fraction)
+        if self.verdict.soft:
+            return (
+                f"ground softer than mapped ({pct}% of {self.planned.value} delivered): "
+                f"{self.verdict.mode.value} from here"
+            )
+        return f"firm ground again ({pct}% in scroll): back to {self.verdict.mode.value}"
+
+
+def check_params(media: MediaConfig) -> GroundCheckParams:
+    return GroundCheckParams(
+        window_m=media.detect_window_m,
+        roll_fraction=media.detect_roll_fraction,
+        scroll_fraction=media.detect_scroll_fraction,
+    )
+
+
+class GroundWatch:
+    """One flight's watch; inactive (``enabled`` False) without a plan that follows the
+    medium or with ``media.detect`` off."""
+
+    def __init__(
+        self,
+        media: MediaConfig,
+        navigator: Navigator,
+        enabled: bool,
+        on_ground: Callable[[GroundChange], None] | None,
+    ) -> None:
+        self.check = GroundCheck(check_params(media))
+        self.navigator = navigator
+        self.enabled = enabled and media.detect
+        self.on_ground = on_ground
+        self._index = -1
+
+    def feed(
+        self, sent: BodyVelocity, measured: BodyVelocity, dt_s: float, north_m: float, east_m: float
+    ) -> None:
+        """One step: what was sent at the last step and what was measured since."""
+        if not self.enabled:
+            return
+        nav = self.navigator
+        index = nav.target_index
+        if index != self._index:  # a new leg: the plan's mode again, a fresh window
+            self._index = index
+            self.check.reset()
+        planned = nav.plan.mode_at(index)
+        verdict = self.check.update(nav.mode, sent, measured, dt_s)
+        if verdict is None:
+            return
+        nav.override_mode(None if verdict.mode is planned else verdict.mode)
+        if self.on_ground is not None:
+            self.on_ground(GroundChange(verdict, planned, index, north_m, east_m))
+
+
+__all__ = ["GroundChange", "GroundWatch", "check_params"]

@@ -1,0 +1,177 @@
+"""The media map of a flight and the plan that follows it (the shell around
+:mod:`helixd.planning.media_modes`).
+
+Which map: the mission's ``media_map`` (relative to the mission file), else the config's
+``media.media_map`` (relative to the working directory); none: the mission's one mode
+everywhere, exactly as before. ``check``, ``run`` and ``serve`` read it in
+:func:`helixd.runtime.prepare.prepare_flight` (an unreadable or bad map is refused there, one
+line per problem naming the file and the feature); preflight reads it again and places it
+with the EKF origin and the rover's start (:func:`placed_media_plan`).
+
+A ``global`` (lat/lon) map needs the EKF origin: ``check`` stands in waypoint 1 of a global
+mission (as it does for the mission itself); a ``local_ned`` or ``start`` mission over a lat/lon
+map, and a ``start`` mission over any map, are split at preflight only (``check`` says so).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from helixd.base.frames import MissionFrame, NedPose
+from helixd.base.media import MediaFrame, MediaMap, Medium
+from helixd.base.plan import MissionFrameKind, MotionMode, Plan
+from helixd.config import HelixdConfig
+from helixd.files.media import MediaMapError, read_media_map
+from helixd.mission.model import Mission
+from helixd.planning.media_modes import MediaPlan, ModePolicy, follow_media, policy_modes
+
+
+class MediaRefused(ValueError):
+    """The media map cannot be used; ``problems``: one line each."""
+
+    def __init__(self, problems: list[str]) -> None:
+        self.problems = problems
+        super().__init__("\n".join(problems))
+
+
+def with_absolute_media(msn: Mission, mission_path: Path) -> Mission:
+    """``msn`` with its ``media_map`` made absolute against its own file's folder."""
+    if msn.media_map is None or msn.media_map.is_absolute():
+        return msn
+    return msn.model_copy(update={"media_map": (mission_path.parent / msn.media_map).resolve()})
+
+
+def media_path(cfg: HelixdConfig, msn: Mission) -> Path | None:
+    """The flight's media map file: the mission's, else the config's, else None."""
+    return msn.media_map if msn.media_map is not None else cfg.media.media_map
+
+
+def read_media(cfg: HelixdConfig, msn: Mission) -> MediaMap | None:
+    """The flight's media map, read and checked (None: no map). Raises :class:`MediaRefused`."""
+    path = media_path(cfg, msn)
+    if path is None:
+        return None
+    field = "media_map" if msn.media_map is not None else "media.media_map (config)"
+    if not path.is_file():
+        raise MediaRefused([f"{field}: {path}: no such file"])
+    try:
+        return read_media_map(path)
+    except MediaMapError as exc:
+        raise MediaRefused([f"{field}: {p}" for p in exc.problems]) from None
+
+
+def mode_policy(cfg: HelixdConfig, msn: Mission) -> ModePolicy:
+    """The mode per medium: the config's ``media.modes``, the mission's ``media_modes`` over
+    them; the margin from ``media.transition_margin_m``."""
+    modes = policy_modes(cfg.media.modes.model_dump())
+    modes.update(msn.media_modes or {})
+    return ModePolicy(modes, cfg.media.transition_margin_m, cfg.media.min_stretch_m)
+
+
+@dataclass(frozen=True)
+class MediaCheck:
+    """What ``check`` can say: the plan split (None: not before preflight, ``why``)."""
+
+    media: MediaPlan | None
+    why: str = ""
+
+
+def check_media_plan(cfg: HelixdConfig, msn: Mission, plan: Plan, media: MediaMap) -> MediaCheck:
+    """The plan ``check`` shows split by the media map, where it can be placed without the
+    rover: a global mission over any map (origin: waypoint 1, as ``check`` places the
+    mission), a local_ned mission over a local_ned map."""
+    kind = plan.frame
+    if kind is MissionFrameKind.START:
+        return MediaCheck(None, "a start-frame mission is placed on the map where it starts")
+    if kind is MissionFrameKind.GLOBAL:
+        origin: tuple[float, float] | None = msn.points()[0]
+    elif media.frame is MediaFrame.LOCAL_NED:
+        origin = None
+    else:
+        return MediaCheck(None, "a lat/lon map under a local_ned mission needs the EKF origin")
+    start = plan.assumed_start_xy_m()
+    return MediaCheck(follow(plan, media, mode_policy(cfg, msn), origin, MissionFrame.enu(), start))
+
+
+def follow(
+    plan: Plan,
+    media: MediaMap,
+    policy: ModePolicy,
+    origin: tuple[float, float] | None,
+    frame: MissionFrame,
+    start_xy_m: tuple[float, float],
+) -> MediaPlan:
+    """``plan`` split by ``media`` placed around ``origin`` (lat, lon; needed for a lat/lon
+    map), the mission frame placed by ``frame``. Raises :class:`MediaRefused`."""
+    try:
+        placed = media.to_ne(origin, fallback=Medium.HARD)
+    except ValueError as exc:
+        raise MediaRefused([str(exc)]) from None
+    return follow_media(plan, placed, policy, start_xy_m, frame.to_ned)
+
+
+def placed_media_plan(
+    cfg: HelixdConfig,
+    msn: Mission,
+    plan: Plan,
+    origin: tuple[float, float] | None,
+    start: NedPose,
+) -> MediaPlan | None:
+    """At preflight: the plan split by the flight's media map, placed with the EKF origin and
+    the rover's start (None: no map). Raises :class:`MediaRefused`."""
+    media = read_media(cfg, msn)
+    if media is None:
+        return None
+    frame = (
+        MissionFrame.start_at(start) if plan.frame is MissionFrameKind.START else MissionFrame.enu()
+    )
+    here = frame.to_mission(start)
+    first = plan.leg_start_xy_m or (here.x_m, here.y_m)
+    return follow(plan, media, mode_policy(cfg, msn), origin, frame, first)
+
+
+def stretch_lines(got: MediaPlan) -> list[str]:
+    """``check``'s lines: each stretch's medium and mode, each change of mode."""
+    lines: list[str] = []
+    transitions = iter(got.transitions)
+    for k, st in enumerate(got.stretches):
+        media = ", ".join(f"{m.value} {length:.1f} m" for m, length in st.media_m if length > 0.05)
+        pinned = " (the waypoint's own mode)" if st.pinned else ""
+        lines.append(
+            f"stretch : {k + 1}  {st.start_m:6.1f} → {st.end_m:6.1f} m  {st.mode.value:<6} "
+            f"over {media or st.main_medium.value}{pinned}"
+        )
+        t = next(transitions, None) if k < len(got.stretches) - 1 else None
+        if t is not None:
+            turn = "stop, turn 90° in place" if t.turn_rad > 0.0 else "stop, no turn (OMNI)"
+            lines.append(
+                f"change  : {t.before.value} → {t.after.value} at ({t.xy_m[0]:.1f}, "
+                f"{t.xy_m[1]:.1f}) on {t.medium.value}: {turn}"
+            )
+    return lines
+
+
+def modes_text(plan: Plan) -> str:
+    """``roll``, or ``roll/scroll`` for a plan whose mode follows the medium."""
+    seen: list[MotionMode] = []
+    for i in range(len(plan.waypoints)):
+        m = plan.mode_at(i)
+        if m not in seen:
+            seen.append(m)
+    return "/".join(m.value for m in seen) or plan.mode.value
+
+
+__all__ = [
+    "MediaCheck",
+    "MediaRefused",
+    "check_media_plan",
+    "follow",
+    "media_path",
+    "mode_policy",
+    "modes_text",
+    "placed_media_plan",
+    "read_media",
+    "stretch_lines",
+    "with_absolute_media",
+]

@@ -1,0 +1,153 @@
+"""``check`` with a media map: each stretch's medium and mode, each change of mode, the
+estimate counting the turns; the map checked at the edge."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from tests.support.cli import run_main
+from tests.support.paths import REPO_ROOT
+
+SURVEY = REPO_ROOT / "config" / "missions" / "pond-survey.yaml"  # global, media_map: pond
+
+
+def crossing(tmp_path: Path, **extra: object) -> Path:
+    """A 60 m leg north over 40 m of water (local_ned map and mission)."""
+    ring = [[-30, 10], [30, 10], [30, 50], [-30, 50], [-30, 10]]  # [east, north]
+    media = {
+        "type": "FeatureCollection", "frame": "local_ned", "default_medium": "hard",
+        "features": [{"type": "Feature", "properties": {"medium": "water"},
+                      "geometry": {"type": "Polygon", "coordinates": [ring]}}],
+    }  # fmt: skip
+    (tmp_path / "water.geojson").write_text(json.dumps(media), encoding="utf-8")
+    mission = {
+        "name": "crossing", "mode": "scroll", "frame": "local_ned",
+        "media_map": "water.geojson", "waypoints": [{"north": 0.0, "east": 0.0},
+                                                     {"north": 60.0, "east": 0.0}],
+        **extra,
+    }  # fmt: skip
+    path = tmp_path / "crossing.yaml"
+    path.write_text(json.dumps(mission), encoding="utf-8")
+    return path
+
+
+def test_a_crossing_shows_its_stretches_and_turns(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, err = run_main(["check", "--mission", str(crossing(tmp_path))], capsys)
+    assert code == 0, out + err
+    assert "mode=roll/scroll/roll" not in out  # the modes are listed once each
+    assert "mode=roll/scroll" in out
+    stretches = [ln for ln in out.splitlines() if ln.startswith("stretch : ")]
+    assert [ln.split()[7] for ln in stretches] == ["roll", "scroll", "roll"], out
+    assert "over water 40.0 m" in stretches[1]
+    changes = [ln for ln in out.splitlines() if ln.startswith("change  : ")]
+    assert changes == [
+        "change  : roll → scroll at (0.0, 9.0) on hard: stop, turn 90° in place",
+        "change  : scroll → roll at (0.0, 51.0) on hard: stop, turn 90° in place",
+    ], out
+    assert "3 stretches, 2 changes of mode (2 turns in place" in out
+    turns = re.search(r"in (\d+) turns in place", out)
+    assert turns is not None and int(turns.group(1)) >= 2, out  # the estimate counts them
+    rows = [ln for ln in out.splitlines() if ln.lstrip().startswith("via → 2")]
+    assert len(rows) == 2 and all("(stop)" in r for r in rows), out
+
+
+def test_a_waypoints_own_mode_pins_its_leg(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = crossing(tmp_path)
+    data = json.loads(path.read_text(encoding="utf-8"))
+    data["waypoints"][1]["mode"] = "scroll"
+    path.write_text(json.dumps(data), encoding="utf-8")
+    code, out, err = run_main(["check", "--mission", str(path)], capsys)
+    assert code == 0, out + err
+    assert "change  : " not in out
+    assert "(the waypoint's own mode)" in out
+
+
+def test_the_missions_media_modes_replace_the_configs(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = crossing(tmp_path, media_modes={"water": "omni"})
+    code, out, err = run_main(["check", "--mission", str(path)], capsys)
+    assert code == 0, out + err
+    assert "change  : roll → omni at (0.0, 9.0) on hard: stop, no turn (OMNI)" in out
+
+
+def test_a_missing_media_map_is_refused_naming_the_field(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = crossing(tmp_path)
+    (tmp_path / "water.geojson").unlink()
+    code, out, err = run_main(["check", "--mission", str(path)], capsys)
+    assert code == 2, out + err
+    assert "media_map: " in out + err and "water.geojson: no such file" in out + err
+
+
+def test_a_bad_medium_in_the_map_is_refused_naming_the_feature(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = crossing(tmp_path)
+    text = (tmp_path / "water.geojson").read_text(encoding="utf-8").replace("water", "lava")
+    (tmp_path / "water.geojson").write_text(text, encoding="utf-8")
+    code, out, err = run_main(["check", "--mission", str(path)], capsys)
+    assert code == 2, out + err
+    assert "features.0.properties.medium" in out + err and "lava" in out + err
+
+
+def test_the_shipped_pond_survey_rolls_the_banks_and_scrolls_the_water(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    code, out, err = run_main(["check", "--mission", str(SURVEY)], capsys)
+    assert code == 0, out + err
+    stretches = [ln for ln in out.splitlines() if ln.startswith("stretch : ")]
+    modes = [ln.split()[7] for ln in stretches]
+    assert modes == ["roll", "scroll", "roll", "scroll", "roll", "scroll", "roll"], out
+    assert all("water" in ln for ln, m in zip(stretches, modes, strict=True) if m == "scroll")
+    assert "6 changes of mode" in out
+
+
+def gcs_crossing(tmp_path: Path, code: float) -> tuple[Path, Path]:
+    """A .waypoints mission (60 m north) whose second waypoint's param4 ("Yaw") is ``code``,
+    and a config with the water map in media.media_map."""
+    crossing(tmp_path)  # writes water.geojson
+    lat2 = 53.5 + 60.0 / 111_195.0
+    rows = [
+        "QGC WPL 110",
+        "0\t1\t0\t16\t0\t0\t0\t0\t53.5\t-113.5\t0\t1",
+        "1\t0\t3\t16\t0\t0\t0\t0\t53.5\t-113.5\t0\t1",
+        f"2\t0\t3\t16\t0\t0\t0\t{code}\t{lat2:.8f}\t-113.5\t0\t1",
+    ]
+    mission = tmp_path / "crossing.waypoints"
+    mission.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    config = tmp_path / "helixd.yaml"
+    media = str(tmp_path / "water.geojson")
+    config.write_text(
+        json.dumps({"mission": {"ground_station_mode": "scroll"}, "media": {"media_map": media}}),
+        encoding="utf-8",
+    )
+    return mission, config
+
+
+def test_a_ground_station_mission_follows_the_configs_media_map(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mission, config = gcs_crossing(tmp_path, 0.0)
+    code, out, err = run_main(["check", "--config", str(config), "--mission", str(mission)], capsys)
+    assert code == 0, out + err
+    assert out.count("change  : ") == 2, out
+
+
+def test_a_ground_station_pins_a_legs_mode_by_the_yaw_code(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mission, config = gcs_crossing(tmp_path, -2.0)  # -2: scroll the whole leg
+    code, out, err = run_main(["check", "--config", str(config), "--mission", str(mission)], capsys)
+    assert code == 0, out + err
+    assert "change  : " not in out
+    assert "(the waypoint's own mode)" in out

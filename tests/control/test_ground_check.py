@@ -1,0 +1,96 @@
+"""When the map is wrong: the ground check from commanded against measured motion."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from helixd.base.geometry import BodyVelocity
+from helixd.base.plan import MotionMode
+from helixd.control.ground_check import GroundCheck, GroundCheckParams
+
+DT = 0.02
+SPEED = 0.6
+
+
+def roll(check: GroundCheck, fraction: float, metres: float) -> tuple[float, object]:
+    """Roll at SPEED for ``metres`` of commanded travel on ground delivering ``fraction``:
+    (metres actually travelled when a verdict came, the verdict) or (travelled, None)."""
+    travelled = 0.0
+    steps = round(metres / (SPEED * DT))
+    for _ in range(steps):
+        v = check.update(
+            MotionMode.ROLL,
+            BodyVelocity(SPEED, 0.0, 0.0),
+            BodyVelocity(SPEED * fraction, 0.0, 0.0),
+            DT,
+        )
+        travelled += SPEED * fraction * DT
+        if v is not None:
+            return travelled, v
+    return travelled, None
+
+
+def test_hard_ground_as_mapped_changes_nothing() -> None:
+    check = GroundCheck(GroundCheckParams())
+    _, verdict = roll(check, 0.95, 50.0)
+    assert verdict is None
+
+
+def test_mud_under_roll_is_noticed_within_two_metres_of_travel_and_answers_scroll() -> None:
+    check = GroundCheck(GroundCheckParams())
+    roll(check, 0.95, 10.0)  # the bank as mapped
+    travelled, verdict = roll(check, 0.3, 20.0)  # the mud the map does not show
+    assert verdict is not None and verdict.soft and verdict.mode is MotionMode.SCROLL
+    assert verdict.fraction < 0.6
+    assert travelled < 2.0
+    assert check.switched
+
+
+def test_back_on_firm_ground_scrolling_answers_the_planned_roll() -> None:
+    check = GroundCheck(GroundCheckParams())
+    roll(check, 0.3, 5.0)
+    assert check.switched
+    got = None
+    for _ in range(round(5.0 / (SPEED * DT))):  # in scroll on hard ground: 0.45 delivered
+        got = got or check.update(
+            MotionMode.SCROLL, BodyVelocity(0.0, SPEED, 0.0), BodyVelocity(0.0, 0.27, 0.0), DT
+        )
+    assert got is not None and not got.soft and got.mode is MotionMode.ROLL
+
+
+def test_scrolling_as_planned_is_never_second_guessed() -> None:
+    check = GroundCheck(GroundCheckParams())
+    for _ in range(2000):  # the map said water: scroll, whatever it delivers
+        assert (
+            check.update(
+                MotionMode.SCROLL, BodyVelocity(0.0, SPEED, 0.0), BodyVelocity(0.0, 0.1, 0.0), DT
+            )
+            is None
+        )
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf])
+def test_non_finite_input_is_no_verdict(bad: float) -> None:
+    check = GroundCheck(GroundCheckParams())
+    for _ in range(500):
+        assert (
+            check.update(
+                MotionMode.ROLL, BodyVelocity(SPEED, 0.0, 0.0), BodyVelocity(bad, 0.0, 0.0), DT
+            )
+            is None
+        )
+        assert (
+            check.update(MotionMode.ROLL, BodyVelocity(SPEED, 0.0, 0.0), BodyVelocity.zero(), bad)
+            is None
+        )
+
+
+def test_turns_in_place_and_stops_are_not_judged() -> None:
+    check = GroundCheck(GroundCheckParams())
+    for _ in range(2000):  # turning in place: no translation commanded, none measured
+        assert (
+            check.update(MotionMode.ROLL, BodyVelocity(0.0, 0.0, 1.0), BodyVelocity.zero(), DT)
+            is None
+        )

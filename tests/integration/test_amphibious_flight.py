@@ -1,0 +1,92 @@
+"""The mode follows the medium on the built-in simulator with media by place: a crossing rolls
+the bank, turns on it and scrolls the water; mud the map does not show is noticed and scrolled."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from helixd.base.exitcodes import ExitCode
+from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
+from helixd.recorder.rows import read_flight_columns
+from tests.support.harness import sim_and_daemon
+
+pytestmark = pytest.mark.integration
+
+
+def band(medium: Medium, north0: float, north1: float) -> MediaArea:
+    return MediaArea(medium, ((north0, -30.0), (north0, 30.0), (north1, 30.0), (north1, -30.0)))
+
+
+def geojson(path: Path, *areas: tuple[str, float, float]) -> Path:
+    """A local_ned map of bands across the course ([east, north] positions)."""
+    features = [
+        {"type": "Feature", "properties": {"medium": m},
+         "geometry": {"type": "Polygon", "coordinates": [[
+             [-30, n0], [30, n0], [30, n1], [-30, n1], [-30, n0]]]}}
+        for m, n0, n1 in areas
+    ]  # fmt: skip
+    data = {"type": "FeatureCollection", "frame": "local_ned", "default_medium": "hard",
+            "features": features}  # fmt: skip
+    path.write_text(json.dumps(data), encoding="utf-8")
+    return path
+
+
+def mission(path: Path, media: Path, north_m: float) -> Path:
+    data = {"name": "amphibious", "mode": "scroll", "frame": "local_ned",
+            "media_map": str(media), "waypoints": [{"north": north_m, "east": 0.0}]}  # fmt: skip
+    path.write_text(json.dumps(data), encoding="utf-8")
+    return path
+
+
+def modes_in_order(c: dict[str, np.ndarray]) -> list[str]:
+    out: list[str] = []
+    for m in c["motion_mode"]:
+        if not out or out[-1] != m:
+            out.append(str(m))
+    return out
+
+
+def test_a_crossing_rolls_the_banks_and_scrolls_the_water(tmp_path: Path) -> None:
+    helixd_map = geojson(tmp_path / "water.geojson", ("water", 10.0, 30.0))
+    world = MediaMap(MediaFrame.LOCAL_NED, (band(Medium.WATER, 10.0, 30.0),), Medium.HARD)
+    path = mission(tmp_path / "crossing.yaml", helixd_map, 40.0)
+    with sim_and_daemon(tmp_path, path, None, media=world, noise="low", speedup=8.0) as (_, d):
+        code = d.wait_exit(120.0)
+        log = d.log_text()
+        run_dir = d.run_dir()
+    assert code == ExitCode.OK, log[-3000:]
+    assert log.count("event=media_transition") == 2, log[-3000:]
+    c = read_flight_columns(run_dir / "flight.csv")
+    assert modes_in_order(c) == ["roll", "scroll", "roll"]
+    scrolled = c["motion_mode"] == "scroll"  # the water (10..30 m north) in scroll, turned on land
+    assert float(np.min(c["north_m"][scrolled])) == pytest.approx(9.0, abs=0.6)
+    assert float(np.max(c["north_m"][scrolled])) == pytest.approx(31.0, abs=0.6)
+    assert "ground_changed" not in log  # the map was right
+    reached = [
+        json.loads(line).get("index")
+        for line in (run_dir / "events.jsonl").read_text(encoding="utf-8").splitlines()
+        if '"waypoint_reached"' in line
+    ]
+    assert reached == [None, None, 0]  # the map's two stops are not the mission's (--resume)
+
+
+def test_mud_the_map_does_not_show_is_noticed_and_scrolled(tmp_path: Path) -> None:
+    helixd_map = geojson(tmp_path / "bank.geojson", ("grass", 50.0, 60.0))  # hard, says the map
+    world = MediaMap(MediaFrame.LOCAL_NED, (band(Medium.MUD, 10.0, 20.0),), Medium.HARD)
+    path = mission(tmp_path / "bank.yaml", helixd_map, 30.0)
+    with sim_and_daemon(tmp_path, path, None, media=world, noise="low", speedup=8.0) as (_, d):
+        code = d.wait_exit(120.0)
+        log = d.log_text()
+        run_dir = d.run_dir()
+    assert code == ExitCode.OK, log[-3000:]
+    soft = [ln for ln in log.splitlines() if "event=ground_changed soft=true" in ln]
+    assert len(soft) == 1, log[-3000:]
+    north = float(soft[0].split("north_m=")[1].split()[0])
+    assert 10.0 < north < 12.0  # noticed within 2 m of entering the mud
+    assert "event=ground_changed soft=false" in log  # and back to roll past it
+    c = read_flight_columns(run_dir / "flight.csv")
+    assert modes_in_order(c) == ["roll", "scroll", "roll"]
