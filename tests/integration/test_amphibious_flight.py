@@ -1,5 +1,6 @@
-"""The mode follows the medium on the built-in simulator with media by place: a crossing rolls
-the bank, turns on it and scrolls the water; mud the map does not show is noticed and scrolled."""
+"""The mode follows the medium on the built-in simulator with media by place (on the simulated
+clock): a crossing rolls the bank, turns on it and scrolls the water; mud the map does not show
+is noticed and scrolled."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
 from helixd.recorder.rows import read_flight_columns
-from tests.support.harness import sim_and_daemon
+from tests.support.simulated import simulated_flight
 
 pytestmark = pytest.mark.integration
 
@@ -54,10 +55,8 @@ def test_a_crossing_rolls_the_banks_and_scrolls_the_water(tmp_path: Path) -> Non
     helixd_map = geojson(tmp_path / "water.geojson", ("water", 10.0, 30.0))
     world = MediaMap(MediaFrame.LOCAL_NED, (band(Medium.WATER, 10.0, 30.0),), Medium.HARD)
     path = mission(tmp_path / "crossing.yaml", helixd_map, 40.0)
-    with sim_and_daemon(tmp_path, path, None, media=world, noise="low", speedup=8.0) as (_, d):
-        code = d.wait_exit(120.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
+    flown = simulated_flight(tmp_path, path, media=world, noise="low", seed=6)
+    code, log, run_dir = flown.code, flown.log, flown.run_dir()
     assert code == ExitCode.OK, log[-3000:]
     assert log.count("event=media_transition") == 2, log[-3000:]
     c = read_flight_columns(run_dir / "flight.csv")
@@ -78,10 +77,8 @@ def test_mud_the_map_does_not_show_is_noticed_and_scrolled(tmp_path: Path) -> No
     helixd_map = geojson(tmp_path / "bank.geojson", ("grass", 50.0, 60.0))  # hard, says the map
     world = MediaMap(MediaFrame.LOCAL_NED, (band(Medium.MUD, 10.0, 20.0),), Medium.HARD)
     path = mission(tmp_path / "bank.yaml", helixd_map, 30.0)
-    with sim_and_daemon(tmp_path, path, None, media=world, noise="low", speedup=8.0) as (_, d):
-        code = d.wait_exit(120.0)
-        log = d.log_text()
-        run_dir = d.run_dir()
+    flown = simulated_flight(tmp_path, path, media=world, noise="low", seed=6)
+    code, log, run_dir = flown.code, flown.log, flown.run_dir()
     assert code == ExitCode.OK, log[-3000:]
     soft = [ln for ln in log.splitlines() if "event=ground_changed soft=true" in ln]
     assert len(soft) == 1, log[-3000:]
