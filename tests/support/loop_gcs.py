@@ -5,7 +5,9 @@ the mission protocol, commands to helixd and to the autopilot, the message pane)
 
 from __future__ import annotations
 
+import signal
 from collections.abc import Awaitable, Callable
+from pathlib import Path
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
@@ -23,9 +25,25 @@ from helixd.sim.modes import MODE_NUMBERS
 from tests.support.gcs import HELIXD, QGC_SYSID, waypoint
 from tests.support.harness import overrides_released
 from tests.support.loop_mav import LoopMav
-from tests.support.simulated import Steer, moving
+from tests.support.simulated import SimulatedService, Steer, moving, simulated_serve
 
 UploadStep = Callable[[], Awaitable[None]]
+Crew = Callable[[Steer, LoopMav], Awaitable[Any]]
+
+
+def simulated_crew(
+    tmp_path: Path, config: dict[str, Any] | None, crew: Crew, **sim: Any
+) -> SimulatedService:
+    """``helixd serve`` on the simulated clock with a QGroundControl-like ground station on
+    the simulator's second link, driven by ``crew(st, gcs)``; then the service is stopped as
+    systemd stops it (SIGTERM). What ``crew`` returned is the service's ``steered[0]``."""
+
+    async def day(st: Steer) -> Any:
+        result = await crew(st, st.ground_station(1, QGC_SYSID))
+        st.signal(signal.SIGTERM)
+        return result
+
+    return simulated_serve(tmp_path, day, config, **sim)
 
 
 async def upload_typed(
@@ -98,6 +116,21 @@ async def heartbeat_shows(gcs: LoopMav, condition: Callable[[Any], bool]) -> Non
     await gcs.expect("HEARTBEAT", 10.0, lambda m: m.get_srcSystem() == 1 and condition(m))
 
 
+PREARM_CHECK = 0x10000000  # SYS_STATUS sensor bit: the autopilot's PreArm checks pass
+
+
+async def booted(st: Steer, gcs: LoopMav) -> None:
+    """Until the autopilot is ready to arm, as QGroundControl shows it (SYS_STATUS's PreArm
+    bit healthy): a crew presses nothing before (on the simulated clock helixd may be ready
+    sooner than that)."""
+    await st.until(lambda s: not s.booting, 60.0)
+    await gcs.expect(
+        "SYS_STATUS",
+        60.0,
+        lambda m: m.get_srcSystem() == 1 and bool(m.onboard_control_sensors_health & PREARM_CHECK),
+    )
+
+
 async def upload_and_start(st: Steer, gcs: LoopMav, upload_mission: UploadStep) -> None:
     """QGroundControl's Plan view Upload once ``helixd serve`` finds no mission, then Start
     Mission on the disarmed rover once it is ready (GUIDED, arm, MAV_CMD_MISSION_START to the
@@ -105,6 +138,7 @@ async def upload_and_start(st: Steer, gcs: LoopMav, upload_mission: UploadStep) 
     await st.line("no mission on the autopilot", 60.0)
     await upload_mission()
     await st.line("event=serve_state state=ready", 30.0)
+    await booted(st, gcs)
     await set_mode(gcs, "GUIDED")
     await heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
     assert await gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED

@@ -115,6 +115,18 @@ class LoopMav:
         assert msg is not None, f"no {kind} within {timeout_s} s"
         return msg
 
+    async def wait_text(self, prefix: str, timeout_s: float) -> str:
+        """A STATUSTEXT starting with ``prefix`` seen so far or arriving within the timeout."""
+        deadline = now_s() + timeout_s
+        while True:
+            for text in self.texts:
+                if text.startswith(prefix):
+                    return text
+            remaining = deadline - now_s()
+            if remaining <= 0:
+                raise AssertionError(f"no STATUSTEXT {prefix!r}; saw {self.texts}")
+            await self.recv("STATUSTEXT", remaining)
+
     async def command(
         self,
         command: int,

@@ -111,6 +111,18 @@ class Steer:
     def flight_done(self) -> bool:
         return self.flight is not None and self.flight.done()
 
+    async def record_until(
+        self, predicate: Callable[[SimSnapshot], bool], timeout_s: float
+    ) -> list[SimSnapshot]:
+        """Every snapshot published from now until ``predicate`` holds (that one included)."""
+        seen: list[SimSnapshot] = []
+        self.server.snapshot_listeners.append(seen.append)
+        try:
+            await self.until(predicate, timeout_s)
+        finally:
+            self.server.snapshot_listeners.remove(seen.append)
+        return seen
+
     async def exited(self, timeout_s: float) -> float:
         """Until the daemon's run ended (within ``timeout_s`` simulated); the time it did."""
         assert self.flight is not None
@@ -221,13 +233,16 @@ Daemon = Callable[[str], Awaitable[Any]]
 
 
 def _on_simulated_clock(
-    server: SimServer, runs: Sequence[tuple[Daemon, Steering | None]], trace: bool = True
+    server: SimServer,
+    runs: Sequence[tuple[Daemon, Steering | None]],
+    trace: bool = True,
+    console: Console | None = None,
 ) -> tuple[list[tuple[Any, Any]], Console, list[tuple[float, SimSnapshot]]]:
     """Each of ``runs`` — ``daemon(url)`` steered by its steering — beside ``server`` on one
     simulated clock, one after the other, the simulator running on (a restarted service, a
     resumed run): ([(what the daemon returned, what its steering returned)], the console,
     every snapshot published, if ``trace``)."""
-    console = Console()
+    console = Console() if console is None else console
     samples: list[tuple[float, SimSnapshot]] = []
     if trace:
         server.snapshot_listeners.append(lambda snap: samples.append((now_s(), snap)))
@@ -378,7 +393,10 @@ def simulated_serve(
 
     steerings = list(during) if isinstance(during, Sequence) else [during]
     runs = [(daemon, steering) for steering in steerings]
-    results, console, _ = _on_simulated_clock(server, runs, trace=False)
-    (tmp_path / "serve.log").write_text(console.text(), encoding="utf-8")
+    console = Console()
+    try:
+        results, _, _ = _on_simulated_clock(server, runs, trace=False, console=console)
+    finally:  # the service's log beside the test's files, also for a failure
+        (tmp_path / "serve.log").write_text(console.text(), encoding="utf-8")
     codes = [int(code) for code, _ in results]
     return SimulatedService(codes, console.text(), run_root, server, [s for _, s in results])
