@@ -19,19 +19,18 @@ from helixd.mav.constants import (
     MAV_CMD_DO_SET_MISSION_CURRENT,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.server import SimServer
 from tests.integration.test_serve_crew_modes import CONFIG, driving
-from tests.support.daemon import DaemonProc
-from tests.support.gcs import do_item, upload_items, waypoint
-from tests.support.harness import MavClient, time_until
-from tests.support.serve import (
-    flight_summaries,
+from tests.support.gcs import do_item, waypoint
+from tests.support.loop_gcs import (
     let_go_in_manual,
-    moving,
-    serving_crew,
     set_mode,
+    simulated_crew,
     upload_and_start,
+    upload_items,
 )
+from tests.support.loop_mav import LoopMav
+from tests.support.serve import flight_summaries
+from tests.support.simulated import Steer, moving
 
 SPEED_MPS = 0.4  # DO_CHANGE_SPEED item 2
 # items 1..5: WP, DO_CHANGE_SPEED, WP, WP, DO_JUMP to item 2 once: flown 1, 3, 4, 3, 4
@@ -45,9 +44,9 @@ ITEMS = [
 ]
 
 
-def start_mission(server: SimServer, gcs: MavClient, d: DaemonProc) -> None:
+async def start_mission(st: Steer, gcs: LoopMav) -> None:
     """Upload ITEMS and press Start Mission on a disarmed rover."""
-    upload_and_start(server, gcs, d, lambda: upload_items(gcs, ITEMS))
+    await upload_and_start(st, gcs, lambda: upload_items(gcs, ITEMS))
 
 
 def mission_flights(summaries: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -58,29 +57,35 @@ def mission_flights(summaries: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return [s for s in summaries if not str(s.get("fault") or "").startswith("handover")]
 
 
-def autopilot_item(gcs: MavClient, seq: int, timeout_s: float = 60.0) -> None:
-    gcs.expect("MISSION_CURRENT", timeout_s, lambda m: m.get_srcSystem() == 1 and m.seq == seq)
+async def autopilot_item(gcs: LoopMav, seq: int, timeout_s: float = 60.0) -> None:
+    await gcs.expect(
+        "MISSION_CURRENT", timeout_s, lambda m: m.get_srcSystem() == 1 and m.seq == seq
+    )
 
 
 def test_auto_again_after_manual_flies_a_commands_mission_from_the_current_item(
     tmp_path: Path,
 ) -> None:
-    with serving_crew(tmp_path, CONFIG) as (server, gcs, d):
-        start_mission(server, gcs, d)
+
+    async def crew(st: Steer, gcs: LoopMav) -> str:
+        await start_mission(st, gcs)
         # item 1 reached: the autopilot's current item is 3, on the first lap
-        autopilot_item(gcs, 3)
-        let_go_in_manual(server, gcs, d)
+        await autopilot_item(gcs, 3)
+        await let_go_in_manual(st, gcs)
 
         # AUTO again: from item 3, not refused
-        mark = d.mark()
-        t_auto = set_mode(gcs, "AUTO")
-        d.wait_line("event=auto_start item=3", 10.0, after=mark)
-        time_until(server, driving, t_auto, 10.0)
-        assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
-        done = gcs.wait_text("helixd: completed", 60.0)
-        d.wait_line("event=serve_state state=completed", 10.0, after=mark)
-        d.terminate_ok()
-    log = d.log_text()
+        mark = st.mark()
+        await set_mode(gcs, "AUTO")
+        await st.line("event=auto_start item=3", 10.0, after=mark)
+        await st.until(driving, 10.0)
+        assert await gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"
+        done = await gcs.wait_text("helixd: completed", 60.0)
+        await st.line("event=serve_state state=completed", 10.0, after=mark)
+        return done
+
+    served = simulated_crew(tmp_path, CONFIG, crew)
+    assert served.code == 0, served.log[-3000:]
+    log, (done,) = served.log, served.steered
     assert "cannot start" not in log
     assert 'kind=step_started item=3 lap="lap 1 of 2" command=NAV_WAYPOINT step=1' in log
     assert 'state=completed hx_state=7 detail="4/4 waypoints as flown, last item 4/5"' in log
@@ -100,22 +105,25 @@ def test_auto_again_after_manual_flies_a_commands_mission_from_the_current_item(
 def test_auto_again_on_a_later_lap_keeps_the_autopilots_jump_counters(tmp_path: Path) -> None:
     """Let go on the second lap (the DO_JUMP taken once): ArduPilot's resume keeps its jump
     counters, so AUTO again flies the rest of that lap, item 3 then 4, not two more laps."""
-    with serving_crew(tmp_path, CONFIG) as (server, gcs, d):
-        start_mission(server, gcs, d)
-        autopilot_item(gcs, 3)
-        autopilot_item(gcs, 4, 120.0)
-        autopilot_item(gcs, 3, 120.0)  # after the jump: lap 2
-        let_go_in_manual(server, gcs, d)
 
-        mark = d.mark()
-        t_auto = set_mode(gcs, "AUTO")
-        d.wait_line("event=auto_walk_held first_item=1", 10.0, after=mark)
-        d.wait_line("event=auto_start item=3", 10.0, after=mark)
-        time_until(server, driving, t_auto, 10.0)
-        assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
-        d.wait_line("event=serve_state state=completed", 60.0, after=mark)
-        d.terminate_ok()
-    log = d.log_text()
+    async def crew(st: Steer, gcs: LoopMav) -> None:
+        await start_mission(st, gcs)
+        await autopilot_item(gcs, 3)
+        await autopilot_item(gcs, 4, 120.0)
+        await autopilot_item(gcs, 3, 120.0)  # after the jump: lap 2
+        await let_go_in_manual(st, gcs)
+
+        mark = st.mark()
+        await set_mode(gcs, "AUTO")
+        await st.line("event=auto_walk_held first_item=1", 10.0, after=mark)
+        await st.line("event=auto_start item=3", 10.0, after=mark)
+        await st.until(driving, 10.0)
+        assert await gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"
+        await st.line("event=serve_state state=completed", 60.0, after=mark)
+
+    served = simulated_crew(tmp_path, CONFIG, crew)
+    assert served.code == 0, served.log[-3000:]
+    log = served.log
     # helixd was let go on item 4 (step 3; or item 3 of lap 2, step 4, had it got there too)
     # while the autopilot had gone on to item 3 of lap 2
     assert re.search(r"event=auto_walk_held first_item=1 step=[34] ", log), log
@@ -133,25 +141,28 @@ def test_set_current_item_in_a_commands_mission_keeps_the_autopilots_jump_counte
     DO_SET_MISSION_CURRENT to the autopilot) on lap 2, back to item 1: a move the walk does
     not make, so helixd goes there; set_current_cmd keeps the DO_JUMP taken once of once, so
     ArduPilot and helixd fly one lap from item 1 (1, 3, 4) and complete, not two."""
-    with serving_crew(tmp_path, CONFIG) as (server, gcs, d):
-        start_mission(server, gcs, d)
-        autopilot_item(gcs, 3)
-        autopilot_item(gcs, 4, 120.0)
-        autopilot_item(gcs, 3, 120.0)  # back through the DO_JUMP: the walk's own move
+
+    async def crew(st: Steer, gcs: LoopMav) -> None:
+        await start_mission(st, gcs)
+        await autopilot_item(gcs, 3)
+        await autopilot_item(gcs, 4, 120.0)
+        await autopilot_item(gcs, 3, 120.0)  # back through the DO_JUMP: the walk's own move
         # the crew clicks once helixd has seen it too (each link has its own 5 Hz
         # MISSION_CURRENT: a click within 0.2 s of the jump would beat helixd's report)
-        d.wait_line("event=autopilot_step item=3 step=4", 10.0)
-        mark = d.mark()
-        assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
-        d.wait_line("event=autopilot_item_set item=1 autopilot_step=4", 10.0, after=mark)
-        d.wait_line("event=auto_walk_held first_item=1 step=4 exact=true", 10.0, after=mark)
-        d.wait_line("event=auto_start item=1", 10.0, after=mark)
-        server.wait_for(moving, 10.0)
-        assert server.snapshot().mode == "AUTO"  # no HOLD asked between the flights
-        assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
-        d.wait_line("event=serve_state state=completed", 60.0, after=mark)
-        d.terminate_ok()
-    log = d.log_text()
+        await st.line("event=autopilot_step item=3 step=4", 10.0)
+        mark = st.mark()
+        assert await gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
+        await st.line("event=autopilot_item_set item=1 autopilot_step=4", 10.0, after=mark)
+        await st.line("event=auto_walk_held first_item=1 step=4 exact=true", 10.0, after=mark)
+        await st.line("event=auto_start item=1", 10.0, after=mark)
+        await st.until(moving, 10.0)
+        assert st.snapshot().mode == "AUTO"  # no HOLD asked between the flights
+        assert await gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"
+        await st.line("event=serve_state state=completed", 60.0, after=mark)
+
+    served = simulated_crew(tmp_path, CONFIG, crew)
+    assert served.code == 0, served.log[-3000:]
+    log = served.log
     assert log.count("event=autopilot_item_set") == 1  # the jump back was not taken for one
     summaries = mission_flights(flight_summaries(tmp_path))
     assert [s["completed"] for s in summaries] == [False, True], summaries
@@ -163,22 +174,25 @@ def test_an_item_set_while_the_pilot_drives_keeps_the_counters_too(tmp_path: Pat
     """MANUAL on lap 2, then the crew sets item 1 (the mission stopped: set_current_cmd keeps
     the counters) and selects AUTO: the walk from item 1 with the jump taken once of once,
     counted where the autopilot's own item was when helixd let go: one lap, 1 3 4."""
-    with serving_crew(tmp_path, CONFIG) as (server, gcs, d):
-        start_mission(server, gcs, d)
-        autopilot_item(gcs, 3)
-        autopilot_item(gcs, 4, 120.0)
-        autopilot_item(gcs, 3, 120.0)  # lap 2
-        d.wait_line("event=autopilot_step item=3 step=4", 10.0)  # seen by helixd too
-        let_go_in_manual(server, gcs, d)
-        assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
-        autopilot_item(gcs, 1, 10.0)
-        mark = d.mark()
-        set_mode(gcs, "AUTO")
-        d.wait_line("event=auto_walk_held first_item=1 step=4 exact=true", 10.0, after=mark)
-        d.wait_line("event=auto_start item=1", 10.0, after=mark)
-        assert gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"  # ArduPilot's
-        d.wait_line("event=serve_state state=completed", 60.0, after=mark)
-        d.terminate_ok()
+
+    async def crew(st: Steer, gcs: LoopMav) -> None:
+        await start_mission(st, gcs)
+        await autopilot_item(gcs, 3)
+        await autopilot_item(gcs, 4, 120.0)
+        await autopilot_item(gcs, 3, 120.0)  # lap 2
+        await st.line("event=autopilot_step item=3 step=4", 10.0)  # seen by helixd too
+        await let_go_in_manual(st, gcs)
+        assert await gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 1) == MAV_RESULT_ACCEPTED
+        await autopilot_item(gcs, 1, 10.0)
+        mark = st.mark()
+        await set_mode(gcs, "AUTO")
+        await st.line("event=auto_walk_held first_item=1 step=4 exact=true", 10.0, after=mark)
+        await st.line("event=auto_start item=1", 10.0, after=mark)
+        assert await gcs.wait_text("Mission Complete", 180.0) == "Mission Complete"
+        await st.line("event=serve_state state=completed", 60.0, after=mark)
+
+    served = simulated_crew(tmp_path, CONFIG, crew)
+    assert served.code == 0, served.log[-3000:]
     summaries = mission_flights(flight_summaries(tmp_path))
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert [a["number"] for a in summaries[1]["arrivals"]] == [1, 3, 4]
