@@ -24,18 +24,19 @@ from helixd.mav.constants import (
     MAV_RESULT_DENIED,
 )
 from tests.integration.test_serve_auto_from_item import ITEMS, SPEED_MPS
-from tests.support.daemon import DaemonProc
-from tests.support.gcs import command, upload, upload_items
-from tests.support.harness import MavClient, secured
-from tests.support.serve import moving, serve_proc, serving_crew, sim_with_ground_station
+from tests.support.gcs import QGC_SYSID
+from tests.support.harness import secured
+from tests.support.loop_gcs import command, said, simulated_crew, upload, upload_items
+from tests.support.loop_mav import LoopMav
+from tests.support.simulated import Steer, moving, simulated_serve
 
 NO_SWITCH: dict[str, Any] = {"startup": {"start_switch_channel": None}}
 
 
-def ready(d: DaemonProc, gcs: MavClient) -> None:
-    d.wait_line("no mission on the autopilot", 60.0)
-    upload_items(gcs, ITEMS)
-    d.wait_line("event=serve_state state=ready", 30.0)
+async def ready(st: Steer, gcs: LoopMav) -> None:
+    await st.line("no mission on the autopilot", 60.0)
+    await upload_items(gcs, ITEMS)
+    await st.line("event=serve_state state=ready", 30.0)
 
 
 def step_lines(log: str) -> list[tuple[int, int, str]]:
@@ -57,40 +58,43 @@ def test_a_commands_mission_paused_on_its_second_lap_continues_the_rest_of_the_w
     back from serve-state.json and its run directory): the flight goes on with that lap
     (item 2's DO_CHANGE_SPEED again, items 3 and 4), not with the jump from zero (two laps
     more) nor from item 1."""
-    with sim_with_ground_station() as (server, urls, gcs):
-        d = serve_proc(tmp_path, urls[0], NO_SWITCH)
-        procs = [d]
-        d.start_pump()
-        try:
-            ready(d, gcs)
-            assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
-            d.wait_line('kind=step_started item=3 lap="lap 2 of 2"', 180.0)
-            server.wait_for(moving, 20.0)  # on the leg to item 3 of lap 2
-            mark = d.mark()
-            assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 0) == MAV_RESULT_ACCEPTED
-            d.wait_line("event=serve_state state=paused", 30.0, after=mark)
-            server.wait_for(secured, 10.0)
-            if restart:
-                d.signal(signal.SIGTERM)
-                assert d.wait_exit(30.0) == 0
-                d = serve_proc(tmp_path, urls[0], NO_SWITCH)
-                procs.append(d)
-                d.start_pump()
-                d.wait_line("interrupted: a start continues it", 60.0)
-            assert not server.snapshot().armed
-            mark = d.mark()
-            assert command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 1) == MAV_RESULT_ACCEPTED
-            walk = d.wait_line("event=serve_continue_walk", 30.0, after=mark)
-            d.wait_line("event=run_resumed", 30.0, after=mark)
-            d.wait_line("event=serve_state state=completed", 180.0, after=mark)
-            d.signal(signal.SIGTERM)
-            assert d.wait_exit(30.0) == 0
-        finally:
-            for n, proc in enumerate(procs, 1):
-                proc.kill()
-                (tmp_path / f"serve-{n}.log").write_text(proc.log_text(), encoding="utf-8")
-    first_log = "\n".join(procs[0].lines if restart else d.lines[:mark])
-    second_log = "\n".join(d.lines[mark:])
+
+    async def go_on(st: Steer, gcs: LoopMav) -> tuple[str, int]:
+        assert not st.snapshot().armed
+        mark = st.mark()
+        assert await command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 1) == MAV_RESULT_ACCEPTED
+        walk = await st.line("event=serve_continue_walk", 30.0, after=mark)
+        await st.line("event=run_resumed", 30.0, after=mark)
+        await st.line("event=serve_state state=completed", 180.0, after=mark)
+        st.signal(signal.SIGTERM)
+        return walk, mark
+
+    async def paused(st: Steer) -> tuple[str, int] | None:
+        gcs = st.ground_station(1, QGC_SYSID)
+        await ready(st, gcs)
+        assert await command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+        await st.line('kind=step_started item=3 lap="lap 2 of 2"', 180.0)
+        await st.until(moving, 20.0)  # on the leg to item 3 of lap 2
+        mark = st.mark()
+        assert await command(gcs, MAV_CMD_DO_PAUSE_CONTINUE, 0) == MAV_RESULT_ACCEPTED
+        await st.line("event=serve_state state=paused", 30.0, after=mark)
+        await st.until(secured, 10.0)
+        if restart:
+            st.signal(signal.SIGTERM)
+            return None
+        return await go_on(st, gcs)
+
+    async def restarted(st: Steer) -> tuple[str, int]:
+        gcs = st.ground_station(1, QGC_SYSID)
+        await st.line("interrupted: a start continues it", 60.0, after=st.mark())
+        return await go_on(st, gcs)
+
+    served = simulated_serve(tmp_path, [paused, restarted] if restart else [paused], NO_SWITCH)
+    assert served.codes == [0] * (2 if restart else 1), served.log[-3000:]
+    walk, mark = served.steered[-1]
+    lines = served.log.splitlines()
+    first_log = "\n".join(lines[:mark])
+    second_log = "\n".join(lines[mark:])
     assert "cannot continue" not in second_log
     # the walk restarts at item 2 (the DO_CHANGE_SPEED started with item 3), the jump taken
     # once, at the speed in effect before that step (item 2's, from lap 1)
@@ -122,23 +126,27 @@ def test_mission_start_to_helixd_from_item_three(tmp_path: Path) -> None:
     """MISSION_START param1 3: the walk from item 3 with the jump counters at zero (as
     AP_Mission::start, then set_current_cmd(3)): 3, 4, then the jump through item 2 to 3, 4.
     An item outside the mission is DENIED, with the range told."""
-    with serving_crew(tmp_path, NO_SWITCH) as (server, gcs, d):
-        ready(d, gcs)
-        assert command(gcs, MAV_CMD_MISSION_START, 9, 0) == MAV_RESULT_DENIED
+
+    async def crew(st: Steer, gcs: LoopMav) -> None:
+        await ready(st, gcs)
+        assert await command(gcs, MAV_CMD_MISSION_START, 9, 0) == MAV_RESULT_DENIED
         # one STATUSTEXT holds 50 characters: the text comes in lines, each "helixd: "
-        gcs.wait_said(
+        await said(
+            gcs,
             "MISSION_START param1 (first item) 9 is not in the mission: 0 (continue) or an "
             "item 1..5",
             10.0,
         )
-        assert not server.snapshot().armed
-        mark = d.mark()
-        assert command(gcs, MAV_CMD_MISSION_START, 3, -1) == MAV_RESULT_ACCEPTED
-        d.wait_line("event=serve_flight_start request=from_item", 10.0, after=mark)
-        server.wait_for(moving, 30.0)
-        d.wait_line("event=serve_state state=completed", 180.0, after=mark)
-        d.terminate_ok()
-    steps = step_lines(d.log_text())
+        assert not st.snapshot().armed
+        mark = st.mark()
+        assert await command(gcs, MAV_CMD_MISSION_START, 3, -1) == MAV_RESULT_ACCEPTED
+        await st.line("event=serve_flight_start request=from_item", 10.0, after=mark)
+        await st.until(moving, 30.0)
+        await st.line("event=serve_state state=completed", 180.0, after=mark)
+
+    served = simulated_crew(tmp_path, NO_SWITCH, crew)
+    assert served.code == 0, served.log[-3000:]
+    steps = step_lines(served.log)
     assert [(s, i) for s, i, _ in steps] == [(1, 3), (2, 4), (3, 3), (4, 4)], steps
     (run,) = run_dirs(tmp_path)
     summary = json.loads((run / "summary.json").read_text())
@@ -152,18 +160,21 @@ def test_mission_start_to_helixd_from_item_three_of_a_plain_waypoint_mission(
 ) -> None:
     """A mission of waypoints only from item 3: waypoints 1 and 2 are left out, the first leg
     re-enters the leg from waypoint 2 to 3; the reached waypoints keep the mission's numbers."""
-    with serving_crew(tmp_path, NO_SWITCH) as (server, gcs, d):
-        d.wait_line("no mission on the autopilot", 60.0)
-        upload(gcs, [(6.0, 0.0), (6.0, -6.0), (0.0, -6.0), (0.0, -10.0)])
-        d.wait_line("event=serve_state state=ready", 30.0)
-        mark = d.mark()
-        assert command(gcs, MAV_CMD_MISSION_START, 3, 4) == MAV_RESULT_ACCEPTED
-        d.wait_line("event=serve_flight_start request=from_item", 10.0, after=mark)
-        server.wait_for(moving, 30.0)
-        d.wait_line("event=serve_state state=completed", 120.0, after=mark)
-        d.terminate_ok()
+
+    async def crew(st: Steer, gcs: LoopMav) -> None:
+        await st.line("no mission on the autopilot", 60.0)
+        await upload(gcs, [(6.0, 0.0), (6.0, -6.0), (0.0, -6.0), (0.0, -10.0)])
+        await st.line("event=serve_state state=ready", 30.0)
+        mark = st.mark()
+        assert await command(gcs, MAV_CMD_MISSION_START, 3, 4) == MAV_RESULT_ACCEPTED
+        await st.line("event=serve_flight_start request=from_item", 10.0, after=mark)
+        await st.until(moving, 30.0)
+        await st.line("event=serve_state state=completed", 120.0, after=mark)
+
+    served = simulated_crew(tmp_path, NO_SWITCH, crew)
+    assert served.code == 0, served.log[-3000:]
     (run,) = run_dirs(tmp_path)
     summary = json.loads((run / "summary.json").read_text())
     assert summary["completed"] is True
     assert [a["number"] for a in summary["arrivals"]] == [3, 4]
-    assert 'detail="4/4 waypoints"' in d.log_text()
+    assert 'detail="4/4 waypoints"' in served.log
