@@ -985,13 +985,14 @@ class ServeConfig(InputModel):
         description="the wait doubles after each failed attempt up to this (s)",
     )
     mission_poll_s: float = Field(
-        30.0,
+        10.0,
         gt=0.0,
         le=3600.0,
-        description="while idle, the autopilot's mission is also re-read this often (s); a "
-        "change of MISSION_CURRENT's item count or ArduPilot's 'Flight plan received' makes "
-        "it re-read at once, and every start re-reads it, so this only catches an edit that "
-        "kept the count and whose text was lost",
+        description="while idle, the autopilot's mission is also re-read this often (s): "
+        "ArduPilot tells only the uploading link 'Flight plan received' and MISSION_CURRENT "
+        "carries no mission id, so a same-size upload from the ground station is noticed by "
+        "this read (or a change of MISSION_CURRENT's item count); every start re-reads it "
+        "anyway and flies the plan it finds if it passes the checks",
     )
     state_rate_hz: float = Field(
         1.0,

@@ -26,6 +26,7 @@ from helixd.mav.constants import (
     MAV_SEVERITY_NOTICE,
     MAV_SEVERITY_WARNING,
 )
+from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.resume import event_whole, last_step_started, with_walk
 from helixd.recorder.events import read_events
@@ -34,7 +35,7 @@ from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
 from helixd.runtime.flight import MANUAL_MODE
 from helixd.runtime.host import ServeHost
 from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.mode_gate import AUTO_MODE
+from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of
 from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import (
     AutopilotPlace,
@@ -45,6 +46,7 @@ from helixd.runtime.prepare import (
     prepare_flight,
 )
 from helixd.runtime.signals import StopRequest
+from helixd.safety.supervisor import HOLD_MODE
 from helixd.safety.watchdogs import FaultCause
 from helixd.serve.check import ReadyMission
 from helixd.serve.core import (
@@ -63,6 +65,8 @@ log = structlog.get_logger(__name__)
 # a flight that ends so is the crew's doing (MANUAL, another item, a new place or mode): the
 # mission's verdict stands, and AUTO again (or still) starts the next
 HANDED = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
+# modes an armed autopilot drives in by itself: a refused start leaves it there in HOLD
+SELF_DRIVING_MODES = (AUTO_MODE, "GUIDED")
 
 
 class Flights:
@@ -236,12 +240,17 @@ class Flights:
         self.status.set(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
 
     async def _fly(self, ap: Autopilot, request: Request, who: str, item: int = 0) -> None:
-        gcs = self.status.gcs
         before = self.mission.fingerprint
         await self._read_mission(ap)  # fly what the autopilot holds now
         checked = self.mission.checked
-        if checked is None or self.mission.fingerprint != before:
-            gcs.say("start refused: the mission changed; checked it again", MAV_SEVERITY_ERROR)
+        if self.mission.read_error is not None:
+            why = f"the mission could not be read ({self.mission.read_error}); start again"
+            await self._refuse(ap, f"start refused: {why}")
+            return
+        changed = self.mission.fingerprint != before  # a plan uploaded since: the one to fly
+        if checked is None:  # a new verdict was told as it was read; an old one is said again
+            why = "the new plan failed its checks" if changed else self.status.detail
+            await self._refuse(ap, f"start refused: {why or 'no mission'}")
             return
         try:
             flight, cfg, run_root = self._flight_for(request, item)
@@ -249,10 +258,10 @@ class Flights:
             text = "; ".join(exc.problems)
             log.error("serve_continue_refused", request=request.value, problem=text)
             said = "cannot continue" if request is Request.CONTINUE else "start refused"
-            gcs.say(f"{said}: {text}", MAV_SEVERITY_ERROR)
+            await self._refuse(ap, f"{said}: {text}")
             return
         if self.switch is not None and self.switch.low:
-            gcs.say("start refused: the start switch is low", MAV_SEVERITY_WARNING)
+            await self._refuse(ap, "start refused: the start switch is low", MAV_SEVERITY_WARNING)
             return
         if self._service_stop.requested:
             return
@@ -269,7 +278,8 @@ class Flights:
             set_item=partial(self._set_current_item, ap) if shows_item else None,
             driving_mode=AUTO_MODE if auto else MANUAL_MODE,
         )
-        runner, outcome, cause = await self._run_flight(opts, host, f"{request.value} by {who}")
+        what = f"{request.value} by {who}" + (f", the new {checked.name}" if changed else "")
+        runner, outcome, cause = await self._run_flight(opts, host, what)
         # released to the pilot, or moved to another item: AUTO again (or still) starts
         self.auto_watch.flight_ended(left_auto=cause in HANDED)
         let_go = auto and cause in HANDED and flight.mission.has_commands()
@@ -291,6 +301,21 @@ class Flights:
         severity = MAV_SEVERITY_NOTICE if state is not ServeState.FAULTED else MAV_SEVERITY_ERROR
         log.info("serve_flight_end", state=state.name.lower(), exit_code=int(outcome.exit_code))
         self.status.set(state, text, severity)
+
+    async def _refuse(self, ap: Autopilot, text: str, severity: int = MAV_SEVERITY_ERROR) -> None:
+        """A start refused: the reason on the crew's screen and the rover left safe: armed in
+        a mode where the autopilot drives by itself (AUTO, GUIDED: QGroundControl's Start
+        Mission), HOLD is asked, so the next Start Mission (AUTO again) is a new start."""
+        log.warning("serve_start_refused", text=text)
+        self.status.gcs.say(text, severity)
+        st = ap.state
+        if not st.armed or crew_mode_of(st) not in SELF_DRIVING_MODES:
+            return
+        try:
+            await ap.action.set_mode(HOLD_MODE)
+        except (CommandError, LinkError) as exc:
+            log.error("serve_refused_hold_failed", error=str(exc))
+            self.status.gcs.say(f"HOLD refused: {exc}", MAV_SEVERITY_ERROR)
 
     async def _run_flight(
         self, opts: RunOptions, host: ServeHost, what: str
