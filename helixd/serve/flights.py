@@ -102,6 +102,9 @@ class Flights:
         # the last AUTO flight of a mission with commands let go with the autopilot armed:
         # (fingerprint, its walk, its run directory); the autopilot keeps its jump counters
         self.auto_walk: tuple[str, ExpandOptions, Path] | None = None
+        # the last flight ended on the crew's new current item: the next AUTO flight drives
+        # there from where the rover is, not along the skipped leg
+        self.item_set = False
 
     @property
     def flying(self) -> bool:
@@ -169,10 +172,11 @@ class Flights:
         interrupted run's remainder."""
         checked = self.mission.checked
         assert checked is not None
+        from_here, self.item_set = self.item_set, False
         if request is Request.AUTO:
             held = held_walk(self.auto_walk, checked.fingerprint)
             item_now = self.mission.autopilot_item
-            flight = from_autopilot_item(checked.flight, item_now, checked.cfg, held)
+            flight = from_autopilot_item(checked.flight, item_now, checked.cfg, held, from_here)
             return flight, checked.cfg, self.opts.run_root
         if request is Request.FROM_ITEM:  # jump counters zero, as AP_Mission::start
             flight = from_autopilot_item(checked.flight, item, checked.cfg)
@@ -282,6 +286,7 @@ class Flights:
         runner, outcome, cause = await self._run_flight(opts, host, what)
         # released to the pilot, or moved to another item: AUTO again (or still) starts
         self.auto_watch.flight_ended(left_auto=cause in HANDED)
+        self.item_set = cause is FaultCause.ITEM_SET
         let_go = auto and cause in HANDED and flight.mission.has_commands()
         self.auto_walk = None
         if let_go and outcome.run_dir is not None:
