@@ -240,7 +240,12 @@ class CommandClient:
                         if send.owner is pending:
                             send.owner = None
             if result is None:
-                log.warning("command_timeout", command=name, tries=tries, timeout_s=timeout)
+                # a link lost (said once, link_lost) or silent since the command was sent:
+                # the link is the news, not each command it could not carry
+                st = self._state
+                silent = st.last_rx_s is None or st.last_rx_s < started_s
+                emit = log.debug if st.link_lost or silent else log.warning
+                emit("command_timeout", command=name, tries=tries, timeout_s=timeout)
                 raise CommandTimeout(name, tries, timeout)
         if result in ok_results:
             log.debug("command_ok", command=name, result=result_name(result))

@@ -378,7 +378,9 @@ class VehicleState:
     last_heartbeat_s: float | None = None
     heartbeat_count: int = 0
     link_lost: bool = False
+    link_lost_cause: str = ""  # why, while link_lost: the transport's reason or the silence
     link_lost_count: int = 0
+    last_rx_s: float | None = None  # reception of the autopilot's latest message of any kind
     reboot_count: int = 0
     last_time_boot_ms: int | None = None
     statustexts: deque[StatusText] = field(default_factory=deque)
@@ -397,15 +399,16 @@ class VehicleState:
         if self.link_lost or self.last_heartbeat_s is None:
             return False
         if now_s - self.last_heartbeat_s > timeout_s:
-            self.mark_link_lost()
+            self.mark_link_lost("heartbeat silence")
             return True
         return False
 
-    def mark_link_lost(self) -> bool:
+    def mark_link_lost(self, cause: str = "") -> bool:
         """The transport went away (or the heartbeat stopped). True on the transition."""
         if self.link_lost:
             return False
         self.link_lost = True
+        self.link_lost_cause = cause
         self.link_lost_count += 1
         return True
 
@@ -426,6 +429,7 @@ class VehicleState:
     def apply(self, msg: MavMsg, rx_s: float) -> int:
         """Update from one message of the autopilot's system; return what changed."""
         mtype = str(msg.get_type())
+        self.last_rx_s = rx_s
         handler = _HANDLERS.get(mtype)
         if handler is None:
             return Change.NONE
