@@ -949,6 +949,13 @@ class GcsReportConfig(InputModel):
             "many chars, a longer text ends in '...'"
         ),
     )
+    repeat_window_s: float = Field(
+        3.0,
+        ge=0.0,
+        le=600.0,
+        description="a text the same as one queued this recently is not sent again (s; 0: "
+        "every text is sent): the message pane shows each event once",
+    )
     named_value_rate_hz: float = Field(
         2.0, gt=0.0, le=50.0, description="NAMED_VALUE_FLOAT xtrack_m / wp_index rate (Hz)"
     )

@@ -253,7 +253,7 @@ class Flights:
             return
         changed = self.mission.fingerprint != before  # a plan uploaded since: the one to fly
         if checked is None:  # a new verdict was told as it was read; an old one is said again
-            why = "the new plan failed its checks" if changed else self.status.detail
+            why = "new plan failed its checks" if changed else self.status.detail
             await self._refuse(ap, f"start refused: {why or 'no mission'}")
             return
         try:

@@ -84,7 +84,7 @@ def test_a_same_size_reupload_is_flown_and_a_bad_one_leaves_the_rover_in_hold(
         start_mission(gcs)
         d.wait_line("event=serve_start_refused", 15.0, after=mark)
         server.wait_for(lambda s: s.mode == "HOLD", 10.0)
-        gcs.wait_said("start refused: the new plan failed its checks", 10.0)
+        gcs.wait_said("start refused: new plan failed its checks", 10.0)
         gcs.wait_said("max_range_m", 10.0)  # the reason, from the verdict
         snap: SimSnapshot = server.snapshot()
         assert snap.speed_mps < 0.1 and not any(snap.overrides_active[:4])
