@@ -391,7 +391,8 @@ class MissionRunner:
                 ap = await self.host.open(cfg, held, self._gcs_on, run_dir)
                 if ap.tlog is not None and self.recorder is not None:  # link.tlog cut: ours
                     ap.tlog.writer.on_error = self._tlog_cut
-            self.gcs.phase("preflight")
+            if self.host.tells_steps:
+                self.gcs.phase("preflight")
             async with phase("preflight", self.notifier, self.display):
                 checked = await until_stopped(stop, self._preflight(ap))
             if self.opts.show_plan:  # for the GCS to draw; never flown (helixd.runtime.show_plan)
@@ -650,7 +651,8 @@ class MissionRunner:
             FaultCause.ITEM_SET,
             FaultCause.HANDOVER,
         ):
-            self.gcs.phase(ending.fault.detail)
+            if self.host.tells_steps:  # else the next flight's own text says where
+                self.gcs.phase(ending.fault.detail)
         elif ending.fault is not None:
             self.gcs.fault(ending.fault.cause.value, ending.fault.detail)
         if ap is not None and touched:

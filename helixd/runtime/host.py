@@ -71,6 +71,13 @@ class FlightHost(Protocol):
         (None: a mission flight)."""
         ...
 
+    @property
+    def tells_steps(self) -> bool:
+        """The flight tells the ground station its own steps (preflight, what it flies, a
+        handover's where): ``helixd run`` does; a flight of ``helixd serve`` leaves that to
+        the service's state texts, so one press of the crew reads as one or two lines."""
+        ...
+
     def signals(self) -> contextlib.AbstractContextManager[None]:
         """While the flight runs: SIGINT/SIGTERM trigger :attr:`stop` (or someone else's do)."""
         ...
@@ -103,6 +110,7 @@ class OwnLink:
     """``helixd run``: its own link, signals and start gate."""
 
     start_gate = True
+    tells_steps = True
     driving_mode = MANUAL_MODE
     goto: PositionTarget | None = None
 
@@ -159,6 +167,10 @@ class ServeHost:
 
     @property
     def start_gate(self) -> bool:
+        return False
+
+    @property
+    def tells_steps(self) -> bool:
         return False
 
     def signals(self) -> contextlib.AbstractContextManager[None]:

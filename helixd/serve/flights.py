@@ -228,7 +228,7 @@ class Flights:
             return
         before = (self.status.state, self.status.detail)
         stop = self.stop = StopRequest()
-        where = f"{place.lat_deg:.7f} {place.lon_deg:.7f}"
+        where = f"{place.lat_deg:.5f} {place.lon_deg:.5f}"  # 1 m: one line on the pane
         log.info("serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.count + 1)
         opts = run_options(prepared.flight, prepared.cfg, self.opts.run_root, self.cfg)
         host = ServeHost(ap, stop, driving_mode=mode, goto=place)
@@ -238,7 +238,7 @@ class Flights:
         self.auto_watch.flight_ended(left_auto=handed)
         log.info("serve_flight_end", request=Request.GOTO.value, exit_code=int(outcome.exit_code))
         if handed or cause is FaultCause.PAUSED or stop.paused:
-            self.status.set(*before)  # the mission's verdict stands
+            self.status.set(*before, quiet=handed)  # the mission's verdict stands
             return
         text = flight_end_text(summary, runner.numbering(), outcome.messages)
         self.status.set(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
@@ -282,7 +282,7 @@ class Flights:
             set_item=partial(self._set_current_item, ap) if shows_item else None,
             driving_mode=AUTO_MODE if auto else MANUAL_MODE,
         )
-        what = f"{request.value} by {who}" + (f", the new {checked.name}" if changed else "")
+        what = f"the new {checked.name}" if changed else f"{request.value} by {who}"
         runner, outcome, cause = await self._run_flight(opts, host, what)
         # released to the pilot, or moved to another item: AUTO again (or still) starts
         self.auto_watch.flight_ended(left_auto=cause in HANDED)
@@ -305,7 +305,9 @@ class Flights:
         text = flight_end_text(outcome.summary, runner.numbering(), outcome.messages)
         severity = MAV_SEVERITY_NOTICE if state is not ServeState.FAULTED else MAV_SEVERITY_ERROR
         log.info("serve_flight_end", state=state.name.lower(), exit_code=int(outcome.exit_code))
-        self.status.set(state, text, severity)
+        # handed to the next flight at once (a new place, a new item): it says where it goes
+        handover = cause in (FaultCause.HANDOVER, FaultCause.ITEM_SET)
+        self.status.set(state, text, severity, quiet=handover)
 
     async def _refuse(self, ap: Autopilot, text: str, severity: int = MAV_SEVERITY_ERROR) -> None:
         """A start refused: the reason on the crew's screen and the rover left safe: armed in

@@ -67,10 +67,10 @@ def test_a_same_size_reupload_is_flown_and_a_bad_one_leaves_the_rover_in_hold(
         start_mission(gcs)
         d.wait_line("event=auto_start", 10.0, after=mark)
         flying = d.wait_line("event=serve_state state=flying", 10.0, after=mark)
-        assert "the new 3 waypoints, plan " in flying, flying
+        assert 'detail="the new plan ' in flying and ': 3 waypoints"' in flying, flying
         server.wait_for(moving, 20.0)
         print(f"\nStart Mission after a re-upload → moving: {time.monotonic() - t0:.3f} s")
-        gcs.wait_said("the new 3 waypoints, plan", 10.0)
+        gcs.wait_said("flying: the new plan ", 10.0)
         assert "start refused" not in d.log_text()
         # plan B's first waypoint is reached: it is the plan flown, not A
         trace = record_until(server, near(PLAN_B[0], 0.6), 90.0)
@@ -95,3 +95,25 @@ def test_a_same_size_reupload_is_flown_and_a_bad_one_leaves_the_rover_in_hold(
         start_mission(gcs, armed=True)
         d.wait_line("event=auto_start", 10.0, after=mark)
         server.wait_for(moving, 20.0)
+
+
+def test_an_rtl_press_is_one_or_two_texts(tmp_path: Path) -> None:
+    """The crew's RTL mid-mission: the flight hands over and helixd drives home; the message
+    pane shows one or two helixd texts for it, not the steps of two flights."""
+    with serving_crew(tmp_path, CONFIG, **guard_installed(SPEEDUP)) as (server, gcs, d):
+        d.wait_line("no mission on the autopilot", 60.0)
+        upload(gcs, PLAN_A)
+        d.wait_line("event=serve_state state=ready", 30.0)
+        start_mission(gcs)
+        server.wait_for(lambda s: s.north_m > 6.0, 60.0)
+        gcs.wait_said("flying: auto by", 10.0)  # the start's texts read
+        said_before = len(gcs.texts)
+        mark = d.mark()
+        set_mode(gcs, "RTL")
+        d.wait_line("event=goto_start", 10.0, after=mark)
+        d.wait_line("event=phase_start phase=fly", 10.0, after=d.mark())
+        server.wait_for(moving, 20.0)
+        gcs.recv("NO_SUCH_MESSAGE", 3.0)  # every text of the press's burst read
+        burst = [t for t in gcs.texts[said_before:] if t.startswith("helixd: ")]
+        print("\nRTL press said:", burst)
+        assert 1 <= len(burst) <= 2, burst
