@@ -421,11 +421,12 @@ def answer_goto(view: ServeView, mode: str, motion_mode_set: bool) -> Answer:
 
 def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -> ServeState:
     """Where a flight leaves the service: completed; paused (the flight ended on an operator's
-    pause, ``paused``, even one that came while it was still starting); or faulted (a fault,
-    a pilot's takeover, a refusal at its start)."""
+    pause, ``paused``, even one that came while it was still starting, or on the service's own
+    stop: the crew's, no fault, and a continue goes on from there); or faulted (a fault, a
+    pilot's takeover, a refusal at its start)."""
     if code is ExitCode.OK:
         return ServeState.COMPLETED
     handed = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
-    if cause in (FaultCause.PAUSED, *handed) or (paused and cause in (FaultCause.SIGNAL, None)):
+    if cause in (FaultCause.PAUSED, FaultCause.SIGNAL, *handed) or (paused and cause is None):
         return ServeState.PAUSED
     return ServeState.FAULTED

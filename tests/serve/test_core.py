@@ -216,6 +216,8 @@ def test_switch_edges_start_and_pause() -> None:
         (ExitCode.OK, None, False, ServeState.COMPLETED),
         (ExitCode.OPERATOR_STOP, FaultCause.PAUSED, True, ServeState.PAUSED),
         (ExitCode.OPERATOR_STOP, FaultCause.SIGNAL, True, ServeState.PAUSED),  # while starting
+        # the service stopped (SIGINT/SIGTERM) mid-flight: the crew's stop, not a fault
+        (ExitCode.OPERATOR_STOP, FaultCause.SIGNAL, False, ServeState.PAUSED),
         (ExitCode.OPERATOR_STOP, FaultCause.PILOT_TAKEOVER, False, ServeState.FAULTED),
         (ExitCode.OPERATOR_STOP, FaultCause.PILOT_TAKEOVER, True, ServeState.FAULTED),
         (ExitCode.FAULT, FaultCause.LINK_LOST, False, ServeState.FAULTED),
