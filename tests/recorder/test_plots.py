@@ -17,6 +17,7 @@ from helixd.cli import runs as command
 from helixd.mission.model import WaypointSpec
 from helixd.mission.resume import RunInputs
 from helixd.recorder.events import read_events
+from helixd.recorder.outcome import CREW_COLOR
 from helixd.recorder.plots import (
     AUTOPILOT_AXIS_LABEL,
     OVERVIEW_SIZE_PX,
@@ -35,7 +36,6 @@ from helixd.recorder.plots import (
     sparse_label_mask,
     waypoint_labels,
 )
-from helixd.recorder.outcome import CREW_COLOR
 from helixd.recorder.summary import Arrival, RunSummary
 from tests.support.recorder_runs import SQUARE, synth_run
 
