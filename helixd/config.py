@@ -1033,6 +1033,13 @@ class ServeConfig(InputModel):
         "link.telemetry_rate_hz) not renewed for this long is no place: in GUIDED, RTL and "
         "SMART_RTL helixd then holds (s)",
     )
+    disarm_when_complete: bool = Field(
+        True,
+        description="a flight that completes its mission ends disarmed (ArduPilot's AUTO "
+        "stays armed in HOLD); false: it stays armed in HOLD, so Go to location or the next "
+        "Start Mission needs no new arm. Disarmed is the default: between flights nobody "
+        "drives the rover, and an armed one is a mode switch away from moving",
+    )
     same_place_m: float = Field(
         0.5,
         ge=0.0,

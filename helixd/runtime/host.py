@@ -72,6 +72,12 @@ class FlightHost(Protocol):
         ...
 
     @property
+    def disarm_when_complete(self) -> bool:
+        """A completed mission ends disarmed (``helixd run`` always; ``helixd serve`` as
+        ``serve.disarm_when_complete`` says)."""
+        ...
+
+    @property
     def tells_steps(self) -> bool:
         """The flight tells the ground station its own steps (preflight, what it flies, a
         handover's where): ``helixd run`` does; a flight of ``helixd serve`` leaves that to
@@ -111,6 +117,7 @@ class OwnLink:
 
     start_gate = True
     tells_steps = True
+    disarm_when_complete = True
     driving_mode = MANUAL_MODE
     goto: PositionTarget | None = None
 
@@ -163,6 +170,7 @@ class ServeHost:
     set_item: Callable[[int], None] | None = None  # None: nobody shows the current item
     driving_mode: str = MANUAL_MODE  # AUTO: a flight the crew started in the autopilot's AUTO
     goto: PositionTarget | None = None  # GUIDED, RTL, SMART_RTL: the autopilot's place
+    disarm_when_complete: bool = True  # serve.disarm_when_complete
     _tlog: LinkTlog | None = field(default=None, init=False, repr=False)
 
     @property

@@ -231,7 +231,13 @@ class Flights:
         where = f"{place.lat_deg:.5f} {place.lon_deg:.5f}"  # 1 m: one line on the pane
         log.info("serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.count + 1)
         opts = run_options(prepared.flight, prepared.cfg, self.opts.run_root, self.cfg)
-        host = ServeHost(ap, stop, driving_mode=mode, goto=place)
+        host = ServeHost(
+            ap,
+            stop,
+            driving_mode=mode,
+            goto=place,
+            disarm_when_complete=self.cfg.serve.disarm_when_complete,
+        )
         runner, outcome, cause = await self._run_flight(opts, host, f"{mode} to {where}")
         summary = outcome.summary
         handed = cause in HANDED
@@ -281,6 +287,7 @@ class Flights:
             stop,
             set_item=partial(self._set_current_item, ap) if shows_item else None,
             driving_mode=AUTO_MODE if auto else MANUAL_MODE,
+            disarm_when_complete=self.cfg.serve.disarm_when_complete,
         )
         what = f"the new {checked.name}" if changed else f"{request.value} by {who}"
         runner, outcome, cause = await self._run_flight(opts, host, what)

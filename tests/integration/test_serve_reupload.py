@@ -117,3 +117,18 @@ def test_an_rtl_press_is_one_or_two_texts(tmp_path: Path) -> None:
         burst = [t for t in gcs.texts[said_before:] if t.startswith("helixd: ")]
         print("\nRTL press said:", burst)
         assert 1 <= len(burst) <= 2, burst
+
+
+def test_a_completed_mission_can_stay_armed_in_hold(tmp_path: Path) -> None:
+    """serve.disarm_when_complete false: the rover ends the mission armed in HOLD, as
+    ArduPilot's AUTO does, so Go to location needs no new arm."""
+    armed_cfg = {**CONFIG, "serve": {**CONFIG["serve"], "disarm_when_complete": False}}
+    with serving_crew(tmp_path, armed_cfg, **guard_installed(SPEEDUP)) as (server, gcs, d):
+        d.wait_line("no mission on the autopilot", 60.0)
+        upload(gcs, [(4.0, 0.0)])
+        d.wait_line("event=serve_state state=ready", 30.0)
+        start_mission(gcs)
+        d.wait_line("event=serve_state state=completed", 90.0)
+        snap = server.wait_for(lambda s: s.mode == "HOLD", 10.0)
+        assert snap.armed and not any(snap.overrides_active[:4])
+        assert "disarmed=false" in d.wait_line("event=vehicle_secured", 5.0)
