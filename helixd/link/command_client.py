@@ -133,6 +133,8 @@ class CommandClient:
         self._q = _Queues()
         self._param_waiters: dict[str, list[asyncio.Future[float]]] = defaultdict(list)
         self._param_locks: dict[str, asyncio.Lock] = defaultdict(asyncio.Lock)
+        # told of every PARAM_VALUE of the autopilot (name, value): a cache of them
+        self.param_seen: Callable[[str, float], None] | None = None
         self.stats = AckStats()
 
     # -- reader side --------------------------------------------------------------------------
@@ -194,6 +196,8 @@ class CommandClient:
         if comp and int(msg.get_srcComponent()) != comp:
             return
         name = _param_text(msg.param_id)
+        if self.param_seen is not None:
+            self.param_seen(name, float(msg.param_value))
         for fut in self._param_waiters.get(name, []):
             if not fut.done():
                 fut.set_result(float(msg.param_value))
