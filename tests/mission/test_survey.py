@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from helixd.base.plan import MotionMode
 from helixd.cli.app import app
+from helixd.files.models import ConfigFileError
 from helixd.mission.formats import load_mission_file
 from helixd.mission.formats.areas import (
     SurveyArea,
@@ -136,7 +137,7 @@ def test_a_hand_written_survey_item_gives_its_polygon(tmp_path: Path) -> None:
     path.write_text(json.dumps(doc), encoding="utf-8")
     area = read_area(path)
     assert [tuple(v) for v in area.outer] == [tuple(v) for v in polygon]
-    with pytest.raises(FormatError, match="holds no mission items"):
+    with pytest.raises(ConfigFileError, match="holds no mission items"):
         load_mission_file(path, mode=MotionMode.SCROLL)  # to fly it needs QGC's items
 
 
