@@ -182,7 +182,8 @@ class Flights:
             flight = from_autopilot_item(checked.flight, item, checked.cfg)
             return flight, checked.cfg, self.opts.run_root
         interrupted = self.interrupted
-        if request is Request.CONTINUE and interrupted is not None:
+        # a continue of a run of another plan (one uploaded since) flies the new one whole
+        if request is Request.CONTINUE and interrupted is not None and self.resumable(checked):
             run_dir = interrupted[1]
             if checked.flight.mission.has_commands():  # the walk goes on from its step
                 flight = continue_commands(checked.flight, run_dir, checked.cfg)
