@@ -330,6 +330,9 @@ class VehicleState:
     attitude_time_boot_ms: int | None = None
     ekf: EkfStatus | None = None
     armed: bool = False
+    # when the autopilot acknowledged our disarm (monotonic): a HEARTBEAT received before
+    # it still says armed, and must not be taken for "armed now" (:attr:`armed_now`)
+    disarm_acked_s: float | None = None
     custom_mode: int | None = None
     mode: str = "UNKNOWN"
     base_mode: int = 0
@@ -391,6 +394,15 @@ class VehicleState:
     pose_rejected_count: int = 0
     pose_rejected_kinds: dict[str, int] = field(default_factory=dict)
     foreign_sysid_counts: dict[int, int] = field(default_factory=dict)
+
+    @property
+    def armed_now(self) -> bool:
+        """Armed, as a HEARTBEAT received after our last acknowledged disarm says (a start
+        right after the last flight's disarm must not read the heartbeat before it)."""
+        acked = self.disarm_acked_s
+        if acked is None:
+            return self.armed
+        return self.armed and self.last_heartbeat_s is not None and self.last_heartbeat_s > acked
 
     # -- link status (called by the shell with its clock) -------------------------------------
 

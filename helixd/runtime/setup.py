@@ -622,7 +622,7 @@ async def arm(
 ) -> str | None:
     """Arm once the autopilot has a home, re-trying while PreArm checks refuse; returns the
     warning of an arm forced without a home."""
-    if ap.state.armed:
+    if ap.state.armed_now:
         return None
     warning = await wait_home(ap, cfg, on_status)
     startup = cfg.startup
@@ -660,7 +660,7 @@ async def confirm_mode(ap: Autopilot, cfg: HelixdConfig, mode: str) -> None:
 async def confirm_armed(ap: Autopilot, cfg: HelixdConfig) -> None:
     """The ACK says 'accepted'; the HEARTBEAT's armed flag says it happened."""
     deadline = time.monotonic() + cfg.safety.heartbeat_timeout_s * 2
-    while not ap.state.armed:
+    while not ap.state.armed_now:
         if time.monotonic() > deadline:
             raise PreflightFailed(["arming was accepted but HEARTBEAT never showed armed"])
         await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)

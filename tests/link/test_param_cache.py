@@ -9,6 +9,7 @@ from typing import Any, cast
 
 from helixd.link.command_client import CommandClient
 from helixd.link.param import Param, ParamCache
+from helixd.link.vehicle import VehicleState
 
 
 class FakeCommands:
@@ -59,3 +60,15 @@ def test_a_non_finite_value_is_not_kept() -> None:
     assert not cache.knows("A")
     cache.answered("B", None)
     assert cache.knows("B") and cache.value("B") is None
+
+
+def test_a_heartbeat_before_our_disarm_is_no_armed_now() -> None:
+    """The last flight's disarm acknowledged, its HEARTBEAT not yet in: a start must arm
+    again and wait for a HEARTBEAT saying so, not take the old one's armed."""
+    st = VehicleState()
+    st.armed, st.last_heartbeat_s = True, 10.0
+    assert st.armed_now
+    st.disarm_acked_s = 10.5
+    assert not st.armed_now  # the heartbeat at 10.0 was before the disarm
+    st.last_heartbeat_s = 11.0  # a later one still armed (armed again since)
+    assert st.armed_now
