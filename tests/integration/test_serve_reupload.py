@@ -22,7 +22,7 @@ from helixd.mav.constants import (
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.gcs import upload
-from tests.support.harness import MavClient, guard_installed, record_until
+from tests.support.harness import MavClient, guard_installed, record_until, scrolls_neutral
 from tests.support.serve import SPEEDUP, heartbeat_shows, moving, serving_crew, set_mode
 
 # no start switch; the idle service does not re-read the mission by itself during the test
@@ -87,13 +87,13 @@ def test_a_same_size_reupload_is_flown_and_a_bad_one_leaves_the_rover_in_hold(
         gcs.wait_said("start refused: new plan failed its checks", 10.0)
         gcs.wait_said("max_range_m", 10.0)  # the reason, from the verdict
         snap: SimSnapshot = server.snapshot()
-        assert snap.speed_mps < 0.1 and not any(snap.overrides_active[:4])
+        assert snap.speed_mps < 0.1 and scrolls_neutral(snap)
 
         # fixed and uploaded again (the same size): the next Start Mission starts
-        upload(gcs, PLAN_A)
         mark = d.mark()
+        upload(gcs, PLAN_A)
         start_mission(gcs, armed=True)
-        d.wait_line("event=auto_start", 10.0, after=mark)
+        d.wait_line("event=serve_state state=flying", 10.0, after=mark)
         server.wait_for(moving, 20.0)
 
 
