@@ -1018,6 +1018,13 @@ class GcsReportConfig(InputModel):
             "many chars, a longer text ends in '...'"
         ),
     )
+    repeat_window_s: float = Field(
+        3.0,
+        ge=0.0,
+        le=600.0,
+        description="a text the same as one queued this recently is not sent again (s; 0: "
+        "every text is sent): the message pane shows each event once",
+    )
     named_value_rate_hz: float = Field(
         2.0, gt=0.0, le=50.0, description="NAMED_VALUE_FLOAT xtrack_m / wp_index rate (Hz)"
     )
@@ -1054,13 +1061,14 @@ class ServeConfig(InputModel):
         description="the wait doubles after each failed attempt up to this (s)",
     )
     mission_poll_s: float = Field(
-        30.0,
+        10.0,
         gt=0.0,
         le=3600.0,
-        description="while idle, the autopilot's mission is also re-read this often (s); a "
-        "change of MISSION_CURRENT's item count or ArduPilot's 'Flight plan received' makes "
-        "it re-read at once, and every start re-reads it, so this only catches an edit that "
-        "kept the count and whose text was lost",
+        description="while idle, the autopilot's mission is also re-read this often (s): "
+        "ArduPilot tells only the uploading link 'Flight plan received' and MISSION_CURRENT "
+        "carries no mission id, so a same-size upload from the ground station is noticed by "
+        "this read (or a change of MISSION_CURRENT's item count); every start re-reads it "
+        "anyway and flies the plan it finds if it passes the checks",
     )
     state_rate_hz: float = Field(
         1.0,
@@ -1093,6 +1101,13 @@ class ServeConfig(InputModel):
         description="the autopilot's place to go (POSITION_TARGET_GLOBAL_INT, asked at "
         "link.telemetry_rate_hz) not renewed for this long is no place: in GUIDED, RTL and "
         "SMART_RTL helixd then holds (s)",
+    )
+    disarm_when_complete: bool = Field(
+        True,
+        description="a flight that completes its mission ends disarmed (ArduPilot's AUTO "
+        "stays armed in HOLD); false: it stays armed in HOLD, so Go to location or the next "
+        "Start Mission needs no new arm. Disarmed is the default: between flights nobody "
+        "drives the rover, and an armed one is a mode switch away from moving",
     )
     same_place_m: float = Field(
         0.5,

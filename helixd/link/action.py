@@ -134,6 +134,7 @@ class Action:
         await self.command_long(
             MAV_CMD_COMPONENT_ARM_DISARM, (0, FORCE_ARM_MAGIC if force else 0), timeout_s, retries
         )
+        self._state.disarm_acked_s = now_s()
         log.info("disarmed", force=force)
 
     async def set_mode(

@@ -133,6 +133,8 @@ class CommandClient:
         self._q = _Queues()
         self._param_waiters: dict[str, list[asyncio.Future[float]]] = defaultdict(list)
         self._param_locks: dict[str, asyncio.Lock] = defaultdict(asyncio.Lock)
+        # told of every PARAM_VALUE of the autopilot (name, value): a cache of them
+        self.param_seen: Callable[[str, float], None] | None = None
         self.stats = AckStats()
 
     # -- reader side --------------------------------------------------------------------------
@@ -194,6 +196,8 @@ class CommandClient:
         if comp and int(msg.get_srcComponent()) != comp:
             return
         name = _param_text(msg.param_id)
+        if self.param_seen is not None:
+            self.param_seen(name, float(msg.param_value))
         for fut in self._param_waiters.get(name, []):
             if not fut.done():
                 fut.set_result(float(msg.param_value))
@@ -240,7 +244,12 @@ class CommandClient:
                         if send.owner is pending:
                             send.owner = None
             if result is None:
-                log.warning("command_timeout", command=name, tries=tries, timeout_s=timeout)
+                # a link lost (said once, link_lost) or silent since the command was sent:
+                # the link is the news, not each command it could not carry
+                st = self._state
+                silent = st.last_rx_s is None or st.last_rx_s < started_s
+                emit = log.debug if st.link_lost or silent else log.warning
+                emit("command_timeout", command=name, tries=tries, timeout_s=timeout)
                 raise CommandTimeout(name, tries, timeout)
         if result in ok_results:
             log.debug("command_ok", command=name, result=result_name(result))

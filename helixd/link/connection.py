@@ -354,7 +354,7 @@ class Autopilot:
         self.state.count_foreign(sysid)
 
     def _on_transport_lost(self, reason: str) -> None:
-        if self.state.mark_link_lost():
+        if self.state.mark_link_lost(reason):
             log.warning("link_lost", cause=reason, link_lost_count=self.state.link_lost_count)
 
     def _on_reopened(self) -> None:

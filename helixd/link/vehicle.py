@@ -330,6 +330,9 @@ class VehicleState:
     attitude_time_boot_ms: int | None = None
     ekf: EkfStatus | None = None
     armed: bool = False
+    # when the autopilot acknowledged our disarm (monotonic): a HEARTBEAT received before
+    # it still says armed, and must not be taken for "armed now" (:attr:`armed_now`)
+    disarm_acked_s: float | None = None
     custom_mode: int | None = None
     mode: str = "UNKNOWN"
     base_mode: int = 0
@@ -378,7 +381,9 @@ class VehicleState:
     last_heartbeat_s: float | None = None
     heartbeat_count: int = 0
     link_lost: bool = False
+    link_lost_cause: str = ""  # why, while link_lost: the transport's reason or the silence
     link_lost_count: int = 0
+    last_rx_s: float | None = None  # reception of the autopilot's latest message of any kind
     reboot_count: int = 0
     last_time_boot_ms: int | None = None
     statustexts: deque[StatusText] = field(default_factory=deque)
@@ -390,6 +395,15 @@ class VehicleState:
     pose_rejected_kinds: dict[str, int] = field(default_factory=dict)
     foreign_sysid_counts: dict[int, int] = field(default_factory=dict)
 
+    @property
+    def armed_now(self) -> bool:
+        """Armed, as a HEARTBEAT received after our last acknowledged disarm says (a start
+        right after the last flight's disarm must not read the heartbeat before it)."""
+        acked = self.disarm_acked_s
+        if acked is None:
+            return self.armed
+        return self.armed and self.last_heartbeat_s is not None and self.last_heartbeat_s > acked
+
     # -- link status (called by the shell with its clock) -------------------------------------
 
     def check_link(self, now_s: float, timeout_s: float) -> bool:
@@ -397,15 +411,16 @@ class VehicleState:
         if self.link_lost or self.last_heartbeat_s is None:
             return False
         if now_s - self.last_heartbeat_s > timeout_s:
-            self.mark_link_lost()
+            self.mark_link_lost("heartbeat silence")
             return True
         return False
 
-    def mark_link_lost(self) -> bool:
+    def mark_link_lost(self, cause: str = "") -> bool:
         """The transport went away (or the heartbeat stopped). True on the transition."""
         if self.link_lost:
             return False
         self.link_lost = True
+        self.link_lost_cause = cause
         self.link_lost_count += 1
         return True
 
@@ -426,6 +441,7 @@ class VehicleState:
     def apply(self, msg: MavMsg, rx_s: float) -> int:
         """Update from one message of the autopilot's system; return what changed."""
         mtype = str(msg.get_type())
+        self.last_rx_s = rx_s
         handler = _HANDLERS.get(mtype)
         if handler is None:
             return Change.NONE

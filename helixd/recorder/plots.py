@@ -48,6 +48,14 @@ from helixd.mission.resolve import PlanError, resolve_plan
 from helixd.mission.resume import with_leg_start
 from helixd.recorder.clocks import autopilot_axis_s
 from helixd.recorder.events import fault_time_mono_s, read_events
+from helixd.recorder.outcome import (
+    CREW_COLOR,
+    crew_ending,
+    ending_color,
+    ending_label,
+    pause_spans,
+    result_word,
+)
 from helixd.recorder.resume_dir import recorded_inputs
 from helixd.recorder.rows import read_flight_columns
 from helixd.recorder.summary import PATH_MIN_STEP_M, Arrival, RunSummary
@@ -69,7 +77,6 @@ PANEL_FILES = {
     "f": "f_cross_track.png",
 }
 OVERVIEW_FILE = "overview.png"
-FAULT_COLOR = "red"
 ARRIVAL_STYLE: dict[str, Any] = {"color": "0.45", "linestyle": ":", "linewidth": 1.0}
 LOST_SHADE: dict[str, Any] = {"color": "orange", "alpha": 0.15, "linewidth": 0}
 LAP_TEXT = re.compile(r"lap (?P<k>\d+) of (?P<n>\d+)")  # Program.laps()' words
@@ -114,6 +121,7 @@ class RunData:
     fault_t_s: float | None
     clamp_pct: float | None
     notes: list[str] = field(default_factory=list)
+    pauses: list[tuple[float, float]] = field(default_factory=list)  # held for the crew (t_s)
     # per waypoint: the operator's number ("3", numbered from 1 over the whole mission as a
     # ground station does); "" for a via point the planner inserted
     labels: list[str] = field(default_factory=list)
@@ -138,8 +146,13 @@ class RunData:
             return np.full(self.t_s.shape, np.nan)
         return np.asarray(values, dtype=np.float64)
 
+    @property
+    def end_color(self) -> str:
+        """Red for a fault, another colour for the crew's own ending (a pause, a handover)."""
+        return ending_color(self.fault)
+
     def fault_label(self) -> str:
-        text = f"fault: {self.fault}"
+        text = ending_label(self.fault or "")
         if len(text) > FAULT_LABEL_MAX_CHARS:
             text = text[: FAULT_LABEL_MAX_CHARS - 1] + "…"
         return text
@@ -314,10 +327,16 @@ def load_run(run_dir: Path) -> RunData:
         arrivals.append((arrival_mark(arr), float(t_s[idx])))
     fault = summary.fault if summary else None
     fault_t: float | None = None
+    events = read_events(run_dir / EVENTS_FILE)
     if fault is not None:
-        mono = fault_time_mono_s(read_events(run_dir / EVENTS_FILE), fault)
+        mono = fault_time_mono_s(events, fault)
         fault_wall = float(wall_s[-1]) if mono is None else mono - t0
         fault_t = float(interp_linear(np.array([fault_wall]), wall_s, t_s)[0])
+    pauses = [
+        (a, b)
+        for start, end in pause_spans(events)
+        for a, b in [interp_linear(np.array([start - t0, (end or t_mono[-1]) - t0]), wall_s, t_s)]
+    ]
     return RunData(
         name=summary.mission_name if summary else run_dir.name,
         cols=cols,
@@ -332,6 +351,7 @@ def load_run(run_dir: Path) -> RunData:
         fault_t_s=fault_t,
         clamp_pct=_clamp_pct(run_dir),
         notes=notes,
+        pauses=[(float(a), float(b)) for a, b in pauses],
         labels=labels,
         axis_labels=axis_labels(
             _mission_frame(run_dir), summary.origin_latlon_deg if summary else None
@@ -528,10 +548,13 @@ def _time_markers(
     _arrival_lines(ax, data.arrivals, span, min_gap_frac, labels=labels)
     for k, (a, b) in enumerate(_lost_intervals(data)):
         ax.axvspan(a, b, **LOST_SHADE, label="link/pose lost" if k == 0 and labels else None)
+    for k, (a, b) in enumerate(data.pauses):
+        label = "paused by the crew" if k == 0 and labels else None
+        ax.axvspan(a, b, color=CREW_COLOR, alpha=0.12, label=label)
     if data.fault_t_s is not None:
         ax.axvline(
             data.fault_t_s,
-            color=FAULT_COLOR,
+            color=data.end_color,
             linewidth=2.0,
             label=data.fault_label() if labels else None,
         )
@@ -638,7 +661,8 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
         ax.plot(x[ok][-1], y[ok][-1], "^", color="tab:blue", markersize=8, label="end")
     k = data.fault_index()
     if k is not None and math.isfinite(float(x[k])) and math.isfinite(float(y[k])):
-        ax.plot(x[k], y[k], "X", color=FAULT_COLOR, markersize=12, label=data.fault_label())
+        marker = "o" if crew_ending(data.fault) else "X"  # the crew's ending is no ✖
+        ax.plot(x[k], y[k], marker, color=data.end_color, markersize=12, label=data.fault_label())
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel(data.axis_labels[0])
     ax.set_ylabel(data.axis_labels[1])
@@ -735,7 +759,7 @@ def draw_cross_track_along(ax: Axes, data: RunData) -> None:
     span = float(np.nanmax(along)) if ok.any() else 0.0
     _arrival_lines(ax, marks, span, LABEL_MIN_GAP_PANEL, labels=True)
     if data.fault_t_s is not None and (d_fault := along_at(data.fault_t_s)) is not None:
-        ax.axvline(d_fault, color=FAULT_COLOR, linewidth=2.0, label=data.fault_label())
+        ax.axvline(d_fault, color=data.end_color, linewidth=2.0, label=data.fault_label())
     ax.set_xlabel("distance travelled along the path (m)")
     ax.set_ylabel("cross-track error, + left of the leg (m)")
     ax.grid(True, alpha=0.3)
@@ -811,8 +835,9 @@ def _summary_text(data: RunData) -> str:
 
     lines = [
         f"mission   {s.mission_name} ({s.mode})",
-        f"result    {'completed' if s.completed else 'NOT completed'}  exit {s.exit_code}",
-        f"fault     {textwrap.shorten(s.fault or '-', FAULT_LABEL_MAX_CHARS)}",
+        f"result    {result_word(s.completed, s.fault)}  exit {s.exit_code}",
+        f"{'ended' if crew_ending(s.fault) else 'fault'}     "
+        f"{textwrap.shorten(s.fault or '-', FAULT_LABEL_MAX_CHARS)}",
         f"waypoints {s.waypoints_reached}/{s.waypoints_total}"
         + ("" if s.items_total is None else f" as flown (items 1–{s.items_total})"),
         f"flight    {_flight_time_text(s)}",
@@ -854,7 +879,7 @@ def _overview_figure(data: RunData) -> Figure:
         va="top",
         family="monospace",
         fontsize=11,
-        color=FAULT_COLOR if data.fault else "black",
+        color=data.end_color if data.fault else "black",
         transform=text_ax.transAxes,
     )
     fig.suptitle(_title(data, "overview"))

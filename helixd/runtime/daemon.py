@@ -275,15 +275,17 @@ def ending_of_flight(result: FlightResult) -> Ending:
     return Ending(fault, code, result.detected_s, result.last_pose)
 
 
-def disarm_after(armed_by_us: bool, ending: Ending) -> bool | None:
+def disarm_after(armed_by_us: bool, ending: Ending, when_complete: bool = True) -> bool | None:
     """Whether the fall-back disarms (pure). A completed mission always ends disarmed, even
     on a vehicle someone else armed (a ground station after a takeover): exit 0 means
     disarmed, and a finished rover left armed in HOLD is one switch away from moving. What
     we armed is also disarmed after an operator's stop signal (Ctrl-C, SIGTERM: nobody
     drives it now). After a fault, a pilot's takeover (the pilot may be driving it) or a
-    stop on a vehicle we did not arm, ``safety.disarm_on_fault`` decides (None)."""
+    stop on a vehicle we did not arm, ``safety.disarm_on_fault`` decides (None). A flight of
+    ``helixd serve`` with ``serve.disarm_when_complete`` false (``when_complete``) ends a
+    completed mission armed in HOLD, as ArduPilot's AUTO does."""
     if ending.code is ExitCode.OK:
-        return True
+        return when_complete
     if ending.fault is not None and ending.fault.cause in (
         FaultCause.RELEASED,
         FaultCause.ITEM_SET,
@@ -312,10 +314,13 @@ def log_estimate(plan: Plan, estimate: TimeEstimate, time_limit_s: float) -> Non
         )
 
 
-def ending_after_fallback(ending: Ending, report: FallbackReport) -> Ending:
+def ending_after_fallback(
+    ending: Ending, report: FallbackReport, disarm_asked: bool = True
+) -> Ending:
     """A completed mission (exit 0) whose disarm failed is not exit 0: the exit-code table
-    says 0 means disarmed, and the rover is left armed (pure). Any other ending stands."""
-    if ending.code is not ExitCode.OK or report.disarmed:
+    says 0 means disarmed, and the rover is left armed (pure). Any other ending stands, and
+    so does a completion left armed on purpose (``disarm_asked`` false)."""
+    if ending.code is not ExitCode.OK or report.disarmed or not disarm_asked:
         return ending
     why = "; ".join(e for e in report.errors if e.startswith("disarm")) or "disarm not confirmed"
     fault = Fault(FaultCause.NOT_DISARMED, f"every waypoint reached, but {why}: still armed")
@@ -388,7 +393,8 @@ class MissionRunner:
                 ap = await self.host.open(cfg, held, self._gcs_on, run_dir)
                 if ap.tlog is not None and self.recorder is not None:  # link.tlog cut: ours
                     ap.tlog.writer.on_error = self._tlog_cut
-            self.gcs.phase("preflight")
+            if self.host.tells_steps:
+                self.gcs.phase("preflight")
             async with phase("preflight", self.notifier, self.display):
                 checked = await until_stopped(stop, self._preflight(ap))
             if self.opts.show_plan:  # for the GCS to draw; never flown (helixd.runtime.show_plan)
@@ -638,7 +644,8 @@ class MissionRunner:
             FaultCause.ITEM_SET,
             FaultCause.HANDOVER,
         ):
-            self.gcs.phase(ending.fault.detail)
+            if self.host.tells_steps:  # else the next flight's own text says where
+                self.gcs.phase(ending.fault.detail)
         elif ending.fault is not None:
             self.gcs.fault(ending.fault.cause.value, ending.fault.detail)
         if ap is not None and touched:
@@ -651,12 +658,12 @@ class MissionRunner:
                     cfg=self.cfg.safety,
                     detected_s=ending.detected_s or now_s(),
                     pose_text=pose_text(pose),
-                    disarm=disarm_after(held.armed_by_us, ending),
+                    disarm=disarm_after(held.armed_by_us, ending, self.host.disarm_when_complete),
                     abandon=lambda: self.stop.forced,
                 )
             report_fallback(self.gcs, secured)
             ending = self._late_failsafe(ending, ap)
-            ending = ending_after_fallback(ending, secured)
+            ending = ending_after_fallback(ending, secured, self.host.disarm_when_complete)
         if ending.code is ExitCode.OK:
             self.gcs.phase("mission complete")
         await self.gcs.close()

@@ -31,6 +31,7 @@ from rich.text import Text
 from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import waypoint_label
+from helixd.recorder.outcome import crew_ending, result_word
 from helixd.recorder.summary import Arrival, RunSummary
 
 log = structlog.get_logger(__name__)
@@ -112,8 +113,8 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
 
     rows = [
         ("mission", f"{summary.mission_name} ({summary.mode})"),
-        ("result", "completed" if summary.completed else "NOT completed"),
-        ("fault", summary.fault or "-"),
+        ("result", result_word(summary.completed, summary.fault)),
+        ("ended by" if crew_ending(summary.fault) else "fault", summary.fault or "-"),
         ("exit code", str(summary.exit_code)),
         ("waypoints", waypoints_text(summary)),
     ]

@@ -15,6 +15,9 @@ GCS_Common.cpp: 50-character chunks sharing a fresh non-zero id, the last shorte
 an empty one when the length is a multiple of 50), which
 :class:`helixd.link.statustext.StatusTextAssembler` reassembles.
 
+A text the same as one queued within ``repeat_window_s`` is not queued again: a burst of
+the same news (a refusal said by two parts of the service, a fault seen twice) shows once.
+
 Rate limit: a token bucket (``rate_hz`` texts per second on average, ``burst`` back to back).
 Waiting texts are queued, faults ahead of everything else; when the queue is full the oldest
 non-fault text is dropped (a fault only when every queued text is a fault), and once the queue
@@ -163,6 +166,7 @@ class GcsReporter:
         self._xtrack_m: float | None = None
         self._wp_index: int | None = None
         self._next_value_s = start_s
+        self._recent: dict[str, float] = {}  # text → when it was last queued
 
     @property
     def dropped(self) -> int:
@@ -185,18 +189,19 @@ class GcsReporter:
             self._wp_index = idx if idx is not None and 0 <= idx < 2**24 else None  # exact in f32
             return []
         if isinstance(event, PhaseChange):
-            self._enqueue(_Queued(MAV_SEVERITY_NOTICE, f"{PREFIX}{event.phase}", False))
+            self._enqueue(_Queued(MAV_SEVERITY_NOTICE, f"{PREFIX}{event.phase}", False), now_s)
         elif isinstance(event, Said):
             urgent = event.severity <= MAV_SEVERITY_ERROR
-            self._enqueue(_Queued(event.severity, f"{PREFIX}{event.text}", urgent))
+            self._enqueue(_Queued(event.severity, f"{PREFIX}{event.text}", urgent), now_s)
         elif isinstance(event, WaypointReached):
             text = f"{PREFIX}reached WP {event.index + 1}/{event.total}"
             if event.lap:
                 text += f" ({event.lap})"
-            self._enqueue(_Queued(MAV_SEVERITY_INFO, text, False))
+            self._enqueue(_Queued(MAV_SEVERITY_INFO, text, False), now_s)
         else:
             severity = MAV_SEVERITY_CRITICAL if event.stopped else MAV_SEVERITY_WARNING
-            self._enqueue(_Queued(severity, PREFIX + fault_text(event.name, event.detail), True))
+            text = PREFIX + fault_text(event.name, event.detail)
+            self._enqueue(_Queued(severity, text, True), now_s)
         return self._drain(now_s) if math.isfinite(now_s) else []
 
     def tick(self, now_s: float) -> list[Any]:
@@ -217,7 +222,22 @@ class GcsReporter:
                 out.append(_mav.named_value_float_encode(boot_ms, name, float(self._wp_index)))
         return out
 
-    def _enqueue(self, item: _Queued) -> None:
+    def _repeated(self, text: str, now_s: float) -> bool:
+        """The same text queued within ``repeat_window_s``: not again (the pane has it)."""
+        window_s = self.config.repeat_window_s
+        if window_s <= 0.0 or not math.isfinite(now_s):
+            return False
+        recent = self._recent
+        for old in [t for t, at in recent.items() if not 0.0 <= now_s - at < window_s]:
+            del recent[old]
+        if text in recent:
+            return True
+        recent[text] = now_s
+        return False
+
+    def _enqueue(self, item: _Queued, now_s: float) -> None:
+        if self._repeated(item.text, now_s):
+            return
         if len(self._queue) >= self.config.queue_max:
             victim = next((i for i, q in enumerate(self._queue) if not q.fault), None)
             if victim is None:
@@ -301,5 +321,8 @@ def gcs_lines(text: str, max_chars: int, width: int = CHUNK_CHARS) -> list[str]:
     most = max(1, max_chars // width)
     if len(lines) > most:
         lines = lines[:most]
-        lines[-1] = lines[-1][: width - 3].rstrip() + "..."
+        last = lines[-1]
+        while len(last) > width - 3 and " " in last:  # cut between words, not in one
+            last = last.rsplit(" ", 1)[0]
+        lines[-1] = last[: width - 3].rstrip() + "..."
     return lines

@@ -66,6 +66,19 @@ class FlightHost(Protocol):
         autopilot's place to drive to and hold at."""
         ...
 
+    @property
+    def disarm_when_complete(self) -> bool:
+        """A completed mission ends disarmed (``helixd run`` always; ``helixd serve`` as
+        ``serve.disarm_when_complete`` says)."""
+        ...
+
+    @property
+    def tells_steps(self) -> bool:
+        """The flight tells the ground station its own steps (preflight, what it flies, a
+        handover's where): ``helixd run`` does; a flight of ``helixd serve`` leaves that to
+        the service's state texts, so one press of the crew reads as one or two lines."""
+        ...
+
     def signals(self) -> contextlib.AbstractContextManager[None]:
         """While the flight runs: SIGINT/SIGTERM trigger :attr:`stop` (or someone else's do)."""
         ...
@@ -98,6 +111,8 @@ class OwnLink:
     """``helixd run``: its own link, signals and start gate."""
 
     start_gate = True
+    tells_steps = True
+    disarm_when_complete = True
     driving = DRIVE_MANUAL
 
     def __init__(self) -> None:
@@ -150,10 +165,15 @@ class ServeHost:
     # AUTO: a flight the crew started in the autopilot's AUTO; GUIDED, RTL, SMART_RTL: to
     # the autopilot's place
     driving: Driving = DRIVE_MANUAL
+    disarm_when_complete: bool = True  # serve.disarm_when_complete
     _tlog: LinkTlog | None = field(default=None, init=False, repr=False)
 
     @property
     def start_gate(self) -> bool:
+        return False
+
+    @property
+    def tells_steps(self) -> bool:
         return False
 
     def signals(self) -> contextlib.AbstractContextManager[None]:

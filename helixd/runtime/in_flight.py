@@ -33,7 +33,7 @@ from helixd.runtime.flight_report import StepJournal, rejected_progress, step_pr
 from helixd.runtime.gcs_feed import GcsFeed
 from helixd.runtime.ground_watch import GroundChange
 from helixd.runtime.host import FlightHost
-from helixd.runtime.mode_gate import Gate
+from helixd.runtime.mode_gate import GOTO_MODES, LEFT_AUTO, Gate, crew_mode_of
 
 log = structlog.get_logger(__name__)
 
@@ -55,6 +55,9 @@ class InFlight:
     laps: tuple[str, ...] = field(init=False)
     inserted_before: tuple[int, ...] = field(init=False)
     radio_lost_told: bool = False
+    # a pause seen as "AUTO left" only (MISSION_CURRENT before the HEARTBEAT): said once the
+    # mode is known, and not at all when it is a place to go (the next flight says where)
+    hold_untold: bool = False
 
     def __post_init__(self) -> None:
         # flight.csv rows and the summary's figures are built in batches, after sends
@@ -79,6 +82,8 @@ class InFlight:
                 places_from=places_from(self.plan.frame),  # as `check` gives them
             )
         self.host.on_item(mission_item_of(self.plan, numbering, 0))
+        if not self.host.tells_steps:
+            return  # the service said what it flies
         if numbering.items:
             self.gcs.phase(f"fly {mission_name}: {numbering.total} items")
         else:
@@ -112,6 +117,8 @@ class InFlight:
 
     def on_tick(self) -> None:
         self.ap.feed()
+        if self.hold_untold:
+            self.tell_hold()
         self.tell_radio_lost()
         self.host.notifier.watchdog()
         self.journal.maybe_drain(now_s())
@@ -149,6 +156,13 @@ class InFlight:
 
     def on_gate(self, gate: Gate, mode: str) -> None:
         """The autopilot's mode changed what a flight of its AUTO may do: tell the GCS."""
+        self.hold_untold = False
+        if gate is Gate.HOLD and not self.host.tells_steps and mode in (LEFT_AUTO, *GOTO_MODES):
+            self.hold_untold = mode == LEFT_AUTO
+            return
+        self.say_gate(gate, mode)
+
+    def say_gate(self, gate: Gate, mode: str) -> None:
         if gate is Gate.HOLD:
             driving = self.host.driving
             back = driving.mode if driving.goto is None else "a place to go"
@@ -164,6 +178,15 @@ class InFlight:
         if not 0 <= index < len(wps):
             return index
         return None if wps[index].media_stop else index - self.inserted_before[index]
+
+    def tell_hold(self) -> None:
+        """The pause seen first as "AUTO left", told once the HEARTBEAT names the mode."""
+        mode = crew_mode_of(self.ap.state)
+        if mode == LEFT_AUTO:
+            return
+        self.hold_untold = False
+        if mode not in GOTO_MODES:
+            self.say_gate(Gate.HOLD, mode)
 
     def on_arrival(self, index: int, t_boot_s: float, error_m: float) -> None:
         self.journal.drain()  # the summary has every step before the arrival

@@ -238,12 +238,19 @@ class AutoWalk:
 
 
 def from_autopilot_item(
-    flight: Flight, seq: int, cfg: HelixdConfig, held: AutoWalk | None = None
+    flight: Flight,
+    seq: int,
+    cfg: HelixdConfig,
+    held: AutoWalk | None = None,
+    from_here: bool = False,
 ) -> Flight:
     """The checked flight from the autopilot's current item ``seq`` (MISSION_CURRENT, where
     its AUTO runs the mission from); the whole flight for item 0 (none current) or the first.
     A mission of waypoints: the waypoints before it left out, the first leg starting at the one
-    before (line guidance re-enters that leg, as a resume does). A mission with commands: the
+    before (line guidance re-enters that leg, as a resume does) — or, ``from_here`` (the crew
+    set the item mid-leg), where the rover is, as ArduPilot's ``AR_WPNav::set_desired_location``
+    starts an interrupted leg from the stopping point: a skipped item is not driven past. A
+    mission with commands: the
     whole mission walked from item ``seq`` as ArduPilot runs it from there
     (:attr:`ExpandOptions.first_item`, see :mod:`helixd.mission.expand`), with the jump
     counters the autopilot holds after ``held`` (none: zero), checked again with ``cfg``.
@@ -276,6 +283,8 @@ def from_autopilot_item(
         raise InputsRefused(
             [f"cannot start at the autopilot's item {seq}: {exc}; set the current item to 1"]
         ) from None
+    if from_here:  # no leg to re-enter: the first leg starts at the rover's pose
+        point = replace(point, inputs=point.inputs.model_copy(update={"leg_start": None}))
     text = mission_to_yaml(point.mission)
     return Flight(point.mission, text, None, resumed_inputs(point, text), options=flight.options)
 

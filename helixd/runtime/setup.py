@@ -644,7 +644,7 @@ async def arm(
 ) -> str | None:
     """Arm once the autopilot has a home, re-trying while PreArm checks refuse; returns the
     warning of an arm forced without a home."""
-    if ap.state.armed:
+    if ap.state.armed_now:
         return None
     warning = await wait_home(ap, cfg, on_status)
     startup = cfg.startup
@@ -682,7 +682,7 @@ async def confirm_mode(ap: Autopilot, cfg: HelixdConfig, mode: str) -> None:
 async def confirm_armed(ap: Autopilot, cfg: HelixdConfig) -> None:
     """The ACK says 'accepted'; the HEARTBEAT's armed flag says it happened."""
     deadline = now_s() + cfg.safety.heartbeat_timeout_s * 2
-    while not ap.state.armed:
+    while not ap.state.armed_now:
         if now_s() > deadline:
             raise PreflightFailed(["arming was accepted but HEARTBEAT never showed armed"])
         await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)

@@ -88,6 +88,8 @@ def safety_inputs(
         gps_fix_rx_s=state.gps_fix_rx_s,
         gps_fix_type=state.gps_fix_type,
         gps_satellites=state.gps_satellites,
+        link_lost_cause=state.link_lost_cause if state.link_lost else None,
+        last_rx_s=state.last_rx_s,
     )
 
 
@@ -228,6 +230,7 @@ async def fall_back(
     )
     if autopilot is not None and not released:
         report.hold_requested_after_s = now_s() - detected_s
+        tries: list[str] = []
         deadline = now_s() + cfg.hold_retry_bound_s
         while now_s() < deadline:
             try:
@@ -237,9 +240,10 @@ async def fall_back(
                 report.hold_acked = True
                 break
             except Exception as exc:  # retry until acknowledged or the bound passes
-                report.errors.append(f"HOLD request: {exc}")
+                tries.append(str(exc))
                 if abandon():
                     break
+        report.errors.extend(counted("HOLD request", tries))
         if (cfg.disarm_on_fault if disarm is None else disarm) and not abandon():
             try:
                 await autopilot.disarm()
@@ -262,6 +266,15 @@ async def fall_back(
         errors=report.errors or None,
     )
     return report
+
+
+def counted(what: str, errors: list[str]) -> list[str]:
+    """Each different error once, in order, with how many tries ended so: ``HOLD request:
+    no answer (10 tries)`` rather than the same line ten times (pure)."""
+    counts: dict[str, int] = {}
+    for e in errors:
+        counts[e] = counts.get(e, 0) + 1
+    return [f"{what}: {e}" + (f" ({n} tries)" if n > 1 else "") for e, n in counts.items()]
 
 
 def _round(value: float | None) -> float | None:

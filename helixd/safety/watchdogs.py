@@ -199,6 +199,9 @@ class SafetyInputs:
     gps_fix_type: int | None = None  # GPS_FIX_TYPE; None: never received or out of range
     gps_satellites: int | None = None  # None: unknown
     mission_paused_s: float = 0.0  # held for the crew, not in mission_elapsed_s (for the text)
+    # the link says it is lost (the transport closed, the HEARTBEAT silent): its cause; None: up
+    link_lost_cause: str | None = None
+    last_rx_s: float | None = None  # our reception of the autopilot's latest message, any kind
 
 
 def _finite(*values: float | None) -> bool:
@@ -353,6 +356,7 @@ class SafetyMonitor:
             s.vehicle_time_s,
             s.gps_rx_s,
             s.gps_fix_rx_s,
+            s.last_rx_s,
         ):
             return Fault(FaultCause.EXCEPTION, "non-finite clock value in the safety inputs")
         if not _finite(s.commanded_speed_mps, s.commanded_yaw_rate_radps):
@@ -368,6 +372,16 @@ class SafetyMonitor:
         return None
 
     def _link(self, s: SafetyInputs) -> Fault | None:
+        """The link, named first whatever else its loss starves: a transport closed (a pulled
+        cable) at once, and an autopilot silent in every message longer than a pose may be
+        old (the pose, GPS and HEARTBEAT all stopped together: the link, not the GPS)."""
+        if s.link_lost_cause is not None:
+            return Fault(FaultCause.LINK_LOST, s.link_lost_cause or "the link says so")
+        heard = s.last_heartbeat_s is not None and s.last_rx_s is not None
+        silent_s = s.now_s - s.last_rx_s if heard and s.last_rx_s is not None else None
+        if silent_s is not None and not silent_s <= self.cfg.pose_stale_s:
+            text = f"no message from the autopilot for {silent_s:.2f} s"
+            return Fault(FaultCause.LINK_LOST, text)
         return age_fault(
             FaultCause.LINK_LOST,
             s.now_s,

@@ -44,6 +44,17 @@ class ReadyMission:
     last_item: int  # the mission's last item number
     waypoints: int
 
+    @property
+    def name(self) -> str:
+        """Which plan, in a few characters the crew can compare: ``plan 1a2b3c: 3 waypoints``
+        (the first hex digits of its fingerprint: a same-size re-upload reads differently)."""
+        return f"{plan_id(self.fingerprint)}: {count_text(self.flight.mission, self.waypoints)}"
+
+
+def plan_id(fingerprint: str) -> str:
+    """The short name of a mission read: ``plan`` and its fingerprint's first 6 hex digits."""
+    return f"plan {fingerprint[:6]}"
+
 
 @dataclass(frozen=True)
 class Verdict:
@@ -103,7 +114,7 @@ def check_download(
             source,
         )
     if len(mission) <= 1:
-        return Verdict(ServeState.IDLE, "no mission on the autopilot: upload one")
+        return Verdict(ServeState.IDLE, "no mission on the autopilot")
     try:
         got = convert_download(mission, fence, source=source, cfg=cfg, mode=mode)
     except MissionRefused as exc:
@@ -120,8 +131,7 @@ def check_download(
         log.info("mission_note", note=note)
     n = operator_waypoints(got.mission)
     checked = ReadyMission(fingerprint, prepared.flight, prepared.cfg, len(mission) - 1, n)
-    detail = f"mission checked, {count_text(checked.flight.mission, n)}"
-    return Verdict(ServeState.READY, detail, checked, fence=got.fence)
+    return Verdict(ServeState.READY, f"{checked.name} checked", checked, fence=got.fence)
 
 
 def check_file(path: Path, inp: CheckInputs) -> tuple[str, Verdict]:

@@ -338,8 +338,9 @@ class AutoWatch:
 
 
 def answer_auto(view: ServeView) -> Answer | None:
-    """A pending start from AUTO: ACCEPTED (a flight from the autopilot's current item), or
-    DENIED with why (the GCS is told; the crew leaves AUTO and tries again); None while the
+    """A pending start from AUTO: ACCEPTED (a flight from the autopilot's current item; a
+    refused mission is read again first: the crew may have uploaded a fixed one), or DENIED
+    with why (the GCS is told; the crew leaves AUTO and tries again); None while the
     mission is still being read (IDLE): the start waits for the verdict."""
     if view.busy or view.state is ServeState.FLYING:
         return None
@@ -351,6 +352,10 @@ def answer_auto(view: ServeView) -> Answer | None:
             "AUTO: helixd flies serve.mission_file, not the autopilot's mission: start it "
             "with the start switch or MISSION_START to helixd",
         )
+    if view.state is ServeState.REFUSED and not view.switch_low:
+        # a plan of the same size uploaded since is not seen until read: the start reads
+        # the mission again, and flies it if it passes (else HOLD and why)
+        return Answer(MAV_RESULT_ACCEPTED, "AUTO: reading the mission again", Request.AUTO)
     why = _startable(view)
     if why is not None:
         return Answer(MAV_RESULT_DENIED, f"AUTO: helixd will not drive: {why}")
@@ -416,11 +421,12 @@ def answer_goto(view: ServeView, mode: str, motion_mode_set: bool) -> Answer:
 
 def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -> ServeState:
     """Where a flight leaves the service: completed; paused (the flight ended on an operator's
-    pause, ``paused``, even one that came while it was still starting); or faulted (a fault,
-    a pilot's takeover, a refusal at its start)."""
+    pause, ``paused``, even one that came while it was still starting, or on the service's own
+    stop: the crew's, no fault, and a continue goes on from there); or faulted (a fault, a
+    pilot's takeover, a refusal at its start)."""
     if code is ExitCode.OK:
         return ServeState.COMPLETED
     handed = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
-    if cause in (FaultCause.PAUSED, *handed) or (paused and cause in (FaultCause.SIGNAL, None)):
+    if cause in (FaultCause.PAUSED, FaultCause.SIGNAL, *handed) or (paused and cause is None):
         return ServeState.PAUSED
     return ServeState.FAULTED

@@ -26,6 +26,7 @@ from helixd.mav.constants import (
     MAV_SEVERITY_NOTICE,
     MAV_SEVERITY_WARNING,
 )
+from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.resume import event_whole, last_step_started, with_walk
 from helixd.recorder.events import read_events
@@ -34,7 +35,7 @@ from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
 from helixd.runtime.flight import DRIVE_MANUAL, Driving
 from helixd.runtime.host import ServeHost
 from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.mode_gate import AUTO_MODE, PlaceRule
+from helixd.runtime.mode_gate import AUTO_MODE, PlaceRule, crew_mode_of
 from helixd.runtime.planned import Flight
 from helixd.runtime.prepare import (
     AutopilotPlace,
@@ -45,6 +46,7 @@ from helixd.runtime.prepare import (
     prepare_flight,
 )
 from helixd.runtime.signals import StopRequest
+from helixd.safety.supervisor import HOLD_MODE
 from helixd.safety.watchdogs import FaultCause
 from helixd.serve.check import ReadyMission
 from helixd.serve.core import (
@@ -63,6 +65,8 @@ log = structlog.get_logger(__name__)
 # a flight that ends so is the crew's doing (MANUAL, another item, a new place or mode): the
 # mission's verdict stands, and AUTO again (or still) starts the next
 HANDED = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
+# modes an armed autopilot drives in by itself: a refused start leaves it there in HOLD
+SELF_DRIVING_MODES = (AUTO_MODE, "GUIDED")
 
 
 class Flights:
@@ -98,6 +102,9 @@ class Flights:
         # the last AUTO flight of a mission with commands let go with the autopilot armed:
         # (fingerprint, its walk, its run directory); the autopilot keeps its jump counters
         self.auto_walk: tuple[str, ExpandOptions, Path] | None = None
+        # the last flight ended on the crew's new current item: the next AUTO flight drives
+        # there from where the rover is, not along the skipped leg
+        self.item_set = False
 
     @property
     def flying(self) -> bool:
@@ -165,16 +172,18 @@ class Flights:
         interrupted run's remainder."""
         checked = self.mission.checked
         assert checked is not None
+        from_here, self.item_set = self.item_set, False
         if request is Request.AUTO:
             held = held_walk(self.auto_walk, checked.fingerprint)
             item_now = self.mission.autopilot_item
-            flight = from_autopilot_item(checked.flight, item_now, checked.cfg, held)
+            flight = from_autopilot_item(checked.flight, item_now, checked.cfg, held, from_here)
             return flight, checked.cfg, self.opts.run_root
         if request is Request.FROM_ITEM:  # jump counters zero, as AP_Mission::start
             flight = from_autopilot_item(checked.flight, item, checked.cfg)
             return flight, checked.cfg, self.opts.run_root
         interrupted = self.interrupted
-        if request is Request.CONTINUE and interrupted is not None:
+        # a continue of a run of another plan (one uploaded since) flies the new one whole
+        if request is Request.CONTINUE and interrupted is not None and self.resumable(checked):
             run_dir = interrupted[1]
             if checked.flight.mission.has_commands():  # the walk goes on from its step
                 flight = continue_commands(checked.flight, run_dir, checked.cfg)
@@ -220,28 +229,38 @@ class Flights:
             return
         before = (self.status.state, self.status.detail)
         stop = self.stop = StopRequest()
-        where = f"{place.lat_deg:.7f} {place.lon_deg:.7f}"
+        where = f"{place.lat_deg:.5f} {place.lon_deg:.5f}"  # 1 m: one line on the pane
         log.info("serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.count + 1)
         opts = run_options(prepared.flight, prepared.cfg, self.opts.run_root, self.cfg)
-        host = ServeHost(ap, stop, driving=Driving(mode, place, place_rule(prepared.cfg)))
+        host = ServeHost(
+            ap,
+            stop,
+            driving=Driving(mode, place, place_rule(prepared.cfg)),
+            disarm_when_complete=self.cfg.serve.disarm_when_complete,
+        )
         runner, outcome, cause = await self._run_flight(opts, host, f"{mode} to {where}")
         summary = outcome.summary
         handed = cause in HANDED
         self.auto_watch.flight_ended(left_auto=handed)
         log.info("serve_flight_end", request=Request.GOTO.value, exit_code=int(outcome.exit_code))
         if handed or cause is FaultCause.PAUSED or stop.paused:
-            self.status.set(*before)  # the mission's verdict stands
+            self.status.set(*before, quiet=handed)  # the mission's verdict stands
             return
         text = flight_end_text(summary, runner.numbering(), outcome.messages)
         self.status.set(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
 
     async def _fly(self, ap: Autopilot, request: Request, who: str, item: int = 0) -> None:
-        gcs = self.status.gcs
         before = self.mission.fingerprint
         await self._read_mission(ap)  # fly what the autopilot holds now
         checked = self.mission.checked
-        if checked is None or self.mission.fingerprint != before:
-            gcs.say("start refused: the mission changed; checked it again", MAV_SEVERITY_ERROR)
+        if self.mission.read_error is not None:
+            why = f"the mission could not be read ({self.mission.read_error}); start again"
+            await self._refuse(ap, f"start refused: {why}")
+            return
+        changed = self.mission.fingerprint != before  # a plan uploaded since: the one to fly
+        if checked is None:  # a new verdict was told as it was read; an old one is said again
+            why = "new plan failed its checks" if changed else self.status.detail
+            await self._refuse(ap, f"start refused: {why or 'no mission'}")
             return
         try:
             flight, cfg, run_root = self._flight_for(request, item)
@@ -249,10 +268,10 @@ class Flights:
             text = "; ".join(exc.problems)
             log.error("serve_continue_refused", request=request.value, problem=text)
             said = "cannot continue" if request is Request.CONTINUE else "start refused"
-            gcs.say(f"{said}: {text}", MAV_SEVERITY_ERROR)
+            await self._refuse(ap, f"{said}: {text}")
             return
         if self.switch is not None and self.switch.low:
-            gcs.say("start refused: the start switch is low", MAV_SEVERITY_WARNING)
+            await self._refuse(ap, "start refused: the start switch is low", MAV_SEVERITY_WARNING)
             return
         if self._service_stop.requested:
             return
@@ -268,10 +287,13 @@ class Flights:
             stop,
             set_item=partial(self._set_current_item, ap) if shows_item else None,
             driving=Driving(AUTO_MODE, places=place_rule(cfg)) if auto else DRIVE_MANUAL,
+            disarm_when_complete=self.cfg.serve.disarm_when_complete,
         )
-        runner, outcome, cause = await self._run_flight(opts, host, f"{request.value} by {who}")
+        what = f"the new {checked.name}" if changed else f"{request.value} by {who}"
+        runner, outcome, cause = await self._run_flight(opts, host, what)
         # released to the pilot, or moved to another item: AUTO again (or still) starts
         self.auto_watch.flight_ended(left_auto=cause in HANDED)
+        self.item_set = cause is FaultCause.ITEM_SET
         let_go = auto and cause in HANDED and flight.mission.has_commands()
         self.auto_walk = None
         if let_go and outcome.run_dir is not None:
@@ -290,7 +312,24 @@ class Flights:
         text = flight_end_text(outcome.summary, runner.numbering(), outcome.messages)
         severity = MAV_SEVERITY_NOTICE if state is not ServeState.FAULTED else MAV_SEVERITY_ERROR
         log.info("serve_flight_end", state=state.name.lower(), exit_code=int(outcome.exit_code))
-        self.status.set(state, text, severity)
+        # handed to the next flight at once (a new place, a new item): it says where it goes
+        handover = cause in (FaultCause.HANDOVER, FaultCause.ITEM_SET)
+        self.status.set(state, text, severity, quiet=handover)
+
+    async def _refuse(self, ap: Autopilot, text: str, severity: int = MAV_SEVERITY_ERROR) -> None:
+        """A start refused: the reason on the crew's screen and the rover left safe: armed in
+        a mode where the autopilot drives by itself (AUTO, GUIDED: QGroundControl's Start
+        Mission), HOLD is asked, so the next Start Mission (AUTO again) is a new start."""
+        log.warning("serve_start_refused", text=text)
+        self.status.gcs.say(text, severity)
+        st = ap.state
+        if not st.armed or crew_mode_of(st) not in SELF_DRIVING_MODES:
+            return
+        try:
+            await ap.action.set_mode(HOLD_MODE)
+        except (CommandError, LinkError) as exc:
+            log.error("serve_refused_hold_failed", error=str(exc))
+            self.status.gcs.say(f"HOLD refused: {exc}", MAV_SEVERITY_ERROR)
 
     async def _run_flight(
         self, opts: RunOptions, host: ServeHost, what: str

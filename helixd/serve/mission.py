@@ -43,6 +43,7 @@ class MissionWatch:
         self.fence: GcsMission | None = None  # the autopilot's fence, as last downloaded
         self.autopilot_item = 0  # MISSION_CURRENT.seq: where the autopilot's AUTO runs from
         self.due = True  # read at the next chance
+        self.read_error: str | None = None  # why the last read failed (None: it did not)
         self._total: int | None = None
         self._next_poll_s = 0.0
 
@@ -67,6 +68,7 @@ class MissionWatch:
         """Read the mission (and the autopilot's fence); its verdict when it changed, or when
         ``recheck`` asks for it again, else None (nothing new, or the read failed)."""
         self.due = False
+        self.read_error = None
         poll_s = self.opts.cfg.serve.mission_poll_s
         self._next_poll_s = now_s() + poll_s
         if self.opts.mission_file is not None:
@@ -75,6 +77,7 @@ class MissionWatch:
             got = await ap.mission.download()
         except (MissionTransferError, LinkError) as exc:  # e.g. a GCS uploading right now
             log.info("serve_mission_read_failed", error=str(exc))
+            self.read_error = str(exc)
             self._next_poll_s = now_s() + min(poll_s, MISSION_RETRY_S)
             return None
         fingerprint = items_sha256(got.mission, got.fence)

@@ -29,6 +29,7 @@ from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
+from helixd.link.preflight import check_obedience
 from helixd.mav.constants import (
     MAV_RESULT_ACCEPTED,
     MAV_SEVERITY_ERROR,
@@ -96,6 +97,8 @@ class Service:
             self.stop,
         )
         self._ap: Autopilot | None = None
+        self._warm: asyncio.Task[None] | None = None  # the parameters read while idle
+        self._reboots = 0  # the autopilot's reboots seen: its parameters read again after one
 
     def view(self) -> ServeView:
         state, checked = self.status.state, self.mission.checked
@@ -171,6 +174,7 @@ class Service:
             return None
         self._ap = self.status.ap = ap
         ap.start_heartbeat()  # as our own component, all day
+        ap.param.keep_cache()  # a start judges what was read while idle (and PARAM_VALUE since)
         ap.add_command_listener(self._on_command)
         ap.add_message_listener(self.mission.on_message)
         self.gcs.start(ap.send_message)
@@ -178,6 +182,7 @@ class Service:
 
     async def _close(self, ap: Autopilot) -> None:
         await self.flights.close("service stopping")
+        await self._cool()
         ap.remove_command_listener(self._on_command)
         ap.remove_message_listener(self.mission.on_message)
         ap.stop_heartbeat()
@@ -194,10 +199,16 @@ class Service:
                 link = self.cfg.link
                 self.status.set(ServeState.CONNECTING, heartbeat_wait_text(link.url, link.baud))
                 streams = False
+                await self._cool()  # what a rebooted or another autopilot holds is read anew
             elif up and not flying:
+                if ap.state.reboot_count != self._reboots:
+                    self._reboots = ap.state.reboot_count
+                    await self._cool()
                 if not streams:
                     streams = await self._streams(ap)
                     self.mission.due = True
+                if streams and self._warm is None:
+                    self._warm = asyncio.create_task(self._warm_params(ap), name="serve-params")
                     if self.status.state is ServeState.CONNECTING:
                         self.status.set(ServeState.IDLE, "reading the autopilot's mission")
                 if self.mission.read_due(now):
@@ -209,6 +220,35 @@ class Service:
             if self.status.due(now):
                 self.status.send()
             await self._pause(self.cfg.serve.tick_s)
+
+    async def _warm_params(self, ap: Autopilot) -> None:
+        """While idle: read the parameters a start's preflight judges, into the link's cache
+        (kept fresh by PARAM_VALUE; a missing one remembered), so a start reads none."""
+        t0 = now_s()
+        try:
+            problems = await check_obedience(ap, self.cfg.actuation, self.cfg.link)
+        except (CommandError, LinkError) as exc:
+            log.info("params_warm_failed", error=str(exc))
+            return
+        cache = ap.param.cache
+        log.info(
+            "params_warm",
+            seconds=round(now_s() - t0, 3),
+            known=0 if cache is None else len(cache.values),
+            missing=[] if cache is None else sorted(cache.missing),
+            problems=len(problems),  # judged again, and told, at a start's preflight
+        )
+
+    async def _cool(self) -> None:
+        """The parameters forgotten (and their idle read stopped): read again when next up."""
+        task, self._warm = self._warm, None
+        if task is not None:
+            task.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await task
+        ap = self._ap
+        if ap is not None and ap.param.cache is not None:
+            ap.param.cache.forget()
 
     async def _streams(self, ap: Autopilot) -> bool:
         try:

@@ -36,15 +36,19 @@ class ServeStatus:
         self.ap: Autopilot | None = None  # the link hx_state goes out on, while there is one
         self.next_send_s = 0.0
 
-    def set(self, state: ServeState, detail: str = "", severity: int | None = None) -> None:
-        """A new state (or text): logged, systemd's status, the GCS told, hx_state sent."""
+    def set(
+        self, state: ServeState, detail: str = "", severity: int | None = None, quiet: bool = False
+    ) -> None:
+        """A new state (or text): logged, systemd's status, the GCS told (unless ``quiet``: a
+        state between two flights of one press of the crew), hx_state sent."""
         if state is self.state and detail == self.detail:
             return
         self.state, self.detail = state, detail
         text = state.name.lower() + (f": {detail}" if detail else "")
         log.info("serve_state", state=state.name.lower(), hx_state=int(state), detail=detail)
         self.notifier.status(text)
-        self.gcs.say(text, severity or MAV_SEVERITY_NOTICE)
+        if not quiet:
+            self.gcs.say(text, severity or MAV_SEVERITY_NOTICE)
         self.send()
 
     def send(self) -> None:

@@ -181,7 +181,7 @@ class SimCore:
         if len(text.text) > STATUSTEXT_LEN:  # only chunked texts take a fresh id (never 0)
             self._chunk_id = self._chunk_id % 65535 + 1
         for m in statustexts(text.severity, text.text, self._chunk_id):
-            self.send(None, m)
+            self.send(text.link, m)
         self.events.append(SimEvent("statustext", {"severity": text.severity, "text": text.text}))
 
     # -- the inbound handler's port (helixd.sim.inbound.InboundPort) -------------------------

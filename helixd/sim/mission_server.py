@@ -549,9 +549,10 @@ class ItemProtocol:
         out.send((up.link, self._request(up)))
 
     def _complete(self, out: Outcome, link: int, who: tuple[int, int]) -> None:
-        """MissionItemProtocol::transfer_is_complete."""
+        """MissionItemProtocol::transfer_is_complete: the text to the uploading link only
+        (``link.send_text``): another ground station, and helixd, are not told."""
         if self.rules.complete_text is not None:
-            out.say(SimStatusText(MAV_SEVERITY_INFO, self.rules.complete_text))
+            out.say(SimStatusText(MAV_SEVERITY_INFO, self.rules.complete_text, link))
         self.version += 1
         self._ack(out, link, who, MAV_MISSION_ACCEPTED)
 

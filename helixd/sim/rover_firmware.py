@@ -145,6 +145,7 @@ class SimEvent:
 class SimStatusText:
     severity: int
     text: str
+    link: int | None = None  # the one link it goes to (None: every link, GCS::send_text)
 
 
 def _rc_norm(pwm: int, n: int, params: ParamStore) -> float:

@@ -147,7 +147,13 @@ def test_autopilot_link_lost(tmp_path: Path) -> None:
     assert released <= override_time_s + FALLBACK_S
     assert held <= 3.0 + FALLBACK_S  # as soon as the link is back
     assert code == ExitCode.FAULT
-    assert "cause=pose_stale" in log or "cause=link_lost" in log
+    # every message stopped: the link is named, once, not the pose or the GPS it starved,
+    # and the HOLD requests it could not carry are one summary, not a warning each
+    assert "phase=fly ok=false cause=link_lost" in log, log
+    assert "cause=pose_stale" not in log and "cause=gps_lost" not in log
+    assert "event=command_timeout" not in log
+    fallback = [ln for ln in log.splitlines() if "event=fallback" in ln]
+    assert len(fallback) == 1 and fallback[0].count("HOLD request") <= 1, fallback
 
 
 def test_pose_stale(tmp_path: Path) -> None:

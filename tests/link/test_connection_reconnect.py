@@ -82,6 +82,8 @@ async def test_tcp_connection_dropped_by_the_autopilot_is_reopened() -> None:
         peer.call_soon(drop)
         await lost_then_back(ap, peer, restart=False)
         assert ap.link_stats.reopen_count >= 1
+        # the cause the watchdogs name at once (a pulled cable), kept for the record
+        assert ap.state.link_lost_cause == "closed by the other end"
     finally:
         await ap.close()
         peer.stop()

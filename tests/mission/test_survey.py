@@ -15,7 +15,9 @@ from hypothesis import strategies as st
 from shapely.geometry import LineString, Polygon
 from typer.testing import CliRunner
 
+from helixd.base.plan import MotionMode
 from helixd.cli.app import app
+from helixd.files.models import ConfigFileError
 from helixd.mission.formats import load_mission_file
 from helixd.mission.formats.areas import (
     SurveyArea,
@@ -120,6 +122,23 @@ def test_exclusion_circle_from_a_plan_is_cut_out() -> None:
     r = plan_survey(area, spacing_m=2.0, angle_deg=0.0, margin_m=1.0)
     assert len(r.area_xy.interiors) == 0  # the survey polygon is small: holes lie outside it
     assert r.coverage >= 0.95
+
+
+def test_a_hand_written_survey_item_gives_its_polygon(tmp_path: Path) -> None:
+    """QGroundControl's Survey JSON written by hand: complexItemType survey and its polygon,
+    no generated items yet (QGC writes them when it saves): the area is the polygon."""
+    doc = json.loads((DATA / "pond_survey.plan").read_text())
+    survey = next(it for it in doc["mission"]["items"] if it["type"] == "ComplexItem")
+    polygon = survey["polygon"]
+    doc["mission"]["items"] = [
+        {"type": "ComplexItem", "complexItemType": "survey", "version": 5, "polygon": polygon}
+    ]
+    path = tmp_path / "by_hand.plan"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    area = read_area(path)
+    assert [tuple(v) for v in area.outer] == [tuple(v) for v in polygon]
+    with pytest.raises(ConfigFileError, match="holds no mission items"):
+        load_mission_file(path, mode=MotionMode.SCROLL)  # to fly it needs QGC's items
 
 
 def test_spacing_wider_than_the_area_still_gives_one_transect() -> None:

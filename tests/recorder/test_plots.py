@@ -19,6 +19,7 @@ from helixd.cli import runs as command
 from helixd.mission.model import WaypointSpec
 from helixd.mission.resume import RunInputs
 from helixd.recorder.events import read_events
+from helixd.recorder.outcome import CREW_COLOR
 from helixd.recorder.plots import (
     AUTOPILOT_AXIS_LABEL,
     OVERVIEW_SIZE_PX,
@@ -145,6 +146,19 @@ def test_fault_is_drawn_in_red(tmp_path: Path) -> None:
     render_run(run_dir)
     for name in PANEL_FILES.values():
         assert red_pixels(run_dir / "plots" / name) > 100, name
+
+
+def test_a_crews_ending_and_its_pauses_are_not_drawn_as_a_fault(tmp_path: Path) -> None:
+    faulted, _ = synth_run(tmp_path / "f", fault_at_s=40.0)
+    crew, _ = synth_run(tmp_path / "c", fault_at_s=40.0, fault_cause="handover", pause_s=(10, 15))
+    data = load_run(crew)
+    assert data.end_color == CREW_COLOR and data.fault_label().startswith("crew: handover")
+    assert len(data.pauses) == 1
+    assert data.pauses[0] == pytest.approx((10.0, 15.0), abs=0.1)
+    render_run(faulted)
+    render_run(crew)
+    for name in PANEL_FILES.values():
+        assert red_pixels(crew / "plots" / name) < red_pixels(faulted / "plots" / name) / 4, name
 
 
 def test_run_without_mission_file_still_plots(tmp_path: Path) -> None:

@@ -198,3 +198,13 @@ def test_a_completed_mission_left_armed_is_no_exit_0() -> None:
     assert ending_after_fallback(done, ok) is done
     takeover = Ending(Fault(FaultCause.PILOT_TAKEOVER, "HOLD"), ExitCode.OPERATOR_STOP)
     assert ending_after_fallback(takeover, refused) is takeover  # left armed for the pilot
+
+
+def test_serve_may_leave_a_completed_mission_armed_in_hold() -> None:
+    """serve.disarm_when_complete false: no disarm asked, and armed is then no fault."""
+    done = Ending(None, ExitCode.OK)
+    assert disarm_after(False, done, when_complete=False) is False
+    assert disarm_after(True, done) is True
+    armed = FallbackReport("completed", "", hold_acked=True)
+    assert ending_after_fallback(done, armed, disarm_asked=False) is done
+    assert ending_after_fallback(done, armed).code is ExitCode.FAULT

@@ -79,7 +79,7 @@ def test_transport_drops_are_counted_not_fatal() -> None:
 def test_outbox_is_bounded() -> None:
     feed = GcsFeed(GcsReportConfig(burst=50, max_text_chars=500), Clock())
     for _ in range(8):
-        feed.fault("x", "y" * 490)  # 12 lines each (cut in 42s after "helixd: ")
+        feed.fault(f"x{_}", "y" * 490)  # 12 lines each (cut in 42s after "helixd: ")
     assert len(feed._outbox) == OUTBOX_MAX
     assert feed.dropped == 8 * 12 - OUTBOX_MAX
 

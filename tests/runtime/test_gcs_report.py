@@ -19,6 +19,7 @@ from helixd.runtime.gcs_report import (
     PhaseChange,
     Progress,
     ReportedFault,
+    Said,
     WaypointReached,
     chunk_statustext,
     fault_text,
@@ -140,6 +141,24 @@ def test_chunks_always_reassemble(text: str, text_id: int, sev: int) -> None:
     msgs = chunk_statustext(sev, text, text_id)
     clean = "".join(c if " " <= c <= "~" else "?" for c in text)
     assert texts(msgs) == [(sev, clean)]
+
+
+def test_the_same_text_within_the_window_shows_once() -> None:
+    r = GcsReporter(GcsReportConfig(repeat_window_s=3.0, burst=10), 0.0)
+    said = Said("start refused: new plan failed its checks", 3)
+    assert len(texts(r.feed(said, 0.0))) == 1
+    assert r.feed(said, 1.0) == [] and r.queued == 0  # the pane has it
+    assert len(texts(r.feed(Said("another", 3), 1.5))) == 1
+    assert len(texts(r.feed(said, 3.5))) == 1  # later: news again
+    every = GcsReporter(GcsReportConfig(repeat_window_s=0.0, burst=10), 0.0)
+    assert len(every.feed(said, 0.0)) == len(every.feed(said, 0.1)) == 1
+
+
+def test_a_long_text_is_cut_between_words() -> None:
+    r = GcsReporter(GcsReportConfig(max_text_chars=60), 0.0)
+    words = " ".join(["waypoint"] * 30)
+    lines = [t for _, t in texts(r.feed(PhaseChange(words), 0.0))]
+    assert lines[-1].endswith("waypoint...") and all(len(t) <= 50 for t in lines)
 
 
 def test_rate_limit_with_burst_and_faults_first() -> None:

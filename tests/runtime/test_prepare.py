@@ -98,6 +98,10 @@ def test_a_flight_from_the_autopilots_current_item() -> None:
     start = later.inputs.leg_start
     assert start is not None and (start.north, start.east) == (8, 10)
     assert later.inputs.numbering([False]).label(0) == "3/3"
+    # the crew set the item mid-leg: the first leg starts where the rover is (no leg start)
+    here = from_autopilot_item(flight, 3, CFG, from_here=True)
+    assert here.mission == later.mission and here.inputs.leg_start is None
+    assert here.inputs.numbering([False]).label(0) == "3/3"
     with pytest.raises(InputsRefused, match="past the mission's last waypoint"):
         from_autopilot_item(flight, 4, CFG)
 

@@ -106,3 +106,41 @@ def test_fall_back_stops_and_asks_hold_except_for_a_release(
     assert seen == calls
     no_hold = cause in (FaultCause.RELEASED, FaultCause.ITEM_SET)
     assert (report.hold_requested_after_s is None) is no_hold
+
+
+class SilentAutopilot(FakeAutopilot):
+    """A cut link: every HOLD request goes unanswered."""
+
+    async def set_mode(
+        self, name: str, timeout_s: float | None = None, retries: int | None = None
+    ) -> None:
+        self.calls.append(f"mode {name}")
+        await asyncio.sleep(0)
+        raise TimeoutError("no answer")
+
+
+def test_a_hold_unanswered_is_told_once_with_its_count() -> None:
+    seen: list[str] = []
+    report = asyncio.run(
+        fall_back(
+            Fault(FaultCause.LINK_LOST, "closed by the other end"),
+            sink=FakeSink(seen),
+            autopilot=SilentAutopilot(seen),
+            cfg=SafetyConfig(hold_retry_bound_s=0.05),
+            detected_s=0.0,
+            pose_text="here",
+            disarm=False,
+        )
+    )
+    tries = seen.count("mode HOLD")
+    assert tries >= 2  # asked again and again until the bound, as before
+    assert report.errors == [f"HOLD request: no answer ({tries} tries)"]
+    assert not report.hold_acked
+
+
+def test_supervisor_inputs_name_the_links_cause() -> None:
+    st = flying_state()
+    st.mark_link_lost("closed by the other end")
+    inputs = safety_inputs(1.1, st, st.pose, NedPose(0.0, 0.0, 0.0), "MANUAL", MOTION)
+    assert inputs.link_lost_cause == "closed by the other end"
+    assert inputs.last_rx_s is not None

@@ -46,6 +46,25 @@ def test_each_watchdog_fires(change: dict[str, object], cause: FaultCause, needl
     assert needle in fault.detail
 
 
+def test_a_lost_link_is_named_before_what_its_loss_starves() -> None:
+    """A pulled cable: the transport's cause at once, before the heartbeat timeout; an
+    autopilot silent in every message: the link, not the pose or the GPS it also starves."""
+    monitor = SafetyMonitor(SafetyConfig())
+    closed = dataclasses.replace(
+        HEALTHY, link_lost_cause="closed by the other end", pose_rx_s=99.0, gps_monitored=True
+    )
+    fault = monitor.check(closed)
+    assert fault is not None and fault.cause is FaultCause.LINK_LOST
+    assert fault.detail == "closed by the other end"
+    silent = dataclasses.replace(HEALTHY, last_rx_s=99.3, pose_rx_s=99.3, gps_rx_s=99.3)
+    fault = monitor.check(dataclasses.replace(silent, gps_monitored=True))
+    assert fault is not None and fault.cause is FaultCause.LINK_LOST
+    assert "no message from the autopilot for 0.70 s" in fault.detail
+    # the pose stream alone stopped, other messages flow: the pose, as before
+    fault = monitor.check(dataclasses.replace(HEALTHY, last_rx_s=99.99, pose_rx_s=99.3))
+    assert fault is not None and fault.cause is FaultCause.POSE_STALE
+
+
 def test_time_paused_is_not_held_against_the_limit() -> None:
     held = dataclasses.replace(HEALTHY, mission_elapsed_s=1700.0, mission_paused_s=5000.0)
     assert SafetyMonitor(SafetyConfig()).check(held) is None

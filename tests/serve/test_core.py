@@ -216,6 +216,8 @@ def test_switch_edges_start_and_pause() -> None:
         (ExitCode.OK, None, False, ServeState.COMPLETED),
         (ExitCode.OPERATOR_STOP, FaultCause.PAUSED, True, ServeState.PAUSED),
         (ExitCode.OPERATOR_STOP, FaultCause.SIGNAL, True, ServeState.PAUSED),  # while starting
+        # the service stopped (SIGINT/SIGTERM) mid-flight: the crew's stop, not a fault
+        (ExitCode.OPERATOR_STOP, FaultCause.SIGNAL, False, ServeState.PAUSED),
         (ExitCode.OPERATOR_STOP, FaultCause.PILOT_TAKEOVER, False, ServeState.FAULTED),
         (ExitCode.OPERATOR_STOP, FaultCause.PILOT_TAKEOVER, True, ServeState.FAULTED),
         (ExitCode.FAULT, FaultCause.LINK_LOST, False, ServeState.FAULTED),
@@ -273,8 +275,11 @@ def test_a_pending_start_from_auto_is_answered_once_the_mission_is_judged() -> N
     assert answer_auto(view(ServeState.IDLE, refusal="reading the autopilot's mission")) is None
     assert answer_auto(view(ServeState.FLYING)) is None
     assert answer_auto(view(busy=True)) is None
+    # a refused mission may have been replaced by a same-size upload: the start reads it again
     a = answer_auto(view(ServeState.REFUSED, refusal="too far"))
-    assert a is not None and a.result == MAV_RESULT_DENIED and "too far" in a.text
+    assert a is not None and a.request is Request.AUTO and "reading the mission again" in a.text
+    a = answer_auto(view(ServeState.REFUSED, refusal="too far", switch_low=True))
+    assert a is not None and a.result == MAV_RESULT_DENIED
     a = answer_auto(view(ServeState.IDLE, refusal="no mission on the autopilot: upload one"))
     assert a is not None and a.result == MAV_RESULT_DENIED
     a = answer_auto(view(switch_low=True))  # the pilot's veto holds for the ground station too

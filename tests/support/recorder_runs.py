@@ -52,13 +52,16 @@ def synth_run(
     root: Path,
     *,
     fault_at_s: float | None = None,
+    fault_cause: str = "stall",
+    pause_s: tuple[float, float] | None = None,
     rate_hz: float = 20.0,
     cfg: HelixdConfig | None = None,
     speedup: float = 1.0,
 ) -> tuple[Path, FakeClock]:
     """Fly a point mass round the 10 m square (ROLL: turn in place, then drive) and record it
     through RunRecorder + SummaryBuilder + the events tee. ``fault_at_s``: stop there with a
-    ``fallback`` event (cause ``stall``) as the supervisor would. ``speedup``: the autopilot
+    ``fallback`` event (cause ``fault_cause``) as the supervisor would; ``pause_s``: held
+    for the crew (``mode_gate`` events) from its start to its end (s). ``speedup``: the autopilot
     clock (``t_boot_s``) runs this much faster than the wall clock, as in a sped-up simulator
     (the point mass still moves on the wall clock)."""
     cfg = cfg or HelixdConfig()
@@ -74,14 +77,21 @@ def synth_run(
     t0 = clock()
     target = 0
     fault: str | None = None
+    paused = "before"
     tol = cfg.control.waypoint_tolerance_m
     prev_xy = (x, y)
     while target < len(SQUARE) and clock() - t0 < 300.0:
         t_rel = clock() - t0
         if fault_at_s is not None and t_rel >= fault_at_s:
-            fault = "stall"
+            fault = fault_cause
             log.warning("fallback", cause=fault, detail="measured speed 0.00 m/s for 4.0 s")
             break
+        if pause_s is not None and t_rel >= pause_s[0] and paused == "before":
+            paused = "held"
+            log.info("mode_gate", gate="hold", mode="HOLD")
+        if pause_s is not None and t_rel >= pause_s[1] and paused == "held":
+            paused = "after"
+            log.info("mode_gate", gate="drive", mode="AUTO")
         tx, ty = SQUARE[target]
         dist = math.hypot(tx - x, ty - y)
         if dist < tol:

@@ -51,7 +51,7 @@ def _ring(points: list[tuple[float, float]], where: str) -> Ring:
 def area_from_plan(text: str, src: str) -> SurveyArea:
     """The Survey item's polygon if the plan has exactly one, else its one inclusion geofence
     polygon; exclusion polygons and circles of the geofence are holes."""
-    gcs = parse_plan_text(text, src)
+    gcs = parse_plan_text(text, src, areas_only=True)  # a hand-written Survey: its polygon
     inclusions = [p for p in gcs.polygons if p.inclusion]
     if len(gcs.survey_polygons) == 1:
         outer = gcs.survey_polygons[0]

@@ -171,9 +171,11 @@ def load_plan_json(text: str, source: Path | str, kind: str = "") -> Any:
         raise FormatError([exc.message]) from None
 
 
-def parse_plan_text(text: str, source: Path | str) -> GcsMission:
+def parse_plan_text(text: str, source: Path | str, areas_only: bool = False) -> GcsMission:
     """A .plan's (or an older .mission's) text → :class:`GcsMission`; raise
-    :class:`FormatError` naming file and field."""
+    :class:`FormatError` naming file and field. ``areas_only``: read for its polygons
+    (``helixd mission survey``): a Survey written by hand, with no generated items, is then
+    its polygon alone, not a refusal."""
     src = str(source)
     raw = load_plan_json(text, source, kind=".plan")
     if not isinstance(raw, dict):
@@ -184,7 +186,7 @@ def parse_plan_text(text: str, source: Path | str) -> GcsMission:
         plan = PlanJson.model_validate(raw)
     except ValidationError as exc:
         raise FormatError(format_validation_error(src, exc, PlanJson)[:20]) from None
-    return _to_gcs(plan, src)
+    return _to_gcs(plan, src, areas_only)
 
 
 LANDING_PATTERNS = frozenset({"fwLandingPattern", "vtolLandingPattern"})
@@ -208,7 +210,7 @@ def _item(sj: SimpleItemJson, seq: int, where: str) -> MissionItem:
     )
 
 
-def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
+def _to_gcs(plan: PlanJson, src: str, areas_only: bool = False) -> GcsMission:
     items: list[MissionItem] = []
     surveys: list[tuple[tuple[float, float], ...]] = []
     notes: list[str] = []
@@ -243,7 +245,7 @@ def _to_gcs(plan: PlanJson, src: str) -> GcsMission:
                 f"{len(transect.VisualTransectPoints)} VisualTransectPoints (it holds no "
                 "generated items, so no camera triggers)"
             )
-        else:
+        elif not areas_only:
             raise FormatError(
                 [
                     f"{src}: {where}: ComplexItem {clip(kind, 40)} holds no mission items "

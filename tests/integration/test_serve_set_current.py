@@ -1,0 +1,61 @@
+"""Set current waypoint mid-leg from the ground station: the new leg starts where the rover is,
+as ArduPilot's ``AR_WPNav::set_desired_location`` starts an interrupted leg from the stopping
+point, and never runs along the skipped item's line. Judged on the simulator's true track."""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+from helixd.mav.constants import MAV_CMD_DO_SET_MISSION_CURRENT, MAV_RESULT_ACCEPTED
+from helixd.sim.snapshot import SimSnapshot
+from tests.integration.test_serve_reupload import CONFIG, start_mission
+from tests.support.gcs import upload
+from tests.support.harness import guard_installed, record_until
+from tests.support.serve import SPEEDUP, serving_crew
+
+PLAN = [(15.0, 0.0), (15.0, 10.0), (0.0, 10.0), (-5.0, 10.0)]  # items 1..4, north/east (m)
+SKIPPED = PLAN[2]  # item 3
+TARGET = PLAN[3]  # item 4
+SKIPPED_CLEARANCE_MIN_M = 1.2  # the straight line from the switch passes ≥ 1.4 m from item 3
+LINE_ERROR_MAX_M = 0.8
+
+
+def off_line(p: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
+    """Distance of ``p`` from the segment a→b (m)."""
+    ax, ay, bx, by, px, py = *a, *b, *p
+    dx, dy = bx - ax, by - ay
+    t = max(0.0, min(1.0, ((px - ax) * dx + (py - ay) * dy) / (dx * dx + dy * dy)))
+    return math.hypot(px - (ax + t * dx), py - (ay + t * dy))
+
+
+def on_leg_to_item_2(s: SimSnapshot) -> bool:
+    return s.north_m > 13.5 and s.east_m > 1.5
+
+
+def at_target(s: SimSnapshot) -> bool:
+    return math.hypot(s.north_m - TARGET[0], s.east_m - TARGET[1]) <= 0.5
+
+
+def test_set_current_mid_leg_drives_from_where_the_rover_is(tmp_path: Path) -> None:
+    cfg: dict[str, Any] = CONFIG
+    with serving_crew(tmp_path, cfg, **guard_installed(SPEEDUP)) as (server, gcs, d):
+        d.wait_line("no mission on the autopilot", 60.0)
+        upload(gcs, PLAN)
+        d.wait_line("event=serve_state state=ready", 30.0)
+        start_mission(gcs)
+        switch = server.wait_for(on_leg_to_item_2, 90.0)
+        mark = d.mark()
+        t_set = time.monotonic()
+        assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 4) == MAV_RESULT_ACCEPTED
+        d.wait_line("event=auto_start item=4", 10.0, after=mark)
+        trace = record_until(server, at_target, 90.0)
+        after = [s for t, s in trace.samples if t >= t_set]
+        start = (switch.north_m, switch.east_m)
+        clearance = min(math.hypot(s.north_m - SKIPPED[0], s.east_m - SKIPPED[1]) for s in after)
+        worst = max(off_line((s.north_m, s.east_m), start, TARGET) for s in after)
+        print(f"\nitem 3 passed at {clearance:.2f} m; off the straight line at most {worst:.2f} m")
+        assert clearance >= SKIPPED_CLEARANCE_MIN_M, clearance
+        assert worst <= LINE_ERROR_MAX_M, worst
