@@ -430,6 +430,12 @@ class Autopilot:
         if not self.observer:
             self._heartbeat.send_now()
             return
+        self.request_heartbeat()
+
+    def request_heartbeat(self) -> None:
+        """Ask the autopilot for a HEARTBEAT now (MAV_CMD_REQUEST_MESSAGE, its ACK not
+        awaited): a mode or arm just acknowledged shows in it at once, not at the next of its
+        1 Hz HEARTBEATs."""
         self._conn.send(
             self._conn.mav.command_long_encode(
                 self.cfg.target_system,

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import math
 from collections.abc import AsyncIterator, Awaitable, Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -60,6 +61,9 @@ from helixd.runtime.timing import judge_flight
 from helixd.safety.watchdogs import Fault, FaultCause, gps_fault, pose_invalid_fault
 
 log = structlog.get_logger(__name__)
+# how often a confirmation asks the autopilot for a HEARTBEAT (s): a few of its control
+# periods, so an answer built before the change took effect is followed by one after it
+HEARTBEAT_ASK_S = 0.1
 T = TypeVar("T")
 
 
@@ -670,21 +674,42 @@ async def confirm_mode(ap: Autopilot, cfg: HelixdConfig, mode: str) -> None:
     """The ACK says 'accepted'; the HEARTBEAT's mode says it happened. Without this wait
     a vehicle still armed in HOLD (left by a faulted run) would show its last HOLD
     heartbeat to the flight loop, which reads it as a pilot takeover."""
-    deadline = now_s() + cfg.safety.heartbeat_timeout_s * 2
-    while ap.state.mode != mode:
-        if now_s() > deadline:
-            raise PreflightFailed(
-                [f"mode {mode} was accepted but HEARTBEAT still shows {ap.state.mode}"]
-            )
-        await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)
+    await heartbeat_shows(
+        ap,
+        cfg,
+        lambda st: st.mode == mode,
+        lambda st: f"mode {mode} was accepted but HEARTBEAT still shows {st.mode}",
+    )
 
 
 async def confirm_armed(ap: Autopilot, cfg: HelixdConfig) -> None:
     """The ACK says 'accepted'; the HEARTBEAT's armed flag says it happened."""
+    await heartbeat_shows(
+        ap,
+        cfg,
+        lambda st: st.armed_now,
+        lambda _: "arming was accepted but HEARTBEAT never showed armed",
+    )
+
+
+async def heartbeat_shows(
+    ap: Autopilot,
+    cfg: HelixdConfig,
+    holds: Callable[[VehicleState], bool],
+    refusal: Callable[[VehicleState], str],
+) -> None:
+    """Until a HEARTBEAT shows what was just acknowledged, asked for every
+    :data:`HEARTBEAT_ASK_S` (the autopilot's own come at 1 Hz: a start would wait up to a
+    second for one); PreflightFailed with ``refusal`` after two HEARTBEAT timeouts."""
     deadline = now_s() + cfg.safety.heartbeat_timeout_s * 2
-    while not ap.state.armed_now:
-        if now_s() > deadline:
-            raise PreflightFailed(["arming was accepted but HEARTBEAT never showed armed"])
+    asked_s = -math.inf
+    while not holds(ap.state):
+        now = now_s()
+        if now > deadline:
+            raise PreflightFailed([refusal(ap.state)])
+        if now - asked_s >= HEARTBEAT_ASK_S:
+            ap.request_heartbeat()
+            asked_s = now
         await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)
 
 
