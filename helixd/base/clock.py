@@ -29,6 +29,9 @@ from typing import Any
 # where a simulated clock starts (s): like a monotonic clock, not at zero, so a "never"
 # timestamp of 0.0 stays far in the past
 SIMULATED_START_S = 1000.0
+# wall seconds a simulated clock may stand still while the loop runs: longer means a task
+# spins at one instant (it never waits), and the run is stopped with an error, not left hung
+STUCK_WALL_S = 30.0
 
 
 def unix_s() -> float:
@@ -63,6 +66,7 @@ class _JumpingSelector(selectors.DefaultSelector):
             return super().select(None)
         self.now_s += timeout
         self.jumps += 1
+        self._moved_wall_s = time.monotonic()
         return []
 
 

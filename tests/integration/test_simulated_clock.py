@@ -58,7 +58,10 @@ def fly_all(tmp_path: Path, seeds: list[int]) -> list[tuple[int, str, list[str]]
             cmd = flight_command(mission, root, seed)
             batch.append((root, subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)))
         for root, proc in batch:
-            _, err = proc.communicate(timeout=120)
+            try:
+                _, err = proc.communicate(timeout=120)
+            finally:
+                proc.kill()
             csvs = list(root.glob("*/flight.csv"))
             rows = csvs[0].read_text(encoding="utf-8").splitlines() if len(csvs) == 1 else []
             results.append((proc.returncode, err, rows))
