@@ -34,6 +34,7 @@ from helixd.sim.server import SimServer, start_embedded
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
+from tests.support.mavmsgs import TextPane
 from tests.support.paths import REPO_ROOT
 
 T = TypeVar("T")
@@ -94,7 +95,7 @@ class MavClient:
             url, source_system=sysid, source_component=compid, dialect="ardupilotmega"
         )
         self.texts: list[str] = []  # every STATUSTEXT seen (chunks joined)
-        self._chunks: dict[int, list[str]] = {}
+        self._pane = TextPane(self.texts)
         self.heartbeat()
 
     def close(self) -> None:
@@ -126,20 +127,9 @@ class MavClient:
             if msg is None:
                 continue
             if msg.get_type() == "STATUSTEXT":
-                self._note_text(msg)
+                self._pane.note(msg)
             if msg.get_type() == kind and (condition is None or condition(msg)):
                 return msg
-
-    def _note_text(self, msg: Any) -> None:
-        text, chunk_id = str(msg.text), int(msg.id)
-        if chunk_id == 0:
-            self.texts.append(text)
-            return
-        parts = self._chunks.setdefault(chunk_id, [])
-        parts.append(text)
-        if len(text) < 50:
-            self.texts.append("".join(parts))
-            del self._chunks[chunk_id]
 
     def wait_text(self, prefix: str, timeout_s: float) -> str:
         """A STATUSTEXT starting with ``prefix`` seen so far or arriving within the timeout."""
@@ -176,7 +166,7 @@ class MavClient:
     def drain(self) -> None:
         while (msg := self.conn.recv_match(blocking=False)) is not None:
             if msg.get_type() == "STATUSTEXT":
-                self._note_text(msg)
+                self._pane.note(msg)
 
     def command(self, command: int, *params: float, timeout_s: float = 10.0) -> int:
         p = [float(x) for x in params] + [0.0] * (7 - len(params))

@@ -16,6 +16,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
+from tests.support.mavmsgs import TextPane
 
 
 class _Sender:
@@ -37,7 +38,7 @@ class LoopMav:
         self.mav.robust_parsing = True
         self.inbox: list[Any] = []
         self.texts: list[str] = []  # every STATUSTEXT seen (chunks joined)
-        self._chunks: dict[int, list[str]] = {}
+        self._pane = TextPane(self.texts)
         self._changed = asyncio.Event()
         self._loop = asyncio.get_running_loop()
         self._loop.add_reader(self.sock.fileno(), self._readable)
@@ -57,20 +58,9 @@ class LoopMav:
                 if msg.get_type() == "BAD_DATA":
                     continue
                 if msg.get_type() == "STATUSTEXT":
-                    self._note_text(msg)
+                    self._pane.note(msg)
                 self.inbox.append(msg)
             self._changed.set()
-
-    def _note_text(self, msg: Any) -> None:
-        text, chunk_id = str(msg.text), int(msg.id)
-        if chunk_id == 0:
-            self.texts.append(text)
-            return
-        parts = self._chunks.setdefault(chunk_id, [])
-        parts.append(text)
-        if len(text) < 50:
-            self.texts.append("".join(parts))
-            del self._chunks[chunk_id]
 
     def heartbeat(self) -> None:
         self.mav.heartbeat_send(6, 8, 0, 0, 0)  # MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID

@@ -56,3 +56,23 @@ def read_tlog(path: Path) -> list[Any]:
     finally:
         conn.close()
     return out
+
+
+class TextPane:
+    """A ground station's message pane: every STATUSTEXT kept in ``texts``, a text sent in
+    chunks (MAVLink 2's ``id``, a chunk under 50 characters ends it) joined into one."""
+
+    def __init__(self, texts: list[str]) -> None:
+        self.texts = texts
+        self._chunks: dict[int, list[str]] = {}
+
+    def note(self, msg: Any) -> None:
+        text, chunk_id = str(msg.text), int(msg.id)
+        if chunk_id == 0:
+            self.texts.append(text)
+            return
+        parts = self._chunks.setdefault(chunk_id, [])
+        parts.append(text)
+        if len(text) < 50:
+            self.texts.append("".join(parts))
+            del self._chunks[chunk_id]
