@@ -32,6 +32,8 @@ SIMULATED_START_S = 1000.0
 # wall seconds a simulated clock may stand still while the loop runs: longer means a task
 # spins at one instant (it never waits), and the run is stopped with an error, not left hung
 STUCK_WALL_S = 30.0
+# ... over at least this many polls (one long computation between two polls is not a spin)
+STUCK_POLLS = 1000
 
 
 def unix_s() -> float:
@@ -57,17 +59,54 @@ class _JumpingSelector(selectors.DefaultSelector):
         super().__init__()
         self.now_s = SIMULATED_START_S
         self.jumps = 0
+        self.loop: asyncio.AbstractEventLoop | None = None  # set by the loop it serves
+        self._moved_wall_s = time.monotonic()  # when the clock last moved (wall)
+        self._still_polls = 0  # polls since
 
     def select(self, timeout: float | None = None) -> list[tuple[selectors.SelectorKey, int]]:
         ready = super().select(0)
-        if ready or (timeout is not None and timeout <= 0):
+        before_s = self.now_s
+        if not ready and timeout is None:  # no timer at all: only another thread can wake it
+            ready = super().select(None)
+            self._moved_wall_s = time.monotonic()
+            self._still_polls = 0
+        elif not ready and timeout > 0:
+            self.now_s += timeout
+            self.jumps += 1
+        self._reach_due_timers()
+        if self.now_s != before_s:
+            self._moved_wall_s = time.monotonic()
+            self._still_polls = 0
             return ready
-        if timeout is None:  # no timer at all: only another thread can wake the loop
-            return super().select(None)
-        self.now_s += timeout
-        self.jumps += 1
-        self._moved_wall_s = time.monotonic()
-        return []
+        self._still_polls += 1
+        if self._still_polls > STUCK_POLLS and time.monotonic() - self._moved_wall_s > STUCK_WALL_S:
+            raise RuntimeError(
+                f"the simulated clock stood still at {self.now_s!r} s for {STUCK_WALL_S:.0f} s "
+                "of wall time: a task spins without ever waiting"
+            )
+        return ready
+
+    def _reach_due_timers(self) -> None:
+        """After a select asyncio runs every timer due within its clock resolution (1 ns),
+        slightly before its time: a real clock gets there a moment later, a simulated one
+        would stand still. The clock is moved to the latest such timer, so a task a timer
+        wakes never reads a time before it (else a task waiting out ``deadline - now_s()``
+        in steps would spin at one instant, its remainder never reaching zero)."""
+        loop = self.loop
+        if loop is None:
+            return
+        resolution_s: float = getattr(loop, "_clock_resolution", 0.0)
+        timers: list[asyncio.TimerHandle] = getattr(loop, "_scheduled", [])
+        while True:
+            horizon_s = self.now_s + resolution_s
+            due_s = [
+                h.when()
+                for h in timers
+                if self.now_s < h.when() < horizon_s and not h.cancelled()
+            ]
+            if not due_s:
+                return
+            self.now_s = max(due_s)
 
 
 class SimulatedClockLoop(asyncio.SelectorEventLoop):
@@ -80,6 +119,7 @@ class SimulatedClockLoop(asyncio.SelectorEventLoop):
         self._jumping.now_s = start_s
         self._epoch_unix_s = time.time() - start_s
         super().__init__(self._jumping)
+        self._jumping.loop = self
 
     def time(self) -> float:
         return self._jumping.now_s

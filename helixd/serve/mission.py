@@ -80,6 +80,9 @@ class MissionWatch:
             self.read_error = str(exc)
             self._next_poll_s = now_s() + min(poll_s, MISSION_RETRY_S)
             return None
+        # the count this read saw, as MISSION_CURRENT.total counts it (home excluded): an
+        # upload between this read and the autopilot's next MISSION_CURRENT is still a change
+        self._total = max(0, len(got.mission) - 1)
         fingerprint = items_sha256(got.mission, got.fence)
         if fingerprint == self.fingerprint and not recheck:
             return None

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import ast
 import asyncio
+import contextlib
 import socket
 import time
 from pathlib import Path
 
 import pytest
 
+from helixd.base import clock
 from helixd.base.clock import SIMULATED_START_S, SimulatedClockLoop, now_s, unix_s
 from tests.support.paths import REPO_ROOT
 from tests.support.simclock import run_simulated
@@ -56,6 +58,58 @@ def test_timeouts_fire_in_simulated_time_in_order() -> None:
     seen = run_simulated(main)
     assert [n for n, _ in seen] == ["a", "b", "timeout"]
     assert [t for _, t in seen] == pytest.approx([0.5, 2.5, 12.5], abs=1e-6)
+
+
+def test_waiting_out_a_remainder_in_steps_reaches_the_deadline() -> None:
+    """A task waiting ``deadline - now_s()`` in steps while another task is always ready (so
+    the loop never sleeps, it polls): asyncio runs a timer due within its clock resolution
+    slightly early, and a clock that stood still there would leave a remainder of 1e-14 s
+    for ever (seen: a wait at 1030.2099999999725 for 1030.21 spun). The clock reaches every
+    timer it runs."""
+
+    async def main() -> tuple[int, float]:
+        for _ in range(21):  # sums of 0.01 s: the clock picks up rounding (1000.2099999…)
+            await asyncio.sleep(0.01)
+        deadline = SIMULATED_START_S + 0.21
+        assert now_s() != deadline  # the case that spun
+        done = asyncio.Event()
+
+        async def busy() -> int:
+            polls = 0
+            while not done.is_set():
+                polls += 1
+                assert polls < 10_000, f"stuck at {now_s()!r}, deadline {deadline!r}"
+                await asyncio.sleep(0)
+            return polls
+
+        poller = asyncio.create_task(busy())
+        steps = 0
+        never = asyncio.Event()
+        while (remaining := deadline - now_s()) > 0:
+            steps += 1
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(never.wait(), remaining)
+        done.set()
+        await poller
+        return steps, now_s()
+
+    steps, end_s = run_simulated(main)
+    assert steps <= 2 and end_s >= SIMULATED_START_S + 0.21
+
+
+def test_a_clock_held_at_one_instant_by_a_spinning_task_is_an_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A task that never waits holds simulated time still: the run ends with an error naming
+    it instead of hanging (the limit shortened here from 30 s of wall time)."""
+    monkeypatch.setattr(clock, "STUCK_WALL_S", 0.2)
+
+    async def main() -> None:
+        while True:  # noqa: ASYNC110 - the spin under test
+            await asyncio.sleep(0)
+
+    with pytest.raises(RuntimeError, match=r"stood still at 1000\.0 s"):
+        run_simulated(main)
 
 
 def test_a_ready_datagram_is_read_before_the_clock_jumps() -> None:
