@@ -70,7 +70,7 @@ class _JumpingSelector(selectors.DefaultSelector):
             ready = super().select(None)
             self._moved_wall_s = time.monotonic()
             self._still_polls = 0
-        elif not ready and timeout > 0:
+        elif not ready and timeout is not None and timeout > 0:
             self.now_s += timeout
             self.jumps += 1
         self._reach_due_timers()
@@ -100,9 +100,7 @@ class _JumpingSelector(selectors.DefaultSelector):
         while True:
             horizon_s = self.now_s + resolution_s
             due_s = [
-                h.when()
-                for h in timers
-                if self.now_s < h.when() < horizon_s and not h.cancelled()
+                h.when() for h in timers if self.now_s < h.when() < horizon_s and not h.cancelled()
             ]
             if not due_s:
                 return

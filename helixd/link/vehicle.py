@@ -353,6 +353,8 @@ class VehicleState:
     mission_current: MissionCurrent | None = None
     # MISSION_CURRENT.mission_mode was seen 1: the autopilot fills it (older ones send 0)
     mission_mode_reported: bool = False
+    # reception of the latest MISSION_CURRENT with mission_mode 1 (AUTO; monotonic)
+    mission_auto_rx_s: float | None = None
     mission_current_rejected_count: int = 0  # MISSION_CURRENT with seq/total beyond uint16
     position_target: PositionTarget | None = None
     # reception of the first HEARTBEAT naming the current mode: a POSITION_TARGET_GLOBAL_INT
@@ -637,6 +639,7 @@ class VehicleState:
         mode = _uint16(getattr(msg, "mission_mode", None))
         if mode == 1:
             self.mission_mode_reported = True  # an autopilot that fills the field
+            self.mission_auto_rx_s = rx_s
         self.mission_current = MissionCurrent(seq, total, state, rx_s, mode)
         return Change.MISSION_CURRENT
 

@@ -141,10 +141,14 @@ def crew_mode(
     mission_mode: int | None,
     mission_current_rx_s: float | None,
     mission_mode_reported: bool,
+    auto_rx_s: float | None = None,
 ) -> str:
     """The autopilot's mode as the freshest report tells it: the HEARTBEAT's, unless a later
     MISSION_CURRENT says AUTO was entered (``mission_mode`` 1) or left (0, from an autopilot
-    seen to fill the field: :data:`LEFT_AUTO`) since."""
+    seen to fill the field: :data:`LEFT_AUTO`) since. ``auto_rx_s``: when a MISSION_CURRENT
+    last said AUTO; after the HEARTBEAT, that HEARTBEAT's mode is older than the AUTO just
+    left (AUTO entered and left between two HEARTBEATs: GUIDED → AUTO → HOLD reads "AUTO
+    left", never GUIDED again)."""
     if (
         mission_mode is None
         or mission_current_rx_s is None
@@ -153,7 +157,14 @@ def crew_mode(
         return heartbeat_mode
     if mission_mode == 1 and heartbeat_mode != AUTO_MODE:
         return AUTO_MODE  # only an autopilot that fills the field sends 1
-    if mission_mode == 0 and heartbeat_mode == AUTO_MODE and mission_mode_reported:
+    auto_since_heartbeat = auto_rx_s is not None and (
+        heartbeat_rx_s is None or auto_rx_s > heartbeat_rx_s
+    )
+    if (
+        mission_mode == 0
+        and mission_mode_reported
+        and (heartbeat_mode == AUTO_MODE or auto_since_heartbeat)
+    ):
         return LEFT_AUTO
     return heartbeat_mode
 
@@ -196,6 +207,7 @@ def crew_mode_of(st: VehicleState) -> str:
         None if mc is None else mc.mission_mode,
         None if mc is None else mc.rx_monotonic_s,
         st.mission_mode_reported,
+        st.mission_auto_rx_s,
     )
 
 

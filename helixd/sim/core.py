@@ -616,6 +616,19 @@ class SimCore:
             position_target=self._position_target(),
         )
 
+    def view_now(self) -> vehicle_reports.TelemetryView:
+        """The last tick's view with what a command handled since may have changed (mode,
+        arming, the mission's current item): ArduPilot builds a requested message when it
+        sends it, from its state then, so a HEARTBEAT asked for after a mode change never
+        names the mode before (nor follows a MISSION_CURRENT that told the new one)."""
+        ap = self.ap
+        return dataclasses.replace(
+            self.view,
+            mode=ap.mode,
+            armed=ap.armed,
+            mission_current=self.mission.mission_current_fields(),
+        )
+
     def _telemetry(self, now: float) -> None:
         if self.ap.silent(now):
             return

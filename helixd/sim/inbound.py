@@ -70,8 +70,7 @@ class InboundPort(Protocol):
     def params(self) -> ParamStore: ...
     @property
     def now_s(self) -> float: ...
-    @property
-    def view(self) -> vehicle_reports.TelemetryView: ...
+    def view_now(self) -> vehicle_reports.TelemetryView: ...
 
     def ekf_status(self) -> SimEkfStatus: ...
     def streams(self, link: int) -> st.StreamSchedule:
@@ -247,7 +246,7 @@ class InboundHandler:
             msg_id = int(p[0])
             if msg_id not in st.KNOWN_MESSAGES:
                 return MAV_RESULT_FAILED
-            built = vehicle_reports.build(msg_id, core.view)
+            built = vehicle_reports.build(msg_id, core.view_now())
             if built is not None:
                 core.send(link, built)
             return MAV_RESULT_ACCEPTED

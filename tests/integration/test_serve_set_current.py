@@ -5,16 +5,15 @@ point, and never runs along the skipped item's line. Judged on the simulator's t
 from __future__ import annotations
 
 import math
-import time
 from pathlib import Path
-from typing import Any
 
 from helixd.mav.constants import MAV_CMD_DO_SET_MISSION_CURRENT, MAV_RESULT_ACCEPTED
 from helixd.sim.snapshot import SimSnapshot
-from tests.integration.test_serve_reupload import CONFIG, start_mission
-from tests.support.gcs import upload
-from tests.support.harness import guard_installed, record_until
-from tests.support.serve import SPEEDUP, serving_crew
+from tests.integration.test_serve_crew_modes import CONFIG
+from tests.support.harness import guard_installed
+from tests.support.loop_gcs import booted, simulated_crew, start_mission, upload
+from tests.support.loop_mav import LoopMav
+from tests.support.simulated import Steer
 
 PLAN = [(15.0, 0.0), (15.0, 10.0), (0.0, 10.0), (-5.0, 10.0)]  # items 1..4, north/east (m)
 SKIPPED = PLAN[2]  # item 3
@@ -40,22 +39,25 @@ def at_target(s: SimSnapshot) -> bool:
 
 
 def test_set_current_mid_leg_drives_from_where_the_rover_is(tmp_path: Path) -> None:
-    cfg: dict[str, Any] = CONFIG
-    with serving_crew(tmp_path, cfg, **guard_installed(SPEEDUP)) as (server, gcs, d):
-        d.wait_line("no mission on the autopilot", 60.0)
-        upload(gcs, PLAN)
-        d.wait_line("event=serve_state state=ready", 30.0)
-        start_mission(gcs)
-        switch = server.wait_for(on_leg_to_item_2, 90.0)
-        mark = d.mark()
-        t_set = time.monotonic()
-        assert gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 4) == MAV_RESULT_ACCEPTED
-        d.wait_line("event=auto_start item=4", 10.0, after=mark)
-        trace = record_until(server, at_target, 90.0)
-        after = [s for t, s in trace.samples if t >= t_set]
+    async def crew(st: Steer, gcs: LoopMav) -> tuple[float, float]:
+        await st.line("no mission on the autopilot", 60.0)
+        await upload(gcs, PLAN)
+        await st.line("event=serve_state state=ready", 30.0)
+        await booted(st, gcs)
+        await start_mission(gcs)
+        switch = await st.until(on_leg_to_item_2, 90.0)
+        mark = st.mark()
+        assert await gcs.command(MAV_CMD_DO_SET_MISSION_CURRENT, 4) == MAV_RESULT_ACCEPTED
+        await st.line("event=auto_start item=4", 10.0, after=mark)
+        after = await st.record_until(at_target, 90.0)
         start = (switch.north_m, switch.east_m)
         clearance = min(math.hypot(s.north_m - SKIPPED[0], s.east_m - SKIPPED[1]) for s in after)
         worst = max(off_line((s.north_m, s.east_m), start, TARGET) for s in after)
-        print(f"\nitem 3 passed at {clearance:.2f} m; off the straight line at most {worst:.2f} m")
-        assert clearance >= SKIPPED_CLEARANCE_MIN_M, clearance
-        assert worst <= LINE_ERROR_MAX_M, worst
+        return clearance, worst
+
+    served = simulated_crew(tmp_path, CONFIG, crew, **guard_installed(1.0))
+    assert served.code == 0, served.log[-3000:]
+    ((clearance, worst),) = served.steered
+    print(f"\nitem 3 passed at {clearance:.2f} m; off the straight line at most {worst:.2f} m")
+    assert clearance >= SKIPPED_CLEARANCE_MIN_M, clearance
+    assert worst <= LINE_ERROR_MAX_M, worst

@@ -23,10 +23,9 @@ from helixd.mav.constants import (
     MAV_RESULT_DENIED,
     MAV_RESULT_FAILED,
 )
-from helixd.sim.snapshot import SimSnapshot
-from tests.support.gcs import command, upload
-from tests.support.harness import MavClient
-from tests.support.serve import moving, serving_crew
+from tests.support.loop_gcs import booted, command, simulated_crew, upload
+from tests.support.loop_mav import LoopMav
+from tests.support.simulated import Steer, moving
 
 LONG_LEG = [(60.0, 0.0)]  # one straight leg, long enough to see both speeds settle (m)
 SLOW_MPS = 0.2
@@ -35,61 +34,54 @@ CONFIG = {"startup": {"start_switch_channel": None}}
 ACTIONS = Path(__file__).resolve().parents[2] / "config" / "qgc" / "helixd-actions.json"
 
 
-def mavlink_action(gcs: MavClient, action: dict[str, Any]) -> int:
+async def mavlink_action(gcs: LoopMav, action: dict[str, Any]) -> int:
     """QGroundControl's MavlinkAction::sendTo → Vehicle::sendMavCommand(compId, …): a
     COMMAND_LONG to the vehicle's system (1) and the action's component; the result of the
     COMMAND_ACK from that component (QGC matches the ACK by the component it addressed)."""
     comp = int(action.get("compId", 1))
     params = [float(action.get(f"param{i}", 0.0)) for i in range(1, 8)]
-    command = int(action["mavCmd"])
-    gcs.drain()
     gcs.heartbeat()
-    gcs.mav.command_long_send(1, comp, command, 0, *params)
-    ack = gcs.expect(
-        "COMMAND_ACK",
-        10.0,
-        lambda m: (
-            int(m.command) == command and (m.get_srcSystem(), m.get_srcComponent()) == (1, comp)
-        ),
-    )
-    return int(ack.result)
+    return await gcs.command(int(action["mavCmd"]), *params, target=(1, comp))
 
 
 def test_a_change_of_speed_to_helixd_changes_the_flights_cruise(tmp_path: Path) -> None:
-    with serving_crew(tmp_path, CONFIG) as (server, gcs, d):
-        d.wait_line("no mission on the autopilot", 60.0)
-        upload(gcs, LONG_LEG)
-        d.wait_line("event=serve_state state=ready", 30.0)
+    async def crew(st: Steer, gcs: LoopMav) -> None:
+        await st.line("no mission on the autopilot", 60.0)
+        await upload(gcs, LONG_LEG)
+        await st.line("event=serve_state state=ready", 30.0)
+        await booted(st, gcs)
         # not flying: nothing to change (each flight starts at the mission's speed)
-        assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, SLOW_MPS) == MAV_RESULT_DENIED
-        assert command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
-        server.wait_for(lambda s: moving(s) and s.speed_mps > 0.4, 60.0)
+        assert await command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, SLOW_MPS) == MAV_RESULT_DENIED
+        assert await command(gcs, MAV_CMD_MISSION_START, 1, 0) == MAV_RESULT_ACCEPTED
+        await st.until(lambda s: moving(s) and s.speed_mps > 0.4, 60.0)
 
-        def settled_at(target_mps: float) -> bool:
-            return server.wait_for(
-                lambda s: s.armed and abs(s.speed_mps - target_mps) < 0.05, 30.0
-            ).armed
+        async def settled_at(target_mps: float) -> bool:
+            snap = await st.until(lambda s: s.armed and abs(s.speed_mps - target_mps) < 0.05, 30.0)
+            return snap.armed
 
-        assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, SLOW_MPS, -1) == MAV_RESULT_ACCEPTED
-        assert gcs.wait_text("helixd: speed 0.20 m/s", 20.0) == "helixd: speed 0.20 m/s"
-        assert settled_at(SLOW_MPS)
+        change = MAV_CMD_DO_CHANGE_SPEED
+        assert await command(gcs, change, 1, SLOW_MPS, -1) == MAV_RESULT_ACCEPTED
+        assert await gcs.wait_text("helixd: speed 0.20 m/s", 20.0) == "helixd: speed 0.20 m/s"
+        assert await settled_at(SLOW_MPS)
         # -1 is Rover's "no change": FAILED, and the speed stays
-        assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, -1) == MAV_RESULT_FAILED
-        slow: SimSnapshot = server.snapshot()
+        assert await command(gcs, change, 1, -1) == MAV_RESULT_FAILED
+        slow = st.snapshot()
         assert abs(slow.speed_mps - SLOW_MPS) < 0.05, slow.speed_mps
         # faster than the mission: bounded by its speed (its stops are planned for it)
-        assert command(gcs, MAV_CMD_DO_CHANGE_SPEED, 1, 9.0) == MAV_RESULT_ACCEPTED
+        assert await command(gcs, change, 1, 9.0) == MAV_RESULT_ACCEPTED
         # (a text longer than a STATUSTEXT goes out as lines split between words)
-        said = gcs.wait_text(f"helixd: speed {MISSION_MPS:.2f} m/s (9 asked", 20.0)
+        said = await gcs.wait_text(f"helixd: speed {MISSION_MPS:.2f} m/s (9 asked", 20.0)
         assert said.endswith("bounded by the"), said
-        assert settled_at(MISSION_MPS)
+        assert await settled_at(MISSION_MPS)
         # QGroundControl's MAVLink Actions, as the crew's file defines them
-        slow, back = json.loads(ACTIONS.read_text(encoding="utf-8"))["actions"]
-        assert mavlink_action(gcs, slow) == MAV_RESULT_ACCEPTED
-        assert settled_at(float(slow["param2"]))
-        assert mavlink_action(gcs, back) == MAV_RESULT_ACCEPTED
-        assert settled_at(MISSION_MPS)
-        d.wait_line("event=serve_state state=completed", 120.0)
-        d.terminate_ok()
-    log = d.log_text()
+        slow_action, back = json.loads(ACTIONS.read_text(encoding="utf-8"))["actions"]
+        assert await mavlink_action(gcs, slow_action) == MAV_RESULT_ACCEPTED
+        assert await settled_at(float(slow_action["param2"]))
+        assert await mavlink_action(gcs, back) == MAV_RESULT_ACCEPTED
+        assert await settled_at(MISSION_MPS)
+        await st.line("event=serve_state state=completed", 120.0)
+
+    served = simulated_crew(tmp_path, CONFIG, crew)
+    assert served.code == 0, served.log[-3000:]
+    log = served.log
     assert 'event=crew_speed by="system 255" asked_mps=0.2 speed_mps=0.2' in log, log

@@ -1,46 +1,36 @@
 """``helixd serve``'s mission time limit counts driving time only, and each flight has its
 own ``link.tlog``.
 
-The real service against the built-in simulator (5×) with a scripted ground station (system
-255), as in test_serve_crew_modes.py: ``safety.mission_time_limit_s`` is set to 30 s, a
-mission of about 16 s is paused in HOLD for longer than that, then continued in AUTO, and it
-completes; then a Go-to-location flight holds at its place for longer than the limit and is
-let go in MANUAL. Neither is a ``mission_time`` fault, though both flights last longer than
-the limit in autopilot time (what the limit counted before). Each flight's run directory
-holds a non-empty ``link.tlog`` that pymavlink reads, with that flight's traffic only.
+The real service against the built-in simulator on the simulated clock with a scripted ground
+station (system 255), as in test_serve_crew_modes.py: ``safety.mission_time_limit_s`` is set
+to 30 s, a mission of about 16 s is paused in HOLD for longer than that, then continued in
+AUTO, and it completes; then a Go-to-location flight holds at its place for longer than the
+limit and is let go in MANUAL. Neither is a ``mission_time`` fault, though both flights last
+longer than the limit in autopilot time (what the limit counted before). Each flight's run
+directory holds a non-empty ``link.tlog`` that pymavlink reads, with that flight's traffic
+only.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from helixd.base.run_files import TLOG_FILE
-from helixd.mav.constants import (
-    MAV_CMD_COMPONENT_ARM_DISARM,
-    MAV_MODE_FLAG_SAFETY_ARMED,
-    MAV_RESULT_ACCEPTED,
-)
 from helixd.sim.modes import MODE_NUMBERS
 from tests.integration.test_serve_crew_modes import CONFIG, driving, overriding_neutral
-from tests.integration.test_serve_goto import ARRIVAL_M, go_to_location, near
-from tests.support.gcs import upload
-from tests.support.harness import (
-    deep_merge,
-    guard_installed,
-    overrides_released,
-    record_until,
-    time_until,
-)
-from tests.support.mavmsgs import read_tlog
-from tests.support.serve import (
-    SPEEDUP,
-    flight_summaries,
+from tests.integration.test_serve_goto import ARRIVAL_M, armed_in_manual, go_to_location, near
+from tests.support.harness import deep_merge, guard_installed, overrides_released
+from tests.support.loop_gcs import (
     heartbeat_shows,
-    serving_crew,
     set_mode,
+    simulated_crew,
+    upload,
     upload_and_start,
 )
+from tests.support.loop_mav import LoopMav
+from tests.support.mavmsgs import read_tlog
+from tests.support.serve import flight_summaries
+from tests.support.simulated import Steer
 
 LIMIT_S = 30.0  # the mission below is estimated at about 16 s
 HELD_S = LIMIT_S + 10.0  # simulated time held for the crew, each flight: over the limit
@@ -49,47 +39,48 @@ MISSION = [(8.0, 0.0)]  # north/east from the EKF origin (m)
 PLACE_NE = (8.0, 4.0)
 
 
-def held_for_the_crew(server: Any, mode: str) -> None:
+async def held_for_the_crew(st: Steer, mode: str) -> None:
     """``HELD_S`` of simulated time held at neutral by helixd's overrides, armed, in ``mode``."""
-    t0 = server.snapshot().sim_time_s
-    trace = record_until(server, lambda s: s.sim_time_s >= t0 + HELD_S, 60.0)
-    later = [s for _, s in trace.samples if s.sim_time_s >= t0 + 0.5]
+    t0 = st.snapshot().sim_time_s
+    trace = await st.record_until(lambda s: s.sim_time_s >= t0 + HELD_S, 60.0)
+    later = [s for s in trace if s.sim_time_s >= t0 + 0.5]
     assert later and all(overriding_neutral(s) and s.armed and s.mode == mode for s in later)
 
 
 def test_time_held_for_the_crew_is_not_counted_and_each_flight_has_its_tlog(
     tmp_path: Path,
 ) -> None:
-    with serving_crew(tmp_path, TIME_LIMITED, **guard_installed(SPEEDUP)) as (server, gcs, d):
+    async def crew(st: Steer, gcs: LoopMav) -> None:
         # QGC's Plan view: Upload; Start Mission (APMFirmwarePlugin::startMission)
-        upload_and_start(server, gcs, d, lambda: upload(gcs, MISSION))
+        await upload_and_start(st, gcs, lambda: upload(gcs, MISSION))
 
         # Pause (HOLD) for longer than the whole limit, then Continue (AUTO)
-        t_pause = set_mode(gcs, "HOLD")
-        time_until(server, overriding_neutral, t_pause, 5.0)
-        held_for_the_crew(server, "HOLD")
-        t_continue = set_mode(gcs, "AUTO")
-        time_until(server, driving, t_continue, 10.0)
-        assert gcs.wait_text("Mission Complete", 120.0) == "Mission Complete"
-        d.wait_line("event=serve_state state=completed", 60.0)
+        await set_mode(gcs, "HOLD")
+        await st.until(overriding_neutral, 5.0)
+        await held_for_the_crew(st, "HOLD")
+        await set_mode(gcs, "AUTO")
+        await st.until(driving, 10.0)
+        assert await gcs.wait_text("Mission Complete", 120.0) == "Mission Complete"
+        await st.line("event=serve_state state=completed", 60.0)
 
         # Go to location, held there for longer than the limit, then MANUAL lets go
-        server.wait_for(lambda s: not s.armed, 30.0)  # a completed mission ends disarmed
-        set_mode(gcs, "MANUAL")
-        heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["MANUAL"])
-        assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-        heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
-        mark = d.mark()
-        t_click = go_to_location(gcs, *PLACE_NE)
-        time_until(server, near(PLACE_NE, ARRIVAL_M), t_click, 90.0)
-        d.wait_line("event=goto_arrived", 30.0, after=mark)
-        held_for_the_crew(server, "GUIDED")
-        t_manual = set_mode(gcs, "MANUAL")
-        time_until(server, overrides_released, t_manual, 5.0)
-        d.wait_line("event=serve_flight_end", 10.0, after=mark)
-        assert "cause=mission_time" not in d.log_text()
-        assert "event=fallback" not in d.log_text()
-        d.terminate_ok()
+        await st.until(lambda s: not s.armed, 30.0)  # a completed mission ends disarmed
+        await set_mode(gcs, "MANUAL")
+        await heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["MANUAL"])
+        await armed_in_manual(st, gcs)
+        mark = st.mark()
+        await go_to_location(gcs, *PLACE_NE)
+        await st.until(near(PLACE_NE, ARRIVAL_M), 90.0)
+        await st.line("event=goto_arrived", 30.0, after=mark)
+        await held_for_the_crew(st, "GUIDED")
+        await set_mode(gcs, "MANUAL")
+        await st.until(overrides_released, 5.0)
+        await st.line("event=serve_flight_end", 10.0, after=mark)
+
+    served = simulated_crew(tmp_path, TIME_LIMITED, crew, **guard_installed(1.0))
+    assert served.code == 0, served.log[-3000:]
+    assert "cause=mission_time" not in served.log
+    assert "event=fallback" not in served.log
 
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
     summaries = flight_summaries(tmp_path)

@@ -57,6 +57,11 @@ def test_the_freshest_report_tells_the_mode() -> None:
     # agreeing reports: the HEARTBEAT's mode (it names it)
     assert crew_mode("MANUAL", 10.0, 0, 10.1, True) == "MANUAL"
     assert crew_mode("AUTO", 10.0, 1, 10.1, True) == "AUTO"
+    # AUTO entered and left between two HEARTBEATs (GUIDED, Start Mission, Pause): the
+    # HEARTBEAT's GUIDED is older than the AUTO just left, never a mode to go back to
+    assert crew_mode("GUIDED", 10.0, 0, 10.9, True, auto_rx_s=10.5) == LEFT_AUTO
+    assert crew_mode("GUIDED", 10.0, 0, 10.9, True, auto_rx_s=9.5) == "GUIDED"
+    assert crew_mode("GUIDED", 10.0, 0, 10.9, False, auto_rx_s=10.5) == "GUIDED"
 
 
 def test_the_crews_set_current_waypoint_is_any_move_but_on_to_the_next_item() -> None:

@@ -34,7 +34,7 @@ def test_the_core_provides_every_member_of_the_port() -> None:
         for name, value in vars(inbound.InboundPort).items()
         if not name.startswith("_") and (isinstance(value, property) or callable(value))
     ]
-    assert {"ap", "params", "now_s", "view", "send", "record", "streams"} <= set(members)
+    assert {"ap", "params", "now_s", "view_now", "send", "record", "streams"} <= set(members)
     core = SimCore(SimConfig(), 1, np.random.default_rng(0))
     missing = [name for name in members if not hasattr(core, name)]
     assert not missing, missing

@@ -131,6 +131,16 @@ async def booted(st: Steer, gcs: LoopMav) -> None:
     )
 
 
+async def start_mission(gcs: LoopMav) -> None:
+    """QGroundControl's Start Mission on a disarmed rover (APMFirmwarePlugin::startMission):
+    GUIDED, arm, then MAV_CMD_MISSION_START to the autopilot (which enters AUTO)."""
+    await set_mode(gcs, "GUIDED")
+    await heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
+    assert await gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+    await heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+    assert await gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+
+
 async def upload_and_start(st: Steer, gcs: LoopMav, upload_mission: UploadStep) -> None:
     """QGroundControl's Plan view Upload once ``helixd serve`` finds no mission, then Start
     Mission on the disarmed rover once it is ready (GUIDED, arm, MAV_CMD_MISSION_START to the
@@ -139,11 +149,7 @@ async def upload_and_start(st: Steer, gcs: LoopMav, upload_mission: UploadStep) 
     await upload_mission()
     await st.line("event=serve_state state=ready", 30.0)
     await booted(st, gcs)
-    await set_mode(gcs, "GUIDED")
-    await heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
-    assert await gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-    await heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
-    assert await gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
+    await start_mission(gcs)
     await st.line("event=auto_start", 10.0)  # item 0 or 1: MISSION_CURRENT may lag the start
     await st.until(moving, 20.0)
 

@@ -124,13 +124,16 @@ class LoopMav:
         target: tuple[int, int] = (1, 1),
         timeout_s: float = 10.0,
     ) -> int:
-        """COMMAND_LONG to ``target``; the result of its COMMAND_ACK."""
+        """COMMAND_LONG to ``target``; the result of its COMMAND_ACK, matched by the command
+        and the component that was addressed (as QGroundControl matches it)."""
         p = [float(x) for x in params] + [0.0] * (7 - len(params))
         self.drain()
         self.mav.command_long_send(target[0], target[1], command, 0, *p)
         ack = await self.expect(
             "COMMAND_ACK",
             timeout_s,
-            lambda m: int(m.command) == command and int(m.get_srcSystem()) == target[0],
+            lambda m: (
+                int(m.command) == command and (m.get_srcSystem(), m.get_srcComponent()) == target
+            ),
         )
         return int(ack.result)
