@@ -57,6 +57,10 @@ class MissionWatch:
                 if self._total is not None:
                     log.info("autopilot_mission_count", total=total)
                     self.due = True
+                elif self.fingerprint is not None:
+                    # the first count came after a read: an upload in between changed nothing
+                    # it could compare with (autopilots count differently), so read once more
+                    self.due = True
                 self._total = total
         elif kind == "STATUSTEXT" and FLIGHT_PLAN_RECEIVED in str(msg.text):
             self.due = True
@@ -80,9 +84,6 @@ class MissionWatch:
             self.read_error = str(exc)
             self._next_poll_s = now_s() + min(poll_s, MISSION_RETRY_S)
             return None
-        # the count this read saw, as MISSION_CURRENT.total counts it (home excluded): an
-        # upload between this read and the autopilot's next MISSION_CURRENT is still a change
-        self._total = max(0, len(got.mission) - 1)
         fingerprint = items_sha256(got.mission, got.fence)
         if fingerprint == self.fingerprint and not recheck:
             return None
