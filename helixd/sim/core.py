@@ -148,6 +148,7 @@ class SimCore:
         self.goto = ModeGoto()  # GUIDED's, RTL's and SmartRTL's place (helixd.sim.mode_goto)
         self.srtl = SmartRtlPath()  # AP_SmartRTL's saved path
         self.ap.smart_rtl_ready = lambda: self.srtl.active
+        self.ap.on_disarm = self._mission_on_disarm
         self._mode_before = self.ap.mode  # a mode entered or left: AUTO's, GUIDED's, RTL's
         self._params_view: tuple[int, Mapping[str, float]] = (-1, MappingProxyType({}))
         self.view = self._view(self.ekf_status(), self.now_s)
@@ -453,11 +454,6 @@ class SimCore:
                 built = vehicle_reports.build(msg_id, self.view)
                 if built is not None:
                     self.send(None, built)
-        auto = MODE_NUMBERS["AUTO"]
-        if self._was_armed and not self.ap.armed and self.ap.mode != auto:
-            # AP_Arming_Rover::disarm: outside AUTO the mission is reset, so MISSION_CURRENT
-            # reads 0 until something sets the current item again
-            self.mission.reset_on_disarm()
         self._smart_rtl_save(arming=self.ap.armed and not self._was_armed)
         self._was_armed = self.ap.armed
         self._mode_changed()
@@ -615,6 +611,13 @@ class SimCore:
             battery_failsafe=ap.battery_failsafe_level > 0,
             position_target=self._position_target(),
         )
+
+    def _mission_on_disarm(self) -> None:
+        """AP_Arming_Rover::disarm: outside AUTO the mission is reset, at the disarm itself,
+        so MISSION_CURRENT reads 0 until something sets the current item again (a current
+        item set after the disarm stays)."""
+        if self.ap.mode != MODE_NUMBERS["AUTO"]:
+            self.mission.reset_on_disarm()
 
     def view_now(self) -> vehicle_reports.TelemetryView:
         """The last tick's view with what a command handled since may have changed (mode,

@@ -180,6 +180,8 @@ class SimAutopilot:
         self.mission_present: Callable[[], bool] = lambda: False
         # AP_SmartRTL::is_active (a saved path): the simulator's core answers it
         self.smart_rtl_ready: Callable[[], bool] = lambda: False
+        # AP_Arming_Rover::disarm's own work on the mission: the simulator's core does it
+        self.on_disarm: Callable[[], None] = lambda: None
         self._boot(now_s, silent_s=0.0)
 
     # -- lifecycle -------------------------------------------------------------------------
@@ -380,11 +382,16 @@ class SimAutopilot:
             return f"Throttle (RC{t_ch}) is not neutral"
         return None
 
+    def _disarm(self, method: str) -> None:
+        """AP_Arming::disarm: at once, with what it does to the mission (``on_disarm``)."""
+        self.armed = False
+        self.events.append(SimEvent("disarm", {"method": method}))
+        self.on_disarm()
+
     def arm_disarm(self, param1: float, param2: float, now_s: float, ekf: SimEkfStatus) -> int:
         if param1 == 0.0:
             if self.armed:
-                self.armed = False
-                self.events.append(SimEvent("disarm", {"method": "mavlink"}))
+                self._disarm("mavlink")
             return MAV_RESULT_ACCEPTED
         if param1 != 1.0:
             return MAV_RESULT_UNSUPPORTED
@@ -558,8 +565,7 @@ class SimAutopilot:
             if self.set_mode(number, "failsafe", now_s, ekf):
                 break
         if decision.disarm and self.armed:
-            self.armed = False
-            self.events.append(SimEvent("disarm", {"method": "failsafe"}))
+            self._disarm("failsafe")
 
     def battery_low(
         self, now_s: float, ekf: SimEkfStatus, voltage_v: float, used_mah: float, critical: bool

@@ -262,8 +262,9 @@ def test_a_disarm_resets_the_mission_so_the_current_item_reads_0() -> None:
     core.ap.armed = True
     run(core, 0.1)
     assert core.mission.current_seq == 2  # armed: nothing reset
-    core.ap.armed = False
-    run(core, 0.1)
-    assert core.mission.current_seq == 0
+    core.ap.arm_disarm(0.0, 0.0, core.now_s, core.ekf_status())
+    assert core.mission.current_seq == 0  # at the disarm itself, not at the next tick
     core.handle(0, incoming(command_msg("long", 2.0)))  # set again after the disarm
+    run(core, 0.1)
+    assert core.mission.current_seq == 2  # and it stays
     assert core.mission.current_seq == 2
