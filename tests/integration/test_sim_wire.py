@@ -294,6 +294,9 @@ async def test_helixd_asks_for_granted_rates_without_a_too_fast_text() -> None:
 
 
 RC_RECEIVER_BIT = 0x10000
+# the simulator's speed-up while a test streams overrides: times are judged in simulated time
+# and the stream is paced by it, so a faster simulator changes nothing but the wait
+STREAM_SPEEDUP = 5.0
 
 
 def _stream_overrides_until(
@@ -304,15 +307,15 @@ def _stream_overrides_until(
     seen: list[Any],
     stop: Callable[[Any], bool] = lambda m: False,
 ) -> Any:
-    """Stream RC_CHANNELS_OVERRIDE (as helixd does, every 50 ms of wall time) while collecting
-    SYS_STATUS, HEARTBEAT and STATUSTEXT until the simulator's clock reaches ``until_sim_s``
-    or a message satisfies ``stop`` (returned)."""
+    """Stream RC_CHANNELS_OVERRIDE (as helixd does, every 50 ms of its clock: here the
+    simulator's) while collecting SYS_STATUS, HEARTBEAT and STATUSTEXT until the simulator's
+    clock reaches ``until_sim_s`` or a message satisfies ``stop`` (returned)."""
     next_send = 0.0
-    while srv.snapshot().sim_time_s < until_sim_s:
-        if time.monotonic() >= next_send:
+    while (sim_s := srv.snapshot().sim_time_s) < until_sim_s:
+        if sim_s >= next_send:
             c.override(*channels)
-            next_send = time.monotonic() + 0.05
-        msg = c.conn.recv_match(type=["SYS_STATUS", "HEARTBEAT", "STATUSTEXT"], timeout=0.05)
+            next_send = sim_s + 0.05
+        msg = c.conn.recv_match(type=["SYS_STATUS", "HEARTBEAT", "STATUSTEXT"], timeout=0.01)
         if msg is None:
             continue
         seen.append((srv.snapshot().sim_time_s, msg))
@@ -326,7 +329,7 @@ def test_a_receiver_that_stops_is_invisible_while_overrides_stream() -> None:
     changed for 6 s): new overrides count as valid RC input, so Rover's radio failsafe never
     times out, SYS_STATUS keeps the receiver healthy and RC_CHANNELS shows the overrides.
     Before: the simulator reported the loss from the receiver itself, which ArduPilot does not."""
-    with running_sim(speedup=1.0) as (srv, url), client(url) as c:
+    with running_sim(speedup=STREAM_SPEEDUP) as (srv, url), client(url) as c:
         wait_manual(c)
         seen: list[Any] = []
         t0 = srv.snapshot().sim_time_s
@@ -350,7 +353,7 @@ def test_a_receivers_low_throttle_failsafe_is_seen_on_a_channel_not_overridden()
     (RCMAP_THROTTLE 5) not overridden, Rover's radio failsafe starts at once (SYS_STATUS
     receiver unhealthy) while overrides stream on 1-4, and acts after FS_TIMEOUT (1.5 s):
     "Radio Failsafe", HOLD."""
-    with running_sim(speedup=1.0) as (srv, url), client(url) as c:
+    with running_sim(speedup=STREAM_SPEEDUP) as (srv, url), client(url) as c:
         wait_manual(c)
         assert c.param_read("RCMAP_THROTTLE") == 5 and c.param_read("FS_THR_VALUE") == 960
         assert c.request_interval(1, 100_000) == MAV_RESULT_ACCEPTED  # SYS_STATUS at 10 Hz
