@@ -266,6 +266,23 @@ GPS_FIX_NAMES = {
 }
 
 
+def starved_by_silence(
+    now_s: float,
+    rx_s: float | None,
+    limit_s: float,
+    last_rx_s: float | None,
+    last_heartbeat_s: float | None,
+) -> bool:
+    """Whether a stream received last at ``rx_s`` is overdue (older than ``limit_s``) only
+    because nothing at all has come since it was due: the whole link stopped, and the link
+    watchdog names that within ``pose_stale_s`` of the silence, whatever the stream's phase. A
+    stream that alone stopped is overdue with other messages still arriving after its due
+    time, and is judged as itself."""
+    if rx_s is None or last_rx_s is None or last_heartbeat_s is None:
+        return False
+    return now_s - rx_s > limit_s and last_rx_s <= rx_s + limit_s
+
+
 def gps_fault(
     now_s: float,
     rx_s: float | None,
@@ -401,6 +418,9 @@ class SafetyMonitor:
         )
 
     def _pose(self, s: SafetyInputs) -> Fault | None:
+        stale_s = self.cfg.pose_stale_s
+        if starved_by_silence(s.now_s, s.pose_rx_s, stale_s, s.last_rx_s, s.last_heartbeat_s):
+            return None  # every message stopped: _link names it
         return age_fault(
             FaultCause.POSE_STALE,
             s.now_s,
@@ -418,6 +438,9 @@ class SafetyMonitor:
     def _gps(self, s: SafetyInputs) -> Fault | None:
         if not s.gps_monitored:
             return None
+        stale_s = self.cfg.gps_stale_s
+        if starved_by_silence(s.now_s, s.gps_rx_s, stale_s, s.last_rx_s, s.last_heartbeat_s):
+            return None  # every message stopped: _link names it
         return gps_fault(
             s.now_s, s.gps_rx_s, s.gps_fix_type, s.gps_satellites, self.cfg, s.gps_fix_rx_s
         )

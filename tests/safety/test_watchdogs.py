@@ -65,6 +65,53 @@ def test_a_lost_link_is_named_before_what_its_loss_starves() -> None:
     assert fault is not None and fault.cause is FaultCause.POSE_STALE
 
 
+@pytest.mark.parametrize("phase_s", [0.0, 0.05, 0.1, 0.15, 0.199])
+def test_a_silent_link_is_named_whatever_the_gps_and_pose_phase(phase_s: float) -> None:
+    """Every message stops at 99.3 s; the last GPS_RAW_INT (5 Hz) came ``phase_s`` before
+    that and the last pose 10 ms before. Judged every 10 ms: the first fault is the link's,
+    never the GPS overdue 0.4-0.6 s after the silence (it was, when its phase made it due
+    before the link's 0.5 s)."""
+    monitor = SafetyMonitor(SafetyConfig())
+    silence_s = 99.3
+    starved = dataclasses.replace(
+        HEALTHY,
+        last_rx_s=silence_s,
+        pose_rx_s=silence_s - 0.01,
+        gps_rx_s=silence_s - phase_s,
+        gps_fix_rx_s=silence_s - phase_s,
+        gps_fix_type=3,
+        gps_satellites=12,
+        gps_monitored=True,
+    )
+    for step in range(1, 120):
+        now = silence_s + step * 0.01
+        fault = monitor.check(dataclasses.replace(starved, now_s=now, last_heartbeat_s=99.0))
+        if fault is not None:
+            assert fault.cause is FaultCause.LINK_LOST, (now, fault)
+            assert now - silence_s <= SafetyConfig().pose_stale_s + 0.011
+            return
+    raise AssertionError("no fault")
+
+
+def test_a_gps_stream_that_alone_stopped_is_the_gps() -> None:
+    """GPS_RAW_INT stops while the pose and the rest flow: the GPS, one message after it
+    became due (not deferred to a link that is fine)."""
+    monitor = SafetyMonitor(SafetyConfig())
+    limit_s = SafetyConfig().gps_stale_s
+    gps_s = 99.0
+    alive = dataclasses.replace(
+        HEALTHY,
+        gps_rx_s=gps_s,
+        gps_fix_rx_s=gps_s,
+        gps_fix_type=3,
+        gps_satellites=12,
+        gps_monitored=True,
+    )
+    due = dataclasses.replace(alive, now_s=gps_s + limit_s + 0.01, last_rx_s=gps_s + limit_s + 0.01)
+    fault = monitor.check(dataclasses.replace(due, last_heartbeat_s=due.now_s, pose_rx_s=due.now_s))
+    assert fault is not None and fault.cause is FaultCause.GPS_LOST, fault
+
+
 def test_time_paused_is_not_held_against_the_limit() -> None:
     held = dataclasses.replace(HEALTHY, mission_elapsed_s=1700.0, mission_paused_s=5000.0)
     assert SafetyMonitor(SafetyConfig()).check(held) is None
