@@ -31,6 +31,7 @@ from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import load_occupancy
+from helixd.sim.sim_config import Terrain
 
 T = TypeVar("T")
 
@@ -113,6 +114,9 @@ ObserverConnectOpt = Annotated[  # the link of a command that does not fly (:fun
     ),
 ]
 LogLevelOpt = Annotated[str, typer.Option(help="debug, info, warning or error")]
+SimTerrainOpt = Annotated[  # helixd sim, helixd plant
+    Terrain | None, typer.Option("--terrain", help="ground under the rover")
+]
 MapOpt = Annotated[
     Path | None,
     typer.Option(
