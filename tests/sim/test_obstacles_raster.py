@@ -16,7 +16,12 @@ from hypothesis import strategies as st
 from helixd.sim.collisions import ObstacleRaster, SimObstacles, distance_m
 from helixd.sim.core import SimCore
 from helixd.sim.sim_config import SimConfig
-from tests.support.simcore import EmbeddedStart, assert_step_never_closer, capture_embedded_start
+from tests.support.simcore import (
+    EmbeddedStart,
+    assert_step_never_closer,
+    capture_embedded_start,
+    run,
+)
 
 # 0.1 m cells from (north 0, east -5), 120 rows × 100 cols: north 0..12, east -5..5
 RES = 0.1
@@ -95,17 +100,11 @@ def test_driving_into_the_map_wall_stops_the_rover_and_logs_the_contact() -> Non
     )
     config = config.model_copy(update={"obstacles": SimObstacles(raster=wall_raster())})
     core = SimCore(config, 1, np.random.default_rng(1))
-
-    def tick_for(seconds: float) -> None:
-        for _ in range(round(seconds / core.dt_s())):
-            core.tick()
-            core.drain_outbox()
-
-    tick_for(2.0)
+    run(core, 2.0)
     core.drain_events()
     core.set_rc(1, 1700)  # both skid motors forward: straight north from (0, 0)
     core.set_rc(3, 1700)
-    tick_for(25.0)
+    run(core, 25.0)
     contacts = [e for e in core.drain_events() if e.kind == "contact"]
     assert len(contacts) == 1
     assert 7.0 < core.phys.north_m <= 8.0 - 0.429 + 1e-9
