@@ -13,7 +13,7 @@ from pydantic import ValidationError
 from helixd.sim.collisions import SimObstacles, constrain, distance_m
 from helixd.sim.sim_config import SimConfig
 from helixd.sim.state import PhysicsState
-from tests.support.simcore import assert_step_never_closer, make_core, run
+from tests.support.simcore import assert_step_never_closer, make_core, run, skid_north_contacts
 
 POND: dict[str, Any] = {
     "circles": [{"north_m": 3.0, "east_m": 0.0, "radius_m": 1.0}],
@@ -32,12 +32,7 @@ def test_distance_to_circles_and_polygons() -> None:
 
 def test_driving_into_a_circle_stops_at_the_body_radius_and_logs_one_contact() -> None:
     core = make_core(1, plant="sitl_skid", obstacles=POND)
-    run(core, 2.0)
-    core.drain_events()
-    core.set_rc(1, 1700)  # both skid motors forward: straight north from (0, 0)
-    core.set_rc(3, 1700)
-    run(core, 8.0)
-    contacts = [e for e in core.drain_events() if e.kind == "contact"]
+    contacts = skid_north_contacts(core, 8.0)
     assert len(contacts) == 1
     # stopped before the body (0.429 m) reaches the disc's edge at north 2.0 m
     assert 1.5 < core.phys.north_m <= 2.0 - 0.429 + 1e-9
