@@ -19,26 +19,41 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
+from typing import Generic, TypeVar
 
 from helixd.config import ActuationConfig, ChannelConfig, VehicleConfig
 from helixd.mav.constants import UINT16_MAX
 
+SenderT = TypeVar("SenderT")
 RC_OVERRIDE_CHANNELS = 18
 FIRST_EXTENDED_CHANNEL = 9  # channels 9..18 use the second set of semantics
 
 
-class ChannelSink:
+class ChannelSink(Generic[SenderT]):
     """What the RC-override and the DO_SET_SERVO sinks share: the four scroll channels
-    (``actuation.channels``), their neutral PWM, the output clamp, and the PWM last commanded
-    (neutral until the first command)."""
+    (``actuation.channels``), their neutral PWM, the output clamp, the PWM last commanded
+    (neutral until the first command), and the autopilot ``ap`` they send through."""
 
-    def __init__(self, actuation: ActuationConfig, vehicle: VehicleConfig) -> None:
+    def __init__(self, actuation: ActuationConfig, vehicle: VehicleConfig, ap: SenderT) -> None:
         self._cfg = actuation
         self._clamp = vehicle.output_clamp
         self._channels = tuple(actuation.channels)
         n = [neutral_pwm(c) for c in self._channels]
         self._neutral: tuple[int, int, int, int] = (n[0], n[1], n[2], n[3])
         self.last_pwm_us: tuple[int, int, int, int] = self._neutral
+        self._ap = ap
+        self._warned_idle = False
+
+    def _pwm_for(self, fractions: Sequence[float]) -> tuple[int, int, int, int]:
+        """The PWM of each scroll channel for checked ``fractions``."""
+        p = [fraction_to_pwm(x, ch) for x, ch in zip(fractions, self._channels, strict=True)]
+        return (p[0], p[1], p[2], p[3])
+
+    def _first_idle(self) -> bool:
+        """True the first time the sink is commanded before it started (it warns once)."""
+        first = not self._warned_idle
+        self._warned_idle = True
+        return first
 
 
 def neutral_pwm(ch: ChannelConfig) -> int:

@@ -30,7 +30,6 @@ import structlog
 from helixd.actuators.base import checked_fractions
 from helixd.actuators.mapping import (
     ChannelSink,
-    fraction_to_pwm,
     frame_at,
     override_slots,
     release_frame,
@@ -45,12 +44,11 @@ class OverrideSender(Protocol):
     def send_rc_override(self, channels_us: Sequence[int]) -> None: ...
 
 
-class RcOverrideSink(ChannelSink):
+class RcOverrideSink(ChannelSink[OverrideSender]):
     def __init__(
         self, actuation: ActuationConfig, vehicle: VehicleConfig, ap: OverrideSender
     ) -> None:
-        super().__init__(actuation, vehicle)
-        self._ap = ap
+        super().__init__(actuation, vehicle, ap)
         self._slots = override_slots(c.channel for c in self._channels)  # checked once
         self.held_channels: frozenset[int] = frozenset()
         self.frames_sent = 0
@@ -60,7 +58,6 @@ class RcOverrideSink(ChannelSink):
         self._started = False
         self._loop: asyncio.AbstractEventLoop | None = None
         self._timer: asyncio.TimerHandle | None = None
-        self._warned_idle = False
 
     async def start(self) -> None:
         if self._started:
@@ -78,12 +75,10 @@ class RcOverrideSink(ChannelSink):
     def command(self, fractions: Sequence[float]) -> None:
         f = checked_fractions(fractions, self._clamp)
         if not self._started:
-            if not self._warned_idle:
+            if self._first_idle():
                 log.warning("rc_override_not_started", fractions=f)
-                self._warned_idle = True
             return
-        pwm = tuple(fraction_to_pwm(x, ch) for x, ch in zip(f, self._channels, strict=True))
-        self._set((pwm[0], pwm[1], pwm[2], pwm[3]))
+        self._set(self._pwm_for(f))
 
     def _set(self, pwm: tuple[int, int, int, int]) -> None:
         self.last_pwm_us = pwm

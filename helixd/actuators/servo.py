@@ -36,7 +36,7 @@ from typing import Protocol
 import structlog
 
 from helixd.actuators.base import ServoCommandRefused, checked_fractions
-from helixd.actuators.mapping import ChannelSink, fraction_to_pwm
+from helixd.actuators.mapping import ChannelSink
 from helixd.base.clock import now_s
 from helixd.config import ActuationConfig, VehicleConfig
 from helixd.link.command_client import CommandRejected, CommandTimeout
@@ -63,19 +63,17 @@ def _four(values: Sequence[int]) -> tuple[int, int, int, int]:
     return (values[0], values[1], values[2], values[3])
 
 
-class ServoSink(ChannelSink):
+class ServoSink(ChannelSink[ServoCommandSender]):
     def __init__(
         self, actuation: ActuationConfig, vehicle: VehicleConfig, ap: ServoCommandSender
     ) -> None:
-        super().__init__(actuation, vehicle)
-        self._ap = ap
+        super().__init__(actuation, vehicle, ap)
         self._desired: list[int] = list(self._neutral)
         self._acked: list[int | None] = [None] * len(self._channels)
         self._sent_s: list[float] = [-float("inf")] * len(self._channels)  # monotonic
         self.fault: ServoCommandRefused | None = None
         self._wake = asyncio.Event()
         self._task: asyncio.Task[None] | None = None
-        self._warned_idle = False
 
     @property
     def held_channels(self) -> frozenset[int]:
@@ -119,11 +117,10 @@ class ServoSink(ChannelSink):
             raise self.fault
         f = checked_fractions(fractions, self._clamp)
         if self._task is None:
-            if not self._warned_idle:
+            if self._first_idle():
                 log.warning("servo_sink_not_started", fractions=f)
-                self._warned_idle = True
             return
-        self._desired = [fraction_to_pwm(x, ch) for x, ch in zip(f, self._channels, strict=True)]
+        self._desired = list(self._pwm_for(f))
         self._wake.set()
 
     async def _set_one(self, i: int, pwm_us: int) -> None:

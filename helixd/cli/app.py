@@ -33,11 +33,15 @@ from helixd.cli import sim_command as cli_sim
 from helixd.cli.autopilot import fetch_autopilot_mission, wants_autopilot
 from helixd.cli.common import (
     CONTEXT_SETTINGS,
+    ConfigOpt,
+    ConnectOpt,
+    LogLevelOpt,
+    MapOpt,
+    ObserverConnectOpt,
     WholeHelpGroup,
     check_connect,
     command_group,
     config_link_map,
-    config_option,
     config_or_exit,
     fail,
     refused,
@@ -114,10 +118,6 @@ def main_options(
     """Fly the Helix-25 screw-propelled rover through waypoint missions over MAVLink."""
 
 
-ConfigOpt = Annotated[
-    Path | None,
-    config_option(),
-]
 MissionOpt = Annotated[
     Path,
     typer.Option(
@@ -168,14 +168,6 @@ FenceOpt = Annotated[
         "--fence",
         help="fence file: a Mission Planner fence (QGC WPL 110, commands 5000-5004) or a "
         ".plan's geoFence; inclusion shapes keep the rover in, exclusions are planned around",
-    ),
-]
-MapOpt = Annotated[
-    Path | None,
-    typer.Option(
-        "--map",
-        help="ROS map_server map (YAML + PGM/PNG, x east / y north from the EKF origin): plan "
-        "every leg around it and the planning.keep_out_* shapes (local_ned missions)",
     ),
 ]
 
@@ -236,14 +228,6 @@ def check(
             raise fail([f"--plot: cannot write {plot}: {exc}"], ExitCode.USAGE) from None
 
 
-ConnectOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--connect",
-        help="autopilot link: /dev/ttyACM0[:baud], udpin:HOST:PORT, udpout:HOST:PORT, "
-        "tcp:HOST:PORT (default: link.url from the config)",
-    ),
-]
 SimOpt = Annotated[
     bool, typer.Option("--sim", help="fly against the built-in simulator, started in-process")
 ]
@@ -287,7 +271,6 @@ RunDirOpt = Annotated[
         "interrupted run's)",
     ),
 ]
-LogLevelOpt = Annotated[str, typer.Option(help="debug, info, warning or error")]
 ShowPlanOpt = Annotated[
     bool,
     typer.Option(
@@ -510,14 +493,7 @@ def echo_flight(flight: Flight) -> None:
 
 @app.command()
 def status(
-    connect: Annotated[
-        str | None,
-        typer.Option(
-            "--connect",
-            help="autopilot link (default: link.url); spoken as link.observer_system (248), "
-            "never as the GCS id, and without a HEARTBEAT, so the GCS failsafe ignores it",
-        ),
-    ] = None,
+    connect: ObserverConnectOpt = None,
     config: ConfigOpt = None,
     watch: Annotated[bool, typer.Option("--watch", help="refresh until Ctrl-C")] = False,
     interval_s: Annotated[float, typer.Option(min=0.2, max=60.0, help="refresh period (s)")] = 1.0,

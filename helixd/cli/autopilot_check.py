@@ -17,8 +17,7 @@ from typing import Annotated
 import typer
 
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import fail, link_inputs, run_on_link
-from helixd.cli.guard import ConfigOpt, ConnectOpt
+from helixd.cli.common import ConfigOpt, ObserverConnectOpt, fail, link_inputs, run_on_link
 from helixd.cli.simulated import embedded_guard
 from helixd.config import HelixdConfig
 from helixd.link.autopilot_setup import SetupLine, failed, judge_setup, read_setup
@@ -84,7 +83,7 @@ async def setup_lines(ap: Autopilot, cfg: HelixdConfig) -> list[SetupLine]:
 
 
 def check_command(
-    connect: ConnectOpt = None, config: ConfigOpt = None, sim: SimOpt = False
+    connect: ObserverConnectOpt = None, config: ConfigOpt = None, sim: SimOpt = False
 ) -> None:
     """Check the autopilot's setup for helixd: a normal arm passes the motor-output check (a
     spare output with SERVOn_FUNCTION = 94), no PreArm check is skipped, the scroll outputs

@@ -19,8 +19,7 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.autopilot_check import report, setup_lines
-from helixd.cli.common import fail, link_inputs, run_on_link
-from helixd.cli.guard import ConfigOpt, ConnectOpt
+from helixd.cli.common import ConfigOpt, ObserverConnectOpt, fail, link_inputs, run_on_link
 from helixd.files.parmfile import ParmFileError, load_parm
 from helixd.link.autopilot_setup import SetupLine, failed
 from helixd.link.connection import Autopilot
@@ -63,7 +62,7 @@ def _refuse_armed(ap: Autopilot) -> None:
 
 
 def setup_command(
-    file: FileOpt, connect: ConnectOpt = None, config: ConfigOpt = None, yes: YesOpt = False
+    file: FileOpt, connect: ObserverConnectOpt = None, config: ConfigOpt = None, yes: YesOpt = False
 ) -> None:
     """Load a parameter file onto the autopilot: show the difference, ask, set, say whether
     to reboot, then check the setup (as `helixd autopilot check`)."""

@@ -8,7 +8,7 @@ import sys
 from collections.abc import Awaitable, Callable
 from contextvars import ContextVar
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Annotated, Any, TypeVar
 
 import typer
 from typer.core import TyperGroup
@@ -31,6 +31,7 @@ from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import load_occupancy
+from helixd.sim.sim_config import Terrain
 
 T = TypeVar("T")
 
@@ -92,6 +93,38 @@ CONFIG_HELP = (
 def config_option() -> Any:
     """The ``--config/-c`` option every command shares (resolved by :func:`resolve_config`)."""
     return typer.Option("--config", "-c", help=CONFIG_HELP, callback=resolve_config)
+
+
+# The options several commands share, each defined once.
+ConfigOpt = Annotated[Path | None, config_option()]
+ConnectOpt = Annotated[  # the link of a command that flies (run, serve)
+    str | None,
+    typer.Option(
+        "--connect",
+        help="autopilot link: /dev/ttyACM0[:baud], udpin:HOST:PORT, udpout:HOST:PORT, "
+        "tcp:HOST:PORT (default: link.url from the config)",
+    ),
+]
+ObserverConnectOpt = Annotated[  # the link of a command that does not fly (:func:`on_autopilot`)
+    str | None,
+    typer.Option(
+        "--connect",
+        help="autopilot link (default: link.url); spoken as link.observer_system (248), never "
+        "as the GCS id, and without a HEARTBEAT, so the autopilot's GCS failsafe ignores it",
+    ),
+]
+LogLevelOpt = Annotated[str, typer.Option(help="debug, info, warning or error")]
+SimTerrainOpt = Annotated[  # helixd sim, helixd plant
+    Terrain | None, typer.Option("--terrain", help="ground under the rover")
+]
+MapOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--map",
+        help="ROS map_server map (YAML + PGM/PNG, x east / y north from the EKF origin): plan "
+        "every leg around it and the planning.keep_out_* shapes (local_ned missions)",
+    ),
+]
 
 
 def config_or_exit(config: Path | None) -> HelixdConfig:

@@ -13,13 +13,12 @@ autopilot) once the script is in place, disarmed only: ArduPilot refuses it whil
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated
 
 import typer
 
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import config_option, fail, link_inputs, run_on_link
+from helixd.cli.common import ConfigOpt, ObserverConnectOpt, fail, link_inputs, run_on_link
 from helixd.commands.guard_install import GuardInstalled, GuardInstallRefused, install_guard
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
@@ -27,10 +26,6 @@ from helixd.mav.constants import MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
 from helixd.mav.ftp_wire import FtpPayloadError, encode_path
 from helixd.mav.guard_script import BOARD_SCRIPTS_DIR, POSIX_SCRIPTS_DIR, SCRIPT_NAME
 
-ConnectOpt = Annotated[
-    str | None, typer.Option("--connect", help="autopilot link (default: link.url)")
-]
-ConfigOpt = Annotated[Path | None, config_option()]
 ScriptsDirOpt = Annotated[
     str | None,
     typer.Option(
@@ -92,7 +87,7 @@ def report(url: str, got: GuardInstalled, rebooted: bool = False) -> list[str]:
 
 
 def install_guard_command(
-    connect: ConnectOpt = None,
+    connect: ObserverConnectOpt = None,
     config: ConfigOpt = None,
     scripts_dir: ScriptsDirOpt = None,
     reboot: RebootOpt = False,

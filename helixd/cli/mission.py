@@ -15,7 +15,8 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.cli.common import (
-    config_option,
+    ConfigOpt,
+    ObserverConnectOpt,
     config_or_exit,
     fail,
     link_inputs,
@@ -52,8 +53,6 @@ from helixd.mission.formats.wpl import wpl_to_text
 from helixd.mission.placed import PlacementError, parse_latlon, placed_with
 
 T = TypeVar("T")
-
-ConfigOpt = Annotated[Path | None, config_option()]
 
 
 ModeOpt = Annotated[
@@ -230,16 +229,6 @@ def survey(
         )
 
 
-ConnectOpt = Annotated[
-    str | None,
-    typer.Option(
-        "--connect",
-        help="autopilot link (default: link.url); spoken as link.observer_system (248), never "
-        "as the GCS id, and without a HEARTBEAT, so the autopilot's GCS failsafe ignores it",
-    ),
-]
-
-
 def _write_atomic(path: Path, text: str) -> None:
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(text, encoding="utf-8")
@@ -272,7 +261,7 @@ def download(
         Path | None,
         typer.Argument(help="write to .plan, .waypoints or .yaml; summary on stdout if omitted"),
     ] = None,
-    connect: ConnectOpt = None,
+    connect: ObserverConnectOpt = None,
     mode: ModeOpt = None,
     config: ConfigOpt = None,
 ) -> None:
@@ -339,7 +328,7 @@ def download(
 
 def upload(
     src: Annotated[Path, typer.Argument(help="mission file: .plan, .waypoints or .yaml")],
-    connect: ConnectOpt = None,
+    connect: ObserverConnectOpt = None,
     config: ConfigOpt = None,
     origin: OriginOpt = None,
     start_heading_deg: HeadingOpt = None,

@@ -20,7 +20,7 @@ from typing import Annotated
 import typer
 
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import fail
+from helixd.cli.common import SimTerrainOpt, fail
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, load_yaml_model
 from helixd.mission.placed import parse_latlon
@@ -87,9 +87,7 @@ def plant_command(
         ),
     ] = None,
     host: Annotated[str, typer.Option("--host", help="address to listen on")] = "127.0.0.1",
-    terrain: Annotated[
-        Terrain | None, typer.Option("--terrain", help="ground under the rover")
-    ] = None,
+    terrain: SimTerrainOpt = None,
     config: Annotated[
         Path | None,
         typer.Option(

@@ -10,7 +10,7 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.cli.common import config_link_map, config_option, fail
+from helixd.cli.common import ConfigOpt, ConnectOpt, LogLevelOpt, MapOpt, config_link_map, fail
 from helixd.cli.simulated import SimChoice, sim_world, simulator
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.recorder.logging_setup import configure_logging
@@ -23,18 +23,8 @@ __all__ = ["register"]
 
 
 def serve_command(
-    config: Annotated[
-        Path | None,
-        config_option(),
-    ] = None,
-    connect: Annotated[
-        str | None,
-        typer.Option(
-            "--connect",
-            help="autopilot link: /dev/ttyACM0[:baud], udpin:HOST:PORT, udpout:HOST:PORT, "
-            "tcp:HOST:PORT (default: link.url from the config)",
-        ),
-    ] = None,
+    config: ConfigOpt = None,
+    connect: ConnectOpt = None,
     sim: Annotated[
         bool, typer.Option("--sim", help="serve the built-in simulator, started in-process")
     ] = False,
@@ -73,11 +63,8 @@ def serve_command(
             "autopilot's (default: serve.mission_file, else the autopilot's mission)",
         ),
     ] = None,
-    map_path: Annotated[
-        Path | None,
-        typer.Option("--map", help="ROS map_server map to plan every mission around"),
-    ] = None,
-    log_level: Annotated[str, typer.Option(help="debug, info, warning or error")] = "info",
+    map_path: MapOpt = None,
+    log_level: LogLevelOpt = "info",
 ) -> None:
     """Run all day: fly the autopilot's mission when an operator starts it (start switch,
     MISSION_START), pause and continue on the switch or DO_PAUSE_CONTINUE; never moves on its

@@ -14,12 +14,12 @@ from pydantic import ValidationError
 
 from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import fail
+from helixd.cli.common import SimTerrainOpt, fail
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, format_validation_error, load_yaml_model
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
 from helixd.sim.server import SimServer
-from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, SimConfig, Terrain
+from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, SimConfig
 
 log = structlog.get_logger(__name__)
 
@@ -168,9 +168,7 @@ StateDirOpt = Annotated[
 def sim_command(
     listen: ListenOpt = None,
     plant: PlantOpt = None,
-    terrain: Annotated[
-        Terrain | None, typer.Option("--terrain", help="ground under the rover")
-    ] = None,
+    terrain: SimTerrainOpt = None,
     noise: Annotated[NoiseLevel | None, typer.Option("--noise", help="pose noise preset")] = None,
     speedup: SpeedupOpt = None,
     fault: FaultOpt = None,

@@ -40,7 +40,7 @@ flown on an ideal plant and against flights in the built-in simulator.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 from helixd.base.angles import shortest_angular_distance
@@ -248,6 +248,49 @@ def _turn_time_s(
     )
 
 
+@dataclass(slots=True)
+class _Tally:
+    """What an estimate adds up, waypoint by waypoint (seconds of autopilot time): turns in
+    place with the yaw-acceleration limit (line guidance) or without it (thesis guidance)."""
+
+    control: NavigatorParams
+    limited: bool
+    driving_s: float = 0.0
+    turning_s: float = 0.0
+    pivots: int = 0
+    arrivals_s: list[float] = field(default_factory=list)
+
+    def pivot(self, angle_rad: float, until_rad: float, turn_fraction: float) -> None:
+        """A turn in place through ``angle_rad`` until ``until_rad`` off, on ground that
+        delivers ``turn_fraction`` of the yaw command."""
+        dt = _turn_time_s(angle_rad, until_rad, self.control, self.limited)
+        self.turning_s += dt / turn_fraction
+        self.pivots += 1
+
+    def final_heading(self, heading_rad: float, final_rad: float, turn_fraction: float) -> bool:
+        """The turn to a waypoint's final heading, if it is off by more than its tolerance;
+        whether there was one."""
+        e = abs(shortest_angular_distance(heading_rad, final_rad))
+        until_rad = self.control.final_heading_tolerance_rad
+        if e > until_rad:
+            self.pivot(e, until_rad, turn_fraction)
+            return True
+        return False
+
+    def arrived(self) -> None:
+        self.arrivals_s.append(self.driving_s + self.turning_s)
+
+    def estimate(self, path_length_m: float) -> TimeEstimate:
+        return TimeEstimate(
+            self.driving_s + self.turning_s,
+            self.driving_s,
+            self.turning_s,
+            path_length_m,
+            self.pivots,
+            tuple(self.arrivals_s),
+        )
+
+
 # -- line guidance -----------------------------------------------------------------------------
 
 
@@ -301,9 +344,7 @@ class _Line:
     def run(self) -> TimeEstimate:
         path, control = self.path, self.control
         enter = max(control.pivot_angle_rad, control.heading_threshold_rad)
-        driving = turning = 0.0
-        pivots = 0
-        arrivals: list[float] = []
+        tally = _Tally(control, limited=True)
         heading = path.start_yaw_rad
         v = 0.0
         s = 0.0
@@ -317,27 +358,20 @@ class _Line:
             if path.lengths[j] >= line.MIN_LEG_M and mode is not MotionMode.OMNI:
                 e = abs(shortest_angular_distance(heading, course - axis_rad))
                 if e > enter and not rounded:  # ALIGN: the translation decays while it pivots
-                    dt = _turn_time_s(e, control.heading_threshold_rad, control, True)
-                    turning += dt / ground.turn
-                    pivots += 1
+                    tally.pivot(e, control.heading_threshold_rad, ground.turn)
                     v = 0.0
                 heading = course - axis_rad
             elif j > 0 and self.stops[j - 1]:  # OMNI leaving a stop: keep what points ahead
                 v *= max(0.0, math.cos(course - path.courses[j - 1]))
             s, v, dt = self._drive(j, s, v)
-            driving += dt / ground.move(course, heading)
-            arrivals.append(driving + turning)
+            tally.driving_s += dt / ground.move(course, heading)
+            tally.arrived()
             final = path.final_yaw_rad[j]
             if final is not None and mode is not MotionMode.OMNI:
-                e = abs(shortest_angular_distance(heading, final))
-                if e > control.final_heading_tolerance_rad:
-                    dt = _turn_time_s(e, control.final_heading_tolerance_rad, control, True)
-                    turning += dt / ground.turn
-                    pivots += 1
+                if tally.final_heading(heading, final, ground.turn):
                     v = 0.0
                 heading = final
-        total = driving + turning
-        return TimeEstimate(total, driving, turning, path.length_m, pivots, tuple(arrivals))
+        return tally.estimate(path.length_m)
 
     def _target(self, j: int, s: float, v: float, m: float, cap: float) -> tuple[float, float, str]:
         """The speed command the navigator aims at, at arc length ``s`` on leg ``j`` (braking
@@ -496,9 +530,7 @@ class _Thesis:
         cruise = plan.leg_speeds_mps()  # per leg: DO_CHANGE_SPEED sets it
         here = path.points[0]
         heading = path.start_yaw_rad
-        driving = turning = 0.0
-        pivots = 0
-        arrivals: list[float] = []
+        tally = _Tally(control, limited=False)
         for j, wp in enumerate(wps):
             mode = plan.mode_at(j)  # each leg in its own mode
             ground = _ground_for(self.ground, mode, control.slip)
@@ -510,26 +542,18 @@ class _Thesis:
                 if mode is not MotionMode.OMNI:
                     e = abs(shortest_angular_distance(heading, course - axis_rad))
                     if e > control.heading_threshold_rad:
-                        dt = _turn_time_s(e, control.heading_threshold_rad, control, False)
-                        turning += dt / ground.turn
-                        pivots += 1
+                        tally.pivot(e, control.heading_threshold_rad, ground.turn)
                     heading = course - axis_rad
                 leg_s = self._leg_s(distance, wp.tolerance_m, run_out[j], cruise[j])
-                driving += leg_s / ground.move(course, heading)
+                tally.driving_s += leg_s / ground.move(course, heading)
                 k = (distance - wp.tolerance_m) / distance
                 here = (here[0] + (goal[0] - here[0]) * k, here[1] + (goal[1] - here[1]) * k)
-            arrivals.append(driving + turning)
+            tally.arrived()
             final = path.final_yaw_rad[j]
             if final is not None and mode is not MotionMode.OMNI:
-                e = abs(shortest_angular_distance(heading, final))
-                if e > control.final_heading_tolerance_rad:
-                    dt = _turn_time_s(e, control.final_heading_tolerance_rad, control, False)
-                    turning += dt / ground.turn
-                    pivots += 1
+                tally.final_heading(heading, final, ground.turn)
                 heading = final
-        return TimeEstimate(
-            driving + turning, driving, turning, path.length_m, pivots, tuple(arrivals)
-        )
+        return tally.estimate(path.length_m)
 
     def _leg_s(
         self, distance_m: float, tolerance_m: float, run_out_m: float, cruise: float

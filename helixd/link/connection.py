@@ -37,7 +37,7 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import LinkConfig
+from helixd.config import LinkConfig, SafetyConfig
 from helixd.link.action import Action
 from helixd.link.codec import (
     LinkStats,
@@ -51,7 +51,7 @@ from helixd.link.command_client import (
 )
 from helixd.link.ftp_link import FtpClient
 from helixd.link.heartbeat import HeartbeatSender
-from helixd.link.limits import LinkLimits, SafetyNumbers, link_limits
+from helixd.link.limits import LinkLimits, link_limits
 from helixd.link.mission_link import MissionClient
 from helixd.link.ownid import OwnIdSenders
 from helixd.link.param import Param
@@ -126,7 +126,7 @@ class Autopilot:
     def __init__(
         self,
         cfg: LinkConfig,
-        limits: LinkLimits | SafetyNumbers,
+        limits: SafetyConfig | LinkLimits,
         url: LinkUrl,
         signing_key: bytes | None,
         *,
@@ -179,7 +179,7 @@ class Autopilot:
 
     @classmethod
     async def connect(
-        cls, cfg: LinkConfig, limits: LinkLimits | SafetyNumbers, *, observer: bool = False
+        cls, cfg: LinkConfig, limits: SafetyConfig | LinkLimits, *, observer: bool = False
     ) -> Autopilot:
         """Open the link and start reading; LinkError (one human message) if it cannot.
 

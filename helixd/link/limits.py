@@ -3,39 +3,16 @@
 The link does not decide anything about the rover's safety; it needs four numbers to keep its
 view of the autopilot honest: when HEARTBEAT silence means the link is lost, when an EKF
 variance means unhealthy, how old a yaw may be to form a pose, and the bounds beyond which a
-telemetry value is absurd. :func:`link_limits` takes them from anything shaped like
-:class:`helixd.config.SafetyConfig` (a structural :class:`SafetyNumbers`), so this module
-imports no configuration.
+telemetry value is absurd. :func:`link_limits` takes them from
+:class:`helixd.config.SafetyConfig`, and the rest of the link sees only :class:`LinkLimits`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
 
+from helixd.config import SafetyConfig
 from helixd.link.vehicle import TelemetryBounds
-
-
-class SafetyNumbers(Protocol):
-    """What :func:`link_limits` reads (``SafetyConfig`` has these fields)."""
-
-    @property
-    def heartbeat_timeout_s(self) -> float: ...
-
-    @property
-    def ekf_variance_max(self) -> float: ...
-
-    @property
-    def pose_stale_s(self) -> float: ...
-
-    @property
-    def telemetry_position_max_m(self) -> float: ...
-
-    @property
-    def telemetry_speed_max_mps(self) -> float: ...
-
-    @property
-    def telemetry_yaw_max_rad(self) -> float: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,7 +23,7 @@ class LinkLimits:
     bounds: TelemetryBounds  # beyond these a pose value is absurd and rejected
 
 
-def link_limits(safety: SafetyNumbers | LinkLimits) -> LinkLimits:
+def link_limits(safety: SafetyConfig | LinkLimits) -> LinkLimits:
     """The link's numbers from a safety configuration (a LinkLimits is taken as is)."""
     if isinstance(safety, LinkLimits):
         return safety

@@ -181,10 +181,11 @@ class MissionClient:
         does for a plan without one. Raises
         :class:`helixd.link.mission_transfer.MissionTransferError`."""
         ids = _ids(self._host.cfg)
+        parts = [(MAV_MISSION_TYPE_MISSION, mission)]
+        if fence is not None:
+            parts.append((MAV_MISSION_TYPE_FENCE, fence))
         with AutopilotMissionLink(self._host, self._send) as link:
             grace_s = self._host.cfg.statustext_grace_s
-            await transfer(link, MissionUpload(mission, MAV_MISSION_TYPE_MISSION, **ids), grace_s)
-            log.info("mission_uploaded", mission_type="mission", items=len(mission))
-            if fence is not None:
-                await transfer(link, MissionUpload(fence, MAV_MISSION_TYPE_FENCE, **ids), grace_s)
-                log.info("mission_uploaded", mission_type="fence", items=len(fence))
+            for kind, items in parts:
+                await transfer(link, MissionUpload(kind, items=items, **ids), grace_s)
+                log.info("mission_uploaded", mission_type=TYPE_NAMES[kind], items=len(items))

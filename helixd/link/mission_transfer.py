@@ -33,7 +33,8 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from helixd.link.inbox import drive
@@ -84,32 +85,28 @@ class MissionTransferError(Exception):
         return base if not self.vehicle_text else f"{base} (autopilot: {self.vehicle_text})"
 
 
+@dataclass(eq=False, repr=False)
 class Transfer:
-    """Shared retry/timeout bookkeeping of an upload or a download."""
+    """Shared retry/timeout bookkeeping of an upload or a download: whose items of which
+    ``mission_type``, how long to wait for each answer and how often to ask again."""
 
-    def __init__(
-        self,
-        mission_type: int,
-        target_system: int,
-        target_component: int,
-        item_timeout_s: float,
-        retries: int,
-        own_ids: tuple[int, int] | None = None,
-    ) -> None:
-        if not (math.isfinite(item_timeout_s) and item_timeout_s > 0.0) or retries < 0:
+    mission_type: int
+    target_system: int
+    target_component: int
+    item_timeout_s: float
+    retries: int
+    own_ids: tuple[int, int] | None = None
+
+    def __post_init__(self) -> None:
+        timeout_s = self.item_timeout_s
+        if not (math.isfinite(timeout_s) and timeout_s > 0.0) or self.retries < 0:
             raise ValueError("item_timeout_s must be > 0 and retries >= 0")
-        if mission_type not in (
+        if self.mission_type not in (
             MAV_MISSION_TYPE_MISSION,
             MAV_MISSION_TYPE_FENCE,
             MAV_MISSION_TYPE_RALLY,
         ):
-            raise ValueError(f"unknown mission_type {mission_type}")
-        self.mission_type = mission_type
-        self.target_system = target_system
-        self.target_component = target_component
-        self.own_ids = own_ids
-        self.item_timeout_s = item_timeout_s
-        self.retries = retries
+            raise ValueError(f"unknown mission_type {self.mission_type}")
         self.done = False
         self.error: MissionTransferError | None = None
         self.deadline_s = math.inf
@@ -119,7 +116,7 @@ class Transfer:
         self._fresh()
 
     def _fresh(self) -> None:
-        """A subclass's own state, set up at the end of ``__init__``."""
+        """A subclass's own checks and state, at the end of ``__post_init__``."""
 
     def _ours(self, msg: Any) -> bool:
         if self.done:
@@ -177,31 +174,22 @@ class Transfer:
         )
 
 
+@dataclass(eq=False, repr=False)
 class MissionUpload(Transfer):
     """Send ``items`` (their seq must be 0..n-1 in order) to the vehicle."""
 
-    def __init__(
-        self,
-        items: Sequence[MissionItem],
-        mission_type: int,
-        target_system: int,
-        target_component: int,
-        item_timeout_s: float,
-        retries: int,
-        own_ids: tuple[int, int] | None = None,
-    ) -> None:
-        super().__init__(
-            mission_type, target_system, target_component, item_timeout_s, retries, own_ids
-        )
-        for i, item in enumerate(items):
+    items: tuple[MissionItem, ...] = field(kw_only=True)  # a list is taken as a tuple
+
+    def _fresh(self) -> None:
+        for i, item in enumerate(self.items):
             check_item(item)
             if item.seq != i:
                 raise ValueError(f"mission item {i} has seq {item.seq}: seq must be 0..n-1")
-            if item.mission_type != mission_type:
+            if item.mission_type != self.mission_type:
                 raise ValueError(f"mission item {i} is of mission_type {item.mission_type}")
-        if len(items) > 65535:
+        if len(self.items) > 65535:
             raise ValueError("more than 65535 mission items")
-        self.items = tuple(items)
+        self.items = tuple(self.items)
         self.requested: set[int] = set()
 
     def _stage(self) -> str:

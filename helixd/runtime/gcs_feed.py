@@ -17,13 +17,13 @@ the final phase) for at most ``gcs_report.final_flush_s`` before the link is clo
 from __future__ import annotations
 
 import asyncio
-import contextlib
 from collections.abc import Callable
 from typing import Any
 
 import structlog
 
 from helixd.base.clock import now_s
+from helixd.base.tasks import stop_task
 from helixd.config import GcsReportConfig
 from helixd.runtime.gcs_report import (
     GcsReporter,
@@ -140,10 +140,7 @@ class GcsFeed:
     async def close(self) -> None:
         """Send what is queued for at most ``final_flush_s``, then stop the task."""
         task, self._task = self._task, None
-        if task is not None:
-            task.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await task
+        await stop_task(task)
         if self._send is None:
             return
         deadline = self._clock() + self.cfg.final_flush_s

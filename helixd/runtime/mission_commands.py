@@ -12,7 +12,6 @@ already refused what would fight helixd (a servo output that drives a scroll).
 from __future__ import annotations
 
 import asyncio
-import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
@@ -21,6 +20,7 @@ import structlog
 
 from helixd.base.clock import now_s
 from helixd.base.plan import MissionAction
+from helixd.base.tasks import stop_task
 from helixd.link.command_client import CommandError, CommandRejected, result_name
 from helixd.mission.commands import command_name
 
@@ -80,9 +80,7 @@ class MissionCommands:
             await asyncio.wait_for(self._queue.join(), timeout=timeout_s)
         except TimeoutError:
             log.warning("mission_commands_unsent", pending=self._queue.qsize())
-        self._task.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await self._task
+        await stop_task(self._task)
         self._task = None
 
     async def _run(self) -> None:

@@ -32,6 +32,7 @@ from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan
 from helixd.base.problems import Problems
 from helixd.base.run_files import TLOG_FILE
+from helixd.base.tasks import stop_task
 from helixd.config import ActuationBackend, HelixdConfig, SafetyConfig
 from helixd.link.command_client import CommandError, CommandRejected
 from helixd.link.connection import Autopilot
@@ -161,9 +162,7 @@ async def feeding(held: Held, cfg: HelixdConfig, notifier: ServiceNotifier) -> A
     try:
         yield
     finally:
-        task.cancel()
-        with contextlib.suppress(asyncio.CancelledError):
-            await task
+        await stop_task(task)
 
 
 # -- connect ---------------------------------------------------------------------------------

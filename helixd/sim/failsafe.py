@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from helixd.mav.constants import MAV_SEVERITY_CRITICAL as SEVERITY_CRITICAL
 from helixd.mav.constants import MAV_SEVERITY_INFO as SEVERITY_INFO
 from helixd.mav.constants import MAV_SEVERITY_WARNING as SEVERITY_WARNING
+from helixd.sim.estimator import SimEkfStatus
 from helixd.sim.modes import HOLD as MODE_HOLD
 from helixd.sim.modes import LOITER as MODE_LOITER
 from helixd.sim.modes import RTL as MODE_RTL
@@ -43,17 +44,6 @@ FS_OPTION_ACTIVE_IN_HOLD = 1 << 0
 
 FAILSAFE_ACTION_TERMINATE = 5
 FAILSAFE_ACTION_LOITER_HOLD = 6
-
-
-@dataclass(frozen=True, slots=True)
-class EkfHealth:
-    """What ekf_check looks at."""
-
-    velocity_variance: float
-    pos_horiz_variance: float
-    compass_variance: float
-    position_ok: bool
-    origin_set: bool
 
 
 @dataclass(slots=True)
@@ -195,13 +185,16 @@ class Failsafes:
     def ekf_check(
         self,
         armed: bool,
-        health: EkfHealth,
+        health: SimEkfStatus,
+        origin_set: bool,
         mode_requires_position: bool,
         params: ParamStore,
     ) -> FailsafeDecision:
+        """ekf_check: what the EKF reports (its variances, whether it has a position) once the
+        EKF origin is set."""
         decision = FailsafeDecision()
         thresh = params.get("FS_EKF_THRESH")
-        if not health.origin_set:
+        if not origin_set:
             return decision
         if not armed or thresh <= 0.0:
             self.ekf_fail_count = 0
@@ -224,7 +217,7 @@ class Failsafes:
         return decision
 
     @staticmethod
-    def _over_threshold(health: EkfHealth, thresh: float) -> bool:
+    def _over_threshold(health: SimEkfStatus, thresh: float) -> bool:
         count = 0
         if health.compass_variance >= thresh:
             count += 1

@@ -71,7 +71,6 @@ from helixd.mav.guard_script import (
 from helixd.sim import modes
 from helixd.sim.estimator import SimEkfStatus
 from helixd.sim.failsafe import (
-    EkfHealth,
     FailsafeDecision,
     Failsafes,
     battery_failsafe,
@@ -718,16 +717,13 @@ class SimAutopilot:
             self._apply(
                 self.failsafes.gcs_check(now_s, self.gcs_last_seen_s, self.mode, params), now_s, ekf
             )
-            health = EkfHealth(
-                ekf.velocity_variance,
-                ekf.pos_horiz_variance,
-                ekf.compass_variance,
-                ekf.position_ok,
-                self.origin_set(now_s),
-            )
             self._apply(
                 self.failsafes.ekf_check(
-                    self.armed, health, modes.requires_position(self.mode), params
+                    self.armed,
+                    ekf,
+                    self.origin_set(now_s),
+                    modes.requires_position(self.mode),
+                    params,
                 ),
                 now_s,
                 ekf,

@@ -105,7 +105,9 @@ def server() -> MissionServer:
 
 
 def new_upload(its: list[MissionItem], mission_type: int = 0, retries: int = 5) -> MissionUpload:
-    return MissionUpload(its, mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
+    return MissionUpload(
+        mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS, items=its
+    )
 
 
 def new_download(mission_type: int = 0, retries: int = 5) -> MissionDownload:
@@ -337,7 +339,7 @@ def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
     timeout_s, retries = CFG.mission_item_timeout_s, CFG.mission_retries
 
     def up(its: list[MissionItem], kind: int = 0) -> MissionUpload:
-        return MissionUpload(its, kind, 1, 1, timeout_s, retries, own_ids=me)
+        return MissionUpload(kind, 1, 1, timeout_s, retries, own_ids=me, items=its)
 
     def dl(kind: int = 0) -> MissionDownload:
         return MissionDownload(kind, 1, 1, timeout_s, retries, own_ids=me)

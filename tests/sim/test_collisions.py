@@ -5,42 +5,20 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from helixd.sim.collisions import SimObstacles, constrain, distance_m
-from helixd.sim.core import SimCore
 from helixd.sim.sim_config import SimConfig
 from helixd.sim.state import PhysicsState
-from tests.support.simcore import assert_step_never_closer
+from tests.support.simcore import assert_step_never_closer, make_core, run, skid_north_contacts
 
 POND: dict[str, Any] = {
     "circles": [{"north_m": 3.0, "east_m": 0.0, "radius_m": 1.0}],
     "polygons_ne_m": [[[10, -2], [10, 2], [12, 2], [12, -2]]],
 }
-
-
-def make_core(**cfg: Any) -> SimCore:
-    config = SimConfig.model_validate(
-        {
-            "noise": "none",
-            "boot_duration_s": 1.0,
-            "ekf_origin_delay_s": 0.5,
-            "plant": "sitl_skid",
-            "obstacles": POND,
-            **cfg,
-        }
-    )
-    return SimCore(config, 1, np.random.default_rng(1))
-
-
-def tick_for(core: SimCore, seconds: float) -> None:
-    for _ in range(round(seconds / core.dt_s())):
-        core.tick()
-        core.drain_outbox()
 
 
 def test_distance_to_circles_and_polygons() -> None:
@@ -53,13 +31,8 @@ def test_distance_to_circles_and_polygons() -> None:
 
 
 def test_driving_into_a_circle_stops_at_the_body_radius_and_logs_one_contact() -> None:
-    core = make_core()
-    tick_for(core, 2.0)
-    core.drain_events()
-    core.set_rc(1, 1700)  # both skid motors forward: straight north from (0, 0)
-    core.set_rc(3, 1700)
-    tick_for(core, 8.0)
-    contacts = [e for e in core.drain_events() if e.kind == "contact"]
+    core = make_core(1, plant="sitl_skid", obstacles=POND)
+    contacts = skid_north_contacts(core, 8.0)
     assert len(contacts) == 1
     # stopped before the body (0.429 m) reaches the disc's edge at north 2.0 m
     assert 1.5 < core.phys.north_m <= 2.0 - 0.429 + 1e-9
@@ -67,7 +40,7 @@ def test_driving_into_a_circle_stops_at_the_body_radius_and_logs_one_contact() -
     assert abs(core.phys.east_m) < 0.05
     core.set_rc(1, 1300)  # reverse: it may leave
     core.set_rc(3, 1300)
-    tick_for(core, 3.0)
+    run(core, 3.0)
     assert core.phys.north_m < 1.0
     assert [e.kind for e in core.drain_events() if e.kind.startswith("contact")] == ["contact_end"]
 

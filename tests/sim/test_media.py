@@ -19,6 +19,7 @@ from helixd.sim.physics import scroll_positions_ne, step
 from helixd.sim.server import with_media
 from helixd.sim.sim_config import SimConfig, Terrain, TerrainTable
 from helixd.sim.state import PhysicsState
+from tests.support.simcore import make_core, run
 
 VEHICLE = VehicleConfig()
 TABLE = TerrainTable()
@@ -109,29 +110,16 @@ WATER_NORTH_OF_5_M = MediaMap(
 )
 
 
-def make_core(**cfg: Any) -> SimCore:
-    config = SimConfig.model_validate(
-        {"noise": "none", "boot_duration_s": 1.0, "ekf_origin_delay_s": 0.5, **cfg}
-    )
-    return SimCore(config, 1, np.random.default_rng(1))
-
-
-def tick_for(core: SimCore, seconds: float) -> None:
-    for _ in range(round(seconds / core.dt_s())):
-        core.tick()
-        core.drain_outbox()
-
-
 def set_scrolls(core: SimCore, pwm_us: tuple[int, int, int, int]) -> None:
     for channel, pwm in enumerate(pwm_us, start=1):
         core.set_rc(channel, pwm)
 
 
 def test_the_core_rolls_off_the_bank_into_the_water_crawls_there_and_scroll_propels() -> None:
-    core = make_core(media=WATER_NORTH_OF_5_M)
-    tick_for(core, 2.0)
+    core = make_core(1, media=WATER_NORTH_OF_5_M)
+    run(core, 2.0)
     set_scrolls(core, (1700, 1700, 1300, 1300))  # ROLL forward, facing North
-    tick_for(core, 12.0)
+    run(core, 12.0)
     kinds = [e for e in core.drain_events() if e.kind == "media"]
     assert [e.details["scrolls"] for e in kinds] == [
         ["hard"] * 4,
@@ -144,27 +132,27 @@ def test_the_core_rolls_off_the_bank_into_the_water_crawls_there_and_scroll_prop
     assert 5.0 + VEHICLE.lx_m < rolled_to < 8.0
     assert core.phys.speed_mps < 0.1
     set_scrolls(core, (1300, 1700, 1700, 1300))  # SCROLL right: towards East
-    tick_for(core, 5.0)
+    run(core, 5.0)
     assert core.phys.east_m > 1.5
     assert core.phys.north_m == pytest.approx(rolled_to, abs=0.05)
 
 
 def test_without_a_map_the_core_moves_exactly_as_before() -> None:
-    plain, mapped = make_core(), make_core(media=MediaMap(MediaFrame.LOCAL_NED, ()))
+    plain, mapped = make_core(1), make_core(1, media=MediaMap(MediaFrame.LOCAL_NED, ()))
     for core in (plain, mapped):
-        tick_for(core, 2.0)
+        run(core, 2.0)
         set_scrolls(core, (1700, 1600, 1300, 1450))
-        tick_for(core, 3.0)
+        run(core, 3.0)
     assert plain.media_ne is None and plain.scroll_media is None
     assert mapped.phys.north_m == pytest.approx(plain.phys.north_m, abs=1e-9)
     assert mapped.phys.yaw_ned_rad == pytest.approx(plain.phys.yaw_ned_rad, abs=1e-9)
 
 
 def test_outside_the_map_the_configured_terrain_applies() -> None:
-    core = make_core(media=MediaMap(MediaFrame.LOCAL_NED, ()), terrain="sand")
-    tick_for(core, 2.0)
+    core = make_core(1, media=MediaMap(MediaFrame.LOCAL_NED, ()), terrain="sand")
+    run(core, 2.0)
     set_scrolls(core, (1700, 1700, 1300, 1300))
-    tick_for(core, 0.1)
+    run(core, 0.1)
     assert core.scroll_media == (Medium.SAND,) * 4
 
 

@@ -14,9 +14,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from helixd.sim.collisions import ObstacleRaster, SimObstacles, distance_m
-from helixd.sim.core import SimCore
-from helixd.sim.sim_config import SimConfig
-from tests.support.simcore import EmbeddedStart, assert_step_never_closer, capture_embedded_start
+from tests.support.simcore import (
+    EmbeddedStart,
+    assert_step_never_closer,
+    capture_embedded_start,
+    make_core,
+    skid_north_contacts,
+)
 
 # 0.1 m cells from (north 0, east -5), 120 rows × 100 cols: north 0..12, east -5..5
 RES = 0.1
@@ -90,23 +94,8 @@ def test_a_step_never_brings_the_body_closer_to_the_map_once_touching(
 
 
 def test_driving_into_the_map_wall_stops_the_rover_and_logs_the_contact() -> None:
-    config = SimConfig.model_validate(
-        {"noise": "none", "boot_duration_s": 1.0, "ekf_origin_delay_s": 0.5, "plant": "sitl_skid"}
-    )
-    config = config.model_copy(update={"obstacles": SimObstacles(raster=wall_raster())})
-    core = SimCore(config, 1, np.random.default_rng(1))
-
-    def tick_for(seconds: float) -> None:
-        for _ in range(round(seconds / core.dt_s())):
-            core.tick()
-            core.drain_outbox()
-
-    tick_for(2.0)
-    core.drain_events()
-    core.set_rc(1, 1700)  # both skid motors forward: straight north from (0, 0)
-    core.set_rc(3, 1700)
-    tick_for(25.0)
-    contacts = [e for e in core.drain_events() if e.kind == "contact"]
+    core = make_core(1, plant="sitl_skid", obstacles=SimObstacles(raster=wall_raster()))
+    contacts = skid_north_contacts(core, 25.0)
     assert len(contacts) == 1
     assert 7.0 < core.phys.north_m <= 8.0 - 0.429 + 1e-9
     assert core.phys.speed_mps == 0.0

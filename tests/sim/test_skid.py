@@ -9,18 +9,16 @@ target speed = throttle · 4 m/s; accel = 14 · (target − speed)/4 (time const
 from __future__ import annotations
 
 import math
-from typing import Any
 
-import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from helixd.sim import skid
-from helixd.sim.core import SimCore
 from helixd.sim.sim_config import Plant, SimConfig
 from helixd.sim.state import PhysicsState
+from tests.support import simcore
 from tests.support.cli import main_exit
 from tests.support.simcore import EmbeddedStart, capture_embedded_start
 
@@ -184,27 +182,14 @@ def test_config_rejects_unknown_plant_and_bad_constants() -> None:
 # -- through the simulator's wire semantics: pilot radio → RCIN passthrough → outputs 1/3 --
 
 
-def make_core(**cfg: Any) -> SimCore:
-    config = SimConfig.model_validate(
-        {"noise": "none", "boot_duration_s": 1.0, "ekf_origin_delay_s": 0.5, **cfg}
-    )
-    return SimCore(config, 1, np.random.default_rng(1))
-
-
-def tick_for(core: SimCore, seconds: float) -> None:
-    for _ in range(round(seconds / core.dt_s())):
-        core.tick()
-        core.drain_outbox()
-
-
 def test_core_drives_the_skid_model_from_outputs_1_and_3() -> None:
-    core = make_core(plant="sitl_skid")
-    tick_for(core, 2.0)
+    core = simcore.make_core(1, plant="sitl_skid")
+    simcore.run(core, 2.0)
     core.set_rc(1, 1700)  # passthrough RCIN1 → output 1 (left motor)
     core.set_rc(3, 1500)
     core.set_rc(2, 2000)  # outputs 2 and 4 are not read by SIM_Rover
     core.set_rc(4, 1000)
-    tick_for(core, 2.0)
+    simcore.run(core, 2.0)
     assert core.outputs_us[0] == 1700 and core.outputs_us[2] == 1500
     assert core.phys.yaw_rate_ned_radps == pytest.approx(math.radians(56.0))
     assert core.phys.speed_mps == pytest.approx(0.8, rel=0.02)
@@ -213,11 +198,11 @@ def test_core_drives_the_skid_model_from_outputs_1_and_3() -> None:
 
 def test_core_helix_plant_unchanged_by_the_option() -> None:
     """Same radio on the default plant: the Helix reads all four outputs (eq. 1), not skid."""
-    core = make_core()
-    tick_for(core, 2.0)
+    core = simcore.make_core(1)
+    simcore.run(core, 2.0)
     core.set_rc(1, 1700)
     core.set_rc(3, 1500)
-    tick_for(core, 2.0)
+    simcore.run(core, 2.0)
     assert core.phys.yaw_rate_ned_radps != pytest.approx(math.radians(56.0))
     assert core.phys.scroll_radps[0] > 0.0
 

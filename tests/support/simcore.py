@@ -13,6 +13,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.sim.collisions import SimObstacles, constrain, distance_m
 from helixd.sim.core import FtpHandler, SimCore
+from helixd.sim.rover_firmware import SimEvent
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 from helixd.sim.state import PhysicsState
 
@@ -30,6 +31,17 @@ def run(core: SimCore, seconds: float) -> list[tuple[int | None, Any]]:
         core.tick()
         out.extend(core.drain_outbox())
     return out
+
+
+def skid_north_contacts(core: SimCore, seconds: float) -> list[SimEvent]:
+    """Boot the skid-plant ``core`` (2 s), then both motors forward, straight north from
+    (0, 0), for ``seconds``: the contact events of the drive."""
+    run(core, 2.0)
+    core.drain_events()
+    core.set_rc(1, 1700)  # RCIN1 → output 1, the left motor
+    core.set_rc(3, 1700)  # RCIN3 → output 3, the right motor
+    run(core, seconds)
+    return [e for e in core.drain_events() if e.kind == "contact"]
 
 
 def of_type(out: list[tuple[int | None, Any]], kind: str, link: int | None = None) -> list[Any]:
