@@ -12,7 +12,12 @@ with its defaults (the thesis's geometry and gains, scroll n on RC channel n).
   plant's true pose beside the same flight on the built-in simulator, and the difference (the
   simulator's truth gap) stays within what docs/measurements.md states;
 * ``kill -9`` of helixd while it drives all four scrolls (SCROLL): helixd-guard, the real Lua
-  in ardurover, puts outputs 1–4 at trim within its timeout and asks HOLD.
+  in ardurover, puts outputs 1–4 at trim within its timeout and asks HOLD;
+* the pond crossing over the pond's media map (the plant's ground by place): in fixed SCROLL
+  it completes, in fixed ROLL helixd stops it in the water; with the map given to helixd the
+  mode follows the medium (ROLL on the banks, SCROLL through mud and water, each change
+  stopped and turned in place on the bank) and it completes beside the built-in simulator's
+  twin flight with the same map and policy.
 """
 
 from __future__ import annotations
@@ -220,6 +225,17 @@ def test_kill_9_while_scrolling_all_four_outputs_to_trim(
     assert all(all_at(s.pwm_us, NEUTRAL_US) for s in obs.servo_since(trimmed.t_boot_s))
 
 
+SCROLL_POWER_W = 100.0  # one scroll at full speed (tools/bench_amphibious.py's assumption)
+
+
+def scroll_energy_j(c: Mapping[str, np.ndarray]) -> float:
+    """Σ over the four scrolls of SCROLL_POWER_W · |commanded fraction of max rpm| · dt from
+    flight.csv's scroll1..4, zero-order hold (the bench's figure, on the commands)."""
+    t = c["t_boot_s"]
+    load = sum(np.abs(np.nan_to_num(c[f"scroll{k}"])) for k in range(1, 5))
+    return float(SCROLL_POWER_W * np.sum(load[:-1] * np.diff(t)))
+
+
 @pytest.fixture
 def pond_sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
     """The Helix plant at the example pond: the media map config/maps/pond-media.geojson (a
@@ -243,7 +259,8 @@ def test_pond_crossing_scrolls_through_the_water_and_roll_cannot(
     daemon = launch(tmp_path, sitl, mission, mode)
     helixd_runs.append(daemon)
     code = daemon.wait_exit(MISSION_WALL_S)
-    summary = json.loads((daemon.run_dir() / "summary.json").read_text(encoding="utf-8"))
+    run_dir = daemon.run_dir()
+    summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
     obs = sitl.obs
     media = sitl.plant.log_tail(200)
     print(
@@ -265,9 +282,13 @@ def test_pond_crossing_scrolls_through_the_water_and_roll_cannot(
         )
         assert twin.exit_code == ExitCode.OK
         ratio = summary["duration_s"] / twin.summary["duration_s"]
+        sitl_j, sim_j = (
+            scroll_energy_j(read_flight_columns(d / "flight.csv")) for d in (run_dir, twin.run_dir)
+        )
         print(
             f"pond crossing, scroll, helixd sim: {twin.summary['duration_s']} s, final error "
-            f"{twin.summary['final_error_m']} m; time ×{ratio:.2f}"
+            f"{twin.summary['final_error_m']} m; time ×{ratio:.2f}; energy SITL {sitl_j:.0f} J, "
+            f"helixd sim {sim_j:.0f} J"
         )
         assert TIME_RATIO[0] <= ratio <= TIME_RATIO[1]
     else:
@@ -283,18 +304,9 @@ def test_pond_crossing_scrolls_through_the_water_and_roll_cannot(
 
 # -- the mode follows the medium -------------------------------------------------------------
 
-SCROLL_POWER_W = 100.0  # one scroll at full speed (tools/bench_amphibious.py's assumption)
 POND_MODES = ["roll", "scroll", "roll"]  # the bank, the mud and water, the far bank
 STOPPED_MPS = 0.2  # a change of mode happens at the stop (approached at 0.1 m/s, cruise 0.6)
 TURN_DRIFT_M = 0.5  # how far the rover may move while it turns in place (about half its length)
-
-
-def scroll_energy_j(c: Mapping[str, np.ndarray]) -> float:
-    """Σ over the four scrolls of SCROLL_POWER_W · |commanded fraction of max rpm| · dt from
-    flight.csv's scroll1..4, zero-order hold (the bench's figure, on the commands)."""
-    t = c["t_boot_s"]
-    load = sum(np.abs(np.nan_to_num(c[f"scroll{k}"])) for k in range(1, 5))
-    return float(SCROLL_POWER_W * np.sum(load[:-1] * np.diff(t)))
 
 
 @dataclass(frozen=True)
@@ -416,13 +428,14 @@ def test_pond_crossing_the_mode_follows_the_medium(
     }
     for name, (s, energy) in rows.items():
         print(
-            f"pond crossing, {name}: {s['duration_s']} s, {energy:.0f} J, final error "
-            f"{s['final_error_m']} m, {s['waypoints_reached']}/{s['waypoints_total']}"
+            f"pond crossing, {name}: {s['duration_s']:.1f} s, {energy:.0f} J, final error "
+            f"{s['final_error_m']:.3f} m, {s['waypoints_reached']}/{s['waypoints_total']}"
         )
     ratio = summary["duration_s"] / twins["media"].summary["duration_s"]
+    energy_ratio = flown.energy_j / twin.energy_j
     print(
-        f"pond crossing, media: SITL/sim time ×{ratio:.2f}, energy "
-        f"×{flown.energy_j / twin.energy_j:.2f}; SITL media / sim scroll time "
+        f"pond crossing, media: SITL/sim time ×{ratio:.2f}, energy ×{energy_ratio:.2f}; "
+        f"SITL media / sim scroll time "
         f"×{summary['duration_s'] / twins['scroll'].summary['duration_s']:.2f}, energy "
         f"×{flown.energy_j / fixed:.2f}; rows by (mode, medium) {flown.rows_by}"
     )
@@ -438,3 +451,5 @@ def test_pond_crossing_the_mode_follows_the_medium(
         assert c.turn_translation_mps == 0.0
         assert c.turn_drift_m <= TURN_DRIFT_M
     assert TIME_RATIO[0] <= ratio <= TIME_RATIO[1], f"time ×{ratio:.2f}"
+    assert TIME_RATIO[0] <= energy_ratio <= TIME_RATIO[1], f"energy ×{energy_ratio:.2f}"
+    assert flown.energy_j < fixed  # rolling the banks costs less than scrolling them
