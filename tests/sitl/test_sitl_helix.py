@@ -12,7 +12,12 @@ with its defaults (the thesis's geometry and gains, scroll n on RC channel n).
   plant's true pose beside the same flight on the built-in simulator, and the difference (the
   simulator's truth gap) stays within what docs/measurements.md states;
 * ``kill -9`` of helixd while it drives all four scrolls (SCROLL): helixd-guard, the real Lua
-  in ardurover, puts outputs 1–4 at trim within its timeout and asks HOLD.
+  in ardurover, puts outputs 1–4 at trim within its timeout and asks HOLD;
+* the pond crossing over the pond's media map (the plant's ground by place): in fixed SCROLL
+  it completes, in fixed ROLL helixd stops it in the water; with the map given to helixd the
+  mode follows the medium (ROLL on the banks, SCROLL through mud and water, each change
+  stopped and turned in place on the bank) and it completes beside the built-in simulator's
+  twin flight with the same map and policy.
 """
 
 from __future__ import annotations
@@ -21,14 +26,20 @@ import json
 import signal
 import subprocess
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 import yaml
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.media import MediaMapNe, Medium
+from helixd.files.media import read_media_map
 from helixd.mav.guard_script import PARAM_DEFAULTS
+from helixd.recorder.rows import read_flight_columns
 from tests.sitl.conftest import (
     DAEMON_STOP_TIMEOUT_S,
     POND_HOME,
@@ -76,11 +87,21 @@ FLIGHTS = [
 ]
 
 
-def launch(tmp_path: Path, sitl: SitlVehicle, mission: Path, mode: str) -> DaemonRun:
+def helixd_config(url: str, media_map: Path | None = None) -> dict[str, Any]:
+    """The suite's helixd.yaml; with ``media_map`` (``media.media_map``) the mode follows the
+    medium: each stretch in its medium's mode, ``mode`` only where the map says nothing."""
+    cfg = helix_sitl_config(url)
+    if media_map is not None:
+        cfg["media"] = {"media_map": str(media_map)}
+    return cfg
+
+
+def launch(
+    tmp_path: Path, sitl: SitlVehicle, mission: Path, mode: str, media_map: Path | None = None
+) -> DaemonRun:
     cfg_path = tmp_path / "helixd-helix.yaml"
-    cfg_path.write_text(
-        yaml.safe_dump(helix_sitl_config(sitl.helixd_url), sort_keys=False), encoding="utf-8"
-    )
+    cfg = helixd_config(sitl.helixd_url, media_map)
+    cfg_path.write_text(yaml.safe_dump(cfg, sort_keys=False), encoding="utf-8")
     run_root = tmp_path / "runs"
     args = ["run", "--connect", sitl.helixd_url, "--mission", str(mission), "--mode", mode]
     args += ["--config", str(cfg_path), "--run-dir", str(run_root)]
@@ -204,6 +225,17 @@ def test_kill_9_while_scrolling_all_four_outputs_to_trim(
     assert all(all_at(s.pwm_us, NEUTRAL_US) for s in obs.servo_since(trimmed.t_boot_s))
 
 
+SCROLL_POWER_W = 100.0  # one scroll at full speed (tools/bench_amphibious.py's assumption)
+
+
+def scroll_energy_j(c: Mapping[str, np.ndarray]) -> float:
+    """Σ over the four scrolls of SCROLL_POWER_W · |commanded fraction of max rpm| · dt from
+    flight.csv's scroll1..4, zero-order hold (the bench's figure, on the commands)."""
+    t = c["t_boot_s"]
+    load = sum(np.abs(np.nan_to_num(c[f"scroll{k}"])) for k in range(1, 5))
+    return float(SCROLL_POWER_W * np.sum(load[:-1] * np.diff(t)))
+
+
 @pytest.fixture
 def pond_sitl(tmp_path: Path) -> Iterator[SitlVehicle]:
     """The Helix plant at the example pond: the media map config/maps/pond-media.geojson (a
@@ -227,7 +259,8 @@ def test_pond_crossing_scrolls_through_the_water_and_roll_cannot(
     daemon = launch(tmp_path, sitl, mission, mode)
     helixd_runs.append(daemon)
     code = daemon.wait_exit(MISSION_WALL_S)
-    summary = json.loads((daemon.run_dir() / "summary.json").read_text(encoding="utf-8"))
+    run_dir = daemon.run_dir()
+    summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
     obs = sitl.obs
     media = sitl.plant.log_tail(200)
     print(
@@ -249,9 +282,13 @@ def test_pond_crossing_scrolls_through_the_water_and_roll_cannot(
         )
         assert twin.exit_code == ExitCode.OK
         ratio = summary["duration_s"] / twin.summary["duration_s"]
+        sitl_j, sim_j = (
+            scroll_energy_j(read_flight_columns(d / "flight.csv")) for d in (run_dir, twin.run_dir)
+        )
         print(
             f"pond crossing, scroll, helixd sim: {twin.summary['duration_s']} s, final error "
-            f"{twin.summary['final_error_m']} m; time ×{ratio:.2f}"
+            f"{twin.summary['final_error_m']} m; time ×{ratio:.2f}; energy SITL {sitl_j:.0f} J, "
+            f"helixd sim {sim_j:.0f} J"
         )
         assert TIME_RATIO[0] <= ratio <= TIME_RATIO[1]
     else:
@@ -263,3 +300,155 @@ def test_pond_crossing_scrolls_through_the_water_and_roll_cannot(
             "outputs 1-4 at trim and HOLD after the fault",
         )
     assert "plant_progress" in media  # the plant ran the whole flight
+
+
+# -- the mode follows the medium -------------------------------------------------------------
+
+POND_MODES = ["roll", "scroll", "roll"]  # the bank, the mud and water, the far bank
+STOPPED_MPS = 0.2  # a change of mode happens at the stop (approached at 0.1 m/s, cruise 0.6)
+TURN_DRIFT_M = 0.5  # how far the rover may move while it turns in place (about half its length)
+
+
+@dataclass(frozen=True)
+class ModeChange:
+    before: str
+    after: str
+    north_m: float
+    east_m: float
+    medium: Medium
+    speed_mps: float  # measured at the change
+    turn_drift_m: float  # moved from the change until it drove on
+    turn_translation_mps: float  # the largest translation commanded while it turned
+
+
+def mode_changes(c: Mapping[str, np.ndarray], media: MediaMapNe) -> list[ModeChange]:
+    """Where flight.csv's motion_mode changes, and the turn in place (nav_state ``align``)
+    that follows it."""
+    modes, nav = c["motion_mode"], c["nav_state"]
+    north, east = c["north_m"], c["east_m"]
+    out: list[ModeChange] = []
+    for i in np.flatnonzero(modes[1:] != modes[:-1]) + 1:
+        end = i + 1  # the change (at the stop), then the rows of its turn
+        while end < len(nav) and nav[end] == "align":
+            end += 1
+        turn = slice(i, end)
+        translation = np.hypot(c["vx_cmd_mps"][turn], c["vy_cmd_mps"][turn])
+        out.append(
+            ModeChange(
+                str(modes[i - 1]),
+                str(modes[i]),
+                float(north[i]),
+                float(east[i]),
+                media.medium_at(float(north[i]), float(east[i])),
+                float(c["speed_meas_mps"][i]),
+                float(np.hypot(north[end - 1] - north[i], east[end - 1] - east[i])),
+                float(np.max(translation)),
+            )
+        )
+    return out
+
+
+def modes_in_order(modes: np.ndarray) -> list[str]:
+    return [str(m) for k, m in enumerate(modes) if k == 0 or m != modes[k - 1]]
+
+
+@dataclass(frozen=True)
+class MediaFlight:
+    """A media-policy flight read from its flight.csv."""
+
+    modes: list[str]
+    changes: list[ModeChange]
+    rows_by: dict[tuple[str, str], int]  # (motion mode, medium under the rover) → rows
+    energy_j: float
+
+
+def media_flight(run_dir: Path, media: MediaMapNe) -> MediaFlight:
+    c = read_flight_columns(run_dir / "flight.csv")
+    under = [media.medium_at(n, e).value for n, e in zip(c["north_m"], c["east_m"], strict=True)]
+    rows_by: dict[tuple[str, str], int] = {}
+    for mode, medium in zip(c["motion_mode"], under, strict=True):
+        rows_by[(str(mode), medium)] = rows_by.get((str(mode), medium), 0) + 1
+    return MediaFlight(
+        modes_in_order(c["motion_mode"]), mode_changes(c, media), rows_by, scroll_energy_j(c)
+    )
+
+
+def pond_media_ne() -> MediaMapNe:
+    """The pond's media map placed at SITL's home (the EKF origin: flight.csv's frame)."""
+    lat, lon = (float(v) for v in POND_HOME.split(",")[:2])
+    return read_media_map(POND_MEDIA).to_ne((lat, lon), fallback=Medium.HARD)
+
+
+def test_pond_crossing_the_mode_follows_the_medium(
+    pond_sitl: SitlVehicle, helixd_runs: list[DaemonRun], tmp_path: Path
+) -> None:
+    """The pond crossing with the map given to helixd (``media.media_map``): it rolls the bank,
+    stops short of the mud and turns in place, scrolls the mud and the water, turns back to
+    ROLL on the far bank — on real ArduPilot as on the built-in simulator with the same map and
+    policy; the fixed-SCROLL twin's time and energy printed beside it."""
+    sitl = pond_sitl
+    assert sitl.plant is not None
+    mission = MISSIONS / "pond-crossing.yaml"
+    daemon = launch(tmp_path, sitl, mission, "scroll", media_map=POND_MEDIA)
+    helixd_runs.append(daemon)
+    code = daemon.wait_exit(MISSION_WALL_S)
+    log = daemon.log_text()
+    assert code == ExitCode.OK, log[-4000:]
+    run_dir = daemon.run_dir()
+    summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+    assert summary["completed"] is True
+    assert summary["waypoints_reached"] == summary["waypoints_total"]
+    media = pond_media_ne()
+    flown = media_flight(run_dir, media)
+    twins = {
+        policy: fly_on_builtin_sim(
+            tmp_path / f"sim-{policy}",
+            mission,
+            "scroll",
+            "hard",
+            helixd_config("unused", POND_MEDIA if policy == "media" else None),
+            media=POND_MEDIA,
+        )
+        for policy in ("media", "scroll")
+    }
+    assert all(t.exit_code == ExitCode.OK for t in twins.values())
+    twin = media_flight(twins["media"].run_dir, media)
+    fixed = scroll_energy_j(read_flight_columns(twins["scroll"].run_dir / "flight.csv"))
+    for c in flown.changes:
+        print(
+            f"pond crossing, media, SITL: {c.before} → {c.after} at ({c.north_m:.2f}, "
+            f"{c.east_m:.2f}) m N/E on {c.medium.value}, {c.speed_mps:.3f} m/s, moved "
+            f"{c.turn_drift_m:.2f} m while turning (translation ≤ {c.turn_translation_mps:.2f} "
+            "m/s)"
+        )
+    rows = {
+        "SITL, media": (summary, flown.energy_j),
+        "helixd sim, media": (twins["media"].summary, twin.energy_j),
+        "helixd sim, scroll": (twins["scroll"].summary, fixed),
+    }
+    for name, (s, energy) in rows.items():
+        print(
+            f"pond crossing, {name}: {s['duration_s']:.1f} s, {energy:.0f} J, final error "
+            f"{s['final_error_m']:.3f} m, {s['waypoints_reached']}/{s['waypoints_total']}"
+        )
+    ratio = summary["duration_s"] / twins["media"].summary["duration_s"]
+    energy_ratio = flown.energy_j / twin.energy_j
+    print(
+        f"pond crossing, media: SITL/sim time ×{ratio:.2f}, energy ×{energy_ratio:.2f}; "
+        f"SITL media / sim scroll time "
+        f"×{summary['duration_s'] / twins['scroll'].summary['duration_s']:.2f}, energy "
+        f"×{flown.energy_j / fixed:.2f}; rows by (mode, medium) {flown.rows_by}"
+    )
+    assert flown.modes == POND_MODES == twin.modes
+    assert log.count("event=media_transition") == len(POND_MODES) - 1
+    assert "ground_changed" not in log  # the map was right: no mode from the ground check
+    # ROLL only on the bank; the mud and the water only in SCROLL
+    assert {medium for mode, medium in flown.rows_by if mode == "roll"} == {"hard"}
+    assert {mode for mode, medium in flown.rows_by if medium != "hard"} == {"scroll"}
+    for c in flown.changes:  # stopped on firm ground, turned in place
+        assert c.medium is Medium.HARD
+        assert c.speed_mps <= STOPPED_MPS
+        assert c.turn_translation_mps == 0.0
+        assert c.turn_drift_m <= TURN_DRIFT_M
+    assert TIME_RATIO[0] <= ratio <= TIME_RATIO[1], f"time ×{ratio:.2f}"
+    assert TIME_RATIO[0] <= energy_ratio <= TIME_RATIO[1], f"energy ×{energy_ratio:.2f}"

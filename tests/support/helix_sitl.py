@@ -84,6 +84,7 @@ class SimTwin:
     exit_code: int
     summary: dict[str, Any]
     metrics: TrackMetrics | None
+    run_dir: Path  # its flight.csv, events, summary
 
 
 def fly_on_builtin_sim(
@@ -114,7 +115,8 @@ def fly_on_builtin_sim(
     )
     run_dir = sorted(p for p in run_root.iterdir() if p.is_dir())[-1]
     summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
-    return SimTwin(done.returncode, summary, flown_metrics(run_dir, flight_track(run_dir), mission))
+    metrics = flown_metrics(run_dir, flight_track(run_dir), mission)
+    return SimTwin(done.returncode, summary, metrics, run_dir)
 
 
 def gap_line(name: str, sitl: TrackMetrics, sim: TrackMetrics) -> str:
