@@ -24,8 +24,11 @@ lint: $(STAMP)
 typecheck: $(STAMP)
 	$(BIN)/mypy helixd tools
 
+# the suite on every core (pytest-xdist; TEST_WORKERS=1 for one process): the flights run on
+# a simulated clock, so parallel workers change how long they take, never what they measure
+TEST_WORKERS ?= auto
 test: lint typecheck
-	$(BIN)/pytest -q
+	$(BIN)/pytest -q -n $(TEST_WORKERS)
 
 # the fast part: everything but the daemon-against-simulator flights and the opt-in SITL suite
 unit: $(STAMP)
