@@ -353,6 +353,9 @@ class VehicleState:
     mission_current: MissionCurrent | None = None
     # MISSION_CURRENT.mission_mode was seen 1: the autopilot fills it (older ones send 0)
     mission_mode_reported: bool = False
+    # reception of the last MISSION_CURRENT with mission_mode 1: AUTO was entered after a
+    # HEARTBEAT older than this, whatever mode that HEARTBEAT named (crew_mode)
+    mission_auto_rx_s: float | None = None
     mission_current_rejected_count: int = 0  # MISSION_CURRENT with seq/total beyond uint16
     position_target: PositionTarget | None = None
     # reception of the first HEARTBEAT naming the current mode: a POSITION_TARGET_GLOBAL_INT
@@ -485,6 +488,7 @@ class VehicleState:
             self.attitude_time_boot_ms = None
             self.home = None  # a new boot sets its own
             self.mission_current = None  # a new boot has no current item yet
+            self.mission_auto_rx_s = None
             self.position_target = None
             return Change.REBOOT
         return Change.NONE
@@ -637,6 +641,7 @@ class VehicleState:
         mode = _uint16(getattr(msg, "mission_mode", None))
         if mode == 1:
             self.mission_mode_reported = True  # an autopilot that fills the field
+            self.mission_auto_rx_s = rx_s
         self.mission_current = MissionCurrent(seq, total, state, rx_s, mode)
         return Change.MISSION_CURRENT
 

@@ -135,27 +135,47 @@ def current_target_of(st: VehicleState, now_s: float, stale_s: float) -> Positio
     return current_target(st.mode, st.position_target, st.mode_since_s, now_s, stale_s)
 
 
+def _newer(mission_current_rx_s: float | None, heartbeat_rx_s: float | None) -> bool:
+    """A MISSION_CURRENT received after the last HEARTBEAT (or with none yet)."""
+    return mission_current_rx_s is not None and (
+        heartbeat_rx_s is None or mission_current_rx_s > heartbeat_rx_s
+    )
+
+
 def crew_mode(
     heartbeat_mode: str,
     heartbeat_rx_s: float | None,
     mission_mode: int | None,
     mission_current_rx_s: float | None,
     mission_mode_reported: bool,
+    auto_rx_s: float | None = None,
 ) -> str:
     """The autopilot's mode as the freshest report tells it: the HEARTBEAT's, unless a later
     MISSION_CURRENT says AUTO was entered (``mission_mode`` 1) or left (0, from an autopilot
-    seen to fill the field: :data:`LEFT_AUTO`) since."""
-    if (
-        mission_mode is None
-        or mission_current_rx_s is None
-        or (heartbeat_rx_s is not None and mission_current_rx_s <= heartbeat_rx_s)
-    ):
+    seen to fill the field: :data:`LEFT_AUTO`) since. Left also when the HEARTBEAT names
+    another mode but AUTO was entered after it (``auto_rx_s``: the last MISSION_CURRENT with
+    1): GUIDED → AUTO → HOLD within one HEARTBEAT period is not GUIDED again."""
+    if mission_mode is None or not _newer(mission_current_rx_s, heartbeat_rx_s):
         return heartbeat_mode
     if mission_mode == 1 and heartbeat_mode != AUTO_MODE:
         return AUTO_MODE  # only an autopilot that fills the field sends 1
-    if mission_mode == 0 and heartbeat_mode == AUTO_MODE and mission_mode_reported:
+    entered = heartbeat_mode == AUTO_MODE or _newer(auto_rx_s, heartbeat_rx_s)
+    if mission_mode == 0 and entered and mission_mode_reported:
         return LEFT_AUTO
     return heartbeat_mode
+
+
+def crew_mode_rx_s(st: VehicleState) -> float | None:
+    """When the report :func:`crew_mode_of` rests on was received: a MISSION_CURRENT newer
+    than the last HEARTBEAT that tells AUTO or not (1, or any from an autopilot that fills the
+    field), else the HEARTBEAT. A mode told before a moment (a HOLD acknowledged) is not news
+    of after it."""
+    mc, heartbeat_rx_s = st.mission_current, st.last_heartbeat_s
+    if mc is None or mc.mission_mode is None or not _newer(mc.rx_monotonic_s, heartbeat_rx_s):
+        return heartbeat_rx_s
+    if mc.mission_mode == 1 or st.mission_mode_reported:
+        return mc.rx_monotonic_s
+    return heartbeat_rx_s
 
 
 def item_set_by_crew(previous_seq: int | None, seq: int) -> bool:
@@ -196,6 +216,7 @@ def crew_mode_of(st: VehicleState) -> str:
         None if mc is None else mc.mission_mode,
         None if mc is None else mc.rx_monotonic_s,
         st.mission_mode_reported,
+        st.mission_auto_rx_s,
     )
 
 
@@ -210,6 +231,7 @@ __all__ = [
     "autopilot_step",
     "crew_mode",
     "crew_mode_of",
+    "crew_mode_rx_s",
     "current_target",
     "current_target_of",
     "gate_of",

@@ -315,15 +315,29 @@ class AutoWatch:
     whether the crew had left AUTO (:meth:`flight_ended`): after a release to a mode the
     pilot drives, AUTO again starts the next flight at once; after any other ending (the
     fall-back asks HOLD) the autopilot must first be seen out of AUTO, so a flight ending with
-    the autopilot still in AUTO never starts the next by itself."""
+    the autopilot still in AUTO never starts the next by itself.
+
+    A refused start whose HOLD the autopilot acknowledged (:meth:`left`) needs no sighting
+    of that HOLD: the crew's next Start Mission may put the autopilot back in AUTO before
+    any HEARTBEAT or MISSION_CURRENT showed the HOLD (the mode is reported at 1 Hz, and read
+    here once per tick). The mode held then is older than the acknowledgement and stands
+    for nothing; the first one reported after it is news: AUTO is a start, any other mode
+    is the HOLD seen."""
 
     _seen_out: bool = False
     _pending: bool = False
+    _stale_until_s: float | None = None  # mode reports received until then are no news
 
-    def update(self, armed: bool, mode: str, flying: bool) -> bool:
-        """Whether a start from AUTO is pending now."""
+    def update(self, armed: bool, mode: str, flying: bool, report_s: float | None) -> bool:
+        """Whether a start from AUTO is pending now; ``report_s``: when the report that told
+        ``mode`` was received (:func:`helixd.runtime.mode_gate.crew_mode_rx_s`)."""
         if flying:
             return False
+        stale_until_s = self._stale_until_s
+        if stale_until_s is not None:
+            if report_s is None or report_s <= stale_until_s:
+                return False
+            self._stale_until_s = None
         if not (armed and mode == AUTO_MODE):
             self._seen_out, self._pending = True, False
         elif self._seen_out:
@@ -334,7 +348,12 @@ class AutoWatch:
         self._pending = False
 
     def flight_ended(self, left_auto: bool) -> None:
-        self._seen_out, self._pending = left_auto, False
+        self._seen_out, self._pending, self._stale_until_s = left_auto, False, None
+
+    def left(self, acked_s: float) -> None:
+        """The autopilot acknowledged leaving AUTO (a refused start's HOLD) by ``acked_s``:
+        out of AUTO, whatever the reports received until then still say."""
+        self._seen_out, self._pending, self._stale_until_s = True, False, acked_s
 
 
 def answer_auto(view: ServeView) -> Answer | None:
