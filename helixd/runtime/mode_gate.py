@@ -16,7 +16,8 @@ buttons talk to the autopilot, and the mode they leave it in is what helixd obey
 The mode is the HEARTBEAT's (1 Hz on ArduPilot), made sooner by MISSION_CURRENT's
 ``mission_mode`` (1 only in AUTO, streamed at ``link.telemetry_rate_hz``): one newer than the
 last HEARTBEAT that disagrees with it tells a change into or out of AUTO before the next
-HEARTBEAT names the new mode (:func:`crew_mode`); a 0 is taken for "AUTO left" only from an
+HEARTBEAT names the new mode (:func:`crew_mode`), as does a 0 after a 1 both newer than it
+(AUTO entered and left within one HEARTBEAT period); a 0 is taken for "AUTO left" only from an
 autopilot seen to fill the field (older ones send 0 in every mode).
 
 The crew's *set current waypoint* (MISSION_SET_CURRENT / MAV_CMD_DO_SET_MISSION_CURRENT to

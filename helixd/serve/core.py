@@ -26,7 +26,7 @@ judged the same way:
   checked mission starts from the item the autopilot is on, driving in AUTO. The mode then
   is the crew's command (:mod:`helixd.runtime.mode_gate`). Like the switch, an autopilot
   found armed in AUTO when the service comes up (or when a flight ends) is not a start: it
-  must be seen out of it first.
+  must be seen out of it first, or have acknowledged the HOLD a refused start asked.
 * the autopilot's place (:class:`GotoWatch`, :func:`answer_goto`): armed in GUIDED (the
   crew's *Go to location*), RTL or SMART_RTL, the autopilot publishes where it drives to; a
   flight of one leg from where the rover is drives there and holds (neutral, overrides kept),
