@@ -95,8 +95,7 @@ def test_a_same_size_reupload_is_flown_and_a_bad_one_leaves_the_rover_in_hold(
         upload(gcs, PLAN_FAR)
         mark = d.mark()
         start_mission(gcs)
-        d.wait_line("event=serve_start_refused", 15.0, after=mark)
-        refused_at = d.mark()
+        refused = d.wait_line("event=serve_start_refused", 15.0, after=mark)
         server.wait_for(lambda s: s.mode == "HOLD", 10.0)
         gcs.wait_said("start refused: new plan failed its checks", 10.0)
         gcs.wait_said("max_range_m", 10.0)  # the reason, from the verdict
@@ -117,9 +116,12 @@ def test_a_same_size_reupload_is_flown_and_a_bad_one_leaves_the_rover_in_hold(
             f"\nStart Mission after a refusal → flying {started_s:.3f} s, moving "
             f"{time.monotonic() - t0:.3f} s"
         )
-        # nothing drove between: no flight to a place of the start sequence's GUIDED
-        between = d.log_text().splitlines()[refused_at:]
+        # nothing drove between (no flight to a place of the start sequence's GUIDED), and the
+        # AUTO held before the HOLD's acknowledgement started nothing (no second refusal)
+        lines = d.log_text().splitlines()
+        between = lines[lines.index(refused) :]
         assert not [ln for ln in between if "event=goto_start" in ln], between
+        assert sum("event=serve_start_refused" in ln for ln in between) == 1, between
         record_until(server, near(PLAN_A[0], 0.6), 90.0)  # plan A's first waypoint
 
 
