@@ -136,11 +136,9 @@ def current_target_of(st: VehicleState, now_s: float, stale_s: float) -> Positio
     return current_target(st.mode, st.position_target, st.mode_since_s, now_s, stale_s)
 
 
-def _newer(mission_current_rx_s: float | None, heartbeat_rx_s: float | None) -> bool:
-    """A MISSION_CURRENT received after the last HEARTBEAT (or with none yet)."""
-    return mission_current_rx_s is not None and (
-        heartbeat_rx_s is None or mission_current_rx_s > heartbeat_rx_s
-    )
+def _newer(rx_s: float | None, heartbeat_rx_s: float | None) -> bool:
+    """A report received at ``rx_s`` after the last HEARTBEAT (or with none yet)."""
+    return rx_s is not None and (heartbeat_rx_s is None or rx_s > heartbeat_rx_s)
 
 
 def crew_mode(

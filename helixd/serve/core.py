@@ -319,8 +319,8 @@ class AutoWatch:
 
     A refused start whose HOLD the autopilot acknowledged (:meth:`left`) needs no sighting
     of that HOLD: the crew's next Start Mission may put the autopilot back in AUTO before
-    any HEARTBEAT or MISSION_CURRENT showed the HOLD (the mode is reported at 1 Hz, and read
-    here once per tick). The mode held then is older than the acknowledgement and stands
+    any HEARTBEAT (1 Hz) or MISSION_CURRENT (a few a second) showed the HOLD, and the mode
+    is read here once per tick. The mode held then is older than the acknowledgement and stands
     for nothing; the first one reported after it is news: AUTO is a start, any other mode
     is the HOLD seen."""
 
