@@ -353,7 +353,8 @@ class VehicleState:
     mission_current: MissionCurrent | None = None
     # MISSION_CURRENT.mission_mode was seen 1: the autopilot fills it (older ones send 0)
     mission_mode_reported: bool = False
-    # reception of the latest MISSION_CURRENT with mission_mode 1 (AUTO; monotonic)
+    # reception of the last MISSION_CURRENT with mission_mode 1: AUTO was entered after a
+    # HEARTBEAT older than this, whatever mode that HEARTBEAT named (crew_mode)
     mission_auto_rx_s: float | None = None
     mission_current_rejected_count: int = 0  # MISSION_CURRENT with seq/total beyond uint16
     position_target: PositionTarget | None = None
@@ -487,6 +488,7 @@ class VehicleState:
             self.attitude_time_boot_ms = None
             self.home = None  # a new boot sets its own
             self.mission_current = None  # a new boot has no current item yet
+            self.mission_auto_rx_s = None
             self.position_target = None
             return Change.REBOOT
         return Change.NONE

@@ -16,7 +16,8 @@ buttons talk to the autopilot, and the mode they leave it in is what helixd obey
 The mode is the HEARTBEAT's (1 Hz on ArduPilot), made sooner by MISSION_CURRENT's
 ``mission_mode`` (1 only in AUTO, streamed at ``link.telemetry_rate_hz``): one newer than the
 last HEARTBEAT that disagrees with it tells a change into or out of AUTO before the next
-HEARTBEAT names the new mode (:func:`crew_mode`); a 0 is taken for "AUTO left" only from an
+HEARTBEAT names the new mode (:func:`crew_mode`), as does a 0 after a 1 both newer than it
+(AUTO entered and left within one HEARTBEAT period); a 0 is taken for "AUTO left" only from an
 autopilot seen to fill the field (older ones send 0 in every mode).
 
 The crew's *set current waypoint* (MISSION_SET_CURRENT / MAV_CMD_DO_SET_MISSION_CURRENT to
@@ -135,6 +136,11 @@ def current_target_of(st: VehicleState, now_s: float, stale_s: float) -> Positio
     return current_target(st.mode, st.position_target, st.mode_since_s, now_s, stale_s)
 
 
+def _newer(rx_s: float | None, heartbeat_rx_s: float | None) -> bool:
+    """A report received at ``rx_s`` after the last HEARTBEAT (or with none yet)."""
+    return rx_s is not None and (heartbeat_rx_s is None or rx_s > heartbeat_rx_s)
+
+
 def crew_mode(
     heartbeat_mode: str,
     heartbeat_rx_s: float | None,
@@ -145,28 +151,30 @@ def crew_mode(
 ) -> str:
     """The autopilot's mode as the freshest report tells it: the HEARTBEAT's, unless a later
     MISSION_CURRENT says AUTO was entered (``mission_mode`` 1) or left (0, from an autopilot
-    seen to fill the field: :data:`LEFT_AUTO`) since. ``auto_rx_s``: when a MISSION_CURRENT
-    last said AUTO; after the HEARTBEAT, that HEARTBEAT's mode is older than the AUTO just
-    left (AUTO entered and left between two HEARTBEATs: GUIDED → AUTO → HOLD reads "AUTO
-    left", never GUIDED again)."""
-    if (
-        mission_mode is None
-        or mission_current_rx_s is None
-        or (heartbeat_rx_s is not None and mission_current_rx_s <= heartbeat_rx_s)
-    ):
+    seen to fill the field: :data:`LEFT_AUTO`) since. Left also when the HEARTBEAT names
+    another mode but AUTO was entered after it (``auto_rx_s``: the last MISSION_CURRENT with
+    1): GUIDED → AUTO → HOLD within one HEARTBEAT period is not GUIDED again."""
+    if mission_mode is None or not _newer(mission_current_rx_s, heartbeat_rx_s):
         return heartbeat_mode
     if mission_mode == 1 and heartbeat_mode != AUTO_MODE:
         return AUTO_MODE  # only an autopilot that fills the field sends 1
-    auto_since_heartbeat = auto_rx_s is not None and (
-        heartbeat_rx_s is None or auto_rx_s > heartbeat_rx_s
-    )
-    if (
-        mission_mode == 0
-        and mission_mode_reported
-        and (heartbeat_mode == AUTO_MODE or auto_since_heartbeat)
-    ):
+    entered = heartbeat_mode == AUTO_MODE or _newer(auto_rx_s, heartbeat_rx_s)
+    if mission_mode == 0 and entered and mission_mode_reported:
         return LEFT_AUTO
     return heartbeat_mode
+
+
+def crew_mode_rx_s(st: VehicleState) -> float | None:
+    """When the report :func:`crew_mode_of` rests on was received: a MISSION_CURRENT newer
+    than the last HEARTBEAT that tells AUTO or not (1, or any from an autopilot that fills the
+    field), else the HEARTBEAT. A mode told before a moment (a HOLD acknowledged) is not news
+    of after it."""
+    mc, heartbeat_rx_s = st.mission_current, st.last_heartbeat_s
+    if mc is None or mc.mission_mode is None or not _newer(mc.rx_monotonic_s, heartbeat_rx_s):
+        return heartbeat_rx_s
+    if mc.mission_mode == 1 or st.mission_mode_reported:
+        return mc.rx_monotonic_s
+    return heartbeat_rx_s
 
 
 def item_set_by_crew(previous_seq: int | None, seq: int) -> bool:
@@ -222,6 +230,7 @@ __all__ = [
     "autopilot_step",
     "crew_mode",
     "crew_mode_of",
+    "crew_mode_rx_s",
     "current_target",
     "current_target_of",
     "gate_of",

@@ -26,7 +26,7 @@ judged the same way:
   checked mission starts from the item the autopilot is on, driving in AUTO. The mode then
   is the crew's command (:mod:`helixd.runtime.mode_gate`). Like the switch, an autopilot
   found armed in AUTO when the service comes up (or when a flight ends) is not a start: it
-  must be seen out of it first.
+  must be seen out of it first, or have acknowledged the HOLD a refused start asked.
 * the autopilot's place (:class:`GotoWatch`, :func:`answer_goto`): armed in GUIDED (the
   crew's *Go to location*), RTL or SMART_RTL, the autopilot publishes where it drives to; a
   flight of one leg from where the rover is drives there and holds (neutral, overrides kept),
@@ -315,15 +315,29 @@ class AutoWatch:
     whether the crew had left AUTO (:meth:`flight_ended`): after a release to a mode the
     pilot drives, AUTO again starts the next flight at once; after any other ending (the
     fall-back asks HOLD) the autopilot must first be seen out of AUTO, so a flight ending with
-    the autopilot still in AUTO never starts the next by itself."""
+    the autopilot still in AUTO never starts the next by itself.
+
+    A refused start whose HOLD the autopilot acknowledged (:meth:`left`) needs no sighting
+    of that HOLD: the crew's next Start Mission may put the autopilot back in AUTO before
+    any HEARTBEAT (1 Hz) or MISSION_CURRENT (a few a second) showed the HOLD, and the mode
+    is read here once per tick. The mode held then is older than the acknowledgement and stands
+    for nothing; the first one reported after it is news: AUTO is a start, any other mode
+    is the HOLD seen."""
 
     _seen_out: bool = False
     _pending: bool = False
+    _stale_until_s: float | None = None  # mode reports received until then are no news
 
-    def update(self, armed: bool, mode: str, flying: bool) -> bool:
-        """Whether a start from AUTO is pending now."""
+    def update(self, armed: bool, mode: str, flying: bool, report_s: float | None) -> bool:
+        """Whether a start from AUTO is pending now; ``report_s``: when the report that told
+        ``mode`` was received (:func:`helixd.runtime.mode_gate.crew_mode_rx_s`)."""
         if flying:
             return False
+        stale_until_s = self._stale_until_s
+        if stale_until_s is not None:
+            if report_s is None or report_s <= stale_until_s:
+                return False
+            self._stale_until_s = None
         if not (armed and mode == AUTO_MODE):
             self._seen_out, self._pending = True, False
         elif self._seen_out:
@@ -334,7 +348,12 @@ class AutoWatch:
         self._pending = False
 
     def flight_ended(self, left_auto: bool) -> None:
-        self._seen_out, self._pending = left_auto, False
+        self._seen_out, self._pending, self._stale_until_s = left_auto, False, None
+
+    def left(self, acked_s: float) -> None:
+        """The autopilot acknowledged leaving AUTO (a refused start's HOLD) by ``acked_s``:
+        out of AUTO, whatever the reports received until then still say."""
+        self._seen_out, self._pending, self._stale_until_s = True, False, acked_s
 
 
 def answer_auto(view: ServeView) -> Answer | None:

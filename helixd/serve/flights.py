@@ -14,6 +14,7 @@ from pathlib import Path
 
 import structlog
 
+from helixd.base.clock import now_s
 from helixd.base.plan import Numbering
 from helixd.base.run_files import EVENTS_FILE
 from helixd.config import HelixdConfig
@@ -319,17 +320,26 @@ class Flights:
     async def _refuse(self, ap: Autopilot, text: str, severity: int = MAV_SEVERITY_ERROR) -> None:
         """A start refused: the reason on the crew's screen and the rover left safe: armed in
         a mode where the autopilot drives by itself (AUTO, GUIDED: QGroundControl's Start
-        Mission), HOLD is asked, so the next Start Mission (AUTO again) is a new start."""
+        Mission), HOLD is asked, so the next Start Mission (AUTO again) is a new start. Its
+        acknowledgement is the AUTO watch's proof that AUTO was left: the next AUTO reported
+        starts, even if no report showed the HOLD in between (:meth:`AutoWatch.left`). Were
+        HOLD refused, the autopilot stays in AUTO, where Rover takes a Start Mission without a
+        mode change (``Rover::set_mode`` to the mode it is in): the crew is told to leave
+        AUTO first."""
         log.warning("serve_start_refused", text=text)
         self.status.gcs.say(text, severity)
         st = ap.state
-        if not st.armed or crew_mode_of(st) not in SELF_DRIVING_MODES:
+        mode = crew_mode_of(st)
+        if not st.armed or mode not in SELF_DRIVING_MODES:
             return
         try:
             await ap.action.set_mode(HOLD_MODE)
         except (CommandError, LinkError) as exc:
             log.error("serve_refused_hold_failed", error=str(exc))
-            self.status.gcs.say(f"HOLD refused: {exc}", MAV_SEVERITY_ERROR)
+            said = f"HOLD refused: {exc}; leave {mode}, then start"
+            self.status.gcs.say(said, MAV_SEVERITY_ERROR)
+            return
+        self.auto_watch.left(now_s())
 
     async def _run_flight(
         self, opts: RunOptions, host: ServeHost, what: str

@@ -39,7 +39,7 @@ from helixd.mav.constants import (
 from helixd.mav.url import LinkError, heartbeat_wait_text
 from helixd.runtime.autopilot_mission import ground_station_mode
 from helixd.runtime.gcs_feed import GcsFeed
-from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of, current_target_of
+from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of, crew_mode_rx_s, current_target_of
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.prepare import AutopilotPlace
 from helixd.runtime.signals import StopRequest, install, uninstall
@@ -319,7 +319,8 @@ class Service:
         mode = crew_mode_of(st)
         if not st.armed and mode != AUTO_MODE:
             self.flights.auto_walk = None  # AP_Arming_Rover::disarm resets it outside AUTO
-        if not self.auto_watch.update(st.armed, mode, self.flights.flying):
+        flying = self.flights.flying
+        if not self.auto_watch.update(st.armed, mode, flying, crew_mode_rx_s(st)):
             return
         answer = answer_auto(self.view())
         if answer is None:

@@ -9,6 +9,7 @@ The ground station is scripted as QGroundControl's Start Mission (tests.support.
 from __future__ import annotations
 
 import math
+import re
 import time
 from pathlib import Path
 from typing import Any
@@ -22,7 +23,7 @@ from helixd.mav.constants import (
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.gcs import upload
-from tests.support.harness import MavClient, guard_installed, record_until, scrolls_neutral
+from tests.support.harness import MavClient, guard_installed, record_until
 from tests.support.serve import SPEEDUP, heartbeat_shows, moving, serving_crew, set_mode
 
 # no start switch; the idle service does not re-read the mission by itself during the test
@@ -34,6 +35,11 @@ CONFIG: dict[str, Any] = {
 PLAN_A = [(10.0, 0.0), (10.0, -8.0), (0.0, -8.0)]
 PLAN_B = [(n, e + 3.0) for n, e in PLAN_A]  # the same plan moved 3 m east
 PLAN_FAR = [(10.0, 0.0), (10.0, -8.0), (600.0, 0.0)]  # past mission.max_range_m (500 m)
+# the crew's Start Mission after a refusal → flying (wall s): the first mode report after it
+# says AUTO (MISSION_CURRENT at link.telemetry_rate_hz 5 Hz, HEARTBEAT 1 Hz: ≤ 1 s of the
+# autopilot's time, 0.2 s at SPEEDUP), then a tick (0.1 s), a mission read and its check
+# (≈ 0.1 s); the rest is a loaded machine's slack. Before the fix it never started.
+START_AFTER_REFUSAL_S = 2.0
 
 
 def start_mission(gcs: MavClient, armed: bool = False) -> None:
@@ -49,6 +55,13 @@ def start_mission(gcs: MavClient, armed: bool = False) -> None:
     assert gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
 
 
+def plan_named(line: str) -> str:
+    """The plan a serve_state line names: ``plan 1a2b3c``."""
+    found = re.search(r"plan [0-9a-f]{6}", line)
+    assert found is not None, line
+    return found.group(0)
+
+
 def near(ne: tuple[float, float], within_m: float) -> Any:
     return lambda s: math.hypot(s.north_m - ne[0], s.east_m - ne[1]) <= within_m
 
@@ -59,7 +72,7 @@ def test_a_same_size_reupload_is_flown_and_a_bad_one_leaves_the_rover_in_hold(
     with serving_crew(tmp_path, CONFIG, **guard_installed(SPEEDUP)) as (server, gcs, d):
         d.wait_line("no mission on the autopilot", 60.0)
         upload(gcs, PLAN_A)
-        d.wait_line("event=serve_state state=ready", 30.0)
+        plan_a = plan_named(d.wait_line("event=serve_state state=ready", 30.0))
         upload(gcs, PLAN_B)  # same count: nothing tells helixd
 
         mark = d.mark()
@@ -82,15 +95,34 @@ def test_a_same_size_reupload_is_flown_and_a_bad_one_leaves_the_rover_in_hold(
         upload(gcs, PLAN_FAR)
         mark = d.mark()
         start_mission(gcs)
-        d.wait_line("event=serve_start_refused", 15.0, after=mark)
+        refused = d.wait_line("event=serve_start_refused", 15.0, after=mark)
         server.wait_for(lambda s: s.mode == "HOLD", 10.0)
         gcs.wait_said("start refused: new plan failed its checks", 10.0)
         gcs.wait_said("max_range_m", 10.0)  # the reason, from the verdict
         snap: SimSnapshot = server.snapshot()
-        assert snap.speed_mps < 0.1 and scrolls_neutral(snap)
-        # Not asserted: that a fixed plan uploaded after this refusal is flown by the next
-        # Start Mission. In a fresh clone's full run (2026-11-28) the service saw the
-        # autopilot in AUTO and did not start within 10 s; alone it passes. An open defect.
+        assert snap.speed_mps < 0.1 and not any(snap.overrides_active[:4]), snap
+
+        # fixed and uploaded again (the same size) at once, often before any report showed
+        # helixd the HOLD: the next Start Mission starts, and flies the fixed plan
+        mark = d.mark()
+        upload(gcs, PLAN_A)
+        start_mission(gcs, armed=True)
+        t0 = time.monotonic()
+        flying = d.wait_line("event=serve_state state=flying", START_AFTER_REFUSAL_S, after=mark)
+        started_s = time.monotonic() - t0
+        assert f'detail="the new {plan_a}: 3 waypoints"' in flying, flying
+        server.wait_for(moving, 20.0)
+        print(
+            f"\nStart Mission after a refusal → flying {started_s:.3f} s, moving "
+            f"{time.monotonic() - t0:.3f} s"
+        )
+        # nothing drove between (no flight to a place of the start sequence's GUIDED), and the
+        # AUTO held before the HOLD's acknowledgement started nothing (no second refusal)
+        lines = d.log_text().splitlines()
+        between = lines[lines.index(refused) :]
+        assert not [ln for ln in between if "event=goto_start" in ln], between
+        assert sum("event=serve_start_refused" in ln for ln in between) == 1, between
+        record_until(server, near(PLAN_A[0], 0.6), 90.0)  # plan A's first waypoint
 
 
 def test_an_rtl_press_is_one_or_two_texts(tmp_path: Path) -> None:

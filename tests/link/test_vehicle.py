@@ -399,9 +399,12 @@ def test_mission_current_is_kept_with_its_state_and_cleared_by_a_reboot() -> Non
     st_.apply(mission_current(4, 5, MISSION_STATE_NOT_STARTED, mode=1), 2.5)
     assert st_.mission_current is not None and st_.mission_current.mission_mode == 1
     assert st_.mission_mode_reported  # seen 1 (AUTO): the field is filled from now on
+    assert st_.mission_auto_rx_s == 2.5  # AUTO entered by then
+    st_.apply(mission_current(4, 5, MISSION_STATE_NOT_STARTED, mode=0), 2.8)
+    assert st_.mission_auto_rx_s == 2.5  # the last report of AUTO is kept
     st_.apply(att(10_000, 0.0), 3.0)
     assert st_.apply(att(100, 0.0), 4.0) & Change.REBOOT
-    assert st_.mission_current is None
+    assert st_.mission_current is None and st_.mission_auto_rx_s is None
 
 
 @settings(max_examples=200, deadline=None)

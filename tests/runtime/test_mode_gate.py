@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 
 from helixd.base.frames import ne_to_latlon
-from helixd.link.vehicle import PositionTarget
+from helixd.link.vehicle import MissionCurrent, PositionTarget, VehicleState
 from helixd.runtime.mode_gate import (
     AUTO_MODE,
     AUTOPILOT_STEPS_AHEAD,
@@ -15,6 +15,7 @@ from helixd.runtime.mode_gate import (
     Gate,
     autopilot_step,
     crew_mode,
+    crew_mode_rx_s,
     current_target,
     gate_of,
     goto_gate,
@@ -62,6 +63,35 @@ def test_the_freshest_report_tells_the_mode() -> None:
     assert crew_mode("GUIDED", 10.0, 0, 10.9, True, auto_rx_s=10.5) == LEFT_AUTO
     assert crew_mode("GUIDED", 10.0, 0, 10.9, True, auto_rx_s=9.5) == "GUIDED"
     assert crew_mode("GUIDED", 10.0, 0, 10.9, False, auto_rx_s=10.5) == "GUIDED"
+
+
+def test_auto_entered_and_left_within_one_heartbeat_is_not_the_older_mode() -> None:
+    """QGroundControl's Start Mission (GUIDED, arm, MISSION_START) refused at once: the
+    HEARTBEAT still names GUIDED when MISSION_CURRENT says AUTO (10.2), then not AUTO (10.4,
+    helixd's HOLD). The mode is not GUIDED again (no place to drive to): AUTO was left."""
+    assert crew_mode("GUIDED", 10.0, 1, 10.2, True, auto_rx_s=10.2) == AUTO_MODE
+    assert crew_mode("GUIDED", 10.0, 0, 10.4, True, auto_rx_s=10.2) == LEFT_AUTO
+    # AUTO last reported before the HEARTBEAT: that HEARTBEAT's mode stands
+    assert crew_mode("GUIDED", 10.0, 0, 10.4, True, auto_rx_s=9.5) == "GUIDED"
+    assert crew_mode("GUIDED", 10.0, 0, 10.4, True) == "GUIDED"
+    # the next HEARTBEAT names the new mode
+    assert crew_mode("HOLD", 11.0, 0, 10.4, True, auto_rx_s=10.2) == "HOLD"
+
+
+def test_when_the_mode_was_reported_is_the_report_it_rests_on() -> None:
+    st_ = VehicleState()
+    assert crew_mode_rx_s(st_) is None
+    st_.mode, st_.last_heartbeat_s = "GUIDED", 10.0
+    assert crew_mode_rx_s(st_) == 10.0
+    st_.mission_current = MissionCurrent(1, 4, 0, 9.8, 0)  # older than the HEARTBEAT
+    assert crew_mode_rx_s(st_) == 10.0
+    st_.mission_current = MissionCurrent(1, 4, 0, 10.3, 0)  # 0 from a firmware not seen to fill
+    assert crew_mode_rx_s(st_) == 10.0  # tells nothing: the HEARTBEAT's
+    st_.mission_current = MissionCurrent(1, 4, 0, 10.3, 1)
+    assert crew_mode_rx_s(st_) == 10.3  # AUTO entered, told then
+    st_.mission_mode_reported = True
+    st_.mission_current = MissionCurrent(1, 4, 0, 10.5, 0)
+    assert crew_mode_rx_s(st_) == 10.5  # not AUTO, told then
 
 
 def test_the_crews_set_current_waypoint_is_any_move_but_on_to_the_next_item() -> None:

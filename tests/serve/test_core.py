@@ -234,36 +234,67 @@ def test_state_after_flight(
 
 def test_armed_in_auto_is_a_start_only_after_being_seen_otherwise() -> None:
     w = AutoWatch()
-    assert not w.update(True, "AUTO", flying=False)  # found armed in AUTO: not a start
-    assert not w.update(True, "HOLD", flying=False)
-    assert w.update(True, "AUTO", flying=False)  # AUTO after HOLD: pending
-    assert w.update(True, "AUTO", flying=False)  # until taken
+    assert not w.update(True, "AUTO", False, 1.0)  # found armed in AUTO: not a start
+    assert not w.update(True, "HOLD", False, 2.0)
+    assert w.update(True, "AUTO", False, 3.0)  # AUTO after HOLD: pending
+    assert w.update(True, "AUTO", False, 3.0)  # until taken
     w.taken()
-    assert not w.update(True, "AUTO", flying=False)
+    assert not w.update(True, "AUTO", False, 4.0)
     # disarmed in AUTO is no start (ArduPilot enters AUTO disarmed; nothing moves)
     w = AutoWatch()
-    assert not w.update(False, "GUIDED", flying=False)
-    assert not w.update(False, "AUTO", flying=False)
-    assert w.update(True, "AUTO", flying=False)  # QGroundControl armed, then MISSION_START
+    assert not w.update(False, "GUIDED", False, 1.0)
+    assert not w.update(False, "AUTO", False, 2.0)
+    assert w.update(True, "AUTO", False, 3.0)  # QGroundControl armed, then MISSION_START
 
 
 def test_the_watch_is_blind_while_flying_and_told_how_a_flight_ended() -> None:
     w = AutoWatch()
-    w.update(True, "HOLD", flying=False)
-    assert w.update(True, "AUTO", flying=False)
+    w.update(True, "HOLD", False, 1.0)
+    assert w.update(True, "AUTO", False, 2.0)
     w.taken()
     # a pause and a continue inside the flight are the flight's
-    assert not w.update(True, "HOLD", flying=True)
-    assert not w.update(True, "AUTO", flying=True)
+    assert not w.update(True, "HOLD", True, 3.0)
+    assert not w.update(True, "AUTO", True, 4.0)
     # completed (or faulted): the autopilot still shows AUTO until the fall-back's HOLD
     w.flight_ended(left_auto=False)
-    assert not w.update(True, "AUTO", flying=False)
-    assert not w.update(True, "HOLD", flying=False)
-    assert w.update(True, "AUTO", flying=False)
+    assert not w.update(True, "AUTO", False, 5.0)
+    assert not w.update(True, "HOLD", False, 6.0)
+    assert w.update(True, "AUTO", False, 7.0)
     w.taken()
     # released to the pilot (MANUAL): AUTO again, however soon, starts the next flight
     w.flight_ended(left_auto=True)
-    assert w.update(True, "AUTO", flying=False)
+    assert w.update(True, "AUTO", False, 8.0)
+
+
+def test_after_a_refused_starts_hold_the_next_auto_reported_is_a_start() -> None:
+    """The HOLD a refused start asked was acknowledged at 10.0 s; the crew's next Start Mission
+    puts the autopilot back in AUTO before any report showed the HOLD."""
+    w = AutoWatch()
+    w.update(True, "HOLD", False, 1.0)
+    assert w.update(True, "AUTO", False, 2.0)
+    w.taken()  # the start read the mission, refused it and asked HOLD
+    assert not w.update(True, "AUTO", True, 9.9)  # blind while the refusal ran
+    w.left(acked_s=10.0)
+    # the mode held is from before the acknowledgement: no start, however often looked at
+    assert not w.update(True, "AUTO", False, 9.9)
+    assert not w.update(True, "AUTO", False, 10.0)
+    # the first report after it: AUTO again (the crew's Start Mission) is a start
+    assert w.update(True, "AUTO", False, 10.2)
+    w.taken()
+    assert not w.update(True, "AUTO", False, 10.4)
+
+
+def test_after_a_refused_starts_hold_a_report_of_the_hold_is_the_hold_seen() -> None:
+    w = AutoWatch()
+    w.left(acked_s=10.0)
+    assert not w.update(True, "AUTO", False, None)  # nothing reported yet: no news
+    assert not w.update(True, "HOLD", False, 10.1)
+    assert w.update(True, "AUTO", False, 12.0)  # the crew's start, seconds later
+    # a flight's end forgets the acknowledgement: the ordinary rule again
+    w.left(acked_s=20.0)
+    w.flight_ended(left_auto=False)
+    assert not w.update(True, "AUTO", False, 19.0)
+    assert not w.update(True, "AUTO", False, 21.0)
 
 
 def test_a_pending_start_from_auto_is_answered_once_the_mission_is_judged() -> None:

@@ -1,17 +1,30 @@
-"""helixd.serve.service: what the ground station reads when a flight ends."""
+"""helixd.serve.flights: what the ground station reads when a flight ends, and what a refused
+start leaves for the next."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from types import SimpleNamespace
+from typing import Any, cast
 
+from helixd.base.clock import now_s
 from helixd.base.plan import Numbering
 from helixd.base.run_files import EVENTS_FILE
+from helixd.config import HelixdConfig
+from helixd.link.command_client import CommandRejected
+from helixd.link.connection import Autopilot
+from helixd.link.vehicle import VehicleState
+from helixd.mav.constants import MAV_RESULT_DENIED
 from helixd.mission.expand import ExpandOptions
 from helixd.recorder.summary import RunSummary
 from helixd.runtime.prepare import AutoWalk
-from helixd.serve.flights import flight_end_text, held_walk
+from helixd.runtime.signals import StopRequest
+from helixd.serve.core import AutoWatch
+from helixd.serve.flights import Flights, flight_end_text, held_walk
+from helixd.serve.mission import MissionWatch
+from helixd.serve.options import ServeOptions
+from helixd.serve.status import ServeStatus
 
 
 def summary_of(rows: int, reached: int) -> RunSummary:
@@ -85,3 +98,68 @@ def test_the_walk_held_is_where_the_autopilots_own_item_was(tmp_path: Path) -> N
         {"event": "autopilot_item_set", "item": 1, "autopilot_step": 2},
     )
     assert held_walk(("f", opts, item_set), "f") == AutoWalk(opts, 2, exact=True)
+
+
+class _Pane:
+    """The ground station's message pane (``ServeStatus.gcs``): what was said."""
+
+    def __init__(self) -> None:
+        self.texts: list[str] = []
+
+    def say(self, text: str, severity: int) -> None:
+        self.texts.append(text)
+
+
+class _Action:
+    """The autopilot's answer to helixd's HOLD: accepted, or refused."""
+
+    def __init__(self, refuses: bool) -> None:
+        self.refuses = refuses
+        self.asked: list[str] = []
+
+    async def set_mode(self, name: str, timeout_s: float | None = None) -> None:
+        self.asked.append(name)
+        if self.refuses:
+            raise CommandRejected("DO_SET_MODE", MAV_RESULT_DENIED)
+
+
+def _refusing(tmp_path: Path, refuses_hold: bool) -> tuple[Flights, Any, _Pane, AutoWatch]:
+    """Flights on an autopilot armed in AUTO whose start was just taken from the watch."""
+    opts = ServeOptions(HelixdConfig(), None, tmp_path)
+    pane, watch = _Pane(), AutoWatch()
+    watch.update(True, "HOLD", False, 1.0)
+    assert watch.update(True, "AUTO", False, 2.0)
+    watch.taken()
+
+    async def read(ap: Autopilot) -> None:
+        return None
+
+    status = cast(ServeStatus, SimpleNamespace(gcs=pane))
+    flights = Flights(opts, MissionWatch(opts), status, watch, None, read, StopRequest())
+    st = VehicleState()
+    st.armed, st.mode, st.last_heartbeat_s = True, "AUTO", 2.0
+    return flights, SimpleNamespace(state=st, action=_Action(refuses_hold)), pane, watch
+
+
+async def test_a_refused_starts_acknowledged_hold_makes_the_next_auto_a_start(
+    tmp_path: Path,
+) -> None:
+    flights, ap, pane, watch = _refusing(tmp_path, refuses_hold=False)
+    before_s = now_s()
+    await flights._refuse(ap, "start refused: new plan failed its checks")
+    assert ap.action.asked == ["HOLD"]
+    assert pane.texts == ["start refused: new plan failed its checks"]
+    # AUTO as reported before the acknowledgement: stale, no start
+    assert not watch.update(True, "AUTO", False, before_s)
+    # the crew's next Start Mission, before any report showed the HOLD: a start
+    assert watch.update(True, "AUTO", False, now_s() + 0.2)
+
+
+async def test_a_refused_hold_tells_the_crew_to_leave_auto_first(tmp_path: Path) -> None:
+    """Rover takes Start Mission in AUTO without a mode change: helixd would not see it."""
+    flights, ap, pane, watch = _refusing(tmp_path, refuses_hold=True)
+    await flights._refuse(ap, "start refused: new plan failed its checks")
+    assert ap.action.asked == ["HOLD"]
+    said = pane.texts[-1]
+    assert said.startswith("HOLD refused: ") and said.endswith("; leave AUTO, then start"), said
+    assert not watch.update(True, "AUTO", False, now_s() + 0.2)  # still the start taken
