@@ -28,7 +28,7 @@ typecheck: $(STAMP)
 # a simulated clock, so parallel workers change how long they take, never what they measure
 TEST_WORKERS ?= auto
 test: lint typecheck
-	$(BIN)/pytest -q -n $(TEST_WORKERS)
+	$(BIN)/pytest -q -n $(TEST_WORKERS) --durations=10
 
 # the fast part: everything but the daemon-against-simulator flights and the opt-in SITL suite
 unit: $(STAMP)
