@@ -1,13 +1,13 @@
 """`helixd run --mission autopilot` flies what the autopilot holds (uploaded as QGC would), and
 `--show-plan` leaves helixd's plan in the autopilot for the ground station to draw — without
-the autopilot ever being in AUTO. Real CLI processes against the simulator over UDP."""
+the autopilot ever being in AUTO. Real CLI processes against the simulator over UDP; the
+``--show-plan`` flight on the simulated clock."""
 
 from __future__ import annotations
 
 import copy
 import json
 import math
-import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -17,13 +17,13 @@ import yaml
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import latlon_to_ne
-from helixd.sim.server import SimServer
 from helixd.sim.sim_config import SimConfig
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.cli import helixd_process as helixd
 from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
-from tests.support.harness import BASE_CONFIG, MISSIONS, SPEEDUP, running_sim, secured
+from tests.support.harness import BASE_CONFIG, SPEEDUP, running_sim, secured
 from tests.support.paths import DATA_DIR
+from tests.support.simulated import simulated_flight
 
 pytestmark = pytest.mark.integration
 
@@ -58,26 +58,6 @@ def run_daemon(tmp_path: Path, args: list[str]) -> Iterator[DaemonProc]:
         yield handle
     finally:
         handle.kill()
-
-
-class ModeWatch:
-    """Every mode the simulator was in, from its state updates (a thread waiting on them)."""
-
-    def __init__(self, server: SimServer) -> None:
-        self.modes: set[str] = set()
-        self._done = threading.Event()
-
-        def seen(s: SimSnapshot) -> bool:
-            self.modes.add(s.mode)
-            return self._done.is_set()
-
-        self._thread = threading.Thread(target=server.wait_for, args=(seen, 600.0), daemon=True)
-        self._thread.start()
-
-    def stop(self) -> set[str]:
-        self._done.set()
-        self._thread.join(timeout=5.0)
-        return self.modes
 
 
 def stored_ne(snap: SimSnapshot) -> list[tuple[float, float]]:
@@ -147,20 +127,12 @@ def test_unsupported_item_is_refused_by_number(tmp_path: Path) -> None:
 
 
 def test_show_plan_leaves_the_plan_in_the_autopilot_never_in_auto(tmp_path: Path) -> None:
-    with running_sim(speedup=SPEEDUP, terrain="hard", noise="low") as (server, url):
-        cfg = write_config(tmp_path, url)
-        watch = ModeWatch(server)
-        args = ["--mission", str(MISSIONS / "square.yaml"), "--show-plan", "--connect", url,
-                "--config", str(cfg)]  # fmt: skip
-        try:
-            with run_daemon(tmp_path, args) as d:
-                code = d.wait_exit(240.0)
-                log = d.log_text()
-                snap = server.snapshot()
-        finally:
-            modes = watch.stop()
-    assert code == ExitCode.OK, log[-3000:]
-    assert "show_plan_uploaded" in log
+    """``--show-plan`` on the simulated clock (tests.support.simulated)."""
+    flown = simulated_flight(tmp_path, "square", show_plan=True, terrain="hard", noise="low")
+    modes = {snap.mode for _, snap in flown.trace.samples}
+    assert flown.code == ExitCode.OK, flown.log[-3000:]
+    assert "show_plan_uploaded" in flown.log
+    snap = flown.snapshot
     ne = stored_ne(snap)
     assert len(ne) == 4  # the square's four corners, as flown from the start pose
     sides = [math.dist(ne[i - 1], ne[i]) for i in range(1, 4)]

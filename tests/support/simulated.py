@@ -293,12 +293,13 @@ def simulated_flights(
     legs: Sequence[tuple[Source, Steering | None]],
     config: dict[str, Any] | None = None,
     links: int = 1,
+    show_plan: bool = False,
     **sim_overrides: Any,
 ) -> list[SimulatedFlight]:
     """``helixd run`` once per leg — (its mission: a shipped mission's name, a file, a
     :class:`~helixd.runtime.prepare.FlightSource` or a function giving one when the leg
     starts, e.g. ``--resume`` of the leg before; its steering) — one after the other against
-    one simulator (``links``: helixd's first; ``sim_overrides`` as
+    one simulator (``links``: helixd's first; ``show_plan``: ``--show-plan``; ``sim_overrides`` as
     :func:`~tests.support.harness.sim_and_daemon` takes them, the speed-up 1: there is no
     wall clock to outrun), with the test config merged over
     :data:`~tests.support.harness.BASE_CONFIG`. Each leg records under ``tmp_path``/runs."""
@@ -312,7 +313,7 @@ def simulated_flights(
         def daemon(url: str) -> Awaitable[RunOutcome]:
             got = prepare_flight(_flight_source(mission), cfg_path, None)
             notes.append(got.notes)
-            opts = flight_options(got.cfg, got.flight, url, run_root, "info", False, tty=False)
+            opts = flight_options(got.cfg, got.flight, url, run_root, "info", show_plan, tty=False)
             return run_mission(opts)
 
         return daemon
@@ -340,11 +341,13 @@ def simulated_flight(
     config: dict[str, Any] | None = None,
     during: Steering | None = None,
     links: int = 1,
+    show_plan: bool = False,
     **sim_overrides: Any,
 ) -> SimulatedFlight:
     """``helixd run --mission MISSION`` on the simulated clock, steered by ``during`` if
     given (:func:`simulated_flights` with one leg)."""
-    (flown,) = simulated_flights(tmp_path, [(mission, during)], config, links, **sim_overrides)
+    legs = [(mission, during)]
+    (flown,) = simulated_flights(tmp_path, legs, config, links, show_plan, **sim_overrides)
     return flown
 
 
