@@ -662,6 +662,7 @@ class MissionRunner:
                     abandon=lambda: self.stop.forced,
                 )
             report_fallback(self.gcs, secured)
+            self.host.secured(secured)
             ending = self._late_failsafe(ending, ap)
             ending = ending_after_fallback(ending, secured, self.host.disarm_when_complete)
         if ending.code is ExitCode.OK:

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol
 
+from helixd.base.clock import now_s
 from helixd.config import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.link.tlog import LinkTlog
@@ -39,6 +40,7 @@ from helixd.runtime.setup import (
     reach,
 )
 from helixd.runtime.signals import StopRequest, install, uninstall
+from helixd.safety.supervisor import FallbackReport
 
 __all__ = ["FlightHost", "OwnLink", "ServeHost"]
 
@@ -106,6 +108,10 @@ class FlightHost(Protocol):
         """The mission item being flown, each time it changes."""
         ...
 
+    def secured(self, report: FallbackReport) -> None:
+        """The flight's fall-back is done (neutral, released, HOLD asked): its report."""
+        ...
+
 
 class OwnLink:
     """``helixd run``: its own link, signals and start gate."""
@@ -152,6 +158,9 @@ class OwnLink:
     def on_item(self, seq: int) -> None:
         """Nobody to tell: ``helixd run`` sets no current item."""
 
+    def secured(self, report: FallbackReport) -> None:
+        """Nobody to tell: the run ends with it."""
+
 
 @dataclass
 class ServeHost:
@@ -167,6 +176,8 @@ class ServeHost:
     driving: Driving = DRIVE_MANUAL
     disarm_when_complete: bool = True  # serve.disarm_when_complete
     _tlog: LinkTlog | None = field(default=None, init=False, repr=False)
+    # when the flight's fall-back had its HOLD acknowledged (None: not asked, or not taken)
+    hold_acked_s: float | None = field(default=None, init=False)
 
     @property
     def start_gate(self) -> bool:
@@ -204,3 +215,9 @@ class ServeHost:
     def on_item(self, seq: int) -> None:
         if self.set_item is not None:
             self.set_item(seq)
+
+    def secured(self, report: FallbackReport) -> None:
+        """The service's AUTO watch takes the HOLD acknowledged as the autopilot out of AUTO
+        (:meth:`helixd.serve.core.AutoWatch.left`): a Start right after a fault is a start."""
+        if report.hold_acked:
+            self.hold_acked_s = now_s()

@@ -66,6 +66,22 @@ log = structlog.get_logger(__name__)
 # a flight that ends so is the crew's doing (MANUAL, another item, a new place or mode): the
 # mission's verdict stands, and AUTO again (or still) starts the next
 HANDED = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
+
+
+def after_flight(watch: AutoWatch, cause: FaultCause | None, hold_acked_s: float | None) -> None:
+    """What a flight's end leaves the AUTO watch: after a release or a handover (the crew's
+    own mode) AUTO again starts the next at once; after a fall-back whose HOLD the autopilot
+    acknowledged at ``hold_acked_s``, the first mode report after that is news (AUTO: the
+    crew's Start), as after a refused start; else the autopilot must first be seen out of
+    AUTO, so a flight ending with the autopilot still in AUTO never starts the next itself."""
+    if cause in HANDED:
+        watch.flight_ended(left_auto=True)
+    elif hold_acked_s is not None:
+        watch.left(hold_acked_s)
+    else:
+        watch.flight_ended(left_auto=False)
+
+
 # modes an armed autopilot drives in by itself: a refused start leaves it there in HOLD
 SELF_DRIVING_MODES = (AUTO_MODE, "GUIDED")
 
@@ -242,7 +258,7 @@ class Flights:
         runner, outcome, cause = await self._run_flight(opts, host, f"{mode} to {where}")
         summary = outcome.summary
         handed = cause in HANDED
-        self.auto_watch.flight_ended(left_auto=handed)
+        after_flight(self.auto_watch, cause, host.hold_acked_s)
         log.info("serve_flight_end", request=Request.GOTO.value, exit_code=int(outcome.exit_code))
         if handed or cause is FaultCause.PAUSED or stop.paused:
             self.status.set(*before, quiet=handed)  # the mission's verdict stands
@@ -293,7 +309,7 @@ class Flights:
         what = f"the new {checked.name}" if changed else f"{request.value} by {who}"
         runner, outcome, cause = await self._run_flight(opts, host, what)
         # released to the pilot, or moved to another item: AUTO again (or still) starts
-        self.auto_watch.flight_ended(left_auto=cause in HANDED)
+        after_flight(self.auto_watch, cause, host.hold_acked_s)
         self.item_set = cause is FaultCause.ITEM_SET
         let_go = auto and cause in HANDED and flight.mission.has_commands()
         self.auto_walk = None
@@ -491,6 +507,7 @@ def write_state_file(path: Path, interrupted: tuple[str, Path] | None, state: Se
 __all__ = [
     "HANDED",
     "Flights",
+    "after_flight",
     "cause_of",
     "flight_end_text",
     "held_walk",

@@ -18,10 +18,13 @@ from helixd.link.vehicle import VehicleState
 from helixd.mav.constants import MAV_RESULT_DENIED
 from helixd.mission.expand import ExpandOptions
 from helixd.recorder.summary import RunSummary
+from helixd.runtime.host import ServeHost
 from helixd.runtime.prepare import AutoWalk
 from helixd.runtime.signals import StopRequest
+from helixd.safety.supervisor import FallbackReport
+from helixd.safety.watchdogs import FaultCause
 from helixd.serve.core import AutoWatch
-from helixd.serve.flights import Flights, flight_end_text, held_walk
+from helixd.serve.flights import Flights, after_flight, flight_end_text, held_walk
 from helixd.serve.mission import MissionWatch
 from helixd.serve.options import ServeOptions
 from helixd.serve.status import ServeStatus
@@ -163,3 +166,37 @@ async def test_a_refused_hold_tells_the_crew_to_leave_auto_first(tmp_path: Path)
     said = pane.texts[-1]
     assert said.startswith("HOLD refused: ") and said.endswith("; leave AUTO, then start"), said
     assert not watch.update(True, "AUTO", False, now_s() + 0.2)  # still the start taken
+
+
+def test_after_a_fault_whose_hold_was_acknowledged_the_next_auto_is_a_start() -> None:
+    """A flight faulted in AUTO; its fall-back's HOLD was acknowledged at 10.0 s. Reports
+    received until then (AUTO still) are no news; the first AUTO after it is the crew's Start,
+    with no sighting of the HOLD needed (it may last less than one mode report)."""
+    watch = AutoWatch()
+    after_flight(watch, FaultCause.STALL, hold_acked_s=10.0)
+    assert not watch.update(True, "AUTO", False, 9.9)
+    assert watch.update(True, "AUTO", False, 10.1)
+
+
+def test_after_a_fault_without_an_acknowledged_hold_auto_must_be_left_first() -> None:
+    """No HOLD acknowledged (refused, or not asked): the autopilot may still be in AUTO, which
+    must not start the next flight by itself; out of AUTO, then AUTO, is a start."""
+    watch = AutoWatch()
+    after_flight(watch, FaultCause.STALL, hold_acked_s=None)
+    assert not watch.update(True, "AUTO", False, 10.1)
+    assert not watch.update(True, "HOLD", False, 10.2)
+    assert watch.update(True, "AUTO", False, 10.3)
+
+
+def test_after_a_handover_auto_again_starts_at_once() -> None:
+    watch = AutoWatch()
+    after_flight(watch, FaultCause.RELEASED, hold_acked_s=None)
+    assert watch.update(True, "AUTO", False, 10.1)
+
+
+def test_the_service_host_keeps_when_the_fall_backs_hold_was_acknowledged() -> None:
+    host = ServeHost(cast(Autopilot, None), StopRequest())
+    host.secured(FallbackReport("stall", "dug in", hold_acked=False))
+    assert host.hold_acked_s is None
+    host.secured(FallbackReport("stall", "dug in", hold_acked=True))
+    assert host.hold_acked_s is not None
