@@ -915,3 +915,26 @@ def launch_helixd(tmp_path: Path, sitl: SitlVehicle) -> Iterator[Callable[..., D
     finally:
         for run in runs:
             run.stop(DAEMON_STOP_TIMEOUT_S)
+
+
+# Wall minutes of the longest tests at speed-up 1 (pytest --durations, 2026-11-28: the SITL
+# suite side by side, docs/measurements.md); every other test takes 0.5-1.8 min.
+LONGEST_TESTS_MIN = {
+    "test_survey_block_helixd_against_auto": 11.8,  # helixd's block, then AUTO's on a 2nd SITL
+    "test_survey_from_qgroundcontrol_as_precise_as_helixd_run": 11.7,  # run, then serve
+    "test_pond_crossing_the_mode_follows_the_medium": 3.5,
+    "test_pond_crossing_scrolls_through_the_water_and_roll_cannot": 3.1,
+}
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The longest SITL tests first: with pytest-xdist's workers (``-n 4 --dist worksteal``)
+    the suite then lasts about its longest test or its total over the workers, whichever is
+    more, instead of a long test starting last on a worker that already ran others."""
+
+    def minutes(item: pytest.Item) -> float:
+        is_sitl = item.get_closest_marker("sitl") is not None
+        name = getattr(item, "originalname", item.name)
+        return LONGEST_TESTS_MIN.get(name, 1.0) if is_sitl else 0.0
+
+    items.sort(key=minutes, reverse=True)
