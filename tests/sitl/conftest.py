@@ -918,23 +918,57 @@ def launch_helixd(tmp_path: Path, sitl: SitlVehicle) -> Iterator[Callable[..., D
 
 
 # Wall minutes of the longest tests at speed-up 1 (pytest --durations, 2026-11-28: the SITL
-# suite side by side, docs/measurements.md); every other test takes 0.5-1.8 min.
+# suite side by side, docs/measurements.md); every other test takes 0.5-1.2 min.
 LONGEST_TESTS_MIN = {
-    "test_survey_block_helixd_against_auto": 11.8,  # helixd's block, then AUTO's on a 2nd SITL
+    "test_survey_block_helixd_against_auto": 11.9,  # helixd's block, then AUTO's on a 2nd SITL
     "test_survey_from_qgroundcontrol_as_precise_as_helixd_run": 11.7,  # run, then serve
     "test_pond_crossing_the_mode_follows_the_medium": 3.5,
     "test_pond_crossing_scrolls_through_the_water_and_roll_cannot": 3.1,
+    "test_autopilot_mission_with_speed_change_and_servo": 1.8,
+    "test_go_to_location_and_rtl_to_a_rally_point": 1.6,
+    "test_helix_mission_on_real_ardupilot": 1.5,
+    "test_set_current_waypoint_in_a_commands_mission": 1.5,
 }
+OTHER_TEST_MIN = 1.0
+
+
+def sitl_minutes(item: pytest.Item) -> float:
+    """The expected wall minutes of one SITL test; 0 for a test of another suite."""
+    if item.get_closest_marker("sitl") is None:
+        return 0.0
+    return LONGEST_TESTS_MIN.get(getattr(item, "originalname", item.name), OTHER_TEST_MIN)
+
+
+def worker_blocks(minutes: list[float], workers: int) -> list[list[int]]:
+    """Indices of ``minutes`` in the contiguous blocks pytest-xdist's ``--dist worksteal``
+    hands its workers at the start (block ``i`` holds ``remaining // (workers - i)`` tests),
+    filled longest test first into the block with the least expected minutes that has room,
+    each block in turn longest first. A worker then steals only from another's tail, so two
+    long tests never queue behind each other on one worker."""
+    count = len(minutes)
+    sizes: list[int] = []
+    remaining = count
+    for i in range(workers):
+        sizes.append(remaining // (workers - i))
+        remaining -= sizes[-1]
+    blocks: list[list[int]] = [[] for _ in sizes]
+    loads = [0.0] * len(sizes)
+    for index in sorted(range(count), key=lambda k: minutes[k], reverse=True):
+        open_blocks = [b for b in range(len(blocks)) if len(blocks[b]) < sizes[b]]
+        best = min(open_blocks, key=lambda b: loads[b])
+        blocks[best].append(index)
+        loads[best] += minutes[index]
+    return blocks
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """The longest SITL tests first: with pytest-xdist's workers (``-n 4 --dist worksteal``)
+    """Spread the longest SITL tests over pytest-xdist's workers (``-n 5 --dist worksteal``):
     the suite then lasts about its longest test or its total over the workers, whichever is
-    more, instead of a long test starting last on a worker that already ran others."""
-
-    def minutes(item: pytest.Item) -> float:
-        is_sitl = item.get_closest_marker("sitl") is not None
-        name = getattr(item, "originalname", item.name)
-        return LONGEST_TESTS_MIN.get(name, 1.0) if is_sitl else 0.0
-
-    items.sort(key=minutes, reverse=True)
+    more, instead of two 12-minute surveys queued on one worker. Without xdist the longest
+    run first. Every worker computes the same order, as xdist requires."""
+    sitl = [item for item in items if item.get_closest_marker("sitl") is not None]
+    others = [item for item in items if item.get_closest_marker("sitl") is None]
+    workers = max(1, int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")))
+    minutes = [sitl_minutes(item) for item in sitl]
+    order = [sitl[k] for block in worker_blocks(minutes, workers) for k in block]
+    items[:] = order + others
