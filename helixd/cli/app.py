@@ -37,6 +37,7 @@ from helixd.cli.common import (
     ConnectOpt,
     LogLevelOpt,
     MapOpt,
+    ModeOpt,
     ObserverConnectOpt,
     WholeHelpGroup,
     check_connect,
@@ -135,15 +136,6 @@ CheckMissionOpt = Annotated[
         "-m",
         help="mission YAML file; a bare name such as square.yaml is also looked up in "
         "config/missions/ and /etc/helixd/missions/",
-    ),
-]
-ModeOpt = Annotated[
-    MotionMode | None,
-    typer.Option(
-        "--mode",
-        help="motion mode of a .plan/.waypoints mission (default: "
-        "mission.ground_station_mode); given with a YAML mission it wins over the file's "
-        "mode: and a warning says so",
     ),
 ]
 SkipOpt = Annotated[

@@ -14,6 +14,7 @@ import typer
 from typer.core import TyperGroup
 
 from helixd.base.exitcodes import ExitCode
+from helixd.base.plan import MotionMode
 from helixd.config import (
     HelixdConfig,
     LinkConfig,
@@ -114,6 +115,14 @@ ObserverConnectOpt = Annotated[  # the link of a command that does not fly (:fun
     ),
 ]
 LogLevelOpt = Annotated[str, typer.Option(help="debug, info, warning or error")]
+ModeOpt = Annotated[  # helixd run, check, mission convert
+    MotionMode | None,
+    typer.Option(
+        "--mode",
+        help="motion mode of a .plan/.waypoints mission (default: mission.ground_station_mode);"
+        " given with a YAML mission it wins over the file's mode: and a warning says so",
+    ),
+]
 SimTerrainOpt = Annotated[  # helixd sim, helixd plant
     Terrain | None, typer.Option("--terrain", help="ground under the rover")
 ]

@@ -16,6 +16,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.cli.common import (
     ConfigOpt,
+    ModeOpt,
     ObserverConnectOpt,
     config_or_exit,
     fail,
@@ -55,14 +56,6 @@ from helixd.mission.placed import PlacementError, parse_latlon, placed_with
 T = TypeVar("T")
 
 
-ModeOpt = Annotated[
-    MotionMode | None,
-    typer.Option(
-        "--mode",
-        help="motion mode of a .plan/.waypoints mission (default: mission.ground_station_mode);"
-        " given with a YAML mission it wins over the file's mode: and a warning says so",
-    ),
-]
 OriginOpt = Annotated[
     str | None,
     typer.Option(

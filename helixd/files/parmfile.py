@@ -9,14 +9,13 @@ the file and the line number.
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Mapping
 from pathlib import Path
 from types import MappingProxyType
 
 from helixd.base.problems import Problems
-from helixd.files.yamlio import clip
+from helixd.files.yamlio import clip, finite_number
 
 MAX_FILE_BYTES = 1_000_000  # a full Rover parameter dump is about 30 kB
 PARAM_NAME = re.compile(r"[A-Z][A-Z0-9_]{0,15}")  # AP_MAX_NAME_SIZE 16
@@ -50,12 +49,9 @@ def parse_parm(text: str, source: str) -> Mapping[str, float]:
             )
             continue
         try:
-            value = float(text_value)
-        except ValueError:
-            problems.append(f"{where}: {name} = {clip(text_value, 40)} is not a number")
-            continue
-        if not math.isfinite(value):
-            problems.append(f"{where}: {name} = {clip(text_value, 40)} is not a finite number")
+            value = finite_number(text_value, f"{name} =")
+        except ValueError as exc:
+            problems.append(f"{where}: {exc}")
             continue
         if name in first_seen:
             problems.append(f"{where}: {name} set again (first on line {first_seen[name]})")

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import math
 import re
 from collections.abc import Iterator
 from pathlib import Path
@@ -50,6 +51,7 @@ NESTING_REFUSAL = "exceeded maximum nesting depth"  # PyYAML's own limit's messa
 MAX_EVENTS = 1_000_000  # parser events (values + collections); 100 000 waypoints are ~600 000
 MAX_SHOWN_CHARS = 120  # longest quoted value in a message
 MAX_LINE_CHARS = 400  # longest problem line (of what came from the input)
+MAX_NUMBER_CHARS = 40  # longest number text a file may hold (a float64 needs 24)
 # longest line an operator is shown: the clipped part from the input, plus what helixd adds
 # whole (e.g. every allowed key of the largest config section)
 MAX_ERROR_LINE_CHARS = 2000
@@ -88,6 +90,21 @@ def clip_line(line: str, limit: int = MAX_LINE_CHARS) -> str:
     if len(line) > limit:
         line = line[: limit - 1] + "…"
     return line
+
+
+def finite_number(text: str, what: str) -> float:
+    """``text`` (a column or value of a text file) as a finite number; ValueError naming
+    ``what`` and the text otherwise. A text longer than :data:`MAX_NUMBER_CHARS` is no number
+    any of our files writes, and is refused before it is parsed."""
+    try:
+        if len(text) > MAX_NUMBER_CHARS:
+            raise ValueError
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{what} {clip(text, MAX_NUMBER_CHARS)} is not a number") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{what} {clip(text, MAX_NUMBER_CHARS)} is not a finite number")
+    return value
 
 
 # ---------------------------------------------------------------------------------------------

@@ -28,6 +28,12 @@ from typing import Any
 from helixd.base.frames import NedPose
 from helixd.config import SafetyConfig
 from helixd.mav.constants import (
+    EKF_ATTITUDE,
+    EKF_CONST_POS_MODE,
+    EKF_GPS_GLITCHING,
+    EKF_POS_HORIZ_REL,
+    EKF_UNINITIALIZED,
+    EKF_VELOCITY_HORIZ,
     MAV_MODE_FLAG_SAFETY_ARMED,
     MISSION_STATE_MAX,
     MISSION_STATE_UNKNOWN,
@@ -35,17 +41,11 @@ from helixd.mav.constants import (
     ROVER_MODES,
     UINT16_MAX,
 )
+from helixd.mav.ekf_report import EkfReport
 
 MavMsg = Any  # pymavlink messages are untyped; every field is read through int()/float()
 
 
-# EKF_STATUS_FLAGS
-EKF_ATTITUDE = 1
-EKF_VELOCITY_HORIZ = 2
-EKF_POS_HORIZ_REL = 8
-EKF_CONST_POS_MODE = 128
-EKF_UNINITIALIZED = 1024
-EKF_GPS_GLITCHING = 32768
 EKF_REQUIRED_FLAGS = {
     EKF_ATTITUDE: "attitude",
     EKF_VELOCITY_HORIZ: "horizontal velocity",
@@ -256,12 +256,7 @@ class PoseSample:
 class EkfStatus:
     """EKF_STATUS_REPORT with our health judgement (variances against ``variance_max``)."""
 
-    flags: int
-    velocity_variance: float
-    pos_horiz_variance: float
-    pos_vert_variance: float
-    compass_variance: float
-    terrain_alt_variance: float
+    report: EkfReport
     rx_monotonic_s: float
     variance_max: float
     # judged once, when the report arrives (5 Hz), not at every read (every control tick)
@@ -271,12 +266,13 @@ class EkfStatus:
         object.__setattr__(self, "healthy", not self.problems())
 
     def problems(self) -> list[str]:
-        out = [f"no {what}" for bit, what in EKF_REQUIRED_FLAGS.items() if not self.flags & bit]
-        out += [what for bit, what in EKF_FORBIDDEN_FLAGS.items() if self.flags & bit]
+        report = self.report
+        out = [f"no {what}" for bit, what in EKF_REQUIRED_FLAGS.items() if not report.flags & bit]
+        out += [what for bit, what in EKF_FORBIDDEN_FLAGS.items() if report.flags & bit]
         for name, value in (
-            ("velocity", self.velocity_variance),
-            ("horizontal position", self.pos_horiz_variance),
-            ("compass", self.compass_variance),
+            ("velocity", report.velocity_variance),
+            ("horizontal position", report.pos_horiz_variance),
+            ("compass", report.compass_variance),
         ):
             if not math.isfinite(value) or value > self.variance_max:
                 out.append(f"{name} variance {value:.2f} > {self.variance_max:.2f}")
@@ -284,14 +280,14 @@ class EkfStatus:
 
     @property
     def gps_glitching(self) -> bool:
-        return bool(self.flags & EKF_GPS_GLITCHING)
+        return bool(self.report.flags & EKF_GPS_GLITCHING)
 
     def describe(self) -> str:
         problems = self.problems()
         text = "healthy" if not problems else "; ".join(problems)
         if self.gps_glitching:
             text += " (GPS glitching)"
-        return f"EKF {text} (flags 0x{self.flags:04x})"
+        return f"EKF {text} (flags 0x{self.report.flags:04x})"
 
 
 @dataclass(frozen=True, slots=True)
@@ -572,16 +568,7 @@ class VehicleState:
         return changed | Change.POSE
 
     def _ekf(self, msg: MavMsg, rx_s: float) -> int:
-        self.ekf = EkfStatus(
-            flags=int(msg.flags),
-            velocity_variance=float(msg.velocity_variance),
-            pos_horiz_variance=float(msg.pos_horiz_variance),
-            pos_vert_variance=float(msg.pos_vert_variance),
-            compass_variance=float(msg.compass_variance),
-            terrain_alt_variance=float(msg.terrain_alt_variance),
-            rx_monotonic_s=rx_s,
-            variance_max=self.ekf_variance_max,
-        )
+        self.ekf = EkfStatus(EkfReport.from_message(msg), rx_s, self.ekf_variance_max)
         return Change.EKF
 
     def _rc(self, msg: MavMsg, rx_s: float) -> int:

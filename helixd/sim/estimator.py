@@ -16,20 +16,21 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from helixd.base.angles import wrap_pi
+from helixd.mav.constants import (
+    EKF_ATTITUDE,
+    EKF_CONST_POS_MODE,
+    EKF_POS_HORIZ_ABS,
+    EKF_POS_HORIZ_REL,
+    EKF_POS_VERT_ABS,
+    EKF_PRED_POS_HORIZ_ABS,
+    EKF_PRED_POS_HORIZ_REL,
+    EKF_UNINITIALIZED,
+    EKF_VELOCITY_HORIZ,
+    EKF_VELOCITY_VERT,
+)
+from helixd.mav.ekf_report import EkfReport
 from helixd.sim.sim_config import NoiseProfile
 from helixd.sim.state import PhysicsState
-
-EKF_ATTITUDE = 1
-EKF_VELOCITY_HORIZ = 2
-EKF_VELOCITY_VERT = 4
-EKF_POS_HORIZ_REL = 8
-EKF_POS_HORIZ_ABS = 16
-EKF_POS_VERT_ABS = 32
-EKF_POS_VERT_AGL = 64
-EKF_CONST_POS_MODE = 128
-EKF_PRED_POS_HORIZ_REL = 256
-EKF_PRED_POS_HORIZ_ABS = 512
-EKF_UNINITIALIZED = 1024
 
 HEALTHY_FLAGS = (
     EKF_ATTITUDE
@@ -75,14 +76,7 @@ class PoseEstimate:
 
 
 @dataclass(frozen=True, slots=True)
-class SimEkfStatus:
-    flags: int
-    velocity_variance: float
-    pos_horiz_variance: float
-    pos_vert_variance: float
-    compass_variance: float
-    terrain_alt_variance: float
-
+class SimEkfStatus(EkfReport):
     @property
     def position_ok(self) -> bool:
         return bool(self.flags & (EKF_POS_HORIZ_ABS | EKF_POS_HORIZ_REL)) and not bool(

@@ -20,6 +20,7 @@ from helixd.files.yamlio import (
     MAX_ERROR_LINE_CHARS,
     YamlFileError,
     clip,
+    finite_number,
     load_yaml_file,
     parse_yaml_text,
     read_text_capped,
@@ -265,3 +266,24 @@ def test_100k_waypoints_check_in_linear_time(tmp_path: Path) -> None:
     assert "waypoints not shown" in output
     # CPU time (the neighbours' load is not ours); 10x the waypoints, at most 20x the time
     assert cpu_check < 20 * cpu_small, (cpu_check, cpu_small)
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("two", "speed 'two' is not a number"),
+        ("nan", "speed 'nan' is not a finite number"),
+        ("-inf", "speed '-inf' is not a finite number"),
+        ("1" * 41, "speed '1111"),  # longer than any number a file writes: not parsed
+        ("", "speed '' is not a number"),
+    ],
+)
+def test_finite_number_names_the_value_and_the_text(text: str, words: str) -> None:
+    with pytest.raises(ValueError, match="^" + words.replace("(", r"\(")):
+        finite_number(text, "speed")
+
+
+def test_finite_number_reads_what_files_write() -> None:
+    assert finite_number("-113.52611", "x") == -113.52611
+    assert finite_number("1e3", "x") == 1000.0
+    assert finite_number("1" * 40, "x") == float("1" * 40)

@@ -23,6 +23,7 @@ from helixd.mav.constants import (
     MISSION_STATE_UNKNOWN,
     UINT16_MAX,
 )
+from helixd.mav.ekf_report import EkfReport
 from tests.support.mavmsgs import AP, att, codec, decoded, hb, lpn
 
 
@@ -365,7 +366,7 @@ def test_home_position_is_checked_at_the_edge() -> None:
 def test_ekf_health_is_judged_once_when_the_report_arrives(flags: int, var: list[float]) -> None:
     """EkfStatus.healthy is computed at construction (5 Hz), not per read (every tick): the
     same verdict as its list of problems."""
-    ekf = EkfStatus(flags, var[0], var[1], var[2], var[3], var[4], 1.0, 0.8)
+    ekf = EkfStatus(EkfReport(flags, var[0], var[1], var[2], var[3], var[4]), 1.0, 0.8)
     assert ekf.healthy is (not ekf.problems())
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from helixd.files.yamlio import clip
+from helixd.files.yamlio import clip, finite_number
 from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats.items import (
     MAX_ITEMS,
@@ -152,15 +152,9 @@ def _row(line: str, lineno: int, src: str) -> tuple[MissionItem | None, list[str
     for i, name in _FLOAT_COLUMNS.items():
         text = cols[i]
         try:
-            if len(text) > 40:
-                raise ValueError
-            value_f = float(text)
-        except ValueError:
-            problems.append(f"{where}: {name} {clip(text, 40)} is not a number")
-            continue
-        if not math.isfinite(value_f):
-            problems.append(f"{where}: {name} is {text}; allowed: a finite number")
-        floats[i] = value_f
+            floats[i] = finite_number(text, name)
+        except ValueError as exc:
+            problems.append(f"{where}: {exc}")
     if problems:
         return None, problems
     item = MissionItem(

@@ -273,8 +273,8 @@ WPL_HOME = "0\t1\t0\t16\t0\t0\t0\t0\t53.52325\t-113.52611\t0\t1"
 @pytest.mark.parametrize(
     ("rows", "words"),
     [
-        ([WPL_ROW.replace("53.5233", "nan")], "line 3: x is nan"),
-        ([WPL_ROW.replace("53.5233", "inf")], "line 3: x is inf"),
+        ([WPL_ROW.replace("53.5233", "nan")], "line 3: x 'nan' is not a finite number"),
+        ([WPL_ROW.replace("53.5233", "inf")], "line 3: x 'inf' is not a finite number"),
         ([WPL_ROW.replace("53.5233", "95")], "line 3: latitude/longitude (95.0"),
         ([WPL_ROW.replace("\t1", "", 1)], "line 3: 11 values"),
         ([WPL_ROW.replace("16", "sixteen", 1)], "line 3: command 'sixteen'"),
