@@ -9,6 +9,7 @@ import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.link.command_client import CommandTimeout
+from helixd.mav.constants import EKF_ATTITUDE, EKF_CONST_POS_MODE, EKF_VELOCITY_HORIZ
 from tests.support.peer import Reply, linked, until
 
 SET_MODE = mavlink.MAV_CMD_DO_SET_MODE
@@ -73,7 +74,7 @@ async def test_state_from_the_autopilot() -> None:
         assert st.rc_rssi is None  # 255 = unknown
         assert len(st.servo_outputs_us) == 16
         assert st.battery_voltage_v == pytest.approx(12.6)
-        peer.ekf_flags = 0x1 | 0x2 | 0x80  # constant-position mode: no position aiding
+        peer.ekf_flags = EKF_ATTITUDE | EKF_VELOCITY_HORIZ | EKF_CONST_POS_MODE  # no aiding
         await until(
             lambda: ap.state.ekf is not None and not ap.state.ekf.healthy, 3.0, "EKF unhealthy"
         )

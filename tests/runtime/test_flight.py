@@ -41,8 +41,7 @@ from helixd.runtime.mode_gate import PlaceRule
 from helixd.runtime.signals import StopRequest
 from helixd.safety.watchdogs import FaultCause
 from tests.support.mavmsgs import AP, att, decoded, hb, lpn
-
-EKF_OK = 0x1 | 0x2 | 0x4 | 0x8 | 0x10 | 0x20
+from tests.support.mavmsgs import EKF_HEALTHY_FLAGS as EKF_OK
 
 
 class FedTelemetry(Telemetry):

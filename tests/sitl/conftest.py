@@ -55,6 +55,7 @@ import pytest
 import yaml
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2  # MAVLink 2 framing
 
+from helixd.mav.constants import EKF_POS_HORIZ_ABS
 from helixd.mav.guard_script import (
     HXG_VERSION,
     POSIX_SCRIPTS_DIR,
@@ -105,7 +106,6 @@ OBSERVER_COMPID = 190
 MODE_HOLD = 4
 MAV_MODE_FLAG_SAFETY_ARMED = 128
 MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1
-EKF_POS_HORIZ_ABS = 16
 GPS_FIX_3D = 3
 
 NEUTRAL_US = 1500

@@ -9,6 +9,15 @@ from typing import Any
 from pymavlink import mavutil
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.mav.constants import (
+    EKF_ATTITUDE,
+    EKF_POS_HORIZ_ABS,
+    EKF_POS_HORIZ_REL,
+    EKF_POS_VERT_ABS,
+    EKF_VELOCITY_HORIZ,
+    EKF_VELOCITY_VERT,
+)
+
 
 def codec(sysid: int = 1, compid: int = 1) -> Any:
     c = mavlink.MAVLink(None, srcSystem=sysid, srcComponent=compid)
@@ -23,6 +32,15 @@ def decoded(msg: Any, c: Any) -> Any:
 
 
 AP = codec()
+# EKF_STATUS_REPORT.flags of an EKF that has its attitude, velocities and positions
+EKF_HEALTHY_FLAGS = (
+    EKF_ATTITUDE
+    | EKF_VELOCITY_HORIZ
+    | EKF_VELOCITY_VERT
+    | EKF_POS_HORIZ_REL
+    | EKF_POS_HORIZ_ABS
+    | EKF_POS_VERT_ABS
+)
 # the ids a GCS such as Mission Planner sends with (MAV_GCS_SYSID's default 255)
 GCS_IDS = (255, 190)
 

@@ -39,6 +39,7 @@ from helixd.link.connection import Autopilot
 from helixd.link.signing import enable_signing
 from helixd.mav.guard_script import PARAM_DEFAULTS as GUARD_PARAM_DEFAULTS
 from helixd.mav.servo_functions import DO_SET_SERVO_FUNCTIONS
+from tests.support.mavmsgs import EKF_HEALTHY_FLAGS
 
 Address = tuple[str, int]
 
@@ -59,7 +60,6 @@ STREAM_NAMES = (
 MSG_NAME_BY_ID = {int(getattr(mavlink, f"MAVLINK_MSG_ID_{n}")): n for n in STREAM_NAMES}
 # granted but never sent: ArduPilot sends it only in a mode with a place to go
 TARGET_MSG_ID = int(mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT)
-EKF_HEALTHY_FLAGS = 0x1 | 0x2 | 0x4 | 0x8 | 0x10 | 0x20
 HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)
 ROVER_PARAMS: dict[str, float] = {
     "MAV_GCS_SYSID": float(HELIXD_SYSID),  # set up for helixd (ArduPilot's default is 255)
