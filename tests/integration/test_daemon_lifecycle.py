@@ -215,4 +215,4 @@ def test_fault_ends_with_a_plain_fault_result_line(tmp_path: Path) -> None:
     result = flown.result
     assert result.startswith("helixd: RESULT fault pose_stale: ")
     assert "/4 waypoints, " in result and " s autopilot time (" in result
-    assert result.endswith(" s wall), exit 4")
+    assert result.endswith(" s autopilot time (simulated clock), exit 4")
