@@ -30,6 +30,7 @@ FileOpt = Annotated[
     typer.Option(
         "--file",
         "-f",
+        metavar="<path>",
         help="parameter file (NAME VALUE lines; repeatable, later files win), e.g. "
         "config/ardupilot/helix.parm, then helix-servo.parm for the servo backend",
     ),

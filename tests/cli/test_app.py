@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from typing import Any
 
 import pytest
+import typer.main
 
 from helixd import __version__
+from helixd.cli.app import app
 from tests.support.cli import run_main
 
 COMMANDS = [
@@ -101,3 +104,45 @@ def test_bare_check_asks_for_a_mission_and_lists_the_available_ones(
     assert code == 2
     assert "check needs --mission FILE; available: config/missions/square.yaml" in err
     assert "mission.yaml" not in err and "notes.txt" not in err
+
+
+def _command_paths() -> list[list[str]]:
+    paths: list[list[str]] = []
+
+    def walk(cmd: Any, path: list[str]) -> None:
+        paths.append(path)
+        for name, sub in getattr(cmd, "commands", {}).items():
+            walk(sub, [*path, name])
+
+    walk(typer.main.get_command(app), [])
+    return paths
+
+
+def test_no_help_shows_a_python_type_for_a_metavar(capsys: pytest.CaptureFixture[str]) -> None:
+    """Before: `autopilot setup -h` showed `--file <list[Path]>`, `sim -h` `--listen
+    <list[str]>`: a repeatable option's metavar is what one of them is."""
+    paths = _command_paths()
+    assert ["autopilot", "setup"] in paths and ["sim"] in paths
+    for path in paths:
+        code, out, err = run_main([*path, "-h"], capsys)
+        assert code == 0, (path, err)
+        assert not re.search(r"<(list|tuple|dict)\[", out), (path, out)
+
+
+@pytest.mark.parametrize(
+    ("argv", "line"),
+    [
+        (["check", "--mission", "square", "--mode", "rol"],
+         "error: --mode 'rol' is not one of: roll, scroll, omni"),
+        (["run", "--mission", "square", "--sim", "--sim-terrain", "rock"],
+         "error: --sim-terrain 'rock' is not one of: hard, grass, sand, mud, water"),
+    ],
+)  # fmt: skip
+def test_a_value_not_among_the_choices_names_them_plainly(
+    argv: list[str], line: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before: `--mode rol` answered `Invalid value for '--mode': Value error, 'rol' is not
+    one of 'roll', 'scroll', 'omni'.`"""
+    code, _, err = run_main(argv, capsys)
+    assert code == 2
+    assert err.strip().splitlines() == [line]
