@@ -74,8 +74,8 @@ def grid_path(
             return None
     if start == goal:
         return [start]
-    # deferred: tcod takes 0.3-0.5 s to import, which every command paid at start (issue 51:
-    # `helixd --version` 3.1 s); only planning on a map needs it
+    # deferred: tcod takes 0.3-0.5 s to import, which every command paid at start
+    # (`helixd --version` took 3.1 s); only planning on a map needs it
     import tcod.path
 
     cost = np.ascontiguousarray(free, dtype=np.int8)

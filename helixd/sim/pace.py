@@ -5,7 +5,7 @@ the speed-up, and runs the loops that fell due since. On time that is one loop p
 A machine that cannot keep up — the simulator's thread starved by the daemon beside it (one
 interpreter: ``run --sim``), by the control loop's work, by other processes — wakes late and
 runs several loops at once: the poses go out in bursts, the control loop answers them late in
-simulated time, and the flight is another flight (issue 51: at ``--sim-speedup 10`` an
+simulated time, and the flight is another flight (at ``--sim-speedup 10`` an
 amphibious survey flew 898 s against a 548 s estimate, 0.76 m cross-track RMS instead of 0.03,
 loops in the water, mode flips on the bank; the same at 4× or on the simulated clock was
 right). So simulated time is judged per window: when the loops per wake-up (each counted up to

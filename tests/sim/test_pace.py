@@ -1,6 +1,6 @@
 """Does the machine keep the asked speed-up? (helixd.sim.pace and the wall-clock shell)
 
-Issue 51: at ``--sim-speedup 10`` an amphibious flight fell apart without a word (898 s
+Before: at ``--sim-speedup 10`` an amphibious flight fell apart without a word (898 s
 against a 548 s estimate, loops in the water): the machine could not keep the simulated
 autopilot and the control loop at that pace. The judge is tested with the wake-ups it is fed,
 and the shell with a slow loop injected through its seam, never by loading the machine."""
