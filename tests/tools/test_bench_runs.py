@@ -62,9 +62,11 @@ def test_control_loop_bench_measures_the_loop(tmp_path: Path) -> None:
     # the flight ran through the window: no watchdog ended it (a missing stream would)
     assert fig["fault"] is None and fig["loop_ended_early"] is False, out
     assert "WARNING" not in out and "no samples" not in out, out
-    assert fig["poses_sent"] >= 25 and fig["control_steps"] >= 25, out  # 1 s at 50 Hz
+    # 1 s at 50 Hz: 50 poses on time; a loaded or 2x slower machine may send fewer, and the
+    # test asks only that the loop was measured (the figures judge the machine, not this test)
+    assert fig["poses_sent"] >= 10 and fig["control_steps"] >= 10, out
     for key in ("latency_ms", "latency_in_daemon_ms", "autopilot_rtt_ms", "jitter_ms"):
-        assert fig[key]["n"] >= 25, (key, out)
+        assert fig[key]["n"] >= 10, (key, out)
         for q in ("p50", "p99", "max"):
             assert finite(fig[key][q], f"{key}.{q}", out) >= 0.0
     assert finite(fig["cpu_percent"], "cpu_percent", out) > 0.0
