@@ -24,7 +24,6 @@ from helixd.base.clock import SimulatedClockLoop
 from helixd.cli.app import flight_options
 from helixd.recorder import logging_setup
 from helixd.runtime.daemon import run_mission
-from helixd.runtime.eventloop import settle_collector
 from helixd.runtime.prepare import MissionFile, prepare_flight
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url
 from helixd.sim.sim_config import SimConfig
@@ -79,7 +78,6 @@ def fly_simulated(
     with log_path.open("w", encoding="utf-8") as log_fh:
         stream: IO[str] = log_fh
         logging_setup.configure_logging(tty=False, level="info", stream=stream)
-        settle_collector()
         try:
             with asyncio.Runner(loop_factory=SimulatedClockLoop) as runner:
                 return runner.run(fly())
