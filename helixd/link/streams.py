@@ -34,6 +34,7 @@ from helixd.link.command_client import (
     CommandError,
     result_name,
 )
+from helixd.link.payload_msgs import PAYLOAD_STREAMS
 from helixd.mav.constants import (
     MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_RESULT_ACCEPTED,
@@ -201,6 +202,11 @@ class StreamManager:
             for name in TARGET_STREAMS:
                 floor = min(cfg.pose_rate_min_hz, cfg.telemetry_rate_hz)
                 granted[name] = await self._negotiate(name, cfg.telemetry_rate_hz, floor)
+            # the payload's readings (payload.csv): asked once each, never counted as slow
+            if cfg.payload_rate_hz > 0:
+                for name in PAYLOAD_STREAMS:
+                    rate = cfg.payload_rate_hz
+                    granted[name] = await self._negotiate(name, rate, rate)
             self.requested = True
             log.info("streams_granted", **{n.lower(): round(r, 2) for n, r in granted.items()})
             return granted
