@@ -39,6 +39,7 @@ from helixd.cli.common import (
     MapOpt,
     ModeOpt,
     ObserverConnectOpt,
+    SimBathymetryOpt,
     WholeHelpGroup,
     check_connect,
     command_group,
@@ -54,6 +55,7 @@ from helixd.cli.simulated import (
     sim_world,
     simulator,
     simulator_config,
+    with_bathymetry,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
 from helixd.config import HelixdConfig
@@ -304,6 +306,7 @@ def run(
     sim_media: SimMediaOpt = None,
     sim_clock: SimClockOpt = SimClock.WALL,
     sim_seed: SimSeedOpt = None,
+    sim_bathymetry: SimBathymetryOpt = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
@@ -320,6 +323,7 @@ def run(
         if choice is None:
             raise fail(["--sim-media needs --sim"], ExitCode.USAGE)
         choice = replace(choice, media=read_sim_media(sim_media))
+    choice = with_bathymetry(choice, sim_bathymetry)
     options = ExpandOptions(strict, skip_unsupported)
     if wants_autopilot(mission) and resume is None:
         if choice is not None and choice.clock is SimClock.SIMULATED:
