@@ -30,6 +30,7 @@ from helixd.cli import plant as cli_plant
 from helixd.cli import runs as cli_runs
 from helixd.cli import serve_command as cli_serve
 from helixd.cli import sim_command as cli_sim
+from helixd.cli import survey_map as cli_survey_map
 from helixd.cli.autopilot import fetch_autopilot_mission, wants_autopilot
 from helixd.cli.common import (
     CONTEXT_SETTINGS,
@@ -532,6 +533,7 @@ cli_sim.register(app)
 cli_runs.register(app)
 cli_serve.register(app)
 cli_plant.register(app)
+cli_survey_map.register(app)
 mission_app = command_group(
     "mission",
     "Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
+import numpy.typing as npt
 import structlog
 
 from helixd.base.frames import ne_to_latlon
@@ -288,3 +289,74 @@ class PayloadLog:
             unplaced=self.placer.dropped,
             rejected=dict(self.rejected),
         )
+
+
+class PayloadCsvError(ValueError):
+    """A payload.csv that cannot be read; ``problems`` has one line each (file and line)."""
+
+    def __init__(self, problems: list[str]) -> None:
+        self.problems = problems
+        super().__init__("\n".join(problems))
+
+
+MAX_PAYLOAD_BYTES = 512 * 1024 * 1024
+LAT_MAX_DEG = 90.0
+LON_MAX_DEG = 180.0
+
+
+@dataclass(frozen=True)
+class QuantityReadings:
+    """One quantity's readings from payload.csv files: where (lat/lon) and the value."""
+
+    lat_deg: npt.NDArray[np.float64]
+    lon_deg: npt.NDArray[np.float64]
+    value: npt.NDArray[np.float64]
+    skipped: int  # rows of that quantity without a place (no origin, nan) or value
+
+
+def read_payload_quantity(paths: list[Path], quantity: str) -> QuantityReadings:
+    """The readings of ``quantity`` in ``paths`` (payload.csv files, read as hostile input:
+    the header checked, each number finite and lat/lon on the Earth; rows that are not are
+    skipped and counted, a file that is not a payload.csv is a :class:`PayloadCsvError`)."""
+    lats: list[float] = []
+    lons: list[float] = []
+    values: list[float] = []
+    skipped = 0
+    problems: list[str] = []
+    for path in paths:
+        try:
+            size = path.stat().st_size
+            if size > MAX_PAYLOAD_BYTES:
+                problems.append(f"{path}: {size} bytes, more than {MAX_PAYLOAD_BYTES}")
+                continue
+            with path.open(newline="", encoding="utf-8", errors="replace") as fh:
+                rows = csv.reader(line for line in fh if not line.startswith("#"))
+                header = next(rows, None)
+                if header is None or tuple(header) != COLUMNS:
+                    problems.append(f"{path}: not a payload.csv v{SCHEMA_VERSION} (header)")
+                    continue
+                ilat, ilon = COLUMNS.index("lat_deg"), COLUMNS.index("lon_deg")
+                iq, iv = COLUMNS.index("quantity"), COLUMNS.index("value")
+                for row in rows:
+                    if len(row) != len(COLUMNS) or row[iq] != quantity:
+                        continue
+                    try:
+                        lat, lon, v = float(row[ilat]), float(row[ilon]), float(row[iv])
+                    except ValueError:
+                        skipped += 1
+                        continue
+                    if not (
+                        math.isfinite(v) and abs(lat) <= LAT_MAX_DEG and abs(lon) <= LON_MAX_DEG
+                    ):  # NaN compares False
+                        skipped += 1
+                        continue
+                    lats.append(lat)
+                    lons.append(lon)
+                    values.append(v)
+        except OSError as exc:
+            problems.append(f"{path}: cannot read: {exc.strerror or exc}")
+    if problems:
+        raise PayloadCsvError(problems)
+    return QuantityReadings(
+        np.array(lats, dtype=float), np.array(lons, dtype=float), np.array(values), skipped
+    )
