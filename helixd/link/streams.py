@@ -206,7 +206,7 @@ class StreamManager:
             if cfg.payload_rate_hz > 0:
                 for name in PAYLOAD_STREAMS:
                     rate = cfg.payload_rate_hz
-                    granted[name] = await self._negotiate(name, rate, rate)
+                    granted[name] = await self._negotiate(name, rate, rate, optional=True)
             self.requested = True
             log.info("streams_granted", **{n.lower(): round(r, 2) for n, r in granted.items()})
             return granted
@@ -236,7 +236,11 @@ class StreamManager:
         )
         return rate
 
-    async def _negotiate(self, name: str, want_hz: float, floor_hz: float) -> float:
+    async def _negotiate(
+        self, name: str, want_hz: float, floor_hz: float, optional: bool = False
+    ) -> float:
+        """The rate granted for ``name`` (0.0: none); ``optional``: a refusal is news, not a
+        warning (an autopilot without the sensor)."""
         msg_id = message_id(name)
         first = first_interval_us(want_hz, self.loop_rate_hz)
         steps = candidate_intervals(want_hz, floor_hz, self._cfg.stream_step_factor, first)
@@ -255,7 +259,7 @@ class StreamManager:
                 )
                 return granted
             if result != MAV_RESULT_DENIED:
-                log.warning(
+                (log.info if optional else log.warning)(
                     "stream_rate_refused",
                     stream=name,
                     result=result_name(result),
