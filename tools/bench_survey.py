@@ -129,8 +129,8 @@ def measure(run_dir: Path, bathymetry: Path, cell_m: float) -> dict[str, Any]:
 
 
 def verdicts(fig: dict[str, Any], reference: bool) -> list[str]:
-    slack = 1.0 if reference else 1.1  # another bathymetry: the same within 10 %
-    cov_goal, rms_goal = GOAL_COVERAGE / slack, GOAL_RMS_M * slack
+    slack = 0.0 if reference else 0.1  # another bathymetry: the same within 10 %
+    cov_goal, rms_goal = GOAL_COVERAGE * (1.0 - slack), GOAL_RMS_M * (1.0 + slack)
     return [
         f"coverage {fig['coverage']:.3f} >= {cov_goal:.3f}: "
         + ("met" if fig["coverage"] >= cov_goal else "MISSED"),

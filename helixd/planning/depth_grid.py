@@ -11,8 +11,9 @@ Pure: arrays in, arrays out (no files, no clock). The method is the geoscientist
    onto the cell centres over their Delaunay triangulation
    (:class:`scipy.interpolate.LinearNDInterpolator`). Inside a covered cell the error is the
    bottom's curvature over the transect spacing (h²/8 · |d²z/dx²|) plus the block mean's noise
-   (σ/√n) plus the position error times the slope; outside the readings' hull there is no
-   value.
+   (σ/√n) plus the position error times the slope. A covered cell at the edge, whose centre
+   lies outside the block means' hull, keeps its own block mean; an uncovered cell outside
+   the hull has no value.
 
 A cell *is covered* when at least one reading fell in it. The *surveyed area* is a polygon
 (north/east metres); its cells are the ones whose centre lies in it. The holes of a survey
@@ -113,8 +114,8 @@ def frame_for(
         raise GridError("no readings and no area")
     n0 = math.floor(float(n_all.min()) / cell_m) * cell_m
     e0 = math.floor(float(e_all.min()) / cell_m) * cell_m
-    rows = max(1, math.ceil((float(n_all.max()) - n0) / cell_m + 1e-9))
-    cols = max(1, math.ceil((float(e_all.max()) - e0) / cell_m + 1e-9))
+    rows = max(1, math.ceil((float(n_all.max()) - n0) / cell_m - 1e-9))
+    cols = max(1, math.ceil((float(e_all.max()) - e0) / cell_m - 1e-9))
     if rows * cols > MAX_CELLS:
         raise GridError(
             f"{rows} x {cols} cells of {cell_m:g} m: more than {MAX_CELLS}; use a larger cell"
@@ -163,6 +164,9 @@ def grid_depths(
     has = count > 0
     spread = np.where(has, spread, np.nan)
     depth = _interpolate(mean_n[has], mean_e[has], mean[has], cn, ce)
+    # a covered cell whose centre lies outside the block means' hull (at the survey's edge)
+    # keeps its own block mean
+    depth = np.where(np.isnan(depth) & has, mean, depth)
     return DepthGrid(frame, depth, count.astype(np.int64), mean, spread, in_area, int(n.size))
 
 
