@@ -23,7 +23,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import contourpy
 import matplotlib
@@ -95,7 +95,8 @@ class SurveyMap:
 
 def payload_paths(runs: list[Path]) -> list[Path]:
     """Each run's payload.csv (a run directory, or the file itself)."""
-    out, missing = [], []
+    out: list[Path] = []
+    missing: list[Path] = []
     for run in runs:
         path = run / PAYLOAD_FILE if run.is_dir() else run
         (out if path.is_file() else missing).append(path)
@@ -188,7 +189,11 @@ def contour_lines(m: SurveyMap, step_m: float) -> list[tuple[float, list[np.ndar
     gen = contourpy.contour_generator(ce, cn, np.ma.masked_invalid(z), line_type="Separate")
     lo, hi = float(np.nanmin(z)), float(np.nanmax(z))
     levels = np.arange(math.ceil(lo / step_m) * step_m, hi + 1e-9, step_m)
-    return [(float(level), [ln for ln in gen.lines(level) if len(ln) > 1]) for level in levels]
+    out: list[tuple[float, list[np.ndarray]]] = []
+    for level in levels:
+        parts = cast(list[np.ndarray], gen.lines(level))  # line_type Separate: N×2 arrays
+        out.append((float(level), [ln for ln in parts if len(ln) > 1]))
+    return out
 
 
 def write_contours(m: SurveyMap, lines: list[tuple[float, list[np.ndarray]]], path: Path) -> int:

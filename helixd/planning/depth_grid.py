@@ -65,8 +65,8 @@ class GridFrame:
         return north, east
 
     def edges(self) -> tuple[Array, Array]:
-        n = self.north0_m + np.arange(self.rows + 1) * self.cell_m
-        e = self.east0_m + np.arange(self.cols + 1) * self.cell_m
+        n: Array = self.north0_m + np.arange(self.rows + 1, dtype=np.float64) * self.cell_m
+        e: Array = self.east0_m + np.arange(self.cols + 1, dtype=np.float64) * self.cell_m
         return n, e
 
 

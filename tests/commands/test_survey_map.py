@@ -136,9 +136,8 @@ def test_a_gap_becomes_the_holes_mission_through_every_empty_cell(
     figures = json.loads((out / "survey-map.json").read_text())
     assert figures["holes"] == 12 and math.isclose(figures["coverage"], 0.88)
     holes = load_mission_file(out / "holes.yaml")
-    assert (
-        holes.mission.mode.value == "roll" and len(holes.mission.waypoints) == figures["holes_mission_items"] == 6
-    )
+    assert holes.mission.mode.value == "roll"
+    assert len(holes.mission.waypoints) == figures["holes_mission_items"] == 6
 
 
 def test_no_payload_or_a_wrong_file_is_one_line_each(

@@ -24,7 +24,7 @@ def test_the_shipped_bathymetries_read() -> None:
         bathy = read_bathymetry(ROOT / "config" / "maps" / name)
         assert bathy.shape == (45, 35)
         depths = [d for row in bathy.depth_m for d in row if d is not None]
-        assert 0.3 <= min(depths) and max(depths) <= 4.0
+        assert min(depths) >= 0.3 and max(depths) <= 4.0
 
 
 def test_a_small_grid_with_dry_nodes_reads(tmp_path: Path) -> None:

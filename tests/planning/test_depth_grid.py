@@ -41,7 +41,7 @@ def test_a_sloping_plane_is_gridded_exactly_where_covered() -> None:
     assert grid.coverage == 1.0 and not grid.holes.any()
     cn, ce = grid.frame.centres()
     truth = 1.0 + 0.05 * cn + 0.1 * ce
-    rms, max_abs, cells = grid_errors(grid, truth)
+    _rms, max_abs, cells = grid_errors(grid, truth)
     assert cells == 100 and max_abs < 0.006  # the edge cells: their block means
     inner = np.abs(grid.depth_m - truth)[1:-1, 1:-1]
     assert inner.max() < 1e-9  # linear interpolation is exact on a plane
