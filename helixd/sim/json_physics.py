@@ -101,7 +101,10 @@ class FdmReport:
     velocity_ned_mps: tuple[float, float, float]
     attitude_rad: tuple[float, float, float]  # roll, pitch, yaw (clockwise from North)
     # SIM_JSON's ``rng_1``: rangefinder 1's distance (m), the sonar's range to the pond's
-    # bottom (SITL's rangefinder type 100 reads it); None: no field (no bathymetry)
+    # bottom (SITL's rangefinder type 100 reads it); None: no field (no bathymetry). SIM_JSON
+    # copies rng[0] into rangefinder 1 when bit 7 of the keys it received is set, which since
+    # latitude/longitude/altitude joined its key table is ``attitude``'s (rng_1 is key 10):
+    # sent every frame here, so rangefinder 1 follows rng_1 either way
     rangefinder_m: float | None = None
 
     def to_json_bytes(self) -> bytes:
