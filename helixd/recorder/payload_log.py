@@ -267,6 +267,12 @@ class PayloadLog:
                 self._stop_file()
                 return
             self.rows += 1
+        try:  # a few rows a second: each batch on disk at once (a kill -9 loses none)
+            if self._fh is not None:
+                self._fh.flush()
+        except OSError as exc:
+            log.warning("payload_log_cut", path=str(self.path), error=str(exc))
+            self._stop_file()
 
     def _stop_file(self) -> None:
         fh, self._fh, self._writer = self._fh, None, None
