@@ -124,7 +124,7 @@ def measure(run_dir: Path, bathymetry: Path, cell_m: float) -> dict[str, Any]:
         "holes_mission_items": len(path),
         "holes_covered": bool((passed | ~holes).all()),
         "flight_s": summary.get("duration_s"),
-        "result": summary.get("result"),
+        "completed": summary.get("completed"),
     }
 
 
