@@ -272,7 +272,9 @@ class StreamManager:
                 interval_us=interval,
                 rate_hz=round(rate_hz(interval), 2),
             )
-        log.error("stream_rate_not_granted", stream=name, floor_hz=floor_hz)
+        (log.info if optional else log.error)(
+            "stream_rate_not_granted", stream=name, floor_hz=floor_hz
+        )
         return 0.0
 
     async def rerequest(self, slow: Sequence[tuple[str, float]], booting: bool = False) -> None:

@@ -87,7 +87,7 @@ def test_the_depth_reaches_payload_csv_through_ardupilots_rangefinder(
     for r in depth:
         n, e = latlon_to_ne(float(r["lat_deg"]), float(r["lon_deg"]), lat0, lon0)
         truth = bottom.depth_at(n, e)
-        if truth is not None and r["medium"] == "water":
+        if truth is not None:  # over the pond (and its 1.5 m margin, where it is 0.3 m)
             errors.append(float(r["value"]) - truth)
     err = np.abs(np.array(errors))
     print(
