@@ -4,16 +4,22 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.frames import NedPose
+from helixd.config import PayloadConfig, PayloadSource
 from helixd.link.payload_msgs import Reading
+from helixd.link.vehicle import PoseSample
 from helixd.recorder.payload_log import (
     COLUMNS,
     CSV_COMMENT,
     PayloadCsvError,
+    PayloadLog,
     PayloadPlacer,
     read_payload_quantity,
 )
@@ -120,3 +126,60 @@ def test_a_file_that_is_not_a_payload_csv_is_refused_naming_it(tmp_path: Path) -
     assert "flight.csv" in err.value.problems[0]
     with pytest.raises(PayloadCsvError):
         read_payload_quantity([tmp_path / "missing.csv"], "depth_m")
+
+
+class _State:
+    def __init__(self) -> None:
+        self.pose: PoseSample | None = None
+        self.gps_origin: tuple[float, float] | None = (53.5, -113.5)
+        self.mode = "MANUAL"
+
+
+class _Link:
+    """The part of the Autopilot the log uses: its state and its listeners."""
+
+    def __init__(self) -> None:
+        self.state = _State()
+        self.listeners: list[Any] = []
+
+    def add_message_listener(self, cb: Any) -> None:
+        self.listeners.append(cb)
+
+    def remove_message_listener(self, cb: Any) -> None:
+        self.listeners.remove(cb)
+
+    def receive(self, msg: Any) -> None:
+        if msg.get_type() == "LOCAL_POSITION_NED":  # as the link's state would accept it
+            self.state.pose = PoseSample(
+                NedPose(msg.x, msg.y, 0.0), msg.time_boot_ms, 0.0, 0.0, 0.0, 0.0
+            )
+        for cb in list(self.listeners):
+            cb(msg, 0.0)
+
+
+def test_the_log_writes_placed_readings_counts_the_rest_and_lets_go(tmp_path: Path) -> None:
+    link = _Link()
+    cfg = PayloadConfig(
+        sources=[
+            PayloadSource(message="DISTANCE_SENSOR", quantity="depth_m", offset_m=0.1),
+            PayloadSource(message="RANGEFINDER", quantity="range_m"),
+        ]
+    )
+    plog = PayloadLog.attach(link, cfg, tmp_path)  # type: ignore[arg-type]
+    assert plog is not None and link.listeners
+    lpn = mavlink.MAVLink_local_position_ned_message
+    link.receive(lpn(1000, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    ds = mavlink.MAVLink_distance_sensor_message
+    link.receive(ds(1010, 20, 3000, 150, 1, 0, 25, 0, 0.0, 0.0, [0.0] * 4, 0))
+    link.receive(ds(1015, 20, 3000, 5, 1, 0, 25, 0, 0.0, 0.0, [0.0] * 4, 0))  # too close
+    link.receive(mavlink.MAVLink_rangefinder_message(2.0, 0.0))  # no time: the latest (1015)
+    link.receive(lpn(1020, 2.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    plog.close()
+    assert not link.listeners
+    rows = read_payload_quantity([tmp_path / "payload.csv"], "depth_m")
+    assert rows.value.tolist() == [pytest.approx(1.6)]
+    assert rows.lat_deg[0] == pytest.approx(53.5 + 1.0 / 111_318.845, abs=1e-8)  # 1 m north
+    text = (tmp_path / "payload.csv").read_text()
+    assert "RANGEFINDER,range_m,2.0000" in text and ",MANUAL," in text
+    assert plog.rows == 2 and plog.rejected == {"DISTANCE_SENSOR": 1}
+    assert PayloadLog.attach(link, PayloadConfig(enabled=False), tmp_path) is None  # type: ignore[arg-type]
