@@ -1,19 +1,24 @@
 """The depth map of a survey: readings gridded, the cells without data, the legs that fill them.
 
 Pure: arrays in, arrays out (no files, no clock). The method is the geoscientist's two steps
-(GMT's ``blockmean`` then ``triangulate``; verde's ``BlockReduce`` then ``Linear``):
+(verde's ``BlockReduce`` then ``Spline``; GMT's ``blockmean`` then ``surface``):
 
 1. **block means**: the readings of each ``cell_m`` square cell are reduced to their count,
    mean depth, spread (standard deviation) and mean position
    (:func:`scipy.stats.binned_statistic_2d`), which averages the sonar's noise down by √n and
    gives one datum per cell, so a slow pass does not outweigh a fast one;
-2. **linear interpolation** of those block means, each at the mean position of its readings,
-   onto the cell centres over their Delaunay triangulation
-   (:class:`scipy.interpolate.LinearNDInterpolator`). Inside a covered cell the error is the
-   bottom's curvature over the transect spacing (h²/8 · |d²z/dx²|) plus the block mean's noise
-   (σ/√n) plus the position error times the slope. A covered cell at the edge, whose centre
-   lies outside the block means' hull, keeps its own block mean; an uncovered cell outside
-   the hull has no value.
+2. **a thin-plate (biharmonic) spline** through those block means, each at the mean position
+   of its readings, evaluated at the cell centres
+   (:class:`scipy.interpolate.RBFInterpolator`, kernel ``thin_plate_spline``; beyond
+   :data:`GLOBAL_SPLINE_MAX` block means, each centre from its :data:`SPLINE_NEIGHBOURS`
+   nearest). It reproduces a sloping plane exactly, also where a cell's centre lies beyond
+   the last transect. Its error inside the survey is the bottom's departure from the spline
+   between transects (far below a linear interpolation's h²/8 · |d²z/dx²|) plus the block
+   mean's noise (σ/√n) plus the position error times the slope.
+
+A cell gets a value when it is covered or its centre lies inside the block means' hull (the
+spline is not extrapolated into the unsurveyed); below three block means not on one line
+there is no spline and a covered cell keeps its block mean.
 
 A cell *is covered* when at least one reading fell in it. The *surveyed area* is a polygon
 (north/east metres); its cells are the ones whose centre lies in it. The holes of a survey
@@ -31,13 +36,15 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.interpolate import LinearNDInterpolator
-from scipy.spatial import QhullError
+from scipy.interpolate import RBFInterpolator
+from scipy.spatial import Delaunay, QhullError
 from scipy.stats import binned_statistic_2d
 from shapely import contains_xy
 from shapely.geometry import Polygon
 
 Array = npt.NDArray[np.float64]
+GLOBAL_SPLINE_MAX = 2000  # block means for one global spline (O(n³)); beyond: local ones
+SPLINE_NEIGHBOURS = 64
 MIN_CELL_M = 0.1
 MAX_CELLS = 4_000_000
 
@@ -163,24 +170,28 @@ def grid_depths(
     mean_e = binned_statistic_2d(n, e, e, "mean", bins=bins).statistic
     has = count > 0
     spread = np.where(has, spread, np.nan)
-    depth = _interpolate(mean_n[has], mean_e[has], mean[has], cn, ce)
-    # a covered cell whose centre lies outside the block means' hull (at the survey's edge)
-    # keeps its own block mean
+    depth = _spline(mean_n[has], mean_e[has], mean[has], cn, ce, has)
     depth = np.where(np.isnan(depth) & has, mean, depth)
     return DepthGrid(frame, depth, count.astype(np.int64), mean, spread, in_area, int(n.size))
 
 
-def _interpolate(n: Array, e: Array, z: Array, cn: Array, ce: Array) -> Array:
-    """Linear over the block means' Delaunay triangles; a block mean where there are too few
-    (or collinear) points for triangles."""
-    if n.size >= 3:
-        try:
-            interp = LinearNDInterpolator(np.column_stack([e, n]), z)
-            out: Array = interp(ce, cn)
-            return out
-        except QhullError:  # all points on a line
-            pass
+def _spline(
+    n: Array, e: Array, z: Array, cn: Array, ce: Array, covered: npt.NDArray[np.bool_]
+) -> Array:
+    """The thin-plate spline through the block means at the centres of the covered cells and
+    of the cells inside the block means' hull; NaN elsewhere, and everywhere when three
+    block means on no line are not there."""
     out = np.full(cn.shape, np.nan)
+    pts = np.column_stack([e, n])
+    try:
+        hull = Delaunay(pts)
+    except (QhullError, ValueError):  # fewer than three, or all on a line
+        return out
+    centres = np.column_stack([ce.ravel(), cn.ravel()])
+    want = (hull.find_simplex(centres) >= 0).reshape(cn.shape) | covered
+    neighbours = None if len(z) <= GLOBAL_SPLINE_MAX else SPLINE_NEIGHBOURS
+    spline = RBFInterpolator(pts, z, kernel="thin_plate_spline", neighbors=neighbours)
+    out[want] = spline(np.column_stack([ce[want], cn[want]]))
     return out
 
 
