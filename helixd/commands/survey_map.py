@@ -3,7 +3,7 @@
 The readings of the runs' ``payload.csv`` (one quantity, ``depth_m`` by default) are placed
 in one north/east frame around a reference (the area's first vertex, else the first reading)
 by ArduPilot's flat-earth map, gridded (:mod:`helixd.planning.depth_grid`: block means, then
-linear interpolation over their triangulation), and written to the output directory:
+a thin-plate spline through them), and written to the output directory:
 
 * ``depth.tif``: the depth grid as a GeoTIFF (float32, EPSG:4326, north up, NaN = no value;
   GeoKeys written with tifffile, so GDAL, QGIS and rasterio read it placed);
