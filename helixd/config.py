@@ -498,6 +498,14 @@ class LinkConfig(InputModel):
     telemetry_rate_hz: float = Field(
         5.0, ge=0.5, le=50.0, description="EKF/SYS_STATUS/RC/SERVO/MISSION_CURRENT stream rate (Hz)"
     )
+    payload_rate_hz: float = Field(
+        5.0,
+        ge=0.0,
+        le=50.0,
+        description="DISTANCE_SENSOR, RANGEFINDER and WATER_DEPTH (the payload's readings, "
+        "payload.csv) asked for at this rate, once each, never counted as slow (an autopilot "
+        "without the sensor sends none); 0: not asked (Hz)",
+    )
     command_timeout_s: float = Field(
         1.0, gt=0.0, le=30.0, description="wait for COMMAND_ACK/PARAM_VALUE per try (s)"
     )
@@ -1137,6 +1145,94 @@ class ServeConfig(InputModel):
 # Top level
 
 
+# ---------------------------------------------------------------------------------------------
+# Payload: the sensors' readings recorded where they were taken (payload.csv)
+
+
+
+class PayloadSource(InputModel):
+    """One message (or one named value) that counts as one quantity in ``payload.csv``."""
+
+    message: Literal["DISTANCE_SENSOR", "RANGEFINDER", "WATER_DEPTH", "NAMED_VALUE_FLOAT"] = Field(
+        description="the MAVLink message the reading comes in"
+    )
+    quantity: str = Field(
+        pattern=r"^[a-z][a-z0-9_]{0,31}$",
+        description="the quantity's name in payload.csv, its unit in it (e.g. depth_m)",
+    )
+    name: str | None = Field(
+        None,
+        pattern=r"^[\x21-\x7e]{1,10}$",
+        description="NAMED_VALUE_FLOAT only: the value's name (at most 10 printable characters)",
+    )
+    sensor_id: int | None = Field(
+        None, ge=0, le=255, description="DISTANCE_SENSOR / WATER_DEPTH: this instance only"
+    )
+    downward_only: bool = Field(
+        True,
+        description="DISTANCE_SENSOR: only orientation PITCH_270 (facing down), as ArduPilot "
+        "takes a depth only from a down-facing rangefinder",
+    )
+    offset_m: float = Field(
+        0.0,
+        ge=-10.0,
+        le=10.0,
+        description="added to the reading: for a sonar, its transducer's depth below the "
+        "waterline, so the quantity is the depth from the surface (m)",
+    )
+    scale: float = Field(1.0, ge=-1e6, le=1e6, description="the reading × this, then + offset_m")
+    min_value: float = Field(
+        -1e9, ge=-1e9, le=1e9, description="readings below this are dropped (quantity's unit)"
+    )
+    max_value: float = Field(
+        1e9, ge=-1e9, le=1e9, description="readings above this are dropped (quantity's unit)"
+    )
+
+    @model_validator(mode="after")
+    def _named(self) -> PayloadSource:
+        if (self.message == "NAMED_VALUE_FLOAT") != (self.name is not None):
+            raise ValueError("name is given for NAMED_VALUE_FLOAT sources, and only for them")
+        if self.min_value >= self.max_value:
+            raise ValueError(f"min_value {self.min_value} must be < max_value {self.max_value}")
+        return self
+
+
+def _default_payload_sources() -> list[PayloadSource]:
+    return [PayloadSource(message="DISTANCE_SENSOR", quantity="depth_m")]
+
+
+class PayloadConfig(InputModel):
+    """Which of the autopilot's messages are sensor readings, and how they are recorded."""
+
+    enabled: bool = Field(
+        True, description="write payload.csv (readings where they were taken) in the run"
+    )
+    sources: list[PayloadSource] = Field(
+        default_factory=_default_payload_sources,
+        max_length=32,
+        description="each message (or named value) recorded and the quantity it counts as",
+    )
+    record_other_named_values: bool = Field(
+        True,
+        description="NAMED_VALUE_FLOATs no source names are recorded under their own name "
+        "(quantity nv_<name>)",
+    )
+    min_signal_quality_pct: int = Field(
+        0,
+        ge=0,
+        le=100,
+        description="DISTANCE_SENSOR readings with a known signal quality below this are "
+        "dropped (1 = invalid is always dropped; 0 = unknown is kept) (%)",
+    )
+    pose_max_gap_s: float = Field(
+        1.0,
+        gt=0.0,
+        le=10.0,
+        description="a reading is placed by interpolating the EKF poses either side of it; "
+        "poses further apart than this (autopilot time) place nothing (s)",
+    )
+
+
 class HelixdConfig(InputModel):
     vehicle: VehicleConfig = Field(default_factory=VehicleConfig)
     control: ControlConfig = Field(default_factory=ControlConfig)
@@ -1150,6 +1246,7 @@ class HelixdConfig(InputModel):
     gcs_report: GcsReportConfig = Field(default_factory=GcsReportConfig)
     serve: ServeConfig = Field(default_factory=ServeConfig)
     media: MediaConfig = Field(default_factory=MediaConfig)
+    payload: PayloadConfig = Field(default_factory=PayloadConfig)
 
     @model_validator(mode="after")
     def _consistent(self) -> HelixdConfig:

@@ -30,6 +30,7 @@ from helixd.cli import plant as cli_plant
 from helixd.cli import runs as cli_runs
 from helixd.cli import serve_command as cli_serve
 from helixd.cli import sim_command as cli_sim
+from helixd.cli import survey_map as cli_survey_map
 from helixd.cli.autopilot import fetch_autopilot_mission, wants_autopilot
 from helixd.cli.common import (
     CONTEXT_SETTINGS,
@@ -39,6 +40,7 @@ from helixd.cli.common import (
     MapOpt,
     ModeOpt,
     ObserverConnectOpt,
+    SimBathymetryOpt,
     WholeHelpGroup,
     check_connect,
     command_group,
@@ -54,6 +56,7 @@ from helixd.cli.simulated import (
     sim_world,
     simulator,
     simulator_config,
+    with_bathymetry,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
 from helixd.config import HelixdConfig
@@ -304,6 +307,7 @@ def run(
     sim_media: SimMediaOpt = None,
     sim_clock: SimClockOpt = SimClock.WALL,
     sim_seed: SimSeedOpt = None,
+    sim_bathymetry: SimBathymetryOpt = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
@@ -320,6 +324,7 @@ def run(
         if choice is None:
             raise fail(["--sim-media needs --sim"], ExitCode.USAGE)
         choice = replace(choice, media=read_sim_media(sim_media))
+    choice = with_bathymetry(choice, sim_bathymetry)
     options = ExpandOptions(strict, skip_unsupported)
     if wants_autopilot(mission) and resume is None:
         if choice is not None and choice.clock is SimClock.SIMULATED:
@@ -528,6 +533,7 @@ cli_sim.register(app)
 cli_runs.register(app)
 cli_serve.register(app)
 cli_plant.register(app)
+cli_survey_map.register(app)
 mission_app = command_group(
     "mission",
     "Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "

@@ -34,6 +34,7 @@ from helixd.link.command_client import (
     CommandError,
     result_name,
 )
+from helixd.link.payload_msgs import PAYLOAD_STREAMS
 from helixd.mav.constants import (
     MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_RESULT_ACCEPTED,
@@ -201,6 +202,11 @@ class StreamManager:
             for name in TARGET_STREAMS:
                 floor = min(cfg.pose_rate_min_hz, cfg.telemetry_rate_hz)
                 granted[name] = await self._negotiate(name, cfg.telemetry_rate_hz, floor)
+            # the payload's readings (payload.csv): asked once each, never counted as slow
+            if cfg.payload_rate_hz > 0:
+                for name in PAYLOAD_STREAMS:
+                    rate = cfg.payload_rate_hz
+                    granted[name] = await self._negotiate(name, rate, rate, optional=True)
             self.requested = True
             log.info("streams_granted", **{n.lower(): round(r, 2) for n, r in granted.items()})
             return granted
@@ -230,7 +236,11 @@ class StreamManager:
         )
         return rate
 
-    async def _negotiate(self, name: str, want_hz: float, floor_hz: float) -> float:
+    async def _negotiate(
+        self, name: str, want_hz: float, floor_hz: float, optional: bool = False
+    ) -> float:
+        """The rate granted for ``name`` (0.0: none); ``optional``: a refusal is news, not a
+        warning (an autopilot without the sensor)."""
         msg_id = message_id(name)
         first = first_interval_us(want_hz, self.loop_rate_hz)
         steps = candidate_intervals(want_hz, floor_hz, self._cfg.stream_step_factor, first)
@@ -249,7 +259,7 @@ class StreamManager:
                 )
                 return granted
             if result != MAV_RESULT_DENIED:
-                log.warning(
+                (log.info if optional else log.warning)(
                     "stream_rate_refused",
                     stream=name,
                     result=result_name(result),
@@ -262,7 +272,9 @@ class StreamManager:
                 interval_us=interval,
                 rate_hz=round(rate_hz(interval), 2),
             )
-        log.error("stream_rate_not_granted", stream=name, floor_hz=floor_hz)
+        (log.info if optional else log.error)(
+            "stream_rate_not_granted", stream=name, floor_hz=floor_hz
+        )
         return 0.0
 
     async def rerequest(self, slow: Sequence[tuple[str, float]], booting: bool = False) -> None:
