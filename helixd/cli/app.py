@@ -49,6 +49,7 @@ from helixd.cli.common import (
 )
 from helixd.cli.simulated import (
     SimChoice,
+    SimMediaOpt,
     beside_simulator,
     read_sim_media,
     sim_world,
@@ -246,14 +247,6 @@ SimClockOpt = Annotated[
 ]
 SimSeedOpt = Annotated[
     int | None, typer.Option(min=0, help="the simulator's noise seed (with --sim; default: new)")
-]
-SimMediaOpt = Annotated[
-    Path | None,
-    typer.Option(
-        "--sim-media",
-        help="media map (GeoJSON or KML: hard, grass, sand, mud, water areas) for the simulator's "
-        "world, each scroll in the medium under it; --sim-terrain outside (with --sim)",
-    ),
 ]
 RunDirOpt = Annotated[
     Path | None,
