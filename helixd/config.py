@@ -498,6 +498,15 @@ class LinkConfig(InputModel):
     telemetry_rate_hz: float = Field(
         5.0, ge=0.5, le=50.0, description="EKF/SYS_STATUS/RC/SERVO/MISSION_CURRENT stream rate (Hz)"
     )
+    autopilot_heartbeat_rate_hz: float = Field(
+        5.0,
+        ge=1.0,
+        le=10.0,
+        description="the autopilot's HEARTBEAT rate to ask for on helixd's link (Hz; ArduPilot "
+        "sends 1 Hz unless asked): the arm and the mode are in it, so a start right after "
+        "arming (QGroundControl's GUIDED, arm, MISSION_START) and a change to a mode the "
+        "pilot drives are seen within 1 / this rate, not within a second",
+    )
     command_timeout_s: float = Field(
         1.0, gt=0.0, le=30.0, description="wait for COMMAND_ACK/PARAM_VALUE per try (s)"
     )

@@ -56,7 +56,10 @@ async def test_asks_for_what_sched_loop_rate_grants_no_denied() -> None:
         assert granted["LOCAL_POSITION_NED"] == 40.0 and granted["ATTITUDE"] == 40.0
         assert asked(peer, LPN) == [25_000] and asked(peer, ATT) == [25_000]
         results = [c for c in peer.records.commands if c.command == SET_INTERVAL]
-        assert results and len(results) == 9  # one per stream: nothing was DENIED
+        assert results and len(results) == 10  # one per stream: nothing was DENIED
+        # the autopilot's HEARTBEAT at 5 Hz (link.autopilot_heartbeat_rate_hz): the arm and
+        # the mode seen within 0.2 s, not within ArduPilot's default second
+        assert granted["HEARTBEAT"] == 5.0 and peer.heartbeat_asked_us == 200_000
     async with linked(pose_rate_hz=50.0, peer_kwargs={"min_interval_us": 4_000}) as (ap, peer):
         peer.params["SCHED_LOOP_RATE"] = 400.0
         granted = await ap.request_streams()
