@@ -1,5 +1,5 @@
 """``helixd sim``'s defaults: low pose noise unless the command line or the simulator YAML
-says otherwise, and ``sim -h`` says so (issue 51, item 11: the thesis's noise moved the
+says otherwise, and ``sim -h`` says so (the thesis's noise moved the
 reported position 0.6-1.0 m while the rover sat in HOLD, and nothing said it was chosen)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``hx_state`` through a pause of a flight in the autopilot's AUTO (issue 51, item 10): the
+"""``hx_state`` through a pause of a flight in the autopilot's AUTO: the
 crew's HOLD pauses the flight (it goes on, held at neutral), and the service's state word
 says so — NAMED_VALUE_INT ``hx_state`` 5 (paused) at once, 4 (flying) again when AUTO
 continues it — as the README's list of states promises. On the simulated clock."""

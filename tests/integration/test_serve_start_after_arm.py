@@ -1,6 +1,6 @@
-"""A Start Mission right after the crew's arm is as quick as one on an armed rover (issue 51,
-item 9): QGroundControl's sequence — GUIDED, a normal arm, MAV_CMD_MISSION_START as soon as
-the arm is acknowledged — used to wait for the autopilot's next 1 Hz HEARTBEAT before helixd
+"""A Start Mission right after the crew's arm is as quick as one on an armed rover:
+QGroundControl's sequence — GUIDED, a normal arm, MAV_CMD_MISSION_START as soon as the arm is
+acknowledged — used to wait for the autopilot's next 1 Hz HEARTBEAT before helixd
 knew the rover was armed (start → driven 1.17 s on SITL against AUTO's 0.54 s). helixd asks
 the autopilot for its HEARTBEAT at ``link.autopilot_heartbeat_rate_hz`` (5 Hz) on its own
 link; the simulator honours the request as ArduPilot does, per link (the ground station's
