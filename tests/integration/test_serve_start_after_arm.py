@@ -1,10 +1,10 @@
 """A Start Mission right after the crew's arm is as quick as one on an armed rover:
 QGroundControl's sequence — GUIDED, a normal arm, MAV_CMD_MISSION_START as soon as the arm is
-acknowledged — used to wait for the autopilot's next 1 Hz HEARTBEAT before helixd
-knew the rover was armed (start → driven 1.17 s on SITL against AUTO's 0.54 s). helixd asks
-the autopilot for its HEARTBEAT at ``link.autopilot_heartbeat_rate_hz`` (5 Hz) on its own
-link; the simulator honours the request as ArduPilot does, per link (the ground station's
-stays at 1 Hz). The same cuts MANUAL → released. On the simulated clock: exact."""
+acknowledged. helixd asks the autopilot for its HEARTBEAT (arm and mode) at
+``link.autopilot_heartbeat_rate_hz`` (5 Hz) on its own link; the simulator honours the request
+as ArduPilot does, per link (the ground station's stays at 1 Hz). Before, helixd waited for the
+simulator's next 1 Hz HEARTBEAT to see the arm (start → driven 1.38 s); the same cuts MANUAL →
+released. On the simulated clock: exact."""
 
 from __future__ import annotations
 

