@@ -506,6 +506,14 @@ class LinkConfig(InputModel):
         "payload.csv) asked for at this rate, once each, never counted as slow (an autopilot "
         "without the sensor sends none); 0: not asked (Hz)",
     )
+    autopilot_heartbeat_rate_hz: float = Field(
+        5.0,
+        ge=1.0,
+        le=10.0,
+        description="the autopilot's HEARTBEAT rate to ask for on helixd's link (Hz; ArduPilot "
+        "sends 1 Hz unless asked, and one at once on a mode change): the arm and the mode "
+        "are in it, so an arm or a disarm is seen within 1 / this rate, not within a second",
+    )
     command_timeout_s: float = Field(
         1.0, gt=0.0, le=30.0, description="wait for COMMAND_ACK/PARAM_VALUE per try (s)"
     )

@@ -16,9 +16,10 @@ import sys
 from collections.abc import Awaitable, Callable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TypeVar
+from typing import Annotated, TypeVar
 
 import structlog
+import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
@@ -64,6 +65,16 @@ class SimChoice:
     seed: int | None = None  # the noise generator's seed; None: a new one each run
     # the pond's bottom under the world's water (``--sim-bathymetry``): a down-facing sonar
     bathymetry: Bathymetry | None = None
+
+
+SimMediaOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--sim-media",
+        help="media map (GeoJSON or KML: hard, grass, sand, mud, water areas) for the simulator's "
+        "world, each scroll in the medium under it; --sim-terrain outside (with --sim)",
+    ),
+]
 
 
 def read_sim_media(path: Path) -> MediaMap:

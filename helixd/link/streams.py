@@ -56,6 +56,12 @@ TELEMETRY_STREAMS = (
     # seconds after a GPS loss before it reports anything
     "GPS_RAW_INT",
 )
+# the autopilot's HEARTBEAT (arm and mode: what ``serve`` waits on after QGroundControl's arm)
+# at ``link.autopilot_heartbeat_rate_hz`` on helixd's own link: ArduPilot sends it at 1 Hz
+# by default (GCS_MAVLINK::initialise_message_intervals_from_streamrates) and takes
+# SET_MESSAGE_INTERVAL for it like any message (mavlink_id_to_ap_message_id: MSG_HEARTBEAT),
+# per link, so the ground station's own link stays at 1 Hz
+STATE_STREAMS = ("HEARTBEAT",)
 # sent by ArduPilot only in a mode with a place to go (GCS_MAVLINK::
 # send_position_target_global_int): asked for like the rest, never counted as slow
 TARGET_STREAMS = ("POSITION_TARGET_GLOBAL_INT",)
@@ -196,6 +202,9 @@ class StreamManager:
             for name in TELEMETRY_STREAMS:
                 floor = min(cfg.pose_rate_min_hz, cfg.telemetry_rate_hz)
                 granted[name] = await self._negotiate(name, cfg.telemetry_rate_hz, floor)
+            for name in STATE_STREAMS:
+                floor = min(cfg.autopilot_heartbeat_rate_hz, 1.0)
+                granted[name] = await self._negotiate(name, cfg.autopilot_heartbeat_rate_hz, floor)
             now = now_s()
             for name, rate in granted.items():
                 self.monitor.grant(name, rate, now)

@@ -386,10 +386,12 @@ class FlightLoop:
             gate = gate_of(mode, driving.mode, place_to_go=target is not None)
         self.supervisor.expected_mode = st.mode  # the takeover rule judges sticks and switch only
         if gate is not crew.gate:
-            crew.gate = gate
+            was, crew.gate = crew.gate, gate
             log.info("mode_gate", gate=gate.value, mode=mode)
             if gate is Gate.HOLD:
                 self._neutral()
+            elif gate is Gate.DRIVE and was is Gate.HOLD:  # continued: on from where it stands
+                self.navigator.resume()
             if self.hooks.on_gate is not None:
                 self.hooks.on_gate(gate, mode)
         if gate is Gate.RELEASE:

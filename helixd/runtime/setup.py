@@ -53,7 +53,7 @@ from helixd.mission.model import Mission
 from helixd.mission.resolve import Where, resolve
 from helixd.mission.resume import RunInputs, with_leg_start
 from helixd.runtime.autopilot_fence import autopilot_fence_check
-from helixd.runtime.media_plan import MediaRefused, placed_media_plan
+from helixd.runtime.media_plan import MediaRefused, media_path, placed_media_plan
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Replanner
 from helixd.runtime.show_plan import show_plan
@@ -501,7 +501,14 @@ def follow_medium(
             "media_transition", waypoint=t.index, before=t.before.value, after=t.after.value,
             x_m=round(t.xy_m[0], 2), y_m=round(t.xy_m[1], 2), medium=t.medium.value,
         )  # fmt: skip
-    log.info("media_plan", stretches=len(got.stretches), transitions=len(got.transitions))
+    where = media_path(cfg, mission)
+    log.info(
+        "media_plan", stretches=len(got.stretches), transitions=len(got.transitions),
+        # what `helixd plot` draws the map's areas from, placed as the flight placed them
+        media_map=None if where is None else str(where.resolve()), frame=plan.frame.value,
+        start_north_m=round(start.north_m, 3), start_east_m=round(start.east_m, 3),
+        start_yaw_ned_rad=round(start.yaw_ned_rad, 4),
+    )  # fmt: skip
     return got.plan
 
 

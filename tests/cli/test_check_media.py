@@ -7,8 +7,15 @@ import json
 import re
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import pytest
+from matplotlib.patches import PathPatch
 
+from helixd.config import HelixdConfig
+from helixd.files.media import read_media_map
+from helixd.mission.model import load_mission
+from helixd.recorder.plots import draw_media_plan
+from helixd.runtime.media_figure import checked_media
 from tests.support.cli import run_main
 from tests.support.paths import REPO_ROOT
 
@@ -151,3 +158,35 @@ def test_a_ground_station_pins_a_legs_mode_by_the_yaw_code(
     assert code == 0, out + err
     assert "change  : " not in out
     assert "(the waypoint's own mode)" in out
+
+
+def test_check_plot_draws_an_amphibious_missions_media_and_stretches(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before: `check --plot` wrote nothing for a mission that follows a media map and plans
+    no route around obstacles."""
+    png = tmp_path / "plan.png"
+    code, out, err = run_main(["check", "--mission", str(crossing(tmp_path)), "--plot", str(png)],
+                              capsys)  # fmt: skip
+    assert code == 0, err
+    assert f"plot    : {png}" in out and "not written" not in out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+    assert "Ignoring fixed" not in out + err  # the equal aspect is not fought
+
+
+def test_the_media_plan_figure_shows_the_areas_and_each_stretch_by_mode(tmp_path: Path) -> None:
+    path = crossing(tmp_path)
+    cfg = HelixdConfig()
+    msn = load_mission(path, cfg.mission)
+    got = checked_media(cfg, msn, msn, read_media_map(tmp_path / "water.geojson"))
+    assert got.placed is not None and got.plan is not None, got.why
+    fig, ax = plt.subplots()
+    draw_media_plan(ax, got.placed, got.plan, got.plan.plan.assumed_start_xy_m())
+    (water,) = [p for p in ax.patches if isinstance(p, PathPatch)]
+    assert water.get_label() == "water (media map)"
+    labels = ax.get_legend_handles_labels()[1]
+    assert "planned in roll" in labels and "planned in scroll" in labels
+    assert "change of mode (turn in place)" in labels
+    by_mode = {ln.get_label(): ln.get_color() for ln in ax.lines}
+    assert by_mode["planned in roll"] != by_mode["planned in scroll"]
+    plt.close(fig)

@@ -58,8 +58,11 @@ async def test_asks_for_what_sched_loop_rate_grants_no_denied() -> None:
         assert asked(peer, LPN) == [25_000] and asked(peer, ATT) == [25_000]
         results = [c for c in peer.records.commands if c.command == SET_INTERVAL]
         # one per stream: nothing was DENIED (the payload's too, refused by this peer)
-        assert results and len(results) == 9 + len(PAYLOAD_STREAMS)
+        assert results and len(results) == 10 + len(PAYLOAD_STREAMS)
         assert granted["DISTANCE_SENSOR"] == 0.0  # this peer does not know it
+        # the autopilot's HEARTBEAT at 5 Hz (link.autopilot_heartbeat_rate_hz): the arm and
+        # the mode seen within 0.2 s, not within ArduPilot's default second
+        assert granted["HEARTBEAT"] == 5.0 and peer.heartbeat_asked_us == 200_000
     async with linked(pose_rate_hz=50.0, peer_kwargs={"min_interval_us": 4_000}) as (ap, peer):
         peer.params["SCHED_LOOP_RATE"] = 400.0
         granted = await ap.request_streams()
