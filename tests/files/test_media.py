@@ -348,7 +348,7 @@ def test_fuzz_kml_text_never_crashes(text: str) -> None:
 @pytest.mark.parametrize(
     ("ring", "at"),
     [
-        # issue 51's water ring: accepted as "OK" before (its signed area is not zero)
+        # a water ring once accepted as "OK" (its signed area is not zero)
         ([[0, 10], [20, 40], [20, 10], [0, 20], [0, 10]], "[east_m, north_m] [5, 17.5]"),
         # a symmetric bow-tie: refused only as "area 0 m² below 1.0 m²" before
         ([[0, 0], [10, 10], [10, 0], [0, 10], [0, 0]], "[east_m, north_m] [5, 5]"),
