@@ -71,6 +71,16 @@ def test_a_crossing_rolls_the_banks_and_scrolls_the_water(tmp_path: Path) -> Non
         if '"waypoint_reached"' in line
     ]
     assert reached == [None, None, 0]  # the map's two stops are not the mission's (--resume)
+    # the stops are counted as via points, and the changes of mode numbered as the operator's
+    summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+    assert (summary["via_points_reached"], summary["via_points_total"]) == (2, 2)
+    assert "1/1 waypoints (+2/2 via points)" in flown.result, flown.result
+    changes = [
+        json.loads(line)
+        for line in (run_dir / "events.jsonl").read_text(encoding="utf-8").splitlines()
+        if '"media_transition"' in line
+    ]
+    assert [(e["waypoint"], e["stop"]) for e in changes] == [("via → 1/1", "media")] * 2
 
 
 def test_mud_the_map_does_not_show_is_noticed_and_scrolled(tmp_path: Path) -> None:
