@@ -435,6 +435,22 @@ class MediaConfig(InputModel):
         description="scrolling because of the check, delivered below this fraction over the "
         "window: firm ground again, back to the planned mode (hard 0.45, mud 0.85)",
     )
+    detect_hysteresis: float = Field(
+        0.05,
+        ge=0.0,
+        le=0.3,
+        description='"firm again" needs the delivered fraction this far below '
+        "detect_scroll_fraction (scrolling in water delivers about 0.6: no flip back in the "
+        "water) (fraction)",
+    )
+    detect_min_change_m: float = Field(
+        5.0,
+        ge=0.0,
+        le=50.0,
+        description="after the ground check changed the mode, the rover travels at least this "
+        "far before it changes it again; where the media map has water or mud here or this "
+        "far ahead it never goes back to roll (m)",
+    )
 
 
 # ---------------------------------------------------------------------------------------------

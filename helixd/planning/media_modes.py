@@ -292,6 +292,7 @@ def follow_media(
     for k in range(len(new) - 1):  # a change of mode at a waypoint: stop there
         if new[k].mode is not new[k + 1].mode and not new[k].stop:
             new[k] = replace(new[k], stop=True)
+    new = _with_unfit_spans(new, start_xy_m, plan.mode, media, policy, to_ne)
     program = plan.program
     if program is not None:
         program = replace(program, steps=tuple(_renumbered(s, new_index) for s in program.steps))
@@ -305,6 +306,35 @@ def follow_media(
             s_here = next((c for c in changes if _close(points, at, c, w)), math.nan)
             transitions.append(Transition(k, s_here, (w.x_m, w.y_m), before, after, medium))
     return MediaPlan(out, tuple(done), tuple(transitions))
+
+
+def _with_unfit_spans(
+    wps: Sequence[PlanWaypoint],
+    start_xy_m: XY,
+    plan_mode: MotionMode,
+    media: MediaMapNe,
+    policy: ModePolicy,
+    to_ne: ToNe,
+) -> list[PlanWaypoint]:
+    """Each waypoint with the spans of its leg (as distance still to go, m) where the map's
+    medium is one the policy flies in another mode than the leg's (a pinned leg's water)."""
+    out: list[PlanWaypoint] = []
+    prev = start_xy_m
+    for w in wps:
+        here = (w.x_m, w.y_m)
+        length = math.hypot(here[0] - prev[0], here[1] - prev[1])
+        mode = w.mode or plan_mode
+        spans: list[tuple[float, float]] = []
+        for r in reversed(media_along(media, to_ne(*prev), to_ne(*here))):
+            if policy.mode_for(r.medium) is mode or r.length_m <= SNAP_M:
+                continue
+            near, far = length * (1.0 - r.end_fraction), length * (1.0 - r.start_fraction)
+            if spans and near - spans[-1][1] <= SNAP_M:  # mud, then water: one span
+                near = spans.pop()[0]
+            spans.append((near, far))
+        out.append(replace(w, unfit_to_go_m=tuple(spans)) if spans and length > 0.0 else w)
+        prev = here
+    return out
 
 
 def _close(points: Sequence[XY], at: Sequence[float], s_m: float, w: PlanWaypoint) -> bool:

@@ -97,3 +97,23 @@ def test_mud_the_map_does_not_show_is_noticed_and_scrolled(tmp_path: Path) -> No
     assert "event=ground_changed soft=false" in log  # and back to roll past it
     c = read_flight_columns(run_dir / "flight.csv")
     assert modes_in_order(c) == ["roll", "scroll", "roll"]
+
+
+def test_a_leg_pinned_to_roll_across_water_changes_mode_once_each_way(tmp_path: Path) -> None:
+    """The ground check switches the pinned ROLL to SCROLL where it bogs down, and back to
+    roll only past the water the map shows: no flipping to and fro in the pond."""
+    helixd_map = geojson(tmp_path / "water.geojson", ("water", 10.0, 30.0))
+    world = MediaMap(MediaFrame.LOCAL_NED, (band(Medium.WATER, 10.0, 30.0),), Medium.HARD)
+    path = mission(tmp_path / "pinned.yaml", helixd_map, 40.0)
+    data = json.loads(path.read_text(encoding="utf-8"))
+    data["waypoints"][0]["mode"] = "roll"
+    path.write_text(json.dumps(data), encoding="utf-8")
+    flown = simulated_flight(tmp_path, path, media=world, noise="low", seed=6)
+    code, log, run_dir = flown.code, flown.log, flown.run_dir()
+    assert code == ExitCode.OK, log[-3000:]
+    changes = [ln for ln in log.splitlines() if "event=ground_changed" in ln]
+    assert [("soft=true" in ln) for ln in changes] == [True, False], "\n".join(changes)
+    firm_north = float(changes[1].split("north_m=")[1].split()[0])
+    assert firm_north > 30.0  # back to roll only once out of the map's water
+    c = read_flight_columns(run_dir / "flight.csv")
+    assert modes_in_order(c) == ["roll", "scroll", "roll"]
