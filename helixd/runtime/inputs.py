@@ -119,7 +119,11 @@ def load_inputs(
             default_mode=MotionMode(gs_mode) if gs_mode else None,
             # planning routes the legs around a .plan's exclusion zones instead of refusing
             route_keep_outs=cfg is not None and cfg.planning.enabled,
+            config_media_map=cfg is not None and cfg.media.media_map is not None,
         )
+        if cfg is not None and mode is not None and loaded.format is MissionFormat.YAML:
+            # --mode wins over a YAML mission's media plan: the config's map is off as well
+            cfg = cfg.model_copy(update={"media": cfg.media.model_copy(update={"media_map": None})})
         if fence is not None:
             loaded = with_fence(
                 loaded,

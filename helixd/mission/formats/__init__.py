@@ -172,13 +172,16 @@ def load_mission_file(
     mode: MotionMode | None = None,
     default_mode: MotionMode | None = None,
     route_keep_outs: bool = False,
+    config_media_map: bool = False,
 ) -> LoadedMission:
     """Any supported file → a validated mission. Raises :class:`ConfigFileError` (one line per
     problem, each naming the file) like :func:`load_mission`.
 
     ``mode`` (the ``--mode`` flag) overrides any file's mode (a YAML mission's own ``mode:``
-    too, with a note saying so); ``default_mode`` (the config's
-    ``mission.ground_station_mode``) is used for ground-station files only, which carry none.
+    too, its waypoints' modes and its media map, with one note saying so: see
+    :func:`forced_mode`; ``config_media_map``: the config names a media map, off as well);
+    ``default_mode`` (the config's ``mission.ground_station_mode``) is used for
+    ground-station files only, which carry none.
     ``route_keep_outs``: legs through a .plan's exclusion zones are planned around
     (helixd.planning), not refused (see :func:`items_to_mission`)."""
     fmt = sniff_format(path)
@@ -201,13 +204,10 @@ def load_mission_file(
         )
     if fmt is MissionFormat.YAML:
         msn = load_mission(path, limits)
-        if mode is not None and mode is not msn.mode:
-            note = (
-                f"{path}: --mode {mode.value} wins over the mission's own mode: "
-                f"{msn.mode.value}; it is flown in {mode.value}"
-            )
-            return LoadedMission(msn.model_copy(update={"mode": mode}), fmt, (note,))
-        return LoadedMission(msn, fmt)
+        if mode is None:
+            return LoadedMission(msn, fmt)
+        forced, note = forced_mode(msn, mode, config_media_map)
+        return LoadedMission(forced, fmt, (f"{path}: {note}",) if note else ())
     mode = mode or default_mode
     if mode is None:
         raise ConfigFileError(
@@ -236,6 +236,37 @@ def load_mission_file(
         except ValidationError as exc:
             raise ConfigFileError(path, format_validation_error(path, exc, Mission)) from None
     return LoadedMission(msn, fmt, conv.notes, gcs)
+
+
+def forced_mode(
+    msn: Mission, mode: MotionMode, config_media_map: bool = False
+) -> tuple[Mission, str]:
+    """A YAML mission flown wholly in ``mode`` (``--mode``): its mode, every waypoint's and no
+    media plan (its ``media_map``/``media_modes`` dropped; the caller drops the config's
+    ``media.media_map`` when ``config_media_map``). The note says what the flag replaced, once
+    ("" when nothing)."""
+    pinned = [w for w in msn.waypoints if w.mode is not None and w.mode is not mode]
+    replaced = [f"mode ({msn.mode.value})"] if msn.mode is not mode else []
+    replaced += [f"waypoints' own modes ({len(pinned)})"] if pinned else []
+    if msn.media_map is not None or config_media_map:
+        replaced.append("media map (the mode follows no medium)")
+    forced = msn.model_copy(
+        update={
+            "mode": mode,
+            "waypoints": tuple(
+                w.model_copy(update={"mode": None}) if w.mode is not None else w
+                for w in msn.waypoints
+            ),
+            "media_map": None,
+            "media_modes": None,
+        }
+    )
+    if not replaced:
+        return forced, ""
+    return forced, (
+        f"--mode {mode.value} wins over the mission's {' and '.join(replaced)}: every leg is "
+        f"flown in {mode.value}"
+    )
 
 
 def mission_to_yaml(mission: Mission) -> str:
@@ -410,6 +441,7 @@ __all__ = [
     "MissionFormat",
     "detect_format",
     "fence_has_keep_outs",
+    "forced_mode",
     "has_keep_outs",
     "load_mission_file",
     "lost_in",
