@@ -729,6 +729,14 @@ class StallConfig(InputModel):
         0.03, ge=0.0, le=1.0, description="...while the measured yaw rate stays below (rad/s)"
     )
     duration_s: float = Field(4.0, gt=0.0, le=120.0, description="...for this long (s)")
+    crawl_fraction: float = Field(
+        0.1,
+        ge=0.0,
+        lt=1.0,
+        description="moving, but under this fraction of the commanded speed over the last "
+        "duration_s (commanded above commanded_speed_min_mps) is a stall too: rolling in "
+        "water delivers about 0.05 (fraction; 0: off)",
+    )
 
 
 RcChannel = Annotated[int, Field(ge=1, le=18)]

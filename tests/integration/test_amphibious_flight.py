@@ -117,3 +117,22 @@ def test_a_leg_pinned_to_roll_across_water_changes_mode_once_each_way(tmp_path: 
     assert firm_north > 30.0  # back to roll only once out of the map's water
     c = read_flight_columns(run_dir / "flight.csv")
     assert modes_in_order(c) == ["roll", "scroll", "roll"]
+
+
+def test_rolling_into_water_without_a_map_is_a_stall_within_seconds(tmp_path: Path) -> None:
+    """No media map for helixd: ROLL runs into the water, crawls at a few cm/s, and the stall
+    watch calls it stuck within seconds of delivering under a tenth of the command."""
+    world = MediaMap(MediaFrame.LOCAL_NED, (band(Medium.WATER, 10.0, 30.0),), Medium.HARD)
+    path = tmp_path / "roll.yaml"
+    data = {"name": "roll", "mode": "roll", "frame": "local_ned",
+            "waypoints": [{"north": 40.0, "east": 0.0}]}  # fmt: skip
+    path.write_text(json.dumps(data), encoding="utf-8")
+    flown = simulated_flight(tmp_path, path, media=world, noise="low", seed=6)
+    code, log, run_dir = flown.code, flown.log, flown.run_dir()
+    assert code == ExitCode.FAULT, log[-3000:]
+    assert "fault stall" in flown.result and "stall.crawl_fraction" in flown.result, flown.result
+    c = read_flight_columns(run_dir / "flight.csv")
+    wet = c["north_m"] > 9.5  # its front scrolls (about 0.5 m ahead of its centre) afloat
+    assert np.any(wet)
+    in_water_s = float(c["t_boot_s"][-1] - c["t_boot_s"][np.argmax(wet)])
+    assert in_water_s < 20.0, (in_water_s, float(c["north_m"][-1]))  # 6.3 s when written
