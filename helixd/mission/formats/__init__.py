@@ -172,14 +172,12 @@ def load_mission_file(
     mode: MotionMode | None = None,
     default_mode: MotionMode | None = None,
     route_keep_outs: bool = False,
-    config_media_map: bool = False,
 ) -> LoadedMission:
     """Any supported file → a validated mission. Raises :class:`ConfigFileError` (one line per
     problem, each naming the file) like :func:`load_mission`.
 
     ``mode`` (the ``--mode`` flag) overrides any file's mode (a YAML mission's own ``mode:``
-    too, its waypoints' modes and its media map, with one note saying so: see
-    :func:`forced_mode`; ``config_media_map``: the config names a media map, off as well);
+    too, with a note saying so; ``check`` and ``run`` take :func:`forced_mode` instead);
     ``default_mode`` (the config's ``mission.ground_station_mode``) is used for
     ground-station files only, which carry none.
     ``route_keep_outs``: legs through a .plan's exclusion zones are planned around
@@ -204,10 +202,13 @@ def load_mission_file(
         )
     if fmt is MissionFormat.YAML:
         msn = load_mission(path, limits)
-        if mode is None:
-            return LoadedMission(msn, fmt)
-        forced, note = forced_mode(msn, mode, config_media_map)
-        return LoadedMission(forced, fmt, (f"{path}: {note}",) if note else ())
+        if mode is not None and mode is not msn.mode:
+            note = (
+                f"{path}: --mode {mode.value} wins over the mission's own mode: "
+                f"{msn.mode.value}; it is flown in {mode.value}"
+            )
+            return LoadedMission(msn.model_copy(update={"mode": mode}), fmt, (note,))
+        return LoadedMission(msn, fmt)
     mode = mode or default_mode
     if mode is None:
         raise ConfigFileError(
@@ -241,10 +242,10 @@ def load_mission_file(
 def forced_mode(
     msn: Mission, mode: MotionMode, config_media_map: bool = False
 ) -> tuple[Mission, str]:
-    """A YAML mission flown wholly in ``mode`` (``--mode``): its mode, every waypoint's and no
-    media plan (its ``media_map``/``media_modes`` dropped; the caller drops the config's
-    ``media.media_map`` when ``config_media_map``). The note says what the flag replaced, once
-    ("" when nothing)."""
+    """A YAML mission ``check`` or ``run`` flies wholly in ``mode`` (``--mode``): its mode,
+    every waypoint's and no media plan (its ``media_map``/``media_modes`` dropped; the caller
+    drops the config's ``media.media_map`` when ``config_media_map``). The note says what the
+    flag replaced, once ("" when nothing)."""
     pinned = [w for w in msn.waypoints if w.mode is not None and w.mode is not mode]
     replaced = [f"mode ({msn.mode.value})"] if msn.mode is not mode else []
     replaced += [f"waypoints' own modes ({len(pinned)})"] if pinned else []
