@@ -435,6 +435,22 @@ class MediaConfig(InputModel):
         description="scrolling because of the check, delivered below this fraction over the "
         "window: firm ground again, back to the planned mode (hard 0.45, mud 0.85)",
     )
+    detect_hysteresis: float = Field(
+        0.05,
+        ge=0.0,
+        le=0.3,
+        description='"firm again" needs the delivered fraction this far below '
+        "detect_scroll_fraction (scrolling in water delivers about 0.6: no flip back in the "
+        "water) (fraction)",
+    )
+    detect_min_change_m: float = Field(
+        5.0,
+        ge=0.0,
+        le=50.0,
+        description="after the ground check changed the mode, the rover travels at least this "
+        "far before it changes it again; where the media map has water or mud here or this "
+        "far ahead it never goes back to roll (m)",
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -729,6 +745,14 @@ class StallConfig(InputModel):
         0.03, ge=0.0, le=1.0, description="...while the measured yaw rate stays below (rad/s)"
     )
     duration_s: float = Field(4.0, gt=0.0, le=120.0, description="...for this long (s)")
+    crawl_fraction: float = Field(
+        0.1,
+        ge=0.0,
+        lt=1.0,
+        description="moving, but under this fraction of the commanded speed over the last "
+        "duration_s (commanded above commanded_speed_min_mps) is a stall too: rolling in "
+        "water delivers about 0.05 (fraction; 0: off)",
+    )
 
 
 RcChannel = Annotated[int, Field(ge=1, le=18)]

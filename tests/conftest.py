@@ -21,7 +21,9 @@ os.environ[CONFIG_ENV] = ""
 # deadline per example and its too_slow health check failed tests on a loaded 2-core machine
 # (tests/control/test_totality.py at load 10). Each test's own settings() still sets its count.
 settings.register_profile(
-    "helixd", deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large]
+    "helixd",
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
 settings.load_profile("helixd")
 

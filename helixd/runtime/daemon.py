@@ -431,7 +431,7 @@ class MissionRunner:
             # from where the rover is now, to the home the autopilot set when it armed
             home = await autopilot_home(ap, cfg, self.mission, checked.origin, stop)
             args = (self.mission, cfg, checked.origin, start_ned, home or checked.home)
-            plan, _ = resolve_flight(*args, self.opts.options)
+            plan, _ = resolve_flight(*args, self.opts.options, self.opts.inputs)
         frame = mission_frame(self.mission, start_ned)
         return Ready(ap, sink, plan, frame, start_ned, placed.cfg)
 
@@ -722,7 +722,7 @@ class MissionRunner:
             mission_name=self.mission.name,
             mode=self.mission.mode.value,
             waypoints_total=numbering.operator_count,
-            via_points_total=sum(w.via for w in self.mission.waypoints),
+            via_points_total=sum(numbering.vias),  # the media map's stops included
             wall_duration_s=wall_duration_s,
             items_total=numbering.total if numbering.items else None,
         )

@@ -571,7 +571,9 @@ class FlightLoop:
             sample.vn_mps, sample.ve_mps, sample.ned.yaw_ned_rad, self._yaw_rate.radps
         )
         ned = sample.ned
-        self.ground.feed(sent, measured, t_boot_s - t_sent_s, ned.north_m, ned.east_m)
+        here = self.frame.to_mission(ned)
+        dt_s = t_boot_s - t_sent_s
+        self.ground.feed(sent, measured, dt_s, ned.north_m, ned.east_m, (here.x_m, here.y_m))
         return self.slip.update(self.navigator.mode, sent, measured, t_boot_s - t_sent_s)
 
     @property
