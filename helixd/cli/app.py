@@ -72,7 +72,6 @@ from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.media_figure import checked_media
 from helixd.runtime.plan_report import check_lines, record_space_warning
 from helixd.runtime.planned import Flight, route_lines
 from helixd.runtime.prepare import (
@@ -223,6 +222,9 @@ def check(
 def _check_plot(got: Prepared, plot: Path) -> None:
     """``check --plot``: the route planned around obstacles, the media map's areas under it;
     without a route, a media map's areas and the plan's stretches by mode; else say why not."""
+    # deferred, as `helixd plot`'s: matplotlib (0.2 s) only when a plot is asked for
+    from helixd.runtime.media_figure import checked_media
+
     flight = got.flight
     media = None
     if got.media is not None:
