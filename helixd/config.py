@@ -97,8 +97,8 @@ class SlipConfig(InputModel):
     eq. 1): the estimate starts from it instead of from no slip, and the time estimate of
     ``check``, ``run`` and ``mission survey`` counts it (an axis that gets a fraction f of its
     command is delivered min(1, f · max_gain) of it with the feed-forward, f without). The
-    built-in simulator's grounds: ``sim.terrains`` (hard ground: roll 0.95, scroll 0.45,
-    yaw 0.85).
+    built-in simulator's grounds: ``sim.terrains`` (hard ground: roll 0.95, scroll 0.12,
+    yaw 0.85; docs/physics.md gives their sources).
     """
 
     enabled: bool = Field(
@@ -375,15 +375,16 @@ ModeName = Literal["roll", "scroll", "omni"]
 
 
 class MediaModesConfig(InputModel):
-    """The motion mode each medium is flown in (docs/physics.md, the traction table): ROLL
-    where rolling delivers most (hard 0.95, grass 0.9 of v_x), SCROLL where rolling delivers
-    little and scrolling more (sand 0.6 vs 0.75, mud 0.3 vs 0.85, water 0.05 vs 0.6)."""
+    """The motion mode each medium is flown in (docs/physics.md, the ground table): ROLL
+    where rolling delivers most (hard 0.95, grass 0.9, sand 0.6 of v_x against 0.12, 0.25,
+    0.12 scrolling), SCROLL where rolling delivers little and scrolling more (mud 0.3 vs 0.85,
+    water 0.05 vs 0.62)."""
 
-    hard: ModeName = Field("roll", description="mode on hard ground (roll 0.95, scroll 0.45)")
-    grass: ModeName = Field("roll", description="mode on grass (roll 0.9, scroll 0.6)")
-    sand: ModeName = Field("scroll", description="mode in sand (roll 0.6, scroll 0.75)")
+    hard: ModeName = Field("roll", description="mode on hard ground (roll 0.95, scroll 0.12)")
+    grass: ModeName = Field("roll", description="mode on grass (roll 0.9, scroll 0.25)")
+    sand: ModeName = Field("roll", description="mode in sand (roll 0.6, scroll 0.12)")
     mud: ModeName = Field("scroll", description="mode in mud (roll 0.3, scroll 0.85)")
-    water: ModeName = Field("scroll", description="mode in water (roll 0.05, scroll 0.6)")
+    water: ModeName = Field("scroll", description="mode in water (roll 0.05, scroll 0.62)")
 
 
 class MediaConfig(InputModel):
@@ -433,7 +434,7 @@ class MediaConfig(InputModel):
         gt=0.0,
         lt=1.0,
         description="scrolling because of the check, delivered below this fraction over the "
-        "window: firm ground again, back to the planned mode (hard 0.45, mud 0.85)",
+        "window: firm ground again, back to the planned mode (hard 0.12, mud 0.85)",
     )
 
 

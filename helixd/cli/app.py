@@ -39,6 +39,7 @@ from helixd.cli.common import (
     MapOpt,
     ModeOpt,
     ObserverConnectOpt,
+    SimGroundOpt,
     WholeHelpGroup,
     check_connect,
     command_group,
@@ -50,10 +51,10 @@ from helixd.cli.common import (
 from helixd.cli.simulated import (
     SimChoice,
     beside_simulator,
-    read_sim_media,
     sim_world,
     simulator,
     simulator_config,
+    with_sim_files,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
 from helixd.config import HelixdConfig
@@ -304,6 +305,7 @@ def run(
     sim_media: SimMediaOpt = None,
     sim_clock: SimClockOpt = SimClock.WALL,
     sim_seed: SimSeedOpt = None,
+    sim_ground: SimGroundOpt = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
@@ -316,10 +318,7 @@ def run(
         if sim
         else None
     )
-    if sim_media is not None:
-        if choice is None:
-            raise fail(["--sim-media needs --sim"], ExitCode.USAGE)
-        choice = replace(choice, media=read_sim_media(sim_media))
+    choice = with_sim_files(choice, sim_media, sim_ground)
     options = ExpandOptions(strict, skip_unsupported)
     if wants_autopilot(mission) and resume is None:
         if choice is not None and choice.clock is SimClock.SIMULATED:

@@ -20,7 +20,7 @@ from typing import Annotated
 import typer
 
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import SimTerrainOpt, fail
+from helixd.cli.common import SimGroundOpt, SimTerrainOpt, fail, read_sim_ground
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, load_yaml_model
 from helixd.mission.placed import parse_latlon
@@ -43,9 +43,14 @@ def parse_home(text: str) -> tuple[float, float]:
 
 
 def plant_config(
-    config: Path | None, terrain: Terrain | None, media: Path | None, home: str | None
+    config: Path | None,
+    terrain: Terrain | None,
+    media: Path | None,
+    home: str | None,
+    ground: Path | None = None,
 ) -> SimConfig:
-    """The simulator YAML with the command line's ground, map and home; exit 2 naming why."""
+    """The simulator YAML with the command line's ground, map, home and ground file; exit 2
+    naming why."""
     try:
         cfg = load_yaml_model(config, SimConfig) if config is not None else SimConfig()
     except ConfigFileError as exc:
@@ -66,6 +71,8 @@ def plant_config(
         if media_map.needs_origin and home is None:
             raise fail([f"--media {media}: a lat/lon map needs --home LAT,LON (SITL's --home)"])
         cfg = cfg.model_copy(update={"media": media_map})
+    if ground is not None:
+        cfg = cfg.model_copy(update={"terrains": read_sim_ground(ground)})
     return cfg
 
 
@@ -113,9 +120,10 @@ def plant_command(
         Path | None,
         typer.Option("--truth-csv", help="write the true pose here, 10 rows per simulated s"),
     ] = None,
+    ground: SimGroundOpt = None,
 ) -> None:
     """Serve ArduPilot SITL's JSON physics interface with the Helix plant (Ctrl-C stops)."""
-    cfg = plant_config(config, terrain, media, home)
+    cfg = plant_config(config, terrain, media, home, ground)
     udp_port = port if port is not None else SITL_JSON_PORT + PORT_STRIDE * instance
     try:
         sock = open_socket(host, udp_port)

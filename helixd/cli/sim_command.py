@@ -14,7 +14,7 @@ from pydantic import ValidationError
 
 from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import SimTerrainOpt, fail
+from helixd.cli.common import SimGroundOpt, SimTerrainOpt, fail, read_sim_ground
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, format_validation_error, load_yaml_model
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
@@ -181,6 +181,7 @@ def sim_command(
     ] = None,
     media: MediaOpt = None,
     state_dir: StateDirOpt = None,
+    ground: SimGroundOpt = None,
 ) -> None:
     """Run the built-in ArduPilot Rover simulator (QGroundControl/MAVProxy can connect)."""
     given = (
@@ -198,6 +199,8 @@ def sim_command(
         except MediaMapError as exc:
             raise fail([f"--media: {p}" for p in exc.problems], ExitCode.USAGE) from None
         updates["media_file"] = None  # --media replaces the config's
+    if ground is not None:
+        updates["terrains"] = read_sim_ground(ground)  # replaces the config's terrains
     cfg = _sim_config(config, updates)
     if duration is not None and duration <= 0.0:
         raise fail(["--duration must be > 0"], ExitCode.USAGE)

@@ -14,7 +14,7 @@ from __future__ import annotations
 import contextlib
 import sys
 from collections.abc import Awaitable, Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TypeVar
 
@@ -22,7 +22,7 @@ import structlog
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
-from helixd.cli.common import fail
+from helixd.cli.common import fail, read_sim_ground
 from helixd.config import HelixdConfig, KeepOutCircleConfig
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.mav.guard_script import (
@@ -39,7 +39,7 @@ from helixd.planning.obstacles import rover_half_width_m
 from helixd.recorder.logging_setup import configure_logging
 from helixd.sim.collisions import ObstacleRaster, SimObstacles
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url, start_embedded
-from helixd.sim.sim_config import NoiseLevel, Plant, SimClock, SimConfig, Terrain
+from helixd.sim.sim_config import NoiseLevel, Plant, SimClock, SimConfig, Terrain, TerrainTable
 
 T = TypeVar("T")
 
@@ -60,6 +60,25 @@ class SimChoice:
     # the wall clock (sped up by ``speedup``) or one simulated clock (``run --sim-clock``)
     clock: SimClock = SimClock.WALL
     seed: int | None = None  # the noise generator's seed; None: a new one each run
+    # the world's ground per medium (``run --sim-ground``); None: the built-in table
+    ground: TerrainTable | None = None
+
+
+def with_sim_files(
+    choice: SimChoice | None, media: Path | None, ground: Path | None
+) -> SimChoice | None:
+    """``choice`` with the world's media map and ground files read (``run --sim-media``,
+    ``--sim-ground``); a usage error when either is given without ``--sim``."""
+    for flag, given in (("--sim-media", media), ("--sim-ground", ground)):
+        if given is not None and choice is None:
+            raise fail([f"{flag} needs --sim"], ExitCode.USAGE)
+    if choice is None:
+        return None
+    if media is not None:
+        choice = replace(choice, media=read_sim_media(media))
+    if ground is not None:
+        choice = replace(choice, ground=read_sim_ground(ground))
+    return choice
 
 
 def read_sim_media(path: Path) -> MediaMap:
@@ -134,6 +153,7 @@ def simulator_config(
         guard_installed=True,
         guard_params=embedded_guard(cfg, speedup),
         media=choice.media,
+        **({} if choice.ground is None else {"terrains": choice.ground}),
     )
 
 

@@ -213,8 +213,8 @@ class SlipEstimator:
 
     def delivered(self, mode: MotionMode) -> tuple[float, float]:
         """What each translation axis (x, y) delivers of the navigator's command with the
-        feed-forward (1: all): min(1, fraction · gain), 1 for a stalled axis. On hard ground
-        SCROLL's scroll axis gets 0.45 of its command, 0.9 with the feed-forward's 2× cap."""
+        feed-forward (1: all): min(1, fraction · gain), 1 for a stalled axis. On grass
+        SCROLL's scroll axis gets 0.25 of its command, 0.5 with the feed-forward's 2× cap."""
         est = self.estimate(mode)
         g_x, g_y, _ = self.gains(mode)
         return self._delivered(est.vx_frac, g_x), self._delivered(est.vy_frac, g_y)

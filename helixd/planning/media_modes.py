@@ -52,7 +52,7 @@ class ModePolicy:
 DEFAULT_MODES: Mapping[Medium, MotionMode] = {
     Medium.HARD: MotionMode.ROLL,
     Medium.GRASS: MotionMode.ROLL,
-    Medium.SAND: MotionMode.SCROLL,
+    Medium.SAND: MotionMode.ROLL,  # screws fail in sand (Marsh Screw), rolling helps (Chen)
     Medium.MUD: MotionMode.SCROLL,
     Medium.WATER: MotionMode.SCROLL,
 }
