@@ -395,7 +395,11 @@ class MediaConfig(InputModel):
         description="media map (GeoJSON/KML, helixd.files.media) of where the rover goes; a "
         "mission's own media_map replaces it. None: the mission's one mode everywhere",
     )
-    modes: MediaModesConfig = Field(default_factory=MediaModesConfig)
+    modes: MediaModesConfig | Literal["learned"] = Field(
+        default_factory=MediaModesConfig,
+        description="the mode per medium; 'learned': per medium the mode the ground profile "
+        "finds fastest (ground.objective), the defaults where it knows too little",
+    )
     transition_margin_m: float = Field(
         1.0,
         ge=0.0,
@@ -1138,6 +1142,36 @@ class ServeConfig(InputModel):
 # Top level
 
 
+class GroundConfig(InputModel):
+    """The rover learns its ground (docs/physics.md, "Learning the ground"): after each run
+    with a media map, what each medium delivered in each mode is fitted from flight.csv and
+    merged into the ground profile, which ``media.modes: learned`` plans with."""
+
+    learn: bool = Field(True, description="merge each run with a media map into the profile")
+    profile_file: Path | None = Field(
+        None,
+        description="the ground profile (YAML); None: ground-profile.yaml under recorder.run_root",
+    )
+    fade: float = Field(
+        0.7,
+        ge=0.0,
+        le=1.0,
+        description="how much the profile's older evidence counts after one more run (1)",
+    )
+    min_taught_s: float = Field(
+        5.0,
+        gt=0.0,
+        le=3600.0,
+        description="an axis taught for less than this in a medium and mode has no learned "
+        "fraction: the defaults stand (s)",
+    )
+    objective: Literal["time", "energy"] = Field(
+        "time",
+        description="media.modes learned picks per medium the mode that is fastest (time) or "
+        "spends the least energy per metre (energy)",
+    )
+
+
 class HelixdConfig(InputModel):
     vehicle: VehicleConfig = Field(default_factory=VehicleConfig)
     control: ControlConfig = Field(default_factory=ControlConfig)
@@ -1151,6 +1185,7 @@ class HelixdConfig(InputModel):
     gcs_report: GcsReportConfig = Field(default_factory=GcsReportConfig)
     serve: ServeConfig = Field(default_factory=ServeConfig)
     media: MediaConfig = Field(default_factory=MediaConfig)
+    ground: GroundConfig = Field(default_factory=GroundConfig)
 
     @model_validator(mode="after")
     def _consistent(self) -> HelixdConfig:

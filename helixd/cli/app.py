@@ -24,6 +24,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
 from helixd.cli import autopilot_check as cli_autopilot_check
 from helixd.cli import autopilot_setup as cli_autopilot_setup
+from helixd.cli import ground as cli_ground
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
 from helixd.cli import plant as cli_plant
@@ -527,6 +528,7 @@ cli_sim.register(app)
 cli_runs.register(app)
 cli_serve.register(app)
 cli_plant.register(app)
+cli_ground.register(app)
 mission_app = command_group(
     "mission",
     "Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "

@@ -61,8 +61,10 @@ from helixd.runtime.flight import (
     FlightResult,
 )
 from helixd.runtime.gcs_feed import GcsFeed, report_fallback
+from helixd.runtime.ground_learning import learn_from_run
 from helixd.runtime.host import FlightHost, OwnLink
 from helixd.runtime.in_flight import InFlight
+from helixd.runtime.media_plan import MediaRefused, read_media
 from helixd.runtime.mission_commands import MissionCommands
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Replanner
@@ -594,6 +596,7 @@ class MissionRunner:
         finally:
             ending = await self.shutdown(held, ending)
         summary = self._finish(ending, started)
+        self._learn_ground()
         return RunOutcome(
             ending.code,
             summary,
@@ -742,6 +745,14 @@ class MissionRunner:
             self.recorder.finish(summary)
         self.display.final(summary, run_dir, log_event=False)
         return summary
+
+    def _learn_ground(self) -> None:
+        """After the record is closed: what the ground delivered, into the profile."""
+        try:
+            media = read_media(self.cfg, self.mission)
+        except MediaRefused:
+            return  # refused before the flight already, or changed since: nothing to learn
+        learn_from_run(self.cfg, media, self.recorder.run_dir if self.recorder else None)
 
     # -- numbering ----------------------------------------------------------------------------
 

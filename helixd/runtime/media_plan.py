@@ -23,8 +23,10 @@ from helixd.base.media import MediaFrame, MediaMap, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan
 from helixd.config import HelixdConfig
 from helixd.files.media import MediaMapError, read_media_map
+from helixd.files.models import ConfigFileError
 from helixd.mission.model import Mission
 from helixd.planning.media_modes import MediaPlan, ModePolicy, follow_media, policy_modes
+from helixd.runtime.ground_learning import learned_policy_modes
 
 
 class MediaRefused(ValueError):
@@ -62,9 +64,17 @@ def read_media(cfg: HelixdConfig, msn: Mission) -> MediaMap | None:
 
 
 def mode_policy(cfg: HelixdConfig, msn: Mission) -> ModePolicy:
-    """The mode per medium: the config's ``media.modes``, the mission's ``media_modes`` over
-    them; the margin from ``media.transition_margin_m``."""
-    modes = policy_modes(cfg.media.modes.model_dump())
+    """The mode per medium: the config's ``media.modes`` (``learned``: the ground profile's
+    best, :mod:`helixd.runtime.ground_learning`), the mission's ``media_modes`` over them; the
+    margin from ``media.transition_margin_m``. A profile that cannot be read is refused
+    (:class:`MediaRefused`)."""
+    if isinstance(cfg.media.modes, str):
+        try:
+            modes = learned_policy_modes(cfg)
+        except ConfigFileError as exc:
+            raise MediaRefused([f"media.modes learned: {p}" for p in exc.problems]) from None
+    else:
+        modes = policy_modes(cfg.media.modes.model_dump())
     modes.update(msn.media_modes or {})
     return ModePolicy(modes, cfg.media.transition_margin_m, cfg.media.min_stretch_m)
 

@@ -1,0 +1,179 @@
+"""The rover learns its ground: after a run with a media map, what each medium delivered in
+each mode is identified from the run's ``flight.csv`` (:mod:`helixd.control.ground_fit`),
+recorded in its ``summary.json`` (``ground``) and merged into the ground profile
+(:mod:`helixd.recorder.ground_profile`); ``media.modes: learned`` plans the next flight's
+modes with it (:func:`helixd.planning.media_modes.learned_modes`). ``run`` and ``serve`` both
+learn, through the runner (:mod:`helixd.runtime.daemon`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import structlog
+
+from helixd.base.media import MediaMap, Medium
+from helixd.base.plan import MotionMode
+from helixd.config import HelixdConfig
+from helixd.control.ground_fit import (
+    AXES,
+    Cell,
+    CellSums,
+    GroundFitParams,
+    Learned,
+    axis_fraction,
+    learned,
+    merge_profiles,
+)
+from helixd.files.models import ConfigFileError
+from helixd.planning.media_modes import learned_modes, policy_modes
+from helixd.recorder.ground_profile import (
+    PROFILE_NAME,
+    GroundProfile,
+    identify_run,
+    read_profile,
+    write_profile,
+)
+
+log = structlog.get_logger(__name__)
+
+
+def profile_path(cfg: HelixdConfig, run_root: Path | None = None) -> Path:
+    """The ground profile's file: ``ground.profile_file``, else under the run root
+    (``run_root``: the one runs go to, ``--run-dir``; None: ``recorder.run_root``)."""
+    root = cfg.recorder.run_root if run_root is None else run_root
+    return cfg.ground.profile_file or root / PROFILE_NAME
+
+
+def fit_params(cfg: HelixdConfig) -> GroundFitParams:
+    """The fit reads a record with the slip estimate's own thresholds and lag."""
+    slip = cfg.control.slip
+    return GroundFitParams(
+        lag_s=slip.command_lag_s,
+        min_speed_mps=slip.min_speed_mps,
+        min_yaw_rate_radps=slip.min_yaw_rate_radps,
+        steady_tolerance=slip.steady_tolerance,
+        max_gap_s=slip.max_gap_s,
+    )
+
+
+def learned_view(cfg: HelixdConfig, profile: GroundProfile) -> dict[Cell, Learned]:
+    """Every cell of ``profile`` read for planning (too little taught: no fraction; the crew's
+    pins win)."""
+    keys = set(profile.cells) | {(m, k) for m, k, _ in profile.pins}
+    return {
+        key: learned(
+            profile.cells.get(key, CellSums()), cfg.ground.min_taught_s, profile.pins_of(key)
+        )
+        for key in sorted(keys)
+    }
+
+
+def default_modes(cfg: HelixdConfig) -> dict[Medium, MotionMode]:
+    """The fixed policy's modes (``media.modes``, or its defaults when that is ``learned``)."""
+    modes = cfg.media.modes
+    if isinstance(modes, str):
+        modes = type(cfg.media).model_fields["modes"].default_factory()  # type: ignore[misc]
+    return policy_modes(modes.model_dump())
+
+
+def modes_from_profile(cfg: HelixdConfig, view: Mapping[Cell, Learned]) -> dict[Medium, MotionMode]:
+    """``media.modes: learned``: per medium the mode ``view`` makes best, the defaults where
+    it knows too little."""
+    slip = cfg.control.slip
+
+    def energy(medium: Medium, mode: MotionMode) -> float | None:
+        cell = view.get((medium, mode))
+        return None if cell is None else cell.power_w_per_mps
+
+    return learned_modes(
+        default_modes(cfg),
+        lambda medium, axis: axis_fraction(view, medium, axis),
+        energy,
+        slip.max_gain,
+        slip.stuck_fraction,
+        cfg.ground.objective,
+    )
+
+
+def learned_policy_modes(
+    cfg: HelixdConfig, run_root: Path | None = None
+) -> dict[Medium, MotionMode]:
+    """The policy's modes when ``media.modes`` is ``learned`` (from the profile file); a
+    profile that cannot be read is refused (ConfigFileError, one line per problem)."""
+    path = profile_path(cfg, run_root)
+    return modes_from_profile(cfg, learned_view(cfg, read_profile(path)))
+
+
+def ground_section(cfg: HelixdConfig, cells: Mapping[Cell, CellSums]) -> dict[str, Any]:
+    """summary.json's ``ground``: per ``medium/mode`` the fractions, their uncertainty, the
+    samples and metres behind them and the energy per metre, from this run alone."""
+    out: dict[str, Any] = {}
+    for (medium, mode), cell in sorted(cells.items()):
+        view = learned(cell, cfg.ground.min_taught_s)
+        out[f"{medium.value}/{mode.value}"] = {
+            "samples": dict(view.samples),
+            "metres": round(view.metres, 2),
+            "fractions": {a: _r(view.fractions[a]) for a in AXES},
+            "sigmas": {a: _r(view.sigmas[a]) for a in AXES},
+            "power_w_per_mps": _r(view.power_w_per_mps, 1),
+        }
+    return out
+
+
+def _r(value: float | None, digits: int = 4) -> float | None:
+    return None if value is None else round(value, digits)
+
+
+def learn_from_run(
+    cfg: HelixdConfig, media: MediaMap | None, run_dir: Path | None, run_root: Path | None = None
+) -> bool:
+    """After a run: identify what its ground delivered, add ``ground`` to its summary.json and
+    merge it into the profile (``ground.learn``; only with a media map). Never raises: a
+    problem is a ``ground_not_learned`` warning, the run's outcome stands."""
+    if not cfg.ground.learn or media is None or run_dir is None:
+        return False
+    try:
+        cells = identify_run(run_dir, media, cfg.vehicle, fit_params(cfg))
+        if not cells:
+            return False
+        _add_to_summary(run_dir / "summary.json", ground_section(cfg, cells))
+        path = profile_path(cfg, run_root)
+        profile = read_profile(path)
+        profile.cells = merge_profiles(profile.cells, cells, cfg.ground.fade)
+        write_profile(path, profile)
+    except (OSError, ValueError, ConfigFileError) as exc:
+        log.warning("ground_not_learned", run_dir=str(run_dir), problem=str(exc))
+        return False
+    log.info(
+        "ground_learned",
+        run_dir=str(run_dir),
+        profile=str(path),
+        cells=sorted(f"{m.value}/{k.value}" for m, k in cells),
+    )
+    return True
+
+
+def _add_to_summary(path: Path, section: dict[str, Any]) -> None:
+    """``section`` as summary.json's ``ground``, the file rewritten atomically."""
+    data = json.loads(path.read_text(encoding="utf-8"))
+    data["ground"] = section
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
+    os.replace(tmp, path)
+
+
+__all__ = [
+    "default_modes",
+    "fit_params",
+    "ground_section",
+    "learn_from_run",
+    "learned_policy_modes",
+    "learned_view",
+    "modes_from_profile",
+    "profile_path",
+]
