@@ -48,6 +48,9 @@ class PlanWaypoint:
     # a stop inserted where the mode changes (helixd.planning.media_modes): not one of the
     # mission's waypoints, so not counted where the mission's are (a resume's index)
     media_stop: bool = False
+    # what the ground of the leg to this waypoint delivers (roll, scroll, yaw fractions), as
+    # the rover learnt it (helixd.runtime.ground_learning); None: the declared ground
+    ground: tuple[float, float, float] | None = None
 
 
 class ActionKind(StrEnum):

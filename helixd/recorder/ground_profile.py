@@ -188,10 +188,10 @@ def identify_run(
     armed = c["armed"].astype(bool) if "armed" in c else None
     keep = armed if armed is not None else slice(None)
     rec = Record(
-        t_s=c["t_boot_s"][keep],
-        north_m=c["north_m"][keep],
-        east_m=c["east_m"][keep],
-        yaw_ned_rad=c["yaw_ned_rad"][keep],
+        t_s=c["t_boot_s"][keep].tolist(),
+        north_m=c["north_m"][keep].tolist(),
+        east_m=c["east_m"][keep].tolist(),
+        yaw_ned_rad=c["yaw_ned_rad"][keep].tolist(),
         scrolls=[
             list(row) for row in zip(*(c[f"scroll{i}"][keep] for i in range(1, 5)), strict=True)
         ],

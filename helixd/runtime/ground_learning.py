@@ -10,15 +10,16 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import structlog
 
-from helixd.base.media import MediaMap, Medium
-from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.base.media import MediaMap, MediaMapNe, Medium, media_along
+from helixd.base.plan import MotionMode, Plan
+from helixd.config import HelixdConfig, MediaModesConfig
 from helixd.control.ground_fit import (
     AXES,
     Cell,
@@ -30,7 +31,7 @@ from helixd.control.ground_fit import (
     merge_profiles,
 )
 from helixd.files.models import ConfigFileError
-from helixd.planning.media_modes import learned_modes, policy_modes
+from helixd.planning.media_modes import delivered, learned_modes, policy_modes
 from helixd.recorder.ground_profile import (
     PROFILE_NAME,
     GroundProfile,
@@ -76,9 +77,8 @@ def learned_view(cfg: HelixdConfig, profile: GroundProfile) -> dict[Cell, Learne
 def default_modes(cfg: HelixdConfig) -> dict[Medium, MotionMode]:
     """The fixed policy's modes (``media.modes``, or its defaults when that is ``learned``)."""
     modes = cfg.media.modes
-    if isinstance(modes, str):
-        modes = type(cfg.media).model_fields["modes"].default_factory()  # type: ignore[misc]
-    return policy_modes(modes.model_dump())
+    fixed = MediaModesConfig() if isinstance(modes, str) else modes
+    return policy_modes(fixed.model_dump())
 
 
 def modes_from_profile(cfg: HelixdConfig, view: Mapping[Cell, Learned]) -> dict[Medium, MotionMode]:
@@ -107,6 +107,69 @@ def learned_policy_modes(
     profile that cannot be read is refused (ConfigFileError, one line per problem)."""
     path = profile_path(cfg, run_root)
     return modes_from_profile(cfg, learned_view(cfg, read_profile(path)))
+
+
+def with_learned_ground(
+    plan: Plan,
+    placed: MediaMapNe,
+    to_ne: Callable[[float, float], tuple[float, float]],
+    start_xy_m: tuple[float, float],
+    view: Mapping[Cell, Learned],
+    cfg: HelixdConfig,
+) -> Plan:
+    """``plan`` with each leg's ground as the profile knows it (``PlanWaypoint.ground``), for
+    the time estimate: per axis the fraction that, through the slip feed-forward, delivers the
+    length-weighted harmonic mean of what each medium the leg crosses delivers (time adds up as
+    length / delivered); the declared ground (``control.slip.ground_*_fraction``) where the
+    profile knows too little."""
+    slip = cfg.control.slip
+    gain = slip.max_gain if slip.enabled else 1.0
+    declared = {
+        "roll": slip.ground_roll_fraction,
+        "scroll": slip.ground_scroll_fraction,
+        "yaw": slip.ground_yaw_fraction,
+    }
+
+    def through(f: float) -> float:
+        return delivered(f, gain, slip.stuck_fraction)
+
+    points = [start_xy_m, *((w.x_m, w.y_m) for w in plan.waypoints)]
+    legs = []
+    for j, wp in enumerate(plan.waypoints):
+        runs = media_along(placed, to_ne(*points[j]), to_ne(*points[j + 1]))
+        fractions = []
+        for axis in AXES:
+            inverse = length = 0.0
+            for run in runs:
+                part = run.end_fraction - run.start_fraction
+                inverse += part / through(axis_fraction(view, run.medium, axis) or declared[axis])
+                length += part
+            both = length / inverse if inverse > 0.0 else through(declared[axis])
+            # the fraction the estimate's feed-forward turns into ``both`` again
+            if both >= 1.0 - 1e-9:  # all of the command (the parts' sum rounds)
+                raw = 1.0
+            elif both / gain >= slip.stuck_fraction:
+                raw = both / gain
+            else:
+                raw = min(both, slip.stuck_fraction)
+            fractions.append(raw)
+        legs.append(replace(wp, ground=(fractions[0], fractions[1], fractions[2])))
+    return replace(plan, waypoints=tuple(legs))
+
+
+def learned_plan(
+    cfg: HelixdConfig,
+    plan: Plan,
+    placed: MediaMapNe,
+    to_ne: Callable[[float, float], tuple[float, float]],
+    start_xy_m: tuple[float, float],
+) -> Plan:
+    """``media.modes: learned``: ``plan`` with its legs' learnt ground for the estimate (the
+    profile read again); any other policy: ``plan`` as it is."""
+    if not isinstance(cfg.media.modes, str):
+        return plan
+    view = learned_view(cfg, read_profile(profile_path(cfg)))
+    return with_learned_ground(plan, placed, to_ne, start_xy_m, view, cfg)
 
 
 def ground_section(cfg: HelixdConfig, cells: Mapping[Cell, CellSums]) -> dict[str, Any]:
@@ -172,8 +235,10 @@ __all__ = [
     "fit_params",
     "ground_section",
     "learn_from_run",
+    "learned_plan",
     "learned_policy_modes",
     "learned_view",
     "modes_from_profile",
     "profile_path",
+    "with_learned_ground",
 ]
