@@ -9,6 +9,7 @@ learn, through the runner (:mod:`helixd.runtime.daemon`).
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import replace
@@ -17,7 +18,7 @@ from typing import Any
 
 import structlog
 
-from helixd.base.media import MediaMap, MediaMapNe, Medium, media_along
+from helixd.base.media import MediaMap, MediaMapNe, Medium
 from helixd.base.plan import MotionMode, Plan
 from helixd.config import HelixdConfig, MediaModesConfig
 from helixd.control.ground_fit import (
@@ -109,6 +110,9 @@ def learned_policy_modes(
     return modes_from_profile(cfg, learned_view(cfg, read_profile(path)))
 
 
+STEP_M = 0.1  # the leg's ground is sampled this often along it
+
+
 def with_learned_ground(
     plan: Plan,
     placed: MediaMapNe,
@@ -118,9 +122,12 @@ def with_learned_ground(
     cfg: HelixdConfig,
 ) -> Plan:
     """``plan`` with each leg's ground as the profile knows it (``PlanWaypoint.ground``), for
-    the time estimate: per axis the fraction that, through the slip feed-forward, delivers the
-    length-weighted harmonic mean of what each medium the leg crosses delivers (time adds up as
-    length / delivered); the declared ground (``control.slip.ground_*_fraction``) where the
+    the time estimate. Along the leg, every :data:`STEP_M`, the rover's front and rear scroll
+    pairs stand half its length ahead and behind (l_y in SCROLL, l_x in ROLL) and each pair
+    delivers its medium's fraction, so the rover the mean of the two (the simulator's blend,
+    docs/physics.md "Media maps"); per axis the leg's fraction is the one that, through the
+    slip feed-forward, delivers the harmonic mean of what the steps deliver (time adds up as
+    length / delivered). The declared ground (``control.slip.ground_*_fraction``) where the
     profile knows too little."""
     slip = cfg.control.slip
     gain = slip.max_gain if slip.enabled else 1.0
@@ -129,24 +136,37 @@ def with_learned_ground(
         "scroll": slip.ground_scroll_fraction,
         "yaw": slip.ground_yaw_fraction,
     }
+    known: dict[tuple[Medium, str], float] = {}
 
-    def through(f: float) -> float:
-        return delivered(f, gain, slip.stuck_fraction)
+    def fraction(medium: Medium, axis: str) -> float:
+        key = (medium, axis)
+        if key not in known:
+            known[key] = axis_fraction(view, medium, axis) or declared[axis]
+        return known[key]
 
     points = [start_xy_m, *((w.x_m, w.y_m) for w in plan.waypoints)]
     legs = []
     for j, wp in enumerate(plan.waypoints):
-        runs = media_along(placed, to_ne(*points[j]), to_ne(*points[j + 1]))
+        (ax, ay), (bx, by) = points[j], points[j + 1]
+        length = math.hypot(bx - ax, by - ay)
+        ux, uy = ((bx - ax) / length, (by - ay) / length) if length > 0.0 else (0.0, 0.0)
+        half = cfg.vehicle.lx_m if plan.mode_at(j) is MotionMode.ROLL else cfg.vehicle.ly_m
+        steps = max(1, math.ceil(length / STEP_M))
+        pairs = []
+        for k in range(steps):
+            s_m = (k + 0.5) / steps * length
+            ahead = placed.medium_at(*to_ne(ax + ux * (s_m + half), ay + uy * (s_m + half)))
+            behind = placed.medium_at(*to_ne(ax + ux * (s_m - half), ay + uy * (s_m - half)))
+            pairs.append((ahead, behind))
         fractions = []
         for axis in AXES:
-            inverse = length = 0.0
-            for run in runs:
-                part = run.end_fraction - run.start_fraction
-                inverse += part / through(axis_fraction(view, run.medium, axis) or declared[axis])
-                length += part
-            both = length / inverse if inverse > 0.0 else through(declared[axis])
+            inverse = 0.0
+            for ahead, behind in pairs:
+                mean = (fraction(ahead, axis) + fraction(behind, axis)) / 2.0
+                inverse += 1.0 / delivered(mean, gain, slip.stuck_fraction) / steps
+            both = 1.0 / inverse
             # the fraction the estimate's feed-forward turns into ``both`` again
-            if both >= 1.0 - 1e-9:  # all of the command (the parts' sum rounds)
+            if both >= 1.0 - 1e-9:  # all of the command (the steps' sum rounds)
                 raw = 1.0
             elif both / gain >= slip.stuck_fraction:
                 raw = both / gain

@@ -43,12 +43,14 @@ def test_each_leg_carries_the_harmonic_mean_of_what_its_media_deliver() -> None:
     (leg,) = got.waypoints
     assert leg.ground is not None
     # 20 m of hard ground (0.6: all of the command with the 2x feed-forward), 30 m of mud (0.3:
-    # 0.6 of it): 70 m-equivalents for 50 m, delivered 5/7, the raw fraction half of it
-    assert leg.ground[1] == pytest.approx(5.0 / 7.0 / 2.0)
+    # 0.6 of it): 70 m-equivalents for 50 m, delivered 5/7, the raw fraction half of it (the
+    # rover's length blends the two at each boundary: a little faster)
+    assert leg.ground[1] == pytest.approx(5.0 / 7.0 / 2.0, rel=0.03)
+    assert leg.ground[1] > 5.0 / 7.0 / 2.0
     assert leg.ground[0] == 1.0 and leg.ground[2] == 1.0  # unknown: the declared ground
     slow = estimate_time(got, CFG.control, (0.0, 0.0), None).driving_s
     fast = estimate_time(plan, CFG.control, (0.0, 0.0), None).driving_s
-    assert slow == pytest.approx(1.4 * fast, rel=0.03)  # the cruise part 7/5 longer
+    assert slow == pytest.approx(1.4 * fast, rel=0.05)  # the cruise part 7/5 longer
 
 
 def test_the_policy_defaults_and_the_profile_path(tmp_path: Path) -> None:
