@@ -752,7 +752,8 @@ class MissionRunner:
             media = read_media(self.cfg, self.mission)
         except MediaRefused:
             return  # refused before the flight already, or changed since: nothing to learn
-        learn_from_run(self.cfg, media, self.recorder.run_dir if self.recorder else None)
+        run_dir = self.recorder.run_dir if self.recorder else None
+        learn_from_run(self.cfg, media, run_dir, self.opts.run_root)
 
     # -- numbering ----------------------------------------------------------------------------
 
