@@ -333,7 +333,14 @@ def _daemon(cmd: list[str], log_path: Path, cwd: Path, timeout_s: float) -> int 
             return None
 
 
-def run_one(course: str, policy: str, speedup: float, timeout_s: float, work: Path) -> RunResult:
+def run_one(
+    course: str,
+    policy: str,
+    speedup: float,
+    timeout_s: float,
+    work: Path,
+    ground: Path | None = None,
+) -> RunResult:
     """Simulator in this process, the daemon as a subprocess; the truth sampled meanwhile."""
     import logging
 
@@ -341,7 +348,7 @@ def run_one(course: str, policy: str, speedup: float, timeout_s: float, work: Pa
 
     from helixd.config import VehicleConfig
     from helixd.sim.server import start_embedded
-    from helixd.sim.sim_config import SimConfig
+    from helixd.sim.sim_config import SimConfig, TerrainTable, read_ground_file
 
     structlog.configure(
         wrapper_class=structlog.make_filtering_bound_logger(logging.WARNING),
@@ -353,7 +360,10 @@ def run_one(course: str, policy: str, speedup: float, timeout_s: float, work: Pa
     mission_path = root / "mission.yaml"
     mission_path.write_text(yaml.safe_dump(mission_for(files, policy)), encoding="utf-8")
     true_map: MediaMap = read_media_map(files.sim_map)
-    sim_cfg = SimConfig(speedup=speedup, noise="low", seed=1, plant="helix", media=true_map)
+    terrains = TerrainTable() if ground is None else read_ground_file(ground)  # --sim-ground
+    sim_cfg = SimConfig(
+        speedup=speedup, noise="low", seed=1, plant="helix", media=true_map, terrains=terrains
+    )
     server, url = start_embedded(sim_cfg)
     log_path = root / "daemon.log"
     try:
@@ -454,6 +464,9 @@ def main(
     jobs: int = typer.Option(1, min=1, max=8, help="runs at once"),
     timeout_s: float = typer.Option(600.0, min=10.0, help="wall-time limit of one run (s)"),
     results_dir: Path = typer.Option(RESULTS_DIR, help="where latest.json/md go"),  # noqa: B008
+    sim_ground: Path | None = typer.Option(  # noqa: B008
+        None, help="the simulator's ground file (helixd run --sim-ground's format)"
+    ),
 ) -> None:
     courses = [c for c in COURSES if not only or c in only]
     policies = [p for p in POLICIES if not policy or p in policy]
@@ -467,7 +480,9 @@ def main(
         work = Path(tmp)
         results: list[RunResult] = []
         with concurrent.futures.ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = [pool.submit(run_one, c, p, speedup, timeout_s, work) for c, p in combos]
+            futures = [
+                pool.submit(run_one, c, p, speedup, timeout_s, work, sim_ground) for c, p in combos
+            ]
             for fut in futures:
                 results.append(fut.result())
     results.sort(key=lambda r: (COURSES.index(r.course), POLICIES.index(r.policy)))
