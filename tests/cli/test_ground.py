@@ -13,6 +13,7 @@ from helixd.base.plan import MotionMode
 from helixd.control.ground_fit import AxisSums, CellSums
 from helixd.recorder.ground_profile import GroundProfile, read_profile, write_profile
 from tests.support.cli import run_main
+from tests.support.paths import REPO_ROOT
 
 
 def config(tmp_path: Path, profile: Path) -> Path:
@@ -69,3 +70,22 @@ def test_a_broken_profile_is_refused_naming_it(
     profile.write_text("cells: [{medium: hard, mode: roll, metres: -1}]\n")
     code, _, err = run_main(["ground", "--config", str(config(tmp_path, profile))], capsys)
     assert code == 2 and f"{profile}: cells.0.metres: Input should be greater" in err
+
+
+def test_check_under_the_learned_policy_refuses_a_broken_profile(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    profile = tmp_path / "p.yaml"
+    profile.write_text("cells: [{medium: lava, mode: roll}]\n")
+    cfg = tmp_path / "helixd.yaml"
+    cfg.write_text(
+        yaml.safe_dump({"media": {"modes": "learned"}, "ground": {"profile_file": str(profile)}})
+    )
+    survey = REPO_ROOT / "config/missions/pond-survey.yaml"
+    code, _, err = run_main(["check", "--mission", str(survey), "--config", str(cfg)], capsys)
+    assert code == 2
+    assert f"error: media.modes learned: {profile}: cells.0.medium: Input should be" in err
+    profile.unlink()  # no profile yet: the defaults, and the check passes
+    code, out, err = run_main(["check", "--mission", str(survey), "--config", str(cfg)], capsys)
+    assert code == 0, err
+    assert "change  : roll → scroll" in out
