@@ -39,6 +39,7 @@ from helixd.actuators.base import ActuatorError, ActuatorSink
 from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
+from helixd.base.media import MediaMapNe
 from helixd.base.plan import Numbering, Plan, program_numbering
 from helixd.config import HelixdConfig, config_to_yaml
 from helixd.control.estimate import TimeEstimate
@@ -363,6 +364,7 @@ class MissionRunner:
         # the plan as flown (set at preflight, again at the flight's start): a program expands
         # the mission (its waypoints are the plan's, jumps repeated) and is numbered by item
         self._plan: Plan | None = None
+        self._origin: tuple[float, float] | None = None  # the EKF origin preflight found
         self.flight_loop: FlightLoop | None = None  # while flying
 
     def holding_forever(self) -> bool:
@@ -465,6 +467,7 @@ class MissionRunner:
             final_xy_m=(last.x_m, last.y_m), join_m=join_m, estimated_s=estimate.total_s
         )
         self._plan = plan
+        self._origin = checked.origin
         if checked.origin is not None:
             self.summary.set_origin(*checked.origin)
         return checked
@@ -504,6 +507,7 @@ class MissionRunner:
             display=self.display,
             summary=self.summary,
             recorder=self.recorder,
+            media=self._placed_media(),
         )
         feed.announce(self.mission.name)
         async with phase("fly", self.notifier, self.display) as fly:
@@ -745,6 +749,14 @@ class MissionRunner:
             self.recorder.finish(summary)
         self.display.final(summary, run_dir, log_event=False)
         return summary
+
+    def _placed_media(self) -> MediaMapNe | None:
+        """The flight's media map placed with the EKF origin (flight.csv's medium column)."""
+        try:
+            media = read_media(self.cfg, self.mission)
+            return None if media is None else media.to_ne(self._origin)
+        except (MediaRefused, ValueError):
+            return None
 
     def _learn_ground(self) -> None:
         """After the record is closed: what the ground delivered, into the profile."""

@@ -16,6 +16,7 @@ from helixd.base.media import MediaFrame, MediaMap, Medium
 from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
 from helixd.recorder.ground_profile import read_profile
+from helixd.recorder.rows import read_flight_columns
 from helixd.runtime.ground_learning import learned_policy_modes
 from helixd.sim.sim_config import TerrainTable
 from tests.integration.test_amphibious_flight import band, geojson
@@ -60,6 +61,9 @@ def test_the_profile_learns_per_medium_and_mode_and_the_learned_policy_uses_it(
     assert got.cells[(Medium.HARD, MotionMode.ROLL)].roll.fraction == pytest.approx(0.95, abs=0.05)
     assert len(mud_scroll.runs) == 1 and len(got.cells[(Medium.HARD, MotionMode.ROLL)].runs) == 2
     runs = sorted((tmp_path / "runs").glob("*-*"))  # scrolled, then rolled
+    c = read_flight_columns(runs[0] / "flight.csv")  # a medium per sample, from the map
+    assert set(c["medium"]) == {"hard", "mud"}
+    assert set(c["motion_mode"][c["medium"] == "mud"]) == {"scroll"}
     summary = json.loads((runs[0] / "summary.json").read_text())
     assert summary["ground"]["mud/scroll"]["fractions"]["scroll"] == pytest.approx(
         MUD_SCROLL, abs=0.03
