@@ -65,6 +65,7 @@ DRIVEN: Mapping[MotionMode, tuple[str, ...]] = {
 }
 # scroll centres in units of (l_x, l_y), scrolls 1..4 (docs/physics.md, "Media maps")
 SCROLL_CORNERS = ((1.0, -1.0), (-1.0, -1.0), (-1.0, 1.0), (1.0, 1.0))
+MAX_RUNS = 200  # run names a cell keeps (the newest)
 
 
 @dataclass(frozen=True, slots=True)
@@ -144,6 +145,7 @@ class CellSums:
 
     def plus(self, other: CellSums) -> CellSums:
         runs = self.runs + tuple(r for r in other.runs if r not in self.runs)
+        runs = runs[-MAX_RUNS:]  # the newest: a profile of years of runs stays small
         return CellSums(
             self.roll.plus(other.roll),
             self.scroll.plus(other.scroll),

@@ -132,6 +132,8 @@ def test_profiles_merge_weighted_by_time_and_old_data_fades() -> None:
     faded = merge_profiles({key: old}, {key: new}, 0.25)[key]
     assert faded.roll.fraction == pytest.approx((0.25 * 5.0 + 9.0) / (0.25 * 10.0 + 10.0))
     assert merge_profiles({key: old}, {}, 0.0)[key].roll.fraction is None  # forgotten
+    many = CellSums(runs=tuple(f"r{i}" for i in range(250)))
+    assert many.plus(new).runs == (*(f"r{i}" for i in range(51, 250)), "b")  # the newest 200
     with pytest.raises(ValueError, match="fade"):
         merge_profiles({}, {}, 1.5)
 
