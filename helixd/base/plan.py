@@ -151,6 +151,10 @@ class Plan:
     # guidance re-enters the interrupted leg instead of cutting across to the waypoint.
     leg_start_xy_m: tuple[float, float] | None = None
     program: Program | None = None  # None: a plain list of waypoints, nothing between them
+    # per motion mode, the ground (roll, scroll, yaw fractions) the slip estimate starts from
+    # there, as the rover learnt it where it first flies in that mode
+    # (helixd.runtime.ground_learning); a mode not listed: the declared ground
+    slip_priors: tuple[tuple[MotionMode, tuple[float, float, float]], ...] = ()
 
     def mode_at(self, index: int) -> MotionMode:
         """The motion mode of the leg to plan waypoint ``index`` (clamped to the plan)."""

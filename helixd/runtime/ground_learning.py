@@ -177,6 +177,35 @@ def with_learned_ground(
     return replace(plan, waypoints=tuple(legs))
 
 
+def slip_priors(
+    plan: Plan,
+    placed: MediaMapNe,
+    to_ne: Callable[[float, float], tuple[float, float]],
+    start_xy_m: tuple[float, float],
+    view: Mapping[Cell, Learned],
+    cfg: HelixdConfig,
+) -> tuple[tuple[MotionMode, tuple[float, float, float]], ...]:
+    """Per motion mode, the (roll, scroll, yaw) fractions of the medium where the rover first
+    flies in it (the start of that mode's first leg), as the profile knows them, the declared
+    ground where it knows too little: where the slip estimate starts (``Plan.slip_priors``)."""
+    slip = cfg.control.slip
+    declared = (slip.ground_roll_fraction, slip.ground_scroll_fraction, slip.ground_yaw_fraction)
+    points = [start_xy_m, *((w.x_m, w.y_m) for w in plan.waypoints)]
+    out: dict[MotionMode, tuple[float, float, float]] = {}
+    for j in range(len(plan.waypoints)):
+        mode = plan.mode_at(j)
+        if mode in out:
+            continue
+        medium = placed.medium_at(*to_ne(*points[j]))
+        got = [axis_fraction(view, medium, axis) for axis in AXES]
+        out[mode] = (
+            got[0] or declared[0],
+            got[1] or declared[1],
+            got[2] or declared[2],
+        )
+    return tuple(out.items())
+
+
 def learned_plan(
     cfg: HelixdConfig,
     plan: Plan,
@@ -184,12 +213,14 @@ def learned_plan(
     to_ne: Callable[[float, float], tuple[float, float]],
     start_xy_m: tuple[float, float],
 ) -> Plan:
-    """``media.modes: learned``: ``plan`` with its legs' learnt ground for the estimate (the
-    profile read again); any other policy: ``plan`` as it is."""
+    """``media.modes: learned``: ``plan`` with its legs' learnt ground for the estimate and
+    the slip estimate's learnt priors (the profile read again); any other policy: ``plan`` as
+    it is."""
     if not isinstance(cfg.media.modes, str):
         return plan
     view = learned_view(cfg, read_profile(profile_path(cfg)))
-    return with_learned_ground(plan, placed, to_ne, start_xy_m, view, cfg)
+    legs = with_learned_ground(plan, placed, to_ne, start_xy_m, view, cfg)
+    return replace(legs, slip_priors=slip_priors(plan, placed, to_ne, start_xy_m, view, cfg))
 
 
 def ground_section(cfg: HelixdConfig, cells: Mapping[Cell, CellSums]) -> dict[str, Any]:
@@ -260,5 +291,6 @@ __all__ = [
     "learned_view",
     "modes_from_profile",
     "profile_path",
+    "slip_priors",
     "with_learned_ground",
 ]

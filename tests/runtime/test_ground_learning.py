@@ -12,10 +12,12 @@ from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.config import HelixdConfig
 from helixd.control.estimate import estimate_time
 from helixd.control.ground_fit import Learned
+from helixd.control.slip import SlipEstimator
 from helixd.runtime.ground_learning import (
     default_modes,
     learn_from_run,
     profile_path,
+    slip_priors,
     with_learned_ground,
 )
 
@@ -68,3 +70,23 @@ def test_learning_without_a_map_or_a_record_learns_nothing(tmp_path: Path) -> No
     empty = MediaMap(MediaFrame.LOCAL_NED, (), Medium.HARD)
     assert learn_from_run(own, empty, tmp_path) is False  # no flight.csv: a warning, no raise
     assert not (tmp_path / "g.yaml").exists()
+
+
+def test_the_slip_estimate_starts_from_where_each_mode_is_first_flown() -> None:
+    # roll 5 m on hard ground, then scroll from north 15 m (in the mud) to 35 m
+    wps = (
+        PlanWaypoint(0.0, 5.0, 1.0, mode=MotionMode.ROLL),
+        PlanWaypoint(0.0, 15.0, 1.0, mode=MotionMode.ROLL),
+        PlanWaypoint(0.0, 35.0, 1.0, mode=MotionMode.SCROLL),
+    )
+    plan = Plan("p", MotionMode.ROLL, MissionFrameKind.LOCAL_NED, wps, 0.6)
+    learnt = {
+        **view(Medium.HARD, MotionMode.ROLL, roll=0.8, yaw=0.7),
+        **view(Medium.MUD, MotionMode.SCROLL, scroll=0.4),
+    }
+    priors = dict(slip_priors(plan, WORLD, lambda x, y: (y, x), (0.0, 0.0), learnt, CFG))
+    assert priors[MotionMode.ROLL] == (0.8, 1.0, 0.7)  # hard ground; scroll unknown there
+    assert priors[MotionMode.SCROLL] == (1.0, 0.4, 1.0)  # the mud at north 15 m
+    estimator = SlipEstimator(CFG.control.slip, priors)
+    assert estimator.estimate(MotionMode.SCROLL).vy_frac == pytest.approx(0.4)
+    assert estimator.estimate(MotionMode.OMNI).vy_frac == 1.0  # not planned: declared
