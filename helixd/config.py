@@ -97,8 +97,8 @@ class SlipConfig(InputModel):
     eq. 1): the estimate starts from it instead of from no slip, and the time estimate of
     ``check``, ``run`` and ``mission survey`` counts it (an axis that gets a fraction f of its
     command is delivered min(1, f · max_gain) of it with the feed-forward, f without). The
-    built-in simulator's grounds: ``sim.terrains`` (hard ground: roll 0.95, scroll 0.45,
-    yaw 0.85).
+    built-in simulator's grounds: ``sim.terrains`` (hard ground: roll 0.95, scroll 0.12,
+    yaw 0.85; docs/physics.md gives their sources).
     """
 
     enabled: bool = Field(
@@ -375,15 +375,16 @@ ModeName = Literal["roll", "scroll", "omni"]
 
 
 class MediaModesConfig(InputModel):
-    """The motion mode each medium is flown in (docs/physics.md, the traction table): ROLL
-    where rolling delivers most (hard 0.95, grass 0.9 of v_x), SCROLL where rolling delivers
-    little and scrolling more (sand 0.6 vs 0.75, mud 0.3 vs 0.85, water 0.05 vs 0.6)."""
+    """The motion mode each medium is flown in (docs/physics.md, the ground table): ROLL
+    where rolling delivers most (hard 0.95, grass 0.9, sand 0.6 of v_x against 0.12, 0.25,
+    0.12 scrolling), SCROLL where rolling delivers little and scrolling more (mud 0.3 vs 0.85,
+    water 0.05 vs 0.62)."""
 
-    hard: ModeName = Field("roll", description="mode on hard ground (roll 0.95, scroll 0.45)")
-    grass: ModeName = Field("roll", description="mode on grass (roll 0.9, scroll 0.6)")
-    sand: ModeName = Field("scroll", description="mode in sand (roll 0.6, scroll 0.75)")
+    hard: ModeName = Field("roll", description="mode on hard ground (roll 0.95, scroll 0.12)")
+    grass: ModeName = Field("roll", description="mode on grass (roll 0.9, scroll 0.25)")
+    sand: ModeName = Field("roll", description="mode in sand (roll 0.6, scroll 0.12)")
     mud: ModeName = Field("scroll", description="mode in mud (roll 0.3, scroll 0.85)")
-    water: ModeName = Field("scroll", description="mode in water (roll 0.05, scroll 0.6)")
+    water: ModeName = Field("scroll", description="mode in water (roll 0.05, scroll 0.62)")
 
 
 class MediaConfig(InputModel):
@@ -394,7 +395,11 @@ class MediaConfig(InputModel):
         description="media map (GeoJSON/KML, helixd.files.media) of where the rover goes; a "
         "mission's own media_map replaces it. None: the mission's one mode everywhere",
     )
-    modes: MediaModesConfig = Field(default_factory=MediaModesConfig)
+    modes: MediaModesConfig | Literal["learned"] = Field(
+        default_factory=MediaModesConfig,
+        description="the mode per medium; 'learned': per medium the mode the ground profile "
+        "finds fastest (ground.objective), the defaults where it knows too little",
+    )
     transition_margin_m: float = Field(
         1.0,
         ge=0.0,
@@ -433,7 +438,7 @@ class MediaConfig(InputModel):
         gt=0.0,
         lt=1.0,
         description="scrolling because of the check, delivered below this fraction over the "
-        "window: firm ground again, back to the planned mode (hard 0.45, mud 0.85)",
+        "window: firm ground again, back to the planned mode (hard 0.12, mud 0.85)",
     )
     detect_hysteresis: float = Field(
         0.05,
@@ -1265,6 +1270,36 @@ class PayloadConfig(InputModel):
     )
 
 
+class GroundConfig(InputModel):
+    """The rover learns its ground (docs/physics.md, "Learning the ground"): after each run
+    with a media map, what each medium delivered in each mode is fitted from flight.csv and
+    merged into the ground profile, which ``media.modes: learned`` plans with."""
+
+    learn: bool = Field(True, description="merge each run with a media map into the profile")
+    profile_file: Path | None = Field(
+        None,
+        description="the ground profile (YAML); None: ground-profile.yaml under recorder.run_root",
+    )
+    fade: float = Field(
+        0.7,
+        ge=0.0,
+        le=1.0,
+        description="how much the profile's older evidence counts after one more run (1)",
+    )
+    min_taught_s: float = Field(
+        5.0,
+        gt=0.0,
+        le=3600.0,
+        description="an axis taught for less than this in a medium and mode has no learned "
+        "fraction: the defaults stand (s)",
+    )
+    objective: Literal["time", "energy"] = Field(
+        "time",
+        description="media.modes learned picks per medium the mode that is fastest (time) or "
+        "spends the least energy per metre (energy)",
+    )
+
+
 class HelixdConfig(InputModel):
     vehicle: VehicleConfig = Field(default_factory=VehicleConfig)
     control: ControlConfig = Field(default_factory=ControlConfig)
@@ -1279,6 +1314,7 @@ class HelixdConfig(InputModel):
     serve: ServeConfig = Field(default_factory=ServeConfig)
     media: MediaConfig = Field(default_factory=MediaConfig)
     payload: PayloadConfig = Field(default_factory=PayloadConfig)
+    ground: GroundConfig = Field(default_factory=GroundConfig)
 
     @model_validator(mode="after")
     def _consistent(self) -> HelixdConfig:

@@ -380,7 +380,13 @@ def _fly_simulated(
 
 
 def run_one(
-    course: str, policy: str, speedup: float, timeout_s: float, work: Path, clock: str = "simulated"
+    course: str,
+    policy: str,
+    speedup: float,
+    timeout_s: float,
+    work: Path,
+    clock: str = "simulated",
+    ground: Path | None = None,
 ) -> RunResult:
     """One course flown by one policy (``clock``: see :func:`simflight.clock_label`)."""
     import logging
@@ -388,7 +394,7 @@ def run_one(
     import structlog
 
     from helixd.config import VehicleConfig
-    from helixd.sim.sim_config import SimConfig
+    from helixd.sim.sim_config import SimConfig, TerrainTable, read_ground_file
 
     structlog.configure(
         wrapper_class=structlog.make_filtering_bound_logger(logging.WARNING),
@@ -400,7 +406,10 @@ def run_one(
     mission_path = root / "mission.yaml"
     mission_path.write_text(yaml.safe_dump(mission_for(files, policy)), encoding="utf-8")
     true_map: MediaMap = read_media_map(files.sim_map)
-    sim_cfg = SimConfig(speedup=speedup, noise="low", seed=1, plant="helix", media=true_map)
+    terrains = TerrainTable() if ground is None else read_ground_file(ground)  # --sim-ground
+    sim_cfg = SimConfig(
+        speedup=speedup, noise="low", seed=1, plant="helix", media=true_map, terrains=terrains
+    )
     log_path = root / "daemon.log"
     t0 = time.monotonic()
     if clock == "simulated":
@@ -496,6 +505,9 @@ def main(
         600.0, min=10.0, help="wall-time limit of one run (s; --clock wall only)"
     ),
     results_dir: Path = typer.Option(RESULTS_DIR, help="where latest.json/md go"),  # noqa: B008
+    sim_ground: Path | None = typer.Option(  # noqa: B008
+        None, help="the simulator's ground file (helixd run --sim-ground's format)"
+    ),
 ) -> None:
     courses = [c for c in COURSES if not only or c in only]
     policies = [p for p in POLICIES if not policy or p in policy]
@@ -513,7 +525,8 @@ def main(
         results: list[RunResult] = []
         with concurrent.futures.ProcessPoolExecutor(max_workers=jobs) as pool:
             futures = [
-                pool.submit(run_one, c, p, speedup, timeout_s, work, clock) for c, p in combos
+                pool.submit(run_one, c, p, speedup, timeout_s, work, clock, sim_ground)
+                for c, p in combos
             ]
             for fut in futures:
                 results.append(fut.result())

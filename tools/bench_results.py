@@ -17,7 +17,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS_DIR = ROOT / "bench" / "results"
-SECTIONS = ("navigation", "control_loop", "planning", "amphibious", "survey")
+SECTIONS = ("navigation", "control_loop", "planning", "amphibious", "survey", "ground")
 
 
 def merge_section(existing: object, key: str, section: Mapping[str, Any]) -> dict[str, Any]:
@@ -363,6 +363,30 @@ def depth_survey_markdown(survey: Mapping[str, Any]) -> list[str]:
     return lines
 
 
+def ground_markdown(ground: Mapping[str, Any]) -> list[str]:
+    """The ground bench: per truth its three runs, the learning error and the policy."""
+    lines = ["## Ground (tools/bench_ground.py)", ""]
+    rows = []
+    for name, cell in ground.items():
+        if not isinstance(cell, Mapping) or not isinstance(cell.get("runs"), list):
+            continue
+        for k, run in enumerate(cell["runs"], 1):
+            rows.append(
+                [
+                    name,
+                    str(k),
+                    fmt(run.get("completed")),
+                    fmt(run.get("time_s"), ".1f"),
+                    fmt(run.get("estimate_s"), ".0f"),
+                    fmt(run.get("energy_j"), ".0f"),
+                ]
+            )
+    lines += md_table(["truth", "run", "completed", "time_s", "estimate_s", "energy_j"], rows)
+    lines.append("")
+    lines += [f"- {v}" for v in ground.get("verdicts", []) or []]
+    return lines
+
+
 def render_markdown(results: Mapping[str, Any]) -> str:
     """The whole results file as Markdown (sections in a fixed order, missing ones skipped)."""
     lines = ["# helixd benchmark results", "", "Written by `make bench` (tools/bench_*.py)."]
@@ -381,6 +405,9 @@ def render_markdown(results: Mapping[str, Any]) -> str:
     depth = results.get("survey")
     if isinstance(depth, Mapping):
         lines += ["", *depth_survey_markdown(depth)]
+    ground = results.get("ground")
+    if isinstance(ground, Mapping):
+        lines += ["", *ground_markdown(ground)]
     return "\n".join(lines) + "\n"
 
 

@@ -52,6 +52,9 @@ class PlanWaypoint:
     # spans (near, far) of the distance still to go to this waypoint (m); the ground check
     # never answers "firm again" there (helixd.control.ground_check)
     unfit_to_go_m: tuple[tuple[float, float], ...] = ()
+    # what the ground of the leg to this waypoint delivers (roll, scroll, yaw fractions), as
+    # the rover learnt it (helixd.runtime.ground_learning); None: the declared ground
+    ground: tuple[float, float, float] | None = None
 
 
 class ActionKind(StrEnum):
@@ -152,6 +155,10 @@ class Plan:
     # guidance re-enters the interrupted leg instead of cutting across to the waypoint.
     leg_start_xy_m: tuple[float, float] | None = None
     program: Program | None = None  # None: a plain list of waypoints, nothing between them
+    # per motion mode, the ground (roll, scroll, yaw fractions) the slip estimate starts from
+    # there, as the rover learnt it where it first flies in that mode
+    # (helixd.runtime.ground_learning); a mode not listed: the declared ground
+    slip_priors: tuple[tuple[MotionMode, tuple[float, float, float]], ...] = ()
 
     def mode_at(self, index: int) -> MotionMode:
         """The motion mode of the leg to plan waypoint ``index`` (clamped to the plan)."""

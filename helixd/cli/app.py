@@ -25,6 +25,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.cli import autopilot_check as cli_autopilot_check
 from helixd.cli import autopilot_setup as cli_autopilot_setup
+from helixd.cli import ground as cli_ground
 from helixd.cli import guard as cli_guard
 from helixd.cli import mission as cli_mission
 from helixd.cli import plant as cli_plant
@@ -42,6 +43,7 @@ from helixd.cli.common import (
     ModeOpt,
     ObserverConnectOpt,
     SimBathymetryOpt,
+    SimGroundOpt,
     WholeHelpGroup,
     check_connect,
     command_group,
@@ -54,11 +56,11 @@ from helixd.cli.simulated import (
     SimChoice,
     SimMediaOpt,
     beside_simulator,
-    read_sim_media,
     sim_world,
     simulator,
     simulator_config,
     with_bathymetry,
+    with_sim_files,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
 from helixd.config import HelixdConfig
@@ -333,6 +335,7 @@ def run(
     sim_clock: SimClockOpt = SimClock.WALL,
     sim_seed: SimSeedOpt = None,
     sim_bathymetry: SimBathymetryOpt = None,
+    sim_ground: SimGroundOpt = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
@@ -345,10 +348,7 @@ def run(
         if sim
         else None
     )
-    if sim_media is not None:
-        if choice is None:
-            raise fail(["--sim-media needs --sim"], ExitCode.USAGE)
-        choice = replace(choice, media=read_sim_media(sim_media))
+    choice = with_sim_files(choice, sim_media, sim_ground)
     choice = with_bathymetry(choice, sim_bathymetry)
     options = ExpandOptions(strict, skip_unsupported)
     if wants_autopilot(mission) and resume is None:
@@ -559,6 +559,7 @@ cli_runs.register(app)
 cli_serve.register(app)
 cli_plant.register(app)
 cli_survey_map.register(app)
+cli_ground.register(app)
 mission_app = command_group(
     "mission",
     "Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "

@@ -32,7 +32,7 @@ from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime.inputs import InputsRefused
 from helixd.runtime.planned import load_occupancy
-from helixd.sim.sim_config import Terrain
+from helixd.sim.sim_config import Terrain, TerrainTable, read_ground_file
 
 T = TypeVar("T")
 
@@ -126,6 +126,28 @@ ModeOpt = Annotated[  # helixd run, check, mission convert
 SimTerrainOpt = Annotated[  # helixd sim, helixd plant
     Terrain | None, typer.Option("--terrain", help="ground under the rover")
 ]
+SimGroundOpt = Annotated[  # run --sim, helixd sim, helixd plant
+    Path | None,
+    typer.Option(
+        "--sim-ground",
+        "--ground",
+        help="ground file (YAML keyed by medium: hard, grass, sand, mud, water, each with "
+        "roll_efficiency, scroll_efficiency, yaw_efficiency, dig_rate_per_m, pit_escape_per_m, "
+        "power_w; whatever is left out keeps the built-in table's value): the simulator's "
+        "ground instead of the built-in one",
+    ),
+]
+
+
+def read_sim_ground(path: Path) -> TerrainTable:
+    """``--sim-ground FILE`` read, or a usage error with one line per problem (each naming the
+    file, the medium's field and its range)."""
+    try:
+        return read_ground_file(path)
+    except ConfigFileError as exc:
+        raise fail([f"--sim-ground: {line}" for line in exc.problems], ExitCode.USAGE) from None
+
+
 MapOpt = Annotated[
     Path | None,
     typer.Option(

@@ -20,7 +20,7 @@ from typing import Annotated
 import typer
 
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import SimTerrainOpt, fail
+from helixd.cli.common import SimGroundOpt, SimTerrainOpt, fail, read_sim_ground
 from helixd.cli.simulated import read_sim_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, load_yaml_model
@@ -44,9 +44,14 @@ def parse_home(text: str) -> tuple[float, float]:
 
 
 def plant_config(
-    config: Path | None, terrain: Terrain | None, media: Path | None, home: str | None
+    config: Path | None,
+    terrain: Terrain | None,
+    media: Path | None,
+    home: str | None,
+    ground: Path | None = None,
 ) -> SimConfig:
-    """The simulator YAML with the command line's ground, map and home; exit 2 naming why."""
+    """The simulator YAML with the command line's ground, map, home and ground file; exit 2
+    naming why."""
     try:
         cfg = load_yaml_model(config, SimConfig) if config is not None else SimConfig()
     except ConfigFileError as exc:
@@ -67,6 +72,8 @@ def plant_config(
         if media_map.needs_origin and home is None:
             raise fail([f"--media {media}: a lat/lon map needs --home LAT,LON (SITL's --home)"])
         cfg = cfg.model_copy(update={"media": media_map})
+    if ground is not None:
+        cfg = cfg.model_copy(update={"terrains": read_sim_ground(ground)})
     return cfg
 
 
@@ -122,9 +129,10 @@ def plant_command(
             "rover goes to SITL's rangefinder 1 (JSON rng_1; RNGFND1_TYPE 100); needs --home",
         ),
     ] = None,
+    ground: SimGroundOpt = None,
 ) -> None:
     """Serve ArduPilot SITL's JSON physics interface with the Helix plant (Ctrl-C stops)."""
-    cfg = plant_config(config, terrain, media, home)
+    cfg = plant_config(config, terrain, media, home, ground)
     if bathymetry is not None:
         if home is None:
             raise fail([f"--bathymetry {bathymetry}: needs --home LAT,LON (SITL's --home)"])

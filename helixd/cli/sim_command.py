@@ -14,7 +14,7 @@ from pydantic import ValidationError
 
 from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
-from helixd.cli.common import SimTerrainOpt, fail
+from helixd.cli.common import SimGroundOpt, SimTerrainOpt, fail, read_sim_ground
 from helixd.cli.simulated import read_sim_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, format_validation_error, load_yaml_model
@@ -209,6 +209,7 @@ def sim_command(
             "sends DISTANCE_SENSOR (PITCH_270) and a payload's NAMED_VALUE_FLOAT over water",
         ),
     ] = None,
+    ground: SimGroundOpt = None,
 ) -> None:
     """Run the built-in ArduPilot Rover simulator (QGroundControl/MAVProxy can connect)."""
     given = (
@@ -228,6 +229,8 @@ def sim_command(
         updates["media_file"] = None  # --media replaces the config's
     if bathymetry is not None:
         updates["bathymetry"] = read_sim_bathymetry(bathymetry)
+    if ground is not None:
+        updates["terrains"] = read_sim_ground(ground)  # replaces the config's terrains
     cfg = _sim_config(config, updates)
     if duration is not None and duration <= 0.0:
         raise fail(["--duration must be > 0"], ExitCode.USAGE)

@@ -23,7 +23,7 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
-from helixd.cli.common import fail
+from helixd.cli.common import fail, read_sim_ground
 from helixd.config import HelixdConfig, KeepOutCircleConfig
 from helixd.files.bathymetry import Bathymetry, read_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
@@ -42,7 +42,7 @@ from helixd.planning.obstacles import rover_half_width_m
 from helixd.recorder.logging_setup import configure_logging
 from helixd.sim.collisions import ObstacleRaster, SimObstacles
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url, start_embedded
-from helixd.sim.sim_config import NoiseLevel, Plant, SimClock, SimConfig, Terrain
+from helixd.sim.sim_config import NoiseLevel, Plant, SimClock, SimConfig, Terrain, TerrainTable
 
 T = TypeVar("T")
 
@@ -65,6 +65,8 @@ class SimChoice:
     seed: int | None = None  # the noise generator's seed; None: a new one each run
     # the pond's bottom under the world's water (``--sim-bathymetry``): a down-facing sonar
     bathymetry: Bathymetry | None = None
+    # the world's ground per medium (``run --sim-ground``); None: the built-in table
+    ground: TerrainTable | None = None
 
 
 SimMediaOpt = Annotated[
@@ -75,6 +77,23 @@ SimMediaOpt = Annotated[
         "world, each scroll in the medium under it; --sim-terrain outside (with --sim)",
     ),
 ]
+
+
+def with_sim_files(
+    choice: SimChoice | None, media: Path | None, ground: Path | None
+) -> SimChoice | None:
+    """``choice`` with the world's media map and ground files read (``run --sim-media``,
+    ``--sim-ground``); a usage error when either is given without ``--sim``."""
+    for flag, given in (("--sim-media", media), ("--sim-ground", ground)):
+        if given is not None and choice is None:
+            raise fail([f"{flag} needs --sim"], ExitCode.USAGE)
+    if choice is None:
+        return None
+    if media is not None:
+        choice = replace(choice, media=read_sim_media(media))
+    if ground is not None:
+        choice = replace(choice, ground=read_sim_ground(ground))
+    return choice
 
 
 def read_sim_media(path: Path) -> MediaMap:
@@ -167,6 +186,7 @@ def simulator_config(
         guard_params=embedded_guard(cfg, speedup),
         media=choice.media,
         bathymetry=choice.bathymetry,
+        **({} if choice.ground is None else {"terrains": choice.ground}),
     )
 
 

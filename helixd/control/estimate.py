@@ -45,7 +45,7 @@ from functools import lru_cache
 
 from helixd.base.angles import shortest_angular_distance
 from helixd.base.geometry import require_finite
-from helixd.base.plan import MotionMode, Plan
+from helixd.base.plan import MotionMode, Plan, PlanWaypoint
 from helixd.control import guidance, line
 from helixd.control.params import NavigatorParams, SlipParams
 from helixd.control.slip import feed_forward_gain, same_direction
@@ -134,12 +134,22 @@ def delivered_fractions(mode: MotionMode, slip: SlipParams) -> tuple[float, floa
 class _Ground:
     """What the declared ground delivers of the navigator's command (1: all of it)."""
 
-    def __init__(self, slip: SlipParams, mode: MotionMode) -> None:
+    def __init__(
+        self,
+        slip: SlipParams,
+        mode: MotionMode,
+        fractions: tuple[float, float, float] | None = None,
+    ) -> None:
         self.mode = mode
         self.skew_share = slip.skew_share if slip.enabled else 0.0
-        self.roll = delivered_fraction(slip.ground_roll_fraction, slip)
-        self.scroll = delivered_fraction(slip.ground_scroll_fraction, slip)
-        self.turn = delivered_fraction(slip.ground_yaw_fraction, slip)
+        roll, scroll, yaw = fractions or (
+            slip.ground_roll_fraction,
+            slip.ground_scroll_fraction,
+            slip.ground_yaw_fraction,
+        )
+        self.roll = delivered_fraction(roll, slip)
+        self.scroll = delivered_fraction(scroll, slip)
+        self.turn = delivered_fraction(yaw, slip)
 
     def move(self, course_rad: float, heading_rad: float) -> float:
         """Along a leg of course ``course_rad`` with the body's +x at ``heading_rad``."""
@@ -156,6 +166,14 @@ class _Ground:
 def _ground_for(first: _Ground, mode: MotionMode, slip: SlipParams) -> _Ground:
     """The declared ground as a leg in ``mode`` meets it (the first leg's, when the same)."""
     return first if mode is first.mode else _Ground(slip, mode)
+
+
+def _leg_ground(first: _Ground, wp: PlanWaypoint, mode: MotionMode, slip: SlipParams) -> _Ground:
+    """The ground of the leg to ``wp``: what the rover learnt of it (``wp.ground``), else the
+    declared ground."""
+    if wp.ground is None:
+        return _ground_for(first, mode, slip)
+    return _Ground(slip, mode, wp.ground)
 
 
 # -- the path ----------------------------------------------------------------------------------
@@ -351,7 +369,7 @@ class _Line:
         for j in range(len(self.plan.waypoints)):
             # each leg in its own mode (the mode follows the medium): its axis and its ground
             mode = self.plan.mode_at(j)
-            ground = _ground_for(self.ground, mode, control.slip)
+            ground = _leg_ground(self.ground, self.plan.waypoints[j], mode, control.slip)
             axis_rad = guidance.driving_axis_rad(mode)
             course = path.courses[j]
             rounded = j > 0 and self.arcs[j - 1] is not None  # the arc turned the rover
@@ -533,7 +551,7 @@ class _Thesis:
         tally = _Tally(control, limited=False)
         for j, wp in enumerate(wps):
             mode = plan.mode_at(j)  # each leg in its own mode
-            ground = _ground_for(self.ground, mode, control.slip)
+            ground = _leg_ground(self.ground, wp, mode, control.slip)
             axis_rad = guidance.driving_axis_rad(mode)
             goal = (wp.x_m, wp.y_m)
             distance = math.dist(here, goal)

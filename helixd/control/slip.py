@@ -34,6 +34,7 @@ Pure: stepped with numbers, no clocks, sockets or logging.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from helixd.base.geometry import BodyVelocity
@@ -96,8 +97,16 @@ def no_slip_body(command: BodyVelocity, vehicle: VehicleParams, mode: MotionMode
 class SlipEstimator:
     """Per motion mode delivered-fraction estimate and its bounded feed-forward."""
 
-    def __init__(self, cfg: SlipParams) -> None:
+    def __init__(
+        self,
+        cfg: SlipParams,
+        priors: Mapping[MotionMode, tuple[float, float, float]] | None = None,
+    ) -> None:
+        """``priors``: per mode the (roll, scroll, yaw) fractions its fit starts from (the
+        ground the rover learnt where it first flies in that mode); others start from the
+        declared ground (``ground_*_fraction``)."""
         self.cfg = cfg
+        self._priors = dict(priors or {})
         self._modes: dict[MotionMode, _ModeState] = {}
         # the estimate of each mode's fits, until they learn again (read twice per step)
         self._estimates: dict[MotionMode, SlipEstimate] = {}
@@ -107,11 +116,13 @@ class SlipEstimator:
         if st is None:
             w_v = self.cfg.prior_weight_s * self.cfg.min_speed_mps**2
             w_w = self.cfg.prior_weight_s * self.cfg.min_yaw_rate_radps**2
-            cfg = self.cfg  # the prior: the ground the operator declared (1: no slip)
+            cfg = self.cfg  # the prior: learnt, or the ground the operator declared (1: no slip)
+            roll, scroll, yaw = self._priors.get(
+                mode,
+                (cfg.ground_roll_fraction, cfg.ground_scroll_fraction, cfg.ground_yaw_fraction),
+            )
             st = _ModeState(
-                vx=_Fit(w_v, w_v * cfg.ground_roll_fraction),
-                vy=_Fit(w_v, w_v * cfg.ground_scroll_fraction),
-                w=_Fit(w_w, w_w * cfg.ground_yaw_fraction),
+                vx=_Fit(w_v, w_v * roll), vy=_Fit(w_v, w_v * scroll), w=_Fit(w_w, w_w * yaw)
             )
             self._modes[mode] = st
         return st
@@ -213,8 +224,8 @@ class SlipEstimator:
 
     def delivered(self, mode: MotionMode) -> tuple[float, float]:
         """What each translation axis (x, y) delivers of the navigator's command with the
-        feed-forward (1: all): min(1, fraction · gain), 1 for a stalled axis. On hard ground
-        SCROLL's scroll axis gets 0.45 of its command, 0.9 with the feed-forward's 2× cap."""
+        feed-forward (1: all): min(1, fraction · gain), 1 for a stalled axis. On grass
+        SCROLL's scroll axis gets 0.25 of its command, 0.5 with the feed-forward's 2× cap."""
         est = self.estimate(mode)
         g_x, g_y, _ = self.gains(mode)
         return self._delivered(est.vx_frac, g_x), self._delivered(est.vy_frac, g_y)

@@ -53,7 +53,7 @@ class ModePolicy:
 DEFAULT_MODES: Mapping[Medium, MotionMode] = {
     Medium.HARD: MotionMode.ROLL,
     Medium.GRASS: MotionMode.ROLL,
-    Medium.SAND: MotionMode.SCROLL,
+    Medium.SAND: MotionMode.ROLL,  # screws fail in sand (Marsh Screw), rolling helps (Chen)
     Medium.MUD: MotionMode.SCROLL,
     Medium.WATER: MotionMode.SCROLL,
 }
@@ -387,16 +387,61 @@ def policy_modes(
     return out
 
 
+# the translation axis each single-axis mode drives along (ground_fit's axis names)
+MODE_AXIS: Mapping[MotionMode, str] = {MotionMode.ROLL: "roll", MotionMode.SCROLL: "scroll"}
+
+
+def delivered(fraction: float, max_gain: float, stuck_fraction: float) -> float:
+    """What an axis whose ground delivers ``fraction`` gives of the navigator's command with
+    the slip feed-forward: min(1, fraction · max_gain), none amplified below
+    ``stuck_fraction`` (helixd.control.slip.feed_forward_gain)."""
+    if not fraction >= stuck_fraction:
+        return fraction
+    return min(1.0, fraction * max_gain)
+
+
+def learned_modes(
+    defaults: Mapping[Medium, MotionMode],
+    axis_fraction: Callable[[Medium, str], float | None],
+    energy_per_m: Callable[[Medium, MotionMode], float | None],
+    max_gain: float,
+    stuck_fraction: float,
+    objective: str = "time",
+) -> dict[Medium, MotionMode]:
+    """The mode per medium a ground profile makes best: of ROLL and SCROLL, the one whose
+    driving axis delivers most of the command (``objective`` ``time``; ties go to the larger
+    fraction: fewer rpm for the same speed) or spends the least energy per metre
+    (``energy``). A medium where either mode is not known (``None``) keeps its default."""
+    out = dict(defaults)
+    for medium in Medium:
+        known: dict[MotionMode, float] = {}
+        for mode, axis in MODE_AXIS.items():
+            if objective == "energy":
+                value = energy_per_m(medium, mode)
+                if value is not None and value > 0.0:
+                    known[mode] = -value
+            else:
+                f = axis_fraction(medium, axis)
+                if f is not None and f > 0.0:
+                    known[mode] = delivered(f, max_gain, stuck_fraction) + 1e-6 * f
+        if len(known) == len(MODE_AXIS):
+            out[medium] = max(known, key=lambda m: known[m])
+    return out
+
+
 __all__ = [
     "DEFAULT_MODES",
     "MIN_STRETCH_M",
+    "MODE_AXIS",
     "SNAP_M",
     "MediaLengths",
     "MediaPlan",
     "ModePolicy",
     "Stretch",
     "Transition",
+    "delivered",
     "follow_media",
+    "learned_modes",
     "medium_under_mode_m",
     "pinned_misfits",
     "policy_modes",

@@ -34,7 +34,8 @@ CSV_COMMENT = (
     "PWM sent (0 = none); scroll and PWM include the slip feed-forward, vx/vy/wz_cmd do not. "
     "slip_vx_frac/slip_vy_frac/slip_w_frac: estimated fraction of the commanded body velocity "
     "(roll axis, scroll axis, yaw rate) the ground delivers (1 = no slip). mode: the "
-    "autopilot's mode; motion_mode: the rover's motion mode flown (roll, scroll, omni). "
+    "autopilot's mode; motion_mode: the rover's motion mode flown (roll, scroll, omni); "
+    "medium: the media map's medium under the rover's centre (empty: no map). "
     "Booleans 1/0; nan = not available."
 )
 
@@ -97,6 +98,8 @@ class FlightRow:
     slip_w_frac: float = field(default=math.nan, metadata={"fmt": _GAIN})
     # the motion mode flown (roll, scroll, omni): it follows the medium on a media map
     motion_mode: str = field(default="", metadata={"fmt": "%s"})
+    # the media map's medium under the rover's centre ("": no map)
+    medium: str = field(default="", metadata={"fmt": "%s"})
 
     @staticmethod
     def columns() -> tuple[str, ...]:

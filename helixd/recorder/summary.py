@@ -7,7 +7,7 @@ loop for hours costs constant memory.
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import Any, Literal
 
 from pydantic import Field
 
@@ -134,6 +134,12 @@ class RunSummary(StrictModel):
     )
     record_cut_files: tuple[str, ...] = Field(
         (), description="the run directory's files whose writing stopped (record cut)"
+    )
+    ground: dict[str, Any] | None = Field(
+        None,
+        description="what each medium delivered in each mode in this run (per 'medium/mode': "
+        "samples, metres, fractions, sigmas, power_w_per_mps), added after the run when it "
+        "had a media map (helixd.runtime.ground_learning); None: not learnt",
     )
     helixd_version: str = __version__
 

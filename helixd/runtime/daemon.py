@@ -39,6 +39,7 @@ from helixd.actuators.base import ActuatorError, ActuatorSink
 from helixd.base.clock import now_s, on_simulated_clock
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
+from helixd.base.media import MediaMapNe
 from helixd.base.plan import Numbering, Plan, program_numbering
 from helixd.config import HelixdConfig, config_to_yaml
 from helixd.control.estimate import TimeEstimate
@@ -62,6 +63,7 @@ from helixd.runtime.flight import (
     FlightResult,
 )
 from helixd.runtime.gcs_feed import GcsFeed, report_fallback
+from helixd.runtime.ground_learning import learn_from_run
 from helixd.runtime.host import FlightHost, OwnLink
 from helixd.runtime.in_flight import InFlight
 from helixd.runtime.media_plan import MediaRefused, read_media
@@ -364,6 +366,7 @@ class MissionRunner:
         # the plan as flown (set at preflight, again at the flight's start): a program expands
         # the mission (its waypoints are the plan's, jumps repeated) and is numbered by item
         self._plan: Plan | None = None
+        self._origin: tuple[float, float] | None = None  # the EKF origin preflight found
         self.flight_loop: FlightLoop | None = None  # while flying
 
     def holding_forever(self) -> bool:
@@ -467,6 +470,7 @@ class MissionRunner:
             final_xy_m=(last.x_m, last.y_m), join_m=join_m, estimated_s=estimate.total_s
         )
         self._plan = plan
+        self._origin = checked.origin
         if checked.origin is not None:
             self.summary.set_origin(*checked.origin)
         return checked
@@ -506,6 +510,7 @@ class MissionRunner:
             display=self.display,
             summary=self.summary,
             recorder=self.recorder,
+            media=self._placed_media(),
         )
         feed.announce(self.mission.name)
         async with phase("fly", self.notifier, self.display) as fly:
@@ -598,6 +603,7 @@ class MissionRunner:
         finally:
             ending = await self.shutdown(held, ending)
         summary = self._finish(ending, started)
+        self._learn_ground()
         return RunOutcome(
             ending.code,
             summary,
@@ -751,6 +757,23 @@ class MissionRunner:
             self.recorder.finish(summary)
         self.display.final(summary, run_dir, log_event=False)
         return summary
+
+    def _placed_media(self) -> MediaMapNe | None:
+        """The flight's media map placed with the EKF origin (flight.csv's medium column)."""
+        try:
+            media = read_media(self.cfg, self.mission)
+            return None if media is None else media.to_ne(self._origin)
+        except (MediaRefused, ValueError):
+            return None
+
+    def _learn_ground(self) -> None:
+        """After the record is closed: what the ground delivered, into the profile."""
+        try:
+            media = read_media(self.cfg, self.mission)
+        except MediaRefused:
+            return  # refused before the flight already, or changed since: nothing to learn
+        run_dir = self.recorder.run_dir if self.recorder else None
+        learn_from_run(self.cfg, media, run_dir, self.opts.run_root)
 
     # -- numbering ----------------------------------------------------------------------------
 

@@ -208,7 +208,7 @@ class FlightLoop:
         self.ground = GroundWatch(cfg.media, self.navigator, follows, hooks.on_ground)
         self.sequencer = Sequencer(plan.program) if plan.program is not None else None
         self.supervisor = Supervisor(cfg.safety, start_ned, driving.mode)
-        self.slip = SlipEstimator(cfg.control.slip)
+        self.slip = SlipEstimator(cfg.control.slip, dict(plan.slip_priors))
         self._slip_enabled = cfg.control.slip.enabled
         self._seq_holding = False
         steps = () if plan.program is None else plan.program.steps

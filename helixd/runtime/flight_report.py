@@ -19,9 +19,11 @@ from helixd.recorder.rows import FlightRow
 from helixd.runtime.display import ProgressInfo
 from helixd.runtime.flight import PoseRejectedReport, StepReport
 
+MediumAt = Callable[[float, float], str]  # (north_m, east_m) → the medium's name
 
-def flight_row(report: StepReport, plan: Plan) -> FlightRow:
-    """The flight.csv row of one step."""
+
+def flight_row(report: StepReport, plan: Plan, medium_at: MediumAt | None = None) -> FlightRow:
+    """The flight.csv row of one step (``medium_at``: the media map's lookup, if any)."""
     sample = report.sample
     step = report.step
     out = step.nav
@@ -75,6 +77,7 @@ def flight_row(report: StepReport, plan: Plan) -> FlightRow:
         slip_vy_frac=slip.vy_frac,
         slip_w_frac=slip.w_frac,
         motion_mode=step.motion_mode,
+        medium="" if medium_at is None else medium_at(ned.north_m, ned.east_m),
     )
 
 
@@ -131,8 +134,15 @@ class StepJournal:
     the summary at the end). No clock inside: times come in with the reports and the ticks.
     """
 
-    def __init__(self, plan: Plan, on_row: Callable[[FlightRow], None], batch_s: float) -> None:
+    def __init__(
+        self,
+        plan: Plan,
+        on_row: Callable[[FlightRow], None],
+        batch_s: float,
+        medium_at: MediumAt | None = None,
+    ) -> None:
         self._plan = plan
+        self._medium_at = medium_at
         self._on_row = on_row
         self._batch_s = batch_s
         self._pending: list[StepReport] = []
@@ -150,9 +160,9 @@ class StepJournal:
 
     def drain(self) -> None:
         pending, self._pending = self._pending, []
-        plan, on_row = self._plan, self._on_row
+        plan, on_row, medium_at = self._plan, self._on_row, self._medium_at
         for report in pending:
-            on_row(flight_row(report, plan))
+            on_row(flight_row(report, plan, medium_at))
 
     @property
     def pending(self) -> int:

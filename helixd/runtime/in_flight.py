@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import structlog
 
 from helixd.base.clock import now_s
+from helixd.base.media import MediaMapNe
 from helixd.base.plan import MissionAction, Numbering, Plan, mission_item_of
 from helixd.config import HelixdConfig
 from helixd.control.sequencer import SequencerEvent
@@ -51,6 +52,7 @@ class InFlight:
     display: ProgressDisplay
     summary: SummaryBuilder
     recorder: RunRecorder | None
+    media: MediaMapNe | None = None  # the flight's media map, placed: flight.csv's medium
     journal: StepJournal = field(init=False)
     laps: tuple[str, ...] = field(init=False)
     inserted_before: tuple[int, ...] = field(init=False)
@@ -61,7 +63,13 @@ class InFlight:
 
     def __post_init__(self) -> None:
         # flight.csv rows and the summary's figures are built in batches, after sends
-        self.journal = StepJournal(self.plan, self.on_row, self.cfg.recorder.batch_interval_s)
+        media = self.media
+        self.journal = StepJournal(
+            self.plan,
+            self.on_row,
+            self.cfg.recorder.batch_interval_s,
+            None if media is None else lambda n, e: media.medium_at(n, e).value,
+        )
         program = self.plan.program
         self.laps = tuple(program.laps()) if program is not None else ()
         # per plan index, the media map's stops before it (not the mission's waypoints)

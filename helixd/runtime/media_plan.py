@@ -16,7 +16,7 @@ map, and a ``start`` mission over any map, are split at preflight only (``check`
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from helixd.base.frames import MissionFrame, NedPose
@@ -24,6 +24,7 @@ from helixd.base.media import MediaFrame, MediaMap, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan
 from helixd.config import HelixdConfig
 from helixd.files.media import MediaMapError, read_media_map
+from helixd.files.models import ConfigFileError
 from helixd.mission.model import Mission
 from helixd.planning.media_modes import (
     MediaPlan,
@@ -32,6 +33,7 @@ from helixd.planning.media_modes import (
     pinned_misfits,
     policy_modes,
 )
+from helixd.runtime.ground_learning import learned_plan, learned_policy_modes
 
 
 class MediaRefused(ValueError):
@@ -69,9 +71,17 @@ def read_media(cfg: HelixdConfig, msn: Mission) -> MediaMap | None:
 
 
 def mode_policy(cfg: HelixdConfig, msn: Mission) -> ModePolicy:
-    """The mode per medium: the config's ``media.modes``, the mission's ``media_modes`` over
-    them; the margin from ``media.transition_margin_m``."""
-    modes = policy_modes(cfg.media.modes.model_dump())
+    """The mode per medium: the config's ``media.modes`` (``learned``: the ground profile's
+    best, :mod:`helixd.runtime.ground_learning`), the mission's ``media_modes`` over them; the
+    margin from ``media.transition_margin_m``. A profile that cannot be read is refused
+    (:class:`MediaRefused`)."""
+    if isinstance(cfg.media.modes, str):
+        try:
+            modes = learned_policy_modes(cfg)
+        except ConfigFileError as exc:
+            raise MediaRefused([f"media.modes learned: {p}" for p in exc.problems]) from None
+    else:
+        modes = policy_modes(cfg.media.modes.model_dump())
     modes.update(msn.media_modes or {})
     return ModePolicy(modes, cfg.media.transition_margin_m, cfg.media.min_stretch_m)
 
@@ -98,7 +108,8 @@ def check_media_plan(cfg: HelixdConfig, msn: Mission, plan: Plan, media: MediaMa
     else:
         return MediaCheck(None, "a lat/lon map under a local_ned mission needs the EKF origin")
     start = plan.assumed_start_xy_m()
-    return MediaCheck(follow(plan, media, mode_policy(cfg, msn), origin, MissionFrame.enu(), start))
+    policy = mode_policy(cfg, msn)
+    return MediaCheck(follow(plan, media, policy, origin, MissionFrame.enu(), start, cfg))
 
 
 def follow(
@@ -108,14 +119,24 @@ def follow(
     origin: tuple[float, float] | None,
     frame: MissionFrame,
     start_xy_m: tuple[float, float],
+    cfg: HelixdConfig | None = None,
 ) -> MediaPlan:
     """``plan`` split by ``media`` placed around ``origin`` (lat, lon; needed for a lat/lon
-    map), the mission frame placed by ``frame``. Raises :class:`MediaRefused`."""
+    map), the mission frame placed by ``frame``; with ``cfg`` under ``media.modes: learned``
+    each leg carries the ground the rover learnt (for the estimate). Raises
+    :class:`MediaRefused`."""
     try:
         placed = media.to_ne(origin, fallback=Medium.HARD)
     except ValueError as exc:
         raise MediaRefused([str(exc)]) from None
-    return follow_media(plan, placed, policy, start_xy_m, frame.to_ned)
+    got = follow_media(plan, placed, policy, start_xy_m, frame.to_ned)
+    if cfg is None:
+        return got
+    try:
+        learnt = learned_plan(cfg, got.plan, placed, frame.to_ned, start_xy_m)
+    except ConfigFileError as exc:
+        raise MediaRefused([f"media.modes learned: {p}" for p in exc.problems]) from None
+    return replace(got, plan=learnt)
 
 
 def placed_media_plan(
@@ -135,7 +156,7 @@ def placed_media_plan(
     )
     here = frame.to_mission(start)
     first = plan.leg_start_xy_m or (here.x_m, here.y_m)
-    return follow(plan, media, mode_policy(cfg, msn), origin, frame, first)
+    return follow(plan, media, mode_policy(cfg, msn), origin, frame, first, cfg)
 
 
 def stretch_lines(got: MediaPlan) -> list[str]:

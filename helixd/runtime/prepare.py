@@ -65,7 +65,12 @@ from helixd.runtime.inputs import (
     recorded_mission_yaml,
     resume_inputs,
 )
-from helixd.runtime.media_plan import MediaRefused, read_media, with_absolute_media
+from helixd.runtime.media_plan import (
+    MediaRefused,
+    mode_policy,
+    read_media,
+    with_absolute_media,
+)
 from helixd.runtime.planned import Flight, load_occupancy, planned_flight
 
 __all__ = [
@@ -211,6 +216,8 @@ def prepare_flight(
         fence, options, shown = loaded.fence, source.options, loaded.notes
     try:
         media = read_media(cfg, msn)
+        if media is not None:
+            mode_policy(cfg, msn)  # media.modes learned: the ground profile read and checked
     except MediaRefused as exc:
         raise InputsRefused(exc.problems, ExitCode.USAGE, shown) from None
     try:

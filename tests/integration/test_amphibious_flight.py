@@ -91,12 +91,20 @@ def test_mud_the_map_does_not_show_is_noticed_and_scrolled(tmp_path: Path) -> No
     code, log, run_dir = flown.code, flown.log, flown.run_dir()
     assert code == ExitCode.OK, log[-3000:]
     soft = [ln for ln in log.splitlines() if "event=ground_changed soft=true" in ln]
-    assert len(soft) == 1, log[-3000:]
+    assert soft, log[-3000:]
     north = float(soft[0].split("north_m=")[1].split()[0])
     assert 10.0 < north < 12.0  # noticed within 2 m of entering the mud
+    # Scrolling onto hard ground (the screw vehicles' 12 %: docs/physics.md) fills the ground
+    # check's window of commanded travel within 0.2 m travelled, so it may try ROLL while the
+    # rear scrolls are still in the mud, find it soft once more, and scroll on: each further
+    # soft event is within a rover's length of the mud's edge (20 m north).
+    for line in soft[1:]:
+        assert 20.0 <= float(line.split("north_m=")[1].split()[0]) < 21.5, line
     assert "event=ground_changed soft=false" in log  # and back to roll past it
     c = read_flight_columns(run_dir / "flight.csv")
-    assert modes_in_order(c) == ["roll", "scroll", "roll"]
+    modes = modes_in_order(c)
+    assert modes[:2] == ["roll", "scroll"] and modes[-1] == "roll", modes
+    assert float(np.max(c["north_m"][c["motion_mode"] == "scroll"])) < 22.0  # rolled past it
 
 
 def test_a_leg_pinned_to_roll_across_water_changes_mode_once_each_way(tmp_path: Path) -> None:

@@ -205,7 +205,7 @@ def test_slip_columns_round_trip(tmp_path: Path, clock: FakeClock, logs: LogCapt
     rec.close()
     assert rec.run_dir is not None
     slip = ("slip_vx_frac", "slip_vy_frac", "slip_w_frac")
-    assert COLUMNS[-4:-1] == slip
+    assert COLUMNS[-5:-2] == slip
     assert "slip_vx_frac" in CSV_COMMENT and "v2" in CSV_COMMENT
     rows = read_flight_csv(rec.run_dir / "flight.csv")
     assert rows[0]["slip_vx_frac"] == pytest.approx(0.61234)
@@ -223,9 +223,20 @@ def test_the_motion_mode_column_round_trips(
     rec.record(make_row(clock() + 0.04))  # a writer that knows nothing of it: empty
     rec.close()
     assert rec.run_dir is not None
-    assert COLUMNS[-1] == "motion_mode" and "motion_mode" in CSV_COMMENT
+    assert COLUMNS[-2] == "motion_mode" and "motion_mode" in CSV_COMMENT
     rows = read_flight_csv(rec.run_dir / "flight.csv")
     assert [r["motion_mode"] for r in rows] == ["roll", "scroll", ""]
+
+
+def test_the_medium_column_round_trips(tmp_path: Path, clock: FakeClock, logs: LogCapture) -> None:
+    rec = create(tmp_path, clock)
+    rec.record(make_row(clock(), medium="water"))
+    rec.record(make_row(clock() + 0.02))  # no media map: empty
+    rec.close()
+    assert rec.run_dir is not None
+    assert COLUMNS[-1] == "medium" and "medium: the media map's medium" in CSV_COMMENT
+    rows = read_flight_csv(rec.run_dir / "flight.csv")
+    assert [r["medium"] for r in rows] == ["water", ""]
 
 
 def test_summary_carries_the_last_slip_estimate() -> None:

@@ -1,0 +1,172 @@
+"""``helixd ground``'s back end: the ground profile (or a profile identified from given runs
+alone) as rows for a table, the mode the policy picks per medium, the crew's pins and reset,
+and a figure beside the table."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
+
+from helixd.base.media import MediaMap, Medium
+from helixd.base.plan import MotionMode
+from helixd.config import HelixdConfig
+from helixd.control.ground_fit import (
+    AXES,
+    DRIVEN,
+    Cell,
+    CellSums,
+    Learned,
+    axis_fraction,
+    merge_profiles,
+)
+from helixd.planning.media_modes import MODE_AXIS
+from helixd.recorder.ground_profile import GroundProfile, identify_run
+from helixd.runtime.ground_learning import (
+    default_modes,
+    fit_params,
+    learned_view,
+    modes_from_profile,
+)
+
+PIN = re.compile(r"^(?P<medium>[a-z]+)/(?P<mode>[a-z]+)/(?P<axis>[a-z]+)=(?P<value>\S+)$")
+
+
+class GroundCommandError(ValueError):
+    """A command-line value helixd ground cannot use; ``problems``: one line each."""
+
+    def __init__(self, problems: list[str]) -> None:
+        self.problems = problems
+        super().__init__("\n".join(problems))
+
+
+@dataclass(frozen=True)
+class GroundRow:
+    """One medium in one mode, as the table shows it."""
+
+    medium: Medium
+    mode: MotionMode
+    view: Learned
+
+
+@dataclass(frozen=True)
+class GroundReport:
+    rows: tuple[GroundRow, ...]
+    picks: Mapping[Medium, MotionMode]  # the mode media.modes learned picks now
+    defaults: Mapping[Medium, MotionMode]
+    source: str  # where it came from (the profile file, or the runs)
+    decided: frozenset[Medium]  # media the profile knows both ROLL and SCROLL of
+
+
+def report(cfg: HelixdConfig, profile: GroundProfile, source: str) -> GroundReport:
+    view = learned_view(cfg, profile)
+    rows = tuple(GroundRow(m, k, v) for (m, k), v in view.items())
+    if cfg.ground.objective == "energy":
+        decided = {
+            m
+            for m in Medium
+            if all(
+                (c := view.get((m, k))) is not None and c.power_w_per_mps is not None
+                for k in MODE_AXIS
+            )
+        }
+    else:
+        decided = {
+            m
+            for m in Medium
+            if all(axis_fraction(view, m, a) is not None for a in MODE_AXIS.values())
+        }
+    picks = modes_from_profile(cfg, view)
+    return GroundReport(rows, picks, default_modes(cfg), source, frozenset(decided))
+
+
+def from_runs(cfg: HelixdConfig, runs: Sequence[Path], media: MediaMap) -> GroundProfile:
+    """A profile from the given runs alone, each weighing as much as the others (no fading):
+    the same fit as after each flight, on flight.csv and the media map."""
+    cells: dict[Cell, CellSums] = {}
+    problems: list[str] = []
+    for run in runs:
+        try:
+            cells = merge_profiles(
+                cells, identify_run(run, media, cfg.vehicle, fit_params(cfg)), 1.0
+            )
+        except ValueError as exc:
+            problems.append(str(exc))
+    if problems:
+        raise GroundCommandError(problems)
+    return GroundProfile(cells)
+
+
+def parse_pin(text: str) -> tuple[tuple[Medium, MotionMode, str], float]:
+    """``MEDIUM/MODE/AXIS=FRACTION`` (``mud/scroll/scroll=0.7``)."""
+    m = PIN.match(text.strip())
+    problem = f"--pin {text!r}: expected MEDIUM/MODE/AXIS=FRACTION, e.g. mud/scroll/scroll=0.7"
+    if m is None:
+        raise GroundCommandError([problem])
+    try:
+        medium, mode = Medium(m["medium"]), MotionMode(m["mode"])
+        value = float(m["value"])
+    except ValueError:
+        raise GroundCommandError([problem]) from None
+    if m["axis"] not in AXES:
+        raise GroundCommandError([f"--pin {text!r}: axis must be one of {', '.join(AXES)}"])
+    if not 0.0 < value <= 1.2:
+        raise GroundCommandError([f"--pin {text!r}: fraction must be within 0 (excluded) .. 1.2"])
+    return (medium, mode, m["axis"]), value
+
+
+def driven_samples(row: GroundRow) -> int:
+    """The samples behind the axis the mode drives (ROLL: roll; SCROLL: scroll)."""
+    return sum(row.view.samples[a] for a in DRIVEN[row.mode])
+
+
+def fraction_text(view: Learned, axis: str) -> str:
+    f, s = view.fractions[axis], view.sigmas[axis]
+    if f is None:
+        return "-"
+    pin = " (pinned)" if axis in view.pinned else ""
+    return f"{f:.3f} ± {s:.3f}{pin}" if s is not None else f"{f:.3f}{pin}"
+
+
+def plot_report(rep: GroundReport, path: Path) -> None:
+    """The fractions per medium and mode, with their uncertainty, as a bar chart (matplotlib's
+    object API and Agg canvas, as :mod:`helixd.recorder.plots`)."""
+    fig = Figure(figsize=(8.0, 4.0))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    labels: list[str] = []
+    x0 = 0
+    for row in rep.rows:
+        for k, axis in enumerate(AXES):
+            f = row.view.fractions[axis]
+            if f is None:
+                continue
+            err = row.view.sigmas[axis] or 0.0
+            ax.bar(x0 + 0.27 * (k - 1), f, 0.25, yerr=err, color=f"C{k}", capsize=3)
+        labels.append(f"{row.medium.value}\n{row.mode.value}")
+        x0 += 1
+    ax.set_xticks(range(len(labels)), labels)
+    ax.set_ylabel("delivered fraction of the no-slip motion")
+    ax.set_ylim(0.0, 1.2)
+    ax.legend([Rectangle((0, 0), 1, 1, color=f"C{k}") for k in range(3)], list(AXES))
+    ax.set_title(f"ground profile: {rep.source}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
+__all__ = [
+    "GroundCommandError",
+    "GroundReport",
+    "GroundRow",
+    "driven_samples",
+    "fraction_text",
+    "from_runs",
+    "parse_pin",
+    "plot_report",
+    "report",
+]
