@@ -49,7 +49,7 @@ def unix_s() -> float:
 def on_simulated_clock() -> bool:
     """Is the running loop a :class:`SimulatedClockLoop` (``run --sim --sim-clock
     simulated``)? Its "monotonic" seconds are then simulated ones, not the wall's."""
-    return isinstance(asyncio._get_running_loop(), SimulatedClockLoop)
+    return isinstance(running_loop(), SimulatedClockLoop)
 
 
 def now_s() -> float:

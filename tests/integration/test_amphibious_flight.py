@@ -122,7 +122,9 @@ def test_a_leg_pinned_to_roll_across_water_changes_mode_once_each_way(tmp_path: 
     changes = [ln for ln in log.splitlines() if "event=ground_changed" in ln]
     assert [("soft=true" in ln) for ln in changes] == [True, False], "\n".join(changes)
     firm_north = float(changes[1].split("north_m=")[1].split()[0])
-    assert firm_north > 30.0  # back to roll only once out of the map's water
+    # back to roll only once out of the map's water (its edge at 30 m; the log rounds to 1 cm;
+    # scrolling onto hard ground, which delivers 12 %, is firm at once)
+    assert firm_north >= 29.99
     c = read_flight_columns(run_dir / "flight.csv")
     assert modes_in_order(c) == ["roll", "scroll", "roll"]
 

@@ -143,9 +143,11 @@ def test_kill9_with_rc_override_returns_outputs_to_the_pilot(tmp_path: Path) -> 
     assert snap.gcs_last_seen_s is not None
     released = snap.sim_time_s - snap.gcs_last_seen_s
     print(f"kill -9 (rc_override): outputs back to the pilot {released:.3f} s (autopilot) later")
-    # RC_OVERRIDE_TIME (3 s) from the last override, which at most one HEARTBEAT period
-    # (0.2 s) precedes helixd's last message; one 50 Hz loop to act
-    assert 3.0 - 0.02 <= released <= 3.0 + 0.2 + 0.04
+    # RC_OVERRIDE_TIME (3 s) from the last override, which precedes helixd's last message by
+    # up to a HEARTBEAT period (0.2 s) on an idle machine and more on a loaded one (the daemon
+    # runs on the wall clock: 3.28 s seen under a full test run on 2 busy cores); one 50 Hz
+    # loop to act. Never before the 3 s: the radio takes over only once the override lapses.
+    assert 3.0 - 0.02 <= released <= 3.0 + 0.6
     assert snap.scroll_pwm_us == (harness.NEUTRAL_US,) * 4
     assert snap.mode == "MANUAL"  # nobody asked for HOLD: the daemon was dead
 
