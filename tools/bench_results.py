@@ -17,7 +17,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS_DIR = ROOT / "bench" / "results"
-SECTIONS = ("navigation", "control_loop", "planning", "amphibious")
+SECTIONS = ("navigation", "control_loop", "planning", "amphibious", "soak")
 
 
 def merge_section(existing: object, key: str, section: Mapping[str, Any]) -> dict[str, Any]:
