@@ -46,8 +46,9 @@ from helixd.mav.constants import (
 )
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
+from tests.support.daemon import deep_merge
 from tests.support.gcs import HELIXD, QGC_SYSID, SIM, do_item, fence_circle, latlon, waypoint
-from tests.support.harness import NEUTRAL_TOLERANCE_US, NEUTRAL_US
+from tests.support.harness import NEUTRAL_TOLERANCE_US, NEUTRAL_US, guard_installed
 from tests.support.loop_gcs import upload_fence, upload_items
 from tests.support.loop_mav import LoopMav
 from tests.support.serve import HIGH_US, LOW_US, SWITCH_CH
@@ -55,14 +56,20 @@ from tests.support.simulated import Steer, simulated_serve
 from tests.support.soak_plan import FENCE_RADIUS_M, GO_WORDS, STOP_WORDS, DayPlan, Item, Step
 
 STOP_LIMIT_S = 0.5  # the crew's stop word (and helixd's "completed") → scrolls at trim
-DISARMED_LIMIT_S = 0.1  # a disarmed autopilot's outputs at trim (one loop and a margin)
-# MANUAL chosen in the autopilot shows to helixd only in its 1 Hz HEARTBEAT (README, "Pause,
-# MANUAL"): the overrides are released within one period and a tick; until then they drive
-MANUAL_LIMIT_S = 1.2
+# a disarm shows to helixd only in the autopilot's 1 Hz HEARTBEAT, and ArduPilot passes the
+# RC-passthrough scroll channels through while disarmed: helixd's overrides must go within one
+# period and the fall-back's 0.5 s
+DISARMED_LIMIT_S = 1.5
+# A mode the crew picks (HOLD, MANUAL, the radio's mode switch) shows to helixd within
+# 0.2 s while the autopilot is in AUTO (MISSION_CURRENT's mission_mode, 5 Hz), otherwise only
+# in its 1 Hz HEARTBEAT (README, "Safety": a person's mode change is a pilot takeover, its
+# fall-back within 0.5 s of detection): one period and the fall-back's tick
+MODE_WORDS = ("pause", "manual", "radio_mode")
+HEARTBEAT_LIMIT_S = 1.2
 # a fault injected while driving → scrolls at trim: the time helixd's watchdog needs to see it
 # (helixd.config.SafetyConfig's defaults) and the fall-back's 0.5 s
 FAULT_LIMIT_S: dict[str, float] = {
-    "link_drop": 1.5, "stale_pose": 1.5, "ekf_unhealthy": 1.5, "reboot": 1.5, "gps_loss": 6.0,
+    "link_drop": 1.0, "stale_pose": 1.5, "ekf_unhealthy": 1.5, "reboot": 1.5, "gps_loss": 6.0,
     "gps_silent": 3.0, "battery_low": 1.5, "fence_breach": 1.5, "rc_loss": 2.0, "stall": 12.0,
     "nan_position": 1.0, "nan_yaw": 1.0, "absurd_position": 1.0, "time_backwards": 1.0,
 }  # fmt: skip
@@ -83,9 +90,22 @@ FAULT_CAUSES: dict[str, frozenset[str]] = {
     "absurd_position": frozenset({"pose_invalid"}),
     "time_backwards": frozenset({"pose_invalid"}),
 }
+# ArduPilot's battery and fence failsafes switched on (HOLD), as a field's parameters would
+AUTOPILOT_PARAMS = {"BATT_FS_LOW_ACT": 2.0, "FENCE_ENABLE": 1.0, "FENCE_ACTION": 2.0}
+# the fault's fall-back logged within this of it at the latest: a cut link (or a rebooting
+# autopilot) is named after safety.heartbeat_timeout_s (2 s) of silence
+NAMED_WITHIN_S = 2.5
+# faults helixd cannot see, by design (README, "Safety"): a receiver that just stops sending
+# while helixd overrides every channel it reads
+UNSEEN = frozenset({("rc_loss", "no_pulses")})
 FENCE_MARGIN_M = 3.0  # beyond the fence by less than a stop from full speed is not "outside"
 CREW_TIMEOUT_S = 3.0  # a press the autopilot or helixd does not answer in this is refused
-SERVE_CONFIG: dict[str, Any] = {"link": {"own_id_watch_s": 0.5}}
+# the service's defaults where the serve tests speed them up (a field day polls as the field does)
+SERVE_CONFIG: dict[str, Any] = {
+    "link": {"own_id_watch_s": 0.5},
+    "serve": {"mission_poll_s": 10.0, "tick_s": 0.1, "state_rate_hz": 1.0},
+}
+NO_SWITCH: dict[str, Any] = {"startup": {"start_switch_channel": None}}
 TASKS_SLACK = 3  # asyncio tasks a quiet service may have more at the end than at the start
 FDS_SLACK = 3
 
@@ -162,25 +182,29 @@ class Rules:
             self.broken = Violation(rule, now_s() - self.t0, detail)
 
     # -- the crew's words --------------------------------------------------------------------
-    def word(self, name: str) -> None:
+    def word(self, name: str, mode: str, arg: object = None) -> None:
         t = now_s()
+        if name in ("manual", "radio_mode") and mode == (arg or "MANUAL"):
+            return  # the mode it already is: nothing the autopilot or helixd can see
         if name in STOP_WORDS:
-            if self.stop_at is None:
-                self.stop_at = t
-            self.stop_limit_s = MANUAL_LIMIT_S if name in ("manual", "radio_mode") else STOP_LIMIT_S
+            limit = DISARMED_LIMIT_S if name == "disarm" else STOP_LIMIT_S
+            if name in MODE_WORDS and mode != "AUTO":
+                limit = HEARTBEAT_LIMIT_S
+            if self.stop_at is None or t + limit < self.stop_at + self.stop_limit_s:
+                self.stop_at, self.stop_limit_s = t, limit
         elif name in GO_WORDS:
             self.stop_at = self.fault_at = self.completed_at = None
         if name in ("set_current", "start", "start_helixd", "upload", "reupload", "goto"):
             self.free_until = t + 3.0
 
-    def fault(self, kind: str, driving: bool) -> None:
+    def fault(self, kind: str, driving: bool, args: dict[str, object]) -> None:
         t = now_s()
         self.free_until = max(self.free_until, t + 3.0)  # a reboot resets the mission
-        if not driving:
+        if not driving or (kind, args.get("kind")) in UNSEEN:
             return
         if self.fault_at is None:
             self.fault_at, self.fault_limit_s = t, FAULT_LIMIT_S[kind]
-        self.pending.append((kind, t, t + FAULT_LIMIT_S[kind] + 2.0))
+        self.pending.append((kind, t, t + max(FAULT_LIMIT_S[kind], NAMED_WITHIN_S) + 2.0))
 
     def mission(self, items: tuple[Item, ...]) -> None:
         self.items = items
@@ -218,7 +242,9 @@ class Rules:
         if seq == self.last_seq:
             return
         before, self.last_seq = self.last_seq, seq
-        if t < self.free_until or seq <= 1 or not self.successors:
+        # 0: the autopilot's mission at rest (helixd flying it in MANUAL shows the item it
+        # stopped at when it pauses); 1: a start from the beginning
+        if t < self.free_until or seq <= 1 or before == 0 or not self.successors:
             return
         allowed = self.successors.get(before, set())
         if seq not in allowed:
@@ -248,7 +274,7 @@ class Rules:
         if self.stop_at is not None and self.stop_at < by:
             return  # the crew stopped it meanwhile: whose stop was reported is open
         if len(causes) != 1 or causes[0] not in FAULT_CAUSES[kind]:
-            self.fail("fault_named", f"{kind} at {at:.2f} s reported as {causes}")
+            self.fail("fault_named", f"{kind} at {at - self.t0:.2f} s reported as {causes}")
 
 
 def driving(s: SimSnapshot) -> bool:
@@ -359,11 +385,11 @@ class Crew:
         if step.kind == "fault":
             self.faults[step.name] = self.faults.get(step.name, 0) + 1
             driving_now = driving(self.st.snapshot())
-            self.rules.fault(step.name, driving_now)
+            self.rules.fault(step.name, driving_now, dict(step.args))
             self.st.inject(step.name, **dict(step.args))
             return
         self.actions[step.name] = self.actions.get(step.name, 0) + 1
-        self.rules.word(step.name)
+        self.rules.word(step.name, self.st.snapshot().mode, step.arg("mode"))
         # refused or unanswered (a link down, a rebooting autopilot): the crew goes on
         with contextlib.suppress(AssertionError):
             await self.table()[step.name](step)
@@ -399,11 +425,14 @@ async def crew_day(st: Steer, plan: DayPlan, crew_out: list[Crew]) -> None:
         await settle(st, rules, t0 + step.at_s)
         await crew.perform(step)
     await settle(st, rules, t0 + plan.length_s)
-    st.set_rc(SWITCH_CH, LOW_US)
-    await crew.mode("HOLD") if st.snapshot().armed else None
+    # the crew's evening: the switch low, disarmed (a paused flight ends, its files close)
+    for name in ("switch_low", "disarm"):
+        await crew.perform(Step(-1, now_s() - t0, "crew", name))
     await settle(st, rules, now_s() + 30.0)  # faults over, the service quiet again
     after = resources()
-    if after[0] > before[0] + TASKS_SLACK or after[1] > before[1] + FDS_SLACK:
+    states = [ln for ln in st.console.lines if "event=serve_state" in ln]
+    quiet = not states or not any(f"state={s} " in states[-1] for s in ("flying", "paused"))
+    if quiet and (after[0] > before[0] + TASKS_SLACK or after[1] > before[1] + FDS_SLACK):
         rules.fail("resources_flat", f"tasks, fds {before} at the start, {after} at the end")
         raise Broken(rules.broken)  # type: ignore[arg-type]
     st.signal(signal.SIGTERM)
@@ -434,8 +463,10 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
         served = simulated_serve(
             workdir,
             lambda st: crew_day(st, plan, crews),
-            SERVE_CONFIG,
+            deep_merge(SERVE_CONFIG, {} if plan.switch else NO_SWITCH),
             seed=plan.seed,
+            params=AUTOPILOT_PARAMS,
+            **guard_installed(1.0),  # helixd-guard on the autopilot, as in the field
         )
     except Broken as exc:
         violation = exc.violation

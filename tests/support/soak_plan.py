@@ -75,6 +75,7 @@ class DayPlan:
     length_s: float
     steps: tuple[Step, ...]
     missions: tuple[tuple[Item, ...], ...] = field(default=())  # every mission uploaded
+    switch: bool = True  # the rover has the start switch (startup.start_switch_channel)
 
     def without(self, indices: frozenset[int]) -> DayPlan:
         return replace(self, steps=tuple(s for s in self.steps if s.index not in indices))
@@ -146,18 +147,24 @@ FAULT_ARGS: dict[str, tuple[tuple[str, object], ...]] = {
     "reboot": (),
     "battery_low": (),
     "fence_breach": (),
-    "rc_loss": (("kind", "no_pulses"),),
 }
 
 
 def fault_step(rng: random.Random, index: int, at_s: float) -> Step:
     name = rng.choice(FAULT_KINDS)
     args = FAULT_ARGS.get(name, (("duration_s", round(rng.uniform(2.0, 20.0), 1)),))
+    if name == "rc_loss":
+        args = (("kind", rng.choice(("no_pulses", "failsafe_values"))),)
     return Step(index, at_s, "fault", name, args)
 
 
-def crew_step(rng: random.Random, index: int, at_s: float, current: tuple[Item, ...]) -> Step:
-    names = list(WEIGHTS)
+SWITCH_WORDS = ("switch_low", "switch_high")
+
+
+def crew_step(
+    rng: random.Random, index: int, at_s: float, current: tuple[Item, ...], switch: bool
+) -> Step:
+    names = [n for n in WEIGHTS if switch or n not in SWITCH_WORDS]
     name = rng.choices(names, weights=[WEIGHTS[n] for n in names])[0]
     args: tuple[tuple[str, object], ...] = ()
     if name == "set_current":
@@ -177,6 +184,8 @@ def plan_day(seed: int, length_s: float, faults_per_session: float = 1.0) -> Day
     """The day of ``seed``: sessions of 1–4 minutes (upload, start, presses and faults 2–30 s
     apart) separated by quiet stretches, until ``length_s`` simulated seconds."""
     rng = random.Random(seed)
+    switch = rng.random() < 0.5
+    firsts = ("switch_high",) if switch else ("start", "start_helixd")
     steps: list[Step] = []
     missions: list[tuple[Item, ...]] = []
     t = rng.uniform(5.0, 20.0)
@@ -186,20 +195,18 @@ def plan_day(seed: int, length_s: float, faults_per_session: float = 1.0) -> Day
         missions.append(current)
         steps.append(Step(len(steps), t, "crew", "upload", (("items", len(missions) - 1),)))
         t += rng.uniform(3.0, 8.0)
-        steps.append(
-            Step(len(steps), t, "crew", rng.choice(("start", "switch_high", "start_helixd")))
-        )
+        steps.append(Step(len(steps), t, "crew", rng.choice(firsts)))
         end = t + rng.uniform(60.0, 240.0)
         while t < min(end, length_s - 30.0):
             t += rng.uniform(2.0, 30.0)
             if rng.random() < faults_per_session / 6.0:
                 steps.append(fault_step(rng, len(steps), t))
                 continue
-            step = crew_step(rng, len(steps), t, current)
+            step = crew_step(rng, len(steps), t, current, switch)
             if step.name in ("upload", "reupload"):
                 current = mission(rng) if step.name == "upload" else same_size(rng, current)
                 missions.append(current)
                 step = replace(step, args=(("items", len(missions) - 1),))
             steps.append(step)
         t += rng.uniform(0.1, 0.5) * 600.0 * max(1.0, length_s / 3600.0)  # a quiet stretch
-    return DayPlan(seed, length_s, tuple(steps), tuple(missions))
+    return DayPlan(seed, length_s, tuple(steps), tuple(missions), switch)
