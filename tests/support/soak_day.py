@@ -95,6 +95,10 @@ AUTOPILOT_PARAMS = {"BATT_FS_LOW_ACT": 2.0, "FENCE_ENABLE": 1.0, "FENCE_ACTION":
 # the fault's fall-back logged within this of it at the latest: a cut link (or a rebooting
 # autopilot) is named after safety.heartbeat_timeout_s (2 s) of silence
 NAMED_WITHIN_S = 2.5
+# modes ArduPilot drives in when armed (arming in them starts the mission or the place)
+DRIVING_MODES = frozenset({"AUTO", "GUIDED", "RTL", "SMART_RTL"})
+# ArduPilot's battery and fence failsafes act once (until a reboot): a second one is no news
+LATCHING = frozenset({"battery_low", "fence_breach"})
 # faults helixd cannot see, by design (README, "Safety"): a receiver that just stops sending
 # while helixd overrides every channel it reads
 UNSEEN = frozenset({("rc_loss", "no_pulses")})
@@ -175,6 +179,7 @@ class Rules:
         self.log_times: list[float] = []  # simulated time each console line was first seen
         self.broken: Violation | None = None
         self.pending: list[tuple[str, float, float]] = []  # faults to be named: kind, at, by
+        self.latched: set[str] = set()  # the autopilot's failsafes already taken
         self.t0 = 0.0  # the day's time 0 (the plan's steps count from it)
 
     def fail(self, rule: str, detail: str) -> None:
@@ -186,6 +191,8 @@ class Rules:
         t = now_s()
         if name in ("manual", "radio_mode") and mode == (arg or "MANUAL"):
             return  # the mode it already is: nothing the autopilot or helixd can see
+        if name == "arm" and mode in DRIVING_MODES:
+            name = "continue"  # ArduPilot armed in AUTO (GUIDED, RTL) drives: a go word
         if name in STOP_WORDS:
             limit = DISARMED_LIMIT_S if name == "disarm" else STOP_LIMIT_S
             if name in MODE_WORDS and mode != "AUTO":
@@ -200,6 +207,12 @@ class Rules:
     def fault(self, kind: str, driving: bool, args: dict[str, object]) -> None:
         t = now_s()
         self.free_until = max(self.free_until, t + 3.0)  # a reboot resets the mission
+        if kind == "reboot":
+            self.latched.clear()
+        if kind in LATCHING:
+            if kind in self.latched:
+                return  # ArduPilot's failsafe fires once: already taken since the boot
+            self.latched.add(kind)
         if not driving or (kind, args.get("kind")) in UNSEEN:
             return
         if self.fault_at is None:
