@@ -121,6 +121,7 @@ def section(results: list[DayResult], wall_s: float, day_hours: float) -> dict[s
         "day_hours": day_hours,
         "simulated_hours": round(simulated_h, 3),
         "wall_s": round(wall_s, 1),
+        "cpu_s": round(sum(r.cpu_s for r in results), 1),
         "simulated_hours_per_wall_minute": round(simulated_h / max(wall_s / 60.0, 1e-9), 3),
         "violations": [
             {"seed": r.seed, "rule": r.violation.rule, "detail": r.violation.detail[:300]}
@@ -136,7 +137,7 @@ def main(
     seed: Annotated[int, typer.Option(help="the first day's seed; day k has seed + k")] = 1,
     days: Annotated[int, typer.Option(min=1, max=100_000, help="days to run")] = 10,
     day_hours: Annotated[
-        float, typer.Option(min=0.02, max=24.0, help="simulated hours per day")
+        float, typer.Option(min=0.005, max=24.0, help="simulated hours per day")
     ] = 2.0,
     jobs: Annotated[int, typer.Option(min=1, max=16, help="worker processes")] = 1,
     shrink_failures: Annotated[
@@ -167,7 +168,8 @@ def main(
     sec = section(results, wall_s, day_hours)
     print(
         f"soak: {sec['days']} days, {sec['simulated_hours']} simulated h in {sec['wall_s']} s "
-        f"wall ({sec['simulated_hours_per_wall_minute']} simulated h per wall minute), "
+        f"wall, {sec['cpu_s']} s CPU "
+        f"({sec['simulated_hours_per_wall_minute']} simulated h per wall minute), "
         f"{len(sec['violations'])} violations"
     )
     if results_dir is not None:
@@ -178,7 +180,10 @@ def main(
 def day_line(r: DayResult) -> None:
     verdict = "ok" if r.violation is None else f"VIOLATION {r.violation.rule}"
     steps = sum(r.actions.values()) + sum(r.faults.values())
-    print(f"day seed={r.seed}: {steps} steps, {r.wall_s:.1f} s wall: {verdict}", flush=True)
+    print(
+        f"day seed={r.seed}: {steps} steps, {r.wall_s:.1f} s wall, {r.cpu_s:.1f} s CPU: {verdict}",
+        flush=True,
+    )
 
 
 if __name__ == "__main__":

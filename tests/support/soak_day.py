@@ -126,6 +126,7 @@ class DayResult:
     seed: int
     simulated_s: float
     wall_s: float
+    cpu_s: float  # this process's CPU time for the day (the wall's depends on the machine's load)
     violation: Violation | None
     actions: dict[str, int] = field(default_factory=dict)
     faults: dict[str, int] = field(default_factory=dict)
@@ -468,8 +469,9 @@ def check_runs(run_root: Path) -> Violation | None:
 
 def run_day(plan: DayPlan, workdir: Path) -> DayResult:
     """The day of ``plan`` in ``workdir`` (its config, runs/ and serve.log)."""
+    workdir.mkdir(parents=True, exist_ok=True)
     crews: list[Crew] = []
-    wall = time.perf_counter()
+    wall, cpu = time.perf_counter(), time.process_time()
     violation: Violation | None = None
     served = None
     try:
@@ -503,6 +505,7 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
         seed=plan.seed,
         simulated_s=plan.length_s if violation is None or crew is None else crew.simulated_s,
         wall_s=time.perf_counter() - wall,
+        cpu_s=time.process_time() - cpu,
         violation=violation,
         actions=crew.actions if crew else {},
         faults=crew.faults if crew else {},

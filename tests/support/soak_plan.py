@@ -182,23 +182,25 @@ def crew_step(
 
 def plan_day(seed: int, length_s: float, faults_per_session: float = 1.0) -> DayPlan:
     """The day of ``seed``: sessions of 1–4 minutes (upload, start, presses and faults 2–30 s
-    apart) separated by quiet stretches, until ``length_s`` simulated seconds."""
+    apart) separated by quiet stretches, until ``length_s`` simulated seconds; a day shorter
+    than 10 minutes has its gaps shrunk in proportion (the test suite's short days)."""
     rng = random.Random(seed)
+    scale = min(1.0, length_s / 600.0)
     switch = rng.random() < 0.5
     firsts = ("switch_high",) if switch else ("start", "start_helixd")
     steps: list[Step] = []
     missions: list[tuple[Item, ...]] = []
-    t = rng.uniform(5.0, 20.0)
+    t = rng.uniform(5.0, 5.0 + 15.0 * scale)
     current: tuple[Item, ...] = ()
-    while t < length_s - 60.0:
+    while t < length_s - 60.0 * scale - 10.0:
         current = mission(rng)
         missions.append(current)
         steps.append(Step(len(steps), t, "crew", "upload", (("items", len(missions) - 1),)))
         t += rng.uniform(3.0, 8.0)
         steps.append(Step(len(steps), t, "crew", rng.choice(firsts)))
         end = t + rng.uniform(60.0, 240.0)
-        while t < min(end, length_s - 30.0):
-            t += rng.uniform(2.0, 30.0)
+        while t < min(end, length_s - 30.0 * scale - 5.0):
+            t += rng.uniform(2.0, 2.0 + 28.0 * scale)
             if rng.random() < faults_per_session / 6.0:
                 steps.append(fault_step(rng, len(steps), t))
                 continue

@@ -1,0 +1,97 @@
+"""The soak (tools/soak.py): seeded crew days of ``helixd serve`` on the simulated clock, the
+rules checked from the simulator's truth. Short days here; ``make soak`` runs the long ones.
+
+Every verdict is in simulated time: a slower machine takes longer, never decides otherwise.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
+from tests.support.soak_day import Crew, nav_successors, run_day
+from tests.support.soak_plan import CREW_ACTIONS, FAULT_KINDS, DayPlan, Item, Step, plan_day
+from tests.support.tools import load_tool
+
+soak = load_tool("soak")
+
+SHORT_DAY_H = 0.011  # 40 simulated seconds of presses and faults, then the evening
+WP = mavlink.MAV_CMD_NAV_WAYPOINT
+
+
+@pytest.mark.timeout(900)
+def test_twenty_short_days_break_no_rule(tmp_path: Path) -> None:
+    results = [soak.one_day(seed, SHORT_DAY_H) for seed in range(1, 21)]
+    broken = [(r.seed, r.violation) for r in results if r.violation is not None]
+    assert not broken, "\n".join(f"seed {s}: {v}" for s, v in broken)
+    sec = soak.section(results, 0.0, SHORT_DAY_H)
+    assert sec["days"] == 20 and sec["violations"] == []
+    # the crew pressed most buttons and the faults came: the days did something
+    assert sum(sec["actions"].values()) >= 150, sec["actions"]
+    assert sum(1 for n in sec["actions"].values() if n > 0) >= len(CREW_ACTIONS) - 2
+    assert sum(sec["faults"].values()) >= 10, sec["faults"]
+    path = soak.write_section("soak", sec, tmp_path)
+    written = json.loads(path.read_text())["soak"]
+    assert written["days"] == 20 and set(written["faults"]) == set(FAULT_KINDS)
+
+
+def test_a_day_is_drawn_from_its_seed_alone() -> None:
+    assert plan_day(7, 7200.0) == plan_day(7, 7200.0)
+    assert plan_day(7, 7200.0) != plan_day(8, 7200.0)
+
+
+def test_long_days_press_every_button_and_inject_every_fault() -> None:
+    plans = [plan_day(seed, 7200.0) for seed in range(1, 41)]
+    pressed = {s.name for p in plans for s in p.steps if s.kind == "crew"}
+    injected = {s.name for p in plans for s in p.steps if s.kind == "fault"}
+    assert pressed == set(CREW_ACTIONS) and injected == set(FAULT_KINDS)
+    # mostly idle with bursts: the last step well before the day's end is no rule, but the
+    # steps are seconds apart inside a session and minutes apart between them
+    gaps = [b.at_s - a.at_s for p in plans for a, b in zip(p.steps, p.steps[1:], strict=False)]
+    assert min(gaps) >= 2.0 and max(gaps) >= 300.0
+
+
+def test_the_items_may_follow_the_mission_and_its_jumps() -> None:
+    items = (
+        Item(WP), Item(WP, 5, 0), Item(WP, 5, 5),
+        Item(mavlink.MAV_CMD_DO_CHANGE_SPEED, params=(1.0, 0.5)),
+        Item(mavlink.MAV_CMD_DO_JUMP, params=(1.0, 2.0)), Item(WP, 0, 5),
+    )  # fmt: skip
+    assert nav_successors(items) == {0: {1}, 1: {2}, 2: {1, 5}, 5: set()}
+
+
+def straight_day(seed: int) -> DayPlan:
+    """Start a 30 m leg, press Pause (HOLD) while it drives."""
+    mission = (Item(WP), Item(WP, 30.0, 0.0))
+    steps = (
+        Step(0, 6.0, "crew", "upload", (("items", 0),)),
+        Step(1, 10.0, "crew", "speed_helixd", (("speed_mps", 0.5),)),
+        Step(2, 12.0, "crew", "start"),
+        Step(3, 20.0, "crew", "pause"),
+    )
+    return DayPlan(seed, 40.0, steps, (mission,), switch=False)
+
+
+@pytest.mark.timeout(600)
+def test_the_referee_sees_a_pause_not_obeyed_and_shrinks_to_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    plan = straight_day(5)
+    assert run_day(plan, tmp_path / "obeyed").violation is None
+
+    obeying = Crew.mode
+
+    async def deaf(self: Crew, name: str) -> None:  # QGC's Pause lost on the way
+        if name != "HOLD":
+            await obeying(self, name)
+
+    monkeypatch.setattr(Crew, "mode", deaf)
+    failed = run_day(plan, tmp_path / "lost")
+    assert failed.violation is not None and failed.violation.rule == "driven_after_stop"
+    assert failed.violation.at_s == pytest.approx(20.5, abs=0.1)  # the limit, on the dot
+    small = soak.shrink(plan, failed, budget=8)
+    names = [s.name for s in small.steps]
+    assert "pause" in names and "speed_helixd" not in names and len(names) <= 3, names
