@@ -110,6 +110,7 @@ SERVE_CONFIG: dict[str, Any] = {
     "serve": {"mission_poll_s": 10.0, "tick_s": 0.1, "state_rate_hz": 1.0},
 }
 NO_SWITCH: dict[str, Any] = {"startup": {"start_switch_channel": None}}
+EVENING_S = 600.0  # simulated seconds a day may run past its length (boot, the evening) at most
 TASKS_SLACK = 3  # asyncio tasks a quiet service may have more at the end than at the start
 FDS_SLACK = 3
 
@@ -480,6 +481,7 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
             lambda st: crew_day(st, plan, crews),
             deep_merge(SERVE_CONFIG, {} if plan.switch else NO_SWITCH),
             seed=plan.seed,
+            limit_s=plan.length_s + EVENING_S,
             params=AUTOPILOT_PARAMS,
             **guard_installed(1.0),  # helixd-guard on the autopilot, as in the field
         )

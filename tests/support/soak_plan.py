@@ -154,7 +154,7 @@ def fault_step(rng: random.Random, index: int, at_s: float) -> Step:
     name = rng.choice(FAULT_KINDS)
     args = FAULT_ARGS.get(name, (("duration_s", round(rng.uniform(2.0, 20.0), 1)),))
     if name == "rc_loss":
-        args = (("kind", rng.choice(("no_pulses", "failsafe_values"))),)
+        args = (*args, ("kind", rng.choice(("no_pulses", "failsafe_values"))))
     return Step(index, at_s, "fault", name, args)
 
 
