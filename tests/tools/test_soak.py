@@ -7,12 +7,20 @@ Every verdict is in simulated time: a slower machine takes longer, never decides
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 from pathlib import Path
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from tests.support.soak_day import Crew, nav_successors, run_day
+from tests.support.soak_day import (
+    HEARTBEAT_LIMIT_S,
+    STOP_LIMIT_S,
+    Crew,
+    Rules,
+    nav_successors,
+    run_day,
+)
 from tests.support.soak_plan import CREW_ACTIONS, FAULT_KINDS, DayPlan, Item, Step, plan_day
 from tests.support.tools import load_tool
 
@@ -95,3 +103,63 @@ def test_the_referee_sees_a_pause_not_obeyed_and_shrinks_to_it(
     small = soak.shrink(plan, failed, budget=8)
     names = [s.name for s in small.steps]
     assert "pause" in names and "speed_helixd" not in names and len(names) <= 3, names
+
+
+def referee() -> Rules:
+    """A referee fed no snapshot: its bookkeeping of the crew's words and the faults."""
+    return Rules(SimpleNamespace(console=SimpleNamespace(lines=[])))  # type: ignore[arg-type]
+
+
+# The referee's own mistakes the first soaks found (each a failing seed of its day, none a
+# helixd fault): pinned here without flying the day again.
+
+
+def test_manual_picked_in_manual_is_no_word() -> None:
+    # seed 4: a flight the switch started drives in MANUAL; QGC's MANUAL changes nothing
+    rules = referee()
+    rules.word("manual", "MANUAL")
+    rules.word("radio_mode", "MANUAL", "MANUAL")
+    assert rules.stop_at is None
+    rules.word("radio_mode", "MANUAL", "HOLD")
+    assert rules.stop_at is not None and rules.stop_limit_s == HEARTBEAT_LIMIT_S
+
+
+def test_arming_in_a_driving_mode_is_a_go_word() -> None:
+    # seed 27: disarmed in AUTO, armed again: ArduPilot (and helixd) drive the mission
+    rules = referee()
+    rules.word("disarm", "AUTO")
+    assert rules.stop_at is not None
+    rules.word("arm", "HOLD")
+    assert rules.stop_at is not None
+    rules.word("arm", "AUTO")
+    assert rules.stop_at is None
+
+
+def test_a_stop_in_auto_is_seen_at_once_elsewhere_in_the_heartbeat() -> None:
+    # seeds 6 and 7: HOLD during a flight helixd drives in MANUAL shows in the 1 Hz HEARTBEAT
+    rules = referee()
+    rules.word("pause", "AUTO")
+    assert rules.stop_limit_s == STOP_LIMIT_S
+    rules = referee()
+    rules.word("pause", "MANUAL")
+    assert rules.stop_limit_s == HEARTBEAT_LIMIT_S
+
+
+def test_a_second_battery_failsafe_is_no_news_until_a_reboot() -> None:
+    # seed 19: ArduPilot's battery failsafe acts once
+    rules = referee()
+    rules.fault("battery_low", True, {})
+    rules.fault("battery_low", True, {})
+    assert [k for k, _, _ in rules.pending] == ["battery_low"]
+    rules.fault("reboot", False, {})
+    rules.fault("battery_low", True, {})
+    assert [k for k, _, _ in rules.pending] == ["battery_low", "battery_low"]
+
+
+def test_a_receiver_that_only_stops_is_not_a_fault_helixd_can_see() -> None:
+    # seed 7: README "Safety": invisible while helixd overrides
+    rules = referee()
+    rules.fault("rc_loss", True, {"kind": "no_pulses"})
+    assert rules.fault_at is None and not rules.pending
+    rules.fault("rc_loss", True, {"kind": "failsafe_values"})
+    assert rules.fault_at is not None
