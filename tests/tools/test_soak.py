@@ -7,8 +7,8 @@ Every verdict is in simulated time: a slower machine takes longer, never decides
 from __future__ import annotations
 
 import json
-from types import SimpleNamespace
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
