@@ -19,6 +19,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import io
+import json
 import math
 import os
 import signal
@@ -31,6 +32,7 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
+from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
 from helixd.cli.runs import load_summary, print_replay
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
@@ -468,9 +470,35 @@ def check_runs(run_root: Path) -> Violation | None:
     return None
 
 
+def ring_ne(box: tuple[float, float, float, float]) -> tuple[tuple[float, float], ...]:
+    n0, n1, e0, e1 = box
+    return ((n0, e0), (n0, e1), (n1, e1), (n1, e0))
+
+
+def pond(plan: DayPlan, workdir: Path) -> Path:
+    """The day's media map for helixd (GeoJSON, local_ned: positions [east, north])."""
+    assert plan.water_ne is not None
+    ring = [[e, n] for n, e in ring_ne(plan.water_ne)]
+    data = {
+        "type": "FeatureCollection", "frame": "local_ned", "default_medium": "hard",
+        "features": [{"type": "Feature", "properties": {"medium": "water"},
+                      "geometry": {"type": "Polygon", "coordinates": [[*ring, ring[0]]]}}],
+    }  # fmt: skip
+    path = workdir / "pond.geojson"
+    path.write_text(json.dumps(data), encoding="utf-8")
+    return path
+
+
 def run_day(plan: DayPlan, workdir: Path) -> DayResult:
     """The day of ``plan`` in ``workdir`` (its config, runs/ and serve.log)."""
     workdir.mkdir(parents=True, exist_ok=True)
+    config = deep_merge(SERVE_CONFIG, {} if plan.switch else NO_SWITCH)
+    world: dict[str, Any] = {}
+    if plan.water_ne is not None:
+        config = deep_merge(config, {"media": {"media_map": str(pond(plan, workdir))}})
+        world["media"] = MediaMap(
+            MediaFrame.LOCAL_NED, (MediaArea(Medium.WATER, ring_ne(plan.water_ne)),), Medium.HARD
+        )
     crews: list[Crew] = []
     wall, cpu = time.perf_counter(), time.process_time()
     violation: Violation | None = None
@@ -479,11 +507,12 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
         served = simulated_serve(
             workdir,
             lambda st: crew_day(st, plan, crews),
-            deep_merge(SERVE_CONFIG, {} if plan.switch else NO_SWITCH),
+            config,
             seed=plan.seed,
             limit_s=plan.length_s + EVENING_S,
             params=AUTOPILOT_PARAMS,
             **guard_installed(1.0),  # helixd-guard on the autopilot, as in the field
+            **world,
         )
     except Broken as exc:
         violation = exc.violation

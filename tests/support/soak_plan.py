@@ -76,6 +76,9 @@ class DayPlan:
     steps: tuple[Step, ...]
     missions: tuple[tuple[Item, ...], ...] = field(default=())  # every mission uploaded
     switch: bool = True  # the rover has the start switch (startup.start_switch_channel)
+    # a pond on the media map (helixd's media.media_map and the simulator's world): north_min,
+    # north_max, east_min, east_max (m from home); None: hard ground everywhere
+    water_ne: tuple[float, float, float, float] | None = None
 
     def without(self, indices: frozenset[int]) -> DayPlan:
         return replace(self, steps=tuple(s for s in self.steps if s.index not in indices))
@@ -187,6 +190,15 @@ def plan_day(seed: int, length_s: float, faults_per_session: float = 1.0) -> Day
     rng = random.Random(seed)
     scale = min(1.0, length_s / 600.0)
     switch = rng.random() < 0.5
+    water_ne = None
+    if rng.random() < 0.5:
+        n0, e0 = round(rng.uniform(-30.0, 15.0), 1), round(rng.uniform(-30.0, 15.0), 1)
+        water_ne = (
+            n0,
+            n0 + round(rng.uniform(5.0, 15.0), 1),
+            e0,
+            e0 + round(rng.uniform(5.0, 15.0), 1),
+        )
     firsts = ("switch_high",) if switch else ("start", "start_helixd")
     steps: list[Step] = []
     missions: list[tuple[Item, ...]] = []
@@ -211,4 +223,4 @@ def plan_day(seed: int, length_s: float, faults_per_session: float = 1.0) -> Day
                 step = replace(step, args=(("items", len(missions) - 1),))
             steps.append(step)
         t += rng.uniform(0.1, 0.5) * 600.0 * max(1.0, length_s / 3600.0)  # a quiet stretch
-    return DayPlan(seed, length_s, tuple(steps), tuple(missions), switch)
+    return DayPlan(seed, length_s, tuple(steps), tuple(missions), switch, water_ne)
