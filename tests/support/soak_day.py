@@ -327,6 +327,9 @@ class Crew:
         self.done: list[Step] = []
         self.t0 = now_s()
         self.simulated_s = 0.0
+        self.before = (0, 0)  # asyncio tasks, descriptors once the service is up
+        self.next_step = 0  # the plan's next step (the day goes on after a restart)
+        self.restarted_at = 0  # the console's line count at the last restart
 
     async def mode(self, name: str) -> None:
         flag = MAV_MODE_FLAG_CUSTOM_MODE_ENABLED
@@ -388,7 +391,11 @@ class Crew:
             "switch_high": lambda _: self.switch(HIGH_US),
             "switch_low": lambda _: self.switch(LOW_US),
             "radio_mode": lambda s: self.radio_mode(str(s.arg("mode"))),
+            "restart": lambda _: self.nothing(),
         }  # fmt: skip
+
+    async def nothing(self) -> None:
+        """The step is the day's (``restart``: crew_day stops the service)."""
 
     async def switch(self, pwm_us: int) -> None:
         self.st.set_rc(SWITCH_CH, pwm_us)
@@ -425,28 +432,41 @@ async def settle(st: Steer, rules: Rules, until_s: float) -> None:
             raise Broken(rules.broken)
 
 
-async def crew_day(st: Steer, plan: DayPlan, crew_out: list[Crew]) -> None:
-    gcs = st.ground_station(1, QGC_SYSID)
-    rules = Rules(st)
-    crew = Crew(st, gcs, rules, plan)
-    crew_out.append(crew)
-    st.server.snapshot_listeners.append(rules.snapshot)
-    st.set_rc(SWITCH_CH, LOW_US)
-    await st.line("no mission on the autopilot", 60.0)
-    await st.until(lambda s: not s.booting, 60.0)
-    t0 = crew.t0 = now_s()
-    rules.t0 = t0
-    await settle(st, rules, t0 + 1.0)
-    before = resources()
-    for step in plan.steps:
+async def crew_day(st: Steer, plan: DayPlan, crews: list[Crew]) -> None:
+    """One start of the service: the first sets the day up, a later one (after the crew's
+    ``restart``) takes the day on from the next step; the day's last ends it."""
+    if not crews:
+        crew = Crew(st, st.ground_station(1, QGC_SYSID), Rules(st), plan)
+        crews.append(crew)
+        st.server.snapshot_listeners.append(crew.rules.snapshot)
+        st.set_rc(SWITCH_CH, LOW_US)
+        await st.line("no mission on the autopilot", 60.0)
+        await st.until(lambda s: not s.booting, 60.0)
+        crew.t0 = crew.rules.t0 = now_s()
+        await settle(st, crew.rules, crew.t0 + 1.0)
+        crew.before = resources()
+    else:
+        crew = crews[0]
+        crew.st, crew.rules.st = st, st
+        crew.gcs = st.ground_station(1, QGC_SYSID)
+        # the service up again (or not, with the link cut: the crew goes on all the same)
+        with contextlib.suppress(AssertionError):
+            await st.line("event=serve_state state=", 60.0, after=crew.restarted_at)
+    rules, t0 = crew.rules, crew.t0
+    for step in plan.steps[crew.next_step :]:
         await settle(st, rules, t0 + step.at_s)
+        crew.next_step += 1
         await crew.perform(step)
+        if step.name == "restart":
+            crew.restarted_at = st.mark()
+            st.signal(signal.SIGTERM)  # systemd's restart: stop, then start again
+            return
     await settle(st, rules, t0 + plan.length_s)
     # the crew's evening: the switch low, disarmed (a paused flight ends, its files close)
     for name in ("switch_low", "disarm"):
         await crew.perform(Step(-1, now_s() - t0, "crew", name))
     await settle(st, rules, now_s() + 30.0)  # faults over, the service quiet again
-    after = resources()
+    after, before = resources(), crew.before
     states = [ln for ln in st.console.lines if "event=serve_state" in ln]
     quiet = not states or not any(f"state={s} " in states[-1] for s in ("flying", "paused"))
     if quiet and (after[0] > before[0] + TASKS_SLACK or after[1] > before[1] + FDS_SLACK):
@@ -500,13 +520,17 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
             MediaFrame.LOCAL_NED, (MediaArea(Medium.WATER, ring_ne(plan.water_ne)),), Medium.HARD
         )
     crews: list[Crew] = []
+
+    async def day(st: Steer) -> None:
+        await crew_day(st, plan, crews)
+
     wall, cpu = time.perf_counter(), time.process_time()
     violation: Violation | None = None
     served = None
     try:
         served = simulated_serve(
             workdir,
-            lambda st: crew_day(st, plan, crews),
+            [day] * (1 + sum(1 for s in plan.steps if s.name == "restart")),
             config,
             seed=plan.seed,
             limit_s=plan.length_s + EVENING_S,
@@ -519,8 +543,8 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
     except (AssertionError, TimeoutError) as exc:
         violation = Violation("harness", 0.0, f"{type(exc).__name__}: {str(exc)[:500]}")
     if violation is None and served is not None:
-        if served.code != 0:
-            violation = Violation("exit_code", 0.0, f"serve ended {served.code} on SIGTERM")
+        if any(served.codes):
+            violation = Violation("exit_code", 0.0, f"serve ended {served.codes} on SIGTERM")
         elif "Traceback" in served.log:
             violation = Violation("traceback", 0.0, "a traceback in the service's log")
         else:

@@ -17,7 +17,10 @@ from dataclasses import dataclass, field, replace
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 # what the crew does, as QGroundControl sends it (tests.support.soak_day performs each)
-STOP_WORDS = ("pause", "pause_helixd", "manual", "disarm", "switch_low", "radio_mode")
+# restart: the service stopped (SIGTERM, its fall-back) and started again, as systemd does
+STOP_WORDS = (
+    "pause", "pause_helixd", "manual", "disarm", "switch_low", "radio_mode", "restart",
+)  # fmt: skip
 GO_WORDS = (
     "start", "start_helixd", "continue", "continue_helixd", "goto", "rtl", "smart_rtl",
     "switch_high",
@@ -144,7 +147,7 @@ WEIGHTS = {  # crew actions within a session: how often each is pressed
     "pause": 4, "pause_helixd": 2, "manual": 2, "disarm": 2, "switch_low": 2, "radio_mode": 1,
     "start": 3, "start_helixd": 2, "continue": 4, "continue_helixd": 2, "goto": 2, "rtl": 1,
     "smart_rtl": 1, "switch_high": 2, "upload": 1, "reupload": 2, "set_current": 2, "arm": 1,
-    "speed_helixd": 1,
+    "speed_helixd": 1, "restart": 1,
 }  # fmt: skip
 FAULT_ARGS: dict[str, tuple[tuple[str, object], ...]] = {
     "reboot": (),
