@@ -205,7 +205,9 @@ class Rules:
                 self.stop_at, self.stop_limit_s = t, limit
         elif name in GO_WORDS:
             self.stop_at = self.fault_at = self.completed_at = None
-        if name in ("set_current", "start", "start_helixd", "upload", "reupload", "goto"):
+        if name in GO_WORDS or name in ("set_current", "upload", "reupload"):
+            # the crew's (re)start or continue may go on from an earlier item (the
+            # interrupted leg's) or a later one: the items are the crew's for a moment
             self.free_until = t + 3.0
 
     def fault(self, kind: str, driving: bool, args: dict[str, object]) -> None:
@@ -413,7 +415,9 @@ class Crew:
             self.st.inject(step.name, **dict(step.args))
             return
         self.actions[step.name] = self.actions.get(step.name, 0) + 1
-        self.rules.word(step.name, self.st.snapshot().mode, step.arg("mode"))
+        snap = self.st.snapshot()
+        if step.name != "radio_mode" or snap.receiver_ok:  # a dead receiver switches nothing
+            self.rules.word(step.name, snap.mode, step.arg("mode"))
         # refused or unanswered (a link down, a rebooting autopilot): the crew goes on
         with contextlib.suppress(AssertionError):
             await self.table()[step.name](step)
