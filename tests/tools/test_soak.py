@@ -7,6 +7,7 @@ Every verdict is in simulated time: a slower machine takes longer, never decides
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -163,3 +164,24 @@ def test_a_receiver_that_only_stops_is_not_a_fault_helixd_can_see() -> None:
     assert rules.fault_at is None and not rules.pending
     rules.fault("rc_loss", True, {"kind": "failsafe_values"})
     assert rules.fault_at is not None
+
+
+# Seeds whose day broke a rule in helixd (fixed since), flown again up to just past the step
+# that broke it: (seed, day hours, seconds into the day).
+FOUND = [
+    # a fence breach in a flight of AUTO taken for the crew's Pause (helixd/runtime/flight.py,
+    # _autopilot_failsafe; tests/integration/test_serve_autopilot_failsafe.py)
+    (201, 0.1, 75.0),
+]
+
+
+@pytest.mark.timeout(600)
+@pytest.mark.parametrize(("seed", "hours", "until_s"), FOUND)
+def test_the_seeds_that_found_a_fault_break_no_rule_again(
+    tmp_path: Path, seed: int, hours: float, until_s: float
+) -> None:
+    plan = plan_day(seed, hours * 3600.0)
+    cut = replace(plan, steps=tuple(s for s in plan.steps if s.at_s < until_s), length_s=until_s)
+    assert any(s.kind == "fault" for s in cut.steps)
+    got = run_day(cut, tmp_path)
+    assert got.violation is None, got.violation
