@@ -24,6 +24,7 @@ import math
 import os
 import signal
 import time
+import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -546,6 +547,9 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
         violation = exc.violation
     except (AssertionError, TimeoutError) as exc:
         violation = Violation("harness", 0.0, f"{type(exc).__name__}: {str(exc)[:500]}")
+    except Exception as exc:  # raised in the service or the simulator: the day's finding
+        where = "".join(traceback.format_exception(exc)[-3:])
+        violation = Violation("exception", 0.0, f"{type(exc).__name__}: {exc}\n{where}"[:1500])
     if violation is None and served is not None:
         if any(served.codes):
             violation = Violation("exit_code", 0.0, f"serve ended {served.codes} on SIGTERM")
