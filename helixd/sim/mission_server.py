@@ -948,8 +948,8 @@ class MissionServer:
     def start_or_resume(self, out: Outcome) -> None:
         """AP_Mission::start_or_resume with MIS_RESTART 0 (resume): a completed mission, or
         one with no current command (or one the mission no longer has), starts from its first
-        command (jump counters cleared); otherwise the current nav command starts again. Each nav command started says
-        "Mission: N WP" (AP_Mission::start_command)."""
+        command (jump counters cleared); otherwise the current nav command starts again. Each
+        nav command started says "Mission: N WP" (AP_Mission::start_command)."""
         if self.state == MISSION_RUNNING:
             return
         # a current command the stored mission no longer has (a shorter one uploaded since):
