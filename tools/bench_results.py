@@ -349,6 +349,28 @@ def amphibious_markdown(amph: Mapping[str, Any]) -> list[str]:
     return lines
 
 
+def soak_markdown(soak: Mapping[str, Any]) -> list[str]:
+    """The soak (tools/soak.py): its totals, its violations, the presses and faults it made."""
+    lines = ["## Soak (tools/soak.py)", ""]
+    for key in ("days", "day_hours", "simulated_hours", "wall_s", "cpu_s",
+                "simulated_hours_per_wall_minute"):  # fmt: skip
+        lines.append(f"- {key}: {fmt(soak.get(key))}")
+    violations = soak.get("violations") or []
+    lines += ["", f"Violations: {len(violations) if isinstance(violations, list) else '-'}"]
+    if isinstance(violations, list):
+        lines += [
+            f"- seed {v.get('seed')}: {v.get('rule')}" for v in violations if isinstance(v, Mapping)
+        ]
+    for title, key in (("crew action", "actions"), ("fault", "faults")):
+        counts = soak.get(key)
+        if isinstance(counts, Mapping) and counts:
+            lines += [
+                "",
+                *md_table([title, "count"], [[str(k), fmt(v)] for k, v in counts.items()]),
+            ]
+    return lines
+
+
 def render_markdown(results: Mapping[str, Any]) -> str:
     """The whole results file as Markdown (sections in a fixed order, missing ones skipped)."""
     lines = ["# helixd benchmark results", "", "Written by `make bench` (tools/bench_*.py)."]
@@ -364,6 +386,9 @@ def render_markdown(results: Mapping[str, Any]) -> str:
     amphibious = results.get("amphibious")
     if isinstance(amphibious, Mapping):
         lines += ["", *amphibious_markdown(amphibious)]
+    soak = results.get("soak")
+    if isinstance(soak, Mapping):
+        lines += ["", *soak_markdown(soak)]
     return "\n".join(lines) + "\n"
 
 

@@ -185,3 +185,14 @@ def test_the_seeds_that_found_a_fault_break_no_rule_again(
     assert any(s.kind == "fault" for s in cut.steps)
     got = run_day(cut, tmp_path)
     assert got.violation is None, got.violation
+
+
+def test_the_soak_section_renders_beside_the_benchmarks(tmp_path: Path) -> None:
+    sec = {"days": 2, "simulated_hours": 0.2, "wall_s": 5.0, "cpu_s": 4.0,
+           "violations": [{"seed": 3, "rule": "item_order"}],
+           "actions": {"pause": 4}, "faults": {"stall": 1}}  # fmt: skip
+    soak.write_section("soak", sec, tmp_path)
+    soak.write_section("planning", {"cases": {}}, tmp_path)  # another bench keeps it
+    md = (tmp_path / "latest.md").read_text()
+    assert "## Soak" in md and "seed 3: item_order" in md and "| pause | 4 |" in md
+    assert json.loads((tmp_path / "latest.json").read_text())["soak"]["days"] == 2
