@@ -40,20 +40,22 @@ demo: $(STAMP)
 	$(BIN)/helixd run --sim --sim-speedup 4 --mission config/missions/square.yaml --config config/helixd.yaml --run-dir runs --log-level warning
 
 # The benchmarks write into bench/results/latest.json and latest.md (sections navigation,
-# control_loop, planning and amphibious); each runs even if one before had a failed run, the exit
-# status reports them all.
+# control_loop, planning, amphibious and survey); each runs even if one before had a failed
+# run, the exit status reports them all.
 # e.g. make bench NAV_ARGS="--only square --runs 1" LOOP_ARGS="--seconds 10"
 # The control loop alone (about a minute): make bench-loop [LOOP_ARGS="--seconds 10 --rate-hz 50"]
 NAV_ARGS  ?=
 LOOP_ARGS ?= --rate-hz 50 --rate-hz 200
 PLAN_ARGS ?=
 AMPH_ARGS ?=
+SURVEY_ARGS ?=
 bench: $(STAMP)
 	@status=0; \
 	$(BIN)/python tools/bench_navigation.py $(NAV_ARGS) || status=1; \
 	$(BIN)/python tools/bench_control_loop.py $(LOOP_ARGS) || status=1; \
 	$(BIN)/python tools/bench_planning.py $(PLAN_ARGS) || status=1; \
 	$(BIN)/python tools/bench_amphibious.py $(AMPH_ARGS) || status=1; \
+	$(BIN)/python tools/bench_survey.py $(SURVEY_ARGS) || status=1; \
 	echo "results: bench/results/latest.json, bench/results/latest.md"; \
 	exit $$status
 

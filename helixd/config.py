@@ -435,6 +435,22 @@ class MediaConfig(InputModel):
         description="scrolling because of the check, delivered below this fraction over the "
         "window: firm ground again, back to the planned mode (hard 0.45, mud 0.85)",
     )
+    detect_hysteresis: float = Field(
+        0.05,
+        ge=0.0,
+        le=0.3,
+        description='"firm again" needs the delivered fraction this far below '
+        "detect_scroll_fraction (scrolling in water delivers about 0.6: no flip back in the "
+        "water) (fraction)",
+    )
+    detect_min_change_m: float = Field(
+        5.0,
+        ge=0.0,
+        le=50.0,
+        description="after the ground check changed the mode, the rover travels at least this "
+        "far before it changes it again; where the media map has water or mud here or this "
+        "far ahead it never goes back to roll (m)",
+    )
 
 
 # ---------------------------------------------------------------------------------------------
@@ -497,6 +513,22 @@ class LinkConfig(InputModel):
     )
     telemetry_rate_hz: float = Field(
         5.0, ge=0.5, le=50.0, description="EKF/SYS_STATUS/RC/SERVO/MISSION_CURRENT stream rate (Hz)"
+    )
+    payload_rate_hz: float = Field(
+        5.0,
+        ge=0.0,
+        le=50.0,
+        description="DISTANCE_SENSOR, RANGEFINDER and WATER_DEPTH (the payload's readings, "
+        "payload.csv) asked for at this rate, once each, never counted as slow (an autopilot "
+        "without the sensor sends none); 0: not asked (Hz)",
+    )
+    autopilot_heartbeat_rate_hz: float = Field(
+        5.0,
+        ge=1.0,
+        le=10.0,
+        description="the autopilot's HEARTBEAT rate to ask for on helixd's link (Hz; ArduPilot "
+        "sends 1 Hz unless asked, and one at once on a mode change): the arm and the mode "
+        "are in it, so an arm or a disarm is seen within 1 / this rate, not within a second",
     )
     command_timeout_s: float = Field(
         1.0, gt=0.0, le=30.0, description="wait for COMMAND_ACK/PARAM_VALUE per try (s)"
@@ -713,6 +745,14 @@ class StallConfig(InputModel):
         0.03, ge=0.0, le=1.0, description="...while the measured yaw rate stays below (rad/s)"
     )
     duration_s: float = Field(4.0, gt=0.0, le=120.0, description="...for this long (s)")
+    crawl_fraction: float = Field(
+        0.1,
+        ge=0.0,
+        lt=1.0,
+        description="moving, but under this fraction of the commanded speed over the last "
+        "duration_s (commanded above commanded_speed_min_mps) is a stall too: rolling in "
+        "water delivers about 0.05 (fraction; 0: off)",
+    )
 
 
 RcChannel = Annotated[int, Field(ge=1, le=18)]
@@ -1137,6 +1177,94 @@ class ServeConfig(InputModel):
 # Top level
 
 
+# ---------------------------------------------------------------------------------------------
+# Payload: the sensors' readings recorded where they were taken (payload.csv)
+
+
+
+class PayloadSource(InputModel):
+    """One message (or one named value) that counts as one quantity in ``payload.csv``."""
+
+    message: Literal["DISTANCE_SENSOR", "RANGEFINDER", "WATER_DEPTH", "NAMED_VALUE_FLOAT"] = Field(
+        description="the MAVLink message the reading comes in"
+    )
+    quantity: str = Field(
+        pattern=r"^[a-z][a-z0-9_]{0,31}$",
+        description="the quantity's name in payload.csv, its unit in it (e.g. depth_m)",
+    )
+    name: str | None = Field(
+        None,
+        pattern=r"^[\x21-\x7e]{1,10}$",
+        description="NAMED_VALUE_FLOAT only: the value's name (at most 10 printable characters)",
+    )
+    sensor_id: int | None = Field(
+        None, ge=0, le=255, description="DISTANCE_SENSOR / WATER_DEPTH: this instance only"
+    )
+    downward_only: bool = Field(
+        True,
+        description="DISTANCE_SENSOR: only orientation PITCH_270 (facing down), as ArduPilot "
+        "takes a depth only from a down-facing rangefinder",
+    )
+    offset_m: float = Field(
+        0.0,
+        ge=-10.0,
+        le=10.0,
+        description="added to the reading: for a sonar, its transducer's depth below the "
+        "waterline, so the quantity is the depth from the surface (m)",
+    )
+    scale: float = Field(1.0, ge=-1e6, le=1e6, description="the reading × this, then + offset_m")
+    min_value: float = Field(
+        -1e9, ge=-1e9, le=1e9, description="readings below this are dropped (quantity's unit)"
+    )
+    max_value: float = Field(
+        1e9, ge=-1e9, le=1e9, description="readings above this are dropped (quantity's unit)"
+    )
+
+    @model_validator(mode="after")
+    def _named(self) -> PayloadSource:
+        if (self.message == "NAMED_VALUE_FLOAT") != (self.name is not None):
+            raise ValueError("name is given for NAMED_VALUE_FLOAT sources, and only for them")
+        if self.min_value >= self.max_value:
+            raise ValueError(f"min_value {self.min_value} must be < max_value {self.max_value}")
+        return self
+
+
+def _default_payload_sources() -> list[PayloadSource]:
+    return [PayloadSource(message="DISTANCE_SENSOR", quantity="depth_m")]
+
+
+class PayloadConfig(InputModel):
+    """Which of the autopilot's messages are sensor readings, and how they are recorded."""
+
+    enabled: bool = Field(
+        True, description="write payload.csv (readings where they were taken) in the run"
+    )
+    sources: list[PayloadSource] = Field(
+        default_factory=_default_payload_sources,
+        max_length=32,
+        description="each message (or named value) recorded and the quantity it counts as",
+    )
+    record_other_named_values: bool = Field(
+        True,
+        description="NAMED_VALUE_FLOATs no source names are recorded under their own name "
+        "(quantity nv_<name>)",
+    )
+    min_signal_quality_pct: int = Field(
+        0,
+        ge=0,
+        le=100,
+        description="DISTANCE_SENSOR readings with a known signal quality below this are "
+        "dropped (1 = invalid is always dropped; 0 = unknown is kept) (%)",
+    )
+    pose_max_gap_s: float = Field(
+        1.0,
+        gt=0.0,
+        le=10.0,
+        description="a reading is placed by interpolating the EKF poses either side of it; "
+        "poses further apart than this (autopilot time) place nothing (s)",
+    )
+
+
 class HelixdConfig(InputModel):
     vehicle: VehicleConfig = Field(default_factory=VehicleConfig)
     control: ControlConfig = Field(default_factory=ControlConfig)
@@ -1150,6 +1278,7 @@ class HelixdConfig(InputModel):
     gcs_report: GcsReportConfig = Field(default_factory=GcsReportConfig)
     serve: ServeConfig = Field(default_factory=ServeConfig)
     media: MediaConfig = Field(default_factory=MediaConfig)
+    payload: PayloadConfig = Field(default_factory=PayloadConfig)
 
     @model_validator(mode="after")
     def _consistent(self) -> HelixdConfig:

@@ -8,6 +8,7 @@ from collections.abc import Iterator
 
 import pytest
 import structlog
+from hypothesis import HealthCheck, settings
 
 from helixd.config import CONFIG_ENV
 from helixd.recorder import logging_setup
@@ -15,6 +16,16 @@ from helixd.recorder import logging_setup
 # Without -c a command reads $HELIXD_CONFIG, else /etc/helixd/helixd.yaml where it exists (a
 # rover): the tests read the built-in defaults on any machine unless they point it elsewhere.
 os.environ[CONFIG_ENV] = ""
+
+# A property's verdict is its examples', never the machine's speed: hypothesis's default 200 ms
+# deadline per example and its too_slow health check failed tests on a loaded 2-core machine
+# (tests/control/test_totality.py at load 10). Each test's own settings() still sets its count.
+settings.register_profile(
+    "helixd",
+    deadline=None,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
+)
+settings.load_profile("helixd")
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:

@@ -17,7 +17,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS_DIR = ROOT / "bench" / "results"
-SECTIONS = ("navigation", "control_loop", "planning", "amphibious", "soak")
+SECTIONS = ("navigation", "control_loop", "planning", "amphibious", "survey", "soak")
 
 
 def merge_section(existing: object, key: str, section: Mapping[str, Any]) -> dict[str, Any]:
@@ -349,6 +349,20 @@ def amphibious_markdown(amph: Mapping[str, Any]) -> list[str]:
     return lines
 
 
+def depth_survey_markdown(survey: Mapping[str, Any]) -> list[str]:
+    """The pond's depth survey (tools/bench_survey.py): its figures, then the verdicts."""
+    lines = ["## Depth survey (tools/bench_survey.py)", ""]
+    keys = ("samples", "coverage", "rms_m", "max_abs_m", "holes", "holes_mission_items")
+    lines += md_table(
+        ["bathymetry", *keys],
+        [[fmt(survey.get("bathymetry")), *(fmt(survey.get(k), ".4f") for k in keys)]],
+    )
+    verdict_lines = survey.get("verdicts")
+    if isinstance(verdict_lines, list):
+        lines += ["", *(f"- {v}" for v in verdict_lines)]
+    return lines
+
+
 def soak_markdown(soak: Mapping[str, Any]) -> list[str]:
     """The soak (tools/soak.py): its totals, its violations, the presses and faults it made."""
     lines = ["## Soak (tools/soak.py)", ""]
@@ -386,6 +400,9 @@ def render_markdown(results: Mapping[str, Any]) -> str:
     amphibious = results.get("amphibious")
     if isinstance(amphibious, Mapping):
         lines += ["", *amphibious_markdown(amphibious)]
+    depth = results.get("survey")
+    if isinstance(depth, Mapping):
+        lines += ["", *depth_survey_markdown(depth)]
     soak = results.get("soak")
     if isinstance(soak, Mapping):
         lines += ["", *soak_markdown(soak)]

@@ -26,6 +26,8 @@ import selectors
 import time
 from typing import Any
 
+from helixd.base.asyncio_internals import clock_resolution_s, running_loop, scheduled_timers
+
 # where a simulated clock starts (s): like a monotonic clock, not at zero, so a "never"
 # timestamp of 0.0 stays far in the past
 SIMULATED_START_S = 1000.0
@@ -40,14 +42,14 @@ def unix_s() -> float:
     """Calendar seconds (Unix time) on the run's clock: the wall's in production; on a
     simulated clock the wall's when the loop was made plus the simulated time since, so a
     record stamped with it (a .tlog) replays at the pace it was flown."""
-    loop = asyncio._get_running_loop()
+    loop = running_loop()
     return loop.unix_s() if isinstance(loop, SimulatedClockLoop) else time.time()
 
 
 def now_s() -> float:
     """Seconds on the run's monotonic clock: the running loop's time; outside a loop (a
     thread, a synchronous command) the monotonic clock, which is the standard loop's time."""
-    loop = asyncio._get_running_loop()
+    loop = running_loop()
     return time.monotonic() if loop is None else loop.time()
 
 
@@ -95,8 +97,8 @@ class _JumpingSelector(selectors.DefaultSelector):
         loop = self.loop
         if loop is None:
             return
-        resolution_s: float = getattr(loop, "_clock_resolution", 0.0)
-        timers: list[asyncio.TimerHandle] = getattr(loop, "_scheduled", [])
+        resolution_s = clock_resolution_s(loop)
+        timers = scheduled_timers(loop)
         while True:
             horizon_s = self.now_s + resolution_s
             due_s = [

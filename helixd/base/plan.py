@@ -48,6 +48,10 @@ class PlanWaypoint:
     # a stop inserted where the mode changes (helixd.planning.media_modes): not one of the
     # mission's waypoints, so not counted where the mission's are (a resume's index)
     media_stop: bool = False
+    # where the media map says the leg's mode cannot move (a ROLL leg pinned across water):
+    # spans (near, far) of the distance still to go to this waypoint (m); the ground check
+    # never answers "firm again" there (helixd.control.ground_check)
+    unfit_to_go_m: tuple[tuple[float, float], ...] = ()
 
 
 class ActionKind(StrEnum):

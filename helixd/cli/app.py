@@ -21,7 +21,7 @@ from typer.exceptions import TyperException
 
 from helixd import __version__
 from helixd.base.exitcodes import ExitCode
-from helixd.base.plan import MotionMode
+from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.cli import autopilot_check as cli_autopilot_check
 from helixd.cli import autopilot_setup as cli_autopilot_setup
 from helixd.cli import guard as cli_guard
@@ -30,6 +30,7 @@ from helixd.cli import plant as cli_plant
 from helixd.cli import runs as cli_runs
 from helixd.cli import serve_command as cli_serve
 from helixd.cli import sim_command as cli_sim
+from helixd.cli import survey_map as cli_survey_map
 from helixd.cli.autopilot import fetch_autopilot_mission, wants_autopilot
 from helixd.cli.common import (
     CONTEXT_SETTINGS,
@@ -39,6 +40,7 @@ from helixd.cli.common import (
     MapOpt,
     ModeOpt,
     ObserverConnectOpt,
+    SimBathymetryOpt,
     WholeHelpGroup,
     check_connect,
     command_group,
@@ -49,11 +51,13 @@ from helixd.cli.common import (
 )
 from helixd.cli.simulated import (
     SimChoice,
+    SimMediaOpt,
     beside_simulator,
     read_sim_media,
     sim_world,
     simulator,
     simulator_config,
+    with_bathymetry,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
 from helixd.config import HelixdConfig
@@ -67,6 +71,7 @@ from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.runtime.inputs import InputsRefused
+from helixd.runtime.media_figure import checked_media
 from helixd.runtime.plan_report import check_lines, record_space_warning
 from helixd.runtime.planned import Flight, route_lines
 from helixd.runtime.prepare import (
@@ -166,7 +171,8 @@ FenceOpt = Annotated[
 
 PLOT_NEEDS_ROUTE = (
     "--plot draws a route planned around obstacles (--map, keep-out areas, a fence's "
-    "exclusions) and this mission has none; `helixd plot RUN_DIR` draws a flown run"
+    "exclusions) or a media map's stretches, and this mission has neither; `helixd plot "
+    "RUN_DIR` draws a flown run"
 )
 
 
@@ -206,18 +212,45 @@ def check(
         got.media,
     )  # fmt: skip
     typer.echo("\n".join(lines))
-    if route is None and plot is not None:  # said, not silently skipped
-        typer.echo(f"plot    : {plot} not written: {PLOT_NEEDS_ROUTE}")
     low = record_space_warning(got.cfg, flight.mission, route, got.path)
     if low is not None:
         typer.echo(f"warning: {low}", err=True)
-    if route is not None and plot is not None:
-        from helixd.recorder.plots import render_route  # start-up: matplotlib when plotting
+    if plot is not None:
+        _check_plot(got, plot)
 
-        try:
-            typer.echo(f"plot    : {render_route(route, plot, title=got.mission.name)}")
-        except OSError as exc:
-            raise fail([f"--plot: cannot write {plot}: {exc}"], ExitCode.USAGE) from None
+
+def _check_plot(got: Prepared, plot: Path) -> None:
+    """``check --plot``: the route planned around obstacles, the media map's areas under it;
+    without a route, a media map's areas and the plan's stretches by mode; else say why not."""
+    flight = got.flight
+    media = None
+    if got.media is not None:
+        media = checked_media(got.cfg, got.mission, flight.mission, got.media, flight.options)
+    if flight.route is None and (media is None or media.placed is None):
+        why = (
+            PLOT_NEEDS_ROUTE if media is None else f"{PLOT_NEEDS_ROUTE}; the media map: {media.why}"
+        )
+        typer.echo(f"plot    : {plot} not written: {why}")  # said, not silently skipped
+        return
+    from helixd.recorder.plots import render_media_plan, render_route  # start-up: matplotlib
+
+    name = got.mission.name
+    try:
+        if flight.route is not None:
+            placed = None if media is None else media.placed
+            out = render_route(flight.route, plot, title=name, media=placed)
+        else:
+            assert media is not None and media.placed is not None and media.plan is not None
+            start = media.plan.plan.assumed_start_xy_m()
+            global_ = got.mission.frame is MissionFrameKind.GLOBAL
+            where = " of waypoint 1" if global_ else ""
+            names = (f"east{where} (m)", f"north{where} (m)")
+            out = render_media_plan(
+                media.placed, media.plan, plot, start_xy_m=start, axis_names=names, title=name
+            )
+    except OSError as exc:
+        raise fail([f"--plot: cannot write {plot}: {exc}"], ExitCode.USAGE) from None
+    typer.echo(f"plot    : {out}")
 
 
 SimOpt = Annotated[
@@ -246,14 +279,6 @@ SimClockOpt = Annotated[
 ]
 SimSeedOpt = Annotated[
     int | None, typer.Option(min=0, help="the simulator's noise seed (with --sim; default: new)")
-]
-SimMediaOpt = Annotated[
-    Path | None,
-    typer.Option(
-        "--sim-media",
-        help="media map (GeoJSON or KML: hard, grass, sand, mud, water areas) for the simulator's "
-        "world, each scroll in the medium under it; --sim-terrain outside (with --sim)",
-    ),
 ]
 RunDirOpt = Annotated[
     Path | None,
@@ -304,6 +329,7 @@ def run(
     sim_media: SimMediaOpt = None,
     sim_clock: SimClockOpt = SimClock.WALL,
     sim_seed: SimSeedOpt = None,
+    sim_bathymetry: SimBathymetryOpt = None,
 ) -> None:
     """Fly a mission: connect, preflight, arm, fly, and always stop + release + HOLD.
 
@@ -320,6 +346,7 @@ def run(
         if choice is None:
             raise fail(["--sim-media needs --sim"], ExitCode.USAGE)
         choice = replace(choice, media=read_sim_media(sim_media))
+    choice = with_bathymetry(choice, sim_bathymetry)
     options = ExpandOptions(strict, skip_unsupported)
     if wants_autopilot(mission) and resume is None:
         if choice is not None and choice.clock is SimClock.SIMULATED:
@@ -528,6 +555,7 @@ cli_sim.register(app)
 cli_runs.register(app)
 cli_serve.register(app)
 cli_plant.register(app)
+cli_survey_map.register(app)
 mission_app = command_group(
     "mission",
     "Mission files: convert between helixd YAML, QGroundControl .plan and .waypoints; "

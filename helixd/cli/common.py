@@ -232,3 +232,13 @@ def run_on_link(
         raise fail([f"{link.url}: {exc}"], code) from None
     except KeyboardInterrupt:
         raise fail(["interrupted"], ExitCode.OPERATOR_STOP) from None
+
+
+SimBathymetryOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--sim-bathymetry",
+        help="the pond's bottom (a bathymetry YAML, docs/survey.md) under the simulator's "
+        "water: a down-facing sonar sends DISTANCE_SENSOR, recorded in payload.csv (with --sim)",
+    ),
+]

@@ -21,6 +21,7 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import SimTerrainOpt, fail
+from helixd.cli.simulated import read_sim_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, load_yaml_model
 from helixd.mission.placed import parse_latlon
@@ -113,9 +114,21 @@ def plant_command(
         Path | None,
         typer.Option("--truth-csv", help="write the true pose here, 10 rows per simulated s"),
     ] = None,
+    bathymetry: Annotated[
+        Path | None,
+        typer.Option(
+            "--bathymetry",
+            help="the pond's bottom (bathymetry YAML, docs/survey.md): its depth under the "
+            "rover goes to SITL's rangefinder 1 (JSON rng_1; RNGFND1_TYPE 100); needs --home",
+        ),
+    ] = None,
 ) -> None:
     """Serve ArduPilot SITL's JSON physics interface with the Helix plant (Ctrl-C stops)."""
     cfg = plant_config(config, terrain, media, home)
+    if bathymetry is not None:
+        if home is None:
+            raise fail([f"--bathymetry {bathymetry}: needs --home LAT,LON (SITL's --home)"])
+        cfg = cfg.model_copy(update={"bathymetry": read_sim_bathymetry(bathymetry)})
     udp_port = port if port is not None else SITL_JSON_PORT + PORT_STRIDE * instance
     try:
         sock = open_socket(host, udp_port)

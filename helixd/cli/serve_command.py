@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -10,8 +11,23 @@ import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.cli.common import ConfigOpt, ConnectOpt, LogLevelOpt, MapOpt, config_link_map, fail
-from helixd.cli.simulated import SimChoice, sim_world, simulator
+from helixd.cli.common import (
+    ConfigOpt,
+    ConnectOpt,
+    LogLevelOpt,
+    MapOpt,
+    SimBathymetryOpt,
+    config_link_map,
+    fail,
+)
+from helixd.cli.simulated import (
+    SimChoice,
+    SimMediaOpt,
+    read_sim_media,
+    sim_world,
+    simulator,
+    with_bathymetry,
+)
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
@@ -65,11 +81,18 @@ def serve_command(
     ] = None,
     map_path: MapOpt = None,
     log_level: LogLevelOpt = "info",
+    sim_bathymetry: SimBathymetryOpt = None,
+    sim_media: SimMediaOpt = None,
 ) -> None:
     """Run all day: fly the autopilot's mission when an operator starts it (start switch,
     MISSION_START), pause and continue on the switch or DO_PAUSE_CONTINUE; never moves on its
     own. Stops on SIGINT/SIGTERM (a flight in progress falls back to HOLD first)."""
     choice = _sim_choice(sim, connect, sim_speedup, sim_terrain, sim_gcs)
+    choice = with_bathymetry(choice, sim_bathymetry)
+    if sim_media is not None:
+        if choice is None:
+            raise fail(["--sim-media needs --sim"], ExitCode.USAGE)
+        choice = replace(choice, media=read_sim_media(sim_media))
     cfg, url, occupancy = config_link_map(config, connect, map_path)
     configure_logging(tty=sys.stderr.isatty(), level=log_level)
     with simulator(choice, lambda: sim_world(cfg, occupancy), url, cfg) as link_url:

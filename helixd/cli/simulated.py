@@ -14,17 +14,20 @@ from __future__ import annotations
 import contextlib
 import sys
 from collections.abc import Awaitable, Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TypeVar
+from typing import Annotated, TypeVar
 
 import structlog
+import typer
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
 from helixd.cli.common import fail
 from helixd.config import HelixdConfig, KeepOutCircleConfig
+from helixd.files.bathymetry import Bathymetry, read_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
+from helixd.files.models import ConfigFileError
 from helixd.mav.guard_script import (
     HXG_CHANS,
     HXG_TIMEOUT,
@@ -60,6 +63,18 @@ class SimChoice:
     # the wall clock (sped up by ``speedup``) or one simulated clock (``run --sim-clock``)
     clock: SimClock = SimClock.WALL
     seed: int | None = None  # the noise generator's seed; None: a new one each run
+    # the pond's bottom under the world's water (``--sim-bathymetry``): a down-facing sonar
+    bathymetry: Bathymetry | None = None
+
+
+SimMediaOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--sim-media",
+        help="media map (GeoJSON or KML: hard, grass, sand, mud, water areas) for the simulator's "
+        "world, each scroll in the medium under it; --sim-terrain outside (with --sim)",
+    ),
+]
 
 
 def read_sim_media(path: Path) -> MediaMap:
@@ -68,6 +83,23 @@ def read_sim_media(path: Path) -> MediaMap:
         return read_media_map(path)
     except MediaMapError as exc:
         raise fail([f"--sim-media: {line}" for line in exc.problems], ExitCode.USAGE) from None
+
+
+def read_sim_bathymetry(path: Path) -> Bathymetry:
+    """``--sim-bathymetry FILE`` read, or a usage error with one line per problem."""
+    try:
+        return read_bathymetry(path)
+    except ConfigFileError as exc:
+        raise fail([f"--sim-bathymetry: {line}" for line in exc.problems], ExitCode.USAGE) from None
+
+
+def with_bathymetry(choice: SimChoice | None, path: Path | None) -> SimChoice | None:
+    """``choice`` with ``--sim-bathymetry``'s file (a usage error without ``--sim``)."""
+    if path is None:
+        return choice
+    if choice is None:
+        raise fail(["--sim-bathymetry needs --sim"], ExitCode.USAGE)
+    return replace(choice, bathymetry=read_sim_bathymetry(path))
 
 
 def sim_world(
@@ -134,6 +166,7 @@ def simulator_config(
         guard_installed=True,
         guard_params=embedded_guard(cfg, speedup),
         media=choice.media,
+        bathymetry=choice.bathymetry,
     )
 
 

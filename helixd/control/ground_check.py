@@ -10,9 +10,15 @@ When the delivered fraction over a full window falls below ``roll_fraction`` the
 soft: :meth:`GroundCheck.update` answers SCROLL, once.
 
 Back on firm ground, scrolling delivers less than in mud (hard 0.45, mud 0.85): while the
-rover scrolls because of the check, a full window below ``scroll_fraction`` answers ROLL (the
-planned mode) again. Only samples while the rover drives along its axis count (a turn in
-place, a stop or an OMNI stretch do not), and a change of mode starts a new window.
+rover scrolls because of the check, a full window below ``scroll_fraction - hysteresis``
+answers ROLL (the planned mode) again. Only samples while the rover drives along its axis count
+(a turn in place, a stop or an OMNI stretch do not), and a change of mode starts a new window.
+
+It does not flip back and forth on one ground (scrolling in water delivers about 0.6, close to
+the firm threshold): a change back needs the fraction ``hysteresis`` below its threshold; after
+a change the rover must have travelled ``min_change_m`` (delivered, not commanded) before the
+check changes the mode again; and "firm again" is never answered where the caller says the
+media map has ground the planned mode cannot move in (``firm_vetoed``: water, mud).
 """
 
 from __future__ import annotations
@@ -32,6 +38,8 @@ class GroundCheckParams:
     window_m: float = 1.5  # commanded travel judged at once (m)
     roll_fraction: float = 0.6  # ROLL delivering less than this: softer than mapped
     scroll_fraction: float = 0.55  # SCROLL (switched by the check) delivering less: firm again
+    hysteresis: float = 0.05  # "firm again" needs the fraction this far below scroll_fraction
+    min_change_m: float = 5.0  # travelled (delivered) after a change before the next one (m)
 
 
 @dataclass(frozen=True, slots=True)
@@ -54,6 +62,7 @@ class GroundCheck:
         self._delivered_m = 0.0
         self._mode: MotionMode | None = None
         self.switched = False  # the rover scrolls because of the check
+        self._since_change_m = math.inf  # delivered since the check's last change
 
     def reset(self) -> None:
         """A new leg, or the planned mode changed: start afresh."""
@@ -61,11 +70,19 @@ class GroundCheck:
         self._commanded_m = self._delivered_m = 0.0
         self._mode = None
         self.switched = False
+        self._since_change_m = math.inf
 
     def update(
-        self, mode: MotionMode, sent: BodyVelocity, measured: BodyVelocity, dt_s: float
+        self,
+        mode: MotionMode,
+        sent: BodyVelocity,
+        measured: BodyVelocity,
+        dt_s: float,
+        firm_vetoed: bool = False,
     ) -> GroundVerdict | None:
-        """One control step; a verdict when the mode should change (else None)."""
+        """One control step; a verdict when the mode should change (else None).
+        ``firm_vetoed``: the media map says the ground here (or within ``min_change_m``
+        ahead) is one the planned mode cannot move in: never "firm again" there."""
         if mode is MotionMode.OMNI or not (math.isfinite(dt_s) and 0.0 < dt_s < 1.0):
             return None
         if mode is not self._mode:
@@ -80,6 +97,7 @@ class GroundCheck:
         commanded_m = abs(cmd) * dt_s
         delivered_m = max(0.0, got * math.copysign(1.0, cmd)) * dt_s
         self._window.append((commanded_m, delivered_m))
+        self._since_change_m += delivered_m
         self._commanded_m += commanded_m
         self._delivered_m += delivered_m
         window_m = self.params.window_m
@@ -87,16 +105,19 @@ class GroundCheck:
             c, d = self._window.popleft()
             self._commanded_m -= c
             self._delivered_m -= d
-        if self._commanded_m < window_m * 0.999:
+        if self._commanded_m < window_m * 0.999 or self._since_change_m < self.params.min_change_m:
             return None
         fraction = self._delivered_m / self._commanded_m
+        verdict: GroundVerdict | None = None
         if not scroll and not self.switched and fraction < self.params.roll_fraction:
-            self.switched = True
-            return GroundVerdict(MotionMode.SCROLL, True, fraction)
-        if scroll and self.switched and fraction < self.params.scroll_fraction:
-            self.switched = False
-            return GroundVerdict(MotionMode.ROLL, False, fraction)
-        return None
+            verdict = GroundVerdict(MotionMode.SCROLL, True, fraction)
+        firm_below = self.params.scroll_fraction - self.params.hysteresis
+        if scroll and self.switched and not firm_vetoed and fraction < firm_below:
+            verdict = GroundVerdict(MotionMode.ROLL, False, fraction)
+        if verdict is not None:
+            self.switched = verdict.soft
+            self._since_change_m = 0.0
+        return verdict
 
 
 __all__ = ["MIN_AXIS_SPEED_MPS", "GroundCheck", "GroundCheckParams", "GroundVerdict"]

@@ -146,6 +146,9 @@ class Navigator:
         # The yaw rate the rover delivers of the commands sent (line guidance): the yaw-rate
         # command low-passed by the scrolls' response lag (control.slip.command_lag_s)
         self._yaw_rate_model_radps = 0.0
+        # the crew's pause just ended (:meth:`resume`): the next step may take a change of
+        # mode the rover passed while it was held where it stands
+        self._resumed = False
         # (pose, leg start, goal, errors) of the last leg_errors: the arrival test and the
         # guidance of one step read the same leg (all immutable: identity is the key)
         self._leg_memo: (
@@ -232,6 +235,21 @@ class Navigator:
             done=self.done,
         )
 
+    def resume(self) -> None:
+        """The flight goes on after a pause (the crew's HOLD, the scrolls held at neutral): the
+        rover stood, so the next step starts from rest, and it re-enters the plan where it
+        stands. Before a stop where the mode changes it drives on to the stop and turns
+        there, as planned; if it rolled past the stop while held (its line crossed, within
+        the waypoint's tolerance of it: a media map puts the stop
+        ``media.transition_margin_m``, 1 m, before the new medium, so the ground under it
+        is still the ground the turn was planned on) the stop is reached where it stands and
+        the turn is made there, instead of flying back to the point (a turn about, and the
+        old mode driven on the ground it was leaving)."""
+        self._reset_pids()
+        self._prev_command = BodyVelocity.zero()
+        self._yaw_rate_model_radps = 0.0
+        self._resumed = True
+
     # -- the step ----------------------------------------------------------------------------
 
     def step(self, pose: Pose2D, t_s: float) -> NavOutput:
@@ -253,9 +271,10 @@ class Navigator:
                 self._plan_line(pose)
 
         arrival: NavOutput | None = None
+        resumed, self._resumed = self._resumed, False
         if not self._final_heading_pending and self._target_index < len(self.plan.waypoints):
             goal = self._goal()
-            if self._is_reached(pose, goal):
+            if self._is_reached(pose, goal) or (resumed and self._passed_change(pose, goal)):
                 arrival = self._arrival(pose, goal)
                 self._waypoints_reached += 1
                 self._reset_pids()
@@ -390,6 +409,17 @@ class Navigator:
         # line: precise. A pivot corner crossed beside it still ends (no orbit); a final /
         # final-heading waypoint crossed farther than stop_m is flown to as a point.
         return crossed and distance_m < (stop_m if self._is_precise(i) else goal.tolerance_m)
+
+    def _passed_change(self, pose: Pose2D, goal: PlanWaypoint) -> bool:
+        """``goal`` (the current target) is a stop where the mode changes and the rover stands
+        past its line, within its tolerance of it (:meth:`resume`)."""
+        i, wps = self._target_index, self.plan.waypoints
+        if i + 1 >= len(wps) or self.plan.mode_at(i) is self.plan.mode_at(i + 1):
+            return False
+        leg = self._leg(pose, goal)
+        if leg.length_m <= 0.0 or leg.along_to_go_m > 0.0:
+            return False
+        return _distance_m(pose, goal) <= goal.tolerance_m
 
     def _leg_start(self, pose: Pose2D) -> tuple[float, float]:
         return self._leg_start_xy_m or (pose.x_m, pose.y_m)

@@ -130,6 +130,32 @@ def _ring_ne(ring: Ring, frame: MediaFrame, ref: tuple[float, float]) -> Ring:
     return tuple(latlon_to_ne(lat, lon, ref[0], ref[1]) for lat, lon in ring)
 
 
+def _hull_area_m2(ne: Ring) -> float:
+    """The area of the ring's convex hull: zero only when every vertex is on one line."""
+    from shapely.geometry import MultiPoint  # shapely loads only when a map is read
+
+    return float(MultiPoint(ne).convex_hull.area)
+
+
+def _refuse_self_intersection(rings: list[Ring], where: str, frame: MediaFrame) -> None:
+    """A ring that crosses itself (a bow-tie, a figure of eight) or a hole crossing its outer
+    ring: no inside can be told from outside there. Refused with where it crosses, in the
+    file's own coordinates ([lon, lat] or [east_m, north_m]), from shapely's explain_validity."""
+    from shapely.geometry import Polygon  # shapely loads only when a map is read
+    from shapely.validation import explain_validity
+
+    def xy(ring: Ring) -> list[tuple[float, float]]:  # the file's order: lon, lat / east, north
+        return [(b, a) for a, b in ring]
+
+    why = explain_validity(Polygon(xy(rings[0]), [xy(h) for h in rings[1:]]))
+    if "self-intersection" not in why.lower():
+        return
+    at = why[why.find("[") + 1 : why.rfind("]")].split() if "[" in why else []
+    order = "[lon, lat]" if frame is MediaFrame.GLOBAL else "[east_m, north_m]"
+    place = f" at {order} [{', '.join(at)}]" if len(at) == 2 else ""
+    raise _Refused(f"{where}: self-intersecting{place}: its edges cross ({why})")
+
+
 def _polygon(
     raw: Any, where: str, frame: MediaFrame, budget: _Budget, ref: list[tuple[float, float]]
 ) -> tuple[Ring, tuple[Ring, ...]]:
@@ -143,6 +169,7 @@ def _polygon(
     rings = [_ring(r, f"{where}.{i}", frame, budget) for i, r in enumerate(raw)]
     if not ref:
         ref.append(rings[0][0])
+    areas: list[float] = []
     for i, ring in enumerate(rings):
         ne = _ring_ne(ring, frame, ref[0])
         far = max(math.hypot(n, e) for n, e in ne)
@@ -151,7 +178,14 @@ def _polygon(
                 f"{where}.{i}: a vertex {far / 1000:.0f} km from the map's first vertex; a media "
                 f"map covers a site (at most {MAX_EXTENT_M / 1000:.0f} km)"
             )
-        area = abs(signed_area_m2(ne))
+        if _hull_area_m2(ne) < MIN_POLYGON_AREA_M2:
+            raise _Refused(
+                f"{where}.{i}: its vertices span less than {MIN_POLYGON_AREA_M2} m² "
+                "(degenerate or collinear ring)"
+            )
+        areas.append(abs(signed_area_m2(ne)))
+    _refuse_self_intersection(rings, where, frame)
+    for i, area in enumerate(areas):
         if area < MIN_POLYGON_AREA_M2:
             raise _Refused(
                 f"{where}.{i}: area {area:.3g} m² is below {MIN_POLYGON_AREA_M2} m² "

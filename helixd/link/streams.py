@@ -34,6 +34,7 @@ from helixd.link.command_client import (
     CommandError,
     result_name,
 )
+from helixd.link.payload_msgs import PAYLOAD_STREAMS
 from helixd.mav.constants import (
     MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_RESULT_ACCEPTED,
@@ -55,6 +56,12 @@ TELEMETRY_STREAMS = (
     # seconds after a GPS loss before it reports anything
     "GPS_RAW_INT",
 )
+# the autopilot's HEARTBEAT (arm and mode: what ``serve`` waits on after QGroundControl's arm)
+# at ``link.autopilot_heartbeat_rate_hz`` on helixd's own link: ArduPilot sends it at 1 Hz
+# by default (GCS_MAVLINK::initialise_message_intervals_from_streamrates) and takes
+# SET_MESSAGE_INTERVAL for it like any message (mavlink_id_to_ap_message_id: MSG_HEARTBEAT),
+# per link, so the ground station's own link stays at 1 Hz
+STATE_STREAMS = ("HEARTBEAT",)
 # sent by ArduPilot only in a mode with a place to go (GCS_MAVLINK::
 # send_position_target_global_int): asked for like the rest, never counted as slow
 TARGET_STREAMS = ("POSITION_TARGET_GLOBAL_INT",)
@@ -195,12 +202,20 @@ class StreamManager:
             for name in TELEMETRY_STREAMS:
                 floor = min(cfg.pose_rate_min_hz, cfg.telemetry_rate_hz)
                 granted[name] = await self._negotiate(name, cfg.telemetry_rate_hz, floor)
+            for name in STATE_STREAMS:
+                floor = min(cfg.autopilot_heartbeat_rate_hz, 1.0)
+                granted[name] = await self._negotiate(name, cfg.autopilot_heartbeat_rate_hz, floor)
             now = now_s()
             for name, rate in granted.items():
                 self.monitor.grant(name, rate, now)
             for name in TARGET_STREAMS:
                 floor = min(cfg.pose_rate_min_hz, cfg.telemetry_rate_hz)
                 granted[name] = await self._negotiate(name, cfg.telemetry_rate_hz, floor)
+            # the payload's readings (payload.csv): asked once each, never counted as slow
+            if cfg.payload_rate_hz > 0:
+                for name in PAYLOAD_STREAMS:
+                    rate = cfg.payload_rate_hz
+                    granted[name] = await self._negotiate(name, rate, rate, optional=True)
             self.requested = True
             log.info("streams_granted", **{n.lower(): round(r, 2) for n, r in granted.items()})
             return granted
@@ -230,7 +245,11 @@ class StreamManager:
         )
         return rate
 
-    async def _negotiate(self, name: str, want_hz: float, floor_hz: float) -> float:
+    async def _negotiate(
+        self, name: str, want_hz: float, floor_hz: float, optional: bool = False
+    ) -> float:
+        """The rate granted for ``name`` (0.0: none); ``optional``: a refusal is news, not a
+        warning (an autopilot without the sensor)."""
         msg_id = message_id(name)
         first = first_interval_us(want_hz, self.loop_rate_hz)
         steps = candidate_intervals(want_hz, floor_hz, self._cfg.stream_step_factor, first)
@@ -249,7 +268,7 @@ class StreamManager:
                 )
                 return granted
             if result != MAV_RESULT_DENIED:
-                log.warning(
+                (log.info if optional else log.warning)(
                     "stream_rate_refused",
                     stream=name,
                     result=result_name(result),
@@ -262,7 +281,9 @@ class StreamManager:
                 interval_us=interval,
                 rate_hz=round(rate_hz(interval), 2),
             )
-        log.error("stream_rate_not_granted", stream=name, floor_hz=floor_hz)
+        (log.info if optional else log.error)(
+            "stream_rate_not_granted", stream=name, floor_hz=floor_hz
+        )
         return 0.0
 
     async def rerequest(self, slow: Sequence[tuple[str, float]], booting: bool = False) -> None:

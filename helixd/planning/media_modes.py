@@ -31,6 +31,7 @@ from helixd.base.media import MediaMapNe, Medium, media_along
 from helixd.base.plan import MotionMode, NavStep, Plan, PlanWaypoint
 
 XY = tuple[float, float]
+MediaLengths = tuple[tuple[Medium, float], ...]  # (medium, metres) in path order
 ToNe = Callable[[float, float], XY]  # mission-frame (x, y) → (north_m, east_m)
 
 SNAP_M = 0.05  # a transition this close to a waypoint happens at the waypoint
@@ -198,11 +199,32 @@ def _absorb_short(stretches: list[_Piece], min_m: float) -> list[_Piece]:
 def _transition_m(left: _Piece, right: _Piece, margin_m: float) -> float:
     """Where the change between ``left`` and ``right`` happens: on ROLL's side, by the margin."""
     boundary = left.end_m
+    if left.mode is right.mode:  # a pinned leg beside the same mode: no stop, no turn
+        return boundary
     if left.mode is MotionMode.ROLL:
         return max(left.start_m, boundary - margin_m)
     if right.mode is MotionMode.ROLL:
         return min(right.end_m, boundary + margin_m)
     return boundary
+
+
+def _media_between(pieces: Sequence[_Piece], lo_m: float, hi_m: float) -> MediaLengths:
+    """The media the path crosses from ``lo_m`` to ``hi_m`` (a stretch after its ends moved
+    to the firm side), in path order, neighbours in one medium merged."""
+    out: list[tuple[Medium, float]] = []
+    for p in pieces:
+        length = min(p.end_m, hi_m) - max(p.start_m, lo_m)
+        if length <= 0.0:
+            continue
+        medium = p.media_m[0][0]
+        if out and out[-1][0] is medium:
+            out[-1] = (medium, out[-1][1] + length)
+        else:
+            out.append((medium, length))
+    if not out and pieces:  # a stretch of no length: the medium where it stands
+        here = min(pieces, key=lambda p: max(p.start_m - lo_m, lo_m - p.end_m, 0.0))
+        out.append((here.media_m[0][0], 0.0))
+    return tuple(out)
 
 
 def _point_at(points: Sequence[XY], at: Sequence[float], s_m: float) -> XY:
@@ -243,8 +265,8 @@ def follow_media(
         changes.append(at[near] if abs(at[near] - s) <= SNAP_M else s)
     bounds = [0.0, *changes, at[-1]]
     done = [
-        Stretch(st.mode, bounds[k], bounds[k + 1], tuple(st.media_m), st.pinned)
-        for k, st in enumerate(stretches)
+        Stretch(st.mode, lo, hi, _media_between(pieces, lo, hi), st.pinned)
+        for st, lo, hi in zip(stretches, bounds[:-1], bounds[1:], strict=True)
     ]
 
     def mode_at(s_m: float) -> MotionMode:
@@ -270,6 +292,7 @@ def follow_media(
     for k in range(len(new) - 1):  # a change of mode at a waypoint: stop there
         if new[k].mode is not new[k + 1].mode and not new[k].stop:
             new[k] = replace(new[k], stop=True)
+    new = _with_unfit_spans(new, start_xy_m, plan.mode, media, policy, to_ne)
     program = plan.program
     if program is not None:
         program = replace(program, steps=tuple(_renumbered(s, new_index) for s in program.steps))
@@ -283,6 +306,35 @@ def follow_media(
             s_here = next((c for c in changes if _close(points, at, c, w)), math.nan)
             transitions.append(Transition(k, s_here, (w.x_m, w.y_m), before, after, medium))
     return MediaPlan(out, tuple(done), tuple(transitions))
+
+
+def _with_unfit_spans(
+    wps: Sequence[PlanWaypoint],
+    start_xy_m: XY,
+    plan_mode: MotionMode,
+    media: MediaMapNe,
+    policy: ModePolicy,
+    to_ne: ToNe,
+) -> list[PlanWaypoint]:
+    """Each waypoint with the spans of its leg (as distance still to go, m) where the map's
+    medium is one the policy flies in another mode than the leg's (a pinned leg's water)."""
+    out: list[PlanWaypoint] = []
+    prev = start_xy_m
+    for w in wps:
+        here = (w.x_m, w.y_m)
+        length = math.hypot(here[0] - prev[0], here[1] - prev[1])
+        mode = w.mode or plan_mode
+        spans: list[tuple[float, float]] = []
+        for r in reversed(media_along(media, to_ne(*prev), to_ne(*here))):
+            if policy.mode_for(r.medium) is mode or r.length_m <= SNAP_M:
+                continue
+            near, far = length * (1.0 - r.end_fraction), length * (1.0 - r.start_fraction)
+            if spans and near - spans[-1][1] <= SNAP_M:  # mud, then water: one span
+                near = spans.pop()[0]
+            spans.append((near, far))
+        out.append(replace(w, unfit_to_go_m=tuple(spans)) if spans and length > 0.0 else w)
+        prev = here
+    return out
 
 
 def _close(points: Sequence[XY], at: Sequence[float], s_m: float, w: PlanWaypoint) -> bool:
@@ -300,6 +352,31 @@ def _renumbered(step: NavStep, new_index: Sequence[int]) -> NavStep:
     return replace(step, first_waypoint=new_first, last_waypoint=new_index[last])
 
 
+def pinned_misfits(
+    got: MediaPlan, policy: ModePolicy
+) -> tuple[tuple[int, Stretch, MediaLengths], ...]:
+    """The stretches a waypoint pins to a mode over media the policy flies in another mode
+    (a ROLL leg across the pond): (stretch index from 0, the stretch, those media's lengths)."""
+    out: list[tuple[int, Stretch, MediaLengths]] = []
+    for k, st in enumerate(got.stretches):
+        if not st.pinned:
+            continue
+        total: dict[Medium, float] = {}
+        for medium, length in st.media_m:
+            if policy.mode_for(medium) is not st.mode and length > SNAP_M:
+                total[medium] = total.get(medium, 0.0) + length
+        if total:
+            out.append((k, st, tuple(total.items())))
+    return tuple(out)
+
+
+def medium_under_mode_m(got: MediaPlan, medium: Medium, mode: MotionMode) -> float:
+    """How far the plan flies ``mode`` over ``medium`` (metres)."""
+    return sum(
+        length for st in got.stretches if st.mode is mode for m, length in st.media_m if m is medium
+    )
+
+
 def policy_modes(
     config_modes: Mapping[str, str], overrides: Mapping[str, str] | None = None
 ) -> dict[Medium, MotionMode]:
@@ -314,10 +391,13 @@ __all__ = [
     "DEFAULT_MODES",
     "MIN_STRETCH_M",
     "SNAP_M",
+    "MediaLengths",
     "MediaPlan",
     "ModePolicy",
     "Stretch",
     "Transition",
     "follow_media",
+    "medium_under_mode_m",
+    "pinned_misfits",
     "policy_modes",
 ]

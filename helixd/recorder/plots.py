@@ -46,8 +46,17 @@ from helixd.files.models import ConfigFileError
 from helixd.mission.model import load_mission
 from helixd.mission.resolve import PlanError, resolve_plan
 from helixd.mission.resume import with_leg_start
+from helixd.planning.media_modes import MediaPlan
 from helixd.recorder.clocks import autopilot_axis_s
 from helixd.recorder.events import fault_time_mono_s, read_events
+from helixd.recorder.media_plot import (
+    MODE_COLORS,
+    PlacedMedia,
+    draw_media,
+    flown_modes,
+    keep_view,
+    run_media,
+)
 from helixd.recorder.outcome import (
     CREW_COLOR,
     crew_ending,
@@ -96,6 +105,7 @@ SCROLL_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red")
 SCROLL_STYLES = ("-", "--", "-", "--")  # paired scrolls overlap: keep both visible
 
 Array = npt.NDArray[np.float64]
+XY = tuple[float, float]
 
 
 class PlotError(Exception):
@@ -127,6 +137,16 @@ class RunData:
     labels: list[str] = field(default_factory=list)
     # the trajectory's axis labels: what x and y are in the mission's frame
     axis_labels: tuple[str, str] = ("x (m)", "y (m)")
+    # the media map the flight followed, placed as it was flown (None: none)
+    media: PlacedMedia | None = None
+
+    @property
+    def modes_text(self) -> str:
+        """The modes actually flown (``roll 62 %, scroll 38 %``), else the mission's own."""
+        flown = flown_modes(self.cols.get("motion_mode"), self.col("x_m"), self.col("y_m"))
+        if flown:
+            return flown
+        return self.summary.mode if self.summary else ""
 
     @property
     def time_label(self) -> str:
@@ -332,6 +352,9 @@ def load_run(run_dir: Path) -> RunData:
         mono = fault_time_mono_s(events, fault)
         fault_wall = float(wall_s[-1]) if mono is None else mono - t0
         fault_t = float(interp_linear(np.array([fault_wall]), wall_s, t_s)[0])
+    media, why = run_media(events, summary.origin_latlon_deg if summary else None)
+    if why:
+        notes.append(why)
     pauses = [
         (a, b)
         for start, end in pause_spans(events)
@@ -356,6 +379,7 @@ def load_run(run_dir: Path) -> RunData:
         axis_labels=axis_labels(
             _mission_frame(run_dir), summary.origin_latlon_deg if summary else None
         ),
+        media=media,
     )
 
 
@@ -598,15 +622,12 @@ def _wall_axis(ax: Axes, data: RunData) -> None:
 # Panels: each draws on axes it is given (a panel figure or a cell of the overview)
 
 
-MODE_COLORS = {"roll": "tab:blue", "scroll": "tab:orange", "omni": "tab:purple"}
-
-
 def _draw_driven(ax: Axes, data: RunData, x: Array, y: Array) -> None:
-    """The driven path; where the motion mode changed on the way (a media map, the ground
-    check), each stretch in its mode's colour."""
+    """The driven path, each stretch in its motion mode's colour and the legend by mode
+    ("driven in roll"; a media map or the ground check changes it on the way)."""
     modes = data.cols.get("motion_mode")
     known = set() if modes is None else {str(m) for m in modes} & set(MODE_COLORS)
-    if modes is None or len(known) < 2:
+    if modes is None or not known:
         ax.plot(x, y, "-", color="tab:blue", linewidth=1.5, label="driven")
         return
     labelled: set[str] = set()
@@ -663,6 +684,9 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
     if k is not None and math.isfinite(float(x[k])) and math.isfinite(float(y[k])):
         marker = "o" if crew_ending(data.fault) else "X"  # the crew's ending is no ✖
         ax.plot(x[k], y[k], marker, color=data.end_color, markersize=12, label=data.fault_label())
+    if data.media is not None:  # the ground under the track, the view kept on the flight
+        draw_media(ax, data.media)
+        keep_view(ax, [*x, *(w[0] for w in data.waypoints)], [*y, *(w[1] for w in data.waypoints)])
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel(data.axis_labels[0])
     ax.set_ylabel(data.axis_labels[1])
@@ -684,10 +708,14 @@ def draw_position(top: Axes, bottom: Axes, data: RunData, *, twin: bool = False)
 def draw_velocity(top: Axes, bottom: Axes, data: RunData, *, twin: bool = False) -> None:
     """(c) commanded body velocities and measured speed."""
     vx, vy = data.col("vx_cmd_mps"), data.col("vy_cmd_mps")
-    top.plot(data.t_s, vx, label="v_x cmd (m/s)", color="tab:blue")
-    top.plot(data.t_s, vy, label="v_y cmd (m/s)", color="tab:orange")
-    top.plot(data.t_s, np.hypot(vx, vy), ":", label="|v| cmd (m/s)", color="0.3")
-    top.plot(data.t_s, data.col("speed_meas_mps"), label="speed measured (m/s)", color="tab:green")
+    # the measured speed first, broad and light, under the commands: a command the ground
+    # delivered in full shows as a thin line inside the broad one, not hidden beneath it
+    top.plot(data.t_s, data.col("speed_meas_mps"), label="speed measured (m/s)",
+             color="tab:green", linewidth=3.0, alpha=0.45, zorder=1.5)  # fmt: skip
+    top.plot(data.t_s, vx, label="v_x cmd (m/s)", color="tab:blue", linewidth=1.2, zorder=3)
+    top.plot(data.t_s, vy, label="v_y cmd (m/s)", color="tab:orange", linewidth=1.2, zorder=3)
+    top.plot(data.t_s, np.hypot(vx, vy), "--", label="|v| cmd (m/s)", color="black",
+             linewidth=1.0, zorder=3.5)  # fmt: skip
     bottom.plot(data.t_s, data.col("wz_cmd_radps"), label="ω_z cmd (rad/s)", color="tab:purple")
     top.set_ylabel("linear velocity (m/s)")
     bottom.set_ylabel("yaw rate (rad/s)")
@@ -797,7 +825,9 @@ def _finish_time_axes(
 
 
 def _title(data: RunData, panel: str) -> str:
-    mode = f" — {data.summary.mode}" if data.summary else ""
+    """The mission, the modes it actually flew (not the file's nominal mode), the panel."""
+    modes = data.modes_text
+    mode = f" — {modes}" if modes else ""
     note = f" ({'; '.join(data.notes)})" if data.notes else ""
     return f"{data.name}{mode} — {panel}{note}"
 
@@ -834,7 +864,7 @@ def _summary_text(data: RunData) -> str:
         return "-" if v is None else f"{v:.2f} {unit}"
 
     lines = [
-        f"mission   {s.mission_name} ({s.mode})",
+        f"mission   {s.mission_name} ({data.modes_text or s.mode})",
         f"result    {result_word(s.completed, s.fault)}  exit {s.exit_code}",
         f"{'ended' if crew_ending(s.fault) else 'fault'}     "
         f"{textwrap.shorten(s.fault or '-', FAULT_LABEL_MAX_CHARS)}",
@@ -967,12 +997,76 @@ def draw_route(ax: Axes, route: Any) -> None:
     _legend(ax)
 
 
-def render_route(route: Any, out_path: Path, *, title: str = "") -> Path:
-    """Draw :func:`draw_route` to ``out_path`` (PNG); returns the path."""
+def render_route(
+    route: Any, out_path: Path, *, title: str = "", media: PlacedMedia | None = None
+) -> Path:
+    """Draw :func:`draw_route` to ``out_path`` (PNG), over ``media``'s areas when the mission
+    follows a media map; returns the path."""
     fig = Figure(figsize=PANEL_SIZE_IN, dpi=DPI, layout="constrained")
     ax = fig.subplots()
+    if media is not None:
+        draw_media(ax, media)
     draw_route(ax, route)
+    if media is not None:
+        line = route.polyline_ne_m()
+        keep_view(ax, [p[1] for p in line], [p[0] for p in line])
     ax.set_title(f"planned path {title}".strip())
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    declutter_waypoint_labels(fig).savefig(out_path, dpi=DPI)
+    return out_path
+
+
+def draw_media_plan(ax: Axes, media: PlacedMedia, plan: MediaPlan, start_xy_m: XY) -> None:
+    """The media map's areas, the planned path from ``start_xy_m`` with each leg in its
+    mode's colour (the legend by mode), the stops where the mode changes (a turn in place)
+    and the operator's waypoints numbered (a local_ned or global plan: x east, y north)."""
+    draw_media(ax, media)
+    pts = [start_xy_m, *((w.x_m, w.y_m) for w in plan.plan.waypoints)]
+    labelled: set[str] = set()
+    for k in range(len(plan.plan.waypoints)):
+        mode = plan.plan.mode_at(k).value
+        label = None if mode in labelled else f"planned in {mode}"
+        labelled.add(mode)
+        (x0, y0), (x1, y1) = pts[k], pts[k + 1]
+        ax.plot([x0, x1], [y0, y1], "-", color=MODE_COLORS.get(mode, "tab:gray"),
+                linewidth=2.0, label=label, zorder=3)  # fmt: skip
+    stops = [(w.x_m, w.y_m) for w in plan.plan.waypoints if w.media_stop]
+    if stops:
+        ax.plot([p[0] for p in stops], [p[1] for p in stops], "o", mfc="white", mec="black",
+                ms=7, zorder=4, label="change of mode (turn in place)")  # fmt: skip
+    own = [(w.x_m, w.y_m) for w in plan.plan.waypoints if not (w.media_stop or w.via)]
+    ax.plot([p[0] for p in own], [p[1] for p in own], "D", color="tab:green", ms=6, zorder=4,
+            label="waypoint")  # fmt: skip
+    offsets = label_offsets_pt([start_xy_m, *own])[1:]
+    for n, (xy, off) in enumerate(zip(own, offsets, strict=True), start=1):
+        _label_waypoint(ax, str(n), xy, off, fontsize=9, color="darkgreen", weight="bold")
+    ax.plot(*start_xy_m, "^", color="black", ms=7, label="start (assumed)", zorder=4)
+    keep_view(ax, [p[0] for p in pts], [p[1] for p in pts])
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, alpha=0.3)
+    _legend(ax)
+
+
+def render_media_plan(
+    media: PlacedMedia,
+    plan: MediaPlan,
+    out_path: Path,
+    *,
+    start_xy_m: XY,
+    axis_names: tuple[str, str] = ("east (m)", "north (m)"),
+    title: str = "",
+) -> Path:
+    """Draw :func:`draw_media_plan` to ``out_path`` (PNG), titled by the mission's name and
+    the modes planned; returns the path."""
+    fig = Figure(figsize=PANEL_SIZE_IN, dpi=DPI, layout="constrained")
+    ax = fig.subplots()
+    draw_media_plan(ax, media, plan, start_xy_m)
+    ax.set_xlabel(axis_names[0])
+    ax.set_ylabel(axis_names[1])
+    modes = ", ".join(
+        dict.fromkeys(plan.plan.mode_at(k).value for k in range(len(plan.plan.waypoints)))
+    )
+    ax.set_title(f"planned path {title} — {modes}, following the media map".replace("  ", " "))
     out_path.parent.mkdir(parents=True, exist_ok=True)
     declutter_waypoint_labels(fig).savefig(out_path, dpi=DPI)
     return out_path
@@ -989,9 +1083,11 @@ __all__ = [
     "axis_labels",
     "declutter_waypoint_labels",
     "distance_along_m",
+    "draw_media_plan",
     "interp_linear",
     "label_offsets_pt",
     "load_run",
+    "render_media_plan",
     "render_route",
     "render_run",
     "sparse_label_mask",

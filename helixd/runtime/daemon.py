@@ -51,6 +51,7 @@ from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs
+from helixd.recorder.payload_log import PayloadLog
 from helixd.recorder.retention import check_free_space, prune_runs
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
@@ -63,6 +64,7 @@ from helixd.runtime.flight import (
 from helixd.runtime.gcs_feed import GcsFeed, report_fallback
 from helixd.runtime.host import FlightHost, OwnLink
 from helixd.runtime.in_flight import InFlight
+from helixd.runtime.media_plan import MediaRefused, read_media
 from helixd.runtime.mission_commands import MissionCommands
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Replanner
@@ -358,6 +360,7 @@ class MissionRunner:
         )  # what the ground station sees (helixd.runtime.gcs_feed)
         # the mission flown: opts.mission, its first leg re-planned from the rover in preflight
         self.mission = opts.mission
+        self._payload: PayloadLog | None = None  # payload.csv while the link is ours
         # the plan as flown (set at preflight, again at the flight's start): a program expands
         # the mission (its waypoints are the plan's, jumps repeated) and is numbered by item
         self._plan: Plan | None = None
@@ -391,6 +394,7 @@ class MissionRunner:
             async with phase("connect", self.notifier, self.display):
                 run_dir = self.recorder.run_dir if self.recorder is not None else None
                 ap = await self.host.open(cfg, held, self._gcs_on, run_dir)
+                self._payload = open_payload_log(ap, cfg, self.mission, run_dir)
                 if ap.tlog is not None and self.recorder is not None:  # link.tlog cut: ours
                     ap.tlog.writer.on_error = self._tlog_cut
             if self.host.tells_steps:
@@ -427,7 +431,7 @@ class MissionRunner:
             # from where the rover is now, to the home the autopilot set when it armed
             home = await autopilot_home(ap, cfg, self.mission, checked.origin, stop)
             args = (self.mission, cfg, checked.origin, start_ned, home or checked.home)
-            plan, _ = resolve_flight(*args, self.opts.options)
+            plan, _ = resolve_flight(*args, self.opts.options, self.opts.inputs)
         frame = mission_frame(self.mission, start_ned)
         return Ready(ap, sink, plan, frame, start_ned, placed.cfg)
 
@@ -670,6 +674,9 @@ class MissionRunner:
         await self.gcs.close()
         if held.sink is not None:
             await self._bounded_close("sink", held.sink.close())
+        if self._payload is not None:
+            self._payload.close()
+            self._payload = None
         if ap is not None:
             await self._bounded_close("link", self.host.close(ap))
         self.notifier.close()
@@ -715,7 +722,7 @@ class MissionRunner:
             mission_name=self.mission.name,
             mode=self.mission.mode.value,
             waypoints_total=numbering.operator_count,
-            via_points_total=sum(w.via for w in self.mission.waypoints),
+            via_points_total=sum(numbering.vias),  # the media map's stops included
             wall_duration_s=wall_duration_s,
             items_total=numbering.total if numbering.items else None,
         )
@@ -777,6 +784,20 @@ def _may_write(root: Path) -> bool:
     while not where.exists() and where.parent != where:
         where = where.parent
     return where.is_dir() and os.access(where, os.W_OK)
+
+
+def open_payload_log(
+    ap: Autopilot, cfg: HelixdConfig, mission: Mission, run_dir: Path | None
+) -> PayloadLog | None:
+    """``payload.csv`` in ``run_dir`` from now until the link is given back, each reading's
+    medium from the flight's media map (None: no run directory, or ``payload.enabled`` off)."""
+    if run_dir is None:
+        return None
+    try:
+        media = read_media(cfg, mission)
+    except MediaRefused:
+        media = None  # prepare_flight refused it already; the readings go without a medium
+    return PayloadLog.attach(ap, cfg.payload, run_dir, media)
 
 
 def open_recorder(opts: RunOptions, mission: Mission) -> RunRecorder:

@@ -393,10 +393,12 @@ class FlightLoop:
             gate = gate_of(mode, driving.mode, place_to_go=target is not None)
         self.supervisor.expected_mode = st.mode  # the takeover rule judges sticks and switch only
         if gate is not crew.gate:
-            crew.gate = gate
+            was, crew.gate = crew.gate, gate
             log.info("mode_gate", gate=gate.value, mode=mode)
             if gate is Gate.HOLD:
                 self._neutral()
+            elif gate is Gate.DRIVE and was is Gate.HOLD:  # continued: on from where it stands
+                self.navigator.resume()
             if self.hooks.on_gate is not None:
                 self.hooks.on_gate(gate, mode)
         if gate is Gate.RELEASE:
@@ -589,7 +591,9 @@ class FlightLoop:
             sample.vn_mps, sample.ve_mps, sample.ned.yaw_ned_rad, self._yaw_rate.radps
         )
         ned = sample.ned
-        self.ground.feed(sent, measured, t_boot_s - t_sent_s, ned.north_m, ned.east_m)
+        here = self.frame.to_mission(ned)
+        dt_s = t_boot_s - t_sent_s
+        self.ground.feed(sent, measured, dt_s, ned.north_m, ned.east_m, (here.x_m, here.y_m))
         return self.slip.update(self.navigator.mode, sent, measured, t_boot_s - t_sent_s)
 
     @property

@@ -5,6 +5,7 @@ an event and tells the ground station in words)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -28,13 +29,10 @@ class GroundChange:
 
     def text(self) -> str:
         """What the ground station reads."""
-        pct = round(100.0 * self.verdict.fraction)
+        pct = round(100.0 * self.verdict.fraction)  # one STATUSTEXT: at most 42 characters
         if self.verdict.soft:
-            return (
-                f"ground softer than mapped ({pct}% of {self.planned.value} delivered): "
-                f"{self.verdict.mode.value} from here"
-            )
-        return f"firm ground again ({pct}% in scroll): back to {self.verdict.mode.value}"
+            return f"softer than mapped ({pct}% of {self.planned.value}): {self.verdict.mode.value}"
+        return f"firm again ({pct}% of scroll): back to {self.verdict.mode.value}"
 
 
 def check_params(media: MediaConfig) -> GroundCheckParams:
@@ -42,6 +40,8 @@ def check_params(media: MediaConfig) -> GroundCheckParams:
         window_m=media.detect_window_m,
         roll_fraction=media.detect_roll_fraction,
         scroll_fraction=media.detect_scroll_fraction,
+        hysteresis=media.detect_hysteresis,
+        min_change_m=media.detect_min_change_m,
     )
 
 
@@ -63,9 +63,16 @@ class GroundWatch:
         self._index = -1
 
     def feed(
-        self, sent: BodyVelocity, measured: BodyVelocity, dt_s: float, north_m: float, east_m: float
+        self,
+        sent: BodyVelocity,
+        measured: BodyVelocity,
+        dt_s: float,
+        north_m: float,
+        east_m: float,
+        xy_m: tuple[float, float] | None = None,
     ) -> None:
-        """One step: what was sent at the last step and what was measured since."""
+        """One step: what was sent at the last step and what was measured since (``xy_m``:
+        the rover in the mission frame, to read the map's spans on the leg)."""
         if not self.enabled:
             return
         nav = self.navigator
@@ -74,12 +81,24 @@ class GroundWatch:
             self._index = index
             self.check.reset()
         planned = nav.plan.mode_at(index)
-        verdict = self.check.update(nav.mode, sent, measured, dt_s)
+        vetoed = xy_m is not None and self._map_says_unfit(index, xy_m)
+        verdict = self.check.update(nav.mode, sent, measured, dt_s, vetoed)
         if verdict is None:
             return
         nav.override_mode(None if verdict.mode is planned else verdict.mode)
         if self.on_ground is not None:
             self.on_ground(GroundChange(verdict, planned, index, north_m, east_m))
+
+    def _map_says_unfit(self, index: int, xy_m: tuple[float, float]) -> bool:
+        """The map has ground the leg's planned mode cannot move in here or within
+        ``min_change_m`` ahead (to go, along the leg to waypoint ``index``)."""
+        wps = self.navigator.plan.waypoints
+        if not 0 <= index < len(wps) or not wps[index].unfit_to_go_m:
+            return False
+        target = wps[index]
+        to_go = math.hypot(target.x_m - xy_m[0], target.y_m - xy_m[1])
+        ahead = self.check.params.min_change_m
+        return any(near <= to_go and to_go - ahead <= far for near, far in target.unfit_to_go_m)
 
 
 __all__ = ["GroundChange", "GroundWatch", "check_params"]

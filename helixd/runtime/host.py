@@ -112,6 +112,11 @@ class FlightHost(Protocol):
         """The flight's fall-back is done (neutral, released, HOLD asked): its report."""
         ...
 
+    def paused(self, held: bool, mode: str) -> None:
+        """The autopilot's ``mode`` paused the flight (``held``: scrolls at neutral until the
+        driving mode is back) or let it go on again."""
+        ...
+
 
 class OwnLink:
     """``helixd run``: its own link, signals and start gate."""
@@ -161,6 +166,9 @@ class OwnLink:
     def secured(self, report: FallbackReport) -> None:
         """Nobody to tell: the run ends with it."""
 
+    def paused(self, held: bool, mode: str) -> None:
+        """Nobody to tell: ``helixd run`` drives in MANUAL, where another mode is a takeover."""
+
 
 @dataclass
 class ServeHost:
@@ -171,6 +179,8 @@ class ServeHost:
     stop: StopRequest
     notifier: ServiceNotifier = field(default_factory=FlightInServiceNotifier)
     set_item: Callable[[int], None] | None = None  # None: nobody shows the current item
+    # the service's state while the autopilot's mode holds the flight: (held, mode)
+    on_pause: Callable[[bool, str], None] | None = None
     # AUTO: a flight the crew started in the autopilot's AUTO; GUIDED, RTL, SMART_RTL: to
     # the autopilot's place
     driving: Driving = DRIVE_MANUAL
@@ -221,3 +231,7 @@ class ServeHost:
         (:meth:`helixd.serve.core.AutoWatch.left`): a Start right after a fault is a start."""
         if report.hold_acked:
             self.hold_acked_s = now_s()
+
+    def paused(self, held: bool, mode: str) -> None:
+        if self.on_pause is not None:
+            self.on_pause(held, mode)

@@ -155,8 +155,11 @@ class InFlight:
         self.gcs.say(change.text(), MAV_SEVERITY_WARNING)
 
     def on_gate(self, gate: Gate, mode: str) -> None:
-        """The autopilot's mode changed what a flight of its AUTO may do: tell the GCS."""
+        """The autopilot's mode changed what a flight of its AUTO may do: tell the host (a
+        pause, or going on) and the GCS."""
         self.hold_untold = False
+        if gate in (Gate.HOLD, Gate.DRIVE):
+            self.host.paused(gate is Gate.HOLD, mode)
         if gate is Gate.HOLD and not self.host.tells_steps and mode in (LEFT_AUTO, *GOTO_MODES):
             self.hold_untold = mode == LEFT_AUTO
             return

@@ -8,7 +8,7 @@ exit code); what the operator should read but which does not stop the run comes 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import NamedTuple
 
@@ -22,6 +22,7 @@ from helixd.files.yamlio import clip_line, paused_gc
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import (
     MissionFormat,
+    forced_mode,
     load_mission_file,
     mission_to_yaml,
     read_fence,
@@ -112,14 +113,25 @@ def load_inputs(
         if found.searched:
             notes.append(f"mission {mission}: using {path}")
         gs_mode = cfg.mission.ground_station_mode if cfg is not None else None
+        # --mode wins over a YAML mission's whole media plan (forced_mode), not only its mode
+        forced = mode if sniff_format(path) is MissionFormat.YAML else None
         loaded = load_mission_file(
             path,
             limits,
-            mode=mode,
+            mode=None if forced is not None else mode,
             default_mode=MotionMode(gs_mode) if gs_mode else None,
             # planning routes the legs around a .plan's exclusion zones instead of refusing
             route_keep_outs=cfg is not None and cfg.planning.enabled,
         )
+        if forced is not None:
+            config_map = cfg is not None and cfg.media.media_map is not None
+            whole, note = forced_mode(loaded.mission, forced, config_map)
+            said = (f"{path}: {note}",) if note else ()
+            loaded = replace(loaded, mission=whole, notes=(*loaded.notes, *said))
+            if cfg is not None:  # the config's media map is off as well
+                cfg = cfg.model_copy(
+                    update={"media": cfg.media.model_copy(update={"media_map": None})}
+                )
         if fence is not None:
             loaded = with_fence(
                 loaded,

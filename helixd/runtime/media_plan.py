@@ -15,6 +15,7 @@ map, and a ``start`` mission over any map, are split at preflight only (``check`
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,7 +25,13 @@ from helixd.base.plan import MissionFrameKind, MotionMode, Plan
 from helixd.config import HelixdConfig
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.mission.model import Mission
-from helixd.planning.media_modes import MediaPlan, ModePolicy, follow_media, policy_modes
+from helixd.planning.media_modes import (
+    MediaPlan,
+    ModePolicy,
+    follow_media,
+    pinned_misfits,
+    policy_modes,
+)
 
 
 class MediaRefused(ValueError):
@@ -142,7 +149,10 @@ def stretch_lines(got: MediaPlan) -> list[str]:
             f"stretch : {k + 1}  {st.start_m:6.1f} → {st.end_m:6.1f} m  {st.mode.value:<6} "
             f"over {media or st.main_medium.value}{pinned}"
         )
-        t = next(transitions, None) if k < len(got.stretches) - 1 else None
+        after = got.stretches[k + 1] if k + 1 < len(got.stretches) else None
+        # a change of mode stands between two stretches in different modes only (a pinned
+        # stretch and its unpinned neighbour in the same mode have none between them)
+        t = next(transitions, None) if after is not None and after.mode is not st.mode else None
         if t is not None:
             turn = "stop, turn 90° in place" if t.turn_rad > 0.0 else "stop, no turn (OMNI)"
             lines.append(
@@ -150,6 +160,35 @@ def stretch_lines(got: MediaPlan) -> list[str]:
                 f"{t.xy_m[1]:.1f}) on {t.medium.value}: {turn}"
             )
     return lines
+
+
+def pinned_warnings(got: MediaPlan, policy: ModePolicy) -> list[str]:
+    """``check``'s warning for each leg a waypoint pins to a mode over ground that mode cannot
+    move in (the map's modes say another): rolling barely moves in water and mud."""
+    lines: list[str] = []
+    for k, st, misfit in pinned_misfits(got, policy):
+        where = ", ".join(f"{m.value} {length:.1f} m" for m, length in misfit)
+        wants = "/".join(dict.fromkeys(policy.mode_for(m).value for m, _ in misfit))
+        lines.append(
+            f"warning : stretch {k + 1} is pinned to {st.mode.value} by its waypoint's mode "
+            f"across {where}, which the map's modes fly in {wants}: {st.mode.value} barely "
+            "moves there, the estimate does not count it, and in flight the ground check "
+            "changes the mode where the rover bogs down — drop the waypoint's `mode:` to let "
+            "the map choose"
+        )
+    return lines
+
+
+def shown_path(path: Path | None) -> str:
+    """A file as a crew reads it: relative to the working directory (as a mission names its
+    map, ``../maps/pond-media.geojson``) unless the absolute path is shorter."""
+    if path is None:
+        return "(none)"
+    try:
+        relative = os.path.relpath(path, Path.cwd())
+    except ValueError:  # another drive
+        return str(path)
+    return relative if len(relative) <= len(str(path)) else str(path)
 
 
 def modes_text(plan: Plan) -> str:
@@ -170,8 +209,10 @@ __all__ = [
     "media_path",
     "mode_policy",
     "modes_text",
+    "pinned_warnings",
     "placed_media_plan",
     "read_media",
+    "shown_path",
     "stretch_lines",
     "with_absolute_media",
 ]

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from helixd.base.media import MediaMap
+from helixd.base.media import MediaMap, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, waypoint_label
 from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate, delivered_fractions
@@ -21,13 +21,17 @@ from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import places_from
 from helixd.mission.validate import pending_checks, plan_for_check
+from helixd.planning.media_modes import medium_under_mode_m
 from helixd.planning.route import RoutePlan
 from helixd.recorder.retention import DiskUsage, low_space
 from helixd.runtime.media_plan import (
     MediaCheck,
     check_media_plan,
     media_path,
+    mode_policy,
     modes_text,
+    pinned_warnings,
+    shown_path,
     stretch_lines,
 )
 from helixd.runtime.planned import route_lines, route_time_estimate
@@ -124,9 +128,19 @@ def ground_line(cfg: HelixdConfig, msn: Mission, mode: MotionMode) -> str:
     )
 
 
-def dig_in_warning(mode: MotionMode, pivots: int) -> str | None:
+def dig_in_warning(mode: MotionMode, pivots: int, sand_m: float | None = None) -> str | None:
     """SCROLL turns in place at its corners; in dry sand that digs the scrolls in (thesis Field
-    Test 1). ``check`` cannot see the ground, so it says so whenever a SCROLL mission pivots."""
+    Test 1). Without a media map ``check`` cannot see the ground, so it says so whenever a
+    SCROLL mission pivots; with one (``sand_m``: metres of sand scrolled over) only where the
+    map has sand under a scroll stretch."""
+    if sand_m is not None:
+        if sand_m <= 0.0 or pivots == 0:
+            return None
+        return (
+            f"warning : the map has sand under {sand_m:.1f} m of scroll stretches: turning in "
+            "place in scroll there digs the scrolls in and the rover cannot turn (Field Test "
+            "1; the run stops with fault stall, exit 4) — give those legs shallow corners"
+        )
     if mode is not MotionMode.SCROLL or pivots == 0:
         return None
     return (
@@ -221,7 +235,7 @@ def check_lines(
         lines.extend(waypoint_table(plan))
     estimate, start_note = route_time_estimate(cfg, planned, route, path)
     if followed is not None:
-        lines.extend(_media_lines(cfg, plan, followed, str(media_path(cfg, msn))))
+        lines.extend(_media_lines(cfg, msn, followed, shown_path(media_path(cfg, msn))))
         if followed.media is not None:  # the stretches' modes and the turns between them
             estimate = plan_time_estimate(plan, cfg, start_xy_m=plan.assumed_start_xy_m())
     straight = _straight_note(cfg, msn) if route is not None else ""
@@ -232,7 +246,9 @@ def check_lines(
     patrol = patrol_times_s(plan, estimate)
     lines.append(estimate_line(estimate, cfg, msn, start_note, patrol))
     lines.append(ground_line(cfg, msn, plan.mode))
-    dig = dig_in_warning(plan.mode, estimate.pivots)
+    mapped = followed.media if followed is not None else None
+    sand_m = None if mapped is None else medium_under_mode_m(mapped, Medium.SAND, MotionMode.SCROLL)
+    dig = dig_in_warning(plan.mode, estimate.pivots, sand_m)
     if dig is not None:
         lines.append(dig)
     lines.extend(_own_limit_lines(msn))
@@ -244,7 +260,7 @@ def check_lines(
     return lines
 
 
-def _media_lines(cfg: HelixdConfig, plan: Plan, followed: MediaCheck, source: str) -> list[str]:
+def _media_lines(cfg: HelixdConfig, msn: Mission, followed: MediaCheck, source: str) -> list[str]:
     """The media map, each stretch and each change of mode (or why not before preflight)."""
     lines = [f"media   : {source}  OK"]
     if followed.media is None:
@@ -257,6 +273,7 @@ def _media_lines(cfg: HelixdConfig, plan: Plan, followed: MediaCheck, source: st
         f"({turns} turns in place on the firm side, {cfg.media.transition_margin_m:g} m from "
         "the boundary); the estimate counts them"
     )
+    lines.extend(pinned_warnings(got, mode_policy(cfg, msn)))
     return lines
 
 

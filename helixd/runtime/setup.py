@@ -29,7 +29,7 @@ from helixd.actuators.base import ActuatorSink
 from helixd.actuators.factory import make_sink
 from helixd.base.clock import now_s
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
-from helixd.base.plan import MissionFrameKind, Plan
+from helixd.base.plan import MissionFrameKind, Numbering, Plan, program_numbering
 from helixd.base.problems import Problems
 from helixd.base.run_files import TLOG_FILE
 from helixd.base.tasks import stop_task
@@ -53,7 +53,7 @@ from helixd.mission.model import Mission
 from helixd.mission.resolve import Where, resolve
 from helixd.mission.resume import RunInputs, with_leg_start
 from helixd.runtime.autopilot_fence import autopilot_fence_check
-from helixd.runtime.media_plan import MediaRefused, placed_media_plan
+from helixd.runtime.media_plan import MediaRefused, media_path, placed_media_plan
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.planned import Replanner
 from helixd.runtime.show_plan import show_plan
@@ -451,6 +451,7 @@ def resolve_flight(
     start: NedPose,
     home: HomePosition | None,
     options: ExpandOptions,
+    inputs: RunInputs | None = None,
 ) -> tuple[Plan, Where]:
     """The plan, and for a mission with commands its program from where the rover is
     (``start``) and the autopilot's home; what the program cannot fly is refused."""
@@ -482,26 +483,43 @@ def resolve_flight(
         )
     for note in resolved.notes:
         log.info("mission_note", note=note)
-    return follow_medium(resolved.plan, mission, cfg, origin, start), where
+    return follow_medium(resolved.plan, mission, cfg, origin, start, inputs), where
 
 
 def follow_medium(
     plan: Plan, mission: Mission, cfg: HelixdConfig, origin: tuple[float, float] | None,
-    start: NedPose,
+    start: NedPose, inputs: RunInputs | None = None,
 ) -> Plan:  # fmt: skip
-    """``plan`` with each stretch in its medium's mode when the flight has a media map."""
+    """``plan`` with each stretch in its medium's mode when the flight has a media map
+    (``inputs``: a resume's, to number the changes of mode as the whole mission)."""
     try:
         got = placed_media_plan(cfg, mission, plan, origin, start)
     except MediaRefused as exc:
         raise PreflightFailed(exc.problems) from None
     if got is None:
         return plan
+    flown = got.plan
+    vias = [w.via for w in flown.waypoints]
+    numbering = program_numbering(flown) if flown.program is not None else None
+    if numbering is None:
+        numbering = Numbering.of(vias) if inputs is None else inputs.numbering(vias)
     for t in got.transitions:
+        wp = flown.waypoints[t.index]
         log.info(
-            "media_transition", waypoint=t.index, before=t.before.value, after=t.after.value,
+            "media_transition",
+            # numbered as the operator numbers waypoints ("via → 2/9" at an inserted stop)
+            waypoint=numbering.label(t.index), stop="media" if wp.media_stop else "waypoint",
+            before=t.before.value, after=t.after.value,
             x_m=round(t.xy_m[0], 2), y_m=round(t.xy_m[1], 2), medium=t.medium.value,
         )  # fmt: skip
-    log.info("media_plan", stretches=len(got.stretches), transitions=len(got.transitions))
+    where = media_path(cfg, mission)
+    log.info(
+        "media_plan", stretches=len(got.stretches), transitions=len(got.transitions),
+        # what `helixd plot` draws the map's areas from, placed as the flight placed them
+        media_map=None if where is None else str(where.resolve()), frame=plan.frame.value,
+        start_north_m=round(start.north_m, 3), start_east_m=round(start.east_m, 3),
+        start_yaw_ned_rad=round(start.yaw_ned_rad, 4),
+    )  # fmt: skip
     return got.plan
 
 
@@ -528,7 +546,7 @@ async def place_mission(
         except ValueError as exc:
             raise PreflightFailed(str(exc).splitlines()) from None
     home = await autopilot_home(ap, cfg, mission, origin, stop)
-    plan, where = resolve_flight(mission, cfg, origin, pose, home, options)
+    plan, where = resolve_flight(mission, cfg, origin, pose, home, options, inputs)
     if inputs is not None:  # a resume re-enters the interrupted leg
         plan = with_leg_start(plan, mission, inputs.leg_start, cfg.control, cfg.mission, origin)
     judged = judge_flight(

@@ -38,6 +38,7 @@ NaN is False, so every rule is written so that False means "fault", or checks fi
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
@@ -338,9 +339,14 @@ class SafetyMonitor:
         self.cfg = cfg
         self._stall_since_s: float | None = None
         self._stall_on_vehicle_clock = False  # which clock _stall_since_s counts on
+        # the crawl watch: (t_s, commanded m, delivered m) per step over stall.duration_s
+        self._crawl: deque[tuple[float, float, float]] = deque()
+        self._crawl_last: tuple[float, bool] | None = None  # (t_s, on the vehicle clock)
 
     def reset(self) -> None:
         self._stall_since_s = None
+        self._crawl.clear()
+        self._crawl_last = None
 
     def check(self, s: SafetyInputs) -> Fault | None:
         """Return the first fault found, in order of how directly it endangers the rover."""
@@ -357,6 +363,7 @@ class SafetyMonitor:
             self._geofence,
             self._time,
             self._stall,
+            self._crawling,
         ):
             fault = rule(s)
             if fault is not None:
@@ -549,3 +556,46 @@ class SafetyMonitor:
             f"{s.measured_yaw_rate_radps:.2f} rad/s"
         )
         return Fault(FaultCause.STALL, f"{what} for {stuck_s:.1f} s (scrolls dug in?)")
+
+    def _crawling(self, s: SafetyInputs) -> Fault | None:
+        """A rover that moves, but at under ``stall.crawl_fraction`` of its command over the
+        last ``stall.duration_s`` (rolling in water delivers about 0.05: it crawls at a few
+        cm/s, above ``measured_speed_max_mps`` now and then, and never gets anywhere) is stuck
+        too. Judged on the travel commanded and delivered over the window, while the command
+        stays above ``commanded_speed_min_mps`` (a stop, a turn in place or the start of a
+        leg restart it), on the stall's clock."""
+        st = self.cfg.stall
+        on_vehicle_clock = s.vehicle_time_s is not None
+        t_s = s.vehicle_time_s if s.vehicle_time_s is not None else s.now_s
+        last = self._crawl_last
+        if (
+            st.crawl_fraction <= 0.0
+            or not s.commanded_speed_mps > st.commanded_speed_min_mps
+            or not math.isfinite(t_s)
+            or (last is not None and (last[1] != on_vehicle_clock or not t_s >= last[0]))
+        ):
+            self._crawl.clear()
+            self._crawl_last = None if st.crawl_fraction <= 0.0 else (t_s, on_vehicle_clock)
+            return None
+        self._crawl_last = (t_s, on_vehicle_clock)
+        if last is None or t_s == last[0]:
+            return None
+        dt_s = t_s - last[0]
+        measured = s.measured_speed_mps if math.isfinite(s.measured_speed_mps) else 0.0
+        self._crawl.append((t_s, s.commanded_speed_mps * dt_s, measured * dt_s))
+        while self._crawl and t_s - self._crawl[0][0] > st.duration_s:
+            self._crawl.popleft()
+        first_t = self._crawl[0][0]
+        span_s = t_s - first_t + dt_s
+        if span_s < st.duration_s:
+            return None
+        commanded_m = sum(c for _, c, _ in self._crawl)
+        delivered_m = sum(d for _, _, d in self._crawl)
+        if not delivered_m < st.crawl_fraction * commanded_m:
+            return None
+        pct = 100.0 * delivered_m / commanded_m if commanded_m > 0.0 else 0.0
+        return Fault(
+            FaultCause.STALL,
+            f"moved {delivered_m:.2f} m of {commanded_m:.2f} m commanded in {span_s:.1f} s "
+            f"({pct:.0f}%, below stall.crawl_fraction {st.crawl_fraction:g}): stuck, not slip",
+        )

@@ -253,6 +253,7 @@ class Flights:
             ap,
             stop,
             driving=Driving(mode, place, place_rule(prepared.cfg)),
+            on_pause=self._held,
             disarm_when_complete=self.cfg.serve.disarm_when_complete,
         )
         runner, outcome, cause = await self._run_flight(opts, host, f"{mode} to {where}")
@@ -303,6 +304,7 @@ class Flights:
             ap,
             stop,
             set_item=partial(self._set_current_item, ap) if shows_item else None,
+            on_pause=self._held,
             driving=Driving(AUTO_MODE, places=place_rule(cfg)) if auto else DRIVE_MANUAL,
             disarm_when_complete=self.cfg.serve.disarm_when_complete,
         )
@@ -374,6 +376,10 @@ class Flights:
         self.busy = True
         summary = outcome.summary
         return runner, outcome, cause_of(summary.fault if summary is not None else None)
+
+    def _held(self, held: bool, mode: str) -> None:
+        """The flight in progress paused by the autopilot's mode, or going on: hx_state 5, 4."""
+        self.status.hold(held, f"mode {mode}")
 
     def _set_current_item(self, ap: Autopilot, seq: int) -> None:
         """The GCS highlights the item being flown (MAV_CMD_DO_SET_MISSION_CURRENT)."""

@@ -35,15 +35,37 @@ class ServeStatus:
         self.detail = ""
         self.ap: Autopilot | None = None  # the link hx_state goes out on, while there is one
         self.next_send_s = 0.0
+        # a flight in the autopilot's AUTO held by the crew's HOLD (the flight goes on, paused):
+        # told as PAUSED while :attr:`state` stays FLYING for the service's decisions
+        self.held = False
+
+    @property
+    def shown(self) -> ServeState:
+        """The state the crew sees (hx_state, systemd, the log): PAUSED while a flight is held."""
+        return ServeState.PAUSED if self.held and self.state is ServeState.FLYING else self.state
+
+    def hold(self, held: bool, why: str = "") -> None:
+        """The flight in progress was paused by the autopilot's mode (HOLD and the like; ``why``
+        names it) or goes on (AUTO again): hx_state 5 or 4 at once, logged and told to
+        systemd; the GCS text is the flight's own ("paused: mode HOLD, …", "continuing in
+        AUTO")."""
+        was, self.held = self.held, held
+        if held is was or self.state is not ServeState.FLYING:
+            return
+        shown = self.shown
+        detail = why if held else self.detail
+        log.info("serve_state", state=shown.name.lower(), hx_state=int(shown), detail=detail)
+        self.notifier.status(shown.name.lower() + (f": {detail}" if detail else ""))
+        self.send()
 
     def set(
         self, state: ServeState, detail: str = "", severity: int | None = None, quiet: bool = False
     ) -> None:
         """A new state (or text): logged, systemd's status, the GCS told (unless ``quiet``: a
         state between two flights of one press of the crew), hx_state sent."""
-        if state is self.state and detail == self.detail:
+        if state is self.state and detail == self.detail and not self.held:
             return
-        self.state, self.detail = state, detail
+        self.state, self.detail, self.held = state, detail, False
         text = state.name.lower() + (f": {detail}" if detail else "")
         log.info("serve_state", state=state.name.lower(), hx_state=int(state), detail=detail)
         self.notifier.status(text)
@@ -58,7 +80,7 @@ class ServeStatus:
             return
         boot_ms = int(now_s() * 1000) & 0xFFFFFFFF
         with contextlib.suppress(LinkError, OSError):
-            ap.send_message(_mav.named_value_int_encode(boot_ms, HX_STATE_NAME, int(self.state)))
+            ap.send_message(_mav.named_value_int_encode(boot_ms, HX_STATE_NAME, int(self.shown)))
         self.next_send_s = now_s() + 1.0 / self.cfg.serve.state_rate_hz
 
     def due(self, now_s: float) -> bool:

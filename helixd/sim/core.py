@@ -60,8 +60,10 @@ from helixd.sim.rover_firmware import (
     no_scripts,
 )
 from helixd.sim.sim_config import Plant, SimConfig, TerrainTraction
+from helixd.sim.sonar import BathymetryNe, sense, water_temperature_c
 from helixd.sim.state import PhysicsState
 
+SONAR_MESSAGES = frozenset({st.MSG_DISTANCE_SENSOR, st.MSG_RANGEFINDER})
 PARAMS_PER_LOOP = 2  # PARAM_REQUEST_LIST streaming pace (ArduPilot rate-limits it too)
 # a PWM in the middle of each mode-switch position (RC_Channel::read_mode_switch bands)
 SWITCH_POSITION_PWM_US = (1100, 1295, 1425, 1555, 1685, 1900)
@@ -131,6 +133,15 @@ class SimCore:
         # the medium under each of scrolls 1..4 after the last step (None: no map)
         self.media_ne = media_ne(config)
         self.scroll_media: tuple[Medium, ...] | None = None
+        # the pond's bottom and the sonar over it (helixd.sim.sonar), with a generator of its
+        # own so a bathymetry changes nothing else a seed gives
+        self.bathy = (
+            None
+            if config.bathymetry is None
+            else BathymetryNe(config.bathymetry, config.origin_lat_deg, config.origin_lon_deg)
+        )
+        self.sonar_rng = np.random.default_rng(None if config.seed is None else [config.seed, 55])
+        self._next_named_value_s = 0.0
         self.now_s = 0.0
         self._epoch_s = 0.0
         self._n = 0
@@ -648,17 +659,56 @@ class SimCore:
                 hidden.add(st.MSG_ATTITUDE)
         if self.faults.on("gps_silent"):
             hidden.add(st.MSG_GPS_RAW_INT)
+        sonar: list[Message | None] = []  # this tick's reading, sensed once for every link
         for i, link in enumerate(self.links):
             for msg_id in link.streams.due(now):
                 if msg_id in hidden or (view.booting and msg_id != st.MSG_HEARTBEAT):
                     continue
-                msg = vehicle_reports.build(msg_id, view, self.faults)
+                if msg_id in SONAR_MESSAGES:
+                    msg = self._sonar_message(msg_id, view, sonar)
+                else:
+                    msg = vehicle_reports.build(msg_id, view, self.faults)
                 if msg is not None:
                     self.send(i, msg)
             for _ in range(PARAMS_PER_LOOP):
                 if not link.param_queue:
                     break
                 self.send(i, self.inbound.param_value_at(link.param_queue.popleft()))
+        self._named_value(now, view)
+
+    def _depth_here(self) -> float | None:
+        """The true depth under the rover's centre (None: dry, or no bathymetry)."""
+        if self.bathy is None:
+            return None
+        return self.bathy.depth_at(self.phys.north_m, self.phys.east_m)
+
+    def _sonar_message(
+        self, msg_id: int, view: vehicle_reports.TelemetryView, sensed: list[Message | None]
+    ) -> Message | None:
+        """DISTANCE_SENSOR / RANGEFINDER from the sonar (:mod:`helixd.sim.sonar`); None
+        without a bathymetry (no rangefinder), before the EKF origin, or on a dropout."""
+        if self.bathy is None or not view.origin_set:
+            return None
+        if not sensed:
+            reading = sense(self._depth_here(), self.config.sonar, self.sonar_rng)
+            sensed.append(
+                None
+                if reading is None
+                else messages.distance_sensor(view.time_boot_ms, *reading.cm(), reading.quality_pct)
+            )
+            sensed.append(None if reading is None else messages.rangefinder(reading.distance_m))
+        return sensed[0] if msg_id == st.MSG_DISTANCE_SENSOR else sensed[1]
+
+    def _named_value(self, now: float, view: vehicle_reports.TelemetryView) -> None:
+        """The payload's NAMED_VALUE_FLOAT (a script's, at its own rate) over water."""
+        sonar = self.config.sonar
+        if self.bathy is None or not sonar.named_value or now < self._next_named_value_s:
+            return
+        self._next_named_value_s = now + 1.0 / sonar.named_value_rate_hz
+        depth = self._depth_here()
+        if depth is not None and view.origin_set and not view.booting:
+            value = water_temperature_c(depth, self.sonar_rng)
+            self.send(None, messages.named_value_float(view.time_boot_ms, sonar.named_value, value))
 
 
 def media_ne(config: SimConfig) -> MediaMapNe | None:

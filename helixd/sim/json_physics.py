@@ -34,6 +34,7 @@ from helixd.sim import physics
 from helixd.sim.core import media_ne
 from helixd.sim.physics import MotorMap
 from helixd.sim.sim_config import SimConfig, TerrainTraction
+from helixd.sim.sonar import BathymetryNe
 from helixd.sim.state import PhysicsState
 
 GRAVITY_MSS = 9.80665
@@ -99,6 +100,12 @@ class FdmReport:
     position_ned_m: tuple[float, float, float]
     velocity_ned_mps: tuple[float, float, float]
     attitude_rad: tuple[float, float, float]  # roll, pitch, yaw (clockwise from North)
+    # SIM_JSON's ``rng_1``: rangefinder 1's distance (m), the sonar's range to the pond's
+    # bottom (SITL's rangefinder type 100 reads it); None: no field (no bathymetry). SIM_JSON
+    # copies rng[0] into rangefinder 1 when bit 7 of the keys it received is set, which since
+    # latitude/longitude/altitude joined its key table is ``attitude``'s (rng_1 is key 10):
+    # sent every frame here, so rangefinder 1 follows rng_1 either way
+    rangefinder_m: float | None = None
 
     def to_json_bytes(self) -> bytes:
         """One newline-framed JSON object. SIM_JSON parses the text between the last two
@@ -110,6 +117,8 @@ class FdmReport:
             "velocity": list(self.velocity_ned_mps),
             "attitude": list(self.attitude_rad),
         }
+        if self.rangefinder_m is not None:
+            body["rng_1"] = self.rangefinder_m
         return ("\n" + json.dumps(body, separators=(",", ":")) + "\n").encode("ascii")
 
 
@@ -137,6 +146,12 @@ class JsonPlant:
         self._traction = cfg.traction()
         self._media = media_ne(cfg)
         self.scroll_media: tuple[str, ...] | None = None
+        # the pond's bottom under the sonar (SITL's rangefinder 1, JSON ``rng_1``)
+        self._bathy = (
+            None
+            if cfg.bathymetry is None
+            else BathymetryNe(cfg.bathymetry, cfg.origin_lat_deg, cfg.origin_lon_deg)
+        )
         self._initial = PhysicsState(
             north_m=cfg.initial_north_m,
             east_m=cfg.initial_east_m,
@@ -208,4 +223,13 @@ class JsonPlant:
             position_ned_m=(s.north_m, s.east_m, 0.0),
             velocity_ned_mps=(v_n, v_e, 0.0),
             attitude_rad=(0.0, 0.0, s.yaw_ned_rad),
+            rangefinder_m=self._range_m(),
         )
+
+    def _range_m(self) -> float | None:
+        """The sonar's range to the bottom under the rover (the water less the transducer's
+        depth; 0 over dry ground: out of range low); None without a bathymetry."""
+        if self._bathy is None:
+            return None
+        depth = self._bathy.depth_at(self.state.north_m, self.state.east_m)
+        return 0.0 if depth is None else max(0.0, depth - self._cfg.sonar.offset_m)

@@ -305,6 +305,42 @@ def vfr_hud(speed_mps: float, yaw_ned_rad: float, alt_m: float) -> Message:
     return _m(mavlink.MAVLink_vfr_hud_message(0.0, speed_mps, heading, 0, alt_m, 0.0))
 
 
+MAV_DISTANCE_SENSOR_ULTRASOUND = 1  # a sonar
+MAV_SENSOR_ROTATION_PITCH_270 = 25  # facing down
+
+
+def distance_sensor(
+    time_boot_ms: int, current_cm: int, min_cm: int, max_cm: int, quality_pct: int
+) -> Message:
+    """GCS_MAVLINK::send_distance_sensor: instance 0, facing down, covariance 0 (unknown)."""
+    return _m(
+        mavlink.MAVLink_distance_sensor_message(
+            time_boot_ms,
+            min_cm,
+            max_cm,
+            current_cm,
+            MAV_DISTANCE_SENSOR_ULTRASOUND,
+            0,
+            MAV_SENSOR_ROTATION_PITCH_270,
+            0,
+            0.0,
+            0.0,
+            [0.0, 0.0, 0.0, 0.0],
+            quality_pct,
+        )
+    )
+
+
+def rangefinder(distance_m: float) -> Message:
+    """GCS_MAVLINK_Rover::send_rangefinder: the shortest distance (m), voltage 0."""
+    return _m(mavlink.MAVLink_rangefinder_message(distance_m, 0.0))
+
+
+def named_value_float(time_boot_ms: int, name: str, value: float) -> Message:
+    """A payload's named value (a Lua script's gcs:send_named_float)."""
+    return _m(mavlink.MAVLink_named_value_float_message(time_boot_ms, name.encode(), value))
+
+
 def system_time(time_boot_ms: int) -> Message:
     return _m(mavlink.MAVLink_system_time_message(0, time_boot_ms))
 

@@ -16,10 +16,12 @@ from pydantic import Field, InstanceOf, field_validator, model_validator
 
 from helixd.base.media import MediaMap, Medium
 from helixd.config import LinkConfig, VehicleConfig
+from helixd.files.bathymetry import Bathymetry
 from helixd.files.models import InputModel
 from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS
 from helixd.sim.collisions import SimObstacles
 from helixd.sim.param_store import DEFAULT_PARAMS
+from helixd.sim.sonar import SonarModel
 
 # helixd's own MAVLink system id (link.source_system's default)
 HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)
@@ -243,6 +245,13 @@ class SimConfig(InputModel):
         "not with media_file",
     )
     terrains: TerrainTable = Field(default_factory=TerrainTable)
+    bathymetry: InstanceOf[Bathymetry] | None = Field(
+        None,
+        exclude=True,
+        description="the pond's bottom (helixd.files.bathymetry, --sim-bathymetry): the "
+        "simulated down-facing sonar (sonar) senses it; None: no sonar",
+    )
+    sonar: SonarModel = Field(default_factory=SonarModel, description="the down-facing sonar")
     noise: NoiseLevel = Field(NoiseLevel.THESIS, description="pose noise preset")
     noise_profiles: NoiseProfiles = Field(default_factory=NoiseProfiles)
     seed: int | None = Field(None, ge=0, description="noise RNG seed; None = random")

@@ -43,6 +43,9 @@ MSG_AUTOPILOT_VERSION = 148
 MSG_EKF_STATUS_REPORT = 193
 MSG_HOME_POSITION = 242
 MSG_RELAY_STATUS = 376
+MSG_DISTANCE_SENSOR = 132
+MSG_RANGEFINDER = 173
+MSG_WATER_DEPTH = 11038
 
 # ap_message (GCS_MAVLink/ap_message.h) of each message this simulator streams: the order in
 # which one deferred-message bucket sends them
@@ -64,6 +67,9 @@ AP_MESSAGE_ORDER: dict[int, int] = {
     MSG_HOME_POSITION: 70,  # MSG_HOME
     MSG_AUTOPILOT_VERSION: 73,
     MSG_RELAY_STATUS: 95,
+    MSG_RANGEFINDER: 37,
+    MSG_DISTANCE_SENSOR: 38,
+    MSG_WATER_DEPTH: 77,
 }
 
 # MAV_DATA_STREAM ids → the messages ArduPilot puts in them (the ones this simulator sends)
@@ -77,7 +83,9 @@ STREAMS: dict[int, tuple[int, ...]] = {
     6: (MSG_GLOBAL_POSITION_INT, MSG_LOCAL_POSITION_NED),  # POSITION
     10: (MSG_ATTITUDE,),  # EXTRA1
     11: (MSG_VFR_HUD,),  # EXTRA2
-    12: (MSG_SYSTEM_TIME, MSG_EKF_STATUS_REPORT),  # EXTRA3
+    # EXTRA3 (DISTANCE_SENSOR: sent only for a rangefinder with data; WATER_DEPTH only on
+    # boats, FRAME_CLASS 2, which the Helix is not)
+    12: (MSG_SYSTEM_TIME, MSG_EKF_STATUS_REPORT, MSG_DISTANCE_SENSOR),
 }
 STREAMED = tuple(m for msgs in STREAMS.values() for m in msgs)
 # messages that can be asked for with REQUEST_MESSAGE / SET_MESSAGE_INTERVAL
@@ -89,6 +97,8 @@ KNOWN_MESSAGES = frozenset(
         MSG_AUTOPILOT_VERSION,
         MSG_HOME_POSITION,
         MSG_RELAY_STATUS,
+        MSG_RANGEFINDER,
+        MSG_WATER_DEPTH,
     }
 )
 

@@ -7,8 +7,15 @@ import json
 import re
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import pytest
+from matplotlib.patches import PathPatch
 
+from helixd.config import HelixdConfig
+from helixd.files.media import read_media_map
+from helixd.mission.model import load_mission
+from helixd.recorder.plots import draw_media_plan
+from helixd.runtime.media_figure import checked_media
 from tests.support.cli import run_main
 from tests.support.paths import REPO_ROOT
 
@@ -44,7 +51,7 @@ def test_a_crossing_shows_its_stretches_and_turns(
     assert "mode=roll/scroll" in out
     stretches = [ln for ln in out.splitlines() if ln.startswith("stretch : ")]
     assert [ln.split()[7] for ln in stretches] == ["roll", "scroll", "roll"], out
-    assert "over water 40.0 m" in stretches[1]
+    assert "over hard 1.0 m, water 40.0 m, hard 1.0 m" in stretches[1]  # the banks it turns on
     changes = [ln for ln in out.splitlines() if ln.startswith("change  : ")]
     assert changes == [
         "change  : roll → scroll at (0.0, 9.0) on hard: stop, turn 90° in place",
@@ -151,3 +158,129 @@ def test_a_ground_station_pins_a_legs_mode_by_the_yaw_code(
     assert code == 0, out + err
     assert "change  : " not in out
     assert "(the waypoint's own mode)" in out
+
+
+def test_check_plot_draws_an_amphibious_missions_media_and_stretches(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before: `check --plot` wrote nothing for a mission that follows a media map and plans
+    no route around obstacles."""
+    png = tmp_path / "plan.png"
+    code, out, err = run_main(["check", "--mission", str(crossing(tmp_path)), "--plot", str(png)],
+                              capsys)  # fmt: skip
+    assert code == 0, err
+    assert f"plot    : {png}" in out and "not written" not in out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 10_000
+    assert "Ignoring fixed" not in out + err  # the equal aspect is not fought
+
+
+def test_the_media_plan_figure_shows_the_areas_and_each_stretch_by_mode(tmp_path: Path) -> None:
+    path = crossing(tmp_path)
+    cfg = HelixdConfig()
+    msn = load_mission(path, cfg.mission)
+    got = checked_media(cfg, msn, msn, read_media_map(tmp_path / "water.geojson"))
+    assert got.placed is not None and got.plan is not None, got.why
+    fig, ax = plt.subplots()
+    draw_media_plan(ax, got.placed, got.plan, got.plan.plan.assumed_start_xy_m())
+    (water,) = [p for p in ax.patches if isinstance(p, PathPatch)]
+    assert water.get_label() == "water (media map)"
+    labels = ax.get_legend_handles_labels()[1]
+    assert "planned in roll" in labels and "planned in scroll" in labels
+    assert "change of mode (turn in place)" in labels
+    by_mode = {ln.get_label(): ln.get_color() for ln in ax.lines}
+    assert by_mode["planned in roll"] != by_mode["planned in scroll"]
+    plt.close(fig)
+
+
+def pinned_survey(tmp_path: Path) -> Path:
+    """The shipped pond survey with waypoint 2's leg (north across the pond) pinned to roll."""
+    text = SURVEY.read_text(encoding="utf-8")
+    text = text.replace(
+        "../maps/pond-media.geojson", str(REPO_ROOT / "config/maps/pond-media.geojson")
+    )
+    first_leg = "- lat: 53.5237171\n  lon: -113.5263200\n"
+    assert first_leg in text
+    text = text.replace(first_leg, first_leg + "  mode: roll\n", 1)
+    path = tmp_path / "pond-roll.yaml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def stretch_rows(out: str) -> list[tuple[float, float, str, float]]:
+    """(start, end, mode, metres of media listed) per stretch line."""
+    rows = []
+    for ln in out.splitlines():
+        m = re.match(r"stretch : \d+\s+([\d.]+) →\s+([\d.]+) m  (\w+)\s+over (.*)", ln)
+        if m:
+            listed = sum(float(x) for x in re.findall(r"([\d.]+) m", m.group(4)))
+            rows.append((float(m.group(1)), float(m.group(2)), m.group(3), listed))
+    return rows
+
+
+def test_each_change_of_mode_stands_between_the_stretches_it_joins(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, err = run_main(["check", "--mission", str(pinned_survey(tmp_path))], capsys)
+    assert code == 0, out + err
+    lines = [ln for ln in out.splitlines() if ln.startswith(("stretch : ", "change  : "))]
+    modes = [ln.split()[7] for ln in lines if ln.startswith("stretch")]
+    assert modes == ["roll", "roll", "scroll", "roll", "scroll", "roll"], out
+    for k, ln in enumerate(lines):  # a change follows the stretch it leaves, before the next
+        if ln.startswith("change"):
+            before, after = ln.split()[2], ln.split()[4]
+            assert lines[k - 1].split()[7] == before and lines[k + 1].split()[7] == after, out
+    # the pinned roll leg and the roll after it: no stop and no change between them
+    assert "4 changes of mode" in out
+    assert "4 via points inserted" in out
+
+
+@pytest.mark.parametrize("pinned", [False, True])
+def test_each_stretch_lists_the_media_over_its_whole_length(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], pinned: bool
+) -> None:
+    path = pinned_survey(tmp_path) if pinned else SURVEY
+    code, out, err = run_main(["check", "--mission", str(path)], capsys)
+    assert code == 0, out + err
+    rows = stretch_rows(out)
+    assert len(rows) >= 6, out
+    for start, end, _, listed in rows:
+        assert listed == pytest.approx(end - start, abs=0.25), out  # rounding of 0.1 m each
+
+
+def test_a_leg_pinned_to_roll_across_the_pond_is_warned_of(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, err = run_main(["check", "--mission", str(pinned_survey(tmp_path))], capsys)
+    assert code == 0, out + err
+    warnings = [ln for ln in out.splitlines() if "is pinned to roll" in ln]
+    assert len(warnings) == 1, out
+    assert warnings[0].startswith("warning : stretch 1 is pinned to roll")
+    assert "water 24.9 m" in warnings[0] and "mud 6.5 m" in warnings[0], warnings[0]
+    code, out, err = run_main(["check", "--mission", str(SURVEY)], capsys)
+    assert "is pinned to" not in out
+
+
+def test_no_warning_of_sand_on_a_map_without_sand(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, err = run_main(["check", "--mission", str(SURVEY)], capsys)
+    assert code == 0, out + err
+    assert "sand" not in out, out
+    sandy = crossing(tmp_path)
+    text = (tmp_path / "water.geojson").read_text(encoding="utf-8").replace("water", "sand")
+    (tmp_path / "water.geojson").write_text(text, encoding="utf-8")
+    code, out, err = run_main(["check", "--mission", str(sandy)], capsys)
+    assert code == 0, out + err
+    assert "warning : the map has sand under 40.0 m of scroll stretches" in out, out
+
+
+def test_the_media_line_shows_the_map_relative_to_where_the_crew_stands(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(SURVEY.parent)
+    code, out, err = run_main(["check", "--mission", SURVEY.name], capsys)
+    assert code == 0, out + err
+    assert "media   : ../maps/pond-media.geojson  OK" in out, out
+    monkeypatch.chdir(REPO_ROOT)
+    code, out, err = run_main(["check", "--mission", str(SURVEY)], capsys)
+    assert "media   : config/maps/pond-media.geojson  OK" in out, out

@@ -52,12 +52,63 @@ def test_back_on_firm_ground_scrolling_answers_the_planned_roll() -> None:
     check = GroundCheck(GroundCheckParams())
     roll(check, 0.3, 5.0)
     assert check.switched
-    got = None
-    for _ in range(round(5.0 / (SPEED * DT))):  # in scroll on hard ground: 0.45 delivered
-        got = got or check.update(
-            MotionMode.SCROLL, BodyVelocity(0.0, SPEED, 0.0), BodyVelocity(0.0, 0.27, 0.0), DT
-        )
+    travelled, got = scroll(check, 0.45, 20.0)  # in scroll on hard ground
     assert got is not None and not got.soft and got.mode is MotionMode.ROLL
+    assert 5.0 <= travelled < 5.5  # not before min_change_m travelled since the last change
+
+
+def scroll(
+    check: GroundCheck, fraction: float, metres: float, vetoed: bool = False, wobble: float = 0.0
+) -> tuple[float, object]:
+    """Scroll at SPEED for ``metres`` commanded on ground delivering ``fraction`` (± ``wobble``,
+    a slow sway of the delivered speed): (metres travelled at the verdict, it) or (…, None)."""
+    travelled = 0.0
+    for k in range(round(metres / (SPEED * DT))):
+        got = fraction + wobble * math.sin(k * DT * 0.7)
+        v = check.update(
+            MotionMode.SCROLL,
+            BodyVelocity(0.0, SPEED, 0.0),
+            BodyVelocity(0.0, SPEED * got, 0.0),
+            DT,
+            vetoed,
+        )
+        travelled += SPEED * got * DT
+        if v is not None:
+            return travelled, v
+    return travelled, None
+
+
+def test_scrolling_in_water_after_a_soft_verdict_does_not_flip_back_to_roll() -> None:
+    """Scrolling in water delivers about 0.6: a window dipping just under 0.55 is not firm
+    ground (hysteresis), however far it goes."""
+    check = GroundCheck(GroundCheckParams())
+    roll(check, 0.05, 5.0)  # a leg pinned to roll runs into the water
+    assert check.switched
+    _, verdict = scroll(check, 0.58, 60.0, wobble=0.05)  # dips to 0.53
+    assert verdict is None
+    assert check.switched
+
+
+def test_no_change_of_mode_within_min_change_m_of_the_last() -> None:
+    params = GroundCheckParams(min_change_m=8.0)
+    check = GroundCheck(params)
+    roll(check, 0.3, 5.0)
+    assert check.switched
+    travelled, verdict = scroll(check, 0.3, 60.0)  # firm at once, but only 8 m on
+    assert verdict is not None and not verdict.soft
+    assert travelled >= 8.0
+    travelled, verdict = roll(check, 0.3, 60.0)  # soft at once again: 8 m on as well
+    assert verdict is not None and verdict.soft
+    assert travelled >= 8.0
+
+
+def test_never_firm_again_where_the_map_says_water() -> None:
+    check = GroundCheck(GroundCheckParams())
+    roll(check, 0.05, 5.0)
+    _, verdict = scroll(check, 0.3, 60.0, vetoed=True)  # delivering like hard ground
+    assert verdict is None
+    _, verdict = scroll(check, 0.3, 60.0, vetoed=False)  # past the map's water
+    assert verdict is not None and verdict.mode is MotionMode.ROLL
 
 
 def test_scrolling_as_planned_is_never_second_guessed() -> None:

@@ -351,3 +351,32 @@ def test_a_plan_with_a_mode_per_waypoint_flies_each_leg_in_its_mode() -> None:
     turn = [o for o in outputs if o.target_index == 1 and o.state is NavState.ALIGN]
     assert turn and all(o.command.vx_mps == 0.0 and o.command.vy_mps == 0.0 for o in turn)
     assert abs(end.yaw_rad) < 0.3  # SCROLL's +y points north: the body faces east
+
+
+def test_a_change_of_mode_passed_during_a_pause_is_taken_where_the_rover_stands() -> None:
+    """The crew paused just before the roll → scroll stop and the rover coasted 0.6 m past it:
+    on resume the stop is reached where it stands and the next leg's turn starts there; a
+    step without the resume flies back to the stop (the old behaviour), as it still does when
+    the rover stands farther past than the stop's tolerance."""
+    wps = (
+        PlanWaypoint(0.0, 10.0, 1.0, stop=True, via=True, mode=MotionMode.ROLL, media_stop=True),
+        PlanWaypoint(0.0, 30.0, 1.0, mode=MotionMode.SCROLL),
+    )
+    plan = Plan("m", MotionMode.ROLL, MissionFrameKind.START, wps, 0.6)
+
+    def first_step_after_a_pause(north_m: float, resume: bool) -> NavOutput:
+        nav = Navigator(plan, ControlConfig())
+        pose, t_s = Pose2D(0.0, 0.0, math.pi / 2), 0.0
+        while pose.y_m < 9.0:  # rolled up to a metre before the stop
+            out = nav.step(pose, t_s)
+            pose, t_s = integrate(pose, out.command, DT), t_s + DT
+        if resume:
+            nav.resume()
+        return nav.step(Pose2D(0.0, north_m, math.pi / 2), t_s + 5.0)  # held 5 s, past it
+
+    out = first_step_after_a_pause(10.6, resume=True)
+    assert out.reached_index == 0 and out.target_index == 0 and out.distance_error_m < 0.7
+    assert out.command.vx_mps == 0.0 and out.command.vy_mps == 0.0  # the turn in place
+    assert first_step_after_a_pause(10.6, resume=False).reached_index is None  # flies back
+    assert first_step_after_a_pause(11.5, resume=True).reached_index is None  # too far past
+    assert first_step_after_a_pause(9.5, resume=True).reached_index is None  # not there yet

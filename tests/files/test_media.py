@@ -343,3 +343,40 @@ def test_fuzz_kml_text_never_crashes(text: str) -> None:
         media_map_from_kml(text, SRC)
     except MediaMapError as exc:
         assert all(p.startswith(SRC) and "\n" not in p for p in exc.problems)
+
+
+@pytest.mark.parametrize(
+    ("ring", "at"),
+    [
+        # a water ring once accepted as "OK" (its signed area is not zero)
+        ([[0, 10], [20, 40], [20, 10], [0, 20], [0, 10]], "[east_m, north_m] [5, 17.5]"),
+        # a symmetric bow-tie: refused only as "area 0 m² below 1.0 m²" before
+        ([[0, 0], [10, 10], [10, 0], [0, 10], [0, 0]], "[east_m, north_m] [5, 5]"),
+    ],
+)
+def test_a_self_intersecting_polygon_is_refused_saying_so_and_where(
+    ring: list[list[float]], at: str
+) -> None:
+    problems = refusal(collection(feature("water", [ring]), frame="local_ned"))
+    assert len(problems) == 1
+    assert "features.0.geometry.coordinates: self-intersecting at " + at in problems[0]
+    assert "Self-intersection" in problems[0]  # shapely's explain_validity, quoted
+
+
+def test_a_hole_crossing_its_outer_ring_is_refused_as_self_intersecting() -> None:
+    outer = [[0, 0], [20, 0], [20, 20], [0, 20], [0, 0]]
+    hole = [[10, 5], [30, 5], [30, 15], [10, 15], [10, 5]]
+    problems = refusal(collection(feature("water", [outer, hole]), frame="local_ned"))
+    assert "self-intersecting at [east_m, north_m]" in problems[0]
+
+
+def test_a_self_intersecting_lat_lon_polygon_names_the_place_in_lon_lat() -> None:
+    a, b = SQUARE_LONLAT[0], SQUARE_LONLAT[2]
+    bow = [a, b, [b[0], a[1]], [a[0], b[1]], a]
+    problems = refusal(collection(feature("mud", [bow])))
+    assert "self-intersecting at [lon, lat] [-113.52615, 53.5234]" in problems[0]
+
+
+def test_the_shipped_media_maps_are_not_self_intersecting() -> None:
+    for path in sorted((REPO_ROOT / "config" / "maps").glob("*media*.geojson")):
+        assert read_media_map(path).areas

@@ -9,6 +9,7 @@ import structlog.testing
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config import LinkConfig
+from helixd.link.payload_msgs import PAYLOAD_STREAMS
 from helixd.link.streams import (
     TELEMETRY_STREAMS,
     StreamManager,
@@ -56,7 +57,12 @@ async def test_asks_for_what_sched_loop_rate_grants_no_denied() -> None:
         assert granted["LOCAL_POSITION_NED"] == 40.0 and granted["ATTITUDE"] == 40.0
         assert asked(peer, LPN) == [25_000] and asked(peer, ATT) == [25_000]
         results = [c for c in peer.records.commands if c.command == SET_INTERVAL]
-        assert results and len(results) == 9  # one per stream: nothing was DENIED
+        # one per stream: nothing was DENIED (the payload's too, refused by this peer)
+        assert results and len(results) == 10 + len(PAYLOAD_STREAMS)
+        assert granted["DISTANCE_SENSOR"] == 0.0  # this peer does not know it
+        # the autopilot's HEARTBEAT at 5 Hz (link.autopilot_heartbeat_rate_hz): the arm and
+        # the mode seen within 0.2 s, not within ArduPilot's default second
+        assert granted["HEARTBEAT"] == 5.0 and peer.heartbeat_asked_us == 200_000
     async with linked(pose_rate_hz=50.0, peer_kwargs={"min_interval_us": 4_000}) as (ap, peer):
         peer.params["SCHED_LOOP_RATE"] = 400.0
         granted = await ap.request_streams()
@@ -156,3 +162,16 @@ async def test_one_slow_stream_among_flowing_ones_is_still_named() -> None:
         ("stream_slow", "ATTITUDE"),
         ("stream_slow", "SYS_STATUS"),
     ]
+
+
+async def test_payload_streams_are_asked_at_their_rate_and_not_at_zero() -> None:
+    """DISTANCE_SENSOR, RANGEFINDER and WATER_DEPTH (payload.csv) are asked for once each at
+    link.payload_rate_hz; 0 asks none."""
+    ds = int(mavlink.MAVLINK_MSG_ID_DISTANCE_SENSOR)
+    async with linked(payload_rate_hz=4.0) as (ap, peer):
+        await ap.request_streams()
+        assert asked(peer, ds) == [250_000]
+    async with linked(payload_rate_hz=0.0) as (ap, peer):
+        granted = await ap.request_streams()
+        assert asked(peer, ds) == []
+        assert not set(PAYLOAD_STREAMS) & set(granted)

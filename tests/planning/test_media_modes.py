@@ -105,3 +105,26 @@ def test_the_mission_policy_replaces_the_default() -> None:
     got = follow_media(plan_of((0.0, 60.0)), media, omni, (0.0, 0.0), ENU)
     assert [t.after for t in got.transitions] == [MotionMode.OMNI, MotionMode.ROLL]
     assert [t.turn_rad for t in got.transitions] == [0.0, 0.0]
+
+
+def test_a_leg_pinned_to_roll_carries_where_the_map_says_it_cannot_roll() -> None:
+    # water 10..30 m north of a 40 m leg pinned to roll; the plan's other legs carry nothing
+    media = pond(strip(Medium.MUD, 10.0, 12.0), strip(Medium.WATER, 12.0, 30.0))
+    wps = (PlanWaypoint(0.0, 40.0, 0.5, mode=MotionMode.ROLL), PlanWaypoint(10.0, 40.0, 0.5))
+    plan = Plan("t", MotionMode.ROLL, MissionFrameKind.LOCAL_NED, wps, 0.5)
+    got = follow_media(plan, media, POLICY, (0.0, 0.0), ENU)
+    pinned, after = got.plan.waypoints
+    spans = [(round(a, 6), round(b, 6)) for a, b in pinned.unfit_to_go_m]
+    assert spans == [(10.0, 30.0)]  # mud and water, 10..30 m still to go, nearest first
+    assert after.unfit_to_go_m == ()
+
+
+def test_a_pinned_leg_beside_a_stretch_in_its_own_mode_adds_no_stop() -> None:
+    wps = (PlanWaypoint(0.0, 40.0, 0.5, mode=MotionMode.ROLL), PlanWaypoint(10.0, 40.0, 0.5))
+    plan = Plan("t", MotionMode.ROLL, MissionFrameKind.LOCAL_NED, wps, 0.5)
+    got = follow_media(plan, pond(strip(Medium.WATER, 10.0, 30.0)), POLICY, (0.0, 0.0), ENU)
+    assert [(w.x_m, w.y_m, w.via, w.stop) for w in got.plan.waypoints] == [
+        (0.0, 40.0, False, False),
+        (10.0, 40.0, False, False),
+    ]
+    assert got.transitions == ()

@@ -414,8 +414,13 @@ def test_the_driven_path_is_coloured_by_motion_mode_where_it_changed(tmp_path: P
     labels = [line.get_label() for line in ax.get_lines()]
     assert len(ax.get_lines()) == 3  # roll, scroll, roll
     assert labels.count("driven in roll") == 1 and labels.count("driven in scroll") == 1
-    fig2, ax2 = plt.subplots()  # one mode (or none recorded): one line, as before
+    fig2, ax2 = plt.subplots()  # none recorded: one line
     _draw_driven(ax2, data, data.col("x_m"), data.col("y_m"))
     assert [line.get_label() for line in ax2.get_lines()] == ["driven"]
+    one = dataclasses.replace(data, cols={**data.cols, "motion_mode": np.array(["scroll"] * n)})
+    fig3, ax3 = plt.subplots()  # one mode: the legend still says which
+    _draw_driven(ax3, one, one.col("x_m"), one.col("y_m"))
+    assert [line.get_label() for line in ax3.get_lines()] == ["driven in scroll"]
+    plt.close(fig3)
     plt.close(fig)
     plt.close(fig2)

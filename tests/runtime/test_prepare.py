@@ -30,7 +30,7 @@ from helixd.runtime.prepare import (
     prepare_flight,
 )
 from tests.support.missions import mission_of, points_mission
-from tests.support.paths import DATA_DIR
+from tests.support.paths import DATA_DIR, REPO_ROOT
 
 CFG = HelixdConfig()
 HOME = (53.523250, -113.526110)
@@ -239,3 +239,25 @@ def test_a_continue_of_another_mission_or_a_completed_run_is_refused(tmp_path: P
     other = commands_flight({"north": 1, "east": 1})
     with pytest.raises(InputsRefused, match="another mission"):
         continue_commands(other, run, CFG)
+
+
+def test_the_mode_flag_turns_the_media_plan_off_for_the_flight(tmp_path: Path) -> None:
+    """``run --mode roll`` on a mission with a media map and a pinned leg: no map is read for
+    the flight (no stops, no stretch in another mode), the config's map off too, said once."""
+    from_repo = REPO_ROOT / "config"
+    config = tmp_path / "helixd.yaml"
+    config.write_text(
+        f"media:\n  media_map: {from_repo / 'maps' / 'pond-media.geojson'}\n", encoding="utf-8"
+    )
+    text = (from_repo / "missions" / "pond-survey.yaml").read_text(encoding="utf-8")
+    text = text.replace("../maps/pond-media.geojson", str(from_repo / "maps/pond-media.geojson"))
+    text = text.replace("  lon: -113.5263200\n", "  lon: -113.5263200\n  mode: scroll\n", 1)
+    path = tmp_path / "pond.yaml"
+    path.write_text(text, encoding="utf-8")
+    got = prepare_flight(MissionFile(path, MotionMode.ROLL), config)
+    assert got.media is None and got.cfg.media.media_map is None
+    assert got.mission.media_map is None and got.mission.mode is MotionMode.ROLL
+    assert all(w.mode is None for w in got.mission.waypoints)
+    notes = [n for n in got.notes if "wins over" in n]
+    assert len(notes) == 1 and "waypoints' own modes (1)" in notes[0], got.notes
+    assert "media map" in notes[0] and "every leg is flown in roll" in notes[0]

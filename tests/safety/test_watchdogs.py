@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 
 import pytest
 
 from helixd.base.polygon import point_in_polygon
 from helixd.config import SafetyConfig, StallConfig, TakeoverConfig
-from helixd.safety.watchdogs import FaultCause, SafetyInputs, SafetyMonitor
+from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonitor
 from tests.support.safety_inputs import HEALTHY
 
 
@@ -151,7 +152,8 @@ def test_polygon_geofence() -> None:
 
 
 def test_stall_needs_duration_and_resets_when_moving() -> None:
-    mon = SafetyMonitor(SafetyConfig(stall=StallConfig(duration_s=4.0)))
+    # the stopped-rover rule alone (the crawl over the same 4 s is tested below)
+    mon = SafetyMonitor(SafetyConfig(stall=StallConfig(duration_s=4.0, crawl_fraction=0.0)))
     stuck = dataclasses.replace(HEALTHY, commanded_speed_mps=0.5, measured_speed_mps=0.01)
     for t in (100.0, 102.0, 103.9):
         assert (
@@ -396,3 +398,61 @@ def test_gps_fix_time_within_the_limit_passes_and_a_lost_fix_is_named_first() ->
     # no fix and a frozen fix time: the fix is what the operator needs to hear
     fault = monitor.check(dataclasses.replace(GPS_OK, gps_fix_rx_s=90.0, gps_fix_type=1))
     assert fault is not None and "no fix (fix_type 1)" in fault.detail
+
+
+def drive(
+    mon: SafetyMonitor,
+    seconds: float,
+    commanded_mps: float,
+    measured: Callable[[float], float],
+    t0: float = 100.0,
+    hz: float = 50.0,
+) -> tuple[float, Fault | None]:
+    """Step the monitor at ``hz`` on the vehicle clock for ``seconds``; ``measured(t)``: the
+    speed over ground. (time of the first fault, the fault) or (end, None)."""
+    for k in range(round(seconds * hz)):
+        t = t0 + k / hz
+        speed = measured(t - t0)
+        s = dataclasses.replace(
+            HEALTHY, now_s=t, last_heartbeat_s=t, pose_rx_s=t, vehicle_time_s=t,
+            commanded_speed_mps=commanded_mps, measured_speed_mps=speed,
+        )  # fmt: skip
+        fault = mon.check(s)
+        if fault is not None:
+            return t - t0, fault
+    return seconds, None
+
+
+def test_a_rover_crawling_at_a_few_cm_per_s_is_a_stall_within_seconds() -> None:
+    """Rolling in water: 0.02-0.07 m/s of 0.6 commanded, now and then above the stopped
+    rover's 0.05 m/s (which restarts that rule's timer): stuck, said after duration_s."""
+    mon = SafetyMonitor(SafetyConfig())
+    t, fault = drive(mon, 200.0, 0.6, lambda t: 0.045 + 0.025 * math.sin(2.0 * t))
+    assert fault is not None and fault.cause is FaultCause.STALL, fault
+    assert "stall.crawl_fraction" in fault.detail and "stuck" in fault.detail
+    assert 4.0 <= t < 4.2
+
+
+def test_slip_in_mud_is_not_a_crawl() -> None:
+    mon = SafetyMonitor(SafetyConfig())
+    _, fault = drive(mon, 120.0, 0.6, lambda t: 0.6 * 0.3)  # ROLL in mud: 0.3 delivered
+    assert fault is None
+    _, fault = drive(mon, 120.0, 0.6, lambda t: 0.6 * 0.12, t0=300.0)  # above a tenth
+    assert fault is None
+
+
+def test_a_crawl_needs_the_whole_window_commanded() -> None:
+    """A stop or a turn in place (commanded below commanded_speed_min_mps) starts it afresh:
+    accelerating from a stop is not a crawl."""
+    mon = SafetyMonitor(SafetyConfig())
+    for start in range(100, 160, 3):  # every 3 s a stop; crawling in between
+        _, fault = drive(mon, 2.9, 0.6, lambda t: 0.03, t0=float(start))
+        assert fault is None
+        _, fault = drive(mon, 0.1, 0.0, lambda t: 0.0, t0=start + 2.9)
+        assert fault is None
+
+
+def test_crawl_fraction_zero_turns_the_crawl_watch_off() -> None:
+    mon = SafetyMonitor(SafetyConfig(stall=StallConfig(crawl_fraction=0.0)))
+    _, fault = drive(mon, 60.0, 0.6, lambda t: 0.045 + 0.025 * math.sin(2.0 * t))
+    assert fault is None

@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
+from helixd.files.bathymetry import Bathymetry
 from helixd.sim import physics
 from helixd.sim.json_physics import (
     GRAVITY_MSS,
@@ -29,6 +30,7 @@ from helixd.sim.json_physics import (
 from helixd.sim.json_server import open_socket, serve_plant
 from helixd.sim.physics import MotorMap
 from helixd.sim.sim_config import SimConfig, Terrain
+from helixd.sim.sonar import SonarModel
 from helixd.sim.state import PhysicsState
 
 RATE_HZ = 400
@@ -229,3 +231,27 @@ def test_with_a_media_map_each_scroll_meets_the_medium_under_it() -> None:
     assert plant.scroll_media == ("water",) * 4
     assert roll.position_ned_m[0] < 0.1 * on_land.position_ned_m[0]
     assert abs(scroll.position_ned_m[1]) > 3 * roll.position_ned_m[0]
+
+
+def test_with_a_bathymetry_the_sonar_range_goes_to_sitls_rangefinder_1() -> None:
+    """SIM_JSON reads ``rng_1`` into rangefinder 1 (SITL's RNGFND1_TYPE 100): the water under
+    the rover less the transducer's depth, 0 over dry ground."""
+    cfg = SimConfig()
+    lat0, lon0 = cfg.origin_lat_deg, cfg.origin_lon_deg
+    bottom = Bathymetry.model_validate(
+        {
+            "format": "helixd-bathymetry/1",
+            "south_west": {"lat_deg": lat0 - 1e-4, "lon_deg": lon0 - 1e-4},
+            "cell_m": 5.0,
+            "depth_m": [[2.0] * 6, [2.0] * 6, [2.0] * 6, [2.0] * 6, [None] * 6],
+        }
+    )
+    plant = JsonPlant(
+        cfg.model_copy(update={"bathymetry": bottom, "sonar": SonarModel(offset_m=0.25)})
+    )
+    body = json.loads(plant.step(frame(0, (1500, 1500, 1500, 1500))).to_json_bytes())
+    assert body["rng_1"] == pytest.approx(1.75)
+    north = drive(plant, (1800, 1800, 1200, 1200), 40.0, start=1).position_ned_m[0]
+    assert north > 12.0  # rolled north, past the last wet row
+    assert json.loads(plant.step(frame(10**7, (1500,) * 4)).to_json_bytes())["rng_1"] == 0.0
+    assert "rng_1" not in json.loads(JsonPlant(cfg).step(frame(0, (1500,) * 4)).to_json_bytes())

@@ -681,7 +681,12 @@ class HelixPlantProc:
 
 
 def start_plant(
-    workdir: Path, instance: int, terrain: str, media: Path | None = None, home: str = HOME
+    workdir: Path,
+    instance: int,
+    terrain: str,
+    media: Path | None = None,
+    home: str = HOME,
+    bathymetry: Path | None = None,
 ) -> HelixPlantProc:
     """``helixd plant -I instance --terrain terrain``, its UDP port bound before it returns
     (it says so on its first line; SITL then finds it answering from its first frame)."""
@@ -691,6 +696,8 @@ def start_plant(
     ]  # fmt: skip
     if media is not None:
         cmd += ["--media", str(media)]
+    if bathymetry is not None:  # the depth to SITL's rangefinder 1 (JSON rng_1)
+        cmd += ["--bathymetry", str(bathymetry)]
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     proc = subprocess.Popen(
         cmd,
@@ -759,6 +766,8 @@ def start_sitl(
     terrain: str | None = None,
     media: Path | None = None,
     home: str = HOME,
+    bathymetry: Path | None = None,
+    extra_defaults: tuple[Path, ...] = (),
 ) -> SitlVehicle:
     """ardurover in ``workdir``; with ``guard`` helixd-guard.lua is in its scripts/ first and
     this waits until the script has loaded (its HXG_VERSION parameter exists). Without
@@ -767,10 +776,15 @@ def start_sitl(
     log_path = workdir / "sitl.log"
     if guard:
         install_guard_file(workdir)
-    plant = start_plant(workdir, instance, terrain, media, home) if terrain is not None else None
+    plant = (
+        start_plant(workdir, instance, terrain, media, home, bathymetry)
+        if terrain is not None
+        else None
+    )
     model, defaults = ("rover-skid", str(PARM_FILE))
     if plant is not None:
-        model, defaults = ("JSON", ",".join(str(p) for p in HELIX_PARM_FILES))
+        files = (*HELIX_PARM_FILES, *extra_defaults)
+        model, defaults = ("JSON", ",".join(str(p) for p in files))
     cmd = [
         str(binary),
         "--model",
@@ -835,12 +849,23 @@ def start_test_sitl(
     terrain: str | None = None,
     media: Path | None = None,
     home: str = HOME,
+    bathymetry: Path | None = None,
+    extra_defaults: tuple[Path, ...] = (),
 ) -> Iterator[SitlVehicle]:
     binary = Path(os.environ[SITL_BIN_ENV]).resolve()
     workdir = tmp_path / "sitl"
     workdir.mkdir()
     vehicle = start_sitl(
-        binary, workdir, pick_instance(), sitl_speedup(), guard, terrain, media, home
+        binary,
+        workdir,
+        pick_instance(),
+        sitl_speedup(),
+        guard,
+        terrain,
+        media,
+        home,
+        bathymetry,
+        extra_defaults,
     )
     try:
         yield vehicle

@@ -58,6 +58,7 @@ STREAM_NAMES = (
     "GPS_RAW_INT",
 )
 MSG_NAME_BY_ID = {int(getattr(mavlink, f"MAVLINK_MSG_ID_{n}")): n for n in STREAM_NAMES}
+HEARTBEAT_MSG_ID = int(mavlink.MAVLINK_MSG_ID_HEARTBEAT)
 # granted but never sent: ArduPilot sends it only in a mode with a place to go
 TARGET_MSG_ID = int(mavlink.MAVLINK_MSG_ID_POSITION_TARGET_GLOBAL_INT)
 HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)
@@ -344,6 +345,7 @@ class AutopilotPeer:
         self._wire_factory = wire_factory
         self.sysid, self.compid = sysid, compid
         self.heartbeat_hz = heartbeat_hz
+        self.heartbeat_asked_us: int | None = None  # SET_MESSAGE_INTERVAL for HEARTBEAT
         self.min_interval_us = min_interval_us
         self.default_interval_us = default_interval_us
         self.signing_key = signing_key
@@ -570,6 +572,10 @@ class AutopilotPeer:
             name = MSG_NAME_BY_ID.get(int(p[0]))
             interval = int(p[1])
             if int(p[0]) == TARGET_MSG_ID and not 0 < interval < self.min_interval_us:
+                return ACCEPTED
+            if int(p[0]) == HEARTBEAT_MSG_ID and interval > 0:
+                # granted; the peer's HEARTBEAT (heartbeat_hz, 10 Hz) is already faster
+                self.heartbeat_asked_us = interval
                 return ACCEPTED
             if name is None:
                 return UNSUPPORTED

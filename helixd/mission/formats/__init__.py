@@ -177,8 +177,9 @@ def load_mission_file(
     problem, each naming the file) like :func:`load_mission`.
 
     ``mode`` (the ``--mode`` flag) overrides any file's mode (a YAML mission's own ``mode:``
-    too, with a note saying so); ``default_mode`` (the config's
-    ``mission.ground_station_mode``) is used for ground-station files only, which carry none.
+    too, with a note saying so; ``check`` and ``run`` take :func:`forced_mode` instead);
+    ``default_mode`` (the config's ``mission.ground_station_mode``) is used for
+    ground-station files only, which carry none.
     ``route_keep_outs``: legs through a .plan's exclusion zones are planned around
     (helixd.planning), not refused (see :func:`items_to_mission`)."""
     fmt = sniff_format(path)
@@ -236,6 +237,37 @@ def load_mission_file(
         except ValidationError as exc:
             raise ConfigFileError(path, format_validation_error(path, exc, Mission)) from None
     return LoadedMission(msn, fmt, conv.notes, gcs)
+
+
+def forced_mode(
+    msn: Mission, mode: MotionMode, config_media_map: bool = False
+) -> tuple[Mission, str]:
+    """A YAML mission ``check`` or ``run`` flies wholly in ``mode`` (``--mode``): its mode,
+    every waypoint's and no media plan (its ``media_map``/``media_modes`` dropped; the caller
+    drops the config's ``media.media_map`` when ``config_media_map``). The note says what the
+    flag replaced, once ("" when nothing)."""
+    pinned = [w for w in msn.waypoints if w.mode is not None and w.mode is not mode]
+    replaced = [f"mode ({msn.mode.value})"] if msn.mode is not mode else []
+    replaced += [f"waypoints' own modes ({len(pinned)})"] if pinned else []
+    if msn.media_map is not None or config_media_map:
+        replaced.append("media map (the mode follows no medium)")
+    forced = msn.model_copy(
+        update={
+            "mode": mode,
+            "waypoints": tuple(
+                w.model_copy(update={"mode": None}) if w.mode is not None else w
+                for w in msn.waypoints
+            ),
+            "media_map": None,
+            "media_modes": None,
+        }
+    )
+    if not replaced:
+        return forced, ""
+    return forced, (
+        f"--mode {mode.value} wins over the mission's {' and '.join(replaced)}: every leg is "
+        f"flown in {mode.value}"
+    )
 
 
 def mission_to_yaml(mission: Mission) -> str:
@@ -410,6 +442,7 @@ __all__ = [
     "MissionFormat",
     "detect_format",
     "fence_has_keep_outs",
+    "forced_mode",
     "has_keep_outs",
     "load_mission_file",
     "lost_in",
