@@ -67,7 +67,7 @@ DISARMED_LIMIT_S = 1.5
 # 0.2 s while the autopilot is in AUTO (MISSION_CURRENT's mission_mode, 5 Hz), otherwise only
 # in its 1 Hz HEARTBEAT (README, "Safety": a person's mode change is a pilot takeover, its
 # fall-back within 0.5 s of detection): one period and the fall-back's tick
-MODE_WORDS = ("pause", "manual", "radio_mode")
+MODE_WORDS = {"pause": "HOLD", "manual": "MANUAL", "radio_mode": ""}  # word: the mode it sets
 HEARTBEAT_LIMIT_S = 1.2
 # a fault injected while driving → scrolls at trim: the time helixd's watchdog needs to see it
 # (helixd.config.SafetyConfig's defaults) and the fall-back's 0.5 s
@@ -76,6 +76,8 @@ FAULT_LIMIT_S: dict[str, float] = {
     "gps_silent": 3.0, "battery_low": 1.5, "fence_breach": 1.5, "rc_loss": 2.0, "stall": 12.0,
     "nan_position": 1.0, "nan_yaw": 1.0, "absurd_position": 1.0, "time_backwards": 1.0,
 }  # fmt: skip
+# a fault shorter than this may be over before helixd's watchdog sees it (safety.stall's 4 s)
+SEEN_AFTER_S = {"stall": 4.5}
 # the cause helixd must name for each fault (summary.json's fault, the fallback event's cause)
 FAULT_CAUSES: dict[str, frozenset[str]] = {
     "link_drop": frozenset({"link_lost"}),
@@ -185,6 +187,7 @@ class Rules:
         self.broken: Violation | None = None
         self.pending: list[tuple[str, float, float]] = []  # faults to be named: kind, at, by
         self.latched: set[str] = set()  # the autopilot's failsafes already taken
+        self.fault_times: list[float] = []  # when each fault was injected
         self.t0 = 0.0  # the day's time 0 (the plan's steps count from it)
 
     def fail(self, rule: str, detail: str) -> None:
@@ -194,7 +197,7 @@ class Rules:
     # -- the crew's words --------------------------------------------------------------------
     def word(self, name: str, mode: str, arg: object = None) -> None:
         t = now_s()
-        if name in ("manual", "radio_mode") and mode == (arg or "MANUAL"):
+        if name in MODE_WORDS and mode == (arg or MODE_WORDS[name]):
             return  # the mode it already is: nothing the autopilot or helixd can see
         if name == "arm" and mode in DRIVING_MODES:
             name = "continue"  # ArduPilot armed in AUTO (GUIDED, RTL) drives: a go word
@@ -220,8 +223,12 @@ class Rules:
             if kind in self.latched:
                 return  # ArduPilot's failsafe fires once: already taken since the boot
             self.latched.add(kind)
+        self.fault_times.append(t)
         if not driving or (kind, args.get("kind")) in UNSEEN:
             return
+        duration = args.get("duration_s")
+        if isinstance(duration, float) and duration < SEEN_AFTER_S.get(kind, FAULT_LIMIT_S[kind]):
+            return  # over before helixd's watchdog may see it (a 2.5 s stall: 4 s to notice)
         if self.fault_at is None:
             self.fault_at, self.fault_limit_s = t, FAULT_LIMIT_S[kind]
         self.pending.append((kind, t, t + max(FAULT_LIMIT_S[kind], NAMED_WITHIN_S) + 2.0))
@@ -293,6 +300,8 @@ class Rules:
         ]
         if self.stop_at is not None and self.stop_at < by:
             return  # the crew stopped it meanwhile: whose stop was reported is open
+        if any(at < other <= by for other in self.fault_times):
+            return  # another fault came meanwhile: which one was named first is open
         if len(causes) != 1 or causes[0] not in FAULT_CAUSES[kind]:
             self.fail("fault_named", f"{kind} at {at - self.t0:.2f} s reported as {causes}")
 

@@ -196,3 +196,23 @@ def test_the_soak_section_renders_beside_the_benchmarks(tmp_path: Path) -> None:
     md = (tmp_path / "latest.md").read_text()
     assert "## Soak" in md and "seed 3: item_order" in md and "| pause | 4 |" in md
     assert json.loads((tmp_path / "latest.json").read_text())["soak"]["days"] == 2
+
+
+def test_pause_in_hold_is_no_word() -> None:
+    # seed 423: QGC's Pause while helixd's own fall-back HOLD holds changes nothing helixd
+    # can see (the next flight it was preparing set MANUAL and drove)
+    rules = referee()
+    rules.word("pause", "HOLD")
+    assert rules.stop_at is None
+
+
+def test_a_fault_too_short_to_see_or_overlapped_by_another_is_not_judged() -> None:
+    # seed 400: a 2.5 s stall (helixd needs 4 s to see one), then a reboot named link_lost
+    rules = referee()
+    rules.fault("stall", True, {"duration_s": 2.5})
+    assert rules.fault_at is None and not rules.pending
+    rules.fault("stall", True, {"duration_s": 8.0})
+    rules.fault("reboot", True, {})
+    assert [k for k, _, _ in rules.pending] == ["stall", "reboot"]
+    rules._named("stall", *rules.pending[0][1:])  # the reboot came within the stall's window
+    assert rules.broken is None
