@@ -426,7 +426,9 @@ class Crew:
             return
         self.actions[step.name] = self.actions.get(step.name, 0) + 1
         snap = self.st.snapshot()
-        if step.name != "radio_mode" or snap.receiver_ok:  # a dead receiver switches nothing
+        # the pilot's transmitter (its mode switch, the start switch) through a dead receiver
+        # switches nothing
+        if step.name not in ("radio_mode", "switch_low", "switch_high") or snap.receiver_ok:
             self.rules.word(step.name, snap.mode, step.arg("mode"))
         # refused or unanswered (a link down, a rebooting autopilot): the crew goes on
         with contextlib.suppress(AssertionError):
