@@ -188,6 +188,7 @@ class Rules:
         self.pending: list[tuple[str, float, float]] = []  # faults to be named: kind, at, by
         self.latched: set[str] = set()  # the autopilot's failsafes already taken
         self.fault_times: list[float] = []  # when each fault was injected
+        self.go_times: list[float] = []  # when the crew said go
         self.t0 = 0.0  # the day's time 0 (the plan's steps count from it)
 
     def fail(self, rule: str, detail: str) -> None:
@@ -195,8 +196,10 @@ class Rules:
             self.broken = Violation(rule, now_s() - self.t0, detail)
 
     # -- the crew's words --------------------------------------------------------------------
-    def word(self, name: str, mode: str, arg: object = None) -> None:
+    def word(self, name: str, mode: str, arg: object = None, armed: bool = True) -> None:
         t = now_s()
+        if name == "disarm" and not armed:
+            return  # a disarmed rover disarmed: nothing anyone can see
         if name in MODE_WORDS and mode == (arg or MODE_WORDS[name]):
             return  # the mode it already is: nothing the autopilot or helixd can see
         if name == "arm" and mode in DRIVING_MODES:
@@ -209,9 +212,11 @@ class Rules:
                 self.stop_at, self.stop_limit_s = t, limit
         elif name in GO_WORDS:
             self.stop_at = self.fault_at = self.completed_at = None
-        if name in GO_WORDS or name in ("set_current", "upload", "reupload"):
+            self.go_times.append(t)
+        if name in GO_WORDS or name in STOP_WORDS or name in ("set_current", "upload", "reupload"):
             # the crew's (re)start or continue may go on from an earlier item (the
-            # interrupted leg's) or a later one: the items are the crew's for a moment
+            # interrupted leg's) or a later one, and a flight helixd drives in MANUAL shows
+            # the item it stopped at when it is stopped: the items are the crew's for a moment
             self.free_until = t + 3.0
 
     def fault(self, kind: str, driving: bool, args: dict[str, object]) -> None:
@@ -293,13 +298,17 @@ class Rules:
                 self._named(kind, at, by)
 
     def _named(self, kind: str, at: float, by: float) -> None:
+        # a go word ends the window: a new flight may meet the same fault and be told again
+        window_end = min([by, *(g for g in self.go_times if g > at)])
         causes = [
             line.split("cause=")[1].split()[0]
             for line, seen in zip(self.st.console.lines, self.log_times, strict=False)
-            if at <= seen <= by and "event=fallback" in line and "cause=" in line
+            if at <= seen <= window_end and "event=fallback" in line and "cause=" in line
         ]
         if self.stop_at is not None and self.stop_at < by:
             return  # the crew stopped it meanwhile: whose stop was reported is open
+        if window_end < by and not causes:
+            return  # the crew said go before it was told: the new flight's checks decide
         if any(at < other <= by for other in self.fault_times):
             return  # another fault came meanwhile: which one was named first is open
         if len(causes) != 1 or causes[0] not in FAULT_CAUSES[kind]:
@@ -429,7 +438,7 @@ class Crew:
         # the pilot's transmitter (its mode switch, the start switch) through a dead receiver
         # switches nothing
         if step.name not in ("radio_mode", "switch_low", "switch_high") or snap.receiver_ok:
-            self.rules.word(step.name, snap.mode, step.arg("mode"))
+            self.rules.word(step.name, snap.mode, step.arg("mode"), snap.armed)
         # refused or unanswered (a link down, a rebooting autopilot): the crew goes on
         with contextlib.suppress(AssertionError):
             await self.table()[step.name](step)

@@ -14,6 +14,7 @@ from types import SimpleNamespace
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
+from helixd.base.clock import now_s
 from tests.support.soak_day import (
     HEARTBEAT_LIMIT_S,
     STOP_LIMIT_S,
@@ -216,3 +217,30 @@ def test_a_fault_too_short_to_see_or_overlapped_by_another_is_not_judged() -> No
     assert [k for k, _, _ in rules.pending] == ["stall", "reboot"]
     rules._named("stall", *rules.pending[0][1:])  # the reboot came within the stall's window
     assert rules.broken is None
+
+
+def test_a_disarm_of_a_disarmed_rover_is_no_word() -> None:
+    # seed 619: pressed while helixd's flight was still in its preflight, the rover disarmed
+    rules = referee()
+    rules.word("disarm", "AUTO", armed=False)
+    assert rules.stop_at is None
+
+
+def test_a_go_word_ends_a_faults_window() -> None:
+    # seed 623: a stall named, then the crew's RTL: the new flight met the stall again
+    rules = referee()
+    rules.fault("stall", True, {"duration_s": 12.6})
+    rules.word("rtl", "HOLD")
+    ((kind, at, by),) = rules.pending
+    rules.st.console.lines.extend(["event=fallback cause=stall", "event=fallback cause=stall"])
+    rules.log_times.extend([at + 0.1 * (rules.go_times[0] - at), by])
+    rules._named(kind, at, by)
+    assert rules.broken is None
+
+
+def test_a_stop_word_lets_helixd_show_the_item_it_stopped_at() -> None:
+    # seed 604: a flight helixd drives in MANUAL shows the interrupted item when paused
+    rules = referee()
+    assert rules.free_until < now_s()
+    rules.word("pause", "MANUAL")
+    assert rules.free_until > now_s()
