@@ -33,7 +33,14 @@ time and with less energy; fixed ROLL's outcome is reported; the patch detected 
 Usage::
 
     .venv/bin/python tools/bench_amphibious.py                      # 9 runs, one at a time
-    .venv/bin/python tools/bench_amphibious.py --only crossing --policy media --speedup 20
+    .venv/bin/python tools/bench_amphibious.py --only crossing --policy media
+    .venv/bin/python tools/bench_amphibious.py --clock wall --speedup 6   # on the wall clock
+
+Every run flies on the simulated clock by default (:mod:`simflight`: the daemon and the
+simulator share one simulated clock in the worker process, the noise seeded), so the figures
+are the rover's and the same on any machine; ``--clock wall`` flies the daemon as a
+subprocess against the simulator sped up on the wall clock, and the results say so (a loaded
+machine then measures itself: 222.6 s instead of 113.1 s on the crossing, stalls).
 
 Results: a table on stdout and ``bench/results/latest.{json,md}`` (section ``amphibious``).
 """
@@ -68,6 +75,7 @@ if str(ROOT / "tools") not in sys.path:
 
 from bench_results import RESULTS_DIR, write_section  # noqa: E402
 from navmetrics import polyline_distance_m  # noqa: E402
+from simflight import CLOCK_CHOICES, CLOCK_HELP, clock_label, fly_simulated  # noqa: E402
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon  # noqa: E402
 from helixd.base.media import MediaMap, MediaMapNe  # noqa: E402
@@ -90,6 +98,7 @@ TARGET_DETECT_M = 2.0
 SAMPLE_PERIOD_S = 0.05
 SAMPLER_WAIT_S = 1.0
 KILL_GRACE_S = 15.0
+SIM_LIMIT_S = 3000.0  # simulated seconds: a run on the simulated clock still going then hung
 # Quicker setup; the staleness watchdogs (wall time) widened so a loaded 2-core machine running
 # the simulator sped up does not end a run on a late pose: they judge the machine, not the
 # ground. Everything else at its field default.
@@ -119,7 +128,7 @@ class Sampler:
         self._last_ms = -(10**9)
         self._thread = threading.Thread(target=self._run, name="amphibious-truth", daemon=True)
 
-    def _take(self, snap: Any) -> bool:
+    def take(self, snap: Any) -> bool:
         ms = int(snap.time_boot_ms)
         if ms - self._last_ms >= SAMPLE_PERIOD_S * 1000.0 and not snap.silent:
             self._last_ms = ms
@@ -132,7 +141,7 @@ class Sampler:
     def _run(self) -> None:
         while not self._stop.is_set():
             try:
-                self._wait_for(self._take, SAMPLER_WAIT_S)
+                self._wait_for(self.take, SAMPLER_WAIT_S)
             except TimeoutError:
                 continue
 
@@ -333,14 +342,52 @@ def _daemon(cmd: list[str], log_path: Path, cwd: Path, timeout_s: float) -> int 
             return None
 
 
-def run_one(course: str, policy: str, speedup: float, timeout_s: float, work: Path) -> RunResult:
-    """Simulator in this process, the daemon as a subprocess; the truth sampled meanwhile."""
+def _fly_on_the_wall(
+    sim_cfg: Any, mission_path: Path, root: Path, log_path: Path, timeout_s: float
+) -> tuple[int | None, list[Sample]]:
+    """Simulator in this process on the wall clock (sped up), the daemon as a subprocess; the
+    truth sampled meanwhile on a thread."""
+    from helixd.sim.server import start_embedded
+
+    server, url = start_embedded(sim_cfg)
+    try:
+        cfg = dict(DAEMON_CONFIG, link={"url": url})
+        cfg_path = root / "helixd.yaml"
+        cfg_path.write_text(yaml.safe_dump(cfg), encoding="utf-8")
+        cmd = [
+            sys.executable, "-m", "helixd", "run", "--connect", url, "--mission",
+            str(mission_path), "--config", str(cfg_path), "--run-dir", str(root / "runs"),
+        ]  # fmt: skip
+        with Sampler(server.wait_for) as sampler:
+            exit_code = _daemon(cmd, log_path, root, timeout_s)
+    finally:
+        server.stop()
+    return exit_code, sampler.samples
+
+
+def _fly_simulated(
+    sim_cfg: Any, mission_path: Path, root: Path, log_path: Path
+) -> tuple[int | None, list[Sample]]:
+    """The daemon and the simulator on one simulated clock in this process (seeded: the same
+    flight on any machine); the truth sampled from every snapshot."""
+    cfg_path = root / "helixd.yaml"
+    cfg_path.write_text(yaml.safe_dump(DAEMON_CONFIG), encoding="utf-8")
+    sampler = Sampler(lambda *_: None)
+    exit_code = fly_simulated(
+        sim_cfg, mission_path, cfg_path, root / "runs", log_path, sampler.take, SIM_LIMIT_S
+    )
+    return exit_code, sampler.samples
+
+
+def run_one(
+    course: str, policy: str, speedup: float, timeout_s: float, work: Path, clock: str = "simulated"
+) -> RunResult:
+    """One course flown by one policy (``clock``: see :func:`simflight.clock_label`)."""
     import logging
 
     import structlog
 
     from helixd.config import VehicleConfig
-    from helixd.sim.server import start_embedded
     from helixd.sim.sim_config import SimConfig
 
     structlog.configure(
@@ -354,24 +401,14 @@ def run_one(course: str, policy: str, speedup: float, timeout_s: float, work: Pa
     mission_path.write_text(yaml.safe_dump(mission_for(files, policy)), encoding="utf-8")
     true_map: MediaMap = read_media_map(files.sim_map)
     sim_cfg = SimConfig(speedup=speedup, noise="low", seed=1, plant="helix", media=true_map)
-    server, url = start_embedded(sim_cfg)
     log_path = root / "daemon.log"
-    try:
-        cfg = dict(DAEMON_CONFIG, link={"url": url})
-        cfg_path = root / "helixd.yaml"
-        cfg_path.write_text(yaml.safe_dump(cfg), encoding="utf-8")
-        cmd = [
-            sys.executable, "-m", "helixd", "run", "--connect", url, "--mission",
-            str(mission_path), "--config", str(cfg_path), "--run-dir", str(root / "runs"),
-        ]  # fmt: skip
-        t0 = time.monotonic()
-        with Sampler(server.wait_for) as sampler:
-            exit_code = _daemon(cmd, log_path, root, timeout_s)
-        wall_s = time.monotonic() - t0
-    finally:
-        server.stop()
+    t0 = time.monotonic()
+    if clock == "simulated":
+        exit_code, samples = _fly_simulated(sim_cfg, mission_path, root, log_path)
+    else:
+        exit_code, samples = _fly_on_the_wall(sim_cfg, mission_path, root, log_path, timeout_s)
+    wall_s = time.monotonic() - t0
     result = RunResult(course, policy, exit_code=exit_code, wall_s=wall_s)
-    samples = sampler.samples
     result.samples = len(samples)
     log_text = log_path.read_text(encoding="utf-8", errors="replace")
     result.log_tail = " | ".join(log_text.splitlines()[-2:])
@@ -448,26 +485,36 @@ def table(results: Sequence[RunResult]) -> str:
 
 
 def main(
-    speedup: float = typer.Option(6.0, min=0.5, max=20.0, help="simulator speed-up"),
+    clock: str = typer.Option("simulated", help=CLOCK_HELP),
+    speedup: float = typer.Option(
+        6.0, min=0.5, max=20.0, help="simulator speed-up (--clock wall only)"
+    ),
     only: list[str] = typer.Option([], help="courses to fly (default: all)"),  # noqa: B008
     policy: list[str] = typer.Option([], help="policies (default: roll, scroll, media)"),  # noqa: B008
     jobs: int = typer.Option(1, min=1, max=8, help="runs at once"),
-    timeout_s: float = typer.Option(600.0, min=10.0, help="wall-time limit of one run (s)"),
+    timeout_s: float = typer.Option(
+        600.0, min=10.0, help="wall-time limit of one run (s; --clock wall only)"
+    ),
     results_dir: Path = typer.Option(RESULTS_DIR, help="where latest.json/md go"),  # noqa: B008
 ) -> None:
     courses = [c for c in COURSES if not only or c in only]
     policies = [p for p in POLICIES if not policy or p in policy]
     unknown = sorted(set(only) - set(COURSES)) + sorted(set(policy) - set(POLICIES))
+    if clock not in CLOCK_CHOICES:
+        unknown.append(f"--clock {clock}")
     if unknown or not courses or not policies:
         typer.echo(f"unknown or empty selection: {unknown}; courses {COURSES}, policies {POLICIES}")
         raise typer.Exit(2)
     combos = [(c, p) for c in courses for p in policies]
-    typer.echo(f"amphibious: {len(combos)} runs, speed-up {speedup:g}, {jobs} worker(s)")
+    label = clock_label(clock, speedup)
+    typer.echo(f"amphibious: {len(combos)} runs, {label}, {jobs} worker(s)")
     with tempfile.TemporaryDirectory(prefix="bench-amphibious-") as tmp:
         work = Path(tmp)
         results: list[RunResult] = []
         with concurrent.futures.ProcessPoolExecutor(max_workers=jobs) as pool:
-            futures = [pool.submit(run_one, c, p, speedup, timeout_s, work) for c, p in combos]
+            futures = [
+                pool.submit(run_one, c, p, speedup, timeout_s, work, clock) for c, p in combos
+            ]
             for fut in futures:
                 results.append(fut.result())
     results.sort(key=lambda r: (COURSES.index(r.course), POLICIES.index(r.policy)))
@@ -475,6 +522,7 @@ def main(
     for r in results:
         section.setdefault(r.course, {})[r.policy] = r.figures()
     lines = verdicts(section)
+    typer.echo(f"clock: {label}")
     typer.echo(table(results))
     for line in lines:
         typer.echo(line)
@@ -483,7 +531,9 @@ def main(
         {
             **section,
             "verdicts": lines,
-            "speedup": speedup,
+            "clock": clock,
+            "clock_note": label,
+            "speedup": speedup if clock == "wall" else None,
             "energy_model": f"{SCROLL_POWER_W:g} W per scroll at max rpm, power ∝ |rpm|",
         },
         results_dir,

@@ -84,6 +84,7 @@ if str(ROOT / "tools") not in sys.path:
 
 import navmetrics  # noqa: E402 - after the path set-up above
 from bench_results import write_section  # noqa: E402
+from simflight import CLOCK_CHOICES, CLOCK_HELP, clock_label, fly_simulated  # noqa: E402
 
 from helixd.files.yamlio import parse_yaml_text  # noqa: E402
 
@@ -144,6 +145,7 @@ DAEMON_CONFIG: dict[str, Any] = {
     "startup": {"connect_timeout_s": 20.0, "arm_retry_interval_s": 0.5},
 }
 KILL_GRACE_S = 15.0
+SIM_LIMIT_S = 1800.0  # simulated seconds: a run on the simulated clock still going then hung
 LOG_TAIL_LINES = 3
 FLIGHT_COLUMNS = (
     "t_boot_s", "north_m", "east_m", "yaw_ned_rad", "x_m", "y_m", "yaw_rad",
@@ -805,7 +807,7 @@ class TruePoseSampler:
         self._last_ms = -(10**9)
         self._thread = threading.Thread(target=self._run, name="true-pose", daemon=True)
 
-    def _take(self, snap: Any) -> bool:
+    def take(self, snap: Any) -> bool:
         ms = int(snap.time_boot_ms)
         if ms - self._last_ms >= self._period_s * 1000.0 and not snap.silent:
             self._last_ms = ms
@@ -815,7 +817,7 @@ class TruePoseSampler:
     def _run(self) -> None:
         while not self._stop.is_set():
             try:
-                self._wait_for(self._take, SAMPLER_WAIT_S)
+                self._wait_for(self.take, SAMPLER_WAIT_S)
             except TimeoutError:
                 continue
 
@@ -837,6 +839,70 @@ def _mission_waypoints(mission_path: Path) -> list[tuple[float, float]]:
     return [(w.x_m, w.y_m) for w in plan.waypoints]
 
 
+def _fly_on_the_wall(
+    sim_cfg: Any, cfg: dict[str, Any], mission_path: Path, run_root: Path, timeout_s: float
+) -> tuple[int | None, list[tuple[float, float, float]]]:
+    """Simulator in this process on the wall clock (sped up), the daemon as a subprocess;
+    the true pose sampled on a thread meanwhile."""
+    from helixd.sim.server import start_embedded
+
+    server, url = start_embedded(sim_cfg)
+    try:
+        cfg_path = run_root / "helixd.yaml"
+        cfg["link"] = {**cfg.get("link", {}), "url": url}
+        cfg_path.write_text(yaml.safe_dump(cfg), encoding="utf-8")
+        log_path = run_root / "daemon.log"
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH")) if p)
+        env.pop("NOTIFY_SOCKET", None)
+        cmd = [
+            sys.executable, "-m", "helixd", "run", "--connect", url,
+            "--mission", str(mission_path), "--config", str(cfg_path),
+            "--run-dir", str(run_root / "runs"),
+        ]  # fmt: skip
+        with (
+            TruePoseSampler(server.wait_for) as sampler,
+            log_path.open("w", encoding="utf-8") as log_fh,
+        ):
+            proc = subprocess.Popen(
+                cmd, stdout=subprocess.DEVNULL, stderr=log_fh, env=env, cwd=run_root
+            )
+            exit_code: int | None
+            try:
+                exit_code = proc.wait(timeout=timeout_s)
+            except subprocess.TimeoutExpired:
+                exit_code = None
+                proc.send_signal(signal.SIGINT)  # the daemon's own stop path
+                try:
+                    proc.wait(timeout=KILL_GRACE_S)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
+    finally:
+        server.stop()
+    return exit_code, sampler.samples
+
+
+def _fly_simulated(
+    sim_cfg: Any, cfg: dict[str, Any], mission_path: Path, run_root: Path
+) -> tuple[int | None, list[tuple[float, float, float]]]:
+    """The daemon and the simulator on one simulated clock in this process (seeded: the same
+    flight on any machine); the true pose sampled from every snapshot."""
+    cfg_path = run_root / "helixd.yaml"
+    cfg_path.write_text(yaml.safe_dump(cfg), encoding="utf-8")
+    sampler = TruePoseSampler(lambda *_: None)
+    exit_code = fly_simulated(
+        sim_cfg,
+        mission_path,
+        cfg_path,
+        run_root / "runs",
+        run_root / "daemon.log",
+        sampler.take,
+        SIM_LIMIT_S,
+    )
+    return exit_code, sampler.samples
+
+
 def run_one(
     combo: Combo,
     seed: int,
@@ -844,14 +910,14 @@ def run_one(
     timeout_s: float,
     work: Path,
     default: str,
+    clock: str = "simulated",
 ) -> RunResult:
-    """Simulator in this process, the daemon as a subprocess; wait for it and read its run."""
+    """One run (``clock``: see :func:`simflight.clock_label`); wait for it and read its run."""
     import logging
 
     import structlog
 
     from helixd.recorder.rows import read_flight_columns
-    from helixd.sim.server import start_embedded
     from helixd.sim.sim_config import SimConfig
 
     structlog.configure(
@@ -873,43 +939,14 @@ def run_one(
         seed=seed,
         plant=combo.plant,
     )
-    server, url = start_embedded(sim_cfg)
-    try:
-        cfg_path = run_root / "helixd.yaml"
-        cfg = daemon_config(combo.guidance, default, combo.plant)
-        cfg["link"] = {**cfg.get("link", {}), "url": url}
-        cfg_path.write_text(yaml.safe_dump(cfg), encoding="utf-8")
-        log_path = run_root / "daemon.log"
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
-        env["PYTHONPATH"] = os.pathsep.join(p for p in (str(ROOT), env.get("PYTHONPATH")) if p)
-        env.pop("NOTIFY_SOCKET", None)
-        cmd = [
-            sys.executable, "-m", "helixd", "run", "--connect", url,
-            "--mission", str(mission_path), "--config", str(cfg_path),
-            "--run-dir", str(run_root / "runs"),
-        ]  # fmt: skip
-        t0 = time.monotonic()
-        with (
-            TruePoseSampler(server.wait_for) as sampler,
-            log_path.open("w", encoding="utf-8") as log_fh,
-        ):
-            proc = subprocess.Popen(
-                cmd, stdout=subprocess.DEVNULL, stderr=log_fh, env=env, cwd=run_root
-            )
-            exit_code: int | None
-            try:
-                exit_code = proc.wait(timeout=timeout_s)
-            except subprocess.TimeoutExpired:
-                exit_code = None
-                proc.send_signal(signal.SIGINT)  # the daemon's own stop path
-                try:
-                    proc.wait(timeout=KILL_GRACE_S)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.wait()
-        wall_s = time.monotonic() - t0
-    finally:
-        server.stop()
+    cfg = daemon_config(combo.guidance, default, combo.plant)
+    log_path = run_root / "daemon.log"
+    t0 = time.monotonic()
+    if clock == "simulated":
+        exit_code, samples = _fly_simulated(sim_cfg, cfg, mission_path, run_root)
+    else:
+        exit_code, samples = _fly_on_the_wall(sim_cfg, cfg, mission_path, run_root, timeout_s)
+    wall_s = time.monotonic() - t0
     runs = sorted(p for p in (run_root / "runs").glob("*") if p.is_dir())
     summary: dict[str, Any] | None = None
     figures = TrueFigures()
@@ -921,7 +958,7 @@ def run_one(
         try:
             cols = read_flight_columns(runs[-1] / "flight.csv")
             columns = {k: [float(v) for v in cols[k]] for k in FLIGHT_COLUMNS}
-            figures = true_figures(columns, _mission_waypoints(mission_path), sampler.samples)
+            figures = true_figures(columns, _mission_waypoints(mission_path), samples)
         except (OSError, ValueError, KeyError):
             figures = TrueFigures()
     return result_from_summary(
@@ -930,7 +967,10 @@ def run_one(
 
 
 def main(
-    speedup: float = typer.Option(5.0, min=0.5, max=20.0, help="simulator speed-up"),
+    clock: str = typer.Option("simulated", help=CLOCK_HELP),
+    speedup: float = typer.Option(
+        5.0, min=0.5, max=20.0, help="simulator speed-up (--clock wall only)"
+    ),
     noise: list[str] = typer.Option(  # noqa: B008 - typer's idiom
         [], help="pose noise, repeatable: none, low, thesis (default low and thesis)"
     ),
@@ -949,7 +989,9 @@ def main(
     ),
     roll_anywhere: bool = typer.Option(False, help="fly ROLL on mud and sand too"),
     jobs: int = typer.Option(2, min=1, max=16, help="runs in parallel (worker processes)"),
-    timeout_s: float = typer.Option(300.0, min=10.0, help="wall seconds per run before SIGINT"),
+    timeout_s: float = typer.Option(
+        300.0, min=10.0, help="wall seconds per run before SIGINT (--clock wall only)"
+    ),
     keep: Path | None = typer.Option(  # noqa: B008 - typer's idiom
         None, help="keep run directories and daemon logs under this directory"
     ),
@@ -960,6 +1002,8 @@ def main(
     """Fly the mission × mode × terrain × noise × guidance matrix and the survey block; print
     and write the results."""
     try:
+        if clock not in CLOCK_CHOICES:
+            raise ValueError(f"--clock {clock!r}: one of {', '.join(CLOCK_CHOICES)}")
         noises = parse_noises(noise)
         terrains = parse_terrains(terrain)
         guidances = parse_guidances(guidance)
@@ -988,7 +1032,8 @@ def main(
         raise typer.Exit(2)
     typer.echo(
         f"navigation benchmark: {len(combos)} cell(s) x {runs} seed(s) = {len(todo)} runs, "
-        f"noise {'/'.join(noises)}, speed-up {speedup:g}, {jobs} worker(s), daemon default "
+        f"noise {'/'.join(noises)}, {clock_label(clock, speedup)}, {jobs} worker(s), daemon "
+        "default "
         "guidance "
         f"{default!r}"
     )
@@ -999,7 +1044,7 @@ def main(
         ctx = multiprocessing.get_context("spawn")
         with concurrent.futures.ProcessPoolExecutor(max_workers=jobs, mp_context=ctx) as pool:
             futures = {
-                pool.submit(run_one, c, s, speedup, timeout_s, work, default): (c, s)
+                pool.submit(run_one, c, s, speedup, timeout_s, work, default, clock): (c, s)
                 for c, s in todo
             }
             for n, fut in enumerate(concurrent.futures.as_completed(futures), 1):
@@ -1022,7 +1067,9 @@ def main(
         "completed": sum(r.completed for r in results),
         "noise": "/".join(noises),
         "baseline_tolerance_m": baseline_tolerance_m(),
-        "speedup": speedup,
+        "clock": clock,
+        "clock_note": clock_label(clock, speedup),
+        "speedup": speedup if clock == "wall" else None,
         "jobs": jobs,
         "seeds": f"{seed}..{seed + runs - 1}",
         "daemon_default_guidance": default,

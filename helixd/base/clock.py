@@ -46,6 +46,12 @@ def unix_s() -> float:
     return loop.unix_s() if isinstance(loop, SimulatedClockLoop) else time.time()
 
 
+def on_simulated_clock() -> bool:
+    """Is the running loop a :class:`SimulatedClockLoop` (``run --sim --sim-clock
+    simulated``)? Its "monotonic" seconds are then simulated ones, not the wall's."""
+    return isinstance(asyncio._get_running_loop(), SimulatedClockLoop)
+
+
 def now_s() -> float:
     """Seconds on the run's monotonic clock: the running loop's time; outside a loop (a
     thread, a synchronous command) the monotonic clock, which is the standard loop's time."""
@@ -141,4 +147,4 @@ class SimulatedClockLoop(asyncio.SelectorEventLoop):
         )
 
 
-__all__ = ["SIMULATED_START_S", "SimulatedClockLoop", "now_s", "unix_s"]
+__all__ = ["SIMULATED_START_S", "SimulatedClockLoop", "now_s", "on_simulated_clock", "unix_s"]

@@ -8,6 +8,7 @@ message per problem and a non-zero exit code — never a traceback.
 from __future__ import annotations
 
 import asyncio
+import re
 import shutil
 import sys
 from collections.abc import Mapping
@@ -71,7 +72,6 @@ from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.media_figure import checked_media
 from helixd.runtime.plan_report import check_lines, record_space_warning
 from helixd.runtime.planned import Flight, route_lines
 from helixd.runtime.prepare import (
@@ -222,6 +222,9 @@ def check(
 def _check_plot(got: Prepared, plot: Path) -> None:
     """``check --plot``: the route planned around obstacles, the media map's areas under it;
     without a route, a media map's areas and the plan's stretches by mode; else say why not."""
+    # deferred, as `helixd plot`'s: matplotlib (0.2 s) only when a plot is asked for
+    from helixd.runtime.media_figure import checked_media
+
     flight = got.flight
     media = None
     if got.media is not None:
@@ -572,6 +575,25 @@ cli_autopilot_setup.register(autopilot_app)
 app.add_typer(autopilot_app, name="autopilot")
 
 
+NOT_A_CHOICE = re.compile(
+    r"^Invalid value for '(?P<option>[^']+)': (?:Value error, )?'(?P<value>[^']*)' is not one "
+    r"of (?P<choices>.+?)\.?$"
+)
+
+
+def usage_message(text: str) -> str:
+    """A command-line error as the operator reads it: a choice not among an option's choices
+    says them plainly (``--mode 'rol' is not one of: roll, scroll, omni``), not the parser's
+    ``Invalid value for '--mode': Value error, 'rol' is not one of 'roll', …``."""
+    got = NOT_A_CHOICE.match(text)
+    if got is None:
+        return text.replace("Value error, ", "")
+    choices = ", ".join(
+        c.strip().strip("'") for c in re.split(r",| or ", got["choices"]) if c.strip()
+    )
+    return f"{got['option']} {got['value']!r} is not one of: {choices}"
+
+
 def main(argv: list[str] | None = None) -> None:
     """Entry point. Command-line errors (typer/click usage errors) become one ``error:`` line
     and exit 2, like every other validation error, instead of a usage box."""
@@ -580,7 +602,7 @@ def main(argv: list[str] | None = None) -> None:
     try:
         code = app(args=args, standalone_mode=False)
     except TyperException as exc:  # click's UsageError/BadParameter/NoSuchOption, ...
-        typer.echo(f"error: {clip_line(exc.format_message())}", err=True)
+        typer.echo(f"error: {clip_line(usage_message(exc.format_message()))}", err=True)
         code = int(exc.exit_code)
     sys.exit(code if isinstance(code, int) else 0)
 

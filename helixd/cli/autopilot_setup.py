@@ -1,6 +1,7 @@
 """``helixd autopilot setup``: load a parameter file onto the autopilot (for a Helix:
 config/ardupilot/helix.parm): show what would change, ask, set, say whether a reboot is
-needed, then run ``helixd autopilot check``.
+needed (``--reboot``: reboot it, disarmed only, as ``install-guard --reboot`` does), then run
+``helixd autopilot check``.
 
 Refused while the autopilot is armed. Exit codes: 0 set (or nothing to change) and the check
 passes; 2 bad command line, config or parameter file; 3 the check still finds something to
@@ -20,21 +21,33 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.autopilot_check import report, setup_lines
 from helixd.cli.common import ConfigOpt, ObserverConnectOpt, fail, link_inputs, run_on_link
+from helixd.cli.guard import REBOOT_AUTOPILOT, RebootRefused, reboot_line
 from helixd.files.parmfile import ParmFileError, load_parm
 from helixd.link.autopilot_setup import SetupLine, failed
+from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.link.param_plan import ParamChange, plan_changes, reboot_needed, same_value
+from helixd.mav.constants import MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
 
 FileOpt = Annotated[
     list[Path],
     typer.Option(
         "--file",
         "-f",
+        metavar="<path>",
         help="parameter file (NAME VALUE lines; repeatable, later files win), e.g. "
         "config/ardupilot/helix.parm, then helix-servo.parm for the servo backend",
     ),
 ]
 YesOpt = Annotated[bool, typer.Option("--yes", "-y", help="set without asking")]
+SetupRebootOpt = Annotated[
+    bool,
+    typer.Option(
+        "--reboot",
+        help="then reboot the autopilot when a parameter set takes effect only at boot "
+        "(disarmed only); sends MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (246) param1=1",
+    ),
+]
 
 
 class ArmedError(RuntimeError):
@@ -62,10 +75,14 @@ def _refuse_armed(ap: Autopilot) -> None:
 
 
 def setup_command(
-    file: FileOpt, connect: ObserverConnectOpt = None, config: ConfigOpt = None, yes: YesOpt = False
+    file: FileOpt,
+    connect: ObserverConnectOpt = None,
+    config: ConfigOpt = None,
+    yes: YesOpt = False,
+    reboot: SetupRebootOpt = False,
 ) -> None:
-    """Load a parameter file onto the autopilot: show the difference, ask, set, say whether
-    to reboot, then check the setup (as `helixd autopilot check`)."""
+    """Load a parameter file onto the autopilot: show the difference, ask, set, check the
+    setup (as `helixd autopilot check`), then say whether to reboot (--reboot: reboot it)."""
     wanted = _wanted(file)
     cfg, link = link_inputs(config, connect)
 
@@ -93,16 +110,21 @@ def setup_command(
                 typer.echo("nothing set")
                 raise typer.Exit(int(ExitCode.OPERATOR_STOP))
 
+    at_boot = reboot_needed(c.name for c in changes)
+
     async def apply(ap: Autopilot) -> tuple[list[str], list[SetupLine]]:
         _refuse_armed(ap)
         refused = await _set_all(ap, changes)
-        return refused, await setup_lines(ap, cfg)
+        lines = await setup_lines(ap, cfg)
+        if reboot and at_boot:
+            await _reboot(ap, cfg.link.target_system, cfg.link.target_component)
+        return refused, lines
 
     try:
         refused, lines = run_on_link(cfg, link, apply)
-    except ArmedError as exc:
+    except (ArmedError, RebootRefused) as exc:
         raise fail([f"{link.url}: {exc}"], ExitCode.PREFLIGHT) from None
-    _tell_reboot(changes, refused)
+    _tell_reboot(changes, refused, rebooted=reboot)
     for line in report(link.url, lines):
         typer.echo(line)
     for text in refused:
@@ -121,13 +143,29 @@ async def _set_all(ap: Autopilot, changes: list[ParamChange]) -> list[str]:
     return refused
 
 
-def _tell_reboot(changes: list[ParamChange], refused: list[str]) -> None:
+async def _reboot(ap: Autopilot, target_system: int, target_component: int) -> None:
+    """Ask the autopilot to reboot (after the check: its answers end with the reboot)."""
+    if ap.state.armed:
+        raise RebootRefused("the autopilot armed during the setup: set, but not rebooted")
+    typer.echo(reboot_line(target_system, target_component))
+    try:
+        await ap.action.command_long(MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, (REBOOT_AUTOPILOT,))
+    except CommandError as exc:
+        raise RebootRefused(f"set, but the reboot was refused: {exc}") from None
+
+
+def _tell_reboot(changes: list[ParamChange], refused: list[str], rebooted: bool = False) -> None:
     if not changes:
         return
     typer.echo(f"set {len(changes) - len(refused)} of {len(changes)}")
     later = reboot_needed(c.name for c in changes)
-    if later:
-        typer.echo(f"reboot the autopilot: {', '.join(later)} take effect at boot")
+    if later and rebooted:
+        typer.echo(f"the autopilot accepted the reboot: {', '.join(later)} take effect as it boots")
+    elif later:
+        typer.echo(
+            f"reboot the autopilot: {', '.join(later)} take effect at boot (or run this again "
+            "with --reboot)"
+        )
     else:
         typer.echo("no reboot needed")
 

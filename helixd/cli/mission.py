@@ -36,6 +36,7 @@ from helixd.mission.formats import (
     load_mission_file,
     lost_in,
     read_gcs,
+    rebased_media_map,
     sniff_format,
     source_home,
     write_mission_file,
@@ -112,7 +113,7 @@ def convert(
         raise fail(exc.problems) from None
     for line in loaded.notes:
         typer.echo(f"warning: {clip_line(line)}", err=True)
-    msn = loaded.mission
+    msn = rebased_media_map(loaded.mission, src, dst)
     try:
         if target is not MissionFormat.YAML:  # a ground station needs lat/lon
             msn = placed_with(msn, where, start_heading_deg)

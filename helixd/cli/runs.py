@@ -173,8 +173,12 @@ def replay_command(
 
 def export_command(
     run_dir: Annotated[Path, typer.Argument(help="run directory (runs/<stamp>-<mission>/)")],
-    geojson: Annotated[bool, typer.Option("--geojson", help="write GeoJSON")] = False,
-    kml: Annotated[bool, typer.Option("--kml", help="write KML")] = False,
+    geojson: Annotated[
+        bool, typer.Option("--geojson", help="write GeoJSON (the default without a format)")
+    ] = False,
+    kml: Annotated[
+        bool, typer.Option("--kml", help="write KML (also the default for an --out of .kml)")
+    ] = False,
     out: Annotated[
         Path | None,
         typer.Option("-o", "--out", help="output file (default: RUN_DIR/track.geojson|kml)"),
@@ -184,10 +188,12 @@ def export_command(
         typer.Option("--min-step-m", min=0.0, max=100.0, help="flown-track point spacing (m)"),
     ] = DEFAULT_MIN_STEP_M,
 ) -> None:
-    """Export the planned path and the flown track in lat/lon (GeoJSON or KML)."""
-    if geojson == kml:
-        typer.echo("error: give exactly one of --geojson or --kml", err=True)
+    """Export the planned path and the flown track in lat/lon (GeoJSON, or KML)."""
+    if geojson and kml:
+        typer.echo("error: give one of --geojson or --kml", err=True)
         raise typer.Exit(int(ExitCode.USAGE))
+    if not kml:  # no format given: KML for a .kml file, else GeoJSON
+        geojson = geojson or out is None or out.suffix.lower() != ".kml"
     if not run_dir.is_dir():
         typer.echo(f"error: {run_dir}: not a directory", err=True)
         raise typer.Exit(int(ExitCode.USAGE))

@@ -85,7 +85,8 @@ def serve_command(
     sim_media: SimMediaOpt = None,
 ) -> None:
     """Run all day: fly the autopilot's mission when an operator starts it (start switch,
-    MISSION_START), pause and continue on the switch or DO_PAUSE_CONTINUE; never moves on its
+    MISSION_START, or the autopilot armed in AUTO: a ground station's Start Mission), pause
+    and continue on the switch, DO_PAUSE_CONTINUE or HOLD then AUTO again; never moves on its
     own. Stops on SIGINT/SIGTERM (a flight in progress falls back to HOLD first)."""
     choice = _sim_choice(sim, connect, sim_speedup, sim_terrain, sim_gcs)
     choice = with_bathymetry(choice, sim_bathymetry)

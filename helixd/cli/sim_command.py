@@ -125,6 +125,7 @@ ListenOpt = Annotated[
     typer.Option(
         "--listen",
         "-l",
+        metavar="<url>",
         help="MAVLink link: udpin:HOST:PORT, udpout:HOST:PORT or tcpin:HOST:PORT "
         "(repeatable; default tcpin:127.0.0.1:5760 and udpout:127.0.0.1:14550)",
     ),
@@ -150,6 +151,7 @@ FaultOpt = Annotated[
     list[str] | None,
     typer.Option(
         "--fault",
+        metavar="<name@seconds>",
         help="NAME@SECONDS[:key=value,...] in simulated time (repeatable), e.g. "
         "rc_loss@30:duration_s=5",
     ),

@@ -186,7 +186,10 @@ def simulator(
         yield url
         return
     _console_logging()
-    server, sim_url = start_embedded(simulator_config(choice, world, cfg), choice.extra_links)
+    # a machine that does not keep the speed-up is said so at once and the speed-up lowered,
+    # rather than another flight flown (helixd.sim.pace)
+    config = simulator_config(choice, world, cfg)
+    server, sim_url = start_embedded(config, choice.extra_links, judge_pace=True)
     try:
         yield sim_url
     finally:

@@ -10,7 +10,6 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
 from helixd.cli.common import fail
-from helixd.commands.survey_map import SurveyMapRefused, build_map, write_map
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.mission.formats.areas import read_area
 from helixd.mission.formats.items import FormatError
@@ -50,6 +49,9 @@ def survey_map(
 ) -> None:
     """Grid the depth readings of survey runs: GeoTIFF, x y z CSV, contours (GeoJSON, PNG),
     per-cell count and spread, and the cells without a reading as a mission (holes.yaml)."""
+    # deferred, as `helixd plot`'s: matplotlib (0.2 s) only when a map is made
+    from helixd.commands.survey_map import SurveyMapRefused, build_map, write_map
+
     try:
         surveyed = None if area is None else read_area(area)
         media_map = None if media is None else read_media_map(media)

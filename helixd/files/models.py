@@ -7,6 +7,7 @@ config and the recorder's summary build on it.
 
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from functools import cache
@@ -205,7 +206,11 @@ def _allowed_text(err: Any, model: type[BaseModel], loc: tuple[int | str, ...]) 
     if etype == "extra_forbidden":
         owner = _model_at(model, loc)
         if owner is not None:
-            return "allowed keys here: " + ", ".join(sorted(owner.model_fields))
+            fields = sorted(owner.model_fields)
+            key = loc[-1] if loc and isinstance(loc[-1], str) else None
+            near = difflib.get_close_matches(key, fields, n=1) if key is not None else []
+            hint = f"did you mean {near[0]}? " if near else ""
+            return hint + "allowed keys here: " + ", ".join(fields)
         return "remove it"
     if etype in ("enum", "literal_error"):
         return "allowed: " + str(ctx.get("expected", "see the documentation"))

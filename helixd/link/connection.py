@@ -383,9 +383,10 @@ class Autopilot:
                     link_lost_count=st.link_lost_count,
                 )
             if self._monitoring and (rerequest is None or rerequest.done()):
-                slow = self._streams.due(now, not st.link_lost)
+                booting = st.mode == "INITIALISING" or st.system_status == MAV_STATE_BOOT
+                origin_known = st.gps_origin is not None or st.pose is not None
+                slow = self._streams.due(now, not st.link_lost, booting, origin_known)
                 if slow:
-                    booting = st.mode == "INITIALISING" or st.system_status == MAV_STATE_BOOT
                     rerequest = self._spawn(
                         self._streams.rerequest_and_restart(slow, booting), "stream_rerequest"
                     )

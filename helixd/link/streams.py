@@ -65,6 +65,9 @@ STATE_STREAMS = ("HEARTBEAT",)
 # sent by ArduPilot only in a mode with a place to go (GCS_MAVLINK::
 # send_position_target_global_int): asked for like the rest, never counted as slow
 TARGET_STREAMS = ("POSITION_TARGET_GLOBAL_INT",)
+# sent by ArduPilot only once its EKF has an origin (GCS_MAVLINK::send_local_position needs
+# ahrs.get_relative_position_NED_origin): silent before that, as asked, never counted as slow
+ORIGIN_STREAMS = ("LOCAL_POSITION_NED",)
 US_PER_S = 1_000_000
 US_PER_MS = 1000
 MS_DENY_FACTOR = 800  # cap_message_interval: denied when interval_ms * 800 < loop period (µs)
@@ -150,15 +153,20 @@ class RateMonitor:
         if name in self.counts:
             self.counts[name] += 1
 
-    def check(self, now_s: float) -> list[tuple[str, float]] | None:
-        """None until a window is complete; then (name, observed Hz) of every slow stream."""
+    def check(
+        self, now_s: float, waiting: frozenset[str] = frozenset()
+    ) -> list[tuple[str, float]] | None:
+        """None until a window is complete; then (name, observed Hz) of every slow stream,
+        those in ``waiting`` (not sent yet by design, e.g. no EKF origin) left out."""
         if self.window_start_s is None or now_s - self.window_start_s < self.window_s:
             return None
         span = now_s - self.window_start_s
         slow = [
             (name, self.counts.get(name, 0) / span)
             for name, granted in self.granted_hz.items()
-            if granted > 0 and self.counts.get(name, 0) / span < self.slow_fraction * granted
+            if granted > 0
+            and name not in waiting
+            and self.counts.get(name, 0) / span < self.slow_fraction * granted
         ]
         self.restart(now_s)
         return slow
@@ -319,13 +327,19 @@ class StreamManager:
             except CommandError as exc:
                 log.warning("stream_rerequest_failed", stream=name, error=str(exc))
 
-    def due(self, now_s: float, link_up: bool) -> list[tuple[str, float]] | None:
-        """The slow streams to re-request now (once per window, while the link is up and no
-        request is in flight); None otherwise. Called by the link's housekeeping tick."""
-        if not link_up or self._lock.locked():
+    def due(
+        self, now_s: float, link_up: bool, booting: bool = False, origin_known: bool = True
+    ) -> list[tuple[str, float]] | None:
+        """The slow streams to re-request now (once per window, while the link is up, the
+        autopilot is not booting and no request is in flight); None otherwise. A window that
+        saw the autopilot boot starts again when it has booted (a booting ArduPilot sends only
+        HEARTBEAT), and the streams that need an EKF origin are not judged before the
+        autopilot has one (``origin_known``). Called by the link's housekeeping tick."""
+        if not link_up or booting or self._lock.locked():
             self.monitor.restart(now_s)
             return None
-        return self.monitor.check(now_s) or None
+        waiting = frozenset() if origin_known else frozenset(ORIGIN_STREAMS)
+        return self.monitor.check(now_s, waiting) or None
 
     async def rerequest_and_restart(
         self, slow: list[tuple[str, float]], booting: bool = False

@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from matplotlib.path import Path as MplPath
 
 from helixd.planning.obstacles import KeepOutCircle, Obstacles, PointNE
 
@@ -155,6 +154,10 @@ def _centres_inside(
     n = frame.origin_north_m + (rr + 0.5) * h
     e = frame.origin_east_m + (cc + 0.5) * h
     nn, ee = np.meshgrid(n, e, indexing="ij")
+    # deferred: matplotlib takes ~0.2 s to import, which every command paid at start; only
+    # rasterising a polygon needs it
+    from matplotlib.path import Path as MplPath
+
     path = MplPath(np.asarray(poly, dtype=np.float64), closed=False)
     pts = np.column_stack((nn.ravel(), ee.ravel()))
     inside: npt.NDArray[Any] = path.contains_points(pts).reshape(nn.shape)

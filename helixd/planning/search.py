@@ -37,7 +37,6 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-import tcod.path
 
 from helixd.planning.grid import PlanningGrid, segment_is_free
 from helixd.planning.obstacles import PointNE
@@ -75,6 +74,10 @@ def grid_path(
             return None
     if start == goal:
         return [start]
+    # deferred: tcod takes 0.3-0.5 s to import, which every command paid at start
+    # (`helixd --version` took 3.1 s); only planning on a map needs it
+    import tcod.path
+
     cost = np.ascontiguousarray(free, dtype=np.int8)
     graph = tcod.path.CustomGraph(free.shape)
     graph.add_edges(

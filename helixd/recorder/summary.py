@@ -96,6 +96,12 @@ class RunSummary(StrictModel):
         description="whole run including connect/preflight/stop on the companion's wall "
         "(monotonic) clock, if given (s)",
     )
+    companion_clock: Literal["wall", "simulated"] = Field(
+        "wall",
+        description="what the companion's clock was (duration_mono_s, wall_duration_s): the "
+        "wall's monotonic clock, or one simulated clock shared with the built-in simulator "
+        "(run --sim --sim-clock simulated), whose seconds are not the wall's",
+    )
     path_length_m: float = Field(description="driven path length from the recorded poses (m)")
     cross_track_rms_m: float | None = Field(description="RMS distance from the planned legs (m)")
     cross_track_max_m: float | None = Field(description="max |cross-track| (m)")

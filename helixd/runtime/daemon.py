@@ -36,7 +36,7 @@ import structlog
 
 from helixd import __version__
 from helixd.actuators.base import ActuatorError, ActuatorSink
-from helixd.base.clock import now_s
+from helixd.base.clock import now_s, on_simulated_clock
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.plan import Numbering, Plan, program_numbering
@@ -726,6 +726,8 @@ class MissionRunner:
             wall_duration_s=wall_duration_s,
             items_total=numbering.total if numbering.items else None,
         )
+        if on_simulated_clock():  # its "wall" seconds are simulated ones
+            summary = summary.model_copy(update={"companion_clock": "simulated"})
         if self.opts.inputs is not None and self.opts.inputs.resumed_from is not None:
             summary = summary.model_copy(update={"resumed_from": self.opts.inputs.resumed_from})
         program = None if self._plan is None else self._plan.program

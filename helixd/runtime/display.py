@@ -126,9 +126,14 @@ def summary_rows(summary: RunSummary, run_dir: Path | None = None) -> list[tuple
             rows.append(("estimated at preflight", seconds(summary.estimated_s)))
     else:
         rows.append(("flight time (autopilot clock)", "- (autopilot rebooted)"))
+    if summary.companion_clock == "simulated":  # no wall time was measured
+        rows.append(("whole run (simulated clock)", seconds(summary.wall_duration_s)))
+    else:
+        rows += [
+            ("flight time (wall clock)", seconds(summary.duration_mono_s)),
+            ("whole run (wall clock)", seconds(summary.wall_duration_s)),
+        ]
     rows += [
-        ("flight time (wall clock)", seconds(summary.duration_mono_s)),
-        ("whole run (wall clock)", seconds(summary.wall_duration_s)),
         ("path driven", f"{summary.path_length_m:.1f} m"),
         ("cross-track rms", metres(summary.cross_track_rms_m)),
         ("cross-track max", metres(summary.cross_track_max_m)),
@@ -208,7 +213,9 @@ def result_line(summary: RunSummary) -> str:
 
     ``helixd: RESULT ok — 4/4 waypoints, 72.3 s autopilot time (18.1 s wall), exit 0``
     ``helixd: RESULT fault pose_stale: … — 2/4 waypoints, 30.0 s autopilot time (7.5 s wall),
-    exit 4``. The word after RESULT depends on the exit code only (:data:`RESULT_WORDS`).
+    exit 4``; on the simulated clock ``… 71.0 s autopilot time (simulated clock), exit 0``
+    (its seconds are not the wall's). The word after RESULT depends on the exit code only
+    (:data:`RESULT_WORDS`).
     """
     code = summary.exit_code
     word = RESULT_WORDS.get(code, "exit")
@@ -217,10 +224,13 @@ def result_line(summary: RunSummary) -> str:
     wall = summary.duration_mono_s
     if summary.rows == 0 or wall is None:
         times = "not flown"
+    elif summary.companion_clock == "simulated" and summary.duration_clock == "autopilot":
+        times = f"{summary.duration_s:.1f} s autopilot time (simulated clock)"
     elif summary.duration_clock == "autopilot":
         times = f"{summary.duration_s:.1f} s autopilot time ({wall:.1f} s wall)"
     else:
-        times = f"{wall:.1f} s wall (autopilot clock reset: rebooted)"
+        clock = "simulated" if summary.companion_clock == "simulated" else "wall"
+        times = f"{wall:.1f} s {clock} (autopilot clock reset: rebooted)"
     if summary.record_cut_at_s is not None:  # the flight may be fine; its record is not
         times += f", record cut at {summary.record_cut_at_s:.1f} s"
     return f"{RESULT_PREFIX} {word}{_cause_text(summary.fault)} — {done}, {times}, exit {code}"

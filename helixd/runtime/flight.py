@@ -534,22 +534,26 @@ class FlightLoop:
         """
         mpose = self.frame.to_mission(sample.ned)
         slip = self._learn_slip(sample, t_boot_s)
-        if self._slip_enabled and self.navigator.mode is not MotionMode.OMNI:
-            delivered_x, delivered_y = self.slip.delivered(self.navigator.mode)
-            scroll = self.navigator.mode is MotionMode.SCROLL
+        # the navigator's mode read once before its step and once after (a stop may change
+        # it): it looks the stretch up in the plan, and six reads a step were 4 % of its CPU
+        mode = self.navigator.mode
+        if self._slip_enabled and mode is not MotionMode.OMNI:
+            delivered_x, delivered_y = self.slip.delivered(mode)
+            scroll = mode is MotionMode.SCROLL
             self.navigator.set_delivered_fraction(delivered_y if scroll else delivered_x)
         out = self.navigator.step(mpose, t_boot_s)
+        mode = self.navigator.mode
         command = out.command
         if self._slip_enabled:
-            command = self.slip.compensate(self.navigator.mode, out.command)
-        fractions = scroll_fractions(command, self.cfg.vehicle, self.navigator.mode)
+            command = self.slip.compensate(mode, out.command)
+        fractions = scroll_fractions(command, self.cfg.vehicle, mode)
         if (
             not out.command.is_finite()
             or not command.is_finite()
             or not math.isfinite(fractions[0] + fractions[1] + fractions[2] + fractions[3])
         ):
             raise NonFiniteError(f"command {out.command} / fractions {list(fractions)}")
-        return StepOutput(fractions, out, command, mpose, slip, self.navigator.mode.value)
+        return StepOutput(fractions, out, command, mpose, slip, mode.value)
 
     def _sent_step(self, step: StepOutput, t_boot_s: float) -> None:
         """Bookkeeping of what was sent, for the stall watchdog and the slip fit."""

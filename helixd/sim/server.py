@@ -3,7 +3,10 @@
 The core (:class:`helixd.sim.core.SimCore`) is stepped on the simulator thread's asyncio
 loop at SCHED_LOOP_RATE in *simulated* time; simulated time runs ``speedup`` times faster
 than wall time (SITL's --speedup), and message rates are in simulated time, as SITL's are.
-When the machine cannot keep up, simulated time slows down rather than skipping loops.
+When the machine cannot keep up, simulated time slows down rather than skipping loops, and
+while the rover is armed a machine that does not keep the asked speed-up is said so at once
+and the speed-up lowered to what it kept (:mod:`helixd.sim.pace`): a flight whose poses and
+commands arrive late in simulated time is another flight.
 
 Links are pymavlink-style strings: ``udpin:HOST:PORT`` (bind; reply to whoever spoke last),
 ``udpout:HOST:PORT`` (send there, listen on the same socket), ``tcpin:HOST:PORT`` (serve
@@ -39,13 +42,14 @@ import structlog
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.base.clock import now_s
+from helixd.base.clock import now_s, on_simulated_clock
 from helixd.files.media import read_media_map
 from helixd.mav.guard_script import POSIX_SCRIPTS_DIR, SCRIPT_NAME, script_bytes
 from helixd.sim.core import SimCore
 from helixd.sim.faults import make_spec
 from helixd.sim.ftp_server import FtpServer
 from helixd.sim.inbound import Router
+from helixd.sim.pace import PaceJudge
 from helixd.sim.param_store import ParamStore
 from helixd.sim.sim_config import SimConfig
 from helixd.sim.snapshot import History, HistoryEntry, SimSnapshot, take_snapshot
@@ -191,7 +195,13 @@ class _Link(asyncio.DatagramProtocol, asyncio.Protocol):
 class SimServer:
     """The simulator running on its own thread, reachable over MAVLink links."""
 
-    def __init__(self, links: Sequence[str], config: SimConfig, embedded: bool = False) -> None:
+    def __init__(
+        self,
+        links: Sequence[str],
+        config: SimConfig,
+        embedded: bool = False,
+        judge_pace: bool = False,
+    ) -> None:
         if not links:
             raise ValueError("at least one link is needed")
         self.link_specs = [LinkSpec.parse(url) for url in links]
@@ -229,6 +239,16 @@ class SimServer:
         # called on the simulator's loop with each snapshot it publishes (a recorder's trace)
         self.snapshot_listeners: list[Callable[[SimSnapshot], None]] = []
         self.local_ports: list[int] = []
+        # the wall-clock pace: the speed-up kept now, judged per window (helixd.sim.pace)
+        self._speedup = config.speedup
+        self._pace = PaceJudge(self._core.dt_s())
+        self._pace_warned = False
+        # judged only when asked (helixd run/serve --sim: a flight that must be the flight);
+        # never on a simulated clock shared with the daemon (running_here), which has no pace
+        self._judge = judge_pace
+        # called after every loop on the wall clock: a test's seam for a slow machine (a loop
+        # that costs more wall time than this one's), never set in production
+        self.after_tick: Callable[[], None] | None = None
 
     # -- lifecycle -------------------------------------------------------------------------
 
@@ -299,6 +319,7 @@ class SimServer:
         if self._thread is not None or self._loop is not None:
             raise RuntimeError("SimServer already started")
         self._loop = asyncio.get_running_loop()
+        self._judge = self._judge and not on_simulated_clock()
         try:
             await self._open_links()
         except BaseException:
@@ -362,21 +383,62 @@ class SimServer:
 
     # -- the loop --------------------------------------------------------------------------
 
+    @property
+    def speedup(self) -> float:
+        """The speed-up the simulator runs at now: the asked one, or lower once the machine
+        could not keep it (:mod:`helixd.sim.pace`)."""
+        return self._speedup
+
     async def _run(self) -> None:
         core = self._core
-        speedup = self.config.speedup
         start_wall, start_sim = now_s(), core.now_s
         while not self._stopping.is_set():
+            speedup = self._speedup
             target_sim = start_sim + (now_s() - start_wall) * speedup
             loops = 0
             while core.now_s + core.dt_s() <= target_sim + 1e-9 and loops < MAX_LOOPS_PER_WAKEUP:
                 core.tick()
+                if self.after_tick is not None:
+                    self.after_tick()
                 self._after()
                 loops += 1
             if loops == MAX_LOOPS_PER_WAKEUP:  # cannot keep up: slow simulated time down
                 start_wall, start_sim = now_s(), core.now_s
-            next_wall = start_wall + (core.now_s + core.dt_s() - start_sim) / speedup
+            if self._judge_pace(loops):  # a lower speed-up from here on
+                start_wall, start_sim = now_s(), core.now_s
+            next_wall = start_wall + (core.now_s + core.dt_s() - start_sim) / self._speedup
             await asyncio.sleep(max(MIN_SLEEP_S, min(0.05, next_wall - now_s())))
+
+    def _judge_pace(self, loops: int) -> bool:
+        """Did this wake-up end a window in which the machine did not keep the speed-up? Then
+        say so at once (a warning and a ``pace`` history entry) and lower it (True)."""
+        core = self._core
+        if not self._judge or loops == 0:
+            return False
+        verdict = self._pace.wake(now_s(), core.now_s, loops, self._speedup, core.ap.armed)
+        if verdict is None:
+            return False
+        details = {
+            "asked_speedup": verdict.asked,
+            "speedup": verdict.speedup,
+            "loops_per_wakeup": round(verdict.loops_per_wakeup, 2),
+            "achieved_speedup": round(verdict.achieved, 2),
+        }
+        if verdict.speedup >= verdict.asked:
+            if not self._pace_warned:  # nothing lower to go to: said once
+                self._pace_warned = True
+                log.warning("sim_pace_not_kept", **details, why=verdict.reason())
+                self.history.append(HistoryEntry(now_s(), core.now_s, "pace", details))
+            return False
+        log.warning(
+            "sim_speedup_lowered",
+            **details,
+            why=f"{verdict.reason()}; flying on at {verdict.speedup:g} rather than another "
+            "flight (late poses, late commands)",
+        )
+        self.history.append(HistoryEntry(now_s(), core.now_s, "pace", details))
+        self._speedup = verdict.speedup
+        return True
 
     def _on_bytes(self, index: int, data: bytes) -> None:
         link = self._links[index] if index < len(self._links) else None
@@ -542,12 +604,15 @@ def embedded_url(server: SimServer) -> str:
     return f"udpout:127.0.0.1:{server.local_ports[0]}"
 
 
-def start_embedded(config: SimConfig, extra_links: tuple[str, ...] = ()) -> tuple[SimServer, str]:
+def start_embedded(
+    config: SimConfig, extra_links: tuple[str, ...] = (), judge_pace: bool = False
+) -> tuple[SimServer, str]:
     """Run the simulator in-process on a free 127.0.0.1 UDP port (and ``extra_links``, e.g. a
-    ground station's ``udpout:127.0.0.1:14550``, routed as ArduPilot routes its ports).
+    ground station's ``udpout:127.0.0.1:14550``, routed as ArduPilot routes its ports);
+    ``judge_pace``: lower the speed-up the machine does not keep (:mod:`helixd.sim.pace`).
 
     Returns the server and the URL helixd should open (``udpout:127.0.0.1:PORT``).
     """
-    server = SimServer([EMBEDDED_LINK, *extra_links], config, embedded=True)
+    server = SimServer([EMBEDDED_LINK, *extra_links], config, embedded=True, judge_pace=judge_pace)
     server.start()
     return server, embedded_url(server)

@@ -101,3 +101,22 @@ def test_a_bad_file_is_named_by_line(tmp_path: Path, capsys: pytest.CaptureFixtu
     )
     assert code == int(ExitCode.USAGE)
     assert f"error: {bad}:2: RCMAP_THROTTLE = 'five' is not a number" in err
+
+
+def test_reboot_reboots_the_autopilot_when_a_parameter_needs_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Before: setup said "reboot the autopilot" but had no way to; `--reboot` sends
+    MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN after the check, and the simulator reboots."""
+    with running_sim(params=NOT_SET_UP) as (server, url):
+        args = setup(url, tmp_path, "--file", HELIX_PARM, "--yes", "--reboot")
+        code, out, err = run_main(args, capsys)
+        assert code == 0, out + err
+        assert "MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (246) param1=1" in out
+        assert "the autopilot accepted the reboot: RCMAP_THROTTLE, SCR_ENABLE take effect" in out
+        assert "ok      arming (throttle):" in out  # checked before the reboot
+        server.wait_for(lambda s: server.history.first("reboot") is not None, 10.0)
+        # nothing left to set: no reboot asked for again
+        code, out, err = run_main(args, capsys)
+        assert code == 0, out + err
+        assert "every parameter already has the file's value" in out and "246" not in out

@@ -44,7 +44,8 @@ def test_run_completes_the_here_mission_at_once(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     code, out, err = run_main(
-        ["run", "--sim", "--sim-speedup", "10", "--mission", str(here_file(tmp_path)),
+        ["run", "--sim", "--sim-clock", "simulated", "--sim-seed", "1",
+         "--mission", str(here_file(tmp_path)),
          "--mode", "roll", "--log-level", "warning", "--run-dir", str(tmp_path / "runs")],
         capsys,
     )  # fmt: skip

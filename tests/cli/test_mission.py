@@ -163,6 +163,26 @@ def test_convert_places_a_local_ned_mission_through_the_origin(tmp_path: Path) -
     assert [p.inclusion for p in gcs.polygons] == [False]  # the keep-out: an exclusion zone
 
 
+def test_convert_to_a_plan_keeps_the_media_map(tmp_path: Path) -> None:
+    """Before: `convert` to .plan dropped the mission's media_map ("the format has no place
+    for media_map"); it is kept in the plan's helixd key as time_limit_s is, the path made
+    relative to the new file's folder, and read back; a .waypoints file still says it drops
+    it."""
+    out = tmp_path / "sub" / "pond.plan"
+    out.parent.mkdir()
+    src = MISSIONS / "pond-survey.yaml"
+    res = runner.invoke(app, ["mission", "convert", str(src), str(out)])
+    assert res.exit_code == 0, res.output
+    assert "media_map" not in res.output
+    back = load_mission_file(out, mode=MotionMode.SCROLL).mission
+    assert back.media_map is not None and not back.media_map.is_absolute()
+    pond = (src.parent / "../maps/pond-media.geojson").resolve()
+    assert (out.parent / back.media_map).resolve() == pond
+    assert back.time_limit_s == load_mission_file(src).mission.time_limit_s
+    res = runner.invoke(app, ["mission", "convert", str(src), str(tmp_path / "p.waypoints")])
+    assert res.exit_code == 0 and "has no place for media_map" in res.output
+
+
 def test_convert_places_a_start_mission_at_a_start_pose(tmp_path: Path) -> None:
     out = tmp_path / "sq.yaml"
     args = ["--origin", f"{ORIGIN[0]},{ORIGIN[1]}", "--start-heading-deg", "90"]

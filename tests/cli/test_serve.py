@@ -39,7 +39,8 @@ def test_sim_gcs_reaches_the_embedded_simulator(
 
     links: list[tuple[str, ...]] = []
 
-    def start(cfg: SimConfig, extra_links: tuple[str, ...] = ()) -> Any:
+    def start(cfg: SimConfig, extra_links: tuple[str, ...] = (), judge_pace: bool = False) -> Any:
+        assert judge_pace  # serve --sim lowers a speed-up the machine does not keep too
         links.append(extra_links)
         raise EmbeddedStart
 
@@ -49,3 +50,14 @@ def test_sim_gcs_reaches_the_embedded_simulator(
             ["serve", "--sim", "--sim-gcs", "udpout:127.0.0.1:14550", "--mode", "roll"], capsys
         )
     assert links == [(GCS_URL,)]
+
+
+def test_serve_help_says_how_a_ground_station_starts_a_flight(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Before: `serve -h` named the start switch and MISSION_START but not AUTO, the way
+    QGroundControl's Start Mission and every flight-mode menu start and continue a flight."""
+    code, out, _ = run_main(["serve", "-h"], capsys)
+    text = " ".join(out.split())
+    assert code == 0
+    assert "armed in AUTO" in text and "HOLD then AUTO again" in text

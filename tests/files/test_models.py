@@ -9,6 +9,7 @@ from pydantic import Field, ValidationError
 
 from helixd.config import LinkConfig, SafetyConfig, load_config
 from helixd.files.models import ConfigFileError, InputModel, format_validation_error
+from helixd.mission.model import load_mission
 
 
 class Bounded(InputModel):
@@ -42,6 +43,25 @@ def test_an_unknown_key_lists_every_allowed_key_whole(tmp_path: Path) -> None:
     [line] = info.value.problems
     assert "…" not in line
     assert line.endswith(", ".join(sorted(SafetyConfig.model_fields)) + ")")
+
+
+def test_a_misspelt_top_level_key_gets_a_did_you_mean(tmp_path: Path) -> None:
+    """Before: `mdoe: roll` in a mission listed the allowed keys, but only a waypoint's keys
+    said "did you mean"; a config file's keys now say it too."""
+    mission = tmp_path / "m.yaml"
+    mission.write_text(
+        "name: t\nmdoe: roll\nframe: start\nwaypoints:\n  - {x: 1.0, y: 0.0}\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(ConfigFileError) as info:
+        load_mission(mission)
+    (line,) = [p for p in info.value.problems if "mdoe" in p]
+    assert "mdoe: unknown key (got 'roll'; did you mean mode? allowed keys here: " in line
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("safety:\n  pose_stael_s: 1\n", encoding="utf-8")
+    with pytest.raises(ConfigFileError) as info:
+        load_config(cfg)
+    assert "did you mean pose_stale_s? allowed keys here: " in info.value.problems[0]
 
 
 def test_only_what_came_from_the_file_is_cut(tmp_path: Path) -> None:

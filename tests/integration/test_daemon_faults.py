@@ -33,8 +33,9 @@ pytestmark = pytest.mark.integration
 FALLBACK_S = 0.5  # stopped, released and HOLD within 0.5 s of detection
 HEARTBEAT_PERIOD_S = 1.0  # ArduPilot's HEARTBEAT: the autopilot's mode is read from it
 # A loaded 2-core CI box adds scheduling latency to both processes; measured values are
-# printed, the bound asserted is the requirement plus this allowance.
-SCHEDULING_SLACK_S = 0.25
+# printed, the bound asserted is the requirement plus this allowance (0.5 s: a 2x slower,
+# busy machine; the exact bounds are asserted on the autopilot's clock in the same test)
+SCHEDULING_SLACK_S = 0.5
 
 
 def summary(run_dir: Path) -> dict[str, Any]:

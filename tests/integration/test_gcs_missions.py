@@ -69,7 +69,7 @@ def test_run_plan_with_the_embedded_simulator(tmp_path: Path) -> None:
         ],
         capture_output=True,
         text=True,
-        timeout=180,
+        timeout=400,  # a hang guard: a loaded machine lowers the speed-up (sim/pace.py)
         check=False,
         cwd=tmp_path,
     )  # fmt: skip

@@ -295,8 +295,10 @@ async def test_helixd_asks_for_granted_rates_without_a_too_fast_text() -> None:
 
 RC_RECEIVER_BIT = 0x10000
 # the simulator's speed-up while a test streams overrides: times are judged in simulated time
-# and the stream is paced by it, so a faster simulator changes nothing but the wait
-STREAM_SPEEDUP = 5.0
+# and the stream is paced by it; 2, not 5, so a loaded machine that holds this thread back
+# for a moment does not leave a gap in the overrides the simulator reads as a radio silence
+STREAM_SPEEDUP = 2.0
+MSG_ATTITUDE = 30
 
 
 def _stream_overrides_until(
@@ -309,16 +311,26 @@ def _stream_overrides_until(
 ) -> Any:
     """Stream RC_CHANNELS_OVERRIDE (as helixd does, every 50 ms of its clock: here the
     simulator's) while collecting SYS_STATUS, HEARTBEAT and STATUSTEXT until the simulator's
-    clock reaches ``until_sim_s`` or a message satisfies ``stop`` (returned)."""
+    clock reaches ``until_sim_s`` or a message satisfies ``stop`` (returned). Each message is
+    stamped with the simulated time it was sent at — that of the ATTITUDE (40 Hz) sent just
+    before it — not when this thread read it: a loaded machine reads late (it once made a
+    SYS_STATUS sent 0.1 s after an event look 0.58 s late)."""
+    assert c.request_interval(MSG_ATTITUDE, 25_000) == MAV_RESULT_ACCEPTED
     next_send = 0.0
+    stamp: float | None = None
     while (sim_s := srv.snapshot().sim_time_s) < until_sim_s:
         if sim_s >= next_send:
             c.override(*channels)
             next_send = sim_s + 0.05
-        msg = c.conn.recv_match(type=["SYS_STATUS", "HEARTBEAT", "STATUSTEXT"], timeout=0.01)
+        kinds = ["ATTITUDE", "SYS_STATUS", "HEARTBEAT", "STATUSTEXT"]
+        msg = c.conn.recv_match(type=kinds, timeout=0.01)
         if msg is None:
             continue
-        seen.append((srv.snapshot().sim_time_s, msg))
+        if msg.get_type() == "ATTITUDE":  # the autopilot's clock, on the simulator's scale
+            snap = srv.snapshot()
+            stamp = int(msg.time_boot_ms) / 1000.0 + snap.sim_time_s - snap.time_boot_ms / 1000.0
+            continue
+        seen.append((srv.snapshot().sim_time_s if stamp is None else stamp, msg))
         if stop(msg):
             return msg
     return None
@@ -375,7 +387,7 @@ def test_a_receivers_low_throttle_failsafe_is_seen_on_a_channel_not_overridden()
         unhealthy = next(
             t
             for t, m in seen
-            if t >= t_lost
+            if t >= t_lost - 0.03  # a stamp is the ATTITUDE's before it: up to 25 ms early
             and m.get_type() == "SYS_STATUS"
             and not int(m.onboard_control_sensors_health) & RC_RECEIVER_BIT
         )

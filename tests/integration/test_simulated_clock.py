@@ -85,3 +85,16 @@ def test_another_seed_flies_another_flight(tmp_path: Path) -> None:
     (code_a, err_a, rows_a), (code_b, err_b, rows_b) = fly_all(tmp_path, [5, 6])
     assert code_a == code_b == 0, err_a[-1000:] + err_b[-1000:]
     assert rows_a[2:] != rows_b[2:]
+
+
+def test_a_cold_autopilot_on_the_simulated_clock_is_no_slow_stream(tmp_path: Path) -> None:
+    """Before: each run on the simulated clock logged 9 `stream_slow` warnings (e.g.
+    `LOCAL_POSITION_NED observed_hz=0.0 granted_hz=40.0`): helixd connects while the simulated
+    autopilot still boots (only HEARTBEAT) and before its EKF has an origin (no
+    LOCAL_POSITION_NED, as ArduPilot), which a wall-clock run, starting seconds later, never
+    saw. Neither is a slow stream; and the RESULT line claims no wall time it did not measure."""
+    ((code, err, rows),) = fly_all(tmp_path, [5])
+    assert code == 0 and len(rows) > 100, err[-2000:]
+    assert "stream_slow" not in err and "streams_silent" not in err, err
+    assert "level=warning" not in err, err
+    assert "autopilot time (simulated clock), exit 0" in err, err

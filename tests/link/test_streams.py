@@ -164,6 +164,29 @@ async def test_one_slow_stream_among_flowing_ones_is_still_named() -> None:
     ]
 
 
+def test_a_window_that_saw_the_boot_or_no_origin_names_no_slow_stream() -> None:
+    """Before: helixd connecting to an autopilot that still boots (only HEARTBEAT), then has
+    no EKF origin yet (no LOCAL_POSITION_NED, as ArduPilot), logged 9 `stream_slow` warnings
+    on every run on the simulated clock. A window spent booting starts again once booted; the
+    origin's streams are judged once there is one."""
+
+    async def command(*_: object, **__: object) -> int:
+        return int(mavlink.MAV_RESULT_ACCEPTED)
+
+    streams = StreamManager(command, LinkConfig(stream_check_window_s=2.0))
+    for name in ("LOCAL_POSITION_NED", "ATTITUDE"):
+        streams.monitor.grant(name, 40.0, 0.0)
+    assert streams.due(1.0, link_up=True, booting=True) is None
+    for _ in range(80):  # booted at 1.0 s: ATTITUDE flows at 40 Hz, no pose (no origin)
+        streams.monitor.record("ATTITUDE")
+    assert streams.due(2.5, link_up=True, origin_known=False) is None  # window from 1.0 s
+    assert streams.due(3.0, link_up=True, origin_known=False) is None  # nothing slow
+    # the same window with an origin known: the silent pose stream is slow
+    for _ in range(80):
+        streams.monitor.record("ATTITUDE")
+    assert streams.due(5.0, link_up=True, origin_known=True) == [("LOCAL_POSITION_NED", 0.0)]
+
+
 async def test_payload_streams_are_asked_at_their_rate_and_not_at_zero() -> None:
     """DISTANCE_SENSOR, RANGEFINDER and WATER_DEPTH (payload.csv) are asked for once each at
     link.payload_rate_hz; 0 asks none."""

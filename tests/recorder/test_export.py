@@ -143,6 +143,19 @@ def test_export_command(tmp_path: Path) -> None:
     assert json.loads((tmp_path / "t.json").read_text())["type"] == "FeatureCollection"
 
 
+def test_export_without_a_format_writes_geojson(tmp_path: Path) -> None:
+    """Before: `helixd export RUN` exited 2 asking for a format; GeoJSON is the default, KML
+    for an --out ending in .kml."""
+    run = tmp_path / "run"
+    write_run(run, global_mission(), ORIGIN)
+    res = CliRunner().invoke(app, ["export", str(run)])
+    assert res.exit_code == 0, res.output
+    assert json.loads((run / "track.geojson").read_text())["type"] == "FeatureCollection"
+    res = CliRunner().invoke(app, ["export", str(run), "-o", str(tmp_path / "t.kml")])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "t.kml").read_text().lstrip().startswith("<?xml")
+
+
 def test_no_recorded_origin_says_so_and_exits_2(tmp_path: Path) -> None:
     run = tmp_path / "run"
     write_run(run, global_mission(), None)
@@ -151,8 +164,8 @@ def test_no_recorded_origin_says_so_and_exits_2(tmp_path: Path) -> None:
     res = CliRunner().invoke(app, ["export", str(run), "--geojson"])
     assert res.exit_code == 2
     assert "no EKF origin was recorded" in res.output
-    res = CliRunner().invoke(app, ["export", str(run)])
-    assert res.exit_code == 2 and "exactly one of --geojson or --kml" in res.output
+    res = CliRunner().invoke(app, ["export", str(run), "--geojson", "--kml"])
+    assert res.exit_code == 2 and "give one of --geojson or --kml" in res.output
     res = CliRunner().invoke(app, ["export", str(tmp_path / "nope"), "--kml"])
     assert res.exit_code == 2 and "not a directory" in res.output
 

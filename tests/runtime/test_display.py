@@ -258,6 +258,19 @@ def test_result_line_after_an_autopilot_reboot_and_a_long_cause() -> None:
     assert "reboot: " + "x" * 500 + " and the end of it — " in line
 
 
+def test_a_simulated_clock_run_claims_no_wall_time() -> None:
+    """Before: `run --sim --sim-clock simulated` said `flight time (wall clock) 71.0 s` and
+    `(71.0 s wall)` for a command that took 9.8 s: those seconds were simulated ones."""
+    summary = _summary(ExitCode.OK, None, 73, 4).model_copy(update={"companion_clock": "simulated"})
+    assert result_line(summary) == (
+        "helixd: RESULT ok — 4/4 waypoints, 72.0 s autopilot time (simulated clock), exit 0"
+    )
+    rows = dict(summary_rows(summary))
+    assert rows["flight time (autopilot clock)"] == "72.0 s"
+    assert rows["whole run (simulated clock)"] == "30.0 s"
+    assert not any("wall" in label for label in rows), rows
+
+
 def test_result_table_labels_every_time_with_its_clock() -> None:
     rows = dict(summary_rows(_summary(ExitCode.OK, None, 73, 4)))
     assert rows["flight time (autopilot clock)"] == "72.0 s"

@@ -88,7 +88,8 @@ def capture_embedded_start(monkeypatch: pytest.MonkeyPatch) -> list[SimConfig]:
 
     seen: list[SimConfig] = []
 
-    def start(cfg: SimConfig, extra_links: tuple[str, ...] = ()) -> Any:
+    def start(cfg: SimConfig, extra_links: tuple[str, ...] = (), judge_pace: bool = False) -> Any:
+        assert judge_pace  # the CLI's wall-clock simulator says when it cannot keep the pace
         seen.append(cfg)
         raise EmbeddedStart
 

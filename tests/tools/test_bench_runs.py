@@ -3,7 +3,10 @@ a temporary directory (never bench/results/): the test fails when the tool measu
 (no samples, no run, an empty section, a figure that is not a finite number).
 
 The tools run as ``make bench`` runs them, as their own processes (they configure logging
-for themselves), each in a few seconds of wall time.
+for themselves), each in a few seconds of wall time. The benches that fly do so on the
+simulated clock, their default (seeded: the same flight on any machine), so no verdict here
+depends on the machine's speed: before, the navigation and amphibious smoke flights ran at
+speed-up 20 on the wall clock and failed on a machine about 2x slower than this one.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from tests.support.paths import REPO_ROOT
 
 pytestmark = pytest.mark.integration
 
-TOOL_TIMEOUT_S = 60.0  # a loaded machine; each normally takes 5-15 s
+TOOL_TIMEOUT_S = 180.0  # a hang guard, not a verdict: each normally takes 5-20 s
 
 
 def run_tool(name: str, results_dir: Path, *args: str) -> tuple[int, str, dict[str, Any]]:
@@ -59,9 +62,11 @@ def test_control_loop_bench_measures_the_loop(tmp_path: Path) -> None:
     # the flight ran through the window: no watchdog ended it (a missing stream would)
     assert fig["fault"] is None and fig["loop_ended_early"] is False, out
     assert "WARNING" not in out and "no samples" not in out, out
-    assert fig["poses_sent"] >= 25 and fig["control_steps"] >= 25, out  # 1 s at 50 Hz
+    # 1 s at 50 Hz: 50 poses on time; a loaded or 2x slower machine may send fewer, and the
+    # test asks only that the loop was measured (the figures judge the machine, not this test)
+    assert fig["poses_sent"] >= 10 and fig["control_steps"] >= 10, out
     for key in ("latency_ms", "latency_in_daemon_ms", "autopilot_rtt_ms", "jitter_ms"):
-        assert fig[key]["n"] >= 25, (key, out)
+        assert fig[key]["n"] >= 10, (key, out)
         for q in ("p50", "p99", "max"):
             assert finite(fig[key][q], f"{key}.{q}", out) >= 0.0
     assert finite(fig["cpu_percent"], "cpu_percent", out) > 0.0
@@ -77,10 +82,11 @@ def test_navigation_bench_flies_and_measures_one_run(tmp_path: Path) -> None:
     code, out, data = run_tool(
         "bench_navigation", tmp_path,
         "--only", "square/roll", "--terrain", "hard", "--guidance", "line", "--noise", "none",
-        "--no-survey", "--runs", "1", "--jobs", "1", "--speedup", "20",
+        "--no-survey", "--runs", "1", "--jobs", "1",
     )  # fmt: skip
     assert code == 0, out
     nav = data["navigation"]
+    assert nav["meta"]["clock"] == "simulated" and nav["meta"]["speedup"] is None, out
     assert nav["meta"]["runs"] == 1 and nav["meta"]["completed"] == 1, out
     (run,) = nav["runs"]
     assert run["completed"] is True and run["mission"] == "square", run
@@ -110,11 +116,12 @@ def test_planning_bench_plans_every_map(tmp_path: Path) -> None:
 
 def test_amphibious_bench_flies_the_crossing_by_the_medium(tmp_path: Path) -> None:
     code, out, data = run_tool(
-        "bench_amphibious", tmp_path, "--only", "crossing", "--policy", "media",
-        "--speedup", "20", "--jobs", "1", "--timeout-s", "50",
+        "bench_amphibious", tmp_path, "--only", "crossing", "--policy", "media", "--jobs", "1",
     )  # fmt: skip
     assert code == 0, out
     assert set(data) == {"amphibious"}, out
+    assert data["amphibious"]["clock"] == "simulated", out
+    assert "simulated clock" in out, out
     fig = data["amphibious"]["crossing"]["media"]
     assert fig["samples"] > 100, out  # the simulator's truth was sampled
     assert fig["completed"] is True, out  # bank → water → bank, each stretch in its mode

@@ -9,6 +9,7 @@ Ground-station files carry no motion mode: it comes from ``--mode`` or the confi
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from enum import StrEnum
 from pathlib import Path
@@ -288,6 +289,17 @@ def mission_to_yaml(mission: Mission) -> str:
     return yaml.safe_dump(data, sort_keys=False, default_flow_style=None)
 
 
+def rebased_media_map(mission: Mission, src: Path, dst: Path) -> Mission:
+    """``mission`` (read from ``src``) to be written to ``dst``: a relative ``media_map`` —
+    relative to the mission file's folder — made relative to ``dst``'s folder, so the copy
+    names the same map."""
+    if mission.media_map is None or mission.media_map.is_absolute():
+        return mission
+    target = (src.parent / mission.media_map).resolve()
+    moved = Path(os.path.relpath(target, dst.parent.resolve()))
+    return mission.model_copy(update={"media_map": moved})
+
+
 def lost_in(mission: Mission, fmt: MissionFormat, *, had_mode: bool = True) -> list[str]:
     """What of ``mission`` the format cannot hold (said when converting); ``had_mode``: the
     mode came from a helixd mission (a ground-station source has none to lose)."""
@@ -298,13 +310,13 @@ def lost_in(mission: Mission, fmt: MissionFormat, *, had_mode: bool = True) -> l
     lost += ["speed_mps"] if mission.speed_mps is not None else []
     lost += ["geofence_radius_m"] if mission.geofence_radius_m is not None else []
     lost += ["ground"] if mission.ground is not None else []
-    if fmt is MissionFormat.WAYPOINTS:  # a .plan keeps it in its "helixd" key
+    if fmt is MissionFormat.WAYPOINTS:  # a .plan keeps them in its "helixd" key
         lost += ["time_limit_s"] if mission.time_limit_s is not None else []
+        lost += ["media_map"] if mission.media_map is not None else []
     if any(w.heading_deg is not None or w.tolerance_m is not None for w in mission.waypoints):
         lost.append("per-waypoint heading_deg/tolerance_m")
     if any(w.mode is not None for w in mission.waypoints):
         lost.append("per-waypoint mode")
-    lost += ["media_map"] if mission.media_map is not None else []
     lost += ["media_modes"] if mission.media_modes is not None else []
     if fmt is MissionFormat.WAYPOINTS:
         lost += ["geofence_polygon"] if mission.geofence_polygon else []
@@ -450,6 +462,7 @@ __all__ = [
     "plan_fence_ne",
     "read_fence",
     "read_gcs",
+    "rebased_media_map",
     "sniff_format",
     "source_home",
     "with_fence",

@@ -139,6 +139,7 @@ class GcsMission:
     home_alt_m: float | None = None  # the home row's / planned home's altitude, if it has one
     cruise_speed_mps: float | None = None  # a QGC .plan's cruiseSpeed (not used yet: a note)
     time_limit_s: float | None = None  # helixd's own key in a .plan it wrote
+    media_map: str | None = None  # the same: the mission's media map (relative: to the file)
     notes: tuple[str, ...] = ()  # what the reader left out or made up, for the operator
 
 
@@ -229,7 +230,8 @@ def _here_only(
     Location::sanitize):
     the start-frame mission of one waypoint at the rover (completed at once, as Rover
     completes it); None for anything else (a fence, a hold, more items)."""
-    if len(entries) != 1 or gcs.polygons or gcs.circles or gcs.time_limit_s is not None:
+    helixd_keys = gcs.time_limit_s is not None or gcs.media_map is not None
+    if len(entries) != 1 or gcs.polygons or gcs.circles or helixd_keys:
         return None
     (entry,) = entries
     params = entry.get("params")
@@ -324,6 +326,8 @@ def items_to_mission(
         data["geofence_polygon"] = [list(v) for v in fence]
     if gcs.time_limit_s is not None:
         data["time_limit_s"] = gcs.time_limit_s
+    if gcs.media_map is not None:
+        data["media_map"] = gcs.media_map
     if gcs.cruise_speed_mps is not None:
         notes.append(
             f"cruiseSpeed {gcs.cruise_speed_mps:g} m/s ignored: helixd flies at "
@@ -488,6 +492,7 @@ def mission_to_items(
         polygons=polygons,
         home_alt_m=mission.home_alt_m if home is None else home[2],
         time_limit_s=mission.time_limit_s,
+        media_map=None if mission.media_map is None else str(mission.media_map),
     )
 
 

@@ -153,6 +153,7 @@ class HelixdJson(_Json):
     """What helixd keeps in a .plan that QGC has no key for (QGC ignores unknown keys)."""
 
     time_limit_s: float | None = Field(None, gt=0.0, le=86_400.0)
+    media_map: str | None = Field(None, min_length=1, max_length=4096)
 
 
 class PlanJson(_Json):
@@ -298,6 +299,7 @@ def _to_gcs(plan: PlanJson, src: str, areas_only: bool = False) -> GcsMission:
         # a plan helixd wrote carries the mission's speed itself; QGC's cruiseSpeed is noted
         cruise_speed_mps=None if plan.helixd is not None else plan.mission.cruiseSpeed,
         time_limit_s=None if plan.helixd is None else plan.helixd.time_limit_s,
+        media_map=None if plan.helixd is None else plan.helixd.media_map,
         notes=tuple(notes),
     )
 
@@ -360,6 +362,10 @@ def plan_to_text(gcs: GcsMission, cruise_speed_mps: float | None = None) -> str:
         "rallyPoints": {"points": [], "version": 2},
         "version": 1,
         # what QGC has no key for (QGC ignores unknown keys); read back by helixd
-        "helixd": {} if gcs.time_limit_s is None else {"time_limit_s": gcs.time_limit_s},
+        "helixd": {
+            key: value
+            for key, value in (("time_limit_s", gcs.time_limit_s), ("media_map", gcs.media_map))
+            if value is not None
+        },
     }
     return json.dumps(doc, indent=4, allow_nan=False) + "\n"
