@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: all venv test lint typecheck unit demo bench bench-loop clean
+.PHONY: all venv test lint typecheck unit demo bench bench-loop soak clean
 
 all: test
 
@@ -63,6 +63,14 @@ bench: $(STAMP)
 
 bench-loop: $(STAMP)
 	$(BIN)/python tools/bench_control_loop.py $(LOOP_ARGS)
+
+# The soak (tools/soak.py): seeded crew days of `helixd serve` against the simulator on the
+# simulated clock, every safety rule checked at every step; its `soak` section goes into
+# bench/results/latest.json. The goal is SOAK_ARGS="--days 1000 --day-hours 2" (see
+# tools/README.md for what it costs here); replay one day: tools/soak.py --seed N --days 1
+SOAK_ARGS ?= --days 100 --day-hours 0.1 --jobs 2
+soak: $(STAMP)
+	$(BIN)/python tools/soak.py $(SOAK_ARGS) --results-dir bench/results
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache runs

@@ -17,7 +17,7 @@ from typing import Any
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS_DIR = ROOT / "bench" / "results"
-SECTIONS = ("navigation", "control_loop", "planning", "amphibious", "survey", "ground")
+SECTIONS = ("navigation", "control_loop", "planning", "amphibious", "survey", "ground", "soak")
 
 
 def merge_section(existing: object, key: str, section: Mapping[str, Any]) -> dict[str, Any]:
@@ -387,6 +387,28 @@ def ground_markdown(ground: Mapping[str, Any]) -> list[str]:
     return lines
 
 
+def soak_markdown(soak: Mapping[str, Any]) -> list[str]:
+    """The soak (tools/soak.py): its totals, its violations, the presses and faults it made."""
+    lines = ["## Soak (tools/soak.py)", ""]
+    for key in ("days", "day_hours", "simulated_hours", "wall_s", "cpu_s",
+                "simulated_hours_per_wall_minute"):  # fmt: skip
+        lines.append(f"- {key}: {fmt(soak.get(key))}")
+    violations = soak.get("violations") or []
+    lines += ["", f"Violations: {len(violations) if isinstance(violations, list) else '-'}"]
+    if isinstance(violations, list):
+        lines += [
+            f"- seed {v.get('seed')}: {v.get('rule')}" for v in violations if isinstance(v, Mapping)
+        ]
+    for title, key in (("crew action", "actions"), ("fault", "faults")):
+        counts = soak.get(key)
+        if isinstance(counts, Mapping) and counts:
+            lines += [
+                "",
+                *md_table([title, "count"], [[str(k), fmt(v)] for k, v in counts.items()]),
+            ]
+    return lines
+
+
 def render_markdown(results: Mapping[str, Any]) -> str:
     """The whole results file as Markdown (sections in a fixed order, missing ones skipped)."""
     lines = ["# helixd benchmark results", "", "Written by `make bench` (tools/bench_*.py)."]
@@ -408,6 +430,9 @@ def render_markdown(results: Mapping[str, Any]) -> str:
     ground = results.get("ground")
     if isinstance(ground, Mapping):
         lines += ["", *ground_markdown(ground)]
+    soak = results.get("soak")
+    if isinstance(soak, Mapping):
+        lines += ["", *soak_markdown(soak)]
     return "\n".join(lines) + "\n"
 
 

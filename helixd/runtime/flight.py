@@ -60,11 +60,14 @@ from helixd.control.slip import (
     no_slip_body,
 )
 from helixd.link.connection import Autopilot
-from helixd.link.vehicle import PoseSample, PositionTarget
+from helixd.link.vehicle import PoseSample, PositionTarget, VehicleState
 from helixd.mission.commands import bound_speed, speed_floor_mps
 from helixd.runtime.ground_watch import GroundChange, GroundWatch
 from helixd.runtime.loop_state import CrewState, StepCeiling, YawRateMeter
 from helixd.runtime.mode_gate import (
+    AUTO_MODE,
+    GOTO_MODES,
+    LEFT_AUTO,
     Gate,
     PlaceRule,
     autopilot_step,
@@ -75,8 +78,9 @@ from helixd.runtime.mode_gate import (
     item_set_by_crew,
 )
 from helixd.runtime.signals import StopRequest
+from helixd.safety.autopilot_failsafe import classify_mode_change
 from helixd.safety.mission_clock import MissionClock, MissionTime
-from helixd.safety.supervisor import Motion, Supervisor
+from helixd.safety.supervisor import Motion, Supervisor, failsafe_evidence
 from helixd.safety.watchdogs import Fault, FaultCause
 
 log = structlog.get_logger(__name__)
@@ -380,6 +384,9 @@ class FlightLoop:
         driving, crew = self.driving, self._crew
         assert driving.places is not None  # Driving checks it
         target = current_target_of(st, now, driving.places.stale_s)
+        failsafe = self._autopilot_failsafe(now, st)
+        if failsafe is not None:  # ArduPilot's mode, not the crew's: the fall-back, named
+            return FlightResult(failsafe, now, out, pose.ned if pose else None)
         if driving.goto is not None:
             gate = goto_gate(mode, driving.goto, target, driving.places.same_m)
         else:
@@ -406,6 +413,19 @@ class FlightLoop:
             fault = Fault(FaultCause.ITEM_SET, f"item {mc.seq} set: flying there")
             return FlightResult(fault, now, out, pose.ned if pose else None)
         return None
+
+    def _autopilot_failsafe(self, now: float, st: VehicleState) -> Fault | None:
+        """A mode the autopilot's own failsafe set (its text, fence, battery or status within
+        ``safety.autopilot_failsafe_window_s``, :func:`classify_mode_change`) when it leaves
+        the flight's last mode for one helixd does not drive in, else None: in a flight that
+        follows the crew's mode, a failsafe's HOLD is no Pause."""
+        before = self.supervisor.expected_mode
+        if st.mode in (before, AUTO_MODE, LEFT_AUTO) or st.mode in GOTO_MODES:
+            return None
+        evidence = failsafe_evidence(st)
+        return classify_mode_change(
+            st.mode, before, evidence, now, self.supervisor.failsafe_window_s
+        )
 
     def _item_set(self, seq: int) -> bool:
         """Whether the autopilot's current item ``seq`` moved as only the crew's *set current

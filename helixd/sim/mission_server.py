@@ -947,12 +947,15 @@ class MissionServer:
 
     def start_or_resume(self, out: Outcome) -> None:
         """AP_Mission::start_or_resume with MIS_RESTART 0 (resume): a completed mission, or
-        one with no current command, starts from its first command (jump counters cleared);
-        otherwise the current nav command starts again. Each nav command started says
-        "Mission: N WP" (AP_Mission::start_command)."""
+        one with no current command (or one the mission no longer has), starts from its first
+        command (jump counters cleared); otherwise the current nav command starts again. Each
+        nav command started says "Mission: N WP" (AP_Mission::start_command)."""
         if self.state == MISSION_RUNNING:
             return
-        restart = self.state == MISSION_COMPLETE or self.nav_index == CMD_INDEX_NONE
+        # a current command the stored mission no longer has (a shorter one uploaded since):
+        # AP_Mission::resume finds read_cmd_from_storage failing and starts again
+        gone = self.nav_index != CMD_INDEX_NONE and self.nav_index >= len(self._mission.items)
+        restart = self.state == MISSION_COMPLETE or self.nav_index == CMD_INDEX_NONE or gone
         self.state = MISSION_RUNNING
         if restart:
             self.jumps_run.clear()

@@ -166,3 +166,22 @@ def test_change_speed_is_taken_by_a_navigating_mode_and_reported_by_nothing() ->
     assert command(core, 0, MAV_CMD_MISSION_START, 0, 0, sysid=GCS_SYSID) == 0
     assert command(core, 0, speed, 1, 0.01, sysid=GCS_SYSID) == MAV_RESULT_FAILED
     assert command(core, 0, speed, 1, 0.5, sysid=GCS_SYSID) == MAV_RESULT_ACCEPTED
+
+
+def test_auto_after_a_shorter_upload_starts_the_new_mission_from_its_first_item() -> None:
+    # AP_Mission::resume: a current command the new mission no longer has (read_cmd_from_
+    # storage fails) is not resumed: the mission starts again. Found by the soak (a 2-hour
+    # day, tools/soak.py --seed 101 --days 1 --day-hours 2): the simulator raised IndexError.
+    core = auto_started()
+    teleport(core, 10.0, 0.0)
+    run(core, 0.3)
+    teleport(core, 10.0, 10.0)
+    run(core, 0.3)
+    assert core.mission.current_seq == 3
+    assert command(core, 0, MAV_CMD_DO_SET_MODE, 1, modes.HOLD, sysid=GCS_SYSID) == 0
+    run(core, 0.3)
+    upload(core, ((5.0, 0.0),))
+    assert command(core, 0, MAV_CMD_DO_SET_MODE, 1, modes.AUTO, sysid=GCS_SYSID) == 0
+    out = run(core, 0.3)
+    assert texts(out)[:1] == ["Mission: 1 WP"]
+    assert core.mission.current_seq == 1

@@ -92,7 +92,7 @@ class DaemonProc:
         self.join_pump()
         return code
 
-    def outcome(self, timeout_s: float) -> tuple[int, str, Path]:
+    def outcome(self, timeout_s: float) -> tuple[int, str, str]:
         """Once it exited within ``timeout_s``: (exit code, its plain ``helixd: RESULT`` line,
         its log)."""
         code = self.wait_exit(timeout_s)

@@ -23,12 +23,11 @@ from helixd.mav.constants import (
 from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.server import SimServer
 from helixd.sim.snapshot import SimSnapshot
-from tests.support.daemon import DaemonProc, spawn_daemon
+from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
 from tests.support.gcs import QGC_SYSID
 from tests.support.harness import (
     BASE_CONFIG,
     MavClient,
-    deep_merge,
     overrides_released,
     running_sim_links,
     time_until,

@@ -208,11 +208,14 @@ class SimulatedFlight:
 
 
 async def _fly_and_steer(
-    flight: Awaitable[RunOutcome], steer: Steer, during: Steering | None
+    flight: Awaitable[RunOutcome],
+    steer: Steer,
+    during: Steering | None,
+    limit_s: float = FLIGHT_LIMIT_S,
 ) -> tuple[RunOutcome, Any]:
-    """The flight to its end and the steering beside it; a failed steering ends the flight
-    (cancelled: the daemon's own shutdown runs) and is raised."""
-    flying = asyncio.ensure_future(asyncio.wait_for(flight, FLIGHT_LIMIT_S))
+    """The flight to its end (within ``limit_s`` simulated) and the steering beside it; a
+    failed steering ends the flight (cancelled: the daemon's own shutdown runs) and is raised."""
+    flying = asyncio.ensure_future(asyncio.wait_for(flight, limit_s))
     steer.flight = flying
     if during is None:
         return await flying, None
@@ -237,6 +240,7 @@ def _on_simulated_clock(
     runs: Sequence[tuple[Daemon, Steering | None]],
     trace: bool = True,
     console: Console | None = None,
+    limit_s: float = FLIGHT_LIMIT_S,
 ) -> tuple[list[tuple[Any, Any]], Console, list[tuple[float, SimSnapshot]]]:
     """Each of ``runs`` — ``daemon(url)`` steered by its steering — beside ``server`` on one
     simulated clock, one after the other, the simulator running on (a restarted service, a
@@ -251,7 +255,7 @@ def _on_simulated_clock(
         async with server.running_here():
             url = embedded_url(server)
             results = [
-                await _fly_and_steer(daemon(url), Steer(server, console), steering)
+                await _fly_and_steer(daemon(url), Steer(server, console), steering, limit_s)
                 for daemon, steering in runs
             ]
             await asyncio.sleep(AUTOPILOT_AFTER_S)
@@ -372,13 +376,14 @@ def simulated_serve(
     during: Steering | Sequence[Steering],
     config: dict[str, Any] | None = None,
     links: int = 2,
+    limit_s: float = FLIGHT_LIMIT_S,
     **sim_overrides: Any,
 ) -> SimulatedService:
     """``helixd serve`` with ``config`` merged over the serve tests' settings
     (:data:`tests.support.serve.CONFIG` over BASE_CONFIG), beside the simulator (``links``:
     helixd's first, a ground station's next), steered by ``during`` — which ends the service
     (SIGTERM) when it is done; a list: the service started again for each, the simulator
-    running on."""
+    running on. Each start is ended as hung after ``limit_s`` simulated seconds."""
     cfg_path = write_config(tmp_path, BASE_CONFIG, SERVE_CONFIG, config)
     cfg = load_config(cfg_path)
     server = SimServer([EMBEDDED_LINK] * links, sim_config(**{**sim_overrides, "speedup": 1.0}))
@@ -398,7 +403,9 @@ def simulated_serve(
     runs = [(daemon, steering) for steering in steerings]
     console = Console()
     try:
-        results, _, _ = _on_simulated_clock(server, runs, trace=False, console=console)
+        results, _, _ = _on_simulated_clock(
+            server, runs, trace=False, console=console, limit_s=limit_s
+        )
     finally:  # the service's log beside the test's files, also for a failure
         (tmp_path / "serve.log").write_text(console.text(), encoding="utf-8")
     codes = [int(code) for code, _ in results]
