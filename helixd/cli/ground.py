@@ -20,7 +20,6 @@ from helixd.commands.ground import (
     fraction_text,
     from_runs,
     parse_pin,
-    plot_report,
     report,
 )
 from helixd.control.ground_fit import AXES
@@ -68,7 +67,11 @@ def ground_command(
     ] = None,
     pin: Annotated[
         list[str] | None,
-        typer.Option("--pin", help="set a fraction by hand: MEDIUM/MODE/AXIS=F (repeatable)"),
+        typer.Option(
+            "--pin",
+            metavar="<medium/mode/axis=f>",
+            help="set a fraction by hand: MEDIUM/MODE/AXIS=F (repeatable)",
+        ),
     ] = None,
     reset: Annotated[bool, typer.Option("--reset", help="forget the whole profile")] = False,
     plot: Annotated[
@@ -107,6 +110,8 @@ def ground_command(
     for line in _picks(rep):
         typer.echo(line)
     if plot is not None:
+        from helixd.commands.ground_plot import plot_report  # matplotlib only when drawing
+
         plot_report(rep, plot)
         typer.echo(f"figure: {plot}")
 

@@ -9,10 +9,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-from matplotlib.patches import Rectangle
-
 from helixd.base.media import MediaMap, Medium
 from helixd.base.plan import MotionMode
 from helixd.config import HelixdConfig
@@ -133,32 +129,6 @@ def fraction_text(view: Learned, axis: str) -> str:
     return f"{f:.3f} ± {s:.3f}{pin}" if s is not None else f"{f:.3f}{pin}"
 
 
-def plot_report(rep: GroundReport, path: Path) -> None:
-    """The fractions per medium and mode, with their uncertainty, as a bar chart (matplotlib's
-    object API and Agg canvas, as :mod:`helixd.recorder.plots`)."""
-    fig = Figure(figsize=(8.0, 4.0))
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot()
-    labels: list[str] = []
-    x0 = 0
-    for row in rep.rows:
-        for k, axis in enumerate(AXES):
-            f = row.view.fractions[axis]
-            if f is None:
-                continue
-            err = row.view.sigmas[axis] or 0.0
-            ax.bar(x0 + 0.27 * (k - 1), f, 0.25, yerr=err, color=f"C{k}", capsize=3)
-        labels.append(f"{row.medium.value}\n{row.mode.value}")
-        x0 += 1
-    ax.set_xticks(range(len(labels)), labels)
-    ax.set_ylabel("delivered fraction of the no-slip motion")
-    ax.set_ylim(0.0, 1.2)
-    ax.legend([Rectangle((0, 0), 1, 1, color=f"C{k}") for k in range(3)], list(AXES))
-    ax.set_title(f"ground profile: {rep.source}")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-
-
 __all__ = [
     "GroundCommandError",
     "GroundReport",
@@ -167,6 +137,5 @@ __all__ = [
     "fraction_text",
     "from_runs",
     "parse_pin",
-    "plot_report",
     "report",
 ]

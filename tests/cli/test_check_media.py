@@ -269,7 +269,14 @@ def test_no_warning_of_sand_on_a_map_without_sand(
     sandy = crossing(tmp_path)
     text = (tmp_path / "water.geojson").read_text(encoding="utf-8").replace("water", "sand")
     (tmp_path / "water.geojson").write_text(text, encoding="utf-8")
+    # sand is rolled by default (the sourced ground table): a crew that scrolls it is warned
+    scroll_sand = tmp_path / "scroll-sand.yaml"
+    scroll_sand.write_text("media:\n  modes:\n    sand: scroll\n", encoding="utf-8")
     code, out, err = run_main(["check", "--mission", str(sandy)], capsys)
+    assert code == 0, out + err
+    assert "sand" in out and "warning : the map has sand" not in out, out
+    args = ["check", "--mission", str(sandy), "--config", str(scroll_sand)]
+    code, out, err = run_main(args, capsys)
     assert code == 0, out + err
     assert "warning : the map has sand under 40.0 m of scroll stretches" in out, out
 

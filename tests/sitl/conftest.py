@@ -64,6 +64,7 @@ from helixd.mav.guard_script import (
     script_bytes,
 )
 from tests.support.daemon import DaemonProc, spawn_daemon
+from tests.support.helix_sitl import SITL_GROUND
 from tests.support.paths import REPO_ROOT
 from tests.support.skid_setup import HELIXD_SYSID, helixd_sitl_config
 
@@ -694,8 +695,8 @@ def start_plant(
         sys.executable, "-m", "helixd", "plant", "-I", str(instance),
         "--terrain", terrain, "--truth-csv", str(workdir / "truth.csv"), f"--home={home}",
     ]  # fmt: skip
-    if media is not None:
-        cmd += ["--media", str(media)]
+    # on the media map the sourced ground table; without one, the suite's hard ground
+    cmd += ["--media", str(media)] if media is not None else ["--ground", str(SITL_GROUND)]
     if bathymetry is not None:  # the depth to SITL's rangefinder 1 (JSON rng_1)
         cmd += ["--bathymetry", str(bathymetry)]
     env = dict(os.environ, PYTHONUNBUFFERED="1")

@@ -31,6 +31,8 @@ from tests.support.skid_setup import HELIXD_SYSID, helixd_start_frame, metrics_i
 MISSIONS = REPO_ROOT / "config" / "missions"
 SIM_SEED = 0  # the twin's noise seed (no pose noise; the seed fixes the rest)
 SIM_FLIGHT_TIMEOUT_S = 300.0
+# the ground of the plant and its twin when no media map is given (the file says why)
+SITL_GROUND = REPO_ROOT / "tests" / "sitl" / "hard-scrolls.yaml"
 
 
 def helix_sitl_config(url: str, backend: str = "rc_override") -> dict[str, Any]:
@@ -112,8 +114,7 @@ def fly_on_builtin_sim(
         "--mission", str(mission), "--config", str(cfg_path), "--run-dir", str(run_root),
         "--log-level", "warning",
     ]  # fmt: skip
-    if media is not None:
-        cmd += ["--sim-media", str(media)]
+    cmd += ["--sim-media", str(media)] if media is not None else ["--sim-ground", str(SITL_GROUND)]
     done = subprocess.run(
         cmd, cwd=work, capture_output=True, text=True, timeout=SIM_FLIGHT_TIMEOUT_S, check=False
     )
