@@ -630,4 +630,5 @@ class FlightLoop:
             measured_yaw_rate_radps=self._yaw_rate.radps,
             mission_elapsed_s=mission.driving_s,
             mission_paused_s=mission.paused_s,
+            crawl_watch=self.navigator.mode is MotionMode.ROLL,
         )

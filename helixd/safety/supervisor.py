@@ -44,6 +44,8 @@ class Motion:
     measured_yaw_rate_radps: float
     mission_elapsed_s: float  # driving time (helixd.safety.mission_clock)
     mission_paused_s: float = 0.0  # held for the crew: not counted
+    # the crawl watch applies (rolling: see SafetyInputs.crawl_watch)
+    crawl_watch: bool = True
 
 
 def safety_inputs(
@@ -76,6 +78,7 @@ def safety_inputs(
         mission_elapsed_s=motion.mission_elapsed_s,
         mission_paused_s=motion.mission_paused_s,
         commanded_speed_mps=motion.commanded_speed_mps,
+        crawl_watch=motion.crawl_watch,
         measured_speed_mps=math.hypot(pose.vn_mps, pose.ve_mps) if pose else 0.0,
         commanded_yaw_rate_radps=motion.commanded_yaw_rate_radps,
         measured_yaw_rate_radps=motion.measured_yaw_rate_radps,

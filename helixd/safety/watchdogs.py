@@ -203,6 +203,11 @@ class SafetyInputs:
     # the link says it is lost (the transport closed, the HEARTBEAT silent): its cause; None: up
     link_lost_cause: str | None = None
     last_rx_s: float | None = None  # our reception of the autopilot's latest message, any kind
+    # the crawl watch (stall.crawl_fraction) applies: the rover rolls. Rolling delivers 0.3 or
+    # more of its command on every ground it can roll on and 0.05 afloat, so under a tenth is
+    # water or a pit; scrolling's slowest ground (hard, sand: 0.12) is too near a tenth to tell
+    # slow from stuck, and the stopped-rover watch covers it
+    crawl_watch: bool = True
 
 
 def _finite(*values: float | None) -> bool:
@@ -570,6 +575,7 @@ class SafetyMonitor:
         last = self._crawl_last
         if (
             st.crawl_fraction <= 0.0
+            or not s.crawl_watch
             or not s.commanded_speed_mps > st.commanded_speed_min_mps
             or not math.isfinite(t_s)
             or (last is not None and (last[1] != on_vehicle_clock or not t_s >= last[0]))

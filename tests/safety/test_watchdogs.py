@@ -456,3 +456,21 @@ def test_crawl_fraction_zero_turns_the_crawl_watch_off() -> None:
     mon = SafetyMonitor(SafetyConfig(stall=StallConfig(crawl_fraction=0.0)))
     _, fault = drive(mon, 60.0, 0.6, lambda t: 0.045 + 0.025 * math.sin(2.0 * t))
     assert fault is None
+
+
+def test_the_crawl_watch_is_for_rolling_scrolling_slowly_is_not_stuck() -> None:
+    """SCROLL on hard ground or sand delivers 0.12 of its command (docs/physics.md), which the
+    start transient and the turns bring to a tenth: the crawl watch judges ROLL only; the
+    stopped-rover watch still ends a SCROLL that does not move."""
+    scrolling = SafetyMonitor(SafetyConfig())
+    base = HEALTHY
+    for k in range(round(30.0 * 50.0)):
+        t = 100.0 + k / 50.0
+        s = dataclasses.replace(
+            base, now_s=t, last_heartbeat_s=t, pose_rx_s=t, vehicle_time_s=t,
+            commanded_speed_mps=0.6, measured_speed_mps=0.06, crawl_watch=False,
+        )  # fmt: skip
+        assert scrolling.check(s) is None, t
+    rolling = SafetyMonitor(SafetyConfig())
+    _, fault = drive(rolling, 30.0, 0.6, lambda t: 0.06)  # the same crawl, rolling
+    assert fault is not None and "stall.crawl_fraction" in fault.detail

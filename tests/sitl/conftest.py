@@ -695,8 +695,9 @@ def start_plant(
         sys.executable, "-m", "helixd", "plant", "-I", str(instance),
         "--terrain", terrain, "--truth-csv", str(workdir / "truth.csv"), f"--home={home}",
     ]  # fmt: skip
-    # on the media map the sourced ground table; without one, the suite's hard ground
-    cmd += ["--media", str(media)] if media is not None else ["--ground", str(SITL_GROUND)]
+    cmd += ["--ground", str(SITL_GROUND)]  # the suite's ground (the file says why)
+    if media is not None:
+        cmd += ["--media", str(media)]
     if bathymetry is not None:  # the depth to SITL's rangefinder 1 (JSON rng_1)
         cmd += ["--bathymetry", str(bathymetry)]
     env = dict(os.environ, PYTHONUNBUFFERED="1")

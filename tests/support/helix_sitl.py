@@ -31,7 +31,7 @@ from tests.support.skid_setup import HELIXD_SYSID, helixd_start_frame, metrics_i
 MISSIONS = REPO_ROOT / "config" / "missions"
 SIM_SEED = 0  # the twin's noise seed (no pose noise; the seed fixes the rest)
 SIM_FLIGHT_TIMEOUT_S = 300.0
-# the ground of the plant and its twin when no media map is given (the file says why)
+# the ground of the SITL suite's Helix plant and of its twin (the file says why)
 SITL_GROUND = REPO_ROOT / "tests" / "sitl" / "hard-scrolls.yaml"
 
 
@@ -114,7 +114,9 @@ def fly_on_builtin_sim(
         "--mission", str(mission), "--config", str(cfg_path), "--run-dir", str(run_root),
         "--log-level", "warning",
     ]  # fmt: skip
-    cmd += ["--sim-media", str(media)] if media is not None else ["--sim-ground", str(SITL_GROUND)]
+    cmd += ["--sim-ground", str(SITL_GROUND)]  # the plant's ground (tests/sitl/conftest.py)
+    if media is not None:
+        cmd += ["--sim-media", str(media)]
     done = subprocess.run(
         cmd, cwd=work, capture_output=True, text=True, timeout=SIM_FLIGHT_TIMEOUT_S, check=False
     )
