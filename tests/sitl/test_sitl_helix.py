@@ -97,13 +97,20 @@ def helixd_config(url: str, media_map: Path | None = None) -> dict[str, Any]:
 
 
 def launch(
-    tmp_path: Path, sitl: SitlVehicle, mission: Path, mode: str, media_map: Path | None = None
+    tmp_path: Path,
+    sitl: SitlVehicle,
+    mission: Path,
+    mode: str | None,
+    media_map: Path | None = None,
 ) -> DaemonRun:
+    """``helixd run`` against ``sitl``; ``mode`` None: the mission's own (with ``media_map``
+    the mode follows the medium: ``--mode`` would set the media plan aside)."""
     cfg_path = tmp_path / "helixd-helix.yaml"
     cfg = helixd_config(sitl.helixd_url, media_map)
     cfg_path.write_text(yaml.safe_dump(cfg, sort_keys=False), encoding="utf-8")
     run_root = tmp_path / "runs"
-    args = ["run", "--connect", sitl.helixd_url, "--mission", str(mission), "--mode", mode]
+    args = ["run", "--connect", sitl.helixd_url, "--mission", str(mission)]
+    args += [] if mode is None else ["--mode", mode]
     args += ["--config", str(cfg_path), "--run-dir", str(run_root)]
     return spawn_daemon(args, cwd=tmp_path, run_root=run_root, stdin=subprocess.DEVNULL)
 
@@ -389,7 +396,7 @@ def test_pond_crossing_the_mode_follows_the_medium(
     sitl = pond_sitl
     assert sitl.plant is not None
     mission = MISSIONS / "pond-crossing.yaml"
-    daemon = launch(tmp_path, sitl, mission, "scroll", media_map=POND_MEDIA)
+    daemon = launch(tmp_path, sitl, mission, None, media_map=POND_MEDIA)
     helixd_runs.append(daemon)
     code = daemon.wait_exit(MISSION_WALL_S)
     log = daemon.log_text()
@@ -404,7 +411,7 @@ def test_pond_crossing_the_mode_follows_the_medium(
         policy: fly_on_builtin_sim(
             tmp_path / f"sim-{policy}",
             mission,
-            "scroll",
+            None if policy == "media" else "scroll",
             "hard",
             helixd_config("unused", POND_MEDIA if policy == "media" else None),
             media=POND_MEDIA,

@@ -92,7 +92,7 @@ class SimTwin:
 def fly_on_builtin_sim(
     work: Path,
     mission: Path,
-    mode: str,
+    mode: str | None,
     terrain: str,
     config: dict[str, Any],
     media: Path | None = None,
@@ -110,10 +110,11 @@ def fly_on_builtin_sim(
     cmd = [
         sys.executable, "-m", "helixd", "run", "--sim", "--sim-clock", "simulated",
         "--sim-seed", str(SIM_SEED),
-        "--sim-terrain", terrain, "--sim-noise", "none", "--mode", mode,
+        "--sim-terrain", terrain, "--sim-noise", "none",
         "--mission", str(mission), "--config", str(cfg_path), "--run-dir", str(run_root),
         "--log-level", "warning",
     ]  # fmt: skip
+    cmd += [] if mode is None else ["--mode", mode]  # None: the mission's (the media plan's)
     cmd += ["--sim-ground", str(SITL_GROUND)]  # the plant's ground (tests/sitl/conftest.py)
     if media is not None:
         cmd += ["--sim-media", str(media)]
