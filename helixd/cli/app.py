@@ -59,7 +59,6 @@ from helixd.cli.simulated import (
     sim_world,
     simulator,
     simulator_config,
-    with_bathymetry,
     with_sim_files,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
@@ -348,8 +347,7 @@ def run(
         if sim
         else None
     )
-    choice = with_sim_files(choice, sim_media, sim_ground)
-    choice = with_bathymetry(choice, sim_bathymetry)
+    choice = with_sim_files(choice, sim_media, sim_ground, sim_bathymetry)
     options = ExpandOptions(strict, skip_unsupported)
     if wants_autopilot(mission) and resume is None:
         if choice is not None and choice.clock is SimClock.SIMULATED:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import sys
-from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -23,10 +22,9 @@ from helixd.cli.common import (
 from helixd.cli.simulated import (
     SimChoice,
     SimMediaOpt,
-    read_sim_media,
     sim_world,
     simulator,
-    with_bathymetry,
+    with_sim_files,
 )
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.recorder.logging_setup import configure_logging
@@ -89,11 +87,7 @@ def serve_command(
     and continue on the switch, DO_PAUSE_CONTINUE or HOLD then AUTO again; never moves on its
     own. Stops on SIGINT/SIGTERM (a flight in progress falls back to HOLD first)."""
     choice = _sim_choice(sim, connect, sim_speedup, sim_terrain, sim_gcs)
-    choice = with_bathymetry(choice, sim_bathymetry)
-    if sim_media is not None:
-        if choice is None:
-            raise fail(["--sim-media needs --sim"], ExitCode.USAGE)
-        choice = replace(choice, media=read_sim_media(sim_media))
+    choice = with_sim_files(choice, sim_media, bathymetry=sim_bathymetry)
     cfg, url, occupancy = config_link_map(config, connect, map_path)
     configure_logging(tty=sys.stderr.isatty(), level=log_level)
     with simulator(choice, lambda: sim_world(cfg, occupancy), url, cfg) as link_url:

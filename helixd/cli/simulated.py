@@ -80,12 +80,16 @@ SimMediaOpt = Annotated[
 
 
 def with_sim_files(
-    choice: SimChoice | None, media: Path | None, ground: Path | None
+    choice: SimChoice | None,
+    media: Path | None,
+    ground: Path | None = None,
+    bathymetry: Path | None = None,
 ) -> SimChoice | None:
-    """``choice`` with the world's media map and ground files read (``run --sim-media``,
-    ``--sim-ground``); a usage error when either is given without ``--sim``."""
-    for flag, given in (("--sim-media", media), ("--sim-ground", ground)):
-        if given is not None and choice is None:
+    """``choice`` with the world's media map, ground and bathymetry files read (``--sim-media``,
+    ``--sim-ground``, ``--sim-bathymetry``); a usage error when one is given without ``--sim``."""
+    given = (("--sim-media", media), ("--sim-ground", ground), ("--sim-bathymetry", bathymetry))
+    for flag, path in given:
+        if path is not None and choice is None:
             raise fail([f"{flag} needs --sim"], ExitCode.USAGE)
     if choice is None:
         return None
@@ -93,6 +97,8 @@ def with_sim_files(
         choice = replace(choice, media=read_sim_media(media))
     if ground is not None:
         choice = replace(choice, ground=read_sim_ground(ground))
+    if bathymetry is not None:
+        choice = replace(choice, bathymetry=read_sim_bathymetry(bathymetry))
     return choice
 
 
@@ -110,15 +116,6 @@ def read_sim_bathymetry(path: Path) -> Bathymetry:
         return read_bathymetry(path)
     except ConfigFileError as exc:
         raise fail([f"--sim-bathymetry: {line}" for line in exc.problems], ExitCode.USAGE) from None
-
-
-def with_bathymetry(choice: SimChoice | None, path: Path | None) -> SimChoice | None:
-    """``choice`` with ``--sim-bathymetry``'s file (a usage error without ``--sim``)."""
-    if path is None:
-        return choice
-    if choice is None:
-        raise fail(["--sim-bathymetry needs --sim"], ExitCode.USAGE)
-    return replace(choice, bathymetry=read_sim_bathymetry(path))
 
 
 def sim_world(
