@@ -30,7 +30,8 @@ from pathlib import Path
 
 import pytest
 
-from helixd.config import ControlConfig, ScrollCalibration, SlipConfig, VehicleConfig
+from helixd.config.control import ControlConfig, SlipConfig
+from helixd.config.vehicle import ScrollCalibration, VehicleConfig
 from helixd.control import params
 from tests.support.paths import REPO_ROOT
 

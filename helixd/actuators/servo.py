@@ -38,7 +38,7 @@ import structlog
 from helixd.actuators.base import ServoCommandRefused, checked_fractions
 from helixd.actuators.mapping import ChannelSink
 from helixd.base.clock import now_s
-from helixd.config import ActuationConfig, VehicleConfig
+from helixd.config.vehicle import ActuationConfig, VehicleConfig
 from helixd.link.command_client import CommandRejected, CommandTimeout
 from helixd.mav.constants import MAV_CMD_DO_SET_SERVO
 

@@ -24,7 +24,7 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
 from helixd.cli.common import run_on_link
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
 from helixd.link.mission_link import Downloaded

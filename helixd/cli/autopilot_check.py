@@ -19,7 +19,7 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import ConfigOpt, ObserverConnectOpt, fail, link_inputs, run_on_link
 from helixd.cli.simulated import embedded_guard
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.autopilot_setup import SetupLine, failed, judge_setup, read_setup
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot

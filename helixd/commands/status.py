@@ -15,7 +15,8 @@ from collections.abc import Mapping
 
 from helixd.base.clock import now_s
 from helixd.base.frames import ne_to_latlon
-from helixd.config import LinkConfig, SafetyConfig
+from helixd.config.link import LinkConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import Change, VehicleState

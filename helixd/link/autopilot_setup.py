@@ -28,7 +28,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
-from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
+from helixd.config.link import LinkConfig
+from helixd.config.vehicle import ActuationBackend, ActuationConfig
 from helixd.link.preflight import (
     LEGACY_GCS_SYSID,
     RADIO_PARAMS,

@@ -31,7 +31,7 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link.framing import FrameKind, scan_frames, whole_frame_msgid, x25_crc
 from helixd.link.ownid import OwnIdSenders
 from helixd.link.signing import enable_signing

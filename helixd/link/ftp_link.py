@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import Any, Protocol, TypeVar
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link.ftp_transfer import FtpExchange, run_ftp
 from helixd.link.inbox import Inbox, ListenerHost, Listening
 from helixd.mav.ftp_wire import FtpPayload, FtpPayloadError, from_message, to_message

@@ -17,7 +17,7 @@ from typing import Any, Protocol
 
 import structlog
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link.inbox import Inbox, ListenerHost, Listening
 from helixd.link.mission_transfer import (
     MissionDownload,

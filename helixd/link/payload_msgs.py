@@ -1,8 +1,8 @@
 """The sensors' readings the autopilot passes on, read at the edge (pure: no I/O, no clock).
 
 Which messages count as which quantity is the config's (``payload.sources``,
-:class:`helixd.config.PayloadSource`). What ArduPilot sends (GCS_Common.cpp, Rover's
-GCS_MAVLink_Rover.cpp):
+:class:`helixd.config.recorder.PayloadSource`). What ArduPilot sends (GCS_Common.cpp,
+Rover's GCS_MAVLink_Rover.cpp):
 
 * ``DISTANCE_SENSOR`` (``send_distance_sensor``), one per rangefinder instance, in EXTRA3:
   ``current_distance``, ``min_distance`` and ``max_distance`` in cm (capped at 65535),
@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from helixd.config import PayloadConfig, PayloadSource
+from helixd.config.recorder import PayloadConfig, PayloadSource
 
 MavMsg = Any
 

@@ -55,7 +55,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Literal, Protocol, runtime_checkable
 
-from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
+from helixd.config.link import LinkConfig
+from helixd.config.vehicle import ActuationBackend, ActuationConfig
 from helixd.link.ownid import OwnIdSenders
 from helixd.mav.guard_script import (
     HXG_CHANS,

@@ -28,7 +28,7 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link.command_client import (
     ALL_RESULTS,
     CommandError,

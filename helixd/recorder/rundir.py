@@ -44,7 +44,7 @@ from helixd.base.run_files import (
     MISSION_FILE,
     SUMMARY_FILE,
 )
-from helixd.config import RecorderConfig
+from helixd.config.recorder import RecorderConfig
 from helixd.recorder import logging_setup
 from helixd.recorder.events import RUN_STARTED_EVENT
 from helixd.recorder.rows import FlightRow, RowFormatter

@@ -41,7 +41,8 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.media import MediaMapNe
 from helixd.base.plan import Numbering, Plan, program_numbering
-from helixd.config import HelixdConfig, config_to_yaml
+from helixd.config.load import config_to_yaml
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate
 from helixd.files.models import as_items
 from helixd.link.command_client import CommandError

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Protocol
 
 from helixd.base.clock import now_s
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.link.tlog import LinkTlog
 from helixd.runtime.flight import DRIVE_MANUAL, Driving

@@ -33,7 +33,9 @@ from helixd.base.plan import MissionFrameKind, Numbering, Plan, program_numberin
 from helixd.base.problems import Problems
 from helixd.base.run_files import TLOG_FILE
 from helixd.base.tasks import stop_task
-from helixd.config import ActuationBackend, HelixdConfig, SafetyConfig
+from helixd.config.root import HelixdConfig
+from helixd.config.safety import SafetyConfig
+from helixd.config.vehicle import ActuationBackend
 from helixd.link.command_client import CommandError, CommandRejected
 from helixd.link.connection import Autopilot
 from helixd.link.preflight import check_obedience

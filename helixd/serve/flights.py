@@ -17,7 +17,7 @@ import structlog
 from helixd.base.clock import now_s
 from helixd.base.plan import Numbering
 from helixd.base.run_files import EVENTS_FILE
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import PositionTarget

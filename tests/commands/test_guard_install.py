@@ -13,7 +13,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 
 from helixd.commands.guard_install import GuardInstallRefused, find_scripts_dir, install_guard
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link.ftp_link import FtpClient
 from helixd.link.ftp_transfer import FtpTransferError
 from helixd.mav.ftp_wire import FtpOp, FtpPayload, from_message, to_message

@@ -7,7 +7,8 @@ import time
 
 import pytest
 
-from helixd.config import LinkConfig, SafetyConfig
+from helixd.config.link import LinkConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.command_client import CommandRejected
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import Change, VehicleState

@@ -6,7 +6,8 @@ from collections.abc import Mapping
 
 import pytest
 
-from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
+from helixd.config.link import LinkConfig
+from helixd.config.vehicle import ActuationBackend, ActuationConfig
 from helixd.link.autopilot_setup import (
     SetupLine,
     failed,

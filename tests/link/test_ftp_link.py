@@ -10,7 +10,7 @@ from typing import Any
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link.connection import Autopilot
 from helixd.link.ftp_link import AutopilotFtpLink
 from helixd.link.ftp_transfer import DirectoryProbe, FtpUpload

@@ -15,7 +15,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link.mission_link import AutopilotMissionLink, MissionClient
 from helixd.link.mission_transfer import MissionTransferError
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE

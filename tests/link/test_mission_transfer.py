@@ -20,7 +20,7 @@ from hypothesis import strategies as hs
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link import mission_transfer as lm
 from helixd.link.mission_transfer import MissionDownload, MissionTransferError, MissionUpload
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE

@@ -90,7 +90,7 @@ def test_close_is_bounded(tmp_path: object) -> None:
     """A link whose close() hangs does not hang the exit: bounded by fallback_deadline_s."""
     from pathlib import Path
 
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.mission.model import Mission
     from helixd.runtime.daemon import MissionRunner, RunOptions
 
@@ -147,7 +147,7 @@ def test_a_stop_during_preflight_acts_at_once(monkeypatch: pytest.MonkeyPatch) -
     from types import SimpleNamespace
     from typing import Any
 
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.mission.model import Mission
     from helixd.runtime.daemon import MissionRunner, RunOptions
     from helixd.runtime.setup import Held

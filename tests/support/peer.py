@@ -34,7 +34,8 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig, SafetyConfig
+from helixd.config.link import LinkConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.connection import Autopilot
 from helixd.link.signing import enable_signing
 from helixd.mav.guard_script import PARAM_DEFAULTS as GUARD_PARAM_DEFAULTS
