@@ -550,7 +550,7 @@ async def run_daemon_side(
     from helixd.config.load import config_to_yaml
     from helixd.config.root import HelixdConfig
     from helixd.link.connection import Autopilot
-    from helixd.link.preflight import check_obedience
+    from helixd.link.services.preflight import check_obedience
     from helixd.mission.model import Mission
     from helixd.mission.resolve import resolve_plan
     from helixd.recorder.rows import FlightRow

@@ -39,7 +39,7 @@ from helixd.actuators.base import ServoCommandRefused, checked_fractions
 from helixd.actuators.mapping import ChannelSink
 from helixd.base.clock import now_s
 from helixd.config.vehicle import ActuationConfig, VehicleConfig
-from helixd.link.command_client import CommandRejected, CommandTimeout
+from helixd.link.services.command_client import CommandRejected, CommandTimeout
 from helixd.mav.constants import MAV_CMD_DO_SET_SERVO
 
 log = structlog.get_logger(__name__)

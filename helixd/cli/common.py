@@ -21,8 +21,8 @@ from helixd.config.root import HelixdConfig
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
-from helixd.link.ftp_transfer import FtpTransferError
-from helixd.link.mission_transfer import MissionTransferError
+from helixd.link.services.ftp_transfer import FtpTransferError
+from helixd.link.services.mission_transfer import MissionTransferError
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.logging_setup import configure_logging

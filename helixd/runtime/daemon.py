@@ -45,8 +45,8 @@ from helixd.config.load import config_to_yaml
 from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate
 from helixd.files.models import as_items
-from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandError
 from helixd.mav.constants import MAV_SEVERITY_WARNING
 from helixd.mav.url import LinkError
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions

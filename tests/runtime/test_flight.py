@@ -21,7 +21,7 @@ from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.plan import Plan
 from helixd.config.root import HelixdConfig
 from helixd.control.navigator import Navigator
-from helixd.link.command_client import CommandRejected
+from helixd.link.services.command_client import CommandRejected
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.vehicle import Change, PoseSample, PositionTarget, VehicleState
 from helixd.mission.expand import ExpandOptions

@@ -10,7 +10,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
 from helixd.config.link import LinkConfig
-from helixd.link.codec import MavlinkConnection
+from helixd.link.wire.codec import MavlinkConnection
 
 log = structlog.get_logger(__name__)
 
