@@ -1,13 +1,27 @@
-"""Validators and field types the config sections share."""
+"""What the config sections share: their base class, validators and field types."""
 
 from __future__ import annotations
 
 import math
 from typing import Annotated
 
-from pydantic import Field
+from pydantic import ConfigDict, Field
 
 from helixd.base.polygon import polygon_problems
+from helixd.files.models import InputModel
+
+
+class ConfigSection(InputModel):
+    """A section of ``helixd.yaml`` (strict like every input model: unknown keys are errors).
+
+    Each field is written ``name_unit: type = Field(default, bounds)`` with its description in
+    the docstring under it, which pydantic reads as the field's description
+    (``use_attribute_docstrings``): the unit, the bound, the default and the meaning stand
+    together, one field after the other. tests/test_config.py holds every field to it.
+    """
+
+    model_config = ConfigDict(use_attribute_docstrings=True)
+
 
 RcChannel = Annotated[int, Field(ge=1, le=18)]
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pydantic import Field, model_validator
 
 from helixd.config.control import ControlConfig
+from helixd.config.fields import ConfigSection
 from helixd.config.link import LinkConfig
 from helixd.config.media import GroundConfig, MediaConfig
 from helixd.config.mission import MissionLimits, PlanningConfig
@@ -12,10 +13,9 @@ from helixd.config.recorder import GcsReportConfig, PayloadConfig, RecorderConfi
 from helixd.config.safety import GPS_FIX_PERIOD_MAX_S, SafetyConfig, StartupConfig
 from helixd.config.serve import ServeConfig
 from helixd.config.vehicle import ActuationBackend, ActuationConfig, VehicleConfig
-from helixd.files.models import InputModel
 
 
-class HelixdConfig(InputModel):
+class HelixdConfig(ConfigSection):
     vehicle: VehicleConfig = Field(default_factory=VehicleConfig)
     control: ControlConfig = Field(default_factory=ControlConfig)
     mission: MissionLimits = Field(default_factory=MissionLimits)
