@@ -50,7 +50,7 @@ from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.vehicle import Change, VehicleState
-from helixd.link.wire.codec import LinkStats, MavlinkConnection, NeverSent
+from helixd.link.wire.codec import LinkEvents, LinkStats, MavlinkConnection, NeverSent
 from helixd.link.wire.heartbeat import HeartbeatSender
 from helixd.link.wire.ownid import OwnIdSenders
 from helixd.link.wire.signing import load_signing_key
@@ -141,17 +141,15 @@ class Autopilot:
             statustext_history=cfg.statustext_history,
             bounds=self.limits.bounds,
         )
-        self._conn = MavlinkConnection(
-            cfg,
-            url,
-            signing_key,
+        events = LinkEvents(
             self._on_message,
             self._on_foreign,
             self._on_transport_lost,
             self._on_reopened,
-            never_send=GCS_CONTACT_MESSAGE_IDS if observer else frozenset(),
-            on_addressed=self._on_addressed,
+            self._on_addressed,
         )
+        never_send = GCS_CONTACT_MESSAGE_IDS if observer else frozenset()
+        self._conn = MavlinkConnection(cfg, url, signing_key, events, never_send=never_send)
         self._commands = CommandClient(lambda: self._conn.mav, self._conn.send, cfg, self.state)
         self._heartbeat = HeartbeatSender(self._conn, cfg)
         self._texts = StatusTextAssembler(cfg.statustext_timeout_s)

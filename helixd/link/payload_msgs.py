@@ -29,6 +29,26 @@ from helixd.config.recorder import PayloadConfig, PayloadSource
 
 MavMsg = Any
 
+
+@dataclass(frozen=True, slots=True)
+class Reading:
+    """One reading as it will be recorded: the quantity's value (offset and scale applied)."""
+
+    message: str
+    quantity: str
+    value: float
+    time_boot_ms: int | None  # the autopilot's time of the reading (None: RANGEFINDER)
+    quality_pct: int | None = None  # DISTANCE_SENSOR's signal quality (0 = unknown)
+    sensor_id: int | None = None
+    raw: float = math.nan  # the value as sent (m for distances)
+
+
+@dataclass(frozen=True, slots=True)
+class Rejected:
+    message: str
+    reason: str
+
+
 MSG_DISTANCE_SENSOR = "DISTANCE_SENSOR"
 MSG_RANGEFINDER = "RANGEFINDER"
 MSG_WATER_DEPTH = "WATER_DEPTH"
@@ -48,25 +68,6 @@ UINT32_MAX = 4_294_967_295
 RANGE_MAX_M = 1000.0  # RANGEFINDER / WATER_DEPTH: beyond this a float is not a distance
 NAMED_VALUE_MAX_ABS = 1e12
 NAME_CHARS = 10
-
-
-@dataclass(frozen=True, slots=True)
-class Reading:
-    """One reading as it will be recorded: the quantity's value (offset and scale applied)."""
-
-    message: str
-    quantity: str
-    value: float
-    time_boot_ms: int | None  # the autopilot's time of the reading (None: RANGEFINDER)
-    quality_pct: int | None = None  # DISTANCE_SENSOR's signal quality (0 = unknown)
-    sensor_id: int | None = None
-    raw: float = math.nan  # the value as sent (m for distances)
-
-
-@dataclass(frozen=True, slots=True)
-class Rejected:
-    message: str
-    reason: str
 
 
 def _int(value: object, lo: int, hi: int) -> int | None:

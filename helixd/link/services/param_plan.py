@@ -33,8 +33,13 @@ class ParamChange:
     now: float
     wanted: float
 
+    @property
+    def after_reboot(self) -> bool:
+        """The autopilot reads this parameter at boot only."""
+        return self.name in REBOOT_PARAMS
+
     def line(self) -> str:
-        reboot = "  (after a reboot)" if self.name in REBOOT_PARAMS else ""
+        reboot = "  (after a reboot)" if self.after_reboot else ""
         return f"{self.name:<18} {self.now:>10g} → {self.wanted:g}{reboot}"
 
 

@@ -180,6 +180,18 @@ class NeverSent(Exception):
     MANUAL_CONTROL): a bug in the caller, refused before it reaches the wire."""
 
 
+@dataclass(frozen=True, slots=True)
+class LinkEvents:
+    """What the codec tells its owner (the Autopilot), each called in the event loop's thread."""
+
+    message: Callable[[MavMsg, float], None]  # a message of the autopilot's system, rx time
+    foreign: Callable[[int], None]  # a message from another system id (its id)
+    lost: OnLost  # the transport failed (why); the codec reopens it
+    reopened: Callable[[], None]  # the transport is open again
+    # a command from another system addressed to us (helixd's component); None: dropped
+    addressed: Callable[[MavMsg, float], None] | None = None
+
+
 class MavlinkConnection:
     """MAVLink 2 codec on a transport: parse, drop other systems, dispatch, reopen.
 
@@ -192,22 +204,14 @@ class MavlinkConnection:
         cfg: LinkConfig,
         url: LinkUrl,
         signing_key: bytes | None,
-        on_message: Callable[[MavMsg, float], None],
-        on_foreign: Callable[[int], None],
-        on_lost: OnLost,
-        on_reopened: Callable[[], None],
+        events: LinkEvents,
         never_send: frozenset[int] = frozenset(),
-        on_addressed: Callable[[MavMsg, float], None] | None = None,
     ) -> None:
         self.cfg = cfg
-        self._on_addressed = on_addressed
+        self.events = events
         self.never_send = never_send
         self.url = url
         self._key = signing_key
-        self._on_message = on_message
-        self._on_foreign = on_foreign
-        self._on_lost = on_lost
-        self._on_reopened = on_reopened
         self.stats = LinkStats()
         self.own_id_senders = OwnIdSenders()
         self.first_tx_s: float | None = None  # monotonic time of our first message sent
@@ -349,11 +353,11 @@ class MavlinkConnection:
             elif self._addressed_to_us(msgid, msg):
                 self._dispatch_addressed(msg, rx_s)
             else:
-                self._on_foreign(src_system)
+                self.events.foreign(src_system)
             return False
         stats.rx_messages += 1
         try:
-            self._on_message(msg, rx_s)
+            self.events.message(msg, rx_s)
         except Exception:
             log.exception("message_handler_failed", type=msg.get_type())
         return True
@@ -363,7 +367,7 @@ class MavlinkConnection:
         target is our system and component (or every component), or our component of the
         autopilot's system (``link.vehicle_component``; not every component of it: those are
         the autopilot's commands)."""
-        if self._on_addressed is None or msgid not in ADDRESSED_MESSAGE_IDS:
+        if self.events.addressed is None or msgid not in ADDRESSED_MESSAGE_IDS:
             return False
         system, component = int(msg.target_system), int(msg.target_component)
         if system == self.cfg.source_system:
@@ -375,10 +379,11 @@ class MavlinkConnection:
         )
 
     def _dispatch_addressed(self, msg: MavMsg, rx_s: float) -> None:
-        assert self._on_addressed is not None
+        addressed = self.events.addressed
+        assert addressed is not None
         self.stats.rx_addressed += 1
         try:
-            self._on_addressed(msg, rx_s)
+            addressed(msg, rx_s)
         except Exception:
             log.exception("message_handler_failed", type=msg.get_type())
 
@@ -400,7 +405,7 @@ class MavlinkConnection:
         if self.closed:
             return
         log.warning("link_transport_lost", url=self.url.text, reason=reason)
-        self._on_lost(reason)
+        self.events.lost(reason)
         if self._reopen_task is None or self._reopen_task.done():
             self._reopen_task = asyncio.get_running_loop().create_task(self._reopen())
 
@@ -421,7 +426,7 @@ class MavlinkConnection:
             self._rxbuf.clear()  # drop half a frame from the old stream
             self.stats.reopen_count += 1
             log.info("link_reopened", url=self.url.text, attempts=attempts)
-            self._on_reopened()
+            self.events.reopened()
             return
 
     async def close(self) -> None:
