@@ -22,11 +22,6 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.config.link import LinkConfig
 from helixd.link.services import mission_transfer as lm
-from helixd.link.services.mission_transfer import (
-    MissionDownload,
-    MissionTransferError,
-    MissionUpload,
-)
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import MissionItem, wire_xy
 from helixd.sim.mission_server import MissionServer
@@ -108,14 +103,14 @@ def server() -> MissionServer:
     return MissionServer(*HOME, max_mission_items=50, max_fence_items=20)
 
 
-def new_upload(its: list[MissionItem], mission_type: int = 0, retries: int = 5) -> MissionUpload:
-    return MissionUpload(
+def new_upload(its: list[MissionItem], mission_type: int = 0, retries: int = 5) -> lm.MissionUpload:
+    return lm.MissionUpload(
         mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS, items=its
     )
 
 
-def new_download(mission_type: int = 0, retries: int = 5) -> MissionDownload:
-    return MissionDownload(mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
+def new_download(mission_type: int = 0, retries: int = 5) -> lm.MissionDownload:
+    return lm.MissionDownload(mission_type, 1, 1, CFG.mission_item_timeout_s, retries, own_ids=GCS)
 
 
 def stored_as_items(srv: MissionServer, mission_type: int) -> list[tuple[Any, ...]]:
@@ -170,7 +165,7 @@ def test_nack_by_name() -> None:
     srv = MissionServer(*HOME, max_mission_items=3)
     up = new_upload(items(4))
     Channel(srv).run(up)
-    assert isinstance(up.error, MissionTransferError)
+    assert isinstance(up.error, lm.MissionTransferError)
     assert "MAV_MISSION_NO_SPACE" in str(up.error)
     assert up.error.result == 4
 
@@ -311,8 +306,8 @@ def test_run_transfer_async() -> None:
         link = QueueLink(srv)
         await lm.run_transfer(new_upload(items(3)), link)
         down = await lm.run_transfer(new_download(), link)
-        assert isinstance(down, MissionDownload) and len(down.items) == 3
-        with pytest.raises(MissionTransferError, match="NO_SPACE"):
+        assert isinstance(down, lm.MissionDownload) and len(down.items) == 3
+        with pytest.raises(lm.MissionTransferError, match="NO_SPACE"):
             await lm.run_transfer(new_upload(items(51)), link)
 
     asyncio.run(go())
@@ -342,23 +337,23 @@ def test_upload_and_download_over_udp_against_the_running_simulator() -> None:
     me = (GCS_SYSID, GCS_COMPID)
     timeout_s, retries = CFG.mission_item_timeout_s, CFG.mission_retries
 
-    def up(its: list[MissionItem], kind: int = 0) -> MissionUpload:
-        return MissionUpload(kind, 1, 1, timeout_s, retries, own_ids=me, items=its)
+    def up(its: list[MissionItem], kind: int = 0) -> lm.MissionUpload:
+        return lm.MissionUpload(kind, 1, 1, timeout_s, retries, own_ids=me, items=its)
 
-    def dl(kind: int = 0) -> MissionDownload:
-        return MissionDownload(kind, 1, 1, timeout_s, retries, own_ids=me)
+    def dl(kind: int = 0) -> lm.MissionDownload:
+        return lm.MissionDownload(kind, 1, 1, timeout_s, retries, own_ids=me)
 
     with running_sim(speedup=1.0) as (sim, url), MavClient(url) as client:
         link = PymavlinkLink(client)
         its = items(5)
         fence = items(4, MAV_MISSION_TYPE_FENCE, command=5001)
 
-        async def go() -> tuple[MissionDownload, MissionDownload]:
+        async def go() -> tuple[lm.MissionDownload, lm.MissionDownload]:
             await lm.run_transfer(up(its), link)
             await lm.run_transfer(up(fence, MAV_MISSION_TYPE_FENCE), link)
             down = await lm.run_transfer(dl(), link)
             fdown = await lm.run_transfer(dl(MAV_MISSION_TYPE_FENCE), link)
-            assert isinstance(down, MissionDownload) and isinstance(fdown, MissionDownload)
+            assert isinstance(down, lm.MissionDownload) and isinstance(fdown, lm.MissionDownload)
             return down, fdown
 
         down, fdown = asyncio.run(go())
