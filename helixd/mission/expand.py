@@ -210,6 +210,17 @@ def loiter_turns(c: WaypointSpec) -> tuple[float, float, bool]:
     return max(0.0, turns), max(radius, CIRCLE_RADIUS_MIN_M), p3 < 0.0
 
 
+@dataclass(frozen=True)
+class _Leg:
+    """What a navigation item does: its text, the plan waypoints it drives (first, last), its
+    hold (s) and whether it waits for the operator."""
+
+    where: str
+    span: tuple[int, int] | None = None
+    hold_s: float = 0.0
+    forever: bool = False
+
+
 class _Builder:
     """Turns the walk into plan waypoints and steps, following Rover's start_command."""
 
@@ -419,6 +430,8 @@ class _Builder:
         via: str,
         endless_chain: bool,
     ) -> NavStep:
+        """The navigation step of item ``c``: the do items of ``chain`` started with it (and
+        what the walk carried on), then what ``c`` itself does (Rover's start_command)."""
         actions = [*self.carried, *self.actions(chain)]
         self.carried = []
         if endless_chain:
@@ -428,80 +441,96 @@ class _Builder:
                 "a DO_JUMP loops over do items only: ArduPilot would repeat them without end "
                 "until the next waypoint",
             )
-        role, wp = c.role, c.wp
-        hold = 0.0
-        span: tuple[int, int] | None = None
-        forever = False
-        where = ""
-        if role in (Role.WAYPOINT, Role.LOITER_TIME, Role.LOITER_UNLIM):
-            raw = c.p(0) if role is not Role.LOITER_UNLIM else 0.0
-            hold = float(max(0, stored_whole(raw)))
-            forever = role is Role.LOITER_UNLIM
-            stop = hold > 0.0 or role is not Role.WAYPOINT
-            if c.xy is None:
-                where = f"stays where it is, at {self.where_here()}"
-                if stop:
-                    self.stop_here()
-            else:
-                span = self.go(wp, c.xy, stop)
-                where = f"→ {self.fmt(c.xy)}"
-            if forever and not self.options.operator_continue:
-                self.problem(
-                    c,
-                    "waits until the operator continues the mission; `helixd run` cannot "
-                    "continue it yet: use NAV_LOITER_TIME with a time",
-                )
-        elif role is Role.RETURN:
-            span = self.go(wp, self.home, True)
-            where = f"→ home {self.fmt(self.home)}"
-        elif role is Role.LOITER_TURNS:
-            turns, radius, ccw = loiter_turns(wp)
-            centre = c.xy if c.xy is not None else (self.here or self.home)
-            where = f"{turns:g} turns, radius {radius:g} m around {self.fmt(centre)}"
-            if turns > 0.0:
-                pts = _circle(centre, radius, turns, ccw, self.here or centre)
-                begin = len(self.waypoints)
-                for xy in pts:
-                    self.go(wp, xy, False)
-                if len(self.waypoints) > begin:
-                    span = (begin, len(self.waypoints) - 1)
-                    where += f" ({len(self.waypoints) - begin} points)"
-        elif role is Role.NAV_DELAY:
-            delay = c.p(0)
-            if not (math.isfinite(delay) and delay > 0.0):
-                self.problem(
-                    c,
-                    "waits until a time of day (param1 not > 0): helixd has no clock for it; "
-                    "give delay_s",
-                )
-                delay = 0.0
-            hold = delay
-            self.stop_here()
-            where = f"stops {delay:g} s"
-        else:  # NAV_REFUSED: Rover would start it
-            why = wp.spec.why
-            if self.options.skip_unsupported:
-                self.note(c, f"passed over (--skip-unsupported): {why}")
-            else:
-                self.problem(c, f"{why} (--skip-unsupported passes over it)")
-            where = "not flown"
-        if hold > 0.0 and role is not Role.NAV_DELAY:
-            where += f", hold {hold:g} s"
-        if forever:
+        leg = self.nav_leg(c)
+        where = leg.where
+        if leg.hold_s > 0.0 and c.role is not Role.NAV_DELAY:
+            where += f", hold {leg.hold_s:g} s"
+        if leg.forever:
             where += ", waits for the operator"
         text = f"{c.name} {where}".strip() + (f" {via}" if via else "")
         return NavStep(
             item=c.index,
-            command=wp.command,
-            first_waypoint=None if span is None else span[0],
-            last_waypoint=None if span is None else span[1],
-            hold_s=hold,
+            command=c.wp.command,
+            first_waypoint=None if leg.span is None else leg.span[0],
+            last_waypoint=None if leg.span is None else leg.span[1],
+            hold_s=leg.hold_s,
             actions=tuple(actions),
             speed_mps=self.speed,
             text=text,
-            forever=forever,
+            forever=leg.forever,
             skipped=tuple(passed),
         )
+
+    def nav_leg(self, c: Cmd) -> _Leg:
+        """What navigation item ``c`` does, by its role (Rover/mode_auto.cpp)."""
+        role = c.role
+        if role in (Role.WAYPOINT, Role.LOITER_TIME, Role.LOITER_UNLIM):
+            return self.drive_to(c)
+        if role is Role.RETURN:
+            return _Leg(f"→ home {self.fmt(self.home)}", self.go(c.wp, self.home, True))
+        if role is Role.LOITER_TURNS:
+            return self.circle(c)
+        if role is Role.NAV_DELAY:
+            return self.delay(c)
+        # NAV_REFUSED: Rover would start it
+        why = c.wp.spec.why
+        if self.options.skip_unsupported:
+            self.note(c, f"passed over (--skip-unsupported): {why}")
+        else:
+            self.problem(c, f"{why} (--skip-unsupported passes over it)")
+        return _Leg("not flown")
+
+    def drive_to(self, c: Cmd) -> _Leg:
+        """NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM: drive to the place (none: stay),
+        hold there ``param1`` whole seconds or until the operator continues."""
+        role = c.role
+        raw = c.p(0) if role is not Role.LOITER_UNLIM else 0.0
+        hold = float(max(0, stored_whole(raw)))
+        forever = role is Role.LOITER_UNLIM
+        stop = hold > 0.0 or role is not Role.WAYPOINT
+        span: tuple[int, int] | None = None
+        if c.xy is None:
+            where = f"stays where it is, at {self.where_here()}"
+            if stop:
+                self.stop_here()
+        else:
+            span = self.go(c.wp, c.xy, stop)
+            where = f"→ {self.fmt(c.xy)}"
+        if forever and not self.options.operator_continue:
+            self.problem(
+                c,
+                "waits until the operator continues the mission; `helixd run` cannot "
+                "continue it yet: use NAV_LOITER_TIME with a time",
+            )
+        return _Leg(where, span, hold, forever)
+
+    def circle(self, c: Cmd) -> _Leg:
+        """NAV_LOITER_TURNS: the circle's points, entered at the one nearest the rover."""
+        turns, radius, ccw = loiter_turns(c.wp)
+        centre = c.xy if c.xy is not None else (self.here or self.home)
+        where = f"{turns:g} turns, radius {radius:g} m around {self.fmt(centre)}"
+        if turns <= 0.0:
+            return _Leg(where)
+        begin = len(self.waypoints)
+        for xy in _circle(centre, radius, turns, ccw, self.here or centre):
+            self.go(c.wp, xy, False)
+        if len(self.waypoints) == begin:
+            return _Leg(where)
+        where += f" ({len(self.waypoints) - begin} points)"
+        return _Leg(where, (begin, len(self.waypoints) - 1))
+
+    def delay(self, c: Cmd) -> _Leg:
+        """NAV_DELAY: stop where the rover is for ``param1`` seconds."""
+        delay = c.p(0)
+        if not (math.isfinite(delay) and delay > 0.0):
+            self.problem(
+                c,
+                "waits until a time of day (param1 not > 0): helixd has no clock for it; "
+                "give delay_s",
+            )
+            delay = 0.0
+        self.stop_here()
+        return _Leg(f"stops {delay:g} s", hold_s=delay)
 
 
 class _Patrol:
@@ -535,6 +564,16 @@ class _Patrol:
         self._counted = len(b.steps)
         self._at_laps.append(self._lower_s)
         return len(self._at_laps) >= 2 and self._at_laps[-2] > ctx.patrol_s
+
+    def lap_done(self, walker: Walker, b: _Builder, ctx: Context) -> bool:
+        """Count the lap a forever jump just started; True when enough laps are planned (or
+        the plan holds all the steps it may)."""
+        if not self.lap_starts:
+            self.item = next(iter(walker.forever_taken))
+        new_lap = sum(walker.forever_taken.values()) > len(self.lap_starts)
+        if new_lap:
+            self.lap_starts.append(len(b.steps))
+        return (new_lap and self.planned(b, ctx)) or len(b.steps) >= PATROL_STEPS_MAX
 
     def end(self, b: _Builder, ctx: Context) -> str:
         if self.lap_starts and self.lap_starts[-1] >= len(b.steps):
@@ -581,58 +620,95 @@ def expand(
     walker = Walker(cmds)
     walker.runs = dict(options.jumps_taken)
     b = _Builder(ctx, options, waypoint_for)
-    visited: set[int] = set()
     first = min(max(options.first_item, 1), len(cmds))
-    nav, first_do, passed = walker.advance_nav(None if first <= 1 else first - 1, rover_starts)
-    ending = ""
-    never_ends = False
-    jumps_before: dict[int, int] = {}
-    patrol = _Patrol()
-    while nav is not None:
-        if walker.forever_taken:
-            if not patrol.lap_starts:
-                patrol.item = next(iter(walker.forever_taken))
-            new_lap = sum(walker.forever_taken.values()) > len(patrol.lap_starts)
-            if new_lap:
-                patrol.lap_starts.append(len(b.steps))
-            if (new_lap and patrol.planned(b, ctx)) or len(b.steps) >= PATROL_STEPS_MAX:
-                ending = patrol.end(b, ctx)
-                never_ends = True
-                nav, first_do, passed = None, None, []
-                break
-        visited.add(nav.index)
-        visited.update(p.index for p in passed)
-        chain, endless = walker.do_chain(first_do) if first_do is not None else ([], False)
-        visited.update(c.index for c in chain)
-        via = _via(walker, jumps_before, cmds)
-        passed_text = [b.passed_over(p) for p in passed]
-        b.steps.append(b.step(nav, chain, passed_text, via, endless))
-        if nav.role is Role.LOITER_UNLIM and not options.operator_continue:
-            ending = f"item {nav.index} NAV_LOITER_UNLIM waits for the operator"
-            never_ends = True
-            break
-        if len(b.steps) >= MAX_STEPS:
-            b.problems.append(
-                f"the mission expands to more than {MAX_STEPS} navigation steps (jumps): split it"
-            )
-            break
-        jumps_before = dict(walker.runs)
-        nav, first_do, passed = walker.advance_nav(nav.index, rover_starts)
-    final: list[MissionAction] = []
-    if nav is None and not never_ends:
-        visited.update(p.index for p in passed)
-        for p in passed:
-            b.passed_over(p)
-        if first_do is not None:
-            # AP_Mission started the do item met before finding nothing more to fly
-            visited.add(first_do.index)
-            final = b.actions([first_do])
+    walk = _StepWalk(walker, b, cmds)
+    walk.run(first)
+    final = walk.final_actions() if walk.ran_out else []
+    ending = walk.ending
     for jump, target in sorted(walker.bad_jumps):
         b.notes.append(
             f"item {jump} {cmds[jump - 1].name}: jumps to item {target}, which is not in the "
             "mission: ArduPilot ends the mission there"
         )
         ending = ending or f"item {jump} jumps to a missing item"
+    _note_not_run(b, cmds, walk.visited, first)
+    program = Program(
+        steps=tuple(b.steps),
+        final_actions=tuple(final),
+        ending=ending,
+        never_ends=walk.never_ends,
+        patrol_item=walk.patrol.item,
+        lap_starts=tuple(walk.patrol.lap_starts),
+        notes=tuple(b.notes),
+        start_xy_m=ctx.start_xy_m,
+        items_total=len(cmds),
+    )
+    return Expansion(b.waypoints, program, b.problems, b.notes)
+
+
+class _StepWalk:
+    """The walk turned into steps, one navigation item after another, until the mission is
+    complete (:attr:`ran_out`), waits for the operator or its patrol is planned long enough
+    (:attr:`never_ends`), or it grows too long."""
+
+    def __init__(self, walker: Walker, b: _Builder, cmds: Sequence[Cmd]) -> None:
+        self.walker = walker
+        self.b = b
+        self.cmds = cmds
+        self.visited: set[int] = set()
+        self.patrol = _Patrol()
+        self.ending = ""
+        self.never_ends = False
+        self.ran_out = False
+        # when the walk runs out: the do item met and the navigation items passed over
+        self.left_do: Cmd | None = None
+        self.left_passed: list[Cmd] = []
+
+    def run(self, first: int) -> None:
+        walker, b, options = self.walker, self.b, self.b.options
+        nav, first_do, passed = walker.advance_nav(None if first <= 1 else first - 1, rover_starts)
+        jumps_before: dict[int, int] = {}
+        while nav is not None:
+            if walker.forever_taken and self.patrol.lap_done(walker, b, b.ctx):
+                self.ending = self.patrol.end(b, b.ctx)
+                self.never_ends = True
+                return
+            self.visited.add(nav.index)
+            self.visited.update(p.index for p in passed)
+            chain, endless = walker.do_chain(first_do) if first_do is not None else ([], False)
+            self.visited.update(c.index for c in chain)
+            via = _via(walker, jumps_before, self.cmds)
+            passed_text = [b.passed_over(p) for p in passed]
+            b.steps.append(b.step(nav, chain, passed_text, via, endless))
+            if nav.role is Role.LOITER_UNLIM and not options.operator_continue:
+                self.ending = f"item {nav.index} NAV_LOITER_UNLIM waits for the operator"
+                self.never_ends = True
+                return
+            if len(b.steps) >= MAX_STEPS:
+                b.problems.append(
+                    f"the mission expands to more than {MAX_STEPS} navigation steps (jumps): "
+                    "split it"
+                )
+                return
+            jumps_before = dict(walker.runs)
+            nav, first_do, passed = walker.advance_nav(nav.index, rover_starts)
+        self.ran_out = True
+        self.left_do, self.left_passed = first_do, passed
+
+    def final_actions(self) -> list[MissionAction]:
+        """The mission is complete: the navigation items passed over on the way, and the do
+        item AP_Mission started before finding nothing more to fly."""
+        self.visited.update(p.index for p in self.left_passed)
+        for p in self.left_passed:
+            self.b.passed_over(p)
+        if self.left_do is None:
+            return []
+        self.visited.add(self.left_do.index)
+        return self.b.actions([self.left_do])
+
+
+def _note_not_run(b: _Builder, cmds: Sequence[Cmd], visited: set[int], first: int) -> None:
+    """A note for each item the walk never started (jumps aside)."""
     for c in cmds:
         if c.index not in visited and c.wp.command not in (MAV_CMD_DO_JUMP, MAV_CMD_DO_JUMP_TAG):
             if c.index < first:
@@ -641,18 +717,6 @@ def expand(
             b.notes.append(
                 f"{_label(c)}: never run (ArduPilot's walk through the mission never starts it)"
             )
-    program = Program(
-        steps=tuple(b.steps),
-        final_actions=tuple(final),
-        ending=ending,
-        never_ends=never_ends,
-        patrol_item=patrol.item,
-        lap_starts=tuple(patrol.lap_starts),
-        notes=tuple(b.notes),
-        start_xy_m=ctx.start_xy_m,
-        items_total=len(cmds),
-    )
-    return Expansion(b.waypoints, program, b.problems, b.notes)
 
 
 def carried_at_step(
