@@ -80,24 +80,24 @@ def test_no_package_over_20_modules() -> None:
     assert offenders == [], "\n".join(offenders)
 
 
-def test_the_function_checker_counts_from_def_to_the_last_line(tmp_path: Path) -> None:
+def _probe(tmp_path: Path, text: str) -> Path:
+    """A synthetic ``helixd/`` holding ``probe.py`` with ``text``."""
     root = tmp_path / "helixd"
     root.mkdir()
+    (root / "probe.py").write_text(text)
+    return root
+
+
+def test_the_function_checker_counts_from_def_to_the_last_line(tmp_path: Path) -> None:
     body = "".join(f"    x{i} = {i}\n" for i in range(80))
-    (root / "probe.py").write_text(
-        f"def long():\n{body}\nclass C:\n    def short(self):\n        pass\n"
-    )
+    root = _probe(tmp_path, f"def long():\n{body}\nclass C:\n    def short(self):\n        pass\n")
     assert long_functions(root) == ["helixd/probe.py:1 long (81 lines)"]
     assert long_functions(root, limit=81) == []
 
 
 def test_the_function_checker_sees_methods_and_nested_functions(tmp_path: Path) -> None:
-    root = tmp_path / "helixd"
-    root.mkdir()
     body = "".join(f"            x{i} = {i}\n" for i in range(80))
-    (root / "probe.py").write_text(
-        f"class C:\n    async def outer(self):\n        def inner():\n{body}"
-    )
+    root = _probe(tmp_path, f"class C:\n    async def outer(self):\n        def inner():\n{body}")
     assert long_functions(root) == [
         "helixd/probe.py:2 outer (82 lines)",
         "helixd/probe.py:3 inner (81 lines)",
