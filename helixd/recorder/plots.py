@@ -14,6 +14,8 @@ the same clock as the result's flight time; the wall clock (``t_mono_s``) is a s
 top — they differ under a simulator speed-up. Without autopilot times the wall clock is used.
 
 Uses matplotlib's Agg backend through the object API (no pyplot state, safe in a daemon).
+The run is loaded by :mod:`helixd.recorder.run_data`; the plan panels of ``helixd check
+--plot`` are :mod:`helixd.recorder.plan_plots`.
 """
 
 from __future__ import annotations
