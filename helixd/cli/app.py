@@ -62,7 +62,7 @@ from helixd.cli.simulated import (
     with_sim_files,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.mav.url import LinkError
 from helixd.mission.describe import DEFAULT_WIDTH

@@ -21,7 +21,7 @@ import structlog
 
 from helixd.base.plan import MissionFrameKind, Numbering, program_numbering
 from helixd.base.run_files import CONFIG_FILE, EVENTS_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
-from helixd.config import load_config
+from helixd.config.load import load_config
 from helixd.files.models import ConfigFileError
 from helixd.mission.model import load_mission
 from helixd.mission.resolve import PlanError, resolve_plan

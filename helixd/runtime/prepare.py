@@ -27,7 +27,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
 from helixd.base.plan import MissionFrameKind, MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.models import as_items, format_validation_error
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions, carried_at_step
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format

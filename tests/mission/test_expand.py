@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 
 from helixd.base.plan import ActionKind, Plan
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.expand import PATROL_STEPS_MAX, ExpandOptions, carried_at_step
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Resolved, Where, resolve

@@ -16,7 +16,7 @@ from shapely.geometry import LineString, Point, Polygon
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.base.plan import MissionFrameKind, MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.models import ConfigFileError
 from helixd.mission.formats import load_mission_file
 from helixd.planning.fence import plan_global_mission
