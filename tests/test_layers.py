@@ -410,37 +410,3 @@ def test_package_inits_import_no_helixd_module() -> None:
             bad = [n for n in names if n.startswith(("helixd", "."))]
             offenders += [f"{path.relative_to(REPO)}:{node.lineno} imports {n}" for n in bad]
     assert offenders == [], "\n".join(offenders)
-
-
-# The rooms a reader walks through first keep their functions short enough to read whole:
-# the applications (runtime, serve), the one-shot commands' back ends and the CLI.
-SHORT_FUNCTION_PACKAGES = ("runtime", "serve", "commands", "cli")
-MAX_FUNCTION_LINES = 80
-
-
-def long_functions(paths: list[Path], limit: int = MAX_FUNCTION_LINES) -> list[str]:
-    """``file:line name (N lines)`` for each function (methods and nested ones too) whose
-    ``def`` to last line spans more than ``limit`` lines."""
-    found = []
-    for path in paths:
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
-                lines = (node.end_lineno or node.lineno) - node.lineno + 1
-                if lines > limit:
-                    found.append(f"{_shown(path)}:{node.lineno} {node.name} ({lines} lines)")
-    return found
-
-
-def test_no_function_over_80_lines_in_the_applications_commands_and_cli() -> None:
-    paths = sorted(p for pkg in SHORT_FUNCTION_PACKAGES for p in (PACKAGE / pkg).rglob("*.py"))
-    assert paths
-    offenders = long_functions(paths)
-    assert offenders == [], "\n".join(offenders)
-
-
-def test_the_length_checker_counts_from_def_to_the_last_line(tmp_path: Path) -> None:
-    probe = tmp_path / "probe.py"
-    body = "".join(f"    x{i} = {i}\n" for i in range(80))
-    probe.write_text(f"def long():\n{body}\nclass C:\n    def short(self):\n        pass\n")
-    assert long_functions([probe]) == ["probe.py:1 long (81 lines)"]
-    assert long_functions([probe], limit=81) == []

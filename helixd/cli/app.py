@@ -236,7 +236,7 @@ def _check_plot(got: Prepared, plot: Path) -> None:
         )
         typer.echo(f"plot    : {plot} not written: {why}")  # said, not silently skipped
         return
-    from helixd.recorder.plots import render_media_plan, render_route  # start-up: matplotlib
+    from helixd.recorder.plan_plots import render_media_plan, render_route  # start-up: matplotlib
 
     name = got.mission.name
     try:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from helixd.base.media import MediaMap, Medium
 from helixd.base.plan import MotionMode
+from helixd.base.problems import Problems
 from helixd.config.root import HelixdConfig
 from helixd.control.ground_fit import (
     AXES,
@@ -33,12 +34,8 @@ from helixd.runtime.ground_learning import (
 PIN = re.compile(r"^(?P<medium>[a-z]+)/(?P<mode>[a-z]+)/(?P<axis>[a-z]+)=(?P<value>\S+)$")
 
 
-class GroundCommandError(ValueError):
+class GroundCommandError(Problems, ValueError):
     """A command-line value helixd ground cannot use; ``problems``: one line each."""
-
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("\n".join(problems))
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,7 @@
 """What ``helixd check --plot`` draws of a media map: the map placed as ``check`` places the
 mission (a global mission around waypoint 1, a local_ned one over a local_ned map) and the
-plan split by it, each stretch in its mode (:func:`helixd.recorder.plots.render_media_plan`)."""
+plan split by it, each stretch in its mode
+(:func:`helixd.recorder.plan_plots.render_media_plan`)."""
 
 from __future__ import annotations
 

@@ -12,16 +12,10 @@ import pytest
 
 from helixd.base.plan import ActionKind, Plan
 from helixd.config.root import HelixdConfig
-from helixd.mission.expand import (
-    PATROL_STEPS_MAX,
-    ExpandOptions,
-    carried_at_step,
-    jumps_when_current,
-    restart_at_step,
-    walk_at_step,
-)
+from helixd.mission.expand import PATROL_STEPS_MAX, ExpandOptions, carried_at_step
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Resolved, Where, resolve
+from helixd.mission.walk import jumps_when_current, restart_at_step, walk_at_step
 
 CFG = HelixdConfig()
 
