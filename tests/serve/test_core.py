@@ -128,6 +128,7 @@ def test_pause_and_continue() -> None:
     a = answer_command(flying, MAV_CMD_DO_PAUSE_CONTINUE, (0.0,), 255, GCS)
     assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.PAUSE)
     assert a.text == "pausing: pause from the ground station"  # words, not DO_PAUSE_CONTINUE 0
+    assert a.reason == "pause from the ground station"  # what the flight's pause is told
     a = answer_command(view(), MAV_CMD_DO_PAUSE_CONTINUE, (0.0,), 255, GCS)
     assert a.result == MAV_RESULT_DENIED and "not flying" in a.text
     paused = view(ServeState.PAUSED, resumable=True)
@@ -206,6 +207,7 @@ def test_switch_edges_start_and_pause() -> None:
     assert a is not None and a.result == MAV_RESULT_DENIED and "too far" in a.text
     a = answer_switch(view(ServeState.FLYING), SwitchEdge.FALLING)
     assert a is not None and a.request is Request.PAUSE
+    assert (a.text, a.reason) == ("pausing: start switch low", "start switch low")
     assert answer_switch(view(), SwitchEdge.FALLING) is None
     assert answer_switch(view(ServeState.FLYING), SwitchEdge.NONE) is None
 
@@ -224,6 +226,10 @@ def test_switch_edges_start_and_pause() -> None:
         (ExitCode.PREFLIGHT, FaultCause.PREFLIGHT, False, ServeState.FAULTED),
         # a flight of AUTO the crew released to the pilot (MANUAL): AUTO again goes on
         (ExitCode.OPERATOR_STOP, FaultCause.RELEASED, False, ServeState.PAUSED),
+        # the crew set another item, or gave the autopilot a new place: the next flight drives
+        (ExitCode.OPERATOR_STOP, FaultCause.ITEM_SET, False, ServeState.PAUSED),
+        (ExitCode.OPERATOR_STOP, FaultCause.HANDOVER, False, ServeState.PAUSED),
+        (ExitCode.FAULT, FaultCause.STALL, True, ServeState.FAULTED),  # a fault mid-pause
     ],
 )
 def test_state_after_flight(

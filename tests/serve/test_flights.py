@@ -24,7 +24,13 @@ from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import FallbackReport
 from helixd.safety.watchdogs import FaultCause
 from helixd.serve.core import AutoWatch
-from helixd.serve.flights import Flights, after_flight, flight_end_text, held_walk
+from helixd.serve.flights import (
+    Flights,
+    WalkLetGo,
+    after_flight,
+    flight_end_text,
+    held_walk,
+)
 from helixd.serve.mission import MissionWatch
 from helixd.serve.options import ServeOptions
 from helixd.serve.status import ServeStatus
@@ -82,8 +88,8 @@ def test_the_walk_held_is_where_the_autopilots_own_item_was(tmp_path: Path) -> N
     started = [{"event": "mission_step", "kind": "step_started", "step": n} for n in (1, 2, 3)]
     helixd_only = tmp_path / "a"
     _events(helixd_only, *started)
-    assert held_walk(("f", opts, helixd_only), "f") == AutoWalk(opts, 3, exact=False)
-    assert held_walk(("f", opts, helixd_only), "other mission") is None
+    assert held_walk(WalkLetGo("f", opts, helixd_only), "f") == AutoWalk(opts, 3, exact=False)
+    assert held_walk(WalkLetGo("f", opts, helixd_only), "other mission") is None
     assert held_walk(None, "f") is None
     followed = tmp_path / "b"
     _events(
@@ -92,7 +98,7 @@ def test_the_walk_held_is_where_the_autopilots_own_item_was(tmp_path: Path) -> N
         {"event": "autopilot_step", "item": 4, "step": 4},
         {"event": "autopilot_step", "item": 3, "step": "5"},  # garbled: ignored
     )
-    assert held_walk(("f", opts, followed), "f") == AutoWalk(opts, 4, exact=True)
+    assert held_walk(WalkLetGo("f", opts, followed), "f") == AutoWalk(opts, 4, exact=True)
     item_set = tmp_path / "c"
     _events(
         item_set,
@@ -100,7 +106,7 @@ def test_the_walk_held_is_where_the_autopilots_own_item_was(tmp_path: Path) -> N
         {"event": "autopilot_step", "item": 4, "step": 2},
         {"event": "autopilot_item_set", "item": 1, "autopilot_step": 2},
     )
-    assert held_walk(("f", opts, item_set), "f") == AutoWalk(opts, 2, exact=True)
+    assert held_walk(WalkLetGo("f", opts, item_set), "f") == AutoWalk(opts, 2, exact=True)
 
 
 class _Pane:
@@ -129,16 +135,13 @@ class _Action:
 def _refusing(tmp_path: Path, refuses_hold: bool) -> tuple[Flights, Any, _Pane, AutoWatch]:
     """Flights on an autopilot armed in AUTO whose start was just taken from the watch."""
     opts = ServeOptions(HelixdConfig(), None, tmp_path)
-    pane, watch = _Pane(), AutoWatch()
+    pane = _Pane()
+    status = cast(ServeStatus, SimpleNamespace(gcs=pane))
+    flights = Flights(opts, MissionWatch(opts), status, None, StopRequest())
+    watch = flights.auto_watch
     watch.update(True, "HOLD", False, 1.0)
     assert watch.update(True, "AUTO", False, 2.0)
     watch.taken()
-
-    async def read(ap: Autopilot) -> None:
-        return None
-
-    status = cast(ServeStatus, SimpleNamespace(gcs=pane))
-    flights = Flights(opts, MissionWatch(opts), status, watch, None, read, StopRequest())
     st = VehicleState()
     st.armed, st.mode, st.last_heartbeat_s = True, "AUTO", 2.0
     return flights, SimpleNamespace(state=st, action=_Action(refuses_hold)), pane, watch
