@@ -14,6 +14,7 @@ from helixd.base.plan import MotionMode
 from helixd.config import MediaConfig
 from helixd.control.ground_check import GroundCheck, GroundCheckParams, GroundVerdict
 from helixd.control.navigator import Navigator
+from helixd.planning.media_modes import ModePolicy
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,7 +37,12 @@ class GroundChange:
 
 
 def check_params(media: MediaConfig) -> GroundCheckParams:
+    """The check's thresholds, and its modes from the mode policy (``media.modes``; with
+    ``learned``, the config's defaults: the profile is the plan's, not the check's)."""
+    policy = ModePolicy.from_config(media)
     return GroundCheckParams(
+        firm_mode=policy.firm_mode,
+        soft_mode=policy.soft_mode,
         window_m=media.detect_window_m,
         roll_fraction=media.detect_roll_fraction,
         scroll_fraction=media.detect_scroll_fraction,

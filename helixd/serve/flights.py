@@ -65,7 +65,6 @@ from helixd.serve.status import ServeStatus
 log = structlog.get_logger(__name__)
 
 
-
 @dataclass(frozen=True, slots=True)
 class Interrupted:
     """The run a continue goes on from: of the mission with this fingerprint (the state
