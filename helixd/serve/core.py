@@ -75,6 +75,7 @@ __all__ = [
     "answer_goto",
     "answer_speed",
     "answer_switch",
+    "crew_paused",
     "radio_live",
     "state_after_flight",
 ]
@@ -442,6 +443,13 @@ def answer_goto(view: ServeView, mode: str, motion_mode_set: bool) -> Answer:
     return Answer(MAV_RESULT_ACCEPTED, f"{mode}: driving to the autopilot's place", Request.GOTO)
 
 
+def crew_paused(cause: FaultCause | None, paused: bool) -> bool:
+    """Whether a flight ended on an operator's pause: its cause, or (``paused``: the pause
+    asked of its stop request) a pause that came while it was still starting, before any
+    cause; a fault that came first stays a fault."""
+    return cause is FaultCause.PAUSED or (paused and cause is None)
+
+
 def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -> ServeState:
     """Where a flight leaves the service: completed; paused (the flight ended on an operator's
     pause, ``paused``, even one that came while it was still starting, or on the service's own
@@ -449,6 +457,6 @@ def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -
     pilot's takeover, a refusal at its start)."""
     if code is ExitCode.OK:
         return ServeState.COMPLETED
-    if cause in STOP_CAUSES or cause in HANDED_CAUSES or (paused and cause is None):
+    if cause in STOP_CAUSES or cause in HANDED_CAUSES or crew_paused(cause, paused):
         return ServeState.PAUSED
     return ServeState.FAULTED

@@ -56,6 +56,7 @@ from helixd.serve.core import (
     Request,
     ServeState,
     SwitchWatch,
+    crew_paused,
     state_after_flight,
 )
 from helixd.serve.mission import MissionWatch
@@ -304,7 +305,7 @@ class Flights:
         handed = cause in HANDED_CAUSES
         after_flight(self.auto_watch, cause, host.hold_acked_s)
         log.info("serve_flight_end", request=Request.GOTO.value, exit_code=int(outcome.exit_code))
-        if handed or cause is FaultCause.PAUSED or stop.paused:
+        if handed or crew_paused(cause, stop.paused):
             self.status.set(*before, quiet=handed)  # the mission's verdict stands
             return
         text = flight_end_text(summary, runner.numbering(), outcome.messages)

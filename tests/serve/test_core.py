@@ -35,6 +35,7 @@ from helixd.serve.core import (
     answer_command,
     answer_goto,
     answer_switch,
+    crew_paused,
     radio_live,
     state_after_flight,
 )
@@ -236,6 +237,21 @@ def test_state_after_flight(
     code: ExitCode, cause: FaultCause | None, paused: bool, state: ServeState
 ) -> None:
     assert state_after_flight(code, cause, paused) is state
+
+
+@pytest.mark.parametrize(
+    ("cause", "paused", "crew"),
+    [
+        (FaultCause.PAUSED, True, True),
+        (FaultCause.PAUSED, False, True),
+        (None, True, True),  # paused while it was still starting
+        (None, False, False),
+        (FaultCause.STALL, True, False),  # a fault came first: told as a fault
+        (FaultCause.SIGNAL, False, False),
+    ],
+)
+def test_crew_paused(cause: FaultCause | None, paused: bool, crew: bool) -> None:
+    assert crew_paused(cause, paused) is crew
 
 
 def test_armed_in_auto_is_a_start_only_after_being_seen_otherwise() -> None:
