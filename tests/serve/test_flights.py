@@ -23,13 +23,17 @@ from helixd.runtime.prepare import AutoWalk
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import FallbackReport
 from helixd.safety.watchdogs import FaultCause
-from helixd.serve.core import AutoWatch
+from helixd.serve.check import Verdict
+from helixd.serve.core import AutoWatch, ServeState
 from helixd.serve.flights import (
     Flights,
+    Interrupted,
     WalkLetGo,
     after_flight,
     flight_end_text,
     held_walk,
+    read_state_file,
+    write_state_file,
 )
 from helixd.serve.mission import MissionWatch
 from helixd.serve.options import ServeOptions
@@ -203,3 +207,59 @@ def test_the_service_host_keeps_when_the_fall_backs_hold_was_acknowledged() -> N
     assert host.hold_acked_s is None
     host.secured(FallbackReport("stall", "dug in", hold_acked=True))
     assert host.hold_acked_s is not None
+
+
+class _Told:
+    """ServeStatus as the verdicts set it: the states, and what the pane was told."""
+
+    def __init__(self) -> None:
+        self.gcs = _Pane()
+        self.state = ServeState.IDLE
+        self.detail = ""
+        self.sets: list[tuple[ServeState, str]] = []
+
+    def set(self, state: ServeState, detail: str = "", severity: int | None = None) -> None:
+        self.state, self.detail = state, detail
+        self.sets.append((state, detail))
+
+
+def test_a_verdict_is_applied_by_the_flights_with_a_continue_named(tmp_path: Path) -> None:
+    """READY with the interrupted run a start continues (the state file's record, of this
+    mission), REFUSED with the first problem and the next ones to the pane."""
+    run_dir = tmp_path / "runs" / "run-1"
+    run_dir.mkdir(parents=True)
+    opts = ServeOptions(HelixdConfig(), None, tmp_path / "runs")
+    write_state_file(opts.state_file, Interrupted("fp", run_dir), ServeState.PAUSED)
+    told = _Told()
+    flights = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    assert flights.interrupted == Interrupted("fp", run_dir)
+    ready = cast(Any, SimpleNamespace(fingerprint="fp", waypoints=2))
+    flights.apply(Verdict(ServeState.READY, "plan 0a0b0c: 2 waypoints checked", ready))
+    assert told.sets[-1] == (
+        ServeState.READY,
+        "plan 0a0b0c: 2 waypoints checked (interrupted: a start continues it)",
+    )
+    other = cast(Any, SimpleNamespace(fingerprint="another plan", waypoints=2))
+    flights.apply(Verdict(ServeState.READY, "plan 1a: 2 waypoints checked", other))
+    assert told.sets[-1] == (ServeState.READY, "plan 1a: 2 waypoints checked")
+    problems = ["item 2: too far", "item 3: too far"]
+    flights.apply(Verdict(ServeState.REFUSED, problems[0], None, ["refused: item 3"], problems))
+    assert told.sets[-1] == (ServeState.REFUSED, "item 2: too far")
+    assert told.gcs.texts == ["refused: item 3"]
+    flights.apply(Verdict(ServeState.IDLE, "no mission on the autopilot"))
+    assert told.sets[-1] == (ServeState.IDLE, "no mission on the autopilot")
+
+
+def test_the_state_file_keeps_the_interrupted_run(tmp_path: Path) -> None:
+    path = tmp_path / "serve-state.json"
+    assert read_state_file(path) is None  # none yet
+    run_dir = tmp_path / "run-1"
+    run_dir.mkdir()
+    write_state_file(path, Interrupted("fp", run_dir), ServeState.PAUSED)
+    assert read_state_file(path) == Interrupted("fp", run_dir.resolve())
+    record = json.loads(path.read_text(encoding="utf-8"))
+    assert (record["state"], record["mission_sha256"]) == ("paused", "fp")
+    write_state_file(path, None, ServeState.COMPLETED)
+    assert read_state_file(path) is None
+    write_state_file(path, Interrupted("fp", tmp_path / "gone"), ServeState.PAUSED)
+    assert read_state_file(path) is None  # its run directory is gone: nothing to continue
