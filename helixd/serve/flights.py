@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from functools import partial
 from pathlib import Path
+from typing import NamedTuple
 
 import structlog
 
@@ -73,6 +74,15 @@ class Interrupted:
 
     fingerprint: str
     run_dir: Path
+
+
+class ToFly(NamedTuple):
+    """What a start flies: the flight, its config (the mission's limits), and where its run
+    directory goes (an interrupted run's continue: beside that run)."""
+
+    flight: Flight
+    cfg: HelixdConfig
+    run_root: Path
 
 
 @dataclass(frozen=True, slots=True)
@@ -228,7 +238,7 @@ class Flights:
 
     # -- flights ------------------------------------------------------------------------------
 
-    def _flight_for(self, request: Request, item: int = 0) -> tuple[Flight, HelixdConfig, Path]:
+    def _flight_for(self, request: Request, item: int = 0) -> ToFly:
         """What to fly: the checked mission from item 1 (or ``item``, FROM_ITEM), or the
         interrupted run's remainder."""
         checked = self.mission.checked
@@ -238,10 +248,10 @@ class Flights:
             held = held_walk(self.auto_walk, checked.fingerprint)
             item_now = self.mission.autopilot_item
             flight = from_autopilot_item(checked.flight, item_now, checked.cfg, held, from_here)
-            return flight, checked.cfg, self.opts.run_root
+            return ToFly(flight, checked.cfg, self.opts.run_root)
         if request is Request.FROM_ITEM:  # jump counters zero, as AP_Mission::start
             flight = from_autopilot_item(checked.flight, item, checked.cfg)
-            return flight, checked.cfg, self.opts.run_root
+            return ToFly(flight, checked.cfg, self.opts.run_root)
         interrupted = self.interrupted
         # a continue of a run of another plan (one uploaded since) flies the new one whole
         if request is Request.CONTINUE and interrupted is not None and self.resumable(checked):
@@ -257,13 +267,13 @@ class Flights:
                     speed_mps=o.speed_mps,
                     reverse=o.reverse,
                 )
-                return flight, checked.cfg, run_dir.parent
+                return ToFly(flight, checked.cfg, run_dir.parent)
             resumed = prepare_flight(Resume(run_dir), self.opts.config_path)
             for note in resumed.notes:
                 log.info("serve_resume", note=note)
             cfg = resumed.cfg.model_copy(update={"link": self.cfg.link})
-            return resumed.flight, cfg, run_dir.parent
-        return checked.flight, checked.cfg, self.opts.run_root
+            return ToFly(resumed.flight, cfg, run_dir.parent)
+        return ToFly(checked.flight, checked.cfg, self.opts.run_root)
 
     async def _flying(self, flight: Awaitable[None]) -> None:
         """A flight task: whatever ends it, the service is free for the next."""
@@ -300,7 +310,8 @@ class Flights:
             on_pause=self._held,
             disarm_when_complete=self.cfg.serve.disarm_when_complete,
         )
-        runner, outcome, cause = await self._run_flight(opts, host, f"{mode} to {where}")
+        runner, outcome = await self._run_flight(opts, host, f"{mode} to {where}")
+        cause = outcome.cause
         summary = outcome.summary
         handed = cause in HANDED_CAUSES
         after_flight(self.auto_watch, cause, host.hold_acked_s)
@@ -353,7 +364,8 @@ class Flights:
             disarm_when_complete=self.cfg.serve.disarm_when_complete,
         )
         what = f"the new {checked.name}" if changed else f"{request.value} by {who}"
-        runner, outcome, cause = await self._run_flight(opts, host, what)
+        runner, outcome = await self._run_flight(opts, host, what)
+        cause = outcome.cause
         # released to the pilot, or moved to another item: AUTO again (or still) starts
         after_flight(self.auto_watch, cause, host.hold_acked_s)
         self.item_set = cause is FaultCause.ITEM_SET
@@ -405,9 +417,9 @@ class Flights:
 
     async def _run_flight(
         self, opts: RunOptions, host: ServeHost, what: str
-    ) -> tuple[MissionRunner, RunOutcome, FaultCause | None]:
+    ) -> tuple[MissionRunner, RunOutcome]:
         """One flight on the service's link: FLYING while the runner runs; its runner (for
-        the operator's numbering), outcome and cause."""
+        the operator's numbering) and outcome (its cause with it)."""
         self.count += 1
         self.status.set(ServeState.FLYING, what)
         self.busy = False
@@ -418,7 +430,7 @@ class Flights:
         finally:
             self.runner = None
         self.busy = True
-        return runner, outcome, outcome.cause
+        return runner, outcome
 
     def _held(self, held: bool, mode: str) -> None:
         """The flight in progress paused by the autopilot's mode, or going on: hx_state 5, 4."""
@@ -550,6 +562,7 @@ def write_state_file(path: Path, interrupted: Interrupted | None, state: ServeSt
 __all__ = [
     "Flights",
     "Interrupted",
+    "ToFly",
     "WalkLetGo",
     "after_flight",
     "flight_end_text",
