@@ -51,11 +51,13 @@ class GroundCheckParams:
 @dataclass(frozen=True, slots=True)
 class GroundVerdict:
     """The check's answer: fly ``mode`` from now on (``soft``: the ground is softer than the
-    map says; else firm again); ``fraction``: delivered over the window that decided."""
+    map says; else firm again); ``fraction``: delivered over the window that decided, flown
+    in ``judged``."""
 
     mode: MotionMode
     soft: bool
     fraction: float
+    judged: MotionMode
 
 
 class GroundCheck:
@@ -119,10 +121,10 @@ class GroundCheck:
         fraction = self._delivered_m / self._commanded_m
         verdict: GroundVerdict | None = None
         if mode is firm and not self.switched and fraction < self.params.roll_fraction:
-            verdict = GroundVerdict(soft, True, fraction)
+            verdict = GroundVerdict(soft, True, fraction, firm)
         firm_below = self.params.scroll_fraction - self.params.hysteresis
         if mode is soft and self.switched and not firm_vetoed and fraction < firm_below:
-            verdict = GroundVerdict(firm, False, fraction)
+            verdict = GroundVerdict(firm, False, fraction, soft)
         if verdict is not None:
             self.switched = verdict.soft
             self._since_change_m = 0.0

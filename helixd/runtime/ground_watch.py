@@ -30,10 +30,11 @@ class GroundChange:
 
     def text(self) -> str:
         """What the ground station reads."""
-        pct = round(100.0 * self.verdict.fraction)  # one STATUSTEXT: at most 42 characters
-        if self.verdict.soft:
-            return f"softer than mapped ({pct}% of {self.planned.value}): {self.verdict.mode.value}"
-        return f"firm again ({pct}% of scroll): back to {self.verdict.mode.value}"
+        v = self.verdict
+        pct = round(100.0 * v.fraction)  # one STATUSTEXT: at most 42 characters
+        if v.soft:
+            return f"softer than mapped ({pct}% of {v.judged.value}): {v.mode.value}"
+        return f"firm again ({pct}% of {v.judged.value}): back to {v.mode.value}"
 
 
 def check_params(media: MediaConfig) -> GroundCheckParams:

@@ -153,7 +153,7 @@ def test_the_soft_mode_is_the_policys() -> None:
     check = GroundCheck(GroundCheckParams(MotionMode.ROLL, MotionMode.OMNI))
     _, verdict = roll(check, 0.3, 20.0)
     assert isinstance(verdict, GroundVerdict) and verdict.soft
-    assert verdict.mode is MotionMode.OMNI
+    assert verdict.mode is MotionMode.OMNI and verdict.judged is MotionMode.ROLL
 
 
 def test_a_policy_with_one_mode_for_firm_and_soft_ground_judges_nothing() -> None:

@@ -15,10 +15,11 @@ from helixd.runtime.ground_watch import GroundChange, check_params
 @pytest.mark.parametrize(
     "verdict",
     [
-        GroundVerdict(MotionMode.SCROLL, True, 1.0),  # the longest percentages
-        GroundVerdict(MotionMode.SCROLL, True, 0.05),
-        GroundVerdict(MotionMode.ROLL, False, 0.45),
-        GroundVerdict(MotionMode.OMNI, True, 0.999),
+        GroundVerdict(MotionMode.SCROLL, True, 1.0, MotionMode.ROLL),  # the longest percentages
+        GroundVerdict(MotionMode.SCROLL, True, 0.05, MotionMode.ROLL),
+        GroundVerdict(MotionMode.ROLL, False, 0.45, MotionMode.SCROLL),
+        GroundVerdict(MotionMode.OMNI, True, 0.999, MotionMode.ROLL),
+        GroundVerdict(MotionMode.ROLL, False, 0.999, MotionMode.OMNI),
     ],
 )
 def test_a_change_of_mode_costs_one_statustext(verdict: GroundVerdict) -> None:
@@ -26,6 +27,7 @@ def test_a_change_of_mode_costs_one_statustext(verdict: GroundVerdict) -> None:
     text = change.text()
     assert len(chunk_statustext(MAV_SEVERITY_WARNING, PREFIX + text, 1)) == 1, text
     assert verdict.mode.value in text and f"{round(100 * verdict.fraction)}%" in text
+    assert f"of {verdict.judged.value})" in text  # the mode whose delivery was judged
 
 
 def test_the_checks_modes_are_the_mode_policys() -> None:
