@@ -116,7 +116,9 @@ SELF_DRIVING_MODES = (AUTO_MODE, "GUIDED")
 
 class Flights:
     """The service's flight in progress (at most one), and what the last ones left: the
-    interrupted run a continue goes on from, and the walk of an AUTO flight let go."""
+    interrupted run a continue goes on from, the walk of an AUTO flight let go, and the AUTO
+    watch a flight's end rearms. It reads the mission watch and tells its verdict itself
+    (:meth:`read_mission`: while idle, and again at each start)."""
 
     def __init__(
         self,
