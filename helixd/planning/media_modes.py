@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 
 from helixd.base.media import MediaMapNe, Medium, media_along
 from helixd.base.plan import MotionMode, NavStep, Plan, PlanWaypoint
-from helixd.config import MediaConfig, MediaModesConfig
+from helixd.config.media import MediaConfig, MediaModesConfig
 
 XY = tuple[float, float]
 MediaLengths = tuple[tuple[Medium, float], ...]  # (medium, metres) in path order

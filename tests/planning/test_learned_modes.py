@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from helixd.base.media import Medium
 from helixd.base.plan import MotionMode
-from helixd.config import MediaConfig
+from helixd.config.media import MediaConfig
 from helixd.planning.media_modes import config_modes, delivered, learned_modes
 
 ROLL, SCROLL = MotionMode.ROLL, MotionMode.SCROLL

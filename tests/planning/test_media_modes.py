@@ -9,7 +9,7 @@ import pytest
 from helixd.base.frames import MissionFrame
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, MediaMapNe, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import MediaConfig
+from helixd.config.media import MediaConfig
 from helixd.planning.media_modes import ModePolicy, config_modes, follow_media
 
 ENU = MissionFrame.enu().to_ned

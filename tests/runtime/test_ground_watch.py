@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from helixd.base.plan import MotionMode
-from helixd.config import MediaConfig
+from helixd.config.media import MediaConfig
 from helixd.control.ground_check import GroundVerdict
 from helixd.mav.constants import MAV_SEVERITY_WARNING
 from helixd.runtime.gcs_report import PREFIX, chunk_statustext

@@ -9,7 +9,7 @@ from typing import Any
 import pytest
 
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.formats import read_gcs
 from helixd.mission.formats.wire import gcs_to_wire
 from helixd.serve.check import MAX_REFUSAL_TEXTS, CheckInputs, check_download, check_file, plan_id

@@ -11,9 +11,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
-from helixd.link.mission_transfer import MissionTransferError
+from helixd.link.services.mission_transfer import MissionTransferError
 from helixd.serve.core import ServeState
 from helixd.serve.mission import FLIGHT_PLAN_RECEIVED, MISSION_RETRY_S, MissionWatch
 from helixd.serve.options import ServeOptions

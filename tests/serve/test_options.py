@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.serve.options import SERVE_OPTIONS, STATE_FILE_NAME, ServeOptions
 
 

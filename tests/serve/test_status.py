@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any, cast
 
 from helixd.base.clock import now_s
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_ERROR, MAV_SEVERITY_NOTICE
 from helixd.runtime.gcs_feed import GcsFeed
