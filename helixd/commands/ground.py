@@ -22,10 +22,9 @@ from helixd.control.ground_fit import (
     axis_fraction,
     merge_profiles,
 )
-from helixd.planning.media_modes import MODE_AXIS
+from helixd.planning.media_modes import MODE_AXIS, config_modes
 from helixd.recorder.ground_profile import GroundProfile, identify_run
 from helixd.runtime.ground_learning import (
-    default_modes,
     fit_params,
     learned_view,
     modes_from_profile,
@@ -75,7 +74,7 @@ def report(cfg: HelixdConfig, profile: GroundProfile, source: str) -> GroundRepo
             if all(axis_fraction(view, m, a) is not None for a in MODE_AXIS.values())
         }
     picks = modes_from_profile(cfg, view)
-    return GroundReport(rows, picks, default_modes(cfg), source, frozenset(decided))
+    return GroundReport(rows, picks, config_modes(cfg.media), source, frozenset(decided))
 
 
 def from_runs(cfg: HelixdConfig, runs: Sequence[Path], media: MediaMap) -> GroundProfile:

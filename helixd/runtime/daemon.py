@@ -95,7 +95,14 @@ from helixd.runtime.setup import (
 )
 from helixd.runtime.timing import patrol_times_s, plan_time_estimate
 from helixd.safety.supervisor import FallbackReport, fall_back, late_failsafe
-from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
+from helixd.safety.watchdogs import (
+    HANDED_CAUSES,
+    NEXT_FLIGHT_CAUSES,
+    OPERATOR_CAUSES,
+    STOP_CAUSES,
+    Fault,
+    FaultCause,
+)
 
 log = structlog.get_logger(__name__)
 
@@ -134,6 +141,7 @@ class RunOutcome:
     summary: RunSummary | None
     run_dir: Path | None
     messages: list[str] = field(default_factory=list)
+    cause: FaultCause | None = None  # what ended the flight (None: completed, or never flown)
 
 
 @dataclass
@@ -291,15 +299,11 @@ def disarm_after(armed_by_us: bool, ending: Ending, when_complete: bool = True) 
     completed mission armed in HOLD, as ArduPilot's AUTO does."""
     if ending.code is ExitCode.OK:
         return when_complete
-    if ending.fault is not None and ending.fault.cause in (
-        FaultCause.RELEASED,
-        FaultCause.ITEM_SET,
-        FaultCause.HANDOVER,
-    ):
+    if ending.fault is not None and ending.fault.cause in HANDED_CAUSES:
         return False  # the pilot drives it, or the next flight does
     if not armed_by_us:
         return None
-    if ending.fault is not None and ending.fault.cause in (FaultCause.SIGNAL, FaultCause.PAUSED):
+    if ending.fault is not None and ending.fault.cause in STOP_CAUSES:
         return True
     return None
 
@@ -548,8 +552,9 @@ class MissionRunner:
             fault = f"{FaultCause.EXCEPTION.value}: {type(exc).__name__}: {exc}"
             summary = self._build_summary(fault, ExitCode.INTERNAL_ERROR, None)
             run_dir = self.recorder.run_dir if self.recorder else None
+            messages = [*self.messages, result_line(summary)]
             return RunOutcome(
-                ExitCode.INTERNAL_ERROR, summary, run_dir, [*self.messages, result_line(summary)]
+                ExitCode.INTERNAL_ERROR, summary, run_dir, messages, FaultCause.EXCEPTION
             )
         finally:
             self.display.close()
@@ -610,6 +615,7 @@ class MissionRunner:
             summary,
             self.recorder.run_dir if self.recorder else None,
             [*self.messages, result_line(summary)],  # the plain result line comes last
+            None if ending.fault is None else ending.fault.cause,
         )
 
     async def _startup_then_fly(self, held: Held) -> Ending:
@@ -651,10 +657,7 @@ class MissionRunner:
             self.gcs.phase(f"pausing: {ending.fault.detail}")  # an operator's, not a fault
         elif ending.fault is not None and ending.fault.cause is FaultCause.RELEASED:
             pass  # the flight loop told the GCS already (released: the pilot drives)
-        elif ending.fault is not None and ending.fault.cause in (
-            FaultCause.ITEM_SET,
-            FaultCause.HANDOVER,
-        ):
+        elif ending.fault is not None and ending.fault.cause in NEXT_FLIGHT_CAUSES:
             if self.host.tells_steps:  # else the next flight's own text says where
                 self.gcs.phase(ending.fault.detail)
         elif ending.fault is not None:

@@ -31,7 +31,6 @@ from helixd.planning.media_modes import (
     ModePolicy,
     follow_media,
     pinned_misfits,
-    policy_modes,
 )
 from helixd.runtime.ground_learning import learned_plan, learned_policy_modes
 
@@ -75,15 +74,13 @@ def mode_policy(cfg: HelixdConfig, msn: Mission) -> ModePolicy:
     best, :mod:`helixd.runtime.ground_learning`), the mission's ``media_modes`` over them; the
     margin from ``media.transition_margin_m``. A profile that cannot be read is refused
     (:class:`MediaRefused`)."""
+    learned = None
     if isinstance(cfg.media.modes, str):
         try:
-            modes = learned_policy_modes(cfg)
+            learned = learned_policy_modes(cfg)
         except ConfigFileError as exc:
             raise MediaRefused([f"media.modes learned: {p}" for p in exc.problems]) from None
-    else:
-        modes = policy_modes(cfg.media.modes.model_dump())
-    modes.update(msn.media_modes or {})
-    return ModePolicy(modes, cfg.media.transition_margin_m, cfg.media.min_stretch_m)
+    return ModePolicy.from_config(cfg.media, msn.media_modes, learned)
 
 
 @dataclass(frozen=True)

@@ -78,6 +78,7 @@ def test_mission_completes_in_its_mode(
         flown.snapshot,
     )
     assert code == ExitCode.OK, log[-3000:]
+    assert flown.outcome.cause is None  # completed: nothing ended it
     s = read_summary(run_dir)
     # one plain line with the outcome, the clocks named (on the simulated clock the companion's
     # clock and the autopilot's keep one time, and no wall time is claimed)

@@ -134,6 +134,11 @@ def test_close_is_bounded(tmp_path: object) -> None:
         (False, Ending(None, ExitCode.OK), True),
         # the crew released a flight of AUTO to the pilot (MANUAL): the pilot drives it
         (False, Ending(Fault(FaultCause.RELEASED, "MANUAL"), ExitCode.OPERATOR_STOP), False),
+        # the crew handed the flight to the next (a new place, another item): nobody disarms
+        (True, Ending(Fault(FaultCause.HANDOVER, "GUIDED"), ExitCode.OPERATOR_STOP), False),
+        (True, Ending(Fault(FaultCause.ITEM_SET, "item 3"), ExitCode.OPERATOR_STOP), False),
+        # the crew's pause of what we armed: disarmed, as a stop signal
+        (True, Ending(Fault(FaultCause.PAUSED, "switch"), ExitCode.OPERATOR_STOP), True),
     ],
 )
 def test_disarm_after(armed_by_us: bool, ending: Ending, disarm: bool | None) -> None:

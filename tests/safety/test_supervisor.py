@@ -86,6 +86,8 @@ class FakeAutopilot:
         (FaultCause.RELEASED, ["stop"]),
         # the crew set the autopilot's current item: the next flight of AUTO goes there
         (FaultCause.ITEM_SET, ["stop"]),
+        # the crew gave the autopilot a new place (Go to location): the next flight drives
+        (FaultCause.HANDOVER, ["stop"]),
     ],
 )
 def test_fall_back_stops_and_asks_hold_except_for_a_release(
@@ -104,7 +106,7 @@ def test_fall_back_stops_and_asks_hold_except_for_a_release(
         )
     )
     assert seen == calls
-    no_hold = cause in (FaultCause.RELEASED, FaultCause.ITEM_SET)
+    no_hold = cause in (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
     assert (report.hold_requested_after_s is None) is no_hold
 
 
