@@ -29,6 +29,14 @@ from tests.support.simulated import SimulatedService, Steer, moving, simulated_s
 
 UploadStep = Callable[[], Awaitable[None]]
 Crew = Callable[[Steer, LoopMav], Awaitable[Any]]
+# The crew's service: no start switch, the crew uses the ground station. In the field the
+# service has been up for minutes when the crew presses Start; here seconds: the preflight's
+# listening window for another sender on helixd's id (link.own_id_watch_s, from helixd's first
+# message) is shortened so that it is over by then, as it is in the field.
+CREW_CONFIG: dict[str, Any] = {
+    "startup": {"start_switch_channel": None},
+    "link": {"own_id_watch_s": 0.5},
+}
 
 
 def simulated_crew(
@@ -131,24 +139,38 @@ async def booted(st: Steer, gcs: LoopMav) -> None:
     )
 
 
-async def start_mission(gcs: LoopMav) -> None:
-    """QGroundControl's Start Mission on a disarmed rover (APMFirmwarePlugin::startMission):
-    GUIDED, arm, then MAV_CMD_MISSION_START to the autopilot (which enters AUTO)."""
+async def armed_in_guided(gcs: LoopMav, wait_armed: bool = True) -> None:
+    """The first half of QGroundControl's Start Mission on a disarmed rover
+    (APMFirmwarePlugin::startMission): _setFlightModeAndValidate(Guided), then a normal arm
+    (with ``wait_armed``, _armVehicleAndValidate: until the HEARTBEAT shows it armed)."""
     await set_mode(gcs, "GUIDED")
     await heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
     assert await gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-    await heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+    if wait_armed:
+        await heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+
+
+async def start_mission(gcs: LoopMav) -> None:
+    """QGroundControl's Start Mission on a disarmed rover (APMFirmwarePlugin::startMission):
+    GUIDED, arm (:func:`armed_in_guided`), then MAV_CMD_MISSION_START to the autopilot (which
+    enters AUTO)."""
+    await armed_in_guided(gcs)
     assert await gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
 
 
-async def upload_and_start(st: Steer, gcs: LoopMav, upload_mission: UploadStep) -> None:
-    """QGroundControl's Plan view Upload once ``helixd serve`` finds no mission, then Start
-    Mission on the disarmed rover once it is ready (GUIDED, arm, MAV_CMD_MISSION_START to the
-    autopilot): until helixd starts driving in AUTO."""
+async def uploaded_and_ready(st: Steer, gcs: LoopMav, upload_mission: UploadStep) -> None:
+    """QGroundControl's Plan view Upload (``upload_mission``) once ``helixd serve`` finds no
+    mission, until helixd is ready and the autopilot has booted (:func:`booted`)."""
     await st.line("no mission on the autopilot", 60.0)
     await upload_mission()
     await st.line("event=serve_state state=ready", 30.0)
     await booted(st, gcs)
+
+
+async def upload_and_start(st: Steer, gcs: LoopMav, upload_mission: UploadStep) -> None:
+    """:func:`uploaded_and_ready`, then Start Mission on the disarmed rover (GUIDED, arm,
+    MAV_CMD_MISSION_START to the autopilot): until helixd starts driving in AUTO."""
+    await uploaded_and_ready(st, gcs, upload_mission)
     await start_mission(gcs)
     await st.line("event=auto_start", 10.0)  # item 0 or 1: MISSION_CURRENT may lag the start
     await st.until(moving, 20.0)
