@@ -15,14 +15,19 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.base.clock import now_s
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
-    MAV_CMD_DO_SET_MODE,
     MAV_CMD_MISSION_START,
-    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-    MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.modes import MODE_NUMBERS
-from tests.support.gcs import HELIXD, QGC_SYSID, waypoint
+from tests.support.gcs import (
+    HELIXD,
+    QGC_SYSID,
+    UPLOAD_REPLIES,
+    set_mode_command,
+    shows_armed,
+    shows_mode,
+    upload_reply,
+    waypoint,
+)
 from tests.support.harness import overrides_released
 from tests.support.loop_mav import LoopMav
 from tests.support.simulated import SimulatedService, Steer, moving, simulated_serve
@@ -57,22 +62,16 @@ def simulated_crew(
 async def upload_typed(
     gcs: LoopMav, items: list[Any], mission_type: int, what: str, timeout_s: float = 20.0
 ) -> None:
-    """Upload ``items`` of ``mission_type`` by the mission protocol, each sent with the
-    requested seq; AssertionError unless MISSION_ACK ACCEPTED (``what`` names the list)."""
+    """Upload ``items`` of ``mission_type`` by the mission protocol
+    (:func:`tests.support.gcs.upload_reply`); AssertionError unless MISSION_ACK ACCEPTED
+    (``what`` names the list)."""
     gcs.drain()
     gcs.mav.mission_count_send(1, 1, len(items), mission_type)
     deadline = now_s() + timeout_s
-    kinds = ("MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK")
     while (remaining := deadline - now_s()) > 0:
-        msg = await gcs.recv_any(kinds, remaining)
-        if msg is None or int(msg.target_system) != QGC_SYSID:
-            continue
-        if msg.get_type() == "MISSION_ACK":
-            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, f"{what} refused: {msg}"
+        msg = await gcs.recv_any(UPLOAD_REPLIES, remaining)
+        if upload_reply(gcs.mav, items, msg, what):
             return
-        item = items[int(msg.seq)]
-        item.seq = int(msg.seq)
-        gcs.mav.send(item)
     raise AssertionError(f"{what} upload: no MISSION_ACK")
 
 
@@ -113,8 +112,7 @@ async def set_mode(gcs: LoopMav, name: str) -> float:
     """QGroundControl's Vehicle::setFlightMode for ArduPilot: MAV_CMD_DO_SET_MODE to the
     autopilot with the custom mode; returns the (simulated) time it was sent."""
     sent = now_s()
-    number = MODE_NUMBERS[name]
-    result = await gcs.command(MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
+    result = await gcs.command(*set_mode_command(name))
     assert result == MAV_RESULT_ACCEPTED, (name, result)
     return sent
 
@@ -144,10 +142,10 @@ async def armed_in_guided(gcs: LoopMav, wait_armed: bool = True) -> None:
     (APMFirmwarePlugin::startMission): _setFlightModeAndValidate(Guided), then a normal arm
     (with ``wait_armed``, _armVehicleAndValidate: until the HEARTBEAT shows it armed)."""
     await set_mode(gcs, "GUIDED")
-    await heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
+    await heartbeat_shows(gcs, shows_mode("GUIDED"))
     assert await gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
     if wait_armed:
-        await heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+        await heartbeat_shows(gcs, shows_armed)
 
 
 async def start_mission(gcs: LoopMav) -> None:
