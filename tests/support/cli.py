@@ -27,6 +27,14 @@ def run_main(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, 
     return code, out, err
 
 
+def check_out(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    """``helixd check ARGV`` in this process, passed (exit 0, else AssertionError with its
+    output); its stdout."""
+    code, out, err = run_main(["check", *argv], capsys)
+    assert code == 0, out + err
+    return out
+
+
 def helixd_process(
     argv: list[str], cwd: Path, timeout_s: float = 60.0, env: Mapping[str, str] | None = None
 ) -> subprocess.CompletedProcess[str]:
