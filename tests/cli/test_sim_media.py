@@ -23,7 +23,7 @@ VERBS = {"run": ["run", "--mission", "square"], "serve": ["serve", "--mode", "ro
 
 
 @pytest.mark.parametrize("verb", VERBS)
-def test_sim_media_reaches_the_embedded_simulator(
+def test_run_and_serve_sim_media_reach_the_embedded_simulator(
     verb: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     seen = capture_embedded_start(monkeypatch)
@@ -35,7 +35,9 @@ def test_sim_media_reaches_the_embedded_simulator(
 
 
 @pytest.mark.parametrize("verb", VERBS)
-def test_sim_media_refusals(verb: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_run_and_serve_sim_media_refusals(
+    verb: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     bad = tmp_path / "bad.geojson"
     bad.write_text(BAD, encoding="utf-8")
     code, _, err = run_main([*VERBS[verb], "--sim", "--sim-media", str(bad)], capsys)
