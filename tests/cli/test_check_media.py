@@ -12,10 +12,10 @@ import pytest
 import yaml
 from matplotlib.patches import PathPatch
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.media import read_media_map
 from helixd.mission.model import load_mission
-from helixd.recorder.plots import draw_media_plan
+from helixd.recorder.plan_plots import draw_media_plan
 from helixd.runtime.media_figure import checked_media
 from tests.support.cli import check_out, run_main
 from tests.support.missions import mission_file

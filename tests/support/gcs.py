@@ -13,7 +13,7 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.frames import ne_to_latlon
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.mav.constants import (
     MAV_CMD_DO_SET_MODE,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
