@@ -149,6 +149,16 @@ async def udp_link() -> AsyncIterator[tuple[Autopilot, Callable[[bytes], None]]]
 
 
 @contextlib.asynccontextmanager
+async def heard_udp_link() -> AsyncIterator[tuple[Autopilot, Callable[[bytes], None], Received]]:
+    """:func:`udp_link` once helixd has heard the autopilot's HEARTBEAT; with a
+    :class:`Received` for the numbered frames that come after it."""
+    async with udp_link() as (ap, send):
+        send(heartbeat())
+        await ap.wait_heartbeat(3.0)
+        yield ap, send, Received(ap)
+
+
+@contextlib.asynccontextmanager
 async def tcp_link() -> AsyncIterator[tuple[Autopilot, Callable[[bytes], None]]]:
     loop = asyncio.get_running_loop()
     server = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
@@ -282,10 +292,7 @@ async def test_fd_ff_datagrams_between_every_frame_cost_nothing() -> None:
 
 
 async def test_unknown_ids_are_not_a_foreign_system() -> None:
-    async with udp_link() as (ap, send):
-        send(heartbeat())
-        await ap.wait_heartbeat(3.0)
-        received = Received(ap)
+    async with heard_udp_link() as (ap, send, received):
         for k in range(5):
             send(unknown_id_frame(0xABCDE, b"hello"))
             send(numbered(k))
@@ -296,10 +303,7 @@ async def test_unknown_ids_are_not_a_foreign_system() -> None:
 
 
 async def test_nan_pose_fields_are_rejected_at_the_edge() -> None:
-    async with udp_link() as (ap, send):
-        send(heartbeat())
-        await ap.wait_heartbeat(3.0)
-        received = Received(ap)
+    async with heard_udp_link() as (ap, send, received):
         send(pack(lambda c: c.attitude_encode(1_000, 0.0, 0.0, 0.5, 0.0, 0.0, 0.0)))
         send(pack(lambda c: c.attitude_encode(1_010, 0.0, 0.0, math.nan, 0.0, 0.0, 0.0)))
         send(pack(lambda c: c.local_position_ned_encode(1_020, math.inf, 0, 0, 0, 0, 0)))
