@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 from typer.exceptions import TyperException
@@ -260,30 +260,32 @@ def _check_plot(got: Prepared, plot: Path) -> None:
 SimOpt = Annotated[
     bool, typer.Option("--sim", help="fly against the built-in simulator, started in-process")
 ]
-SpeedupOpt = Annotated[
-    float,
-    typer.Option(min=SPEEDUP_MIN, max=SPEEDUP_MAX, help="simulator speed-up factor (with --sim)"),
-]
-TerrainOpt = Annotated[Terrain, typer.Option(help="simulator terrain (with --sim)")]
+
+
+def _with_sim(help_text: str, low: float | None = None, high: float | None = None) -> Any:
+    """An option of ``run`` for its simulator: the help says that it needs --sim."""
+    return typer.Option(min=low, max=high, help=f"{help_text} (with --sim)")
+
+
+SpeedupOpt = Annotated[float, _with_sim("simulator speed-up factor", SPEEDUP_MIN, SPEEDUP_MAX)]
+TerrainOpt = Annotated[Terrain, _with_sim("simulator terrain")]
 PlantOpt = Annotated[
     Plant,
-    typer.Option(
-        help="simulator vehicle model (with --sim); sitl_skid needs the SITL channel "
-        "mapping in --config (tests/sitl/README.md)"
+    _with_sim(
+        "simulator vehicle model; sitl_skid needs the SITL channel mapping in --config "
+        "(tests/sitl/README.md)"
     ),
 ]
-NoiseOpt = Annotated[NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")]
+NoiseOpt = Annotated[NoiseLevel, _with_sim("simulator pose noise")]
 SimClockOpt = Annotated[
     SimClock,
-    typer.Option(
-        help="wall: the simulator runs on the wall clock, sped up by --sim-speedup; simulated: "
+    _with_sim(
+        "wall: the simulator runs on the wall clock, sped up by --sim-speedup; simulated: "
         "the simulator and helixd share one simulated clock that skips every wait (a flight "
-        "takes the CPU time it needs; with --sim-seed the same flight every time) (with --sim)"
+        "takes the CPU time it needs; with --sim-seed the same flight every time)"
     ),
 ]
-SimSeedOpt = Annotated[
-    int | None, typer.Option(min=0, help="the simulator's noise seed (with --sim; default: new)")
-]
+SimSeedOpt = Annotated[int | None, _with_sim("the simulator's noise seed (default: new)", 0)]
 RunDirOpt = Annotated[
     Path | None,
     typer.Option(
@@ -380,9 +382,9 @@ def run(
     world = partial(sim_world, cfg, got.occupancy, got.fence)
     if choice is not None and choice.clock is SimClock.SIMULATED:
         sim_cfg = simulator_config(choice, world, cfg)
-        _fly(cfg, got.flight, url, run_dir, log_level, show_plan, beside=sim_cfg)
+        _fly(got, url, run_dir, log_level, show_plan, beside=sim_cfg)
     with simulator(choice, world, url, cfg) as url:
-        _fly(cfg, got.flight, url, run_dir, log_level, show_plan)
+        _fly(got, url, run_dir, log_level, show_plan)
 
 
 def _run_autopilot_mission(
@@ -405,7 +407,7 @@ def _run_autopilot_mission(
         got = fetch_autopilot_mission(cfg, url, mode, fence)
         prepared = prepared_or_exit(AutopilotMission(got, cfg, options), config, occupancy)
         echo_flight(prepared.flight)
-        _fly(prepared.cfg, prepared.flight, url, run_dir, log_level, show_plan)
+        _fly(prepared, url, run_dir, log_level, show_plan)
 
 
 def flight_options(
@@ -435,16 +437,17 @@ def flight_options(
 
 
 def _fly(
-    cfg: HelixdConfig,
-    flight: Flight,
+    prepared: Prepared,
     url: str,
     run_dir: Path | None,
     log_level: str,
     show_plan: bool,
     beside: SimConfig | None = None,
 ) -> None:
-    """Run the daemon; exits with its code. ``beside``: the embedded simulator to run in the
-    daemon's own loop, on one simulated clock (``url`` is then the simulator's)."""
+    """Run the daemon on the ``prepared`` flight; exits with its code. ``beside``: the embedded
+    simulator to run in the daemon's own loop, on one simulated clock (``url`` is then the
+    simulator's)."""
+    cfg, flight = prepared.cfg, prepared.flight
     tty = sys.stderr.isatty()
     configure_logging(tty=tty, level=log_level)
 
