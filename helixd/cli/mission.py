@@ -191,8 +191,8 @@ def survey(
         got = survey_mission(
             read_area(polygon),
             cfg,
-            name=mission_name(out.stem),
-            mode=mode,
+            mission_name(out.stem),
+            mode,
             spacing_m=spacing_m,
             angle_deg=angle_deg,
             margin_m=margin_m,

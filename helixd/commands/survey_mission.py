@@ -87,9 +87,9 @@ def approach_estimate(cfg: HelixdConfig, mode: MotionMode, speed_mps: float) -> 
 def survey_mission(
     area: SurveyArea,
     cfg: HelixdConfig,
-    *,
     name: str,
     mode: MotionMode,
+    *,
     spacing_m: float,
     angle_deg: float,
     margin_m: float,
