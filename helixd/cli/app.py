@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 from typer.exceptions import TyperException
@@ -55,10 +55,13 @@ from helixd.cli.common import (
 from helixd.cli.simulated import (
     SimChoice,
     SimMediaOpt,
+    SpeedupOpt,
+    TerrainOpt,
     beside_simulator,
     sim_world,
     simulator,
     simulator_config,
+    with_sim,
     with_sim_files,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
@@ -84,8 +87,6 @@ from helixd.runtime.prepare import (
     prepare_flight,
 )
 from helixd.sim.sim_config import (
-    SPEEDUP_MAX,
-    SPEEDUP_MIN,
     NoiseLevel,
     Plant,
     SimClock,
@@ -262,30 +263,23 @@ SimOpt = Annotated[
 ]
 
 
-def _with_sim(help_text: str, low: float | None = None, high: float | None = None) -> Any:
-    """An option of ``run`` for its simulator: the help says that it needs --sim."""
-    return typer.Option(min=low, max=high, help=f"{help_text} (with --sim)")
-
-
-SpeedupOpt = Annotated[float, _with_sim("simulator speed-up factor", SPEEDUP_MIN, SPEEDUP_MAX)]
-TerrainOpt = Annotated[Terrain, _with_sim("simulator terrain")]
 PlantOpt = Annotated[
     Plant,
-    _with_sim(
+    with_sim(
         "simulator vehicle model; sitl_skid needs the SITL channel mapping in --config "
         "(tests/sitl/README.md)"
     ),
 ]
-NoiseOpt = Annotated[NoiseLevel, _with_sim("simulator pose noise")]
+NoiseOpt = Annotated[NoiseLevel, with_sim("simulator pose noise")]
 SimClockOpt = Annotated[
     SimClock,
-    _with_sim(
+    with_sim(
         "wall: the simulator runs on the wall clock, sped up by --sim-speedup; simulated: "
         "the simulator and helixd share one simulated clock that skips every wait (a flight "
         "takes the CPU time it needs; with --sim-seed the same flight every time)"
     ),
 ]
-SimSeedOpt = Annotated[int | None, _with_sim("the simulator's noise seed (default: new)", 0)]
+SimSeedOpt = Annotated[int | None, with_sim("the simulator's noise seed (default: new)", 0)]
 RunDirOpt = Annotated[
     Path | None,
     typer.Option(

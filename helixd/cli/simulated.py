@@ -16,7 +16,7 @@ import sys
 from collections.abc import Awaitable, Callable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Annotated, TypeVar
+from typing import Annotated, Any, TypeVar
 
 import structlog
 import typer
@@ -43,7 +43,16 @@ from helixd.planning.obstacles import rover_half_width_m
 from helixd.recorder.logging_setup import configure_logging
 from helixd.sim.collisions import ObstacleRaster, SimObstacles
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url, start_embedded
-from helixd.sim.sim_config import NoiseLevel, Plant, SimClock, SimConfig, Terrain, TerrainTable
+from helixd.sim.sim_config import (
+    SPEEDUP_MAX,
+    SPEEDUP_MIN,
+    NoiseLevel,
+    Plant,
+    SimClock,
+    SimConfig,
+    Terrain,
+    TerrainTable,
+)
 
 T = TypeVar("T")
 
@@ -70,6 +79,13 @@ class SimChoice:
     ground: TerrainTable | None = None
 
 
+def with_sim(help_text: str, low: float | None = None, high: float | None = None) -> Any:
+    """An option of ``run`` or ``serve`` for their simulator: the help says it needs --sim."""
+    return typer.Option(min=low, max=high, help=f"{help_text} (with --sim)")
+
+
+SpeedupOpt = Annotated[float, with_sim("simulator speed-up factor", SPEEDUP_MIN, SPEEDUP_MAX)]
+TerrainOpt = Annotated[Terrain, with_sim("simulator terrain")]
 SimMediaOpt = Annotated[
     Path | None,
     typer.Option(
