@@ -66,19 +66,15 @@ class GroundCheck:
     def __init__(self, params: GroundCheckParams) -> None:
         self.params = params
         self._window: deque[tuple[float, float]] = deque()  # (commanded m, delivered m)
-        self._commanded_m = 0.0
-        self._delivered_m = 0.0
-        self._mode: MotionMode | None = None
-        self.switched = False  # the rover flies the soft mode because of the check
-        self._since_change_m = math.inf  # delivered since the check's last change
+        self.reset()
 
     def reset(self) -> None:
         """A new leg, or the planned mode changed: start afresh."""
         self._window.clear()
         self._commanded_m = self._delivered_m = 0.0
-        self._mode = None
-        self.switched = False
-        self._since_change_m = math.inf
+        self._mode: MotionMode | None = None
+        self.switched = False  # the rover flies the soft mode because of the check
+        self._since_change_m = math.inf  # delivered since the check's last change
 
     def update(
         self,
