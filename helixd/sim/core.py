@@ -163,7 +163,7 @@ class SimCore:
         )
         self.ap.mission_present = lambda: len(self.mission.stored()) > 1
         self.auto = ModeAuto()
-        self.goto = ModeGoto()  # GUIDED's, RTL's and SmartRTL's place (helixd.sim.firmware.mode_goto)
+        self.goto = ModeGoto()  # GUIDED's, RTL's and SmartRTL's place (firmware.mode_goto)
         self.srtl = SmartRtlPath()  # AP_SmartRTL's saved path
         self.ap.smart_rtl_ready = lambda: self.srtl.active
         self.ap.on_disarm = self._mission_on_disarm
@@ -249,8 +249,8 @@ class SimCore:
         return self.mission.do_set_mission_current(link, param1, param2)
 
     def reposition(self, p: list[float], is_int: bool, frame: int) -> int:
-        """MAV_CMD_DO_REPOSITION (:mod:`helixd.sim.firmware.mode_goto`): GUIDED's new place, switching
-        to GUIDED when param2 asks; the MAV_RESULT."""
+        """MAV_CMD_DO_REPOSITION (:mod:`helixd.sim.firmware.mode_goto`): GUIDED's new place,
+        switching to GUIDED when param2 asks; the MAV_RESULT."""
         guided = MODE_NUMBERS["GUIDED"]
         lat_e7, lon_e7 = (
             (int(p[4]), int(p[5])) if is_int else (round(p[4] * 1e7), round(p[5] * 1e7))

@@ -8,9 +8,9 @@ Routing as ArduPilot's MAVLink_routing::check_and_forward: a message carrying a
 target_system is processed only when it is 0 (broadcast) or our sysid, and for our sysid only
 when target_component is 0 or ours. Commands come back with COMMAND_ACK to the sender's
 link; unknown commands → MAV_RESULT_UNSUPPORTED. MAV_CMD_DO_SET_MISSION_CURRENT goes to the
-mission (helixd.sim.firmware.mission_server); what it queues (MISSION_CURRENT, jump texts) follows the
-ACK, as ArduPilot's deferred ``send_message`` does. PARAM_SET answers with PARAM_VALUE on every
-link (GCS::send_parameter_value); an unknown name gets no answer at all.
+mission (helixd.sim.firmware.mission_server); what it queues (MISSION_CURRENT, jump texts)
+follows the ACK, as ArduPilot's deferred ``send_message`` does. PARAM_SET answers with
+PARAM_VALUE on every link (GCS::send_parameter_value); an unknown name gets no answer at all.
 """
 
 from __future__ import annotations
@@ -104,7 +104,8 @@ class InboundPort(Protocol):
         ...
 
     def reposition(self, p: list[float], is_int: bool, frame: int) -> int:
-        """MAV_CMD_DO_REPOSITION: GUIDED's new place (helixd.sim.firmware.mode_goto); the MAV_RESULT."""
+        """MAV_CMD_DO_REPOSITION: GUIDED's new place (helixd.sim.firmware.mode_goto); the
+        MAV_RESULT."""
         ...
 
     def mission_outcome(self, out: Outcome) -> None:

@@ -60,7 +60,8 @@ class SimSnapshot:
     gcs_heartbeats_seen: int
     gcs_last_seen_s: float | None
     terrain: str
-    # the stored mission protocol items (helixd.sim.firmware.mission_server); row 0 of the mission is home
+    # the stored mission protocol items (helixd.sim.firmware.mission_server); row 0 of the
+    # mission is home
     mission_items: tuple[StoredItem, ...] = ()
     fence_items: tuple[StoredItem, ...] = ()
     rally_items: tuple[StoredItem, ...] = ()

@@ -2,8 +2,8 @@
 protocol.
 
 No sockets: messages are packed and decoded as on the wire (so sender ids are real) and carried
-between the client and helixd.sim.firmware.mission_server.MissionServer by a channel that can drop and
-duplicate them, under hypothesis.
+between the client and helixd.sim.firmware.mission_server.MissionServer by a channel that can
+drop and duplicate them, under hypothesis.
 """
 
 from __future__ import annotations

@@ -33,12 +33,12 @@ Behaviours (each cites its ArduPilot function):
 * MISSION_CLEAR_ALL → ACCEPTED, or ERROR while an upload is in progress
   (``handle_mission_clear_all``); clearing the mission leaves 0 items (``AP_Mission::clear``).
 * The current item (``AP_Mission::set_current_cmd`` with the mission not running — Rover
-  runs it only in AUTO, :mod:`helixd.sim.firmware.mode_auto`): an index past the end, or a mission of
-  home alone, fails; index 0 means 1 and restarts the jump counters; the current *nav* index
-  becomes the first NAV command (``is_nav_cmd``: id ≤ MAV_CMD_NAV_LAST, NAV_SET_YAW_SPEED,
-  NAV_SCRIPT_TIME, NAV_ATTITUDE_TIME) at or after it, following DO_JUMP / DO_JUMP_TAG
-  (``get_next_cmd`` with its jump counters, "Mission: N Jump i/n" texts and the 64-jump
-  limit); no NAV command there fails and leaves no current command (seq 0). The mission
+  runs it only in AUTO, :mod:`helixd.sim.firmware.mode_auto`): an index past the end, or a
+  mission of home alone, fails; index 0 means 1 and restarts the jump counters; the current
+  *nav* index becomes the first NAV command (``is_nav_cmd``: id ≤ MAV_CMD_NAV_LAST,
+  NAV_SET_YAW_SPEED, NAV_SCRIPT_TIME, NAV_ATTITUDE_TIME) at or after it, following DO_JUMP /
+  DO_JUMP_TAG (``get_next_cmd`` with its jump counters, "Mission: N Jump i/n" texts and the
+  64-jump limit); no NAV command there fails and leaves no current command (seq 0). The mission
   stays stopped. At boot and after a clear there is no current command
   (``get_current_nav_index`` reads 0); an upload leaves it as it was.
 * MISSION_SET_CURRENT (``GCS_MAVLINK::handle_mission_set_current``): ``set_current_cmd(seq)``;
@@ -935,7 +935,7 @@ class MissionServer:
                 self.state = MISSION_STOPPED
         return out
 
-    # -- AP_Mission running in AUTO (ModeAuto drives it: helixd.sim.firmware.mode_auto) ---------------
+    # -- AP_Mission running in AUTO (ModeAuto drives it: helixd.sim.firmware.mode_auto) ------
 
     def nav_item(self) -> tuple[int, StoredItem] | None:
         """The current nav command (index, item) while the mission runs; None otherwise."""

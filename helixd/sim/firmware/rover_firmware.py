@@ -25,8 +25,8 @@ gripper, …) are :mod:`helixd.sim.firmware.payload`'s.
 
 Scripting (AP_Scripting): with SCR_ENABLE 1 at boot the scripts in the working directory's
 ``scripts/`` are loaded once, when the boot ends. The simulator runs one script:
-``helixd-guard.lua``, as its Python mirror (:mod:`helixd.sim.firmware.guard_model`) every 50 ms, with the
-parameters the script adds (HXG_*, values kept in storage across reboots) and HXG_VERSION
+``helixd-guard.lua``, as its Python mirror (:mod:`helixd.sim.firmware.guard_model`) every 50 ms,
+with the parameters the script adds (HXG_*, values kept in storage across reboots) and HXG_VERSION
 set to the ``local VERSION`` the file declares. Its actions are applied as the Lua's are:
 ``set_output_pwm_chan_timeout`` on each guarded output (:meth:`ServoOutputs.hold`), an RC
 override of the input feeding an RC-passthrough output, one HOLD request, its STATUSTEXTs.

@@ -1,4 +1,5 @@
-"""helixd-guard's pure mirror (helixd/sim/firmware/guard_model.py) and its agreement with the Lua script."""
+"""helixd-guard's pure mirror (helixd/sim/firmware/guard_model.py) and its agreement with the
+Lua script."""
 
 from __future__ import annotations
 

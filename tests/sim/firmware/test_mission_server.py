@@ -1,4 +1,5 @@
-"""The simulator's mission protocol (helixd.sim.firmware.mission_server) against ArduPilot's behaviour."""
+"""The simulator's mission protocol (helixd.sim.firmware.mission_server) against ArduPilot's
+behaviour."""
 
 from __future__ import annotations
 
