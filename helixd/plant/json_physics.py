@@ -31,11 +31,12 @@ import struct
 from dataclasses import dataclass
 
 from helixd.plant import physics
+from helixd.plant.ground import TerrainTraction
+from helixd.plant.media import media_ne
 from helixd.plant.physics import MotorMap
+from helixd.plant.plant_config import PlantConfig
 from helixd.plant.sonar import BathymetryNe
 from helixd.plant.state import PhysicsState
-from helixd.sim.core import media_ne
-from helixd.sim.sim_config import SimConfig, TerrainTraction
 
 GRAVITY_MSS = 9.80665
 MAGIC_16 = 18458  # servo_packet_16
@@ -138,7 +139,7 @@ class JsonPlant:
     sim``; ``scroll_media`` says which.
     """
 
-    def __init__(self, cfg: SimConfig) -> None:
+    def __init__(self, cfg: PlantConfig) -> None:
         self._cfg = cfg
         self._motor = MotorMap(
             cfg.motor_pwm_min_us, cfg.motor_pwm_trim_us, cfg.motor_pwm_max_us, cfg.motor_deadband_us

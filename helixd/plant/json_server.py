@@ -21,7 +21,7 @@ from typing import TextIO
 import structlog
 
 from helixd.plant.json_physics import FrameError, JsonPlant, decode_servo_frame
-from helixd.sim.sim_config import SimConfig
+from helixd.plant.plant_config import PlantConfig
 
 log = structlog.get_logger(__name__)
 
@@ -83,7 +83,7 @@ def open_socket(host: str, port: int) -> socket.socket:
 
 
 def serve_plant(
-    cfg: SimConfig,
+    cfg: PlantConfig,
     sock: socket.socket,
     stop: threading.Event,
     truth_csv: Path | None = None,

@@ -31,8 +31,8 @@ from dataclasses import dataclass, replace
 from helixd.base.angles import wrap_pi
 from helixd.config import VehicleConfig
 from helixd.plant.forward import body_velocity, rpm_to_radps
+from helixd.plant.ground import TerrainTraction
 from helixd.plant.state import PhysicsState
-from helixd.sim.sim_config import TerrainTraction
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,7 +15,7 @@ from typing import Protocol
 import numpy as np
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
-from helixd.base.media import MediaMapNe, Medium
+from helixd.base.media import Medium
 from helixd.mav.constants import (
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL,
@@ -29,7 +29,10 @@ from helixd.mav.constants import (
 )
 from helixd.mav.guard_script import SCR_ENABLE
 from helixd.plant import collisions, physics, skid
+from helixd.plant.ground import TerrainTraction
+from helixd.plant.media import media_ne
 from helixd.plant.physics import MotorMap
+from helixd.plant.plant_config import Plant
 from helixd.plant.sonar import BathymetryNe, sense, water_temperature_c
 from helixd.plant.state import PhysicsState
 from helixd.sim import stream_rates as st
@@ -68,7 +71,7 @@ from helixd.sim.firmware.rover_firmware import (
     no_scripts,
 )
 from helixd.sim.inbound import InboundHandler
-from helixd.sim.sim_config import Plant, SimConfig, TerrainTraction
+from helixd.sim.sim_config import SimConfig
 
 SONAR_MESSAGES = frozenset({st.MSG_DISTANCE_SENSOR, st.MSG_RANGEFINDER})
 PARAMS_PER_LOOP = 2  # PARAM_REQUEST_LIST streaming pace (ArduPilot rate-limits it too)
@@ -716,16 +719,3 @@ class SimCore:
         if depth is not None and view.origin_set and not view.booting:
             value = water_temperature_c(depth, self.sonar_rng)
             self.send(None, messages.named_value_float(view.time_boot_ms, sonar.named_value, value))
-
-
-def media_ne(config: SimConfig) -> MediaMapNe | None:
-    """``config``'s media map placed around its EKF origin, the configured ``terrain`` outside
-    every area unless the map names a default; None without a map (or for the sitl_skid plant,
-    which has no terrain). The shell reads ``media_file`` (:func:`helixd.sim.server.with_media`)."""
-    if config.media_file is not None and config.media is None:
-        raise ValueError("media_file is read by the simulator's shell (sim.server.with_media)")
-    if config.media is None or config.plant is not Plant.HELIX:
-        return None
-    return config.media.to_ne(
-        (config.origin_lat_deg, config.origin_lon_deg), fallback=Medium(config.terrain.value)
-    )

@@ -23,9 +23,10 @@ from helixd.base.geometry import BodyVelocity, NonFiniteError
 from helixd.base.plan import MotionMode
 from helixd.config import VehicleConfig
 from helixd.plant import forward
+from helixd.plant.ground import Terrain
 from helixd.plant.physics import step
 from helixd.plant.state import PhysicsState
-from helixd.sim.sim_config import SimConfig, Terrain
+from helixd.sim.sim_config import SimConfig
 
 VEHICLE = VehicleConfig()
 R, LX, LY = VEHICLE.scroll_radius_m, VEHICLE.lx_m, VEHICLE.ly_m

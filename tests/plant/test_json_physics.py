@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
 from helixd.files.bathymetry import Bathymetry
 from helixd.plant import physics
+from helixd.plant.ground import Terrain
 from helixd.plant.json_physics import (
     GRAVITY_MSS,
     MAGIC_16,
@@ -31,7 +32,7 @@ from helixd.plant.json_server import open_socket, serve_plant
 from helixd.plant.physics import MotorMap
 from helixd.plant.sonar import SonarModel
 from helixd.plant.state import PhysicsState
-from helixd.sim.sim_config import SimConfig, Terrain
+from helixd.sim.sim_config import SimConfig
 
 RATE_HZ = 400
 NEUTRAL = 1500

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
 from pydantic import ValidationError
 
 from helixd.config import LinkConfig
 from helixd.sim.firmware.param_store import DEFAULT_PARAMS, ParamStore, ParamType
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
+from tests.support.paths import REPO_ROOT
 
 
 def test_defaults_are_helixd_s_recommended_setup() -> None:
@@ -34,7 +33,7 @@ def test_given_params_are_merged_over_the_setup() -> None:
 
 
 def test_the_real_sitl_parameter_file_matches_helixd_s_id() -> None:
-    parm = Path(__file__).resolve().parents[1] / "sitl" / "helix-skid.parm"
+    parm = REPO_ROOT / "tests" / "sitl" / "helix-skid.parm"
     values = dict(
         line.split()[:2] for line in parm.read_text().splitlines() if line and line[0] != "#"
     )
