@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from helixd.plant.collisions import SimObstacles, constrain, distance_m
+from helixd.plant.plant_config import PlantConfig
 from helixd.plant.state import PhysicsState
-from helixd.sim.sim_config import SimConfig
 from tests.support.simcore import assert_step_never_closer, make_core, run, skid_north_contacts
 
 POND: dict[str, Any] = {
@@ -61,14 +61,14 @@ def test_a_step_never_brings_the_body_closer_once_touching(
 
 def test_bad_obstacles_are_refused() -> None:
     with pytest.raises(ValidationError, match="polygon 0: needs at least 3"):
-        SimConfig.model_validate({"obstacles": {"polygons_ne_m": [[[0, 0], [1, 1]]]}})
+        PlantConfig.model_validate({"obstacles": {"polygons_ne_m": [[[0, 0], [1, 1]]]}})
     with pytest.raises(ValidationError, match="finite number"):
-        SimConfig.model_validate(
+        PlantConfig.model_validate(
             {"obstacles": {"polygons_ne_m": [[[0, 0], [1, float("nan")], [2, 0]]]}}
         )
     with pytest.raises(ValidationError):
-        SimConfig.model_validate(
+        PlantConfig.model_validate(
             {"obstacles": {"circles": [{"north_m": 0, "east_m": 0, "radius_m": -1}]}}
         )
     with pytest.raises(ValidationError):
-        SimConfig.model_validate({"obstacles": {"walls": []}})
+        PlantConfig.model_validate({"obstacles": {"walls": []}})

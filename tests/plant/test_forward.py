@@ -25,14 +25,14 @@ from helixd.config import VehicleConfig
 from helixd.plant import forward
 from helixd.plant.ground import Terrain
 from helixd.plant.physics import step
+from helixd.plant.plant_config import PlantConfig
 from helixd.plant.state import PhysicsState
-from helixd.sim.sim_config import SimConfig
 
 VEHICLE = VehicleConfig()
 R, LX, LY = VEHICLE.scroll_radius_m, VEHICLE.lx_m, VEHICLE.ly_m
 DT_S = 0.02
 TAU_S = 0.3
-HARD = SimConfig().terrains.get(Terrain.HARD)
+HARD = PlantConfig().terrains.get(Terrain.HARD)
 
 Fractions = Callable[[BodyVelocity, MotionMode], np.ndarray]
 

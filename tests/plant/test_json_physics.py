@@ -30,9 +30,9 @@ from helixd.plant.json_physics import (
 )
 from helixd.plant.json_server import open_socket, serve_plant
 from helixd.plant.physics import MotorMap
+from helixd.plant.plant_config import PlantConfig
 from helixd.plant.sonar import SonarModel
 from helixd.plant.state import PhysicsState
-from helixd.sim.sim_config import SimConfig
 
 RATE_HZ = 400
 NEUTRAL = 1500
@@ -96,7 +96,7 @@ def test_step_follows_sitls_frame_rate_within_what_sim_json_accepts() -> None:
 
 
 def test_at_neutral_the_rover_rests_and_the_accelerometer_reads_gravity() -> None:
-    plant = JsonPlant(SimConfig())
+    plant = JsonPlant(PlantConfig())
     report = drive(plant, (NEUTRAL,) * 4, 1.0)
     assert report.timestamp_s == pytest.approx(1.0)
     assert report.position_ned_m == (0.0, 0.0, 0.0)
@@ -107,7 +107,7 @@ def test_at_neutral_the_rover_rests_and_the_accelerometer_reads_gravity() -> Non
 
 def test_roll_drives_forward_north_when_facing_north() -> None:
     # eq. 2 with v_y = v_θ = 0: ω1 = ω2 = −ω3 = −ω4
-    plant = JsonPlant(SimConfig())
+    plant = JsonPlant(PlantConfig())
     first = plant.step(frame(0, (1800, 1800, 1200, 1200)))
     assert first.accel_frd_mss[0] > 0.1  # the scrolls spin up: forward acceleration
     report = drive(plant, (1800, 1800, 1200, 1200), 3.0, start=1)
@@ -120,18 +120,18 @@ def test_roll_drives_forward_north_when_facing_north() -> None:
 
 def test_scroll_drives_along_the_scrolls_to_the_left() -> None:
     # eq. 2 with v_x = v_θ = 0 and v_y > 0 (left): ω1 = −ω2 = −ω3 = ω4; facing north, left is west
-    plant = JsonPlant(SimConfig())
+    plant = JsonPlant(PlantConfig())
     report = drive(plant, (1800, 1200, 1200, 1800), 3.0)
     north, east, _ = report.position_ned_m
     assert east < -0.3
     assert abs(north) < 1e-6
     # hard ground passes less of the scroll axis than of the roll axis (the traction table)
-    roll = drive(JsonPlant(SimConfig()), (1800, 1800, 1200, 1200), 3.0)
+    roll = drive(JsonPlant(PlantConfig()), (1800, 1800, 1200, 1200), 3.0)
     assert abs(east) < roll.position_ned_m[0]
 
 
 def test_counter_clockwise_yaw_is_a_negative_ned_yaw_rate() -> None:
-    plant = JsonPlant(SimConfig())
+    plant = JsonPlant(PlantConfig())
     report = drive(plant, (1700,) * 4, 1.0)  # all four forward: v_θ > 0, CCW
     assert report.gyro_frd_radps[2] < -0.1
     assert report.attitude_rad[2] < -0.1
@@ -139,7 +139,7 @@ def test_counter_clockwise_yaw_is_a_negative_ned_yaw_rate() -> None:
 
 
 def test_the_same_physics_as_the_built_in_simulator() -> None:
-    cfg = SimConfig(terrain=Terrain.MUD)
+    cfg = PlantConfig(terrain=Terrain.MUD)
     plant = JsonPlant(cfg)
     scrolls = (1700, 1400, 1300, 1650)
     drive(plant, scrolls, 2.0)
@@ -156,7 +156,7 @@ def test_the_same_physics_as_the_built_in_simulator() -> None:
 
 
 def test_a_frame_count_going_back_is_sitl_restarting() -> None:
-    plant = JsonPlant(SimConfig())
+    plant = JsonPlant(PlantConfig())
     drive(plant, (1800, 1800, 1200, 1200), 1.0)
     assert plant.state.north_m > 0.05
     report = plant.step(frame(0, (NEUTRAL,) * 4))
@@ -166,13 +166,13 @@ def test_a_frame_count_going_back_is_sitl_restarting() -> None:
 
 
 def test_no_pulses_stop_the_motors() -> None:
-    plant = JsonPlant(SimConfig())
+    plant = JsonPlant(PlantConfig())
     report = drive(plant, (0, 0, 0, 0), 1.0)
     assert report.position_ned_m == (0.0, 0.0, 0.0)
 
 
 def test_the_report_is_one_json_object_between_two_newlines() -> None:
-    plant = JsonPlant(SimConfig())
+    plant = JsonPlant(PlantConfig())
     data = plant.step(frame(0, (1800, 1800, 1200, 1200))).to_json_bytes()
     assert data.startswith(b"\n") and data.endswith(b"\n") and data.count(b"\n") == 2
     body = json.loads(data)
@@ -193,7 +193,7 @@ def test_served_on_udp_answering_each_frame_and_writing_the_truth(tmp_path) -> N
     truth = tmp_path / "truth.csv"
     result: list[object] = []
     server = threading.Thread(
-        target=lambda: result.append(serve_plant(SimConfig(), sock, stop, truth)), daemon=True
+        target=lambda: result.append(serve_plant(PlantConfig(), sock, stop, truth)), daemon=True
     )
     server.start()
     sitl = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -224,11 +224,11 @@ def test_with_a_media_map_each_scroll_meets_the_medium_under_it() -> None:
         MediaFrame.LOCAL_NED,
         (MediaArea(Medium.WATER, ((-50.0, -50.0), (-50.0, 50.0), (50.0, 50.0), (50.0, -50.0))),),
     )
-    cfg = SimConfig(media=pond)
+    cfg = PlantConfig(media=pond)
     roll = drive(JsonPlant(cfg), (1800, 1800, 1200, 1200), 3.0)
     plant = JsonPlant(cfg)
     scroll = drive(plant, (1800, 1200, 1200, 1800), 3.0)
-    on_land = drive(JsonPlant(SimConfig()), (1800, 1800, 1200, 1200), 3.0)
+    on_land = drive(JsonPlant(PlantConfig()), (1800, 1800, 1200, 1200), 3.0)
     assert plant.scroll_media == ("water",) * 4
     assert roll.position_ned_m[0] < 0.1 * on_land.position_ned_m[0]
     assert abs(scroll.position_ned_m[1]) > 3 * roll.position_ned_m[0]
@@ -237,7 +237,7 @@ def test_with_a_media_map_each_scroll_meets_the_medium_under_it() -> None:
 def test_with_a_bathymetry_the_sonar_range_goes_to_sitls_rangefinder_1() -> None:
     """SIM_JSON reads ``rng_1`` into rangefinder 1 (SITL's RNGFND1_TYPE 100): the water under
     the rover less the transducer's depth, 0 over dry ground."""
-    cfg = SimConfig()
+    cfg = PlantConfig()
     lat0, lon0 = cfg.origin_lat_deg, cfg.origin_lon_deg
     bottom = Bathymetry.model_validate(
         {

@@ -13,8 +13,8 @@ from helixd.config import VehicleConfig
 from helixd.control.kinematics import body_to_fractions, rpm_to_radps
 from helixd.plant.ground import Terrain
 from helixd.plant.physics import MotorMap, scroll_fractions_from_pwm, step
+from helixd.plant.plant_config import PlantConfig
 from helixd.plant.state import PhysicsState
-from helixd.sim.sim_config import SimConfig
 
 VEHICLE = VehicleConfig()
 TAU_S = 0.3
@@ -23,7 +23,7 @@ OMEGA_MAX = rpm_to_radps(VEHICLE.max_rpm)
 
 
 def traction(terrain: Terrain):  # type: ignore[no-untyped-def]
-    return SimConfig().terrains.get(terrain)
+    return PlantConfig().terrains.get(terrain)
 
 
 def run(

@@ -16,14 +16,13 @@ from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from helixd.plant import skid
-from helixd.plant.plant_config import Plant
+from helixd.plant.plant_config import Plant, PlantConfig
 from helixd.plant.state import PhysicsState
-from helixd.sim.sim_config import SimConfig
 from tests.support import simcore
 from tests.support.cli import main_exit
 from tests.support.simcore import EmbeddedStart, capture_embedded_start
 
-MODEL = SimConfig().skid
+MODEL = PlantConfig().skid
 DT_S = 0.02  # the simulator's 50 Hz loop (SCHED_LOOP_RATE)
 TAU_S = 4.0 / 14.0  # max_speed / max_accel
 
@@ -50,7 +49,7 @@ def run(
 def test_defaults_are_sim_rover_skid_constants() -> None:
     assert (MODEL.max_speed_mps, MODEL.max_accel_mss, MODEL.turn_rate_dps) == (4.0, 14.0, 140.0)
     assert MODEL.max_yaw_rate_dps == 360.0 and MODEL.physics_rate_hz == 1200.0
-    assert SimConfig().plant is Plant.HELIX  # the Helix stays the default plant
+    assert PlantConfig().plant is Plant.HELIX  # the Helix stays the default plant
 
 
 @pytest.mark.parametrize(
@@ -171,13 +170,13 @@ def test_total_for_any_dt_and_outputs(dt: float, left: int, right: int) -> None:
 
 def test_config_rejects_unknown_plant_and_bad_constants() -> None:
     with pytest.raises(ValidationError):
-        SimConfig.model_validate({"plant": "tank"})
+        PlantConfig.model_validate({"plant": "tank"})
     with pytest.raises(ValidationError):
-        SimConfig.model_validate({"skid": {"max_speed_mps": 0.0}})
+        PlantConfig.model_validate({"skid": {"max_speed_mps": 0.0}})
     with pytest.raises(ValidationError):
-        SimConfig.model_validate({"skid": {"turn_rate_dps": math.nan}})
+        PlantConfig.model_validate({"skid": {"turn_rate_dps": math.nan}})
     with pytest.raises(ValidationError):
-        SimConfig.model_validate({"skid": {"wheelbase_m": 0.3}})
+        PlantConfig.model_validate({"skid": {"wheelbase_m": 0.3}})
 
 
 # -- through the simulator's wire semantics: pilot radio → RCIN passthrough → outputs 1/3 --
@@ -216,7 +215,7 @@ def test_sim_command_plant_option(
 ) -> None:
     import helixd.cli.sim_command as command
 
-    seen: list[SimConfig] = []
+    seen: list[PlantConfig] = []
     monkeypatch.setattr(command, "run_sim", lambda links, cfg, faults, dur: seen.append(cfg))
     assert main_exit(["sim", "--plant", "sitl_skid", "--duration", "1"]) == 0
     assert main_exit(["sim", "--duration", "1"]) == 0

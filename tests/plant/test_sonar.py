@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from helixd.files.bathymetry import Bathymetry
+from helixd.plant.plant_config import PlantConfig
 from helixd.plant.sonar import BathymetryNe, SonarModel, sense
-from helixd.sim.sim_config import SimConfig
 from tests.support.simcore import command, make_core, of_type, run
 
-ORIGIN = SimConfig().origin_lat_deg, SimConfig().origin_lon_deg
+ORIGIN = PlantConfig().origin_lat_deg, PlantConfig().origin_lon_deg
 SET_MESSAGE_INTERVAL = 511
 
 
