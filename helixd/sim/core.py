@@ -45,14 +45,14 @@ from helixd.sim.firmware.messages import (
     file_transfer_protocol,
     statustexts,
 )
-from helixd.sim.firmware.mission_server import (
+from helixd.sim.firmware.mission_items import (
     ALTITUDE_ONLY,
     GuidedRequest,
-    MissionServer,
     Outcome,
     guided_request,
     mission_ack,
 )
+from helixd.sim.firmware.mission_server import MissionServer
 from helixd.sim.firmware.mode_auto import ModeAuto
 from helixd.sim.firmware.mode_goto import (
     ModeGoto,

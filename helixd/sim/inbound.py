@@ -37,7 +37,8 @@ from helixd.sim import vehicle_reports
 from helixd.sim.firmware import messages
 from helixd.sim.firmware.estimator import SimEkfStatus
 from helixd.sim.firmware.messages import Message
-from helixd.sim.firmware.mission_server import MissionServer, Outcome
+from helixd.sim.firmware.mission_items import Outcome
+from helixd.sim.firmware.mission_server import MissionServer
 from helixd.sim.firmware.param_store import ParamStore
 from helixd.sim.firmware.rover_firmware import SimAutopilot, SimEvent, SimStatusText
 

@@ -16,7 +16,7 @@ from helixd.mav.constants import (
 from helixd.plant.forward import radps_to_rpm
 from helixd.sim.core import SimCore
 from helixd.sim.firmware import modes
-from helixd.sim.firmware.mission_server import StoredItem
+from helixd.sim.firmware.mission_items import StoredItem
 
 
 @dataclass(frozen=True, slots=True)

@@ -25,8 +25,9 @@ from helixd.mav.constants import (
     MAV_MISSION_UNSUPPORTED_FRAME,
 )
 from helixd.sim.faults import make_spec
-from helixd.sim.firmware import mission_server as sm
-from helixd.sim.firmware.mission_server import MissionServer, Outcome
+from helixd.sim.firmware import mission_items as sm
+from helixd.sim.firmware.mission_items import Outcome
+from helixd.sim.firmware.mission_server import MissionServer
 from tests.support.mavmsgs import stamp
 from tests.support.simcore import incoming, make_core, of_type, run
 
