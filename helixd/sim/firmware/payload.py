@@ -54,22 +54,21 @@ from helixd.sim.firmware.param_store import ParamStore
 NUM_RELAYS = 6  # RELAY1..RELAY6 as the simulator models them
 RELAY_FUNCTION_RELAY = 1
 
-PAYLOAD_COMMANDS = frozenset(
+RELAY_COMMANDS = frozenset({MAV_CMD_DO_SET_RELAY, MAV_CMD_DO_REPEAT_RELAY, MAV_CMD_DO_REPEAT_SERVO})
+CAMERA_COMMANDS = frozenset(
     {
-        MAV_CMD_DO_SET_RELAY,
-        MAV_CMD_DO_REPEAT_RELAY,
-        MAV_CMD_DO_REPEAT_SERVO,
         MAV_CMD_DO_DIGICAM_CONFIGURE,
         MAV_CMD_DO_DIGICAM_CONTROL,
         MAV_CMD_DO_SET_CAM_TRIGG_DIST,
         MAV_CMD_IMAGE_START_CAPTURE,
         MAV_CMD_IMAGE_STOP_CAPTURE,
-        MAV_CMD_DO_GRIPPER,
-        MAV_CMD_DO_SPRAYER,
-        MAV_CMD_DO_AUX_FUNCTION,
-        MAV_CMD_DO_FENCE_ENABLE,
     }
 )
+# the gripper, the sprayer, an auxiliary function, the fence
+DEVICE_COMMANDS = frozenset(
+    {MAV_CMD_DO_GRIPPER, MAV_CMD_DO_SPRAYER, MAV_CMD_DO_AUX_FUNCTION, MAV_CMD_DO_FENCE_ENABLE}
+)
+PAYLOAD_COMMANDS = RELAY_COMMANDS | CAMERA_COMMANDS | DEVICE_COMMANDS
 
 
 @dataclass(frozen=True, slots=True)
@@ -139,6 +138,47 @@ class Payload:
         now_s: float,
     ) -> tuple[int, list[PayloadEvent]]:
         """The MAV_RESULT and what happened, for one of :data:`PAYLOAD_COMMANDS`."""
+        if command in RELAY_COMMANDS:
+            return self._relay_command(command, p, params, outputs, here_ne, now_s)
+        if command in CAMERA_COMMANDS:
+            return self._camera_command(command, p, params, here_ne)
+        events: list[PayloadEvent] = []
+        if command == MAV_CMD_DO_GRIPPER:
+            if not params.get_int("GRIP_ENABLE") or int(p[1]) not in (0, 1):
+                return MAV_RESULT_FAILED, events
+            self.gripper_grabbed = int(p[1]) == 1
+            events.append(PayloadEvent("gripper", {"grabbed": self.gripper_grabbed}))
+            return MAV_RESULT_ACCEPTED, events
+        if command == MAV_CMD_DO_SPRAYER:
+            if p[0] in (0.0, 1.0):
+                self.sprayer_on = p[0] == 1.0
+                events.append(PayloadEvent("sprayer", {"on": self.sprayer_on}))
+            return MAV_RESULT_ACCEPTED, events
+        if command == MAV_CMD_DO_AUX_FUNCTION:
+            if p[1] > 2:
+                return MAV_RESULT_DENIED, events
+            events.append(
+                PayloadEvent("aux_function", {"function": int(p[0]), "switch": int(p[1])})
+            )
+            return MAV_RESULT_ACCEPTED, events
+        if command == MAV_CMD_DO_FENCE_ENABLE:
+            if int(p[0]) not in (0, 1, 2):
+                return MAV_RESULT_FAILED, events
+            self.fence_enabled = int(p[0])
+            events.append(PayloadEvent("fence_enable", {"enable": self.fence_enabled}))
+            return MAV_RESULT_ACCEPTED, events
+        raise ValueError(f"not a payload command: {command}")
+
+    def _relay_command(
+        self,
+        command: int,
+        p: list[float],
+        params: ParamStore,
+        outputs: ServoOutputs,
+        here_ne: tuple[float, float],
+        now_s: float,
+    ) -> tuple[int, list[PayloadEvent]]:
+        """DO_SET_RELAY, DO_REPEAT_RELAY, DO_REPEAT_SERVO (:data:`RELAY_COMMANDS`)."""
         events: list[PayloadEvent] = []
         if command == MAV_CMD_DO_SET_RELAY:
             instance, state = int(p[0]), int(p[1])
@@ -168,6 +208,13 @@ class Payload:
             self.repeat = _Repeat(True, channel, int(p[1]), p[3] / 2.0, int(p[2]) * 2, now_s)
             events += self.update(now_s, params, outputs, here_ne)
             return MAV_RESULT_ACCEPTED, events
+        raise ValueError(f"not a relay or servo command: {command}")
+
+    def _camera_command(
+        self, command: int, p: list[float], params: ParamStore, here_ne: tuple[float, float]
+    ) -> tuple[int, list[PayloadEvent]]:
+        """The camera's commands (:data:`CAMERA_COMMANDS`)."""
+        events: list[PayloadEvent] = []
         if command in (MAV_CMD_DO_DIGICAM_CONFIGURE, MAV_CMD_DO_DIGICAM_CONTROL):
             if command == MAV_CMD_DO_DIGICAM_CONTROL and p[4] == 1.0 and self.camera(params):
                 events.append(self._picture(here_ne, "DO_DIGICAM_CONTROL"))
@@ -189,31 +236,7 @@ class Payload:
         if command == MAV_CMD_IMAGE_STOP_CAPTURE:
             self.trigger_distance_m = 0.0
             return MAV_RESULT_ACCEPTED, events
-        if command == MAV_CMD_DO_GRIPPER:
-            if not params.get_int("GRIP_ENABLE") or int(p[1]) not in (0, 1):
-                return MAV_RESULT_FAILED, events
-            self.gripper_grabbed = int(p[1]) == 1
-            events.append(PayloadEvent("gripper", {"grabbed": self.gripper_grabbed}))
-            return MAV_RESULT_ACCEPTED, events
-        if command == MAV_CMD_DO_SPRAYER:
-            if p[0] in (0.0, 1.0):
-                self.sprayer_on = p[0] == 1.0
-                events.append(PayloadEvent("sprayer", {"on": self.sprayer_on}))
-            return MAV_RESULT_ACCEPTED, events
-        if command == MAV_CMD_DO_AUX_FUNCTION:
-            if p[1] > 2:
-                return MAV_RESULT_DENIED, events
-            events.append(
-                PayloadEvent("aux_function", {"function": int(p[0]), "switch": int(p[1])})
-            )
-            return MAV_RESULT_ACCEPTED, events
-        if command == MAV_CMD_DO_FENCE_ENABLE:
-            if int(p[0]) not in (0, 1, 2):
-                return MAV_RESULT_FAILED, events
-            self.fence_enabled = int(p[0])
-            events.append(PayloadEvent("fence_enable", {"enable": self.fence_enabled}))
-            return MAV_RESULT_ACCEPTED, events
-        raise ValueError(f"not a payload command: {command}")
+        raise ValueError(f"not a camera command: {command}")
 
     @staticmethod
     def camera(params: ParamStore) -> bool:
