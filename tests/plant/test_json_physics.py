@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import socket
-import threading
 
 import pytest
 from hypothesis import given, settings
@@ -28,7 +26,6 @@ from helixd.plant.json_physics import (
     encode_servo_frame,
     step_s_for,
 )
-from helixd.plant.json_server import open_socket, serve_plant
 from helixd.plant.physics import MotorMap
 from helixd.plant.plant_config import PlantConfig
 from helixd.plant.sonar import SonarModel
@@ -183,39 +180,7 @@ def test_the_report_is_one_json_object_between_two_newlines() -> None:
     assert all(math.isfinite(v) for v in values)
 
 
-# -- on a socket, as SITL talks to it ---------------------------------------------------------
-
-
-def test_served_on_udp_answering_each_frame_and_writing_the_truth(tmp_path) -> None:
-    sock = open_socket("127.0.0.1", 0)
-    port = sock.getsockname()[1]
-    stop = threading.Event()
-    truth = tmp_path / "truth.csv"
-    result: list[object] = []
-    server = threading.Thread(
-        target=lambda: result.append(serve_plant(PlantConfig(), sock, stop, truth)), daemon=True
-    )
-    server.start()
-    sitl = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    sitl.settimeout(5.0)
-    try:
-        sitl.sendto(b"not a servo packet", ("127.0.0.1", port))
-        for k in range(RATE_HZ):  # one simulated second, lockstep
-            sitl.sendto(encode_servo_frame(frame(k, (1800, 1800, 1200, 1200))), ("127.0.0.1", port))
-            body = json.loads(sitl.recv(4096))
-        assert body["timestamp"] == pytest.approx(1.0)
-        assert body["position"][0] > 0.05
-    finally:
-        stop.set()
-        server.join(timeout=5.0)
-        sitl.close()
-    stats = result[0]
-    assert stats.frames == RATE_HZ  # type: ignore[attr-defined]
-    assert stats.bad_datagrams == 1  # type: ignore[attr-defined]
-    rows = truth.read_text(encoding="utf-8").splitlines()
-    assert rows[0].startswith("t_s,north_m,east_m,yaw_ned_rad")
-    assert 10 <= len(rows) - 1 <= 11  # ten rows per simulated second
-    assert float(rows[-1].split(",")[1]) > 0.05
+# -- with a media map and a bathymetry ------------------------------------------------------
 
 
 def test_with_a_media_map_each_scroll_meets_the_medium_under_it() -> None:
