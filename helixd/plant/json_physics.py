@@ -32,11 +32,8 @@ from dataclasses import dataclass
 
 from helixd.plant import physics
 from helixd.plant.ground import TerrainTraction
-from helixd.plant.media import media_ne
-from helixd.plant.physics import MotorMap
 from helixd.plant.plant_config import PlantConfig
-from helixd.plant.sonar import BathymetryNe
-from helixd.plant.state import PhysicsState
+from helixd.plant.world import bathymetry_ne, media_ne
 
 GRAVITY_MSS = 9.80665
 MAGIC_16 = 18458  # servo_packet_16
@@ -141,23 +138,13 @@ class JsonPlant:
 
     def __init__(self, cfg: PlantConfig) -> None:
         self._cfg = cfg
-        self._motor = MotorMap(
-            cfg.motor_pwm_min_us, cfg.motor_pwm_trim_us, cfg.motor_pwm_max_us, cfg.motor_deadband_us
-        )
+        self._motor = cfg.motor_map()
         self._traction = cfg.traction()
         self._media = media_ne(cfg)
         self.scroll_media: tuple[str, ...] | None = None
         # the pond's bottom under the sonar (SITL's rangefinder 1, JSON ``rng_1``)
-        self._bathy = (
-            None
-            if cfg.bathymetry is None
-            else BathymetryNe(cfg.bathymetry, cfg.origin_lat_deg, cfg.origin_lon_deg)
-        )
-        self._initial = PhysicsState(
-            north_m=cfg.initial_north_m,
-            east_m=cfg.initial_east_m,
-            yaw_ned_rad=cfg.initial_yaw_ned_rad,
-        )
+        self._bathy = bathymetry_ne(cfg)
+        self._initial = cfg.start_state()
         self.restarts = 0
         self._reset()
 

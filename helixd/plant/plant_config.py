@@ -22,7 +22,9 @@ from helixd.files.bathymetry import Bathymetry
 from helixd.files.models import InputModel
 from helixd.plant.collisions import SimObstacles
 from helixd.plant.ground import Terrain, TerrainTable, TerrainTraction
+from helixd.plant.physics import MotorMap
 from helixd.plant.sonar import SonarModel
+from helixd.plant.state import PhysicsState
 
 
 class Plant(StrEnum):
@@ -135,3 +137,16 @@ class PlantConfig(InputModel):
 
     def traction(self) -> TerrainTraction:
         return self.terrains.get(self.terrain)
+
+    def motor_map(self) -> MotorMap:
+        """The motor controllers' PWM map."""
+        pwm_us = (self.motor_pwm_min_us, self.motor_pwm_trim_us, self.motor_pwm_max_us)
+        return MotorMap(*pwm_us, deadband_us=self.motor_deadband_us)
+
+    def start_state(self) -> PhysicsState:
+        """The plant at rest where the rover starts."""
+        return PhysicsState(
+            north_m=self.initial_north_m,
+            east_m=self.initial_east_m,
+            yaw_ned_rad=self.initial_yaw_ned_rad,
+        )

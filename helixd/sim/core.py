@@ -30,11 +30,10 @@ from helixd.mav.constants import (
 from helixd.mav.guard_script import SCR_ENABLE
 from helixd.plant import collisions, physics, skid
 from helixd.plant.ground import TerrainTraction
-from helixd.plant.media import media_ne
-from helixd.plant.physics import MotorMap
 from helixd.plant.plant_config import Plant
-from helixd.plant.sonar import BathymetryNe, sense, water_temperature_c
+from helixd.plant.sonar import sense, water_temperature_c
 from helixd.plant.state import PhysicsState
+from helixd.plant.world import bathymetry_ne, media_ne
 from helixd.sim import stream_rates as st
 from helixd.sim import vehicle_reports
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
@@ -125,19 +124,10 @@ class SimCore:
         self.outbox: list[tuple[int | None, Message]] = []
         self.flushed: list[tuple[int | None, Message]] = []  # resolved, sent even if now silent
         self.events: list[SimEvent] = []
-        self.phys = PhysicsState(
-            north_m=config.initial_north_m,
-            east_m=config.initial_east_m,
-            yaw_ned_rad=config.initial_yaw_ned_rad,
-        )
+        self.phys = config.start_state()
         self.est = estimator.EstimatorState()
         self._contact = False  # rover body touching an obstacle (helixd.plant.collisions)
-        self.motor = MotorMap(
-            config.motor_pwm_min_us,
-            config.motor_pwm_trim_us,
-            config.motor_pwm_max_us,
-            config.motor_deadband_us,
-        )
+        self.motor = config.motor_map()
         self.outputs_us: list[int] = [0] * 16
         # the world's media by place (helix plant): the map placed around the EKF origin, and
         # the medium under each of scrolls 1..4 after the last step (None: no map)
@@ -145,11 +135,7 @@ class SimCore:
         self.scroll_media: tuple[Medium, ...] | None = None
         # the pond's bottom and the sonar over it (helixd.plant.sonar), with a generator of its
         # own so a bathymetry changes nothing else a seed gives
-        self.bathy = (
-            None
-            if config.bathymetry is None
-            else BathymetryNe(config.bathymetry, config.origin_lat_deg, config.origin_lon_deg)
-        )
+        self.bathy = bathymetry_ne(config)
         self.sonar_rng = np.random.default_rng(None if config.seed is None else [config.seed, 55])
         self._next_named_value_s = 0.0
         self.now_s = 0.0

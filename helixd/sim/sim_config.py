@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from enum import StrEnum
 from pathlib import Path
+from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
@@ -58,43 +59,51 @@ class NoiseProfile(InputModel):
     )
 
 
+# Each noise level's profile (:class:`NoiseLevel`): exact, RTK-like, and the thesis's dual GPS
+# without RTK (ch. 5.2: ~1 m position, yaw within ±10°)
+NOISE_PRESETS: dict[str, dict[str, float]] = {
+    "none": {
+        "pos_sigma_m": 0.0,
+        "pos_tau_s": 30.0,
+        "pos_white_m": 0.0,
+        "yaw_sigma_rad": 0.0,
+        "yaw_tau_s": 30.0,
+        "vel_white_mps": 0.0,
+        "ekf_tau_s": 0.2,
+        "variance_base": 0.02,
+    },
+    "low": {
+        "pos_sigma_m": 0.05,
+        "pos_tau_s": 30.0,
+        "pos_white_m": 0.01,
+        "yaw_sigma_rad": math.radians(0.5),
+        "yaw_tau_s": 30.0,
+        "vel_white_mps": 0.01,
+        "ekf_tau_s": 0.2,
+        "variance_base": 0.05,
+    },
+    "thesis": {
+        "pos_sigma_m": 0.7,
+        "pos_tau_s": 20.0,
+        "pos_white_m": 0.2,
+        "yaw_sigma_rad": math.radians(4.0),
+        "yaw_tau_s": 10.0,
+        "vel_white_mps": 0.05,
+        "ekf_tau_s": 0.3,
+        "variance_base": 0.2,
+    },
+}
+
+
+def _preset(level: str) -> Any:
+    """A noise level's default :class:`NoiseProfile` (:data:`NOISE_PRESETS`)."""
+    return Field(default_factory=lambda: NoiseProfile(**NOISE_PRESETS[level]))
+
+
 class NoiseProfiles(InputModel):
-    none: NoiseProfile = Field(
-        default_factory=lambda: NoiseProfile(
-            pos_sigma_m=0.0,
-            pos_tau_s=30.0,
-            pos_white_m=0.0,
-            yaw_sigma_rad=0.0,
-            yaw_tau_s=30.0,
-            vel_white_mps=0.0,
-            ekf_tau_s=0.2,
-            variance_base=0.02,
-        )
-    )
-    low: NoiseProfile = Field(
-        default_factory=lambda: NoiseProfile(
-            pos_sigma_m=0.05,
-            pos_tau_s=30.0,
-            pos_white_m=0.01,
-            yaw_sigma_rad=math.radians(0.5),
-            yaw_tau_s=30.0,
-            vel_white_mps=0.01,
-            ekf_tau_s=0.2,
-            variance_base=0.05,
-        )
-    )
-    thesis: NoiseProfile = Field(
-        default_factory=lambda: NoiseProfile(
-            pos_sigma_m=0.7,
-            pos_tau_s=20.0,
-            pos_white_m=0.2,
-            yaw_sigma_rad=math.radians(4.0),
-            yaw_tau_s=10.0,
-            vel_white_mps=0.05,
-            ekf_tau_s=0.3,
-            variance_base=0.2,
-        )
-    )
+    none: NoiseProfile = _preset("none")
+    low: NoiseProfile = _preset("low")
+    thesis: NoiseProfile = _preset("thesis")
 
     def get(self, level: NoiseLevel) -> NoiseProfile:
         profile: NoiseProfile = getattr(self, level.value)

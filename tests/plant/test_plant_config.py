@@ -21,6 +21,23 @@ def test_defaults_are_the_helix_on_hard_ground_at_rest() -> None:
     assert (cfg.initial_north_m, cfg.initial_east_m, cfg.initial_yaw_ned_rad) == (0.0, 0.0, 0.0)
 
 
+def test_the_motor_map_and_the_start_come_from_the_settings() -> None:
+    cfg = PlantConfig(
+        motor_pwm_min_us=1100,
+        motor_pwm_max_us=1900,
+        motor_deadband_us=20,
+        initial_north_m=3.0,
+        initial_east_m=-4.0,
+        initial_yaw_ned_rad=1.0,
+    )
+    motor = cfg.motor_map()
+    assert motor.fraction(1900) == 1.0 and motor.fraction(1100) == -1.0
+    assert motor.fraction(1515) == 0.0  # within the deadband
+    start = cfg.start_state()
+    assert (start.north_m, start.east_m, start.yaw_ned_rad) == (3.0, -4.0, 1.0)
+    assert start.speed_mps == 0.0 and start.scroll_radps == (0.0, 0.0, 0.0, 0.0)
+
+
 def test_traction_follows_the_configured_terrain() -> None:
     cfg = PlantConfig(terrain=Terrain.MUD)
     assert cfg.traction() == cfg.terrains.mud

@@ -138,47 +138,10 @@ class Payload:
         now_s: float,
     ) -> tuple[int, list[PayloadEvent]]:
         """The MAV_RESULT and what happened, for one of :data:`PAYLOAD_COMMANDS`."""
-        if command in RELAY_COMMANDS:
-            return self._relay_command(command, p, params, outputs, here_ne, now_s)
         if command in CAMERA_COMMANDS:
             return self._camera_command(command, p, params, here_ne)
-        events: list[PayloadEvent] = []
-        if command == MAV_CMD_DO_GRIPPER:
-            if not params.get_int("GRIP_ENABLE") or int(p[1]) not in (0, 1):
-                return MAV_RESULT_FAILED, events
-            self.gripper_grabbed = int(p[1]) == 1
-            events.append(PayloadEvent("gripper", {"grabbed": self.gripper_grabbed}))
-            return MAV_RESULT_ACCEPTED, events
-        if command == MAV_CMD_DO_SPRAYER:
-            if p[0] in (0.0, 1.0):
-                self.sprayer_on = p[0] == 1.0
-                events.append(PayloadEvent("sprayer", {"on": self.sprayer_on}))
-            return MAV_RESULT_ACCEPTED, events
-        if command == MAV_CMD_DO_AUX_FUNCTION:
-            if p[1] > 2:
-                return MAV_RESULT_DENIED, events
-            events.append(
-                PayloadEvent("aux_function", {"function": int(p[0]), "switch": int(p[1])})
-            )
-            return MAV_RESULT_ACCEPTED, events
-        if command == MAV_CMD_DO_FENCE_ENABLE:
-            if int(p[0]) not in (0, 1, 2):
-                return MAV_RESULT_FAILED, events
-            self.fence_enabled = int(p[0])
-            events.append(PayloadEvent("fence_enable", {"enable": self.fence_enabled}))
-            return MAV_RESULT_ACCEPTED, events
-        raise ValueError(f"not a payload command: {command}")
-
-    def _relay_command(
-        self,
-        command: int,
-        p: list[float],
-        params: ParamStore,
-        outputs: ServoOutputs,
-        here_ne: tuple[float, float],
-        now_s: float,
-    ) -> tuple[int, list[PayloadEvent]]:
-        """DO_SET_RELAY, DO_REPEAT_RELAY, DO_REPEAT_SERVO (:data:`RELAY_COMMANDS`)."""
+        if command in DEVICE_COMMANDS:
+            return self._device_command(command, p, params)
         events: list[PayloadEvent] = []
         if command == MAV_CMD_DO_SET_RELAY:
             instance, state = int(p[0]), int(p[1])
@@ -208,7 +171,39 @@ class Payload:
             self.repeat = _Repeat(True, channel, int(p[1]), p[3] / 2.0, int(p[2]) * 2, now_s)
             events += self.update(now_s, params, outputs, here_ne)
             return MAV_RESULT_ACCEPTED, events
-        raise ValueError(f"not a relay or servo command: {command}")
+        raise ValueError(f"not a payload command: {command}")
+
+    def _device_command(
+        self, command: int, p: list[float], params: ParamStore
+    ) -> tuple[int, list[PayloadEvent]]:
+        """The gripper's, the sprayer's, an auxiliary function's and the fence's commands
+        (:data:`DEVICE_COMMANDS`)."""
+        events: list[PayloadEvent] = []
+        if command == MAV_CMD_DO_GRIPPER:
+            if not params.get_int("GRIP_ENABLE") or int(p[1]) not in (0, 1):
+                return MAV_RESULT_FAILED, events
+            self.gripper_grabbed = int(p[1]) == 1
+            events.append(PayloadEvent("gripper", {"grabbed": self.gripper_grabbed}))
+            return MAV_RESULT_ACCEPTED, events
+        if command == MAV_CMD_DO_SPRAYER:
+            if p[0] in (0.0, 1.0):
+                self.sprayer_on = p[0] == 1.0
+                events.append(PayloadEvent("sprayer", {"on": self.sprayer_on}))
+            return MAV_RESULT_ACCEPTED, events
+        if command == MAV_CMD_DO_AUX_FUNCTION:
+            if p[1] > 2:
+                return MAV_RESULT_DENIED, events
+            events.append(
+                PayloadEvent("aux_function", {"function": int(p[0]), "switch": int(p[1])})
+            )
+            return MAV_RESULT_ACCEPTED, events
+        if command == MAV_CMD_DO_FENCE_ENABLE:
+            if int(p[0]) not in (0, 1, 2):
+                return MAV_RESULT_FAILED, events
+            self.fence_enabled = int(p[0])
+            events.append(PayloadEvent("fence_enable", {"enable": self.fence_enabled}))
+            return MAV_RESULT_ACCEPTED, events
+        raise ValueError(f"not a device command: {command}")
 
     def _camera_command(
         self, command: int, p: list[float], params: ParamStore, here_ne: tuple[float, float]

@@ -1,4 +1,4 @@
-"""A media map placed on the plant's ground (helixd.plant.media.media_ne): around the world's
+"""A media map placed on the plant's ground (helixd.plant.world.media_ne): around the world's
 origin, the configured terrain outside every area unless the map names its own, nothing for
 the skid plant or without a map, and a file never read behind the shell's back."""
 
@@ -10,9 +10,10 @@ import pytest
 
 from helixd.base.frames import latlon_to_ne
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
+from helixd.files.bathymetry import Bathymetry
 from helixd.plant.ground import Terrain
-from helixd.plant.media import media_ne
 from helixd.plant.plant_config import Plant, PlantConfig
+from helixd.plant.world import bathymetry_ne, media_ne
 
 SQUARE_NE = ((-5.0, -5.0), (-5.0, 5.0), (5.0, 5.0), (5.0, -5.0))
 POND = MediaMap(MediaFrame.LOCAL_NED, (MediaArea(Medium.WATER, SQUARE_NE),))
@@ -62,3 +63,21 @@ def test_a_lat_lon_map_is_placed_around_the_worlds_origin() -> None:
 def test_a_media_file_not_yet_read_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="read by the shell"):
         media_ne(PlantConfig(media_file=tmp_path / "pond.geojson"))
+
+
+def test_the_ponds_bottom_is_placed_around_the_worlds_origin() -> None:
+    assert bathymetry_ne(PlantConfig()) is None
+    cfg = PlantConfig()
+    lat0, lon0 = cfg.origin_lat_deg, cfg.origin_lon_deg
+    bottom = Bathymetry.model_validate(
+        {
+            "format": "helixd-bathymetry/1",
+            "south_west": {"lat_deg": lat0 - 1e-4, "lon_deg": lon0 - 1e-4},
+            "cell_m": 5.0,
+            "depth_m": [[2.0] * 6] * 4 + [[None] * 6],
+        }
+    )
+    placed = bathymetry_ne(cfg.model_copy(update={"bathymetry": bottom}))
+    assert placed is not None
+    assert placed.depth_at(0.0, 0.0) == pytest.approx(2.0)
+    assert placed.depth_at(500.0, 0.0) is None  # off the grid: dry

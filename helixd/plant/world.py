@@ -1,14 +1,17 @@
-"""A media map placed on the plant's ground: the medium under each place, for the plant's step.
+"""The plant's world placed around its origin: the media map on the ground and the pond's
+bottom under the water, both in north/east metres for the plant's step and its sonar.
 
-The map (:mod:`helixd.files.media`, read by the caller's shell) is placed around the world's
-origin with ArduPilot's flat-earth map; outside every area the configured ``terrain`` lies,
-unless the map names a default medium.
+The media map (:mod:`helixd.files.media`, read by the caller's shell) and the bathymetry
+(:mod:`helixd.files.bathymetry`) are placed around the world's origin (the EKF origin, SITL's
+``--home``) with ArduPilot's flat-earth map; outside every media area the configured
+``terrain`` lies, unless the map names a default medium.
 """
 
 from __future__ import annotations
 
 from helixd.base.media import MediaMapNe, Medium
 from helixd.plant.plant_config import Plant, PlantConfig
+from helixd.plant.sonar import BathymetryNe
 
 
 def media_ne(config: PlantConfig) -> MediaMapNe | None:
@@ -23,3 +26,10 @@ def media_ne(config: PlantConfig) -> MediaMapNe | None:
     return config.media.to_ne(
         (config.origin_lat_deg, config.origin_lon_deg), fallback=Medium(config.terrain.value)
     )
+
+
+def bathymetry_ne(config: PlantConfig) -> BathymetryNe | None:
+    """``config``'s pond bottom placed around its EKF origin, for the sonar; None without one."""
+    if config.bathymetry is None:
+        return None
+    return BathymetryNe(config.bathymetry, config.origin_lat_deg, config.origin_lon_deg)
