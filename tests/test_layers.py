@@ -32,7 +32,8 @@ from pathlib import Path
 
 import pytest
 
-from helixd.config import ControlConfig, ScrollCalibration, SlipConfig, VehicleConfig
+from helixd.config.control import ControlConfig, SlipConfig
+from helixd.config.vehicle import ScrollCalibration, VehicleConfig
 from helixd.control import params
 from tests.support.paths import REPO_ROOT
 
@@ -100,7 +101,7 @@ def imports_of(module: str, path: Path | None = None) -> set[str]:
 
 
 def _room(module: str) -> str:
-    """The package (or top-level module) a module lives in: helixd.link.codec → link."""
+    """The package (or top-level module) a module lives in: helixd.link.wire.codec → link."""
     parts = module.split(".")
     return parts[1] if len(parts) > 1 else ""
 
@@ -145,7 +146,7 @@ def test_packages_import_only_lower_rows() -> None:
         ("helixd.config", "helixd.link.connection"),  # a lower row importing a higher one
         ("helixd.mission.model", "helixd.recorder.events"),
         ("helixd.control.navigator", "helixd.files.yamlio"),  # same row, not below
-        ("helixd.sim.core", "helixd.link.codec"),  # the simulator stands apart
+        ("helixd.sim.core", "helixd.link.wire.codec"),  # the simulator stands apart
         ("helixd.runtime.daemon", "helixd.sim.server"),  # only the CLI starts a simulator
         ("helixd.runtime.daemon", "helixd.plant.physics"),  # nor the plant
         ("helixd.plant.json_physics", "helixd.sim.core"),  # the plant is below the simulator
@@ -405,12 +406,12 @@ def test_the_import_checker_names_a_reexported_name(tmp_path: Path) -> None:
     probe.write_text(
         "from helixd.mav.constants import MAV_CMD_DO_SET_SERVO\n"  # defined there
         "from helixd.mav import servo_functions\n"  # a submodule
-        "from helixd.link.preflight import DO_SET_SERVO_FUNCTIONS\n"  # only imported there
+        "from helixd.link.services.preflight import DO_SET_SERVO_FUNCTIONS\n"  # only imported there
     )
     offenders = indirect_imports([probe])
     assert len(offenders) == 1
     assert offenders[0].endswith(
-        ":3 DO_SET_SERVO_FUNCTIONS from helixd.link.preflight, which does not define it"
+        ":3 DO_SET_SERVO_FUNCTIONS from helixd.link.services.preflight, which does not define it"
     )
 
 

@@ -393,7 +393,7 @@ def run_one(
 
     import structlog
 
-    from helixd.config import VehicleConfig
+    from helixd.config.vehicle import VehicleConfig
     from helixd.plant.ground import TerrainTable, read_ground_file
     from helixd.sim.sim_config import SimConfig
 

@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from helixd.base.angles import wrap_pi
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.plant.forward import body_velocity, rpm_to_radps
 from helixd.plant.ground import TerrainTraction
 from helixd.plant.state import PhysicsState

@@ -17,7 +17,7 @@ from pathlib import Path
 from pydantic import Field, InstanceOf, model_validator
 
 from helixd.base.media import MediaMap
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.files.bathymetry import Bathymetry
 from helixd.files.models import InputModel
 from helixd.plant.collisions import SimObstacles

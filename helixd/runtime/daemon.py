@@ -41,11 +41,12 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.media import MediaMapNe
 from helixd.base.plan import Numbering, Plan, program_numbering
-from helixd.config import HelixdConfig, config_to_yaml
+from helixd.config.load import config_to_yaml
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate
 from helixd.files.models import as_items
-from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandError
 from helixd.mav.constants import MAV_SEVERITY_WARNING
 from helixd.mav.url import LinkError
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions

@@ -24,7 +24,7 @@ import structlog
 
 from helixd.base.clock import now_s
 from helixd.base.tasks import stop_task
-from helixd.config import GcsReportConfig
+from helixd.config.recorder import GcsReportConfig
 from helixd.runtime.gcs_report import (
     GcsReporter,
     PhaseChange,

@@ -9,7 +9,7 @@ from dataclasses import dataclass
 from helixd.base.frames import MissionFrame
 from helixd.base.media import MediaMap, Medium
 from helixd.base.plan import MissionFrameKind
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.validate import plan_for_check

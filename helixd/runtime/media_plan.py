@@ -22,7 +22,7 @@ from pathlib import Path
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.media import MediaFrame, MediaMap, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError
 from helixd.mission.model import Mission

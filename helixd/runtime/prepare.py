@@ -27,16 +27,9 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
 from helixd.base.plan import MissionFrameKind, MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.models import as_items, format_validation_error
-from helixd.mission.expand import (
-    DEFAULT_OPTIONS,
-    ExpandOptions,
-    carried_at_step,
-    jumps_when_current,
-    restart_at_step,
-    walk_at_step,
-)
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions, carried_at_step
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.model import Mission
@@ -54,6 +47,7 @@ from helixd.mission.resume import (
     walked_options,
 )
 from helixd.mission.validate import resolved_for_check
+from helixd.mission.walk import jumps_when_current, restart_at_step, walk_at_step
 from helixd.planning.mapfile import OccupancyMap
 from helixd.recorder.resume_dir import read_run_dir
 from helixd.runtime.autopilot_mission import MISSION_NAME, FromAutopilot

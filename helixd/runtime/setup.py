@@ -33,13 +33,15 @@ from helixd.base.plan import MissionFrameKind, Numbering, Plan, program_numberin
 from helixd.base.problems import Problems
 from helixd.base.run_files import TLOG_FILE
 from helixd.base.tasks import stop_task
-from helixd.config import ActuationBackend, HelixdConfig, SafetyConfig
-from helixd.link.command_client import CommandError, CommandRejected
+from helixd.config.root import HelixdConfig
+from helixd.config.safety import SafetyConfig
+from helixd.config.vehicle import ActuationBackend
 from helixd.link.connection import Autopilot
-from helixd.link.preflight import check_obedience
+from helixd.link.services.command_client import CommandError, CommandRejected
+from helixd.link.services.preflight import check_obedience
 from helixd.link.telemetry import Telemetry
-from helixd.link.tlog import LinkTlog, attach_tlog
 from helixd.link.vehicle import Change, HomePosition, TelemetryBounds, VehicleState
+from helixd.link.wire.tlog import LinkTlog, attach_tlog
 from helixd.mav.arming import not_neutral_channel, rc_reading, throttle_must_read
 from helixd.mav.constants import (
     MAV_CMD_NAV_RETURN_TO_LAUNCH,

@@ -17,9 +17,9 @@ import structlog
 from helixd.base.clock import now_s
 from helixd.base.plan import Numbering
 from helixd.base.run_files import EVENTS_FILE
-from helixd.config import HelixdConfig
-from helixd.link.command_client import CommandError
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandError
 from helixd.link.vehicle import PositionTarget
 from helixd.mav.constants import (
     MAV_SEVERITY_ERROR,

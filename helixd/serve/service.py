@@ -27,9 +27,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
-from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
-from helixd.link.preflight import check_obedience
+from helixd.link.services.command_client import CommandError
+from helixd.link.services.preflight import check_obedience
 from helixd.mav.constants import (
     MAV_RESULT_ACCEPTED,
     MAV_SEVERITY_ERROR,

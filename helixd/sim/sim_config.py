@@ -15,7 +15,7 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.files.models import InputModel
 from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS
 from helixd.plant.plant_config import PlantConfig

@@ -12,7 +12,7 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import GroundSpec, load_mission
 from helixd.mission.validate import apply_mission_limits, plan_for_check

@@ -21,7 +21,7 @@ from hypothesis import strategies as hs
 import helixd.control.kinematics as kin
 from helixd.base.geometry import BodyVelocity, NonFiniteError
 from helixd.base.plan import MotionMode
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.plant import forward
 from helixd.plant.ground import Terrain
 from helixd.plant.physics import step

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.model import load_mission
 from helixd.mission.validate import apply_mission_limits, plan_for_check
 from helixd.planning.mapfile import load_map

@@ -11,8 +11,8 @@ import pytest
 
 from helixd.base.frames import NedPose
 from helixd.base.plan import MissionFrameKind
-from helixd.config import HelixdConfig
-from helixd.link.command_client import CommandRejected
+from helixd.config.root import HelixdConfig
+from helixd.link.services.command_client import CommandRejected
 from helixd.link.vehicle import Change, HomePosition
 from helixd.mission.expand import DEFAULT_OPTIONS
 from helixd.mission.model import Mission

@@ -11,9 +11,9 @@ from typing import Any, cast
 from helixd.base.clock import now_s
 from helixd.base.plan import Numbering
 from helixd.base.run_files import EVENTS_FILE
-from helixd.config import HelixdConfig
-from helixd.link.command_client import CommandRejected
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandRejected
 from helixd.link.vehicle import VehicleState
 from helixd.mav.constants import MAV_RESULT_DENIED
 from helixd.mission.expand import ExpandOptions

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from pydantic import ValidationError
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.sim.firmware.param_store import DEFAULT_PARAMS, ParamStore, ParamType
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 from tests.support.paths import REPO_ROOT
