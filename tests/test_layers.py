@@ -2,8 +2,9 @@
 
 Statically, over every module of ``helixd/`` (top-level, function-local and TYPE_CHECKING
 imports alike): each package imports only itself and the rows below it in :data:`LAYERS`; the
-simulator imports only :data:`SIM_MAY_IMPORT` and only the CLI imports it; there is no import
-loop between modules; no re-export shim module is left. One import path per name: every
+simulator imports only :data:`SIM_MAY_IMPORT`, the plant under it only :data:`PLANT_MAY_IMPORT`,
+and only the CLI imports either (and the simulator the plant); there is no import loop between
+modules; no re-export shim module is left. One import path per name: every
 ``from helixd.X import Name`` in helixd/, tests/ and tools/ names the module that defines
 ``Name`` (or ``Name`` is a submodule of ``helixd.X``), and no package ``__init__.py`` imports a
 helixd module (``helixd.mission.formats``, which defines code of its own, excepted).
@@ -14,7 +15,8 @@ Through ``sys.modules`` in a fresh interpreter:
 * the control core loads only the base (and numpy): no pydantic, YAML, asyncio or sockets, and
   nothing of the mission loader, the config or the I/O shell;
 * the simulator is an independent oracle: it loads nothing of the controller, the link or the
-  daemon (its physics has its own eq. 1, :mod:`helixd.sim.forward`).
+  daemon (its physics has its own eq. 1, :mod:`helixd.plant.forward`); the plant loads nothing
+  of them nor of the simulator.
 """
 
 from __future__ import annotations
@@ -51,8 +53,10 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("serve", "commands"),  # the all-day service; the one-shot commands' back ends
     ("cli",),  # typer app: parse, call, print
 )
-SIM_MAY_IMPORT = frozenset({"base", "files", "mav", "config", "sim"})
+SIM_MAY_IMPORT = frozenset({"base", "files", "mav", "config", "plant", "sim"})
+PLANT_MAY_IMPORT = frozenset({"base", "files", "mav", "config", "plant"})
 ONLY_CLI_IMPORTS_SIM = frozenset({"cli", "sim"})
+APART = frozenset({"plant", "sim"})  # beside the rows: the simulator and its plant
 RANK = {pkg: row for row, pkgs in enumerate(LAYERS) for pkg in pkgs}
 
 
@@ -107,13 +111,16 @@ def violation(module: str, target: str) -> str | None:
     here, there = _room(module), _room(target)
     if there in ("", here) or here == "__main__":
         return None  # the helixd package itself (its version), or the same package
-    if there == "sim" and here not in ONLY_CLI_IMPORTS_SIM:
-        return f"{module} imports {target}: only the CLI imports the simulator"
+    if there in APART and here not in ONLY_CLI_IMPORTS_SIM:
+        return f"{module} imports {target}: only the CLI imports the simulator and the plant"
+    if here == "plant":
+        ok = there in PLANT_MAY_IMPORT
+        return None if ok else f"{module} imports {target}: the plant stands apart"
     if here == "sim":
         ok = there in SIM_MAY_IMPORT
         return None if ok else f"{module} imports {target}: the simulator stands apart"
-    if there == "sim":
-        return None  # the CLI starts the simulator
+    if there in APART:
+        return None  # the CLI starts the simulator or the plant
     if RANK[there] >= RANK[here]:
         return f"{module} imports {target}: {there} is not below {here}"
     return None
@@ -125,7 +132,7 @@ def layer_violations() -> list[str]:
 
 
 def test_every_package_has_a_row() -> None:
-    rooms = {_room(m) for m in MODULES} - {"", "__main__", "sim"}
+    rooms = {_room(m) for m in MODULES} - {"", "__main__", *APART}
     assert rooms == set(RANK), f"not in LAYERS: {sorted(rooms - set(RANK))}"
 
 
@@ -141,6 +148,9 @@ def test_packages_import_only_lower_rows() -> None:
         ("helixd.control.navigator", "helixd.files.yamlio"),  # same row, not below
         ("helixd.sim.core", "helixd.link.wire.codec"),  # the simulator stands apart
         ("helixd.runtime.daemon", "helixd.sim.server"),  # only the CLI starts a simulator
+        ("helixd.runtime.daemon", "helixd.plant.physics"),  # nor the plant
+        ("helixd.plant.json_physics", "helixd.sim.core"),  # the plant is below the simulator
+        ("helixd.plant.physics", "helixd.control.kinematics"),  # an oracle: its own eq. 1
     ],
 )
 def test_the_checker_names_a_back_edge(module: str, target: str) -> None:
@@ -253,18 +263,28 @@ def test_navigator_loads_neither_pydantic_yaml_asyncio_nor_socket() -> None:
         assert name not in loaded
 
 
+NOT_IN_THE_ORACLE = (
+    "helixd.control",
+    "helixd.link",
+    "helixd.runtime.daemon",
+    "helixd.runtime.flight",
+    "helixd.link.vehicle",
+)
+
+
 def test_simulator_loads_nothing_of_the_controller_link_or_daemon() -> None:
     loaded = loaded_after_import("helixd.sim", "helixd.sim.server")
     assert "helixd.sim.server" in loaded  # the import really reached the simulator
-    forbidden = (
-        "helixd.control",
-        "helixd.link",
-        "helixd.runtime.daemon",
-        "helixd.runtime.flight",
-        "helixd.link.vehicle",
-    )
-    bad = {m for m in helixd_modules(loaded) if m.startswith(forbidden)}
+    assert "helixd.plant.physics" in loaded  # and the plant under it
+    bad = {m for m in helixd_modules(loaded) if m.startswith(NOT_IN_THE_ORACLE)}
     assert not bad, f"helixd.sim loads {sorted(bad)}"
+
+
+def test_plant_loads_nothing_of_the_simulator_controller_link_or_daemon() -> None:
+    loaded = loaded_after_import("helixd.plant", "helixd.plant.json_server")
+    assert "helixd.plant.physics" in loaded  # the import really reached the plant
+    bad = {m for m in helixd_modules(loaded) if m.startswith((*NOT_IN_THE_ORACLE, "helixd.sim"))}
+    assert not bad, f"helixd.plant loads {sorted(bad)}"
 
 
 def _members(protocol: type) -> list[str]:

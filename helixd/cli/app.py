@@ -72,6 +72,8 @@ from helixd.mission.describe import DEFAULT_WIDTH
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.locate import SEARCH_DIRS, available_missions
 from helixd.planning.mapfile import OccupancyMap
+from helixd.plant.ground import Terrain
+from helixd.plant.plant_config import Plant
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
@@ -86,13 +88,7 @@ from helixd.runtime.prepare import (
     Resume,
     prepare_flight,
 )
-from helixd.sim.sim_config import (
-    NoiseLevel,
-    Plant,
-    SimClock,
-    SimConfig,
-    Terrain,
-)
+from helixd.sim.sim_config import NoiseLevel, SimClock, SimConfig
 
 app = command_group(
     "helixd",
