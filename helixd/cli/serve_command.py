@@ -26,6 +26,7 @@ from helixd.cli.simulated import (
     TerrainOpt,
     sim_world,
     simulator,
+    with_sim,
     with_sim_files,
 )
 from helixd.mav.url import LinkError, parse_link_url
@@ -50,10 +51,9 @@ def serve_command(
     sim_terrain: TerrainOpt = Terrain.HARD,
     sim_gcs: Annotated[
         str | None,
-        typer.Option(
-            "--sim-gcs",
-            help="with --sim: also give a ground station a link to the simulator, e.g. "
-            "udpout:127.0.0.1:14550 for QGroundControl on this machine",
+        with_sim(
+            "also give a ground station a link to the simulator, e.g. udpout:127.0.0.1:14550 "
+            "for QGroundControl on this machine"
         ),
     ] = None,
     run_dir: Annotated[
