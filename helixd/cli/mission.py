@@ -57,6 +57,7 @@ from helixd.mission.placed import PlacementError, parse_latlon, placed_with
 T = TypeVar("T")
 
 
+MissionFileArg = Annotated[Path, typer.Argument(help="mission file: .yaml, .plan or .waypoints")]
 OriginOpt = Annotated[
     str | None,
     typer.Option(
@@ -87,7 +88,7 @@ def _origin(text: str | None) -> tuple[float, float] | None:
 
 
 def convert(
-    src: Annotated[Path, typer.Argument(help="mission file: .yaml, .plan or .waypoints")],
+    src: MissionFileArg,
     dst: Annotated[Path, typer.Argument(help="output; its suffix names the format")],
     mode: ModeOpt = None,
     config: ConfigOpt = None,
@@ -321,7 +322,7 @@ def download(
 
 
 def upload(
-    src: Annotated[Path, typer.Argument(help="mission file: .plan, .waypoints or .yaml")],
+    src: MissionFileArg,
     connect: ObserverConnectOpt = None,
     config: ConfigOpt = None,
     origin: OriginOpt = None,
