@@ -555,7 +555,7 @@ async def run_daemon_side(
     from helixd.recorder.rows import FlightRow
     from helixd.recorder.rundir import RunRecorder
     from helixd.recorder.summary import SummaryBuilder
-    from helixd.runtime.display import ProgressDisplay
+    from helixd.report.display import ProgressDisplay
     from helixd.runtime.flight import (
         MANUAL_MODE,
         FlightHooks,

@@ -69,13 +69,7 @@ from helixd.mission.describe import DEFAULT_WIDTH
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.locate import SEARCH_DIRS, available_missions
 from helixd.planning.mapfile import OccupancyMap
-from helixd.recorder.logging_setup import configure_logging
-from helixd.runtime import eventloop
-from helixd.runtime.daemon import RunOptions, run_mission
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.plan_report import check_lines, record_space_warning
-from helixd.runtime.planned import Flight, route_lines
-from helixd.runtime.prepare import (
+from helixd.prepare.builder import (
     AutopilotMission,
     FlightSource,
     MissionFile,
@@ -83,6 +77,12 @@ from helixd.runtime.prepare import (
     Resume,
     prepare_flight,
 )
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.plan_report import check_lines, record_space_warning
+from helixd.prepare.planned import Flight, route_lines
+from helixd.recorder.logging_setup import configure_logging
+from helixd.runtime import eventloop
+from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.sim.sim_config import (
     SPEEDUP_MAX,
     SPEEDUP_MIN,
@@ -224,7 +224,7 @@ def _check_plot(got: Prepared, plot: Path) -> None:
     """``check --plot``: the route planned around obstacles, the media map's areas under it;
     without a route, a media map's areas and the plan's stretches by mode; else say why not."""
     # deferred, as `helixd plot`'s: matplotlib (0.2 s) only when a plot is asked for
-    from helixd.runtime.media_figure import checked_media
+    from helixd.prepare.media_figure import checked_media
 
     flight = got.flight
     media = None

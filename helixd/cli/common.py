@@ -29,9 +29,9 @@ from helixd.link.ftp_transfer import FtpTransferError
 from helixd.link.mission_transfer import MissionTransferError
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.planning.mapfile import OccupancyMap
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.planned import load_occupancy
 from helixd.recorder.logging_setup import configure_logging
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.planned import load_occupancy
 from helixd.sim.sim_config import Terrain, TerrainTable, read_ground_file
 
 T = TypeVar("T")

@@ -22,13 +22,13 @@ from helixd.control.ground_fit import (
     merge_profiles,
 )
 from helixd.planning.media_modes import MODE_AXIS
-from helixd.recorder.ground_profile import GroundProfile, identify_run
-from helixd.runtime.ground_learning import (
+from helixd.prepare.ground_learning import (
     default_modes,
     fit_params,
     learned_view,
     modes_from_profile,
 )
+from helixd.recorder.ground_profile import GroundProfile, identify_run
 
 PIN = re.compile(r"^(?P<medium>[a-z]+)/(?P<mode>[a-z]+)/(?P<axis>[a-z]+)=(?P<value>\S+)$")
 

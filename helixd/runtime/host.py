@@ -29,8 +29,8 @@ from helixd.base.clock import now_s
 from helixd.config import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.link.tlog import LinkTlog
+from helixd.report.notify import FlightInServiceNotifier, ServiceNotifier
 from helixd.runtime.flight import DRIVE_MANUAL, Driving
-from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
 from helixd.runtime.setup import (
     Held,
     attach,

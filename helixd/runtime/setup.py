@@ -52,13 +52,13 @@ from helixd.mission.expand import ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Where, resolve
 from helixd.mission.resume import RunInputs, with_leg_start
+from helixd.prepare.media import MediaRefused, media_path, placed_media_plan
+from helixd.prepare.planned import Replanner
+from helixd.prepare.timing import judge_flight
+from helixd.report.notify import ServiceNotifier
 from helixd.runtime.autopilot_fence import autopilot_fence_check
-from helixd.runtime.media_plan import MediaRefused, media_path, placed_media_plan
-from helixd.runtime.notify import ServiceNotifier
-from helixd.runtime.planned import Replanner
 from helixd.runtime.show_plan import show_plan
 from helixd.runtime.signals import StopRequest
-from helixd.runtime.timing import judge_flight
 from helixd.safety.watchdogs import Fault, FaultCause, gps_fault, pose_invalid_fault
 
 log = structlog.get_logger(__name__)

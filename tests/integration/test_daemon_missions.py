@@ -16,8 +16,8 @@ from helixd.config import HelixdConfig
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import GroundSpec, load_mission
 from helixd.mission.validate import apply_mission_limits, plan_for_check
+from helixd.prepare.timing import plan_time_estimate
 from helixd.recorder.export import load_run_export
-from helixd.runtime.timing import plan_time_estimate
 from helixd.sim.sim_config import SimConfig, Terrain
 from tests.support import harness
 from tests.support.paths import REPO_ROOT

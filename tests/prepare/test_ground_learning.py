@@ -13,7 +13,7 @@ from helixd.config import HelixdConfig
 from helixd.control.estimate import estimate_time
 from helixd.control.ground_fit import Learned
 from helixd.control.slip import SlipEstimator
-from helixd.runtime.ground_learning import (
+from helixd.prepare.ground_learning import (
     default_modes,
     learn_from_run,
     profile_path,

@@ -47,8 +47,8 @@ from helixd.mission.validate import (
     servo_problems,
     start_warnings,
 )
+from helixd.prepare.timing import judge_flight
 from helixd.recorder.resume_dir import read_run_dir
-from helixd.runtime.timing import judge_flight
 
 
 class InputsRefused(Problems):

@@ -2,7 +2,7 @@
 shapes and a .plan's exclusion zones (helixd.planning) when there are any, with the re-planner
 the daemon calls at preflight for the first leg from the rover's real pose.
 
-No printing and no exits: refusals are :class:`helixd.runtime.inputs.InputsRefused`.
+No printing and no exits: refusals are :class:`helixd.prepare.inputs.InputsRefused`.
 """
 
 from __future__ import annotations
@@ -36,8 +36,8 @@ from helixd.planning.route import (
     planned_mission_yaml,
     planning_wanted,
 )
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.timing import limit_problems, plan_time_estimate
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.timing import limit_problems, plan_time_estimate
 
 Replanner = Callable[[tuple[float, float], tuple[float, float] | None], Mission]
 

@@ -23,8 +23,7 @@ from helixd.mission.resolve import places_from
 from helixd.mission.validate import pending_checks, plan_for_check
 from helixd.planning.media_modes import medium_under_mode_m
 from helixd.planning.route import RoutePlan
-from helixd.recorder.retention import DiskUsage, low_space
-from helixd.runtime.media_plan import (
+from helixd.prepare.media import (
     MediaCheck,
     check_media_plan,
     media_path,
@@ -34,8 +33,9 @@ from helixd.runtime.media_plan import (
     shown_path,
     stretch_lines,
 )
-from helixd.runtime.planned import route_lines, route_time_estimate
-from helixd.runtime.timing import patrol_times_s, plan_time_estimate
+from helixd.prepare.planned import route_lines, route_time_estimate
+from helixd.prepare.timing import patrol_times_s, plan_time_estimate
+from helixd.recorder.retention import DiskUsage, low_space
 
 MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
 
