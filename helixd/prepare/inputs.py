@@ -30,6 +30,7 @@ from helixd.mission.formats import (
     with_fence,
 )
 from helixd.mission.formats.items import FormatError, GcsMission
+from helixd.mission.judge import judge_flight
 from helixd.mission.locate import MissionNotFound, locate_mission
 from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
@@ -47,7 +48,6 @@ from helixd.mission.validate import (
     servo_problems,
     start_warnings,
 )
-from helixd.prepare.timing import judge_flight
 from helixd.recorder.resume_dir import read_run_dir
 
 

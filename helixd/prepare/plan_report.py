@@ -18,6 +18,7 @@ from helixd.config import HelixdConfig
 from helixd.control.estimate import TimeEstimate, delivered_fractions
 from helixd.mission.describe import DEFAULT_WIDTH, program_lines
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.judge import patrol_times_s, plan_time_estimate
 from helixd.mission.model import Mission
 from helixd.mission.resolve import places_from
 from helixd.mission.validate import pending_checks, plan_for_check
@@ -34,7 +35,6 @@ from helixd.prepare.media import (
     stretch_lines,
 )
 from helixd.prepare.planned import route_lines, route_time_estimate
-from helixd.prepare.timing import patrol_times_s, plan_time_estimate
 from helixd.recorder.retention import DiskUsage, low_space
 
 MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)

@@ -21,6 +21,7 @@ from helixd.control.estimate import TimeEstimate
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import fence_has_keep_outs
 from helixd.mission.formats.items import GcsMission, fence_ne, keep_out_problems
+from helixd.mission.judge import limit_problems, plan_time_estimate
 from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
 from helixd.mission.resume import RunInputs, fresh_inputs
@@ -37,7 +38,6 @@ from helixd.planning.route import (
     planning_wanted,
 )
 from helixd.prepare.inputs import InputsRefused
-from helixd.prepare.timing import limit_problems, plan_time_estimate
 
 Replanner = Callable[[tuple[float, float], tuple[float, float] | None], Mission]
 

@@ -49,13 +49,13 @@ from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_WARNING
 from helixd.mav.url import LinkError
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.judge import patrol_times_s, plan_time_estimate
 from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs
 from helixd.prepare.ground_learning import learn_from_run
 from helixd.prepare.media import MediaRefused, read_media
 from helixd.prepare.planned import Replanner
-from helixd.prepare.timing import patrol_times_s, plan_time_estimate
 from helixd.recorder.payload_log import PayloadLog
 from helixd.recorder.retention import check_free_space, prune_runs
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder

@@ -49,12 +49,12 @@ from helixd.mav.constants import (
 from helixd.mav.servo_functions import DO_SET_SERVO_FUNCTIONS, passthrough_input
 from helixd.mission.commands import SERVO_COMMANDS, stored_whole
 from helixd.mission.expand import ExpandOptions
+from helixd.mission.judge import judge_flight
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Where, resolve
 from helixd.mission.resume import RunInputs, with_leg_start
 from helixd.prepare.media import MediaRefused, media_path, placed_media_plan
 from helixd.prepare.planned import Replanner
-from helixd.prepare.timing import judge_flight
 from helixd.report.notify import ServiceNotifier
 from helixd.runtime.autopilot_fence import autopilot_fence_check
 from helixd.runtime.show_plan import show_plan

@@ -8,12 +8,12 @@ from pathlib import Path
 import pytest
 
 from helixd.config import HelixdConfig
+from helixd.mission.judge import patrol_times_s, plan_time_estimate
 from helixd.mission.model import load_mission
 from helixd.mission.validate import apply_mission_limits, plan_for_check
 from helixd.planning.mapfile import load_map
 from helixd.prepare.plan_report import check_lines, estimate_line, waypoint_table
 from helixd.prepare.planned import plan_loaded
-from helixd.prepare.timing import patrol_times_s, plan_time_estimate
 from tests.support.paths import REPO_ROOT
 
 CFG = HelixdConfig()
