@@ -4,7 +4,7 @@ the config → the checked flight, or the refusal.
 ``helixd check``, ``helixd run`` and ``helixd serve`` all call :func:`prepare_flight`, so what
 it refuses all three refuse, with the same lines, before anything connects or moves. What it
 judges: the config and the mission together (every problem at once), the mission against the
-config (:func:`helixd.prepare.inputs.mission_vs_config`: ranges, fence, keep-outs, servo
+config (:func:`helixd.mission.judge.mission_vs_config`: ranges, fence, keep-outs, servo
 outputs, the time limit; a global mission's places against the home it carries, which stands
 for the EKF origin until connected), the route planned around the map, keep-outs and fence
 (:func:`helixd.prepare.planned.planned_flight`). What needs the rover's pose and the EKF origin
@@ -39,6 +39,7 @@ from helixd.mission.expand import (
 )
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
 from helixd.mission.formats.items import GcsMission
+from helixd.mission.judge import mission_vs_config
 from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
 from helixd.mission.resume import (
@@ -60,7 +61,6 @@ from helixd.prepare.inputs import (
     InputsRefused,
     config_sha256,
     load_inputs,
-    mission_vs_config,
     recorded_mission_yaml,
     resume_inputs,
 )
