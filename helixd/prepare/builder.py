@@ -126,7 +126,7 @@ class AutopilotPlace:
 FlightSource = MissionFile | AutopilotMission | Resume | AutopilotPlace
 
 
-def place_mission(place: AutopilotPlace) -> AutopilotMission:
+def place_as_mission(place: AutopilotPlace) -> AutopilotMission:
     """The place as a mission of one global waypoint. Raises :class:`InputsRefused`."""
     source = f"the autopilot's {place.mode} place"
     data = {
@@ -170,7 +170,7 @@ def prepare_flight(
     ``occupancy``: the map (already loaded, or its file); a resume flies the recorded mission
     as it was planned. Raises :class:`InputsRefused`."""
     if isinstance(source, AutopilotPlace):
-        source = place_mission(source)
+        source = place_as_mission(source)
     if isinstance(source, Resume):
         resumed = resume_inputs(config, source.run_dir, source.explicit_mission)
         flight = Flight(resumed.mission, resumed.mission_yaml, None, resumed.inputs)

@@ -57,6 +57,7 @@ from helixd.recorder.summary import RunSummary, SummaryBuilder
 from helixd.report.display import ProgressDisplay, result_line
 from helixd.report.gcs_feed import GcsFeed, report_fallback
 from helixd.report.notify import ServiceNotifier
+from helixd.runtime.arming import arm, confirm_mode, start_gate
 from helixd.runtime.ending import (
     Ending,
     ExitRule,
@@ -74,24 +75,23 @@ from helixd.runtime.flight import (
 from helixd.runtime.host import FlightHost, OwnLink
 from helixd.runtime.in_flight import InFlight
 from helixd.runtime.mission_commands import MissionCommands
+from helixd.runtime.placing import (
+    autopilot_home,
+    checked_from_rover,
+    judge_autopilot_fence,
+    mission_frame,
+    resolve_flight,
+    show_checked_plan,
+    start_pose,
+)
 from helixd.runtime.setup import (
     Checked,
     Held,
     PreflightFailed,
     StopBeforeFlight,
-    arm,
-    autopilot_home,
-    confirm_mode,
     feeding,
     fresh_pose,
-    judge_autopilot_fence,
-    mission_frame,
-    place_mission,
     preflight,
-    resolve_flight,
-    show_checked_plan,
-    start_gate,
-    start_pose,
     start_sink,
     until_stopped,
 )
@@ -322,7 +322,7 @@ class MissionRunner:
     async def _preflight(self, ap: Autopilot) -> Checked:
         """The vehicle, then the mission placed from its pose; the summary's estimate."""
         vehicle = await preflight(ap, self.cfg, self.mission, self.stop, self._warn)
-        checked = await place_mission(
+        checked = await checked_from_rover(
             ap,
             self.cfg,
             self.mission,
