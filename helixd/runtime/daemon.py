@@ -68,13 +68,11 @@ from helixd.runtime.ending import (
     ending_of_flight,
     problems_of,
 )
-from helixd.runtime.flight import (
-    MANUAL_MODE,
-    FlightLoop,
-)
+from helixd.runtime.flight import FlightLoop
 from helixd.runtime.host import FlightHost, OwnLink
 from helixd.runtime.in_flight import InFlight
 from helixd.runtime.mission_commands import MissionCommands
+from helixd.runtime.mode_gate import MANUAL_MODE
 from helixd.runtime.placing import (
     autopilot_home,
     checked_from_rover,

@@ -30,7 +30,7 @@ from helixd.config import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.link.tlog import LinkTlog
 from helixd.report.notify import FlightInServiceNotifier, ServiceNotifier
-from helixd.runtime.flight import DRIVE_MANUAL, Driving
+from helixd.runtime.mode_gate import DRIVE_MANUAL, Driving
 from helixd.runtime.setup import (
     Held,
     attach,

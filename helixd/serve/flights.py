@@ -43,9 +43,8 @@ from helixd.prepare.planned import Flight
 from helixd.recorder.events import read_events
 from helixd.recorder.summary import RunSummary
 from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
-from helixd.runtime.flight import DRIVE_MANUAL, Driving
 from helixd.runtime.host import ServeHost
-from helixd.runtime.mode_gate import AUTO_MODE, PlaceRule, crew_mode_of
+from helixd.runtime.mode_gate import AUTO_MODE, DRIVE_MANUAL, Driving, PlaceRule, crew_mode_of
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import HOLD_MODE
 from helixd.safety.watchdogs import FaultCause
