@@ -16,16 +16,9 @@ from helixd.prepare.inputs import (
     load_inputs,
     recorded_mission_yaml,
 )
+from tests.support.recorder_runs import SQUARE_YAML
 
-MISSION = """\
-# a square, by hand
-name: square
-mode: roll
-frame: start
-waypoints:
-  - {x: 4, y: 0}
-  - {x: 4, y: 4}
-"""
+MISSION = "# a square, by hand\n" + SQUARE_YAML
 
 
 def write(tmp_path: Path, name: str, text: str) -> Path:
@@ -38,7 +31,7 @@ def test_a_good_pair_loads_with_its_plan(tmp_path: Path) -> None:
     mission = write(tmp_path, "square.yaml", MISSION)
     got = load_inputs(None, mission)
     assert got.path == mission and got.mission.name == "square"
-    assert [(w.x_m, w.y_m) for w in got.plan.waypoints] == [(4.0, 0.0), (4.0, 4.0)]
+    assert [(w.x_m, w.y_m) for w in got.plan.waypoints] == [(10, 0), (10, 10), (0, 10), (0, 0)]
     assert not got.provisional and got.notes == () and got.fence is None
 
 

@@ -51,17 +51,10 @@ def test_a_keep_out_is_planned_around_and_the_first_leg_replanned_from_the_rover
 
 def test_places_are_named_by_item_in_a_mission_with_commands() -> None:
     assert place_labels(AHEAD) == ["wp 1", "wp 2"]
-    with_commands = Mission.model_validate(
-        {
-            "name": "c",
-            "mode": "roll",
-            "frame": "local_ned",
-            "waypoints": [
-                {"north": 5, "east": 0},
-                {"command": "DO_SET_SERVO", "channel": 9, "pwm_us": 1500},
-                {"north": 5, "east": 5},
-            ],
-        }
+    servo = {"command": "DO_SET_SERVO", "channel": 9, "pwm_us": 1500}
+    wps = [{"north": 5, "east": 0}, servo, {"north": 5, "east": 5}]
+    with_commands = AHEAD.model_validate(
+        {"name": "c", "mode": "roll", "frame": "local_ned", "waypoints": wps}
     )
     assert place_labels(with_commands) == ["item 1", "item 3"]
 

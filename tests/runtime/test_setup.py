@@ -6,23 +6,12 @@ import asyncio
 import time
 from typing import Any
 
-from helixd.base.frames import NedPose
 from helixd.config import HelixdConfig
-from helixd.mission.model import Mission
 from helixd.runtime.setup import gps_verdict
 from tests.support.feed import Feed, still_pending
 from tests.support.mavmsgs import AP, decoded
 
 CFG = HelixdConfig()
-RETURNS = Mission.model_validate(
-    {
-        "name": "out and home",
-        "mode": "roll",
-        "frame": "local_ned",
-        "waypoints": [{"north": 5, "east": 0}, {"command": "NAV_RETURN_TO_LAUNCH"}],
-    }
-)
-HERE = NedPose(1.0, 2.0, 0.0)
 
 
 # -- preflight's GPS verdict: the first good GPS_RAW_INT may follow the first fresh pose --------
