@@ -7,6 +7,7 @@ import pytest
 
 from helixd.actuators.base import ServoCommandRefused
 from helixd.base.exitcodes import ExitCode
+from helixd.base.frames import NedPose
 from helixd.link.command_client import CommandRejected, CommandTimeout
 from helixd.mav.url import LinkError
 from helixd.mission.resolve import PlanError
@@ -14,10 +15,14 @@ from helixd.runtime.ending import (
     EXIT_RULES,
     Ending,
     Stage,
+    as_item_numbers,
     ending_after_fallback,
     ending_for,
+    ending_of_flight,
     exit_rule,
+    problems_of,
 )
+from helixd.runtime.flight import FlightResult
 from helixd.runtime.setup import PreflightFailed, StartRefused, StopBeforeFlight
 from helixd.safety.supervisor import FallbackReport
 from helixd.safety.watchdogs import Fault, FaultCause
@@ -97,3 +102,34 @@ def test_a_completed_mission_left_armed_is_no_exit_0() -> None:
     assert ending_after_fallback(done, ok) is done
     takeover = Ending(Fault(FaultCause.PILOT_TAKEOVER, "HOLD"), ExitCode.OPERATOR_STOP)
     assert ending_after_fallback(takeover, refused) is takeover  # left armed for the pilot
+
+
+@pytest.mark.parametrize(
+    ("fault", "code"),
+    [
+        (None, ExitCode.OK),  # every waypoint reached
+        (Fault(FaultCause.SIGNAL, "SIGINT received"), ExitCode.OPERATOR_STOP),
+        (Fault(FaultCause.PILOT_TAKEOVER, "HOLD"), ExitCode.OPERATOR_STOP),
+        (Fault(FaultCause.STALL, "no progress"), ExitCode.FAULT),
+    ],
+)
+def test_a_flight_the_loop_ended_keeps_its_fault_time_and_pose(
+    fault: Fault | None, code: ExitCode
+) -> None:
+    pose = NedPose(3.0, 4.0, 0.5)
+    ending = ending_of_flight(FlightResult(fault, 42.0, None, pose))
+    assert (ending.fault, ending.code, ending.detected_s, ending.last_pose) == (
+        fault,
+        code,
+        42.0,
+        pose,
+    )
+
+
+def test_a_ground_station_missions_refusals_name_its_items() -> None:
+    named = as_item_numbers(PreflightFailed(["waypoint 3 (waypoints[2]): too far"]))
+    assert isinstance(named, PreflightFailed)
+    assert named.problems == ["item 3: too far"]
+    assert problems_of(named) == ["item 3: too far"]
+    other = RuntimeError("bug")
+    assert as_item_numbers(other) is other and problems_of(other) == ["bug"]
