@@ -12,7 +12,7 @@ import json
 import math
 import os
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -113,18 +113,14 @@ def learned_policy_modes(
 STEP_M = 0.1  # the leg's ground is sampled this often along it
 
 
-@dataclass(frozen=True)
-class OverMedia:
-    """A plan over a placed media map: ``to_ne`` takes its mission-frame (x, y) to the map's
-    (north, east); the rover starts at ``start_xy_m``."""
-
-    plan: Plan
-    placed: MediaMapNe
-    to_ne: Callable[[float, float], tuple[float, float]]
-    start_xy_m: tuple[float, float]
-
-
-def with_learned_ground(over: OverMedia, view: Mapping[Cell, Learned], cfg: HelixdConfig) -> Plan:
+def with_learned_ground(
+    plan: Plan,
+    placed: MediaMapNe,
+    to_ne: Callable[[float, float], tuple[float, float]],
+    start_xy_m: tuple[float, float],
+    view: Mapping[Cell, Learned],
+    cfg: HelixdConfig,
+) -> Plan:
     """``plan`` with each leg's ground as the profile knows it (``PlanWaypoint.ground``), for
     the time estimate. Along the leg, every :data:`STEP_M`, the rover's front and rear scroll
     pairs stand half its length ahead and behind (l_y in SCROLL, l_x in ROLL) and each pair
@@ -133,7 +129,6 @@ def with_learned_ground(over: OverMedia, view: Mapping[Cell, Learned], cfg: Heli
     slip feed-forward, delivers the harmonic mean of what the steps deliver (time adds up as
     length / delivered). The declared ground (``control.slip.ground_*_fraction``) where the
     profile knows too little."""
-    plan, placed, to_ne, start_xy_m = over.plan, over.placed, over.to_ne, over.start_xy_m
     slip = cfg.control.slip
     gain = slip.max_gain if slip.enabled else 1.0
     declared = {
@@ -183,15 +178,19 @@ def with_learned_ground(over: OverMedia, view: Mapping[Cell, Learned], cfg: Heli
 
 
 def slip_priors(
-    over: OverMedia, view: Mapping[Cell, Learned], cfg: HelixdConfig
+    plan: Plan,
+    placed: MediaMapNe,
+    to_ne: Callable[[float, float], tuple[float, float]],
+    start_xy_m: tuple[float, float],
+    view: Mapping[Cell, Learned],
+    cfg: HelixdConfig,
 ) -> tuple[tuple[MotionMode, tuple[float, float, float]], ...]:
     """Per motion mode, the (roll, scroll, yaw) fractions of the medium where the rover first
     flies in it (the start of that mode's first leg), as the profile knows them, the declared
     ground where it knows too little: where the slip estimate starts (``Plan.slip_priors``)."""
-    plan, placed, to_ne = over.plan, over.placed, over.to_ne
     slip = cfg.control.slip
     declared = (slip.ground_roll_fraction, slip.ground_scroll_fraction, slip.ground_yaw_fraction)
-    points = [over.start_xy_m, *((w.x_m, w.y_m) for w in plan.waypoints)]
+    points = [start_xy_m, *((w.x_m, w.y_m) for w in plan.waypoints)]
     out: dict[MotionMode, tuple[float, float, float]] = {}
     for j in range(len(plan.waypoints)):
         mode = plan.mode_at(j)
@@ -220,9 +219,8 @@ def learned_plan(
     if not isinstance(cfg.media.modes, str):
         return plan
     view = learned_view(cfg, read_profile(profile_path(cfg)))
-    over = OverMedia(plan, placed, to_ne, start_xy_m)
-    legs = with_learned_ground(over, view, cfg)
-    return replace(legs, slip_priors=slip_priors(over, view, cfg))
+    legs = with_learned_ground(plan, placed, to_ne, start_xy_m, view, cfg)
+    return replace(legs, slip_priors=slip_priors(plan, placed, to_ne, start_xy_m, view, cfg))
 
 
 def ground_section(cfg: HelixdConfig, cells: Mapping[Cell, CellSums]) -> dict[str, Any]:
@@ -284,7 +282,6 @@ def _add_to_summary(path: Path, section: dict[str, Any]) -> None:
 
 
 __all__ = [
-    "OverMedia",
     "default_modes",
     "fit_params",
     "ground_section",

@@ -14,7 +14,6 @@ from helixd.control.estimate import estimate_time
 from helixd.control.ground_fit import Learned
 from helixd.control.slip import SlipEstimator
 from helixd.prepare.ground_learning import (
-    OverMedia,
     default_modes,
     learn_from_run,
     profile_path,
@@ -42,7 +41,7 @@ def test_each_leg_carries_the_harmonic_mean_of_what_its_media_deliver() -> None:
         **view(Medium.MUD, MotionMode.SCROLL, scroll=0.3),
         **view(Medium.HARD, MotionMode.SCROLL, scroll=0.6),
     }
-    got = with_learned_ground(OverMedia(plan, WORLD, to_ne, (0.0, 0.0)), learnt, CFG)
+    got = with_learned_ground(plan, WORLD, to_ne, (0.0, 0.0), learnt, CFG)
     (leg,) = got.waypoints
     assert leg.ground is not None
     # 20 m of hard ground (0.6: all of the command with the 2x feed-forward), 30 m of mud (0.3:
@@ -85,7 +84,7 @@ def test_the_slip_estimate_starts_from_where_each_mode_is_first_flown() -> None:
         **view(Medium.HARD, MotionMode.ROLL, roll=0.8, yaw=0.7),
         **view(Medium.MUD, MotionMode.SCROLL, scroll=0.4),
     }
-    priors = dict(slip_priors(OverMedia(plan, WORLD, lambda x, y: (y, x), (0.0, 0.0)), learnt, CFG))
+    priors = dict(slip_priors(plan, WORLD, lambda x, y: (y, x), (0.0, 0.0), learnt, CFG))
     assert priors[MotionMode.ROLL] == (0.8, 1.0, 0.7)  # hard ground; scroll unknown there
     assert priors[MotionMode.SCROLL] == (1.0, 0.4, 1.0)  # the mud at north 15 m
     estimator = SlipEstimator(CFG.control.slip, priors)
