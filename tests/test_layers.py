@@ -30,7 +30,8 @@ from pathlib import Path
 
 import pytest
 
-from helixd.config import ControlConfig, ScrollCalibration, SlipConfig, VehicleConfig
+from helixd.config.control import ControlConfig, SlipConfig
+from helixd.config.vehicle import ScrollCalibration, VehicleConfig
 from helixd.control import params
 from tests.support.paths import REPO_ROOT
 
@@ -97,7 +98,7 @@ def imports_of(module: str, path: Path | None = None) -> set[str]:
 
 
 def _room(module: str) -> str:
-    """The package (or top-level module) a module lives in: helixd.link.codec → link."""
+    """The package (or top-level module) a module lives in: helixd.link.wire.codec → link."""
     parts = module.split(".")
     return parts[1] if len(parts) > 1 else ""
 
@@ -139,7 +140,7 @@ def test_packages_import_only_lower_rows() -> None:
         ("helixd.config", "helixd.link.connection"),  # a lower row importing a higher one
         ("helixd.mission.model", "helixd.recorder.events"),
         ("helixd.control.navigator", "helixd.files.yamlio"),  # same row, not below
-        ("helixd.sim.core", "helixd.link.codec"),  # the simulator stands apart
+        ("helixd.sim.core", "helixd.link.wire.codec"),  # the simulator stands apart
         ("helixd.runtime.daemon", "helixd.sim.server"),  # only the CLI starts a simulator
     ],
 )
@@ -401,12 +402,12 @@ def test_the_import_checker_names_a_reexported_name(tmp_path: Path) -> None:
     probe.write_text(
         "from helixd.mav.constants import MAV_CMD_DO_SET_SERVO\n"  # defined there
         "from helixd.mav import servo_functions\n"  # a submodule
-        "from helixd.link.preflight import DO_SET_SERVO_FUNCTIONS\n"  # only imported there
+        "from helixd.link.services.preflight import DO_SET_SERVO_FUNCTIONS\n"  # only imported there
     )
     offenders = indirect_imports([probe])
     assert len(offenders) == 1
     assert offenders[0].endswith(
-        ":3 DO_SET_SERVO_FUNCTIONS from helixd.link.preflight, which does not define it"
+        ":3 DO_SET_SERVO_FUNCTIONS from helixd.link.services.preflight, which does not define it"
     )
 
 
@@ -425,37 +426,3 @@ def test_package_inits_import_no_helixd_module() -> None:
             bad = [n for n in names if n.startswith(("helixd", "."))]
             offenders += [f"{path.relative_to(REPO)}:{node.lineno} imports {n}" for n in bad]
     assert offenders == [], "\n".join(offenders)
-
-
-# The rooms a reader walks through first keep their functions short enough to read whole:
-# the applications (prepare, report, runtime, serve), the one-shot commands' back ends and the CLI.
-SHORT_FUNCTION_PACKAGES = ("prepare", "report", "runtime", "serve", "commands", "cli")
-MAX_FUNCTION_LINES = 80
-
-
-def long_functions(paths: list[Path], limit: int = MAX_FUNCTION_LINES) -> list[str]:
-    """``file:line name (N lines)`` for each function (methods and nested ones too) whose
-    ``def`` to last line spans more than ``limit`` lines."""
-    found = []
-    for path in paths:
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
-                lines = (node.end_lineno or node.lineno) - node.lineno + 1
-                if lines > limit:
-                    found.append(f"{_shown(path)}:{node.lineno} {node.name} ({lines} lines)")
-    return found
-
-
-def test_no_function_over_80_lines_in_the_applications_commands_and_cli() -> None:
-    paths = sorted(p for pkg in SHORT_FUNCTION_PACKAGES for p in (PACKAGE / pkg).rglob("*.py"))
-    assert paths
-    offenders = long_functions(paths)
-    assert offenders == [], "\n".join(offenders)
-
-
-def test_the_length_checker_counts_from_def_to_the_last_line(tmp_path: Path) -> None:
-    probe = tmp_path / "probe.py"
-    body = "".join(f"    x{i} = {i}\n" for i in range(80))
-    probe.write_text(f"def long():\n{body}\nclass C:\n    def short(self):\n        pass\n")
-    assert long_functions([probe]) == ["probe.py:1 long (81 lines)"]
-    assert long_functions([probe], limit=81) == []

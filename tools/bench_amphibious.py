@@ -393,7 +393,7 @@ def run_one(
 
     import structlog
 
-    from helixd.config import VehicleConfig
+    from helixd.config.vehicle import VehicleConfig
     from helixd.sim.sim_config import SimConfig, TerrainTable, read_ground_file
 
     structlog.configure(

@@ -71,7 +71,7 @@ os.environ.setdefault("MAVLINK20", "1")
 import typer
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 
 TELEMETRY_RATE_HZ = 5.0
 HEARTBEAT_RATE_HZ = 1.0
@@ -239,7 +239,7 @@ class FakeAutopilot:
     """The autopilot's state and replies (no sockets here; ``out`` collects packed bytes)."""
 
     def __init__(self, rate_hz: float, boot_s: float) -> None:
-        from helixd.config import ActuationConfig, VehicleConfig
+        from helixd.config.vehicle import ActuationConfig, VehicleConfig
 
         self.mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
         self.mav.robust_parsing = True
@@ -547,9 +547,10 @@ async def run_daemon_side(
     from helixd.actuators.rc_override import RcOverrideSink
     from helixd.base.frames import MissionFrame
     from helixd.base.plan import Numbering
-    from helixd.config import HelixdConfig, config_to_yaml
+    from helixd.config.load import config_to_yaml
+    from helixd.config.root import HelixdConfig
     from helixd.link.connection import Autopilot
-    from helixd.link.preflight import check_obedience
+    from helixd.link.services.preflight import check_obedience
     from helixd.mission.model import Mission
     from helixd.mission.resolve import resolve_plan
     from helixd.recorder.rows import FlightRow

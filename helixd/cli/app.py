@@ -62,7 +62,7 @@ from helixd.cli.simulated import (
     with_sim_files,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.mav.url import LinkError
 from helixd.mission.describe import DEFAULT_WIDTH
@@ -236,7 +236,7 @@ def _check_plot(got: Prepared, plot: Path) -> None:
         )
         typer.echo(f"plot    : {plot} not written: {why}")  # said, not silently skipped
         return
-    from helixd.recorder.plots import render_media_plan, render_route  # start-up: matplotlib
+    from helixd.recorder.plan_plots import render_media_plan, render_route  # start-up: matplotlib
 
     name = got.mission.name
     try:

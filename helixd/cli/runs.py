@@ -145,7 +145,8 @@ def plot_command(
     """Render the thesis-style plots (a)–(f) and an overview of a recorded run as PNGs."""
     configure_logging(tty=sys.stderr.isatty(), level="warning")
     _check_run_dir(run_dir)
-    from helixd.recorder.plots import PlotError, render_run  # matplotlib only when plotting
+    from helixd.recorder.plots import render_run  # matplotlib only when plotting
+    from helixd.recorder.run_data import PlotError
 
     try:
         paths = render_run(run_dir, out)

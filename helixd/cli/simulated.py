@@ -24,7 +24,8 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
 from helixd.cli.common import fail, read_sim_ground
-from helixd.config import HelixdConfig, KeepOutCircleConfig
+from helixd.config.mission import KeepOutCircleConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.bathymetry import Bathymetry, read_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError

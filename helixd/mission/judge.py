@@ -26,7 +26,8 @@ from typing import NamedTuple, Unpack
 
 from helixd.base.frames import NedPose
 from helixd.base.plan import MissionFrameKind, Plan
-from helixd.config import ControlConfig, HelixdConfig
+from helixd.config.control import ControlConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
 from helixd.files.yamlio import paused_gc
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions

@@ -35,7 +35,8 @@ from typing import TypedDict, Unpack
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan, program_numbering
 from helixd.base.polygon import leg_leaves_polygon, point_in_polygon, segments_intersect
-from helixd.config import GEOFENCE_RADIUS_MAX_M, HelixdConfig
+from helixd.config.root import HelixdConfig
+from helixd.config.safety import GEOFENCE_RADIUS_MAX_M
 from helixd.files.models import entry_label
 from helixd.mission.commands import FLY_ROLES, SERVO_COMMANDS, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions

@@ -27,16 +27,9 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
 from helixd.base.plan import MissionFrameKind, MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.models import as_items, format_validation_error
-from helixd.mission.expand import (
-    DEFAULT_OPTIONS,
-    ExpandOptions,
-    carried_at_step,
-    jumps_when_current,
-    restart_at_step,
-    walk_at_step,
-)
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions, carried_at_step
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.judge import mission_vs_config
@@ -55,6 +48,7 @@ from helixd.mission.resume import (
     walked_options,
 )
 from helixd.mission.validate import resolved_for_check
+from helixd.mission.walk import jumps_when_current, restart_at_step, walk_at_step
 from helixd.planning.mapfile import OccupancyMap
 from helixd.prepare.autopilot_mission import MISSION_NAME, FromAutopilot
 from helixd.prepare.inputs import (
@@ -317,7 +311,7 @@ def continue_commands(flight: Flight, run_dir: Path, cfg: HelixdConfig) -> Fligh
     What a field engineer gets: the flight goes on with the navigation step it stopped at
     (the last ``step_started`` in its events.jsonl), at its place in ArduPilot's walk through
     the mission, with the jump counters held there (a DO_JUMP half done is not run from zero;
-    :func:`helixd.mission.expand.restart_at_step` on the interrupted flight's own walk, from
+    :func:`helixd.mission.walk.restart_at_step` on the interrupted flight's own walk, from
     its recorded :class:`helixd.mission.resume.WalkStart`). That step is flown again whole:
 
     * the do items started with it (a DO_CHANGE_SPEED, DO_SET_SERVO, DO_SET_HOME just before

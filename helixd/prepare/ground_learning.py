@@ -20,7 +20,7 @@ import structlog
 
 from helixd.base.media import MediaMap, MediaMapNe, Medium
 from helixd.base.plan import MotionMode, Plan
-from helixd.config import HelixdConfig, MediaModesConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.ground_fit import (
     AXES,
     Cell,
@@ -32,7 +32,7 @@ from helixd.control.ground_fit import (
     merge_profiles,
 )
 from helixd.files.models import ConfigFileError
-from helixd.planning.media_modes import delivered, learned_modes, policy_modes
+from helixd.planning.media_modes import config_modes, delivered, learned_modes
 from helixd.recorder.ground_profile import (
     PROFILE_NAME,
     GroundProfile,
@@ -75,13 +75,6 @@ def learned_view(cfg: HelixdConfig, profile: GroundProfile) -> dict[Cell, Learne
     }
 
 
-def default_modes(cfg: HelixdConfig) -> dict[Medium, MotionMode]:
-    """The fixed policy's modes (``media.modes``, or its defaults when that is ``learned``)."""
-    modes = cfg.media.modes
-    fixed = MediaModesConfig() if isinstance(modes, str) else modes
-    return policy_modes(fixed.model_dump())
-
-
 def modes_from_profile(cfg: HelixdConfig, view: Mapping[Cell, Learned]) -> dict[Medium, MotionMode]:
     """``media.modes: learned``: per medium the mode ``view`` makes best, the defaults where
     it knows too little."""
@@ -92,7 +85,7 @@ def modes_from_profile(cfg: HelixdConfig, view: Mapping[Cell, Learned]) -> dict[
         return None if cell is None else cell.power_w_per_mps
 
     return learned_modes(
-        default_modes(cfg),
+        config_modes(cfg.media),
         lambda medium, axis: axis_fraction(view, medium, axis),
         energy,
         slip.max_gain,
@@ -282,7 +275,6 @@ def _add_to_summary(path: Path, section: dict[str, Any]) -> None:
 
 
 __all__ = [
-    "default_modes",
     "fit_params",
     "ground_section",
     "learn_from_run",

@@ -15,7 +15,8 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan
 from helixd.base.problems import Problems
 from helixd.base.run_files import MISSION_FILE
-from helixd.config import HelixdConfig, config_to_yaml, load_config
+from helixd.config.load import config_to_yaml, load_config
+from helixd.config.root import HelixdConfig
 from helixd.files.models import ConfigFileError, as_items
 from helixd.files.yamlio import clip_line
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions

@@ -22,7 +22,7 @@ from pathlib import Path
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.media import MediaFrame, MediaMap, Medium
 from helixd.base.plan import MissionFrameKind, Plan
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError
 from helixd.mission.model import Mission
@@ -30,7 +30,6 @@ from helixd.planning.media_modes import (
     MediaPlan,
     ModePolicy,
     follow_media,
-    policy_modes,
 )
 from helixd.prepare.ground_learning import learned_plan, learned_policy_modes
 
@@ -74,15 +73,13 @@ def mode_policy(cfg: HelixdConfig, msn: Mission) -> ModePolicy:
     best, :mod:`helixd.prepare.ground_learning`), the mission's ``media_modes`` over them; the
     margin from ``media.transition_margin_m``. A profile that cannot be read is refused
     (:class:`MediaRefused`)."""
+    learned = None
     if isinstance(cfg.media.modes, str):
         try:
-            modes = learned_policy_modes(cfg)
+            learned = learned_policy_modes(cfg)
         except ConfigFileError as exc:
             raise MediaRefused([f"media.modes learned: {p}" for p in exc.problems]) from None
-    else:
-        modes = policy_modes(cfg.media.modes.model_dump())
-    modes.update(msn.media_modes or {})
-    return ModePolicy(modes, cfg.media.transition_margin_m, cfg.media.min_stretch_m)
+    return ModePolicy.from_config(cfg.media, msn.media_modes, learned)
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,7 @@
 """What ``helixd check --plot`` draws of a media map: the map placed as ``check`` places the
 mission (a global mission around waypoint 1, a local_ned one over a local_ned map) and the
-plan split by it, each stretch in its mode (:func:`helixd.recorder.plots.render_media_plan`)."""
+plan split by it, each stretch in its mode
+(:func:`helixd.recorder.plan_plots.render_media_plan`)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ from dataclasses import dataclass
 from helixd.base.frames import MissionFrame
 from helixd.base.media import MediaMap, Medium
 from helixd.base.plan import MissionFrameKind
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.validate import plan_for_check

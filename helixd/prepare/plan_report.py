@@ -15,7 +15,7 @@ from pathlib import Path
 
 from helixd.base.media import MediaMap, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, waypoint_label
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate, delivered_fractions
 from helixd.mission.describe import DEFAULT_WIDTH, program_lines
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions

@@ -16,7 +16,7 @@ import structlog
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.base.plan import MissionFrameKind
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import fence_has_keep_outs

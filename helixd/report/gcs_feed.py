@@ -24,7 +24,7 @@ import structlog
 
 from helixd.base.clock import now_s
 from helixd.base.tasks import stop_task
-from helixd.config import GcsReportConfig
+from helixd.config.recorder import GcsReportConfig
 from helixd.report.gcs_report import (
     GcsReporter,
     PhaseChange,
@@ -34,7 +34,7 @@ from helixd.report.gcs_report import (
     WaypointReached,
 )
 from helixd.safety.supervisor import FallbackReport
-from helixd.safety.watchdogs import FaultCause
+from helixd.safety.watchdogs import NEXT_FLIGHT_CAUSES, FaultCause
 
 __all__ = ["GcsFeed", "report_fallback"]
 
@@ -158,7 +158,7 @@ def report_fallback(feed: GcsFeed, report: FallbackReport) -> None:
     release to the pilot asks no HOLD (``released``)."""
     if report.cause == FaultCause.RELEASED.value and not report.errors:
         feed.phase("released: overrides released, the pilot's radio drives")
-    elif report.cause in (FaultCause.ITEM_SET, FaultCause.HANDOVER) and not report.errors:
+    elif report.cause in NEXT_FLIGHT_CAUSES and not report.errors:
         pass  # the next flight starts at once
     elif report.errors or not report.hold_acked:
         detail = "; ".join(report.errors) or "HOLD not acknowledged"

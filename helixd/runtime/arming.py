@@ -13,9 +13,9 @@ from collections.abc import Callable
 import structlog
 
 from helixd.base.clock import now_s
-from helixd.config import HelixdConfig
-from helixd.link.command_client import CommandError, CommandRejected
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandError, CommandRejected
 from helixd.link.vehicle import Change, VehicleState
 from helixd.mav.arming import not_neutral_channel, rc_reading, throttle_must_read
 from helixd.mav.constants import MAV_CMD_REQUEST_MESSAGE, MAVLINK_MSG_ID_HOME_POSITION

@@ -38,7 +38,8 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.media import MediaMapNe
 from helixd.base.plan import Numbering, Plan, program_numbering
-from helixd.config import HelixdConfig, config_to_yaml
+from helixd.config.load import config_to_yaml
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_WARNING
@@ -94,7 +95,12 @@ from helixd.runtime.setup import (
     until_stopped,
 )
 from helixd.safety.supervisor import fall_back, late_failsafe
-from helixd.safety.watchdogs import FaultCause
+from helixd.safety.watchdogs import (
+    HANDED_CAUSES,
+    NEXT_FLIGHT_CAUSES,
+    STOP_CAUSES,
+    FaultCause,
+)
 
 log = structlog.get_logger(__name__)
 
@@ -133,6 +139,7 @@ class RunOutcome:
     summary: RunSummary | None
     run_dir: Path | None
     messages: list[str] = field(default_factory=list)
+    cause: FaultCause | None = None  # what ended the flight (None: completed, or never flown)
 
 
 @dataclass
@@ -182,15 +189,11 @@ def disarm_after(armed_by_us: bool, ending: Ending, when_complete: bool = True) 
     completed mission armed in HOLD, as ArduPilot's AUTO does."""
     if ending.code is ExitCode.OK:
         return when_complete
-    if ending.fault is not None and ending.fault.cause in (
-        FaultCause.RELEASED,
-        FaultCause.ITEM_SET,
-        FaultCause.HANDOVER,
-    ):
+    if ending.fault is not None and ending.fault.cause in HANDED_CAUSES:
         return False  # the pilot drives it, or the next flight does
     if not armed_by_us:
         return None
-    if ending.fault is not None and ending.fault.cause in (FaultCause.SIGNAL, FaultCause.PAUSED):
+    if ending.fault is not None and ending.fault.cause in STOP_CAUSES:
         return True
     return None
 
@@ -426,8 +429,9 @@ class MissionRunner:
             fault = f"{FaultCause.EXCEPTION.value}: {type(exc).__name__}: {exc}"
             summary = self._build_summary(fault, ExitCode.INTERNAL_ERROR, None)
             run_dir = self.recorder.run_dir if self.recorder else None
+            messages = [*self.messages, result_line(summary)]
             return RunOutcome(
-                ExitCode.INTERNAL_ERROR, summary, run_dir, [*self.messages, result_line(summary)]
+                ExitCode.INTERNAL_ERROR, summary, run_dir, messages, FaultCause.EXCEPTION
             )
         finally:
             self.display.close()
@@ -488,6 +492,7 @@ class MissionRunner:
             summary,
             self.recorder.run_dir if self.recorder else None,
             [*self.messages, result_line(summary)],  # the plain result line comes last
+            None if ending.fault is None else ending.fault.cause,
         )
 
     async def _startup_then_fly(self, held: Held) -> Ending:
@@ -529,10 +534,7 @@ class MissionRunner:
             self.gcs.phase(f"pausing: {ending.fault.detail}")  # an operator's, not a fault
         elif ending.fault is not None and ending.fault.cause is FaultCause.RELEASED:
             pass  # the flight loop told the GCS already (released: the pilot drives)
-        elif ending.fault is not None and ending.fault.cause in (
-            FaultCause.ITEM_SET,
-            FaultCause.HANDOVER,
-        ):
+        elif ending.fault is not None and ending.fault.cause in NEXT_FLIGHT_CAUSES:
             if self.host.tells_steps:  # else the next flight's own text says where
                 self.gcs.phase(ending.fault.detail)
         elif ending.fault is not None:

@@ -17,7 +17,7 @@ from helixd.actuators.base import ActuatorError
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import NedPose
 from helixd.files.models import as_items
-from helixd.link.command_client import CommandError
+from helixd.link.services.command_client import CommandError
 from helixd.mav.url import LinkError
 from helixd.mission.resolve import PlanError
 from helixd.runtime.flight import FlightResult

@@ -19,7 +19,7 @@ import structlog
 from helixd.base.clock import now_s
 from helixd.base.media import MediaMapNe
 from helixd.base.plan import MissionAction, Numbering, Plan, mission_item_of
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.sequencer import SequencerEvent
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_WARNING

@@ -16,7 +16,7 @@ import structlog
 from helixd.base.clock import now_s
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Numbering, Plan, program_numbering
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import HomePosition
 from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH

@@ -33,12 +33,14 @@ from helixd.base.plan import MissionFrameKind, Plan
 from helixd.base.problems import Problems
 from helixd.base.run_files import TLOG_FILE
 from helixd.base.tasks import stop_task
-from helixd.config import ActuationBackend, HelixdConfig, SafetyConfig
+from helixd.config.root import HelixdConfig
+from helixd.config.safety import SafetyConfig
+from helixd.config.vehicle import ActuationBackend
 from helixd.link.connection import Autopilot
-from helixd.link.preflight import check_obedience
+from helixd.link.services.preflight import check_obedience
 from helixd.link.telemetry import Telemetry
-from helixd.link.tlog import LinkTlog, attach_tlog
 from helixd.link.vehicle import Change, HomePosition, TelemetryBounds, VehicleState
+from helixd.link.wire.tlog import LinkTlog, attach_tlog
 from helixd.mav.servo_functions import DO_SET_SERVO_FUNCTIONS, passthrough_input
 from helixd.mission.commands import SERVO_COMMANDS, stored_whole
 from helixd.mission.model import Mission

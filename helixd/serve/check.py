@@ -16,7 +16,7 @@ from typing import Any
 import structlog
 
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.models import as_items
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats.items import GcsMission

@@ -10,7 +10,7 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_NOTICE
 from helixd.mav.url import LinkError

@@ -32,7 +32,7 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import AfterValidator, Field, InstanceOf, PrivateAttr
 
-from helixd.config import KeepOutCircleConfig
+from helixd.config.mission import KeepOutCircleConfig
 from helixd.files.models import InputModel
 from helixd.sim.state import PhysicsState
 

@@ -29,7 +29,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from helixd.base.angles import wrap_pi
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.sim.forward import body_velocity, rpm_to_radps
 from helixd.sim.sim_config import TerrainTraction
 from helixd.sim.state import PhysicsState

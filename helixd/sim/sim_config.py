@@ -16,7 +16,8 @@ from typing import Any
 from pydantic import Field, InstanceOf, field_validator, model_validator
 
 from helixd.base.media import MediaMap, Medium
-from helixd.config import LinkConfig, VehicleConfig
+from helixd.config.link import LinkConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.files.bathymetry import Bathymetry
 from helixd.files.models import InputModel, load_yaml_model
 from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS

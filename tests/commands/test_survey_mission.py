@@ -12,7 +12,7 @@ from shapely.geometry import LineString, Point, Polygon
 from helixd.base.frames import NedPose, latlon_to_ne
 from helixd.base.plan import MotionMode
 from helixd.commands.survey_mission import approach_estimate, default_insets, survey_mission
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import estimate_time
 from helixd.mission.formats.areas import read_area
 from helixd.mission.resolve import resolve_plan

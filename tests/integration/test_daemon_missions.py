@@ -12,7 +12,7 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.judge import plan_time_estimate
 from helixd.mission.model import GroundSpec, load_mission
@@ -78,6 +78,7 @@ def test_mission_completes_in_its_mode(
         flown.snapshot,
     )
     assert code == ExitCode.OK, log[-3000:]
+    assert flown.outcome.cause is None  # completed: nothing ended it
     s = read_summary(run_dir)
     # one plain line with the outcome, the clocks named (on the simulated clock the companion's
     # clock and the autopilot's keep one time, and no wall time is claimed)

@@ -14,7 +14,7 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaFrame, MediaMap, Medium
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.prepare.ground_learning import learned_policy_modes
 from helixd.recorder.ground_profile import read_profile
 from helixd.recorder.rows import read_flight_columns

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from helixd.base.frames import NedPose
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.judge import flight_problems
 from helixd.mission.model import Mission
 from helixd.mission.validate import mission_problems

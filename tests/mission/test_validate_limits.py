@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from helixd.base.frames import NedPose, latlon_to_ne, ne_to_latlon
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.model import Mission
 from helixd.mission.validate import (
     apply_mission_limits,

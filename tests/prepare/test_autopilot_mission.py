@@ -9,7 +9,7 @@ from dataclasses import replace
 import pytest
 
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats import read_gcs
 from helixd.mission.formats.wire import gcs_to_wire

@@ -11,7 +11,7 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml, read_gcs
 from helixd.mission.formats.wire import gcs_to_wire

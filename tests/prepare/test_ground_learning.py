@@ -9,12 +9,12 @@ import pytest
 
 from helixd.base.media import MediaAreaNe, MediaFrame, MediaMap, MediaMapNe, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import estimate_time
 from helixd.control.ground_fit import Learned
 from helixd.control.slip import SlipEstimator
+from helixd.planning.media_modes import config_modes
 from helixd.prepare.ground_learning import (
-    default_modes,
     learn_from_run,
     profile_path,
     slip_priors,
@@ -56,9 +56,8 @@ def test_each_leg_carries_the_harmonic_mean_of_what_its_media_deliver() -> None:
 
 
 def test_the_policy_defaults_and_the_profile_path(tmp_path: Path) -> None:
-    assert default_modes(HelixdConfig.model_validate({"media": {"modes": "learned"}})) == (
-        default_modes(CFG)
-    )
+    learned = HelixdConfig.model_validate({"media": {"modes": "learned"}})
+    assert config_modes(learned.media) == config_modes(CFG.media)
     assert profile_path(CFG) == Path("runs/ground-profile.yaml")
     own = HelixdConfig.model_validate({"ground": {"profile_file": str(tmp_path / "g.yaml")}})
     assert profile_path(own) == tmp_path / "g.yaml"

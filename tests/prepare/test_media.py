@@ -12,7 +12,7 @@ import pytest
 from helixd.base.frames import NedPose
 from helixd.base.media import Medium
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.model import Mission
 from helixd.mission.validate import plan_for_check
 from helixd.prepare.media import (

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from helixd.base.media import Medium
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.prepare.media import read_media
 from helixd.prepare.media_figure import checked_media
 from tests.prepare.test_media import crossing, water_map

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.judge import patrol_times_s, plan_time_estimate
 from helixd.mission.model import load_mission
 from helixd.mission.validate import apply_mission_limits, plan_for_check

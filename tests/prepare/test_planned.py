@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.model import Mission
 from helixd.prepare.inputs import InputsRefused
 from helixd.prepare.planned import load_occupancy, place_labels, planned_flight, route_lines

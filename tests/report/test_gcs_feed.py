@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from helixd.config import GcsReportConfig
+from helixd.config.recorder import GcsReportConfig
 from helixd.report.gcs_feed import OUTBOX_MAX, GcsFeed, report_fallback
 from helixd.safety.supervisor import FallbackReport
 

@@ -12,7 +12,8 @@ from hypothesis import strategies as hs
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import GcsReportConfig, HelixdConfig
+from helixd.config.recorder import GcsReportConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.statustext import StatusTextAssembler
 from helixd.report.gcs_report import (
     GcsReporter,

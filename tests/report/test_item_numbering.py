@@ -15,7 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from helixd.base.plan import MotionMode, Numbering, program_numbering
-from helixd.config import GcsReportConfig, HelixdConfig
+from helixd.config.recorder import GcsReportConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.sequencer import Sequencer
 from helixd.mission.formats import load_mission_file
 from helixd.mission.resolve import Where, resolve

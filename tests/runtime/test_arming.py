@@ -8,9 +8,9 @@ from typing import cast
 
 import pytest
 
-from helixd.config import HelixdConfig
-from helixd.link.command_client import CommandRejected
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandRejected
 from helixd.link.vehicle import Change
 from helixd.report.notify import ServiceNotifier
 from helixd.runtime.arming import explain_arm_refusal, start_gate

@@ -21,7 +21,7 @@ def test_close_is_bounded(tmp_path: object) -> None:
     """A link whose close() hangs does not hang the exit: bounded by fallback_deadline_s."""
     from pathlib import Path
 
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.mission.model import Mission
     from helixd.runtime.daemon import MissionRunner, RunOptions
 
@@ -65,6 +65,11 @@ def test_close_is_bounded(tmp_path: object) -> None:
         (False, Ending(None, ExitCode.OK), True),
         # the crew released a flight of AUTO to the pilot (MANUAL): the pilot drives it
         (False, Ending(Fault(FaultCause.RELEASED, "MANUAL"), ExitCode.OPERATOR_STOP), False),
+        # the crew handed the flight to the next (a new place, another item): nobody disarms
+        (True, Ending(Fault(FaultCause.HANDOVER, "GUIDED"), ExitCode.OPERATOR_STOP), False),
+        (True, Ending(Fault(FaultCause.ITEM_SET, "item 3"), ExitCode.OPERATOR_STOP), False),
+        # the crew's pause of what we armed: disarmed, as a stop signal
+        (True, Ending(Fault(FaultCause.PAUSED, "switch"), ExitCode.OPERATOR_STOP), True),
     ],
 )
 def test_disarm_after(armed_by_us: bool, ending: Ending, disarm: bool | None) -> None:
@@ -78,7 +83,7 @@ def test_a_stop_during_preflight_acts_at_once(monkeypatch: pytest.MonkeyPatch) -
     from types import SimpleNamespace
     from typing import Any
 
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.mission.model import Mission
     from helixd.runtime.daemon import MissionRunner, RunOptions
     from helixd.runtime.setup import Held

@@ -8,7 +8,7 @@ import pytest
 from helixd.actuators.base import ServoCommandRefused
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import NedPose
-from helixd.link.command_client import CommandRejected, CommandTimeout
+from helixd.link.services.command_client import CommandRejected, CommandTimeout
 from helixd.mav.url import LinkError
 from helixd.mission.resolve import PlanError
 from helixd.runtime.ending import (

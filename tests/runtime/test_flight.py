@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 from helixd.actuators.base import ServoCommandRefused
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.plan import Plan
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.navigator import Navigator
-from helixd.link.command_client import CommandRejected
+from helixd.link.services.command_client import CommandRejected
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.vehicle import Change, PoseSample, PositionTarget, VehicleState
 from helixd.mission.expand import ExpandOptions

@@ -12,7 +12,7 @@ import pytest
 from helixd.base.frames import NedPose
 from helixd.base.geometry import BodyVelocity, Pose2D
 from helixd.base.plan import Numbering, Plan
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.navigator import Navigator
 from helixd.control.slip import SlipEstimate
 from helixd.link.vehicle import PoseSample

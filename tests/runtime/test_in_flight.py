@@ -11,7 +11,7 @@ from types import SimpleNamespace
 from typing import Any, cast
 
 from helixd.base.plan import Numbering, Plan
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.link.vehicle import VehicleState
 from helixd.mission.model import Mission

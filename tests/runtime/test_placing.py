@@ -9,7 +9,7 @@ import pytest
 
 from helixd.base.frames import NedPose
 from helixd.base.plan import MissionFrameKind
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.vehicle import HomePosition
 from helixd.mission.expand import DEFAULT_OPTIONS
 from helixd.mission.model import Mission

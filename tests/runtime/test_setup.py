@@ -6,7 +6,7 @@ import asyncio
 import time
 from typing import Any
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.runtime.setup import gps_verdict
 from tests.support.feed import Feed, still_pending
 from tests.support.mavmsgs import AP, decoded

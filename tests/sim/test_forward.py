@@ -21,7 +21,7 @@ from hypothesis import strategies as hs
 import helixd.control.kinematics as kin
 from helixd.base.geometry import BodyVelocity, NonFiniteError
 from helixd.base.plan import MotionMode
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.sim import forward
 from helixd.sim.physics import step
 from helixd.sim.sim_config import SimConfig, Terrain

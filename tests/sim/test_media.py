@@ -12,7 +12,7 @@ import pytest
 from pydantic import ValidationError
 
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.files.media import MediaMapError
 from helixd.sim.core import SimCore
 from helixd.sim.physics import scroll_positions_ne, step

@@ -124,7 +124,7 @@ def test_sim_world_takes_the_maps_occupied_cells_and_the_config_keep_outs(
     tmp_path: Path,
 ) -> None:
     from helixd.cli.simulated import sim_world
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.planning.mapfile import load_map
 
     occ = load_map(_write_map(tmp_path), 16_000_000)

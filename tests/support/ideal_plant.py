@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from helixd.base.angles import wrap_pi
 from helixd.base.geometry import BodyVelocity, Pose2D
 from helixd.base.plan import MotionMode
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.kinematics import body_to_fractions, constrain, fraction_to_radps
 from helixd.sim.forward import body_velocity
 

@@ -27,7 +27,7 @@ import yaml
 from helixd.base.clock import SimulatedClockLoop, now_s
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.app import flight_options
-from helixd.config import load_config
+from helixd.config.load import load_config
 from helixd.prepare.builder import FlightSource, MissionFile, prepare_flight
 from helixd.recorder import logging_setup
 from helixd.runtime.daemon import RunOutcome, run_mission
