@@ -14,7 +14,7 @@ Through ``sys.modules`` in a fresh interpreter:
 * the control core loads only the base (and numpy): no pydantic, YAML, asyncio or sockets, and
   nothing of the mission loader, the config or the I/O shell;
 * the simulator is an independent oracle: it loads nothing of the controller, the link or the
-  daemon (its physics has its own eq. 1, :mod:`helixd.sim.forward`).
+  daemon (its physics has its own eq. 1, :mod:`helixd.plant.forward`).
 """
 
 from __future__ import annotations

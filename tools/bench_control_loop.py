@@ -368,7 +368,7 @@ class FakeAutopilot:
 
     def gps_raw_int(self, t_ms: int) -> Any:
         """A 3D fix with 12 satellites, as ArduPilot streams GPS_RAW_INT (AP_GPS::
-        send_mavlink_gps_raw; helixd/sim/messages.py): ``time_usec`` is the fix's time, so it
+        send_mavlink_gps_raw; helixd/sim/firmware/messages.py): ``time_usec`` is the fix's time, so it
         moves with every report (a frozen one is a receiver that stopped: gps_lost); position
         as latitude/longitude near an arbitrary origin, speed and course from the plant."""
         lat_deg = GPS_ORIGIN_DEG[0] + math.degrees(self.north_m / EARTH_RADIUS_M)

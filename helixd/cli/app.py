@@ -69,6 +69,8 @@ from helixd.mission.describe import DEFAULT_WIDTH
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.locate import SEARCH_DIRS, available_missions
 from helixd.planning.mapfile import OccupancyMap
+from helixd.plant.ground import Terrain
+from helixd.plant.plant_config import Plant
 from helixd.prepare.builder import (
     AutopilotMission,
     FlightSource,
@@ -83,15 +85,7 @@ from helixd.prepare.planned import Flight, route_lines
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.runtime.daemon import RunOptions, run_mission
-from helixd.sim.sim_config import (
-    SPEEDUP_MAX,
-    SPEEDUP_MIN,
-    NoiseLevel,
-    Plant,
-    SimClock,
-    SimConfig,
-    Terrain,
-)
+from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, SimClock, SimConfig
 
 app = command_group(
     "helixd",

@@ -19,7 +19,7 @@ from helixd.mav.constants import (
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
     MAV_MODE_FLAG_SAFETY_ARMED,
 )
-from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.firmware.modes import MODE_NUMBERS
 from helixd.sim.sim_config import SimConfig
 from tests.support.harness import MavClient
 

@@ -20,7 +20,7 @@ from helixd.link.services.mission_link import AutopilotMissionLink, MissionClien
 from helixd.link.services.mission_transfer import MissionTransferError
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import MissionItem
-from helixd.sim.mission_server import MissionServer
+from helixd.sim.firmware.mission_server import MissionServer
 from tests.support.mavmsgs import stamp
 
 CFG = LinkConfig(mission_item_timeout_s=0.2, mission_retries=2)

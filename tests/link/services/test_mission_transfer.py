@@ -2,7 +2,7 @@
 mission protocol.
 
 No sockets: messages are packed and decoded as on the wire (so sender ids are real) and carried
-between the client and helixd.sim.mission_server.MissionServer by a channel that can drop and
+between the client and helixd.sim.firmware.mission_server.MissionServer by a channel that can drop and
 duplicate them, under hypothesis.
 """
 
@@ -24,7 +24,7 @@ from helixd.config.link import LinkConfig
 from helixd.link.services import mission_transfer as lm
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import MissionItem, wire_xy
-from helixd.sim.mission_server import MissionServer
+from helixd.sim.firmware.mission_server import MissionServer
 from tests.support.mavmsgs import stamp
 
 GCS = (255, 190)
