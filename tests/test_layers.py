@@ -49,7 +49,8 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("planning",),
     ("link",),  # transport, codec, plugins, vehicle state
     ("recorder", "actuators", "safety"),
-    ("runtime",),  # daemon phases, flight loop, GCS feed, notify, signals
+    ("prepare", "report"),  # a flight built and checked before anything is sent; reporting
+    ("runtime",),  # flying: daemon phases, flight loop, host, signals
     ("serve", "commands"),  # the all-day service; the one-shot commands' back ends
     ("cli",),  # typer app: parse, call, print
 )
@@ -195,6 +196,21 @@ def test_no_import_loop_between_modules() -> None:
         if not any(m.rpartition(".")[0] == n or n == m for m, n in itertools.pairwise(loop))
     ]
     assert real == [], " ; ".join(" → ".join(loop) for loop in real)
+
+
+def test_prepare_touches_nothing_of_the_link() -> None:
+    """What is built and checked before anything is sent never reaches the link, not even
+    through the recorder's readers it uses (resume directories, the ground profile)."""
+    graph = {m: imports_of(m) for m in MODULES}
+    prepare = [m for m in MODULES if _room(m) == "prepare"]
+    assert prepare
+    reached: set[str] = set()
+    todo = list(prepare)
+    while todo:
+        for nxt in graph[todo.pop()] - reached:
+            reached.add(nxt)
+            todo.append(nxt)
+    assert sorted(m for m in reached if _room(m) in ("link", "runtime", "report")) == []
 
 
 def test_no_reexport_shims_left() -> None:

@@ -556,15 +556,10 @@ async def run_daemon_side(
     from helixd.recorder.rows import FlightRow
     from helixd.recorder.rundir import RunRecorder
     from helixd.recorder.summary import SummaryBuilder
-    from helixd.runtime.display import ProgressDisplay
-    from helixd.runtime.flight import (
-        MANUAL_MODE,
-        FlightHooks,
-        FlightLoop,
-        PoseRejectedReport,
-        StepReport,
-    )
+    from helixd.report.display import ProgressDisplay
+    from helixd.runtime.flight import FlightHooks, FlightLoop, PoseRejectedReport, StepReport
     from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
+    from helixd.runtime.mode_gate import MANUAL_MODE
     from helixd.runtime.signals import StopRequest
 
     cfg = HelixdConfig.model_validate(

@@ -74,13 +74,7 @@ from helixd.mission.locate import SEARCH_DIRS, available_missions
 from helixd.planning.mapfile import OccupancyMap
 from helixd.plant.ground import Terrain
 from helixd.plant.plant_config import Plant
-from helixd.recorder.logging_setup import configure_logging
-from helixd.runtime import eventloop
-from helixd.runtime.daemon import RunOptions, run_mission
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.plan_report import check_lines, record_space_warning
-from helixd.runtime.planned import Flight, route_lines
-from helixd.runtime.prepare import (
+from helixd.prepare.builder import (
     AutopilotMission,
     FlightSource,
     MissionFile,
@@ -88,6 +82,12 @@ from helixd.runtime.prepare import (
     Resume,
     prepare_flight,
 )
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.plan_report import check_lines, record_space_warning
+from helixd.prepare.planned import Flight, route_lines
+from helixd.recorder.logging_setup import configure_logging
+from helixd.runtime import eventloop
+from helixd.runtime.daemon import RunOptions, run_mission
 from helixd.sim.sim_config import NoiseLevel, SimClock, SimConfig
 
 app = command_group(
@@ -221,7 +221,7 @@ def _check_plot(got: Prepared, plot: Path) -> None:
     """``check --plot``: the route planned around obstacles, the media map's areas under it;
     without a route, a media map's areas and the plan's stretches by mode; else say why not."""
     # deferred, as `helixd plot`'s: matplotlib (0.2 s) only when a plot is asked for
-    from helixd.runtime.media_figure import checked_media
+    from helixd.prepare.media_figure import checked_media
 
     flight = got.flight
     media = None

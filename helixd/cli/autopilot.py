@@ -29,7 +29,7 @@ from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
 from helixd.link.services.mission_link import Downloaded
 from helixd.mav.mission_item import MissionItem
-from helixd.runtime.autopilot_mission import (
+from helixd.prepare.autopilot_mission import (
     MISSION_NAME,
     FromAutopilot,
     MissionRefused,

@@ -26,9 +26,9 @@ from helixd.link.services.mission_transfer import MissionTransferError
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.planning.mapfile import OccupancyMap
 from helixd.plant.ground import Terrain, TerrainTable, read_ground_file
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.planned import load_occupancy
 from helixd.recorder.logging_setup import configure_logging
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.planned import load_occupancy
 
 T = TypeVar("T")
 

@@ -27,7 +27,7 @@ from helixd.recorder.export import (
 from helixd.recorder.logging_setup import configure_logging
 from helixd.recorder.rows import Value, read_flight_csv
 from helixd.recorder.summary import RunSummary
-from helixd.runtime.display import summary_rows, summary_table
+from helixd.report.display import summary_rows, summary_table
 
 RunDirArg = Annotated[
     Path,

@@ -23,12 +23,8 @@ from helixd.control.ground_fit import (
     merge_profiles,
 )
 from helixd.planning.media_modes import MODE_AXIS, config_modes
+from helixd.prepare.ground_learning import fit_params, learned_view, modes_from_profile
 from helixd.recorder.ground_profile import GroundProfile, identify_run
-from helixd.runtime.ground_learning import (
-    fit_params,
-    learned_view,
-    modes_from_profile,
-)
 
 PIN = re.compile(r"^(?P<medium>[a-z]+)/(?P<mode>[a-z]+)/(?P<axis>[a-z]+)=(?P<value>\S+)$")
 

@@ -31,7 +31,7 @@ class RecorderConfig(ConfigSection):
 
 
 # ---------------------------------------------------------------------------------------------
-# Ground-station report (STATUSTEXT / NAMED_VALUE_FLOAT, helixd.runtime.gcs_report)
+# Ground-station report (STATUSTEXT / NAMED_VALUE_FLOAT, helixd.report.gcs_report)
 
 
 class GcsReportConfig(ConfigSection):

@@ -18,7 +18,7 @@ be decided without the pose is decided identically in both places:
 
 The estimated time against ``safety.mission_time_limit_s`` needs the navigator's speed
 profile (:mod:`helixd.control.estimate`), which the mission loader does not load:
-:func:`helixd.runtime.timing.flight_problems` adds it.
+:func:`helixd.mission.judge.flight_problems` adds it.
 
 Config-only rules (channel conflicts, timeouts, polygon shape) are pydantic validators in
 :mod:`helixd.config`; they already ran when the config loaded.

@@ -15,8 +15,8 @@ from matplotlib.patches import PathPatch
 from helixd.config.root import HelixdConfig
 from helixd.files.media import read_media_map
 from helixd.mission.model import load_mission
+from helixd.prepare.media_figure import checked_media
 from helixd.recorder.plan_plots import draw_media_plan
-from helixd.runtime.media_figure import checked_media
 from tests.support.cli import check_out, run_main
 from tests.support.missions import mission_file
 from tests.support.paths import REPO_ROOT

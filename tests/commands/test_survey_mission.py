@@ -18,7 +18,7 @@ from helixd.mission.formats.areas import read_area
 from helixd.mission.resolve import resolve_plan
 from helixd.mission.validate import apply_mission_limits, mission_problems
 from helixd.planning.obstacles import clearance_m, rover_half_width_m
-from helixd.runtime.planned import plan_loaded
+from helixd.prepare.planned import plan_loaded
 from tests.support.paths import DATA_DIR
 
 CFG = HelixdConfig()

@@ -155,7 +155,7 @@ def test_check_plans_a_plan_around_its_exclusions_and_refuses_without_planning(
 
 
 def test_first_leg_of_a_global_plan_is_replanned_from_the_rover(tmp_path: Path) -> None:
-    from helixd.runtime.planned import first_leg_replanner
+    from helixd.prepare.planned import first_leg_replanner
 
     path = write_plan(tmp_path, [(20.0, 0.0), (20.0, 10.0)])  # waypoint 0 beyond the wall
     msn = load_mission_file(path, mode=MotionMode.ROLL, route_keep_outs=True).mission

@@ -8,7 +8,7 @@ from helixd.base.plan import MotionMode
 from helixd.config.media import MediaConfig
 from helixd.control.ground_check import GroundVerdict
 from helixd.mav.constants import MAV_SEVERITY_WARNING
-from helixd.runtime.gcs_report import PREFIX, chunk_statustext
+from helixd.report.gcs_report import PREFIX, chunk_statustext
 from helixd.runtime.ground_watch import GroundChange, check_params
 
 

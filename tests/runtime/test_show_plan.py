@@ -21,7 +21,7 @@ from helixd.config.root import HelixdConfig
 from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.formats.wire import gcs_to_wire
-from helixd.runtime.inputs import mission_vs_config
+from helixd.mission.judge import mission_vs_config
 from helixd.runtime.show_plan import plan_as_gcs, show_plan
 
 ORIGIN = (53.5233, -113.5263)

@@ -17,9 +17,9 @@ from helixd.link.services.command_client import CommandRejected
 from helixd.link.vehicle import VehicleState
 from helixd.mav.constants import MAV_RESULT_DENIED
 from helixd.mission.expand import ExpandOptions
+from helixd.prepare.builder import AutoWalk
 from helixd.recorder.summary import RunSummary
 from helixd.runtime.host import ServeHost
-from helixd.runtime.prepare import AutoWalk
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import FallbackReport
 from helixd.safety.watchdogs import FaultCause

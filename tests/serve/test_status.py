@@ -9,8 +9,8 @@ from helixd.base.clock import now_s
 from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_ERROR, MAV_SEVERITY_NOTICE
-from helixd.runtime.gcs_feed import GcsFeed
-from helixd.runtime.notify import ServiceNotifier
+from helixd.report.gcs_feed import GcsFeed
+from helixd.report.notify import ServiceNotifier
 from helixd.serve.core import ServeState
 from helixd.serve.status import HX_STATE_NAME, ServeStatus
 

@@ -15,8 +15,8 @@ from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.validate import plan_for_check
 from helixd.planning.media_modes import MediaPlan
+from helixd.prepare.media import MediaRefused, check_media_plan
 from helixd.recorder.media_plot import PlacedMedia
-from helixd.runtime.media_plan import MediaRefused, check_media_plan
 
 __all__ = ["CheckedMedia", "checked_media"]
 

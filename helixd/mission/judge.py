@@ -1,9 +1,13 @@
-"""How long a mission takes, against its time limit: the navigator's own speed profile
-(:func:`helixd.control.estimate.estimate_time`) on the plan as it will be flown.
+"""A mission judged against the config, whole: what :mod:`helixd.mission.validate` finds, and
+how long it takes against its time limit on the navigator's own speed profile
+(:func:`helixd.control.estimate.estimate_time`, on the plan as it will be flown).
 
-:func:`flight_problems` is :func:`helixd.mission.validate.mission_problems` plus the time
-check, so ``check``, ``run`` and the daemon's preflight refuse the same missions; the mission
-loader itself loads nothing of the controller.
+:func:`mission_vs_config` is every check that needs no vehicle (the plan resolved for the
+check, servo outputs, the time), so ``check``, ``run``, ``serve`` and the daemon's preflight
+refuse the same missions; :func:`flight_problems` is
+:func:`helixd.mission.validate.mission_problems` plus the time check. The mission loader
+itself (:mod:`helixd.mission.validate` and below) loads nothing of the controller; this module
+is the one of the mission layer that does.
 
 * ``start`` missions are estimated from the start point, facing +x;
 * ``local_ned``/``global`` missions from the pose at preflight; before it (``check``) from
@@ -18,17 +22,26 @@ plan costs a second and a half per estimate on this machine.
 from __future__ import annotations
 
 import math
-from typing import Unpack
+from typing import NamedTuple, Unpack
 
 from helixd.base.frames import NedPose
 from helixd.base.plan import MissionFrameKind, Plan
 from helixd.config.control import ControlConfig
 from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
-from helixd.mission.expand import DEFAULT_OPTIONS
+from helixd.files.yamlio import paused_gc
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import NOWHERE, PlanError, resolve_plan
-from helixd.mission.validate import Judged, Placing, judge_mission, plan_for_check
+from helixd.mission.validate import (
+    Judged,
+    Placing,
+    judge_mission,
+    plan_for_check,
+    resolved_for_check,
+    servo_problems,
+    start_warnings,
+)
 
 _EstimateKey = tuple[Plan, ControlConfig, tuple[float, float] | None, float | None]
 _last_estimate: list[tuple[_EstimateKey, TimeEstimate]] = []  # at most one entry
@@ -159,10 +172,49 @@ def flight_problems(mission: Mission, cfg: HelixdConfig, **placing: Unpack[Placi
     return judge_flight(mission, cfg, **placing).problems
 
 
+class MissionChecked(NamedTuple):
+    """:func:`mission_vs_config`'s plan, whether it is provisional, and the config in force."""
+
+    plan: Plan
+    provisional: bool  # a global plan shown relative to waypoint 0 (EKF origin not known)
+    cfg: HelixdConfig  # with the mission's own limits applied
+
+
+def mission_vs_config(
+    cfg: HelixdConfig,
+    msn: Mission,
+    label: str,
+    problems: list[str],
+    options: ExpandOptions = DEFAULT_OPTIONS,
+    notes: list[str] | None = None,
+) -> MissionChecked | None:
+    """The plan as :func:`plan_for_check` resolves it and the config in force for the mission
+    (its own limits applied), after the mission-vs-config checks (what can be checked without
+    the vehicle); problems are appended, prefixed by ``label``, and what the walk through the
+    mission's commands noted (skipped items, …) to ``notes``."""
+    try:
+        with paused_gc():  # large acyclic plan: see yamlio.paused_gc
+            resolved, provisional = resolved_for_check(msn, cfg, options)
+    except PlanError as exc:
+        problems.append(f"{label}: {exc}")
+        return None
+    checked = (resolved.plan, provisional)
+    problems.extend(f"{label}: {p}" for p in (*resolved.problems, *servo_problems(msn, cfg)))
+    if notes is not None:
+        notes.extend(f"note: {n}" for n in resolved.notes)
+    judged = judge_flight(msn, cfg, checked_plan=checked, options=options)
+    problems.extend(f"{label}: {p}" for p in judged.problems)
+    if notes is not None and provisional:
+        notes.extend(f"warning: {label}: {w}" for w in start_warnings(msn, cfg, resolved.plan))
+    return MissionChecked(resolved.plan, provisional, judged.cfg)
+
+
 __all__ = [
+    "MissionChecked",
     "flight_problems",
     "judge_flight",
     "limit_problems",
+    "mission_vs_config",
     "patrol_time_problems",
     "patrol_times_s",
     "plan_time_estimate",

@@ -14,7 +14,7 @@ from helixd.control.estimate import estimate_time
 from helixd.control.ground_fit import Learned
 from helixd.control.slip import SlipEstimator
 from helixd.planning.media_modes import config_modes
-from helixd.runtime.ground_learning import (
+from helixd.prepare.ground_learning import (
     learn_from_run,
     profile_path,
     slip_priors,

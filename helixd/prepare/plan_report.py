@@ -10,6 +10,7 @@ Pure: lines of text out; the CLI prints them.
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 from helixd.base.media import MediaMap, Medium
@@ -18,24 +19,15 @@ from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate, delivered_fractions
 from helixd.mission.describe import DEFAULT_WIDTH, program_lines
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.judge import patrol_times_s, plan_time_estimate
 from helixd.mission.model import Mission
 from helixd.mission.resolve import places_from
 from helixd.mission.validate import pending_checks, plan_for_check
-from helixd.planning.media_modes import medium_under_mode_m
+from helixd.planning.media_modes import MediaPlan, ModePolicy, medium_under_mode_m, pinned_misfits
 from helixd.planning.route import RoutePlan
+from helixd.prepare.media import MediaCheck, check_media_plan, media_path, mode_policy
+from helixd.prepare.planned import route_lines, route_time_estimate
 from helixd.recorder.retention import DiskUsage, low_space
-from helixd.runtime.media_plan import (
-    MediaCheck,
-    check_media_plan,
-    media_path,
-    mode_policy,
-    modes_text,
-    pinned_warnings,
-    shown_path,
-    stretch_lines,
-)
-from helixd.runtime.planned import route_lines, route_time_estimate
-from helixd.runtime.timing import patrol_times_s, plan_time_estimate
 
 MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
 
@@ -292,12 +284,79 @@ def record_space_warning(
     return None if check is None else f"{check.text(root)} (recorder.run_root)"
 
 
+def stretch_lines(got: MediaPlan) -> list[str]:
+    """``check``'s lines: each stretch's medium and mode, each change of mode."""
+    lines: list[str] = []
+    transitions = iter(got.transitions)
+    for k, st in enumerate(got.stretches):
+        media = ", ".join(f"{m.value} {length:.1f} m" for m, length in st.media_m if length > 0.05)
+        pinned = " (the waypoint's own mode)" if st.pinned else ""
+        lines.append(
+            f"stretch : {k + 1}  {st.start_m:6.1f} → {st.end_m:6.1f} m  {st.mode.value:<6} "
+            f"over {media or st.main_medium.value}{pinned}"
+        )
+        after = got.stretches[k + 1] if k + 1 < len(got.stretches) else None
+        # a change of mode stands between two stretches in different modes only (a pinned
+        # stretch and its unpinned neighbour in the same mode have none between them)
+        t = next(transitions, None) if after is not None and after.mode is not st.mode else None
+        if t is not None:
+            turn = "stop, turn 90° in place" if t.turn_rad > 0.0 else "stop, no turn (OMNI)"
+            lines.append(
+                f"change  : {t.before.value} → {t.after.value} at ({t.xy_m[0]:.1f}, "
+                f"{t.xy_m[1]:.1f}) on {t.medium.value}: {turn}"
+            )
+    return lines
+
+
+def pinned_warnings(got: MediaPlan, policy: ModePolicy) -> list[str]:
+    """``check``'s warning for each leg a waypoint pins to a mode over ground that mode cannot
+    move in (the map's modes say another): rolling barely moves in water and mud."""
+    lines: list[str] = []
+    for k, st, misfit in pinned_misfits(got, policy):
+        where = ", ".join(f"{m.value} {length:.1f} m" for m, length in misfit)
+        wants = "/".join(dict.fromkeys(policy.mode_for(m).value for m, _ in misfit))
+        lines.append(
+            f"warning : stretch {k + 1} is pinned to {st.mode.value} by its waypoint's mode "
+            f"across {where}, which the map's modes fly in {wants}: {st.mode.value} barely "
+            "moves there, the estimate does not count it, and in flight the ground check "
+            "changes the mode where the rover bogs down — drop the waypoint's `mode:` to let "
+            "the map choose"
+        )
+    return lines
+
+
+def shown_path(path: Path | None) -> str:
+    """A file as a crew reads it: relative to the working directory (as a mission names its
+    map, ``../maps/pond-media.geojson``) unless the absolute path is shorter."""
+    if path is None:
+        return "(none)"
+    try:
+        relative = os.path.relpath(path, Path.cwd())
+    except ValueError:  # another drive
+        return str(path)
+    return relative if len(relative) <= len(str(path)) else str(path)
+
+
+def modes_text(plan: Plan) -> str:
+    """``roll``, or ``roll/scroll`` for a plan whose mode follows the medium."""
+    seen: list[MotionMode] = []
+    for i in range(len(plan.waypoints)):
+        m = plan.mode_at(i)
+        if m not in seen:
+            seen.append(m)
+    return "/".join(m.value for m in seen) or plan.mode.value
+
+
 __all__ = [
     "MAX_TABLE_ROWS",
     "check_lines",
     "dig_in_warning",
     "estimate_line",
     "ground_line",
+    "modes_text",
+    "pinned_warnings",
     "record_space_warning",
+    "shown_path",
+    "stretch_lines",
     "waypoint_table",
 ]

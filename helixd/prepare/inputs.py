@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import NamedTuple
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan
@@ -19,7 +18,7 @@ from helixd.base.run_files import MISSION_FILE
 from helixd.config.load import config_to_yaml, load_config
 from helixd.config.root import HelixdConfig
 from helixd.files.models import ConfigFileError, as_items
-from helixd.files.yamlio import clip_line, paused_gc
+from helixd.files.yamlio import clip_line
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import (
     MissionFormat,
@@ -31,9 +30,9 @@ from helixd.mission.formats import (
     with_fence,
 )
 from helixd.mission.formats.items import FormatError, GcsMission
+from helixd.mission.judge import MissionChecked, mission_vs_config
 from helixd.mission.locate import MissionNotFound, locate_mission
 from helixd.mission.model import Mission
-from helixd.mission.resolve import PlanError
 from helixd.mission.resume import (
     ResumeRefused,
     RunInputs,
@@ -43,13 +42,7 @@ from helixd.mission.resume import (
     resumed_inputs,
     sha256_text,
 )
-from helixd.mission.validate import (
-    resolved_for_check,
-    servo_problems,
-    start_warnings,
-)
 from helixd.recorder.resume_dir import read_run_dir
-from helixd.runtime.timing import judge_flight
 
 
 class InputsRefused(Problems):
@@ -159,43 +152,6 @@ def load_inputs(
     # the mission's own fence/time limit (a survey's) replace the config's for this run
     plan, provisional, cfg = checked
     return LoadedInputs(cfg, msn, path, plan, provisional, tuple(notes), fence_gcs, options)
-
-
-class MissionChecked(NamedTuple):
-    """:func:`mission_vs_config`'s plan, whether it is provisional, and the config in force."""
-
-    plan: Plan
-    provisional: bool  # a global plan shown relative to waypoint 0 (EKF origin not known)
-    cfg: HelixdConfig  # with the mission's own limits applied
-
-
-def mission_vs_config(
-    cfg: HelixdConfig,
-    msn: Mission,
-    label: str,
-    problems: list[str],
-    options: ExpandOptions = DEFAULT_OPTIONS,
-    notes: list[str] | None = None,
-) -> MissionChecked | None:
-    """The plan as :func:`plan_for_check` resolves it and the config in force for the mission
-    (its own limits applied), after the mission-vs-config checks (what can be checked without
-    the vehicle); problems are appended, prefixed by ``label``, and what the walk through the
-    mission's commands noted (skipped items, …) to ``notes``."""
-    try:
-        with paused_gc():  # large acyclic plan: see yamlio.paused_gc
-            resolved, provisional = resolved_for_check(msn, cfg, options)
-    except PlanError as exc:
-        problems.append(f"{label}: {exc}")
-        return None
-    checked = (resolved.plan, provisional)
-    problems.extend(f"{label}: {p}" for p in (*resolved.problems, *servo_problems(msn, cfg)))
-    if notes is not None:
-        notes.extend(f"note: {n}" for n in resolved.notes)
-    judged = judge_flight(msn, cfg, checked_plan=checked, options=options)
-    problems.extend(f"{label}: {p}" for p in judged.problems)
-    if notes is not None and provisional:
-        notes.extend(f"warning: {label}: {w}" for w in start_warnings(msn, cfg, resolved.plan))
-    return MissionChecked(resolved.plan, provisional, judged.cfg)
 
 
 def recorded_mission_yaml(mission_path: Path, msn: Mission, mode: MotionMode | None) -> str:
