@@ -1298,6 +1298,15 @@ class GroundConfig(InputModel):
         description="media.modes learned picks per medium the mode that is fastest (time) or "
         "spends the least energy per metre (energy)",
     )
+    speed_cap_margin: float = Field(
+        0.9,
+        gt=0.0,
+        le=1.0,
+        description="where the profile knows a medium in a mode, the speed commanded there "
+        "keeps the scrolls' demand within this share of their full speed: margin x what the "
+        "ground delivers at full speed where the feed-forward makes the slip up "
+        "(helixd.control.ground_cap) (1)",
+    )
 
 
 class HelixdConfig(InputModel):
