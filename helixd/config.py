@@ -1040,7 +1040,7 @@ class PlanningConfig(InputModel):
 
 
 # ---------------------------------------------------------------------------------------------
-# Ground-station report (STATUSTEXT / NAMED_VALUE_FLOAT, helixd.runtime.gcs_report)
+# Ground-station report (STATUSTEXT / NAMED_VALUE_FLOAT, helixd.report.gcs_report)
 
 
 class GcsReportConfig(InputModel):

@@ -14,7 +14,7 @@ Through ``sys.modules`` in a fresh interpreter:
 * the control core loads only the base (and numpy): no pydantic, YAML, asyncio or sockets, and
   nothing of the mission loader, the config or the I/O shell;
 * the simulator is an independent oracle: it loads nothing of the controller, the link or the
-  daemon (its physics has its own eq. 1, :mod:`helixd.sim.forward`).
+  daemon (its physics has its own eq. 1, :mod:`helixd.plant.forward`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,8 @@ from pathlib import Path
 
 import pytest
 
-from helixd.config import ControlConfig, ScrollCalibration, SlipConfig, VehicleConfig
+from helixd.config.control import ControlConfig, SlipConfig
+from helixd.config.vehicle import ScrollCalibration, VehicleConfig
 from helixd.control import params
 from tests.support.paths import REPO_ROOT
 
@@ -96,7 +97,7 @@ def imports_of(module: str, path: Path | None = None) -> set[str]:
 
 
 def _room(module: str) -> str:
-    """The package (or top-level module) a module lives in: helixd.link.codec → link."""
+    """The package (or top-level module) a module lives in: helixd.link.wire.codec → link."""
     parts = module.split(".")
     return parts[1] if len(parts) > 1 else ""
 
@@ -138,7 +139,7 @@ def test_packages_import_only_lower_rows() -> None:
         ("helixd.config", "helixd.link.connection"),  # a lower row importing a higher one
         ("helixd.mission.model", "helixd.recorder.events"),
         ("helixd.control.navigator", "helixd.files.yamlio"),  # same row, not below
-        ("helixd.sim.core", "helixd.link.codec"),  # the simulator stands apart
+        ("helixd.sim.core", "helixd.link.wire.codec"),  # the simulator stands apart
         ("helixd.runtime.daemon", "helixd.sim.server"),  # only the CLI starts a simulator
     ],
 )
@@ -385,12 +386,12 @@ def test_the_import_checker_names_a_reexported_name(tmp_path: Path) -> None:
     probe.write_text(
         "from helixd.mav.constants import MAV_CMD_DO_SET_SERVO\n"  # defined there
         "from helixd.mav import servo_functions\n"  # a submodule
-        "from helixd.link.preflight import DO_SET_SERVO_FUNCTIONS\n"  # only imported there
+        "from helixd.link.services.preflight import DO_SET_SERVO_FUNCTIONS\n"  # only imported there
     )
     offenders = indirect_imports([probe])
     assert len(offenders) == 1
     assert offenders[0].endswith(
-        ":3 DO_SET_SERVO_FUNCTIONS from helixd.link.preflight, which does not define it"
+        ":3 DO_SET_SERVO_FUNCTIONS from helixd.link.services.preflight, which does not define it"
     )
 
 

@@ -21,7 +21,7 @@ import math
 from collections.abc import Iterable, Sequence
 from typing import Generic, TypeVar
 
-from helixd.config import ActuationConfig, ChannelConfig, VehicleConfig
+from helixd.config.vehicle import ActuationConfig, ChannelConfig, VehicleConfig
 from helixd.mav.constants import UINT16_MAX
 
 SenderT = TypeVar("SenderT")

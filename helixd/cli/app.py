@@ -62,20 +62,16 @@ from helixd.cli.simulated import (
     with_sim_files,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.mav.url import LinkError
 from helixd.mission.describe import DEFAULT_WIDTH
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.locate import SEARCH_DIRS, available_missions
 from helixd.planning.mapfile import OccupancyMap
-from helixd.recorder.logging_setup import configure_logging
-from helixd.runtime import eventloop
-from helixd.runtime.daemon import RunOptions, run_mission
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.plan_report import check_lines, record_space_warning
-from helixd.runtime.planned import Flight, route_lines
-from helixd.runtime.prepare import (
+from helixd.plant.ground import Terrain
+from helixd.plant.plant_config import Plant
+from helixd.prepare.builder import (
     AutopilotMission,
     FlightSource,
     MissionFile,
@@ -83,15 +79,13 @@ from helixd.runtime.prepare import (
     Resume,
     prepare_flight,
 )
-from helixd.sim.sim_config import (
-    SPEEDUP_MAX,
-    SPEEDUP_MIN,
-    NoiseLevel,
-    Plant,
-    SimClock,
-    SimConfig,
-    Terrain,
-)
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.plan_report import check_lines, record_space_warning
+from helixd.prepare.planned import Flight, route_lines
+from helixd.recorder.logging_setup import configure_logging
+from helixd.runtime import eventloop
+from helixd.runtime.daemon import RunOptions, run_mission
+from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, SimClock, SimConfig
 
 app = command_group(
     "helixd",
@@ -224,7 +218,7 @@ def _check_plot(got: Prepared, plot: Path) -> None:
     """``check --plot``: the route planned around obstacles, the media map's areas under it;
     without a route, a media map's areas and the plan's stretches by mode; else say why not."""
     # deferred, as `helixd plot`'s: matplotlib (0.2 s) only when a plot is asked for
-    from helixd.runtime.media_figure import checked_media
+    from helixd.prepare.media_figure import checked_media
 
     flight = got.flight
     media = None
@@ -236,7 +230,7 @@ def _check_plot(got: Prepared, plot: Path) -> None:
         )
         typer.echo(f"plot    : {plot} not written: {why}")  # said, not silently skipped
         return
-    from helixd.recorder.plots import render_media_plan, render_route  # start-up: matplotlib
+    from helixd.recorder.plan_plots import render_media_plan, render_route  # start-up: matplotlib
 
     name = got.mission.name
     try:

@@ -28,7 +28,7 @@ from helixd.commands.survey_mission import SurveyRefused, survey_lines, survey_m
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import Autopilot
-from helixd.link.mission_link import Downloaded
+from helixd.link.services.mission_link import Downloaded
 from helixd.mission.commands import command_name
 from helixd.mission.formats import (
     MissionFormat,

@@ -27,11 +27,13 @@ from helixd.cli.simulated import (
     with_sim_files,
 )
 from helixd.mav.url import LinkError, parse_link_url
+from helixd.plant.ground import Terrain
+from helixd.plant.plant_config import Plant
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.serve.options import ServeOptions
 from helixd.serve.service import serve
-from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
+from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel
 
 __all__ = ["register"]
 

@@ -18,9 +18,10 @@ from helixd.cli.common import SimGroundOpt, SimTerrainOpt, fail, read_sim_ground
 from helixd.cli.simulated import read_sim_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, format_validation_error, load_yaml_model
+from helixd.plant.plant_config import Plant
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
 from helixd.sim.server import SimServer
-from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, SimConfig
+from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, SimConfig
 
 log = structlog.get_logger(__name__)
 

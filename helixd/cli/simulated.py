@@ -24,7 +24,8 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
 from helixd.cli.common import fail, read_sim_ground
-from helixd.config import HelixdConfig, KeepOutCircleConfig
+from helixd.config.mission import KeepOutCircleConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.bathymetry import Bathymetry, read_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError
@@ -39,10 +40,12 @@ from helixd.mission.formats import fence_has_keep_outs
 from helixd.mission.formats.items import GcsMission, fence_ne
 from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import rover_half_width_m
+from helixd.plant.collisions import ObstacleRaster, SimObstacles
+from helixd.plant.ground import Terrain, TerrainTable
+from helixd.plant.plant_config import Plant
 from helixd.recorder.logging_setup import configure_logging
-from helixd.sim.collisions import ObstacleRaster, SimObstacles
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url, start_embedded
-from helixd.sim.sim_config import NoiseLevel, Plant, SimClock, SimConfig, Terrain, TerrainTable
+from helixd.sim.sim_config import NoiseLevel, SimClock, SimConfig
 
 T = TypeVar("T")
 

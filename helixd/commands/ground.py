@@ -11,7 +11,7 @@ from pathlib import Path
 
 from helixd.base.media import MediaMap, Medium
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.ground_fit import (
     AXES,
     DRIVEN,
@@ -22,13 +22,13 @@ from helixd.control.ground_fit import (
     merge_profiles,
 )
 from helixd.planning.media_modes import MODE_AXIS
-from helixd.recorder.ground_profile import GroundProfile, identify_run
-from helixd.runtime.ground_learning import (
+from helixd.prepare.ground_learning import (
     default_modes,
     fit_params,
     learned_view,
     modes_from_profile,
 )
+from helixd.recorder.ground_profile import GroundProfile, identify_run
 
 PIN = re.compile(r"^(?P<medium>[a-z]+)/(?P<mode>[a-z]+)/(?P<axis>[a-z]+)=(?P<value>\S+)$")
 

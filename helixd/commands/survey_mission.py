@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pydantic import ValidationError
 
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
 from helixd.mission.formats.areas import SurveyArea
 from helixd.mission.model import Mission

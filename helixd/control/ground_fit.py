@@ -69,7 +69,7 @@ MAX_RUNS = 200  # run names a cell keeps (the newest)
 # What each medium delivers (roll, scroll, yaw) before the rover has learnt it: the sourced
 # table (docs/physics.md, "The ground table"; the simulator's default table holds the same
 # numbers, tests/control/test_ground_fit.py checks it). The time estimate counts it where the
-# profile knows too little (helixd.runtime.ground_learning.with_learned_ground).
+# profile knows too little (helixd.prepare.ground_learning.with_learned_ground).
 SOURCED_FRACTIONS: Mapping[Medium, tuple[float, float, float]] = {
     Medium.HARD: (0.95, 0.12, 0.85),
     Medium.GRASS: (0.9, 0.25, 0.75),

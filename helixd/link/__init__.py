@@ -2,5 +2,5 @@
 
 The daemon codes against :class:`helixd.link.connection.Autopilot`; errors are
 :class:`helixd.mav.url.LinkError` (and its ``LinkTimeout``),
-:class:`helixd.link.command_client.CommandError` (and its ``CommandRejected`` / ``CommandTimeout``).
+:class:`helixd.link.services.command_client.CommandError` (and its ``CommandRejected`` / ``CommandTimeout``).
 """

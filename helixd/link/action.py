@@ -1,6 +1,6 @@
 """The action plugin (MAVSDK's shape): arm, disarm, flight mode, RC override, servo, and any
 COMMAND_LONG — the commands the daemon sends to the autopilot. Acknowledgements, re-sends and
-refusal texts are :class:`helixd.link.command_client.CommandClient`'s; nothing here decides to stop
+refusal texts are :class:`helixd.link.services.command_client.CommandClient`'s; nothing here decides to stop
 the rover.
 """
 
@@ -13,11 +13,11 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import LinkConfig
-from helixd.link.codec import MavlinkConnection
-from helixd.link.command_client import CommandClient, CommandError, CommandRejected
+from helixd.config.link import LinkConfig
+from helixd.link.services.command_client import CommandClient, CommandError, CommandRejected
 from helixd.link.telemetry import ChangeWaiters
 from helixd.link.vehicle import Change, HomePosition, VehicleState, mode_number
+from helixd.link.wire.codec import MavlinkConnection
 from helixd.mav.arming import (
     FORCE_ARM_MAGIC,
     K_SCRIPTING1,

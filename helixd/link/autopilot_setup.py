@@ -13,7 +13,7 @@ A normal arm (no force, every PreArm check made) needs, besides GPS/EKF/battery/
   once a receiver sends): ``RCMAP_THROTTLE``'s channel n must read ``RCn_TRIM ± RCn_DZ``,
   or "Arm: Throttle (RCn) is not neutral". The line says what it must read and what it reads
   (RC_CHANNELS), and to move the stick or switch there — never to force the arm.
-* what preflight checks before every run (:func:`helixd.link.preflight.judge`): the scroll
+* what preflight checks before every run (:func:`helixd.link.services.preflight.judge`): the scroll
   outputs as the backend needs them (RC passthrough RCINn for ``rc_override``, function 0 for
   ``servo``), helixd's system id as the GCS id, RC_OVERRIDE_TIME, FS_GCS_ENABLE, the guard.
 
@@ -28,8 +28,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
-from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
-from helixd.link.preflight import (
+from helixd.config.link import LinkConfig
+from helixd.config.vehicle import ActuationBackend, ActuationConfig
+from helixd.link.services.preflight import (
     LEGACY_GCS_SYSID,
     RADIO_PARAMS,
     ParamReader,

@@ -1,7 +1,7 @@
 """The codec: MAVLink 2 framing, decode, system filtering, encode and signing on a transport
 (:class:`MavlinkConnection`), and its fast paths.
 
-Fast paths. :func:`helixd.link.framing.scan_frames` has already checked the frame's CRC (with
+Fast paths. :func:`helixd.link.wire.framing.scan_frames` has already checked the frame's CRC (with
 the message's CRC_EXTRA) before anything here runs; pymavlink's ``decode`` would parse the
 header and compute the CRC a second time and then build the message the same way this does.
 For an *unsigned* frame of a message without arrays or strings (every stream the daemon flies
@@ -31,12 +31,12 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import LinkConfig
-from helixd.link.framing import FrameKind, scan_frames, whole_frame_msgid, x25_crc
-from helixd.link.ownid import OwnIdSenders
-from helixd.link.signing import enable_signing
-from helixd.link.tlog import LinkTlog
-from helixd.link.transport import Address, OnLost, make_transport
+from helixd.config.link import LinkConfig
+from helixd.link.wire.framing import FrameKind, scan_frames, whole_frame_msgid, x25_crc
+from helixd.link.wire.ownid import OwnIdSenders
+from helixd.link.wire.signing import enable_signing
+from helixd.link.wire.tlog import LinkTlog
+from helixd.link.wire.transport import Address, OnLost, make_transport
 from helixd.mav.url import LinkError, LinkUrl
 
 log = structlog.get_logger(__name__)
@@ -219,7 +219,7 @@ class MavlinkConnection:
         self.transport = make_transport(url, cfg, self._on_data, self._transport_lost)
         self.closed = False
         self._reopen_task: asyncio.Task[None] | None = None
-        self.tlog: LinkTlog | None = None  # every frame sent/read (helixd.link.tlog.attach_tlog)
+        self.tlog: LinkTlog | None = None  # every frame sent/read (helixd.link.wire.tlog.attach_tlog)
 
     def _new_codec(self, system: int) -> Any:
         mav = mavlink.MAVLink(None, srcSystem=system, srcComponent=self.cfg.source_component)
@@ -261,7 +261,7 @@ class MavlinkConnection:
         self, target_system: int, target_component: int, channels_us: Sequence[int]
     ) -> bool:
         """RC_CHANNELS_OVERRIDE (18 values, already checked), without a message object on an
-        unsigned link (see :mod:`helixd.link.codec`)."""
+        unsigned link (see :mod:`helixd.link.wire.codec`)."""
         if _RC_OVERRIDE_ID in self.never_send:
             raise NeverSent("this link never sends RC_CHANNELS_OVERRIDE")
         mav = self.mav
@@ -293,7 +293,7 @@ class MavlinkConnection:
         return ok
 
     def _on_data(self, data: bytes, addr: Address | None, rx_s: float) -> None:
-        """Parse what one read returned (see :mod:`helixd.link.framing`); never raises.
+        """Parse what one read returned (see :mod:`helixd.link.wire.framing`); never raises.
 
         A UDP datagram (``addr`` set) is parsed on its own: no parser state is carried into
         the next datagram. A stream keeps only an incomplete trailing frame for the next read.
@@ -383,7 +383,7 @@ class MavlinkConnection:
             log.exception("message_handler_failed", type=msg.get_type())
 
     def _note_own_id(self, msg: MavMsg) -> None:
-        """A message from *our* system id: somebody else uses it (see helixd.link.ownid)."""
+        """A message from *our* system id: somebody else uses it (see helixd.link.wire.ownid)."""
         mtype = str(msg.get_type())
         mav_type = int(msg.type) if mtype == "HEARTBEAT" else None
         compid = int(msg.get_srcComponent())

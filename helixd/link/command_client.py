@@ -34,7 +34,7 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link.vehicle import VehicleState
 from helixd.mav.constants import MAV_RESULT_ACCEPTED, MAV_RESULT_IN_PROGRESS
 from helixd.mav.url import LinkError

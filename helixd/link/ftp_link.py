@@ -1,7 +1,7 @@
 """The FTP plugin: MAVLink FTP over the daemon's link, attached to
 :class:`helixd.link.connection.Autopilot` as ``ap.ftp`` (``await ap.ftp.run(exchange)``), over
-an :class:`helixd.link.ftp_transfer.FtpLink` adapter on the Autopilot, so
-:func:`helixd.link.ftp_transfer.run_ftp` works over a real autopilot.
+an :class:`helixd.link.services.ftp_transfer.FtpLink` adapter on the Autopilot, so
+:func:`helixd.link.services.ftp_transfer.run_ftp` works over a real autopilot.
 
 Received FILE_TRANSFER_PROTOCOL messages come through the Autopilot's message listener (every
 message of the autopilot's system, already filtered by the codec); this adapter keeps those
@@ -15,9 +15,9 @@ from __future__ import annotations
 
 from typing import Any, Protocol, TypeVar
 
-from helixd.config import LinkConfig
-from helixd.link.ftp_transfer import FtpExchange, run_ftp
-from helixd.link.inbox import Inbox, ListenerHost, Listening
+from helixd.config.link import LinkConfig
+from helixd.link.services.ftp_transfer import FtpExchange, run_ftp
+from helixd.link.services.inbox import Inbox, ListenerHost, Listening
 from helixd.mav.ftp_wire import FtpPayload, FtpPayloadError, from_message, to_message
 
 __all__ = ["AutopilotFtpLink", "FtpClient", "FtpHost"]
@@ -85,6 +85,6 @@ class FtpClient:
 
     async def run(self, exchange: E) -> E:
         """:func:`run_ftp` over the autopilot's link; raises the exchange's
-        :class:`helixd.link.ftp_transfer.FtpTransferError` if it failed."""
+        :class:`helixd.link.services.ftp_transfer.FtpTransferError` if it failed."""
         with AutopilotFtpLink(self._host) as link:
             return await run_ftp(exchange, link)

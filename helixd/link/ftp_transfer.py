@@ -7,7 +7,7 @@
 to go out as a FILE_TRANSFER_PROTOCOL message to the autopilot (``helixd.mav.ftp_wire.to_message``).
 ``done`` says it ended, ``error`` why it failed (None: success), ``deadline_s`` when
 ``on_time`` is due next. They read no clock, do no I/O and log nothing; :func:`run_ftp` is the
-thin async shell over an :class:`FtpLink` (``helixd.link.ftp_link`` adapts the Autopilot).
+thin async shell over an :class:`FtpLink` (``helixd.link.services.ftp_link`` adapts the Autopilot).
 
 A :class:`DirectoryProbe` sends ListDirectory of its path at offset 0: an ACK (entries) or an
 EndOfFile NAK (an empty directory) means it exists, a FileNotFound NAK that it does not
@@ -52,7 +52,7 @@ from enum import Enum
 from typing import Protocol, TypeVar
 
 from helixd.base.clock import now_s
-from helixd.link.inbox import drive
+from helixd.link.services.inbox import drive
 from helixd.mav.ftp_wire import (
     MAX_DATA_LEN,
     FtpErr,

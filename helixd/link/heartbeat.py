@@ -9,8 +9,8 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import LinkConfig
-from helixd.link.codec import MavlinkConnection
+from helixd.config.link import LinkConfig
+from helixd.link.wire.codec import MavlinkConnection
 
 log = structlog.get_logger(__name__)
 

@@ -1,7 +1,7 @@
 """The mission plugin: the mission protocol over the daemon's link, attached to
 :class:`helixd.link.connection.Autopilot` as ``ap.mission`` (``await ap.mission.download()``,
 ``await ap.mission.upload(mission, fence)``), over a
-:class:`helixd.link.mission_transfer.MissionLink` adapter on the Autopilot's message listener.
+:class:`helixd.link.services.mission_transfer.MissionLink` adapter on the Autopilot's message listener.
 
 Received MISSION_* messages come through the Autopilot's message listener (every message of
 the autopilot's system, already filtered by the codec) into a bounded queue that exists only
@@ -17,9 +17,9 @@ from typing import Any, Protocol
 
 import structlog
 
-from helixd.config import LinkConfig
-from helixd.link.inbox import Inbox, ListenerHost, Listening
-from helixd.link.mission_transfer import (
+from helixd.config.link import LinkConfig
+from helixd.link.services.inbox import Inbox, ListenerHost, Listening
+from helixd.link.services.mission_transfer import (
     MissionDownload,
     MissionTransferError,
     MissionUpload,
@@ -150,7 +150,7 @@ class MissionClient:
 
     async def download(self, fence: bool = True) -> Downloaded:
         """The autopilot's mission (seq 0 = home) and, if ``fence``, its fence; raises
-        :class:`helixd.link.mission_transfer.MissionTransferError`."""
+        :class:`helixd.link.services.mission_transfer.MissionTransferError`."""
         with AutopilotMissionLink(self._host, self._send) as link:
             m_items = await self._download(link, MAV_MISSION_TYPE_MISSION)
             f_items = await self._download(link, MAV_MISSION_TYPE_FENCE) if fence else ()
@@ -158,7 +158,7 @@ class MissionClient:
 
     async def download_fence(self) -> tuple[MissionItem, ...]:
         """The autopilot's fence items only; raises
-        :class:`helixd.link.mission_transfer.MissionTransferError`."""
+        :class:`helixd.link.services.mission_transfer.MissionTransferError`."""
         with AutopilotMissionLink(self._host, self._send) as link:
             return await self._download(link, MAV_MISSION_TYPE_FENCE)
 
@@ -179,7 +179,7 @@ class MissionClient:
     ) -> None:
         """Upload the mission, then (unless None) the fence — an empty fence clears it, as QGC
         does for a plan without one. Raises
-        :class:`helixd.link.mission_transfer.MissionTransferError`."""
+        :class:`helixd.link.services.mission_transfer.MissionTransferError`."""
         ids = _ids(self._host.cfg)
         parts = [(MAV_MISSION_TYPE_MISSION, mission)]
         if fence is not None:

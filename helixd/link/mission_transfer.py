@@ -37,7 +37,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from helixd.link.inbox import drive
+from helixd.link.services.inbox import drive
 
 os.environ.setdefault("MAVLINK20", "1")
 

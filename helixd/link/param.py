@@ -1,7 +1,7 @@
 """The param plugin (MAVSDK's shape): read and write autopilot parameters by name.
 
 PARAM_REQUEST_READ / PARAM_SET with their answers matched and re-sent by
-:class:`helixd.link.command_client.CommandClient`.
+:class:`helixd.link.services.command_client.CommandClient`.
 
 A long-lived link (``helixd serve``) keeps a :class:`ParamCache`: every value read, and every
 PARAM_VALUE the autopilot sends (ArduPilot sends one to every link when anyone sets a
@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from helixd.link.command_client import CommandClient
+from helixd.link.services.command_client import CommandClient
 
 
 @dataclass(slots=True)

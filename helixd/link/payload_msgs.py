@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from helixd.config import PayloadConfig, PayloadSource
+from helixd.config.recorder import PayloadConfig, PayloadSource
 
 MavMsg = Any
 

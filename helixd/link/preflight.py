@@ -55,8 +55,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Literal, Protocol, runtime_checkable
 
-from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
-from helixd.link.ownid import OwnIdSenders
+from helixd.config.link import LinkConfig
+from helixd.config.vehicle import ActuationBackend, ActuationConfig
+from helixd.link.wire.ownid import OwnIdSenders
 from helixd.mav.guard_script import (
     HXG_CHANS,
     HXG_ENABLE,
@@ -122,7 +123,7 @@ class ParamReader(Protocol):
 
 @runtime_checkable
 class OwnIdWatch(Protocol):
-    """What the link knows about other senders on our system id (see helixd.link.ownid)."""
+    """What the link knows about other senders on our system id (see helixd.link.wire.ownid)."""
 
     @property
     def own_id_senders(self) -> OwnIdSenders: ...

@@ -13,7 +13,7 @@ past ``max_bytes`` either. Disk errors fail soft: the first one is logged, the l
 every later call does nothing; flying never depends on the log.
 
 :class:`LinkTlog` puts a writer on the daemon's link: the codec
-(:class:`helixd.link.codec.MavlinkConnection`) hands it every frame it sends and every frame it
+(:class:`helixd.link.wire.codec.MavlinkConnection`) hands it every frame it sends and every frame it
 reads, stamped with the wall clock; the first frame buffered after a flush arms one event-loop
 timer that flushes :data:`FLUSH_INTERVAL_S` later (no task of its own, nothing when the link is
 quiet). :func:`attach_tlog` opens one on an open Autopilot.

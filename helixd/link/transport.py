@@ -21,7 +21,7 @@ from collections.abc import Callable
 import structlog
 
 from helixd.base.clock import now_s
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.mav.url import LinkError, LinkUrl
 
 log = structlog.get_logger(__name__)

@@ -42,7 +42,7 @@ autopilot's current item) is ArduPilot's ``AP_Mission::set_current_cmd(k)`` foll
   from item 1 and the current item reports it, so k is the first item.
 
 A continue of a flight helixd stopped itself (``helixd serve``: the start switch, or
-DO_PAUSE_CONTINUE / MISSION_START to helixd; :func:`helixd.runtime.prepare.continue_commands`)
+DO_PAUSE_CONTINUE / MISSION_START to helixd; :func:`helixd.prepare.builder.continue_commands`)
 flies again the navigation step it stopped at, with what started with it:
 :func:`restart_at_step` starts the walk at that step's first do item (or its navigation item)
 with the jump counters held there (a jump between that do item and the navigation item is not

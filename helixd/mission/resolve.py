@@ -20,7 +20,9 @@ from typing import ParamSpec
 from helixd.base.angles import wrap_pi
 from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import ControlConfig, MissionLimits, SafetyConfig
+from helixd.config.control import ControlConfig
+from helixd.config.mission import MissionLimits
+from helixd.config.safety import SafetyConfig
 from helixd.files.models import entry_label
 from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH, MAV_CMD_NAV_WAYPOINT
 from helixd.mission.commands import FLY_ROLES

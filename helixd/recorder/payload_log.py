@@ -31,7 +31,7 @@ import structlog
 from helixd.base.frames import ne_to_latlon
 from helixd.base.media import MediaMap, MediaMapNe
 from helixd.base.run_files import PAYLOAD_FILE
-from helixd.config import PayloadConfig
+from helixd.config.recorder import PayloadConfig
 from helixd.link.connection import Autopilot
 from helixd.link.payload_msgs import Reading, payload_readings
 

@@ -41,7 +41,7 @@ from matplotlib.transforms import Bbox
 
 from helixd.base.plan import MissionFrameKind, Numbering, program_numbering
 from helixd.base.run_files import CONFIG_FILE, EVENTS_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
-from helixd.config import load_config
+from helixd.config.load import load_config
 from helixd.files.models import ConfigFileError
 from helixd.mission.model import load_mission
 from helixd.mission.resolve import PlanError, resolve_plan

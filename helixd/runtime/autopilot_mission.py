@@ -15,7 +15,7 @@ from pydantic import ValidationError
 
 from helixd.base.plan import MotionMode
 from helixd.base.problems import Problems
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.models import format_validation_error
 from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats import LoadedMission, MissionFormat, read_fence, with_fence

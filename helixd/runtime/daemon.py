@@ -41,58 +41,56 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.media import MediaMapNe
 from helixd.base.plan import Numbering, Plan, program_numbering
-from helixd.config import HelixdConfig, config_to_yaml
+from helixd.config.load import config_to_yaml
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate
 from helixd.files.models import as_items
-from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandError
 from helixd.mav.constants import MAV_SEVERITY_WARNING
 from helixd.mav.url import LinkError
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.judge import patrol_times_s, plan_time_estimate
 from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs
+from helixd.prepare.ground_learning import learn_from_run
+from helixd.prepare.media import MediaRefused, read_media
+from helixd.prepare.planned import Replanner
 from helixd.recorder.payload_log import PayloadLog
 from helixd.recorder.retention import check_free_space, prune_runs
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
-from helixd.runtime.display import ProgressDisplay, result_line
-from helixd.runtime.flight import (
-    MANUAL_MODE,
-    FlightLoop,
-    FlightResult,
-)
-from helixd.runtime.gcs_feed import GcsFeed, report_fallback
-from helixd.runtime.ground_learning import learn_from_run
+from helixd.report.display import ProgressDisplay, result_line
+from helixd.report.gcs_feed import GcsFeed, report_fallback
+from helixd.report.notify import ServiceNotifier
+from helixd.runtime.arming import arm, confirm_mode, start_gate
+from helixd.runtime.flight import FlightLoop, FlightResult
 from helixd.runtime.host import FlightHost, OwnLink
 from helixd.runtime.in_flight import InFlight
-from helixd.runtime.media_plan import MediaRefused, read_media
 from helixd.runtime.mission_commands import MissionCommands
-from helixd.runtime.notify import ServiceNotifier
-from helixd.runtime.planned import Replanner
+from helixd.runtime.mode_gate import MANUAL_MODE
+from helixd.runtime.placing import (
+    autopilot_home,
+    judge_autopilot_fence,
+    mission_frame,
+    resolve_flight,
+    show_checked_plan,
+    start_pose,
+)
 from helixd.runtime.setup import (
     Checked,
     Held,
     PreflightFailed,
     StartRefused,
     StopBeforeFlight,
-    arm,
-    autopilot_home,
-    confirm_mode,
     feeding,
     fresh_pose,
-    judge_autopilot_fence,
-    mission_frame,
     place_mission,
     preflight,
-    resolve_flight,
-    show_checked_plan,
-    start_gate,
-    start_pose,
     start_sink,
     until_stopped,
 )
-from helixd.runtime.timing import patrol_times_s, plan_time_estimate
 from helixd.safety.supervisor import FallbackReport, fall_back, late_failsafe
 from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
 
@@ -359,7 +357,7 @@ class MissionRunner:
         self.messages: list[str] = []
         self.gcs = GcsFeed(
             self.cfg.gcs_report
-        )  # what the ground station sees (helixd.runtime.gcs_feed)
+        )  # what the ground station sees (helixd.report.gcs_feed)
         # the mission flown: opts.mission, its first leg re-planned from the rover in preflight
         self.mission = opts.mission
         self._payload: PayloadLog | None = None  # payload.csv while the link is ours

@@ -49,7 +49,7 @@ from helixd.base.clock import now_s
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.base.plan import ActionKind, MissionAction, MotionMode, Plan
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.kinematics import scroll_fractions
 from helixd.control.navigator import Navigator, NavOutput
 from helixd.control.sequencer import Sequencer, SequencerEvent, SequencerOutput

@@ -1,8 +1,8 @@
-"""The daemon's side of :mod:`helixd.runtime.gcs_report`: notes events, sends what the reporter
+"""The daemon's side of :mod:`helixd.report.gcs_report`: notes events, sends what the reporter
 returns.
 
 :class:`GcsFeed` is the I/O shell around the pure
-:class:`helixd.runtime.gcs_report.GcsReporter`. The
+:class:`helixd.report.gcs_report.GcsReporter`. The
 daemon calls :meth:`GcsFeed.phase`, :meth:`GcsFeed.waypoint`, :meth:`GcsFeed.fault` and
 :meth:`GcsFeed.progress` from wherever it is; those only remember (no socket, no await, never
 raise). A small task started by :meth:`GcsFeed.start` sends at ``gcs_report.tick_hz`` — off the
@@ -24,8 +24,8 @@ import structlog
 
 from helixd.base.clock import now_s
 from helixd.base.tasks import stop_task
-from helixd.config import GcsReportConfig
-from helixd.runtime.gcs_report import (
+from helixd.config.recorder import GcsReportConfig
+from helixd.report.gcs_report import (
     GcsReporter,
     PhaseChange,
     Progress,

@@ -37,7 +37,7 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import GcsReportConfig
+from helixd.config.recorder import GcsReportConfig
 from helixd.mav.constants import (
     MAV_SEVERITY_CRITICAL,
     MAV_SEVERITY_ERROR,

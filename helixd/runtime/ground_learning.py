@@ -20,7 +20,8 @@ import structlog
 
 from helixd.base.media import MediaMap, MediaMapNe, Medium
 from helixd.base.plan import MotionMode, Plan
-from helixd.config import HelixdConfig, MediaModesConfig
+from helixd.config.media import MediaModesConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.ground_cap import full_speed_mps, leg_cap_mps
 from helixd.control.ground_fit import (
     AXES,

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
-from helixd.config import MediaConfig
+from helixd.config.media import MediaConfig
 from helixd.control.ground_check import GroundCheck, GroundCheckParams, GroundVerdict
 from helixd.control.navigator import Navigator
 

@@ -26,11 +26,11 @@ from pathlib import Path
 from typing import Protocol
 
 from helixd.base.clock import now_s
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
-from helixd.link.tlog import LinkTlog
-from helixd.runtime.flight import DRIVE_MANUAL, Driving
-from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
+from helixd.link.wire.tlog import LinkTlog
+from helixd.report.notify import FlightInServiceNotifier, ServiceNotifier
+from helixd.runtime.mode_gate import DRIVE_MANUAL, Driving
 from helixd.runtime.setup import (
     Held,
     attach,

@@ -16,7 +16,8 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan
 from helixd.base.problems import Problems
 from helixd.base.run_files import MISSION_FILE
-from helixd.config import HelixdConfig, config_to_yaml, load_config
+from helixd.config.load import config_to_yaml, load_config
+from helixd.config.root import HelixdConfig
 from helixd.files.models import ConfigFileError, as_items
 from helixd.files.yamlio import clip_line, paused_gc
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
@@ -30,6 +31,7 @@ from helixd.mission.formats import (
     with_fence,
 )
 from helixd.mission.formats.items import FormatError, GcsMission
+from helixd.mission.judge import judge_flight
 from helixd.mission.locate import MissionNotFound, locate_mission
 from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
@@ -48,7 +50,6 @@ from helixd.mission.validate import (
     start_warnings,
 )
 from helixd.recorder.resume_dir import read_run_dir
-from helixd.runtime.timing import judge_flight
 
 
 class InputsRefused(Problems):

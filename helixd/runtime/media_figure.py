@@ -9,13 +9,13 @@ from dataclasses import dataclass
 from helixd.base.frames import MissionFrame
 from helixd.base.media import MediaMap, Medium
 from helixd.base.plan import MissionFrameKind
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.validate import plan_for_check
 from helixd.planning.media_modes import MediaPlan
+from helixd.prepare.media import MediaRefused, check_media_plan
 from helixd.recorder.media_plot import PlacedMedia
-from helixd.runtime.media_plan import MediaRefused, check_media_plan
 
 __all__ = ["CheckedMedia", "checked_media"]
 

@@ -4,7 +4,7 @@
 Which map: the mission's ``media_map`` (relative to the mission file), else the config's
 ``media.media_map`` (relative to the working directory); none: the mission's one mode
 everywhere, exactly as before. ``check``, ``run`` and ``serve`` read it in
-:func:`helixd.runtime.prepare.prepare_flight` (an unreadable or bad map is refused there, one
+:func:`helixd.prepare.builder.prepare_flight` (an unreadable or bad map is refused there, one
 line per problem naming the file and the feature); preflight reads it again and places it
 with the EKF origin and the rover's start (:func:`placed_media_plan`).
 
@@ -22,7 +22,7 @@ from pathlib import Path
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.media import MediaFrame, MediaMap, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError
 from helixd.mission.model import Mission
@@ -33,7 +33,7 @@ from helixd.planning.media_modes import (
     pinned_misfits,
     policy_modes,
 )
-from helixd.runtime.ground_learning import learned_plan, learned_policy_modes
+from helixd.prepare.ground_learning import learned_plan, learned_policy_modes
 
 
 class MediaRefused(ValueError):
@@ -72,7 +72,7 @@ def read_media(cfg: HelixdConfig, msn: Mission) -> MediaMap | None:
 
 def mode_policy(cfg: HelixdConfig, msn: Mission) -> ModePolicy:
     """The mode per medium: the config's ``media.modes`` (``learned``: the ground profile's
-    best, :mod:`helixd.runtime.ground_learning`), the mission's ``media_modes`` over them; the
+    best, :mod:`helixd.prepare.ground_learning`), the mission's ``media_modes`` over them; the
     margin from ``media.transition_margin_m``. A profile that cannot be read is refused
     (:class:`MediaRefused`)."""
     if isinstance(cfg.media.modes, str):

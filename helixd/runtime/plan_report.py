@@ -14,28 +14,20 @@ from pathlib import Path
 
 from helixd.base.media import MediaMap, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, waypoint_label
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate, delivered_fractions
 from helixd.mission.describe import DEFAULT_WIDTH, program_lines
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.judge import patrol_times_s, plan_time_estimate
 from helixd.mission.model import Mission
 from helixd.mission.resolve import places_from
 from helixd.mission.validate import pending_checks, plan_for_check
 from helixd.planning.media_modes import medium_under_mode_m
 from helixd.planning.route import RoutePlan
+from helixd.prepare.media import MediaCheck, check_media_plan, media_path, mode_policy
+from helixd.prepare.plan_report import modes_text, pinned_warnings, shown_path, stretch_lines
+from helixd.prepare.planned import route_lines, route_time_estimate
 from helixd.recorder.retention import DiskUsage, low_space
-from helixd.runtime.media_plan import (
-    MediaCheck,
-    check_media_plan,
-    media_path,
-    mode_policy,
-    modes_text,
-    pinned_warnings,
-    shown_path,
-    stretch_lines,
-)
-from helixd.runtime.planned import route_lines, route_time_estimate
-from helixd.runtime.timing import patrol_times_s, plan_time_estimate
 
 MAX_TABLE_ROWS = 200  # `check` lists at most this many waypoints (first and last ones)
 

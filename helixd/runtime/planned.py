@@ -2,7 +2,7 @@
 shapes and a .plan's exclusion zones (helixd.planning) when there are any, with the re-planner
 the daemon calls at preflight for the first leg from the rover's real pose.
 
-No printing and no exits: refusals are :class:`helixd.runtime.inputs.InputsRefused`.
+No printing and no exits: refusals are :class:`helixd.prepare.inputs.InputsRefused`.
 """
 
 from __future__ import annotations
@@ -16,11 +16,12 @@ import structlog
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.base.plan import MissionFrameKind
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
 from helixd.mission.formats import fence_has_keep_outs
 from helixd.mission.formats.items import GcsMission, fence_ne, keep_out_problems
+from helixd.mission.judge import limit_problems, plan_time_estimate
 from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
 from helixd.mission.resume import RunInputs, fresh_inputs
@@ -36,8 +37,7 @@ from helixd.planning.route import (
     planned_mission_yaml,
     planning_wanted,
 )
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.timing import limit_problems, plan_time_estimate
+from helixd.prepare.inputs import InputsRefused
 
 Replanner = Callable[[tuple[float, float], tuple[float, float] | None], Mission]
 

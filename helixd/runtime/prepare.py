@@ -4,14 +4,14 @@ the config → the checked flight, or the refusal.
 ``helixd check``, ``helixd run`` and ``helixd serve`` all call :func:`prepare_flight`, so what
 it refuses all three refuse, with the same lines, before anything connects or moves. What it
 judges: the config and the mission together (every problem at once), the mission against the
-config (:func:`helixd.runtime.inputs.mission_vs_config`: ranges, fence, keep-outs, servo
+config (:func:`helixd.prepare.inputs.mission_vs_config`: ranges, fence, keep-outs, servo
 outputs, the time limit; a global mission's places against the home it carries, which stands
 for the EKF origin until connected), the route planned around the map, keep-outs and fence
-(:func:`helixd.runtime.planned.planned_flight`). What needs the rover's pose and the EKF origin
+(:func:`helixd.prepare.planned.planned_flight`). What needs the rover's pose and the EKF origin
 is judged again in preflight (:mod:`helixd.runtime.setup`); ``check`` lists it as left for
 preflight.
 
-No printing and no exits: a refusal is :class:`helixd.runtime.inputs.InputsRefused` (one line
+No printing and no exits: a refusal is :class:`helixd.prepare.inputs.InputsRefused` (one line
 per problem, the exit code ``run`` gives it: 2 for a file or a resume, 3 for the autopilot's
 mission failing its checks, and the notes to show with it); notes are lines to show.
 """
@@ -27,18 +27,12 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
 from helixd.base.plan import MissionFrameKind, MotionMode, operator_numbers
 from helixd.base.run_files import MISSION_FILE
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.models import as_items, format_validation_error
-from helixd.mission.expand import (
-    DEFAULT_OPTIONS,
-    ExpandOptions,
-    carried_at_step,
-    jumps_when_current,
-    restart_at_step,
-    walk_at_step,
-)
+from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions, carried_at_step
 from helixd.mission.formats import MissionFormat, mission_to_yaml, sniff_format
 from helixd.mission.formats.items import GcsMission
+from helixd.mission.judge import mission_vs_config
 from helixd.mission.model import Mission
 from helixd.mission.resolve import PlanError
 from helixd.mission.resume import (
@@ -54,24 +48,19 @@ from helixd.mission.resume import (
     walked_options,
 )
 from helixd.mission.validate import resolved_for_check
+from helixd.mission.walk import jumps_when_current, restart_at_step, walk_at_step
 from helixd.planning.mapfile import OccupancyMap
-from helixd.recorder.resume_dir import read_run_dir
-from helixd.runtime.autopilot_mission import MISSION_NAME, FromAutopilot
-from helixd.runtime.inputs import (
+from helixd.prepare.autopilot_mission import MISSION_NAME, FromAutopilot
+from helixd.prepare.inputs import (
     InputsRefused,
     config_sha256,
     load_inputs,
-    mission_vs_config,
     recorded_mission_yaml,
     resume_inputs,
 )
-from helixd.runtime.media_plan import (
-    MediaRefused,
-    mode_policy,
-    read_media,
-    with_absolute_media,
-)
-from helixd.runtime.planned import Flight, load_occupancy, planned_flight
+from helixd.prepare.media import MediaRefused, mode_policy, read_media, with_absolute_media
+from helixd.prepare.planned import Flight, load_occupancy, planned_flight
+from helixd.recorder.resume_dir import read_run_dir
 
 __all__ = [
     "AutoWalk",

@@ -33,13 +33,15 @@ from helixd.base.plan import MissionFrameKind, Numbering, Plan, program_numberin
 from helixd.base.problems import Problems
 from helixd.base.run_files import TLOG_FILE
 from helixd.base.tasks import stop_task
-from helixd.config import ActuationBackend, HelixdConfig, SafetyConfig
-from helixd.link.command_client import CommandError, CommandRejected
+from helixd.config.root import HelixdConfig
+from helixd.config.safety import SafetyConfig
+from helixd.config.vehicle import ActuationBackend
 from helixd.link.connection import Autopilot
-from helixd.link.preflight import check_obedience
+from helixd.link.services.command_client import CommandError, CommandRejected
+from helixd.link.services.preflight import check_obedience
 from helixd.link.telemetry import Telemetry
-from helixd.link.tlog import LinkTlog, attach_tlog
 from helixd.link.vehicle import Change, HomePosition, TelemetryBounds, VehicleState
+from helixd.link.wire.tlog import LinkTlog, attach_tlog
 from helixd.mav.arming import not_neutral_channel, rc_reading, throttle_must_read
 from helixd.mav.constants import (
     MAV_CMD_NAV_RETURN_TO_LAUNCH,
@@ -49,16 +51,16 @@ from helixd.mav.constants import (
 from helixd.mav.servo_functions import DO_SET_SERVO_FUNCTIONS, passthrough_input
 from helixd.mission.commands import SERVO_COMMANDS, stored_whole
 from helixd.mission.expand import ExpandOptions
+from helixd.mission.judge import judge_flight
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Where, resolve
 from helixd.mission.resume import RunInputs, with_leg_start
+from helixd.prepare.media import MediaRefused, media_path, placed_media_plan
+from helixd.prepare.planned import Replanner
+from helixd.report.notify import ServiceNotifier
 from helixd.runtime.autopilot_fence import autopilot_fence_check
-from helixd.runtime.media_plan import MediaRefused, media_path, placed_media_plan
-from helixd.runtime.notify import ServiceNotifier
-from helixd.runtime.planned import Replanner
 from helixd.runtime.show_plan import show_plan
 from helixd.runtime.signals import StopRequest
-from helixd.runtime.timing import judge_flight
 from helixd.safety.watchdogs import Fault, FaultCause, gps_fault, pose_invalid_fault
 
 log = structlog.get_logger(__name__)

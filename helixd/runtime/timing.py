@@ -22,7 +22,8 @@ from typing import Unpack
 
 from helixd.base.frames import NedPose
 from helixd.base.plan import MissionFrameKind, Plan
-from helixd.config import ControlConfig, HelixdConfig
+from helixd.config.control import ControlConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
 from helixd.mission.expand import DEFAULT_OPTIONS
 from helixd.mission.model import Mission

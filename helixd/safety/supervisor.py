@@ -25,7 +25,7 @@ import structlog
 
 from helixd.base.clock import now_s
 from helixd.base.frames import NedPose
-from helixd.config import SafetyConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.vehicle import PoseSample, VehicleState
 from helixd.safety.autopilot_failsafe import FailsafeEvidence, classify_mode_change
 from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonitor

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from helixd.base.polygon import point_in_polygon
-from helixd.config import SafetyConfig
+from helixd.config.safety import SafetyConfig
 
 RC_CENTRE_US = 1500  # stick centre of a standard RC channel (µs)
 MODE_CHANGED_PREFIX = "mode changed to "  # a takeover by mode change: the detail's start

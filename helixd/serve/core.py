@@ -15,7 +15,7 @@ judged the same way:
 * ``MAV_CMD_DO_PAUSE_CONTINUE`` (param1 0 pause, 1 continue) addressed to helixd; 1 also
   ends a NAV_LOITER_UNLIM hold of the flight in progress. A continue goes on from the first
   waypoint not reached, or a mission with commands from the step it stopped at
-  (:func:`helixd.runtime.prepare.continue_commands`).
+  (:func:`helixd.prepare.builder.continue_commands`).
 * ``MAV_CMD_DO_CHANGE_SPEED`` (param2 m/s) addressed to helixd (:func:`answer_speed`): the
   cruise speed of the flight in progress from now on. One sent to the autopilot (the
   ground station's fly view) cannot reach helixd: ArduPilot handles it itself, forwards it

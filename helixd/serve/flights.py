@@ -17,9 +17,9 @@ import structlog
 from helixd.base.clock import now_s
 from helixd.base.plan import Numbering
 from helixd.base.run_files import EVENTS_FILE
-from helixd.config import HelixdConfig
-from helixd.link.command_client import CommandError
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandError
 from helixd.link.vehicle import PositionTarget
 from helixd.mav.constants import (
     MAV_SEVERITY_ERROR,
@@ -30,15 +30,7 @@ from helixd.mav.constants import (
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.resume import event_whole, last_step_started, with_walk
-from helixd.recorder.events import read_events
-from helixd.recorder.summary import RunSummary
-from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
-from helixd.runtime.flight import DRIVE_MANUAL, Driving
-from helixd.runtime.host import ServeHost
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.mode_gate import AUTO_MODE, PlaceRule, crew_mode_of
-from helixd.runtime.planned import Flight
-from helixd.runtime.prepare import (
+from helixd.prepare.builder import (
     AutopilotPlace,
     AutoWalk,
     Resume,
@@ -46,6 +38,13 @@ from helixd.runtime.prepare import (
     from_autopilot_item,
     prepare_flight,
 )
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.planned import Flight
+from helixd.recorder.events import read_events
+from helixd.recorder.summary import RunSummary
+from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
+from helixd.runtime.host import ServeHost
+from helixd.runtime.mode_gate import AUTO_MODE, DRIVE_MANUAL, Driving, PlaceRule, crew_mode_of
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import HOLD_MODE
 from helixd.safety.watchdogs import FaultCause

@@ -27,9 +27,9 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
-from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
-from helixd.link.preflight import check_obedience
+from helixd.link.services.command_client import CommandError
+from helixd.link.services.preflight import check_obedience
 from helixd.mav.constants import (
     MAV_RESULT_ACCEPTED,
     MAV_SEVERITY_ERROR,
@@ -37,11 +37,11 @@ from helixd.mav.constants import (
     MAV_SEVERITY_WARNING,
 )
 from helixd.mav.url import LinkError, heartbeat_wait_text
-from helixd.runtime.autopilot_mission import ground_station_mode
-from helixd.runtime.gcs_feed import GcsFeed
+from helixd.prepare.autopilot_mission import ground_station_mode
+from helixd.prepare.builder import AutopilotPlace
+from helixd.report.gcs_feed import GcsFeed
+from helixd.report.notify import ServiceNotifier
 from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of, crew_mode_rx_s, current_target_of
-from helixd.runtime.notify import ServiceNotifier
-from helixd.runtime.prepare import AutopilotPlace
 from helixd.runtime.signals import StopRequest, install, uninstall
 from helixd.serve.check import Verdict
 from helixd.serve.core import (

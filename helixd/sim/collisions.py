@@ -32,9 +32,9 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import AfterValidator, Field, InstanceOf, PrivateAttr
 
-from helixd.config import KeepOutCircleConfig
+from helixd.config.mission import KeepOutCircleConfig
 from helixd.files.models import InputModel
-from helixd.sim.state import PhysicsState
+from helixd.plant.state import PhysicsState
 
 PointNE = tuple[float, float]
 CONTACT_RELEASE_M = 0.05  # a contact ends once the body is this far clear of the obstacle

@@ -28,40 +28,49 @@ from helixd.mav.constants import (
     MAV_RESULT_FAILED,
 )
 from helixd.mav.guard_script import SCR_ENABLE
-from helixd.sim import collisions, estimator, messages, physics, skid, vehicle_reports
+from helixd.plant import collisions, physics, skid
+from helixd.plant.ground import TerrainTraction
+from helixd.plant.physics import MotorMap
+from helixd.plant.plant_config import Plant
+from helixd.plant.sonar import BathymetryNe, sense, water_temperature_c
+from helixd.plant.state import PhysicsState
 from helixd.sim import stream_rates as st
+from helixd.sim import vehicle_reports
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
-from helixd.sim.inbound import InboundHandler
-from helixd.sim.messages import STATUSTEXT_LEN, Message, file_transfer_protocol, statustexts
-from helixd.sim.mission_server import (
+from helixd.sim.firmware import estimator, messages
+from helixd.sim.firmware.messages import (
+    STATUSTEXT_LEN,
+    Message,
+    file_transfer_protocol,
+    statustexts,
+)
+from helixd.sim.firmware.mission_items import (
     ALTITUDE_ONLY,
     GuidedRequest,
-    MissionServer,
     Outcome,
     guided_request,
     mission_ack,
 )
-from helixd.sim.mode_auto import ModeAuto
-from helixd.sim.mode_goto import (
+from helixd.sim.firmware.mission_server import MissionServer
+from helixd.sim.firmware.mode_auto import ModeAuto
+from helixd.sim.firmware.mode_goto import (
     ModeGoto,
     Place,
     SmartRtlPath,
     reposition_refusal,
     rtl_destination,
 )
-from helixd.sim.modes import MODE_NUMBERS
-from helixd.sim.param_store import ParamStore
-from helixd.sim.physics import MotorMap
-from helixd.sim.rover_firmware import (
+from helixd.sim.firmware.modes import MODE_NUMBERS
+from helixd.sim.firmware.param_store import ParamStore
+from helixd.sim.firmware.rover_firmware import (
     ScriptReader,
     SimAutopilot,
     SimEvent,
     SimStatusText,
     no_scripts,
 )
-from helixd.sim.sim_config import Plant, SimConfig, TerrainTraction
-from helixd.sim.sonar import BathymetryNe, sense, water_temperature_c
-from helixd.sim.state import PhysicsState
+from helixd.sim.inbound import InboundHandler
+from helixd.sim.sim_config import SimConfig
 
 SONAR_MESSAGES = frozenset({st.MSG_DISTANCE_SENSOR, st.MSG_RANGEFINDER})
 PARAMS_PER_LOOP = 2  # PARAM_REQUEST_LIST streaming pace (ArduPilot rate-limits it too)
@@ -121,7 +130,7 @@ class SimCore:
             yaw_ned_rad=config.initial_yaw_ned_rad,
         )
         self.est = estimator.EstimatorState()
-        self._contact = False  # rover body touching an obstacle (helixd.sim.collisions)
+        self._contact = False  # rover body touching an obstacle (helixd.plant.collisions)
         self.motor = MotorMap(
             config.motor_pwm_min_us,
             config.motor_pwm_trim_us,
@@ -133,7 +142,7 @@ class SimCore:
         # the medium under each of scrolls 1..4 after the last step (None: no map)
         self.media_ne = media_ne(config)
         self.scroll_media: tuple[Medium, ...] | None = None
-        # the pond's bottom and the sonar over it (helixd.sim.sonar), with a generator of its
+        # the pond's bottom and the sonar over it (helixd.plant.sonar), with a generator of its
         # own so a bathymetry changes nothing else a seed gives
         self.bathy = (
             None
@@ -156,7 +165,7 @@ class SimCore:
         )
         self.ap.mission_present = lambda: len(self.mission.stored()) > 1
         self.auto = ModeAuto()
-        self.goto = ModeGoto()  # GUIDED's, RTL's and SmartRTL's place (helixd.sim.mode_goto)
+        self.goto = ModeGoto()  # GUIDED's, RTL's and SmartRTL's place (helixd.sim.firmware.mode_goto)
         self.srtl = SmartRtlPath()  # AP_SmartRTL's saved path
         self.ap.smart_rtl_ready = lambda: self.srtl.active
         self.ap.on_disarm = self._mission_on_disarm
@@ -242,7 +251,7 @@ class SimCore:
         return self.mission.do_set_mission_current(link, param1, param2)
 
     def reposition(self, p: list[float], is_int: bool, frame: int) -> int:
-        """MAV_CMD_DO_REPOSITION (:mod:`helixd.sim.mode_goto`): GUIDED's new place, switching
+        """MAV_CMD_DO_REPOSITION (:mod:`helixd.sim.firmware.mode_goto`): GUIDED's new place, switching
         to GUIDED when param2 asks; the MAV_RESULT."""
         guided = MODE_NUMBERS["GUIDED"]
         lat_e7, lon_e7 = (
@@ -477,7 +486,7 @@ class SimCore:
 
     def _mode_changed(self) -> None:
         """A mode entered or left: AUTO's (ModeAuto::_enter; ``_exit`` stops the mission),
-        GUIDED's Stop submode, RTL's place (:mod:`helixd.sim.mode_goto`)."""
+        GUIDED's Stop submode, RTL's place (:mod:`helixd.sim.firmware.mode_goto`)."""
         auto = MODE_NUMBERS["AUTO"]
         mode = self.ap.mode
         if mode == self._mode_before:
@@ -531,7 +540,7 @@ class SimCore:
 
     def _mode_auto(self, now: float) -> None:
         """AUTO running: the mission verified against the EKF's position
-        (:mod:`helixd.sim.mode_auto`)."""
+        (:mod:`helixd.sim.firmware.mode_auto`)."""
         if self.ap.mode != MODE_NUMBERS["AUTO"]:
             return
         cfg = self.config
@@ -685,7 +694,7 @@ class SimCore:
     def _sonar_message(
         self, msg_id: int, view: vehicle_reports.TelemetryView, sensed: list[Message | None]
     ) -> Message | None:
-        """DISTANCE_SENSOR / RANGEFINDER from the sonar (:mod:`helixd.sim.sonar`); None
+        """DISTANCE_SENSOR / RANGEFINDER from the sonar (:mod:`helixd.plant.sonar`); None
         without a bathymetry (no rangefinder), before the EKF origin, or on a dropout."""
         if self.bathy is None or not view.origin_set:
             return None

@@ -29,8 +29,8 @@ from helixd.mav.constants import (
     EKF_VELOCITY_VERT,
 )
 from helixd.mav.ekf_report import EkfReport
+from helixd.plant.state import PhysicsState
 from helixd.sim.sim_config import NoiseProfile
-from helixd.sim.state import PhysicsState
 
 HEALTHY_FLAGS = (
     EKF_ATTITUDE

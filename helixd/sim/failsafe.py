@@ -30,12 +30,12 @@ from dataclasses import dataclass, field
 from helixd.mav.constants import MAV_SEVERITY_CRITICAL as SEVERITY_CRITICAL
 from helixd.mav.constants import MAV_SEVERITY_INFO as SEVERITY_INFO
 from helixd.mav.constants import MAV_SEVERITY_WARNING as SEVERITY_WARNING
-from helixd.sim.estimator import SimEkfStatus
-from helixd.sim.modes import HOLD as MODE_HOLD
-from helixd.sim.modes import LOITER as MODE_LOITER
-from helixd.sim.modes import RTL as MODE_RTL
-from helixd.sim.modes import SMART_RTL as MODE_SMART_RTL
-from helixd.sim.param_store import ParamStore
+from helixd.sim.firmware.estimator import SimEkfStatus
+from helixd.sim.firmware.modes import HOLD as MODE_HOLD
+from helixd.sim.firmware.modes import LOITER as MODE_LOITER
+from helixd.sim.firmware.modes import RTL as MODE_RTL
+from helixd.sim.firmware.modes import SMART_RTL as MODE_SMART_RTL
+from helixd.sim.firmware.param_store import ParamStore
 
 FAILSAFE_EVENT_THROTTLE = 1 << 0
 FAILSAFE_EVENT_GCS = 1 << 1

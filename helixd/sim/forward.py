@@ -10,7 +10,7 @@ counter-clockwise positive; ω in rad/s, scrolls 1..4 in the thesis's numbering.
 Deliberately independent of the controller (:mod:`helixd.control.kinematics` builds eq. 1
 and eq. 2 as matrices): the simulator is the oracle the controller is tested against, so a
 sign error in the controller's kinematics makes the simulated rover go the wrong way instead
-of being mirrored by the plant (``tests/sim/test_forward.py``). Only the plain types and
+of being mirrored by the plant (``tests/plant/test_forward.py``). Only the plain types and
 checks of :mod:`helixd.base` are shared.
 """
 

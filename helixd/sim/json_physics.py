@@ -16,7 +16,7 @@ ArduPilot's EKF3 fuses those with GPS and compass readings SITL simulates from t
 truth, so no pose noise is added here (the built-in simulator's noise stands in for exactly
 that sensor model).
 
-:class:`JsonPlant` steps :func:`helixd.sim.physics.step` — the same plant ``helixd sim`` flies
+:class:`JsonPlant` steps :func:`helixd.plant.physics.step` — the same plant ``helixd sim`` flies
 (eq. 1, motor lag, terrain traction and pits) — on the four scroll outputs of each frame. The
 rover stays on flat ground: roll, pitch and vertical motion are zero. Frames: the plant's
 state is NED with body x forward (ROLL axis) and y left (SCROLL axis), yaw rate CCW positive;
@@ -30,12 +30,13 @@ import math
 import struct
 from dataclasses import dataclass
 
-from helixd.sim import physics
-from helixd.sim.core import media_ne
-from helixd.sim.physics import MotorMap
-from helixd.sim.sim_config import SimConfig, TerrainTraction
-from helixd.sim.sonar import BathymetryNe
-from helixd.sim.state import PhysicsState
+from helixd.plant import physics
+from helixd.plant.ground import TerrainTraction
+from helixd.plant.physics import MotorMap
+from helixd.plant.sonar import BathymetryNe
+from helixd.plant.state import PhysicsState
+from helixd.plant.world import media_ne
+from helixd.sim.sim_config import SimConfig
 
 GRAVITY_MSS = 9.80665
 MAGIC_16 = 18458  # servo_packet_16

@@ -1,5 +1,5 @@
 """The Helix plant on a UDP port for ArduPilot SITL ``--model JSON`` (the I/O shell of
-:mod:`helixd.sim.json_physics`).
+:mod:`helixd.plant.json_physics`).
 
 SITL sends each frame's servo outputs to ``127.0.0.1:9002`` (+10 per ``-I`` instance) and
 waits, lockstep, for the answer on the same socket: the plant answers every datagram to the
@@ -20,7 +20,7 @@ from typing import TextIO
 
 import structlog
 
-from helixd.sim.json_physics import FrameError, JsonPlant, decode_servo_frame
+from helixd.plant.json_physics import FrameError, JsonPlant, decode_servo_frame
 from helixd.sim.sim_config import SimConfig
 
 log = structlog.get_logger(__name__)

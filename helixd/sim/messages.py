@@ -32,8 +32,8 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.angles import wrap_pi
-from helixd.sim import modes
-from helixd.sim.estimator import PoseEstimate, SimEkfStatus
+from helixd.sim.firmware import modes
+from helixd.sim.firmware.estimator import PoseEstimate, SimEkfStatus
 
 
 class Message(Protocol):

@@ -33,7 +33,7 @@ Behaviours (each cites its ArduPilot function):
 * MISSION_CLEAR_ALL → ACCEPTED, or ERROR while an upload is in progress
   (``handle_mission_clear_all``); clearing the mission leaves 0 items (``AP_Mission::clear``).
 * The current item (``AP_Mission::set_current_cmd`` with the mission not running — Rover
-  runs it only in AUTO, :mod:`helixd.sim.mode_auto`): an index past the end, or a mission of
+  runs it only in AUTO, :mod:`helixd.sim.firmware.mode_auto`): an index past the end, or a mission of
   home alone, fails; index 0 means 1 and restarts the jump counters; the current *nav* index
   becomes the first NAV command (``is_nav_cmd``: id ≤ MAV_CMD_NAV_LAST, NAV_SET_YAW_SPEED,
   NAV_SCRIPT_TIME, NAV_ATTITUDE_TIME) at or after it, following DO_JUMP / DO_JUMP_TAG
@@ -135,8 +135,8 @@ from helixd.mav.constants import (
     MISSION_STATE_NOT_STARTED,
     UINT16_MAX,
 )
-from helixd.sim.messages import Message
-from helixd.sim.rover_firmware import SimStatusText
+from helixd.sim.firmware.messages import Message
+from helixd.sim.firmware.rover_firmware import SimStatusText
 
 __all__ = [
     "ItemProtocol",
@@ -935,7 +935,7 @@ class MissionServer:
                 self.state = MISSION_STOPPED
         return out
 
-    # -- AP_Mission running in AUTO (ModeAuto drives it: helixd.sim.mode_auto) ---------------
+    # -- AP_Mission running in AUTO (ModeAuto drives it: helixd.sim.firmware.mode_auto) ---------------
 
     def nav_item(self) -> tuple[int, StoredItem] | None:
         """The current nav command (index, item) while the mission runs; None otherwise."""

@@ -37,9 +37,10 @@ from helixd.mav.constants import (
     MAV_SEVERITY_INFO,
     MAV_SEVERITY_NOTICE,
 )
-from helixd.sim.messages import mission_item_reached
-from helixd.sim.mission_server import MissionServer, Outcome
-from helixd.sim.rover_firmware import SimStatusText
+from helixd.sim.firmware.messages import mission_item_reached
+from helixd.sim.firmware.mission_items import Outcome
+from helixd.sim.firmware.mission_server import MissionServer
+from helixd.sim.firmware.rover_firmware import SimStatusText
 
 NO_MISSION_TEXT = "No Mission. Can't set AUTO."
 MISSION_COMPLETE_TEXT = "Mission Complete"

@@ -14,7 +14,7 @@ From ArduPilot Rover:
   COMMAND_INT). A MISSION_ITEM(_INT) with ``current`` 2 outside an upload is the older way
   (``GCS_MAVLINK::handle_mission_item`` → ``handle_guided_request``): taken only in GUIDED
   (MISSION_ACK ACCEPTED, else ERROR); ``current`` 3 (an altitude change) is ACCEPTED and
-  changes nothing on a rover (:func:`helixd.sim.mission_server.guided_request`);
+  changes nothing on a rover (:func:`helixd.sim.firmware.mission_server.guided_request`);
 * RTL's place is the nearest rally point, if it is closer than home, else home
   (``ModeRTL::_enter``, ``AP_Rally::calc_best_rally_or_home_location`` with Rover's defaults
   RALLY_LIMIT_KM 0.5 and RALLY_INCL_HOME 1: rally points all beyond the limit give home);
@@ -49,10 +49,10 @@ from helixd.mav.constants import (
     MAV_RESULT_DENIED,
     MAV_SEVERITY_INFO,
 )
-from helixd.sim.messages import mission_item_reached
-from helixd.sim.mission_server import Outcome
-from helixd.sim.mode_auto import passed_finish_line
-from helixd.sim.rover_firmware import SimStatusText
+from helixd.sim.firmware.messages import mission_item_reached
+from helixd.sim.firmware.mission_items import Outcome
+from helixd.sim.firmware.mode_auto import passed_finish_line
+from helixd.sim.firmware.rover_firmware import SimStatusText
 
 SRTL_ACCURACY_M = 2.0  # SRTL_ACCURACY's default: points no closer than this
 LOCATION_ALT_MAX_M = 83_000.0  # LOCATION_ALT_MAX_M (AP_Common/Location.h)

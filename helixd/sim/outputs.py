@@ -38,7 +38,7 @@ from helixd.mav.servo_functions import (
     K_THROTTLE_LEFT,
     K_THROTTLE_RIGHT,
 )
-from helixd.sim.param_store import ParamStore
+from helixd.sim.firmware.param_store import ParamStore
 
 NUM_SERVO_CHANNELS = 16
 

@@ -8,7 +8,7 @@ Written from ArduPilot (the wire behaviour, not a guess):
   instance (param1, 0 = RELAY1) is enabled (``RELAYn_FUNCTION`` 1 = relay and ``RELAYn_PIN`` set,
   ``AP_Relay::enabled``), else FAILED; state 1 on, 0 off, anything else toggles.
   DO_REPEAT_RELAY toggles it ``count`` × 2 times, every ``period / 2``. DO_REPEAT_SERVO: the
-  same output rule as DO_SET_SERVO (:mod:`helixd.sim.outputs`), then ``count`` cycles of
+  same output rule as DO_SET_SERVO (:mod:`helixd.sim.firmware.outputs`), then ``count`` cycles of
   value / SERVOn_TRIM, half a period each; a DO_SET_SERVO on that output cancels the cycling.
   ``update_events`` runs the first half-cycle at once.
 * ``AP_Relay::send_relay_status``: RELAY_STATUS present/on masks of the relays with a function.
@@ -48,8 +48,8 @@ from helixd.mav.constants import (
     MAV_RESULT_FAILED,
     MAV_RESULT_UNSUPPORTED,
 )
-from helixd.sim.outputs import ServoOutputs
-from helixd.sim.param_store import ParamStore
+from helixd.sim.firmware.outputs import ServoOutputs
+from helixd.sim.firmware.param_store import ParamStore
 
 NUM_RELAYS = 6  # RELAY1..RELAY6 as the simulator models them
 RELAY_FUNCTION_RELAY = 1

@@ -1,7 +1,7 @@
 """Helix-25 ground physics (pure): PWM → scroll speed with motor lag → eq. 1 with terrain slip.
 
 Frames: body x = ROLL axis (forward), y = SCROLL axis (LEFT), yaw counter-clockwise positive
-(the thesis's convention; eq. 1 is the simulator's own, :mod:`helixd.sim.forward`).
+(the thesis's convention; eq. 1 is the simulator's own, :mod:`helixd.plant.forward`).
 World: NED, yaw clockwise from North.
 A CCW body yaw rate is a negative NED yaw rate; body y-left at NED heading ψ points to ψ − 90°:
     v_north = v_x cos ψ + v_y sin ψ,   v_east = v_x sin ψ − v_y cos ψ.
@@ -29,10 +29,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from helixd.base.angles import wrap_pi
-from helixd.config import VehicleConfig
-from helixd.sim.forward import body_velocity, rpm_to_radps
-from helixd.sim.sim_config import TerrainTraction
-from helixd.sim.state import PhysicsState
+from helixd.config.vehicle import VehicleConfig
+from helixd.plant.forward import body_velocity, rpm_to_radps
+from helixd.plant.ground import TerrainTraction
+from helixd.plant.state import PhysicsState
 
 
 @dataclass(frozen=True, slots=True)

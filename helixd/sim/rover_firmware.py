@@ -12,7 +12,7 @@ without a good EKF position or in EKF failsafe ("Flight mode change failed"); AU
 without a mission ("No Mission. Can't set AUTO."). MAV_CMD_MISSION_START (Rover's command
 handler) is DENIED with a first or last item (param1/param2 not 0), else it sets AUTO,
 armed or not: ACCEPTED, or FAILED when the mode change fails. What AUTO does with the
-mission: :mod:`helixd.sim.mode_auto`.
+mission: :mod:`helixd.sim.firmware.mode_auto`.
 
 Home (``Rover::update_home``, ``Rover::set_home``, ``AP_AHRS::set_home``): set where the EKF
 puts the rover once it has an origin (``home_delay_s`` after it; ArduPilot: the same loop),
@@ -21,11 +21,11 @@ then moved once a second while disarmed when the rover is more than 0.5 m
 (``GCS_MAVLINK::handle_command_do_set_home``) sets it where the rover is (param1 = 1, or x/y
 both 0) or at param5/6, and locks it; every change says "Set HOME to …" and sends
 HOME_POSITION and GPS_GLOBAL_ORIGIN to every link. The payload commands (relays, camera,
-gripper, …) are :mod:`helixd.sim.payload`'s.
+gripper, …) are :mod:`helixd.sim.firmware.payload`'s.
 
 Scripting (AP_Scripting): with SCR_ENABLE 1 at boot the scripts in the working directory's
 ``scripts/`` are loaded once, when the boot ends. The simulator runs one script:
-``helixd-guard.lua``, as its Python mirror (:mod:`helixd.sim.guard_model`) every 50 ms, with the
+``helixd-guard.lua``, as its Python mirror (:mod:`helixd.sim.firmware.guard_model`) every 50 ms, with the
 parameters the script adds (HXG_*, values kept in storage across reboots) and HXG_VERSION
 set to the ``local VERSION`` the file declares. Its actions are applied as the Lua's are:
 ``set_output_pwm_chan_timeout`` on each guarded output (:meth:`ServoOutputs.hold`), an RC
@@ -68,15 +68,15 @@ from helixd.mav.guard_script import (
     GuardParams,
     script_version,
 )
-from helixd.sim import modes
-from helixd.sim.estimator import SimEkfStatus
-from helixd.sim.failsafe import (
+from helixd.sim.firmware import modes
+from helixd.sim.firmware.estimator import SimEkfStatus
+from helixd.sim.firmware.failsafe import (
     FailsafeDecision,
     Failsafes,
     battery_failsafe,
     fence_breach,
 )
-from helixd.sim.guard_model import (
+from helixd.sim.firmware.guard_model import (
     HOLD_REFUSED_TEXT,
     UPDATE_PERIOD_MS,
     GuardAction,
@@ -84,10 +84,10 @@ from helixd.sim.guard_model import (
     passthrough_input,
     start_text,
 )
-from helixd.sim.outputs import MotorDemand, ServoOutputs
-from helixd.sim.param_store import ParamStore
-from helixd.sim.payload import PAYLOAD_COMMANDS, Payload
-from helixd.sim.rc import RcInputs
+from helixd.sim.firmware.outputs import MotorDemand, ServoOutputs
+from helixd.sim.firmware.param_store import ParamStore
+from helixd.sim.firmware.payload import PAYLOAD_COMMANDS, Payload
+from helixd.sim.firmware.rc import RcInputs
 from helixd.sim.sim_config import SimConfig
 
 FORCE_REBOOT_MAGIC = 20190226  # GCS_MAVLINK::handle_preflight_reboot: reboot even when armed

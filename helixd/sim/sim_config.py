@@ -16,13 +16,14 @@ from typing import Any
 from pydantic import Field, InstanceOf, field_validator, model_validator
 
 from helixd.base.media import MediaMap, Medium
-from helixd.config import LinkConfig, VehicleConfig
+from helixd.config.link import LinkConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.files.bathymetry import Bathymetry
 from helixd.files.models import InputModel, load_yaml_model
 from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS
-from helixd.sim.collisions import SimObstacles
-from helixd.sim.param_store import DEFAULT_PARAMS
-from helixd.sim.sonar import SonarModel
+from helixd.plant.collisions import SimObstacles
+from helixd.plant.sonar import SonarModel
+from helixd.sim.firmware.param_store import DEFAULT_PARAMS
 
 # helixd's own MAVLink system id (link.source_system's default)
 HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)
@@ -184,7 +185,7 @@ def read_ground_file(path: Path | str) -> TerrainTable:
 
 
 class SkidModel(InputModel):
-    """ArduPilot SITL's skid-steer rover (libraries/SITL/SIM_Rover.cpp; see helixd.sim.skid).
+    """ArduPilot SITL's skid-steer rover (libraries/SITL/SIM_Rover.cpp; see helixd.plant.skid).
 
     Defaults are SIM_Rover's constants for a ``skid`` frame. It reads outputs 1 (left motor)
     and 3 (right motor) only, as SITL does; ``scroll_output_channels``, ``scroll_reversed``,

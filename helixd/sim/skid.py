@@ -46,7 +46,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from helixd.sim.state import PhysicsState
+from helixd.plant.state import PhysicsState
 
 LEFT_OUTPUT = 1  # servos[0]: motor1
 RIGHT_OUTPUT = 3  # servos[2]: motor2

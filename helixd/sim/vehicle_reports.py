@@ -9,11 +9,11 @@ from dataclasses import dataclass
 
 from helixd.base.frames import ne_to_latlon
 from helixd.mav.constants import MISSION_STATE_NO_MISSION
-from helixd.sim import messages
+from helixd.plant.state import PhysicsState
 from helixd.sim import stream_rates as st
-from helixd.sim.estimator import PoseEstimate, SimEkfStatus
 from helixd.sim.faults import FaultClock
-from helixd.sim.state import PhysicsState
+from helixd.sim.firmware import messages
+from helixd.sim.firmware.estimator import PoseEstimate, SimEkfStatus
 
 POSE_MESSAGES = frozenset({st.MSG_LOCAL_POSITION_NED, st.MSG_GLOBAL_POSITION_INT})
 

@@ -11,11 +11,11 @@ import matplotlib.pyplot as plt
 import pytest
 from matplotlib.patches import PathPatch
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.media import read_media_map
 from helixd.mission.model import load_mission
-from helixd.recorder.plots import draw_media_plan
-from helixd.runtime.media_figure import checked_media
+from helixd.prepare.media_figure import checked_media
+from helixd.recorder.plan_plots import draw_media_plan
 from tests.support.cli import run_main
 from tests.support.paths import REPO_ROOT
 

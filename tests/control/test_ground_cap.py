@@ -11,7 +11,8 @@ import pytest
 from helixd.base.geometry import Pose2D
 from helixd.base.media import Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import HelixdConfig, VehicleConfig
+from helixd.config.root import HelixdConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.estimate import estimate_time
 from helixd.control.ground_cap import (
     capped_leg_speeds_mps,

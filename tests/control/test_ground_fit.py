@@ -12,7 +12,7 @@ import pytest
 from helixd.base.geometry import BodyVelocity
 from helixd.base.media import MediaAreaNe, MediaMapNe, Medium
 from helixd.base.plan import MotionMode
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.ground_fit import (
     SOURCED_FRACTIONS,
     AxisSums,
@@ -25,7 +25,7 @@ from helixd.control.ground_fit import (
     merge_profiles,
 )
 from helixd.control.kinematics import body_to_fractions
-from helixd.sim.sim_config import DEFAULT_TRACTION
+from helixd.plant.ground import DEFAULT_TRACTION
 
 VEHICLE = VehicleConfig()
 DT = 0.02

@@ -13,7 +13,9 @@ from hypothesis import strategies as st
 
 from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
-from helixd.config import SafetyConfig, SlipConfig, StallConfig, VehicleConfig
+from helixd.config.control import SlipConfig
+from helixd.config.safety import SafetyConfig, StallConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.kinematics import body_to_fractions
 from helixd.control.slip import (
     SlipEstimate,

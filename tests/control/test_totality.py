@@ -20,7 +20,8 @@ from helixd.base.angles import shortest_angular_distance, wrap_pi
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne, ne_to_latlon
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import ControlConfig, PidGains, VehicleConfig
+from helixd.config.control import ControlConfig, PidGains
+from helixd.config.vehicle import VehicleConfig
 from helixd.control import guidance
 from helixd.control.kinematics import (
     apply_calibration,
@@ -343,7 +344,7 @@ def test_nan_pose_gives_neutral_pwm_not_1734_1566() -> None:
     Now: the navigator refuses the pose; and even a NaN body command reaching kinematics
     maps to neutral PWM on every scroll."""
     from helixd.actuators.mapping import fraction_to_pwm
-    from helixd.config import ActuationConfig
+    from helixd.config.vehicle import ActuationConfig
 
     channels = ActuationConfig().channels
     nav = Navigator(make_plan(MotionMode.ROLL), CONTROL)

@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from helixd.cli.app import app
-from helixd.config import HelixdConfig, load_config
+from helixd.config.load import load_config
+from helixd.config.root import HelixdConfig
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import (
     LIBYAML,

@@ -17,11 +17,11 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaFrame, MediaMap, Medium
 from helixd.base.plan import MotionMode
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.ground_cap import full_speed_mps
+from helixd.plant.ground import TerrainTable
 from helixd.recorder.ground_profile import GroundProfile, write_profile
 from helixd.recorder.rows import read_flight_columns
-from helixd.sim.sim_config import TerrainTable
 from tests.integration.test_amphibious_flight import band, geojson
 from tests.support.simulated import simulated_flights
 

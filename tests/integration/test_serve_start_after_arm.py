@@ -16,7 +16,7 @@ from helixd.mav.constants import (
     MAV_CMD_MISSION_START,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.firmware.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.harness import guard_installed, overrides_released, scrolls_neutral
 from tests.support.loop_gcs import booted, heartbeat_shows, set_mode, simulated_crew, upload

@@ -6,8 +6,9 @@ from collections.abc import Mapping
 
 import pytest
 
-from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
-from helixd.link.autopilot_setup import (
+from helixd.config.link import LinkConfig
+from helixd.config.vehicle import ActuationBackend, ActuationConfig
+from helixd.link.services.autopilot_setup import (
     SetupLine,
     failed,
     judge_motor_outputs,
@@ -16,7 +17,7 @@ from helixd.link.autopilot_setup import (
     read_setup,
     spare_output,
 )
-from helixd.link.preflight import judge
+from helixd.link.services.preflight import judge
 from helixd.mav.guard_script import PARAM_DEFAULTS as GUARD_DEFAULTS
 from tests.support.peer import HELIXD_SYSID, linked
 

@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.link.codec import CRC_EXTRA, FrameDecoder, pack_rc_channels_override
-from helixd.link.framing import FrameKind, scan_frames, x25_crc
+from helixd.link.wire.codec import CRC_EXTRA, FrameDecoder, pack_rc_channels_override
+from helixd.link.wire.framing import FrameKind, scan_frames, x25_crc
 
 MSG_IDS = sorted(CRC_EXTRA)
 HOT = [

@@ -27,7 +27,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from structlog.testing import capture_logs
 
 from helixd.link.connection import Autopilot
-from helixd.link.framing import MAX_FRAME_BYTES
+from helixd.link.wire.framing import MAX_FRAME_BYTES
 from tests.support.peer import link_config, safety_config
 
 FAILURE_EVENTS = {"message_handler_failed", "link_task_failed", "mavlink_decode_failed"}

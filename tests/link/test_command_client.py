@@ -12,8 +12,8 @@ import structlog
 import structlog.testing
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig
-from helixd.link.command_client import CommandClient, CommandRejected, CommandTimeout
+from helixd.config.link import LinkConfig
+from helixd.link.services.command_client import CommandClient, CommandRejected, CommandTimeout
 from helixd.link.vehicle import VehicleState
 from tests.support.peer import DENIED, FAILED, Reply, linked, until
 

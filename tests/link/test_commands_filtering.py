@@ -8,7 +8,7 @@ import math
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.link.command_client import CommandTimeout
+from helixd.link.services.command_client import CommandTimeout
 from helixd.mav.constants import EKF_ATTITUDE, EKF_CONST_POS_MODE, EKF_VELOCITY_HORIZ
 from tests.support.peer import Reply, linked, until
 

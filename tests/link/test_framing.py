@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.link.codec import CRC_EXTRA
-from helixd.link.framing import (
+from helixd.link.wire.codec import CRC_EXTRA
+from helixd.link.wire.framing import (
     MAX_FRAME_BYTES,
     FrameKind,
     _x25_crc_table,

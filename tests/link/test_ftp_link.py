@@ -1,4 +1,4 @@
-"""helixd.link.ftp_link: MAVLink FTP over a real Autopilot against the simulator over UDP, and
+"""helixd.link.services.ftp_link: MAVLink FTP over a real Autopilot against the simulator over UDP, and
 the adapter's filter (only the autopilot's replies addressed to us)."""
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ from typing import Any
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link.connection import Autopilot
-from helixd.link.ftp_link import AutopilotFtpLink
-from helixd.link.ftp_transfer import DirectoryProbe, FtpUpload
+from helixd.link.services.ftp_link import AutopilotFtpLink
+from helixd.link.services.ftp_transfer import DirectoryProbe, FtpUpload
 from helixd.mav.ftp_wire import FtpOp, FtpPayload, crc32_ardupilot, to_message
 from tests.support.harness import running_sim
 from tests.support.mavmsgs import stamp

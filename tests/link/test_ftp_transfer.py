@@ -1,6 +1,6 @@
-"""The sans-IO FTP upload client (helixd.link.ftp_transfer) against the simulator's FTP server.
+"""The sans-IO FTP upload client (helixd.link.services.ftp_transfer) against the simulator's FTP server.
 
-No sockets: request and reply payloads travel between helixd.link.ftp_transfer.FtpUpload and
+No sockets: request and reply payloads travel between helixd.link.services.ftp_transfer.FtpUpload and
 helixd.sim.ftp_server.FtpServer (over a real temp directory) through a channel that can drop,
 duplicate and (replies only) delay each one, under hypothesis; time is a simulated clock.
 """
@@ -20,7 +20,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as hs
 
-from helixd.link.ftp_transfer import DirectoryProbe, FtpTransferError, FtpUpload, run_ftp
+from helixd.link.services.ftp_transfer import DirectoryProbe, FtpTransferError, FtpUpload, run_ftp
 from helixd.mav.ftp_wire import MAX_DATA_LEN, FtpErr, FtpOp, FtpPayload, crc32_ardupilot
 from helixd.sim.ftp_server import FtpServer
 

@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import pytest
 
-from helixd.config import ActuationBackend, ActuationConfig, LinkConfig
+from helixd.config.link import LinkConfig
+from helixd.config.vehicle import ActuationBackend, ActuationConfig
 from helixd.files.parmfile import load_parm
-from helixd.link.autopilot_setup import judge_setup
+from helixd.link.services.autopilot_setup import judge_setup
 from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS, VERSION
-from helixd.sim.param_store import DEFAULT_PARAMS
+from helixd.sim.firmware.param_store import DEFAULT_PARAMS
 from tests.support.paths import REPO_ROOT
 
 ARDUPILOT_DIR = REPO_ROOT / "config" / "ardupilot"

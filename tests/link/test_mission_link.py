@@ -1,4 +1,4 @@
-"""helixd.link.mission_link: the MissionLink adapter on the Autopilot's message listener, and
+"""helixd.link.services.mission_link: the MissionLink adapter on the Autopilot's message listener, and
 whole-mission transfers through it against the simulator's mission protocol (no sockets:
 packed and decoded frames, so sender ids are real)."""
 
@@ -15,12 +15,12 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig
-from helixd.link.mission_link import AutopilotMissionLink, MissionClient
-from helixd.link.mission_transfer import MissionTransferError
+from helixd.config.link import LinkConfig
+from helixd.link.services.mission_link import AutopilotMissionLink, MissionClient
+from helixd.link.services.mission_transfer import MissionTransferError
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import MissionItem
-from helixd.sim.mission_server import MissionServer
+from helixd.sim.firmware.mission_server import MissionServer
 from tests.support.mavmsgs import stamp
 
 CFG = LinkConfig(mission_item_timeout_s=0.2, mission_retries=2)

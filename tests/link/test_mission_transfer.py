@@ -1,8 +1,8 @@
-"""The sans-IO mission client (helixd.link.mission_transfer) against the simulator's mission
+"""The sans-IO mission client (helixd.link.services.mission_transfer) against the simulator's mission
 protocol.
 
 No sockets: messages are packed and decoded as on the wire (so sender ids are real) and carried
-between the client and helixd.sim.mission_server.MissionServer by a channel that can drop and
+between the client and helixd.sim.firmware.mission_server.MissionServer by a channel that can drop and
 duplicate them, under hypothesis.
 """
 
@@ -20,12 +20,16 @@ from hypothesis import strategies as hs
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig
-from helixd.link import mission_transfer as lm
-from helixd.link.mission_transfer import MissionDownload, MissionTransferError, MissionUpload
+from helixd.config.link import LinkConfig
+from helixd.link.services import mission_transfer as lm
+from helixd.link.services.mission_transfer import (
+    MissionDownload,
+    MissionTransferError,
+    MissionUpload,
+)
 from helixd.mav.constants import MAV_MISSION_TYPE_FENCE
 from helixd.mav.mission_item import MissionItem, wire_xy
-from helixd.sim.mission_server import MissionServer
+from helixd.sim.firmware.mission_server import MissionServer
 from tests.support.mavmsgs import stamp
 
 GCS = (255, 190)

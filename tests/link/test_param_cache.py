@@ -7,8 +7,8 @@ import asyncio
 import math
 from typing import Any, cast
 
-from helixd.link.command_client import CommandClient
-from helixd.link.param import Param, ParamCache
+from helixd.link.services.command_client import CommandClient
+from helixd.link.services.param import Param, ParamCache
 from helixd.link.vehicle import VehicleState
 
 

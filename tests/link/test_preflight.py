@@ -6,8 +6,9 @@ from collections.abc import Mapping
 
 import pytest
 
-from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, LinkConfig
-from helixd.link.preflight import check_obedience, judge
+from helixd.config.link import LinkConfig
+from helixd.config.vehicle import ActuationBackend, ActuationConfig, ChannelConfig
+from helixd.link.services.preflight import check_obedience, judge
 from helixd.mav.guard_script import PARAM_DEFAULTS as GUARD_DEFAULTS
 from tests.support.peer import HELIXD_SYSID, linked
 

@@ -1,4 +1,4 @@
-"""helixd.link.tlog: written .tlog files read back by pymavlink's own reader."""
+"""helixd.link.wire.tlog: written .tlog files read back by pymavlink's own reader."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.link.tlog import TlogWriter, tlog_record
+from helixd.link.wire.tlog import TlogWriter, tlog_record
 from tests.support.mavmsgs import read_tlog
 
 T0 = 1_763_900_000.0  # a UNIX time in 2025

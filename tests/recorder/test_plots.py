@@ -21,23 +21,25 @@ from helixd.mission.resume import RunInputs
 from helixd.recorder.events import read_events
 from helixd.recorder.outcome import CREW_COLOR
 from helixd.recorder.plots import (
-    AUTOPILOT_AXIS_LABEL,
     OVERVIEW_SIZE_PX,
     PANEL_FILES,
     PANEL_SIZE_PX,
-    PlotError,
     _draw_driven,
     _panel_figure,
-    arrival_mark,
-    autopilot_axis,
-    axis_labels,
     distance_along_m,
     draw_cross_track_along,
-    load_run,
     position_legend,
     render_run,
     sparse_label_mask,
     waypoint_labels,
+)
+from helixd.recorder.run_data import (
+    AUTOPILOT_AXIS_LABEL,
+    PlotError,
+    arrival_mark,
+    autopilot_axis,
+    axis_labels,
+    load_run,
 )
 from helixd.recorder.summary import Arrival, RunSummary
 from tests.support.recorder_runs import SQUARE, synth_run

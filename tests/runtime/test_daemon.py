@@ -8,14 +8,14 @@ import pytest
 
 from helixd.actuators.base import ServoCommandRefused
 from helixd.base.exitcodes import ExitCode
-from helixd.link.command_client import CommandRejected, CommandTimeout
+from helixd.link.services.command_client import CommandRejected, CommandTimeout
 from helixd.mav.url import LinkError
 from helixd.mission.resolve import PlanError
-from helixd.runtime.daemon import (
+from helixd.runtime.daemon import disarm_after
+from helixd.runtime.ending import (
     EXIT_RULES,
     Ending,
     Stage,
-    disarm_after,
     ending_after_fallback,
     ending_for,
     exit_rule,
@@ -90,7 +90,7 @@ def test_close_is_bounded(tmp_path: object) -> None:
     """A link whose close() hangs does not hang the exit: bounded by fallback_deadline_s."""
     from pathlib import Path
 
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.mission.model import Mission
     from helixd.runtime.daemon import MissionRunner, RunOptions
 
@@ -147,7 +147,7 @@ def test_a_stop_during_preflight_acts_at_once(monkeypatch: pytest.MonkeyPatch) -
     from types import SimpleNamespace
     from typing import Any
 
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.mission.model import Mission
     from helixd.runtime.daemon import MissionRunner, RunOptions
     from helixd.runtime.setup import Held

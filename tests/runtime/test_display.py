@@ -15,7 +15,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.recorder import logging_setup
 from helixd.recorder.rows import nan_row
 from helixd.recorder.summary import RunSummary, SummaryBuilder
-from helixd.runtime.display import (
+from helixd.report.display import (
     AutopilotElapsed,
     ProgressDisplay,
     ProgressInfo,

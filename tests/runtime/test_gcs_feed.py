@@ -1,4 +1,4 @@
-"""helixd.runtime.gcs_feed: the daemon's reporting shell never breaks a run, sends off the loop."""
+"""helixd.report.gcs_feed: the daemon's reporting shell never breaks a run, sends off the loop."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ from typing import Any
 
 import pytest
 
-from helixd.config import GcsReportConfig
-from helixd.runtime.gcs_feed import OUTBOX_MAX, GcsFeed, report_fallback
+from helixd.config.recorder import GcsReportConfig
+from helixd.report.gcs_feed import OUTBOX_MAX, GcsFeed, report_fallback
 from helixd.safety.supervisor import FallbackReport
 
 

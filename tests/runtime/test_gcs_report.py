@@ -1,4 +1,4 @@
-"""helixd.runtime.gcs_report: STATUSTEXT / NAMED_VALUE_FLOAT as a ground station receives them."""
+"""helixd.report.gcs_report: STATUSTEXT / NAMED_VALUE_FLOAT as a ground station receives them."""
 
 from __future__ import annotations
 
@@ -12,9 +12,10 @@ from hypothesis import strategies as hs
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import GcsReportConfig, HelixdConfig
+from helixd.config.recorder import GcsReportConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.statustext import StatusTextAssembler
-from helixd.runtime.gcs_report import (
+from helixd.report.gcs_report import (
     GcsReporter,
     PhaseChange,
     Progress,

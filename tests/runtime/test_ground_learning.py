@@ -9,11 +9,11 @@ import pytest
 
 from helixd.base.media import MediaAreaNe, MediaFrame, MediaMap, MediaMapNe, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import estimate_time
 from helixd.control.ground_fit import Learned
 from helixd.control.slip import SlipEstimator
-from helixd.runtime.ground_learning import (
+from helixd.prepare.ground_learning import (
     default_modes,
     learn_from_run,
     profile_path,

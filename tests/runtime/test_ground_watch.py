@@ -7,7 +7,7 @@ import pytest
 from helixd.base.plan import MotionMode
 from helixd.control.ground_check import GroundVerdict
 from helixd.mav.constants import MAV_SEVERITY_WARNING
-from helixd.runtime.gcs_report import PREFIX, chunk_statustext
+from helixd.report.gcs_report import PREFIX, chunk_statustext
 from helixd.runtime.ground_watch import GroundChange
 
 

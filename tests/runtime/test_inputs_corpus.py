@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from helixd.base.plan import MotionMode
-from helixd.runtime.inputs import InputsRefused, load_inputs
+from helixd.prepare.inputs import InputsRefused, load_inputs
 from tests.support.paths import DATA_DIR
 
 GCS = DATA_DIR / "gcs"

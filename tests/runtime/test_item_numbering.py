@@ -15,13 +15,14 @@ from pathlib import Path
 from typing import Any
 
 from helixd.base.plan import MotionMode, Numbering, program_numbering
-from helixd.config import GcsReportConfig, HelixdConfig
+from helixd.config.recorder import GcsReportConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.sequencer import Sequencer
 from helixd.mission.formats import load_mission_file
 from helixd.mission.resolve import Where, resolve
 from helixd.recorder.summary import SummaryBuilder
-from helixd.runtime.display import ProgressInfo, progress_fields, progress_line, result_line
-from helixd.runtime.gcs_report import GcsReporter, WaypointReached
+from helixd.report.display import ProgressInfo, progress_fields, progress_line, result_line
+from helixd.report.gcs_report import GcsReporter, WaypointReached
 from helixd.serve.flights import flight_end_text
 
 CFG = HelixdConfig()

@@ -1,4 +1,4 @@
-"""helixd.runtime.notify: real AF_UNIX datagram sockets stand in for systemd's notify socket."""
+"""helixd.report.notify: real AF_UNIX datagram sockets stand in for systemd's notify socket."""
 
 from __future__ import annotations
 
@@ -11,11 +11,7 @@ from pathlib import Path
 import pytest
 from structlog.testing import capture_logs
 
-from helixd.runtime.notify import (
-    ServiceNotifier,
-    parse_watchdog_interval_s,
-    sanitize_status,
-)
+from helixd.report.notify import ServiceNotifier, parse_watchdog_interval_s, sanitize_status
 
 RECV_TIMEOUT_S = 10.0  # generous: the machine is shared; a datagram arrives in microseconds
 SENTINEL = b"SENTINEL"

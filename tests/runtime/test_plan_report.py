@@ -1,4 +1,4 @@
-"""helixd.runtime.plan_report: what `helixd check` prints — the operator's waypoints numbered
+"""helixd.prepare.plan_report: what `helixd check` prints — the operator's waypoints numbered
 from 1, via points as such, the path and the estimate of the route as flown, the margin."""
 
 from __future__ import annotations
@@ -7,13 +7,13 @@ from pathlib import Path
 
 import pytest
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
+from helixd.mission.judge import patrol_times_s, plan_time_estimate
 from helixd.mission.model import load_mission
 from helixd.mission.validate import apply_mission_limits, plan_for_check
 from helixd.planning.mapfile import load_map
-from helixd.runtime.plan_report import check_lines, estimate_line, waypoint_table
-from helixd.runtime.planned import plan_loaded
-from helixd.runtime.timing import patrol_times_s, plan_time_estimate
+from helixd.prepare.plan_report import check_lines, estimate_line, waypoint_table
+from helixd.prepare.planned import plan_loaded
 from tests.support.paths import REPO_ROOT
 
 CFG = HelixdConfig()

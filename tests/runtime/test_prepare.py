@@ -11,16 +11,14 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml, read_gcs
 from helixd.mission.formats.wire import gcs_to_wire
 from helixd.mission.resolve import resolve
 from helixd.mission.resume import fresh_inputs, with_walk
-from helixd.runtime.autopilot_mission import convert_download
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.planned import Flight
-from helixd.runtime.prepare import (
+from helixd.prepare.autopilot_mission import convert_download
+from helixd.prepare.builder import (
     AutopilotMission,
     AutopilotPlace,
     AutoWalk,
@@ -29,6 +27,8 @@ from helixd.runtime.prepare import (
     from_autopilot_item,
     prepare_flight,
 )
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.planned import Flight
 from tests.support.missions import mission_of, points_mission
 from tests.support.paths import DATA_DIR, REPO_ROOT
 

@@ -11,18 +11,14 @@ import pytest
 
 from helixd.base.frames import NedPose
 from helixd.base.plan import MissionFrameKind
-from helixd.config import HelixdConfig
-from helixd.link.command_client import CommandRejected
+from helixd.config.root import HelixdConfig
+from helixd.link.services.command_client import CommandRejected
 from helixd.link.vehicle import Change, HomePosition
 from helixd.mission.expand import DEFAULT_OPTIONS
 from helixd.mission.model import Mission
-from helixd.runtime.setup import (
-    PreflightFailed,
-    explain_arm_refusal,
-    gps_verdict,
-    mission_frame,
-    resolve_flight,
-)
+from helixd.runtime.arming import explain_arm_refusal
+from helixd.runtime.placing import mission_frame, resolve_flight
+from helixd.runtime.setup import PreflightFailed, gps_verdict
 from tests.support.feed import Feed, still_pending
 from tests.support.mavmsgs import AP, decoded
 from tests.support.peer import linked

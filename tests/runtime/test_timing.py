@@ -1,14 +1,14 @@
-"""helixd.runtime.timing: the mission time limit against the navigator's own estimate."""
+"""helixd.mission.judge: the mission time limit against the navigator's own estimate."""
 
 from __future__ import annotations
 
 from typing import Any
 
 from helixd.base.frames import NedPose
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
+from helixd.mission.judge import flight_problems
 from helixd.mission.model import Mission
 from helixd.mission.validate import mission_problems
-from helixd.runtime.timing import flight_problems
 from tests.support.missions import points_mission
 
 

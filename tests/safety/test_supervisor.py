@@ -8,7 +8,7 @@ import math
 import pytest
 
 from helixd.base.frames import NedPose
-from helixd.config import SafetyConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.vehicle import VehicleState
 from helixd.safety.supervisor import Motion, Supervisor, fall_back, safety_inputs
 from helixd.safety.watchdogs import Fault, FaultCause

@@ -9,7 +9,7 @@ from collections.abc import Callable
 import pytest
 
 from helixd.base.polygon import point_in_polygon
-from helixd.config import SafetyConfig, StallConfig, TakeoverConfig
+from helixd.config.safety import SafetyConfig, StallConfig, TakeoverConfig
 from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonitor
 from tests.support.safety_inputs import HEALTHY
 

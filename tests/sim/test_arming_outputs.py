@@ -12,8 +12,8 @@ from helixd.mav.constants import (
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_FAILED,
 )
-from helixd.sim.param_store import DEFAULT_PARAMS
-from tests.sim.test_rover_firmware import Rig
+from helixd.sim.firmware.param_store import DEFAULT_PARAMS
+from tests.sim.firmware.test_rover_firmware import Rig
 
 PASSTHROUGH = {"SERVO1_FUNCTION": 51, "SERVO2_FUNCTION": 52, "SERVO3_FUNCTION": 53,
                "SERVO4_FUNCTION": 54}  # fmt: skip

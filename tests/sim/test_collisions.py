@@ -10,9 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from helixd.sim.collisions import SimObstacles, constrain, distance_m
+from helixd.plant.collisions import SimObstacles, constrain, distance_m
+from helixd.plant.state import PhysicsState
 from helixd.sim.sim_config import SimConfig
-from helixd.sim.state import PhysicsState
 from tests.support.simcore import assert_step_never_closer, make_core, run, skid_north_contacts
 
 POND: dict[str, Any] = {

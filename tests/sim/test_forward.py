@@ -1,6 +1,6 @@
 """The simulator is an independent oracle for the controller's kinematics.
 
-The sim's plant integrates its own eq. 1 (:mod:`helixd.sim.forward`); the controller builds
+The sim's plant integrates its own eq. 1 (:mod:`helixd.plant.forward`); the controller builds
 eq. 2 (and eq. 1) as matrices in :mod:`helixd.control.kinematics`. Commands from the
 controller's inverse kinematics must move the simulated rover the way they ask — and a
 deliberately sign-flipped inverse kinematics (alone, or flipped together with the controller's
@@ -21,11 +21,12 @@ from hypothesis import strategies as hs
 import helixd.control.kinematics as kin
 from helixd.base.geometry import BodyVelocity, NonFiniteError
 from helixd.base.plan import MotionMode
-from helixd.config import VehicleConfig
-from helixd.sim import forward
-from helixd.sim.physics import step
-from helixd.sim.sim_config import SimConfig, Terrain
-from helixd.sim.state import PhysicsState
+from helixd.config.vehicle import VehicleConfig
+from helixd.plant import forward
+from helixd.plant.ground import Terrain
+from helixd.plant.physics import step
+from helixd.plant.state import PhysicsState
+from helixd.sim.sim_config import SimConfig
 
 VEHICLE = VehicleConfig()
 R, LX, LY = VEHICLE.scroll_radius_m, VEHICLE.lx_m, VEHICLE.ly_m

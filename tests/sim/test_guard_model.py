@@ -1,4 +1,4 @@
-"""helixd-guard's pure mirror (helixd/sim/guard_model.py) and its agreement with the Lua script."""
+"""helixd-guard's pure mirror (helixd/sim/firmware/guard_model.py) and its agreement with the Lua script."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import re
 import pytest
 
 from helixd.mav import guard_script as mg
-from helixd.sim import guard_model as g
+from helixd.sim.firmware import guard_model as g
 from tests.support.paths import REPO_ROOT
 
 LUA = REPO_ROOT / "helixd" / "mav" / "scripts" / "helixd-guard.lua"

@@ -13,8 +13,9 @@ from hypothesis import strategies as st
 
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
 from helixd.files.bathymetry import Bathymetry
-from helixd.sim import physics
-from helixd.sim.json_physics import (
+from helixd.plant import physics
+from helixd.plant.ground import Terrain
+from helixd.plant.json_physics import (
     GRAVITY_MSS,
     MAGIC_16,
     MAGIC_32,
@@ -27,11 +28,11 @@ from helixd.sim.json_physics import (
     encode_servo_frame,
     step_s_for,
 )
-from helixd.sim.json_server import open_socket, serve_plant
-from helixd.sim.physics import MotorMap
-from helixd.sim.sim_config import SimConfig, Terrain
-from helixd.sim.sonar import SonarModel
-from helixd.sim.state import PhysicsState
+from helixd.plant.json_server import open_socket, serve_plant
+from helixd.plant.physics import MotorMap
+from helixd.plant.sonar import SonarModel
+from helixd.plant.state import PhysicsState
+from helixd.sim.sim_config import SimConfig
 
 RATE_HZ = 400
 NEUTRAL = 1500

@@ -12,13 +12,14 @@ import pytest
 from pydantic import ValidationError
 
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.files.media import MediaMapError
+from helixd.plant.ground import Terrain, TerrainTable
+from helixd.plant.physics import scroll_positions_ne, step
+from helixd.plant.state import PhysicsState
 from helixd.sim.core import SimCore
-from helixd.sim.physics import scroll_positions_ne, step
 from helixd.sim.server import with_media
-from helixd.sim.sim_config import SimConfig, Terrain, TerrainTable
-from helixd.sim.state import PhysicsState
+from helixd.sim.sim_config import SimConfig
 from tests.support.simcore import make_core, run
 
 VEHICLE = VehicleConfig()

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from helixd.link.statustext import StatusTextAssembler
-from helixd.sim.messages import statustexts
+from helixd.sim.firmware.messages import statustexts
 
 
 def test_long_text_chunks_reassemble() -> None:

@@ -31,7 +31,8 @@ from helixd.mav.constants import (
     MISSION_STATE_NOT_STARTED,
 )
 from helixd.sim import stream_rates as st
-from helixd.sim.mission_server import MissionServer, Outcome
+from helixd.sim.firmware.mission_items import Outcome
+from helixd.sim.firmware.mission_server import MissionServer
 from tests.support.mavmsgs import stamp
 from tests.support.simcore import incoming, make_core, of_type, run
 

@@ -1,4 +1,4 @@
-"""The simulator's mission protocol (helixd.sim.mission_server) against ArduPilot's behaviour."""
+"""The simulator's mission protocol (helixd.sim.firmware.mission_server) against ArduPilot's behaviour."""
 
 from __future__ import annotations
 
@@ -23,9 +23,10 @@ from helixd.mav.constants import (
     MAV_MISSION_UNSUPPORTED,
     MAV_MISSION_UNSUPPORTED_FRAME,
 )
-from helixd.sim import mission_server as sm
 from helixd.sim.faults import make_spec
-from helixd.sim.mission_server import MissionServer, Outcome
+from helixd.sim.firmware import mission_server as sm
+from helixd.sim.firmware.mission_items import Outcome
+from helixd.sim.firmware.mission_server import MissionServer
 from tests.support.mavmsgs import stamp
 from tests.support.simcore import incoming, make_core, of_type, run
 

@@ -25,10 +25,10 @@ from helixd.mav.constants import (
     MISSION_STATE_ACTIVE,
     MISSION_STATE_COMPLETE,
 )
-from helixd.sim import modes
+from helixd.plant.state import PhysicsState
 from helixd.sim.core import SimCore
-from helixd.sim.mode_auto import passed_finish_line
-from helixd.sim.state import PhysicsState
+from helixd.sim.firmware import modes
+from helixd.sim.firmware.mode_auto import passed_finish_line
 from tests.support.simcore import command, incoming, make_core, of_type, run
 
 GCS_SYSID = 255

@@ -25,10 +25,10 @@ from helixd.mav.constants import (
     MAV_RESULT_ACCEPTED,
     MAV_RESULT_DENIED,
 )
-from helixd.sim import modes
 from helixd.sim.core import SimCore
-from helixd.sim.mode_goto import Place, reposition_refusal, rtl_destination
-from tests.sim.test_mode_auto import GCS_SYSID, ready_core, teleport, texts
+from helixd.sim.firmware import modes
+from helixd.sim.firmware.mode_goto import Place, reposition_refusal, rtl_destination
+from tests.sim.firmware.test_mode_auto import GCS_SYSID, ready_core, teleport, texts
 from tests.support.simcore import command, incoming, make_core, of_type, run
 
 _mav = mavlink.MAVLink(None)

@@ -1,4 +1,4 @@
-"""The simulator's map: a raster of solid cells (helixd.sim.collisions.ObstacleRaster) that the
+"""The simulator's map: a raster of solid cells (helixd.plant.collisions.ObstacleRaster) that the
 rover stops against, and what ``helixd run --sim --map`` hands the embedded simulator."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.sim.collisions import ObstacleRaster, SimObstacles, distance_m
+from helixd.plant.collisions import ObstacleRaster, SimObstacles, distance_m
 from tests.support.simcore import (
     EmbeddedStart,
     assert_step_never_closer,
@@ -124,7 +124,7 @@ def test_sim_world_takes_the_maps_occupied_cells_and_the_config_keep_outs(
     tmp_path: Path,
 ) -> None:
     from helixd.cli.simulated import sim_world
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.planning.mapfile import load_map
 
     occ = load_map(_write_map(tmp_path), 16_000_000)
@@ -166,7 +166,7 @@ def test_run_sim_map_hands_the_world_to_the_embedded_simulator(
 
 def test_the_simulator_loads_nothing_of_planning() -> None:
     code = (
-        "import sys, helixd.sim, helixd.sim.collisions, helixd.sim.server;"
+        "import sys, helixd.sim, helixd.plant.collisions, helixd.sim.server;"
         "bad = sorted(m for m in sys.modules if m.startswith(('helixd.planning', "
         "'helixd.control')));"
         "print(bad); assert not bad"

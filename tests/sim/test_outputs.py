@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from helixd.sim.outputs import MotorDemand, ServoOutputs
-from helixd.sim.param_store import ParamStore
+from helixd.sim.firmware.outputs import MotorDemand, ServoOutputs
+from helixd.sim.firmware.param_store import ParamStore
 from helixd.sim.sim_config import SimConfig
 
 RADIO = [1500] * 16

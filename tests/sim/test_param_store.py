@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 from pydantic import ValidationError
 
-from helixd.config import LinkConfig
-from helixd.sim.param_store import DEFAULT_PARAMS, ParamStore, ParamType
+from helixd.config.link import LinkConfig
+from helixd.sim.firmware.param_store import DEFAULT_PARAMS, ParamStore, ParamType
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 
 

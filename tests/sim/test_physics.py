@@ -9,11 +9,12 @@ import pytest
 
 from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.kinematics import body_to_fractions, rpm_to_radps
-from helixd.sim.physics import MotorMap, scroll_fractions_from_pwm, step
-from helixd.sim.sim_config import SimConfig, Terrain
-from helixd.sim.state import PhysicsState
+from helixd.plant.ground import Terrain
+from helixd.plant.physics import MotorMap, scroll_fractions_from_pwm, step
+from helixd.plant.state import PhysicsState
+from helixd.sim.sim_config import SimConfig
 
 VEHICLE = VehicleConfig()
 TAU_S = 0.3

@@ -19,10 +19,10 @@ from helixd.mav.constants import (
     UINT16_MAX,
 )
 from helixd.mav.guard_script import SCRIPT_NAME, VERSION, script_bytes
-from helixd.sim import estimator, modes
-from helixd.sim import guard_model as g
-from helixd.sim.param_store import ParamStore
-from helixd.sim.rover_firmware import FORCE_REBOOT_MAGIC, SimAutopilot
+from helixd.sim.firmware import estimator, modes
+from helixd.sim.firmware import guard_model as g
+from helixd.sim.firmware.param_store import ParamStore
+from helixd.sim.firmware.rover_firmware import FORCE_REBOOT_MAGIC, SimAutopilot
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
 
 DT_S = 0.02

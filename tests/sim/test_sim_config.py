@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from helixd.files.models import ConfigFileError
-from helixd.sim.sim_config import DEFAULT_TRACTION, TerrainTable, read_ground_file
+from helixd.plant.ground import DEFAULT_TRACTION, TerrainTable, read_ground_file
 
 TABLE = TerrainTable()
 

@@ -15,9 +15,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 from pydantic import ValidationError
 
-from helixd.sim import skid
-from helixd.sim.sim_config import Plant, SimConfig
-from helixd.sim.state import PhysicsState
+from helixd.plant import skid
+from helixd.plant.plant_config import Plant
+from helixd.plant.state import PhysicsState
+from helixd.sim.sim_config import SimConfig
 from tests.support import simcore
 from tests.support.cli import main_exit
 from tests.support.simcore import EmbeddedStart, capture_embedded_start

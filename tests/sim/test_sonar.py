@@ -1,4 +1,4 @@
-"""The simulator's pond bottom and down-facing sonar (helixd/sim/sonar.py, sim/core.py)."""
+"""The simulator's pond bottom and down-facing sonar (helixd/plant/sonar.py, sim/core.py)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from helixd.files.bathymetry import Bathymetry
+from helixd.plant.sonar import BathymetryNe, SonarModel, sense
 from helixd.sim.sim_config import SimConfig
-from helixd.sim.sonar import BathymetryNe, SonarModel, sense
 from tests.support.simcore import command, make_core, of_type, run
 
 ORIGIN = SimConfig().origin_lat_deg, SimConfig().origin_lon_deg

@@ -12,7 +12,7 @@ from typing import Any
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.frames import ne_to_latlon
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.sim.sim_config import SimConfig
 from tests.support.harness import MavClient
 

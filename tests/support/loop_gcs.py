@@ -21,7 +21,7 @@ from helixd.mav.constants import (
     MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.firmware.modes import MODE_NUMBERS
 from tests.support.gcs import HELIXD, QGC_SYSID, waypoint
 from tests.support.harness import overrides_released
 from tests.support.loop_mav import LoopMav

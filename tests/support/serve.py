@@ -20,7 +20,7 @@ from helixd.mav.constants import (
     MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.firmware.modes import MODE_NUMBERS
 from helixd.sim.server import SimServer
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon

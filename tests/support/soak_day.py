@@ -47,7 +47,7 @@ from helixd.mav.constants import (
     MAV_FRAME_GLOBAL,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
 )
-from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.firmware.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import deep_merge
 from tests.support.gcs import HELIXD, QGC_SYSID, SIM, do_item, fence_circle, latlon, waypoint
