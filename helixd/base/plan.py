@@ -55,6 +55,9 @@ class PlanWaypoint:
     # what the ground of the leg to this waypoint delivers (roll, scroll, yaw fractions), as
     # the rover learnt it (helixd.prepare.ground_learning); None: the declared ground
     ground: tuple[float, float, float] | None = None
+    # the highest speed the leg's ground takes in its mode, as the rover learnt it
+    # (helixd.control.ground_cap; m/s); None: no cap
+    speed_cap_mps: float | None = None
 
 
 class ActionKind(StrEnum):

@@ -87,3 +87,7 @@ class GroundConfig(ConfigSection):
     objective: Literal["time", "energy"] = Field("time")
     """media.modes learned picks per medium the mode that is fastest (time) or spends the least
     energy per metre (energy)"""
+    speed_cap_margin: float = Field(0.9, gt=0.0, le=1.0)
+    """where the profile knows a medium in a mode, the speed commanded there keeps the scrolls'
+    demand within this share of their full speed: margin x what the ground delivers at full speed
+    where the feed-forward makes the slip up (helixd.control.ground_cap) (1)"""

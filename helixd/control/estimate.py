@@ -47,6 +47,7 @@ from helixd.base.angles import shortest_angular_distance
 from helixd.base.geometry import require_finite
 from helixd.base.plan import MotionMode, Plan, PlanWaypoint
 from helixd.control import guidance, line
+from helixd.control.ground_cap import capped_leg_speeds_mps
 from helixd.control.params import NavigatorParams, SlipParams
 from helixd.control.slip import feed_forward_gain, same_direction
 
@@ -317,7 +318,8 @@ class _Line:
 
     def __init__(self, plan: Plan, control: NavigatorParams, path: _Path, ground: _Ground) -> None:
         self.plan, self.control, self.path, self.ground = plan, control, path, ground
-        self.cruise = plan.leg_speeds_mps()  # per leg: DO_CHANGE_SPEED sets it
+        # per leg: DO_CHANGE_SPEED sets it, the ground's cap bounds it (control.ground_cap)
+        self.cruise = capped_leg_speeds_mps(plan)
         self.floor = max(control.min_speed_mps, SPEED_FLOOR_MPS)
         self.brake = control.braking_accel_mps2
         wps = plan.waypoints
@@ -545,7 +547,7 @@ class _Thesis:
             [w.final_yaw_rad is not None or w.stop for w in wps],
             control.corner_slowdown_rad,
         )
-        cruise = plan.leg_speeds_mps()  # per leg: DO_CHANGE_SPEED sets it
+        cruise = capped_leg_speeds_mps(plan)  # per leg: DO_CHANGE_SPEED, the ground's cap
         here = path.points[0]
         heading = path.start_yaw_rad
         tally = _Tally(control, limited=False)

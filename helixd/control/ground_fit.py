@@ -66,6 +66,17 @@ DRIVEN: Mapping[MotionMode, tuple[str, ...]] = {
 # scroll centres in units of (l_x, l_y), scrolls 1..4 (docs/physics.md, "Media maps")
 SCROLL_CORNERS = ((1.0, -1.0), (-1.0, -1.0), (-1.0, 1.0), (1.0, 1.0))
 MAX_RUNS = 200  # run names a cell keeps (the newest)
+# What each medium delivers (roll, scroll, yaw) before the rover has learnt it: the sourced
+# table (docs/physics.md, "The ground table"; the simulator's default table holds the same
+# numbers, tests/control/test_ground_fit.py checks it). The time estimate counts it where the
+# profile knows too little (helixd.prepare.ground_learning.with_learned_ground).
+SOURCED_FRACTIONS: Mapping[Medium, tuple[float, float, float]] = {
+    Medium.HARD: (0.95, 0.12, 0.85),
+    Medium.GRASS: (0.9, 0.25, 0.75),
+    Medium.SAND: (0.6, 0.12, 0.12),
+    Medium.MUD: (0.3, 0.85, 0.55),
+    Medium.WATER: (0.05, 0.62, 0.4),
+}
 
 
 @dataclass(frozen=True, slots=True)
@@ -381,6 +392,7 @@ def with_run(profile: Mapping[Cell, CellSums], run: str) -> dict[Cell, CellSums]
 __all__ = [
     "AXES",
     "DRIVEN",
+    "SOURCED_FRACTIONS",
     "AxisSums",
     "CellSums",
     "GroundFitParams",

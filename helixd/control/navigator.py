@@ -75,6 +75,7 @@ from helixd.base.angles import shortest_angular_distance, wrap_pi
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D, require_finite
 from helixd.base.plan import MotionMode, Plan, PlanWaypoint
 from helixd.control import guidance, line
+from helixd.control.ground_cap import leg_cruise_mps
 from helixd.control.kinematics import constrain
 from helixd.control.params import NavigatorParams
 from helixd.control.pid import PID, PidTerms
@@ -213,6 +214,13 @@ class Navigator:
             )
         self._cruise_mps = speed_mps
 
+    def _leg_cruise_mps(self) -> float:
+        """The cruise, at most the cap of the leg's ground in its planned mode (not when the
+        ground check flies another: :mod:`helixd.control.ground_cap`)."""
+        if self._mode_override is not None:
+            return self._cruise_mps
+        return leg_cruise_mps(self._cruise_mps, self.plan.waypoints[self.target_index])
+
     def set_reverse(self, reverse: bool) -> None:
         """Drive the mode's axis backwards (ROLL −x, SCROLL −y) from the next step on."""
         self._reverse = reverse and self.mode is not MotionMode.OMNI
@@ -349,7 +357,7 @@ class Navigator:
             distance_terms.output,
             e_go,
             goal.tolerance_m,
-            self._cruise_mps,
+            self._leg_cruise_mps(),
             self.control.slowdown_radius_m,
             self.control.min_speed_mps,
         )
@@ -546,7 +554,7 @@ class Navigator:
                 # Still rounding the corner just passed: its arc (or, without one, the
                 # lookahead law's rounding, about L) spans this far past the vertex.
                 profile = min(profile, self._pass_speed_mps[i - 1] or profile)
-        speed_mps = min(distance_terms.output, profile, self._cruise_mps)
+        speed_mps = min(distance_terms.output, profile, self._leg_cruise_mps())
         speed_mps = max(speed_mps, cfg.min_speed_mps)  # not reached yet: never creep
         speed_mps = max(0.0, speed_mps) * max(0.0, math.cos(e_psi))
         return (-speed_mps if self._reverse else speed_mps), distance_terms

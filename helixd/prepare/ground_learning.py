@@ -21,8 +21,10 @@ import structlog
 from helixd.base.media import MediaMap, MediaMapNe, Medium
 from helixd.base.plan import MotionMode, Plan
 from helixd.config.root import HelixdConfig
+from helixd.control.ground_cap import full_speed_mps, leg_cap_mps
 from helixd.control.ground_fit import (
     AXES,
+    SOURCED_FRACTIONS,
     Cell,
     CellSums,
     GroundFitParams,
@@ -120,8 +122,9 @@ def with_learned_ground(
     delivers its medium's fraction, so the rover the mean of the two (the simulator's blend,
     docs/physics.md "Media maps"); per axis the leg's fraction is the one that, through the
     slip feed-forward, delivers the harmonic mean of what the steps deliver (time adds up as
-    length / delivered). The declared ground (``control.slip.ground_*_fraction``) where the
-    profile knows too little."""
+    length / delivered). Where the profile knows too little: the ground the operator declared
+    (``control.slip.ground_*_fraction``, if any is below 1), else the medium's sourced default
+    (:data:`helixd.control.ground_fit.SOURCED_FRACTIONS`, the simulator's default table)."""
     slip = cfg.control.slip
     gain = slip.max_gain if slip.enabled else 1.0
     declared = {
@@ -129,28 +132,22 @@ def with_learned_ground(
         "scroll": slip.ground_scroll_fraction,
         "yaw": slip.ground_yaw_fraction,
     }
+    operator_declared = any(f < 1.0 for f in declared.values())
     known: dict[tuple[Medium, str], float] = {}
 
     def fraction(medium: Medium, axis: str) -> float:
         key = (medium, axis)
         if key not in known:
-            known[key] = axis_fraction(view, medium, axis) or declared[axis]
+            default = (
+                declared[axis] if operator_declared else SOURCED_FRACTIONS[medium][AXES.index(axis)]
+            )
+            known[key] = axis_fraction(view, medium, axis) or default
         return known[key]
 
-    points = [start_xy_m, *((w.x_m, w.y_m) for w in plan.waypoints)]
     legs = []
     for j, wp in enumerate(plan.waypoints):
-        (ax, ay), (bx, by) = points[j], points[j + 1]
-        length = math.hypot(bx - ax, by - ay)
-        ux, uy = ((bx - ax) / length, (by - ay) / length) if length > 0.0 else (0.0, 0.0)
-        half = cfg.vehicle.lx_m if plan.mode_at(j) is MotionMode.ROLL else cfg.vehicle.ly_m
-        steps = max(1, math.ceil(length / STEP_M))
-        pairs = []
-        for k in range(steps):
-            s_m = (k + 0.5) / steps * length
-            ahead = placed.medium_at(*to_ne(ax + ux * (s_m + half), ay + uy * (s_m + half)))
-            behind = placed.medium_at(*to_ne(ax + ux * (s_m - half), ay + uy * (s_m - half)))
-            pairs.append((ahead, behind))
+        pairs = _leg_pairs(plan, j, placed, to_ne, start_xy_m, cfg)
+        steps = len(pairs)
         fractions = []
         for axis in AXES:
             inverse = 0.0
@@ -167,6 +164,58 @@ def with_learned_ground(
                 raw = min(both, slip.stuck_fraction)
             fractions.append(raw)
         legs.append(replace(wp, ground=(fractions[0], fractions[1], fractions[2])))
+    return replace(plan, waypoints=tuple(legs))
+
+
+def _leg_pairs(
+    plan: Plan,
+    j: int,
+    placed: MediaMapNe,
+    to_ne: Callable[[float, float], tuple[float, float]],
+    start_xy_m: tuple[float, float],
+    cfg: HelixdConfig,
+) -> list[tuple[Medium, Medium]]:
+    """Along leg ``j``, every :data:`STEP_M`, the media under the rover's front and rear
+    scroll pairs (half its length ahead and behind: l_y in SCROLL, l_x in ROLL)."""
+    (ax, ay) = start_xy_m if j == 0 else (plan.waypoints[j - 1].x_m, plan.waypoints[j - 1].y_m)
+    bx, by = plan.waypoints[j].x_m, plan.waypoints[j].y_m
+    length = math.hypot(bx - ax, by - ay)
+    ux, uy = ((bx - ax) / length, (by - ay) / length) if length > 0.0 else (0.0, 0.0)
+    half = cfg.vehicle.lx_m if plan.mode_at(j) is MotionMode.ROLL else cfg.vehicle.ly_m
+    steps = max(1, math.ceil(length / STEP_M))
+    pairs = []
+    for k in range(steps):
+        s_m = (k + 0.5) / steps * length
+        ahead = placed.medium_at(*to_ne(ax + ux * (s_m + half), ay + uy * (s_m + half)))
+        behind = placed.medium_at(*to_ne(ax + ux * (s_m - half), ay + uy * (s_m - half)))
+        pairs.append((ahead, behind))
+    return pairs
+
+
+def with_speed_caps(
+    plan: Plan,
+    placed: MediaMapNe,
+    to_ne: Callable[[float, float], tuple[float, float]],
+    start_xy_m: tuple[float, float],
+    view: Mapping[Cell, Learned],
+    cfg: HelixdConfig,
+) -> Plan:
+    """``plan`` with each leg's speed cap (``PlanWaypoint.speed_cap_mps``): the lowest over
+    the media under its scrolls of what the profile knows they take in the leg's mode
+    (:func:`helixd.control.ground_cap.leg_cap_mps`); no cap where it knows too little."""
+    full = full_speed_mps(cfg.vehicle)
+    margin = cfg.ground.speed_cap_margin
+    legs = []
+    for j, wp in enumerate(plan.waypoints):
+        mode = plan.mode_at(j)
+        media = {m for pair in _leg_pairs(plan, j, placed, to_ne, start_xy_m, cfg) for m in pair}
+
+        def fraction_of(medium: Medium, axis: str, mode: MotionMode = mode) -> float | None:
+            cell = view.get((medium, mode))
+            return None if cell is None else cell.fractions.get(axis)
+
+        cap = leg_cap_mps(sorted(media), mode, fraction_of, full, margin, cfg.control.slip)
+        legs.append(replace(wp, speed_cap_mps=cap))
     return replace(plan, waypoints=tuple(legs))
 
 
@@ -206,13 +255,15 @@ def learned_plan(
     to_ne: Callable[[float, float], tuple[float, float]],
     start_xy_m: tuple[float, float],
 ) -> Plan:
-    """``media.modes: learned``: ``plan`` with its legs' learnt ground for the estimate and
-    the slip estimate's learnt priors (the profile read again); any other policy: ``plan`` as
-    it is."""
+    """``media.modes: learned``: ``plan`` with its legs' learnt ground for the estimate, their
+    speed caps and the slip estimate's learnt priors (the profile read again); any other
+    policy: with its legs' ground for the estimate from the defaults alone (the sourced table
+    per medium, or the declared ground: :func:`with_learned_ground`), the flight as it was."""
     if not isinstance(cfg.media.modes, str):
-        return plan
+        return with_learned_ground(plan, placed, to_ne, start_xy_m, {}, cfg)
     view = learned_view(cfg, read_profile(profile_path(cfg)))
     legs = with_learned_ground(plan, placed, to_ne, start_xy_m, view, cfg)
+    legs = with_speed_caps(legs, placed, to_ne, start_xy_m, view, cfg)
     return replace(legs, slip_priors=slip_priors(plan, placed, to_ne, start_xy_m, view, cfg))
 
 
@@ -285,4 +336,5 @@ __all__ = [
     "profile_path",
     "slip_priors",
     "with_learned_ground",
+    "with_speed_caps",
 ]

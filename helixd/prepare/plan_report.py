@@ -99,6 +99,13 @@ def estimate_line(
     )
 
 
+LEGS_GROUND_LINE = (
+    "ground  : per leg, the media under it: what the ground profile learnt where it knows the "
+    "medium (media.modes learned), else control.slip.ground_* where declared, else the "
+    "sourced table (docs/physics.md), with the slip feed-forward; counted in the estimate"
+)
+
+
 def ground_line(cfg: HelixdConfig, msn: Mission, mode: MotionMode) -> str:
     """The ground the estimate counts (the mission's, else the config's) and what of the
     command it delivers in ``mode`` with the slip feed-forward."""
@@ -237,7 +244,8 @@ def check_lines(
     )
     patrol = patrol_times_s(plan, estimate)
     lines.append(estimate_line(estimate, cfg, msn, start_note, patrol))
-    lines.append(ground_line(cfg, msn, plan.mode))
+    legs_ground = any(w.ground is not None for w in plan.waypoints)
+    lines.append(LEGS_GROUND_LINE if legs_ground else ground_line(cfg, msn, plan.mode))
     mapped = followed.media if followed is not None else None
     sand_m = None if mapped is None else medium_under_mode_m(mapped, Medium.SAND, MotionMode.SCROLL)
     dig = dig_in_warning(plan.mode, estimate.pivots, sand_m)

@@ -14,6 +14,7 @@ from helixd.base.media import MediaAreaNe, MediaMapNe, Medium
 from helixd.base.plan import MotionMode
 from helixd.config.vehicle import VehicleConfig
 from helixd.control.ground_fit import (
+    SOURCED_FRACTIONS,
     AxisSums,
     CellSums,
     Learned,
@@ -24,6 +25,7 @@ from helixd.control.ground_fit import (
     merge_profiles,
 )
 from helixd.control.kinematics import body_to_fractions
+from helixd.plant.ground import DEFAULT_TRACTION
 
 VEHICLE = VehicleConfig()
 DT = 0.02
@@ -160,3 +162,16 @@ def test_an_axis_is_read_from_the_mode_that_drives_it() -> None:
     assert axis_fraction(profile, Medium.MUD, "scroll") == 0.85
     assert axis_fraction(profile, Medium.SAND, "scroll") == 0.2  # from OMNI
     assert axis_fraction(profile, Medium.WATER, "roll") is None
+
+
+def test_the_sourced_defaults_are_the_simulators_default_table() -> None:
+    """The estimate's defaults per medium (before the rover learnt them) and the simulator's
+    default ground are the same sourced numbers (docs/physics.md, "The ground table")."""
+    for medium, (roll, scroll, yaw) in SOURCED_FRACTIONS.items():
+        row = DEFAULT_TRACTION[medium.value]
+        assert (row["roll_efficiency"], row["scroll_efficiency"], row["yaw_efficiency"]) == (
+            roll,
+            scroll,
+            yaw,
+        )
+    assert set(SOURCED_FRACTIONS) == set(Medium)

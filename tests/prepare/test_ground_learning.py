@@ -49,7 +49,16 @@ def test_each_leg_carries_the_harmonic_mean_of_what_its_media_deliver() -> None:
     # rover's length blends the two at each boundary: a little faster)
     assert leg.ground[1] == pytest.approx(5.0 / 7.0 / 2.0, rel=0.03)
     assert leg.ground[1] > 5.0 / 7.0 / 2.0
-    assert leg.ground[0] == 1.0 and leg.ground[2] == 1.0  # unknown: the declared ground
+    # unknown: the sourced table, not "no slip": roll hard 0.95, mud 0.3 (0.6 delivered with
+    # the 2x feed-forward); yaw hard 0.85, mud 0.55 (both made up: all delivered)
+    assert 0.3 < leg.ground[0] < 0.95 and leg.ground[2] == 1.0
+    # a ground the operator declared stands where the profile knows nothing (roll 0.4: 0.8
+    # delivered with the feed-forward everywhere; yaw 1: all of it)
+    declared = HelixdConfig.model_validate({"control": {"slip": {"ground_roll_fraction": 0.4}}})
+    (own,) = with_learned_ground(plan, WORLD, to_ne, (0.0, 0.0), learnt, declared).waypoints
+    assert own.ground is not None
+    assert own.ground[0] == pytest.approx(0.4) and own.ground[2] == 1.0
+    assert own.ground[1] == pytest.approx(leg.ground[1])  # what the profile knows wins
     slow = estimate_time(got, CFG.control, (0.0, 0.0), None).driving_s
     fast = estimate_time(plan, CFG.control, (0.0, 0.0), None).driving_s
     assert slow == pytest.approx(1.4 * fast, rel=0.05)  # the cruise part 7/5 longer
