@@ -12,7 +12,8 @@ from helixd.files.models import InputModel
 
 
 class ConfigSection(InputModel):
-    """A section of ``helixd.yaml`` (strict like every input model: unknown keys are errors).
+    """A section of ``helixd.yaml`` or of the simulator's YAML (strict like every input model:
+    unknown keys are errors).
 
     Each field is written ``name_unit: type = Field(default, bounds)`` with its description in
     the docstring under it, which pydantic reads as the field's description
