@@ -178,7 +178,14 @@ MAV_FRAME_GLOBAL_RELATIVE_ALT_INT = int(_mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
 MAV_FRAME_GLOBAL_TERRAIN_ALT = int(_mav.MAV_FRAME_GLOBAL_TERRAIN_ALT)
 MAV_FRAME_GLOBAL_TERRAIN_ALT_INT = int(_mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT)
 MAV_FRAME_MISSION = int(_mav.MAV_FRAME_MISSION)
+# each global *_INT frame's plain twin (x/y a latitude/longitude as int 1e7 degrees, or as floats)
+NON_INT_FRAME = {
+    MAV_FRAME_GLOBAL_INT: MAV_FRAME_GLOBAL,
+    MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: MAV_FRAME_GLOBAL_TERRAIN_ALT,
+}
 # the frames whose x/y are a latitude/longitude (the altitude means nothing to a rover)
+GLOBAL_FRAMES = frozenset({*NON_INT_FRAME, *NON_INT_FRAME.values()})
 GLOBAL_FRAMES = frozenset(
     {
         MAV_FRAME_GLOBAL,
