@@ -15,7 +15,7 @@ from typing import Any
 from pydantic import Field, model_validator
 
 from helixd.base.media import Medium
-from helixd.config.fields import ConfigSection
+from helixd.config.fields import ConfigSection, preset_field
 from helixd.files.models import load_yaml_model
 
 
@@ -108,21 +108,16 @@ DEFAULT_TRACTION: dict[str, dict[str, float]] = {
 }
 
 
-def _traction(terrain: str) -> Any:
-    """A terrain's default :class:`TerrainTraction` (:data:`DEFAULT_TRACTION`)."""
-    return Field(default_factory=lambda: TerrainTraction(**DEFAULT_TRACTION[terrain]))
-
-
 class TerrainTable(ConfigSection):
     """Each terrain's traction (sourced where a source exists: see docs/physics.md). A row
     given in part keeps the defaults of its other fields (a ground file names only what
     differs: ``mud: {scroll_efficiency: 0.7}``)."""
 
-    hard: TerrainTraction = _traction("hard")
-    grass: TerrainTraction = _traction("grass")
-    sand: TerrainTraction = _traction("sand")
-    mud: TerrainTraction = _traction("mud")
-    water: TerrainTraction = _traction("water")
+    hard: TerrainTraction = preset_field(TerrainTraction, DEFAULT_TRACTION, "hard")
+    grass: TerrainTraction = preset_field(TerrainTraction, DEFAULT_TRACTION, "grass")
+    sand: TerrainTraction = preset_field(TerrainTraction, DEFAULT_TRACTION, "sand")
+    mud: TerrainTraction = preset_field(TerrainTraction, DEFAULT_TRACTION, "mud")
+    water: TerrainTraction = preset_field(TerrainTraction, DEFAULT_TRACTION, "water")
 
     @model_validator(mode="before")
     @classmethod

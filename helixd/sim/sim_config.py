@@ -11,11 +11,10 @@ from __future__ import annotations
 import math
 from enum import StrEnum
 from pathlib import Path
-from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
-from helixd.config.fields import ConfigSection
+from helixd.config.fields import ConfigSection, preset_field
 from helixd.config.link import LinkConfig
 from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS
 from helixd.plant.plant_config import PlantConfig
@@ -101,15 +100,10 @@ NOISE_PRESETS: dict[str, dict[str, float]] = {
 }
 
 
-def _preset(level: str) -> Any:
-    """A noise level's default :class:`NoiseProfile` (:data:`NOISE_PRESETS`)."""
-    return Field(default_factory=lambda: NoiseProfile(**NOISE_PRESETS[level]))
-
-
 class NoiseProfiles(ConfigSection):
-    none: NoiseProfile = _preset("none")
-    low: NoiseProfile = _preset("low")
-    thesis: NoiseProfile = _preset("thesis")
+    none: NoiseProfile = preset_field(NoiseProfile, NOISE_PRESETS, "none")
+    low: NoiseProfile = preset_field(NoiseProfile, NOISE_PRESETS, "low")
+    thesis: NoiseProfile = preset_field(NoiseProfile, NOISE_PRESETS, "thesis")
 
     def get(self, level: NoiseLevel) -> NoiseProfile:
         profile: NoiseProfile = getattr(self, level.value)
