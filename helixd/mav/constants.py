@@ -85,6 +85,11 @@ MAV_STATE_STANDBY = int(_mav.MAV_STATE_STANDBY)
 MAV_STATE_ACTIVE = int(_mav.MAV_STATE_ACTIVE)
 MAV_STATE_CRITICAL = int(_mav.MAV_STATE_CRITICAL)
 MAV_STATE_EMERGENCY = int(_mav.MAV_STATE_EMERGENCY)
+# MAV_PARAM_TYPE (PARAM_VALUE.param_type, PARAM_SET.param_type)
+MAV_PARAM_TYPE_INT8 = int(_mav.MAV_PARAM_TYPE_INT8)
+MAV_PARAM_TYPE_INT16 = int(_mav.MAV_PARAM_TYPE_INT16)
+MAV_PARAM_TYPE_INT32 = int(_mav.MAV_PARAM_TYPE_INT32)
+MAV_PARAM_TYPE_REAL32 = int(_mav.MAV_PARAM_TYPE_REAL32)
 
 # ArduPilot Rover custom modes (Rover/mode.h), from the dialect's ROVER_MODE enum; names as
 # ArduPilot's Mode::name4/name() spell them (the dialect says INITIALIZING, Rover INITIALISING)
