@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import math
-from typing import Annotated
+from collections.abc import Mapping
+from typing import Annotated, Any
 
 from pydantic import ConfigDict, Field
 
@@ -12,7 +13,8 @@ from helixd.files.models import InputModel
 
 
 class ConfigSection(InputModel):
-    """A section of ``helixd.yaml`` (strict like every input model: unknown keys are errors).
+    """A section of ``helixd.yaml`` or of the simulator's YAML (strict like every input model:
+    unknown keys are errors).
 
     Each field is written ``name_unit: type = Field(default, bounds)`` with its description in
     the docstring under it, which pydantic reads as the field's description
@@ -21,6 +23,13 @@ class ConfigSection(InputModel):
     """
 
     model_config = ConfigDict(use_attribute_docstrings=True)
+
+
+def preset_field(
+    model: type[InputModel], presets: Mapping[str, Mapping[str, Any]], name: str
+) -> Any:
+    """A field whose default is the preset ``name``'s row of ``presets``: ``model(**row)``."""
+    return Field(default_factory=lambda: model(**presets[name]))
 
 
 RcChannel = Annotated[int, Field(ge=1, le=18)]

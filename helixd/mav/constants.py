@@ -85,6 +85,11 @@ MAV_STATE_STANDBY = int(_mav.MAV_STATE_STANDBY)
 MAV_STATE_ACTIVE = int(_mav.MAV_STATE_ACTIVE)
 MAV_STATE_CRITICAL = int(_mav.MAV_STATE_CRITICAL)
 MAV_STATE_EMERGENCY = int(_mav.MAV_STATE_EMERGENCY)
+# MAV_PARAM_TYPE (PARAM_VALUE.param_type, PARAM_SET.param_type)
+MAV_PARAM_TYPE_INT8 = int(_mav.MAV_PARAM_TYPE_INT8)
+MAV_PARAM_TYPE_INT16 = int(_mav.MAV_PARAM_TYPE_INT16)
+MAV_PARAM_TYPE_INT32 = int(_mav.MAV_PARAM_TYPE_INT32)
+MAV_PARAM_TYPE_REAL32 = int(_mav.MAV_PARAM_TYPE_REAL32)
 
 # ArduPilot Rover custom modes (Rover/mode.h), from the dialect's ROVER_MODE enum; names as
 # ArduPilot's Mode::name4/name() spell them (the dialect says INITIALIZING, Rover INITIALISING)
@@ -178,7 +183,14 @@ MAV_FRAME_GLOBAL_RELATIVE_ALT_INT = int(_mav.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
 MAV_FRAME_GLOBAL_TERRAIN_ALT = int(_mav.MAV_FRAME_GLOBAL_TERRAIN_ALT)
 MAV_FRAME_GLOBAL_TERRAIN_ALT_INT = int(_mav.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT)
 MAV_FRAME_MISSION = int(_mav.MAV_FRAME_MISSION)
+# each global *_INT frame's plain twin (x/y a latitude/longitude as int 1e7 degrees, or as floats)
+NON_INT_FRAME = {
+    MAV_FRAME_GLOBAL_INT: MAV_FRAME_GLOBAL,
+    MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: MAV_FRAME_GLOBAL_RELATIVE_ALT,
+    MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: MAV_FRAME_GLOBAL_TERRAIN_ALT,
+}
 # the frames whose x/y are a latitude/longitude (the altitude means nothing to a rover)
+GLOBAL_FRAMES = frozenset({*NON_INT_FRAME, *NON_INT_FRAME.values()})
 GLOBAL_FRAMES = frozenset(
     {
         MAV_FRAME_GLOBAL,

@@ -32,8 +32,8 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import AfterValidator, Field, InstanceOf, PrivateAttr
 
+from helixd.config.fields import ConfigSection
 from helixd.config.mission import KeepOutCircleConfig
-from helixd.files.models import InputModel
 from helixd.plant.state import PhysicsState
 
 PointNE = tuple[float, float]
@@ -134,23 +134,18 @@ def _box_any(mask: npt.NDArray[np.bool_], k: int, axis: int) -> npt.NDArray[np.b
     return np.asarray(np.moveaxis(out, 0, axis), dtype=np.bool_)
 
 
-class SimObstacles(InputModel):
+class SimObstacles(ConfigSection):
     polygons_ne_m: Annotated[tuple[tuple[PointNE, ...], ...], AfterValidator(_polygons)] = Field(
-        (), max_length=1000, description="solid polygons, (north_m, east_m) vertices"
+        (), max_length=1000
     )
-    circles: tuple[KeepOutCircleConfig, ...] = Field(
-        (), max_length=10_000, description="solid discs (north_m, east_m, radius_m)"
-    )
-    contact_radius_m: float = Field(
-        0.429,
-        gt=0.0,
-        le=5.0,
-        description="rover body radius for contact: half-width ly/2 + scroll radius (m)",
-    )
+    """solid polygons, (north_m, east_m) vertices"""
+    circles: tuple[KeepOutCircleConfig, ...] = Field((), max_length=10_000)
+    """solid discs (north_m, east_m, radius_m)"""
+    contact_radius_m: float = Field(0.429, gt=0.0, le=5.0)
+    """rover body radius for contact: half-width ly/2 + scroll radius (m)"""
 
-    raster: InstanceOf[ObstacleRaster] | None = Field(
-        None, description="solid cells of a map (set in code by run --sim --map; not in YAML)"
-    )
+    raster: InstanceOf[ObstacleRaster] | None = Field(None)
+    """solid cells of a map (set in code by run --sim --map; not in YAML)"""
     _raster_near: Any = PrivateAttr(None)
 
     def model_post_init(self, context: Any, /) -> None:

@@ -15,7 +15,8 @@ from typing import Any
 from pydantic import Field, model_validator
 
 from helixd.base.media import Medium
-from helixd.files.models import InputModel, load_yaml_model
+from helixd.config.fields import ConfigSection, preset_field
+from helixd.files.models import load_yaml_model
 
 
 class Terrain(StrEnum):
@@ -26,7 +27,7 @@ class Terrain(StrEnum):
     WATER = "water"  # the Helix floats: see TerrainTable.water
 
 
-class TerrainTraction(InputModel):
+class TerrainTraction(ConfigSection):
     """How much of the no-slip (eq. 1) body velocity a terrain lets through, per axis, and what
     turning the scrolls costs there (docs/physics.md gives each default its source).
 
@@ -37,19 +38,18 @@ class TerrainTraction(InputModel):
     more energy on each metre it delivers.
     """
 
-    roll_efficiency: float = Field(ge=0.0, le=1.0, description="fraction of v_x achieved")
-    scroll_efficiency: float = Field(ge=0.0, le=1.0, description="fraction of v_y achieved")
-    yaw_efficiency: float = Field(ge=0.0, le=1.0, description="fraction of ω_z achieved")
-    dig_rate_per_m: float = Field(ge=0.0, le=10.0, description="pit depth per metre of slip")
-    pit_escape_per_m: float = Field(
-        ge=0.0, le=10.0, description="pit depth removed per metre travelled (1/m)"
-    )
-    power_w: float = Field(
-        100.0,
-        ge=0.0,
-        le=10_000.0,
-        description="one scroll's power at its max rpm in this medium, ∝ |rpm| (W)",
-    )
+    roll_efficiency: float = Field(ge=0.0, le=1.0)
+    """fraction of v_x achieved"""
+    scroll_efficiency: float = Field(ge=0.0, le=1.0)
+    """fraction of v_y achieved"""
+    yaw_efficiency: float = Field(ge=0.0, le=1.0)
+    """fraction of ω_z achieved"""
+    dig_rate_per_m: float = Field(ge=0.0, le=10.0)
+    """pit depth per metre of slip"""
+    pit_escape_per_m: float = Field(ge=0.0, le=10.0)
+    """pit depth removed per metre travelled (1/m)"""
+    power_w: float = Field(100.0, ge=0.0, le=10_000.0)
+    """one scroll's power at its max rpm in this medium, ∝ |rpm| (W)"""
 
 
 # The default ground, per medium (docs/physics.md, "The ground table": each number's source,
@@ -108,21 +108,16 @@ DEFAULT_TRACTION: dict[str, dict[str, float]] = {
 }
 
 
-def _traction(terrain: str) -> Any:
-    """A terrain's default :class:`TerrainTraction` (:data:`DEFAULT_TRACTION`)."""
-    return Field(default_factory=lambda: TerrainTraction(**DEFAULT_TRACTION[terrain]))
-
-
-class TerrainTable(InputModel):
+class TerrainTable(ConfigSection):
     """Each terrain's traction (sourced where a source exists: see docs/physics.md). A row
     given in part keeps the defaults of its other fields (a ground file names only what
     differs: ``mud: {scroll_efficiency: 0.7}``)."""
 
-    hard: TerrainTraction = _traction("hard")
-    grass: TerrainTraction = _traction("grass")
-    sand: TerrainTraction = _traction("sand")
-    mud: TerrainTraction = _traction("mud")
-    water: TerrainTraction = _traction("water")
+    hard: TerrainTraction = preset_field(TerrainTraction, DEFAULT_TRACTION, "hard")
+    grass: TerrainTraction = preset_field(TerrainTraction, DEFAULT_TRACTION, "grass")
+    sand: TerrainTraction = preset_field(TerrainTraction, DEFAULT_TRACTION, "sand")
+    mud: TerrainTraction = preset_field(TerrainTraction, DEFAULT_TRACTION, "mud")
+    water: TerrainTraction = preset_field(TerrainTraction, DEFAULT_TRACTION, "water")
 
     @model_validator(mode="before")
     @classmethod

@@ -37,12 +37,13 @@ from helixd.plant.state import PhysicsState
 
 @dataclass(frozen=True, slots=True)
 class MotorMap:
-    """Helix motor controller: PWM → signed fraction of max RPM."""
+    """Helix motor controller: PWM → signed fraction of max RPM (from the plant's settings,
+    :meth:`helixd.plant.plant_config.PlantConfig.motor_map`)."""
 
-    pwm_min_us: int = 1000
-    pwm_trim_us: int = 1500
-    pwm_max_us: int = 2000
-    deadband_us: int = 0
+    pwm_min_us: int
+    pwm_trim_us: int
+    pwm_max_us: int
+    deadband_us: int
 
     def fraction(self, pwm_us: int) -> float:
         if pwm_us <= 0:

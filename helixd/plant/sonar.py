@@ -30,35 +30,33 @@ from pydantic import Field, model_validator
 from scipy.interpolate import RegularGridInterpolator
 
 from helixd.base.frames import latlon_to_ne
+from helixd.config.fields import ConfigSection
 from helixd.files.bathymetry import Bathymetry
-from helixd.files.models import InputModel
 
 CM_PER_M = 100.0
 UINT16_MAX = 65535
 
 
-class SonarModel(InputModel):
+class SonarModel(ConfigSection):
     """The simulated down-facing sonar (active with a bathymetry)."""
 
-    noise_m: float = Field(0.025, ge=0.0, le=5.0, description="1σ range noise (m)")
-    min_m: float = Field(0.2, ge=0.0, le=100.0, description="minimum range (m)")
-    max_m: float = Field(30.0, gt=0.0, le=655.0, description="maximum range (m)")
-    dropout: float = Field(
-        0.02, ge=0.0, le=1.0, description="share of readings with no data (none sent)"
-    )
-    offset_m: float = Field(
-        0.0, ge=0.0, le=5.0, description="the transducer's depth below the surface (m)"
-    )
-    signal_quality_pct: int = Field(
-        0, ge=0, le=100, description="DISTANCE_SENSOR signal_quality sent (0 = unknown)"
-    )
-    named_value: str = Field(
-        "WTEMP",
-        pattern=r"^[\x21-\x7e]{0,10}$",
-        description="a payload's NAMED_VALUE_FLOAT over water: the water temperature (°C, "
-        "colder deeper), sent at named_value_rate_hz; empty: none",
-    )
-    named_value_rate_hz: float = Field(1.0, gt=0.0, le=50.0, description="its rate (Hz)")
+    noise_m: float = Field(0.025, ge=0.0, le=5.0)
+    """1σ range noise (m)"""
+    min_m: float = Field(0.2, ge=0.0, le=100.0)
+    """minimum range (m)"""
+    max_m: float = Field(30.0, gt=0.0, le=655.0)
+    """maximum range (m)"""
+    dropout: float = Field(0.02, ge=0.0, le=1.0)
+    """share of readings with no data (none sent)"""
+    offset_m: float = Field(0.0, ge=0.0, le=5.0)
+    """the transducer's depth below the surface (m)"""
+    signal_quality_pct: int = Field(0, ge=0, le=100)
+    """DISTANCE_SENSOR signal_quality sent (0 = unknown)"""
+    named_value: str = Field("WTEMP", pattern=r"^[\x21-\x7e]{0,10}$")
+    """a payload's NAMED_VALUE_FLOAT over water: the water temperature (°C, colder deeper), sent at
+    named_value_rate_hz; empty: none"""
+    named_value_rate_hz: float = Field(1.0, gt=0.0, le=50.0)
+    """its rate (Hz)"""
 
     @model_validator(mode="after")
     def _range(self) -> SonarModel:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from typing import Any, Literal
 
-from pydantic import Field
+from pydantic import ConfigDict, Field
 
 from helixd import __version__
 from helixd.files.models import StrictModel
@@ -22,125 +22,105 @@ PATH_MIN_STEP_M = 0.1
 
 
 class Arrival(StrictModel):
-    index: int = Field(
-        description="plan index (0-based, via points included: flight.csv's "
-        "target_index, what --resume counts)"
-    )
-    t_boot_s: float = Field(description="autopilot time of arrival (s)")
-    error_m: float = Field(description="distance to the waypoint when it was declared reached (m)")
-    number: int | None = Field(
-        None,
-        description="the operator's waypoint number (1-based over the whole mission, as the "
-        "ground station numbers mission items; a via point: the waypoint it leads to); a "
-        "mission with commands: the mission item (home 0, the first item 1) being flown",
-    )
-    via: bool = Field(False, description="a via point the planner inserted")
-    lap: str | None = Field(
-        None, description='"lap 2 of 3" where a DO_JUMP repeats the item; None: flown once'
-    )
+    model_config = ConfigDict(use_attribute_docstrings=True)  # the docstring under a field
+
+    index: int
+    """plan index (0-based, via points included: flight.csv's target_index, what --resume counts)"""
+    t_boot_s: float
+    """autopilot time of arrival (s)"""
+    error_m: float
+    """distance to the waypoint when it was declared reached (m)"""
+    number: int | None = Field(None)
+    """the operator's waypoint number (1-based over the whole mission, as the ground station numbers
+    mission items; a via point: the waypoint it leads to); a mission with commands: the mission item
+    (home 0, the first item 1) being flown"""
+    via: bool = Field(False)
+    """a via point the planner inserted"""
+    lap: str | None = Field(None)
+    """"lap 2 of 3" where a DO_JUMP repeats the item; None: flown once"""
 
 
 class RunSummary(StrictModel):
+    model_config = ConfigDict(use_attribute_docstrings=True)  # the docstring under a field
+
     mission_name: str
-    mode: str = Field(description="motion mode: roll | scroll | omni")
-    completed: bool = Field(description="every waypoint reached")
-    fault: str | None = Field(description="cause that ended the run early, None if none")
+    mode: str
+    """motion mode: roll | scroll | omni"""
+    completed: bool
+    """every waypoint reached"""
+    fault: str | None
+    """cause that ended the run early, None if none"""
     exit_code: int
-    waypoints_reached: int = Field(
-        description="arrivals at the operator's waypoints (no via points); a mission with "
-        "commands counts them as flown: a waypoint a DO_JUMP repeats counts on each lap "
-        "(arrivals[].number and .lap name the item), so it can exceed items_total"
-    )
-    waypoints_total: int = Field(
-        description="the operator's waypoints in this run, counted like waypoints_reached "
-        "(never fewer than it)"
-    )
-    items_total: int | None = Field(
-        None,
-        description="a mission with commands: its items as the ground station numbers them "
-        "(home 0 not counted), the N of 'item 3/N'; None: a plain list of waypoints",
-    )
-    patrol_item: int | None = Field(
-        None,
-        description="a patrol: the DO_JUMP item repeated forever (repeat -1), flown until "
-        "stopped; waypoints_total and estimated_s then count the laps planned beyond the time "
-        "limit, not an end. None: not a patrol",
-    )
-    via_points_reached: int = Field(0, description="via points (inserted by the planner) reached")
-    via_points_total: int = Field(0, description="via points in this run")
+    waypoints_reached: int
+    """arrivals at the operator's waypoints (no via points); a mission with commands counts them as
+    flown: a waypoint a DO_JUMP repeats counts on each lap (arrivals[].number and .lap name the
+    item), so it can exceed items_total"""
+    waypoints_total: int
+    """the operator's waypoints in this run, counted like waypoints_reached (never fewer than it)"""
+    items_total: int | None = Field(None)
+    """a mission with commands: its items as the ground station numbers them (home 0 not counted),
+    the N of 'item 3/N'; None: a plain list of waypoints"""
+    patrol_item: int | None = Field(None)
+    """a patrol: the DO_JUMP item repeated forever (repeat -1), flown until stopped; waypoints_total
+    and estimated_s then count the laps planned beyond the time limit, not an end. None: not a
+    patrol"""
+    via_points_reached: int = Field(0)
+    """via points (inserted by the planner) reached"""
+    via_points_total: int = Field(0)
+    """via points in this run"""
     arrivals: tuple[Arrival, ...] = ()
-    duration_s: float = Field(
-        description="first to last recorded step on the autopilot's clock (time_boot_ms), so a "
-        "simulator speed-up does not shrink it; the monotonic clock if the autopilot rebooted (s)"
-    )
-    duration_clock: Literal["autopilot", "monotonic"] = Field(
-        "autopilot",
-        description="clock duration_s was measured on: the autopilot's time_boot_ms, or the "
-        "companion's monotonic clock when the autopilot clock stepped back (reboot)",
-    )
-    duration_mono_s: float | None = Field(
-        None,
-        description="the same first-to-last recorded step on the companion's monotonic (wall) "
-        "clock; differs from duration_s under a simulator speed-up (s)",
-    )
-    estimated_s: float | None = Field(
-        None,
-        description="the navigator's own estimate of the flight at preflight, from the start "
-        "pose (autopilot clock, s; helixd.control.estimate): compare with duration_s",
-    )
-    start_t_boot_s: float | None = Field(
-        None, description="autopilot time (time_boot_ms) of the first recorded step (s)"
-    )
-    wall_duration_s: float | None = Field(
-        None,
-        description="whole run including connect/preflight/stop on the companion's wall "
-        "(monotonic) clock, if given (s)",
-    )
-    companion_clock: Literal["wall", "simulated"] = Field(
-        "wall",
-        description="what the companion's clock was (duration_mono_s, wall_duration_s): the "
-        "wall's monotonic clock, or one simulated clock shared with the built-in simulator "
-        "(run --sim --sim-clock simulated), whose seconds are not the wall's",
-    )
-    path_length_m: float = Field(description="driven path length from the recorded poses (m)")
-    cross_track_rms_m: float | None = Field(description="RMS distance from the planned legs (m)")
-    cross_track_max_m: float | None = Field(description="max |cross-track| (m)")
-    final_error_m: float | None = Field(description="last pose to the final waypoint (m)")
-    rows: int = Field(0, description="control steps recorded")
-    slip_vx_frac: float | None = Field(
-        None,
-        description="last slip estimate: fraction of the commanded roll-axis velocity the "
-        "ground delivered (1 = no slip); None if never recorded",
-    )
-    slip_vy_frac: float | None = Field(
-        None, description="last slip estimate for the scroll-axis velocity (1 = no slip)"
-    )
-    slip_w_frac: float | None = Field(
-        None, description="last slip estimate for the yaw rate (1 = no slip)"
-    )
-    origin_latlon_deg: tuple[float, float] | None = Field(
-        None,
-        description="the EKF origin (GPS_GLOBAL_ORIGIN) the autopilot reported at preflight, "
-        "recorded for every run where it has one: local_ned and start tracks hang from it "
-        "(lat, lon deg)",
-    )
-    resumed_from: ResumedFrom | None = Field(
-        None, description="the run this one resumed (`helixd run --resume`), None if none"
-    )
-    record_cut_at_s: float | None = Field(
-        None,
-        description="the flight record (flight.csv) is missing from this time on, counted like "
-        "duration_s from the first recorded step (disk full or unwritable); None: complete (s)",
-    )
-    record_cut_files: tuple[str, ...] = Field(
-        (), description="the run directory's files whose writing stopped (record cut)"
-    )
-    ground: dict[str, Any] | None = Field(
-        None,
-        description="what each medium delivered in each mode in this run (per 'medium/mode': "
-        "samples, metres, fractions, sigmas, power_w_per_mps), added after the run when it "
-        "had a media map (helixd.prepare.ground_learning); None: not learnt",
-    )
+    duration_s: float
+    """first to last recorded step on the autopilot's clock (time_boot_ms), so a simulator speed-up
+    does not shrink it; the monotonic clock if the autopilot rebooted (s)"""
+    duration_clock: Literal["autopilot", "monotonic"] = Field("autopilot")
+    """clock duration_s was measured on: the autopilot's time_boot_ms, or the companion's monotonic
+    clock when the autopilot clock stepped back (reboot)"""
+    duration_mono_s: float | None = Field(None)
+    """the same first-to-last recorded step on the companion's monotonic (wall) clock; differs from
+    duration_s under a simulator speed-up (s)"""
+    estimated_s: float | None = Field(None)
+    """the navigator's own estimate of the flight at preflight, from the start pose (autopilot
+    clock, s; helixd.control.estimate): compare with duration_s"""
+    start_t_boot_s: float | None = Field(None)
+    """autopilot time (time_boot_ms) of the first recorded step (s)"""
+    wall_duration_s: float | None = Field(None)
+    """whole run including connect/preflight/stop on the companion's wall (monotonic) clock, if
+    given (s)"""
+    companion_clock: Literal["wall", "simulated"] = Field("wall")
+    """what the companion's clock was (duration_mono_s, wall_duration_s): the wall's monotonic
+    clock, or one simulated clock shared with the built-in simulator (run --sim --sim-clock
+    simulated), whose seconds are not the wall's"""
+    path_length_m: float
+    """driven path length from the recorded poses (m)"""
+    cross_track_rms_m: float | None
+    """RMS distance from the planned legs (m)"""
+    cross_track_max_m: float | None
+    """max |cross-track| (m)"""
+    final_error_m: float | None
+    """last pose to the final waypoint (m)"""
+    rows: int = Field(0)
+    """control steps recorded"""
+    slip_vx_frac: float | None = Field(None)
+    """last slip estimate: fraction of the commanded roll-axis velocity the ground delivered (1 = no
+    slip); None if never recorded"""
+    slip_vy_frac: float | None = Field(None)
+    """last slip estimate for the scroll-axis velocity (1 = no slip)"""
+    slip_w_frac: float | None = Field(None)
+    """last slip estimate for the yaw rate (1 = no slip)"""
+    origin_latlon_deg: tuple[float, float] | None = Field(None)
+    """the EKF origin (GPS_GLOBAL_ORIGIN) the autopilot reported at preflight, recorded for every
+    run where it has one: local_ned and start tracks hang from it (lat, lon deg)"""
+    resumed_from: ResumedFrom | None = Field(None)
+    """the run this one resumed (`helixd run --resume`), None if none"""
+    record_cut_at_s: float | None = Field(None)
+    """the flight record (flight.csv) is missing from this time on, counted like duration_s from the
+    first recorded step (disk full or unwritable); None: complete (s)"""
+    record_cut_files: tuple[str, ...] = Field(())
+    """the run directory's files whose writing stopped (record cut)"""
+    ground: dict[str, Any] | None = Field(None)
+    """what each medium delivered in each mode in this run (per 'medium/mode': samples, metres,
+    fractions, sigmas, power_w_per_mps), added after the run when it had a media map
+    (helixd.prepare.ground_learning); None: not learnt"""
     helixd_version: str = __version__
 
     def to_json(self) -> str:

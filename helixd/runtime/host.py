@@ -50,30 +50,21 @@ OnLink = Callable[[Autopilot], None]  # told the link once it is the flight's
 class FlightHost(Protocol):
     """What a flight takes from where it runs."""
 
-    @property
-    def stop(self) -> StopRequest: ...
-
-    @property
-    def notifier(self) -> ServiceNotifier: ...
+    stop: StopRequest
+    notifier: ServiceNotifier
+    driving: Driving
+    """The autopilot's mode the flight drives in: MANUAL (set, then armed, by the flight itself;
+    any other mode is a takeover), AUTO (a flight the crew started in the autopilot's AUTO:
+    neither set nor armed by the flight, and the mode is the crew's command,
+    :mod:`helixd.runtime.mode_gate`) or GUIDED, RTL, SMART_RTL with the autopilot's place to
+    drive to and hold at."""
+    disarm_when_complete: bool
+    """A completed mission ends disarmed (``helixd run`` always; ``helixd serve`` as
+    ``serve.disarm_when_complete`` says)."""
 
     @property
     def start_gate(self) -> bool:
         """Wait for the pilot's start switch (``startup.start_switch_channel``) before arming."""
-        ...
-
-    @property
-    def driving(self) -> Driving:
-        """The autopilot's mode the flight drives in: MANUAL (set, then armed, by the flight
-        itself; any other mode is a takeover), AUTO (a flight the crew started in the
-        autopilot's AUTO: neither set nor armed by the flight, and the mode is the crew's
-        command, :mod:`helixd.runtime.mode_gate`) or GUIDED, RTL, SMART_RTL with the
-        autopilot's place to drive to and hold at."""
-        ...
-
-    @property
-    def disarm_when_complete(self) -> bool:
-        """A completed mission ends disarmed (``helixd run`` always; ``helixd serve`` as
-        ``serve.disarm_when_complete`` says)."""
         ...
 
     @property

@@ -66,12 +66,10 @@ def _f(msg: Message, name: str) -> float:
 class InboundPort(Protocol):
     """What the inbound handler reads of the simulator core and asks of it."""
 
-    @property
-    def ap(self) -> SimAutopilot: ...
-    @property
-    def params(self) -> ParamStore: ...
-    @property
-    def now_s(self) -> float: ...
+    ap: SimAutopilot
+    params: ParamStore
+    now_s: float  # simulated time (s)
+
     def view_now(self) -> vehicle_reports.TelemetryView: ...
 
     def ekf_status(self) -> SimEkfStatus: ...

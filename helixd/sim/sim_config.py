@@ -11,12 +11,11 @@ from __future__ import annotations
 import math
 from enum import StrEnum
 from pathlib import Path
-from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
+from helixd.config.fields import ConfigSection, preset_field
 from helixd.config.link import LinkConfig
-from helixd.files.models import InputModel
 from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS
 from helixd.plant.plant_config import PlantConfig
 from helixd.sim.firmware.param_store import DEFAULT_PARAMS
@@ -44,19 +43,25 @@ class NoiseLevel(StrEnum):
     THESIS = "thesis"  # dual GPS without RTK: ~1 m position, yaw within ±10° (thesis ch. 5.2)
 
 
-class NoiseProfile(InputModel):
+class NoiseProfile(ConfigSection):
     """GPS/EKF error model: Gauss–Markov drift plus white jitter, smoothed by the 'EKF'."""
 
-    pos_sigma_m: float = Field(ge=0.0, le=20.0, description="1σ of the slow position error (m)")
-    pos_tau_s: float = Field(gt=0.0, le=3600.0, description="correlation time of it (s)")
-    pos_white_m: float = Field(ge=0.0, le=5.0, description="1σ white jitter per fix (m)")
-    yaw_sigma_rad: float = Field(ge=0.0, le=1.0, description="1σ of the slow yaw error (rad)")
-    yaw_tau_s: float = Field(gt=0.0, le=3600.0, description="correlation time of it (s)")
-    vel_white_mps: float = Field(ge=0.0, le=2.0, description="1σ velocity jitter (m/s)")
-    ekf_tau_s: float = Field(gt=0.0, le=10.0, description="EKF smoothing time constant (s)")
-    variance_base: float = Field(
-        ge=0.0, le=0.5, description="EKF_STATUS_REPORT test ratio when healthy (0..1)"
-    )
+    pos_sigma_m: float = Field(ge=0.0, le=20.0)
+    """1σ of the slow position error (m)"""
+    pos_tau_s: float = Field(gt=0.0, le=3600.0)
+    """correlation time of it (s)"""
+    pos_white_m: float = Field(ge=0.0, le=5.0)
+    """1σ white jitter per fix (m)"""
+    yaw_sigma_rad: float = Field(ge=0.0, le=1.0)
+    """1σ of the slow yaw error (rad)"""
+    yaw_tau_s: float = Field(gt=0.0, le=3600.0)
+    """correlation time of it (s)"""
+    vel_white_mps: float = Field(ge=0.0, le=2.0)
+    """1σ velocity jitter (m/s)"""
+    ekf_tau_s: float = Field(gt=0.0, le=10.0)
+    """EKF smoothing time constant (s)"""
+    variance_base: float = Field(ge=0.0, le=0.5)
+    """EKF_STATUS_REPORT test ratio when healthy (0..1)"""
 
 
 # Each noise level's profile (:class:`NoiseLevel`): exact, RTK-like, and the thesis's dual GPS
@@ -95,15 +100,10 @@ NOISE_PRESETS: dict[str, dict[str, float]] = {
 }
 
 
-def _preset(level: str) -> Any:
-    """A noise level's default :class:`NoiseProfile` (:data:`NOISE_PRESETS`)."""
-    return Field(default_factory=lambda: NoiseProfile(**NOISE_PRESETS[level]))
-
-
-class NoiseProfiles(InputModel):
-    none: NoiseProfile = _preset("none")
-    low: NoiseProfile = _preset("low")
-    thesis: NoiseProfile = _preset("thesis")
+class NoiseProfiles(ConfigSection):
+    none: NoiseProfile = preset_field(NoiseProfile, NOISE_PRESETS, "none")
+    low: NoiseProfile = preset_field(NoiseProfile, NOISE_PRESETS, "low")
+    thesis: NoiseProfile = preset_field(NoiseProfile, NOISE_PRESETS, "thesis")
 
     def get(self, level: NoiseLevel) -> NoiseProfile:
         profile: NoiseProfile = getattr(self, level.value)
@@ -145,90 +145,56 @@ class SimConfig(PlantConfig):
     """The built-in simulator's settings: the plant's (:class:`PlantConfig`) and the fake
     autopilot's (boot and GPS timings, pose noise, parameters, the guard script, storage)."""
 
-    noise: NoiseLevel = Field(NoiseLevel.THESIS, description="pose noise preset")
+    noise: NoiseLevel = Field(NoiseLevel.THESIS)
+    """pose noise preset"""
     noise_profiles: NoiseProfiles = Field(default_factory=NoiseProfiles)
-    seed: int | None = Field(None, ge=0, description="noise RNG seed; None = random")
-    speedup: float = Field(
-        1.0, gt=0.0, le=100.0, description="sim time runs this many times wall time (SITL's -s)"
-    )
-    boot_duration_s: float = Field(
-        2.0, ge=0.0, le=120.0, description="HEARTBEAT custom_mode 16 (INITIALISING) this long (s)"
-    )
-    reboot_silent_s: float = Field(
-        1.5, ge=0.0, le=60.0, description="no MAVLink at all after a reboot, before booting (s)"
-    )
-    gps_loss_report_s: float = Field(
-        0.4,
-        ge=0.0,
-        le=10.0,
-        description="after a gps_loss, GPS_RAW_INT reports no fix (ArduPilot SITL, "
-        "SIM_GPS1_ENABLE 0: 0.4 s) (s)",
-    )
-    gps_receiver_timeout_s: float = Field(
-        4.0,
-        ge=0.0,
-        le=60.0,
-        description="after a gps_receiver_silent, GPS_RAW_INT repeats the last fix this long "
-        "before it says no GPS (ArduPilot's GPS driver timeout: 4 s) (s)",
-    )
-    gps_dead_reckon_s: float = Field(
-        7.3,
-        ge=0.0,
-        le=60.0,
-        description="after a gps_loss, the EKF keeps its horizontal position this long on dead "
-        "reckoning before it drops it (ArduPilot SITL, Rover: 7.3 s) (s)",
-    )
-    ekf_origin_delay_s: float = Field(
-        3.0, ge=0.0, le=600.0, description="after boot: EKF origin set, pose streams start (s)"
-    )
-    home_delay_s: float | None = Field(
-        0.0,
-        ge=0.0,
-        le=600.0,
-        description="after the EKF origin: home set, announced ('Set HOME to …', "
-        "HOME_POSITION) (s); ArduPilot Rover sets it from the EKF's first position, in the "
-        "same loop (0). Before it arming is refused: 'PreArm: AHRS: waiting for home'. "
-        "None = never (only force-arm works)",
-    )
-    prearm_delay_s: float | None = Field(
-        0.0,
-        ge=0.0,
-        le=3600.0,
-        description="after boot: the PreArm checks other than home pass (s); before, arming is "
-        "refused with 'PreArm: AHRS: EKF3 still initialising'. None = never (only force-arm "
-        "works, as observed in a per-scroll passthrough setup)",
-    )
-    default_stream_rate_hz: float = Field(
-        1.0, ge=0.0, le=50.0, description="SRn_* rate of every stream until a GCS asks (Hz)"
-    )
-    pilot_rc_us: tuple[int, ...] = Field(
-        (1500,) * 16, min_length=16, max_length=16, description="pilot radio channels 1..16 (µs)"
-    )
-    params: dict[str, float] = Field(
-        default_factory=_helix_params,
-        description="parameter values over the Helix setup and ArduPilot Rover's defaults "
-        "(names must exist; given values are merged over the Helix setup, not instead of it)",
-    )
-    history_max_entries: int = Field(
-        200_000, ge=100, le=10_000_000, description="oldest history entries dropped beyond this"
-    )
-    workdir: Path | None = Field(
-        None,
-        description="the autopilot's working directory (SITL's): MAVLink FTP serves it, its "
-        "scripts/ holds the Lua scripts loaded at boot and helixd-sim-params.json the "
-        "parameters set (SITL's eeprom.bin), both kept across restarts; None = a temporary "
-        "directory made for the run and removed when the simulator stops",
-    )
-    guard_installed: bool = Field(
-        False,
-        description="helixd-guard.lua written into scripts/ and SCR_ENABLE 1 at start, as after "
-        "`helixd autopilot install-guard` and a reboot",
-    )
-    guard_params: dict[str, float] = Field(
-        default_factory=dict,
-        description="HXG_* values in the autopilot's storage (the script's defaults otherwise; "
-        "ArduPilot takes them from storage only, never from --defaults files)",
-    )
+    seed: int | None = Field(None, ge=0)
+    """noise RNG seed; None = random"""
+    speedup: float = Field(1.0, gt=0.0, le=100.0)
+    """sim time runs this many times wall time (SITL's -s)"""
+    boot_duration_s: float = Field(2.0, ge=0.0, le=120.0)
+    """HEARTBEAT custom_mode 16 (INITIALISING) this long (s)"""
+    reboot_silent_s: float = Field(1.5, ge=0.0, le=60.0)
+    """no MAVLink at all after a reboot, before booting (s)"""
+    gps_loss_report_s: float = Field(0.4, ge=0.0, le=10.0)
+    """after a gps_loss, GPS_RAW_INT reports no fix (ArduPilot SITL, SIM_GPS1_ENABLE 0: 0.4 s)
+    (s)"""
+    gps_receiver_timeout_s: float = Field(4.0, ge=0.0, le=60.0)
+    """after a gps_receiver_silent, GPS_RAW_INT repeats the last fix this long before it says no GPS
+    (ArduPilot's GPS driver timeout: 4 s) (s)"""
+    gps_dead_reckon_s: float = Field(7.3, ge=0.0, le=60.0)
+    """after a gps_loss, the EKF keeps its horizontal position this long on dead reckoning before it
+    drops it (ArduPilot SITL, Rover: 7.3 s) (s)"""
+    ekf_origin_delay_s: float = Field(3.0, ge=0.0, le=600.0)
+    """after boot: EKF origin set, pose streams start (s)"""
+    home_delay_s: float | None = Field(0.0, ge=0.0, le=600.0)
+    """after the EKF origin: home set, announced ('Set HOME to …', HOME_POSITION) (s); ArduPilot
+    Rover sets it from the EKF's first position, in the same loop (0). Before it arming is refused:
+    'PreArm: AHRS: waiting for home'. None = never (only force-arm works)"""
+    prearm_delay_s: float | None = Field(0.0, ge=0.0, le=3600.0)
+    """after boot: the PreArm checks other than home pass (s); before, arming is refused with
+    'PreArm: AHRS: EKF3 still initialising'. None = never (only force-arm works, as observed in a
+    per-scroll passthrough setup)"""
+    default_stream_rate_hz: float = Field(1.0, ge=0.0, le=50.0)
+    """SRn_* rate of every stream until a GCS asks (Hz)"""
+    pilot_rc_us: tuple[int, ...] = Field((1500,) * 16, min_length=16, max_length=16)
+    """pilot radio channels 1..16 (µs)"""
+    params: dict[str, float] = Field(default_factory=_helix_params)
+    """parameter values over the Helix setup and ArduPilot Rover's defaults (names must exist; given
+    values are merged over the Helix setup, not instead of it)"""
+    history_max_entries: int = Field(200_000, ge=100, le=10_000_000)
+    """oldest history entries dropped beyond this"""
+    workdir: Path | None = Field(None)
+    """the autopilot's working directory (SITL's): MAVLink FTP serves it, its scripts/ holds the Lua
+    scripts loaded at boot and helixd-sim-params.json the parameters set (SITL's eeprom.bin), both
+    kept across restarts; None = a temporary directory made for the run and removed when the
+    simulator stops"""
+    guard_installed: bool = Field(False)
+    """helixd-guard.lua written into scripts/ and SCR_ENABLE 1 at start, as after `helixd autopilot
+    install-guard` and a reboot"""
+    guard_params: dict[str, float] = Field(default_factory=dict)
+    """HXG_* values in the autopilot's storage (the script's defaults otherwise; ArduPilot takes
+    them from storage only, never from --defaults files)"""
 
     @field_validator("params", mode="after")
     @classmethod

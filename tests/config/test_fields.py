@@ -16,10 +16,10 @@ from helixd.config.root import HelixdConfig
 from helixd.config.safety import StartupConfig
 
 
-def _models_in(annotation: object) -> list[type[BaseModel]]:
+def models_in(annotation: object) -> list[type[BaseModel]]:
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
         return [annotation]
-    return [m for arg in typing.get_args(annotation) for m in _models_in(arg)]
+    return [m for arg in typing.get_args(annotation) for m in models_in(arg)]
 
 
 def _sections() -> list[type[BaseModel]]:
@@ -32,7 +32,7 @@ def _sections() -> list[type[BaseModel]]:
             continue
         found.append(model)
         for field in model.model_fields.values():
-            todo.extend(_models_in(field.annotation))
+            todo.extend(models_in(field.annotation))
     return found
 
 
@@ -42,7 +42,7 @@ def _leaves(models: list[type[BaseModel]]) -> list[tuple[str, FieldInfo]]:
         (f"{model.__name__}.{name}", field)
         for model in models
         for name, field in model.model_fields.items()
-        if not _models_in(field.annotation)  # a nested section is described by its own fields
+        if not models_in(field.annotation)  # a nested section is described by its own fields
     ]
 
 

@@ -26,7 +26,6 @@ from helixd.plant.json_physics import (
     encode_servo_frame,
     step_s_for,
 )
-from helixd.plant.physics import MotorMap
 from helixd.plant.plant_config import PlantConfig
 from helixd.plant.sonar import SonarModel
 from helixd.plant.state import PhysicsState
@@ -141,7 +140,7 @@ def test_the_same_physics_as_the_built_in_simulator() -> None:
     scrolls = (1700, 1400, 1300, 1650)
     drive(plant, scrolls, 2.0)
     state = PhysicsState()
-    motor = MotorMap()
+    motor = cfg.motor_map()
     fractions = physics.scroll_fractions_from_pwm(
         list(scrolls) + [0] * 12, (1, 2, 3, 4), (False,) * 4, motor
     )

@@ -129,5 +129,7 @@ def test_motor_map_pwm_to_fraction() -> None:
 def test_scroll_outputs_are_read_from_configured_channels() -> None:
     outputs = [1500] * 16
     outputs[4] = 2000  # SERVO5
-    fr = scroll_fractions_from_pwm(outputs, (5, 2, 3, 4), (True, False, False, False), MotorMap())
+    fr = scroll_fractions_from_pwm(
+        outputs, (5, 2, 3, 4), (True, False, False, False), PlantConfig().motor_map()
+    )
     assert fr == (-1.0, 0.0, 0.0, 0.0)

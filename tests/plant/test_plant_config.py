@@ -5,12 +5,14 @@ autopilot's accepted by the plant alone."""
 from __future__ import annotations
 
 import pytest
-from pydantic import ValidationError
+from pydantic import BaseModel, ValidationError
 
 from helixd.base.media import MediaFrame, MediaMap
-from helixd.plant.ground import Terrain
-from helixd.plant.plant_config import Plant, PlantConfig
-from helixd.sim.sim_config import SimConfig
+from helixd.plant.ground import Terrain, TerrainTraction
+from helixd.plant.plant_config import Plant, PlantConfig, SkidModel
+from helixd.plant.sonar import SonarModel
+from helixd.sim.sim_config import NoiseProfile, SimConfig
+from tests.config.test_fields import models_in, unbounded, undescribed
 
 
 def test_defaults_are_the_helix_on_hard_ground_at_rest() -> None:
@@ -80,3 +82,21 @@ def test_one_simulator_yaml_the_plant_reads_its_part_the_simulator_all() -> None
     assert plant.motor_time_constant_s == 0.5 and plant.origin_lat_deg == 50.0
     with pytest.raises(ValidationError, match="boot_duration_s"):
         PlantConfig.model_validate({**plant_keys, "boot_duration_s": 0.5})
+
+
+def test_every_simulator_field_is_described_and_every_number_bounded_on_both_sides() -> None:
+    # the plant's and the simulator's fields are written as the config's are (ConfigSection):
+    # the docstring under a field is its description
+    models: list[type[BaseModel]] = []
+    todo: list[type[BaseModel]] = [SimConfig]
+    while todo:
+        model = todo.pop()
+        if model not in models:
+            models.append(model)
+            todo.extend(m for f in model.model_fields.values() for m in models_in(f.annotation))
+    assert {SkidModel, SonarModel, TerrainTraction, NoiseProfile} <= set(models)
+    assert undescribed(models) == []
+    assert unbounded(models) == ["SimConfig.seed"]  # a seed is any integer ≥ 0
+    assert SkidModel.model_fields["max_speed_mps"].description == (
+        "speed at full throttle (m/s; SIM_Rover max_speed)"
+    )

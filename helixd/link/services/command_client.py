@@ -36,7 +36,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.base.clock import now_s
 from helixd.config.link import LinkConfig
 from helixd.link.vehicle import VehicleState
-from helixd.mav.constants import MAV_RESULT_ACCEPTED, MAV_RESULT_IN_PROGRESS
+from helixd.mav.constants import MAV_PARAM_TYPE_REAL32, MAV_RESULT_ACCEPTED, MAV_RESULT_IN_PROGRESS
 from helixd.mav.url import LinkError
 
 log = structlog.get_logger(__name__)
@@ -50,7 +50,6 @@ ALL_RESULTS: frozenset[int] = frozenset(int(k) for k in mavlink.enums["MAV_RESUL
 }
 COMMAND_LONG_PARAMS = 7
 DUPLICATE_LIFETIME_TIMEOUTS = 2.0  # answered command's other sends stay expected this long
-MAV_PARAM_TYPE_REAL32 = int(mavlink.MAV_PARAM_TYPE_REAL32)
 
 
 def command_name(command: int) -> str:

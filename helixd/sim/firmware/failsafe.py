@@ -108,15 +108,17 @@ def fence_breach(params: ParamStore) -> FailsafeDecision:
     return rover_action(params.get_int("FENCE_ACTION"), decision)
 
 
+@dataclass(slots=True)
 class Failsafes:
-    def __init__(self) -> None:
-        self.bits = 0
-        self.triggered = 0
-        self.start_time_s = 0.0
-        self.last_valid_rc_s = 0.0
-        self.ekf_fail_count = 0
-        self.ekf_bad_variance = False
-        self.ekf_failsafe = False
+    """Rover's failsafe state (Rover.h ``failsafe``) and the EKF check's (ekf_check.cpp)."""
+
+    bits: int = 0  # the events on (FAILSAFE_EVENT_*)
+    triggered: int = 0  # the events whose action has been taken
+    start_time_s: float = 0.0  # when the first event of this run came on
+    last_valid_rc_s: float = 0.0
+    ekf_fail_count: int = 0
+    ekf_bad_variance: bool = False
+    ekf_failsafe: bool = False
 
     def radio_on(self) -> bool:
         return bool(self.bits & FAILSAFE_EVENT_THROTTLE)

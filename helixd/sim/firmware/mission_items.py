@@ -62,14 +62,12 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.mav.constants import (
+    GLOBAL_FRAMES,
     MAV_CMD_DO_JUMP,
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL,
-    MAV_FRAME_GLOBAL_INT,
     MAV_FRAME_GLOBAL_RELATIVE_ALT,
     MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-    MAV_FRAME_GLOBAL_TERRAIN_ALT,
-    MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
     MAV_FRAME_MISSION,
     MAV_MISSION_ACCEPTED,
     MAV_MISSION_DENIED,
@@ -87,6 +85,7 @@ from helixd.mav.constants import (
     MAV_MISSION_UNSUPPORTED_FRAME,
     MAV_SEVERITY_INFO,
     MAV_SEVERITY_WARNING,
+    NON_INT_FRAME,
 )
 from helixd.sim.firmware.messages import Message
 from helixd.sim.firmware.rover_firmware import SimStatusText
@@ -94,17 +93,7 @@ from helixd.sim.firmware.rover_firmware import SimStatusText
 __all__ = ["ItemProtocol", "Outcome", "StoredItem"]
 
 
-ACCEPTED_FRAMES = frozenset(
-    {
-        MAV_FRAME_GLOBAL,
-        MAV_FRAME_MISSION,
-        MAV_FRAME_GLOBAL_RELATIVE_ALT,
-        MAV_FRAME_GLOBAL_INT,
-        MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-        MAV_FRAME_GLOBAL_TERRAIN_ALT,
-        MAV_FRAME_GLOBAL_TERRAIN_ALT_INT,
-    }
-)
+ACCEPTED_FRAMES = GLOBAL_FRAMES | {MAV_FRAME_MISSION}
 FLOAT_XY_FRAMES = frozenset({MAV_FRAME_MISSION})  # x/y not scaled by 1e7 in MISSION_ITEM
 
 # The commands AP_Mission::mavlink_int_to_mission_cmd stores (its switch, current master);
@@ -121,7 +110,7 @@ LOCATION_COMMANDS = frozenset(
 )
 # MissionItemProtocol_Fence: AC_PolyFenceItem types
 FENCE_COMMANDS = frozenset({5000, 5001, 5002, 5003, 5004})
-FENCE_FRAMES = ACCEPTED_FRAMES - {MAV_FRAME_MISSION}
+FENCE_FRAMES = GLOBAL_FRAMES
 RALLY_COMMANDS = frozenset({5100})  # MissionItemProtocol_Rally: MAV_CMD_NAV_RALLY_POINT
 
 UPLOAD_TIMEOUT_S = 8.0  # MissionItemProtocol::upload_timeout_ms
@@ -255,16 +244,9 @@ def validate_rally_item(item: StoredItem) -> int:
     return MAV_MISSION_ACCEPTED
 
 
-# A global frame given as *_INT is stored as a plain Location and read back without _INT
-# (AP_Mission::mission_cmd_to_mavlink_int).
-NON_INT_FRAME = {
-    MAV_FRAME_GLOBAL_INT: MAV_FRAME_GLOBAL,
-    MAV_FRAME_GLOBAL_RELATIVE_ALT_INT: MAV_FRAME_GLOBAL_RELATIVE_ALT,
-    MAV_FRAME_GLOBAL_TERRAIN_ALT_INT: MAV_FRAME_GLOBAL_TERRAIN_ALT,
-}
-
-
 def mission_readback(item: StoredItem) -> StoredItem:
+    # a global frame given as *_INT is stored as a plain Location and read back without _INT
+    # (AP_Mission::mission_cmd_to_mavlink_int)
     return replace(item, frame=NON_INT_FRAME.get(item.frame, item.frame))
 
 

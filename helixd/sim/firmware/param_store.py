@@ -17,15 +17,21 @@ from enum import IntEnum
 from types import MappingProxyType
 
 from helixd.mav.arming import K_SCRIPTING1
+from helixd.mav.constants import (
+    MAV_PARAM_TYPE_INT8,
+    MAV_PARAM_TYPE_INT16,
+    MAV_PARAM_TYPE_INT32,
+    MAV_PARAM_TYPE_REAL32,
+)
 
 
 class ParamType(IntEnum):
     """MAV_PARAM_TYPE values ArduPilot reports in PARAM_VALUE."""
 
-    INT8 = 2
-    INT16 = 4
-    INT32 = 6
-    REAL32 = 9
+    INT8 = MAV_PARAM_TYPE_INT8
+    INT16 = MAV_PARAM_TYPE_INT16
+    INT32 = MAV_PARAM_TYPE_INT32
+    REAL32 = MAV_PARAM_TYPE_REAL32
 
 
 @dataclass(frozen=True, slots=True)
