@@ -832,6 +832,15 @@ def run_floor(
     return replace(result, rtt_s=[dt for dt in rtt if dt is not None])
 
 
+def why_no_floor(floor: FloorRecord | None) -> str:
+    """Why a floor gave no figures (a loaded machine can leave its window empty)."""
+    if floor is None:
+        return "the echo process recorded nothing"
+    if floor.steps == 0:
+        return f"no override answered in its {floor.wall_s:.1f} s window"
+    return f"{floor.steps} overrides but {floor.cpu_s:.3f} CPU s in {floor.wall_s:.1f} s"
+
+
 def floor_figures(
     d_cpu_s: float, d_steps: int, wall_s: float, floor: FloorRecord | None, prefix: str = ""
 ) -> dict[str, float | None]:
@@ -929,8 +938,18 @@ def report_lines(
             f"  ({fl['daemon_us_per_step']:.0f} us/step)"
             f"  target <= {TARGET_RATIO_TO_FLOOR:g} x: {verdict(ratio <= TARGET_RATIO_TO_FLOOR)}",
         ]
+    else:
+        lines.append(
+            f"{'floor: bare pymavlink echo loop':<{LABEL_WIDTH}} not measured: "
+            f"{why_no_floor(floor)}"
+        )
     afl = floor_figures(d.cpu_s, len(steps), wall, afloor, ASYNCIO_PREFIX)
-    if afl[f"ratio_to_{ASYNCIO_PREFIX}floor"] is not None and afloor is not None:
+    if afl[f"ratio_to_{ASYNCIO_PREFIX}floor"] is None or afloor is None:
+        lines.append(
+            f"{'  same echo as an asyncio program':<{LABEL_WIDTH}} not measured: "
+            f"{why_no_floor(afloor)}"
+        )
+    else:
         lines += [
             f"{'  same echo as an asyncio program':<{LABEL_WIDTH}}"
             f" {afl[f'{ASYNCIO_PREFIX}floor_cpu_percent']:6.2f} %"

@@ -70,8 +70,14 @@ def test_control_loop_bench_measures_the_loop(tmp_path: Path) -> None:
         for q in ("p50", "p99", "max"):
             assert finite(fig[key][q], f"{key}.{q}", out) >= 0.0
     assert finite(fig["cpu_percent"], "cpu_percent", out) > 0.0
-    # both floors answered the same autopilot and give a ratio
-    for prefix in ("", "asyncio_"):
+    # both floors answered the same autopilot and give a ratio; on a loaded machine a floor's
+    # 1 s window can stay empty, and then the bench says so instead of printing a figure
+    for prefix, label in (("", "floor: bare pymavlink echo loop"), ("asyncio_", "same echo as")):
+        if fig[f"{prefix}floor_cpu_percent"] is None:
+            assert fig[f"ratio_to_{prefix}floor"] is None, out
+            said = [line for line in out.splitlines() if label in line]
+            assert said and "not measured: " in said[0], (label, out)
+            continue
         assert finite(fig[f"{prefix}floor_cpu_percent"], f"{prefix}floor", out) > 0.0
         assert finite(fig[f"ratio_to_{prefix}floor"], f"ratio_to_{prefix}floor", out) > 0.0
     headline = data["control_loop"]["latency_ms"]["p99"]
