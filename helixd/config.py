@@ -1121,6 +1121,14 @@ class ServeConfig(InputModel):
         le=10.0,
         description="NAMED_VALUE_INT hx_state is sent on every change and this often (Hz)",
     )
+    idle_pose_rate_hz: float = Field(
+        5.0,
+        ge=0.0,
+        le=100.0,
+        description="between flights the pose streams (LOCAL_POSITION_NED, ATTITUDE) are asked "
+        "at this rate, and at link.pose_rate_hz's again before each flight starts (Hz; "
+        "never faster than negotiated); 0: the flight's rate all day",
+    )
     tick_s: float = Field(
         0.1,
         gt=0.0,

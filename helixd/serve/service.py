@@ -213,6 +213,8 @@ class Service:
                         self.status.set(ServeState.IDLE, "reading the autopilot's mission")
                 if self.mission.read_due(now):
                     await self._read_mission(ap)
+                if streams and not self.flights.flying:
+                    await self._pace_pose(ap, self._idle_pose_hz(ap))
             if up or flying:
                 self._watch_switch(ap)
                 self._watch_auto(ap)
@@ -249,6 +251,18 @@ class Service:
         ap = self._ap
         if ap is not None and ap.param.cache is not None:
             ap.param.cache.forget()
+
+    def _idle_pose_hz(self, ap: Autopilot) -> float | None:
+        """Slow pose streams (serve.idle_pose_rate_hz) while disarmed between flights; the
+        flight's rate (None) while armed (each flight asks it back before it starts)."""
+        return None if ap.state.armed else (self.cfg.serve.idle_pose_rate_hz or None)
+
+    @staticmethod
+    async def _pace_pose(ap: Autopilot, rate_hz: float | None) -> None:
+        try:
+            await ap.pace_pose(rate_hz)
+        except (CommandError, LinkError) as exc:
+            log.info("stream_pace_failed", error=str(exc))
 
     async def _streams(self, ap: Autopilot) -> bool:
         try:
