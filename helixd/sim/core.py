@@ -431,7 +431,8 @@ class SimCore:
         return held
 
     def handle(self, link: int, msg: Message) -> None:
-        self._touched = True
+        # a HEARTBEAT only stamps its sender's time (the GCS failsafe's, checked at 10 Hz)
+        self._touched = self._touched or msg.get_type() != "HEARTBEAT"
         if self.link_up(link):
             self.inbound.handle(link, msg)
             self._collect()

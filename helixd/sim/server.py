@@ -250,8 +250,8 @@ class SimServer:
         # that costs more wall time than this one's), never set in production
         self.after_tick: Callable[[], None] | None = None
         self._coarse = False  # quiet steps of several loops (_run: on a simulated clock)
-        self._wake = asyncio.Event()  # an input woke a quiet step (_catch_up)
-        self._quiet_step = False  # the loop waits out a step of several loops
+        # while the loop waits out a quiet step: the future an input sets (_catch_up)
+        self._wake: asyncio.Future[None] | None = None
 
     # -- lifecycle -------------------------------------------------------------------------
 
@@ -421,13 +421,18 @@ class SimServer:
             if steps == 1:
                 await asyncio.sleep(max(MIN_SLEEP_S, min(0.05, next_wall - now_s())))
                 continue
-            self._wake.clear()
-            self._quiet_step = True
-            try:
-                with contextlib.suppress(TimeoutError):
-                    await asyncio.wait_for(self._wake.wait(), max(0.0, next_wall - now_s()))
-            finally:
-                self._quiet_step = False
+            await self._quiet_wait(max(0.0, next_wall - now_s()))
+
+    async def _quiet_wait(self, delay_s: float) -> None:
+        """Wait out a quiet step, or less if an input comes first (_catch_up)."""
+        loop = asyncio.get_running_loop()
+        wake = self._wake = loop.create_future()
+        timer = loop.call_later(delay_s, wake_up, wake)
+        try:
+            await wake
+        finally:
+            timer.cancel()
+            self._wake = None
 
     def _steps(self) -> int:
         return self._core.quiet_steps() if self._coarse else 1
@@ -436,14 +441,15 @@ class SimServer:
         """An input in the middle of a quiet step: the loops that step would have taken
         before now, taken first (the input then meets the autopilot as it would have), and the
         loop woken to step loop by loop from here."""
-        if not self._quiet_step:
+        wake = self._wake
+        if wake is None:
             return
         core = self._core
         behind = int((now_s() - core.now_s) / core.dt_s() + 1e-9)
         if behind >= 1 and core.quiet_steps() >= behind:
             core.tick(behind)
             self._after()
-        self._wake.set()
+        wake_up(wake)
 
     def _judge_pace(self, loops: int) -> bool:
         """Did this wake-up end a window in which the machine did not keep the speed-up? Then
@@ -595,6 +601,11 @@ class SimServer:
                     raise TimeoutError(f"simulator stopped; last: {self._snapshot.describe()}")
                 self._cond.wait(min(remaining, 0.2))
             return self._snapshot
+
+
+def wake_up(future: asyncio.Future[None]) -> None:
+    if not future.done():
+        future.set_result(None)
 
 
 def with_media(config: SimConfig) -> SimConfig:
