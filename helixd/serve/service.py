@@ -43,6 +43,7 @@ from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of, crew_mode_rx_s, cu
 from helixd.runtime.notify import ServiceNotifier
 from helixd.runtime.prepare import AutopilotPlace
 from helixd.runtime.signals import StopRequest, install, uninstall
+from helixd.safety.supervisor import HOLD_MODE
 from helixd.serve.check import Verdict
 from helixd.serve.core import (
     Answer,
@@ -253,9 +254,13 @@ class Service:
             ap.param.cache.forget()
 
     def _idle_pose_hz(self, ap: Autopilot) -> float | None:
-        """Slow pose streams (serve.idle_pose_rate_hz) while disarmed between flights; the
-        flight's rate (None) while armed (each flight asks it back before it starts)."""
-        return None if ap.state.armed else (self.cfg.serve.idle_pose_rate_hz or None)
+        """Slow pose streams (serve.idle_pose_rate_hz) between flights while disarmed or
+        holding (armed in HOLD); the flight's rate (None) while armed in another mode (the
+        autopilot's own drive, the pilot's). Each flight asks it back before it starts."""
+        st = ap.state
+        if st.armed and st.mode != HOLD_MODE:
+            return None
+        return self.cfg.serve.idle_pose_rate_hz or None
 
     @staticmethod
     async def _pace_pose(ap: Autopilot, rate_hz: float | None) -> None:

@@ -440,11 +440,13 @@ class SimCore:
     def quiet_steps(self) -> int:
         """How many loops the next step may take at once (1: every loop its own): more only
         while nothing moves or changes with time but the clocks of the streams — booted,
-        disarmed, at rest, no fault on or scheduled, no input since the last loop — and no
-        message is due before the step's end (each message still leaves in the loop it is
-        due in), at most :data:`QUIET_STEPS_MAX`. A shell on a simulated clock steps so."""
+        disarmed or holding (armed in HOLD), at rest, no fault on or scheduled, no input
+        since the last loop — and no message is due before the step's end (each message
+        still leaves in the loop it is due in), at most :data:`QUIET_STEPS_MAX`. A shell on
+        a simulated clock steps so."""
         ap, ph, now = self.ap, self.phys, self.now_s
-        if self._touched or ap.armed or ap.booting(now) or self.pending or self.faults.active:
+        driving_mode = ap.armed and ap.mode != MODE_NUMBERS["HOLD"]  # HOLD: outputs at trim
+        if self._touched or driving_mode or ap.booting(now) or self.pending or self.faults.active:
             return 1
         speeds = (ph.vx_body_mps, ph.vy_body_mps, ph.wz_body_radps, *ph.scroll_radps)
         if any(abs(v) >= REST_EPS for v in speeds) or self.param_queued():
