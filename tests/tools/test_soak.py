@@ -65,6 +65,18 @@ def test_long_days_press_every_button_and_inject_every_fault() -> None:
     assert min(gaps) >= 2.0 and max(gaps) >= 300.0
 
 
+def test_a_thousand_days_press_every_button_and_inject_every_fault_a_hundred_times() -> None:
+    # the coverage goal, from the plans alone (a day performs every step it plans
+    # unless a rule stops it): a hundred two-hour days give each kind at least ten
+    counts: dict[str, int] = dict.fromkeys((*CREW_ACTIONS, *FAULT_KINDS), 0)
+    for seed in range(1, 101):
+        for step in plan_day(seed, 7200.0).steps:
+            counts[step.name] += 1
+    rare = {name: n for name, n in counts.items() if n < 10}
+    assert not rare, rare
+    assert min(counts.values()) * 10 >= 1000, min(counts.items(), key=lambda kv: kv[1])
+
+
 def test_the_items_may_follow_the_mission_and_its_jumps() -> None:
     items = (
         Item(WP), Item(WP, 5, 0), Item(WP, 5, 5),
