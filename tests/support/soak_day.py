@@ -171,7 +171,7 @@ def card_in_recorder(card: Card) -> Iterator[None]:
     def create(*args: Any, **kwargs: Any) -> RunRecorder:
         return bound(*args, **{**kwargs, "opener": card.opener})
 
-    RunRecorder.create = create  # type: ignore[method-assign,assignment]
+    RunRecorder.create = create  # type: ignore[method-assign]
     try:
         yield
     finally:
