@@ -10,7 +10,7 @@ import pytest
 import structlog
 from hypothesis import HealthCheck, settings
 
-from helixd.config import CONFIG_ENV
+from helixd.config.load import CONFIG_ENV
 from helixd.recorder import logging_setup
 
 # Without -c a command reads $HELIXD_CONFIG, else /etc/helixd/helixd.yaml where it exists (a

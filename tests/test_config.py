@@ -11,7 +11,8 @@ from pathlib import Path
 import pytest
 
 from helixd.base.plan import MissionFrameKind, MotionMode
-from helixd.config import HelixdConfig, load_config
+from helixd.config.load import load_config
+from helixd.config.root import HelixdConfig
 from helixd.files.models import ConfigFileError
 from helixd.mission.model import load_mission
 from helixd.mission.resolve import resolve_plan

@@ -2,8 +2,9 @@
 
 Statically, over every module of ``helixd/`` (top-level, function-local and TYPE_CHECKING
 imports alike): each package imports only itself and the rows below it in :data:`LAYERS`; the
-simulator imports only :data:`SIM_MAY_IMPORT` and only the CLI imports it; there is no import
-loop between modules; no re-export shim module is left. One import path per name: every
+simulator imports only :data:`SIM_MAY_IMPORT`, the plant under it only :data:`PLANT_MAY_IMPORT`,
+and only the CLI imports either (and the simulator the plant); there is no import loop between
+modules; no re-export shim module is left. One import path per name: every
 ``from helixd.X import Name`` in helixd/, tests/ and tools/ names the module that defines
 ``Name`` (or ``Name`` is a submodule of ``helixd.X``), and no package ``__init__.py`` imports a
 helixd module (``helixd.mission.formats``, which defines code of its own, excepted).
@@ -14,7 +15,8 @@ Through ``sys.modules`` in a fresh interpreter:
 * the control core loads only the base (and numpy): no pydantic, YAML, asyncio or sockets, and
   nothing of the mission loader, the config or the I/O shell;
 * the simulator is an independent oracle: it loads nothing of the controller, the link or the
-  daemon (its physics has its own eq. 1, :mod:`helixd.sim.forward`).
+  daemon (its physics has its own eq. 1, :mod:`helixd.plant.forward`); the plant loads nothing
+  of them nor of the simulator.
 """
 
 from __future__ import annotations
@@ -30,7 +32,8 @@ from pathlib import Path
 
 import pytest
 
-from helixd.config import ControlConfig, ScrollCalibration, SlipConfig, VehicleConfig
+from helixd.config.control import ControlConfig, SlipConfig
+from helixd.config.vehicle import ScrollCalibration, VehicleConfig
 from helixd.control import params
 from tests.support.paths import REPO_ROOT
 
@@ -46,12 +49,15 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("planning",),
     ("link",),  # transport, codec, plugins, vehicle state
     ("recorder", "actuators", "safety"),
-    ("runtime",),  # daemon phases, flight loop, GCS feed, notify, signals
+    ("prepare", "report"),  # a flight built and checked before anything is sent; reporting
+    ("runtime",),  # flying: daemon phases, flight loop, host, signals
     ("serve", "commands"),  # the all-day service; the one-shot commands' back ends
     ("cli",),  # typer app: parse, call, print
 )
-SIM_MAY_IMPORT = frozenset({"base", "files", "mav", "config", "sim"})
+SIM_MAY_IMPORT = frozenset({"base", "files", "mav", "config", "plant", "sim"})
+PLANT_MAY_IMPORT = frozenset({"base", "files", "mav", "config", "plant"})
 ONLY_CLI_IMPORTS_SIM = frozenset({"cli", "sim"})
+APART = frozenset({"plant", "sim"})  # beside the rows: the simulator and its plant
 RANK = {pkg: row for row, pkgs in enumerate(LAYERS) for pkg in pkgs}
 
 
@@ -96,7 +102,7 @@ def imports_of(module: str, path: Path | None = None) -> set[str]:
 
 
 def _room(module: str) -> str:
-    """The package (or top-level module) a module lives in: helixd.link.codec → link."""
+    """The package (or top-level module) a module lives in: helixd.link.wire.codec → link."""
     parts = module.split(".")
     return parts[1] if len(parts) > 1 else ""
 
@@ -106,13 +112,16 @@ def violation(module: str, target: str) -> str | None:
     here, there = _room(module), _room(target)
     if there in ("", here) or here == "__main__":
         return None  # the helixd package itself (its version), or the same package
-    if there == "sim" and here not in ONLY_CLI_IMPORTS_SIM:
-        return f"{module} imports {target}: only the CLI imports the simulator"
+    if there in APART and here not in ONLY_CLI_IMPORTS_SIM:
+        return f"{module} imports {target}: only the CLI imports the simulator and the plant"
+    if here == "plant":
+        ok = there in PLANT_MAY_IMPORT
+        return None if ok else f"{module} imports {target}: the plant stands apart"
     if here == "sim":
         ok = there in SIM_MAY_IMPORT
         return None if ok else f"{module} imports {target}: the simulator stands apart"
-    if there == "sim":
-        return None  # the CLI starts the simulator
+    if there in APART:
+        return None  # the CLI starts the simulator or the plant
     if RANK[there] >= RANK[here]:
         return f"{module} imports {target}: {there} is not below {here}"
     return None
@@ -124,7 +133,7 @@ def layer_violations() -> list[str]:
 
 
 def test_every_package_has_a_row() -> None:
-    rooms = {_room(m) for m in MODULES} - {"", "__main__", "sim"}
+    rooms = {_room(m) for m in MODULES} - {"", "__main__", *APART}
     assert rooms == set(RANK), f"not in LAYERS: {sorted(rooms - set(RANK))}"
 
 
@@ -138,8 +147,11 @@ def test_packages_import_only_lower_rows() -> None:
         ("helixd.config", "helixd.link.connection"),  # a lower row importing a higher one
         ("helixd.mission.model", "helixd.recorder.events"),
         ("helixd.control.navigator", "helixd.files.yamlio"),  # same row, not below
-        ("helixd.sim.core", "helixd.link.codec"),  # the simulator stands apart
+        ("helixd.sim.core", "helixd.link.wire.codec"),  # the simulator stands apart
         ("helixd.runtime.daemon", "helixd.sim.server"),  # only the CLI starts a simulator
+        ("helixd.runtime.daemon", "helixd.plant.physics"),  # nor the plant
+        ("helixd.plant.json_physics", "helixd.sim.core"),  # the plant is below the simulator
+        ("helixd.plant.physics", "helixd.control.kinematics"),  # an oracle: its own eq. 1
     ],
 )
 def test_the_checker_names_a_back_edge(module: str, target: str) -> None:
@@ -184,6 +196,21 @@ def test_no_import_loop_between_modules() -> None:
         if not any(m.rpartition(".")[0] == n or n == m for m, n in itertools.pairwise(loop))
     ]
     assert real == [], " ; ".join(" → ".join(loop) for loop in real)
+
+
+def test_prepare_touches_nothing_of_the_link() -> None:
+    """What is built and checked before anything is sent never reaches the link, not even
+    through the recorder's readers it uses (resume directories, the ground profile)."""
+    graph = {m: imports_of(m) for m in MODULES}
+    prepare = [m for m in MODULES if _room(m) == "prepare"]
+    assert prepare
+    reached: set[str] = set()
+    todo = list(prepare)
+    while todo:
+        for nxt in graph[todo.pop()] - reached:
+            reached.add(nxt)
+            todo.append(nxt)
+    assert sorted(m for m in reached if _room(m) in ("link", "runtime", "report")) == []
 
 
 def test_no_reexport_shims_left() -> None:
@@ -252,18 +279,28 @@ def test_navigator_loads_neither_pydantic_yaml_asyncio_nor_socket() -> None:
         assert name not in loaded
 
 
+NOT_IN_THE_ORACLE = (
+    "helixd.control",
+    "helixd.link",
+    "helixd.runtime.daemon",
+    "helixd.runtime.flight",
+    "helixd.link.vehicle",
+)
+
+
 def test_simulator_loads_nothing_of_the_controller_link_or_daemon() -> None:
     loaded = loaded_after_import("helixd.sim", "helixd.sim.server")
     assert "helixd.sim.server" in loaded  # the import really reached the simulator
-    forbidden = (
-        "helixd.control",
-        "helixd.link",
-        "helixd.runtime.daemon",
-        "helixd.runtime.flight",
-        "helixd.link.vehicle",
-    )
-    bad = {m for m in helixd_modules(loaded) if m.startswith(forbidden)}
+    assert "helixd.plant.physics" in loaded  # and the plant under it
+    bad = {m for m in helixd_modules(loaded) if m.startswith(NOT_IN_THE_ORACLE)}
     assert not bad, f"helixd.sim loads {sorted(bad)}"
+
+
+def test_plant_loads_nothing_of_the_simulator_controller_link_or_daemon() -> None:
+    loaded = loaded_after_import("helixd.plant", "helixd.plant.json_server")
+    assert "helixd.plant.physics" in loaded  # the import really reached the plant
+    bad = {m for m in helixd_modules(loaded) if m.startswith((*NOT_IN_THE_ORACLE, "helixd.sim"))}
+    assert not bad, f"helixd.plant loads {sorted(bad)}"
 
 
 def _members(protocol: type) -> list[str]:
@@ -385,12 +422,12 @@ def test_the_import_checker_names_a_reexported_name(tmp_path: Path) -> None:
     probe.write_text(
         "from helixd.mav.constants import MAV_CMD_DO_SET_SERVO\n"  # defined there
         "from helixd.mav import servo_functions\n"  # a submodule
-        "from helixd.link.preflight import DO_SET_SERVO_FUNCTIONS\n"  # only imported there
+        "from helixd.link.services.preflight import DO_SET_SERVO_FUNCTIONS\n"  # only imported there
     )
     offenders = indirect_imports([probe])
     assert len(offenders) == 1
     assert offenders[0].endswith(
-        ":3 DO_SET_SERVO_FUNCTIONS from helixd.link.preflight, which does not define it"
+        ":3 DO_SET_SERVO_FUNCTIONS from helixd.link.services.preflight, which does not define it"
     )
 
 
@@ -409,37 +446,3 @@ def test_package_inits_import_no_helixd_module() -> None:
             bad = [n for n in names if n.startswith(("helixd", "."))]
             offenders += [f"{path.relative_to(REPO)}:{node.lineno} imports {n}" for n in bad]
     assert offenders == [], "\n".join(offenders)
-
-
-# The rooms a reader walks through first keep their functions short enough to read whole:
-# the applications (runtime, serve), the one-shot commands' back ends and the CLI.
-SHORT_FUNCTION_PACKAGES = ("runtime", "serve", "commands", "cli")
-MAX_FUNCTION_LINES = 80
-
-
-def long_functions(paths: list[Path], limit: int = MAX_FUNCTION_LINES) -> list[str]:
-    """``file:line name (N lines)`` for each function (methods and nested ones too) whose
-    ``def`` to last line spans more than ``limit`` lines."""
-    found = []
-    for path in paths:
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
-                lines = (node.end_lineno or node.lineno) - node.lineno + 1
-                if lines > limit:
-                    found.append(f"{_shown(path)}:{node.lineno} {node.name} ({lines} lines)")
-    return found
-
-
-def test_no_function_over_80_lines_in_the_applications_commands_and_cli() -> None:
-    paths = sorted(p for pkg in SHORT_FUNCTION_PACKAGES for p in (PACKAGE / pkg).rglob("*.py"))
-    assert paths
-    offenders = long_functions(paths)
-    assert offenders == [], "\n".join(offenders)
-
-
-def test_the_length_checker_counts_from_def_to_the_last_line(tmp_path: Path) -> None:
-    probe = tmp_path / "probe.py"
-    body = "".join(f"    x{i} = {i}\n" for i in range(80))
-    probe.write_text(f"def long():\n{body}\nclass C:\n    def short(self):\n        pass\n")
-    assert long_functions([probe]) == ["probe.py:1 long (81 lines)"]
-    assert long_functions([probe], limit=81) == []

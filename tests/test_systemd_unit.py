@@ -21,7 +21,8 @@ from pathlib import Path
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.config import HelixdConfig, load_config
+from helixd.config.load import load_config
+from helixd.config.root import HelixdConfig
 from tests.support.paths import REPO_ROOT
 
 REPO = REPO_ROOT

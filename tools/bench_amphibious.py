@@ -393,8 +393,9 @@ def run_one(
 
     import structlog
 
-    from helixd.config import VehicleConfig
-    from helixd.sim.sim_config import SimConfig, TerrainTable, read_ground_file
+    from helixd.config.vehicle import VehicleConfig
+    from helixd.plant.ground import TerrainTable, read_ground_file
+    from helixd.sim.sim_config import SimConfig
 
     structlog.configure(
         wrapper_class=structlog.make_filtering_bound_logger(logging.WARNING),

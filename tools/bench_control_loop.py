@@ -71,7 +71,7 @@ os.environ.setdefault("MAVLINK20", "1")
 import typer
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 
 TELEMETRY_RATE_HZ = 5.0
 HEARTBEAT_RATE_HZ = 1.0
@@ -239,7 +239,7 @@ class FakeAutopilot:
     """The autopilot's state and replies (no sockets here; ``out`` collects packed bytes)."""
 
     def __init__(self, rate_hz: float, boot_s: float) -> None:
-        from helixd.config import ActuationConfig, VehicleConfig
+        from helixd.config.vehicle import ActuationConfig, VehicleConfig
 
         self.mav = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
         self.mav.robust_parsing = True
@@ -368,8 +368,8 @@ class FakeAutopilot:
 
     def gps_raw_int(self, t_ms: int) -> Any:
         """A 3D fix with 12 satellites, as ArduPilot streams GPS_RAW_INT (AP_GPS::
-        send_mavlink_gps_raw; helixd/sim/messages.py): ``time_usec`` is the fix's time, so it
-        moves with every report (a frozen one is a receiver that stopped: gps_lost); position
+        send_mavlink_gps_raw; helixd/sim/firmware/messages.py): ``time_usec`` is the fix's time,
+        so it moves with every report (a frozen one is a receiver that stopped: gps_lost); position
         as latitude/longitude near an arbitrary origin, speed and course from the plant."""
         lat_deg = GPS_ORIGIN_DEG[0] + math.degrees(self.north_m / EARTH_RADIUS_M)
         lon_deg = GPS_ORIGIN_DEG[1] + math.degrees(
@@ -547,23 +547,19 @@ async def run_daemon_side(
     from helixd.actuators.rc_override import RcOverrideSink
     from helixd.base.frames import MissionFrame
     from helixd.base.plan import Numbering
-    from helixd.config import HelixdConfig, config_to_yaml
+    from helixd.config.load import config_to_yaml
+    from helixd.config.root import HelixdConfig
     from helixd.link.connection import Autopilot
-    from helixd.link.preflight import check_obedience
+    from helixd.link.services.preflight import check_obedience
     from helixd.mission.model import Mission
     from helixd.mission.resolve import resolve_plan
     from helixd.recorder.rows import FlightRow
     from helixd.recorder.rundir import RunRecorder
     from helixd.recorder.summary import SummaryBuilder
-    from helixd.runtime.display import ProgressDisplay
-    from helixd.runtime.flight import (
-        MANUAL_MODE,
-        FlightHooks,
-        FlightLoop,
-        PoseRejectedReport,
-        StepReport,
-    )
+    from helixd.report.display import ProgressDisplay
+    from helixd.runtime.flight import FlightHooks, FlightLoop, PoseRejectedReport, StepReport
     from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
+    from helixd.runtime.mode_gate import MANUAL_MODE
     from helixd.runtime.signals import StopRequest
 
     cfg = HelixdConfig.model_validate(

@@ -56,14 +56,15 @@ from bench_results import RESULTS_DIR, write_section  # noqa: E402
 from helixd.base.frames import latlon_to_ne  # noqa: E402
 from helixd.base.media import Medium, media_along  # noqa: E402
 from helixd.base.plan import MotionMode  # noqa: E402
-from helixd.config import HelixdConfig, VehicleConfig  # noqa: E402
+from helixd.config.root import HelixdConfig  # noqa: E402
+from helixd.config.vehicle import VehicleConfig  # noqa: E402
 from helixd.control.ground_fit import DRIVEN, SCROLL_CORNERS  # noqa: E402
 from helixd.files.media import read_media_map  # noqa: E402
 from helixd.planning.media_modes import MODE_AXIS, delivered  # noqa: E402
+from helixd.plant.ground import TerrainTable, read_ground_file  # noqa: E402
+from helixd.prepare.ground_learning import learned_policy_modes  # noqa: E402
 from helixd.recorder.ground_profile import read_profile, run_origin  # noqa: E402
 from helixd.recorder.rows import read_flight_columns  # noqa: E402
-from helixd.runtime.ground_learning import learned_policy_modes  # noqa: E402
-from helixd.sim.sim_config import TerrainTable, read_ground_file  # noqa: E402
 
 SURVEY = ROOT / "config" / "missions" / "pond-survey.yaml"
 POND = ROOT / "config" / "maps" / "pond-media.geojson"

@@ -53,7 +53,8 @@ from typing import Any
 import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig, SafetyConfig
+from helixd.config.link import LinkConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.connection import Autopilot
 
 BUSY_PERIOD_S = 0.020

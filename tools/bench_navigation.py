@@ -294,14 +294,14 @@ def mission_with_mode(mission_yaml: str, mode: str, tolerance_m: float | None = 
 def baseline_tolerance_m() -> float:
     """The line law's stop tolerance: the thesis baseline's waypoint tolerance (equal corner
     precision)."""
-    from helixd.config import ControlConfig
+    from helixd.config.control import ControlConfig
 
     return float(ControlConfig().stop_tolerance_m)
 
 
 def default_guidance() -> str:
     """The daemon's default ``control.guidance`` (the thesis law when it has no such key)."""
-    from helixd.config import ControlConfig
+    from helixd.config.control import ControlConfig
 
     field = ControlConfig.model_fields.get("guidance")
     if field is None:
@@ -338,7 +338,7 @@ def guidance_refusal(guidance: str, default: str) -> str | None:
     """None if this checkout's config model accepts the guidance; else why not (one line)."""
     from pydantic import ValidationError
 
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.files.models import format_validation_error
 
     try:
@@ -831,7 +831,8 @@ class TruePoseSampler:
 
 
 def _mission_waypoints(mission_path: Path) -> list[tuple[float, float]]:
-    from helixd.config import ControlConfig, MissionLimits
+    from helixd.config.control import ControlConfig
+    from helixd.config.mission import MissionLimits
     from helixd.mission.model import load_mission
     from helixd.mission.resolve import resolve_plan
 

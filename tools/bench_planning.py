@@ -39,7 +39,7 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.planning.grid import GridFrame, build_grid
 from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import Obstacles, clearance_m

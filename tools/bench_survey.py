@@ -11,7 +11,7 @@ measured:
 
 * ``samples``: the depth readings gridded; ``coverage``: the share of the area's cells with a
   reading; ``rms_m`` / ``max_abs_m``: the grid at the covered cells' centres against the
-  bathymetry's true depth there (:class:`helixd.sim.sonar.BathymetryNe`);
+  bathymetry's true depth there (:class:`helixd.plant.sonar.BathymetryNe`);
 * ``holes_mission_items``: the waypoints of the holes mission, and ``holes_covered``: every
   uncovered cell's centre within half a cell of its path.
 
@@ -45,8 +45,8 @@ from helixd.commands.survey_map import SurveyMap, build_map  # noqa: E402
 from helixd.files.bathymetry import read_bathymetry  # noqa: E402
 from helixd.mission.formats.areas import read_area  # noqa: E402
 from helixd.planning.depth_grid import cells_passed, grid_errors, hole_waypoints  # noqa: E402
+from helixd.plant.sonar import BathymetryNe  # noqa: E402
 from helixd.sim.sim_config import SimConfig  # noqa: E402
-from helixd.sim.sonar import BathymetryNe  # noqa: E402
 
 MISSION = ROOT / "config" / "missions" / "pond-depth.yaml"
 MEDIA = ROOT / "config" / "maps" / "pond-media.geojson"

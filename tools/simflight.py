@@ -22,9 +22,9 @@ import structlog
 
 from helixd.base.clock import SimulatedClockLoop
 from helixd.cli.app import flight_options
+from helixd.prepare.builder import MissionFile, prepare_flight
 from helixd.recorder import logging_setup
 from helixd.runtime.daemon import run_mission
-from helixd.runtime.prepare import MissionFile, prepare_flight
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url
 from helixd.sim.sim_config import SimConfig
 from helixd.sim.snapshot import SimSnapshot

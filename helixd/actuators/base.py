@@ -15,7 +15,7 @@ import math
 from collections.abc import Sequence
 from typing import Protocol, runtime_checkable
 
-from helixd.link.command_client import CommandRejected
+from helixd.link.services.command_client import CommandRejected
 
 SCROLLS = 4
 
@@ -48,7 +48,8 @@ class ActuatorError(Exception):
 class ServoCommandRefused(CommandRejected, ActuatorError):
     """ArduPilot refused MAV_CMD_DO_SET_SERVO on a channel (SERVOn_FUNCTION not 0/1/22/23/51–66).
 
-    A :class:`helixd.link.command_client.CommandError`, so the daemon treats it like any refusal.
+    A :class:`helixd.link.services.command_client.CommandError`, so the daemon treats it like any
+    refusal.
     """
 
     def __init__(self, channel: int, pwm_us: int, refused: CommandRejected) -> None:

@@ -8,7 +8,7 @@ import structlog
 
 from helixd.actuators.base import checked_fractions
 from helixd.actuators.mapping import fraction_to_pwm, neutral_pwm
-from helixd.config import ActuationConfig, VehicleConfig
+from helixd.config.vehicle import ActuationConfig, VehicleConfig
 
 log = structlog.get_logger(__name__)
 

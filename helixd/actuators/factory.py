@@ -8,7 +8,7 @@ from helixd.actuators.base import ActuatorSink
 from helixd.actuators.dry_run import DryRunSink
 from helixd.actuators.rc_override import RcOverrideSink
 from helixd.actuators.servo import ServoSink
-from helixd.config import ActuationBackend, ActuationConfig, VehicleConfig
+from helixd.config.vehicle import ActuationBackend, ActuationConfig, VehicleConfig
 
 if TYPE_CHECKING:
     from helixd.link.connection import Autopilot

@@ -1,6 +1,6 @@
 """Scroll fraction ⇄ PWM, and the RC_CHANNELS_OVERRIDE frames (pure functions).
 
-PWM per :class:`helixd.config.ChannelConfig`: ``trim + f·(max − trim)`` for f > 0,
+PWM per :class:`helixd.config.vehicle.ChannelConfig`: ``trim + f·(max − trim)`` for f > 0,
 ``trim + f·(trim − min)`` for f < 0 (``reversed`` swaps the ends), ``|pwm − trim| <
 deadband_us`` sent as trim, clamped to [min, max].
 
@@ -21,7 +21,7 @@ import math
 from collections.abc import Iterable, Sequence
 from typing import Generic, TypeVar
 
-from helixd.config import ActuationConfig, ChannelConfig, VehicleConfig
+from helixd.config.vehicle import ActuationConfig, ChannelConfig, VehicleConfig
 from helixd.mav.constants import UINT16_MAX
 
 SenderT = TypeVar("SenderT")

@@ -35,7 +35,7 @@ from helixd.actuators.mapping import (
     release_frame,
 )
 from helixd.base.clock import now_s
-from helixd.config import ActuationConfig, VehicleConfig
+from helixd.config.vehicle import ActuationConfig, VehicleConfig
 
 log = structlog.get_logger(__name__)
 

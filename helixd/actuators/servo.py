@@ -38,8 +38,8 @@ import structlog
 from helixd.actuators.base import ServoCommandRefused, checked_fractions
 from helixd.actuators.mapping import ChannelSink
 from helixd.base.clock import now_s
-from helixd.config import ActuationConfig, VehicleConfig
-from helixd.link.command_client import CommandRejected, CommandTimeout
+from helixd.config.vehicle import ActuationConfig, VehicleConfig
+from helixd.link.services.command_client import CommandRejected, CommandTimeout
 from helixd.mav.constants import MAV_CMD_DO_SET_SERVO
 
 log = structlog.get_logger(__name__)

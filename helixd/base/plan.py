@@ -53,7 +53,7 @@ class PlanWaypoint:
     # never answers "firm again" there (helixd.control.ground_check)
     unfit_to_go_m: tuple[tuple[float, float], ...] = ()
     # what the ground of the leg to this waypoint delivers (roll, scroll, yaw fractions), as
-    # the rover learnt it (helixd.runtime.ground_learning); None: the declared ground
+    # the rover learnt it (helixd.prepare.ground_learning); None: the declared ground
     ground: tuple[float, float, float] | None = None
 
 
@@ -157,7 +157,7 @@ class Plan:
     program: Program | None = None  # None: a plain list of waypoints, nothing between them
     # per motion mode, the ground (roll, scroll, yaw fractions) the slip estimate starts from
     # there, as the rover learnt it where it first flies in that mode
-    # (helixd.runtime.ground_learning); a mode not listed: the declared ground
+    # (helixd.prepare.ground_learning); a mode not listed: the declared ground
     slip_priors: tuple[tuple[MotionMode, tuple[float, float, float]], ...] = ()
 
     def mode_at(self, index: int) -> MotionMode:

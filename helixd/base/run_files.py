@@ -9,5 +9,5 @@ EVENTS_FILE = "events.jsonl"  # every structlog event of the run
 CONFIG_FILE = "config.yaml"  # the config as flown
 MISSION_FILE = "mission.yaml"  # the mission as flown (what --resume re-reads and hashes)
 INPUTS_FILE = "inputs.json"  # helixd.mission.resume.RunInputs (mission/config hashes)
-TLOG_FILE = "link.tlog"  # every MAVLink frame of the link (helixd.link.tlog; link.tlog_enabled)
+TLOG_FILE = "link.tlog"  # every MAVLink frame of the link (helixd.link.wire.tlog, link.tlog_*)
 PAYLOAD_FILE = "payload.csv"  # the sensors' readings where taken (helixd.recorder.payload_log)

@@ -55,27 +55,26 @@ from helixd.cli.common import (
 from helixd.cli.simulated import (
     SimChoice,
     SimMediaOpt,
+    SpeedupOpt,
+    TerrainOpt,
     beside_simulator,
     sim_world,
     simulator,
     simulator_config,
+    with_sim,
     with_sim_files,
 )
 from helixd.commands.status import HeldLog, log_lines, read_status
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.yamlio import clip_line
 from helixd.mav.url import LinkError
 from helixd.mission.describe import DEFAULT_WIDTH
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.locate import SEARCH_DIRS, available_missions
 from helixd.planning.mapfile import OccupancyMap
-from helixd.recorder.logging_setup import configure_logging
-from helixd.runtime import eventloop
-from helixd.runtime.daemon import RunOptions, run_mission
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.plan_report import check_lines, record_space_warning
-from helixd.runtime.planned import Flight, route_lines
-from helixd.runtime.prepare import (
+from helixd.plant.ground import Terrain
+from helixd.plant.plant_config import Plant
+from helixd.prepare.builder import (
     AutopilotMission,
     FlightSource,
     MissionFile,
@@ -83,15 +82,13 @@ from helixd.runtime.prepare import (
     Resume,
     prepare_flight,
 )
-from helixd.sim.sim_config import (
-    SPEEDUP_MAX,
-    SPEEDUP_MIN,
-    NoiseLevel,
-    Plant,
-    SimClock,
-    SimConfig,
-    Terrain,
-)
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.plan_report import check_lines, record_space_warning
+from helixd.prepare.planned import Flight, route_lines
+from helixd.recorder.logging_setup import configure_logging
+from helixd.runtime import eventloop
+from helixd.runtime.daemon import RunOptions, run_mission
+from helixd.sim.sim_config import NoiseLevel, SimClock, SimConfig
 
 app = command_group(
     "helixd",
@@ -224,7 +221,7 @@ def _check_plot(got: Prepared, plot: Path) -> None:
     """``check --plot``: the route planned around obstacles, the media map's areas under it;
     without a route, a media map's areas and the plan's stretches by mode; else say why not."""
     # deferred, as `helixd plot`'s: matplotlib (0.2 s) only when a plot is asked for
-    from helixd.runtime.media_figure import checked_media
+    from helixd.prepare.media_figure import checked_media
 
     flight = got.flight
     media = None
@@ -236,7 +233,7 @@ def _check_plot(got: Prepared, plot: Path) -> None:
         )
         typer.echo(f"plot    : {plot} not written: {why}")  # said, not silently skipped
         return
-    from helixd.recorder.plots import render_media_plan, render_route  # start-up: matplotlib
+    from helixd.recorder.plan_plots import render_media_plan, render_route  # start-up: matplotlib
 
     name = got.mission.name
     try:
@@ -260,30 +257,25 @@ def _check_plot(got: Prepared, plot: Path) -> None:
 SimOpt = Annotated[
     bool, typer.Option("--sim", help="fly against the built-in simulator, started in-process")
 ]
-SpeedupOpt = Annotated[
-    float,
-    typer.Option(min=SPEEDUP_MIN, max=SPEEDUP_MAX, help="simulator speed-up factor (with --sim)"),
-]
-TerrainOpt = Annotated[Terrain, typer.Option(help="simulator terrain (with --sim)")]
+
+
 PlantOpt = Annotated[
     Plant,
-    typer.Option(
-        help="simulator vehicle model (with --sim); sitl_skid needs the SITL channel "
-        "mapping in --config (tests/sitl/README.md)"
+    with_sim(
+        "simulator vehicle model; sitl_skid needs the SITL channel mapping in --config "
+        "(tests/sitl/README.md)"
     ),
 ]
-NoiseOpt = Annotated[NoiseLevel, typer.Option(help="simulator pose noise (with --sim)")]
+NoiseOpt = Annotated[NoiseLevel, with_sim("simulator pose noise")]
 SimClockOpt = Annotated[
     SimClock,
-    typer.Option(
-        help="wall: the simulator runs on the wall clock, sped up by --sim-speedup; simulated: "
+    with_sim(
+        "wall: the simulator runs on the wall clock, sped up by --sim-speedup; simulated: "
         "the simulator and helixd share one simulated clock that skips every wait (a flight "
-        "takes the CPU time it needs; with --sim-seed the same flight every time) (with --sim)"
+        "takes the CPU time it needs; with --sim-seed the same flight every time)"
     ),
 ]
-SimSeedOpt = Annotated[
-    int | None, typer.Option(min=0, help="the simulator's noise seed (with --sim; default: new)")
-]
+SimSeedOpt = Annotated[int | None, with_sim("the simulator's noise seed (default: new)", 0)]
 RunDirOpt = Annotated[
     Path | None,
     typer.Option(
@@ -380,9 +372,9 @@ def run(
     world = partial(sim_world, cfg, got.occupancy, got.fence)
     if choice is not None and choice.clock is SimClock.SIMULATED:
         sim_cfg = simulator_config(choice, world, cfg)
-        _fly(cfg, got.flight, url, run_dir, log_level, show_plan, beside=sim_cfg)
+        _fly(got, url, run_dir, log_level, show_plan, beside=sim_cfg)
     with simulator(choice, world, url, cfg) as url:
-        _fly(cfg, got.flight, url, run_dir, log_level, show_plan)
+        _fly(got, url, run_dir, log_level, show_plan)
 
 
 def _run_autopilot_mission(
@@ -405,7 +397,7 @@ def _run_autopilot_mission(
         got = fetch_autopilot_mission(cfg, url, mode, fence)
         prepared = prepared_or_exit(AutopilotMission(got, cfg, options), config, occupancy)
         echo_flight(prepared.flight)
-        _fly(prepared.cfg, prepared.flight, url, run_dir, log_level, show_plan)
+        _fly(prepared, url, run_dir, log_level, show_plan)
 
 
 def flight_options(
@@ -435,16 +427,17 @@ def flight_options(
 
 
 def _fly(
-    cfg: HelixdConfig,
-    flight: Flight,
+    prepared: Prepared,
     url: str,
     run_dir: Path | None,
     log_level: str,
     show_plan: bool,
     beside: SimConfig | None = None,
 ) -> None:
-    """Run the daemon; exits with its code. ``beside``: the embedded simulator to run in the
-    daemon's own loop, on one simulated clock (``url`` is then the simulator's)."""
+    """Run the daemon on the ``prepared`` flight; exits with its code. ``beside``: the embedded
+    simulator to run in the daemon's own loop, on one simulated clock (``url`` is then the
+    simulator's)."""
+    cfg, flight = prepared.cfg, prepared.flight
     tty = sys.stderr.isatty()
     configure_logging(tty=tty, level=log_level)
 

@@ -1,8 +1,8 @@
 """``helixd run --mission autopilot``: fly the mission the autopilot holds.
 
 The mission (and fence) are downloaded over the MAVLink mission protocol
-(``ap.mission.download()``, :class:`helixd.link.mission_link.MissionClient`) in a short link
-session on the run's own URL, right before the run connects for flight; the items then go
+(``ap.mission.download()``, :class:`helixd.link.services.mission_link.MissionClient`) in a short
+link session on the run's own URL, right before the run connects for flight; the items then go
 through the converter every ``.plan`` file goes through
 (:func:`helixd.mission.formats.wire.wire_to_gcs` →
 :func:`helixd.mission.formats.items.items_to_mission`), with the motion mode from ``--mode`` or
@@ -24,12 +24,12 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
 from helixd.cli.common import run_on_link
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
-from helixd.link.mission_link import Downloaded
+from helixd.link.services.mission_link import Downloaded
 from helixd.mav.mission_item import MissionItem
-from helixd.runtime.autopilot_mission import (
+from helixd.prepare.autopilot_mission import (
     MISSION_NAME,
     FromAutopilot,
     MissionRefused,

@@ -1,5 +1,6 @@
 """``helixd autopilot check``: is the autopilot set up so that the Helix arms honestly — a
-normal arm, every PreArm check made — and obeys helixd? (:mod:`helixd.link.autopilot_setup`)
+normal arm, every PreArm check made — and obeys helixd?
+(:mod:`helixd.link.services.autopilot_setup`)
 
 Registered on the ``autopilot`` group by :func:`register` (in :mod:`helixd.cli.app`).
 Prints one line per topic (``ok`` / ``warning`` / ``error``, what to set). Exit codes: 0 all
@@ -19,10 +20,10 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import ConfigOpt, ObserverConnectOpt, fail, link_inputs, run_on_link
 from helixd.cli.simulated import embedded_guard
-from helixd.config import HelixdConfig
-from helixd.link.autopilot_setup import SetupLine, failed, judge_setup, read_setup
-from helixd.link.command_client import CommandError
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.link.services.autopilot_setup import SetupLine, failed, judge_setup, read_setup
+from helixd.link.services.command_client import CommandError
 from helixd.link.vehicle import Change
 from helixd.mav.constants import MAV_CMD_REQUEST_MESSAGE, MAVLINK_MSG_ID_RC_CHANNELS
 from helixd.sim.server import start_embedded

@@ -23,10 +23,10 @@ from helixd.cli.autopilot_check import report, setup_lines
 from helixd.cli.common import ConfigOpt, ObserverConnectOpt, fail, link_inputs, run_on_link
 from helixd.cli.guard import REBOOT_AUTOPILOT, RebootRefused, reboot_line
 from helixd.files.parmfile import ParmFileError, load_parm
-from helixd.link.autopilot_setup import SetupLine, failed
-from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
-from helixd.link.param_plan import ParamChange, plan_changes, reboot_needed, same_value
+from helixd.link.services.autopilot_setup import SetupLine, failed
+from helixd.link.services.command_client import CommandError
+from helixd.link.services.param_plan import ParamChange, plan_changes, reboot_needed, same_value
 from helixd.mav.constants import MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
 
 FileOpt = Annotated[

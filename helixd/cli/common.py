@@ -15,24 +15,20 @@ from typer.core import TyperGroup
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.config import (
-    HelixdConfig,
-    LinkConfig,
-    config_label,
-    default_config_path,
-    load_config,
-)
+from helixd.config.link import LinkConfig
+from helixd.config.load import config_label, default_config_path, load_config
+from helixd.config.root import HelixdConfig
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import MAX_ERROR_LINE_CHARS, clip_line
 from helixd.link.connection import Autopilot
-from helixd.link.ftp_transfer import FtpTransferError
-from helixd.link.mission_transfer import MissionTransferError
+from helixd.link.services.ftp_transfer import FtpTransferError
+from helixd.link.services.mission_transfer import MissionTransferError
 from helixd.mav.url import LinkError, parse_link_url
 from helixd.planning.mapfile import OccupancyMap
+from helixd.plant.ground import Terrain, TerrainTable, read_ground_file
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.planned import load_occupancy
 from helixd.recorder.logging_setup import configure_logging
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.planned import load_occupancy
-from helixd.sim.sim_config import Terrain, TerrainTable, read_ground_file
 
 T = TypeVar("T")
 
@@ -74,7 +70,7 @@ def announce_config(path: Path | None) -> None:
 
 def resolve_config(ctx: typer.Context, value: Path | None) -> Path | None:
     """``--config``'s callback: the file given, else the default one
-    (:func:`helixd.config.default_config_path`: ``$HELIXD_CONFIG``, else
+    (:func:`helixd.config.load.default_config_path`: ``$HELIXD_CONFIG``, else
     /etc/helixd/helixd.yaml on the rover), else None (built-in defaults). ``run`` says at once
     which one it reads (``check`` prints it in its report; the others when they load it)."""
     path = value if value is not None else default_config_path()
@@ -159,7 +155,7 @@ MapOpt = Annotated[
 
 
 def config_or_exit(config: Path | None) -> HelixdConfig:
-    """The config file (``None``: :func:`helixd.config.default_config_path`, else the built-in
+    """The config file (``None``: :func:`helixd.config.load.default_config_path`, else the built-in
     defaults), said on stdout, or exit 2 naming every problem."""
     path = config if config is not None else default_config_path()
     try:

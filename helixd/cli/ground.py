@@ -25,8 +25,8 @@ from helixd.commands.ground import (
 from helixd.control.ground_fit import AXES
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError
+from helixd.prepare.ground_learning import profile_path
 from helixd.recorder.ground_profile import read_profile, write_profile
-from helixd.runtime.ground_learning import profile_path
 
 
 def _table(rep: GroundReport) -> Table:

@@ -20,8 +20,8 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.common import ConfigOpt, ObserverConnectOpt, fail, link_inputs, run_on_link
 from helixd.commands.guard_install import GuardInstalled, GuardInstallRefused, install_guard
-from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandError
 from helixd.mav.constants import MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN
 from helixd.mav.ftp_wire import FtpPayloadError, encode_path
 from helixd.mav.guard_script import BOARD_SCRIPTS_DIR, POSIX_SCRIPTS_DIR, SCRIPT_NAME

@@ -28,7 +28,7 @@ from helixd.commands.survey_mission import SurveyRefused, survey_lines, survey_m
 from helixd.files.models import ConfigFileError
 from helixd.files.yamlio import clip_line
 from helixd.link.connection import Autopilot
-from helixd.link.mission_link import Downloaded
+from helixd.link.services.mission_link import Downloaded
 from helixd.mission.commands import command_name
 from helixd.mission.formats import (
     MissionFormat,
@@ -57,6 +57,7 @@ from helixd.mission.placed import PlacementError, parse_latlon, placed_with
 T = TypeVar("T")
 
 
+MissionFileArg = Annotated[Path, typer.Argument(help="mission file: .yaml, .plan or .waypoints")]
 OriginOpt = Annotated[
     str | None,
     typer.Option(
@@ -87,7 +88,7 @@ def _origin(text: str | None) -> tuple[float, float] | None:
 
 
 def convert(
-    src: Annotated[Path, typer.Argument(help="mission file: .yaml, .plan or .waypoints")],
+    src: MissionFileArg,
     dst: Annotated[Path, typer.Argument(help="output; its suffix names the format")],
     mode: ModeOpt = None,
     config: ConfigOpt = None,
@@ -191,8 +192,8 @@ def survey(
         got = survey_mission(
             read_area(polygon),
             cfg,
-            name=mission_name(out.stem),
-            mode=mode,
+            mission_name(out.stem),
+            mode,
             spacing_m=spacing_m,
             angle_deg=angle_deg,
             margin_m=margin_m,
@@ -321,7 +322,7 @@ def download(
 
 
 def upload(
-    src: Annotated[Path, typer.Argument(help="mission file: .plan, .waypoints or .yaml")],
+    src: MissionFileArg,
     connect: ObserverConnectOpt = None,
     config: ConfigOpt = None,
     origin: OriginOpt = None,

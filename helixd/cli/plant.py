@@ -2,7 +2,7 @@
 
 The same physics ``helixd sim`` flies (eq. 1, motor lag, terrain traction and pits; a media
 map's ground by place) answers real ArduPilot's servo outputs, so ArduPilot's own EKF3,
-outputs and modes meet the Helix's four scrolls (helixd.sim.json_physics). Start it first,
+outputs and modes meet the Helix's four scrolls (helixd.plant.json_physics). Start it first,
 then SITL::
 
     helixd plant --terrain mud &
@@ -25,8 +25,9 @@ from helixd.cli.simulated import read_sim_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, load_yaml_model
 from helixd.mission.placed import parse_latlon
-from helixd.sim.json_server import PlantStats, open_socket, serve_plant
-from helixd.sim.sim_config import SimConfig, Terrain
+from helixd.plant.ground import Terrain
+from helixd.plant.json_server import PlantStats, open_socket, serve_plant
+from helixd.sim.sim_config import SimConfig
 
 SITL_JSON_PORT = 9002  # SIM_JSON's default; ArduPilot adds 10 per -I instance
 PORT_STRIDE = 10

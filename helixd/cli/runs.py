@@ -27,7 +27,7 @@ from helixd.recorder.export import (
 from helixd.recorder.logging_setup import configure_logging
 from helixd.recorder.rows import Value, read_flight_csv
 from helixd.recorder.summary import RunSummary
-from helixd.runtime.display import summary_rows, summary_table
+from helixd.report.display import summary_rows, summary_table
 
 RunDirArg = Annotated[
     Path,
@@ -145,7 +145,8 @@ def plot_command(
     """Render the thesis-style plots (a)–(f) and an overview of a recorded run as PNGs."""
     configure_logging(tty=sys.stderr.isatty(), level="warning")
     _check_run_dir(run_dir)
-    from helixd.recorder.plots import PlotError, render_run  # matplotlib only when plotting
+    from helixd.recorder.plots import render_run  # matplotlib only when plotting
+    from helixd.recorder.run_data import PlotError
 
     try:
         paths = render_run(run_dir, out)

@@ -22,16 +22,21 @@ from helixd.cli.common import (
 from helixd.cli.simulated import (
     SimChoice,
     SimMediaOpt,
+    SpeedupOpt,
+    TerrainOpt,
     sim_world,
     simulator,
+    with_sim,
     with_sim_files,
 )
 from helixd.mav.url import LinkError, parse_link_url
+from helixd.plant.ground import Terrain
+from helixd.plant.plant_config import Plant
 from helixd.recorder.logging_setup import configure_logging
 from helixd.runtime import eventloop
 from helixd.serve.options import ServeOptions
 from helixd.serve.service import serve
-from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, Terrain
+from helixd.sim.sim_config import NoiseLevel
 
 __all__ = ["register"]
 
@@ -42,19 +47,13 @@ def serve_command(
     sim: Annotated[
         bool, typer.Option("--sim", help="serve the built-in simulator, started in-process")
     ] = False,
-    sim_speedup: Annotated[
-        float,
-        typer.Option(min=SPEEDUP_MIN, max=SPEEDUP_MAX, help="simulator speed-up (with --sim)"),
-    ] = 1.0,
-    sim_terrain: Annotated[Terrain, typer.Option(help="simulator terrain (with --sim)")] = (
-        Terrain.HARD
-    ),
+    sim_speedup: SpeedupOpt = 1.0,
+    sim_terrain: TerrainOpt = Terrain.HARD,
     sim_gcs: Annotated[
         str | None,
-        typer.Option(
-            "--sim-gcs",
-            help="with --sim: also give a ground station a link to the simulator, e.g. "
-            "udpout:127.0.0.1:14550 for QGroundControl on this machine",
+        with_sim(
+            "also give a ground station a link to the simulator, e.g. udpout:127.0.0.1:14550 "
+            "for QGroundControl on this machine"
         ),
     ] = None,
     run_dir: Annotated[

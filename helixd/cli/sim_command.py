@@ -18,9 +18,10 @@ from helixd.cli.common import SimGroundOpt, SimTerrainOpt, fail, read_sim_ground
 from helixd.cli.simulated import read_sim_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError, format_validation_error, load_yaml_model
+from helixd.plant.plant_config import Plant
 from helixd.sim.faults import FaultError, FaultSpec, parse_fault
 from helixd.sim.server import SimServer
-from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, Plant, SimConfig
+from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, SimConfig
 
 log = structlog.get_logger(__name__)
 
@@ -177,38 +178,45 @@ StateDirOpt = Annotated[
 ]
 
 
+NoiseOpt = Annotated[
+    NoiseLevel | None,
+    typer.Option(
+        "--noise",
+        help="pose noise preset: none (exact), low (RTK-like, centimetres), thesis (dual "
+        "GPS without RTK: ~1 m, yaw within ±10°); default: the --config file's noise, "
+        "else low",
+    ),
+]
+DurationOpt = Annotated[
+    float | None, typer.Option("--duration", help="stop after this many simulated s")
+]
+SeedOpt = Annotated[int | None, typer.Option("--seed", help="noise RNG seed")]
+SimConfigOpt = Annotated[
+    Path | None, typer.Option("--config", "-c", help="simulator YAML (SimConfig keys)")
+]
+BathymetryOpt = Annotated[
+    Path | None,
+    typer.Option(
+        "--bathymetry",
+        help="the pond's bottom (a bathymetry YAML, docs/survey.md): a down-facing sonar "
+        "sends DISTANCE_SENSOR (PITCH_270) and a payload's NAMED_VALUE_FLOAT over water",
+    ),
+]
+
+
 def sim_command(
     listen: ListenOpt = None,
     plant: PlantOpt = None,
     terrain: SimTerrainOpt = None,
-    noise: Annotated[
-        NoiseLevel | None,
-        typer.Option(
-            "--noise",
-            help="pose noise preset: none (exact), low (RTK-like, centimetres), thesis (dual "
-            "GPS without RTK: ~1 m, yaw within ±10°); default: the --config file's noise, "
-            "else low",
-        ),
-    ] = None,
+    noise: NoiseOpt = None,
     speedup: SpeedupOpt = None,
     fault: FaultOpt = None,
-    duration: Annotated[
-        float | None, typer.Option("--duration", help="stop after this many simulated s")
-    ] = None,
-    seed: Annotated[int | None, typer.Option("--seed", help="noise RNG seed")] = None,
-    config: Annotated[
-        Path | None, typer.Option("--config", "-c", help="simulator YAML (SimConfig keys)")
-    ] = None,
+    duration: DurationOpt = None,
+    seed: SeedOpt = None,
+    config: SimConfigOpt = None,
     media: MediaOpt = None,
     state_dir: StateDirOpt = None,
-    bathymetry: Annotated[
-        Path | None,
-        typer.Option(
-            "--bathymetry",
-            help="the pond's bottom (a bathymetry YAML, docs/survey.md): a down-facing sonar "
-            "sends DISTANCE_SENSOR (PITCH_270) and a payload's NAMED_VALUE_FLOAT over water",
-        ),
-    ] = None,
+    bathymetry: BathymetryOpt = None,
     ground: SimGroundOpt = None,
 ) -> None:
     """Run the built-in ArduPilot Rover simulator (QGroundControl/MAVProxy can connect)."""

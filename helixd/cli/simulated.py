@@ -16,7 +16,7 @@ import sys
 from collections.abc import Awaitable, Callable, Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Annotated, TypeVar
+from typing import Annotated, Any, TypeVar
 
 import structlog
 import typer
@@ -24,7 +24,8 @@ import typer
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaMap
 from helixd.cli.common import fail, read_sim_ground
-from helixd.config import HelixdConfig, KeepOutCircleConfig
+from helixd.config.mission import KeepOutCircleConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.bathymetry import Bathymetry, read_bathymetry
 from helixd.files.media import MediaMapError, read_media_map
 from helixd.files.models import ConfigFileError
@@ -39,10 +40,12 @@ from helixd.mission.formats import fence_has_keep_outs
 from helixd.mission.formats.items import GcsMission, fence_ne
 from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import rover_half_width_m
+from helixd.plant.collisions import ObstacleRaster, SimObstacles
+from helixd.plant.ground import Terrain, TerrainTable
+from helixd.plant.plant_config import Plant
 from helixd.recorder.logging_setup import configure_logging
-from helixd.sim.collisions import ObstacleRaster, SimObstacles
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url, start_embedded
-from helixd.sim.sim_config import NoiseLevel, Plant, SimClock, SimConfig, Terrain, TerrainTable
+from helixd.sim.sim_config import SPEEDUP_MAX, SPEEDUP_MIN, NoiseLevel, SimClock, SimConfig
 
 T = TypeVar("T")
 
@@ -69,6 +72,13 @@ class SimChoice:
     ground: TerrainTable | None = None
 
 
+def with_sim(help_text: str, low: float | None = None, high: float | None = None) -> Any:
+    """An option of ``run`` or ``serve`` for their simulator: the help says it needs --sim."""
+    return typer.Option(min=low, max=high, help=f"{help_text} (with --sim)")
+
+
+SpeedupOpt = Annotated[float, with_sim("simulator speed-up factor", SPEEDUP_MIN, SPEEDUP_MAX)]
+TerrainOpt = Annotated[Terrain, with_sim("simulator terrain")]
 SimMediaOpt = Annotated[
     Path | None,
     typer.Option(

@@ -11,7 +11,8 @@ from pathlib import Path
 
 from helixd.base.media import MediaMap, Medium
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.base.problems import Problems
+from helixd.config.root import HelixdConfig
 from helixd.control.ground_fit import (
     AXES,
     DRIVEN,
@@ -21,24 +22,15 @@ from helixd.control.ground_fit import (
     axis_fraction,
     merge_profiles,
 )
-from helixd.planning.media_modes import MODE_AXIS
+from helixd.planning.media_modes import MODE_AXIS, config_modes
+from helixd.prepare.ground_learning import fit_params, learned_view, modes_from_profile
 from helixd.recorder.ground_profile import GroundProfile, identify_run
-from helixd.runtime.ground_learning import (
-    default_modes,
-    fit_params,
-    learned_view,
-    modes_from_profile,
-)
 
 PIN = re.compile(r"^(?P<medium>[a-z]+)/(?P<mode>[a-z]+)/(?P<axis>[a-z]+)=(?P<value>\S+)$")
 
 
-class GroundCommandError(ValueError):
+class GroundCommandError(Problems, ValueError):
     """A command-line value helixd ground cannot use; ``problems``: one line each."""
-
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("\n".join(problems))
 
 
 @dataclass(frozen=True)
@@ -78,7 +70,7 @@ def report(cfg: HelixdConfig, profile: GroundProfile, source: str) -> GroundRepo
             if all(axis_fraction(view, m, a) is not None for a in MODE_AXIS.values())
         }
     picks = modes_from_profile(cfg, view)
-    return GroundReport(rows, picks, default_modes(cfg), source, frozenset(decided))
+    return GroundReport(rows, picks, config_modes(cfg.media), source, frozenset(decided))
 
 
 def from_runs(cfg: HelixdConfig, runs: Sequence[Path], media: MediaMap) -> GroundProfile:

@@ -11,7 +11,7 @@ Steps, on a short link session (:func:`install_guard`):
    board, relative to the autopilot's working directory), else ``/APM`` exists (an SD card
    where scripting never ran: ``/APM/scripts`` is made), else ``scripts``.
 3. The packaged script (:func:`helixd.mav.guard_script.script_bytes`) is uploaded over MAVLink FTP
-   (:class:`helixd.link.ftp_transfer.FtpUpload`: missing directories made, the autopilot's
+   (:class:`helixd.link.services.ftp_transfer.FtpUpload`: missing directories made, the autopilot's
    CRC32 of the written file compared with the bytes sent).
 4. ``SCR_ENABLE`` set to 1 if it was not (confirmed by the autopilot's PARAM_VALUE).
 
@@ -26,8 +26,8 @@ from typing import Protocol
 
 import structlog
 
-from helixd.link.ftp_link import FtpClient
-from helixd.link.ftp_transfer import DirectoryProbe, FtpUpload
+from helixd.link.services.ftp_link import FtpClient
+from helixd.link.services.ftp_transfer import DirectoryProbe, FtpUpload
 from helixd.mav.guard_script import (
     BOARD_SCRIPTS_DIR,
     HXG_VERSION,
@@ -101,7 +101,8 @@ async def find_scripts_dir(ap: FtpPluginHost) -> str:
 
 async def install_guard(ap: GuardHost, scripts_dir: str | None = None) -> GuardInstalled:
     """Steps 1–4; raises :class:`GuardInstallRefused`, or the link's and FTP's own errors
-    (:class:`helixd.mav.url.LinkError`, :class:`helixd.link.ftp_transfer.FtpTransferError`)."""
+    (:class:`helixd.mav.url.LinkError`,
+    :class:`helixd.link.services.ftp_transfer.FtpTransferError`)."""
     before = await ap.param.get(SCR_ENABLE)
     if before is None:
         raise GuardInstallRefused(

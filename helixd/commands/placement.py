@@ -8,8 +8,8 @@ import contextlib
 
 from helixd.base.clock import now_s
 from helixd.base.plan import MissionFrameKind
-from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandError
 from helixd.mav.constants import (
     MAV_CMD_REQUEST_MESSAGE,
     MAVLINK_MSG_ID_ATTITUDE,

@@ -15,9 +15,10 @@ from collections.abc import Mapping
 
 from helixd.base.clock import now_s
 from helixd.base.frames import ne_to_latlon
-from helixd.config import LinkConfig, SafetyConfig
-from helixd.link.command_client import CommandError
+from helixd.config.link import LinkConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandError
 from helixd.link.vehicle import Change, VehicleState
 from helixd.mav.constants import MAV_CMD_REQUEST_MESSAGE, MAVLINK_MSG_ID_GPS_RAW_INT
 from helixd.mav.guard_script import (

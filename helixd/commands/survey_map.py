@@ -39,6 +39,7 @@ from shapely.geometry import Polygon
 from helixd.base.frames import METRES_PER_DEGREE, latlon_to_ne, ne_to_latlon
 from helixd.base.media import MediaMap
 from helixd.base.plan import MotionMode
+from helixd.base.problems import Problems
 from helixd.base.run_files import PAYLOAD_FILE
 from helixd.mission.formats import write_mission_file
 from helixd.mission.formats.areas import SurveyArea
@@ -69,12 +70,8 @@ GEO_KEYS = (
 )
 
 
-class SurveyMapRefused(ValueError):
+class SurveyMapRefused(Problems, ValueError):
     """The map cannot be made; ``problems`` has one line each."""
-
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("\n".join(problems))
 
 
 @dataclass(frozen=True)

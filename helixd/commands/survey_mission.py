@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from pydantic import ValidationError
 
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate, estimate_time
 from helixd.mission.formats.areas import SurveyArea
 from helixd.mission.model import Mission
@@ -87,9 +87,9 @@ def approach_estimate(cfg: HelixdConfig, mode: MotionMode, speed_mps: float) -> 
 def survey_mission(
     area: SurveyArea,
     cfg: HelixdConfig,
-    *,
     name: str,
     mode: MotionMode,
+    *,
     spacing_m: float,
     angle_deg: float,
     margin_m: float,

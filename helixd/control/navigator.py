@@ -106,6 +106,16 @@ class NavOutput:
     done: bool
 
 
+@dataclass(frozen=True)
+class _HeadingGoal:
+    """Where line guidance points the driving axis: the heading (rad), how far the rover's
+    heading is off it (rad) and the curvature whose yaw rate is fed forward (1/m)."""
+
+    goal_rad: float
+    e_psi_rad: float
+    curvature_per_m: float
+
+
 class Navigator:
     """Flies ``plan`` waypoint by waypoint. One instance per mission run."""
 
@@ -434,48 +444,84 @@ class Navigator:
         return leg
 
     def _follow_line(self, pose: Pose2D, dt_s: float) -> NavOutput:
+        """Line guidance: the course along the leg (or its corner's arc), the heading that
+        course asks of the driving axis (turned to in place first where it is far off), the
+        speed the next stop allows, and the body velocity that drives them."""
         goal = self._goal()
-        mode = self.mode
-        cfg = self.control
         e_d = _distance_m(pose, goal)
+        leg, course_rad = self._line_course(pose, goal)
+        heading = self._heading_goal(pose, leg, course_rad)
+        if self.mode is not MotionMode.OMNI:
+            aligning = self._align(pose, heading, e_d, dt_s)
+            if aligning is not None:
+                return aligning
+        self._state = NavState.TRACK
+        speed_mps, distance_terms = self._track_speed(leg, heading.e_psi_rad, dt_s)
+        yaw_terms = PidTerms.zero()
+        if self.mode is MotionMode.OMNI:
+            target = self._omni_target(pose, leg, course_rad, speed_mps)
+            e_now = heading.e_psi_rad
+        else:
+            target, e_now, yaw_terms = self._steered_target(
+                pose, e_d, course_rad, heading, speed_mps, dt_s
+            )
+        command = self._smooth(target, e_now, dt_s, heading.curvature_per_m)
+        return self._output(
+            pose, command, e_d, heading.e_psi_rad, distance_pid=distance_terms, yaw_pid=yaw_terms
+        )
+
+    def _line_course(self, pose: Pose2D, goal: PlanWaypoint) -> tuple[line.LegErrors, float]:
+        """The leg's errors and the course the lookahead law asks: on the leg's line, on the
+        corner's arc (its tangent and radial error), or past a stop it did not reach (far
+        beside it) straight to the point itself."""
         leg = self._leg(pose, goal)
         arc = self._active_arc(leg)
+        lookahead_m = self.control.lookahead_m
         if arc is not None:
-            # On a corner's arc: the same lookahead law, on the arc's tangent and radial error.
             tangent_rad, arc_cross_m = line.arc_errors(arc, pose)
-            course_rad = line.line_course_rad(tangent_rad, arc_cross_m, cfg.lookahead_m)
-        elif leg.along_to_go_m < 0.0:
-            # Past a stop it did not reach (far beside it): fly to the point itself.
+            return leg, line.line_course_rad(tangent_rad, arc_cross_m, lookahead_m)
+        if leg.along_to_go_m < 0.0:
             leg = line.leg_errors((goal.x_m, goal.y_m), (goal.x_m, goal.y_m), pose)
-            course_rad = leg.course_rad
-        else:
-            course_rad = line.line_course_rad(leg.course_rad, leg.cross_track_m, cfg.lookahead_m)
+            return leg, leg.course_rad
+        return leg, line.line_course_rad(leg.course_rad, leg.cross_track_m, lookahead_m)
 
-        curvature = 0.0
-        if mode is MotionMode.OMNI:
-            heading_goal_rad, e_psi = pose.yaw_rad, 0.0
-        else:
-            turning, heading_offset_rad = self._arc_turning(leg)
-            curvature = turning
-            axis = guidance.driving_axis_rad(mode) + (math.pi if self._reverse else 0.0)
-            heading_goal_rad = wrap_pi(course_rad + heading_offset_rad - axis)
-            e_psi = shortest_angular_distance(pose.yaw_rad, heading_goal_rad)
+    def _heading_goal(self, pose: Pose2D, leg: line.LegErrors, course_rad: float) -> _HeadingGoal:
+        """The heading that puts the driving axis (backwards when reversing) on the course,
+        with the arc's heading offset and curvature; OMNI keeps its heading."""
+        if self.mode is MotionMode.OMNI:
+            return _HeadingGoal(pose.yaw_rad, 0.0, 0.0)
+        curvature, heading_offset_rad = self._arc_turning(leg)
+        axis = guidance.driving_axis_rad(self.mode) + (math.pi if self._reverse else 0.0)
+        goal_rad = wrap_pi(course_rad + heading_offset_rad - axis)
+        return _HeadingGoal(goal_rad, shortest_angular_distance(pose.yaw_rad, goal_rad), curvature)
 
-        if mode is not MotionMode.OMNI:
-            enter = max(cfg.pivot_angle_rad, cfg.heading_threshold_rad)
-            leave = cfg.heading_threshold_rad
-            self._step_yaw_rate_model(dt_s)
-            if abs(e_psi) > (leave if self._state is NavState.ALIGN else enter):
-                if self._state is not NavState.ALIGN:
-                    self._distance_pid.reset()
-                self._state = NavState.ALIGN
-                yaw_now = self._predicted_yaw_rad(pose, 0.0)
-                yaw_terms = self._yaw_pid.update(heading_goal_rad, yaw_now, dt_s)
-                e_now = shortest_angular_distance(yaw_now, heading_goal_rad)
-                command = self._smooth(BodyVelocity(0.0, 0.0, yaw_terms.output), e_now, dt_s)
-                return self._output(pose, command, e_d, e_psi, yaw_pid=yaw_terms)
+    def _align(
+        self, pose: Pose2D, heading: _HeadingGoal, e_d: float, dt_s: float
+    ) -> NavOutput | None:
+        """Turn in place while the heading is off by more than the pivot angle (until it is
+        within the heading threshold: hysteresis); None when the rover may drive on."""
+        cfg = self.control
+        enter = max(cfg.pivot_angle_rad, cfg.heading_threshold_rad)
+        leave = cfg.heading_threshold_rad
+        self._step_yaw_rate_model(dt_s)
+        if not abs(heading.e_psi_rad) > (leave if self._state is NavState.ALIGN else enter):
+            return None
+        if self._state is not NavState.ALIGN:
+            self._distance_pid.reset()
+        self._state = NavState.ALIGN
+        yaw_now = self._predicted_yaw_rad(pose, 0.0)
+        yaw_terms = self._yaw_pid.update(heading.goal_rad, yaw_now, dt_s)
+        e_now = shortest_angular_distance(yaw_now, heading.goal_rad)
+        command = self._smooth(BodyVelocity(0.0, 0.0, yaw_terms.output), e_now, dt_s)
+        return self._output(pose, command, e_d, heading.e_psi_rad, yaw_pid=yaw_terms)
 
-        self._state = NavState.TRACK
+    def _track_speed(
+        self, leg: line.LegErrors, e_psi: float, dt_s: float
+    ) -> tuple[float, PidTerms]:
+        """The speed along the leg (m/s, negative reversing): the distance PID on the way to
+        the next stop, the braking profile, the corner just passed, the cruise speed; at least
+        min_speed (never creeping), scaled by the heading error's cosine."""
+        cfg = self.control
         i = self._target_index
         e_go = max(0.0, leg.along_to_go_m)
         for j in range(i, len(self._stops) - 1):  # distance to the next stop, for the PID
@@ -503,34 +549,44 @@ class Navigator:
         speed_mps = min(distance_terms.output, profile, self._cruise_mps)
         speed_mps = max(speed_mps, cfg.min_speed_mps)  # not reached yet: never creep
         speed_mps = max(0.0, speed_mps) * max(0.0, math.cos(e_psi))
-        if self._reverse:
-            speed_mps = -speed_mps
+        return (-speed_mps if self._reverse else speed_mps), distance_terms
 
-        yaw_terms = PidTerms.zero()
-        if mode is MotionMode.OMNI:
-            # On an arc the commanded direction turns at v/R; the scrolls deliver it through
-            # their response lag τ (control.slip.command_lag_s), so the motion trails the
-            # command by ≈ (v/R)·τ and the rover would drift out until the lookahead term
-            # cancels that (e = L·(v/R)·τ, ~0.1 m on the hexagon): lead the course by it.
-            turning, _ = self._arc_turning(leg)
-            course_rad += turning * speed_mps * cfg.slip.command_lag_s
-            vx, vy = guidance.world_to_body(
-                speed_mps * math.cos(course_rad), speed_mps * math.sin(course_rad), pose.yaw_rad
-            )
-            target = BodyVelocity(vx, vy, 0.0)
-            e_now = e_psi
-        else:
-            speed_prev = math.hypot(self._prev_command.vx_mps, self._prev_command.vy_mps)
-            goal_rate = curvature * speed_prev * self._delivered_fraction
-            yaw_now = self._predicted_yaw_rad(pose, goal_rate)
-            yaw_terms = self._yaw_pid.update(heading_goal_rad, yaw_now, dt_s)
-            e_now = shortest_angular_distance(yaw_now, heading_goal_rad)
-            errors = guidance.GuidanceResult(e_d, course_rad, heading_goal_rad, e_psi, 0.0, 0.0)
-            target = guidance.compute_command(errors, mode, speed_mps, yaw_terms.output)
-        command = self._smooth(target, e_now, dt_s, curvature)
-        return self._output(
-            pose, command, e_d, e_psi, distance_pid=distance_terms, yaw_pid=yaw_terms
+    def _omni_target(
+        self, pose: Pose2D, leg: line.LegErrors, course_rad: float, speed_mps: float
+    ) -> BodyVelocity:
+        """OMNI: the course in the body frame, led by the scrolls' lag on an arc."""
+        # On an arc the commanded direction turns at v/R; the scrolls deliver it through
+        # their response lag τ (control.slip.command_lag_s), so the motion trails the
+        # command by ≈ (v/R)·τ and the rover would drift out until the lookahead term
+        # cancels that (e = L·(v/R)·τ, ~0.1 m on the hexagon): lead the course by it.
+        turning, _ = self._arc_turning(leg)
+        course_rad += turning * speed_mps * self.control.slip.command_lag_s
+        vx, vy = guidance.world_to_body(
+            speed_mps * math.cos(course_rad), speed_mps * math.sin(course_rad), pose.yaw_rad
         )
+        return BodyVelocity(vx, vy, 0.0)
+
+    def _steered_target(
+        self,
+        pose: Pose2D,
+        e_d: float,
+        course_rad: float,
+        heading: _HeadingGoal,
+        speed_mps: float,
+        dt_s: float,
+    ) -> tuple[BodyVelocity, float, PidTerms]:
+        """ROLL/SCROLL: the yaw loop on the predicted heading (the arc's rate fed forward)
+        and the mode's command; with the heading error now and the yaw PID's terms."""
+        speed_prev = math.hypot(self._prev_command.vx_mps, self._prev_command.vy_mps)
+        goal_rate = heading.curvature_per_m * speed_prev * self._delivered_fraction
+        yaw_now = self._predicted_yaw_rad(pose, goal_rate)
+        yaw_terms = self._yaw_pid.update(heading.goal_rad, yaw_now, dt_s)
+        e_now = shortest_angular_distance(yaw_now, heading.goal_rad)
+        errors = guidance.GuidanceResult(
+            e_d, course_rad, heading.goal_rad, heading.e_psi_rad, 0.0, 0.0
+        )
+        target = guidance.compute_command(errors, self.mode, speed_mps, yaw_terms.output)
+        return target, e_now, yaw_terms
 
     def _step_yaw_rate_model(self, dt_s: float) -> None:
         """Advance the model of the delivered yaw rate by ``dt_s`` under the last command."""

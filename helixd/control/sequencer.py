@@ -62,7 +62,6 @@ class Sequencer:
         self._hold_until_s = math.inf
         self._pending: list[MissionAction] = []  # do items of the active step not yet run
         self._wait_since_s: float | None = None  # when the waiting CONDITION_DELAY started
-        self._done = False
 
     @property
     def step_index(self) -> int:
@@ -70,7 +69,8 @@ class Sequencer:
 
     @property
     def done(self) -> bool:
-        return self._done
+        """Past the last step (only :meth:`_advance` moves the index, never back)."""
+        return self._index >= len(self._steps)
 
     def current(self) -> NavStep | None:
         if 0 <= self._index < len(self._steps):
@@ -93,7 +93,7 @@ class Sequencer:
             raise ValueError("sequencer time must be finite")
         actions: list[MissionAction] = []
         events: list[SequencerEvent] = []
-        if self._done:
+        if self.done:
             return self._output(actions, events)
         step = self.current()
         if (
@@ -112,7 +112,7 @@ class Sequencer:
     def holding_forever(self) -> bool:
         """Arrived at a NAV_LOITER_UNLIM: holding until the operator continues."""
         step = self.current()
-        return self._holding and not self._done and step is not None and step.forever
+        return self._holding and not self.done and step is not None and step.forever
 
     def release_hold(self) -> bool:
         """The operator continues (``helixd serve``: DO_PAUSE_CONTINUE 1): a NAV_LOITER_UNLIM
@@ -128,7 +128,7 @@ class Sequencer:
         self, actions: list[MissionAction], events: list[SequencerEvent]
     ) -> SequencerOutput:
         return SequencerOutput(
-            tuple(actions), self._holding and not self._done, self._done, tuple(events),
+            tuple(actions), self._holding and not self.done, self.done, tuple(events),
             self._index,
         )  # fmt: skip
 
@@ -171,7 +171,6 @@ class Sequencer:
             self._wait_since_s = None
             if self._index >= len(self._steps):
                 actions.extend(self.program.final_actions)
-                self._done = True
                 self._holding = False
                 return
             step = self._steps[self._index]

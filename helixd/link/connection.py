@@ -1,8 +1,9 @@
 """The MAVLink link: the :class:`Autopilot` facade the daemon uses, over the plumbing
-(:mod:`helixd.link.transport`, :mod:`helixd.link.codec`, :mod:`helixd.link.heartbeat`) and
-with its plugins (:mod:`helixd.link.telemetry`, :mod:`helixd.link.action`,
-:mod:`helixd.link.param`, :mod:`helixd.link.mission_link` and :mod:`helixd.link.ftp_link`,
-attached in :meth:`Autopilot.__init__`).
+(:mod:`helixd.link.wire.transport`, :mod:`helixd.link.wire.codec`,
+:mod:`helixd.link.wire.heartbeat`) and with its plugins (:mod:`helixd.link.telemetry`,
+:mod:`helixd.link.services.action`, :mod:`helixd.link.services.param`,
+:mod:`helixd.link.services.mission_link` and :mod:`helixd.link.services.ftp_link`, attached in
+:meth:`Autopilot.__init__`).
 
 Reading never blocks the event loop: every transport is a non-blocking file descriptor watched
 with ``loop.add_reader`` (UDP socket, TCP socket, or a termios-configured serial device). The
@@ -13,7 +14,7 @@ the loop thread — no thread hand-over, no extra wake-up. Measured with
 p50 75–90 µs and a busy-loop p99 450–500 µs for a reader thread handing messages over with
 ``call_soon_threadsafe``, at 10–20 % less CPU per message. Draining before any woken coroutine
 runs also keeps already-queued duplicate COMMAND_ACKs away from the next command
-(see :mod:`helixd.link.command_client`).
+(see :mod:`helixd.link.services.command_client`).
 
 Writes never block either: UDP ``sendto`` on a non-blocking socket (a full buffer drops the
 datagram, as the network would), TCP/serial through a bounded write buffer flushed with
@@ -37,30 +38,23 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import LinkConfig, SafetyConfig
-from helixd.link.action import Action
-from helixd.link.codec import (
-    LinkStats,
-    MavlinkConnection,
-    NeverSent,
-)
-from helixd.link.command_client import (
-    AckStats,
-    CommandClient,
-    CommandError,
-)
-from helixd.link.ftp_link import FtpClient
-from helixd.link.heartbeat import HeartbeatSender
+from helixd.config.link import LinkConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.limits import LinkLimits, link_limits
-from helixd.link.mission_link import MissionClient
-from helixd.link.ownid import OwnIdSenders
-from helixd.link.param import Param
-from helixd.link.signing import load_signing_key
+from helixd.link.services.action import Action
+from helixd.link.services.command_client import AckStats, CommandClient, CommandError
+from helixd.link.services.ftp_link import FtpClient
+from helixd.link.services.mission_link import MissionClient
+from helixd.link.services.param import Param
 from helixd.link.statustext import AssembledText, StatusTextAssembler
 from helixd.link.streams import StreamManager
 from helixd.link.telemetry import ChangeWaiters, Telemetry
-from helixd.link.tlog import LinkTlog
 from helixd.link.vehicle import Change, VehicleState
+from helixd.link.wire.codec import LinkEvents, LinkStats, MavlinkConnection, NeverSent
+from helixd.link.wire.heartbeat import HeartbeatSender
+from helixd.link.wire.ownid import OwnIdSenders
+from helixd.link.wire.signing import load_signing_key
+from helixd.link.wire.tlog import LinkTlog
 from helixd.mav.constants import (
     GCS_CONTACT_MESSAGE_IDS,
     MAV_CMD_REQUEST_MESSAGE,
@@ -115,12 +109,13 @@ class Autopilot:
 
     Plugins: :attr:`telemetry` (:mod:`helixd.link.telemetry`: ``async for pose in
     ap.telemetry.pose()``, ``ap.telemetry.next_pose(...)``), :attr:`action`
-    (:mod:`helixd.link.action`: arm, disarm, mode, RC override, servo, any COMMAND_LONG),
-    :attr:`param` (:mod:`helixd.link.param`), :attr:`mission` (:mod:`helixd.link.mission_link`:
-    ``ap.mission.download()``, ``ap.mission.upload(...)``) and :attr:`ftp`
-    (:mod:`helixd.link.ftp_link`: ``ap.ftp.run(exchange)``); callers use them directly. The
-    facade itself owns the link: the vehicle state (:attr:`state`), heartbeats, stream
-    negotiation, raw messages, the link log and closing. Nothing here decides to stop the rover.
+    (:mod:`helixd.link.services.action`: arm, disarm, mode, RC override, servo, any COMMAND_LONG),
+    :attr:`param` (:mod:`helixd.link.services.param`), :attr:`mission`
+    (:mod:`helixd.link.services.mission_link`: ``ap.mission.download()``,
+    ``ap.mission.upload(...)``) and :attr:`ftp` (:mod:`helixd.link.services.ftp_link`:
+    ``ap.ftp.run(exchange)``); callers use them directly. The facade itself owns the link: the
+    vehicle state (:attr:`state`), heartbeats, stream negotiation, raw messages, the link log and
+    closing. Nothing here decides to stop the rover.
     """
 
     def __init__(
@@ -146,17 +141,15 @@ class Autopilot:
             statustext_history=cfg.statustext_history,
             bounds=self.limits.bounds,
         )
-        self._conn = MavlinkConnection(
-            cfg,
-            url,
-            signing_key,
+        events = LinkEvents(
             self._on_message,
             self._on_foreign,
             self._on_transport_lost,
             self._on_reopened,
-            never_send=GCS_CONTACT_MESSAGE_IDS if observer else frozenset(),
-            on_addressed=self._on_addressed,
+            self._on_addressed,
         )
+        never_send = GCS_CONTACT_MESSAGE_IDS if observer else frozenset()
+        self._conn = MavlinkConnection(cfg, url, signing_key, events, never_send=never_send)
         self._commands = CommandClient(lambda: self._conn.mav, self._conn.send, cfg, self.state)
         self._heartbeat = HeartbeatSender(self._conn, cfg)
         self._texts = StatusTextAssembler(cfg.statustext_timeout_s)
@@ -190,7 +183,7 @@ class Autopilot:
         ``link.observer_system``, not as the GCS id, and never sends what ArduPilot counts as
         contact with its GCS (:data:`helixd.mav.constants.GCS_CONTACT_MESSAGE_IDS`: HEARTBEAT,
         RC_CHANNELS_OVERRIDE, MANUAL_CONTROL — refused with
-        :class:`helixd.link.codec.NeverSent`), so the autopilot's GCS failsafe neither counts
+        :class:`helixd.link.wire.codec.NeverSent`), so the autopilot's GCS failsafe neither counts
         on it nor fires after it closes.
         """
         url = parse_link_url(cfg.url, cfg.baud)
@@ -232,7 +225,7 @@ class Autopilot:
 
     @property
     def own_id_senders(self) -> OwnIdSenders:
-        """Other senders using our system id (see :mod:`helixd.link.ownid`)."""
+        """Other senders using our system id (see :mod:`helixd.link.wire.ownid`)."""
         return self._conn.own_id_senders
 
     def own_id_watch_s(self) -> float:
@@ -500,5 +493,5 @@ class Autopilot:
 
     def attach_tlog(self, tlog: LinkTlog | None) -> None:
         """Record every frame sent and read to ``tlog`` from now on (None stops recording);
-        see :func:`helixd.link.tlog.attach_tlog`."""
+        see :func:`helixd.link.wire.tlog.attach_tlog`."""
         self._conn.tlog = tlog

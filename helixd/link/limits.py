@@ -4,14 +4,15 @@ The link does not decide anything about the rover's safety; it needs four number
 view of the autopilot honest: when HEARTBEAT silence means the link is lost, when an EKF
 variance means unhealthy, how old a yaw may be to form a pose, and the bounds beyond which a
 telemetry value is absurd. :func:`link_limits` takes them from
-:class:`helixd.config.SafetyConfig`, and the rest of the link sees only :class:`LinkLimits`.
+:class:`helixd.config.safety.SafetyConfig`, and the rest of the link sees only
+:class:`LinkLimits`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from helixd.config import SafetyConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.vehicle import TelemetryBounds
 
 

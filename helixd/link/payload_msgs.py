@@ -1,8 +1,8 @@
 """The sensors' readings the autopilot passes on, read at the edge (pure: no I/O, no clock).
 
 Which messages count as which quantity is the config's (``payload.sources``,
-:class:`helixd.config.PayloadSource`). What ArduPilot sends (GCS_Common.cpp, Rover's
-GCS_MAVLink_Rover.cpp):
+:class:`helixd.config.recorder.PayloadSource`). What ArduPilot sends (GCS_Common.cpp,
+Rover's GCS_MAVLink_Rover.cpp):
 
 * ``DISTANCE_SENSOR`` (``send_distance_sensor``), one per rangefinder instance, in EXTRA3:
   ``current_distance``, ``min_distance`` and ``max_distance`` in cm (capped at 65535),
@@ -25,9 +25,29 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from helixd.config import PayloadConfig, PayloadSource
+from helixd.config.recorder import PayloadConfig, PayloadSource
 
 MavMsg = Any
+
+
+@dataclass(frozen=True, slots=True)
+class Reading:
+    """One reading as it will be recorded: the quantity's value (offset and scale applied)."""
+
+    message: str
+    quantity: str
+    value: float
+    time_boot_ms: int | None  # the autopilot's time of the reading (None: RANGEFINDER)
+    quality_pct: int | None = None  # DISTANCE_SENSOR's signal quality (0 = unknown)
+    sensor_id: int | None = None
+    raw: float = math.nan  # the value as sent (m for distances)
+
+
+@dataclass(frozen=True, slots=True)
+class Rejected:
+    message: str
+    reason: str
+
 
 MSG_DISTANCE_SENSOR = "DISTANCE_SENSOR"
 MSG_RANGEFINDER = "RANGEFINDER"
@@ -48,25 +68,6 @@ UINT32_MAX = 4_294_967_295
 RANGE_MAX_M = 1000.0  # RANGEFINDER / WATER_DEPTH: beyond this a float is not a distance
 NAMED_VALUE_MAX_ABS = 1e12
 NAME_CHARS = 10
-
-
-@dataclass(frozen=True, slots=True)
-class Reading:
-    """One reading as it will be recorded: the quantity's value (offset and scale applied)."""
-
-    message: str
-    quantity: str
-    value: float
-    time_boot_ms: int | None  # the autopilot's time of the reading (None: RANGEFINDER)
-    quality_pct: int | None = None  # DISTANCE_SENSOR's signal quality (0 = unknown)
-    sensor_id: int | None = None
-    raw: float = math.nan  # the value as sent (m for distances)
-
-
-@dataclass(frozen=True, slots=True)
-class Rejected:
-    message: str
-    reason: str
 
 
 def _int(value: object, lo: int, hi: int) -> int | None:

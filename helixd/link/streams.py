@@ -28,13 +28,9 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import LinkConfig
-from helixd.link.command_client import (
-    ALL_RESULTS,
-    CommandError,
-    result_name,
-)
+from helixd.config.link import LinkConfig
 from helixd.link.payload_msgs import PAYLOAD_STREAMS
+from helixd.link.services.command_client import ALL_RESULTS, CommandError, result_name
 from helixd.mav.constants import (
     MAV_CMD_SET_MESSAGE_INTERVAL,
     MAV_RESULT_ACCEPTED,

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from helixd.base.frames import NedPose
-from helixd.config import SafetyConfig
+from helixd.config.safety import SafetyConfig
 from helixd.mav.constants import (
     EKF_ATTITUDE,
     EKF_CONST_POS_MODE,

@@ -4,10 +4,11 @@ The Lua script ships inside this package (``helixd/mav/scripts/helixd-guard.lua`
 data) so that an installed helixd finds it: ``helixd autopilot install-guard`` copies
 :func:`script_bytes` onto the autopilot. It lives in :mod:`helixd.mav` because every user of
 it may import this layer: the installer and preflight (link, runtime, CLI) and the simulator,
-which runs the same guard logic (:mod:`helixd.sim.guard_model`) and reads these parameter facts.
+which runs the same guard logic (:mod:`helixd.sim.firmware.guard_model`) and reads these
+parameter facts.
 
-What the script defines and helixd relies on (``tests/sim/test_guard_model.py`` checks that the
-constants here and in :mod:`helixd.sim.guard_model` match the Lua):
+What the script defines and helixd relies on (``tests/sim/firmware/test_guard_model.py`` checks
+that the constants here and in :mod:`helixd.sim.firmware.guard_model` match the Lua):
 
 * its parameter table, key 144, prefix ``HXG_``: HXG_ENABLE (1), HXG_TIMEOUT (0.5 s, clamped
   to 0.1 … 10 s), HXG_CHAN1..4 (1, 2, 3, 4: the guarded 1-based servo outputs, 0 = none, values

@@ -2,7 +2,7 @@
 characters (what MAVProxy's ``signing setup`` and QGroundControl export).
 
 Read twice, with the same words: when the config is loaded (``helixd check`` refuses what
-``helixd run`` would) and when the link opens (:mod:`helixd.link.signing`).
+``helixd run`` would) and when the link opens (:mod:`helixd.link.wire.signing`).
 """
 
 from __future__ import annotations

@@ -2,23 +2,8 @@
 (jumps expanded), the plan waypoints each one drives to, what it waits, and the do/condition
 items started with it. Pure: no I/O, no clocks.
 
-The walk is a port of ``libraries/AP_Mission/AP_Mission.cpp``, so the order is ArduPilot's, not
-a reading of the list:
-
-* ``get_next_cmd``: DO_JUMP (and DO_JUMP_TAG, through the first JUMP_TAG with its tag) is
-  followed while it has been taken fewer times than its repeat count (−1: forever); a jump
-  counts only when the *navigation* command is advanced, and a finished jump's counter is reset
-  so an outer loop runs the inner one again; at most 64 jumps per search; a jump to item 0 or
-  past the end ends the mission.
-* ``advance_current_nav_cmd``: after a navigation command completes, the items after it are
-  scanned; the first do/condition item met is started, navigation items Rover does not start
-  (NAV_TAKEOFF, NAV_LAND, altitude-only items) are passed over, and the next navigation item
-  it starts becomes current (at most 255 items scanned). Nothing left: the mission is complete
-  — and the do item met on the way was still started.
-* ``advance_current_do_cmd`` / ``get_next_do_cmd``: the remaining do/condition items run one
-  after another from the first, following jumps without counting them, up to the next
-  navigation item of *any* kind; a condition (CONDITION_DELAY, CONDITION_DISTANCE) holds the
-  items after it. When the navigation command completes, whatever is left is dropped.
+The walk is :mod:`helixd.mission.walk`, a port of ``libraries/AP_Mission/AP_Mission.cpp``, so
+the order is ArduPilot's, not a reading of the list.
 
 A start at a later item (:attr:`ExpandOptions.first_item` k, ``helixd serve``'s AUTO from the
 autopilot's current item) is ArduPilot's ``AP_Mission::set_current_cmd(k)`` followed by
@@ -35,22 +20,23 @@ autopilot's current item) is ArduPilot's ``AP_Mission::set_current_cmd(k)`` foll
   ``AP_Mission::reset`` (called by ``start`` and by ``AP_Arming_Rover::disarm`` outside AUTO)
   and ``set_current_cmd`` on item 0 or a completed mission clear them
   (``init_jump_tracking``). After a flight interrupted while armed they are the counters of
-  the walk where the autopilot's AUTO had got to (:func:`jumps_when_current`); else zero.
+  the walk where the autopilot's AUTO had got to
+  (:func:`helixd.mission.walk.jumps_when_current`); else zero.
 * the speed is the cruise speed: ``ModeAuto::_enter`` calls ``AR_WPNav::init``, which sets the
   speed back to WP_SPEED, so a DO_CHANGE_SPEED flown before AUTO was left counts no more.
 * with ``MIS_RESTART`` 1, ``start_or_resume`` calls ``start`` instead: the mission restarts
   from item 1 and the current item reports it, so k is the first item.
 
 A continue of a flight helixd stopped itself (``helixd serve``: the start switch, or
-DO_PAUSE_CONTINUE / MISSION_START to helixd; :func:`helixd.runtime.prepare.continue_commands`)
+DO_PAUSE_CONTINUE / MISSION_START to helixd; :func:`helixd.prepare.builder.continue_commands`)
 flies again the navigation step it stopped at, with what started with it:
-:func:`restart_at_step` starts the walk at that step's first do item (or its navigation item)
-with the jump counters held there (a jump between that do item and the navigation item is not
-counted yet, so the new walk takes it again), and :func:`carried_at_step` gives the cruise
-speed and direction the steps before it had set (:attr:`ExpandOptions.speed_mps`,
-:attr:`ExpandOptions.reverse`), set again as its first step starts — where ArduPilot's own
-AUTO re-entry would go back to WP_SPEED. A wait interrupted mid-way (a hold, NAV_LOITER_TIME,
-NAV_DELAY, CONDITION_DELAY) is waited whole again.
+:func:`helixd.mission.walk.restart_at_step` starts the walk at that step's first do item (or its
+navigation item) with the jump counters held there (a jump between that do item and the
+navigation item is not counted yet, so the new walk takes it again), and :func:`carried_at_step`
+gives the cruise speed and direction the steps before it had set
+(:attr:`ExpandOptions.speed_mps`, :attr:`ExpandOptions.reverse`), set again as its first step
+starts — where ArduPilot's own AUTO re-entry would go back to WP_SPEED. A wait interrupted
+mid-way (a hold, NAV_LOITER_TIME, NAV_DELAY, CONDITION_DELAY) is waited whole again.
 
 Then ``Rover/mode_auto.cpp`` decides what each navigation item does: NAV_WAYPOINT drives to its
 place (lat/lon 0, 0: where the rover is when it starts, ``Location::sanitize``) and holds
@@ -69,7 +55,7 @@ sent), the payload commands are sent to the autopilot at their place.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 from helixd.base.plan import (
@@ -86,7 +72,6 @@ from helixd.mav.constants import (
     MAV_CMD_DO_JUMP_TAG,
     MAV_CMD_DO_SET_HOME,
     MAV_CMD_DO_SET_REVERSE,
-    MAV_CMD_JUMP_TAG,
 )
 from helixd.mission.commands import (
     CIRCLE_RADIUS_MIN_M,
@@ -101,14 +86,10 @@ from helixd.mission.commands import (
     stored_whole,
 )
 from helixd.mission.model import WaypointSpec
+from helixd.mission.walk import XY, Cmd, Walker, rover_starts
 
-XY = tuple[float, float]
-
-MAX_JUMPS_PER_SEARCH = 64  # AP_Mission::get_next_cmd
-MAX_SCAN = 255  # AP_Mission::advance_current_nav_cmd
 MAX_STEPS = 100_000  # navigation steps after expansion (a mission this long is a mistake)
 PATROL_STEPS_MAX = 5_000  # a patrol (DO_JUMP forever) is unrolled to at most this many steps
-MAX_CHAIN = 1_000  # do items started with one step
 SAME_PLACE_M = 0.01  # a step to where the rover already is drives nowhere
 CIRCLE_SEGMENT_M = 2.0  # a circle is flown as a polygon with sides about this long …
 CIRCLE_POINTS_MIN = 8  # … with at least this many corners per turn …
@@ -129,7 +110,7 @@ class ExpandOptions:
     first_item: int = 1
     # the jump counters (DO_JUMP item, times taken) the autopilot holds at that start
     # (AP_Mission's _jump_tracking, kept by resume and set_current_cmd): see
-    # :func:`jumps_when_current`
+    # :func:`helixd.mission.walk.jumps_when_current`
     jumps_taken: tuple[tuple[int, int], ...] = ()
     # the cruise speed (m/s) and direction the walk starts with (None, False: the configured
     # cruise speed, forwards): a continue carries on what was in effect where the flight was
@@ -169,135 +150,7 @@ class Expansion:
     notes: list[str] = field(default_factory=list)  # what check lists
 
 
-@dataclass(frozen=True)
-class _Cmd:
-    index: int  # 1-based mission item number
-    wp: WaypointSpec
-    xy: XY | None  # its place in the mission frame (None: none, or "where the rover is")
-    latlon: tuple[float, float] | None  # a global mission's lat/lon, for commands sent
-
-    @property
-    def role(self) -> Role:
-        return self.wp.spec.role
-
-    @property
-    def nav(self) -> bool:
-        return self.wp.spec.nav
-
-    @property
-    def name(self) -> str:
-        return self.wp.name
-
-    def p(self, i: int) -> float:
-        return self.wp.param(i)
-
-
-class _Walker:
-    """AP_Mission's command walk over items 1..N (index 0 is home and never walked)."""
-
-    def __init__(self, cmds: Sequence[_Cmd]) -> None:
-        self.cmds = cmds
-        self.total = len(cmds) + 1
-        self.runs: dict[int, int] = {}
-        # the jump counters when the last advance_nav met its first do item (before the jumps
-        # between that item and the navigation item were counted)
-        self.runs_at_first_do: dict[int, int] = {}
-        self.forever_taken: dict[int, int] = {}  # forever jumps: index → times taken
-        self.bad_jumps: set[tuple[int, int]] = set()  # (jump item, target)
-
-    def cmd(self, index: int) -> _Cmd:
-        return self.cmds[index - 1]
-
-    def tag_index(self, tag: int) -> int:
-        """AP_Mission::get_index_of_jump_tag: the first JUMP_TAG with this tag, else 0."""
-        for c in self.cmds:
-            if c.wp.command == MAV_CMD_JUMP_TAG and stored_whole(c.p(0)) == tag:
-                return c.index
-        return 0
-
-    def next_cmd(self, start: int, increment: bool) -> _Cmd | None:
-        """AP_Mission::get_next_cmd."""
-        index = start
-        jump_index: int | None = None
-        loops = MAX_JUMPS_PER_SEARCH
-        while index < self.total:
-            c = self.cmd(index)
-            command = c.wp.command
-            if command not in (MAV_CMD_DO_JUMP, MAV_CMD_DO_JUMP_TAG):
-                return c
-            target = stored_whole(c.p(0))
-            if command == MAV_CMD_DO_JUMP_TAG:
-                target = self.tag_index(target)
-            times = stored_whole(c.p(1))
-            if loops == 0:
-                return None
-            loops -= 1
-            if target >= self.total or target == 0:
-                self.bad_jumps.add((c.index, target))
-                return None
-            if not increment and jump_index == index:
-                return None
-            if jump_index is None:
-                jump_index = index
-            if times == JUMP_FOREVER or self.runs.get(index, 0) < times:
-                if increment:
-                    self.runs[index] = self.runs.get(index, 0) + 1
-                    if times == JUMP_FOREVER:
-                        self.forever_taken[index] = self.forever_taken.get(index, 0) + 1
-                index = target
-            else:
-                if increment:
-                    self.runs[index] = 0  # MIS_OPTIONS DONT_ZERO_COUNTER is off by default
-                index += 1
-        return None
-
-    def advance_nav(
-        self, after: int | None, starts: Callable[[_Cmd], bool]
-    ) -> tuple[_Cmd | None, _Cmd | None, list[_Cmd]]:
-        """AP_Mission::advance_current_nav_cmd: (the navigation item started, the first do
-        item started on the way, the navigation items passed over)."""
-        index = 1 if after is None else after + 1
-        first_do: _Cmd | None = None
-        passed: list[_Cmd] = []
-        for _ in range(MAX_SCAN):
-            c = self.next_cmd(index, increment=True)
-            if c is None:
-                return None, first_do, passed
-            if c.nav:
-                if starts(c):
-                    return c, first_do, passed
-                passed.append(c)
-            elif first_do is None:
-                first_do = c
-                self.runs_at_first_do = dict(self.runs)
-            index = c.index + 1
-        return None, first_do, passed
-
-    def do_chain(self, first: _Cmd) -> tuple[list[_Cmd], bool]:
-        """AP_Mission::advance_current_do_cmd, repeated: the do items after ``first`` up to the
-        next navigation item; True when they loop without end (a jump over do items only)."""
-        chain = [first]
-        seen = {first.index}
-        current = first
-        while True:
-            if current.index + 1 >= self.total:
-                return chain, False
-            c = self.next_cmd(current.index + 1, increment=False)
-            if c is None or c.nav:
-                return chain, False
-            if c.index in seen or len(chain) >= MAX_CHAIN:
-                return chain, True
-            seen.add(c.index)
-            chain.append(c)
-            current = c
-
-
-def _starts(c: _Cmd) -> bool:
-    """Rover's ModeAuto::start_command returns true (the navigation item becomes current)."""
-    return c.role not in (Role.NAV_SKIPPED, Role.UNKNOWN)
-
-
-def _label(c: _Cmd) -> str:
+def _label(c: Cmd) -> str:
     return f"item {c.index} {c.name}"
 
 
@@ -305,7 +158,7 @@ def _fmt_xy(xy: XY, shown_from: XY = (0.0, 0.0)) -> str:
     return f"({xy[0] - shown_from[0]:.2f}, {xy[1] - shown_from[1]:.2f})"
 
 
-def _named(c: _Cmd) -> str:
+def _named(c: Cmd) -> str:
     """A command's non-default named parameters, e.g. "channel 9, pwm_us 1900"."""
     spec = c.wp.spec
     parts: list[str] = []
@@ -357,6 +210,17 @@ def loiter_turns(c: WaypointSpec) -> tuple[float, float, bool]:
     return max(0.0, turns), max(radius, CIRCLE_RADIUS_MIN_M), p3 < 0.0
 
 
+@dataclass(frozen=True)
+class _Leg:
+    """What a navigation item does: its text, the plan waypoints it drives (first, last), its
+    hold (s) and whether it waits for the operator."""
+
+    where: str
+    span: tuple[int, int] | None = None
+    hold_s: float = 0.0
+    forever: bool = False
+
+
 class _Builder:
     """Turns the walk into plan waypoints and steps, following Rover's start_command."""
 
@@ -397,23 +261,23 @@ class _Builder:
             )
         return out
 
-    def problem(self, c: _Cmd, text: str) -> None:
+    def problem(self, c: Cmd, text: str) -> None:
         line = f"{_label(c)}: {text}"
         if line not in self.problems:
             self.problems.append(line)
 
-    def note(self, c: _Cmd, text: str) -> None:
+    def note(self, c: Cmd, text: str) -> None:
         if (c.index, text) not in self.noted:
             self.noted.add((c.index, text))
             self.notes.append(f"{_label(c)}: {text}")
 
-    def skip_text(self, c: _Cmd) -> str:
+    def skip_text(self, c: Cmd) -> str:
         why = c.wp.spec.why
         if c.role is Role.IGNORED:
             return f"ignored, as ArduPilot Rover ignores it here ({why})"
         return f"skipped, as ArduPilot Rover skips it ({why})"
 
-    def passed_over(self, c: _Cmd) -> str:
+    def passed_over(self, c: Cmd) -> str:
         """A navigation item Rover does not start, or one helixd cannot fly."""
         if c.role is Role.NAV_SKIPPED:
             text = self.skip_text(c)
@@ -428,13 +292,13 @@ class _Builder:
 
     # -- do/condition items ----------------------------------------------------------------
 
-    def actions(self, chain: Sequence[_Cmd]) -> list[MissionAction]:
+    def actions(self, chain: Sequence[Cmd]) -> list[MissionAction]:
         out: list[MissionAction] = []
         for c in chain:
             out.append(self.action(c))
         return out
 
-    def action(self, c: _Cmd) -> MissionAction:
+    def action(self, c: Cmd) -> MissionAction:
         role = c.role
         item, command = c.index, c.wp.command
         named = _named(c)
@@ -481,7 +345,7 @@ class _Builder:
         self.problem(c, f"{why} (--skip-unsupported passes over it)")
         return MissionAction(item, command, ActionKind.NOTE, text=text)
 
-    def send_params(self, c: _Cmd) -> tuple[float, float, float, float, float, float, float]:
+    def send_params(self, c: Cmd) -> tuple[float, float, float, float, float, float, float]:
         p = [c.p(i) for i in range(6)]
         p = [v if math.isfinite(v) else 0.0 for v in p]
         z = c.wp.z or 0.0
@@ -497,7 +361,7 @@ class _Builder:
     def where_here(self) -> str:
         return "the start" if self.here is None else self.fmt(self.here)
 
-    def set_home(self, c: _Cmd) -> MissionAction:
+    def set_home(self, c: Cmd) -> MissionAction:
         current = stored_whole(c.p(0)) == 1
         text = f"{c.name}: home where the rover is ({self.where_here()})"
         if current:
@@ -524,7 +388,7 @@ class _Builder:
             c.index, MAV_CMD_DO_SET_HOME, ActionKind.SEND, params=params, text=text
         )
 
-    def change_speed(self, c: _Cmd) -> MissionAction:
+    def change_speed(self, c: Cmd) -> MissionAction:
         asked = c.p(1)
         item, command = c.index, c.wp.command
         if speed_refused(asked):
@@ -560,12 +424,14 @@ class _Builder:
 
     def step(
         self,
-        c: _Cmd,
-        chain: Sequence[_Cmd],
+        c: Cmd,
+        chain: Sequence[Cmd],
         passed: Sequence[str],
         via: str,
         endless_chain: bool,
     ) -> NavStep:
+        """The navigation step of item ``c``: the do items of ``chain`` started with it (and
+        what the walk carried on), then what ``c`` itself does (Rover's start_command)."""
         actions = [*self.carried, *self.actions(chain)]
         self.carried = []
         if endless_chain:
@@ -575,80 +441,96 @@ class _Builder:
                 "a DO_JUMP loops over do items only: ArduPilot would repeat them without end "
                 "until the next waypoint",
             )
-        role, wp = c.role, c.wp
-        hold = 0.0
-        span: tuple[int, int] | None = None
-        forever = False
-        where = ""
-        if role in (Role.WAYPOINT, Role.LOITER_TIME, Role.LOITER_UNLIM):
-            raw = c.p(0) if role is not Role.LOITER_UNLIM else 0.0
-            hold = float(max(0, stored_whole(raw)))
-            forever = role is Role.LOITER_UNLIM
-            stop = hold > 0.0 or role is not Role.WAYPOINT
-            if c.xy is None:
-                where = f"stays where it is, at {self.where_here()}"
-                if stop:
-                    self.stop_here()
-            else:
-                span = self.go(wp, c.xy, stop)
-                where = f"→ {self.fmt(c.xy)}"
-            if forever and not self.options.operator_continue:
-                self.problem(
-                    c,
-                    "waits until the operator continues the mission; `helixd run` cannot "
-                    "continue it yet: use NAV_LOITER_TIME with a time",
-                )
-        elif role is Role.RETURN:
-            span = self.go(wp, self.home, True)
-            where = f"→ home {self.fmt(self.home)}"
-        elif role is Role.LOITER_TURNS:
-            turns, radius, ccw = loiter_turns(wp)
-            centre = c.xy if c.xy is not None else (self.here or self.home)
-            where = f"{turns:g} turns, radius {radius:g} m around {self.fmt(centre)}"
-            if turns > 0.0:
-                pts = _circle(centre, radius, turns, ccw, self.here or centre)
-                begin = len(self.waypoints)
-                for xy in pts:
-                    self.go(wp, xy, False)
-                if len(self.waypoints) > begin:
-                    span = (begin, len(self.waypoints) - 1)
-                    where += f" ({len(self.waypoints) - begin} points)"
-        elif role is Role.NAV_DELAY:
-            delay = c.p(0)
-            if not (math.isfinite(delay) and delay > 0.0):
-                self.problem(
-                    c,
-                    "waits until a time of day (param1 not > 0): helixd has no clock for it; "
-                    "give delay_s",
-                )
-                delay = 0.0
-            hold = delay
-            self.stop_here()
-            where = f"stops {delay:g} s"
-        else:  # NAV_REFUSED: Rover would start it
-            why = wp.spec.why
-            if self.options.skip_unsupported:
-                self.note(c, f"passed over (--skip-unsupported): {why}")
-            else:
-                self.problem(c, f"{why} (--skip-unsupported passes over it)")
-            where = "not flown"
-        if hold > 0.0 and role is not Role.NAV_DELAY:
-            where += f", hold {hold:g} s"
-        if forever:
+        leg = self.nav_leg(c)
+        where = leg.where
+        if leg.hold_s > 0.0 and c.role is not Role.NAV_DELAY:
+            where += f", hold {leg.hold_s:g} s"
+        if leg.forever:
             where += ", waits for the operator"
         text = f"{c.name} {where}".strip() + (f" {via}" if via else "")
         return NavStep(
             item=c.index,
-            command=wp.command,
-            first_waypoint=None if span is None else span[0],
-            last_waypoint=None if span is None else span[1],
-            hold_s=hold,
+            command=c.wp.command,
+            first_waypoint=None if leg.span is None else leg.span[0],
+            last_waypoint=None if leg.span is None else leg.span[1],
+            hold_s=leg.hold_s,
             actions=tuple(actions),
             speed_mps=self.speed,
             text=text,
-            forever=forever,
+            forever=leg.forever,
             skipped=tuple(passed),
         )
+
+    def nav_leg(self, c: Cmd) -> _Leg:
+        """What navigation item ``c`` does, by its role (Rover/mode_auto.cpp)."""
+        role = c.role
+        if role in (Role.WAYPOINT, Role.LOITER_TIME, Role.LOITER_UNLIM):
+            return self.drive_to(c)
+        if role is Role.RETURN:
+            return _Leg(f"→ home {self.fmt(self.home)}", self.go(c.wp, self.home, True))
+        if role is Role.LOITER_TURNS:
+            return self.circle(c)
+        if role is Role.NAV_DELAY:
+            return self.delay(c)
+        # NAV_REFUSED: Rover would start it
+        why = c.wp.spec.why
+        if self.options.skip_unsupported:
+            self.note(c, f"passed over (--skip-unsupported): {why}")
+        else:
+            self.problem(c, f"{why} (--skip-unsupported passes over it)")
+        return _Leg("not flown")
+
+    def drive_to(self, c: Cmd) -> _Leg:
+        """NAV_WAYPOINT, NAV_LOITER_TIME, NAV_LOITER_UNLIM: drive to the place (none: stay),
+        hold there ``param1`` whole seconds or until the operator continues."""
+        role = c.role
+        raw = c.p(0) if role is not Role.LOITER_UNLIM else 0.0
+        hold = float(max(0, stored_whole(raw)))
+        forever = role is Role.LOITER_UNLIM
+        stop = hold > 0.0 or role is not Role.WAYPOINT
+        span: tuple[int, int] | None = None
+        if c.xy is None:
+            where = f"stays where it is, at {self.where_here()}"
+            if stop:
+                self.stop_here()
+        else:
+            span = self.go(c.wp, c.xy, stop)
+            where = f"→ {self.fmt(c.xy)}"
+        if forever and not self.options.operator_continue:
+            self.problem(
+                c,
+                "waits until the operator continues the mission; `helixd run` cannot "
+                "continue it yet: use NAV_LOITER_TIME with a time",
+            )
+        return _Leg(where, span, hold, forever)
+
+    def circle(self, c: Cmd) -> _Leg:
+        """NAV_LOITER_TURNS: the circle's points, entered at the one nearest the rover."""
+        turns, radius, ccw = loiter_turns(c.wp)
+        centre = c.xy if c.xy is not None else (self.here or self.home)
+        where = f"{turns:g} turns, radius {radius:g} m around {self.fmt(centre)}"
+        if turns <= 0.0:
+            return _Leg(where)
+        begin = len(self.waypoints)
+        for xy in _circle(centre, radius, turns, ccw, self.here or centre):
+            self.go(c.wp, xy, False)
+        if len(self.waypoints) == begin:
+            return _Leg(where)
+        where += f" ({len(self.waypoints) - begin} points)"
+        return _Leg(where, (begin, len(self.waypoints) - 1))
+
+    def delay(self, c: Cmd) -> _Leg:
+        """NAV_DELAY: stop where the rover is for ``param1`` seconds."""
+        delay = c.p(0)
+        if not (math.isfinite(delay) and delay > 0.0):
+            self.problem(
+                c,
+                "waits until a time of day (param1 not > 0): helixd has no clock for it; "
+                "give delay_s",
+            )
+            delay = 0.0
+        self.stop_here()
+        return _Leg(f"stops {delay:g} s", hold_s=delay)
 
 
 class _Patrol:
@@ -682,6 +564,16 @@ class _Patrol:
         self._counted = len(b.steps)
         self._at_laps.append(self._lower_s)
         return len(self._at_laps) >= 2 and self._at_laps[-2] > ctx.patrol_s
+
+    def lap_done(self, walker: Walker, b: _Builder, ctx: Context) -> bool:
+        """Count the lap a forever jump just started; True when enough laps are planned (or
+        the plan holds all the steps it may)."""
+        if not self.lap_starts:
+            self.item = next(iter(walker.forever_taken))
+        new_lap = sum(walker.forever_taken.values()) > len(self.lap_starts)
+        if new_lap:
+            self.lap_starts.append(len(b.steps))
+        return (new_lap and self.planned(b, ctx)) or len(b.steps) >= PATROL_STEPS_MAX
 
     def end(self, b: _Builder, ctx: Context) -> str:
         if self.lap_starts and self.lap_starts[-1] >= len(b.steps):
@@ -722,64 +614,101 @@ def expand(
     ``latlons`` a global mission's lat/lon (for commands sent to the autopilot), and
     ``waypoint_for(entry, xy, stop)`` makes the plan waypoint for an entry's place."""
     cmds = [
-        _Cmd(i + 1, wp, xy, ll)
+        Cmd(i + 1, wp, xy, ll)
         for i, (wp, xy, ll) in enumerate(zip(entries, places, latlons, strict=True))
     ]
-    walker = _Walker(cmds)
+    walker = Walker(cmds)
     walker.runs = dict(options.jumps_taken)
     b = _Builder(ctx, options, waypoint_for)
-    visited: set[int] = set()
     first = min(max(options.first_item, 1), len(cmds))
-    nav, first_do, passed = walker.advance_nav(None if first <= 1 else first - 1, _starts)
-    ending = ""
-    never_ends = False
-    jumps_before: dict[int, int] = {}
-    patrol = _Patrol()
-    while nav is not None:
-        if walker.forever_taken:
-            if not patrol.lap_starts:
-                patrol.item = next(iter(walker.forever_taken))
-            new_lap = sum(walker.forever_taken.values()) > len(patrol.lap_starts)
-            if new_lap:
-                patrol.lap_starts.append(len(b.steps))
-            if (new_lap and patrol.planned(b, ctx)) or len(b.steps) >= PATROL_STEPS_MAX:
-                ending = patrol.end(b, ctx)
-                never_ends = True
-                nav, first_do, passed = None, None, []
-                break
-        visited.add(nav.index)
-        visited.update(p.index for p in passed)
-        chain, endless = walker.do_chain(first_do) if first_do is not None else ([], False)
-        visited.update(c.index for c in chain)
-        via = _via(walker, jumps_before, cmds)
-        passed_text = [b.passed_over(p) for p in passed]
-        b.steps.append(b.step(nav, chain, passed_text, via, endless))
-        if nav.role is Role.LOITER_UNLIM and not options.operator_continue:
-            ending = f"item {nav.index} NAV_LOITER_UNLIM waits for the operator"
-            never_ends = True
-            break
-        if len(b.steps) >= MAX_STEPS:
-            b.problems.append(
-                f"the mission expands to more than {MAX_STEPS} navigation steps (jumps): split it"
-            )
-            break
-        jumps_before = dict(walker.runs)
-        nav, first_do, passed = walker.advance_nav(nav.index, _starts)
-    final: list[MissionAction] = []
-    if nav is None and not never_ends:
-        visited.update(p.index for p in passed)
-        for p in passed:
-            b.passed_over(p)
-        if first_do is not None:
-            # AP_Mission started the do item met before finding nothing more to fly
-            visited.add(first_do.index)
-            final = b.actions([first_do])
+    walk = _StepWalk(walker, b, cmds)
+    walk.run(first)
+    final = walk.final_actions() if walk.ran_out else []
+    ending = walk.ending
     for jump, target in sorted(walker.bad_jumps):
         b.notes.append(
             f"item {jump} {cmds[jump - 1].name}: jumps to item {target}, which is not in the "
             "mission: ArduPilot ends the mission there"
         )
         ending = ending or f"item {jump} jumps to a missing item"
+    _note_not_run(b, cmds, walk.visited, first)
+    program = Program(
+        steps=tuple(b.steps),
+        final_actions=tuple(final),
+        ending=ending,
+        never_ends=walk.never_ends,
+        patrol_item=walk.patrol.item,
+        lap_starts=tuple(walk.patrol.lap_starts),
+        notes=tuple(b.notes),
+        start_xy_m=ctx.start_xy_m,
+        items_total=len(cmds),
+    )
+    return Expansion(b.waypoints, program, b.problems, b.notes)
+
+
+class _StepWalk:
+    """The walk turned into steps, one navigation item after another, until the mission is
+    complete (:attr:`ran_out`), waits for the operator or its patrol is planned long enough
+    (:attr:`never_ends`), or it grows too long."""
+
+    def __init__(self, walker: Walker, b: _Builder, cmds: Sequence[Cmd]) -> None:
+        self.walker = walker
+        self.b = b
+        self.cmds = cmds
+        self.visited: set[int] = set()
+        self.patrol = _Patrol()
+        self.ending = ""
+        self.never_ends = False
+        self.ran_out = False
+        # when the walk runs out: the do item met and the navigation items passed over
+        self.left_do: Cmd | None = None
+        self.left_passed: list[Cmd] = []
+
+    def run(self, first: int) -> None:
+        walker, b, options = self.walker, self.b, self.b.options
+        nav, first_do, passed = walker.advance_nav(None if first <= 1 else first - 1, rover_starts)
+        jumps_before: dict[int, int] = {}
+        while nav is not None:
+            if walker.forever_taken and self.patrol.lap_done(walker, b, b.ctx):
+                self.ending = self.patrol.end(b, b.ctx)
+                self.never_ends = True
+                return
+            self.visited.add(nav.index)
+            self.visited.update(p.index for p in passed)
+            chain, endless = walker.do_chain(first_do) if first_do is not None else ([], False)
+            self.visited.update(c.index for c in chain)
+            via = _via(walker, jumps_before, self.cmds)
+            passed_text = [b.passed_over(p) for p in passed]
+            b.steps.append(b.step(nav, chain, passed_text, via, endless))
+            if nav.role is Role.LOITER_UNLIM and not options.operator_continue:
+                self.ending = f"item {nav.index} NAV_LOITER_UNLIM waits for the operator"
+                self.never_ends = True
+                return
+            if len(b.steps) >= MAX_STEPS:
+                b.problems.append(
+                    f"the mission expands to more than {MAX_STEPS} navigation steps (jumps): "
+                    "split it"
+                )
+                return
+            jumps_before = dict(walker.runs)
+            nav, first_do, passed = walker.advance_nav(nav.index, rover_starts)
+        self.ran_out = True
+        self.left_do, self.left_passed = first_do, passed
+
+    def final_actions(self) -> list[MissionAction]:
+        """The mission is complete: the navigation items passed over on the way, and the do
+        item AP_Mission started before finding nothing more to fly."""
+        self.visited.update(p.index for p in self.left_passed)
+        for p in self.left_passed:
+            self.b.passed_over(p)
+        if self.left_do is None:
+            return []
+        self.visited.add(self.left_do.index)
+        return self.b.actions([self.left_do])
+
+
+def _note_not_run(b: _Builder, cmds: Sequence[Cmd], visited: set[int], first: int) -> None:
+    """A note for each item the walk never started (jumps aside)."""
     for c in cmds:
         if c.index not in visited and c.wp.command not in (MAV_CMD_DO_JUMP, MAV_CMD_DO_JUMP_TAG):
             if c.index < first:
@@ -788,103 +717,6 @@ def expand(
             b.notes.append(
                 f"{_label(c)}: never run (ArduPilot's walk through the mission never starts it)"
             )
-    program = Program(
-        steps=tuple(b.steps),
-        final_actions=tuple(final),
-        ending=ending,
-        never_ends=never_ends,
-        patrol_item=patrol.item,
-        lap_starts=tuple(patrol.lap_starts),
-        notes=tuple(b.notes),
-        start_xy_m=ctx.start_xy_m,
-        items_total=len(cmds),
-    )
-    return Expansion(b.waypoints, program, b.problems, b.notes)
-
-
-def jumps_when_current(
-    entries: Sequence[WaypointSpec], options: ExpandOptions, step: int, item: int
-) -> tuple[tuple[int, int], ...]:
-    """The jump counters AP_Mission holds when item ``item`` is its current navigation item,
-    for the first time at or after step ``step`` (1-based) of the walk ``options`` starts
-    (its ``first_item`` and ``jumps_taken``): where the autopilot's AUTO went on to while
-    helixd flew that step. Empty when the walk does not reach ``item`` within
-    ``MAX_SCAN`` steps after ``step``. The walk's order does not depend on the places."""
-    for n, nav_index, walker in _walk(entries, options):
-        if n > step + MAX_SCAN:
-            break
-        if n >= step and nav_index == item:
-            return _counters(walker)
-    return ()
-
-
-def walk_at_step(
-    entries: Sequence[WaypointSpec], options: ExpandOptions, step: int
-) -> tuple[int, tuple[tuple[int, int], ...]] | None:
-    """Step ``step`` (1-based) of the walk ``options`` starts (its ``first_item`` and
-    ``jumps_taken``): its navigation item and the jump counters AP_Mission holds while that
-    item is current. A *set current waypoint* (``set_current_cmd``) and a resume keep those
-    counters, so a walk started at another item from there starts with them. None when the
-    walk ends before that step."""
-    if step < 1:
-        return None
-    for n, nav_index, walker in _walk(entries, options):
-        if n == step:
-            return nav_index, _counters(walker)
-    return None
-
-
-def _walk(
-    entries: Sequence[WaypointSpec], options: ExpandOptions
-) -> Iterator[tuple[int, int, _Walker]]:
-    """The walk ``options`` starts (its ``first_item`` and ``jumps_taken``), step by step:
-    (step, 1-based; its navigation item; the walker, its jump counters as they are then)."""
-    cmds = [_Cmd(i + 1, wp, None, None) for i, wp in enumerate(entries)]
-    walker = _Walker(cmds)
-    walker.runs = dict(options.jumps_taken)
-    first = min(max(options.first_item, 1), len(cmds))
-    nav, _, _ = walker.advance_nav(None if first <= 1 else first - 1, _starts)
-    n = 1
-    while nav is not None:
-        yield n, nav.index, walker
-        nav, _, _ = walker.advance_nav(nav.index, _starts)
-        n += 1
-
-
-def _counters(walker: _Walker) -> tuple[tuple[int, int], ...]:
-    """The jump counters AP_Mission holds (the DO_JUMPs taken at least once)."""
-    return tuple(sorted((i, r) for i, r in walker.runs.items() if r > 0))
-
-
-def restart_at_step(
-    entries: Sequence[WaypointSpec], options: ExpandOptions, step: int
-) -> tuple[int, tuple[tuple[int, int], ...]] | None:
-    """Where a walk starting again at step ``step`` (1-based) of the walk ``options`` starts
-    (its ``first_item`` and ``jumps_taken``), so that it flies that step again as it was
-    flown, do items included: the first do item started with that step (AP_Mission's
-    ``set_current_cmd`` on a do item starts it and the navigation item after it) or, without
-    one, its navigation item; and the jump counters held there (the jumps taken between
-    that do item and the navigation item are not counted yet: the new walk takes them again).
-    None when the walk ends before that step."""
-    if step < 1:
-        return None
-    cmds = [_Cmd(i + 1, wp, None, None) for i, wp in enumerate(entries)]
-    walker = _Walker(cmds)
-    walker.runs = dict(options.jumps_taken)
-    first = min(max(options.first_item, 1), len(cmds))
-    after: int | None = None if first <= 1 else first - 1
-    n = 1
-    while True:
-        walker.runs_at_first_do = {}
-        nav, first_do, _ = walker.advance_nav(after, _starts)
-        if nav is None:
-            return None
-        if n == step:
-            runs = walker.runs if first_do is None else walker.runs_at_first_do
-            item = nav.index if first_do is None else first_do.index
-            return item, tuple(sorted((i, r) for i, r in runs.items() if r > 0))
-        after = nav.index
-        n += 1
 
 
 def carried_at_step(
@@ -904,7 +736,7 @@ def carried_at_step(
     return speed, reverse
 
 
-def _via(walker: _Walker, before: dict[int, int], cmds: Sequence[_Cmd]) -> str:
+def _via(walker: Walker, before: dict[int, int], cmds: Sequence[Cmd]) -> str:
     """Which jump the walk took to reach this step, e.g. "(DO_JUMP item 5, 1 of 2)"."""
     for index, runs in walker.runs.items():
         if runs > before.get(index, 0):
@@ -922,8 +754,5 @@ __all__ = [
     "Expansion",
     "carried_at_step",
     "expand",
-    "jumps_when_current",
     "loiter_turns",
-    "restart_at_step",
-    "walk_at_step",
 ]

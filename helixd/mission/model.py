@@ -40,7 +40,8 @@ from helixd.base.frames import latlon_to_ne
 from helixd.base.media import Medium
 from helixd.base.plan import MissionFrameKind, MotionMode
 from helixd.base.polygon import polygon_problems
-from helixd.config import GEOFENCE_RADIUS_MAX_M, MissionLimits
+from helixd.config.mission import MissionLimits
+from helixd.config.safety import GEOFENCE_RADIUS_MAX_M
 from helixd.files.models import InputModel, entry_label, load_yaml_model
 from helixd.files.yamlio import clip
 from helixd.mav.constants import MAV_CMD_NAV_WAYPOINT

@@ -20,7 +20,9 @@ from typing import ParamSpec
 from helixd.base.angles import wrap_pi
 from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import ControlConfig, MissionLimits, SafetyConfig
+from helixd.config.control import ControlConfig
+from helixd.config.mission import MissionLimits
+from helixd.config.safety import SafetyConfig
 from helixd.files.models import entry_label
 from helixd.mav.constants import MAV_CMD_NAV_RETURN_TO_LAUNCH, MAV_CMD_NAV_WAYPOINT
 from helixd.mission.commands import FLY_ROLES
@@ -136,55 +138,13 @@ def resolve(
     frame = _MissionToPlane(mission, origin_latlon_deg)
     default_tol = mission.tolerance_m or control.waypoint_tolerance_m
     speed = min(mission.speed_mps or control.max_speed_mps, control.max_speed_mps)
+    waypoint_for = _WaypointMaker(frame, default_tol)
     if not mission.has_commands():
-        out: list[PlanWaypoint] = []
-        for i, (wp, (a, b)) in enumerate(zip(mission.waypoints, mission.points(), strict=True)):
-            xy = frame.xy(a, b)
-            _check_range(xy, limits, entry_label(i))
-            out.append(
-                PlanWaypoint(
-                    x_m=xy[0],
-                    y_m=xy[1],
-                    tolerance_m=wp.tolerance_m or default_tol,
-                    final_yaw_rad=frame.yaw(wp.heading_deg),
-                    via=wp.via,
-                    mode=leg_mode(wp),
-                )
-            )
-        plan = Plan(mission.name, mission.mode, mission.frame, tuple(out), speed)
-        return Resolved(plan)
-    places: list[XY | None] = []
-    latlons: list[tuple[float, float] | None] = []
-    for i, wp in enumerate(mission.waypoints):
-        pos = mission.position(wp)
-        if pos is None:
-            places.append(None)
-            latlons.append(None)
-            continue
-        xy = frame.xy(*pos)
-        if wp.spec.role in FLY_ROLES:
-            _check_range(xy, limits, entry_label(i))
-        places.append(xy)
-        latlons.append(pos if mission.frame is MissionFrameKind.GLOBAL else None)
+        return Resolved(_plain_plan(mission, frame, limits, waypoint_for, speed))
+    places, latlons = _command_places(mission, frame, limits)
     first = frame.xy(*mission.points()[0])
-    start = where.start_xy_m
-    if mission.frame is MissionFrameKind.START and start is None:
-        start = (0.0, 0.0)  # the frame's origin is the start, by definition
-    home = where.home_xy_m
-    if home is None:
-        home = frame.xy(*mission.home) if mission.home is not None else (start or first)
+    start, home = _start_and_home(mission, frame, where, first)
     _check_range(home, limits, "home")
-
-    def waypoint_for(wp: WaypointSpec, xy: XY, stop: bool) -> PlanWaypoint:
-        return PlanWaypoint(
-            x_m=xy[0],
-            y_m=xy[1],
-            tolerance_m=wp.tolerance_m or default_tol,
-            final_yaw_rad=frame.yaw(wp.heading_deg),
-            stop=stop,
-            mode=leg_mode(wp),
-        )
-
     ctx = Context(
         mode=mission.mode,
         speed_mps=speed,
@@ -215,15 +175,97 @@ def resolve(
     notes = list(got.notes)
     returns = any(s.command == MAV_CMD_NAV_RETURN_TO_LAUNCH for s in got.program.steps)
     if returns and where.home_xy_m is None:
-        if mission.home is not None:
-            said = "the mission's home"
-        else:
-            said = "the start" if start is not None else "the first place (the start is not known)"
-        notes.append(
-            f"NAV_RETURN_TO_LAUNCH shown going to {said}; a run returns to the autopilot's own "
-            "home (HOME_POSITION, where it was armed)"
-        )
+        notes.append(_return_note(mission, start))
     return Resolved(plan, tuple(got.problems), tuple(notes))
+
+
+@dataclass(frozen=True)
+class _WaypointMaker:
+    """The plan waypoint for an entry's place: its tolerance (else the mission's), its final
+    heading as a yaw, the mode it pins on its leg."""
+
+    frame: _MissionToPlane
+    default_tol_m: float
+
+    def __call__(self, wp: WaypointSpec, xy: XY, stop: bool) -> PlanWaypoint:
+        """For the walk of a mission with commands (:func:`helixd.mission.expand.expand`)."""
+        return self.make(wp, xy, stop=stop)
+
+    def make(
+        self, wp: WaypointSpec, xy: XY, *, stop: bool = False, via: bool = False
+    ) -> PlanWaypoint:
+        return PlanWaypoint(
+            x_m=xy[0],
+            y_m=xy[1],
+            tolerance_m=wp.tolerance_m or self.default_tol_m,
+            final_yaw_rad=self.frame.yaw(wp.heading_deg),
+            via=via,
+            stop=stop,
+            mode=leg_mode(wp),
+        )
+
+
+def _plain_plan(
+    mission: Mission,
+    frame: _MissionToPlane,
+    limits: MissionLimits,
+    waypoint_for: _WaypointMaker,
+    speed_mps: float,
+) -> Plan:
+    """A plain list of waypoints: one plan waypoint per entry."""
+    out: list[PlanWaypoint] = []
+    for i, (wp, (a, b)) in enumerate(zip(mission.waypoints, mission.points(), strict=True)):
+        xy = frame.xy(a, b)
+        _check_range(xy, limits, entry_label(i))
+        out.append(waypoint_for.make(wp, xy, via=wp.via))
+    return Plan(mission.name, mission.mode, mission.frame, tuple(out), speed_mps)
+
+
+def _command_places(
+    mission: Mission, frame: _MissionToPlane, limits: MissionLimits
+) -> tuple[list[XY | None], list[tuple[float, float] | None]]:
+    """Each item's place in the mission frame (None: none or "here"), checked in range where
+    the rover drives to it, and a global mission's lat/lon (for commands sent)."""
+    places: list[XY | None] = []
+    latlons: list[tuple[float, float] | None] = []
+    for i, wp in enumerate(mission.waypoints):
+        pos = mission.position(wp)
+        if pos is None:
+            places.append(None)
+            latlons.append(None)
+            continue
+        xy = frame.xy(*pos)
+        if wp.spec.role in FLY_ROLES:
+            _check_range(xy, limits, entry_label(i))
+        places.append(xy)
+        latlons.append(pos if mission.frame is MissionFrameKind.GLOBAL else None)
+    return places, latlons
+
+
+def _start_and_home(
+    mission: Mission, frame: _MissionToPlane, where: Where, first: XY
+) -> tuple[XY | None, XY]:
+    """Where the walk starts (a start-frame mission: its origin; else None when not known)
+    and where home is (the autopilot's, else the mission's, else the start or ``first``)."""
+    start = where.start_xy_m
+    if mission.frame is MissionFrameKind.START and start is None:
+        start = (0.0, 0.0)  # the frame's origin is the start, by definition
+    home = where.home_xy_m
+    if home is None:
+        home = frame.xy(*mission.home) if mission.home is not None else (start or first)
+    return start, home
+
+
+def _return_note(mission: Mission, start: XY | None) -> str:
+    """Where a check shows NAV_RETURN_TO_LAUNCH going, where a run's goes instead."""
+    if mission.home is not None:
+        said = "the mission's home"
+    else:
+        said = "the start" if start is not None else "the first place (the start is not known)"
+    return (
+        f"NAV_RETURN_TO_LAUNCH shown going to {said}; a run returns to the autopilot's own "
+        "home (HOME_POSITION, where it was armed)"
+    )
 
 
 def _plan_only(resolved: Callable[P, Resolved]) -> Callable[P, Plan]:

@@ -28,7 +28,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from helixd.base.plan import MissionFrameKind, Numbering, Plan
 from helixd.base.run_files import INPUTS_FILE
-from helixd.config import ControlConfig, MissionLimits
+from helixd.config.control import ControlConfig
+from helixd.config.mission import MissionLimits
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.model import Mission, WaypointSpec
 from helixd.mission.resolve import resolve_plan

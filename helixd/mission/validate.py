@@ -18,7 +18,7 @@ be decided without the pose is decided identically in both places:
 
 The estimated time against ``safety.mission_time_limit_s`` needs the navigator's speed
 profile (:mod:`helixd.control.estimate`), which the mission loader does not load:
-:func:`helixd.runtime.timing.flight_problems` adds it.
+:func:`helixd.mission.judge.flight_problems` adds it.
 
 Config-only rules (channel conflicts, timeouts, polygon shape) are pydantic validators in
 :mod:`helixd.config`; they already ran when the config loaded.
@@ -35,7 +35,8 @@ from typing import TypedDict, Unpack
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, Plan, program_numbering
 from helixd.base.polygon import leg_leaves_polygon, point_in_polygon, segments_intersect
-from helixd.config import GEOFENCE_RADIUS_MAX_M, HelixdConfig
+from helixd.config.root import HelixdConfig
+from helixd.config.safety import GEOFENCE_RADIUS_MAX_M
 from helixd.files.models import entry_label
 from helixd.mission.commands import FLY_ROLES, SERVO_COMMANDS, stored_whole
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions

@@ -155,9 +155,7 @@ def grid_depths(
     frame = frame_for(n, e, cell_m, area)
     n_edges, e_edges = frame.edges()
     cn, ce = frame.centres()
-    in_area = (
-        contains_xy(area, ce, cn) if area is not None else np.ones(cn.shape, dtype=bool)
-    )
+    in_area = contains_xy(area, ce, cn) if area is not None else np.ones(cn.shape, dtype=bool)
     if n.size == 0:
         empty = np.full(cn.shape, np.nan)
         zeros = np.zeros(cn.shape, dtype=np.int64)

@@ -23,7 +23,7 @@ from collections.abc import Sequence
 
 from helixd.base.frames import latlon_to_ne
 from helixd.base.plan import MissionFrameKind
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.model import Mission
 from helixd.planning.mapfile import OccupancyMap
 from helixd.planning.obstacles import (

@@ -1,8 +1,10 @@
 """The mode follows the medium: a plan split into stretches, each flown in the mode that works
 on its ground. Pure: a plan, a media map and a policy in; a plan with a mode per waypoint out.
 
-* **Policy** (:class:`ModePolicy`): the mode per medium (``media.modes`` in the config; a
-  mission's ``media_modes`` replaces entries), and the margin on the firm side of a boundary.
+* **Policy** (:class:`ModePolicy`, built by :meth:`ModePolicy.from_config`, the one source):
+  the mode per medium (``media.modes`` in the config, whose defaults are the defaults, or the
+  ground profile's learned modes; a mission's ``media_modes`` replaces entries), and the
+  margin on the firm side of a boundary. Every medium has its mode: none is guessed.
 * **Stretches**: the path (start → waypoint 1 → …) is cut where the medium changes
   (:func:`helixd.base.media.media_along`), each piece gets its medium's mode, neighbours in one
   mode are one stretch. A leg whose waypoint pins a mode (a YAML waypoint's ``mode:``) is one
@@ -29,6 +31,7 @@ from dataclasses import dataclass, replace
 
 from helixd.base.media import MediaMapNe, Medium, media_along
 from helixd.base.plan import MotionMode, NavStep, Plan, PlanWaypoint
+from helixd.config.media import MediaConfig, MediaModesConfig
 
 XY = tuple[float, float]
 MediaLengths = tuple[tuple[Medium, float], ...]  # (medium, metres) in path order
@@ -38,25 +41,53 @@ SNAP_M = 0.05  # a transition this close to a waypoint happens at the waypoint
 MIN_STRETCH_M = 0.5  # no stretch shorter than this (nor than 2 × margin) keeps its own mode
 
 
+def config_modes(media: MediaConfig) -> dict[Medium, MotionMode]:
+    """The fixed policy's mode per medium: ``media.modes``, or its defaults when that is
+    ``learned`` (what the ground profile knows too little of keeps these)."""
+    fixed = MediaModesConfig() if isinstance(media.modes, str) else media.modes
+    return {Medium(k): MotionMode(v) for k, v in fixed.model_dump().items()}
+
+
 @dataclass(frozen=True, slots=True)
 class ModePolicy:
-    """The motion mode per medium, and where a change of mode happens."""
+    """The motion mode per medium (every medium has one), and where a change of mode
+    happens."""
 
     modes: Mapping[Medium, MotionMode]
     margin_m: float = 1.0
     min_stretch_m: float = 5.0  # shorter stretches join a neighbour (at least 2 × margin)
 
+    def __post_init__(self) -> None:
+        missing = [m.value for m in Medium if m not in self.modes]
+        if missing:
+            raise ValueError(f"no mode for {', '.join(missing)}")
+
+    @classmethod
+    def from_config(
+        cls,
+        media: MediaConfig,
+        mission_modes: Mapping[Medium, MotionMode] | None = None,
+        learned: Mapping[Medium, MotionMode] | None = None,
+    ) -> ModePolicy:
+        """The policy a flight follows: ``learned`` (``media.modes: learned``, the ground
+        profile's picks, read by the caller) or the config's ``media.modes``, a mission's
+        ``media_modes`` over them; the margin and shortest stretch from ``media``."""
+        modes = dict(config_modes(media) if learned is None else learned)
+        modes.update(mission_modes or {})
+        return cls(modes, media.transition_margin_m, media.min_stretch_m)
+
     def mode_for(self, medium: Medium) -> MotionMode:
-        return self.modes.get(medium, MotionMode.SCROLL)
+        return self.modes[medium]
 
+    @property
+    def firm_mode(self) -> MotionMode:
+        """The mode on firm ground (hard): what the ground check judges and comes back to."""
+        return self.modes[Medium.HARD]
 
-DEFAULT_MODES: Mapping[Medium, MotionMode] = {
-    Medium.HARD: MotionMode.ROLL,
-    Medium.GRASS: MotionMode.ROLL,
-    Medium.SAND: MotionMode.ROLL,  # screws fail in sand (Marsh Screw), rolling helps (Chen)
-    Medium.MUD: MotionMode.SCROLL,
-    Medium.WATER: MotionMode.SCROLL,
-}
+    @property
+    def soft_mode(self) -> MotionMode:
+        """The mode on soft ground (mud): what the ground check takes where the map is wrong."""
+        return self.modes[Medium.MUD]
 
 
 @dataclass(frozen=True, slots=True)
@@ -377,16 +408,6 @@ def medium_under_mode_m(got: MediaPlan, medium: Medium, mode: MotionMode) -> flo
     )
 
 
-def policy_modes(
-    config_modes: Mapping[str, str], overrides: Mapping[str, str] | None = None
-) -> dict[Medium, MotionMode]:
-    """The mode per medium from the config (``media.modes``), a mission's entries over it."""
-    out = {Medium(k): MotionMode(v) for k, v in config_modes.items()}
-    for k, v in (overrides or {}).items():
-        out[Medium(k)] = MotionMode(v)
-    return out
-
-
 # the translation axis each single-axis mode drives along (ground_fit's axis names)
 MODE_AXIS: Mapping[MotionMode, str] = {MotionMode.ROLL: "roll", MotionMode.SCROLL: "scroll"}
 
@@ -430,7 +451,6 @@ def learned_modes(
 
 
 __all__ = [
-    "DEFAULT_MODES",
     "MIN_STRETCH_M",
     "MODE_AXIS",
     "SNAP_M",
@@ -439,10 +459,10 @@ __all__ = [
     "ModePolicy",
     "Stretch",
     "Transition",
+    "config_modes",
     "delivered",
     "follow_media",
     "learned_modes",
     "medium_under_mode_m",
     "pinned_misfits",
-    "policy_modes",
 ]

@@ -12,7 +12,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 
 PointNE = tuple[float, float]  # (north_m, east_m)
 

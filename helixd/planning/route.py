@@ -20,7 +20,7 @@ import yaml
 from helixd.base.frames import ne_to_latlon
 from helixd.base.plan import MissionFrameKind
 from helixd.base.problems import Problems
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mav.constants import MAV_CMD_DO_JUMP
 from helixd.mission.commands import stored_whole
 from helixd.mission.model import Mission, WaypointSpec, entry_yaml

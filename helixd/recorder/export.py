@@ -31,7 +31,8 @@ from helixd.base.run_files import (
     MISSION_FILE,
     SUMMARY_FILE,
 )
-from helixd.config import HelixdConfig, load_config
+from helixd.config.load import load_config
+from helixd.config.root import HelixdConfig
 from helixd.files.models import ConfigFileError
 from helixd.mission.model import Mission, load_mission
 from helixd.recorder.resume_dir import run_numbering

@@ -30,8 +30,9 @@ import structlog
 
 from helixd.base.frames import ne_to_latlon
 from helixd.base.media import MediaMap, MediaMapNe
+from helixd.base.problems import Problems
 from helixd.base.run_files import PAYLOAD_FILE
-from helixd.config import PayloadConfig
+from helixd.config.recorder import PayloadConfig
 from helixd.link.connection import Autopilot
 from helixd.link.payload_msgs import Reading, payload_readings
 
@@ -297,12 +298,8 @@ class PayloadLog:
         )
 
 
-class PayloadCsvError(ValueError):
+class PayloadCsvError(Problems, ValueError):
     """A payload.csv that cannot be read; ``problems`` has one line each (file and line)."""
-
-    def __init__(self, problems: list[str]) -> None:
-        self.problems = problems
-        super().__init__("\n".join(problems))
 
 
 MAX_PAYLOAD_BYTES = 512 * 1024 * 1024

@@ -14,15 +14,15 @@ the same clock as the result's flight time; the wall clock (``t_mono_s``) is a s
 top — they differ under a simulator speed-up. Without autopilot times the wall clock is used.
 
 Uses matplotlib's Agg backend through the object API (no pyplot state, safe in a daemon).
+The run is loaded by :mod:`helixd.recorder.run_data`; the plan panels of ``helixd check
+--plot`` are :mod:`helixd.recorder.plan_plots`.
 """
 
 from __future__ import annotations
 
 import math
-import re
 import textwrap
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -39,35 +39,18 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 from matplotlib.transforms import Bbox
 
-from helixd.base.plan import MissionFrameKind, Numbering, program_numbering
-from helixd.base.run_files import CONFIG_FILE, EVENTS_FILE, FLIGHT_FILE, MISSION_FILE, SUMMARY_FILE
-from helixd.config import load_config
-from helixd.files.models import ConfigFileError
-from helixd.mission.model import load_mission
-from helixd.mission.resolve import PlanError, resolve_plan
-from helixd.mission.resume import with_leg_start
-from helixd.planning.media_modes import MediaPlan
-from helixd.recorder.clocks import autopilot_axis_s
-from helixd.recorder.events import fault_time_mono_s, read_events
 from helixd.recorder.media_plot import (
     MODE_COLORS,
-    PlacedMedia,
     draw_media,
-    flown_modes,
     keep_view,
-    run_media,
 )
 from helixd.recorder.outcome import (
     CREW_COLOR,
     crew_ending,
-    ending_color,
-    ending_label,
-    pause_spans,
     result_word,
 )
-from helixd.recorder.resume_dir import recorded_inputs
-from helixd.recorder.rows import read_flight_columns
-from helixd.recorder.summary import PATH_MIN_STEP_M, Arrival, RunSummary
+from helixd.recorder.run_data import FAULT_LABEL_MAX_CHARS, Array, RunData, load_run
+from helixd.recorder.summary import PATH_MIN_STEP_M, RunSummary
 
 log = structlog.get_logger(__name__)
 
@@ -88,8 +71,6 @@ PANEL_FILES = {
 OVERVIEW_FILE = "overview.png"
 ARRIVAL_STYLE: dict[str, Any] = {"color": "0.45", "linestyle": ":", "linewidth": 1.0}
 LOST_SHADE: dict[str, Any] = {"color": "orange", "alpha": 0.15, "linewidth": 0}
-LAP_TEXT = re.compile(r"lap (?P<k>\d+) of (?P<n>\d+)")  # Program.laps()' words
-FAULT_LABEL_MAX_CHARS = 48  # long causes are cut in legends (the summary keeps them whole)
 # waypoint labels on time axes: at least this fraction of the axis width apart
 LABEL_MIN_GAP_PANEL = 0.06
 LABEL_MIN_GAP_OVERVIEW = 0.12
@@ -99,114 +80,8 @@ SAME_POINT_M = 0.05  # waypoints closer than this share one number label on the 
 # other (points)
 LABEL_OFFSET_PT = 9.0
 LABEL_STAGGER_PT = 10.0
-AUTOPILOT_AXIS_LABEL = "autopilot time since the first control step (s)"
-WALL_AXIS_LABEL = "wall time since the first control step (s)"
 SCROLL_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:red")
 SCROLL_STYLES = ("-", "--", "-", "--")  # paired scrolls overlap: keep both visible
-
-Array = npt.NDArray[np.float64]
-XY = tuple[float, float]
-
-
-class PlotError(Exception):
-    """The run directory has nothing that can be plotted."""
-
-
-@dataclass
-class RunData:
-    """Everything the panels need, loaded once from a run directory."""
-
-    name: str
-    cols: dict[str, npt.NDArray[Any]]
-    t_s: Array  # time axis: autopilot time since the first row (wall time if none recorded)
-    wall_s: Array  # companion monotonic (wall) time since the first row
-    on_autopilot_clock: bool  # t_s is autopilot time (False: it is the wall clock)
-    summary: RunSummary | None
-    waypoints: list[tuple[float, float, float]]  # x_m, y_m, tolerance_m
-    path_start: tuple[float, float] | None  # a resumed run: the interrupted leg's start
-    # the operator's waypoint number (with its lap where a DO_JUMP repeats it), t_s; no via
-    # points
-    arrivals: list[tuple[str, float]]
-    fault: str | None
-    fault_t_s: float | None
-    clamp_pct: float | None
-    notes: list[str] = field(default_factory=list)
-    pauses: list[tuple[float, float]] = field(default_factory=list)  # held for the crew (t_s)
-    # per waypoint: the operator's number ("3", numbered from 1 over the whole mission as a
-    # ground station does); "" for a via point the planner inserted
-    labels: list[str] = field(default_factory=list)
-    # the trajectory's axis labels: what x and y are in the mission's frame
-    axis_labels: tuple[str, str] = ("x (m)", "y (m)")
-    # the media map the flight followed, placed as it was flown (None: none)
-    media: PlacedMedia | None = None
-
-    @property
-    def modes_text(self) -> str:
-        """The modes actually flown (``roll 62 %, scroll 38 %``), else the mission's own."""
-        flown = flown_modes(self.cols.get("motion_mode"), self.col("x_m"), self.col("y_m"))
-        if flown:
-            return flown
-        return self.summary.mode if self.summary else ""
-
-    @property
-    def time_label(self) -> str:
-        return AUTOPILOT_AXIS_LABEL if self.on_autopilot_clock else WALL_AXIS_LABEL
-
-    def wall_at(self, t_s: npt.ArrayLike) -> Array:
-        """Wall time at axis times ``t_s`` (linear beyond the recorded span)."""
-        return interp_linear(t_s, self.t_s, self.wall_s)
-
-    def axis_at_wall(self, wall_s: npt.ArrayLike) -> Array:
-        """Axis time at wall times ``wall_s`` (linear beyond the recorded span)."""
-        return interp_linear(wall_s, self.wall_s, self.t_s)
-
-    def col(self, name: str) -> Array:
-        values = self.cols.get(name)
-        if values is None:
-            return np.full(self.t_s.shape, np.nan)
-        return np.asarray(values, dtype=np.float64)
-
-    @property
-    def end_color(self) -> str:
-        """Red for a fault, another colour for the crew's own ending (a pause, a handover)."""
-        return ending_color(self.fault)
-
-    def fault_label(self) -> str:
-        text = ending_label(self.fault or "")
-        if len(text) > FAULT_LABEL_MAX_CHARS:
-            text = text[: FAULT_LABEL_MAX_CHARS - 1] + "…"
-        return text
-
-    def fault_index(self) -> int | None:
-        if self.fault_t_s is None:
-            return None
-        return int(np.argmin(np.abs(self.t_s - self.fault_t_s)))
-
-
-# ---------------------------------------------------------------------------------------------
-# Clocks (pure)
-
-
-def autopilot_axis(t_boot_s: Array, t_mono_s: Array) -> Array | None:
-    """Autopilot time since the first row (see :func:`helixd.recorder.clocks.autopilot_axis_s`);
-    None without autopilot times."""
-    axis = autopilot_axis_s([float(t) for t in t_boot_s], [float(t) for t in t_mono_s])
-    return None if axis is None else np.asarray(axis, dtype=np.float64)
-
-
-def interp_linear(x_in: npt.ArrayLike, xp: Array, fp: Array) -> Array:
-    """``np.interp`` with straight-line extension beyond ``xp`` (secondary axes need it)."""
-    x = np.atleast_1d(np.asarray(x_in, dtype=np.float64))
-    if xp.size == 0:
-        return x.copy()
-    span_x = float(xp[-1] - xp[0])
-    slope = float(fp[-1] - fp[0]) / span_x if span_x > 0 else 1.0
-    slope = slope if math.isfinite(slope) and slope > 0 else 1.0
-    out = np.interp(x, xp, fp)
-    lo, hi = x < xp[0], x > xp[-1]
-    out[lo] = fp[0] + (x[lo] - xp[0]) * slope
-    out[hi] = fp[-1] + (x[hi] - xp[-1]) * slope
-    return out
 
 
 def waypoint_labels(
@@ -264,7 +139,7 @@ LABEL_TIERS = (1.0, 1.8, 2.6)  # a label that would overlap another moves out th
 LABEL_MARKER_CLEAR_PX = 4.0  # around a waypoint's marker: no label there
 
 
-def _label_waypoint(ax: Axes, text: str, xy: tuple[float, float], offset_pt: tuple[float, float],
+def label_waypoint(ax: Axes, text: str, xy: tuple[float, float], offset_pt: tuple[float, float],
                     **style: Any) -> None:  # fmt: skip
     ax.annotate(text, xy, textcoords="offset points", xytext=offset_pt, ha="center",
                 va="center", gid=WAYPOINT_LABEL_GID, **style)  # fmt: skip
@@ -319,106 +194,6 @@ def sparse_label_mask(times_s: list[float], span_s: float, min_gap_frac: float) 
     return mask
 
 
-# ---------------------------------------------------------------------------------------------
-# Loading
-
-
-def load_run(run_dir: Path) -> RunData:
-    flight = run_dir / FLIGHT_FILE
-    if not flight.is_file():
-        raise PlotError(f"{run_dir}: no {FLIGHT_FILE} (is this a helixd run directory?)")
-    cols = read_flight_columns(flight)
-    if len(cols.get("t_mono_s", ())) == 0:
-        raise PlotError(f"{flight}: no rows recorded, nothing to plot")
-    t_mono = np.asarray(cols["t_mono_s"], dtype=np.float64)
-    t0 = float(t_mono[0])
-    summary = _load_summary(run_dir / SUMMARY_FILE)
-    notes: list[str] = []
-    waypoints, start, labels = _load_plan(run_dir, summary, cols, notes)
-    t_boot = np.asarray(cols.get("t_boot_s", np.full(t_mono.shape, np.nan)), dtype=np.float64)
-    wall_s = t_mono - t0
-    ap = autopilot_axis(t_boot, t_mono)
-    t_s = wall_s if ap is None else ap
-    arrivals = []
-    for arr in summary.arrivals if summary else ():
-        if arr.via:
-            continue  # the planner's via points are not the operator's waypoints
-        idx = int(np.nanargmin(np.abs(t_boot - arr.t_boot_s))) if np.isfinite(t_boot).any() else 0
-        arrivals.append((arrival_mark(arr), float(t_s[idx])))
-    fault = summary.fault if summary else None
-    fault_t: float | None = None
-    events = read_events(run_dir / EVENTS_FILE)
-    if fault is not None:
-        mono = fault_time_mono_s(events, fault)
-        fault_wall = float(wall_s[-1]) if mono is None else mono - t0
-        fault_t = float(interp_linear(np.array([fault_wall]), wall_s, t_s)[0])
-    media, why = run_media(events, summary.origin_latlon_deg if summary else None)
-    if why:
-        notes.append(why)
-    pauses = [
-        (a, b)
-        for start, end in pause_spans(events)
-        for a, b in [interp_linear(np.array([start - t0, (end or t_mono[-1]) - t0]), wall_s, t_s)]
-    ]
-    return RunData(
-        name=summary.mission_name if summary else run_dir.name,
-        cols=cols,
-        t_s=t_s,
-        wall_s=wall_s,
-        on_autopilot_clock=ap is not None,
-        summary=summary,
-        waypoints=waypoints,
-        path_start=start,
-        arrivals=arrivals,
-        fault=fault,
-        fault_t_s=fault_t,
-        clamp_pct=_clamp_pct(run_dir),
-        notes=notes,
-        pauses=[(float(a), float(b)) for a, b in pauses],
-        labels=labels,
-        axis_labels=axis_labels(
-            _mission_frame(run_dir), summary.origin_latlon_deg if summary else None
-        ),
-        media=media,
-    )
-
-
-def arrival_mark(arrival: Arrival) -> str:
-    """A time marker's waypoint: its number as the ground station shows it, with the lap
-    where a DO_JUMP flies the item again (``3 lap 2/3``), so each lap's arrival is told apart
-    as in the log and the ground station's texts."""
-    number = arrival.index + 1 if arrival.number is None else arrival.number
-    lap = LAP_TEXT.fullmatch(arrival.lap or "")
-    if lap is None:
-        return str(number) if not arrival.lap else f"{number} {arrival.lap}"
-    return f"{number} lap {lap['k']}/{lap['n']}"
-
-
-def _load_summary(path: Path) -> RunSummary | None:
-    try:
-        return RunSummary.from_json(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        return None
-    except (OSError, ValueError) as exc:
-        log.warning("plot_summary_unreadable", path=str(path), error=str(exc))
-        return None
-
-
-def axis_labels(
-    frame: MissionFrameKind | None, origin_latlon_deg: tuple[float, float] | None
-) -> tuple[str, str]:
-    """The trajectory's axes in the mission frame (rows.py: a start mission's x forward and
-    y left of the start pose; local_ned and global: x East, y North of the EKF origin)."""
-    if frame is MissionFrameKind.START:
-        return ("x, forward of the start pose (m)", "y, left of the start pose (m)")
-    if frame is None:
-        return ("x (m)", "y (m)")
-    where = "the EKF origin"
-    if origin_latlon_deg is not None:
-        where += f" {origin_latlon_deg[0]:.6f}°, {origin_latlon_deg[1]:.6f}°"
-    return (f"x, east of {where} (m)", f"y, north of {where} (m)")
-
-
 def position_legend(labels: tuple[str, str]) -> tuple[str, str]:
     """The position panel's x and y in the trajectory's words, short: ``x, east (m)`` for
     ``x, east of the EKF origin … (m)``, ``x, forward (m)`` for a start mission."""
@@ -426,62 +201,6 @@ def position_legend(labels: tuple[str, str]) -> tuple[str, str]:
         labels[0].split(" of ", 1)[0] + " (m)" if " of " in labels[0] else labels[0],
         labels[1].split(" of ", 1)[0] + " (m)" if " of " in labels[1] else labels[1],
     )
-
-
-def _mission_frame(run_dir: Path) -> MissionFrameKind | None:
-    try:
-        return load_mission(run_dir / MISSION_FILE).frame
-    except (ConfigFileError, PlanError, OSError):
-        return None
-
-
-def _load_plan(
-    run_dir: Path,
-    summary: RunSummary | None,
-    cols: dict[str, npt.NDArray[Any]],
-    notes: list[str],
-) -> tuple[list[tuple[float, float, float]], tuple[float, float] | None, list[str]]:
-    """The planned waypoints, where the planned path starts (a resumed run: at the start of
-    the interrupted leg, not where the rover stood) and the waypoints' labels."""
-    inputs = recorded_inputs(run_dir)
-    try:
-        cfg = load_config(run_dir / CONFIG_FILE)
-        msn = load_mission(run_dir / MISSION_FILE, cfg.mission)
-        origin = summary.origin_latlon_deg if summary else None
-        plan = resolve_plan(
-            msn, cfg.control, cfg.mission, origin,
-            time_limit_s=cfg.safety.mission_time_limit_s,
-        )  # fmt: skip
-        if inputs is not None and inputs.leg_start is not None:
-            plan = with_leg_start(plan, msn, inputs.leg_start, cfg.control, cfg.mission, origin)
-    except (ConfigFileError, PlanError) as exc:
-        log.warning("plot_plan_unavailable", run_dir=str(run_dir), error=str(exc))
-        notes.append("planned path unavailable")
-        return [], None, []
-    vias = [w.via for w in plan.waypoints]
-    numbering = program_numbering(plan)  # a mission with commands: its items, as QGC shows
-    if numbering is None:
-        numbering = Numbering.of(vias) if inputs is None else inputs.numbering(vias)
-    labels = [
-        "" if via else str(n) for n, via in zip(numbering.numbers, numbering.vias, strict=True)
-    ]
-    wps = [(w.x_m, w.y_m, w.tolerance_m) for w in plan.waypoints]
-    if plan.leg_start_xy_m is not None:
-        return wps, plan.leg_start_xy_m, labels
-    if msn.frame is MissionFrameKind.START:
-        return wps, (0.0, 0.0), labels
-    x = np.asarray(cols["x_m"], dtype=np.float64)
-    y = np.asarray(cols["y_m"], dtype=np.float64)
-    ok = np.isfinite(x) & np.isfinite(y)
-    start = (float(x[ok][0]), float(y[ok][0])) if ok.any() else None
-    return wps, start, labels
-
-
-def _clamp_pct(run_dir: Path) -> float | None:
-    try:
-        return 100.0 * load_config(run_dir / CONFIG_FILE).vehicle.output_clamp
-    except ConfigFileError:
-        return None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -584,7 +303,7 @@ def _time_markers(
         )
 
 
-def _legend(*axes: Axes, below: bool = False) -> None:
+def legend_outside(*axes: Axes, below: bool = False) -> None:
     """One legend for ``axes``, outside the data: right of the axes, or ``below`` them (the
     overview's cells, whose right side holds a twin y axis)."""
     handles: list[Any] = []
@@ -674,7 +393,7 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
     offsets = label_offsets_pt(path)[len(path) - len(points) :]
     at = {xy: off for xy, off in zip(points, offsets, strict=True)}
     for text, xy in waypoint_labels(points, labels=labels):
-        _label_waypoint(ax, text, xy, at[xy], fontsize=9, color="darkgreen", weight="bold")
+        label_waypoint(ax, text, xy, at[xy], fontsize=9, color="darkgreen", weight="bold")
     _draw_driven(ax, data, x, y)
     ok = np.isfinite(x) & np.isfinite(y)
     if ok.any():
@@ -691,7 +410,7 @@ def draw_trajectory(ax: Axes, data: RunData, *, overview: bool = False) -> None:
     ax.set_xlabel(data.axis_labels[0])
     ax.set_ylabel(data.axis_labels[1])
     ax.grid(True, alpha=0.3)
-    _legend(ax, below=overview)
+    legend_outside(ax, below=overview)
 
 
 def draw_position(top: Axes, bottom: Axes, data: RunData, *, twin: bool = False) -> None:
@@ -791,7 +510,7 @@ def draw_cross_track_along(ax: Axes, data: RunData) -> None:
     ax.set_xlabel("distance travelled along the path (m)")
     ax.set_ylabel("cross-track error, + left of the leg (m)")
     ax.grid(True, alpha=0.3)
-    _legend(ax)
+    legend_outside(ax)
 
 
 def _finish_time_axes(
@@ -809,14 +528,14 @@ def _finish_time_axes(
         _time_markers(bottom, data, labels=False)
         bottom.grid(True, alpha=0.3)
         bottom.set_xlabel(data.time_label)
-        _legend(bottom)
-        _legend(top)
+        legend_outside(bottom)
+        legend_outside(top)
     else:
         top.set_xlabel(data.time_label)
         if bottom is not None:
-            _legend(top, bottom, below=True)
+            legend_outside(top, bottom, below=True)
         else:
-            _legend(top, below=overview)
+            legend_outside(top, below=overview)
     top.grid(True, alpha=0.3)
 
 
@@ -936,159 +655,17 @@ def render_run(run_dir: Path, out_dir: Path | None = None) -> list[Path]:
     return written
 
 
-# ---------------------------------------------------------------------------------------------
-# Plan panel (helixd check --map … --plot FILE): map, inflation and the planned path
-
-PLAN_BLOCKED_RGBA = (0.15, 0.15, 0.15, 1.0)
-PLAN_INFLATED_RGBA = (1.0, 0.55, 0.1, 0.45)
-PLAN_MAX_IMAGE_PX = 2000  # larger grids are shown max-pooled down to about this many pixels
-
-
-def _pooled(mask: npt.NDArray[np.bool_], step: int) -> npt.NDArray[np.bool_]:
-    """Any-of ``step`` × ``step`` blocks, so a thin wall never disappears when shrunk."""
-    if step <= 1:
-        return mask
-    rows, cols = mask.shape
-    pr, pc = -rows % step, -cols % step
-    padded = np.pad(mask, ((0, pr), (0, pc)))
-    blocks = padded.reshape(padded.shape[0] // step, step, padded.shape[1] // step, step)
-    out: npt.NDArray[np.bool_] = np.asarray(blocks.any(axis=(1, 3)), dtype=np.bool_)
-    return out
-
-
-def draw_route(ax: Axes, route: Any) -> None:
-    """East right, north up: obstacles, their inflation, legs and intermediate points."""
-    fr = route.grid.frame
-    n0, n1, e0, e1 = fr.extent_ne_m()
-    step = max(1, math.ceil(max(fr.rows, fr.cols) / PLAN_MAX_IMAGE_PX))
-    blocked = _pooled(route.grid.blocked, step)
-    inflated = _pooled(route.grid.inflated, step) & ~blocked
-    img = np.zeros((*blocked.shape, 4))
-    img[inflated] = PLAN_INFLATED_RGBA
-    img[blocked] = PLAN_BLOCKED_RGBA
-    ax.imshow(img, origin="lower", extent=(e0, e1, n0, n1), interpolation="nearest")
-    ax.plot([], [], "s", color=PLAN_BLOCKED_RGBA, label="obstacle")
-    ax.plot(
-        [], [], "s", color=PLAN_INFLATED_RGBA,
-        label=f"inflation ({route.grid.clearance_m:.2f} m)",
-    )  # fmt: skip
-    line = route.polyline_ne_m()
-    if line:
-        ax.plot([p[1] for p in line], [p[0] for p in line], "-", color="tab:blue", label="path")
-    via = [p for leg in route.legs for p in leg.points_ne_m[1:-1]]
-    if via:
-        ax.plot([p[1] for p in via], [p[0] for p in via], "o", ms=4, color="tab:blue",
-                label="intermediate")  # fmt: skip
-    ends = [(leg.points_ne_m[-1][1], leg.points_ne_m[-1][0]) for leg in route.legs]  # (e, n)
-    starts = [(route.legs[0].points_ne_m[0][1], route.legs[0].points_ne_m[0][0])] if ends else []
-    offsets = label_offsets_pt([*starts, *ends])[len(starts) :]
-    for leg, (e, n), off in zip(route.legs, ends, offsets, strict=True):
-        ax.plot(e, n, "D", color="tab:green", ms=6)
-        _label_waypoint(ax, str(leg.to_index + 1), (e, n), off, fontsize=9, color="darkgreen",
-                        weight="bold")  # fmt: skip
-    if route.legs:
-        n, e = route.legs[0].points_ne_m[0]
-        ax.plot(e, n, "^", color="black", ms=7, label="start")
-    around = getattr(route, "origin_latlon_deg", None)  # a global mission: around waypoint 1
-    where = "" if around is None else " of waypoint 1"
-    ax.set_xlabel(f"east{where} (m)")
-    ax.set_ylabel(f"north{where} (m)")
-    ax.set_aspect("equal")
-    _legend(ax)
-
-
-def render_route(
-    route: Any, out_path: Path, *, title: str = "", media: PlacedMedia | None = None
-) -> Path:
-    """Draw :func:`draw_route` to ``out_path`` (PNG), over ``media``'s areas when the mission
-    follows a media map; returns the path."""
-    fig = Figure(figsize=PANEL_SIZE_IN, dpi=DPI, layout="constrained")
-    ax = fig.subplots()
-    if media is not None:
-        draw_media(ax, media)
-    draw_route(ax, route)
-    if media is not None:
-        line = route.polyline_ne_m()
-        keep_view(ax, [p[1] for p in line], [p[0] for p in line])
-    ax.set_title(f"planned path {title}".strip())
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    declutter_waypoint_labels(fig).savefig(out_path, dpi=DPI)
-    return out_path
-
-
-def draw_media_plan(ax: Axes, media: PlacedMedia, plan: MediaPlan, start_xy_m: XY) -> None:
-    """The media map's areas, the planned path from ``start_xy_m`` with each leg in its
-    mode's colour (the legend by mode), the stops where the mode changes (a turn in place)
-    and the operator's waypoints numbered (a local_ned or global plan: x east, y north)."""
-    draw_media(ax, media)
-    pts = [start_xy_m, *((w.x_m, w.y_m) for w in plan.plan.waypoints)]
-    labelled: set[str] = set()
-    for k in range(len(plan.plan.waypoints)):
-        mode = plan.plan.mode_at(k).value
-        label = None if mode in labelled else f"planned in {mode}"
-        labelled.add(mode)
-        (x0, y0), (x1, y1) = pts[k], pts[k + 1]
-        ax.plot([x0, x1], [y0, y1], "-", color=MODE_COLORS.get(mode, "tab:gray"),
-                linewidth=2.0, label=label, zorder=3)  # fmt: skip
-    stops = [(w.x_m, w.y_m) for w in plan.plan.waypoints if w.media_stop]
-    if stops:
-        ax.plot([p[0] for p in stops], [p[1] for p in stops], "o", mfc="white", mec="black",
-                ms=7, zorder=4, label="change of mode (turn in place)")  # fmt: skip
-    own = [(w.x_m, w.y_m) for w in plan.plan.waypoints if not (w.media_stop or w.via)]
-    ax.plot([p[0] for p in own], [p[1] for p in own], "D", color="tab:green", ms=6, zorder=4,
-            label="waypoint")  # fmt: skip
-    offsets = label_offsets_pt([start_xy_m, *own])[1:]
-    for n, (xy, off) in enumerate(zip(own, offsets, strict=True), start=1):
-        _label_waypoint(ax, str(n), xy, off, fontsize=9, color="darkgreen", weight="bold")
-    ax.plot(*start_xy_m, "^", color="black", ms=7, label="start (assumed)", zorder=4)
-    keep_view(ax, [p[0] for p in pts], [p[1] for p in pts])
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.grid(True, alpha=0.3)
-    _legend(ax)
-
-
-def render_media_plan(
-    media: PlacedMedia,
-    plan: MediaPlan,
-    out_path: Path,
-    *,
-    start_xy_m: XY,
-    axis_names: tuple[str, str] = ("east (m)", "north (m)"),
-    title: str = "",
-) -> Path:
-    """Draw :func:`draw_media_plan` to ``out_path`` (PNG), titled by the mission's name and
-    the modes planned; returns the path."""
-    fig = Figure(figsize=PANEL_SIZE_IN, dpi=DPI, layout="constrained")
-    ax = fig.subplots()
-    draw_media_plan(ax, media, plan, start_xy_m)
-    ax.set_xlabel(axis_names[0])
-    ax.set_ylabel(axis_names[1])
-    modes = ", ".join(
-        dict.fromkeys(plan.plan.mode_at(k).value for k in range(len(plan.plan.waypoints)))
-    )
-    ax.set_title(f"planned path {title} — {modes}, following the media map".replace("  ", " "))
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    declutter_waypoint_labels(fig).savefig(out_path, dpi=DPI)
-    return out_path
-
-
 __all__ = [
-    "AUTOPILOT_AXIS_LABEL",
+    "DPI",
     "OVERVIEW_SIZE_PX",
     "PANEL_FILES",
+    "PANEL_SIZE_IN",
     "PANEL_SIZE_PX",
-    "PlotError",
-    "RunData",
-    "autopilot_axis",
-    "axis_labels",
     "declutter_waypoint_labels",
     "distance_along_m",
-    "draw_media_plan",
-    "interp_linear",
     "label_offsets_pt",
-    "load_run",
-    "render_media_plan",
-    "render_route",
+    "label_waypoint",
+    "legend_outside",
     "render_run",
     "sparse_label_mask",
     "waypoint_labels",

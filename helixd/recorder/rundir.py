@@ -4,7 +4,7 @@ Contents: ``config.yaml`` and ``mission.yaml`` (the exact resolved inputs), ``ev
 (every structlog event, via :mod:`helixd.recorder.logging_setup`), ``flight.csv`` (one row per
 control
 step, see :mod:`helixd.recorder.rows`) and ``summary.json`` (written atomically at the end);
-``link.tlog`` (every MAVLink frame of the link, written by :mod:`helixd.link.tlog`).
+``link.tlog`` (every MAVLink frame of the link, written by :mod:`helixd.link.wire.tlog`).
 
 ``flight.csv`` is written through a buffer, flushed to the OS at least every
 ``flush_interval_s`` and fsync'ed (with ``events.jsonl``) by a background thread, so the
@@ -44,7 +44,7 @@ from helixd.base.run_files import (
     MISSION_FILE,
     SUMMARY_FILE,
 )
-from helixd.config import RecorderConfig
+from helixd.config.recorder import RecorderConfig
 from helixd.recorder import logging_setup
 from helixd.recorder.events import RUN_STARTED_EVENT
 from helixd.recorder.rows import FlightRow, RowFormatter

@@ -139,7 +139,7 @@ class RunSummary(StrictModel):
         None,
         description="what each medium delivered in each mode in this run (per 'medium/mode': "
         "samples, metres, fractions, sigmas, power_w_per_mps), added after the run when it "
-        "had a media map (helixd.runtime.ground_learning); None: not learnt",
+        "had a media map (helixd.prepare.ground_learning); None: not learnt",
     )
     helixd_version: str = __version__
 

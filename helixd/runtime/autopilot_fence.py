@@ -20,7 +20,7 @@ import structlog
 
 from helixd.base.polygon import leg_leaves_polygon, point_in_polygon
 from helixd.link.connection import Autopilot
-from helixd.link.mission_transfer import MissionTransferError
+from helixd.link.services.mission_transfer import MissionTransferError
 from helixd.mission.formats.items import FenceNe, ObstacleCircle, fence_ne
 from helixd.mission.formats.wire import wire_to_gcs
 

@@ -14,10 +14,8 @@ ledger that shutdown gives back, whatever stopped startup half way. Where the fl
 link, signals, start gate) is its host (:mod:`helixd.runtime.host`): ``helixd run`` its own,
 ``helixd serve`` the service's.
 
-An exception ends the run through one table (:data:`EXIT_RULES`): it maps the exception *and
-the stage it came from* to a fault cause and an exit code. A command refused during setup is
-exit 3 ("nothing was armed"); the same refusal in flight (a DO_SET_SERVO refused mid-mission)
-is a fault, exit 4, after the fall-back. Exit codes: :class:`helixd.base.exitcodes.ExitCode`.
+An exception ends the run through one table (:data:`helixd.runtime.ending.EXIT_RULES`): it
+maps the exception *and the stage it came from* to a fault cause and an exit code.
 """
 
 from __future__ import annotations
@@ -29,72 +27,80 @@ import os
 from collections.abc import AsyncIterator, Awaitable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
-from enum import StrEnum
 from pathlib import Path
 
 import structlog
 
 from helixd import __version__
-from helixd.actuators.base import ActuatorError, ActuatorSink
+from helixd.actuators.base import ActuatorSink
 from helixd.base.clock import now_s, on_simulated_clock
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.media import MediaMapNe
 from helixd.base.plan import Numbering, Plan, program_numbering
-from helixd.config import HelixdConfig, config_to_yaml
+from helixd.config.load import config_to_yaml
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import TimeEstimate
-from helixd.files.models import as_items
-from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_WARNING
 from helixd.mav.url import LinkError
 from helixd.mission.expand import DEFAULT_OPTIONS, ExpandOptions
+from helixd.mission.judge import patrol_times_s, plan_time_estimate
 from helixd.mission.model import Mission
-from helixd.mission.resolve import PlanError
 from helixd.mission.resume import RUN_RESUMED_EVENT, RunInputs
+from helixd.prepare.ground_learning import learn_from_run
+from helixd.prepare.media import MediaRefused, read_media
+from helixd.prepare.planned import Replanner
 from helixd.recorder.payload_log import PayloadLog
 from helixd.recorder.retention import check_free_space, prune_runs
 from helixd.recorder.rundir import RecorderUnavailable, RunRecorder
 from helixd.recorder.summary import RunSummary, SummaryBuilder
-from helixd.runtime.display import ProgressDisplay, result_line
-from helixd.runtime.flight import (
-    MANUAL_MODE,
-    FlightLoop,
-    FlightResult,
+from helixd.report.display import ProgressDisplay, result_line
+from helixd.report.gcs_feed import GcsFeed, report_fallback
+from helixd.report.notify import ServiceNotifier
+from helixd.runtime.arming import arm, confirm_mode, start_gate
+from helixd.runtime.ending import (
+    Ending,
+    ExitRule,
+    Stage,
+    as_item_numbers,
+    ending_after_fallback,
+    ending_for,
+    ending_of_flight,
+    problems_of,
 )
-from helixd.runtime.gcs_feed import GcsFeed, report_fallback
-from helixd.runtime.ground_learning import learn_from_run
+from helixd.runtime.flight import FlightLoop
 from helixd.runtime.host import FlightHost, OwnLink
 from helixd.runtime.in_flight import InFlight
-from helixd.runtime.media_plan import MediaRefused, read_media
 from helixd.runtime.mission_commands import MissionCommands
-from helixd.runtime.notify import ServiceNotifier
-from helixd.runtime.planned import Replanner
+from helixd.runtime.mode_gate import MANUAL_MODE
+from helixd.runtime.placing import (
+    autopilot_home,
+    checked_from_rover,
+    judge_autopilot_fence,
+    mission_frame,
+    resolve_flight,
+    show_checked_plan,
+    start_pose,
+)
 from helixd.runtime.setup import (
     Checked,
     Held,
     PreflightFailed,
-    StartRefused,
     StopBeforeFlight,
-    arm,
-    autopilot_home,
-    confirm_mode,
     feeding,
     fresh_pose,
-    judge_autopilot_fence,
-    mission_frame,
-    place_mission,
     preflight,
-    resolve_flight,
-    show_checked_plan,
-    start_gate,
-    start_pose,
     start_sink,
     until_stopped,
 )
-from helixd.runtime.timing import patrol_times_s, plan_time_estimate
-from helixd.safety.supervisor import FallbackReport, fall_back, late_failsafe
-from helixd.safety.watchdogs import OPERATOR_CAUSES, Fault, FaultCause
+from helixd.safety.supervisor import fall_back, late_failsafe
+from helixd.safety.watchdogs import (
+    HANDED_CAUSES,
+    NEXT_FLIGHT_CAUSES,
+    STOP_CAUSES,
+    FaultCause,
+)
 
 log = structlog.get_logger(__name__)
 
@@ -133,6 +139,7 @@ class RunOutcome:
     summary: RunSummary | None
     run_dir: Path | None
     messages: list[str] = field(default_factory=list)
+    cause: FaultCause | None = None  # what ended the flight (None: completed, or never flown)
 
 
 @dataclass
@@ -171,114 +178,6 @@ async def phase(
     log.info("phase_end", phase=name, ok=end.ok, **cause, duration_wall_s=round(now_s() - t0, 3))
 
 
-class Stage(StrEnum):
-    """Where an exception came from: the same error means different things before and after
-    the rover was armed and driven."""
-
-    SETUP = "setup"  # startup: connect, preflight, start gate, MANUAL, arm
-    FLIGHT = "flight"  # main_loop: the scrolls are (or may be) driven
-
-
-@dataclass(frozen=True)
-class ExitRule:
-    """One row of :data:`EXIT_RULES`."""
-
-    exceptions: tuple[type[BaseException], ...]
-    stage: Stage | None  # None: either stage
-    cause: FaultCause | None  # None: the exception carries its own fault (StartRefused)
-    code: ExitCode
-    event: str | None  # the log event naming each problem (None: the fall-back's log says it)
-    message_prefix: str | None  # the operator's message line ("preflight: …"); None: none
-
-
-# First match wins. Setup failures happen before anything was driven (the fall-back still
-# runs if the sink was started or we armed); flight failures are faults of a moving rover.
-EXIT_RULES: tuple[ExitRule, ...] = (
-    ExitRule((StopBeforeFlight,), None, FaultCause.SIGNAL, ExitCode.OPERATOR_STOP, None, None),
-    ExitRule((StartRefused,), None, None, ExitCode.FAULT, None, None),
-    ExitRule(
-        (PreflightFailed, PlanError, CommandError),
-        Stage.SETUP,
-        FaultCause.PREFLIGHT,
-        ExitCode.PREFLIGHT,
-        "preflight_failed",
-        "preflight",
-    ),
-    ExitRule((LinkError,), Stage.SETUP, FaultCause.LINK_LOST, ExitCode.LINK, "link_failed", "link"),
-    ExitRule(
-        (ActuatorError, CommandError),
-        Stage.FLIGHT,
-        FaultCause.ACTUATOR,
-        ExitCode.FAULT,
-        "flight_command_failed",
-        None,
-    ),
-    ExitRule((LinkError,), Stage.FLIGHT, FaultCause.LINK_LOST, ExitCode.FAULT, "link_failed", None),
-    ExitRule((Exception,), None, FaultCause.EXCEPTION, ExitCode.INTERNAL_ERROR, None, None),
-)
-
-
-def exit_rule(exc: BaseException, stage: Stage) -> ExitRule:
-    """The first rule of :data:`EXIT_RULES` matching ``exc`` raised in ``stage``."""
-    for rule in EXIT_RULES:
-        if isinstance(exc, rule.exceptions) and rule.stage in (None, stage):
-            return rule
-    return EXIT_RULES[-1]
-
-
-def as_item_numbers(exc: Exception) -> Exception:
-    """A refusal of a ground-station mission with its entries named by mission item
-    (``item 3``) instead of the YAML list (``waypoint 3 (waypoints[2])``); anything else as
-    it is."""
-    if isinstance(exc, PreflightFailed):
-        return PreflightFailed([as_items(p) for p in exc.problems])
-    if isinstance(exc, PlanError):
-        return PlanError(as_items(str(exc)))
-    return exc
-
-
-def problems_of(exc: BaseException) -> list[str]:
-    """The human lines an exception stands for (a failed preflight has several)."""
-    return list(exc.problems) if isinstance(exc, PreflightFailed) else [str(exc)]
-
-
-@dataclass(frozen=True)
-class Ending:
-    """How the run ended: what shutdown and the summary need."""
-
-    fault: Fault | None
-    code: ExitCode
-    detected_s: float | None = None  # monotonic time the fault was detected
-    last_pose: NedPose | None = None
-
-
-def ending_for(exc: BaseException, stage: Stage, now_s: float) -> tuple[Ending, ExitRule]:
-    """Map an exception to the run's ending through :data:`EXIT_RULES` (pure)."""
-    rule = exit_rule(exc, stage)
-    if isinstance(exc, StartRefused):
-        return Ending(exc.fault, rule.code, exc.detected_s), rule
-    cause = rule.cause or FaultCause.EXCEPTION
-    detail = (
-        f"{type(exc).__name__}: {exc}"
-        if cause is FaultCause.EXCEPTION
-        else "; ".join(problems_of(exc))
-    )
-    detected = now_s if stage is Stage.FLIGHT else None
-    return Ending(Fault(cause, detail), rule.code, detected), rule
-
-
-def ending_of_flight(result: FlightResult) -> Ending:
-    """The ending of a flight the loop itself ended (mission done, a watchdog, a signal)."""
-    fault = result.fault
-    if fault is None:
-        code = ExitCode.OK
-    elif fault.cause in OPERATOR_CAUSES:
-        code = ExitCode.OPERATOR_STOP
-    else:
-        code = ExitCode.FAULT
-    return Ending(fault, code, result.detected_s, result.last_pose)
-
-
 def disarm_after(armed_by_us: bool, ending: Ending, when_complete: bool = True) -> bool | None:
     """Whether the fall-back disarms (pure). A completed mission always ends disarmed, even
     on a vehicle someone else armed (a ground station after a takeover): exit 0 means
@@ -290,15 +189,11 @@ def disarm_after(armed_by_us: bool, ending: Ending, when_complete: bool = True) 
     completed mission armed in HOLD, as ArduPilot's AUTO does."""
     if ending.code is ExitCode.OK:
         return when_complete
-    if ending.fault is not None and ending.fault.cause in (
-        FaultCause.RELEASED,
-        FaultCause.ITEM_SET,
-        FaultCause.HANDOVER,
-    ):
+    if ending.fault is not None and ending.fault.cause in HANDED_CAUSES:
         return False  # the pilot drives it, or the next flight does
     if not armed_by_us:
         return None
-    if ending.fault is not None and ending.fault.cause in (FaultCause.SIGNAL, FaultCause.PAUSED):
+    if ending.fault is not None and ending.fault.cause in STOP_CAUSES:
         return True
     return None
 
@@ -316,19 +211,6 @@ def log_estimate(plan: Plan, estimate: TimeEstimate, time_limit_s: float) -> Non
             ends_by="stop or safety.mission_time_limit_s",
             time_limit_s=time_limit_s,
         )
-
-
-def ending_after_fallback(
-    ending: Ending, report: FallbackReport, disarm_asked: bool = True
-) -> Ending:
-    """A completed mission (exit 0) whose disarm failed is not exit 0: the exit-code table
-    says 0 means disarmed, and the rover is left armed (pure). Any other ending stands, and
-    so does a completion left armed on purpose (``disarm_asked`` false)."""
-    if ending.code is not ExitCode.OK or report.disarmed or not disarm_asked:
-        return ending
-    why = "; ".join(e for e in report.errors if e.startswith("disarm")) or "disarm not confirmed"
-    fault = Fault(FaultCause.NOT_DISARMED, f"every waypoint reached, but {why}: still armed")
-    return Ending(fault, ExitCode.FAULT, ending.detected_s, ending.last_pose)
 
 
 @dataclass(frozen=True)
@@ -359,7 +241,7 @@ class MissionRunner:
         self.messages: list[str] = []
         self.gcs = GcsFeed(
             self.cfg.gcs_report
-        )  # what the ground station sees (helixd.runtime.gcs_feed)
+        )  # what the ground station sees (helixd.report.gcs_feed)
         # the mission flown: opts.mission, its first leg re-planned from the rover in preflight
         self.mission = opts.mission
         self._payload: PayloadLog | None = None  # payload.csv while the link is ours
@@ -441,7 +323,7 @@ class MissionRunner:
     async def _preflight(self, ap: Autopilot) -> Checked:
         """The vehicle, then the mission placed from its pose; the summary's estimate."""
         vehicle = await preflight(ap, self.cfg, self.mission, self.stop, self._warn)
-        checked = await place_mission(
+        checked = await checked_from_rover(
             ap,
             self.cfg,
             self.mission,
@@ -547,8 +429,9 @@ class MissionRunner:
             fault = f"{FaultCause.EXCEPTION.value}: {type(exc).__name__}: {exc}"
             summary = self._build_summary(fault, ExitCode.INTERNAL_ERROR, None)
             run_dir = self.recorder.run_dir if self.recorder else None
+            messages = [*self.messages, result_line(summary)]
             return RunOutcome(
-                ExitCode.INTERNAL_ERROR, summary, run_dir, [*self.messages, result_line(summary)]
+                ExitCode.INTERNAL_ERROR, summary, run_dir, messages, FaultCause.EXCEPTION
             )
         finally:
             self.display.close()
@@ -609,6 +492,7 @@ class MissionRunner:
             summary,
             self.recorder.run_dir if self.recorder else None,
             [*self.messages, result_line(summary)],  # the plain result line comes last
+            None if ending.fault is None else ending.fault.cause,
         )
 
     async def _startup_then_fly(self, held: Held) -> Ending:
@@ -650,10 +534,7 @@ class MissionRunner:
             self.gcs.phase(f"pausing: {ending.fault.detail}")  # an operator's, not a fault
         elif ending.fault is not None and ending.fault.cause is FaultCause.RELEASED:
             pass  # the flight loop told the GCS already (released: the pilot drives)
-        elif ending.fault is not None and ending.fault.cause in (
-            FaultCause.ITEM_SET,
-            FaultCause.HANDOVER,
-        ):
+        elif ending.fault is not None and ending.fault.cause in NEXT_FLIGHT_CAUSES:
             if self.host.tells_steps:  # else the next flight's own text says where
                 self.gcs.phase(ending.fault.detail)
         elif ending.fault is not None:

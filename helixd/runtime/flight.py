@@ -49,7 +49,7 @@ from helixd.base.clock import now_s
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.base.plan import ActionKind, MissionAction, MotionMode, Plan
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.kinematics import scroll_fractions
 from helixd.control.navigator import Navigator, NavOutput
 from helixd.control.sequencer import Sequencer, SequencerEvent, SequencerOutput
@@ -60,16 +60,17 @@ from helixd.control.slip import (
     no_slip_body,
 )
 from helixd.link.connection import Autopilot
-from helixd.link.vehicle import PoseSample, PositionTarget, VehicleState
+from helixd.link.vehicle import PoseSample, VehicleState
 from helixd.mission.commands import bound_speed, speed_floor_mps
 from helixd.runtime.ground_watch import GroundChange, GroundWatch
 from helixd.runtime.loop_state import CrewState, StepCeiling, YawRateMeter
 from helixd.runtime.mode_gate import (
     AUTO_MODE,
+    DRIVE_MANUAL,
     GOTO_MODES,
     LEFT_AUTO,
+    Driving,
     Gate,
-    PlaceRule,
     autopilot_step,
     crew_mode_of,
     current_target_of,
@@ -85,7 +86,6 @@ from helixd.safety.watchdogs import Fault, FaultCause
 
 log = structlog.get_logger(__name__)
 
-MANUAL_MODE = "MANUAL"
 NEUTRAL_FRACTIONS = (0.0, 0.0, 0.0, 0.0)
 
 
@@ -157,31 +157,6 @@ class FlightHooks:
     on_mission_event: Callable[[SequencerEvent], None] | None = None  # the sequencer's
     on_gate: Callable[[Gate, str], None] | None = None  # the autopilot's mode: (gate, mode)
     on_ground: Callable[[GroundChange], None] | None = None  # the ground is not the map's
-
-
-@dataclass(frozen=True, slots=True)
-class Driving:
-    """The autopilot's mode a flight drives in, lent by its host
-    (:attr:`helixd.runtime.host.FlightHost.driving`). MANUAL: set (and armed) by the flight
-    itself, any other mode is a takeover. Any other: the flight follows the autopilot's mode
-    (:mod:`helixd.runtime.mode_gate`) and needs ``places``, how it tells the autopilot's
-    place; ``goto``: the autopilot's place (GUIDED, RTL, SMART_RTL) it drives to and holds
-    at (None: a mission flight)."""
-
-    mode: str = MANUAL_MODE
-    goto: PositionTarget | None = None
-    places: PlaceRule | None = None
-
-    def __post_init__(self) -> None:
-        if self.follows_mode and self.places is None:
-            raise ValueError(f"a flight driving in {self.mode} needs its PlaceRule")
-
-    @property
-    def follows_mode(self) -> bool:
-        return self.mode != MANUAL_MODE
-
-
-DRIVE_MANUAL = Driving()  # helixd run's, and serve's flights on its own id or switch
 
 
 class FlightLoop:

@@ -16,7 +16,7 @@ from collections.abc import Callable
 
 from helixd.base.plan import Numbering, Plan
 from helixd.recorder.rows import FlightRow
-from helixd.runtime.display import ProgressInfo
+from helixd.report.display import ProgressInfo
 from helixd.runtime.flight import PoseRejectedReport, StepReport
 
 MediumAt = Callable[[float, float], str]  # (north_m, east_m) → the medium's name

@@ -11,9 +11,10 @@ from dataclasses import dataclass
 
 from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
-from helixd.config import MediaConfig
+from helixd.config.media import MediaConfig
 from helixd.control.ground_check import GroundCheck, GroundCheckParams, GroundVerdict
 from helixd.control.navigator import Navigator
+from helixd.planning.media_modes import ModePolicy
 
 
 @dataclass(frozen=True, slots=True)
@@ -29,14 +30,20 @@ class GroundChange:
 
     def text(self) -> str:
         """What the ground station reads."""
-        pct = round(100.0 * self.verdict.fraction)  # one STATUSTEXT: at most 42 characters
-        if self.verdict.soft:
-            return f"softer than mapped ({pct}% of {self.planned.value}): {self.verdict.mode.value}"
-        return f"firm again ({pct}% of scroll): back to {self.verdict.mode.value}"
+        v = self.verdict
+        pct = round(100.0 * v.fraction)  # one STATUSTEXT: at most 42 characters
+        if v.soft:
+            return f"softer than mapped ({pct}% of {v.judged.value}): {v.mode.value}"
+        return f"firm again ({pct}% of {v.judged.value}): back to {v.mode.value}"
 
 
 def check_params(media: MediaConfig) -> GroundCheckParams:
+    """The check's thresholds, and its modes from the mode policy (``media.modes``; with
+    ``learned``, the config's defaults: the profile is the plan's, not the check's)."""
+    policy = ModePolicy.from_config(media)
     return GroundCheckParams(
+        firm_mode=policy.firm_mode,
+        soft_mode=policy.soft_mode,
         window_m=media.detect_window_m,
         roll_fraction=media.detect_roll_fraction,
         scroll_fraction=media.detect_scroll_fraction,

@@ -26,11 +26,11 @@ from pathlib import Path
 from typing import Protocol
 
 from helixd.base.clock import now_s
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
-from helixd.link.tlog import LinkTlog
-from helixd.runtime.flight import DRIVE_MANUAL, Driving
-from helixd.runtime.notify import FlightInServiceNotifier, ServiceNotifier
+from helixd.link.wire.tlog import LinkTlog
+from helixd.report.notify import FlightInServiceNotifier, ServiceNotifier
+from helixd.runtime.mode_gate import DRIVE_MANUAL, Driving
 from helixd.runtime.setup import (
     Held,
     attach,
@@ -42,7 +42,9 @@ from helixd.runtime.setup import (
 from helixd.runtime.signals import StopRequest, install, uninstall
 from helixd.safety.supervisor import FallbackReport
 
-__all__ = ["FlightHost", "OwnLink", "ServeHost"]
+__all__ = ["FlightHost", "OnLink", "OwnLink", "ServeHost"]
+
+OnLink = Callable[[Autopilot], None]  # told the link once it is the flight's
 
 
 class FlightHost(Protocol):
@@ -91,11 +93,7 @@ class FlightHost(Protocol):
         ...
 
     async def open(
-        self,
-        cfg: HelixdConfig,
-        held: Held,
-        on_link: Callable[[Autopilot], None],
-        run_dir: Path | None,
+        self, cfg: HelixdConfig, held: Held, on_link: OnLink, run_dir: Path | None
     ) -> Autopilot:
         """The link, the autopilot heard, neutral on the servo outputs (held in ``held``)."""
         ...
@@ -141,11 +139,7 @@ class OwnLink:
             uninstall(loop)
 
     async def open(
-        self,
-        cfg: HelixdConfig,
-        held: Held,
-        on_link: Callable[[Autopilot], None],
-        run_dir: Path | None,
+        self, cfg: HelixdConfig, held: Held, on_link: OnLink, run_dir: Path | None
     ) -> Autopilot:
         ap, self._reached = self._reached, None
         if ap is None:
@@ -205,11 +199,7 @@ class ServeHost:
         return None
 
     async def open(
-        self,
-        cfg: HelixdConfig,
-        held: Held,
-        on_link: Callable[[Autopilot], None],
-        run_dir: Path | None,
+        self, cfg: HelixdConfig, held: Held, on_link: OnLink, run_dir: Path | None
     ) -> Autopilot:
         """The service's link, recorded in the flight's run directory from now on (``attach``
         holds it at once, so the run's shutdown gives it back through :meth:`close`)."""

@@ -19,7 +19,7 @@ import structlog
 from helixd.base.clock import now_s
 from helixd.base.media import MediaMapNe
 from helixd.base.plan import MissionAction, Numbering, Plan, mission_item_of
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.sequencer import SequencerEvent
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_WARNING
@@ -28,10 +28,10 @@ from helixd.mission.resolve import places_from
 from helixd.recorder.rows import FlightRow
 from helixd.recorder.rundir import RunRecorder
 from helixd.recorder.summary import SummaryBuilder
-from helixd.runtime.display import ProgressDisplay
+from helixd.report.display import ProgressDisplay
+from helixd.report.gcs_feed import GcsFeed
 from helixd.runtime.flight import FlightHooks, PoseRejectedReport, StepReport
 from helixd.runtime.flight_report import StepJournal, rejected_progress, step_progress
-from helixd.runtime.gcs_feed import GcsFeed
 from helixd.runtime.ground_watch import GroundChange
 from helixd.runtime.host import FlightHost
 from helixd.runtime.mode_gate import GOTO_MODES, LEFT_AUTO, Gate, crew_mode_of

@@ -21,7 +21,7 @@ import structlog
 from helixd.base.clock import now_s
 from helixd.base.plan import MissionAction
 from helixd.base.tasks import stop_task
-from helixd.link.command_client import CommandError, CommandRejected, result_name
+from helixd.link.services.command_client import CommandError, CommandRejected, result_name
 from helixd.mission.commands import command_name
 
 log = structlog.get_logger(__name__)

@@ -49,6 +49,7 @@ from helixd.base.frames import latlon_to_ne
 from helixd.link.vehicle import PositionTarget, VehicleState
 
 AUTO_MODE = "AUTO"
+MANUAL_MODE = "MANUAL"  # set (and armed) by a flight itself
 # Rover's modes whose place helixd drives to: GUIDED's WP submode, RTL, SmartRTL
 GOTO_MODES = frozenset({"GUIDED", "RTL", "SMART_RTL"})
 # ArduPilot Rover's Mode::has_manual_input(): the pilot's sticks drive
@@ -66,6 +67,31 @@ class PlaceRule:
 
     stale_s: float  # a place not renewed for this long is no place (:func:`current_target`)
     same_m: float  # a place that moved less than this is the same place (:func:`same_place`)
+
+
+@dataclass(frozen=True, slots=True)
+class Driving:
+    """The autopilot's mode a flight drives in, lent by its host
+    (:attr:`helixd.runtime.host.FlightHost.driving`). MANUAL: set (and armed) by the flight
+    itself, any other mode is a takeover. Any other: the flight follows the autopilot's mode
+    (this module's gate) and needs ``places``, how it tells the autopilot's
+    place; ``goto``: the autopilot's place (GUIDED, RTL, SMART_RTL) it drives to and holds
+    at (None: a mission flight)."""
+
+    mode: str = MANUAL_MODE
+    goto: PositionTarget | None = None
+    places: PlaceRule | None = None
+
+    def __post_init__(self) -> None:
+        if self.follows_mode and self.places is None:
+            raise ValueError(f"a flight driving in {self.mode} needs its PlaceRule")
+
+    @property
+    def follows_mode(self) -> bool:
+        return self.mode != MANUAL_MODE
+
+
+DRIVE_MANUAL = Driving()  # helixd run's, and serve's flights on its own id or switch
 
 
 class Gate(StrEnum):

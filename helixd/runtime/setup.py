@@ -1,8 +1,9 @@
-"""The setup phases of a flight, as functions over the link and the config: connect, preflight
-(the vehicle, its servo outputs, a fresh pose, the EKF origin; then the mission placed from the
-rover's pose), the pilot's start gate, the autopilot's home, arming and the confirmations that
-a mode change or an arm happened. :class:`helixd.runtime.daemon.MissionRunner` calls them in
-order; each returns what it found or raises.
+"""The setup phases of a flight up to the vehicle checked, as functions over the link and the
+config: connect, preflight (the vehicle, its servo outputs, a fresh pose, the EKF origin), and
+what every phase shares (the :class:`Held` ledger, :func:`until_stopped`, the refusals). The
+mission placed from the rover's pose is :mod:`helixd.runtime.placing`; the start gate, arming
+and the confirmations :mod:`helixd.runtime.arming`. :class:`helixd.runtime.daemon.MissionRunner`
+calls them in order; each returns what it found or raises.
 
 In runtime/, beside the runner: they need the link and the config, and also the safety
 layer's faults (a pose rejected too long) and the actuators (the sink sends neutral first).
@@ -17,9 +18,8 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import math
 from collections.abc import AsyncIterator, Awaitable, Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
@@ -28,43 +28,27 @@ import structlog
 from helixd.actuators.base import ActuatorSink
 from helixd.actuators.factory import make_sink
 from helixd.base.clock import now_s
-from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne
-from helixd.base.plan import MissionFrameKind, Numbering, Plan, program_numbering
+from helixd.base.frames import NedPose
+from helixd.base.plan import MissionFrameKind, Plan
 from helixd.base.problems import Problems
 from helixd.base.run_files import TLOG_FILE
 from helixd.base.tasks import stop_task
-from helixd.config import ActuationBackend, HelixdConfig, SafetyConfig
-from helixd.link.command_client import CommandError, CommandRejected
+from helixd.config.root import HelixdConfig
+from helixd.config.safety import SafetyConfig
+from helixd.config.vehicle import ActuationBackend
 from helixd.link.connection import Autopilot
-from helixd.link.preflight import check_obedience
+from helixd.link.services.preflight import check_obedience
 from helixd.link.telemetry import Telemetry
-from helixd.link.tlog import LinkTlog, attach_tlog
 from helixd.link.vehicle import Change, HomePosition, TelemetryBounds, VehicleState
-from helixd.mav.arming import not_neutral_channel, rc_reading, throttle_must_read
-from helixd.mav.constants import (
-    MAV_CMD_NAV_RETURN_TO_LAUNCH,
-    MAV_CMD_REQUEST_MESSAGE,
-    MAVLINK_MSG_ID_HOME_POSITION,
-)
+from helixd.link.wire.tlog import LinkTlog, attach_tlog
 from helixd.mav.servo_functions import DO_SET_SERVO_FUNCTIONS, passthrough_input
 from helixd.mission.commands import SERVO_COMMANDS, stored_whole
-from helixd.mission.expand import ExpandOptions
 from helixd.mission.model import Mission
-from helixd.mission.resolve import Where, resolve
-from helixd.mission.resume import RunInputs, with_leg_start
-from helixd.runtime.autopilot_fence import autopilot_fence_check
-from helixd.runtime.media_plan import MediaRefused, media_path, placed_media_plan
-from helixd.runtime.notify import ServiceNotifier
-from helixd.runtime.planned import Replanner
-from helixd.runtime.show_plan import show_plan
+from helixd.report.notify import ServiceNotifier
 from helixd.runtime.signals import StopRequest
-from helixd.runtime.timing import judge_flight
-from helixd.safety.watchdogs import Fault, FaultCause, gps_fault, pose_invalid_fault
+from helixd.safety.watchdogs import Fault, gps_fault, pose_invalid_fault
 
 log = structlog.get_logger(__name__)
-# how often a confirmation asks the autopilot for a HEARTBEAT (s): a few of its control
-# periods, so an answer built before the change took effect is followed by one after it
-HEARTBEAT_ASK_S = 0.1
 T = TypeVar("T")
 
 
@@ -409,357 +393,6 @@ async def preflight(
     return Vehicle(pose, origin)
 
 
-# -- preflight: the mission from where the rover is ------------------------------------------
-
-
-async def autopilot_home(
-    ap: Autopilot,
-    cfg: HelixdConfig,
-    mission: Mission,
-    origin: tuple[float, float] | None,
-    stop: StopRequest,
-) -> HomePosition | None:
-    """The autopilot's home, for a mission with commands (NAV_RETURN_TO_LAUNCH)."""
-    if not mission.has_commands():
-        return None
-    home = await until_stopped(stop, ap.action.request_home(cfg.link.command_timeout_s * 3))
-    if home is not None:
-        log.info(
-            "home_position",
-            lat_deg=round(home.lat_deg, 7),
-            lon_deg=round(home.lon_deg, 7),
-            north_m=None if home.north_m is None else round(home.north_m, 2),
-            east_m=None if home.east_m is None else round(home.east_m, 2),
-        )
-        if home.north_m is None and origin is not None:  # sent without north/east
-            n, e = latlon_to_ne(home.lat_deg, home.lon_deg, *origin)
-            home = HomePosition(home.lat_deg, home.lon_deg, n, e)
-    return home
-
-
-def mission_frame(mission: Mission, start: NedPose) -> MissionFrame:
-    """The frame the plan is flown in: a ``start`` mission's starts at the rover."""
-    if mission.frame is MissionFrameKind.START:
-        return MissionFrame.start_at(start)
-    return MissionFrame.enu()
-
-
-def resolve_flight(
-    mission: Mission,
-    cfg: HelixdConfig,
-    origin: tuple[float, float] | None,
-    start: NedPose,
-    home: HomePosition | None,
-    options: ExpandOptions,
-    inputs: RunInputs | None = None,
-) -> tuple[Plan, Where]:
-    """The plan, and for a mission with commands its program from where the rover is
-    (``start``) and the autopilot's home; what the program cannot fly is refused."""
-    frame = mission_frame(mission, start)
-    where = Where()
-    if mission.has_commands():
-        here = frame.to_mission(start)
-        home_xy = None
-        if home is not None and home.north_m is not None and home.east_m is not None:
-            at = frame.to_mission(NedPose(home.north_m, home.east_m, 0.0))
-            home_xy = (at.x_m, at.y_m)
-        where = Where(start_xy_m=(here.x_m, here.y_m), home_xy_m=home_xy)
-    resolved = resolve(
-        mission, cfg.control, cfg.mission, origin, where, options,
-        cfg.safety.mission_time_limit_s,
-    )  # fmt: skip
-    if resolved.problems:
-        raise PreflightFailed(list(resolved.problems))
-    program = resolved.plan.program
-    returns = program is not None and any(
-        s.command == MAV_CMD_NAV_RETURN_TO_LAUNCH for s in program.steps
-    )
-    if returns and where.home_xy_m is None:
-        raise PreflightFailed(
-            [
-                "the mission returns home (NAV_RETURN_TO_LAUNCH) but the autopilot sent no "
-                "home position (HOME_POSITION): wait for its GPS home and try again"
-            ]
-        )
-    for note in resolved.notes:
-        log.info("mission_note", note=note)
-    return follow_medium(resolved.plan, mission, cfg, origin, start, inputs), where
-
-
-def follow_medium(
-    plan: Plan, mission: Mission, cfg: HelixdConfig, origin: tuple[float, float] | None,
-    start: NedPose, inputs: RunInputs | None = None,
-) -> Plan:  # fmt: skip
-    """``plan`` with each stretch in its medium's mode when the flight has a media map
-    (``inputs``: a resume's, to number the changes of mode as the whole mission)."""
-    try:
-        got = placed_media_plan(cfg, mission, plan, origin, start)
-    except MediaRefused as exc:
-        raise PreflightFailed(exc.problems) from None
-    if got is None:
-        return plan
-    flown = got.plan
-    vias = [w.via for w in flown.waypoints]
-    numbering = program_numbering(flown) if flown.program is not None else None
-    if numbering is None:
-        numbering = Numbering.of(vias) if inputs is None else inputs.numbering(vias)
-    for t in got.transitions:
-        wp = flown.waypoints[t.index]
-        log.info(
-            "media_transition",
-            # numbered as the operator numbers waypoints ("via → 2/9" at an inserted stop)
-            waypoint=numbering.label(t.index), stop="media" if wp.media_stop else "waypoint",
-            before=t.before.value, after=t.after.value,
-            x_m=round(t.xy_m[0], 2), y_m=round(t.xy_m[1], 2), medium=t.medium.value,
-        )  # fmt: skip
-    where = media_path(cfg, mission)
-    log.info(
-        "media_plan", stretches=len(got.stretches), transitions=len(got.transitions),
-        # what `helixd plot` draws the map's areas from, placed as the flight placed them
-        media_map=None if where is None else str(where.resolve()), frame=plan.frame.value,
-        start_north_m=round(start.north_m, 3), start_east_m=round(start.east_m, 3),
-        start_yaw_ned_rad=round(start.yaw_ned_rad, 4),
-    )  # fmt: skip
-    return got.plan
-
-
-async def place_mission(
-    ap: Autopilot,
-    cfg: HelixdConfig,
-    mission: Mission,
-    vehicle: Vehicle,
-    stop: StopRequest,
-    *,
-    replan_from: Replanner | None = None,
-    inputs: RunInputs | None = None,
-    options: ExpandOptions,
-) -> Checked:
-    """The mission placed from the rover's pose and the EKF origin: its first leg re-planned
-    from the rover (a route planned around obstacles), its plan (from the autopilot's home
-    for a mission with commands; a resume re-enters the interrupted leg), and the checks
-    ``helixd check`` ran, now with the start pose and the EKF origin (geofence radius and
-    polygon, distance to the first waypoint, time)."""
-    pose, origin = vehicle.pose, vehicle.origin
-    if replan_from is not None:  # planned legs: the first from the rover
-        try:
-            mission = replan_from((pose.north_m, pose.east_m), origin)
-        except ValueError as exc:
-            raise PreflightFailed(str(exc).splitlines()) from None
-    home = await autopilot_home(ap, cfg, mission, origin, stop)
-    plan, where = resolve_flight(mission, cfg, origin, pose, home, options, inputs)
-    if inputs is not None:  # a resume re-enters the interrupted leg
-        plan = with_leg_start(plan, mission, inputs.leg_start, cfg.control, cfg.mission, origin)
-    judged = judge_flight(
-        mission, cfg, start_ned=pose, origin_latlon_deg=origin, options=options, where=where
-    )
-    if judged.problems:
-        raise PreflightFailed(judged.problems)
-    return Checked(pose, origin, plan, mission, judged.cfg, home)
-
-
-async def show_checked_plan(
-    ap: Autopilot, cfg: HelixdConfig, checked: Checked, stop: StopRequest
-) -> str | None:
-    """Upload the resolved plan for the GCS to draw (never flown: helixd.runtime.show_plan);
-    a warning when it could not."""
-    timeout_s = cfg.link.command_timeout_s * 3
-    return await until_stopped(
-        stop, show_plan(ap, checked.plan, checked.start_ned, checked.origin, timeout_s)
-    )
-
-
-# -- the start gate, home, arm ---------------------------------------------------------------
-
-
-async def start_gate(
-    ap: Autopilot, cfg: HelixdConfig, stop: StopRequest, notifier: ServiceNotifier
-) -> None:
-    """Wait for the pilot's start switch (``startup.start_switch_channel``), if there is one."""
-    ch = cfg.startup.start_switch_channel
-    if ch is None:
-        return
-    threshold = cfg.startup.start_switch_threshold_us
-    log.info("waiting_for_start_switch", channel=ch, threshold_us=threshold)
-    notifier.status(f"waiting for the pilot: RC{ch} >= {threshold} us")
-    deadline = now_s() + cfg.startup.start_gate_timeout_s
-    while now_s() < deadline:
-        ap.feed()
-        notifier.watchdog()
-        rc = ap.state.rc_inputs_us
-        if len(rc) >= ch and rc[ch - 1] >= threshold:
-            log.info("start_switch_on", channel=ch, pwm_us=rc[ch - 1])
-            return
-        await until_stopped(stop, ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.2))
-    raise PreflightFailed(
-        [f"start switch RC{ch} not flipped within {cfg.startup.start_gate_timeout_s} s"]
-    )
-
-
-async def wait_home(
-    ap: Autopilot, cfg: HelixdConfig, on_status: Callable[[str], None]
-) -> str | None:
-    """Wait for the autopilot's home before arming, instead of forcing the arm; returns a
-    warning when arming is forced without one.
-
-    ArduPilot Rover sets home from the EKF's first position (``Rover::ahrs_update``),
-    sends HOME_POSITION when it does, and until then refuses to arm ("PreArm: AHRS:
-    waiting for home"). HOME_POSITION is asked for every ``startup.arm_retry_interval_s``
-    (ArduPilot answers only once home is set) for at most ``startup.home_timeout_s``; then
-    the run is refused (exit 3, nothing armed), or with ``startup.force_arm`` armed anyway.
-    """
-    startup = cfg.startup
-    deadline = now_s() + startup.home_timeout_s
-    waiting = False
-    while ap.state.home is None:
-        remaining = deadline - now_s()
-        if remaining <= 0.0:
-            text = (
-                f"the autopilot reported no home (HOME_POSITION) within "
-                f"startup.home_timeout_s = {startup.home_timeout_s:g} s; ArduPilot arms only "
-                "once its EKF has a position (GPS fix, EKF origin)"
-            )
-            if not startup.force_arm:
-                raise PreflightFailed([text])
-            log.warning("home_unknown_forcing", problem=text)
-            return f"{text}; arming forced (startup.force_arm)"
-        if not waiting:
-            waiting = True
-            log.info("waiting_for_home", timeout_s=startup.home_timeout_s)
-            on_status("arm (waiting for the autopilot's home)")
-        try:
-            await ap.action.command_long(MAV_CMD_REQUEST_MESSAGE, (MAVLINK_MSG_ID_HOME_POSITION,))
-        except CommandError as exc:  # it also sends HOME_POSITION by itself once set
-            log.info("home_request_failed", error=str(exc))
-        await ap.telemetry.wait_for(
-            lambda st: st.home is not None,
-            Change.HOME,
-            min(remaining, startup.arm_retry_interval_s),
-        )
-    home = ap.state.home
-    if home is not None:
-        log.info(
-            "home_known",
-            lat_deg=round(home.lat_deg, 7),
-            lon_deg=round(home.lon_deg, 7),
-            waited=waiting,
-        )
-    return None
-
-
-async def explain_arm_refusal(ap: Autopilot, exc: CommandRejected) -> CommandRejected:
-    """An "Arm: Throttle (RCn) is not neutral" refusal names what RCn must read (its
-    RCn_TRIM ± RCn_DZ, read now) and what it reads; any other refusal as it came."""
-    channel = not_neutral_channel(exc.statustext)
-    if channel is None:
-        return exc
-    trim, dz = await asyncio.gather(
-        ap.param.get(f"RC{channel}_TRIM"), ap.param.get(f"RC{channel}_DZ")
-    )
-    reading = rc_reading(ap.state.rc_inputs_us, channel)
-    hint = throttle_must_read(channel, trim, dz, reading)
-    return CommandRejected(exc.command_name, exc.result, exc.statustext, hint)
-
-
-async def arm(
-    ap: Autopilot, cfg: HelixdConfig, held: Held, on_status: Callable[[str], None]
-) -> str | None:
-    """Arm once the autopilot has a home, re-trying while PreArm checks refuse; returns the
-    warning of an arm forced without a home."""
-    if ap.state.armed_now:
-        return None
-    warning = await wait_home(ap, cfg, on_status)
-    startup = cfg.startup
-    deadline = now_s() + startup.arm_timeout_s
-    while True:
-        try:
-            await ap.action.arm(force=startup.force_arm)
-            held.armed_by_us = True
-            await confirm_armed(ap, cfg)
-            return warning
-        except CommandRejected as refused:
-            exc = await explain_arm_refusal(ap, refused)
-            if now_s() + startup.arm_retry_interval_s > deadline:
-                raise exc from None
-            log.warning(
-                "arm_refused_retrying", reason=str(exc), retry_in_s=startup.arm_retry_interval_s
-            )
-            on_status(f"arm (autopilot says: {exc.statustext or exc.result_name})")
-            await asyncio.sleep(startup.arm_retry_interval_s)
-
-
-async def confirm_mode(ap: Autopilot, cfg: HelixdConfig, mode: str) -> None:
-    """The ACK says 'accepted'; the HEARTBEAT's mode says it happened. Without this wait
-    a vehicle still armed in HOLD (left by a faulted run) would show its last HOLD
-    heartbeat to the flight loop, which reads it as a pilot takeover."""
-    await heartbeat_shows(
-        ap,
-        cfg,
-        lambda st: st.mode == mode,
-        lambda st: f"mode {mode} was accepted but HEARTBEAT still shows {st.mode}",
-    )
-
-
-async def confirm_armed(ap: Autopilot, cfg: HelixdConfig) -> None:
-    """The ACK says 'accepted'; the HEARTBEAT's armed flag says it happened."""
-    await heartbeat_shows(
-        ap,
-        cfg,
-        lambda st: st.armed_now,
-        lambda _: "arming was accepted but HEARTBEAT never showed armed",
-    )
-
-
-async def heartbeat_shows(
-    ap: Autopilot,
-    cfg: HelixdConfig,
-    holds: Callable[[VehicleState], bool],
-    refusal: Callable[[VehicleState], str],
-) -> None:
-    """Until a HEARTBEAT shows what was just acknowledged, asked for every
-    :data:`HEARTBEAT_ASK_S` (the autopilot's own come at 1 Hz: a start would wait up to a
-    second for one); PreflightFailed with ``refusal`` after two HEARTBEAT timeouts."""
-    deadline = now_s() + cfg.safety.heartbeat_timeout_s * 2
-    asked_s = -math.inf
-    while not holds(ap.state):
-        now = now_s()
-        if now > deadline:
-            raise PreflightFailed([refusal(ap.state)])
-        if now - asked_s >= HEARTBEAT_ASK_S:
-            ap.request_heartbeat()
-            asked_s = now
-        await ap.telemetry.next_pose(after_rx_s=None, timeout_s=0.05)
-
-
-def start_pose(
-    checked: Checked,
-    now: NedPose | None,
-    ap: Autopilot,
-    cfg: HelixdConfig,
-    options: ExpandOptions,
-) -> Checked:
-    """The mission frame starts where the rover is now, after the pilot's start switch: the
-    flight checked again from there (its start pose and the config in force from it); never
-    from an invalid pose: armed with pose telemetry rejected is a fault
-    (:class:`StartRefused`)."""
-    invalid = pose_invalid_too_long(ap, cfg)
-    if now is None and invalid is not None:
-        raise StartRefused(invalid, now_s())
-    if now is not None and now != checked.start_ned:
-        # The rover may have been moved while the start gate waited: check again from here.
-        moved = judge_flight(
-            checked.mission,
-            cfg,
-            start_ned=now,
-            origin_latlon_deg=checked.origin,
-            options=options,
-        )
-        if moved.problems:
-            why = "from the pose at arming: " + "; ".join(moved.problems)
-            raise StartRefused(Fault(FaultCause.PREFLIGHT, why), now_s())
-        return replace(checked, start_ned=now, cfg=moved.cfg)
-    return checked
-
-
 __all__ = [
     "Checked",
     "Held",
@@ -767,48 +400,13 @@ __all__ = [
     "StartRefused",
     "StopBeforeFlight",
     "Vehicle",
-    "arm",
     "attach",
-    "autopilot_home",
-    "confirm_armed",
-    "confirm_mode",
     "connect",
     "feeding",
     "fresh_pose",
-    "mission_frame",
-    "place_mission",
     "pose_invalid_too_long",
     "preflight",
-    "resolve_flight",
     "servo_output_problems",
-    "show_checked_plan",
-    "start_gate",
-    "start_pose",
     "start_sink",
     "until_stopped",
-    "wait_home",
 ]
-
-
-async def judge_autopilot_fence(
-    ap: Autopilot, checked: Checked, warn: Callable[[str | None], None]
-) -> None:
-    """The route from the rover through every waypoint against the autopilot's own fence
-    (:mod:`helixd.runtime.autopilot_fence`): a route it would stop is refused (exit 3)."""
-    frame = mission_frame(checked.mission, checked.start_ned)
-    start = checked.start_ned
-    points = [(start.north_m, start.east_m)]
-    labels = ["the start"]
-    n = 0
-    for w in checked.plan.waypoints:
-        points.append(frame.to_ned(w.x_m, w.y_m))
-        if w.via:
-            labels.append(f"the via point → {n + 1}")
-        else:
-            n += 1
-            labels.append(f"waypoint {n}")
-    problems, warnings = await autopilot_fence_check(ap, checked.origin, points, labels)
-    for warning in warnings:
-        warn(warning)
-    if problems:
-        raise PreflightFailed(problems)

@@ -24,7 +24,7 @@ import structlog
 from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
 from helixd.base.plan import MissionFrameKind, Plan
 from helixd.link.connection import Autopilot
-from helixd.link.mission_transfer import MissionTransferError
+from helixd.link.services.mission_transfer import MissionTransferError
 from helixd.mav.url import LinkError
 from helixd.mission.formats.items import FormatError, GcsMission, waypoint_item
 from helixd.mission.formats.wire import gcs_to_wire

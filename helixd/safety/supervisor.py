@@ -25,10 +25,16 @@ import structlog
 
 from helixd.base.clock import now_s
 from helixd.base.frames import NedPose
-from helixd.config import SafetyConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.vehicle import PoseSample, VehicleState
 from helixd.safety.autopilot_failsafe import FailsafeEvidence, classify_mode_change
-from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonitor
+from helixd.safety.watchdogs import (
+    HANDED_CAUSES,
+    Fault,
+    FaultCause,
+    SafetyInputs,
+    SafetyMonitor,
+)
 
 log = structlog.get_logger(__name__)
 
@@ -226,11 +232,7 @@ async def fall_back(
         report.stopped_after_s = now_s() - detected_s
     # the pilot drives, or the crew moved the autopilot's AUTO to another item, or gave it
     # another place or mode helixd drives in: no HOLD
-    released = fault is not None and fault.cause in (
-        FaultCause.RELEASED,
-        FaultCause.ITEM_SET,
-        FaultCause.HANDOVER,
-    )
+    released = fault is not None and fault.cause in HANDED_CAUSES
     if autopilot is not None and not released:
         report.hold_requested_after_s = now_s() - detected_s
         tries: list[str] = []

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 from enum import StrEnum
 
 from helixd.base.polygon import point_in_polygon
-from helixd.config import SafetyConfig
+from helixd.config.safety import SafetyConfig
 
 RC_CENTRE_US = 1500  # stick centre of a standard RC channel (µs)
 MODE_CHANGED_PREFIX = "mode changed to "  # a takeover by mode change: the detail's start
@@ -89,17 +89,16 @@ class FaultCause(StrEnum):
     AUTOPILOT_FAILSAFE = "autopilot_failsafe"  # a failsafe (system_status CRITICAL), no text
 
 
+# The crew's hand-over of a flight in the autopilot's own mode: the next flight drives (a new
+# current item, a new place or mode helixd drives in) ...
+NEXT_FLIGHT_CAUSES = frozenset({FaultCause.ITEM_SET, FaultCause.HANDOVER})
+# ... or the pilot does (RELEASED): no HOLD asked, nothing disarmed, the mission's verdict stands
+HANDED_CAUSES = frozenset({FaultCause.RELEASED, *NEXT_FLIGHT_CAUSES})
+# The crew stopped the flight (an operator's pause, a stop signal): no fault, and a continue
+# goes on from where it stopped.
+STOP_CAUSES = frozenset({FaultCause.SIGNAL, FaultCause.PAUSED})
 # Causes that mean "a human took over or asked to stop", not "something broke".
-OPERATOR_CAUSES = frozenset(
-    {
-        FaultCause.PILOT_TAKEOVER,
-        FaultCause.SIGNAL,
-        FaultCause.PAUSED,
-        FaultCause.RELEASED,
-        FaultCause.ITEM_SET,
-        FaultCause.HANDOVER,
-    }
-)
+OPERATOR_CAUSES = frozenset({FaultCause.PILOT_TAKEOVER, *STOP_CAUSES, *HANDED_CAUSES})
 
 
 # What each cause is called where a person reads it (a ground station's messages on a tablet):

@@ -1,6 +1,6 @@
 """``helixd serve``'s verdict on the mission it would fly: the autopilot's downloaded mission
 (or ``serve.mission_file``), checked as ``helixd check`` and ``helixd run`` check it
-(:func:`helixd.runtime.prepare.prepare_flight`).
+(:func:`helixd.prepare.builder.prepare_flight`).
 
 Each function returns a :class:`Verdict` — the checked mission, or the state and the texts
 the service tells the ground station; the service (:mod:`helixd.serve.service`) applies and
@@ -16,17 +16,17 @@ from typing import Any
 import structlog
 
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.models import as_items
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.model import Mission
 from helixd.mission.resume import sha256_text
 from helixd.planning.mapfile import OccupancyMap
-from helixd.runtime.autopilot_mission import MissionRefused, convert_download, ground_station_mode
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.planned import Flight
-from helixd.runtime.prepare import AutopilotMission, MissionFile, prepare_flight
+from helixd.prepare.autopilot_mission import MissionRefused, convert_download, ground_station_mode
+from helixd.prepare.builder import AutopilotMission, MissionFile, prepare_flight
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.planned import Flight
 from helixd.serve.core import ServeState
 
 log = structlog.get_logger(__name__)

@@ -15,7 +15,7 @@ judged the same way:
 * ``MAV_CMD_DO_PAUSE_CONTINUE`` (param1 0 pause, 1 continue) addressed to helixd; 1 also
   ends a NAV_LOITER_UNLIM hold of the flight in progress. A continue goes on from the first
   waypoint not reached, or a mission with commands from the step it stopped at
-  (:func:`helixd.runtime.prepare.continue_commands`).
+  (:func:`helixd.prepare.builder.continue_commands`).
 * ``MAV_CMD_DO_CHANGE_SPEED`` (param2 m/s) addressed to helixd (:func:`answer_speed`): the
   cruise speed of the flight in progress from now on. One sent to the autopilot (the
   ground station's fly view) cannot reach helixd: ArduPilot handles it itself, forwards it
@@ -58,7 +58,7 @@ from helixd.mav.constants import (
 )
 from helixd.mission.commands import SPEED_MIN_MPS, speed_refused
 from helixd.runtime.mode_gate import AUTO_MODE, GOTO_MODES, same_place
-from helixd.safety.watchdogs import FaultCause
+from helixd.safety.watchdogs import HANDED_CAUSES, STOP_CAUSES, FaultCause
 
 __all__ = [
     "GROUND_SPEED_TYPES",
@@ -75,6 +75,7 @@ __all__ = [
     "answer_goto",
     "answer_speed",
     "answer_switch",
+    "crew_paused",
     "radio_live",
     "state_after_flight",
 ]
@@ -127,6 +128,7 @@ class Answer:
     request: Request | None = None  # what to do (ACCEPTED only)
     speed_mps: float | None = None  # Request.SPEED: the speed asked (m/s)
     item: int = 0  # FROM_ITEM: the mission item to start from
+    reason: str = ""  # PAUSE: why, in words (the flight's pause names it, and who asked)
 
 
 def _finite_int(value: float) -> int | None:
@@ -172,8 +174,7 @@ def answer_command(
         if p1 == 0:
             if view.state is not ServeState.FLYING:
                 return Answer(MAV_RESULT_DENIED, "pause: not flying")
-            pausing = "pausing: pause from the ground station"  # words, not the command's name
-            return Answer(MAV_RESULT_ACCEPTED, pausing, Request.PAUSE)
+            return _pause("pause from the ground station")  # words, not the command's name
         if p1 == 1:
             if view.state is ServeState.FLYING and view.holding:
                 return Answer(MAV_RESULT_ACCEPTED, "continuing after the hold", Request.RELEASE)
@@ -228,6 +229,10 @@ def answer_speed(view: ServeView, params: tuple[float, ...]) -> Answer:
     if view.state is not ServeState.FLYING:
         return Answer(MAV_RESULT_DENIED, "change speed: not flying")
     return Answer(MAV_RESULT_ACCEPTED, "", Request.SPEED, speed_mps=asked)
+
+
+def _pause(reason: str) -> Answer:
+    return Answer(MAV_RESULT_ACCEPTED, f"pausing: {reason}", Request.PAUSE, reason=reason)
 
 
 def _start(view: ServeView, request: Request, item: int = 0) -> Answer:
@@ -298,7 +303,7 @@ def answer_switch(view: ServeView, edge: SwitchEdge) -> Answer | None:
     DENIED (the text goes to the GCS); a falling edge pauses a flight."""
     if edge is SwitchEdge.FALLING:
         if view.state is ServeState.FLYING:
-            return Answer(MAV_RESULT_ACCEPTED, "pausing: start switch low", Request.PAUSE)
+            return _pause("start switch low")
         return None
     if edge is SwitchEdge.RISING:
         if view.busy:
@@ -438,6 +443,13 @@ def answer_goto(view: ServeView, mode: str, motion_mode_set: bool) -> Answer:
     return Answer(MAV_RESULT_ACCEPTED, f"{mode}: driving to the autopilot's place", Request.GOTO)
 
 
+def crew_paused(cause: FaultCause | None, paused: bool) -> bool:
+    """Whether a flight ended on an operator's pause: its cause, or (``paused``: the pause
+    asked of its stop request) a pause that came while it was still starting, before any
+    cause; a fault that came first stays a fault."""
+    return cause is FaultCause.PAUSED or (paused and cause is None)
+
+
 def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -> ServeState:
     """Where a flight leaves the service: completed; paused (the flight ended on an operator's
     pause, ``paused``, even one that came while it was still starting, or on the service's own
@@ -445,7 +457,6 @@ def state_after_flight(code: ExitCode, cause: FaultCause | None, paused: bool) -
     pilot's takeover, a refusal at its start)."""
     if code is ExitCode.OK:
         return ServeState.COMPLETED
-    handed = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
-    if cause in (FaultCause.PAUSED, FaultCause.SIGNAL, *handed) or (paused and cause is None):
+    if cause in STOP_CAUSES or cause in HANDED_CAUSES or crew_paused(cause, paused):
         return ServeState.PAUSED
     return ServeState.FAULTED

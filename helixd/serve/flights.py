@@ -7,19 +7,21 @@ from __future__ import annotations
 
 import asyncio
 import json
-from collections.abc import Awaitable, Callable
+from collections.abc import Awaitable
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from functools import partial
 from pathlib import Path
+from typing import NamedTuple
 
 import structlog
 
 from helixd.base.clock import now_s
 from helixd.base.plan import Numbering
 from helixd.base.run_files import EVENTS_FILE
-from helixd.config import HelixdConfig
-from helixd.link.command_client import CommandError
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandError
 from helixd.link.vehicle import PositionTarget
 from helixd.mav.constants import (
     MAV_SEVERITY_ERROR,
@@ -30,15 +32,7 @@ from helixd.mav.constants import (
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.resume import event_whole, last_step_started, with_walk
-from helixd.recorder.events import read_events
-from helixd.recorder.summary import RunSummary
-from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
-from helixd.runtime.flight import DRIVE_MANUAL, Driving
-from helixd.runtime.host import ServeHost
-from helixd.runtime.inputs import InputsRefused
-from helixd.runtime.mode_gate import AUTO_MODE, PlaceRule, crew_mode_of
-from helixd.runtime.planned import Flight
-from helixd.runtime.prepare import (
+from helixd.prepare.builder import (
     AutopilotPlace,
     AutoWalk,
     Resume,
@@ -46,15 +40,23 @@ from helixd.runtime.prepare import (
     from_autopilot_item,
     prepare_flight,
 )
+from helixd.prepare.inputs import InputsRefused
+from helixd.prepare.planned import Flight
+from helixd.recorder.events import read_events
+from helixd.recorder.summary import RunSummary
+from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
+from helixd.runtime.host import ServeHost
+from helixd.runtime.mode_gate import AUTO_MODE, DRIVE_MANUAL, Driving, PlaceRule, crew_mode_of
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import HOLD_MODE
-from helixd.safety.watchdogs import FaultCause
-from helixd.serve.check import ReadyMission
+from helixd.safety.watchdogs import HANDED_CAUSES, NEXT_FLIGHT_CAUSES, FaultCause
+from helixd.serve.check import ReadyMission, Verdict
 from helixd.serve.core import (
     AutoWatch,
     Request,
     ServeState,
     SwitchWatch,
+    crew_paused,
     state_after_flight,
 )
 from helixd.serve.mission import MissionWatch
@@ -63,9 +65,34 @@ from helixd.serve.status import ServeStatus
 
 log = structlog.get_logger(__name__)
 
-# a flight that ends so is the crew's doing (MANUAL, another item, a new place or mode): the
-# mission's verdict stands, and AUTO again (or still) starts the next
-HANDED = (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
+
+@dataclass(frozen=True, slots=True)
+class Interrupted:
+    """The run a continue goes on from: of the mission with this fingerprint (the state
+    file's record)."""
+
+    fingerprint: str
+    run_dir: Path
+
+
+class ToFly(NamedTuple):
+    """What a start flies: the flight, its config (the mission's limits), and where its run
+    directory goes (an interrupted run's continue: beside that run)."""
+
+    flight: Flight
+    cfg: HelixdConfig
+    run_root: Path
+
+
+@dataclass(frozen=True, slots=True)
+class WalkLetGo:
+    """The last AUTO flight of a mission with commands let go with the autopilot armed (a
+    release, a handover): the autopilot keeps its jump counters, the next AUTO flight of the
+    same mission walks on from where this one was (:func:`held_walk`)."""
+
+    fingerprint: str
+    options: ExpandOptions  # the walk it flew
+    run_dir: Path
 
 
 def after_flight(watch: AutoWatch, cause: FaultCause | None, hold_acked_s: float | None) -> None:
@@ -74,7 +101,7 @@ def after_flight(watch: AutoWatch, cause: FaultCause | None, hold_acked_s: float
     acknowledged at ``hold_acked_s``, the first mode report after that is news (AUTO: the
     crew's Start), as after a refused start; else the autopilot must first be seen out of
     AUTO, so a flight ending with the autopilot still in AUTO never starts the next itself."""
-    if cause in HANDED:
+    if cause in HANDED_CAUSES:  # the crew's doing: the mission's verdict stands
         watch.flight_ended(left_auto=True)
     elif hold_acked_s is not None:
         watch.left(hold_acked_s)
@@ -88,25 +115,24 @@ SELF_DRIVING_MODES = (AUTO_MODE, "GUIDED")
 
 class Flights:
     """The service's flight in progress (at most one), and what the last ones left: the
-    interrupted run a continue goes on from, and the walk of an AUTO flight let go."""
+    interrupted run a continue goes on from, the walk of an AUTO flight let go, and the AUTO
+    watch a flight's end rearms. It reads the mission watch and tells its verdict itself
+    (:meth:`read_mission`: while idle, and again at each start)."""
 
     def __init__(
         self,
         opts: ServeOptions,
         mission: MissionWatch,
         status: ServeStatus,
-        auto_watch: AutoWatch,
         switch: SwitchWatch | None,
-        read_mission: Callable[[Autopilot], Awaitable[None]],
         service_stop: StopRequest,
     ) -> None:
         self.opts = opts
         self.cfg = opts.cfg
-        self.mission = mission
+        self.mission = mission  # read again, and its verdict told, by :meth:`read_mission`
         self.status = status
-        self.auto_watch = auto_watch
+        self.auto_watch = AutoWatch()  # the crew's start: the autopilot armed in AUTO
         self.switch = switch  # the radio's start switch, when there is one: low refuses
-        self._read_mission = read_mission
         self._service_stop = service_stop
         self.busy = False  # a start taken, its flight not yet under way
         self.task: asyncio.Task[None] | None = None
@@ -115,10 +141,8 @@ class Flights:
         self.count = 0
         self._current_item: int | None = None  # the item last set as the autopilot's current
         self._side_tasks: set[asyncio.Task[None]] = set()
-        self.interrupted = read_state_file(opts.state_file)  # (fingerprint, run_dir) or None
-        # the last AUTO flight of a mission with commands let go with the autopilot armed:
-        # (fingerprint, its walk, its run directory); the autopilot keeps its jump counters
-        self.auto_walk: tuple[str, ExpandOptions, Path] | None = None
+        self.interrupted = read_state_file(opts.state_file)
+        self.auto_walk: WalkLetGo | None = None
         # the last flight ended on the crew's new current item: the next AUTO flight drives
         # there from where the rover is, not along the skipped leg
         self.item_set = False
@@ -132,11 +156,42 @@ class Flights:
         return (
             self.interrupted is not None
             and checked is not None
-            and self.interrupted[0] == checked.fingerprint
+            and self.interrupted.fingerprint == checked.fingerprint
         )
 
     def holding(self) -> bool:
         return self.runner is not None and self.runner.holding_forever()
+
+    # -- the mission's verdict ----------------------------------------------------------------
+
+    async def read_mission(self, ap: Autopilot) -> None:
+        """The mission read again (recheck while IDLE); a new verdict told."""
+        verdict = await self.mission.read(ap, recheck=self.status.state is ServeState.IDLE)
+        if verdict is not None:
+            self.apply(verdict)
+
+    def apply(self, verdict: Verdict) -> None:
+        """A mission's verdict: READY with the checked mission (and whether a start continues
+        an interrupted run of it), REFUSED (every problem in the log, the first few to the
+        GCS) or IDLE."""
+        for p in verdict.problems:
+            log.error("serve_mission_refused", problem=p)
+        if verdict.state is ServeState.REFUSED:
+            self.status.set(ServeState.REFUSED, verdict.detail, MAV_SEVERITY_ERROR)
+            for text in verdict.more:
+                self.status.gcs.say(text, MAV_SEVERITY_ERROR)
+            return
+        if verdict.checked is None:
+            self.status.set(verdict.state, verdict.detail)
+            return
+        log.info(
+            "serve_mission_checked",
+            waypoints=verdict.checked.waypoints,
+            fingerprint=verdict.checked.fingerprint[:12],
+        )
+        resume = self.resumable(verdict.checked)
+        suffix = " (interrupted: a start continues it)" if resume else ""
+        self.status.set(ServeState.READY, verdict.detail + suffix, MAV_SEVERITY_INFO)
 
     # -- the crew's commands to the flight in progress ----------------------------------------
 
@@ -184,7 +239,7 @@ class Flights:
 
     # -- flights ------------------------------------------------------------------------------
 
-    def _flight_for(self, request: Request, item: int = 0) -> tuple[Flight, HelixdConfig, Path]:
+    def _flight_for(self, request: Request, item: int = 0) -> ToFly:
         """What to fly: the checked mission from item 1 (or ``item``, FROM_ITEM), or the
         interrupted run's remainder."""
         checked = self.mission.checked
@@ -194,14 +249,14 @@ class Flights:
             held = held_walk(self.auto_walk, checked.fingerprint)
             item_now = self.mission.autopilot_item
             flight = from_autopilot_item(checked.flight, item_now, checked.cfg, held, from_here)
-            return flight, checked.cfg, self.opts.run_root
+            return ToFly(flight, checked.cfg, self.opts.run_root)
         if request is Request.FROM_ITEM:  # jump counters zero, as AP_Mission::start
             flight = from_autopilot_item(checked.flight, item, checked.cfg)
-            return flight, checked.cfg, self.opts.run_root
+            return ToFly(flight, checked.cfg, self.opts.run_root)
         interrupted = self.interrupted
         # a continue of a run of another plan (one uploaded since) flies the new one whole
         if request is Request.CONTINUE and interrupted is not None and self.resumable(checked):
-            run_dir = interrupted[1]
+            run_dir = interrupted.run_dir
             if checked.flight.mission.has_commands():  # the walk goes on from its step
                 flight = continue_commands(checked.flight, run_dir, checked.cfg)
                 o = flight.options
@@ -213,13 +268,13 @@ class Flights:
                     speed_mps=o.speed_mps,
                     reverse=o.reverse,
                 )
-                return flight, checked.cfg, run_dir.parent
+                return ToFly(flight, checked.cfg, run_dir.parent)
             resumed = prepare_flight(Resume(run_dir), self.opts.config_path)
             for note in resumed.notes:
                 log.info("serve_resume", note=note)
             cfg = resumed.cfg.model_copy(update={"link": self.cfg.link})
-            return resumed.flight, cfg, run_dir.parent
-        return checked.flight, checked.cfg, self.opts.run_root
+            return ToFly(resumed.flight, cfg, run_dir.parent)
+        return ToFly(checked.flight, checked.cfg, self.opts.run_root)
 
     async def _flying(self, flight: Awaitable[None]) -> None:
         """A flight task: whatever ends it, the service is free for the next."""
@@ -256,12 +311,13 @@ class Flights:
             on_pause=self._held,
             disarm_when_complete=self.cfg.serve.disarm_when_complete,
         )
-        runner, outcome, cause = await self._run_flight(opts, host, f"{mode} to {where}")
+        runner, outcome = await self._run_flight(opts, host, f"{mode} to {where}")
+        cause = outcome.cause
         summary = outcome.summary
-        handed = cause in HANDED
+        handed = cause in HANDED_CAUSES
         after_flight(self.auto_watch, cause, host.hold_acked_s)
         log.info("serve_flight_end", request=Request.GOTO.value, exit_code=int(outcome.exit_code))
-        if handed or cause is FaultCause.PAUSED or stop.paused:
+        if handed or crew_paused(cause, stop.paused):
             self.status.set(*before, quiet=handed)  # the mission's verdict stands
             return
         text = flight_end_text(summary, runner.numbering(), outcome.messages)
@@ -269,7 +325,7 @@ class Flights:
 
     async def _fly(self, ap: Autopilot, request: Request, who: str, item: int = 0) -> None:
         before = self.mission.fingerprint
-        await self._read_mission(ap)  # fly what the autopilot holds now
+        await self.read_mission(ap)  # fly what the autopilot holds now
         checked = self.mission.checked
         if self.mission.read_error is not None:
             why = f"the mission could not be read ({self.mission.read_error}); start again"
@@ -309,19 +365,20 @@ class Flights:
             disarm_when_complete=self.cfg.serve.disarm_when_complete,
         )
         what = f"the new {checked.name}" if changed else f"{request.value} by {who}"
-        runner, outcome, cause = await self._run_flight(opts, host, what)
+        runner, outcome = await self._run_flight(opts, host, what)
+        cause = outcome.cause
         # released to the pilot, or moved to another item: AUTO again (or still) starts
         after_flight(self.auto_watch, cause, host.hold_acked_s)
         self.item_set = cause is FaultCause.ITEM_SET
-        let_go = auto and cause in HANDED and flight.mission.has_commands()
+        let_go = auto and cause in HANDED_CAUSES and flight.mission.has_commands()
         self.auto_walk = None
         if let_go and outcome.run_dir is not None:
-            self.auto_walk = (fingerprint, flight.options, outcome.run_dir)
+            self.auto_walk = WalkLetGo(fingerprint, flight.options, outcome.run_dir)
         state = state_after_flight(outcome.exit_code, cause, stop.paused)
         if state is ServeState.COMPLETED:
             self.interrupted = None
         elif outcome.run_dir is not None:
-            self.interrupted = (fingerprint, outcome.run_dir)
+            self.interrupted = Interrupted(fingerprint, outcome.run_dir)
         write_state_file(self.opts.state_file, self.interrupted, state)
         if state is not ServeState.COMPLETED and self._current_item is not None:
             # ArduPilot resets its mission when disarmed outside AUTO (AP_Arming_Rover::
@@ -332,7 +389,7 @@ class Flights:
         severity = MAV_SEVERITY_NOTICE if state is not ServeState.FAULTED else MAV_SEVERITY_ERROR
         log.info("serve_flight_end", state=state.name.lower(), exit_code=int(outcome.exit_code))
         # handed to the next flight at once (a new place, a new item): it says where it goes
-        handover = cause in (FaultCause.HANDOVER, FaultCause.ITEM_SET)
+        handover = cause in NEXT_FLIGHT_CAUSES
         self.status.set(state, text, severity, quiet=handover)
 
     async def _refuse(self, ap: Autopilot, text: str, severity: int = MAV_SEVERITY_ERROR) -> None:
@@ -361,9 +418,9 @@ class Flights:
 
     async def _run_flight(
         self, opts: RunOptions, host: ServeHost, what: str
-    ) -> tuple[MissionRunner, RunOutcome, FaultCause | None]:
+    ) -> tuple[MissionRunner, RunOutcome]:
         """One flight on the service's link: FLYING while the runner runs; its runner (for
-        the operator's numbering), outcome and cause."""
+        the operator's numbering) and outcome (its cause with it)."""
         self.count += 1
         self.status.set(ServeState.FLYING, what)
         self.busy = False
@@ -378,8 +435,7 @@ class Flights:
         finally:
             self.runner = None
         self.busy = True
-        summary = outcome.summary
-        return runner, outcome, cause_of(summary.fault if summary is not None else None)
+        return runner, outcome
 
     def _held(self, held: bool, mode: str) -> None:
         """The flight in progress paused by the autopilot's mode, or going on: hx_state 5, 4."""
@@ -400,13 +456,13 @@ class Flights:
         task.add_done_callback(self._side_tasks.discard)
 
 
-def held_walk(walk: tuple[str, ExpandOptions, Path] | None, fingerprint: str) -> AutoWalk | None:
+def held_walk(walk: WalkLetGo | None, fingerprint: str) -> AutoWalk | None:
     """Where the last AUTO flight of this mission was let go, while the autopilot has stayed
     armed since, from its event log: the step the autopilot's own item was on (followed along
     the walk: ``autopilot_step``, ``autopilot_item_set``), else the last step helixd started."""
-    if walk is None or walk[0] != fingerprint:
+    if walk is None or walk.fingerprint != fingerprint:
         return None
-    _, options, run_dir = walk
+    options, run_dir = walk.options, walk.run_dir
     events = read_events(run_dir / EVENTS_FILE)
     step, autopilot = last_step_started(events), 0
     for ev in events:
@@ -451,12 +507,6 @@ def place_rule(cfg: HelixdConfig) -> PlaceRule:
     return PlaceRule(cfg.serve.target_stale_s, cfg.serve.same_place_m)
 
 
-def cause_of(fault_text: str | None) -> FaultCause | None:
-    """The fault cause a summary's ``fault`` ("cause: detail") starts with."""
-    from_text = (fault_text or "").split(":", 1)[0]
-    return next((c for c in FaultCause if c.value == from_text), None)
-
-
 def flight_end_text(summary: RunSummary | None, numbering: Numbering, messages: list[str]) -> str:
     """What the ground station reads after the state word when a flight ends: the waypoints
     reached in its own numbering (of the whole mission, as 'reached WP 3/3' counted them),
@@ -480,7 +530,7 @@ def flight_end_text(summary: RunSummary | None, numbering: Numbering, messages: 
 # -- the state file (which mission was interrupted where) ------------------------------------
 
 
-def read_state_file(path: Path) -> tuple[str, Path] | None:
+def read_state_file(path: Path) -> Interrupted | None:
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
@@ -495,14 +545,14 @@ def read_state_file(path: Path) -> tuple[str, Path] | None:
         log.warning("serve_state_run_dir_gone", path=str(path), run_dir=run_dir)
         return None
     log.info("serve_state_loaded", run_dir=run_dir, mission_sha256=fingerprint[:12])
-    return fingerprint, Path(run_dir)
+    return Interrupted(fingerprint, Path(run_dir))
 
 
-def write_state_file(path: Path, interrupted: tuple[str, Path] | None, state: ServeState) -> None:
+def write_state_file(path: Path, interrupted: Interrupted | None, state: ServeState) -> None:
     record = {
         "state": state.name.lower(),
-        "mission_sha256": None if interrupted is None else interrupted[0],
-        "run_dir": None if interrupted is None else str(interrupted[1].resolve()),
+        "mission_sha256": None if interrupted is None else interrupted.fingerprint,
+        "run_dir": None if interrupted is None else str(interrupted.run_dir.resolve()),
         "updated_utc": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     tmp = path.with_suffix(".tmp")
@@ -515,10 +565,11 @@ def write_state_file(path: Path, interrupted: tuple[str, Path] | None, state: Se
 
 
 __all__ = [
-    "HANDED",
     "Flights",
+    "Interrupted",
+    "ToFly",
+    "WalkLetGo",
     "after_flight",
-    "cause_of",
     "flight_end_text",
     "held_walk",
     "read_state_file",

@@ -11,10 +11,10 @@ import structlog
 
 from helixd.base.clock import now_s
 from helixd.link.connection import Autopilot, MavMsg
-from helixd.link.mission_transfer import MissionTransferError
+from helixd.link.services.mission_transfer import MissionTransferError
 from helixd.mav.url import LinkError
 from helixd.mission.formats.items import GcsMission
-from helixd.runtime.autopilot_mission import items_sha256
+from helixd.prepare.autopilot_mission import items_sha256
 from helixd.serve.check import (
     CheckInputs,
     ReadyMission,

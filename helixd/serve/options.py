@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.expand import ExpandOptions
 from helixd.planning.mapfile import OccupancyMap
 

@@ -27,27 +27,24 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
 from helixd.base.exitcodes import ExitCode
-from helixd.link.command_client import CommandError
 from helixd.link.connection import Autopilot, MavMsg
-from helixd.link.preflight import check_obedience
+from helixd.link.services.command_client import CommandError
+from helixd.link.services.preflight import check_obedience
 from helixd.mav.constants import (
     MAV_RESULT_ACCEPTED,
     MAV_SEVERITY_ERROR,
-    MAV_SEVERITY_INFO,
     MAV_SEVERITY_WARNING,
 )
 from helixd.mav.url import LinkError, heartbeat_wait_text
-from helixd.runtime.autopilot_mission import ground_station_mode
-from helixd.runtime.gcs_feed import GcsFeed
+from helixd.prepare.autopilot_mission import ground_station_mode
+from helixd.prepare.builder import AutopilotPlace
+from helixd.report.gcs_feed import GcsFeed
+from helixd.report.notify import ServiceNotifier
 from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of, crew_mode_rx_s, current_target_of
-from helixd.runtime.notify import ServiceNotifier
-from helixd.runtime.prepare import AutopilotPlace
 from helixd.runtime.signals import StopRequest, install, uninstall
 from helixd.safety.supervisor import HOLD_MODE
-from helixd.serve.check import Verdict
 from helixd.serve.core import (
     Answer,
-    AutoWatch,
     GotoWatch,
     Request,
     ServeState,
@@ -84,19 +81,10 @@ class Service:
             else SwitchWatch(self.cfg.startup.start_switch_threshold_us)
         )
         self._switch_live = False  # the start switch last read from a live radio
-        self.auto_watch = AutoWatch()  # the crew's start: the autopilot armed in AUTO
         # the autopilot's place in GUIDED, RTL, SMART_RTL: a flight there
         self.goto_watch = GotoWatch(self.cfg.serve.same_place_m)
         self.mission = MissionWatch(opts)
-        self.flights = Flights(
-            opts,
-            self.mission,
-            self.status,
-            self.auto_watch,
-            self.switch,
-            self._read_mission,
-            self.stop,
-        )
+        self.flights = Flights(opts, self.mission, self.status, self.switch, self.stop)
         self._ap: Autopilot | None = None
         self._warm: asyncio.Task[None] | None = None  # the parameters read while idle
         self._reboots = 0  # the autopilot's reboots seen: its parameters read again after one
@@ -213,7 +201,7 @@ class Service:
                     if self.status.state is ServeState.CONNECTING:
                         self.status.set(ServeState.IDLE, "reading the autopilot's mission")
                 if self.mission.read_due(now):
-                    await self._read_mission(ap)
+                    await self.flights.read_mission(ap)
                 if streams and not self.flights.flying:
                     await self._pace_pose(ap, self._idle_pose_hz(ap))
             if up or flying:
@@ -277,36 +265,6 @@ class Service:
             return False
         return True
 
-    # -- the mission's verdict ----------------------------------------------------------------
-
-    async def _read_mission(self, ap: Autopilot) -> None:
-        """The mission read again; a new verdict told."""
-        verdict = await self.mission.read(ap, recheck=self.status.state is ServeState.IDLE)
-        if verdict is not None:
-            self._apply(verdict)
-
-    def _apply(self, verdict: Verdict) -> None:
-        """A mission's verdict: READY with the checked mission, REFUSED (every problem in the
-        log, the first few to the GCS) or IDLE."""
-        for p in verdict.problems:
-            log.error("serve_mission_refused", problem=p)
-        if verdict.state is ServeState.REFUSED:
-            self.status.set(ServeState.REFUSED, verdict.detail, MAV_SEVERITY_ERROR)
-            for text in verdict.more:
-                self.gcs.say(text, MAV_SEVERITY_ERROR)
-            return
-        if verdict.checked is None:
-            self.status.set(verdict.state, verdict.detail)
-            return
-        log.info(
-            "serve_mission_checked",
-            waypoints=verdict.checked.waypoints,
-            fingerprint=verdict.checked.fingerprint[:12],
-        )
-        resume = self.view().resumable
-        suffix = " (interrupted: a start continues it)" if resume else ""
-        self.status.set(ServeState.READY, verdict.detail + suffix, MAV_SEVERITY_INFO)
-
     # -- operators ----------------------------------------------------------------------------
 
     def _watch_switch(self, ap: Autopilot) -> None:
@@ -339,12 +297,13 @@ class Service:
         if not st.armed and mode != AUTO_MODE:
             self.flights.auto_walk = None  # AP_Arming_Rover::disarm resets it outside AUTO
         flying = self.flights.flying
-        if not self.auto_watch.update(st.armed, mode, flying, crew_mode_rx_s(st)):
+        auto_watch = self.flights.auto_watch
+        if not auto_watch.update(st.armed, mode, flying, crew_mode_rx_s(st)):
             return
         answer = answer_auto(self.view())
         if answer is None:
             return  # the mission is still being read: the start waits for the verdict
-        self.auto_watch.taken()
+        auto_watch.taken()
         item = self.mission.autopilot_item
         log.info("auto_start", item=item, result=answer.result, text=answer.text)
         if answer.result != MAV_RESULT_ACCEPTED:
@@ -421,7 +380,7 @@ class Service:
         elif answer.request is Request.SPEED:
             self.flights.change_speed(answer.speed_mps, who)
         elif answer.request is Request.PAUSE:
-            self.flights.pause(f"{answer.text.removeprefix('pausing: ')} ({who})")
+            self.flights.pause(f"{answer.reason} ({who})")
         elif answer.request is not None and self._ap is not None:
             self.flights.start(self._ap, answer.request, who, answer.item)
 

@@ -10,12 +10,12 @@ import structlog
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.mav.constants import MAV_SEVERITY_NOTICE
 from helixd.mav.url import LinkError
-from helixd.runtime.gcs_feed import GcsFeed
-from helixd.runtime.notify import ServiceNotifier
+from helixd.report.gcs_feed import GcsFeed
+from helixd.report.notify import ServiceNotifier
 from helixd.serve.core import ServeState
 
 log = structlog.get_logger(__name__)

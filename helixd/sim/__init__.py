@@ -1,4 +1,8 @@
-"""Built-in ArduPilot-Rover-compatible autopilot simulator with Helix-25 physics.
+"""Built-in ArduPilot-Rover-compatible autopilot simulator on the Helix-25 plant.
+
+The fake autopilot (the Rover's own code in :mod:`helixd.sim.firmware`, stepped with the plant
+by :mod:`helixd.sim.core`, on the wire through :mod:`helixd.sim.server`) over the plant of
+:mod:`helixd.plant`, which it imports and nothing else of helixd above ``config``.
 
 Public API::
 

@@ -15,7 +15,7 @@ from typing import Protocol
 import numpy as np
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
-from helixd.base.media import MediaMapNe, Medium
+from helixd.base.media import Medium
 from helixd.mav.constants import (
     MAV_CMD_NAV_WAYPOINT,
     MAV_FRAME_GLOBAL,
@@ -28,40 +28,49 @@ from helixd.mav.constants import (
     MAV_RESULT_FAILED,
 )
 from helixd.mav.guard_script import SCR_ENABLE
-from helixd.sim import collisions, estimator, messages, physics, skid, vehicle_reports
+from helixd.plant import collisions, physics, skid
+from helixd.plant.ground import TerrainTraction
+from helixd.plant.plant_config import Plant
+from helixd.plant.sonar import sense, water_temperature_c
+from helixd.plant.state import PhysicsState
+from helixd.plant.world import bathymetry_ne, media_ne
 from helixd.sim import stream_rates as st
+from helixd.sim import vehicle_reports
 from helixd.sim.faults import FaultClock, FaultError, FaultSpec, make_spec
-from helixd.sim.inbound import InboundHandler
-from helixd.sim.messages import STATUSTEXT_LEN, Message, file_transfer_protocol, statustexts
-from helixd.sim.mission_server import (
+from helixd.sim.firmware import estimator, messages
+from helixd.sim.firmware.messages import (
+    STATUSTEXT_LEN,
+    Message,
+    file_transfer_protocol,
+    statustexts,
+)
+from helixd.sim.firmware.mission_items import (
     ALTITUDE_ONLY,
     GuidedRequest,
-    MissionServer,
     Outcome,
     guided_request,
     mission_ack,
 )
-from helixd.sim.mode_auto import ModeAuto
-from helixd.sim.mode_goto import (
+from helixd.sim.firmware.mission_server import MissionServer
+from helixd.sim.firmware.mode_auto import ModeAuto
+from helixd.sim.firmware.mode_goto import (
     ModeGoto,
     Place,
     SmartRtlPath,
     reposition_refusal,
     rtl_destination,
 )
-from helixd.sim.modes import MODE_NUMBERS
-from helixd.sim.param_store import ParamStore
-from helixd.sim.physics import MotorMap
-from helixd.sim.rover_firmware import (
+from helixd.sim.firmware.modes import MODE_NUMBERS
+from helixd.sim.firmware.param_store import ParamStore
+from helixd.sim.firmware.rover_firmware import (
     ScriptReader,
     SimAutopilot,
     SimEvent,
     SimStatusText,
     no_scripts,
 )
-from helixd.sim.sim_config import Plant, SimConfig, TerrainTraction
-from helixd.sim.sonar import BathymetryNe, sense, water_temperature_c
-from helixd.sim.state import PhysicsState
+from helixd.sim.inbound import InboundHandler
+from helixd.sim.sim_config import SimConfig
 
 SONAR_MESSAGES = frozenset({st.MSG_DISTANCE_SENSOR, st.MSG_RANGEFINDER})
 PARAMS_PER_LOOP = 2  # PARAM_REQUEST_LIST streaming pace (ArduPilot rate-limits it too)
@@ -119,31 +128,18 @@ class SimCore:
         self.outbox: list[tuple[int | None, Message]] = []
         self.flushed: list[tuple[int | None, Message]] = []  # resolved, sent even if now silent
         self.events: list[SimEvent] = []
-        self.phys = PhysicsState(
-            north_m=config.initial_north_m,
-            east_m=config.initial_east_m,
-            yaw_ned_rad=config.initial_yaw_ned_rad,
-        )
+        self.phys = config.start_state()
         self.est = estimator.EstimatorState()
-        self._contact = False  # rover body touching an obstacle (helixd.sim.collisions)
-        self.motor = MotorMap(
-            config.motor_pwm_min_us,
-            config.motor_pwm_trim_us,
-            config.motor_pwm_max_us,
-            config.motor_deadband_us,
-        )
+        self._contact = False  # rover body touching an obstacle (helixd.plant.collisions)
+        self.motor = config.motor_map()
         self.outputs_us: list[int] = [0] * 16
         # the world's media by place (helix plant): the map placed around the EKF origin, and
         # the medium under each of scrolls 1..4 after the last step (None: no map)
         self.media_ne = media_ne(config)
         self.scroll_media: tuple[Medium, ...] | None = None
-        # the pond's bottom and the sonar over it (helixd.sim.sonar), with a generator of its
+        # the pond's bottom and the sonar over it (helixd.plant.sonar), with a generator of its
         # own so a bathymetry changes nothing else a seed gives
-        self.bathy = (
-            None
-            if config.bathymetry is None
-            else BathymetryNe(config.bathymetry, config.origin_lat_deg, config.origin_lon_deg)
-        )
+        self.bathy = bathymetry_ne(config)
         self.sonar_rng = np.random.default_rng(None if config.seed is None else [config.seed, 55])
         self._next_named_value_s = 0.0
         self.now_s = 0.0
@@ -161,7 +157,7 @@ class SimCore:
         )
         self.ap.mission_present = lambda: len(self.mission.stored()) > 1
         self.auto = ModeAuto()
-        self.goto = ModeGoto()  # GUIDED's, RTL's and SmartRTL's place (helixd.sim.mode_goto)
+        self.goto = ModeGoto()  # GUIDED's, RTL's and SmartRTL's place (firmware.mode_goto)
         self.srtl = SmartRtlPath()  # AP_SmartRTL's saved path
         self.ap.smart_rtl_ready = lambda: self.srtl.active
         self.ap.on_disarm = self._mission_on_disarm
@@ -247,8 +243,8 @@ class SimCore:
         return self.mission.do_set_mission_current(link, param1, param2)
 
     def reposition(self, p: list[float], is_int: bool, frame: int) -> int:
-        """MAV_CMD_DO_REPOSITION (:mod:`helixd.sim.mode_goto`): GUIDED's new place, switching
-        to GUIDED when param2 asks; the MAV_RESULT."""
+        """MAV_CMD_DO_REPOSITION (:mod:`helixd.sim.firmware.mode_goto`): GUIDED's new place,
+        switching to GUIDED when param2 asks; the MAV_RESULT."""
         guided = MODE_NUMBERS["GUIDED"]
         lat_e7, lon_e7 = (
             (int(p[4]), int(p[5])) if is_int else (round(p[4] * 1e7), round(p[5] * 1e7))
@@ -513,7 +509,7 @@ class SimCore:
 
     def _mode_changed(self) -> None:
         """A mode entered or left: AUTO's (ModeAuto::_enter; ``_exit`` stops the mission),
-        GUIDED's Stop submode, RTL's place (:mod:`helixd.sim.mode_goto`)."""
+        GUIDED's Stop submode, RTL's place (:mod:`helixd.sim.firmware.mode_goto`)."""
         auto = MODE_NUMBERS["AUTO"]
         mode = self.ap.mode
         if mode == self._mode_before:
@@ -567,7 +563,7 @@ class SimCore:
 
     def _mode_auto(self, now: float) -> None:
         """AUTO running: the mission verified against the EKF's position
-        (:mod:`helixd.sim.mode_auto`)."""
+        (:mod:`helixd.sim.firmware.mode_auto`)."""
         if self.ap.mode != MODE_NUMBERS["AUTO"]:
             return
         cfg = self.config
@@ -721,7 +717,7 @@ class SimCore:
     def _sonar_message(
         self, msg_id: int, view: vehicle_reports.TelemetryView, sensed: list[Message | None]
     ) -> Message | None:
-        """DISTANCE_SENSOR / RANGEFINDER from the sonar (:mod:`helixd.sim.sonar`); None
+        """DISTANCE_SENSOR / RANGEFINDER from the sonar (:mod:`helixd.plant.sonar`); None
         without a bathymetry (no rangefinder), before the EKF origin, or on a dropout."""
         if self.bathy is None or not view.origin_set:
             return None
@@ -745,16 +741,3 @@ class SimCore:
         if depth is not None and view.origin_set and not view.booting:
             value = water_temperature_c(depth, self.sonar_rng)
             self.send(None, messages.named_value_float(view.time_boot_ms, sonar.named_value, value))
-
-
-def media_ne(config: SimConfig) -> MediaMapNe | None:
-    """``config``'s media map placed around its EKF origin, the configured ``terrain`` outside
-    every area unless the map names a default; None without a map (or for the sitl_skid plant,
-    which has no terrain). The shell reads ``media_file`` (:func:`helixd.sim.server.with_media`)."""
-    if config.media_file is not None and config.media is None:
-        raise ValueError("media_file is read by the simulator's shell (sim.server.with_media)")
-    if config.media is None or config.plant is not Plant.HELIX:
-        return None
-    return config.media.to_ne(
-        (config.origin_lat_deg, config.origin_lon_deg), fallback=Medium(config.terrain.value)
-    )

@@ -25,7 +25,7 @@ FAULTS: dict[str, dict[str, object]] = {
     # 0 satellites; the EKF dead-reckons as after a gps_loss
     "gps_receiver_silent": {"duration_s": None},
     "pilot_takeover": {"mode": "HOLD"},  # pilot moves the RC mode switch
-    # ArduPilot's own failsafes (helixd.sim.failsafe): battery 1 at its low (or critical)
+    # ArduPilot's own failsafes (helixd.sim.firmware.failsafe): battery 1 at its low (or critical)
     # limit — "Battery 1 is low …", then BATT_FS_LOW_ACT —, and the rover out of its enabled
     # fence — FENCE_STATUS, then FENCE_ACTION
     "battery_low": {"voltage_v": 10.5, "used_mah": 1234.0, "critical": False},

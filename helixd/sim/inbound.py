@@ -8,9 +8,9 @@ Routing as ArduPilot's MAVLink_routing::check_and_forward: a message carrying a
 target_system is processed only when it is 0 (broadcast) or our sysid, and for our sysid only
 when target_component is 0 or ours. Commands come back with COMMAND_ACK to the sender's
 link; unknown commands → MAV_RESULT_UNSUPPORTED. MAV_CMD_DO_SET_MISSION_CURRENT goes to the
-mission (helixd.sim.mission_server); what it queues (MISSION_CURRENT, jump texts) follows the
-ACK, as ArduPilot's deferred ``send_message`` does. PARAM_SET answers with PARAM_VALUE on every
-link (GCS::send_parameter_value); an unknown name gets no answer at all.
+mission (helixd.sim.firmware.mission_server); what it queues (MISSION_CURRENT, jump texts)
+follows the ACK, as ArduPilot's deferred ``send_message`` does. PARAM_SET answers with
+PARAM_VALUE on every link (GCS::send_parameter_value); an unknown name gets no answer at all.
 """
 
 from __future__ import annotations
@@ -32,13 +32,15 @@ from helixd.mav.constants import (
     MAV_RESULT_UNSUPPORTED,
 )
 from helixd.mav.ftp_wire import FtpPayloadError, from_message
-from helixd.sim import messages, vehicle_reports
 from helixd.sim import stream_rates as st
-from helixd.sim.estimator import SimEkfStatus
-from helixd.sim.messages import Message
-from helixd.sim.mission_server import MissionServer, Outcome
-from helixd.sim.param_store import ParamStore
-from helixd.sim.rover_firmware import SimAutopilot, SimEvent, SimStatusText
+from helixd.sim import vehicle_reports
+from helixd.sim.firmware import messages
+from helixd.sim.firmware.estimator import SimEkfStatus
+from helixd.sim.firmware.messages import Message
+from helixd.sim.firmware.mission_items import Outcome
+from helixd.sim.firmware.mission_server import MissionServer
+from helixd.sim.firmware.param_store import ParamStore
+from helixd.sim.firmware.rover_firmware import SimAutopilot, SimEvent, SimStatusText
 
 MISSION_MESSAGES = MissionServer.MESSAGES
 
@@ -95,7 +97,7 @@ class InboundPort(Protocol):
         ...
 
     def mission_message(self, link: int, msg: Message) -> None:
-        """A MISSION_* message for the mission protocol (helixd.sim.mission_server)."""
+        """A MISSION_* message for the mission protocol (helixd.sim.firmware.mission_server)."""
         ...
 
     def set_mission_current(self, link: int, param1: float, param2: float) -> tuple[int, Outcome]:
@@ -103,7 +105,8 @@ class InboundPort(Protocol):
         ...
 
     def reposition(self, p: list[float], is_int: bool, frame: int) -> int:
-        """MAV_CMD_DO_REPOSITION: GUIDED's new place (helixd.sim.mode_goto); the MAV_RESULT."""
+        """MAV_CMD_DO_REPOSITION: GUIDED's new place (helixd.sim.firmware.mode_goto); the
+        MAV_RESULT."""
         ...
 
     def mission_outcome(self, out: Outcome) -> None:

@@ -47,10 +47,10 @@ from helixd.files.media import read_media_map
 from helixd.mav.guard_script import POSIX_SCRIPTS_DIR, SCRIPT_NAME, script_bytes
 from helixd.sim.core import SimCore
 from helixd.sim.faults import make_spec
+from helixd.sim.firmware.param_store import ParamStore
 from helixd.sim.ftp_server import FtpServer
 from helixd.sim.inbound import Router
 from helixd.sim.pace import PaceJudge
-from helixd.sim.param_store import ParamStore
 from helixd.sim.sim_config import SimConfig
 from helixd.sim.snapshot import History, HistoryEntry, SimSnapshot, take_snapshot
 from helixd.sim.storage import read_storage, storage_values, with_storage, write_storage

@@ -1,9 +1,9 @@
 """Configuration of the built-in ArduPilot-Rover-compatible simulator (``helixd sim``).
 
-Every tunable has a unit in its name, bounds and a default. The terrain traction table follows
-published screw-vehicle data where it exists and the thesis's field tests (ch. 5.3) elsewhere:
-:data:`DEFAULT_TRACTION`, sources in docs/physics.md. A ground file (``--sim-ground``,
-:func:`read_ground_file`) replaces any part of it.
+:class:`SimConfig` is the plant's settings (:class:`helixd.plant.plant_config.PlantConfig`:
+vehicle, motors, ground, world) and the fake autopilot's: boot and GPS timings, the pose noise
+of its estimator, parameters, the guard script, its working directory, the clock and speed-up.
+Every tunable has a unit in its name, bounds and a default.
 """
 
 from __future__ import annotations
@@ -13,16 +13,13 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field, InstanceOf, field_validator, model_validator
+from pydantic import Field, field_validator, model_validator
 
-from helixd.base.media import MediaMap, Medium
-from helixd.config import LinkConfig, VehicleConfig
-from helixd.files.bathymetry import Bathymetry
-from helixd.files.models import InputModel, load_yaml_model
+from helixd.config.link import LinkConfig
+from helixd.files.models import InputModel
 from helixd.mav.guard_script import HXG_VERSION, PARAM_DEFAULTS
-from helixd.sim.collisions import SimObstacles
-from helixd.sim.param_store import DEFAULT_PARAMS
-from helixd.sim.sonar import SonarModel
+from helixd.plant.plant_config import PlantConfig
+from helixd.sim.firmware.param_store import DEFAULT_PARAMS
 
 # helixd's own MAVLink system id (link.source_system's default)
 HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)
@@ -32,19 +29,6 @@ HELIXD_SYSID = int(LinkConfig.model_fields["source_system"].default)
 # faster in-process (SimConfig.speedup).
 SPEEDUP_MIN = 0.1
 SPEEDUP_MAX = 20.0
-
-
-class Terrain(StrEnum):
-    HARD = "hard"
-    GRASS = "grass"
-    SAND = "sand"
-    MUD = "mud"
-    WATER = "water"  # the Helix floats: see TerrainTable.water
-
-
-class Plant(StrEnum):
-    HELIX = "helix"  # Helix-25 scrolls, eq. 1, motor lag, terrain slip (physics.py)
-    SITL_SKID = "sitl_skid"  # ArduPilot SITL's rover-skid model (skid.py)
 
 
 class SimClock(StrEnum):
@@ -58,154 +42,6 @@ class NoiseLevel(StrEnum):
     NONE = "none"  # exact pose: for tests that compare numbers
     LOW = "low"  # RTK-like
     THESIS = "thesis"  # dual GPS without RTK: ~1 m position, yaw within ±10° (thesis ch. 5.2)
-
-
-class TerrainTraction(InputModel):
-    """How much of the no-slip (eq. 1) body velocity a terrain lets through, per axis, and what
-    turning the scrolls costs there (docs/physics.md gives each default its source).
-
-    ``dig_rate_per_m``: pit depth (0..1) gained per metre of slip; a pit scales every axis
-    by (1 − depth). ``pit_escape_per_m``: depth lost per metre actually travelled.
-    ``power_w``: one scroll's electrical power at its maximum rpm; the power drawn is
-    proportional to |rpm| (the thesis: wheel power ∝ wheel rpm), so a scroll that slips spends
-    more energy on each metre it delivers.
-    """
-
-    roll_efficiency: float = Field(ge=0.0, le=1.0, description="fraction of v_x achieved")
-    scroll_efficiency: float = Field(ge=0.0, le=1.0, description="fraction of v_y achieved")
-    yaw_efficiency: float = Field(ge=0.0, le=1.0, description="fraction of ω_z achieved")
-    dig_rate_per_m: float = Field(ge=0.0, le=10.0, description="pit depth per metre of slip")
-    pit_escape_per_m: float = Field(
-        ge=0.0, le=10.0, description="pit depth removed per metre travelled (1/m)"
-    )
-    power_w: float = Field(
-        100.0,
-        ge=0.0,
-        le=10_000.0,
-        description="one scroll's power at its max rpm in this medium, ∝ |rpm| (W)",
-    )
-
-
-# The default ground, per medium (docs/physics.md, "The ground table": each number's source,
-# and how a speed ratio became a fraction). SCROLL's fractions follow the screw vehicles'
-# speeds relative to their best medium (mud and marsh), anchored at mud's 0.85: firm soil
-# 0.12 (Marsh Screw Amphibian 1.6 mph against 12.5 mph, Riverine Utility Craft 3.6 kn against
-# 25 kn), water 0.62 (RUC 15.7 kn, Amphirol 10 km/h against 12 km/h on mud); dry sand no
-# better than firm soil (the Marsh Screw "failed ... especially sand"). ROLL, yaw, digging,
-# grass's scroll and the power have no published number: helixd's estimates, shaped by the
-# thesis's field tests (ROLL on grass and hard ground as simulated; turning in dry sand dug a
-# pit) and by Freeberg 2010 (screws not omnidirectional in water or on pavement).
-DEFAULT_TRACTION: dict[str, dict[str, float]] = {
-    "hard": {
-        "roll_efficiency": 0.95,
-        "scroll_efficiency": 0.12,
-        "yaw_efficiency": 0.85,
-        "dig_rate_per_m": 0.0,
-        "pit_escape_per_m": 1.0,
-        "power_w": 100.0,
-    },
-    "grass": {
-        "roll_efficiency": 0.9,
-        "scroll_efficiency": 0.25,
-        "yaw_efficiency": 0.75,
-        "dig_rate_per_m": 0.0,
-        "pit_escape_per_m": 1.0,
-        "power_w": 100.0,
-    },
-    "sand": {
-        "roll_efficiency": 0.6,
-        "scroll_efficiency": 0.12,
-        "yaw_efficiency": 0.12,
-        "dig_rate_per_m": 0.12,
-        "pit_escape_per_m": 0.2,
-        "power_w": 100.0,
-    },
-    "mud": {
-        "roll_efficiency": 0.3,
-        "scroll_efficiency": 0.85,
-        "yaw_efficiency": 0.55,
-        "dig_rate_per_m": 0.02,
-        "pit_escape_per_m": 0.5,
-        "power_w": 100.0,
-    },
-    # afloat: no ground to roll on (a floating screw's roll barely moves it), the screws'
-    # threads propel along the scroll axis like a screw propeller, differential scroll speed
-    # turns it; nothing to dig
-    "water": {
-        "roll_efficiency": 0.05,
-        "scroll_efficiency": 0.62,
-        "yaw_efficiency": 0.4,
-        "dig_rate_per_m": 0.0,
-        "pit_escape_per_m": 1.0,
-        "power_w": 100.0,
-    },
-}
-
-
-def _traction(terrain: str) -> Any:
-    """A terrain's default :class:`TerrainTraction` (:data:`DEFAULT_TRACTION`)."""
-    return Field(default_factory=lambda: TerrainTraction(**DEFAULT_TRACTION[terrain]))
-
-
-class TerrainTable(InputModel):
-    """Each terrain's traction (sourced where a source exists: see docs/physics.md). A row
-    given in part keeps the defaults of its other fields (a ground file names only what
-    differs: ``mud: {scroll_efficiency: 0.7}``)."""
-
-    hard: TerrainTraction = _traction("hard")
-    grass: TerrainTraction = _traction("grass")
-    sand: TerrainTraction = _traction("sand")
-    mud: TerrainTraction = _traction("mud")
-    water: TerrainTraction = _traction("water")
-
-    @model_validator(mode="before")
-    @classmethod
-    def _rows_over_defaults(cls, data: Any) -> Any:
-        if not isinstance(data, dict):
-            return data
-        out = dict(data)
-        for key, row in data.items():
-            if isinstance(row, dict) and key in DEFAULT_TRACTION:
-                out[key] = {**DEFAULT_TRACTION[key], **row}
-        return out
-
-    def get(self, terrain: Terrain | Medium) -> TerrainTraction:
-        traction: TerrainTraction = getattr(self, Terrain(terrain.value).value)
-        return traction
-
-
-def read_ground_file(path: Path | str) -> TerrainTable:
-    """A ground file (``--sim-ground``): YAML keyed by medium (``hard``, ``grass``, ``sand``,
-    ``mud``, ``water``), each a mapping of :class:`TerrainTraction` fields; a medium or a field
-    left out keeps its default (:data:`DEFAULT_TRACTION`). Hostile input: unknown media or
-    fields, non-numbers, NaN/±inf and values out of range are refused, each problem one line
-    naming the file, the field and the allowed range (:class:`ConfigFileError`)."""
-    return load_yaml_model(path, TerrainTable)
-
-
-class SkidModel(InputModel):
-    """ArduPilot SITL's skid-steer rover (libraries/SITL/SIM_Rover.cpp; see helixd.sim.skid).
-
-    Defaults are SIM_Rover's constants for a ``skid`` frame. It reads outputs 1 (left motor)
-    and 3 (right motor) only, as SITL does; ``scroll_output_channels``, ``scroll_reversed``,
-    the motor PWM map, ``motor_time_constant_s`` and the terrain do not apply to it.
-    """
-
-    max_speed_mps: float = Field(
-        4.0, gt=0.0, le=50.0, description="speed at full throttle (m/s; SIM_Rover max_speed)"
-    )
-    max_accel_mss: float = Field(
-        14.0, gt=0.0, le=200.0, description="acceleration per unit speed error (m/s²; max_accel)"
-    )
-    turn_rate_dps: float = Field(
-        140.0, gt=0.0, le=1000.0, description="yaw rate per unit motor difference (°/s)"
-    )
-    max_yaw_rate_dps: float = Field(
-        360.0, gt=0.0, le=1000.0, description="yaw rate limit (°/s; SIM_Rover.h MAX_YAW_RATE)"
-    )
-    physics_rate_hz: float = Field(
-        1200.0, ge=50.0, le=10_000.0, description="integration frames per second (SITL rate_hz)"
-    )
 
 
 class NoiseProfile(InputModel):
@@ -223,43 +59,51 @@ class NoiseProfile(InputModel):
     )
 
 
+# Each noise level's profile (:class:`NoiseLevel`): exact, RTK-like, and the thesis's dual GPS
+# without RTK (ch. 5.2: ~1 m position, yaw within ±10°)
+NOISE_PRESETS: dict[str, dict[str, float]] = {
+    "none": {
+        "pos_sigma_m": 0.0,
+        "pos_tau_s": 30.0,
+        "pos_white_m": 0.0,
+        "yaw_sigma_rad": 0.0,
+        "yaw_tau_s": 30.0,
+        "vel_white_mps": 0.0,
+        "ekf_tau_s": 0.2,
+        "variance_base": 0.02,
+    },
+    "low": {
+        "pos_sigma_m": 0.05,
+        "pos_tau_s": 30.0,
+        "pos_white_m": 0.01,
+        "yaw_sigma_rad": math.radians(0.5),
+        "yaw_tau_s": 30.0,
+        "vel_white_mps": 0.01,
+        "ekf_tau_s": 0.2,
+        "variance_base": 0.05,
+    },
+    "thesis": {
+        "pos_sigma_m": 0.7,
+        "pos_tau_s": 20.0,
+        "pos_white_m": 0.2,
+        "yaw_sigma_rad": math.radians(4.0),
+        "yaw_tau_s": 10.0,
+        "vel_white_mps": 0.05,
+        "ekf_tau_s": 0.3,
+        "variance_base": 0.2,
+    },
+}
+
+
+def _preset(level: str) -> Any:
+    """A noise level's default :class:`NoiseProfile` (:data:`NOISE_PRESETS`)."""
+    return Field(default_factory=lambda: NoiseProfile(**NOISE_PRESETS[level]))
+
+
 class NoiseProfiles(InputModel):
-    none: NoiseProfile = Field(
-        default_factory=lambda: NoiseProfile(
-            pos_sigma_m=0.0,
-            pos_tau_s=30.0,
-            pos_white_m=0.0,
-            yaw_sigma_rad=0.0,
-            yaw_tau_s=30.0,
-            vel_white_mps=0.0,
-            ekf_tau_s=0.2,
-            variance_base=0.02,
-        )
-    )
-    low: NoiseProfile = Field(
-        default_factory=lambda: NoiseProfile(
-            pos_sigma_m=0.05,
-            pos_tau_s=30.0,
-            pos_white_m=0.01,
-            yaw_sigma_rad=math.radians(0.5),
-            yaw_tau_s=30.0,
-            vel_white_mps=0.01,
-            ekf_tau_s=0.2,
-            variance_base=0.05,
-        )
-    )
-    thesis: NoiseProfile = Field(
-        default_factory=lambda: NoiseProfile(
-            pos_sigma_m=0.7,
-            pos_tau_s=20.0,
-            pos_white_m=0.2,
-            yaw_sigma_rad=math.radians(4.0),
-            yaw_tau_s=10.0,
-            vel_white_mps=0.05,
-            ekf_tau_s=0.3,
-            variance_base=0.2,
-        )
-    )
+    none: NoiseProfile = _preset("none")
+    low: NoiseProfile = _preset("low")
+    thesis: NoiseProfile = _preset("thesis")
 
     def get(self, level: NoiseLevel) -> NoiseProfile:
         profile: NoiseProfile = getattr(self, level.value)
@@ -297,58 +141,15 @@ def _helix_params() -> dict[str, float]:
     }
 
 
-class SimConfig(InputModel):
-    vehicle: VehicleConfig = Field(
-        default_factory=VehicleConfig, description="geometry and 195 RPM max"
-    )
-    plant: Plant = Field(
-        Plant.HELIX, description="vehicle model: helix (scrolls) or sitl_skid (SITL rover-skid)"
-    )
-    skid: SkidModel = Field(default_factory=SkidModel, description="the sitl_skid plant")
-    terrain: Terrain = Field(
-        Terrain.HARD,
-        description="ground under the rover (helix plant); with a media map, the medium "
-        "outside every area unless the map names its default_medium",
-    )
-    media_file: Path | None = Field(
-        None,
-        description="media map (GeoJSON, helixd.files.media): the world's media by place, "
-        "each scroll in the medium under it (helix plant); read when the simulator starts",
-    )
-    media: InstanceOf[MediaMap] | None = Field(
-        None,
-        exclude=True,
-        description="a media map already read (helixd sim --media, run --sim-media); "
-        "not with media_file",
-    )
-    terrains: TerrainTable = Field(default_factory=TerrainTable)
-    bathymetry: InstanceOf[Bathymetry] | None = Field(
-        None,
-        exclude=True,
-        description="the pond's bottom (helixd.files.bathymetry, --sim-bathymetry): the "
-        "simulated down-facing sonar (sonar) senses it; None: no sonar",
-    )
-    sonar: SonarModel = Field(default_factory=SonarModel, description="the down-facing sonar")
+class SimConfig(PlantConfig):
+    """The built-in simulator's settings: the plant's (:class:`PlantConfig`) and the fake
+    autopilot's (boot and GPS timings, pose noise, parameters, the guard script, storage)."""
+
     noise: NoiseLevel = Field(NoiseLevel.THESIS, description="pose noise preset")
     noise_profiles: NoiseProfiles = Field(default_factory=NoiseProfiles)
     seed: int | None = Field(None, ge=0, description="noise RNG seed; None = random")
     speedup: float = Field(
         1.0, gt=0.0, le=100.0, description="sim time runs this many times wall time (SITL's -s)"
-    )
-    motor_time_constant_s: float = Field(
-        0.3, gt=0.001, le=5.0, description="first-order lag of scroll speed to command (s)"
-    )
-    scroll_output_channels: tuple[int, int, int, int] = Field(
-        (1, 2, 3, 4), description="servo output (1..16) read as the speed of scrolls 1..4"
-    )
-    scroll_reversed: tuple[bool, bool, bool, bool] = Field(
-        (False, False, False, False), description="motor of that scroll wired backwards"
-    )
-    motor_pwm_min_us: int = Field(1000, ge=800, le=2200, description="full reverse (µs)")
-    motor_pwm_trim_us: int = Field(1500, ge=800, le=2200, description="stopped (µs)")
-    motor_pwm_max_us: int = Field(2000, ge=800, le=2200, description="full forward (µs)")
-    motor_deadband_us: int = Field(
-        0, ge=0, le=200, description="|PWM − trim| below this: motor stopped (µs)"
     )
     boot_duration_s: float = Field(
         2.0, ge=0.0, le=120.0, description="HEARTBEAT custom_mode 16 (INITIALISING) this long (s)"
@@ -397,19 +198,6 @@ class SimConfig(InputModel):
         "refused with 'PreArm: AHRS: EKF3 still initialising'. None = never (only force-arm "
         "works, as observed in a per-scroll passthrough setup)",
     )
-    origin_lat_deg: float = Field(53.52325, ge=-90.0, le=90.0, description="EKF origin latitude")
-    origin_lon_deg: float = Field(
-        -113.52632,
-        ge=-180.0,
-        le=180.0,
-        description="EKF origin longitude (default: the thesis's field)",
-    )
-    origin_alt_m: float = Field(668.0, ge=-500.0, le=9000.0, description="EKF origin altitude")
-    initial_north_m: float = Field(0.0, ge=-10_000.0, le=10_000.0, description="start pose (m)")
-    initial_east_m: float = Field(0.0, ge=-10_000.0, le=10_000.0, description="start pose (m)")
-    initial_yaw_ned_rad: float = Field(
-        0.0, ge=-math.pi, le=math.pi, description="start heading, clockwise from North (rad)"
-    )
     default_stream_rate_hz: float = Field(
         1.0, ge=0.0, le=50.0, description="SRn_* rate of every stream until a GCS asks (Hz)"
     )
@@ -423,9 +211,6 @@ class SimConfig(InputModel):
     )
     history_max_entries: int = Field(
         200_000, ge=100, le=10_000_000, description="oldest history entries dropped beyond this"
-    )
-    obstacles: SimObstacles = Field(
-        default_factory=SimObstacles, description="solid shapes the rover stops against"
     )
     workdir: Path | None = Field(
         None,
@@ -452,16 +237,9 @@ class SimConfig(InputModel):
 
     @model_validator(mode="after")
     def _check(self) -> SimConfig:
-        if not self.motor_pwm_min_us < self.motor_pwm_trim_us < self.motor_pwm_max_us:
-            raise ValueError("need motor_pwm_min_us < motor_pwm_trim_us < motor_pwm_max_us")
-        for ch in self.scroll_output_channels:
-            if not 1 <= ch <= 16:
-                raise ValueError(f"scroll_output_channels must be 1..16, got {ch}")
         for pwm in self.pilot_rc_us:
             if not 800 <= pwm <= 2200:
                 raise ValueError(f"pilot_rc_us values must be 800..2200, got {pwm}")
-        if self.media is not None and self.media_file is not None:
-            raise ValueError("give media_file or media, not both")
         unknown = sorted(set(self.params) - set(DEFAULT_PARAMS))
         if unknown:
             raise ValueError(f"unknown parameter names in params: {', '.join(unknown)}")
@@ -472,9 +250,6 @@ class SimConfig(InputModel):
                 f"guard_params takes {', '.join(sorted(settable))}; not {', '.join(unknown)}"
             )
         return self
-
-    def traction(self) -> TerrainTraction:
-        return self.terrains.get(self.terrain)
 
     def noise_profile(self) -> NoiseProfile:
         return self.noise_profiles.get(self.noise)

@@ -13,10 +13,10 @@ from helixd.mav.constants import (
     MAV_MISSION_TYPE_MISSION,
     MAV_MISSION_TYPE_RALLY,
 )
-from helixd.sim import modes
+from helixd.plant.forward import radps_to_rpm
 from helixd.sim.core import SimCore
-from helixd.sim.forward import radps_to_rpm
-from helixd.sim.mission_server import StoredItem
+from helixd.sim.firmware import modes
+from helixd.sim.firmware.mission_items import StoredItem
 
 
 @dataclass(frozen=True, slots=True)
@@ -60,7 +60,8 @@ class SimSnapshot:
     gcs_heartbeats_seen: int
     gcs_last_seen_s: float | None
     terrain: str
-    # the stored mission protocol items (helixd.sim.mission_server); row 0 of the mission is home
+    # the stored mission protocol items (helixd.sim.firmware.mission_server); row 0 of the
+    # mission is home
     mission_items: tuple[StoredItem, ...] = ()
     fence_items: tuple[StoredItem, ...] = ()
     rally_items: tuple[StoredItem, ...] = ()

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import structlog
 
-from helixd.sim.param_store import DEFAULT_PARAMS, ParamStore
+from helixd.sim.firmware.param_store import DEFAULT_PARAMS, ParamStore
 from helixd.sim.sim_config import SimConfig
 
 log = structlog.get_logger(__name__)

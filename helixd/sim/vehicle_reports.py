@@ -9,11 +9,11 @@ from dataclasses import dataclass
 
 from helixd.base.frames import ne_to_latlon
 from helixd.mav.constants import MISSION_STATE_NO_MISSION
-from helixd.sim import messages
+from helixd.plant.state import PhysicsState
 from helixd.sim import stream_rates as st
-from helixd.sim.estimator import PoseEstimate, SimEkfStatus
 from helixd.sim.faults import FaultClock
-from helixd.sim.state import PhysicsState
+from helixd.sim.firmware import messages
+from helixd.sim.firmware.estimator import PoseEstimate, SimEkfStatus
 
 POSE_MESSAGES = frozenset({st.MSG_LOCAL_POSITION_NED, st.MSG_GLOBAL_POSITION_INT})
 
@@ -105,6 +105,29 @@ def _position_estimate(v: TelemetryView, faults: FaultClock | None) -> PoseEstim
     return est
 
 
+def _gps_raw_int(v: TelemetryView, t: int) -> messages.Message:
+    """GPS_RAW_INT once the EKF has an origin: no fix after a gps_loss, no GPS once the
+    receiver's driver timed out, the last fix (its time frozen) while it is silent, else the
+    fix now (``t``: this message's time_boot_ms)."""
+    if v.gps_lost:
+        return messages.gps_raw_int(t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, fix_type=1, satellites=0)
+    held = v.gps_held
+    if held is not None and held.no_gps:  # the driver timed out: state cleared
+        return messages.gps_raw_int(
+            held.time_boot_ms, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, fix_type=0, satellites=0
+        )
+    if held is not None:  # the last fix again, its time frozen
+        lat, lon = ne_to_latlon(held.north_m, held.east_m, v.origin_lat_deg, v.origin_lon_deg)
+        return messages.gps_raw_int(
+            held.time_boot_ms, lat, lon, v.origin_alt_m, 0.0, 0.0, v.gps_accuracy_m
+        )
+    lat, lon = ne_to_latlon(v.gps_north_m, v.gps_east_m, v.origin_lat_deg, v.origin_lon_deg)
+    course = math.atan2(v.truth.v_east_mps, v.truth.v_north_mps)
+    return messages.gps_raw_int(
+        t, lat, lon, v.origin_alt_m, v.truth.speed_mps, course, v.gps_accuracy_m
+    )
+
+
 def build(
     msg_id: int, v: TelemetryView, faults: FaultClock | None = None
 ) -> messages.Message | None:
@@ -155,23 +178,7 @@ def build(
         )
         return messages.global_position_int(t, lat, lon, v.origin_alt_m, v.estimate)
     if msg_id == st.MSG_GPS_RAW_INT:
-        if v.gps_lost:
-            return messages.gps_raw_int(t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, fix_type=1, satellites=0)
-        held = v.gps_held
-        if held is not None and held.no_gps:  # the driver timed out: state cleared
-            return messages.gps_raw_int(
-                held.time_boot_ms, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, fix_type=0, satellites=0
-            )
-        if held is not None:  # the last fix again, its time frozen
-            lat, lon = ne_to_latlon(held.north_m, held.east_m, v.origin_lat_deg, v.origin_lon_deg)
-            return messages.gps_raw_int(
-                held.time_boot_ms, lat, lon, v.origin_alt_m, 0.0, 0.0, v.gps_accuracy_m
-            )
-        lat, lon = ne_to_latlon(v.gps_north_m, v.gps_east_m, v.origin_lat_deg, v.origin_lon_deg)
-        course = math.atan2(v.truth.v_east_mps, v.truth.v_north_mps)
-        return messages.gps_raw_int(
-            t, lat, lon, v.origin_alt_m, v.truth.speed_mps, course, v.gps_accuracy_m
-        )
+        return _gps_raw_int(v, t)
     if msg_id == st.MSG_VFR_HUD:
         return messages.vfr_hud(v.truth.speed_mps, v.estimate.yaw_ned_rad, v.origin_alt_m)
     if msg_id == st.MSG_GPS_GLOBAL_ORIGIN:

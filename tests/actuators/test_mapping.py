@@ -17,7 +17,7 @@ from helixd.actuators.mapping import (
     release_frame,
     release_value,
 )
-from helixd.config import ChannelConfig
+from helixd.config.vehicle import ChannelConfig
 
 STD = ChannelConfig(channel=1)
 ASYM = ChannelConfig(channel=2, pwm_min_us=1100, pwm_trim_us=1520, pwm_max_us=1900)

@@ -16,8 +16,8 @@ from helixd.actuators.factory import make_sink
 from helixd.actuators.rc_override import RcOverrideSink
 from helixd.actuators.servo import ServoSink
 from helixd.base.clock import now_s
-from helixd.config import ActuationBackend, ActuationConfig, ChannelConfig, VehicleConfig
-from helixd.link.command_client import CommandError
+from helixd.config.vehicle import ActuationBackend, ActuationConfig, ChannelConfig, VehicleConfig
+from helixd.link.services.command_client import CommandError
 from tests.support.peer import HELIXD_SYSID, AutopilotPeer, OverrideRecord, linked, stays, until
 from tests.support.simclock import run_simulated
 

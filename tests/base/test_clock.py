@@ -21,7 +21,7 @@ from tests.support.simclock import run_simulated
 OWN_CLOCK_READERS = {
     "helixd/base/clock.py": "the clock itself",
     "helixd/sim/server.py": "wait_for/next_snapshot: called from other threads, in wall time",
-    "helixd/sim/json_server.py": "the SITL plant: SITL's lockstep paces it, its stats are wall",
+    "helixd/plant/json_server.py": "the SITL plant: SITL's lockstep paces it, its stats are wall",
     "helixd/planning/route.py": "perf_counter: how long the planner computed, a measurement",
 }
 CLOCK_CALLS = {("time", "monotonic"), ("time", "perf_counter"), ("time", "monotonic_ns")}

@@ -8,23 +8,17 @@ from pathlib import Path
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from tests.support.cli import config_file, run_main
+from tests.support.cli import FAST_CONNECT, autopilot_verb, config_file, run_main
 from tests.support.harness import running_sim
 
-FAST = "startup:\n  connect_timeout_s: 5.0\nlink:\n  command_timeout_s: 0.3\n"
-
-
-def config(tmp_path: Path) -> str:
-    return config_file(tmp_path, FAST)
+FAST = FAST_CONNECT + "link:\n  command_timeout_s: 0.3\n"
 
 
 def test_the_simulators_helix_setup_passes(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     with running_sim() as (_, url):
-        code, out, err = run_main(
-            ["autopilot", "check", "--connect", url, "--config", config(tmp_path)], capsys
-        )
+        code, out, err = autopilot_verb(tmp_path, "check", url, capsys, config=FAST)
     assert code == 0, out + err
     assert (
         "ok      arming (motor outputs): a normal arm passes the motor-output check "
@@ -40,9 +34,7 @@ def test_without_the_spare_output_it_says_what_to_set(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     with running_sim(params={"SERVO16_FUNCTION": 0, "MAV_GCS_SYSID": 255}) as (_, url):
-        code, out, err = run_main(
-            ["autopilot", "check", "--connect", url, "--config", config(tmp_path)], capsys
-        )
+        code, out, err = autopilot_verb(tmp_path, "check", url, capsys, config=FAST)
     assert code == int(ExitCode.PREFLIGHT), out + err
     assert (
         "error   arming (motor outputs): a normal arm is refused: 'PreArm: no motor, sail or "
@@ -55,7 +47,9 @@ def test_without_the_spare_output_it_says_what_to_set(
 def test_sim_flag_checks_the_built_in_simulator(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, out, err = run_main(["autopilot", "check", "--sim", "--config", config(tmp_path)], capsys)
+    code, out, err = run_main(
+        ["autopilot", "check", "--sim", "--config", config_file(tmp_path, FAST)], capsys
+    )
     assert code == 0, out + err
     assert "ok      helixd-guard: v1 runs and guards every scroll" in out
 
@@ -74,9 +68,7 @@ def test_a_throttle_switch_resting_high_is_named_with_what_it_must_read(
     rc = (1500,) * 4 + (1900,) + (1500,) * 11
     with running_sim(pilot_rc_us=rc, params={"RC5_DZ": 30}) as (server, url):
         server.wait_for(lambda s: not s.booting, 30.0)  # RC inputs read 0 while it boots
-        code, out, err = run_main(
-            ["autopilot", "check", "--connect", url, "--config", config(tmp_path)], capsys
-        )
+        code, out, err = autopilot_verb(tmp_path, "check", url, capsys, config=FAST)
     assert code == int(ExitCode.PREFLIGHT), out + err
     assert (
         "error   arming (throttle): a normal arm is refused: 'Arm: Throttle (RC5) is not "

@@ -9,14 +9,16 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import pytest
+import yaml
 from matplotlib.patches import PathPatch
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.media import read_media_map
 from helixd.mission.model import load_mission
-from helixd.recorder.plots import draw_media_plan
-from helixd.runtime.media_figure import checked_media
-from tests.support.cli import run_main
+from helixd.prepare.media_figure import checked_media
+from helixd.recorder.plan_plots import draw_media_plan
+from tests.support.cli import check_out, run_main
+from tests.support.missions import mission_file
 from tests.support.paths import REPO_ROOT
 
 SURVEY = REPO_ROOT / "config" / "missions" / "pond-survey.yaml"  # global, media_map: pond
@@ -37,16 +39,13 @@ def crossing(tmp_path: Path, **extra: object) -> Path:
                                                      {"north": 60.0, "east": 0.0}],
         **extra,
     }  # fmt: skip
-    path = tmp_path / "crossing.yaml"
-    path.write_text(json.dumps(mission), encoding="utf-8")
-    return path
+    return mission_file(tmp_path / "crossing.yaml", mission)
 
 
 def test_a_crossing_shows_its_stretches_and_turns(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, out, err = run_main(["check", "--mission", str(crossing(tmp_path))], capsys)
-    assert code == 0, out + err
+    out = check_out(["--mission", str(crossing(tmp_path))], capsys)
     assert "mode=roll/scroll/roll" not in out  # the modes are listed once each
     assert "mode=roll/scroll" in out
     stretches = [ln for ln in out.splitlines() if ln.startswith("stretch : ")]
@@ -68,11 +67,10 @@ def test_a_waypoints_own_mode_pins_its_leg(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     path = crossing(tmp_path)
-    data = json.loads(path.read_text(encoding="utf-8"))
+    data = yaml.safe_load(path.read_text(encoding="utf-8"))
     data["waypoints"][1]["mode"] = "scroll"
-    path.write_text(json.dumps(data), encoding="utf-8")
-    code, out, err = run_main(["check", "--mission", str(path)], capsys)
-    assert code == 0, out + err
+    mission_file(path, data)
+    out = check_out(["--mission", str(path)], capsys)
     assert "change  : " not in out
     assert "(the waypoint's own mode)" in out
 
@@ -81,8 +79,7 @@ def test_the_missions_media_modes_replace_the_configs(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     path = crossing(tmp_path, media_modes={"water": "omni"})
-    code, out, err = run_main(["check", "--mission", str(path)], capsys)
-    assert code == 0, out + err
+    out = check_out(["--mission", str(path)], capsys)
     assert "change  : roll → omni at (0.0, 9.0) on hard: stop, no turn (OMNI)" in out
 
 
@@ -110,8 +107,7 @@ def test_a_bad_medium_in_the_map_is_refused_naming_the_feature(
 def test_the_shipped_pond_survey_rolls_the_banks_and_scrolls_the_water(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    code, out, err = run_main(["check", "--mission", str(SURVEY)], capsys)
-    assert code == 0, out + err
+    out = check_out(["--mission", str(SURVEY)], capsys)
     stretches = [ln for ln in out.splitlines() if ln.startswith("stretch : ")]
     modes = [ln.split()[7] for ln in stretches]
     assert modes == ["roll", "scroll", "roll", "scroll", "roll", "scroll", "roll"], out
@@ -145,8 +141,7 @@ def test_a_ground_station_mission_follows_the_configs_media_map(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     mission, config = gcs_crossing(tmp_path, 0.0)
-    code, out, err = run_main(["check", "--config", str(config), "--mission", str(mission)], capsys)
-    assert code == 0, out + err
+    out = check_out(["--config", str(config), "--mission", str(mission)], capsys)
     assert out.count("change  : ") == 2, out
 
 
@@ -154,8 +149,7 @@ def test_a_ground_station_pins_a_legs_mode_by_the_yaw_code(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     mission, config = gcs_crossing(tmp_path, -2.0)  # -2: scroll the whole leg
-    code, out, err = run_main(["check", "--config", str(config), "--mission", str(mission)], capsys)
-    assert code == 0, out + err
+    out = check_out(["--config", str(config), "--mission", str(mission)], capsys)
     assert "change  : " not in out
     assert "(the waypoint's own mode)" in out
 
@@ -220,8 +214,7 @@ def stretch_rows(out: str) -> list[tuple[float, float, str, float]]:
 def test_each_change_of_mode_stands_between_the_stretches_it_joins(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, out, err = run_main(["check", "--mission", str(pinned_survey(tmp_path))], capsys)
-    assert code == 0, out + err
+    out = check_out(["--mission", str(pinned_survey(tmp_path))], capsys)
     lines = [ln for ln in out.splitlines() if ln.startswith(("stretch : ", "change  : "))]
     modes = [ln.split()[7] for ln in lines if ln.startswith("stretch")]
     assert modes == ["roll", "roll", "scroll", "roll", "scroll", "roll"], out
@@ -239,8 +232,7 @@ def test_each_stretch_lists_the_media_over_its_whole_length(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], pinned: bool
 ) -> None:
     path = pinned_survey(tmp_path) if pinned else SURVEY
-    code, out, err = run_main(["check", "--mission", str(path)], capsys)
-    assert code == 0, out + err
+    out = check_out(["--mission", str(path)], capsys)
     rows = stretch_rows(out)
     assert len(rows) >= 6, out
     for start, end, _, listed in rows:
@@ -250,21 +242,19 @@ def test_each_stretch_lists_the_media_over_its_whole_length(
 def test_a_leg_pinned_to_roll_across_the_pond_is_warned_of(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, out, err = run_main(["check", "--mission", str(pinned_survey(tmp_path))], capsys)
-    assert code == 0, out + err
+    out = check_out(["--mission", str(pinned_survey(tmp_path))], capsys)
     warnings = [ln for ln in out.splitlines() if "is pinned to roll" in ln]
     assert len(warnings) == 1, out
     assert warnings[0].startswith("warning : stretch 1 is pinned to roll")
     assert "water 24.9 m" in warnings[0] and "mud 6.5 m" in warnings[0], warnings[0]
-    code, out, err = run_main(["check", "--mission", str(SURVEY)], capsys)
+    out = check_out(["--mission", str(SURVEY)], capsys)
     assert "is pinned to" not in out
 
 
 def test_no_warning_of_sand_on_a_map_without_sand(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    code, out, err = run_main(["check", "--mission", str(SURVEY)], capsys)
-    assert code == 0, out + err
+    out = check_out(["--mission", str(SURVEY)], capsys)
     assert "sand" not in out, out
     sandy = crossing(tmp_path)
     text = (tmp_path / "water.geojson").read_text(encoding="utf-8").replace("water", "sand")
@@ -272,8 +262,7 @@ def test_no_warning_of_sand_on_a_map_without_sand(
     # sand is rolled by default (the sourced ground table): a crew that scrolls it is warned
     scroll_sand = tmp_path / "scroll-sand.yaml"
     scroll_sand.write_text("media:\n  modes:\n    sand: scroll\n", encoding="utf-8")
-    code, out, err = run_main(["check", "--mission", str(sandy)], capsys)
-    assert code == 0, out + err
+    out = check_out(["--mission", str(sandy)], capsys)
     assert "sand" in out and "warning : the map has sand" not in out, out
     args = ["check", "--mission", str(sandy), "--config", str(scroll_sand)]
     code, out, err = run_main(args, capsys)
@@ -285,9 +274,8 @@ def test_the_media_line_shows_the_map_relative_to_where_the_crew_stands(
     capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.chdir(SURVEY.parent)
-    code, out, err = run_main(["check", "--mission", SURVEY.name], capsys)
-    assert code == 0, out + err
+    out = check_out(["--mission", SURVEY.name], capsys)
     assert "media   : ../maps/pond-media.geojson  OK" in out, out
     monkeypatch.chdir(REPO_ROOT)
-    code, out, err = run_main(["check", "--mission", str(SURVEY)], capsys)
+    out = check_out(["--mission", str(SURVEY)], capsys)
     assert "media   : config/maps/pond-media.geojson  OK" in out, out

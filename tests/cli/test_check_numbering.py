@@ -15,7 +15,7 @@ import pytest
 
 from helixd.base.frames import ne_to_latlon
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.formats import load_mission_file
 from helixd.mission.resolve import Where, resolve
 from tests.support.cli import run_main

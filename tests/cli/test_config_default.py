@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from helixd import config as config_module
 from helixd.base.exitcodes import ExitCode
-from helixd.config import CONFIG_ENV, default_config_path
+from helixd.config import load as config_module
+from helixd.config.load import CONFIG_ENV, default_config_path
 from tests.support.cli import run_main
 from tests.support.paths import REPO_ROOT
 

@@ -11,14 +11,8 @@ from helixd.base.exitcodes import ExitCode
 from helixd.mav.arming import FORCE_ARM_MAGIC
 from helixd.mav.constants import MAV_CMD_COMPONENT_ARM_DISARM
 from helixd.mav.guard_script import VERSION, script_bytes
-from tests.support.cli import config_file, run_main
+from tests.support.cli import autopilot_verb, run_main
 from tests.support.harness import client, running_sim, running_sim_links
-
-FAST_CONNECT = "startup:\n  connect_timeout_s: 5.0\n"
-
-
-def config(tmp_path: Path) -> str:
-    return config_file(tmp_path, FAST_CONNECT)
 
 
 def test_install_then_reboot_runs_the_guard(
@@ -26,9 +20,7 @@ def test_install_then_reboot_runs_the_guard(
 ) -> None:
     with running_sim() as (server, url):
         assert server.snapshot().params["SCR_ENABLE"] == 0.0
-        code, out, err = run_main(
-            ["autopilot", "install-guard", "--connect", url, "--config", config(tmp_path)], capsys
-        )
+        code, out, err = autopilot_verb(tmp_path, "install-guard", url, capsys)
         assert code == 0, err
         # SITL layout (no /APM): ./scripts in the autopilot's working directory
         assert (server.workdir / "scripts" / "helixd-guard.lua").read_bytes() == script_bytes()
@@ -43,9 +35,7 @@ def test_install_then_reboot_runs_the_guard(
         snap = server.wait_for(lambda s: s.guard_version is not None, 20.0)
         assert snap.guard_version == VERSION
         assert snap.params["HXG_VERSION"] == VERSION and snap.params["HXG_ENABLE"] == 1.0
-        code, out, err = run_main(
-            ["autopilot", "install-guard", "--connect", url, "--config", config(tmp_path)], capsys
-        )
+        code, out, err = autopilot_verb(tmp_path, "install-guard", url, capsys)
         assert code == 0, err
         assert "SCR_ENABLE = 1 (already set)" in out
         assert f"helixd-guard v{VERSION} runs until then" in out
@@ -57,9 +47,7 @@ def test_an_sd_card_layout_gets_apm_scripts(
     workdir = tmp_path / "card"
     (workdir / "APM" / "LOGS").mkdir(parents=True)  # an SD card where scripting never ran
     with running_sim(workdir=workdir) as (_, url):
-        code, out, err = run_main(
-            ["autopilot", "install-guard", "--connect", url, "--config", config(tmp_path)], capsys
-        )
+        code, out, err = autopilot_verb(tmp_path, "install-guard", url, capsys)
     assert code == 0, err
     assert (workdir / "APM" / "scripts" / "helixd-guard.lua").read_bytes() == script_bytes()
     assert " /APM/scripts/helixd-guard.lua (" in out
@@ -68,13 +56,9 @@ def test_an_sd_card_layout_gets_apm_scripts(
 def test_a_given_scripts_dir_is_used(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     workdir = tmp_path / "ap"
     with running_sim(workdir=workdir) as (_, url):
-        code, out, err = run_main(
-            [
-                "autopilot", "install-guard", "--connect", url, "--config", config(tmp_path),
-                "--scripts-dir", "/APM/scripts/",
-            ],
-            capsys,
-        )  # fmt: skip
+        code, out, err = autopilot_verb(
+            tmp_path, "install-guard", url, capsys, "--scripts-dir", "/APM/scripts/"
+        )
     assert code == 0, err
     assert (workdir / "APM" / "scripts" / "helixd-guard.lua").is_file()
     assert "scripts directory as given" in out
@@ -84,13 +68,9 @@ def test_a_refused_upload_exits_3_naming_the_error(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     with running_sim() as (server, url):
-        code, _, err = run_main(
-            [
-                "autopilot", "install-guard", "--connect", url, "--config", config(tmp_path),
-                "--scripts-dir", "@ROMFS/scripts",
-            ],
-            capsys,
-        )  # fmt: skip
+        code, _, err = autopilot_verb(
+            tmp_path, "install-guard", url, capsys, "--scripts-dir", "@ROMFS/scripts"
+        )
         assert server.snapshot().params["SCR_ENABLE"] == 0.0  # nothing set after a refusal
     assert code == ExitCode.PREFLIGHT
     assert err.strip().splitlines() == [
@@ -115,13 +95,7 @@ def test_reboot_installs_then_reboots_and_the_guard_runs(
     sends MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN param1=1 (printed); the simulator ACKs, goes
     silent, boots again and loads the guard."""
     with running_sim() as (server, url):
-        code, out, err = run_main(
-            [
-                "autopilot", "install-guard", "--connect", url, "--config", config(tmp_path),
-                "--reboot",
-            ],
-            capsys,
-        )  # fmt: skip
+        code, out, err = autopilot_verb(tmp_path, "install-guard", url, capsys, "--reboot")
         assert code == 0, err
         assert (
             "sending COMMAND_LONG MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (246) param1=1 (reboot the "
@@ -143,13 +117,7 @@ def test_reboot_is_refused_while_armed_and_nothing_is_installed(
             gcs.heartbeat()
             server.wait_for(lambda s: s.home_ne_m is not None and not s.booting, 20.0)
             assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1, FORCE_ARM_MAGIC) == 0
-            code, out, err = run_main(
-                [
-                    "autopilot", "install-guard", "--connect", ours, "--config",
-                    config(tmp_path), "--reboot",
-                ],
-                capsys,
-            )  # fmt: skip
+            code, out, err = autopilot_verb(tmp_path, "install-guard", ours, capsys, "--reboot")
         assert server.snapshot().armed
         assert not (server.workdir / "scripts" / "helixd-guard.lua").exists()
     assert code == ExitCode.PREFLIGHT
@@ -166,9 +134,7 @@ def test_a_simulator_with_a_state_dir_remembers_the_installed_guard_across_a_res
     simulator boots with the guard running."""
     state = tmp_path / "ap"
     with running_sim(workdir=state) as (server, url):
-        code, _, err = run_main(
-            ["autopilot", "install-guard", "--connect", url, "--config", config(tmp_path)], capsys
-        )
+        code, _, err = autopilot_verb(tmp_path, "install-guard", url, capsys)
         assert code == 0, err
         assert server.snapshot().params["SCR_ENABLE"] == 1.0
     with running_sim(workdir=state) as (server, _):

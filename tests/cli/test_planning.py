@@ -10,6 +10,7 @@ import yaml
 from PIL import Image
 
 from tests.support.cli import run_main
+from tests.support.missions import mission_file, points_items
 from tests.support.paths import REPO_ROOT
 
 ROOT = REPO_ROOT
@@ -18,16 +19,8 @@ POND_MISSION = ROOT / "config" / "missions" / "pond-crossing.yaml"
 
 
 def mission(tmp_path: Path, points: list[tuple[float, float]], frame: str = "local_ned") -> Path:
-    keys = ("north", "east") if frame == "local_ned" else ("x", "y")
-    doc = {
-        "name": "t",
-        "mode": "roll",
-        "frame": frame,
-        "waypoints": [{keys[0]: a, keys[1]: b} for a, b in points],
-    }
-    path = tmp_path / "m.yaml"
-    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
-    return path
+    doc = {"name": "t", "mode": "roll", "frame": frame, "waypoints": points_items(frame, points)}
+    return mission_file(tmp_path / "m.yaml", doc)
 
 
 def test_check_prints_the_planned_legs_and_draws_the_plan(

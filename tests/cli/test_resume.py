@@ -13,7 +13,7 @@ from helixd.cli.app import main
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission
 from helixd.mission.resume import fresh_inputs
-from helixd.runtime.inputs import config_sha256
+from helixd.prepare.inputs import config_sha256
 
 LANE = Mission.model_validate(
     {

@@ -9,7 +9,7 @@ import pytest
 
 from helixd.cli.app import main
 from helixd.cli.plant import plant_config
-from helixd.sim.sim_config import TerrainTable
+from helixd.plant.ground import TerrainTable
 from tests.support.cli import run_main
 from tests.support.simcore import EmbeddedStart, capture_embedded_start
 

@@ -9,7 +9,7 @@ import pytest
 
 from helixd.cli.app import main
 from helixd.cli.simulated import embedded_guard
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from tests.support.cli import run_main
 from tests.support.simcore import EmbeddedStart, capture_embedded_start
 

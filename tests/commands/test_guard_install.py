@@ -1,5 +1,5 @@
 """helixd.commands.guard_install against an in-memory autopilot: the simulator's FTP server
-behind the real FTP adapter (helixd.link.ftp_link), and a parameter table."""
+behind the real FTP adapter (helixd.link.services.ftp_link), and a parameter table."""
 
 from __future__ import annotations
 
@@ -13,9 +13,9 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 
 from helixd.commands.guard_install import GuardInstallRefused, find_scripts_dir, install_guard
-from helixd.config import LinkConfig
-from helixd.link.ftp_link import FtpClient
-from helixd.link.ftp_transfer import FtpTransferError
+from helixd.config.link import LinkConfig
+from helixd.link.services.ftp_link import FtpClient
+from helixd.link.services.ftp_transfer import FtpTransferError
 from helixd.mav.ftp_wire import FtpOp, FtpPayload, from_message, to_message
 from helixd.mav.guard_script import script_bytes
 from helixd.sim.ftp_server import FtpServer

@@ -12,13 +12,13 @@ from shapely.geometry import LineString, Point, Polygon
 from helixd.base.frames import NedPose, latlon_to_ne
 from helixd.base.plan import MotionMode
 from helixd.commands.survey_mission import approach_estimate, default_insets, survey_mission
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.estimate import estimate_time
 from helixd.mission.formats.areas import read_area
 from helixd.mission.resolve import resolve_plan
 from helixd.mission.validate import apply_mission_limits, mission_problems
 from helixd.planning.obstacles import clearance_m, rover_half_width_m
-from helixd.runtime.planned import plan_loaded
+from helixd.prepare.planned import plan_loaded
 from tests.support.paths import DATA_DIR
 
 CFG = HelixdConfig()

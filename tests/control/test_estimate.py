@@ -16,7 +16,9 @@ import pytest
 
 from helixd.base.geometry import BodyVelocity, Pose2D
 from helixd.base.plan import ActionKind, MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
+from helixd.config.control import ControlConfig
+from helixd.config.root import HelixdConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.estimate import (
     along_fraction,
     delivered_fraction,

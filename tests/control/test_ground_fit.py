@@ -12,7 +12,7 @@ import pytest
 from helixd.base.geometry import BodyVelocity
 from helixd.base.media import MediaAreaNe, MediaMapNe, Medium
 from helixd.base.plan import MotionMode
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.ground_fit import (
     AxisSums,
     CellSums,

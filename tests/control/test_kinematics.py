@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
-from helixd.config import ScrollCalibration, VehicleConfig
+from helixd.config.vehicle import ScrollCalibration, VehicleConfig
 from helixd.control.kinematics import (
     apply_calibration,
     body_to_fractions,

@@ -18,7 +18,8 @@ from hypothesis import strategies as st
 
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import ControlConfig, HelixdConfig
+from helixd.config.control import ControlConfig
+from helixd.config.root import HelixdConfig
 from helixd.control import line
 from helixd.control.navigator import Navigator, NavState
 from helixd.mission.model import load_mission

@@ -8,7 +8,7 @@ import pytest
 
 from helixd.base.geometry import Pose2D
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import ControlConfig
+from helixd.config.control import ControlConfig
 from helixd.control.navigator import Navigator, NavOutput, NavState
 from tests.support.ideal_plant import IdealPlant, integrate
 

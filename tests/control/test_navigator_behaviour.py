@@ -15,7 +15,9 @@ import pytest
 from helixd.base.angles import shortest_angular_distance
 from helixd.base.geometry import BodyVelocity, Pose2D
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import ControlConfig, HelixdConfig, VehicleConfig
+from helixd.config.control import ControlConfig
+from helixd.config.root import HelixdConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.estimate import estimate_time
 from helixd.control.navigator import Navigator, NavState
 from helixd.mission.model import load_mission

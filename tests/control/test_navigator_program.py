@@ -12,7 +12,7 @@ import pytest
 
 from helixd.base.geometry import Pose2D
 from helixd.base.plan import MissionFrameKind, MotionMode, NavStep, Plan, PlanWaypoint, Program
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.navigator import Navigator
 from tests.support.ideal_plant import IdealPlant
 

@@ -14,7 +14,7 @@ import pytest
 
 from helixd.base.geometry import NonFiniteError, Pose2D
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.navigator import Navigator
 from tests.support.ideal_plant import IdealPlant
 

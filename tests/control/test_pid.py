@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.config import PidGains
+from helixd.config.control import PidGains
 from helixd.control.pid import PID, PidTerms
 
 DT = 0.025  # 40 Hz

@@ -13,7 +13,9 @@ from hypothesis import strategies as st
 
 from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
-from helixd.config import SafetyConfig, SlipConfig, StallConfig, VehicleConfig
+from helixd.config.control import SlipConfig
+from helixd.config.safety import SafetyConfig, StallConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.kinematics import body_to_fractions
 from helixd.control.slip import (
     SlipEstimate,
@@ -222,15 +224,7 @@ finite = st.floats(min_value=-5.0, max_value=5.0, allow_nan=False)
 anything = st.floats(allow_nan=True, allow_infinity=True)
 
 
-@given(
-    vx=anything,
-    vy=anything,
-    wz=anything,
-    mx=anything,
-    my=anything,
-    mw=anything,
-    dt=anything,
-)
+@given(anything, anything, anything, anything, anything, anything, anything)
 def test_hostile_numbers_never_leave_the_bounds(
     vx: float, vy: float, wz: float, mx: float, my: float, mw: float, dt: float
 ) -> None:

@@ -20,7 +20,8 @@ from helixd.base.angles import shortest_angular_distance, wrap_pi
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne, ne_to_latlon
 from helixd.base.geometry import BodyVelocity, NonFiniteError, Pose2D
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.config import ControlConfig, PidGains, VehicleConfig
+from helixd.config.control import ControlConfig, PidGains
+from helixd.config.vehicle import VehicleConfig
 from helixd.control import guidance
 from helixd.control.kinematics import (
     apply_calibration,
@@ -197,22 +198,34 @@ def test_world_to_body_raises_on_non_finite(values: list[float]) -> None:
 # -- kinematics -------------------------------------------------------------------------------
 
 
+# the four scroll fractions of a body velocity: numpy's and the plain floats the control
+# loop runs (both: scroll 1..4, in order)
+TO_FRACTIONS: dict[str, Callable[[BodyVelocity, MotionMode], list[float]]] = {
+    "body_to_fractions": lambda v, mode: body_to_fractions(v, VEHICLE, mode).tolist(),
+    "scroll_fractions": lambda v, mode: list(scroll_fractions(v, VEHICLE, mode)),
+}
+
+
+@pytest.mark.parametrize("to_fractions", TO_FRACTIONS)
 @settings(max_examples=500)
-@given(with_one_bad(3), MODES)
-def test_body_to_fractions_non_finite_is_neutral(values: list[float], mode: MotionMode) -> None:
-    # was: every scroll at ±clamp (apply_calibration clamped the NaN to the limit)
-    fractions = body_to_fractions(BodyVelocity(*values), VEHICLE, mode)
-    assert fractions.tolist() == [0.0, 0.0, 0.0, 0.0]
-
-
-@settings(max_examples=300)
-@given(ANY, ANY, ANY, MODES)
-def test_body_to_fractions_always_finite_and_clamped(
-    vx: float, vy: float, wz: float, mode: MotionMode
+@given(values=with_one_bad(3), mode=MODES)
+def test_fractions_of_non_finite_are_neutral(
+    to_fractions: str, values: list[float], mode: MotionMode
 ) -> None:
-    fractions = body_to_fractions(BodyVelocity(vx, vy, wz), VEHICLE, mode)
-    assert np.all(np.isfinite(fractions))
-    assert np.all(np.abs(fractions) <= VEHICLE.output_clamp)
+    # was (body_to_fractions): every scroll at ±clamp (apply_calibration clamped the NaN)
+    fractions = TO_FRACTIONS[to_fractions](BodyVelocity(*values), mode)
+    assert fractions == [0.0, 0.0, 0.0, 0.0]
+
+
+@pytest.mark.parametrize("to_fractions", TO_FRACTIONS)
+@settings(max_examples=300)
+@given(vx=ANY, vy=ANY, wz=ANY, mode=MODES)
+def test_fractions_always_finite_and_clamped(
+    to_fractions: str, vx: float, vy: float, wz: float, mode: MotionMode
+) -> None:
+    fractions = TO_FRACTIONS[to_fractions](BodyVelocity(vx, vy, wz), mode)
+    assert len(fractions) == 4
+    assert all(math.isfinite(f) and abs(f) <= VEHICLE.output_clamp for f in fractions)
 
 
 @given(with_one_bad(4))
@@ -343,7 +356,7 @@ def test_nan_pose_gives_neutral_pwm_not_1734_1566() -> None:
     Now: the navigator refuses the pose; and even a NaN body command reaching kinematics
     maps to neutral PWM on every scroll."""
     from helixd.actuators.mapping import fraction_to_pwm
-    from helixd.config import ActuationConfig
+    from helixd.config.vehicle import ActuationConfig
 
     channels = ActuationConfig().channels
     nav = Navigator(make_plan(MotionMode.ROLL), CONTROL)
@@ -436,21 +449,6 @@ def test_line_pass_speeds_finite_and_within_cruise(
 
 
 # -- the plain-float kinematics the control loop runs -----------------------------------------
-
-
-@settings(max_examples=500)
-@given(with_one_bad(3), MODES)
-def test_scroll_fractions_non_finite_is_neutral(values: list[float], mode: MotionMode) -> None:
-    assert scroll_fractions(BodyVelocity(*values), VEHICLE, mode) == (0.0, 0.0, 0.0, 0.0)
-
-
-@settings(max_examples=300)
-@given(ANY, ANY, ANY, MODES)
-def test_scroll_fractions_always_finite_and_clamped(
-    vx: float, vy: float, wz: float, mode: MotionMode
-) -> None:
-    fractions = scroll_fractions(BodyVelocity(vx, vy, wz), VEHICLE, mode)
-    assert all(math.isfinite(f) and abs(f) <= VEHICLE.output_clamp for f in fractions)
 
 
 @settings(max_examples=300)

@@ -7,7 +7,9 @@ from pathlib import Path
 import pytest
 from pydantic import Field, ValidationError
 
-from helixd.config import LinkConfig, SafetyConfig, load_config
+from helixd.config.link import LinkConfig
+from helixd.config.load import load_config
+from helixd.config.safety import SafetyConfig
 from helixd.files.models import ConfigFileError, InputModel, format_validation_error
 from helixd.mission.model import load_mission
 

@@ -14,7 +14,8 @@ from matplotlib.patches import PathPatch
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaFrame, MediaMap, Medium
-from helixd.recorder.plots import _panel_figure, load_run, render_run
+from helixd.recorder.plots import _panel_figure, render_run
+from helixd.recorder.run_data import load_run
 from tests.integration.test_amphibious_flight import band, geojson, mission
 from tests.support.simulated import simulated_flight
 

@@ -77,6 +77,8 @@ def check_fallback(
     s = summary(flown.run_dir())
     assert s["completed"] is False
     assert s["fault"].startswith(cause)
+    # the outcome names its cause as a FaultCause: a reader parses no text
+    assert flown.outcome.cause is not None and flown.outcome.cause.value == cause
     return float(elapsed)
 
 

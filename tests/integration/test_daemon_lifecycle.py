@@ -12,7 +12,7 @@ import pytest
 
 import helixd.runtime.flight
 from helixd.base.exitcodes import ExitCode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.runtime.daemon import run_mission
 from tests.support import harness
 from tests.support.run_options import square_run

@@ -12,13 +12,14 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.formats import mission_to_yaml
+from helixd.mission.judge import plan_time_estimate
 from helixd.mission.model import GroundSpec, load_mission
 from helixd.mission.validate import apply_mission_limits, plan_for_check
+from helixd.plant.ground import Terrain
 from helixd.recorder.export import load_run_export
-from helixd.runtime.timing import plan_time_estimate
-from helixd.sim.sim_config import SimConfig, Terrain
+from helixd.sim.sim_config import SimConfig
 from tests.support import harness
 from tests.support.paths import REPO_ROOT
 from tests.support.simulated import Steer, moving, simulated_flight
@@ -78,6 +79,7 @@ def test_mission_completes_in_its_mode(
         flown.snapshot,
     )
     assert code == ExitCode.OK, log[-3000:]
+    assert flown.outcome.cause is None  # completed: nothing ended it
     s = read_summary(run_dir)
     # one plain line with the outcome, the clocks named (on the simulated clock the companion's
     # clock and the autopilot's keep one time, and no wall time is claimed)

@@ -14,11 +14,11 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.base.media import MediaFrame, MediaMap, Medium
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
+from helixd.plant.ground import TerrainTable
+from helixd.prepare.ground_learning import learned_policy_modes
 from helixd.recorder.ground_profile import read_profile
 from helixd.recorder.rows import read_flight_columns
-from helixd.runtime.ground_learning import learned_policy_modes
-from helixd.sim.sim_config import TerrainTable
 from tests.integration.test_amphibious_flight import band, geojson
 from tests.support.cli import run_main
 from tests.support.simulated import simulated_flights

@@ -49,15 +49,9 @@ def test_a_jump_mission_reports_item_numbers_and_laps(tmp_path: Path) -> None:
     path.write_text(WPL)
     cfg = {"mission": {"ground_station_mode": "omni"}, "safety": {"geofence_radius_m": 200.0}}
     flown = simulated_flight(tmp_path, path, cfg, **ON_MUD_AT_HOME)
-    code, result, log, run_dir, snap = (
-        flown.code,
-        flown.result,
-        flown.log,
-        flown.run_dir(),
-        flown.snapshot,
-    )
-    assert code == ExitCode.OK, log[-3000:]
-    assert secured(snap)
+    assert flown.code == ExitCode.OK, flown.log[-3000:]
+    assert secured(flown.snapshot)
+    result, run_dir = flown.result, flown.run_dir()
 
     events = [json.loads(ln) for ln in (run_dir / "events.jsonl").read_text().splitlines()]
     reached = [e["waypoint"] for e in events if e["event"] == "waypoint_reached"]

@@ -22,7 +22,7 @@ from PIL import Image
 import helixd.cli.simulated
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.app import main
-from helixd.sim.collisions import SimObstacles, distance_m
+from helixd.plant.collisions import SimObstacles, distance_m
 from helixd.sim.server import SimServer
 from helixd.sim.sim_config import SimConfig
 from helixd.sim.snapshot import SimSnapshot

@@ -10,6 +10,7 @@ import json
 import math
 import statistics
 from pathlib import Path
+from typing import Any
 
 import pytest
 import yaml
@@ -23,7 +24,7 @@ from tests.support.harness import (
     secured,
 )
 from tests.support.paths import DATA_DIR
-from tests.support.simulated import simulated_flight
+from tests.support.simulated import SimulatedFlight, simulated_flight
 
 pytestmark = pytest.mark.integration
 
@@ -191,7 +192,20 @@ def test_speed_changes_hold_jump_servo_and_return_home(tmp_path: Path) -> None:
     assert summary["completed"] and summary["waypoints_total"] == 8
 
 
-SIM_HOME_RTL = (40.071377, -105.229790)  # row 0 (home) of ArduPilot's DriveRTL/rtl.txt
+SIM_HOME_AUTOTEST = (40.071377, -105.229790)  # row 0 (home) of ArduPilot's autotest missions
+
+
+def autotest_flight(
+    tmp_path: Path, name: str, config: dict[str, Any], **sim: Any
+) -> SimulatedFlight:
+    """ArduPilot's autotest mission ``name`` (tests/data/gcs) on hard ground, low noise, seed 2,
+    with the simulator's origin at the file's home; ``sim``: more simulator settings."""
+    lat_deg, lon_deg = SIM_HOME_AUTOTEST
+    mission = DATA_DIR / "gcs" / name
+    return simulated_flight(
+        tmp_path, mission, config, terrain="hard", noise="low", seed=2,
+        origin_lat_deg=lat_deg, origin_lon_deg=lon_deg, **sim,
+    )  # fmt: skip
 
 
 def test_ardupilots_own_rtl_mission_flies_and_returns_home(tmp_path: Path) -> None:
@@ -201,25 +215,12 @@ def test_ardupilots_own_rtl_mission_flies_and_returns_home(tmp_path: Path) -> No
         "mission": {"ground_station_mode": "roll"},
         "safety": {"geofence_radius_m": 200.0},
     }
-    mission = DATA_DIR / "gcs" / "ap-DriveRTL-rtl.txt"
-    flown = simulated_flight(
-        tmp_path,
-        mission,
-        cfg,
-        terrain="hard",
-        noise="low",
-        seed=2,
-        origin_lat_deg=SIM_HOME_RTL[0],
-        origin_lon_deg=SIM_HOME_RTL[1],
-    )
+    flown = autotest_flight(tmp_path, "ap-DriveRTL-rtl.txt", cfg)
     code, log, snap = flown.code, flown.log, flown.snapshot
     assert code == ExitCode.OK, log[-3000:]
     assert snap.home_ne_m is not None
     end = math.hypot(snap.north_m - snap.home_ne_m[0], snap.east_m - snap.home_ne_m[1])
     assert end < 0.5
-
-
-SIM_HOME_CAMERA = (40.071377, -105.229790)
 
 
 def test_ardupilots_camera_mission_triggers_the_camera_by_distance(tmp_path: Path) -> None:
@@ -230,18 +231,8 @@ def test_ardupilots_camera_mission_triggers_the_camera_by_distance(tmp_path: Pat
         "mission": {"ground_station_mode": "roll", "max_range_m": 1000.0},
         "safety": {"geofence_radius_m": 300.0},
     }
-    mission = DATA_DIR / "gcs" / "ap-CameraMission-rover-camera-mission.txt"
-    flown = simulated_flight(
-        tmp_path,
-        mission,
-        cfg,
-        terrain="hard",
-        noise="low",
-        seed=2,
-        origin_lat_deg=SIM_HOME_CAMERA[0],
-        origin_lon_deg=SIM_HOME_CAMERA[1],
-        params={"CAM1_TYPE": 1},
-    )
+    mission = "ap-CameraMission-rover-camera-mission.txt"
+    flown = autotest_flight(tmp_path, mission, cfg, params={"CAM1_TYPE": 1})
     code, log, run_dir, snap = flown.code, flown.log, flown.run_dir(), flown.snapshot
     assert code == ExitCode.OK, log[-3000:]
     events = [json.loads(ln) for ln in (run_dir / "events.jsonl").read_text().splitlines()]

@@ -15,7 +15,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.sim.collisions import SimObstacles, distance_m
+from helixd.plant.collisions import SimObstacles, distance_m
 from tests.support.harness import secured
 from tests.support.simulated import simulated_flight
 

@@ -15,7 +15,7 @@ from helixd.base.exitcodes import ExitCode
 from helixd.mav.constants import MAV_SEVERITY_WARNING
 from helixd.recorder.retention import check_free_space
 from helixd.recorder.rundir import RESERVE_FILE, RunRecorder
-from helixd.runtime.gcs_feed import GcsFeed
+from helixd.report.gcs_feed import GcsFeed
 from tests.support.full_disk import FullAfter
 from tests.support.simulated import simulated_flight
 

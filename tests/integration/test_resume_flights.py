@@ -13,7 +13,7 @@ from typing import Any
 import pytest
 
 from helixd.base.exitcodes import ExitCode
-from helixd.runtime.prepare import Resume
+from helixd.prepare.builder import Resume
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import spawn_daemon
 from tests.support.harness import secured

@@ -11,31 +11,29 @@ the crew would wait, less the computers' own time.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from helixd.mav.constants import (
-    MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_SET_MISSION_CURRENT,
     MAV_CMD_MISSION_START,
-    MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.firmware.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.harness import guard_installed, overrides_released, scrolls_neutral
-from tests.support.loop_gcs import booted, heartbeat_shows, set_mode, simulated_crew, upload
+from tests.support.loop_gcs import (
+    CREW_CONFIG,
+    armed_in_guided,
+    heartbeat_shows,
+    set_mode,
+    simulated_crew,
+    upload,
+    uploaded_and_ready,
+)
 from tests.support.loop_mav import LoopMav
 from tests.support.serve import flight_summaries
 from tests.support.simulated import Steer, moving
 
-# No start switch: the crew uses the ground station. In the field the service has been up for
-# minutes when the crew presses Start; here seconds: the preflight's listening window for
-# another sender on helixd's id (link.own_id_watch_s, from helixd's first message) is shortened
-# so that it is over by then, as it is in the field.
-CONFIG: dict[str, Any] = {
-    "startup": {"start_switch_channel": None},
-    "link": {"own_id_watch_s": 0.5},
-}
+CONFIG = CREW_CONFIG  # the crew uses the ground station (tests.support.loop_gcs)
 MISSION = [(10.0, 0.0), (10.0, -8.0), (0.0, -8.0)]  # north/east from the EKF origin (m)
 START_LATENCY_MAX_S = 1.0
 PAUSE_LATENCY_MAX_S = 0.5
@@ -55,18 +53,13 @@ def overriding_neutral(s: SimSnapshot) -> bool:
 def test_the_crew_drives_helixd_with_qgroundcontrols_buttons(tmp_path: Path) -> None:
     # as in the field: helixd-guard installed (README), so the preflight finds every parameter
     async def crew(st: Steer, gcs: LoopMav) -> None:
-        await st.line("no mission on the autopilot", 60.0)
-        await upload(gcs, MISSION)  # QGC's Plan view: Upload (the mission protocol)
-        await st.line("event=serve_state state=ready", 30.0)
-        await booted(st, gcs)
+        # QGC's Plan view: Upload (the mission protocol)
+        await uploaded_and_ready(st, gcs, lambda: upload(gcs, MISSION))
 
         # Start Mission: APMFirmwarePlugin::startMission on a disarmed rover —
         # _setFlightModeAndValidate(Guided), _armVehicleAndValidate, then
         # sendMavCommand(defaultComponentId, MAV_CMD_MISSION_START) with params 0
-        await set_mode(gcs, "GUIDED")
-        await heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
-        assert await gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-        await heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+        await armed_in_guided(gcs)
         assert not st.snapshot().overrides_active[0]  # nothing moves before the start
         t_start = st.now_s()
         assert await gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED

@@ -27,7 +27,7 @@ from helixd.mav.constants import (
     MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.firmware.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.integration.test_serve_crew_modes import CONFIG, MISSION, driving, overriding_neutral
 from tests.support.gcs import QGC_SYSID, SIM, latlon

@@ -11,14 +11,10 @@ from typing import Any
 from helixd.serve.core import ServeState
 from helixd.serve.status import HX_STATE_NAME
 from tests.support.harness import guard_installed, scrolls_neutral
-from tests.support.loop_gcs import set_mode, simulated_crew, upload, upload_and_start
+from tests.support.loop_gcs import CREW_CONFIG, set_mode, simulated_crew, upload, upload_and_start
 from tests.support.loop_mav import LoopMav
 from tests.support.simulated import Steer, moving
 
-CONFIG: dict[str, Any] = {
-    "startup": {"start_switch_channel": None},
-    "link": {"own_id_watch_s": 0.5},
-}
 MISSION = [(15.0, 0.0), (15.0, -8.0)]  # north/east from the EKF origin (m)
 TOLD_WITHIN_S = 0.5  # hx_state is sent on the change, not at the next period (0.5 s here)
 
@@ -52,7 +48,7 @@ def test_a_pause_in_hold_reads_hx_state_5_and_continue_4(tmp_path: Path) -> None
         await st.until(moving, 10.0)
         return paused_s, flying_s
 
-    served = simulated_crew(tmp_path, CONFIG, crew, **guard_installed(1.0))
+    served = simulated_crew(tmp_path, CREW_CONFIG, crew, **guard_installed(1.0))
     assert served.code == 0, served.log[-3000:]
     ((paused_s, flying_s),) = served.steered
     print(f"\nHOLD → hx_state 5: {paused_s:.3f} s; AUTO → hx_state 4: {flying_s:.3f} s")

@@ -6,7 +6,6 @@ missing one is remembered. The latencies are printed (run with ``-s``)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from helixd.mav.constants import (
     MAV_CMD_DO_PAUSE_CONTINUE,
@@ -15,14 +14,10 @@ from helixd.mav.constants import (
 )
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.harness import scrolls_neutral
-from tests.support.loop_gcs import booted, command, simulated_crew, upload
+from tests.support.loop_gcs import CREW_CONFIG, booted, command, simulated_crew, upload
 from tests.support.loop_mav import LoopMav
 from tests.support.simulated import Steer
 
-CONFIG: dict[str, Any] = {
-    "startup": {"start_switch_channel": None},
-    "link": {"own_id_watch_s": 0.5},
-}
 # the goal is 0.5 s; on the simulated clock, exactly: 0.54 s start, 0.49 s continue (1.34 s
 # and 0.89 s while arming waited for the autopilot's own 1 Hz HEARTBEAT; 4.2 s and 4.5 s on
 # the wall before the parameters were kept)
@@ -56,7 +51,7 @@ def test_start_and_continue_drive_within_half_a_second_without_the_guard(
         await st.until(driving, 10.0)
         return start_s, st.now_s() - t_continue
 
-    served = simulated_crew(tmp_path, CONFIG, crew)
+    served = simulated_crew(tmp_path, CREW_CONFIG, crew)
     assert served.code == 0, served.log[-3000:]
     ((start_s, continue_s),) = served.steered
     print(f"\nStart → scrolls driven: {start_s:.3f} s; Continue → {continue_s:.3f} s")

@@ -19,8 +19,10 @@ from typing import Any
 
 from helixd.mav.constants import MAV_CMD_MISSION_START, MAV_RESULT_ACCEPTED
 from helixd.sim.sim_config import SimConfig
+from tests.support.daemon import deep_merge
 from tests.support.harness import guard_installed
 from tests.support.loop_gcs import (
+    CREW_CONFIG,
     booted,
     said,
     set_mode,
@@ -32,11 +34,7 @@ from tests.support.loop_mav import LoopMav
 from tests.support.simulated import Steer, moving
 
 # no start switch; the idle service does not re-read the mission by itself during the test
-CONFIG: dict[str, Any] = {
-    "startup": {"start_switch_channel": None},
-    "link": {"own_id_watch_s": 0.5},
-    "serve": {"mission_poll_s": 3600.0},
-}
+CONFIG = deep_merge(CREW_CONFIG, {"serve": {"mission_poll_s": 3600.0}})
 GUARDED = guard_installed(1.0)
 PLAN_A = [(10.0, 0.0), (10.0, -8.0), (0.0, -8.0)]
 PLAN_B = [(n, e + 3.0) for n, e in PLAN_A]  # the same plan moved 3 m east

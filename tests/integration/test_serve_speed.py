@@ -15,7 +15,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from helixd.config import ControlConfig
+from helixd.config.control import ControlConfig
 from helixd.mav.constants import (
     MAV_CMD_DO_CHANGE_SPEED,
     MAV_CMD_MISSION_START,

@@ -9,24 +9,24 @@ released. On the simulated clock: exact."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from helixd.mav.constants import (
-    MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_MISSION_START,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.harness import guard_installed, overrides_released, scrolls_neutral
-from tests.support.loop_gcs import booted, heartbeat_shows, set_mode, simulated_crew, upload
+from tests.support.loop_gcs import (
+    CREW_CONFIG,
+    armed_in_guided,
+    set_mode,
+    simulated_crew,
+    upload,
+    uploaded_and_ready,
+)
 from tests.support.loop_mav import LoopMav
 from tests.support.simulated import Steer
 
-CONFIG: dict[str, Any] = {
-    "startup": {"start_switch_channel": None},
-    "link": {"own_id_watch_s": 0.5},
-}
 MISSION = [(20.0, 0.0), (20.0, -8.0)]  # north/east from the EKF origin (m)
 START_DRIVEN_MAX_S = 0.55  # ArduPilot's own AUTO on SITL: 0.54 s
 RELEASED_MAX_S = 0.5  # MANUAL → overrides released (0.97 s at the worst phase before)
@@ -38,15 +38,10 @@ def driving(s: SimSnapshot) -> bool:
 
 def test_start_right_after_the_arm_drives_within_auto_time(tmp_path: Path) -> None:
     async def crew(st: Steer, gcs: LoopMav) -> tuple[float, float, int]:
-        await st.line("no mission on the autopilot", 60.0)
-        await upload(gcs, MISSION)
-        await st.line("event=serve_state state=ready", 30.0)
-        await booted(st, gcs)
+        await uploaded_and_ready(st, gcs, lambda: upload(gcs, MISSION))
         # APMFirmwarePlugin::startMission: Guided (validated by the HEARTBEAT), arm, and
         # MISSION_START the moment the arm is acknowledged
-        await set_mode(gcs, "GUIDED")
-        await heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
-        assert await gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+        await armed_in_guided(gcs, wait_armed=False)
         t_start = st.now_s()
         assert await gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
         await st.until(driving, 10.0)
@@ -65,7 +60,7 @@ def test_start_right_after_the_arm_drives_within_auto_time(tmp_path: Path) -> No
         await st.until(overrides_released, 5.0)
         return driven_s, st.now_s() - t_manual, beats
 
-    served = simulated_crew(tmp_path, CONFIG, crew, **guard_installed(1.0))
+    served = simulated_crew(tmp_path, CREW_CONFIG, crew, **guard_installed(1.0))
     assert served.code == 0, served.log[-3000:]
     ((driven_s, released_s, gcs_beats),) = served.steered
     print(f"\nStart after the arm → driven {driven_s:.3f} s; MANUAL → released {released_s:.3f} s")

@@ -16,7 +16,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from helixd.base.run_files import TLOG_FILE
-from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.firmware.modes import MODE_NUMBERS
 from tests.integration.test_serve_crew_modes import CONFIG, driving, overriding_neutral
 from tests.integration.test_serve_goto import ARRIVAL_M, armed_in_manual, go_to_location, near
 from tests.support.harness import deep_merge, guard_installed, overrides_released

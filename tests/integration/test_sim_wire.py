@@ -270,7 +270,8 @@ def test_heartbeats_are_forwarded_between_links_like_ardupilot() -> None:
 
 async def test_helixd_asks_for_granted_rates_without_a_too_fast_text() -> None:
     """helixd reads SCHED_LOOP_RATE first: no DENIED, no "too fast" STATUSTEXT on start."""
-    from helixd.config import LinkConfig, SafetyConfig
+    from helixd.config.link import LinkConfig
+    from helixd.config.safety import SafetyConfig
     from helixd.link.connection import Autopilot
 
     with running_sim() as (srv, url):

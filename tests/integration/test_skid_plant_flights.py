@@ -29,10 +29,10 @@ from tests.support.skid_setup import (
     SURVEY_XY_M,
     helixd_start_frame,
     metrics_in_frame,
+    mission_metrics,
     skid_actuation,
     skid_vehicle_geometry,
     square_metrics,
-    survey_metrics,
 )
 
 pytestmark = pytest.mark.integration
@@ -132,7 +132,7 @@ def test_survey_block_on_the_sitl_skid_plant_beats_auto(tmp_path: Path) -> None:
     # alone puts the far end of a 30 m transect 0.26 m from a plan anchored at the true yaw.
     start, _ = helixd_start_frame(run_dir)
     metrics = metrics_in_frame(track, SURVEY_XY_M, start)
-    truth_anchored = survey_metrics(track, recorder.yaw_at)
+    truth_anchored = mission_metrics(track, recorder.yaw_at, SURVEY_XY_M)
     assert metrics is not None and truth_anchored is not None
     print(
         f"sitl_skid ROLL survey block, true path vs the plan in helixd's frame: "

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from helixd.base.exitcodes import ExitCode
+from helixd.plant.ground import TerrainTable
 from helixd.recorder.rows import read_flight_columns
-from helixd.sim.sim_config import TerrainTable
 from tests.support.simulated import simulated_flight
 
 pytestmark = pytest.mark.integration

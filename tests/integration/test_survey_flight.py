@@ -12,7 +12,7 @@ import pytest
 from helixd.base.exitcodes import ExitCode
 from helixd.base.plan import MotionMode
 from helixd.commands.survey_mission import survey_mission
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.formats import write_mission_file
 from helixd.mission.formats.areas import read_area
 from tests.support.paths import DATA_DIR

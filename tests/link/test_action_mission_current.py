@@ -7,9 +7,10 @@ import time
 
 import pytest
 
-from helixd.config import LinkConfig, SafetyConfig
-from helixd.link.command_client import CommandRejected
+from helixd.config.link import LinkConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandRejected
 from helixd.link.vehicle import Change, VehicleState
 from helixd.mav.constants import (
     MAV_CMD_DO_SET_SERVO,

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.link.codec import NeverSent
 from helixd.link.connection import Autopilot
+from helixd.link.wire.codec import NeverSent
 from helixd.mav.constants import MAV_CMD_REQUEST_MESSAGE
 from tests.support.peer import AutopilotPeer, UdpWire, link_config, safety_config
 

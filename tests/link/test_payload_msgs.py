@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import PayloadConfig, PayloadSource
+from helixd.config.recorder import PayloadConfig, PayloadSource
 from helixd.link.payload_msgs import payload_readings
 
 DOWN = 25  # MAV_SENSOR_ROTATION_PITCH_270

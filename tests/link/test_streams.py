@@ -8,7 +8,7 @@ import time
 import structlog.testing
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.link.payload_msgs import PAYLOAD_STREAMS
 from helixd.link.streams import (
     TELEMETRY_STREAMS,

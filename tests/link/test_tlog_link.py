@@ -12,9 +12,10 @@ from pathlib import Path
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig, SafetyConfig
+from helixd.config.link import LinkConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.connection import Autopilot
-from helixd.link.tlog import FLUSH_INTERVAL_S, LinkTlog, TlogWriter, attach_tlog
+from helixd.link.wire.tlog import FLUSH_INTERVAL_S, LinkTlog, TlogWriter, attach_tlog
 from tests.support.mavmsgs import read_tlog
 
 T0 = 1_763_900_000.0

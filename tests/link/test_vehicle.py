@@ -281,7 +281,7 @@ def test_no_valid_pose_ever_when_nan_from_the_start() -> None:
 
 
 def test_bounds_come_from_the_safety_config() -> None:
-    from helixd.config import SafetyConfig
+    from helixd.config.safety import SafetyConfig
     from helixd.link.vehicle import TelemetryBounds
 
     cfg = SafetyConfig(telemetry_position_max_m=100.0, telemetry_speed_max_mps=2.0)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.describe import program_lines, step_end_times_s
 from helixd.mission.model import Mission
 from helixd.mission.resolve import resolve

@@ -11,17 +11,11 @@ from typing import Any
 import pytest
 
 from helixd.base.plan import ActionKind, Plan
-from helixd.config import HelixdConfig
-from helixd.mission.expand import (
-    PATROL_STEPS_MAX,
-    ExpandOptions,
-    carried_at_step,
-    jumps_when_current,
-    restart_at_step,
-    walk_at_step,
-)
+from helixd.config.root import HelixdConfig
+from helixd.mission.expand import PATROL_STEPS_MAX, ExpandOptions, carried_at_step
 from helixd.mission.model import Mission
 from helixd.mission.resolve import Resolved, Where, resolve
+from helixd.mission.walk import jumps_when_current, restart_at_step, walk_at_step
 
 CFG = HelixdConfig()
 

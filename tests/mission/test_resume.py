@@ -14,7 +14,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from helixd.base.run_files import INPUTS_FILE
-from helixd.config import HelixdConfig, config_to_yaml
+from helixd.config.load import config_to_yaml
+from helixd.config.root import HelixdConfig
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission

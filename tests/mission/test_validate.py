@@ -13,7 +13,7 @@ from pydantic import ValidationError
 
 from helixd.base.frames import NedPose
 from helixd.base.polygon import leg_leaves_polygon, polygon_problems, segments_intersect
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.model import Mission
 from helixd.mission.validate import mission_problems, pending_checks
 from tests.support.missions import mission_of, points_mission

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from pydantic import ValidationError
 
 from helixd.base.frames import NedPose, latlon_to_ne, ne_to_latlon
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.model import Mission
 from helixd.mission.validate import (
     apply_mission_limits,
@@ -100,7 +100,7 @@ def test_survey_refused_by_config_limits_passes_with_its_own(frame: str) -> None
     plain = msn.model_copy(update={"geofence_polygon": (), "time_limit_s": None})
     start = NedPose(0.0, 0.0, 0.0)
     refused = mission_problems(plain, HelixdConfig(), start_ned=start, origin_latlon_deg=ORIGIN)
-    assert any("geofence_radius_m" in p for p in refused)  # its time: tests/runtime/test_timing
+    assert any("geofence_radius_m" in p for p in refused)  # its time: tests/mission/test_judge
     assert mission_problems(msn, HelixdConfig(), start_ned=start, origin_latlon_deg=ORIGIN) == []
 
 

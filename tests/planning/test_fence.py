@@ -16,7 +16,7 @@ from shapely.geometry import LineString, Point, Polygon
 
 from helixd.base.frames import latlon_to_ne, ne_to_latlon
 from helixd.base.plan import MissionFrameKind, MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.files.models import ConfigFileError
 from helixd.mission.formats import load_mission_file
 from helixd.planning.fence import plan_global_mission
@@ -155,7 +155,7 @@ def test_check_plans_a_plan_around_its_exclusions_and_refuses_without_planning(
 
 
 def test_first_leg_of_a_global_plan_is_replanned_from_the_rover(tmp_path: Path) -> None:
-    from helixd.runtime.planned import first_leg_replanner
+    from helixd.prepare.planned import first_leg_replanner
 
     path = write_plan(tmp_path, [(20.0, 0.0), (20.0, 10.0)])  # waypoint 0 beyond the wall
     msn = load_mission_file(path, mode=MotionMode.ROLL, route_keep_outs=True).mission
@@ -183,7 +183,7 @@ def test_first_leg_of_a_global_plan_is_replanned_from_the_rover(tmp_path: Path) 
 def test_check_plot_of_a_global_plan_is_labelled_around_waypoint_0(tmp_path: Path) -> None:
     from matplotlib.figure import Figure
 
-    from helixd.recorder.plots import draw_route
+    from helixd.recorder.plan_plots import draw_route
 
     path = write_plan(tmp_path, [(0.0, 0.0), (20.0, 0.0)])
     msn = load_mission_file(path, mode=MotionMode.ROLL, route_keep_outs=True).mission

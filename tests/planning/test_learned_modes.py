@@ -5,9 +5,11 @@ from __future__ import annotations
 
 from helixd.base.media import Medium
 from helixd.base.plan import MotionMode
-from helixd.planning.media_modes import DEFAULT_MODES, delivered, learned_modes
+from helixd.config.media import MediaConfig
+from helixd.planning.media_modes import config_modes, delivered, learned_modes
 
 ROLL, SCROLL = MotionMode.ROLL, MotionMode.SCROLL
+DEFAULTS = config_modes(MediaConfig())  # media.modes as the config ships it
 
 
 def pick(
@@ -16,7 +18,7 @@ def pick(
     objective: str = "time",
 ) -> dict[Medium, MotionMode]:
     return learned_modes(
-        DEFAULT_MODES,
+        DEFAULTS,
         lambda m, a: fractions.get((m, a)),
         lambda m, k: (energy or {}).get((m, k)),
         max_gain=2.0,
@@ -38,7 +40,7 @@ def test_the_faster_mode_wins_where_both_are_known() -> None:
     assert got[Medium.HARD] is ROLL
     assert got[Medium.MUD] is ROLL  # learnt: against the default SCROLL
     assert got[Medium.WATER] is SCROLL  # scroll axis unknown: the default
-    assert got[Medium.GRASS] is DEFAULT_MODES[Medium.GRASS]
+    assert got[Medium.GRASS] is DEFAULTS[Medium.GRASS]
 
 
 def test_feed_forward_ties_go_to_the_larger_fraction_and_a_stall_is_not_amplified() -> None:

@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import math
 
+import pytest
+
 from helixd.base.frames import MissionFrame
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, MediaMapNe, Medium
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
-from helixd.planning.media_modes import DEFAULT_MODES, ModePolicy, follow_media
+from helixd.config.media import MediaConfig
+from helixd.planning.media_modes import ModePolicy, config_modes, follow_media
 
 ENU = MissionFrame.enu().to_ned
-POLICY = ModePolicy(DEFAULT_MODES, margin_m=1.0)
+DEFAULTS = config_modes(MediaConfig())  # media.modes as the config ships it
+POLICY = ModePolicy.from_config(MediaConfig(transition_margin_m=1.0, min_stretch_m=5.0))
 
 
 def strip(medium: Medium, north0: float, north1: float) -> MediaArea:
@@ -101,7 +105,7 @@ def test_a_waypoints_own_mode_pins_its_leg() -> None:
 
 def test_the_mission_policy_replaces_the_default() -> None:
     media = pond(strip(Medium.WATER, 10.0, 50.0))
-    omni = ModePolicy({**DEFAULT_MODES, Medium.WATER: MotionMode.OMNI}, margin_m=1.0)
+    omni = ModePolicy({**DEFAULTS, Medium.WATER: MotionMode.OMNI}, margin_m=1.0)
     got = follow_media(plan_of((0.0, 60.0)), media, omni, (0.0, 0.0), ENU)
     assert [t.after for t in got.transitions] == [MotionMode.OMNI, MotionMode.ROLL]
     assert [t.turn_rad for t in got.transitions] == [0.0, 0.0]
@@ -128,3 +132,27 @@ def test_a_pinned_leg_beside_a_stretch_in_its_own_mode_adds_no_stop() -> None:
         (10.0, 40.0, False, False),
     ]
     assert got.transitions == ()
+
+
+def test_the_policy_comes_from_the_config_the_learned_picks_and_the_mission() -> None:
+    """One source: the config's media.modes (its defaults as shipped), or the ground
+    profile's learned picks in their place, a mission's media_modes over either."""
+    media = MediaConfig.model_validate({"modes": {"sand": "scroll"}, "transition_margin_m": 2.0})
+    policy = ModePolicy.from_config(media)
+    assert policy.mode_for(Medium.SAND) is MotionMode.SCROLL
+    assert policy.mode_for(Medium.HARD) is MotionMode.ROLL  # the config's default
+    assert (policy.margin_m, policy.min_stretch_m) == (2.0, media.min_stretch_m)
+    mission = {Medium.WATER: MotionMode.OMNI}
+    assert ModePolicy.from_config(media, mission).mode_for(Medium.WATER) is MotionMode.OMNI
+    learned = {**DEFAULTS, Medium.MUD: MotionMode.ROLL}
+    from_profile = ModePolicy.from_config(MediaConfig(modes="learned"), mission, learned)
+    assert from_profile.mode_for(Medium.MUD) is MotionMode.ROLL
+    assert from_profile.mode_for(Medium.WATER) is MotionMode.OMNI  # the mission's still wins
+    assert ModePolicy.from_config(MediaConfig(modes="learned")).modes == DEFAULTS
+
+
+def test_a_policy_without_a_medium_is_refused_not_guessed() -> None:
+    """No silent SCROLL for a medium the policy was not given."""
+    partial = {m: mode for m, mode in DEFAULTS.items() if m is not Medium.GRASS}
+    with pytest.raises(ValueError, match="no mode for grass"):
+        ModePolicy(partial)

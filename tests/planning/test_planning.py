@@ -16,7 +16,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.model import Mission
 from helixd.planning.grid import GridFrame, build_grid, inflate, segment_is_free
 from helixd.planning.obstacles import (

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.model import Mission
 from helixd.planning.grid import segment_is_free
 from helixd.planning.replan import replan_first_leg

@@ -13,7 +13,8 @@ from typer.testing import CliRunner
 
 from helixd.base.frames import MissionFrame, NedPose, latlon_to_ne, ne_to_latlon
 from helixd.cli.app import app
-from helixd.config import HelixdConfig, config_to_yaml
+from helixd.config.load import config_to_yaml
+from helixd.config.root import HelixdConfig
 from helixd.mission.formats import mission_to_yaml
 from helixd.mission.model import Mission
 from helixd.recorder.export import ExportError, build_export, load_run_export, to_geojson, to_kml

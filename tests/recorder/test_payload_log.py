@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.frames import NedPose
-from helixd.config import PayloadConfig, PayloadSource
+from helixd.config.recorder import PayloadConfig, PayloadSource
 from helixd.link.payload_msgs import Reading
 from helixd.link.vehicle import PoseSample
 from helixd.recorder.payload_log import (

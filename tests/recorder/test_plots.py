@@ -21,23 +21,25 @@ from helixd.mission.resume import RunInputs
 from helixd.recorder.events import read_events
 from helixd.recorder.outcome import CREW_COLOR
 from helixd.recorder.plots import (
-    AUTOPILOT_AXIS_LABEL,
     OVERVIEW_SIZE_PX,
     PANEL_FILES,
     PANEL_SIZE_PX,
-    PlotError,
     _draw_driven,
     _panel_figure,
-    arrival_mark,
-    autopilot_axis,
-    axis_labels,
     distance_along_m,
     draw_cross_track_along,
-    load_run,
     position_legend,
     render_run,
     sparse_label_mask,
     waypoint_labels,
+)
+from helixd.recorder.run_data import (
+    AUTOPILOT_AXIS_LABEL,
+    PlotError,
+    arrival_mark,
+    autopilot_axis,
+    axis_labels,
+    load_run,
 )
 from helixd.recorder.summary import Arrival, RunSummary
 from tests.support.recorder_runs import SQUARE, synth_run
@@ -310,9 +312,9 @@ def test_a_surveys_waypoint_labels_are_moved_clear_of_each_other() -> None:
     from matplotlib.figure import Figure
 
     from helixd.recorder.plots import (
-        _label_waypoint,
         declutter_waypoint_labels,
         label_offsets_pt,
+        label_waypoint,
     )
 
     # a boustrophedon: 24 transects 10 m apart, 300 m long (the pond-with-island survey)
@@ -327,7 +329,7 @@ def test_a_surveys_waypoint_labels_are_moved_clear_of_each_other() -> None:
     ax = fig.subplots()
     ax.plot([p[0] for p in path], [p[1] for p in path], "-")
     for i, (xy, off) in enumerate(zip(path, offsets, strict=True)):
-        _label_waypoint(ax, str(i + 1), xy, off, fontsize=9, weight="bold")
+        label_waypoint(ax, str(i + 1), xy, off, fontsize=9, weight="bold")
     ax.set_aspect("equal")
     declutter_waypoint_labels(fig)
     boxes = [t.get_window_extent() for t in ax.texts]

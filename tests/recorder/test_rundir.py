@@ -19,7 +19,7 @@ from typing import IO
 import pytest
 import structlog
 
-from helixd.config import RecorderConfig
+from helixd.config.recorder import RecorderConfig
 from helixd.recorder import logging_setup
 from helixd.recorder.rows import COLUMNS, CSV_COMMENT, FlightRow, nan_row, read_flight_csv
 from helixd.recorder.rundir import (

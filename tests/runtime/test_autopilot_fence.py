@@ -9,7 +9,7 @@ from typing import Any, cast
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.link.connection import Autopilot
-from helixd.link.mission_transfer import MissionTransferError
+from helixd.link.services.mission_transfer import MissionTransferError
 from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats.items import FenceNe, ObstacleCircle
 from helixd.runtime.autopilot_fence import autopilot_fence_check, route_fence_problems

@@ -1,4 +1,4 @@
-"""The daemon's exception → exit-code table (pure) and its bounded close."""
+"""The runner's bounded close, its stop during preflight, and whether the fall-back disarms."""
 
 from __future__ import annotations
 
@@ -6,91 +6,22 @@ import asyncio
 
 import pytest
 
-from helixd.actuators.base import ServoCommandRefused
 from helixd.base.exitcodes import ExitCode
-from helixd.link.command_client import CommandRejected, CommandTimeout
-from helixd.mav.url import LinkError
-from helixd.mission.resolve import PlanError
-from helixd.runtime.daemon import (
-    EXIT_RULES,
+from helixd.runtime.daemon import disarm_after
+from helixd.runtime.ending import (
     Ending,
-    Stage,
-    disarm_after,
     ending_after_fallback,
-    ending_for,
-    exit_rule,
 )
-from helixd.runtime.setup import PreflightFailed, StartRefused, StopBeforeFlight
+from helixd.runtime.setup import StopBeforeFlight
 from helixd.safety.supervisor import FallbackReport
 from helixd.safety.watchdogs import Fault, FaultCause
-
-
-def servo_refused() -> ServoCommandRefused:
-    return ServoCommandRefused(2, 1700, CommandRejected("DO_SET_SERVO", 4))
-
-
-@pytest.mark.parametrize(
-    ("exc", "stage", "cause", "code"),
-    [
-        (servo_refused(), Stage.SETUP, FaultCause.PREFLIGHT, ExitCode.PREFLIGHT),
-        # a refusal in flight is a fault of a moving rover, not "nothing was armed"
-        (servo_refused(), Stage.FLIGHT, FaultCause.ACTUATOR, ExitCode.FAULT),
-        (CommandTimeout("DO_SET_SERVO", 3, 0.5), Stage.FLIGHT, FaultCause.ACTUATOR, ExitCode.FAULT),
-        (CommandRejected("DO_SET_MODE", 4), Stage.SETUP, FaultCause.PREFLIGHT, ExitCode.PREFLIGHT),
-        (PlanError("bad plan"), Stage.SETUP, FaultCause.PREFLIGHT, ExitCode.PREFLIGHT),
-        (PreflightFailed(["a", "b"]), Stage.SETUP, FaultCause.PREFLIGHT, ExitCode.PREFLIGHT),
-        (LinkError("no such device"), Stage.SETUP, FaultCause.LINK_LOST, ExitCode.LINK),
-        (LinkError("gone"), Stage.FLIGHT, FaultCause.LINK_LOST, ExitCode.FAULT),
-        (
-            StopBeforeFlight("SIGINT received"),
-            Stage.SETUP,
-            FaultCause.SIGNAL,
-            ExitCode.OPERATOR_STOP,
-        ),
-        (RuntimeError("bug"), Stage.SETUP, FaultCause.EXCEPTION, ExitCode.INTERNAL_ERROR),
-        (RuntimeError("bug"), Stage.FLIGHT, FaultCause.EXCEPTION, ExitCode.INTERNAL_ERROR),
-    ],
-)
-def test_exit_table(exc: Exception, stage: Stage, cause: FaultCause, code: ExitCode) -> None:
-    ending, rule = ending_for(exc, stage, now_s=12.5)
-    assert rule is exit_rule(exc, stage)
-    assert ending.code is code
-    assert ending.fault is not None and ending.fault.cause is cause
-    # a flight failure is detected now (the fall-back's timing starts there); setup: no motion
-    assert ending.detected_s == (12.5 if stage is Stage.FLIGHT else None)
-
-
-def test_preflight_problems_are_joined_and_exceptions_named() -> None:
-    ending, rule = ending_for(PreflightFailed(["no pose", "EKF"]), Stage.SETUP, 0.0)
-    assert ending.fault == Fault(FaultCause.PREFLIGHT, "no pose; EKF")
-    assert (rule.event, rule.message_prefix) == ("preflight_failed", "preflight")
-    ending, _ = ending_for(ValueError("x"), Stage.FLIGHT, 0.0)
-    assert ending.fault == Fault(FaultCause.EXCEPTION, "ValueError: x")
-
-
-def test_start_refused_keeps_its_own_fault_and_time() -> None:
-    fault = Fault(FaultCause.PREFLIGHT, "moved out of the fence")
-    ending, _ = ending_for(StartRefused(fault, 3.0), Stage.SETUP, 9.0)
-    assert (ending.fault, ending.code, ending.detected_s) == (fault, ExitCode.FAULT, 3.0)
-
-
-def test_every_exit_code_of_a_run_is_reachable_and_last_rule_catches_all() -> None:
-    codes = {rule.code for rule in EXIT_RULES}
-    assert codes == {
-        ExitCode.OPERATOR_STOP,
-        ExitCode.FAULT,
-        ExitCode.PREFLIGHT,
-        ExitCode.LINK,
-        ExitCode.INTERNAL_ERROR,
-    }
-    assert EXIT_RULES[-1].exceptions == (Exception,) and EXIT_RULES[-1].stage is None
 
 
 def test_close_is_bounded(tmp_path: object) -> None:
     """A link whose close() hangs does not hang the exit: bounded by fallback_deadline_s."""
     from pathlib import Path
 
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.mission.model import Mission
     from helixd.runtime.daemon import MissionRunner, RunOptions
 
@@ -134,6 +65,11 @@ def test_close_is_bounded(tmp_path: object) -> None:
         (False, Ending(None, ExitCode.OK), True),
         # the crew released a flight of AUTO to the pilot (MANUAL): the pilot drives it
         (False, Ending(Fault(FaultCause.RELEASED, "MANUAL"), ExitCode.OPERATOR_STOP), False),
+        # the crew handed the flight to the next (a new place, another item): nobody disarms
+        (True, Ending(Fault(FaultCause.HANDOVER, "GUIDED"), ExitCode.OPERATOR_STOP), False),
+        (True, Ending(Fault(FaultCause.ITEM_SET, "item 3"), ExitCode.OPERATOR_STOP), False),
+        # the crew's pause of what we armed: disarmed, as a stop signal
+        (True, Ending(Fault(FaultCause.PAUSED, "switch"), ExitCode.OPERATOR_STOP), True),
     ],
 )
 def test_disarm_after(armed_by_us: bool, ending: Ending, disarm: bool | None) -> None:
@@ -147,7 +83,7 @@ def test_a_stop_during_preflight_acts_at_once(monkeypatch: pytest.MonkeyPatch) -
     from types import SimpleNamespace
     from typing import Any
 
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
     from helixd.mission.model import Mission
     from helixd.runtime.daemon import MissionRunner, RunOptions
     from helixd.runtime.setup import Held
@@ -183,21 +119,6 @@ def test_a_stop_during_preflight_acts_at_once(monkeypatch: pytest.MonkeyPatch) -
         assert abandoned.is_set()
 
     asyncio.run(main())
-
-
-def test_a_completed_mission_left_armed_is_no_exit_0() -> None:
-    """Exit 0 means disarmed: a completed mission whose disarm the autopilot refused ends as a
-    fault naming it, so the operator is never told 'ok' about a rover still armed."""
-    done = Ending(None, ExitCode.OK)
-    refused = FallbackReport("completed", "", hold_acked=True, errors=["disarm: DENIED"])
-    got = ending_after_fallback(done, refused)
-    assert got.code is ExitCode.FAULT and got.fault is not None
-    assert got.fault.cause is FaultCause.NOT_DISARMED
-    assert got.fault.detail == "every waypoint reached, but disarm: DENIED: still armed"
-    ok = FallbackReport("completed", "", hold_acked=True, disarmed=True)
-    assert ending_after_fallback(done, ok) is done
-    takeover = Ending(Fault(FaultCause.PILOT_TAKEOVER, "HOLD"), ExitCode.OPERATOR_STOP)
-    assert ending_after_fallback(takeover, refused) is takeover  # left armed for the pilot
 
 
 def test_serve_may_leave_a_completed_mission_armed_in_hold() -> None:

@@ -7,7 +7,7 @@ import gc
 
 import pytest
 
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.runtime import eventloop
 
 

@@ -19,25 +19,18 @@ from hypothesis import strategies as st
 from helixd.actuators.base import ServoCommandRefused
 from helixd.base.frames import MissionFrame, NedPose
 from helixd.base.plan import Plan
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.navigator import Navigator
-from helixd.link.command_client import CommandRejected
+from helixd.link.services.command_client import CommandRejected
 from helixd.link.telemetry import ChangeWaiters, Telemetry
 from helixd.link.vehicle import Change, PoseSample, PositionTarget, VehicleState
 from helixd.mission.expand import ExpandOptions
 from helixd.mission.model import Mission
 from helixd.mission.resolve import resolve_plan
-from helixd.runtime.flight import (
-    DRIVE_MANUAL,
-    Driving,
-    FlightHooks,
-    FlightLoop,
-    StepReport,
-    bounded_cruise,
-)
+from helixd.runtime.flight import FlightHooks, FlightLoop, StepReport, bounded_cruise
 from helixd.runtime.flight_report import StepJournal, flight_row
 from helixd.runtime.loop_state import ceiling_next_due
-from helixd.runtime.mode_gate import PlaceRule
+from helixd.runtime.mode_gate import DRIVE_MANUAL, Driving, PlaceRule
 from helixd.runtime.signals import StopRequest
 from helixd.safety.watchdogs import FaultCause
 from tests.support.mavmsgs import AP, att, decoded, hb, lpn

@@ -13,7 +13,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.run_files import TLOG_FILE
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.runtime.host import ServeHost
 from helixd.runtime.setup import Held

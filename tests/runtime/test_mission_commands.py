@@ -9,7 +9,7 @@ import pytest
 from structlog.testing import capture_logs
 
 from helixd.base.plan import ActionKind, MissionAction
-from helixd.link.command_client import CommandRejected, CommandTimeout
+from helixd.link.services.command_client import CommandRejected, CommandTimeout
 from helixd.runtime.mission_commands import CommandOutcome, MissionCommands
 
 

@@ -1,5 +1,4 @@
-"""The setup phases' pure parts: the plan placed from the rover (and the autopilot's home);
-preflight's GPS verdict on a vehicle state fed as the link's reader feeds it."""
+"""Preflight's GPS verdict on a vehicle state fed as the link's reader feeds it."""
 
 from __future__ import annotations
 
@@ -7,60 +6,12 @@ import asyncio
 import time
 from typing import Any
 
-import pytest
-
-from helixd.base.frames import NedPose
-from helixd.base.plan import MissionFrameKind
-from helixd.config import HelixdConfig
-from helixd.link.command_client import CommandRejected
-from helixd.link.vehicle import Change, HomePosition
-from helixd.mission.expand import DEFAULT_OPTIONS
-from helixd.mission.model import Mission
-from helixd.runtime.setup import (
-    PreflightFailed,
-    explain_arm_refusal,
-    gps_verdict,
-    mission_frame,
-    resolve_flight,
-)
+from helixd.config.root import HelixdConfig
+from helixd.runtime.setup import gps_verdict
 from tests.support.feed import Feed, still_pending
 from tests.support.mavmsgs import AP, decoded
-from tests.support.peer import linked
 
 CFG = HelixdConfig()
-RETURNS = Mission.model_validate(
-    {
-        "name": "out and home",
-        "mode": "roll",
-        "frame": "local_ned",
-        "waypoints": [{"north": 5, "east": 0}, {"command": "NAV_RETURN_TO_LAUNCH"}],
-    }
-)
-HERE = NedPose(1.0, 2.0, 0.0)
-
-
-def test_a_return_home_without_the_autopilots_home_is_refused() -> None:
-    with pytest.raises(PreflightFailed, match="NAV_RETURN_TO_LAUNCH"):
-        resolve_flight(RETURNS, CFG, None, HERE, None, DEFAULT_OPTIONS)
-
-
-def test_a_return_home_ends_at_the_autopilots_home() -> None:
-    home = HomePosition(53.5, -113.5, -3.0, 4.0)
-    plan, where = resolve_flight(RETURNS, CFG, None, HERE, home, DEFAULT_OPTIONS)
-    assert where.home_xy_m == (4.0, -3.0)  # x east, y north
-    assert where.start_xy_m == (2.0, 1.0)
-    last = plan.waypoints[-1]
-    assert (last.x_m, last.y_m) == (4.0, -3.0)
-
-
-def test_a_start_mission_is_framed_at_the_rover() -> None:
-    start = Mission.model_validate(
-        {"name": "s", "mode": "roll", "frame": "start", "waypoints": [{"x": 1, "y": 0}]}
-    )
-    assert start.frame is MissionFrameKind.START
-    frame = mission_frame(start, HERE)
-    assert frame.to_ned(0.0, 0.0)[:2] == pytest.approx((1.0, 2.0))
-    assert mission_frame(RETURNS, HERE).to_ned(0.0, 0.0)[:2] == pytest.approx((0.0, 0.0))
 
 
 # -- preflight's GPS verdict: the first good GPS_RAW_INT may follow the first fresh pose --------
@@ -120,25 +71,3 @@ def test_a_gps_that_never_reported_is_refused_by_name() -> None:
         assert fault is not None and fault.detail == "no GPS_RAW_INT received"
 
     asyncio.run(main())
-
-
-async def test_a_throttle_not_neutral_refusal_says_what_the_channel_must_read() -> None:
-    """The crew's arm after `autopilot check`: RC5 (RCMAP_THROTTLE) rests high. The refusal
-    says what RC5 must read and what it reads, and points nowhere near startup.force_arm."""
-    async with linked(command_timeout_s=0.2, command_retries=1) as (ap, peer):
-        peer.prearm_text = "Arm: Throttle (RC5) is not neutral"
-        peer.rc_in[4] = 1900
-        peer.params.update({"RC5_TRIM": 1500.0, "RC5_DZ": 30.0})
-        assert await ap.telemetry.wait_for(
-            lambda st: st.rc_inputs_us[4:5] == (1900,), Change.RC, 5.0
-        )
-        with pytest.raises(CommandRejected) as raised:
-            await ap.action.arm(force=False)
-        assert "force" not in str(raised.value)
-        explained = str(await explain_arm_refusal(ap, raised.value))
-    assert (
-        "RC5 (RCMAP_THROTTLE) must read its trim RC5_TRIM = 1500 µs ± RC5_DZ = 30 µs "
-        "(1470–1530 µs) to arm; it reads 1900 µs — put the stick or switch on RC5"
-    ) in explained
-    assert "'Arm: Throttle (RC5) is not neutral'" in explained
-    assert "force" not in explained

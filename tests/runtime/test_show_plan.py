@@ -17,11 +17,11 @@ from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import NedPose, latlon_to_ne
 from helixd.base.plan import MissionFrameKind, MotionMode, Plan, PlanWaypoint
 from helixd.cli.autopilot import convert, wants_autopilot
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mav.mission_item import MissionItem
 from helixd.mission.formats.items import GcsMission
 from helixd.mission.formats.wire import gcs_to_wire
-from helixd.runtime.inputs import mission_vs_config
+from helixd.mission.judge import mission_vs_config
 from helixd.runtime.show_plan import plan_as_gcs, show_plan
 
 ORIGIN = (53.5233, -113.5263)

@@ -13,9 +13,9 @@ import pytest
 
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import NedPose
-from helixd.config import SafetyConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.vehicle import SENSOR_BATTERY, SENSOR_GEOFENCE, StatusText, VehicleState
-from helixd.runtime.daemon import ending_of_flight
+from helixd.runtime.ending import ending_of_flight
 from helixd.runtime.flight import FlightResult
 from helixd.safety.autopilot_failsafe import (
     AUTOPILOT_CAUSES,

@@ -8,7 +8,7 @@ import math
 import pytest
 
 from helixd.base.frames import NedPose
-from helixd.config import SafetyConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.vehicle import VehicleState
 from helixd.safety.supervisor import Motion, Supervisor, fall_back, safety_inputs
 from helixd.safety.watchdogs import Fault, FaultCause
@@ -86,6 +86,8 @@ class FakeAutopilot:
         (FaultCause.RELEASED, ["stop"]),
         # the crew set the autopilot's current item: the next flight of AUTO goes there
         (FaultCause.ITEM_SET, ["stop"]),
+        # the crew gave the autopilot a new place (Go to location): the next flight drives
+        (FaultCause.HANDOVER, ["stop"]),
     ],
 )
 def test_fall_back_stops_and_asks_hold_except_for_a_release(
@@ -104,7 +106,7 @@ def test_fall_back_stops_and_asks_hold_except_for_a_release(
         )
     )
     assert seen == calls
-    no_hold = cause in (FaultCause.RELEASED, FaultCause.ITEM_SET)
+    no_hold = cause in (FaultCause.RELEASED, FaultCause.ITEM_SET, FaultCause.HANDOVER)
     assert (report.hold_requested_after_s is None) is no_hold
 
 

@@ -9,8 +9,17 @@ from collections.abc import Callable
 import pytest
 
 from helixd.base.polygon import point_in_polygon
-from helixd.config import SafetyConfig, StallConfig, TakeoverConfig
-from helixd.safety.watchdogs import Fault, FaultCause, SafetyInputs, SafetyMonitor
+from helixd.config.safety import SafetyConfig, StallConfig, TakeoverConfig
+from helixd.safety.watchdogs import (
+    HANDED_CAUSES,
+    NEXT_FLIGHT_CAUSES,
+    OPERATOR_CAUSES,
+    STOP_CAUSES,
+    Fault,
+    FaultCause,
+    SafetyInputs,
+    SafetyMonitor,
+)
 from tests.support.safety_inputs import HEALTHY
 
 
@@ -474,3 +483,13 @@ def test_the_crawl_watch_is_for_rolling_scrolling_slowly_is_not_stuck() -> None:
     rolling = SafetyMonitor(SafetyConfig())
     _, fault = drive(rolling, 30.0, 0.6, lambda t: 0.06)  # the same crawl, rolling
     assert fault is not None and "stall.crawl_fraction" in fault.detail
+
+
+def test_the_crews_causes_are_one_set_each() -> None:
+    """A hand-over (the pilot, or the next flight, drives) and a stop (pause, signal) are the
+    operator's, never a fault; the next flight's are hand-overs; none is in two kinds."""
+    assert {FaultCause.ITEM_SET, FaultCause.HANDOVER} == NEXT_FLIGHT_CAUSES
+    assert {FaultCause.RELEASED, *NEXT_FLIGHT_CAUSES} == HANDED_CAUSES
+    assert {FaultCause.PAUSED, FaultCause.SIGNAL} == STOP_CAUSES
+    assert HANDED_CAUSES | STOP_CAUSES | {FaultCause.PILOT_TAKEOVER} == OPERATOR_CAUSES
+    assert not HANDED_CAUSES & STOP_CAUSES

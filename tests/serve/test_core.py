@@ -35,6 +35,7 @@ from helixd.serve.core import (
     answer_command,
     answer_goto,
     answer_switch,
+    crew_paused,
     radio_live,
     state_after_flight,
 )
@@ -128,6 +129,7 @@ def test_pause_and_continue() -> None:
     a = answer_command(flying, MAV_CMD_DO_PAUSE_CONTINUE, (0.0,), 255, GCS)
     assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.PAUSE)
     assert a.text == "pausing: pause from the ground station"  # words, not DO_PAUSE_CONTINUE 0
+    assert a.reason == "pause from the ground station"  # what the flight's pause is told
     a = answer_command(view(), MAV_CMD_DO_PAUSE_CONTINUE, (0.0,), 255, GCS)
     assert a.result == MAV_RESULT_DENIED and "not flying" in a.text
     paused = view(ServeState.PAUSED, resumable=True)
@@ -206,6 +208,7 @@ def test_switch_edges_start_and_pause() -> None:
     assert a is not None and a.result == MAV_RESULT_DENIED and "too far" in a.text
     a = answer_switch(view(ServeState.FLYING), SwitchEdge.FALLING)
     assert a is not None and a.request is Request.PAUSE
+    assert (a.text, a.reason) == ("pausing: start switch low", "start switch low")
     assert answer_switch(view(), SwitchEdge.FALLING) is None
     assert answer_switch(view(ServeState.FLYING), SwitchEdge.NONE) is None
 
@@ -224,12 +227,31 @@ def test_switch_edges_start_and_pause() -> None:
         (ExitCode.PREFLIGHT, FaultCause.PREFLIGHT, False, ServeState.FAULTED),
         # a flight of AUTO the crew released to the pilot (MANUAL): AUTO again goes on
         (ExitCode.OPERATOR_STOP, FaultCause.RELEASED, False, ServeState.PAUSED),
+        # the crew set another item, or gave the autopilot a new place: the next flight drives
+        (ExitCode.OPERATOR_STOP, FaultCause.ITEM_SET, False, ServeState.PAUSED),
+        (ExitCode.OPERATOR_STOP, FaultCause.HANDOVER, False, ServeState.PAUSED),
+        (ExitCode.FAULT, FaultCause.STALL, True, ServeState.FAULTED),  # a fault mid-pause
     ],
 )
 def test_state_after_flight(
     code: ExitCode, cause: FaultCause | None, paused: bool, state: ServeState
 ) -> None:
     assert state_after_flight(code, cause, paused) is state
+
+
+@pytest.mark.parametrize(
+    ("cause", "paused", "crew"),
+    [
+        (FaultCause.PAUSED, True, True),
+        (FaultCause.PAUSED, False, True),
+        (None, True, True),  # paused while it was still starting
+        (None, False, False),
+        (FaultCause.STALL, True, False),  # a fault came first: told as a fault
+        (FaultCause.SIGNAL, False, False),
+    ],
+)
+def test_crew_paused(cause: FaultCause | None, paused: bool, crew: bool) -> None:
+    assert crew_paused(cause, paused) is crew
 
 
 def test_armed_in_auto_is_a_start_only_after_being_seen_otherwise() -> None:

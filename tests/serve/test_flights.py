@@ -11,20 +11,30 @@ from typing import Any, cast
 from helixd.base.clock import now_s
 from helixd.base.plan import Numbering
 from helixd.base.run_files import EVENTS_FILE
-from helixd.config import HelixdConfig
-from helixd.link.command_client import CommandRejected
+from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
+from helixd.link.services.command_client import CommandRejected
 from helixd.link.vehicle import VehicleState
 from helixd.mav.constants import MAV_RESULT_DENIED
 from helixd.mission.expand import ExpandOptions
+from helixd.prepare.builder import AutoWalk
 from helixd.recorder.summary import RunSummary
 from helixd.runtime.host import ServeHost
-from helixd.runtime.prepare import AutoWalk
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import FallbackReport
 from helixd.safety.watchdogs import FaultCause
-from helixd.serve.core import AutoWatch
-from helixd.serve.flights import Flights, after_flight, flight_end_text, held_walk
+from helixd.serve.check import Verdict
+from helixd.serve.core import AutoWatch, ServeState
+from helixd.serve.flights import (
+    Flights,
+    Interrupted,
+    WalkLetGo,
+    after_flight,
+    flight_end_text,
+    held_walk,
+    read_state_file,
+    write_state_file,
+)
 from helixd.serve.mission import MissionWatch
 from helixd.serve.options import ServeOptions
 from helixd.serve.status import ServeStatus
@@ -82,8 +92,8 @@ def test_the_walk_held_is_where_the_autopilots_own_item_was(tmp_path: Path) -> N
     started = [{"event": "mission_step", "kind": "step_started", "step": n} for n in (1, 2, 3)]
     helixd_only = tmp_path / "a"
     _events(helixd_only, *started)
-    assert held_walk(("f", opts, helixd_only), "f") == AutoWalk(opts, 3, exact=False)
-    assert held_walk(("f", opts, helixd_only), "other mission") is None
+    assert held_walk(WalkLetGo("f", opts, helixd_only), "f") == AutoWalk(opts, 3, exact=False)
+    assert held_walk(WalkLetGo("f", opts, helixd_only), "other mission") is None
     assert held_walk(None, "f") is None
     followed = tmp_path / "b"
     _events(
@@ -92,7 +102,7 @@ def test_the_walk_held_is_where_the_autopilots_own_item_was(tmp_path: Path) -> N
         {"event": "autopilot_step", "item": 4, "step": 4},
         {"event": "autopilot_step", "item": 3, "step": "5"},  # garbled: ignored
     )
-    assert held_walk(("f", opts, followed), "f") == AutoWalk(opts, 4, exact=True)
+    assert held_walk(WalkLetGo("f", opts, followed), "f") == AutoWalk(opts, 4, exact=True)
     item_set = tmp_path / "c"
     _events(
         item_set,
@@ -100,7 +110,7 @@ def test_the_walk_held_is_where_the_autopilots_own_item_was(tmp_path: Path) -> N
         {"event": "autopilot_step", "item": 4, "step": 2},
         {"event": "autopilot_item_set", "item": 1, "autopilot_step": 2},
     )
-    assert held_walk(("f", opts, item_set), "f") == AutoWalk(opts, 2, exact=True)
+    assert held_walk(WalkLetGo("f", opts, item_set), "f") == AutoWalk(opts, 2, exact=True)
 
 
 class _Pane:
@@ -129,16 +139,13 @@ class _Action:
 def _refusing(tmp_path: Path, refuses_hold: bool) -> tuple[Flights, Any, _Pane, AutoWatch]:
     """Flights on an autopilot armed in AUTO whose start was just taken from the watch."""
     opts = ServeOptions(HelixdConfig(), None, tmp_path)
-    pane, watch = _Pane(), AutoWatch()
+    pane = _Pane()
+    status = cast(ServeStatus, SimpleNamespace(gcs=pane))
+    flights = Flights(opts, MissionWatch(opts), status, None, StopRequest())
+    watch = flights.auto_watch
     watch.update(True, "HOLD", False, 1.0)
     assert watch.update(True, "AUTO", False, 2.0)
     watch.taken()
-
-    async def read(ap: Autopilot) -> None:
-        return None
-
-    status = cast(ServeStatus, SimpleNamespace(gcs=pane))
-    flights = Flights(opts, MissionWatch(opts), status, watch, None, read, StopRequest())
     st = VehicleState()
     st.armed, st.mode, st.last_heartbeat_s = True, "AUTO", 2.0
     return flights, SimpleNamespace(state=st, action=_Action(refuses_hold)), pane, watch
@@ -200,3 +207,59 @@ def test_the_service_host_keeps_when_the_fall_backs_hold_was_acknowledged() -> N
     assert host.hold_acked_s is None
     host.secured(FallbackReport("stall", "dug in", hold_acked=True))
     assert host.hold_acked_s is not None
+
+
+class _Told:
+    """ServeStatus as the verdicts set it: the states, and what the pane was told."""
+
+    def __init__(self) -> None:
+        self.gcs = _Pane()
+        self.state = ServeState.IDLE
+        self.detail = ""
+        self.sets: list[tuple[ServeState, str]] = []
+
+    def set(self, state: ServeState, detail: str = "", severity: int | None = None) -> None:
+        self.state, self.detail = state, detail
+        self.sets.append((state, detail))
+
+
+def test_a_verdict_is_applied_by_the_flights_with_a_continue_named(tmp_path: Path) -> None:
+    """READY with the interrupted run a start continues (the state file's record, of this
+    mission), REFUSED with the first problem and the next ones to the pane."""
+    run_dir = tmp_path / "runs" / "run-1"
+    run_dir.mkdir(parents=True)
+    opts = ServeOptions(HelixdConfig(), None, tmp_path / "runs")
+    write_state_file(opts.state_file, Interrupted("fp", run_dir), ServeState.PAUSED)
+    told = _Told()
+    flights = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    assert flights.interrupted == Interrupted("fp", run_dir)
+    ready = cast(Any, SimpleNamespace(fingerprint="fp", waypoints=2))
+    flights.apply(Verdict(ServeState.READY, "plan 0a0b0c: 2 waypoints checked", ready))
+    assert told.sets[-1] == (
+        ServeState.READY,
+        "plan 0a0b0c: 2 waypoints checked (interrupted: a start continues it)",
+    )
+    other = cast(Any, SimpleNamespace(fingerprint="another plan", waypoints=2))
+    flights.apply(Verdict(ServeState.READY, "plan 1a: 2 waypoints checked", other))
+    assert told.sets[-1] == (ServeState.READY, "plan 1a: 2 waypoints checked")
+    problems = ["item 2: too far", "item 3: too far"]
+    flights.apply(Verdict(ServeState.REFUSED, problems[0], None, ["refused: item 3"], problems))
+    assert told.sets[-1] == (ServeState.REFUSED, "item 2: too far")
+    assert told.gcs.texts == ["refused: item 3"]
+    flights.apply(Verdict(ServeState.IDLE, "no mission on the autopilot"))
+    assert told.sets[-1] == (ServeState.IDLE, "no mission on the autopilot")
+
+
+def test_the_state_file_keeps_the_interrupted_run(tmp_path: Path) -> None:
+    path = tmp_path / "serve-state.json"
+    assert read_state_file(path) is None  # none yet
+    run_dir = tmp_path / "run-1"
+    run_dir.mkdir()
+    write_state_file(path, Interrupted("fp", run_dir), ServeState.PAUSED)
+    assert read_state_file(path) == Interrupted("fp", run_dir.resolve())
+    record = json.loads(path.read_text(encoding="utf-8"))
+    assert (record["state"], record["mission_sha256"]) == ("paused", "fp")
+    write_state_file(path, None, ServeState.COMPLETED)
+    assert read_state_file(path) is None
+    write_state_file(path, Interrupted("fp", tmp_path / "gone"), ServeState.PAUSED)
+    assert read_state_file(path) is None  # its run directory is gone: nothing to continue

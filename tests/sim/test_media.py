@@ -12,13 +12,14 @@ import pytest
 from pydantic import ValidationError
 
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.files.media import MediaMapError
+from helixd.plant.ground import Terrain, TerrainTable
+from helixd.plant.physics import scroll_positions_ne, step
+from helixd.plant.state import PhysicsState
 from helixd.sim.core import SimCore
-from helixd.sim.physics import scroll_positions_ne, step
 from helixd.sim.server import with_media
-from helixd.sim.sim_config import SimConfig, Terrain, TerrainTable
-from helixd.sim.state import PhysicsState
+from helixd.sim.sim_config import SimConfig
 from tests.support.simcore import make_core, run
 
 VEHICLE = VehicleConfig()
@@ -162,7 +163,7 @@ def test_media_file_is_read_by_the_shell(tmp_path: Path) -> None:
     assert cfg.media is not None and cfg.media_file is None
     core = SimCore(cfg, 1, np.random.default_rng(1))
     assert core.media_ne is not None and core.media_ne.medium_at(25.0, 10.0) is Medium.WATER
-    with pytest.raises(ValueError, match="read by the simulator's shell"):
+    with pytest.raises(ValueError, match="read by the shell"):
         SimCore(SimConfig(media_file=repo_map), 1, np.random.default_rng(1))
     bad = tmp_path / "bad.geojson"
     bad.write_text('{"type": "FeatureCollection", "features": [1]}', "utf-8")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from helixd.sim.param_store import ParamStore
+from helixd.sim.firmware.param_store import ParamStore
 from helixd.sim.sim_config import SimConfig
 from helixd.sim.storage import (
     STORAGE_FILE,

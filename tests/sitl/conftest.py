@@ -177,6 +177,9 @@ class PositionSample:
     east_m: float
 
 
+Sample = TypeVar("Sample", ServoSample, PositionSample)
+
+
 @dataclass
 class MavClient:
     """Reads one TCP link in a thread; keeps the autopilot's latest message of each type, the
@@ -333,25 +336,30 @@ class MavClient:
         hb = self.latest.get("HEARTBEAT")
         return None if hb is None else bool(int(hb.base_mode) & MAV_MODE_FLAG_SAFETY_ARMED)
 
-    def servo_pwm(self) -> tuple[int, int, int, int] | None:
+    def _last(self, samples: list[Sample]) -> Sample | None:
         with self._cond:
-            return self.servo[-1].pwm_us if self.servo else None
+            return samples[-1] if samples else None
+
+    def _since(self, samples: list[Sample], t_boot_s: float) -> list[Sample]:
+        """The samples stamped at or after ``t_boot_s`` (autopilot time)."""
+        with self._cond:
+            return [s for s in samples if s.t_boot_s >= t_boot_s]
+
+    def servo_pwm(self) -> tuple[int, int, int, int] | None:
+        last = self._last(self.servo)
+        return None if last is None else last.pwm_us
 
     def last_servo(self) -> ServoSample | None:
-        with self._cond:
-            return self.servo[-1] if self.servo else None
+        return self._last(self.servo)
 
     def servo_since(self, t_boot_s: float) -> list[ServoSample]:
-        with self._cond:
-            return [s for s in self.servo if s.t_boot_s >= t_boot_s]
+        return self._since(self.servo, t_boot_s)
 
     def position(self) -> PositionSample | None:
-        with self._cond:
-            return self.positions[-1] if self.positions else None
+        return self._last(self.positions)
 
     def positions_since(self, t_boot_s: float) -> list[PositionSample]:
-        with self._cond:
-            return [p for p in self.positions if p.t_boot_s >= t_boot_s]
+        return self._since(self.positions, t_boot_s)
 
     def yaw_at(self, t_boot_s: float) -> float | None:
         """ATTITUDE yaw (NED, clockwise from North) last reported at or before ``t_boot_s``."""
@@ -570,11 +578,7 @@ class SitlVehicle:
         )
 
     def log_tail(self, lines: int = 30) -> str:
-        try:
-            text = self.log_path.read_text(encoding="utf-8", errors="replace")
-        except OSError as exc:
-            return f"(no SITL log: {exc})"
-        return "\n".join(text.splitlines()[-lines:])
+        return log_tail(self.log_path, lines, "SITL")
 
     def guard_version(self) -> int | None:
         """HXG_VERSION as the autopilot reports it: the helixd-guard that runs (None: none)."""
@@ -639,6 +643,15 @@ class SitlVehicle:
             self.plant.stop()
 
 
+def log_tail(path: Path, lines: int, what: str) -> str:
+    """The last ``lines`` of the log at ``path`` (``what``'s), or why there is none."""
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        return f"(no {what} log: {exc})"
+    return "\n".join(text.splitlines()[-lines:])
+
+
 def stop_process(proc: subprocess.Popen[bytes]) -> None:
     """SIGTERM, then kill if it has not ended within SITL_STOP_TIMEOUT_S."""
     if proc.poll() is None:
@@ -674,11 +687,7 @@ class HelixPlantProc:
         stop_process(self.proc)
 
     def log_tail(self, lines: int = 15) -> str:
-        try:
-            text = self.log_path.read_text(encoding="utf-8", errors="replace")
-        except OSError as exc:
-            return f"(no plant log: {exc})"
-        return "\n".join(text.splitlines()[-lines:])
+        return log_tail(self.log_path, lines, "plant")
 
 
 def start_plant(

@@ -22,7 +22,7 @@ import yaml
 from helixd.base.exitcodes import ExitCode
 from helixd.base.frames import latlon_to_ne
 from helixd.files.bathymetry import read_bathymetry
-from helixd.sim.sonar import BathymetryNe
+from helixd.plant.sonar import BathymetryNe
 from tests.sitl.conftest import (
     DAEMON_STOP_TIMEOUT_S,
     POND_HOME,

@@ -46,6 +46,16 @@ BATT_LOW_TIMER_S = 1.0
 FENCE_TYPE_CIRCLE = 2
 FENCE_RADIUS_M = 6.0  # the square's first leg is 10 m long, from home
 OUTSIDE_FENCE_M = FENCE_RADIUS_M + 1.0
+BATTERY_FAILSAFE = {  # the autopilot's battery failsafe: Hold after 1 s below 11 V
+    "BATT_FS_LOW_ACT": float(ROVER_ACTION_HOLD),
+    "BATT_LOW_TIMER": BATT_LOW_TIMER_S,
+    "BATT_LOW_VOLT": BATT_LOW_VOLT_V,
+}
+FENCE_FAILSAFE = {  # the autopilot's circular fence round home: Hold on a breach
+    "FENCE_TYPE": float(FENCE_TYPE_CIRCLE),
+    "FENCE_RADIUS": FENCE_RADIUS_M,
+    "FENCE_ACTION": float(ROVER_ACTION_HOLD),
+}
 AUTOPILOT_ACTION_S = 5.0  # injection → ArduPilot's HOLD (the battery's 1 s timer included)
 
 
@@ -104,16 +114,31 @@ def stopped_by(what: str, sitl: SitlVehicle, r: Stopped, cause: str) -> None:
     assert r.neutral_s - r.hold_s <= gps.STOP_WITHIN_S + gps.LINK_SLACK_S
 
 
+def driving_with(
+    sitl: SitlVehicle,
+    launch_helixd: Callable[..., DaemonRun],
+    failsafe: dict[str, float],
+    status_msg_id: int,
+    min_distance_m: float,
+) -> DaemonRun:
+    """The autopilot's failsafe set by the parameters ``failsafe``, its status message
+    (``status_msg_id``) streamed at STATUS_STREAM_HZ; then helixd (rc_override) launched,
+    until it has driven ``min_distance_m``."""
+    obs = sitl.obs
+    for name, value in failsafe.items():
+        obs.set_param(name, value)
+    obs.set_message_interval(int(status_msg_id), STATUS_STREAM_HZ)
+    daemon = launch_helixd("rc_override")
+    sitl.wait_driving(daemon, min_distance_m=min_distance_m, timeout_s=gps.DRIVING_TIMEOUT_S)
+    return daemon
+
+
 def test_battery_failsafe_is_named(
     sitl: SitlVehicle, launch_helixd: Callable[..., DaemonRun]
 ) -> None:
     obs = sitl.obs
-    obs.set_param("BATT_FS_LOW_ACT", float(ROVER_ACTION_HOLD))
-    obs.set_param("BATT_LOW_TIMER", BATT_LOW_TIMER_S)
-    obs.set_param("BATT_LOW_VOLT", BATT_LOW_VOLT_V)
-    obs.set_message_interval(int(mavlink.MAVLINK_MSG_ID_SYS_STATUS), STATUS_STREAM_HZ)
-    daemon = launch_helixd("rc_override")
-    sitl.wait_driving(daemon, min_distance_m=2.0, timeout_s=gps.DRIVING_TIMEOUT_S)
+    status = mavlink.MAVLINK_MSG_ID_SYS_STATUS
+    daemon = driving_with(sitl, launch_helixd, BATTERY_FAILSAFE, status, 2.0)
 
     r = stopped_after(sitl, daemon, lambda: obs.set_param("SIM_BATT_VOLTAGE", SIM_BATT_LOW_V))
     texts = [t for t in obs.statustexts if "attery" in t]
@@ -128,12 +153,8 @@ def test_fence_failsafe_is_named(
     sitl: SitlVehicle, launch_helixd: Callable[..., DaemonRun]
 ) -> None:
     obs = sitl.obs
-    obs.set_param("FENCE_TYPE", float(FENCE_TYPE_CIRCLE))
-    obs.set_param("FENCE_RADIUS", FENCE_RADIUS_M)
-    obs.set_param("FENCE_ACTION", float(ROVER_ACTION_HOLD))
-    obs.set_message_interval(int(mavlink.MAVLINK_MSG_ID_FENCE_STATUS), STATUS_STREAM_HZ)
-    daemon = launch_helixd("rc_override")
-    sitl.wait_driving(daemon, min_distance_m=OUTSIDE_FENCE_M, timeout_s=gps.DRIVING_TIMEOUT_S)
+    status = mavlink.MAVLINK_MSG_ID_FENCE_STATUS
+    daemon = driving_with(sitl, launch_helixd, FENCE_FAILSAFE, status, OUTSIDE_FENCE_M)
 
     r = stopped_after(sitl, daemon, lambda: obs.set_param("FENCE_ENABLE", 1.0))
     fence = obs.latest.get("FENCE_STATUS")

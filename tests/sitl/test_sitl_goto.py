@@ -40,7 +40,7 @@ from tests.sitl.conftest import (
     SitlVehicle,
     outputs_near,
 )
-from tests.sitl.test_sitl_serve import HOME_LATLON, mono_of, serve_proc
+from tests.sitl.test_sitl_serve import HOME_LATLON, mono_of
 from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
@@ -62,38 +62,11 @@ START_MAX_S = 1.5  # click → scrolls driven (ArduPilot's HEARTBEAT naming GUID
 
 def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = crew.ground_station(sitl)
-    steps = crew.ServoSteps(sitl, "goto on SITL", crew.STEP_WAIT_S, lambda: d.ended())
-    note, after, figures = steps.note, steps.after, steps.figures
 
     def error_m(ne: tuple[float, float]) -> float:
         p = obs.position()
         assert p is not None
         return math.hypot(p.north_m - ne[0], p.east_m - ne[1])
-
-    def go_to_location(north_m: float, east_m: float) -> float:
-        """APMFirmwarePlugin::guidedModeGotoLocation: COMMAND_INT DO_REPOSITION to the
-        autopilot, MAV_FRAME_GLOBAL, param1 -1, param2 the change-mode flag, param4 NaN."""
-        lat, lon = ne_to_latlon(north_m, east_m, *HOME_LATLON)
-        with gcs._cond:
-            seen = len(gcs.acks)
-        flag = float(mavlink2.MAV_DO_REPOSITION_FLAGS_CHANGE_MODE)
-        msg = gcs.mav.command_int_encode(
-            AUTOPILOT_SYSID, AUTOPILOT_COMPID, mavlink2.MAV_FRAME_GLOBAL,
-            mavlink2.MAV_CMD_DO_REPOSITION, 0, 0, -1.0, flag, 0.0, math.nan,
-            round(lat * 1e7), round(lon * 1e7), 584.0,
-        )  # fmt: skip
-        sent = time.monotonic()
-        gcs.send(msg)
-
-        def ack() -> int | None:
-            return next(
-                (r for c, r in gcs.acks[seen:] if c == mavlink2.MAV_CMD_DO_REPOSITION), None
-            )
-
-        result = gcs.wait_value(ack, crew.STEP_WAIT_S, "DO_REPOSITION's COMMAND_ACK")
-        assert result == mavlink2.MAV_RESULT_ACCEPTED, result
-        return sent
 
     def upload_rally(north_m: float, east_m: float) -> None:
         lat, lon = ne_to_latlon(north_m, east_m, *HOME_LATLON)
@@ -123,8 +96,8 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
         note(f"{what}: end-position error", error_m(ne), "m")
         assert error_m(ne) <= ARRIVAL_M, figures
 
-    d = serve_proc(tmp_path, sitl, CONFIG)
-    try:
+    with crew.serving_crew(sitl, tmp_path, CONFIG, "goto on SITL") as (gcs, steps, d):
+        note, after, figures = steps.note, steps.after, steps.figures
         d.wait_line("no mission on the autopilot", crew.STATE_WAIT_S)
         upload_rally(*RALLY_NE)  # Plan view, Rally Points, Upload
         arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
@@ -132,14 +105,14 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
         obs.wait_until(lambda: bool(obs.armed()), crew.STEP_WAIT_S, "armed")
 
         # Go to location, then a second click on the way
-        t_click = go_to_location(*FIRST_NE)
+        t_click = crew.go_to_location(gcs, *FIRST_NE)
         note(
             "Go to location → scrolls driven", after(t_click, crew.driven, "driven after the click")
         )
         assert obs.mode() == MODE_GUIDED
         sitl.wait_driving(d, 3.0, crew.STATE_WAIT_S)
         mark = d.mark()
-        t_second = go_to_location(*SECOND_NE)
+        t_second = crew.go_to_location(gcs, *SECOND_NE)
         line = d.wait_line("event=serve_flight_start", crew.STEP_WAIT_S, after=mark)
         note("second click → new flight", mono_of(line) - t_second)
         d.wait_line("event=goto_arrived", crew.LEG_WAIT_S, after=mark)
@@ -192,8 +165,6 @@ def test_go_to_location_and_rtl_to_a_rally_point(sitl: SitlVehicle, tmp_path: Pa
         assert gcs.set_mode(MODE_MANUAL) == mavlink2.MAV_RESULT_ACCEPTED
         d.wait_line("event=rc_override_released", crew.STEP_WAIT_S, after=mark)
         assert "event=fallback" not in d.log_text()
-    finally:
-        crew.close_serve(d, gcs, tmp_path)
     print("goto on SITL: " + "; ".join(figures))
     runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
     summaries = [json.loads((r / "summary.json").read_text()) for r in runs]

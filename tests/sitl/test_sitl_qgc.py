@@ -35,12 +35,12 @@ from tests.sitl.conftest import (
     SitlVehicle,
     outputs_near,
 )
-from tests.sitl.test_sitl_serve import mono_of, serve_proc
+from tests.sitl.test_sitl_serve import mono_of
 from tests.support import sitl_steps as crew
 
 pytestmark = [pytest.mark.sitl, pytest.mark.timeout(1200)]
 
-MODE_MANUAL, MODE_HOLD, MODE_AUTO, MODE_GUIDED = 0, 4, 10, 15
+MODE_MANUAL, MODE_HOLD, MODE_AUTO = 0, 4, 10
 WAYPOINTS_NE_M = [(10.0, 0.0), (10.0, 8.0), (0.0, 8.0)]  # from home (m)
 CONFIG: dict[str, Any] = {
     "mission": {"ground_station_mode": "roll"},
@@ -57,38 +57,20 @@ MISSION_WAIT_S = 300.0
 
 def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_path: Path) -> None:
     obs = sitl.obs
-    gcs = crew.ground_station(sitl)
-    steps = crew.ServoSteps(sitl, "QGC on SITL", crew.STEP_WAIT_S, lambda: d.ended())
-    note, after, figures = steps.note, steps.after, steps.figures
 
-    def set_mode(mode: int) -> float:
-        """Vehicle::setFlightMode → MAV_CMD_DO_SET_MODE to the autopilot; when it was sent."""
-        sent = time.monotonic()
-        assert gcs.set_mode(mode) == mavlink2.MAV_RESULT_ACCEPTED, mode
-        return sent
-
-    d = serve_proc(tmp_path, sitl, CONFIG)
-    try:
+    with crew.serving_crew(sitl, tmp_path, CONFIG, "QGC on SITL") as (gcs, steps, d):
+        note, figures = steps.note, steps.figures
         crew.upload_when_asked(d, lambda: gcs.upload(WAYPOINTS_NE_M, 30.0))  # Plan view: Upload
         assert not obs.armed()
 
         # Start Mission: APMFirmwarePlugin::startMission — Guided, arm, MISSION_START
-        set_mode(MODE_GUIDED)
-        obs.wait_until(lambda: obs.mode() == MODE_GUIDED, crew.STEP_WAIT_S, "GUIDED")
-        arm = gcs.command_long(mavlink2.MAV_CMD_COMPONENT_ARM_DISARM, (1.0,))
-        assert arm == mavlink2.MAV_RESULT_ACCEPTED, f"a normal arm was refused ({arm})"
-        obs.wait_until(lambda: bool(obs.armed()), crew.STEP_WAIT_S, "armed")
-        t_start = time.monotonic()
-        result = gcs.command_long(mavlink2.MAV_CMD_MISSION_START, (0.0, 0.0))
-        assert result == mavlink2.MAV_RESULT_ACCEPTED, result
-        start_s = after(t_start, crew.driven, "scrolls driven after Start Mission")
+        start_s = crew.start_to_driven(sitl, gcs, steps)
         note("Start Mission → scrolls driven", start_s)
         assert obs.mode() == MODE_AUTO
         sitl.wait_driving(d, 1.0, crew.STATE_WAIT_S)
 
         # Pause: APMFirmwarePlugin::pauseVehicle → Hold
-        t_pause = set_mode(MODE_HOLD)
-        pause_s = after(t_pause, lambda p: outputs_near(p, NEUTRAL_US), "trim after Pause")
+        pause_s = crew.mode_to_outputs(gcs, steps, MODE_HOLD, crew.at_trim, "trim after Pause")
         note("Pause (HOLD) → outputs at trim", pause_s)
         held_from = time.monotonic()
         obs.wait_until(lambda: time.monotonic() >= held_from + 2.0, 5.0, "2 s held")  # watched
@@ -97,8 +79,9 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
         assert obs.armed() and obs.mode() == MODE_HOLD
 
         # Continue: the mode menu's Auto
-        t_continue = set_mode(MODE_AUTO)
-        continue_s = after(t_continue, crew.driven, "scrolls driven after Continue")
+        continue_s = crew.mode_to_outputs(
+            gcs, steps, MODE_AUTO, crew.driven, "scrolls driven after Continue"
+        )
         note("Continue (AUTO) → scrolls driven", continue_s)
         assert d.log_text().count("event=auto_start") == 1  # the same flight went on
 
@@ -112,7 +95,7 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
 
         # MANUAL from the mode menu: helixd lets go
         mark = d.mark()
-        t_manual = set_mode(MODE_MANUAL)
+        t_manual = crew.set_mode(gcs, MODE_MANUAL)
         line = d.wait_line("event=rc_override_released", crew.STEP_WAIT_S, after=mark)
         note("MANUAL → overrides released", mono_of(line) - t_manual)
         d.wait_line("event=serve_state state=paused", crew.STATE_WAIT_S, after=mark)
@@ -120,10 +103,8 @@ def test_the_crew_drives_with_qgroundcontrols_buttons(sitl: SitlVehicle, tmp_pat
 
         # Auto again, to the end
         mark = d.mark()
-        set_mode(MODE_AUTO)
+        crew.set_mode(gcs, MODE_AUTO)
         d.wait_line("event=serve_state state=completed", MISSION_WAIT_S, after=mark)
-    finally:
-        crew.close_serve(d, gcs, tmp_path)
     print("QGC on SITL: " + "; ".join(figures))
     assert start_s <= START_MAX_S, figures
     assert pause_s <= PAUSE_MAX_S, figures

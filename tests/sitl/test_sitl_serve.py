@@ -45,7 +45,7 @@ import yaml
 from pymavlink.dialects.v20 import ardupilotmega as mavlink2
 
 from helixd.base.frames import ne_to_latlon
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
 from helixd.mav.constants import (
     MAV_CMD_DO_PAUSE_CONTINUE,
     MAV_CMD_MISSION_START,

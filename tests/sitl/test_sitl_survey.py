@@ -3,7 +3,7 @@
 Both fly ``config/missions/survey.yaml`` (six 30 m transects 3 m apart joined by 3 m
 crossovers, 195 m) at 0.6 m/s on the rover-skid model, each on a freshly booted SITL, and both
 are measured the same way from the autopilot's side (LOCAL_POSITION_NED on the observer link
-against the planned polyline, :func:`tests.support.skid_setup.survey_metrics`):
+against the planned polyline, :func:`tests.support.skid_setup.mission_metrics`):
 
 * helixd: ``helixd run --mission survey.yaml`` with the suite's configuration (RC override);
 * AUTO: the same waypoints converted to lat/lon through the EKF origin and uploaded with
@@ -33,7 +33,7 @@ from helixd.base.frames import MissionFrame, NedPose, ne_to_latlon
 from helixd.recorder.track import TrackMetrics, TrackPoint
 from tests.sitl.conftest import SITL_BIN_ENV, SitlVehicle, pick_instance, sitl_speedup, start_sitl
 from tests.support.paths import REPO_ROOT
-from tests.support.skid_setup import SURVEY_XY_M, first_step_t_s, survey_metrics
+from tests.support.skid_setup import SURVEY_XY_M, first_step_t_s, mission_metrics
 
 if TYPE_CHECKING:
     from tests.sitl.conftest import DaemonRun, MavClient
@@ -91,7 +91,9 @@ def fly_helixd(sitl: SitlVehicle, launch: Callable[..., DaemonRun]) -> TrackMetr
     code = daemon.wait_exit(SETUP_WALL_S + MISSION_SIM_S / sitl.speedup)
     assert code == ExitCode.OK, daemon.log_text()[-4000:]
     # helixd's start frame is the pose at its first control step (flight.csv's first row)
-    return survey_metrics(track_of(sitl), sitl.obs.yaw_at, first_step_t_s(daemon.run_dir()))
+    return mission_metrics(
+        track_of(sitl), sitl.obs.yaw_at, SURVEY_XY_M, first_step_t_s(daemon.run_dir())
+    )
 
 
 def arm_normally(obs: MavClient) -> None:
@@ -145,7 +147,7 @@ def fly_auto(sitl: SitlVehicle, workdir: Path) -> TrackMetrics | None:
         finished, MISSION_SIM_S / sitl.speedup + 60.0, "AUTO: last item reached, at rest",
         abort=sitl.dead,
     )  # fmt: skip
-    return survey_metrics(track_of(sitl), obs.yaw_at, start.t_boot_s)
+    return mission_metrics(track_of(sitl), obs.yaw_at, SURVEY_XY_M, start.t_boot_s)
 
 
 def test_survey_block_helixd_against_auto(

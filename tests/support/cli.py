@@ -27,6 +27,31 @@ def run_main(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, 
     return code, out, err
 
 
+def check_out(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    """``helixd check ARGV`` in this process, passed (exit 0, else AssertionError with its
+    output); its stdout."""
+    code, out, err = run_main(["check", *argv], capsys)
+    assert code == 0, out + err
+    return out
+
+
+FAST_CONNECT = "startup:\n  connect_timeout_s: 5.0\n"  # a test's autopilot answers at once
+
+
+def autopilot_verb(
+    tmp_path: Path,
+    verb: str,
+    url: str,
+    capsys: pytest.CaptureFixture[str],
+    *more: str,
+    config: str = FAST_CONNECT,
+) -> tuple[int, str, str]:
+    """``helixd autopilot VERB --connect URL --config FILE MORE...`` in this process, FILE
+    ``config`` (:func:`config_file`): (exit code, stdout, stderr)."""
+    argv = ["autopilot", verb, "--connect", url, "--config", config_file(tmp_path, config)]
+    return run_main([*argv, *more], capsys)
+
+
 def helixd_process(
     argv: list[str], cwd: Path, timeout_s: float = 60.0, env: Mapping[str, str] | None = None
 ) -> subprocess.CompletedProcess[str]:

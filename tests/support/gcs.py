@@ -7,12 +7,19 @@ messages with deadlines, never on sleeps."""
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.frames import ne_to_latlon
-from helixd.config import LinkConfig
+from helixd.config.link import LinkConfig
+from helixd.mav.constants import (
+    MAV_CMD_DO_SET_MODE,
+    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+    MAV_MODE_FLAG_SAFETY_ARMED,
+)
+from helixd.sim.firmware.modes import MODE_NUMBERS
 from helixd.sim.sim_config import SimConfig
 from tests.support.harness import MavClient
 
@@ -22,6 +29,22 @@ HELIXD = (
     int(LinkConfig.model_fields["source_component"].default),
 )
 SIM = SimConfig()
+
+
+def set_mode_command(name: str) -> tuple[int, float, float]:
+    """QGroundControl's Vehicle::setFlightMode for ArduPilot: MAV_CMD_DO_SET_MODE to the
+    autopilot with the custom mode ``name``; (command, param1, param2)."""
+    return MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, MODE_NUMBERS[name]
+
+
+def shows_mode(name: str) -> Callable[[Any], bool]:
+    """A HEARTBEAT naming mode ``name``."""
+    return lambda m: bool(m.custom_mode == MODE_NUMBERS[name])
+
+
+def shows_armed(m: Any) -> bool:
+    """A HEARTBEAT saying armed."""
+    return bool(m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
 
 
 def latlon(north_m: float, east_m: float) -> tuple[float, float]:
@@ -67,26 +90,36 @@ def do_item(seq: int, command: int, *params: float) -> Any:
     )  # fmt: skip
 
 
+UPLOAD_REPLIES = ("MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK")
+
+
+def upload_reply(mav: Any, items: list[Any], msg: Any, what: str) -> bool:
+    """One of the autopilot's replies (:data:`UPLOAD_REPLIES`, or None) in an upload of
+    ``items`` from the ground station: a request is answered with its item on ``mav``, sent
+    with the requested seq; True once MISSION_ACK ACCEPTED, AssertionError on another ACK
+    (``what`` names the list). What is not for the ground station is passed over."""
+    if msg is None or int(msg.target_system) != QGC_SYSID:
+        return False
+    if msg.get_type() == "MISSION_ACK":
+        assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, f"{what} refused: {msg}"
+        return True
+    item = items[int(msg.seq)]
+    item.seq = int(msg.seq)
+    mav.send(item)
+    return False
+
+
 def upload_typed(
     gcs: MavClient, items: list[Any], mission_type: int, what: str, timeout_s: float = 20.0
 ) -> None:
-    """Upload ``items`` of ``mission_type`` by the mission protocol, each sent with the
-    requested seq; AssertionError unless MISSION_ACK ACCEPTED (``what`` names the list)."""
+    """Upload ``items`` of ``mission_type`` by the mission protocol (:func:`upload_reply`);
+    AssertionError unless MISSION_ACK ACCEPTED (``what`` names the list)."""
     gcs.mav.mission_count_send(1, 1, len(items), mission_type)
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
-        msg = gcs.conn.recv_match(
-            type=["MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK"], blocking=True,
-            timeout=0.5,
-        )  # fmt: skip
-        if msg is None or int(msg.target_system) != QGC_SYSID:
-            continue
-        if msg.get_type() == "MISSION_ACK":
-            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, f"{what} refused: {msg}"
+        msg = gcs.conn.recv_match(type=list(UPLOAD_REPLIES), blocking=True, timeout=0.5)
+        if upload_reply(gcs.mav, items, msg, what):
             return
-        item = items[int(msg.seq)]
-        item.seq = int(msg.seq)
-        gcs.mav.send(item)
     raise AssertionError(f"{what} upload: no MISSION_ACK")
 
 

@@ -21,7 +21,8 @@ from typing import Any
 
 import yaml
 
-from helixd.config import ControlConfig, MissionLimits
+from helixd.config.control import ControlConfig
+from helixd.config.mission import MissionLimits
 from helixd.mission.model import load_mission
 from helixd.mission.resolve import resolve_plan
 from helixd.recorder.track import TrackMetrics, TrackPoint

@@ -8,7 +8,7 @@ With ``vehicle`` given, the command first goes through the real scroll pipeline 
 mode constraint → eq. 2 → fraction of max RPM → joint saturation → calibration
 (:func:`body_to_fractions`) → rad/s → eq. 1 — so the plant moves with what the four scrolls
 can actually do, saturation included. Eq. 1 is the simulator's own
-(:func:`helixd.sim.forward.body_velocity`), not the controller's: a sign error in the
+(:func:`helixd.plant.forward.body_velocity`), not the controller's: a sign error in the
 controller's kinematics moves this plant the wrong way too.
 """
 
@@ -20,9 +20,9 @@ from dataclasses import dataclass
 from helixd.base.angles import wrap_pi
 from helixd.base.geometry import BodyVelocity, Pose2D
 from helixd.base.plan import MotionMode
-from helixd.config import VehicleConfig
+from helixd.config.vehicle import VehicleConfig
 from helixd.control.kinematics import body_to_fractions, constrain, fraction_to_radps
-from helixd.sim.forward import body_velocity
+from helixd.plant.forward import body_velocity
 
 
 def integrate(pose: Pose2D, body: BodyVelocity, dt_s: float) -> Pose2D:

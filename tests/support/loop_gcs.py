@@ -15,20 +15,33 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.base.clock import now_s
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
-    MAV_CMD_DO_SET_MODE,
     MAV_CMD_MISSION_START,
-    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-    MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.modes import MODE_NUMBERS
-from tests.support.gcs import HELIXD, QGC_SYSID, waypoint
+from tests.support.gcs import (
+    HELIXD,
+    QGC_SYSID,
+    UPLOAD_REPLIES,
+    set_mode_command,
+    shows_armed,
+    shows_mode,
+    upload_reply,
+    waypoint,
+)
 from tests.support.harness import overrides_released
 from tests.support.loop_mav import LoopMav
 from tests.support.simulated import SimulatedService, Steer, moving, simulated_serve
 
 UploadStep = Callable[[], Awaitable[None]]
 Crew = Callable[[Steer, LoopMav], Awaitable[Any]]
+# The crew's service: no start switch, the crew uses the ground station. In the field the
+# service has been up for minutes when the crew presses Start; here seconds: the preflight's
+# listening window for another sender on helixd's id (link.own_id_watch_s, from helixd's first
+# message) is shortened so that it is over by then, as it is in the field.
+CREW_CONFIG: dict[str, Any] = {
+    "startup": {"start_switch_channel": None},
+    "link": {"own_id_watch_s": 0.5},
+}
 
 
 def simulated_crew(
@@ -49,22 +62,16 @@ def simulated_crew(
 async def upload_typed(
     gcs: LoopMav, items: list[Any], mission_type: int, what: str, timeout_s: float = 20.0
 ) -> None:
-    """Upload ``items`` of ``mission_type`` by the mission protocol, each sent with the
-    requested seq; AssertionError unless MISSION_ACK ACCEPTED (``what`` names the list)."""
+    """Upload ``items`` of ``mission_type`` by the mission protocol
+    (:func:`tests.support.gcs.upload_reply`); AssertionError unless MISSION_ACK ACCEPTED
+    (``what`` names the list)."""
     gcs.drain()
     gcs.mav.mission_count_send(1, 1, len(items), mission_type)
     deadline = now_s() + timeout_s
-    kinds = ("MISSION_REQUEST", "MISSION_REQUEST_INT", "MISSION_ACK")
     while (remaining := deadline - now_s()) > 0:
-        msg = await gcs.recv_any(kinds, remaining)
-        if msg is None or int(msg.target_system) != QGC_SYSID:
-            continue
-        if msg.get_type() == "MISSION_ACK":
-            assert int(msg.type) == mavlink.MAV_MISSION_ACCEPTED, f"{what} refused: {msg}"
+        msg = await gcs.recv_any(UPLOAD_REPLIES, remaining)
+        if upload_reply(gcs.mav, items, msg, what):
             return
-        item = items[int(msg.seq)]
-        item.seq = int(msg.seq)
-        gcs.mav.send(item)
     raise AssertionError(f"{what} upload: no MISSION_ACK")
 
 
@@ -105,8 +112,7 @@ async def set_mode(gcs: LoopMav, name: str) -> float:
     """QGroundControl's Vehicle::setFlightMode for ArduPilot: MAV_CMD_DO_SET_MODE to the
     autopilot with the custom mode; returns the (simulated) time it was sent."""
     sent = now_s()
-    number = MODE_NUMBERS[name]
-    result = await gcs.command(MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
+    result = await gcs.command(*set_mode_command(name))
     assert result == MAV_RESULT_ACCEPTED, (name, result)
     return sent
 
@@ -131,24 +137,38 @@ async def booted(st: Steer, gcs: LoopMav) -> None:
     )
 
 
+async def armed_in_guided(gcs: LoopMav, wait_armed: bool = True) -> None:
+    """The first half of QGroundControl's Start Mission on a disarmed rover
+    (APMFirmwarePlugin::startMission): _setFlightModeAndValidate(Guided), then a normal arm
+    (with ``wait_armed``, _armVehicleAndValidate: until the HEARTBEAT shows it armed)."""
+    await set_mode(gcs, "GUIDED")
+    await heartbeat_shows(gcs, shows_mode("GUIDED"))
+    assert await gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
+    if wait_armed:
+        await heartbeat_shows(gcs, shows_armed)
+
+
 async def start_mission(gcs: LoopMav) -> None:
     """QGroundControl's Start Mission on a disarmed rover (APMFirmwarePlugin::startMission):
-    GUIDED, arm, then MAV_CMD_MISSION_START to the autopilot (which enters AUTO)."""
-    await set_mode(gcs, "GUIDED")
-    await heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
-    assert await gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-    await heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+    GUIDED, arm (:func:`armed_in_guided`), then MAV_CMD_MISSION_START to the autopilot (which
+    enters AUTO)."""
+    await armed_in_guided(gcs)
     assert await gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
 
 
-async def upload_and_start(st: Steer, gcs: LoopMav, upload_mission: UploadStep) -> None:
-    """QGroundControl's Plan view Upload once ``helixd serve`` finds no mission, then Start
-    Mission on the disarmed rover once it is ready (GUIDED, arm, MAV_CMD_MISSION_START to the
-    autopilot): until helixd starts driving in AUTO."""
+async def uploaded_and_ready(st: Steer, gcs: LoopMav, upload_mission: UploadStep) -> None:
+    """QGroundControl's Plan view Upload (``upload_mission``) once ``helixd serve`` finds no
+    mission, until helixd is ready and the autopilot has booted (:func:`booted`)."""
     await st.line("no mission on the autopilot", 60.0)
     await upload_mission()
     await st.line("event=serve_state state=ready", 30.0)
     await booted(st, gcs)
+
+
+async def upload_and_start(st: Steer, gcs: LoopMav, upload_mission: UploadStep) -> None:
+    """:func:`uploaded_and_ready`, then Start Mission on the disarmed rover (GUIDED, arm,
+    MAV_CMD_MISSION_START to the autopilot): until helixd starts driving in AUTO."""
+    await uploaded_and_ready(st, gcs, upload_mission)
     await start_mission(gcs)
     await st.line("event=auto_start", 10.0)  # item 0 or 1: MISSION_CURRENT may lag the start
     await st.until(moving, 20.0)

@@ -4,7 +4,10 @@ place, so test modules do not repeat the YAML-shaped dictionary)."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
+
+import yaml
 
 from helixd.mission.model import Mission
 
@@ -21,9 +24,21 @@ def mission_of(
     )
 
 
+def points_items(frame: str, points: Sequence[tuple[float, float]]) -> list[dict[str, float]]:
+    """Plain waypoints at ``points`` (the frame's two coordinates), as a mission file writes
+    them."""
+    a, b = FRAME_KEYS[frame]
+    return [{a: p, b: q} for p, q in points]
+
+
 def points_mission(
     frame: str, points: Sequence[tuple[float, float]], mode: str = "omni", **extra: Any
 ) -> Mission:
     """A mission of plain waypoints at ``points`` (the frame's two coordinates)."""
-    a, b = FRAME_KEYS[frame]
-    return mission_of(frame, [{a: p, b: q} for p, q in points], mode, **extra)
+    return mission_of(frame, points_items(frame, points), mode, **extra)
+
+
+def mission_file(path: Path, doc: dict[str, Any]) -> Path:
+    """The mission ``doc`` (a mission file's keys) written to ``path`` as YAML; ``path``."""
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    return path

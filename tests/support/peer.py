@@ -34,9 +34,10 @@ from typing import Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.config import LinkConfig, SafetyConfig
+from helixd.config.link import LinkConfig
+from helixd.config.safety import SafetyConfig
 from helixd.link.connection import Autopilot
-from helixd.link.signing import enable_signing
+from helixd.link.wire.signing import enable_signing
 from helixd.mav.guard_script import PARAM_DEFAULTS as GUARD_PARAM_DEFAULTS
 from helixd.mav.servo_functions import DO_SET_SERVO_FUNCTIONS
 from tests.support.mavmsgs import EKF_HEALTHY_FLAGS

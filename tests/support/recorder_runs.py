@@ -16,7 +16,8 @@ import structlog
 from helixd.base.angles import shortest_angular_distance, wrap_pi
 from helixd.base.geometry import BodyVelocity
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig, config_to_yaml
+from helixd.config.load import config_to_yaml
+from helixd.config.root import HelixdConfig
 from helixd.control.kinematics import body_to_fractions
 from helixd.recorder import logging_setup
 from helixd.recorder.rows import FlightRow

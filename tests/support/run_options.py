@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.mission.model import load_mission
 from helixd.runtime.daemon import RunOptions
 from tests.support.harness import MISSIONS

@@ -14,17 +14,13 @@ import yaml
 
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
-    MAV_CMD_DO_SET_MODE,
     MAV_CMD_MISSION_START,
-    MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
-    MAV_MODE_FLAG_SAFETY_ARMED,
     MAV_RESULT_ACCEPTED,
 )
-from helixd.sim.modes import MODE_NUMBERS
 from helixd.sim.server import SimServer
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import DaemonProc, deep_merge, spawn_daemon
-from tests.support.gcs import QGC_SYSID
+from tests.support.gcs import QGC_SYSID, set_mode_command, shows_armed, shows_mode
 from tests.support.harness import (
     BASE_CONFIG,
     MavClient,
@@ -99,8 +95,7 @@ def set_mode(gcs: MavClient, name: str) -> float:
     """QGroundControl's Vehicle::setFlightMode for ArduPilot: MAV_CMD_DO_SET_MODE to the
     autopilot with the custom mode; returns the monotonic time it was sent."""
     sent = time.monotonic()
-    number = MODE_NUMBERS[name]
-    result = gcs.command(MAV_CMD_DO_SET_MODE, MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, number)
+    result = gcs.command(*set_mode_command(name))
     assert result == MAV_RESULT_ACCEPTED, (name, result)
     return sent
 
@@ -122,9 +117,9 @@ def upload_and_start(
     upload_mission()
     d.wait_line("event=serve_state state=ready", 30.0)
     set_mode(gcs, "GUIDED")
-    heartbeat_shows(gcs, lambda m: m.custom_mode == MODE_NUMBERS["GUIDED"])
+    heartbeat_shows(gcs, shows_mode("GUIDED"))
     assert gcs.command(MAV_CMD_COMPONENT_ARM_DISARM, 1) == MAV_RESULT_ACCEPTED
-    heartbeat_shows(gcs, lambda m: m.base_mode & MAV_MODE_FLAG_SAFETY_ARMED)
+    heartbeat_shows(gcs, shows_armed)
     assert gcs.command(MAV_CMD_MISSION_START, 0, 0) == MAV_RESULT_ACCEPTED
     d.wait_line("event=auto_start", 10.0)  # item 0 or 1: MISSION_CURRENT may lag the start
     server.wait_for(moving, 20.0)

@@ -11,11 +11,11 @@ import pytest
 os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
-from helixd.sim.collisions import SimObstacles, constrain, distance_m
+from helixd.plant.collisions import SimObstacles, constrain, distance_m
+from helixd.plant.state import PhysicsState
 from helixd.sim.core import FtpHandler, SimCore
-from helixd.sim.rover_firmware import SimEvent
+from helixd.sim.firmware.rover_firmware import SimEvent
 from helixd.sim.sim_config import HELIXD_SYSID, SimConfig
-from helixd.sim.state import PhysicsState
 
 
 def make_core(n_links: int = 2, ftp: FtpHandler | None = None, **cfg: Any) -> SimCore:

@@ -27,10 +27,10 @@ import yaml
 from helixd.base.clock import SimulatedClockLoop, now_s
 from helixd.base.exitcodes import ExitCode
 from helixd.cli.app import flight_options
-from helixd.config import load_config
+from helixd.config.load import load_config
+from helixd.prepare.builder import FlightSource, MissionFile, prepare_flight
 from helixd.recorder import logging_setup
 from helixd.runtime.daemon import RunOutcome, run_mission
-from helixd.runtime.prepare import FlightSource, MissionFile, prepare_flight
 from helixd.serve.options import ServeOptions
 from helixd.serve.service import serve
 from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url
@@ -301,7 +301,7 @@ def simulated_flights(
     **sim_overrides: Any,
 ) -> list[SimulatedFlight]:
     """``helixd run`` once per leg — (its mission: a shipped mission's name, a file, a
-    :class:`~helixd.runtime.prepare.FlightSource` or a function giving one when the leg
+    :class:`~helixd.prepare.builder.FlightSource` or a function giving one when the leg
     starts, e.g. ``--resume`` of the leg before; its steering) — one after the other against
     one simulator (``links``: helixd's first; ``show_plan``: ``--show-plan``; ``sim_overrides`` as
     :func:`~tests.support.harness.sim_and_daemon` takes them, the speed-up 1: there is no

@@ -157,12 +157,3 @@ def square_metrics(
 ) -> TrackMetrics | None:
     """:func:`mission_metrics` of the square."""
     return mission_metrics(track, yaw_at, SQUARE_XY_M, start_t_s)
-
-
-def survey_metrics(
-    track: Sequence[TrackPoint],
-    yaw_at: Callable[[float], float | None],
-    start_t_s: float | None = None,
-) -> TrackMetrics | None:
-    """:func:`mission_metrics` of the survey block."""
-    return mission_metrics(track, yaw_at, SURVEY_XY_M, start_t_s)

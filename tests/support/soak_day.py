@@ -50,7 +50,7 @@ from helixd.mav.constants import (
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
 )
 from helixd.recorder.rundir import RunRecorder, default_opener
-from helixd.sim.modes import MODE_NUMBERS
+from helixd.sim.firmware.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import deep_merge
 from tests.support.gcs import HELIXD, QGC_SYSID, SIM, do_item, fence_circle, latlon, waypoint
@@ -81,7 +81,7 @@ DISARMED_LIMIT_S = 1.5
 MODE_WORDS = {"pause": "HOLD", "manual": "MANUAL", "radio_mode": ""}  # word: the mode it sets
 HEARTBEAT_LIMIT_S = 1.2
 # a fault injected while driving → scrolls at trim: the time helixd's watchdog needs to see it
-# (helixd.config.SafetyConfig's defaults) and the fall-back's 0.5 s
+# (helixd.config.safety.SafetyConfig's defaults) and the fall-back's 0.5 s
 FAULT_LIMIT_S: dict[str, float] = {
     "link_drop": 1.0, "stale_pose": 1.5, "ekf_unhealthy": 1.5, "reboot": 1.5, "gps_loss": 6.0,
     "gps_silent": 3.0, "battery_low": 1.5, "fence_breach": 1.5, "rc_loss": 2.0, "stall": 12.0,

@@ -9,10 +9,10 @@ import pytest
 
 from helixd.base.media import Medium
 from helixd.base.plan import MotionMode
-from helixd.config import HelixdConfig
+from helixd.config.root import HelixdConfig
 from helixd.control.ground_fit import AxisSums, CellSums
+from helixd.plant.ground import TerrainTable, read_ground_file
 from helixd.recorder.ground_profile import GroundProfile, write_profile
-from helixd.sim.sim_config import TerrainTable, read_ground_file
 from tests.support.tools import load_tool
 
 bench = load_tool("bench_ground")

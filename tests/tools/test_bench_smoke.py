@@ -84,7 +84,7 @@ def test_guidance_goes_to_the_daemon_only_when_not_its_default() -> None:
 
 
 def test_skid_plant_runs_get_the_sitl_suite_config() -> None:
-    from helixd.config import HelixdConfig
+    from helixd.config.root import HelixdConfig
 
     skid = nav.daemon_config("line", "line", "sitl_skid")
     cfg = HelixdConfig.model_validate(skid)

@@ -18,7 +18,7 @@ import yaml
 from pydantic import ValidationError
 
 from helixd.base.plan import MissionFrameKind, MotionMode
-from helixd.config import MissionLimits
+from helixd.config.mission import MissionLimits
 from helixd.files.models import ConfigFileError, as_items, entry_label, format_validation_error
 from helixd.files.yamlio import YamlFileError, read_text_capped
 from helixd.mission.formats.items import (

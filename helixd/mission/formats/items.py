@@ -260,57 +260,97 @@ def items_to_mission(
     ``route_keep_outs`` (helixd.planning will route the legs around the exclusion zones) a leg
     crossing one is not refused; a waypoint inside one still is."""
     prefix = f"{source}: " if source else ""
-    problems: list[str] = []
-    notes: list[str] = []
-    entries: list[dict[str, object]] = []
-    points: list[tuple[float, float]] = []
-    labels: list[str] = []
-    previous_plain: tuple[float, float] | None = None
-    for it in gcs.items:
-        entry, bad = item_entry(it)
-        if entry is None:
-            problems.extend(bad)
-            continue
-        if it.command == MAV_CMD_NAV_WAYPOINT and math.isfinite(it.param2) and it.param2 > 0:
-            notes.append(
-                f"{_label(it)}: acceptance radius {it.param2:g} m (param2) ignored: helixd "
-                "reaches waypoints within control.waypoint_tolerance_m or the mission's "
-                "tolerance_m"
-            )
-        place = (entry.get("lat"), entry.get("lon"))
-        plain = (
-            it.command == MAV_CMD_NAV_WAYPOINT and place[0] is not None and "params" not in entry
-        )
-        if plain and previous_plain is not None:
-            here = (float(str(place[0])), float(str(place[1])))
-            if _same_point(previous_plain, here):
-                notes.append(f"{_label(it)}: same place as the item before; dropped")
-                continue
-        if place[0] is not None and command_spec(it.command).role.value in (
-            "waypoint", "loiter_time", "loiter_turns", "loiter_unlim",
-        ):  # fmt: skip
-            points.append((float(str(place[0])), float(str(place[1]))))
-            labels.append(_label(it))
-        previous_plain = (float(str(place[0])), float(str(place[1]))) if plain else None
-        entries.append(entry)
-    if points:
-        problems.extend(keep_out_problems(gcs, points, labels, legs=not route_keep_outs))
-    at_once = _here_only(gcs, entries, name, mode) if here_completes and not problems else None
+    read = _ItemEntries.of(gcs)
+    problems, notes = read.problems, read.notes
+    if read.points:
+        problems.extend(keep_out_problems(gcs, read.points, read.labels, legs=not route_keep_outs))
+    at_once = _here_only(gcs, read.entries, name, mode) if here_completes and not problems else None
     if at_once is not None:
         return Converted(at_once, (*gcs.notes, *(prefix + n for n in notes), prefix + HERE_NOTE))
-    if not points and not problems:
-        navs = [
-            f"{_label(it)} {command_name(it.command)}"
-            for it in gcs.items
-            if command_spec(it.command).nav
-        ]
-        problems.append(
-            "no item with a latitude/longitude to go to"
-            + (f" ({', '.join(navs[:5])}: none drives anywhere)" if navs else "")
-            + ": nothing to fly"
-        )
+    if not read.points and not problems:
+        problems.append(_nothing_to_fly(gcs))
     if problems:
         raise FormatError([prefix + p for p in problems[:20]] + _more(problems, 20, prefix))
+    data = _mission_data(gcs, name, mode, read.entries, notes)
+    try:
+        mission = Mission.model_validate(data)
+    except ValidationError as exc:
+        raise FormatError(format_validation_error(source or "mission", exc, Mission)) from None
+    return Converted(mission, (*gcs.notes, *(prefix + n for n in notes)))
+
+
+@dataclass
+class _ItemEntries:
+    """The file's items read as mission entries, with the places the rover drives to (and
+    their items' labels), the problems and the notes."""
+
+    entries: list[dict[str, object]] = field(default_factory=list)
+    points: list[tuple[float, float]] = field(default_factory=list)
+    labels: list[str] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    @classmethod
+    def of(cls, gcs: GcsMission) -> _ItemEntries:
+        """Each item in order; a plain waypoint at the place of the plain waypoint before it
+        is dropped."""
+        read = cls()
+        previous_plain: tuple[float, float] | None = None
+        for it in gcs.items:
+            entry, bad = item_entry(it)
+            if entry is None:
+                read.problems.extend(bad)
+                continue
+            if it.command == MAV_CMD_NAV_WAYPOINT and math.isfinite(it.param2) and it.param2 > 0:
+                read.notes.append(
+                    f"{_label(it)}: acceptance radius {it.param2:g} m (param2) ignored: helixd "
+                    "reaches waypoints within control.waypoint_tolerance_m or the mission's "
+                    "tolerance_m"
+                )
+            place = (entry.get("lat"), entry.get("lon"))
+            plain = (
+                it.command == MAV_CMD_NAV_WAYPOINT
+                and place[0] is not None
+                and "params" not in entry
+            )
+            if plain and previous_plain is not None:
+                here = (float(str(place[0])), float(str(place[1])))
+                if _same_point(previous_plain, here):
+                    read.notes.append(f"{_label(it)}: same place as the item before; dropped")
+                    continue
+            if place[0] is not None and command_spec(it.command).role.value in (
+                "waypoint", "loiter_time", "loiter_turns", "loiter_unlim",
+            ):  # fmt: skip
+                read.points.append((float(str(place[0])), float(str(place[1]))))
+                read.labels.append(_label(it))
+            previous_plain = (float(str(place[0])), float(str(place[1]))) if plain else None
+            read.entries.append(entry)
+        return read
+
+
+def _nothing_to_fly(gcs: GcsMission) -> str:
+    """The problem of a file with no place to drive to, naming its navigation items."""
+    navs = [
+        f"{_label(it)} {command_name(it.command)}"
+        for it in gcs.items
+        if command_spec(it.command).nav
+    ]
+    return (
+        "no item with a latitude/longitude to go to"
+        + (f" ({', '.join(navs[:5])}: none drives anywhere)" if navs else "")
+        + ": nothing to fly"
+    )
+
+
+def _mission_data(
+    gcs: GcsMission,
+    name: str,
+    mode: MotionMode,
+    entries: list[dict[str, object]],
+    notes: list[str],
+) -> dict[str, object]:
+    """The ``global`` mission's fields: its entries, the file's keep-in fence, time limit,
+    media map and home (``notes``: what of the file is not used)."""
     fence, why_none = keep_in_of(gcs)
     if why_none:
         notes.append(
@@ -337,11 +377,7 @@ def items_to_mission(
         data["home"] = list(gcs.home_latlon_deg)
         if gcs.home_alt_m is not None and math.isfinite(gcs.home_alt_m) and gcs.home_alt_m:
             data["home_alt_m"] = gcs.home_alt_m
-    try:
-        mission = Mission.model_validate(data)
-    except ValidationError as exc:
-        raise FormatError(format_validation_error(source or "mission", exc, Mission)) from None
-    return Converted(mission, (*gcs.notes, *(prefix + n for n in notes)))
+    return data
 
 
 CIRCLE_FENCE_VERTICES = 64

@@ -215,80 +215,34 @@ def _to_gcs(plan: PlanJson, src: str, areas_only: bool = False) -> GcsMission:
     items: list[MissionItem] = []
     surveys: list[tuple[tuple[float, float], ...]] = []
     notes: list[str] = []
-    seq = 1  # home is 0 on ArduPilot; QGC numbers the uploaded items from 1
     for i, entry in enumerate(plan.mission.items):
         where = f"mission.items.{i}"
+        seq = len(items) + 1  # home is 0 on ArduPilot; QGC numbers the uploaded items from 1
         if isinstance(entry, SimpleItemJson):
             items.append(_item(entry, seq, where))
-            seq += 1
             continue
-        kind = entry.complexItemType
-        if kind in LANDING_PATTERNS:
+        if entry.complexItemType in LANDING_PATTERNS:
             notes.append(
-                f"{src}: {where}: ComplexItem {kind} skipped, as ArduPilot Rover skips landing "
-                "(a plane's landing pattern)"
+                f"{src}: {where}: ComplexItem {entry.complexItemType} skipped, as ArduPilot "
+                "Rover skips landing (a plane's landing pattern)"
             )
             continue
         if entry.polygon:
             surveys.append(tuple((a, b) for a, b in entry.polygon))
-        transect = entry.TransectStyleComplexItem
-        if transect is not None and transect.Items:
-            for k, sub in enumerate(transect.Items):
-                items.append(_item(sub, seq, f"{where} {kind} item {k}"))
-                seq += 1
-        elif transect is not None and transect.VisualTransectPoints:
-            for k, (lat, lon) in enumerate(transect.VisualTransectPoints):
-                label = f"{where} {kind} VisualTransectPoints.{k}"
-                items.append(waypoint_item(seq, lat, lon, label))
-                seq += 1
-            notes.append(
-                f"{src}: {where}: ComplexItem {clip(kind, 40)}: flown through its "
-                f"{len(transect.VisualTransectPoints)} VisualTransectPoints (it holds no "
-                "generated items, so no camera triggers)"
-            )
-        elif not areas_only:
-            raise FormatError(
-                [
-                    f"{src}: {where}: ComplexItem {clip(kind, 40)} holds no mission items "
-                    "(TransectStyleComplexItem.Items) and no VisualTransectPoints"
-                    + (
-                        ": a structure scan circles a structure at heights, which a rover cannot"
-                        if kind == "StructureScan"
-                        else "; open and save the plan in QGroundControl so it writes them"
-                    )
-                ]
-            )
+        items += _complex_items(entry, seq, where, src, areas_only, notes)
         if len(items) > MAX_ITEMS:
             raise FormatError([f"{src}: more than {MAX_ITEMS} mission items; refused"])
-    home = None
-    problems: list[str] = []
-    for i, entry in enumerate(plan.mission.items):
-        if isinstance(entry, ComplexItemJson):
-            for k, (a, b) in enumerate(entry.polygon):
-                problems += check_latlon(f"{src}: mission.items.{i}.polygon.{k}", a, b)
-    hp = plan.mission.plannedHomePosition
-    if (
-        hp is not None
-        and hp[0] is not None
-        and hp[1] is not None
-        and not check_latlon("home", hp[0], hp[1])
-    ):
-        home = (hp[0], hp[1])
-    home_alt = hp[2] if hp is not None and home is not None and len(hp) > 2 else None
-    fence = plan.geoFence
-    polygons = fence.all_polygons()
-    for i, pj in enumerate(polygons):
-        for k, (a, b) in enumerate(pj.polygon):
-            problems += check_latlon(f"{src}: geoFence.polygons.{i}.polygon.{k}", a, b)
-    for i, cj in enumerate(fence.circles):
-        problems += check_latlon(f"{src}: geoFence.circles.{i}.circle.center", *cj.circle.center)
+    problems = _place_problems(plan, src)
     if problems:
         raise FormatError(problems[:20])
+    home, home_alt = _planned_home(plan)
+    fence = plan.geoFence
     return GcsMission(
         items=tuple(items),
         home_latlon_deg=home,
         polygons=tuple(
-            FencePolygon(tuple((a, b) for a, b in pj.polygon), pj.inclusion) for pj in polygons
+            FencePolygon(tuple((a, b) for a, b in pj.polygon), pj.inclusion)
+            for pj in fence.all_polygons()
         ),
         circles=tuple(
             FenceCircle((cj.circle.center[0], cj.circle.center[1]), cj.circle.radius, cj.inclusion)
@@ -302,6 +256,68 @@ def _to_gcs(plan: PlanJson, src: str, areas_only: bool = False) -> GcsMission:
         media_map=None if plan.helixd is None else plan.helixd.media_map,
         notes=tuple(notes),
     )
+
+
+def _complex_items(
+    entry: ComplexItemJson, seq: int, where: str, src: str, areas_only: bool, notes: list[str]
+) -> list[MissionItem]:
+    """A complex item's mission items, numbered from ``seq``: the items QGroundControl
+    generated, else its VisualTransectPoints as waypoints (noted), else none (``areas_only``:
+    its polygon is all that is read) or refused."""
+    kind = entry.complexItemType
+    transect = entry.TransectStyleComplexItem
+    if transect is not None and transect.Items:
+        return [
+            _item(sub, seq + k, f"{where} {kind} item {k}") for k, sub in enumerate(transect.Items)
+        ]
+    if transect is not None and transect.VisualTransectPoints:
+        points = transect.VisualTransectPoints
+        notes.append(
+            f"{src}: {where}: ComplexItem {clip(kind, 40)}: flown through its "
+            f"{len(points)} VisualTransectPoints (it holds no "
+            "generated items, so no camera triggers)"
+        )
+        return [
+            waypoint_item(seq + k, lat, lon, f"{where} {kind} VisualTransectPoints.{k}")
+            for k, (lat, lon) in enumerate(points)
+        ]
+    if areas_only:
+        return []
+    raise FormatError(
+        [
+            f"{src}: {where}: ComplexItem {clip(kind, 40)} holds no mission items "
+            "(TransectStyleComplexItem.Items) and no VisualTransectPoints"
+            + (
+                ": a structure scan circles a structure at heights, which a rover cannot"
+                if kind == "StructureScan"
+                else "; open and save the plan in QGroundControl so it writes them"
+            )
+        ]
+    )
+
+
+def _place_problems(plan: PlanJson, src: str) -> list[str]:
+    """The complex items' polygons and the geofence's places that are off the Earth."""
+    problems: list[str] = []
+    for i, entry in enumerate(plan.mission.items):
+        if isinstance(entry, ComplexItemJson):
+            for k, (a, b) in enumerate(entry.polygon):
+                problems += check_latlon(f"{src}: mission.items.{i}.polygon.{k}", a, b)
+    fence = plan.geoFence
+    for i, pj in enumerate(fence.all_polygons()):
+        for k, (a, b) in enumerate(pj.polygon):
+            problems += check_latlon(f"{src}: geoFence.polygons.{i}.polygon.{k}", a, b)
+    for i, cj in enumerate(fence.circles):
+        problems += check_latlon(f"{src}: geoFence.circles.{i}.circle.center", *cj.circle.center)
+    return problems
+
+
+def _planned_home(plan: PlanJson) -> tuple[tuple[float, float] | None, float | None]:
+    """QGroundControl's plannedHomePosition (lat, lon; altitude) when it is a place."""
+    hp = plan.mission.plannedHomePosition
+    if hp is None or hp[0] is None or hp[1] is None or check_latlon("home", hp[0], hp[1]):
+        return None, None
+    return (hp[0], hp[1]), hp[2] if len(hp) > 2 else None
 
 
 def _num(v: float) -> float | None:

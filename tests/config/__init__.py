@@ -1,0 +1,1 @@
+"""Tests of helixd.config: the sections of helixd.yaml."""

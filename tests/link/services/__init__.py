@@ -1,0 +1,1 @@
+"""Tests of helixd.link.services: the autopilot's services over the link."""

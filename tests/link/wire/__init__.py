@@ -1,0 +1,1 @@
+"""Tests of helixd.link.wire: bytes to messages and back."""
