@@ -128,6 +128,10 @@ def section(results: list[DayResult], wall_s: float, day_hours: float) -> dict[s
             for r in results
             if r.violation is not None
         ],
+        # resident memory: the largest growth over a day's second half (rule memory_flat)
+        "rss_growth_mb_max": round(
+            max((r.rss_mb[1] - r.rss_mb[0] for r in results), default=0.0), 1
+        ),
         "actions": dict(sorted(actions.items())),
         "faults": dict(sorted(faults.items())),
     }

@@ -27,6 +27,10 @@ class ServeConfig(ConfigSection):
     count); every start re-reads it anyway and flies the plan it finds if it passes the checks"""
     state_rate_hz: float = Field(1.0, gt=0.0, le=10.0)
     """NAMED_VALUE_INT hx_state is sent on every change and this often (Hz)"""
+    idle_pose_rate_hz: float = Field(5.0, ge=0.0, le=100.0)
+    """between flights, while disarmed or holding (armed in HOLD), the pose streams
+    (LOCAL_POSITION_NED, ATTITUDE) are asked at this rate, and at link.pose_rate_hz's again
+    before each flight starts (Hz; never faster than negotiated); 0: the flight's rate all day"""
     tick_s: float = Field(0.1, gt=0.0, le=1.0)
     """the service's idle tick: start switch read, heartbeat fed, timers (s)"""
     switch_stale_s: float = Field(1.5, gt=0.0, le=10.0)

@@ -466,6 +466,11 @@ class Autopilot:
         self._monitoring = True  # the housekeeping tick checks the stream rates from now on
         return granted
 
+    async def pace_pose(self, rate_hz: float | None) -> None:
+        """The pose streams at ``rate_hz``, or back at the negotiated rate (None): see
+        :meth:`helixd.link.streams.StreamManager.pace_pose`."""
+        await self._streams.pace_pose(rate_hz)
+
     # -- raw messages and the link log --------------------------------------------------------
 
     def send_message(self, msg: MavMsg) -> bool:

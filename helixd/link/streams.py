@@ -185,6 +185,7 @@ class StreamManager:
         self.monitor = RateMonitor(cfg.stream_check_window_s, cfg.stream_slow_fraction)
         self.requested = False
         self._lock = asyncio.Lock()
+        self._flight_hz: dict[str, float] = {}  # the pose rates request_all negotiated
 
     @property
     def granted_hz(self) -> dict[str, float]:
@@ -210,6 +211,7 @@ class StreamManager:
                 floor = min(cfg.autopilot_heartbeat_rate_hz, 1.0)
                 granted[name] = await self._negotiate(name, cfg.autopilot_heartbeat_rate_hz, floor)
             now = now_s()
+            self._flight_hz = {name: granted[name] for name in POSE_STREAMS}
             for name, rate in granted.items():
                 self.monitor.grant(name, rate, now)
             for name in TARGET_STREAMS:
@@ -223,6 +225,26 @@ class StreamManager:
             self.requested = True
             log.info("streams_granted", **{n.lower(): round(r, 2) for n, r in granted.items()})
             return granted
+
+    async def pace_pose(self, rate_hz: float | None) -> None:
+        """The pose streams asked at ``rate_hz`` (never faster than negotiated), or at the
+        rate :meth:`request_all` negotiated (None): ``serve`` idles between flights on slow
+        ones, and every flight asks the fast ones back before it starts. Nothing is sent for
+        a stream already at that rate; a refusal leaves the stream as it was."""
+        async with self._lock:
+            for name in POSE_STREAMS:
+                flight_hz = self._flight_hz.get(name, 0.0)
+                want = flight_hz if rate_hz is None else min(rate_hz, flight_hz)
+                if want <= 0.0 or want == self.monitor.granted_hz.get(name):
+                    continue
+                result = await self._command(
+                    MAV_CMD_SET_MESSAGE_INTERVAL,
+                    (message_id(name), interval_us(want)),
+                    ok_results=ALL_RESULTS,
+                )
+                if result == MAV_RESULT_ACCEPTED:
+                    self.monitor.grant(name, want, now_s())
+                    log.info("stream_paced", stream=name, rate_hz=round(want, 2))
 
     async def _read_loop_rate(self) -> int | None:
         """SCHED_LOOP_RATE (Hz), read once per negotiation (it changes only with a reboot)."""

@@ -424,6 +424,10 @@ class Flights:
         self.count += 1
         self.status.set(ServeState.FLYING, what)
         self.busy = False
+        try:  # the service idled on slow pose streams (serve.idle_pose_rate_hz)
+            await host.link.pace_pose(None)
+        except (CommandError, LinkError) as exc:
+            log.warning("stream_pace_failed", error=str(exc), why="the flight starts on them")
         runner = MissionRunner(opts, host)
         self.runner = runner
         try:

@@ -42,6 +42,7 @@ from helixd.report.gcs_feed import GcsFeed
 from helixd.report.notify import ServiceNotifier
 from helixd.runtime.mode_gate import AUTO_MODE, crew_mode_of, crew_mode_rx_s, current_target_of
 from helixd.runtime.signals import StopRequest, install, uninstall
+from helixd.safety.supervisor import HOLD_MODE
 from helixd.serve.core import (
     Answer,
     GotoWatch,
@@ -201,6 +202,8 @@ class Service:
                         self.status.set(ServeState.IDLE, "reading the autopilot's mission")
                 if self.mission.read_due(now):
                     await self.flights.read_mission(ap)
+                if streams and not self.flights.flying:
+                    await self._pace_pose(ap, self._idle_pose_hz(ap))
             if up or flying:
                 self._watch_switch(ap)
                 self._watch_auto(ap)
@@ -237,6 +240,22 @@ class Service:
         ap = self._ap
         if ap is not None and ap.param.cache is not None:
             ap.param.cache.forget()
+
+    def _idle_pose_hz(self, ap: Autopilot) -> float | None:
+        """Slow pose streams (serve.idle_pose_rate_hz) between flights while disarmed or
+        holding (armed in HOLD); the flight's rate (None) while armed in another mode (the
+        autopilot's own drive, the pilot's). Each flight asks it back before it starts."""
+        st = ap.state
+        if st.armed and st.mode != HOLD_MODE:
+            return None
+        return self.cfg.serve.idle_pose_rate_hz or None
+
+    @staticmethod
+    async def _pace_pose(ap: Autopilot, rate_hz: float | None) -> None:
+        try:
+            await ap.pace_pose(rate_hz)
+        except (CommandError, LinkError) as exc:
+            log.info("stream_pace_failed", error=str(exc))
 
     async def _streams(self, ap: Autopilot) -> bool:
         try:

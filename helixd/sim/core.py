@@ -74,6 +74,10 @@ from helixd.sim.sim_config import SimConfig
 
 SONAR_MESSAGES = frozenset({st.MSG_DISTANCE_SENSOR, st.MSG_RANGEFINDER})
 PARAMS_PER_LOOP = 2  # PARAM_REQUEST_LIST streaming pace (ArduPilot rate-limits it too)
+# a quiet autopilot (SimCore.quiet_steps) takes at most this many loops in one step: its 10 Hz
+# checks (failsafes, the guard's) still run every tenth of a second at 50 Hz
+QUIET_STEPS_MAX = 5
+REST_EPS = 1e-6  # body speeds (m/s, rad/s) and scroll speeds (rad/s) below this are at rest
 # a PWM in the middle of each mode-switch position (RC_Channel::read_mode_switch bands)
 SWITCH_POSITION_PWM_US = (1100, 1295, 1425, 1555, 1685, 1900)
 
@@ -143,6 +147,7 @@ class SimCore:
         self._n = 0
         self._chunk_id = 0
         self._origin_sent = False
+        self._touched = True  # an input since the last loop: the next is one loop (quiet_steps)
         self.inbound = InboundHandler(self)
         self.mission = MissionServer(
             config.origin_lat_deg,
@@ -309,10 +314,12 @@ class SimCore:
     # -- faults and the pilot --------------------------------------------------------------
 
     def schedule(self, spec: FaultSpec, at_s: float) -> None:
+        self._touched = True
         self.pending.append((at_s, spec))
         self.pending.sort(key=lambda p: p[0])
 
     def inject(self, spec: FaultSpec) -> None:
+        self._touched = True
         now = self.now_s
         kw = spec.kwargs
         switch_pwm = self._switch_pwm(str(kw["mode"])) if spec.name == "pilot_takeover" else 0
@@ -384,6 +391,7 @@ class SimCore:
     def set_rc(self, channel: int, pwm_us: int) -> None:
         if not 1 <= channel <= 16:
             raise ValueError(f"RC channel must be 1..16, got {channel}")
+        self._touched = True
         self.ap.set_pilot_rc(channel, pwm_us)
         self.events.append(SimEvent("pilot_rc", {"channel": channel, "pwm_us": pwm_us}))
 
@@ -419,13 +427,41 @@ class SimCore:
         return held
 
     def handle(self, link: int, msg: Message) -> None:
+        # a HEARTBEAT only stamps its sender's time (the GCS failsafe's, checked at 10 Hz)
+        self._touched = self._touched or msg.get_type() != "HEARTBEAT"
         if self.link_up(link):
             self.inbound.handle(link, msg)
             self._collect()
 
-    def tick(self) -> None:
-        self._n += 1
+    def quiet_steps(self) -> int:
+        """How many loops the next step may take at once (1: every loop its own): more only
+        while nothing moves or changes with time but the clocks of the streams — booted,
+        disarmed or holding (armed in HOLD), at rest, no fault on or scheduled, no input
+        since the last loop — and no message is due before the step's end (each message
+        still leaves in the loop it is due in), at most :data:`QUIET_STEPS_MAX`. A shell on
+        a simulated clock steps so."""
+        ap, ph, now = self.ap, self.phys, self.now_s
+        driving_mode = ap.armed and ap.mode != MODE_NUMBERS["HOLD"]  # HOLD: outputs at trim
+        if self._touched or driving_mode or ap.booting(now) or self.pending or self.faults.active:
+            return 1
+        speeds = (ph.vx_body_mps, ph.vy_body_mps, ph.wz_body_radps, *ph.scroll_radps)
+        if any(abs(v) >= REST_EPS for v in speeds) or self.param_queued():
+            return 1
+        due_s = min(link.streams.next_due_s() for link in self.links)
+        if self.bathy is not None and self.config.sonar.named_value:
+            due_s = min(due_s, self._next_named_value_s)
+        steps = int((due_s - now) / self.dt_s() + 1e-9)
+        return max(1, min(QUIET_STEPS_MAX, steps))
+
+    def param_queued(self) -> bool:
+        return any(link.param_queue for link in self.links)
+
+    def tick(self, steps: int = 1) -> None:
+        """``steps`` loops in one (more than one only as :meth:`quiet_steps` allows)."""
+        self._touched = False
+        self._n += steps
         now = self._epoch_s + self._n * self.dt_s()
+        dt_s = steps * self.dt_s()
         self.now_s = now
         while self.pending and self.pending[0][0] <= now:
             self.inject(self.pending.pop(0)[1])
@@ -439,11 +475,11 @@ class SimCore:
                 self.events.append(SimEvent("output", {"channel": i + 1, "pwm_us": new}))
         self.outputs_us = outputs
         self.phys, self._contact, contact = collisions.contact_step(
-            self.config.obstacles, self.phys, self._plant_step(outputs), self._contact
+            self.config.obstacles, self.phys, self._plant_step(outputs, dt_s), self._contact
         )
         if contact is not None:
             self.events.append(SimEvent(*contact))
-        self.est = estimator.step(self.est, self.dt_s(), self.config.noise_profile(), self.rng)
+        self.est = estimator.step(self.est, dt_s, self.config.noise_profile(), self.rng)
         here = estimator.estimate(self.est, self.phys)
         self.ap.observe_position(
             now, here.north_m, here.east_m, self.ap.origin_set(now) and not self.ap.booting(now)
@@ -539,8 +575,8 @@ class SimCore:
         radius_m = self.params.get("WP_RADIUS")
         self.mission_outcome(self.auto.update(self.mission, self.ap.here_ne, origin, radius_m))
 
-    def _plant_step(self, outputs: list[int]) -> PhysicsState:
-        cfg, dt = self.config, self.dt_s()
+    def _plant_step(self, outputs: list[int], dt: float) -> PhysicsState:
+        cfg = self.config
         stalled = self.faults.on("stall")
         if cfg.plant is Plant.SITL_SKID:
             m = cfg.skid

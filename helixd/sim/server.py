@@ -249,6 +249,9 @@ class SimServer:
         # called after every loop on the wall clock: a test's seam for a slow machine (a loop
         # that costs more wall time than this one's), never set in production
         self.after_tick: Callable[[], None] | None = None
+        self._coarse = False  # quiet steps of several loops (_run: on a simulated clock)
+        # while the loop waits out a quiet step: the future an input sets (_catch_up)
+        self._wake: asyncio.Future[None] | None = None
 
     # -- lifecycle -------------------------------------------------------------------------
 
@@ -392,22 +395,61 @@ class SimServer:
     async def _run(self) -> None:
         core = self._core
         start_wall, start_sim = now_s(), core.now_s
+        # on a simulated clock a quiet autopilot takes several loops in one step (SimCore.
+        # quiet_steps), woken early by any input (_catch_up); the wall's pace is loop by loop
+        self._coarse = on_simulated_clock() and self._speedup == 1.0
         while not self._stopping.is_set():
             speedup = self._speedup
             target_sim = start_sim + (now_s() - start_wall) * speedup
             loops = 0
-            while core.now_s + core.dt_s() <= target_sim + 1e-9 and loops < MAX_LOOPS_PER_WAKEUP:
-                core.tick()
+            steps = self._steps()
+            while (
+                core.now_s + steps * core.dt_s() <= target_sim + 1e-9
+                and loops < MAX_LOOPS_PER_WAKEUP
+            ):
+                core.tick(steps)
                 if self.after_tick is not None:
                     self.after_tick()
                 self._after()
                 loops += 1
+                steps = self._steps()
             if loops == MAX_LOOPS_PER_WAKEUP:  # cannot keep up: slow simulated time down
                 start_wall, start_sim = now_s(), core.now_s
             if self._judge_pace(loops):  # a lower speed-up from here on
                 start_wall, start_sim = now_s(), core.now_s
-            next_wall = start_wall + (core.now_s + core.dt_s() - start_sim) / self._speedup
-            await asyncio.sleep(max(MIN_SLEEP_S, min(0.05, next_wall - now_s())))
+            next_wall = start_wall + (core.now_s + steps * core.dt_s() - start_sim) / self._speedup
+            if steps == 1:
+                await asyncio.sleep(max(MIN_SLEEP_S, min(0.05, next_wall - now_s())))
+                continue
+            await self._quiet_wait(max(0.0, next_wall - now_s()))
+
+    async def _quiet_wait(self, delay_s: float) -> None:
+        """Wait out a quiet step, or less if an input comes first (_catch_up)."""
+        loop = asyncio.get_running_loop()
+        wake = self._wake = loop.create_future()
+        timer = loop.call_later(delay_s, wake_up, wake)
+        try:
+            await wake
+        finally:
+            timer.cancel()
+            self._wake = None
+
+    def _steps(self) -> int:
+        return self._core.quiet_steps() if self._coarse else 1
+
+    def _catch_up(self) -> None:
+        """An input in the middle of a quiet step: the loops that step would have taken
+        before now, taken first (the input then meets the autopilot as it would have), and the
+        loop woken to step loop by loop from here."""
+        wake = self._wake
+        if wake is None:
+            return
+        core = self._core
+        behind = int((now_s() - core.now_s) / core.dt_s() + 1e-9)
+        if behind >= 1 and core.quiet_steps() >= behind:
+            core.tick(behind)
+            self._after()
+        wake_up(wake)
 
     def _judge_pace(self, loops: int) -> bool:
         """Did this wake-up end a window in which the machine did not keep the speed-up? Then
@@ -450,6 +492,7 @@ class SimServer:
             log.debug("sim_bad_packet", link=index, error=str(exc))
             return
         core = self._core
+        self._catch_up()
         for msg in msgs:
             if msg.get_type() == "BAD_DATA":
                 continue
@@ -489,6 +532,7 @@ class SimServer:
     def _call(self, fn: Callable[[], Any]) -> Any:
         loop = self._loop
         if loop is not None and self._thread is None and not self._stopping.is_set():
+            self._catch_up()
             result = fn()  # running here (running_here): the caller is on the loop's thread
             self._after()
             return result
@@ -557,6 +601,11 @@ class SimServer:
                     raise TimeoutError(f"simulator stopped; last: {self._snapshot.describe()}")
                 self._cond.wait(min(remaining, 0.2))
             return self._snapshot
+
+
+def wake_up(future: asyncio.Future[None]) -> None:
+    if not future.done():
+        future.set_result(None)
 
 
 def with_media(config: SimConfig) -> SimConfig:

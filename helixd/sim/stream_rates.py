@@ -20,6 +20,7 @@ Intervals are per link: a grant on one link does not speed up another.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -183,6 +184,11 @@ class StreamSchedule:
         ids = STREAMED if stream_id == STREAM_ALL else STREAMS.get(stream_id, ())
         for msg_id in ids:
             self.set_interval(msg_id, interval, now_s)
+
+    def next_due_s(self) -> float:
+        """When the next message is due (inf: none streams; a message never sent yet: now)."""
+        due = [self._next_due_s.get(m, -math.inf) for m, ms in self.interval_ms.items() if ms > 0]
+        return min(due, default=math.inf)
 
     def due(self, now_s: float) -> list[int]:
         """Messages to send now; the schedule keeps the average rate on a coarse loop."""

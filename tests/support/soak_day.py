@@ -18,17 +18,20 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import errno
 import io
 import json
 import math
 import os
 import signal
+import sys
 import time
 import traceback
-from collections.abc import Callable
+from collections import Counter
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
@@ -47,6 +50,7 @@ from helixd.mav.constants import (
     MAV_FRAME_GLOBAL,
     MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
 )
+from helixd.recorder.rundir import RunRecorder, default_opener
 from helixd.sim.firmware.modes import MODE_NUMBERS
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import deep_merge
@@ -56,7 +60,15 @@ from tests.support.loop_gcs import upload_fence, upload_items
 from tests.support.loop_mav import LoopMav
 from tests.support.serve import HIGH_US, LOW_US, SWITCH_CH
 from tests.support.simulated import Steer, simulated_serve
-from tests.support.soak_plan import FENCE_RADIUS_M, GO_WORDS, STOP_WORDS, DayPlan, Item, Step
+from tests.support.soak_plan import (
+    DAY_FAULTS,
+    FENCE_RADIUS_M,
+    GO_WORDS,
+    STOP_WORDS,
+    DayPlan,
+    Item,
+    Step,
+)
 
 STOP_LIMIT_S = 0.5  # the crew's stop word (and helixd's "completed") → scrolls at trim
 # a disarm shows to helixd only in the autopilot's 1 Hz HEARTBEAT, and ArduPilot passes the
@@ -118,6 +130,63 @@ NO_SWITCH: dict[str, Any] = {"startup": {"start_switch_channel": None}}
 EVENING_S = 600.0  # simulated seconds a day may run past its length (boot, the evening) at most
 TASKS_SLACK = 3  # asyncio tasks a quiet service may have more at the end than at the start
 FDS_SLACK = 3
+# resident memory (MB) the process may grow by over the day's second half (the first warms
+# caches up: imports, the first flight's recorder and plots) beyond what the harness keeps of
+# the console's lines meanwhile (console_mb)
+RSS_SLACK_MB = 25.0
+# the full card: flight.csv's writes raise ENOSPC while it is full; a card full for this long
+# while a flight records is cut (a row goes out every control tick) and must be told
+CARD_FILE = "flight.csv"
+CARD_SEEN_AFTER_S = 2.0
+CARD_TOLD_WITHIN_S = 2.0  # after the card is free again: the record_cut line is there
+
+
+class Card:
+    """The recorder's card (the day's ``full_card`` fault): while ``full``, every write of
+    flight.csv raises ``OSError(ENOSPC)``, as a card with no space left does."""
+
+    def __init__(self) -> None:
+        self.full = False
+
+    def opener(self, path: Path, mode: str) -> IO[str]:
+        fh = default_opener(path, mode)
+        if path.name != CARD_FILE:
+            return fh
+        real_write = fh.write
+
+        def write(text: str) -> int:
+            if self.full:
+                raise OSError(errno.ENOSPC, "No space left on device", str(path))
+            return real_write(text)
+
+        fh.write = write  # type: ignore[method-assign]
+        return fh
+
+
+@contextlib.contextmanager
+def card_in_recorder(card: Card) -> Iterator[None]:
+    """Every run directory created meanwhile writes through ``card``."""
+    real = RunRecorder.__dict__["create"]
+    bound = RunRecorder.create
+
+    def create(*args: Any, **kwargs: Any) -> RunRecorder:
+        return bound(*args, **{**kwargs, "opener": card.opener})
+
+    RunRecorder.create = create  # type: ignore[method-assign]
+    try:
+        yield
+    finally:
+        RunRecorder.create = real  # type: ignore[method-assign]
+
+
+def logged_value(line: str, key: str) -> str:
+    """The value of ``key=`` in a logfmt console line ('' if absent; quotes taken off)."""
+    _, sep, rest = line.partition(f" {key}=")
+    if not sep:
+        return ""
+    if rest.startswith('"'):
+        return rest[1:].split('"', 1)[0]
+    return rest.split(" ", 1)[0]
 
 
 @dataclass
@@ -138,6 +207,7 @@ class DayResult:
     faults: dict[str, int] = field(default_factory=dict)
     events: list[str] = field(default_factory=list)  # the last steps and log lines
     done: list[Step] = field(default_factory=list)  # the steps performed, in order
+    rss_mb: tuple[float, float] = (0.0, 0.0)  # resident memory at midday and at the end
 
 
 class Broken(Exception):
@@ -190,6 +260,11 @@ class Rules:
         self.fault_times: list[float] = []  # when each fault was injected
         self.go_times: list[float] = []  # when the crew said go
         self.t0 = 0.0  # the day's time 0 (the plan's steps count from it)
+        self.serve_state = ""  # the service's latest serve_state
+        self.run_dir = ""  # the run directory of the latest flight (helixd_start)
+        self.cuts: Counter[str] = Counter()  # record_cut warnings per run directory
+        # full cards to be told: (run directory, console line at the fault, check after)
+        self.cards: list[tuple[str, int, float]] = []
 
     def fail(self, rule: str, detail: str) -> None:
         if self.broken is None:
@@ -237,6 +312,12 @@ class Rules:
         if self.fault_at is None:
             self.fault_at, self.fault_limit_s = t, FAULT_LIMIT_S[kind]
         self.pending.append((kind, t, t + max(FAULT_LIMIT_S[kind], NAMED_WITHIN_S) + 2.0))
+
+    def full_card(self, duration_s: float) -> None:
+        """The card full for ``duration_s``: a flight recording meanwhile must say so, once."""
+        if self.serve_state == "flying" and duration_s >= CARD_SEEN_AFTER_S:
+            by = now_s() + duration_s + CARD_TOLD_WITHIN_S
+            self.cards.append((self.run_dir, len(self.st.console.lines), by))
 
     def mission(self, items: tuple[Item, ...]) -> None:
         self.items = items
@@ -292,10 +373,30 @@ class Rules:
                 self.fail("traceback", text[:300])
             if "event=serve_state state=completed" in text:
                 self.completed_at = t
+            if "event=serve_state " in text:
+                self.serve_state = logged_value(text, "state")
+            elif "event=helixd_start " in text:
+                self.run_dir = logged_value(text, "run_dir")
+            elif "event=record_cut " in text:
+                run = str(Path(logged_value(text, "path")).parent)
+                self.cuts[run] += 1
+                if self.cuts[run] > 1:
+                    self.fail("card_full_once", f"a second record_cut in {run}: {text[:200]}")
+        for run, mark, by in list(self.cards):
+            if t > by:
+                self.cards.remove((run, mark, by))
+                self._card_told(run, mark)
         for kind, at, by in list(self.pending):
             if t > by:
                 self.pending.remove((kind, at, by))
                 self._named(kind, at, by)
+
+    def _card_told(self, run: str, mark: int) -> None:
+        later = self.st.console.lines[mark:]
+        if any("event=serve_state " in ln for ln in later):
+            return  # the flight stopped or ended meanwhile: it may have written nothing since
+        if self.cuts[run] != 1:
+            self.fail("card_full_reported", f"a full card in {run} told {self.cuts[run]} times")
 
     def _named(self, kind: str, at: float, by: float) -> None:
         # a go word ends the window: a new flight may meet the same fault and be told again
@@ -341,8 +442,13 @@ def num(step: Step, key: str) -> float:
 class Crew:
     """The day's hands: performs each step through the ground station or the simulator."""
 
-    def __init__(self, st: Steer, gcs: LoopMav, rules: Rules, plan: DayPlan) -> None:
+    def __init__(
+        self, st: Steer, gcs: LoopMav, rules: Rules, plan: DayPlan, card: Card | None = None
+    ) -> None:
         self.st, self.gcs, self.rules, self.plan = st, gcs, rules, plan
+        self.card = Card() if card is None else card
+        self.rss_mb = (0.0, 0.0)  # resident memory at midday and at the end
+        self.lines_at_midday = 0  # the console's lines then
         self.actions: dict[str, int] = {}
         self.faults: dict[str, int] = {}
         self.done: list[Step] = []
@@ -415,6 +521,18 @@ class Crew:
             "restart": lambda _: self.nothing(),
         }  # fmt: skip
 
+    def day_fault(self, step: Step) -> None:
+        """One of the day's own faults (not the simulator's): ``full_card``."""
+        assert step.name == "full_card", step.name
+        duration_s = num(step, "duration_s")
+        self.rules.full_card(duration_s)
+        self.card.full = True
+
+        def free() -> None:
+            self.card.full = False
+
+        asyncio.get_running_loop().call_later(duration_s, free)
+
     async def nothing(self) -> None:
         """The step is the day's (``restart``: crew_day stops the service)."""
 
@@ -429,6 +547,9 @@ class Crew:
         self.simulated_s = now_s() - self.t0
         if step.kind == "fault":
             self.faults[step.name] = self.faults.get(step.name, 0) + 1
+            if step.name in DAY_FAULTS:
+                self.day_fault(step)
+                return
             driving_now = driving(self.st.snapshot())
             self.rules.fault(step.name, driving_now, dict(step.args))
             self.st.inject(step.name, **dict(step.args))
@@ -449,6 +570,19 @@ def resources() -> tuple[int, int]:
     return len(asyncio.all_tasks()), len(os.listdir("/proc/self/fd"))
 
 
+def console_mb(lines: list[str]) -> float:
+    """What the harness keeps of these console lines (the line, its list slot, the
+    referee's time for it): the process grows by this beside helixd."""
+    return sum(sys.getsizeof(line) + 8 + 32 for line in lines) / 1e6
+
+
+def rss_mb() -> float:
+    """This process's resident memory (MB)."""
+    with open("/proc/self/statm", encoding="ascii") as fh:
+        pages = int(fh.read().split()[1])
+    return pages * os.sysconf("SC_PAGE_SIZE") / 1e6
+
+
 async def settle(st: Steer, rules: Rules, until_s: float) -> None:
     """Simulated time passes to ``until_s``, the referee's verdict checked on the way."""
     while (left := until_s - now_s()) > 0:
@@ -457,11 +591,11 @@ async def settle(st: Steer, rules: Rules, until_s: float) -> None:
             raise Broken(rules.broken)
 
 
-async def crew_day(st: Steer, plan: DayPlan, crews: list[Crew]) -> None:
+async def crew_day(st: Steer, plan: DayPlan, crews: list[Crew], card: Card) -> None:
     """One start of the service: the first sets the day up, a later one (after the crew's
     ``restart``) takes the day on from the next step; the day's last ends it."""
     if not crews:
-        crew = Crew(st, st.ground_station(1, QGC_SYSID), Rules(st), plan)
+        crew = Crew(st, st.ground_station(1, QGC_SYSID), Rules(st), plan, card)
         crews.append(crew)
         st.server.snapshot_listeners.append(crew.rules.snapshot)
         st.set_rc(SWITCH_CH, LOW_US)
@@ -480,6 +614,9 @@ async def crew_day(st: Steer, plan: DayPlan, crews: list[Crew]) -> None:
     rules, t0 = crew.rules, crew.t0
     for step in plan.steps[crew.next_step :]:
         await settle(st, rules, t0 + step.at_s)
+        if not crew.rss_mb[0] and step.at_s >= plan.length_s / 2.0:
+            crew.rss_mb = (rss_mb(), 0.0)  # midday: the caches are warm
+            crew.lines_at_midday = len(st.console.lines)
         crew.next_step += 1
         await crew.perform(step)
         if step.name == "restart":
@@ -492,6 +629,15 @@ async def crew_day(st: Steer, plan: DayPlan, crews: list[Crew]) -> None:
         await crew.perform(Step(-1, now_s() - t0, "crew", name))
     await settle(st, rules, now_s() + 30.0)  # faults over, the service quiet again
     after, before = resources(), crew.before
+    crew.rss_mb = (crew.rss_mb[0] or rss_mb(), rss_mb())
+    harness_mb = console_mb(st.console.lines[crew.lines_at_midday :])
+    if crew.rss_mb[1] > crew.rss_mb[0] + harness_mb + RSS_SLACK_MB:
+        rules.fail(
+            "memory_flat",
+            f"resident memory {crew.rss_mb} MB at midday and at the end, "
+            f"{harness_mb:.1f} MB of it the harness's console",
+        )
+        raise Broken(rules.broken)  # type: ignore[arg-type]
     states = [ln for ln in st.console.lines if "event=serve_state" in ln]
     quiet = not states or not any(f"state={s} " in states[-1] for s in ("flying", "paused"))
     if quiet and (after[0] > before[0] + TASKS_SLACK or after[1] > before[1] + FDS_SLACK):
@@ -545,24 +691,26 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
             MediaFrame.LOCAL_NED, (MediaArea(Medium.WATER, ring_ne(plan.water_ne)),), Medium.HARD
         )
     crews: list[Crew] = []
+    card = Card()
 
     async def day(st: Steer) -> None:
-        await crew_day(st, plan, crews)
+        await crew_day(st, plan, crews, card)
 
     wall, cpu = time.perf_counter(), time.process_time()
     violation: Violation | None = None
     served = None
     try:
-        served = simulated_serve(
-            workdir,
-            [day] * (1 + sum(1 for s in plan.steps if s.name == "restart")),
-            config,
-            seed=plan.seed,
-            limit_s=plan.length_s + EVENING_S,
-            params=AUTOPILOT_PARAMS,
-            **guard_installed(1.0),  # helixd-guard on the autopilot, as in the field
-            **world,
-        )
+        with card_in_recorder(card):
+            served = simulated_serve(
+                workdir,
+                [day] * (1 + sum(1 for s in plan.steps if s.name == "restart")),
+                config,
+                seed=plan.seed,
+                limit_s=plan.length_s + EVENING_S,
+                params=AUTOPILOT_PARAMS,
+                **guard_installed(1.0),  # helixd-guard on the autopilot, as in the field
+                **world,
+            )
     except Broken as exc:
         violation = exc.violation
     except (AssertionError, TimeoutError) as exc:
@@ -594,4 +742,5 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
         faults=crew.faults if crew else {},
         events=events,
         done=crew.done if crew else [],
+        rss_mb=crew.rss_mb if crew else (0.0, 0.0),
     )

@@ -28,11 +28,15 @@ GO_WORDS = (
 NEUTRAL_WORDS = ("upload", "reupload", "set_current", "arm", "speed_helixd")
 CREW_ACTIONS = (*NEUTRAL_WORDS, *GO_WORDS, *STOP_WORDS)
 # the simulator's faults a day injects (helixd.sim.faults.FAULTS), with their arguments
-FAULT_KINDS = (
+SIM_FAULTS = (
     "link_drop", "stale_pose", "ekf_unhealthy", "reboot", "gps_loss", "gps_silent",
     "battery_low", "fence_breach", "rc_loss", "stall", "nan_position", "nan_yaw",
     "absurd_position", "time_backwards",
 )  # fmt: skip
+# the day's own faults, injected by tests.support.soak_day (not the simulator's): full_card,
+# the recorder's card full (every write of flight.csv raises ENOSPC) for a while
+DAY_FAULTS = ("full_card",)
+FAULT_KINDS = (*SIM_FAULTS, *DAY_FAULTS)
 NAV_WAYPOINT = int(mavlink.MAV_CMD_NAV_WAYPOINT)
 FENCE_RADIUS_M = 60.0  # the inclusion circle around home every mission and place stays in
 PLACE_RADIUS_M = 35.0  # waypoints and Go-to places within this of home
@@ -156,11 +160,19 @@ FAULT_ARGS: dict[str, tuple[tuple[str, object], ...]] = {
 }
 
 
-def fault_step(rng: random.Random, index: int, at_s: float) -> Step:
-    name = rng.choice(FAULT_KINDS)
+# a day's fault is one of the day's own (DAY_FAULTS) this often, drawn from a second stream
+# of the seed so the simulator's faults of every earlier day stay where they were
+DAY_FAULT_SHARE = 1.0 / 15.0
+
+
+def fault_step(rng: random.Random, index: int, at_s: float, extra: random.Random) -> Step:
+    name = rng.choice(SIM_FAULTS)
     args = FAULT_ARGS.get(name, (("duration_s", round(rng.uniform(2.0, 20.0), 1)),))
     if name == "rc_loss":
         args = (*args, ("kind", rng.choice(("no_pulses", "failsafe_values"))))
+    if extra.random() < DAY_FAULT_SHARE * len(DAY_FAULTS):
+        name = extra.choice(DAY_FAULTS)
+        args = (("duration_s", round(extra.uniform(2.0, 30.0), 1)),)
     return Step(index, at_s, "fault", name, args)
 
 
@@ -191,6 +203,7 @@ def plan_day(seed: int, length_s: float, faults_per_session: float = 1.0) -> Day
     apart) separated by quiet stretches, until ``length_s`` simulated seconds; a day shorter
     than 10 minutes has its gaps shrunk in proportion (the test suite's short days)."""
     rng = random.Random(seed)
+    extra = random.Random(f"day-faults-{seed}")  # the day's own faults (DAY_FAULTS)
     scale = min(1.0, length_s / 600.0)
     switch = rng.random() < 0.5
     water_ne = None
@@ -217,7 +230,7 @@ def plan_day(seed: int, length_s: float, faults_per_session: float = 1.0) -> Day
         while t < min(end, length_s - 30.0 * scale - 5.0):
             t += rng.uniform(2.0, 2.0 + 28.0 * scale)
             if rng.random() < faults_per_session / 6.0:
-                steps.append(fault_step(rng, len(steps), t))
+                steps.append(fault_step(rng, len(steps), t, extra))
                 continue
             step = crew_step(rng, len(steps), t, current, switch)
             if step.name in ("upload", "reupload"):

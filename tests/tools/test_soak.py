@@ -17,6 +17,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.base.clock import now_s
 from tests.support.soak_day import (
     HEARTBEAT_LIMIT_S,
+    RSS_SLACK_MB,
     STOP_LIMIT_S,
     Crew,
     Rules,
@@ -64,6 +65,18 @@ def test_long_days_press_every_button_and_inject_every_fault() -> None:
     assert min(gaps) >= 2.0 and max(gaps) >= 300.0
 
 
+def test_a_thousand_days_press_every_button_and_inject_every_fault_a_hundred_times() -> None:
+    # the issue's coverage goal, from the plans alone (a day performs every step it plans
+    # unless a rule stops it): a hundred two-hour days give each kind at least ten
+    counts: dict[str, int] = dict.fromkeys((*CREW_ACTIONS, *FAULT_KINDS), 0)
+    for seed in range(1, 101):
+        for step in plan_day(seed, 7200.0).steps:
+            counts[step.name] += 1
+    rare = {name: n for name, n in counts.items() if n < 10}
+    assert not rare, rare
+    assert min(counts.values()) * 10 >= 1000, min(counts.items(), key=lambda kv: kv[1])
+
+
 def test_the_items_may_follow_the_mission_and_its_jumps() -> None:
     items = (
         Item(WP), Item(WP, 5, 0), Item(WP, 5, 5),
@@ -105,6 +118,31 @@ def test_the_referee_sees_a_pause_not_obeyed_and_shrinks_to_it(
     small = soak.shrink(plan, failed, budget=8)
     names = [s.name for s in small.steps]
     assert "pause" in names and "speed_helixd" not in names and len(names) <= 3, names
+
+
+def card_day(seed: int) -> DayPlan:
+    """A 30 m leg started; the card full for 6 s while it drives (flight.csv written)."""
+    mission = (Item(WP), Item(WP, 30.0, 0.0))
+    steps = (
+        Step(0, 6.0, "crew", "upload", (("items", 0),)),
+        Step(1, 10.0, "crew", "start"),
+        Step(2, 16.0, "fault", "full_card", (("duration_s", 6.0),)),
+    )
+    return DayPlan(seed, 40.0, steps, (mission,), switch=False)
+
+
+@pytest.mark.timeout(600)
+def test_a_full_card_mid_flight_is_told_once_and_the_day_goes_on(tmp_path: Path) -> None:
+    got = run_day(card_day(9), tmp_path)
+    assert got.violation is None, got.violation
+    assert got.faults == {"full_card": 1}
+    log = (tmp_path / "serve.log").read_text()
+    assert log.count("event=record_cut ") == 1
+    runs = [p for p in (tmp_path / "runs").iterdir() if p.is_dir()]
+    summary = json.loads((runs[0] / "summary.json").read_text())
+    assert summary["record_cut_files"] == ["flight.csv"]
+    # memory measured at midday and at the end, within the rule's slack
+    assert got.rss_mb[0] > 0.0 and got.rss_mb[1] <= got.rss_mb[0] + RSS_SLACK_MB
 
 
 def referee() -> Rules:
@@ -165,6 +203,21 @@ def test_a_receiver_that_only_stops_is_not_a_fault_helixd_can_see() -> None:
     assert rules.fault_at is None and not rules.pending
     rules.fault("rc_loss", True, {"kind": "failsafe_values"})
     assert rules.fault_at is not None
+
+
+def test_a_full_card_told_twice_or_never_breaks_its_rule() -> None:
+    lines: list[str] = []
+    rules = Rules(SimpleNamespace(console=SimpleNamespace(lines=lines)))  # type: ignore[arg-type]
+    lines += ["ts=1 level=info event=serve_state state=flying hx_state=3",
+              "ts=1 level=info event=helixd_start mission=m run_dir=/r/a"]  # fmt: skip
+    rules._lines(0.0)
+    rules.full_card(5.0)  # never told
+    rules._lines(now_s() + 10.0)
+    assert rules.broken is not None and rules.broken.rule == "card_full_reported"
+    rules = Rules(SimpleNamespace(console=SimpleNamespace(lines=lines)))  # type: ignore[arg-type]
+    lines += ['ts=2 level=warning event=record_cut path=/r/a/flight.csv note="x y"'] * 2
+    rules._lines(0.0)
+    assert rules.broken is not None and rules.broken.rule == "card_full_once"
 
 
 # Seeds whose day broke a rule in helixd (fixed since), flown again up to just past the step
