@@ -252,6 +252,11 @@ class Rules:
         self.successors: dict[int, set[int]] = {}
         self.free_until = 0.0  # item changes are the crew's (or a reboot's) until then
         self.last_seq = 0
+        # the items helixd set as the autopilot's current (mission_current_set), latest last,
+        # and whether the crew's set current moved that display while helixd drives in MANUAL
+        self.shown: tuple[int, ...] = ()
+        self.crew_moved_shown = False
+        self.mode_switch = ""  # the mode of the radio's mode switch position ('' unknown)
         self.lines_seen = 0
         self.log_times: list[float] = []  # simulated time each console line was first seen
         self.broken: Violation | None = None
@@ -275,6 +280,14 @@ class Rules:
         t = now_s()
         if name == "disarm" and not armed:
             return  # a disarmed rover disarmed: nothing anyone can see
+        if name == "radio_mode":
+            # ArduPilot acts on the mode switch moved, not on its position
+            # (RC_Channel::read_mode_switch → debounce_completed: a position equal to
+            # switch_state.current_position changes nothing): the switch put where it stands
+            # is no word (seed 102: HOLD, later GCS modes, HOLD again, the mode left as it was)
+            was, self.mode_switch = self.mode_switch, str(arg)
+            if was == arg:
+                return
         if name in MODE_WORDS and mode == (arg or MODE_WORDS[name]):
             return  # the mode it already is: nothing the autopilot or helixd can see
         if name == "arm" and mode in DRIVING_MODES:
@@ -288,6 +301,8 @@ class Rules:
         elif name in GO_WORDS:
             self.stop_at = self.fault_at = self.completed_at = None
             self.go_times.append(t)
+        if name == "set_current" and self.serve_state == "flying":
+            self.crew_moved_shown = True
         if name in GO_WORDS or name in STOP_WORDS or name in ("set_current", "upload", "reupload"):
             # the crew's (re)start or continue may go on from an earlier item (the
             # interrupted leg's) or a later one, and a flight helixd drives in MANUAL shows
@@ -322,6 +337,7 @@ class Rules:
     def mission(self, items: tuple[Item, ...]) -> None:
         self.items = items
         self.successors = nav_successors(items)
+        self.shown = ()
         self.free_until = now_s() + 3.0
 
     # -- every snapshot ----------------------------------------------------------------------
@@ -360,8 +376,24 @@ class Rules:
         if t < self.free_until or seq <= 1 or before == 0 or not self.successors:
             return
         allowed = self.successors.get(before, set())
-        if seq not in allowed:
+        if seq not in allowed and not self._shown_again(s.mode, seq):
             self.fail("item_order", f"current item {before} -> {seq}, expected one of {allowed}")
+
+    def _shown_again(self, mode: str, seq: int) -> bool:
+        """Whether ``seq`` is helixd's own display coming back after the crew's set current.
+        A flight helixd drives in MANUAL (the start switch, its own id) shows the item it flies
+        as the autopilot's current (serve/flights.py ``_set_current_item``) and follows its own
+        walk: set current is a command of AUTO (README, "Set current waypoint"; ArduPilot's
+        mission is not running in MANUAL, ``AP_Mission::set_current_cmd`` only moves its
+        current command). The crew's set current then moves the display alone, and helixd's
+        next step shows its own item again: that move follows the item helixd showed last
+        (seed 102: items 4, 7 set by the crew, then helixd's 3 after its 1)."""
+        if not self.crew_moved_shown or mode != "MANUAL":
+            return False
+        back = any(seq == h or seq in self.successors.get(h, set()) for h in self.shown[-2:])
+        if back:
+            self.crew_moved_shown = False
+        return back
 
     def _lines(self, t: float) -> None:
         lines = self.st.console.lines
@@ -375,6 +407,9 @@ class Rules:
                 self.completed_at = t
             if "event=serve_state " in text:
                 self.serve_state = logged_value(text, "state")
+                self.crew_moved_shown = False
+            elif "event=mission_current_set " in text:
+                self.shown = (*self.shown[-1:], int(logged_value(text, "seq")))
             elif "event=helixd_start " in text:
                 self.run_dir = logged_value(text, "run_dir")
             elif "event=record_cut " in text:
@@ -560,6 +595,8 @@ class Crew:
         # switches nothing
         if step.name not in ("radio_mode", "switch_low", "switch_high") or snap.receiver_ok:
             self.rules.word(step.name, snap.mode, step.arg("mode"), snap.armed)
+        elif step.name == "radio_mode":  # moved all the same: read when the receiver is back
+            self.rules.mode_switch = str(step.arg("mode"))
         # refused or unanswered (a link down, a rebooting autopilot): the crew goes on
         with contextlib.suppress(AssertionError):
             await self.table()[step.name](step)

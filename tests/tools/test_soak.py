@@ -297,3 +297,56 @@ def test_a_stop_word_lets_helixd_show_the_item_it_stopped_at() -> None:
     assert rules.free_until < now_s()
     rules.word("pause", "MANUAL")
     assert rules.free_until > now_s()
+
+
+def test_helixd_showing_its_own_item_after_the_crews_set_current_in_manual_is_in_order() -> None:
+    # seed 102: a flight the start switch started (MANUAL) shows item 1; the crew sets 4, then
+    # 7 (the last); helixd flies its own walk and shows its next item, 3: no skip, no repeat
+    lines: list[str] = []
+    rules = Rules(SimpleNamespace(console=SimpleNamespace(lines=lines)))  # type: ignore[arg-type]
+    speed = Item(mavlink.MAV_CMD_DO_CHANGE_SPEED, params=(1.0, 0.9))
+    rules.mission((Item(WP), Item(WP, 5, 0), speed, *(Item(WP, 5, 5 * k) for k in range(1, 6))))
+    rules.free_until = 0.0
+    lines += ["ts=1 level=info event=serve_state state=flying hx_state=4",
+              "ts=1 level=info event=mission_current_set seq=1"]  # fmt: skip
+    later = now_s() + 10.0
+
+    def shows(seq: int, t: float = later) -> None:  # the crew's moves: at once
+        rules._lines(t)
+        rules._items(t, SimpleNamespace(mission_current_seq=seq, mode="MANUAL"))  # type: ignore[arg-type]
+
+    shows(1)
+    rules.word("set_current", "MANUAL")
+    shows(4, now_s())
+    rules.word("set_current", "MANUAL")
+    shows(7, now_s())
+    lines.append("ts=2 level=info event=mission_current_set seq=3")
+    shows(3)
+    assert rules.broken is None, rules.broken
+    shows(5)  # helixd's own display skipping an item breaks the rule as before
+    assert rules.broken is not None and rules.broken.rule == "item_order"
+
+
+def test_the_item_moving_back_with_nobody_setting_it_breaks_the_rule() -> None:
+    rules = referee()
+    rules.mission((Item(WP), Item(WP, 5, 0), Item(WP, 5, 5), Item(WP, 0, 5)))
+    rules.free_until = 0.0
+    later = now_s() + 10.0
+    for seq in (1, 3, 2):  # in MANUAL too: no crew's set current to take back
+        rules._items(later, SimpleNamespace(mission_current_seq=seq, mode="MANUAL"))  # type: ignore[arg-type]
+    assert rules.broken is not None and rules.broken.rule == "item_order"
+
+
+def test_the_radio_mode_switch_put_where_it_stands_is_no_word() -> None:
+    # seed 102: the switch to HOLD, then modes from QGC, then to HOLD again: ArduPilot reads
+    # a move of the switch only (RC_Channel::read_mode_switch), the mode stays MANUAL
+    rules = referee()
+    rules.word("radio_mode", "MANUAL", "HOLD")
+    assert rules.stop_at is not None
+    rules.word("continue", "HOLD")
+    assert rules.stop_at is None
+    rules.word("radio_mode", "MANUAL", "HOLD")
+    assert rules.stop_at is None
+    rules.word("radio_mode", "MANUAL", "MANUAL")
+    rules.word("radio_mode", "MANUAL", "HOLD")
+    assert rules.stop_at is not None
