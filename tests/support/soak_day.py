@@ -134,6 +134,11 @@ FDS_SLACK = 3
 # caches up: imports, the first flight's recorder and plots) beyond what the harness keeps of
 # the console's lines meanwhile (console_mb)
 RSS_SLACK_MB = 25.0
+# the simulator's event history: an entry (~340 B) for every scroll output change, 50 Hz a
+# channel while driving, up to its 200 000-entry default (~70 MB) a long day fills, which the
+# soak never reads (the rules read the snapshots): a day keeps only its latest entries, so
+# the memory rule measures helixd, not the rig's record of the day (seed 101)
+SIM_HISTORY_ENTRIES = 1_000
 # the full card: flight.csv's writes raise ENOSPC while it is full; a card full for this long
 # while a flight records is cut (a row goes out every control tick) and must be told
 CARD_FILE = "flight.csv"
@@ -745,6 +750,7 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
                 seed=plan.seed,
                 limit_s=plan.length_s + EVENING_S,
                 params=AUTOPILOT_PARAMS,
+                history_max_entries=SIM_HISTORY_ENTRIES,
                 **guard_installed(1.0),  # helixd-guard on the autopilot, as in the field
                 **world,
             )

@@ -7,14 +7,18 @@ Every verdict is in simulated time: a slower machine takes longer, never decides
 from __future__ import annotations
 
 import json
+import tracemalloc
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega as mavlink
 
 from helixd.base.clock import now_s
+from helixd.sim.snapshot import History, HistoryEntry
+from tests.support import soak_day
 from tests.support.soak_day import (
     HEARTBEAT_LIMIT_S,
     RSS_SLACK_MB,
@@ -143,6 +147,45 @@ def test_a_full_card_mid_flight_is_told_once_and_the_day_goes_on(tmp_path: Path)
     assert summary["record_cut_files"] == ["flight.csv"]
     # memory measured at midday and at the end, within the rule's slack
     assert got.rss_mb[0] > 0.0 and got.rss_mb[1] <= got.rss_mb[0] + RSS_SLACK_MB
+
+
+def full_history_mb(entries: int) -> float:
+    """What a simulator history of ``entries`` keeps once full of the entries a driving day
+    logs most (a scroll output's change: time, channel, pulse)."""
+    tracemalloc.start()
+    try:
+        history = History(entries)
+        for i in range(entries + 10):
+            t = 0.02 * i + 0.001
+            history.append(
+                HistoryEntry(t, t, "output", {"channel": 1 + i % 2, "pwm_us": 1100 + i % 800})
+            )
+        return tracemalloc.get_traced_memory()[0] / 1e6
+    finally:
+        tracemalloc.stop()
+
+
+@pytest.mark.timeout(600)
+def test_the_days_simulator_keeps_no_record_that_grows_with_the_day(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # seed 101: the simulator's history of a 2 h day grew by 120 000 output entries (40 MB)
+    # over its second hour, beyond the memory rule's slack; the soak reads none of it
+    served: list[Any] = []
+    serve = soak_day.simulated_serve
+
+    def keep(*args: Any, **kwargs: Any) -> Any:
+        served.append(serve(*args, **kwargs))
+        return served[-1]
+
+    monkeypatch.setattr(soak_day, "simulated_serve", keep)
+    got = run_day(card_day(9), tmp_path)
+    assert got.violation is None, got.violation
+    server = served[0].server
+    cap = server.config.history_max_entries
+    assert len(server.history) <= cap
+    # however long the day, what the simulator keeps of it is a sliver of the rule's slack
+    assert full_history_mb(cap) < RSS_SLACK_MB / 20
 
 
 def referee() -> Rules:
