@@ -127,6 +127,13 @@ class ControlConfig(ConfigSection):
     lookahead_m: float = Field(1.0, gt=0.05, le=20.0)
     """line guidance: the course aims at the leg this far ahead, course = leg − atan(cross-track /
     lookahead) (m)"""
+    mode_change_speed_mps: float = Field(0.2, gt=0.0, le=1.0)
+    """a change of mode at a stop waits, scrolls stopped, until the measured ground speed is at
+    most this: the mode is changed at rest even where the pose came late and the rover overran
+    the stop's braking profile (m/s)"""
+    mode_change_wait_s: float = Field(3.0, ge=0.0, le=30.0)
+    """the longest a change of mode waits for mode_change_speed_mps; then it changes anyway
+    (a current or a slope may keep the measured speed up) (s)"""
     stop_tolerance_m: float = Field(0.1, gt=0.01, le=5.0)
     """line guidance: the final waypoint, waypoints with a final heading and pivot corners are
     reached inside this radius (or by crossing the line through them perpendicular to the leg) (m)

@@ -500,3 +500,30 @@ def stoppable_yaw_rate_radps(
         return 0.0
     cap = math.sqrt(2.0 * max(0.0, yaw_accel_radps2) * abs(heading_error_rad))
     return max(-cap, min(cap, rate_radps))
+
+
+def lookahead_horizon_m(
+    peak_speed_mps: float, early_m: Sequence[float], cfg: NavigatorParams
+) -> float:
+    """How far along the path the speed profile and the distance to the next stop need to
+    look: a waypoint farther than v²/(2·a_brake) + its early distance cannot limit a speed
+    ≤ v, and the distance loop's output kp·e − |I| − |D| exceeds v once e ≥
+    (v + I_max + kd·v)/kp (its D term only rises when the distance jumps up). Infinite
+    when the loop has no proportional gain."""
+    v = peak_speed_mps
+    profile_m = v * v / (2.0 * cfg.braking_accel_mps2) + max(early_m, default=0.0)
+    gains = cfg.distance_pid
+    if gains.kp <= 0.0:
+        return math.inf
+    pid_m = (v + abs(gains.integral_limit) + abs(gains.kd) * v) / gains.kp
+    return max(profile_m, pid_m) + 1.0
+
+
+def arc_length_m(arc: CornerArc) -> float:
+    """The length of a corner's arc (m)."""
+    return arc.radius_m * abs(arc.turn_rad)
+
+
+def distance_to_m(pose: Pose2D, goal: PlanWaypoint) -> float:
+    """Straight-line distance from ``pose`` to ``goal`` (m)."""
+    return math.hypot(goal.x_m - pose.x_m, goal.y_m - pose.y_m)

@@ -31,18 +31,12 @@ Two guidance laws, chosen by ``control.guidance``:
 
   With a corner error budget (``corner_error_m`` > 0, the default) every corner that is not a
   stop is flown as an arc tangent to both legs (:func:`line.corner_arc`: the largest radius
-  that passes within the budget — and the waypoint's tolerance — of the waypoint, fits on half
-  of each leg and is no larger than cruise needs), at the speed ``max_lateral_accel`` and the
-  yaw-rate limit allow on it (in OMNI: on the turn of its direction of travel), planned by
-  :func:`line.plan_corners`, which the time estimate shares; the arc's yaw rate v/R is fed
-  forward, ramped at the yaw acceleration limit across the arc's ends with the heading
-  reference shifted to match (:func:`line.arc_blend`), and the lookahead law steers onto the
-  arc as onto a leg. Its leg
-  ends on the corner's bisector (the arc's middle). A corner whose arc would be flown below
-  ``min_speed_mps`` (too sharp for the budget: beyond ≈ 146° with the defaults) is a pivot stop;
-  waypoints with a final heading and the last one stay stops. Without a budget
-  (``corner_error_m`` = 0) corners sharper than ``pivot_angle_rad`` are pivots and gentler
-  ones are rounded by the lookahead law.
+  within the budget and the waypoint's tolerance that fits on half of each leg), at the speed
+  ``max_lateral_accel`` and the yaw-rate limit allow on it, planned by
+  :func:`line.plan_corners` (shared with the time estimate); the arc's yaw rate v/R is fed
+  forward, ramped at the yaw acceleration limit (:func:`line.arc_blend`), and its leg ends on
+  the corner's bisector. A corner whose arc would be flown below ``min_speed_mps`` is a pivot
+  stop. Without a budget corners sharper than ``pivot_angle_rad`` are pivots.
 
 A mission with commands (:class:`~helixd.base.plan.Program`) adds three things, set by the
 flight loop from :mod:`helixd.control.sequencer`: waypoints flagged ``stop`` (a hold, a delay
@@ -55,8 +49,9 @@ at the plan's values and nothing changes.
 
 A plan with a mode per waypoint (:attr:`PlanWaypoint.mode`, the mode follows the medium:
 :mod:`helixd.planning.media_modes`) flies each leg in its own mode (:attr:`Navigator.mode`);
-where the mode changes the waypoint is a stop, and the next leg's driving axis, 90° from the
-last, starts with a turn in place (ALIGN).
+where the mode changes the waypoint is a stop, the change waits (scrolls stopped, at most
+``mode_change_wait_s``) until the measured speed (:meth:`Navigator.set_measured_speed`) is at
+most ``mode_change_speed_mps``, and the next leg starts with a turn in place (ALIGN).
 
 Stepped with (pose, t_s); derives dt from successive t_s. Never touches a clock or a socket,
 and never decides to stop the vehicle: the supervisor owns that.
@@ -135,6 +130,11 @@ class Navigator:
         self._mode_override: MotionMode | None = None  # override_mode
         # the fraction of the commanded speed the ground delivers (set_delivered_fraction)
         self._delivered_fraction = 1.0
+        # the measured ground speed (set_measured_speed; None: unknown) and the stop where a
+        # change of mode waits for it: (target index, seconds waited)
+        self._measured_speed_mps: float | None = None
+        self._settle: tuple[int, float] | None = None
+        self._released = False
         self._distance_pid = PID(control.distance_pid, output_limit=self._peak_speed_mps)
         self._yaw_pid = PID(control.yaw_pid, output_limit=control.max_yaw_rate_radps, angular=True)
         self._state = NavState.IDLE
@@ -245,7 +245,7 @@ class Navigator:
             target_index=self.target_index,
             waypoints_reached=self._waypoints_reached,
             reached_index=None,
-            distance_error_m=_distance_m(pose, goal),
+            distance_error_m=line.distance_to_m(pose, goal),
             heading_error_rad=0.0,
             cross_track_m=0.0,
             distance_pid=PidTerms.zero(),
@@ -292,7 +292,11 @@ class Navigator:
         resumed, self._resumed = self._resumed, False
         if not self._final_heading_pending and self._target_index < len(self.plan.waypoints):
             goal = self._goal()
-            if self._is_reached(pose, goal) or (resumed and self._passed_change(pose, goal)):
+            waiting = self._wait_at_change(pose, goal, dt_s)
+            if waiting is not None:
+                return waiting
+            reached = self._released or self._is_reached(pose, goal)  # waited, done waiting
+            if reached or (resumed and self._passed_change(pose, goal)):
                 arrival = self._arrival(pose, goal)
                 self._waypoints_reached += 1
                 self._reset_pids()
@@ -324,7 +328,7 @@ class Navigator:
     def _act(self, pose: Pose2D, dt_s: float) -> NavOutput:
         if self._target_index >= len(self.plan.waypoints):
             self._state = NavState.DONE
-            final_error_m = _distance_m(pose, self.plan.waypoints[-1])
+            final_error_m = line.distance_to_m(pose, self.plan.waypoints[-1])
             return self._output(pose, BodyVelocity.zero(), final_error_m, 0.0)
         final_yaw_rad = self._goal().final_yaw_rad
         if self._final_heading_pending and final_yaw_rad is not None:
@@ -383,22 +387,9 @@ class Navigator:
         self._early_m = corners.early_m
         # Beyond this distance along the path no waypoint limits the speed profile, and the
         # distance loop's output is past the cruise speed (see _horizon_m).
-        self._horizon_m = self._lookahead_horizon_m()
-
-    def _lookahead_horizon_m(self) -> float:
-        """How far along the path the speed profile and the distance to the next stop need to
-        look: a waypoint farther than v²/(2·a_brake) + its early distance cannot limit a speed
-        ≤ v, and the distance loop's output kp·e − |I| − |D| exceeds v once e ≥
-        (v + I_max + kd·v)/kp (its D term only rises when the distance jumps up). Infinite
-        when the loop has no proportional gain."""
-        cfg = self.control
-        v = self._peak_speed_mps
-        profile_m = v * v / (2.0 * cfg.braking_accel_mps2) + max(self._early_m, default=0.0)
-        gains = cfg.distance_pid
-        if gains.kp <= 0.0:
-            return math.inf
-        pid_m = (v + abs(gains.integral_limit) + abs(gains.kd) * v) / gains.kp
-        return max(profile_m, pid_m) + 1.0
+        self._horizon_m = line.lookahead_horizon_m(
+            self._peak_speed_mps, self._early_m, self.control
+        )
 
     def _is_precise(self, index: int) -> bool:
         """The final waypoint, waypoints with a final heading and flagged stops (a hold or a
@@ -407,7 +398,7 @@ class Navigator:
         return index == len(self.plan.waypoints) - 1 or wp.final_yaw_rad is not None or wp.stop
 
     def _is_reached(self, pose: Pose2D, goal: PlanWaypoint) -> bool:
-        distance_m = _distance_m(pose, goal)
+        distance_m = line.distance_to_m(pose, goal)
         if not self._line:
             return distance_m < goal.tolerance_m
         i = self._target_index
@@ -428,6 +419,33 @@ class Navigator:
         # final-heading waypoint crossed farther than stop_m is flown to as a point.
         return crossed and distance_m < (stop_m if self._is_precise(i) else goal.tolerance_m)
 
+    def set_measured_speed(self, speed_mps: float | None) -> None:
+        """The ground speed the autopilot measured (m/s) for the next step; None, or a value
+        that is not finite, leaves it unknown (no waiting at a change of mode)."""
+        ok = speed_mps is not None and math.isfinite(speed_mps) and speed_mps >= 0.0
+        self._measured_speed_mps = speed_mps if ok else None
+
+    def _wait_at_change(self, pose: Pose2D, goal: PlanWaypoint, dt_s: float) -> NavOutput | None:
+        """At a reached stop where the mode changes, scrolls stopped while the measured speed
+        is above ``mode_change_speed_mps`` (for at most ``mode_change_wait_s``; reached stays
+        reached while it waits); None: go on."""
+        i, wps, cfg = self._target_index, self.plan.waypoints, self.control
+        waited_s = self._settle[1] + dt_s if self._settle and self._settle[0] == i else None
+        self._settle, self._released = None, waited_s is not None
+        if i + 1 >= len(wps) or self.plan.mode_at(i) is self.plan.mode_at(i + 1):
+            return None
+        speed_mps = self._measured_speed_mps
+        if self._mode_override is not None or speed_mps is None:
+            return None
+        if speed_mps <= cfg.mode_change_speed_mps or (waited_s or 0.0) > cfg.mode_change_wait_s:
+            return None
+        if waited_s is None and not self._is_reached(pose, goal):
+            return None
+        self._settle, self._released = (i, waited_s or 0.0), False
+        self._prev_command = BodyVelocity.zero()  # the next leg accelerates from rest
+        self._state = NavState.REACHED
+        return self._output(pose, BodyVelocity.zero(), line.distance_to_m(pose, goal), 0.0)
+
     def _passed_change(self, pose: Pose2D, goal: PlanWaypoint) -> bool:
         """``goal`` (the current target) is a stop where the mode changes and the rover stands
         past its line, within its tolerance of it (:meth:`resume`)."""
@@ -437,7 +455,7 @@ class Navigator:
         leg = self._leg(pose, goal)
         if leg.length_m <= 0.0 or leg.along_to_go_m > 0.0:
             return False
-        return _distance_m(pose, goal) <= goal.tolerance_m
+        return line.distance_to_m(pose, goal) <= goal.tolerance_m
 
     def _leg_start(self, pose: Pose2D) -> tuple[float, float]:
         return self._leg_start_xy_m or (pose.x_m, pose.y_m)
@@ -456,7 +474,7 @@ class Navigator:
         course asks of the driving axis (turned to in place first where it is far off), the
         speed the next stop allows, and the body velocity that drives them."""
         goal = self._goal()
-        e_d = _distance_m(pose, goal)
+        e_d = line.distance_to_m(pose, goal)
         leg, course_rad = self._line_course(pose, goal)
         heading = self._heading_goal(pose, leg, course_rad)
         if self.mode is not MotionMode.OMNI:
@@ -642,14 +660,14 @@ class Navigator:
             ramp = line.arc_ramp_m(arc, alpha)
             into = arc.tangent_m - leg.along_to_go_m
             if into > -ramp / 2.0:
-                share, offset = line.arc_blend(arc, into, _arc_length_m(arc) - into, ramp)
+                share, offset = line.arc_blend(arc, into, line.arc_length_m(arc) - into, ramp)
                 return arc.curvature_per_m * share, offset
         prev = self._arcs[i - 1] if i > 0 else None
         if prev is not None:
             ramp = line.arc_ramp_m(prev, alpha)
             left = prev.tangent_m - (leg.length_m - leg.along_to_go_m)
             if left > -ramp / 2.0:
-                share, offset = line.arc_blend(prev, _arc_length_m(prev) - left, left, ramp)
+                share, offset = line.arc_blend(prev, line.arc_length_m(prev) - left, left, ramp)
                 return prev.curvature_per_m * share, offset
         return 0.0, 0.0
 
@@ -683,7 +701,7 @@ class Navigator:
 
     def _turn_to_final_heading(self, pose: Pose2D, dt_s: float, final_yaw_rad: float) -> NavOutput:
         self._state = NavState.FINAL_HEADING
-        e_d = _distance_m(pose, self._goal())
+        e_d = line.distance_to_m(pose, self._goal())
         e_psi = shortest_angular_distance(pose.yaw_rad, final_yaw_rad)
         yaw_terms = self._yaw_pid.update(final_yaw_rad, pose.yaw_rad, dt_s)
         command = BodyVelocity(0.0, 0.0, yaw_terms.output)
@@ -780,10 +798,3 @@ class Navigator:
             done=done,
         )
 
-
-def _arc_length_m(arc: line.CornerArc) -> float:
-    return arc.radius_m * abs(arc.turn_rad)
-
-
-def _distance_m(pose: Pose2D, goal: PlanWaypoint) -> float:
-    return math.hypot(goal.x_m - pose.x_m, goal.y_m - pose.y_m)

@@ -516,6 +516,7 @@ class FlightLoop:
             delivered_x, delivered_y = self.slip.delivered(mode)
             scroll = mode is MotionMode.SCROLL
             self.navigator.set_delivered_fraction(delivered_y if scroll else delivered_x)
+        self.navigator.set_measured_speed(math.hypot(sample.vn_mps, sample.ve_mps))
         out = self.navigator.step(mpose, t_boot_s)
         mode = self.navigator.mode
         command = out.command

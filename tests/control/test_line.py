@@ -394,7 +394,7 @@ def test_speed_profile_looks_only_as_far_as_it_can_matter(monkeypatch: pytest.Mo
     monkeypatch.setattr(line, "braking_speed_mps", counted)
     bounded = fly(plan, start_pose(MotionMode.ROLL), limit_s=900.0)
     per_step = len(calls) / len(bounded.commands)
-    monkeypatch.setattr(Navigator, "_lookahead_horizon_m", lambda self: math.inf)
+    monkeypatch.setattr(line, "lookahead_horizon_m", lambda v, early, cfg: math.inf)
     calls.clear()
     unbounded = fly(plan, start_pose(MotionMode.ROLL), limit_s=900.0)
     assert bounded.done and unbounded.done

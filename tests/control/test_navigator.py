@@ -380,3 +380,57 @@ def test_a_change_of_mode_passed_during_a_pause_is_taken_where_the_rover_stands(
     assert first_step_after_a_pause(10.6, resume=False).reached_index is None  # flies back
     assert first_step_after_a_pause(11.5, resume=True).reached_index is None  # too far past
     assert first_step_after_a_pause(9.5, resume=True).reached_index is None  # not there yet
+
+
+def test_a_change_of_mode_waits_for_the_measured_speed_scrolls_stopped() -> None:
+    """A late pose let the rover reach the roll → scroll stop at 0.43 m/s (real SITL under
+    load): the mode changed while it still ran. Now the stop holds, scrolls stopped and the
+    mode unchanged, until the measured speed is at most mode_change_speed_mps (or
+    mode_change_wait_s has passed), even as the rover coasts past the stop's tolerance."""
+    wps = (
+        PlanWaypoint(0.0, 10.0, 1.0, stop=True, via=True, mode=MotionMode.ROLL, media_stop=True),
+        PlanWaypoint(0.0, 30.0, 1.0, mode=MotionMode.SCROLL),
+    )
+    plan = Plan("m", MotionMode.ROLL, MissionFrameKind.START, wps, 0.6)
+    control = ControlConfig(mode_change_speed_mps=0.2, mode_change_wait_s=2.0)
+
+    def at_the_stop(measured_mps: float) -> tuple[Navigator, float]:
+        nav = Navigator(plan, control)
+        pose, t_s = Pose2D(0.0, 0.0, math.pi / 2), 0.0
+        while nav.target_index == 0 and t_s < 120.0:
+            nav.set_measured_speed(measured_mps)
+            out = nav.step(pose, t_s)
+            if out.state is NavState.REACHED and out.target_index == 0:
+                return nav, t_s
+            pose, t_s = integrate(pose, out.command, DT), t_s + DT
+        raise AssertionError("never held at the stop")
+
+    nav, t_s = at_the_stop(0.43)
+    for k in range(1, 10):  # coasting on past the stop: still held, nothing driven
+        nav.set_measured_speed(0.43)
+        out = nav.step(Pose2D(0.0, 10.0 + 0.05 * k, math.pi / 2), t_s + k * DT)
+        assert out.state is NavState.REACHED and out.target_index == 0
+        assert nav.mode is MotionMode.ROLL
+        assert (out.command.vx_mps, out.command.vy_mps, out.command.wz_radps) == (0.0, 0.0, 0.0)
+    nav.set_measured_speed(0.15)  # at rest enough: the change happens
+    out = nav.step(Pose2D(0.0, 10.5, math.pi / 2), t_s + 10 * DT)
+    assert out.reached_index == 0 and nav.mode is MotionMode.SCROLL
+
+    nav, t_s = at_the_stop(0.43)  # a current keeps it moving: changes after the wait anyway
+    steps = 0
+    while nav.mode is MotionMode.ROLL:
+        steps += 1
+        nav.set_measured_speed(0.43)
+        nav.step(Pose2D(0.0, 10.05, math.pi / 2), t_s + steps * DT)
+        assert steps * DT <= 2.0 + 2 * DT
+    assert steps * DT >= 2.0 - DT
+
+    # unknown speed (None, NaN) or slow enough: no wait, as before
+    for measured in (None, math.nan, 0.1):
+        nav = Navigator(plan, control)
+        pose, t_s = Pose2D(0.0, 0.0, math.pi / 2), 0.0
+        while nav.mode is MotionMode.ROLL and t_s < 120.0:
+            nav.set_measured_speed(measured)
+            out = nav.step(pose, t_s)
+            pose, t_s = integrate(pose, out.command, DT), t_s + DT
+        assert nav.mode is MotionMode.SCROLL and 9.8 < pose.y_m < 10.3
