@@ -12,7 +12,7 @@ import json
 import math
 import os
 from collections.abc import Callable, Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -108,11 +108,19 @@ def learned_policy_modes(
 STEP_M = 0.1  # the leg's ground is sampled this often along it
 
 
+@dataclass(frozen=True)
+class OverMedia:
+    """Where a plan lies over the media: the map placed around the EKF origin, the mission
+    frame → (north, east) conversion, and where the first leg starts (mission frame, m)."""
+
+    placed: MediaMapNe
+    to_ne: Callable[[float, float], tuple[float, float]]
+    start_xy_m: tuple[float, float]
+
+
 def with_learned_ground(
     plan: Plan,
-    placed: MediaMapNe,
-    to_ne: Callable[[float, float], tuple[float, float]],
-    start_xy_m: tuple[float, float],
+    over: OverMedia,
     view: Mapping[Cell, Learned],
     cfg: HelixdConfig,
 ) -> Plan:
@@ -146,7 +154,7 @@ def with_learned_ground(
 
     legs = []
     for j, wp in enumerate(plan.waypoints):
-        pairs = _leg_pairs(plan, j, placed, to_ne, start_xy_m, cfg)
+        pairs = _leg_pairs(plan, j, over, cfg)
         steps = len(pairs)
         fractions = []
         for axis in AXES:
@@ -168,16 +176,12 @@ def with_learned_ground(
 
 
 def _leg_pairs(
-    plan: Plan,
-    j: int,
-    placed: MediaMapNe,
-    to_ne: Callable[[float, float], tuple[float, float]],
-    start_xy_m: tuple[float, float],
-    cfg: HelixdConfig,
+    plan: Plan, j: int, over: OverMedia, cfg: HelixdConfig
 ) -> list[tuple[Medium, Medium]]:
     """Along leg ``j``, every :data:`STEP_M`, the media under the rover's front and rear
     scroll pairs (half its length ahead and behind: l_y in SCROLL, l_x in ROLL)."""
-    (ax, ay) = start_xy_m if j == 0 else (plan.waypoints[j - 1].x_m, plan.waypoints[j - 1].y_m)
+    placed, to_ne = over.placed, over.to_ne
+    (ax, ay) = over.start_xy_m if j == 0 else (plan.waypoints[j - 1].x_m, plan.waypoints[j - 1].y_m)
     bx, by = plan.waypoints[j].x_m, plan.waypoints[j].y_m
     length = math.hypot(bx - ax, by - ay)
     ux, uy = ((bx - ax) / length, (by - ay) / length) if length > 0.0 else (0.0, 0.0)
@@ -194,9 +198,7 @@ def _leg_pairs(
 
 def with_speed_caps(
     plan: Plan,
-    placed: MediaMapNe,
-    to_ne: Callable[[float, float], tuple[float, float]],
-    start_xy_m: tuple[float, float],
+    over: OverMedia,
     view: Mapping[Cell, Learned],
     cfg: HelixdConfig,
 ) -> Plan:
@@ -208,7 +210,7 @@ def with_speed_caps(
     legs = []
     for j, wp in enumerate(plan.waypoints):
         mode = plan.mode_at(j)
-        media = {m for pair in _leg_pairs(plan, j, placed, to_ne, start_xy_m, cfg) for m in pair}
+        media = {m for pair in _leg_pairs(plan, j, over, cfg) for m in pair}
 
         def fraction_of(medium: Medium, axis: str, mode: MotionMode = mode) -> float | None:
             cell = view.get((medium, mode))
@@ -221,9 +223,7 @@ def with_speed_caps(
 
 def slip_priors(
     plan: Plan,
-    placed: MediaMapNe,
-    to_ne: Callable[[float, float], tuple[float, float]],
-    start_xy_m: tuple[float, float],
+    over: OverMedia,
     view: Mapping[Cell, Learned],
     cfg: HelixdConfig,
 ) -> tuple[tuple[MotionMode, tuple[float, float, float]], ...]:
@@ -232,13 +232,13 @@ def slip_priors(
     ground where it knows too little: where the slip estimate starts (``Plan.slip_priors``)."""
     slip = cfg.control.slip
     declared = (slip.ground_roll_fraction, slip.ground_scroll_fraction, slip.ground_yaw_fraction)
-    points = [start_xy_m, *((w.x_m, w.y_m) for w in plan.waypoints)]
+    points = [over.start_xy_m, *((w.x_m, w.y_m) for w in plan.waypoints)]
     out: dict[MotionMode, tuple[float, float, float]] = {}
     for j in range(len(plan.waypoints)):
         mode = plan.mode_at(j)
         if mode in out:
             continue
-        medium = placed.medium_at(*to_ne(*points[j]))
+        medium = over.placed.medium_at(*over.to_ne(*points[j]))
         got = [axis_fraction(view, medium, axis) for axis in AXES]
         out[mode] = (
             got[0] or declared[0],
@@ -259,12 +259,12 @@ def learned_plan(
     speed caps and the slip estimate's learnt priors (the profile read again); any other
     policy: with its legs' ground for the estimate from the defaults alone (the sourced table
     per medium, or the declared ground: :func:`with_learned_ground`), the flight as it was."""
+    over = OverMedia(placed, to_ne, start_xy_m)
     if not isinstance(cfg.media.modes, str):
-        return with_learned_ground(plan, placed, to_ne, start_xy_m, {}, cfg)
+        return with_learned_ground(plan, over, {}, cfg)
     view = learned_view(cfg, read_profile(profile_path(cfg)))
-    legs = with_learned_ground(plan, placed, to_ne, start_xy_m, view, cfg)
-    legs = with_speed_caps(legs, placed, to_ne, start_xy_m, view, cfg)
-    return replace(legs, slip_priors=slip_priors(plan, placed, to_ne, start_xy_m, view, cfg))
+    legs = with_speed_caps(with_learned_ground(plan, over, view, cfg), over, view, cfg)
+    return replace(legs, slip_priors=slip_priors(plan, over, view, cfg))
 
 
 def ground_section(cfg: HelixdConfig, cells: Mapping[Cell, CellSums]) -> dict[str, Any]:
@@ -326,6 +326,7 @@ def _add_to_summary(path: Path, section: dict[str, Any]) -> None:
 
 
 __all__ = [
+    "OverMedia",
     "fit_params",
     "ground_section",
     "learn_from_run",

@@ -15,6 +15,7 @@ from helixd.control.ground_fit import Learned
 from helixd.control.slip import SlipEstimator
 from helixd.planning.media_modes import config_modes
 from helixd.prepare.ground_learning import (
+    OverMedia,
     learn_from_run,
     profile_path,
     slip_priors,
@@ -41,7 +42,7 @@ def test_each_leg_carries_the_harmonic_mean_of_what_its_media_deliver() -> None:
         **view(Medium.MUD, MotionMode.SCROLL, scroll=0.3),
         **view(Medium.HARD, MotionMode.SCROLL, scroll=0.6),
     }
-    got = with_learned_ground(plan, WORLD, to_ne, (0.0, 0.0), learnt, CFG)
+    got = with_learned_ground(plan, OverMedia(WORLD, to_ne, (0.0, 0.0)), learnt, CFG)
     (leg,) = got.waypoints
     assert leg.ground is not None
     # 20 m of hard ground (0.6: all of the command with the 2x feed-forward), 30 m of mud (0.3:
@@ -55,7 +56,8 @@ def test_each_leg_carries_the_harmonic_mean_of_what_its_media_deliver() -> None:
     # a ground the operator declared stands where the profile knows nothing (roll 0.4: 0.8
     # delivered with the feed-forward everywhere; yaw 1: all of it)
     declared = HelixdConfig.model_validate({"control": {"slip": {"ground_roll_fraction": 0.4}}})
-    (own,) = with_learned_ground(plan, WORLD, to_ne, (0.0, 0.0), learnt, declared).waypoints
+    over = OverMedia(WORLD, to_ne, (0.0, 0.0))
+    (own,) = with_learned_ground(plan, over, learnt, declared).waypoints
     assert own.ground is not None
     assert own.ground[0] == pytest.approx(0.4) and own.ground[2] == 1.0
     assert own.ground[1] == pytest.approx(leg.ground[1])  # what the profile knows wins
@@ -92,7 +94,7 @@ def test_the_slip_estimate_starts_from_where_each_mode_is_first_flown() -> None:
         **view(Medium.HARD, MotionMode.ROLL, roll=0.8, yaw=0.7),
         **view(Medium.MUD, MotionMode.SCROLL, scroll=0.4),
     }
-    priors = dict(slip_priors(plan, WORLD, lambda x, y: (y, x), (0.0, 0.0), learnt, CFG))
+    priors = dict(slip_priors(plan, OverMedia(WORLD, lambda x, y: (y, x), (0.0, 0.0)), learnt, CFG))
     assert priors[MotionMode.ROLL] == (0.8, 1.0, 0.7)  # hard ground; scroll unknown there
     assert priors[MotionMode.SCROLL] == (1.0, 0.4, 1.0)  # the mud at north 15 m
     estimator = SlipEstimator(CFG.control.slip, priors)
