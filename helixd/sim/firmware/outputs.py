@@ -82,10 +82,51 @@ def skid_mix(demand: MotorDemand) -> tuple[float, float]:
     return left / peak, right / peak
 
 
+@dataclass(frozen=True, slots=True)
+class _ChannelParams:
+    """What one output's loop reads of the parameters: SERVOn_FUNCTION, its RC source (−1:
+    none) and that source's RCn_DZ, SERVOn_TRIM."""
+
+    function: int
+    source: int
+    source_dz: int
+    trim: int
+
+
+def channel_params(params: ParamStore) -> tuple[_ChannelParams, ...]:
+    """Every output's :class:`_ChannelParams`, as the parameters are now."""
+    out = []
+    for i in range(NUM_SERVO_CHANNELS):
+        n = i + 1
+        function = params.get_int(f"SERVO{n}_FUNCTION")
+        source = -1
+        if function == K_MANUAL:
+            source = i
+        elif K_RCIN1 <= function <= K_RCIN16:
+            source = function - K_RCIN1
+        dz = params.get_int(f"RC{source + 1}_DZ") if source >= 0 else 0
+        out.append(_ChannelParams(function, source, dz, params.get_int(f"SERVO{n}_TRIM")))
+    return tuple(out)
+
+
 class ServoOutputs:
     def __init__(self) -> None:
         self._ch = [_Channel() for _ in range(NUM_SERVO_CHANNELS)]
         self.outputs_us: list[int] = [0] * NUM_SERVO_CHANNELS
+        # channel_params of the parameter store and version they were read at (every loop
+        # reads them; a parameter set bumps the version, so they are read again)
+        self._params_read: tuple[ParamStore | None, int, tuple[_ChannelParams, ...]] = (
+            None,
+            -1,
+            (),
+        )
+
+    def _channel_params(self, params: ParamStore) -> tuple[_ChannelParams, ...]:
+        store, version, read = self._params_read
+        if store is not params or version != params.version:
+            read = channel_params(params)
+            self._params_read = (params, params.version, read)
+        return read
 
     def latched_channels(self) -> tuple[int, ...]:
         return tuple(i + 1 for i, c in enumerate(self._ch) if c.latched)
@@ -142,7 +183,7 @@ class ServoOutputs:
     ) -> list[int]:
         """Recompute all 16 outputs; ``demand`` None = disarmed (safety output = trim)."""
         left_right = skid_mix(demand) if demand is not None else (0.0, 0.0)
-        for i, c in enumerate(self._ch):
+        for i, (c, p) in enumerate(zip(self._ch, self._channel_params(params), strict=True)):
             n = i + 1
             # SRV_Channels::calc_pwm: count the override down, one main loop at a time
             if c.override_loops == 0:
@@ -150,18 +191,13 @@ class ServoOutputs:
             else:
                 c.override_active = True
                 c.override_loops -= 1
-            function = params.get_int(f"SERVO{n}_FUNCTION")
-            source = -1
-            if function == K_MANUAL:
-                source = i
-            elif K_RCIN1 <= function <= K_RCIN16:
-                source = function - K_RCIN1
+            function, source = p.function, p.source
             if source >= 0:
                 radio_in = int(radio_in_us[source])
                 if not c.ignore_small_rcin_changes:
                     c.output_pwm_us = radio_in
                     c.previous_radio_in_us = radio_in
-                elif abs(radio_in - c.previous_radio_in_us) > params.get_int(f"RC{source + 1}_DZ"):
+                elif abs(radio_in - c.previous_radio_in_us) > p.source_dz:
                     c.output_pwm_us = radio_in
                     c.ignore_small_rcin_changes = False
                     c.latched = False
@@ -178,6 +214,6 @@ class ServoOutputs:
             elif c.latched:
                 c.output_pwm_us = c.latched_pwm_us
             else:
-                c.output_pwm_us = params.get_int(f"SERVO{n}_TRIM")
+                c.output_pwm_us = p.trim
             self.outputs_us[i] = c.output_pwm_us
         return self.outputs_us

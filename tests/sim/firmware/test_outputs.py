@@ -48,3 +48,16 @@ def test_passthrough_ignores_the_hold_and_ardupilot_functions_resume_after_it() 
     for _ in range(3):
         last = out.update(radio, params, demand)
     assert last[2] == 1750  # throttle 0.5 computed again: 1500 + 0.5 × (2000 − 1500)
+
+
+def test_a_parameter_set_between_loops_is_read_by_the_next_loop() -> None:
+    """The outputs read SERVOn_FUNCTION/TRIM and RCn_DZ once per parameter version: a change
+    (or another parameter store) is seen at the very next loop."""
+    out, params = outputs_with(SERVO5_FUNCTION=0, SERVO5_TRIM=1500)
+    assert out.update(RADIO, params, None)[4] == 1500
+    params.set("SERVO5_TRIM", 1420)
+    assert out.update(RADIO, params, None)[4] == 1420
+    params.set("SERVO5_FUNCTION", 55)  # RCIN5: the pilot's channel 5
+    assert out.update([1500] * 4 + [1750] + [1500] * 11, params, None)[4] == 1750
+    other = ParamStore({**SimConfig().params, "SERVO5_FUNCTION": 0, "SERVO5_TRIM": 1600})
+    assert out.update(RADIO, other, None)[4] == 1600
