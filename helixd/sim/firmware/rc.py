@@ -32,6 +32,7 @@ FAILSAFE_CENTRE_US = 1500
 FAILSAFE_THROTTLE_US = 950
 RC_OPTION_IGNORE_RECEIVER = 1 << 0
 RC_OPTION_IGNORE_OVERRIDES = 1 << 1
+NO_OVERRIDES = (False,) * NUM_RC_CHANNELS
 
 
 @dataclass(frozen=True, slots=True)
@@ -106,7 +107,17 @@ class RcInputs:
         return now_s - self.override_time_s[index] < timeout_s
 
     def active_overrides(self, now_s: float, timeout_s: float) -> tuple[bool, ...]:
-        return tuple(self.has_override(i, now_s, timeout_s) for i in range(NUM_RC_CHANNELS))
+        """:meth:`has_override` of every channel (read every loop: one pass, no calls)."""
+        if timeout_s < 0.0:
+            return tuple([pwm > 0 for pwm in self.override_us])
+        if timeout_s == 0.0:
+            return NO_OVERRIDES
+        return tuple(
+            [
+                pwm > 0 and now_s - t < timeout_s
+                for pwm, t in zip(self.override_us, self.override_time_s, strict=True)
+            ]
+        )
 
     def clear_overrides(self) -> None:
         """RC_Channels::clear_overrides: no read_input() follows, radio_in stays as it was."""
