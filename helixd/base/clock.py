@@ -106,13 +106,36 @@ class _JumpingSelector(selectors.DefaultSelector):
         resolution_s = clock_resolution_s(loop)
         timers = scheduled_timers(loop)
         while True:
-            horizon_s = self.now_s + resolution_s
-            due_s = [
-                h.when() for h in timers if self.now_s < h.when() < horizon_s and not h.cancelled()
-            ]
-            if not due_s:
+            due_s = latest_due_s(timers, self.now_s, self.now_s + resolution_s)
+            if due_s is None:
                 return
-            self.now_s = max(due_s)
+            self.now_s = due_s
+
+
+def latest_due_s(
+    timers: list[asyncio.TimerHandle], after_s: float, before_s: float
+) -> float | None:
+    """The latest time of a timer that is not cancelled, after ``after_s`` and before
+    ``before_s`` (None: no such timer). ``timers`` is the loop's heap (a timer's children are
+    due no earlier than it), so only the timers due before ``before_s`` are looked at, not
+    every timer the loop holds: this runs at every poll of the loop."""
+    latest_s: float | None = None
+    count = len(timers)
+    todo = [0] if count else []
+    while todo:
+        i = todo.pop()
+        timer = timers[i]
+        when_s = timer.when()
+        if when_s >= before_s:
+            continue  # neither it nor any timer below it in the heap
+        if when_s > after_s and not timer.cancelled() and (latest_s is None or when_s > latest_s):
+            latest_s = when_s
+        left = 2 * i + 1
+        if left < count:
+            todo.append(left)
+            if left + 1 < count:
+                todo.append(left + 1)
+    return latest_s
 
 
 class SimulatedClockLoop(asyncio.SelectorEventLoop):

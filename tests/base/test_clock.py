@@ -6,6 +6,8 @@ from __future__ import annotations
 import ast
 import asyncio
 import contextlib
+import heapq
+import random
 import socket
 import time
 from pathlib import Path
@@ -218,3 +220,24 @@ def test_calendar_time_follows_the_simulated_clock() -> None:
     assert abs(first - wall) < 5.0  # starts at the wall's date
     assert later - first == pytest.approx(600.0, abs=1e-6)
     assert abs(unix_s() - time.time()) < 1e-3  # outside a simulated loop: the wall
+
+
+def test_the_latest_due_timer_is_found_in_the_heap_as_by_looking_at_every_timer() -> None:
+    """``latest_due_s`` walks only the top of the loop's heap: the same answer as a look at
+    every timer, cancelled ones and ties included."""
+    rnd = random.Random(54)
+    loop = asyncio.new_event_loop()
+    try:
+        for _ in range(300):
+            timers: list[asyncio.TimerHandle] = []
+            for _ in range(rnd.randrange(0, 40)):
+                when_s = 1000.0 + rnd.choice([rnd.random(), round(rnd.random(), 1)])
+                heapq.heappush(timers, asyncio.TimerHandle(when_s, print, (), loop))
+            for timer in rnd.sample(timers, len(timers) // 3):
+                timer.cancel()
+            after_s = 1000.0 + rnd.random()
+            before_s = after_s + rnd.choice([1e-9, 0.05, 0.3])
+            due = [t.when() for t in timers if after_s < t.when() < before_s and not t.cancelled()]
+            assert clock.latest_due_s(timers, after_s, before_s) == (max(due) if due else None)
+    finally:
+        loop.close()
