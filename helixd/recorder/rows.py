@@ -11,6 +11,7 @@ import csv
 import dataclasses
 import io
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from operator import attrgetter
 from pathlib import Path
@@ -149,15 +150,28 @@ class RowFormatter:
 Value = float | int | str | bool
 
 
-def _convert(column: str, text: str) -> Value:
+def _to_bool(text: str) -> bool:
+    return text.strip() not in ("0", "", "false", "False")
+
+
+def _to_int(text: str) -> int:
+    return int(float(text))
+
+
+def _to_str(text: str) -> str:
+    return text
+
+
+def _converter(column: str) -> Callable[[str], Value]:
+    """How a cell of ``column`` is read (a number unless COLUMN_TYPES says otherwise)."""
     kind = COLUMN_TYPES.get(column, float)
     if kind is bool:
-        return text.strip() not in ("0", "", "false", "False")
+        return _to_bool
     if kind is int:
-        return int(float(text))
+        return _to_int
     if kind is str:
-        return text
-    return float(text)
+        return _to_str
+    return float
 
 
 def _data_lines(path: Path) -> list[str]:
@@ -176,11 +190,12 @@ def read_flight_csv(path: Path) -> list[dict[str, Value]]:
     if header is None:
         return []
     rows: list[dict[str, Value]] = []
+    readers = [_converter(c) for c in header]  # once per file, not once per cell
     for cells in reader:
         if len(cells) != len(header):
             continue
         try:
-            rows.append({c: _convert(c, v) for c, v in zip(header, cells, strict=True)})
+            rows.append({c: read(v) for c, read, v in zip(header, readers, cells, strict=True)})
         except ValueError:
             continue
     return rows

@@ -546,3 +546,26 @@ def test_events_file_failure_is_the_record_cut(tmp_path: Path, clock: FakeClock)
     summary = json.loads((rec.run_dir / "summary.json").read_text())
     assert summary["record_cut_files"] == ["events.jsonl"]
     assert not rec.degraded  # flight.csv kept going
+
+
+def test_a_row_with_a_cell_that_does_not_parse_is_skipped_and_unknown_columns_are_numbers(
+    tmp_path: Path,
+) -> None:
+    """Each column's reader is chosen once per file: an unknown column is read as a number,
+    a row whose cell is not one (or a torn last line) is left out, the others kept."""
+    path = tmp_path / "flight.csv"
+    path.write_text(
+        "# comment\n"
+        "t_boot_s,armed,target_index,mode,newer_col\n"
+        "1.5,1,3,AUTO,0.25\n"
+        "2.0,0,x,HOLD,1\n"
+        "2.5,false,4.0,MANUAL,2\n"
+        "3.0,1,5,AU",
+        encoding="utf-8",
+    )
+    rows = read_flight_csv(path)
+    assert rows == [
+        {"t_boot_s": 1.5, "armed": True, "target_index": 3, "mode": "AUTO", "newer_col": 0.25},
+        {"t_boot_s": 2.5, "armed": False, "target_index": 4, "mode": "MANUAL", "newer_col": 2.0},
+    ]
+    assert isinstance(rows[1]["target_index"], int)
