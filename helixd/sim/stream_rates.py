@@ -187,8 +187,14 @@ class StreamSchedule:
 
     def next_due_s(self) -> float:
         """When the next message is due (inf: none streams; a message never sent yet: now)."""
-        due = [self._next_due_s.get(m, -math.inf) for m, ms in self.interval_ms.items() if ms > 0]
-        return min(due, default=math.inf)
+        next_due_s = self._next_due_s
+        earliest_s = math.inf
+        for msg_id, interval_ms in self.interval_ms.items():  # every loop of a quiet step: no list
+            if interval_ms > 0:
+                due_s = next_due_s.get(msg_id, -math.inf)
+                if due_s < earliest_s:
+                    earliest_s = due_s
+        return earliest_s
 
     def due(self, now_s: float) -> list[int]:
         """Messages to send now; the schedule keeps the average rate on a coarse loop."""
@@ -208,4 +214,6 @@ class StreamSchedule:
                 if next_due <= now_s:  # fell more than one interval behind: no bursts
                     next_due = now_s + interval_s
                 self._next_due_s[msg_id] = next_due
-        return sorted(out, key=lambda m: AP_MESSAGE_ORDER.get(m, len(AP_MESSAGE_ORDER) + m))
+        if len(out) > 1:
+            out.sort(key=lambda m: AP_MESSAGE_ORDER.get(m, len(AP_MESSAGE_ORDER) + m))
+        return out
