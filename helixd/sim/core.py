@@ -444,8 +444,10 @@ class SimCore:
         driving_mode = ap.armed and ap.mode != MODE_NUMBERS["HOLD"]  # HOLD: outputs at trim
         if self._touched or driving_mode or ap.booting(now) or self.pending or self.faults.active:
             return 1
-        speeds = (ph.vx_body_mps, ph.vy_body_mps, ph.wz_body_radps, *ph.scroll_radps)
-        if any(abs(v) >= REST_EPS for v in speeds) or self.param_queued():
+        for speed in (ph.vx_body_mps, ph.vy_body_mps, ph.wz_body_radps, *ph.scroll_radps):
+            if abs(speed) >= REST_EPS:  # moving
+                return 1
+        if self.param_queued():
             return 1
         due_s = min(link.streams.next_due_s() for link in self.links)
         if self.bathy is not None and self.config.sonar.named_value:
