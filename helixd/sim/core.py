@@ -137,6 +137,9 @@ class SimCore:
         # the medium under each of scrolls 1..4 after the last step (None: no map)
         self.media_ne = media_ne(config)
         self.scroll_media: tuple[Medium, ...] | None = None
+        # the pose the media under the scrolls were last looked up at, and what they were
+        # (the map never changes: the same pose has the same media)
+        self._media_looked_up: tuple[tuple[float, float, float], tuple[Medium, ...]] | None = None
         # the pond's bottom and the sonar over it (helixd.plant.sonar), with a generator of its
         # own so a bathymetry changes nothing else a seed gives
         self.bathy = bathymetry_ne(config)
@@ -612,8 +615,14 @@ class SimCore:
         """The traction under each scroll where it is now; a change is a ``media`` event."""
         assert self.media_ne is not None
         ph, cfg = self.phys, self.config
-        where = physics.scroll_positions_ne(ph.north_m, ph.east_m, ph.yaw_ned_rad, cfg.vehicle)
-        media = tuple(self.media_ne.medium_at(n, e) for n, e in where)
+        pose = (ph.north_m, ph.east_m, ph.yaw_ned_rad)
+        looked_up = self._media_looked_up
+        if looked_up is not None and looked_up[0] == pose:  # at rest: the same place again
+            media = looked_up[1]
+        else:
+            where = physics.scroll_positions_ne(*pose, cfg.vehicle)
+            media = tuple(self.media_ne.medium_at(n, e) for n, e in where)
+            self._media_looked_up = (pose, media)
         if media != self.scroll_media:
             self.scroll_media = media
             self.events.append(SimEvent("media", {"scrolls": [m.value for m in media]}))

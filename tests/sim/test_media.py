@@ -3,6 +3,7 @@ under it, a blend across a boundary, and the core driving from the bank into the
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 from typing import Any
@@ -171,3 +172,19 @@ def test_media_file_is_read_by_the_shell(tmp_path: Path) -> None:
         with_media(SimConfig(media_file=bad))
     with pytest.raises(ValidationError, match="not both"):
         SimConfig(media_file=bad, media=WATER_NORTH_OF_5_M)
+
+
+def test_the_media_at_rest_are_looked_up_once_and_again_wherever_the_rover_is_put() -> None:
+    """At rest the map is not searched again for the same pose; a rover put elsewhere (a new
+    pose, however it got there) meets the medium there at its next loop."""
+    core = make_core(1, media=WATER_NORTH_OF_5_M)
+    run(core, 2.0)
+    looked_up = core._media_looked_up
+    run(core, 1.0)
+    assert core._media_looked_up is looked_up  # the same pose: not looked up again
+    core.phys = dataclasses.replace(core.phys, north_m=20.0)
+    run(core, 0.1)
+    assert core.scroll_media == (Medium.WATER,) * 4
+    assert [e.details["scrolls"] for e in core.drain_events() if e.kind == "media"][-1] == [
+        "water"
+    ] * 4
