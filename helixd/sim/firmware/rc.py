@@ -143,10 +143,9 @@ class RcInputs:
             return False
         self.has_new_overrides = False
         updated = False
+        active = self.active_overrides(now_s, timeout_s)
         for i in range(NUM_RC_CHANNELS):
-            if self.has_override(i, now_s, timeout_s) and not (
-                rc_options & RC_OPTION_IGNORE_OVERRIDES
-            ):
+            if active[i] and not (rc_options & RC_OPTION_IGNORE_OVERRIDES):
                 self.radio_in_us[i] = self.override_us[i]
                 updated = True
             elif self.has_had_receiver and not (rc_options & RC_OPTION_IGNORE_RECEIVER):
