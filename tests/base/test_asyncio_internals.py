@@ -54,6 +54,26 @@ def test_a_timer_made_by_call_later_is_among_the_scheduled_and_leaves_when_run()
     assert 2.9 < when_s <= 3.0
 
 
+def test_the_scheduled_timers_are_a_heap_by_their_time() -> None:
+    """The simulated clock walks only the top of ``_scheduled`` (helixd.base.clock.
+    latest_due_s): every timer is due no earlier than its parent in the heap, cancelled ones
+    and ones set out of order included."""
+
+    async def main() -> list[float]:
+        loop = asyncio.get_running_loop()
+        handles = [loop.call_later(d, lambda: None) for d in (5.0, 1.0, 3.0, 1.0, 4.0, 2.0, 0.5)]
+        for handle in handles[1::3]:
+            handle.cancel()
+        whens = [h.when() for h in scheduled_timers(loop)]
+        for handle in handles:
+            handle.cancel()
+        return whens
+
+    whens = asyncio.run(main())
+    assert len(whens) == 7
+    assert all(whens[(i - 1) // 2] <= whens[i] for i in range(1, len(whens)))
+
+
 def test_the_clock_resolution_is_the_monotonic_clocks() -> None:
     async def main() -> tuple[bool, float]:
         loop = asyncio.get_running_loop()
