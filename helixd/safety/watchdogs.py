@@ -42,6 +42,7 @@ from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import StrEnum
+from operator import itemgetter
 
 from helixd.base.polygon import point_in_polygon
 from helixd.config.safety import SafetyConfig
@@ -594,8 +595,9 @@ class SafetyMonitor:
         span_s = t_s - first_t + dt_s
         if span_s < st.duration_s:
             return None
-        commanded_m = sum(c for _, c, _ in self._crawl)
-        delivered_m = sum(d for _, _, d in self._crawl)
+        # the same sums in the same order as a generator's, without a frame per window entry
+        commanded_m = sum(map(itemgetter(1), self._crawl))
+        delivered_m = sum(map(itemgetter(2), self._crawl))
         if not delivered_m < st.crawl_fraction * commanded_m:
             return None
         pct = 100.0 * delivered_m / commanded_m if commanded_m > 0.0 else 0.0

@@ -8,6 +8,7 @@ from __future__ import annotations
 import asyncio
 import os
 import socket
+from collections import deque
 from collections.abc import Callable
 from typing import Any
 
@@ -36,7 +37,7 @@ class LoopMav:
         self.sock.connect(("127.0.0.1", port))
         self.mav = mavlink.MAVLink(_Sender(self.sock), srcSystem=sysid, srcComponent=compid)
         self.mav.robust_parsing = True
-        self.inbox: list[Any] = []
+        self.inbox: deque[Any] = deque()  # read from the left: a long day's inbox stays cheap
         self.texts: list[str] = []  # every STATUSTEXT seen (chunks joined)
         self._pane = TextPane(self.texts)
         self._changed = asyncio.Event()
@@ -86,7 +87,7 @@ class LoopMav:
         deadline = now_s() + timeout_s
         while True:
             while self.inbox:
-                msg = self.inbox.pop(0)
+                msg = self.inbox.popleft()
                 if msg.get_type() in kinds:
                     return msg
             remaining = deadline - now_s()
