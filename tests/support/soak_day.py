@@ -56,6 +56,7 @@ from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import deep_merge
 from tests.support.gcs import HELIXD, QGC_SYSID, SIM, do_item, fence_circle, latlon, waypoint
 from tests.support.harness import NEUTRAL_TOLERANCE_US, NEUTRAL_US, guard_installed
+from tests.support.kill9 import KILLED_CODE
 from tests.support.loop_gcs import upload_fence, upload_items
 from tests.support.loop_mav import LoopMav
 from tests.support.serve import HIGH_US, LOW_US, SWITCH_CH
@@ -69,6 +70,7 @@ from tests.support.soak_plan import (
     Item,
     Step,
 )
+from tests.support.soak_resume import KillsTold, ResumeRule
 
 STOP_LIMIT_S = 0.5  # the crew's stop word (and helixd's "completed") → scrolls at trim
 # a disarm shows to helixd only in the autopilot's 1 Hz HEARTBEAT, and ArduPilot passes the
@@ -87,7 +89,11 @@ FAULT_LIMIT_S: dict[str, float] = {
     "link_drop": 1.0, "stale_pose": 1.5, "ekf_unhealthy": 1.5, "reboot": 1.5, "gps_loss": 6.0,
     "gps_silent": 3.0, "battery_low": 1.5, "fence_breach": 1.5, "rc_loss": 2.0, "stall": 12.0,
     "nan_position": 1.0, "nan_yaw": 1.0, "absurd_position": 1.0, "time_backwards": 1.0,
+    "kill": 0.8,
 }  # fmt: skip
+# kill: helixd-guard (guard_installed(1.0)) puts the scroll outputs at trim HXG_TIMEOUT 0.5 s
+# after helixd's last word to it, which helixd sends every serve.tick_s (0.1 s), read by
+# the guard's loop and shown at the autopilot's next output (0.02 s): 0.62 s, and a margin
 # a fault shorter than this may be over before helixd's watchdog sees it (safety.stall's 4 s)
 SEEN_AFTER_S = {"stall": 4.5}
 # the cause helixd must name for each fault (summary.json's fault, the fallback event's cause)
@@ -275,6 +281,8 @@ class Rules:
         self.cuts: Counter[str] = Counter()  # record_cut warnings per run directory
         # full cards to be told: (run directory, console line at the fault, check after)
         self.cards: list[tuple[str, int, float]] = []
+        self.kills = KillsTold()  # each kill told by the next start when it cut a flight
+        self.resume = ResumeRule()  # a continue goes on from the interrupted item
 
     def fail(self, rule: str, detail: str) -> None:
         if self.broken is None:
@@ -297,6 +305,9 @@ class Rules:
             return  # the mode it already is: nothing the autopilot or helixd can see
         if name == "arm" and mode in DRIVING_MODES:
             name = "continue"  # ArduPilot armed in AUTO (GUIDED, RTL) drives: a go word
+        if name in STOP_WORDS:
+            self.resume.interrupted(self.serve_state == "flying", self.last_seq)
+        self.resume.word(name, t)
         if name in STOP_WORDS:
             limit = DISARMED_LIMIT_S if name == "disarm" else STOP_LIMIT_S
             if name in MODE_WORDS and mode != "AUTO":
@@ -324,7 +335,13 @@ class Rules:
                 return  # ArduPilot's failsafe fires once: already taken since the boot
             self.latched.add(kind)
         self.fault_times.append(t)
+        if driving:
+            self.resume.interrupted(self.serve_state == "flying", self.last_seq)
         if not driving or (kind, args.get("kind")) in UNSEEN:
+            return
+        if kind == "kill":  # told by the next start (KillsTold), not by a fall-back
+            self.fault_at = t if self.fault_at is None else self.fault_at
+            self.fault_limit_s = FAULT_LIMIT_S[kind] if self.fault_at == t else self.fault_limit_s
             return
         duration = args.get("duration_s")
         if isinstance(duration, float) and duration < SEEN_AFTER_S.get(kind, FAULT_LIMIT_S[kind]):
@@ -332,6 +349,15 @@ class Rules:
         if self.fault_at is None:
             self.fault_at, self.fault_limit_s = t, FAULT_LIMIT_S[kind]
         self.pending.append((kind, t, t + max(FAULT_LIMIT_S[kind], NAMED_WITHIN_S) + 2.0))
+
+    def kill(self, driving: bool) -> None:
+        """helixd killed: the scrolls at trim by the guard, the cut flight told by the next
+        start; a flight under way is interrupted (whatever it drove)."""
+        cut = bool(self.run_dir) and not (Path(self.run_dir) / "summary.json").exists()
+        self.kills.kill(now_s(), len(self.st.console.lines), cut)
+        if not driving:
+            self.resume.interrupted(self.serve_state == "flying", self.last_seq)
+        self.fault("kill", driving, {})
 
     def full_card(self, duration_s: float) -> None:
         """The card full for ``duration_s``: a flight recording meanwhile must say so, once."""
@@ -360,6 +386,9 @@ class Rules:
         if dist > FENCE_RADIUS_M + FENCE_MARGIN_M:
             self.fail("outside_fence", f"{dist:.1f} m from home; {s.describe()}")
         self._items(t, s)
+        broken = self.resume.driven(t, s.mission_current_seq, driven)
+        if broken is not None:
+            self.fail("resume_item", f"{broken}; {s.describe()}")
 
     def _driven(self, t: float, s: SimSnapshot) -> None:
         if self.disarmed_at is not None and t - self.disarmed_at > DISARMED_LIMIT_S:
@@ -430,6 +459,9 @@ class Rules:
             if t > by:
                 self.pending.remove((kind, at, by))
                 self._named(kind, at, by)
+        broken = self.kills.due(t, self.st.console.lines)
+        if broken is not None:
+            self.fail("fault_named", broken)
 
     def _card_told(self, run: str, mark: int) -> None:
         later = self.st.console.lines[mark:]
@@ -562,7 +594,11 @@ class Crew:
         }  # fmt: skip
 
     def day_fault(self, step: Step) -> None:
-        """One of the day's own faults (not the simulator's): ``full_card``."""
+        """One of the day's own faults (not the simulator's): ``full_card`` (``kill``:
+        :func:`crew_day` kills the service after the referee took note)."""
+        if step.name == "kill":
+            self.rules.kill(driving(self.st.snapshot()))
+            return
         assert step.name == "full_card", step.name
         duration_s = num(step, "duration_s")
         self.rules.full_card(duration_s)
@@ -661,9 +697,12 @@ async def crew_day(st: Steer, plan: DayPlan, crews: list[Crew], card: Card) -> N
             crew.lines_at_midday = len(st.console.lines)
         crew.next_step += 1
         await crew.perform(step)
-        if step.name == "restart":
+        if step.name in ("restart", "kill"):
             crew.restarted_at = st.mark()
-            st.signal(signal.SIGTERM)  # systemd's restart: stop, then start again
+            if step.name == "kill":  # kill -9; systemd starts it again after RestartSec
+                st.kill()
+            else:
+                st.signal(signal.SIGTERM)  # systemd's restart: stop, then start again
             return
     await settle(st, rules, t0 + plan.length_s)
     # the crew's evening: the switch low, disarmed (a paused flight ends, its files close)
@@ -745,7 +784,7 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
         with card_in_recorder(card):
             served = simulated_serve(
                 workdir,
-                [day] * (1 + sum(1 for s in plan.steps if s.name == "restart")),
+                [day] * (1 + sum(1 for s in plan.steps if s.name in ("restart", "kill"))),
                 config,
                 seed=plan.seed,
                 limit_s=plan.length_s + EVENING_S,
@@ -762,7 +801,7 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
         where = "".join(traceback.format_exception(exc)[-3:])
         violation = Violation("exception", 0.0, f"{type(exc).__name__}: {exc}\n{where}"[:1500])
     if violation is None and served is not None:
-        if any(served.codes):
+        if any(code not in (0, KILLED_CODE) for code in served.codes):
             violation = Violation("exit_code", 0.0, f"serve ended {served.codes} on SIGTERM")
         elif "Traceback" in served.log:
             violation = Violation("traceback", 0.0, "a traceback in the service's log")

@@ -1,0 +1,111 @@
+"""The soak's referee for interruptions (tests.support.soak_day.Rules holds these): a kill
+of the service told by the service started again, and a resumed flight going on from the
+item it was interrupted at.
+
+**Kill told** (``fault_named`` for the day's ``kill``): a kill that cut a flight's run
+(its run directory without a summary at the kill) is told by the next start of the service,
+once: its ``serve_flight_cut`` line (the STATUSTEXT goes with it), before
+:data:`KILL_TOLD_WITHIN_S`. A kill of an idle service is told nothing.
+
+**Resumed from the interrupted item** (``resume_item``): when a flight is interrupted — a
+kill, the service's restart (SIGTERM), a fault while driving, the crew's stop word — the
+autopilot's current item (the simulator's truth: the autopilot's own item in AUTO, the one
+helixd set as current while it drives in MANUAL) is where a continue must go on. The next
+continue (the autopilot's AUTO, DO_PAUSE_CONTINUE 1 or MISSION_START 0 to helixd, the start
+switch) must, when it drives, drive with that item current, unless the crew set current,
+uploaded a mission or started from the beginning (QGroundControl's Start Mission) in
+between; a disarm lets the autopilot restart its mission (AP_Arming_Rover::disarm resets it
+outside AUTO), so after one only helixd's own continue is judged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from tests.support.kill9 import RESTART_S
+
+# the restarted service tells the cut flight as it starts: RestartSec, then its start-up
+KILL_TOLD_WITHIN_S = RESTART_S + 10.0
+CONTINUE_WORDS = frozenset({"continue", "continue_helixd", "start_helixd", "switch_high"})
+HELIXD_CONTINUES = frozenset({"continue_helixd", "start_helixd", "switch_high"})
+RESET_WORDS = frozenset({"set_current", "upload", "reupload", "start"})
+# a continue that has not driven in this long was refused or is not a continue: not judged
+DRIVES_WITHIN_S = 15.0
+
+
+@dataclass
+class Kill:
+    at_s: float
+    mark: int  # the console's lines at the kill
+    told: bool  # a flight's run was cut: its restart must tell it
+
+
+class KillsTold:
+    """Each kill: told once by the next start when it cut a flight, never otherwise."""
+
+    def __init__(self) -> None:
+        self.kills: list[Kill] = []
+
+    def kill(self, at_s: float, mark: int, run_cut: bool) -> None:
+        self.kills.append(Kill(at_s, mark, run_cut))
+
+    def due(self, now_s: float, lines: list[str]) -> str | None:
+        """The first kill judged now that broke the rule (its detail), else None."""
+        for i, k in enumerate(list(self.kills)):
+            later = self.kills[i + 1] if i + 1 < len(self.kills) else None
+            if now_s <= k.at_s + KILL_TOLD_WITHIN_S and later is None:
+                continue
+            self.kills.remove(k)
+            end = later.mark if later is not None else len(lines)
+            told = sum("event=serve_flight_cut " in ln for ln in lines[k.mark : end])
+            if told != (1 if k.told else 0):
+                cut = "cut a flight" if k.told else "cut no flight"
+                return f"kill at {k.at_s:.2f} s ({cut}) told {told} times"
+            return None
+        return None
+
+
+class ResumeRule:
+    """The item a continue must drive with (module docstring)."""
+
+    def __init__(self) -> None:
+        self.item: int | None = None  # the interrupted item a continue goes on from
+        self.by_autopilot = True  # an AUTO continue still finds it (no disarm since)
+        self.judge: tuple[int, float, str] | None = None  # item, since, the continue's word
+
+    def interrupted(self, flying: bool, seq: int) -> None:
+        """A flight interrupted (kill, restart, fault while driving, a stop word)."""
+        self.judge = None
+        if flying and seq >= 1:
+            self.item, self.by_autopilot = seq, True
+
+    def word(self, name: str, t: float) -> None:
+        if name in RESET_WORDS:
+            self.item, self.judge = None, None
+        elif name == "disarm":
+            self.by_autopilot = False
+        elif name in CONTINUE_WORDS and self.item is not None and self._finds(name):
+            self.judge = (self.item, t, name)
+
+    def _finds(self, name: str) -> bool:
+        """Whether the continue ``name`` must find the interrupted item: helixd's own always
+        (its state file), the autopilot's AUTO unless it was disarmed since."""
+        return name in HELIXD_CONTINUES or self.by_autopilot
+
+    def driven(self, t: float, seq: int, driving: bool) -> str | None:
+        """Each snapshot: the continue's first driven one breaks the rule on another item."""
+        if self.judge is None:
+            return None
+        item, since, name = self.judge
+        if t - since > DRIVES_WITHIN_S:
+            self.judge = None  # refused, or it did not drive: nothing flown to judge
+            return None
+        if not driving:
+            return None
+        self.judge, self.item = None, None
+        if seq != item:
+            return f"{name} at {since:.2f} s drove with item {seq} current, interrupted at {item}"
+        return None
+
+
+__all__ = ["CONTINUE_WORDS", "KILL_TOLD_WITHIN_S", "Kill", "KillsTold", "ResumeRule"]
