@@ -29,6 +29,7 @@ from tests.support.soak_day import (
     run_day,
 )
 from tests.support.soak_plan import CREW_ACTIONS, FAULT_KINDS, DayPlan, Item, Step, plan_day
+from tests.support.soak_resume import KILL_TOLD_WITHIN_S, KillsTold, ResumeRule
 from tests.support.tools import load_tool
 
 soak = load_tool("soak")
@@ -393,3 +394,67 @@ def test_the_radio_mode_switch_put_where_it_stands_is_no_word() -> None:
     rules.word("radio_mode", "MANUAL", "MANUAL")
     rules.word("radio_mode", "MANUAL", "HOLD")
     assert rules.stop_at is not None
+
+
+def kill_day(seed: int) -> DayPlan:
+    """Three waypoints started through helixd (driven in MANUAL, its item shown as the
+    autopilot's current); helixd killed on the way; the crew's continue after the restart."""
+    mission = (Item(WP), Item(WP, 12.0, 0.0), Item(WP, 12.0, 12.0), Item(WP, 0.0, 12.0))
+    steps = (
+        Step(0, 6.0, "crew", "upload", (("items", 0),)),
+        Step(1, 10.0, "crew", "start_helixd"),
+        Step(2, 40.0, "fault", "kill"),
+        Step(3, 60.0, "crew", "continue_helixd"),
+    )
+    return DayPlan(seed, 120.0, steps, (mission,), switch=False)
+
+
+@pytest.mark.timeout(600)
+def test_a_kill_mid_flight_is_told_once_and_the_continue_goes_on_from_its_item(
+    tmp_path: Path,
+) -> None:
+    got = run_day(kill_day(11), tmp_path)
+    assert got.violation is None, got.violation
+    assert got.faults == {"kill": 1}
+    log = (tmp_path / "serve.log").read_text()
+    assert log.count("event=serve_flight_cut ") == 1
+    assert log.count("event=serve_start ") == 2
+    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    cut = json.loads((runs[0] / "summary.json").read_text())
+    assert cut["fault"].startswith("killed:"), cut
+    resumed = json.loads((runs[1] / "summary.json").read_text())
+    assert resumed["resumed_from"]["path"] == str(runs[0].resolve())
+    assert resumed["completed"] is True, resumed
+
+
+def test_a_continue_driving_another_item_than_the_interrupted_one_breaks_its_rule() -> None:
+    rule = ResumeRule()
+    rule.interrupted(True, 3)
+    rule.word("continue_helixd", 10.0)
+    assert rule.driven(10.5, 3, False) is None  # not driving yet
+    assert rule.driven(11.0, 2, True) is not None  # drove with item 2 current
+    rule.interrupted(True, 3)
+    rule.word("set_current", 12.0)  # the crew moved it: nothing to judge
+    rule.word("continue", 13.0)
+    assert rule.driven(14.0, 2, True) is None
+    rule.interrupted(True, 4)
+    rule.word("disarm", 15.0)  # the autopilot restarts its mission: AUTO not judged
+    rule.word("continue", 16.0)
+    assert rule.driven(17.0, 1, True) is None
+    rule.word("continue_helixd", 18.0)  # helixd's own continue still is (its state file)
+    assert rule.driven(19.0, 4, True) is None
+    rule.interrupted(False, 2)  # nothing flying: nothing interrupted
+    rule.word("continue_helixd", 20.0)
+    assert rule.driven(21.0, 1, True) is None
+
+
+def test_a_kill_is_told_once_when_it_cut_a_flight_and_never_else() -> None:
+    told = "ts=… level=warning event=serve_flight_cut run_dir=/r closed=true"
+    kills = KillsTold()
+    kills.kill(100.0, 0, True)
+    assert kills.due(101.0, []) is None  # not yet judged
+    assert kills.due(100.0 + KILL_TOLD_WITHIN_S + 0.1, ["x"]) is not None  # never told
+    kills.kill(200.0, 1, True)
+    assert kills.due(200.0 + KILL_TOLD_WITHIN_S + 0.1, ["x", told]) is None
+    kills.kill(300.0, 0, False)  # an idle service killed: nothing to tell
+    assert kills.due(300.0 + KILL_TOLD_WITHIN_S + 0.1, [told]) is not None
