@@ -31,7 +31,7 @@ from helixd.mav.constants import (
 )
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
-from helixd.mission.resume import event_whole, last_step_started, with_walk
+from helixd.mission.resume import autopilot_step_held, last_step_started, with_walk
 from helixd.prepare.builder import (
     AutopilotPlace,
     AutoWalk,
@@ -532,13 +532,7 @@ def held_walk(walk: WalkLetGo | None, fingerprint: str) -> AutoWalk | None:
         return None
     options, run_dir = walk.options, walk.run_dir
     events = read_events(run_dir / EVENTS_FILE)
-    step, autopilot = last_step_started(events), 0
-    for ev in events:
-        name = ev.get("event")
-        if name == "autopilot_step":
-            autopilot = event_whole(ev.get("step"), autopilot)
-        elif name == "autopilot_item_set":
-            autopilot = event_whole(ev.get("autopilot_step"), autopilot)
+    step, autopilot = last_step_started(events), autopilot_step_held(events)
     exact = autopilot > 0
     log.info(
         "auto_walk_held",

@@ -113,6 +113,9 @@ FAULT_CAUSES: dict[str, frozenset[str]] = {
     "absurd_position": frozenset({"pose_invalid"}),
     "time_backwards": frozenset({"pose_invalid"}),
 }
+# the crew's words that hand a mission's flight over to one to the autopilot's place: the
+# mission's flight is interrupted there (a continue goes on from it)
+HANDOVER_WORDS = frozenset({"goto", "rtl", "smart_rtl"})
 # ArduPilot's battery and fence failsafes switched on (HOLD), as a field's parameters would
 AUTOPILOT_PARAMS = {"BATT_FS_LOW_ACT": 2.0, "FENCE_ENABLE": 1.0, "FENCE_ACTION": 2.0}
 # the fault's fall-back logged within this of it at the latest: a cut link (or a rebooting
@@ -277,6 +280,9 @@ class Rules:
         self.go_times: list[float] = []  # when the crew said go
         self.t0 = 0.0  # the day's time 0 (the plan's steps count from it)
         self.serve_state = ""  # the service's latest serve_state
+        self.flight_request = ""  # what started the latest flight (serve_flight_start)
+        self.flight_at = 0.0  # when it started
+        self.uploaded_at = 0.0  # the crew's latest upload (a flight before it: another plan)
         self.run_dir = ""  # the run directory of the latest flight (helixd_start)
         self.cuts: Counter[str] = Counter()  # record_cut warnings per run directory
         # full cards to be told: (run directory, console line at the fault, check after)
@@ -305,8 +311,8 @@ class Rules:
             return  # the mode it already is: nothing the autopilot or helixd can see
         if name == "arm" and mode in DRIVING_MODES:
             name = "continue"  # ArduPilot armed in AUTO (GUIDED, RTL) drives: a go word
-        if name in STOP_WORDS:
-            self.resume.interrupted(self.serve_state == "flying", self.last_seq)
+        if name in STOP_WORDS or name in HANDOVER_WORDS:
+            self.resume.interrupted(self.mission_flying(), self.last_seq)
         self.resume.word(name, t)
         if name in STOP_WORDS:
             limit = DISARMED_LIMIT_S if name == "disarm" else STOP_LIMIT_S
@@ -336,7 +342,7 @@ class Rules:
             self.latched.add(kind)
         self.fault_times.append(t)
         if driving:
-            self.resume.interrupted(self.serve_state == "flying", self.last_seq)
+            self.resume.interrupted(self.mission_flying(), self.last_seq)
         if not driving or (kind, args.get("kind")) in UNSEEN:
             return
         if kind == "kill":  # told by the next start (KillsTold), not by a fall-back
@@ -356,8 +362,15 @@ class Rules:
         cut = bool(self.run_dir) and not (Path(self.run_dir) / "summary.json").exists()
         self.kills.kill(now_s(), len(self.st.console.lines), cut)
         if not driving:
-            self.resume.interrupted(self.serve_state == "flying", self.last_seq)
+            self.resume.interrupted(self.mission_flying(), self.last_seq)
         self.fault("kill", driving, {})
+
+    def mission_flying(self) -> bool:
+        """A flight of the mission under way: not one to the autopilot's place (its
+        interruption leaves the mission's interrupted item as it was), nor one of a plan
+        uploaded over since (a continue flies the new one whole; soak seed 24)."""
+        flying = self.serve_state == "flying" and self.flight_request != "goto"
+        return flying and self.flight_at > self.uploaded_at
 
     def full_card(self, duration_s: float) -> None:
         """The card full for ``duration_s``: a flight recording meanwhile must say so, once."""
@@ -366,6 +379,7 @@ class Rules:
             self.cards.append((self.run_dir, len(self.st.console.lines), by))
 
     def mission(self, items: tuple[Item, ...]) -> None:
+        self.uploaded_at = now_s()
         self.items = items
         self.successors = nav_successors(items)
         self.shown = ()
@@ -442,6 +456,8 @@ class Rules:
             if "event=serve_state " in text:
                 self.serve_state = logged_value(text, "state")
                 self.crew_moved_shown = False
+            elif "event=serve_flight_start " in text:
+                self.flight_request, self.flight_at = logged_value(text, "request"), t
             elif "event=mission_current_set " in text:
                 self.shown = (*self.shown[-1:], int(logged_value(text, "seq")))
             elif "event=helixd_start " in text:
