@@ -458,3 +458,18 @@ def test_a_kill_is_told_once_when_it_cut_a_flight_and_never_else() -> None:
     assert kills.due(200.0 + KILL_TOLD_WITHIN_S + 0.1, ["x", told]) is None
     kills.kill(300.0, 0, False)  # an idle service killed: nothing to tell
     assert kills.due(300.0 + KILL_TOLD_WITHIN_S + 0.1, [told]) is not None
+
+
+def test_a_flight_to_a_place_or_of_a_plan_uploaded_over_interrupts_no_mission_item() -> None:
+    # seed 24: an AUTO flight of the old plan handed over to GUIDED after an upload, a fault
+    # in the flight to the place, then the continue flew the new plan from item 1: right
+    rules = referee()
+    rules.serve_state, rules.flight_request, rules.flight_at = "flying", "auto", now_s()
+    rules.last_seq = 4
+    assert rules.mission_flying()
+    rules.mission((Item(WP), Item(WP, 5.0, 0.0)))  # the crew's upload during it
+    assert not rules.mission_flying()
+    rules.word("goto", "AUTO")
+    assert rules.resume.item is None
+    rules.flight_request, rules.flight_at = "goto", now_s() + 1.0
+    assert not rules.mission_flying()  # a fault now interrupts no mission item
