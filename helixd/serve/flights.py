@@ -383,12 +383,13 @@ class Flights:
         handed = cause in HANDED_CAUSES
         after_flight(self.auto_watch, cause, host.hold_acked_s)
         log.info("serve_flight_end", request=Request.GOTO.value, exit_code=int(outcome.exit_code))
-        write_state_file(self.opts.state_file, self.interrupted, ServeState.FAULTED)  # ended
         if handed or crew_paused(cause, stop.paused):
             self.status.set(*before, quiet=handed)  # the mission's verdict stands
-            return
-        text = flight_end_text(summary, runner.numbering(), outcome.messages)
-        self.status.set(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
+        else:
+            text = flight_end_text(summary, runner.numbering(), outcome.messages)
+            self.status.set(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
+        # ended: no run open (the interrupted mission's run, if any, stays the one to continue)
+        write_state_file(self.opts.state_file, self.interrupted, self.status.state)
 
     async def _fly(self, ap: Autopilot, request: Request, who: str, item: int = 0) -> None:
         before = self.mission.fingerprint
