@@ -400,7 +400,7 @@ class Rules:
         if dist > FENCE_RADIUS_M + FENCE_MARGIN_M:
             self.fail("outside_fence", f"{dist:.1f} m from home; {s.describe()}")
         self._items(t, s)
-        broken = self.resume.driven(t, s.mission_current_seq, driven)
+        broken = self.resume.driven(t, s.mission_current_seq, driven, self.successors)
         if broken is not None:
             self.fail("resume_item", f"{broken}; {s.describe()}")
 

@@ -431,21 +431,31 @@ def test_a_continue_driving_another_item_than_the_interrupted_one_breaks_its_rul
     rule = ResumeRule()
     rule.interrupted(True, 3)
     rule.word("continue_helixd", 10.0)
-    assert rule.driven(10.5, 3, False) is None  # not driving yet
-    assert rule.driven(11.0, 2, True) is not None  # drove with item 2 current
+    assert rule.driven(10.5, 3, False, {}) is None  # not driving yet
+    assert rule.driven(11.0, 2, True, {}) is not None  # drove with item 2 current
     rule.interrupted(True, 3)
     rule.word("set_current", 12.0)  # the crew moved it: nothing to judge
     rule.word("continue", 13.0)
-    assert rule.driven(14.0, 2, True) is None
+    assert rule.driven(14.0, 2, True, {}) is None
     rule.interrupted(True, 4)
     rule.word("disarm", 15.0)  # the autopilot restarts its mission: AUTO not judged
     rule.word("continue", 16.0)
-    assert rule.driven(17.0, 1, True) is None
+    assert rule.driven(17.0, 1, True, {}) is None
     rule.word("continue_helixd", 18.0)  # helixd's own continue still is (its state file)
-    assert rule.driven(19.0, 4, True) is None
+    assert rule.driven(19.0, 4, True, {}) is None
     rule.interrupted(False, 2)  # nothing flying: nothing interrupted
     rule.word("continue_helixd", 20.0)
-    assert rule.driven(21.0, 1, True) is None
+    assert rule.driven(21.0, 1, True, {}) is None
+    # seed 104: AUTO again within item 1's radius moves on to item 3 before it drives
+    successors = {1: {3}, 3: {4}, 4: set()}
+    rule.interrupted(True, 1)
+    rule.word("continue", 30.0)
+    assert rule.driven(30.2, 3, False, successors) is None
+    assert rule.driven(30.4, 3, True, successors) is None
+    rule.interrupted(True, 1)  # helixd's own continue: the item it flies first, strictly
+    rule.word("continue_helixd", 40.0)
+    assert rule.driven(40.2, 3, False, successors) is None
+    assert rule.driven(40.4, 3, True, successors) is not None
 
 
 def test_a_kill_is_told_once_when_it_cut_a_flight_and_never_else() -> None:
