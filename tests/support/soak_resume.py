@@ -74,7 +74,7 @@ class ResumeRule:
         self.judge: tuple[int, float, str] | None = None  # item, since, the continue's word
         # the items a continue of the autopilot's AUTO flies without driving: the interrupted
         # one, and those it moves on to from there before it drives (already within their
-        # radius: seed 104, AUTO again 0.4 m from item 1 showed item 3 as it drove)
+        # radius: seed 104, AUTO again 0.5 m from item 1 showed item 3 as it drove)
         self.passed: set[int] = set()
 
     def interrupted(self, flying: bool, seq: int) -> None:
