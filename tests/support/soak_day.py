@@ -38,6 +38,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.base.clock import now_s
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
 from helixd.cli.runs import load_summary, print_replay
+from helixd.config.safety import StallConfig
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_CHANGE_SPEED,
@@ -95,6 +96,10 @@ FAULT_LIMIT_S: dict[str, float] = {
 # after helixd's last word to it, which helixd sends every serve.tick_s (0.1 s), read by
 # the guard's loop and shown at the autopilot's next output (0.02 s): 0.62 s, and a margin
 # a fault shorter than this may be over before helixd's watchdog sees it (safety.stall's 4 s)
+# helixd's stall watch is armed while it commands more than safety.stall's 0.2 m/s: a stall
+# of a rover slower than that (creeping the last centimetres onto a waypoint, seed 100: 0.09 m
+# from it for the stall's 5.8 s, then on to the next) is not one helixd can see
+STALL_ARMED_MPS = StallConfig().commanded_speed_min_mps
 SEEN_AFTER_S = {"stall": 4.5}
 # the cause helixd must name for each fault (summary.json's fault, the fallback event's cause)
 FAULT_CAUSES: dict[str, frozenset[str]] = {
@@ -642,7 +647,10 @@ class Crew:
             if step.name in DAY_FAULTS:
                 self.day_fault(step)
                 return
-            driving_now = driving(self.st.snapshot())
+            snap = self.st.snapshot()
+            driving_now = driving(snap)
+            if step.name == "stall" and snap.speed_mps < STALL_ARMED_MPS:
+                driving_now = False  # creeping onto a waypoint: helixd's watch is not armed
             self.rules.fault(step.name, driving_now, dict(step.args))
             self.st.inject(step.name, **dict(step.args))
             return

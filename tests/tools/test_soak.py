@@ -6,6 +6,7 @@ Every verdict is in simulated time: a slower machine takes longer, never decides
 
 from __future__ import annotations
 
+import asyncio
 import json
 import tracemalloc
 from dataclasses import replace
@@ -270,6 +271,10 @@ FOUND = [
     # a fence breach in a flight of AUTO taken for the crew's Pause (helixd/runtime/flight.py,
     # _autopilot_failsafe; tests/integration/test_serve_autopilot_failsafe.py)
     (201, 0.1, 75.0),
+    # a continue after a kill of a flight of AUTO, with the crew's set current to the next
+    # item made before it, flew the previous item again (helixd/prepare/builder.py
+    # continue_commands: the autopilot's own step; tests/prepare/test_builder.py)
+    (23, 0.25, 885.0),
 ]
 
 
@@ -483,3 +488,17 @@ def test_a_flight_to_a_place_or_of_a_plan_uploaded_over_interrupts_no_mission_it
     assert rules.resume.item is None
     rules.flight_request, rules.flight_at = "goto", now_s() + 1.0
     assert not rules.mission_flying()  # a fault now interrupts no mission item
+
+
+def test_a_stall_of_a_rover_creeping_onto_a_waypoint_is_not_judged() -> None:
+    # seed 100: a 5.8 s stall 0.09 m from a waypoint, helixd commanding less than its stall
+    # watch's 0.2 m/s; the rover drove on once it was over
+    rules = referee()
+    snap = SimpleNamespace(speed_mps=0.0, scroll_pwm_us=(1530, 1530, 1470, 1470))
+    st = SimpleNamespace(snapshot=lambda: snap, inject=lambda *_, **__: None)
+    crew = Crew(st, None, rules, kill_day(1))  # type: ignore[arg-type]
+    asyncio.run(crew.perform(Step(0, 1.0, "fault", "stall", (("duration_s", 5.8),))))
+    assert rules.pending == [] and rules.fault_at is None
+    snap.speed_mps = 0.5  # moving: judged
+    asyncio.run(crew.perform(Step(1, 2.0, "fault", "stall", (("duration_s", 5.8),))))
+    assert [kind for kind, _, _ in rules.pending] == ["stall"]
