@@ -75,6 +75,9 @@ def test_a_flight_killed_on_its_second_lap_is_closed_told_and_continued_from_its
     assert served.codes == [KILLED_CODE, 0], served.log[-3000:]
     trim_s = served.steered[0]
     quiet, first_item, go, texts = served.steered[1]
+    print(
+        f"\nkill → scrolls at trim {trim_s:.3f} s (helixd-guard's HXG_TIMEOUT {GUARD_TIMEOUT_S} s)"
+    )
     assert trim_s <= GUARD_TIMEOUT_S + 0.3, trim_s
     # never driven by the start itself: the rover stood until the crew's continue
     assert quiet and not any(moving(s) for s in quiet)

@@ -94,7 +94,8 @@ FAULT_LIMIT_S: dict[str, float] = {
 }  # fmt: skip
 # kill: helixd-guard (guard_installed(1.0)) puts the scroll outputs at trim HXG_TIMEOUT 0.5 s
 # after helixd's last word to it, which helixd sends every serve.tick_s (0.1 s), read by
-# the guard's loop and shown at the autopilot's next output (0.02 s): 0.62 s, and a margin
+# the guard's loop and shown at the autopilot's next output (0.02 s): 0.62 s at most (0.56 s
+# measured, tests/integration/test_serve_kill.py), and a margin
 # a fault shorter than this may be over before helixd's watchdog sees it (safety.stall's 4 s)
 # helixd's stall watch is armed while it commands more than safety.stall's 0.2 m/s: a stall
 # of a rover slower than that (creeping the last centimetres onto a waypoint, seed 100: 0.09 m
