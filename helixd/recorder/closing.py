@@ -10,10 +10,8 @@ was cut (:data:`KILLED_CAUSE`)."""
 from __future__ import annotations
 
 import csv
-import math
 import os
 import re
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -51,30 +49,35 @@ def cut_run(run_dir: Path) -> bool:
     return run_dir.is_dir() and not (run_dir / SUMMARY_FILE).exists()
 
 
-def _flight_rows(path: Path) -> Iterator[dict[str, Any]]:
-    """The columns the summary needs of each whole row of ``flight.csv``, streamed (a run of
-    hours has millions); rows that do not parse (a torn last line) are skipped."""
+def _add_rows(builder: SummaryBuilder, path: Path) -> None:
+    """Each whole row of ``flight.csv`` into ``builder``, streamed through one row object (a run
+    of hours has millions); rows that do not parse (a torn last line) are skipped. Non-finite
+    values stay as they are (the builder skips them as it does in flight)."""
     try:
         fh = path.open(encoding="utf-8", errors="replace", newline="")
     except OSError:
         return
+    step = nan_row()
     with fh:
         reader = csv.reader(line for line in fh if not line.startswith(COMMENT_PREFIX))
         try:
             header = next(reader, None)
             if header is None:
                 return
-            where = {c: header.index(c) for c in (*SUMMARY_COLUMNS, "pose_fresh") if c in header}
+            width = len(header)
+            where = [(c, header.index(c)) for c in SUMMARY_COLUMNS if c in header]
+            fresh = header.index("pose_fresh") if "pose_fresh" in header else None
             for cells in reader:
-                if len(cells) != len(header):
+                if len(cells) != width:
                     continue
                 try:
-                    row = {c: float(cells[i]) for c, i in where.items() if c != "pose_fresh"}
+                    for column, i in where:
+                        setattr(step, column, float(cells[i]))
                 except ValueError:
                     continue
-                fresh = cells[where["pose_fresh"]].strip() if "pose_fresh" in where else "0"
-                row["pose_fresh"] = fresh not in ("0", "", "false", "False")
-                yield row
+                flag = cells[fresh].strip() if fresh is not None else "0"
+                step.pose_fresh = flag not in ("0", "", "false", "False")
+                builder.add(step)
         except (csv.Error, OSError):
             return
 
@@ -112,9 +115,7 @@ def killed_summary(run_dir: Path) -> RunSummary:
     started = next((e for e in events if e.get("event") == RUN_STARTED_EVENT), {})
     name = started.get("mission")
     builder = SummaryBuilder(mission_name=name if isinstance(name, str) else run_dir.name)
-    for row in _flight_rows(run_dir / FLIGHT_FILE):
-        values = {k: v for k, v in row.items() if isinstance(v, float) and math.isfinite(v)}
-        builder.add(nan_row(**values, pose_fresh=bool(row["pose_fresh"])))
+    _add_rows(builder, run_dir / FLIGHT_FILE)
     for ev in events:
         if ev.get("event") == WAYPOINT_REACHED_EVENT:
             _arrival(builder, ev)
