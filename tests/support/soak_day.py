@@ -459,6 +459,8 @@ class Rules:
                 self.fail("traceback", text[:300])
             if "event=serve_state state=completed" in text:
                 self.completed_at = t
+            if "event=sim_statustext " in text and 'text="Mission Complete"' in text:
+                self.resume.autopilot_done()
             if "event=serve_state " in text:
                 self.serve_state = logged_value(text, "state")
                 self.crew_moved_shown = False

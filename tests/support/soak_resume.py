@@ -15,7 +15,8 @@ continue (the autopilot's AUTO, DO_PAUSE_CONTINUE 1 or MISSION_START 0 to helixd
 switch) must, when it drives, drive with that item current, unless the crew set current,
 uploaded a mission or started from the beginning (QGroundControl's Start Mission) in
 between; a disarm lets the autopilot restart its mission (AP_Arming_Rover::disarm resets it
-outside AUTO), so after one only helixd's own continue is judged.
+outside AUTO), and so does AUTO entered again after its mission completed, so after either
+only helixd's own continue is judged.
 """
 
 from __future__ import annotations
@@ -71,6 +72,7 @@ class ResumeRule:
     def __init__(self) -> None:
         self.item: int | None = None  # the interrupted item a continue goes on from
         self.by_autopilot = True  # an AUTO continue still finds it (no disarm since)
+        self.autopilot_complete = False  # its mission completed: AUTO starts it again
         self.judge: tuple[int, float, str] | None = None  # item, since, the continue's word
         # the items a continue of the autopilot's AUTO flies without driving: the interrupted
         # one, and those it moves on to from there before it drives (already within their
@@ -81,7 +83,7 @@ class ResumeRule:
         """A flight interrupted (kill, restart, fault while driving, a stop word)."""
         self.judge = None
         if flying and seq >= 1:
-            self.item, self.by_autopilot = seq, True
+            self.item, self.by_autopilot = seq, not self.autopilot_complete
 
     def word(self, name: str, t: float) -> None:
         if name in RESET_WORDS:
@@ -90,6 +92,14 @@ class ResumeRule:
             self.by_autopilot = False
         elif name in CONTINUE_WORDS and self.item is not None and self._finds(name):
             self.judge, self.passed = (self.item, t, name), {self.item}
+        if name in CONTINUE_WORDS or name in RESET_WORDS:
+            self.autopilot_complete = False  # started again (or a new mission)
+
+    def autopilot_done(self) -> None:
+        """The autopilot's mission completed (its "Mission Complete", reached within its own
+        WP_RADIUS while helixd still drove to its arrival): AUTO again starts it from the
+        first item (``start_or_resume``), so an AUTO continue is not judged (seed 15)."""
+        self.by_autopilot, self.autopilot_complete = False, True
 
     def _finds(self, name: str) -> bool:
         """Whether the continue ``name`` must find the interrupted item: helixd's own always

@@ -451,6 +451,16 @@ def test_a_continue_driving_another_item_than_the_interrupted_one_breaks_its_rul
     rule.interrupted(False, 2)  # nothing flying: nothing interrupted
     rule.word("continue_helixd", 20.0)
     assert rule.driven(21.0, 1, True, {}) is None
+    # seed 15: the autopilot's mission completed (item 5 within its WP_RADIUS) as the crew
+    # paused; AUTO again starts it from item 1, as ArduPilot does
+    rule.interrupted(True, 5)
+    rule.autopilot_done()
+    rule.word("continue", 25.0)
+    assert rule.driven(25.5, 1, True, {}) is None
+    rule.autopilot_done()  # completed before the crew's pause: the same
+    rule.interrupted(True, 5)
+    rule.word("continue", 26.0)
+    assert rule.driven(26.5, 1, True, {}) is None
     # seed 104: AUTO again within item 1's radius moves on to item 3 before it drives
     successors = {1: {3}, 3: {4}, 4: set()}
     rule.interrupted(True, 1)
