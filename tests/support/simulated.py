@@ -92,7 +92,8 @@ class Steer:
         self._hear_again: Callable[[], None] = lambda: None
         self._snapshot_changed = asyncio.Event()
         console.changed = asyncio.Event()
-        server.snapshot_listeners.append(lambda _: self._snapshot_changed.set())
+        self._listener: Callable[[SimSnapshot], None] = lambda _: self._snapshot_changed.set()
+        server.snapshot_listeners.append(self._listener)
 
     @staticmethod
     def now_s() -> float:
@@ -172,8 +173,12 @@ class Steer:
         return client
 
     def close(self) -> None:
+        """Its clients closed and its listener gone: the simulator keeps no steering (and
+        through it no daemon) of a start that ended."""
         for client in self.clients:
             client.close()
+        if self._listener in self.server.snapshot_listeners:
+            self.server.snapshot_listeners.remove(self._listener)
 
     @staticmethod
     def signal(sig: signal.Signals) -> None:
@@ -211,6 +216,9 @@ class Steer:
             self._image.restore()
         self.console.muted = False
         self._hear_again()
+        # a killed process is gone: nothing of it kept (a cancelled task's traceback holds
+        # every frame of the service: its link, its flight, its records)
+        self.daemon = self.flight = None
         await asyncio.sleep(max(0.0, self.killed_at + RESTART_S - now_s()))
 
     def inject(self, fault: str, **kwargs: object) -> None:
