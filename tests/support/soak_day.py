@@ -71,7 +71,7 @@ from tests.support.soak_plan import (
     Item,
     Step,
 )
-from tests.support.soak_resume import KillsTold, ResumeRule
+from tests.support.soak_resume import KillsTold, ResumeRule, navs_from
 
 STOP_LIMIT_S = 0.5  # the crew's stop word (and helixd's "completed") → scrolls at trim
 # a disarm shows to helixd only in the autopilot's 1 Hz HEARTBEAT, and ArduPilot passes the
@@ -318,7 +318,9 @@ class Rules:
         if name == "arm" and mode in DRIVING_MODES:
             name = "continue"  # ArduPilot armed in AUTO (GUIDED, RTL) drives: a go word
         if name in STOP_WORDS or name in HANDOVER_WORDS:
-            self.resume.interrupted(self.mission_flying(), self.last_seq)
+            self.resume.interrupted(
+                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq)
+            )
         self.resume.word(name, t)
         if name in STOP_WORDS:
             limit = DISARMED_LIMIT_S if name == "disarm" else STOP_LIMIT_S
@@ -348,7 +350,9 @@ class Rules:
             self.latched.add(kind)
         self.fault_times.append(t)
         if driving:
-            self.resume.interrupted(self.mission_flying(), self.last_seq)
+            self.resume.interrupted(
+                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq)
+            )
         if not driving or (kind, args.get("kind")) in UNSEEN:
             return
         if kind == "kill":  # told by the next start (KillsTold), not by a fall-back
@@ -368,7 +372,9 @@ class Rules:
         cut = bool(self.run_dir) and not (Path(self.run_dir) / "summary.json").exists()
         self.kills.kill(now_s(), len(self.st.console.lines), cut)
         if not driving:
-            self.resume.interrupted(self.mission_flying(), self.last_seq)
+            self.resume.interrupted(
+                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq)
+            )
         self.fault("kill", driving, {})
 
     def mission_flying(self) -> bool:

@@ -23,7 +23,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from pymavlink.dialects.v20 import ardupilotmega as mavlink
+
 from tests.support.kill9 import RESTART_S
+from tests.support.soak_plan import Item
 
 # the restarted service tells the cut flight as it starts: RestartSec, then its start-up
 KILL_TOLD_WITHIN_S = RESTART_S + 10.0
@@ -32,6 +35,22 @@ HELIXD_CONTINUES = frozenset({"continue_helixd", "start_helixd", "switch_high"})
 RESET_WORDS = frozenset({"set_current", "upload", "reupload", "start"})
 # a continue that has not driven in this long was refused or is not a continue: not judged
 DRIVES_WITHIN_S = 15.0
+
+
+def navs_from(items: tuple[Item, ...], seq: int) -> frozenset[int]:
+    """The navigation items a walk starting at item ``seq`` flies first: ``seq`` itself when it
+    is one, else the first after the do items there (a DO_JUMP's target too). The autopilot's
+    current item may be a do item (seed 10's hour: DO_CHANGE_SPEED item 4; helixd's continue
+    runs it again and shows item 5 as it drives there)."""
+    out: set[int] = set()
+    for j in range(max(seq, 0), len(items)):
+        it = items[j]
+        if it.is_nav:
+            out.add(j)
+            break
+        if it.command == mavlink.MAV_CMD_DO_JUMP:
+            out.add(int(it.params[0]))
+    return frozenset(out)
 
 
 @dataclass
@@ -78,12 +97,15 @@ class ResumeRule:
         # one, and those it moves on to from there before it drives (already within their
         # radius: seed 104, AUTO again 0.5 m from item 1 showed item 3 as it drove)
         self.passed: set[int] = set()
+        self.leads_to: frozenset[int] = frozenset()  # navs an interrupted do item leads to
 
-    def interrupted(self, flying: bool, seq: int) -> None:
-        """A flight interrupted (kill, restart, fault while driving, a stop word)."""
+    def interrupted(self, flying: bool, seq: int, leads_to: frozenset[int] = frozenset()) -> None:
+        """A flight interrupted (kill, restart, fault while driving, a stop word) with item
+        ``seq`` current (``leads_to``: :func:`navs_from` it)."""
         self.judge = None
         if flying and seq >= 1:
             self.item, self.by_autopilot = seq, not self.autopilot_complete
+            self.leads_to = leads_to
 
     def word(self, name: str, t: float) -> None:
         if name in RESET_WORDS:
@@ -91,7 +113,7 @@ class ResumeRule:
         elif name == "disarm":
             self.by_autopilot = False
         elif name in CONTINUE_WORDS and self.item is not None and self._finds(name):
-            self.judge, self.passed = (self.item, t, name), {self.item}
+            self.judge, self.passed = (self.item, t, name), {self.item, *self.leads_to}
         if name in CONTINUE_WORDS or name in RESET_WORDS:
             self.autopilot_complete = False  # started again (or a new mission)
 
@@ -128,4 +150,4 @@ class ResumeRule:
         return None
 
 
-__all__ = ["CONTINUE_WORDS", "KILL_TOLD_WITHIN_S", "Kill", "KillsTold", "ResumeRule"]
+__all__ = ["CONTINUE_WORDS", "KILL_TOLD_WITHIN_S", "Kill", "KillsTold", "ResumeRule", "navs_from"]

@@ -30,7 +30,7 @@ from tests.support.soak_day import (
     run_day,
 )
 from tests.support.soak_plan import CREW_ACTIONS, FAULT_KINDS, DayPlan, Item, Step, plan_day
-from tests.support.soak_resume import KILL_TOLD_WITHIN_S, KillsTold, ResumeRule
+from tests.support.soak_resume import KILL_TOLD_WITHIN_S, KillsTold, ResumeRule, navs_from
 from tests.support.tools import load_tool
 
 soak = load_tool("soak")
@@ -512,3 +512,18 @@ def test_a_stall_of_a_rover_creeping_onto_a_waypoint_is_not_judged() -> None:
     snap.speed_mps = 0.5  # moving: judged
     asyncio.run(crew.perform(Step(1, 2.0, "fault", "stall", (("duration_s", 5.8),))))
     assert [kind for kind, _, _ in rules.pending] == ["stall"]
+
+
+def test_an_interrupted_do_item_is_continued_at_the_waypoint_after_it() -> None:
+    # seed 10's hour: the autopilot's current item was DO_CHANGE_SPEED item 4; helixd's
+    # continue ran it again and drove to item 5, showing 5
+    items = (
+        Item(WP), Item(WP, 2.0, 2.0), Item(mavlink.MAV_CMD_DO_CHANGE_SPEED, params=(1.0, 0.3)),
+        Item(WP, 5.0, 5.0), Item(mavlink.MAV_CMD_DO_JUMP, params=(1.0, 1.0)),
+    )  # fmt: skip
+    assert navs_from(items, 2) == {3} and navs_from(items, 3) == {3}
+    assert navs_from(items, 4) == {1}
+    rule = ResumeRule()
+    rule.interrupted(True, 2, navs_from(items, 2))
+    rule.word("start_helixd", 1.0)
+    assert rule.driven(2.0, 3, True, {}) is None
