@@ -270,6 +270,7 @@ class Rules:
         self.completed_at: float | None = None
         self.items: tuple[Item, ...] = ()
         self.successors: dict[int, set[int]] = {}
+        self.flown_successors: dict[int, set[int]] = {}  # the flight's plan, uploaded over
         self.free_until = 0.0  # item changes are the crew's (or a reboot's) until then
         self.last_seq = 0
         # the items helixd set as the autopilot's current (mission_current_set), latest last,
@@ -393,6 +394,9 @@ class Rules:
     def mission(self, items: tuple[Item, ...]) -> None:
         self.uploaded_at = now_s()
         self.items = items
+        # a flight under way flies the plan it started with until it ends (seed 282: its
+        # DO_JUMP from item 9 back to 2 after the crew uploaded another plan)
+        self.flown_successors = self.successors if self.serve_state == "flying" else {}
         self.successors = nav_successors(items)
         self.shown = ()
         self.free_until = now_s() + 3.0
@@ -435,7 +439,7 @@ class Rules:
         # stopped at when it pauses); 1: a start from the beginning
         if t < self.free_until or seq <= 1 or before == 0 or not self.successors:
             return
-        allowed = self.successors.get(before, set())
+        allowed = self.successors.get(before, set()) | self.flown_successors.get(before, set())
         if seq not in allowed and not self._shown_again(s.mode, seq):
             self.fail("item_order", f"current item {before} -> {seq}, expected one of {allowed}")
 
@@ -472,6 +476,7 @@ class Rules:
                 self.crew_moved_shown = False
             elif "event=serve_flight_start " in text:
                 self.flight_request, self.flight_at = logged_value(text, "request"), t
+                self.flown_successors = {}  # a new flight flies the plan there is now
             elif "event=mission_current_set " in text:
                 self.shown = (*self.shown[-1:], int(logged_value(text, "seq")))
             elif "event=helixd_start " in text:

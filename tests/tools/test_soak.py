@@ -527,3 +527,24 @@ def test_an_interrupted_do_item_is_continued_at_the_waypoint_after_it() -> None:
     rule.interrupted(True, 2, navs_from(items, 2))
     rule.word("start_helixd", 1.0)
     assert rule.driven(2.0, 3, True, {}) is None
+
+
+def test_a_flight_goes_on_with_its_own_plans_jumps_after_an_upload() -> None:
+    # seed 282: the crew uploaded another plan while a flight flew; its DO_JUMP took the item
+    # from 9 back to 2 as its own plan says, until it ended
+    rules = referee()
+    jump = Item(mavlink.MAV_CMD_DO_JUMP, params=(2.0, 2.0))
+    rules.mission((Item(WP), Item(WP, 5, 0), Item(WP, 5, 5), Item(WP, 0, 5), Item(WP, 1, 5), jump))
+    rules.serve_state = "flying"
+    new = (Item(WP), Item(WP, 1, 1), Item(WP, 2, 2), Item(WP, 3, 3))
+    rules.mission(new)  # uploaded during the flight
+    rules.free_until = 0.0
+    later = now_s() + 10.0
+    for seq in (2, 3, 4, 2):  # 4 → 2: the old plan's jump
+        rules._items(later, SimpleNamespace(mission_current_seq=seq, mode="MANUAL"))  # type: ignore[arg-type]
+    assert rules.broken is None, rules.broken
+    rules.st.console.lines.append("level=info event=serve_flight_start request=start")
+    rules._lines(later)  # a new flight: the new plan's order only
+    for seq in (3, 2):  # 3 → 2: back, with nobody setting it
+        rules._items(later, SimpleNamespace(mission_current_seq=seq, mode="MANUAL"))  # type: ignore[arg-type]
+    assert rules.broken is not None and rules.broken.rule == "item_order"
