@@ -320,7 +320,7 @@ class Rules:
             name = "continue"  # ArduPilot armed in AUTO (GUIDED, RTL) drives: a go word
         if name in STOP_WORDS or name in HANDOVER_WORDS:
             self.resume.interrupted(
-                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq)
+                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq), t
             )
         self.resume.word(name, t)
         if name in STOP_WORDS:
@@ -352,7 +352,7 @@ class Rules:
         self.fault_times.append(t)
         if driving:
             self.resume.interrupted(
-                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq)
+                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq), t
             )
         if not driving or (kind, args.get("kind")) in UNSEEN:
             return
@@ -374,7 +374,7 @@ class Rules:
         self.kills.kill(now_s(), len(self.st.console.lines), cut)
         if not driving:
             self.resume.interrupted(
-                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq)
+                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq), now_s()
             )
         self.fault("kill", driving, {})
 

@@ -35,6 +35,10 @@ HELIXD_CONTINUES = frozenset({"continue_helixd", "start_helixd", "switch_high"})
 RESET_WORDS = frozenset({"set_current", "upload", "reupload", "start"})
 # a continue that has not driven in this long was refused or is not a continue: not judged
 DRIVES_WITHIN_S = 15.0
+# an interrupted flight stops within its stop's limit (at most the disarm's 1.5 s): a
+# waypoint reached meanwhile (the rover's last centimetres before the HOLD is seen, seed 312)
+# moves the item it is interrupted at, as helixd's display shows
+SETTLES_WITHIN_S = 1.5
 
 
 def navs_from(items: tuple[Item, ...], seq: int) -> frozenset[int]:
@@ -98,14 +102,17 @@ class ResumeRule:
         # radius: seed 104, AUTO again 0.5 m from item 1 showed item 3 as it drove)
         self.passed: set[int] = set()
         self.leads_to: frozenset[int] = frozenset()  # navs an interrupted do item leads to
+        self.settles_until = 0.0  # the interrupted flight may still move its item until then
 
-    def interrupted(self, flying: bool, seq: int, leads_to: frozenset[int] = frozenset()) -> None:
+    def interrupted(
+        self, flying: bool, seq: int, leads_to: frozenset[int] = frozenset(), t: float = 0.0
+    ) -> None:
         """A flight interrupted (kill, restart, fault while driving, a stop word) with item
         ``seq`` current (``leads_to``: :func:`navs_from` it)."""
         self.judge = None
         if flying and seq >= 1:
             self.item, self.by_autopilot = seq, not self.autopilot_complete
-            self.leads_to = leads_to
+            self.leads_to, self.settles_until = leads_to, t + SETTLES_WITHIN_S
 
     def word(self, name: str, t: float) -> None:
         if name in RESET_WORDS:
@@ -134,6 +141,9 @@ class ResumeRule:
         """Each snapshot: the continue's first driven one breaks the rule on another item
         (``successors``: the mission's, :func:`tests.support.soak_day.nav_successors`)."""
         if self.judge is None:
+            moved = self.item is not None and seq >= 1 and seq != self.item
+            if moved and t <= self.settles_until:
+                self.item, self.leads_to = seq, frozenset()
             return None
         item, since, name = self.judge
         if t - since > DRIVES_WITHIN_S:

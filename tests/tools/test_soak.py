@@ -548,3 +548,14 @@ def test_a_flight_goes_on_with_its_own_plans_jumps_after_an_upload() -> None:
     for seq in (3, 2):  # 3 → 2: back, with nobody setting it
         rules._items(later, SimpleNamespace(mission_current_seq=seq, mode="MANUAL"))  # type: ignore[arg-type]
     assert rules.broken is not None and rules.broken.rule == "item_order"
+
+
+def test_a_waypoint_reached_as_the_flight_stops_moves_the_interrupted_item() -> None:
+    # seed 312: the crew's HOLD, waypoint 1 reached 0.02 s later before helixd saw the mode;
+    # helixd showed item 2 and its continue went on from there: right
+    rule = ResumeRule()
+    rule.interrupted(True, 1, frozenset(), 100.0)
+    assert rule.driven(100.3, 2, False, {}) is None  # helixd shows item 2 as it stops
+    assert rule.driven(103.0, 1, False, {}) is None  # later moves are not the flight's
+    rule.word("start_helixd", 110.0)
+    assert rule.driven(111.0, 2, True, {}) is None
