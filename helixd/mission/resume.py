@@ -300,6 +300,20 @@ def last_step_started(events: list[dict[str, Any]]) -> int:
     return step
 
 
+def autopilot_step_held(events: list[dict[str, Any]]) -> int:
+    """The step (1-based) the autopilot's own current item was on when a flight the autopilot's
+    AUTO drove ended, followed along the walk (its ``autopilot_step`` and ``autopilot_item_set``
+    events; 0: none recorded, as in a flight helixd drove in MANUAL)."""
+    step = 0
+    for ev in events:
+        name = ev.get("event") if isinstance(ev, dict) else None
+        if name == "autopilot_step":
+            step = event_whole(ev.get("step"), step)
+        elif name == "autopilot_item_set":
+            step = event_whole(ev.get("autopilot_step"), step)
+    return step
+
+
 def with_walk(inputs: RunInputs, options: ExpandOptions) -> RunInputs:
     """``inputs`` with the walk ``options`` start (none when it starts at item 1 with nothing
     carried), so a continue of the flight can walk on from where it stopped."""
@@ -358,6 +372,7 @@ __all__ = [
     "ResumedFrom",
     "RunInputs",
     "WalkStart",
+    "autopilot_step_held",
     "check_inputs",
     "continued_inputs",
     "event_whole",

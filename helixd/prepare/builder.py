@@ -38,6 +38,7 @@ from helixd.mission.resolve import PlanError
 from helixd.mission.resume import (
     WAYPOINT_REACHED_EVENT,
     ResumeRefused,
+    autopilot_step_held,
     check_inputs,
     continued_inputs,
     last_step_started,
@@ -309,7 +310,8 @@ def continue_commands(flight: Flight, run_dir: Path, cfg: HelixdConfig) -> Fligh
     that run flew (same mission.yaml) with the same config.
 
     What a field engineer gets: the flight goes on with the navigation step it stopped at
-    (the last ``step_started`` in its events.jsonl), at its place in ArduPilot's walk through
+    (the last ``step_started`` in its events.jsonl; a flight the autopilot's AUTO drove: the
+    step its own current item was on, ``autopilot_step``), at its place in ArduPilot's walk through
     the mission, with the jump counters held there (a DO_JUMP half done is not run from zero;
     :func:`helixd.mission.walk.restart_at_step` on the interrupted flight's own walk, from
     its recorded :class:`helixd.mission.resume.WalkStart`). That step is flown again whole:
@@ -341,7 +343,10 @@ def continue_commands(flight: Flight, run_dir: Path, cfg: HelixdConfig) -> Fligh
     if contents.completed:
         raise InputsRefused([f"{said}: the run completed already: nothing to continue"])
     flown = walked_options(flight.options, recorded.walk)
-    step = last_step_started(contents.events)
+    # a flight the autopilot's AUTO drove: where its own item was (the crew's set current to
+    # the next item, or its arrival ahead of helixd's), as a re-entry of AUTO goes on
+    # (serve/flights.py held_walk); a flight helixd drove: its own last step
+    step = autopilot_step_held(contents.events) or last_step_started(contents.events)
     options = flown
     if step >= 1:
         at = restart_at_step(flight.mission.waypoints, flown, step)

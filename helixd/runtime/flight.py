@@ -412,6 +412,9 @@ class FlightLoop:
             previous, crew.item = crew.item, seq
             return item_set_by_crew(previous, seq)
         at = crew.step
+        if at is not None and seq == crew.item:
+            return False  # not moved since its last report (a do item it started at, too)
+        crew.item = seq
         step = autopilot_step(crew.walk_items, at, seq)
         if step is None:
             log.info("autopilot_item_set", item=seq, autopilot_step=(at or 0) + 1)

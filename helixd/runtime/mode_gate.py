@@ -224,10 +224,17 @@ def autopilot_step(walk_items: Sequence[int], at: int | None, seq: int) -> int |
     from step ``at`` (None: none seen yet, the flight's first). ArduPilot's own progress keeps
     it on ``at`` or moves it up to :data:`AUTOPILOT_STEPS_AHEAD` steps on, back through a
     DO_JUMP as the walk does. None: the item moved as only a crew's *set current waypoint*
-    moves it. Item 0 (none current) leaves it where it was (returned as ``at``, or step 0)."""
+    moves it. Item 0 (none current) leaves it where it was (returned as ``at``, or step 0).
+    The flight's first report of a do item before its first step's item is that step: a
+    flight of AUTO started at the autopilot's current do item (the simulator's item 4, a
+    DO_CHANGE_SPEED of a mission uploaded since its AUTO last ran) flies it with that step, and
+    is not ended at once as set by the crew, the next started there again and again (a soak
+    day of seed 10: 580 flights in a row)."""
     start = 0 if at is None else at
     if seq <= 0:
         return start
+    if at is None and walk_items and seq < walk_items[0]:
+        return 0
     end = min(start + AUTOPILOT_STEPS_AHEAD + 1, len(walk_items))
     return next((i for i in range(start, end) if walk_items[i] == seq), None)
 

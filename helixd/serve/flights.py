@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import asyncio
 import json
-from collections.abc import Awaitable
+from collections.abc import Awaitable, Callable
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from functools import partial
@@ -18,7 +18,7 @@ import structlog
 
 from helixd.base.clock import now_s
 from helixd.base.plan import Numbering
-from helixd.base.run_files import EVENTS_FILE
+from helixd.base.run_files import EVENTS_FILE, SUMMARY_FILE
 from helixd.config.root import HelixdConfig
 from helixd.link.connection import Autopilot
 from helixd.link.services.command_client import CommandError
@@ -31,7 +31,7 @@ from helixd.mav.constants import (
 )
 from helixd.mav.url import LinkError
 from helixd.mission.expand import ExpandOptions
-from helixd.mission.resume import event_whole, last_step_started, with_walk
+from helixd.mission.resume import autopilot_step_held, last_step_started, with_walk
 from helixd.prepare.builder import (
     AutopilotPlace,
     AutoWalk,
@@ -42,11 +42,13 @@ from helixd.prepare.builder import (
 )
 from helixd.prepare.inputs import InputsRefused
 from helixd.prepare.planned import Flight
+from helixd.recorder.closing import close_killed_run, cut_run
 from helixd.recorder.events import read_events
 from helixd.recorder.summary import RunSummary
 from helixd.runtime.daemon import MissionRunner, RunOptions, RunOutcome
-from helixd.runtime.host import ServeHost
+from helixd.runtime.host import OnLink, ServeHost
 from helixd.runtime.mode_gate import AUTO_MODE, DRIVE_MANUAL, Driving, PlaceRule, crew_mode_of
+from helixd.runtime.setup import Held
 from helixd.runtime.signals import StopRequest
 from helixd.safety.supervisor import HOLD_MODE
 from helixd.safety.watchdogs import HANDED_CAUSES, NEXT_FLIGHT_CAUSES, FaultCause
@@ -109,6 +111,22 @@ def after_flight(watch: AutoWatch, cause: FaultCause | None, hold_acked_s: float
         watch.flight_ended(left_auto=False)
 
 
+@dataclass
+class RecordedHost(ServeHost):
+    """The service's host for one flight, told the flight's run directory as the flight opens
+    it, before anything is driven (``on_run_dir``: the state file's record of the flight
+    under way, :meth:`Flights._under_way`)."""
+
+    on_run_dir: Callable[[Path | None], None] | None = None
+
+    async def open(
+        self, cfg: HelixdConfig, held: Held, on_link: OnLink, run_dir: Path | None
+    ) -> Autopilot:
+        if self.on_run_dir is not None:
+            self.on_run_dir(run_dir)
+        return await super().open(cfg, held, on_link, run_dir)
+
+
 # modes an armed autopilot drives in by itself: a refused start leaves it there in HOLD
 SELF_DRIVING_MODES = (AUTO_MODE, "GUIDED")
 
@@ -142,6 +160,10 @@ class Flights:
         self._current_item: int | None = None  # the item last set as the autopilot's current
         self._side_tasks: set[asyncio.Task[None]] = set()
         self.interrupted = read_state_file(opts.state_file)
+        # a flight the last start of the service never ended (killed): its run directory
+        # closed now, the crew told once (:meth:`take_cut_text`) that a start continues it
+        self.cut_text: str | None = None
+        self._close_killed(opts.state_file)
         self.auto_walk: WalkLetGo | None = None
         # the last flight ended on the crew's new current item: the next AUTO flight drives
         # there from where the rover is, not along the skipped leg
@@ -161,6 +183,49 @@ class Flights:
 
     def holding(self) -> bool:
         return self.runner is not None and self.runner.holding_forever()
+
+    # -- a flight cut by a kill ---------------------------------------------------------------
+
+    def _close_killed(self, state_file: Path) -> None:
+        """The run directory the state file names as under way, without a summary (its
+        writer was killed: no fall-back, no summary, no record of its end), closed from what
+        it recorded; the flight it was is interrupted (the record's own run: a continue goes
+        on from its first waypoint not reached, as after a SIGTERM)."""
+        open_run = read_open_run(state_file)
+        if open_run is None:
+            return
+        if not cut_run(open_run):  # killed after its summary, before the record of its end
+            if self.interrupted is not None and completed_run(open_run):
+                self.interrupted = None
+            return
+        summary = close_killed_run(open_run)
+        cut = self.interrupted is not None and self.interrupted.run_dir == open_run
+        log.warning(
+            "serve_flight_cut",
+            run_dir=str(open_run),
+            closed=summary is not None,
+            waypoints_reached=None if summary is None else summary.waypoints_reached,
+            rows=None if summary is None else summary.rows,
+            continues=cut,
+        )
+        then = "a start continues it" if cut else "the rover was left as it was"
+        self.cut_text = f"helixd restarted: the last flight was cut; {then}"
+        write_state_file(state_file, self.interrupted, ServeState.FAULTED)
+
+    def take_cut_text(self) -> str | None:
+        """What the crew is told, once, of a flight cut by the service's kill."""
+        text, self.cut_text = self.cut_text, None
+        return text
+
+    def _under_way(self, fingerprint: str | None, run_dir: Path | None) -> None:
+        """A flight opened ``run_dir``: the state file says so before anything is driven,
+        so a kill from now on leaves the truth on disk: the run to close at the next start,
+        and, a flight of the checked mission (``fingerprint``), the one a continue goes on
+        from (a flight to a place: the interrupted run stays the one before)."""
+        if run_dir is None:
+            return
+        cut = self.interrupted if fingerprint is None else Interrupted(fingerprint, run_dir)
+        write_state_file(self.opts.state_file, cut, ServeState.FLYING, open_run=run_dir)
 
     # -- the mission's verdict ----------------------------------------------------------------
 
@@ -304,12 +369,13 @@ class Flights:
         where = f"{place.lat_deg:.5f} {place.lon_deg:.5f}"  # 1 m: one line on the pane
         log.info("serve_flight_start", request=Request.GOTO.value, mode=mode, flight=self.count + 1)
         opts = run_options(prepared.flight, prepared.cfg, self.opts.run_root, self.cfg)
-        host = ServeHost(
+        host = RecordedHost(
             ap,
             stop,
             driving=Driving(mode, place, place_rule(prepared.cfg)),
             on_pause=self._held,
             disarm_when_complete=self.cfg.serve.disarm_when_complete,
+            on_run_dir=partial(self._under_way, None),
         )
         runner, outcome = await self._run_flight(opts, host, f"{mode} to {where}")
         cause = outcome.cause
@@ -319,9 +385,11 @@ class Flights:
         log.info("serve_flight_end", request=Request.GOTO.value, exit_code=int(outcome.exit_code))
         if handed or crew_paused(cause, stop.paused):
             self.status.set(*before, quiet=handed)  # the mission's verdict stands
-            return
-        text = flight_end_text(summary, runner.numbering(), outcome.messages)
-        self.status.set(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
+        else:
+            text = flight_end_text(summary, runner.numbering(), outcome.messages)
+            self.status.set(ServeState.FAULTED, text, MAV_SEVERITY_ERROR)
+        # ended: no run open (the interrupted mission's run, if any, stays the one to continue)
+        write_state_file(self.opts.state_file, self.interrupted, self.status.state)
 
     async def _fly(self, ap: Autopilot, request: Request, who: str, item: int = 0) -> None:
         before = self.mission.fingerprint
@@ -356,13 +424,14 @@ class Flights:
         auto = request is Request.AUTO  # the autopilot runs its own item progress in AUTO
         # else the GCS highlights the item helixd flies as the autopilot's current
         shows_item = self.opts.mission_file is None and not auto
-        host = ServeHost(
+        host = RecordedHost(
             ap,
             stop,
             set_item=partial(self._set_current_item, ap) if shows_item else None,
             on_pause=self._held,
             driving=Driving(AUTO_MODE, places=place_rule(cfg)) if auto else DRIVE_MANUAL,
             disarm_when_complete=self.cfg.serve.disarm_when_complete,
+            on_run_dir=partial(self._under_way, fingerprint),
         )
         what = f"the new {checked.name}" if changed else f"{request.value} by {who}"
         runner, outcome = await self._run_flight(opts, host, what)
@@ -464,13 +533,7 @@ def held_walk(walk: WalkLetGo | None, fingerprint: str) -> AutoWalk | None:
         return None
     options, run_dir = walk.options, walk.run_dir
     events = read_events(run_dir / EVENTS_FILE)
-    step, autopilot = last_step_started(events), 0
-    for ev in events:
-        name = ev.get("event")
-        if name == "autopilot_step":
-            autopilot = event_whole(ev.get("step"), autopilot)
-        elif name == "autopilot_item_set":
-            autopilot = event_whole(ev.get("autopilot_step"), autopilot)
+    step, autopilot = last_step_started(events), autopilot_step_held(events)
     exact = autopilot > 0
     log.info(
         "auto_walk_held",
@@ -548,11 +611,39 @@ def read_state_file(path: Path) -> Interrupted | None:
     return Interrupted(fingerprint, Path(run_dir))
 
 
-def write_state_file(path: Path, interrupted: Interrupted | None, state: ServeState) -> None:
+def read_open_run(path: Path) -> Path | None:
+    """The run directory the state file names as under way (``open_run_dir``): a flight was
+    flying when the record was written, and a record still saying so at a start means the
+    service was killed before the flight ended. None: none, or unreadable."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    run_dir = data.get("open_run_dir") if isinstance(data, dict) else None
+    return Path(run_dir) if isinstance(run_dir, str) and run_dir else None
+
+
+def completed_run(run_dir: Path) -> bool:
+    """``run_dir``'s summary says it completed (unreadable: not)."""
+    try:
+        data = json.loads((run_dir / SUMMARY_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(data, dict) and data.get("completed") is True
+
+
+def write_state_file(
+    path: Path, interrupted: Interrupted | None, state: ServeState, open_run: Path | None = None
+) -> None:
+    """The record (atomically replaced): the run a continue goes on from (``mission_sha256``,
+    ``run_dir``), and ``open_run_dir``, the run of the flight under way (written as it starts,
+    before anything is driven, cleared when it ends: still there at a start, the service was
+    killed mid-flight and that run is closed then)."""
     record = {
         "state": state.name.lower(),
         "mission_sha256": None if interrupted is None else interrupted.fingerprint,
         "run_dir": None if interrupted is None else str(interrupted.run_dir.resolve()),
+        "open_run_dir": None if open_run is None else str(open_run.resolve()),
         "updated_utc": datetime.now(UTC).isoformat(timespec="seconds"),
     }
     tmp = path.with_suffix(".tmp")
@@ -567,11 +658,14 @@ def write_state_file(path: Path, interrupted: Interrupted | None, state: ServeSt
 __all__ = [
     "Flights",
     "Interrupted",
+    "RecordedHost",
     "ToFly",
     "WalkLetGo",
     "after_flight",
+    "completed_run",
     "flight_end_text",
     "held_walk",
+    "read_open_run",
     "read_state_file",
     "run_options",
     "write_state_file",

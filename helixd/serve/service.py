@@ -167,6 +167,9 @@ class Service:
         ap.add_command_listener(self._on_command)
         ap.add_message_listener(self.mission.on_message)
         self.gcs.start(ap.send_message)
+        cut = self.flights.take_cut_text()  # the flight the service's kill cut: told once
+        if cut is not None:
+            self.gcs.say(cut, MAV_SEVERITY_WARNING)
         return ap
 
     async def _close(self, ap: Autopilot) -> None:

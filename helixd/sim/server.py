@@ -135,6 +135,7 @@ class _Link(asyncio.DatagramProtocol, asyncio.Protocol):
         self.local_port = 0
         self.errors = 0
         self.last_error_log_s = -ERROR_LOG_INTERVAL_S
+        self.deaf = False  # its peer's process is gone (cut_peer): nothing heard from it
 
     # datagram side
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
@@ -145,6 +146,8 @@ class _Link(asyncio.DatagramProtocol, asyncio.Protocol):
             self.udp = cast(asyncio.DatagramTransport, transport)
 
     def datagram_received(self, data: bytes, addr: tuple[str, int]) -> None:
+        if self.deaf:
+            return
         if self.spec.kind == "udpin" and addr != self.peer:
             self.peer = addr
             emit = log.debug if self.embedded else log.info
@@ -549,6 +552,21 @@ class SimServer:
 
         loop.call_soon_threadsafe(run)
         return future.result(timeout=CALL_TIMEOUT_S)
+
+    def cut_peer(self, index: int = 0) -> Callable[[], None]:
+        """The process behind link ``index`` is gone (a test's kill -9 of helixd in this
+        process): nothing arriving on the link is heard (whatever socket the dead process's
+        cleanup still sends from), nothing is sent until a new peer speaks. Returns what
+        opens the link again, for the next process."""
+        link = self._links[index] if index < len(self._links) else None
+        if link is None:
+            return lambda: None
+        link.deaf, link.peer = True, None
+
+        def hear_again() -> None:
+            link.deaf = False
+
+        return hear_again
 
     def snapshot(self) -> SimSnapshot:
         with self._cond:

@@ -196,3 +196,40 @@ def test_an_item_set_while_the_pilot_drives_keeps_the_counters_too(tmp_path: Pat
     summaries = mission_flights(flight_summaries(tmp_path))
     assert [s["completed"] for s in summaries] == [False, True], summaries
     assert [a["number"] for a in summaries[1]["arrivals"]] == [1, 3, 4]
+
+
+def test_auto_from_a_do_item_left_current_by_a_new_plan_is_one_flight_not_a_loop(
+    tmp_path: Path,
+) -> None:
+    """The autopilot's current item 2 (a waypoint of the first plan) stays current when a
+    plan with a DO_CHANGE_SPEED at item 2 is uploaded; AUTO again flies from it: one flight
+    that runs item 2 with item 3's step, not flights ended at once as the crew's set current
+    and started there again (soak seed 10's hour: 580 in a row)."""
+    first = [waypoint(0, 0.0, 0.0), waypoint(1, 4.0, 0.0), waypoint(2, 4.0, -8.0)]
+    second = [
+        waypoint(0, 0.0, 0.0),
+        waypoint(1, 4.0, 0.0),
+        do_item(2, mavlink.MAV_CMD_DO_CHANGE_SPEED, 1.0, SPEED_MPS, -1.0),
+        waypoint(3, 10.0, -8.0),
+    ]
+
+    async def crew(st: Steer, gcs: LoopMav) -> int:
+        await upload_and_start(st, gcs, lambda: upload_items(gcs, first))
+        await autopilot_item(gcs, 2)
+        await let_go_in_manual(st, gcs)  # the flight ends, the autopilot armed in MANUAL
+        mark = st.mark()
+        await upload_items(gcs, second)
+        await st.line("event=serve_mission_checked waypoints=3", 30.0, after=mark)
+        go = st.mark()
+        await set_mode(gcs, "AUTO")
+        await st.line("event=auto_start item=2", 10.0, after=go)
+        await st.until(driving, 10.0)
+        await st.line("event=serve_state state=completed", 120.0, after=go)
+        return go
+
+    served = simulated_crew(tmp_path, CONFIG, crew)
+    assert served.code == 0, served.log[-3000:]
+    (go,) = served.steered
+    after = "\n".join(served.log.splitlines()[go:])
+    assert "set: flying there" not in after, after[-3000:]
+    assert after.count("event=serve_flight_start") == 1, after[-3000:]

@@ -231,6 +231,21 @@ def test_a_flight_that_itself_started_later_continues_its_own_walk(tmp_path: Pat
     assert continue_commands(flight, run, CFG).options == ExpandOptions(first_item=3)
 
 
+def test_a_flight_the_autopilot_drove_continues_from_the_autopilots_own_step(
+    tmp_path: Path,
+) -> None:
+    """A flight of the autopilot's AUTO interrupted while helixd still flew step 1 (item 1)
+    and the autopilot's current item was on step 2 (item 3: the crew's set current to the next
+    item, or its own arrival ahead): the continue goes on from the autopilot's step, as AUTO
+    again would (soak seed 23: the continue flew item 1 again after a kill)."""
+    flight = commands_flight()
+    run = interrupted(tmp_path, flight, 1, ExpandOptions())  # walk 1 3 4 1 3 4
+    with (run / "events.jsonl").open("a", encoding="utf-8") as fh:
+        fh.write(json.dumps({"event": "autopilot_step", "item": 3, "step": 2}) + "\n")
+    again = continue_commands(flight, run, CFG)
+    assert items_of(again)[:2] == [3, 4], items_of(again)
+
+
 def test_a_continue_of_another_mission_or_a_completed_run_is_refused(tmp_path: Path) -> None:
     flight = commands_flight()
     run = interrupted(tmp_path, flight, 2, ExpandOptions(), completed=True)

@@ -179,6 +179,15 @@ def test_a_move_the_walk_does_not_make_is_the_crews() -> None:
     assert autopilot_step(WALK, None, 3) == 1
 
 
+def test_a_do_item_before_the_first_step_at_the_flights_start_is_that_step() -> None:
+    # soak seed 10's hour: AUTO from item 4 (a DO_CHANGE_SPEED before waypoint 5) ended each
+    # flight at once as the crew's set current, and the next started there again: 580 flights
+    walk = (5, 7)
+    assert autopilot_step(walk, None, 4) == 0
+    assert autopilot_step(walk, 0, 4) is None  # later, a move the walk does not make
+    assert autopilot_step(walk, None, 9) is None
+
+
 def test_no_current_item_leaves_the_autopilot_where_it_was() -> None:
     assert autopilot_step(WALK, 3, 0) == 3
     assert autopilot_step(WALK, None, 0) == 0

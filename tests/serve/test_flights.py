@@ -32,6 +32,7 @@ from helixd.serve.flights import (
     after_flight,
     flight_end_text,
     held_walk,
+    read_open_run,
     read_state_file,
     write_state_file,
 )
@@ -263,3 +264,64 @@ def test_the_state_file_keeps_the_interrupted_run(tmp_path: Path) -> None:
     assert read_state_file(path) is None
     write_state_file(path, Interrupted("fp", tmp_path / "gone"), ServeState.PAUSED)
     assert read_state_file(path) is None  # its run directory is gone: nothing to continue
+
+
+def test_a_flight_under_way_is_in_the_state_file_and_a_start_closes_it_if_killed(
+    tmp_path: Path,
+) -> None:
+    """The record names the flight's run as it opens it (open_run_dir); a service started
+    with that run still without a summary (killed) closes it, says so once, and a start
+    continues it; the record then names no open run."""
+    runs = tmp_path / "runs"
+    run_dir = runs / "run-1"
+    run_dir.mkdir(parents=True)
+    (run_dir / EVENTS_FILE).write_text('{"event": "run_started", "mission": "m"}\n')
+    opts = ServeOptions(HelixdConfig(), None, runs)
+    write_state_file(opts.state_file, Interrupted("fp", run_dir), ServeState.FLYING, run_dir)
+    record = json.loads(opts.state_file.read_text(encoding="utf-8"))
+    assert record["state"] == "flying" and record["open_run_dir"] == str(run_dir.resolve())
+    assert read_open_run(opts.state_file) == run_dir.resolve()
+    told = _Told()
+    flights = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    assert flights.interrupted == Interrupted("fp", run_dir.resolve())
+    summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+    assert summary["fault"].startswith("killed:") and summary["completed"] is False
+    assert (
+        flights.take_cut_text() == "helixd restarted: the last flight was cut; a start continues it"
+    )
+    assert flights.take_cut_text() is None  # told once
+    assert read_open_run(opts.state_file) is None
+    assert read_state_file(opts.state_file) == Interrupted("fp", run_dir.resolve())
+    again = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    assert again.take_cut_text() is None  # closed already: nothing to tell a second start
+
+
+def test_a_flight_killed_after_its_summary_said_completed_is_not_continued(
+    tmp_path: Path,
+) -> None:
+    runs = tmp_path / "runs"
+    run_dir = runs / "run-1"
+    run_dir.mkdir(parents=True)
+    (run_dir / "summary.json").write_text('{"completed": true}')
+    opts = ServeOptions(HelixdConfig(), None, runs)
+    write_state_file(opts.state_file, Interrupted("fp", run_dir), ServeState.FLYING, run_dir)
+    told = _Told()
+    flights = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    assert flights.interrupted is None and flights.take_cut_text() is None
+
+
+def test_a_goto_flight_killed_is_closed_and_the_interrupted_run_stays(tmp_path: Path) -> None:
+    runs = tmp_path / "runs"
+    paused, goto = runs / "run-1", runs / "run-2-RTL"
+    for d in (paused, goto):
+        d.mkdir(parents=True)
+    (paused / "summary.json").write_text('{"completed": false}')
+    opts = ServeOptions(HelixdConfig(), None, runs)
+    write_state_file(opts.state_file, Interrupted("fp", paused), ServeState.FLYING, goto)
+    told = _Told()
+    flights = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    assert flights.interrupted == Interrupted("fp", paused.resolve())
+    assert (goto / "summary.json").is_file()
+    assert flights.take_cut_text() == (
+        "helixd restarted: the last flight was cut; the rover was left as it was"
+    )

@@ -37,9 +37,11 @@ from helixd.sim.server import EMBEDDED_LINK, SimServer, embedded_url
 from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import deep_merge
 from tests.support.harness import BASE_CONFIG, MISSIONS, Trace, sim_config
+from tests.support.kill9 import KILLED_CODE, RESTART_S, DiskImage
 from tests.support.loop_mav import LoopMav
 from tests.support.serve import CONFIG as SERVE_CONFIG
 
+REAP_S = 30.0  # simulated seconds a killed daemon's cancelled cleanup may take
 FLIGHT_LIMIT_S = 1800.0  # simulated seconds: a flight still running then has hung
 STEER_AFTER_S = 60.0  # simulated seconds the steering may go on after the flight ended
 # the autopilot lives on after helixd exits: what the test reads of it is this much later
@@ -58,8 +60,11 @@ class Console(io.TextIOBase):
         self.lines: list[str] = []
         self._partial = ""
         self.changed: asyncio.Event | None = None
+        self.muted = False  # a killed process's lines: never written
 
     def write(self, text: str) -> int:
+        if self.muted:
+            return len(text)
         parts = (self._partial + text).split("\n")
         self._partial = parts.pop()
         if parts:
@@ -79,10 +84,16 @@ class Steer:
         self.server = server
         self.console = console
         self.flight: asyncio.Future[Any] | None = None  # the daemon's run, once started
+        self.daemon: asyncio.Future[Any] | None = None  # the daemon's own task in it
         self.clients: list[LoopMav] = []
+        self.disk: Path | None = None  # what a kill takes back (the service's run root)
+        self.killed_at: float | None = None  # when :meth:`kill` killed the daemon
+        self._image: DiskImage | None = None
+        self._hear_again: Callable[[], None] = lambda: None
         self._snapshot_changed = asyncio.Event()
         console.changed = asyncio.Event()
-        server.snapshot_listeners.append(lambda _: self._snapshot_changed.set())
+        self._listener: Callable[[SimSnapshot], None] = lambda _: self._snapshot_changed.set()
+        server.snapshot_listeners.append(self._listener)
 
     @staticmethod
     def now_s() -> float:
@@ -162,14 +173,53 @@ class Steer:
         return client
 
     def close(self) -> None:
+        """Its clients closed and its listener gone: the simulator keeps no steering (and
+        through it no daemon) of a start that ended."""
         for client in self.clients:
             client.close()
+        if self._listener in self.server.snapshot_listeners:
+            self.server.snapshot_listeners.remove(self._listener)
 
     @staticmethod
     def signal(sig: signal.Signals) -> None:
         """Send this process ``sig``: the daemon's handler on the loop takes it, as a
         ``kill -INT`` of the helixd process would be."""
         os.kill(os.getpid(), sig)
+
+    def kill(self) -> None:
+        """kill -9 of the daemon (:mod:`tests.support.kill9`): from now on nothing it does
+        reaches the simulator, the console or (once its cancelled cleanup ended) the disk;
+        the next start follows after systemd's RestartSec. The steering should return."""
+        self.killed_at = now_s()
+        self._image = None if self.disk is None else DiskImage.take(self.disk)
+        self._hear_again = self.server.cut_peer(0)
+        self.console.muted = True
+        if self.daemon is not None:
+            self.daemon.cancel()
+
+    async def reap(self) -> None:
+        """After :meth:`kill`: the cancelled daemon ended (cancelled again while its
+        cleanup awaits: a killed process has none), its events file let go and the disk put
+        back as it was at the kill; then RestartSec."""
+        assert self.daemon is not None and self.flight is not None
+        assert self.killed_at is not None
+        # its cleanup (the fall-back, the files closed) runs, deaf and mute: let it end, as
+        # its sockets and files must be closed (the kernel's part of a kill); one that hangs
+        # is cancelled again
+        await asyncio.wait({self.daemon}, timeout=REAP_S)
+        while not self.daemon.done():
+            self.daemon.cancel()
+            await asyncio.wait({self.daemon}, timeout=0.05)
+        await asyncio.gather(self.flight, return_exceptions=True)
+        logging_setup.detach_events_file()
+        if self._image is not None:
+            self._image.restore()
+        self.console.muted = False
+        self._hear_again()
+        # a killed process is gone: nothing of it kept (a cancelled task's traceback holds
+        # every frame of the service: its link, its flight, its records)
+        self.daemon = self.flight = None
+        await asyncio.sleep(max(0.0, self.killed_at + RESTART_S - now_s()))
 
     def inject(self, fault: str, **kwargs: object) -> None:
         self.server.inject(fault, **kwargs)
@@ -215,13 +265,18 @@ async def _fly_and_steer(
 ) -> tuple[RunOutcome, Any]:
     """The flight to its end (within ``limit_s`` simulated) and the steering beside it; a
     failed steering ends the flight (cancelled: the daemon's own shutdown runs) and is raised."""
-    flying = asyncio.ensure_future(asyncio.wait_for(flight, limit_s))
+    steer.daemon = asyncio.ensure_future(flight)
+    flying = asyncio.ensure_future(asyncio.wait_for(steer.daemon, limit_s))
     steer.flight = flying
     if during is None:
         return await flying, None
     steer_task = asyncio.ensure_future(during(steer))
     try:
         await asyncio.wait({flying, steer_task}, return_when=asyncio.FIRST_COMPLETED)
+        if steer.killed_at is not None:  # the steering killed the daemon (kill -9)
+            steered = await asyncio.wait_for(steer_task, STEER_AFTER_S)
+            await steer.reap()
+            return cast(RunOutcome, KILLED_CODE), steered
         if steer_task.done() and steer_task.exception() is not None:
             flying.cancel()
             await asyncio.gather(flying, return_exceptions=True)
@@ -241,11 +296,12 @@ def _on_simulated_clock(
     trace: bool = True,
     console: Console | None = None,
     limit_s: float = FLIGHT_LIMIT_S,
+    disk: Path | None = None,
 ) -> tuple[list[tuple[Any, Any]], Console, list[tuple[float, SimSnapshot]]]:
     """Each of ``runs`` — ``daemon(url)`` steered by its steering — beside ``server`` on one
     simulated clock, one after the other, the simulator running on (a restarted service, a
     resumed run): ([(what the daemon returned, what its steering returned)], the console,
-    every snapshot published, if ``trace``)."""
+    every snapshot published, if ``trace``). ``disk``: what a steering's kill takes back."""
     console = Console() if console is None else console
     samples: list[tuple[float, SimSnapshot]] = []
     if trace:
@@ -254,10 +310,11 @@ def _on_simulated_clock(
     async def fly() -> list[tuple[Any, Any]]:
         async with server.running_here():
             url = embedded_url(server)
-            results = [
-                await _fly_and_steer(daemon(url), Steer(server, console), steering, limit_s)
-                for daemon, steering in runs
-            ]
+            results = []
+            for daemon, steering in runs:
+                steer = Steer(server, console)
+                steer.disk = disk
+                results.append(await _fly_and_steer(daemon(url), steer, steering, limit_s))
             await asyncio.sleep(AUTOPILOT_AFTER_S)
             return results
 
@@ -383,7 +440,9 @@ def simulated_serve(
     (:data:`tests.support.serve.CONFIG` over BASE_CONFIG), beside the simulator (``links``:
     helixd's first, a ground station's next), steered by ``during`` — which ends the service
     (SIGTERM) when it is done; a list: the service started again for each, the simulator
-    running on. Each start is ended as hung after ``limit_s`` simulated seconds."""
+    running on. Each start is ended as hung after ``limit_s`` simulated seconds. A steering
+    may kill the service (:meth:`Steer.kill`: its code :data:`~tests.support.kill9.KILLED_CODE`,
+    the run root as it was at the kill, the next start after RestartSec)."""
     cfg_path = write_config(tmp_path, BASE_CONFIG, SERVE_CONFIG, config)
     cfg = load_config(cfg_path)
     server = SimServer([EMBEDDED_LINK] * links, sim_config(**{**sim_overrides, "speedup": 1.0}))
@@ -404,7 +463,7 @@ def simulated_serve(
     console = Console()
     try:
         results, _, _ = _on_simulated_clock(
-            server, runs, trace=False, console=console, limit_s=limit_s
+            server, runs, trace=False, console=console, limit_s=limit_s, disk=run_root
         )
     finally:  # the service's log beside the test's files, also for a failure
         (tmp_path / "serve.log").write_text(console.text(), encoding="utf-8")

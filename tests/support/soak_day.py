@@ -38,6 +38,7 @@ from pymavlink.dialects.v20 import ardupilotmega as mavlink
 from helixd.base.clock import now_s
 from helixd.base.media import MediaArea, MediaFrame, MediaMap, Medium
 from helixd.cli.runs import load_summary, print_replay
+from helixd.config.safety import StallConfig
 from helixd.mav.constants import (
     MAV_CMD_COMPONENT_ARM_DISARM,
     MAV_CMD_DO_CHANGE_SPEED,
@@ -56,6 +57,7 @@ from helixd.sim.snapshot import SimSnapshot
 from tests.support.daemon import deep_merge
 from tests.support.gcs import HELIXD, QGC_SYSID, SIM, do_item, fence_circle, latlon, waypoint
 from tests.support.harness import NEUTRAL_TOLERANCE_US, NEUTRAL_US, guard_installed
+from tests.support.kill9 import KILLED_CODE
 from tests.support.loop_gcs import upload_fence, upload_items
 from tests.support.loop_mav import LoopMav
 from tests.support.serve import HIGH_US, LOW_US, SWITCH_CH
@@ -69,6 +71,7 @@ from tests.support.soak_plan import (
     Item,
     Step,
 )
+from tests.support.soak_resume import KillsTold, ResumeRule, navs_from
 
 STOP_LIMIT_S = 0.5  # the crew's stop word (and helixd's "completed") → scrolls at trim
 # a disarm shows to helixd only in the autopilot's 1 Hz HEARTBEAT, and ArduPilot passes the
@@ -87,8 +90,17 @@ FAULT_LIMIT_S: dict[str, float] = {
     "link_drop": 1.0, "stale_pose": 1.5, "ekf_unhealthy": 1.5, "reboot": 1.5, "gps_loss": 6.0,
     "gps_silent": 3.0, "battery_low": 1.5, "fence_breach": 1.5, "rc_loss": 2.0, "stall": 12.0,
     "nan_position": 1.0, "nan_yaw": 1.0, "absurd_position": 1.0, "time_backwards": 1.0,
+    "kill": 0.8,
 }  # fmt: skip
+# kill: helixd-guard (guard_installed(1.0)) puts the scroll outputs at trim HXG_TIMEOUT 0.5 s
+# after helixd's last word to it, which helixd sends every serve.tick_s (0.1 s), read by
+# the guard's loop and shown at the autopilot's next output (0.02 s): 0.62 s at most (0.56 s
+# measured, tests/integration/test_serve_kill.py), and a margin
 # a fault shorter than this may be over before helixd's watchdog sees it (safety.stall's 4 s)
+# helixd's stall watch is armed while it commands more than safety.stall's 0.2 m/s: a stall
+# of a rover slower than that (creeping the last centimetres onto a waypoint, seed 100: 0.09 m
+# from it for the stall's 5.8 s, then on to the next) is not one helixd can see
+STALL_ARMED_MPS = StallConfig().commanded_speed_min_mps
 SEEN_AFTER_S = {"stall": 4.5}
 # the cause helixd must name for each fault (summary.json's fault, the fallback event's cause)
 FAULT_CAUSES: dict[str, frozenset[str]] = {
@@ -107,6 +119,9 @@ FAULT_CAUSES: dict[str, frozenset[str]] = {
     "absurd_position": frozenset({"pose_invalid"}),
     "time_backwards": frozenset({"pose_invalid"}),
 }
+# the crew's words that hand a mission's flight over to one to the autopilot's place: the
+# mission's flight is interrupted there (a continue goes on from it)
+HANDOVER_WORDS = frozenset({"goto", "rtl", "smart_rtl"})
 # ArduPilot's battery and fence failsafes switched on (HOLD), as a field's parameters would
 AUTOPILOT_PARAMS = {"BATT_FS_LOW_ACT": 2.0, "FENCE_ENABLE": 1.0, "FENCE_ACTION": 2.0}
 # the fault's fall-back logged within this of it at the latest: a cut link (or a rebooting
@@ -255,6 +270,7 @@ class Rules:
         self.completed_at: float | None = None
         self.items: tuple[Item, ...] = ()
         self.successors: dict[int, set[int]] = {}
+        self.flown_successors: dict[int, set[int]] = {}  # the flight's plan, uploaded over
         self.free_until = 0.0  # item changes are the crew's (or a reboot's) until then
         self.last_seq = 0
         # the items helixd set as the autopilot's current (mission_current_set), latest last,
@@ -271,10 +287,15 @@ class Rules:
         self.go_times: list[float] = []  # when the crew said go
         self.t0 = 0.0  # the day's time 0 (the plan's steps count from it)
         self.serve_state = ""  # the service's latest serve_state
+        self.flight_request = ""  # what started the latest flight (serve_flight_start)
+        self.flight_at = 0.0  # when it started
+        self.uploaded_at = 0.0  # the crew's latest upload (a flight before it: another plan)
         self.run_dir = ""  # the run directory of the latest flight (helixd_start)
         self.cuts: Counter[str] = Counter()  # record_cut warnings per run directory
         # full cards to be told: (run directory, console line at the fault, check after)
         self.cards: list[tuple[str, int, float]] = []
+        self.kills = KillsTold()  # each kill told by the next start when it cut a flight
+        self.resume = ResumeRule()  # a continue goes on from the interrupted item
 
     def fail(self, rule: str, detail: str) -> None:
         if self.broken is None:
@@ -297,6 +318,11 @@ class Rules:
             return  # the mode it already is: nothing the autopilot or helixd can see
         if name == "arm" and mode in DRIVING_MODES:
             name = "continue"  # ArduPilot armed in AUTO (GUIDED, RTL) drives: a go word
+        if name in STOP_WORDS or name in HANDOVER_WORDS:
+            self.resume.interrupted(
+                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq), t
+            )
+        self.resume.word(name, t)
         if name in STOP_WORDS:
             limit = DISARMED_LIMIT_S if name == "disarm" else STOP_LIMIT_S
             if name in MODE_WORDS and mode != "AUTO":
@@ -324,7 +350,15 @@ class Rules:
                 return  # ArduPilot's failsafe fires once: already taken since the boot
             self.latched.add(kind)
         self.fault_times.append(t)
+        if driving:
+            self.resume.interrupted(
+                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq), t
+            )
         if not driving or (kind, args.get("kind")) in UNSEEN:
+            return
+        if kind == "kill":  # told by the next start (KillsTold), not by a fall-back
+            self.fault_at = t if self.fault_at is None else self.fault_at
+            self.fault_limit_s = FAULT_LIMIT_S[kind] if self.fault_at == t else self.fault_limit_s
             return
         duration = args.get("duration_s")
         if isinstance(duration, float) and duration < SEEN_AFTER_S.get(kind, FAULT_LIMIT_S[kind]):
@@ -333,6 +367,24 @@ class Rules:
             self.fault_at, self.fault_limit_s = t, FAULT_LIMIT_S[kind]
         self.pending.append((kind, t, t + max(FAULT_LIMIT_S[kind], NAMED_WITHIN_S) + 2.0))
 
+    def kill(self, driving: bool) -> None:
+        """helixd killed: the scrolls at trim by the guard, the cut flight told by the next
+        start; a flight under way is interrupted (whatever it drove)."""
+        cut = bool(self.run_dir) and not (Path(self.run_dir) / "summary.json").exists()
+        self.kills.kill(now_s(), len(self.st.console.lines), cut)
+        if not driving:
+            self.resume.interrupted(
+                self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq), now_s()
+            )
+        self.fault("kill", driving, {})
+
+    def mission_flying(self) -> bool:
+        """A flight of the mission under way: not one to the autopilot's place (its
+        interruption leaves the mission's interrupted item as it was), nor one of a plan
+        uploaded over since (a continue flies the new one whole; soak seed 24)."""
+        flying = self.serve_state == "flying" and self.flight_request != "goto"
+        return flying and self.flight_at > self.uploaded_at
+
     def full_card(self, duration_s: float) -> None:
         """The card full for ``duration_s``: a flight recording meanwhile must say so, once."""
         if self.serve_state == "flying" and duration_s >= CARD_SEEN_AFTER_S:
@@ -340,7 +392,11 @@ class Rules:
             self.cards.append((self.run_dir, len(self.st.console.lines), by))
 
     def mission(self, items: tuple[Item, ...]) -> None:
+        self.uploaded_at = now_s()
         self.items = items
+        # a flight under way flies the plan it started with until it ends (seed 282: its
+        # DO_JUMP from item 9 back to 2 after the crew uploaded another plan)
+        self.flown_successors = self.successors if self.serve_state == "flying" else {}
         self.successors = nav_successors(items)
         self.shown = ()
         self.free_until = now_s() + 3.0
@@ -360,6 +416,9 @@ class Rules:
         if dist > FENCE_RADIUS_M + FENCE_MARGIN_M:
             self.fail("outside_fence", f"{dist:.1f} m from home; {s.describe()}")
         self._items(t, s)
+        broken = self.resume.driven(t, s.mission_current_seq, driven, self.successors)
+        if broken is not None:
+            self.fail("resume_item", f"{broken}; {s.describe()}")
 
     def _driven(self, t: float, s: SimSnapshot) -> None:
         if self.disarmed_at is not None and t - self.disarmed_at > DISARMED_LIMIT_S:
@@ -380,7 +439,7 @@ class Rules:
         # stopped at when it pauses); 1: a start from the beginning
         if t < self.free_until or seq <= 1 or before == 0 or not self.successors:
             return
-        allowed = self.successors.get(before, set())
+        allowed = self.successors.get(before, set()) | self.flown_successors.get(before, set())
         if seq not in allowed and not self._shown_again(s.mode, seq):
             self.fail("item_order", f"current item {before} -> {seq}, expected one of {allowed}")
 
@@ -410,9 +469,14 @@ class Rules:
                 self.fail("traceback", text[:300])
             if "event=serve_state state=completed" in text:
                 self.completed_at = t
+            if "event=sim_statustext " in text and 'text="Mission Complete"' in text:
+                self.resume.autopilot_done()
             if "event=serve_state " in text:
                 self.serve_state = logged_value(text, "state")
                 self.crew_moved_shown = False
+            elif "event=serve_flight_start " in text:
+                self.flight_request, self.flight_at = logged_value(text, "request"), t
+                self.flown_successors = {}  # a new flight flies the plan there is now
             elif "event=mission_current_set " in text:
                 self.shown = (*self.shown[-1:], int(logged_value(text, "seq")))
             elif "event=helixd_start " in text:
@@ -430,6 +494,9 @@ class Rules:
             if t > by:
                 self.pending.remove((kind, at, by))
                 self._named(kind, at, by)
+        broken = self.kills.due(t, self.st.console.lines)
+        if broken is not None:
+            self.fail("fault_named", broken)
 
     def _card_told(self, run: str, mark: int) -> None:
         later = self.st.console.lines[mark:]
@@ -562,7 +629,11 @@ class Crew:
         }  # fmt: skip
 
     def day_fault(self, step: Step) -> None:
-        """One of the day's own faults (not the simulator's): ``full_card``."""
+        """One of the day's own faults (not the simulator's): ``full_card`` (``kill``:
+        :func:`crew_day` kills the service after the referee took note)."""
+        if step.name == "kill":
+            self.rules.kill(driving(self.st.snapshot()))
+            return
         assert step.name == "full_card", step.name
         duration_s = num(step, "duration_s")
         self.rules.full_card(duration_s)
@@ -590,7 +661,10 @@ class Crew:
             if step.name in DAY_FAULTS:
                 self.day_fault(step)
                 return
-            driving_now = driving(self.st.snapshot())
+            snap = self.st.snapshot()
+            driving_now = driving(snap)
+            if step.name == "stall" and snap.speed_mps < STALL_ARMED_MPS:
+                driving_now = False  # creeping onto a waypoint: helixd's watch is not armed
             self.rules.fault(step.name, driving_now, dict(step.args))
             self.st.inject(step.name, **dict(step.args))
             return
@@ -661,9 +735,12 @@ async def crew_day(st: Steer, plan: DayPlan, crews: list[Crew], card: Card) -> N
             crew.lines_at_midday = len(st.console.lines)
         crew.next_step += 1
         await crew.perform(step)
-        if step.name == "restart":
+        if step.name in ("restart", "kill"):
             crew.restarted_at = st.mark()
-            st.signal(signal.SIGTERM)  # systemd's restart: stop, then start again
+            if step.name == "kill":  # kill -9; systemd starts it again after RestartSec
+                st.kill()
+            else:
+                st.signal(signal.SIGTERM)  # systemd's restart: stop, then start again
             return
     await settle(st, rules, t0 + plan.length_s)
     # the crew's evening: the switch low, disarmed (a paused flight ends, its files close)
@@ -745,7 +822,7 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
         with card_in_recorder(card):
             served = simulated_serve(
                 workdir,
-                [day] * (1 + sum(1 for s in plan.steps if s.name == "restart")),
+                [day] * (1 + sum(1 for s in plan.steps if s.name in ("restart", "kill"))),
                 config,
                 seed=plan.seed,
                 limit_s=plan.length_s + EVENING_S,
@@ -762,7 +839,7 @@ def run_day(plan: DayPlan, workdir: Path) -> DayResult:
         where = "".join(traceback.format_exception(exc)[-3:])
         violation = Violation("exception", 0.0, f"{type(exc).__name__}: {exc}\n{where}"[:1500])
     if violation is None and served is not None:
-        if any(served.codes):
+        if any(code not in (0, KILLED_CODE) for code in served.codes):
             violation = Violation("exit_code", 0.0, f"serve ended {served.codes} on SIGTERM")
         elif "Traceback" in served.log:
             violation = Violation("traceback", 0.0, "a traceback in the service's log")

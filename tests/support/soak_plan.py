@@ -34,8 +34,9 @@ SIM_FAULTS = (
     "absurd_position", "time_backwards",
 )  # fmt: skip
 # the day's own faults, injected by tests.support.soak_day (not the simulator's): full_card,
-# the recorder's card full (every write of flight.csv raises ENOSPC) for a while
-DAY_FAULTS = ("full_card",)
+# the recorder's card full (every write of flight.csv raises ENOSPC) for a while; kill, helixd
+# killed with -9 and started again by systemd after RestartSec (tests.support.kill9)
+DAY_FAULTS = ("full_card", "kill")
 FAULT_KINDS = (*SIM_FAULTS, *DAY_FAULTS)
 NAV_WAYPOINT = int(mavlink.MAV_CMD_NAV_WAYPOINT)
 FENCE_RADIUS_M = 60.0  # the inclusion circle around home every mission and place stays in
@@ -163,16 +164,27 @@ FAULT_ARGS: dict[str, tuple[tuple[str, object], ...]] = {
 # a day's fault is one of the day's own (DAY_FAULTS) this often, drawn from a second stream
 # of the seed so the simulator's faults of every earlier day stay where they were
 DAY_FAULT_SHARE = 1.0 / 15.0
+# a kill takes the place of a simulator's fault this often, drawn from a third stream of the
+# seed (:func:`plan_day`'s ``kills``), so the full cards of every earlier day stay too
+KILL_SHARE = 1.0 / 15.0
 
 
-def fault_step(rng: random.Random, index: int, at_s: float, extra: random.Random) -> Step:
+def fault_step(
+    rng: random.Random,
+    index: int,
+    at_s: float,
+    extra: random.Random,
+    kills: random.Random | None = None,
+) -> Step:
     name = rng.choice(SIM_FAULTS)
     args = FAULT_ARGS.get(name, (("duration_s", round(rng.uniform(2.0, 20.0), 1)),))
     if name == "rc_loss":
         args = (*args, ("kind", rng.choice(("no_pulses", "failsafe_values"))))
-    if extra.random() < DAY_FAULT_SHARE * len(DAY_FAULTS):
-        name = extra.choice(DAY_FAULTS)
+    if extra.random() < DAY_FAULT_SHARE:
+        name = extra.choice(DAY_FAULTS[:1])  # as drawn before the kill was one of them
         args = (("duration_s", round(extra.uniform(2.0, 30.0), 1)),)
+    elif kills is not None and kills.random() < KILL_SHARE:
+        name, args = "kill", ()
     return Step(index, at_s, "fault", name, args)
 
 
@@ -204,6 +216,7 @@ def plan_day(seed: int, length_s: float, faults_per_session: float = 1.0) -> Day
     than 10 minutes has its gaps shrunk in proportion (the test suite's short days)."""
     rng = random.Random(seed)
     extra = random.Random(f"day-faults-{seed}")  # the day's own faults (DAY_FAULTS)
+    kills = random.Random(f"day-kills-{seed}")  # the day's kills (KILL_SHARE)
     scale = min(1.0, length_s / 600.0)
     switch = rng.random() < 0.5
     water_ne = None
@@ -230,7 +243,7 @@ def plan_day(seed: int, length_s: float, faults_per_session: float = 1.0) -> Day
         while t < min(end, length_s - 30.0 * scale - 5.0):
             t += rng.uniform(2.0, 2.0 + 28.0 * scale)
             if rng.random() < faults_per_session / 6.0:
-                steps.append(fault_step(rng, len(steps), t, extra))
+                steps.append(fault_step(rng, len(steps), t, extra, kills))
                 continue
             step = crew_step(rng, len(steps), t, current, switch)
             if step.name in ("upload", "reupload"):

@@ -6,6 +6,7 @@ Every verdict is in simulated time: a slower machine takes longer, never decides
 
 from __future__ import annotations
 
+import asyncio
 import json
 import tracemalloc
 from dataclasses import replace
@@ -29,6 +30,7 @@ from tests.support.soak_day import (
     run_day,
 )
 from tests.support.soak_plan import CREW_ACTIONS, FAULT_KINDS, DayPlan, Item, Step, plan_day
+from tests.support.soak_resume import KILL_TOLD_WITHIN_S, KillsTold, ResumeRule, navs_from
 from tests.support.tools import load_tool
 
 soak = load_tool("soak")
@@ -269,6 +271,10 @@ FOUND = [
     # a fence breach in a flight of AUTO taken for the crew's Pause (helixd/runtime/flight.py,
     # _autopilot_failsafe; tests/integration/test_serve_autopilot_failsafe.py)
     (201, 0.1, 75.0),
+    # a continue after a kill of a flight of AUTO, with the crew's set current to the next
+    # item made before it, flew the previous item again (helixd/prepare/builder.py
+    # continue_commands: the autopilot's own step; tests/prepare/test_builder.py)
+    (23, 0.25, 885.0),
 ]
 
 
@@ -393,3 +399,163 @@ def test_the_radio_mode_switch_put_where_it_stands_is_no_word() -> None:
     rules.word("radio_mode", "MANUAL", "MANUAL")
     rules.word("radio_mode", "MANUAL", "HOLD")
     assert rules.stop_at is not None
+
+
+def kill_day(seed: int) -> DayPlan:
+    """Three waypoints started through helixd (driven in MANUAL, its item shown as the
+    autopilot's current); helixd killed on the way; the crew's continue after the restart."""
+    mission = (Item(WP), Item(WP, 12.0, 0.0), Item(WP, 12.0, 12.0), Item(WP, 0.0, 12.0))
+    steps = (
+        Step(0, 6.0, "crew", "upload", (("items", 0),)),
+        Step(1, 10.0, "crew", "start_helixd"),
+        Step(2, 40.0, "fault", "kill"),
+        Step(3, 60.0, "crew", "continue_helixd"),
+    )
+    return DayPlan(seed, 120.0, steps, (mission,), switch=False)
+
+
+@pytest.mark.timeout(600)
+def test_a_kill_mid_flight_is_told_once_and_the_continue_goes_on_from_its_item(
+    tmp_path: Path,
+) -> None:
+    got = run_day(kill_day(11), tmp_path)
+    assert got.violation is None, got.violation
+    assert got.faults == {"kill": 1}
+    log = (tmp_path / "serve.log").read_text()
+    assert log.count("event=serve_flight_cut ") == 1
+    assert log.count("event=serve_start ") == 2
+    runs = sorted(p for p in (tmp_path / "runs").iterdir() if p.is_dir())
+    cut = json.loads((runs[0] / "summary.json").read_text())
+    assert cut["fault"].startswith("killed:"), cut
+    resumed = json.loads((runs[1] / "summary.json").read_text())
+    assert resumed["resumed_from"]["path"] == str(runs[0].resolve())
+    assert resumed["completed"] is True, resumed
+
+
+def test_a_continue_driving_another_item_than_the_interrupted_one_breaks_its_rule() -> None:
+    rule = ResumeRule()
+    rule.interrupted(True, 3)
+    rule.word("continue_helixd", 10.0)
+    assert rule.driven(10.5, 3, False, {}) is None  # not driving yet
+    assert rule.driven(11.0, 2, True, {}) is not None  # drove with item 2 current
+    rule.interrupted(True, 3)
+    rule.word("set_current", 12.0)  # the crew moved it: nothing to judge
+    rule.word("continue", 13.0)
+    assert rule.driven(14.0, 2, True, {}) is None
+    rule.interrupted(True, 4)
+    rule.word("disarm", 15.0)  # the autopilot restarts its mission: AUTO not judged
+    rule.word("continue", 16.0)
+    assert rule.driven(17.0, 1, True, {}) is None
+    rule.word("continue_helixd", 18.0)  # helixd's own continue still is (its state file)
+    assert rule.driven(19.0, 4, True, {}) is None
+    rule.interrupted(False, 2)  # nothing flying: nothing interrupted
+    rule.word("continue_helixd", 20.0)
+    assert rule.driven(21.0, 1, True, {}) is None
+    # seed 15: the autopilot's mission completed (item 5 within its WP_RADIUS) as the crew
+    # paused; AUTO again starts it from item 1, as ArduPilot does
+    rule.interrupted(True, 5)
+    rule.autopilot_done()
+    rule.word("continue", 25.0)
+    assert rule.driven(25.5, 1, True, {}) is None
+    rule.autopilot_done()  # completed before the crew's pause: the same
+    rule.interrupted(True, 5)
+    rule.word("continue", 26.0)
+    assert rule.driven(26.5, 1, True, {}) is None
+    # seed 104: AUTO again within item 1's radius moves on to item 3 before it drives
+    successors = {1: {3}, 3: {4}, 4: set()}
+    rule.interrupted(True, 1)
+    rule.word("continue", 30.0)
+    assert rule.driven(30.2, 3, False, successors) is None
+    assert rule.driven(30.4, 3, True, successors) is None
+    rule.interrupted(True, 1)  # helixd's own continue: the item it flies first, strictly
+    rule.word("continue_helixd", 40.0)
+    assert rule.driven(40.2, 3, False, successors) is None
+    assert rule.driven(40.4, 3, True, successors) is not None
+
+
+def test_a_kill_is_told_once_when_it_cut_a_flight_and_never_else() -> None:
+    told = "ts=… level=warning event=serve_flight_cut run_dir=/r closed=true"
+    kills = KillsTold()
+    kills.kill(100.0, 0, True)
+    assert kills.due(101.0, []) is None  # not yet judged
+    assert kills.due(100.0 + KILL_TOLD_WITHIN_S + 0.1, ["x"]) is not None  # never told
+    kills.kill(200.0, 1, True)
+    assert kills.due(200.0 + KILL_TOLD_WITHIN_S + 0.1, ["x", told]) is None
+    kills.kill(300.0, 0, False)  # an idle service killed: nothing to tell
+    assert kills.due(300.0 + KILL_TOLD_WITHIN_S + 0.1, [told]) is not None
+
+
+def test_a_flight_to_a_place_or_of_a_plan_uploaded_over_interrupts_no_mission_item() -> None:
+    # seed 24: an AUTO flight of the old plan handed over to GUIDED after an upload, a fault
+    # in the flight to the place, then the continue flew the new plan from item 1: right
+    rules = referee()
+    rules.serve_state, rules.flight_request, rules.flight_at = "flying", "auto", now_s()
+    rules.last_seq = 4
+    assert rules.mission_flying()
+    rules.mission((Item(WP), Item(WP, 5.0, 0.0)))  # the crew's upload during it
+    assert not rules.mission_flying()
+    rules.word("goto", "AUTO")
+    assert rules.resume.item is None
+    rules.flight_request, rules.flight_at = "goto", now_s() + 1.0
+    assert not rules.mission_flying()  # a fault now interrupts no mission item
+
+
+def test_a_stall_of_a_rover_creeping_onto_a_waypoint_is_not_judged() -> None:
+    # seed 100: a 5.8 s stall 0.09 m from a waypoint, helixd commanding less than its stall
+    # watch's 0.2 m/s; the rover drove on once it was over
+    rules = referee()
+    snap = SimpleNamespace(speed_mps=0.0, scroll_pwm_us=(1530, 1530, 1470, 1470))
+    st = SimpleNamespace(snapshot=lambda: snap, inject=lambda *_, **__: None)
+    crew = Crew(st, None, rules, kill_day(1))  # type: ignore[arg-type]
+    asyncio.run(crew.perform(Step(0, 1.0, "fault", "stall", (("duration_s", 5.8),))))
+    assert rules.pending == [] and rules.fault_at is None
+    snap.speed_mps = 0.5  # moving: judged
+    asyncio.run(crew.perform(Step(1, 2.0, "fault", "stall", (("duration_s", 5.8),))))
+    assert [kind for kind, _, _ in rules.pending] == ["stall"]
+
+
+def test_an_interrupted_do_item_is_continued_at_the_waypoint_after_it() -> None:
+    # seed 10's hour: the autopilot's current item was DO_CHANGE_SPEED item 4; helixd's
+    # continue ran it again and drove to item 5, showing 5
+    items = (
+        Item(WP), Item(WP, 2.0, 2.0), Item(mavlink.MAV_CMD_DO_CHANGE_SPEED, params=(1.0, 0.3)),
+        Item(WP, 5.0, 5.0), Item(mavlink.MAV_CMD_DO_JUMP, params=(1.0, 1.0)),
+    )  # fmt: skip
+    assert navs_from(items, 2) == {3} and navs_from(items, 3) == {3}
+    assert navs_from(items, 4) == {1}
+    rule = ResumeRule()
+    rule.interrupted(True, 2, navs_from(items, 2))
+    rule.word("start_helixd", 1.0)
+    assert rule.driven(2.0, 3, True, {}) is None
+
+
+def test_a_flight_goes_on_with_its_own_plans_jumps_after_an_upload() -> None:
+    # seed 282: the crew uploaded another plan while a flight flew; its DO_JUMP took the item
+    # from 9 back to 2 as its own plan says, until it ended
+    rules = referee()
+    jump = Item(mavlink.MAV_CMD_DO_JUMP, params=(2.0, 2.0))
+    rules.mission((Item(WP), Item(WP, 5, 0), Item(WP, 5, 5), Item(WP, 0, 5), Item(WP, 1, 5), jump))
+    rules.serve_state = "flying"
+    new = (Item(WP), Item(WP, 1, 1), Item(WP, 2, 2), Item(WP, 3, 3))
+    rules.mission(new)  # uploaded during the flight
+    rules.free_until = 0.0
+    later = now_s() + 10.0
+    for seq in (2, 3, 4, 2):  # 4 → 2: the old plan's jump
+        rules._items(later, SimpleNamespace(mission_current_seq=seq, mode="MANUAL"))  # type: ignore[arg-type]
+    assert rules.broken is None, rules.broken
+    rules.st.console.lines.append("level=info event=serve_flight_start request=start")
+    rules._lines(later)  # a new flight: the new plan's order only
+    for seq in (3, 2):  # 3 → 2: back, with nobody setting it
+        rules._items(later, SimpleNamespace(mission_current_seq=seq, mode="MANUAL"))  # type: ignore[arg-type]
+    assert rules.broken is not None and rules.broken.rule == "item_order"
+
+
+def test_a_waypoint_reached_as_the_flight_stops_moves_the_interrupted_item() -> None:
+    # seed 312: the crew's HOLD, waypoint 1 reached 0.02 s later before helixd saw the mode;
+    # helixd showed item 2 and its continue went on from there: right
+    rule = ResumeRule()
+    rule.interrupted(True, 1, frozenset(), 100.0)
+    assert rule.driven(100.3, 2, False, {}) is None  # helixd shows item 2 as it stops
+    assert rule.driven(103.0, 1, False, {}) is None  # later moves are not the flight's
+    rule.word("start_helixd", 110.0)
+    assert rule.driven(111.0, 2, True, {}) is None
