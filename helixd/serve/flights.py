@@ -158,6 +158,10 @@ class Flights:
         self.runner: MissionRunner | None = None  # while a flight runs
         self.count = 0
         self._current_item: int | None = None  # the item last set as the autopilot's current
+        # MissionWatch.plan_changes when the flight in progress read its plan: a change since
+        # and the autopilot holds another mission, where this flight's item numbers mean others
+        self._plan_changes = 0
+        self._plan_change_told = False
         self._side_tasks: set[asyncio.Task[None]] = set()
         self.interrupted = read_state_file(opts.state_file)
         # a flight the last start of the service never ended (killed): its run directory
@@ -393,7 +397,9 @@ class Flights:
 
     async def _fly(self, ap: Autopilot, request: Request, who: str, item: int = 0) -> None:
         before = self.mission.fingerprint
+        changes = self.mission.plan_changes  # before the read: an upload during it counts
         await self.read_mission(ap)  # fly what the autopilot holds now
+        self._plan_changes, self._plan_change_told = changes, False
         checked = self.mission.checked
         if self.mission.read_error is not None:
             why = f"the mission could not be read ({self.mission.read_error}); start again"
@@ -511,7 +517,18 @@ class Flights:
         self.status.hold(held, f"mode {mode}")
 
     def _set_current_item(self, ap: Autopilot, seq: int) -> None:
-        """The GCS highlights the item being flown (MAV_CMD_DO_SET_MISSION_CURRENT)."""
+        """The GCS highlights the item being flown (MAV_CMD_DO_SET_MISSION_CURRENT) while the
+        autopilot holds the mission the flight read; after a new plan reached the autopilot the
+        flight goes on with its own to its end, told once, and sets no item of the new one
+        (its numbers are the old plan's: ArduPilot would move a DO item's to the next waypoint
+        and the crew would see an item nobody flies; soak seed 3014)."""
+        if self.mission.plan_changes != self._plan_changes:
+            if not self._plan_change_told:
+                self._plan_change_told = True
+                log.info("mission_current_not_set", seq=seq, why="new_plan_on_autopilot")
+                self.status.gcs.say(NEW_PLAN_TEXT, MAV_SEVERITY_NOTICE)
+            self._current_item = None
+            return
         self._current_item = seq
 
         async def send() -> None:
@@ -523,6 +540,9 @@ class Flights:
         task = asyncio.create_task(send(), name="mission-current")
         self._side_tasks.add(task)
         task.add_done_callback(self._side_tasks.discard)
+
+
+NEW_PLAN_TEXT = "new plan: this flight keeps its old one"  # a start flies the new
 
 
 def held_walk(walk: WalkLetGo | None, fingerprint: str) -> AutoWalk | None:
@@ -656,6 +676,7 @@ def write_state_file(
 
 
 __all__ = [
+    "NEW_PLAN_TEXT",
     "Flights",
     "Interrupted",
     "RecordedHost",

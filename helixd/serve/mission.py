@@ -44,6 +44,9 @@ class MissionWatch:
         self.autopilot_item = 0  # MISSION_CURRENT.seq: where the autopilot's AUTO runs from
         self.due = True  # read at the next chance
         self.read_error: str | None = None  # why the last read failed (None: it did not)
+        # signs the autopilot's mission changed (a new count, "Flight plan received"), counted:
+        # a flight compares it with the count it started at (its item numbers are its plan's)
+        self.plan_changes = 0
         self._total: int | None = None
         self._next_poll_s = 0.0
 
@@ -57,6 +60,7 @@ class MissionWatch:
                 if self._total is not None:
                     log.info("autopilot_mission_count", total=total)
                     self.due = True
+                    self.plan_changes += 1
                 elif self.fingerprint is not None:
                     # the first count came after a read: an upload in between changed nothing
                     # it could compare with (autopilots count differently), so read once more
@@ -64,6 +68,7 @@ class MissionWatch:
                 self._total = total
         elif kind == "STATUSTEXT" and FLIGHT_PLAN_RECEIVED in str(msg.text):
             self.due = True
+            self.plan_changes += 1
 
     def read_due(self, now_s: float) -> bool:
         return self.due or now_s >= self._next_poll_s
