@@ -157,9 +157,9 @@ def main(
     seeds = [seed + k for k in range(days)]
     results: list[DayResult] = []
     if jobs == 1:
-        results = [one_day(s, day_hours, keep) for s in seeds]
-        for r in results:
-            day_line(r)
+        for s in seeds:  # each day's line as it ends: a long run shows its progress
+            results.append(one_day(s, day_hours, keep))
+            day_line(results[-1])
     else:
         with concurrent.futures.ProcessPoolExecutor(jobs) as pool:
             for r in pool.map(one_day, seeds, [day_hours] * days, [keep] * days):
