@@ -350,19 +350,24 @@ class Rules:
                 return  # ArduPilot's failsafe fires once: already taken since the boot
             self.latched.add(kind)
         self.fault_times.append(t)
-        if driving:
+        if not driving or (kind, args.get("kind")) in UNSEEN:
+            # a fault helixd cannot see interrupts nothing: the flight goes on, its item with
+            # it (seed 4001: a receiver's silence, waypoint 1 reached 12 s later, then AUTO)
+            return
+        duration = args.get("duration_s")
+        unseen = isinstance(duration, float) and duration < SEEN_AFTER_S.get(
+            kind, FAULT_LIMIT_S[kind]
+        )  # over before helixd's watchdog may see it (a 2.5 s stall: 4 s to notice)
+        if not unseen:
             self.resume.interrupted(
                 self.mission_flying(), self.last_seq, navs_from(self.items, self.last_seq), t
             )
-        if not driving or (kind, args.get("kind")) in UNSEEN:
-            return
         if kind == "kill":  # told by the next start (KillsTold), not by a fall-back
             self.fault_at = t if self.fault_at is None else self.fault_at
             self.fault_limit_s = FAULT_LIMIT_S[kind] if self.fault_at == t else self.fault_limit_s
             return
-        duration = args.get("duration_s")
-        if isinstance(duration, float) and duration < SEEN_AFTER_S.get(kind, FAULT_LIMIT_S[kind]):
-            return  # over before helixd's watchdog may see it (a 2.5 s stall: 4 s to notice)
+        if unseen:
+            return
         if self.fault_at is None:
             self.fault_at, self.fault_limit_s = t, FAULT_LIMIT_S[kind]
         self.pending.append((kind, t, t + max(FAULT_LIMIT_S[kind], NAMED_WITHIN_S) + 2.0))

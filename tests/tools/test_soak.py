@@ -559,3 +559,17 @@ def test_a_waypoint_reached_as_the_flight_stops_moves_the_interrupted_item() -> 
     assert rule.driven(103.0, 1, False, {}) is None  # later moves are not the flight's
     rule.word("start_helixd", 110.0)
     assert rule.driven(111.0, 2, True, {}) is None
+
+
+def test_a_fault_helixd_cannot_see_interrupts_no_item() -> None:
+    # seed 4001: a receiver's silence (no pulses) while helixd flew item 1; it flew on,
+    # reached item 1 and showed 2, then the crew's AUTO: not a continue of item 1
+    rules = referee()
+    rules.serve_state, rules.flight_request, rules.flight_at = "flying", "start", now_s()
+    rules.last_seq = 1
+    rules.fault("rc_loss", True, {"kind": "no_pulses", "duration_s": 16.7})
+    assert rules.resume.item is None
+    rules.fault("stall", True, {"duration_s": 2.5})  # over before the stall watch may see it
+    assert rules.resume.item is None
+    rules.fault("rc_loss", True, {"kind": "failsafe_values", "duration_s": 16.7})
+    assert rules.resume.item == 1  # one helixd sees interrupts the flight at its item
