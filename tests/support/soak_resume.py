@@ -103,6 +103,10 @@ class ResumeRule:
         self.passed: set[int] = set()
         self.leads_to: frozenset[int] = frozenset()  # navs an interrupted do item leads to
         self.settles_until = 0.0  # the interrupted flight may still move its item until then
+        # the item it moved from then: reached at the very stop or not (an AUTO flight's
+        # autopilot counts its own WP_RADIUS, helixd its own: seed 4002, 1.9 m from item 4 at
+        # the crew's disarm, the autopilot on 5, helixd's continue from 4), either is its item
+        self.settled_from: int | None = None
 
     def interrupted(
         self, flying: bool, seq: int, leads_to: frozenset[int] = frozenset(), t: float = 0.0
@@ -113,6 +117,7 @@ class ResumeRule:
         if flying and seq >= 1:
             self.item, self.by_autopilot = seq, not self.autopilot_complete
             self.leads_to, self.settles_until = leads_to, t + SETTLES_WITHIN_S
+            self.settled_from = None
 
     def word(self, name: str, t: float) -> None:
         if name in RESET_WORDS:
@@ -121,6 +126,8 @@ class ResumeRule:
             self.by_autopilot = False
         elif name in CONTINUE_WORDS and self.item is not None and self._finds(name):
             self.judge, self.passed = (self.item, t, name), {self.item, *self.leads_to}
+            if self.settled_from is not None:
+                self.passed.add(self.settled_from)
         if name in CONTINUE_WORDS or name in RESET_WORDS:
             self.autopilot_complete = False  # started again (or a new mission)
 
@@ -143,6 +150,8 @@ class ResumeRule:
         if self.judge is None:
             moved = self.item is not None and seq >= 1 and seq != self.item
             if moved and t <= self.settles_until:
+                if self.settled_from is None:
+                    self.settled_from = self.item
                 self.item, self.leads_to = seq, frozenset()
             return None
         item, since, name = self.judge

@@ -573,3 +573,24 @@ def test_a_fault_helixd_cannot_see_interrupts_no_item() -> None:
     assert rules.resume.item is None
     rules.fault("rc_loss", True, {"kind": "failsafe_values", "duration_s": 16.7})
     assert rules.resume.item == 1  # one helixd sees interrupts the flight at its item
+
+
+def test_an_item_the_autopilot_counts_reached_at_the_stop_may_be_flown_again() -> None:
+    # seed 4002: a flight of AUTO disarmed 1.9 m from item 4, the autopilot's WP_RADIUS
+    # counted it reached and showed 5 at once; helixd's radius had not: its continue went
+    # on from 4. Either item is the interrupted one; an item further back is not.
+    rule = ResumeRule()
+    rule.interrupted(True, 4, frozenset(), 100.0)
+    assert rule.driven(100.01, 5, False, {}) is None  # the autopilot's own reach
+    rule.word("start_helixd", 150.0)
+    assert rule.driven(151.0, 4, True, {}) is None
+    rule = ResumeRule()
+    rule.interrupted(True, 4, frozenset(), 100.0)
+    assert rule.driven(100.01, 5, False, {}) is None
+    rule.word("start_helixd", 150.0)
+    assert rule.driven(151.0, 5, True, {}) is None  # the autopilot's item: right too
+    rule = ResumeRule()
+    rule.interrupted(True, 4, frozenset(), 100.0)
+    assert rule.driven(100.01, 5, False, {}) is None
+    rule.word("start_helixd", 150.0)
+    assert rule.driven(151.0, 3, True, {}) is not None  # further back: broken
