@@ -105,6 +105,7 @@ class Request(StrEnum):
     AUTO = "auto"  # the autopilot armed in AUTO: from its current item, driving in AUTO
     GOTO = "goto"  # the autopilot armed in GUIDED, RTL or SMART_RTL: to its place
     SPEED = "speed"  # the flight in progress cruises at Answer.speed_mps from now on
+    HOLD = "hold"  # no flight, the autopilot armed where it drives itself: its start cancelled
 
 
 @dataclass(frozen=True, slots=True)
@@ -119,6 +120,9 @@ class ServeView:
     last_item: int  # the mission's last item number (0: no mission)
     holding: bool = False  # flying, held at a NAV_LOITER_UNLIM until an operator continues
     flies_file: bool = False  # serve.mission_file: not the autopilot's mission (no AUTO start)
+    # no flight, the autopilot armed in a mode where it drives by itself (AUTO, GUIDED): a start
+    # the AUTO or place watch may take, a Pause cancels
+    self_driving: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -172,6 +176,10 @@ def answer_command(
     p1 = _finite_int(params[0]) if params else None
     if command == MAV_CMD_DO_PAUSE_CONTINUE:
         if p1 == 0:
+            if view.state is not ServeState.FLYING and view.self_driving:
+                # the crew's Start Mission not yet taken (a reconnect, a mission read): the
+                # crew's latest word is stop, so that start is cancelled (soak seed 4002)
+                return Answer(MAV_RESULT_ACCEPTED, "paused: start cancelled, HOLD", Request.HOLD)
             if view.state is not ServeState.FLYING:
                 return Answer(MAV_RESULT_DENIED, "pause: not flying")
             return _pause("pause from the ground station")  # words, not the command's name

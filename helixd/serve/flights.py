@@ -467,6 +467,13 @@ class Flights:
         handover = cause in NEXT_FLIGHT_CAUSES
         self.status.set(state, text, severity, quiet=handover)
 
+    def cancel_start(self, ap: Autopilot, text: str) -> None:
+        """The crew's Pause before helixd took the autopilot's AUTO (or place) as a start:
+        HOLD asked as for a refused start, so that start is gone and the next is a new one."""
+        task = asyncio.create_task(self._refuse(ap, text, MAV_SEVERITY_NOTICE), name="serve-hold")
+        self._side_tasks.add(task)
+        task.add_done_callback(self._side_tasks.discard)
+
     async def _refuse(self, ap: Autopilot, text: str, severity: int = MAV_SEVERITY_ERROR) -> None:
         """A start refused: the reason on the crew's screen and the rover left safe: armed in
         a mode where the autopilot drives by itself (AUTO, GUIDED: QGroundControl's Start

@@ -56,7 +56,7 @@ from helixd.serve.core import (
     answer_switch,
     radio_live,
 )
-from helixd.serve.flights import Flights
+from helixd.serve.flights import SELF_DRIVING_MODES, Flights
 from helixd.serve.mission import MissionWatch
 from helixd.serve.options import ServeOptions
 from helixd.serve.status import ServeStatus
@@ -100,7 +100,15 @@ class Service:
             last_item=0 if checked is None else checked.last_item,
             holding=self.flights.holding(),
             flies_file=self.opts.mission_file is not None,
+            self_driving=self._self_driving(),
         )
+
+    def _self_driving(self) -> bool:
+        """No flight, and the autopilot armed in a mode where it drives by itself."""
+        ap = self._ap
+        if ap is None or self.flights.flying:
+            return False
+        return ap.state.armed and crew_mode_of(ap.state) in SELF_DRIVING_MODES
 
     # -- the service --------------------------------------------------------------------------
 
@@ -384,6 +392,8 @@ class Service:
             self.flights.change_speed(answer.speed_mps, who)
         elif answer.request is Request.PAUSE:
             self.flights.pause(f"{answer.reason} ({who})")
+        elif answer.request is Request.HOLD and self._ap is not None:
+            self.flights.cancel_start(self._ap, answer.text)
         elif answer.request is not None and self._ap is not None:
             self.flights.start(self._ap, answer.request, who, answer.item)
 

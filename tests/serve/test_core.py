@@ -132,6 +132,13 @@ def test_pause_and_continue() -> None:
     assert a.reason == "pause from the ground station"  # what the flight's pause is told
     a = answer_command(view(), MAV_CMD_DO_PAUSE_CONTINUE, (0.0,), 255, GCS)
     assert a.result == MAV_RESULT_DENIED and "not flying" in a.text
+    # soak seed 4002: the crew's Start Mission not yet taken (helixd reconnecting, reading the
+    # mission), then Pause: that start is cancelled (HOLD asked), not denied and flown later
+    for state in (ServeState.CONNECTING, ServeState.IDLE, ServeState.READY, ServeState.FAULTED):
+        a = answer_command(
+            view(state, self_driving=True), MAV_CMD_DO_PAUSE_CONTINUE, (0.0,), 255, GCS
+        )
+        assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.HOLD), state
     paused = view(ServeState.PAUSED, resumable=True)
     a = answer_command(paused, MAV_CMD_DO_PAUSE_CONTINUE, (1.0,), 255, GCS)
     assert (a.result, a.request) == (MAV_RESULT_ACCEPTED, Request.CONTINUE)
