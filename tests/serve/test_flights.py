@@ -210,6 +210,11 @@ def test_the_service_host_keeps_when_the_fall_backs_hold_was_acknowledged() -> N
     assert host.hold_acked_s is not None
 
 
+def flights_told(opts: ServeOptions, told: _Told) -> Flights:
+    """The service's flights with ``told`` as its status (no switch, no stop asked)."""
+    return Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+
+
 class _Told:
     """ServeStatus as the verdicts set it: the states, and what the pane was told."""
 
@@ -232,7 +237,7 @@ def test_a_verdict_is_applied_by_the_flights_with_a_continue_named(tmp_path: Pat
     opts = ServeOptions(HelixdConfig(), None, tmp_path / "runs")
     write_state_file(opts.state_file, Interrupted("fp", run_dir), ServeState.PAUSED)
     told = _Told()
-    flights = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    flights = flights_told(opts, told)
     assert flights.interrupted == Interrupted("fp", run_dir)
     ready = cast(Any, SimpleNamespace(fingerprint="fp", waypoints=2))
     flights.apply(Verdict(ServeState.READY, "plan 0a0b0c: 2 waypoints checked", ready))
@@ -282,7 +287,7 @@ def test_a_flight_under_way_is_in_the_state_file_and_a_start_closes_it_if_killed
     assert record["state"] == "flying" and record["open_run_dir"] == str(run_dir.resolve())
     assert read_open_run(opts.state_file) == run_dir.resolve()
     told = _Told()
-    flights = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    flights = flights_told(opts, told)
     assert flights.interrupted == Interrupted("fp", run_dir.resolve())
     summary = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
     assert summary["fault"].startswith("killed:") and summary["completed"] is False
@@ -292,7 +297,7 @@ def test_a_flight_under_way_is_in_the_state_file_and_a_start_closes_it_if_killed
     assert flights.take_cut_text() is None  # told once
     assert read_open_run(opts.state_file) is None
     assert read_state_file(opts.state_file) == Interrupted("fp", run_dir.resolve())
-    again = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    again = flights_told(opts, told)
     assert again.take_cut_text() is None  # closed already: nothing to tell a second start
 
 
@@ -306,7 +311,7 @@ def test_a_flight_killed_after_its_summary_said_completed_is_not_continued(
     opts = ServeOptions(HelixdConfig(), None, runs)
     write_state_file(opts.state_file, Interrupted("fp", run_dir), ServeState.FLYING, run_dir)
     told = _Told()
-    flights = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    flights = flights_told(opts, told)
     assert flights.interrupted is None and flights.take_cut_text() is None
 
 
@@ -319,7 +324,7 @@ def test_a_goto_flight_killed_is_closed_and_the_interrupted_run_stays(tmp_path: 
     opts = ServeOptions(HelixdConfig(), None, runs)
     write_state_file(opts.state_file, Interrupted("fp", paused), ServeState.FLYING, goto)
     told = _Told()
-    flights = Flights(opts, MissionWatch(opts), cast(ServeStatus, told), None, StopRequest())
+    flights = flights_told(opts, told)
     assert flights.interrupted == Interrupted("fp", paused.resolve())
     assert (goto / "summary.json").is_file()
     assert flights.take_cut_text() == (
